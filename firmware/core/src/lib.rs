@@ -1,0 +1,13 @@
+//! The no_std CANopen slave core.
+//!
+//! This crate is sans-IO: it never touches a clock, a CAN controller or a
+//! `static`. Everything a node needs comes in as arguments, which is why it
+//! builds unchanged for `thumbv7m-none-eabi` and for host tests.
+//!
+//! Layers (see `docs/` and the style guide):
+//! - [`od`]: the runtime side of an object dictionary that `od-gen` generated
+//!   from an EDS: flash tables of entry metadata, one RAM image of values.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+
+pub mod od;

@@ -1,0 +1,99 @@
+//! Entry metadata: what the flash table says about one (index, sub-index).
+
+use super::types::DataType;
+
+/// Access and placement attributes of an entry, as a bit set.
+///
+/// The EDS `AccessType` (CiA 306 §4.6.3) is folded into these bits by od-gen:
+/// `ro` = READ, `wo` = WRITE, `rw` = READ|WRITE, `rwr`/`rww` add the PDO
+/// direction, and `const` = READ|IN_ROM.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub struct Attr(pub u8);
+
+impl Attr {
+    /// An SDO may upload the value.
+    pub const READ: Attr = Attr(1 << 0);
+    /// An SDO may download the value.
+    pub const WRITE: Attr = Attr(1 << 1);
+    /// The value is a constant in flash and takes no RAM.
+    pub const IN_ROM: Attr = Attr(1 << 2);
+    /// The entry may be mapped into a TPDO (process input: `ro`, `rwr`, `rw`, `const`).
+    pub const MAP_TPDO: Attr = Attr(1 << 3);
+    /// The entry may be mapped into an RPDO (process output: `wo`, `rww`, `rw`).
+    pub const MAP_RPDO: Attr = Attr(1 << 4);
+    /// The default is `$NODEID` plus the stored value; it is resolved at reset communication.
+    pub const NODE_ID: Attr = Attr(1 << 5);
+
+    /// Whether every bit of `other` is set.
+    pub const fn contains(self, other: Attr) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// The union of two sets.
+    pub const fn union(self, other: Attr) -> Attr {
+        Attr(self.0 | other.0)
+    }
+}
+
+/// Inclusive value limits, stored as raw 64-bit patterns: sign-extended for
+/// signed types, zero-extended for unsigned ones, IEEE bits for REAL32/REAL64
+/// (a REAL32 limit is widened to f64 bits).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Limits {
+    /// Lowest allowed value.
+    pub low: u64,
+    /// Highest allowed value.
+    pub high: u64,
+}
+
+/// `Entry::limits` of an entry without limits.
+pub const NO_LIMITS: u16 = u16::MAX;
+
+/// One sub-object of the dictionary.
+///
+/// 12 bytes in flash. Tables of entries are sorted by (index, sub-index) so
+/// that lookup is a binary search.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Entry {
+    /// Object index.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    /// Data type.
+    pub data_type: DataType,
+    /// Access and placement.
+    pub attr: Attr,
+    /// Size of the value in bytes (the capacity for strings, 0 for DOMAIN).
+    pub len: u16,
+    /// Byte offset of the value in the RAM image, or in the ROM blob if [`Attr::IN_ROM`].
+    pub offset: u16,
+    /// Position in the limits table, or [`NO_LIMITS`].
+    pub limits: u16,
+}
+
+impl Entry {
+    /// The 24-bit key the tables are sorted by.
+    pub const fn key(&self) -> u32 {
+        ((self.index as u32) << 8) | self.sub as u32
+    }
+
+    /// Whether an SDO may read it.
+    pub const fn readable(&self) -> bool {
+        self.attr.contains(Attr::READ)
+    }
+
+    /// Whether an SDO may write it.
+    pub const fn writable(&self) -> bool {
+        self.attr.contains(Attr::WRITE)
+    }
+
+    /// Whether the value lives in flash.
+    pub const fn in_rom(&self) -> bool {
+        self.attr.contains(Attr::IN_ROM)
+    }
+
+    /// Byte range of the value in its image (RAM or ROM).
+    pub const fn range(&self) -> core::ops::Range<usize> {
+        self.offset as usize..self.offset as usize + self.len as usize
+    }
+}

@@ -1,0 +1,280 @@
+//! Runtime object dictionary. CiA 301 v4.2 §7.4.
+//!
+//! od-gen turns an EDS into three things this module works on:
+//! - a sorted `static` table of [`Entry`] metadata (flash), looked up by
+//!   binary search, so any lookup is O(log n) with no scan of the dictionary;
+//! - a ROM blob holding the values of `const` objects (flash);
+//! - one RAM image (`[u8; N]` inside the generated `Ram` struct) holding every
+//!   other value, laid out in index order so that the communication area
+//!   (0x1000–0x1FFF) is one contiguous prefix. Reset communication and reset
+//!   application are then each a single copy from the default image plus the
+//!   `$NODEID` fix-ups.
+//!
+//! Nothing here panics on any input: every slice access is checked and a
+//! malformed request becomes an [`OdError`] that names its SDO abort code.
+
+mod entry;
+mod types;
+mod value;
+
+pub use entry::{Attr, Entry, Limits, NO_LIMITS};
+pub use types::{DataType, Kind};
+pub use value::{Number, RangeError};
+
+/// A failed dictionary access, one variant per CiA 301 SDO abort code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OdError {
+    /// 0x06020000: object does not exist in the object dictionary.
+    NoObject,
+    /// 0x06090011: sub-index does not exist.
+    NoSubIndex,
+    /// 0x06010001: attempt to read a write-only object.
+    WriteOnly,
+    /// 0x06010002: attempt to write a read-only object.
+    ReadOnly,
+    /// 0x06070010: data type does not match, length of service parameter does not match.
+    LengthMismatch,
+    /// 0x06070012: data type does not match, length of service parameter too high.
+    TooLong,
+    /// 0x06070013: data type does not match, length of service parameter too low.
+    TooShort,
+    /// 0x06090031: value of parameter written too high.
+    ValueTooHigh,
+    /// 0x06090032: value of parameter written too low.
+    ValueTooLow,
+    /// 0x08000020: data cannot be transferred or stored to the application
+    /// (a DOMAIN entry, whose bytes belong to the application, reached the dictionary).
+    NoStorage,
+}
+
+impl OdError {
+    /// The SDO abort code CiA 301 §7.2.4.3.17 assigns to this error.
+    pub const fn abort_code(self) -> u32 {
+        match self {
+            OdError::NoObject => 0x0602_0000,
+            OdError::NoSubIndex => 0x0609_0011,
+            OdError::WriteOnly => 0x0601_0001,
+            OdError::ReadOnly => 0x0601_0002,
+            OdError::LengthMismatch => 0x0607_0010,
+            OdError::TooLong => 0x0607_0012,
+            OdError::TooShort => 0x0607_0013,
+            OdError::ValueTooHigh => 0x0609_0031,
+            OdError::ValueTooLow => 0x0609_0032,
+            OdError::NoStorage => 0x0800_0020,
+        }
+    }
+}
+
+/// Facts from the EDS `[DeviceInfo]` section that the firmware acts on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeviceInfo {
+    /// Supported bit rates as a bit set over the CiA 305 bit-timing table
+    /// index (bit 0 = 1 Mbit/s, 1 = 800k, 2 = 500k, 3 = 250k, 4 = 125k,
+    /// 6 = 50k, 7 = 20k, 8 = 10k).
+    pub baud_rates: u16,
+    /// `LSS_Supported`.
+    pub lss_supported: bool,
+    /// `Granularity`: the mapping granularity in bits (0 = no dynamic mapping).
+    pub granularity: u8,
+    /// `SimpleBootUpSlave`.
+    pub simple_boot_up_slave: bool,
+    /// `DynamicChannelsSupported`.
+    pub dynamic_channels: bool,
+    /// `GroupMessaging`.
+    pub group_messaging: bool,
+}
+
+/// The flash half of a generated dictionary.
+#[derive(Debug)]
+pub struct Dictionary {
+    /// Entries sorted by (index, sub-index).
+    pub entries: &'static [Entry],
+    /// Limits referenced by [`Entry::limits`].
+    pub limits: &'static [Limits],
+    /// Values of `const` entries.
+    pub rom: &'static [u8],
+    /// The RAM image as the EDS defaults give it, with `$NODEID` not yet added.
+    pub defaults: &'static [u8],
+    /// Length of the RAM prefix that holds the communication area 0x1000–0x1FFF.
+    pub comm_len: usize,
+    /// Positions in `entries` of the entries whose default is `$NODEID`-relative.
+    pub node_id_relative: &'static [u16],
+    /// Device facts from `[DeviceInfo]`.
+    pub device: DeviceInfo,
+}
+
+/// A dictionary with its RAM image: implemented by each generated `Ram` struct.
+pub trait ObjectDictionary {
+    /// The flash tables of this dictionary.
+    fn dictionary(&self) -> &'static Dictionary;
+    /// The RAM image.
+    fn image(&self) -> &[u8];
+    /// The RAM image, for writing.
+    fn image_mut(&mut self) -> &mut [u8];
+}
+
+impl Dictionary {
+    /// Finds an entry by index and sub-index. O(log n).
+    pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, OdError> {
+        let entries = self.entries;
+        let key = (u32::from(index) << 8) | u32::from(sub);
+        match entries.binary_search_by_key(&key, Entry::key) {
+            Ok(pos) => entries.get(pos).ok_or(OdError::NoObject),
+            // The neighbours tell whether the object exists with other sub-indices.
+            Err(pos) => {
+                let same_object = |p: Option<usize>| {
+                    p.and_then(|p| entries.get(p))
+                        .is_some_and(|e| e.index == index)
+                };
+                if same_object(Some(pos)) || same_object(pos.checked_sub(1)) {
+                    Err(OdError::NoSubIndex)
+                } else {
+                    Err(OdError::NoObject)
+                }
+            }
+        }
+    }
+
+    /// The limits of an entry, if it has any.
+    pub fn limits_of(&self, entry: &Entry) -> Option<&'static Limits> {
+        self.limits.get(usize::from(entry.limits))
+    }
+
+    /// The value bytes of `entry` (its whole capacity for strings).
+    pub fn value<'a>(&self, image: &'a [u8], entry: &Entry) -> &'a [u8] {
+        let src: &'a [u8] = if entry.in_rom() { self.rom } else { image };
+        src.get(entry.range()).unwrap_or(&[])
+    }
+
+    /// Reads a value as an SDO upload would: access checked, a VISIBLE_STRING
+    /// ends at its first NUL (CiA 301 lets it be shorter than its capacity).
+    pub fn read<'a>(&self, image: &'a [u8], index: u16, sub: u8) -> Result<&'a [u8], OdError> {
+        let entry = self.find(index, sub)?;
+        if !entry.readable() {
+            return Err(OdError::WriteOnly);
+        }
+        if entry.data_type == DataType::Domain {
+            return Err(OdError::NoStorage);
+        }
+        let value = self.value(image, entry);
+        Ok(if entry.data_type == DataType::VisibleString {
+            until_nul(value)
+        } else {
+            value
+        })
+    }
+
+    /// Writes a value as an SDO download would: access, length and limits are
+    /// checked before any byte changes.
+    pub fn write(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
+        let entry = self.find(index, sub)?;
+        if !entry.writable() {
+            return Err(OdError::ReadOnly);
+        }
+        if entry.data_type == DataType::Domain {
+            return Err(OdError::NoStorage);
+        }
+        let len = usize::from(entry.len);
+        if entry.data_type.is_variable_length() {
+            if data.len() > len {
+                return Err(OdError::TooLong);
+            }
+        } else if data.len() > len {
+            return Err(OdError::TooLong);
+        } else if data.len() < len {
+            return Err(OdError::TooShort);
+        }
+        if let Some(limits) = self.limits_of(entry) {
+            limits.check(entry.data_type, data).map_err(|e| match e {
+                RangeError::TooHigh => OdError::ValueTooHigh,
+                RangeError::TooLow => OdError::ValueTooLow,
+            })?;
+        }
+        let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
+        let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
+        head.copy_from_slice(data.get(..head.len()).unwrap_or(&[]));
+        tail.fill(0);
+        Ok(())
+    }
+
+    /// Restores the communication area (0x1000–0x1FFF) to its defaults and
+    /// resolves `$NODEID` there. CiA 301 §7.3.2.2.2 "reset communication".
+    pub fn reset_communication(&self, image: &mut [u8], node_id: u8) {
+        self.restore(image, 0..self.comm_len, node_id);
+    }
+
+    /// Restores the application area (0x2000 and up) to its defaults.
+    /// CiA 301 "reset application"; the node follows it with reset communication.
+    pub fn reset_application(&self, image: &mut [u8], node_id: u8) {
+        self.restore(image, self.comm_len..self.defaults.len(), node_id);
+    }
+
+    fn restore(&self, image: &mut [u8], range: core::ops::Range<usize>, node_id: u8) {
+        if let (Some(dst), Some(src)) = (image.get_mut(range.clone()), self.defaults.get(range.clone())) {
+            dst.copy_from_slice(src);
+        }
+        for &pos in self.node_id_relative {
+            let Some(entry) = self.entries.get(usize::from(pos)) else { continue };
+            if !entry.in_rom() && range.contains(&usize::from(entry.offset)) {
+                if let Some(slot) = image.get_mut(entry.range()) {
+                    add_le(slot, u64::from(node_id));
+                }
+            }
+        }
+    }
+}
+
+/// Adds `n` to the little-endian integer in `bytes`, wrapping at its width.
+fn add_le(bytes: &mut [u8], n: u64) {
+    let mut carry = n;
+    for b in bytes.iter_mut() {
+        let sum = u64::from(*b) + (carry & 0xFF);
+        *b = sum as u8;
+        carry = (carry >> 8) + (sum >> 8);
+    }
+}
+
+/// Copies `N` bytes at `offset` out of an image. Generated accessors call
+/// this with constant offsets, so the bounds check folds away; an offset out
+/// of range (impossible for generated code) yields zeros rather than a panic.
+#[inline(always)]
+pub fn load<const N: usize>(image: &[u8], offset: usize) -> [u8; N] {
+    image
+        .get(offset..offset + N)
+        .and_then(|s| s.try_into().ok())
+        .unwrap_or([0; N])
+}
+
+/// Stores `N` bytes at `offset` of an image; the counterpart of [`load`].
+#[inline(always)]
+pub fn store<const N: usize>(image: &mut [u8], offset: usize, value: [u8; N]) {
+    if let Some(slot) = image.get_mut(offset..offset + N) {
+        slot.copy_from_slice(&value);
+    }
+}
+
+/// The bytes of a string entry up to its first NUL.
+#[inline]
+pub fn load_str(image: &[u8], offset: usize, len: usize) -> &[u8] {
+    until_nul(image.get(offset..offset + len).unwrap_or(&[]))
+}
+
+fn until_nul(s: &[u8]) -> &[u8] {
+    let used = s.iter().position(|&b| b == 0).unwrap_or(s.len());
+    s.get(..used).unwrap_or(s)
+}
+
+/// Stores a string entry, cut to its capacity and NUL-filled. Returns the
+/// number of bytes stored.
+#[inline]
+pub fn store_str(image: &mut [u8], offset: usize, len: usize, value: &[u8]) -> usize {
+    let Some(slot) = image.get_mut(offset..offset + len) else { return 0 };
+    let n = value.len().min(slot.len());
+    let (head, tail) = slot.split_at_mut(n);
+    head.copy_from_slice(value.get(..n).unwrap_or(&[]));
+    tail.fill(0);
+    n
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,134 @@
+//! Tests of the runtime dictionary on a small hand-built table, laid out the
+//! way od-gen lays out generated ones.
+
+use super::*;
+
+const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u16) -> Entry {
+    Entry { index, sub, data_type, attr, len, offset, limits }
+}
+
+const RO: Attr = Attr::READ;
+const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
+const CONST: Attr = Attr(Attr::READ.0 | Attr::IN_ROM.0);
+
+static ENTRIES: [Entry; 8] = [
+    e(0x1000, 0, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS),
+    e(0x1001, 0, DataType::Unsigned8, RO, 1, 0, NO_LIMITS),
+    e(0x1008, 0, DataType::VisibleString, CONST, 6, 4, NO_LIMITS),
+    e(0x1014, 0, DataType::Unsigned32, Attr(RW.0 | Attr::NODE_ID.0), 4, 1, NO_LIMITS),
+    e(0x1017, 0, DataType::Unsigned16, RW, 2, 5, NO_LIMITS),
+    e(0x2000, 0, DataType::Integer16, RW, 2, 7, 0),
+    e(0x2001, 0, DataType::VisibleString, RW, 4, 9, NO_LIMITS),
+    e(0x2002, 0, DataType::Unsigned8, Attr(Attr::WRITE.0), 1, 13, NO_LIMITS),
+];
+static LIMITS: [Limits; 1] = [Limits { low: -100i64 as u64, high: 100 }];
+static ROM: [u8; 10] = [0x92, 0x01, 0x02, 0x00, b'd', b'e', b'v', b'i', b'c', b'e'];
+static DEFAULTS: [u8; 14] = [0, 0x80, 0, 0, 0, 0xE8, 0x03, 5, 0, b'a', b'b', 0, 0, 0];
+static DICT: Dictionary = Dictionary {
+    entries: &ENTRIES,
+    limits: &LIMITS,
+    rom: &ROM,
+    defaults: &DEFAULTS,
+    comm_len: 7,
+    node_id_relative: &[3],
+    device: DeviceInfo {
+        baud_rates: 0x1FF,
+        lss_supported: true,
+        granularity: 8,
+        simple_boot_up_slave: true,
+        dynamic_channels: false,
+        group_messaging: false,
+    },
+};
+
+fn image(node_id: u8) -> [u8; 14] {
+    let mut img = [0xAA; 14];
+    DICT.reset_application(&mut img, node_id);
+    DICT.reset_communication(&mut img, node_id);
+    img
+}
+
+#[test]
+fn find_tells_missing_object_from_missing_sub_index() {
+    assert_eq!(DICT.find(0x1017, 0).map(|e| e.offset), Ok(5));
+    assert_eq!(DICT.find(0x1017, 1), Err(OdError::NoSubIndex));
+    assert_eq!(DICT.find(0x1002, 0), Err(OdError::NoObject));
+    assert_eq!(DICT.find(0x0000, 0), Err(OdError::NoObject));
+    assert_eq!(DICT.find(0xFFFF, 0xFF), Err(OdError::NoObject));
+}
+
+#[test]
+fn const_values_come_from_rom_and_node_id_is_resolved() {
+    let img = image(0x22);
+    assert_eq!(DICT.read(&img, 0x1000, 0), Ok(&[0x92, 0x01, 0x02, 0x00][..]));
+    assert_eq!(DICT.read(&img, 0x1008, 0), Ok(&b"device"[..]));
+    assert_eq!(DICT.read(&img, 0x1014, 0), Ok(&[0xA2, 0, 0, 0][..]));
+    assert_eq!(DICT.read(&img, 0x2001, 0), Ok(&b"ab"[..]));
+}
+
+#[test]
+fn reset_communication_leaves_the_application_area_alone() {
+    let mut img = image(1);
+    DICT.write(&mut img, 0x1017, 0, &[0x10, 0x00]).unwrap();
+    DICT.write(&mut img, 0x2000, 0, &7i16.to_le_bytes()).unwrap();
+    DICT.reset_communication(&mut img, 5);
+    assert_eq!(DICT.read(&img, 0x1017, 0), Ok(&[0xE8, 0x03][..]));
+    assert_eq!(DICT.read(&img, 0x1014, 0), Ok(&[0x85, 0, 0, 0][..]));
+    assert_eq!(DICT.read(&img, 0x2000, 0), Ok(&[7, 0][..]));
+    DICT.reset_application(&mut img, 5);
+    assert_eq!(DICT.read(&img, 0x2000, 0), Ok(&[5, 0][..]));
+}
+
+#[test]
+fn writes_are_checked_before_anything_changes() {
+    let mut img = image(1);
+    let before = img;
+    assert_eq!(DICT.write(&mut img, 0x1000, 0, &[0; 4]), Err(OdError::ReadOnly));
+    assert_eq!(DICT.write(&mut img, 0x1001, 0, &[0]), Err(OdError::ReadOnly));
+    assert_eq!(DICT.write(&mut img, 0x1017, 0, &[0]), Err(OdError::TooShort));
+    assert_eq!(DICT.write(&mut img, 0x1017, 0, &[0, 0, 0]), Err(OdError::TooLong));
+    assert_eq!(DICT.write(&mut img, 0x2000, 0, &101i16.to_le_bytes()), Err(OdError::ValueTooHigh));
+    assert_eq!(DICT.write(&mut img, 0x2000, 0, &(-101i16).to_le_bytes()), Err(OdError::ValueTooLow));
+    assert_eq!(DICT.write(&mut img, 0x2001, 0, b"abcde"), Err(OdError::TooLong));
+    assert_eq!(DICT.write(&mut img, 0x3000, 0, &[0]), Err(OdError::NoObject));
+    assert_eq!(img, before);
+    assert_eq!(DICT.read(&img, 0x2002, 0), Err(OdError::WriteOnly));
+}
+
+#[test]
+fn a_shorter_string_is_nul_filled() {
+    let mut img = image(1);
+    DICT.write(&mut img, 0x2001, 0, b"wxyz").unwrap();
+    DICT.write(&mut img, 0x2001, 0, b"q").unwrap();
+    assert_eq!(DICT.read(&img, 0x2001, 0), Ok(&b"q"[..]));
+    assert_eq!(load_str(&img, 9, 4), b"q");
+    assert_eq!(store_str(&mut img, 9, 4, b"toolong"), 4);
+    assert_eq!(load_str(&img, 9, 4), b"tool");
+}
+
+#[test]
+fn load_and_store_never_panic_out_of_range() {
+    let mut img = [1u8; 4];
+    assert_eq!(load::<4>(&img, 2), [0; 4]);
+    store::<2>(&mut img, 3, [9, 9]);
+    assert_eq!(img, [1; 4]);
+    store::<2>(&mut img, 2, [9, 9]);
+    assert_eq!(load::<2>(&img, 2), [9, 9]);
+}
+
+#[test]
+fn abort_codes_are_the_cia301_values() {
+    assert_eq!(OdError::NoObject.abort_code(), 0x0602_0000);
+    assert_eq!(OdError::NoSubIndex.abort_code(), 0x0609_0011);
+    assert_eq!(OdError::ValueTooLow.abort_code(), 0x0609_0032);
+}
+
+#[test]
+fn node_id_addition_wraps_at_the_entry_width() {
+    let mut b = [0xFF, 0xFF];
+    add_le(&mut b, 2);
+    assert_eq!(b, [1, 0]);
+    let mut c = [0xFE, 0x00, 0x00, 0x80];
+    add_le(&mut c, 0x7F);
+    assert_eq!(c, [0x7D, 0x01, 0x00, 0x80]);
+}
