@@ -43,7 +43,8 @@ fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
             let Some(t) = s.data_type else { continue };
             let mut attr = s.access.attr(s.pdo_mapping);
             if s.node_id {
-                attr = attr.union(Attr::NODE_ID);
+                // A `$NODEID` value changes with the node-id, so even a `const` one lives in RAM.
+                attr = Attr(attr.union(Attr::NODE_ID).0 & !Attr::IN_ROM.0);
             }
             let len = s.size();
             let mut value = s.value.clone();
@@ -70,9 +71,6 @@ fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
             };
             if s.node_id && !attr.contains(Attr::IN_ROM) {
                 l.node_id_relative.push(l.entries.len());
-            }
-            if s.node_id && attr.contains(Attr::IN_ROM) {
-                return Err(LayoutError(format!("const 0x{:04X} sub {} depends on $NODEID; make it ro", o.index, s.sub)));
             }
             l.entries.push(Placed { obj: o, sub: s, data_type: t, attr, len, offset, limits });
         }
@@ -153,7 +151,7 @@ fn getter_expr(t: DataType, src: &str, off: &str, len: usize) -> String {
         DataType::Boolean => format!("{load}[0] != 0"),
         DataType::TimeOfDay | DataType::TimeDifference => load,
         DataType::VisibleString => format!("od::load_str({src}, {off}, {len})"),
-        DataType::OctetString | DataType::UnicodeString => format!("{src}.get({off}..{off} + {len}).unwrap_or(&[])"),
+        DataType::OctetString | DataType::UnicodeString => format!("od::load_bytes({src}, {off}, {len})"),
         _ => {
             let ty = rust_type(t).unwrap_or("u8");
             let width = match ty {
@@ -164,12 +162,12 @@ fn getter_expr(t: DataType, src: &str, off: &str, len: usize) -> String {
             };
             if width == size {
                 format!("{ty}::from_le_bytes({load})")
+            } else if ty.starts_with('i') {
+                format!("od::load_int::<{size}>({src}, {off}) as {ty}")
+            } else if ty == "u64" {
+                format!("od::load_uint::<{size}>({src}, {off})")
             } else {
-                let pad = width - size;
-                let bytes: Vec<String> = (0..size).map(|i| format!("b[{i}]")).chain((0..pad).map(|_| "0".into())).collect();
-                let raw = format!("{ty}::from_le_bytes([{}])", bytes.join(", "));
-                let body = if ty.starts_with('i') { format!("({raw} << {s}) >> {s}", s = 8 * pad) } else { raw };
-                format!("{{\n let b = {load};\n {body}\n }}")
+                format!("od::load_uint::<{size}>({src}, {off}) as {ty}")
             }
         }
     }
@@ -194,9 +192,12 @@ fn setter_stmt(t: DataType, off: &str, len: usize) -> String {
             };
             if width == size {
                 format!("od::store::<{size}>(&mut self.image, {off}, v.to_le_bytes());")
+            } else if ty.starts_with('i') {
+                format!("od::store_uint::<{size}>(&mut self.image, {off}, v as u64);")
+            } else if ty == "u64" {
+                format!("od::store_uint::<{size}>(&mut self.image, {off}, v);")
             } else {
-                let bytes: Vec<String> = (0..size).map(|i| format!("b[{i}]")).collect();
-                format!("let b = v.to_le_bytes();\n od::store::<{size}>(&mut self.image, {off}, [{}]);", bytes.join(", "))
+                format!("od::store_uint::<{size}>(&mut self.image, {off}, u64::from(v));")
             }
         }
     }
@@ -241,10 +242,43 @@ fn attr_expr(a: Attr) -> String {
     format!("Attr({})", parts.join(" | "))
 }
 
-fn bytes_literal(out: &mut String, bytes: &[u8]) {
-    for chunk in bytes.chunks(16) {
-        let items: Vec<String> = chunk.iter().map(|b| format!("0x{b:02X}")).collect();
-        let _ = writeln!(out, "    {},", items.join(", "));
+/// `decl = [items];` laid out as rustfmt does: on one line when it fits,
+/// else short items filled line by line, else one item per line.
+fn array(out: &mut String, decl: &str, items: &[String], short: bool) {
+    let one_line = format!("{decl} = [{}];", items.join(", "));
+    if one_line.len() <= 140 {
+        let _ = writeln!(out, "{one_line}");
+        return;
+    }
+    let _ = writeln!(out, "{decl} = [");
+    if short {
+        fill(out, items.iter().cloned());
+    } else {
+        for item in items {
+            let _ = writeln!(out, "    {item},");
+        }
+    }
+    let _ = writeln!(out, "];");
+}
+
+/// Array items filled greedily up to the line width, as rustfmt lays out
+/// arrays of short items (`use_small_heuristics = "Max"`, `max_width = 140`).
+fn fill(out: &mut String, items: impl Iterator<Item = String>) {
+    const WIDTH: usize = 140;
+    let mut line = String::new();
+    for item in items {
+        if !line.is_empty() && 4 + line.len() + 1 + item.len() + 1 > WIDTH {
+            let _ = writeln!(out, "    {line}");
+            line.clear();
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(&item);
+        line.push(',');
+    }
+    if !line.is_empty() {
+        let _ = writeln!(out, "    {line}");
     }
 }
 
@@ -259,9 +293,9 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
     let w = &mut out;
     let product = eds.device_info.as_ref().and_then(|s| s.get("ProductName")).map(|p| p.value.trim_matches('"').to_owned()).filter(|s| !s.is_empty());
     let _ = writeln!(w, "// @generated by od-gen from {source}. Do not edit.");
-    let _ = writeln!(w, "//! Object dictionary of {} ({source}).", product.as_deref().unwrap_or("the device"));
-    let _ = writeln!(w, "//!");
-    let _ = writeln!(w, "//! {} entries: {} bytes of RAM, {} bytes of constants.", l.entries.len(), l.ram.len(), l.rom.len());
+    // Plain comments, not `//!`: the module is pulled in with `include!`.
+    let _ = writeln!(w, "// Object dictionary of {} ({source}).", product.as_deref().unwrap_or("the device"));
+    let _ = writeln!(w, "// {} entries: {} bytes of RAM, {} bytes of constants.", l.entries.len(), l.ram.len(), l.rom.len());
     let _ = writeln!(w);
     let _ = writeln!(w, "use canopen_core::od::{{self, Attr, DataType, DeviceInfo, Entry, Limits, NO_LIMITS}};");
     let _ = writeln!(w);
@@ -317,50 +351,39 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
     }
     let _ = writeln!(w);
 
+    let entries: Vec<String> = l
+        .entries
+        .iter()
+        .map(|e| {
+            let limits = if e.limits == NO_LIMITS { "NO_LIMITS".to_owned() } else { e.limits.to_string() };
+            format!(
+                "Entry::new(0x{:04X}, 0x{:02X}, DataType::{:?}, {}, {}, {}, {limits})",
+                e.obj.index,
+                e.sub.sub,
+                e.data_type,
+                attr_name(e.attr),
+                e.len,
+                e.offset
+            )
+        })
+        .collect();
     let _ = writeln!(w, "/// Entry metadata, sorted by (index, sub-index).");
-    let _ = writeln!(w, "static ENTRIES: [Entry; ENTRY_COUNT] = [");
-    for e in &l.entries {
-        let limits = if e.limits == NO_LIMITS { "NO_LIMITS".to_owned() } else { e.limits.to_string() };
-        let _ = writeln!(
-            w,
-            "    Entry {{ index: 0x{:04X}, sub: 0x{:02X}, data_type: DataType::{:?}, attr: {}, len: {}, offset: {}, limits: {limits} }},",
-            e.obj.index,
-            e.sub.sub,
-            e.data_type,
-            attr_name(e.attr),
-            e.len,
-            e.offset
-        );
-    }
-    let _ = writeln!(w, "];");
+    array(w, "static ENTRIES: [Entry; ENTRY_COUNT]", &entries, false);
     let _ = writeln!(w);
-    let _ = writeln!(w, "static LIMITS: [Limits; {}] = [", l.limits.len());
-    for (lo, hi) in &l.limits {
-        let _ = writeln!(w, "    Limits {{ low: 0x{lo:X}, high: 0x{hi:X} }},");
-    }
-    let _ = writeln!(w, "];");
+    let limits: Vec<String> = l.limits.iter().map(|(lo, hi)| format!("Limits {{ low: 0x{lo:X}, high: 0x{hi:X} }}")).collect();
+    array(w, &format!("static LIMITS: [Limits; {}]", l.limits.len()), &limits, false);
     let _ = writeln!(w);
-    let _ = writeln!(w, "static ROM: [u8; ROM_SIZE] = [");
-    bytes_literal(w, &l.rom);
-    let _ = writeln!(w, "];");
+    let hex = |b: &[u8]| b.iter().map(|b| format!("0x{b:02X}")).collect::<Vec<_>>();
+    array(w, "static ROM: [u8; ROM_SIZE]", &hex(&l.rom), true);
     let _ = writeln!(w);
-    let _ = writeln!(w, "static DEFAULTS: [u8; RAM_SIZE] = [");
-    bytes_literal(w, &l.ram);
-    let _ = writeln!(w, "];");
+    array(w, "static DEFAULTS: [u8; RAM_SIZE]", &hex(&l.ram), true);
     let _ = writeln!(w);
-    let _ = writeln!(w, "static NODE_ID_RELATIVE: [u16; {}] = [", l.node_id_relative.len());
-    for chunk in l.node_id_relative.chunks(12) {
-        let items: Vec<String> = chunk.iter().map(ToString::to_string).collect();
-        let _ = writeln!(w, "    {},", items.join(", "));
-    }
-    let _ = writeln!(w, "];");
+    let relative: Vec<String> = l.node_id_relative.iter().map(ToString::to_string).collect();
+    array(w, &format!("static NODE_ID_RELATIVE: [u16; {}]", relative.len()), &relative, true);
     let _ = writeln!(w);
     let _ = writeln!(w, "/// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.");
-    let _ = writeln!(w, "pub static NAMES: [&str; ENTRY_COUNT] = [");
-    for e in &l.entries {
-        let _ = writeln!(w, "    \"{}\",", doc_escape(&e.sub.name).replace('\t', "\\t"));
-    }
-    let _ = writeln!(w, "];");
+    let names: Vec<String> = l.entries.iter().map(|e| format!("\"{}\"", doc_escape(&e.sub.name).replace('\t', "\\t"))).collect();
+    array(w, "pub static NAMES: [&str; ENTRY_COUNT]", &names, false);
     let _ = writeln!(w);
     let f = &eds.device;
     let _ = writeln!(w, "/// The flash half of the dictionary.");
@@ -454,14 +477,14 @@ fn accessors(w: &mut String, eds: &Eds, l: &Layout<'_>, object_names: &BTreeMap<
             let _ = writeln!(w, "    /// 0x{index:04X} {} sub-index `i` (1..={n}) ({source}:{})", doc_escape(&o.name), o.line);
             let _ = writeln!(w, "    pub fn {base}(&self, i: u8) -> Option<{ty}> {{");
             let _ = writeln!(w, "        if !(1..={n}).contains(&i) {{\n            return None;\n        }}");
-            let _ = writeln!(w, "        let off = {} + (usize::from(i) - 1) * {size};", first.offset);
+            let _ = writeln!(w, "        let off = {};", element_offset(first.offset, size));
             let _ = writeln!(w, "        Some({})", getter_expr(first.data_type, "&self.image", "off", size));
             let _ = writeln!(w, "    }}");
             let _ = writeln!(w);
             let _ = writeln!(w, "    /// Sets 0x{index:04X} {} sub-index `i` (1..={n}); false if `i` is out of range.", doc_escape(&o.name));
             let _ = writeln!(w, "    pub fn set_{base}(&mut self, i: u8, v: {ty}) -> bool {{");
             let _ = writeln!(w, "        if !(1..={n}).contains(&i) {{\n            return false;\n        }}");
-            let _ = writeln!(w, "        let off = {} + (usize::from(i) - 1) * {size};", first.offset);
+            let _ = writeln!(w, "        let off = {};", element_offset(first.offset, size));
             let _ = writeln!(w, "        {}", setter_stmt(first.data_type, "off", size));
             let _ = writeln!(w, "        true");
             let _ = writeln!(w, "    }}");
@@ -472,6 +495,17 @@ fn accessors(w: &mut String, eds: &Eds, l: &Layout<'_>, object_names: &BTreeMap<
             let name = if o.kind.has_subs() { format!("{base}_{}", snake(&e.sub.name).trim_start_matches("o_")) } else { base.clone() };
             one_accessor(w, e, &name, used, source);
         }
+    }
+}
+
+/// Offset of element `i` (1-based) of an array starting at `base`, written
+/// without operations that have no effect.
+fn element_offset(base: usize, size: usize) -> String {
+    let index = if size == 1 { "usize::from(i)".to_owned() } else { format!("usize::from(i) * {size}") };
+    match base.checked_sub(size) {
+        Some(0) => index,
+        Some(b) => format!("{b} + {index}"),
+        None => format!("{index} - {}", size - base),
     }
 }
 

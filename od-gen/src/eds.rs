@@ -53,13 +53,11 @@ fn classify(name: &str) -> Kind {
     if lower.len() > 4 && lower.is_char_boundary(4) {
         let (head, tail) = lower.split_at(4);
         if let Some(i) = hex4(head) {
-            if let Some(s) = tail.strip_prefix("sub") {
-                if (1..=2).contains(&s.len()) {
-                    if let Ok(sub) = u8::from_str_radix(s, 16) {
+            if let Some(s) = tail.strip_prefix("sub")
+                && (1..=2).contains(&s.len())
+                    && let Ok(sub) = u8::from_str_radix(s, 16) {
                         return Kind::Sub(i, sub);
                     }
-                }
-            }
             match tail {
                 "name" => return Kind::Names(i),
                 "value" => return Kind::Values(i),
@@ -659,12 +657,12 @@ impl Reader<'_> {
                     eds.objects.insert(ci, synthetic(ci, &name, subs));
                 }
                 let mi = map + n;
-                if !eds.objects.contains_key(&mi) {
+                eds.objects.entry(mi).or_insert_with(|| {
                     let mut subs = vec![(0u8, "Number of mapped objects".to_owned(), DataType::Unsigned8, "0".to_owned(), Access::Rw)];
                     subs.extend((1..=8u8).map(|k| (k, format!("Mapped object {k}"), DataType::Unsigned32, "0".to_owned(), Access::Rw)));
                     let name = format!("{} mapping parameter {}", if tx { "TPDO" } else { "RPDO" }, n + 1);
-                    eds.objects.insert(mi, synthetic(mi, &name, subs));
-                }
+                    synthetic(mi, &name, subs)
+                });
             }
         }
     }

@@ -145,6 +145,11 @@ pub struct Text {
     pub line: usize,
 }
 
+/// Capacity in bytes of a writable string whose default is shorter. CiA 306
+/// has no key for a string's capacity; 16 bytes hold the names, serial
+/// numbers and catalogue numbers devices let a master write.
+pub const MIN_WRITABLE_STRING: usize = 16;
+
 /// One sub-object (for a VAR: sub-index 0, described by the object's own section).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SubObject {
@@ -187,13 +192,16 @@ pub struct SubObject {
 }
 
 impl SubObject {
-    /// The size of the value in the dictionary: the type size, or the length
-    /// of the default for strings (the capacity), 0 for DOMAIN.
+    /// The size of the value in the dictionary: the type size; for strings
+    /// the capacity, which is the length of the default, and at least
+    /// [`MIN_WRITABLE_STRING`] for a string an SDO may write; 0 for DOMAIN.
     pub fn size(&self) -> usize {
         match self.data_type {
-            Some(DataType::Domain) => 0,
-            Some(t) => t.size().unwrap_or(self.value.len()),
-            None => 0,
+            Some(DataType::Domain) | None => 0,
+            Some(t) => t.size().unwrap_or_else(|| {
+                let writable = !matches!(self.access, Access::Ro | Access::Const);
+                if writable { self.value.len().max(MIN_WRITABLE_STRING) } else { self.value.len() }
+            }),
         }
     }
 

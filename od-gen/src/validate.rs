@@ -68,11 +68,10 @@ fn file_info(eds: &Eds, d: &mut Diagnostics) {
             d.warn(s.line, format!("[FileInfo] has no {key}"));
         }
     }
-    if let Some(p) = s.get("EDSVersion") {
-        if !matches!(p.value.as_str(), "4.0" | "4" | "4.00") {
+    if let Some(p) = s.get("EDSVersion")
+        && !matches!(p.value.as_str(), "4.0" | "4" | "4.00") {
             d.warn(p.line, format!("EDSVersion `{}` is not a CiA 306 version; read as 4.0", p.value));
         }
-    }
 }
 
 fn mandatory(eds: &Eds, d: &mut Diagnostics) {
@@ -81,11 +80,10 @@ fn mandatory(eds: &Eds, d: &mut Diagnostics) {
             d.warn(0, format!("mandatory object 0x{index:04X} is missing (CiA 301 §7.5.1)"));
         }
     }
-    if let Some(o) = eds.objects.get(&0x1018) {
-        if !o.subs.contains_key(&1) {
+    if let Some(o) = eds.objects.get(&0x1018)
+        && !o.subs.contains_key(&1) {
             d.warn(o.line, "0x1018 has no vendor-ID (sub-index 1), which CiA 301 makes mandatory");
         }
-    }
 }
 
 fn object_lists(eds: &Eds, d: &mut Diagnostics) {
@@ -127,11 +125,10 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
                 o.opaque = true;
                 continue;
             }
-            if let Some(n) = o.sub_number {
-                if usize::from(n) != o.subs.len() {
+            if let Some(n) = o.sub_number
+                && usize::from(n) != o.subs.len() {
                     d.warn(o.line, format!("[{:04X}] SubNumber {n} but {} sub-objects", o.index, o.subs.len()));
                 }
-            }
             let highest = o.subs.keys().next_back().copied().unwrap_or(0);
             match o.subs.get(&0) {
                 None => d.warn(o.line, format!("{} 0x{:04X} has no sub-index 0", o.kind.name(), o.index)),
@@ -143,18 +140,18 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
                             || (0x1600..=0x17FF).contains(&o.index)
                             || (0x1A00..=0x1BFF).contains(&o.index);
                         if (counts_use && v > u64::from(highest)) || (!counts_use && v != u64::from(highest)) {
-                            d.warn(s0.line, format!("sub-index 0 of 0x{:04X} is {v} but the highest sub-index is 0x{highest:02X}", o.index));
+                            let line = s0.parameter_value.as_ref().or(s0.default.as_ref()).map_or(s0.line, |t| t.line);
+                            d.warn(line, format!("sub-index 0 of 0x{:04X} is {v} but the highest sub-index is 0x{highest:02X}", o.index));
                         }
                     }
                 }
             }
             if o.kind == ObjectKind::Array {
                 let mut types = o.subs.values().filter(|s| s.sub > 0).map(|s| s.type_index);
-                if let Some(first) = types.next() {
-                    if types.any(|t| t != first) {
+                if let Some(first) = types.next()
+                    && types.any(|t| t != first) {
                         d.warn(o.line, format!("ARRAY 0x{:04X} mixes element DataTypes; treated as a RECORD", o.index));
                     }
-                }
             }
         }
         let mut opaque_reason = None;
@@ -195,27 +192,23 @@ fn entry(index: u16, s: &SubObject, opaque: bool, d: &mut Diagnostics) {
         }
         Some((l, h)) => {
             let given = s.parameter_value.as_ref().or(s.default.as_ref()).is_some_and(|v| !v.text.is_empty());
-            if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && given) {
-                if less(v, l) || less(h, v) {
+            if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && given)
+                && (less(v, l) || less(h, v)) {
                     let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
                     d.push(sev, line, format!("value is outside LowLimit {}..HighLimit {} (0x{index:04X} sub {})", text(&s.low), text(&s.high), s.sub));
                 }
-            }
         }
         None if opaque => {
-            if let (Some(lo), Some(hi)) = (&s.low, &s.high) {
-                if let (Ok(l), Ok(h)) = (crate::value::parse_int(&lo.text), crate::value::parse_int(&hi.text)) {
-                    if h.value < l.value {
+            if let (Some(lo), Some(hi)) = (&s.low, &s.high)
+                && let (Ok(l), Ok(h)) = (crate::value::parse_int(&lo.text), crate::value::parse_int(&hi.text))
+                    && h.value < l.value {
                         d.warn(hi.line, format!("HighLimit {} is below LowLimit {}", hi.text, lo.text));
                     }
-                }
-            }
         }
         None => {}
     }
-    let writable = matches!(s.access, crate::model::Access::Rw | crate::model::Access::Wo | crate::model::Access::Rww | crate::model::Access::Rwr);
-    if writable && s.value.is_empty() && matches!(s.data_type, Some(DataType::VisibleString | DataType::OctetString | DataType::UnicodeString)) {
-        d.warn(s.line, format!("writable string 0x{index:04X} sub {} has an empty default, so it has no room for a value", s.sub));
+    if s.node_id && s.access == crate::model::Access::Const {
+        d.warn(s.line, format!("const 0x{index:04X} sub {} depends on $NODEID; it is kept in RAM like ro", s.sub));
     }
 }
 
@@ -248,7 +241,7 @@ fn pdo_mappings(eds: &Eds, d: &mut Diagnostics) {
             };
             let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
             let Some(m) = s.unsigned() else { continue };
-            let (index, sub, len) = ((m >> 16) as u16, (m >> 8) as u8, (m & 0xFF) as u64);
+            let (index, sub, len) = ((m >> 16) as u16, (m >> 8) as u8, (m & 0xFF));
             bits += len;
             if (0x0001..=0x0007).contains(&index) {
                 if eds.device.dummy_usage & (1 << index) == 0 {
@@ -271,11 +264,10 @@ fn pdo_mappings(eds: &Eds, d: &mut Diagnostics) {
             } else if !direction_ok {
                 d.warn(line, format!("0x{:04X} sub {k} maps 0x{index:04X} sub {sub} ({}) into a{}", o.index, target.access.as_str(), if rpdo { "n RPDO" } else { " TPDO" }));
             }
-            if let Some(size) = target.data_type.and_then(DataType::size) {
-                if len != 8 * size as u64 {
+            if let Some(size) = target.data_type.and_then(DataType::size)
+                && len != 8 * size as u64 {
                     d.warn(line, format!("0x{:04X} sub {k} maps 0x{index:04X} sub {sub} with {len} bits; it has {}", o.index, 8 * size));
                 }
-            }
         }
         if bits > 64 {
             d.warn(o.line, format!("0x{:04X} maps {bits} bits; a PDO carries at most 64", o.index));

@@ -72,6 +72,11 @@ pub struct Entry {
 }
 
 impl Entry {
+    /// An entry; generated tables use this to stay one line per entry.
+    pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u16) -> Entry {
+        Entry { index, sub, data_type, attr, len, offset, limits }
+    }
+
     /// The 24-bit key the tables are sorted by.
     pub const fn key(&self) -> u32 {
         ((self.index as u32) << 8) | self.sub as u32

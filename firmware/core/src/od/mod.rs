@@ -215,11 +215,10 @@ impl Dictionary {
         }
         for &pos in self.node_id_relative {
             let Some(entry) = self.entries.get(usize::from(pos)) else { continue };
-            if !entry.in_rom() && range.contains(&usize::from(entry.offset)) {
-                if let Some(slot) = image.get_mut(entry.range()) {
+            if !entry.in_rom() && range.contains(&usize::from(entry.offset))
+                && let Some(slot) = image.get_mut(entry.range()) {
                     add_le(slot, u64::from(node_id));
                 }
-            }
         }
     }
 }
@@ -251,6 +250,37 @@ pub fn store<const N: usize>(image: &mut [u8], offset: usize, value: [u8; N]) {
     if let Some(slot) = image.get_mut(offset..offset + N) {
         slot.copy_from_slice(&value);
     }
+}
+
+/// Reads an `N`-byte little-endian unsigned integer (for the 24- to 56-bit types).
+#[inline(always)]
+pub fn load_uint<const N: usize>(image: &[u8], offset: usize) -> u64 {
+    let mut b = [0u8; 8];
+    if let (Some(dst), Some(src)) = (b.get_mut(..N), image.get(offset..offset + N)) {
+        dst.copy_from_slice(src);
+    }
+    u64::from_le_bytes(b)
+}
+
+/// Reads an `N`-byte little-endian two's-complement integer, sign-extended.
+#[inline(always)]
+pub fn load_int<const N: usize>(image: &[u8], offset: usize) -> i64 {
+    let shift = 64 - 8 * N.clamp(1, 8) as u32;
+    ((load_uint::<N>(image, offset) << shift) as i64) >> shift
+}
+
+/// Stores the low `N` bytes of `value`, little-endian.
+#[inline(always)]
+pub fn store_uint<const N: usize>(image: &mut [u8], offset: usize, value: u64) {
+    if let (Some(dst), Some(src)) = (image.get_mut(offset..offset + N), value.to_le_bytes().get(..N)) {
+        dst.copy_from_slice(src);
+    }
+}
+
+/// The `len` bytes of an OCTET_STRING or UNICODE_STRING entry.
+#[inline]
+pub fn load_bytes(image: &[u8], offset: usize, len: usize) -> &[u8] {
+    image.get(offset..offset + len).unwrap_or(&[])
 }
 
 /// The bytes of a string entry up to its first NUL.

@@ -132,3 +132,17 @@ fn node_id_addition_wraps_at_the_entry_width() {
     add_le(&mut c, 0x7F);
     assert_eq!(c, [0x7D, 0x01, 0x00, 0x80]);
 }
+
+#[test]
+fn odd_sized_integers_load_and_store() {
+    let mut img = [0u8; 8];
+    store_uint::<3>(&mut img, 1, (-2i64) as u64);
+    assert_eq!(img, [0, 0xFE, 0xFF, 0xFF, 0, 0, 0, 0]);
+    assert_eq!(load_int::<3>(&img, 1), -2);
+    assert_eq!(load_uint::<3>(&img, 1), 0xFF_FFFE);
+    store_uint::<5>(&mut img, 3, 0x12_3456_789A);
+    assert_eq!(load_uint::<5>(&img, 3), 0x12_3456_789A);
+    assert_eq!(load_uint::<5>(&img, 4), 0);
+    store_uint::<5>(&mut img, 4, 1);
+    assert_eq!(load_uint::<4>(&img, 4), 0);
+}

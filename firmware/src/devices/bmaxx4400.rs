@@ -1,0 +1,20 @@
+//! Baumüller b maXX 4400 CANopen slave option module: CiA 402 drive, drive parameters at 0x4000 + number (seed 003).
+//!
+//! Defined by `eds/bmaxx4400.eds`; decisions where the manual is ambiguous are in
+//! `docs/devices/bmaxx4400.md`.
+//!
+//! The manual leaves node-id setting to the drive's operating instructions;
+//! node 1 is used until it is configured.
+
+/// The object dictionary generated from `eds/bmaxx4400.eds`.
+pub mod od {
+    include!(concat!(env!("OUT_DIR"), "/bmaxx4400.rs"));
+}
+
+/// The device entry for [`super::ALL`].
+pub const DEVICE: super::Device = super::Device {
+    name: "bmaxx4400",
+    description: "Baumüller b maXX 4400 CANopen slave option module: CiA 402 drive, drive parameters at 0x4000 + number (seed 003).",
+    dictionary: &od::DICTIONARY,
+    default_node_id: 1,
+};

@@ -1,0 +1,20 @@
+//! Interroll RollerDrive EC5000 BI: CiA 301 slave with the CiA 402 drive profile and LSS (seed 000).
+//!
+//! Defined by `eds/ec5000.eds`; decisions where the manual is ambiguous are in
+//! `docs/devices/ec5000.md`.
+//!
+//! An unconfigured drive starts as node 127 (the manual's fallback), so a
+//! plant of drives that all ship alike is commissioned through LSS.
+
+/// The object dictionary generated from `eds/ec5000.eds`.
+pub mod od {
+    include!(concat!(env!("OUT_DIR"), "/ec5000.rs"));
+}
+
+/// The device entry for [`super::ALL`].
+pub const DEVICE: super::Device = super::Device {
+    name: "ec5000",
+    description: "Interroll RollerDrive EC5000 BI: CiA 301 slave with the CiA 402 drive profile and LSS (seed 000).",
+    dictionary: &od::DICTIONARY,
+    default_node_id: 127,
+};

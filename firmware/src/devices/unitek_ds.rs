@@ -1,0 +1,20 @@
+//! UNITEK DS servo: its own REGID register protocol, with the register table described as manufacturer objects (seed 001).
+//!
+//! Defined by `eds/unitek-ds.eds`; decisions where the manual is ambiguous are in
+//! `docs/devices/unitek-ds.md`.
+//!
+//! The register protocol uses fixed CAN identifiers and has no node-id; the
+//! default node-id only matters to the CiA 301 services this image also offers.
+
+/// The object dictionary generated from `eds/unitek-ds.eds`.
+pub mod od {
+    include!(concat!(env!("OUT_DIR"), "/unitek_ds.rs"));
+}
+
+/// The device entry for [`super::ALL`].
+pub const DEVICE: super::Device = super::Device {
+    name: "unitek-ds",
+    description: "UNITEK DS servo: its own REGID register protocol, with the register table described as manufacturer objects (seed 001).",
+    dictionary: &od::DICTIONARY,
+    default_node_id: 1,
+};
