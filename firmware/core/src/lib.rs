@@ -7,7 +7,9 @@
 //! Layers (see `docs/` and the style guide):
 //! - [`od`]: the runtime side of an object dictionary that `od-gen` generated
 //!   from an EDS: flash tables of entry metadata, one RAM image of values.
+//! - [`time`]: the [`time::Instant`]s and [`time::Duration`]s callers pass in.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
 pub mod od;
+pub mod time;

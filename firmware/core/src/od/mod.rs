@@ -122,15 +122,8 @@ impl Dictionary {
             Ok(pos) => entries.get(pos).ok_or(OdError::NoObject),
             // The neighbours tell whether the object exists with other sub-indices.
             Err(pos) => {
-                let same_object = |p: Option<usize>| {
-                    p.and_then(|p| entries.get(p))
-                        .is_some_and(|e| e.index == index)
-                };
-                if same_object(Some(pos)) || same_object(pos.checked_sub(1)) {
-                    Err(OdError::NoSubIndex)
-                } else {
-                    Err(OdError::NoObject)
-                }
+                let same_object = |p: Option<usize>| p.and_then(|p| entries.get(p)).is_some_and(|e| e.index == index);
+                if same_object(Some(pos)) || same_object(pos.checked_sub(1)) { Err(OdError::NoSubIndex) } else { Err(OdError::NoObject) }
             }
         }
     }
@@ -157,11 +150,7 @@ impl Dictionary {
             return Err(OdError::NoStorage);
         }
         let value = self.value(image, entry);
-        Ok(if entry.data_type == DataType::VisibleString {
-            until_nul(value)
-        } else {
-            value
-        })
+        Ok(if entry.data_type == DataType::VisibleString { until_nul(value) } else { value })
     }
 
     /// Writes a value as an SDO download would: access, length and limits are
@@ -215,10 +204,12 @@ impl Dictionary {
         }
         for &pos in self.node_id_relative {
             let Some(entry) = self.entries.get(usize::from(pos)) else { continue };
-            if !entry.in_rom() && range.contains(&usize::from(entry.offset))
-                && let Some(slot) = image.get_mut(entry.range()) {
-                    add_le(slot, u64::from(node_id));
-                }
+            if !entry.in_rom()
+                && range.contains(&usize::from(entry.offset))
+                && let Some(slot) = image.get_mut(entry.range())
+            {
+                add_le(slot, u64::from(node_id));
+            }
         }
     }
 }
@@ -238,10 +229,7 @@ fn add_le(bytes: &mut [u8], n: u64) {
 /// of range (impossible for generated code) yields zeros rather than a panic.
 #[inline(always)]
 pub fn load<const N: usize>(image: &[u8], offset: usize) -> [u8; N] {
-    image
-        .get(offset..offset + N)
-        .and_then(|s| s.try_into().ok())
-        .unwrap_or([0; N])
+    image.get(offset..offset + N).and_then(|s| s.try_into().ok()).unwrap_or([0; N])
 }
 
 /// Stores `N` bytes at `offset` of an image; the counterpart of [`load`].

@@ -144,16 +144,10 @@ impl DataType {
             DataType::Integer24 | DataType::Unsigned24 => 3,
             DataType::Integer32 | DataType::Unsigned32 | DataType::Real32 => 4,
             DataType::Integer40 | DataType::Unsigned40 => 5,
-            DataType::Integer48
-            | DataType::Unsigned48
-            | DataType::TimeOfDay
-            | DataType::TimeDifference => 6,
+            DataType::Integer48 | DataType::Unsigned48 | DataType::TimeOfDay | DataType::TimeDifference => 6,
             DataType::Integer56 | DataType::Unsigned56 => 7,
             DataType::Integer64 | DataType::Unsigned64 | DataType::Real64 => 8,
-            DataType::VisibleString
-            | DataType::OctetString
-            | DataType::UnicodeString
-            | DataType::Domain => return None,
+            DataType::VisibleString | DataType::OctetString | DataType::UnicodeString | DataType::Domain => return None,
         })
     }
 

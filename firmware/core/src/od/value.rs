@@ -80,11 +80,9 @@ impl Limits {
     /// Values of non-numeric types always pass.
     pub fn check(&self, data_type: DataType, bytes: &[u8]) -> Result<(), RangeError> {
         let kind = data_type.kind();
-        let (Some(value), Some(low), Some(high)) = (
-            Number::decode(data_type, bytes),
-            Number::from_limit(kind, self.low),
-            Number::from_limit(kind, self.high),
-        ) else {
+        let (Some(value), Some(low), Some(high)) =
+            (Number::decode(data_type, bytes), Number::from_limit(kind, self.low), Number::from_limit(kind, self.high))
+        else {
             return Ok(());
         };
         if value.less_than(low) {
@@ -103,35 +101,20 @@ mod tests {
 
     #[test]
     fn decodes_odd_sized_signed_integers() {
-        assert_eq!(
-            Number::decode(DataType::Integer24, &[0xFF, 0xFF, 0xFF]),
-            Some(Number::Signed(-1))
-        );
-        assert_eq!(
-            Number::decode(DataType::Integer40, &[0, 0, 0, 0, 0x80]),
-            Some(Number::Signed(-(1 << 39)))
-        );
-        assert_eq!(
-            Number::decode(DataType::Unsigned24, &[0xFF, 0xFF, 0xFF]),
-            Some(Number::Unsigned(0xFF_FFFF))
-        );
+        assert_eq!(Number::decode(DataType::Integer24, &[0xFF, 0xFF, 0xFF]), Some(Number::Signed(-1)));
+        assert_eq!(Number::decode(DataType::Integer40, &[0, 0, 0, 0, 0x80]), Some(Number::Signed(-(1 << 39))));
+        assert_eq!(Number::decode(DataType::Unsigned24, &[0xFF, 0xFF, 0xFF]), Some(Number::Unsigned(0xFF_FFFF)));
         assert_eq!(Number::decode(DataType::Unsigned16, &[1]), None);
         assert_eq!(Number::decode(DataType::VisibleString, b"ab"), None);
     }
 
     #[test]
     fn checks_limits_by_kind() {
-        let l = Limits {
-            low: Number::Signed(-10).to_limit(),
-            high: Number::Signed(10).to_limit(),
-        };
+        let l = Limits { low: Number::Signed(-10).to_limit(), high: Number::Signed(10).to_limit() };
         assert_eq!(l.check(DataType::Integer16, &(-11i16).to_le_bytes()), Err(RangeError::TooLow));
         assert_eq!(l.check(DataType::Integer16, &11i16.to_le_bytes()), Err(RangeError::TooHigh));
         assert_eq!(l.check(DataType::Integer16, &(-10i16).to_le_bytes()), Ok(()));
-        let r = Limits {
-            low: Number::Real(-1.5).to_limit(),
-            high: Number::Real(2.5).to_limit(),
-        };
+        let r = Limits { low: Number::Real(-1.5).to_limit(), high: Number::Real(2.5).to_limit() };
         assert_eq!(r.check(DataType::Real32, &3.0f32.to_le_bytes()), Err(RangeError::TooHigh));
         assert_eq!(r.check(DataType::Real32, &2.5f32.to_le_bytes()), Ok(()));
         let u = Limits { low: 1, high: 0xFFFF_FFFF };

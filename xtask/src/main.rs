@@ -1,0 +1,133 @@
+//! `cargo xtask <task>`: the project's commands.
+//!
+//! - `test`: installs what is missing (the thumbv7m target) and runs every
+//!   check CI runs: rustfmt, clippy, all tests, the strict device-EDS check and
+//!   the Cortex-M builds.
+//! - `demo [DEVICE]`: checks a device's EDS and prints its dictionary.
+//! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+const TARGET: &str = "thumbv7m-none-eabi";
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("test") => test(),
+        Some("demo") => demo(args.get(1).map_or("ec5000", String::as_str)),
+        Some("fuzz") => fuzz(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(60)),
+        _ => Err("usage: cargo xtask test | demo [DEVICE] | fuzz [SECONDS]".into()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+fn run(program: &str, args: &[&str]) -> Result<(), String> {
+    eprintln!("+ {program} {}", args.join(" "));
+    let status = Command::new(program).args(args).current_dir(root()).status().map_err(|e| format!("{program}: {e}"))?;
+    if status.success() { Ok(()) } else { Err(format!("`{program} {}` failed ({status})", args.join(" "))) }
+}
+
+fn output(program: &str, args: &[&str]) -> Result<String, String> {
+    let out = Command::new(program).args(args).current_dir(root()).output().map_err(|e| format!("{program}: {e}"))?;
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// Installs the Cortex-M target if rustup lacks it.
+fn ensure_target() -> Result<(), String> {
+    if output("rustup", &["target", "list", "--installed"])?.lines().any(|l| l.trim() == TARGET) {
+        return Ok(());
+    }
+    run("rustup", &["target", "add", TARGET])
+}
+
+fn test() -> Result<(), String> {
+    ensure_target()?;
+    run("cargo", &["fmt", "--all", "--check"])?;
+    run("cargo", &["clippy", "--workspace", "--all-targets", "--", "-D", "warnings"])?;
+    run("cargo", &["test", "--workspace"])?;
+    let eds: Vec<String> = firmware::devices::ALL.iter().map(|d| format!("firmware/eds/{}.eds", d.name)).collect();
+    let mut check = vec!["run", "--quiet", "-p", "od-gen", "--", "check", "--strict"];
+    check.extend(eds.iter().map(String::as_str));
+    run("cargo", &check)?;
+    // The no_std crates must build for the MCU: the core, the five device
+    // dictionaries, and every dictionary generated from the EDS corpus.
+    run("cargo", &["build", "--release", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "-p", "canopen-tests", "--lib"])?;
+    run("cargo", &["clippy", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "--", "-D", "warnings"])?;
+    eprintln!("xtask test: all checks passed");
+    Ok(())
+}
+
+fn demo(device: &str) -> Result<(), String> {
+    let known: Vec<&str> = firmware::devices::ALL.iter().map(|d| d.name).collect();
+    let dev = firmware::devices::by_name(device).ok_or_else(|| format!("unknown device {device}; one of {}", known.join(", ")))?;
+    let path = root().join("firmware/eds").join(format!("{device}.eds"));
+    let (eds, diags) = od_gen::load_path(&path, od_gen::Options { strict: true })?;
+    if diags.has_errors() {
+        return Err(diags.to_string());
+    }
+    println!("{}\n", dev.description);
+    let d = dev.dictionary;
+    println!(
+        "{} entries in flash, {} bytes of RAM image ({} for 0x1000-0x1FFF), {} bytes of constants, {} $NODEID-relative defaults; default node-id {}",
+        d.entries.len(),
+        d.defaults.len(),
+        d.comm_len,
+        d.rom.len(),
+        d.node_id_relative.len(),
+        dev.default_node_id
+    );
+    println!("bit rates (CiA 305 table bits): {:#05X}, LSS: {}", d.device.baud_rates, d.device.lss_supported);
+    // The runtime side: an image as the node builds it at power-on, read back
+    // through the dictionary as an SDO upload would.
+    let node_id = dev.default_node_id;
+    let mut image = vec![0u8; d.defaults.len()];
+    d.reset_application(&mut image, node_id);
+    d.reset_communication(&mut image, node_id);
+    println!("\nnode {node_id} after power-on:");
+    for (index, sub, what) in [
+        (0x1000, 0, "device type"),
+        (0x1018, 1, "vendor-ID"),
+        (0x1018, 2, "product code"),
+        (0x1200, 1, "SDO rx COB-ID"),
+        (0x1200, 2, "SDO tx COB-ID"),
+    ] {
+        match d.read(&image, index, sub) {
+            Ok(bytes) => {
+                println!("  0x{index:04X} sub {sub} {what}: {}", bytes.iter().rev().map(|b| format!("{b:02X}")).collect::<String>())
+            }
+            Err(e) => println!("  0x{index:04X} sub {sub} {what}: abort 0x{:08X}", e.abort_code()),
+        }
+    }
+    println!();
+    print!("{}", od_gen::doc::markdown(&eds));
+    Ok(())
+}
+
+fn fuzz(seconds: u32) -> Result<(), String> {
+    let time = format!("-max_total_time={seconds}");
+    // Each target starts from the real files it parses; new inputs go to fuzz/corpus/<target>.
+    for (target, seeds) in [("eds_parser", "../tests/eds-corpus")] {
+        let corpus = format!("corpus/{target}");
+        std::fs::create_dir_all(root().join("fuzz").join(&corpus)).map_err(|e| e.to_string())?;
+        let status = Command::new("cargo")
+            .args(["+nightly", "fuzz", "run", target, &corpus, seeds, "--", &time])
+            .current_dir(root().join("fuzz"))
+            .status()
+            .map_err(|e| format!("cargo +nightly fuzz: {e} (install with `cargo install cargo-fuzz`)"))?;
+        if !status.success() {
+            return Err(format!("fuzz target {target} failed ({status})"));
+        }
+    }
+    Ok(())
+}
