@@ -31,12 +31,8 @@ pub fn export(eds: &Eds) -> String {
         let _ = writeln!(out);
     }
     let mandatory: Vec<u16> = [0x1000u16, 0x1001, 0x1018].into_iter().filter(|i| eds.objects.contains_key(i)).collect();
-    let optional: Vec<u16> = eds
-        .objects
-        .keys()
-        .copied()
-        .filter(|&i| !mandatory.contains(&i) && ((0x1000..0x2000).contains(&i) || i >= 0x6000))
-        .collect();
+    let optional: Vec<u16> =
+        eds.objects.keys().copied().filter(|&i| !mandatory.contains(&i) && ((0x1000..0x2000).contains(&i) || i >= 0x6000)).collect();
     let manufacturer: Vec<u16> = eds.objects.keys().copied().filter(|i| (0x2000..0x6000).contains(i)).collect();
     for (name, list) in [("MandatoryObjects", &mandatory), ("OptionalObjects", &optional), ("ManufacturerObjects", &manufacturer)] {
         let _ = writeln!(out, "[{name}]\nSupportedObjects={}", list.len());
@@ -100,7 +96,9 @@ fn section(out: &mut String, s: &Section) {
 fn entry_keys(out: &mut String, s: &SubObject, opaque: bool) {
     let _ = writeln!(out, "DataType=0x{:04X}", s.type_index);
     let _ = writeln!(out, "AccessType={}", s.access.as_str());
-    let canonical = s.data_type.filter(|_| !opaque).map(|t| canonical(t, s));
+    // Only a value the file gave is written: an entry without one must not gain a default.
+    let given = s.parameter_value.as_ref().or(s.default.as_ref()).is_some_and(|v| !v.text.is_empty());
+    let canonical = s.data_type.filter(|_| !opaque && given).map(|t| canonical(t, s));
     match (&s.parameter_value, canonical) {
         (Some(_), Some(v)) => {
             if let Some(d) = &s.default {
