@@ -69,9 +69,7 @@ impl Diagnostics {
 
     /// Whether some finding at `line` contains `text` (for tests and tools).
     pub fn mentions(&self, severity: Severity, line: usize, text: &str) -> bool {
-        self.items
-            .iter()
-            .any(|d| d.severity == severity && d.line == line && d.message.contains(text))
+        self.items.iter().any(|d| d.severity == severity && d.line == line && d.message.contains(text))
     }
 }
 

@@ -55,9 +55,10 @@ fn classify(name: &str) -> Kind {
         if let Some(i) = hex4(head) {
             if let Some(s) = tail.strip_prefix("sub")
                 && (1..=2).contains(&s.len())
-                    && let Ok(sub) = u8::from_str_radix(s, 16) {
-                        return Kind::Sub(i, sub);
-                    }
+                && let Ok(sub) = u8::from_str_radix(s, 16)
+            {
+                return Kind::Sub(i, sub);
+            }
             match tail {
                 "name" => return Kind::Names(i),
                 "value" => return Kind::Values(i),
@@ -170,7 +171,10 @@ impl Reader<'_> {
                 Kind::Sub(i, sub) => {
                     // Sub-index sections are hex; `sub10` is 0x10, not decimal 10.
                     if let Some(prev) = sub_sections.get(&(i, sub)) {
-                        self.d.error(s.line, format!("[{}] repeats sub-index 0x{sub:02X} of 0x{i:04X} (first at line {})", s.name, prev.line));
+                        self.d.error(
+                            s.line,
+                            format!("[{}] repeats sub-index 0x{sub:02X} of 0x{i:04X} (first at line {})", s.name, prev.line),
+                        );
                     } else {
                         sub_sections.insert((i, sub), s);
                     }
@@ -199,7 +203,10 @@ impl Reader<'_> {
         }
         for ((index, sub), s) in &sub_sections {
             if !object_sections.contains_key(index) {
-                self.d.error(s.line, format!("[{}] describes sub-index 0x{sub:02X} of 0x{index:04X}, which has no [{index:04X}] section", s.name));
+                self.d.error(
+                    s.line,
+                    format!("[{}] describes sub-index 0x{sub:02X} of 0x{index:04X}, which has no [{index:04X}] section", s.name),
+                );
             }
         }
         for (index, s) in names.iter().chain(values.iter()) {
@@ -221,7 +228,16 @@ impl Reader<'_> {
 
     fn comments(&mut self, s: &Section) -> Vec<String> {
         let lines = s.get("Lines").and_then(|p| self.int(p)).unwrap_or(0);
-        let out: Vec<String> = (1..=lines).filter_map(|n| s.get(&format!("Line{n}")).map(|p| p.value.clone())).collect();
+        // Walk the keys, not 1..=Lines: `Lines` may be any number up to 10^40.
+        let numbered: BTreeMap<i128, String> = s
+            .pairs
+            .iter()
+            .filter_map(|p| {
+                let n: i128 = p.key.get(4..)?.parse().ok()?;
+                ((1..=lines).contains(&n) && p.key.eq_ignore_ascii_case(&format!("Line{n}"))).then(|| (n, p.value.clone()))
+            })
+            .collect();
+        let out: Vec<String> = numbered.into_values().collect();
         if out.len() as i128 != lines {
             self.d.warn(s.line, format!("[Comments] Lines={lines} but {} LineN keys", out.len()));
         }
@@ -247,10 +263,9 @@ impl Reader<'_> {
             }
         }
         match count {
-            Some(n) if n != s.pairs.len() as i128 - 1 => self.d.warn(
-                s.line,
-                format!("[{}] {count_key}={n} but it has {} entries", s.name, s.pairs.len().saturating_sub(1)),
-            ),
+            Some(n) if n != s.pairs.len() as i128 - 1 => {
+                self.d.warn(s.line, format!("[{}] {count_key}={n} but it has {} entries", s.name, s.pairs.len().saturating_sub(1)))
+            }
             None => self.d.warn(s.line, format!("[{}] has no {count_key} key", s.name)),
             _ => {}
         }
@@ -411,7 +426,10 @@ impl Reader<'_> {
                 self.d.warn(s.line, format!("CompactSubObj on RECORD 0x{index:04X}; CiA 306 defines it for ARRAY, expanded the same way"));
             }
             if n > 0xFE {
-                self.d.warn(s.line, format!("CompactSubObj={n} on 0x{index:04X} reaches sub-index 0x{:02X}; the highest is 0xFE", n.min(0xFF)));
+                self.d.warn(
+                    s.line,
+                    format!("CompactSubObj={n} on 0x{index:04X} reaches sub-index 0x{:02X}; the highest is 0xFE", n.min(0xFF)),
+                );
             }
             for sub in &subs {
                 self.d.warn(sub.line, format!("[{}] is ignored: 0x{index:04X} uses CompactSubObj", sub.name));
@@ -557,11 +575,7 @@ impl Reader<'_> {
                 }
             },
         };
-        let obj_flags = s
-            .get("ObjFlags")
-            .and_then(|p| self.int(p))
-            .and_then(|v| u32::try_from(v).ok())
-            .unwrap_or(0);
+        let obj_flags = s.get("ObjFlags").and_then(|p| self.int(p)).and_then(|v| u32::try_from(v).ok()).unwrap_or(0);
         let mut e = SubObject {
             sub,
             name: name.to_owned(),
@@ -651,7 +665,8 @@ impl Reader<'_> {
                 let ci = comm + n;
                 if !eds.objects.contains_key(&ci) && !comm_subs.is_empty() {
                     let highest = comm_subs.last().map_or(0, |s| s.0);
-                    let mut subs = vec![(0u8, "Highest sub-index supported".to_owned(), DataType::Unsigned8, highest.to_string(), Access::Ro)];
+                    let mut subs =
+                        vec![(0u8, "Highest sub-index supported".to_owned(), DataType::Unsigned8, highest.to_string(), Access::Ro)];
                     subs.extend(comm_subs.into_iter().map(|(s, name, t, v)| (s, name.to_owned(), t, v, Access::Rw)));
                     let name = format!("{} communication parameter {}", if tx { "TPDO" } else { "RPDO" }, n + 1);
                     eds.objects.insert(ci, synthetic(ci, &name, subs));

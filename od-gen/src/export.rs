@@ -19,7 +19,8 @@ pub fn export(eds: &Eds) -> String {
         section(&mut out, s);
     }
     let _ = writeln!(out, "[DummyUsage]");
-    for t in 1..=7u32 {
+    // Dummy0001..0007 always, higher types only when set (lely lists up to Dummy001B).
+    for t in (1..=0x1Fu32).filter(|&t| t <= 7 || eds.device.dummy_usage & (1 << t) != 0) {
         let _ = writeln!(out, "Dummy{t:04X}={}", u8::from(eds.device.dummy_usage & (1 << t) != 0));
     }
     let _ = writeln!(out);
@@ -101,7 +102,8 @@ fn entry_keys(out: &mut String, s: &SubObject, opaque: bool) {
     let canonical = s.data_type.filter(|_| !opaque && given).map(|t| canonical(t, s));
     match (&s.parameter_value, canonical) {
         (Some(_), Some(v)) => {
-            if let Some(d) = &s.default {
+            // An empty ParameterValue reads as none and the default would win, so then it goes too.
+            if let Some(d) = s.default.as_ref().filter(|_| !v.is_empty()) {
                 let _ = writeln!(out, "DefaultValue={}", d.text);
             }
             let _ = writeln!(out, "ParameterValue={v}");
@@ -140,10 +142,10 @@ fn entry_keys(out: &mut String, s: &SubObject, opaque: bool) {
 fn canonical(t: DataType, s: &SubObject) -> String {
     let hex = |b: &[u8]| b.iter().map(|x| format!("{x:02X}")).collect::<String>();
     let v = match t {
-        DataType::VisibleString => String::from_utf8_lossy(&s.value).into_owned(),
+        DataType::VisibleString => quote(String::from_utf8_lossy(&s.value).into_owned()),
         DataType::UnicodeString => {
             let units: Vec<u16> = s.value.chunks(2).map(|c| u16::from_le_bytes([c[0], *c.get(1).unwrap_or(&0)])).collect();
-            String::from_utf16_lossy(&units)
+            quote(String::from_utf16_lossy(&units))
         }
         DataType::OctetString | DataType::Domain => hex(&s.value),
         DataType::TimeOfDay | DataType::TimeDifference => {
@@ -162,5 +164,20 @@ fn canonical(t: DataType, s: &SubObject) -> String {
             None => String::new(),
         },
     };
-    if s.node_id { format!("$NODEID+{v}") } else { v }
+    match v.strip_prefix('-') {
+        // `$NODEID+-5` is no number; `$NODEID-5` is.
+        Some(magnitude) if s.node_id => format!("$NODEID-{magnitude}"),
+        _ if s.node_id => format!("$NODEID+{v}"),
+        _ => v,
+    }
+}
+
+/// A string the reader would change (it trims the line and drops one pair of
+/// enclosing quotes) is written in quotes, which the reader drops again.
+fn quote(s: String) -> String {
+    if s.starts_with(|c: char| c.is_whitespace() || c == '"') || s.ends_with(|c: char| c.is_whitespace() || c == '"') {
+        format!("\"{s}\"")
+    } else {
+        s
+    }
 }

@@ -90,10 +90,7 @@ pub fn sections(text: &str, diags: &mut Diagnostics) -> Vec<Section> {
             if prev.value == value {
                 diags.warn(line, format!("key {key} repeated in [{}] (first at line {})", section.name, prev.line));
             } else {
-                diags.error(
-                    line,
-                    format!("key {key} repeated in [{}] with a different value (first at line {})", section.name, prev.line),
-                );
+                diags.error(line, format!("key {key} repeated in [{}] with a different value (first at line {})", section.name, prev.line));
             }
         }
         section.pairs.push(Pair { key, value, line });

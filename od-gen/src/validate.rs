@@ -41,8 +41,8 @@ fn file_info(eds: &Eds, d: &mut Diagnostics) {
     };
     for key in ["CreationDate", "ModificationDate"] {
         if let Some(p) = s.get(key) {
-            let ok = p.value.len() == 10
-                && p.value.char_indices().all(|(i, c)| if i == 2 || i == 5 { c == '-' } else { c.is_ascii_digit() });
+            let ok =
+                p.value.len() == 10 && p.value.char_indices().all(|(i, c)| if i == 2 || i == 5 { c == '-' } else { c.is_ascii_digit() });
             if !ok {
                 d.warn(p.line, format!("{key} `{}` is not mm-dd-yyyy", p.value));
             }
@@ -69,9 +69,10 @@ fn file_info(eds: &Eds, d: &mut Diagnostics) {
         }
     }
     if let Some(p) = s.get("EDSVersion")
-        && !matches!(p.value.as_str(), "4.0" | "4" | "4.00") {
-            d.warn(p.line, format!("EDSVersion `{}` is not a CiA 306 version; read as 4.0", p.value));
-        }
+        && !matches!(p.value.as_str(), "4.0" | "4" | "4.00")
+    {
+        d.warn(p.line, format!("EDSVersion `{}` is not a CiA 306 version; read as 4.0", p.value));
+    }
 }
 
 fn mandatory(eds: &Eds, d: &mut Diagnostics) {
@@ -81,9 +82,10 @@ fn mandatory(eds: &Eds, d: &mut Diagnostics) {
         }
     }
     if let Some(o) = eds.objects.get(&0x1018)
-        && !o.subs.contains_key(&1) {
-            d.warn(o.line, "0x1018 has no vendor-ID (sub-index 1), which CiA 301 makes mandatory");
-        }
+        && !o.subs.contains_key(&1)
+    {
+        d.warn(o.line, "0x1018 has no vendor-ID (sub-index 1), which CiA 301 makes mandatory");
+    }
 }
 
 fn object_lists(eds: &Eds, d: &mut Diagnostics) {
@@ -107,12 +109,8 @@ fn object_lists(eds: &Eds, d: &mut Diagnostics) {
 }
 
 fn objects(eds: &mut Eds, d: &mut Diagnostics) {
-    let defined_types: Vec<u16> = eds
-        .objects
-        .values()
-        .filter(|o| matches!(o.kind, ObjectKind::DefType | ObjectKind::DefStruct))
-        .map(|o| o.index)
-        .collect();
+    let defined_types: Vec<u16> =
+        eds.objects.values().filter(|o| matches!(o.kind, ObjectKind::DefType | ObjectKind::DefStruct)).map(|o| o.index).collect();
     for o in eds.objects.values_mut() {
         if matches!(o.kind, ObjectKind::Null | ObjectKind::DefType | ObjectKind::DefStruct) || o.index < 0x1000 {
             // Type definitions describe types; they hold no application value.
@@ -121,14 +119,18 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
         }
         if o.kind.has_subs() && o.compact_sub_obj.is_none_or(|n| n == 0) {
             if o.subs.is_empty() {
-                d.warn(o.line, format!("{} 0x{:04X} has no SubNumber, no CompactSubObj and no sub-objects; it is left out", o.kind.name(), o.index));
+                d.warn(
+                    o.line,
+                    format!("{} 0x{:04X} has no SubNumber, no CompactSubObj and no sub-objects; it is left out", o.kind.name(), o.index),
+                );
                 o.opaque = true;
                 continue;
             }
             if let Some(n) = o.sub_number
-                && usize::from(n) != o.subs.len() {
-                    d.warn(o.line, format!("[{:04X}] SubNumber {n} but {} sub-objects", o.index, o.subs.len()));
-                }
+                && usize::from(n) != o.subs.len()
+            {
+                d.warn(o.line, format!("[{:04X}] SubNumber {n} but {} sub-objects", o.index, o.subs.len()));
+            }
             let highest = o.subs.keys().next_back().copied().unwrap_or(0);
             match o.subs.get(&0) {
                 None => d.warn(o.line, format!("{} 0x{:04X} has no sub-index 0", o.kind.name(), o.index)),
@@ -136,9 +138,7 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
                     if s0.data_type != Some(DataType::Unsigned8) {
                         d.warn(s0.line, format!("sub-index 0 of 0x{:04X} is {}, not UNSIGNED8", o.index, type_name(s0)));
                     } else if let Some(v) = s0.unsigned() {
-                        let counts_use = o.index == 0x1003
-                            || (0x1600..=0x17FF).contains(&o.index)
-                            || (0x1A00..=0x1BFF).contains(&o.index);
+                        let counts_use = o.index == 0x1003 || (0x1600..=0x17FF).contains(&o.index) || (0x1A00..=0x1BFF).contains(&o.index);
                         if (counts_use && v > u64::from(highest)) || (!counts_use && v != u64::from(highest)) {
                             let line = s0.parameter_value.as_ref().or(s0.default.as_ref()).map_or(s0.line, |t| t.line);
                             d.warn(line, format!("sub-index 0 of 0x{:04X} is {v} but the highest sub-index is 0x{highest:02X}", o.index));
@@ -149,9 +149,10 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
             if o.kind == ObjectKind::Array {
                 let mut types = o.subs.values().filter(|s| s.sub > 0).map(|s| s.type_index);
                 if let Some(first) = types.next()
-                    && types.any(|t| t != first) {
-                        d.warn(o.line, format!("ARRAY 0x{:04X} mixes element DataTypes; treated as a RECORD", o.index));
-                    }
+                    && types.any(|t| t != first)
+                {
+                    d.warn(o.line, format!("ARRAY 0x{:04X} mixes element DataTypes; treated as a RECORD", o.index));
+                }
             }
         }
         let mut opaque_reason = None;
@@ -161,9 +162,15 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
             }
             let t = s.type_index;
             if (0x20..=0x25F).contains(&t) && !defined_types.contains(&t) {
-                opaque_reason = Some(format!("DataType 0x{t:04X} of 0x{:04X} is a complex or manufacturer type the file never defines; the object is left out", o.index));
+                opaque_reason = Some(format!(
+                    "DataType 0x{t:04X} of 0x{:04X} is a complex or manufacturer type the file never defines; the object is left out",
+                    o.index
+                ));
             } else if defined_types.contains(&t) {
-                opaque_reason = Some(format!("DataType 0x{t:04X} of 0x{:04X} is a file-defined type, which the generator does not lay out; the object is left out", o.index));
+                opaque_reason = Some(format!(
+                    "DataType 0x{t:04X} of 0x{:04X} is a file-defined type, which the generator does not lay out; the object is left out",
+                    o.index
+                ));
             } else {
                 d.error(s.line, format!("unknown DataType 0x{t:04X}"));
             }
@@ -188,22 +195,32 @@ fn entry(index: u16, s: &SubObject, opaque: bool, d: &mut Diagnostics) {
     let limit_line = s.high.as_ref().or(s.low.as_ref()).map_or(s.line, |t| t.line);
     match s.limits {
         Some((l, h)) if less(h, l) => {
-            d.push(sev, limit_line, format!("HighLimit {} is below LowLimit {} (0x{index:04X} sub {})", text(&s.high), text(&s.low), s.sub));
+            d.push(
+                sev,
+                limit_line,
+                format!("HighLimit {} is below LowLimit {} (0x{index:04X} sub {})", text(&s.high), text(&s.low), s.sub),
+            );
         }
         Some((l, h)) => {
             let given = s.parameter_value.as_ref().or(s.default.as_ref()).is_some_and(|v| !v.text.is_empty());
             if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && given)
-                && (less(v, l) || less(h, v)) {
-                    let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
-                    d.push(sev, line, format!("value is outside LowLimit {}..HighLimit {} (0x{index:04X} sub {})", text(&s.low), text(&s.high), s.sub));
-                }
+                && (less(v, l) || less(h, v))
+            {
+                let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
+                d.push(
+                    sev,
+                    line,
+                    format!("value is outside LowLimit {}..HighLimit {} (0x{index:04X} sub {})", text(&s.low), text(&s.high), s.sub),
+                );
+            }
         }
         None if opaque => {
             if let (Some(lo), Some(hi)) = (&s.low, &s.high)
                 && let (Ok(l), Ok(h)) = (crate::value::parse_int(&lo.text), crate::value::parse_int(&hi.text))
-                    && h.value < l.value {
-                        d.warn(hi.line, format!("HighLimit {} is below LowLimit {}", hi.text, lo.text));
-                    }
+                && h.value < l.value
+            {
+                d.warn(hi.line, format!("HighLimit {} is below LowLimit {}", hi.text, lo.text));
+            }
         }
         None => {}
     }
@@ -258,16 +275,26 @@ fn pdo_mappings(eds: &Eds, d: &mut Diagnostics) {
                 continue;
             }
             let attr = target.access.attr(true);
-            let direction_ok = if rpdo { attr.contains(canopen_core::od::Attr::MAP_RPDO) } else { attr.contains(canopen_core::od::Attr::MAP_TPDO) };
+            let direction_ok =
+                if rpdo { attr.contains(canopen_core::od::Attr::MAP_RPDO) } else { attr.contains(canopen_core::od::Attr::MAP_TPDO) };
             if !target.pdo_mapping {
                 d.warn(line, format!("0x{:04X} sub {k} maps 0x{index:04X} sub {sub}, which has PDOMapping=0", o.index));
             } else if !direction_ok {
-                d.warn(line, format!("0x{:04X} sub {k} maps 0x{index:04X} sub {sub} ({}) into a{}", o.index, target.access.as_str(), if rpdo { "n RPDO" } else { " TPDO" }));
+                d.warn(
+                    line,
+                    format!(
+                        "0x{:04X} sub {k} maps 0x{index:04X} sub {sub} ({}) into a{}",
+                        o.index,
+                        target.access.as_str(),
+                        if rpdo { "n RPDO" } else { " TPDO" }
+                    ),
+                );
             }
             if let Some(size) = target.data_type.and_then(DataType::size)
-                && len != 8 * size as u64 {
-                    d.warn(line, format!("0x{:04X} sub {k} maps 0x{index:04X} sub {sub} with {len} bits; it has {}", o.index, 8 * size));
-                }
+                && len != 8 * size as u64
+            {
+                d.warn(line, format!("0x{:04X} sub {k} maps 0x{index:04X} sub {sub} with {len} bits; it has {}", o.index, 8 * size));
+            }
         }
         if bits > 64 {
             d.warn(o.line, format!("0x{:04X} maps {bits} bits; a PDO carries at most 64", o.index));
@@ -277,7 +304,9 @@ fn pdo_mappings(eds: &Eds, d: &mut Diagnostics) {
 
 fn pdo_counts(eds: &Eds, d: &mut Diagnostics) {
     let Some(info) = &eds.device_info else { return };
-    for (key, range, given) in [("NrOfRXPDO", 0x1600..=0x17FFu16, eds.device.nr_rx_pdo), ("NrOfTXPDO", 0x1A00..=0x1BFF, eds.device.nr_tx_pdo)] {
+    for (key, range, given) in
+        [("NrOfRXPDO", 0x1600..=0x17FFu16, eds.device.nr_rx_pdo), ("NrOfTXPDO", 0x1A00..=0x1BFF, eds.device.nr_tx_pdo)]
+    {
         let have = eds.objects.range(range).count();
         if have != usize::from(given) {
             let line = info.get(key).map_or(info.line, |p| p.line);

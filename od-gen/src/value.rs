@@ -111,7 +111,12 @@ pub fn type_bounds(t: DataType) -> (Number, Number) {
 /// Returns the number, whether it is `$NODEID`-relative, and a note.
 pub fn parse_number(t: DataType, text: &str) -> Result<(Number, bool, Option<String>), String> {
     match t.kind() {
-        Kind::Real => parse_real(t, text).map(|(v, note)| (Number::Real(v), false, note)),
+        Kind::Real => {
+            let (v, note) = parse_real(t, text)?;
+            // A REAL32 number is the nearest f32, so a limit `0.1` equals a value `0.1`.
+            let v = if t == DataType::Real32 { f64::from(v as f32) } else { v };
+            Ok((Number::Real(v), false, note))
+        }
         Kind::Signed | Kind::Unsigned => {
             let e = parse_int(text)?;
             let (min, max) = int_range(t).ok_or("not an integer type")?;
@@ -141,18 +146,18 @@ fn parse_real(t: DataType, text: &str) -> Result<(f64, Option<String>), String> 
         let e = parse_int(s)?;
         let note = Some(format!("`{s}` for a {} is read as its IEEE 754 bit pattern", t.name()));
         return match t {
-            DataType::Real32 => u32::try_from(e.value)
-                .map(|b| (f64::from(f32::from_bits(b)), note))
-                .map_err(|_| format!("`{s}` is wider than 32 bits")),
-            _ => u64::try_from(e.value)
-                .map(|b| (f64::from_bits(b), note))
-                .map_err(|_| format!("`{s}` is wider than 64 bits")),
+            DataType::Real32 => {
+                u32::try_from(e.value).map(|b| (f64::from(f32::from_bits(b)), note)).map_err(|_| format!("`{s}` is wider than 32 bits"))
+            }
+            _ => u64::try_from(e.value).map(|b| (f64::from_bits(b), note)).map_err(|_| format!("`{s}` is wider than 64 bits")),
         };
     }
     let valid = !s.is_empty()
         && s.chars().all(|c| c.is_ascii_digit() || matches!(c, '+' | '-' | '.' | 'e' | 'E'))
         && s.chars().any(|c| c.is_ascii_digit());
-    let v: f64 = if valid { s.parse().map_err(|_| format!("`{s}` is not a {} number", t.name()))? } else {
+    let v: f64 = if valid {
+        s.parse().map_err(|_| format!("`{s}` is not a {} number", t.name()))?
+    } else {
         return Err(format!("`{s}` is not a {} number", t.name()));
     };
     if t == DataType::Real32 && v.is_finite() && (v as f32).is_infinite() {
@@ -181,9 +186,7 @@ pub fn encode(t: DataType, text: &str) -> Result<Encoded, String> {
                 .then(|| "VISIBLE_STRING holds characters outside printable ASCII; kept as UTF-8".to_owned());
             Ok(Encoded { bytes: s.as_bytes().to_vec(), node_id: false, note })
         }
-        DataType::UnicodeString => {
-            Ok(Encoded::plain(unquote(text).encode_utf16().flat_map(u16::to_le_bytes).collect()))
-        }
+        DataType::UnicodeString => Ok(Encoded::plain(unquote(text).encode_utf16().flat_map(u16::to_le_bytes).collect())),
         DataType::OctetString => hex_bytes(text).map(Encoded::plain),
         DataType::Domain => match hex_bytes(text) {
             Ok(b) => Ok(Encoded::plain(b)),
@@ -225,10 +228,7 @@ fn hex_bytes(text: &str) -> Result<Vec<u8>, String> {
     if !digits.len().is_multiple_of(2) || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
         return Err(format!("`{}` is not a sequence of hex byte pairs", crate::lexer::clip(text)));
     }
-    (0..digits.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&digits[i..i + 2], 16).map_err(|e| e.to_string()))
-        .collect()
+    (0..digits.len()).step_by(2).map(|i| u8::from_str_radix(&digits[i..i + 2], 16).map_err(|e| e.to_string())).collect()
 }
 
 #[cfg(test)]

@@ -49,7 +49,8 @@ fn object_type_defaults_to_var_and_node_id_values_are_marked() {
 
 #[test]
 fn parameter_value_wins_over_default() {
-    let (eds, _) = read_str(&format!("{HEAD}[1017]\nParameterName=HB\nDataType=0x0006\nAccessType=rw\nDefaultValue=0\nParameterValue=500\n"));
+    let (eds, _) =
+        read_str(&format!("{HEAD}[1017]\nParameterName=HB\nDataType=0x0006\nAccessType=rw\nDefaultValue=0\nParameterValue=500\n"));
     assert_eq!(eds.objects[&0x1017].subs[&0].value, 500u16.to_le_bytes());
 }
 
@@ -71,7 +72,9 @@ fn compact_sub_obj_expands_with_names_and_values() {
 
 #[test]
 fn compact_pdo_mapping_record_counts_its_values() {
-    let text = format!("{HEAD}[1A00]\nParameterName=TPDO map\nObjectType=0x09\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\n[1A00Value]\nNrOfEntries=2\n1=0x2000001c\n2=0x20010020\n");
+    let text = format!(
+        "{HEAD}[1A00]\nParameterName=TPDO map\nObjectType=0x09\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\n[1A00Value]\nNrOfEntries=2\n1=0x2000001c\n2=0x20010020\n"
+    );
     let (eds, d) = read_str(&text);
     assert!(d.mentions(Severity::Warning, 16, "CompactSubObj on RECORD"), "{d}");
     let o = &eds.objects[&0x1A00];
@@ -110,7 +113,8 @@ fn every_broken_key_names_its_line() {
 
 #[test]
 fn object_lists_and_comments() {
-    let text = format!("{HEAD}[MandatoryObjects]\nSupportedObjects=2\n1=0x1000\n2=0x1001\n3=0x1018\n[Comments]\nLines=2\nLine1=a\nLine2=b\n");
+    let text =
+        format!("{HEAD}[MandatoryObjects]\nSupportedObjects=2\n1=0x1000\n2=0x1001\n3=0x1018\n[Comments]\nLines=2\nLine1=a\nLine2=b\n");
     let (eds, d) = read_str(&text);
     assert_eq!(eds.lists.mandatory, [0x1000, 0x1001, 0x1018]);
     assert_eq!(eds.comments, ["a", "b"]);
@@ -140,7 +144,17 @@ fn latin1_and_crlf_files_read() {
 
 #[test]
 fn never_panics_on_garbage() {
-    for text in ["", "[", "]", "[1000sub]", "[1000subXYZ]", "[10000]", "=", "[1000]\nSubNumber=99999999999999999999999999\n", "[1003]\nObjectType=8\nCompactSubObj=999\nDataType=7\nAccessType=ro\n"] {
+    for text in [
+        "",
+        "[",
+        "]",
+        "[1000sub]",
+        "[1000subXYZ]",
+        "[10000]",
+        "=",
+        "[1000]\nSubNumber=99999999999999999999999999\n",
+        "[1003]\nObjectType=8\nCompactSubObj=999\nDataType=7\nAccessType=ro\n",
+    ] {
         let _ = read_str(text);
     }
 }

@@ -64,7 +64,10 @@ fn missing_mandatory_objects_warn_and_fail_strict() {
 
 #[test]
 fn sub_number_and_sub0_are_checked() {
-    let (text, line) = with("[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=2\n", "[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=3\n");
+    let (text, line) = with(
+        "[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=2\n",
+        "[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=3\n",
+    );
     assert!(check(&text, false).mentions(Severity::Warning, line, "SubNumber 3 but 2 sub-objects"));
     let (text, line) = with("DefaultValue=1\n[1018sub1]", "DefaultValue=4\n[1018sub1]");
     let d = check(&text, false);
@@ -95,7 +98,10 @@ fn pdo_mappings_name_existing_mappable_objects_of_the_right_length() {
     assert!(check(&text, false).mentions(Severity::Warning, line, "(rww) into a TPDO"));
     let (text, line) = with("DefaultValue=0x00050008\n", "DefaultValue=0x00060010\n");
     assert!(check(&text, false).mentions(Severity::Warning, line, "dummy type 0x0006"));
-    let (text, line) = with("[1600sub0]\nParameterName=n\nDataType=0x0005\nAccessType=rw\nDefaultValue=2\n", "[1600sub0]\nParameterName=n\nDataType=0x0005\nAccessType=rw\nDefaultValue=3\n");
+    let (text, line) = with(
+        "[1600sub0]\nParameterName=n\nDataType=0x0005\nAccessType=rw\nDefaultValue=2\n",
+        "[1600sub0]\nParameterName=n\nDataType=0x0005\nAccessType=rw\nDefaultValue=3\n",
+    );
     let _ = line;
     assert!(check(&text, false).items.iter().any(|x| x.message.contains("maps 3 objects but has no sub-index 3")));
 }
@@ -120,7 +126,10 @@ fn colliding_cob_ids() {
     // A fixed id against a node-relative one collides for one node-id only.
     let (text, line) = with("DefaultValue=$NODEID+0x200\n", "DefaultValue=0x181\n");
     let tpdo_line = GOOD[..GOOD.find("DefaultValue=$NODEID+0x180").unwrap()].lines().count() + 1;
-    assert!(check(&text, false).mentions(Severity::Warning, tpdo_line, "TPDO1 and RPDO1 share COB-ID 0x181 when the node-id is 1"), "{line}");
+    assert!(
+        check(&text, false).mentions(Severity::Warning, tpdo_line, "TPDO1 and RPDO1 share COB-ID 0x181 when the node-id is 1"),
+        "{line}"
+    );
     // A disabled PDO (bit 31) takes part in nothing.
     let (text, _) = with("DefaultValue=$NODEID+0x200\n", "DefaultValue=$NODEID+0x80000180\n");
     assert!(!check(&text, false).has_errors());
