@@ -134,13 +134,16 @@ pub fn read(file: &str, bytes: &[u8]) -> (Eds, Diagnostics) {
         d.warn(0, "file is not UTF-8; read as Latin-1");
     }
     let sections = lexer::sections(&text, &mut d);
-    let eds = Reader { d: &mut d, unknown_keys: BTreeSet::new() }.build(file, sections);
+    let eds =
+        Reader { d: &mut d, unknown_keys: BTreeSet::new(), is_eds: file.to_ascii_lowercase().ends_with(".eds") }.build(file, sections);
     (eds, d)
 }
 
 struct Reader<'a> {
     d: &'a mut Diagnostics,
     unknown_keys: BTreeSet<String>,
+    /// An EDS describes a device type; `ParameterValue` belongs in a DCF.
+    is_eds: bool,
 }
 
 impl Reader<'_> {
@@ -158,9 +161,9 @@ impl Reader<'_> {
                 Kind::DeviceInfo => eds.device_info = Some(s),
                 Kind::DummyUsage => dummy_usage = Some(s),
                 Kind::Comments => eds.comments = self.comments(&s),
-                Kind::Mandatory => eds.lists.mandatory = self.object_list(&s, "SupportedObjects"),
-                Kind::Optional => eds.lists.optional = self.object_list(&s, "SupportedObjects"),
-                Kind::Manufacturer => eds.lists.manufacturer = self.object_list(&s, "SupportedObjects"),
+                Kind::Mandatory => eds.lists.mandatory = self.listed(&mut eds.lists, &s),
+                Kind::Optional => eds.lists.optional = self.listed(&mut eds.lists, &s),
+                Kind::Manufacturer => eds.lists.manufacturer = self.listed(&mut eds.lists, &s),
                 Kind::Commissioning => {
                     eds.node_id = self.commissioning_node_id(&s);
                     eds.commissioning = Some(s);
@@ -244,12 +247,26 @@ impl Reader<'_> {
         out
     }
 
+    /// An `[xxxObjects]` list, remembering where each index is listed.
+    fn listed(&mut self, lists: &mut crate::model::ObjectLists, s: &Section) -> Vec<u16> {
+        lists.present = true;
+        let out = self.object_list(s, "SupportedObjects");
+        for p in &s.pairs {
+            if let Ok(e) = parse_int(&p.value)
+                && let (Ok(i), false) = (u16::try_from(e.value), p.key.eq_ignore_ascii_case("SupportedObjects"))
+            {
+                lists.lines.entry(i).or_insert(p.line);
+            }
+        }
+        out
+    }
+
     fn object_list(&mut self, s: &Section, count_key: &str) -> Vec<u16> {
         let mut out = Vec::new();
         let mut count = None;
         for p in &s.pairs {
             if p.key.eq_ignore_ascii_case(count_key) {
-                count = self.int(p);
+                count = self.int(p).map(|n| (n, p.line));
                 continue;
             }
             if parse_int(&p.key).is_err() {
@@ -263,8 +280,8 @@ impl Reader<'_> {
             }
         }
         match count {
-            Some(n) if n != s.pairs.len() as i128 - 1 => {
-                self.d.warn(s.line, format!("[{}] {count_key}={n} but it has {} entries", s.name, s.pairs.len().saturating_sub(1)))
+            Some((n, line)) if n != s.pairs.len() as i128 - 1 => {
+                self.d.warn(line, format!("[{}] {count_key}={n} but it has {} entries", s.name, s.pairs.len().saturating_sub(1)))
             }
             None => self.d.warn(s.line, format!("[{}] has no {count_key} key", s.name)),
             _ => {}
@@ -291,7 +308,7 @@ impl Reader<'_> {
                     self.d.warn(p.line, format!("unknown key {} in [DeviceInfo]", p.key));
                 }
             }
-            for key in ["VendorName", "VendorNumber", "ProductName", "ProductNumber", "RevisionNumber"] {
+            for key in ["VendorName", "VendorNumber", "ProductName", "ProductNumber", "RevisionNumber", "OrderCode"] {
                 match s.get(key) {
                     None => self.d.warn(s.line, format!("[DeviceInfo] has no {key}")),
                     Some(p) if p.value.is_empty() || p.value == "\"\"" => self.d.warn(p.line, format!("{key} is empty")),
@@ -400,12 +417,19 @@ impl Reader<'_> {
             },
         };
         let sub_number = s.get("SubNumber").and_then(|p| self.int(p)).map(|n| n.clamp(0, 0x100) as u16);
+        let sub_number_line = s.get("SubNumber").map_or(s.line, |p| p.line);
         let compact = s.get("CompactSubObj").and_then(|p| self.int(p)).map(|n| n.clamp(0, 0x100) as u16);
+        let compact_line = s.get("CompactSubObj").map_or(s.line, |p| p.line);
+        if name.trim().is_empty() || name.trim().eq_ignore_ascii_case("None") {
+            let line = s.get("ParameterName").map_or(s.line, |p| p.line);
+            self.d.warn(line, format!("ParameterName `{name}` of 0x{index:04X} is a placeholder, not a name"));
+        }
         let mut o = Object {
             index,
             name,
             kind,
             sub_number,
+            sub_number_line,
             compact_sub_obj: compact,
             denotation: s.get("Denotation").map(|p| p.value.clone()),
             links: Vec::new(),
@@ -423,11 +447,14 @@ impl Reader<'_> {
             }
         } else if let Some(n) = compact.filter(|&n| n > 0) {
             if kind == ObjectKind::Record {
-                self.d.warn(s.line, format!("CompactSubObj on RECORD 0x{index:04X}; CiA 306 defines it for ARRAY, expanded the same way"));
+                self.d.warn(
+                    compact_line,
+                    format!("CompactSubObj on RECORD 0x{index:04X}; CiA 306 defines it for ARRAY, expanded the same way"),
+                );
             }
             if n > 0xFE {
                 self.d.warn(
-                    s.line,
+                    compact_line,
                     format!("CompactSubObj={n} on 0x{index:04X} reaches sub-index 0x{:02X}; the highest is 0xFE", n.min(0xFF)),
                 );
             }
@@ -491,6 +518,7 @@ impl Reader<'_> {
                 sub: 0,
                 name: "Highest sub-index supported".into(),
                 type_index: DataType::Unsigned8.index(),
+                type_line: s.line,
                 data_type: Some(DataType::Unsigned8),
                 access: if counts_use { Access::Rw } else { Access::Ro },
                 pdo_mapping: false,
@@ -580,6 +608,7 @@ impl Reader<'_> {
             sub,
             name: name.to_owned(),
             type_index,
+            type_line: dt.line,
             data_type,
             access,
             pdo_mapping,
@@ -596,6 +625,9 @@ impl Reader<'_> {
             limits: None,
             line: s.line,
         };
+        if let Some(pv) = e.parameter_value.as_ref().filter(|_| self.is_eds) {
+            self.d.warn(pv.line, "ParameterValue belongs in a DCF; in this EDS it is taken as the value");
+        }
         let Some(t) = data_type else { return Some(e) };
         e.value = vec![0; t.size().unwrap_or(0)];
         // A DCF's ParameterValue is the configured value; it wins over the default.
@@ -692,6 +724,7 @@ fn synthetic(index: u16, name: &str, subs: Vec<(u8, String, DataType, String, Ac
                 sub,
                 name,
                 type_index: t.index(),
+                type_line: 0,
                 data_type: Some(t),
                 access,
                 pdo_mapping: false,
@@ -716,6 +749,7 @@ fn synthetic(index: u16, name: &str, subs: Vec<(u8, String, DataType, String, Ac
         name: name.to_owned(),
         kind: ObjectKind::Record,
         sub_number: Some(subs.len() as u16),
+        sub_number_line: 0,
         compact_sub_obj: None,
         denotation: None,
         links: Vec::new(),

@@ -159,6 +159,8 @@ pub struct SubObject {
     pub name: String,
     /// `DataType` as written (index of the type).
     pub type_index: u16,
+    /// Line of the `DataType` key.
+    pub type_line: usize,
     /// The basic type, if `type_index` is one.
     pub data_type: Option<DataType>,
     /// `AccessType`.
@@ -228,6 +230,8 @@ pub struct Object {
     pub kind: ObjectKind,
     /// `SubNumber` as written.
     pub sub_number: Option<u16>,
+    /// Line of the `SubNumber` key, else of the section.
+    pub sub_number_line: usize,
     /// `CompactSubObj` as written.
     pub compact_sub_obj: Option<u16>,
     /// `Denotation` (DCF).
@@ -281,6 +285,10 @@ pub struct ObjectLists {
     pub optional: Vec<u16>,
     /// `[ManufacturerObjects]`.
     pub manufacturer: Vec<u16>,
+    /// The line where each index is first listed.
+    pub lines: std::collections::BTreeMap<u16, usize>,
+    /// Whether the file has any of the three lists.
+    pub present: bool,
 }
 
 /// A parsed EDS or DCF.

@@ -43,8 +43,11 @@ fn file_info(eds: &Eds, d: &mut Diagnostics) {
         if let Some(p) = s.get(key) {
             let ok =
                 p.value.len() == 10 && p.value.char_indices().all(|(i, c)| if i == 2 || i == 5 { c == '-' } else { c.is_ascii_digit() });
+            let year: u32 = p.value.get(6..).and_then(|y| y.parse().ok()).unwrap_or(0);
             if !ok {
                 d.warn(p.line, format!("{key} `{}` is not mm-dd-yyyy", p.value));
+            } else if year < 1980 {
+                d.warn(p.line, format!("{key} `{}` is a placeholder date", p.value));
             }
         }
     }
@@ -89,10 +92,13 @@ fn mandatory(eds: &Eds, d: &mut Diagnostics) {
 }
 
 fn object_lists(eds: &Eds, d: &mut Diagnostics) {
+    if !eds.lists.present {
+        d.warn(0, "no [MandatoryObjects], [OptionalObjects] or [ManufacturerObjects] section");
+    }
     let listed: Vec<u16> = eds.lists.mandatory.iter().chain(&eds.lists.optional).chain(&eds.lists.manufacturer).copied().collect();
     for index in &listed {
         if !eds.objects.contains_key(index) {
-            d.warn(0, format!("0x{index:04X} is in an object list but has no section"));
+            d.warn(eds.lists.lines.get(index).copied().unwrap_or(0), format!("0x{index:04X} is in an object list but has no section"));
         }
     }
     let unlisted: Vec<String> = eds
@@ -129,14 +135,14 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
             if let Some(n) = o.sub_number
                 && usize::from(n) != o.subs.len()
             {
-                d.warn(o.line, format!("[{:04X}] SubNumber {n} but {} sub-objects", o.index, o.subs.len()));
+                d.warn(o.sub_number_line, format!("[{:04X}] SubNumber {n} but {} sub-objects", o.index, o.subs.len()));
             }
             let highest = o.subs.keys().next_back().copied().unwrap_or(0);
             match o.subs.get(&0) {
                 None => d.warn(o.line, format!("{} 0x{:04X} has no sub-index 0", o.kind.name(), o.index)),
                 Some(s0) => {
                     if s0.data_type != Some(DataType::Unsigned8) {
-                        d.warn(s0.line, format!("sub-index 0 of 0x{:04X} is {}, not UNSIGNED8", o.index, type_name(s0)));
+                        d.warn(s0.type_line, format!("sub-index 0 of 0x{:04X} is {}, not UNSIGNED8", o.index, type_name(s0)));
                     } else if let Some(v) = s0.unsigned() {
                         let counts_use = o.index == 0x1003 || (0x1600..=0x17FF).contains(&o.index) || (0x1A00..=0x1BFF).contains(&o.index);
                         if (counts_use && v > u64::from(highest)) || (!counts_use && v != u64::from(highest)) {
@@ -156,11 +162,13 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
             }
         }
         let mut opaque_reason = None;
+        let mut opaque_line = o.line;
         for s in o.subs.values() {
             if s.data_type.is_some() {
                 continue;
             }
             let t = s.type_index;
+            opaque_line = s.type_line;
             if (0x20..=0x25F).contains(&t) && !defined_types.contains(&t) {
                 opaque_reason = Some(format!(
                     "DataType 0x{t:04X} of 0x{:04X} is a complex or manufacturer type the file never defines; the object is left out",
@@ -172,11 +180,11 @@ fn objects(eds: &mut Eds, d: &mut Diagnostics) {
                     o.index
                 ));
             } else {
-                d.error(s.line, format!("unknown DataType 0x{t:04X}"));
+                d.error(s.type_line, format!("unknown DataType 0x{t:04X}"));
             }
         }
         if let Some(reason) = opaque_reason {
-            d.warn(o.line, reason);
+            d.warn(opaque_line, reason);
             o.opaque = true;
         }
         for s in o.subs.values() {

@@ -76,7 +76,7 @@ fn compact_pdo_mapping_record_counts_its_values() {
         "{HEAD}[1A00]\nParameterName=TPDO map\nObjectType=0x09\nDataType=0x0007\nAccessType=rw\nCompactSubObj=2\n[1A00Value]\nNrOfEntries=2\n1=0x2000001c\n2=0x20010020\n"
     );
     let (eds, d) = read_str(&text);
-    assert!(d.mentions(Severity::Warning, 16, "CompactSubObj on RECORD"), "{d}");
+    assert!(d.mentions(Severity::Warning, 21, "CompactSubObj on RECORD"), "{d}");
     let o = &eds.objects[&0x1A00];
     assert_eq!(o.subs[&0].value, [2]);
     assert_eq!(o.subs[&0].access, Access::Rw);
@@ -118,7 +118,7 @@ fn object_lists_and_comments() {
     let (eds, d) = read_str(&text);
     assert_eq!(eds.lists.mandatory, [0x1000, 0x1001, 0x1018]);
     assert_eq!(eds.comments, ["a", "b"]);
-    assert!(d.mentions(Severity::Warning, 16, "SupportedObjects=2 but it has 3 entries"), "{d}");
+    assert!(d.mentions(Severity::Warning, 17, "SupportedObjects=2 but it has 3 entries"), "{d}");
 }
 
 #[test]

@@ -10,7 +10,7 @@ fn check(text: &str, strict: bool) -> Diagnostics {
 }
 
 const GOOD: &str = "[FileInfo]\nFileVersion=1\nFileRevision=0\nEDSVersion=4.0\nCreationTime=09:00AM\nCreationDate=01-31-2026\n\
-[DeviceInfo]\nVendorName=V\nVendorNumber=1\nProductName=P\nProductNumber=2\nRevisionNumber=3\nBaudRate_250=1\nNrOfRXPDO=1\nNrOfTXPDO=1\nGranularity=8\n\
+[DeviceInfo]\nVendorName=V\nVendorNumber=1\nProductName=P\nProductNumber=2\nRevisionNumber=3\nOrderCode=O\nBaudRate_250=1\nNrOfRXPDO=1\nNrOfTXPDO=1\nGranularity=8\n\
 [DummyUsage]\nDummy0005=1\n\
 [MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018\n\
 [OptionalObjects]\nSupportedObjects=6\n1=0x1014\n2=0x1200\n3=0x1400\n4=0x1600\n5=0x1800\n6=0x1A00\n\
@@ -68,7 +68,7 @@ fn sub_number_and_sub0_are_checked() {
         "[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=2\n",
         "[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=3\n",
     );
-    assert!(check(&text, false).mentions(Severity::Warning, line, "SubNumber 3 but 2 sub-objects"));
+    assert!(check(&text, false).mentions(Severity::Warning, line + 3, "SubNumber 3 but 2 sub-objects"));
     let (text, line) = with("DefaultValue=1\n[1018sub1]", "DefaultValue=4\n[1018sub1]");
     let d = check(&text, false);
     assert!(d.mentions(Severity::Warning, line, "sub-index 0 of 0x1018 is 4"), "{d}");
@@ -138,10 +138,10 @@ fn colliding_cob_ids() {
 #[test]
 fn unknown_and_undefined_types() {
     let (text, line) = with("[2000]\nParameterName=Setpoint\nDataType=0x0003", "[2000]\nParameterName=Setpoint\nDataType=0x0017");
-    assert!(check(&text, false).mentions(Severity::Error, line, "unknown DataType 0x0017"));
+    assert!(check(&text, false).mentions(Severity::Error, line + 2, "unknown DataType 0x0017"));
     let (text, line) = with("[2000]\nParameterName=Setpoint\nDataType=0x0003", "[2000]\nParameterName=Setpoint\nDataType=0x0040");
     let d = check(&text, false);
-    assert!(d.mentions(Severity::Warning, line, "never defines; the object is left out"), "{d}");
+    assert!(d.mentions(Severity::Warning, line + 2, "never defines; the object is left out"), "{d}");
 }
 
 #[test]
