@@ -11,6 +11,9 @@ use std::process::{Command, ExitCode};
 
 const TARGET: &str = "thumbv7m-none-eabi";
 
+/// Fuzz targets with the directory of real inputs each one starts from.
+const FUZZ_TARGETS: &[(&str, &str)] = &[("eds_parser", "../tests/eds-corpus")];
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
@@ -117,7 +120,7 @@ fn demo(device: &str) -> Result<(), String> {
 fn fuzz(seconds: u32) -> Result<(), String> {
     let time = format!("-max_total_time={seconds}");
     // Each target starts from the real files it parses; new inputs go to fuzz/corpus/<target>.
-    for (target, seeds) in [("eds_parser", "../tests/eds-corpus")] {
+    for &(target, seeds) in FUZZ_TARGETS {
         let corpus = format!("corpus/{target}");
         std::fs::create_dir_all(root().join("fuzz").join(&corpus)).map_err(|e| e.to_string())?;
         let status = Command::new("cargo")
