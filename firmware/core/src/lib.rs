@@ -11,5 +11,6 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
+pub mod abort;
 pub mod od;
 pub mod time;

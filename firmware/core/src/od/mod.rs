@@ -13,9 +13,12 @@
 //! Nothing here panics on any input: every slice access is checked and a
 //! malformed request becomes an [`OdError`] that names its SDO abort code.
 
+mod access;
 mod entry;
 mod types;
 mod value;
+
+pub use access::{DictionaryAccess, ObjectAccess};
 
 pub use entry::{Attr, Entry, Limits, NO_LIMITS};
 pub use types::{DataType, Kind};

@@ -2,6 +2,7 @@
 //! way od-gen lays out generated ones.
 
 use super::*;
+use crate::abort::AbortCode;
 
 const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u16) -> Entry {
     Entry { index, sub, data_type, attr, len, offset, limits }
@@ -147,4 +148,28 @@ fn odd_sized_integers_load_and_store() {
     let before = img;
     store_uint::<5>(&mut img, 4, 1);
     assert_eq!(img, before);
+}
+
+#[test]
+fn dictionary_access_reads_in_pieces_and_checks_downloads() {
+    let mut img = image(1);
+    let mut od = DictionaryAccess { dictionary: &DICT, image: &mut img };
+    assert_eq!(od.upload_size(0x1008, 0), Ok(6));
+    let mut buf = [0u8; 4];
+    assert_eq!(od.read(0x1008, 0, 0, &mut buf), Ok(4));
+    assert_eq!(&buf, b"devi");
+    assert_eq!(od.read(0x1008, 0, 4, &mut buf), Ok(2));
+    assert_eq!(&buf[..2], b"ce");
+    assert_eq!(od.read(0x1008, 0, 9, &mut buf), Ok(0));
+    assert_eq!(od.upload_size(0x2002, 0), Err(AbortCode::WriteOnly));
+    assert_eq!(od.upload_size(0x2003, 0), Err(AbortCode::NoObject));
+    assert_eq!(od.upload_size(0x1017, 9), Err(AbortCode::NoSubIndex));
+    assert_eq!(od.download_check(0x1000, 0, Some(4)), Err(AbortCode::ReadOnly));
+    assert_eq!(od.download_check(0x1017, 0, Some(3)), Err(AbortCode::LengthTooHigh));
+    assert_eq!(od.download_check(0x1017, 0, Some(1)), Err(AbortCode::LengthTooLow));
+    assert_eq!(od.download_check(0x2001, 0, Some(1)), Ok(()));
+    assert_eq!(od.download_check(0x2001, 0, None), Ok(()));
+    assert_eq!(od.write(0x2000, 0, &200i16.to_le_bytes()), Err(AbortCode::ValueTooHigh));
+    assert_eq!(od.write(0x1017, 0, &[0x64, 0]), Ok(()));
+    assert_eq!(od.upload_size(0x1017, 0), Ok(2));
 }

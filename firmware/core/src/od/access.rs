@@ -1,0 +1,87 @@
+//! What services see of the dictionary: [`ObjectAccess`].
+//!
+//! The SDO server and the PDOs never touch the RAM image directly. They go
+//! through this trait, which the node implements by routing each object to
+//! its owner: communication objects to the service that validates them (a
+//! PDO COB-ID may not change while the PDO is valid, CiA 301 §7.5.2.35),
+//! application objects to the device's hooks, everything else to the
+//! generated tables.
+
+use crate::abort::AbortCode;
+
+/// Access to object values, by (index, sub-index), as an SDO server needs it.
+pub trait ObjectAccess {
+    /// Size in bytes of the value an upload of (index, sub) would send;
+    /// checks that the entry exists and is readable.
+    fn upload_size(&mut self, index: u16, sub: u8) -> Result<usize, AbortCode>;
+
+    /// Copies bytes `offset..offset + buf.len()` of the value into `buf`;
+    /// returns how many were copied (fewer at the end of the value).
+    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode>;
+
+    /// Checks before a download starts that (index, sub) exists, is writable,
+    /// and, when the client announced it, that `size` fits the entry.
+    fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode>;
+
+    /// Writes a complete value, with every check and side effect of the object.
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+}
+
+use super::{DataType, Dictionary, OdError};
+
+/// [`ObjectAccess`] straight onto a generated dictionary and its RAM image,
+/// with the checks CiA 301 asks of every entry and no side effects.
+#[derive(Debug)]
+pub struct DictionaryAccess<'a> {
+    /// The flash tables.
+    pub dictionary: &'static Dictionary,
+    /// The RAM image.
+    pub image: &'a mut [u8],
+}
+
+impl DictionaryAccess<'_> {
+    fn value(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
+        let entry = self.dictionary.find(index, sub)?;
+        if entry.data_type == DataType::Domain {
+            // A DOMAIN's bytes belong to the application; the plain tables have none.
+            return if entry.readable() { Err(AbortCode::NoData) } else { Err(AbortCode::WriteOnly) };
+        }
+        Ok(self.dictionary.read(self.image, index, sub)?)
+    }
+}
+
+impl ObjectAccess for DictionaryAccess<'_> {
+    fn upload_size(&mut self, index: u16, sub: u8) -> Result<usize, AbortCode> {
+        self.value(index, sub).map(<[u8]>::len)
+    }
+
+    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        let value = self.value(index, sub)?;
+        let rest = value.get(offset..).unwrap_or(&[]);
+        let n = rest.len().min(buf.len());
+        if let (Some(dst), Some(src)) = (buf.get_mut(..n), rest.get(..n)) {
+            dst.copy_from_slice(src);
+        }
+        Ok(n)
+    }
+
+    fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {
+        let entry = self.dictionary.find(index, sub)?;
+        if !entry.writable() {
+            return Err(AbortCode::ReadOnly);
+        }
+        if entry.data_type == DataType::Domain {
+            return Err(AbortCode::CannotStore);
+        }
+        let len = usize::from(entry.len);
+        match size {
+            Some(n) if n > len => Err(AbortCode::LengthTooHigh),
+            Some(n) if n < len && !entry.data_type.is_variable_length() => Err(AbortCode::LengthTooLow),
+            _ => Ok(()),
+        }
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.dictionary.write(self.image, index, sub, data).map_err(|e: OdError| e.into())
+    }
+}
