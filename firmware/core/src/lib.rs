@@ -7,10 +7,14 @@
 //! Layers (see `docs/` and the style guide):
 //! - [`od`]: the runtime side of an object dictionary that `od-gen` generated
 //!   from an EDS: flash tables of entry metadata, one RAM image of values.
+//! - [`frame`]: the [`frame::CanFrame`] that crosses the boundary (an `embedded_can::Frame`).
+//! - [`storage`]: the two-region [`storage::Storage`] trait behind store/restore.
 //! - [`time`]: the [`time::Instant`]s and [`time::Duration`]s callers pass in.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
 pub mod abort;
+pub mod frame;
 pub mod od;
+pub mod storage;
 pub mod time;
