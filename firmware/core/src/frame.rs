@@ -53,7 +53,9 @@ impl CanFrame {
             Id::Standard(id) => (u32::from(id.as_raw()), 0, 0),
             Id::Extended(id) => (id.as_raw() >> 18, 1, id.as_raw() & 0x3_FFFF),
         };
-        (base << 21) | (u32::from(self.rtr && ide == 0) << 20) | (ide << 19) | (ext << 1) | u32::from(self.rtr && ide == 1)
+        // After the 11 base bits: RTR (standard) or SRR = 1 (extended), then IDE.
+        let bit20 = if ide == 1 { 1 } else { u32::from(self.rtr) };
+        (base << 21) | (bit20 << 20) | (ide << 19) | (ext << 1) | u32::from(self.rtr && ide == 1)
     }
 }
 
