@@ -16,5 +16,7 @@
 pub mod abort;
 pub mod frame;
 pub mod od;
+pub mod services;
 pub mod storage;
 pub mod time;
+pub mod wire;

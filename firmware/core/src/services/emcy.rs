@@ -1,0 +1,233 @@
+//! EMCY producer with the error register (0x1001) it reports and the set of
+//! active errors behind it. CiA 301 v4.2 §7.2.7, objects 0x1001, 0x1003,
+//! 0x1014, 0x1015.
+//!
+//! Messages wait in a bounded queue for the inhibit time (0x1015, 100 µs
+//! units). A full queue drops the new message, counts it, and sets the
+//! generic bit of the error register, so the loss is visible.
+
+use crate::time::{Duration, Instant};
+use crate::wire::emcy::Emcy;
+
+/// Error register bits (0x1001, CiA 301 table 47).
+pub mod register {
+    /// Generic error: set while any error is active.
+    pub const GENERIC: u8 = 1 << 0;
+    /// Current.
+    pub const CURRENT: u8 = 1 << 1;
+    /// Voltage.
+    pub const VOLTAGE: u8 = 1 << 2;
+    /// Temperature.
+    pub const TEMPERATURE: u8 = 1 << 3;
+    /// Communication error (overrun, error state, heartbeat, PDO length).
+    pub const COMMUNICATION: u8 = 1 << 4;
+    /// Device profile specific.
+    pub const PROFILE: u8 = 1 << 5;
+    /// Manufacturer specific.
+    pub const MANUFACTURER: u8 = 1 << 7;
+}
+
+/// The error register bit an error code sets besides GENERIC (CiA 301 table 21).
+pub const fn register_bit(code: u16) -> u8 {
+    match code >> 12 {
+        0x2 => register::CURRENT,
+        0x3 => register::VOLTAGE,
+        0x4 => register::TEMPERATURE,
+        0x8 => register::COMMUNICATION,
+        0x6 | 0x7 | 0x9 => register::PROFILE,
+        0xF => register::MANUFACTURER,
+        _ => 0,
+    }
+}
+
+/// The EMCY producer and the active-error set, for up to `A` active errors
+/// and `Q` queued messages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EmcyProducer<const A: usize, const Q: usize> {
+    cob_id: Option<u16>,
+    inhibit: Duration,
+    last_sent: Option<Instant>,
+    active: [u16; A],
+    active_len: usize,
+    queue: [Emcy; Q],
+    head: usize,
+    len: usize,
+    overflows: u32,
+    lost_errors: bool,
+}
+
+impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {
+    fn default() -> Self {
+        EmcyProducer {
+            cob_id: None,
+            inhibit: Duration::ZERO,
+            last_sent: None,
+            active: [0; A],
+            active_len: 0,
+            queue: [Emcy { code: 0, register: 0, info: [0; 5] }; Q],
+            head: 0,
+            len: 0,
+            overflows: 0,
+            lost_errors: false,
+        }
+    }
+}
+
+impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
+    /// Applies 0x1014 (bit 31 = EMCY off) and 0x1015 (100 µs units).
+    pub fn configure(&mut self, cob_id: u32, inhibit_100us: u16) {
+        self.cob_id = (cob_id & 0x8000_0000 == 0).then_some((cob_id & 0x7FF) as u16);
+        self.inhibit = Duration::from_micros(u64::from(inhibit_100us) * 100);
+    }
+
+    /// The COB-ID messages go out on, if EMCY is on.
+    pub fn cob_id(&self) -> Option<u16> {
+        self.cob_id
+    }
+
+    /// The error register as the active errors make it.
+    pub fn register(&self) -> u8 {
+        let mut r = if self.active_len > 0 || self.lost_errors { register::GENERIC } else { 0 };
+        for &code in self.active.iter().take(self.active_len) {
+            r |= register_bit(code);
+        }
+        r
+    }
+
+    /// Whether `code` is active.
+    pub fn is_active(&self, code: u16) -> bool {
+        self.active.iter().take(self.active_len).any(|&c| c == code)
+    }
+
+    /// Raises an error: records it as active and queues its message.
+    /// Returns false if it was active already (nothing is sent again).
+    pub fn raise(&mut self, code: u16, info: [u8; 5]) -> bool {
+        if self.is_active(code) {
+            return false;
+        }
+        match self.active.get_mut(self.active_len) {
+            Some(slot) => {
+                *slot = code;
+                self.active_len += 1;
+            }
+            None => self.lost_errors = true,
+        }
+        let register = self.register();
+        self.push(Emcy { code, register, info });
+        true
+    }
+
+    /// Sends a message for an event that has no lasting state (e.g. a PDO
+    /// length error): it sets no active error.
+    pub fn signal(&mut self, code: u16, info: [u8; 5]) {
+        let register = self.register() | register::GENERIC | register_bit(code);
+        self.push(Emcy { code, register, info });
+    }
+
+    /// Clears an error; when the last one goes, queues "error reset" (0x0000).
+    pub fn clear(&mut self, code: u16) {
+        let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
+        self.active.copy_within(pos + 1..self.active_len, pos);
+        self.active_len -= 1;
+        if self.active_len == 0 {
+            self.lost_errors = false;
+            self.push(Emcy { code: 0, register: self.register(), info: [0; 5] });
+        }
+    }
+
+    /// Forgets every error and message (reset communication keeps nothing).
+    pub fn reset(&mut self) {
+        *self = EmcyProducer { cob_id: self.cob_id, inhibit: self.inhibit, overflows: self.overflows, ..Self::default() };
+    }
+
+    fn push(&mut self, e: Emcy) {
+        if self.len == Q {
+            self.overflows = self.overflows.saturating_add(1);
+            self.lost_errors = true;
+            return;
+        }
+        if let Some(slot) = self.queue.get_mut((self.head + self.len) % Q.max(1)) {
+            *slot = e;
+            self.len += 1;
+        }
+    }
+
+    /// The next message that may go out at `now` (inhibit time respected).
+    pub fn poll(&mut self, now: Instant) -> Option<(u16, Emcy)> {
+        let cob_id = self.cob_id?;
+        if self.len == 0 || self.last_sent.is_some_and(|t| now < t + self.inhibit) {
+            return None;
+        }
+        let e = *self.queue.get(self.head)?;
+        self.head = (self.head + 1) % Q.max(1);
+        self.len -= 1;
+        self.last_sent = Some(now);
+        Some((cob_id, e))
+    }
+
+    /// When the next queued message may go out.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.cob_id?;
+        if self.len == 0 {
+            return None;
+        }
+        Some(self.last_sent.map_or(Instant::ZERO, |t| t + self.inhibit))
+    }
+
+    /// Messages lost to a full queue.
+    pub fn overflows(&self) -> u32 {
+        self.overflows
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::emcy::code;
+
+    fn us(n: u64) -> Instant {
+        Instant::from_micros(n)
+    }
+
+    #[test]
+    fn raise_and_clear_drive_the_register_and_error_reset() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.configure(0x81, 0);
+        assert!(e.raise(code::HEARTBEAT, [3, 0, 0, 0, 0]));
+        assert!(!e.raise(code::HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
+        assert_eq!(e.register(), 0x11);
+        assert_eq!(e.poll(us(0)), Some((0x81, Emcy { code: 0x8130, register: 0x11, info: [3, 0, 0, 0, 0] })));
+        e.clear(code::HEARTBEAT);
+        assert_eq!(e.register(), 0);
+        assert_eq!(e.poll(us(1)), Some((0x81, Emcy { code: 0, register: 0, info: [0; 5] })));
+        assert_eq!(e.poll(us(2)), None);
+    }
+
+    #[test]
+    fn inhibit_time_spaces_messages() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.configure(0x85, 10); // 1 ms
+        e.signal(code::PDO_LENGTH, [0; 5]);
+        e.signal(code::PDO_LENGTH_EXCEEDED, [0; 5]);
+        assert!(e.poll(us(100)).is_some());
+        assert_eq!(e.deadline(), Some(us(1100)));
+        assert_eq!(e.poll(us(1099)), None);
+        assert_eq!(e.poll(us(1100)).map(|(_, m)| m.code), Some(0x8220));
+    }
+
+    #[test]
+    fn a_full_queue_counts_and_shows_in_the_register() {
+        let mut e = EmcyProducer::<1, 2>::default();
+        e.configure(0x8000_0081, 0);
+        e.signal(0x8210, [0; 5]);
+        e.signal(0x8210, [0; 5]);
+        e.signal(0x8210, [0; 5]);
+        assert_eq!(e.overflows(), 1);
+        assert_eq!(e.register() & register::GENERIC, register::GENERIC);
+        assert_eq!(e.poll(us(0)), None, "EMCY off (bit 31)");
+        assert!(e.raise(0x8130, [0; 5]));
+        assert!(e.raise(0x8110, [0; 5]), "more active errors than slots are still reported");
+        assert_eq!(register_bit(0x4210), register::TEMPERATURE);
+        assert_eq!(register_bit(0xFF00), register::MANUFACTURER);
+    }
+}

@@ -1,0 +1,233 @@
+//! Error control: heartbeat producer (0x1017), heartbeat consumer (0x1016)
+//! and node/life guarding (0x100C, 0x100D). CiA 301 v4.2 §7.2.8.3.2.
+//!
+//! Heartbeat and guarding exclude each other: with a producer heartbeat
+//! time other than 0 the node does not answer guarding requests.
+
+use crate::time::{Duration, Instant};
+use crate::wire::nmt::NmtState;
+
+/// The heartbeat producer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Producer {
+    period: Duration,
+    next: Option<Instant>,
+}
+
+impl Producer {
+    /// Sets the period from 0x1017 (ms; 0 = off) and restarts it from `now`.
+    pub fn configure(&mut self, period_ms: u16, now: Instant) {
+        self.period = Duration::from_millis(u64::from(period_ms));
+        self.next = (period_ms != 0).then(|| now + self.period);
+    }
+
+    /// Whether the producer runs (guarding is then off).
+    pub fn active(&self) -> bool {
+        self.next.is_some()
+    }
+
+    /// Returns true when a heartbeat is due at `now` and schedules the next one.
+    pub fn poll(&mut self, now: Instant) -> bool {
+        match self.next {
+            Some(t) if now >= t => {
+                // Keep the grid: a late poll does not shift later heartbeats.
+                let mut next = t + self.period;
+                if next <= now {
+                    next = now + self.period;
+                }
+                self.next = Some(next);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// When the next heartbeat is due.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.next
+    }
+}
+
+/// One monitored node of 0x1016.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Monitor {
+    node_id: u8,
+    time: Duration,
+    /// Deadline once armed by the first heartbeat.
+    deadline: Option<Instant>,
+    state: Option<NmtState>,
+}
+
+/// A heartbeat consumer event.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ConsumerEvent {
+    /// A monitored node missed its heartbeat (EMCY 0x8130, then 0x1029).
+    Timeout {
+        /// The silent node.
+        node_id: u8,
+    },
+}
+
+/// The heartbeat consumer for up to `N` producers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Consumer<const N: usize> {
+    monitors: [Monitor; N],
+}
+
+impl<const N: usize> Default for Consumer<N> {
+    fn default() -> Self {
+        Consumer { monitors: [Monitor::default(); N] }
+    }
+}
+
+impl<const N: usize> Consumer<N> {
+    /// Sets entry `i` (0-based) from its 0x1016 value: node-id in bits 16..23,
+    /// time in ms in bits 0..15. A zero node-id or time disables it; the
+    /// entry waits for the first heartbeat again.
+    pub fn configure(&mut self, i: usize, value: u32) {
+        if let Some(m) = self.monitors.get_mut(i) {
+            let node_id = (value >> 16) as u8;
+            let ms = value as u16;
+            *m = Monitor {
+                node_id: if ms == 0 { 0 } else { node_id },
+                time: Duration::from_millis(u64::from(ms)),
+                deadline: None,
+                state: None,
+            };
+        }
+    }
+
+    /// Checks a new 0x1016 entry: CiA 301 forbids two entries for one node
+    /// with non-zero times (abort 0x06040043 in the node).
+    pub fn conflicts(&self, i: usize, value: u32) -> bool {
+        let node_id = (value >> 16) as u8;
+        node_id != 0
+            && value as u16 != 0
+            && self.monitors.iter().enumerate().any(|(j, m)| j != i && m.node_id == node_id && m.time != Duration::ZERO)
+    }
+
+    /// A heartbeat (or boot-up) from `node_id` arrived at `now`.
+    pub fn on_heartbeat(&mut self, node_id: u8, state: NmtState, now: Instant) {
+        for m in self.monitors.iter_mut().filter(|m| m.node_id == node_id && m.node_id != 0) {
+            // A boot-up message means the producer restarted: monitoring starts over.
+            m.deadline = if state == NmtState::BootUp { None } else { Some(now + m.time) };
+            m.state = Some(state);
+        }
+    }
+
+    /// Reports the first expired monitor and disarms it until its next heartbeat.
+    pub fn poll(&mut self, now: Instant) -> Option<ConsumerEvent> {
+        let m = self.monitors.iter_mut().find(|m| m.deadline.is_some_and(|d| now >= d))?;
+        m.deadline = None;
+        Some(ConsumerEvent::Timeout { node_id: m.node_id })
+    }
+
+    /// The earliest heartbeat deadline.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.monitors.iter().filter_map(|m| m.deadline).min()
+    }
+
+    /// The last state `node_id` reported.
+    pub fn state_of(&self, node_id: u8) -> Option<NmtState> {
+        self.monitors.iter().find(|m| m.node_id == node_id).and_then(|m| m.state)
+    }
+}
+
+/// Node guarding (the node answers RTRs) and life guarding (the node
+/// watches that the master keeps asking).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Guarding {
+    toggle: bool,
+    lifetime: Duration,
+    deadline: Option<Instant>,
+}
+
+impl Guarding {
+    /// Sets the life time from 0x100C (guard time, ms) × 0x100D (factor).
+    /// Life guarding starts with the first guarding request.
+    pub fn configure(&mut self, guard_time_ms: u16, factor: u8) {
+        self.lifetime = Duration::from_millis(u64::from(guard_time_ms) * u64::from(factor));
+        self.deadline = None;
+    }
+
+    /// Restarts the toggle bit at 0 (reset communication).
+    pub fn reset(&mut self) {
+        self.toggle = false;
+        self.deadline = None;
+    }
+
+    /// A guarding RTR arrived: returns the response byte (state | toggle).
+    pub fn on_request(&mut self, state: NmtState, now: Instant) -> u8 {
+        let byte = state.code() | if self.toggle { 0x80 } else { 0 };
+        self.toggle = !self.toggle;
+        self.deadline = (self.lifetime != Duration::ZERO).then(|| now + self.lifetime);
+        byte
+    }
+
+    /// True once when the master stopped guarding for a whole life time (EMCY 0x8130).
+    pub fn poll(&mut self, now: Instant) -> bool {
+        if self.deadline.is_some_and(|d| now >= d) {
+            self.deadline = None;
+            return true;
+        }
+        false
+    }
+
+    /// When life guarding expires.
+    pub fn deadline(&self) -> Option<Instant> {
+        self.deadline
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ms(n: u64) -> Instant {
+        Instant::from_micros(n * 1000)
+    }
+
+    #[test]
+    fn producer_keeps_its_period() {
+        let mut p = Producer::default();
+        p.configure(100, ms(0));
+        assert!(!p.poll(ms(99)));
+        assert!(p.poll(ms(100)));
+        assert!(!p.poll(ms(150)));
+        assert!(p.poll(ms(205)));
+        assert_eq!(p.deadline(), Some(ms(300)));
+        p.configure(0, ms(300));
+        assert!(!p.active() && !p.poll(ms(1000)));
+    }
+
+    #[test]
+    fn consumer_is_armed_by_the_first_heartbeat() {
+        let mut c = Consumer::<2>::default();
+        c.configure(0, 0x0003_0064); // node 3, 100 ms
+        assert_eq!(c.poll(ms(1000)), None, "not armed before the first heartbeat");
+        c.on_heartbeat(3, NmtState::Operational, ms(1000));
+        assert_eq!(c.poll(ms(1099)), None);
+        assert_eq!(c.poll(ms(1100)), Some(ConsumerEvent::Timeout { node_id: 3 }));
+        assert_eq!(c.poll(ms(5000)), None, "reported once");
+        c.on_heartbeat(3, NmtState::BootUp, ms(6000));
+        assert_eq!(c.deadline(), None);
+        assert_eq!(c.state_of(3), Some(NmtState::BootUp));
+        assert!(c.conflicts(1, 0x0003_0010));
+        assert!(!c.conflicts(1, 0x0003_0000));
+        assert!(!c.conflicts(0, 0x0003_0010));
+    }
+
+    #[test]
+    fn guarding_toggles_and_watches_the_life_time() {
+        let mut g = Guarding::default();
+        g.configure(100, 3);
+        assert_eq!(g.on_request(NmtState::PreOperational, ms(0)), 0x7F);
+        assert_eq!(g.on_request(NmtState::PreOperational, ms(100)), 0xFF);
+        assert_eq!(g.on_request(NmtState::Operational, ms(200)), 0x05);
+        assert!(!g.poll(ms(499)));
+        assert!(g.poll(ms(500)));
+        assert!(!g.poll(ms(900)));
+        g.reset();
+        assert_eq!(g.on_request(NmtState::Stopped, ms(1000)), 0x04);
+    }
+}

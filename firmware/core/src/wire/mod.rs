@@ -1,0 +1,6 @@
+//! Byte formats of the CANopen protocols, one file per service, and nothing
+//! else: no state, no time. Every parser takes untrusted bytes and returns a
+//! `Result`; every emitter writes a fixed-size array.
+
+pub mod emcy;
+pub mod nmt;
