@@ -19,4 +19,5 @@ pub mod od;
 pub mod services;
 pub mod storage;
 pub mod time;
+pub mod txq;
 pub mod wire;

@@ -5,3 +5,4 @@
 pub mod emcy;
 pub mod heartbeat;
 pub mod nmt;
+pub mod store;
