@@ -4,3 +4,4 @@
 
 pub mod emcy;
 pub mod nmt;
+pub mod time_stamp;
