@@ -1,6 +1,20 @@
 //! Host support for running canopen-core nodes on a PC.
 //!
 //! - [`clock`]: the virtual clock tests advance; a node never sees wall time.
+//! - [`bus`]: a virtual CAN bus on virtual time: arbitration, exact frame
+//!   lengths (stuff bits included) at each port's bit rate, per-port FIFOs.
+//! - [`fault`]: fault injection on that bus: dropped and corrupted frames,
+//!   delays, error frames, bus-off.
+//! - [`trace`]: every frame on the bus as a `candump -L` log.
+//! - [`storage`]: flash-like [`canopen_core::storage::Storage`] in memory or
+//!   in a file, with power cuts at any erase/write step.
+//! - [`slcan`]: the Lawicel SLCAN protocol and a TCP server speaking it, so
+//!   python-can's `slcan` interface can drive a node running in real time.
 #![forbid(unsafe_code)]
 
+pub mod bus;
 pub mod clock;
+pub mod fault;
+pub mod slcan;
+pub mod storage;
+pub mod trace;
