@@ -15,6 +15,7 @@
 
 pub mod abort;
 pub mod frame;
+pub mod node;
 pub mod od;
 pub mod services;
 pub mod storage;

@@ -189,6 +189,25 @@ impl Dictionary {
         Ok(())
     }
 
+    /// Writes a value the node itself maintains (the error register, the
+    /// error history, a statusword), without the SDO access check: read-only
+    /// means read-only for the bus, not for the device. Length must fit;
+    /// a shorter value is zero-filled.
+    pub fn write_unchecked(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
+        let entry = self.find(index, sub)?;
+        if entry.in_rom() || entry.data_type == DataType::Domain {
+            return Err(OdError::NoStorage);
+        }
+        if data.len() > usize::from(entry.len) {
+            return Err(OdError::TooLong);
+        }
+        let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
+        let (head, tail) = slot.split_at_mut(data.len());
+        head.copy_from_slice(data);
+        tail.fill(0);
+        Ok(())
+    }
+
     /// Restores the communication area (0x1000–0x1FFF) to its defaults and
     /// resolves `$NODEID` there. CiA 301 §7.3.2.2.2 "reset communication".
     pub fn reset_communication(&self, image: &mut [u8], node_id: u8) {

@@ -5,4 +5,7 @@
 pub mod emcy;
 pub mod heartbeat;
 pub mod nmt;
+pub mod pdo;
+pub mod sdo_server;
 pub mod store;
+pub mod sync;

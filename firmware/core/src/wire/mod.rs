@@ -4,4 +4,8 @@
 
 pub mod emcy;
 pub mod nmt;
+pub mod pdo_mapping;
+pub mod sdo;
+pub mod sdo_block;
+pub mod sync;
 pub mod time_stamp;

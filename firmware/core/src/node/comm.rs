@@ -1,0 +1,167 @@
+//! The communication services of a node and their configuration from the
+//! communication area of the dictionary (0x1000–0x1FFF).
+
+use crate::abort::AbortCode;
+use crate::od::Dictionary;
+use crate::services::emcy::EmcyProducer;
+use crate::services::heartbeat::{Consumer, Guarding, Producer};
+use crate::services::nmt::State;
+use crate::time::Instant;
+use crate::wire::emcy::Emcy;
+
+/// Active errors and queued EMCY messages a node keeps.
+pub const EMCY_SLOTS: usize = 8;
+
+/// What 0x1029 sub 1 asks for on a communication error (CiA 301 §7.5.2.32).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorBehaviour {
+    /// 0: enter Pre-operational (if Operational).
+    PreOperational,
+    /// 1: no state change.
+    NoChange,
+    /// 2: enter Stopped.
+    Stopped,
+}
+
+/// The communication services and the identifiers they use.
+#[derive(Clone, Debug)]
+pub struct Comm<const R: usize, const T: usize, const HB: usize> {
+    /// Heartbeat producer (0x1017).
+    pub heartbeat: Producer,
+    /// Heartbeat consumer (0x1016).
+    pub consumers: Consumer<HB>,
+    /// Node and life guarding (0x100C, 0x100D).
+    pub guarding: Guarding,
+    /// EMCY producer (0x1014, 0x1015) and the error register.
+    pub emcy: EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
+    /// SDO server COB-IDs (client→server, server→client), if valid.
+    pub sdo_cob_ids: Option<(u16, u16)>,
+    /// TIME consumer COB-ID, if 0x1012 bit 31 (consume) is set.
+    pub time_cob_id: Option<u16>,
+}
+
+impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB> {
+    fn default() -> Self {
+        Comm {
+            heartbeat: Producer::default(),
+            consumers: Consumer::default(),
+            guarding: Guarding::default(),
+            emcy: EmcyProducer::default(),
+            sdo_cob_ids: None,
+            time_cob_id: None,
+        }
+    }
+}
+
+fn read_u32(dict: &Dictionary, image: &[u8], index: u16, sub: u8) -> Option<u32> {
+    let v = dict.read(image, index, sub).ok()?;
+    let mut b = [0u8; 4];
+    b.get_mut(..v.len().min(4))?.copy_from_slice(v.get(..v.len().min(4))?);
+    Some(u32::from_le_bytes(b))
+}
+
+impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
+    /// Reads every communication parameter again (after reset communication).
+    pub fn configure(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
+        self.emcy.reset();
+        self.configure_emcy(dict, image);
+        self.guarding.reset();
+        for index in [0x1017, 0x100C, 0x1012, 0x1200] {
+            self.reconfigure(index, dict, image, node_id, now);
+        }
+        for i in 0..HB {
+            let value = read_u32(dict, image, 0x1016, (i + 1) as u8).unwrap_or(0);
+            self.consumers.configure(i, value);
+        }
+    }
+
+    /// Applies 0x1014/0x1015.
+    pub fn configure_emcy(&mut self, dict: &Dictionary, image: &[u8]) {
+        // Without 0x1014 the pre-defined connection set applies, and 0x1015 defaults to 0.
+        let cob = read_u32(dict, image, 0x1014, 0).unwrap_or(0x8000_0000);
+        let inhibit = read_u32(dict, image, 0x1015, 0).unwrap_or(0) as u16;
+        self.emcy.configure(cob, inhibit);
+    }
+
+    /// Applies a communication object after an SDO wrote it.
+    pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
+        match index {
+            0x1017 => self.heartbeat.configure(read_u32(dict, image, 0x1017, 0).unwrap_or(0) as u16, now),
+            0x100C | 0x100D => {
+                let guard = read_u32(dict, image, 0x100C, 0).unwrap_or(0) as u16;
+                let factor = read_u32(dict, image, 0x100D, 0).unwrap_or(0) as u8;
+                self.guarding.configure(guard, factor);
+            }
+            0x1012 => {
+                let v = read_u32(dict, image, 0x1012, 0).unwrap_or(0);
+                self.time_cob_id = (v & 0x8000_0000 != 0).then_some((v & 0x7FF) as u16);
+            }
+            0x1015 => self.configure_emcy(dict, image),
+            0x1200 => {
+                // The default SDO server exists even without 0x1200 (pre-defined connection set).
+                let rx = read_u32(dict, image, 0x1200, 1).unwrap_or(0x600 + u32::from(node_id));
+                let tx = read_u32(dict, image, 0x1200, 2).unwrap_or(0x580 + u32::from(node_id));
+                let valid = rx & 0x8000_0000 == 0 && tx & 0x8000_0000 == 0;
+                self.sdo_cob_ids = valid.then_some(((rx & 0x7FF) as u16, (tx & 0x7FF) as u16));
+            }
+            _ => {}
+        }
+    }
+
+    /// What 0x1029 sub 1 says to do on a communication error.
+    pub fn error_behaviour(dict: &Dictionary, image: &[u8]) -> ErrorBehaviour {
+        match dict.read(image, 0x1029, 1) {
+            Ok([1]) => ErrorBehaviour::NoChange,
+            Ok([2]) => ErrorBehaviour::Stopped,
+            _ => ErrorBehaviour::PreOperational,
+        }
+    }
+
+    /// Records a sent EMCY: 0x1001 and, for an error, a new 0x1003 entry (newest at sub 1).
+    pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &Emcy) {
+        let _ = dict.write_unchecked(image, 0x1001, 0, &[e.register]);
+        if e.code == 0 {
+            return;
+        }
+        let Ok(count) = dict.find(0x1003, 0) else { return };
+        let capacity = dict.entries.iter().filter(|x| x.index == 0x1003 && x.sub > 0).count().min(254) as u8;
+        let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
+        for sub in (2..=used.saturating_add(1).min(capacity)).rev() {
+            if let Ok(prev) = dict.read(image, 0x1003, sub - 1) {
+                let mut b = [0u8; 4];
+                if let Some(dst) = b.get_mut(..prev.len().min(4)) {
+                    dst.copy_from_slice(prev.get(..dst.len()).unwrap_or(&[]));
+                }
+                let _ = dict.write_unchecked(image, 0x1003, sub, &b);
+            }
+        }
+        let [i0, i1, ..] = e.info;
+        let value = u32::from(e.code) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
+        let _ = dict.write_unchecked(image, 0x1003, 1, &value.to_le_bytes());
+        let _ = dict.write_unchecked(image, 0x1003, 0, &[used.saturating_add(1).min(capacity)]);
+    }
+
+    /// 0x1003 sub 0 ← 0: the history is empty.
+    pub fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
+        let _ = dict.write_unchecked(image, 0x1003, 0, &[0]);
+        for sub in 1..=254u8 {
+            if dict.write_unchecked(image, 0x1003, sub, &[0; 4]).is_err() {
+                break;
+            }
+        }
+    }
+
+    /// A PDO communication or mapping parameter written by an SDO.
+    pub fn write_pdo(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        dict: &Dictionary,
+        image: &mut [u8],
+        state: State,
+    ) -> Result<(), AbortCode> {
+        let _ = state;
+        dict.write(image, index, sub, data).map_err(Into::into)
+    }
+}

@@ -1,0 +1,222 @@
+//! PDO mappings resolved against the dictionary. CiA 301 v4.2 §7.5.2.36
+//! (RPDO mapping) and §7.5.2.38 (TPDO mapping).
+//!
+//! A mapping is checked once, when it is configured, and kept as a small
+//! array of (RAM or ROM offset, length) slots. Building a TPDO or applying
+//! an RPDO then copies bytes and looks nothing up: O(mapped bytes).
+//!
+//! Rules, each with the abort code a failing SDO download gets:
+//! - the object exists: 0x06020000 (no object) or 0x06090011 (no sub-index);
+//! - it may be mapped in this direction (`Attr::MAP_RPDO` / `MAP_TPDO`), is
+//!   not a DOMAIN, and an RPDO does not map a constant: 0x06040041;
+//! - the mapped length equals the object's size in bits: 0x06040043. Bit
+//!   mapping is not supported (DeviceInfo `Granularity` = 8), so a length
+//!   that is not a whole number of bytes fails the same way;
+//! - at most 8 entries and 64 bits in all: 0x06040042;
+//! - dummy entries 0x0001–0x0007 (sub 0, length = the type's size) only in
+//!   an RPDO, where they skip bytes: 0x06040041 in a TPDO.
+
+use crate::abort::AbortCode;
+use crate::od::{Attr, DataType, Dictionary, Entry};
+use crate::wire::pdo_mapping::MappingEntry;
+
+/// Most entries one mapping can hold: with byte granularity, 8 bytes hold at most 8 objects.
+pub const MAX_ENTRIES: usize = 8;
+/// Most data bytes of a PDO (a classic CAN frame).
+pub const MAX_LEN: usize = 8;
+
+/// Which way a PDO carries data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// An RPDO: the network writes the mapped objects.
+    Receive,
+    /// A TPDO: the mapped objects go to the network.
+    Transmit,
+}
+
+/// Where the bytes of one mapped object live.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Source {
+    /// At this offset of the RAM image.
+    Ram(u16),
+    /// At this offset of the dictionary's ROM blob (a `const` object, TPDO only).
+    Rom(u16),
+    /// A dummy entry (RPDO only): the bytes are skipped.
+    #[default]
+    Dummy,
+}
+
+/// One resolved mapping entry.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Slot {
+    /// Where the value lives.
+    pub source: Source,
+    /// Its length in bytes (1..=8).
+    pub len: u8,
+}
+
+impl Slot {
+    /// Checks one mapping entry for `direction` and resolves it: one binary search.
+    pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
+        if entry.is_dummy() {
+            if direction == Direction::Transmit {
+                return Err(AbortCode::NotMappable);
+            }
+            let size = DataType::from_index(entry.index).and_then(DataType::size).unwrap_or(0);
+            return match entry.bytes() {
+                Some(len) if usize::from(len) == size => Ok(Slot { source: Source::Dummy, len }),
+                _ => Err(AbortCode::ParameterIncompatible),
+            };
+        }
+        let object = dict.find(entry.index, entry.sub)?;
+        let allowed = match direction {
+            Direction::Receive => object.attr.contains(Attr::MAP_RPDO) && !object.in_rom(),
+            Direction::Transmit => object.attr.contains(Attr::MAP_TPDO),
+        };
+        if !allowed || object.data_type == DataType::Domain || object.len == 0 {
+            return Err(AbortCode::NotMappable);
+        }
+        if entry.bytes().map(u16::from) != Some(object.len) {
+            return Err(AbortCode::ParameterIncompatible);
+        }
+        if usize::from(object.len) > MAX_LEN {
+            return Err(AbortCode::PdoTooLong);
+        }
+        let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
+        Ok(Slot { source, len: object.len as u8 })
+    }
+}
+
+/// A mapping resolved against the dictionary: at most [`MAX_ENTRIES`]
+/// slots and [`MAX_LEN`] bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Mapping {
+    slots: [Slot; MAX_ENTRIES],
+    count: u8,
+    len: u8,
+}
+
+impl Mapping {
+    /// The mapping of sub-index 0 = 0: nothing mapped (the PDO is disabled).
+    pub const EMPTY: Mapping = Mapping { slots: [Slot { source: Source::Dummy, len: 0 }; MAX_ENTRIES], count: 0, len: 0 };
+
+    /// Resolves mapping entry values (sub 1.., raw UNSIGNED32s): at most one
+    /// binary search per entry.
+    pub fn from_entries(dict: &Dictionary, entries: &[u32], direction: Direction) -> Result<Mapping, AbortCode> {
+        if entries.len() > MAX_ENTRIES {
+            return Err(AbortCode::PdoTooLong);
+        }
+        let mut mapping = Mapping::EMPTY;
+        let mut total = 0usize;
+        for (slot, &raw) in mapping.slots.iter_mut().zip(entries) {
+            let resolved = Slot::resolve(dict, MappingEntry::from_u32(raw), direction)?;
+            total += usize::from(resolved.len);
+            if total > MAX_LEN {
+                return Err(AbortCode::PdoTooLong);
+            }
+            *slot = resolved;
+        }
+        mapping.count = entries.len() as u8;
+        mapping.len = total as u8;
+        Ok(mapping)
+    }
+
+    /// Reads and resolves the mapping record `index` (0x1600+n or 0x1A00+n)
+    /// as the image holds it.
+    pub fn read(dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<Mapping, AbortCode> {
+        let record = object(dict, index);
+        let count = sub_entry(record, 0).ok_or(AbortCode::NoObject)?;
+        let count = usize::try_from(value_u32(dict, image, count)).unwrap_or(usize::MAX);
+        if count > MAX_ENTRIES {
+            return Err(AbortCode::PdoTooLong);
+        }
+        let mut raw = [0u32; MAX_ENTRIES];
+        for (value, sub) in raw.iter_mut().take(count).zip(1u8..) {
+            // A count beyond the record's sub-indices maps more than the record can hold.
+            let entry = sub_entry(record, sub).ok_or(AbortCode::PdoTooLong)?;
+            *value = value_u32(dict, image, entry);
+        }
+        Mapping::from_entries(dict, raw.get(..count).unwrap_or(&[]), direction)
+    }
+
+    /// The resolved entries.
+    pub fn slots(&self) -> &[Slot] {
+        self.slots.get(..usize::from(self.count)).unwrap_or(&[])
+    }
+
+    /// Number of mapped bytes.
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// Whether nothing is mapped.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Copies the mapped values into `out`; returns the PDO length. Dummy
+    /// slots (never in a valid TPDO) read as zeros.
+    pub fn build(&self, dict: &Dictionary, image: &[u8], out: &mut [u8; MAX_LEN]) -> usize {
+        let mut pos = 0usize;
+        for slot in self.slots() {
+            let len = usize::from(slot.len);
+            let src = match slot.source {
+                Source::Ram(offset) => image.get(usize::from(offset)..usize::from(offset) + len),
+                Source::Rom(offset) => dict.rom.get(usize::from(offset)..usize::from(offset) + len),
+                Source::Dummy => None,
+            };
+            if let Some(dst) = out.get_mut(pos..pos + len) {
+                match src {
+                    Some(src) => dst.copy_from_slice(src),
+                    None => dst.fill(0),
+                }
+            }
+            pos += len;
+        }
+        pos
+    }
+
+    /// Writes the mapped objects from received PDO data, which the caller
+    /// has checked holds at least [`Mapping::len`] bytes. Dummy slots are skipped.
+    pub fn apply(&self, image: &mut [u8], data: &[u8]) {
+        let mut pos = 0usize;
+        for slot in self.slots() {
+            let len = usize::from(slot.len);
+            if let (Source::Ram(offset), Some(src)) = (slot.source, data.get(pos..pos + len))
+                && let Some(dst) = image.get_mut(usize::from(offset)..usize::from(offset) + len)
+            {
+                dst.copy_from_slice(src);
+            }
+            pos += len;
+        }
+    }
+}
+
+/// The entries of object `index`: two binary searches over the sorted
+/// table, never a scan of the dictionary.
+pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
+    let entries: &'static [Entry] = dict.entries;
+    let first = u32::from(index) << 8;
+    let start = entries.partition_point(|e| e.key() < first);
+    let end = entries.partition_point(|e| e.key() < first + 0x100);
+    entries.get(start..end).unwrap_or(&[])
+}
+
+/// Sub-index `sub` within the entries of one object (at most 255 of them).
+pub(crate) fn sub_entry(record: &'static [Entry], sub: u8) -> Option<&'static Entry> {
+    record.iter().find(|e| e.sub == sub)
+}
+
+/// The value of an integer entry of up to 4 bytes, little-endian.
+pub(crate) fn value_u32(dict: &Dictionary, image: &[u8], entry: &Entry) -> u32 {
+    le_u32(dict.value(image, entry))
+}
+
+/// Up to 4 little-endian bytes as a `u32` (missing bytes read as 0).
+pub(crate) fn le_u32(bytes: &[u8]) -> u32 {
+    let mut b = [0u8; 4];
+    for (dst, src) in b.iter_mut().zip(bytes) {
+        *dst = *src;
+    }
+    u32::from_le_bytes(b)
+}

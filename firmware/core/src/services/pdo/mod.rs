@@ -1,0 +1,522 @@
+//! Process data objects. CiA 301 v4.2 §7.2.2; objects 0x1400–0x15FF RPDO
+//! communication, 0x1600–0x17FF RPDO mapping, 0x1800–0x19FF TPDO
+//! communication, 0x1A00–0x1BFF TPDO mapping (§7.5.2.35–§7.5.2.38).
+//!
+//! Read first: §7.2.2 (transmission types, triggering, inhibit time,
+//! event timer), §7.5.2.35–38 (the parameter records and the mapping
+//! procedure), §7.2.5 (SYNC, synchronous window).
+//!
+//! [`Pdos`] caches the parameters at [`Pdos::configure`] (after reset
+//! communication) and keeps them in step with the image through
+//! [`Pdos::write_object`], which is where an SDO download of a PDO parameter
+//! goes. Frames leave through [`PdoTx::send`]; what the node must act on
+//! (data written into the dictionary, EMCY conditions) comes out through
+//! [`PdoTx::event`].
+//!
+//! Every call does bounded work: finding an RPDO or TPDO by COB-ID is a
+//! walk over the `R` or `T` PDOs, building or applying a PDO copies at most
+//! 8 bytes, and the dictionary is searched only when a mapping is configured
+//! or written (at most 10 binary searches).
+//!
+//! Decisions where CiA 301 leaves room, or where the device files ask:
+//! - A valid PDO whose mapping count (sub 0) is 0, or whose configured
+//!   mapping does not resolve, is disabled: it sends and processes nothing.
+//! - The mapping procedure of §7.5.2.36: entries (sub 1..8) may be written
+//!   only while sub 0 is 0, and sub 0 only while the PDO is invalid (COB-ID
+//!   bit 31). Otherwise the download is aborted with 0x06010000
+//!   "unsupported access", the code CiA 310 (conformance test) expects and
+//!   CANopenNode returns. Rewriting the current value is always accepted,
+//!   so a read-back/write-back of the whole dictionary passes. Where sub 1
+//!   is read-only (ec5000 RPDOs), the PDO cannot be invalidated, so sub 0 = 0
+//!   alone opens the mapping (docs/devices/ec5000.md, decision 13).
+//! - Sub 1 (COB-ID): bits 11..29 set (29-bit identifiers are not supported)
+//!   or a restricted CAN-ID (§7.3.5) in a valid COB-ID → 0x06090030; the
+//!   CAN-ID may change only while the PDO is or becomes invalid → 0x06090030.
+//!   A TPDO of type 252/253 cannot be made "no RTR" (bit 30), nor the reverse.
+//! - Sub 2: 241..=251 → 0x06090030; for an RPDO also 252/253.
+//! - Sub 3 (inhibit time) and sub 6 (SYNC start value, ≤ 240) change only
+//!   while the PDO is invalid → 0x06090030.
+//! - On entering Operational, event-driven TPDOs send once (nothing has been
+//!   sent yet, so the data "changed"); synchronous acyclic ones on the first
+//!   SYNC. Event timers start then.
+
+pub mod map;
+pub mod rpdo;
+pub mod tpdo;
+
+#[cfg(test)]
+mod tests;
+
+use crate::abort::AbortCode;
+use crate::od::{Dictionary, Entry};
+use crate::services::sync::SyncEvent;
+use crate::time::{Duration, Instant};
+use crate::wire::pdo_mapping::MappingEntry;
+use map::{Direction, Mapping, Slot, le_u32, object, sub_entry, value_u32};
+use rpdo::Rpdo;
+use tpdo::Tpdo;
+
+/// COB-ID bit 31: the PDO does not exist (is not valid).
+pub const COB_ID_INVALID: u32 = 1 << 31;
+/// COB-ID bit 30: no RTR allowed on this PDO.
+pub const COB_ID_NO_RTR: u32 = 1 << 30;
+/// COB-ID bit 29 (29-bit frame) and bits 11..28: extended identifiers, not supported.
+const COB_ID_EXTENDED: u32 = 0x3FFF_F800;
+
+/// Whether CiA 301 §7.3.5 (table "restricted CAN-IDs") reserves `can_id`,
+/// so that no configurable COB-ID may use it: NMT and reserved 0x000–0x07F,
+/// 0x101–0x180, the default SDO 0x581–0x5FF and 0x601–0x67F, 0x6E0–0x6FF,
+/// NMT error control 0x701–0x77F and 0x780–0x7FF.
+pub const fn is_restricted_can_id(can_id: u16) -> bool {
+    matches!(can_id, 0x000..=0x07F | 0x101..=0x180 | 0x581..=0x5FF | 0x601..=0x67F | 0x6E0..=0x6FF | 0x701..=0x7FF)
+}
+
+/// The communication parameter record of one PDO (0x1400+n or 0x1800+n) as cached.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CommParams {
+    /// Sub 1: COB-ID (bit 31 = not valid, bit 30 = no RTR, bits 0..10 = CAN-ID).
+    pub cob_id: u32,
+    /// Sub 2: transmission type.
+    pub transmission_type: u8,
+    /// Sub 3: inhibit time in 100 µs (0 if the record has no sub 3).
+    pub inhibit_time_100us: u16,
+    /// Sub 5: event timer in ms (0 if the record has no sub 5).
+    pub event_timer_ms: u16,
+    /// Sub 6: SYNC start value (0 if the record has no sub 6).
+    pub sync_start: u8,
+}
+
+impl Default for CommParams {
+    fn default() -> Self {
+        CommParams { cob_id: COB_ID_INVALID, transmission_type: 254, inhibit_time_100us: 0, event_timer_ms: 0, sync_start: 0 }
+    }
+}
+
+impl CommParams {
+    /// Reads record `index` (0x1400+n or 0x1800+n): two binary searches. A
+    /// record without sub 1 is an invalid PDO; a missing sub 2 reads as 254.
+    pub fn read(dict: &Dictionary, image: &[u8], index: u16) -> CommParams {
+        let record = object(dict, index);
+        let sub = |s: u8| sub_entry(record, s).map(|e| value_u32(dict, image, e));
+        let defaults = CommParams::default();
+        CommParams {
+            cob_id: sub(1).unwrap_or(defaults.cob_id),
+            transmission_type: sub(2).map_or(defaults.transmission_type, |v| v as u8),
+            inhibit_time_100us: sub(3).unwrap_or(0) as u16,
+            event_timer_ms: sub(5).unwrap_or(0) as u16,
+            sync_start: sub(6).unwrap_or(0) as u8,
+        }
+    }
+
+    /// Bit 31 clear: the PDO exists.
+    pub const fn valid(&self) -> bool {
+        self.cob_id & COB_ID_INVALID == 0
+    }
+
+    /// Bit 30 clear: RTRs are allowed.
+    pub const fn rtr_allowed(&self) -> bool {
+        self.cob_id & COB_ID_NO_RTR == 0
+    }
+
+    /// The 11-bit CAN-ID.
+    pub const fn can_id(&self) -> u16 {
+        (self.cob_id & 0x7FF) as u16
+    }
+
+    /// Types 0..=240 work with the SYNC.
+    pub const fn is_synchronous(&self) -> bool {
+        self.transmission_type <= 240
+    }
+
+    /// Sub 3 as a duration.
+    pub const fn inhibit_time(&self) -> Duration {
+        Duration::from_micros(self.inhibit_time_100us as u64 * 100)
+    }
+
+    /// Sub 5 as a duration.
+    pub const fn event_timer(&self) -> Duration {
+        Duration::from_millis(self.event_timer_ms as u64)
+    }
+
+    /// Applies an SDO download of sub-index `sub` (already checked for
+    /// length) and returns the new record, or the abort code CiA 301 gives.
+    fn with(self, direction: Direction, sub: u8, value: u32) -> Result<CommParams, AbortCode> {
+        let mut new = self;
+        match sub {
+            1 => {
+                new.cob_id = value;
+                let can_id_changes = new.can_id() != self.can_id();
+                if value & COB_ID_EXTENDED != 0
+                    || (new.valid() && is_restricted_can_id(new.can_id()))
+                    || (new.valid() && self.valid() && can_id_changes)
+                    || (direction == Direction::Transmit && new.valid() && !new.rtr_allowed() && matches!(new.transmission_type, 252 | 253))
+                {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            2 => {
+                new.transmission_type = value as u8;
+                let reserved = match direction {
+                    Direction::Receive => 241..=253,
+                    Direction::Transmit => 241..=251,
+                };
+                if reserved.contains(&new.transmission_type) || (matches!(new.transmission_type, 252 | 253) && !new.rtr_allowed()) {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            3 => {
+                new.inhibit_time_100us = value as u16;
+                if self.valid() && new.inhibit_time_100us != self.inhibit_time_100us {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            5 => new.event_timer_ms = value as u16,
+            6 => {
+                new.sync_start = value as u8;
+                if new.sync_start > 240 || (self.valid() && new.sync_start != self.sync_start) {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            _ => {}
+        }
+        Ok(new)
+    }
+}
+
+/// What the PDOs tell the node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PdoEvent {
+    /// RPDO `n` (0-based) wrote its data into the dictionary: event-driven
+    /// at once, synchronous at the SYNC.
+    Received(usize),
+    /// An error condition of RPDO `rpdo` began: the node raises EMCY `code`
+    /// (0x8210 too short, 0x8220 too long, 0x8250 timeout).
+    Error {
+        /// The RPDO (0-based).
+        rpdo: usize,
+        /// The EMCY error code.
+        code: u16,
+    },
+    /// That condition ended (a good RPDO arrived): the node clears `code`.
+    ErrorCleared {
+        /// The RPDO (0-based).
+        rpdo: usize,
+        /// The EMCY error code.
+        code: u16,
+    },
+}
+
+/// Where the PDOs put what they produce.
+pub trait PdoTx {
+    /// Queues a frame; false if the queue refused it (the PDO then retries
+    /// at a later poll, see [`tpdo`]).
+    fn send(&mut self, cob_id: u16, data: &[u8]) -> bool;
+
+    /// Reports an event; the default ignores it.
+    fn event(&mut self, event: PdoEvent) {
+        let _ = event;
+    }
+}
+
+/// A mapping of the dictionary that did not resolve at configuration; its PDO stays silent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MappingError {
+    /// The mapping record (0x1600+n or 0x1A00+n).
+    pub index: u16,
+    /// Why, as the abort code a download of that mapping would get.
+    pub code: AbortCode,
+}
+
+/// First RPDO communication record.
+const RPDO_COMM: u16 = 0x1400;
+/// First RPDO mapping record.
+const RPDO_MAP: u16 = 0x1600;
+/// First TPDO communication record.
+const TPDO_COMM: u16 = 0x1800;
+/// First TPDO mapping record.
+const TPDO_MAP: u16 = 0x1A00;
+
+/// The PDOs of a node: `R` RPDOs and `T` TPDOs (the generated
+/// `RPDO_COUNT` and `TPDO_COUNT`).
+#[derive(Clone, Debug)]
+pub struct Pdos<const R: usize, const T: usize> {
+    rpdos: [Rpdo; R],
+    tpdos: [Tpdo; T],
+    /// End of the synchronous window opened by the last SYNC.
+    window_end: Option<Instant>,
+    operational: bool,
+}
+
+impl<const R: usize, const T: usize> Default for Pdos<R, T> {
+    fn default() -> Self {
+        Pdos { rpdos: [Rpdo::default(); R], tpdos: [Tpdo::default(); T], window_end: None, operational: false }
+    }
+}
+
+impl<const R: usize, const T: usize> Pdos<R, T> {
+    /// Reads every PDO parameter from the image (after reset communication).
+    /// The PDOs stop until [`Pdos::enter_operational`]. `Err` names the first
+    /// mapping that did not resolve; every PDO is configured either way.
+    pub fn configure(&mut self, dict: &Dictionary, image: &[u8]) -> Result<(), MappingError> {
+        let mut first_error = None;
+        let mut mapping = |index: u16, direction| match Mapping::read(dict, image, index, direction) {
+            Ok(m) => Some(m),
+            // A mapping record that does not exist: no PDO to speak of.
+            Err(AbortCode::NoObject) if object(dict, index).is_empty() => None,
+            Err(code) => {
+                first_error.get_or_insert(MappingError { index, code });
+                None
+            }
+        };
+        for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
+            rpdo.set(CommParams::read(dict, image, RPDO_COMM + n), mapping(RPDO_MAP + n, Direction::Receive));
+            rpdo.cob_id_writable = cob_id_writable(dict, RPDO_COMM + n);
+        }
+        for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
+            tpdo.set(CommParams::read(dict, image, TPDO_COMM + n), mapping(TPDO_MAP + n, Direction::Transmit));
+            tpdo.cob_id_writable = cob_id_writable(dict, TPDO_COMM + n);
+        }
+        self.window_end = None;
+        self.operational = false;
+        first_error.map_or(Ok(()), Err)
+    }
+
+    /// NMT entered Operational: the PDOs start (see the module notes).
+    pub fn enter_operational(&mut self, now: Instant) {
+        self.operational = true;
+        self.window_end = None;
+        self.rpdos.iter_mut().for_each(Rpdo::restart);
+        self.tpdos.iter_mut().for_each(|t| t.restart(Some(now)));
+    }
+
+    /// NMT left Operational: the PDOs stop; frames, RTRs and SYNCs are ignored.
+    pub fn stop(&mut self) {
+        self.operational = false;
+    }
+
+    /// Whether the PDOs run.
+    pub fn is_operational(&self) -> bool {
+        self.operational
+    }
+
+    /// RPDO `n` (0-based).
+    pub fn rpdo(&self, n: usize) -> Option<&Rpdo> {
+        self.rpdos.get(n)
+    }
+
+    /// TPDO `n` (0-based).
+    pub fn tpdo(&self, n: usize) -> Option<&Tpdo> {
+        self.tpdos.get(n)
+    }
+
+    /// Signals an application event for TPDO `n` (types 0, 254, 255); false
+    /// if that TPDO is not valid or of another type. Call [`Pdos::poll`] after.
+    pub fn trigger(&mut self, n: usize) -> bool {
+        self.tpdos.get_mut(n).is_some_and(Tpdo::trigger)
+    }
+
+    /// Turns change-of-state detection of TPDO `n` on or off (on by default).
+    /// Off, only the event timer, [`Pdos::trigger`] and RTRs send it; for
+    /// values that change all the time, such as an encoder position.
+    pub fn set_change_detection(&mut self, n: usize, on: bool) {
+        if let Some(t) = self.tpdos.get_mut(n) {
+            t.set_change_detection(on);
+        }
+    }
+
+    /// An SDO download of (index, sub): `None` if it is not a parameter of
+    /// one of these PDOs, else the outcome. On success the image holds the
+    /// value (through [`Dictionary::write`]) and the PDO uses it.
+    pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
+        let n = |base: u16| usize::from(index.wrapping_sub(base));
+        Some(match index {
+            RPDO_COMM..=0x15FF => {
+                let rpdo = self.rpdos.get_mut(n(RPDO_COMM))?;
+                write_comm(rpdo.params, Direction::Receive, index, sub, data, dict, image).map(|new| {
+                    let old = core::mem::replace(&mut rpdo.params, new);
+                    if (old.cob_id, old.transmission_type) != (new.cob_id, new.transmission_type) {
+                        rpdo.restart();
+                    } else if old.event_timer_ms != new.event_timer_ms {
+                        rpdo.disarm_timer();
+                    }
+                })
+            }
+            RPDO_MAP..=0x17FF => {
+                let rpdo = self.rpdos.get_mut(n(RPDO_MAP))?;
+                let locked = rpdo.params.valid() && rpdo.cob_id_writable;
+                write_map(locked, Direction::Receive, index, sub, data, dict, image).map(|new| {
+                    if let Some(mapping) = new {
+                        rpdo.set(rpdo.params, Some(mapping));
+                    }
+                })
+            }
+            TPDO_COMM..=0x19FF => {
+                let tpdo = self.tpdos.get_mut(n(TPDO_COMM))?;
+                write_comm(tpdo.params, Direction::Transmit, index, sub, data, dict, image).map(|new| {
+                    let old = core::mem::replace(&mut tpdo.params, new);
+                    if (old.cob_id, old.transmission_type) != (new.cob_id, new.transmission_type) {
+                        tpdo.restart(None);
+                    } else if old.event_timer_ms != new.event_timer_ms {
+                        tpdo.rearm_timer();
+                    }
+                })
+            }
+            TPDO_MAP..=0x1BFF => {
+                let tpdo = self.tpdos.get_mut(n(TPDO_MAP))?;
+                let locked = tpdo.params.valid() && tpdo.cob_id_writable;
+                write_map(locked, Direction::Transmit, index, sub, data, dict, image).map(|new| {
+                    if let Some(mapping) = new {
+                        tpdo.set(tpdo.params, Some(mapping));
+                    }
+                })
+            }
+            _ => return None,
+        })
+    }
+
+    /// A data frame on `cob_id`: true if it belongs to a valid RPDO (then it
+    /// is processed, or buffered for the SYNC). Ignored unless Operational.
+    pub fn on_frame(&mut self, now: Instant, cob_id: u16, data: &[u8], image: &mut [u8], out: &mut impl PdoTx) -> bool {
+        if !self.operational {
+            return false;
+        }
+        let window_open = self.window_end.is_none_or(|end| now <= end);
+        let Some((n, rpdo)) = self.rpdos.iter_mut().enumerate().find(|(_, r)| r.cob_id() == Some(cob_id)) else { return false };
+        rpdo.on_frame(n, now, data, window_open, image, out);
+        true
+    }
+
+    /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once
+    /// its inhibit time is over). Ignored unless Operational.
+    pub fn on_rtr(&mut self, now: Instant, cob_id: u16, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> bool {
+        if !self.operational {
+            return false;
+        }
+        self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)).is_some_and(|t| t.on_rtr(now, dict, image, tx))
+    }
+
+    /// A SYNC, received or produced: synchronous RPDO data is written, then
+    /// synchronous TPDOs are sent. Ignored unless Operational.
+    pub fn on_sync(&mut self, sync: &SyncEvent, dict: &Dictionary, image: &mut [u8], tx: &mut impl PdoTx) {
+        if !self.operational {
+            return;
+        }
+        self.window_end = sync.window_end;
+        for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
+            rpdo.on_sync(n, image, tx);
+        }
+        for tpdo in self.tpdos.iter_mut() {
+            tpdo.on_sync(sync, dict, image, tx);
+        }
+    }
+
+    /// Runs the timers (event timers, inhibit times, RPDO deadlines), change
+    /// detection and retries; returns the next deadline. Call it when that
+    /// deadline is reached and after the application changed mapped objects.
+    pub fn poll(&mut self, now: Instant, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+        if !self.operational {
+            return None;
+        }
+        for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
+            rpdo.poll(n, now, tx);
+        }
+        let window_end = self.window_end;
+        for tpdo in self.tpdos.iter_mut() {
+            tpdo.poll(now, window_end, dict, image, tx);
+        }
+        self.deadline()
+    }
+
+    /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
+    /// means at once). `None` while not Operational.
+    pub fn deadline(&self) -> Option<Instant> {
+        if !self.operational {
+            return None;
+        }
+        let rpdos = self.rpdos.iter().filter_map(Rpdo::deadline);
+        let tpdos = self.tpdos.iter().filter_map(Tpdo::deadline);
+        rpdos.chain(tpdos).min()
+    }
+}
+
+/// Whether sub 1 of a communication record can be written at all.
+fn cob_id_writable(dict: &Dictionary, index: u16) -> bool {
+    dict.find(index, 1).is_ok_and(|e| e.writable())
+}
+
+/// The checks `Dictionary::write` makes before any semantic rule: the entry
+/// exists, is writable, and `data` has its exact length (PDO parameters are
+/// fixed-size integers).
+fn precheck(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
+    let entry = dict.find(index, sub)?;
+    if !entry.writable() {
+        return Err(AbortCode::ReadOnly);
+    }
+    match data.len().cmp(&usize::from(entry.len)) {
+        core::cmp::Ordering::Greater => Err(AbortCode::LengthTooHigh),
+        core::cmp::Ordering::Less => Err(AbortCode::LengthTooLow),
+        core::cmp::Ordering::Equal => Ok(entry),
+    }
+}
+
+/// An SDO download into a communication record; returns the new record.
+fn write_comm(
+    params: CommParams,
+    direction: Direction,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+    dict: &Dictionary,
+    image: &mut [u8],
+) -> Result<CommParams, AbortCode> {
+    precheck(dict, index, sub, data)?;
+    let new = params.with(direction, sub, le_u32(data))?;
+    dict.write(image, index, sub, data)?;
+    Ok(new)
+}
+
+/// An SDO download into a mapping record; returns the new mapping when sub 0 was written.
+fn write_map(
+    locked: bool,
+    direction: Direction,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+    dict: &Dictionary,
+    image: &mut [u8],
+) -> Result<Option<Mapping>, AbortCode> {
+    let entry = precheck(dict, index, sub, data)?;
+    if (locked || sub != 0) && dict.value(image, entry) == data {
+        // Writing back the current value changes nothing and is allowed
+        // (sub 0 of an open mapping is always resolved again).
+        return Ok(None);
+    }
+    if locked {
+        return Err(AbortCode::UnsupportedAccess);
+    }
+    let record = object(dict, index);
+    let mapping = if sub == 0 {
+        let count = usize::from(data.first().copied().unwrap_or(0));
+        if count > map::MAX_ENTRIES {
+            return Err(AbortCode::PdoTooLong);
+        }
+        let mut raw = [0u32; map::MAX_ENTRIES];
+        for (value, s) in raw.iter_mut().take(count).zip(1u8..) {
+            let e = sub_entry(record, s).ok_or(AbortCode::PdoTooLong)?;
+            *value = value_u32(dict, image, e);
+        }
+        Some(Mapping::from_entries(dict, raw.get(..count).unwrap_or(&[]), direction)?)
+    } else {
+        let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
+        if count != 0 {
+            return Err(AbortCode::UnsupportedAccess);
+        }
+        let value = le_u32(data);
+        if value != 0 {
+            Slot::resolve(dict, MappingEntry::from_u32(value), direction)?;
+        }
+        None
+    };
+    dict.write(image, index, sub, data)?;
+    Ok(mapping)
+}

@@ -1,0 +1,143 @@
+//! One receive PDO. CiA 301 v4.2 §7.2.2; objects 0x1400–0x15FF
+//! (communication) and 0x1600–0x17FF (mapping).
+//!
+//! - Transmission types 0..=240 (synchronous): the data of the last RPDO
+//!   received inside the synchronous window is written on the next SYNC;
+//!   an RPDO received after the window closed is discarded (0x1007).
+//! - 254, 255 (event-driven): the data is written at once.
+//! - Length (§7.2.2.2): fewer bytes than mapped → not processed, EMCY 0x8210;
+//!   more bytes → the mapped bytes are processed and EMCY 0x8220 raised, as
+//!   CANopenNode and Lely do. Either error ends with the next RPDO of the
+//!   right length.
+//! - Event timer (sub 5, ms): deadline monitoring, armed by the first RPDO
+//!   received; expiry raises EMCY 0x8250, the next RPDO ends it.
+
+use super::map::{MAX_LEN, Mapping};
+use super::{CommParams, PdoEvent, PdoTx};
+use crate::time::{Duration, Instant};
+use crate::wire::emcy::code;
+
+/// The state of one RPDO.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Rpdo {
+    pub(super) params: CommParams,
+    /// `None` when the configured mapping does not resolve (the RPDO is silent).
+    pub(super) mapping: Option<Mapping>,
+    /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
+    pub(super) cob_id_writable: bool,
+    /// Synchronous data waiting for the next SYNC.
+    buffered: Option<[u8; MAX_LEN]>,
+    /// Deadline of the event timer, armed by each RPDO received.
+    timeout_at: Option<Instant>,
+    /// EMCY 0x8250 is raised.
+    timed_out: bool,
+    /// EMCY 0x8210 or 0x8220 raised and not yet ended.
+    length_error: Option<u16>,
+}
+
+impl Rpdo {
+    /// The cached communication parameters.
+    pub fn params(&self) -> &CommParams {
+        &self.params
+    }
+
+    /// The resolved mapping, or `None` if the configured one is invalid.
+    pub fn mapping(&self) -> Option<&Mapping> {
+        self.mapping.as_ref()
+    }
+
+    /// The CAN-ID it listens to: `Some` when the COB-ID is valid and a
+    /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
+    pub fn cob_id(&self) -> Option<u16> {
+        let mapping = self.mapping.as_ref()?;
+        (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
+    }
+
+    /// Whether synchronous data waits for the next SYNC.
+    pub fn has_buffered(&self) -> bool {
+        self.buffered.is_some()
+    }
+
+    /// New parameters or mapping: everything in flight is dropped.
+    pub(super) fn set(&mut self, params: CommParams, mapping: Option<Mapping>) {
+        self.params = params;
+        self.mapping = mapping;
+        self.restart();
+    }
+
+    /// Entering Operational (or a new configuration): nothing buffered, the
+    /// event timer waits for the first RPDO. Raised errors stay until a
+    /// good RPDO ends them, so the node's error state stays consistent.
+    pub(super) fn restart(&mut self) {
+        self.buffered = None;
+        self.timeout_at = None;
+    }
+
+    /// The event timer was rewritten: it restarts with the next RPDO.
+    pub(super) fn disarm_timer(&mut self) {
+        self.timeout_at = None;
+    }
+
+    /// An RPDO frame. `window_open`: the synchronous window since the last SYNC is still open.
+    pub(super) fn on_frame(&mut self, n: usize, now: Instant, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) {
+        let Some(mapping) = self.mapping else { return };
+        let len = mapping.len();
+        let error = match data.len().cmp(&len) {
+            core::cmp::Ordering::Less => Some(code::PDO_LENGTH),
+            core::cmp::Ordering::Greater => Some(code::PDO_LENGTH_EXCEEDED),
+            core::cmp::Ordering::Equal => None,
+        };
+        if error != self.length_error {
+            if let Some(old) = self.length_error {
+                out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+            }
+            if let Some(new) = error {
+                out.event(PdoEvent::Error { rpdo: n, code: new });
+            }
+            self.length_error = error;
+        }
+        if data.len() < len {
+            return;
+        }
+        if self.timed_out {
+            self.timed_out = false;
+            out.event(PdoEvent::ErrorCleared { rpdo: n, code: code::RPDO_TIMEOUT });
+        }
+        let timer = self.params.event_timer();
+        self.timeout_at = (timer != Duration::ZERO).then(|| now + timer);
+        if self.params.is_synchronous() {
+            if window_open {
+                let mut buf = [0u8; MAX_LEN];
+                if let (Some(dst), Some(src)) = (buf.get_mut(..len), data.get(..len)) {
+                    dst.copy_from_slice(src);
+                }
+                self.buffered = Some(buf);
+            }
+        } else {
+            mapping.apply(image, data);
+            out.event(PdoEvent::Received(n));
+        }
+    }
+
+    /// A SYNC: buffered synchronous data goes into the dictionary.
+    pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
+        if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping) {
+            mapping.apply(image, &data);
+            out.event(PdoEvent::Received(n));
+        }
+    }
+
+    /// The event timer.
+    pub(super) fn poll(&mut self, n: usize, now: Instant, out: &mut impl PdoTx) {
+        if self.timeout_at.is_some_and(|t| now >= t) {
+            self.timeout_at = None;
+            self.timed_out = true;
+            out.event(PdoEvent::Error { rpdo: n, code: code::RPDO_TIMEOUT });
+        }
+    }
+
+    /// When the event timer expires.
+    pub(super) fn deadline(&self) -> Option<Instant> {
+        self.cob_id().and(self.timeout_at)
+    }
+}

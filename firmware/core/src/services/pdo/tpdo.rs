@@ -1,0 +1,285 @@
+//! One transmit PDO. CiA 301 v4.2 §7.2.2; objects 0x1800–0x19FF
+//! (communication) and 0x1A00–0x1BFF (mapping).
+//!
+//! Transmission types (sub 2, §7.5.2.37 table 72):
+//! - 0, synchronous acyclic: sent on the SYNC after an event (a change of
+//!   the mapped data, or [`super::Pdos::trigger`]).
+//! - 1..=240, synchronous cyclic: sent on every n-th SYNC. With a SYNC
+//!   counter (0x1019 > 0) and a SYNC start value (sub 6) other than 0, the
+//!   SYNC whose counter equals the start value counts as the first one.
+//! - 252, RTR-only synchronous: sampled on each SYNC, sent on RTR.
+//! - 253, RTR-only event-driven: built and sent on RTR.
+//! - 254, 255, event-driven: sent on an event (change of the mapped data,
+//!   event timer sub 5 in ms, [`super::Pdos::trigger`], or an RTR), at most
+//!   once per inhibit time (sub 3, 100 µs): an event during the inhibit
+//!   time waits for its end. Each transmission restarts the event timer.
+//!
+//! Inhibit time and event timer apply to types 254/255 only (sub 3 and sub 5
+//! descriptions of §7.5.2.37). RTRs are answered for 252..=255 unless COB-ID
+//! bit 30 says "no RTR"; a synchronous cyclic PDO ignores them.
+//!
+//! A frame the transmit queue refuses stays pending: an event-driven PDO
+//! retries at the next poll, a synchronous one at the next poll while the
+//! synchronous window (0x1007) is still open, after which it is dropped.
+
+use super::map::{MAX_LEN, Mapping};
+use super::{CommParams, PdoTx};
+use crate::od::Dictionary;
+use crate::services::sync::SyncEvent;
+use crate::time::{Duration, Instant};
+
+/// The state of one TPDO.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tpdo {
+    pub(super) params: CommParams,
+    /// `None` when the configured mapping does not resolve (the TPDO is silent).
+    pub(super) mapping: Option<Mapping>,
+    /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
+    pub(super) cob_id_writable: bool,
+    /// Whether a change of the mapped data is an event (types 0, 254, 255).
+    change_detection: bool,
+    /// The last data sent, for change detection.
+    last: [u8; MAX_LEN],
+    sent: bool,
+    /// An event waits to be sent.
+    event: bool,
+    /// The transmit queue refused the last frame: no deadline until the next poll.
+    blocked: bool,
+    inhibit_until: Option<Instant>,
+    event_at: Option<Instant>,
+    /// SYNCs counted towards the next cyclic transmission.
+    sync_count: u8,
+    /// Waiting for the SYNC whose counter equals the start value.
+    await_start: bool,
+    /// Type 252: the data sampled at the last SYNC.
+    sample: Option<[u8; MAX_LEN]>,
+    /// A synchronous frame the queue refused, retried inside the window.
+    pending_sync: Option<[u8; MAX_LEN]>,
+}
+
+impl Default for Tpdo {
+    fn default() -> Self {
+        Tpdo {
+            params: CommParams::default(),
+            mapping: None,
+            cob_id_writable: false,
+            change_detection: true,
+            last: [0; MAX_LEN],
+            sent: false,
+            event: false,
+            blocked: false,
+            inhibit_until: None,
+            event_at: None,
+            sync_count: 0,
+            await_start: false,
+            sample: None,
+            pending_sync: None,
+        }
+    }
+}
+
+impl Tpdo {
+    /// The cached communication parameters.
+    pub fn params(&self) -> &CommParams {
+        &self.params
+    }
+
+    /// The resolved mapping, or `None` if the configured one is invalid.
+    pub fn mapping(&self) -> Option<&Mapping> {
+        self.mapping.as_ref()
+    }
+
+    /// The CAN-ID it sends on: `Some` when the COB-ID is valid and a
+    /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
+    pub fn cob_id(&self) -> Option<u16> {
+        let mapping = self.mapping.as_ref()?;
+        (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
+    }
+
+    /// Whether a change of the mapped data counts as an event.
+    pub fn change_detection(&self) -> bool {
+        self.change_detection
+    }
+
+    fn is_event_driven(&self) -> bool {
+        matches!(self.params.transmission_type, 254 | 255)
+    }
+
+    /// New parameters or mapping: the PDO starts over.
+    pub(super) fn set(&mut self, params: CommParams, mapping: Option<Mapping>) {
+        self.params = params;
+        self.mapping = mapping;
+        self.restart(None);
+    }
+
+    pub(super) fn set_change_detection(&mut self, on: bool) {
+        self.change_detection = on;
+    }
+
+    /// Starts over, as on entering Operational: nothing counts as sent, so
+    /// an event-driven PDO goes out at the first poll, and a synchronous
+    /// acyclic one at the first SYNC. With `now`, the event timer runs from
+    /// `now`; without, it is armed at the next poll.
+    pub(super) fn restart(&mut self, now: Option<Instant>) {
+        let timer = self.params.event_timer();
+        self.sent = false;
+        self.event = self.is_event_driven();
+        self.blocked = false;
+        self.inhibit_until = None;
+        self.event_at = now.filter(|_| timer != Duration::ZERO).map(|t| t + timer);
+        self.sync_count = 0;
+        self.await_start = self.params.sync_start != 0;
+        self.sample = None;
+        self.pending_sync = None;
+    }
+
+    /// The event timer was rewritten: it restarts at the next poll.
+    pub(super) fn rearm_timer(&mut self) {
+        self.event_at = None;
+    }
+
+    /// The application signals an event (types 0, 254, 255).
+    pub(super) fn trigger(&mut self) -> bool {
+        if self.cob_id().is_none() || !matches!(self.params.transmission_type, 0 | 254 | 255) {
+            return false;
+        }
+        self.event = true;
+        self.blocked = false;
+        true
+    }
+
+    fn build(&self, dict: &Dictionary, image: &[u8]) -> ([u8; MAX_LEN], usize) {
+        let mut buf = [0u8; MAX_LEN];
+        let len = self.mapping.map_or(0, |m| m.build(dict, image, &mut buf));
+        (buf, len)
+    }
+
+    fn changed(&self, buf: &[u8; MAX_LEN], len: usize) -> bool {
+        !self.sent || self.last.get(..len) != buf.get(..len)
+    }
+
+    /// Hands a frame to the queue; remembers it when accepted.
+    fn transmit(&mut self, cob_id: u16, buf: [u8; MAX_LEN], len: usize, tx: &mut impl PdoTx) -> bool {
+        let ok = tx.send(cob_id, buf.get(..len).unwrap_or(&[]));
+        if ok {
+            self.last = buf;
+            self.sent = true;
+            self.event = false;
+        }
+        self.blocked = !ok;
+        ok
+    }
+
+    /// Types 254/255: timers, change detection, and the send once the inhibit time allows.
+    fn service_event(&mut self, now: Instant, cob_id: u16, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) {
+        let timer = self.params.event_timer();
+        if timer != Duration::ZERO {
+            match self.event_at {
+                None => self.event_at = Some(now + timer),
+                Some(t) if now >= t => self.event = true,
+                Some(_) => {}
+            }
+        }
+        let (buf, len) = self.build(dict, image);
+        if self.change_detection && self.changed(&buf, len) {
+            self.event = true;
+        }
+        if self.event && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
+            let inhibit = self.params.inhibit_time();
+            self.inhibit_until = (inhibit != Duration::ZERO).then(|| now + inhibit);
+            self.event_at = (timer != Duration::ZERO).then(|| now + timer);
+        }
+    }
+
+    /// Timers and retries.
+    pub(super) fn poll(&mut self, now: Instant, window_end: Option<Instant>, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) {
+        let Some(cob_id) = self.cob_id() else { return };
+        if self.is_event_driven() {
+            self.service_event(now, cob_id, dict, image, tx);
+        } else if let Some(buf) = self.pending_sync {
+            let len = self.mapping.map_or(0, |m| m.len());
+            if window_end.is_some_and(|end| now > end) || self.transmit(cob_id, buf, len, tx) {
+                self.pending_sync = None;
+            }
+        }
+    }
+
+    /// A SYNC (received or produced).
+    pub(super) fn on_sync(&mut self, sync: &SyncEvent, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) {
+        let Some(cob_id) = self.cob_id() else { return };
+        // A frame refused at the previous SYNC is stale now.
+        self.pending_sync = None;
+        let send = match self.params.transmission_type {
+            0 => {
+                let (buf, len) = self.build(dict, image);
+                (self.event || (self.change_detection && self.changed(&buf, len))).then_some((buf, len))
+            }
+            n @ 1..=240 => {
+                if self.await_start {
+                    match sync.counter {
+                        Some(counter) if counter != self.params.sync_start => return,
+                        // The start SYNC counts as the first; without a counter the start value is ignored.
+                        _ => self.await_start = false,
+                    }
+                }
+                self.sync_count = self.sync_count.saturating_add(1);
+                (self.sync_count >= n).then(|| {
+                    self.sync_count = 0;
+                    self.build(dict, image)
+                })
+            }
+            252 => {
+                self.sample = Some(self.build(dict, image).0);
+                None
+            }
+            _ => None,
+        };
+        if let Some((buf, len)) = send
+            && !self.transmit(cob_id, buf, len, tx)
+        {
+            self.pending_sync = Some(buf);
+        }
+    }
+
+    /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
+    pub(super) fn on_rtr(&mut self, now: Instant, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> bool {
+        let Some(cob_id) = self.cob_id() else { return false };
+        if !self.params.rtr_allowed() {
+            return false;
+        }
+        match self.params.transmission_type {
+            252 => {
+                // Before the first SYNC there is no sample yet: send what is there now (as Lely does).
+                let (fresh, len) = self.build(dict, image);
+                let buf = self.sample.unwrap_or(fresh);
+                self.transmit(cob_id, buf, len, tx)
+            }
+            253 => {
+                let (buf, len) = self.build(dict, image);
+                self.transmit(cob_id, buf, len, tx)
+            }
+            254 | 255 => {
+                self.event = true;
+                self.blocked = false;
+                self.service_event(now, cob_id, dict, image, tx);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// The next time [`Tpdo::poll`] has work: the event timer, or the end of
+    /// the inhibit time of a pending event. `Instant::ZERO` means "now".
+    pub(super) fn deadline(&self) -> Option<Instant> {
+        self.cob_id()?;
+        if !self.is_event_driven() {
+            return None;
+        }
+        if self.event {
+            // The event timer has nothing to add to a pending event; a
+            // refused frame waits for the next poll instead of spinning.
+            return (!self.blocked).then(|| self.inhibit_until.unwrap_or(Instant::ZERO));
+        }
+        (self.params.event_timer() != Duration::ZERO).then(|| self.event_at.unwrap_or(Instant::ZERO))
+    }
+}

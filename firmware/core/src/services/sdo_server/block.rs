@@ -1,0 +1,305 @@
+//! Block download and upload. CiA 301 §7.2.4.3.9–16, figures 34–45.
+//!
+//! Download: the server offers a blksize that fits its buffer, collects
+//! each sub-block of up to `blksize` segments (seqno 1, 2, …) and confirms
+//! it with the sequence number of the last segment received in order
+//! (ackseq). After a missing segment the rest of the block is ignored and
+//! the client sends again from ackseq + 1. The CRC is updated as segments
+//! are accepted, so the end request costs no more than one segment.
+//!
+//! Upload: after the client's start command `poll` sends the segments of a
+//! block as fast as `tx` takes them; the client's ack may confirm fewer
+//! (ackseq < blksize), and the next block then starts at the segment after
+//! ackseq. Each byte enters the CRC the first time it is sent, so resent
+//! segments cost no CRC work and no buffer is needed.
+
+use super::{Mux, SdoServer, SdoTx, State};
+use crate::abort::AbortCode;
+use crate::od::ObjectAccess;
+use crate::time::Instant;
+use crate::wire::sdo::{SdoRequest, SdoResponse};
+use crate::wire::sdo_block::{
+    BlockDownloadRequest, BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA,
+    crc16_update,
+};
+
+/// A block download in progress.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Download {
+    pub(super) mux: Mux,
+    /// The client asked for a CRC (the server always supports one).
+    crc_on: bool,
+    /// Size the client indicated.
+    size: Option<usize>,
+    /// Segments in the current block.
+    blksize: u8,
+    /// Last segment of the current block received in order (0 = none yet).
+    ackseq: u8,
+    /// A segment of the current block went missing: ignore the rest of it.
+    gap: bool,
+    /// Bytes of the segments accepted so far, 7 per segment.
+    total: usize,
+    /// CRC of every accepted segment but the last (whose unused tail is
+    /// known only from the end request).
+    crc: u16,
+    /// The segment with c = 1 has been accepted: the end request is next.
+    complete: bool,
+}
+
+impl Download {
+    /// Whether the client's frames are sub-block segments now.
+    pub(super) fn in_sub_block(&self) -> bool {
+        !self.complete
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum UploadPhase {
+    /// Initiate response sent; waiting for the client's start command.
+    Initiated,
+    /// Sending the segments of a block, or waiting for its ack.
+    Sending,
+    /// End request sent; waiting for the client's end response.
+    End,
+}
+
+/// A block upload in progress.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Upload {
+    pub(super) mux: Mux,
+    /// The client asked for a CRC.
+    crc_on: bool,
+    /// Size announced in the initiate response.
+    size: usize,
+    /// Segments per block, as the client last asked.
+    blksize: u8,
+    phase: UploadPhase,
+    /// Offset in the value of segment 1 of the current block.
+    block_start: usize,
+    /// Segments of the current block sent so far.
+    sent: u8,
+    /// CRC of bytes `0..crc_len` of the value.
+    crc: u16,
+    crc_len: usize,
+}
+
+impl Upload {
+    /// Segments in the current block: blksize, or fewer at the end of the value.
+    fn block_len(&self) -> u8 {
+        let left = segments(self.size).saturating_sub(self.block_start / SEGMENT_DATA);
+        u8::try_from(left.min(usize::from(self.blksize))).unwrap_or(self.blksize)
+    }
+}
+
+/// Segments that carry `size` bytes. An empty value still takes one
+/// segment (c = 1, and n = 7 in the end request).
+fn segments(size: usize) -> usize {
+    size.div_ceil(SEGMENT_DATA).max(1)
+}
+
+fn valid_blksize(blksize: u8) -> bool {
+    (1..=MAX_BLKSIZE).contains(&blksize)
+}
+
+impl<const N: usize> SdoServer<N> {
+    /// The blksize to offer when `total` bytes are already collected: the
+    /// segments the buffer still has room for, 1..=127.
+    fn download_blksize(total: usize) -> u8 {
+        let room = N.saturating_sub(total).div_ceil(SEGMENT_DATA);
+        u8::try_from(room.clamp(1, usize::from(MAX_BLKSIZE))).unwrap_or(MAX_BLKSIZE)
+    }
+
+    /// Initiate block download.
+    pub(super) fn start_block_download(&mut self, mux: Mux, crc: bool, size: Option<u32>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
+        if let Err(code) = od.download_check(mux.index, mux.sub, size) {
+            return self.fail(mux, code, tx);
+        }
+        if size.is_some_and(|s| s > N) {
+            return self.fail(mux, AbortCode::OutOfMemory, tx);
+        }
+        let blksize = Self::download_blksize(0);
+        self.state =
+            State::BlockDownload(Download { mux, crc_on: crc, size, blksize, ackseq: 0, gap: false, total: 0, crc: 0, complete: false });
+        let response = BlockDownloadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, blksize };
+        self.send(SdoResponse::BlockDownload(response), tx);
+    }
+
+    /// One frame of a download sub-block.
+    pub(super) fn block_download_segment(&mut self, mut d: Download, segment: BlockSegment, tx: &mut dyn SdoTx) {
+        if segment.seqno == 0 && segment.last {
+            // 0x80 is an abort from the client (ccs = 4): seqno 0 is never a segment.
+            return self.reset();
+        }
+        if segment.seqno == 0 || segment.seqno > d.blksize {
+            return self.fail(d.mux, AbortCode::InvalidSequence, tx);
+        }
+        if !d.gap && segment.seqno == d.ackseq.saturating_add(1) {
+            let start = d.total;
+            let end = start.saturating_add(SEGMENT_DATA);
+            if !segment.last {
+                // Every byte of a segment but the last is data.
+                if d.size.is_some_and(|size| end > size) {
+                    return self.fail(d.mux, AbortCode::LengthTooHigh, tx);
+                }
+                if end > N {
+                    return self.fail(d.mux, AbortCode::OutOfMemory, tx);
+                }
+                if d.crc_on {
+                    d.crc = crc16_update(d.crc, &segment.data);
+                }
+            }
+            // The unused tail of the last segment need not fit: the end request says how much is data.
+            let fit = N.saturating_sub(start).min(SEGMENT_DATA);
+            if let (Some(dst), Some(src)) = (self.buf.get_mut(start..start.saturating_add(fit)), segment.data.get(..fit)) {
+                dst.copy_from_slice(src);
+            }
+            d.total = end;
+            d.ackseq = segment.seqno;
+            d.complete = segment.last;
+        } else if segment.seqno > d.ackseq {
+            // A segment went missing: the client sends again from ackseq + 1.
+            d.gap = true;
+        }
+        // Otherwise a repeat of a segment already accepted: ignored.
+        if segment.seqno == d.blksize || segment.last {
+            let blksize = Self::download_blksize(d.total);
+            self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq: d.ackseq, blksize }), tx);
+            d.blksize = blksize;
+            d.ackseq = 0;
+            d.gap = false;
+        }
+        self.state = State::BlockDownload(d);
+    }
+
+    /// A request after the last segment of a block download: the end request.
+    pub(super) fn block_download_end(&mut self, d: Download, request: SdoRequest, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let SdoRequest::BlockDownload(BlockDownloadRequest::End { unused, crc }) = request else {
+            return self.fail(d.mux, AbortCode::InvalidCommand, tx);
+        };
+        let len = d.total.saturating_sub(usize::from(unused));
+        if len > N {
+            return self.fail(d.mux, AbortCode::OutOfMemory, tx);
+        }
+        if d.crc_on {
+            let last = self.buf.get(d.total.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
+            if crc16_update(d.crc, last) != crc {
+                return self.fail(d.mux, AbortCode::CrcError, tx);
+            }
+        }
+        match d.size {
+            Some(size) if len > size => return self.fail(d.mux, AbortCode::LengthTooHigh, tx),
+            Some(size) if len < size => return self.fail(d.mux, AbortCode::LengthTooLow, tx),
+            _ => {}
+        }
+        if let Err(code) = od.write(d.mux.index, d.mux.sub, self.buf.get(..len).unwrap_or(&[])) {
+            return self.fail(d.mux, code, tx);
+        }
+        self.state = State::Idle;
+        self.send(SdoResponse::BlockDownload(BlockDownloadResponse::End), tx);
+    }
+
+    /// Initiate block upload; switches to an expedited or segmented upload
+    /// when the value has at most `pst` bytes.
+    pub(super) fn start_block_upload(&mut self, mux: Mux, crc: bool, blksize: u8, pst: u8, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        if !valid_blksize(blksize) {
+            return self.fail(mux, AbortCode::InvalidBlockSize, tx);
+        }
+        let size = match od.upload_size(mux.index, mux.sub) {
+            Ok(size) => size,
+            Err(code) => return self.fail(mux, code, tx),
+        };
+        if pst != 0 && size <= usize::from(pst) {
+            return self.upload_response(mux, size, od, tx);
+        }
+        self.state = State::BlockUpload(Upload {
+            mux,
+            crc_on: crc,
+            size,
+            blksize,
+            phase: UploadPhase::Initiated,
+            block_start: 0,
+            sent: 0,
+            crc: 0,
+            crc_len: 0,
+        });
+        let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
+        self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
+    }
+
+    /// A request while a block upload is in progress.
+    pub(super) fn block_upload(&mut self, mut u: Upload, request: SdoRequest, tx: &mut dyn SdoTx) {
+        let SdoRequest::BlockUpload(request) = request else {
+            return self.fail(u.mux, AbortCode::InvalidCommand, tx);
+        };
+        match (u.phase, request) {
+            (UploadPhase::Initiated, BlockUploadRequest::Start) => {
+                // The segments go out from poll().
+                u.phase = UploadPhase::Sending;
+                self.state = State::BlockUpload(u);
+            }
+            (UploadPhase::Sending, BlockUploadRequest::Ack { ackseq, blksize }) => {
+                if ackseq > u.sent {
+                    return self.fail(u.mux, AbortCode::InvalidSequence, tx);
+                }
+                if !valid_blksize(blksize) {
+                    return self.fail(u.mux, AbortCode::InvalidBlockSize, tx);
+                }
+                let acked_end = u.block_start.saturating_add(usize::from(ackseq).saturating_mul(SEGMENT_DATA));
+                if ackseq > 0 && acked_end >= u.size {
+                    // The segment with c = 1 is confirmed: its unused tail is n.
+                    u.phase = UploadPhase::End;
+                    self.state = State::BlockUpload(u);
+                    let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
+                    let crc = if u.crc_on { u.crc } else { 0 };
+                    self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc }), tx);
+                } else {
+                    // Next block, or the same one again from the segment after ackseq.
+                    u.block_start = acked_end;
+                    u.sent = 0;
+                    u.blksize = blksize;
+                    self.state = State::BlockUpload(u);
+                }
+            }
+            (UploadPhase::End, BlockUploadRequest::End) => self.state = State::Idle,
+            _ => self.fail(u.mux, AbortCode::InvalidCommand, tx),
+        }
+    }
+
+    /// Sends the unsent segments of the current upload block while `tx` takes them.
+    pub(super) fn send_block_segments(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let State::BlockUpload(mut u) = self.state else { return };
+        if u.phase != UploadPhase::Sending {
+            return;
+        }
+        let block_len = u.block_len();
+        while u.sent < block_len {
+            let offset = u.block_start.saturating_add(usize::from(u.sent).saturating_mul(SEGMENT_DATA));
+            let len = u.size.saturating_sub(offset).min(SEGMENT_DATA);
+            let mut data = [0u8; SEGMENT_DATA];
+            if let Some(buf) = data.get_mut(..len)
+                && let Err(code) = od.read(u.mux.index, u.mux.sub, offset, buf)
+            {
+                return self.fail(u.mux, code, tx);
+            }
+            let seqno = u.sent.saturating_add(1);
+            let last = offset.saturating_add(SEGMENT_DATA) >= u.size;
+            if !tx.send(BlockSegment { seqno, last, data }.emit()) {
+                break;
+            }
+            // Each byte enters the CRC the first time it is sent.
+            if u.crc_on && offset == u.crc_len {
+                u.crc = crc16_update(u.crc, data.get(..len).unwrap_or(&[]));
+                u.crc_len = offset.saturating_add(len);
+            }
+            u.sent = seqno;
+            self.restart_timer(now);
+        }
+        self.state = State::BlockUpload(u);
+    }
+
+    /// Whether block upload segments wait for room in `tx`.
+    pub(super) fn segments_waiting(&self) -> bool {
+        matches!(self.state, State::BlockUpload(u) if u.phase == UploadPhase::Sending && u.sent < u.block_len())
+    }
+}

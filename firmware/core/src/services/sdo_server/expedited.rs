@@ -1,0 +1,79 @@
+//! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
+//! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
+
+use super::{Mux, SdoServer, SdoTx, State, segmented};
+use crate::abort::AbortCode;
+use crate::od::ObjectAccess;
+use crate::wire::sdo::{InitiateData, SdoResponse};
+
+/// Largest value an expedited transfer carries.
+const EXPEDITED_MAX: usize = 4;
+
+impl<const N: usize> SdoServer<N> {
+    /// Initiate SDO download: writes an expedited value at once, or opens a
+    /// segmented download.
+    pub(super) fn initiate_download(&mut self, mux: Mux, data: InitiateData, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let (data, size) = match data {
+            InitiateData::Expedited { data, size } => (data, size),
+            InitiateData::Segmented { size } => return self.start_segmented_download(mux, size, od, tx),
+        };
+        let len = match size {
+            Some(k) => usize::from(k),
+            None => match unsized_expedited_len(od, mux) {
+                Ok(k) => k,
+                Err(code) => return self.fail(mux, code, tx),
+            },
+        };
+        match od.write(mux.index, mux.sub, data.get(..len).unwrap_or(&data)) {
+            Ok(()) => self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx),
+            Err(code) => self.fail(mux, code, tx),
+        }
+    }
+
+    /// Initiate SDO upload.
+    pub(super) fn initiate_upload(&mut self, mux: Mux, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        match od.upload_size(mux.index, mux.sub) {
+            Ok(size) => self.upload_response(mux, size, od, tx),
+            Err(code) => self.fail(mux, code, tx),
+        }
+    }
+
+    /// The initiate upload response for a value of `size` bytes: expedited
+    /// for 1 to 4 bytes, else the start of a segmented upload (also an empty
+    /// value, which an expedited response cannot express). A block upload
+    /// that switches protocol (pst) answers with this too.
+    pub(super) fn upload_response(&mut self, mux: Mux, size: usize, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let (index, sub) = (mux.index, mux.sub);
+        if (1..=EXPEDITED_MAX).contains(&size) {
+            let mut data = [0u8; EXPEDITED_MAX];
+            if let Some(buf) = data.get_mut(..size)
+                && let Err(code) = od.read(index, sub, 0, buf)
+            {
+                return self.fail(mux, code, tx);
+            }
+            let size = Some(u8::try_from(size).unwrap_or(4));
+            self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Expedited { data, size } }, tx);
+        } else {
+            self.state = State::SegmentedUpload(segmented::Upload::new(mux, size));
+            let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
+            self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
+        }
+    }
+}
+
+/// The length of an expedited download without size indicated (e = 1,
+/// s = 0: "unspecified number of bytes", CiA 301 §7.2.4.3.3). Many clients
+/// send 4 bytes whatever the type; the value is as long as the entry is, so
+/// take the largest of 4, 3, 2, 1 bytes that `download_check` accepts, as
+/// CANopenNode does with the entry length. Four lookups at most, no side effects.
+fn unsized_expedited_len(od: &mut dyn ObjectAccess, mux: Mux) -> Result<usize, AbortCode> {
+    od.download_check(mux.index, mux.sub, None)?;
+    for len in (1..=EXPEDITED_MAX).rev() {
+        match od.download_check(mux.index, mux.sub, Some(len)) {
+            Ok(()) => return Ok(len),
+            Err(AbortCode::LengthTooHigh) => continue,
+            Err(code) => return Err(code),
+        }
+    }
+    Err(AbortCode::LengthTooHigh)
+}

@@ -1,0 +1,432 @@
+//! SYNC consumer and producer. CiA 301 v4.2 §7.2.5; objects 0x1005 COB-ID
+//! SYNC, 0x1006 communication cycle period, 0x1007 synchronous window
+//! length, 0x1019 synchronous counter overflow value (§7.5.2.5–7, §7.5.2.22).
+//!
+//! Every node consumes the SYNC on the CAN-ID of 0x1005 bits 0..10; with
+//! bit 30 set it also produces it every 0x1006 µs (0 = not produced). With
+//! 0x1019 > 0 a SYNC carries a counter that runs 1..=0x1019 and starts over
+//! at 1; a received SYNC must then have exactly one data byte, or it is not
+//! a SYNC and the node raises EMCY 0x8240. With 0x1019 = 0 the data of a
+//! received SYNC is ignored.
+//!
+//! Each SYNC opens the synchronous window (0x1007 µs, 0 = no window):
+//! synchronous PDOs are neither sent nor accepted once it has closed, until
+//! the next SYNC (see [`SyncEvent::window_end`]).
+//!
+//! SDO downloads (CiA 301 and CiA 310 cases 6.5, 6.9):
+//! - 0x1005: bits 11..29 set (no 29-bit identifiers) or a restricted CAN-ID
+//!   → 0x06090030; the CAN-ID may not change while the node produces the
+//!   SYNC and keeps producing it → 0x06090030.
+//! - 0x1019: 1 or 241..=255 → 0x06090030; any write while 0x1006 ≠ 0 →
+//!   0x08000022 (the counter may only change while no SYNC is produced).
+
+use crate::abort::AbortCode;
+use crate::od::Dictionary;
+use crate::services::pdo::is_restricted_can_id;
+use crate::services::pdo::map::{le_u32, object, sub_entry, value_u32};
+use crate::time::{Duration, Instant};
+use crate::wire::emcy::code;
+use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
+
+/// 0x1005 COB-ID SYNC message.
+const COB_ID_SYNC: u16 = 0x1005;
+/// 0x1006 communication cycle period (µs).
+const CYCLE_PERIOD: u16 = 0x1006;
+/// 0x1007 synchronous window length (µs).
+const WINDOW_LENGTH: u16 = 0x1007;
+/// 0x1019 synchronous counter overflow value.
+const COUNTER_OVERFLOW: u16 = 0x1019;
+
+/// A SYNC, received or produced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncEvent {
+    /// When it was received or became due.
+    pub at: Instant,
+    /// The SYNC counter, when 0x1019 > 0.
+    pub counter: Option<u8>,
+    /// When the synchronous window closes (`None`: 0x1007 = 0, no window).
+    pub window_end: Option<Instant>,
+}
+
+impl SyncEvent {
+    /// The SYNC message (what a producer sends).
+    pub fn message(&self) -> SyncMessage {
+        SyncMessage { counter: self.counter }
+    }
+
+    /// Whether synchronous PDOs may still be sent or accepted at `now`.
+    pub fn window_open(&self, now: Instant) -> bool {
+        self.window_end.is_none_or(|end| now <= end)
+    }
+}
+
+/// A received SYNC whose data length does not fit 0x1019 (EMCY 0x8240).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncLengthError {
+    /// The data length received.
+    pub len: usize,
+}
+
+impl SyncLengthError {
+    /// The EMCY error code the node raises: 0x8240 unexpected SYNC data length.
+    pub const fn emcy_code(&self) -> u16 {
+        code::SYNC_LENGTH
+    }
+}
+
+/// The SYNC consumer, and producer when 0x1005 bit 30 is set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyncService {
+    cob_id: u16,
+    producer: bool,
+    period: Duration,
+    window: Duration,
+    overflow: u8,
+    /// The counter of the last SYNC produced (0: none yet).
+    counter: u8,
+    /// When the next SYNC is due; `None` while the producer is not yet armed.
+    next: Option<Instant>,
+}
+
+impl Default for SyncService {
+    fn default() -> Self {
+        SyncService {
+            cob_id: SYNC_COB_ID,
+            producer: false,
+            period: Duration::ZERO,
+            window: Duration::ZERO,
+            overflow: 0,
+            counter: 0,
+            next: None,
+        }
+    }
+}
+
+/// 0x1019 as used: 1 is not a valid overflow value and counts as 2, above
+/// 240 as 240 (a stored value can be invalid; downloads are checked).
+const fn clamp_overflow(value: u8) -> u8 {
+    match value {
+        1 => 2,
+        241.. => 240,
+        v => v,
+    }
+}
+
+impl SyncService {
+    /// Reads 0x1005, 0x1006, 0x1007 and 0x1019 (after reset communication).
+    /// Objects the dictionary lacks read as the defaults: COB-ID 0x80,
+    /// consumer only, no period, no window, no counter. The producer
+    /// restarts: its first SYNC comes one period after the next poll.
+    pub fn configure(&mut self, dict: &Dictionary, image: &[u8]) {
+        let value = |index: u16| sub_entry(object(dict, index), 0).map(|e| value_u32(dict, image, e));
+        let cob = value(COB_ID_SYNC).and_then(|v| CobIdSync::from_u32(v).ok());
+        *self = SyncService {
+            cob_id: cob.map_or(SYNC_COB_ID, |c| c.can_id),
+            producer: cob.is_some_and(|c| c.producer),
+            period: Duration::from_micros(u64::from(value(CYCLE_PERIOD).unwrap_or(0))),
+            window: Duration::from_micros(u64::from(value(WINDOW_LENGTH).unwrap_or(0))),
+            overflow: clamp_overflow(value(COUNTER_OVERFLOW).unwrap_or(0) as u8),
+            counter: 0,
+            next: None,
+        };
+    }
+
+    /// The CAN-ID of the SYNC, consumed and, when producing, sent.
+    pub fn cob_id(&self) -> u16 {
+        self.cob_id
+    }
+
+    /// Whether this node produces the SYNC (0x1005 bit 30 and 0x1006 ≠ 0).
+    pub fn is_producing(&self) -> bool {
+        self.producer && self.period != Duration::ZERO
+    }
+
+    /// The synchronous counter overflow value in use (0: no counter).
+    pub fn counter_overflow(&self) -> u8 {
+        self.overflow
+    }
+
+    fn event(&self, at: Instant, counter: Option<u8>) -> SyncEvent {
+        SyncEvent { at, counter, window_end: (self.window != Duration::ZERO).then(|| at + self.window) }
+    }
+
+    /// A frame on the SYNC COB-ID.
+    pub fn on_frame(&mut self, now: Instant, data: &[u8]) -> Result<SyncEvent, SyncLengthError> {
+        if self.overflow == 0 {
+            return Ok(self.event(now, None));
+        }
+        match SyncMessage::parse(data) {
+            Ok(SyncMessage { counter: Some(counter) }) => Ok(self.event(now, Some(counter))),
+            _ => Err(SyncLengthError { len: data.len() }),
+        }
+    }
+
+    /// The producer: `Some` when a SYNC is due at `now`; the node sends
+    /// [`SyncEvent::message`] on [`SyncService::cob_id`] and hands the event
+    /// to the PDOs. Late polls keep the period's grid.
+    pub fn poll(&mut self, now: Instant) -> Option<SyncEvent> {
+        if !self.is_producing() {
+            return None;
+        }
+        match self.next {
+            None => {
+                self.next = Some(now + self.period);
+                None
+            }
+            Some(due) if now >= due => {
+                let mut next = due + self.period;
+                if next <= now {
+                    next = now + self.period;
+                }
+                self.next = Some(next);
+                let counter = (self.overflow != 0).then(|| {
+                    self.counter = if self.counter >= self.overflow { 1 } else { self.counter + 1 };
+                    self.counter
+                });
+                Some(self.event(now, counter))
+            }
+            Some(_) => None,
+        }
+    }
+
+    /// When the next SYNC is due (`Instant::ZERO`: poll at once to start the producer).
+    pub fn deadline(&self) -> Option<Instant> {
+        self.is_producing().then(|| self.next.unwrap_or(Instant::ZERO))
+    }
+
+    /// An SDO download of (index, sub): `None` unless it is 0x1005, 0x1006,
+    /// 0x1007 or 0x1019; else the outcome, with the image and the service
+    /// updated on success.
+    pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
+        if !matches!(index, COB_ID_SYNC | CYCLE_PERIOD | WINDOW_LENGTH | COUNTER_OVERFLOW) {
+            return None;
+        }
+        Some(self.write(index, sub, data, dict, image))
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
+        let entry = dict.find(index, sub)?;
+        if !entry.writable() {
+            return Err(AbortCode::ReadOnly);
+        }
+        if data.len() != usize::from(entry.len) {
+            return Err(if data.len() > usize::from(entry.len) { AbortCode::LengthTooHigh } else { AbortCode::LengthTooLow });
+        }
+        let value = le_u32(data);
+        match index {
+            COB_ID_SYNC => {
+                let new = CobIdSync::from_u32(value).map_err(|_| AbortCode::InvalidValue)?;
+                if is_restricted_can_id(new.can_id) || (self.producer && new.producer && new.can_id != self.cob_id) {
+                    return Err(AbortCode::InvalidValue);
+                }
+                dict.write(image, index, sub, data)?;
+                self.cob_id = new.can_id;
+                self.producer = new.producer;
+                self.restart_producer();
+            }
+            CYCLE_PERIOD => {
+                dict.write(image, index, sub, data)?;
+                self.period = Duration::from_micros(u64::from(value));
+                self.next = None;
+            }
+            WINDOW_LENGTH => {
+                dict.write(image, index, sub, data)?;
+                self.window = Duration::from_micros(u64::from(value));
+            }
+            _ => {
+                if value == 1 || value > 240 {
+                    return Err(AbortCode::InvalidValue);
+                }
+                if self.period != Duration::ZERO {
+                    return Err(AbortCode::DeviceState);
+                }
+                dict.write(image, index, sub, data)?;
+                self.overflow = value as u8;
+                self.restart_producer();
+            }
+        }
+        Ok(())
+    }
+
+    /// The counter starts over at 1 and the first SYNC comes one period after the next poll.
+    fn restart_producer(&mut self) {
+        self.counter = 0;
+        self.next = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::od::{Attr, DataType, DeviceInfo, Entry, NO_LIMITS};
+
+    const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
+    static ENTRIES: [Entry; 4] = [
+        Entry::new(0x1005, 0, DataType::Unsigned32, RW, 4, 0, NO_LIMITS),
+        Entry::new(0x1006, 0, DataType::Unsigned32, RW, 4, 4, NO_LIMITS),
+        Entry::new(0x1007, 0, DataType::Unsigned32, RW, 4, 8, NO_LIMITS),
+        Entry::new(0x1019, 0, DataType::Unsigned8, RW, 1, 12, NO_LIMITS),
+    ];
+    static DEFAULTS: [u8; 13] = [0x80, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+    static DICT: Dictionary = Dictionary {
+        entries: &ENTRIES,
+        limits: &[],
+        rom: &[],
+        defaults: &DEFAULTS,
+        comm_len: 13,
+        node_id_relative: &[],
+        device: DeviceInfo {
+            baud_rates: 0,
+            lss_supported: false,
+            granularity: 8,
+            simple_boot_up_slave: true,
+            dynamic_channels: false,
+            group_messaging: false,
+        },
+    };
+    static EMPTY: Dictionary = Dictionary { entries: &[], defaults: &[], comm_len: 0, ..DICT };
+
+    fn ms(t: u64) -> Instant {
+        Instant::from_micros(t * 1000)
+    }
+
+    fn setup() -> (SyncService, [u8; 13]) {
+        let image = DEFAULTS;
+        let mut sync = SyncService::default();
+        sync.configure(&DICT, &image);
+        (sync, image)
+    }
+
+    fn sdo(sync: &mut SyncService, image: &mut [u8; 13], index: u16, data: &[u8]) -> Result<(), AbortCode> {
+        sync.write_object(index, 0, data, &DICT, image).expect("a SYNC object")
+    }
+
+    // ---- Consumer ------------------------------------------------------------
+
+    #[test]
+    fn consumer_without_counter_accepts_any_data() {
+        let (mut sync, _) = setup();
+        assert_eq!((sync.cob_id(), sync.is_producing(), sync.deadline()), (0x80, false, None));
+        let e = sync.on_frame(ms(5), &[]).unwrap();
+        assert_eq!(e, SyncEvent { at: ms(5), counter: None, window_end: None });
+        assert_eq!(sync.on_frame(ms(6), &[7]).map(|e| e.counter), Ok(None), "0x1019 = 0: data ignored");
+        assert_eq!(sync.poll(ms(100)), None, "a consumer produces nothing");
+    }
+
+    #[test]
+    fn consumer_with_counter_needs_exactly_one_byte() {
+        // CiA 310 case 6.7: with 0x1019 > 0 the SYNC carries the counter.
+        let (mut sync, mut image) = setup();
+        assert_eq!(sdo(&mut sync, &mut image, 0x1019, &[10]), Ok(()));
+        assert_eq!(sync.on_frame(ms(1), &[3]).map(|e| e.counter), Ok(Some(3)));
+        for data in [&[][..], &[1, 2][..], &[0; 8][..]] {
+            let err = sync.on_frame(ms(2), data).unwrap_err();
+            assert_eq!((err.len, err.emcy_code()), (data.len(), 0x8240));
+        }
+    }
+
+    #[test]
+    fn the_window_opens_with_each_sync() {
+        let (mut sync, mut image) = setup();
+        assert_eq!(sdo(&mut sync, &mut image, 0x1007, &2_500u32.to_le_bytes()), Ok(()));
+        let e = sync.on_frame(ms(10), &[]).unwrap();
+        assert_eq!(e.window_end, Some(Instant::from_micros(12_500)));
+        assert!(e.window_open(Instant::from_micros(12_500)));
+        assert!(!e.window_open(Instant::from_micros(12_501)));
+    }
+
+    // ---- Producer ------------------------------------------------------------
+
+    #[test]
+    fn producer_keeps_its_period_and_wraps_the_counter() {
+        let (mut sync, mut image) = setup();
+        assert_eq!(sdo(&mut sync, &mut image, 0x1019, &[3]), Ok(()));
+        assert_eq!(sdo(&mut sync, &mut image, 0x1006, &10_000u32.to_le_bytes()), Ok(()));
+        assert_eq!(sdo(&mut sync, &mut image, 0x1005, &0x4000_0080u32.to_le_bytes()), Ok(()));
+        assert!(sync.is_producing());
+        assert_eq!(sync.deadline(), Some(Instant::ZERO), "poll at once to arm");
+        assert_eq!(sync.poll(ms(0)), None);
+        assert_eq!(sync.deadline(), Some(ms(10)));
+        assert_eq!(sync.poll(ms(9)), None);
+        let mut got = [0u8; 5];
+        for (i, c) in got.iter_mut().enumerate() {
+            let t = ms(10 * (i as u64 + 1));
+            let e = sync.poll(t).expect("due");
+            assert_eq!(e.at, t);
+            *c = e.counter.unwrap();
+        }
+        assert_eq!(got, [1, 2, 3, 1, 2]);
+        // A late poll sends once and keeps the grid.
+        let e = sync.poll(ms(67)).unwrap();
+        assert_eq!((e.counter, sync.deadline()), (Some(3), Some(ms(70))));
+        let mut buf = [0u8; 1];
+        assert_eq!(e.message().emit(&mut buf), &[3]);
+    }
+
+    #[test]
+    fn producer_without_counter_sends_empty_syncs() {
+        let (mut sync, mut image) = setup();
+        assert_eq!(sdo(&mut sync, &mut image, 0x1006, &1_000u32.to_le_bytes()), Ok(()));
+        assert_eq!(sdo(&mut sync, &mut image, 0x1005, &0x4000_0080u32.to_le_bytes()), Ok(()));
+        assert_eq!(sync.poll(ms(0)), None);
+        let e = sync.poll(ms(1)).unwrap();
+        assert_eq!(e.counter, None);
+        // CiA 310 case 6.4: 0x1006 = 0 stops the producer.
+        assert_eq!(sdo(&mut sync, &mut image, 0x1006, &[0; 4]), Ok(()));
+        assert_eq!((sync.poll(ms(5)), sync.deadline()), (None, None));
+    }
+
+    #[test]
+    fn configure_reads_the_image_and_restarts() {
+        let mut image = DEFAULTS;
+        image[..4].copy_from_slice(&0x4000_0081u32.to_le_bytes());
+        image[4..8].copy_from_slice(&500u32.to_le_bytes());
+        image[12] = 1; // invalid in a stored image: used as 2
+        let mut sync = SyncService::default();
+        sync.configure(&DICT, &image);
+        assert_eq!((sync.cob_id(), sync.is_producing(), sync.counter_overflow()), (0x81, true, 2));
+        let mut none = SyncService::default();
+        none.configure(&EMPTY, &[]);
+        assert_eq!(none, SyncService::default());
+    }
+
+    // ---- SDO downloads -------------------------------------------------------
+
+    #[test]
+    fn counter_overflow_downloads() {
+        let (mut sync, mut image) = setup();
+        // CiA 310 case 6.5: reserved values.
+        for v in [1u8, 241, 255] {
+            assert_eq!(sdo(&mut sync, &mut image, 0x1019, &[v]), Err(AbortCode::InvalidValue), "{v}");
+        }
+        assert_eq!(sdo(&mut sync, &mut image, 0x1019, &[240]), Ok(()));
+        // CiA 310 case 6.6: 0 turns the counter off.
+        assert_eq!(sdo(&mut sync, &mut image, 0x1019, &[0]), Ok(()));
+        // CiA 310 case 6.9: not while a period is set.
+        assert_eq!(sdo(&mut sync, &mut image, 0x1006, &1_000u32.to_le_bytes()), Ok(()));
+        assert_eq!(sdo(&mut sync, &mut image, 0x1019, &[2]), Err(AbortCode::DeviceState));
+        assert_eq!(DICT.read(&image, 0x1019, 0), Ok(&[0u8][..]));
+        assert_eq!(sdo(&mut sync, &mut image, 0x1019, &[2, 0]), Err(AbortCode::LengthTooHigh));
+    }
+
+    #[test]
+    fn cob_id_downloads() {
+        let (mut sync, mut image) = setup();
+        let w = |sync: &mut SyncService, image: &mut [u8; 13], v: u32| sdo(sync, image, 0x1005, &v.to_le_bytes());
+        assert_eq!(w(&mut sync, &mut image, 0x2000_0080), Err(AbortCode::InvalidValue), "29-bit");
+        assert_eq!(w(&mut sync, &mut image, 0x0000_1080), Err(AbortCode::InvalidValue), "bits 11..28");
+        assert_eq!(w(&mut sync, &mut image, 0x0000_0701), Err(AbortCode::InvalidValue), "restricted");
+        assert_eq!(w(&mut sync, &mut image, 0x0000_0090), Ok(()));
+        assert_eq!(sync.cob_id(), 0x90);
+        assert_eq!(w(&mut sync, &mut image, 0x4000_0090), Ok(()));
+        // While producing, the CAN-ID is fixed.
+        assert_eq!(w(&mut sync, &mut image, 0x4000_0091), Err(AbortCode::InvalidValue));
+        assert_eq!(w(&mut sync, &mut image, 0x0000_0091), Ok(()), "stop producing and move at once");
+        assert_eq!(DICT.read(&image, 0x1005, 0), Ok(&0x91u32.to_le_bytes()[..]));
+        assert_eq!(w(&mut sync, &mut image, 0x8000_0092), Ok(()), "bit 31 is do-not-care");
+        assert_eq!(sync.cob_id(), 0x92);
+        assert_eq!(sdo(&mut sync, &mut image, 0x1005, &[0x80]), Err(AbortCode::LengthTooLow));
+        assert_eq!(sync.write_object(0x1008, 0, &[], &DICT, &mut image), None);
+        assert_eq!(sync.write_object(0x1005, 1, &[0; 4], &DICT, &mut image), Some(Err(AbortCode::NoSubIndex)));
+    }
+}
