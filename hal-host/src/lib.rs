@@ -15,6 +15,7 @@
 pub mod bus;
 pub mod clock;
 pub mod fault;
+pub mod fixtures;
 pub mod slcan;
 pub mod storage;
 pub mod trace;
