@@ -68,7 +68,7 @@ fn main() -> ExitCode {
             for d in &devices::ALL {
                 println!("{:<10} {}", d.name, d.description);
             }
-            println!("{:<10} {}", "interop", "test fixture, not a device: tests/eds/interop.eds (every SDO transfer size, 4+4 PDOs)");
+            println!("interop    test fixture, not a device: tests/eds/interop.eds (every SDO transfer size, 4+4 PDOs)");
             return ExitCode::SUCCESS;
         }
         Err(e) => {
