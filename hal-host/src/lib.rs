@@ -10,12 +10,16 @@
 //!   in a file, with power cuts at any erase/write step.
 //! - [`slcan`]: the Lawicel SLCAN protocol and a TCP server speaking it, so
 //!   python-can's `slcan` interface can drive a node running in real time.
+//! - [`master`]: a small CANopen master for tests (NMT, SDO client with
+//!   block transfers, PDO codec, heartbeat monitor), sans-IO like the node,
+//!   with a driver that runs SDO transfers on the virtual bus.
 #![forbid(unsafe_code)]
 
 pub mod bus;
 pub mod clock;
 pub mod fault;
 pub mod fixtures;
+pub mod master;
 pub mod slcan;
 pub mod storage;
 pub mod trace;

@@ -32,7 +32,8 @@ fn boots_up_into_pre_operational_with_the_boot_up_frame() {
 fn every_nmt_command_addressed_and_broadcast() {
     let mut b = ec5000(5);
     b.at(ms(0));
-    assert_eq!(b.rx(ms(1), 0x000, &[0x01, 0x05]), []);
+    // Entering Operational sends the event-driven TPDOs once (TPDO1 statusword/mode/velocity, TPDO3).
+    assert_eq!(b.rx(ms(1), 0x000, &[0x01, 0x05]), [(0x185, vec![0, 0, 3, 0, 0, 0, 0, 0]), (0x285, vec![0, 0, 0, 0, 0, 0])]);
     assert_eq!(b.node.state(), State::Operational);
     assert_eq!(b.rx(ms(2), 0x000, &[0x02, 0x06]), [], "other node");
     assert_eq!(b.node.state(), State::Operational);

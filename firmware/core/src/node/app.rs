@@ -44,6 +44,14 @@ pub trait Application {
         let _ = state;
     }
 
+    /// RPDO `n` (0-based) wrote its data into the dictionary.
+    fn on_rpdo(&mut self, n: usize) {
+        let _ = n;
+    }
+
+    /// A SYNC was received or produced (after the synchronous PDOs ran).
+    fn on_sync(&mut self) {}
+
     /// A TIME frame arrived (0x1012).
     fn on_time(&mut self, time: TimeOfDay) {
         let _ = time;

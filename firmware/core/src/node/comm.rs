@@ -5,7 +5,8 @@ use crate::abort::AbortCode;
 use crate::od::Dictionary;
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
-use crate::services::nmt::State;
+use crate::services::pdo::Pdos;
+use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::Emcy;
 
@@ -38,6 +39,12 @@ pub struct Comm<const R: usize, const T: usize, const HB: usize> {
     pub sdo_cob_ids: Option<(u16, u16)>,
     /// TIME consumer COB-ID, if 0x1012 bit 31 (consume) is set.
     pub time_cob_id: Option<u16>,
+    /// SYNC consumer and producer (0x1005–0x1007, 0x1019).
+    pub sync: SyncService,
+    /// RPDOs and TPDOs (0x1400–0x1BFF).
+    pub pdos: Pdos<R, T>,
+    /// PDO mappings that did not resolve at the last reset communication.
+    pub mapping_errors: u32,
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB> {
@@ -49,6 +56,9 @@ impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB>
             emcy: EmcyProducer::default(),
             sdo_cob_ids: None,
             time_cob_id: None,
+            sync: SyncService::default(),
+            pdos: Pdos::default(),
+            mapping_errors: 0,
         }
     }
 }
@@ -68,6 +78,11 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         self.guarding.reset();
         for index in [0x1017, 0x100C, 0x1012, 0x1200] {
             self.reconfigure(index, dict, image, node_id, now);
+        }
+        self.sync.configure(dict, image);
+        if self.pdos.configure(dict, image).is_err() {
+            // That PDO stays disabled; the count is visible to tools and tests.
+            self.mapping_errors = self.mapping_errors.saturating_add(1);
         }
         for i in 0..HB {
             let value = read_u32(dict, image, 0x1016, (i + 1) as u8).unwrap_or(0);
@@ -151,17 +166,21 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
     }
 
-    /// A PDO communication or mapping parameter written by an SDO.
-    pub fn write_pdo(
-        &mut self,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        dict: &Dictionary,
-        image: &mut [u8],
-        state: State,
-    ) -> Result<(), AbortCode> {
-        let _ = state;
-        dict.write(image, index, sub, data).map_err(Into::into)
+    /// A PDO communication or mapping parameter written by an SDO: the PDO
+    /// service applies CiA 301's rules (a COB-ID changes only while invalid,
+    /// mapping only through sub 0 = 0, ...).
+    pub fn write_pdo(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
+        match self.pdos.write_object(index, sub, data, dict, image) {
+            Some(result) => result,
+            None => dict.write(image, index, sub, data).map_err(Into::into),
+        }
+    }
+
+    /// A SYNC parameter (0x1005–0x1007, 0x1019) written by an SDO.
+    pub fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
+        match self.sync.write_object(index, sub, data, dict, image) {
+            Some(result) => result,
+            None => dict.write(image, index, sub, data).map_err(Into::into),
+        }
     }
 }

@@ -18,8 +18,10 @@ use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::heartbeat::ConsumerEvent;
 use crate::services::nmt::{Nmt, State, Transition};
+use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::{SdoServer, SdoTx};
 use crate::services::store::{self, Part};
+use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
 use crate::time::Instant;
 use crate::txq::TxQueue;
@@ -75,6 +77,29 @@ struct SdoSink<'a> {
 impl SdoTx for SdoSink<'_> {
     fn send(&mut self, data: [u8; 8]) -> bool {
         self.txq.free() > SDO_RESERVE && CanFrame::standard(self.cob_id, &data).is_some_and(|f| self.txq.push(f))
+    }
+}
+
+/// Where the PDOs' frames and events go: the queue, EMCY, the application.
+struct PdoSink<'a, A: Application> {
+    txq: &'a mut TxQueue<TX_QUEUE>,
+    emcy: &'a mut crate::services::emcy::EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
+    app: &'a mut A,
+}
+
+impl<A: Application> PdoTx for PdoSink<'_, A> {
+    fn send(&mut self, cob_id: u16, data: &[u8]) -> bool {
+        CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
+    }
+
+    fn event(&mut self, event: PdoEvent) {
+        match event {
+            PdoEvent::Received(n) => self.app.on_rpdo(n),
+            PdoEvent::Error { rpdo, code } => {
+                self.emcy.raise(code, [rpdo as u8 + 1, 0, 0, 0, 0]);
+            }
+            PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(code),
+        }
     }
 }
 
@@ -237,6 +262,29 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             return;
         }
+        if state.sdo_allowed() && cob_id == self.comm.sync.cob_id() && !rtr {
+            match self.comm.sync.on_frame(now, data) {
+                Ok(event) => self.synchronise(now, &event),
+                Err(e) => {
+                    self.counters.malformed += 1;
+                    self.comm.emcy.signal(e.emcy_code(), [0; 5]);
+                }
+            }
+            return;
+        }
+        if state.pdo_allowed() {
+            let Node { od, app, comm, txq, .. } = self;
+            let dict = od.dictionary();
+            let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+            let matched = if rtr {
+                comm.pdos.on_rtr(now, cob_id, dict, od.image(), &mut sink)
+            } else {
+                comm.pdos.on_frame(now, cob_id, data, od.image_mut(), &mut sink)
+            };
+            if matched {
+                return;
+            }
+        }
         if state.sdo_allowed() {
             if let Some((rx, tx)) = self.comm.sdo_cob_ids
                 && cob_id == rx
@@ -256,10 +304,22 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.counters.ignored += 1;
     }
 
+    /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
+    fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
+        let _ = now;
+        if self.nmt.state().pdo_allowed() {
+            let Node { od, app, comm, txq, .. } = self;
+            let dict = od.dictionary();
+            let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+            comm.pdos.on_sync(event, dict, od.image_mut(), &mut sink);
+        }
+        self.app.on_sync();
+    }
+
     fn sdo_request(&mut self, now: Instant, data: &[u8], tx_cob: u16) {
-        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, .. } = self;
+        let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
         let dict = od.dictionary();
-        let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, state: nmt.state() };
+        let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now };
         let mut sink = SdoSink { txq, cob_id: tx_cob };
         sdo.on_request(now, data, &mut router, &mut sink);
     }
@@ -267,13 +327,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     fn nmt_command(&mut self, request: NmtRequest, now: Instant) {
         match self.nmt.on_command(request, self.node_id) {
             Transition::None => {}
-            Transition::Entered(state) => self.entered(state),
+            Transition::Entered(state) => self.entered(state, now),
             Transition::ResetApplication => self.reset_application(now),
             Transition::ResetCommunication => self.reset_communication(now),
         }
     }
 
-    fn entered(&mut self, state: State) {
+    fn entered(&mut self, state: State, now: Instant) {
+        if state.pdo_allowed() {
+            self.comm.pdos.enter_operational(now);
+        } else {
+            self.comm.pdos.stop();
+        }
         if !state.sdo_allowed() {
             // Stopped: a transfer in progress ends without a frame (CiA 301 table 64).
             self.sdo.reset();
@@ -286,7 +351,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// A communication error (heartbeat or life guarding): EMCY 0x8130 and 0x1029.
-    fn communication_error(&mut self, node: u8) {
+    fn communication_error(&mut self, node: u8, now: Instant) {
         self.comm.emcy.raise(code::HEARTBEAT, [node, 0, 0, 0, 0]);
         let dict = self.od.dictionary();
         let next = match Comm::<R, T, HB>::error_behaviour(dict, self.od.image()) {
@@ -297,7 +362,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if let Some(s) = next
             && let Transition::Entered(s) = self.nmt.enter(s)
         {
-            self.entered(s);
+            self.entered(s, now);
         }
     }
 
@@ -314,7 +379,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let state = self.nmt.boot_up_done(auto_start);
                 let dict = self.od.dictionary();
                 self.comm.reconfigure(0x1017, dict, self.od.image(), self.node_id, now);
-                self.app.on_state(state);
+                self.entered(state, now);
             }
         }
         if self.nmt.state() != State::Initialising && self.comm.heartbeat.poll(now) {
@@ -322,19 +387,37 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.push(id, &[self.nmt.state().reported().code()]);
         }
         while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {
-            self.communication_error(node_id);
+            self.communication_error(node_id, now);
         }
         if self.comm.guarding.poll(now) {
-            self.communication_error(0);
+            self.communication_error(0, now);
         }
         let mut sdo_deadline = None;
         if self.nmt.state().sdo_allowed()
             && let Some((_, tx)) = self.comm.sdo_cob_ids
         {
-            let Node { od, app, storage, comm, sdo, txq, node_id, nmt, .. } = self;
+            let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
             let dict = od.dictionary();
-            let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, state: nmt.state() };
+            let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now };
             sdo_deadline = sdo.poll(now, &mut router, &mut SdoSink { txq, cob_id: tx });
+        }
+        if self.nmt.state().sdo_allowed() {
+            // The SYNC producer (0x1005 bit 30): the node runs its own synchronous PDOs too.
+            if let Some(event) = self.comm.sync.poll(now) {
+                let mut buf = [0u8; 1];
+                let cob_id = self.comm.sync.cob_id();
+                let data = event.message().emit(&mut buf);
+                if CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f)) {
+                    self.synchronise(now, &event);
+                }
+            }
+        }
+        let mut pdo_deadline = None;
+        if self.nmt.state().pdo_allowed() {
+            let Node { od, app, comm, txq, .. } = self;
+            let dict = od.dictionary();
+            let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+            pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
         }
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
@@ -355,6 +438,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.comm.guarding.deadline(),
             if self.nmt.state().sdo_allowed() { self.comm.emcy.deadline() } else { None },
             sdo_deadline,
+            pdo_deadline,
+            if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
         ];
         deadlines.into_iter().flatten().min()
     }

@@ -4,7 +4,6 @@
 
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, ObjectAccess};
-use crate::services::nmt::State;
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -21,7 +20,6 @@ pub(crate) struct Router<'a, A: Application, const R: usize, const T: usize, con
     pub storage: &'a mut dyn Storage,
     pub node_id: u8,
     pub now: Instant,
-    pub state: State,
 }
 
 fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {
@@ -152,12 +150,13 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> ObjectAcce
                 }
                 self.plain().write(index, sub, data)
             }
-            0x1005..=0x1007 | 0x100C | 0x100D | 0x1012 | 0x1015 | 0x1017 | 0x1019 | 0x1200..=0x12FF => {
+            0x1005..=0x1007 | 0x1019 => self.comm.write_sync(index, sub, data, self.dict, self.image),
+            0x100C | 0x100D | 0x1012 | 0x1015 | 0x1017 | 0x1200..=0x12FF => {
                 self.plain().write(index, sub, data)?;
                 self.comm.reconfigure(index, self.dict, self.image, self.node_id, self.now);
                 Ok(())
             }
-            0x1400..=0x1BFF => self.comm.write_pdo(index, sub, data, self.dict, self.image, self.state),
+            0x1400..=0x1BFF => self.comm.write_pdo(index, sub, data, self.dict, self.image),
             _ => {
                 if index >= 0x2000
                     && let Some(r) = self.app.write(index, sub, data)

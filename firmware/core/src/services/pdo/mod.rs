@@ -269,10 +269,16 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             }
         };
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
+            // Reset communication also resets the node's errors: nothing is raised any more.
+            *rpdo = Rpdo::default();
             rpdo.set(CommParams::read(dict, image, RPDO_COMM + n), mapping(RPDO_MAP + n, Direction::Receive));
             rpdo.cob_id_writable = cob_id_writable(dict, RPDO_COMM + n);
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
+            // Change detection is the application's choice and survives.
+            let change_detection = tpdo.change_detection();
+            *tpdo = Tpdo::default();
+            tpdo.set_change_detection(change_detection);
             tpdo.set(CommParams::read(dict, image, TPDO_COMM + n), mapping(TPDO_MAP + n, Direction::Transmit));
             tpdo.cob_id_writable = cob_id_writable(dict, TPDO_COMM + n);
         }

@@ -270,7 +270,7 @@ impl Node {
 /// The frames sent since the last check, exactly, then nothing.
 macro_rules! tx {
     ($node:expr, [$(($id:expr, [$($b:expr),* $(,)?])),* $(,)?]) => {
-        assert_eq!($node.frames(), vec![$(($id, vec![$($b as u8),*])),*] as Vec<(u16, Vec<u8>)>)
+        assert_eq!($node.frames(), { let v: Vec<(u16, Vec<u8>)> = vec![$(($id, vec![$($b as u8),*])),*]; v })
     };
 }
 
@@ -281,7 +281,10 @@ fn configure_caches_the_records_and_resolves_the_mappings() {
     let node = Node::new();
     let r1 = node.pdos.rpdo(0).unwrap();
     assert_eq!((r1.cob_id(), r1.params().transmission_type, r1.mapping().map(Mapping::len)), (Some(0x201), 255, Some(3)));
-    assert_eq!(r1.mapping().unwrap().slots(), &[Slot { source: map::Source::Ram(143), len: 2 }, Slot { source: map::Source::Ram(142), len: 1 }]);
+    assert_eq!(
+        r1.mapping().unwrap().slots(),
+        &[Slot { source: map::Source::Ram(143), len: 2 }, Slot { source: map::Source::Ram(142), len: 1 }]
+    );
     // Valid, but nothing mapped: disabled.
     let r2 = node.pdos.rpdo(1).unwrap();
     assert_eq!((r2.params().valid(), r2.cob_id(), r2.mapping().map(Mapping::len)), (true, None, Some(0)));
@@ -549,8 +552,8 @@ fn sync_start_value_is_ignored_without_a_sync_counter() {
 fn rtr_only_synchronous_tpdo_sends_the_sample_of_the_last_sync() {
     // CiA 310 case 3.15.
     let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()), "TPDO1 quiet");
     node.remap_tpdo(1, &[0x2000_0008], 0x281, 252);
-    node.frames();
     node.set(0x2000, 0, &[1]);
     assert!(node.rtr(ms(1), 0x281), "no sample yet: the current data");
     tx!(node, [(0x281, [1])]);
@@ -566,8 +569,8 @@ fn rtr_only_synchronous_tpdo_sends_the_sample_of_the_last_sync() {
 #[test]
 fn rtr_only_event_driven_tpdo_sends_fresh_data_on_each_rtr() {
     let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()), "TPDO1 quiet");
     node.remap_tpdo(1, &[0x2000_0008, 0x2008_0110], 0x281, 253);
-    node.frames();
     node.set(0x2008, 1, &(-2i16).to_le_bytes());
     node.sync(sync_at(ms(1), None));
     assert_eq!(node.poll(ms(2)), None);
@@ -650,6 +653,19 @@ fn synchronous_rpdo_is_written_on_the_next_sync() {
     assert_eq!(node.events(), [PdoEvent::Received(0)]);
     node.sync(sync_at(ms(20), None));
     assert_eq!(node.events(), []);
+}
+
+#[test]
+fn configure_forgets_raised_errors_but_keeps_change_detection() {
+    let mut node = Node::operational(ms(0));
+    node.pdos.set_change_detection(0, false);
+    assert!(node.rx(ms(1), 0x201, &[1]));
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: 0x8210 }]);
+    assert_eq!(node.pdos.configure(&DICT, &node.image), Ok(()));
+    node.pdos.enter_operational(ms(2));
+    assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
+    assert_eq!(node.events(), [PdoEvent::Received(0)], "no 0x8210 to clear after reset communication");
+    assert!(!node.pdos.tpdo(0).unwrap().change_detection());
 }
 
 #[test]
@@ -769,18 +785,18 @@ fn mapping_entry_downloads_and_their_abort_codes() {
     let cases: [(u16, u32, AbortCode); 14] = [
         (0x1A00, 0x3000_0008, AbortCode::NoObject),
         (0x1A00, 0x2008_0310, AbortCode::NoSubIndex),
-        (0x1A00, 0x2003_0010, AbortCode::NotMappable),            // PDOMapping=0 (3.32)
-        (0x1600, 0x2003_0010, AbortCode::NotMappable),            // (3.29)
-        (0x1A00, 0x2001_0010, AbortCode::NotMappable),            // rww into a TPDO (3.31)
-        (0x1600, 0x2002_0020, AbortCode::NotMappable),            // ro into an RPDO (3.28)
-        (0x1600, 0x2005_0020, AbortCode::NotMappable),            // a constant into an RPDO
-        (0x1A00, 0x2007_0000, AbortCode::NotMappable),            // DOMAIN
-        (0x1A00, 0x0005_0008, AbortCode::NotMappable),            // dummy in a TPDO
-        (0x1A00, 0x2001_0008, AbortCode::NotMappable),            // direction before length
-        (0x1A00, 0x2002_0010, AbortCode::ParameterIncompatible),  // 16 of 32 bits
-        (0x1A00, 0x2000_0004, AbortCode::ParameterIncompatible),  // bit mapping
-        (0x1600, 0x0006_0008, AbortCode::ParameterIncompatible),  // dummy of the wrong size
-        (0x1A00, 0x2006_0050, AbortCode::PdoTooLong),             // 80 bits (3.26)
+        (0x1A00, 0x2003_0010, AbortCode::NotMappable),           // PDOMapping=0 (3.32)
+        (0x1600, 0x2003_0010, AbortCode::NotMappable),           // (3.29)
+        (0x1A00, 0x2001_0010, AbortCode::NotMappable),           // rww into a TPDO (3.31)
+        (0x1600, 0x2002_0020, AbortCode::NotMappable),           // ro into an RPDO (3.28)
+        (0x1600, 0x2005_0020, AbortCode::NotMappable),           // a constant into an RPDO
+        (0x1A00, 0x2007_0000, AbortCode::NotMappable),           // DOMAIN
+        (0x1A00, 0x0005_0008, AbortCode::NotMappable),           // dummy in a TPDO
+        (0x1A00, 0x2001_0008, AbortCode::NotMappable),           // direction before length
+        (0x1A00, 0x2002_0010, AbortCode::ParameterIncompatible), // 16 of 32 bits
+        (0x1A00, 0x2000_0004, AbortCode::ParameterIncompatible), // bit mapping
+        (0x1600, 0x0006_0008, AbortCode::ParameterIncompatible), // dummy of the wrong size
+        (0x1A00, 0x2006_0050, AbortCode::PdoTooLong),            // 80 bits (3.26)
     ];
     for (index, entry, code) in cases {
         assert_eq!(node.sdo32(index, 1, entry), Err(code), "{index:#06X} ← {entry:#010X}");
@@ -816,7 +832,9 @@ fn enabling_a_mapping_checks_the_stored_entries() {
 fn writing_back_current_values_is_accepted() {
     // CiA 310 case 4.9: read every rw object and write it back.
     let mut node = Node::operational(ms(0));
-    for (index, sub) in [(0x1A00, 0), (0x1A00, 1), (0x1A00, 8), (0x1800, 1), (0x1800, 2), (0x1800, 3), (0x1800, 6), (0x1600, 0), (0x1400, 1)] {
+    for (index, sub) in
+        [(0x1A00, 0), (0x1A00, 1), (0x1A00, 8), (0x1800, 1), (0x1800, 2), (0x1800, 3), (0x1800, 6), (0x1600, 0), (0x1400, 1)]
+    {
         let value = node.get(index, sub);
         assert_eq!(node.sdo(index, sub, &value), Ok(()), "{index:#06X} sub {sub}");
     }

@@ -41,8 +41,11 @@ pub struct Tpdo {
     /// The last data sent, for change detection.
     last: [u8; MAX_LEN],
     sent: bool,
-    /// An event waits to be sent.
+    /// An event (initial send, event timer, trigger, RTR) waits to be sent.
     event: bool,
+    /// A change of the mapped data waits for the inhibit time to end; it is
+    /// checked again then, so a change undone meanwhile sends nothing.
+    change_pending: bool,
     /// The transmit queue refused the last frame: no deadline until the next poll.
     blocked: bool,
     inhibit_until: Option<Instant>,
@@ -67,6 +70,7 @@ impl Default for Tpdo {
             last: [0; MAX_LEN],
             sent: false,
             event: false,
+            change_pending: false,
             blocked: false,
             inhibit_until: None,
             event_at: None,
@@ -124,6 +128,7 @@ impl Tpdo {
         let timer = self.params.event_timer();
         self.sent = false;
         self.event = self.is_event_driven();
+        self.change_pending = false;
         self.blocked = false;
         self.inhibit_until = None;
         self.event_at = now.filter(|_| timer != Duration::ZERO).map(|t| t + timer);
@@ -165,6 +170,7 @@ impl Tpdo {
             self.last = buf;
             self.sent = true;
             self.event = false;
+            self.change_pending = false;
         }
         self.blocked = !ok;
         ok
@@ -181,10 +187,9 @@ impl Tpdo {
             }
         }
         let (buf, len) = self.build(dict, image);
-        if self.change_detection && self.changed(&buf, len) {
-            self.event = true;
-        }
-        if self.event && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
+        self.change_pending = self.change_detection && self.changed(&buf, len);
+        let due = self.event || self.change_pending;
+        if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.params.inhibit_time();
             self.inhibit_until = (inhibit != Duration::ZERO).then(|| now + inhibit);
             self.event_at = (timer != Duration::ZERO).then(|| now + timer);
@@ -275,7 +280,7 @@ impl Tpdo {
         if !self.is_event_driven() {
             return None;
         }
-        if self.event {
+        if self.event || self.change_pending {
             // The event timer has nothing to add to a pending event; a
             // refused frame waits for the next poll instead of spinning.
             return (!self.blocked).then(|| self.inhibit_until.unwrap_or(Instant::ZERO));
