@@ -1,8 +1,9 @@
 //! `cargo xtask <task>`: the project's commands.
 //!
-//! - `test`: installs what is missing (the thumbv7m target) and runs every
-//!   check CI runs: rustfmt, clippy, all tests, the strict device-EDS check and
-//!   the Cortex-M builds.
+//! - `test`: installs what is missing (the thumbv7m target, a Python venv
+//!   with python-can and canopen) and runs every check CI runs: rustfmt,
+//!   clippy, all tests, the strict device-EDS check, the Cortex-M builds and
+//!   the python-canopen interop tests against `vnode`.
 //! - `demo [DEVICE]`: checks a device's EDS and prints its dictionary.
 //! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
 
@@ -67,8 +68,24 @@ fn test() -> Result<(), String> {
     // dictionaries, and every dictionary generated from the EDS corpus.
     run("cargo", &["build", "--release", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "-p", "canopen-tests", "--lib"])?;
     run("cargo", &["clippy", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "--", "-D", "warnings"])?;
+    interop()?;
     eprintln!("xtask test: all checks passed");
     Ok(())
+}
+
+/// The independent check: python-canopen from PyPI, in a venv made here,
+/// drives `vnode` over SLCAN (tests/python).
+fn interop() -> Result<(), String> {
+    let venv = root().join(".venv");
+    let python = venv.join("bin/python");
+    let python = python.to_str().ok_or("non-UTF-8 path")?;
+    let ready = Command::new(python).args(["-c", "import can, canopen"]).status().is_ok_and(|s| s.success());
+    if !ready {
+        run("python3", &["-m", "venv", ".venv"])?;
+        run(python, &["-m", "pip", "install", "--quiet", "python-can", "canopen", "pyserial"])?;
+    }
+    run("cargo", &["build", "-p", "hal-host", "--bin", "vnode"])?;
+    run(python, &["-m", "unittest", "discover", "-s", "tests/python", "-v"])
 }
 
 fn demo(device: &str) -> Result<(), String> {
