@@ -396,6 +396,9 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
         let _ = writeln!(w, "pub const {name}: usize = {v};");
     }
     let _ = writeln!(w);
+    let _ = writeln!(w, "/// A node on this dictionary, with the device's hooks `A` and storage `S`.");
+    let _ = writeln!(w, "pub type Node<A, S> = canopen_core::node::Node<Ram, A, S, RPDO_COUNT, TPDO_COUNT, HB_CONSUMER_COUNT>;");
+    let _ = writeln!(w);
 
     let mut attrs: Vec<Attr> = Vec::new();
     for e in &l.entries {

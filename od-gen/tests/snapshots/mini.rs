@@ -107,6 +107,9 @@ pub const HB_CONSUMER_COUNT: usize = 2;
 /// Entries of the pre-defined error field 0x1003.
 pub const ERROR_HISTORY_LEN: usize = 4;
 
+/// A node on this dictionary, with the device's hooks `A` and storage `S`.
+pub type Node<A, S> = canopen_core::node::Node<Ram, A, S, RPDO_COUNT, TPDO_COUNT, HB_CONSUMER_COUNT>;
+
 const RO: Attr = Attr(Attr::READ.0);
 const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
 const CONST: Attr = Attr(Attr::READ.0 | Attr::IN_ROM.0);
