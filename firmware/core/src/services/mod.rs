@@ -4,6 +4,7 @@
 
 pub mod emcy;
 pub mod heartbeat;
+pub mod lss;
 pub mod nmt;
 pub mod pdo;
 pub mod sdo_server;

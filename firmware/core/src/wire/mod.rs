@@ -3,6 +3,7 @@
 //! `Result`; every emitter writes a fixed-size array.
 
 pub mod emcy;
+pub mod lss;
 pub mod nmt;
 pub mod pdo_mapping;
 pub mod sdo;

@@ -1,0 +1,241 @@
+//! LSS slave. CiA 305 v3.0: the waiting and configuration states, switch
+//! state global/selective, configure and inquire node-id and bit timing,
+//! activate bit timing, store configuration, identify (non-configured)
+//! remote slave and fastscan.
+//!
+//! The LSS address is 0x1018 sub 1..4. Node-id 0xFF means unconfigured. The
+//! node-id configured here is *pending*; it becomes *active* when the node
+//! resets communication (or, for a node that was unconfigured, when the
+//! master switches it back to waiting). The same holds for the bit rate,
+//! which only changes with "activate bit timing".
+
+use crate::wire::lss::{AddressPart, LssRequest, answer, answer_u32};
+
+/// Node-id of an unconfigured node.
+pub const UNCONFIGURED: u8 = 0xFF;
+
+/// The LSS state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Only switch-state, identify and fastscan requests are served.
+    Waiting,
+    /// Configuration and inquiry requests are served.
+    Configuration,
+}
+
+/// What the node must do after a request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LssAction {
+    /// Nothing (no answer is due).
+    None,
+    /// Send this answer on 0x7E4.
+    Answer([u8; 8]),
+    /// Switch the bit rate to CiA 305 table index `index`: stop sending,
+    /// wait `delay_ms`, switch, wait `delay_ms` again, resume.
+    ActivateBitTiming {
+        /// The switch delay (ms) of the request.
+        delay_ms: u16,
+        /// The new bit rate (table index).
+        index: u8,
+    },
+    /// Store the pending node-id and bit-rate index; answer with the result
+    /// (`store_result`).
+    Store {
+        /// Pending node-id to store.
+        node_id: u8,
+        /// Pending bit-rate table index to store.
+        bit_rate: u8,
+    },
+    /// An unconfigured node got a node-id and left configuration: it starts
+    /// with that node-id (reset communication, boot-up).
+    Start(u8),
+}
+
+/// The LSS slave.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LssSlave {
+    mode: Mode,
+    address: [u32; 4],
+    active_node_id: u8,
+    pending_node_id: u8,
+    active_bit_rate: u8,
+    pending_bit_rate: u8,
+    supported_rates: u16,
+    /// How many address parts of "switch state selective" matched so far.
+    selective: u8,
+    /// The address part fastscan compares next.
+    fastscan_sub: u8,
+    /// The identify-remote-slave bounds received so far.
+    identify: [u32; 6],
+}
+
+impl LssSlave {
+    /// A slave with LSS address `address` (0x1018 sub 1..4), node-id
+    /// `node_id` (0xFF = unconfigured), running at bit-rate table index
+    /// `bit_rate`, able to run at the rates in `supported_rates` (bit n =
+    /// table index n, as `DeviceInfo::baud_rates`).
+    pub fn new(address: [u32; 4], node_id: u8, bit_rate: u8, supported_rates: u16) -> Self {
+        LssSlave {
+            mode: Mode::Waiting,
+            address,
+            active_node_id: node_id,
+            pending_node_id: node_id,
+            active_bit_rate: bit_rate,
+            pending_bit_rate: bit_rate,
+            supported_rates,
+            selective: 0,
+            fastscan_sub: 0,
+            identify: [0; 6],
+        }
+    }
+
+    /// The LSS state.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// The node-id in use (0xFF while unconfigured).
+    pub fn active_node_id(&self) -> u8 {
+        self.active_node_id
+    }
+
+    /// The node-id that the next reset communication takes over.
+    pub fn pending_node_id(&self) -> u8 {
+        self.pending_node_id
+    }
+
+    /// The bit-rate table index in use.
+    pub fn active_bit_rate(&self) -> u8 {
+        self.active_bit_rate
+    }
+
+    /// Reset communication: the pending node-id becomes active.
+    pub fn reset_communication(&mut self) -> u8 {
+        self.active_node_id = self.pending_node_id;
+        self.active_node_id
+    }
+
+    /// The bit rate was switched (after "activate bit timing").
+    pub fn bit_rate_switched(&mut self) {
+        self.active_bit_rate = self.pending_bit_rate;
+    }
+
+    /// The answer to "store configuration": 0 success, 2 storage error.
+    pub fn store_result(ok: bool) -> [u8; 8] {
+        answer(0x17, if ok { 0 } else { 2 }, 0)
+    }
+
+    /// Handles one request from the master.
+    pub fn on_request(&mut self, request: LssRequest) -> LssAction {
+        use LssRequest as Q;
+        if !matches!(request, Q::SwitchSelective(..)) {
+            self.selective = 0;
+        }
+        let configuring = self.mode == Mode::Configuration;
+        match request {
+            Q::SwitchGlobal(true) => {
+                self.mode = Mode::Configuration;
+                LssAction::None
+            }
+            Q::SwitchGlobal(false) => self.enter_waiting(),
+            Q::SwitchSelective(part, value) => {
+                let expected = part as u8;
+                // The four parts come in order; anything else starts over.
+                if self.selective == expected && self.address.get(usize::from(expected)) == Some(&value) {
+                    self.selective += 1;
+                    if self.selective == 4 {
+                        self.selective = 0;
+                        self.mode = Mode::Configuration;
+                        return LssAction::Answer(answer(0x44, 0, 0));
+                    }
+                } else {
+                    self.selective = u8::from(part == AddressPart::Vendor && self.address[0] == value);
+                }
+                LssAction::None
+            }
+            Q::ConfigureNodeId(id) if configuring => {
+                // CiA 305 §5.2.2.2: 1..=127 or 0xFF (back to unconfigured); error 1 otherwise.
+                if (1..=127).contains(&id) || id == UNCONFIGURED {
+                    self.pending_node_id = id;
+                    LssAction::Answer(answer(0x11, 0, 0))
+                } else {
+                    LssAction::Answer(answer(0x11, 1, 0))
+                }
+            }
+            Q::ConfigureBitTiming(table, index) if configuring => {
+                let supported = table == 0 && index < 16 && self.supported_rates & (1 << index) != 0;
+                if supported {
+                    self.pending_bit_rate = index;
+                    LssAction::Answer(answer(0x13, 0, 0))
+                } else {
+                    LssAction::Answer(answer(0x13, 1, 0))
+                }
+            }
+            Q::ActivateBitTiming(delay_ms) if configuring => LssAction::ActivateBitTiming { delay_ms, index: self.pending_bit_rate },
+            Q::StoreConfiguration if configuring => LssAction::Store { node_id: self.pending_node_id, bit_rate: self.pending_bit_rate },
+            Q::Inquire(part) if configuring => {
+                LssAction::Answer(answer_u32(0x5A + part as u8, self.address.get(part as usize).copied().unwrap_or(0)))
+            }
+            Q::InquireNodeId if configuring => LssAction::Answer(answer(0x5E, self.active_node_id, 0)),
+            Q::IdentifyRemote(k, value) => {
+                if let Some(slot) = self.identify.get_mut(usize::from(k)) {
+                    *slot = value;
+                }
+                // The serial-number high bound comes last; then the slave answers if it is in range.
+                if k == 5 && self.in_identify_range() { LssAction::Answer(answer(0x4F, 0, 0)) } else { LssAction::None }
+            }
+            Q::IdentifyNonConfigured if self.active_node_id == UNCONFIGURED => LssAction::Answer(answer(0x50, 0, 0)),
+            Q::Fastscan { id, bit_checked, sub, next } => self.fastscan(id, bit_checked, sub, next),
+            // Configuration services in the waiting state are ignored (CiA 305 §4.3).
+            _ => LssAction::None,
+        }
+    }
+
+    fn enter_waiting(&mut self) -> LssAction {
+        self.mode = Mode::Waiting;
+        if self.active_node_id == UNCONFIGURED && self.pending_node_id != UNCONFIGURED {
+            self.active_node_id = self.pending_node_id;
+            return LssAction::Start(self.active_node_id);
+        }
+        LssAction::None
+    }
+
+    fn in_identify_range(&self) -> bool {
+        let [vendor, product, rev_lo, rev_hi, ser_lo, ser_hi] = self.identify;
+        let [v, p, r, s] = self.address;
+        v == vendor && p == product && (rev_lo..=rev_hi).contains(&r) && (ser_lo..=ser_hi).contains(&s)
+    }
+
+    /// CiA 305 §5.5: only unconfigured slaves in the waiting state take part.
+    fn fastscan(&mut self, id: u32, bit_checked: u8, sub: u8, next: u8) -> LssAction {
+        if self.active_node_id != UNCONFIGURED || self.mode != Mode::Waiting {
+            return LssAction::None;
+        }
+        if bit_checked == 0x80 {
+            self.fastscan_sub = 0;
+            return LssAction::Answer(answer(0x4F, 0, 0));
+        }
+        if bit_checked > 31 || sub > 3 || next > 3 || sub != self.fastscan_sub {
+            return LssAction::None;
+        }
+        let mask = u32::MAX << bit_checked;
+        let mine = self.address.get(usize::from(sub)).copied().unwrap_or(0);
+        if (mine ^ id) & mask != 0 {
+            return LssAction::None;
+        }
+        if bit_checked == 0 {
+            // The part is confirmed. After the serial number (next wraps to the
+            // first part) the slave enters the configuration state.
+            if next < sub {
+                self.mode = Mode::Configuration;
+                self.fastscan_sub = 0;
+            } else {
+                self.fastscan_sub = next;
+            }
+        }
+        LssAction::Answer(answer(0x4F, 0, 0))
+    }
+}
+
+#[cfg(test)]
+mod tests;
