@@ -11,8 +11,8 @@
 //! it until the next heartbeat (the producer restarted).
 
 use canopen_core::time::{Duration, Instant};
-pub use canopen_core::wire::nmt::NmtState;
 use canopen_core::wire::nmt::ERROR_CONTROL_BASE;
+pub use canopen_core::wire::nmt::NmtState;
 use std::collections::{BTreeMap, VecDeque};
 
 /// Something the monitor noticed.
@@ -160,5 +160,65 @@ impl HeartbeatMonitor {
     /// Error-control frames ignored because of their length or state code.
     pub fn malformed(&self) -> u32 {
         self.malformed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ms(t: u64) -> Instant {
+        Instant::from_micros(t * 1000)
+    }
+
+    #[test]
+    fn tracks_states_and_reports_one_timeout_per_silence() {
+        let mut m = HeartbeatMonitor::new();
+        m.watch(5, Duration::from_millis(1000));
+        // Boot-up does not start monitoring.
+        assert!(m.on_frame(ms(0), 0x705, &[0x00]));
+        assert_eq!(m.pop_event(), Some(HeartbeatEvent::BootUp { node_id: 5, at: ms(0) }));
+        assert_eq!(m.process(ms(5000)), None);
+        assert!(m.on_frame(ms(5100), 0x705, &[0x7F]));
+        let pre_op =
+            HeartbeatEvent::StateChanged { node_id: 5, previous: Some(NmtState::BootUp), state: NmtState::PreOperational, at: ms(5100) };
+        assert_eq!(m.pop_event(), Some(pre_op));
+        // The same state again: no event, the deadline moves.
+        assert!(m.on_frame(ms(5600), 0x705, &[0x7F]));
+        assert_eq!(m.pop_event(), None);
+        assert_eq!(m.process(ms(6599)), Some(ms(6600)));
+        assert_eq!(m.pop_event(), None);
+        assert_eq!((m.state(5), m.last_seen(5), m.is_timed_out(5)), (Some(NmtState::PreOperational), Some(ms(5600)), false));
+        assert_eq!(m.process(ms(6600)), None);
+        assert_eq!(m.pop_event(), Some(HeartbeatEvent::Timeout { node_id: 5, last: ms(5600), at: ms(6600) }));
+        assert_eq!(m.process(ms(9000)), None);
+        assert_eq!(m.pop_event(), None);
+        assert_eq!((m.state(5), m.is_timed_out(5)), (None, true));
+        // Heard again: monitoring resumes. The toggle bit (guarding) is ignored.
+        assert!(m.on_frame(ms(9000), 0x705, &[0x85]));
+        let op = HeartbeatEvent::StateChanged { node_id: 5, previous: None, state: NmtState::Operational, at: ms(9000) };
+        assert_eq!(m.pop_event(), Some(op));
+        assert_eq!(m.process(ms(9000)), Some(ms(10_000)));
+        assert!(!m.is_timed_out(5));
+        m.unwatch(5);
+        assert_eq!(m.process(ms(20_000)), None);
+        assert_eq!(m.pop_event(), None);
+    }
+
+    #[test]
+    fn unwatched_nodes_are_tracked_and_bad_frames_counted() {
+        let mut m = HeartbeatMonitor::new();
+        assert!(m.on_frame(ms(1), 0x77F, &[0x04]));
+        assert_eq!(m.state(127), Some(NmtState::Stopped));
+        assert_eq!(m.process(ms(100_000)), None);
+        for data in [&[][..], &[0x01], &[0x05, 0x00]] {
+            assert!(m.on_frame(ms(2), 0x701, data));
+        }
+        assert_eq!((m.malformed(), m.state(1)), (3, None));
+        // Not error control: node-ID 0, other services.
+        for cob_id in [0x700, 0x780, 0x185, 0x000, 0x6FF] {
+            assert!(!m.on_frame(ms(3), cob_id, &[0x05]));
+        }
+        assert_eq!(m.malformed(), 3);
     }
 }

@@ -4,8 +4,8 @@
 
 use super::SendError;
 use crate::bus::{Bus, PortId};
-pub use canopen_core::wire::nmt::{NMT_COB_ID, NmtCommand};
 use canopen_core::wire::nmt::NmtRequest;
+pub use canopen_core::wire::nmt::{NMT_COB_ID, NmtCommand};
 
 /// Node-ID 0 in an NMT command: every node.
 pub const ALL_NODES: u8 = 0;

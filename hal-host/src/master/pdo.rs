@@ -168,3 +168,77 @@ fn default_cob_id(base: u16, pdo: u8, node_id: u8) -> Option<u16> {
     // The four PDOs of the pre-defined connection set are 0x100 apart.
     Some(base + 0x100 * u16::from(pdo - 1) + u16::from(node_id))
 }
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+
+    const STATUSWORD: MappingEntry = MappingEntry { index: 0x6041, sub: 0, bits: 16 };
+    const POSITION: MappingEntry = MappingEntry { index: 0x6064, sub: 0, bits: 32 };
+
+    #[test]
+    fn decodes_byte_aligned_objects_in_mapping_order() {
+        // CiA 402-3 TPDO2 style: statusword 0x0237, position actual 0x12345678.
+        let v = decode(&[STATUSWORD, POSITION], &[0x37, 0x02, 0x78, 0x56, 0x34, 0x12]).unwrap();
+        assert_eq!((v[0].entry, v[0].raw, v[1].raw), (STATUSWORD, 0x0237, 0x1234_5678));
+        assert_eq!(v[1].to_le_bytes(), [0x78, 0x56, 0x34, 0x12]);
+        // Extra bytes are ignored; missing ones are an error.
+        assert_eq!(decode(&[STATUSWORD], &[1, 2, 3]).unwrap()[0].raw, 0x0201);
+        assert_eq!(decode(&[STATUSWORD, POSITION], &[0; 5]), Err(PdoError::TooShort { needed: 6, len: 5 }));
+        assert_eq!(decode(&[], &[]), Ok(vec![]));
+    }
+
+    #[test]
+    fn packs_bits_least_significant_first() {
+        let m = [
+            MappingEntry { index: 0x2000, sub: 1, bits: 1 },
+            MappingEntry { index: 0x0005, sub: 0, bits: 3 }, // dummy
+            MappingEntry { index: 0x2000, sub: 2, bits: 12 },
+            MappingEntry { index: 0x2000, sub: 3, bits: 8 },
+        ];
+        // 1 | 5 << 1 | 0xABC << 4 | 0x7F << 16 = 0x7F_ABCB; 0xABC as INTEGER12 is 2748 - 4096.
+        let payload = encode(&m, &[1, 5, 0xABC, 0x7F]).unwrap();
+        assert_eq!(payload, [0xCB, 0xAB, 0x7F]);
+        let v = decode(&m, &payload).unwrap();
+        assert_eq!(v.iter().map(|v| v.raw).collect::<Vec<_>>(), [1, 5, 0xABC, 0x7F]);
+        assert!(v[1].entry.is_dummy());
+        assert_eq!((v[2].signed(), v[2].to_le_bytes()), (-1348, vec![0xBC, 0x0A]));
+        assert_eq!(mapped_len(&m), 3);
+    }
+
+    #[test]
+    fn signed_values_and_full_width() {
+        let e = |bits| MappingEntry { index: 0x2001, sub: 0, bits };
+        assert_eq!(PdoValue { entry: e(16), raw: 0x8000 }.signed(), -32768);
+        assert_eq!(PdoValue { entry: e(16), raw: 0x7FFF }.signed(), 32767);
+        assert_eq!(PdoValue { entry: e(64), raw: u64::MAX }.signed(), -1);
+        assert_eq!(PdoValue { entry: e(0), raw: 0 }.signed(), 0);
+        let full = encode(&[e(64)], &[0x0102_0304_0506_0708]).unwrap();
+        assert_eq!(full, [8, 7, 6, 5, 4, 3, 2, 1]);
+        assert_eq!(decode(&[e(64)], &full).unwrap()[0].raw, 0x0102_0304_0506_0708);
+        // A zero-length entry after 64 bits takes nothing and shifts nothing.
+        assert_eq!(decode(&[e(64), e(0)], &full).unwrap()[1].raw, 0);
+    }
+
+    #[test]
+    fn encode_and_decode_errors() {
+        let m = [POSITION, POSITION, MappingEntry { index: 0x2000, sub: 0, bits: 1 }];
+        assert_eq!(decode(&m, &[0; 8]), Err(PdoError::TooManyBits { bits: 65 }));
+        assert_eq!(encode(&m, &[0, 0, 0]), Err(PdoError::TooManyBits { bits: 65 }));
+        assert_eq!(encode(&[STATUSWORD], &[]), Err(PdoError::ValueCount { entries: 1, values: 0 }));
+        assert_eq!(encode(&[STATUSWORD, STATUSWORD], &[1, 0x1_0000]), Err(PdoError::ValueTooWide { position: 1 }));
+    }
+
+    #[test]
+    fn default_cob_ids() {
+        assert_eq!(tpdo_cob_id(1, 5), Some(0x185));
+        assert_eq!(tpdo_cob_id(4, 127), Some(0x4FF));
+        assert_eq!(rpdo_cob_id(1, 1), Some(0x201));
+        assert_eq!(rpdo_cob_id(4, 0x7F), Some(0x57F));
+        assert_eq!(rpdo_cob_id(0, 5), None);
+        assert_eq!(tpdo_cob_id(5, 5), None);
+        assert_eq!(tpdo_cob_id(1, 0), None);
+        assert_eq!(tpdo_cob_id(1, 128), None);
+    }
+}

@@ -18,9 +18,9 @@
 //!
 //! The client is strict, because it exists to test servers: any response
 //! that CiA 301 does not allow at that point ends the transfer with an abort
-//! frame and a [`ProtocolError`]. Not supported: SDO block upload of values
-//! whose last segment of a sub-block is lost (nothing tells the client that
-//! the sub-block ended: the transfer times out, as on the server side).
+//! frame and a [`ProtocolError`]. Not supported: recovering a block upload
+//! whose sub-block lost its last segment (nothing tells the client that the
+//! sub-block ended, so the transfer times out, as on the server side).
 
 mod block;
 
@@ -279,12 +279,20 @@ enum State {
     /// Waiting for the initiate upload response.
     InitiateUpload,
     /// Waiting for the upload segment with `toggle`.
-    UploadSegment { toggle: bool, size: Option<u32> },
+    UploadSegment {
+        toggle: bool,
+        size: Option<u32>,
+    },
     /// Waiting for the initiate download response.
-    InitiateDownload { segmented: bool },
+    InitiateDownload {
+        segmented: bool,
+    },
     /// Waiting for the confirmation of the segment with `toggle`, which
     /// ended at byte `end` of the value.
-    DownloadSegment { toggle: bool, end: usize },
+    DownloadSegment {
+        toggle: bool,
+        end: usize,
+    },
     BlockUpload(block::Upload),
     BlockDownload(block::Download),
     /// Ended; the result is kept until taken.
