@@ -1,8 +1,16 @@
 //! Device firmware on canopen-core.
 //!
 //! Each device is its EDS (`eds/<device>.eds`, turned into an object
-//! dictionary by `build.rs`) plus one short module in [`devices`].
+//! dictionary by `build.rs`) plus one short module in [`devices`]. An image
+//! is a device on a board: [`boards`] holds the QEMU and STM32F103 boards,
+//! `app` (MCU builds only) the tasks they share, and `src/bin/` one
+//! `<device>-<board>` entry point per image (see `docs/firmware.md`).
 #![no_std]
-#![forbid(unsafe_code)]
+// Unsafe code stays denied (workspace lints); only `boards` allows it, per
+// module, with a `// SAFETY:` comment on every block.
+#![deny(unsafe_code)]
 
+#[cfg(target_os = "none")]
+pub mod app;
+pub mod boards;
 pub mod devices;

@@ -100,6 +100,28 @@ class InteropTest(unittest.TestCase):
             self.node.sdo.download(0x2004, 0, (2000000).to_bytes(4, "little"))
         self.assertEqual(e.exception.code, 0x06090031)
 
+    def test_a_second_sdo_server_serves_a_second_client(self):
+        # 0x1201 (CiA 301 §7.2.4.1): off by default, on once both COB-IDs are valid.
+        self.assertEqual(self.node.sdo[0x1201][1].raw, 0x80000000)
+        self.node.sdo[0x1201][1].raw = 0x6A5
+        self.node.sdo[0x1201][2].raw = 0x6B5
+        self.node.sdo[0x1201][3].raw = 0x10
+        client = canopen.sdo.SdoClient(0x6A5, 0x6B5, self.node.object_dictionary)
+        client.network = self.v.network
+        self.v.network.subscribe(0x6B5, client.on_response)
+        self.assertEqual(client.upload(0x1008, 0), b"canopen-rs interop node")
+        client.download(0x2003, 0, b"\x01\x02\x03\x04")
+        self.assertEqual(self.node.sdo.upload(0x2003, 0), b"\x01\x02\x03\x04")
+        blob = bytes((i * 5 + 3) & 0xFF for i in range(200))
+        client.download(0x2006, 0, blob)
+        with client.open(0x2006, 0, "rb", block_transfer=True) as f:
+            self.assertEqual(f.read(), blob)
+        # A restricted CAN-ID (the default SDO range) is refused.
+        with self.assertRaises(canopen.SdoAbortedError) as e:
+            self.node.sdo[0x1201][1].raw = 0x80000000
+            self.node.sdo[0x1201][1].raw = 0x605
+        self.assertEqual(e.exception.code, 0x06090030)
+
     # ---- NMT and heartbeat -------------------------------------------------
 
     def test_nmt_commands_and_heartbeat(self):

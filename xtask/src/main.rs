@@ -6,6 +6,14 @@
 //!   the python-canopen interop tests against `vnode`.
 //! - `demo [DEVICE]`: checks a device's EDS and prints its dictionary.
 //! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
+//! - `bench`: the bus-level benchmarks on the virtual bus (release build), with wall times.
+//! - `build`: every firmware image (each device on each board), with its sizes and the budget check.
+//! - `qemu DEVICE [--listen HOST:PORT]`: boots a device's QEMU image, SLCAN on that TCP port.
+//! - `smoke`: python-canopen against every QEMU image (tests/python/test_qemu_smoke.py).
+
+mod bench;
+mod images;
+mod measure;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -13,7 +21,7 @@ use std::process::{Command, ExitCode};
 const TARGET: &str = "thumbv7m-none-eabi";
 
 /// Fuzz targets with the directory of real inputs each one starts from.
-const FUZZ_TARGETS: &[(&str, &str)] = &[("eds_parser", "../tests/eds-corpus")];
+const FUZZ_TARGETS: &[(&str, &str)] = &[("eds_parser", "../tests/eds-corpus"), ("node_frames", "seeds/node_frames")];
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -21,6 +29,12 @@ fn main() -> ExitCode {
         Some("test") => test(),
         Some("demo") => demo(args.get(1).map_or("ec5000", String::as_str)),
         Some("fuzz") => fuzz(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(60)),
+        Some("bench") => bench::bench(),
+        Some("build") => images::build(),
+        Some("qemu") => images::qemu(args.get(1..).unwrap_or_default()),
+        Some("smoke") => images::smoke(),
+        Some("size") => measure::size(),
+        Some("icount") => measure::icount(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000)),
         _ => Err("usage: cargo xtask test | demo [DEVICE] | fuzz [SECONDS]".into()),
     };
     match result {

@@ -10,11 +10,13 @@
 //! - [`frame`]: the [`frame::CanFrame`] that crosses the boundary (an `embedded_can::Frame`).
 //! - [`storage`]: the two-region [`storage::Storage`] trait behind store/restore.
 //! - [`time`]: the [`time::Instant`]s and [`time::Duration`]s callers pass in.
+//! - [`id`]: node-IDs, COB-ID entries and the restricted CAN-IDs.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
 pub mod abort;
 pub mod frame;
+pub mod id;
 pub mod node;
 pub mod od;
 pub mod services;

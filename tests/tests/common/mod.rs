@@ -2,6 +2,8 @@
 //! exact frames out, then nothing else.
 #![allow(dead_code)]
 
+pub mod net;
+
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{Application, Node};
 use canopen_core::od::ObjectDictionary;
@@ -92,6 +94,112 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         assert_eq!(out.len(), 1, "one answer: {out:x?}");
         assert_eq!(out[0].0, 0x580 + u16::from(id));
         out[0].1.clone()
+    }
+
+    /// Sends one SDO request to server `rx` and returns its one answer on `tx`.
+    fn sdo_exchange(&mut self, rx: u16, tx: u16, req: [u8; 8]) -> [u8; 8] {
+        let out = self.rx(self.now, rx, &req);
+        assert_eq!(out.len(), 1, "one answer to {req:02x?}: {out:x?}");
+        assert_eq!(out[0].0, tx, "answer on the server's tx COB-ID");
+        out[0].1.clone().try_into().expect("8-byte SDO frame")
+    }
+
+    /// A complete SDO upload from the server on (`rx`, `tx`), expedited or
+    /// segmented as the server chooses; the value, or the abort code.
+    pub fn sdo_upload_via(&mut self, rx: u16, tx: u16, index: u16, sub: u8) -> Result<Vec<u8>, u32> {
+        let [lo, hi] = index.to_le_bytes();
+        let r = self.sdo_exchange(rx, tx, [0x40, lo, hi, sub, 0, 0, 0, 0]);
+        match r[0] {
+            0x80 => Err(u32::from_le_bytes([r[4], r[5], r[6], r[7]])),
+            c if c & 0xE2 == 0x42 => {
+                // Expedited: 4 − n bytes when s = 1, else 4.
+                let n = if c & 0x01 != 0 { 4 - usize::from((c >> 2) & 3) } else { 4 };
+                Ok(r[4..4 + n].to_vec())
+            }
+            c if c & 0xE2 == 0x40 => {
+                let size = (c & 0x01 != 0).then(|| u32::from_le_bytes([r[4], r[5], r[6], r[7]]) as usize);
+                let mut value = Vec::new();
+                let mut toggle = 0u8;
+                loop {
+                    let s = self.sdo_exchange(rx, tx, [0x60 | toggle, 0, 0, 0, 0, 0, 0, 0]);
+                    if s[0] == 0x80 {
+                        return Err(u32::from_le_bytes([s[4], s[5], s[6], s[7]]));
+                    }
+                    assert_eq!(s[0] & 0xF0, toggle, "upload segment toggle: {s:02x?}");
+                    let n = 7 - usize::from((s[0] >> 1) & 7);
+                    value.extend_from_slice(&s[1..1 + n]);
+                    if s[0] & 1 != 0 {
+                        break;
+                    }
+                    toggle ^= 0x10;
+                }
+                if let Some(size) = size {
+                    assert_eq!(value.len(), size, "segmented upload size");
+                }
+                Ok(value)
+            }
+            _ => panic!("not an initiate upload response: {r:02x?}"),
+        }
+    }
+
+    /// [`Bench::sdo_upload_via`] on the default server of node `id`.
+    pub fn sdo_upload(&mut self, id: u8, index: u16, sub: u8) -> Result<Vec<u8>, u32> {
+        self.sdo_upload_via(0x600 + u16::from(id), 0x580 + u16::from(id), index, sub)
+    }
+
+    /// A complete SDO download to the server on (`rx`, `tx`): expedited for
+    /// 1 to 4 bytes, else segmented with the size indicated; Ok, or the abort code.
+    pub fn sdo_download_via(&mut self, rx: u16, tx: u16, index: u16, sub: u8, data: &[u8]) -> Result<(), u32> {
+        let [lo, hi] = index.to_le_bytes();
+        let abort = |r: [u8; 8]| Err(u32::from_le_bytes([r[4], r[5], r[6], r[7]]));
+        if (1..=4).contains(&data.len()) {
+            let mut req = [0x23 | (((4 - data.len()) as u8) << 2), lo, hi, sub, 0, 0, 0, 0];
+            req[4..4 + data.len()].copy_from_slice(data);
+            let r = self.sdo_exchange(rx, tx, req);
+            if r[0] == 0x80 {
+                return abort(r);
+            }
+            assert_eq!(r, [0x60, lo, hi, sub, 0, 0, 0, 0]);
+            return Ok(());
+        }
+        let [a, b, c, d] = (data.len() as u32).to_le_bytes();
+        let r = self.sdo_exchange(rx, tx, [0x21, lo, hi, sub, a, b, c, d]);
+        if r[0] == 0x80 {
+            return abort(r);
+        }
+        assert_eq!(r, [0x60, lo, hi, sub, 0, 0, 0, 0]);
+        let mut toggle = 0u8;
+        if data.is_empty() {
+            let r = self.sdo_exchange(rx, tx, [0x0F, 0, 0, 0, 0, 0, 0, 0]);
+            if r[0] == 0x80 {
+                return abort(r);
+            }
+            assert_eq!(r, [0x20, 0, 0, 0, 0, 0, 0, 0]);
+            return Ok(());
+        }
+        let mut chunks = data.chunks(7).peekable();
+        while let Some(chunk) = chunks.next() {
+            let last = chunks.peek().is_none();
+            let mut req = [toggle | (((7 - chunk.len()) as u8) << 1) | u8::from(last), 0, 0, 0, 0, 0, 0, 0];
+            req[1..1 + chunk.len()].copy_from_slice(chunk);
+            let r = self.sdo_exchange(rx, tx, req);
+            if r[0] == 0x80 {
+                return abort(r);
+            }
+            assert_eq!(r, [0x20 | toggle, 0, 0, 0, 0, 0, 0, 0], "download segment response");
+            toggle ^= 0x10;
+        }
+        Ok(())
+    }
+
+    /// [`Bench::sdo_download_via`] on the default server of node `id`.
+    pub fn sdo_download(&mut self, id: u8, index: u16, sub: u8, data: &[u8]) -> Result<(), u32> {
+        self.sdo_download_via(0x600 + u16::from(id), 0x580 + u16::from(id), index, sub, data)
+    }
+
+    /// An NMT command (`cs`) to `id` (0: all) at the bench's time; returns what the node sends.
+    pub fn nmt(&mut self, cs: u8, id: u8) -> Vec<F> {
+        self.rx(self.now, 0x000, &[cs, id])
     }
 
     /// An expedited SDO upload; returns the answer.

@@ -35,8 +35,6 @@ pub struct Comm<const R: usize, const T: usize, const HB: usize> {
     pub guarding: Guarding,
     /// EMCY producer (0x1014, 0x1015) and the error register.
     pub emcy: EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
-    /// SDO server COB-IDs (client→server, server→client), if valid.
-    pub sdo_cob_ids: Option<(u16, u16)>,
     /// TIME consumer COB-ID, if 0x1012 bit 31 (consume) is set.
     pub time_cob_id: Option<u16>,
     /// SYNC consumer and producer (0x1005–0x1007, 0x1019).
@@ -54,7 +52,6 @@ impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB>
             consumers: Consumer::default(),
             guarding: Guarding::default(),
             emcy: EmcyProducer::default(),
-            sdo_cob_ids: None,
             time_cob_id: None,
             sync: SyncService::default(),
             pdos: Pdos::default(),
@@ -63,7 +60,7 @@ impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB>
     }
 }
 
-fn read_u32(dict: &Dictionary, image: &[u8], index: u16, sub: u8) -> Option<u32> {
+pub(super) fn read_u32(dict: &Dictionary, image: &[u8], index: u16, sub: u8) -> Option<u32> {
     let v = dict.read(image, index, sub).ok()?;
     let mut b = [0u8; 4];
     b.get_mut(..v.len().min(4))?.copy_from_slice(v.get(..v.len().min(4))?);
@@ -76,7 +73,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         self.emcy.reset();
         self.configure_emcy(dict, image);
         self.guarding.reset();
-        for index in [0x1017, 0x100C, 0x1012, 0x1200] {
+        for index in [0x100C, 0x1017, 0x1012] {
             self.reconfigure(index, dict, image, node_id, now);
         }
         self.sync.configure(dict, image);
@@ -100,8 +97,15 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
 
     /// Applies a communication object after an SDO wrote it.
     pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
+        let _ = node_id;
         match index {
-            0x1017 => self.heartbeat.configure(read_u32(dict, image, 0x1017, 0).unwrap_or(0) as u16, now),
+            0x1017 => {
+                self.heartbeat.configure(read_u32(dict, image, 0x1017, 0).unwrap_or(0) as u16, now);
+                if self.heartbeat.active() {
+                    // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
+                    self.guarding.disarm();
+                }
+            }
             0x100C | 0x100D => {
                 let guard = read_u32(dict, image, 0x100C, 0).unwrap_or(0) as u16;
                 let factor = read_u32(dict, image, 0x100D, 0).unwrap_or(0) as u8;
@@ -112,13 +116,6 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
                 self.time_cob_id = (v & 0x8000_0000 != 0).then_some((v & 0x7FF) as u16);
             }
             0x1015 => self.configure_emcy(dict, image),
-            0x1200 => {
-                // The default SDO server exists even without 0x1200 (pre-defined connection set).
-                let rx = read_u32(dict, image, 0x1200, 1).unwrap_or(0x600 + u32::from(node_id));
-                let tx = read_u32(dict, image, 0x1200, 2).unwrap_or(0x580 + u32::from(node_id));
-                let valid = rx & 0x8000_0000 == 0 && tx & 0x8000_0000 == 0;
-                self.sdo_cob_ids = valid.then_some(((rx & 0x7FF) as u16, (tx & 0x7FF) as u16));
-            }
             _ => {}
         }
     }

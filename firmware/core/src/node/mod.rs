@@ -15,11 +15,12 @@ pub use app::{Application, NoApplication};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
 
 use crate::frame::CanFrame;
+use crate::id::CobId;
 use crate::od::ObjectDictionary;
 use crate::services::heartbeat::ConsumerEvent;
 use crate::services::nmt::{Nmt, State, Transition};
 use crate::services::pdo::{PdoEvent, PdoTx};
-use crate::services::sdo_server::{SdoServer, SdoTx};
+use crate::services::sdo_server::{SdoServers, SdoTx};
 use crate::services::store::{self, Part};
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
@@ -33,7 +34,15 @@ use router::Router;
 /// Frames the transmit queue holds.
 pub const TX_QUEUE: usize = 32;
 /// Bytes an SDO download may carry (127 block segments of 7 bytes, rounded).
+/// One buffer serves every SDO server of the node (see [`SdoServers`]).
 pub const SDO_BUFFER: usize = 896;
+/// SDO servers a node runs unless its type says otherwise: the default
+/// server (0x1200) and three further ones (0x1201–0x1203). A server whose
+/// parameter object the dictionary lacks, or whose COB-IDs are not valid,
+/// stays off; each costs about 80 bytes of RAM, the download buffer is shared.
+pub const SDO_SERVERS: usize = 4;
+/// First SDO server parameter object.
+const SDO_SERVER_PARAMETER: u16 = 0x1200;
 /// Queue slots an SDO transfer leaves free for heartbeat and EMCY.
 const SDO_RESERVE: usize = 4;
 
@@ -54,14 +63,27 @@ pub struct Counters {
 ///
 /// `R`, `T` and `HB` are the RPDO, TPDO and heartbeat-consumer counts of the
 /// dictionary (its generated `RPDO_COUNT`, `TPDO_COUNT`, `HB_CONSUMER_COUNT`).
-pub struct Node<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize> {
+/// `SDO` is the number of SDO servers (0x1200, 0x1201, …) the node runs, at
+/// least the dictionary's `SDO_SERVER_COUNT` to serve all of them;
+/// [`SDO_SERVERS`] unless given.
+pub struct Node<
+    O: ObjectDictionary,
+    A: Application,
+    S: Storage,
+    const R: usize,
+    const T: usize,
+    const HB: usize,
+    const SDO: usize = SDO_SERVERS,
+> {
     od: O,
     app: A,
     storage: S,
     node_id: u8,
     nmt: Nmt,
     comm: Comm<R, T, HB>,
-    sdo: SdoServer<SDO_BUFFER>,
+    sdo: SdoServers<SDO_BUFFER, SDO>,
+    /// COB-IDs (client→server, server→client) of each SDO server, if valid.
+    sdo_cob_ids: [Option<(u16, u16)>; SDO],
     txq: TxQueue<TX_QUEUE>,
     counters: Counters,
     boot_pending: bool,
@@ -103,7 +125,9 @@ impl<A: Application> PdoTx for PdoSink<'_, A> {
     }
 }
 
-impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize> Node<O, A, S, R, T, HB> {
+impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
+    Node<O, A, S, R, T, HB, SDO>
+{
     /// Powers the node on: loads the stored parameters, resets application
     /// and communication, and queues the boot-up message for the first
     /// [`Node::process`].
@@ -115,7 +139,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             node_id,
             nmt: Nmt::new(),
             comm: Comm::default(),
-            sdo: SdoServer::new(),
+            sdo: SdoServers::new(),
+            sdo_cob_ids: [None; SDO],
             txq: TxQueue::default(),
             counters: Counters::default(),
             boot_pending: false,
@@ -139,7 +164,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         dict.reset_communication(image, self.node_id);
         store::load(dict, image, self.node_id, &mut self.storage, Part::Communication);
         self.comm.configure(dict, image, self.node_id, now);
-        self.sdo.reset();
+        self.sdo.reset_all();
+        self.configure_sdo();
         self.nmt = Nmt::new();
         self.boot_pending = true;
         self.app.on_state(State::Initialising);
@@ -189,6 +215,37 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Frames refused by the full transmit queue.
     pub fn tx_overflows(&self) -> u32 {
         self.txq.overflows()
+    }
+
+    /// The COB-IDs (client→server, server→client) SDO server `i` (0-based:
+    /// 0 is 0x1200) uses, or `None` if it is off.
+    pub fn sdo_cob_ids(&self, i: usize) -> Option<(u16, u16)> {
+        self.sdo_cob_ids.get(i).copied().flatten()
+    }
+
+    /// Reads the SDO server parameters 0x1200 + i sub 1 and 2 (reset
+    /// communication, or after an SDO wrote one). A server whose COB-IDs
+    /// changed drops its transfer. The default server exists even without
+    /// 0x1200 (pre-defined connection set); a further one needs its object.
+    fn configure_sdo(&mut self) {
+        let dict = self.od.dictionary();
+        let image = self.od.image();
+        for (i, slot) in self.sdo_cob_ids.iter_mut().enumerate() {
+            // 128 servers at most: 0x1280 and up are SDO client parameters.
+            let Some(index) = u16::try_from(i).ok().filter(|&i| i < 0x80).map(|i| SDO_SERVER_PARAMETER + i) else { break };
+            let (default_rx, default_tx) =
+                if i == 0 { (Some(0x600 + u32::from(self.node_id)), Some(0x580 + u32::from(self.node_id))) } else { (None, None) };
+            let rx = comm::read_u32(dict, image, index, 1).or(default_rx);
+            let tx = comm::read_u32(dict, image, index, 2).or(default_tx);
+            let new = match (rx.map(CobId), tx.map(CobId)) {
+                (Some(rx), Some(tx)) if rx.is_valid() && tx.is_valid() => Some((rx.can_id(), tx.can_id())),
+                _ => None,
+            };
+            if *slot != new {
+                self.sdo.reset(i);
+                *slot = new;
+            }
+        }
     }
 
     /// The communication services (for inspection in tests and tools).
@@ -245,8 +302,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if cob_id == ERROR_CONTROL_BASE + u16::from(self.node_id) {
             if rtr && !self.comm.heartbeat.active() {
+                let expired = self.comm.guarding.is_expired();
                 let byte = self.comm.guarding.on_request(state.reported(), now);
                 self.push(cob_id, &[byte]);
+                if expired {
+                    self.communication_recovered();
+                }
             } else {
                 self.counters.ignored += 1;
             }
@@ -255,7 +316,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if (ERROR_CONTROL_BASE + 1..=ERROR_CONTROL_BASE + 0x7F).contains(&cob_id) && !rtr {
             match data {
                 [b] => match NmtState::from_code(*b) {
-                    Some(s) => self.comm.consumers.on_heartbeat((cob_id - ERROR_CONTROL_BASE) as u8, s, now),
+                    Some(s) => {
+                        if self.comm.consumers.on_heartbeat((cob_id - ERROR_CONTROL_BASE) as u8, s, now) {
+                            self.communication_recovered();
+                        }
+                    }
                     None => self.counters.malformed += 1,
                 },
                 _ => self.counters.malformed += 1,
@@ -286,11 +351,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         if state.sdo_allowed() {
-            if let Some((rx, tx)) = self.comm.sdo_cob_ids
-                && cob_id == rx
+            let server =
+                self.sdo_cob_ids.iter().enumerate().find_map(|(i, ids)| ids.filter(|(rx, _)| *rx == cob_id).map(|(_, tx)| (i, tx)));
+            if let Some((i, tx)) = server
                 && !rtr
             {
-                self.sdo_request(now, data, tx);
+                self.sdo_request(i, now, data, tx);
                 return;
             }
             if Some(cob_id) == self.comm.time_cob_id && !rtr {
@@ -316,12 +382,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.app.on_sync();
     }
 
-    fn sdo_request(&mut self, now: Instant, data: &[u8], tx_cob: u16) {
+    fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
         let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
         let dict = od.dictionary();
-        let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now };
+        let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, sdo_changed: false };
         let mut sink = SdoSink { txq, cob_id: tx_cob };
-        sdo.on_request(now, data, &mut router, &mut sink);
+        sdo.on_request(i, now, data, &mut router, &mut sink);
+        if router.sdo_changed {
+            self.configure_sdo();
+        }
     }
 
     fn nmt_command(&mut self, request: NmtRequest, now: Instant) {
@@ -341,7 +410,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if !state.sdo_allowed() {
             // Stopped: a transfer in progress ends without a frame (CiA 301 table 64).
-            self.sdo.reset();
+            self.sdo.reset_all();
         }
         self.app.on_state(state);
     }
@@ -350,9 +419,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
     }
 
-    /// A communication error (heartbeat or life guarding): EMCY 0x8130 and 0x1029.
+    /// A communication error (heartbeat or life guarding): EMCY 0x8130 and
+    /// 0x1029. Every heartbeat event sends its EMCY (with the node-ID, 0 for
+    /// life guarding), also while an earlier one is still active.
     fn communication_error(&mut self, node: u8, now: Instant) {
-        self.comm.emcy.raise(code::HEARTBEAT, [node, 0, 0, 0, 0]);
+        let info = [node, 0, 0, 0, 0];
+        if !self.comm.emcy.raise(code::HEARTBEAT, info) {
+            self.comm.emcy.signal(code::HEARTBEAT, info);
+        }
         let dict = self.od.dictionary();
         let next = match Comm::<R, T, HB>::error_behaviour(dict, self.od.image()) {
             ErrorBehaviour::PreOperational if self.nmt.state() == State::Operational => Some(State::PreOperational),
@@ -363,6 +437,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             && let Transition::Entered(s) = self.nmt.enter(s)
         {
             self.entered(s, now);
+        }
+    }
+
+    /// A silent node was heard again, or the master resumed guarding: once
+    /// no monitored node and no life guarding is in error, 0x8130 clears
+    /// (and the last error cleared sends "error reset").
+    fn communication_recovered(&mut self) {
+        if !self.comm.consumers.any_timed_out() && !self.comm.guarding.is_expired() {
+            self.comm.emcy.clear(code::HEARTBEAT);
         }
     }
 
@@ -393,13 +476,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.communication_error(0, now);
         }
         let mut sdo_deadline = None;
-        if self.nmt.state().sdo_allowed()
-            && let Some((_, tx)) = self.comm.sdo_cob_ids
-        {
-            let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
+        if self.nmt.state().sdo_allowed() {
+            let Node { od, app, storage, comm, sdo, txq, node_id, sdo_cob_ids, .. } = self;
             let dict = od.dictionary();
-            let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now };
-            sdo_deadline = sdo.poll(now, &mut router, &mut SdoSink { txq, cob_id: tx });
+            let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, sdo_changed: false };
+            for (i, ids) in sdo_cob_ids.iter().enumerate() {
+                if let Some((_, tx)) = *ids {
+                    let deadline = sdo.poll(i, now, &mut router, &mut SdoSink { txq, cob_id: tx });
+                    sdo_deadline = sdo_deadline.into_iter().chain(deadline).min();
+                }
+            }
+            if router.sdo_changed {
+                self.configure_sdo();
+            }
         }
         if self.nmt.state().sdo_allowed() {
             // The SYNC producer (0x1005 bit 30): the node runs its own synchronous PDOs too.
@@ -424,6 +513,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.comm.emcy.signal(code::CAN_OVERRUN, [0; 5]);
         }
         if self.nmt.state().sdo_allowed() {
+            // EMCY off: errors still reach the error register and the history.
+            while let Some(e) = self.comm.emcy.take_unsent() {
+                let dict = self.od.dictionary();
+                self.comm.record(dict, self.od.image_mut(), &e);
+            }
             while self.txq.free() > 0 {
                 let Some((cob_id, e)) = self.comm.emcy.poll(now) else { break };
                 let dict = self.od.dictionary();

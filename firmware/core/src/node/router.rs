@@ -3,7 +3,8 @@
 //! owns it (CiA 301 §7.5.2), and application objects reach the device hooks.
 
 use crate::abort::AbortCode;
-use crate::od::{Dictionary, ObjectAccess};
+use crate::id::CobId;
+use crate::od::{DataType, Dictionary, ObjectAccess, RangeError};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -20,6 +21,8 @@ pub(crate) struct Router<'a, A: Application, const R: usize, const T: usize, con
     pub storage: &'a mut dyn Storage,
     pub node_id: u8,
     pub now: Instant,
+    /// An SDO server parameter (0x1200–0x127F) was written: the node reads them again.
+    pub sdo_changed: bool,
 }
 
 fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {
@@ -58,6 +61,87 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Router<'_,
     fn current_u32(&self, index: u16, sub: u8) -> Option<u32> {
         let v = self.dict.read(self.image, index, sub).ok()?;
         u32_of(v).ok()
+    }
+
+    /// The checks every download of a communication object passes before
+    /// the object's own rules: the entry exists and is writable, the length
+    /// fits, and the value is within the EDS limits. So an access or range
+    /// error gets its own abort code (0x06010002, 0x0607001x, 0x06090031/32)
+    /// whatever the object's owner would say about the value.
+    fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let entry = self.dict.find(index, sub)?;
+        if !entry.writable() {
+            return Err(AbortCode::ReadOnly);
+        }
+        if entry.data_type == DataType::Domain {
+            return Ok(());
+        }
+        let len = usize::from(entry.len);
+        if data.len() > len {
+            return Err(AbortCode::LengthTooHigh);
+        }
+        if data.len() < len && !entry.data_type.is_variable_length() {
+            return Err(AbortCode::LengthTooLow);
+        }
+        match self.dict.limits_of(entry).map(|l| l.check(entry.data_type, data)) {
+            Some(Err(RangeError::TooHigh)) => Err(AbortCode::ValueTooHigh),
+            Some(Err(RangeError::TooLow)) => Err(AbortCode::ValueTooLow),
+            _ => Ok(()),
+        }
+    }
+
+    /// 0x1014 COB-ID EMCY (CiA 301 §7.5.2.15): bit 31 set = EMCY off. No
+    /// 29-bit CAN-ID (bits 11..30 are 0), no CAN-ID 0, no restricted CAN-ID
+    /// while valid; the CAN-ID changes only while EMCY is or becomes off.
+    fn write_emcy_cob_id(&mut self, data: &[u8]) -> Result<(), AbortCode> {
+        let new = CobId(u32_of(data)?);
+        let moves =
+            self.current_u32(0x1014, 0).map(CobId).is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
+        if new.0 & !(CobId::BIT31 | 0x7FF) != 0 || new.can_id() == 0 || (new.is_valid() && new.is_restricted()) || moves {
+            return Err(AbortCode::InvalidValue);
+        }
+        self.plain().write(0x1014, 0, data)?;
+        self.comm.configure_emcy(self.dict, self.image);
+        Ok(())
+    }
+
+    /// 0x1012 COB-ID TIME (CiA 301 §7.5.2.13): bit 31 consume, bit 30
+    /// produce. No 29-bit CAN-ID, no restricted CAN-ID while consumed or produced.
+    fn write_time_cob_id(&mut self, data: &[u8]) -> Result<(), AbortCode> {
+        let new = CobId(u32_of(data)?);
+        let used = new.0 & (CobId::BIT31 | CobId::BIT30) != 0;
+        if new.is_extended() || (used && new.is_restricted()) {
+            return Err(AbortCode::InvalidValue);
+        }
+        self.plain().write(0x1012, 0, data)?;
+        self.comm.reconfigure(0x1012, self.dict, self.image, self.node_id, self.now);
+        Ok(())
+    }
+
+    /// An SDO server parameter 0x1200 + i (CiA 301 §7.5.2.33). Sub 1 and 2,
+    /// the COB-IDs: bit 31 set = not valid, bit 30 (dynamic) is kept, no
+    /// 29-bit CAN-ID; a valid COB-ID may not use a restricted CAN-ID (the
+    /// default server keeps its own pre-defined ones), and its CAN-ID
+    /// changes only while it is or becomes not valid. Sub 3, the client's
+    /// node-ID: 0 (none assigned) or 1..=127.
+    fn write_sdo_server(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        match sub {
+            1 | 2 => {
+                let new = CobId(u32_of(data)?);
+                let own = if sub == 1 { 0x600 } else { 0x580 } + u16::from(self.node_id);
+                let restricted = new.is_restricted() && !(index == 0x1200 && new.can_id() == own);
+                let old = self.current_u32(index, sub).map(CobId);
+                let moves = old.is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
+                if new.is_extended() || (new.is_valid() && restricted) || moves {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            3 if matches!(data, [id] if *id > 127) => return Err(AbortCode::InvalidValue),
+            _ => {}
+        }
+        self.plain().write(index, sub, data)?;
+        self.sdo_changed = true;
+        Ok(())
     }
 }
 
@@ -100,6 +184,10 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> ObjectAcce
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
+        if index < 0x2000 && index != 0x1010 && index != 0x1011 {
+            self.precheck(index, sub, data)?;
+        }
         match index {
             0x1003 => {
                 let entry = self.dict.find(index, sub)?;
@@ -118,23 +206,8 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> ObjectAcce
                 }
             }
             0x1010 | 0x1011 => self.store_command(index, sub, data),
-            0x1014 => {
-                let new = u32_of(data)?;
-                // The COB-ID may change only while EMCY is off (bit 31), as for PDOs.
-                if let Some(old) = self.current_u32(0x1014, 0)
-                    && old & 0x8000_0000 == 0
-                    && new & 0x8000_0000 == 0
-                    && old & 0x7FF != new & 0x7FF
-                {
-                    return Err(AbortCode::InvalidValue);
-                }
-                if new & 0x2000_0000 != 0 || new & 0x7FF == 0 {
-                    return Err(AbortCode::InvalidValue);
-                }
-                self.plain().write(index, sub, data)?;
-                self.comm.configure_emcy(self.dict, self.image);
-                Ok(())
-            }
+            0x1012 if sub == 0 => self.write_time_cob_id(data),
+            0x1014 if sub == 0 => self.write_emcy_cob_id(data),
             0x1016 if sub > 0 => {
                 let value = u32_of(data)?;
                 if self.comm.consumers.conflicts(usize::from(sub) - 1, value) {
@@ -151,7 +224,8 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> ObjectAcce
                 self.plain().write(index, sub, data)
             }
             0x1005..=0x1007 | 0x1019 => self.comm.write_sync(index, sub, data, self.dict, self.image),
-            0x100C | 0x100D | 0x1012 | 0x1015 | 0x1017 | 0x1200..=0x12FF => {
+            0x1200..=0x127F => self.write_sdo_server(index, sub, data),
+            0x100C | 0x100D | 0x1015 | 0x1017 => {
                 self.plain().write(index, sub, data)?;
                 self.comm.reconfigure(index, self.dict, self.image, self.node_id, self.now);
                 Ok(())

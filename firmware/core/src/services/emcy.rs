@@ -165,6 +165,19 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         Some((cob_id, e))
     }
 
+    /// While EMCY is off (0x1014 bit 31), the next queued message: it is
+    /// not sent, but the node still records it (0x1001, 0x1003), and the
+    /// queue does not fill up with messages that never leave.
+    pub fn take_unsent(&mut self) -> Option<Emcy> {
+        if self.cob_id.is_some() || self.len == 0 {
+            return None;
+        }
+        let e = *self.queue.get(self.head)?;
+        self.head = (self.head + 1) % Q.max(1);
+        self.len -= 1;
+        Some(e)
+    }
+
     /// When the next queued message may go out.
     pub fn deadline(&self) -> Option<Instant> {
         self.cob_id?;
@@ -225,6 +238,7 @@ mod tests {
         assert_eq!(e.overflows(), 1);
         assert_eq!(e.register() & register::GENERIC, register::GENERIC);
         assert_eq!(e.poll(us(0)), None, "EMCY off (bit 31)");
+        assert_eq!(e.take_unsent().map(|m| m.code), Some(0x8210), "recorded, not sent");
         assert!(e.raise(0x8130, [0; 5]));
         assert!(e.raise(0x8110, [0; 5]), "more active errors than slots are still reported");
         assert_eq!(register_bit(0x4210), register::TEMPERATURE);

@@ -56,6 +56,8 @@ struct Monitor {
     /// Deadline once armed by the first heartbeat.
     deadline: Option<Instant>,
     state: Option<NmtState>,
+    /// It missed its heartbeat and has not been heard of since.
+    timed_out: bool,
 }
 
 /// A heartbeat consumer event.
@@ -93,6 +95,7 @@ impl<const N: usize> Consumer<N> {
                 time: Duration::from_millis(u64::from(ms)),
                 deadline: None,
                 state: None,
+                timed_out: false,
             };
         }
     }
@@ -106,20 +109,30 @@ impl<const N: usize> Consumer<N> {
             && self.monitors.iter().enumerate().any(|(j, m)| j != i && m.node_id == node_id && m.time != Duration::ZERO)
     }
 
-    /// A heartbeat (or boot-up) from `node_id` arrived at `now`.
-    pub fn on_heartbeat(&mut self, node_id: u8, state: NmtState, now: Instant) {
+    /// A heartbeat (or boot-up) from `node_id` arrived at `now`. Returns
+    /// true if that node had timed out: it is back.
+    pub fn on_heartbeat(&mut self, node_id: u8, state: NmtState, now: Instant) -> bool {
+        let mut back = false;
         for m in self.monitors.iter_mut().filter(|m| m.node_id == node_id && m.node_id != 0) {
             // A boot-up message means the producer restarted: monitoring starts over.
             m.deadline = if state == NmtState::BootUp { None } else { Some(now + m.time) };
             m.state = Some(state);
+            back |= core::mem::take(&mut m.timed_out);
         }
+        back
     }
 
     /// Reports the first expired monitor and disarms it until its next heartbeat.
     pub fn poll(&mut self, now: Instant) -> Option<ConsumerEvent> {
         let m = self.monitors.iter_mut().find(|m| m.deadline.is_some_and(|d| now >= d))?;
         m.deadline = None;
+        m.timed_out = true;
         Some(ConsumerEvent::Timeout { node_id: m.node_id })
+    }
+
+    /// Whether a monitored node is silent since its heartbeat event.
+    pub fn any_timed_out(&self) -> bool {
+        self.monitors.iter().any(|m| m.timed_out)
     }
 
     /// The earliest heartbeat deadline.
@@ -140,6 +153,8 @@ pub struct Guarding {
     toggle: bool,
     lifetime: Duration,
     deadline: Option<Instant>,
+    /// Life guarding expired, and no guarding request came since.
+    expired: bool,
 }
 
 impl Guarding {
@@ -154,6 +169,13 @@ impl Guarding {
     pub fn reset(&mut self) {
         self.toggle = false;
         self.deadline = None;
+        self.expired = false;
+    }
+
+    /// Stops life guarding until the next guarding request (the toggle bit
+    /// stays): heartbeat production took over.
+    pub fn disarm(&mut self) {
+        self.deadline = None;
     }
 
     /// A guarding RTR arrived: returns the response byte (state | toggle).
@@ -161,13 +183,20 @@ impl Guarding {
         let byte = state.code() | if self.toggle { 0x80 } else { 0 };
         self.toggle = !self.toggle;
         self.deadline = (self.lifetime != Duration::ZERO).then(|| now + self.lifetime);
+        self.expired = false;
         byte
+    }
+
+    /// Whether life guarding expired and the master has not asked since.
+    pub fn is_expired(&self) -> bool {
+        self.expired
     }
 
     /// True once when the master stopped guarding for a whole life time (EMCY 0x8130).
     pub fn poll(&mut self, now: Instant) -> bool {
         if self.deadline.is_some_and(|d| now >= d) {
             self.deadline = None;
+            self.expired = true;
             return true;
         }
         false
@@ -209,6 +238,9 @@ mod tests {
         assert_eq!(c.poll(ms(1099)), None);
         assert_eq!(c.poll(ms(1100)), Some(ConsumerEvent::Timeout { node_id: 3 }));
         assert_eq!(c.poll(ms(5000)), None, "reported once");
+        assert!(c.any_timed_out());
+        assert!(c.on_heartbeat(3, NmtState::Operational, ms(5500)), "back");
+        assert!(!c.any_timed_out());
         c.on_heartbeat(3, NmtState::BootUp, ms(6000));
         assert_eq!(c.deadline(), None);
         assert_eq!(c.state_of(3), Some(NmtState::BootUp));

@@ -21,8 +21,8 @@
 //!   0x08000022 (the counter may only change while no SYNC is produced).
 
 use crate::abort::AbortCode;
+use crate::id::is_restricted_can_id;
 use crate::od::Dictionary;
-use crate::services::pdo::is_restricted_can_id;
 use crate::services::pdo::map::{le_u32, object, sub_entry, value_u32};
 use crate::time::{Duration, Instant};
 use crate::wire::emcy::code;

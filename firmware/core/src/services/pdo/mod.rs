@@ -63,13 +63,7 @@ pub const COB_ID_NO_RTR: u32 = 1 << 30;
 /// COB-ID bit 29 (29-bit frame) and bits 11..28: extended identifiers, not supported.
 const COB_ID_EXTENDED: u32 = 0x3FFF_F800;
 
-/// Whether CiA 301 §7.3.5 (table "restricted CAN-IDs") reserves `can_id`,
-/// so that no configurable COB-ID may use it: NMT and reserved 0x000–0x07F,
-/// 0x101–0x180, the default SDO 0x581–0x5FF and 0x601–0x67F, 0x6E0–0x6FF,
-/// NMT error control 0x701–0x77F and 0x780–0x7FF.
-pub const fn is_restricted_can_id(can_id: u16) -> bool {
-    matches!(can_id, 0x000..=0x07F | 0x101..=0x180 | 0x581..=0x5FF | 0x601..=0x67F | 0x6E0..=0x6FF | 0x701..=0x7FF)
-}
+pub use crate::id::is_restricted_can_id;
 
 /// The communication parameter record of one PDO (0x1400+n or 0x1800+n) as cached.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

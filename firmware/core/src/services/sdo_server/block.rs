@@ -13,7 +13,7 @@
 //! ackseq. Each byte enters the CRC the first time it is sent, so resent
 //! segments cost no CRC work and no buffer is needed.
 
-use super::{Mux, SdoServer, SdoTx, State};
+use super::{Buffer, Channel, Mux, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::Instant;
@@ -101,24 +101,34 @@ fn valid_blksize(blksize: u8) -> bool {
     (1..=MAX_BLKSIZE).contains(&blksize)
 }
 
-impl<const N: usize> SdoServer<N> {
-    /// The blksize to offer when `total` bytes are already collected: the
-    /// segments the buffer still has room for, 1..=127.
-    fn download_blksize(total: usize) -> u8 {
-        let room = N.saturating_sub(total).div_ceil(SEGMENT_DATA);
+impl Channel {
+    /// The blksize to offer when `total` of the buffer's `capacity` bytes
+    /// are already collected: the segments it still has room for, 1..=127.
+    fn download_blksize(capacity: usize, total: usize) -> u8 {
+        let room = capacity.saturating_sub(total).div_ceil(SEGMENT_DATA);
         u8::try_from(room.clamp(1, usize::from(MAX_BLKSIZE))).unwrap_or(MAX_BLKSIZE)
     }
 
     /// Initiate block download.
-    pub(super) fn start_block_download(&mut self, mux: Mux, crc: bool, size: Option<u32>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn start_block_download(
+        &mut self,
+        mux: Mux,
+        crc: bool,
+        size: Option<u32>,
+        buf: Buffer<'_>,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         if let Err(code) = od.download_check(mux.index, mux.sub, size) {
             return self.fail(mux, code, tx);
         }
-        if size.is_some_and(|s| s > N) {
+        // Another server holds the shared buffer for a download of its own.
+        let Some(buf) = buf else { return self.fail(mux, AbortCode::NoResource, tx) };
+        if size.is_some_and(|s| s > buf.len()) {
             return self.fail(mux, AbortCode::OutOfMemory, tx);
         }
-        let blksize = Self::download_blksize(0);
+        let blksize = Self::download_blksize(buf.len(), 0);
         self.state =
             State::BlockDownload(Download { mux, crc_on: crc, size, blksize, ackseq: 0, gap: false, total: 0, crc: 0, complete: false });
         let response = BlockDownloadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, blksize };
@@ -126,7 +136,7 @@ impl<const N: usize> SdoServer<N> {
     }
 
     /// One frame of a download sub-block.
-    pub(super) fn block_download_segment(&mut self, mut d: Download, segment: BlockSegment, tx: &mut dyn SdoTx) {
+    pub(super) fn block_download_segment(&mut self, mut d: Download, segment: BlockSegment, buf: Buffer<'_>, tx: &mut dyn SdoTx) {
         if segment.seqno == 0 && segment.last {
             // 0x80 is an abort from the client (ccs = 4): seqno 0 is never a segment.
             return self.reset();
@@ -134,6 +144,9 @@ impl<const N: usize> SdoServer<N> {
         if segment.seqno == 0 || segment.seqno > d.blksize {
             return self.fail(d.mux, AbortCode::InvalidSequence, tx);
         }
+        // This server holds the buffer while its download runs (see `SdoServers`).
+        let Some(buf) = buf else { return self.fail(d.mux, AbortCode::NoResource, tx) };
+        let capacity = buf.len();
         if !d.gap && segment.seqno == d.ackseq.saturating_add(1) {
             let start = d.total;
             let end = start.saturating_add(SEGMENT_DATA);
@@ -142,7 +155,7 @@ impl<const N: usize> SdoServer<N> {
                 if d.size.is_some_and(|size| end > size) {
                     return self.fail(d.mux, AbortCode::LengthTooHigh, tx);
                 }
-                if end > N {
+                if end > capacity {
                     return self.fail(d.mux, AbortCode::OutOfMemory, tx);
                 }
                 if d.crc_on {
@@ -150,8 +163,8 @@ impl<const N: usize> SdoServer<N> {
                 }
             }
             // The unused tail of the last segment need not fit: the end request says how much is data.
-            let fit = N.saturating_sub(start).min(SEGMENT_DATA);
-            if let (Some(dst), Some(src)) = (self.buf.get_mut(start..start.saturating_add(fit)), segment.data.get(..fit)) {
+            let fit = capacity.saturating_sub(start).min(SEGMENT_DATA);
+            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.saturating_add(fit)), segment.data.get(..fit)) {
                 dst.copy_from_slice(src);
             }
             d.total = end;
@@ -163,7 +176,7 @@ impl<const N: usize> SdoServer<N> {
         }
         // Otherwise a repeat of a segment already accepted: ignored.
         if segment.seqno == d.blksize || segment.last {
-            let blksize = Self::download_blksize(d.total);
+            let blksize = Self::download_blksize(capacity, d.total);
             self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq: d.ackseq, blksize }), tx);
             d.blksize = blksize;
             d.ackseq = 0;
@@ -173,16 +186,24 @@ impl<const N: usize> SdoServer<N> {
     }
 
     /// A request after the last segment of a block download: the end request.
-    pub(super) fn block_download_end(&mut self, d: Download, request: SdoRequest, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn block_download_end(
+        &mut self,
+        d: Download,
+        request: SdoRequest,
+        buf: Buffer<'_>,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) {
         let SdoRequest::BlockDownload(BlockDownloadRequest::End { unused, crc }) = request else {
             return self.fail(d.mux, AbortCode::InvalidCommand, tx);
         };
+        let Some(buf) = buf else { return self.fail(d.mux, AbortCode::NoResource, tx) };
         let len = d.total.saturating_sub(usize::from(unused));
-        if len > N {
+        if len > buf.len() {
             return self.fail(d.mux, AbortCode::OutOfMemory, tx);
         }
         if d.crc_on {
-            let last = self.buf.get(d.total.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
+            let last = buf.get(d.total.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
             if crc16_update(d.crc, last) != crc {
                 return self.fail(d.mux, AbortCode::CrcError, tx);
             }
@@ -192,7 +213,7 @@ impl<const N: usize> SdoServer<N> {
             Some(size) if len < size => return self.fail(d.mux, AbortCode::LengthTooLow, tx),
             _ => {}
         }
-        if let Err(code) = od.write(d.mux.index, d.mux.sub, self.buf.get(..len).unwrap_or(&[])) {
+        if let Err(code) = od.write(d.mux.index, d.mux.sub, buf.get(..len).unwrap_or(&[])) {
             return self.fail(d.mux, code, tx);
         }
         self.state = State::Idle;

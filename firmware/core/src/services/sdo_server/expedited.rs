@@ -1,7 +1,7 @@
 //! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
 //! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
 
-use super::{Mux, SdoServer, SdoTx, State, segmented};
+use super::{Buffer, Channel, Mux, SdoTx, State, segmented};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{InitiateData, SdoResponse};
@@ -9,13 +9,20 @@ use crate::wire::sdo::{InitiateData, SdoResponse};
 /// Largest value an expedited transfer carries.
 const EXPEDITED_MAX: usize = 4;
 
-impl<const N: usize> SdoServer<N> {
+impl Channel {
     /// Initiate SDO download: writes an expedited value at once, or opens a
     /// segmented download.
-    pub(super) fn initiate_download(&mut self, mux: Mux, data: InitiateData, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn initiate_download(
+        &mut self,
+        mux: Mux,
+        data: InitiateData,
+        buf: Buffer<'_>,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) {
         let (data, size) = match data {
             InitiateData::Expedited { data, size } => (data, size),
-            InitiateData::Segmented { size } => return self.start_segmented_download(mux, size, od, tx),
+            InitiateData::Segmented { size } => return self.start_segmented_download(mux, size, buf, od, tx),
         };
         let len = match size {
             Some(k) => usize::from(k),

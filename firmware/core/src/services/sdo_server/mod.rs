@@ -1,6 +1,8 @@
 //! SDO server. CiA 301 v4.2 §7.2.4; protocols §7.2.4.3 (figures 21–45);
 //! abort codes §7.2.4.3.17. The node owns the server parameter objects
-//! 0x1200–0x127F and routes this server's rx COB-ID here.
+//! 0x1200–0x127F and routes each server's rx COB-ID here: [`SdoServer`] is
+//! one server with its own buffer, [`SdoServers`] the default server and
+//! further ones (0x1201 …) sharing one buffer.
 //!
 //! Read first: CiA 301 §7.2.4.3.3–7.2.4.3.8 (expedited and segmented
 //! transfers, toggle bit), §7.2.4.3.9–7.2.4.3.16 (block transfers: blksize,
@@ -96,6 +98,44 @@ fn starts_transfer(request: &SdoRequest) -> bool {
     )
 }
 
+/// The download buffer as one server sees it: `Some` when it may use the
+/// buffer, `None` while another server of an [`SdoServers`] holds it for a
+/// download of its own.
+pub(super) type Buffer<'a> = Option<&'a mut [u8]>;
+
+/// Everything of one SDO server but the download buffer: the protocol
+/// state, the timeout, an unsent response and the malformed-frame count.
+/// About 80 bytes, so that further servers (0x1201–0x127F) are cheap.
+#[derive(Clone, Debug)]
+struct Channel {
+    state: State,
+    timeout: Duration,
+    /// When the transfer in progress times out (meaningless when idle).
+    deadline: Instant,
+    /// A response `tx` refused, sent again by the next `poll`.
+    pending: Option<[u8; 8]>,
+    malformed: u32,
+}
+
+impl Channel {
+    const NEW: Channel = Channel { state: State::Idle, timeout: DEFAULT_TIMEOUT, deadline: Instant::ZERO, pending: None, malformed: 0 };
+
+    /// Whether this server holds the download buffer (a segmented or block
+    /// download in progress).
+    fn holds_buffer(&self) -> bool {
+        matches!(self.state, State::SegmentedDownload(_) | State::BlockDownload(_))
+    }
+
+    fn is_idle(&self) -> bool {
+        matches!(self.state, State::Idle) && self.pending.is_none()
+    }
+
+    fn reset(&mut self) {
+        self.state = State::Idle;
+        self.pending = None;
+    }
+}
+
 /// A CiA 301 SDO server with an `N`-byte download buffer.
 ///
 /// Drive it with [`on_request`](Self::on_request) for every frame on its rx
@@ -106,13 +146,7 @@ fn starts_transfer(request: &SdoRequest) -> bool {
 /// interrupt.
 #[derive(Debug)]
 pub struct SdoServer<const N: usize> {
-    state: State,
-    timeout: Duration,
-    /// When the transfer in progress times out (meaningless when idle).
-    deadline: Instant,
-    /// A response `tx` refused, sent again by the next `poll`.
-    pending: Option<[u8; 8]>,
-    malformed: u32,
+    channel: Channel,
     buf: [u8; N],
 }
 
@@ -125,26 +159,25 @@ impl<const N: usize> Default for SdoServer<N> {
 impl<const N: usize> SdoServer<N> {
     /// An idle server with the [`DEFAULT_TIMEOUT`] of 1 s.
     pub const fn new() -> Self {
-        SdoServer { state: State::Idle, timeout: DEFAULT_TIMEOUT, deadline: Instant::ZERO, pending: None, malformed: 0, buf: [0; N] }
+        SdoServer { channel: Channel::NEW, buf: [0; N] }
     }
 
     /// Sets the time the server waits for the client's next frame (or for
     /// room to send its own) before it aborts with 0x05040000. Takes effect
     /// from the next frame.
     pub fn set_timeout(&mut self, timeout: Duration) {
-        self.timeout = timeout;
+        self.channel.timeout = timeout;
     }
 
     /// Whether no transfer is in progress and no response is waiting to be sent.
     pub fn is_idle(&self) -> bool {
-        matches!(self.state, State::Idle) && self.pending.is_none()
+        self.channel.is_idle()
     }
 
     /// Drops any transfer and unsent response without a frame (NMT reset
     /// communication, or the server disabled through 0x1200).
     pub fn reset(&mut self) {
-        self.state = State::Idle;
-        self.pending = None;
+        self.channel.reset();
     }
 
     /// One frame from the client on this server's rx COB-ID (data as received; DLC != 8 is counted in `malformed()` and ignored).
@@ -156,6 +189,97 @@ impl<const N: usize> SdoServer<N> {
     /// the transfer's deadline (because `poll` was late) first triggers the
     /// timeout abort; it is then served only if it initiates a new transfer.
     pub fn on_request(&mut self, now: Instant, data: &[u8], od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        self.channel.on_request(now, data, Some(&mut self.buf), od, tx);
+    }
+
+    /// Sends pending block-upload segments while `tx` accepts them; aborts with 0x05040000 on timeout; returns the next deadline (None when idle).
+    ///
+    /// The deadline is `now` while frames wait for room in `tx` (call again
+    /// when the TX queue drains), else the timeout of the transfer in
+    /// progress. Calling early is harmless.
+    pub fn poll(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+        self.channel.poll(now, od, tx)
+    }
+
+    /// Frames ignored because their length was not 8, plus requests with an
+    /// unknown command specifier (those were answered with an abort).
+    pub fn malformed(&self) -> u32 {
+        self.channel.malformed
+    }
+}
+
+/// `K` SDO servers (the default one, 0x1200, and further ones, 0x1201 …)
+/// that share one `N`-byte download buffer. CiA 301 §7.2.4.1.
+///
+/// Uploads and expedited downloads need no buffer, so every server runs
+/// them at any time. A segmented or block download needs the buffer until
+/// its last frame: while one server holds it, a download started on another
+/// server is refused with abort 0x060A0023 ("resource not available: SDO
+/// connection"), and the holder is never disturbed. Each server costs its
+/// protocol state only (about 80 bytes), not a buffer.
+#[derive(Debug)]
+pub struct SdoServers<const N: usize, const K: usize> {
+    channels: [Channel; K],
+    buf: [u8; N],
+}
+
+impl<const N: usize, const K: usize> Default for SdoServers<N, K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize, const K: usize> SdoServers<N, K> {
+    /// `K` idle servers with the [`DEFAULT_TIMEOUT`] of 1 s.
+    pub const fn new() -> Self {
+        SdoServers { channels: [Channel::NEW; K], buf: [0; N] }
+    }
+
+    /// Sets the timeout of server `i` (0-based: 0 is 0x1200), as [`SdoServer::set_timeout`].
+    pub fn set_timeout(&mut self, i: usize, timeout: Duration) {
+        if let Some(c) = self.channels.get_mut(i) {
+            c.timeout = timeout;
+        }
+    }
+
+    /// Whether server `i` has no transfer in progress and no response waiting.
+    pub fn is_idle(&self, i: usize) -> bool {
+        self.channels.get(i).is_none_or(Channel::is_idle)
+    }
+
+    /// Drops the transfer of server `i` without a frame (its COB-ID became invalid).
+    pub fn reset(&mut self, i: usize) {
+        if let Some(c) = self.channels.get_mut(i) {
+            c.reset();
+        }
+    }
+
+    /// Drops every transfer without a frame (reset communication, Stopped).
+    pub fn reset_all(&mut self) {
+        self.channels.iter_mut().for_each(Channel::reset);
+    }
+
+    /// A frame on the rx COB-ID of server `i`, as [`SdoServer::on_request`].
+    pub fn on_request(&mut self, i: usize, now: Instant, data: &[u8], od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let lent = self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
+        let Some(channel) = self.channels.get_mut(i) else { return };
+        let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
+        channel.on_request(now, data, buf, od, tx);
+    }
+
+    /// Timers and pending frames of server `i`, as [`SdoServer::poll`].
+    pub fn poll(&mut self, i: usize, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+        self.channels.get_mut(i).and_then(|c| c.poll(now, od, tx))
+    }
+
+    /// Malformed frames server `i` counted, as [`SdoServer::malformed`].
+    pub fn malformed(&self, i: usize) -> u32 {
+        self.channels.get(i).map_or(0, |c| c.malformed)
+    }
+}
+
+impl Channel {
+    fn on_request(&mut self, now: Instant, data: &[u8], buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         // A frame at or after the deadline comes too late for its transfer:
         // the timeout abort answers it, and only a new initiate is served.
         let expired = self.expire(now, tx);
@@ -163,12 +287,12 @@ impl<const N: usize> SdoServer<N> {
             // Sub-block frames carry a sequence number where other frames
             // have a command specifier; only the state tells them apart.
             State::BlockDownload(d) if d.in_sub_block() => match BlockSegment::parse(data) {
-                Ok(segment) => self.block_download_segment(d, segment, tx),
+                Ok(segment) => self.block_download_segment(d, segment, buf, tx),
                 Err(_) => return self.count_malformed(),
             },
             _ => match SdoRequest::parse(data) {
                 Ok(request) if expired && !starts_transfer(&request) => {}
-                Ok(request) => self.request(request, od, tx),
+                Ok(request) => self.request(request, buf, od, tx),
                 Err(SdoParseError::Length(_)) => return self.count_malformed(),
                 Err(SdoParseError::UnknownCommand { index, sub, .. }) => {
                     self.count_malformed();
@@ -184,12 +308,7 @@ impl<const N: usize> SdoServer<N> {
         }
     }
 
-    /// Sends pending block-upload segments while `tx` accepts them; aborts with 0x05040000 on timeout; returns the next deadline (None when idle).
-    ///
-    /// The deadline is `now` while frames wait for room in `tx` (call again
-    /// when the TX queue drains), else the timeout of the transfer in
-    /// progress. Calling early is harmless.
-    pub fn poll(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+    fn poll(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
         self.expire(now, tx);
         if self.flush(tx) {
             self.send_block_segments(now, od, tx);
@@ -203,12 +322,6 @@ impl<const N: usize> SdoServer<N> {
         }
     }
 
-    /// Frames ignored because their length was not 8, plus requests with an
-    /// unknown command specifier (those were answered with an abort).
-    pub fn malformed(&self) -> u32 {
-        self.malformed
-    }
-
     /// The transfer in progress times out `timeout` after `now`.
     #[allow(clippy::arithmetic_side_effects)] // Instant + Duration saturates (time.rs).
     fn restart_timer(&mut self, now: Instant) {
@@ -220,13 +333,13 @@ impl<const N: usize> SdoServer<N> {
     }
 
     /// A request outside the block download sub-block phase.
-    fn request(&mut self, request: SdoRequest, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    fn request(&mut self, request: SdoRequest, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         // An abort or a new initiate ends whatever was in progress.
         match request {
             SdoRequest::Abort { .. } => self.reset(),
             SdoRequest::InitiateDownload { index, sub, data } => {
                 self.reset();
-                self.initiate_download(Mux { index, sub }, data, od, tx);
+                self.initiate_download(Mux { index, sub }, data, buf, od, tx);
             }
             SdoRequest::InitiateUpload { index, sub } => {
                 self.reset();
@@ -234,7 +347,7 @@ impl<const N: usize> SdoServer<N> {
             }
             SdoRequest::BlockDownload(BlockDownloadRequest::Initiate { index, sub, crc, size }) => {
                 self.reset();
-                self.start_block_download(Mux { index, sub }, crc, size, od, tx);
+                self.start_block_download(Mux { index, sub }, crc, size, buf, od, tx);
             }
             SdoRequest::BlockUpload(BlockUploadRequest::Initiate { index, sub, crc, blksize, pst }) => {
                 self.reset();
@@ -242,9 +355,9 @@ impl<const N: usize> SdoServer<N> {
             }
             _ => match self.state {
                 State::Idle => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
-                State::SegmentedDownload(d) => self.segmented_download(d, request, od, tx),
+                State::SegmentedDownload(d) => self.segmented_download(d, request, buf, od, tx),
                 State::SegmentedUpload(u) => self.segmented_upload(u, request, od, tx),
-                State::BlockDownload(d) => self.block_download_end(d, request, od, tx),
+                State::BlockDownload(d) => self.block_download_end(d, request, buf, od, tx),
                 State::BlockUpload(u) => self.block_upload(u, request, tx),
             },
         }

@@ -2,7 +2,7 @@
 //! §7.2.4.3.7–8 (upload): seven bytes per segment, a toggle bit that
 //! starts at 0 and alternates (abort 0x05030000 when it does not).
 
-use super::{Mux, SdoServer, SdoTx, State};
+use super::{Buffer, Channel, Mux, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{SdoRequest, SdoResponse};
@@ -41,15 +41,24 @@ impl Upload {
     }
 }
 
-impl<const N: usize> SdoServer<N> {
+impl Channel {
     /// Initiate SDO download with e = 0: checks the entry and the size
     /// before any segment arrives.
-    pub(super) fn start_segmented_download(&mut self, mux: Mux, size: Option<u32>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn start_segmented_download(
+        &mut self,
+        mux: Mux,
+        size: Option<u32>,
+        buf: Buffer<'_>,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         if let Err(code) = od.download_check(mux.index, mux.sub, size) {
             return self.fail(mux, code, tx);
         }
-        if size.is_some_and(|s| s > N) {
+        // Another server holds the shared buffer for a download of its own.
+        let Some(buf) = buf else { return self.fail(mux, AbortCode::NoResource, tx) };
+        if size.is_some_and(|s| s > buf.len()) {
             return self.fail(mux, AbortCode::OutOfMemory, tx);
         }
         self.state = State::SegmentedDownload(Download { mux, toggle: false, len: 0, size });
@@ -57,7 +66,14 @@ impl<const N: usize> SdoServer<N> {
     }
 
     /// A request while a segmented download is in progress.
-    pub(super) fn segmented_download(&mut self, mut d: Download, request: SdoRequest, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn segmented_download(
+        &mut self,
+        mut d: Download,
+        request: SdoRequest,
+        buf: Buffer<'_>,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) {
         let SdoRequest::DownloadSegment { toggle, data, len, last } = request else {
             return self.fail(d.mux, AbortCode::InvalidCommand, tx);
         };
@@ -69,7 +85,9 @@ impl<const N: usize> SdoServer<N> {
         if d.size.is_some_and(|size| end > size) {
             return self.fail(d.mux, AbortCode::LengthTooHigh, tx);
         }
-        let Some(dst) = self.buf.get_mut(d.len..).and_then(|rest| rest.get_mut(..chunk.len())) else {
+        // This server holds the buffer while its download runs (see `SdoServers`).
+        let Some(buf) = buf else { return self.fail(d.mux, AbortCode::NoResource, tx) };
+        let Some(dst) = buf.get_mut(d.len..).and_then(|rest| rest.get_mut(..chunk.len())) else {
             return self.fail(d.mux, AbortCode::OutOfMemory, tx);
         };
         dst.copy_from_slice(chunk);
@@ -78,7 +96,7 @@ impl<const N: usize> SdoServer<N> {
             if d.size.is_some_and(|size| end < size) {
                 return self.fail(d.mux, AbortCode::LengthTooLow, tx);
             }
-            let value = self.buf.get(..end).unwrap_or(&[]);
+            let value = buf.get(..end).unwrap_or(&[]);
             if let Err(code) = od.write(d.mux.index, d.mux.sub, value) {
                 return self.fail(d.mux, code, tx);
             }

@@ -244,3 +244,10 @@ impl<const N: usize> Test<N> {
 }
 
 type Sdo = Test<128>;
+
+#[test]
+fn a_further_server_costs_its_protocol_state_only() {
+    // The download buffer is shared (SdoServers); one server's state stays small.
+    assert!(core::mem::size_of::<Channel>() <= 80, "{}", core::mem::size_of::<Channel>());
+    assert_eq!(core::mem::size_of::<SdoServers<896, 4>>(), 896 + 4 * core::mem::size_of::<Channel>());
+}

@@ -1,0 +1,103 @@
+//! Node-IDs and COB-IDs. CiA 301 v4.2 §7.3.3 (pre-defined connection set),
+//! §7.3.5 (restricted CAN-IDs) and the COB-ID entries of the communication
+//! objects (0x1005 SYNC, 0x1012 TIME, 0x1014 EMCY, 0x1200–0x12FF SDO,
+//! 0x1400–0x15FF and 0x1800–0x19FF PDO).
+
+/// A CANopen node-ID: 1..=127 (CiA 301 §7.3.3; 0 is the NMT broadcast
+/// address, 128..=255 are not node-IDs, 255 means "unconfigured" in LSS).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct NodeId(u8);
+
+impl NodeId {
+    /// The node-ID `id`, if it is one (1..=127).
+    pub const fn new(id: u8) -> Option<NodeId> {
+        match id {
+            1..=127 => Some(NodeId(id)),
+            _ => None,
+        }
+    }
+
+    /// The node-ID as a number.
+    pub const fn get(self) -> u8 {
+        self.0
+    }
+}
+
+/// Whether CiA 301 §7.3.5 (table "restricted CAN-IDs") reserves `can_id`,
+/// so that no configurable COB-ID may use it: NMT and reserved 0x000–0x07F,
+/// 0x101–0x180, the default SDO 0x581–0x5FF and 0x601–0x67F, 0x6E0–0x6FF,
+/// NMT error control 0x701–0x77F and 0x780–0x7FF.
+pub const fn is_restricted_can_id(can_id: u16) -> bool {
+    matches!(can_id, 0x000..=0x07F | 0x101..=0x180 | 0x581..=0x5FF | 0x601..=0x67F | 0x6E0..=0x6FF | 0x701..=0x7FF)
+}
+
+/// A COB-ID entry as the communication objects store it (UNSIGNED32).
+///
+/// Bits 0..10 are the 11-bit CAN-ID and bit 29 ("frame") selects a 29-bit
+/// CAN-ID, which this stack does not support; bits 11..28 then belong to the
+/// 29-bit identifier. Bits 30 and 31 mean different things per object:
+/// valid/RTR for PDOs, valid/dynamic for SDO, valid for EMCY, generate for
+/// SYNC, consume/produce for TIME.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CobId(pub u32);
+
+impl CobId {
+    /// Bit 31 (PDO, SDO, EMCY: set = the object does not exist / is not valid).
+    pub const BIT31: u32 = 1 << 31;
+    /// Bit 30.
+    pub const BIT30: u32 = 1 << 30;
+    /// Bit 29 and bits 11..28: a 29-bit CAN-ID.
+    pub const EXTENDED: u32 = 0x3FFF_F800 & !Self::BIT30;
+
+    /// The 11-bit CAN-ID (bits 0..10).
+    pub const fn can_id(self) -> u16 {
+        (self.0 & 0x7FF) as u16
+    }
+
+    /// Bit 31 clear: the PDO, SDO or EMCY it configures exists.
+    pub const fn is_valid(self) -> bool {
+        self.0 & Self::BIT31 == 0
+    }
+
+    /// Whether bit 29 or any of bits 11..28 is set (29-bit identifiers are not supported).
+    pub const fn is_extended(self) -> bool {
+        self.0 & Self::EXTENDED != 0
+    }
+
+    /// Whether its CAN-ID is restricted (§7.3.5).
+    pub const fn is_restricted(self) -> bool {
+        is_restricted_can_id(self.can_id())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn node_ids_are_1_to_127() {
+        assert_eq!(NodeId::new(0), None);
+        assert_eq!(NodeId::new(1).map(NodeId::get), Some(1));
+        assert_eq!(NodeId::new(127).map(NodeId::get), Some(127));
+        assert_eq!(NodeId::new(128), None);
+        assert_eq!(NodeId::new(255), None);
+    }
+
+    #[test]
+    fn restricted_can_ids_follow_cia301_table_34() {
+        let restricted = [0x000, 0x001, 0x07F, 0x101, 0x180, 0x581, 0x5FF, 0x601, 0x67F, 0x6E0, 0x6FF, 0x701, 0x77F, 0x780, 0x7FF];
+        let allowed = [0x080, 0x0FF, 0x100, 0x181, 0x580, 0x600, 0x680, 0x6DF, 0x700];
+        assert!(restricted.iter().all(|&id| is_restricted_can_id(id)));
+        assert!(allowed.iter().all(|&id| !is_restricted_can_id(id)));
+    }
+
+    #[test]
+    fn cob_id_fields() {
+        let c = CobId(0xC000_0185);
+        assert_eq!((c.can_id(), c.is_valid(), c.is_extended(), c.is_restricted()), (0x185, false, false, false));
+        assert!(CobId(0x2000_0185).is_extended());
+        assert!(CobId(0x0000_0985).is_extended());
+        assert!(!CobId(0x4000_0185).is_extended());
+        assert!(CobId(0x0000_0701).is_restricted());
+    }
+}

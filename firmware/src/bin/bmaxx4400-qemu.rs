@@ -1,0 +1,5 @@
+//! The `bmaxx4400` image for the QEMU board (lm3s6965evb); see docs/firmware.md.
+#![no_std]
+#![no_main]
+
+firmware::image!(qemu, bmaxx4400);

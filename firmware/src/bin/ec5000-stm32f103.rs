@@ -1,0 +1,6 @@
+//! The `ec5000` image for the STM32F103C8 board; see docs/firmware.md.
+//! 250 kbit/s: factory setting of 0x4651 (docs/devices/ec5000.md).
+#![no_std]
+#![no_main]
+
+firmware::image!(stm32f103, ec5000, bit_rate_kbps = 250);

@@ -1,0 +1,5 @@
+//! The `unitek-ds` image for the QEMU board (lm3s6965evb); see docs/firmware.md.
+#![no_std]
+#![no_main]
+
+firmware::image!(qemu, unitek_ds);

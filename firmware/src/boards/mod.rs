@@ -1,0 +1,56 @@
+//! The boards an image runs on. A board moves frames between its CAN
+//! controller (or SLCAN link) and `app::Shared`, keeps time for
+//! embassy, and provides a [`canopen_core::storage::Storage`]; it holds no
+//! CANopen logic. This is the only place with
+//! `unsafe` code (register access, interrupt set-up), each block with a
+//! `// SAFETY:` comment.
+//!
+//! - [`qemu`]: lm3s6965evb under `qemu-system-arm` (feature `board-qemu`).
+//! - [`stm32f103`]: STM32F103C8 with bxCAN (feature `board-stm32f103`).
+//!
+//! Each board exports the same three items, which [`crate::image!`] uses:
+//! `Config` (with a `DEFAULT`), `Storage<const REGION: usize>` and
+//! `run(config, make_node) -> !`.
+
+#[cfg(all(feature = "board-qemu", feature = "board-stm32f103"))]
+compile_error!("enable one board feature per build: `board-qemu` or `board-stm32f103`");
+
+pub mod qemu;
+pub mod stm32f103;
+
+#[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
+mod systick;
+
+/// Bytes of a storage region for a dictionary whose RAM image is `image`
+/// bytes: the image plus the store header (24 bytes, `services::store`),
+/// rounded up to a flash half-word.
+pub const fn region_size(image: usize) -> usize {
+    (image + 24).next_multiple_of(2)
+}
+
+/// Defines an image's entry point: `firmware::image!(<board>, <device>)`,
+/// optionally followed by `key = value` settings of the board's `Config`
+/// (`bit_rate_kbps = 250` on the STM32F103).
+///
+/// The node lives in a `static` (so its size shows in `.bss`), runs the
+/// device's dictionary with no application hooks yet, and starts with the
+/// device's default node-id.
+#[macro_export]
+macro_rules! image {
+    ($board:ident, $device:ident $(, $key:ident = $value:expr)* $(,)?) => {
+        #[::cortex_m_rt::entry]
+        fn main() -> ! {
+            use $crate::devices::$device as device;
+            type Storage = $crate::boards::$board::Storage<{ $crate::boards::region_size(device::od::RAM_SIZE) }>;
+            type Node = device::od::Node<::canopen_core::node::NoApplication, Storage>;
+            static NODE: ::static_cell::StaticCell<Node> = ::static_cell::StaticCell::new();
+            #[allow(clippy::needless_update)]
+            let config = $crate::boards::$board::Config { $($key: $value,)* ..$crate::boards::$board::Config::DEFAULT };
+            $crate::boards::$board::run(config, |storage: Storage, now| {
+                let node_id = device::DEVICE.default_node_id;
+                let ram = device::od::Ram::new(node_id);
+                NODE.init_with(|| Node::new(ram, ::canopen_core::node::NoApplication, storage, node_id, now))
+            })
+        }
+    };
+}

@@ -1,0 +1,191 @@
+//! Start-up and tasks of the QEMU board.
+#![allow(unsafe_code)]
+
+use core::cell::RefCell;
+use core::sync::atomic::{AtomicBool, Ordering};
+
+use canopen_core::time::Instant;
+use cortex_m_rt::{ExceptionFrame, exception};
+use cortex_m_semihosting::debug;
+use critical_section::Mutex;
+use defmt_semihosting as _;
+use embassy_executor::{Executor, InterruptExecutor, SpawnError};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::signal::Signal;
+use lm3s6965::{Interrupt, interrupt};
+use static_cell::StaticCell;
+
+use super::ram_storage::RamStorage;
+use super::slcan::{self, BEL, Channel, Command, Decoder, FRAME_LINE};
+use super::uart;
+use crate::app::{self, CanNode, SHARED};
+use crate::boards::systick;
+
+/// Nothing to configure: the emulated bus has no bit rate.
+#[derive(Clone, Copy, Debug)]
+pub struct Config {}
+
+impl Config {
+    /// The only configuration.
+    pub const DEFAULT: Config = Config {};
+}
+
+/// RAM standing in for flash.
+pub type Storage<const REGION: usize> = RamStorage<REGION>;
+
+/// QEMU's lm3s6965evb clocks the core (and SysTick) at 12 MHz.
+const CORE_HZ: u32 = 12_000_000;
+/// The CANopen task's executor runs in the handler of GPIO port A, which
+/// this board does not use otherwise.
+const EXECUTOR_IRQ: Interrupt = Interrupt::GPIOA;
+/// Its priority: above thread mode, below UART0 and SysTick (0, the
+/// default). lm3s6965 implements 3 priority bits, the top of the byte.
+const EXECUTOR_PRIORITY: u8 = 1 << 5;
+
+static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
+static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
+/// Raised when the node may have frames to send.
+static TX_READY: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+
+/// Boots the image: `make_node` builds the node on `Storage` at the given
+/// time; then the CANopen task runs on the interrupt executor, the SLCAN
+/// transmitter and the application slot in thread mode.
+pub fn run<const REGION: usize>(_config: Config, make_node: impl FnOnce(Storage<REGION>, Instant) -> &'static mut dyn CanNode) -> ! {
+    let Some(mut core) = cortex_m::Peripherals::take() else { fail() };
+    systick::init(core.SYST, CORE_HZ);
+    SHARED.install(make_node(RamStorage::default(), app::now()));
+    uart::init();
+    // SAFETY: set before the executor starts (as `InterruptExecutor::start`
+    // requires); no priority-based critical section depends on it.
+    unsafe { core.NVIC.set_priority(EXECUTOR_IRQ, EXECUTOR_PRIORITY) };
+    CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen()));
+    THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
+        spawner.spawn(spawned(slcan_tx()));
+        spawner.spawn(spawned(application()));
+    })
+}
+
+fn spawned<T>(token: Result<T, SpawnError>) -> T {
+    token.unwrap_or_else(|_| fail())
+}
+
+#[embassy_executor::task]
+async fn canopen() -> ! {
+    app::run_canopen(&SHARED, || TX_READY.signal(())).await
+}
+
+#[embassy_executor::task]
+async fn application() -> ! {
+    app::run_application(&SHARED).await
+}
+
+/// The adapter side of SLCAN: the UART0 handler decodes host lines,
+/// answers them and passes frames to the node; this task sends the node's
+/// frames. While the channel is closed they wait in the node's queue, as on
+/// a bus nobody acknowledges.
+#[embassy_executor::task]
+async fn slcan_tx() -> ! {
+    let mut line = [0u8; FRAME_LINE];
+    loop {
+        TX_READY.wait().await;
+        // The node has run since the handler paused: there may be room again.
+        uart::resume_rx();
+        if OPEN.load(Ordering::Relaxed) {
+            while let Some(frame) = SHARED.with_node(|node| node.transmit()).flatten() {
+                let n = slcan::encode(&frame, &mut line);
+                // One whole line: the handler's answers must not land inside it.
+                critical_section::with(|_| uart::write_all(line.get(..n).unwrap_or(&[])));
+            }
+        }
+    }
+}
+
+/// The SLCAN adapter state the UART0 handler keeps.
+struct Adapter {
+    decoder: Decoder,
+    channel: Channel,
+}
+
+static ADAPTER: Mutex<RefCell<Adapter>> = Mutex::new(RefCell::new(Adapter { decoder: Decoder::new(), channel: Channel::Closed }));
+/// Whether the channel is open (or listen-only), for [`slcan_tx`].
+static OPEN: AtomicBool = AtomicBool::new(false);
+
+impl Adapter {
+    fn on_byte(&mut self, byte: u8) {
+        let Some(result) = self.decoder.push(byte) else { return };
+        let Ok(command) = result else {
+            uart::write_all(&[BEL]);
+            return;
+        };
+        let (next, answer) = slcan::reply(self.channel, &command);
+        if next != self.channel {
+            self.channel = next;
+            OPEN.store(next != Channel::Closed, Ordering::Relaxed);
+            TX_READY.signal(());
+        }
+        if let Command::Transmit(frame) = command
+            && answer != [BEL]
+        {
+            if let Some(status) = super::exit_request(&frame) {
+                exit(status);
+            }
+            // Cannot fail: the handler reads only while the channel has room.
+            if SHARED.rx.try_send(frame).is_err() {
+                SHARED.rx_overrun();
+            }
+        }
+        uart::write_all(answer);
+    }
+}
+
+#[interrupt]
+fn UART0() {
+    critical_section::with(|cs| {
+        let Ok(mut adapter) = ADAPTER.borrow(cs).try_borrow_mut() else { return };
+        while !SHARED.rx.is_full() {
+            let Some(byte) = uart::read_byte() else { break };
+            adapter.on_byte(byte);
+        }
+        if SHARED.rx.is_full() {
+            // Resumed by `slcan_tx` once the CANopen task has run.
+            uart::pause_rx();
+        }
+    });
+    uart::clear_rx_interrupt();
+}
+
+/// Ends the QEMU run with exit code 0 (`status` 0) or 1.
+fn exit(status: u8) -> ! {
+    defmt::info!("exit frame: status {=u8}, {=u32} frames lost", status, SHARED.rx_overruns());
+    debug::exit(if status == 0 { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
+    fail()
+}
+
+/// Ends the QEMU run with exit code 1.
+fn fail() -> ! {
+    loop {
+        debug::exit(debug::EXIT_FAILURE);
+    }
+}
+
+#[interrupt]
+fn GPIOA() {
+    // SAFETY: this is the handler of the interrupt the executor was started
+    // on, and nothing else calls `on_interrupt`.
+    unsafe { CANOPEN_EXECUTOR.on_interrupt() }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    match info.location() {
+        Some(at) => defmt::error!("panic at {=str}:{=u32}", at.file(), at.line()),
+        None => defmt::error!("panic"),
+    }
+    fail()
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
+    fail()
+}

@@ -1,0 +1,74 @@
+//! Storage for the QEMU board: two regions of RAM that behave like flash
+//! (erase sets 0xFF, programming only clears bits). lm3s6965evb's flash
+//! controller is not emulated by QEMU, so stored parameters last until the
+//! emulator exits; that is enough to exercise 0x1010/0x1011 end to end.
+
+use canopen_core::storage::{Storage, StorageError};
+
+/// Two regions of `REGION` bytes.
+#[derive(Clone, Debug)]
+pub struct RamStorage<const REGION: usize> {
+    regions: [[u8; REGION]; 2],
+}
+
+impl<const REGION: usize> Default for RamStorage<REGION> {
+    fn default() -> Self {
+        RamStorage { regions: [[0xFF; REGION]; 2] }
+    }
+}
+
+impl<const REGION: usize> RamStorage<REGION> {
+    fn span(&mut self, region: u8, offset: usize, len: usize) -> Result<&mut [u8], StorageError> {
+        let region = self.regions.get_mut(usize::from(region)).ok_or(StorageError::OutOfRange)?;
+        region.get_mut(offset..offset.checked_add(len).ok_or(StorageError::OutOfRange)?).ok_or(StorageError::OutOfRange)
+    }
+}
+
+impl<const REGION: usize> Storage for RamStorage<REGION> {
+    fn region_size(&self) -> usize {
+        REGION
+    }
+
+    fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
+        buf.copy_from_slice(self.span(region, offset, buf.len())?);
+        Ok(())
+    }
+
+    fn erase(&mut self, region: u8) -> Result<(), StorageError> {
+        self.span(region, 0, REGION)?.fill(0xFF);
+        Ok(())
+    }
+
+    fn write(&mut self, region: u8, offset: usize, data: &[u8]) -> Result<(), StorageError> {
+        // Like flash: programming can only clear bits.
+        for (cell, &byte) in self.span(region, offset, data.len())?.iter_mut().zip(data) {
+            *cell &= byte;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+
+    #[test]
+    fn behaves_like_flash() {
+        let mut s = RamStorage::<16>::default();
+        let mut buf = [0u8; 4];
+        s.read(1, 12, &mut buf).unwrap();
+        assert_eq!(buf, [0xFF; 4]);
+        s.write(1, 12, &[0x12, 0x34, 0xF0, 0x0F]).unwrap();
+        s.write(1, 14, &[0x0F, 0xF0]).unwrap();
+        s.read(1, 12, &mut buf).unwrap();
+        assert_eq!(buf, [0x12, 0x34, 0x00, 0x00]);
+        s.erase(1).unwrap();
+        s.read(1, 12, &mut buf).unwrap();
+        assert_eq!(buf, [0xFF; 4]);
+        assert_eq!(s.read(2, 0, &mut buf), Err(StorageError::OutOfRange));
+        assert_eq!(s.write(0, 14, &[0; 4]), Err(StorageError::OutOfRange));
+        assert_eq!(s.read(0, usize::MAX, &mut buf), Err(StorageError::OutOfRange));
+    }
+}

@@ -1,0 +1,133 @@
+//! Start-up and tasks of the STM32F103C8 board.
+#![allow(unsafe_code)]
+
+use canopen_core::time::Instant;
+use cortex_m::peripheral::NVIC;
+use defmt_rtt as _;
+use embassy_executor::{Executor, InterruptExecutor, SpawnError};
+use static_cell::StaticCell;
+use stm32f1xx_hal::flash::FlashExt;
+use stm32f1xx_hal::gpio::GpioExt;
+use stm32f1xx_hal::pac::{self, Interrupt, interrupt};
+use stm32f1xx_hal::prelude::*;
+use stm32f1xx_hal::rcc;
+
+use super::bit_timing;
+use super::can;
+use super::flash::Flash;
+use super::flash_storage::FlashStorage;
+use crate::app::{self, CanNode, SHARED};
+use crate::boards::systick;
+
+/// What differs between images on this board.
+#[derive(Clone, Copy, Debug)]
+pub struct Config {
+    /// CAN bit rate in kbit/s (one of the CiA 305 rates the device supports).
+    pub bit_rate_kbps: u32,
+}
+
+impl Config {
+    /// 250 kbit/s.
+    pub const DEFAULT: Config = Config { bit_rate_kbps: 250 };
+}
+
+/// Two regions of flash pages.
+pub type Storage<const REGION: usize> = FlashStorage<Flash, REGION>;
+
+/// The Blue Pill's crystal.
+const HSE_HZ: u32 = 8_000_000;
+/// Core clock (the STM32F103 maximum).
+const SYSCLK_HZ: u32 = 72_000_000;
+/// APB1, which clocks bxCAN (36 MHz is its maximum).
+const PCLK1_HZ: u32 = 36_000_000;
+/// Priority of the CAN interrupts and of the CANopen task's executor, so
+/// neither preempts the other. STM32F1 implements 4 priority bits, the top
+/// of the byte: this is level 1, below SysTick (level 0) and above thread
+/// mode.
+const CAN_PRIORITY: u8 = 1 << 4;
+/// The CANopen executor runs in the tamper interrupt's handler; the tamper
+/// pin is not used.
+const EXECUTOR_IRQ: Interrupt = Interrupt::TAMPER;
+/// The CAN interrupts.
+const CAN_IRQS: [Interrupt; 3] = [Interrupt::USB_HP_CAN_TX, Interrupt::USB_LP_CAN_RX0, Interrupt::CAN_SCE];
+
+static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
+static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
+
+/// Boots the image: clocks, time, storage, then `make_node` builds the
+/// node, and the CAN controller starts at `config.bit_rate_kbps`; the
+/// CANopen task runs on the interrupt executor, the application slot in
+/// thread mode.
+pub fn run<const REGION: usize>(config: Config, make_node: impl FnOnce(Storage<REGION>, Instant) -> &'static mut dyn CanNode) -> ! {
+    let (Some(dp), Some(mut core)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
+        defmt::panic!("peripherals taken twice")
+    };
+    let mut flash = dp.FLASH.constrain();
+    let clocks = rcc::Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz()).pclk1(PCLK1_HZ.Hz());
+    let mut rcc = dp.RCC.freeze(clocks, &mut flash.acr);
+    systick::init(core.SYST, rcc.clocks.sysclk().raw());
+    SHARED.install(make_node(FlashStorage::new(Flash::new(flash)), app::now()));
+
+    let Some(btr) = bit_timing::btr(rcc.clocks.pclk1().raw(), config.bit_rate_kbps.saturating_mul(1000)) else {
+        defmt::panic!("no bit timing for {=u32} kbit/s", config.bit_rate_kbps)
+    };
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    can::start(dp.CAN.can(dp.USB, (gpioa.pa12, gpioa.pa11), &mut rcc), btr);
+    defmt::info!("CAN at {=u32} kbit/s, BTR {=u32:#010x}", config.bit_rate_kbps, btr);
+
+    for irq in CAN_IRQS.into_iter().chain([EXECUTOR_IRQ]) {
+        // SAFETY: priorities are set before the interrupts are unmasked and
+        // the executor starts; no critical section relies on priorities.
+        unsafe { core.NVIC.set_priority(irq, CAN_PRIORITY) };
+    }
+    for irq in CAN_IRQS {
+        // SAFETY: the handlers in `can` are linked in and find the
+        // controller set up by `can::start`.
+        unsafe { NVIC::unmask(irq) };
+    }
+    CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen()));
+    THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
+        spawner.spawn(spawned(application()));
+    })
+}
+
+fn spawned<T>(token: Result<T, SpawnError>) -> T {
+    match token {
+        Ok(token) => token,
+        Err(_) => defmt::panic!("task spawned twice"),
+    }
+}
+
+/// Lets the TX-empty handler drain the node's queue into the mailboxes.
+fn kick_tx() {
+    NVIC::pend(Interrupt::USB_HP_CAN_TX);
+}
+
+#[embassy_executor::task]
+async fn canopen() -> ! {
+    app::run_canopen(&SHARED, kick_tx).await
+}
+
+#[embassy_executor::task]
+async fn application() -> ! {
+    app::run_application(&SHARED).await
+}
+
+#[interrupt]
+fn TAMPER() {
+    // SAFETY: this is the handler of the interrupt the executor was started
+    // on, and nothing else calls `on_interrupt`.
+    unsafe { CANOPEN_EXECUTOR.on_interrupt() }
+}
+
+/// Logs where it happened and stops with `udf`, as panic-probe does (a
+/// debug probe reports the HardFault), without pulling `core::fmt` into
+/// the image the way panic-probe's message printing does.
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    match info.location() {
+        Some(at) => defmt::error!("panic at {=str}:{=u32}", at.file(), at.line()),
+        None => defmt::error!("panic"),
+    }
+    cortex_m::asm::udf()
+}

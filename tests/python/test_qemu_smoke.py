@@ -1,0 +1,307 @@
+"""QEMU smoke tests: python-canopen (an independent CANopen master) drives each
+device's firmware image as it runs on the emulated lm3s6965evb, over SLCAN on
+the emulated UART (docs/firmware.md).
+
+Run through `cargo xtask smoke`, which builds the images and sets QEMU_SMOKE=1:
+    QEMU_SMOKE=1 .venv/bin/python -m unittest -v tests/python/test_qemu_smoke.py
+Each image runs under a hard timeout and must end through the firmware's
+semihosting exit (the 29-bit frame 0x1FFFFFFF "EXIT") with exit code 0.
+"""
+
+import os
+import socket
+import struct
+import subprocess
+import threading
+import time
+import unittest
+
+import can
+import canopen
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TARGET_DIR = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
+RELEASE = os.path.join(TARGET_DIR, "thumbv7m-none-eabi", "release")
+LOGS = os.path.join(TARGET_DIR, "qemu-smoke")
+
+# Device -> node-id the image starts with (firmware/src/devices/*.rs, from each manual).
+DEVICES = {"ec5000": 127, "unitek-ds": 1, "sendix": 0x3F, "bmaxx4400": 1, "agile": 1}
+
+RUN_TIMEOUT = 90.0  # seconds of wall time per image, then QEMU is killed
+WAIT = 5.0  # seconds to wait for one expected frame
+EXIT_ID = 0x1FFFFFFF
+NO_OBJECT = 0x06020000
+NO_SUB_INDEX = 0x06090011
+OPERATIONAL = 0x05
+SIGNED = (0x02, 0x03, 0x04, 0x15)  # INTEGER8/16/32/64 (CiA 301 table 44)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class FrameLog(can.Listener):
+    """Every frame the node sent, in order, for waits on exact frames."""
+
+    def __init__(self):
+        self.frames = []
+        self.cond = threading.Condition()
+
+    def on_message_received(self, msg):
+        with self.cond:
+            self.frames.append(msg)
+            self.cond.notify_all()
+
+    def mark(self):
+        with self.cond:
+            return len(self.frames)
+
+    def wait_for(self, pred, after=0, timeout=WAIT):
+        """The first frame from position `after` on that satisfies `pred`."""
+        end = time.monotonic() + timeout
+        with self.cond:
+            while True:
+                for msg in self.frames[after:]:
+                    if pred(msg):
+                        return msg
+                left = end - time.monotonic()
+                if left <= 0:
+                    return None
+                self.cond.wait(left)
+
+    def since(self, after, cob_id):
+        with self.cond:
+            return [m for m in self.frames[after:] if m.arbitration_id == cob_id and not m.is_extended_id]
+
+
+class QemuImage:
+    """One image in QEMU, its UART as a TCP server; the test is the only client."""
+
+    def __init__(self, device):
+        self.device = device
+        self.elf = os.path.join(RELEASE, f"{device}-qemu")
+        if not os.path.exists(self.elf):
+            raise unittest.SkipTest(f"{self.elf} missing: run `cargo xtask build` or `cargo xtask smoke`")
+        os.makedirs(LOGS, exist_ok=True)
+        self.network = None
+        self.bus = None
+        self.port = free_port()
+        self.log = open(os.path.join(LOGS, f"{device}.defmt"), "wb")
+        self.proc = subprocess.Popen(
+            ["qemu-system-arm", "-M", "lm3s6965evb", "-cpu", "cortex-m3", "-display", "none", "-monitor", "none",
+             "-semihosting-config", "enable=on,target=native", "-icount", "shift=4,align=off,sleep=off",
+             "-serial", f"tcp:127.0.0.1:{self.port},server=on,wait=on", "-kernel", self.elf],
+            stdout=self.log, stderr=subprocess.PIPE, text=True)
+        self.killer = threading.Timer(RUN_TIMEOUT, self.proc.kill)
+        self.killer.start()
+        self.stderr = []
+        listening = threading.Event()
+        self.reader = threading.Thread(target=self._read_stderr, args=(listening,), daemon=True)
+        self.reader.start()
+        if not listening.wait(WAIT):
+            self.close()
+            raise AssertionError(f"QEMU did not open tcp:{self.port}: {''.join(self.stderr)}")
+        self.bus = can.Bus(interface="slcan", channel=f"socket://127.0.0.1:{self.port}", bitrate=500000,
+                           sleep_after_open=0)
+
+    def _read_stderr(self, listening):
+        for line in self.proc.stderr:
+            self.stderr.append(line)
+            if "waiting for connection" in line:
+                listening.set()
+
+    def exit(self, status=0):
+        """Ends the run through the firmware's semihosting exit; returns QEMU's exit code."""
+        # Stop reading first: the socket closes when QEMU exits.
+        self.network.notifier.stop()
+        self.network.send_message(EXIT_ID, b"EXIT" + bytes([status]))
+        try:
+            return self.proc.wait(WAIT)
+        except subprocess.TimeoutExpired:
+            return None
+
+    def close(self):
+        self.killer.cancel()
+        bus = self.bus
+        # pyserial skips closing a socket whose shutdown failed (the peer is
+        # gone): keep a reference to close it below.
+        sock = getattr(getattr(bus, "serialPortOrig", None), "_socket", None)
+        try:
+            if self.network is not None:
+                self.network.disconnect()
+            elif bus is not None:
+                bus.shutdown()
+        except can.CanError:
+            pass  # the socket went away with QEMU before the adapter's `C`
+        if sock is not None:
+            sock.close()
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self.reader.join(WAIT)
+        self.proc.stderr.close()
+        self.log.close()
+
+
+class QemuSmokeTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        if not os.environ.get("QEMU_SMOKE"):
+            raise unittest.SkipTest("run through `cargo xtask smoke` (or set QEMU_SMOKE=1)")
+
+    def run_device(self, device):
+        node_id = DEVICES[device]
+        od = canopen.import_od(os.path.join(ROOT, "firmware", "eds", f"{device}.eds"), node_id)
+        q = QemuImage(device)
+        try:
+            self.check_device(q, device, node_id, od)
+        except BaseException:
+            print(f"\n{device}: QEMU stderr: {''.join(q.stderr)}")
+            raise
+        finally:
+            q.close()
+
+    def check_device(self, q, device, node_id, od):
+        # ---- boot-up: the first frame, before anything was asked ----------
+        first = q.bus.recv(WAIT)
+        self.assertIsNotNone(first, "no boot-up frame")
+        self.assertEqual((first.arbitration_id, bytes(first.data)), (0x700 + node_id, b"\x00"), "boot-up")
+
+        frames = FrameLog()
+        q.network = canopen.Network(q.bus)
+        q.network.listeners.append(frames)
+        q.network.connect()
+        node = canopen.RemoteNode(node_id, od)
+        q.network.add_node(node)
+        node.sdo.RESPONSE_TIMEOUT = 2.0
+        sdo_tx = 0x580 + node_id
+
+        def upload(index, sub=0):
+            return node.sdo.upload(index, sub)
+
+        def u(index, sub=0):
+            return int.from_bytes(upload(index, sub), "little")
+
+        # ---- SDO: identity ------------------------------------------------
+        self.assertEqual(u(0x1000), od[0x1000].default, "0x1000 device type")
+        identity = od[0x1018]
+        self.assertEqual(u(0x1018, 0), identity[0].default)
+        for sub in range(1, identity[0].default + 1):
+            if sub in identity:
+                self.assertEqual(u(0x1018, sub), identity[sub].default, f"0x1018 sub {sub}")
+
+        # ---- SDO: segmented upload of 0x1008 ------------------------------
+        if 0x1008 in od:
+            mark = frames.mark()
+            name = upload(0x1008)
+            self.assertEqual(name.decode("latin-1"), od[0x1008].default)
+            self.assertGreater(len(name), 4, "too short to need a segmented transfer")
+            init = frames.wait_for(lambda m: m.arbitration_id == sdo_tx, after=mark)
+            self.assertEqual(init.data[0] & 0xE2, 0x40, f"initiate upload response {bytes(init.data).hex()} is not segmented")
+            segments = [m for m in frames.since(mark, sdo_tx)[1:] if m.data[0] & 0xE0 == 0x00]
+            self.assertEqual(len(segments), (len(name) + 6) // 7)
+        else:
+            with self.assertRaises(canopen.SdoAbortedError) as e:
+                upload(0x1008)
+            self.assertEqual(e.exception.code, NO_OBJECT)
+
+        # ---- SDO aborts -----------------------------------------------------
+        missing = next(i for i in (0x1FFF, 0x2FFF, 0x5FFF, 0x9FFF) if i not in od)
+        with self.assertRaises(canopen.SdoAbortedError) as e:
+            upload(missing)
+        self.assertEqual(e.exception.code, NO_OBJECT)
+        with self.assertRaises(canopen.SdoAbortedError) as e:
+            upload(0x1018, 0x7F)
+        self.assertEqual(e.exception.code, NO_SUB_INDEX)
+
+        # ---- NMT start, then heartbeat (or node guarding without 0x1017) --
+        node.nmt.send_command(0x01)
+        error_control = 0x700 + node_id
+        if 0x1017 in od:
+            node.sdo.download(0x1017, 0, struct.pack("<H", 50))
+            mark = frames.mark()
+            beats = [frames.wait_for(lambda m: m.arbitration_id == error_control, after=mark)]
+            beats.append(frames.wait_for(lambda m: m.arbitration_id == error_control and m is not beats[0], after=mark))
+            for beat in beats:
+                self.assertIsNotNone(beat, "no heartbeat")
+                self.assertEqual(bytes(beat.data), bytes([OPERATIONAL]), "heartbeat state")
+        else:
+            mark = frames.mark()
+            q.network.send_message(error_control, b"", remote=True)
+            guard = frames.wait_for(lambda m: m.arbitration_id == error_control, after=mark)
+            self.assertIsNotNone(guard, "no node-guarding answer")
+            self.assertEqual(guard.data[0] & 0x7F, OPERATIONAL, "guarded state")
+
+        # ---- PDOs both ways, where the device has them ---------------------
+        if 0x1800 in od:
+            self.check_tpdo(node, frames, od)
+        if 0x1400 in od:
+            self.check_rpdo(node, q, od)
+
+        # ---- nothing went wrong on the way ---------------------------------
+        emcy = frames.since(0, 0x80 + node_id)
+        self.assertEqual([bytes(m.data).hex() for m in emcy], [], "unexpected EMCY")
+        self.assertEqual(u(0x1001), 0, "error register")
+
+        # ---- store (0x1010, RAM-backed on this board) survives reset node ---
+        if 0x1010 in od:
+            node.sdo.download(0x1010, 1, b"save")
+            mark = frames.mark()
+            node.nmt.send_command(0x81)
+            boot = frames.wait_for(lambda m: m.arbitration_id == error_control and bytes(m.data) == b"\x00", after=mark)
+            self.assertIsNotNone(boot, "no boot-up after reset node")
+            self.assertEqual(u(0x1017), 50, "stored 0x1017 after reset node")
+
+        # ---- the end: semihosting exit with status 0 -----------------------
+        self.assertEqual(q.exit(0), 0, "QEMU exit code")
+
+    def mapping(self, node, index):
+        """(index, sub, bits) of each object a PDO maps, read from the node."""
+        count = int.from_bytes(node.sdo.upload(index, 0), "little")
+        entries = [int.from_bytes(node.sdo.upload(index, s), "little") for s in range(1, count + 1)]
+        return [(e >> 16, (e >> 8) & 0xFF, e & 0xFF) for e in entries]
+
+    def check_tpdo(self, node, frames, od):
+        cob_id = int.from_bytes(node.sdo.upload(0x1800, 1), "little")
+        self.assertFalse(cob_id & 0x80000000, "TPDO1 is disabled by default")
+        # An event timer of 50 ms: TPDO1 goes out periodically in Operational.
+        node.sdo.download(0x1800, 5, struct.pack("<H", 50))
+        mapped = self.mapping(node, 0x1A00)
+        mark = frames.mark()
+        pdo = frames.wait_for(lambda m: m.arbitration_id == cob_id & 0x7FF, after=mark)
+        self.assertIsNotNone(pdo, "no TPDO1")
+        expected = b"".join(node.sdo.upload(i, s)[: bits // 8] for i, s, bits in mapped)
+        self.assertEqual(bytes(pdo.data), expected, f"TPDO1 maps {[(hex(i), s) for i, s, _ in mapped]}")
+
+    def check_rpdo(self, node, q, od):
+        cob_id = int.from_bytes(node.sdo.upload(0x1400, 1), "little")
+        self.assertFalse(cob_id & 0x80000000, "RPDO1 is disabled by default")
+        payload, expected = b"", []
+        for index, sub, bits in self.mapping(node, 0x1600):
+            var = od.get_variable(index, sub)
+            signed = var.data_type in SIGNED
+            current = int.from_bytes(node.sdo.upload(index, sub), "little", signed=signed)
+            top = var.max if var.max is not None else (1 << (bits - signed)) - 1
+            # A value the object has not got yet, inside its limits.
+            value = current + 1 if current < top else current - 1
+            raw = (value & ((1 << bits) - 1)).to_bytes(bits // 8, "little")
+            payload += raw
+            expected.append((index, sub, raw))
+        q.network.send_message(cob_id & 0x7FF, payload)
+        for index, sub, raw in expected:
+            # The node applies the RPDO before it answers the next SDO request.
+            self.assertEqual(node.sdo.upload(index, sub), raw, f"RPDO1 -> 0x{index:04X} sub {sub}")
+
+
+def add_device_tests():
+    for device in DEVICES:
+        name = "test_" + device.replace("-", "_")
+        setattr(QemuSmokeTest, name, lambda self, d=device: self.run_device(d))
+
+
+add_device_tests()
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,261 @@
+//! Firmware images: one per device and board, named `<device>-<board>` in
+//! `target/thumbv7m-none-eabi/release/`.
+//!
+//! - `build`: builds every image (release profile: opt-level "s", fat LTO,
+//!   one codegen unit), prints the sections of each and fails if one
+//!   exceeds [`FLASH_BUDGET`] or [`RAM_BUDGET`].
+//! - `qemu <device> [--listen HOST:PORT]`: boots a device's QEMU image with
+//!   its UART (SLCAN) on that TCP port, waiting for the first client.
+//! - `smoke`: runs `tests/python/test_qemu_smoke.py` (python-canopen against
+//!   every QEMU image) under a hard timeout.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use super::{TARGET, ensure_target, root, run};
+
+/// The boards and the cargo feature that selects each.
+pub const BOARDS: [(&str, &str); 2] = [("qemu", "board-qemu"), ("stm32f103", "board-stm32f103")];
+/// Flash an image may use (vector table, code, constants, initialised data).
+pub const FLASH_BUDGET: u64 = 48 * 1024;
+/// RAM an image may use statically (initialised and zeroed data); the rest
+/// of the 20 KiB of an STM32F103C8 is stack.
+pub const RAM_BUDGET: u64 = 12 * 1024;
+/// Default TCP address of `qemu`'s UART.
+const DEFAULT_LISTEN: &str = "127.0.0.1:4555";
+/// The whole smoke run may take this long before it is killed.
+const SMOKE_TIMEOUT: Duration = Duration::from_secs(600);
+
+/// Where an image lands.
+pub fn image_path(device: &str, board: &str) -> PathBuf {
+    let target_dir = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), PathBuf::from);
+    target_dir.join(TARGET).join("release").join(format!("{device}-{board}"))
+}
+
+/// Builds the images of one board (all devices, or the given one).
+///
+/// QEMU images log at defmt level `info` (their flash has room, and the log
+/// is the way to see inside them); STM32 images keep defmt's default
+/// (`error`). A `DEFMT_LOG` in the environment wins for both.
+pub fn build_board(board: &str, device: Option<&str>) -> Result<(), String> {
+    let feature = BOARDS.iter().find(|(b, _)| *b == board).map(|(_, f)| *f).ok_or_else(|| format!("unknown board {board}"))?;
+    let bin = device.map(|d| format!("{d}-{board}"));
+    let mut args = vec!["build", "--release", "-p", "firmware", "--target", TARGET, "--features", feature];
+    match &bin {
+        Some(bin) => args.extend(["--bin", bin.as_str()]),
+        None => args.push("--bins"),
+    }
+    let mut cmd = Command::new("cargo");
+    cmd.args(&args).current_dir(root());
+    if board == "qemu" && std::env::var_os("DEFMT_LOG").is_none() {
+        cmd.env("DEFMT_LOG", "info");
+    }
+    eprintln!("+ cargo {}", args.join(" "));
+    let status = cmd.status().map_err(|e| format!("cargo: {e}"))?;
+    if status.success() { Ok(()) } else { Err(format!("building the {board} images failed ({status})")) }
+}
+
+/// The sections of an ELF image, in bytes.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Sizes {
+    /// `.vector_table`.
+    pub vectors: u64,
+    /// `.text`.
+    pub text: u64,
+    /// `.rodata`.
+    pub rodata: u64,
+    /// `.data` (in flash and in RAM).
+    pub data: u64,
+    /// `.bss`.
+    pub bss: u64,
+    /// `.uninit`.
+    pub uninit: u64,
+}
+
+impl Sizes {
+    /// Bytes of flash.
+    pub fn flash(&self) -> u64 {
+        self.vectors + self.text + self.rodata + self.data
+    }
+
+    /// Bytes of RAM outside the stack.
+    pub fn ram(&self) -> u64 {
+        self.data + self.bss + self.uninit
+    }
+}
+
+/// GNU size from binutils-arm-none-eabi, or LLVM's (`llvm-size`, or the one
+/// `rustup component add llvm-tools` installs).
+fn size_tool() -> Result<String, String> {
+    let works =
+        |tool: &str| Command::new(tool).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success());
+    for tool in ["arm-none-eabi-size", "llvm-size"] {
+        if works(tool) {
+            return Ok(tool.to_owned());
+        }
+    }
+    let sysroot = Command::new("rustc").args(["--print", "sysroot"]).output().map_err(|e| e.to_string())?;
+    let sysroot = String::from_utf8_lossy(&sysroot.stdout).trim().to_owned();
+    let bundled = Path::new(&sysroot).join("lib/rustlib/x86_64-unknown-linux-gnu/bin/llvm-size");
+    if bundled.exists() {
+        return Ok(bundled.to_string_lossy().into_owned());
+    }
+    Err("no size tool: `apt-get install binutils-arm-none-eabi` or `rustup component add llvm-tools`".into())
+}
+
+/// Reads the sections of `elf` with `size -A`.
+pub fn sizes(elf: &Path) -> Result<Sizes, String> {
+    let tool = size_tool()?;
+    let out = Command::new(&tool).arg("-A").arg(elf).output().map_err(|e| format!("{tool}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("{tool} -A {}: {}", elf.display(), String::from_utf8_lossy(&out.stderr)));
+    }
+    let mut s = Sizes::default();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let mut fields = line.split_whitespace();
+        let (Some(name), Some(size)) = (fields.next(), fields.next().and_then(|v| v.parse::<u64>().ok())) else { continue };
+        match name {
+            ".vector_table" => s.vectors = size,
+            ".text" => s.text = size,
+            ".rodata" => s.rodata = size,
+            ".data" => s.data = size,
+            ".bss" => s.bss = size,
+            ".uninit" => s.uninit = size,
+            _ => {}
+        }
+    }
+    Ok(s)
+}
+
+/// `cargo xtask build`: every image, its sizes, and the budget check.
+pub fn build() -> Result<(), String> {
+    ensure_target()?;
+    for (board, _) in BOARDS {
+        build_board(board, None)?;
+    }
+    println!("{:<22} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6}", "image", ".text", ".rodata", ".data", ".bss", "flash", "RAM");
+    let mut over = Vec::new();
+    for (board, _) in BOARDS {
+        for device in &firmware::devices::ALL {
+            let elf = image_path(device.name, board);
+            let s = sizes(&elf)?;
+            let name = format!("{}-{board}", device.name);
+            println!("{name:<22} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6}", s.text, s.rodata, s.data, s.bss, s.flash(), s.ram());
+            if s.flash() > FLASH_BUDGET {
+                over.push(format!("{name}: {} bytes of flash > {FLASH_BUDGET}", s.flash()));
+            }
+            if s.ram() > RAM_BUDGET {
+                over.push(format!("{name}: {} bytes of RAM > {RAM_BUDGET}", s.ram()));
+            }
+        }
+    }
+    println!("(flash = .vector_table + .text + .rodata + .data; RAM = .data + .bss + .uninit)");
+    if over.is_empty() { Ok(()) } else { Err(format!("over budget:\n  {}", over.join("\n  "))) }
+}
+
+/// The QEMU command line for `elf` with its UART as a TCP server on
+/// `listen` that waits for the first client (so no frame is lost).
+pub fn qemu_command(elf: &Path, listen: &str) -> Command {
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.args(["-M", "lm3s6965evb", "-cpu", "cortex-m3", "-display", "none", "-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        // Virtual time: 2^4 ns per instruction, never waiting for the host clock.
+        .args(["-icount", "shift=4,align=off,sleep=off"])
+        .arg("-serial")
+        .arg(format!("tcp:{listen},server=on,wait=on"))
+        .arg("-kernel")
+        .arg(elf);
+    cmd
+}
+
+fn have(program: &str) -> bool {
+    Command::new(program).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
+}
+
+/// `cargo xtask qemu <device> [--listen HOST:PORT]`.
+pub fn qemu(args: &[String]) -> Result<(), String> {
+    let usage = "usage: cargo xtask qemu <device> [--listen HOST:PORT]";
+    let device = args.first().ok_or(usage)?;
+    firmware::devices::by_name(device).ok_or_else(|| format!("unknown device {device}"))?;
+    let listen = match args.get(1).map(String::as_str) {
+        Some("--listen") => args.get(2).ok_or(usage)?.as_str(),
+        Some(_) => return Err(usage.into()),
+        None => DEFAULT_LISTEN,
+    };
+    if !have("qemu-system-arm") {
+        return Err("qemu-system-arm is missing: apt-get install -y --no-install-recommends qemu-system-arm".into());
+    }
+    ensure_target()?;
+    build_board("qemu", Some(device))?;
+    let elf = image_path(device, "qemu");
+    let mut cmd = qemu_command(&elf, listen);
+    // stdout carries defmt frames only: decoded if defmt-print is there, else kept in a file.
+    let log = elf.with_extension("defmt");
+    let decoder = have("defmt-print");
+    if decoder {
+        cmd.stdout(Stdio::piped());
+    } else {
+        cmd.stdout(std::fs::File::create(&log).map_err(|e| format!("{}: {e}", log.display()))?);
+    }
+    eprintln!("qemu: {device} on lm3s6965evb, SLCAN on tcp:{listen} (waiting for a client)");
+    eprintln!("qemu: end it with the frame 0x1FFFFFFF [45 58 49 54] (\"EXIT\") or Ctrl-C");
+    let mut child = cmd.spawn().map_err(|e| format!("qemu-system-arm: {e}"))?;
+    let mut printer = None;
+    if decoder {
+        if let Some(out) = child.stdout.take() {
+            printer = Command::new("defmt-print").arg("-e").arg(&elf).stdin(out).spawn().ok();
+        }
+    } else {
+        eprintln!("qemu: defmt log (undecoded) in {}; `cargo install defmt-print` to see it live", log.display());
+    }
+    let status = child.wait().map_err(|e| e.to_string())?;
+    if let Some(mut printer) = printer {
+        // It ends at the end of QEMU's stdout.
+        let _ = printer.wait();
+    }
+    if status.success() { Ok(()) } else { Err(format!("qemu ended with {status}")) }
+}
+
+/// `cargo xtask smoke`: python-canopen against every QEMU image.
+pub fn smoke() -> Result<(), String> {
+    if !have("qemu-system-arm") {
+        return Err("qemu-system-arm is missing: apt-get install -y --no-install-recommends qemu-system-arm".into());
+    }
+    ensure_target()?;
+    build_board("qemu", None)?;
+    let python = ensure_venv()?;
+    let script = root().join("tests/python/test_qemu_smoke.py");
+    eprintln!("+ {} -m unittest -v {}", python.display(), script.display());
+    let mut child = Command::new(&python)
+        .args(["-m", "unittest", "-v"])
+        .arg(&script)
+        .env("QEMU_SMOKE", "1")
+        .current_dir(root())
+        .spawn()
+        .map_err(|e| format!("{}: {e}", python.display()))?;
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
+            return if status.success() { Ok(()) } else { Err(format!("QEMU smoke tests failed ({status})")) };
+        }
+        if start.elapsed() > SMOKE_TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!("QEMU smoke tests killed after {} s", SMOKE_TIMEOUT.as_secs()));
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+/// The venv `cargo xtask test` also uses, with python-can and canopen.
+fn ensure_venv() -> Result<PathBuf, String> {
+    let python = root().join(".venv/bin/python");
+    let ready = Command::new(&python).args(["-c", "import can, canopen, serial"]).status().is_ok_and(|s| s.success());
+    if !ready {
+        run("python3", &["-m", "venv", ".venv"])?;
+        let py = python.to_str().ok_or("non-UTF-8 path")?;
+        run(py, &["-m", "pip", "install", "--quiet", "python-can", "canopen", "pyserial"])?;
+    }
+    Ok(python)
+}
