@@ -1,9 +1,10 @@
 //! `cargo xtask <task>`: the project's commands.
 //!
-//! - `test`: installs what is missing (the thumbv7m target, a Python venv
-//!   with python-can and canopen) and runs every check CI runs: rustfmt,
-//!   clippy, all tests, the strict device-EDS check, the Cortex-M builds and
-//!   the python-canopen interop tests against `vnode`.
+//! - `test`: installs what is missing (the thumbv7m target, qemu-system-arm and
+//!   binutils-arm-none-eabi through apt, a Python venv with python-can and
+//!   canopen) and runs every check CI runs: rustfmt, clippy, all tests, the
+//!   strict device-EDS check, the Cortex-M builds with the size budget, the
+//!   python-canopen interop tests against `vnode` and the QEMU smoke tests.
 //! - `demo [DEVICE]`: checks a device's EDS and prints its dictionary.
 //! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
 //! - `bench`: the bus-level benchmarks on the virtual bus (release build), with wall times.
@@ -83,8 +84,34 @@ fn test() -> Result<(), String> {
     run("cargo", &["build", "--release", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "-p", "canopen-tests", "--lib"])?;
     run("cargo", &["clippy", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "--", "-D", "warnings"])?;
     interop()?;
+    ensure_apt(&[("qemu-system-arm", "qemu-system-arm"), ("arm-none-eabi-size", "binutils-arm-none-eabi")])?;
+    images::build()?;
+    images::smoke()?;
     eprintln!("xtask test: all checks passed");
     Ok(())
+}
+
+/// Installs Debian packages whose program is missing (CI machines start bare).
+fn ensure_apt(needed: &[(&str, &str)]) -> Result<(), String> {
+    let missing: Vec<&str> = needed
+        .iter()
+        .filter(|(program, _)| !Command::new("sh").args(["-c", &format!("command -v {program}")]).status().is_ok_and(|s| s.success()))
+        .map(|(_, package)| *package)
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let sudo: &[&str] = if Command::new("id").arg("-u").output().is_ok_and(|o| o.stdout.starts_with(b"0")) { &[] } else { &["sudo"] };
+    let apt = |args: &[&str]| {
+        let mut all: Vec<&str> = sudo.to_vec();
+        all.push("apt-get");
+        all.extend(args);
+        run(all[0], &all[1..])
+    };
+    apt(&["update", "-qq"])?;
+    let mut install = vec!["install", "-y", "-qq", "--no-install-recommends"];
+    install.extend(missing);
+    apt(&install)
 }
 
 /// The independent check: python-canopen from PyPI, in a venv made here,
