@@ -55,6 +55,9 @@ impl<const N: usize> TxQueue<N> {
     }
 
     fn best(&self) -> Option<usize> {
+        if self.len == 0 {
+            return None;
+        }
         self.slots.iter().enumerate().filter_map(|(i, s)| s.map(|(p, q, _)| (p, q, i))).min().map(|(_, _, i)| i)
     }
 

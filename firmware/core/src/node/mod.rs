@@ -87,6 +87,9 @@ pub struct Node<
     txq: TxQueue<TX_QUEUE>,
     counters: Counters,
     boot_pending: bool,
+    /// The RAM image may have changed since the TPDOs last compared their
+    /// data (change-of-state detection runs only then, not on every call).
+    touched: bool,
     reported_overflows: u32,
 }
 
@@ -144,6 +147,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             txq: TxQueue::default(),
             counters: Counters::default(),
             boot_pending: false,
+            touched: true,
             reported_overflows: 0,
         };
         node.reset_application(now);
@@ -189,6 +193,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The dictionary, for the application to write; change-of-state TPDOs
     /// see the new values at the next [`Node::process`].
     pub fn od_mut(&mut self) -> &mut O {
+        self.touched = true;
         &mut self.od
     }
 
@@ -347,6 +352,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 comm.pdos.on_frame(now, cob_id, data, od.image_mut(), &mut sink)
             };
             if matched {
+                self.touched = true;
                 return;
             }
         }
@@ -373,6 +379,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
     fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
         let _ = now;
+        self.touched = true;
         if self.nmt.state().pdo_allowed() {
             let Node { od, app, comm, txq, .. } = self;
             let dict = od.dictionary();
@@ -383,6 +390,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
+        self.touched = true;
         let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
         let dict = od.dictionary();
         let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, sdo_changed: false };
@@ -403,6 +411,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     fn entered(&mut self, state: State, now: Instant) {
+        self.touched = true;
         if state.pdo_allowed() {
             self.comm.pdos.enter_operational(now);
         } else {
@@ -503,10 +512,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         let mut pdo_deadline = None;
         if self.nmt.state().pdo_allowed() {
-            let Node { od, app, comm, txq, .. } = self;
-            let dict = od.dictionary();
-            let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
-            pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
+            // Building every TPDO to detect changes costs more than anything
+            // else here: do it only when the image may have changed or a PDO
+            // timer is due, not for every heartbeat of another node.
+            let due = self.touched || self.comm.pdos.deadline().is_some_and(|d| d <= now);
+            if due {
+                self.touched = false;
+                let Node { od, app, comm, txq, .. } = self;
+                let dict = od.dictionary();
+                let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+                pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
+            } else {
+                pdo_deadline = self.comm.pdos.deadline();
+            }
         }
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
@@ -517,11 +535,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             while let Some(e) = self.comm.emcy.take_unsent() {
                 let dict = self.od.dictionary();
                 self.comm.record(dict, self.od.image_mut(), &e);
+                self.touched = true;
             }
             while self.txq.free() > 0 {
                 let Some((cob_id, e)) = self.comm.emcy.poll(now) else { break };
                 let dict = self.od.dictionary();
                 self.comm.record(dict, self.od.image_mut(), &e);
+                self.touched = true;
                 self.push(cob_id, &e.emit());
             }
         }

@@ -127,7 +127,13 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
     pub fn clear(&mut self, code: u16) {
         let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
-        self.active.copy_within(pos + 1..self.active_len, pos);
+        // A plain loop: `copy_within` pulls `memmove` (1.6 KiB) into every image.
+        for i in pos..self.active_len.saturating_sub(1) {
+            let next = self.active.get(i + 1).copied().unwrap_or(0);
+            if let Some(slot) = self.active.get_mut(i) {
+                *slot = next;
+            }
+        }
         self.active_len -= 1;
         if self.active_len == 0 {
             self.lost_errors = false;

@@ -235,15 +235,21 @@ const TPDO_MAP: u16 = 0x1A00;
 #[derive(Clone, Debug)]
 pub struct Pdos<const R: usize, const T: usize> {
     rpdos: [Rpdo; R],
+    /// The CAN-ID each RPDO listens to (`NO_ID` when off), kept beside the
+    /// RPDOs so that matching a received frame is one compare per RPDO.
+    rx_ids: [u16; R],
     tpdos: [Tpdo; T],
     /// End of the synchronous window opened by the last SYNC.
     window_end: Option<Instant>,
     operational: bool,
 }
 
+/// `rx_ids` entry of an RPDO that listens to nothing (not a valid 11-bit id).
+const NO_ID: u16 = u16::MAX;
+
 impl<const R: usize, const T: usize> Default for Pdos<R, T> {
     fn default() -> Self {
-        Pdos { rpdos: [Rpdo::default(); R], tpdos: [Tpdo::default(); T], window_end: None, operational: false }
+        Pdos { rpdos: [Rpdo::default(); R], rx_ids: [NO_ID; R], tpdos: [Tpdo::default(); T], window_end: None, operational: false }
     }
 }
 
@@ -278,6 +284,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         self.window_end = None;
         self.operational = false;
+        self.refresh_rx_ids();
         first_error.map_or(Ok(()), Err)
     }
 
@@ -328,6 +335,18 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// one of these PDOs, else the outcome. On success the image holds the
     /// value (through [`Dictionary::write`]) and the PDO uses it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
+        let result = self.write_parameter(index, sub, data, dict, image);
+        self.refresh_rx_ids();
+        result
+    }
+
+    fn refresh_rx_ids(&mut self) {
+        for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
+            *id = rpdo.cob_id().unwrap_or(NO_ID);
+        }
+    }
+
+    fn write_parameter(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
         let n = |base: u16| usize::from(index.wrapping_sub(base));
         Some(match index {
             RPDO_COMM..=0x15FF => {
@@ -381,7 +400,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             return false;
         }
         let window_open = self.window_end.is_none_or(|end| now <= end);
-        let Some((n, rpdo)) = self.rpdos.iter_mut().enumerate().find(|(_, r)| r.cob_id() == Some(cob_id)) else { return false };
+        let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
+        let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
         rpdo.on_frame(n, now, data, window_open, image, out);
         true
     }
