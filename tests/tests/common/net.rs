@@ -49,6 +49,10 @@ pub trait Device: Any {
     fn process(&mut self, now: Instant) -> Option<Instant>;
     /// `Node::transmit`.
     fn transmit(&mut self) -> Option<CanFrame>;
+    /// `Node::take_bit_rate_change`: a CiA 305 table index to switch the port to.
+    fn take_bit_rate_change(&mut self) -> Option<u8> {
+        None
+    }
 }
 
 impl<O, A, S, const R: usize, const T: usize, const HB: usize> Device for Node<O, A, S, R, T, HB>
@@ -68,6 +72,9 @@ where
     }
     fn transmit(&mut self) -> Option<CanFrame> {
         Node::transmit(self)
+    }
+    fn take_bit_rate_change(&mut self) -> Option<u8> {
+        Node::take_bit_rate_change(self)
     }
 }
 
@@ -305,6 +312,10 @@ impl Net {
                 loop {
                     n.deadline = n.device.process(now);
                     self.calls.process += 1;
+                    // The board's part of LSS "activate bit timing": switch the controller.
+                    if let Some(rate) = n.device.take_bit_rate_change().and_then(BitRate::from_cia_index) {
+                        self.bus.set_bitrate(n.port, rate).expect("the node's own port");
+                    }
                     let mut moved = false;
                     while n.in_mailboxes < self.mailboxes {
                         let Some(frame) = n.device.transmit() else { break };

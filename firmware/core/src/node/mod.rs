@@ -9,6 +9,7 @@
 
 mod app;
 mod comm;
+mod lss;
 mod router;
 
 pub use app::{Application, NoApplication};
@@ -18,6 +19,7 @@ use crate::frame::CanFrame;
 use crate::id::CobId;
 use crate::od::ObjectDictionary;
 use crate::services::heartbeat::ConsumerEvent;
+use crate::services::lss::{LssSlave, UNCONFIGURED};
 use crate::services::nmt::{Nmt, State, Transition};
 use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::{SdoServers, SdoTx};
@@ -27,6 +29,7 @@ use crate::storage::Storage;
 use crate::time::Instant;
 use crate::txq::TxQueue;
 use crate::wire::emcy::code;
+use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtState};
 use crate::wire::time_stamp::TimeOfDay;
 use router::Router;
@@ -91,6 +94,16 @@ pub struct Node<
     /// data (change-of-state detection runs only then, not on every call).
     touched: bool,
     reported_overflows: u32,
+    /// The LSS slave, when the dictionary says `LSS_Supported`.
+    lss: Option<LssSlave>,
+    /// A serial number the board reports, written to 0x1018 sub 4 at every reset.
+    serial: Option<u32>,
+    /// The bit-rate table index in use, if known (stored or switched by LSS).
+    bit_rate: Option<u8>,
+    /// An LSS bit-rate switch in progress.
+    switch: Option<lss::Switch>,
+    /// A bit-rate change the board has not applied yet.
+    bit_rate_request: Option<u8>,
 }
 
 /// Where the SDO server's frames go: the node's queue, keeping a reserve.
@@ -149,7 +162,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             boot_pending: false,
             touched: true,
             reported_overflows: 0,
+            lss: None,
+            serial: None,
+            bit_rate: None,
+            switch: None,
+            bit_rate_request: None,
         };
+        node.load_lss_configuration();
         node.reset_application(now);
         node
     }
@@ -163,15 +182,24 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     fn reset_communication(&mut self, now: Instant) {
+        // CiA 305: a node-id configured by LSS becomes active here.
+        if let Some(lss) = &mut self.lss {
+            self.node_id = lss.reset_communication();
+        }
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_communication(image, self.node_id);
         store::load(dict, image, self.node_id, &mut self.storage, Part::Communication);
+        if let Some(serial) = self.serial {
+            let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
+        }
         self.comm.configure(dict, image, self.node_id, now);
+        self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
         self.nmt = Nmt::new();
-        self.boot_pending = true;
+        // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
+        self.boot_pending = self.node_id != UNCONFIGURED;
         self.app.on_state(State::Initialising);
     }
 
@@ -270,6 +298,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The next frame to send, highest priority first.
     pub fn transmit(&mut self) -> Option<CanFrame> {
+        // LSS "activate bit timing": silent from the request until the second delay ends.
+        if self.switch.is_some() {
+            return None;
+        }
         let f = self.txq.pop()?;
         self.counters.tx = self.counters.tx.wrapping_add(1);
         Some(f)
@@ -293,6 +325,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         };
         let rtr = frame.is_remote_frame();
         let data = frame.data();
+        if cob_id == LSS_MASTER_COB_ID && self.lss.is_some() && !rtr {
+            self.lss_request(now, data);
+            return;
+        }
+        if self.node_id == UNCONFIGURED {
+            self.counters.ignored += 1;
+            return;
+        }
         if cob_id == NMT_COB_ID {
             match NmtRequest::parse(data) {
                 Ok(request) if !rtr => self.nmt_command(request, now),
@@ -461,6 +501,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Runs timers and queued work; returns when it wants to be called again
     /// (earlier is harmless, later delays heartbeats and timeouts).
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        let switch_deadline = self.process_switch(now);
         if self.boot_pending {
             let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
             if self.push(id, &[NmtState::BootUp.code()]) {
@@ -554,6 +595,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             sdo_deadline,
             pdo_deadline,
             if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
+            switch_deadline,
         ];
         deadlines.into_iter().flatten().min()
     }

@@ -89,6 +89,11 @@ impl LssSlave {
         }
     }
 
+    /// Replaces the LSS address (0x1018 sub 1..4 changed, e.g. a serial number set by the board).
+    pub fn set_address(&mut self, address: [u32; 4]) {
+        self.address = address;
+    }
+
     /// The LSS state.
     pub fn mode(&self) -> Mode {
         self.mode

@@ -115,6 +115,9 @@ fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Header {
+    /// LSS configuration stored with the set: node-id, bit-rate table index
+    /// (0xFF, 0xFF = none; an erased header reads that way).
+    lss: [u8; 2],
     seq: u32,
     len: u16,
     defaults: u16,
@@ -129,7 +132,8 @@ fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Opti
     if word(0)? != MAGIC || half(4)? != VERSION || word(8)? != layout_id(dict) {
         return None;
     }
-    let header = Header { seq: word(12)?, len: half(16)?, defaults: half(18)?, crc: word(20)? };
+    let lss = [*h.get(6)?, *h.get(7)?];
+    let header = Header { lss, seq: word(12)?, len: half(16)?, defaults: half(18)?, crc: word(20)? };
     if usize::from(header.len) != dict.defaults.len() {
         return None;
     }
@@ -173,7 +177,15 @@ fn sub_le(bytes: &mut [u8], n: u64) {
 
 /// Writes a new set: the scopes in `save` from the image, the scopes in
 /// `reset` marked as defaults, every other scope kept from the newest set.
-fn write_set(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, save: u16, reset: u16) -> Result<(), StoreError> {
+fn write_set(
+    dict: &Dictionary,
+    image: &[u8],
+    node_id: u8,
+    storage: &mut dyn Storage,
+    save: u16,
+    reset: u16,
+    lss: Option<[u8; 2]>,
+) -> Result<(), StoreError> {
     let len = dict.defaults.len();
     if HEADER + len > storage.region_size() || len > usize::from(u16::MAX) {
         return Err(StoreError::TooLarge);
@@ -211,13 +223,15 @@ fn write_set(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Sto
         }
     }
     let seq = old.map_or(1, |(_, h)| h.seq.wrapping_add(1));
+    // The LSS configuration rides along with every set: a new one or the old one.
+    let lss_bytes = lss.or(old.map(|(_, h)| h.lss)).unwrap_or([0xFF, 0xFF]);
     let mut h = [0u8; HEADER];
     for (dst, src) in h.iter_mut().zip(
         MAGIC
             .to_le_bytes()
             .into_iter()
             .chain(VERSION.to_le_bytes())
-            .chain([0, 0])
+            .chain(lss_bytes)
             .chain(layout_id(dict).to_le_bytes())
             .chain(seq.to_le_bytes())
             .chain((len as u16).to_le_bytes())
@@ -232,12 +246,33 @@ fn write_set(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Sto
 
 /// 0x1010 "save": stores the scope's parameters.
 pub fn save(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, scope.mask(), 0)
+    write_set(dict, image, node_id, storage, scope.mask(), 0, None)
 }
 
 /// 0x1011 "load": the scope uses its defaults from the next reset on.
 pub fn restore_defaults(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, 0, scope.mask())
+    write_set(dict, image, node_id, storage, 0, scope.mask(), None)
+}
+
+/// LSS "store configuration" (CiA 305 §5.2.4): the node-id and bit-rate
+/// table index for the next start, written as a new set (the parameters stay
+/// as stored), so a power cut leaves the old configuration or the new one.
+pub fn save_lss(
+    dict: &Dictionary,
+    image: &[u8],
+    node_id: u8,
+    storage: &mut dyn Storage,
+    lss_node_id: u8,
+    bit_rate: u8,
+) -> Result<(), StoreError> {
+    write_set(dict, image, node_id, storage, 0, 0, Some([lss_node_id, bit_rate]))
+}
+
+/// The stored LSS configuration (node-id, bit-rate table index), if any.
+pub fn load_lss(dict: &Dictionary, storage: &mut dyn Storage) -> Option<(u8, u8)> {
+    let (_, header) = newest(storage, dict)?;
+    let [id, rate] = header.lss;
+    (id != 0xFF || rate != 0xFF).then_some((id, rate))
 }
 
 /// Which part of the image a reset reloads.

@@ -190,3 +190,28 @@ fn a_set_for_another_layout_or_a_too_small_storage_is_refused() {
     }
     assert_eq!(save(&DICT, &img, 1, &mut Tiny, Scope::All), Err(StoreError::TooLarge));
 }
+
+#[test]
+fn lss_configuration_is_stored_with_the_set_and_survives_power_cuts() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 127);
+    assert_eq!(load_lss(&DICT, &mut flash), None);
+    DICT.write(&mut img, 0x1017, 0, &300u16.to_le_bytes()).unwrap();
+    save(&DICT, &img, 127, &mut flash, Scope::All).unwrap();
+    save_lss(&DICT, &img, 127, &mut flash, 0x20, 3).unwrap();
+    assert_eq!(load_lss(&DICT, &mut flash), Some((0x20, 3)));
+    // The parameters stored before are still there, and a later save keeps the LSS part.
+    let img = boot(&mut flash, 0x20);
+    assert_eq!(DICT.read(&img, 0x1017, 0), Ok(&300u16.to_le_bytes()[..]));
+    save(&DICT, &img, 0x20, &mut flash, Scope::Communication).unwrap();
+    assert_eq!(load_lss(&DICT, &mut flash), Some((0x20, 3)));
+    // A cut at any step of the next LSS store leaves (0x20, 3) or (0x21, 4).
+    let base = flash.regions;
+    for cut in 1..12 {
+        let mut f = Flash { regions: base, budget: Some(cut) };
+        let _ = save_lss(&DICT, &img, 0x20, &mut f, 0x21, 4);
+        f.budget = None;
+        let got = load_lss(&DICT, &mut f);
+        assert!(got == Some((0x20, 3)) || got == Some((0x21, 4)), "cut {cut}: {got:?}");
+    }
+}

@@ -1,0 +1,130 @@
+//! The node's side of LSS (CiA 305): where the configuration is stored, how
+//! a configured node-id becomes active, and the timing of "activate bit
+//! timing". The protocol itself is [`crate::services::lss`].
+
+use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
+use crate::services::store;
+use crate::storage::Storage;
+use crate::time::{Duration, Instant};
+use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
+
+use super::{Application, Node};
+use crate::od::ObjectDictionary;
+
+/// A bit-rate switch in progress: silent until `at`, then switch (first
+/// phase) or resume (second phase). CiA 305 §5.2.3.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Switch {
+    index: u8,
+    delay: Duration,
+    at: Instant,
+    switched: bool,
+}
+
+impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
+    Node<O, A, S, R, T, HB, SDO>
+{
+    /// At power-on: a stored LSS configuration overrides the default node-id
+    /// and gives the bit rate.
+    pub(super) fn load_lss_configuration(&mut self) {
+        let dict = self.od.dictionary();
+        if !dict.device.lss_supported {
+            return;
+        }
+        if let Some((node_id, bit_rate)) = store::load_lss(dict, &mut self.storage) {
+            if (1..=127).contains(&node_id) || node_id == UNCONFIGURED {
+                self.node_id = node_id;
+            }
+            self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
+        }
+        let rate = self.bit_rate.unwrap_or(0xFF);
+        self.lss = Some(LssSlave::new([0; 4], self.node_id, rate, dict.device.baud_rates));
+    }
+
+    /// The LSS address follows 0x1018 sub 1..4 (after a reset or a new serial number).
+    pub(super) fn refresh_lss(&mut self) {
+        let dict = self.od.dictionary();
+        let image = self.od.image();
+        let part = |sub: u8| dict.read(image, 0x1018, sub).ok().and_then(|v| v.try_into().ok()).map(u32::from_le_bytes).unwrap_or(0);
+        let address = [part(1), part(2), part(3), part(4)];
+        if let Some(lss) = &mut self.lss {
+            lss.set_address(address);
+        }
+    }
+
+    /// A frame on 0x7E5.
+    pub(super) fn lss_request(&mut self, now: Instant, data: &[u8]) {
+        let Ok(request) = LssRequest::parse(data) else {
+            self.counters.malformed += 1;
+            return;
+        };
+        let Some(lss) = &mut self.lss else { return };
+        match lss.on_request(request) {
+            LssAction::None => {}
+            LssAction::Answer(bytes) => {
+                self.push(SLAVE_COB_ID, &bytes);
+            }
+            LssAction::ActivateBitTiming { delay_ms, index } => {
+                let delay = Duration::from_millis(u64::from(delay_ms));
+                // Frames queued at the old rate are dropped: they would leave at the new one.
+                self.txq.clear();
+                self.switch = Some(Switch { index, delay, at: now + delay, switched: false });
+            }
+            LssAction::Store { node_id, bit_rate } => {
+                let dict = self.od.dictionary();
+                let ok = store::save_lss(dict, self.od.image(), self.node_id, &mut self.storage, node_id, bit_rate).is_ok();
+                self.push(SLAVE_COB_ID, &LssSlave::store_result(ok));
+            }
+            LssAction::Start(node_id) => {
+                self.node_id = node_id;
+                self.reset_communication(now);
+            }
+        }
+    }
+
+    /// Runs the bit-rate switch; returns its next deadline.
+    pub(super) fn process_switch(&mut self, now: Instant) -> Option<Instant> {
+        let mut sw = self.switch?;
+        if now < sw.at {
+            return Some(sw.at);
+        }
+        if sw.switched {
+            self.switch = None;
+            return None;
+        }
+        sw.switched = true;
+        sw.at = now + sw.delay;
+        self.switch = Some(sw);
+        self.bit_rate = Some(sw.index);
+        self.bit_rate_request = Some(sw.index);
+        if let Some(lss) = &mut self.lss {
+            lss.bit_rate_switched();
+        }
+        Some(sw.at)
+    }
+
+    /// The bit-rate table index (CiA 305: 0 = 1 Mbit/s … 8 = 10 kbit/s) the
+    /// node runs at, if a stored configuration or LSS set one.
+    pub fn bit_rate(&self) -> Option<u8> {
+        self.bit_rate
+    }
+
+    /// A bit rate the board must switch its CAN controller to now (once).
+    pub fn take_bit_rate_change(&mut self) -> Option<u8> {
+        self.bit_rate_request.take()
+    }
+
+    /// Sets 0x1018 sub 4 (the serial number, part of the LSS address), which
+    /// only the device knows; it holds over every reset.
+    pub fn set_serial_number(&mut self, serial: u32) {
+        self.serial = Some(serial);
+        let dict = self.od.dictionary();
+        let _ = dict.write_unchecked(self.od.image_mut(), 0x1018, 4, &serial.to_le_bytes());
+        self.refresh_lss();
+    }
+
+    /// The LSS state, if the node supports LSS.
+    pub fn lss_mode(&self) -> Option<Mode> {
+        self.lss.as_ref().map(LssSlave::mode)
+    }
+}
