@@ -8,7 +8,7 @@ The node is `vnode --device interop` (tests/eds/interop.eds) unless VNODE_DEVICE
 import os
 import re
 import subprocess
-import sys
+import threading
 import time
 import unittest
 
@@ -48,13 +48,29 @@ class Vnode:
 class InteropTest(unittest.TestCase):
     def setUp(self):
         self.v = Vnode()
+        # A cleanup also runs when setUp fails, so no vnode is left behind.
+        self.addCleanup(self.v.close)
         self.node = self.v.node
-        # Every test starts from the power-on values.
+        # Every test starts from the power-on values. Frames on one link stay in
+        # order, so the SDO answer that follows proves the reset happened
+        # (waiting for the boot-up frame could miss one sent before the wait began).
         self.node.nmt.send_command(0x81)
-        self.node.nmt.wait_for_bootup(2)
+        self.node.sdo.upload(0x1000, 0)
 
-    def tearDown(self):
-        self.v.close()
+    def reset_and_see_bootup(self, command):
+        """Sends an NMT reset and waits for the boot-up frame, listening from before the send."""
+        seen = threading.Event()
+
+        def on_frame(can_id, data, timestamp):
+            if bytes(data) == b"\x00":
+                seen.set()
+
+        self.v.network.subscribe(0x700 + NODE_ID, on_frame)
+        try:
+            self.node.nmt.send_command(command)
+            self.assertTrue(seen.wait(2), "boot-up frame")
+        finally:
+            self.v.network.unsubscribe(0x700 + NODE_ID, on_frame)
 
     # ---- SDO ---------------------------------------------------------------
 
@@ -131,8 +147,7 @@ class InteropTest(unittest.TestCase):
             self.node.nmt.state = state
             time.sleep(0.15)
             self.assertEqual(self.node.nmt.wait_for_heartbeat(1), state)
-        self.node.nmt.send_command(0x82)  # reset communication: 0x1017 back to 0
-        self.node.nmt.wait_for_bootup(2)
+        self.reset_and_see_bootup(0x82)  # reset communication: 0x1017 back to 0
         with self.assertRaises(canopen.nmt.NmtError):
             self.node.nmt.wait_for_heartbeat(0.5)
 
@@ -168,8 +183,7 @@ class InteropTest(unittest.TestCase):
         self.assertEqual(tpdo[0x2007].raw, 2.5)
         # Saved with 0x1010 and still mapped after a reset node.
         self.node.store()
-        self.node.nmt.send_command(0x81)
-        self.node.nmt.wait_for_bootup(2)
+        self.reset_and_see_bootup(0x81)
         self.node.tpdo.read()
         self.assertEqual([v.index for v in self.node.tpdo[1].map], [0x2004, 0x2007])
         self.assertEqual(self.node.tpdo[1].event_timer, 50)

@@ -20,7 +20,7 @@ use hal_host::slcan::SlcanServer;
 use hal_host::storage::{FileStorage, MemStorage};
 use hal_host::trace::format_frame;
 
-const USAGE: &str = "usage: vnode --device NAME --node-id N --listen ADDR [--storage FILE] [--trace]\n       vnode --list";
+const USAGE: &str = "usage: vnode --device NAME --node-id N --listen ADDR [--serial N] [--storage FILE] [--trace]\n       vnode --list\n(--node-id 255: an LSS-unconfigured node)";
 
 /// Bytes per storage region: room for the largest device image.
 const REGION: usize = 4096;
@@ -30,11 +30,12 @@ struct Options {
     node_id: u8,
     listen: String,
     storage: Option<String>,
+    serial: Option<u32>,
     trace: bool,
 }
 
 fn parse(args: &[String]) -> Result<Option<Options>, String> {
-    let mut o = Options { device: String::new(), node_id: 0, listen: "127.0.0.1:0".into(), storage: None, trace: false };
+    let mut o = Options { device: String::new(), node_id: 0, listen: "127.0.0.1:0".into(), storage: None, serial: None, trace: false };
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().cloned().ok_or_else(|| format!("{a} needs a value\n{USAGE}"));
@@ -47,6 +48,14 @@ fn parse(args: &[String]) -> Result<Option<Options>, String> {
             }
             "--listen" => o.listen = value()?,
             "--storage" => o.storage = Some(value()?),
+            "--serial" => {
+                let v = value()?;
+                let parsed = match v.strip_prefix("0x") {
+                    Some(hex) => u32::from_str_radix(hex, 16),
+                    None => v.parse(),
+                };
+                o.serial = Some(parsed.map_err(|_| format!("--serial {v}: not a number"))?);
+            }
             "--trace" => o.trace = true,
             other => return Err(format!("unknown argument {other}\n{USAGE}")),
         }
@@ -54,8 +63,8 @@ fn parse(args: &[String]) -> Result<Option<Options>, String> {
     if o.device.is_empty() {
         return Err(USAGE.into());
     }
-    if !(1..=127).contains(&o.node_id) {
-        return Err(format!("--node-id must be 1..=127\n{USAGE}"));
+    if !(1..=127).contains(&o.node_id) && o.node_id != 255 {
+        return Err(format!("--node-id must be 1..=127, or 255 for an unconfigured node\n{USAGE}"));
     }
     Ok(Some(o))
 }
@@ -157,9 +166,16 @@ fn serve<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(
     let start = std::time::Instant::now();
     let clock = || Instant::from_micros(start.elapsed().as_micros() as u64);
     let mut node: Node<O, NoApplication, Boxed, R, T, HB> = Node::new(od, NoApplication, Boxed(storage), opts.node_id, clock());
+    if let Some(serial) = opts.serial {
+        node.set_serial_number(serial);
+    }
     loop {
         let now = clock();
         let deadline = node.process(now);
+        if let Some(index) = node.take_bit_rate_change() {
+            // SLCAN has no way to tell the client; the virtual wire carries every rate.
+            println!("bit rate switched to CiA 305 table index {index}");
+        }
         while let Some(frame) = node.transmit() {
             if opts.trace {
                 println!("tx {}", format_frame(&frame));
@@ -178,8 +194,10 @@ fn serve<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(
                     println!("rx {}", format_frame(&frame));
                 }
                 node.on_frame(clock(), &frame);
-                // Whatever else arrived meanwhile is handled before the next timers.
+                // Each frame is followed by `process`, as on a board: a reset
+                // sends its boot-up before the next frame is looked at.
                 while let Ok(frame) = channels.from_client.try_recv() {
+                    node.process(clock());
                     node.on_frame(clock(), &frame);
                 }
             }

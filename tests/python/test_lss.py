@@ -1,0 +1,104 @@
+"""Interop: python-canopen's LSS master (`network.lss`) against `vnode` over SLCAN.
+
+An unconfigured EC5000 (`--node-id 255`) with a serial number is found by
+fastscan, given a node-id, stored, inquired, and boots with the stored
+node-id at the next start (`--storage FILE`).
+"""
+
+import os
+import re
+import subprocess
+import tempfile
+import unittest
+
+import canopen
+from canopen.lss import CS_INQUIRE_SERIAL_NUMBER, CS_INQUIRE_VENDOR_ID
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+VNODE = os.environ.get("VNODE", os.path.join(ROOT, "target", "debug", "vnode"))
+EC5000_EDS = os.path.join(ROOT, "firmware", "eds", "ec5000.eds")
+SERIAL = 0x00C0FFEE
+
+
+class Vnode:
+    def __init__(self, storage, node_id=255):
+        self.proc = subprocess.Popen(
+            [VNODE, "--device", "ec5000", "--node-id", str(node_id), "--serial", str(SERIAL), "--storage", storage,
+             "--listen", "127.0.0.1:0"],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        line = self.proc.stdout.readline()
+        port = int(re.search(r":(\d+)\s*$", line).group(1))
+        self.network = canopen.Network()
+        self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=250000, sleep_after_open=0)
+        self.network.lss.RESPONSE_TIMEOUT = 0.1
+
+    def close(self):
+        try:
+            self.network.disconnect()
+        finally:
+            self.proc.terminate()
+            self.proc.wait(timeout=5)
+            self.proc.stdout.close()
+
+
+class LssTest(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.TemporaryDirectory()
+        self.storage = os.path.join(self.dir.name, "flash.bin")
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    def test_fastscan_configure_store_inquire_and_restart(self):
+        v = Vnode(self.storage)
+        try:
+            lss = v.network.lss
+            found, address = lss.fast_scan()
+            self.assertTrue(found)
+            self.assertEqual(address[3], SERIAL)
+            self.assertEqual(address[0], 0x3FB)  # EC5000 vendor-ID (docs/devices/ec5000.md)
+            # Fastscan left the drive in the configuration state.
+            self.assertEqual(lss.inquire_lss_address(CS_INQUIRE_SERIAL_NUMBER), SERIAL)
+            self.assertEqual(lss.inquire_lss_address(CS_INQUIRE_VENDOR_ID), 0x3FB)
+            self.assertEqual(lss.inquire_node_id(), 0xFF)
+            lss.configure_node_id(10)
+            lss.store_configuration()
+            node = v.network.add_node(10, EC5000_EDS)
+            # Leaving the configuration state starts the drive as node 10; frames on one
+            # link stay in order, so the SDO answer proves it started.
+            lss.send_switch_state_global(lss.WAITING_STATE)
+            self.assertEqual(node.sdo[0x1018][4].raw, SERIAL)
+            lss.send_switch_state_global(lss.CONFIGURATION_STATE)
+            self.assertEqual(lss.inquire_node_id(), 10)
+            lss.send_switch_state_global(lss.WAITING_STATE)
+        finally:
+            v.close()
+        # The stored configuration is used at the next start.
+        v = Vnode(self.storage)
+        try:
+            node = v.network.add_node(10, EC5000_EDS)
+            self.assertEqual(node.sdo[0x1018][4].raw, SERIAL)
+            found, _ = v.network.lss.fast_scan()
+            self.assertFalse(found, "a configured node does not take part in fastscan")
+        finally:
+            v.close()
+
+    def test_configuration_errors(self):
+        v = Vnode(self.storage, node_id=5)
+        try:
+            lss = v.network.lss
+            lss.send_switch_state_global(lss.CONFIGURATION_STATE)
+            with self.assertRaises(canopen.lss.LssError):
+                lss.configure_node_id(0x80)
+            with self.assertRaises(canopen.lss.LssError):
+                lss.configure_bit_timing(0)  # 1 Mbit/s: the EC5000 supports 125 and 250 kbit/s only
+            lss.configure_bit_timing(4)
+            self.assertEqual(lss.inquire_node_id(), 5)
+        finally:
+            v.close()
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
