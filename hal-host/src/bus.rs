@@ -553,3 +553,22 @@ impl Bus {
         any
     }
 }
+
+/// One port of the bus as a node's CAN controller sees it: LSS "activate bit
+/// timing" switches the port, after which frames at the old rate are not
+/// understood (counted as bit-rate errors).
+pub struct PortController<'a> {
+    /// The bus.
+    pub bus: &'a mut Bus,
+    /// The node's port.
+    pub port: PortId,
+}
+
+impl canopen_core::node::BitRateControl for PortController<'_> {
+    fn set_bit_rate(&mut self, index: u8) {
+        if let Some(rate) = BitRate::from_cia_index(index) {
+            // An unknown port cannot happen for a port the bus handed out.
+            let _ = self.bus.set_bitrate(self.port, rate);
+        }
+    }
+}

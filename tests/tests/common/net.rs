@@ -27,7 +27,7 @@ use canopen_core::od::ObjectDictionary;
 use canopen_core::storage::Storage;
 use canopen_core::time::{Duration, Instant};
 use embedded_can::Frame;
-use hal_host::bus::{BitRate, Bus, PortId, frame_bits};
+use hal_host::bus::{BitRate, Bus, PortController, PortId, frame_bits};
 use hal_host::master::{self, DownloadMode, Network, SdoClientError, UploadMode};
 use hal_host::trace::{CandumpWriter, TraceEntry};
 use std::any::Any;
@@ -49,9 +49,10 @@ pub trait Device: Any {
     fn process(&mut self, now: Instant) -> Option<Instant>;
     /// `Node::transmit`.
     fn transmit(&mut self) -> Option<CanFrame>;
-    /// `Node::take_bit_rate_change`: a CiA 305 table index to switch the port to.
-    fn take_bit_rate_change(&mut self) -> Option<u8> {
-        None
+    /// `Node::apply_bit_rate`: an LSS bit-rate switch reaches the port.
+    fn apply_bit_rate(&mut self, controller: &mut PortController<'_>) -> bool {
+        let _ = controller;
+        false
     }
 }
 
@@ -73,8 +74,8 @@ where
     fn transmit(&mut self) -> Option<CanFrame> {
         Node::transmit(self)
     }
-    fn take_bit_rate_change(&mut self) -> Option<u8> {
-        Node::take_bit_rate_change(self)
+    fn apply_bit_rate(&mut self, controller: &mut PortController<'_>) -> bool {
+        Node::apply_bit_rate(self, controller)
     }
 }
 
@@ -313,9 +314,7 @@ impl Net {
                     n.deadline = n.device.process(now);
                     self.calls.process += 1;
                     // The board's part of LSS "activate bit timing": switch the controller.
-                    if let Some(rate) = n.device.take_bit_rate_change().and_then(BitRate::from_cia_index) {
-                        self.bus.set_bitrate(n.port, rate).expect("the node's own port");
-                    }
+                    n.device.apply_bit_rate(&mut PortController { bus: &mut self.bus, port: n.port });
                     let mut moved = false;
                     while n.in_mailboxes < self.mailboxes {
                         let Some(frame) = n.device.transmit() else { break };

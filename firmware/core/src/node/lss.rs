@@ -11,6 +11,13 @@ use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
 use super::{Application, Node};
 use crate::od::ObjectDictionary;
 
+/// The board's side of LSS "activate bit timing": the CAN controller.
+pub trait BitRateControl {
+    /// Switches the controller to CiA 305 bit-timing table index `index`
+    /// (0 = 1 Mbit/s … 8 = 10 kbit/s).
+    fn set_bit_rate(&mut self, index: u8);
+}
+
 /// A bit-rate switch in progress: silent until `at`, then switch (first
 /// phase) or resume (second phase). CiA 305 §5.2.3.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -112,6 +119,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A bit rate the board must switch its CAN controller to now (once).
     pub fn take_bit_rate_change(&mut self) -> Option<u8> {
         self.bit_rate_request.take()
+    }
+
+    /// Hands a pending bit-rate change to the controller; call it after
+    /// [`Node::process`]. Returns whether the rate changed.
+    pub fn apply_bit_rate(&mut self, controller: &mut impl BitRateControl) -> bool {
+        match self.bit_rate_request.take() {
+            Some(index) => {
+                controller.set_bit_rate(index);
+                true
+            }
+            None => false,
+        }
     }
 
     /// Sets 0x1018 sub 4 (the serial number, part of the LSS address), which

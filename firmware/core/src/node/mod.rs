@@ -14,6 +14,7 @@ mod router;
 
 pub use app::{Application, NoApplication};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
+pub use lss::BitRateControl;
 
 use crate::frame::CanFrame;
 use crate::id::CobId;
