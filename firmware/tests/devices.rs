@@ -138,3 +138,34 @@ fn every_image_fits_the_ram_budget() {
     assert_eq!(devices::by_name("sendix").map(|d| d.default_node_id), Some(0x3F));
     assert!(devices::by_name("nope").is_none());
 }
+
+#[test]
+fn sendix_starts_from_its_stored_bus_parameters_or_the_factory_values() {
+    use canopen_core::od::ObjectDictionary;
+    use canopen_core::services::store::{self, Scope};
+    struct Flash([[u8; 1024]; 2]);
+    impl canopen_core::storage::Storage for Flash {
+        fn region_size(&self) -> usize {
+            1024
+        }
+        fn read(&mut self, r: u8, off: usize, buf: &mut [u8]) -> Result<(), canopen_core::storage::StorageError> {
+            buf.copy_from_slice(&self.0[usize::from(r)][off..off + buf.len()]);
+            Ok(())
+        }
+        fn erase(&mut self, r: u8) -> Result<(), canopen_core::storage::StorageError> {
+            self.0[usize::from(r)].fill(0xFF);
+            Ok(())
+        }
+        fn write(&mut self, r: u8, off: usize, data: &[u8]) -> Result<(), canopen_core::storage::StorageError> {
+            self.0[usize::from(r)][off..off + data.len()].copy_from_slice(data);
+            Ok(())
+        }
+    }
+    let mut flash = Flash([[0xFF; 1024]; 2]);
+    assert_eq!(sendix::startup(&mut flash), (0x3F, 3), "factory: node 0x3F, 250 kbit/s");
+    let mut ram = sendix::od::Ram::new(0x3F);
+    ram.set_node_address(0x22);
+    ram.set_baud_rate(4); // 8 - 4 = table index 4, 125 kbit/s
+    store::save(&sendix::od::DICTIONARY, ram.image(), 0x3F, &mut flash, Scope::All).unwrap();
+    assert_eq!(sendix::startup(&mut flash), (0x22, 4));
+}

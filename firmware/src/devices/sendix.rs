@@ -18,3 +18,27 @@ pub const DEVICE: super::Device = super::Device {
     dictionary: &od::DICTIONARY,
     default_node_id: 0x3F,
 };
+
+/// Node-id 0x3F and 250 kbit/s: what the encoder uses when nothing is stored.
+const FACTORY: (u8, u8) = (0x3F, 3);
+
+/// The node-id and bit rate (CiA 305 table index) the encoder starts with
+/// when LSS stored no configuration (the node applies an LSS store itself):
+/// 0x2101 and 0x2100 from the stored parameters, where 0xFF means "not
+/// set" and 0x2100 counts down (8 − table index, manual §5.2.3), else the
+/// factory 0x3F at 250 kbit/s. Decision D24 in docs/devices/sendix.md.
+pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, u8) {
+    use canopen_core::od::ObjectDictionary;
+    use canopen_core::services::store::{self, Part};
+    let mut ram = od::Ram::new(FACTORY.0);
+    store::load(&od::DICTIONARY, ram.image_mut(), FACTORY.0, storage, Part::Application);
+    let node_id = match ram.node_address() {
+        id @ 1..=127 => id,
+        _ => FACTORY.0,
+    };
+    let bit_rate = match ram.baud_rate() {
+        code @ 0..=8 => 8 - code,
+        _ => FACTORY.1,
+    };
+    (node_id, bit_rate)
+}
