@@ -237,7 +237,7 @@ impl Dictionary {
 }
 
 /// Adds `n` to the little-endian integer in `bytes`, wrapping at its width.
-fn add_le(bytes: &mut [u8], n: u64) {
+pub(crate) fn add_le(bytes: &mut [u8], n: u64) {
     let mut carry = n;
     for b in bytes.iter_mut() {
         let sum = u64::from(*b) + (carry & 0xFF);

@@ -309,7 +309,7 @@ pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn 
                 return used;
             }
             if e.attr.contains(Attr::NODE_ID) {
-                add_le(chunk, u64::from(node_id));
+                crate::od::add_le(chunk, u64::from(node_id));
             }
             if let Some(dst) = image.get_mut(r) {
                 dst.copy_from_slice(chunk);
@@ -318,15 +318,6 @@ pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn 
         }
     }
     used
-}
-
-fn add_le(bytes: &mut [u8], n: u64) {
-    let mut carry = n;
-    for b in bytes.iter_mut() {
-        let sum = u64::from(*b) + (carry & 0xFF);
-        *b = sum as u8;
-        carry = (carry >> 8) + (sum >> 8);
-    }
 }
 
 #[cfg(test)]
