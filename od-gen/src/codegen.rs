@@ -200,6 +200,16 @@ fn rust_type(t: DataType) -> Option<&'static str> {
     })
 }
 
+/// Size in bytes of a numeric accessor type (the types `rust_type` names).
+fn rust_width(ty: &str) -> usize {
+    match ty {
+        "i8" | "u8" => 1,
+        "i16" | "u16" => 2,
+        "i32" | "u32" | "f32" => 4,
+        _ => 8,
+    }
+}
+
 /// Expression reading a value of type `t` at `off` (an expression) from `src`.
 fn getter_expr(t: DataType, src: &str, off: &str, len: usize) -> String {
     let size = t.size().unwrap_or(len);
@@ -211,12 +221,7 @@ fn getter_expr(t: DataType, src: &str, off: &str, len: usize) -> String {
         DataType::OctetString | DataType::UnicodeString => format!("od::load_bytes({src}, {off}, {len})"),
         _ => {
             let ty = rust_type(t).unwrap_or("u8");
-            let width = match ty {
-                "i8" | "u8" => 1,
-                "i16" | "u16" => 2,
-                "i32" | "u32" | "f32" => 4,
-                _ => 8,
-            };
+            let width = rust_width(ty);
             if width == size {
                 format!("{ty}::from_le_bytes({load})")
             } else if ty.starts_with('i') {
@@ -241,12 +246,7 @@ fn setter_stmt(t: DataType, off: &str, len: usize) -> String {
         }
         _ => {
             let ty = rust_type(t).unwrap_or("u8");
-            let width = match ty {
-                "i8" | "u8" => 1,
-                "i16" | "u16" => 2,
-                "i32" | "u32" | "f32" => 4,
-                _ => 8,
-            };
+            let width = rust_width(ty);
             if width == size {
                 format!("od::store::<{size}>(&mut self.image, {off}, v.to_le_bytes());")
             } else if ty.starts_with('i') {

@@ -60,13 +60,6 @@ impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB>
     }
 }
 
-pub(super) fn read_u32(dict: &Dictionary, image: &[u8], index: u16, sub: u8) -> Option<u32> {
-    let v = dict.read(image, index, sub).ok()?;
-    let mut b = [0u8; 4];
-    b.get_mut(..v.len().min(4))?.copy_from_slice(v.get(..v.len().min(4))?);
-    Some(u32::from_le_bytes(b))
-}
-
 impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// Reads every communication parameter again (after reset communication).
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
@@ -82,7 +75,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             self.mapping_errors = self.mapping_errors.saturating_add(1);
         }
         for i in 0..HB {
-            let value = read_u32(dict, image, 0x1016, (i + 1) as u8).unwrap_or(0);
+            let value = dict.read_u32(image, 0x1016, (i + 1) as u8).unwrap_or(0);
             self.consumers.configure(i, value);
         }
     }
@@ -90,8 +83,8 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// Applies 0x1014/0x1015.
     pub fn configure_emcy(&mut self, dict: &Dictionary, image: &[u8]) {
         // Without 0x1014 the pre-defined connection set applies, and 0x1015 defaults to 0.
-        let cob = read_u32(dict, image, 0x1014, 0).unwrap_or(0x8000_0000);
-        let inhibit = read_u32(dict, image, 0x1015, 0).unwrap_or(0) as u16;
+        let cob = dict.read_u32(image, 0x1014, 0).unwrap_or(0x8000_0000);
+        let inhibit = dict.read_u32(image, 0x1015, 0).unwrap_or(0) as u16;
         self.emcy.configure(cob, inhibit);
     }
 
@@ -100,19 +93,19 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         let _ = node_id;
         match index {
             0x1017 => {
-                self.heartbeat.configure(read_u32(dict, image, 0x1017, 0).unwrap_or(0) as u16, now);
+                self.heartbeat.configure(dict.read_u32(image, 0x1017, 0).unwrap_or(0) as u16, now);
                 if self.heartbeat.active() {
                     // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
                     self.guarding.disarm();
                 }
             }
             0x100C | 0x100D => {
-                let guard = read_u32(dict, image, 0x100C, 0).unwrap_or(0) as u16;
-                let factor = read_u32(dict, image, 0x100D, 0).unwrap_or(0) as u8;
+                let guard = dict.read_u32(image, 0x100C, 0).unwrap_or(0) as u16;
+                let factor = dict.read_u32(image, 0x100D, 0).unwrap_or(0) as u8;
                 self.guarding.configure(guard, factor);
             }
             0x1012 => {
-                let v = read_u32(dict, image, 0x1012, 0).unwrap_or(0);
+                let v = dict.read_u32(image, 0x1012, 0).unwrap_or(0);
                 self.time_cob_id = (v & 0x8000_0000 != 0).then_some((v & 0x7FF) as u16);
             }
             0x1015 => self.configure_emcy(dict, image),

@@ -52,7 +52,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn refresh_lss(&mut self) {
         let dict = self.od.dictionary();
         let image = self.od.image();
-        let part = |sub: u8| dict.read(image, 0x1018, sub).ok().and_then(|v| v.try_into().ok()).map(u32::from_le_bytes).unwrap_or(0);
+        let part = |sub: u8| dict.read_u32(image, 0x1018, sub).unwrap_or(0);
         let address = [part(1), part(2), part(3), part(4)];
         if let Some(lss) = &mut self.lss {
             lss.set_address(address);

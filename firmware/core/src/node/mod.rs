@@ -269,8 +269,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let Some(index) = u16::try_from(i).ok().filter(|&i| i < 0x80).map(|i| SDO_SERVER_PARAMETER + i) else { break };
             let (default_rx, default_tx) =
                 if i == 0 { (Some(0x600 + u32::from(self.node_id)), Some(0x580 + u32::from(self.node_id))) } else { (None, None) };
-            let rx = comm::read_u32(dict, image, index, 1).or(default_rx);
-            let tx = comm::read_u32(dict, image, index, 2).or(default_tx);
+            let rx = dict.read_u32(image, index, 1).or(default_rx);
+            let tx = dict.read_u32(image, index, 2).or(default_tx);
             let new = match (rx.map(CobId), tx.map(CobId)) {
                 (Some(rx), Some(tx)) if rx.is_valid() && tx.is_valid() => Some((rx.can_id(), tx.can_id())),
                 _ => None,

@@ -59,8 +59,7 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Router<'_,
     }
 
     fn current_u32(&self, index: u16, sub: u8) -> Option<u32> {
-        let v = self.dict.read(self.image, index, sub).ok()?;
-        u32_of(v).ok()
+        self.dict.read_u32(self.image, index, sub)
     }
 
     /// The checks every download of a communication object passes before

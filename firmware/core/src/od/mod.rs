@@ -156,6 +156,12 @@ impl Dictionary {
         Ok(if entry.data_type == DataType::VisibleString { until_nul(value) } else { value })
     }
 
+    /// Reads an integer entry of at most 32 bits as a `u32` (the
+    /// communication parameters: COB-IDs, times, counts).
+    pub fn read_u32(&self, image: &[u8], index: u16, sub: u8) -> Option<u32> {
+        self.read(image, index, sub).ok().map(le_u32)
+    }
+
     /// Writes a value as an SDO download would: access, length and limits are
     /// checked before any byte changes.
     pub fn write(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
@@ -234,6 +240,16 @@ impl Dictionary {
             }
         }
     }
+}
+
+/// Up to 4 little-endian bytes as a `u32` (missing bytes read as 0): the
+/// value of an integer entry of at most 32 bits.
+pub fn le_u32(bytes: &[u8]) -> u32 {
+    let mut b = [0u8; 4];
+    for (dst, src) in b.iter_mut().zip(bytes) {
+        *dst = *src;
+    }
+    u32::from_le_bytes(b)
 }
 
 /// Adds `n` to the little-endian integer in `bytes`, wrapping at its width.

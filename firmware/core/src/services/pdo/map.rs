@@ -212,11 +212,4 @@ pub(crate) fn value_u32(dict: &Dictionary, image: &[u8], entry: &Entry) -> u32 {
     le_u32(dict.value(image, entry))
 }
 
-/// Up to 4 little-endian bytes as a `u32` (missing bytes read as 0).
-pub(crate) fn le_u32(bytes: &[u8]) -> u32 {
-    let mut b = [0u8; 4];
-    for (dst, src) in b.iter_mut().zip(bytes) {
-        *dst = *src;
-    }
-    u32::from_le_bytes(b)
-}
+pub(crate) use crate::od::le_u32;
