@@ -13,13 +13,21 @@
 //! - [`master`]: a small CANopen master for tests (NMT, SDO client with
 //!   block transfers, PDO codec, heartbeat monitor), sans-IO like the node,
 //!   with a driver that runs SDO transfers on the virtual bus.
+//! - [`slcan_client`]: the host side of SLCAN over TCP (the QEMU board's
+//!   UART, or [`slcan::SlcanServer`]).
+//! - [`live`]: the test master in real time over an [`slcan_client`]
+//!   connection, with a log of every frame.
+//! - [`decode`]: what a frame means, as a line of text for a live trace.
 #![forbid(unsafe_code)]
 
 pub mod bus;
 pub mod clock;
+pub mod decode;
 pub mod fault;
 pub mod fixtures;
+pub mod live;
 pub mod master;
 pub mod slcan;
+pub mod slcan_client;
 pub mod storage;
 pub mod trace;

@@ -5,7 +5,9 @@
 //!   canopen) and runs every check CI runs: rustfmt, clippy, all tests, the
 //!   strict device-EDS check, the Cortex-M builds with the size budget, the
 //!   python-canopen interop tests against `vnode` and the QEMU smoke tests.
-//! - `demo [DEVICE]`: checks a device's EDS and prints its dictionary.
+//! - `demo [--connect HOST:PORT] [--node-id N]`: boots the EC5000 image in
+//!   QEMU and drives it like a PLC (NMT, SDO, PDO, SYNC, heartbeat, EMCY),
+//!   with a live decoded trace and a summary; fails if the node misbehaves.
 //! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
 //! - `bench`: the bus-level benchmarks on the virtual bus (release build), with wall times.
 //! - `build`: every firmware image (each device on each board), with its sizes and the budget check.
@@ -13,6 +15,7 @@
 //! - `smoke`: python-canopen against every QEMU image (tests/python/test_qemu_smoke.py).
 
 mod bench;
+mod demo;
 mod images;
 mod measure;
 
@@ -28,7 +31,7 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("test") => test(),
-        Some("demo") => demo(args.get(1).map_or("ec5000", String::as_str)),
+        Some("demo") => demo::demo(args.get(1..).unwrap_or_default()),
         Some("fuzz") => fuzz(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(60)),
         Some("bench") => bench::bench(),
         Some("build") => images::build(),
@@ -36,7 +39,7 @@ fn main() -> ExitCode {
         Some("smoke") => images::smoke(),
         Some("size") => measure::size(),
         Some("icount") => measure::icount(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000)),
-        _ => Err("usage: cargo xtask test | demo [DEVICE] | fuzz [SECONDS]".into()),
+        _ => Err("usage: cargo xtask test | demo [--connect HOST:PORT] [--node-id N] | fuzz [SECONDS] | bench | build | qemu DEVICE | smoke | size | icount [N]".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -87,6 +90,7 @@ fn test() -> Result<(), String> {
     ensure_apt(&[("qemu-system-arm", "qemu-system-arm"), ("arm-none-eabi-size", "binutils-arm-none-eabi")])?;
     images::build()?;
     images::smoke()?;
+    demo::demo(&[])?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }
@@ -95,7 +99,11 @@ fn test() -> Result<(), String> {
 fn ensure_apt(needed: &[(&str, &str)]) -> Result<(), String> {
     let missing: Vec<&str> = needed
         .iter()
-        .filter(|(program, _)| !Command::new("sh").args(["-c", &format!("command -v {program}")]).status().is_ok_and(|s| s.success()))
+        .filter(|(program, _)| {
+            // `command -v` prints the path: keep it off stdout, which the demo's trace uses.
+            let found = Command::new("sh").args(["-c", &format!("command -v {program}")]).stdout(std::process::Stdio::null()).status();
+            !found.is_ok_and(|s| s.success())
+        })
         .map(|(_, package)| *package)
         .collect();
     if missing.is_empty() {
@@ -127,52 +135,6 @@ fn interop() -> Result<(), String> {
     }
     run("cargo", &["build", "-p", "hal-host", "--bin", "vnode"])?;
     run(python, &["-m", "unittest", "discover", "-s", "tests/python", "-v"])
-}
-
-fn demo(device: &str) -> Result<(), String> {
-    let known: Vec<&str> = firmware::devices::ALL.iter().map(|d| d.name).collect();
-    let dev = firmware::devices::by_name(device).ok_or_else(|| format!("unknown device {device}; one of {}", known.join(", ")))?;
-    let path = root().join("firmware/eds").join(format!("{device}.eds"));
-    let (eds, diags) = od_gen::load_path(&path, od_gen::Options { strict: true })?;
-    if diags.has_errors() {
-        return Err(diags.to_string());
-    }
-    println!("{}\n", dev.description);
-    let d = dev.dictionary;
-    println!(
-        "{} entries in flash, {} bytes of RAM image ({} for 0x1000-0x1FFF), {} bytes of constants, {} $NODEID-relative defaults; default node-id {}",
-        d.entries.len(),
-        d.defaults.len(),
-        d.comm_len,
-        d.rom.len(),
-        d.node_id_relative.len(),
-        dev.default_node_id
-    );
-    println!("bit rates (CiA 305 table bits): {:#05X}, LSS: {}", d.device.baud_rates, d.device.lss_supported);
-    // The runtime side: an image as the node builds it at power-on, read back
-    // through the dictionary as an SDO upload would.
-    let node_id = dev.default_node_id;
-    let mut image = vec![0u8; d.defaults.len()];
-    d.reset_application(&mut image, node_id);
-    d.reset_communication(&mut image, node_id);
-    println!("\nnode {node_id} after power-on:");
-    for (index, sub, what) in [
-        (0x1000, 0, "device type"),
-        (0x1018, 1, "vendor-ID"),
-        (0x1018, 2, "product code"),
-        (0x1200, 1, "SDO rx COB-ID"),
-        (0x1200, 2, "SDO tx COB-ID"),
-    ] {
-        match d.read(&image, index, sub) {
-            Ok(bytes) => {
-                println!("  0x{index:04X} sub {sub} {what}: {}", bytes.iter().rev().map(|b| format!("{b:02X}")).collect::<String>())
-            }
-            Err(e) => println!("  0x{index:04X} sub {sub} {what}: abort 0x{:08X}", e.abort_code()),
-        }
-    }
-    println!();
-    print!("{}", od_gen::doc::markdown(&eds));
-    Ok(())
 }
 
 fn fuzz(seconds: u32) -> Result<(), String> {
