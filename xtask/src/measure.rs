@@ -1,5 +1,6 @@
 //! `cargo xtask size` and `cargo xtask icount`: what the stack costs in
-//! flash and RAM on the MCU, and in instructions per frame on the host.
+//! flash and RAM on the MCU, and in instructions per frame on the host and
+//! on thumbv7m.
 //!
 //! - `size`: builds `bench/size` (a node's main loop, with the board behind C
 //!   callbacks) as a fat-LTO staticlib for thumbv7m, once per dictionary,
@@ -7,9 +8,12 @@
 //!   the roots), and reports `.text`/`.rodata`/`.data`/`.bss`, where `.text`
 //!   comes from (by the DWARF line table, so inlined code counts where it was
 //!   written) and the largest symbols.
-//! - `icount [N]`: runs `bench/icount` under `valgrind --tool=callgrind` with
-//!   N and 2N frames of each kind and reports (I(2N) − I(N)) / N, in all and
-//!   for `on_frame`, `process` and `transmit` apart (`--toggle-collect`).
+//! - `icount [N]`: [`icount`] (its own module): `bench/icount` under
+//!   callgrind on the host, `bench/icount-qemu` in QEMU with `-icount`.
+
+mod icount;
+
+pub use icount::icount;
 
 use super::{TARGET, ensure_target, root, run};
 use std::collections::BTreeMap;
@@ -19,6 +23,7 @@ use std::process::Command;
 /// The images `size` builds: name, `bench/size` feature, what it is.
 const IMAGES: &[(&str, &str, &str)] = &[
     ("core", "interop", "every service, interop test dictionary (4 RPDO / 4 TPDO, tests/eds/interop.eds)"),
+    ("ds301", "ds301", "CANopenNode's CiA 301 profile + 0x100C/0x100D (4 RPDO / 4 TPDO, 8 heartbeat consumers)"),
     ("ec5000", "ec5000", "device"),
     ("unitek-ds", "unitek-ds", "device"),
     ("sendix", "sendix", "device"),
@@ -309,56 +314,5 @@ pub fn size() -> Result<(), String> {
         }
     }
     println!("\nELF files: {}", target_dir().join("size").display());
-    Ok(())
-}
-
-/// Instructions valgrind counted for one run (all, or inside `toggle`).
-fn callgrind(bin: &str, kind: &str, n: u64, toggle: Option<&str>) -> Result<u64, String> {
-    let mut args = vec!["--tool=callgrind".to_string(), "--callgrind-out-file=/dev/null".to_string()];
-    if let Some(f) = toggle {
-        args.push(format!("--toggle-collect=*{f}*"));
-    }
-    args.extend([bin.to_string(), kind.to_string(), n.to_string()]);
-    let out = Command::new("valgrind")
-        .args(&args)
-        .current_dir(root())
-        .output()
-        .map_err(|e| format!("valgrind: {e} (install it with `apt-get install valgrind`)"))?;
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    if !out.status.success() {
-        return Err(format!("`valgrind {}` failed ({}):\n{stderr}", args.join(" "), out.status));
-    }
-    stderr
-        .lines()
-        .find_map(|l| l.split_once("Collected :").and_then(|(_, v)| v.trim().parse().ok()))
-        .ok_or_else(|| format!("no `Collected :` line from callgrind:\n{stderr}"))
-}
-
-pub fn icount(n: u64) -> Result<(), String> {
-    let n = n.max(1);
-    run("cargo", &["build", "--quiet", "--release", "-p", "canopen-icount"])?;
-    let bin = target_dir().join("release/canopen-icount");
-    let bin = bin.to_str().ok_or("non-UTF-8 path")?;
-    let per_frame = |kind: &str, toggle: Option<&str>| -> Result<(u64, u64), String> {
-        let once = callgrind(bin, kind, n, toggle)?;
-        let twice = callgrind(bin, kind, 2 * n, toggle)?;
-        let per = twice.saturating_sub(once) as f64 / n as f64;
-        Ok((per.round() as u64, once.saturating_sub(per.round() as u64 * n)))
-    };
-    println!("\nx86_64 instructions per handled frame (callgrind, (I(2N) - I(N)) / N with N = {n}; release profile):\n");
-    println!("| frame | per frame | on_frame | process | transmit (all calls) | start-up (not per frame) |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    for (kind, what) in [
-        ("rpdo", "RPDO (8 bytes, 4 objects)"),
-        ("sdo-upload", "expedited SDO upload (0x1018 sub 1)"),
-        ("sync", "SYNC, 4 synchronous TPDOs"),
-    ] {
-        eprintln!("xtask icount: {kind}");
-        let (total, startup) = per_frame(kind, None)?;
-        let (rx, _) = per_frame(kind, Some("icount_on_frame"))?;
-        let (process, _) = per_frame(kind, Some("icount_process"))?;
-        let (tx, _) = per_frame(kind, Some("icount_transmit"))?;
-        println!("| {what} | {total} | {rx} | {process} | {tx} | {startup} |");
-    }
     Ok(())
 }

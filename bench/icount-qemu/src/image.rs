@@ -1,0 +1,194 @@
+//! The image: start-up, the measurements and their report.
+// cortex-m-rt's HardFault handler must be an `unsafe fn`; no unsafe block here.
+#![allow(unsafe_code)]
+
+use canopen_core::time::{Duration, Instant};
+use canopen_icount::worst::CASES;
+use canopen_icount::{Answer, Dut, Kind, Mismatch};
+use core::hint::black_box;
+use cortex_m_rt::{ExceptionFrame, entry, exception};
+use cortex_m_semihosting::{debug, hprintln};
+use firmware::can_node::CanNode;
+
+use crate::clock::{Clock, Tally};
+use crate::isr::{self, Rx};
+
+/// Frames of each kind per run (the host bench's default N).
+const FRAMES: u64 = 1_000;
+/// Runs of each worst-case frame, each on a freshly prepared node.
+const RUNS: u32 = 50;
+/// SLCAN lines (and bxCAN frames) timed.
+const LINES: u32 = 200;
+
+#[entry]
+fn main() -> ! {
+    let status = match run() {
+        Ok(()) => {
+            hprintln!("icount-qemu ok");
+            debug::EXIT_SUCCESS
+        }
+        Err(e) => {
+            hprintln!("icount-qemu FAILED {}", e);
+            debug::EXIT_FAILURE
+        }
+    };
+    exit(status)
+}
+
+/// What went wrong, for the report.
+enum Failure {
+    /// The clock or a receive path did not do what the bench requires.
+    Bench(&'static str),
+    /// The node's answer to a frame was not the expected one.
+    Answer(Mismatch),
+}
+
+impl core::fmt::Display for Failure {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Failure::Bench(what) => f.write_str(what),
+            Failure::Answer(m) => {
+                write!(
+                    f,
+                    "{}: the node sent {} frame(s), first {:02X?}, last {:02X?}",
+                    m.step, m.answer.count, m.answer.first, m.answer.last
+                )
+            }
+        }
+    }
+}
+
+impl From<Mismatch> for Failure {
+    fn from(m: Mismatch) -> Self {
+        Failure::Answer(m)
+    }
+}
+
+impl From<&'static str> for Failure {
+    fn from(what: &'static str) -> Self {
+        Failure::Bench(what)
+    }
+}
+
+fn run() -> Result<(), Failure> {
+    let core = cortex_m::Peripherals::take().ok_or("peripherals taken")?;
+    let (mut clock, calibration) = Clock::start(core.SYST)?;
+    hprintln!(
+        "icount-qemu calibration instructions={} ticks={} per_tick={} overhead={:.2} check_known={} check_measured={:.2}",
+        calibration.instructions,
+        calibration.ticks,
+        clock.per_tick(),
+        clock.overhead(),
+        calibration.check_known,
+        calibration.check_measured
+    );
+    for kind in Kind::ALL {
+        per_frame(&mut clock, kind)?;
+    }
+    for case in &CASES {
+        worst_case(&mut clock, case)?;
+    }
+    receive_paths(&mut clock)
+}
+
+/// The node as the firmware's CANopen task sees it; `black_box` keeps the
+/// calls indirect, as they are there.
+fn as_can_node(node: &mut Dut) -> &mut dyn CanNode {
+    black_box(node as &mut dyn CanNode)
+}
+
+/// [`FRAMES`] frames of `kind`, one per millisecond, each: `on_frame`,
+/// `process`, `transmit` until the queue is empty; reported per frame
+/// (`transmit`: all its calls for the frame).
+fn per_frame(clock: &mut Clock, kind: Kind) -> Result<(), Failure> {
+    let mut now = Instant::from_micros(1_000);
+    let mut dut = kind.setup(now)?;
+    let node = as_can_node(&mut dut);
+    let (mut rx, mut process, mut tx) = (Tally::default(), Tally::default(), Tally::default());
+    let (mut sent, mut last) = (0u64, None);
+    for i in 0..FRAMES {
+        now += Duration::from_millis(1);
+        let (now, frame) = black_box((now, kind.frame(i)));
+        clock.time(&mut rx, || node.on_frame(now, &frame));
+        black_box(clock.time(&mut process, || node.process(now)));
+        // Each call a span of its own: the loop around them is the bench's.
+        while let Some(frame) = clock.time(&mut tx, || node.transmit()) {
+            sent += 1;
+            last = Some(black_box(frame));
+        }
+    }
+    kind.check(FRAMES, sent, last)?;
+    hprintln!(
+        "icount-qemu kind={} frames={} on_frame={:.1} process={:.1} transmit={:.1} transmit_calls={} sent={}",
+        kind.name(),
+        FRAMES,
+        clock.per_span(&rx),
+        clock.per_span(&process),
+        clock.per_span(&tx) * tx.spans() as f64 / FRAMES as f64,
+        tx.spans(),
+        sent
+    );
+    Ok(())
+}
+
+/// One expensive frame, [`RUNS`] times on a freshly prepared node: `on_frame` and `process`.
+fn worst_case(clock: &mut Clock, case: &canopen_icount::worst::Case) -> Result<(), Failure> {
+    let now = black_box(Instant::from_micros(1_000));
+    let (mut rx, mut process, mut sent) = (Tally::default(), Tally::default(), 0);
+    for _ in 0..RUNS {
+        let (mut dut, frame) = black_box(case.prepare(now)?);
+        let node = as_can_node(&mut dut);
+        clock.time(&mut rx, || node.on_frame(now, &frame));
+        black_box(clock.time(&mut process, || node.process(now)));
+        let answer = Answer::drain(&mut dut);
+        sent = answer.count;
+        case.check(&mut dut, now, answer)?;
+    }
+    let (rx, process) = (clock.per_span(&rx), clock.per_span(&process));
+    hprintln!(
+        "icount-qemu worst={} on_frame={:.1} process={:.1} total={:.1} sent={} runs={}",
+        case.name,
+        rx,
+        process,
+        rx + process,
+        sent,
+        RUNS
+    );
+    Ok(())
+}
+
+/// The receive interrupts' part for one frame (see [`isr`]).
+fn receive_paths(clock: &mut Clock) -> Result<(), Failure> {
+    static RX: Rx = Rx::new();
+    // An expedited SDO upload request, 8 data bytes: the longest standard-frame line.
+    let frame = canopen_icount::sdo([0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]);
+    let line = b"t60584018100100000000\r";
+    let (mut bytes, mut cr, mut bxcan) = (Tally::default(), Tally::default(), Tally::default());
+    for _ in 0..LINES {
+        isr::slcan_line(clock, &mut bytes, &mut cr, &RX, line, &frame)?;
+        isr::bxcan_frame(clock, &mut bxcan, &RX, &frame)?;
+    }
+    let all = (clock.per_span(&bytes) * (line.len() - 1) as f64) + clock.per_span(&cr);
+    hprintln!("icount-qemu isr=slcan-uart0 bytes={} line={:.1} last_byte={:.1}", line.len(), all, clock.per_span(&cr));
+    hprintln!("icount-qemu isr=bxcan-fifo0 frame={:.1}", clock.per_span(&bxcan));
+    Ok(())
+}
+
+/// Ends the QEMU run.
+fn exit(status: debug::ExitStatus) -> ! {
+    loop {
+        debug::exit(status);
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    hprintln!("icount-qemu FAILED panic: {}", info);
+    exit(debug::EXIT_FAILURE)
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    hprintln!("icount-qemu FAILED HardFault at pc {:#010x}", frame.pc());
+    exit(debug::EXIT_FAILURE)
+}
