@@ -4,18 +4,18 @@
 //! The CANopen task is embassy-net's runner in miniature (style guide §2.4):
 //! wait on `select(rx.receive(), board event, Timer::at(deadline))`, feed the
 //! core, run its timers, then let the board drain the transmit queue. The
-//! board only moves frames and reports controller events (RX overrun, bus-off
-//! recovered); which EMCY codes those become is decided here, not in the
-//! board.
+//! board only moves frames, reports controller events (RX overrun, bus-off
+//! recovered) and applies what the node asks of its controller through
+//! [`Controller`] (acceptance filter, LSS bit rate); which EMCY codes the
+//! events become is decided here, not in the board.
 
+use core::any::Any;
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use canopen_core::frame::CanFrame;
-use canopen_core::node::{Application, Node};
-use canopen_core::od::{ObjectDictionary, OdError};
+use canopen_core::node::{AcceptanceList, BitRateControl};
 use canopen_core::services::nmt::State;
-use canopen_core::storage::Storage;
 use canopen_core::time::{Duration, Instant};
 use canopen_core::wire::emcy::code;
 use embassy_futures::select::{Either3, select3};
@@ -25,6 +25,8 @@ use embassy_sync::channel::Channel;
 use embassy_sync::signal::Signal;
 use embassy_time::Timer;
 
+pub use crate::can_node::{CanNode, od_mut};
+
 /// Frames the receive channel buffers between the driver and the CANopen task.
 pub const RX_QUEUE: usize = 16;
 
@@ -32,88 +34,7 @@ pub const RX_QUEUE: usize = 16;
 /// stays active without recurring before it is cleared ("error reset").
 pub const TRANSIENT_ERROR_HOLD: Duration = Duration::from_secs(1);
 
-/// 0x1000 Device type (CiA 301 §7.5.2.1), read by the application slot.
-const DEVICE_TYPE: u16 = 0x1000;
-
 defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_ticks());
-
-/// What a board and the application slot need from a node, whatever its
-/// dictionary: a [`Node`] behind a trait object, so the tasks below are not
-/// generic (embassy tasks cannot be).
-pub trait CanNode: Send {
-    /// [`Node::on_frame`].
-    fn on_frame(&mut self, now: Instant, frame: &CanFrame);
-    /// [`Node::process`].
-    fn process(&mut self, now: Instant) -> Option<Instant>;
-    /// [`Node::transmit`].
-    fn transmit(&mut self) -> Option<CanFrame>;
-    /// [`Node::requeue`].
-    fn requeue(&mut self, frame: CanFrame);
-    /// [`Node::raise_error`].
-    fn raise_error(&mut self, code: u16, info: [u8; 5]);
-    /// [`Node::clear_error`].
-    fn clear_error(&mut self, code: u16);
-    /// [`Node::state`].
-    fn state(&self) -> State;
-    /// [`Node::node_id`].
-    fn node_id(&self) -> u8;
-    /// Reads an object as an SDO upload would; returns its length in `buf`.
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, OdError>;
-    /// Writes an object as an SDO download would (access, length and limits checked).
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), OdError>;
-}
-
-impl<O, A, S, const R: usize, const T: usize, const HB: usize> CanNode for Node<O, A, S, R, T, HB>
-where
-    O: ObjectDictionary + Send,
-    A: Application + Send,
-    S: Storage + Send,
-{
-    fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
-        Node::on_frame(self, now, frame);
-    }
-
-    fn process(&mut self, now: Instant) -> Option<Instant> {
-        Node::process(self, now)
-    }
-
-    fn transmit(&mut self) -> Option<CanFrame> {
-        Node::transmit(self)
-    }
-
-    fn requeue(&mut self, frame: CanFrame) {
-        Node::requeue(self, frame);
-    }
-
-    fn raise_error(&mut self, code: u16, info: [u8; 5]) {
-        Node::raise_error(self, code, info);
-    }
-
-    fn clear_error(&mut self, code: u16) {
-        Node::clear_error(self, code);
-    }
-
-    fn state(&self) -> State {
-        Node::state(self)
-    }
-
-    fn node_id(&self) -> u8 {
-        Node::node_id(self)
-    }
-
-    fn read(&self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, OdError> {
-        let od = self.od();
-        let value = od.dictionary().read(od.image(), index, sub)?;
-        let n = value.len().min(buf.len());
-        buf.get_mut(..n).ok_or(OdError::TooLong)?.copy_from_slice(value.get(..n).ok_or(OdError::TooLong)?);
-        Ok(n)
-    }
-
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
-        let od = self.od_mut();
-        od.dictionary().write(od.image_mut(), index, sub, data)
-    }
-}
 
 /// Everything the board's interrupts and tasks share with the CANopen task.
 pub struct Shared {
@@ -125,6 +46,7 @@ pub struct Shared {
     events: Signal<CriticalSectionRawMutex, ()>,
     rx_overruns: AtomicU32,
     bus_off_recoveries: AtomicU32,
+    rejected: AtomicU32,
 }
 
 /// The one [`Shared`] of an image.
@@ -135,6 +57,7 @@ pub static SHARED: Shared = Shared {
     events: Signal::new(),
     rx_overruns: AtomicU32::new(0),
     bus_off_recoveries: AtomicU32::new(0),
+    rejected: AtomicU32::new(0),
 };
 
 impl Shared {
@@ -155,6 +78,23 @@ impl Shared {
             let node: &mut dyn CanNode = node.as_deref_mut()?;
             Some(f(node))
         })
+    }
+
+    /// Runs `f` on the node's dictionary as the device's generated type
+    /// `O` ([`od_mut`]); `None` if the node runs another dictionary (or as
+    /// [`Shared::with_node`]).
+    pub fn with_od<O: Any, R>(&self, f: impl FnOnce(&mut O) -> R) -> Option<R> {
+        self.with_node(|node| od_mut::<O>(node).map(f)).flatten()
+    }
+
+    /// The board's software acceptance filter dropped a frame.
+    pub fn rejected(&self) {
+        self.rejected.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Frames the software acceptance filter dropped so far (for logs).
+    pub fn rejected_frames(&self) -> u32 {
+        self.rejected.load(Ordering::Relaxed)
     }
 
     /// A received frame was lost (controller FIFO or [`Shared::rx`] full).
@@ -221,22 +161,54 @@ impl TransientError {
     }
 }
 
+/// What an image's start-up hands its board.
+pub struct Started {
+    /// The node, for [`Shared::install`].
+    pub node: &'static mut dyn CanNode,
+    /// The bit rate (CiA 305 table index) the device's own stored
+    /// parameters give, if it has such (a bit rate LSS stored comes first:
+    /// [`CanNode::bit_rate`]).
+    pub bit_rate: Option<u8>,
+}
+
+/// What the CANopen task needs from the board's CAN controller (or SLCAN
+/// link), besides the LSS bit-rate switch.
+pub trait Controller: BitRateControl {
+    /// The node's transmit queue may hold frames for the controller.
+    fn kick_tx(&mut self);
+    /// The node consumes another set of identifiers (and once at start):
+    /// program the acceptance filter for `list`.
+    fn set_acceptance(&mut self, list: &AcceptanceList);
+}
+
 /// The CANopen task: feeds received frames and board events to the node,
-/// runs its timers, and calls `kick_tx` whenever the transmit queue may hold
-/// frames for the controller.
-pub async fn run_canopen(shared: &'static Shared, kick_tx: fn()) -> ! {
+/// runs its timers, hands the controller a bit-rate switch when the node's
+/// LSS delay says so and a new acceptance list when its generation moves,
+/// and kicks the transmitter whenever the queue may hold frames.
+pub async fn run_canopen(shared: &'static Shared, controller: &mut impl Controller) -> ! {
     let mut overrun = TransientError::new(code::CAN_OVERRUN);
     let mut bus_off = TransientError::new(code::BUS_OFF_RECOVERED);
     let mut last_state = None;
+    let mut applied = None;
     loop {
         let now = now();
         let step = shared.with_node(|node| {
             overrun.update(shared.rx_overruns.load(Ordering::Relaxed), now, node);
             bus_off.update(shared.bus_off_recoveries.load(Ordering::Relaxed), now, node);
-            (node.process(now), node.state())
+            let deadline = node.process(now);
+            if let Some(index) = node.take_bit_rate_change() {
+                controller.set_bit_rate(index);
+            }
+            // Every frame that can move the list passes through here next.
+            let list = node.acceptance();
+            if applied != Some(list.generation()) {
+                applied = Some(list.generation());
+                controller.set_acceptance(list);
+            }
+            (deadline, node.state())
         });
         let (deadline, state) = step.unwrap_or((None, State::Initialising));
-        kick_tx();
+        controller.kick_tx();
         if last_state != Some(state) {
             last_state = Some(state);
             shared.state.signal(state);
@@ -254,14 +226,17 @@ pub async fn run_canopen(shared: &'static Shared, kick_tx: fn()) -> ! {
     }
 }
 
-/// The application slot: where a device profile will run beside the CANopen
-/// task, reading and writing the dictionary through the node. For now it
-/// reports the node's identity and follows its NMT state.
-pub async fn run_application(shared: &'static Shared) -> ! {
-    let mut buf = [0u8; 4];
-    let identity = shared.with_node(|node| (node.node_id(), node.read(DEVICE_TYPE, 0, &mut buf).is_ok()));
-    if let Some((node_id, true)) = identity {
-        defmt::info!("node {=u8}: device type {=u32:#010x}", node_id, u32::from_le_bytes(buf));
+/// The application slot, one task per image ([`crate::image!`] spawns it
+/// with the device's dictionary type `O`): where a device profile runs
+/// beside the CANopen task, reading and writing the dictionary through the
+/// generated accessors ([`Shared::with_od`]) and waking the event-driven
+/// TPDOs it changed ([`CanNode::trigger_tpdo`]). Today it reports the
+/// device type, read through `device_type` (the generated accessor of
+/// 0x1000), and follows the NMT state.
+pub async fn run_application<O: Any>(shared: &'static Shared, device_type: fn(&O) -> u32) -> ! {
+    let identity = shared.with_node(|node| (node.node_id(), od_mut::<O>(node).map(|od| device_type(od))));
+    if let Some((node_id, Some(device_type))) = identity {
+        defmt::info!("node {=u8}: device type {=u32:#010x}", node_id, device_type);
     }
     loop {
         let state = shared.state.wait().await;

@@ -3,7 +3,8 @@
 //! Each device is its EDS (`eds/<device>.eds`, turned into an object
 //! dictionary by `build.rs`) plus one short module in [`devices`]. An image
 //! is a device on a board: [`boards`] holds the QEMU and STM32F103 boards,
-//! `app` (MCU builds only) the tasks they share, and `src/bin/` one
+//! [`can_node`] the node behind a trait object, `app` (MCU builds only) the
+//! tasks they share, and `src/bin/` one
 //! `<device>-<board>` entry point per image (see `docs/firmware.md`).
 #![no_std]
 // Unsafe code stays denied (workspace lints); only `boards` allows it, per
@@ -13,4 +14,5 @@
 #[cfg(target_os = "none")]
 pub mod app;
 pub mod boards;
+pub mod can_node;
 pub mod devices;

@@ -9,6 +9,8 @@ semihosting exit (the 29-bit frame 0x1FFFFFFF "EXIT") with exit code 0.
 """
 
 import os
+import re
+import shutil
 import socket
 import struct
 import subprocess
@@ -156,12 +158,26 @@ class QemuSmokeTest(unittest.TestCase):
         od = canopen.import_od(os.path.join(ROOT, "firmware", "eds", f"{device}.eds"), node_id)
         q = QemuImage(device)
         try:
-            self.check_device(q, device, node_id, od)
+            rejected = self.check_device(q, device, node_id, od)
         except BaseException:
             print(f"\n{device}: QEMU stderr: {''.join(q.stderr)}")
             raise
         finally:
             q.close()
+        self.check_rejected(q, rejected)
+
+    def check_rejected(self, q, expected):
+        """The board's software acceptance filter dropped exactly the frames
+        sent to identifiers the node does not consume: the count it logs at
+        the exit frame (decoded with defmt-print, when installed)."""
+        printer = shutil.which("defmt-print") or shutil.which(os.path.expanduser("~/.cargo/bin/defmt-print"))
+        if printer is None:
+            print(f"\n{q.device}: defmt-print not installed, the filter's count is not checked")
+            return
+        with open(q.log.name, "rb") as log:
+            text = subprocess.run([printer, "-e", q.elf], stdin=log, capture_output=True, text=True, timeout=WAIT).stdout
+        found = re.findall(r"(\d+) rejected by the filter", text)
+        self.assertEqual(found, [str(expected)], f"filter count in the log:\n{text}")
 
     def check_device(self, q, device, node_id, od):
         # ---- boot-up: the first frame, before anything was asked ----------
@@ -239,6 +255,7 @@ class QemuSmokeTest(unittest.TestCase):
             self.check_tpdo(node, frames, od)
         if 0x1400 in od:
             self.check_rpdo(node, q, od)
+        rejected = self.check_filter(q, node, node_id, od)
 
         # ---- nothing went wrong on the way ---------------------------------
         emcy = frames.since(0, 0x80 + node_id)
@@ -256,6 +273,32 @@ class QemuSmokeTest(unittest.TestCase):
 
         # ---- the end: semihosting exit with status 0 -----------------------
         self.assertEqual(q.exit(0), 0, "QEMU exit code")
+        return rejected
+
+    def check_filter(self, q, node, node_id, od):
+        """Frames on identifiers the node does not consume stop at the
+        board's acceptance filter (the SLCAN receive path checks the node's
+        list); an RPDO moved to a new COB-ID is received there, and no
+        longer on the old one. Returns how many frames the filter dropped."""
+        other = node_id % 127 + 1
+        # An SDO request for another node, and a heartbeat nobody here consumes.
+        q.network.send_message(0x600 + other, b"\x40\x00\x10\x00\x00\x00\x00\x00")
+        q.network.send_message(0x700 + other, b"\x05")
+        rejected = 2
+        rpdo = od.get_variable(0x1400, 1) if 0x1400 in od else None
+        if rpdo is not None and rpdo.writable:
+            old = int.from_bytes(node.sdo.upload(0x1400, 1), "little") & 0x7FF
+            new = 0x500 + node_id
+            # A COB-ID changes only while the PDO is not valid (CiA 301 §7.5.2.35).
+            node.sdo.download(0x1400, 1, struct.pack("<I", 0x80000000 | new))
+            node.sdo.download(0x1400, 1, struct.pack("<I", new))
+            before = [node.sdo.upload(i, s) for i, s, _ in self.mapping(node, 0x1600)]
+            q.network.send_message(old, bytes(len(b"".join(before))))
+            rejected += 1
+            after = [node.sdo.upload(i, s) for i, s, _ in self.mapping(node, 0x1600)]
+            self.assertEqual(after, before, "an RPDO on the old COB-ID changed nothing")
+            self.check_rpdo(node, q, od)
+        return rejected
 
     def mapping(self, node, index):
         """(index, sub, bits) of each object a PDO maps, read from the node."""

@@ -115,6 +115,9 @@ impl AbortCode {
 }
 
 impl From<crate::od::OdError> for AbortCode {
+    // Out of line: each of the dozen `?` on an `OdError` had a copy with its
+    // own switch table (714 bytes of flash more).
+    #[inline(never)]
     fn from(e: crate::od::OdError) -> Self {
         use crate::od::OdError;
         match e {

@@ -32,12 +32,21 @@ pub const fn region_size(image: usize) -> usize {
 /// optionally followed by `key = value` settings of the board's `Config`
 /// (`bit_rate_kbps = 250` on the STM32F103).
 ///
-/// The node lives in a `static` (so its size shows in `.bss`), runs the
-/// device's dictionary with no application hooks yet, and starts with the
-/// device's default node-id.
+/// The node lives in a `static` (so its size shows in `.bss`) and runs the
+/// device's dictionary with no application hooks yet. It starts with the
+/// node-id the device's start-up hook reads from its stored parameters
+/// (`Device::startup`), else the device's default one; a configuration LSS
+/// stored overrides both (`Node::new`). The image's application task runs
+/// `app::run_application` on the device's own dictionary type, so a
+/// profile reaches its objects through the generated accessors.
 #[macro_export]
 macro_rules! image {
     ($board:ident, $device:ident $(, $key:ident = $value:expr)* $(,)?) => {
+        #[::embassy_executor::task]
+        async fn application() -> ! {
+            $crate::app::run_application(&$crate::app::SHARED, $crate::devices::$device::od::Ram::device_type).await
+        }
+
         #[::cortex_m_rt::entry]
         fn main() -> ! {
             use $crate::devices::$device as device;
@@ -46,11 +55,19 @@ macro_rules! image {
             static NODE: ::static_cell::StaticCell<Node> = ::static_cell::StaticCell::new();
             #[allow(clippy::needless_update)]
             let config = $crate::boards::$board::Config { $($key: $value,)* ..$crate::boards::$board::Config::DEFAULT };
-            $crate::boards::$board::run(config, |storage: Storage, now| {
-                let node_id = device::DEVICE.default_node_id;
+            let make_node = |mut storage: Storage, now| {
+                let (node_id, bit_rate) = match device::DEVICE.startup {
+                    Some(startup) => {
+                        let (node_id, bit_rate) = startup(&mut storage);
+                        (node_id, Some(bit_rate))
+                    }
+                    None => (device::DEVICE.default_node_id, None),
+                };
                 let ram = device::od::Ram::new(node_id);
-                NODE.init_with(|| Node::new(ram, ::canopen_core::node::NoApplication, storage, node_id, now))
-            })
+                let node = NODE.init_with(|| Node::new(ram, ::canopen_core::node::NoApplication, storage, node_id, now));
+                $crate::app::Started { node, bit_rate }
+            };
+            $crate::boards::$board::run(config, make_node, application())
         }
     };
 }

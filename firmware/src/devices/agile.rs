@@ -17,4 +17,5 @@ pub const DEVICE: super::Device = super::Device {
     description: "Bonfiglioli Agile inverter: CiA 402 velocity mode, parameters at 0x2000 + number with the data set as sub-index (seed 004).",
     dictionary: &od::DICTIONARY,
     default_node_id: 1,
+    startup: None,
 };

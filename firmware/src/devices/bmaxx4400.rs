@@ -17,4 +17,5 @@ pub const DEVICE: super::Device = super::Device {
     description: "Baumüller b maXX 4400 CANopen slave option module: CiA 402 drive, drive parameters at 0x4000 + number (seed 003).",
     dictionary: &od::DICTIONARY,
     default_node_id: 1,
+    startup: None,
 };

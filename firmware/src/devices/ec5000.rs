@@ -17,4 +17,5 @@ pub const DEVICE: super::Device = super::Device {
     description: "Interroll RollerDrive EC5000 BI: CiA 301 slave with the CiA 402 drive profile and LSS (seed 000).",
     dictionary: &od::DICTIONARY,
     default_node_id: 127,
+    startup: None,
 };

@@ -17,6 +17,7 @@ pub const DEVICE: super::Device = super::Device {
     description: "Kübler Sendix M5868 multi-turn encoder: CiA 406 class C2 with LSS (seed 002).",
     dictionary: &od::DICTIONARY,
     default_node_id: 0x3F,
+    startup: Some(startup),
 };
 
 /// Node-id 0x3F and 250 kbit/s: what the encoder uses when nothing is stored.

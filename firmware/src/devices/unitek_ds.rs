@@ -17,4 +17,5 @@ pub const DEVICE: super::Device = super::Device {
     description: "UNITEK DS servo: its own REGID register protocol, with the register table described as manufacturer objects (seed 001).",
     dictionary: &od::DICTIONARY,
     default_node_id: 1,
+    startup: None,
 };

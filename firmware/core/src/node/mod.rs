@@ -9,11 +9,13 @@
 
 mod app;
 mod comm;
+mod filter;
 mod lss;
 mod router;
 
 pub use app::{Application, NoApplication};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
+pub use filter::{ACCEPTANCE_CAPACITY, AcceptanceList, AcceptedId};
 pub use lss::BitRateControl;
 
 use crate::frame::CanFrame;
@@ -105,6 +107,8 @@ pub struct Node<
     switch: Option<lss::Switch>,
     /// A bit-rate change the board has not applied yet.
     bit_rate_request: Option<u8>,
+    /// The identifiers the node consumes, for the board's acceptance filter.
+    acceptance: filter::AcceptanceList,
 }
 
 /// Where the SDO server's frames go: the node's queue, keeping a reserve.
@@ -168,6 +172,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             bit_rate: None,
             switch: None,
             bit_rate_request: None,
+            acceptance: filter::AcceptanceList::default(),
         };
         node.load_lss_configuration();
         node.reset_application(now);
@@ -198,6 +203,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
+        self.refresh_acceptance();
         self.nmt = Nmt::new();
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.node_id != UNCONFIGURED;
@@ -224,6 +230,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn od_mut(&mut self) -> &mut O {
         self.touched = true;
         &mut self.od
+    }
+
+    /// Signals an application event for TPDO `n` (0-based; transmission
+    /// types 0, 254, 255): it goes out at the next [`Node::process`] (type
+    /// 0 at the next SYNC), inhibit time permitting. False if that TPDO is
+    /// not valid or of another type.
+    pub fn trigger_tpdo(&mut self, n: usize) -> bool {
+        self.touched = true;
+        self.comm.pdos.trigger(n)
     }
 
     /// The device's hooks.
@@ -434,11 +449,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.touched = true;
         let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
         let dict = od.dictionary();
-        let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, sdo_changed: false };
+        let mut router =
+            Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, sdo_changed: false, consumed_changed: false };
         let mut sink = SdoSink { txq, cob_id: tx_cob };
         sdo.on_request(i, now, data, &mut router, &mut sink);
+        let consumed_changed = router.consumed_changed;
         if router.sdo_changed {
             self.configure_sdo();
+        }
+        if consumed_changed {
+            self.refresh_acceptance();
         }
     }
 
@@ -530,15 +550,29 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if self.nmt.state().sdo_allowed() {
             let Node { od, app, storage, comm, sdo, txq, node_id, sdo_cob_ids, .. } = self;
             let dict = od.dictionary();
-            let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, sdo_changed: false };
+            let mut router = Router {
+                dict,
+                image: od.image_mut(),
+                app,
+                comm,
+                storage,
+                node_id: *node_id,
+                now,
+                sdo_changed: false,
+                consumed_changed: false,
+            };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
                     let deadline = sdo.poll(i, now, &mut router, &mut SdoSink { txq, cob_id: tx });
                     sdo_deadline = sdo_deadline.into_iter().chain(deadline).min();
                 }
             }
+            let consumed_changed = router.consumed_changed;
             if router.sdo_changed {
                 self.configure_sdo();
+            }
+            if consumed_changed {
+                self.refresh_acceptance();
             }
         }
         if self.nmt.state().sdo_allowed() {

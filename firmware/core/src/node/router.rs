@@ -23,6 +23,10 @@ pub(crate) struct Router<'a, A: Application, const R: usize, const T: usize, con
     pub now: Instant,
     /// An SDO server parameter (0x1200–0x127F) was written: the node reads them again.
     pub sdo_changed: bool,
+    /// An object that decides which COB-IDs the node consumes was written:
+    /// the node rebuilds its acceptance list (not after every SDO request,
+    /// which would cost more than the request itself).
+    pub consumed_changed: bool,
 }
 
 fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {
@@ -183,6 +187,17 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> ObjectAcce
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let result = self.route_write(index, sub, data);
+        // SYNC, TIME, heartbeat consumers, SDO servers, RPDOs and TPDOs (RTR).
+        if result.is_ok() && matches!(index, 0x1005 | 0x1012 | 0x1016 | 0x1200..=0x127F | 0x1400..=0x15FF | 0x1800..=0x19FF) {
+            self.consumed_changed = true;
+        }
+        result
+    }
+}
+
+impl<A: Application, const R: usize, const T: usize, const HB: usize> Router<'_, A, R, T, HB> {
+    fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
         if index < 0x2000 && index != 0x1010 && index != 0x1011 {
             self.precheck(index, sub, data)?;

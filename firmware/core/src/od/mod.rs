@@ -137,6 +137,8 @@ impl Dictionary {
     }
 
     /// The value bytes of `entry` (its whole capacity for strings).
+    // Out of line: a dozen callers each had a copy (198 bytes more).
+    #[inline(never)]
     pub fn value<'a>(&self, image: &'a [u8], entry: &Entry) -> &'a [u8] {
         let src: &'a [u8] = if entry.in_rom() { self.rom } else { image };
         src.get(entry.range()).unwrap_or(&[])
@@ -244,6 +246,8 @@ impl Dictionary {
 
 /// Up to 4 little-endian bytes as a `u32` (missing bytes read as 0): the
 /// value of an integer entry of at most 32 bits.
+// Out of line: it had a copy in each of its callers (66 bytes more).
+#[inline(never)]
 pub fn le_u32(bytes: &[u8]) -> u32 {
     let mut b = [0u8; 4];
     for (dst, src) in b.iter_mut().zip(bytes) {

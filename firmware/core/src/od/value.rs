@@ -23,6 +23,37 @@ pub enum RangeError {
     TooLow,
 }
 
+/// The bits of the f64 equal to the f32 with bits `b` (as `f64::from`, NaN
+/// payload kept). In integer arithmetic: a Cortex-M3 has no FPU, and the
+/// soft-float conversion and comparison would be the only float code in an image.
+fn widen_f32(b: u32) -> u64 {
+    let sign = u64::from(b >> 31) << 63;
+    let exponent = u64::from((b >> 23) & 0xFF);
+    let mantissa = u64::from(b & 0x7F_FFFF);
+    match exponent {
+        0 if mantissa == 0 => sign,
+        0 => {
+            // Subnormal (mantissa × 2^-149): normal in f64, with the top bit
+            // of the mantissa shifted to the implicit-one position (bit 23).
+            let shift = mantissa.leading_zeros() - 40;
+            sign | ((1023 - 126 - u64::from(shift)) << 52) | (((mantissa << shift) & 0x7F_FFFF) << 29)
+        }
+        0xFF => sign | (0x7FF << 52) | (mantissa << 29),
+        _ => sign | ((exponent + 1023 - 127) << 52) | (mantissa << 29),
+    }
+}
+
+/// A key that orders f64 bit patterns as `<` orders the numbers, in
+/// integer arithmetic: -0 and +0 are equal, and NaN (`None`) compares with nothing.
+fn order_key(bits: u64) -> Option<i64> {
+    let magnitude = bits & !(1 << 63);
+    if magnitude > f64::INFINITY.to_bits() {
+        return None;
+    }
+    let magnitude = magnitude as i64;
+    Some(if bits >> 63 == 0 { magnitude } else { -magnitude })
+}
+
 impl Number {
     /// Decodes `bytes` (little-endian, exactly the type's size) as `data_type`.
     /// `None` for non-numeric types or a wrong length.
@@ -40,7 +71,7 @@ impl Number {
                 let shift = 64 - 8 * size as u32;
                 Number::Signed(((unsigned << shift) as i64) >> shift)
             }
-            Kind::Real if size == 4 => Number::Real(f64::from(f32::from_bits(unsigned as u32))),
+            Kind::Real if size == 4 => Number::Real(f64::from_bits(widen_f32(unsigned as u32))),
             Kind::Real => Number::Real(f64::from_bits(unsigned)),
             Kind::Bytes => return None,
         })
@@ -69,7 +100,10 @@ impl Number {
         match (self, other) {
             (Number::Signed(a), Number::Signed(b)) => a < b,
             (Number::Unsigned(a), Number::Unsigned(b)) => a < b,
-            (Number::Real(a), Number::Real(b)) => a < b,
+            (Number::Real(a), Number::Real(b)) => match (order_key(a.to_bits()), order_key(b.to_bits())) {
+                (Some(a), Some(b)) => a < b,
+                _ => false,
+            },
             _ => false,
         }
     }
@@ -120,5 +154,46 @@ mod tests {
         let u = Limits { low: 1, high: 0xFFFF_FFFF };
         assert_eq!(u.check(DataType::Unsigned32, &0u32.to_le_bytes()), Err(RangeError::TooLow));
         assert_eq!(u.check(DataType::Unsigned32, &u32::MAX.to_le_bytes()), Ok(()));
+    }
+
+    #[test]
+    fn widens_every_kind_of_f32_exactly() {
+        let values = [
+            0.0f32,
+            -0.0,
+            1.0,
+            -1.5,
+            f32::MIN_POSITIVE,
+            f32::MAX,
+            f32::MIN,
+            f32::EPSILON,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::from_bits(1),
+            f32::from_bits(0x8000_0001),
+            f32::from_bits(0x0040_0000),
+            f32::from_bits(0x007F_FFFF),
+            f32::from_bits(0x0000_0F00),
+            3.0e-40,
+        ];
+        for v in values {
+            assert_eq!(widen_f32(v.to_bits()), f64::from(v).to_bits(), "{v:e}");
+        }
+        assert!(f64::from_bits(widen_f32(f32::NAN.to_bits())).is_nan());
+    }
+
+    #[test]
+    fn compares_reals_as_numbers() {
+        let r = Limits { low: Number::Real(0.0).to_limit(), high: Number::Real(f64::INFINITY).to_limit() };
+        // -0 equals the low limit 0; NaN is neither too low nor too high (as `<` says).
+        assert_eq!(r.check(DataType::Real32, &(-0.0f32).to_le_bytes()), Ok(()));
+        assert_eq!(r.check(DataType::Real64, &f64::NAN.to_le_bytes()), Ok(()));
+        assert_eq!(r.check(DataType::Real32, &f32::INFINITY.to_le_bytes()), Ok(()));
+        assert_eq!(r.check(DataType::Real32, &(-1.0e-45f32).to_le_bytes()), Err(RangeError::TooLow));
+        let n = Limits { low: Number::Real(-2.0).to_limit(), high: Number::Real(-1.0).to_limit() };
+        assert_eq!(n.check(DataType::Real64, &(-2.5f64).to_le_bytes()), Err(RangeError::TooLow));
+        assert_eq!(n.check(DataType::Real64, &(-0.5f64).to_le_bytes()), Err(RangeError::TooHigh));
+        assert_eq!(n.check(DataType::Real32, &(-1.0f32).to_le_bytes()), Ok(()));
+        assert_eq!(n.check(DataType::Real32, &f32::NEG_INFINITY.to_le_bytes()), Err(RangeError::TooLow));
     }
 }

@@ -146,6 +146,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         *self = EmcyProducer { cob_id: self.cob_id, inhibit: self.inhibit, overflows: self.overflows, ..Self::default() };
     }
 
+    // Out of line: three callers each had a copy (76 bytes more).
+    #[inline(never)]
     fn push(&mut self, e: Emcy) {
         if self.len == Q {
             self.overflows = self.overflows.saturating_add(1);

@@ -103,6 +103,8 @@ fn layout_id(dict: &Dictionary) -> u32 {
     h
 }
 
+// Out of line: save and load each had a copy of the bit loop.
+#[inline(never)]
 fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
     for &b in data {
         crc ^= u32::from(b);
@@ -225,21 +227,15 @@ fn write_set(
     let seq = old.map_or(1, |(_, h)| h.seq.wrapping_add(1));
     // The LSS configuration rides along with every set: a new one or the old one.
     let lss_bytes = lss.or(old.map(|(_, h)| h.lss)).unwrap_or([0xFF, 0xFF]);
-    let mut h = [0u8; HEADER];
-    for (dst, src) in h.iter_mut().zip(
-        MAGIC
-            .to_le_bytes()
-            .into_iter()
-            .chain(VERSION.to_le_bytes())
-            .chain(lss_bytes)
-            .chain(layout_id(dict).to_le_bytes())
-            .chain(seq.to_le_bytes())
-            .chain((len as u16).to_le_bytes())
-            .chain(defaults.to_le_bytes())
-            .chain((!crc).to_le_bytes()),
-    ) {
-        *dst = src;
-    }
+    let [m0, m1, m2, m3] = MAGIC.to_le_bytes();
+    let [v0, v1] = VERSION.to_le_bytes();
+    let [l0, l1, l2, l3] = layout_id(dict).to_le_bytes();
+    let [s0, s1, s2, s3] = seq.to_le_bytes();
+    let [n0, n1] = (len as u16).to_le_bytes();
+    let [d0, d1] = defaults.to_le_bytes();
+    let [c0, c1, c2, c3] = (!crc).to_le_bytes();
+    let [i0, i1] = lss_bytes;
+    let h: [u8; HEADER] = [m0, m1, m2, m3, v0, v1, i0, i1, l0, l1, l2, l3, s0, s1, s2, s3, n0, n1, d0, d1, c0, c1, c2, c3];
     storage.write(target, 0, &h)?;
     Ok(())
 }

@@ -118,7 +118,12 @@ impl SyncService {
     /// consumer only, no period, no window, no counter. The producer
     /// restarts: its first SYNC comes one period after the next poll.
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8]) {
-        let value = |index: u16| sub_entry(object(dict, index), 0).map(|e| value_u32(dict, image, e));
+        // A function, not a closure the optimizer copies into each of the four uses.
+        #[inline(never)]
+        fn value_of(dict: &Dictionary, image: &[u8], index: u16) -> Option<u32> {
+            sub_entry(object(dict, index), 0).map(|e| value_u32(dict, image, e))
+        }
+        let value = |index: u16| value_of(dict, image, index);
         let cob = value(COB_ID_SYNC).and_then(|v| CobIdSync::from_u32(v).ok());
         *self = SyncService {
             cob_id: cob.map_or(SYNC_COB_ID, |c| c.can_id),

@@ -4,21 +4,24 @@
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
+use canopen_core::frame::CanFrame;
+use canopen_core::node::{AcceptanceList, BitRateControl};
 use canopen_core::time::Instant;
 use cortex_m_rt::{ExceptionFrame, exception};
 use cortex_m_semihosting::debug;
 use critical_section::Mutex;
 use defmt_semihosting as _;
-use embassy_executor::{Executor, InterruptExecutor, SpawnError};
+use embassy_executor::{Executor, InterruptExecutor, SpawnError, SpawnToken};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::signal::Signal;
+use embedded_can::Frame;
 use lm3s6965::{Interrupt, interrupt};
 use static_cell::StaticCell;
 
 use super::ram_storage::RamStorage;
 use super::slcan::{self, BEL, Channel, Command, Decoder, FRAME_LINE};
 use super::uart;
-use crate::app::{self, CanNode, SHARED};
+use crate::app::{self, Controller, SHARED, Started};
 use crate::boards::systick;
 
 /// Nothing to configure: the emulated bus has no bit rate.
@@ -49,11 +52,15 @@ static TX_READY: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
 /// Boots the image: `make_node` builds the node on `Storage` at the given
 /// time; then the CANopen task runs on the interrupt executor, the SLCAN
-/// transmitter and the application slot in thread mode.
-pub fn run<const REGION: usize>(_config: Config, make_node: impl FnOnce(Storage<REGION>, Instant) -> &'static mut dyn CanNode) -> ! {
+/// transmitter and the image's `application` task in thread mode.
+pub fn run<const REGION: usize, A>(
+    _config: Config,
+    make_node: impl FnOnce(Storage<REGION>, Instant) -> Started,
+    application: Result<SpawnToken<A>, SpawnError>,
+) -> ! {
     let Some(mut core) = cortex_m::Peripherals::take() else { fail() };
     systick::init(core.SYST, CORE_HZ);
-    SHARED.install(make_node(RamStorage::default(), app::now()));
+    SHARED.install(make_node(RamStorage::default(), app::now()).node);
     uart::init();
     // SAFETY: set before the executor starts (as `InterruptExecutor::start`
     // requires); no priority-based critical section depends on it.
@@ -61,7 +68,7 @@ pub fn run<const REGION: usize>(_config: Config, make_node: impl FnOnce(Storage<
     CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen()));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(spawned(slcan_tx()));
-        spawner.spawn(spawned(application()));
+        spawner.spawn(spawned(application));
     })
 }
 
@@ -69,14 +76,36 @@ fn spawned<T>(token: Result<T, SpawnError>) -> T {
     token.unwrap_or_else(|_| fail())
 }
 
-#[embassy_executor::task]
-async fn canopen() -> ! {
-    app::run_canopen(&SHARED, || TX_READY.signal(())).await
+/// The SLCAN link as the CANopen task drives it. It has no bit timing and
+/// filters in software ([`accepted`]), so both settings only show in the log.
+struct SlcanLink;
+
+impl BitRateControl for SlcanLink {
+    fn set_bit_rate(&mut self, index: u8) {
+        defmt::info!("LSS: bit rate index {=u8} (an SLCAN link has no bit timing)", index);
+    }
+}
+
+impl Controller for SlcanLink {
+    fn kick_tx(&mut self) {
+        TX_READY.signal(());
+    }
+
+    fn set_acceptance(&mut self, list: &AcceptanceList) {
+        defmt::info!("acceptance filter: {=usize} identifiers, generation {=u32}", list.ids().len(), list.generation());
+    }
 }
 
 #[embassy_executor::task]
-async fn application() -> ! {
-    app::run_application(&SHARED).await
+async fn canopen() -> ! {
+    app::run_canopen(&SHARED, &mut SlcanLink).await
+}
+
+/// The software acceptance filter, what bxCAN's banks do on the STM32: an
+/// 11-bit frame the node lists (`Node::acceptance`), nothing else.
+fn accepted(frame: &CanFrame) -> bool {
+    let Some(cob_id) = frame.cob_id() else { return false };
+    SHARED.with_node(|node| node.acceptance().accepts(cob_id, frame.is_remote_frame())) == Some(true)
 }
 
 /// The adapter side of SLCAN: the UART0 handler decodes host lines,
@@ -129,8 +158,10 @@ impl Adapter {
             if let Some(status) = super::exit_request(&frame) {
                 exit(status);
             }
-            // Cannot fail: the handler reads only while the channel has room.
-            if SHARED.rx.try_send(frame).is_err() {
+            if !accepted(&frame) {
+                SHARED.rejected();
+            } else if SHARED.rx.try_send(frame).is_err() {
+                // Cannot happen: the handler reads only while the channel has room.
                 SHARED.rx_overrun();
             }
         }
@@ -156,7 +187,12 @@ fn UART0() {
 
 /// Ends the QEMU run with exit code 0 (`status` 0) or 1.
 fn exit(status: u8) -> ! {
-    defmt::info!("exit frame: status {=u8}, {=u32} frames lost", status, SHARED.rx_overruns());
+    defmt::info!(
+        "exit frame: status {=u8}, {=u32} frames lost, {=u32} rejected by the filter",
+        status,
+        SHARED.rx_overruns(),
+        SHARED.rejected_frames()
+    );
     debug::exit(if status == 0 { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
     fail()
 }

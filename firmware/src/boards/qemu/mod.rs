@@ -3,7 +3,9 @@
 //! QEMU emulates no CAN controller, so the board plays a serial CAN adapter
 //! (SLCAN, [`slcan`]) on UART0 whose only other bus member is the node; the
 //! host connects with python-can's `slcan` interface through the TCP socket
-//! QEMU makes of the UART. Time comes from SysTick, storage is RAM
+//! QEMU makes of the UART. Frames from the host pass a software acceptance
+//! filter, the node's identifier list, as bxCAN's banks do on the STM32
+//! (the rest are counted and dropped). Time comes from SysTick, storage is RAM
 //! ([`ram_storage`]), defmt logs and the exit code leave through
 //! semihosting.
 //!

@@ -8,7 +8,8 @@
 //! `Mxxxxxxxx`, `mxxxxxxxx`. Adapter → host: frames in the same `t/T/r/R`
 //! form, answers as [`reply`] gives them, BEL (0x07) for anything malformed.
 //! No timestamps are ever added. Bit-rate and filter settings are accepted
-//! and ignored: the emulated bus has no bit rate.
+//! and ignored: the emulated bus has no bit rate, and the board filters
+//! received frames by the node's own identifier list instead.
 
 use canopen_core::frame::CanFrame;
 use embedded_can::{ExtendedId, Frame, Id, StandardId};

@@ -63,6 +63,27 @@ pub const fn cia305_kbps(index: u8) -> Option<u32> {
     })
 }
 
+/// The BTR value for each CiA 305 table index (0 = 1 Mbit/s … 8 = 10
+/// kbit/s) from a CAN clock of `pclk_hz`; `None` for the reserved index 5
+/// and rates the clock cannot make. Meant for a `const`, so the search runs
+/// at compile time and the image only holds the table.
+pub const fn table(pclk_hz: u32) -> [Option<u32>; 9] {
+    let mut table = [None; 9];
+    let mut index = 0;
+    while index < table.len() {
+        if let Some(kbps) = cia305_kbps(index as u8) {
+            table[index] = btr(pclk_hz, kbps * 1000);
+        }
+        index += 1;
+    }
+    table
+}
+
+/// The CiA 305 table index of `kbps`, if it is one of the table's rates.
+pub fn cia305_index(kbps: u32) -> Option<u8> {
+    (0..=8).find(|&index| cia305_kbps(index) == Some(kbps))
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -85,6 +106,19 @@ mod tests {
             assert!((850..=900).contains(&sample), "{kbps} kbit/s: sample point {sample}");
             assert_eq!(btr >> 24, 0, "SJW 1, normal mode");
         }
+    }
+
+    #[test]
+    fn the_table_holds_every_cia305_rate() {
+        let table = table(36_000_000);
+        for index in 0..=8u8 {
+            let expected = cia305_kbps(index).and_then(|kbps| btr(36_000_000, kbps * 1000));
+            assert_eq!(table[usize::from(index)], expected, "index {index}");
+            assert_eq!(cia305_index(cia305_kbps(index).unwrap_or(0)), cia305_kbps(index).map(|_| index));
+        }
+        assert_eq!(table[3], Some(0x001C_0008), "250 kbit/s");
+        assert_eq!(table[5], None, "reserved");
+        assert_eq!(cia305_index(100), None);
     }
 
     #[test]

@@ -1,10 +1,11 @@
 //! Start-up and tasks of the STM32F103C8 board.
 #![allow(unsafe_code)]
 
+use canopen_core::node::{AcceptanceList, BitRateControl};
 use canopen_core::time::Instant;
 use cortex_m::peripheral::NVIC;
 use defmt_rtt as _;
-use embassy_executor::{Executor, InterruptExecutor, SpawnError};
+use embassy_executor::{Executor, InterruptExecutor, SpawnError, SpawnToken};
 use static_cell::StaticCell;
 use stm32f1xx_hal::flash::FlashExt;
 use stm32f1xx_hal::gpio::GpioExt;
@@ -16,13 +17,14 @@ use super::bit_timing;
 use super::can;
 use super::flash::Flash;
 use super::flash_storage::FlashStorage;
-use crate::app::{self, CanNode, SHARED};
+use crate::app::{self, Controller, SHARED, Started};
 use crate::boards::systick;
 
 /// What differs between images on this board.
 #[derive(Clone, Copy, Debug)]
 pub struct Config {
-    /// CAN bit rate in kbit/s (one of the CiA 305 rates the device supports).
+    /// CAN bit rate in kbit/s (one of the CiA 305 rates the device
+    /// supports) when neither LSS nor the device's own start-up settings give one.
     pub bit_rate_kbps: u32,
 }
 
@@ -40,6 +42,9 @@ const HSE_HZ: u32 = 8_000_000;
 const SYSCLK_HZ: u32 = 72_000_000;
 /// APB1, which clocks bxCAN (36 MHz is its maximum).
 const PCLK1_HZ: u32 = 36_000_000;
+/// BTR per CiA 305 bit-rate index at [`PCLK1_HZ`] (what `rcc::Config`
+/// below gets exactly: SYSCLK / 2), computed at compile time.
+const BTR: [Option<u32>; 9] = bit_timing::table(PCLK1_HZ);
 /// Priority of the CAN interrupts and of the CANopen task's executor, so
 /// neither preempts the other. STM32F1 implements 4 priority bits, the top
 /// of the byte: this is level 1, below SysTick (level 0) and above thread
@@ -55,10 +60,15 @@ static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
 
 /// Boots the image: clocks, time, storage, then `make_node` builds the
-/// node, and the CAN controller starts at `config.bit_rate_kbps`; the
-/// CANopen task runs on the interrupt executor, the application slot in
-/// thread mode.
-pub fn run<const REGION: usize>(config: Config, make_node: impl FnOnce(Storage<REGION>, Instant) -> &'static mut dyn CanNode) -> ! {
+/// node, and the CAN controller starts at the node's bit rate: the one LSS
+/// stored, else the device's start-up one, else `config.bit_rate_kbps`.
+/// The CANopen task runs on the interrupt executor, the image's
+/// `application` task in thread mode.
+pub fn run<const REGION: usize, A>(
+    config: Config,
+    make_node: impl FnOnce(Storage<REGION>, Instant) -> Started,
+    application: Result<SpawnToken<A>, SpawnError>,
+) -> ! {
     let (Some(dp), Some(mut core)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         defmt::panic!("peripherals taken twice")
     };
@@ -66,14 +76,18 @@ pub fn run<const REGION: usize>(config: Config, make_node: impl FnOnce(Storage<R
     let clocks = rcc::Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz()).pclk1(PCLK1_HZ.Hz());
     let mut rcc = dp.RCC.freeze(clocks, &mut flash.acr);
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
-    SHARED.install(make_node(FlashStorage::new(Flash::new(flash)), app::now()));
+    let started = make_node(FlashStorage::new(Flash::new(flash)), app::now());
+    let index = started.node.bit_rate().or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
+    SHARED.install(started.node);
 
-    let Some(btr) = bit_timing::btr(rcc.clocks.pclk1().raw(), config.bit_rate_kbps.saturating_mul(1000)) else {
-        defmt::panic!("no bit timing for {=u32} kbit/s", config.bit_rate_kbps)
+    // 0xFF: no table index (logs only).
+    let index = index.unwrap_or(0xFF);
+    let Some(btr) = BTR.get(usize::from(index)).copied().flatten() else {
+        defmt::panic!("no bit timing for {=u32} kbit/s (index {=u8})", config.bit_rate_kbps, index)
     };
     let gpioa = dp.GPIOA.split(&mut rcc);
     can::start(dp.CAN.can(dp.USB, (gpioa.pa12, gpioa.pa11), &mut rcc), btr);
-    defmt::info!("CAN at {=u32} kbit/s, BTR {=u32:#010x}", config.bit_rate_kbps, btr);
+    defmt::info!("CAN at bit rate index {=u8}, BTR {=u32:#010x}", index, btr);
 
     for irq in CAN_IRQS.into_iter().chain([EXECUTOR_IRQ]) {
         // SAFETY: priorities are set before the interrupts are unmasked and
@@ -87,7 +101,7 @@ pub fn run<const REGION: usize>(config: Config, make_node: impl FnOnce(Storage<R
     }
     CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen()));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
-        spawner.spawn(spawned(application()));
+        spawner.spawn(spawned(application));
     })
 }
 
@@ -98,19 +112,33 @@ fn spawned<T>(token: Result<T, SpawnError>) -> T {
     }
 }
 
-/// Lets the TX-empty handler drain the node's queue into the mailboxes.
-fn kick_tx() {
-    NVIC::pend(Interrupt::USB_HP_CAN_TX);
+/// bxCAN as the CANopen task drives it.
+struct Bxcan;
+
+impl BitRateControl for Bxcan {
+    fn set_bit_rate(&mut self, index: u8) {
+        // The LSS slave accepts only the indices the EDS lists, all in the table.
+        if let Some(btr) = BTR.get(usize::from(index)).copied().flatten() {
+            can::set_bit_timing(btr);
+            defmt::info!("LSS: CAN now at bit rate index {=u8}, BTR {=u32:#010x}", index, btr);
+        }
+    }
+}
+
+impl Controller for Bxcan {
+    /// Lets the TX-empty handler drain the node's queue into the mailboxes.
+    fn kick_tx(&mut self) {
+        NVIC::pend(Interrupt::USB_HP_CAN_TX);
+    }
+
+    fn set_acceptance(&mut self, list: &AcceptanceList) {
+        can::set_filters(list.ids(), list.is_complete());
+    }
 }
 
 #[embassy_executor::task]
 async fn canopen() -> ! {
-    app::run_canopen(&SHARED, kick_tx).await
-}
-
-#[embassy_executor::task]
-async fn application() -> ! {
-    app::run_application(&SHARED).await
+    app::run_canopen(&SHARED, &mut Bxcan).await
 }
 
 #[interrupt]

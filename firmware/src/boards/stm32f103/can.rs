@@ -1,4 +1,6 @@
-//! bxCAN glue: set-up, the three CAN interrupts, and bus-off detection.
+//! bxCAN glue: set-up, the three CAN interrupts, bus-off detection, and
+//! the two reconfigurations the CANopen task asks for: acceptance filter
+//! banks ([`set_filters`]) and bit timing ([`set_bit_timing`]).
 //!
 //! The interrupt handlers only move frames and count events; every frame
 //! passes through [`SHARED`] (received ones in `rx`, sent ones from the
@@ -8,51 +10,108 @@
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use bxcan::filter::Mask32;
-use bxcan::{Fifo, Interrupts, Rx0, StandardId, Tx};
+use bxcan::Interrupts;
 use canopen_core::frame::CanFrame;
+use canopen_core::node::AcceptedId;
 use critical_section::Mutex;
 use stm32f1xx_hal::pac::{self, interrupt};
 
+use super::filters;
 use crate::app::{SHARED, convert_frame};
 
 /// The bxCAN instance as stm32f1xx-hal hands it to `bxcan`.
 pub type Instance = stm32f1xx_hal::can::Can<pac::CAN>;
 
-static TX: Mutex<RefCell<Option<Tx<Instance>>>> = Mutex::new(RefCell::new(None));
-static RX: Mutex<RefCell<Option<Rx0<Instance>>>> = Mutex::new(RefCell::new(None));
+/// The controller, shared by the interrupts and the CANopen task (all at one priority).
+static CAN: Mutex<RefCell<Option<bxcan::Can<Instance>>>> = Mutex::new(RefCell::new(None));
 /// Set by the status-change interrupt when the controller went bus-off,
 /// cleared by the TX-empty interrupt once it sends again.
 static BUS_OFF: AtomicBool = AtomicBool::new(false);
 
-/// Configures the controller and starts it: bit timing `btr`, every 11-bit
-/// frame into FIFO 0, automatic retransmission, automatic bus-off recovery
-/// (ABOM), interrupts for TX-empty, FIFO 0 and bus-off.
+/// Configures the controller and starts it: bit timing `btr`, automatic
+/// retransmission, automatic bus-off recovery (ABOM), interrupts for
+/// TX-empty, FIFO 0 and bus-off. The filters stay as reset leaves them
+/// (initialisation mode, no bank active: nothing is received) until the
+/// CANopen task's first step programs the node's list ([`set_filters`]).
 pub fn start(can: Instance, btr: u32) {
     let mut can = bxcan::Can::builder(can).set_bit_timing(btr).set_automatic_retransmit(true).leave_disabled();
-    // Accept-all for standard identifiers; 29-bit frames never reach the node.
-    can.modify_filters().enable_bank(0, Fifo::Fifo0, Mask32::frames_with_std_id(StandardId::ZERO, StandardId::ZERO));
     can.enable_interrupts(Interrupts::TRANSMIT_MAILBOX_EMPTY | Interrupts::FIFO0_MESSAGE_PENDING | Interrupts::FIFO0_OVERRUN);
     enable_bus_off_handling();
     // Leaves sleep mode; the controller joins the bus after 11 recessive
     // bits on its own, so there is nothing to wait for here.
     let _ = can.enable_non_blocking();
-    let (tx, rx, _) = can.split();
+    with_can(|slot| *slot = Some(can));
+}
+
+fn with_can(f: impl FnOnce(&mut Option<bxcan::Can<Instance>>)) {
     critical_section::with(|cs| {
-        if let (Ok(mut tx_slot), Ok(mut rx_slot)) = (TX.borrow(cs).try_borrow_mut(), RX.borrow(cs).try_borrow_mut()) {
-            *tx_slot = Some(tx);
-            *rx_slot = Some(rx);
+        if let Ok(mut can) = CAN.borrow(cs).try_borrow_mut() {
+            f(&mut can);
         }
+    });
+}
+
+/// Programs the filter banks for the node's identifiers (`filters`), every
+/// bank into FIFO 0, the unused ones off. bxCAN stops receiving while its
+/// filters are in initialisation mode (FMR.FINIT), a few microseconds
+/// here: a frame that completes in that window is lost to this node.
+pub fn set_filters(ids: &[AcceptedId], complete: bool) {
+    let can = registers();
+    critical_section::with(|_| {
+        can.fmr().modify(|_, w| w.finit().set_bit());
+        // SAFETY: every bit pattern is valid in the filter registers
+        // (RM0008 §24.9.4), and they are written only in filter
+        // initialisation mode, with every bank inactive until the last write.
+        unsafe {
+            can.fa1r().write(|w| w.bits(0));
+            can.ffa1r().write(|w| w.bits(0));
+            let lists = filters::fits(ids, complete);
+            let mut active = 0u32;
+            if lists {
+                for (bank, (fr1, fr2)) in can.fb_iter().zip(filters::list_banks(ids).map(filters::list_bank)) {
+                    bank.fr1().write(|w| w.bits(fr1));
+                    bank.fr2().write(|w| w.bits(fr2));
+                    active = active << 1 | 1;
+                }
+            } else if let Some(bank) = can.fb_iter().next() {
+                let (fr1, fr2) = filters::ALL_STANDARD;
+                bank.fr1().write(|w| w.bits(fr1));
+                bank.fr2().write(|w| w.bits(fr2));
+                active = 1;
+            }
+            // List banks are 16-bit list mode; the fallback bank is one 32-bit mask.
+            can.fm1r().write(|w| w.bits(if lists { active } else { 0 }));
+            can.fs1r().write(|w| w.bits(if lists { 0 } else { active }));
+            can.fa1r().write(|w| w.bits(active));
+        }
+        can.fmr().modify(|_, w| w.finit().clear_bit());
+    });
+}
+
+/// Re-initialises the controller with bit timing `btr` (LSS "activate bit
+/// timing": the node is silent then, and so should the bus be). It rejoins
+/// the bus after 11 recessive bits at the new rate.
+pub fn set_bit_timing(btr: u32) {
+    let can = registers();
+    critical_section::with(|_| {
+        // BTR is writable in initialisation mode only (RM0008 §24.9.2).
+        can.mcr().modify(|_, w| w.inrq().set_bit());
+        while can.msr().read().inak().bit_is_clear() {}
+        // SAFETY: `btr` comes from `bit_timing::btr` (SJW, TS1, TS2, BRP
+        // fields only); the mode bits (silent, loop back) are kept.
+        can.btr().modify(|r, w| unsafe { w.bits((r.bits() & 0xC000_0000) | btr) });
+        can.mcr().modify(|_, w| w.inrq().clear_bit());
     });
 }
 
 /// The bxCAN registers bxcan does not cover (RM0008 §24.9.2).
 fn registers() -> &'static pac::can::RegisterBlock {
     // SAFETY: the CAN register block is always mapped. The fields touched
-    // through it (IER.ERRIE/BOFIE, MSR.ERRI, ESR) are not used by
-    // bxcan after `start`; they are accessed in `start` (before the
-    // interrupts are unmasked) and in the CAN interrupts, which share one
-    // priority and so never preempt each other.
+    // through it (IER.ERRIE/BOFIE, MSR.ERRI, ESR, MCR.INRQ, BTR, and the
+    // filter registers FMR, FM1R, FS1R, FFA1R, FA1R, FiRx) are not used by bxcan after
+    // `start`; they are accessed in `start` (before the interrupts are
+    // unmasked), in the CAN interrupts and by the CANopen task, which share
+    // one priority and so never preempt each other.
     unsafe { &*pac::CAN::ptr() }
 }
 
@@ -75,10 +134,9 @@ fn USB_HP_CAN_TX() {
         registers().ier().modify(|_, w| w.errie().set_bit());
         SHARED.bus_off_recovered();
     }
-    critical_section::with(|cs| {
-        let Ok(mut tx) = TX.borrow(cs).try_borrow_mut() else { return };
-        let Some(tx) = tx.as_mut() else { return };
-        tx.clear_interrupt_flags();
+    with_can(|can| {
+        let Some(tx) = can else { return };
+        tx.clear_tx_interrupt();
         SHARED.with_node(|node| {
             while let Some(frame) = node.transmit() {
                 let Some(out) = convert_frame::<CanFrame, bxcan::Frame>(&frame) else { continue };
@@ -104,9 +162,9 @@ fn USB_HP_CAN_TX() {
 /// the FIFO or the channel had no room for is counted.
 #[interrupt]
 fn USB_LP_CAN_RX0() {
-    critical_section::with(|cs| {
-        let Ok(mut rx) = RX.borrow(cs).try_borrow_mut() else { return };
-        let Some(rx) = rx.as_mut() else { return };
+    with_can(|can| {
+        let Some(can) = can else { return };
+        let rx = can.rx0();
         loop {
             match rx.receive() {
                 Ok(frame) => {

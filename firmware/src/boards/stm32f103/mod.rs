@@ -3,15 +3,17 @@
 //!
 //! - **Clocks**: HSE 8 MHz → 72 MHz core, 36 MHz APB1 (the CAN clock).
 //! - **CAN**: bxCAN through the `bxcan` crate on stm32f1xx-hal. The bit rate
-//!   is the image's `Config::bit_rate_kbps`, turned into BTR by
-//!   [`bit_timing`]. Received frames go from the FIFO 0 interrupt to the
-//!   CANopen task; the TX-empty interrupt drains the node's queue into the
-//!   three mailboxes (bxcan keeps frames with equal identifiers in FIFO
-//!   order, and a frame it takes back out of a mailbox goes back to the head
-//!   of the node's queue). RX overruns (FIFO or channel) and bus-off
-//!   recoveries are reported to the CANopen task, which raises EMCY 0x8110
-//!   and 0x8140. The hardware filter passes every 11-bit frame and drops
-//!   29-bit ones (see `docs/firmware.md`).
+//!   is the node's (stored by LSS), else the device's start-up one, else the
+//!   image's `Config::bit_rate_kbps`, turned into BTR by [`bit_timing`]; an
+//!   LSS "activate bit timing" re-initialises the controller. Received frames
+//!   go from the FIFO 0 interrupt to the CANopen task; the TX-empty interrupt
+//!   drains the node's queue into the three mailboxes (bxcan keeps frames
+//!   with equal identifiers in FIFO order, and a frame it takes back out of a
+//!   mailbox goes back to the head of the node's queue). RX overruns (FIFO
+//!   or channel) and bus-off recoveries are reported to the CANopen task,
+//!   which raises EMCY 0x8110 and 0x8140. The acceptance filter passes the
+//!   identifiers the node consumes ([`filters`]), reprogrammed whenever that
+//!   list changes (see `docs/firmware.md`).
 //! - **Storage**: [`flash_storage`] on the last 4 KiB of flash.
 //! - **Executors**: the CANopen task runs on an interrupt executor at the
 //!   priority of the CAN interrupts; the application slot runs in thread
@@ -20,6 +22,7 @@
 //!   `udf` (as panic-probe does, without its `core::fmt` cost).
 
 pub mod bit_timing;
+pub mod filters;
 pub mod flash_storage;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]

@@ -340,6 +340,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         result
     }
 
+    // Out of line: configure and write_object each had a copy (100 bytes more).
+    #[inline(never)]
     fn refresh_rx_ids(&mut self) {
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);

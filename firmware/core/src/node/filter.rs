@@ -1,0 +1,182 @@
+//! The identifiers the node consumes, for a CAN controller's acceptance
+//! filter: NMT, SYNC (0x1005), TIME (0x1012), each SDO server's
+//! client→server COB-ID (0x1200–0x127F), each valid RPDO, the remote frame
+//! of each TPDO that allows one (0x1800–0x19FF), node guarding, each
+//! heartbeat consumer's producer (0x1016) and LSS (CiA 305).
+//!
+//! The list is rebuilt where those objects take effect (reset
+//! communication, an SDO request) from the services' own state, so it
+//! holds exactly what [`Node::on_frame`] reacts to: a frame whose
+//! (COB-ID, remote) pair is not on it changes nothing in the node but its
+//! receive counters. It does not follow the NMT state (a Stopped node still
+//! lists its SDO and PDO identifiers), so an NMT command never makes a
+//! controller reprogram its filter. [`AcceptanceList::generation`] moves
+//! only when the list itself changed.
+
+use crate::od::ObjectDictionary;
+use crate::services::lss::UNCONFIGURED;
+use crate::storage::Storage;
+use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
+use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID};
+
+use super::{Application, Node};
+
+/// Identifiers an [`AcceptanceList`] holds. With the counts of any device
+/// here (4 SDO servers, 4 + 4 PDOs, 4 heartbeat consumers: 21) there is
+/// room to spare; a node with more is listed as "accept everything".
+pub const ACCEPTANCE_CAPACITY: usize = 32;
+
+/// Heartbeat consumer parameter (CiA 301 §7.5.2.19).
+const CONSUMER_HEARTBEAT_TIME: u16 = 0x1016;
+
+/// One identifier the node reacts to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct AcceptedId {
+    /// The 11-bit CAN-ID.
+    pub cob_id: u16,
+    /// A remote frame (RTR) rather than a data frame.
+    pub rtr: bool,
+}
+
+/// The identifiers a node reacts to, each once. At most 32 entries, so a
+/// linear search is as fast as any and smaller than sorting.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AcceptanceList {
+    ids: [AcceptedId; ACCEPTANCE_CAPACITY],
+    len: usize,
+    complete: bool,
+    generation: u32,
+}
+
+impl Default for AcceptanceList {
+    fn default() -> Self {
+        AcceptanceList { ids: [AcceptedId::default(); ACCEPTANCE_CAPACITY], len: 0, complete: true, generation: 0 }
+    }
+}
+
+impl AcceptanceList {
+    /// The identifiers, each once, in the order the node lists them (the
+    /// same order for the same configuration).
+    pub fn ids(&self) -> &[AcceptedId] {
+        self.ids.get(..self.len).unwrap_or(&[])
+    }
+
+    /// False when the node consumes more identifiers than the list holds:
+    /// then a filter must pass every 11-bit frame.
+    pub fn is_complete(&self) -> bool {
+        self.complete
+    }
+
+    /// Changes (wrapping) each time the list does; a board reprograms its
+    /// filter when this differs from the generation it applied.
+    pub fn generation(&self) -> u32 {
+        self.generation
+    }
+
+    /// Whether a filter built from this list passes an 11-bit frame.
+    pub fn accepts(&self, cob_id: u16, rtr: bool) -> bool {
+        !self.complete || self.ids().contains(&AcceptedId { cob_id, rtr })
+    }
+
+    fn insert(&mut self, cob_id: u16, rtr: bool) {
+        let id = AcceptedId { cob_id, rtr };
+        if self.ids().contains(&id) {
+            return;
+        }
+        match self.ids.get_mut(self.len) {
+            Some(slot) => {
+                *slot = id;
+                self.len += 1;
+            }
+            None => self.complete = false,
+        }
+    }
+}
+
+impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
+    Node<O, A, S, R, T, HB, SDO>
+{
+    /// The identifiers the node reacts to (see the [module docs](self)).
+    pub fn acceptance(&self) -> &AcceptanceList {
+        &self.acceptance
+    }
+
+    /// Rebuilds the list from the services; a new list gets the next generation.
+    pub(super) fn refresh_acceptance(&mut self) {
+        let mut list = AcceptanceList::default();
+        if self.lss.is_some() {
+            list.insert(LSS_MASTER_COB_ID, false);
+        }
+        // An unconfigured node takes part in LSS only.
+        if self.node_id != UNCONFIGURED {
+            list.insert(NMT_COB_ID, false);
+            list.insert(ERROR_CONTROL_BASE + u16::from(self.node_id), true);
+            list.insert(self.comm.sync.cob_id(), false);
+            if let Some(time) = self.comm.time_cob_id {
+                list.insert(time, false);
+            }
+            for (rx, _) in self.sdo_cob_ids.iter().flatten() {
+                list.insert(*rx, false);
+            }
+            for rpdo in (0..R).filter_map(|n| self.comm.pdos.rpdo(n)) {
+                if let Some(id) = rpdo.cob_id() {
+                    list.insert(id, false);
+                }
+            }
+            for tpdo in (0..T).filter_map(|n| self.comm.pdos.tpdo(n)).filter(|t| t.params().rtr_allowed()) {
+                if let Some(id) = tpdo.cob_id() {
+                    list.insert(id, true);
+                }
+            }
+            // The consumer was configured from these same entries (reset
+            // communication, or the SDO download that wrote one).
+            let dict = self.od.dictionary();
+            for sub in (1..=HB).filter_map(|s| u8::try_from(s).ok()) {
+                let value = dict.read_u32(self.od.image(), CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
+                let (producer, time_ms) = ((value >> 16) as u8, value as u16);
+                // The node's own 0x700 + id is node guarding, never a heartbeat it consumes.
+                if time_ms != 0 && (1..=127).contains(&producer) && producer != self.node_id {
+                    list.insert(ERROR_CONTROL_BASE + u16::from(producer), false);
+                }
+            }
+        }
+        if list.ids() != self.acceptance.ids() || list.complete != self.acceptance.complete {
+            list.generation = self.acceptance.generation.wrapping_add(1);
+            self.acceptance = list;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ids(list: &AcceptanceList) -> std::vec::Vec<(u16, bool)> {
+        list.ids().iter().map(|a| (a.cob_id, a.rtr)).collect()
+    }
+
+    #[test]
+    fn insert_keeps_each_identifier_once_in_order() {
+        let mut list = AcceptanceList::default();
+        for (id, rtr) in [(0x705, false), (0x000, false), (0x705, true), (0x181, true), (0x705, false)] {
+            list.insert(id, rtr);
+        }
+        assert_eq!(ids(&list), [(0x705, false), (0x000, false), (0x705, true), (0x181, true)]);
+        assert!(list.accepts(0x705, true));
+        assert!(!list.accepts(0x181, false));
+    }
+
+    #[test]
+    fn a_full_list_is_incomplete_and_accepts_everything() {
+        let mut list = AcceptanceList::default();
+        for id in 0..ACCEPTANCE_CAPACITY as u16 {
+            list.insert(id, false);
+        }
+        assert!(list.is_complete());
+        assert!(!list.accepts(0x7FF, false));
+        list.insert(0x7FF, false);
+        assert!(!list.is_complete());
+        assert_eq!(list.ids().len(), ACCEPTANCE_CAPACITY);
+        assert!(list.accepts(0x7FF, true));
+    }
+}
