@@ -1,19 +1,66 @@
-//! Generates the interop test dictionary (`tests/eds/interop.eds`), as
-//! hal-host does, but for a `no_std` crate.
+//! Generates the dictionaries `bench/size` weighs that are not a device's:
+//! the interop test node (`tests/eds/interop.eds`, as hal-host does, but for
+//! a `no_std` crate) and `ds301`, the CiA 301 profile CANopenNode ships
+//! (`tests/eds-corpus/canopennode__DS301_profile.eds`), for the comparison
+//! with CANopenNode in `docs/benchmarks.md`.
 
 use std::path::Path;
 
+/// Node guarding needs 0x100C/0x100D, which CANopenNode's profile leaves
+/// out (CANopenNode adds them when `CO_CONFIG_NODE_GUARDING` is on); the
+/// ds301 image has every service, so they are appended to its EDS.
+const GUARDING: &str = "
+[100C]
+ParameterName=Guard time
+ObjectType=0x7
+DataType=0x0006
+AccessType=rw
+DefaultValue=0
+PDOMapping=0
+
+[100D]
+ParameterName=Life time factor
+ObjectType=0x7
+DataType=0x0005
+AccessType=rw
+DefaultValue=0
+PDOMapping=0
+";
+
+/// Reports od-gen's diagnostics as build errors and stops.
+fn fail(diagnostics: &str) -> ! {
+    for line in diagnostics.lines() {
+        println!("cargo::error={line}");
+    }
+    std::process::exit(1);
+}
+
 fn main() {
     let out = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
-    let eds = Path::new("../../tests/eds/interop.eds");
-    println!("cargo::rerun-if-changed={}", eds.display());
-    match od_gen::generate_path(eds, od_gen::Options { strict: true }) {
-        Ok(code) => std::fs::write(Path::new(&out).join("interop.rs"), code).expect("OUT_DIR is writable"),
-        Err(diagnostics) => {
-            for line in diagnostics.lines() {
-                println!("cargo::error={line}");
-            }
-            std::process::exit(1);
-        }
+    let out = Path::new(&out);
+
+    let interop = Path::new("../../tests/eds/interop.eds");
+    println!("cargo::rerun-if-changed={}", interop.display());
+    match od_gen::generate_path(interop, od_gen::Options { strict: true }) {
+        Ok(code) => std::fs::write(out.join("interop.rs"), code).expect("OUT_DIR is writable"),
+        Err(diagnostics) => fail(&diagnostics),
+    }
+
+    // Not strict: the file has empty vendor fields and `1:00PM` times (warnings).
+    let ds301 = Path::new("../../tests/eds-corpus/canopennode__DS301_profile.eds");
+    println!("cargo::rerun-if-changed={}", ds301.display());
+    let text = std::fs::read_to_string(ds301).expect("the EDS corpus is in the repository");
+    let listed = "[OptionalObjects]\nSupportedObjects=30\n";
+    if !text.contains(listed) {
+        fail(&format!("{}: error: [OptionalObjects] no longer lists 30 objects; update build.rs", ds301.display()));
+    }
+    let text = text.replace(listed, "[OptionalObjects]\nSupportedObjects=32\n31=0x100C\n32=0x100D\n") + GUARDING;
+    let (eds, diagnostics) = od_gen::load("canopennode__DS301_profile.eds", text.as_bytes(), od_gen::Options { strict: false });
+    if diagnostics.has_errors() {
+        fail(&diagnostics.to_string());
+    }
+    match od_gen::codegen::generate(&eds, &diagnostics.file) {
+        Ok(code) => std::fs::write(out.join("ds301.rs"), code).expect("OUT_DIR is writable"),
+        Err(e) => fail(&format!("canopennode__DS301_profile.eds: error: {}", e.0)),
     }
 }
