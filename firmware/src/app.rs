@@ -171,6 +171,17 @@ pub struct Started {
     pub bit_rate: Option<u8>,
 }
 
+impl Started {
+    /// Runs an image's `make_node` on the storage `storage` makes, in a
+    /// stack frame of its own. What building the node takes from the stack
+    /// is free again once this returns, before the board starts its
+    /// executors, whose frames then sit on top of the board's `run` for good.
+    #[inline(never)]
+    pub fn build<S>(make_node: impl FnOnce(S, Instant) -> Started, storage: impl FnOnce() -> S, now: Instant) -> Started {
+        make_node(storage(), now)
+    }
+}
+
 /// What the CANopen task needs from the board's CAN controller (or SLCAN
 /// link), besides the LSS bit-rate switch.
 pub trait Controller: BitRateControl {

@@ -455,6 +455,7 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
     let _ = writeln!(w, "    defaults: &DEFAULTS,");
     let _ = writeln!(w, "    comm_len: {},", l.comm_len);
     let _ = writeln!(w, "    node_id_relative: &NODE_ID_RELATIVE,");
+    let _ = writeln!(w, "    layout_id: od::layout_id(&ENTRIES),");
     let _ = writeln!(w, "    device: DeviceInfo {{");
     let _ = writeln!(w, "        baud_rates: 0x{:03X},", f.baud_rates);
     let _ = writeln!(w, "        lss_supported: {},", f.lss_supported);
@@ -485,6 +486,12 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
     let _ = writeln!(w, "        ram.reset_application(node_id);");
     let _ = writeln!(w, "        ram.reset_communication(node_id);");
     let _ = writeln!(w, "        ram");
+    let _ = writeln!(w, "    }}");
+    let _ = writeln!(w);
+    let _ = writeln!(w, "    /// Every byte zero, without running the resets: for a node whose");
+    let _ = writeln!(w, "    /// power-on resets the whole image anyway (`Node::power_on`).");
+    let _ = writeln!(w, "    pub const fn zeroed() -> Self {{");
+    let _ = writeln!(w, "        Ram {{ image: [0; RAM_SIZE] }}");
     let _ = writeln!(w, "    }}");
     let _ = writeln!(w);
     let _ = writeln!(w, "    /// Restores 0x1000–0x1FFF to the defaults for `node_id` (NMT reset communication).");

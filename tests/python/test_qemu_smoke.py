@@ -5,7 +5,11 @@ the emulated UART (docs/firmware.md).
 Run through `cargo xtask smoke`, which builds the images and sets QEMU_SMOKE=1:
     QEMU_SMOKE=1 .venv/bin/python -m unittest -v tests/python/test_qemu_smoke.py
 Each image runs under a hard timeout and must end through the firmware's
-semihosting exit (the 29-bit frame 0x1FFFFFFF "EXIT") with exit code 0.
+semihosting exit (the 29-bit frame 0x1FFFFFFF "EXIT") with exit code 0. At
+the exit frame the board reports on QEMU's stderr how much stack it used at
+start-up and since (painted at reset and again after start-up, scanned at
+exit); `cargo xtask smoke` passes each image's static estimates of both in
+QEMU_STACK_BOUNDS, and the measured figures must stay below them.
 """
 
 import os
@@ -29,6 +33,11 @@ LOGS = os.path.join(TARGET_DIR, "qemu-smoke")
 # Device -> node-id the image starts with (firmware/src/devices/*.rs, from each manual).
 DEVICES = {"ec5000": 127, "unitek-ds": 1, "sendix": 0x3F, "bmaxx4400": 1, "agile": 1}
 
+STACK_LINE = re.compile(r"stack: start-up (\d+) bytes, running (\d+) bytes of (\d+)")
+# Stack (bytes) an image may use when run without `cargo xtask smoke` (which
+# passes each image's static estimates): the most any image measured (10,692
+# bytes, bmaxx4400 at start-up) with 15 % to spare.
+DEFAULT_STACK_BOUND = 12 * 1024
 RUN_TIMEOUT = 90.0  # seconds of wall time per image, then QEMU is killed
 WAIT = 5.0  # seconds to wait for one expected frame
 EXIT_ID = 0x1FFFFFFF
@@ -165,6 +174,27 @@ class QemuSmokeTest(unittest.TestCase):
         finally:
             q.close()
         self.check_rejected(q, rejected)
+        self.check_stack(q)
+
+    def check_stack(self, q):
+        """The stack the image used at start-up and while running stays
+        below its bounds: the static estimates, which this checks as upper
+        bounds."""
+        found = [STACK_LINE.search(line) for line in q.stderr]
+        found = [m for m in found if m]
+        self.assertEqual(len(found), 1, f"one stack report on stderr: {''.join(q.stderr)}")
+        startup, running, size = (int(g) for g in found[0].groups())
+        bounds = dict(item.split("=") for item in os.environ.get("QEMU_STACK_BOUNDS", "").split(",") if item)
+        bound = bounds.get(q.device, f"{DEFAULT_STACK_BOUND}/{DEFAULT_STACK_BOUND}")
+        startup_bound, running_bound = (int(b) for b in bound.split("/"))
+        print(f"\n{q.device}: stack start-up {startup} B (bound {startup_bound}), running {running} B (bound {running_bound}),"
+              f" {size} B painted")
+        # Both runs of the paint were used: the node's construction, and the tasks and handlers.
+        self.assertGreater(startup, 0, "start-up figure")
+        self.assertGreater(running, 0, "running figure")
+        self.assertLess(max(startup, running), size, "the paint was not used up")
+        self.assertLessEqual(startup, startup_bound, "start-up stack over its bound")
+        self.assertLessEqual(running, running_bound, "running stack over its bound")
 
     def check_rejected(self, q, expected):
         """The board's software acceptance filter dropped exactly the frames

@@ -2,18 +2,23 @@
 //! `target/thumbv7m-none-eabi/release/`.
 //!
 //! - `build`: builds every image (release profile: opt-level "s", fat LTO,
-//!   one codegen unit), prints the sections of each and fails if one
-//!   exceeds [`FLASH_BUDGET`] or [`RAM_BUDGET`].
+//!   one codegen unit), prints the sections and the worst-case stack
+//!   ([`stack`]) of each and fails if one exceeds [`FLASH_BUDGET`] or
+//!   [`RAM_BUDGET`], or if static RAM and stack leave less than
+//!   [`STACK_MARGIN`] of the chip's RAM ([`chip_ram`]) free.
 //! - `qemu <device> [--listen HOST:PORT]`: boots a device's QEMU image with
 //!   its UART (SLCAN) on that TCP port, waiting for the first client.
 //! - `smoke`: runs `tests/python/test_qemu_smoke.py` (python-canopen against
-//!   every QEMU image) under a hard timeout.
+//!   every QEMU image) under a hard timeout, with each image's stack
+//!   estimate as the bound of the stack it measures.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use super::{TARGET, ensure_target, root, run};
+
+mod stack;
 
 /// The boards and the cargo feature that selects each.
 pub const BOARDS: [(&str, &str); 2] = [("qemu", "board-qemu"), ("stm32f103", "board-stm32f103")];
@@ -22,6 +27,13 @@ pub const FLASH_BUDGET: u64 = 48 * 1024;
 /// RAM an image may use statically (initialised and zeroed data); the rest
 /// of the 20 KiB of an STM32F103C8 is stack.
 pub const RAM_BUDGET: u64 = 12 * 1024;
+/// RAM of each board's chip (STM32F103C8: 20 KiB, lm3s6965: 64 KiB), which
+/// static RAM and the worst-case stack ([`stack::estimate`]) share.
+pub fn chip_ram(board: &str) -> u64 {
+    if board == "stm32f103" { 20 * 1024 } else { 64 * 1024 }
+}
+/// RAM that must stay free beyond static RAM and the stack estimate.
+pub const STACK_MARGIN: u64 = 2 * 1024;
 /// Default TCP address of `qemu`'s UART.
 const DEFAULT_LISTEN: &str = "127.0.0.1:4555";
 /// The whole smoke run may take this long before it is killed.
@@ -134,23 +146,60 @@ pub fn build() -> Result<(), String> {
     for (board, _) in BOARDS {
         build_board(board, None)?;
     }
-    println!("{:<22} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6}", "image", ".text", ".rodata", ".data", ".bss", "flash", "RAM");
+    println!(
+        "{:<22} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6} {:>6} {:>6}",
+        "image", ".text", ".rodata", ".data", ".bss", "flash", "RAM", "stack", "free"
+    );
     let mut over = Vec::new();
+    let mut largest = Vec::new();
     for (board, _) in BOARDS {
         for device in &firmware::devices::ALL {
             let elf = image_path(device.name, board);
             let s = sizes(&elf)?;
+            let st = stack::estimate(&elf, board)?;
             let name = format!("{}-{board}", device.name);
-            println!("{name:<22} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6}", s.text, s.rodata, s.data, s.bss, s.flash(), s.ram());
+            let chip = chip_ram(board);
+            let free = chip as i64 - (s.ram() + st.worst) as i64;
+            println!(
+                "{name:<22} {:>7} {:>7} {:>6} {:>6} {:>7} {:>6} {:>6} {free:>6}",
+                s.text,
+                s.rodata,
+                s.data,
+                s.bss,
+                s.flash(),
+                s.ram(),
+                st.worst
+            );
+            let levels: Vec<String> = st.levels.iter().map(|(l, d)| format!("level {l} {d}")).collect();
+            largest.push(format!(
+                "{name}: start-up {}, running: thread {} + {}; largest frame {} B in {}",
+                st.startup,
+                st.thread,
+                levels.join(" + "),
+                st.largest.1,
+                st.largest.0
+            ));
             if s.flash() > FLASH_BUDGET {
                 over.push(format!("{name}: {} bytes of flash > {FLASH_BUDGET}", s.flash()));
             }
             if s.ram() > RAM_BUDGET {
                 over.push(format!("{name}: {} bytes of RAM > {RAM_BUDGET}", s.ram()));
             }
+            if free < STACK_MARGIN as i64 {
+                over.push(format!(
+                    "{name}: {} bytes of RAM + {} of stack leave {free} of the {chip} free (< {STACK_MARGIN})",
+                    s.ram(),
+                    st.worst
+                ));
+            }
         }
     }
-    println!("(flash = .vector_table + .text + .rodata + .data; RAM = .data + .bss + .uninit)");
+    println!("(flash = .vector_table + .text + .rodata + .data; RAM = .data + .bss + .uninit;");
+    println!(" stack = static worst case (start-up, or thread mode + each interrupt priority level); free = chip RAM - RAM - stack:");
+    println!(" {} bytes on the STM32F103C8, {} on QEMU's lm3s6965)", chip_ram("stm32f103"), chip_ram("qemu"));
+    for line in largest {
+        println!("  {line}");
+    }
     if over.is_empty() { Ok(()) } else { Err(format!("over budget:\n  {}", over.join("\n  "))) }
 }
 
@@ -224,6 +273,12 @@ pub fn smoke() -> Result<(), String> {
     }
     ensure_target()?;
     build_board("qemu", None)?;
+    // The test checks each image's measured stack against its static estimate.
+    let mut bounds = Vec::new();
+    for device in &firmware::devices::ALL {
+        let st = stack::estimate(&image_path(device.name, "qemu"), "qemu")?;
+        bounds.push(format!("{}={}/{}", device.name, st.startup, st.running()));
+    }
     let python = ensure_venv()?;
     let script = root().join("tests/python/test_qemu_smoke.py");
     eprintln!("+ {} -m unittest -v {}", python.display(), script.display());
@@ -231,6 +286,7 @@ pub fn smoke() -> Result<(), String> {
         .args(["-m", "unittest", "-v"])
         .arg(&script)
         .env("QEMU_SMOKE", "1")
+        .env("QEMU_STACK_BOUNDS", bounds.join(","))
         .current_dir(root())
         .spawn()
         .map_err(|e| format!("{}: {e}", python.display()))?;

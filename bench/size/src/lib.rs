@@ -132,16 +132,19 @@ macro_rules! firmware {
 
             static NODE: StaticCell<NodeT> = StaticCell::new();
 
-            /// Power-on, out of line: `Node::new` builds the node on the
-            /// stack before it moves into `NODE` (a 12 KiB frame); inlined
-            /// into the loop, that frame was the loop's, and every stack
-            /// access in the loop needed an extra instruction to reach past
-            /// it (1.7 KiB of code).
+            /// Power-on as the images do it (`firmware::image!`): the node
+            /// built in `NODE`, then powered on there. Out of line: building
+            /// it still takes a node-sized temporary on the stack, and
+            /// inlined into the loop that frame was the loop's, where every
+            /// stack access needed an extra instruction to reach past it
+            /// (1.7 KiB of code).
             #[inline(never)]
             fn init(board: &'static Board) -> &'static mut NodeT {
                 let now = Instant::from_micros((board.now)());
                 let id = board.node_id;
-                NODE.init_with(|| NodeT::new(od::Ram::new(id), NoApplication, BoardFlash(board), id, now))
+                let node = NODE.init_with(|| NodeT::unpowered(od::Ram::zeroed(), NoApplication, BoardFlash(board), id));
+                node.power_on(now);
+                node
             }
 
             extern "C" fn run(board: &'static Board) -> ! {

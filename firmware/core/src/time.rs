@@ -79,6 +79,17 @@ impl Add<Duration> for Instant {
     }
 }
 
+/// The earlier of two deadlines, where `None` is no deadline. The services
+/// fold their deadlines with it: `Iterator::min` over `Option<Instant>`
+/// chains took 250 bytes more flash.
+pub(crate) fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(if b < a { b } else { a }),
+        (a, None) => a,
+        (None, b) => b,
+    }
+}
+
 impl AddAssign<Duration> for Instant {
     fn add_assign(&mut self, rhs: Duration) {
         *self = *self + rhs;
@@ -97,5 +108,15 @@ mod tests {
         assert_eq!(Duration::from_millis(u64::MAX).as_micros(), u64::MAX);
         assert_eq!(Duration::from_millis(3) + Duration::from_micros(500), Duration::from_micros(3_500));
         assert_eq!(Duration::from_micros(3_999).as_millis(), 3);
+    }
+
+    #[test]
+    fn earliest_ignores_missing_deadlines() {
+        let (early, late) = (Some(Instant::from_micros(3)), Some(Instant::from_micros(7)));
+        assert_eq!(earliest(early, late), early);
+        assert_eq!(earliest(late, early), early);
+        assert_eq!(earliest(None, late), late);
+        assert_eq!(earliest(late, None), late);
+        assert_eq!(earliest(None, None), None);
     }
 }

@@ -744,6 +744,7 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     defaults: &DEFAULTS,
     comm_len: 456,
     node_id_relative: &NODE_ID_RELATIVE,
+    layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
         baud_rates: 0x018,
         lss_supported: true,
@@ -779,6 +780,12 @@ impl Ram {
         ram.reset_application(node_id);
         ram.reset_communication(node_id);
         ram
+    }
+
+    /// Every byte zero, without running the resets: for a node whose
+    /// power-on resets the whole image anyway (`Node::power_on`).
+    pub const fn zeroed() -> Self {
+        Ram { image: [0; RAM_SIZE] }
     }
 
     /// Restores 0x1000–0x1FFF to the defaults for `node_id` (NMT reset communication).

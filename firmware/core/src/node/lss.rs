@@ -3,7 +3,7 @@
 //! timing". The protocol itself is [`crate::services::lss`].
 
 use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
-use crate::services::store;
+use crate::services::store::{self, StoredSet};
 use crate::storage::Storage;
 use crate::time::{Duration, Instant};
 use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
@@ -31,14 +31,14 @@ pub(super) struct Switch {
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
-    /// At power-on: a stored LSS configuration overrides the default node-id
-    /// and gives the bit rate.
-    pub(super) fn load_lss_configuration(&mut self) {
+    /// At power-on: a stored LSS configuration (in `stored`, the newest
+    /// valid set) overrides the default node-id and gives the bit rate.
+    pub(super) fn load_lss_configuration(&mut self, stored: Option<StoredSet>) {
         let dict = self.od.dictionary();
         if !dict.device.lss_supported {
             return;
         }
-        if let Some((node_id, bit_rate)) = store::load_lss(dict, &mut self.storage) {
+        if let Some((node_id, bit_rate)) = stored.and_then(|set| set.lss()) {
             if (1..=127).contains(&node_id) || node_id == UNCONFIGURED {
                 self.node_id = node_id;
             }
@@ -52,8 +52,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn refresh_lss(&mut self) {
         let dict = self.od.dictionary();
         let image = self.od.image();
-        let part = |sub: u8| dict.read_u32(image, 0x1018, sub).unwrap_or(0);
-        let address = [part(1), part(2), part(3), part(4)];
+        // A loop, not four calls: each inlined its own `read_u32`.
+        let mut address = [0u32; 4];
+        for (part, sub) in address.iter_mut().zip(1u8..) {
+            *part = dict.read_u32(image, 0x1018, sub).unwrap_or(0);
+        }
         if let Some(lss) = &mut self.lss {
             lss.set_address(address);
         }

@@ -26,10 +26,10 @@ use crate::services::lss::{LssSlave, UNCONFIGURED};
 use crate::services::nmt::{Nmt, State, Transition};
 use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::{SdoServers, SdoTx};
-use crate::services::store::{self, Part};
+use crate::services::store::{self, Part, StoredSet};
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::{Instant, earliest};
 use crate::txq::TxQueue;
 use crate::wire::emcy::code;
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
@@ -151,9 +151,21 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 {
     /// Powers the node on: loads the stored parameters, resets application
     /// and communication, and queues the boot-up message for the first
-    /// [`Node::process`].
+    /// [`Node::process`]. [`Node::unpowered`], then [`Node::power_on`].
     pub fn new(od: O, app: A, storage: S, node_id: u8, now: Instant) -> Self {
-        let mut node = Node {
+        let mut node = Self::unpowered(od, app, storage, node_id);
+        node.power_on(now);
+        node
+    }
+
+    /// A node before power-on, with `node_id` as its default node-id: it
+    /// stays in Initialising, ignores every frame and sends nothing until
+    /// [`Node::power_on`]. `od`'s contents do not matter (power-on resets
+    /// the whole image). A firmware image builds it in its `static`
+    /// (`StaticCell::init_with`) and powers it on there, so the powered node
+    /// is never copied, as it is when [`Node::new`] returns it.
+    pub fn unpowered(od: O, app: A, storage: S, node_id: u8) -> Self {
+        Node {
             od,
             app,
             storage,
@@ -173,21 +185,44 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             switch: None,
             bit_rate_request: None,
             acceptance: filter::AcceptanceList::default(),
-        };
-        node.load_lss_configuration();
-        node.reset_application(now);
-        node
+        }
+    }
+
+    /// Powers on a node from [`Node::unpowered`], where it lies: loads the
+    /// stored parameters (an LSS configuration overrides the default
+    /// node-id), resets application and communication, and queues the
+    /// boot-up message for the first [`Node::process`]. Once per node; a
+    /// running node restarts through NMT reset node instead.
+    pub fn power_on(&mut self, now: Instant) {
+        // One check of the stored sets serves the LSS configuration and both parts of the reset.
+        let stored = store::newest(self.od.dictionary(), &mut self.storage);
+        self.load_lss_configuration(stored);
+        self.reset_application_from(stored, now);
     }
 
     fn reset_application(&mut self, now: Instant) {
+        let stored = store::newest(self.od.dictionary(), &mut self.storage);
+        self.reset_application_from(stored, now);
+    }
+
+    /// Reset application (and then communication) with the newest stored set already found.
+    fn reset_application_from(&mut self, stored: Option<StoredSet>, now: Instant) {
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_application(image, self.node_id);
-        store::load(dict, image, self.node_id, &mut self.storage, Part::Application);
-        self.reset_communication(now);
+        if let Some(set) = &stored {
+            set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
+        }
+        self.reset_communication_from(stored, now);
     }
 
     fn reset_communication(&mut self, now: Instant) {
+        let stored = store::newest(self.od.dictionary(), &mut self.storage);
+        self.reset_communication_from(stored, now);
+    }
+
+    /// Reset communication with the newest stored set already found.
+    fn reset_communication_from(&mut self, stored: Option<StoredSet>, now: Instant) {
         // CiA 305: a node-id configured by LSS becomes active here.
         if let Some(lss) = &mut self.lss {
             self.node_id = lss.reset_communication();
@@ -195,7 +230,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_communication(image, self.node_id);
-        store::load(dict, image, self.node_id, &mut self.storage, Part::Communication);
+        if let Some(set) = &stored {
+            set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
+        }
         if let Some(serial) = self.serial {
             let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
         }
@@ -564,7 +601,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
                     let deadline = sdo.poll(i, now, &mut router, &mut SdoSink { txq, cob_id: tx });
-                    sdo_deadline = sdo_deadline.into_iter().chain(deadline).min();
+                    sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }
             let consumed_changed = router.consumed_changed;
@@ -632,6 +669,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
             switch_deadline,
         ];
-        deadlines.into_iter().flatten().min()
+        deadlines.into_iter().fold(None, earliest)
     }
 }

@@ -4,7 +4,7 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::{DataType, Dictionary, ObjectAccess, RangeError};
+use crate::od::{DataType, Dictionary, ObjectAccess};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -73,24 +73,11 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Router<'_,
     /// whatever the object's owner would say about the value.
     fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let entry = self.dict.find(index, sub)?;
-        if !entry.writable() {
-            return Err(AbortCode::ReadOnly);
-        }
-        if entry.data_type == DataType::Domain {
+        // A writable DOMAIN has no length or limits to check here.
+        if entry.data_type == DataType::Domain && entry.writable() {
             return Ok(());
         }
-        let len = usize::from(entry.len);
-        if data.len() > len {
-            return Err(AbortCode::LengthTooHigh);
-        }
-        if data.len() < len && !entry.data_type.is_variable_length() {
-            return Err(AbortCode::LengthTooLow);
-        }
-        match self.dict.limits_of(entry).map(|l| l.check(entry.data_type, data)) {
-            Some(Err(RangeError::TooHigh)) => Err(AbortCode::ValueTooHigh),
-            Some(Err(RangeError::TooLow)) => Err(AbortCode::ValueTooLow),
-            _ => Ok(()),
-        }
+        Ok(self.dict.check_write(entry, data)?)
     }
 
     /// 0x1014 COB-ID EMCY (CiA 301 §7.5.2.15): bit 31 set = EMCY off. No
@@ -204,8 +191,8 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Router<'_,
         }
         match index {
             0x1003 => {
-                let entry = self.dict.find(index, sub)?;
-                if sub != 0 || !entry.writable() {
+                // The precheck found the entry writable.
+                if sub != 0 {
                     return Err(AbortCode::ReadOnly);
                 }
                 // CiA 301 §7.5.2.4: only 0 may be written, and it clears the history.

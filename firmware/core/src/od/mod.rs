@@ -104,6 +104,33 @@ pub struct Dictionary {
     pub node_id_relative: &'static [u16],
     /// Device facts from `[DeviceInfo]`.
     pub device: DeviceInfo,
+    /// [`layout_id`] of `entries`, evaluated when the static is built: a
+    /// stored parameter set carries it, so a set written for another
+    /// layout is ignored without hashing the table at every load.
+    pub layout_id: u32,
+}
+
+/// FNV-1a over the entry table (index, sub-index, type, attributes, length
+/// and offset of each entry): the dictionary layout a stored set belongs to.
+/// A `const fn` so that a generated dictionary holds the result, not the loop.
+pub const fn layout_id(entries: &[Entry]) -> u32 {
+    const fn mix(mut h: u32, mut bytes: &[u8]) -> u32 {
+        while let [b, rest @ ..] = bytes {
+            h = (h ^ *b as u32).wrapping_mul(0x0100_0193);
+            bytes = rest;
+        }
+        h
+    }
+    let mut h: u32 = 0x811C_9DC5;
+    let mut entries = entries;
+    while let [e, rest @ ..] = entries {
+        h = mix(h, &e.index.to_le_bytes());
+        h = mix(h, &[e.sub, e.data_type as u8, e.attr.0]);
+        h = mix(h, &e.len.to_le_bytes());
+        h = mix(h, &e.offset.to_le_bytes());
+        entries = rest;
+    }
+    h
 }
 
 /// A dictionary with its RAM image: implemented by each generated `Ram` struct.
@@ -168,6 +195,18 @@ impl Dictionary {
     /// checked before any byte changes.
     pub fn write(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
         let entry = self.find(index, sub)?;
+        self.check_write(entry, data)?;
+        let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
+        let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
+        head.copy_from_slice(data.get(..head.len()).unwrap_or(&[]));
+        tail.fill(0);
+        Ok(())
+    }
+
+    /// The checks of [`Dictionary::write`] before any byte changes: access,
+    /// length and limits. The node's SDO router runs them first on every
+    /// communication object.
+    pub(crate) fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), OdError> {
         if !entry.writable() {
             return Err(OdError::ReadOnly);
         }
@@ -190,10 +229,6 @@ impl Dictionary {
                 RangeError::TooLow => OdError::ValueTooLow,
             })?;
         }
-        let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
-        let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
-        head.copy_from_slice(data.get(..head.len()).unwrap_or(&[]));
-        tail.fill(0);
         Ok(())
     }
 

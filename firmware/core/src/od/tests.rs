@@ -32,6 +32,7 @@ static DICT: Dictionary = Dictionary {
     defaults: &DEFAULTS,
     comm_len: 7,
     node_id_relative: &[3],
+    layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {
         baud_rates: 0x1FF,
         lss_supported: true,

@@ -4,7 +4,7 @@
 //! Heartbeat and guarding exclude each other: with a producer heartbeat
 //! time other than 0 the node does not answer guarding requests.
 
-use crate::time::{Duration, Instant};
+use crate::time::{Duration, Instant, earliest};
 use crate::wire::nmt::NmtState;
 
 /// The heartbeat producer.
@@ -137,7 +137,7 @@ impl<const N: usize> Consumer<N> {
 
     /// The earliest heartbeat deadline.
     pub fn deadline(&self) -> Option<Instant> {
-        self.monitors.iter().filter_map(|m| m.deadline).min()
+        self.monitors.iter().fold(None, |d, m| earliest(d, m.deadline))
     }
 
     /// The last state `node_id` reported.

@@ -2,9 +2,11 @@
 //!
 //! A parameter set is the RAM image, written to the [`Storage`] region not
 //! holding the newest valid set: erase, payload, then the header last. The
-//! header carries a sequence number, the dictionary layout it belongs to and
-//! a CRC-32 of the payload, so a power cut at any step leaves either the old
-//! set or the new one valid, never a mix.
+//! header carries a sequence number, the dictionary layout it belongs to
+//! ([`Dictionary::layout_id`], a constant of the generated dictionary) and a
+//! CRC-32 of the payload, so a power cut at any step leaves either the old
+//! set or the new one valid, never a mix. A reset checks the sets once
+//! ([`newest`]) and loads each part from the set found ([`StoredSet::load`]).
 //!
 //! Scopes follow the sub-indices of 0x1010/0x1011: 1 all, 2 communication
 //! (0x1000–0x1FFF), 3 application (0x6000–0x9FFF), 4 manufacturer
@@ -75,42 +77,59 @@ impl From<StorageError> for StoreError {
     }
 }
 
-/// Byte ranges of the three areas in the RAM image: comm, manufacturer, application.
-fn areas(dict: &Dictionary) -> [core::ops::Range<usize>; 3] {
-    let first_ram_offset_from = |index: u16| {
-        dict.entries
-            .iter()
-            .filter(|e| e.index >= index && !e.in_rom() && e.len > 0)
-            .map(|e| usize::from(e.offset))
-            .next()
-            .unwrap_or(dict.defaults.len())
-    };
-    let manufacturer = first_ram_offset_from(0x2000).max(dict.comm_len);
-    let application = first_ram_offset_from(0x6000).max(manufacturer);
-    [0..manufacturer, manufacturer..application, application..dict.defaults.len()]
-}
-
-/// FNV-1a over the entry table: a set written for another dictionary layout is ignored.
-fn layout_id(dict: &Dictionary) -> u32 {
-    let mut h: u32 = 0x811C_9DC5;
-    for e in dict.entries {
-        for b in [e.index.to_le_bytes().as_slice(), &[e.sub, e.data_type as u8, e.attr.0], &e.len.to_le_bytes(), &e.offset.to_le_bytes()] {
-            for &x in b {
-                h = (h ^ u32::from(x)).wrapping_mul(0x0100_0193);
-            }
-        }
+/// The scope bit (see [`Scope::mask`]) of the object at `index`: the image
+/// is in index order, so this is also the byte range the entry lies in.
+const fn scope_bit(index: u16) -> u16 {
+    match index {
+        0x0000..=0x1FFF => Scope::Communication.mask(),
+        0x2000..=0x5FFF => Scope::Manufacturer.mask(),
+        _ => Scope::Application.mask(),
     }
-    h
 }
 
-// Out of line: save and load each had a copy of the bit loop.
+/// Where the manufacturer and the application scope begin in the image (the
+/// communication scope begins at 0): the offset of the first value in RAM at
+/// or after 0x2000 and 0x6000.
+fn scope_starts(dict: &Dictionary) -> [usize; 2] {
+    let start = |index: u16| {
+        let first = dict.entries.partition_point(|e| e.index < index);
+        let later = dict.entries.get(first..).unwrap_or(&[]);
+        later.iter().find(|e| !e.in_rom() && e.len > 0).map_or(dict.defaults.len(), |e| usize::from(e.offset))
+    };
+    let manufacturer = start(0x2000).max(dict.comm_len);
+    [manufacturer, start(0x6000).max(manufacturer)]
+}
+
+/// CRC-32 (reflected, polynomial 0xEDB88320) of each value of a nibble.
+/// Chosen by measurement on thumbv7m (`cargo xtask icount`, `cargo xtask
+/// size`): against the bitwise loop it saves about 52 instructions per byte
+/// (45,000 per check of an 866-byte image) for 66 bytes of flash; a
+/// 256-entry table would save 3 more per byte for 946 bytes more.
+const CRC32_NIBBLE: [u32; 16] = {
+    let mut table = [0u32; 16];
+    let mut n: u32 = 0;
+    let mut slots: &mut [u32] = &mut table;
+    while let [slot, rest @ ..] = slots {
+        let mut crc = n;
+        let mut bit = 0;
+        while bit < 4 {
+            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+            bit += 1;
+        }
+        *slot = crc;
+        n += 1;
+        slots = rest;
+    }
+    table
+};
+
+// Out of line: save and load each had a copy of the table loop.
 #[inline(never)]
 fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
+    // The index is masked to 4 bits, so the look-up is always in the table.
+    let step = |crc: u32| (crc >> 4) ^ CRC32_NIBBLE.get((crc & 0xF) as usize).copied().unwrap_or(0);
     for &b in data {
-        crc ^= u32::from(b);
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
-        }
+        crc = step(step(crc ^ u32::from(b)));
     }
     crc
 }
@@ -126,40 +145,120 @@ struct Header {
     crc: u32,
 }
 
+/// The header of `region` if it belongs to this dictionary; the payload is not checked yet.
 fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<Header> {
     let mut h = [0u8; HEADER];
     storage.read(region, 0, &mut h).ok()?;
     let word = |i: usize| h.get(i..i + 4).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
     let half = |i: usize| h.get(i..i + 2).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes);
-    if word(0)? != MAGIC || half(4)? != VERSION || word(8)? != layout_id(dict) {
+    if word(0)? != MAGIC || half(4)? != VERSION || word(8)? != dict.layout_id {
         return None;
     }
     let lss = [*h.get(6)?, *h.get(7)?];
     let header = Header { lss, seq: word(12)?, len: half(16)?, defaults: half(18)?, crc: word(20)? };
-    if usize::from(header.len) != dict.defaults.len() {
-        return None;
-    }
-    // The payload must match its CRC, or the write was cut short.
+    (usize::from(header.len) == dict.defaults.len()).then_some(header)
+}
+
+/// Whether the payload of `region` matches the header's CRC (else the write was cut short).
+fn payload_intact(storage: &mut dyn Storage, region: u8, header: &Header) -> bool {
     let mut crc = !0u32;
-    let mut buf = [0u8; 32];
+    let mut buf = [0u8; 64];
     let mut off = 0;
     while off < usize::from(header.len) {
         let n = buf.len().min(usize::from(header.len) - off);
-        let chunk = buf.get_mut(..n)?;
-        storage.read(region, HEADER + off, chunk).ok()?;
+        let Some(chunk) = buf.get_mut(..n) else { return false };
+        if storage.read(region, HEADER + off, chunk).is_err() {
+            return false;
+        }
         crc = crc32_update(crc, chunk);
         off += n;
     }
-    (!crc == header.crc).then_some(header)
+    !crc == header.crc
 }
 
-/// The region holding the newest valid set, with its header.
-fn newest(storage: &mut dyn Storage, dict: &Dictionary) -> Option<(u8, Header)> {
-    let a = read_header(storage, 0, dict).map(|h| (0u8, h));
-    let b = read_header(storage, 1, dict).map(|h| (1u8, h));
-    match (a, b) {
-        (Some(x), Some(y)) => Some(if y.1.seq.wrapping_sub(x.1.seq) as i32 > 0 { y } else { x }),
-        (x, y) => x.or(y),
+/// The newest valid parameter set in a [`Storage`]: found once by
+/// [`newest`], then read by each part of a reset without checking it again.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StoredSet {
+    region: u8,
+    header: Header,
+}
+
+/// Finds the newest valid set. Only the newer header's payload is checked
+/// when it is intact: an older set cannot win over it, valid or not.
+pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
+    let a = read_header(storage, 0, dict).map(|header| StoredSet { region: 0, header });
+    let b = read_header(storage, 1, dict).map(|header| StoredSet { region: 1, header });
+    let (first, second) = match (a, b) {
+        (Some(x), Some(y)) if y.header.seq.wrapping_sub(x.header.seq) as i32 > 0 => (Some(y), Some(x)),
+        (x, y) => (x.or(y), x.and(y)),
+    };
+    [first, second].into_iter().flatten().find(|set| payload_intact(storage, set.region, &set.header))
+}
+
+impl StoredSet {
+    /// The LSS configuration stored with the set (node-id, bit-rate table index), if any.
+    pub fn lss(&self) -> Option<(u8, u8)> {
+        let [id, rate] = self.header.lss;
+        (id != 0xFF || rate != 0xFF).then_some((id, rate))
+    }
+
+    /// Overwrites the writable entries of `part` with this set (after the
+    /// reset copied the defaults). Returns whether any value was taken from it.
+    pub fn load(&self, dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
+        // The table is sorted by index, so each part is one run of it.
+        let split = dict.entries.partition_point(|e| e.index < 0x2000);
+        let Some((communication, application)) = dict.entries.split_at_checked(split) else { return false };
+        let entries = match part {
+            Part::Communication => communication,
+            Part::Application => application,
+        };
+        // Adjacent values to load are read with one call: a call per entry cost more than the copying.
+        let mut run = 0..0;
+        let mut used = false;
+        for e in entries.iter().filter(|e| !e.in_rom() && e.len > 0) {
+            let r = e.range();
+            let wanted = e.attr.contains(Attr::WRITE) && self.header.defaults & scope_bit(e.index) == 0;
+            let relative = e.attr.contains(Attr::NODE_ID);
+            if wanted && !relative && !run.is_empty() && run.end == r.start {
+                run.end = r.end;
+                continue;
+            }
+            // `e` does not extend the run: read what it holds.
+            if !self.read_into(dict, image, storage, run.clone()) {
+                return used;
+            }
+            used |= !run.is_empty();
+            run = 0..0;
+            if !wanted {
+                continue;
+            }
+            if !relative {
+                run = r;
+                continue;
+            }
+            if !self.read_into(dict, image, storage, r.clone()) {
+                return used;
+            }
+            if let Some(value) = image.get_mut(r) {
+                crate::od::add_le(value, u64::from(node_id));
+                used = true;
+            }
+        }
+        let last = self.read_into(dict, image, storage, run.clone());
+        used || (last && !run.is_empty())
+    }
+
+    /// Copies `range` of the stored image into `image`. If the storage
+    /// fails, the range gets its defaults back (`$NODEID` entries are loaded
+    /// one at a time, so an absolute default is right) and the load stops.
+    fn read_into(&self, dict: &Dictionary, image: &mut [u8], storage: &mut dyn Storage, range: core::ops::Range<usize>) -> bool {
+        let (Some(dst), Some(defaults)) = (image.get_mut(range.clone()), dict.defaults.get(range.clone())) else { return false };
+        if dst.is_empty() || storage.read(self.region, HEADER + range.start, dst).is_ok() {
+            return true;
+        }
+        dst.copy_from_slice(defaults);
+        false
     }
 }
 
@@ -192,44 +291,54 @@ fn write_set(
     if HEADER + len > storage.region_size() || len > usize::from(u16::MAX) {
         return Err(StoreError::TooLarge);
     }
-    let old = newest(storage, dict);
-    let target = old.map_or(0, |(r, _)| 1 - r);
-    let mut defaults = old.map_or(0b111, |(_, h)| h.defaults);
+    let old = newest(dict, storage);
+    let target = old.map_or(0, |set| 1 - set.region);
+    let mut defaults = old.map_or(0b111, |set| set.header.defaults);
     defaults = (defaults & !save) | reset;
-    let areas = areas(dict);
     storage.erase(target)?;
+    let [manufacturer, application] = scope_starts(dict);
     let mut crc = !0u32;
-    let mut buf = [0u8; 32];
-    // RAM offsets follow the entry order, so this walks the payload front to back.
-    for e in dict.entries.iter().filter(|e| !e.in_rom() && e.len > 0) {
-        let r = e.range();
-        let k = areas.iter().position(|a| a.contains(&r.start)).unwrap_or(0);
-        let from_image = save & (1 << k) != 0 || old.is_none();
-        let mut pos = r.start;
-        while pos < r.end {
-            let n = buf.len().min(r.end - pos);
-            let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
-            match old {
-                Some((region, _)) if !from_image => storage.read(region, HEADER + pos, chunk)?,
-                _ => {
-                    chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
-                    // `$NODEID` entries (at most 8 bytes, one chunk) are kept relative to the node-id.
-                    if e.attr.contains(Attr::NODE_ID) {
-                        sub_le(chunk, u64::from(node_id));
+    let mut buf = [0u8; 64];
+    let mut pos = 0;
+    // The payload in chunks, each within one scope and taken from one source.
+    while pos < len {
+        let (bit, end) = match pos {
+            p if p < manufacturer => (Scope::Communication.mask(), manufacturer),
+            p if p < application => (Scope::Manufacturer.mask(), application),
+            _ => (Scope::Application.mask(), len),
+        };
+        let from_image = save & bit != 0 || old.is_none();
+        let mut n = buf.len().min(end - pos);
+        let relative = || dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).map(|e| e.range());
+        if from_image {
+            // A `$NODEID` value (at most 8 bytes) is adjusted whole, so no chunk cuts one.
+            if let Some(r) = relative().find(|r| r.start > pos && r.start < pos + n && r.end > pos + n) {
+                n = r.start - pos;
+            }
+        }
+        let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
+        match old {
+            Some(set) if !from_image => storage.read(set.region, HEADER + pos, chunk)?,
+            _ => {
+                chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
+                // `$NODEID` values are kept relative to the node-id.
+                for r in relative().filter(|r| r.start >= pos && r.end <= pos + n) {
+                    if let Some(value) = chunk.get_mut(r.start - pos..r.end - pos) {
+                        sub_le(value, u64::from(node_id));
                     }
                 }
             }
-            storage.write(target, HEADER + pos, chunk)?;
-            crc = crc32_update(crc, chunk);
-            pos += n;
         }
+        storage.write(target, HEADER + pos, chunk)?;
+        crc = crc32_update(crc, chunk);
+        pos += n;
     }
-    let seq = old.map_or(1, |(_, h)| h.seq.wrapping_add(1));
+    let seq = old.map_or(1, |set| set.header.seq.wrapping_add(1));
     // The LSS configuration rides along with every set: a new one or the old one.
-    let lss_bytes = lss.or(old.map(|(_, h)| h.lss)).unwrap_or([0xFF, 0xFF]);
+    let lss_bytes = lss.or(old.map(|set| set.header.lss)).unwrap_or([0xFF, 0xFF]);
     let [m0, m1, m2, m3] = MAGIC.to_le_bytes();
     let [v0, v1] = VERSION.to_le_bytes();
-    let [l0, l1, l2, l3] = layout_id(dict).to_le_bytes();
+    let [l0, l1, l2, l3] = dict.layout_id.to_le_bytes();
     let [s0, s1, s2, s3] = seq.to_le_bytes();
     let [n0, n1] = (len as u16).to_le_bytes();
     let [d0, d1] = defaults.to_le_bytes();
@@ -264,13 +373,6 @@ pub fn save_lss(
     write_set(dict, image, node_id, storage, 0, 0, Some([lss_node_id, bit_rate]))
 }
 
-/// The stored LSS configuration (node-id, bit-rate table index), if any.
-pub fn load_lss(dict: &Dictionary, storage: &mut dyn Storage) -> Option<(u8, u8)> {
-    let (_, header) = newest(storage, dict)?;
-    let [id, rate] = header.lss;
-    (id != 0xFF || rate != 0xFF).then_some((id, rate))
-}
-
 /// Which part of the image a reset reloads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Part {
@@ -282,38 +384,10 @@ pub enum Part {
 
 /// Overwrites the writable entries of `part` with the newest stored set
 /// (after the reset copied the defaults). Returns whether a set was used.
+/// A reset that loads both parts finds the set once with [`newest`] and
+/// calls [`StoredSet::load`] for each.
 pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
-    let Some((region, header)) = newest(storage, dict) else { return false };
-    let areas = areas(dict);
-    let mut used = false;
-    for (k, area) in areas.iter().enumerate() {
-        let in_part = match part {
-            Part::Communication => k == 0,
-            Part::Application => k > 0,
-        };
-        if !in_part || header.defaults & (1 << k) != 0 {
-            continue;
-        }
-        for e in dict.entries.iter().filter(|e| e.attr.contains(Attr::WRITE) && !e.in_rom() && e.len > 0) {
-            let r = e.range();
-            if r.start < area.start || r.end > area.end {
-                continue;
-            }
-            let mut buf = [0u8; 64];
-            let Some(chunk) = buf.get_mut(..r.len()) else { continue };
-            if storage.read(region, HEADER + r.start, chunk).is_err() {
-                return used;
-            }
-            if e.attr.contains(Attr::NODE_ID) {
-                crate::od::add_le(chunk, u64::from(node_id));
-            }
-            if let Some(dst) = image.get_mut(r) {
-                dst.copy_from_slice(chunk);
-                used = true;
-            }
-        }
-    }
-    used
+    newest(dict, storage).is_some_and(|set| set.load(dict, image, node_id, storage, part))
 }
 
 #[cfg(test)]

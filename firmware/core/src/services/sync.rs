@@ -24,6 +24,7 @@ use crate::abort::AbortCode;
 use crate::id::is_restricted_can_id;
 use crate::od::Dictionary;
 use crate::services::pdo::map::{le_u32, object, sub_entry, value_u32};
+use crate::services::pdo::precheck;
 use crate::time::{Duration, Instant};
 use crate::wire::emcy::code;
 use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
@@ -210,13 +211,7 @@ impl SyncService {
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        let entry = dict.find(index, sub)?;
-        if !entry.writable() {
-            return Err(AbortCode::ReadOnly);
-        }
-        if data.len() != usize::from(entry.len) {
-            return Err(if data.len() > usize::from(entry.len) { AbortCode::LengthTooHigh } else { AbortCode::LengthTooLow });
-        }
+        precheck(dict, index, sub, data)?;
         let value = le_u32(data);
         match index {
             COB_ID_SYNC => {
@@ -280,6 +275,7 @@ mod tests {
         defaults: &DEFAULTS,
         comm_len: 13,
         node_id_relative: &[],
+        layout_id: crate::od::layout_id(&ENTRIES),
         device: DeviceInfo {
             baud_rates: 0,
             lss_supported: false,

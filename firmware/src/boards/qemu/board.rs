@@ -2,13 +2,13 @@
 #![allow(unsafe_code)]
 
 use core::cell::RefCell;
-use core::sync::atomic::{AtomicBool, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, BitRateControl};
 use canopen_core::time::Instant;
 use cortex_m_rt::{ExceptionFrame, exception};
-use cortex_m_semihosting::debug;
+use cortex_m_semihosting::{debug, hio};
 use critical_section::Mutex;
 use defmt_semihosting as _;
 use embassy_executor::{Executor, InterruptExecutor, SpawnError, SpawnToken};
@@ -20,7 +20,7 @@ use static_cell::StaticCell;
 
 use super::ram_storage::RamStorage;
 use super::slcan::{self, BEL, Channel, Command, Decoder, FRAME_LINE};
-use super::uart;
+use super::{stack, uart};
 use crate::app::{self, Controller, SHARED, Started};
 use crate::boards::systick;
 
@@ -49,6 +49,8 @@ static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
 /// Raised when the node may have frames to send.
 static TX_READY: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+/// Stack used until the node was built and powered on ([`stack::high_water`]).
+static STARTUP_STACK: AtomicUsize = AtomicUsize::new(0);
 
 /// Boots the image: `make_node` builds the node on `Storage` at the given
 /// time; then the CANopen task runs on the interrupt executor, the SLCAN
@@ -58,9 +60,14 @@ pub fn run<const REGION: usize, A>(
     make_node: impl FnOnce(Storage<REGION>, Instant) -> Started,
     application: Result<SpawnToken<A>, SpawnError>,
 ) -> ! {
+    stack::paint();
     let Some(mut core) = cortex_m::Peripherals::take() else { fail() };
     systick::init(core.SYST, CORE_HZ);
-    SHARED.install(make_node(RamStorage::default(), app::now()).node);
+    SHARED.install(Started::build(make_node, RamStorage::default, app::now()).node);
+    STARTUP_STACK.store(stack::high_water(), Ordering::Relaxed);
+    // What building the node took is free again: painted anew, the exit
+    // frame reports what the running image needs.
+    stack::paint();
     uart::init();
     // SAFETY: set before the executor starts (as `InterruptExecutor::start`
     // requires); no priority-based critical section depends on it.
@@ -185,7 +192,10 @@ fn UART0() {
     uart::clear_rx_interrupt();
 }
 
-/// Ends the QEMU run with exit code 0 (`status` 0) or 1.
+/// Ends the QEMU run with exit code 0 (`status` 0) or 1, after reporting
+/// the stack used (at start-up, and since): in the defmt log, and as a text
+/// line on QEMU's stderr (semihosting), which a test reads without a defmt
+/// decoder.
 fn exit(status: u8) -> ! {
     defmt::info!(
         "exit frame: status {=u8}, {=u32} frames lost, {=u32} rejected by the filter",
@@ -193,6 +203,13 @@ fn exit(status: u8) -> ! {
         SHARED.rx_overruns(),
         SHARED.rejected_frames()
     );
+    let (startup, running, size) = (STARTUP_STACK.load(Ordering::Relaxed), stack::high_water(), stack::size());
+    defmt::info!("stack: start-up {=usize} bytes, running {=usize} bytes of {=usize}", startup, running, size);
+    if let Ok(mut stderr) = hio::hstderr() {
+        let mut line = [0u8; super::STACK_REPORT_LEN];
+        let n = super::stack_report(&mut line, startup, running, size);
+        let _ = stderr.write_all(line.get(..n).unwrap_or(&[]));
+    }
     debug::exit(if status == 0 { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
     fail()
 }

@@ -13,13 +13,17 @@
 //! data `EXIT` (plus an optional status byte, 0 if absent) ends QEMU through
 //! semihosting: status 0 exits with code 0, anything else with code 1. A
 //! panic or HardFault exits with code 1. CANopen uses 11-bit identifiers
-//! only, so this frame never means anything to a node.
+//! only, so this frame never means anything to a node. Before exiting, the
+//! board reports the stack it used ([`stack_report`], on QEMU's stderr):
+//! `stack.rs` paints the stack at start-up and finds the high-water mark.
 
 pub mod ram_storage;
 pub mod slcan;
 
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
 mod board;
+#[cfg(all(target_os = "none", feature = "board-qemu"))]
+mod stack;
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
 mod uart;
 
@@ -41,11 +45,62 @@ pub fn exit_request(frame: &CanFrame) -> Option<u8> {
     is_exit.then(|| data.get(EXIT_MAGIC.len()).copied().unwrap_or(0))
 }
 
+/// Bytes of the longest [`stack_report`] line.
+pub const STACK_REPORT_LEN: usize = 103;
+
+/// The line the exit frame writes to QEMU's stderr (and `cargo xtask smoke`
+/// reads): `stack: start-up S bytes, running R bytes of N` and a newline,
+/// in bytes of stack used at most until the node was powered on (`S`), from
+/// then to the exit frame (`R`), and available (`N`). Returns its length; no
+/// `core::fmt`, which the image does not otherwise link.
+pub fn stack_report(out: &mut [u8; STACK_REPORT_LEN], startup: usize, running: usize, size: usize) -> usize {
+    let mut n = 0;
+    let mut put = |bytes: &[u8]| {
+        for &b in bytes {
+            if let Some(slot) = out.get_mut(n) {
+                *slot = b;
+                n += 1;
+            }
+        }
+    };
+    for (text, value) in [("stack: start-up ", startup), (" bytes, running ", running), (" bytes of ", size)] {
+        put(text.as_bytes());
+        let mut digits = [0u8; 20];
+        let mut i = digits.len();
+        let mut v = value;
+        loop {
+            i -= 1;
+            if let Some(d) = digits.get_mut(i) {
+                *d = b'0' + (v % 10) as u8;
+            }
+            v /= 10;
+            if v == 0 || i == 0 {
+                break;
+            }
+        }
+        put(digits.get(i..).unwrap_or(&[]));
+    }
+    put(b"\n");
+    n
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
 
     use super::*;
+
+    #[test]
+    fn stack_report_is_one_plain_line() {
+        let mut out = [0u8; STACK_REPORT_LEN];
+        let n = stack_report(&mut out, 5_712, 0, 64_876);
+        assert_eq!(&out[..n], b"stack: start-up 5712 bytes, running 0 bytes of 64876\n");
+        // The longest figures still fit whole.
+        let n = stack_report(&mut out, usize::MAX, usize::MAX, usize::MAX);
+        let max = usize::MAX;
+        assert_eq!(&out[..n], std::format!("stack: start-up {max} bytes, running {max} bytes of {max}\n").as_bytes());
+        assert_eq!(n, STACK_REPORT_LEN);
+    }
 
     #[test]
     fn only_the_exit_frame_exits() {

@@ -76,7 +76,7 @@ pub fn run<const REGION: usize, A>(
     let clocks = rcc::Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz()).pclk1(PCLK1_HZ.Hz());
     let mut rcc = dp.RCC.freeze(clocks, &mut flash.acr);
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
-    let started = make_node(FlashStorage::new(Flash::new(flash)), app::now());
+    let started = Started::build(make_node, || FlashStorage::new(Flash::new(flash)), app::now());
     let index = started.node.bit_rate().or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
     SHARED.install(started.node);
 

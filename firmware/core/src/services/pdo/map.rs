@@ -100,33 +100,26 @@ impl Mapping {
     /// The mapping of sub-index 0 = 0: nothing mapped (the PDO is disabled).
     pub const EMPTY: Mapping = Mapping { slots: [Slot { source: Source::Dummy, len: 0 }; MAX_ENTRIES], count: 0, len: 0 };
 
-    /// Resolves mapping entry values (sub 1.., raw UNSIGNED32s): at most one
-    /// binary search per entry.
-    pub fn from_entries(dict: &Dictionary, entries: &[u32], direction: Direction) -> Result<Mapping, AbortCode> {
-        if entries.len() > MAX_ENTRIES {
-            return Err(AbortCode::PdoTooLong);
-        }
-        let mut mapping = Mapping::EMPTY;
-        let mut total = 0usize;
-        for (slot, &raw) in mapping.slots.iter_mut().zip(entries) {
-            let resolved = Slot::resolve(dict, MappingEntry::from_u32(raw), direction)?;
-            total += usize::from(resolved.len);
-            if total > MAX_LEN {
-                return Err(AbortCode::PdoTooLong);
-            }
-            *slot = resolved;
-        }
-        mapping.count = entries.len() as u8;
-        mapping.len = total as u8;
-        Ok(mapping)
-    }
-
     /// Reads and resolves the mapping record `index` (0x1600+n or 0x1A00+n)
     /// as the image holds it.
     pub fn read(dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<Mapping, AbortCode> {
         let record = object(dict, index);
         let count = sub_entry(record, 0).ok_or(AbortCode::NoObject)?;
-        let count = usize::try_from(value_u32(dict, image, count)).unwrap_or(usize::MAX);
+        Mapping::from_record(dict, image, record, value_u32(dict, image, count), direction)
+    }
+
+    /// Resolves the first `count` entries (sub 1..=count) of a mapping
+    /// record as the image holds them: the configured mapping, or the one
+    /// an SDO download of sub 0 = `count` asks for. At most one binary
+    /// search per entry.
+    pub(super) fn from_record(
+        dict: &Dictionary,
+        image: &[u8],
+        record: &'static [Entry],
+        count: u32,
+        direction: Direction,
+    ) -> Result<Mapping, AbortCode> {
+        let count = usize::try_from(count).unwrap_or(usize::MAX);
         if count > MAX_ENTRIES {
             return Err(AbortCode::PdoTooLong);
         }
@@ -136,7 +129,19 @@ impl Mapping {
             let entry = sub_entry(record, sub).ok_or(AbortCode::PdoTooLong)?;
             *value = value_u32(dict, image, entry);
         }
-        Mapping::from_entries(dict, raw.get(..count).unwrap_or(&[]), direction)
+        let mut mapping = Mapping::EMPTY;
+        let mut total = 0usize;
+        for (slot, &raw) in mapping.slots.iter_mut().zip(raw.iter().take(count)) {
+            let resolved = Slot::resolve(dict, MappingEntry::from_u32(raw), direction)?;
+            total += usize::from(resolved.len);
+            if total > MAX_LEN {
+                return Err(AbortCode::PdoTooLong);
+            }
+            *slot = resolved;
+        }
+        mapping.count = count as u8;
+        mapping.len = total as u8;
+        Ok(mapping)
     }
 
     /// The resolved entries.

@@ -50,7 +50,7 @@ mod tests;
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, Entry};
 use crate::services::sync::SyncEvent;
-use crate::time::{Duration, Instant};
+use crate::time::{Duration, Instant, earliest};
 use crate::wire::pdo_mapping::MappingEntry;
 use map::{Direction, Mapping, Slot, le_u32, object, sub_entry, value_u32};
 use rpdo::Rpdo;
@@ -90,16 +90,20 @@ impl CommParams {
     /// Reads record `index` (0x1400+n or 0x1800+n): two binary searches. A
     /// record without sub 1 is an invalid PDO; a missing sub 2 reads as 254.
     pub fn read(dict: &Dictionary, image: &[u8], index: u16) -> CommParams {
-        let record = object(dict, index);
-        let sub = |s: u8| sub_entry(record, s).map(|e| value_u32(dict, image, e));
-        let defaults = CommParams::default();
-        CommParams {
-            cob_id: sub(1).unwrap_or(defaults.cob_id),
-            transmission_type: sub(2).map_or(defaults.transmission_type, |v| v as u8),
-            inhibit_time_100us: sub(3).unwrap_or(0) as u16,
-            event_timer_ms: sub(5).unwrap_or(0) as u16,
-            sync_start: sub(6).unwrap_or(0) as u8,
+        let mut params = CommParams::default();
+        // One pass over the record's entries rather than a search per sub-index.
+        for entry in object(dict, index) {
+            let value = value_u32(dict, image, entry);
+            match entry.sub {
+                1 => params.cob_id = value,
+                2 => params.transmission_type = value as u8,
+                3 => params.inhibit_time_100us = value as u16,
+                5 => params.event_timer_ms = value as u16,
+                6 => params.sync_start = value as u8,
+                _ => {}
+            }
         }
+        params
     }
 
     /// Bit 31 clear: the PDO exists.
@@ -349,50 +353,61 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     }
 
     fn write_parameter(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
-        let n = |base: u16| usize::from(index.wrapping_sub(base));
-        Some(match index {
-            RPDO_COMM..=0x15FF => {
-                let rpdo = self.rpdos.get_mut(n(RPDO_COMM))?;
-                write_comm(rpdo.params, Direction::Receive, index, sub, data, dict, image).map(|new| {
-                    let old = core::mem::replace(&mut rpdo.params, new);
-                    if (old.cob_id, old.transmission_type) != (new.cob_id, new.transmission_type) {
+        // The same rules for both directions: only the PDO's reaction differs.
+        let (direction, base) = match index {
+            RPDO_COMM..=0x17FF => (Direction::Receive, RPDO_COMM),
+            TPDO_COMM..=0x1BFF => (Direction::Transmit, TPDO_COMM),
+            _ => return None,
+        };
+        let offset = index.wrapping_sub(base);
+        let is_mapping = offset >= RPDO_MAP - RPDO_COMM;
+        let n = usize::from(offset % (RPDO_MAP - RPDO_COMM));
+        let (params, cob_id_writable) = match direction {
+            Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
+            Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
+        };
+        if is_mapping {
+            let locked = params.valid() && cob_id_writable;
+            let mapping = match write_map(locked, direction, index, sub, data, dict, image) {
+                Ok(Some(mapping)) => mapping,
+                Ok(None) => return Some(Ok(())),
+                Err(code) => return Some(Err(code)),
+            };
+            match direction {
+                Direction::Receive => self.rpdos.get_mut(n).map(|r| r.set(params, Some(mapping))),
+                Direction::Transmit => self.tpdos.get_mut(n).map(|t| t.set(params, Some(mapping))),
+            };
+            return Some(Ok(()));
+        }
+        let new = match write_comm(params, direction, index, sub, data, dict, image) {
+            Ok(new) => new,
+            Err(code) => return Some(Err(code)),
+        };
+        let restart = (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type);
+        let timer_changed = params.event_timer_ms != new.event_timer_ms;
+        match direction {
+            Direction::Receive => {
+                if let Some(rpdo) = self.rpdos.get_mut(n) {
+                    rpdo.params = new;
+                    if restart {
                         rpdo.restart();
-                    } else if old.event_timer_ms != new.event_timer_ms {
+                    } else if timer_changed {
                         rpdo.disarm_timer();
                     }
-                })
+                }
             }
-            RPDO_MAP..=0x17FF => {
-                let rpdo = self.rpdos.get_mut(n(RPDO_MAP))?;
-                let locked = rpdo.params.valid() && rpdo.cob_id_writable;
-                write_map(locked, Direction::Receive, index, sub, data, dict, image).map(|new| {
-                    if let Some(mapping) = new {
-                        rpdo.set(rpdo.params, Some(mapping));
-                    }
-                })
-            }
-            TPDO_COMM..=0x19FF => {
-                let tpdo = self.tpdos.get_mut(n(TPDO_COMM))?;
-                write_comm(tpdo.params, Direction::Transmit, index, sub, data, dict, image).map(|new| {
-                    let old = core::mem::replace(&mut tpdo.params, new);
-                    if (old.cob_id, old.transmission_type) != (new.cob_id, new.transmission_type) {
+            Direction::Transmit => {
+                if let Some(tpdo) = self.tpdos.get_mut(n) {
+                    tpdo.params = new;
+                    if restart {
                         tpdo.restart(None);
-                    } else if old.event_timer_ms != new.event_timer_ms {
+                    } else if timer_changed {
                         tpdo.rearm_timer();
                     }
-                })
+                }
             }
-            TPDO_MAP..=0x1BFF => {
-                let tpdo = self.tpdos.get_mut(n(TPDO_MAP))?;
-                let locked = tpdo.params.valid() && tpdo.cob_id_writable;
-                write_map(locked, Direction::Transmit, index, sub, data, dict, image).map(|new| {
-                    if let Some(mapping) = new {
-                        tpdo.set(tpdo.params, Some(mapping));
-                    }
-                })
-            }
-            _ => return None,
-        })
+        }
+        Some(Ok(()))
     }
 
     /// A data frame on `cob_id`: true if it belongs to a valid RPDO (then it
@@ -455,9 +470,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return None;
         }
-        let rpdos = self.rpdos.iter().filter_map(Rpdo::deadline);
-        let tpdos = self.tpdos.iter().filter_map(Tpdo::deadline);
-        rpdos.chain(tpdos).min()
+        let rpdos = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
+        self.tpdos.iter().fold(rpdos, |d, t| earliest(d, t.deadline()))
     }
 }
 
@@ -467,9 +481,9 @@ fn cob_id_writable(dict: &Dictionary, index: u16) -> bool {
 }
 
 /// The checks `Dictionary::write` makes before any semantic rule: the entry
-/// exists, is writable, and `data` has its exact length (PDO parameters are
-/// fixed-size integers).
-fn precheck(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
+/// exists, is writable, and `data` has its exact length (PDO and SYNC
+/// parameters are fixed-size integers).
+pub(crate) fn precheck(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
     let entry = dict.find(index, sub)?;
     if !entry.writable() {
         return Err(AbortCode::ReadOnly);
@@ -518,16 +532,8 @@ fn write_map(
     }
     let record = object(dict, index);
     let mapping = if sub == 0 {
-        let count = usize::from(data.first().copied().unwrap_or(0));
-        if count > map::MAX_ENTRIES {
-            return Err(AbortCode::PdoTooLong);
-        }
-        let mut raw = [0u32; map::MAX_ENTRIES];
-        for (value, s) in raw.iter_mut().take(count).zip(1u8..) {
-            let e = sub_entry(record, s).ok_or(AbortCode::PdoTooLong)?;
-            *value = value_u32(dict, image, e);
-        }
-        Some(Mapping::from_entries(dict, raw.get(..count).unwrap_or(&[]), direction)?)
+        let count = data.first().copied().unwrap_or(0);
+        Some(Mapping::from_record(dict, image, record, u32::from(count), direction)?)
     } else {
         let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
         if count != 0 {

@@ -13,7 +13,7 @@
 //! ackseq. Each byte enters the CRC the first time it is sent, so resent
 //! segments cost no CRC work and no buffer is needed.
 
-use super::{Buffer, Channel, Mux, SdoTx, State};
+use super::{Buffer, Channel, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::Instant;
@@ -26,7 +26,6 @@ use crate::wire::sdo_block::{
 /// A block download in progress.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Download {
-    pub(super) mux: Mux,
     /// The client asked for a CRC (the server always supports one).
     crc_on: bool,
     /// Size the client indicated.
@@ -66,7 +65,6 @@ enum UploadPhase {
 /// A block upload in progress.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Upload {
-    pub(super) mux: Mux,
     /// The client asked for a CRC.
     crc_on: bool,
     /// Size announced in the initiate response.
@@ -112,7 +110,6 @@ impl Channel {
     /// Initiate block download.
     pub(super) fn start_block_download(
         &mut self,
-        mux: Mux,
         crc: bool,
         size: Option<u32>,
         buf: Buffer<'_>,
@@ -120,17 +117,18 @@ impl Channel {
         tx: &mut dyn SdoTx,
     ) {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
+        let mux = self.mux;
         if let Err(code) = od.download_check(mux.index, mux.sub, size) {
-            return self.fail(mux, code, tx);
+            return self.abort(code, tx);
         }
         // Another server holds the shared buffer for a download of its own.
-        let Some(buf) = buf else { return self.fail(mux, AbortCode::NoResource, tx) };
+        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         if size.is_some_and(|s| s > buf.len()) {
-            return self.fail(mux, AbortCode::OutOfMemory, tx);
+            return self.abort(AbortCode::OutOfMemory, tx);
         }
         let blksize = Self::download_blksize(buf.len(), 0);
         self.state =
-            State::BlockDownload(Download { mux, crc_on: crc, size, blksize, ackseq: 0, gap: false, total: 0, crc: 0, complete: false });
+            State::BlockDownload(Download { crc_on: crc, size, blksize, ackseq: 0, gap: false, total: 0, crc: 0, complete: false });
         let response = BlockDownloadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, blksize };
         self.send(SdoResponse::BlockDownload(response), tx);
     }
@@ -142,10 +140,10 @@ impl Channel {
             return self.reset();
         }
         if segment.seqno == 0 || segment.seqno > d.blksize {
-            return self.fail(d.mux, AbortCode::InvalidSequence, tx);
+            return self.abort(AbortCode::InvalidSequence, tx);
         }
         // This server holds the buffer while its download runs (see `SdoServers`).
-        let Some(buf) = buf else { return self.fail(d.mux, AbortCode::NoResource, tx) };
+        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let capacity = buf.len();
         if !d.gap && segment.seqno == d.ackseq.saturating_add(1) {
             let start = d.total;
@@ -153,10 +151,10 @@ impl Channel {
             if !segment.last {
                 // Every byte of a segment but the last is data.
                 if d.size.is_some_and(|size| end > size) {
-                    return self.fail(d.mux, AbortCode::LengthTooHigh, tx);
+                    return self.abort(AbortCode::LengthTooHigh, tx);
                 }
                 if end > capacity {
-                    return self.fail(d.mux, AbortCode::OutOfMemory, tx);
+                    return self.abort(AbortCode::OutOfMemory, tx);
                 }
                 if d.crc_on {
                     d.crc = crc16_update(d.crc, &segment.data);
@@ -195,26 +193,26 @@ impl Channel {
         tx: &mut dyn SdoTx,
     ) {
         let SdoRequest::BlockDownload(BlockDownloadRequest::End { unused, crc }) = request else {
-            return self.fail(d.mux, AbortCode::InvalidCommand, tx);
+            return self.abort(AbortCode::InvalidCommand, tx);
         };
-        let Some(buf) = buf else { return self.fail(d.mux, AbortCode::NoResource, tx) };
+        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let len = d.total.saturating_sub(usize::from(unused));
         if len > buf.len() {
-            return self.fail(d.mux, AbortCode::OutOfMemory, tx);
+            return self.abort(AbortCode::OutOfMemory, tx);
         }
         if d.crc_on {
             let last = buf.get(d.total.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
             if crc16_update(d.crc, last) != crc {
-                return self.fail(d.mux, AbortCode::CrcError, tx);
+                return self.abort(AbortCode::CrcError, tx);
             }
         }
         match d.size {
-            Some(size) if len > size => return self.fail(d.mux, AbortCode::LengthTooHigh, tx),
-            Some(size) if len < size => return self.fail(d.mux, AbortCode::LengthTooLow, tx),
+            Some(size) if len > size => return self.abort(AbortCode::LengthTooHigh, tx),
+            Some(size) if len < size => return self.abort(AbortCode::LengthTooLow, tx),
             _ => {}
         }
-        if let Err(code) = od.write(d.mux.index, d.mux.sub, buf.get(..len).unwrap_or(&[])) {
-            return self.fail(d.mux, code, tx);
+        if let Err(code) = od.write(self.mux.index, self.mux.sub, buf.get(..len).unwrap_or(&[])) {
+            return self.abort(code, tx);
         }
         self.state = State::Idle;
         self.send(SdoResponse::BlockDownload(BlockDownloadResponse::End), tx);
@@ -222,19 +220,19 @@ impl Channel {
 
     /// Initiate block upload; switches to an expedited or segmented upload
     /// when the value has at most `pst` bytes.
-    pub(super) fn start_block_upload(&mut self, mux: Mux, crc: bool, blksize: u8, pst: u8, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn start_block_upload(&mut self, crc: bool, blksize: u8, pst: u8, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let mux = self.mux;
         if !valid_blksize(blksize) {
-            return self.fail(mux, AbortCode::InvalidBlockSize, tx);
+            return self.abort(AbortCode::InvalidBlockSize, tx);
         }
         let size = match od.upload_size(mux.index, mux.sub) {
             Ok(size) => size,
-            Err(code) => return self.fail(mux, code, tx),
+            Err(code) => return self.abort(code, tx),
         };
         if pst != 0 && size <= usize::from(pst) {
-            return self.upload_response(mux, size, od, tx);
+            return self.upload_response(size, od, tx);
         }
         self.state = State::BlockUpload(Upload {
-            mux,
             crc_on: crc,
             size,
             blksize,
@@ -251,7 +249,7 @@ impl Channel {
     /// A request while a block upload is in progress.
     pub(super) fn block_upload(&mut self, mut u: Upload, request: SdoRequest, tx: &mut dyn SdoTx) {
         let SdoRequest::BlockUpload(request) = request else {
-            return self.fail(u.mux, AbortCode::InvalidCommand, tx);
+            return self.abort(AbortCode::InvalidCommand, tx);
         };
         match (u.phase, request) {
             (UploadPhase::Initiated, BlockUploadRequest::Start) => {
@@ -261,10 +259,10 @@ impl Channel {
             }
             (UploadPhase::Sending, BlockUploadRequest::Ack { ackseq, blksize }) => {
                 if ackseq > u.sent {
-                    return self.fail(u.mux, AbortCode::InvalidSequence, tx);
+                    return self.abort(AbortCode::InvalidSequence, tx);
                 }
                 if !valid_blksize(blksize) {
-                    return self.fail(u.mux, AbortCode::InvalidBlockSize, tx);
+                    return self.abort(AbortCode::InvalidBlockSize, tx);
                 }
                 let acked_end = u.block_start.saturating_add(usize::from(ackseq).saturating_mul(SEGMENT_DATA));
                 if ackseq > 0 && acked_end >= u.size {
@@ -283,7 +281,7 @@ impl Channel {
                 }
             }
             (UploadPhase::End, BlockUploadRequest::End) => self.state = State::Idle,
-            _ => self.fail(u.mux, AbortCode::InvalidCommand, tx),
+            _ => self.abort(AbortCode::InvalidCommand, tx),
         }
     }
 
@@ -299,9 +297,9 @@ impl Channel {
             let len = u.size.saturating_sub(offset).min(SEGMENT_DATA);
             let mut data = [0u8; SEGMENT_DATA];
             if let Some(buf) = data.get_mut(..len)
-                && let Err(code) = od.read(u.mux.index, u.mux.sub, offset, buf)
+                && let Err(code) = od.read(self.mux.index, self.mux.sub, offset, buf)
             {
-                return self.fail(u.mux, code, tx);
+                return self.abort(code, tx);
             }
             let seqno = u.sent.saturating_add(1);
             let last = offset.saturating_add(SEGMENT_DATA) >= u.size;

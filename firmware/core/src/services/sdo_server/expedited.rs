@@ -12,36 +12,30 @@ const EXPEDITED_MAX: usize = 4;
 impl Channel {
     /// Initiate SDO download: writes an expedited value at once, or opens a
     /// segmented download.
-    pub(super) fn initiate_download(
-        &mut self,
-        mux: Mux,
-        data: InitiateData,
-        buf: Buffer<'_>,
-        od: &mut dyn ObjectAccess,
-        tx: &mut dyn SdoTx,
-    ) {
+    pub(super) fn initiate_download(&mut self, data: InitiateData, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let mux = self.mux;
         let (data, size) = match data {
             InitiateData::Expedited { data, size } => (data, size),
-            InitiateData::Segmented { size } => return self.start_segmented_download(mux, size, buf, od, tx),
+            InitiateData::Segmented { size } => return self.start_segmented_download(size, buf, od, tx),
         };
         let len = match size {
             Some(k) => usize::from(k),
             None => match unsized_expedited_len(od, mux) {
                 Ok(k) => k,
-                Err(code) => return self.fail(mux, code, tx),
+                Err(code) => return self.abort(code, tx),
             },
         };
         match od.write(mux.index, mux.sub, data.get(..len).unwrap_or(&data)) {
             Ok(()) => self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx),
-            Err(code) => self.fail(mux, code, tx),
+            Err(code) => self.abort(code, tx),
         }
     }
 
     /// Initiate SDO upload.
-    pub(super) fn initiate_upload(&mut self, mux: Mux, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        match od.upload_size(mux.index, mux.sub) {
-            Ok(size) => self.upload_response(mux, size, od, tx),
-            Err(code) => self.fail(mux, code, tx),
+    pub(super) fn initiate_upload(&mut self, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        match od.upload_size(self.mux.index, self.mux.sub) {
+            Ok(size) => self.upload_response(size, od, tx),
+            Err(code) => self.abort(code, tx),
         }
     }
 
@@ -49,19 +43,19 @@ impl Channel {
     /// for 1 to 4 bytes, else the start of a segmented upload (also an empty
     /// value, which an expedited response cannot express). A block upload
     /// that switches protocol (pst) answers with this too.
-    pub(super) fn upload_response(&mut self, mux: Mux, size: usize, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let (index, sub) = (mux.index, mux.sub);
+    pub(super) fn upload_response(&mut self, size: usize, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let (index, sub) = (self.mux.index, self.mux.sub);
         if (1..=EXPEDITED_MAX).contains(&size) {
             let mut data = [0u8; EXPEDITED_MAX];
             if let Some(buf) = data.get_mut(..size)
                 && let Err(code) = od.read(index, sub, 0, buf)
             {
-                return self.fail(mux, code, tx);
+                return self.abort(code, tx);
             }
             let size = Some(u8::try_from(size).unwrap_or(4));
             self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Expedited { data, size } }, tx);
         } else {
-            self.state = State::SegmentedUpload(segmented::Upload::new(mux, size));
+            self.state = State::SegmentedUpload(segmented::Upload::new(size));
             let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
             self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
         }

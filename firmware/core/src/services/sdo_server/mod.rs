@@ -75,18 +75,6 @@ enum State {
     BlockUpload(block::Upload),
 }
 
-impl State {
-    fn mux(&self) -> Option<Mux> {
-        match self {
-            State::Idle => None,
-            State::SegmentedDownload(d) => Some(d.mux),
-            State::SegmentedUpload(u) => Some(u.mux),
-            State::BlockDownload(d) => Some(d.mux),
-            State::BlockUpload(u) => Some(u.mux),
-        }
-    }
-}
-
 /// Whether a request opens a new transfer (whatever the server is doing).
 fn starts_transfer(request: &SdoRequest) -> bool {
     matches!(
@@ -109,6 +97,10 @@ pub(super) type Buffer<'a> = Option<&'a mut [u8]>;
 #[derive(Clone, Debug)]
 struct Channel {
     state: State,
+    /// The object of the transfer in progress, or of the initiate request
+    /// being answered; kept here rather than in each state so that every
+    /// abort names it without the caller passing it.
+    mux: Mux,
     timeout: Duration,
     /// When the transfer in progress times out (meaningless when idle).
     deadline: Instant,
@@ -118,7 +110,8 @@ struct Channel {
 }
 
 impl Channel {
-    const NEW: Channel = Channel { state: State::Idle, timeout: DEFAULT_TIMEOUT, deadline: Instant::ZERO, pending: None, malformed: 0 };
+    const NEW: Channel =
+        Channel { state: State::Idle, mux: Mux::NONE, timeout: DEFAULT_TIMEOUT, deadline: Instant::ZERO, pending: None, malformed: 0 };
 
     /// Whether this server holds the download buffer (a segmented or block
     /// download in progress).
@@ -133,6 +126,11 @@ impl Channel {
     fn reset(&mut self) {
         self.state = State::Idle;
         self.pending = None;
+    }
+
+    /// The object of the transfer in progress.
+    fn transfer(&self) -> Option<Mux> {
+        (!matches!(self.state, State::Idle)).then_some(self.mux)
     }
 }
 
@@ -297,7 +295,7 @@ impl Channel {
                 Err(SdoParseError::UnknownCommand { index, sub, .. }) => {
                     self.count_malformed();
                     if !expired {
-                        let mux = self.state.mux().unwrap_or(Mux { index, sub });
+                        let mux = self.transfer().unwrap_or(Mux { index, sub });
                         self.fail(mux, AbortCode::InvalidCommand, tx);
                     }
                 }
@@ -338,20 +336,20 @@ impl Channel {
         match request {
             SdoRequest::Abort { .. } => self.reset(),
             SdoRequest::InitiateDownload { index, sub, data } => {
-                self.reset();
-                self.initiate_download(Mux { index, sub }, data, buf, od, tx);
+                self.start(index, sub);
+                self.initiate_download(data, buf, od, tx);
             }
             SdoRequest::InitiateUpload { index, sub } => {
-                self.reset();
-                self.initiate_upload(Mux { index, sub }, od, tx);
+                self.start(index, sub);
+                self.initiate_upload(od, tx);
             }
             SdoRequest::BlockDownload(BlockDownloadRequest::Initiate { index, sub, crc, size }) => {
-                self.reset();
-                self.start_block_download(Mux { index, sub }, crc, size, buf, od, tx);
+                self.start(index, sub);
+                self.start_block_download(crc, size, buf, od, tx);
             }
             SdoRequest::BlockUpload(BlockUploadRequest::Initiate { index, sub, crc, blksize, pst }) => {
-                self.reset();
-                self.start_block_upload(Mux { index, sub }, crc, blksize, pst, od, tx);
+                self.start(index, sub);
+                self.start_block_upload(crc, blksize, pst, od, tx);
             }
             _ => match self.state {
                 State::Idle => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
@@ -363,22 +361,35 @@ impl Channel {
         }
     }
 
+    /// An initiate request for (index, sub): whatever was in progress ends.
+    fn start(&mut self, index: u16, sub: u8) {
+        self.reset();
+        self.mux = Mux { index, sub };
+    }
+
     /// Aborts the transfer in progress with 0x05040000 once `now` reaches
     /// its deadline; true if it did.
     fn expire(&mut self, now: Instant, tx: &mut dyn SdoTx) -> bool {
-        match self.state.mux() {
-            Some(mux) if now >= self.deadline => {
-                self.fail(mux, AbortCode::Timeout, tx);
-                true
-            }
-            _ => false,
+        if matches!(self.state, State::Idle) || now < self.deadline {
+            return false;
         }
+        self.abort(AbortCode::Timeout, tx);
+        true
     }
 
-    /// Ends the transfer and sends an abort frame.
+    /// Ends the transfer and sends an abort frame for `mux`.
     fn fail(&mut self, mux: Mux, code: AbortCode, tx: &mut dyn SdoTx) {
+        self.mux = mux;
+        self.abort(code, tx);
+    }
+
+    /// Ends the transfer (or refuses the initiate request) of `self.mux`
+    /// and sends an abort frame.
+    // Out of line: some forty call sites.
+    #[inline(never)]
+    fn abort(&mut self, code: AbortCode, tx: &mut dyn SdoTx) {
         self.state = State::Idle;
-        self.send(SdoResponse::Abort { index: mux.index, sub: mux.sub, code: code.code() }, tx);
+        self.send(SdoResponse::Abort { index: self.mux.index, sub: self.mux.sub, code: code.code() }, tx);
     }
 
     fn send(&mut self, response: SdoResponse, tx: &mut dyn SdoTx) {

@@ -2,7 +2,7 @@
 //! §7.2.4.3.7–8 (upload): seven bytes per segment, a toggle bit that
 //! starts at 0 and alternates (abort 0x05030000 when it does not).
 
-use super::{Buffer, Channel, Mux, SdoTx, State};
+use super::{Buffer, Channel, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{SdoRequest, SdoResponse};
@@ -13,7 +13,6 @@ const SEGMENT: usize = 7;
 /// A segmented download in progress.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Download {
-    pub(super) mux: Mux,
     /// Toggle bit the next segment must carry.
     toggle: bool,
     /// Bytes collected in the buffer.
@@ -25,7 +24,6 @@ pub(super) struct Download {
 /// A segmented upload in progress.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Upload {
-    pub(super) mux: Mux,
     /// Toggle bit the next request must carry.
     toggle: bool,
     /// Bytes of the value already sent.
@@ -36,32 +34,26 @@ pub(super) struct Upload {
 
 impl Upload {
     /// An upload of `size` bytes about to send its first segment.
-    pub(super) fn new(mux: Mux, size: usize) -> Self {
-        Upload { mux, toggle: false, offset: 0, size }
+    pub(super) fn new(size: usize) -> Self {
+        Upload { toggle: false, offset: 0, size }
     }
 }
 
 impl Channel {
     /// Initiate SDO download with e = 0: checks the entry and the size
     /// before any segment arrives.
-    pub(super) fn start_segmented_download(
-        &mut self,
-        mux: Mux,
-        size: Option<u32>,
-        buf: Buffer<'_>,
-        od: &mut dyn ObjectAccess,
-        tx: &mut dyn SdoTx,
-    ) {
+    pub(super) fn start_segmented_download(&mut self, size: Option<u32>, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
+        let mux = self.mux;
         if let Err(code) = od.download_check(mux.index, mux.sub, size) {
-            return self.fail(mux, code, tx);
+            return self.abort(code, tx);
         }
         // Another server holds the shared buffer for a download of its own.
-        let Some(buf) = buf else { return self.fail(mux, AbortCode::NoResource, tx) };
+        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         if size.is_some_and(|s| s > buf.len()) {
-            return self.fail(mux, AbortCode::OutOfMemory, tx);
+            return self.abort(AbortCode::OutOfMemory, tx);
         }
-        self.state = State::SegmentedDownload(Download { mux, toggle: false, len: 0, size });
+        self.state = State::SegmentedDownload(Download { toggle: false, len: 0, size });
         self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx);
     }
 
@@ -75,30 +67,30 @@ impl Channel {
         tx: &mut dyn SdoTx,
     ) {
         let SdoRequest::DownloadSegment { toggle, data, len, last } = request else {
-            return self.fail(d.mux, AbortCode::InvalidCommand, tx);
+            return self.abort(AbortCode::InvalidCommand, tx);
         };
         if toggle != d.toggle {
-            return self.fail(d.mux, AbortCode::ToggleBit, tx);
+            return self.abort(AbortCode::ToggleBit, tx);
         }
         let chunk = data.get(..usize::from(len)).unwrap_or(&data);
         let end = d.len.saturating_add(chunk.len());
         if d.size.is_some_and(|size| end > size) {
-            return self.fail(d.mux, AbortCode::LengthTooHigh, tx);
+            return self.abort(AbortCode::LengthTooHigh, tx);
         }
         // This server holds the buffer while its download runs (see `SdoServers`).
-        let Some(buf) = buf else { return self.fail(d.mux, AbortCode::NoResource, tx) };
+        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let Some(dst) = buf.get_mut(d.len..).and_then(|rest| rest.get_mut(..chunk.len())) else {
-            return self.fail(d.mux, AbortCode::OutOfMemory, tx);
+            return self.abort(AbortCode::OutOfMemory, tx);
         };
         dst.copy_from_slice(chunk);
         d.len = end;
         if last {
             if d.size.is_some_and(|size| end < size) {
-                return self.fail(d.mux, AbortCode::LengthTooLow, tx);
+                return self.abort(AbortCode::LengthTooLow, tx);
             }
             let value = buf.get(..end).unwrap_or(&[]);
-            if let Err(code) = od.write(d.mux.index, d.mux.sub, value) {
-                return self.fail(d.mux, code, tx);
+            if let Err(code) = od.write(self.mux.index, self.mux.sub, value) {
+                return self.abort(code, tx);
             }
             self.state = State::Idle;
         } else {
@@ -111,19 +103,19 @@ impl Channel {
     /// A request while a segmented upload is in progress.
     pub(super) fn segmented_upload(&mut self, mut u: Upload, request: SdoRequest, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         let SdoRequest::UploadSegment { toggle } = request else {
-            return self.fail(u.mux, AbortCode::InvalidCommand, tx);
+            return self.abort(AbortCode::InvalidCommand, tx);
         };
         if toggle != u.toggle {
-            return self.fail(u.mux, AbortCode::ToggleBit, tx);
+            return self.abort(AbortCode::ToggleBit, tx);
         }
         let len = u.size.saturating_sub(u.offset).min(SEGMENT);
         let mut data = [0u8; SEGMENT];
         // A value that shrank since the initiate response reads short; the
         // rest of the announced size goes out as zeros.
         if let Some(buf) = data.get_mut(..len)
-            && let Err(code) = od.read(u.mux.index, u.mux.sub, u.offset, buf)
+            && let Err(code) = od.read(self.mux.index, self.mux.sub, u.offset, buf)
         {
-            return self.fail(u.mux, code, tx);
+            return self.abort(code, tx);
         }
         u.offset = u.offset.saturating_add(len);
         let last = u.offset >= u.size;

@@ -84,6 +84,7 @@ static DICT: Dictionary = Dictionary {
     defaults: &DEFAULTS,
     comm_len: 3,
     node_id_relative: &[],
+    layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {
         baud_rates: 0x1FF,
         lss_supported: false,

@@ -21,6 +21,7 @@ static DICT: Dictionary = Dictionary {
     defaults: &DEFAULTS,
     comm_len: 7,
     node_id_relative: &[2],
+    layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {
         baud_rates: 0,
         lss_supported: false,
@@ -31,15 +32,18 @@ static DICT: Dictionary = Dictionary {
     },
 };
 
+/// Bytes per region of [`Flash`]: room for the header and [`LONG`]'s 82-byte image.
+const REGION: usize = 128;
+
 /// NOR-flash-like memory whose power can be cut after `budget` steps.
 struct Flash {
-    regions: [[u8; 64]; 2],
+    regions: [[u8; REGION]; 2],
     budget: Option<usize>,
 }
 
 impl Flash {
     fn new() -> Self {
-        Flash { regions: [[0xFF; 64]; 2], budget: None }
+        Flash { regions: [[0xFF; REGION]; 2], budget: None }
     }
 
     fn step(&mut self) -> Result<bool, StorageError> {
@@ -57,7 +61,7 @@ impl Flash {
 
 impl Storage for Flash {
     fn region_size(&self) -> usize {
-        64
+        REGION
     }
     fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
         let r = self.regions.get(usize::from(region)).ok_or(StorageError::OutOfRange)?;
@@ -170,7 +174,7 @@ fn a_set_for_another_layout_or_a_too_small_storage_is_refused() {
     let mut flash = Flash::new();
     let img = boot(&mut flash, 1);
     flash.regions[0][..4].copy_from_slice(&MAGIC.to_le_bytes());
-    assert!(newest(&mut flash, &DICT).is_none());
+    assert!(newest(&DICT, &mut flash).is_none());
     assert_eq!(Scope::from_sub(5), None);
     assert_eq!(Scope::from_sub(2), Some(Scope::Communication));
     struct Tiny;
@@ -195,23 +199,176 @@ fn a_set_for_another_layout_or_a_too_small_storage_is_refused() {
 fn lss_configuration_is_stored_with_the_set_and_survives_power_cuts() {
     let mut flash = Flash::new();
     let mut img = boot(&mut flash, 127);
-    assert_eq!(load_lss(&DICT, &mut flash), None);
+    assert_eq!(newest(&DICT, &mut flash).and_then(|set| set.lss()), None);
     DICT.write(&mut img, 0x1017, 0, &300u16.to_le_bytes()).unwrap();
     save(&DICT, &img, 127, &mut flash, Scope::All).unwrap();
     save_lss(&DICT, &img, 127, &mut flash, 0x20, 3).unwrap();
-    assert_eq!(load_lss(&DICT, &mut flash), Some((0x20, 3)));
+    assert_eq!(newest(&DICT, &mut flash).and_then(|set| set.lss()), Some((0x20, 3)));
     // The parameters stored before are still there, and a later save keeps the LSS part.
     let img = boot(&mut flash, 0x20);
     assert_eq!(DICT.read(&img, 0x1017, 0), Ok(&300u16.to_le_bytes()[..]));
     save(&DICT, &img, 0x20, &mut flash, Scope::Communication).unwrap();
-    assert_eq!(load_lss(&DICT, &mut flash), Some((0x20, 3)));
+    assert_eq!(newest(&DICT, &mut flash).and_then(|set| set.lss()), Some((0x20, 3)));
     // A cut at any step of the next LSS store leaves (0x20, 3) or (0x21, 4).
     let base = flash.regions;
     for cut in 1..12 {
         let mut f = Flash { regions: base, budget: Some(cut) };
         let _ = save_lss(&DICT, &img, 0x20, &mut f, 0x21, 4);
         f.budget = None;
-        let got = load_lss(&DICT, &mut f);
+        let got = newest(&DICT, &mut f).and_then(|set| set.lss());
         assert!(got == Some((0x20, 3)) || got == Some((0x21, 4)), "cut {cut}: {got:?}");
     }
+}
+
+#[test]
+fn the_crc_is_crc32_ieee_in_any_chunking() {
+    let data = b"123456789";
+    assert_eq!(!crc32_update(!0, data), 0xCBF4_3926);
+    assert_eq!(!crc32_update(crc32_update(!0, &data[..4]), &data[4..]), 0xCBF4_3926);
+    assert_eq!(!crc32_update(!0, &[]), 0);
+}
+
+#[test]
+fn the_layout_id_is_the_fnv_1a_of_the_entry_table_as_before() {
+    // The run-time hash the store computed before the id moved into the
+    // dictionary: sets stored then must still be recognised.
+    let mut h: u32 = 0x811C_9DC5;
+    for e in &ENTRIES {
+        for b in [e.index.to_le_bytes().as_slice(), &[e.sub, e.data_type as u8, e.attr.0], &e.len.to_le_bytes(), &e.offset.to_le_bytes()] {
+            for &x in b {
+                h = (h ^ u32::from(x)).wrapping_mul(0x0100_0193);
+            }
+        }
+    }
+    assert_eq!(DICT.layout_id, h);
+    assert_ne!(crate::od::layout_id(&ENTRIES[..4]), h, "another table, another id");
+    // A set written under another layout id is not used.
+    let mut flash = Flash::new();
+    let img = boot(&mut flash, 1);
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    assert!(newest(&DICT, &mut flash).is_some());
+    flash.regions[0][8] ^= 1;
+    assert!(newest(&DICT, &mut flash).is_none());
+}
+
+/// [`Flash`] counting the bytes read.
+struct Counting<'a>(&'a mut Flash, usize);
+
+impl Storage for Counting<'_> {
+    fn region_size(&self) -> usize {
+        self.0.region_size()
+    }
+    fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
+        self.1 += buf.len();
+        self.0.read(region, offset, buf)
+    }
+    fn erase(&mut self, region: u8) -> Result<(), StorageError> {
+        self.0.erase(region)
+    }
+    fn write(&mut self, region: u8, offset: usize, data: &[u8]) -> Result<(), StorageError> {
+        self.0.write(region, offset, data)
+    }
+}
+
+#[test]
+fn the_newest_set_is_checked_alone_unless_its_payload_is_broken() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x1017, 0, &111u16.to_le_bytes()).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    DICT.write(&mut img, 0x1017, 0, &222u16.to_le_bytes()).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    // Both headers, then the newer payload only.
+    let mut counting = Counting(&mut flash, 0);
+    let set = newest(&DICT, &mut counting).unwrap();
+    assert_eq!(counting.1, 2 * HEADER + DEFAULTS.len());
+    assert_eq!((set.region, set.header.seq), (1, 2));
+    assert_eq!(DICT.read(&boot(&mut flash, 1), 0x1017, 0), Ok(&222u16.to_le_bytes()[..]));
+    // A newer set whose payload fails its CRC gives way to the older one.
+    flash.regions[1][HEADER + 1] ^= 0x01;
+    let mut counting = Counting(&mut flash, 0);
+    let set = newest(&DICT, &mut counting).unwrap();
+    assert_eq!(counting.1, 2 * HEADER + 2 * DEFAULTS.len());
+    assert_eq!((set.region, set.header.seq), (0, 1));
+    assert_eq!(DICT.read(&boot(&mut flash, 1), 0x1017, 0), Ok(&111u16.to_le_bytes()[..]));
+}
+
+#[test]
+fn one_set_found_loads_both_parts() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 4);
+    DICT.write(&mut img, 0x1017, 0, &700u16.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x1800, 1, &0x4000_0284u32.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x6060, 0, &[9]).unwrap();
+    save(&DICT, &img, 4, &mut flash, Scope::All).unwrap();
+    let set = newest(&DICT, &mut flash).unwrap();
+    let mut fresh = [0u8; 12];
+    DICT.reset_application(&mut fresh, 4);
+    DICT.reset_communication(&mut fresh, 4);
+    // The header says what is stored; only the payload of each value is read.
+    let mut counting = Counting(&mut flash, 0);
+    assert!(set.load(&DICT, &mut fresh, 4, &mut counting, Part::Application));
+    assert!(set.load(&DICT, &mut fresh, 4, &mut counting, Part::Communication));
+    assert_eq!(counting.1, 2 + 4 + 4 + 1, "0x1017, 0x1800 sub 1, 0x2000, 0x6060: not 0x1001 (read-only)");
+    assert_eq!(fresh, img);
+}
+
+#[test]
+fn a_storage_failure_while_loading_leaves_the_defaults() {
+    struct Failing<'a>(&'a mut Flash);
+    impl Storage for Failing<'_> {
+        fn region_size(&self) -> usize {
+            REGION
+        }
+        fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
+            // A driver that fails after writing part of the buffer.
+            self.0.read(region, offset, buf)?;
+            buf.fill(0xEE);
+            Err(StorageError::Failed)
+        }
+        fn erase(&mut self, _: u8) -> Result<(), StorageError> {
+            Err(StorageError::Failed)
+        }
+        fn write(&mut self, _: u8, _: usize, _: &[u8]) -> Result<(), StorageError> {
+            Err(StorageError::Failed)
+        }
+    }
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 2);
+    DICT.write(&mut img, 0x1017, 0, &700u16.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x2000, 0, &5u32.to_le_bytes()).unwrap();
+    save(&DICT, &img, 2, &mut flash, Scope::All).unwrap();
+    let set = newest(&DICT, &mut flash).unwrap();
+    let defaults = boot(&mut Flash::new(), 2);
+    let mut fresh = defaults;
+    assert!(!set.load(&DICT, &mut fresh, 2, &mut Failing(&mut flash), Part::Application));
+    assert!(!set.load(&DICT, &mut fresh, 2, &mut Failing(&mut flash), Part::Communication));
+    assert_eq!(fresh, defaults);
+}
+
+const LONG_ENTRIES: [Entry; 2] =
+    [Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 0, NO_LIMITS), Entry::new(0x2001, 0, DataType::OctetString, RW, 80, 2, NO_LIMITS)];
+/// A dictionary with a value longer than the chunks the store copies in.
+static LONG: Dictionary = Dictionary {
+    entries: &LONG_ENTRIES,
+    defaults: &[0; 82],
+    comm_len: 2,
+    node_id_relative: &[],
+    layout_id: crate::od::layout_id(&LONG_ENTRIES),
+    ..DICT
+};
+
+#[test]
+fn a_value_longer_than_a_chunk_is_stored_and_loaded_whole() {
+    let mut flash = Flash::new();
+    let mut img = [0u8; 82];
+    let blob: [u8; 80] = core::array::from_fn(|i| i as u8 + 1);
+    LONG.write(&mut img, 0x2001, 0, &blob).unwrap();
+    LONG.write(&mut img, 0x1017, 0, &9u16.to_le_bytes()).unwrap();
+    save(&LONG, &img, 1, &mut flash, Scope::All).unwrap();
+    let mut fresh = [0u8; 82];
+    for part in [Part::Application, Part::Communication] {
+        assert!(load(&LONG, &mut fresh, 1, &mut flash, part));
+    }
+    assert_eq!(fresh, img);
 }

@@ -1,0 +1,90 @@
+//! Building a node in place, as the images do (`firmware::image!`):
+//! `Node::unpowered` with a zeroed RAM image, then `Node::power_on` where the
+//! node lies. It must be the node `Node::new` returns, stored parameters and
+//! all, and stay silent before its power-on.
+
+use canopen_core::frame::CanFrame;
+use canopen_core::node::NoApplication;
+use canopen_core::od::ObjectDictionary;
+use canopen_core::services::nmt::State;
+use canopen_core::time::Instant;
+use embedded_can::Frame;
+use firmware::boards::qemu::ram_storage::RamStorage;
+use firmware::boards::region_size;
+use firmware::devices::ec5000::od;
+
+type Storage = RamStorage<{ region_size(od::RAM_SIZE) }>;
+
+const ID: u8 = 127;
+
+fn ms(t: u64) -> Instant {
+    Instant::from_micros(t * 1000)
+}
+
+/// Runs the node at `t` and returns what it sends.
+fn step(node: &mut od::Node<NoApplication, Storage>, t: u64) -> Vec<(u16, Vec<u8>)> {
+    node.process(ms(t));
+    std::iter::from_fn(|| node.transmit()).map(|f| (f.cob_id().expect("11-bit"), f.data().to_vec())).collect()
+}
+
+fn frame(cob_id: u16, data: &[u8]) -> CanFrame {
+    CanFrame::standard(cob_id, data).expect("valid frame")
+}
+
+/// Storage holding a saved heartbeat time of 1000 ms (0x1017, stored with 0x1010 sub 1).
+fn stored_heartbeat() -> Storage {
+    let mut node = od::Node::new(od::Ram::new(ID), NoApplication, Storage::default(), ID, ms(0));
+    step(&mut node, 0);
+    node.on_frame(ms(1), &frame(0x600 + u16::from(ID), &[0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0x00, 0x00]));
+    node.on_frame(ms(2), &frame(0x600 + u16::from(ID), &[0x23, 0x10, 0x10, 0x01, b's', b'a', b'v', b'e']));
+    assert_eq!(step(&mut node, 3), [(0x5FF, vec![0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0]), (0x5FF, vec![0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0])]);
+    node.storage_mut().clone()
+}
+
+#[test]
+fn an_unpowered_node_is_silent_until_its_power_on() {
+    let mut node = od::Node::unpowered(od::Ram::zeroed(), NoApplication, Storage::default(), ID);
+    // NMT start and an SDO upload of 0x1000: ignored before power-on.
+    node.on_frame(ms(0), &frame(0x000, &[0x01, ID]));
+    node.on_frame(ms(0), &frame(0x600 + u16::from(ID), &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]));
+    assert_eq!(step(&mut node, 1), []);
+    assert_eq!(node.state(), State::Initialising);
+    assert!(node.od().image().iter().all(|b| *b == 0), "the image stays as built");
+
+    node.power_on(ms(2));
+    assert_eq!(step(&mut node, 2), [(0x700 + u16::from(ID), vec![0x00])], "boot-up");
+    assert_eq!(node.state(), State::PreOperational);
+}
+
+#[test]
+fn power_on_in_place_gives_the_node_new_returns() {
+    let storage = stored_heartbeat();
+    let mut new = od::Node::new(od::Ram::new(ID), NoApplication, storage.clone(), ID, ms(0));
+    let mut in_place = od::Node::unpowered(od::Ram::zeroed(), NoApplication, storage, ID);
+    in_place.power_on(ms(0));
+    assert_ne!(new.od().image(), od::Ram::new(ID).image(), "the stored 0x1017 is loaded");
+    assert_eq!(in_place.od().image(), new.od().image(), "same dictionary");
+    assert_eq!((in_place.node_id(), in_place.state()), (new.node_id(), new.state()));
+    // Boot-up, then the stored heartbeat of 1000 ms (pre-operational: 0x7F).
+    for t in [0, 999, 1000, 2000] {
+        assert_eq!(step(&mut in_place, t), step(&mut new, t), "at {t} ms");
+    }
+    assert_eq!(step(&mut in_place, 3000), [(0x700 + u16::from(ID), vec![0x7F])]);
+}
+
+#[test]
+fn power_on_overwrites_every_byte_of_the_image() {
+    // What power-on does to the image before it loads stored parameters:
+    // from any contents it gives the defaults, so `Node::unpowered` may take
+    // `Ram::zeroed`.
+    macro_rules! check {
+        ($($device:ident),*) => {$(
+            let mut ram = firmware::devices::$device::od::Ram::zeroed();
+            ram.image_mut().fill(0xA5);
+            ram.reset_application(ID);
+            ram.reset_communication(ID);
+            assert_eq!(ram.image(), firmware::devices::$device::od::Ram::new(ID).image(), stringify!($device));
+        )*};
+    }
+    check!(ec5000, unitek_ds, sendix, bmaxx4400, agile);
+}
