@@ -172,13 +172,14 @@ pub struct Started {
 }
 
 impl Started {
-    /// Runs an image's `make_node` on the storage `storage` makes, in a
-    /// stack frame of its own. What building the node takes from the stack
-    /// is free again once this returns, before the board starts its
-    /// executors, whose frames then sit on top of the board's `run` for good.
+    /// Runs an image's `make_node` (which powers on the node built in its
+    /// `static`) with the storage handle `handle` makes, in a stack frame of
+    /// its own. What the power-on takes from the stack is free again once
+    /// this returns, before the board starts its executors, whose frames
+    /// then sit on top of the board's `run` for good.
     #[inline(never)]
-    pub fn build<S>(make_node: impl FnOnce(S, Instant) -> Started, storage: impl FnOnce() -> S, now: Instant) -> Started {
-        make_node(storage(), now)
+    pub fn build<H>(make_node: impl FnOnce(H, Instant) -> Started, handle: impl FnOnce() -> H, now: Instant) -> Started {
+        make_node(handle(), now)
     }
 }
 

@@ -1,7 +1,8 @@
 //! Building a node in place, as the images do (`firmware::image!`):
-//! `Node::unpowered` with a zeroed RAM image, then `Node::power_on` where the
-//! node lies. It must be the node `Node::new` returns, stored parameters and
-//! all, and stay silent before its power-on.
+//! `Node::unpowered` with a zeroed RAM image (in a `const`, as the images'
+//! `static`), then `Node::power_on` where the node lies. It must be the node
+//! `Node::new` returns, stored parameters and all, and stay silent before
+//! its power-on.
 
 use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
@@ -43,7 +44,7 @@ fn stored_heartbeat() -> Storage {
 
 #[test]
 fn an_unpowered_node_is_silent_until_its_power_on() {
-    let mut node = od::Node::unpowered(od::Ram::zeroed(), NoApplication, Storage::default(), ID);
+    let mut node = od::Node::unpowered(od::Ram::zeroed(), NoApplication, Storage::default());
     // NMT start and an SDO upload of 0x1000: ignored before power-on.
     node.on_frame(ms(0), &frame(0x000, &[0x01, ID]));
     node.on_frame(ms(0), &frame(0x600 + u16::from(ID), &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]));
@@ -51,7 +52,7 @@ fn an_unpowered_node_is_silent_until_its_power_on() {
     assert_eq!(node.state(), State::Initialising);
     assert!(node.od().image().iter().all(|b| *b == 0), "the image stays as built");
 
-    node.power_on(ms(2));
+    node.power_on(ID, ms(2));
     assert_eq!(step(&mut node, 2), [(0x700 + u16::from(ID), vec![0x00])], "boot-up");
     assert_eq!(node.state(), State::PreOperational);
 }
@@ -60,8 +61,8 @@ fn an_unpowered_node_is_silent_until_its_power_on() {
 fn power_on_in_place_gives_the_node_new_returns() {
     let storage = stored_heartbeat();
     let mut new = od::Node::new(od::Ram::new(ID), NoApplication, storage.clone(), ID, ms(0));
-    let mut in_place = od::Node::unpowered(od::Ram::zeroed(), NoApplication, storage, ID);
-    in_place.power_on(ms(0));
+    let mut in_place = od::Node::unpowered(od::Ram::zeroed(), NoApplication, storage);
+    in_place.power_on(ID, ms(0));
     assert_ne!(new.od().image(), od::Ram::new(ID).image(), "the stored 0x1017 is loaded");
     assert_eq!(in_place.od().image(), new.od().image(), "same dictionary");
     assert_eq!((in_place.node_id(), in_place.state()), (new.node_id(), new.state()));
@@ -70,6 +71,32 @@ fn power_on_in_place_gives_the_node_new_returns() {
         assert_eq!(step(&mut in_place, t), step(&mut new, t), "at {t} ms");
     }
     assert_eq!(step(&mut in_place, 3000), [(0x700 + u16::from(ID), vec![0x7F])]);
+}
+
+/// What `firmware::image!` puts in its `static`: a node built at compile time.
+const UNPOWERED: od::Node<NoApplication, Storage> = od::Node::unpowered(od::Ram::zeroed(), NoApplication, Storage::new());
+
+#[test]
+fn a_node_built_in_a_const_powers_on_as_node_new_does() {
+    let storage = stored_heartbeat();
+    let mut new = od::Node::new(od::Ram::new(ID), NoApplication, storage.clone(), ID, ms(0));
+    let mut from_const = UNPOWERED;
+    *from_const.storage_mut() = storage;
+    assert_eq!(step(&mut from_const, 0), [], "silent before power-on");
+    from_const.power_on(ID, ms(0));
+    assert_eq!(from_const.od().image(), new.od().image());
+    assert_eq!((from_const.node_id(), from_const.state()), (new.node_id(), new.state()));
+    assert_eq!(from_const.acceptance(), new.acceptance());
+    for t in [0, 999, 1000, 2000, 3000] {
+        assert_eq!(step(&mut from_const, t), step(&mut new, t), "at {t} ms");
+    }
+    // Operational: the TPDOs send their first values, as on a node from `Node::new`.
+    let start = frame(0x000, &[0x01, ID]);
+    from_const.on_frame(ms(3001), &start);
+    new.on_frame(ms(3001), &start);
+    let sent = step(&mut new, 3002);
+    assert!(sent.iter().any(|(id, _)| (0x181..0x580).contains(id)), "ec5000 sends TPDOs: {sent:?}");
+    assert_eq!(step(&mut from_const, 3002), sent);
 }
 
 #[test]

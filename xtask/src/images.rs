@@ -3,9 +3,9 @@
 //!
 //! - `build`: builds every image (release profile: opt-level "s", fat LTO,
 //!   one codegen unit), prints the sections and the worst-case stack
-//!   ([`stack`]) of each and fails if one exceeds [`FLASH_BUDGET`] or
-//!   [`RAM_BUDGET`], or if static RAM and stack leave less than
-//!   [`STACK_MARGIN`] of the chip's RAM ([`chip_ram`]) free.
+//!   ([`stack`]) of each and fails if one exceeds [`FLASH_BUDGET`],
+//!   [`RAM_BUDGET`] or [`DATA_BUDGET`], or if static RAM and stack leave
+//!   less than [`STACK_MARGIN`] of the chip's RAM ([`chip_ram`]) free.
 //! - `qemu <device> [--listen HOST:PORT]`: boots a device's QEMU image with
 //!   its UART (SLCAN) on that TCP port, waiting for the first client.
 //! - `smoke`: runs `tests/python/test_qemu_smoke.py` (python-canopen against
@@ -34,6 +34,11 @@ pub fn chip_ram(board: &str) -> u64 {
 }
 /// RAM that must stay free beyond static RAM and the stack estimate.
 pub const STACK_MARGIN: u64 = 2 * 1024;
+/// `.data` an image may have. The node is built at compile time and must be
+/// all zero bits, to lie in `.bss` (`Node::unpowered`); a field whose
+/// unpowered value is not zero moves the whole node to `.data`, where it
+/// takes its size in flash too.
+pub const DATA_BUDGET: u64 = 256;
 /// Default TCP address of `qemu`'s UART.
 const DEFAULT_LISTEN: &str = "127.0.0.1:4555";
 /// The whole smoke run may take this long before it is killed.
@@ -184,6 +189,9 @@ pub fn build() -> Result<(), String> {
             }
             if s.ram() > RAM_BUDGET {
                 over.push(format!("{name}: {} bytes of RAM > {RAM_BUDGET}", s.ram()));
+            }
+            if s.data > DATA_BUDGET {
+                over.push(format!("{name}: {} bytes of .data > {DATA_BUDGET} (is the node still all zero bits?)", s.data));
             }
             if free < STACK_MARGIN as i64 {
                 over.push(format!(

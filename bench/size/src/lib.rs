@@ -142,8 +142,8 @@ macro_rules! firmware {
             fn init(board: &'static Board) -> &'static mut NodeT {
                 let now = Instant::from_micros((board.now)());
                 let id = board.node_id;
-                let node = NODE.init_with(|| NodeT::unpowered(od::Ram::zeroed(), NoApplication, BoardFlash(board), id));
-                node.power_on(now);
+                let node = NODE.init_with(|| NodeT::unpowered(od::Ram::zeroed(), NoApplication, BoardFlash(board)));
+                node.power_on(id, now);
                 node
             }
 

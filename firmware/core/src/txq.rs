@@ -5,30 +5,46 @@
 
 use crate::frame::CanFrame;
 
+/// The sequence number of a free slot.
+const FREE: i64 = 0;
+
 /// A priority queue of at most `N` frames.
+///
+/// A new queue is all zero bits, so that a node built in a `const` lies in
+/// `.bss`: hence a slot is free when its sequence number is 0 rather than
+/// being an `Option` (whose `None` is not zero). Frames queued count up from
+/// 1, frames put back ([`TxQueue::push_front`]) down from -1.
 #[derive(Clone, Debug)]
 pub struct TxQueue<const N: usize> {
-    slots: [Option<(u32, i64, CanFrame)>; N],
+    /// (priority, sequence number, frame); free where the sequence number is 0.
+    slots: [(u32, i64, CanFrame); N],
     len: usize,
+    /// The sequence number of the last frame queued.
     next_seq: i64,
+    /// The sequence number of the last frame put back.
     front_seq: i64,
     overflows: u32,
 }
 
 impl<const N: usize> Default for TxQueue<N> {
     fn default() -> Self {
-        TxQueue { slots: [None; N], len: 0, next_seq: 0, front_seq: -1, overflows: 0 }
+        Self::new()
     }
 }
 
 impl<const N: usize> TxQueue<N> {
+    /// An empty queue.
+    pub const fn new() -> Self {
+        TxQueue { slots: [(0, FREE, CanFrame::EMPTY); N], len: 0, next_seq: 0, front_seq: 0, overflows: 0 }
+    }
+
     /// Queues a frame; false (and one more overflow) when full.
     // Out of line: every service that sends had a copy (128 bytes more).
     #[inline(never)]
     pub fn push(&mut self, frame: CanFrame) -> bool {
-        let seq = self.next_seq;
+        let seq = self.next_seq + 1;
         if self.insert(frame, seq) {
-            self.next_seq += 1;
+            self.next_seq = seq;
             true
         } else {
             self.overflows = self.overflows.saturating_add(1);
@@ -39,10 +55,10 @@ impl<const N: usize> TxQueue<N> {
     /// Puts back a frame the controller handed back, ahead of every queued
     /// frame with its identifier (bxCAN mailbox pre-emption).
     pub fn push_front(&mut self, frame: CanFrame) -> bool {
-        let seq = self.front_seq;
+        let seq = self.front_seq - 1;
         let ok = self.insert(frame, seq);
         if ok {
-            self.front_seq -= 1;
+            self.front_seq = seq;
         } else {
             self.overflows = self.overflows.saturating_add(1);
         }
@@ -50,8 +66,8 @@ impl<const N: usize> TxQueue<N> {
     }
 
     fn insert(&mut self, frame: CanFrame, seq: i64) -> bool {
-        let Some(slot) = self.slots.iter_mut().find(|s| s.is_none()) else { return false };
-        *slot = Some((frame.priority(), seq, frame));
+        let Some(slot) = self.slots.iter_mut().find(|(_, q, _)| *q == FREE) else { return false };
+        *slot = (frame.priority(), seq, frame);
         self.len += 1;
         true
     }
@@ -60,20 +76,21 @@ impl<const N: usize> TxQueue<N> {
         if self.len == 0 {
             return None;
         }
-        self.slots.iter().enumerate().filter_map(|(i, s)| s.map(|(p, q, _)| (p, q, i))).min().map(|(_, _, i)| i)
+        self.slots.iter().enumerate().filter(|(_, (_, q, _))| *q != FREE).map(|(i, (p, q, _))| (p, q, i)).min().map(|(_, _, i)| i)
     }
 
     /// The frame that goes next, without removing it.
     pub fn peek(&self) -> Option<&CanFrame> {
-        self.best().and_then(|i| self.slots.get(i)).and_then(|s| s.as_ref()).map(|(_, _, f)| f)
+        self.best().and_then(|i| self.slots.get(i)).map(|(_, _, f)| f)
     }
 
     /// Removes the frame that goes next.
     pub fn pop(&mut self) -> Option<CanFrame> {
         let i = self.best()?;
-        let (_, _, f) = self.slots.get_mut(i)?.take()?;
+        let (_, seq, f) = self.slots.get_mut(i)?;
+        *seq = FREE;
         self.len -= 1;
-        Some(f)
+        Some(*f)
     }
 
     /// Frames queued.
@@ -98,7 +115,7 @@ impl<const N: usize> TxQueue<N> {
 
     /// Drops every queued frame (the node goes silent, e.g. for an LSS bit-rate switch).
     pub fn clear(&mut self) {
-        self.slots = [None; N];
+        self.slots.iter_mut().for_each(|(_, seq, _)| *seq = FREE);
         self.len = 0;
     }
 }
@@ -123,6 +140,21 @@ mod tests {
         let order: Vec<u8> = core::iter::from_fn(|| q.pop()).map(|f| embedded_can::Frame::data(&f)[0]).collect();
         assert_eq!(order, [2, 1, 3, 4]);
         assert!(q.is_empty());
+    }
+
+    #[test]
+    fn frames_of_one_identifier_keep_their_order_when_others_leave_between() {
+        // Frames leave from any slot, and new ones fill the first free one.
+        let mut q = TxQueue::<8>::new();
+        for (id, tag) in [(0x581, 1), (0x181, 9), (0x581, 2), (0x581, 3), (0x201, 8), (0x581, 4)] {
+            assert!(q.push(f(id, tag)));
+        }
+        let mut next = || q.pop().map(|f| embedded_can::Frame::data(&f)[0]);
+        assert_eq!([next(), next()], [Some(9), Some(8)]);
+        assert!(q.push(f(0x581, 5)));
+        assert!(q.push_front(f(0x581, 0)));
+        let order: Vec<u8> = core::iter::from_fn(|| q.pop()).map(|f| embedded_can::Frame::data(&f)[0]).collect();
+        assert_eq!(order, [0, 1, 2, 3, 4, 5]);
     }
 
     #[test]

@@ -8,9 +8,11 @@
 //! - [`qemu`]: lm3s6965evb under `qemu-system-arm` (feature `board-qemu`).
 //! - [`stm32f103`]: STM32F103C8 with bxCAN (feature `board-stm32f103`).
 //!
-//! Each board exports the same three items, which [`crate::image!`] uses:
-//! `Config` (with a `DEFAULT`), `Storage<const REGION: usize>` and
-//! `run(config, make_node) -> !`.
+//! Each board exports the same items, which [`crate::image!`] uses:
+//! `Config` (with a `DEFAULT`), `Storage<const REGION: usize>` (with an
+//! `attach(StorageHandle)`), `StorageHandle` (what the storage gets at
+//! start-up), `const fn unattached_storage()` and
+//! `run(config, make_node, application) -> !`.
 
 #[cfg(all(feature = "board-qemu", feature = "board-stm32f103"))]
 compile_error!("enable one board feature per build: `board-qemu` or `board-stm32f103`");
@@ -32,7 +34,9 @@ pub const fn region_size(image: usize) -> usize {
 /// optionally followed by `key = value` settings of the board's `Config`
 /// (`bit_rate_kbps = 250` on the STM32F103).
 ///
-/// The node lives in a `static` (so its size shows in `.bss`) and runs the
+/// The node lives in a `static` built at compile time (so it lies in `.bss`
+/// and its size shows there); start-up hands its storage the board's
+/// handle and powers it on where it lies. It runs the
 /// device's dictionary with no application hooks yet. It starts with the
 /// node-id the device's start-up hook reads from its stored parameters
 /// (`Device::startup`), else the device's default one; a configuration LSS
@@ -52,23 +56,26 @@ macro_rules! image {
             use $crate::devices::$device as device;
             type Storage = $crate::boards::$board::Storage<{ $crate::boards::region_size(device::od::RAM_SIZE) }>;
             type Node = device::od::Node<::canopen_core::node::NoApplication, Storage>;
-            static NODE: ::static_cell::StaticCell<Node> = ::static_cell::StaticCell::new();
+            // Built at compile time and all zero bits, so in `.bss`: no
+            // node-sized value on the stack at start-up (docs/firmware.md, "Stack").
+            static NODE: ::static_cell::ConstStaticCell<Node> = ::static_cell::ConstStaticCell::new(Node::unpowered(
+                device::od::Ram::zeroed(),
+                ::canopen_core::node::NoApplication,
+                $crate::boards::$board::unattached_storage(),
+            ));
             #[allow(clippy::needless_update)]
             let config = $crate::boards::$board::Config { $($key: $value,)* ..$crate::boards::$board::Config::DEFAULT };
-            let make_node = |mut storage: Storage, now| {
+            let make_node = |handle, now| {
+                let node = NODE.take();
+                node.storage_mut().attach(handle);
                 let (node_id, bit_rate) = match device::DEVICE.startup {
                     Some(startup) => {
-                        let (node_id, bit_rate) = startup(&mut storage);
+                        let (node_id, bit_rate) = startup(node.storage_mut());
                         (node_id, Some(bit_rate))
                     }
                     None => (device::DEVICE.default_node_id, None),
                 };
-                // Powered on where it lies: `Node::new` powers a local node on and
-                // then copies it out (a 12,800-byte frame on bmaxx4400-stm32f103,
-                // 5,672 this way). Building the fields still takes one node-sized
-                // temporary (docs/firmware.md, "Stack").
-                let node = NODE.init_with(|| Node::unpowered(device::od::Ram::zeroed(), ::canopen_core::node::NoApplication, storage, node_id));
-                node.power_on(now);
+                node.power_on(node_id, now);
                 $crate::app::Started { node, bit_rate }
             };
             $crate::boards::$board::run(config, make_node, application())

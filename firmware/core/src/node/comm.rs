@@ -47,20 +47,26 @@ pub struct Comm<const R: usize, const T: usize, const HB: usize> {
 
 impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB> {
     fn default() -> Self {
-        Comm {
-            heartbeat: Producer::default(),
-            consumers: Consumer::default(),
-            guarding: Guarding::default(),
-            emcy: EmcyProducer::default(),
-            time_cob_id: None,
-            sync: SyncService::default(),
-            pdos: Pdos::default(),
-            mapping_errors: 0,
-        }
+        Self::new()
     }
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
+    /// The services before the first [`Comm::configure`]: all off, and all
+    /// zero bits, so that a node built in a `const` lies in `.bss`.
+    pub const fn new() -> Self {
+        Comm {
+            heartbeat: Producer::new(),
+            consumers: Consumer::new(),
+            guarding: Guarding::new(),
+            emcy: EmcyProducer::new(),
+            time_cob_id: None,
+            sync: SyncService::UNCONFIGURED,
+            pdos: Pdos::unconfigured(),
+            mapping_errors: 0,
+        }
+    }
+
     /// Reads every communication parameter again (after reset communication).
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         self.emcy.reset();

@@ -44,17 +44,24 @@ pub struct AcceptedId {
 pub struct AcceptanceList {
     ids: [AcceptedId; ACCEPTANCE_CAPACITY],
     len: usize,
-    complete: bool,
+    /// More identifiers than fit: the list is not complete. Not `complete`,
+    /// so that a new list is all zero bits (a node built in a `const` lies in `.bss`).
+    overflowed: bool,
     generation: u32,
 }
 
 impl Default for AcceptanceList {
     fn default() -> Self {
-        AcceptanceList { ids: [AcceptedId::default(); ACCEPTANCE_CAPACITY], len: 0, complete: true, generation: 0 }
+        Self::new()
     }
 }
 
 impl AcceptanceList {
+    /// An empty list (complete: nothing to accept).
+    pub const fn new() -> Self {
+        AcceptanceList { ids: [AcceptedId { cob_id: 0, rtr: false }; ACCEPTANCE_CAPACITY], len: 0, overflowed: false, generation: 0 }
+    }
+
     /// The identifiers, each once, in the order the node lists them (the
     /// same order for the same configuration).
     pub fn ids(&self) -> &[AcceptedId] {
@@ -64,7 +71,7 @@ impl AcceptanceList {
     /// False when the node consumes more identifiers than the list holds:
     /// then a filter must pass every 11-bit frame.
     pub fn is_complete(&self) -> bool {
-        self.complete
+        !self.overflowed
     }
 
     /// Changes (wrapping) each time the list does; a board reprograms its
@@ -75,7 +82,7 @@ impl AcceptanceList {
 
     /// Whether a filter built from this list passes an 11-bit frame.
     pub fn accepts(&self, cob_id: u16, rtr: bool) -> bool {
-        !self.complete || self.ids().contains(&AcceptedId { cob_id, rtr })
+        self.overflowed || self.ids().contains(&AcceptedId { cob_id, rtr })
     }
 
     fn insert(&mut self, cob_id: u16, rtr: bool) {
@@ -88,7 +95,7 @@ impl AcceptanceList {
                 *slot = id;
                 self.len += 1;
             }
-            None => self.complete = false,
+            None => self.overflowed = true,
         }
     }
 }
@@ -104,7 +111,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Rebuilds the list from the services; a new list gets the next generation.
     pub(super) fn refresh_acceptance(&mut self) {
         let mut list = AcceptanceList::default();
-        if self.lss.is_some() {
+        if self.lss_active {
             list.insert(LSS_MASTER_COB_ID, false);
         }
         // An unconfigured node takes part in LSS only.
@@ -140,7 +147,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 }
             }
         }
-        if list.ids() != self.acceptance.ids() || list.complete != self.acceptance.complete {
+        if list.ids() != self.acceptance.ids() || list.overflowed != self.acceptance.overflowed {
             list.generation = self.acceptance.generation.wrapping_add(1);
             self.acceptance = list;
         }

@@ -18,14 +18,37 @@ pub trait BitRateControl {
     fn set_bit_rate(&mut self, index: u8);
 }
 
-/// A bit-rate switch in progress: silent until `at`, then switch (first
-/// phase) or resume (second phase). CiA 305 §5.2.3.
+/// The LSS bit-rate switch: silent until `at`, then switch (first phase) or
+/// resume (second phase). CiA 305 §5.2.3. Not an `Option` in the node: its
+/// `None` would not be all zero bits, and a node built in a `const` must
+/// be, to lie in `.bss`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Switch {
     index: u8,
     delay: Duration,
     at: Instant,
-    switched: bool,
+    phase: Phase,
+}
+
+/// Where a [`Switch`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// No switch in progress.
+    Off,
+    /// The first delay: silent at the old rate.
+    Silent,
+    /// The second delay: silent at the new rate.
+    Switched,
+}
+
+impl Switch {
+    /// No switch in progress.
+    pub(super) const OFF: Switch = Switch { index: 0, delay: Duration::ZERO, at: Instant::ZERO, phase: Phase::Off };
+
+    /// Whether the node stays silent for a switch.
+    pub(super) fn active(&self) -> bool {
+        self.phase != Phase::Off
+    }
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -45,7 +68,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
         }
         let rate = self.bit_rate.unwrap_or(0xFF);
-        self.lss = Some(LssSlave::new([0; 4], self.node_id, rate, dict.device.baud_rates));
+        self.lss = LssSlave::new([0; 4], self.node_id, rate, dict.device.baud_rates);
+        self.lss_active = true;
     }
 
     /// The LSS address follows 0x1018 sub 1..4 (after a reset or a new serial number).
@@ -57,7 +81,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         for (part, sub) in address.iter_mut().zip(1u8..) {
             *part = dict.read_u32(image, 0x1018, sub).unwrap_or(0);
         }
-        if let Some(lss) = &mut self.lss {
+        if let Some(lss) = self.lss_mut() {
             lss.set_address(address);
         }
     }
@@ -68,7 +92,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.counters.malformed += 1;
             return;
         };
-        let Some(lss) = &mut self.lss else { return };
+        let Some(lss) = self.lss_mut() else { return };
         match lss.on_request(request) {
             LssAction::None => {}
             LssAction::Answer(bytes) => {
@@ -78,7 +102,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let delay = Duration::from_millis(u64::from(delay_ms));
                 // Frames queued at the old rate are dropped: they would leave at the new one.
                 self.txq.clear();
-                self.switch = Some(Switch { index, delay, at: now + delay, switched: false });
+                self.switch = Switch { index, delay, at: now + delay, phase: Phase::Silent };
             }
             LssAction::Store { node_id, bit_rate } => {
                 let dict = self.od.dictionary();
@@ -94,23 +118,30 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Runs the bit-rate switch; returns its next deadline.
     pub(super) fn process_switch(&mut self, now: Instant) -> Option<Instant> {
-        let mut sw = self.switch?;
-        if now < sw.at {
-            return Some(sw.at);
+        let sw = &mut self.switch;
+        match sw.phase {
+            Phase::Off => return None,
+            _ if now < sw.at => return Some(sw.at),
+            Phase::Switched => {
+                sw.phase = Phase::Off;
+                return None;
+            }
+            Phase::Silent => {}
         }
-        if sw.switched {
-            self.switch = None;
-            return None;
-        }
-        sw.switched = true;
+        sw.phase = Phase::Switched;
         sw.at = now + sw.delay;
-        self.switch = Some(sw);
-        self.bit_rate = Some(sw.index);
-        self.bit_rate_request = Some(sw.index);
-        if let Some(lss) = &mut self.lss {
+        let (index, at) = (sw.index, sw.at);
+        self.bit_rate = Some(index);
+        self.bit_rate_request = Some(index);
+        if let Some(lss) = self.lss_mut() {
             lss.bit_rate_switched();
         }
-        Some(sw.at)
+        Some(at)
+    }
+
+    /// The LSS slave, once power-on found the dictionary says `LSS_Supported`.
+    pub(super) fn lss_mut(&mut self) -> Option<&mut LssSlave> {
+        self.lss_active.then_some(&mut self.lss)
     }
 
     /// The bit-rate table index (CiA 305: 0 = 1 Mbit/s … 8 = 10 kbit/s) the
@@ -147,6 +178,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The LSS state, if the node supports LSS.
     pub fn lss_mode(&self) -> Option<Mode> {
-        self.lss.as_ref().map(LssSlave::mode)
+        self.lss_active.then(|| self.lss.mode())
     }
 }

@@ -58,6 +58,14 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
 
 impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {
     fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
+    /// A producer with no COB-ID (silent) and no active error, until
+    /// [`EmcyProducer::configure`].
+    pub const fn new() -> Self {
         EmcyProducer {
             cob_id: None,
             inhibit: Duration::ZERO,
@@ -71,9 +79,7 @@ impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {
             lost_errors: false,
         }
     }
-}
 
-impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Applies 0x1014 (bit 31 = EMCY off) and 0x1015 (100 µs units).
     pub fn configure(&mut self, cob_id: u32, inhibit_100us: u16) {
         self.cob_id = (cob_id & 0x8000_0000 == 0).then_some((cob_id & 0x7FF) as u16);

@@ -15,6 +15,11 @@ pub struct Producer {
 }
 
 impl Producer {
+    /// A producer that is off until [`Producer::configure`].
+    pub const fn new() -> Self {
+        Producer { period: Duration::ZERO, next: None }
+    }
+
     /// Sets the period from 0x1017 (ms; 0 = off) and restarts it from `now`.
     pub fn configure(&mut self, period_ms: u16, now: Instant) {
         self.period = Duration::from_millis(u64::from(period_ms));
@@ -49,15 +54,25 @@ impl Producer {
 }
 
 /// One monitored node of 0x1016.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Monitor {
     node_id: u8,
     time: Duration,
     /// Deadline once armed by the first heartbeat.
     deadline: Option<Instant>,
-    state: Option<NmtState>,
+    /// The last state reported, valid once `heard`. Not an `Option`: its
+    /// `None` would not be all-zero bits, and a node built in a `const`
+    /// must be, to lie in `.bss` (see `Node::unpowered`).
+    state: NmtState,
+    heard: bool,
     /// It missed its heartbeat and has not been heard of since.
     timed_out: bool,
+}
+
+impl Monitor {
+    /// An entry that monitors nothing.
+    const OFF: Monitor =
+        Monitor { node_id: 0, time: Duration::ZERO, deadline: None, state: NmtState::BootUp, heard: false, timed_out: false };
 }
 
 /// A heartbeat consumer event.
@@ -78,11 +93,16 @@ pub struct Consumer<const N: usize> {
 
 impl<const N: usize> Default for Consumer<N> {
     fn default() -> Self {
-        Consumer { monitors: [Monitor::default(); N] }
+        Self::new()
     }
 }
 
 impl<const N: usize> Consumer<N> {
+    /// A consumer that monitors nothing until [`Consumer::configure`].
+    pub const fn new() -> Self {
+        Consumer { monitors: [Monitor::OFF; N] }
+    }
+
     /// Sets entry `i` (0-based) from its 0x1016 value: node-id in bits 16..23,
     /// time in ms in bits 0..15. A zero node-id or time disables it; the
     /// entry waits for the first heartbeat again.
@@ -90,13 +110,7 @@ impl<const N: usize> Consumer<N> {
         if let Some(m) = self.monitors.get_mut(i) {
             let node_id = (value >> 16) as u8;
             let ms = value as u16;
-            *m = Monitor {
-                node_id: if ms == 0 { 0 } else { node_id },
-                time: Duration::from_millis(u64::from(ms)),
-                deadline: None,
-                state: None,
-                timed_out: false,
-            };
+            *m = Monitor { node_id: if ms == 0 { 0 } else { node_id }, time: Duration::from_millis(u64::from(ms)), ..Monitor::OFF };
         }
     }
 
@@ -116,7 +130,8 @@ impl<const N: usize> Consumer<N> {
         for m in self.monitors.iter_mut().filter(|m| m.node_id == node_id && m.node_id != 0) {
             // A boot-up message means the producer restarted: monitoring starts over.
             m.deadline = if state == NmtState::BootUp { None } else { Some(now + m.time) };
-            m.state = Some(state);
+            m.state = state;
+            m.heard = true;
             back |= core::mem::take(&mut m.timed_out);
         }
         back
@@ -142,7 +157,7 @@ impl<const N: usize> Consumer<N> {
 
     /// The last state `node_id` reported.
     pub fn state_of(&self, node_id: u8) -> Option<NmtState> {
-        self.monitors.iter().find(|m| m.node_id == node_id).and_then(|m| m.state)
+        self.monitors.iter().find(|m| m.node_id == node_id).and_then(|m| m.heard.then_some(m.state))
     }
 }
 
@@ -158,6 +173,11 @@ pub struct Guarding {
 }
 
 impl Guarding {
+    /// Guarding with no life time until [`Guarding::configure`].
+    pub const fn new() -> Self {
+        Guarding { toggle: false, lifetime: Duration::ZERO, deadline: None, expired: false }
+    }
+
     /// Sets the life time from 0x100C (guard time, ms) × 0x100D (factor).
     /// Life guarding starts with the first guarding request.
     pub fn configure(&mut self, guard_time_ms: u16, factor: u8) {
@@ -233,6 +253,7 @@ mod tests {
     fn consumer_is_armed_by_the_first_heartbeat() {
         let mut c = Consumer::<2>::default();
         c.configure(0, 0x0003_0064); // node 3, 100 ms
+        assert_eq!(c.state_of(3), None, "not heard of yet");
         assert_eq!(c.poll(ms(1000)), None, "not armed before the first heartbeat");
         c.on_heartbeat(3, NmtState::Operational, ms(1000));
         assert_eq!(c.poll(ms(1099)), None);

@@ -74,7 +74,7 @@ impl LssSlave {
     /// `node_id` (0xFF = unconfigured), running at bit-rate table index
     /// `bit_rate`, able to run at the rates in `supported_rates` (bit n =
     /// table index n, as `DeviceInfo::baud_rates`).
-    pub fn new(address: [u32; 4], node_id: u8, bit_rate: u8, supported_rates: u16) -> Self {
+    pub const fn new(address: [u32; 4], node_id: u8, bit_rate: u8, supported_rates: u16) -> Self {
         LssSlave {
             mode: Mode::Waiting,
             address,

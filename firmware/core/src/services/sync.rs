@@ -91,15 +91,7 @@ pub struct SyncService {
 
 impl Default for SyncService {
     fn default() -> Self {
-        SyncService {
-            cob_id: SYNC_COB_ID,
-            producer: false,
-            period: Duration::ZERO,
-            window: Duration::ZERO,
-            overflow: 0,
-            counter: 0,
-            next: None,
-        }
+        SyncService { cob_id: SYNC_COB_ID, ..Self::UNCONFIGURED }
     }
 }
 
@@ -114,6 +106,12 @@ const fn clamp_overflow(value: u8) -> u8 {
 }
 
 impl SyncService {
+    /// Before the first [`SyncService::configure`]: COB-ID 0, NMT's, which
+    /// never reaches a SYNC consumer, and all zero bits, so that a node built
+    /// in a `const` lies in `.bss` ([`SyncService::default`] is a consumer on 0x80).
+    pub const UNCONFIGURED: SyncService =
+        SyncService { cob_id: 0, producer: false, period: Duration::ZERO, window: Duration::ZERO, overflow: 0, counter: 0, next: None };
+
     /// Reads 0x1005, 0x1006, 0x1007 and 0x1019 (after reset communication).
     /// Objects the dictionary lacks read as the defaults: COB-ID 0x80,
     /// consumer only, no period, no window, no counter. The producer

@@ -36,6 +36,14 @@ impl Config {
 /// RAM standing in for flash.
 pub type Storage<const REGION: usize> = RamStorage<REGION>;
 
+/// What the storage gets at start-up: nothing (RAM).
+pub use super::ram_storage::StorageHandle;
+
+/// The storage before start-up, for the image's node built in a `const`.
+pub const fn unattached_storage<const REGION: usize>() -> Storage<REGION> {
+    RamStorage::new()
+}
+
 /// QEMU's lm3s6965evb clocks the core (and SysTick) at 12 MHz.
 const CORE_HZ: u32 = 12_000_000;
 /// The CANopen task's executor runs in the handler of GPIO port A, which
@@ -52,18 +60,19 @@ static TX_READY: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 /// Stack used until the node was built and powered on ([`stack::high_water`]).
 static STARTUP_STACK: AtomicUsize = AtomicUsize::new(0);
 
-/// Boots the image: `make_node` builds the node on `Storage` at the given
-/// time; then the CANopen task runs on the interrupt executor, the SLCAN
-/// transmitter and the image's `application` task in thread mode.
-pub fn run<const REGION: usize, A>(
+/// Boots the image: `make_node` hands the node's storage its
+/// [`StorageHandle`] and powers the node on at the given time; then the
+/// CANopen task runs on the interrupt executor, the SLCAN transmitter and
+/// the image's `application` task in thread mode.
+pub fn run<A>(
     _config: Config,
-    make_node: impl FnOnce(Storage<REGION>, Instant) -> Started,
+    make_node: impl FnOnce(StorageHandle, Instant) -> Started,
     application: Result<SpawnToken<A>, SpawnError>,
 ) -> ! {
     stack::paint();
     let Some(mut core) = cortex_m::Peripherals::take() else { fail() };
     systick::init(core.SYST, CORE_HZ);
-    SHARED.install(Started::build(make_node, RamStorage::default, app::now()).node);
+    SHARED.install(Started::build(make_node, || (), app::now()).node);
     STARTUP_STACK.store(stack::high_water(), Ordering::Relaxed);
     // What building the node took is free again: painted anew, the exit
     // frame reports what the running image needs.

@@ -28,7 +28,7 @@ mod stack;
 mod uart;
 
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
-pub use board::{Config, Storage, run};
+pub use board::{Config, Storage, StorageHandle, run, unattached_storage};
 
 use canopen_core::frame::CanFrame;
 use embedded_can::Frame;

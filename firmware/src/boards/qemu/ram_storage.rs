@@ -5,19 +5,35 @@
 
 use canopen_core::storage::{Storage, StorageError};
 
+/// What [`RamStorage::attach`] takes: nothing.
+pub type StorageHandle = ();
+
 /// Two regions of `REGION` bytes.
+///
+/// The bytes are kept inverted, so that an erased region (0xFF) is zero
+/// bits: the image's node, which holds its storage, is built in a `const`
+/// and lies in `.bss` rather than taking twice `REGION` bytes of flash.
 #[derive(Clone, Debug)]
 pub struct RamStorage<const REGION: usize> {
+    /// Each byte's complement.
     regions: [[u8; REGION]; 2],
 }
 
 impl<const REGION: usize> Default for RamStorage<REGION> {
     fn default() -> Self {
-        RamStorage { regions: [[0xFF; REGION]; 2] }
+        Self::new()
     }
 }
 
 impl<const REGION: usize> RamStorage<REGION> {
+    /// Both regions erased.
+    pub const fn new() -> Self {
+        RamStorage { regions: [[0; REGION]; 2] }
+    }
+
+    /// RAM needs no handle: the same start-up as the boards with a flash controller.
+    pub fn attach(&mut self, _handle: StorageHandle) {}
+
     fn span(&mut self, region: u8, offset: usize, len: usize) -> Result<&mut [u8], StorageError> {
         let region = self.regions.get_mut(usize::from(region)).ok_or(StorageError::OutOfRange)?;
         region.get_mut(offset..offset.checked_add(len).ok_or(StorageError::OutOfRange)?).ok_or(StorageError::OutOfRange)
@@ -30,19 +46,22 @@ impl<const REGION: usize> Storage for RamStorage<REGION> {
     }
 
     fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
-        buf.copy_from_slice(self.span(region, offset, buf.len())?);
+        let cells = self.span(region, offset, buf.len())?;
+        for (byte, cell) in buf.iter_mut().zip(cells.iter()) {
+            *byte = !cell;
+        }
         Ok(())
     }
 
     fn erase(&mut self, region: u8) -> Result<(), StorageError> {
-        self.span(region, 0, REGION)?.fill(0xFF);
+        self.span(region, 0, REGION)?.fill(0);
         Ok(())
     }
 
     fn write(&mut self, region: u8, offset: usize, data: &[u8]) -> Result<(), StorageError> {
-        // Like flash: programming can only clear bits.
+        // Like flash: programming can only clear bits (set them in the complement).
         for (cell, &byte) in self.span(region, offset, data.len())?.iter_mut().zip(data) {
-            *cell &= byte;
+            *cell |= !byte;
         }
         Ok(())
     }
@@ -53,6 +72,16 @@ mod tests {
     extern crate std;
 
     use super::*;
+
+    #[test]
+    fn a_new_storage_is_erased() {
+        let mut s = RamStorage::<8>::new();
+        let mut buf = [0u8; 8];
+        s.read(0, 0, &mut buf).unwrap();
+        assert_eq!(buf, [0xFF; 8]);
+        s.read(1, 0, &mut buf).unwrap();
+        assert_eq!(buf, [0xFF; 8]);
+    }
 
     #[test]
     fn behaves_like_flash() {

@@ -36,6 +36,21 @@ impl Config {
 /// Two regions of flash pages.
 pub type Storage<const REGION: usize> = FlashStorage<Flash, REGION>;
 
+/// What the storage needs at start-up: the constrained FLASH peripheral.
+pub type StorageHandle = stm32f1xx_hal::flash::Parts;
+
+/// The storage before start-up, for the image's node built in a `const`.
+pub const fn unattached_storage<const REGION: usize>() -> Storage<REGION> {
+    FlashStorage::new(Flash::UNATTACHED)
+}
+
+impl<const REGION: usize> Storage<REGION> {
+    /// Hands the storage its flash controller (before the node's power-on).
+    pub fn attach(&mut self, handle: StorageHandle) {
+        self.flash_mut().attach(handle);
+    }
+}
+
 /// The Blue Pill's crystal.
 const HSE_HZ: u32 = 8_000_000;
 /// Core clock (the STM32F103 maximum).
@@ -59,14 +74,15 @@ const CAN_IRQS: [Interrupt; 3] = [Interrupt::USB_HP_CAN_TX, Interrupt::USB_LP_CA
 static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
 
-/// Boots the image: clocks, time, storage, then `make_node` builds the
-/// node, and the CAN controller starts at the node's bit rate: the one LSS
-/// stored, else the device's start-up one, else `config.bit_rate_kbps`.
+/// Boots the image: clocks, time, then `make_node` hands the node's
+/// storage the flash controller and powers the node on, and the CAN
+/// controller starts at the node's bit rate: the one LSS stored, else the
+/// device's start-up one, else `config.bit_rate_kbps`.
 /// The CANopen task runs on the interrupt executor, the image's
 /// `application` task in thread mode.
-pub fn run<const REGION: usize, A>(
+pub fn run<A>(
     config: Config,
-    make_node: impl FnOnce(Storage<REGION>, Instant) -> Started,
+    make_node: impl FnOnce(StorageHandle, Instant) -> Started,
     application: Result<SpawnToken<A>, SpawnError>,
 ) -> ! {
     let (Some(dp), Some(mut core)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
@@ -76,7 +92,7 @@ pub fn run<const REGION: usize, A>(
     let clocks = rcc::Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz()).pclk1(PCLK1_HZ.Hz());
     let mut rcc = dp.RCC.freeze(clocks, &mut flash.acr);
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
-    let started = Started::build(make_node, || FlashStorage::new(Flash::new(flash)), app::now());
+    let started = Started::build(make_node, || flash, app::now());
     let index = started.node.bit_rate().or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
     SHARED.install(started.node);
 

@@ -42,9 +42,14 @@ impl<F: HalfWordFlash, const REGION: usize> FlashStorage<F, REGION> {
     const FITS: () = assert!(REGION <= REGION_BYTES, "the RAM image does not fit a storage region");
 
     /// Storage on `flash`.
-    pub fn new(flash: F) -> Self {
+    pub const fn new(flash: F) -> Self {
         let () = Self::FITS;
         FlashStorage { flash, pending: None }
+    }
+
+    /// The flash, for a board that hands it its peripheral at start-up.
+    pub fn flash_mut(&mut self) -> &mut F {
+        &mut self.flash
     }
 
     fn address(region: u8, offset: usize, len: usize) -> Result<u32, StorageError> {

@@ -33,4 +33,4 @@ mod can;
 mod flash;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
-pub use board::{Config, Storage, run};
+pub use board::{Config, Storage, StorageHandle, run, unattached_storage};

@@ -37,13 +37,14 @@ pub enum Direction {
 /// Where the bytes of one mapped object live.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Source {
+    /// A dummy entry (RPDO only): the bytes are skipped. First, so that
+    /// [`Mapping::EMPTY`] is all zero bits (a node built in a `const` lies in `.bss`).
+    #[default]
+    Dummy,
     /// At this offset of the RAM image.
     Ram(u16),
     /// At this offset of the dictionary's ROM blob (a `const` object, TPDO only).
     Rom(u16),
-    /// A dummy entry (RPDO only): the bytes are skipped.
-    #[default]
-    Dummy,
 }
 
 /// One resolved mapping entry.

@@ -82,11 +82,20 @@ pub struct CommParams {
 
 impl Default for CommParams {
     fn default() -> Self {
-        CommParams { cob_id: COB_ID_INVALID, transmission_type: 254, inhibit_time_100us: 0, event_timer_ms: 0, sync_start: 0 }
+        Self::DEFAULT
     }
 }
 
 impl CommParams {
+    /// A record without sub-indices: an invalid PDO of type 254.
+    pub const DEFAULT: CommParams =
+        CommParams { cob_id: COB_ID_INVALID, transmission_type: 254, inhibit_time_100us: 0, event_timer_ms: 0, sync_start: 0 };
+
+    /// All zero bits, for the PDOs before their first configuration (which
+    /// their empty mapping keeps silent); not a record anyone wrote.
+    const UNCONFIGURED: CommParams =
+        CommParams { cob_id: 0, transmission_type: 0, inhibit_time_100us: 0, event_timer_ms: 0, sync_start: 0 };
+
     /// Reads record `index` (0x1400+n or 0x1800+n): two binary searches. A
     /// record without sub 1 is an invalid PDO; a missing sub 2 reads as 254.
     pub fn read(dict: &Dictionary, image: &[u8], index: u16) -> CommParams {
@@ -258,6 +267,15 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
 }
 
 impl<const R: usize, const T: usize> Pdos<R, T> {
+    /// The PDOs before their first [`Pdos::configure`]: stopped, with empty
+    /// mappings, and all zero bits, so that a node built in a `const` lies in
+    /// `.bss` ([`Pdos::default`] is invalid PDOs as a dictionary without
+    /// PDO records gives). The `rx_ids` of 0 are NMT's COB-ID, which never
+    /// reaches the PDOs, and they do not listen before `configure` anyway.
+    pub const fn unconfigured() -> Self {
+        Pdos { rpdos: [Rpdo::UNCONFIGURED; R], rx_ids: [0; R], tpdos: [Tpdo::UNCONFIGURED; T], window_end: None, operational: false }
+    }
+
     /// Reads every PDO parameter from the image (after reset communication).
     /// The PDOs stop until [`Pdos::enter_operational`]. `Err` names the first
     /// mapping that did not resolve; every PDO is configured either way.

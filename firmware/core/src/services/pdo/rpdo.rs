@@ -18,7 +18,7 @@ use crate::time::{Duration, Instant};
 use crate::wire::emcy::code;
 
 /// The state of one RPDO.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rpdo {
     pub(super) params: CommParams,
     /// `None` when the configured mapping does not resolve (the RPDO is silent).
@@ -35,7 +35,25 @@ pub struct Rpdo {
     length_error: Option<u16>,
 }
 
+impl Default for Rpdo {
+    fn default() -> Self {
+        Rpdo { params: CommParams::DEFAULT, mapping: None, ..Rpdo::UNCONFIGURED }
+    }
+}
+
 impl Rpdo {
+    /// Before the first [`super::Pdos::configure`]: all zero bits (a node
+    /// built in a `const` lies in `.bss`), an empty mapping, so it listens to nothing.
+    pub(super) const UNCONFIGURED: Rpdo = Rpdo {
+        params: CommParams::UNCONFIGURED,
+        mapping: Some(Mapping::EMPTY),
+        cob_id_writable: false,
+        buffered: None,
+        timeout_at: None,
+        timed_out: false,
+        length_error: None,
+    };
+
     /// The cached communication parameters.
     pub fn params(&self) -> &CommParams {
         &self.params

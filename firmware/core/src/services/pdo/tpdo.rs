@@ -36,8 +36,9 @@ pub struct Tpdo {
     pub(super) mapping: Option<Mapping>,
     /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
     pub(super) cob_id_writable: bool,
-    /// Whether a change of the mapped data is an event (types 0, 254, 255).
-    change_detection: bool,
+    /// Whether a change of the mapped data is *not* an event (types 0, 254,
+    /// 255): negated so that [`Tpdo::UNCONFIGURED`] is all zero bits.
+    no_change_detection: bool,
     /// The last data sent, for change detection.
     last: [u8; MAX_LEN],
     sent: bool,
@@ -62,24 +63,30 @@ pub struct Tpdo {
 
 impl Default for Tpdo {
     fn default() -> Self {
-        Tpdo {
-            params: CommParams::default(),
-            mapping: None,
-            cob_id_writable: false,
-            change_detection: true,
-            last: [0; MAX_LEN],
-            sent: false,
-            event: false,
-            change_pending: false,
-            blocked: false,
-            inhibit_until: None,
-            event_at: None,
-            sync_count: 0,
-            await_start: false,
-            sample: None,
-            pending_sync: None,
-        }
+        Tpdo { params: CommParams::DEFAULT, mapping: None, ..Tpdo::UNCONFIGURED }
     }
+}
+
+impl Tpdo {
+    /// Before the first [`super::Pdos::configure`]: all zero bits (a node
+    /// built in a `const` lies in `.bss`), an empty mapping, so it sends nothing.
+    pub(super) const UNCONFIGURED: Tpdo = Tpdo {
+        params: CommParams::UNCONFIGURED,
+        mapping: Some(Mapping::EMPTY),
+        cob_id_writable: false,
+        no_change_detection: false,
+        last: [0; MAX_LEN],
+        sent: false,
+        event: false,
+        change_pending: false,
+        blocked: false,
+        inhibit_until: None,
+        event_at: None,
+        sync_count: 0,
+        await_start: false,
+        sample: None,
+        pending_sync: None,
+    };
 }
 
 impl Tpdo {
@@ -102,7 +109,7 @@ impl Tpdo {
 
     /// Whether a change of the mapped data counts as an event.
     pub fn change_detection(&self) -> bool {
-        self.change_detection
+        !self.no_change_detection
     }
 
     fn is_event_driven(&self) -> bool {
@@ -117,7 +124,7 @@ impl Tpdo {
     }
 
     pub(super) fn set_change_detection(&mut self, on: bool) {
-        self.change_detection = on;
+        self.no_change_detection = !on;
     }
 
     /// Starts over, as on entering Operational: nothing counts as sent, so
@@ -189,7 +196,7 @@ impl Tpdo {
             }
         }
         let (buf, len) = self.build(dict, image);
-        self.change_pending = self.change_detection && self.changed(&buf, len);
+        self.change_pending = !self.no_change_detection && self.changed(&buf, len);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.params.inhibit_time();
@@ -219,7 +226,7 @@ impl Tpdo {
         let send = match self.params.transmission_type {
             0 => {
                 let (buf, len) = self.build(dict, image);
-                (self.event || (self.change_detection && self.changed(&buf, len))).then_some((buf, len))
+                (self.event || (!self.no_change_detection && self.changed(&buf, len))).then_some((buf, len))
             }
             n @ 1..=240 => {
                 if self.await_start {

@@ -37,6 +37,8 @@ mod segmented;
 #[cfg(test)]
 mod tests;
 
+use core::num::NonZeroU64;
+
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{Duration, Instant};
@@ -101,7 +103,10 @@ struct Channel {
     /// being answered; kept here rather than in each state so that every
     /// abort names it without the caller passing it.
     mux: Mux,
-    timeout: Duration,
+    /// In microseconds; `None`: [`DEFAULT_TIMEOUT`]. So that a new server
+    /// is all zero bits (a node built in a `const` lies in `.bss`) in the
+    /// size of a `Duration`.
+    timeout_us: Option<NonZeroU64>,
     /// When the transfer in progress times out (meaningless when idle).
     deadline: Instant,
     /// A response `tx` refused, sent again by the next `poll`.
@@ -111,7 +116,12 @@ struct Channel {
 
 impl Channel {
     const NEW: Channel =
-        Channel { state: State::Idle, mux: Mux::NONE, timeout: DEFAULT_TIMEOUT, deadline: Instant::ZERO, pending: None, malformed: 0 };
+        Channel { state: State::Idle, mux: Mux::NONE, timeout_us: None, deadline: Instant::ZERO, pending: None, malformed: 0 };
+
+    /// A zero timeout is kept as 1 µs, the shortest one this representation holds.
+    fn set_timeout(&mut self, timeout: Duration) {
+        self.timeout_us = Some(NonZeroU64::new(timeout.as_micros()).unwrap_or(NonZeroU64::MIN));
+    }
 
     /// Whether this server holds the download buffer (a segmented or block
     /// download in progress).
@@ -164,7 +174,7 @@ impl<const N: usize> SdoServer<N> {
     /// room to send its own) before it aborts with 0x05040000. Takes effect
     /// from the next frame.
     pub fn set_timeout(&mut self, timeout: Duration) {
-        self.channel.timeout = timeout;
+        self.channel.set_timeout(timeout);
     }
 
     /// Whether no transfer is in progress and no response is waiting to be sent.
@@ -236,7 +246,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     /// Sets the timeout of server `i` (0-based: 0 is 0x1200), as [`SdoServer::set_timeout`].
     pub fn set_timeout(&mut self, i: usize, timeout: Duration) {
         if let Some(c) = self.channels.get_mut(i) {
-            c.timeout = timeout;
+            c.set_timeout(timeout);
         }
     }
 
@@ -323,7 +333,7 @@ impl Channel {
     /// The transfer in progress times out `timeout` after `now`.
     #[allow(clippy::arithmetic_side_effects)] // Instant + Duration saturates (time.rs).
     fn restart_timer(&mut self, now: Instant) {
-        self.deadline = now + self.timeout;
+        self.deadline = now + self.timeout_us.map_or(DEFAULT_TIMEOUT, |us| Duration::from_micros(us.get()));
     }
 
     fn count_malformed(&mut self) {

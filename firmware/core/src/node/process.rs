@@ -1,0 +1,135 @@
+//! The node's timers and queued work ([`Node::process`]): boot-up,
+//! heartbeat and guarding, SDO timeouts, the SYNC producer, TPDOs and EMCY.
+
+use crate::frame::CanFrame;
+use crate::od::ObjectDictionary;
+use crate::services::heartbeat::ConsumerEvent;
+use crate::services::nmt::State;
+use crate::storage::Storage;
+use crate::time::{Instant, earliest};
+use crate::wire::emcy::code;
+use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtState};
+
+use super::router::Router;
+use super::sinks::{PdoSink, SdoSink};
+use super::{Application, Node};
+
+impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
+    Node<O, A, S, R, T, HB, SDO>
+{
+    /// Runs timers and queued work; returns when it wants to be called again
+    /// (earlier is harmless, later delays heartbeats and timeouts).
+    pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        let switch_deadline = self.process_switch(now);
+        if self.boot_pending {
+            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
+            if self.push(id, &[NmtState::BootUp.code()]) {
+                self.boot_pending = false;
+                // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
+                let auto_start =
+                    self.od.dictionary().read(self.od.image(), 0x1F80, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0;
+                let state = self.nmt.boot_up_done(auto_start);
+                let dict = self.od.dictionary();
+                self.comm.reconfigure(0x1017, dict, self.od.image(), self.node_id, now);
+                self.entered(state, now);
+            }
+        }
+        if self.nmt.state() != State::Initialising && self.comm.heartbeat.poll(now) {
+            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
+            self.push(id, &[self.nmt.state().reported().code()]);
+        }
+        while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {
+            self.communication_error(node_id, now);
+        }
+        if self.comm.guarding.poll(now) {
+            self.communication_error(0, now);
+        }
+        let mut sdo_deadline = None;
+        if self.nmt.state().sdo_allowed() {
+            let Node { od, app, storage, comm, sdo, txq, node_id, sdo_cob_ids, .. } = self;
+            let dict = od.dictionary();
+            let mut router = Router {
+                dict,
+                image: od.image_mut(),
+                app,
+                comm,
+                storage,
+                node_id: *node_id,
+                now,
+                sdo_changed: false,
+                consumed_changed: false,
+            };
+            for (i, ids) in sdo_cob_ids.iter().enumerate() {
+                if let Some((_, tx)) = *ids {
+                    let deadline = sdo.poll(i, now, &mut router, &mut SdoSink { txq, cob_id: tx });
+                    sdo_deadline = earliest(sdo_deadline, deadline);
+                }
+            }
+            let consumed_changed = router.consumed_changed;
+            if router.sdo_changed {
+                self.configure_sdo();
+            }
+            if consumed_changed {
+                self.refresh_acceptance();
+            }
+        }
+        if self.nmt.state().sdo_allowed() {
+            // The SYNC producer (0x1005 bit 30): the node runs its own synchronous PDOs too.
+            if let Some(event) = self.comm.sync.poll(now) {
+                let mut buf = [0u8; 1];
+                let cob_id = self.comm.sync.cob_id();
+                let data = event.message().emit(&mut buf);
+                if CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f)) {
+                    self.synchronise(now, &event);
+                }
+            }
+        }
+        let mut pdo_deadline = None;
+        if self.nmt.state().pdo_allowed() {
+            // Building every TPDO to detect changes costs more than anything
+            // else here: do it only when the image may have changed or a PDO
+            // timer is due, not for every heartbeat of another node.
+            let due = self.touched || self.comm.pdos.deadline().is_some_and(|d| d <= now);
+            if due {
+                self.touched = false;
+                let Node { od, app, comm, txq, .. } = self;
+                let dict = od.dictionary();
+                let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+                pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
+            } else {
+                pdo_deadline = self.comm.pdos.deadline();
+            }
+        }
+        if self.txq.overflows() != self.reported_overflows {
+            self.reported_overflows = self.txq.overflows();
+            self.comm.emcy.signal(code::CAN_OVERRUN, [0; 5]);
+        }
+        if self.nmt.state().sdo_allowed() {
+            // EMCY off: errors still reach the error register and the history.
+            while let Some(e) = self.comm.emcy.take_unsent() {
+                let dict = self.od.dictionary();
+                self.comm.record(dict, self.od.image_mut(), &e);
+                self.touched = true;
+            }
+            while self.txq.free() > 0 {
+                let Some((cob_id, e)) = self.comm.emcy.poll(now) else { break };
+                let dict = self.od.dictionary();
+                self.comm.record(dict, self.od.image_mut(), &e);
+                self.touched = true;
+                self.push(cob_id, &e.emit());
+            }
+        }
+        let deadlines = [
+            self.boot_pending.then_some(now),
+            self.comm.heartbeat.deadline(),
+            self.comm.consumers.deadline(),
+            self.comm.guarding.deadline(),
+            if self.nmt.state().sdo_allowed() { self.comm.emcy.deadline() } else { None },
+            sdo_deadline,
+            pdo_deadline,
+            if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
+            switch_deadline,
+        ];
+        deadlines.into_iter().fold(None, earliest)
+    }
+}

@@ -1,0 +1,69 @@
+//! NMT state changes: commands from the master, the effect of entering a
+//! state on the services, and communication errors and their 0x1029
+//! error behaviour.
+
+use crate::od::ObjectDictionary;
+use crate::services::nmt::{State, Transition};
+use crate::storage::Storage;
+use crate::time::Instant;
+use crate::wire::emcy::code;
+use crate::wire::nmt::NmtRequest;
+
+use super::{Application, Comm, ErrorBehaviour, Node};
+
+impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
+    Node<O, A, S, R, T, HB, SDO>
+{
+    pub(super) fn nmt_command(&mut self, request: NmtRequest, now: Instant) {
+        match self.nmt.on_command(request, self.node_id) {
+            Transition::None => {}
+            Transition::Entered(state) => self.entered(state, now),
+            Transition::ResetApplication => self.reset_application(now),
+            Transition::ResetCommunication => self.reset_communication(now),
+        }
+    }
+
+    pub(super) fn entered(&mut self, state: State, now: Instant) {
+        self.touched = true;
+        if state.pdo_allowed() {
+            self.comm.pdos.enter_operational(now);
+        } else {
+            self.comm.pdos.stop();
+        }
+        if !state.sdo_allowed() {
+            // Stopped: a transfer in progress ends without a frame (CiA 301 table 64).
+            self.sdo.reset_all();
+        }
+        self.app.on_state(state);
+    }
+
+    /// A communication error (heartbeat or life guarding): EMCY 0x8130 and
+    /// 0x1029. Every heartbeat event sends its EMCY (with the node-ID, 0 for
+    /// life guarding), also while an earlier one is still active.
+    pub(super) fn communication_error(&mut self, node: u8, now: Instant) {
+        let info = [node, 0, 0, 0, 0];
+        if !self.comm.emcy.raise(code::HEARTBEAT, info) {
+            self.comm.emcy.signal(code::HEARTBEAT, info);
+        }
+        let dict = self.od.dictionary();
+        let next = match Comm::<R, T, HB>::error_behaviour(dict, self.od.image()) {
+            ErrorBehaviour::PreOperational if self.nmt.state() == State::Operational => Some(State::PreOperational),
+            ErrorBehaviour::Stopped => Some(State::Stopped),
+            _ => None,
+        };
+        if let Some(s) = next
+            && let Transition::Entered(s) = self.nmt.enter(s)
+        {
+            self.entered(s, now);
+        }
+    }
+
+    /// A silent node was heard again, or the master resumed guarding: once
+    /// no monitored node and no life guarding is in error, 0x8130 clears
+    /// (and the last error cleared sends "error reset").
+    pub(super) fn communication_recovered(&mut self) {
+        if !self.comm.consumers.any_timed_out() && !self.comm.guarding.is_expired() {
+            self.comm.emcy.clear(code::HEARTBEAT);
+        }
+    }
+}
