@@ -5,7 +5,7 @@
 //! heartbeat consumer's producer (0x1016) and LSS (CiA 305).
 //!
 //! The list is rebuilt where those objects take effect (reset
-//! communication, an SDO request) from the services' own state, so it
+//! communication, an SDO download to one of those objects) from the services' own state, so it
 //! holds exactly what [`Node::on_frame`] reacts to: a frame whose
 //! (COB-ID, remote) pair is not on it changes nothing in the node but its
 //! receive counters. It does not follow the NMT state (a Stopped node still
