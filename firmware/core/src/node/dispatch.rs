@@ -135,13 +135,23 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
-        self.touched = true;
         let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
         let dict = od.dictionary();
-        let mut router =
-            Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, sdo_changed: false, consumed_changed: false };
+        let mut router = Router {
+            dict,
+            image: od.image_mut(),
+            app,
+            comm,
+            storage,
+            node_id: *node_id,
+            now,
+            sdo_changed: false,
+            consumed_changed: false,
+            written: false,
+        };
         let mut sink = SdoSink { txq, cob_id: tx_cob };
         sdo.on_request(i, now, data, &mut router, &mut sink);
+        self.touched |= router.written;
         let consumed_changed = router.consumed_changed;
         if router.sdo_changed {
             self.configure_sdo();

@@ -45,7 +45,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.communication_error(0, now);
         }
         let mut sdo_deadline = None;
-        if self.nmt.state().sdo_allowed() {
+        // Idle servers have no timer and nothing to send: skip building the router for them.
+        if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let Node { od, app, storage, comm, sdo, txq, node_id, sdo_cob_ids, .. } = self;
             let dict = od.dictionary();
             let mut router = Router {
@@ -58,6 +59,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 now,
                 sdo_changed: false,
                 consumed_changed: false,
+                written: false,
             };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
@@ -65,6 +67,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }
+            self.touched |= router.written;
             let consumed_changed = router.consumed_changed;
             if router.sdo_changed {
                 self.configure_sdo();
@@ -89,15 +92,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // Building every TPDO to detect changes costs more than anything
             // else here: do it only when the image may have changed or a PDO
             // timer is due, not for every heartbeat of another node.
-            let due = self.touched || self.comm.pdos.deadline().is_some_and(|d| d <= now);
-            if due {
+            // The deadline is worked out once: when nothing is due it is the answer.
+            pdo_deadline = if self.touched { None } else { self.comm.pdos.deadline() };
+            if self.touched || pdo_deadline.is_some_and(|d| d <= now) {
                 self.touched = false;
                 let Node { od, app, comm, txq, .. } = self;
                 let dict = od.dictionary();
                 let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
                 pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
-            } else {
-                pdo_deadline = self.comm.pdos.deadline();
             }
         }
         if self.txq.overflows() != self.reported_overflows {

@@ -27,6 +27,10 @@ pub(crate) struct Router<'a, A: Application, const R: usize, const T: usize, con
     /// the node rebuilds its acceptance list (not after every SDO request,
     /// which would cost more than the request itself).
     pub consumed_changed: bool,
+    /// A write was attempted (it may have changed the image even if it
+    /// failed): the TPDOs look for changed data at the next process, which
+    /// an upload alone does not need.
+    pub written: bool,
 }
 
 fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {
@@ -174,6 +178,7 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> ObjectAcce
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.written = true;
         let result = self.route_write(index, sub, data);
         // SYNC, TIME, heartbeat consumers, SDO servers, RPDOs and TPDOs (RTR).
         if result.is_ok() && matches!(index, 0x1005 | 0x1012 | 0x1016 | 0x1200..=0x127F | 0x1400..=0x15FF | 0x1800..=0x19FF) {

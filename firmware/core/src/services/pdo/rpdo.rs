@@ -98,8 +98,8 @@ impl Rpdo {
 
     /// An RPDO frame. `window_open`: the synchronous window since the last SYNC is still open.
     pub(super) fn on_frame(&mut self, n: usize, now: Instant, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) {
-        let Some(mapping) = self.mapping else { return };
-        let len = mapping.len();
+        // By reference: copying the mapping out costs more than the frame's own work.
+        let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return };
         let error = match data.len().cmp(&len) {
             core::cmp::Ordering::Less => Some(code::PDO_LENGTH),
             core::cmp::Ordering::Greater => Some(code::PDO_LENGTH_EXCEEDED),
@@ -132,14 +132,16 @@ impl Rpdo {
                 self.buffered = Some(buf);
             }
         } else {
-            mapping.apply(image, data);
+            if let Some(mapping) = &self.mapping {
+                mapping.apply(image, data);
+            }
             out.event(PdoEvent::Received(n));
         }
     }
 
     /// A SYNC: buffered synchronous data goes into the dictionary.
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
-        if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping) {
+        if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping.as_ref()) {
             mapping.apply(image, &data);
             out.event(PdoEvent::Received(n));
         }

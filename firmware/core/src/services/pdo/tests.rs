@@ -937,3 +937,22 @@ fn restricted_can_ids_follow_cia301() {
     let restricted = [0x000u16, 0x001, 0x07F, 0x101, 0x180, 0x581, 0x5FF, 0x601, 0x67F, 0x6E0, 0x6FF, 0x701, 0x77F, 0x780, 0x7FF];
     assert!(restricted.iter().all(|&id| is_restricted_can_id(id)));
 }
+
+#[test]
+fn the_deadline_a_poll_settled_follows_every_later_change() {
+    // `deadline` answers from the last poll until a PDO changes: each change must be seen.
+    let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo(0x1400, 5, &50u16.to_le_bytes()), Ok(()));
+    node.poll(ms(1));
+    node.frames();
+    assert_eq!(node.poll(ms(2)), None);
+    assert!(node.rx(ms(1000), 0x201, &[0, 0, 0]));
+    node.events();
+    assert_eq!(node.pdos.deadline(), Some(ms(1050)), "an RPDO arms its timer");
+    assert_eq!(node.poll(ms(1010)), Some(ms(1050)));
+    assert_eq!(node.sdo(0x1400, 5, &80u16.to_le_bytes()), Ok(()));
+    assert_eq!(node.pdos.deadline(), None, "a new event timer waits for the next RPDO");
+    assert_eq!(node.poll(ms(1020)), None);
+    node.pdos.enter_operational(ms(1030));
+    assert_eq!(node.pdos.deadline(), Some(Instant::ZERO), "event-driven TPDOs go out at once");
+}

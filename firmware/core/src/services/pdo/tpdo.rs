@@ -164,12 +164,15 @@ impl Tpdo {
 
     fn build(&self, dict: &Dictionary, image: &[u8]) -> ([u8; MAX_LEN], usize) {
         let mut buf = [0u8; MAX_LEN];
-        let len = self.mapping.map_or(0, |m| m.build(dict, image, &mut buf));
+        let len = self.mapping.as_ref().map_or(0, |m| m.build(dict, image, &mut buf));
         (buf, len)
     }
 
-    fn changed(&self, buf: &[u8; MAX_LEN], len: usize) -> bool {
-        !self.sent || self.last.get(..len) != buf.get(..len)
+    /// Whole arrays compared (no slice compare call): `build` zeroes the
+    /// bytes past the mapping's length, and `last` was built with the same
+    /// mapping while `sent` holds (a new mapping restarts the PDO).
+    fn changed(&self, buf: &[u8; MAX_LEN]) -> bool {
+        !self.sent || self.last != *buf
     }
 
     /// Hands a frame to the queue; remembers it when accepted.
@@ -196,7 +199,7 @@ impl Tpdo {
             }
         }
         let (buf, len) = self.build(dict, image);
-        self.change_pending = !self.no_change_detection && self.changed(&buf, len);
+        self.change_pending = !self.no_change_detection && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.params.inhibit_time();
@@ -211,7 +214,7 @@ impl Tpdo {
         if self.is_event_driven() {
             self.service_event(now, cob_id, dict, image, tx);
         } else if let Some(buf) = self.pending_sync {
-            let len = self.mapping.map_or(0, |m| m.len());
+            let len = self.mapping.as_ref().map_or(0, Mapping::len);
             if window_end.is_some_and(|end| now > end) || self.transmit(cob_id, buf, len, tx) {
                 self.pending_sync = None;
             }
@@ -226,7 +229,7 @@ impl Tpdo {
         let send = match self.params.transmission_type {
             0 => {
                 let (buf, len) = self.build(dict, image);
-                (self.event || (!self.no_change_detection && self.changed(&buf, len))).then_some((buf, len))
+                (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
             }
             n @ 1..=240 => {
                 if self.await_start {

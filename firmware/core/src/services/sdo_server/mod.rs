@@ -255,6 +255,12 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
         self.channels.get(i).is_none_or(Channel::is_idle)
     }
 
+    /// Whether no server has a transfer in progress or a response waiting:
+    /// then polling them has nothing to do and no deadline to give.
+    pub fn all_idle(&self) -> bool {
+        self.channels.iter().all(Channel::is_idle)
+    }
+
     /// Drops the transfer of server `i` without a frame (its COB-ID became invalid).
     pub fn reset(&mut self, i: usize) {
         if let Some(c) = self.channels.get_mut(i) {

@@ -252,3 +252,34 @@ fn a_further_server_costs_its_protocol_state_only() {
     assert!(core::mem::size_of::<Channel>() <= 80, "{}", core::mem::size_of::<Channel>());
     assert_eq!(core::mem::size_of::<SdoServers<896, 4>>(), 896 + 4 * core::mem::size_of::<Channel>());
 }
+
+#[test]
+fn servers_are_all_idle_only_without_a_transfer_or_a_waiting_response() {
+    // What `Node::process` relies on to skip polling the servers.
+    let mut servers = SdoServers::<128, 2>::new();
+    let mut image = DEFAULTS;
+    let mut bus = Bus { frames: VecDeque::new(), room: usize::MAX };
+    assert!(servers.all_idle());
+    // A segmented upload on the second server: busy until its timeout abort.
+    {
+        let mut od = App { od: DictionaryAccess { dictionary: &DICT, image: &mut image }, read_error: None, write_error: None };
+        servers.on_request(1, ms(0), &hex("40 10 20 00 00 00 00 00"), &mut od, &mut bus);
+    }
+    assert_eq!(bus.frames.pop_front().map(|f| show(&f)), Some(show(&hex("41 10 20 00 78 00 00 00"))));
+    assert!(!servers.all_idle());
+    assert!(servers.is_idle(0));
+    // With no room in the queue the abort waits in the server, which stays busy.
+    bus.room = 0;
+    {
+        let mut od = App { od: DictionaryAccess { dictionary: &DICT, image: &mut image }, read_error: None, write_error: None };
+        assert_eq!(servers.poll(1, ms(1000), &mut od, &mut bus), Some(ms(1000)));
+    }
+    assert!(!servers.all_idle());
+    bus.room = 1;
+    {
+        let mut od = App { od: DictionaryAccess { dictionary: &DICT, image: &mut image }, read_error: None, write_error: None };
+        assert_eq!(servers.poll(1, ms(1000), &mut od, &mut bus), None);
+    }
+    assert_eq!(bus.frames.pop_front().map(|f| show(&f)), Some(show(&hex("80 10 20 00 00 00 04 05"))));
+    assert!(servers.all_idle());
+}
