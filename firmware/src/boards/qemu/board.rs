@@ -215,8 +215,15 @@ fn exit(status: u8) -> ! {
     let (startup, running, size) = (STARTUP_STACK.load(Ordering::Relaxed), stack::high_water(), stack::size());
     defmt::info!("stack: start-up {=usize} bytes, running {=usize} bytes of {=usize}", startup, running, size);
     if let Ok(mut stderr) = hio::hstderr() {
-        let mut line = [0u8; super::STACK_REPORT_LEN];
-        let n = super::stack_report(&mut line, startup, running, size);
+        let mut line = [0u8; super::EXIT_REPORT_LEN];
+        let report = super::ExitReport {
+            startup_stack: startup,
+            running_stack: running,
+            stack_size: size,
+            rejected: SHARED.rejected_frames() as usize,
+            lost: SHARED.rx_overruns() as usize,
+        };
+        let n = super::exit_report(&mut line, &report);
         let _ = stderr.write_all(line.get(..n).unwrap_or(&[]));
     }
     debug::exit(if status == 0 { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });

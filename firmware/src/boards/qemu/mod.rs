@@ -14,7 +14,8 @@
 //! semihosting: status 0 exits with code 0, anything else with code 1. A
 //! panic or HardFault exits with code 1. CANopen uses 11-bit identifiers
 //! only, so this frame never means anything to a node. Before exiting, the
-//! board reports the stack it used ([`stack_report`], on QEMU's stderr):
+//! board reports the stack it used and the frames its filter dropped
+//! ([`exit_report`], on QEMU's stderr):
 //! `stack.rs` paints the stack at start-up and finds the high-water mark.
 
 pub mod ram_storage;
@@ -45,15 +46,29 @@ pub fn exit_request(frame: &CanFrame) -> Option<u8> {
     is_exit.then(|| data.get(EXIT_MAGIC.len()).copied().unwrap_or(0))
 }
 
-/// Bytes of the longest [`stack_report`] line.
-pub const STACK_REPORT_LEN: usize = 103;
+/// What the board reports when the exit frame arrives ([`exit_report`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ExitReport {
+    /// Bytes of stack used at most until the node was powered on.
+    pub startup_stack: usize,
+    /// Bytes of stack used at most from then to the exit frame.
+    pub running_stack: usize,
+    /// Bytes of stack available (painted).
+    pub stack_size: usize,
+    /// Frames the software acceptance filter dropped.
+    pub rejected: usize,
+    /// Received frames lost (channel full).
+    pub lost: usize,
+}
 
-/// The line the exit frame writes to QEMU's stderr (and `cargo xtask smoke`
-/// reads): `stack: start-up S bytes, running R bytes of N` and a newline,
-/// in bytes of stack used at most until the node was powered on (`S`), from
-/// then to the exit frame (`R`), and available (`N`). Returns its length; no
-/// `core::fmt`, which the image does not otherwise link.
-pub fn stack_report(out: &mut [u8; STACK_REPORT_LEN], startup: usize, running: usize, size: usize) -> usize {
+/// Bytes of the longest [`exit_report`] line.
+pub const EXIT_REPORT_LEN: usize = 175;
+
+/// The line the exit frame writes to QEMU's stderr (and the smoke tests
+/// read without a defmt decoder): `stack: start-up S bytes, running R bytes
+/// of N; filter rejected F frames, lost L` and a newline. Returns its
+/// length; no `core::fmt`, which the image does not otherwise link.
+pub fn exit_report(out: &mut [u8; EXIT_REPORT_LEN], report: &ExitReport) -> usize {
     let mut n = 0;
     let mut put = |bytes: &[u8]| {
         for &b in bytes {
@@ -63,7 +78,14 @@ pub fn stack_report(out: &mut [u8; STACK_REPORT_LEN], startup: usize, running: u
             }
         }
     };
-    for (text, value) in [("stack: start-up ", startup), (" bytes, running ", running), (" bytes of ", size)] {
+    let fields = [
+        ("stack: start-up ", report.startup_stack),
+        (" bytes, running ", report.running_stack),
+        (" bytes of ", report.stack_size),
+        ("; filter rejected ", report.rejected),
+        (" frames, lost ", report.lost),
+    ];
+    for (text, value) in fields {
         put(text.as_bytes());
         let mut digits = [0u8; 20];
         let mut i = digits.len();
@@ -91,15 +113,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn stack_report_is_one_plain_line() {
-        let mut out = [0u8; STACK_REPORT_LEN];
-        let n = stack_report(&mut out, 5_712, 0, 64_876);
-        assert_eq!(&out[..n], b"stack: start-up 5712 bytes, running 0 bytes of 64876\n");
+    fn exit_report_is_one_plain_line() {
+        let mut out = [0u8; EXIT_REPORT_LEN];
+        let report = ExitReport { startup_stack: 5_712, running_stack: 0, stack_size: 64_876, rejected: 3, lost: 0 };
+        let n = exit_report(&mut out, &report);
+        assert_eq!(&out[..n], b"stack: start-up 5712 bytes, running 0 bytes of 64876; filter rejected 3 frames, lost 0\n");
         // The longest figures still fit whole.
-        let n = stack_report(&mut out, usize::MAX, usize::MAX, usize::MAX);
         let max = usize::MAX;
-        assert_eq!(&out[..n], std::format!("stack: start-up {max} bytes, running {max} bytes of {max}\n").as_bytes());
-        assert_eq!(n, STACK_REPORT_LEN);
+        let report = ExitReport { startup_stack: max, running_stack: max, stack_size: max, rejected: max, lost: max };
+        let n = exit_report(&mut out, &report);
+        let expected =
+            std::format!("stack: start-up {max} bytes, running {max} bytes of {max}; filter rejected {max} frames, lost {max}\n");
+        assert_eq!(&out[..n], expected.as_bytes());
+        assert_eq!(n, EXIT_REPORT_LEN);
     }
 
     #[test]
