@@ -12,7 +12,7 @@ use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtState};
 use crate::wire::time_stamp::TimeOfDay;
 
-use super::router::Router;
+use super::router::{Router, SdoEffects};
 use super::sinks::{PdoSink, SdoSink};
 use super::{Application, Node};
 
@@ -137,26 +137,21 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
         let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
         let dict = od.dictionary();
-        let mut router = Router {
-            dict,
-            image: od.image_mut(),
-            app,
-            comm,
-            storage,
-            node_id: *node_id,
-            now,
-            sdo_changed: false,
-            consumed_changed: false,
-            written: false,
-        };
+        let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, effects: SdoEffects::default() };
         let mut sink = SdoSink { txq, cob_id: tx_cob };
         sdo.on_request(i, now, data, &mut router, &mut sink);
-        self.touched |= router.written;
-        let consumed_changed = router.consumed_changed;
-        if router.sdo_changed {
+        let effects = router.effects;
+        self.follow_sdo(effects);
+    }
+
+    /// Follows up what SDO accesses changed beyond their objects (from a
+    /// request, or from a server's timers in `process`).
+    pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
+        self.touched |= effects.written;
+        if effects.sdo_changed {
             self.configure_sdo();
         }
-        if consumed_changed {
+        if effects.consumed_changed {
             self.refresh_acceptance();
         }
     }

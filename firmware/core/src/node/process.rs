@@ -10,7 +10,7 @@ use crate::time::{Instant, earliest};
 use crate::wire::emcy::code;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtState};
 
-use super::router::Router;
+use super::router::{Router, SdoEffects};
 use super::sinks::{PdoSink, SdoSink};
 use super::{Application, Node};
 
@@ -49,32 +49,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let Node { od, app, storage, comm, sdo, txq, node_id, sdo_cob_ids, .. } = self;
             let dict = od.dictionary();
-            let mut router = Router {
-                dict,
-                image: od.image_mut(),
-                app,
-                comm,
-                storage,
-                node_id: *node_id,
-                now,
-                sdo_changed: false,
-                consumed_changed: false,
-                written: false,
-            };
+            let mut router =
+                Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, effects: SdoEffects::default() };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
                     let deadline = sdo.poll(i, now, &mut router, &mut SdoSink { txq, cob_id: tx });
                     sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }
-            self.touched |= router.written;
-            let consumed_changed = router.consumed_changed;
-            if router.sdo_changed {
-                self.configure_sdo();
-            }
-            if consumed_changed {
-                self.refresh_acceptance();
-            }
+            let effects = router.effects;
+            self.follow_sdo(effects);
         }
         if self.nmt.state().sdo_allowed() {
             // The SYNC producer (0x1005 bit 30): the node runs its own synchronous PDOs too.

@@ -21,6 +21,14 @@ pub(crate) struct Router<'a, A: Application, const R: usize, const T: usize, con
     pub storage: &'a mut dyn Storage,
     pub node_id: u8,
     pub now: Instant,
+    /// What the accesses so far mean for the rest of the node.
+    pub effects: SdoEffects,
+}
+
+/// What SDO accesses changed beyond the objects themselves, for the node to
+/// follow up once the [`Router`] is gone.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct SdoEffects {
     /// An SDO server parameter (0x1200–0x127F) was written: the node reads them again.
     pub sdo_changed: bool,
     /// An object that decides which COB-IDs the node consumes was written:
@@ -134,7 +142,7 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Router<'_,
             _ => {}
         }
         self.plain().write(index, sub, data)?;
-        self.sdo_changed = true;
+        self.effects.sdo_changed = true;
         Ok(())
     }
 }
@@ -178,11 +186,11 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> ObjectAcce
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.written = true;
+        self.effects.written = true;
         let result = self.route_write(index, sub, data);
         // SYNC, TIME, heartbeat consumers, SDO servers, RPDOs and TPDOs (RTR).
         if result.is_ok() && matches!(index, 0x1005 | 0x1012 | 0x1016 | 0x1200..=0x127F | 0x1400..=0x15FF | 0x1800..=0x19FF) {
-            self.consumed_changed = true;
+            self.effects.consumed_changed = true;
         }
         result
     }
