@@ -6,6 +6,8 @@
 
 use std::path::Path;
 
+use od_gen::build::fail;
+
 /// Node guarding needs 0x100C/0x100D, which CANopenNode's profile leaves
 /// out (CANopenNode adds them when `CO_CONFIG_NODE_GUARDING` is on); the
 /// ds301 image has every service, so they are appended to its EDS.
@@ -27,24 +29,8 @@ DefaultValue=0
 PDOMapping=0
 ";
 
-/// Reports od-gen's diagnostics as build errors and stops.
-fn fail(diagnostics: &str) -> ! {
-    for line in diagnostics.lines() {
-        println!("cargo::error={line}");
-    }
-    std::process::exit(1);
-}
-
 fn main() {
-    let out = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
-    let out = Path::new(&out);
-
-    let interop = Path::new("../../tests/eds/interop.eds");
-    println!("cargo::rerun-if-changed={}", interop.display());
-    match od_gen::generate_path(interop, od_gen::Options { strict: true }) {
-        Ok(code) => std::fs::write(out.join("interop.rs"), code).expect("OUT_DIR is writable"),
-        Err(diagnostics) => fail(&diagnostics),
-    }
+    od_gen::build::generate_strict(Path::new("../../tests/eds/interop.eds"), "interop");
 
     // Not strict: the file has empty vendor fields and `1:00PM` times (warnings).
     let ds301 = Path::new("../../tests/eds-corpus/canopennode__DS301_profile.eds");
@@ -60,7 +46,7 @@ fn main() {
         fail(&diagnostics.to_string());
     }
     match od_gen::codegen::generate(&eds, &diagnostics.file) {
-        Ok(code) => std::fs::write(out.join("ds301.rs"), code).expect("OUT_DIR is writable"),
+        Ok(code) => od_gen::build::write_out("ds301", &code),
         Err(e) => fail(&format!("canopennode__DS301_profile.eds: error: {}", e.0)),
     }
 }

@@ -2,9 +2,11 @@
 //!
 //! The pipeline is [`lexer`] (INI text) → [`eds`] (the CiA 306 model) →
 //! [`validate`] (consistency rules) → [`codegen`] (Rust for `canopen-core`),
-//! with [`export`] and [`doc`] as other outputs. Every stage reports through
+//! with [`export`] and [`doc`] as other outputs; [`build`] serves the
+//! `build.rs` scripts that compile dictionaries into crates. Every stage reports through
 //! [`diag::Diagnostics`], which prints `file:line: error: ...`.
 
+pub mod build;
 pub mod codegen;
 pub mod diag;
 pub mod doc;

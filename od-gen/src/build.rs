@@ -1,0 +1,31 @@
+//! For `build.rs` scripts: generate a dictionary module into `OUT_DIR`, and
+//! turn od-gen's diagnostics into cargo build errors.
+
+use std::path::Path;
+
+use crate::Options;
+
+/// Generates the module for `eds` into `OUT_DIR/<module>.rs`, strictly (any
+/// warning fails the build), and asks cargo to rerun when the file changes.
+/// Stops the build with the diagnostics if the file is not valid.
+pub fn generate_strict(eds: &Path, module: &str) {
+    println!("cargo::rerun-if-changed={}", eds.display());
+    match crate::generate_path(eds, Options { strict: true }) {
+        Ok(code) => write_out(module, &code),
+        Err(diagnostics) => fail(&diagnostics),
+    }
+}
+
+/// Writes `code` to `OUT_DIR/<module>.rs`.
+pub fn write_out(module: &str, code: &str) {
+    let out = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
+    std::fs::write(Path::new(&out).join(format!("{module}.rs")), code).expect("OUT_DIR is writable");
+}
+
+/// Reports rendered diagnostics as cargo build errors, one per line, and stops.
+pub fn fail(diagnostics: &str) -> ! {
+    for line in diagnostics.lines() {
+        println!("cargo::error={line}");
+    }
+    std::process::exit(1);
+}
