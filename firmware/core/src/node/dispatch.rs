@@ -146,6 +146,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Follows up what SDO accesses changed beyond their objects (from a
     /// request, or from a server's timers in `process`).
+    #[inline(always)]
     pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
         self.touched |= effects.written;
         if effects.sdo_changed {

@@ -116,9 +116,17 @@ impl Channel {
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
     ) {
-        let Some((size, buf_len)) = self.admit_download(size, buf, od, tx) else { return };
+        let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
-        let blksize = Self::download_blksize(buf_len, 0);
+        if let Err(code) = od.download_check(mux.index, mux.sub, size) {
+            return self.abort(code, tx);
+        }
+        // Another server holds the shared buffer for a download of its own.
+        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
+        if size.is_some_and(|s| s > buf.len()) {
+            return self.abort(AbortCode::OutOfMemory, tx);
+        }
+        let blksize = Self::download_blksize(buf.len(), 0);
         self.state =
             State::BlockDownload(Download { crc_on: crc, size, blksize, ackseq: 0, gap: false, total: 0, crc: 0, complete: false });
         let response = BlockDownloadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, blksize };

@@ -399,29 +399,6 @@ impl Channel {
         self.abort(code, tx);
     }
 
-    /// Admits a segmented or block download of `size` bytes (when the
-    /// client gave it): the object must take it, and the shared buffer must
-    /// be this server's (another server may hold it for a download of its
-    /// own) and large enough. Returns the size and the buffer's length, or
-    /// aborts and returns `None`.
-    fn admit_download(
-        &mut self,
-        size: Option<u32>,
-        buf: Buffer<'_>,
-        od: &mut dyn ObjectAccess,
-        tx: &mut dyn SdoTx,
-    ) -> Option<(Option<usize>, usize)> {
-        let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
-        let code = match (od.download_check(self.mux.index, self.mux.sub, size), buf) {
-            (Err(code), _) => code,
-            (Ok(()), None) => AbortCode::NoResource,
-            (Ok(()), Some(buf)) if size.is_some_and(|s| s > buf.len()) => AbortCode::OutOfMemory,
-            (Ok(()), Some(buf)) => return Some((size, buf.len())),
-        };
-        self.abort(code, tx);
-        None
-    }
-
     /// Ends the transfer (or refuses the initiate request) of `self.mux`
     /// and sends an abort frame.
     // Out of line: some forty call sites.

@@ -43,8 +43,16 @@ impl Channel {
     /// Initiate SDO download with e = 0: checks the entry and the size
     /// before any segment arrives.
     pub(super) fn start_segmented_download(&mut self, size: Option<u32>, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let Some((size, _)) = self.admit_download(size, buf, od, tx) else { return };
+        let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
+        if let Err(code) = od.download_check(mux.index, mux.sub, size) {
+            return self.abort(code, tx);
+        }
+        // Another server holds the shared buffer for a download of its own.
+        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
+        if size.is_some_and(|s| s > buf.len()) {
+            return self.abort(AbortCode::OutOfMemory, tx);
+        }
         self.state = State::SegmentedDownload(Download { toggle: false, len: 0, size });
         self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx);
     }
