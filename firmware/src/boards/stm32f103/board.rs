@@ -33,15 +33,15 @@ impl Config {
     pub const DEFAULT: Config = Config { bit_rate_kbps: 250 };
 }
 
-/// Two regions of flash pages.
-pub type Storage<const REGION: usize> = FlashStorage<Flash, REGION>;
+/// Two regions of flash pages, each holding a set of `REGION` bytes.
+pub type Storage<const REGION: usize> = FlashStorage<Flash<REGION>>;
 
 /// What the storage needs at start-up: the constrained FLASH peripheral.
 pub type StorageHandle = stm32f1xx_hal::flash::Parts;
 
 /// The storage before start-up, for the image's node built in a `const`.
 pub const fn unattached_storage<const REGION: usize>() -> Storage<REGION> {
-    FlashStorage::new(Flash::UNATTACHED)
+    FlashStorage::new(Flash::<REGION>::UNATTACHED)
 }
 
 impl<const REGION: usize> Storage<REGION> {

@@ -5,20 +5,26 @@
 use canopen_core::storage::StorageError;
 use stm32f1xx_hal::flash::{FlashSize, FlashWriter, Parts, SectorSize};
 
-use super::flash_storage::{HalfWordFlash, PAGE};
+use super::flash_storage::{HalfWordFlash, Layout};
 
-/// The flash controller of an STM32F103C8 (64 KiB, 1 KiB pages).
+/// The flash controller of an STM32F103C8 (64 KiB, 1 KiB pages), holding
+/// parameter sets of `REGION` bytes.
 ///
 /// Built in a `const` without the peripheral (the image's node, which holds
 /// its storage, lies in `.bss`) and given it at start-up ([`Flash::attach`]);
 /// until then every access fails.
-pub struct Flash {
+pub struct Flash<const REGION: usize> {
     parts: Option<Parts>,
 }
 
-impl Flash {
+impl<const REGION: usize> Flash<REGION> {
+    const LAYOUT: Layout = Layout::stm32f103c8(REGION);
+
     /// No flash controller yet.
-    pub const UNATTACHED: Flash = Flash { parts: None };
+    pub const UNATTACHED: Self = {
+        let _ = Self::LAYOUT;
+        Flash { parts: None }
+    };
 
     /// Takes the constrained FLASH peripheral (after the clocks are set).
     pub fn attach(&mut self, parts: Parts) {
@@ -30,9 +36,13 @@ impl Flash {
     }
 }
 
-impl HalfWordFlash for Flash {
+impl<const REGION: usize> HalfWordFlash for Flash<REGION> {
+    fn layout(&self) -> Layout {
+        Self::LAYOUT
+    }
+
     fn erase_page(&mut self, offset: u32) -> Result<(), StorageError> {
-        self.writer()?.erase(offset, PAGE).map_err(|_| StorageError::Failed)
+        self.writer()?.page_erase(offset).map_err(|_| StorageError::Failed)
     }
 
     fn program(&mut self, offset: u32, half_word: u16) -> Result<(), StorageError> {
@@ -40,6 +50,7 @@ impl HalfWordFlash for Flash {
     }
 
     fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), StorageError> {
+        // The HAL rejects an odd offset (`FlashWriter::read`): callers read whole half-words.
         let writer = self.writer()?;
         let bytes = writer.read(offset, buf.len()).map_err(|_| StorageError::OutOfRange)?;
         buf.copy_from_slice(bytes);

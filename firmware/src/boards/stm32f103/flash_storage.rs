@@ -1,49 +1,89 @@
-//! The core's two-region [`Storage`] on STM32F1 flash: each region is two
-//! 1 KiB pages at the end of the 64 KiB flash, so the 60 KiB below them
-//! stay for the program (the root `memory.x`). Two pages, because the
-//! largest RAM image (b maXX 4400, 1090 bytes) plus the store header does
-//! not fit one.
+//! The core's two-region [`Storage`] on STM32F1 flash.
 //!
-//! STM32F1 flash is programmed a half-word at a time, and a half-word can be
-//! programmed only once after an erase (RM0008 §3.3.3, PM0075 §2.3.3). The
-//! core writes byte ranges of any alignment, front to back, then the header
-//! at offset 0; an odd trailing byte therefore waits here until the next
-//! byte of the same half-word arrives, or is programmed with 0xFF as its
-//! partner before anything else happens.
+//! STM32F1 flash is read, programmed and erased by the rules of RM0008 §3.3
+//! and PM0075 §2.3, which stm32f1xx-hal's `FlashWriter` enforces and the
+//! host model (`hal_host::storage`) checks in every test:
+//! - reads start at an even offset (the HAL rejects an odd one); this
+//!   storage reads whole half-words and picks the bytes asked for;
+//! - a half-word is programmed once after an erase (programming one that
+//!   is not 0xFFFF fails with PGERR), at an even offset;
+//! - erase works on whole pages: 1 KiB on low- and medium-density parts
+//!   (the F103C8), 2 KiB on high-density and connectivity-line parts.
+//!
+//! The core writes byte ranges of any alignment, front to back, then the
+//! header at offset 0; an odd trailing byte therefore waits here until the
+//! next byte of the same half-word arrives, or is programmed with 0xFF as
+//! its partner before anything else happens. A store erases only the pages
+//! the set occupies ([`Layout::region`] rounded up to pages), so every
+//! image but the b maXX 4400's erases one page per store, not two.
 
 use canopen_core::storage::{Storage, StorageError};
 
-/// Bytes of a flash page (STM32F103 medium density).
-pub const PAGE: usize = 1024;
-/// Bytes of a region.
-pub const REGION_BYTES: usize = 2 * PAGE;
-/// Offset of region 0 from the start of flash: the last 4 KiB of 64 KiB.
-pub const STORAGE_OFFSET: u32 = 60 * 1024;
+/// Where the two regions lie in a flash and how that flash erases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Offset of region 0 from the start of flash (a page boundary).
+    pub base: u32,
+    /// Bytes of an erase page.
+    pub page: u32,
+    /// Bytes from region 0 to region 1 (whole pages).
+    pub stride: u32,
+    /// Bytes of a region a parameter set may use (at most `stride`).
+    pub region: u32,
+}
+
+impl Layout {
+    /// STM32F103C8 (64 KiB, 1 KiB pages): region 0 at 60 KiB, region 1 at
+    /// 62 KiB, so the 60 KiB below stay for the program (the root
+    /// `memory.x`); each region has two pages because the largest RAM image
+    /// (b maXX 4400, 1090 bytes) plus the store header does not fit one.
+    /// `region` is what the image's set needs (`boards::region_size`).
+    pub const fn stm32f103c8(region: usize) -> Layout {
+        let layout = Layout { base: 60 * 1024, page: 1024, stride: 2 * 1024, region: region as u32 };
+        assert!(layout.is_valid(), "the RAM image does not fit a storage region");
+        layout
+    }
+
+    /// Whether the regions start on pages, do not overlap and hold `region` bytes.
+    pub const fn is_valid(&self) -> bool {
+        self.page >= 2
+            && self.page.is_multiple_of(2)
+            && self.base.is_multiple_of(self.page)
+            && self.stride.is_multiple_of(self.page)
+            && self.region <= self.stride
+            && self.region.is_multiple_of(2)
+    }
+
+    /// Pages a store erases: those the region's `region` bytes occupy.
+    pub const fn pages_per_set(&self) -> u32 {
+        self.region.div_ceil(self.page)
+    }
+}
 
 /// Half-word flash as the chip offers it; offsets count from the start of
-/// flash.
+/// flash. Each call follows the chip's rules; a call that breaks one fails.
 pub trait HalfWordFlash {
-    /// Erases the page holding `offset`.
+    /// Where the regions are and how large a page is.
+    fn layout(&self) -> Layout;
+    /// Erases the page starting at `offset` (a multiple of the page size).
     fn erase_page(&mut self, offset: u32) -> Result<(), StorageError>;
     /// Programs the erased half-word at the even `offset`.
     fn program(&mut self, offset: u32, half_word: u16) -> Result<(), StorageError>;
-    /// Reads `buf.len()` bytes at `offset`.
+    /// Reads whole half-words: `buf.len()` (even) bytes at the even `offset`.
     fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), StorageError>;
 }
 
-/// Two regions of `REGION` bytes (at most [`REGION_BYTES`]) on `F`.
-pub struct FlashStorage<F, const REGION: usize> {
+/// Two regions (see [`Layout`]) on `F`.
+#[derive(Clone, Debug)]
+pub struct FlashStorage<F> {
     flash: F,
     /// A byte at an even offset whose partner has not been written yet.
     pending: Option<(u32, u8)>,
 }
 
-impl<F: HalfWordFlash, const REGION: usize> FlashStorage<F, REGION> {
-    const FITS: () = assert!(REGION <= REGION_BYTES, "the RAM image does not fit a storage region");
-
+impl<F: HalfWordFlash> FlashStorage<F> {
     /// Storage on `flash`.
     pub const fn new(flash: F) -> Self {
-        let () = Self::FITS;
         FlashStorage { flash, pending: None }
     }
 
@@ -52,12 +92,18 @@ impl<F: HalfWordFlash, const REGION: usize> FlashStorage<F, REGION> {
         &mut self.flash
     }
 
-    fn address(region: u8, offset: usize, len: usize) -> Result<u32, StorageError> {
+    /// The flash.
+    pub fn flash(&self) -> &F {
+        &self.flash
+    }
+
+    fn address(&self, region: u8, offset: usize, len: usize) -> Result<u32, StorageError> {
+        let layout = self.flash.layout();
         let end = offset.checked_add(len).ok_or(StorageError::OutOfRange)?;
-        if region > 1 || end > REGION {
+        if region > 1 || end > layout.region as usize {
             return Err(StorageError::OutOfRange);
         }
-        Ok(STORAGE_OFFSET + u32::from(region) * REGION_BYTES as u32 + offset as u32)
+        Ok(layout.base + u32::from(region) * layout.stride + offset as u32)
     }
 
     /// Programs a waiting odd byte with 0xFF as its partner.
@@ -69,14 +115,28 @@ impl<F: HalfWordFlash, const REGION: usize> FlashStorage<F, REGION> {
     }
 }
 
-impl<F: HalfWordFlash, const REGION: usize> Storage for FlashStorage<F, REGION> {
+impl<F: HalfWordFlash> Storage for FlashStorage<F> {
     fn region_size(&self) -> usize {
-        REGION
+        self.flash.layout().region as usize
     }
 
     fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
-        let at = Self::address(region, offset, buf.len())?;
-        self.flash.read(at, buf)?;
+        let at = self.address(region, offset, buf.len())?;
+        // Whole half-words from the one at or below `at`, in chunks.
+        let end = at + buf.len() as u32;
+        let mut chunk = [0u8; 32];
+        let mut pos = at & !1;
+        while pos < end {
+            let n = (end.next_multiple_of(2) - pos).min(chunk.len() as u32);
+            let half_words = chunk.get_mut(..n as usize).ok_or(StorageError::OutOfRange)?;
+            self.flash.read(pos, half_words)?;
+            for (i, &byte) in half_words.iter().enumerate() {
+                if let Some(slot) = (pos + i as u32).checked_sub(at).and_then(|j| buf.get_mut(j as usize)) {
+                    *slot = byte;
+                }
+            }
+            pos += n;
+        }
         // A byte still waiting for its partner reads as what was written.
         if let Some((p, low)) = self.pending
             && let Some(byte) = p.checked_sub(at).and_then(|i| buf.get_mut(i as usize))
@@ -87,15 +147,16 @@ impl<F: HalfWordFlash, const REGION: usize> Storage for FlashStorage<F, REGION> 
     }
 
     fn erase(&mut self, region: u8) -> Result<(), StorageError> {
-        let start = Self::address(region, 0, REGION)?;
-        if self.pending.is_some_and(|(p, _)| (start..start + REGION_BYTES as u32).contains(&p)) {
+        let layout = self.flash.layout();
+        let start = self.address(region, 0, 0)?;
+        if self.pending.is_some_and(|(p, _)| (start..start + layout.stride).contains(&p)) {
             self.pending = None;
         }
-        (0..REGION_BYTES / PAGE).try_for_each(|page| self.flash.erase_page(start + (page * PAGE) as u32))
+        (0..layout.pages_per_set()).try_for_each(|page| self.flash.erase_page(start + page * layout.page))
     }
 
     fn write(&mut self, region: u8, offset: usize, data: &[u8]) -> Result<(), StorageError> {
-        let mut at = Self::address(region, offset, data.len())?;
+        let mut at = self.address(region, offset, data.len())?;
         let mut bytes = data.iter().copied();
         match self.pending {
             Some((p, low)) if p + 1 == at => {
@@ -128,100 +189,5 @@ impl<F: HalfWordFlash, const REGION: usize> Storage for FlashStorage<F, REGION> 
                 _ => return Ok(()),
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    extern crate std;
-
-    use super::*;
-    use canopen_core::od::{Attr, ObjectDictionary};
-    use canopen_core::services::store::{self, Part, Scope};
-
-    /// Flash with the chip's rules: erase per page, program a half-word once.
-    struct FakeFlash {
-        mem: std::vec::Vec<u8>,
-        programmed: std::vec::Vec<bool>,
-    }
-
-    impl FakeFlash {
-        fn new() -> Self {
-            FakeFlash { mem: std::vec![0xFF; 64 * 1024], programmed: std::vec![false; 32 * 1024] }
-        }
-    }
-
-    impl HalfWordFlash for FakeFlash {
-        fn erase_page(&mut self, offset: u32) -> Result<(), StorageError> {
-            let start = offset as usize / PAGE * PAGE;
-            self.mem[start..start + PAGE].fill(0xFF);
-            self.programmed[start / 2..(start + PAGE) / 2].fill(false);
-            Ok(())
-        }
-
-        fn program(&mut self, offset: u32, half_word: u16) -> Result<(), StorageError> {
-            let at = offset as usize;
-            assert_eq!(at % 2, 0, "misaligned program at {at:#x}");
-            assert!(at >= STORAGE_OFFSET as usize, "program below the storage pages at {at:#x}");
-            assert!(!self.programmed[at / 2], "half-word at {at:#x} programmed twice");
-            self.programmed[at / 2] = true;
-            self.mem[at..at + 2].copy_from_slice(&half_word.to_le_bytes());
-            Ok(())
-        }
-
-        fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), StorageError> {
-            let at = offset as usize;
-            buf.copy_from_slice(&self.mem[at..at + buf.len()]);
-            Ok(())
-        }
-    }
-
-    #[test]
-    fn odd_writes_become_whole_half_words() {
-        let mut s = FlashStorage::<_, 64>::new(FakeFlash::new());
-        s.erase(1).unwrap();
-        s.write(1, 24, &[1, 2, 3]).unwrap();
-        s.write(1, 27, &[4]).unwrap();
-        s.write(1, 28, &[5]).unwrap();
-        s.write(1, 29, &[6, 7]).unwrap();
-        let mut buf = [0u8; 7];
-        s.read(1, 24, &mut buf).unwrap();
-        assert_eq!(buf, [1, 2, 3, 4, 5, 6, 7], "the pending byte reads back");
-        s.write(1, 0, &[9; 24]).unwrap();
-        s.read(1, 24, &mut buf).unwrap();
-        assert_eq!(buf, [1, 2, 3, 4, 5, 6, 7]);
-        let mut head = [0u8; 24];
-        s.read(1, 0, &mut head).unwrap();
-        assert_eq!(head, [9; 24]);
-        // A lone odd byte after a gap.
-        s.write(1, 41, &[0xAB]).unwrap();
-        s.write(1, 50, &[]).unwrap();
-        let mut b = [0u8; 3];
-        s.read(1, 40, &mut b).unwrap();
-        assert_eq!(b, [0xFF, 0xAB, 0xFF]);
-        assert_eq!(s.write(2, 0, &[1]), Err(StorageError::OutOfRange));
-        assert_eq!(s.write(0, 63, &[1, 2]), Err(StorageError::OutOfRange));
-    }
-
-    /// The core's store/restore on this storage, with the largest image.
-    #[test]
-    fn the_core_saves_and_loads_the_largest_image() {
-        use crate::devices::bmaxx4400::od;
-        let mut s = FlashStorage::<_, { crate::boards::region_size(od::RAM_SIZE) }>::new(FakeFlash::new());
-        let mut ram = od::Ram::new(1);
-        let d = ram.dictionary();
-        assert!(s.region_size() <= REGION_BYTES);
-        // Change the last writable value that is not node-id relative.
-        let e = d.entries.iter().rev().find(|e| e.writable() && !e.in_rom() && e.len > 0 && !e.attr.contains(Attr::NODE_ID)).unwrap();
-        ram.image_mut()[e.range().start] ^= 0x5A;
-        for _ in 0..3 {
-            // Alternates regions; every load must find the newest set.
-            store::save(d, ram.image(), 1, &mut s, Scope::All).unwrap();
-        }
-        let mut fresh = od::Ram::new(1);
-        for part in [Part::Communication, Part::Application] {
-            assert!(store::load(d, fresh.image_mut(), 1, &mut s, part));
-        }
-        assert_eq!(fresh.image(), ram.image());
     }
 }
