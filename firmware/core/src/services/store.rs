@@ -23,7 +23,8 @@ pub const SAVE: u32 = 0x6576_6173;
 /// 0x1011 signature "load".
 pub const LOAD: u32 = 0x6461_6F6C;
 
-const MAGIC: u32 = 0x5350_4F43; // "COPS"
+/// The first word of a stored set's header ("COPS"), for boards that log what they find.
+pub const MAGIC: u32 = 0x5350_4F43;
 const VERSION: u16 = 1;
 const HEADER: usize = 24;
 

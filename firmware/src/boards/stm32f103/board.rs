@@ -2,21 +2,27 @@
 #![allow(unsafe_code)]
 
 use canopen_core::node::{AcceptanceList, BitRateControl};
+use canopen_core::services::nmt::State;
+use canopen_core::services::store;
 use canopen_core::time::Instant;
-use cortex_m::peripheral::NVIC;
+use cortex_m::peripheral::{DCB, DWT, NVIC, SCB};
+use cortex_m_rt::{ExceptionFrame, exception};
 use defmt_rtt as _;
 use embassy_executor::{Executor, InterruptExecutor, SpawnError, SpawnToken};
+use embassy_time::Timer;
 use static_cell::StaticCell;
-use stm32f1xx_hal::flash::FlashExt;
+use stm32f1xx_hal::flash::{FlashExt, FlashSize, SectorSize};
 use stm32f1xx_hal::gpio::GpioExt;
 use stm32f1xx_hal::pac::{self, Interrupt, interrupt};
 use stm32f1xx_hal::prelude::*;
 use stm32f1xx_hal::rcc;
+use stm32f1xx_hal::watchdog::IndependentWatchdog;
 
 use super::bit_timing;
 use super::can;
 use super::flash::Flash;
-use super::flash_storage::FlashStorage;
+use super::flash_storage::{FlashStorage, Layout};
+use super::reset_cause::{self, ResetCause};
 use crate::app::{self, Controller, SHARED, Started};
 use crate::boards::systick;
 
@@ -74,12 +80,25 @@ const CAN_IRQS: [Interrupt; 3] = [Interrupt::USB_HP_CAN_TX, Interrupt::USB_LP_CA
 static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
 
-/// Boots the image: clocks, time, then `make_node` hands the node's
-/// storage the flash controller and powers the node on, and the CAN
+/// The independent watchdog's timeout. It must cover the longest time the
+/// CANopen executor may not run: a parameter store (about 120 ms at worst
+/// with interrupts masked, docs/firmware.md "Storage") is the longest. The
+/// LSI clocking it runs at 30–60 kHz, so the HAL's 40 kHz-based 1 s is
+/// 0.67–1.3 s.
+const WATCHDOG_MS: u32 = 1000;
+/// How often the CANopen executor feeds the watchdog.
+const FEED_MS: u64 = 250;
+/// How long the crystal may take to start (datasheet: 2 ms typical).
+const HSE_TIMEOUT_MS: u32 = 100;
+/// The clock the core runs on before the PLL: HSI, 8 MHz.
+const HSI_HZ: u32 = 8_000_000;
+
+/// Boots the image: watchdog, clocks, time, then `make_node` hands the
+/// node's storage the flash controller and powers the node on, and the CAN
 /// controller starts at the node's bit rate: the one LSS stored, else the
 /// device's start-up one, else `config.bit_rate_kbps`.
-/// The CANopen task runs on the interrupt executor, the image's
-/// `application` task in thread mode.
+/// The CANopen task and the watchdog feeder run on the interrupt executor,
+/// the image's `application` task in thread mode.
 pub fn run<A>(
     config: Config,
     make_node: impl FnOnce(StorageHandle, Instant) -> Started,
@@ -88,22 +107,53 @@ pub fn run<A>(
     let (Some(dp), Some(mut core)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         defmt::panic!("peripherals taken twice")
     };
+    let (cause, flags) = reset_cause::take(&dp.RCC);
+    defmt::info!("reset: {} (RCC_CSR flags {=u8:#04x})", cause, flags);
+    // First, so that every later wait ends in a reset at worst. A probe
+    // halting the core stops it too.
+    let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+    watchdog.stop_on_debug(&dp.DBGMCU, true);
+    watchdog.start(WATCHDOG_MS.millis());
+    // The cycle counter bounds the waits for hardware (crystal, bxCAN INAK).
+    core.DCB.enable_trace();
+    core.DWT.enable_cycle_counter();
+    start_crystal(&dp.RCC);
+
     let mut flash = dp.FLASH.constrain();
     let clocks = rcc::Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz()).pclk1(PCLK1_HZ.Hz());
     let mut rcc = dp.RCC.freeze(clocks, &mut flash.acr);
+    defmt::info!("clock: HSE {=u32} Hz, SYSCLK {=u32} Hz, PCLK1 {=u32} Hz", HSE_HZ, rcc.clocks.sysclk().raw(), rcc.clocks.pclk1().raw());
+    // The BTR table is computed for PCLK1_HZ.
+    defmt::assert_eq!(rcc.clocks.pclk1().raw(), PCLK1_HZ);
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
+    log_stored_sets(&mut flash);
     let started = Started::build(make_node, || flash, app::now());
-    let index = started.node.bit_rate().or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
+    let node_id = started.node.node_id();
+    let lss = started.node.bit_rate();
+    let index = lss.or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
     SHARED.install(started.node);
 
-    // 0xFF: no table index (logs only).
-    let index = index.unwrap_or(0xFF);
-    let Some(btr) = BTR.get(usize::from(index)).copied().flatten() else {
-        defmt::panic!("no bit timing for {=u32} kbit/s (index {=u8})", config.bit_rate_kbps, index)
+    let btr = |index: Option<u8>| index.and_then(|i| BTR.get(usize::from(i)).copied().flatten().map(|btr| (i, btr)));
+    // A stored index the board has no timing for (a reserved one) must not
+    // keep the node off the bus: the image's own rate instead.
+    let (index, btr) = match (btr(index), btr(bit_timing::cia305_index(config.bit_rate_kbps))) {
+        (Some(found), _) => found,
+        (None, Some(fallback)) => {
+            defmt::error!("no bit timing for index {=u8}: {=u32} kbit/s instead", index.unwrap_or(0xFF), config.bit_rate_kbps);
+            fallback
+        }
+        (None, None) => defmt::panic!("no bit timing for {=u32} kbit/s", config.bit_rate_kbps),
     };
     let gpioa = dp.GPIOA.split(&mut rcc);
     can::start(dp.CAN.can(dp.USB, (gpioa.pa12, gpioa.pa11), &mut rcc), btr);
-    defmt::info!("CAN at bit rate index {=u8}, BTR {=u32:#010x}", index, btr);
+    let source = if lss.is_some() {
+        "LSS stored"
+    } else if started.bit_rate.is_some() {
+        "device start-up"
+    } else {
+        "image"
+    };
+    defmt::info!("node-id {=u8}, CAN bit rate index {=u8} ({=str}), BTR {=u32:#010x}", node_id, index, source, btr);
 
     for irq in CAN_IRQS.into_iter().chain([EXECUTOR_IRQ]) {
         // SAFETY: priorities are set before the interrupts are unmasked and
@@ -115,10 +165,47 @@ pub fn run<A>(
         // controller set up by `can::start`.
         unsafe { NVIC::unmask(irq) };
     }
-    CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen()));
+    let spawner = CANOPEN_EXECUTOR.start(EXECUTOR_IRQ);
+    spawner.spawn(spawned(canopen()));
+    spawner.spawn(spawned(feed_watchdog(watchdog, cause, flags)));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(spawned(application));
     })
+}
+
+/// Starts the crystal and waits for it at most [`HSE_TIMEOUT_MS`]. One that
+/// does not start leaves the chip here, logged, until the watchdog resets
+/// it for another try (the HAL's own wait would hang silently); the reset
+/// that finally starts it reports EMCY 0x5000.
+fn start_crystal(rcc: &pac::RCC) {
+    rcc.cr().modify(|_, w| w.hseon().set_bit());
+    let start = DWT::cycle_count();
+    while rcc.cr().read().hserdy().bit_is_clear() {
+        if DWT::cycle_count().wrapping_sub(start) > HSE_TIMEOUT_MS * (HSI_HZ / 1000) {
+            defmt::error!("HSE: the 8 MHz crystal did not start in {=u32} ms; off the bus until the watchdog resets", HSE_TIMEOUT_MS);
+            reset_cause::leave(ResetCause::Crystal);
+            loop {
+                cortex_m::asm::wfi();
+            }
+        }
+    }
+}
+
+/// Logs the stored parameter sets the node will look at (header only: the
+/// node checks the CRC when it loads).
+fn log_stored_sets(flash: &mut stm32f1xx_hal::flash::Parts) {
+    let writer = flash.writer(SectorSize::Sz1K, FlashSize::Sz64K);
+    const LAYOUT: Layout = Layout::stm32f103c8(0);
+    for region in 0..2u32 {
+        let at = LAYOUT.base + region * LAYOUT.stride;
+        let header = writer.read(at, 16).ok().and_then(|h| h.try_into().ok()).map(|h: [u8; 16]| h);
+        match header {
+            Some([m0, m1, m2, m3, _, _, _, _, _, _, _, _, s0, s1, s2, s3]) if u32::from_le_bytes([m0, m1, m2, m3]) == store::MAGIC => {
+                defmt::info!("storage: parameter set in region {=u32}, sequence {=u32}", region, u32::from_le_bytes([s0, s1, s2, s3]));
+            }
+            _ => defmt::info!("storage: region {=u32} holds no parameter set", region),
+        }
+    }
 }
 
 fn spawned<T>(token: Result<T, SpawnError>) -> T {
@@ -134,9 +221,13 @@ struct Bxcan;
 impl BitRateControl for Bxcan {
     fn set_bit_rate(&mut self, index: u8) {
         // The LSS slave accepts only the indices the EDS lists, all in the table.
-        if let Some(btr) = BTR.get(usize::from(index)).copied().flatten() {
-            can::set_bit_timing(btr);
-            defmt::info!("LSS: CAN now at bit rate index {=u8}, BTR {=u32:#010x}", index, btr);
+        let Some(btr) = BTR.get(usize::from(index)).copied().flatten() else { return };
+        match can::set_bit_timing(btr, SYSCLK_HZ / 1000 * can::INIT_TIMEOUT_MS) {
+            Ok(()) => defmt::info!("LSS: CAN now at bit rate index {=u8}, BTR {=u32:#010x}", index, btr),
+            Err(()) => defmt::error!(
+                "LSS: bxCAN did not enter initialisation mode in {=u32} ms (bus not idle): bit rate unchanged",
+                can::INIT_TIMEOUT_MS
+            ),
         }
     }
 }
@@ -157,6 +248,43 @@ async fn canopen() -> ! {
     app::run_canopen(&SHARED, &mut Bxcan).await
 }
 
+/// Feeds the watchdog every [`FEED_MS`] from the CANopen task's executor:
+/// while the CANopen task runs in a loop or hangs with interrupts masked,
+/// the executor never gets here and the watchdog resets the chip. Once the
+/// node has sent its boot-up, it reports why the last reset happened (an
+/// EMCY, cleared again a second later; the 0x1003 entry stays).
+#[embassy_executor::task]
+async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, flags: u8) -> ! {
+    let mut report = cause.emcy(flags);
+    let mut clear = None;
+    loop {
+        watchdog.feed();
+        if let Some((code, info)) = report {
+            let raised = SHARED.with_node(|node| {
+                node.state() != State::Initialising && {
+                    node.raise_error(code, info);
+                    true
+                }
+            });
+            if raised == Some(true) {
+                defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
+                report = None;
+                clear = Some((code, 4));
+            }
+        } else if let Some((code, ticks)) = clear {
+            clear = if ticks == 0 {
+                SHARED.with_node(|node| node.clear_error(code));
+                None
+            } else {
+                Some((code, ticks - 1))
+            };
+        }
+        // Not `Timer::after`: its `Instant + Duration` brings core::fmt's str formatting (648 B).
+        let next = embassy_time::Instant::now().as_ticks().saturating_add(FEED_MS * 1000);
+        Timer::at(embassy_time::Instant::from_ticks(next)).await;
+    }
+}
+
 #[interrupt]
 fn TAMPER() {
     // SAFETY: this is the handler of the interrupt the executor was started
@@ -164,14 +292,33 @@ fn TAMPER() {
     unsafe { CANOPEN_EXECUTOR.on_interrupt() }
 }
 
-/// Logs where it happened and stops with `udf`, as panic-probe does (a
-/// debug probe reports the HardFault), without pulling `core::fmt` into
-/// the image the way panic-probe's message printing does.
+/// Logs where it happened (without pulling `core::fmt` into the image the
+/// way panic-probe's message printing does), then resets the chip, which
+/// reports the panic after its boot-up. With a debugger attached it stops
+/// with `udf` instead, as panic-probe does, so the probe shows the fault.
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     match info.location() {
         Some(at) => defmt::error!("panic at {=str}:{=u32}", at.file(), at.line()),
         None => defmt::error!("panic"),
     }
-    cortex_m::asm::udf()
+    fatal(ResetCause::Panic)
+}
+
+/// A HardFault (a panic's `udf` under a debugger ends here too): logs the
+/// PC and resets, as a panic does.
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    defmt::error!("HardFault at pc {=u32:#010x}", frame.pc());
+    fatal(ResetCause::HardFault)
+}
+
+fn fatal(cause: ResetCause) -> ! {
+    // A probe halts here and shows the log; DHCSR.C_DEBUGEN stays set until
+    // the next power-on, so a board reset after a debug session also stops.
+    while DCB::is_debugger_attached() {
+        cortex_m::asm::bkpt();
+    }
+    reset_cause::leave(cause);
+    SCB::sys_reset()
 }

@@ -13,6 +13,7 @@ use core::sync::atomic::{AtomicBool, Ordering};
 use bxcan::Interrupts;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::AcceptedId;
+use cortex_m::peripheral::DWT;
 use critical_section::Mutex;
 use stm32f1xx_hal::pac::{self, interrupt};
 
@@ -88,20 +89,35 @@ pub fn set_filters(ids: &[AcceptedId], complete: bool) {
     });
 }
 
+/// How long [`set_bit_timing`] waits for initialisation mode: bxCAN enters
+/// it only after the frame on the bus (RM0008 §24.4.1), at most about
+/// 16 ms at 10 kbit/s; a bus that never goes idle must not hold the CPU.
+pub const INIT_TIMEOUT_MS: u32 = 20;
+
 /// Re-initialises the controller with bit timing `btr` (LSS "activate bit
 /// timing": the node is silent then, and so should the bus be). It rejoins
-/// the bus after 11 recessive bits at the new rate.
-pub fn set_bit_timing(btr: u32) {
+/// the bus after 11 recessive bits at the new rate. If the controller does
+/// not enter initialisation mode within `timeout_cycles` core cycles (the
+/// bus never idle), the request is withdrawn and the controller stays at
+/// its old bit rate: `Err`.
+pub fn set_bit_timing(btr: u32, timeout_cycles: u32) -> Result<(), ()> {
     let can = registers();
     critical_section::with(|_| {
         // BTR is writable in initialisation mode only (RM0008 §24.9.2).
         can.mcr().modify(|_, w| w.inrq().set_bit());
-        while can.msr().read().inak().bit_is_clear() {}
+        let start = DWT::cycle_count();
+        while can.msr().read().inak().bit_is_clear() {
+            if DWT::cycle_count().wrapping_sub(start) > timeout_cycles {
+                can.mcr().modify(|_, w| w.inrq().clear_bit());
+                return Err(());
+            }
+        }
         // SAFETY: `btr` comes from `bit_timing::btr` (SJW, TS1, TS2, BRP
         // fields only); the mode bits (silent, loop back) are kept.
         can.btr().modify(|r, w| unsafe { w.bits((r.bits() & 0xC000_0000) | btr) });
         can.mcr().modify(|_, w| w.inrq().clear_bit());
-    });
+        Ok(())
+    })
 }
 
 /// The bxCAN registers bxcan does not cover (RM0008 §24.9.2).

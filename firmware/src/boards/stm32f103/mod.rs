@@ -31,6 +31,8 @@ mod board;
 mod can;
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 mod flash;
+#[cfg(all(target_os = "none", feature = "board-stm32f103"))]
+mod reset_cause;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 pub use board::{Config, Storage, StorageHandle, run, unattached_storage};
