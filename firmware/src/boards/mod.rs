@@ -69,10 +69,7 @@ macro_rules! image {
                 let node = NODE.take();
                 node.storage_mut().attach(handle);
                 let (node_id, bit_rate) = match device::DEVICE.startup {
-                    Some(startup) => {
-                        let (node_id, bit_rate) = startup(node.storage_mut());
-                        (node_id, Some(bit_rate))
-                    }
+                    Some(startup) => startup(node.storage_mut()),
                     None => (device::DEVICE.default_node_id, None),
                 };
                 node.power_on(node_id, now);

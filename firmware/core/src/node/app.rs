@@ -212,6 +212,12 @@ impl Ctx<'_> {
         self.save_scope(scope)
     }
 
+    /// Marks a scope for its defaults from the next reset on, as 0x1011 would.
+    pub fn restore_defaults(&mut self, scope: Scope) -> Result<(), AbortCode> {
+        crate::services::store::restore_defaults(self.dict, self.image, self.node_id, self.storage, scope)
+            .map_err(super::router::store_abort)
+    }
+
     /// The node rebuilds its acceptance list (the identifiers
     /// [`Application::claim_ids`] lists have changed).
     pub fn refresh_acceptance(&mut self) {
