@@ -37,7 +37,7 @@ pub const fn region_size(image: usize) -> usize {
 /// The node lives in a `static` built at compile time (so it lies in `.bss`
 /// and its size shows there); start-up hands its storage the board's
 /// handle and powers it on where it lies. It runs the
-/// device's dictionary with no application hooks yet. It starts with the
+/// device's dictionary with the device's own hooks (`device::App`). It starts with the
 /// node-id the device's start-up hook reads from its stored parameters
 /// (`Device::startup`), else the device's default one; a configuration LSS
 /// stored overrides both (`Node::power_on`). The image's application task runs
@@ -55,12 +55,12 @@ macro_rules! image {
         fn main() -> ! {
             use $crate::devices::$device as device;
             type Storage = $crate::boards::$board::Storage<{ $crate::boards::region_size(device::od::RAM_SIZE) }>;
-            type Node = device::od::Node<::canopen_core::node::NoApplication, Storage>;
+            type Node = device::Node<Storage>;
             // Built at compile time and all zero bits, so in `.bss`: no
             // node-sized value on the stack at start-up (docs/firmware.md, "Stack").
             static NODE: ::static_cell::ConstStaticCell<Node> = ::static_cell::ConstStaticCell::new(Node::unpowered(
                 device::od::Ram::zeroed(),
-                ::canopen_core::node::NoApplication,
+                device::App::NEW,
                 $crate::boards::$board::unattached_storage(),
             ));
             #[allow(clippy::needless_update)]
@@ -69,10 +69,7 @@ macro_rules! image {
                 let node = NODE.take();
                 node.storage_mut().attach(handle);
                 let (node_id, bit_rate) = match device::DEVICE.startup {
-                    Some(startup) => {
-                        let (node_id, bit_rate) = startup(node.storage_mut());
-                        (node_id, Some(bit_rate))
-                    }
+                    Some(startup) => startup(node.storage_mut()),
                     None => (device::DEVICE.default_node_id, None),
                 };
                 node.power_on(node_id, now);
