@@ -21,6 +21,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// (earlier is harmless, later delays heartbeats and timeouts).
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
         let switch_deadline = self.process_switch(now);
+        let booted = !self.boot_pending;
         if self.boot_pending {
             let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
             if self.push(id, &[NmtState::BootUp.code()]) {
@@ -86,6 +87,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
             }
         }
+        let controller_deadline = self.controller.poll(now, booted, &mut self.comm.emcy);
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
             self.comm.emcy.signal(code::CAN_OVERRUN, [0; 5]);
@@ -115,6 +117,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             pdo_deadline,
             if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
             switch_deadline,
+            controller_deadline,
         ];
         deadlines.into_iter().fold(None, earliest)
     }

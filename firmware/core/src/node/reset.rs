@@ -73,6 +73,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
         }
         self.comm.configure(dict, image, self.node_id, now);
+        self.controller.reset();
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
