@@ -17,7 +17,7 @@ use super::bit_timing;
 use super::can;
 use super::flash::Flash;
 use super::flash_storage::FlashStorage;
-use crate::app::{self, Controller, SHARED, Started};
+use crate::app::{self, CanNode, Controller, SHARED, Started};
 use crate::boards::systick;
 
 /// What differs between images on this board.
@@ -94,7 +94,6 @@ pub fn run<A>(
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
     let started = Started::build(make_node, || flash, app::now());
     let index = started.node.bit_rate().or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
-    SHARED.install(started.node);
 
     // 0xFF: no table index (logs only).
     let index = index.unwrap_or(0xFF);
@@ -115,7 +114,7 @@ pub fn run<A>(
         // controller set up by `can::start`.
         unsafe { NVIC::unmask(irq) };
     }
-    CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen()));
+    CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen(started.node)));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(spawned(application));
     })
@@ -142,9 +141,8 @@ impl BitRateControl for Bxcan {
 }
 
 impl Controller for Bxcan {
-    /// Lets the TX-empty handler drain the node's queue into the mailboxes.
-    fn kick_tx(&mut self) {
-        NVIC::pend(Interrupt::USB_HP_CAN_TX);
+    fn send(&mut self, node: &mut dyn CanNode) {
+        can::send(node);
     }
 
     fn set_acceptance(&mut self, list: &AcceptanceList) {
@@ -153,8 +151,8 @@ impl Controller for Bxcan {
 }
 
 #[embassy_executor::task]
-async fn canopen() -> ! {
-    app::run_canopen(&SHARED, &mut Bxcan).await
+async fn canopen(node: &'static mut dyn CanNode) -> ! {
+    app::run_canopen(&SHARED, node, &mut Bxcan).await
 }
 
 #[interrupt]
