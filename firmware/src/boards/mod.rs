@@ -1,5 +1,5 @@
 //! The boards an image runs on. A board moves frames between its CAN
-//! controller (or SLCAN link) and `app::Shared`, keeps time for
+//! controller (or SLCAN link) and the CANopen task (`app`), keeps time for
 //! embassy, and provides a [`canopen_core::storage::Storage`]; it holds no
 //! CANopen logic. This is the only place with
 //! `unsafe` code (register access, interrupt set-up), each block with a
@@ -40,15 +40,15 @@ pub const fn region_size(image: usize) -> usize {
 /// device's dictionary with the device's own hooks (`device::App`). It starts with the
 /// node-id the device's start-up hook reads from its stored parameters
 /// (`Device::startup`), else the device's default one; a configuration LSS
-/// stored overrides both (`Node::power_on`). The image's application task runs
-/// `app::run_application` on the device's own dictionary type, so a
-/// profile reaches its objects through the generated accessors.
+/// stored overrides both (`Node::power_on`). The board hands the node to
+/// its CANopen task; the image's application task runs
+/// `app::run_application`, which reaches the node through requests.
 #[macro_export]
 macro_rules! image {
     ($board:ident, $device:ident $(, $key:ident = $value:expr)* $(,)?) => {
         #[::embassy_executor::task]
         async fn application() -> ! {
-            $crate::app::run_application(&$crate::app::SHARED, $crate::devices::$device::od::Ram::device_type).await
+            $crate::app::run_application(&$crate::app::SHARED).await
         }
 
         #[::cortex_m_rt::entry]

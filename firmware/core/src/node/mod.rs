@@ -11,11 +11,13 @@
 //! in `reset` (power-on, reset application and communication), `dispatch`
 //! ([`Node::on_frame`]), `state` (NMT state changes, communication errors),
 //! `process` ([`Node::process`]), `sinks` (where services send), `router`
-//! (SDO access to the dictionary), `lss`, `filter` (acceptance list) and
-//! `comm` (the communication services and their configuration).
+//! (SDO access to the dictionary), `lss`, `filter` (acceptance list),
+//! `controller` (CAN controller events → EMCY) and `comm` (the
+//! communication services and their configuration).
 
 mod app;
 mod comm;
+mod controller;
 mod dispatch;
 mod filter;
 mod lss;
@@ -27,6 +29,7 @@ mod state;
 
 pub use app::{Application, Claims, CommError, Ctx, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
+pub use controller::{ControllerEvent, TRANSIENT_ERROR_HOLD};
 pub use filter::{ACCEPTANCE_CAPACITY, AcceptanceList, AcceptedId};
 pub use lss::BitRateControl;
 
@@ -116,6 +119,8 @@ pub struct Node<
     acceptance: filter::AcceptanceList,
     /// Raw frames a device hook sent, until they are queued.
     raw: app::RawBurst,
+    /// The CAN controller's errors (`controller`).
+    controller: controller::ControllerErrors,
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -164,6 +169,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             bit_rate_request: None,
             acceptance: filter::AcceptanceList::new(),
             raw: app::RawBurst::EMPTY,
+            controller: controller::ControllerErrors::new(),
         }
     }
 

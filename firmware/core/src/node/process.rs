@@ -26,6 +26,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return app_deadline;
         }
         let switch_deadline = self.process_switch(now);
+        let booted = !self.boot_pending;
         if self.boot_pending {
             let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
             if self.push(id, &[NmtState::BootUp.code()]) {
@@ -92,6 +93,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.pdo_events(now, received, timeouts);
             }
         }
+        let controller_deadline = self.controller.poll(now, booted, &mut self.comm.emcy);
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
             self.comm.emcy.signal(code::CAN_OVERRUN, [0; 5]);
@@ -122,6 +124,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
             switch_deadline,
             app_deadline,
+            controller_deadline,
         ];
         deadlines.into_iter().fold(None, earliest)
     }

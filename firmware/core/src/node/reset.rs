@@ -77,6 +77,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if A::OPTIONS.tpdo_254_timer_only {
             self.comm.pdos.set_timer_only_254(true);
         }
+        self.controller.reset();
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
