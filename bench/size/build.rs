@@ -2,10 +2,12 @@
 //! the interop test node (`tests/eds/interop.eds`, as hal-host does, but for
 //! a `no_std` crate) and `ds301`, the CiA 301 profile CANopenNode ships
 //! (`tests/eds-corpus/canopennode__DS301_profile.eds`), for the comparison
-//! with CANopenNode in `docs/benchmarks.md`.
+//! with CANopenNode in `docs/benchmarks.md`, once with every service and
+//! once with CANopenNode's default set (`ds301-lean`).
 
 use std::path::Path;
 
+use canopen_core::od::Services;
 use od_gen::build::fail;
 
 /// Node guarding needs 0x100C/0x100D, which CANopenNode's profile leaves
@@ -40,13 +42,22 @@ fn main() {
     if !text.contains(listed) {
         fail(&format!("{}: error: [OptionalObjects] no longer lists 30 objects; update build.rs", ds301.display()));
     }
-    let text = text.replace(listed, "[OptionalObjects]\nSupportedObjects=32\n31=0x100C\n32=0x100D\n") + GUARDING;
+    let full = text.replace(listed, "[OptionalObjects]\nSupportedObjects=32\n31=0x100C\n32=0x100D\n") + GUARDING;
+    // Every service, block transfer included (no value of the profile is long enough to ask for it).
+    generate("ds301", &full, Services::ALL);
+    // CANopenNode's default configuration: segmented SDO without block, no
+    // guarding, LSS, heartbeat consumer, EMCY history, SYNC, TIME, no storage.
+    generate("ds301-lean", &text, Services { lss: true, block_sdo: false, guarding: false, time: true, storage: false });
+}
+
+/// Generates `<name>.rs` from the profile `text` with `services`.
+fn generate(name: &str, text: &str, services: Services) {
     let (eds, diagnostics) = od_gen::load("canopennode__DS301_profile.eds", text.as_bytes(), od_gen::Options { strict: false });
     if diagnostics.has_errors() {
         fail(&diagnostics.to_string());
     }
-    match od_gen::codegen::generate(&eds, &diagnostics.file) {
-        Ok(code) => od_gen::build::write_out("ds301", &code),
+    match od_gen::codegen::generate_with(&eds, &diagnostics.file, services) {
+        Ok(code) => od_gen::build::write_out(name, &code),
         Err(e) => fail(&format!("canopennode__DS301_profile.eds: error: {}", e.0)),
     }
 }

@@ -22,7 +22,6 @@ use embassy_futures::select::{Either4, select4};
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
-use embassy_sync::mutex::Mutex as AsyncMutex;
 use embassy_sync::signal::Signal;
 use embassy_time::Timer;
 
@@ -46,8 +45,10 @@ pub struct Shared {
     pub controller: ControllerStatus,
     requests: Channel<CriticalSectionRawMutex, Request, 1>,
     replies: Channel<CriticalSectionRawMutex, Reply, 1>,
-    /// One request at a time, so each caller gets its own reply.
-    caller: AsyncMutex<CriticalSectionRawMutex, ()>,
+    /// One request at a time, so each caller gets its own reply: the
+    /// caller's token is in here while its request runs (a channel of one,
+    /// not an `embassy_sync::mutex::Mutex`, whose `borrow_mut` links `core::fmt`).
+    caller: Channel<CriticalSectionRawMutex, (), 1>,
     states: Mutex<CriticalSectionRawMutex, RefCell<StateQueue<STATE_QUEUE>>>,
     state_changed: Signal<CriticalSectionRawMutex, ()>,
     wake: Signal<CriticalSectionRawMutex, ()>,
@@ -60,7 +61,7 @@ pub static SHARED: Shared = Shared {
     controller: ControllerStatus::new(),
     requests: Channel::new(),
     replies: Channel::new(),
-    caller: AsyncMutex::new(()),
+    caller: Channel::new(),
     states: Mutex::new(RefCell::new(StateQueue::new())),
     state_changed: Signal::new(),
     wake: Signal::new(),
@@ -93,7 +94,8 @@ impl Shared {
     /// Sends `request` to the CANopen task, which runs at once (it
     /// preempts thread mode), and returns its answer.
     pub async fn call(&self, request: Request) -> Reply {
-        let _one_at_a_time = self.caller.lock().await;
+        self.caller.send(()).await;
+        let _one_at_a_time = CallerToken(&self.caller);
         self.requests.send(request).await;
         self.replies.receive().await
     }
@@ -137,7 +139,7 @@ impl Shared {
     /// more than [`STATE_QUEUE`] wait (see [`StateQueue`]).
     pub async fn next_state(&self) -> State {
         loop {
-            if let Some(state) = self.states.lock(|q| q.borrow_mut().pop()) {
+            if let Some(state) = self.states.lock(|q| q.try_borrow_mut().ok().and_then(|mut q| q.pop())) {
                 return state;
             }
             self.state_changed.wait().await;
@@ -146,7 +148,16 @@ impl Shared {
 
     /// NMT states the application's queue had no room for.
     pub fn lost_states(&self) -> u32 {
-        self.states.lock(|q| q.borrow().lost())
+        self.states.lock(|q| q.try_borrow().map_or(0, |q| q.lost()))
+    }
+}
+
+/// Gives the caller's token back when its request ends (or its future is dropped).
+struct CallerToken<'a>(&'a Channel<CriticalSectionRawMutex, (), 1>);
+
+impl Drop for CallerToken<'_> {
+    fn drop(&mut self) {
+        let _ = self.0.try_receive();
     }
 }
 
@@ -155,7 +166,13 @@ struct States(&'static Shared);
 
 impl crate::runner::StateSink for States {
     fn entered(&mut self, state: State) {
-        self.0.states.lock(|q| q.borrow_mut().entered(state));
+        // `try_borrow_mut`: never refused inside the lock, and `borrow_mut`'s
+        // panic message would link `core::fmt`.
+        self.0.states.lock(|q| {
+            if let Ok(mut q) = q.try_borrow_mut() {
+                q.entered(state);
+            }
+        });
         self.0.state_changed.signal(());
     }
 }

@@ -52,7 +52,7 @@ pub trait CanNode: Send {
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
 }
 
-impl<O, A, S, const R: usize, const T: usize, const HB: usize> CanNode for Node<O, A, S, R, T, HB>
+impl<O, A, S, const R: usize, const T: usize, const HB: usize, const SDO: usize> CanNode for Node<O, A, S, R, T, HB, SDO>
 where
     O: ObjectDictionary + Send + 'static,
     A: Application + Send,

@@ -7,7 +7,7 @@
 use std::collections::{BTreeMap, HashSet};
 use std::fmt::Write;
 
-use canopen_core::od::{Attr, DataType, NO_LIMITS, Number};
+use canopen_core::od::{Attr, DataType, NO_LIMITS, Number, Services};
 
 use crate::model::{Access, Eds, Object, ObjectKind, SubObject};
 
@@ -345,6 +345,38 @@ fn doc_escape(s: &str) -> String {
 
 /// Generates the module for `eds`. `source` is the file name quoted in comments.
 pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
+    generate_with(eds, source, services(eds))
+}
+
+/// Values longer than this (or a DOMAIN) make block transfer worth linking:
+/// below it a segmented transfer takes a handful of frames.
+pub const BLOCK_THRESHOLD: usize = 64;
+
+/// The optional services a node on `eds` links, from its objects: LSS if
+/// `LSS_Supported`, block SDO if a value is a DOMAIN or longer than
+/// [`BLOCK_THRESHOLD`] bytes, guarding with 0x100C and 0x100D, TIME with
+/// 0x1012, storage with 0x1010 or 0x1011 (or LSS, which stores its
+/// configuration).
+pub fn services(eds: &Eds) -> Services {
+    let has = |i: u16| eds.objects.get(&i).is_some_and(|o| !o.opaque);
+    let large = eds
+        .objects
+        .values()
+        .filter(|o| !o.opaque)
+        .flat_map(|o| o.subs.values())
+        .any(|s| s.data_type == Some(DataType::Domain) || (s.data_type.is_some() && s.size() > BLOCK_THRESHOLD));
+    Services {
+        lss: eds.device.lss_supported,
+        block_sdo: large,
+        guarding: has(0x100C) && has(0x100D),
+        time: has(0x1012),
+        storage: has(0x1010) || has(0x1011) || eds.device.lss_supported,
+    }
+}
+
+/// As [`generate`], with the services given (a reference image that
+/// links more or less than its EDS implies).
+pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<String, LayoutError> {
     let l = layout(eds)?;
     let mut out = String::new();
     let w = &mut out;
@@ -396,8 +428,12 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
         let _ = writeln!(w, "pub const {name}: usize = {v};");
     }
     let _ = writeln!(w);
+    let _ = writeln!(w, "/// SDO servers a node on this dictionary runs: the default one even without 0x1200.");
+    let _ = writeln!(w, "pub const SDO_SERVERS: usize = {};", count(0x1200..=0x127F).max(1));
+    let _ = writeln!(w);
     let _ = writeln!(w, "/// A node on this dictionary, with the device's hooks `A` and storage `S`.");
-    let _ = writeln!(w, "pub type Node<A, S> = canopen_core::node::Node<Ram, A, S, RPDO_COUNT, TPDO_COUNT, HB_CONSUMER_COUNT>;");
+    let _ =
+        writeln!(w, "pub type Node<A, S> = canopen_core::node::Node<Ram, A, S, RPDO_COUNT, TPDO_COUNT, HB_CONSUMER_COUNT, SDO_SERVERS>;");
     let _ = writeln!(w);
 
     let mut attrs: Vec<Attr> = Vec::new();
@@ -474,6 +510,11 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
     let _ = writeln!(w, "}}");
     let _ = writeln!(w);
     let _ = writeln!(w, "impl od::ObjectDictionary for Ram {{");
+    let _ = writeln!(
+        w,
+        "    const SERVICES: od::Services = od::Services {{ lss: {}, block_sdo: {}, guarding: {}, time: {}, storage: {} }};",
+        services.lss, services.block_sdo, services.guarding, services.time, services.storage
+    );
     let _ = writeln!(w, "    fn dictionary(&self) -> &'static od::Dictionary {{\n        &DICTIONARY\n    }}");
     let _ = writeln!(w, "    fn image(&self) -> &[u8] {{\n        &self.image\n    }}");
     let _ = writeln!(w, "    fn image_mut(&mut self) -> &mut [u8] {{\n        &mut self.image\n    }}");

@@ -10,7 +10,8 @@
 //! - 2.4 (read a write-only object): the interop fixture has none; run on the
 //!   Unitek DS, whose 0x2017 is write-only.
 //! - 2.14, 2.20, 2.24 (write 0x100C "if guarding is supported"): the b maXX
-//!   4400, which has 0x100C/0x100D.
+//!   4400, which has 0x100C/0x100D; for the block writes 2.20 and 2.24 its
+//!   dictionary with block transfer, which the device itself does not serve.
 //! - 2.28, 2.29: the interop fixture's second SDO server 0x1201.
 //! - 2.30 does not apply: it reads the SDO *client* parameters 0x1280 and
 //!   following, and no dictionary here has an SDO client (the CCT skips the
@@ -21,6 +22,7 @@
 mod common;
 
 use canopen_core::node::NoApplication;
+use canopen_core::od::{Dictionary, ObjectDictionary, Services};
 use common::{Bench, F, abort, ms, ok_write};
 use firmware::devices::{bmaxx4400, unitek_ds};
 use hal_host::fixtures::interop::od as interop;
@@ -171,6 +173,41 @@ fn bmaxx() -> Bmaxx {
     b
 }
 
+/// The b maXX 4400's dictionary with block transfer on: the device has no
+/// block transfer (docs/devices/bmaxx4400.md), and the CCT's block writes of
+/// 0x100C need a dictionary with 0x100C and a server that has it.
+struct BlockBmaxx(bmaxx4400::od::Ram);
+
+impl ObjectDictionary for BlockBmaxx {
+    const SERVICES: Services = Services { block_sdo: true, ..<bmaxx4400::od::Ram as ObjectDictionary>::SERVICES };
+    fn dictionary(&self) -> &'static Dictionary {
+        self.0.dictionary()
+    }
+    fn image(&self) -> &[u8] {
+        self.0.image()
+    }
+    fn image_mut(&mut self) -> &mut [u8] {
+        self.0.image_mut()
+    }
+}
+
+fn block_bmaxx() -> Bench<BlockBmaxx, NoApplication, MemStorage, 4, 4, 0> {
+    let mut b = Bench::new(BlockBmaxx(bmaxx4400::od::Ram::new(ID)), NoApplication, MemStorage::new(4096), ID);
+    assert_eq!(b.at(ms(0)), [(0x704, vec![0x00])]);
+    b
+}
+
+#[test]
+fn a_device_without_block_transfer_refuses_it_as_an_unknown_command() {
+    let mut b = bmaxx();
+    const { assert!(!<bmaxx4400::od::Ram as ObjectDictionary>::SERVICES.block_sdo) };
+    // Block download and block upload initiate: abort 0x05040001 for the object named.
+    assert_eq!(b.rx(ms(1), RX, &f(&[0xC2, 0x0C, 0x10, 0x00, 0x02, 0, 0, 0])), vec![(TX, abort(0x100C, 0, 0x0504_0001))]);
+    assert_eq!(b.rx(ms(2), RX, &f(&[0xA0, 0x08, 0x10, 0x00, 0x14])), vec![(TX, abort(0x1008, 0, 0x0504_0001))]);
+    assert_eq!(b.sdo_upload(ID, 0x100C, 0), Ok(vec![0, 0]), "nothing written");
+    assert_eq!(b.run_until(ms(2000)), [], "no transfer in progress: no timeout abort");
+}
+
 #[test]
 fn cct_2_14_write_guard_time_segmented() {
     let mut b = bmaxx();
@@ -248,7 +285,7 @@ fn cct_2_19_block_read_of_device_type_without_crc() {
 
 #[test]
 fn cct_2_20_block_write_guard_time_without_crc() {
-    let mut b = bmaxx();
+    let mut b = block_bmaxx();
     assert_eq!(b.rx(ms(1), RX, &f(&[0xC2, 0x0C, 0x10, 0x00, 0x02, 0, 0, 0])), on_tx(&[0xA4, 0x0C, 0x10, 0x00, 0x7F]));
     assert_eq!(b.rx(ms(2), RX, &f(&[0x81, 0xF4, 0x01])), on_tx(&[0xA2, 0x01, 0x7F]));
     assert_eq!(b.rx(ms(3), RX, &f(&[0xD5, 0x00, 0x00])), on_tx(&[0xA1]));
@@ -296,7 +333,7 @@ fn cct_2_23_block_read_with_crc() {
 
 #[test]
 fn cct_2_24_block_write_guard_time_with_crc() {
-    let mut b = bmaxx();
+    let mut b = block_bmaxx();
     assert_eq!(b.rx(ms(1), RX, &f(&[0xC6, 0x0C, 0x10, 0x00, 0x02, 0, 0, 0])), on_tx(&[0xA4, 0x0C, 0x10, 0x00, 0x7F]));
     assert_eq!(b.rx(ms(2), RX, &f(&[0x81, 0xE8, 0x03])), on_tx(&[0xA2, 0x01, 0x7F]));
     // CRC of E8 03 = 0xA978. A wrong CRC is refused first.

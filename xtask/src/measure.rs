@@ -24,6 +24,7 @@ use std::process::Command;
 const IMAGES: &[(&str, &str, &str)] = &[
     ("core", "interop", "every service, interop test dictionary (4 RPDO / 4 TPDO, tests/eds/interop.eds)"),
     ("ds301", "ds301", "CANopenNode's CiA 301 profile + 0x100C/0x100D (4 RPDO / 4 TPDO, 8 heartbeat consumers)"),
+    ("ds301-lean", "ds301-lean", "CANopenNode's CiA 301 profile, CANopenNode's default services (no block SDO, guarding, storage)"),
     ("ec5000", "ec5000", "device"),
     ("unitek-ds", "unitek-ds", "device"),
     ("sendix", "sendix", "device"),

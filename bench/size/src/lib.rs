@@ -192,7 +192,15 @@ pub mod ds301_od {
 }
 
 firmware!("interop", interop, crate::interop_od);
+/// The same profile without node guarding, with CANopenNode's default
+/// services: no block SDO, no guarding, no storage.
+#[cfg(feature = "ds301-lean")]
+pub mod ds301_lean_od {
+    include!(concat!(env!("OUT_DIR"), "/ds301-lean.rs"));
+}
+
 firmware!("ds301", ds301, crate::ds301_od);
+firmware!("ds301-lean", ds301_lean, crate::ds301_lean_od);
 firmware!("ec5000", ec5000, firmware::devices::ec5000::od, firmware::devices::ec5000::App, firmware::devices::ec5000::App::NEW);
 firmware!(
     "unitek-ds",

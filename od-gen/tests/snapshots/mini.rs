@@ -107,8 +107,11 @@ pub const HB_CONSUMER_COUNT: usize = 2;
 /// Entries of the pre-defined error field 0x1003.
 pub const ERROR_HISTORY_LEN: usize = 4;
 
+/// SDO servers a node on this dictionary runs: the default one even without 0x1200.
+pub const SDO_SERVERS: usize = 1;
+
 /// A node on this dictionary, with the device's hooks `A` and storage `S`.
-pub type Node<A, S> = canopen_core::node::Node<Ram, A, S, RPDO_COUNT, TPDO_COUNT, HB_CONSUMER_COUNT>;
+pub type Node<A, S> = canopen_core::node::Node<Ram, A, S, RPDO_COUNT, TPDO_COUNT, HB_CONSUMER_COUNT, SDO_SERVERS>;
 
 const RO: Attr = Attr(Attr::READ.0);
 const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
@@ -322,6 +325,7 @@ pub struct Ram {
 }
 
 impl od::ObjectDictionary for Ram {
+    const SERVICES: od::Services = od::Services { lss: true, block_sdo: true, guarding: false, time: false, storage: true };
     fn dictionary(&self) -> &'static od::Dictionary {
         &DICTIONARY
     }

@@ -56,7 +56,7 @@ pub trait Device: Any {
     }
 }
 
-impl<O, A, S, const R: usize, const T: usize, const HB: usize> Device for Node<O, A, S, R, T, HB>
+impl<O, A, S, const R: usize, const T: usize, const HB: usize, const SDO: usize> Device for Node<O, A, S, R, T, HB, SDO>
 where
     O: ObjectDictionary + 'static,
     A: Application + 'static,

@@ -40,7 +40,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.counters.ignored += 1;
             return;
         }
-        if cob_id == LSS_MASTER_COB_ID && self.lss_active && !rtr {
+        if cob_id == LSS_MASTER_COB_ID && self.lss_on() && !rtr {
             self.lss_request(now, data);
             return;
         }
@@ -61,7 +61,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if cob_id == ERROR_CONTROL_BASE + u16::from(self.node_id) {
-            if rtr && !self.comm.heartbeat.active() {
+            if O::SERVICES.guarding && rtr && !self.comm.heartbeat.active() {
                 let expired = self.comm.guarding.is_expired();
                 let byte = self.comm.guarding.on_request(state.reported(), now);
                 self.push(cob_id, &[byte]);
@@ -122,7 +122,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.sdo_request(i, now, data, tx);
                 return;
             }
-            if Some(cob_id) == self.comm.time_cob_id && !rtr {
+            if O::SERVICES.time && Some(cob_id) == self.comm.time_cob_id && !rtr {
                 match TimeOfDay::parse(data) {
                     Some(t) => self.with_app(now, |app, ctx| app.on_time(ctx, t)),
                     None => self.counters.malformed += 1,
@@ -171,7 +171,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
         let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
-        sdo.on_request(i, now, data, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
+        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);

@@ -111,7 +111,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Rebuilds the list from the services; a new list gets the next generation.
     pub(super) fn refresh_acceptance(&mut self) {
         let mut list = AcceptanceList::default();
-        if self.lss_active && self.app.canopen() {
+        if self.lss_on() && self.app.canopen() {
             list.insert(LSS_MASTER_COB_ID, false);
         }
         // An unconfigured node takes part in LSS only; a device that switched CANopen off, in nothing.

@@ -58,7 +58,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// valid set) overrides the default node-id and gives the bit rate.
     pub(super) fn load_lss_configuration(&mut self, stored: Option<StoredSet>) {
         let dict = self.od.dictionary();
-        if !dict.device.lss_supported {
+        if !O::SERVICES.lss || !dict.device.lss_supported {
             return;
         }
         if let Some((node_id, bit_rate)) = stored.and_then(|set| set.lss()) {
@@ -106,7 +106,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             LssAction::Store { node_id, bit_rate } => {
                 let dict = self.od.dictionary();
-                let ok = store::save_lss(dict, self.od.image(), self.node_id, &mut self.storage, node_id, bit_rate).is_ok();
+                // Without storage (`Services::storage`) the answer is "storage failed".
+                let ok = O::SERVICES.storage
+                    && store::save_lss(dict, self.od.image(), self.node_id, &mut self.storage, node_id, bit_rate).is_ok();
                 self.push(SLAVE_COB_ID, &LssSlave::store_result(ok));
             }
             LssAction::Start(node_id) => {
@@ -118,6 +120,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Runs the bit-rate switch; returns its next deadline.
     pub(super) fn process_switch(&mut self, now: Instant) -> Option<Instant> {
+        if !O::SERVICES.lss {
+            return None;
+        }
         let sw = &mut self.switch;
         match sw.phase {
             Phase::Off => return None,
@@ -141,7 +146,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The LSS slave, once power-on found the dictionary says `LSS_Supported`.
     pub(super) fn lss_mut(&mut self) -> Option<&mut LssSlave> {
-        self.lss_active.then_some(&mut self.lss)
+        self.lss_on().then_some(&mut self.lss)
+    }
+
+    /// Whether the node runs an LSS slave: `false` at compile time for a
+    /// dictionary without LSS, so its code is left out.
+    pub(super) fn lss_on(&self) -> bool {
+        O::SERVICES.lss && self.lss_active
     }
 
     /// The bit-rate table index (CiA 305: 0 = 1 Mbit/s … 8 = 10 kbit/s) the
@@ -178,6 +189,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The LSS state, if the node supports LSS.
     pub fn lss_mode(&self) -> Option<Mode> {
-        self.lss_active.then(|| self.lss.mode())
+        self.lss_on().then(|| self.lss.mode())
     }
 }

@@ -47,7 +47,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {
             self.communication_error(node_id, now);
         }
-        if self.comm.guarding.poll(now) {
+        if O::SERVICES.guarding && self.comm.guarding.poll(now) {
             self.communication_error(0, now);
         }
         let mut sdo_deadline = None;
@@ -57,7 +57,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
-                    let deadline = sdo.poll(i, now, &mut router, &mut SdoSink { txq, cob_id: tx });
+                    let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx });
                     sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }
@@ -117,7 +117,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.boot_pending.then_some(now),
             self.comm.heartbeat.deadline(),
             self.comm.consumers.deadline(),
-            self.comm.guarding.deadline(),
+            if O::SERVICES.guarding { self.comm.guarding.deadline() } else { None },
             if self.nmt.state().sdo_allowed() { self.comm.emcy.deadline() } else { None },
             sdo_deadline,
             pdo_deadline,

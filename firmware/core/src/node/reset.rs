@@ -31,13 +31,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // The TPDOs compare their data at their first chance, whatever the image held before.
         self.touched = true;
         // One check of the stored sets serves the LSS configuration and both parts of the reset.
-        let stored = store::newest(self.od.dictionary(), &mut self.storage);
+        let stored = self.newest_stored();
         self.load_lss_configuration(stored);
         self.reset_application_from(stored, now);
     }
 
+    /// The newest valid stored set; none on a node without storage
+    /// (`Services::storage`), which then links no store code.
+    fn newest_stored(&mut self) -> Option<StoredSet> {
+        if O::SERVICES.storage { store::newest(self.od.dictionary(), &mut self.storage) } else { None }
+    }
+
     pub(super) fn reset_application(&mut self, now: Instant) {
-        let stored = store::newest(self.od.dictionary(), &mut self.storage);
+        let stored = self.newest_stored();
         self.reset_application_from(stored, now);
     }
 
@@ -46,7 +52,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_application(image, self.node_id);
-        if let Some(set) = &stored {
+        if let Some(set) = stored.as_ref().filter(|_| O::SERVICES.storage) {
             set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
         }
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
@@ -54,7 +60,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     pub(super) fn reset_communication(&mut self, now: Instant) {
-        let stored = store::newest(self.od.dictionary(), &mut self.storage);
+        let stored = self.newest_stored();
         self.reset_communication_from(stored, now);
     }
 
@@ -67,7 +73,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_communication(image, self.node_id);
-        if let Some(set) = &stored {
+        if let Some(set) = stored.as_ref().filter(|_| O::SERVICES.storage) {
             set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
         }
         if let Some(serial) = self.serial {

@@ -133,8 +133,34 @@ pub const fn layout_id(entries: &[Entry]) -> u32 {
     h
 }
 
+/// The optional services a node on a dictionary links, chosen at compile
+/// time from its EDS (od-gen's `SERVICES`). A service that is off is never
+/// reached, so the compiler leaves its code out of the image; the node
+/// behaves as if the dictionary lacked its objects (a frame for it is
+/// ignored, an SDO request of a block transfer is refused).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Services {
+    /// LSS slave (`LSS_Supported=1`).
+    pub lss: bool,
+    /// SDO block transfer (a value too long for segmented transfer to be quick).
+    pub block_sdo: bool,
+    /// Node and life guarding (0x100C and 0x100D).
+    pub guarding: bool,
+    /// TIME consumer (0x1012).
+    pub time: bool,
+    /// Store and restore parameters (0x1010 or 0x1011), and LSS store.
+    pub storage: bool,
+}
+
+impl Services {
+    /// Every service: what a dictionary written by hand gets.
+    pub const ALL: Services = Services { lss: true, block_sdo: true, guarding: true, time: true, storage: true };
+}
+
 /// A dictionary with its RAM image: implemented by each generated `Ram` struct.
 pub trait ObjectDictionary {
+    /// The optional services a node on this dictionary links.
+    const SERVICES: Services = Services::ALL;
     /// The flash tables of this dictionary.
     fn dictionary(&self) -> &'static Dictionary;
     /// The RAM image.

@@ -13,14 +13,13 @@ use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
 use bxcan::Interrupts;
-use canopen_core::frame::CanFrame;
 use canopen_core::node::AcceptedId;
 use cortex_m::peripheral::DWT;
 use critical_section::Mutex;
 use stm32f1xx_hal::pac::{self, interrupt};
 
-use super::filters;
-use crate::app::{CanNode, SHARED, convert_frame};
+use super::{filters, mailbox};
+use crate::app::{CanNode, SHARED};
 
 /// The bxCAN instance as stm32f1xx-hal hands it to `bxcan`.
 pub type Instance = stm32f1xx_hal::can::Can<pac::CAN>;
@@ -35,13 +34,15 @@ static BUS_OFF: AtomicBool = AtomicBool::new(false);
 static PASSIVE: AtomicBool = AtomicBool::new(false);
 
 /// Configures the controller and starts it: bit timing `btr`, automatic
-/// retransmission, automatic bus-off recovery (ABOM), interrupts for
-/// TX-empty, FIFO 0 and bus-off. The filters stay as reset leaves them
+/// retransmission, automatic bus-off recovery (ABOM), TX FIFO mode
+/// (MCR.TXFP: the mailboxes leave in the order [`send`] fills them,
+/// see [`mailbox`]), interrupts for TX-empty, FIFO 0 and bus-off. The filters stay as reset leaves them
 /// (initialisation mode, no bank active: nothing is received) until the
 /// CANopen task's first step programs the node's list ([`set_filters`]).
 pub fn start(can: Instance, btr: u32) {
     let mut can = bxcan::Can::builder(can).set_bit_timing(btr).set_automatic_retransmit(true).leave_disabled();
     can.enable_interrupts(Interrupts::TRANSMIT_MAILBOX_EMPTY | Interrupts::FIFO0_MESSAGE_PENDING | Interrupts::FIFO0_OVERRUN);
+    registers().mcr().modify(|_, w| w.txfp().set_bit());
     enable_bus_off_handling();
     // Leaves sleep mode; the controller joins the bus after 11 recessive
     // bits on its own, so there is nothing to wait for here.
@@ -143,29 +144,36 @@ fn enable_bus_off_handling() {
     registers().ier().modify(|_, w| w.bofie().set_bit().epvie().set_bit().errie().set_bit());
 }
 
-/// The CANopen task's transmitter: the node's queue goes into the
-/// mailboxes in priority order until bxcan takes no more. bxcan refuses a
-/// frame while a mailbox holds one of equal or higher priority, so this is
-/// usually one frame per TX-empty interrupt (docs/firmware.md). Each
-/// mailbox access is a critical section of its own, the node's queue is
-/// read outside them.
+/// The CANopen task's transmitter: every empty mailbox gets the node's
+/// next frame ([`mailbox::fill`]); in TX FIFO mode they leave in that
+/// order, so a burst goes out back to back. When the mailboxes are full,
+/// the TX-empty interrupt wakes the task again.
 pub fn send(node: &mut dyn CanNode) {
-    while let Some(frame) = node.transmit() {
-        let Some(out) = convert_frame::<CanFrame, bxcan::Frame>(&frame) else { continue };
-        let mut result = None;
-        with_can(|can| result = can.as_mut().map(|tx| tx.transmit(&out)));
-        match result {
-            Some(Ok(status)) => {
-                // A lower-priority frame taken out of its mailbox: it goes out first next time.
-                if let Some(back) = status.dequeued_frame().and_then(convert_frame::<bxcan::Frame, CanFrame>) {
-                    node.requeue(back);
-                }
-            }
-            Some(Err(_)) | None => {
-                // Mailboxes full (or holding this identifier): the TX-empty interrupt wakes the task.
-                node.requeue(frame);
-                break;
-            }
+    mailbox::fill(&mut TxMailboxes(registers()), || node.transmit());
+}
+
+/// The transmit mailboxes through their registers. The CANopen task is the
+/// only writer; the CAN interrupts share its priority and touch only TSR's
+/// RQCP flags.
+struct TxMailboxes(&'static pac::can::RegisterBlock);
+
+impl mailbox::Mailboxes for TxMailboxes {
+    fn empty(&self) -> Option<usize> {
+        let tsr = self.0.tsr().read();
+        // TSR.CODE names an empty mailbox when one is (RM0008 §24.9.2).
+        tsr.tme_iter().any(|e| e.bit_is_set()).then(|| usize::from(tsr.code().bits()))
+    }
+
+    fn request(&mut self, i: usize, [tir, tdtr, tdlr, tdhr]: [u32; 4]) {
+        let tx = self.0.tx(i.min(2));
+        // SAFETY: every bit pattern is valid in a mailbox's identifier,
+        // length and data registers (RM0008 §24.9.3); the mailbox is empty
+        // (TSR.TMEx), so the controller does not read it until TXRQ.
+        unsafe {
+            tx.tdtr().write(|w| w.bits(tdtr));
+            tx.tdlr().write(|w| w.bits(tdlr));
+            tx.tdhr().write(|w| w.bits(tdhr));
+            tx.tir().write(|w| w.bits(tir | mailbox::TXRQ));
         }
     }
 }
@@ -189,11 +197,8 @@ fn USB_HP_CAN_TX() {
             SHARED.controller.set_error_passive(false);
         }
     }
-    with_can(|can| {
-        if let Some(tx) = can {
-            tx.clear_tx_interrupt();
-        }
-    });
+    // Writing 1 clears each mailbox's request-completed flag (and its status bits).
+    registers().tsr().write(|w| w.rqcp0().set_bit().rqcp1().set_bit().rqcp2().set_bit());
     SHARED.wake();
 }
 
@@ -201,22 +206,25 @@ fn USB_HP_CAN_TX() {
 /// the FIFO or the channel had no room for is counted.
 #[interrupt]
 fn USB_LP_CAN_RX0() {
-    with_can(|can| {
-        let Some(can) = can else { return };
-        let rx = can.rx0();
-        loop {
-            match rx.receive() {
-                Ok(frame) => {
-                    let delivered = convert_frame::<bxcan::Frame, CanFrame>(&frame).is_some_and(|f| SHARED.rx.try_send(f).is_ok());
-                    if !delivered {
-                        SHARED.rx_overrun();
-                    }
-                }
-                Err(nb::Error::Other(_overrun)) => SHARED.rx_overrun(),
-                Err(nb::Error::WouldBlock) => break,
-            }
+    let can = registers();
+    let rfr = can.rfr(0);
+    loop {
+        let status = rfr.read();
+        if status.fovr().bit_is_set() {
+            rfr.write(|w| w.fovr().clear());
+            SHARED.rx_overrun();
         }
-    });
+        if status.fmp().bits() == 0 {
+            break;
+        }
+        let mb = can.rx(0);
+        let frame = mailbox::received(mb.rir().read().bits(), mb.rdtr().read().bits(), mb.rdlr().read().bits(), mb.rdhr().read().bits());
+        // Releases the output mailbox: the next frame of the FIFO moves up.
+        rfr.write(|w| w.rfom().release());
+        if frame.is_none_or(|f| SHARED.rx.try_send(f).is_err()) {
+            SHARED.rx_overrun();
+        }
+    }
 }
 
 /// Status change: on error passive, report it and stop that source until

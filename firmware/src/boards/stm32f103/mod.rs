@@ -6,11 +6,11 @@
 //!   is the node's (stored by LSS), else the device's start-up one, else the
 //!   image's `Config::bit_rate_kbps`, turned into BTR by [`bit_timing`]; an
 //!   LSS "activate bit timing" re-initialises the controller. Received frames
-//!   go from the FIFO 0 interrupt to the CANopen task; the task fills the
-//!   mailboxes from the node's queue, and the TX-empty interrupt wakes it
-//!   when one is free (bxcan keeps frames with equal identifiers in FIFO
-//!   order, and a frame it takes back out of a mailbox goes back to the head
-//!   of the node's queue). RX overruns (FIFO or channel), error passive and
+//!   go from the FIFO 0 interrupt to the CANopen task; the task fills every
+//!   free mailbox from the node's queue, and the TX-empty interrupt wakes it
+//!   when one is free. Both read and write the mailboxes through the
+//!   registers ([`mailbox`]); the controller runs in TX FIFO mode, so a
+//!   burst leaves back to back in the queue's order. RX overruns (FIFO or channel), error passive and
 //!   bus-off recoveries are counted for the CANopen task, whose node raises
 //!   EMCY 0x8110, 0x8120 and 0x8140 (`Node::controller_event`). The acceptance filter passes the
 //!   identifiers the node consumes ([`filters`]), reprogrammed whenever that
@@ -25,6 +25,7 @@
 pub mod bit_timing;
 pub mod filters;
 pub mod flash_storage;
+pub mod mailbox;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 mod board;

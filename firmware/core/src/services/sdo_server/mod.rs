@@ -197,7 +197,7 @@ impl<const N: usize> SdoServer<N> {
     /// the transfer's deadline (because `poll` was late) first triggers the
     /// timeout abort; it is then served only if it initiates a new transfer.
     pub fn on_request(&mut self, now: Instant, data: &[u8], od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        self.channel.on_request(now, data, Some(&mut self.buf), od, tx);
+        self.channel.on_request(now, data, true, Some(&mut self.buf), od, tx);
     }
 
     /// Sends pending block-upload segments while `tx` accepts them; aborts with 0x05040000 on timeout; returns the next deadline (None when idle).
@@ -206,7 +206,7 @@ impl<const N: usize> SdoServer<N> {
     /// when the TX queue drains), else the timeout of the transfer in
     /// progress. Calling early is harmless.
     pub fn poll(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
-        self.channel.poll(now, od, tx)
+        self.channel.poll(now, true, od, tx)
     }
 
     /// Frames ignored because their length was not 8, plus requests with an
@@ -275,15 +275,31 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
     /// A frame on the rx COB-ID of server `i`, as [`SdoServer::on_request`].
     pub fn on_request(&mut self, i: usize, now: Instant, data: &[u8], od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        self.on_request_with(i, now, data, true, od, tx);
+    }
+
+    /// As [`SdoServers::on_request`]; without `block`, a block transfer
+    /// request is refused with abort 0x05040001 like any unknown command.
+    /// `block` is a compile-time constant of the node (`Services::block_sdo`),
+    /// so without it the compiler leaves the block transfer code out.
+    #[inline(always)]
+    pub fn on_request_with(&mut self, i: usize, now: Instant, data: &[u8], block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         let lent = self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
         let Some(channel) = self.channels.get_mut(i) else { return };
         let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
-        channel.on_request(now, data, buf, od, tx);
+        channel.on_request(now, data, block, buf, od, tx);
     }
 
     /// Timers and pending frames of server `i`, as [`SdoServer::poll`].
     pub fn poll(&mut self, i: usize, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
-        self.channels.get_mut(i).and_then(|c| c.poll(now, od, tx))
+        self.poll_with(i, now, true, od, tx)
+    }
+
+    /// As [`SdoServers::poll`], with block transfer served only if `block`
+    /// (see [`SdoServers::on_request_with`]).
+    #[inline(always)]
+    pub fn poll_with(&mut self, i: usize, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+        self.channels.get_mut(i).and_then(|c| c.poll(now, block, od, tx))
     }
 
     /// Malformed frames server `i` counted, as [`SdoServer::malformed`].
@@ -293,20 +309,21 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 }
 
 impl Channel {
-    fn on_request(&mut self, now: Instant, data: &[u8], buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    #[inline(always)]
+    fn on_request(&mut self, now: Instant, data: &[u8], block: bool, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         // A frame at or after the deadline comes too late for its transfer:
         // the timeout abort answers it, and only a new initiate is served.
         let expired = self.expire(now, tx);
         match self.state {
             // Sub-block frames carry a sequence number where other frames
             // have a command specifier; only the state tells them apart.
-            State::BlockDownload(d) if d.in_sub_block() => match BlockSegment::parse(data) {
+            State::BlockDownload(d) if block && d.in_sub_block() => match BlockSegment::parse(data) {
                 Ok(segment) => self.block_download_segment(d, segment, buf, tx),
                 Err(_) => return self.count_malformed(),
             },
             _ => match SdoRequest::parse(data) {
                 Ok(request) if expired && !starts_transfer(&request) => {}
-                Ok(request) => self.request(request, buf, od, tx),
+                Ok(request) => self.request(request, block, buf, od, tx),
                 Err(SdoParseError::Length(_)) => return self.count_malformed(),
                 Err(SdoParseError::UnknownCommand { index, sub, .. }) => {
                     self.count_malformed();
@@ -322,12 +339,13 @@ impl Channel {
         }
     }
 
-    fn poll(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+    #[inline(always)]
+    fn poll(&mut self, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
         self.expire(now, tx);
-        if self.flush(tx) {
+        if self.flush(tx) && block {
             self.send_block_segments(now, od, tx);
         }
-        if self.pending.is_some() || self.segments_waiting() {
+        if self.pending.is_some() || (block && self.segments_waiting()) {
             Some(now)
         } else if matches!(self.state, State::Idle) {
             None
@@ -346,8 +364,20 @@ impl Channel {
         self.malformed = self.malformed.saturating_add(1);
     }
 
-    /// A request outside the block download sub-block phase.
-    fn request(&mut self, request: SdoRequest, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    /// A request outside the block download sub-block phase; block
+    /// transfer requests only if `block`.
+    #[inline(always)]
+    fn request(&mut self, request: SdoRequest, block: bool, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        if !block && matches!(request, SdoRequest::BlockDownload(_) | SdoRequest::BlockUpload(_)) {
+            // As an unknown command specifier (`on_request`).
+            self.count_malformed();
+            let mux = match request {
+                SdoRequest::BlockDownload(BlockDownloadRequest::Initiate { index, sub, .. })
+                | SdoRequest::BlockUpload(BlockUploadRequest::Initiate { index, sub, .. }) => Mux { index, sub },
+                _ => Mux::NONE,
+            };
+            return self.fail(self.transfer().unwrap_or(mux), AbortCode::InvalidCommand, tx);
+        }
         // An abort or a new initiate ends whatever was in progress.
         match request {
             SdoRequest::Abort { .. } => self.reset(),
@@ -371,8 +401,9 @@ impl Channel {
                 State::Idle => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
                 State::SegmentedDownload(d) => self.segmented_download(d, request, buf, od, tx),
                 State::SegmentedUpload(u) => self.segmented_upload(u, request, od, tx),
-                State::BlockDownload(d) => self.block_download_end(d, request, buf, od, tx),
-                State::BlockUpload(u) => self.block_upload(u, request, tx),
+                State::BlockDownload(d) if block => self.block_download_end(d, request, buf, od, tx),
+                State::BlockUpload(u) if block => self.block_upload(u, request, tx),
+                State::BlockDownload(_) | State::BlockUpload(_) => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
             },
         }
     }
