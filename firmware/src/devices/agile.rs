@@ -53,7 +53,8 @@ impl Application for App {
 /// The value length of a four-data-set parameter (an ARRAY whose sub 0 is
 /// 9: data sets 1–4 and their RAM copies) when `sub` is 0, its "data set 0".
 fn data_sets(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<usize> {
-    let is_parameter = (0x2000..0x3000).contains(&index) && sub == 0 && ctx.read_u32(index, 0) == Some(9);
+    // Sub 9 exists only in such an ARRAY (a VAR parameter has sub 0 alone, whatever its value).
+    let is_parameter = (0x2000..0x3000).contains(&index) && sub == 0 && ctx.read_u32(index, 0) == Some(9) && ctx.read(index, 9).is_ok();
     is_parameter.then(|| ctx.read(index, 1).map_or(0, <[u8]>::len))
 }
 
