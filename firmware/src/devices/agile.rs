@@ -48,6 +48,10 @@ impl Application for App {
         // D25, §9.3.1: data set 0 writes all four data sets.
         Some((1..=4).try_for_each(|set| ctx.write_object(index, set, data)))
     }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
+    }
 }
 
 /// The value length of a four-data-set parameter (an ARRAY whose sub 0 is

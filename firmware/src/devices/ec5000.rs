@@ -80,6 +80,10 @@ impl Application for App {
             let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
         }
     }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
+    }
 }
 
 /// 0x4650 "Bus Address": sub 1 static (stored) node-ID, sub 2 the active one.

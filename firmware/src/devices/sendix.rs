@@ -62,6 +62,10 @@ impl Application for App {
             _ => {}
         }
     }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
+    }
 }
 
 /// 0x6200 Cyclic timer (CiA 406), in ms.
