@@ -161,6 +161,9 @@ fn sendix_preset_is_stored_when_written_d17() {
     let storage = b.node.storage_mut().clone();
     let mut again = sendix_node(storage);
     assert_eq!(again.sdo_upload(0x3F, 0x6003, 0), Ok(vec![0x10, 0x27, 0, 0]), "after a power cycle");
+    // A store that fails fails the write: the master learns the preset is not permanent.
+    again.node.storage_mut().cut_after(0);
+    assert_eq!(again.sdo_write(0x3F, 0x6003, 0, &[0x20, 0x4E, 0, 0]), abort(0x6003, 0, 0x0606_0000));
 }
 
 #[test]
