@@ -108,11 +108,6 @@ impl Shared {
             self.state_changed.wait().await;
         }
     }
-
-    /// NMT states the application's queue had no room for.
-    pub fn lost_states(&self) -> u32 {
-        self.states.lock(|q| q.try_borrow().map_or(0, |q| q.lost()))
-    }
 }
 
 /// The application's way to the node ([`Shared::requests`]): each request
@@ -173,11 +168,15 @@ struct States(&'static Shared);
 
 impl crate::runner::StateSink for States {
     fn entered(&mut self, state: State) {
-        self.0.states.lock(|q| {
-            if let Ok(mut q) = q.try_borrow_mut() {
-                q.entered(state);
-            }
+        let lost = self.0.states.lock(|q| {
+            let mut q = q.try_borrow_mut().ok()?;
+            let before = q.lost();
+            q.entered(state);
+            (q.lost() != before).then(|| q.lost())
         });
+        if let Some(lost) = lost {
+            defmt::warn!("NMT state queue full: {=u32} states lost so far", lost);
+        }
         self.0.state_changed.signal(());
     }
 }
@@ -266,6 +265,6 @@ pub async fn run_application(shared: &'static Shared) -> ! {
     }
     loop {
         let state = shared.next_state().await;
-        defmt::info!("NMT state {=u8:#04x} ({=u32} lost)", state.reported().code(), shared.lost_states());
+        defmt::info!("NMT state {=u8:#04x}", state.reported().code());
     }
 }
