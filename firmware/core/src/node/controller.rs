@@ -57,11 +57,23 @@ pub(super) struct ControllerErrors {
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
     raise_passive: bool,
+    /// When [`ControllerErrors::poll`] has work: the earliest clearing, or
+    /// at once while error passive waits to be raised again. Every
+    /// `Node::process` asks, so the answer must be cheap.
+    next: Option<Instant>,
 }
 
 impl ControllerErrors {
     pub(super) const fn new() -> Self {
-        ControllerErrors { lost: 0, recoveries: 0, overrun_clears_at: None, bus_off_clears_at: None, passive: false, raise_passive: false }
+        ControllerErrors {
+            lost: 0,
+            recoveries: 0,
+            overrun_clears_at: None,
+            bus_off_clears_at: None,
+            passive: false,
+            raise_passive: false,
+            next: None,
+        }
     }
 
     fn on_event(&mut self, event: ControllerEvent, now: Instant, emcy: &mut EmcyQueue) {
@@ -73,11 +85,13 @@ impl ControllerErrors {
                 // Manufacturer-specific field: frames lost so far.
                 emcy.raise(code::CAN_OVERRUN, count(self.lost));
                 self.overrun_clears_at = Some(hold);
+                self.schedule();
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
                 emcy.raise(code::BUS_OFF_RECOVERED, count(self.recoveries));
                 self.bus_off_clears_at = Some(hold);
+                self.schedule();
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
@@ -95,9 +109,17 @@ impl ControllerErrors {
     /// `booted`: the boot-up left in an earlier call (the transmit queue
     /// sends by identifier, and nothing may precede the boot-up).
     pub(super) fn poll(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
+        match self.next {
+            Some(t) if t <= now => self.poll_due(now, booted, emcy),
+            next => next,
+        }
+    }
+
+    #[inline(never)]
+    fn poll_due(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
         if self.raise_passive {
             if !booted {
-                return Some(now);
+                return self.next;
             }
             self.raise_passive = false;
             emcy.raise(code::CAN_PASSIVE, [0; 5]);
@@ -109,7 +131,12 @@ impl ControllerErrors {
                 emcy.clear(error);
             }
         }
-        earliest(self.overrun_clears_at, self.bus_off_clears_at)
+        self.schedule();
+        self.next
+    }
+
+    fn schedule(&mut self) {
+        self.next = if self.raise_passive { Some(Instant::ZERO) } else { earliest(self.overrun_clears_at, self.bus_off_clears_at) };
     }
 
     /// Reset communication forgot every active error: a controller still
@@ -119,6 +146,7 @@ impl ControllerErrors {
         self.overrun_clears_at = None;
         self.bus_off_clears_at = None;
         self.raise_passive = self.passive;
+        self.schedule();
     }
 }
 
