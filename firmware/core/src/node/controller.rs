@@ -108,6 +108,7 @@ impl ControllerErrors {
     /// Clears what stayed quiet long enough; the next deadline, if any.
     /// `booted`: the boot-up left in an earlier call (the transmit queue
     /// sends by identifier, and nothing may precede the boot-up).
+    #[inline(always)]
     pub(super) fn poll(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
         match self.next {
             Some(t) if t <= now => self.poll_due(now, booted, emcy),
