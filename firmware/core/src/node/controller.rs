@@ -5,15 +5,16 @@
 //! tests see the exact frames.
 //!
 //! Error passive is a state: active while the controller says so. A lost
-//! frame and a bus-off recovery are events with no lasting state: each
-//! stays active, and so in the error register, until it has not recurred
-//! for [`TRANSIENT_ERROR_HOLD`]; a repeat meanwhile sends nothing new (the
-//! error is active already) but holds it longer. Clearing the last active
-//! error sends "error reset" (0x0000), as for every error of the node.
+//! frame and a bus-off recovery are events with no lasting state: they stay
+//! active, and so in the error register, until the controller has reported
+//! neither for [`TRANSIENT_ERROR_HOLD`], then clear together; a repeat
+//! meanwhile sends nothing new (the error is active already) but holds it
+//! longer. Clearing the last active error sends "error reset" (0x0000), as
+//! for every error of the node.
 
 use crate::od::ObjectDictionary;
 use crate::storage::Storage;
-use crate::time::{Duration, Instant, earliest};
+use crate::time::{Duration, Instant};
 use crate::wire::emcy::code;
 
 use crate::services::emcy::EmcyProducer;
@@ -22,8 +23,8 @@ use super::{Application, EMCY_SLOTS, Node};
 
 type EmcyQueue = EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>;
 
-/// How long a frame loss or a bus-off recovery stays active without
-/// recurring before it is cleared ("error reset").
+/// How long a frame loss or a bus-off recovery stays active once the
+/// controller reports neither, before it is cleared ("error reset").
 pub const TRANSIENT_ERROR_HOLD: Duration = Duration::from_secs(1);
 
 /// What a board's CAN controller (or its driver) reports to the node
@@ -52,46 +53,32 @@ pub(super) struct ControllerErrors {
     lost: u32,
     /// Bus-off recoveries since power-on (wrapping).
     recoveries: u32,
-    overrun_clears_at: Option<Instant>,
-    bus_off_clears_at: Option<Instant>,
+    /// When the frame loss and the bus-off recovery clear, if either is
+    /// active: [`TRANSIENT_ERROR_HOLD`] after the last of them.
+    clears_at: Option<Instant>,
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
     raise_passive: bool,
-    /// When [`ControllerErrors::poll`] has work: the earliest clearing, or
-    /// at once while error passive waits to be raised again. Every
-    /// `Node::process` asks, so the answer must be cheap.
-    next: Option<Instant>,
 }
 
 impl ControllerErrors {
     pub(super) const fn new() -> Self {
-        ControllerErrors {
-            lost: 0,
-            recoveries: 0,
-            overrun_clears_at: None,
-            bus_off_clears_at: None,
-            passive: false,
-            raise_passive: false,
-            next: None,
-        }
+        ControllerErrors { lost: 0, recoveries: 0, clears_at: None, passive: false, raise_passive: false }
     }
 
     fn on_event(&mut self, event: ControllerEvent, now: Instant, emcy: &mut EmcyQueue) {
-        let hold = now + TRANSIENT_ERROR_HOLD;
         match event {
             ControllerEvent::RxOverrun { lost: 0 } => {}
             ControllerEvent::RxOverrun { lost } => {
                 self.lost = self.lost.wrapping_add(lost);
                 // Manufacturer-specific field: frames lost so far.
                 emcy.raise(code::CAN_OVERRUN, count(self.lost));
-                self.overrun_clears_at = Some(hold);
-                self.schedule();
+                self.clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
                 emcy.raise(code::BUS_OFF_RECOVERED, count(self.recoveries));
-                self.bus_off_clears_at = Some(hold);
-                self.schedule();
+                self.clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
@@ -107,47 +94,36 @@ impl ControllerErrors {
 
     /// Clears what stayed quiet long enough; the next deadline, if any.
     /// `booted`: the boot-up left in an earlier call (the transmit queue
-    /// sends by identifier, and nothing may precede the boot-up).
+    /// sends by identifier, and nothing may precede the boot-up). Every
+    /// `Node::process` asks, so the common answer takes one compare.
     #[inline(always)]
     pub(super) fn poll(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
-        match self.next {
-            Some(t) if t <= now => self.poll_due(now, booted, emcy),
-            next => next,
-        }
+        if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) { self.poll_due(now, booted, emcy) } else { self.clears_at }
     }
 
     #[inline(never)]
     fn poll_due(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
         if self.raise_passive {
             if !booted {
-                return self.next;
+                return Some(now);
             }
             self.raise_passive = false;
             emcy.raise(code::CAN_PASSIVE, [0; 5]);
         }
-        for (clears_at, error) in [(&mut self.overrun_clears_at, code::CAN_OVERRUN), (&mut self.bus_off_clears_at, code::BUS_OFF_RECOVERED)]
-        {
-            if clears_at.is_some_and(|t| t <= now) {
-                *clears_at = None;
-                emcy.clear(error);
-            }
+        if self.clears_at.is_some_and(|t| t <= now) {
+            self.clears_at = None;
+            emcy.clear(code::CAN_OVERRUN);
+            emcy.clear(code::BUS_OFF_RECOVERED);
         }
-        self.schedule();
-        self.next
-    }
-
-    fn schedule(&mut self) {
-        self.next = if self.raise_passive { Some(Instant::ZERO) } else { earliest(self.overrun_clears_at, self.bus_off_clears_at) };
+        self.clears_at
     }
 
     /// Reset communication forgot every active error: a controller still
     /// error passive is an error still present, so it is raised again after
     /// the boot-up. Frame losses and recoveries before the reset are over.
     pub(super) fn reset(&mut self) {
-        self.overrun_clears_at = None;
-        self.bus_off_clears_at = None;
+        self.clears_at = None;
         self.raise_passive = self.passive;
-        self.schedule();
     }
 }
 
