@@ -5,16 +5,15 @@
 //! tests see the exact frames.
 //!
 //! Error passive is a state: active while the controller says so. A lost
-//! frame and a bus-off recovery are events with no lasting state: they stay
-//! active, and so in the error register, until the controller has reported
-//! neither for [`TRANSIENT_ERROR_HOLD`], then clear together; a repeat
-//! meanwhile sends nothing new (the error is active already) but holds it
-//! longer. Clearing the last active error sends "error reset" (0x0000), as
-//! for every error of the node.
+//! frame and a bus-off recovery are events with no lasting state: each
+//! stays active, and so in the error register, until it has not recurred
+//! for [`TRANSIENT_ERROR_HOLD`]; a repeat meanwhile sends nothing new (the
+//! error is active already) but holds it longer. Clearing the last active
+//! error sends "error reset" (0x0000), as for every error of the node.
 
 use crate::od::ObjectDictionary;
 use crate::storage::Storage;
-use crate::time::{Duration, Instant};
+use crate::time::{Duration, Instant, earliest};
 use crate::wire::emcy::code;
 
 use crate::services::emcy::EmcyProducer;
@@ -23,8 +22,8 @@ use super::{Application, EMCY_SLOTS, Node};
 
 type EmcyQueue = EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>;
 
-/// How long a frame loss or a bus-off recovery stays active once the
-/// controller reports neither, before it is cleared ("error reset").
+/// How long a frame loss or a bus-off recovery stays active without
+/// recurring before it is cleared ("error reset").
 pub const TRANSIENT_ERROR_HOLD: Duration = Duration::from_secs(1);
 
 /// What a board's CAN controller (or its driver) reports to the node
@@ -53,8 +52,11 @@ pub(super) struct ControllerErrors {
     lost: u32,
     /// Bus-off recoveries since power-on (wrapping).
     recoveries: u32,
-    /// When the frame loss and the bus-off recovery clear, if either is
-    /// active: [`TRANSIENT_ERROR_HOLD`] after the last of them.
+    /// When the frame loss clears, if it is active.
+    overrun_clears_at: Option<Instant>,
+    /// When the bus-off recovery clears, if it is active.
+    bus_off_clears_at: Option<Instant>,
+    /// The earlier of the two: [`ControllerErrors::poll`] compares only this.
     clears_at: Option<Instant>,
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
@@ -63,7 +65,15 @@ pub(super) struct ControllerErrors {
 
 impl ControllerErrors {
     pub(super) const fn new() -> Self {
-        ControllerErrors { lost: 0, recoveries: 0, clears_at: None, passive: false, raise_passive: false }
+        ControllerErrors {
+            lost: 0,
+            recoveries: 0,
+            overrun_clears_at: None,
+            bus_off_clears_at: None,
+            clears_at: None,
+            passive: false,
+            raise_passive: false,
+        }
     }
 
     fn on_event(&mut self, event: ControllerEvent, now: Instant, emcy: &mut EmcyQueue) {
@@ -73,12 +83,12 @@ impl ControllerErrors {
                 self.lost = self.lost.wrapping_add(lost);
                 // Manufacturer-specific field: frames lost so far.
                 emcy.raise(code::CAN_OVERRUN, count(self.lost));
-                self.clears_at = Some(now + TRANSIENT_ERROR_HOLD);
+                self.overrun_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
                 emcy.raise(code::BUS_OFF_RECOVERED, count(self.recoveries));
-                self.clears_at = Some(now + TRANSIENT_ERROR_HOLD);
+                self.bus_off_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
@@ -90,6 +100,7 @@ impl ControllerErrors {
             }
             ControllerEvent::ErrorPassive | ControllerEvent::ErrorActive => {}
         }
+        self.clears_at = earliest(self.overrun_clears_at, self.bus_off_clears_at);
     }
 
     /// Clears what stayed quiet long enough; the next deadline, if any.
@@ -110,11 +121,14 @@ impl ControllerErrors {
             self.raise_passive = false;
             emcy.raise(code::CAN_PASSIVE, [0; 5]);
         }
-        if self.clears_at.is_some_and(|t| t <= now) {
-            self.clears_at = None;
-            emcy.clear(code::CAN_OVERRUN);
-            emcy.clear(code::BUS_OFF_RECOVERED);
+        for (clears_at, error) in [(&mut self.overrun_clears_at, code::CAN_OVERRUN), (&mut self.bus_off_clears_at, code::BUS_OFF_RECOVERED)]
+        {
+            if clears_at.is_some_and(|t| t <= now) {
+                *clears_at = None;
+                emcy.clear(error);
+            }
         }
+        self.clears_at = earliest(self.overrun_clears_at, self.bus_off_clears_at);
         self.clears_at
     }
 
@@ -122,6 +136,8 @@ impl ControllerErrors {
     /// error passive is an error still present, so it is raised again after
     /// the boot-up. Frame losses and recoveries before the reset are over.
     pub(super) fn reset(&mut self) {
+        self.overrun_clears_at = None;
+        self.bus_off_clears_at = None;
         self.clears_at = None;
         self.raise_passive = self.passive;
     }
