@@ -3,26 +3,26 @@
 //! node, and the application slot.
 //!
 //! The CANopen task is embassy-net's runner in miniature (style guide
-//! §2.4): it owns the node, and waits on `select(received frame,
-//! application request, controller event or room to send, Timer::at(deadline))`;
-//! whatever woke it, it hands the node the frames or the request, then runs
-//! a [`Runner::step`]. Interrupts only move frames through channels and
-//! count controller events ([`ControllerStatus`]); the application only
-//! sends [`Request`]s and reads the NMT states from a queue. No lock is
-//! held while the node works.
+//! §2.4): it owns the node, and waits on `select(received frame, wake-up,
+//! Timer::at(deadline))`, where a wake-up is an application request, a
+//! controller event or room to send; whatever woke it, it hands the node
+//! the frames or the request, then runs a [`Runner::step`]. Interrupts only
+//! move frames through channels and count controller events
+//! ([`ControllerStatus`]); the application only sends [`Request`]s (through
+//! the one [`Requests`] handle) and reads the NMT states from a queue. No
+//! lock is held while the node works.
 
 use core::cell::RefCell;
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::services::nmt::State;
 use canopen_core::time::Instant;
-use embassy_futures::select::{Either4, select4};
+use embassy_futures::select::{Either3, select3};
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
-use embassy_sync::mutex::Mutex as AsyncMutex;
 use embassy_sync::signal::Signal;
 use embassy_time::Timer;
 
@@ -44,10 +44,10 @@ pub struct Shared {
     pub rx: Channel<CriticalSectionRawMutex, CanFrame, RX_QUEUE>,
     /// What the controller's interrupts counted (each report also [`Shared::wake`]s the task).
     pub controller: ControllerStatus,
-    requests: Channel<CriticalSectionRawMutex, Request, 1>,
-    replies: Channel<CriticalSectionRawMutex, Reply, 1>,
-    /// One request at a time, so each caller gets its own reply.
-    caller: AsyncMutex<CriticalSectionRawMutex, ()>,
+    /// The request of the one [`Requests`] handle, until the task takes it.
+    request: Signal<CriticalSectionRawMutex, Request>,
+    reply: Signal<CriticalSectionRawMutex, Reply>,
+    requests_taken: AtomicBool,
     states: Mutex<CriticalSectionRawMutex, RefCell<StateQueue<STATE_QUEUE>>>,
     state_changed: Signal<CriticalSectionRawMutex, ()>,
     wake: Signal<CriticalSectionRawMutex, ()>,
@@ -58,9 +58,9 @@ pub struct Shared {
 pub static SHARED: Shared = Shared {
     rx: Channel::new(),
     controller: ControllerStatus::new(),
-    requests: Channel::new(),
-    replies: Channel::new(),
-    caller: AsyncMutex::new(()),
+    request: Signal::new(),
+    reply: Signal::new(),
+    requests_taken: AtomicBool::new(false),
     states: Mutex::new(RefCell::new(StateQueue::new())),
     state_changed: Signal::new(),
     wake: Signal::new(),
@@ -90,16 +90,45 @@ impl Shared {
         self.rejected.load(Ordering::Relaxed)
     }
 
-    /// Sends `request` to the CANopen task, which runs at once (it
-    /// preempts thread mode), and returns its answer.
-    pub async fn call(&self, request: Request) -> Reply {
-        let _one_at_a_time = self.caller.lock().await;
-        self.requests.send(request).await;
-        self.replies.receive().await
+    /// The handle through which the application asks the node: the first
+    /// call gets it, every later one `None`. One handle, borrowed mutably
+    /// per request, so requests never overlap and no lock is needed.
+    pub fn requests(&'static self) -> Option<Requests> {
+        (!self.requests_taken.swap(true, Ordering::Relaxed)).then_some(Requests { shared: self })
+    }
+
+    /// The next NMT state the node entered, in order: none is lost unless
+    /// more than [`STATE_QUEUE`] wait (see [`StateQueue`]).
+    pub async fn next_state(&self) -> State {
+        loop {
+            // `try_borrow_mut`: `borrow_mut`'s panic message pulls `core::fmt` into the images.
+            if let Some(state) = self.states.lock(|q| q.try_borrow_mut().ok()?.pop()) {
+                return state;
+            }
+            self.state_changed.wait().await;
+        }
+    }
+}
+
+/// The application's way to the node ([`Shared::requests`]): each request
+/// wakes the CANopen task, which preempts thread mode, carries it out,
+/// steps (so a triggered TPDO or an EMCY leaves at once) and replies.
+pub struct Requests {
+    shared: &'static Shared,
+}
+
+impl Requests {
+    /// Sends `request` to the CANopen task and returns its answer.
+    pub async fn call(&mut self, request: Request) -> Reply {
+        // A reply left by a call that was dropped before it took it.
+        self.shared.reply.reset();
+        self.shared.request.signal(request);
+        self.shared.wake();
+        self.shared.reply.wait().await
     }
 
     /// Reads an object of up to 8 bytes.
-    pub async fn read(&self, index: u16, sub: u8) -> Result<Value, AbortCode> {
+    pub async fn read(&mut self, index: u16, sub: u8) -> Result<Value, AbortCode> {
         match self.call(Request::Read { index, sub }).await {
             Reply::Value(value) => Ok(value),
             Reply::Refused(code) => Err(code),
@@ -108,7 +137,7 @@ impl Shared {
     }
 
     /// Writes an object of up to 8 bytes as the device ([`Request::Write`]).
-    pub async fn write(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    pub async fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let Some(value) = Value::new(data) else { return Err(AbortCode::LengthTooHigh) };
         match self.call(Request::Write { index, sub, value }).await {
             Reply::Done => Ok(()),
@@ -119,34 +148,18 @@ impl Shared {
 
     /// Sends event-driven TPDO `n` (0-based) now, inhibit time permitting;
     /// false if it is not valid or of another type.
-    pub async fn trigger_tpdo(&self, n: u16) -> bool {
+    pub async fn trigger_tpdo(&mut self, n: u16) -> bool {
         self.call(Request::TriggerTpdo(n)).await == Reply::Done
     }
 
     /// Raises an application error (EMCY, error register, 0x1003).
-    pub async fn raise_error(&self, code: u16, info: [u8; 5]) {
+    pub async fn raise_error(&mut self, code: u16, info: [u8; 5]) {
         self.call(Request::RaiseError { code, info }).await;
     }
 
     /// Clears an application error.
-    pub async fn clear_error(&self, code: u16) {
+    pub async fn clear_error(&mut self, code: u16) {
         self.call(Request::ClearError(code)).await;
-    }
-
-    /// The next NMT state the node entered, in order: none is lost unless
-    /// more than [`STATE_QUEUE`] wait (see [`StateQueue`]).
-    pub async fn next_state(&self) -> State {
-        loop {
-            if let Some(state) = self.states.lock(|q| q.borrow_mut().pop()) {
-                return state;
-            }
-            self.state_changed.wait().await;
-        }
-    }
-
-    /// NMT states the application's queue had no room for.
-    pub fn lost_states(&self) -> u32 {
-        self.states.lock(|q| q.borrow().lost())
     }
 }
 
@@ -155,7 +168,15 @@ struct States(&'static Shared);
 
 impl crate::runner::StateSink for States {
     fn entered(&mut self, state: State) {
-        self.0.states.lock(|q| q.borrow_mut().entered(state));
+        let lost = self.0.states.lock(|q| {
+            let mut q = q.try_borrow_mut().ok()?;
+            let before = q.lost();
+            q.entered(state);
+            (q.lost() != before).then(|| q.lost())
+        });
+        if let Some(lost) = lost {
+            defmt::warn!("NMT state queue full: {=u32} states lost so far", lost);
+        }
         self.0.state_changed.signal(());
     }
 }
@@ -212,8 +233,8 @@ pub async fn run_canopen(shared: &'static Shared, node: &'static mut dyn CanNode
         runner.controller_events(node, now, &shared.controller);
         let deadline = runner.step(node, now, controller, &mut states);
         let timer = Timer::at(deadline.map_or(embassy_time::Instant::MAX, to_embassy));
-        match select4(shared.rx.receive(), shared.requests.receive(), shared.wake.wait(), timer).await {
-            Either4::First(frame) => {
+        match select3(shared.rx.receive(), shared.wake.wait(), timer).await {
+            Either3::First(frame) => {
                 let now = self::now();
                 runner.on_frame(node, now, &frame, &mut states);
                 // Whatever else arrived meanwhile, before the next step.
@@ -221,27 +242,29 @@ pub async fn run_canopen(shared: &'static Shared, node: &'static mut dyn CanNode
                     runner.on_frame(node, now, &frame, &mut states);
                 }
             }
-            Either4::Second(request) => {
-                let reply = runner.on_request(node, request);
-                // The caller holds `caller` until it took this: there is room.
-                let _ = shared.replies.try_send(reply);
+            Either3::Second(()) => {
+                if let Some(request) = shared.request.try_take() {
+                    shared.reply.signal(runner.on_request(node, request));
+                }
             }
-            Either4::Third(()) | Either4::Fourth(()) => {}
+            Either3::Third(()) => {}
         }
     }
 }
 
 /// The application slot, one task per image ([`crate::image!`] spawns it):
 /// where a device profile runs beside the CANopen task, reading and
-/// writing objects and triggering TPDOs through [`Shared`]'s requests and
-/// following the NMT state through [`Shared::next_state`]. Today it
-/// reports the device type (0x1000) and each NMT state the node enters.
+/// writing objects and triggering TPDOs through [`Requests`] and following
+/// the NMT state through [`Shared::next_state`]. Today it reports the
+/// device type (0x1000) and each NMT state the node enters.
 pub async fn run_application(shared: &'static Shared) -> ! {
-    if let Ok(value) = shared.read(0x1000, 0).await {
+    if let Some(mut node) = shared.requests()
+        && let Ok(value) = node.read(0x1000, 0).await
+    {
         defmt::info!("device type {=[u8]:02x}", value.as_bytes());
     }
     loop {
         let state = shared.next_state().await;
-        defmt::info!("NMT state {=u8:#04x} ({=u32} lost)", state.reported().code(), shared.lost_states());
+        defmt::info!("NMT state {=u8:#04x}", state.reported().code());
     }
 }

@@ -128,3 +128,14 @@ fn reset_communication_raises_error_passive_again() {
     assert_eq!(b.run_until(ms(3000)), [], "nothing left to clear by time");
     assert_eq!(report(&mut b, ms(3000), ControllerEvent::ErrorActive), [(EMCY, ERROR_RESET.to_vec())]);
 }
+
+#[test]
+fn a_loss_and_a_recovery_each_clear_a_quiet_second_after_themselves() {
+    let mut b = interop();
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::RxOverrun { lost: 1 }), [(EMCY, vec![0x10, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    assert_eq!(report(&mut b, ms(900), ControllerEvent::BusOffRecovered), [(EMCY, vec![0x40, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    // 0x8110 clears at 1.01 s, silently: 0x8140 is still active (register still 0x11).
+    assert_eq!(b.run_until(ms(1899)), []);
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x11]));
+    assert_eq!(at(ms(1900), b.run_until(ms(3000))), emcy(ERROR_RESET));
+}

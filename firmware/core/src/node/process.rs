@@ -124,8 +124,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
             switch_deadline,
             app_deadline,
-            controller_deadline,
         ];
-        deadlines.into_iter().fold(None, earliest)
+        // Outside the array: nearly always `None`, and each element costs every call.
+        let deadline = deadlines.into_iter().fold(None, earliest);
+        if controller_deadline.is_some() { earliest(deadline, controller_deadline) } else { deadline }
     }
 }

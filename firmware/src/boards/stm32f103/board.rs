@@ -65,11 +65,14 @@ const PCLK1_HZ: u32 = 36_000_000;
 /// BTR per CiA 305 bit-rate index at [`PCLK1_HZ`] (what `rcc::Config`
 /// below gets exactly: SYSCLK / 2), computed at compile time.
 const BTR: [Option<u32>; 9] = bit_timing::table(PCLK1_HZ);
-/// Priority of the CAN interrupts and of the CANopen task's executor, so
-/// neither preempts the other. STM32F1 implements 4 priority bits, the top
-/// of the byte: this is level 1, below SysTick (level 0) and above thread
-/// mode.
+/// Priority of the CAN interrupts. STM32F1 implements 4 priority bits, the
+/// top of the byte: this is level 1, below SysTick (level 0). They only
+/// move frames and count events, so they may preempt the CANopen task and
+/// empty bxCAN's 3-frame FIFO while the node works.
 const CAN_PRIORITY: u8 = 1 << 4;
+/// Priority of the CANopen task's executor: level 2, below the CAN
+/// interrupts and above thread mode (the application slot).
+const EXECUTOR_PRIORITY: u8 = 2 << 4;
 /// The CANopen executor runs in the tamper interrupt's handler; the tamper
 /// pin is not used.
 const EXECUTOR_IRQ: Interrupt = Interrupt::TAMPER;
@@ -153,10 +156,10 @@ pub fn run<A>(
     };
     defmt::info!("node-id {=u8}, CAN bit rate index {=u8} ({=str}), BTR {=u32:#010x}", node_id, index, source, btr);
 
-    for irq in CAN_IRQS.into_iter().chain([EXECUTOR_IRQ]) {
+    for (irq, priority) in CAN_IRQS.map(|irq| (irq, CAN_PRIORITY)).into_iter().chain([(EXECUTOR_IRQ, EXECUTOR_PRIORITY)]) {
         // SAFETY: priorities are set before the interrupts are unmasked and
         // the executor starts; no critical section relies on priorities.
-        unsafe { core.NVIC.set_priority(irq, CAN_PRIORITY) };
+        unsafe { core.NVIC.set_priority(irq, priority) };
     }
     for irq in CAN_IRQS {
         // SAFETY: the handlers in `can` are linked in and find the

@@ -128,11 +128,12 @@ pub fn set_bit_timing(btr: u32, timeout_cycles: u32) -> Result<(), ()> {
 /// The bxCAN registers bxcan does not cover (RM0008 §24.9.2).
 fn registers() -> &'static pac::can::RegisterBlock {
     // SAFETY: the CAN register block is always mapped. The fields touched
-    // through it (IER.ERRIE/BOFIE/EPVIE, MSR.ERRI, ESR, MCR.INRQ, BTR, and the
-    // filter registers FMR, FM1R, FS1R, FFA1R, FA1R, FiRx) are not used by bxcan after
-    // `start`; they are accessed in `start` (before the interrupts are
-    // unmasked), in the CAN interrupts and by the CANopen task, which share
-    // one priority and so never preempt each other.
+    // through it are not used by bxcan after `start`; they are accessed in
+    // `start` (before the interrupts are unmasked), and then IER.ERRIE/BOFIE/
+    // EPVIE, MSR.ERRI and ESR only by the CAN interrupts (one priority, so
+    // they never preempt each other), MCR.INRQ, BTR and the filter registers
+    // FMR, FM1R, FS1R, FFA1R, FA1R, FiRx only by the CANopen task inside a
+    // critical section.
     unsafe { &*pac::CAN::ptr() }
 }
 
