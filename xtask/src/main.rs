@@ -13,9 +13,11 @@
 //! - `build`: every firmware image (each device on each board), with its sizes and the budget check.
 //! - `qemu DEVICE [--listen HOST:PORT]`: boots a device's QEMU image, SLCAN on that TCP port.
 //! - `smoke`: python-canopen against every QEMU image (tests/python/test_qemu_smoke.py).
+//! - `hil --interface IF --channel CH --device NAME --node-id N` (or `--qemu`): the bench check of a board.
 
 mod bench;
 mod demo;
+mod hil;
 mod images;
 mod measure;
 
@@ -37,9 +39,10 @@ fn main() -> ExitCode {
         Some("build") => images::build(),
         Some("qemu") => images::qemu(args.get(1..).unwrap_or_default()),
         Some("smoke") => images::smoke(),
+        Some("hil") => hil::hil(args.get(1..).unwrap_or_default()),
         Some("size") => measure::size(),
         Some("icount") => measure::icount(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000)),
-        _ => Err("usage: cargo xtask test | demo [--connect HOST:PORT] [--node-id N] | fuzz [SECONDS] | bench | build | qemu DEVICE | smoke | size | icount [N]".into()),
+        _ => Err("usage: cargo xtask test | demo [--connect HOST:PORT] [--node-id N] | fuzz [SECONDS] | bench | build | qemu DEVICE | smoke | hil ... | size | icount [N]".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -90,6 +93,7 @@ fn test() -> Result<(), String> {
     ensure_apt(&[("qemu-system-arm", "qemu-system-arm"), ("arm-none-eabi-size", "binutils-arm-none-eabi")])?;
     images::build()?;
     images::smoke()?;
+    hil::qemu_all()?;
     demo::demo(&[])?;
     eprintln!("xtask test: all checks passed");
     Ok(())

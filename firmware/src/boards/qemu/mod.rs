@@ -18,6 +18,7 @@
 //! ([`exit_report`], on QEMU's stderr):
 //! `stack.rs` paints the stack at start-up and finds the high-water mark.
 
+pub mod host_file;
 pub mod ram_storage;
 pub mod slcan;
 
