@@ -25,8 +25,6 @@ pub mod slcan;
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
 mod board;
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
-mod stack;
-#[cfg(all(target_os = "none", feature = "board-qemu"))]
 mod uart;
 
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
