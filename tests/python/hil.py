@@ -103,7 +103,8 @@ class Bench:
         channel, interface = self.args.channel, self.args.interface
         if self.qemu:
             channel, interface = self.qemu.start(), "slcan"
-        kwargs = {"sleep_after_open": 0} if interface == "slcan" else {}
+        # A serial SLCAN adapter may need its default pause after opening; a TCP one does not.
+        kwargs = {"sleep_after_open": 0} if interface == "slcan" and str(channel).startswith("socket://") else {}
         bus = can.Bus(interface=interface, channel=channel, bitrate=self.args.bitrate, **kwargs)
         self.frames = FrameLog()
         self.network = canopen.Network(bus)
@@ -129,11 +130,16 @@ class Bench:
     def error_control(self):
         return 0x700 + self.args.node_id
 
+    def boot_up_seen(self, mark, timeout):
+        boot = lambda m: m.arbitration_id == self.error_control() and bytes(m.data) == b"\x00"  # noqa: E731
+        return self.frames.wait_for(boot, after=mark, timeout=timeout) is not None
+
     def wait_boot_up(self, mark=0, timeout=3.0):
         boot = lambda m: m.arbitration_id == self.error_control() and bytes(m.data) == b"\x00"  # noqa: E731
         if self.frames.wait_for(boot, after=mark, timeout=timeout):
             return True
         # It booted before we listened: reset it.
+        print("      no boot-up seen: NMT reset node")
         mark = self.frames.mark()
         self.node.nmt.send_command(0x81)
         return self.frames.wait_for(boot, after=mark, timeout=WAIT) is not None
@@ -150,14 +156,20 @@ class Bench:
         return frame is not None and frame.data[0] & 0x7F == state
 
     def power_cycle(self):
-        self.disconnect()
+        """Cuts and restores the node's power; whether its boot-up followed."""
         if self.qemu:
+            # The TCP link goes with QEMU; the new QEMU waits for it before it runs.
+            self.disconnect()
             self.qemu.power_cut()
-        elif self.args.power_cycle_command:
+            self.connect()
+            return self.boot_up_seen(0, WAIT)
+        # A real adapter stays connected, so the boot-up is seen.
+        mark = self.frames.mark()
+        if self.args.power_cycle_command:
             subprocess.run(self.args.power_cycle_command, shell=True, check=True)
         else:
             input("Cycle the board's power now (off, wait a second, on), then press Enter... ")
-        self.connect()
+        return self.boot_up_seen(mark, 10.0)
 
     # ---- the checks ------------------------------------------------------------
     def run(self):
@@ -196,8 +208,7 @@ class Bench:
         if 0x1010 in od and 0x1017 in od:
             node.sdo.download(0x1017, 0, struct.pack("<H", 150))
             node.sdo.download(0x1010, 1, b"save")
-            self.power_cycle()
-            self.check(self.wait_boot_up(), "boot-up after the power cycle")
+            self.check(self.power_cycle(), "boot-up after the power cycle")
             self.check(self.u(0x1017) == 150, "0x1017 = 150 ms saved with 0x1010 came back after the power cycle")
             # Leave the board as found: defaults from the next power-on.
             node = self.node
