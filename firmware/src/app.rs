@@ -1,90 +1,83 @@
-//! Glue between a board and the core, the same on every board: the shared
-//! node, the CANopen task and the application slot.
+//! Glue between a board and the core, the same on every board: what the
+//! interrupts and tasks share ([`SHARED`]), the CANopen task that owns the
+//! node, and the application slot.
 //!
-//! The CANopen task is embassy-net's runner in miniature (style guide §2.4):
-//! wait on `select(rx.receive(), board event, Timer::at(deadline))`, feed the
-//! core, run its timers, then let the board drain the transmit queue. The
-//! board only moves frames, reports controller events (RX overrun, bus-off
-//! recovered) and applies what the node asks of its controller through
-//! [`Controller`] (acceptance filter, LSS bit rate); which EMCY codes the
-//! events become is decided here, not in the board.
+//! The CANopen task is embassy-net's runner in miniature (style guide
+//! §2.4): it owns the node, and waits on `select(received frame,
+//! application request, controller event or room to send, Timer::at(deadline))`;
+//! whatever woke it, it hands the node the frames or the request, then runs
+//! a [`Runner::step`]. Interrupts only move frames through channels and
+//! count controller events ([`ControllerStatus`]); the application only
+//! sends [`Request`]s and reads the NMT states from a queue. No lock is
+//! held while the node works.
 
-use core::any::Any;
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicU32, Ordering};
 
+use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
-use canopen_core::node::{AcceptanceList, BitRateControl};
 use canopen_core::services::nmt::State;
-use canopen_core::time::{Duration, Instant};
-use canopen_core::wire::emcy::code;
-use embassy_futures::select::{Either3, select3};
+use canopen_core::time::Instant;
+use embassy_futures::select::{Either4, select4};
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
+use embassy_sync::mutex::Mutex as AsyncMutex;
 use embassy_sync::signal::Signal;
 use embassy_time::Timer;
 
-pub use crate::can_node::{CanNode, od_mut};
+pub use crate::can_node::CanNode;
+pub use crate::runner::{Controller, ControllerStatus, Reply, Request, Runner, StateQueue, Value};
 
 /// Frames the receive channel buffers between the driver and the CANopen task.
 pub const RX_QUEUE: usize = 16;
-
-/// How long a transient controller error (RX overrun, bus-off recovered)
-/// stays active without recurring before it is cleared ("error reset").
-pub const TRANSIENT_ERROR_HOLD: Duration = Duration::from_secs(1);
+/// NMT states the application's queue holds: every frame of a full
+/// receive channel can be an NMT command, and a reset is two states
+/// (Initialising, then the state after the boot-up).
+pub const STATE_QUEUE: usize = 2 * RX_QUEUE + 2;
 
 defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_ticks());
 
-/// Everything the board's interrupts and tasks share with the CANopen task.
+/// Everything the board's interrupts, the CANopen task and the application share.
 pub struct Shared {
-    node: Mutex<CriticalSectionRawMutex, RefCell<Option<&'static mut dyn CanNode>>>,
     /// Frames received from the bus, oldest first.
     pub rx: Channel<CriticalSectionRawMutex, CanFrame, RX_QUEUE>,
-    /// The NMT state, each time it changes (for the application slot).
-    pub state: Signal<CriticalSectionRawMutex, State>,
-    events: Signal<CriticalSectionRawMutex, ()>,
-    rx_overruns: AtomicU32,
-    bus_off_recoveries: AtomicU32,
+    /// What the controller's interrupts counted (each report also [`Shared::wake`]s the task).
+    pub controller: ControllerStatus,
+    requests: Channel<CriticalSectionRawMutex, Request, 1>,
+    replies: Channel<CriticalSectionRawMutex, Reply, 1>,
+    /// One request at a time, so each caller gets its own reply.
+    caller: AsyncMutex<CriticalSectionRawMutex, ()>,
+    states: Mutex<CriticalSectionRawMutex, RefCell<StateQueue<STATE_QUEUE>>>,
+    state_changed: Signal<CriticalSectionRawMutex, ()>,
+    wake: Signal<CriticalSectionRawMutex, ()>,
     rejected: AtomicU32,
 }
 
 /// The one [`Shared`] of an image.
 pub static SHARED: Shared = Shared {
-    node: Mutex::new(RefCell::new(None)),
     rx: Channel::new(),
-    state: Signal::new(),
-    events: Signal::new(),
-    rx_overruns: AtomicU32::new(0),
-    bus_off_recoveries: AtomicU32::new(0),
+    controller: ControllerStatus::new(),
+    requests: Channel::new(),
+    replies: Channel::new(),
+    caller: AsyncMutex::new(()),
+    states: Mutex::new(RefCell::new(StateQueue::new())),
+    state_changed: Signal::new(),
+    wake: Signal::new(),
     rejected: AtomicU32::new(0),
 };
 
 impl Shared {
-    /// Hands the node to the tasks (once, before they start).
-    pub fn install(&self, node: &'static mut dyn CanNode) {
-        self.node.lock(|cell| {
-            if let Ok(mut slot) = cell.try_borrow_mut() {
-                *slot = Some(node);
-            }
-        });
+    /// Wakes the CANopen task: the controller reported an event
+    /// ([`Shared::controller`]) or has room for frames again.
+    pub fn wake(&self) {
+        self.wake.signal(());
     }
 
-    /// Runs `f` on the node inside a critical section; `None` before
-    /// [`Shared::install`] (or if called re-entrantly).
-    pub fn with_node<R>(&self, f: impl FnOnce(&mut dyn CanNode) -> R) -> Option<R> {
-        self.node.lock(|cell| {
-            let mut node = cell.try_borrow_mut().ok()?;
-            let node: &mut dyn CanNode = node.as_deref_mut()?;
-            Some(f(node))
-        })
-    }
-
-    /// Runs `f` on the node's dictionary as the device's generated type
-    /// `O` ([`od_mut`]); `None` if the node runs another dictionary (or as
-    /// [`Shared::with_node`]).
-    pub fn with_od<O: Any, R>(&self, f: impl FnOnce(&mut O) -> R) -> Option<R> {
-        self.with_node(|node| od_mut::<O>(node).map(f)).flatten()
+    /// A received frame was lost (controller FIFO or [`Shared::rx`] full).
+    pub fn rx_overrun(&self) {
+        self.controller.rx_overrun();
+        self.wake();
     }
 
     /// The board's software acceptance filter dropped a frame.
@@ -97,21 +90,73 @@ impl Shared {
         self.rejected.load(Ordering::Relaxed)
     }
 
-    /// A received frame was lost (controller FIFO or [`Shared::rx`] full).
-    pub fn rx_overrun(&self) {
-        self.rx_overruns.fetch_add(1, Ordering::Relaxed);
-        self.events.signal(());
+    /// Sends `request` to the CANopen task, which runs at once (it
+    /// preempts thread mode), and returns its answer.
+    pub async fn call(&self, request: Request) -> Reply {
+        let _one_at_a_time = self.caller.lock().await;
+        self.requests.send(request).await;
+        self.replies.receive().await
     }
 
-    /// The controller left bus-off and takes part in bus traffic again.
-    pub fn bus_off_recovered(&self) {
-        self.bus_off_recoveries.fetch_add(1, Ordering::Relaxed);
-        self.events.signal(());
+    /// Reads an object of up to 8 bytes.
+    pub async fn read(&self, index: u16, sub: u8) -> Result<Value, AbortCode> {
+        match self.call(Request::Read { index, sub }).await {
+            Reply::Value(value) => Ok(value),
+            Reply::Refused(code) => Err(code),
+            Reply::Done | Reply::NotTriggered => Err(AbortCode::General),
+        }
     }
 
-    /// Frames lost so far (for logs and tests).
-    pub fn rx_overruns(&self) -> u32 {
-        self.rx_overruns.load(Ordering::Relaxed)
+    /// Writes an object of up to 8 bytes as the device ([`Request::Write`]).
+    pub async fn write(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let Some(value) = Value::new(data) else { return Err(AbortCode::LengthTooHigh) };
+        match self.call(Request::Write { index, sub, value }).await {
+            Reply::Done => Ok(()),
+            Reply::Refused(code) => Err(code),
+            Reply::Value(_) | Reply::NotTriggered => Err(AbortCode::General),
+        }
+    }
+
+    /// Sends event-driven TPDO `n` (0-based) now, inhibit time permitting;
+    /// false if it is not valid or of another type.
+    pub async fn trigger_tpdo(&self, n: u16) -> bool {
+        self.call(Request::TriggerTpdo(n)).await == Reply::Done
+    }
+
+    /// Raises an application error (EMCY, error register, 0x1003).
+    pub async fn raise_error(&self, code: u16, info: [u8; 5]) {
+        self.call(Request::RaiseError { code, info }).await;
+    }
+
+    /// Clears an application error.
+    pub async fn clear_error(&self, code: u16) {
+        self.call(Request::ClearError(code)).await;
+    }
+
+    /// The next NMT state the node entered, in order: none is lost unless
+    /// more than [`STATE_QUEUE`] wait (see [`StateQueue`]).
+    pub async fn next_state(&self) -> State {
+        loop {
+            if let Some(state) = self.states.lock(|q| q.borrow_mut().pop()) {
+                return state;
+            }
+            self.state_changed.wait().await;
+        }
+    }
+
+    /// NMT states the application's queue had no room for.
+    pub fn lost_states(&self) -> u32 {
+        self.states.lock(|q| q.borrow().lost())
+    }
+}
+
+/// The application's NMT state queue as the CANopen task fills it.
+struct States(&'static Shared);
+
+impl crate::runner::StateSink for States {
+    fn entered(&mut self, state: State) {
+        self.0.states.lock(|q| q.borrow_mut().entered(state));
+        self.0.state_changed.signal(());
     }
 }
 
@@ -134,36 +179,9 @@ pub fn convert_frame<F: embedded_can::Frame, G: embedded_can::Frame>(frame: &F) 
     if frame.is_remote_frame() { G::new_remote(frame.id(), frame.dlc()) } else { G::new(frame.id(), frame.data()) }
 }
 
-/// A controller error with no lasting state of its own: raised when its
-/// counter moves, cleared once it stayed quiet for [`TRANSIENT_ERROR_HOLD`].
-struct TransientError {
-    code: u16,
-    seen: u32,
-    clear_at: Option<Instant>,
-}
-
-impl TransientError {
-    const fn new(code: u16) -> Self {
-        TransientError { code, seen: 0, clear_at: None }
-    }
-
-    fn update(&mut self, count: u32, now: Instant, node: &mut dyn CanNode) {
-        if count != self.seen {
-            self.seen = count;
-            // Manufacturer-specific field: how many times it happened so far.
-            let [a, b, c, d] = count.to_le_bytes();
-            node.raise_error(self.code, [a, b, c, d, 0]);
-            self.clear_at = Some(now + TRANSIENT_ERROR_HOLD);
-        } else if self.clear_at.is_some_and(|t| t <= now) {
-            node.clear_error(self.code);
-            self.clear_at = None;
-        }
-    }
-}
-
 /// What an image's start-up hands its board.
 pub struct Started {
-    /// The node, for [`Shared::install`].
+    /// The node, for the CANopen task ([`run_canopen`]).
     pub node: &'static mut dyn CanNode,
     /// The bit rate (CiA 305 table index) the device's own stored
     /// parameters give, if it has such (a bit rate LSS stored comes first:
@@ -183,75 +201,47 @@ impl Started {
     }
 }
 
-/// What the CANopen task needs from the board's CAN controller (or SLCAN
-/// link), besides the LSS bit-rate switch.
-pub trait Controller: BitRateControl {
-    /// The node's transmit queue may hold frames for the controller.
-    fn kick_tx(&mut self);
-    /// The node consumes another set of identifiers (and once at start):
-    /// program the acceptance filter for `list`.
-    fn set_acceptance(&mut self, list: &AcceptanceList);
-}
-
-/// The CANopen task: feeds received frames and board events to the node,
-/// runs its timers, hands the controller a bit-rate switch when the node's
-/// LSS delay says so and a new acceptance list when its generation moves,
-/// and kicks the transmitter whenever the queue may hold frames.
-pub async fn run_canopen(shared: &'static Shared, controller: &mut impl Controller) -> ! {
-    let mut overrun = TransientError::new(code::CAN_OVERRUN);
-    let mut bus_off = TransientError::new(code::BUS_OFF_RECOVERED);
-    let mut last_state = None;
-    let mut applied = None;
+/// The CANopen task: owns `node`; whatever wakes it (a received frame, an
+/// application request, a controller event or room to send, the node's
+/// deadline) it hands the node, then runs a [`Runner::step`].
+pub async fn run_canopen(shared: &'static Shared, node: &'static mut dyn CanNode, controller: &mut impl Controller) -> ! {
+    let mut runner = Runner::new();
+    let mut states = States(shared);
     loop {
         let now = now();
-        let step = shared.with_node(|node| {
-            overrun.update(shared.rx_overruns.load(Ordering::Relaxed), now, node);
-            bus_off.update(shared.bus_off_recoveries.load(Ordering::Relaxed), now, node);
-            let deadline = node.process(now);
-            if let Some(index) = node.take_bit_rate_change() {
-                controller.set_bit_rate(index);
+        runner.controller_events(node, now, &shared.controller);
+        let deadline = runner.step(node, now, controller, &mut states);
+        let timer = Timer::at(deadline.map_or(embassy_time::Instant::MAX, to_embassy));
+        match select4(shared.rx.receive(), shared.requests.receive(), shared.wake.wait(), timer).await {
+            Either4::First(frame) => {
+                let now = self::now();
+                runner.on_frame(node, now, &frame, &mut states);
+                // Whatever else arrived meanwhile, before the next step.
+                while let Ok(frame) = shared.rx.try_receive() {
+                    runner.on_frame(node, now, &frame, &mut states);
+                }
             }
-            // Every frame that can move the list passes through here next.
-            let list = node.acceptance();
-            if applied != Some(list.generation()) {
-                applied = Some(list.generation());
-                controller.set_acceptance(list);
+            Either4::Second(request) => {
+                let reply = runner.on_request(node, request);
+                // The caller holds `caller` until it took this: there is room.
+                let _ = shared.replies.try_send(reply);
             }
-            (deadline, node.state())
-        });
-        let (deadline, state) = step.unwrap_or((None, State::Initialising));
-        controller.kick_tx();
-        if last_state != Some(state) {
-            last_state = Some(state);
-            shared.state.signal(state);
-        }
-        let wake = [deadline, overrun.clear_at, bus_off.clear_at].into_iter().flatten().min();
-        let timer = Timer::at(wake.map_or(embassy_time::Instant::MAX, to_embassy));
-        if let Either3::First(frame) = select3(shared.rx.receive(), shared.events.wait(), timer).await {
-            let now = self::now();
-            shared.with_node(|node| node.on_frame(now, &frame));
-            // Whatever else arrived meanwhile, one frame per critical section.
-            while let Ok(frame) = shared.rx.try_receive() {
-                shared.with_node(|node| node.on_frame(now, &frame));
-            }
+            Either4::Third(()) | Either4::Fourth(()) => {}
         }
     }
 }
 
-/// The application slot, one task per image ([`crate::image!`] spawns it
-/// with the device's dictionary type `O`): where a device profile runs
-/// beside the CANopen task, reading and writing the dictionary through the
-/// generated accessors ([`Shared::with_od`]) and waking the event-driven
-/// TPDOs it changed ([`CanNode::trigger_tpdo`]). Today it reports the
-/// device type, read through `device_type` (the generated accessor of
-/// 0x1000), and follows the NMT state.
-pub async fn run_application<O: Any>(shared: &'static Shared, device_type: fn(&O) -> u32) -> ! {
-    let identity = shared.with_node(|node| (node.node_id(), od_mut::<O>(node).map(|od| device_type(od))));
-    if let Some((node_id, Some(device_type))) = identity {
-        defmt::info!("node {=u8}: device type {=u32:#010x}", node_id, device_type);
+/// The application slot, one task per image ([`crate::image!`] spawns it):
+/// where a device profile runs beside the CANopen task, reading and
+/// writing objects and triggering TPDOs through [`Shared`]'s requests and
+/// following the NMT state through [`Shared::next_state`]. Today it
+/// reports the device type (0x1000) and each NMT state the node enters.
+pub async fn run_application(shared: &'static Shared) -> ! {
+    if let Ok(value) = shared.read(0x1000, 0).await {
+        defmt::info!("device type {=[u8]:02x}", value.as_bytes());
     }
     loop {
-        let state = shared.state.wait().await;
-        defmt::info!("NMT state {=u8:#04x}", state.reported().code());
+        let state = shared.next_state().await;
+        defmt::info!("NMT state {=u8:#04x} ({=u32} lost)", state.reported().code(), shared.lost_states());
     }
 }

@@ -1,18 +1,19 @@
 //! A [`Node`] of any dictionary behind one trait object, [`CanNode`], so the
-//! boards' tasks and interrupts are not generic (embassy tasks cannot be);
-//! the application slot gets the device's own dictionary type back through
-//! [`od_mut`]. Plain Rust, so host tests drive the same code the images run.
+//! CANopen task is not generic (embassy tasks cannot be); code that knows
+//! the device gets its own dictionary type back through [`od_mut`]. Plain
+//! Rust, so host tests drive the same code the images run.
 
 use core::any::Any;
 
+use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
-use canopen_core::node::{AcceptanceList, Application, Node};
+use canopen_core::node::{AcceptanceList, Application, ControllerEvent, Node};
 use canopen_core::od::ObjectDictionary;
 use canopen_core::services::nmt::State;
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
 
-/// What a board and the application slot need from a node, whatever its dictionary.
+/// What the CANopen task needs from a node, whatever its dictionary.
 pub trait CanNode: Send {
     /// [`Node::on_frame`].
     fn on_frame(&mut self, now: Instant, frame: &CanFrame);
@@ -40,6 +41,15 @@ pub trait CanNode: Send {
     fn od_any_mut(&mut self) -> &mut dyn Any;
     /// [`Node::trigger_tpdo`].
     fn trigger_tpdo(&mut self, n: usize) -> bool;
+    /// [`Node::controller_event`].
+    fn controller_event(&mut self, event: ControllerEvent, now: Instant);
+    /// Copies the value of (index, sub) into `buf`; its length, or why not
+    /// (`buf` too short: [`AbortCode::LengthTooHigh`]).
+    fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode>;
+    /// Writes (index, sub) as the device does (`Dictionary::write_unchecked`:
+    /// no access check, a shorter value zero-filled); change-of-state TPDOs
+    /// compare at the next [`Node::process`].
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
 }
 
 impl<O, A, S, const R: usize, const T: usize, const HB: usize> CanNode for Node<O, A, S, R, T, HB>
@@ -98,6 +108,22 @@ where
 
     fn trigger_tpdo(&mut self, n: usize) -> bool {
         Node::trigger_tpdo(self, n)
+    }
+
+    fn controller_event(&mut self, event: ControllerEvent, now: Instant) {
+        Node::controller_event(self, event, now);
+    }
+
+    fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        let od = self.od();
+        let value = od.dictionary().read(od.image(), index, sub)?;
+        buf.get_mut(..value.len()).ok_or(AbortCode::LengthTooHigh)?.copy_from_slice(value);
+        Ok(value.len())
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let od = self.od_mut();
+        Ok(od.dictionary().write_unchecked(od.image_mut(), index, sub, data)?)
     }
 }
 

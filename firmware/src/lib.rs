@@ -3,8 +3,9 @@
 //! Each device is its EDS (`eds/<device>.eds`, turned into an object
 //! dictionary by `build.rs`) plus one short module in [`devices`]. An image
 //! is a device on a board: [`boards`] holds the QEMU and STM32F103 boards,
-//! [`can_node`] the node behind a trait object, `app` (MCU builds only) the
-//! tasks they share, and `src/bin/` one
+//! [`can_node`] the node behind a trait object, [`runner`] the CANopen
+//! task's work, `app` (MCU builds only) the tasks and channels around it,
+//! and `src/bin/` one
 //! `<device>-<board>` entry point per image (see `docs/firmware.md`).
 #![no_std]
 // Unsafe code stays denied (workspace lints); only `boards` allows it, per
@@ -16,3 +17,4 @@ pub mod app;
 pub mod boards;
 pub mod can_node;
 pub mod devices;
+pub mod runner;

@@ -51,7 +51,7 @@ fn device_types_identify_the_profiles() {
     assert_eq!(ec5000::od::Ram::new(1).device_type(), 0x0042_0192);
     assert_eq!(bmaxx4400::od::Ram::new(1).device_type(), 0x0202_0192);
     assert_eq!(agile::od::Ram::new(1).device_type(), 0x0041_0192);
-    assert_eq!(sendix::od::Ram::new(1).device_type(), 0x0002_0196);
+    assert_eq!(sendix::od::Ram::new(1).device_type(), 0x000B_0196);
     assert_eq!(unitek_ds::od::Ram::new(1).device_type(), 0);
 }
 
@@ -162,10 +162,10 @@ fn sendix_starts_from_its_stored_bus_parameters_or_the_factory_values() {
         }
     }
     let mut flash = Flash([[0xFF; 1024]; 2]);
-    assert_eq!(sendix::startup(&mut flash), (0x3F, 3), "factory: node 0x3F, 250 kbit/s");
+    assert_eq!(sendix::startup(&mut flash), (0x3F, Some(3)), "factory: node 0x3F, 250 kbit/s");
     let mut ram = sendix::od::Ram::new(0x3F);
     ram.set_node_address(0x22);
     ram.set_baud_rate(4); // 8 - 4 = table index 4, 125 kbit/s
     store::save(&sendix::od::DICTIONARY, ram.image(), 0x3F, &mut flash, Scope::All).unwrap();
-    assert_eq!(sendix::startup(&mut flash), (0x22, 4));
+    assert_eq!(sendix::startup(&mut flash), (0x22, Some(4)));
 }

@@ -25,7 +25,7 @@
 #![no_main]
 
 use canopen_core::frame::CanFrame;
-use canopen_core::node::{NoApplication, Node};
+use canopen_core::node::{Application, NoApplication, Node};
 use canopen_core::od::ObjectDictionary;
 use canopen_core::time::{Duration, Instant};
 use embedded_can::Frame;
@@ -66,12 +66,14 @@ fuzz_target!(|data: &[u8]| {
     // The counts are const parameters of the node; each dictionary names its
     // own. The expected device type comes from the generated accessor (the
     // EDS default, in flash), not through the SDO server.
+    // Each device runs with its own application, as its image does.
     macro_rules! device {
-        ($od:path) => {{
+        ($od:path, $app:expr) => {{
             use $od as od;
             let device_type = od::Ram::new(node_id).device_type();
-            run::<od::Ram, { od::RPDO_COUNT }, { od::TPDO_COUNT }, { od::HB_CONSUMER_COUNT }>(
+            run::<od::Ram, _, { od::RPDO_COUNT }, { od::TPDO_COUNT }, { od::HB_CONSUMER_COUNT }>(
                 od::Ram::new(node_id),
+                $app,
                 node_id,
                 device_type,
                 ops,
@@ -79,26 +81,26 @@ fuzz_target!(|data: &[u8]| {
         }};
     }
     match which {
-        1 => device!(ec5000::od),
-        2 => device!(unitek_ds::od),
-        3 => device!(sendix::od),
-        4 => device!(bmaxx4400::od),
-        5 => device!(agile::od),
-        _ => device!(interop::od),
+        1 => device!(ec5000::od, ec5000::App::NEW),
+        2 => device!(unitek_ds::od, unitek_ds::App::NEW),
+        3 => device!(sendix::od, sendix::App::NEW),
+        4 => device!(bmaxx4400::od, bmaxx4400::App::NEW),
+        5 => device!(agile::od, agile::App::NEW),
+        _ => device!(interop::od, NoApplication),
     }
 });
 
-type Dut<O, const R: usize, const T: usize, const HB: usize> = Node<O, NoApplication, MemStorage, R, T, HB>;
+type Dut<O, A, const R: usize, const T: usize, const HB: usize> = Node<O, A, MemStorage, R, T, HB>;
 
 /// Sends one queued frame, checking it.
-fn send_one<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(node: &mut Dut<O, R, T, HB>) -> Option<CanFrame> {
+fn send_one<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(node: &mut Dut<O, A, R, T, HB>) -> Option<CanFrame> {
     let f = node.transmit()?;
     assert!(f.cob_id().is_some(), "the node sent an extended frame: {f:?}");
     assert!(f.dlc() <= 8 && f.data().len() <= 8, "the node sent more than 8 bytes: {f:?}");
     Some(f)
 }
 
-fn drain<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(node: &mut Dut<O, R, T, HB>) -> Vec<CanFrame> {
+fn drain<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(node: &mut Dut<O, A, R, T, HB>) -> Vec<CanFrame> {
     let mut out = Vec::new();
     while let Some(f) = send_one(node) {
         out.push(f);
@@ -109,8 +111,8 @@ fn drain<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(n
 
 /// `process`, then sends everything; repeats while the node asks to be
 /// called again at once, which must settle.
-fn process<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(
-    node: &mut Dut<O, R, T, HB>,
+fn process<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(
+    node: &mut Dut<O, A, R, T, HB>,
     now: Instant,
 ) -> Option<Instant> {
     let mut rounds = 0;
@@ -128,10 +130,10 @@ fn process<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>
     }
 }
 
-fn run<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(od: O, node_id: u8, device_type: u32, mut ops: Ops) {
+fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(od: O, app: A, node_id: u8, device_type: u32, mut ops: Ops) {
     let region = od.dictionary().defaults.len() + 64;
     let mut now = Instant::ZERO;
-    let mut node: Dut<O, R, T, HB> = Node::new(od, NoApplication, MemStorage::new(region), node_id, now);
+    let mut node: Dut<O, A, R, T, HB> = Node::new(od, app, MemStorage::new(region), node_id, now);
     let mut deadline = None;
     while !ops.data.is_empty() {
         match ops.byte() % 8 {

@@ -1,55 +1,347 @@
-//! The application slot's way into the node, as the images run it: a
-//! value written through the device's generated accessor (reached from
-//! `&mut dyn CanNode` with `can_node::od_mut`) goes out in the TPDO that
-//! maps it, and `trigger_tpdo` sends an event-driven TPDO on demand.
+//! The device slot: each hook of `Application`, with its context, driven
+//! with exact frames on the virtual clock. A probe application logs what it
+//! hears and does what each test needs; each test fails without its hook.
 
-use canopen_core::frame::CanFrame;
-use canopen_core::node::NoApplication;
+mod common;
+
+use canopen_core::abort::AbortCode;
+use canopen_core::node::{Application, Claims, CommError, Ctx, NmtEvent, NoApplication, Source};
+use canopen_core::od::Dictionary;
+use canopen_core::services::nmt::State;
 use canopen_core::time::Instant;
-use embedded_can::Frame;
-use firmware::boards::qemu::ram_storage::RamStorage;
-use firmware::boards::region_size;
-use firmware::can_node::{CanNode, od_mut};
-use firmware::devices::{ec5000, sendix};
+use canopen_core::wire::time_stamp::TimeOfDay;
+use common::{Bench, abort, ms, ok_write};
+use hal_host::fixtures::interop::od::Ram;
+use hal_host::storage::MemStorage;
 
-type Storage = RamStorage<{ region_size(sendix::od::RAM_SIZE) }>;
+const ID: u8 = 5;
+const SDO_RX: u16 = 0x605;
+const TPDO1: u16 = 0x185;
+const RPDO1: u16 = 0x205;
+/// A raw identifier the probe claims.
+const RAW_IN: u16 = 0x3A0;
+const RAW_OUT: u16 = 0x3A1;
 
-const ID: u8 = 0x3F;
-/// TPDO1 of the Sendix: 0x180 + node-id, maps 0x6004 Position value, event-driven (type 255).
-const TPDO1: u16 = 0x1BF;
-
-fn ms(t: u64) -> Instant {
-    Instant::from_micros(t * 1000)
+/// Logs every hook call and acts as the tests need.
+#[derive(Default)]
+struct Probe {
+    log: Vec<String>,
+    /// Send this many raw frames at each poll.
+    raw_per_poll: usize,
+    /// Poll period, if the probe runs a timer.
+    period_ms: Option<u64>,
+    sync_count: u32,
 }
 
-/// Runs the node at `t` and returns what it sends.
-fn step(node: &mut dyn CanNode, t: u64) -> Vec<(u16, Vec<u8>)> {
-    node.process(ms(t));
-    std::iter::from_fn(|| node.transmit()).map(|f| (f.cob_id().expect("11-bit"), f.data().to_vec())).collect()
+impl Application for Probe {
+    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        (index == 0x2FFF).then_some(if sub == 0 { Ok(4) } else { Err(AbortCode::NoSubIndex) })
+    }
+
+    fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        // 0x2FFF: the time in ms, computed on read.
+        let value = ((ctx.now().as_micros() / 1000) as u32).to_le_bytes();
+        (index == 0x2FFF).then(|| {
+            let src = value.get(offset..).unwrap_or(&[]);
+            let n = src.len().min(buf.len());
+            buf[..n].copy_from_slice(&src[..n]);
+            Ok(n)
+        })
+    }
+
+    fn download_check(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
+        // A 1-byte heartbeat time, and one write to 0x2100 sub 0 for all four entries.
+        match (index, sub, size) {
+            (0x1017, 0, Some(1)) | (0x2100, 0, Some(2)) => Some(Ok(())),
+            _ => None,
+        }
+    }
+
+    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        match (index, sub, data) {
+            (0x1017, 0, [ms]) => Some(ctx.write_object(0x1017, 0, &[*ms, 0])),
+            (0x2100, 0, [lo, hi]) => Some((1..=4).try_for_each(|s| ctx.write_object(0x2100, s, &[*lo, *hi]))),
+            _ => None,
+        }
+    }
+
+    fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.log.push(format!("check {index:04X}:{sub} {data:02X?}"));
+        match (index, data) {
+            // A communication object: heartbeat times of 7 ms are refused with a device code.
+            (0x1017, [7, 0]) => Err(AbortCode::DeviceState),
+            // An object checked against another: 0x2000 at most 0x2001's low byte.
+            (0x2000, [v]) if u32::from(*v) > ctx.read_u32(0x2001, 0).unwrap_or(0) & 0xFF => Err(AbortCode::ValueTooHigh),
+            _ => Ok(()),
+        }
+    }
+
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, by: Source) {
+        self.log.push(format!("written {index:04X}:{sub} {by:?}"));
+        match (index, sub, by) {
+            // An RPDO's first object drives a status byte in TPDO1 (0x2000), as 0x6040 drives 0x6041.
+            (0x2100, 1, Source::Rpdo(0)) => {
+                let v = ctx.read(0x2100, 1).map(|b| b[0]).unwrap_or(0);
+                ctx.set_value(0x2000, 0, &[v ^ 0xFF]).unwrap();
+            }
+            // 0x2004 is stored alone as soon as it is written.
+            (0x2004, 0, _) => ctx.save_objects(0x2004, 0x2004).unwrap(),
+            _ => {}
+        }
+    }
+
+    fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        self.sync_count += 1;
+        self.log.push("sample".into());
+        ctx.set_value(0x2003, 0, &self.sync_count.to_le_bytes()).unwrap();
+    }
+
+    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        let period = self.period_ms?;
+        for i in 0..self.raw_per_poll {
+            ctx.send_raw(RAW_OUT, &[i as u8]);
+        }
+        let now = ctx.now().as_micros() / 1000;
+        Some(ms(now - now % period + period))
+    }
+
+    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        self.log.push(format!("nmt {event:?} in {:?}", ctx.state()));
+    }
+
+    fn on_time(&mut self, _ctx: &mut Ctx<'_>, time: TimeOfDay) {
+        self.log.push(format!("time {time:?}"));
+    }
+
+    fn on_frame(&mut self, ctx: &mut Ctx<'_>, cob_id: u16, rtr: bool, data: &[u8]) -> bool {
+        if cob_id != RAW_IN || rtr {
+            return false;
+        }
+        self.log.push(format!("raw {data:02X?} in {:?}", ctx.state()));
+        ctx.send_raw(RAW_OUT, data)
+    }
+
+    fn claim_ids(&self, _dict: &'static Dictionary, _image: &[u8], claims: &mut Claims<'_>) {
+        claims.claim(RAW_IN, false);
+    }
+}
+
+type B<A> = Bench<Ram, A, MemStorage, 4, 4, 4>;
+
+fn bench(app: Probe) -> B<Probe> {
+    let mut b = Bench::new(Ram::new(ID), app, MemStorage::new(4096), ID);
+    assert!(b.at(ms(0)).contains(&(0x705, vec![0x00])), "boot-up");
+    b
+}
+
+fn log(b: &mut B<Probe>) -> Vec<String> {
+    std::mem::take(&mut b.node.app_mut().log)
 }
 
 #[test]
-fn a_value_the_application_writes_goes_out_in_its_tpdo() {
-    let mut sendix = sendix::od::Node::new(sendix::od::Ram::new(ID), NoApplication, Storage::default(), ID, ms(0));
-    let node: &mut dyn CanNode = &mut sendix;
-    assert_eq!(step(node, 0), [(0x73F, vec![0x00])]);
-    node.on_frame(ms(1), &CanFrame::standard(0x000, &[0x01, ID]).expect("NMT start"));
-    // Event-driven TPDOs go out on entering Operational: TPDO1 and TPDO3 (0x380 + node-id, speed value 0x6030 sub 1).
-    assert_eq!(step(node, 1), [(TPDO1, vec![0, 0, 0, 0]), (0x3BF, vec![0, 0, 0, 0])]);
-
-    od_mut::<sendix::od::Ram>(node).expect("the node runs the Sendix dictionary").set_position_value(0x0001_E240);
-    assert_eq!(step(node, 2), [(TPDO1, vec![0x40, 0xE2, 0x01, 0x00])], "change of state");
-    assert_eq!(step(node, 3), [], "nothing changed");
-
-    assert!(node.trigger_tpdo(0));
-    assert_eq!(step(node, 4), [(TPDO1, vec![0x40, 0xE2, 0x01, 0x00])], "an application event sends it unchanged");
-    assert_eq!(step(node, 5), []);
+fn an_rpdo_object_reacts_and_the_change_of_state_tpdo_leaves_in_the_same_process() {
+    let mut b = bench(Probe::default());
+    b.nmt(0x01, ID);
+    log(&mut b);
+    // RPDO1 maps 0x2100 sub 1..4; the hook turns sub 1 into 0x2000, which TPDO1 (type 255) carries.
+    let out = b.rx(ms(10), RPDO1, &[0x0F, 0x00, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00]);
+    assert_eq!(out, [(TPDO1, vec![0xF0, 0x22, 0x22, 0x44, 0x44, 0x44, 0x44])]);
+    assert_eq!(log(&mut b), ["written 2100:1 Rpdo(0)", "written 2100:2 Rpdo(0)", "written 2100:3 Rpdo(0)", "written 2100:4 Rpdo(0)"]);
 }
 
 #[test]
-fn another_dictionary_type_is_refused() {
-    let mut sendix = sendix::od::Node::new(sendix::od::Ram::new(ID), NoApplication, Storage::default(), ID, ms(0));
-    let node: &mut dyn CanNode = &mut sendix;
-    assert!(od_mut::<ec5000::od::Ram>(node).is_none());
-    assert!(!node.trigger_tpdo(7), "no TPDO8");
+fn validation_sees_every_object_after_the_dictionary_checks_and_refuses_with_any_code() {
+    let mut b = bench(Probe::default());
+    log(&mut b);
+    // Too long for 0x1017: the dictionary answers, the hook never sees it.
+    assert_eq!(b.sdo_download(ID, 0x1017, 0, &[7, 0, 0, 0]), Err(0x0607_0012));
+    assert_eq!(log(&mut b), Vec::<String>::new());
+    // A communication object refused with a device code: heartbeat stays off.
+    assert_eq!(b.sdo_write(ID, 0x1017, 0, &[7, 0]), abort(0x1017, 0, 0x0800_0022));
+    assert_eq!(b.run_until(ms(100)), []);
+    // Checked against another object: 0x2001 = 0x2222, so 0x2000 may be at most 0x22.
+    assert_eq!(b.sdo_write(ID, 0x2000, 0, &[0x23]), abort(0x2000, 0, 0x0609_0031));
+    assert_eq!(b.sdo_upload(ID, 0x2000, 0), Ok(vec![0x11]));
+    assert_eq!(b.sdo_write(ID, 0x2000, 0, &[0x22]), ok_write(0x2000, 0));
+    assert_eq!(log(&mut b), ["check 1017:0 [07, 00]", "check 2000:0 [23]", "check 2000:0 [22]", "written 2000:0 Sdo"]);
+}
+
+#[test]
+fn served_objects_have_their_own_length_rules_fan_out_and_compute_reads() {
+    let mut b = bench(Probe::default());
+    // 2F 17 10 00 64: a 1-byte heartbeat time, written through the services (the producer starts).
+    assert_eq!(b.rx(ms(0), SDO_RX, &[0x2F, 0x17, 0x10, 0x00, 0x64, 0, 0, 0]), [(0x585, ok_write(0x1017, 0))]);
+    assert_eq!(b.sdo_upload(ID, 0x1017, 0), Ok(vec![0x64, 0x00]));
+    assert_eq!(b.run_until(ms(200)), [(ms(100), (0x705, vec![0x7F])), (ms(200), (0x705, vec![0x7F]))]);
+    // One write to sub 0 sets the four entries.
+    assert_eq!(b.sdo_write(ID, 0x2100, 0, &[0x34, 0x12]), ok_write(0x2100, 0));
+    for sub in 1..=4 {
+        assert_eq!(b.sdo_upload(ID, 0x2100, sub), Ok(vec![0x34, 0x12]));
+    }
+    // A value computed on read: the time in ms.
+    b.at(ms(1234));
+    assert_eq!(b.sdo_upload(ID, 0x2FFF, 0), Ok(1234u32.to_le_bytes().to_vec()));
+}
+
+#[test]
+fn an_application_write_goes_through_the_services_and_is_heard() {
+    let mut b = bench(Probe::default());
+    b.nmt(0x01, ID);
+    log(&mut b);
+    assert_eq!(b.node.write_object(ms(5), 0x2000, 0, &[0x21]), Ok(()));
+    assert_eq!(b.node.write_object(ms(5), 0x1017, 0, &[7, 0]), Err(AbortCode::DeviceState), "validated as an SDO write");
+    assert_eq!(b.at(ms(5)), [(TPDO1, vec![0x21, 0x22, 0x22, 0x44, 0x44, 0x44, 0x44])]);
+    assert_eq!(log(&mut b), ["check 2000:0 [21]", "written 2000:0 App", "check 1017:0 [07, 00]"]);
+}
+
+#[test]
+fn the_device_samples_before_the_synchronous_tpdos_are_built() {
+    let mut b = bench(Probe::default());
+    // TPDO1 synchronous, every SYNC.
+    assert_eq!(b.sdo_write(ID, 0x1800, 2, &[1]), ok_write(0x1800, 2));
+    b.nmt(0x01, ID);
+    let tpdo1 = |out: Vec<common::F>| out.into_iter().filter(|f| f.0 == TPDO1).collect::<Vec<_>>();
+    let out = tpdo1(b.rx(ms(10), 0x080, &[]));
+    assert_eq!(out, [(TPDO1, vec![0x11, 0x22, 0x22, 0x01, 0x00, 0x00, 0x00])], "the value sampled for this SYNC");
+    let out = tpdo1(b.rx(ms(20), 0x080, &[]));
+    assert_eq!(out, [(TPDO1, vec![0x11, 0x22, 0x22, 0x02, 0x00, 0x00, 0x00])]);
+}
+
+#[test]
+fn device_timers_run_in_process_on_the_virtual_clock() {
+    let mut b = bench(Probe { period_ms: Some(10), raw_per_poll: 1, ..Probe::default() });
+    let out = b.run_until(ms(35));
+    let times: Vec<u64> = out.iter().filter(|(_, f)| f.0 == RAW_OUT).map(|(t, _)| t.as_micros() / 1000).collect();
+    assert_eq!(times, [0, 10, 20, 30, 35], "at each call: the first at 0, the deadlines the device returned, the final call");
+}
+
+#[test]
+fn raw_frames_keep_a_reserve_of_the_queue_and_an_overflow_is_signalled() {
+    let mut b = bench(Probe { period_ms: Some(1), raw_per_poll: 4, ..Probe::default() });
+    // Run without sending: the raw frames fill the queue up to the reserve, no further.
+    for t in 1..=10 {
+        b.node.process(ms(t));
+    }
+    assert_eq!(b.node.tx_overflows(), 4 * 10 - (32 - 8) as u32);
+    let out = b.at(ms(11));
+    // This process's four frames found the queue at its reserve too.
+    assert_eq!(b.node.tx_overflows(), 4 * 11 - (32 - 8) as u32);
+    assert_eq!(out.iter().filter(|f| f.0 == RAW_OUT).count(), 24);
+    assert!(out.contains(&(0x85, vec![0x10, 0x81, 0x11, 0, 0, 0, 0, 0])), "EMCY 0x8110 CAN overrun: {out:x?}");
+}
+
+#[test]
+fn nmt_and_communication_events_arrive_each_one_whatever_0x1029_says() {
+    let mut b = bench(Probe::default());
+    assert_eq!(
+        log(&mut b),
+        ["nmt ResetApplication in Initialising", "nmt ResetCommunication in Initialising", "nmt Entered(PreOperational) in PreOperational"]
+    );
+    // Operational → Stopped → Operational: three events.
+    b.nmt(0x01, ID);
+    b.nmt(0x02, ID);
+    b.nmt(0x01, ID);
+    assert_eq!(
+        log(&mut b),
+        ["nmt Entered(Operational) in Operational", "nmt Entered(Stopped) in Stopped", "nmt Entered(Operational) in Operational"]
+    );
+    // 0x1029:1 = 1 (no state change); consume node 9's heartbeat at 100 ms.
+    assert_eq!(b.sdo_write(ID, 0x1029, 1, &[1]), ok_write(0x1029, 1));
+    assert_eq!(b.sdo_write(ID, 0x1016, 1, &[0x64, 0x00, 0x09, 0x00]), ok_write(0x1016, 1));
+    b.rx(ms(10), 0x709, &[0x05]);
+    b.run_until(ms(200));
+    // RPDO1 with an event timer of 50 ms that times out.
+    assert_eq!(b.sdo_write(ID, 0x1400, 5, &[50, 0]), ok_write(0x1400, 5));
+    b.rx(ms(210), RPDO1, &[1, 0, 2, 0, 3, 0, 4, 0]);
+    b.run_until(ms(300));
+    b.node.bus_off(ms(300));
+    let events: Vec<String> = log(&mut b).into_iter().filter(|l| l.starts_with("nmt")).collect();
+    assert_eq!(
+        events,
+        [
+            "nmt CommunicationError(Heartbeat(9)) in Operational",
+            "nmt CommunicationError(RpdoTimeout(0)) in Operational",
+            "nmt CommunicationError(BusOff) in Operational"
+        ]
+    );
+    assert_eq!(b.node.state(), State::Operational);
+    // Reset node: reset application, reset communication, then Pre-operational after the boot-up.
+    b.nmt(0x81, ID);
+    assert_eq!(
+        log(&mut b),
+        ["nmt ResetApplication in Initialising", "nmt ResetCommunication in Initialising", "nmt Entered(PreOperational) in PreOperational"]
+    );
+    let _ = CommError::LifeGuarding;
+}
+
+#[test]
+fn raw_frames_are_claimed_and_seen_in_every_nmt_state() {
+    let mut b = bench(Probe::default());
+    assert!(b.node.acceptance().accepts(RAW_IN, false), "the board's filter passes the claimed identifier");
+    assert!(!b.node.acceptance().accepts(RAW_OUT, false));
+    b.nmt(0x02, ID);
+    log(&mut b);
+    assert_eq!(b.rx(ms(1), RAW_IN, &[0xAB]), [(RAW_OUT, vec![0xAB])]);
+    assert_eq!(log(&mut b), ["raw [AB] in Stopped"]);
+    // Without the claim the same frame is ignored.
+    let mut plain: B<NoApplication> = Bench::new(Ram::new(ID), NoApplication, MemStorage::new(4096), ID);
+    assert!(!plain.node.acceptance().accepts(RAW_IN, false));
+    plain.at(ms(0));
+    assert_eq!(plain.rx(ms(1), RAW_IN, &[0xAB]), []);
+}
+
+/// A device that speaks only its own protocol: no CANopen at all.
+struct Foreign;
+
+impl Application for Foreign {
+    fn on_frame(&mut self, ctx: &mut Ctx<'_>, cob_id: u16, _rtr: bool, data: &[u8]) -> bool {
+        cob_id == RAW_IN && ctx.send_raw(RAW_OUT, data)
+    }
+
+    fn claim_ids(&self, _dict: &'static Dictionary, _image: &[u8], claims: &mut Claims<'_>) {
+        claims.claim(RAW_IN, false);
+    }
+
+    fn canopen(&self) -> bool {
+        false
+    }
+}
+
+#[test]
+fn a_device_may_switch_the_canopen_services_off() {
+    let mut b: B<Foreign> = Bench::new(Ram::new(ID), Foreign, MemStorage::new(4096), ID);
+    assert_eq!(b.at(ms(0)), [], "no boot-up");
+    assert_eq!(b.node.acceptance().ids().iter().map(|a| a.cob_id).collect::<Vec<_>>(), [RAW_IN]);
+    assert_eq!(b.rx(ms(1), SDO_RX, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]), [], "no SDO");
+    assert_eq!(b.rx(ms(2), 0x000, &[0x01, 0x00]), [], "no NMT");
+    assert_eq!(b.rx(ms(3), RAW_IN, &[1, 2]), [(RAW_OUT, vec![1, 2])]);
+    assert_eq!(b.run_until(ms(5000)), []);
+}
+
+#[test]
+fn a_device_stores_one_object_alone() {
+    let mut b = bench(Probe::default());
+    // An unsaved change elsewhere, then 0x2004, which the probe stores as soon as it is written.
+    assert_eq!(b.sdo_write(ID, 0x2003, 0, &[1, 2, 3, 4]), ok_write(0x2003, 0));
+    assert_eq!(b.sdo_write(ID, 0x2004, 0, &[0x07, 0, 0, 0]), ok_write(0x2004, 0));
+    b.nmt(0x81, ID);
+    assert_eq!(b.sdo_upload(ID, 0x2004, 0), Ok(vec![0x07, 0, 0, 0]), "stored");
+    assert_eq!(b.sdo_upload(ID, 0x2003, 0), Ok(vec![0x44, 0x44, 0x44, 0x44]), "not stored");
+    // A later 0x1010 save of everything keeps 0x2004 and adds 0x2003.
+    assert_eq!(b.sdo_write(ID, 0x2003, 0, &[1, 2, 3, 4]), ok_write(0x2003, 0));
+    assert_eq!(b.sdo_write(ID, 0x1010, 1, b"save"), ok_write(0x1010, 1));
+    assert_eq!(b.sdo_write(ID, 0x2004, 0, &[0x09, 0, 0, 0]), ok_write(0x2004, 0));
+    b.nmt(0x81, ID);
+    assert_eq!(b.sdo_upload(ID, 0x2003, 0), Ok(vec![1, 2, 3, 4]));
+    assert_eq!(b.sdo_upload(ID, 0x2004, 0), Ok(vec![0x09, 0, 0, 0]));
+}
+
+#[test]
+fn a_time_frame_reaches_the_device() {
+    let mut b = bench(Probe::default());
+    // Consume TIME on 0x100.
+    assert_eq!(b.sdo_write(ID, 0x1012, 0, &[0x00, 0x01, 0x00, 0x80]), ok_write(0x1012, 0));
+    log(&mut b);
+    b.rx(ms(1), 0x100, &[0x10, 0x27, 0x00, 0x00, 0x01, 0x00]);
+    assert_eq!(log(&mut b).len(), 1);
 }

@@ -20,7 +20,7 @@
 mod common;
 
 use canopen_core::abort::AbortCode;
-use canopen_core::node::{Application, NoApplication};
+use canopen_core::node::{Application, Ctx, NoApplication};
 use canopen_core::time::{Duration, Instant};
 use common::net::{Net, NodeHandle, us};
 use embedded_can::Frame;
@@ -45,11 +45,11 @@ fn pattern(i: usize) -> u8 {
 }
 
 impl Application for Domain {
-    fn upload_size(&mut self, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
         (index == DOMAIN).then_some(if sub == 0 { Ok(self.len) } else { Err(AbortCode::NoSubIndex) })
     }
 
-    fn read(&mut self, index: u16, _sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+    fn read(&mut self, _ctx: &mut Ctx<'_>, index: u16, _sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
         if index != DOMAIN {
             return None;
         }

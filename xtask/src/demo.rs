@@ -46,34 +46,23 @@ const MODE_PROFILE_VELOCITY: u64 = 3;
 const PROFILE_VELOCITY: u64 = 500;
 const TARGET_VELOCITY: u64 = 300;
 
-struct Options {
+/// `cargo xtask demo` options.
+#[derive(clap::Args, Default)]
+pub struct DemoArgs {
+    /// Drive a running `vnode --device ec5000` at HOST:PORT instead of booting QEMU.
+    #[arg(long, value_name = "HOST:PORT")]
     connect: Option<String>,
-    node_id: u8,
-}
-
-fn parse(args: &[String]) -> Result<Options, String> {
-    let usage = "usage: cargo xtask demo [--connect HOST:PORT] [--node-id N]";
-    let mut o = Options { connect: None, node_id: ec5000::DEVICE.default_node_id };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--connect" => o.connect = Some(it.next().ok_or(usage)?.clone()),
-            "--node-id" => o.node_id = it.next().and_then(|v| v.parse().ok()).filter(|n| (1..=127).contains(n)).ok_or(usage)?,
-            _ => return Err(usage.into()),
-        }
-    }
-    if o.connect.is_none() && o.node_id != ec5000::DEVICE.default_node_id {
-        return Err(format!("--node-id needs --connect: the QEMU image is node {}", ec5000::DEVICE.default_node_id));
-    }
-    Ok(o)
+    /// The node-id of the node behind `--connect` (default: the EC5000's 127, the QEMU image's).
+    #[arg(long, value_name = "N", requires = "connect", value_parser = clap::value_parser!(u8).range(1..=127))]
+    node_id: Option<u8>,
 }
 
 /// `cargo xtask demo`.
-pub fn demo(args: &[String]) -> Result<(), String> {
-    let opts = parse(args)?;
+pub fn demo(args: &DemoArgs) -> Result<(), String> {
+    let node_id = args.node_id.unwrap_or(ec5000::DEVICE.default_node_id);
     let wall = Instant::now();
-    let Some(addr) = opts.connect.clone() else { return with_qemu(opts.node_id, wall) };
-    let mut run = Run::start(&addr, opts.node_id, false)?;
+    let Some(addr) = args.connect.as_deref() else { return with_qemu(node_id, wall) };
+    let mut run = Run::start(addr, node_id, false)?;
     // A broken connection ends the script; the summary still shows what happened.
     let script = run.script();
     let summary = run.summary(None, wall);

@@ -23,34 +23,56 @@ use crate::root;
 /// A QEMU run is killed after this long (about 4 s each on an idle host).
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
 
-const USAGE: &str = "usage: cargo xtask hil (--interface IF --channel CH [--bitrate BPS] [--power-cycle-command CMD] | --qemu) \
-                     --device NAME [--node-id N]";
+/// `cargo xtask hil` options; see the module docs and docs/hardware-test.md.
+#[derive(clap::Args)]
+pub struct HilArgs {
+    /// The python-can interface of the adapter (slcan, socketcan, pcan, kvaser, ...).
+    #[arg(long, required_unless_present = "qemu")]
+    interface: Option<String>,
+    /// The adapter's channel (/dev/ttyACM0, can0, PCAN_USBBUS1, socket://HOST:PORT, ...).
+    #[arg(long, required_unless_present = "qemu")]
+    channel: Option<String>,
+    /// The bus bit rate in bit/s.
+    #[arg(long, default_value_t = 250_000)]
+    bitrate: u32,
+    /// The device the board runs.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(firmware::devices::ALL.iter().map(|d| d.name)))]
+    device: String,
+    /// The node's id (default: the image's own).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=127))]
+    node_id: Option<u8>,
+    /// A shell command that cycles the board's power (default: ask the user to do it).
+    #[arg(long, value_name = "CMD", conflicts_with = "qemu")]
+    power_cycle_command: Option<String>,
+    /// The device's EDS (default: firmware/eds/DEVICE.eds).
+    #[arg(long, value_name = "FILE")]
+    eds: Option<String>,
+    /// Check the device's QEMU image instead of a board (what CI runs).
+    #[arg(long, conflicts_with_all = ["interface", "channel"])]
+    qemu: bool,
+}
 
 /// `cargo xtask hil ...`.
-pub fn hil(args: &[String]) -> Result<(), String> {
-    let mut script_args: Vec<String> = Vec::new();
-    let mut device = None;
-    let mut node_id = None;
-    let mut qemu = false;
-    let mut it = args.iter();
-    while let Some(arg) = it.next() {
-        match arg.as_str() {
-            "--qemu" => qemu = true,
-            "--device" => device = Some(it.next().ok_or(USAGE)?.clone()),
-            "--node-id" => node_id = Some(it.next().ok_or(USAGE)?.clone()),
-            "--interface" | "--channel" | "--bitrate" | "--power-cycle-command" | "--eds" => {
-                script_args.extend([arg.clone(), it.next().ok_or(USAGE)?.clone()]);
-            }
-            other => return Err(format!("unknown argument {other}\n{USAGE}")),
+pub fn hil(args: &HilArgs) -> Result<(), String> {
+    let device = args.device.as_str();
+    let known = firmware::devices::by_name(device).ok_or_else(|| format!("unknown device {device}"))?;
+    let node_id = args.node_id.unwrap_or(known.default_node_id).to_string();
+    if args.qemu {
+        return run_qemu(device, &node_id);
+    }
+    let mut script_args =
+        vec!["--device".to_string(), device.to_string(), "--node-id".into(), node_id, "--bitrate".into(), args.bitrate.to_string()];
+    let options = [
+        ("--interface", &args.interface),
+        ("--channel", &args.channel),
+        ("--power-cycle-command", &args.power_cycle_command),
+        ("--eds", &args.eds),
+    ];
+    for (flag, value) in options {
+        if let Some(value) = value {
+            script_args.extend([flag.to_string(), value.clone()]);
         }
     }
-    let device = device.ok_or(USAGE)?;
-    let known = firmware::devices::by_name(&device).ok_or_else(|| format!("unknown device {device}"))?;
-    let node_id = node_id.unwrap_or_else(|| known.default_node_id.to_string());
-    if qemu {
-        return run_qemu(&device, &node_id);
-    }
-    script_args.extend(["--device".into(), device, "--node-id".into(), node_id]);
     run_script(&script_args, None)
 }
 

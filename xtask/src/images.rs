@@ -231,16 +231,21 @@ pub(crate) fn have(program: &str) -> bool {
     Command::new(program).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
 }
 
+/// `cargo xtask qemu` options.
+#[derive(clap::Args)]
+pub struct QemuArgs {
+    /// The device whose image to boot.
+    #[arg(value_parser = clap::builder::PossibleValuesParser::new(firmware::devices::ALL.iter().map(|d| d.name)))]
+    device: String,
+    /// Where the image's SLCAN UART listens.
+    #[arg(long, value_name = "HOST:PORT", default_value = DEFAULT_LISTEN)]
+    listen: String,
+}
+
 /// `cargo xtask qemu <device> [--listen HOST:PORT]`.
-pub fn qemu(args: &[String]) -> Result<(), String> {
-    let usage = "usage: cargo xtask qemu <device> [--listen HOST:PORT]";
-    let device = args.first().ok_or(usage)?;
-    firmware::devices::by_name(device).ok_or_else(|| format!("unknown device {device}"))?;
-    let listen = match args.get(1).map(String::as_str) {
-        Some("--listen") => args.get(2).ok_or(usage)?.as_str(),
-        Some(_) => return Err(usage.into()),
-        None => DEFAULT_LISTEN,
-    };
+pub fn qemu(args: &QemuArgs) -> Result<(), String> {
+    let device = args.device.as_str();
+    let listen = args.listen.as_str();
     if !have("qemu-system-arm") {
         return Err("qemu-system-arm is missing: apt-get install -y --no-install-recommends qemu-system-arm".into());
     }

@@ -24,25 +24,72 @@ mod measure;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
+use clap::{Parser, Subcommand};
+
 const TARGET: &str = "thumbv7m-none-eabi";
 
 /// Fuzz targets with the directory of real inputs each one starts from.
 const FUZZ_TARGETS: &[(&str, &str)] = &[("eds_parser", "../tests/eds-corpus"), ("node_frames", "seeds/node_frames")];
 
+/// The project's commands (`cargo xtask <command>`).
+#[derive(Parser)]
+#[command(
+    name = "xtask",
+    bin_name = "cargo xtask",
+    version,
+    about = "The project's commands: what CI runs, the demo, images, measurements"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Subcommand)]
+enum Task {
+    /// Install what is missing and run every check CI runs.
+    Test,
+    /// Boot the EC5000 image in QEMU (or connect to a running vnode) and drive it like a PLC.
+    Demo(demo::DemoArgs),
+    /// Run the fuzz targets (nightly toolchain and cargo-fuzz).
+    Fuzz {
+        /// Seconds per target.
+        #[arg(default_value_t = 60)]
+        seconds: u32,
+    },
+    /// The bus-level benchmarks on the virtual bus (release build), with wall times.
+    Bench,
+    /// Build every firmware image, with its sizes and the budget check.
+    Build,
+    /// Boot a device's QEMU image with SLCAN on a TCP port.
+    Qemu(images::QemuArgs),
+    /// python-canopen against every QEMU image.
+    Smoke,
+    /// The bench check of a board through a python-can adapter (or of a QEMU image with --qemu).
+    Hil(hil::HilArgs),
+    /// Flash and RAM of the core and of each device on thumbv7m.
+    Size,
+    /// Instructions per handled frame (host under callgrind, thumbv7m in QEMU).
+    Icount {
+        /// Frames per measurement.
+        #[arg(default_value_t = 1000)]
+        n: u64,
+    },
+}
+
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let result = match args.first().map(String::as_str) {
-        Some("test") => test(),
-        Some("demo") => demo::demo(args.get(1..).unwrap_or_default()),
-        Some("fuzz") => fuzz(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(60)),
-        Some("bench") => bench::bench(),
-        Some("build") => images::build(),
-        Some("qemu") => images::qemu(args.get(1..).unwrap_or_default()),
-        Some("smoke") => images::smoke(),
-        Some("hil") => hil::hil(args.get(1..).unwrap_or_default()),
-        Some("size") => measure::size(),
-        Some("icount") => measure::icount(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000)),
-        _ => Err("usage: cargo xtask test | demo [--connect HOST:PORT] [--node-id N] | fuzz [SECONDS] | bench | build | qemu DEVICE | smoke | hil ... | size | icount [N]".into()),
+    // clap prints usage errors with the usage and exits with 2; `--help` and `--version` exit with 0.
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Task::Test => test(),
+        Task::Demo(args) => demo::demo(&args),
+        Task::Fuzz { seconds } => fuzz(seconds),
+        Task::Bench => bench::bench(),
+        Task::Build => images::build(),
+        Task::Qemu(args) => images::qemu(&args),
+        Task::Smoke => images::smoke(),
+        Task::Hil(args) => hil::hil(&args),
+        Task::Size => measure::size(),
+        Task::Icount { n } => measure::icount(n),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -94,7 +141,7 @@ fn test() -> Result<(), String> {
     images::build()?;
     images::smoke()?;
     hil::qemu_all()?;
-    demo::demo(&[])?;
+    demo::demo(&demo::DemoArgs::default())?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }
@@ -157,4 +204,50 @@ fn fuzz(seconds: u32) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod cli_tests {
+    use clap::CommandFactory;
+    use clap::error::ErrorKind;
+
+    use super::{Cli, Parser, Task};
+
+    fn parse(args: &[&str]) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(std::iter::once("xtask").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn every_command_has_help_and_version() {
+        Cli::command().debug_assert();
+        assert_eq!(parse(&["--version"]).err().map(|e| e.kind()), Some(ErrorKind::DisplayVersion));
+        for command in ["test", "demo", "fuzz", "bench", "build", "qemu", "smoke", "size", "icount"] {
+            assert_eq!(parse(&[command, "--help"]).err().map(|e| e.kind()), Some(ErrorKind::DisplayHelp), "{command}");
+        }
+    }
+
+    #[test]
+    fn arguments_keep_their_meaning() {
+        assert!(matches!(parse(&["fuzz"]).map(|c| c.command), Ok(Task::Fuzz { seconds: 60 })));
+        assert!(matches!(parse(&["fuzz", "5"]).map(|c| c.command), Ok(Task::Fuzz { seconds: 5 })));
+        assert!(matches!(parse(&["icount"]).map(|c| c.command), Ok(Task::Icount { n: 1000 })));
+        assert!(matches!(parse(&["icount", "50"]).map(|c| c.command), Ok(Task::Icount { n: 50 })));
+        assert!(parse(&["demo", "--connect", "127.0.0.1:4557", "--node-id", "5"]).is_ok());
+        assert!(parse(&["qemu", "sendix", "--listen", "127.0.0.1:4600"]).is_ok());
+    }
+
+    #[test]
+    fn usage_errors_are_exit_code_2() {
+        for args in [
+            &[][..],
+            &["bogus"],
+            &["demo", "--node-id", "5"],
+            &["demo", "--node-id", "0", "--connect", "x:1"],
+            &["qemu", "nosuch"],
+            &["icount", "x"],
+        ] {
+            let e = parse(args).err().unwrap_or_else(|| panic!("{args:?} parsed"));
+            assert_eq!(e.exit_code(), 2, "{args:?}: {e}");
+        }
+    }
 }

@@ -122,13 +122,16 @@ pub struct Entry {
 /// One firmware per dictionary: the node static and its main loop.
 macro_rules! firmware {
     ($feature:literal, $name:ident, $od:path) => {
+        firmware!($feature, $name, $od, NoApplication, NoApplication);
+    };
+    ($feature:literal, $name:ident, $od:path, $app:ty, $new:expr) => {
         #[cfg(feature = $feature)]
         mod $name {
             use super::*;
             use static_cell::StaticCell;
             use $od as od;
 
-            type NodeT = od::Node<NoApplication, BoardFlash>;
+            type NodeT = od::Node<$app, BoardFlash>;
 
             static NODE: StaticCell<NodeT> = StaticCell::new();
 
@@ -142,7 +145,7 @@ macro_rules! firmware {
             fn init(board: &'static Board) -> &'static mut NodeT {
                 let now = Instant::from_micros((board.now)());
                 let id = board.node_id;
-                let node = NODE.init_with(|| NodeT::unpowered(od::Ram::zeroed(), NoApplication, BoardFlash(board)));
+                let node = NODE.init_with(|| NodeT::unpowered(od::Ram::zeroed(), $new, BoardFlash(board)));
                 node.power_on(id, now);
                 node
             }
@@ -190,11 +193,23 @@ pub mod ds301_od {
 
 firmware!("interop", interop, crate::interop_od);
 firmware!("ds301", ds301, crate::ds301_od);
-firmware!("ec5000", ec5000, firmware::devices::ec5000::od);
-firmware!("unitek-ds", unitek_ds, firmware::devices::unitek_ds::od);
-firmware!("sendix", sendix, firmware::devices::sendix::od);
-firmware!("bmaxx4400", bmaxx4400, firmware::devices::bmaxx4400::od);
-firmware!("agile", agile, firmware::devices::agile::od);
+firmware!("ec5000", ec5000, firmware::devices::ec5000::od, firmware::devices::ec5000::App, firmware::devices::ec5000::App::NEW);
+firmware!(
+    "unitek-ds",
+    unitek_ds,
+    firmware::devices::unitek_ds::od,
+    firmware::devices::unitek_ds::App,
+    firmware::devices::unitek_ds::App::NEW
+);
+firmware!("sendix", sendix, firmware::devices::sendix::od, firmware::devices::sendix::App, firmware::devices::sendix::App::NEW);
+firmware!(
+    "bmaxx4400",
+    bmaxx4400,
+    firmware::devices::bmaxx4400::od,
+    firmware::devices::bmaxx4400::App,
+    firmware::devices::bmaxx4400::App::NEW
+);
+firmware!("agile", agile, firmware::devices::agile::od, firmware::devices::agile::App, firmware::devices::agile::App::NEW);
 
 /// Panics end in a loop; the board's watchdog resets the node.
 #[cfg(target_os = "none")]

@@ -52,6 +52,11 @@ impl<const N: usize> TxQueue<N> {
         }
     }
 
+    /// Counts a frame refused before it reached the queue (a sender's share was used up).
+    pub fn count_overflow(&mut self) {
+        self.overflows = self.overflows.saturating_add(1);
+    }
+
     /// Puts back a frame the controller handed back, ahead of every queued
     /// frame with its identifier (bxCAN mailbox pre-emption).
     pub fn push_front(&mut self, frame: CanFrame) -> bool {

@@ -1,5 +1,5 @@
 //! The boards an image runs on. A board moves frames between its CAN
-//! controller (or SLCAN link) and `app::Shared`, keeps time for
+//! controller (or SLCAN link) and the CANopen task (`app`), keeps time for
 //! embassy, and provides a [`canopen_core::storage::Storage`]; it holds no
 //! CANopen logic. This is the only place with
 //! `unsafe` code (register access, interrupt set-up), each block with a
@@ -39,30 +39,30 @@ pub const fn region_size(image: usize) -> usize {
 /// The node lives in a `static` built at compile time (so it lies in `.bss`
 /// and its size shows there); start-up hands its storage the board's
 /// handle and powers it on where it lies. It runs the
-/// device's dictionary with no application hooks yet. It starts with the
+/// device's dictionary with the device's own hooks (`device::App`). It starts with the
 /// node-id the device's start-up hook reads from its stored parameters
 /// (`Device::startup`), else the device's default one; a configuration LSS
-/// stored overrides both (`Node::power_on`). The image's application task runs
-/// `app::run_application` on the device's own dictionary type, so a
-/// profile reaches its objects through the generated accessors.
+/// stored overrides both (`Node::power_on`). The board hands the node to
+/// its CANopen task; the image's application task runs
+/// `app::run_application`, which reaches the node through requests.
 #[macro_export]
 macro_rules! image {
     ($board:ident, $device:ident $(, $key:ident = $value:expr)* $(,)?) => {
         #[::embassy_executor::task]
         async fn application() -> ! {
-            $crate::app::run_application(&$crate::app::SHARED, $crate::devices::$device::od::Ram::device_type).await
+            $crate::app::run_application(&$crate::app::SHARED).await
         }
 
         #[::cortex_m_rt::entry]
         fn main() -> ! {
             use $crate::devices::$device as device;
             type Storage = $crate::boards::$board::Storage<{ $crate::boards::region_size(device::od::RAM_SIZE) }>;
-            type Node = device::od::Node<::canopen_core::node::NoApplication, Storage>;
+            type Node = device::Node<Storage>;
             // Built at compile time and all zero bits, so in `.bss`: no
             // node-sized value on the stack at start-up (docs/firmware.md, "Stack").
             static NODE: ::static_cell::ConstStaticCell<Node> = ::static_cell::ConstStaticCell::new(Node::unpowered(
                 device::od::Ram::zeroed(),
-                ::canopen_core::node::NoApplication,
+                device::App::NEW,
                 $crate::boards::$board::unattached_storage(),
             ));
             #[allow(clippy::needless_update)]
@@ -71,10 +71,7 @@ macro_rules! image {
                 let node = NODE.take();
                 node.storage_mut().attach(handle);
                 let (node_id, bit_rate) = match device::DEVICE.startup {
-                    Some(startup) => {
-                        let (node_id, bit_rate) = startup(node.storage_mut());
-                        (node_id, Some(bit_rate))
-                    }
+                    Some(startup) => startup(node.storage_mut()),
                     None => (device::DEVICE.default_node_id, None),
                 };
                 node.power_on(node_id, now);

@@ -11,11 +11,107 @@ pub mod od {
     include!(concat!(env!("OUT_DIR"), "/ec5000.rs"));
 }
 
+use canopen_core::abort::AbortCode;
+use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::services::store::{self, Scope};
+
+/// The device's own rules (its hooks in the node): what its manual asks of
+/// the firmware beyond the dictionary.
+#[derive(Debug, Default)]
+pub struct App;
+
+impl App {
+    /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
+    pub const NEW: App = App;
+}
+
+impl Application for App {
+    /// 0x1010 sub 1 stores "all parameters except node-ID" (L744): only a
+    /// write to 0x4650 sub 1 (or LSS) makes a node-ID permanent.
+    const OPTIONS: ServiceOptions = ServiceOptions { not_saved_by_1010: Some((NODE_ID, NODE_ID)), ..ServiceOptions::CIA301 };
+
+    fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        match (index, sub, data) {
+            // D34: profile position, profile velocity, homing (as int8 bytes 1, 3, 6) and none.
+            (0x6060, 0, [mode]) if !matches!(mode, 0 | 1 | 3 | 6) => Err(AbortCode::InvalidValue),
+            // D35: polarity bits 7 and 6 only.
+            (0x607E, 0, [p]) if p & 0x3F != 0 => Err(AbortCode::InvalidValue),
+            _ => Ok(()),
+        }
+    }
+
+    fn download_check(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
+        (matches!(index, 0x1010 | 0x1011) && sub == SSW).then_some(match size {
+            Some(n) if n != 4 => Err(if n > 4 { AbortCode::LengthTooHigh } else { AbortCode::LengthTooLow }),
+            _ => Ok(()),
+        })
+    }
+
+    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        // F8: 0x1010/0x1011 sub 5 "manufacturer parameters SSW" work as sub 4
+        // (the manual does not say which manufacturer objects are SSW, so both
+        // sub-indices cover 0x2000–0x5FFF). Decision D40.
+        if sub != SSW || !matches!(index, 0x1010 | 0x1011) {
+            return None;
+        }
+        let (signature, save) = if index == 0x1010 { (store::SAVE, true) } else { (store::LOAD, false) };
+        Some(match data {
+            [a, b, c, d] if u32::from_le_bytes([*a, *b, *c, *d]) == signature => {
+                if save {
+                    ctx.save(Scope::Manufacturer)
+                } else {
+                    ctx.restore_defaults(Scope::Manufacturer)
+                }
+            }
+            _ => Err(AbortCode::CannotStore),
+        })
+    }
+
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
+        if (index, sub) == (NODE_ID, 1) {
+            // D31: the static node-ID is the one the drive starts with: stored at once.
+            let _ = ctx.save_objects(NODE_ID, NODE_ID);
+        }
+    }
+
+    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
+        if event == NmtEvent::ResetCommunication && (1..=127).contains(&ctx.node_id()) {
+            let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
+        }
+    }
+}
+
+/// 0x4650 "Bus Address": sub 1 static (stored) node-ID, sub 2 the active one.
+const NODE_ID: u16 = 0x4650;
+/// 0x1010/0x1011 sub 5: manufacturer parameters "SSW" (Man2).
+const SSW: u8 = 5;
+
+/// The node-ID the drive starts with when LSS stored none: 0x4650 sub 1
+/// from the stored parameters (D31), else 127. The bit rate is the image's.
+pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<u8>) {
+    use canopen_core::od::ObjectDictionary;
+    use canopen_core::services::store::Part;
+    let mut ram = od::Ram::new(FACTORY_NODE_ID);
+    store::load(&od::DICTIONARY, ram.image_mut(), FACTORY_NODE_ID, storage, Part::Application);
+    let node_id = match od::DICTIONARY.read(ram.image(), NODE_ID, 1) {
+        Ok([id @ 1..=127]) => *id,
+        _ => FACTORY_NODE_ID,
+    };
+    (node_id, None)
+}
+
+/// The manual's fallback node-ID.
+const FACTORY_NODE_ID: u8 = 127;
+
+/// The node this device runs, on storage `S`.
+pub type Node<S> = od::Node<App, S>;
+
 /// The device entry for [`super::ALL`].
 pub const DEVICE: super::Device = super::Device {
     name: "ec5000",
     description: "Interroll RollerDrive EC5000 BI: CiA 301 slave with the CiA 402 drive profile and LSS (seed 000).",
     dictionary: &od::DICTIONARY,
     default_node_id: 127,
-    startup: None,
+    startup: Some(startup),
 };

@@ -27,9 +27,9 @@ pub struct Device {
     pub startup: Option<Startup>,
 }
 
-/// Reads a device's start-up node-id and bit rate (CiA 305 table index)
-/// from its stored parameters.
-pub type Startup = fn(&mut dyn Storage) -> (u8, u8);
+/// Reads a device's start-up node-id and bit rate (CiA 305 table index,
+/// `None`: the image's own) from its stored parameters.
+pub type Startup = fn(&mut dyn Storage) -> (u8, Option<u8>);
 
 /// Every device, in seed order.
 pub static ALL: [Device; 5] = [ec5000::DEVICE, unitek_ds::DEVICE, sendix::DEVICE, bmaxx4400::DEVICE, agile::DEVICE];

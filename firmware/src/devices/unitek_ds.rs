@@ -11,6 +11,21 @@ pub mod od {
     include!(concat!(env!("OUT_DIR"), "/unitek_ds.rs"));
 }
 
+/// The device's own rules (its hooks in the node): what its manual asks of
+/// the firmware beyond the dictionary.
+#[derive(Debug, Default)]
+pub struct App;
+
+impl App {
+    /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
+    pub const NEW: App = App;
+}
+
+impl canopen_core::node::Application for App {}
+
+/// The node this device runs, on storage `S`.
+pub type Node<S> = od::Node<App, S>;
+
 /// The device entry for [`super::ALL`].
 pub const DEVICE: super::Device = super::Device {
     name: "unitek-ds",

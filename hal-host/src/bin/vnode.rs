@@ -11,7 +11,7 @@ use std::process::ExitCode;
 use std::sync::mpsc::RecvTimeoutError;
 use std::time::Duration as StdDuration;
 
-use canopen_core::node::{NoApplication, Node};
+use canopen_core::node::{Application, NoApplication, Node};
 use canopen_core::od::ObjectDictionary;
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
@@ -97,32 +97,42 @@ fn main() -> ExitCode {
     };
     let id = opts.node_id;
     let result = match opts.device.as_str() {
-        "ec5000" => serve::<_, { ec5000::od::RPDO_COUNT }, { ec5000::od::TPDO_COUNT }, { ec5000::od::HB_CONSUMER_COUNT }>(
+        "ec5000" => serve::<_, _, { ec5000::od::RPDO_COUNT }, { ec5000::od::TPDO_COUNT }, { ec5000::od::HB_CONSUMER_COUNT }>(
             ec5000::od::Ram::new(id),
+            ec5000::App::NEW,
             storage,
             &opts,
         ),
-        "unitek-ds" => serve::<_, { unitek_ds::od::RPDO_COUNT }, { unitek_ds::od::TPDO_COUNT }, { unitek_ds::od::HB_CONSUMER_COUNT }>(
+        "unitek-ds" => serve::<_, _, { unitek_ds::od::RPDO_COUNT }, { unitek_ds::od::TPDO_COUNT }, { unitek_ds::od::HB_CONSUMER_COUNT }>(
             unitek_ds::od::Ram::new(id),
+            unitek_ds::App::NEW,
             storage,
             &opts,
         ),
-        "sendix" => serve::<_, { sendix::od::RPDO_COUNT }, { sendix::od::TPDO_COUNT }, { sendix::od::HB_CONSUMER_COUNT }>(
+        "sendix" => serve::<_, _, { sendix::od::RPDO_COUNT }, { sendix::od::TPDO_COUNT }, { sendix::od::HB_CONSUMER_COUNT }>(
             sendix::od::Ram::new(id),
+            sendix::App::NEW,
             storage,
             &opts,
         ),
-        "bmaxx4400" => serve::<_, { bmaxx4400::od::RPDO_COUNT }, { bmaxx4400::od::TPDO_COUNT }, { bmaxx4400::od::HB_CONSUMER_COUNT }>(
+        "bmaxx4400" => serve::<_, _, { bmaxx4400::od::RPDO_COUNT }, { bmaxx4400::od::TPDO_COUNT }, { bmaxx4400::od::HB_CONSUMER_COUNT }>(
             bmaxx4400::od::Ram::new(id),
+            bmaxx4400::App::NEW,
             storage,
             &opts,
         ),
         "interop" => {
             use hal_host::fixtures::interop::od as fx;
-            serve::<_, { fx::RPDO_COUNT }, { fx::TPDO_COUNT }, { fx::HB_CONSUMER_COUNT }>(fx::Ram::new(id), storage, &opts)
+            serve::<_, _, { fx::RPDO_COUNT }, { fx::TPDO_COUNT }, { fx::HB_CONSUMER_COUNT }>(
+                fx::Ram::new(id),
+                NoApplication,
+                storage,
+                &opts,
+            )
         }
-        "agile" => serve::<_, { agile::od::RPDO_COUNT }, { agile::od::TPDO_COUNT }, { agile::od::HB_CONSUMER_COUNT }>(
+        "agile" => serve::<_, _, { agile::od::RPDO_COUNT }, { agile::od::TPDO_COUNT }, { agile::od::HB_CONSUMER_COUNT }>(
             agile::od::Ram::new(id),
+            agile::App::NEW,
             storage,
             &opts,
         ),
@@ -155,8 +165,10 @@ impl Storage for Boxed {
     }
 }
 
-fn serve<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(
+/// Runs the device's dictionary with the device's own hooks (`app`), as its image does.
+fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(
     od: O,
+    app: A,
     storage: Box<dyn Storage>,
     opts: &Options,
 ) -> Result<(), String> {
@@ -165,7 +177,7 @@ fn serve<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(
     println!("vnode {} node {} listening on {}", opts.device, opts.node_id, server.local_addr());
     let start = std::time::Instant::now();
     let clock = || Instant::from_micros(start.elapsed().as_micros() as u64);
-    let mut node: Node<O, NoApplication, Boxed, R, T, HB> = Node::new(od, NoApplication, Boxed(storage), opts.node_id, clock());
+    let mut node: Node<O, A, Boxed, R, T, HB> = Node::new(od, app, Boxed(storage), opts.node_id, clock());
     if let Some(serial) = opts.serial {
         node.set_serial_number(serial);
     }

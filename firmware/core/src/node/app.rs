@@ -1,60 +1,347 @@
-//! The device's side of a node: hooks where the five devices differ.
+//! The device's side of a node: the hooks where devices differ, and the
+//! context ([`Ctx`]) through which a hook reaches the dictionary, the time,
+//! EMCY, raw frames and storage.
+//!
+//! Every hook runs on the node's own call ([`super::Node::on_frame`],
+//! [`super::Node::process`] or an application request such as
+//! [`super::Node::write_object`]), synchronously, so no event is lost and
+//! the order is fixed: an RPDO writes 0x6040, [`Application::written`] runs
+//! for it (and may update 0x6041 through the context), and the
+//! change-of-state TPDO leaves in the same `process` (unless its inhibit time
+//! holds it back).
 
 use crate::abort::AbortCode;
+use crate::frame::CanFrame;
+use crate::od::Dictionary;
 use crate::services::nmt::State;
+use crate::services::store::Scope;
+use crate::storage::Storage;
+use crate::time::Instant;
 use crate::wire::time_stamp::TimeOfDay;
 
+use super::filter::AcceptanceList;
+use super::router::SdoEffects;
+
+/// Who put a value into the dictionary, as [`Application::written`] hears it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// An SDO download.
+    Sdo,
+    /// RPDO `n` (0-based), one call per mapped object.
+    Rpdo(u8),
+    /// The application, through [`super::Node::write_object`].
+    App,
+}
+
+/// A communication error, reported whatever 0x1029 makes of it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CommError {
+    /// The heartbeat of this node-id (0x1016) timed out.
+    Heartbeat(u8),
+    /// The master stopped guarding this node (life guarding, 0x100C/0x100D).
+    LifeGuarding,
+    /// The CAN controller went bus-off (reported by the board).
+    BusOff,
+    /// RPDO `n` (0-based) missed its event timer (0x1400 + n sub 5).
+    RpdoTimeout(u8),
+}
+
+/// What the NMT state machine and error control tell the device.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NmtEvent {
+    /// The node entered this state (each change, so Operational → Stopped →
+    /// Operational is three events, not one).
+    Entered(State),
+    /// Reset application (and power-on): the application objects hold their
+    /// defaults and the stored set. Reset communication follows.
+    ResetApplication,
+    /// Reset communication (and LSS "switch state global" to a new node-id):
+    /// the services are configured, the node-id in [`Ctx::node_id`] is the active one.
+    ResetCommunication,
+    /// A communication error (even if 0x1029 asks for no state change).
+    CommunicationError(CommError),
+}
+
+/// Where a device's manual departs from the strict CiA 301 reading of a
+/// communication service. [`ServiceOptions::CIA301`] unless the device says otherwise.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ServiceOptions {
+    /// PDO mapping entries and COB-IDs may be rewritten while the PDO is
+    /// valid and its mapping not empty, in Pre-operational only (abort
+    /// 0x08000022 in Operational); writing sub 0 or entering Operational
+    /// applies them. CiA 301 asks for the PDO invalid and sub 0 = 0 first.
+    pub pdo_rewrite_while_valid: bool,
+    /// Transmission type 254 is timer-only: sent when the event timer
+    /// expires (or on a trigger or RTR), never on a change of the mapped data
+    /// or on entering Operational. CiA 301 makes 254 event-driven, as 255.
+    pub tpdo_254_timer_only: bool,
+    /// Objects (an inclusive index range) that 0x1010 "save" leaves as they
+    /// were stored: only the device's own command stores them
+    /// ([`Ctx::save_objects`]).
+    pub not_saved_by_1010: Option<(u16, u16)>,
+}
+
+impl ServiceOptions {
+    /// The strict CiA 301 reading.
+    pub const CIA301: ServiceOptions =
+        ServiceOptions { pdo_rewrite_while_valid: false, tpdo_254_timer_only: false, not_saved_by_1010: None };
+}
+
+/// Raw frames one [`Ctx`] holds until the node queues them.
+pub const RAW_BURST: usize = 4;
+
+/// What a hook may touch of the node while it runs.
+pub struct Ctx<'a> {
+    pub(super) dict: &'static Dictionary,
+    pub(super) image: &'a mut [u8],
+    pub(super) services: &'a mut dyn super::comm::Services,
+    pub(super) storage: &'a mut dyn Storage,
+    pub(super) node_id: u8,
+    pub(super) state: State,
+    pub(super) now: Instant,
+    pub(super) options: ServiceOptions,
+    pub(super) effects: SdoEffects,
+    /// Raw frames sent by the hook, queued by the node when the hook returns
+    /// (an SDO transfer holds the transmit queue while its hooks run).
+    pub(super) raw: &'a mut RawBurst,
+}
+
+/// Raw frames a hook sent, until the node queues them.
+#[derive(Clone, Debug)]
+pub(super) struct RawBurst {
+    pub(super) frames: [CanFrame; RAW_BURST],
+    pub(super) len: usize,
+}
+
+impl RawBurst {
+    /// Empty, and all zero bits.
+    pub(super) const EMPTY: RawBurst = RawBurst { frames: [CanFrame::EMPTY; RAW_BURST], len: 0 };
+}
+
+impl Ctx<'_> {
+    /// The time of the call that runs the hook.
+    pub fn now(&self) -> Instant {
+        self.now
+    }
+
+    /// The active node-id.
+    pub fn node_id(&self) -> u8 {
+        self.node_id
+    }
+
+    /// The NMT state.
+    pub fn state(&self) -> State {
+        self.state
+    }
+
+    /// The value of (index, sub) as the dictionary holds it.
+    pub fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
+        Ok(self.dict.read(self.image, index, sub)?)
+    }
+
+    /// An integer value of at most 32 bits (zero-extended), if (index, sub) exists.
+    pub fn read_u32(&self, index: u16, sub: u8) -> Option<u32> {
+        self.dict.read_u32(self.image, index, sub)
+    }
+
+    /// Writes (index, sub) as an SDO download would, with the dictionary's
+    /// checks and the rules and side effects of the service that owns the
+    /// object (a heartbeat time restarts the producer, a PDO parameter
+    /// reconfigures the PDO). The device's own hooks do not run again for it.
+    pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if index != 0x1010 && index != 0x1011 {
+            self.precheck(index, sub, data)?;
+        }
+        self.route_write(index, sub, data)
+    }
+
+    /// Sets a value the device owns, read-only ones included (0x6041
+    /// statusword, an "actual" node-id), without access checks or service
+    /// side effects; the value must have the entry's length.
+    pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.effects.written = true;
+        Ok(self.dict.write_unchecked(self.image, index, sub, data)?)
+    }
+
+    /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
+    /// error was already active or there is no room).
+    pub fn raise_error(&mut self, code: u16, info: [u8; 5]) -> bool {
+        self.services.emcy().raise(code, info)
+    }
+
+    /// Clears an error; the last one cleared sends "error reset".
+    pub fn clear_error(&mut self, code: u16) {
+        self.services.emcy().clear(code);
+    }
+
+    /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
+    pub fn trigger_tpdo(&mut self, n: usize) -> bool {
+        self.effects.written = true;
+        self.services.trigger_tpdo(n)
+    }
+
+    /// Sends a frame outside CANopen (a foreign protocol). At most
+    /// [`RAW_BURST`] per hook call; the node queues them when the hook
+    /// returns, as long as the queue keeps [`super::RAW_RESERVE`] slots free
+    /// for heartbeat, EMCY and SDO (a refused frame counts as a queue
+    /// overflow, EMCY 0x8110). False if the burst is full or the frame is not
+    /// a standard one of at most 8 bytes.
+    pub fn send_raw(&mut self, cob_id: u16, data: &[u8]) -> bool {
+        match (CanFrame::standard(cob_id, data), self.raw.frames.get_mut(self.raw.len)) {
+            (Some(frame), Some(slot)) => {
+                *slot = frame;
+                self.raw.len += 1;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Stores the objects of `first..=last` alone, as they are now: every
+    /// other value keeps what was stored before (unsaved changes elsewhere
+    /// stay unsaved). For a store the device's own command triggers (a
+    /// preset stored when written, a "save bus parameters" object).
+    pub fn save_objects(&mut self, first: u16, last: u16) -> Result<(), AbortCode> {
+        crate::services::store::save_objects(self.dict, self.image, self.node_id, self.storage, first, last)
+            .map_err(super::router::store_abort)
+    }
+
+    /// Stores a scope as 0x1010 would (the device's
+    /// [`ServiceOptions::not_saved_by_1010`] objects keep their stored values).
+    pub fn save(&mut self, scope: Scope) -> Result<(), AbortCode> {
+        self.save_scope(scope)
+    }
+
+    /// Marks a scope for its defaults from the next reset on, as 0x1011 would.
+    pub fn restore_defaults(&mut self, scope: Scope) -> Result<(), AbortCode> {
+        crate::services::store::restore_defaults(self.dict, self.image, self.node_id, self.storage, scope)
+            .map_err(super::router::store_abort)
+    }
+
+    /// The node rebuilds its acceptance list (the identifiers
+    /// [`Application::claim_ids`] lists have changed).
+    pub fn refresh_acceptance(&mut self) {
+        self.effects.consumed_changed = true;
+    }
+}
+
+/// The identifiers a device claims, for the node's acceptance list.
+pub struct Claims<'a> {
+    pub(super) list: &'a mut AcceptanceList,
+}
+
+impl Claims<'_> {
+    /// Claims a data frame (`rtr` false) or a remote frame on `cob_id`.
+    pub fn claim(&mut self, cob_id: u16, rtr: bool) {
+        self.list.insert(cob_id, rtr);
+    }
+}
+
 /// Hooks a device implements; every method has a default, so a device
-/// module overrides only what its manual asks for.
-///
-/// The `read`/`write` hooks see application objects (0x2000 and up) before
-/// the generated dictionary does. They return `None` to let the dictionary
-/// handle the access, or `Some` to answer it themselves: a parameter backend
-/// (the b maXX 4400's 0x4000 + parameter number), a DOMAIN, or a value that
-/// must be checked against the device state (abort 0x08000022).
+/// module overrides only what its manual asks for. The value lives in the
+/// node, which a firmware image builds at compile time in `.bss`: a device
+/// type must be `const`-constructible and all zero bits.
 pub trait Application {
-    /// Size of the value an upload of (index, sub) sends, if the application serves it.
-    fn upload_size(&mut self, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
-        let _ = (index, sub);
+    /// Where the device's manual departs from CiA 301.
+    const OPTIONS: ServiceOptions = ServiceOptions::CIA301;
+
+    /// Serve: the size of the value an upload of (index, sub) sends, if
+    /// the device answers it instead of the dictionary (any index).
+    fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        let _ = (ctx, index, sub);
         None
     }
 
-    /// Bytes `offset..` of a value the application serves.
-    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
-        let _ = (index, sub, offset, buf);
+    /// Serve: bytes `offset..` of a value the device answers (computed on read).
+    fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        let _ = (ctx, index, sub, offset, buf);
         None
     }
 
-    /// Checks a download before it starts, if the application serves (index, sub).
-    fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
-        let _ = (index, sub, size);
+    /// Serve: checks a download the device takes before it starts (its own
+    /// length rules: a 1-byte write to a 2-byte object).
+    fn download_check(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
+        let _ = (ctx, index, sub, size);
         None
     }
 
-    /// A complete download to (index, sub): `Some(Err)` refuses it,
-    /// `Some(Ok)` means the application stored it, `None` lets the
-    /// dictionary store it (after its own checks).
-    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
-        let _ = (index, sub, data);
+    /// Serve: a complete download the device takes instead of the
+    /// dictionary (`Some`), typically writing other objects through
+    /// [`Ctx::write_object`] (one write fanned out to several sub-indices).
+    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        let _ = (ctx, index, sub, data);
         None
     }
 
-    /// The NMT state changed.
-    fn on_state(&mut self, state: State) {
-        let _ = state;
+    /// Validate: a write to any object (communication objects included)
+    /// that passed the dictionary's type, length and limit checks; an `Err`
+    /// refuses it with that abort code and nothing changes.
+    fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let _ = (ctx, index, sub, data);
+        Ok(())
     }
 
-    /// RPDO `n` (0-based) wrote its data into the dictionary.
-    fn on_rpdo(&mut self, n: usize) {
-        let _ = n;
+    /// React: (index, sub) holds a new value, whoever wrote it.
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, by: Source) {
+        let _ = (ctx, index, sub, by);
     }
 
-    /// A SYNC was received or produced (after the synchronous PDOs ran).
-    fn on_sync(&mut self) {}
+    /// RPDO `n` wrote its objects: by default [`Application::written`] for
+    /// each mapped object, in mapping order.
+    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
+        let map = 0x1600 + u16::from(n);
+        let count = ctx.read_u32(map, 0).unwrap_or(0).min(64) as u8;
+        for sub in 1..=count {
+            let entry = ctx.read_u32(map, sub).unwrap_or(0);
+            let (index, object_sub) = ((entry >> 16) as u16, (entry >> 8) as u8);
+            // Dummy entries (data types 0x0001..0x0007 and the like) map nothing.
+            if index >= 0x1000 {
+                self.written(ctx, index, object_sub, Source::Rpdo(n));
+            }
+        }
+    }
+
+    /// Sample: a SYNC arrived or was produced; runs before the synchronous
+    /// TPDOs are built, so they carry what this writes.
+    fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        let _ = ctx;
+    }
+
+    /// Timers: runs at every [`super::Node::process`]; returns when the
+    /// device wants to run again (folded into the node's deadline).
+    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        let _ = ctx;
+        None
+    }
+
+    /// An NMT or communication event.
+    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        let _ = (ctx, event);
+    }
 
     /// A TIME frame arrived (0x1012).
-    fn on_time(&mut self, time: TimeOfDay) {
-        let _ = time;
+    fn on_time(&mut self, ctx: &mut Ctx<'_>, time: TimeOfDay) {
+        let _ = (ctx, time);
+    }
+
+    /// Raw frames: every received 11-bit frame first, whatever the NMT
+    /// state (Initialising and an unconfigured node included). True if the
+    /// device consumed it; the CANopen services then never see it.
+    fn on_frame(&mut self, ctx: &mut Ctx<'_>, cob_id: u16, rtr: bool, data: &[u8]) -> bool {
+        let _ = (ctx, cob_id, rtr, data);
+        false
+    }
+
+    /// Raw frames: the identifiers [`Application::on_frame`] wants, added to
+    /// the node's acceptance list (the board's filter passes them).
+    fn claim_ids(&self, dict: &'static Dictionary, image: &[u8], claims: &mut Claims<'_>) {
+        let _ = (dict, image, claims);
+    }
+
+    /// False switches the CANopen services off: no boot-up, no NMT, no
+    /// SDO, no PDO, no heartbeat; only the device's raw frames and timers run.
+    fn canopen(&self) -> bool {
+        true
     }
 }
 
@@ -62,4 +349,8 @@ pub trait Application {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct NoApplication;
 
-impl Application for NoApplication {}
+impl Application for NoApplication {
+    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
+        let _ = (ctx, n);
+    }
+}

@@ -2,13 +2,18 @@
 //! communication area of the dictionary (0x1000–0x1FFF).
 
 use crate::abort::AbortCode;
+use crate::id::CobId;
 use crate::od::Dictionary;
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
+use crate::services::nmt::State;
 use crate::services::pdo::Pdos;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::Emcy;
+
+use super::app::ServiceOptions;
+use super::router::u32_of;
 
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
@@ -162,21 +167,137 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
     }
 
-    /// A PDO communication or mapping parameter written by an SDO: the PDO
-    /// service applies CiA 301's rules (a COB-ID changes only while invalid,
-    /// mapping only through sub 0 = 0, ...).
-    pub fn write_pdo(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        match self.pdos.write_object(index, sub, data, dict, image) {
-            Some(result) => result,
-            None => dict.write(image, index, sub, data).map_err(Into::into),
-        }
-    }
-
     /// A SYNC parameter (0x1005–0x1007, 0x1019) written by an SDO.
     pub fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
         match self.sync.write_object(index, sub, data, dict, image) {
             Some(result) => result,
             None => dict.write(image, index, sub, data).map_err(Into::into),
         }
+    }
+}
+
+/// The communication services as a hook's [`super::Ctx`] reaches them,
+/// whatever the node's PDO and heartbeat-consumer counts.
+pub(crate) trait Services {
+    /// The EMCY producer.
+    fn emcy(&mut self) -> &mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>;
+
+    /// [`Pdos::trigger`].
+    fn trigger_tpdo(&mut self, n: usize) -> bool;
+
+    /// A checked write of an object a service owns (its rules and its
+    /// reconfiguration); `None` if no service owns (index, sub).
+    #[allow(clippy::too_many_arguments)]
+    fn write_object(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        dict: &Dictionary,
+        image: &mut [u8],
+        node_id: u8,
+        now: Instant,
+        options: ServiceOptions,
+        state: State,
+    ) -> Option<Result<(), AbortCode>>;
+}
+
+impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB> {
+    fn emcy(&mut self) -> &mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS> {
+        &mut self.emcy
+    }
+
+    fn trigger_tpdo(&mut self, n: usize) -> bool {
+        self.pdos.trigger(n)
+    }
+
+    fn write_object(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        dict: &Dictionary,
+        image: &mut [u8],
+        node_id: u8,
+        now: Instant,
+        options: ServiceOptions,
+        state: State,
+    ) -> Option<Result<(), AbortCode>> {
+        Some(match index {
+            0x1003 => {
+                // The precheck found the entry writable.
+                if sub != 0 {
+                    return Some(Err(AbortCode::ReadOnly));
+                }
+                // CiA 301 §7.5.2.4: only 0 may be written, and it clears the history.
+                match data {
+                    [0] => {
+                        self.clear_history(dict, image);
+                        Ok(())
+                    }
+                    [_] => Err(AbortCode::InvalidValue),
+                    [] => Err(AbortCode::LengthTooLow),
+                    _ => Err(AbortCode::LengthTooHigh),
+                }
+            }
+            0x1012 if sub == 0 => self.write_time_cob_id(data, dict, image, node_id, now),
+            0x1014 if sub == 0 => self.write_emcy_cob_id(data, dict, image),
+            0x1016 if sub > 0 => {
+                let value = match u32_of(data) {
+                    Ok(v) => v,
+                    Err(e) => return Some(Err(e)),
+                };
+                if self.consumers.conflicts(usize::from(sub) - 1, value) {
+                    return Some(Err(AbortCode::ParameterIncompatible));
+                }
+                dict.write(image, index, sub, data).map_err(AbortCode::from).map(|()| self.consumers.configure(usize::from(sub) - 1, value))
+            }
+            0x1005..=0x1007 | 0x1019 => self.write_sync(index, sub, data, dict, image),
+            0x100C | 0x100D | 0x1015 | 0x1017 => {
+                dict.write(image, index, sub, data).map_err(AbortCode::from).map(|()| self.reconfigure(index, dict, image, node_id, now))
+            }
+            0x1400..=0x1BFF => {
+                let rewrite = options.pdo_rewrite_while_valid;
+                if rewrite && state == State::Operational && !matches!(sub, 2 | 3 | 5) {
+                    // The manual's order: mappings and COB-IDs change in Pre-operational only.
+                    return Some(Err(AbortCode::DeviceState));
+                }
+                match self.pdos.write_object_with(index, sub, data, dict, image, rewrite) {
+                    Some(result) => result,
+                    None => dict.write(image, index, sub, data).map_err(Into::into),
+                }
+            }
+            _ => return None,
+        })
+    }
+}
+
+impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
+    /// 0x1014 COB-ID EMCY (CiA 301 §7.5.2.15): bit 31 set = EMCY off. No
+    /// 29-bit CAN-ID (bits 11..30 are 0), no CAN-ID 0, no restricted CAN-ID
+    /// while valid; the CAN-ID changes only while EMCY is or becomes off.
+    fn write_emcy_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
+        let new = CobId(u32_of(data)?);
+        let moves =
+            dict.read_u32(image, 0x1014, 0).map(CobId).is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
+        if new.0 & !(CobId::BIT31 | 0x7FF) != 0 || new.can_id() == 0 || (new.is_valid() && new.is_restricted()) || moves {
+            return Err(AbortCode::InvalidValue);
+        }
+        dict.write(image, 0x1014, 0, data)?;
+        self.configure_emcy(dict, image);
+        Ok(())
+    }
+
+    /// 0x1012 COB-ID TIME (CiA 301 §7.5.2.13): bit 31 consume, bit 30
+    /// produce. No 29-bit CAN-ID, no restricted CAN-ID while consumed or produced.
+    fn write_time_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8], node_id: u8, now: Instant) -> Result<(), AbortCode> {
+        let new = CobId(u32_of(data)?);
+        let used = new.0 & (CobId::BIT31 | CobId::BIT30) != 0;
+        if new.is_extended() || (used && new.is_restricted()) {
+            return Err(AbortCode::InvalidValue);
+        }
+        dict.write(image, 0x1012, 0, data)?;
+        self.reconfigure(0x1012, dict, image, node_id, now);
+        Ok(())
     }
 }

@@ -14,7 +14,9 @@ use crate::wire::time_stamp::TimeOfDay;
 
 use super::router::{Router, SdoEffects};
 use super::sinks::{PdoSink, SdoSink};
-use super::{Application, Node};
+use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE};
+use crate::services::sdo_server::SdoServers;
+use crate::txq::TxQueue;
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
@@ -30,6 +32,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         };
         let rtr = frame.is_remote_frame();
         let data = frame.data();
+        // A device's own protocol sees every frame first, whatever the NMT state.
+        if self.with_app(now, |app, ctx| app.on_frame(ctx, cob_id, rtr, data)) {
+            return;
+        }
+        if !self.app.canopen() {
+            self.counters.ignored += 1;
+            return;
+        }
         if cob_id == LSS_MASTER_COB_ID && self.lss_active && !rtr {
             self.lss_request(now, data);
             return;
@@ -88,16 +98,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if state.pdo_allowed() {
-            let Node { od, app, comm, txq, .. } = self;
+            let Node { od, comm, txq, .. } = self;
             let dict = od.dictionary();
-            let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+            let mut sink = PdoSink::new(txq, &mut comm.emcy);
             let matched = if rtr {
                 comm.pdos.on_rtr(now, cob_id, dict, od.image(), &mut sink)
             } else {
                 comm.pdos.on_frame(now, cob_id, data, od.image_mut(), &mut sink)
             };
+            let (received, timeouts) = (sink.received, sink.timeouts);
             if matched {
                 self.touched = true;
+                self.pdo_events(now, received, timeouts);
                 return;
             }
         }
@@ -112,7 +124,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             if Some(cob_id) == self.comm.time_cob_id && !rtr {
                 match TimeOfDay::parse(data) {
-                    Some(t) => self.app.on_time(t),
+                    Some(t) => self.with_app(now, |app, ctx| app.on_time(ctx, t)),
                     None => self.counters.malformed += 1,
                 }
                 return;
@@ -122,26 +134,71 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
+    /// The device samples first, so the synchronous TPDOs carry its values.
     pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
-        let _ = now;
         self.touched = true;
+        self.with_app(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
-            let Node { od, app, comm, txq, .. } = self;
+            let Node { od, comm, txq, .. } = self;
             let dict = od.dictionary();
-            let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+            let mut sink = PdoSink::new(txq, &mut comm.emcy);
             comm.pdos.on_sync(event, dict, od.image_mut(), &mut sink);
+            let (received, timeouts) = (sink.received, sink.timeouts);
+            self.pdo_events(now, received, timeouts);
         }
-        self.app.on_sync();
+    }
+
+    /// Tells the device which RPDOs wrote their objects (bit n: RPDO n) and
+    /// which timed out.
+    pub(super) fn pdo_events(&mut self, now: Instant, received: u32, timeouts: u32) {
+        if received | timeouts == 0 {
+            return;
+        }
+        self.with_app(now, |app, ctx| {
+            let mut bits = received;
+            while bits != 0 {
+                app.rpdo_written(ctx, bits.trailing_zeros() as u8);
+                bits &= bits - 1;
+            }
+            let mut bits = timeouts;
+            while bits != 0 {
+                app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::RpdoTimeout(bits.trailing_zeros() as u8)));
+                bits &= bits - 1;
+            }
+        });
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
-        let Node { od, app, storage, comm, sdo, txq, node_id, .. } = self;
-        let dict = od.dictionary();
-        let mut router = Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, effects: SdoEffects::default() };
-        let mut sink = SdoSink { txq, cob_id: tx_cob };
-        sdo.on_request(i, now, data, &mut router, &mut sink);
-        let effects = router.effects;
+        let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
+        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
+        sdo.on_request(i, now, data, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
+        let effects = ctx.effects;
+        self.queue_raw();
         self.follow_sdo(effects);
+    }
+
+    /// The SDO servers with what they need: the hooks and their context,
+    /// and beside them the transmit queue and the servers' COB-IDs.
+    #[allow(clippy::type_complexity)]
+    pub(super) fn split_sdo(
+        &mut self,
+        now: Instant,
+    ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
+        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, .. } = self;
+        let dict = od.dictionary();
+        let ctx = Ctx {
+            dict,
+            image: od.image_mut(),
+            services: comm,
+            storage,
+            node_id: *node_id,
+            state: nmt.state(),
+            now,
+            options: A::OPTIONS,
+            effects: SdoEffects::default(),
+            raw,
+        };
+        (ctx, app, sdo, txq, sdo_cob_ids)
     }
 
     /// Follows up what SDO accesses changed beyond their objects (from a

@@ -85,7 +85,7 @@ impl AcceptanceList {
         self.overflowed || self.ids().contains(&AcceptedId { cob_id, rtr })
     }
 
-    fn insert(&mut self, cob_id: u16, rtr: bool) {
+    pub(super) fn insert(&mut self, cob_id: u16, rtr: bool) {
         let id = AcceptedId { cob_id, rtr };
         if self.ids().contains(&id) {
             return;
@@ -111,11 +111,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Rebuilds the list from the services; a new list gets the next generation.
     pub(super) fn refresh_acceptance(&mut self) {
         let mut list = AcceptanceList::default();
-        if self.lss_active {
+        if self.lss_active && self.app.canopen() {
             list.insert(LSS_MASTER_COB_ID, false);
         }
-        // An unconfigured node takes part in LSS only.
-        if self.node_id != UNCONFIGURED {
+        // An unconfigured node takes part in LSS only; a device that switched CANopen off, in nothing.
+        if self.node_id != UNCONFIGURED && self.app.canopen() {
             list.insert(NMT_COB_ID, false);
             list.insert(ERROR_CONTROL_BASE + u16::from(self.node_id), true);
             list.insert(self.comm.sync.cob_id(), false);
@@ -147,6 +147,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 }
             }
         }
+        self.app.claim_ids(self.od.dictionary(), self.od.image(), &mut super::Claims { list: &mut list });
         if list.ids() != self.acceptance.ids() || list.overflowed != self.acceptance.overflowed {
             list.generation = self.acceptance.generation.wrapping_add(1);
             self.acceptance = list;

@@ -11,11 +11,13 @@
 //! in `reset` (power-on, reset application and communication), `dispatch`
 //! ([`Node::on_frame`]), `state` (NMT state changes, communication errors),
 //! `process` ([`Node::process`]), `sinks` (where services send), `router`
-//! (SDO access to the dictionary), `lss`, `filter` (acceptance list) and
-//! `comm` (the communication services and their configuration).
+//! (SDO access to the dictionary), `lss`, `filter` (acceptance list),
+//! `controller` (CAN controller events → EMCY) and `comm` (the
+//! communication services and their configuration).
 
 mod app;
 mod comm;
+mod controller;
 mod dispatch;
 mod filter;
 mod lss;
@@ -25,11 +27,13 @@ mod router;
 mod sinks;
 mod state;
 
-pub use app::{Application, NoApplication};
+pub use app::{Application, Claims, CommError, Ctx, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
+pub use controller::{ControllerEvent, TRANSIENT_ERROR_HOLD};
 pub use filter::{ACCEPTANCE_CAPACITY, AcceptanceList, AcceptedId};
 pub use lss::BitRateControl;
 
+use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::LssSlave;
@@ -49,6 +53,9 @@ pub const SDO_BUFFER: usize = 896;
 /// parameter object the dictionary lacks, or whose COB-IDs are not valid,
 /// stays off; each costs about 80 bytes of RAM, the download buffer is shared.
 pub const SDO_SERVERS: usize = 4;
+/// Queue slots a device's raw frames ([`Ctx::send_raw`]) leave free for
+/// heartbeat, EMCY and SDO answers.
+pub const RAW_RESERVE: usize = 8;
 
 /// What the node counted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -110,6 +117,10 @@ pub struct Node<
     bit_rate_request: Option<u8>,
     /// The identifiers the node consumes, for the board's acceptance filter.
     acceptance: filter::AcceptanceList,
+    /// Raw frames a device hook sent, until they are queued.
+    raw: app::RawBurst,
+    /// The CAN controller's errors (`controller`).
+    controller: controller::ControllerErrors,
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -157,6 +168,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             switch: lss::Switch::OFF,
             bit_rate_request: None,
             acceptance: filter::AcceptanceList::new(),
+            raw: app::RawBurst::EMPTY,
+            controller: controller::ControllerErrors::new(),
         }
     }
 
@@ -175,8 +188,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         &self.od
     }
 
-    /// The dictionary, for the application to write; change-of-state TPDOs
-    /// see the new values at the next [`Node::process`].
+    /// The dictionary, for the application to write without any check or
+    /// hook (use [`Node::write_object`] for a write with the services'
+    /// rules); change-of-state TPDOs see the new values at the next [`Node::process`].
     pub fn od_mut(&mut self) -> &mut O {
         self.touched = true;
         &mut self.od
@@ -189,6 +203,57 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
         self.touched = true;
         self.comm.pdos.trigger(n)
+    }
+
+    /// Writes (index, sub) for the application, as an SDO download would:
+    /// the dictionary's checks, the device's validation, the owning
+    /// service's rules and side effects, then [`Application::written`] with
+    /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
+    pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.with_app(now, |app, ctx| router::Router { ctx, app, by: Source::App }.write_with_hooks(index, sub, data))
+    }
+
+    /// The CAN controller went bus-off (the board reports it): the device
+    /// hears [`CommError::BusOff`].
+    pub fn bus_off(&mut self, now: Instant) {
+        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::BusOff)));
+    }
+
+    /// Runs `f` with the device's hooks and their context, then queues the
+    /// raw frames they sent and follows up what their writes changed.
+    pub(super) fn with_app<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
+        let Node { od, app, storage, comm, node_id, nmt, raw, .. } = self;
+        let dict = od.dictionary();
+        let mut ctx = Ctx {
+            dict,
+            image: od.image_mut(),
+            services: comm,
+            storage,
+            node_id: *node_id,
+            state: nmt.state(),
+            now,
+            options: A::OPTIONS,
+            effects: router::SdoEffects::default(),
+            raw,
+        };
+        let value = f(app, &mut ctx);
+        let effects = ctx.effects;
+        self.queue_raw();
+        self.follow_sdo(effects);
+        value
+    }
+
+    /// Queues the device's raw frames, keeping [`RAW_RESERVE`] slots free; a
+    /// frame that does not fit counts as an overflow (EMCY 0x8110).
+    pub(super) fn queue_raw(&mut self) {
+        let n = core::mem::take(&mut self.raw.len);
+        for f in self.raw.frames.iter().take(n) {
+            if self.txq.free() > RAW_RESERVE {
+                self.txq.push(*f);
+            } else {
+                self.txq.count_overflow();
+            }
+        }
     }
 
     /// The device's hooks.

@@ -10,9 +10,9 @@ use crate::time::{Instant, earliest};
 use crate::wire::emcy::code;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtState};
 
-use super::router::{Router, SdoEffects};
+use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
-use super::{Application, Node};
+use super::{Application, Node, Source};
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
@@ -20,7 +20,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Runs timers and queued work; returns when it wants to be called again
     /// (earlier is harmless, later delays heartbeats and timeouts).
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        // The device's timers first: what they write goes out in this call's TPDOs.
+        let app_deadline = self.with_app(now, |app, ctx| app.poll(ctx));
+        if !self.app.canopen() {
+            return app_deadline;
+        }
         let switch_deadline = self.process_switch(now);
+        let booted = !self.boot_pending;
         if self.boot_pending {
             let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
             if self.push(id, &[NmtState::BootUp.code()]) {
@@ -47,17 +53,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let mut sdo_deadline = None;
         // Idle servers have no timer and nothing to send: skip building the router for them.
         if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
-            let Node { od, app, storage, comm, sdo, txq, node_id, sdo_cob_ids, .. } = self;
-            let dict = od.dictionary();
-            let mut router =
-                Router { dict, image: od.image_mut(), app, comm, storage, node_id: *node_id, now, effects: SdoEffects::default() };
+            let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
+            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
                     let deadline = sdo.poll(i, now, &mut router, &mut SdoSink { txq, cob_id: tx });
                     sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }
-            let effects = router.effects;
+            let effects = ctx.effects;
+            self.queue_raw();
             self.follow_sdo(effects);
         }
         if self.nmt.state().sdo_allowed() {
@@ -80,12 +85,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             pdo_deadline = if self.touched { None } else { self.comm.pdos.deadline() };
             if self.touched || pdo_deadline.is_some_and(|d| d <= now) {
                 self.touched = false;
-                let Node { od, app, comm, txq, .. } = self;
+                let Node { od, comm, txq, .. } = self;
                 let dict = od.dictionary();
-                let mut sink = PdoSink { txq, emcy: &mut comm.emcy, app };
+                let mut sink = PdoSink::new(txq, &mut comm.emcy);
                 pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
+                let (received, timeouts) = (sink.received, sink.timeouts);
+                self.pdo_events(now, received, timeouts);
             }
         }
+        let controller_deadline = self.controller.poll(now, booted, &mut self.comm.emcy);
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
             self.comm.emcy.signal(code::CAN_OVERRUN, [0; 5]);
@@ -115,6 +123,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             pdo_deadline,
             if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
             switch_deadline,
+            app_deadline,
+            controller_deadline,
         ];
         deadlines.into_iter().fold(None, earliest)
     }

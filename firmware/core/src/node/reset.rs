@@ -7,12 +7,12 @@
 use crate::id::CobId;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
-use crate::services::nmt::{Nmt, State};
+use crate::services::nmt::Nmt;
 use crate::services::store::{self, Part, StoredSet};
 use crate::storage::Storage;
 use crate::time::Instant;
 
-use super::{Application, Node};
+use super::{Application, NmtEvent, Node};
 
 /// First SDO server parameter object.
 const SDO_SERVER_PARAMETER: u16 = 0x1200;
@@ -49,6 +49,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if let Some(set) = &stored {
             set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
         }
+        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
         self.reset_communication_from(stored, now);
     }
 
@@ -73,14 +74,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
         }
         self.comm.configure(dict, image, self.node_id, now);
+        if A::OPTIONS.tpdo_254_timer_only {
+            self.comm.pdos.set_timer_only_254(true);
+        }
+        self.controller.reset();
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
         self.refresh_acceptance();
         self.nmt = Nmt::new();
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
-        self.boot_pending = self.node_id != UNCONFIGURED;
-        self.app.on_state(State::Initialising);
+        self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
+        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
     }
 
     /// Reads the SDO server parameters 0x1200 + i sub 1 and 2 (reset

@@ -8,7 +8,9 @@ use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::SdoTx;
 use crate::txq::TxQueue;
 
-use super::{Application, EMCY_SLOTS, TX_QUEUE};
+use crate::wire::emcy::code;
+
+use super::{EMCY_SLOTS, TX_QUEUE};
 
 /// Queue slots an SDO transfer leaves free for heartbeat and EMCY.
 const SDO_RESERVE: usize = 4;
@@ -25,22 +27,41 @@ impl SdoTx for SdoSink<'_> {
     }
 }
 
-/// Where the PDOs' frames and events go: the queue, EMCY, the application.
-pub(super) struct PdoSink<'a, A: Application> {
+/// Where the PDOs' frames and events go: the queue and EMCY; what the
+/// device must hear is collected for the node to tell it once the PDOs are
+/// done with the image.
+pub(super) struct PdoSink<'a> {
     pub(super) txq: &'a mut TxQueue<TX_QUEUE>,
     pub(super) emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
-    pub(super) app: &'a mut A,
+    /// Bit n: RPDO n wrote its objects.
+    pub(super) received: u32,
+    /// Bit n: RPDO n timed out.
+    pub(super) timeouts: u32,
 }
 
-impl<A: Application> PdoTx for PdoSink<'_, A> {
+impl<'a> PdoSink<'a> {
+    pub(super) fn new(txq: &'a mut TxQueue<TX_QUEUE>, emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>) -> Self {
+        PdoSink { txq, emcy, received: 0, timeouts: 0 }
+    }
+}
+
+/// One bit per RPDO (at most 32 are told apart; CiA 301 allows 512).
+fn bit(n: usize) -> u32 {
+    1u32.checked_shl(n as u32).unwrap_or(0)
+}
+
+impl PdoTx for PdoSink<'_> {
     fn send(&mut self, cob_id: u16, data: &[u8]) -> bool {
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
     }
 
     fn event(&mut self, event: PdoEvent) {
         match event {
-            PdoEvent::Received(n) => self.app.on_rpdo(n),
+            PdoEvent::Received(n) => self.received |= bit(n),
             PdoEvent::Error { rpdo, code } => {
+                if code == code::RPDO_TIMEOUT {
+                    self.timeouts |= bit(rpdo);
+                }
                 self.emcy.raise(code, [rpdo as u8 + 1, 0, 0, 0, 0]);
             }
             PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(code),

@@ -9,7 +9,7 @@ use crate::time::Instant;
 use crate::wire::emcy::code;
 use crate::wire::nmt::NmtRequest;
 
-use super::{Application, Comm, ErrorBehaviour, Node};
+use super::{Application, Comm, CommError, ErrorBehaviour, NmtEvent, Node};
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
@@ -26,6 +26,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn entered(&mut self, state: State, now: Instant) {
         self.touched = true;
         if state.pdo_allowed() {
+            if A::OPTIONS.pdo_rewrite_while_valid {
+                // Mapping entries written in Pre-operational apply now.
+                let dict = self.od.dictionary();
+                self.comm.pdos.reload_mappings(dict, self.od.image());
+                self.refresh_acceptance();
+            }
             self.comm.pdos.enter_operational(now);
         } else {
             self.comm.pdos.stop();
@@ -34,7 +40,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // Stopped: a transfer in progress ends without a frame (CiA 301 table 64).
             self.sdo.reset_all();
         }
-        self.app.on_state(state);
+        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::Entered(state)));
     }
 
     /// A communication error (heartbeat or life guarding): EMCY 0x8130 and
@@ -45,6 +51,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if !self.comm.emcy.raise(code::HEARTBEAT, info) {
             self.comm.emcy.signal(code::HEARTBEAT, info);
         }
+        let error = if node == 0 { CommError::LifeGuarding } else { CommError::Heartbeat(node) };
+        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(error)));
         let dict = self.od.dictionary();
         let next = match Comm::<R, T, HB>::error_behaviour(dict, self.od.image()) {
             ErrorBehaviour::PreOperational if self.nmt.state() == State::Operational => Some(State::PreOperational),

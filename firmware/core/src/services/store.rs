@@ -17,6 +17,7 @@
 
 use crate::od::{Attr, Dictionary};
 use crate::storage::{Storage, StorageError};
+use core::ops::Range;
 
 /// 0x1010 signature "save" (ASCII, little-endian).
 pub const SAVE: u32 = 0x6576_6173;
@@ -279,6 +280,11 @@ fn sub_le(bytes: &mut [u8], n: u64) {
 
 /// Writes a new set: the scopes in `save` from the image, the scopes in
 /// `reset` marked as defaults, every other scope kept from the newest set.
+///
+/// Within the saved scopes, only the bytes of `from_image` come from the
+/// image, never those of `keep`: the rest keeps the newest set (the
+/// defaults if there is none).
+#[allow(clippy::too_many_arguments)]
 fn write_set(
     dict: &Dictionary,
     image: &[u8],
@@ -287,6 +293,8 @@ fn write_set(
     save: u16,
     reset: u16,
     lss: Option<[u8; 2]>,
+    from_image: Range<usize>,
+    keep: Range<usize>,
 ) -> Result<(), StoreError> {
     let len = dict.defaults.len();
     if HEADER + len > storage.region_size() || len > usize::from(u16::MAX) {
@@ -308,8 +316,15 @@ fn write_set(
             p if p < application => (Scope::Manufacturer.mask(), application),
             _ => (Scope::Application.mask(), len),
         };
-        let from_image = save & bit != 0 || old.is_none();
         let mut n = buf.len().min(end - pos);
+        // A chunk lies wholly inside or outside each of the two ranges.
+        for edge in [from_image.start, from_image.end, keep.start, keep.end] {
+            if edge > pos && edge < pos + n {
+                n = edge - pos;
+            }
+        }
+        let picked = save & bit != 0 && from_image.contains(&pos) && !keep.contains(&pos);
+        let from_image = picked || (old.is_none() && save & bit == 0);
         let relative = || dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).map(|e| e.range());
         if from_image {
             // A `$NODEID` value (at most 8 bytes) is adjusted whole, so no chunk cuts one.
@@ -320,6 +335,8 @@ fn write_set(
         let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
         match old {
             Some(set) if !from_image => storage.read(set.region, HEADER + pos, chunk)?,
+            // No set yet: what is not saved from the image is the default (stored relative, as defaults are).
+            None if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
             _ => {
                 chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
                 // `$NODEID` values are kept relative to the node-id.
@@ -352,12 +369,57 @@ fn write_set(
 
 /// 0x1010 "save": stores the scope's parameters.
 pub fn save(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, scope.mask(), 0, None)
+    save_except(dict, image, node_id, storage, scope, None)
+}
+
+/// 0x1010 "save" of a device that stores the objects `keep` (an inclusive
+/// index range) only through its own command: they keep their stored values.
+pub fn save_except(
+    dict: &Dictionary,
+    image: &[u8],
+    node_id: u8,
+    storage: &mut dyn Storage,
+    scope: Scope,
+    keep: Option<(u16, u16)>,
+) -> Result<(), StoreError> {
+    let keep = keep.map_or(0..0, |(first, last)| byte_range(dict, first, last));
+    write_set(dict, image, node_id, storage, scope.mask(), 0, None, 0..image.len(), keep)
+}
+
+/// Stores the objects `first..=last` alone: every other value keeps what the
+/// newest set holds (or its default), so unsaved changes elsewhere stay unsaved.
+pub fn save_objects(
+    dict: &Dictionary,
+    image: &[u8],
+    node_id: u8,
+    storage: &mut dyn Storage,
+    first: u16,
+    last: u16,
+) -> Result<(), StoreError> {
+    let range = byte_range(dict, first, last);
+    let Some(scope_last) = range.end.checked_sub(1).filter(|_| !range.is_empty()) else { return Ok(()) };
+    let scope_first = range.start;
+    let [manufacturer, application] = scope_starts(dict);
+    let bit = |pos: usize| match pos {
+        p if p < manufacturer => Scope::Communication.mask(),
+        p if p < application => Scope::Manufacturer.mask(),
+        _ => Scope::Application.mask(),
+    };
+    write_set(dict, image, node_id, storage, bit(scope_first) | bit(scope_last), 0, None, range, 0..0)
+}
+
+/// The bytes of the image the RAM values of objects `first..=last` take
+/// (the image is in index order, so they are one run).
+fn byte_range(dict: &Dictionary, first: u16, last: u16) -> Range<usize> {
+    let mut ram = dict.entries.iter().filter(|e| (first..=last).contains(&e.index) && !e.in_rom() && e.len > 0);
+    let Some(start) = ram.next().map(|e| e.range()) else { return 0..0 };
+    let end = ram.next_back().map_or(start.end, |e| e.range().end);
+    start.start..end
 }
 
 /// 0x1011 "load": the scope uses its defaults from the next reset on.
 pub fn restore_defaults(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, 0, scope.mask(), None)
+    write_set(dict, image, node_id, storage, 0, scope.mask(), None, 0..0, 0..0)
 }
 
 /// LSS "store configuration" (CiA 305 §5.2.4): the node-id and bit-rate
@@ -371,7 +433,7 @@ pub fn save_lss(
     lss_node_id: u8,
     bit_rate: u8,
 ) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, 0, 0, Some([lss_node_id, bit_rate]))
+    write_set(dict, image, node_id, storage, 0, 0, Some([lss_node_id, bit_rate]), 0..0, 0..0)
 }
 
 /// Which part of the image a reset reloads.

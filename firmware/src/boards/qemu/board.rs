@@ -13,6 +13,7 @@ use critical_section::Mutex;
 use defmt_semihosting as _;
 use embassy_executor::{Executor, InterruptExecutor, SpawnError, SpawnToken};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::channel::{Channel as FrameChannel, TrySendError};
 use embassy_sync::signal::Signal;
 use embedded_can::Frame;
 use lm3s6965::{Interrupt, interrupt};
@@ -21,7 +22,7 @@ use static_cell::StaticCell;
 use super::ram_storage::RamStorage;
 use super::slcan::{self, BEL, Channel, Command, Decoder, FRAME_LINE};
 use super::uart;
-use crate::app::{self, Controller, SHARED, Started};
+use crate::app::{self, CanNode, Controller, SHARED, Started};
 use crate::boards::{stack, systick};
 
 /// Nothing to configure: the emulated bus has no bit rate.
@@ -55,15 +56,24 @@ const EXECUTOR_PRIORITY: u8 = 1 << 5;
 
 static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
 static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
-/// Raised when the node may have frames to send.
+/// Raised after every step of the CANopen task: the node may have run
+/// (room in the receive channel again) and [`TX`] may hold frames.
 static TX_READY: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+/// Frames the SLCAN transmitter writes out, filled by the CANopen task
+/// from the node's queue while the channel is open.
+static TX: FrameChannel<CriticalSectionRawMutex, CanFrame, TX_LINES> = FrameChannel::new();
+/// Frames the CANopen task hands the SLCAN transmitter at a time.
+const TX_LINES: usize = 4;
+/// The node's identifier list as the CANopen task last published it, for
+/// the UART0 handler's acceptance check ([`accepted`]).
+static FILTER: Mutex<RefCell<AcceptanceList>> = Mutex::new(RefCell::new(AcceptanceList::new()));
 /// Stack used until the node was built and powered on ([`stack::high_water`]).
 static STARTUP_STACK: AtomicUsize = AtomicUsize::new(0);
 
 /// Boots the image: `make_node` hands the node's storage its
 /// [`StorageHandle`] and powers the node on at the given time; then the
-/// CANopen task runs on the interrupt executor, the SLCAN transmitter and
-/// the image's `application` task in thread mode.
+/// CANopen task runs on the interrupt executor and owns the node, the SLCAN
+/// transmitter and the image's `application` task run in thread mode.
 pub fn run<A>(
     _config: Config,
     make_node: impl FnOnce(StorageHandle, Instant) -> Started,
@@ -72,7 +82,7 @@ pub fn run<A>(
     stack::paint();
     let Some(mut core) = cortex_m::Peripherals::take() else { fail() };
     systick::init(core.SYST, CORE_HZ);
-    SHARED.install(Started::build(make_node, || (), app::now()).node);
+    let node = Started::build(make_node, || (), app::now()).node;
     STARTUP_STACK.store(stack::high_water(), Ordering::Relaxed);
     // What building the node took is free again: painted anew, the exit
     // frame reports what the running image needs.
@@ -81,7 +91,7 @@ pub fn run<A>(
     // SAFETY: set before the executor starts (as `InterruptExecutor::start`
     // requires); no priority-based critical section depends on it.
     unsafe { core.NVIC.set_priority(EXECUTOR_IRQ, EXECUTOR_PRIORITY) };
-    CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen()));
+    CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen(node)));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(spawned(slcan_tx()));
         spawner.spawn(spawned(application));
@@ -92,8 +102,9 @@ fn spawned<T>(token: Result<T, SpawnError>) -> T {
     token.unwrap_or_else(|_| fail())
 }
 
-/// The SLCAN link as the CANopen task drives it. It has no bit timing and
-/// filters in software ([`accepted`]), so both settings only show in the log.
+/// The SLCAN link as the CANopen task drives it. It has no bit timing, so
+/// that setting only shows in the log; it filters in software
+/// ([`accepted`]) with the list the task publishes here.
 struct SlcanLink;
 
 impl BitRateControl for SlcanLink {
@@ -103,31 +114,47 @@ impl BitRateControl for SlcanLink {
 }
 
 impl Controller for SlcanLink {
-    fn kick_tx(&mut self) {
+    /// While the channel is open, fills [`TX`] from the node's queue (while
+    /// it is closed, frames wait in the node's queue, as on a bus nobody
+    /// acknowledges); then lets the transmitter run.
+    fn send(&mut self, node: &mut dyn CanNode) {
+        while OPEN.load(Ordering::Relaxed) && !TX.is_full() {
+            let Some(frame) = node.transmit() else { break };
+            if let Err(TrySendError::Full(frame)) = TX.try_send(frame) {
+                node.requeue(frame);
+                break;
+            }
+        }
         TX_READY.signal(());
     }
 
     fn set_acceptance(&mut self, list: &AcceptanceList) {
+        critical_section::with(|cs| {
+            if let Ok(mut filter) = FILTER.borrow(cs).try_borrow_mut() {
+                filter.clone_from(list);
+            }
+        });
         defmt::info!("acceptance filter: {=usize} identifiers, generation {=u32}", list.ids().len(), list.generation());
     }
 }
 
 #[embassy_executor::task]
-async fn canopen() -> ! {
-    app::run_canopen(&SHARED, &mut SlcanLink).await
+async fn canopen(node: &'static mut dyn CanNode) -> ! {
+    app::run_canopen(&SHARED, node, &mut SlcanLink).await
 }
 
 /// The software acceptance filter, what bxCAN's banks do on the STM32: an
-/// 11-bit frame the node lists (`Node::acceptance`), nothing else.
-fn accepted(frame: &CanFrame) -> bool {
+/// 11-bit frame the node lists (`Node::acceptance`, as published in
+/// [`FILTER`]), nothing else.
+fn accepted(cs: critical_section::CriticalSection, frame: &CanFrame) -> bool {
     let Some(cob_id) = frame.cob_id() else { return false };
-    SHARED.with_node(|node| node.acceptance().accepts(cob_id, frame.is_remote_frame())) == Some(true)
+    FILTER.borrow(cs).try_borrow().is_ok_and(|filter| filter.accepts(cob_id, frame.is_remote_frame()))
 }
 
 /// The adapter side of SLCAN: the UART0 handler decodes host lines,
-/// answers them and passes frames to the node; this task sends the node's
-/// frames. While the channel is closed they wait in the node's queue, as on
-/// a bus nobody acknowledges.
+/// answers them and passes frames to the CANopen task; this task writes
+/// out the frames the CANopen task put into [`TX`], and wakes it when it
+/// made room.
 #[embassy_executor::task]
 async fn slcan_tx() -> ! {
     let mut line = [0u8; FRAME_LINE];
@@ -135,12 +162,16 @@ async fn slcan_tx() -> ! {
         TX_READY.wait().await;
         // The node has run since the handler paused: there may be room again.
         uart::resume_rx();
-        if OPEN.load(Ordering::Relaxed) {
-            while let Some(frame) = SHARED.with_node(|node| node.transmit()).flatten() {
-                let n = slcan::encode(&frame, &mut line);
-                // One whole line: the handler's answers must not land inside it.
-                critical_section::with(|_| uart::write_all(line.get(..n).unwrap_or(&[])));
-            }
+        let mut sent = false;
+        while OPEN.load(Ordering::Relaxed) {
+            let Ok(frame) = TX.try_receive() else { break };
+            let n = slcan::encode(&frame, &mut line);
+            // One whole line: the handler's answers must not land inside it.
+            critical_section::with(|_| uart::write_all(line.get(..n).unwrap_or(&[])));
+            sent = true;
+        }
+        if sent {
+            SHARED.wake();
         }
     }
 }
@@ -156,7 +187,7 @@ static ADAPTER: Mutex<RefCell<Adapter>> = Mutex::new(RefCell::new(Adapter { deco
 static OPEN: AtomicBool = AtomicBool::new(false);
 
 impl Adapter {
-    fn on_byte(&mut self, byte: u8) {
+    fn on_byte(&mut self, cs: critical_section::CriticalSection, byte: u8) {
         let Some(result) = self.decoder.push(byte) else { return };
         let Ok(command) = result else {
             uart::write_all(&[BEL]);
@@ -166,7 +197,8 @@ impl Adapter {
         if next != self.channel {
             self.channel = next;
             OPEN.store(next != Channel::Closed, Ordering::Relaxed);
-            TX_READY.signal(());
+            // Open now: the CANopen task fills `TX` from the node's queue.
+            SHARED.wake();
         }
         if let Command::Transmit(frame) = command
             && answer != [BEL]
@@ -174,7 +206,7 @@ impl Adapter {
             if let Some(status) = super::exit_request(&frame) {
                 exit(status);
             }
-            if !accepted(&frame) {
+            if !accepted(cs, &frame) {
                 SHARED.rejected();
             } else if SHARED.rx.try_send(frame).is_err() {
                 // Cannot happen: the handler reads only while the channel has room.
@@ -191,7 +223,7 @@ fn UART0() {
         let Ok(mut adapter) = ADAPTER.borrow(cs).try_borrow_mut() else { return };
         while !SHARED.rx.is_full() {
             let Some(byte) = uart::read_byte() else { break };
-            adapter.on_byte(byte);
+            adapter.on_byte(cs, byte);
         }
         if SHARED.rx.is_full() {
             // Resumed by `slcan_tx` once the CANopen task has run.
@@ -209,7 +241,7 @@ fn exit(status: u8) -> ! {
     defmt::info!(
         "exit frame: status {=u8}, {=u32} frames lost, {=u32} rejected by the filter",
         status,
-        SHARED.rx_overruns(),
+        SHARED.controller.rx_overruns(),
         SHARED.rejected_frames()
     );
     let (startup, running, size) = (STARTUP_STACK.load(Ordering::Relaxed), stack::high_water(), stack::size());
@@ -221,7 +253,7 @@ fn exit(status: u8) -> ! {
             running_stack: running,
             stack_size: size,
             rejected: SHARED.rejected_frames() as usize,
-            lost: SHARED.rx_overruns() as usize,
+            lost: SHARED.controller.rx_overruns() as usize,
         };
         let n = super::exit_report(&mut line, &report);
         let _ = stderr.write_all(line.get(..n).unwrap_or(&[]));

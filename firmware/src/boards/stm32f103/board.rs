@@ -2,7 +2,6 @@
 #![allow(unsafe_code)]
 
 use canopen_core::node::{AcceptanceList, BitRateControl};
-use canopen_core::services::nmt::State;
 use canopen_core::services::store;
 use canopen_core::time::Instant;
 use cortex_m::peripheral::{DCB, DWT, NVIC, SCB};
@@ -23,7 +22,7 @@ use super::can;
 use super::flash::Flash;
 use super::flash_storage::{FlashStorage, Layout};
 use super::reset_cause::{self, ResetCause};
-use crate::app::{self, Controller, SHARED, Started};
+use crate::app::{self, CanNode, Controller, SHARED, Started};
 use crate::boards::{stack, systick};
 
 /// What differs between images on this board.
@@ -132,7 +131,6 @@ pub fn run<A>(
     let node_id = started.node.node_id();
     let lss = started.node.bit_rate();
     let index = lss.or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
-    SHARED.install(started.node);
 
     let btr = |index: Option<u8>| index.and_then(|i| BTR.get(usize::from(i)).copied().flatten().map(|btr| (i, btr)));
     // A stored index the board has no timing for (a reserved one) must not
@@ -167,7 +165,7 @@ pub fn run<A>(
         unsafe { NVIC::unmask(irq) };
     }
     let spawner = CANOPEN_EXECUTOR.start(EXECUTOR_IRQ);
-    spawner.spawn(spawned(canopen()));
+    spawner.spawn(spawned(canopen(started.node)));
     spawner.spawn(spawned(feed_watchdog(watchdog, cause, flags)));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(spawned(application));
@@ -234,9 +232,8 @@ impl BitRateControl for Bxcan {
 }
 
 impl Controller for Bxcan {
-    /// Lets the TX-empty handler drain the node's queue into the mailboxes.
-    fn kick_tx(&mut self) {
-        NVIC::pend(Interrupt::USB_HP_CAN_TX);
+    fn send(&mut self, node: &mut dyn CanNode) {
+        can::send(node);
     }
 
     fn set_acceptance(&mut self, list: &AcceptanceList) {
@@ -245,8 +242,8 @@ impl Controller for Bxcan {
 }
 
 #[embassy_executor::task]
-async fn canopen() -> ! {
-    app::run_canopen(&SHARED, &mut Bxcan).await
+async fn canopen(node: &'static mut dyn CanNode) -> ! {
+    app::run_canopen(&SHARED, node, &mut Bxcan).await
 }
 
 /// Feeds the watchdog every [`FEED_MS`] from the CANopen task's executor:
@@ -258,6 +255,9 @@ async fn canopen() -> ! {
 async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, flags: u8) -> ! {
     let mut report = cause.emcy(flags);
     let mut clear = None;
+    // The first feed comes before the boot-up; the node sends an EMCY raised
+    // later once it is Pre-operational (EMCY waits while it is not).
+    let mut first = true;
     let mut stack_used = 0;
     let mut tick = 0u32;
     loop {
@@ -271,21 +271,15 @@ async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, fla
             }
         }
         tick = tick.wrapping_add(1);
-        if let Some((code, info)) = report {
-            let raised = SHARED.with_node(|node| {
-                node.state() != State::Initialising && {
-                    node.raise_error(code, info);
-                    true
-                }
-            });
-            if raised == Some(true) {
-                defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
-                report = None;
-                clear = Some((code, 4));
-            }
+        if first {
+            first = false;
+        } else if let Some((code, info)) = report.take() {
+            SHARED.raise_error(code, info).await;
+            defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
+            clear = Some((code, 4));
         } else if let Some((code, ticks)) = clear {
             clear = if ticks == 0 {
-                SHARED.with_node(|node| node.clear_error(code));
+                SHARED.clear_error(code).await;
                 None
             } else {
                 Some((code, ticks - 1))

@@ -1,10 +1,12 @@
-//! bxCAN glue: set-up, the three CAN interrupts, bus-off detection, and
-//! the two reconfigurations the CANopen task asks for: acceptance filter
-//! banks ([`set_filters`]) and bit timing ([`set_bit_timing`]).
+//! bxCAN glue: set-up, the three CAN interrupts, error-passive and bus-off
+//! detection, and what the CANopen task asks for: frames into the
+//! mailboxes ([`send`]), acceptance filter banks ([`set_filters`]) and bit
+//! timing ([`set_bit_timing`]).
 //!
-//! The interrupt handlers only move frames and count events; every frame
-//! passes through [`SHARED`] (received ones in `rx`, sent ones from the
-//! node's queue), so the CANopen logic stays in the core and in `app`.
+//! The interrupt handlers never touch the node: received frames go into
+//! [`SHARED`]'s `rx` channel, controller events into its counters, and a
+//! mailbox becoming empty wakes the CANopen task, which fills the
+//! mailboxes from the node's queue itself ([`send`]).
 #![allow(unsafe_code)]
 
 use core::cell::RefCell;
@@ -18,7 +20,7 @@ use critical_section::Mutex;
 use stm32f1xx_hal::pac::{self, interrupt};
 
 use super::filters;
-use crate::app::{SHARED, convert_frame};
+use crate::app::{CanNode, SHARED, convert_frame};
 
 /// The bxCAN instance as stm32f1xx-hal hands it to `bxcan`.
 pub type Instance = stm32f1xx_hal::can::Can<pac::CAN>;
@@ -28,6 +30,9 @@ static CAN: Mutex<RefCell<Option<bxcan::Can<Instance>>>> = Mutex::new(RefCell::n
 /// Set by the status-change interrupt when the controller went bus-off,
 /// cleared by the TX-empty interrupt once it sends again.
 static BUS_OFF: AtomicBool = AtomicBool::new(false);
+/// Set by the status-change interrupt when the controller went error
+/// passive, cleared by the TX-empty interrupt once it is error active again.
+static PASSIVE: AtomicBool = AtomicBool::new(false);
 
 /// Configures the controller and starts it: bit timing `btr`, automatic
 /// retransmission, automatic bus-off recovery (ABOM), interrupts for
@@ -123,7 +128,7 @@ pub fn set_bit_timing(btr: u32, timeout_cycles: u32) -> Result<(), ()> {
 /// The bxCAN registers bxcan does not cover (RM0008 §24.9.2).
 fn registers() -> &'static pac::can::RegisterBlock {
     // SAFETY: the CAN register block is always mapped. The fields touched
-    // through it (IER.ERRIE/BOFIE, MSR.ERRI, ESR, MCR.INRQ, BTR, and the
+    // through it (IER.ERRIE/BOFIE/EPVIE, MSR.ERRI, ESR, MCR.INRQ, BTR, and the
     // filter registers FMR, FM1R, FS1R, FFA1R, FA1R, FiRx) are not used by bxcan after
     // `start`; they are accessed in `start` (before the interrupts are
     // unmasked), in the CAN interrupts and by the CANopen task, which share
@@ -131,47 +136,65 @@ fn registers() -> &'static pac::can::RegisterBlock {
     unsafe { &*pac::CAN::ptr() }
 }
 
-/// ERRIE + BOFIE: the status-change interrupt fires on bus-off. (The
-/// automatic recovery, MCR.ABOM, is set by bxcan's `enable_non_blocking`.)
+/// ERRIE + BOFIE + EPVIE: the status-change interrupt fires on bus-off and
+/// on error passive. (The automatic recovery, MCR.ABOM, is set by bxcan's
+/// `enable_non_blocking`.)
 fn enable_bus_off_handling() {
-    registers().ier().modify(|_, w| w.bofie().set_bit().errie().set_bit());
+    registers().ier().modify(|_, w| w.bofie().set_bit().epvie().set_bit().errie().set_bit());
 }
 
-/// Frames for the mailboxes: on each TX-empty interrupt (and when the
-/// CANopen task pends it), the node's queue goes into the mailboxes in
-/// priority order until they are full. After bus-off, the first of these
-/// interrupts with BOFF clear reports the recovery: with ABOM the
-/// controller retransmits its mailboxes once it is back, so a frame that
-/// was waiting goes out and raises TX-empty.
-#[interrupt]
-fn USB_HP_CAN_TX() {
-    if BUS_OFF.load(Ordering::Relaxed) && registers().esr().read().boff().bit_is_clear() {
-        BUS_OFF.store(false, Ordering::Relaxed);
-        registers().ier().modify(|_, w| w.errie().set_bit());
-        SHARED.bus_off_recovered();
-    }
-    with_can(|can| {
-        let Some(tx) = can else { return };
-        tx.clear_tx_interrupt();
-        SHARED.with_node(|node| {
-            while let Some(frame) = node.transmit() {
-                let Some(out) = convert_frame::<CanFrame, bxcan::Frame>(&frame) else { continue };
-                match tx.transmit(&out) {
-                    Ok(status) => {
-                        // A lower-priority frame taken out of its mailbox: it goes out first next time.
-                        if let Some(back) = status.dequeued_frame().and_then(convert_frame::<bxcan::Frame, CanFrame>) {
-                            node.requeue(back);
-                        }
-                    }
-                    Err(_) => {
-                        // Mailboxes full (or holding this identifier): wait for TX-empty.
-                        node.requeue(frame);
-                        break;
-                    }
+/// The CANopen task's transmitter: the node's queue goes into the
+/// mailboxes in priority order until bxcan takes no more. bxcan refuses a
+/// frame while a mailbox holds one of equal or higher priority, so this is
+/// usually one frame per TX-empty interrupt (docs/firmware.md). Each
+/// mailbox access is a critical section of its own, the node's queue is
+/// read outside them.
+pub fn send(node: &mut dyn CanNode) {
+    while let Some(frame) = node.transmit() {
+        let Some(out) = convert_frame::<CanFrame, bxcan::Frame>(&frame) else { continue };
+        let mut result = None;
+        with_can(|can| result = can.as_mut().map(|tx| tx.transmit(&out)));
+        match result {
+            Some(Ok(status)) => {
+                // A lower-priority frame taken out of its mailbox: it goes out first next time.
+                if let Some(back) = status.dequeued_frame().and_then(convert_frame::<bxcan::Frame, CanFrame>) {
+                    node.requeue(back);
                 }
             }
-        });
+            Some(Err(_)) | None => {
+                // Mailboxes full (or holding this identifier): the TX-empty interrupt wakes the task.
+                node.requeue(frame);
+                break;
+            }
+        }
+    }
+}
+
+/// A mailbox is empty: wake the CANopen task to fill it ([`send`]). Also
+/// where the controller is seen back from bus-off and error passive, as a
+/// frame it sent proves: with ABOM the controller retransmits its mailboxes
+/// once it is back, so a frame that was waiting goes out and raises TX-empty.
+#[interrupt]
+fn USB_HP_CAN_TX() {
+    if BUS_OFF.load(Ordering::Relaxed) || PASSIVE.load(Ordering::Relaxed) {
+        let esr = registers().esr().read();
+        if BUS_OFF.load(Ordering::Relaxed) && esr.boff().bit_is_clear() {
+            BUS_OFF.store(false, Ordering::Relaxed);
+            registers().ier().modify(|_, w| w.errie().set_bit());
+            SHARED.controller.bus_off_recovered();
+        }
+        if PASSIVE.load(Ordering::Relaxed) && esr.epvf().bit_is_clear() {
+            PASSIVE.store(false, Ordering::Relaxed);
+            registers().ier().modify(|_, w| w.epvie().set_bit());
+            SHARED.controller.set_error_passive(false);
+        }
+    }
+    with_can(|can| {
+        if let Some(tx) = can {
+            tx.clear_tx_interrupt();
+        }
     });
+    SHARED.wake();
 }
 
 /// Received frames: everything in FIFO 0 goes to the CANopen task; a frame
@@ -196,12 +219,21 @@ fn USB_LP_CAN_RX0() {
     });
 }
 
-/// Status change: on bus-off, note it and stop this interrupt until the
-/// TX-empty handler sees the recovery (BOFF stays set until then).
+/// Status change: on error passive, report it and stop that source until
+/// the TX-empty handler sees error active again (EPVF stays set until
+/// then); on bus-off, note it and stop this interrupt until the TX-empty
+/// handler sees the recovery (BOFF stays set until then).
 #[interrupt]
 fn CAN_SCE() {
     let can = registers();
-    if can.esr().read().boff().bit_is_set() {
+    let esr = can.esr().read();
+    if esr.epvf().bit_is_set() && !PASSIVE.load(Ordering::Relaxed) {
+        can.ier().modify(|_, w| w.epvie().clear_bit());
+        PASSIVE.store(true, Ordering::Relaxed);
+        SHARED.controller.set_error_passive(true);
+        SHARED.wake();
+    }
+    if esr.boff().bit_is_set() {
         can.ier().modify(|_, w| w.errie().clear_bit());
         BUS_OFF.store(true, Ordering::Relaxed);
     }

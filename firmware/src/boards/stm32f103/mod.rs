@@ -6,18 +6,19 @@
 //!   is the node's (stored by LSS), else the device's start-up one, else the
 //!   image's `Config::bit_rate_kbps`, turned into BTR by [`bit_timing`]; an
 //!   LSS "activate bit timing" re-initialises the controller. Received frames
-//!   go from the FIFO 0 interrupt to the CANopen task; the TX-empty interrupt
-//!   drains the node's queue into the three mailboxes (bxcan keeps frames
-//!   with equal identifiers in FIFO order, and a frame it takes back out of a
-//!   mailbox goes back to the head of the node's queue). RX overruns (FIFO
-//!   or channel) and bus-off recoveries are reported to the CANopen task,
-//!   which raises EMCY 0x8110 and 0x8140. The acceptance filter passes the
+//!   go from the FIFO 0 interrupt to the CANopen task; the task fills the
+//!   mailboxes from the node's queue, and the TX-empty interrupt wakes it
+//!   when one is free (bxcan keeps frames with equal identifiers in FIFO
+//!   order, and a frame it takes back out of a mailbox goes back to the head
+//!   of the node's queue). RX overruns (FIFO or channel), error passive and
+//!   bus-off recoveries are counted for the CANopen task, whose node raises
+//!   EMCY 0x8110, 0x8120 and 0x8140 (`Node::controller_event`). The acceptance filter passes the
 //!   identifiers the node consumes ([`filters`]), reprogrammed whenever that
 //!   list changes (see `docs/firmware.md`).
 //! - **Storage**: [`flash_storage`] on the last 4 KiB of flash.
-//! - **Executors**: the CANopen task runs on an interrupt executor at the
-//!   priority of the CAN interrupts; the application slot runs in thread
-//!   mode.
+//! - **Executors**: the CANopen task owns the node and runs on an interrupt
+//!   executor at the priority of the CAN interrupts; the application slot
+//!   runs in thread mode and reaches the node through requests.
 //! - **Logs**: defmt over RTT; a panic logs its location and stops with
 //!   `udf` (as panic-probe does, without its `core::fmt` cost).
 

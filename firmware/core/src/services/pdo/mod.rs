@@ -147,7 +147,9 @@ impl CommParams {
 
     /// Applies an SDO download of sub-index `sub` (already checked for
     /// length) and returns the new record, or the abort code CiA 301 gives.
-    fn with(self, direction: Direction, sub: u8, value: u32) -> Result<CommParams, AbortCode> {
+    /// With `rewrite`, the CAN-ID may change while the PDO stays valid
+    /// (a device whose manual allows it, [`Pdos::write_object_with`]).
+    fn with(self, direction: Direction, sub: u8, value: u32, rewrite: bool) -> Result<CommParams, AbortCode> {
         let mut new = self;
         match sub {
             1 => {
@@ -155,7 +157,7 @@ impl CommParams {
                 let can_id_changes = new.can_id() != self.can_id();
                 if value & COB_ID_EXTENDED != 0
                     || (new.valid() && is_restricted_can_id(new.can_id()))
-                    || (new.valid() && self.valid() && can_id_changes)
+                    || (!rewrite && new.valid() && self.valid() && can_id_changes)
                     || (direction == Direction::Transmit && new.valid() && !new.rtr_allowed() && matches!(new.transmission_type, 252 | 253))
                 {
                     return Err(AbortCode::InvalidValue);
@@ -321,9 +323,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
             // Change detection is the application's choice and survives.
-            let change_detection = tpdo.change_detection();
+            let (change_detection, timer_only) = (tpdo.change_detection(), tpdo.timer_only_254);
             *tpdo = Tpdo::default();
             tpdo.set_change_detection(change_detection);
+            tpdo.timer_only_254 = timer_only;
             tpdo.set(CommParams::read(dict, image, TPDO_COMM + n), mapping(TPDO_MAP + n, Direction::Transmit));
             tpdo.cob_id_writable = cob_id_writable(dict, TPDO_COMM + n);
         }
@@ -331,6 +334,35 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.operational = false;
         self.refresh_rx_ids();
         first_error.map_or(Ok(()), Err)
+    }
+
+    /// Makes transmission type 254 timer-only (sent when the event timer
+    /// expires, on a trigger or an RTR; never on a change of the mapped data
+    /// or on entering Operational), for a device whose manual defines it so.
+    /// It holds over [`Pdos::configure`].
+    pub fn set_timer_only_254(&mut self, on: bool) {
+        self.settled = false;
+        for tpdo in &mut self.tpdos {
+            tpdo.timer_only_254 = on;
+        }
+    }
+
+    /// Takes each PDO's mapping from the image again (where a device lets
+    /// mapping entries change while the PDO is valid, they apply on entering
+    /// Operational).
+    pub fn reload_mappings(&mut self, dict: &Dictionary, image: &[u8]) {
+        self.settled = false;
+        for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
+            if let Ok(mapping) = Mapping::read(dict, image, RPDO_MAP + n, Direction::Receive) {
+                rpdo.set(rpdo.params, Some(mapping));
+            }
+        }
+        for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
+            if let Ok(mapping) = Mapping::read(dict, image, TPDO_MAP + n, Direction::Transmit) {
+                tpdo.set(tpdo.params, Some(mapping));
+            }
+        }
+        self.refresh_rx_ids();
     }
 
     /// NMT entered Operational: the PDOs start (see the module notes).
@@ -384,8 +416,25 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// one of these PDOs, else the outcome. On success the image holds the
     /// value (through [`Dictionary::write`]) and the PDO uses it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
+        self.write_object_with(index, sub, data, dict, image, false)
+    }
+
+    /// [`Pdos::write_object`], with `rewrite` for a device whose manual
+    /// lets a valid PDO change: mapping entries are written while sub 0 is
+    /// not 0 (each entry checked as it is written; the PDO takes the new
+    /// mapping when sub 0 is written or at [`Pdos::reload_mappings`]), and
+    /// the COB-ID may move while valid.
+    pub fn write_object_with(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        dict: &Dictionary,
+        image: &mut [u8],
+        rewrite: bool,
+    ) -> Option<Result<(), AbortCode>> {
         self.settled = false;
-        let result = self.write_parameter(index, sub, data, dict, image);
+        let result = self.write_parameter(index, sub, data, dict, image, rewrite);
         self.refresh_rx_ids();
         result
     }
@@ -398,7 +447,15 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
     }
 
-    fn write_parameter(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
+    fn write_parameter(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        dict: &Dictionary,
+        image: &mut [u8],
+        rewrite: bool,
+    ) -> Option<Result<(), AbortCode>> {
         // The same rules for both directions: only the PDO's reaction differs.
         let (direction, base) = match index {
             RPDO_COMM..=0x17FF => (Direction::Receive, RPDO_COMM),
@@ -413,8 +470,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
         };
         if is_mapping {
-            let locked = params.valid() && cob_id_writable;
-            let mapping = match write_map(locked, direction, index, sub, data, dict, image) {
+            let locked = params.valid() && cob_id_writable && !rewrite;
+            let mapping = match write_map(locked, rewrite, direction, index, sub, data, dict, image) {
                 Ok(Some(mapping)) => mapping,
                 Ok(None) => return Some(Ok(())),
                 Err(code) => return Some(Err(code)),
@@ -425,7 +482,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             };
             return Some(Ok(()));
         }
-        let new = match write_comm(params, direction, index, sub, data, dict, image) {
+        let new = match write_comm(params, direction, index, sub, data, dict, image, rewrite) {
             Ok(new) => new,
             Err(code) => return Some(Err(code)),
         };
@@ -552,6 +609,7 @@ pub(crate) fn precheck(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> R
 }
 
 /// An SDO download into a communication record; returns the new record.
+#[allow(clippy::too_many_arguments)]
 fn write_comm(
     params: CommParams,
     direction: Direction,
@@ -560,16 +618,19 @@ fn write_comm(
     data: &[u8],
     dict: &Dictionary,
     image: &mut [u8],
+    rewrite: bool,
 ) -> Result<CommParams, AbortCode> {
     precheck(dict, index, sub, data)?;
-    let new = params.with(direction, sub, le_u32(data))?;
+    let new = params.with(direction, sub, le_u32(data), rewrite)?;
     dict.write(image, index, sub, data)?;
     Ok(new)
 }
 
 /// An SDO download into a mapping record; returns the new mapping when sub 0 was written.
+#[allow(clippy::too_many_arguments)]
 fn write_map(
     locked: bool,
+    rewrite: bool,
     direction: Direction,
     index: u16,
     sub: u8,
@@ -592,7 +653,7 @@ fn write_map(
         Some(Mapping::from_record(dict, image, record, u32::from(count), direction)?)
     } else {
         let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
-        if count != 0 {
+        if count != 0 && !rewrite {
             return Err(AbortCode::UnsupportedAccess);
         }
         let value = le_u32(data);

@@ -39,6 +39,8 @@ pub struct Tpdo {
     /// Whether a change of the mapped data is *not* an event (types 0, 254,
     /// 255): negated so that [`Tpdo::UNCONFIGURED`] is all zero bits.
     no_change_detection: bool,
+    /// Type 254 is timer-only (a device's manual, see [`super::Pdos::set_timer_only_254`]).
+    pub(super) timer_only_254: bool,
     /// The last data sent, for change detection.
     last: [u8; MAX_LEN],
     sent: bool,
@@ -75,6 +77,7 @@ impl Tpdo {
         mapping: Some(Mapping::EMPTY),
         cob_id_writable: false,
         no_change_detection: false,
+        timer_only_254: false,
         last: [0; MAX_LEN],
         sent: false,
         event: false,
@@ -116,6 +119,11 @@ impl Tpdo {
         matches!(self.params.transmission_type, 254 | 255)
     }
 
+    /// Whether this PDO is of type 254 on a device that makes 254 timer-only.
+    fn timer_only(&self) -> bool {
+        self.timer_only_254 && self.params.transmission_type == 254
+    }
+
     /// New parameters or mapping: the PDO starts over.
     pub(super) fn set(&mut self, params: CommParams, mapping: Option<Mapping>) {
         self.params = params;
@@ -136,7 +144,7 @@ impl Tpdo {
     pub(super) fn restart(&mut self, now: Option<Instant>) {
         let timer = self.params.event_timer();
         self.sent = false;
-        self.event = self.is_event_driven();
+        self.event = self.is_event_driven() && !self.timer_only();
         self.change_pending = false;
         self.blocked = false;
         self.inhibit_until = None;
@@ -199,7 +207,7 @@ impl Tpdo {
             }
         }
         let (buf, len) = self.build(dict, image);
-        self.change_pending = !self.no_change_detection && self.changed(&buf);
+        self.change_pending = !self.no_change_detection && !self.timer_only() && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.params.inhibit_time();

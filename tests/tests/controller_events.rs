@@ -1,0 +1,130 @@
+//! CAN controller events → EMCY (CiA 301 v4.2 table 21), as the boards
+//! report them through `Node::controller_event`: exact frames at exact
+//! times on the interop fixture (node 4, EMCY on 0x084, no heartbeat).
+//!
+//! Received frames lost (0x8110) and a bus-off recovery (0x8140) stay
+//! active until they have not recurred for 1 s; error passive (0x8120)
+//! lasts until the controller is error active again. The error register
+//! (byte 2) has the generic and the communication bit while any is active;
+//! clearing the last sends "error reset" (0x0000).
+
+mod common;
+
+use canopen_core::node::{ControllerEvent, NoApplication, TRANSIENT_ERROR_HOLD};
+use canopen_core::time::Instant;
+use common::{Bench, F, ms};
+use hal_host::fixtures::interop::od as interop;
+use hal_host::storage::MemStorage;
+
+const ID: u8 = 4;
+const EMCY: u16 = 0x084;
+const ERROR_RESET: [u8; 8] = [0; 8];
+
+type Interop = Bench<interop::Ram, NoApplication, MemStorage, 4, 4, 4>;
+
+fn interop() -> Interop {
+    let mut b = Bench::new(interop::Ram::new(ID), NoApplication, MemStorage::new(4096), ID);
+    assert_eq!(b.at(ms(0)), [(0x704, vec![0x00])]);
+    b
+}
+
+/// Reports `event` at `t`, then runs the node there: what it sends.
+fn report(b: &mut Interop, t: Instant, event: ControllerEvent) -> Vec<F> {
+    b.node.controller_event(event, t);
+    b.at(t)
+}
+
+fn emcy(data: [u8; 8]) -> Vec<(Instant, F)> {
+    vec![(Instant::ZERO, (EMCY, data.to_vec()))]
+}
+
+/// `frames` with their times replaced by `t` (for comparing with [`emcy`]).
+fn at(t: Instant, frames: Vec<(Instant, F)>) -> Vec<(Instant, F)> {
+    frames
+        .into_iter()
+        .map(|(when, f)| {
+            assert_eq!(when, t, "{f:x?} at {when:?}, expected {t:?}");
+            (Instant::ZERO, f)
+        })
+        .collect()
+}
+
+#[test]
+fn lost_frames_raise_0x8110_with_the_count_and_clear_after_a_quiet_second() {
+    let mut b = interop();
+    assert_eq!(TRANSIENT_ERROR_HOLD.as_micros(), 1_000_000);
+    // Bytes 3–6: frames lost so far (3).
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::RxOverrun { lost: 3 }), [(EMCY, vec![0x10, 0x81, 0x11, 3, 0, 0, 0, 0])]);
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x11]), "generic + communication");
+    // Active already: nothing new is sent, but the error is held 1 s from this loss.
+    assert_eq!(report(&mut b, ms(500), ControllerEvent::RxOverrun { lost: 2 }), []);
+    assert_eq!(b.node.process(ms(501)), Some(ms(1500)), "the node wakes to clear it");
+    assert_eq!(at(ms(1500), b.run_until(ms(2000))), emcy(ERROR_RESET));
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x00]));
+    // The count goes on: 3 + 2 + 1.
+    assert_eq!(report(&mut b, ms(2100), ControllerEvent::RxOverrun { lost: 1 }), [(EMCY, vec![0x10, 0x81, 0x11, 6, 0, 0, 0, 0])]);
+    assert_eq!(at(ms(3100), b.run_until(ms(4000))), emcy(ERROR_RESET));
+}
+
+#[test]
+fn no_frame_lost_is_no_event() {
+    let mut b = interop();
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::RxOverrun { lost: 0 }), []);
+    assert_eq!(b.node.process(ms(11)), None, "nothing to clear");
+}
+
+#[test]
+fn error_passive_raises_0x8120_until_error_active() {
+    let mut b = interop();
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::ErrorPassive), [(EMCY, vec![0x20, 0x81, 0x11, 0, 0, 0, 0, 0])]);
+    assert_eq!(report(&mut b, ms(20), ControllerEvent::ErrorPassive), [], "still the same error");
+    assert_eq!(b.run_until(ms(5000)), [], "a state, not cleared by time");
+    assert_eq!(report(&mut b, ms(5000), ControllerEvent::ErrorActive), [(EMCY, ERROR_RESET.to_vec())]);
+    assert_eq!(report(&mut b, ms(5010), ControllerEvent::ErrorActive), [], "error active already");
+    // 0x1003: the newest entry first.
+    assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![0x01]));
+    assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(vec![0x20, 0x81, 0x00, 0x00]));
+}
+
+#[test]
+fn bus_off_recovery_raises_0x8140_and_clears_after_a_second() {
+    let mut b = interop();
+    // Bytes 3–6: recoveries so far.
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::BusOffRecovered), [(EMCY, vec![0x40, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    assert_eq!(at(ms(1010), b.run_until(ms(1500))), emcy(ERROR_RESET));
+    assert_eq!(report(&mut b, ms(1600), ControllerEvent::BusOffRecovered), [(EMCY, vec![0x40, 0x81, 0x11, 2, 0, 0, 0, 0])]);
+}
+
+#[test]
+fn error_reset_waits_for_the_last_active_error() {
+    let mut b = interop();
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::ErrorPassive), [(EMCY, vec![0x20, 0x81, 0x11, 0, 0, 0, 0, 0])]);
+    assert_eq!(report(&mut b, ms(20), ControllerEvent::RxOverrun { lost: 1 }), [(EMCY, vec![0x10, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    // The loss clears at 1.02 s, but error passive is still active: no "error reset".
+    assert_eq!(b.run_until(ms(2000)), []);
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x11]));
+    assert_eq!(report(&mut b, ms(2000), ControllerEvent::ErrorActive), [(EMCY, ERROR_RESET.to_vec())]);
+}
+
+#[test]
+fn in_stopped_the_emcy_waits_for_pre_operational() {
+    let mut b = interop();
+    assert_eq!(b.nmt(0x02, ID), [], "stopped");
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::RxOverrun { lost: 4 }), [], "no EMCY in Stopped");
+    assert_eq!(b.rx(ms(20), 0x000, &[0x80, ID]), [(EMCY, vec![0x10, 0x81, 0x11, 4, 0, 0, 0, 0])], "pre-operational");
+    assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(vec![0x10, 0x81, 0x04, 0x00]), "code and the low half of the count");
+    assert_eq!(at(ms(1010), b.run_until(ms(2000))), emcy(ERROR_RESET), "held from the loss, not from the message");
+}
+
+#[test]
+fn reset_communication_raises_error_passive_again() {
+    let mut b = interop();
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::ErrorPassive), [(EMCY, vec![0x20, 0x81, 0x11, 0, 0, 0, 0, 0])]);
+    assert_eq!(report(&mut b, ms(20), ControllerEvent::RxOverrun { lost: 1 }), [(EMCY, vec![0x10, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    // Reset communication forgets every error; the controller is still error
+    // passive, so that one is raised again after the boot-up; the loss is over.
+    assert_eq!(b.rx(ms(30), 0x000, &[0x82, ID]), [(0x704, vec![0x00])], "the boot-up first");
+    assert_eq!(b.at(ms(30)), [(EMCY, vec![0x20, 0x81, 0x11, 0, 0, 0, 0, 0])]);
+    assert_eq!(b.run_until(ms(3000)), [], "nothing left to clear by time");
+    assert_eq!(report(&mut b, ms(3000), ControllerEvent::ErrorActive), [(EMCY, ERROR_RESET.to_vec())]);
+}
