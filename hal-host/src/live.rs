@@ -97,7 +97,11 @@ impl LiveMaster {
     }
 
     fn record(&mut self, at: Instant, direction: Direction, frame: CanFrame) {
-        let entry = LoggedFrame { at: at.saturating_duration_since(self.start), direction, frame };
+        // A frame that arrived while a send was being logged is logged after
+        // it: its time is clamped so the log's times never go back (the
+        // log is in the order the master saw the frames).
+        let last = self.log.last().map_or(Duration::ZERO, |l| l.at);
+        let entry = LoggedFrame { at: at.saturating_duration_since(self.start).max(last), direction, frame };
         (self.observer)(&entry);
         self.log.push(entry);
     }
