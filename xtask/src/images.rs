@@ -231,7 +231,7 @@ pub fn qemu_command(elf: &Path, listen: &str) -> Command {
     cmd
 }
 
-fn have(program: &str) -> bool {
+pub(crate) fn have(program: &str) -> bool {
     Command::new(program).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
 }
 
@@ -323,7 +323,7 @@ pub fn smoke() -> Result<(), String> {
 }
 
 /// The venv `cargo xtask test` also uses, with python-can and canopen.
-fn ensure_venv() -> Result<PathBuf, String> {
+pub(crate) fn ensure_venv() -> Result<PathBuf, String> {
     let python = root().join(".venv/bin/python");
     let ready = Command::new(&python).args(["-c", "import can, canopen, serial"]).status().is_ok_and(|s| s.success());
     if !ready {

@@ -21,6 +21,8 @@ pub mod qemu;
 pub mod stm32f103;
 
 #[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
+mod stack;
+#[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
 mod systick;
 
 /// Bytes of a storage region for a dictionary whose RAM image is `image`

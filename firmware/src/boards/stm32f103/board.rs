@@ -23,7 +23,7 @@ use super::flash::Flash;
 use super::flash_storage::{FlashStorage, Layout};
 use super::reset_cause::{self, ResetCause};
 use crate::app::{self, CanNode, Controller, SHARED, Started};
-use crate::boards::systick;
+use crate::boards::{stack, systick};
 
 /// What differs between images on this board.
 #[derive(Clone, Copy, Debug)]
@@ -106,6 +106,7 @@ pub fn run<A>(
     make_node: impl FnOnce(StorageHandle, Instant) -> Started,
     application: Result<SpawnToken<A>, SpawnError>,
 ) -> ! {
+    stack::paint();
     let (Some(dp), Some(mut core)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         defmt::panic!("peripherals taken twice")
     };
@@ -260,8 +261,19 @@ async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, fla
     // The first feed comes before the boot-up; the node sends an EMCY raised
     // later once it is Pre-operational (EMCY waits while it is not).
     let mut first = true;
+    let mut stack_used = 0;
+    let mut tick = 0u32;
     loop {
         watchdog.feed();
+        // The stack's high-water mark, when it grew (checked every 10 s: a scan of the free RAM).
+        if tick.is_multiple_of(40) {
+            let used = stack::high_water();
+            if used > stack_used {
+                stack_used = used;
+                defmt::info!("stack: {=usize} of {=usize} bytes used at most", used, stack::size());
+            }
+        }
+        tick = tick.wrapping_add(1);
         if first {
             first = false;
         } else if let Some((code, info)) = report.take() {

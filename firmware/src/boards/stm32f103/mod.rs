@@ -25,6 +25,7 @@
 pub mod bit_timing;
 pub mod filters;
 pub mod flash_storage;
+pub mod reset_cause;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 mod board;
@@ -32,8 +33,6 @@ mod board;
 mod can;
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 mod flash;
-#[cfg(all(target_os = "none", feature = "board-stm32f103"))]
-mod reset_cause;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 pub use board::{Config, Storage, StorageHandle, run, unattached_storage};
