@@ -26,11 +26,15 @@
 //! [`SlcanServer`] serves this protocol over TCP, so python-can's `slcan`
 //! interface can drive a node with `channel="socket://127.0.0.1:PORT"`.
 
+mod outbox;
 mod server;
 #[cfg(test)]
+mod server_tests;
+#[cfg(test)]
 mod tests;
+mod wire;
 
-pub use server::{AdapterStatus, SlcanChannels, SlcanServer};
+pub use server::{ClientStatus, FrameSender, ServerOptions, SlcanChannels, SlcanServer};
 
 use crate::bus::BitRate;
 use canopen_core::frame::CanFrame;
