@@ -37,7 +37,7 @@ use hal_host::trace::BackgroundLog;
 /// Bytes per storage region: room for the largest device image.
 const REGION: usize = 4096;
 /// Trace lines that may wait for the trace writer before lines are dropped.
-const TRACE_QUEUE: usize = 16 * 1024;
+const TRACE_QUEUE: usize = 4096;
 /// How often vnode looks at its clients and its trace to report on them.
 const REPORT_EVERY: StdDuration = StdDuration::from_secs(1);
 /// The interface name in trace lines.
