@@ -5,6 +5,7 @@
 //! the line and a caret. Exit codes: 0 valid, 1 the file has errors, 2 a
 //! usage error or a file that cannot be read.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -74,7 +75,7 @@ fn main() -> ExitCode {
     match run(cli.command) {
         Ok(code) => code,
         Err(msg) => {
-            eprintln!("{msg}");
+            let _ = writeln!(std::io::stderr(), "{msg}");
             ExitCode::from(2)
         }
     }
@@ -85,10 +86,11 @@ fn read(path: &Path, args: &ReadArgs) -> Result<(Eds, Diagnostics), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: error: {e}", path.display()))?;
     let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
     let (eds, d) = load(&name, &bytes, Options { strict: args.strict });
-    match args.format {
-        Format::Short => eprint!("{d}"),
-        Format::Human => eprint!("{}", d.render_human(&String::from_utf8_lossy(&bytes))),
-    }
+    // A closed stderr loses the findings, not the exit code that sums them up.
+    let _ = match args.format {
+        Format::Short => write!(std::io::stderr(), "{d}"),
+        Format::Human => write!(std::io::stderr(), "{}", d.render_human(&String::from_utf8_lossy(&bytes))),
+    };
     Ok((eds, d))
 }
 
@@ -115,7 +117,12 @@ fn run(task: Task) -> Result<ExitCode, String> {
     let text = make(&eds, &d.file)?;
     match one.output {
         Some(path) => std::fs::write(&path, text).map_err(|e| format!("{}: error: {e}", path.display()))?,
-        None => print!("{text}"),
+        None => {
+            if let Err(e) = std::io::stdout().lock().write_all(text.as_bytes()) {
+                let _ = writeln!(std::io::stderr(), "od-gen: stdout: {e}");
+                return Ok(ExitCode::FAILURE);
+            }
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -175,3 +175,18 @@ fn human_format_shows_the_line_with_a_caret() {
     assert_eq!((o.status.code(), stdout(&o)), (Some(1), String::new()));
     assert!(stderr(&o).contains("1276 | DefaultValue=0.0f"), "{}", stderr(&o));
 }
+
+#[test]
+fn a_closed_stdout_is_an_error_not_a_panic() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_od-gen"))
+        .args(["doc", &workspace_file("firmware/eds/bmaxx4400.eds")])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("od-gen runs");
+    // Closed before od-gen has read the EDS, let alone written the table.
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("od-gen ends");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).starts_with("od-gen: stdout: Broken pipe"), "{}", stderr(&o));
+}
