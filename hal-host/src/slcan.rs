@@ -26,6 +26,7 @@
 //! [`SlcanServer`] serves this protocol over TCP, so python-can's `slcan`
 //! interface can drive a node with `channel="socket://127.0.0.1:PORT"`.
 
+mod credit;
 mod outbox;
 mod server;
 #[cfg(test)]

@@ -169,6 +169,29 @@ fn back_to_back_sdo_requests_are_all_answered() {
 }
 
 #[test]
+fn a_burst_takes_the_time_the_wire_needs_at_the_bit_rate() {
+    use hal_host::bus::{BitRate, frame_time_ns};
+    let vnode = Vnode::start(&["--bitrate", "125"]);
+    let mut m = vnode.connect();
+    m.collect(Duration::from_millis(100));
+    const N: u32 = 200;
+    let frame = |id, data: [u8; 8]| canopen_core::frame::CanFrame::standard(id, &data).unwrap();
+    let request = frame(0x605, [0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
+    let answer = frame(0x585, [0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x42, 0x00]);
+    let round = Duration::from_nanos(frame_time_ns(&request, BitRate::KBIT_125) + frame_time_ns(&answer, BitRate::KBIT_125));
+    let start = Instant::now();
+    m.send(&format!("{UPLOAD_1000}\r").repeat(N as usize));
+    for i in 0..N {
+        assert!(m.wait_for(|l| l == DEVICE_TYPE).is_some(), "answer {i}");
+    }
+    let took = start.elapsed();
+    // About 2 ms per round at 125 kbit/s; the last answer cannot come
+    // before the wire has carried every request and every answer.
+    assert!(took >= round * N - Duration::from_millis(1), "{N} rounds in {took:?}, the wire needs {:?}", round * N);
+    assert!(took < round * N * 2, "{N} rounds in {took:?}, the wire needs {:?}", round * N);
+}
+
+#[test]
 fn every_sync_of_a_burst_gives_its_tpdo() {
     let vnode = Vnode::start(&[]);
     let mut m = vnode.connect();

@@ -20,7 +20,7 @@ use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::mpsc::RecvTimeoutError;
+use std::sync::mpsc::{RecvTimeoutError, TrySendError};
 use std::time::{Duration as StdDuration, SystemTime, UNIX_EPOCH};
 
 use canopen_core::node::{NoApplication, Node};
@@ -233,6 +233,8 @@ fn serve<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(
     }
     let mut trace = cli.trace.as_deref().map(open_trace).transpose()?;
     let mut report = Reporter::default();
+    // A frame the node sent that the wire had no room for yet.
+    let mut held = None;
     loop {
         let now = clock();
         let deadline = node.process(now);
@@ -245,20 +247,28 @@ fn serve<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(
                 None => note(format_args!("LSS activate bit timing with table index {index}, which names no rate: bit rate unchanged")),
             }
         }
-        // Everything the last frame or timer queued goes out before the next frame is taken.
-        while let Some(frame) = node.transmit() {
-            if let Some(t) = trace.as_mut() {
-                t.record(wall_clock(), &frame);
-            }
-            if channels.to_client.send(frame).is_err() {
-                return Ok(());
+        // Everything the last frame or timer queued goes to the wire before
+        // the next frame is taken, as long as the wire has room; what it has
+        // no room for waits in the node's transmit queue, as on a board.
+        while let Some(frame) = held.take().or_else(|| node.transmit()) {
+            match channels.to_client.try_send(frame) {
+                Ok(()) => {
+                    if let Some(t) = trace.as_mut() {
+                        t.record(wall_clock(), &frame);
+                    }
+                }
+                Err(TrySendError::Full(frame)) => {
+                    held = Some(frame);
+                    break;
+                }
+                Err(TrySendError::Disconnected(_)) => return Ok(()),
             }
         }
         report.tick(&server, trace.as_ref());
-        // Sleep until the next deadline or frame, at most 50 ms so reports keep coming.
-        let wait = deadline.map_or(StdDuration::from_millis(50), |d| {
-            StdDuration::from_micros(d.as_micros().saturating_sub(clock().as_micros())).min(StdDuration::from_millis(50))
-        });
+        // Sleep until the next deadline or frame, at most 50 ms so reports
+        // keep coming, and 1 ms while a frame waits for room on the wire.
+        let longest = if held.is_some() { StdDuration::from_millis(1) } else { StdDuration::from_millis(50) };
+        let wait = deadline.map_or(longest, |d| StdDuration::from_micros(d.as_micros().saturating_sub(clock().as_micros())).min(longest));
         match channels.from_client.recv_timeout(wait) {
             Ok(frame) => {
                 if let Some(t) = trace.as_mut() {

@@ -19,6 +19,7 @@
 //! [`ServerOptions::max_clients`] are served at once; further connections
 //! are closed at once and counted.
 
+use super::credit::Credit;
 use super::outbox::Outbox;
 use super::wire::{self, WireEvent};
 use super::{ChannelState, SlcanAdapter};
@@ -27,8 +28,8 @@ use canopen_core::frame::CanFrame;
 use std::io::{self, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
-use std::sync::mpsc::{self, Receiver, SendError, Sender};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::sync::mpsc::{self, Receiver, SendError, Sender, TrySendError};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -50,6 +51,9 @@ pub struct ServerOptions {
     /// Frames one client may have on their way to the wire before its
     /// reader stops reading (and TCP holds the client back).
     pub client_tx_frames: usize,
+    /// Frames the application may have on their way to the wire before
+    /// [`FrameSender::send`] waits and [`FrameSender::try_send`] says full.
+    pub app_tx_frames: usize,
     /// Clients served at once.
     pub max_clients: usize,
     /// Frames that may wait for the application before the wire waits.
@@ -58,12 +62,14 @@ pub struct ServerOptions {
 
 impl Default for ServerOptions {
     /// 1 Mbit/s; 64 KiB (about 2,900 frames) per client; 16 frames of
-    /// transmit buffer per client, as an adapter's FIFO; 32 clients.
+    /// transmit buffer per client, as an adapter's FIFO, and 64 for the
+    /// application; 32 clients; 256 frames waiting for the application.
     fn default() -> Self {
         ServerOptions {
             bit_rate: BitRate::MBIT_1,
             client_queue_bytes: 64 * 1024,
             client_tx_frames: 16,
+            app_tx_frames: 64,
             max_clients: 32,
             app_queue_frames: 256,
         }
@@ -79,14 +85,33 @@ pub struct SlcanChannels {
     pub to_client: FrameSender,
 }
 
-/// Puts the application's frames on the server's bus.
+/// Puts the application's frames on the server's bus, at most
+/// [`ServerOptions::app_tx_frames`] waiting for the wire at once (as a
+/// controller has so many transmit buffers).
 #[derive(Clone, Debug)]
-pub struct FrameSender(Sender<WireEvent>);
+pub struct FrameSender {
+    events: Sender<WireEvent>,
+    hub: Arc<Hub>,
+}
 
 impl FrameSender {
-    /// Queues `frame` for the wire; fails only when the server is gone.
+    /// Queues `frame` for the wire, waiting for room; fails only when the
+    /// server is gone.
     pub fn send(&self, frame: CanFrame) -> Result<(), SendError<CanFrame>> {
-        self.0.send(WireEvent::Node(frame)).map_err(|_| SendError(frame))
+        if !self.hub.app_credit.take() {
+            return Err(SendError(frame));
+        }
+        self.events.send(WireEvent::Node(frame)).map_err(|_| SendError(frame))
+    }
+
+    /// Queues `frame` for the wire if there is room (`Full` while the wire
+    /// is that far behind; `Disconnected` when the server is gone).
+    pub fn try_send(&self, frame: CanFrame) -> Result<(), TrySendError<CanFrame>> {
+        match self.hub.app_credit.try_take() {
+            Some(true) => self.events.send(WireEvent::Node(frame)).map_err(|_| TrySendError::Disconnected(frame)),
+            Some(false) => Err(TrySendError::Full(frame)),
+            None => Err(TrySendError::Disconnected(frame)),
+        }
     }
 }
 
@@ -105,13 +130,6 @@ pub struct ClientStatus {
     pub dropped: u64,
 }
 
-/// Frames a client has on their way to the wire, and whether it is gone.
-#[derive(Debug, Default)]
-struct Credit {
-    in_flight: usize,
-    closed: bool,
-}
-
 /// One connected client.
 #[derive(Debug)]
 pub(super) struct Client {
@@ -120,8 +138,7 @@ pub(super) struct Client {
     stream: TcpStream,
     adapter: Mutex<SlcanAdapter>,
     outbox: Outbox,
-    credit: Mutex<Credit>,
-    credit_changed: Condvar,
+    credit: Credit,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -134,28 +151,14 @@ impl Client {
         self.id
     }
 
-    /// Waits until the client may offer one more frame to the wire;
-    /// `false` once it is gone.
-    fn take_credit(&self, limit: usize) -> bool {
-        let mut c = lock(&self.credit);
-        while !c.closed && c.in_flight >= limit {
-            c = self.credit_changed.wait(c).unwrap_or_else(std::sync::PoisonError::into_inner);
-        }
-        c.in_flight += 1;
-        !c.closed
-    }
-
     /// One of its frames has reached the wire.
     pub(super) fn credit_returned(&self) {
-        let mut c = lock(&self.credit);
-        c.in_flight = c.in_flight.saturating_sub(1);
-        self.credit_changed.notify_all();
+        self.credit.give_back();
     }
 
     /// Ends the connection: wakes its threads and makes them finish.
     fn close(&self) {
-        lock(&self.credit).closed = true;
-        self.credit_changed.notify_all();
+        self.credit.close();
         self.outbox.close();
         let _ = self.stream.shutdown(Shutdown::Read);
     }
@@ -172,14 +175,26 @@ pub(super) struct Hub {
     options: ServerOptions,
     bit_rate: AtomicU32,
     clients: Mutex<Vec<Arc<Client>>>,
+    app_credit: Credit,
     refused: AtomicU64,
     start: Instant,
+    stop: AtomicBool,
 }
 
 impl Hub {
     /// The bus's bit rate in bit/s.
     pub(super) fn bit_rate(&self) -> u32 {
         self.bit_rate.load(Ordering::Relaxed)
+    }
+
+    /// Whether the server is stopping.
+    pub(super) fn stopping(&self) -> bool {
+        self.stop.load(Ordering::SeqCst)
+    }
+
+    /// One of the application's frames has reached the wire.
+    pub(super) fn app_credit_returned(&self) {
+        self.app_credit.give_back();
     }
 
     /// Hands a frame on the wire to every client with an open channel,
@@ -202,7 +217,6 @@ impl Hub {
 /// application. Dropping the server stops it and closes every connection.
 pub struct SlcanServer {
     local_addr: SocketAddr,
-    stop: Arc<AtomicBool>,
     hub: Arc<Hub>,
     wire_events: Sender<WireEvent>,
     threads: Vec<JoinHandle<()>>,
@@ -227,22 +241,23 @@ impl SlcanServer {
         let local_addr = listener.local_addr()?;
         let (wire_events, events) = mpsc::channel();
         let (to_app, from_client) = mpsc::sync_channel(options.app_queue_frames);
-        let stop = Arc::new(AtomicBool::new(false));
         let hub = Arc::new(Hub {
             options,
             bit_rate: AtomicU32::new(options.bit_rate.bps()),
             clients: Mutex::new(Vec::new()),
+            app_credit: Credit::new(options.app_tx_frames),
             refused: AtomicU64::new(0),
             start: Instant::now(),
+            stop: AtomicBool::new(false),
         });
         let wire_hub = Arc::clone(&hub);
         let wire = std::thread::Builder::new().name("slcan-wire".into()).spawn(move || wire::run(&wire_hub, &events, &to_app))?;
-        let (accept_stop, accept_hub, accept_events) = (Arc::clone(&stop), Arc::clone(&hub), wire_events.clone());
+        let (accept_hub, accept_events) = (Arc::clone(&hub), wire_events.clone());
         let accept = std::thread::Builder::new()
             .name("slcan-accept".into())
-            .spawn(move || accept_clients(&listener, &accept_stop, &accept_hub, &accept_events))?;
-        let to_client = FrameSender(wire_events.clone());
-        let server = SlcanServer { local_addr, stop, hub, wire_events, threads: vec![wire, accept] };
+            .spawn(move || accept_clients(&listener, &accept_hub, &accept_events))?;
+        let to_client = FrameSender { events: wire_events.clone(), hub: Arc::clone(&hub) };
+        let server = SlcanServer { local_addr, hub, wire_events, threads: vec![wire, accept] };
         Ok((server, SlcanChannels { from_client, to_client }))
     }
 
@@ -279,7 +294,8 @@ impl SlcanServer {
     }
 
     fn stop_and_join(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
+        self.hub.stop.store(true, Ordering::SeqCst);
+        self.hub.app_credit.close();
         for c in lock(&self.hub.clients).drain(..) {
             c.close();
             let _ = c.stream.shutdown(Shutdown::Both);
@@ -299,10 +315,10 @@ impl Drop for SlcanServer {
     }
 }
 
-fn accept_clients(listener: &TcpListener, stop: &AtomicBool, hub: &Arc<Hub>, events: &Sender<WireEvent>) {
+fn accept_clients(listener: &TcpListener, hub: &Arc<Hub>, events: &Sender<WireEvent>) {
     let mut next_id = 0;
     for conn in listener.incoming() {
-        if stop.load(Ordering::SeqCst) {
+        if hub.stopping() {
             return;
         }
         let Ok(stream) = conn else { continue };
@@ -320,8 +336,7 @@ fn accept_clients(listener: &TcpListener, stop: &AtomicBool, hub: &Arc<Hub>, eve
             stream,
             adapter: Mutex::new(SlcanAdapter::new()),
             outbox: Outbox::new(hub.options.client_queue_bytes),
-            credit: Mutex::new(Credit::default()),
-            credit_changed: Condvar::new(),
+            credit: Credit::new(hub.options.client_tx_frames),
         });
         lock(&hub.clients).push(Arc::clone(&client));
         let (client_hub, client_events) = (Arc::clone(hub), events.clone());
@@ -347,7 +362,7 @@ fn serve_client(client: &Arc<Client>, reader: TcpStream, writer: TcpStream, hub:
     let writing = Arc::clone(client);
     let writer = std::thread::Builder::new().name(format!("slcan-write-{}", client.peer)).spawn(move || write_client(&writing, writer));
     if writer.is_ok() {
-        read_client(client, reader, hub.options.client_tx_frames, events);
+        read_client(client, reader, events);
     }
     forget(hub, client);
     if let Ok(w) = writer {
@@ -358,7 +373,7 @@ fn serve_client(client: &Arc<Client>, reader: TcpStream, writer: TcpStream, hub:
 
 /// Reads the client's commands until it disconnects: answers go to its
 /// outbox, accepted frames to the wire.
-fn read_client(client: &Arc<Client>, mut reader: TcpStream, tx_frames: usize, events: &Sender<WireEvent>) {
+fn read_client(client: &Arc<Client>, mut reader: TcpStream, events: &Sender<WireEvent>) {
     let mut buf = [0u8; 512];
     let (mut reply, mut frames) = (Vec::new(), Vec::new());
     loop {
@@ -374,7 +389,7 @@ fn read_client(client: &Arc<Client>, mut reader: TcpStream, tx_frames: usize, ev
         }
         reply.clear();
         for f in frames.drain(..) {
-            if !client.take_credit(tx_frames) || events.send(WireEvent::Client(Arc::clone(client), f)).is_err() {
+            if !client.credit.take() || events.send(WireEvent::Client(Arc::clone(client), f)).is_err() {
                 return;
             }
         }
@@ -393,7 +408,7 @@ fn write_client(client: &Client, mut stream: TcpStream) {
                 Ok(0) => return client.close(),
                 Ok(n) => rest = rest.get(n..).unwrap_or(&[]),
                 Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => {
-                    if lock(&client.credit).closed {
+                    if client.credit.is_closed() {
                         return;
                     }
                 }

@@ -7,6 +7,7 @@ use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 const TIMEOUT: Duration = Duration::from_secs(10);
@@ -176,6 +177,24 @@ fn a_burst_takes_the_wire_time_of_its_frames() {
     assert!(took + super::wire::SLACK >= wire, "{N} frames in {took:?}, the wire needs {wire:?}");
     assert!(took < wire * 3, "{N} frames in {took:?}, the wire needs {wire:?}");
     server.shutdown();
+}
+
+#[test]
+fn the_application_has_bounded_room_on_a_slow_wire() {
+    // 10 kbit/s: an 8-byte frame holds the wire for about 13 ms.
+    let options = ServerOptions { bit_rate: BitRate::KBIT_10, app_tx_frames: 8, ..ServerOptions::default() };
+    let (server, ch) = SlcanServer::bind_with("127.0.0.1:0", options).unwrap();
+    let frame = std(0x181, &[1, 2, 3, 4, 5, 6, 7, 8]);
+    let accepted = (0..100).take_while(|_| ch.to_client.try_send(frame).is_ok()).count();
+    // The 8 it has room for, and the few the wire took meanwhile.
+    assert!((8..=10).contains(&accepted), "{accepted} frames accepted");
+    assert!(matches!(ch.to_client.try_send(frame), Err(mpsc::TrySendError::Full(_))));
+    // Room comes back as the wire carries them.
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(ch.to_client.try_send(frame).is_ok());
+    server.shutdown();
+    assert!(matches!(ch.to_client.try_send(frame), Err(mpsc::TrySendError::Disconnected(_))));
+    assert!(ch.to_client.send(frame).is_err(), "a stopped server does not keep a sender waiting");
 }
 
 #[test]

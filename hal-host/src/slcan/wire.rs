@@ -11,7 +11,7 @@ use super::server::{Client, Hub};
 use crate::bus::{BitRate, frame_time_ns};
 use canopen_core::frame::CanFrame;
 use std::sync::Arc;
-use std::sync::mpsc::{Receiver, SyncSender};
+use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 use std::time::{Duration, Instant};
 
 /// How far the wire may run ahead of wall time before the thread sleeps:
@@ -51,9 +51,13 @@ impl Pacer {
     }
 }
 
+/// How often the wire looks whether the server stops while it waits for
+/// an application that is behind.
+const APP_POLL: Duration = Duration::from_millis(1);
+
 /// Runs the wire until [`WireEvent::Stop`]. Frames from clients go to the
-/// application on `to_app` (which waits while the application is behind)
-/// and to every other client; the node's frames go to every client.
+/// application on `to_app` (the wire waits while the application is
+/// behind) and to every other client; the node's frames go to every client.
 pub(super) fn run(hub: &Hub, events: &Receiver<WireEvent>, to_app: &SyncSender<CanFrame>) {
     let mut pacer = Pacer::new(Instant::now());
     let mut put_on_wire = |frame: &CanFrame| {
@@ -68,14 +72,28 @@ pub(super) fn run(hub: &Hub, events: &Receiver<WireEvent>, to_app: &SyncSender<C
                 sender.credit_returned();
                 put_on_wire(&frame);
                 hub.broadcast(&frame, Some(sender.id()));
-                // No application listening is not the clients' problem.
-                let _ = to_app.send(frame);
+                hand_to_app(hub, to_app, frame);
             }
             WireEvent::Node(frame) => {
+                hub.app_credit_returned();
                 put_on_wire(&frame);
                 hub.broadcast(&frame, None);
             }
             WireEvent::Stop => return,
+        }
+    }
+}
+
+/// Gives the application a frame, waiting while it is behind unless the
+/// server stops; no application listening is not the clients' problem.
+fn hand_to_app(hub: &Hub, to_app: &SyncSender<CanFrame>, mut frame: CanFrame) {
+    loop {
+        match to_app.try_send(frame) {
+            Err(TrySendError::Full(f)) if !hub.stopping() => {
+                frame = f;
+                std::thread::sleep(APP_POLL);
+            }
+            _ => return,
         }
     }
 }
