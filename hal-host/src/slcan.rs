@@ -24,7 +24,9 @@
 //! is on. Nothing here panics or allocates without bound on garbage input.
 //!
 //! [`SlcanServer`] serves this protocol over TCP, so python-can's `slcan`
-//! interface can drive a node with `channel="socket://127.0.0.1:PORT"`.
+//! interface can drive a node with `channel="socket://127.0.0.1:PORT"`;
+//! every client is an adapter on the same bus, and a client the server had
+//! to drop frames for finds the data overrun bit (3) set in its `F` flags.
 
 mod credit;
 mod outbox;

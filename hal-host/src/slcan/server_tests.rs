@@ -175,7 +175,8 @@ fn a_burst_takes_the_wire_time_of_its_frames() {
     // 99 more frames of about 1.04 ms each, at most the slack early.
     let wire = frame_time * (N as u32 - 1);
     assert!(took + super::wire::SLACK >= wire, "{N} frames in {took:?}, the wire needs {wire:?}");
-    assert!(took < wire * 3, "{N} frames in {took:?}, the wire needs {wire:?}");
+    // Not much slower either (the margin is for a loaded machine).
+    assert!(took < wire * 3 + Duration::from_secs(2), "{N} frames in {took:?}, the wire needs {wire:?}");
     server.shutdown();
 }
 
