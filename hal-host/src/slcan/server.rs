@@ -147,6 +147,7 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl Client {
+    /// Which connection this is (unique for the server's lifetime).
     pub(super) fn id(&self) -> u64 {
         self.id
     }
