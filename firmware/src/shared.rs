@@ -47,6 +47,8 @@ pub struct Shared {
     state_changed: Signal<CriticalSectionRawMutex, ()>,
     wake: Signal<CriticalSectionRawMutex, ()>,
     rejected: AtomicU32,
+    /// An error the board raised at start-up, to clear (0x1_0000 | code; 0: none).
+    board_clear: AtomicU32,
 }
 
 impl Default for Shared {
@@ -68,6 +70,7 @@ impl Shared {
             state_changed: Signal::new(),
             wake: Signal::new(),
             rejected: AtomicU32::new(0),
+            board_clear: AtomicU32::new(0),
         }
     }
 
@@ -91,6 +94,14 @@ impl Shared {
     /// Frames the software acceptance filter dropped so far (for logs).
     pub fn rejected_frames(&self) -> u32 {
         self.rejected.load(Ordering::Relaxed)
+    }
+
+    /// Clears an error the board raised on the node before the task ran
+    /// (the STM32's reset cause), at the task's next wake-up: the board's
+    /// own way, beside the application's [`Requests`].
+    pub fn clear_board_error(&self, code: u16) {
+        self.board_clear.store(0x1_0000 | u32::from(code), Ordering::Relaxed);
+        self.wake();
     }
 
     /// The handle through which the application asks the node: the first
@@ -214,6 +225,10 @@ pub async fn serve<T: Future<Output = ()>>(
                 }
             }
             Either3::Second(()) => {
+                let clear = shared.board_clear.swap(0, Ordering::Relaxed);
+                if clear != 0 {
+                    node.clear_error(clear as u16);
+                }
                 if let Some(request) = shared.request.try_take() {
                     shared.reply.signal(runner.on_request(node, request));
                 }

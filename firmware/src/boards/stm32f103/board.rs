@@ -131,6 +131,12 @@ pub fn run<A>(
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
     log_stored_sets(&mut flash);
     let started = Started::build(make_node, || flash, app::now());
+    // Why the last reset happened: an EMCY the node sends after its boot-up
+    // (it waits for the call after the one that queues the boot-up).
+    if let Some((code, info)) = cause.emcy(flags) {
+        started.node.raise_error(code, info);
+        defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
+    }
     let node_id = started.node.node_id();
     let lss = started.node.bit_rate();
     let index = lss.or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
@@ -252,15 +258,12 @@ async fn canopen(node: &'static mut dyn CanNode) -> ! {
 /// Feeds the watchdog every [`FEED_MS`] from the CANopen task's executor:
 /// while the CANopen task runs in a loop or hangs with interrupts masked,
 /// the executor never gets here and the watchdog resets the chip. Once the
-/// node has sent its boot-up, it reports why the last reset happened (an
-/// EMCY, cleared again a second later; the 0x1003 entry stays).
+/// node has sent its boot-up, the EMCY `run` raised for the cause of the
+/// last reset is cleared again a second later (the 0x1003 entry stays).
 #[embassy_executor::task]
 async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, flags: u8) -> ! {
-    let mut report = cause.emcy(flags);
-    let mut clear = None;
-    // The first feed comes before the boot-up; the node sends an EMCY raised
-    // later once it is Pre-operational (EMCY waits while it is not).
-    let mut first = true;
+    // Raised on the node at start-up (`run`); cleared a second after the boot-up.
+    let mut clear = cause.emcy(flags).map(|(code, _)| (code, 4u8));
     let mut stack_used = 0;
     let mut tick = 0u32;
     loop {
@@ -274,15 +277,9 @@ async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, fla
             }
         }
         tick = tick.wrapping_add(1);
-        if first {
-            first = false;
-        } else if let Some((code, info)) = report.take() {
-            SHARED.raise_error(code, info).await;
-            defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
-            clear = Some((code, 4));
-        } else if let Some((code, ticks)) = clear {
+        if let Some((code, ticks)) = clear {
             clear = if ticks == 0 {
-                SHARED.clear_error(code).await;
+                SHARED.clear_board_error(code);
                 None
             } else {
                 Some((code, ticks - 1))
