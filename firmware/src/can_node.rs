@@ -117,7 +117,13 @@ where
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, AbortCode> {
         let od = self.od();
         let value = od.dictionary().read(od.image(), index, sub)?;
-        buf.get_mut(..value.len()).ok_or(AbortCode::LengthTooHigh)?.copy_from_slice(value);
+        if value.len() > buf.len() {
+            return Err(AbortCode::LengthTooHigh);
+        }
+        // Not `copy_from_slice`: its length check pulls `core::fmt` into the images.
+        for (to, from) in buf.iter_mut().zip(value) {
+            *to = *from;
+        }
         Ok(value.len())
     }
 

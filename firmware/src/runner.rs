@@ -33,8 +33,14 @@ pub struct Value {
 impl Value {
     /// `data` as a value; `None` if longer than [`VALUE_LEN`].
     pub fn new(data: &[u8]) -> Option<Value> {
+        if data.len() > VALUE_LEN {
+            return None;
+        }
         let mut bytes = [0; VALUE_LEN];
-        bytes.get_mut(..data.len())?.copy_from_slice(data);
+        // Not `copy_from_slice`: its length check pulls `core::fmt` into the images.
+        for (to, from) in bytes.iter_mut().zip(data) {
+            *to = *from;
+        }
         Some(Value { bytes, len: data.len() as u8 })
     }
 

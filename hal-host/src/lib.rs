@@ -5,11 +5,13 @@
 //!   lengths (stuff bits included) at each port's bit rate, per-port FIFOs.
 //! - [`fault`]: fault injection on that bus: dropped and corrupted frames,
 //!   delays, error frames, bus-off.
-//! - [`trace`]: every frame on the bus as a `candump -L` log.
+//! - [`trace`]: every frame on the bus as a `candump -L` log, written in
+//!   place or by a thread that never holds up the caller.
 //! - [`storage`]: flash-like [`canopen_core::storage::Storage`] in memory or
 //!   in a file, with power cuts at any erase/write step.
 //! - [`slcan`]: the Lawicel SLCAN protocol and a TCP server speaking it, so
-//!   python-can's `slcan` interface can drive a node running in real time.
+//!   python-can's `slcan` interface can drive a node running in real time;
+//!   every client is an adapter on one paced bus (the `vnode` binary).
 //! - [`master`]: a small CANopen master for tests (NMT, SDO client with
 //!   block transfers, PDO codec, heartbeat monitor), sans-IO like the node,
 //!   with a driver that runs SDO transfers on the virtual bus.

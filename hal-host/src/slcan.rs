@@ -24,13 +24,20 @@
 //! is on. Nothing here panics or allocates without bound on garbage input.
 //!
 //! [`SlcanServer`] serves this protocol over TCP, so python-can's `slcan`
-//! interface can drive a node with `channel="socket://127.0.0.1:PORT"`.
+//! interface can drive a node with `channel="socket://127.0.0.1:PORT"`;
+//! every client is an adapter on the same bus, and a client the server had
+//! to drop frames for finds the data overrun bit (3) set in its `F` flags.
 
+mod credit;
+mod outbox;
 mod server;
 #[cfg(test)]
+mod server_tests;
+#[cfg(test)]
 mod tests;
+mod wire;
 
-pub use server::{AdapterStatus, SlcanChannels, SlcanServer};
+pub use server::{ClientStatus, FrameSender, ServerOptions, SlcanChannels, SlcanServer};
 
 use crate::bus::BitRate;
 use canopen_core::frame::CanFrame;

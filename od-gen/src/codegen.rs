@@ -354,7 +354,9 @@ pub const BLOCK_THRESHOLD: usize = 64;
 
 /// The optional services a node on `eds` links, from its objects: LSS if
 /// `LSS_Supported`, block SDO if a value is a DOMAIN or longer than
-/// [`BLOCK_THRESHOLD`] bytes, guarding with 0x100C and 0x100D, TIME with
+/// [`BLOCK_THRESHOLD`] bytes, guarding with 0x100C and 0x100D (or without
+/// a heartbeat producer 0x1017: CiA 301 asks for one error control
+/// protocol, so such a node keeps answering guarding requests), TIME with
 /// 0x1012, storage with 0x1010 or 0x1011 (or LSS, which stores its
 /// configuration).
 pub fn services(eds: &Eds) -> Services {
@@ -368,7 +370,7 @@ pub fn services(eds: &Eds) -> Services {
     Services {
         lss: eds.device.lss_supported,
         block_sdo: large,
-        guarding: has(0x100C) && has(0x100D),
+        guarding: (has(0x100C) && has(0x100D)) || !has(0x1017),
         time: has(0x1012),
         storage: has(0x1010) || has(0x1011) || eds.device.lss_supported,
     }

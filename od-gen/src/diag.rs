@@ -1,4 +1,8 @@
-//! Diagnostics that name the file and line: `drive.eds:123: error: ...`.
+//! Diagnostics that name the file and line: `drive.eds:123: error: ...`,
+//! or for people, with the line and a caret ([`Diagnostics::render_human`]).
+
+#[cfg(feature = "cli")]
+mod human;
 
 use std::fmt;
 
@@ -67,6 +71,13 @@ impl Diagnostics {
         self.items.iter().filter(|d| d.severity == Severity::Warning)
     }
 
+    /// The findings sorted by line, errors before warnings on the same line.
+    fn sorted(&self) -> Vec<&Diagnostic> {
+        let mut items: Vec<&Diagnostic> = self.items.iter().collect();
+        items.sort_by_key(|d| (d.line, std::cmp::Reverse(d.severity)));
+        items
+    }
+
     /// Whether some finding at `line` contains `text` (for tests and tools).
     pub fn mentions(&self, severity: Severity, line: usize, text: &str) -> bool {
         self.items.iter().any(|d| d.severity == severity && d.line == line && d.message.contains(text))
@@ -76,9 +87,7 @@ impl Diagnostics {
 impl fmt::Display for Diagnostics {
     /// One line per finding, sorted by line, errors before warnings on the same line.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let mut items: Vec<&Diagnostic> = self.items.iter().collect();
-        items.sort_by_key(|d| (d.line, std::cmp::Reverse(d.severity)));
-        for d in items {
+        for d in self.sorted() {
             let kind = match d.severity {
                 Severity::Error => "error",
                 Severity::Warning => "warning",

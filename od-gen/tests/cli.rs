@@ -122,25 +122,71 @@ fn export_checks_clean_again() {
 }
 
 #[test]
-fn usage_errors_exit_2() {
+fn usage_errors_exit_2_with_the_usage() {
     let file = workspace_file("firmware/eds/ec5000.eds");
-    let o = od_gen(&["frobnicate", &file]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("unknown command frobnicate"), "{}", stderr(&o));
-    assert!(stderr(&o).contains("usage:"), "{}", stderr(&o));
-    let o = od_gen(&[]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).starts_with("usage:"), "{}", stderr(&o));
-    let o = od_gen(&["check", "--bogus", &file]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("unknown option --bogus"), "{}", stderr(&o));
-    let o = od_gen(&["gen", &file, &file]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("gen takes one file"), "{}", stderr(&o));
+    for (args, says, usage) in [
+        (&["frobnicate", &file][..], "error: unrecognized subcommand 'frobnicate'", "Usage: od-gen <COMMAND>"),
+        (&[], "", "Usage: od-gen <COMMAND>"),
+        (&["check", "--bogus", &file], "error: unexpected argument '--bogus'", "Usage: od-gen check [OPTIONS] <FILE>..."),
+        (&["gen", &file, &file], "error: unexpected argument", "Usage: od-gen gen [OPTIONS] <FILE>"),
+        (&["check"], "error: the following required arguments were not provided", "Usage: od-gen check"),
+        (&["check", "--format", "xml", &file], "error: invalid value 'xml' for '--format <FORMAT>'", ""),
+    ] {
+        let o = od_gen(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(stderr(&o).contains(says) && stderr(&o).contains(usage), "{args:?}: {}", stderr(&o));
+        assert_eq!(stdout(&o), "", "{args:?}");
+    }
+    // A file that cannot be read is exit 2 as well, in the file:line form.
     let o = od_gen(&["check", "/nonexistent/x.eds"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("/nonexistent/x.eds: error:"), "{}", stderr(&o));
-    let o = od_gen(&["check", "--help"]);
-    assert_eq!(o.status.code(), Some(0));
-    assert!(stdout(&o).starts_with("usage:"), "{}", stdout(&o));
+    assert!(stderr(&o).starts_with("/nonexistent/x.eds: error:"), "{}", stderr(&o));
+}
+
+#[test]
+fn help_and_version_on_every_command() {
+    for command in [&[][..], &["check"], &["gen"], &["doc"], &["export"]] {
+        let o = od_gen(&[command, &["--help"]].concat());
+        assert_eq!(o.status.code(), Some(0), "{command:?}");
+        assert!(stdout(&o).contains(&format!("Usage: od-gen {}", command.first().unwrap_or(&""))), "{}", stdout(&o));
+    }
+    let o = od_gen(&["--version"]);
+    assert_eq!((o.status.code(), stdout(&o)), (Some(0), format!("od-gen {}\n", env!("CARGO_PKG_VERSION"))));
+}
+
+#[test]
+fn human_format_shows_the_line_with_a_caret() {
+    let file = workspace_file("tests/eds-corpus/heig-vd__od.eds");
+    let o = od_gen(&["check", "--format", "human", &file]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains(
+            "error: value `0.0f` is not a REAL32 number\n     --> heig-vd__od.eds:1276:14\n     |\n1276 | DefaultValue=0.0f\n     |              ^^^^\n"
+        ),
+        "{err}"
+    );
+    assert!(err.contains("warning: CreationTime `10:28` is not hh:mmAM/PM\n  --> heig-vd__od.eds:7:14\n"), "{err}");
+    assert!(!err.contains("heig-vd__od.eds:1276: error:"), "one form at a time");
+    // The short form stays the default.
+    assert!(stderr(&od_gen(&["check", &file])).contains("heig-vd__od.eds:1276: error: value `0.0f` is not a REAL32 number\n"));
+    // gen takes the option too, and writes nothing for an invalid file.
+    let o = od_gen(&["gen", "--format", "human", &file]);
+    assert_eq!((o.status.code(), stdout(&o)), (Some(1), String::new()));
+    assert!(stderr(&o).contains("1276 | DefaultValue=0.0f"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_closed_stdout_is_an_error_not_a_panic() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_od-gen"))
+        .args(["doc", &workspace_file("firmware/eds/bmaxx4400.eds")])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("od-gen runs");
+    // Closed before od-gen has read the EDS, let alone written the table.
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("od-gen ends");
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).starts_with("od-gen: stdout: Broken pipe"), "{}", stderr(&o));
 }

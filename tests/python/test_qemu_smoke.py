@@ -315,9 +315,14 @@ class QemuSmokeTest(unittest.TestCase):
         if rpdo is not None and rpdo.writable:
             old = int.from_bytes(node.sdo.upload(0x1400, 1), "little") & 0x7FF
             new = 0x500 + node_id
-            # A COB-ID changes only while the PDO is not valid (CiA 301 §7.5.2.35).
+            # A COB-ID changes only while the PDO is not valid (CiA 301 §7.5.2.35),
+            # and in Pre-operational: the b maXX 4400 refuses PDO changes in
+            # Operational (docs/devices/bmaxx4400.md, D27). The node handles
+            # frames in order, so the NMT commands need no pause.
+            node.nmt.send_command(0x80)
             node.sdo.download(0x1400, 1, struct.pack("<I", 0x80000000 | new))
             node.sdo.download(0x1400, 1, struct.pack("<I", new))
+            node.nmt.send_command(0x01)
             before = [node.sdo.upload(i, s) for i, s, _ in self.mapping(node, 0x1600)]
             q.network.send_message(old, bytes(len(b"".join(before))))
             rejected += 1

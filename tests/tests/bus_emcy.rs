@@ -2,18 +2,16 @@
 //! §7.2.7 (EMCY, code 0x8140 "recovered from bus off"); ISO 11898-1
 //! §12.1.4 (fault confinement).
 //!
-//! The node API has no input for the controller's error state: there is no
-//! `Node::on_bus_off` or similar, so the core cannot raise 0x8120 (error
-//! passive) or 0x8140 by itself. A board does it through
-//! `Node::raise_error` when its CAN driver reports the recovery; here the
-//! test plays that board glue. The frames the node queued while bus-off
-//! stay in its mailboxes and leave, in order, as soon as it is back.
+//! The board reports what its CAN controller saw through
+//! `Node::controller_event` (here the test plays that board glue), and the
+//! core raises the EMCY (`tests/tests/controller_events.rs` has every
+//! event). The frames the node queued while bus-off stay in its mailboxes
+//! and leave, in order, as soon as it is back.
 
 mod common;
 
 use canopen_core::frame::CanFrame;
-use canopen_core::node::NoApplication;
-use canopen_core::wire::emcy::code;
+use canopen_core::node::{ControllerEvent, NoApplication};
 use common::net::{Net, bits, us};
 use hal_host::bus::{BitRate, CRC_ERROR_DETECT_BITS, ERROR_FRAME_BITS, ErrorState, INTERMISSION_BITS, frame_bits};
 use hal_host::fixtures::interop::od::{Node, Ram};
@@ -64,21 +62,26 @@ fn heartbeat_waits_out_bus_off_and_the_board_raises_emcy_0x8140() {
     net.run_until(us(recovered));
     assert_eq!((net.bus().error_state(port), net.bus().error_counters(port)), (Some(ErrorState::Active), Some((0, 0))));
     // The board glue reports the recovery.
-    net.node_mut::<Interop>(a).raise_error(code::BUS_OFF_RECOVERED, [0; 5]);
+    net.node_mut::<Interop>(a).controller_event(ControllerEvent::BusOffRecovered, us(recovered));
     net.run_until(us(110_000));
 
     // The heartbeat, already in a mailbox, goes first; the EMCY follows
-    // with error register 0x11 (generic + communication).
+    // with error register 0x11 (generic + communication) and the count of
+    // recoveries (1).
     let (hb_eof, _) = bits(0x701, &[0x7F]);
-    let (emcy_eof, _) = bits(0x081, &[0x40, 0x81, 0x11, 0, 0, 0, 0, 0]);
+    let (emcy_eof, _) = bits(0x081, &[0x40, 0x81, 0x11, 1, 0, 0, 0, 0]);
     assert_eq!(recovered + hb_eof, 104_682);
-    assert_eq!(104_682 + 3 + emcy_eof, 104_805);
+    assert_eq!(104_682 + 3 + emcy_eof, 104_804);
     let expected = "\
 (0000000000.104682) vcan0 701#7F
-(0000000000.104805) vcan0 081#4081110000000000
+(0000000000.104804) vcan0 081#4081110100000000
 ";
     assert_eq!(net.candump_since(us(101_000)), expected);
     let stats = net.bus().stats();
     assert_eq!((stats.error_frames, net.bus().port_stats(port).unwrap().bus_off_count), (32, 1));
-    assert_eq!(net.sdo_upload(m, 1, 0x1003, 1, UploadMode::ExpeditedOrSegmented), Ok(0x8140u32.to_le_bytes().to_vec()));
+    assert_eq!(
+        net.sdo_upload(m, 1, 0x1003, 1, UploadMode::ExpeditedOrSegmented),
+        Ok(0x0001_8140u32.to_le_bytes().to_vec()),
+        "code, and the low half of the count"
+    );
 }

@@ -128,3 +128,71 @@ fn reset_communication_raises_error_passive_again() {
     assert_eq!(b.run_until(ms(3000)), [], "nothing left to clear by time");
     assert_eq!(report(&mut b, ms(3000), ControllerEvent::ErrorActive), [(EMCY, ERROR_RESET.to_vec())]);
 }
+
+#[test]
+fn a_loss_and_a_recovery_each_clear_a_quiet_second_after_themselves() {
+    let mut b = interop();
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::RxOverrun { lost: 1 }), [(EMCY, vec![0x10, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    assert_eq!(report(&mut b, ms(900), ControllerEvent::BusOffRecovered), [(EMCY, vec![0x40, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    // 0x8110 clears at 1.01 s, silently: 0x8140 is still active (register still 0x11).
+    assert_eq!(b.run_until(ms(1899)), []);
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x11]));
+    assert_eq!(at(ms(1900), b.run_until(ms(3000))), emcy(ERROR_RESET));
+}
+
+/// Queues `n` node-guarding answers without sending them (remote frames on 0x704).
+fn fill_queue(b: &mut Interop, t: Instant, n: usize) {
+    for _ in 0..n {
+        b.node.on_frame(t, &canopen_core::frame::CanFrame::remote(0x704, 1).unwrap());
+    }
+}
+
+const TX_OVERFLOW: [u8; 8] = [0x10, 0x81, 0x11, 1, 0, 0, 0, 1];
+
+#[test]
+fn a_transmit_queue_overflow_is_one_0x8110_then_error_reset_once_drained() {
+    let mut b = interop();
+    // 33 answers for a 32-frame queue: one refused.
+    fill_queue(&mut b, ms(10), 33);
+    assert_eq!(b.node.tx_overflows(), 1);
+    let out = b.at(ms(10));
+    assert_eq!(out.len(), 32, "the queue's 32 answers; the EMCY waits for room");
+    assert!(out.iter().all(|f| f.0 == 0x704));
+    // Bytes 3–6: frames refused so far; byte 7 = 1: the transmit queue. The
+    // queue drained, so the error clears in the same call.
+    assert_eq!(b.at(ms(11)), [(EMCY, TX_OVERFLOW.to_vec()), (EMCY, ERROR_RESET.to_vec())]);
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x00]));
+    assert_eq!(b.run_until(ms(3000)), [], "nothing more");
+}
+
+#[test]
+fn a_transmit_queue_overflow_is_raised_once_while_frames_keep_being_refused() {
+    let mut b = interop();
+    fill_queue(&mut b, ms(10), 33);
+    // Not drained: the node sends nothing (the board's mailboxes are full).
+    b.node.process(ms(10));
+    fill_queue(&mut b, ms(11), 5);
+    b.node.process(ms(11));
+    assert_eq!(b.node.tx_overflows(), 6);
+    assert!(b.node.comm().emcy.tx_overflow_active());
+    assert_eq!(b.node.comm().emcy.register(), 0x11);
+    let out = b.at(ms(12));
+    assert!(out.len() == 32 && out.iter().all(|f| f.0 == 0x704), "the queued answers; the EMCY waits for room");
+    // One 0x8110 for the whole overflow (raised at the first refusal), then its end.
+    assert_eq!(b.at(ms(13)), [(EMCY, TX_OVERFLOW.to_vec()), (EMCY, ERROR_RESET.to_vec())]);
+}
+
+#[test]
+fn a_transmit_queue_overflow_and_lost_received_frames_clear_apart() {
+    let mut b = interop();
+    assert_eq!(report(&mut b, ms(10), ControllerEvent::RxOverrun { lost: 3 }), [(EMCY, vec![0x10, 0x81, 0x11, 3, 0, 0, 0, 0])]);
+    fill_queue(&mut b, ms(20), 33);
+    assert_eq!(b.at(ms(20)).len(), 32);
+    // Its own 0x8110, though the receive overrun's is active; drained, it
+    // clears without "error reset": the receive overrun still is.
+    assert_eq!(b.at(ms(21)), [(EMCY, TX_OVERFLOW.to_vec())]);
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x11]));
+    // The receive overrun clears 1 s after its loss: now "error reset".
+    assert_eq!(at(ms(1010), b.run_until(ms(3000))), emcy(ERROR_RESET));
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x00]));
+}

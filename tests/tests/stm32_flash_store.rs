@@ -225,3 +225,155 @@ fn ec5000_heartbeat_saved_by_sdo_comes_back_and_lss_stores_over_it() {
     assert_eq!(b.at(ms(0)), [(0x709, vec![0x00])], "boot-up as the stored node 9");
     assert_eq!(b.sdo_upload(9, 0x1017, 0), Ok(70u16.to_le_bytes().to_vec()), "the parameters stayed");
 }
+
+/// The core's own store tests (`services/store/tests.rs`, which run on a
+/// byte-wise fake flash) again on the part's rules: their small dictionary
+/// puts values at odd offsets 1, 3, 7 and 11, and `$NODEID` at 3.
+mod core_store_scenarios {
+    use super::*;
+    use canopen_core::od::{DataType, DeviceInfo, NO_LIMITS};
+
+    const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
+    const RW_N: Attr = Attr(RW.0 | Attr::NODE_ID.0);
+    static ENTRIES: [Entry; 5] = [
+        Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0, NO_LIMITS),
+        Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 1, NO_LIMITS),
+        Entry::new(0x1800, 1, DataType::Unsigned32, RW_N, 4, 3, NO_LIMITS),
+        Entry::new(0x2000, 0, DataType::Unsigned32, RW, 4, 7, NO_LIMITS),
+        Entry::new(0x6060, 0, DataType::Integer8, RW, 1, 11, NO_LIMITS),
+    ];
+    static DEFAULTS: [u8; 12] = [0, 0, 0, 0x80, 0x01, 0, 0x40, 1, 0, 0, 0, 3];
+    static DICT: Dictionary = Dictionary {
+        entries: &ENTRIES,
+        limits: &[],
+        rom: &[],
+        defaults: &DEFAULTS,
+        comm_len: 7,
+        node_id_relative: &[2],
+        layout_id: canopen_core::od::layout_id(&ENTRIES),
+        device: DeviceInfo {
+            baud_rates: 0,
+            lss_supported: false,
+            granularity: 8,
+            simple_boot_up_slave: false,
+            dynamic_channels: false,
+            group_messaging: false,
+        },
+    };
+
+    fn flash() -> MemStorage {
+        MemStorage::with_layout(Layout::stm32f103c8(region_size(DEFAULTS.len())))
+    }
+
+    /// Power-on: the defaults, then both parts from the stored set (the adapter's RAM is gone).
+    fn boot(storage: &MemStorage, node_id: u8) -> [u8; 12] {
+        let mut s = storage.clone();
+        s.cut_after(0);
+        s.power_on();
+        let mut img = [0u8; 12];
+        DICT.reset_application(&mut img, node_id);
+        store::load(&DICT, &mut img, node_id, &mut s, Part::Application);
+        DICT.reset_communication(&mut img, node_id);
+        store::load(&DICT, &mut img, node_id, &mut s, Part::Communication);
+        img
+    }
+
+    fn read(img: &[u8], index: u16, sub: u8) -> Vec<u8> {
+        DICT.read(img, index, sub).unwrap().to_vec()
+    }
+
+    #[test]
+    fn a_saved_set_survives_a_power_cycle_and_follows_the_node_id() {
+        let mut s = flash();
+        let mut img = boot(&s, 5);
+        DICT.write(&mut img, 0x1017, 0, &500u16.to_le_bytes()).unwrap();
+        DICT.write(&mut img, 0x2000, 0, &7u32.to_le_bytes()).unwrap();
+        DICT.write(&mut img, 0x1800, 1, &0x4000_0285u32.to_le_bytes()).unwrap();
+        store::save(&DICT, &img, 5, &mut s, Scope::All).unwrap();
+        let img = boot(&s, 9);
+        assert_eq!(read(&img, 0x1017, 0), 500u16.to_le_bytes());
+        assert_eq!(read(&img, 0x2000, 0), 7u32.to_le_bytes());
+        assert_eq!(read(&img, 0x1800, 1), 0x4000_0289u32.to_le_bytes(), "stored relative to the node-id");
+        no_violations(&s, "core scenario");
+    }
+
+    #[test]
+    fn scopes_store_and_restore_their_own_range() {
+        let mut s = flash();
+        let mut img = boot(&s, 1);
+        DICT.write(&mut img, 0x1017, 0, &100u16.to_le_bytes()).unwrap();
+        DICT.write(&mut img, 0x2000, 0, &42u32.to_le_bytes()).unwrap();
+        DICT.write(&mut img, 0x6060, 0, &[1]).unwrap();
+        store::save(&DICT, &img, 1, &mut s, Scope::Communication).unwrap();
+        let img2 = boot(&s, 1);
+        assert_eq!(read(&img2, 0x1017, 0), 100u16.to_le_bytes());
+        assert_eq!(read(&img2, 0x2000, 0), 1u32.to_le_bytes(), "manufacturer scope not stored");
+        store::save(&DICT, &img, 1, &mut s, Scope::Manufacturer).unwrap();
+        let img3 = boot(&s, 1);
+        assert_eq!(read(&img3, 0x2000, 0), 42u32.to_le_bytes());
+        assert_eq!(read(&img3, 0x1017, 0), 100u16.to_le_bytes(), "earlier communication set kept");
+        assert_eq!(read(&img3, 0x6060, 0), [3], "application scope still default");
+        store::restore_defaults(&DICT, &img, 1, &mut s, Scope::All).unwrap();
+        assert_eq!(boot(&s, 1), boot(&flash(), 1));
+        no_violations(&s, "core scenario");
+    }
+
+    #[test]
+    fn a_power_cut_at_any_step_leaves_the_old_or_the_new_set() {
+        let mut base = flash();
+        let mut img = boot(&base, 3);
+        DICT.write(&mut img, 0x1017, 0, &111u16.to_le_bytes()).unwrap();
+        DICT.write(&mut img, 0x2000, 0, &1111u32.to_le_bytes()).unwrap();
+        store::save(&DICT, &img, 3, &mut base, Scope::All).unwrap();
+        DICT.write(&mut img, 0x1017, 0, &222u16.to_le_bytes()).unwrap();
+        DICT.write(&mut img, 0x2000, 0, &2222u32.to_le_bytes()).unwrap();
+        let mut probe = base.clone();
+        let before = probe.steps();
+        store::save(&DICT, &img, 3, &mut probe, Scope::All).unwrap();
+        let steps = probe.steps() - before;
+        assert_eq!(steps, 1 + 18, "one page, 18 half-words (24-byte header + 12-byte image)");
+        let (mut old, mut new) = (0, 0);
+        for cut in 1..=steps + 1 {
+            let mut s = base.clone();
+            s.cut_after(cut);
+            let result = store::save(&DICT, &img, 3, &mut s, Scope::All);
+            let after = boot(&s, 3);
+            if read(&after, 0x1017, 0) == 111u16.to_le_bytes() {
+                assert_eq!(read(&after, 0x2000, 0), 1111u32.to_le_bytes(), "cut {cut}: a mix");
+                assert!(result.is_err());
+                old += 1;
+            } else {
+                assert_eq!(
+                    (read(&after, 0x1017, 0), read(&after, 0x2000, 0)),
+                    (222u16.to_le_bytes().to_vec(), 2222u32.to_le_bytes().to_vec())
+                );
+                new += 1;
+            }
+            no_violations(&s, "core scenario");
+        }
+        assert!(old > 0 && new > 0);
+    }
+
+    #[test]
+    fn lss_configuration_is_stored_with_the_set_and_survives_power_cuts() {
+        let mut s = flash();
+        let mut img = boot(&s, 127);
+        DICT.write(&mut img, 0x1017, 0, &300u16.to_le_bytes()).unwrap();
+        store::save(&DICT, &img, 127, &mut s, Scope::All).unwrap();
+        store::save_lss(&DICT, &img, 127, &mut s, 0x20, 3).unwrap();
+        assert_eq!(store::newest(&DICT, &mut s).and_then(|set| set.lss()), Some((0x20, 3)));
+        let img = boot(&s, 0x20);
+        assert_eq!(read(&img, 0x1017, 0), 300u16.to_le_bytes());
+        store::save(&DICT, &img, 0x20, &mut s, Scope::Communication).unwrap();
+        assert_eq!(store::newest(&DICT, &mut s).and_then(|set| set.lss()), Some((0x20, 3)));
+        for cut in 1..=20 {
+            let mut f = s.clone();
+            f.cut_after(cut);
+            let _ = store::save_lss(&DICT, &img, 0x20, &mut f, 0x21, 4);
+            f.power_on();
+            let got = store::newest(&DICT, &mut f).and_then(|set| set.lss());
+            assert!(got == Some((0x20, 3)) || got == Some((0x21, 4)), "cut {cut}: {got:?}");
+            no_violations(&f, "core scenario");
+        }
+    }
+}

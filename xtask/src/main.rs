@@ -13,9 +13,11 @@
 //! - `build`: every firmware image (each device on each board), with its sizes and the budget check.
 //! - `qemu DEVICE [--listen HOST:PORT]`: boots a device's QEMU image, SLCAN on that TCP port.
 //! - `smoke`: python-canopen against every QEMU image (tests/python/test_qemu_smoke.py).
+//! - `hil --interface IF --channel CH --device NAME --node-id N` (or `--qemu`): the bench check of a board.
 
 mod bench;
 mod demo;
+mod hil;
 mod images;
 mod measure;
 
@@ -62,6 +64,8 @@ enum Task {
     Qemu(images::QemuArgs),
     /// python-canopen against every QEMU image.
     Smoke,
+    /// The bench check of a board through a python-can adapter (or of a QEMU image with --qemu).
+    Hil(hil::HilArgs),
     /// Flash and RAM of the core and of each device on thumbv7m.
     Size,
     /// Instructions per handled frame (host under callgrind, thumbv7m in QEMU).
@@ -83,6 +87,7 @@ fn main() -> ExitCode {
         Task::Build => images::build(),
         Task::Qemu(args) => images::qemu(&args),
         Task::Smoke => images::smoke(),
+        Task::Hil(args) => hil::hil(&args),
         Task::Size => measure::size(),
         Task::Icount { n } => measure::icount(n),
     };
@@ -135,6 +140,7 @@ fn test() -> Result<(), String> {
     ensure_apt(&[("qemu-system-arm", "qemu-system-arm"), ("arm-none-eabi-size", "binutils-arm-none-eabi")])?;
     images::build()?;
     images::smoke()?;
+    hil::qemu_all()?;
     demo::demo(&demo::DemoArgs::default())?;
     eprintln!("xtask test: all checks passed");
     Ok(())

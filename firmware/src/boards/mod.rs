@@ -23,6 +23,8 @@ pub mod stm32f103;
 #[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
 mod mem;
 #[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
+mod stack;
+#[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
 mod systick;
 
 /// Bytes of a storage region for a dictionary whose RAM image is `image`

@@ -1,102 +1,130 @@
-//! `vnode`: one device node running in real time, its CAN side served as
-//! SLCAN over TCP, so python-can (`interface="slcan"`,
+//! `vnode`: one device node running in real time on a virtual bus served
+//! as SLCAN over TCP, so python-can (`interface="slcan"`,
 //! `channel="socket://127.0.0.1:PORT"`) and python-canopen can drive it.
 //!
 //! ```text
-//! vnode --device ec5000 --node-id 5 --listen 127.0.0.1:4557 [--storage FILE]
+//! vnode --device ec5000 --node-id 5 --listen 127.0.0.1:4557 [--storage FILE] [--trace [FILE]]
 //! vnode --list
 //! ```
+//!
+//! Every client is an adapter on the same bus ([`SlcanServer`]): it sees
+//! the node's frames and the other clients' frames. The node handles each
+//! frame it receives and hands out what that queued before it takes the
+//! next. The first line on stdout names the port; everything else vnode
+//! has to say (clients coming and going, frames dropped for a client that
+//! does not read, bit-rate switches) goes to stderr, at most once a second
+//! per subject, and a closed stdout or stderr never stops the node.
 
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::mpsc::RecvTimeoutError;
-use std::time::Duration as StdDuration;
+use std::sync::mpsc::{RecvTimeoutError, TrySendError};
+use std::time::{Duration as StdDuration, SystemTime, UNIX_EPOCH};
 
 use canopen_core::node::{Application, NoApplication, Node};
 use canopen_core::od::ObjectDictionary;
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
+use clap::Parser;
 use firmware::devices::{self, agile, bmaxx4400, ec5000, sendix, unitek_ds};
-use hal_host::slcan::SlcanServer;
+use hal_host::bus::BitRate;
+use hal_host::slcan::{ServerOptions, SlcanServer};
 use hal_host::storage::{FileStorage, MemStorage};
-use hal_host::trace::format_frame;
-
-const USAGE: &str = "usage: vnode --device NAME --node-id N --listen ADDR [--serial N] [--storage FILE] [--trace]\n       vnode --list\n(--node-id 255: an LSS-unconfigured node)";
+use hal_host::trace::BackgroundLog;
 
 /// Bytes per storage region: room for the largest device image.
 const REGION: usize = 4096;
+/// Trace lines that may wait for the trace writer before lines are dropped.
+const TRACE_QUEUE: usize = 4096;
+/// How often vnode looks at its clients and its trace to report on them.
+const REPORT_EVERY: StdDuration = StdDuration::from_secs(1);
+/// The interface name in trace lines.
+const TRACE_IFACE: &str = "can0";
+/// The device names `--device` takes: the firmware's devices and the interop test fixture.
+const DEVICES: [&str; 6] = ["ec5000", "unitek-ds", "sendix", "bmaxx4400", "agile", "interop"];
 
-struct Options {
-    device: String,
-    node_id: u8,
+/// One CANopen device node on a virtual bus, served as SLCAN over TCP.
+#[derive(Parser)]
+#[command(
+    name = "vnode",
+    version,
+    after_help = "Every SLCAN client is an adapter on the same bus. The first line on stdout names the port."
+)]
+struct Cli {
+    /// The device to run (`--list` names them).
+    #[arg(long, value_name = "NAME", required_unless_present = "list", value_parser = DEVICES)]
+    device: Option<String>,
+    /// The node-id: 1..=127, or 255 for an LSS-unconfigured node.
+    #[arg(long, value_name = "N", required_unless_present = "list", value_parser = node_id)]
+    node_id: Option<u8>,
+    /// Where to serve SLCAN over TCP (port 0: a free port).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:0")]
     listen: String,
-    storage: Option<String>,
+    /// The identity serial number (0x1018:4, LSS), decimal or 0x-hex.
+    #[arg(long, value_name = "N", value_parser = serial)]
     serial: Option<u32>,
-    trace: bool,
+    /// Keep the node's stored parameters in FILE (created if missing).
+    #[arg(long, value_name = "FILE")]
+    storage: Option<PathBuf>,
+    /// Log every frame on the bus in candump's log format to FILE (no FILE, or `-`: stdout).
+    #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "-")]
+    trace: Option<PathBuf>,
+    /// The bus's bit rate in kbit/s, until LSS switches it (a rate stored in the node comes first).
+    #[arg(long, value_name = "KBIT", default_value_t = 1000, value_parser = bitrate_kbit)]
+    bitrate: u32,
+    /// List the devices and exit.
+    #[arg(long, exclusive = true)]
+    list: bool,
 }
 
-fn parse(args: &[String]) -> Result<Option<Options>, String> {
-    let mut o = Options { device: String::new(), node_id: 0, listen: "127.0.0.1:0".into(), storage: None, serial: None, trace: false };
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = || it.next().cloned().ok_or_else(|| format!("{a} needs a value\n{USAGE}"));
-        match a.as_str() {
-            "--list" => return Ok(None),
-            "--device" => o.device = value()?,
-            "--node-id" => {
-                let v = value()?;
-                o.node_id = v.parse().map_err(|_| format!("--node-id {v}: not a number"))?;
-            }
-            "--listen" => o.listen = value()?,
-            "--storage" => o.storage = Some(value()?),
-            "--serial" => {
-                let v = value()?;
-                let parsed = match v.strip_prefix("0x") {
-                    Some(hex) => u32::from_str_radix(hex, 16),
-                    None => v.parse(),
-                };
-                o.serial = Some(parsed.map_err(|_| format!("--serial {v}: not a number"))?);
-            }
-            "--trace" => o.trace = true,
-            other => return Err(format!("unknown argument {other}\n{USAGE}")),
-        }
+fn node_id(s: &str) -> Result<u8, String> {
+    match s.parse::<u8>() {
+        Ok(id @ (1..=127 | 255)) => Ok(id),
+        _ => Err("must be 1..=127, or 255 for an unconfigured node".into()),
     }
-    if o.device.is_empty() {
-        return Err(USAGE.into());
-    }
-    if !(1..=127).contains(&o.node_id) && o.node_id != 255 {
-        return Err(format!("--node-id must be 1..=127, or 255 for an unconfigured node\n{USAGE}"));
-    }
-    Ok(Some(o))
+}
+
+fn serial(s: &str) -> Result<u32, String> {
+    let parsed = match s.strip_prefix("0x") {
+        Some(hex) => u32::from_str_radix(hex, 16),
+        None => s.parse(),
+    };
+    parsed.map_err(|e| format!("not a 32-bit number ({e})"))
+}
+
+fn bitrate_kbit(s: &str) -> Result<u32, String> {
+    const RATES: [u32; 9] = [10, 20, 50, 100, 125, 250, 500, 800, 1000];
+    s.parse().ok().filter(|k| RATES.contains(k)).ok_or_else(|| format!("must be one of {RATES:?}"))
+}
+
+/// Writes a line to stderr; a closed stderr is not vnode's problem.
+fn note(msg: std::fmt::Arguments<'_>) {
+    let _ = writeln!(std::io::stderr().lock(), "vnode: {msg}");
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let opts = match parse(&args) {
-        Ok(Some(o)) => o,
-        Ok(None) => {
-            for d in &devices::ALL {
-                println!("{:<10} {}", d.name, d.description);
-            }
-            println!("interop    test fixture, not a device: tests/eds/interop.eds (every SDO transfer size, 4+4 PDOs)");
-            return ExitCode::SUCCESS;
+    let cli = Cli::parse();
+    let (Some(device), Some(id)) = (cli.device.clone(), cli.node_id) else {
+        let mut out = std::io::stdout().lock();
+        for d in &devices::ALL {
+            let _ = writeln!(out, "{:<10} {}", d.name, d.description);
         }
-        Err(e) => {
-            eprintln!("{e}");
-            return ExitCode::from(2);
-        }
+        let _ = writeln!(out, "interop    test fixture, not a device: tests/eds/interop.eds (every SDO transfer size, 4+4 PDOs)");
+        return ExitCode::SUCCESS;
     };
-    let storage: Box<dyn Storage> = match &opts.storage {
+    let storage: Box<dyn Storage> = match &cli.storage {
         Some(path) => match FileStorage::open(path, REGION) {
             Ok(s) => Box::new(s),
             Err(e) => {
-                eprintln!("vnode: {path}: {e}");
+                note(format_args!("{}: {e}", path.display()));
                 return ExitCode::FAILURE;
             }
         },
         None => Box::new(MemStorage::new(REGION)),
     };
-    let id = opts.node_id;
-    let result = match opts.device.as_str() {
+    let result = match device.as_str() {
         "ec5000" => serve::<
             _,
             _,
@@ -104,7 +132,7 @@ fn main() -> ExitCode {
             { ec5000::od::TPDO_COUNT },
             { ec5000::od::HB_CONSUMER_COUNT },
             { ec5000::od::SDO_SERVERS },
-        >(ec5000::od::Ram::new(id), ec5000::App::NEW, storage, &opts),
+        >(ec5000::od::Ram::new(id), ec5000::App::NEW, storage, &cli),
         "unitek-ds" => serve::<
             _,
             _,
@@ -112,7 +140,7 @@ fn main() -> ExitCode {
             { unitek_ds::od::TPDO_COUNT },
             { unitek_ds::od::HB_CONSUMER_COUNT },
             { unitek_ds::od::SDO_SERVERS },
-        >(unitek_ds::od::Ram::new(id), unitek_ds::App::NEW, storage, &opts),
+        >(unitek_ds::od::Ram::new(id), unitek_ds::App::NEW, storage, &cli),
         "sendix" => serve::<
             _,
             _,
@@ -120,7 +148,7 @@ fn main() -> ExitCode {
             { sendix::od::TPDO_COUNT },
             { sendix::od::HB_CONSUMER_COUNT },
             { sendix::od::SDO_SERVERS },
-        >(sendix::od::Ram::new(id), sendix::App::NEW, storage, &opts),
+        >(sendix::od::Ram::new(id), sendix::App::NEW, storage, &cli),
         "bmaxx4400" => serve::<
             _,
             _,
@@ -128,30 +156,29 @@ fn main() -> ExitCode {
             { bmaxx4400::od::TPDO_COUNT },
             { bmaxx4400::od::HB_CONSUMER_COUNT },
             { bmaxx4400::od::SDO_SERVERS },
-        >(bmaxx4400::od::Ram::new(id), bmaxx4400::App::NEW, storage, &opts),
-        "interop" => {
-            use hal_host::fixtures::interop::od as fx;
-            serve::<_, _, { fx::RPDO_COUNT }, { fx::TPDO_COUNT }, { fx::HB_CONSUMER_COUNT }, { fx::SDO_SERVERS }>(
-                fx::Ram::new(id),
-                NoApplication,
-                storage,
-                &opts,
-            )
-        }
+        >(bmaxx4400::od::Ram::new(id), bmaxx4400::App::NEW, storage, &cli),
         "agile" => {
             serve::<_, _, { agile::od::RPDO_COUNT }, { agile::od::TPDO_COUNT }, { agile::od::HB_CONSUMER_COUNT }, { agile::od::SDO_SERVERS }>(
                 agile::od::Ram::new(id),
                 agile::App::NEW,
                 storage,
-                &opts,
+                &cli,
             )
         }
-        other => Err(format!("unknown device {other}; `vnode --list` names them")),
+        _ => {
+            use hal_host::fixtures::interop::od as fx;
+            serve::<_, _, { fx::RPDO_COUNT }, { fx::TPDO_COUNT }, { fx::HB_CONSUMER_COUNT }, { fx::SDO_SERVERS }>(
+                fx::Ram::new(id),
+                NoApplication,
+                storage,
+                &cli,
+            )
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("vnode: {e}");
+            note(format_args!("{e}"));
             ExitCode::FAILURE
         }
     }
@@ -175,56 +202,160 @@ impl Storage for Boxed {
     }
 }
 
+/// The node vnode runs: the device's dictionary with the device's own hooks
+/// (`app`), as its image does, its storage, the node-id and serial number
+/// from the command line.
+fn new_node<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize, const SDO: usize>(
+    od: O,
+    app: A,
+    storage: Box<dyn Storage>,
+    cli: &Cli,
+    now: Instant,
+) -> Node<O, A, Boxed, R, T, HB, SDO> {
+    let mut node = Node::new(od, app, Boxed(storage), cli.node_id.unwrap_or(255), now);
+    if let Some(serial) = cli.serial {
+        node.set_serial_number(serial);
+    }
+    node
+}
+
+/// Wall time since the Unix epoch, for trace lines.
+fn wall_clock() -> Instant {
+    Instant::from_micros(SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_micros() as u64))
+}
+
+fn open_trace(target: &std::path::Path) -> Result<BackgroundLog, String> {
+    let out: Box<dyn Write + Send> = if target.as_os_str() == "-" {
+        Box::new(std::io::stdout())
+    } else {
+        Box::new(std::fs::File::create(target).map_err(|e| format!("{}: {e}", target.display()))?)
+    };
+    BackgroundLog::spawn(out, TRACE_IFACE, TRACE_QUEUE).map_err(|e| format!("trace writer: {e}"))
+}
+
 /// Runs the device's dictionary with the device's own hooks (`app`), as its image does.
 fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize, const SDO: usize>(
     od: O,
     app: A,
     storage: Box<dyn Storage>,
-    opts: &Options,
+    cli: &Cli,
 ) -> Result<(), String> {
-    let (server, channels) = SlcanServer::bind(opts.listen.as_str()).map_err(|e| format!("{}: {e}", opts.listen))?;
-    // Test harnesses read this line to learn the port.
-    println!("vnode {} node {} listening on {}", opts.device, opts.node_id, server.local_addr());
     let start = std::time::Instant::now();
     let clock = || Instant::from_micros(start.elapsed().as_micros() as u64);
-    let mut node: Node<O, A, Boxed, R, T, HB, SDO> = Node::new(od, app, Boxed(storage), opts.node_id, clock());
-    if let Some(serial) = opts.serial {
-        node.set_serial_number(serial);
+    let mut node: Node<O, A, Boxed, R, T, HB, SDO> = new_node(od, app, storage, cli, clock());
+    // A bit rate the node keeps in its stored configuration is the bus's.
+    let stored = node.bit_rate().and_then(BitRate::from_cia_index);
+    let bit_rate = stored.or(BitRate::new(cli.bitrate * 1000)).unwrap_or(BitRate::MBIT_1);
+    let options = ServerOptions { bit_rate, ..ServerOptions::default() };
+    let (server, channels) = SlcanServer::bind_with(cli.listen.as_str(), options).map_err(|e| format!("{}: {e}", cli.listen))?;
+    {
+        // Test harnesses read this line to learn the port; they may close stdout afterwards.
+        let mut out = std::io::stdout().lock();
+        let device = cli.device.as_deref().unwrap_or_default();
+        let _ = writeln!(out, "vnode {device} node {} listening on {}", cli.node_id.unwrap_or(255), server.local_addr());
+        let _ = out.flush();
     }
+    let mut trace = cli.trace.as_deref().map(open_trace).transpose()?;
+    let mut report = Reporter::default();
+    // A frame the node sent that the wire had no room for yet.
+    let mut held = None;
     loop {
         let now = clock();
         let deadline = node.process(now);
         if let Some(index) = node.take_bit_rate_change() {
-            // SLCAN has no way to tell the client; the virtual wire carries every rate.
-            println!("bit rate switched to CiA 305 table index {index}");
-        }
-        while let Some(frame) = node.transmit() {
-            if opts.trace {
-                println!("tx {}", format_frame(&frame));
-            }
-            if channels.to_client.send(frame).is_err() {
-                return Ok(());
+            match BitRate::from_cia_index(index) {
+                Some(rate) => {
+                    server.set_bit_rate(rate);
+                    note(format_args!("bit rate switched to {} kbit/s (CiA 305 table index {index})", rate.bps() / 1000));
+                }
+                None => note(format_args!("LSS activate bit timing with table index {index}, which names no rate: bit rate unchanged")),
             }
         }
-        // Sleep until the next deadline or frame, at most 50 ms so a dropped client is noticed.
-        let wait = deadline.map_or(StdDuration::from_millis(50), |d| {
-            StdDuration::from_micros(d.as_micros().saturating_sub(clock().as_micros())).min(StdDuration::from_millis(50))
-        });
+        // Everything the last frame or timer queued goes to the wire before
+        // the next frame is taken, as long as the wire has room; what it has
+        // no room for waits in the node's transmit queue, as on a board.
+        while let Some(frame) = held.take().or_else(|| node.transmit()) {
+            match channels.to_client.try_send(frame) {
+                Ok(()) => {
+                    if let Some(t) = trace.as_mut() {
+                        t.record(wall_clock(), &frame);
+                    }
+                }
+                Err(TrySendError::Full(frame)) => {
+                    held = Some(frame);
+                    break;
+                }
+                Err(TrySendError::Disconnected(_)) => return Ok(()),
+            }
+        }
+        report.tick(&server, trace.as_ref());
+        // Sleep until the next deadline or frame, at most 50 ms so reports
+        // keep coming, and 1 ms while a frame waits for room on the wire.
+        let longest = if held.is_some() { StdDuration::from_millis(1) } else { StdDuration::from_millis(50) };
+        let wait = deadline.map_or(longest, |d| StdDuration::from_micros(d.as_micros().saturating_sub(clock().as_micros())).min(longest));
         match channels.from_client.recv_timeout(wait) {
             Ok(frame) => {
-                if opts.trace {
-                    println!("rx {}", format_frame(&frame));
+                if let Some(t) = trace.as_mut() {
+                    t.record(wall_clock(), &frame);
                 }
                 node.on_frame(clock(), &frame);
-                // Each frame is followed by `process`, as on a board: a reset
-                // sends its boot-up before the next frame is looked at.
-                while let Ok(frame) = channels.from_client.try_recv() {
-                    node.process(clock());
-                    node.on_frame(clock(), &frame);
-                }
             }
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => return Ok(()),
+        }
+    }
+}
+
+/// What vnode last told about its clients and its trace.
+#[derive(Default)]
+struct Reporter {
+    last: Option<std::time::Instant>,
+    clients: BTreeMap<SocketAddr, u64>,
+    refused: u64,
+    trace_dropped: u64,
+    trace_failed: bool,
+}
+
+impl Reporter {
+    /// Reports, at most once per [`REPORT_EVERY`], clients that came or
+    /// went, frames dropped for a client that does not read, refused
+    /// connections and trace lines dropped.
+    fn tick(&mut self, server: &SlcanServer, trace: Option<&BackgroundLog>) {
+        if self.last.is_some_and(|t| t.elapsed() < REPORT_EVERY) {
+            return;
+        }
+        self.last = Some(std::time::Instant::now());
+        let now: BTreeMap<SocketAddr, u64> = server.clients().iter().map(|c| (c.peer, c.dropped)).collect();
+        for (peer, &dropped) in &now {
+            match self.clients.get(peer) {
+                None => note(format_args!("client {peer} connected ({} connected)", now.len())),
+                Some(&before) if dropped > before => note(format_args!(
+                    "client {peer} is not reading: {} frames dropped ({dropped} in all; the newest are dropped once {} KiB wait)",
+                    dropped - before,
+                    server.options().client_queue_bytes / 1024
+                )),
+                Some(_) => {}
+            }
+        }
+        for (peer, dropped) in &self.clients {
+            if !now.contains_key(peer) {
+                note(format_args!("client {peer} disconnected ({dropped} frames dropped for it)"));
+            }
+        }
+        self.clients = now;
+        if server.refused() > self.refused {
+            self.refused = server.refused();
+            note(format_args!("{} connections refused in all: too many clients", self.refused));
+        }
+        if let Some(t) = trace {
+            if t.dropped() > self.trace_dropped {
+                note(format_args!("trace: {} lines dropped in all (the trace output is behind)", t.dropped()));
+                self.trace_dropped = t.dropped();
+            }
+            if let (Some(e), false) = (t.error(), self.trace_failed) {
+                note(format_args!("trace stopped: {e}"));
+                self.trace_failed = true;
+            }
         }
     }
 }

@@ -1,10 +1,7 @@
-//! SLCAN tests: exact strings both ways, every malformed case, and the TCP
-//! server (the only test here that touches the wall clock, for timeouts).
+//! SLCAN tests: exact strings both ways and every malformed case (the TCP
+//! server's are in `server_tests.rs`).
 
 use super::*;
-use std::io::{Read, Write};
-use std::net::TcpStream;
-use std::time::Duration as WallDuration;
 
 fn std(id: u16, data: &[u8]) -> CanFrame {
     CanFrame::standard(id, data).unwrap()
@@ -219,35 +216,4 @@ fn adapter_answers_every_garbage_line_exactly_once() {
     }
     let answers = reply.iter().filter(|&&b| b == CR || b == BEL).count();
     assert_eq!(answers, lines);
-}
-
-fn read_n(s: &mut TcpStream, n: usize) -> String {
-    let mut buf = vec![0; n];
-    s.read_exact(&mut buf).unwrap();
-    String::from_utf8(buf).unwrap()
-}
-
-#[test]
-fn tcp_server_bridges_a_client_to_channels() {
-    let timeout = WallDuration::from_secs(10);
-    let (server, ch) = SlcanServer::bind("127.0.0.1:0").unwrap();
-    assert!(!server.status().connected);
-    for round in 0..2 {
-        let mut c = TcpStream::connect(server.local_addr()).unwrap();
-        c.set_read_timeout(Some(timeout)).unwrap();
-        c.write_all(b"S8\rO\r").unwrap();
-        assert_eq!(read_n(&mut c, 2), "\r\r", "round {round}");
-        let st = server.status();
-        assert_eq!((st.connected, st.state, st.bitrate), (true, ChannelState::Open, Some(BitRate::MBIT_1)));
-        c.write_all(b"t60184000100000000000\r").unwrap();
-        assert_eq!(read_n(&mut c, 2), "z\r");
-        let got = ch.from_client.recv_timeout(timeout).unwrap();
-        assert_eq!(got, std(0x601, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]));
-        ch.to_client.send(std(0x581, &[0x43, 0x00, 0x10, 0x00, 0x92, 0x01, 0x02, 0x00])).unwrap();
-        assert_eq!(read_n(&mut c, 22), "t58184300100092010200\r");
-        c.write_all(b"t8000\r").unwrap();
-        assert_eq!(read_n(&mut c, 1), "\x07");
-        assert_eq!(server.status().errors, 1);
-    }
-    server.shutdown();
 }

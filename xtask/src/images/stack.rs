@@ -74,7 +74,7 @@ impl Estimate {
 pub fn handlers(board: &str) -> &'static [(&'static str, u8)] {
     match board {
         "qemu" => &[("SysTick", 0), ("UART0", 0), ("GPIOA", 1)],
-        "stm32f103" => &[("SysTick", 0), ("USB_HP_CAN_TX", 1), ("USB_LP_CAN_RX0", 1), ("CAN_SCE", 1), ("TAMPER", 1)],
+        "stm32f103" => &[("SysTick", 0), ("USB_HP_CAN_TX", 1), ("USB_LP_CAN_RX0", 1), ("CAN_SCE", 1), ("TAMPER", 2)],
         _ => &[],
     }
 }

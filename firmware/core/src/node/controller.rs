@@ -52,8 +52,12 @@ pub(super) struct ControllerErrors {
     lost: u32,
     /// Bus-off recoveries since power-on (wrapping).
     recoveries: u32,
+    /// When the frame loss clears, if it is active.
     overrun_clears_at: Option<Instant>,
+    /// When the bus-off recovery clears, if it is active.
     bus_off_clears_at: Option<Instant>,
+    /// The earlier of the two: [`ControllerErrors::poll`] compares only this.
+    clears_at: Option<Instant>,
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
     raise_passive: bool,
@@ -61,23 +65,30 @@ pub(super) struct ControllerErrors {
 
 impl ControllerErrors {
     pub(super) const fn new() -> Self {
-        ControllerErrors { lost: 0, recoveries: 0, overrun_clears_at: None, bus_off_clears_at: None, passive: false, raise_passive: false }
+        ControllerErrors {
+            lost: 0,
+            recoveries: 0,
+            overrun_clears_at: None,
+            bus_off_clears_at: None,
+            clears_at: None,
+            passive: false,
+            raise_passive: false,
+        }
     }
 
     fn on_event(&mut self, event: ControllerEvent, now: Instant, emcy: &mut EmcyQueue) {
-        let hold = now + TRANSIENT_ERROR_HOLD;
         match event {
             ControllerEvent::RxOverrun { lost: 0 } => {}
             ControllerEvent::RxOverrun { lost } => {
                 self.lost = self.lost.wrapping_add(lost);
                 // Manufacturer-specific field: frames lost so far.
                 emcy.raise(code::CAN_OVERRUN, count(self.lost));
-                self.overrun_clears_at = Some(hold);
+                self.overrun_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
                 emcy.raise(code::BUS_OFF_RECOVERED, count(self.recoveries));
-                self.bus_off_clears_at = Some(hold);
+                self.bus_off_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
@@ -89,12 +100,20 @@ impl ControllerErrors {
             }
             ControllerEvent::ErrorPassive | ControllerEvent::ErrorActive => {}
         }
+        self.clears_at = earliest(self.overrun_clears_at, self.bus_off_clears_at);
     }
 
     /// Clears what stayed quiet long enough; the next deadline, if any.
     /// `booted`: the boot-up left in an earlier call (the transmit queue
-    /// sends by identifier, and nothing may precede the boot-up).
+    /// sends by identifier, and nothing may precede the boot-up). Every
+    /// `Node::process` asks, so the common answer takes one compare.
+    #[inline(always)]
     pub(super) fn poll(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
+        if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) { self.poll_due(now, booted, emcy) } else { self.clears_at }
+    }
+
+    #[inline(never)]
+    fn poll_due(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
         if self.raise_passive {
             if !booted {
                 return Some(now);
@@ -109,7 +128,8 @@ impl ControllerErrors {
                 emcy.clear(error);
             }
         }
-        earliest(self.overrun_clears_at, self.bus_off_clears_at)
+        self.clears_at = earliest(self.overrun_clears_at, self.bus_off_clears_at);
+        self.clears_at
     }
 
     /// Reset communication forgot every active error: a controller still
@@ -118,6 +138,7 @@ impl ControllerErrors {
     pub(super) fn reset(&mut self) {
         self.overrun_clears_at = None;
         self.bus_off_clears_at = None;
+        self.clears_at = None;
         self.raise_passive = self.passive;
     }
 }

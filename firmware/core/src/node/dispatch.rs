@@ -21,7 +21,9 @@ use crate::txq::TxQueue;
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
-    /// Handles one received frame. Bounded work; call it from the CAN RX interrupt.
+    /// Handles one received frame. Bounded work, but an NMT reset or a
+    /// stored set takes long (docs/firmware.md, "Longest step"): call it
+    /// from a task that owns the node, not from the CAN RX interrupt.
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
         use embedded_can::Frame;
         self.counters.rx = self.counters.rx.wrapping_add(1);

@@ -7,7 +7,6 @@ use crate::services::heartbeat::ConsumerEvent;
 use crate::services::nmt::State;
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
-use crate::wire::emcy::code;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtState};
 
 use super::router::Router;
@@ -94,11 +93,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         let controller_deadline = self.controller.poll(now, booted, &mut self.comm.emcy);
+        // Transmit queue overflow (0x8110, once), cleared once the queue drained.
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
-            self.comm.emcy.signal(code::CAN_OVERRUN, [0; 5]);
+            self.comm.emcy.tx_overflow(self.reported_overflows);
+        } else if self.txq.is_empty() {
+            self.comm.emcy.tx_drained();
         }
-        if self.nmt.state().sdo_allowed() {
+        // Not in the call that queues the boot-up: the queue sends by
+        // priority, and an EMCY (0x80 + id) would leave before the boot-up
+        // (0x700 + id), which CiA 301 forbids. The EMCY deadline brings the next call.
+        if booted && self.nmt.state().sdo_allowed() {
             // EMCY off: errors still reach the error register and the history.
             while let Some(e) = self.comm.emcy.take_unsent() {
                 let dict = self.od.dictionary();
@@ -124,8 +129,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
             switch_deadline,
             app_deadline,
-            controller_deadline,
         ];
-        deadlines.into_iter().fold(None, earliest)
+        // Outside the array: nearly always `None`, and each element costs every call.
+        let deadline = deadlines.into_iter().fold(None, earliest);
+        if controller_deadline.is_some() { earliest(deadline, controller_deadline) } else { deadline }
     }
 }

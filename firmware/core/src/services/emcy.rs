@@ -7,7 +7,7 @@
 //! generic bit of the error register, so the loss is visible.
 
 use crate::time::{Duration, Instant};
-use crate::wire::emcy::Emcy;
+use crate::wire::emcy::{Emcy, code};
 
 /// Error register bits (0x1001, CiA 301 table 47).
 pub mod register {
@@ -54,6 +54,10 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     len: usize,
     overflows: u32,
     lost_errors: bool,
+    /// The transmit queue refused frames and has not drained since: an
+    /// error of its own, beside the active list, because it shares its code
+    /// (0x8110) with the receive overrun, which comes and goes apart from it.
+    tx_overflow: bool,
 }
 
 impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {
@@ -77,6 +81,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             len: 0,
             overflows: 0,
             lost_errors: false,
+            tx_overflow: false,
         }
     }
 
@@ -93,7 +98,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// The error register as the active errors make it.
     pub fn register(&self) -> u8 {
-        let mut r = if self.active_len > 0 || self.lost_errors { register::GENERIC } else { 0 };
+        let mut r = if self.active_len > 0 || self.lost_errors || self.tx_overflow { register::GENERIC } else { 0 };
+        if self.tx_overflow {
+            r |= register_bit(code::CAN_OVERRUN);
+        }
         for &code in self.active.iter().take(self.active_len) {
             r |= register_bit(code);
         }
@@ -130,6 +138,38 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.push(Emcy { code, register, info });
     }
 
+    /// The transmit queue refused frames (`refused`: so far): raises 0x8110
+    /// once, with bytes 3–6 the count and byte 7 = 1 (transmit; a receive
+    /// overrun has 0 there), until [`EmcyProducer::tx_drained`]. Apart from
+    /// the receive overrun's 0x8110: each raises and clears on its own.
+    pub fn tx_overflow(&mut self, refused: u32) {
+        if self.tx_overflow {
+            return;
+        }
+        self.tx_overflow = true;
+        let [a, b, c, d] = refused.to_le_bytes();
+        let register = self.register();
+        self.push(Emcy { code: code::CAN_OVERRUN, register, info: [a, b, c, d, 1] });
+    }
+
+    /// The transmit queue drained after an overflow: the error clears, and
+    /// "error reset" goes out if no other error is active.
+    pub fn tx_drained(&mut self) {
+        if !self.tx_overflow {
+            return;
+        }
+        self.tx_overflow = false;
+        if self.active_len == 0 {
+            self.lost_errors = false;
+            self.push(Emcy { code: 0, register: self.register(), info: [0; 5] });
+        }
+    }
+
+    /// Whether a transmit queue overflow is active.
+    pub fn tx_overflow_active(&self) -> bool {
+        self.tx_overflow
+    }
+
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
     pub fn clear(&mut self, code: u16) {
         let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
@@ -141,7 +181,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             }
         }
         self.active_len -= 1;
-        if self.active_len == 0 {
+        if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
             self.push(Emcy { code: 0, register: self.register(), info: [0; 5] });
         }
@@ -210,7 +250,6 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::emcy::code;
 
     fn us(n: u64) -> Instant {
         Instant::from_micros(n)

@@ -21,9 +21,9 @@ use static_cell::StaticCell;
 
 use super::ram_storage::RamStorage;
 use super::slcan::{self, BEL, Channel, Command, Decoder, FRAME_LINE};
-use super::{stack, uart};
+use super::uart;
 use crate::app::{self, CanNode, Controller, SHARED, Started};
-use crate::boards::systick;
+use crate::boards::{stack, systick};
 
 /// Nothing to configure: the emulated bus has no bit rate.
 #[derive(Clone, Copy, Debug)]

@@ -18,13 +18,12 @@
 //! ([`exit_report`], on QEMU's stderr):
 //! `stack.rs` paints the stack at start-up and finds the high-water mark.
 
+pub mod host_file;
 pub mod ram_storage;
 pub mod slcan;
 
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
 mod board;
-#[cfg(all(target_os = "none", feature = "board-qemu"))]
-mod stack;
 #[cfg(all(target_os = "none", feature = "board-qemu"))]
 mod uart;
 

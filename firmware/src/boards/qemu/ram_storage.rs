@@ -1,9 +1,14 @@
 //! Storage for the QEMU board: two regions of RAM that behave like flash
 //! (erase sets 0xFF, programming only clears bits). lm3s6965evb's flash
 //! controller is not emulated by QEMU, so stored parameters last until the
-//! emulator exits; that is enough to exercise 0x1010/0x1011 end to end.
+//! emulator exits, unless QEMU's working directory holds the file
+//! [`super::host_file::NAME`]: then every erase and write goes through to it and
+//! start-up loads it, so the parameters survive a restart of QEMU (a power
+//! cycle; `cargo xtask hil`).
 
 use canopen_core::storage::{Storage, StorageError};
+
+use super::host_file::HostFile;
 
 /// What [`RamStorage::attach`] takes: nothing.
 pub type StorageHandle = ();
@@ -17,6 +22,8 @@ pub type StorageHandle = ();
 pub struct RamStorage<const REGION: usize> {
     /// Each byte's complement.
     regions: [[u8; REGION]; 2],
+    /// The host file the regions are kept in, if any.
+    file: Option<HostFile>,
 }
 
 impl<const REGION: usize> Default for RamStorage<REGION> {
@@ -28,11 +35,41 @@ impl<const REGION: usize> Default for RamStorage<REGION> {
 impl<const REGION: usize> RamStorage<REGION> {
     /// Both regions erased.
     pub const fn new() -> Self {
-        RamStorage { regions: [[0; REGION]; 2] }
+        RamStorage { regions: [[0; REGION]; 2], file: None }
     }
 
-    /// RAM needs no handle: the same start-up as the boards with a flash controller.
-    pub fn attach(&mut self, _handle: StorageHandle) {}
+    /// RAM needs no handle (the same start-up as the boards with a flash
+    /// controller); loads the host file if there is one, or makes it erased.
+    pub fn attach(&mut self, _handle: StorageHandle) {
+        self.file = HostFile::open();
+        let Some(file) = self.file else { return };
+        let loaded = file.size() == 2 * REGION && self.regions.iter_mut().enumerate().all(|(i, r)| file.read_at(i * REGION, r));
+        for region in &mut self.regions {
+            if loaded {
+                region.iter_mut().for_each(|b| *b = !*b);
+            } else {
+                region.fill(0);
+            }
+        }
+        if !loaded {
+            (0..2).for_each(|i| self.persist(i, 0, REGION));
+        }
+    }
+
+    /// Writes `len` bytes at `offset` of `region` through to the host file.
+    fn persist(&mut self, region: usize, offset: usize, len: usize) {
+        let Some(file) = self.file else { return };
+        let Some(cells) = self.regions.get(region).and_then(|r| r.get(offset..offset + len)) else { return };
+        let mut chunk = [0u8; 64];
+        for (i, part) in cells.chunks(chunk.len()).enumerate() {
+            let Some(out) = chunk.get_mut(..part.len()) else { return };
+            out.iter_mut().zip(part).for_each(|(o, c)| *o = !c);
+            if !file.write_at(region * REGION + offset + i * 64, out) {
+                self.file = None;
+                return;
+            }
+        }
+    }
 
     fn span(&mut self, region: u8, offset: usize, len: usize) -> Result<&mut [u8], StorageError> {
         let region = self.regions.get_mut(usize::from(region)).ok_or(StorageError::OutOfRange)?;
@@ -63,6 +100,7 @@ impl<const REGION: usize> Storage for RamStorage<REGION> {
 
     fn erase(&mut self, region: u8) -> Result<(), StorageError> {
         self.span(region, 0, REGION)?.fill(0);
+        self.persist(usize::from(region), 0, REGION);
         Ok(())
     }
 
@@ -71,6 +109,7 @@ impl<const REGION: usize> Storage for RamStorage<REGION> {
         for (cell, &byte) in self.span(region, offset, data.len())?.iter_mut().zip(data) {
             *cell |= !byte;
         }
+        self.persist(usize::from(region), offset, data.len());
         Ok(())
     }
 }

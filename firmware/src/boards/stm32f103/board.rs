@@ -23,7 +23,7 @@ use super::flash::Flash;
 use super::flash_storage::{FlashStorage, Layout};
 use super::reset_cause::{self, ResetCause};
 use crate::app::{self, CanNode, Controller, SHARED, Started};
-use crate::boards::systick;
+use crate::boards::{stack, systick};
 
 /// What differs between images on this board.
 #[derive(Clone, Copy, Debug)]
@@ -65,11 +65,14 @@ const PCLK1_HZ: u32 = 36_000_000;
 /// BTR per CiA 305 bit-rate index at [`PCLK1_HZ`] (what `rcc::Config`
 /// below gets exactly: SYSCLK / 2), computed at compile time.
 const BTR: [Option<u32>; 9] = bit_timing::table(PCLK1_HZ);
-/// Priority of the CAN interrupts and of the CANopen task's executor, so
-/// neither preempts the other. STM32F1 implements 4 priority bits, the top
-/// of the byte: this is level 1, below SysTick (level 0) and above thread
-/// mode.
+/// Priority of the CAN interrupts. STM32F1 implements 4 priority bits, the
+/// top of the byte: this is level 1, below SysTick (level 0). They only
+/// move frames and count events, so they may preempt the CANopen task and
+/// empty bxCAN's 3-frame FIFO while the node works.
 const CAN_PRIORITY: u8 = 1 << 4;
+/// Priority of the CANopen task's executor: level 2, below the CAN
+/// interrupts and above thread mode (the application slot).
+const EXECUTOR_PRIORITY: u8 = 2 << 4;
 /// The CANopen executor runs in the tamper interrupt's handler; the tamper
 /// pin is not used.
 const EXECUTOR_IRQ: Interrupt = Interrupt::TAMPER;
@@ -103,6 +106,7 @@ pub fn run<A>(
     make_node: impl FnOnce(StorageHandle, Instant) -> Started,
     application: Result<SpawnToken<A>, SpawnError>,
 ) -> ! {
+    stack::paint();
     let (Some(dp), Some(mut core)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         defmt::panic!("peripherals taken twice")
     };
@@ -127,6 +131,12 @@ pub fn run<A>(
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
     log_stored_sets(&mut flash);
     let started = Started::build(make_node, || flash, app::now());
+    // Why the last reset happened: an EMCY the node sends after its boot-up
+    // (it waits for the call after the one that queues the boot-up).
+    if let Some((code, info)) = cause.emcy(flags) {
+        started.node.raise_error(code, info);
+        defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
+    }
     let node_id = started.node.node_id();
     let lss = started.node.bit_rate();
     let index = lss.or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
@@ -153,10 +163,10 @@ pub fn run<A>(
     };
     defmt::info!("node-id {=u8}, CAN bit rate index {=u8} ({=str}), BTR {=u32:#010x}", node_id, index, source, btr);
 
-    for irq in CAN_IRQS.into_iter().chain([EXECUTOR_IRQ]) {
+    for (irq, priority) in CAN_IRQS.map(|irq| (irq, CAN_PRIORITY)).into_iter().chain([(EXECUTOR_IRQ, EXECUTOR_PRIORITY)]) {
         // SAFETY: priorities are set before the interrupts are unmasked and
         // the executor starts; no critical section relies on priorities.
-        unsafe { core.NVIC.set_priority(irq, CAN_PRIORITY) };
+        unsafe { core.NVIC.set_priority(irq, priority) };
     }
     for irq in CAN_IRQS {
         // SAFETY: the handlers in `can` are linked in and find the
@@ -248,26 +258,28 @@ async fn canopen(node: &'static mut dyn CanNode) -> ! {
 /// Feeds the watchdog every [`FEED_MS`] from the CANopen task's executor:
 /// while the CANopen task runs in a loop or hangs with interrupts masked,
 /// the executor never gets here and the watchdog resets the chip. Once the
-/// node has sent its boot-up, it reports why the last reset happened (an
-/// EMCY, cleared again a second later; the 0x1003 entry stays).
+/// node has sent its boot-up, the EMCY `run` raised for the cause of the
+/// last reset is cleared again a second later (the 0x1003 entry stays).
 #[embassy_executor::task]
 async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, flags: u8) -> ! {
-    let mut report = cause.emcy(flags);
-    let mut clear = None;
-    // The first feed comes before the boot-up; the node sends an EMCY raised
-    // later once it is Pre-operational (EMCY waits while it is not).
-    let mut first = true;
+    // Raised on the node at start-up (`run`); cleared a second after the boot-up.
+    let mut clear = cause.emcy(flags).map(|(code, _)| (code, 4u8));
+    let mut stack_used = 0;
+    let mut tick = 0u32;
     loop {
         watchdog.feed();
-        if first {
-            first = false;
-        } else if let Some((code, info)) = report.take() {
-            SHARED.raise_error(code, info).await;
-            defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
-            clear = Some((code, 4));
-        } else if let Some((code, ticks)) = clear {
+        // The stack's high-water mark, when it grew (checked every 10 s: a scan of the free RAM).
+        if tick.is_multiple_of(40) {
+            let used = stack::high_water();
+            if used > stack_used {
+                stack_used = used;
+                defmt::info!("stack: {=usize} of {=usize} bytes used at most", used, stack::size());
+            }
+        }
+        tick = tick.wrapping_add(1);
+        if let Some((code, ticks)) = clear {
             clear = if ticks == 0 {
-                SHARED.clear_error(code).await;
+                SHARED.clear_board_error(code);
                 None
             } else {
                 Some((code, ticks - 1))

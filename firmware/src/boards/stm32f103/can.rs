@@ -129,11 +129,15 @@ pub fn set_bit_timing(btr: u32, timeout_cycles: u32) -> Result<(), ()> {
 /// The bxCAN registers bxcan does not cover (RM0008 §24.9.2).
 fn registers() -> &'static pac::can::RegisterBlock {
     // SAFETY: the CAN register block is always mapped. The fields touched
-    // through it (IER.ERRIE/BOFIE/EPVIE, MSR.ERRI, ESR, MCR.INRQ, BTR, and the
-    // filter registers FMR, FM1R, FS1R, FFA1R, FA1R, FiRx) are not used by bxcan after
-    // `start`; they are accessed in `start` (before the interrupts are
-    // unmasked), in the CAN interrupts and by the CANopen task, which share
-    // one priority and so never preempt each other.
+    // through it are not used by bxcan after `start`; they are accessed in
+    // `start` (before the interrupts are unmasked), and then IER.ERRIE/BOFIE/
+    // EPVIE, MSR.ERRI and ESR only by the CAN interrupts (one priority, so
+    // they never preempt each other), MCR.INRQ, BTR and the filter registers
+    // FMR, FM1R, FS1R, FFA1R, FA1R, FiRx only by the CANopen task inside a
+    // critical section. The receive FIFO (RF0R, its mailbox) is read only by
+    // the FIFO 0 interrupt; the transmit mailboxes only by the CANopen task,
+    // which reads TSR, while the TX-empty interrupt only writes TSR's RQCP
+    // flags (write 1 to clear: mailbox contents, TME and CODE stay).
     unsafe { &*pac::CAN::ptr() }
 }
 
@@ -153,8 +157,8 @@ pub fn send(node: &mut dyn CanNode) {
 }
 
 /// The transmit mailboxes through their registers. The CANopen task is the
-/// only writer; the CAN interrupts share its priority and touch only TSR's
-/// RQCP flags.
+/// only writer; the TX-empty interrupt (which may preempt it) touches only
+/// TSR's RQCP flags.
 struct TxMailboxes(&'static pac::can::RegisterBlock);
 
 impl mailbox::Mailboxes for TxMailboxes {

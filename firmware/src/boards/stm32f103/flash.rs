@@ -3,9 +3,20 @@
 //! needs no `unsafe` here.
 
 use canopen_core::storage::StorageError;
+use cortex_m::peripheral::DWT;
 use stm32f1xx_hal::flash::{FlashSize, FlashWriter, Parts, SectorSize};
 
 use super::flash_storage::{HalfWordFlash, Layout};
+use crate::boards::systick;
+
+/// Runs a flash erase or program and gives the time base back what the
+/// stall took (the store runs with interrupts masked, docs/firmware.md "Storage").
+fn stalling<R>(op: impl FnOnce() -> R) -> R {
+    let start = DWT::cycle_count();
+    let result = op();
+    systick::account_stall(DWT::cycle_count().wrapping_sub(start));
+    result
+}
 
 /// The flash controller of an STM32F103C8 (64 KiB, 1 KiB pages), holding
 /// parameter sets of `REGION` bytes.
@@ -42,11 +53,13 @@ impl<const REGION: usize> HalfWordFlash for Flash<REGION> {
     }
 
     fn erase_page(&mut self, offset: u32) -> Result<(), StorageError> {
-        self.writer()?.page_erase(offset).map_err(|_| StorageError::Failed)
+        let mut writer = self.writer()?;
+        stalling(|| writer.page_erase(offset)).map_err(|_| StorageError::Failed)
     }
 
     fn program(&mut self, offset: u32, half_word: u16) -> Result<(), StorageError> {
-        self.writer()?.write(offset, &half_word.to_le_bytes()).map_err(|_| StorageError::Failed)
+        let mut writer = self.writer()?;
+        stalling(|| writer.write(offset, &half_word.to_le_bytes())).map_err(|_| StorageError::Failed)
     }
 
     fn read(&mut self, offset: u32, buf: &mut [u8]) -> Result<(), StorageError> {

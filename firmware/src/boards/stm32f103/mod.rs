@@ -26,6 +26,7 @@ pub mod bit_timing;
 pub mod filters;
 pub mod flash_storage;
 pub mod mailbox;
+pub mod reset_cause;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 mod board;
@@ -33,8 +34,6 @@ mod board;
 mod can;
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 mod flash;
-#[cfg(all(target_os = "none", feature = "board-stm32f103"))]
-mod reset_cause;
 
 #[cfg(all(target_os = "none", feature = "board-stm32f103"))]
 pub use board::{Config, Storage, StorageHandle, run, unattached_storage};

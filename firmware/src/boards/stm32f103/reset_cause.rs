@@ -1,32 +1,29 @@
 //! Why the chip last reset, and what the node reports about it.
 //!
 //! RCC_CSR (RM0008 §7.3.10) holds the reset flags since the last clear:
-//! power-on, pin (NRST), software (SYSRESETREQ), independent and window
-//! watchdog, low power. They are read and cleared (RMVF) once at start-up.
-//! A software reset the firmware makes itself (after a panic, a HardFault
-//! or a crystal that did not start) first leaves its reason in a word of
-//! RAM that start-up does not zero (`.uninit`), guarded by a magic value, so
-//! the next start-up tells them apart from a debugger's reset.
+//! power-on/power-down (POR), pin (NRST, also set by every internal reset),
+//! software (SYSRESETREQ), independent and window watchdog, low power. They
+//! are read and cleared (RMVF) once at start-up. A software reset the
+//! firmware makes itself (after a panic or a HardFault), or a watchdog reset
+//! it lets happen (a crystal that did not start), first leaves its reason in
+//! two words of RAM that start-up does not zero (`.uninit`), guarded by a
+//! magic value, so the next start-up tells them apart from a debugger's
+//! reset or a hung executor.
 //!
 //! After a reset caused by a failure the node sends an EMCY once it is
 //! running ([`ResetCause::emcy`]): 0x6100 "internal software" for the
 //! watchdog, a panic and a HardFault, 0x5000 "device hardware" for the
-//! crystal. The manufacturer-specific bytes are the cause number (byte 3)
-//! and RCC_CSR bits 24–31 (byte 4); the node records both in 0x1003 sub 1
-//! (bits 16–23 and 24–31), so an SDO upload of 0x1003:01 reads the reset
-//! cause (docs/firmware.md, "Reset cause").
-#![allow(unsafe_code)]
-
-use core::mem::MaybeUninit;
-use core::ptr::{addr_of, addr_of_mut};
-
-use stm32f1xx_hal::pac;
+//! crystal (CiA 301 table 21). The manufacturer-specific bytes are the cause
+//! number (byte 3) and RCC_CSR bits 24–31 (byte 4); the node records both
+//! in 0x1003 sub 1 (bits 16–23 and 24–31), so an SDO upload of 0x1003:01
+//! reads the reset cause (docs/firmware.md, "Reset cause").
 
 /// Why the chip reset (byte 3 of the EMCY, bits 16–23 of 0x1003 sub 1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
 #[repr(u8)]
 pub enum ResetCause {
-    /// Power-on, brown-out or the NRST pin: nothing to report.
+    /// Power-on or the NRST pin: nothing to report.
     PowerOrPin = 0,
     /// The independent watchdog: the CANopen executor stopped running.
     Watchdog = 1,
@@ -34,55 +31,38 @@ pub enum ResetCause {
     Panic = 2,
     /// A HardFault (logged with its PC before the reset).
     HardFault = 3,
-    /// The 8 MHz crystal did not start within [`HSE_TIMEOUT_MS`](super::board) ms.
+    /// The 8 MHz crystal did not start (logged; the watchdog reset the chip).
     Crystal = 4,
-    /// A software reset the firmware did not ask for (a debugger), or the
-    /// window watchdog or low-power reset: logged only.
+    /// A software reset the firmware did not ask for (a debugger), the
+    /// window watchdog or a low-power reset: logged only.
     Other = 5,
 }
 
 /// EMCY "internal software" (CiA 301 table 21).
-const INTERNAL_SOFTWARE: u16 = 0x6100;
+pub const INTERNAL_SOFTWARE: u16 = 0x6100;
 /// EMCY "device hardware" (CiA 301 table 21).
-const DEVICE_HARDWARE: u16 = 0x5000;
+pub const DEVICE_HARDWARE: u16 = 0x5000;
 
-/// Marks the word below as written by this firmware.
-const MAGIC: u32 = 0xC0DE_5E7A;
+/// RCC_CSR flags (RM0008 §7.3.10).
+const PINRSTF: u32 = 1 << 26;
+const PORRSTF: u32 = 1 << 27;
+const SFTRSTF: u32 = 1 << 28;
+const IWDGRSTF: u32 = 1 << 29;
 
-/// The reason of a reset the firmware is about to make: magic, then cause.
-#[unsafe(link_section = ".uninit.RESET_REASON")]
-static mut REASON: MaybeUninit<[u32; 2]> = MaybeUninit::uninit();
-
-/// Leaves `cause` for the next start-up (then the caller resets).
-pub fn leave(cause: ResetCause) {
-    // SAFETY: a plain store to a static word of RAM; only start-up and the
-    // fatal paths (panic, HardFault, crystal), which never return, touch it.
-    unsafe { addr_of_mut!(REASON).cast::<[u32; 2]>().write_volatile([MAGIC, cause as u32]) }
-}
-
-/// Reads and clears the reset flags (and the reason left in RAM).
-pub fn take(rcc: &pac::RCC) -> (ResetCause, u8) {
-    let csr = rcc.csr().read();
-    let flags = (csr.bits() >> 24) as u8;
-    // SAFETY: as in `leave`; read once at start-up before any writer runs.
-    let [magic, left] = unsafe { addr_of!(REASON).cast::<[u32; 2]>().read_volatile() };
-    // SAFETY: as above.
-    unsafe { addr_of_mut!(REASON).cast::<[u32; 2]>().write_volatile([0, 0]) };
-    rcc.csr().modify(|_, w| w.rmvf().set_bit());
-    let ours = |c: ResetCause| (magic == MAGIC && left == c as u32).then_some(c);
-    let cause = if csr.porrstf().bit_is_set() {
+/// The cause, from RCC_CSR and the reason the firmware left before the reset (if any).
+pub fn classify(csr: u32, left: Option<u32>) -> ResetCause {
+    let ours = |c: ResetCause| (left == Some(c as u32)).then_some(c);
+    if csr & PORRSTF != 0 {
         ResetCause::PowerOrPin
-    } else if csr.iwdgrstf().bit_is_set() {
-        // The crystal wait ends by letting the watchdog reset the chip.
+    } else if csr & IWDGRSTF != 0 {
         ours(ResetCause::Crystal).unwrap_or(ResetCause::Watchdog)
-    } else if csr.sftrstf().bit_is_set() {
+    } else if csr & SFTRSTF != 0 {
         ours(ResetCause::Panic).or(ours(ResetCause::HardFault)).unwrap_or(ResetCause::Other)
-    } else if csr.pinrstf().bit_is_set() {
+    } else if csr & PINRSTF != 0 {
         ResetCause::PowerOrPin
     } else {
         ResetCause::Other
-    };
-    (cause, flags)
+    }
 }
 
 impl ResetCause {
@@ -94,5 +74,78 @@ impl ResetCause {
             ResetCause::PowerOrPin | ResetCause::Other => return None,
         };
         Some((code, [self as u8, flags, 0, 0, 0]))
+    }
+}
+
+#[cfg(all(target_os = "none", feature = "board-stm32f103"))]
+pub use mcu::{leave, take};
+
+#[cfg(all(target_os = "none", feature = "board-stm32f103"))]
+mod mcu {
+    #![allow(unsafe_code)]
+
+    use core::mem::MaybeUninit;
+    use core::ptr::{addr_of, addr_of_mut};
+
+    use stm32f1xx_hal::pac;
+
+    use super::{ResetCause, classify};
+
+    /// Marks the reason below as written by this firmware.
+    const MAGIC: u32 = 0xC0DE_5E7A;
+
+    /// The reason of a reset the firmware is about to make: magic, then cause.
+    #[unsafe(link_section = ".uninit.RESET_REASON")]
+    static mut REASON: MaybeUninit<[u32; 2]> = MaybeUninit::uninit();
+
+    /// Leaves `cause` for the next start-up (then the caller resets, or lets the watchdog).
+    pub fn leave(cause: ResetCause) {
+        // SAFETY: a plain store to two static words of RAM; only start-up and
+        // the fatal paths (panic, HardFault, crystal), which never return, touch them.
+        unsafe { addr_of_mut!(REASON).cast::<[u32; 2]>().write_volatile([MAGIC, cause as u32]) }
+    }
+
+    /// Reads and clears the reset flags (and the reason left in RAM):
+    /// the cause and RCC_CSR bits 24–31.
+    pub fn take(rcc: &pac::RCC) -> (ResetCause, u8) {
+        let csr = rcc.csr().read().bits();
+        // SAFETY: as in `leave`; read once at start-up before any writer runs.
+        let [magic, left] = unsafe { addr_of!(REASON).cast::<[u32; 2]>().read_volatile() };
+        // SAFETY: as above.
+        unsafe { addr_of_mut!(REASON).cast::<[u32; 2]>().write_volatile([0, 0]) };
+        rcc.csr().modify(|_, w| w.rmvf().set_bit());
+        (classify(csr, (magic == MAGIC).then_some(left)), (csr >> 24) as u8)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn causes_from_the_flags_and_the_reason_left() {
+        let pin = PINRSTF;
+        // Power-on sets POR and PIN; whatever RAM holds then is noise.
+        assert_eq!(classify(PORRSTF | pin, Some(2)), ResetCause::PowerOrPin);
+        assert_eq!(classify(pin, None), ResetCause::PowerOrPin, "NRST");
+        // Every internal reset also pulses NRST (PINRSTF).
+        assert_eq!(classify(IWDGRSTF | pin, None), ResetCause::Watchdog);
+        assert_eq!(classify(IWDGRSTF | pin, Some(ResetCause::Crystal as u32)), ResetCause::Crystal);
+        assert_eq!(classify(IWDGRSTF | pin, Some(ResetCause::Panic as u32)), ResetCause::Watchdog);
+        assert_eq!(classify(SFTRSTF | pin, Some(ResetCause::Panic as u32)), ResetCause::Panic);
+        assert_eq!(classify(SFTRSTF | pin, Some(ResetCause::HardFault as u32)), ResetCause::HardFault);
+        assert_eq!(classify(SFTRSTF | pin, None), ResetCause::Other, "a debugger's reset");
+        assert_eq!(classify(SFTRSTF | pin, Some(ResetCause::Crystal as u32)), ResetCause::Other);
+        assert_eq!(classify(1 << 31, None), ResetCause::Other, "low-power reset");
+    }
+
+    #[test]
+    fn emcy_codes_and_what_0x1003_records() {
+        assert_eq!(ResetCause::Watchdog.emcy(0x24), Some((0x6100, [1, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::Panic.emcy(0x14), Some((0x6100, [2, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::HardFault.emcy(0x14), Some((0x6100, [3, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::Crystal.emcy(0x24), Some((0x5000, [4, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::PowerOrPin.emcy(0x0C), None);
+        assert_eq!(ResetCause::Other.emcy(0x14), None);
     }
 }

@@ -1,9 +1,10 @@
 //! Stack use, measured: the free stack (from the end of static RAM,
 //! cortex-m-rt's `_stack_end`, up to the current stack pointer) is painted
 //! with a pattern; the deepest word no longer holding it marks the most
-//! stack any code used since. The board paints at reset and again once the
-//! node is built; the exit frame reports both figures (`board::exit`),
-//! which the QEMU smoke test checks.
+//! stack any code used since. The QEMU board paints at reset and again once
+//! the node is built; the exit frame reports both figures (`board::exit`),
+//! which the QEMU smoke test checks. The STM32 board paints at reset and
+//! logs the figure whenever it grew (docs/hardware-test.md).
 #![allow(unsafe_code)]
 
 use core::ptr;
