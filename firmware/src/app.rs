@@ -1,185 +1,24 @@
-//! Glue between a board and the core, the same on every board: what the
-//! interrupts and tasks share ([`SHARED`]), the CANopen task that owns the
-//! node, and the application slot.
+//! Glue between a board and the core on the MCU, the same on every board:
+//! the image's [`SHARED`], embassy-time for the CANopen task ([`serve`],
+//! `crate::shared`) and the application slot.
 //!
 //! The CANopen task is embassy-net's runner in miniature (style guide
 //! §2.4): it owns the node, and waits on `select(received frame, wake-up,
 //! Timer::at(deadline))`, where a wake-up is an application request, a
 //! controller event or room to send; whatever woke it, it hands the node
-//! the frames or the request, then runs a [`Runner::step`]. Interrupts only
-//! move frames through channels and count controller events
-//! ([`ControllerStatus`]); the application only sends [`Request`]s (through
-//! the one [`Requests`] handle) and reads the NMT states from a queue. No
-//! lock is held while the node works.
+//! the frames or the request, then runs a `Runner::step`.
 
-use core::cell::RefCell;
-use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-
-use canopen_core::abort::AbortCode;
-use canopen_core::frame::CanFrame;
-use canopen_core::services::nmt::State;
 use canopen_core::time::Instant;
-use embassy_futures::select::{Either3, select3};
-use embassy_sync::blocking_mutex::Mutex;
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::channel::Channel;
-use embassy_sync::signal::Signal;
 use embassy_time::Timer;
 
 pub use crate::can_node::CanNode;
-pub use crate::runner::{Controller, ControllerStatus, Reply, Request, Runner, StateQueue, Value};
-
-/// Frames the receive channel buffers between the driver and the CANopen task.
-pub const RX_QUEUE: usize = 16;
-/// NMT states the application's queue holds: every frame of a full
-/// receive channel can be an NMT command, and a reset is two states
-/// (Initialising, then the state after the boot-up).
-pub const STATE_QUEUE: usize = 2 * RX_QUEUE + 2;
+pub use crate::runner::Controller;
+pub use crate::shared::{RX_QUEUE, Shared, serve};
 
 defmt::timestamp!("{=u64:us}", embassy_time::Instant::now().as_ticks());
 
-/// Everything the board's interrupts, the CANopen task and the application share.
-pub struct Shared {
-    /// Frames received from the bus, oldest first.
-    pub rx: Channel<CriticalSectionRawMutex, CanFrame, RX_QUEUE>,
-    /// What the controller's interrupts counted (each report also [`Shared::wake`]s the task).
-    pub controller: ControllerStatus,
-    /// The request of the one [`Requests`] handle, until the task takes it.
-    request: Signal<CriticalSectionRawMutex, Request>,
-    reply: Signal<CriticalSectionRawMutex, Reply>,
-    requests_taken: AtomicBool,
-    states: Mutex<CriticalSectionRawMutex, RefCell<StateQueue<STATE_QUEUE>>>,
-    state_changed: Signal<CriticalSectionRawMutex, ()>,
-    wake: Signal<CriticalSectionRawMutex, ()>,
-    rejected: AtomicU32,
-}
-
 /// The one [`Shared`] of an image.
-pub static SHARED: Shared = Shared {
-    rx: Channel::new(),
-    controller: ControllerStatus::new(),
-    request: Signal::new(),
-    reply: Signal::new(),
-    requests_taken: AtomicBool::new(false),
-    states: Mutex::new(RefCell::new(StateQueue::new())),
-    state_changed: Signal::new(),
-    wake: Signal::new(),
-    rejected: AtomicU32::new(0),
-};
-
-impl Shared {
-    /// Wakes the CANopen task: the controller reported an event
-    /// ([`Shared::controller`]) or has room for frames again.
-    pub fn wake(&self) {
-        self.wake.signal(());
-    }
-
-    /// A received frame was lost (controller FIFO or [`Shared::rx`] full).
-    pub fn rx_overrun(&self) {
-        self.controller.rx_overrun();
-        self.wake();
-    }
-
-    /// The board's software acceptance filter dropped a frame.
-    pub fn rejected(&self) {
-        self.rejected.fetch_add(1, Ordering::Relaxed);
-    }
-
-    /// Frames the software acceptance filter dropped so far (for logs).
-    pub fn rejected_frames(&self) -> u32 {
-        self.rejected.load(Ordering::Relaxed)
-    }
-
-    /// The handle through which the application asks the node: the first
-    /// call gets it, every later one `None`. One handle, borrowed mutably
-    /// per request, so requests never overlap and no lock is needed.
-    pub fn requests(&'static self) -> Option<Requests> {
-        (!self.requests_taken.swap(true, Ordering::Relaxed)).then_some(Requests { shared: self })
-    }
-
-    /// The next NMT state the node entered, in order: none is lost unless
-    /// more than [`STATE_QUEUE`] wait (see [`StateQueue`]).
-    pub async fn next_state(&self) -> State {
-        loop {
-            // `try_borrow_mut`: `borrow_mut`'s panic message pulls `core::fmt` into the images.
-            if let Some(state) = self.states.lock(|q| q.try_borrow_mut().ok()?.pop()) {
-                return state;
-            }
-            self.state_changed.wait().await;
-        }
-    }
-}
-
-/// The application's way to the node ([`Shared::requests`]): each request
-/// wakes the CANopen task, which preempts thread mode, carries it out,
-/// steps (so a triggered TPDO or an EMCY leaves at once) and replies.
-pub struct Requests {
-    shared: &'static Shared,
-}
-
-impl Requests {
-    /// Sends `request` to the CANopen task and returns its answer.
-    pub async fn call(&mut self, request: Request) -> Reply {
-        // A reply left by a call that was dropped before it took it.
-        self.shared.reply.reset();
-        self.shared.request.signal(request);
-        self.shared.wake();
-        self.shared.reply.wait().await
-    }
-
-    /// Reads an object of up to 8 bytes.
-    pub async fn read(&mut self, index: u16, sub: u8) -> Result<Value, AbortCode> {
-        match self.call(Request::Read { index, sub }).await {
-            Reply::Value(value) => Ok(value),
-            Reply::Refused(code) => Err(code),
-            Reply::Done | Reply::NotTriggered => Err(AbortCode::General),
-        }
-    }
-
-    /// Writes an object of up to 8 bytes as the device ([`Request::Write`]).
-    pub async fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let Some(value) = Value::new(data) else { return Err(AbortCode::LengthTooHigh) };
-        match self.call(Request::Write { index, sub, value }).await {
-            Reply::Done => Ok(()),
-            Reply::Refused(code) => Err(code),
-            Reply::Value(_) | Reply::NotTriggered => Err(AbortCode::General),
-        }
-    }
-
-    /// Sends event-driven TPDO `n` (0-based) now, inhibit time permitting;
-    /// false if it is not valid or of another type.
-    pub async fn trigger_tpdo(&mut self, n: u16) -> bool {
-        self.call(Request::TriggerTpdo(n)).await == Reply::Done
-    }
-
-    /// Raises an application error (EMCY, error register, 0x1003).
-    pub async fn raise_error(&mut self, code: u16, info: [u8; 5]) {
-        self.call(Request::RaiseError { code, info }).await;
-    }
-
-    /// Clears an application error.
-    pub async fn clear_error(&mut self, code: u16) {
-        self.call(Request::ClearError(code)).await;
-    }
-}
-
-/// The application's NMT state queue as the CANopen task fills it.
-struct States(&'static Shared);
-
-impl crate::runner::StateSink for States {
-    fn entered(&mut self, state: State) {
-        let lost = self.0.states.lock(|q| {
-            let mut q = q.try_borrow_mut().ok()?;
-            let before = q.lost();
-            q.entered(state);
-            (q.lost() != before).then(|| q.lost())
-        });
-        if let Some(lost) = lost {
-            defmt::warn!("NMT state queue full: {=u32} states lost so far", lost);
-        }
-        self.0.state_changed.signal(());
-    }
-}
+pub static SHARED: Shared = Shared::new();
 
 // embassy-time counts microseconds (its default tick rate), as the core
 // does, so instants convert without arithmetic.
@@ -222,39 +61,15 @@ impl Started {
     }
 }
 
-/// The CANopen task: owns `node`; whatever wakes it (a received frame, an
-/// application request, a controller event or room to send, the node's
-/// deadline) it hands the node, then runs a [`Runner::step`].
+/// The CANopen task on embassy-time: [`serve`] with the board's clock
+/// and a timer at the node's deadline.
 pub async fn run_canopen(shared: &'static Shared, node: &'static mut dyn CanNode, controller: &mut impl Controller) -> ! {
-    let mut runner = Runner::new();
-    let mut states = States(shared);
-    loop {
-        let now = now();
-        runner.controller_events(node, now, &shared.controller);
-        let deadline = runner.step(node, now, controller, &mut states);
-        let timer = Timer::at(deadline.map_or(embassy_time::Instant::MAX, to_embassy));
-        match select3(shared.rx.receive(), shared.wake.wait(), timer).await {
-            Either3::First(frame) => {
-                let now = self::now();
-                runner.on_frame(node, now, &frame, &mut states);
-                // Whatever else arrived meanwhile, before the next step.
-                while let Ok(frame) = shared.rx.try_receive() {
-                    runner.on_frame(node, now, &frame, &mut states);
-                }
-            }
-            Either3::Second(()) => {
-                if let Some(request) = shared.request.try_take() {
-                    shared.reply.signal(runner.on_request(node, request));
-                }
-            }
-            Either3::Third(()) => {}
-        }
-    }
+    serve(shared, node, controller, now, |deadline| Timer::at(deadline.map_or(embassy_time::Instant::MAX, to_embassy))).await
 }
 
 /// The application slot, one task per image ([`crate::image!`] spawns it):
 /// where a device profile runs beside the CANopen task, reading and
-/// writing objects and triggering TPDOs through [`Requests`] and following
+/// writing objects and triggering TPDOs through `shared::Requests` and following
 /// the NMT state through [`Shared::next_state`]. Today it reports the
 /// device type (0x1000) and each NMT state the node enters.
 pub async fn run_application(shared: &'static Shared) -> ! {

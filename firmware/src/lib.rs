@@ -4,8 +4,9 @@
 //! dictionary by `build.rs`) plus one short module in [`devices`]. An image
 //! is a device on a board: [`boards`] holds the QEMU and STM32F103 boards,
 //! [`can_node`] the node behind a trait object, [`runner`] the CANopen
-//! task's work, `app` (MCU builds only) the tasks and channels around it,
-//! and `src/bin/` one
+//! task's work, `shared` (MCU builds and unit tests) the channels around it
+//! and the task's loop, `app` (MCU builds only) embassy-time and the
+//! application slot, and `src/bin/` one
 //! `<device>-<board>` entry point per image (see `docs/firmware.md`).
 #![no_std]
 // Unsafe code stays denied (workspace lints); only `boards` allows it, per
@@ -18,3 +19,5 @@ pub mod boards;
 pub mod can_node;
 pub mod devices;
 pub mod runner;
+#[cfg(any(target_os = "none", test))]
+pub mod shared;

@@ -1,6 +1,7 @@
 //! Diagnostics that name the file and line: `drive.eds:123: error: ...`,
 //! or for people, with the line and a caret ([`Diagnostics::render_human`]).
 
+#[cfg(feature = "cli")]
 mod human;
 
 use std::fmt;

@@ -9,6 +9,7 @@ mod common;
 
 use canopen_core::node::NoApplication;
 use common::{Bench, ms};
+use embedded_can::Frame as _;
 use firmware::boards::stm32f103::reset_cause::{ResetCause, classify};
 use firmware::devices::ec5000::od;
 use hal_host::storage::MemStorage;
@@ -35,6 +36,23 @@ fn a_panic_reset_is_an_emcy_after_boot_up_and_readable_in_0x1003() {
     b.node.clear_error(code);
     assert_eq!(b.at(ms(1250)), [(0x85, vec![0; 8])], "error reset");
     assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(0x1402_6100u32.to_le_bytes().to_vec()), "the history keeps it");
+}
+
+#[test]
+fn a_cause_raised_before_the_boot_up_leaves_right_after_it() {
+    // The STM32 board raises the cause on the node it has just built, before
+    // the CANopen task runs it: the EMCY waits for the boot-up.
+    let mut b: Ec5000 = Bench::new(od::Ram::new(ID), NoApplication, MemStorage::new(2048), ID);
+    let csr = (1 << 29) | (1 << 26); // IWDGRSTF | PINRSTF
+    let (code, info) = classify(csr, None).emcy((csr >> 24) as u8).expect("a watchdog reset is reported");
+    b.node.raise_error(code, info);
+    // By priority the EMCY (0x85) would pass the boot-up (0x705) if both
+    // were queued in one call: the EMCY waits for the next, due at once.
+    assert_eq!(b.node.process(ms(0)), Some(ms(0)), "the EMCY is due at once");
+    let boot_up = b.node.transmit().map(|f| (f.cob_id(), f.data().to_vec()));
+    assert_eq!(boot_up, Some((Some(0x705), vec![0x00])));
+    assert!(b.node.transmit().is_none(), "the EMCY waits for the next call");
+    assert_eq!(b.at(ms(0)), [(0x85, vec![0x00, 0x61, 0x21, 0x01, 0x24, 0x00, 0x00, 0x00])]);
 }
 
 #[test]

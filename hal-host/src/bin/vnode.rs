@@ -315,8 +315,9 @@ impl Reporter {
             match self.clients.get(peer) {
                 None => note(format_args!("client {peer} connected ({} connected)", now.len())),
                 Some(&before) if dropped > before => note(format_args!(
-                    "client {peer} is not reading: {} frames dropped ({dropped} in all; the newest are dropped once 64 KiB wait)",
-                    dropped - before
+                    "client {peer} is not reading: {} frames dropped ({dropped} in all; the newest are dropped once {} KiB wait)",
+                    dropped - before,
+                    server.options().client_queue_bytes / 1024
                 )),
                 Some(_) => {}
             }

@@ -278,6 +278,11 @@ impl SlcanServer {
         self.hub.refused.load(Ordering::Relaxed)
     }
 
+    /// The options it was started with.
+    pub fn options(&self) -> ServerOptions {
+        self.hub.options
+    }
+
     /// The bus's bit rate.
     pub fn bit_rate(&self) -> BitRate {
         BitRate::new(self.hub.bit_rate()).unwrap_or(self.hub.options.bit_rate)

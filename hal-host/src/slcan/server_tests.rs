@@ -158,8 +158,11 @@ fn a_client_that_does_not_read_loses_only_its_own_frames() {
 
 #[test]
 fn a_burst_takes_the_wire_time_of_its_frames() {
-    let options = ServerOptions { bit_rate: BitRate::KBIT_125, ..ServerOptions::default() };
-    let (server, ch) = SlcanServer::bind_with("127.0.0.1:0", options).unwrap();
+    let (server, ch) = SlcanServer::bind("127.0.0.1:0").unwrap();
+    assert_eq!(server.bit_rate(), BitRate::MBIT_1);
+    // As vnode does on LSS "activate bit timing".
+    server.set_bit_rate(BitRate::KBIT_125);
+    assert_eq!(server.bit_rate(), BitRate::KBIT_125);
     let mut a = open_client(&server);
     const N: usize = 100;
     let line = b"t20181122334455667788\r";

@@ -98,7 +98,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.reported_overflows = self.txq.overflows();
             self.comm.emcy.signal(code::CAN_OVERRUN, [0; 5]);
         }
-        if self.nmt.state().sdo_allowed() {
+        // Not in the call that queues the boot-up: the queue sends by
+        // priority, and an EMCY (0x80 + id) would leave before the boot-up
+        // (0x700 + id), which CiA 301 forbids. The EMCY deadline brings the next call.
+        if booted && self.nmt.state().sdo_allowed() {
             // EMCY off: errors still reach the error register and the history.
             while let Some(e) = self.comm.emcy.take_unsent() {
                 let dict = self.od.dictionary();

@@ -2,9 +2,8 @@
 #![allow(unsafe_code)]
 
 use canopen_core::node::{AcceptanceList, BitRateControl};
-use canopen_core::services::nmt::State;
 use canopen_core::services::store;
-use canopen_core::time::{Duration, Instant};
+use canopen_core::time::Instant;
 use cortex_m::peripheral::{DCB, DWT, NVIC, SCB};
 use cortex_m_rt::{ExceptionFrame, exception};
 use defmt_rtt as _;
@@ -132,6 +131,12 @@ pub fn run<A>(
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
     log_stored_sets(&mut flash);
     let started = Started::build(make_node, || flash, app::now());
+    // Why the last reset happened: an EMCY the node sends after its boot-up
+    // (it waits for the call after the one that queues the boot-up).
+    if let Some((code, info)) = cause.emcy(flags) {
+        started.node.raise_error(code, info);
+        defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
+    }
     let node_id = started.node.node_id();
     let lss = started.node.bit_rate();
     let index = lss.or(started.bit_rate).or_else(|| bit_timing::cia305_index(config.bit_rate_kbps));
@@ -169,8 +174,8 @@ pub fn run<A>(
         unsafe { NVIC::unmask(irq) };
     }
     let spawner = CANOPEN_EXECUTOR.start(EXECUTOR_IRQ);
-    spawner.spawn(spawned(canopen(started.node, cause, flags)));
-    spawner.spawn(spawned(feed_watchdog(watchdog)));
+    spawner.spawn(spawned(canopen(started.node)));
+    spawner.spawn(spawned(feed_watchdog(watchdog, cause, flags)));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(spawned(application));
     })
@@ -219,12 +224,7 @@ fn spawned<T>(token: Result<T, SpawnError>) -> T {
 }
 
 /// bxCAN as the CANopen task drives it.
-struct Bxcan {
-    /// The EMCY reporting the last reset's cause, until the node is up.
-    report: Option<(u16, [u8; 5])>,
-    /// That EMCY, until it is cleared.
-    clear: Option<(u16, Instant)>,
-}
+struct Bxcan;
 
 impl BitRateControl for Bxcan {
     fn set_bit_rate(&mut self, index: u8) {
@@ -242,7 +242,6 @@ impl BitRateControl for Bxcan {
 
 impl Controller for Bxcan {
     fn send(&mut self, node: &mut dyn CanNode) {
-        self.report_reset(node);
         can::send(node);
     }
 
@@ -251,50 +250,25 @@ impl Controller for Bxcan {
     }
 }
 
-impl Bxcan {
-    /// Once the node is up (its boot-up sent), raises the EMCY of the last
-    /// reset's cause; clears it [`RESET_EMCY_HOLD`] later. The CANopen task
-    /// hands the node here after every step, and the watchdog feeder wakes
-    /// it every [`FEED_MS`], so both happen within that.
-    fn report_reset(&mut self, node: &mut dyn CanNode) {
-        let now = app::now();
-        if let Some((code, info)) = self.report
-            && node.state() != State::Initialising
-        {
-            node.raise_error(code, info);
-            defmt::warn!("EMCY {=u16:#06x}: the last reset was caused by {=u8}", code, info[0]);
-            self.report = None;
-            self.clear = Some((code, now + RESET_EMCY_HOLD));
-        } else if let Some((code, at)) = self.clear
-            && at <= now
-        {
-            node.clear_error(code);
-            self.clear = None;
-        }
-    }
-}
-
-/// How long the reset-cause EMCY stays raised before its "error reset".
-const RESET_EMCY_HOLD: Duration = Duration::from_secs(1);
-
 #[embassy_executor::task]
-async fn canopen(node: &'static mut dyn CanNode, cause: ResetCause, flags: u8) -> ! {
-    app::run_canopen(&SHARED, node, &mut Bxcan { report: cause.emcy(flags), clear: None }).await
+async fn canopen(node: &'static mut dyn CanNode) -> ! {
+    app::run_canopen(&SHARED, node, &mut Bxcan).await
 }
 
 /// Feeds the watchdog every [`FEED_MS`] from the CANopen task's executor:
 /// while the CANopen task runs in a loop or hangs with interrupts masked,
-/// the executor never gets here and the watchdog resets the chip. It also
-/// wakes the CANopen task, which reports the last reset's cause
-/// ([`Bxcan::report_reset`]), and logs the stack's high-water mark when it
-/// grew (checked every 10 s: a scan of the free RAM).
+/// the executor never gets here and the watchdog resets the chip. Once the
+/// node has sent its boot-up, the EMCY `run` raised for the cause of the
+/// last reset is cleared again a second later (the 0x1003 entry stays).
 #[embassy_executor::task]
-async fn feed_watchdog(mut watchdog: IndependentWatchdog) -> ! {
+async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, flags: u8) -> ! {
+    // Raised on the node at start-up (`run`); cleared a second after the boot-up.
+    let mut clear = cause.emcy(flags).map(|(code, _)| (code, 4u8));
     let mut stack_used = 0;
     let mut tick = 0u32;
     loop {
         watchdog.feed();
-        SHARED.wake();
+        // The stack's high-water mark, when it grew (checked every 10 s: a scan of the free RAM).
         if tick.is_multiple_of(40) {
             let used = stack::high_water();
             if used > stack_used {
@@ -303,6 +277,14 @@ async fn feed_watchdog(mut watchdog: IndependentWatchdog) -> ! {
             }
         }
         tick = tick.wrapping_add(1);
+        if let Some((code, ticks)) = clear {
+            clear = if ticks == 0 {
+                SHARED.clear_board_error(code);
+                None
+            } else {
+                Some((code, ticks - 1))
+            };
+        }
         // Not `Timer::after`: its `Instant + Duration` brings core::fmt's str formatting (648 B).
         let next = embassy_time::Instant::now().as_ticks().saturating_add(FEED_MS * 1000);
         Timer::at(embassy_time::Instant::from_ticks(next)).await;
