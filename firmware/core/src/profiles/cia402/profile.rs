@@ -652,8 +652,10 @@ impl<D: Drive> Cia402<D> {
                 mode::PP => (s.reached, s.pp.acknowledge, s.following),
                 mode::PV => (s.reached, s.speed_zero, false),
                 mode::VL => (s.reached, false, false),
+                // CiA 402-2 homing status: bits 13, 12, 10 (000 in progress, 001
+                // interrupted or not started, 011 attained, 10x error moving or standing).
                 mode::HM => (
-                    s.hm.phase == Phase::Attained || (s.hm.phase == Phase::Idle && standing),
+                    s.hm.phase == Phase::Attained || (matches!(s.hm.phase, Phase::Idle | Phase::Error) && standing),
                     s.hm.phase == Phase::Attained,
                     s.hm.phase == Phase::Error,
                 ),
