@@ -89,6 +89,11 @@ impl Application for App {
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        if (index, sub) == (NODE_ID, 1) {
+            // D31: the static node-ID is the one the drive starts with: stored at
+            // once, and a failed store fails the write.
+            return Some(ctx.write_object(NODE_ID, 1, data).and_then(|()| ctx.save_objects(NODE_ID, NODE_ID)));
+        }
         // F8: 0x1010/0x1011 sub 5 "manufacturer parameters SSW" work as sub 4
         // (the manual does not say which manufacturer objects are SSW, so both
         // sub-indices cover 0x2000–0x5FFF). Decision D40.
@@ -108,11 +113,9 @@ impl Application for App {
         })
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
-        if (index, sub) == (NODE_ID, 1) {
-            // D31: the static node-ID is the one the drive starts with: stored at once.
-            let _ = ctx.save_objects(NODE_ID, NODE_ID);
-        }
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
+        // default `rpdo_written`).
         self.drive.written(ctx, &PROFILE, index);
     }
 
@@ -144,12 +147,9 @@ const SSW: u8 = 5;
 /// The node-ID the drive starts with when LSS stored none: 0x4650 sub 1
 /// from the stored parameters (D31), else 127. The bit rate is the image's.
 pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<u8>) {
-    use canopen_core::od::ObjectDictionary;
-    use canopen_core::services::store::Part;
-    let mut ram = od::Ram::new(FACTORY_NODE_ID);
-    store::load(&od::DICTIONARY, ram.image_mut(), FACTORY_NODE_ID, storage, Part::Application);
-    let node_id = match od::DICTIONARY.read(ram.image(), NODE_ID, 1) {
-        Ok([id @ 1..=127]) => *id,
+    let mut id = [0];
+    let node_id = match store::stored_value(&od::DICTIONARY, storage, FACTORY_NODE_ID, NODE_ID, 1, &mut id) {
+        Some(1) if (1..=127).contains(&id[0]) => id[0],
         _ => FACTORY_NODE_ID,
     };
     (node_id, None)

@@ -33,7 +33,6 @@ impl Application for App {
         match (index, sub, data) {
             // 100 kbit/s (code 3) has no CiA 305 bit timing: refused (D24).
             (BAUD_RATE, 0, [code]) if bit_rate_index(*code).is_none() && *code != NOT_SET => Err(AbortCode::InvalidValue),
-            (SAVE_BUS, 0, data) if data != store::SAVE.to_le_bytes() => Err(AbortCode::CannotStore),
             _ => Ok(()),
         }
     }
@@ -51,16 +50,24 @@ impl Application for App {
                     let _ = ctx.write_object(CYCLIC_TIMER, 0, &[a, b]);
                 }
             }
-            // D17: the preset is stored when written.
-            (PRESET, 0) => {
-                let _ = ctx.save_objects(PRESET, PRESET);
-            }
-            // §5.2.3: "save" to 0x2105 stores the bus parameters.
-            (SAVE_BUS, 0) => {
-                let _ = ctx.save_objects(BAUD_RATE, TERMINATION);
-            }
             _ => {}
         }
+    }
+
+    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        // Stores the device triggers; a failed store fails the write.
+        match (index, sub) {
+            // D17: the preset is stored when written.
+            (PRESET, 0) => Some(ctx.write_object(PRESET, 0, data).and_then(|()| ctx.save_objects(PRESET, PRESET))),
+            // §5.2.3: "save" to 0x2105 stores the bus parameters; anything else is refused.
+            (SAVE_BUS, 0) if data != store::SAVE.to_le_bytes() => Some(Err(AbortCode::CannotStore)),
+            (SAVE_BUS, 0) => Some(ctx.write_object(SAVE_BUS, 0, data).and_then(|()| ctx.save_objects(BAUD_RATE, TERMINATION))),
+            _ => None,
+        }
+    }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
     }
 }
 
@@ -70,6 +77,7 @@ const CYCLIC_TIMER: u16 = 0x6200;
 const PRESET: u16 = 0x6003;
 /// 0x2100 Baud rate, 0x2101 node address, 0x2102 bus termination.
 const BAUD_RATE: u16 = 0x2100;
+const NODE_ADDRESS: u16 = 0x2101;
 const TERMINATION: u16 = 0x2102;
 /// 0x2105 Save all bus parameters.
 const SAVE_BUS: u16 = 0x2105;
@@ -107,15 +115,16 @@ const FACTORY: (u8, u8) = (0x3F, 3);
 /// factory 0x3F at 250 kbit/s; no stored value gives a rate the boards
 /// have no timing for. Decision D24 in docs/devices/sendix.md.
 pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<u8>) {
-    use canopen_core::od::ObjectDictionary;
-    use canopen_core::services::store::{self, Part};
-    let mut ram = od::Ram::new(FACTORY.0);
-    store::load(&od::DICTIONARY, ram.image_mut(), FACTORY.0, storage, Part::Application);
-    let node_id = match ram.node_address() {
+    let mut byte = [NOT_SET];
+    let mut stored = |index| match store::stored_value(&od::DICTIONARY, storage, FACTORY.0, index, 0, &mut byte) {
+        Some(1) => byte[0],
+        _ => NOT_SET,
+    };
+    let node_id = match stored(NODE_ADDRESS) {
         id @ 1..=127 => id,
         _ => FACTORY.0,
     };
     // A code without CiA 305 timing (3, or any stored by an older image) starts at the factory rate.
-    let bit_rate = bit_rate_index(ram.baud_rate()).unwrap_or(FACTORY.1);
+    let bit_rate = bit_rate_index(stored(BAUD_RATE)).unwrap_or(FACTORY.1);
     (node_id, Some(bit_rate))
 }
