@@ -66,9 +66,9 @@ pub struct AxisParams {
     pub rise_at_rated_c: i16,
     /// Thermal time constant [s].
     pub thermal_tau_s: u16,
-    /// Warning (statusword bit 7) at this temperature [°C].
+    /// Warning (statusword bit 7) at this temperature [°C]; 0 for none.
     pub warning_c: i16,
-    /// Fault at this temperature [°C]; cleared 10 °C below.
+    /// Fault at this temperature [°C], cleared 10 °C below; 0 for none.
     pub fault_c: i16,
     /// DC link voltage [mV].
     pub dc_link_mv: u32,
@@ -160,7 +160,7 @@ impl Axis {
             fault::POWER_STAGE
         } else if self.injected(Injected::UnderVoltage) {
             fault::UNDER_VOLTAGE
-        } else if self.temperature() >= self.params.fault_c {
+        } else if self.params.fault_c != 0 && self.temperature() >= self.params.fault_c {
             fault::OVER_TEMPERATURE
         } else {
             0
@@ -268,7 +268,7 @@ impl Drive for Axis {
     }
 
     fn warning(&self) -> bool {
-        self.temperature() >= self.params.warning_c
+        self.params.warning_c != 0 && self.temperature() >= self.params.warning_c
     }
 
     fn reset_fault(&mut self) -> bool {
@@ -297,4 +297,97 @@ impl Drive for Axis {
 /// `from` moved towards `to` by at most `step`.
 fn toward(from: i64, to: i64, step: i64) -> i64 {
     if to > from { (from + step).min(to) } else { (from - step).max(to) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PARAMS: AxisParams = AxisParams {
+        increments_per_rev: 4096,
+        max_acceleration: 100_000,
+        max_velocity: 50_000,
+        position_gain: 50,
+        friction_permille: 20,
+        ambient_c: 25,
+        rise_at_rated_c: 60,
+        thermal_tau_s: 60,
+        warning_c: 95,
+        fault_c: 110,
+        dc_link_mv: 24_000,
+        following_limit: 1_000,
+        limits: (-10_000, 10_000),
+        home_switch: Some(500),
+    };
+
+    fn axis() -> Axis {
+        let mut a = Axis::NEW;
+        a.configure(PARAMS);
+        a.enable(true);
+        a
+    }
+
+    #[test]
+    fn an_unconfigured_axis_neither_moves_nor_faults() {
+        let mut a = Axis::NEW;
+        a.enable(true);
+        a.command(SetPoint::Velocity(1000));
+        a.tick();
+        assert_eq!((a.fault(), a.velocity(), a.warning()), (0, 0, false));
+    }
+
+    #[test]
+    fn the_velocity_loop_follows_within_the_acceleration_limit() {
+        let mut a = axis();
+        a.command(SetPoint::Velocity(80_000));
+        for _ in 0..100 {
+            a.tick();
+        }
+        assert_eq!(a.velocity(), 10_000, "100 ms at 100,000 inc/s²");
+        assert!(a.torque() >= 1000, "at the limit: rated torque and friction");
+        for _ in 0..1000 {
+            a.tick();
+        }
+        assert_eq!(a.velocity(), 50_000, "the speed limit");
+        // 0.5 s ramp (12,500 inc) and 0.6 s at 50,000 inc/s.
+        assert!((42_400..42_600).contains(&a.position()), "{}", a.position());
+        assert!(a.switches().positive_limit && a.switches().home && !a.switches().negative_limit);
+    }
+
+    #[test]
+    fn the_position_loop_settles_on_the_set_point() {
+        let mut a = axis();
+        a.command(SetPoint::Position { position: 300, velocity: 0 });
+        for _ in 0..500 {
+            a.tick();
+        }
+        assert_eq!((a.position(), a.velocity()), (300, 0));
+    }
+
+    #[test]
+    fn faults_stop_the_power_stage_and_clear_once_their_cause_is_gone() {
+        for (fault, code) in [
+            (Injected::OverTemperature, fault::OVER_TEMPERATURE),
+            (Injected::UnderVoltage, fault::UNDER_VOLTAGE),
+            (Injected::PowerStage, fault::POWER_STAGE),
+        ] {
+            let mut a = axis();
+            a.command(SetPoint::Velocity(10_000));
+            a.tick();
+            a.inject(fault);
+            assert_eq!(a.fault(), code);
+            a.tick();
+            a.enable(true);
+            assert_eq!(a.torque(), 0, "{fault:?}: the power stage is off");
+            assert!(!a.reset_fault(), "the cause persists");
+            a.remove(fault);
+            assert!(a.reset_fault());
+            assert_eq!(a.fault(), 0);
+        }
+        let mut a = axis();
+        a.inject(Injected::Blocked);
+        a.command(SetPoint::Position { position: 5_000, velocity: 0 });
+        a.tick();
+        assert_eq!(a.fault(), fault::FOLLOWING_ERROR, "a blocked load: the drive's following-error monitoring");
+    }
 }
