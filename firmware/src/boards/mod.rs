@@ -20,7 +20,9 @@ compile_error!("enable one board feature per build: `board-qemu` or `board-stm32
 pub mod qemu;
 pub mod stm32f103;
 
-#[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
+// Every MCU build that links the firmware crate (the images, and
+// `bench/size`'s node images) gets the small `memcpy`.
+#[cfg(target_os = "none")]
 mod mem;
 #[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
 mod stack;

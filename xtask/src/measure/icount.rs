@@ -17,8 +17,17 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The kinds both benches measure: name, what the frame is.
-const KINDS: [(&str, &str); 3] =
-    [("rpdo", "RPDO (8 bytes, 4 objects)"), ("sdo-upload", "expedited SDO upload (0x1018 sub 1)"), ("sync", "SYNC, 4 synchronous TPDOs")];
+const KINDS: [(&str, &str); 5] = [
+    ("rpdo", "RPDO (8 bytes, 4 objects)"),
+    ("sdo-upload", "expedited SDO upload (0x1018 sub 1)"),
+    ("sync", "SYNC, 4 synchronous TPDOs"),
+    ("cia402", "EC5000 RPDO 0x6040 + 0x60FF → CiA 402 state machine → TPDO 0x6041 + 0x606C"),
+    ("cia402-echo", "the same frames, an application copying 0x6040 to 0x6041 (baseline)"),
+];
+
+/// The CiA 402 profile's own part of the `cia402` row (the row minus its
+/// baseline) may cost at most this many thumbv7m instructions per frame.
+const CIA402_BUDGET: f64 = 1_000.0;
 
 /// The image finishes in well under a second; a hang must not stall the task.
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
@@ -81,7 +90,18 @@ pub fn icount(n: u64) -> Result<(), String> {
     let (version, out) = run_qemu_image()?;
     let report = parse_report(&out)?;
     print_thumbv7m(&version, &report, &host);
-    Ok(())
+    cia402_share(&report)
+}
+
+/// The profile's part of the CiA 402 row on thumbv7m, against [`CIA402_BUDGET`].
+fn cia402_share(r: &QemuReport) -> Result<(), String> {
+    let total = |name: &str| r.kinds.iter().find(|k| k.name == name).map(QemuKind::total).ok_or(format!("no `{name}` row from the image"));
+    let (profile, echo) = (total("cia402")?, total("cia402-echo")?);
+    let share = profile - echo;
+    println!(
+        "\nCiA 402 profile's part (cia402 − cia402-echo) on thumbv7m: {profile:.0} − {echo:.0} = {share:.0} instructions per frame (budget {CIA402_BUDGET:.0})"
+    );
+    if share > CIA402_BUDGET { Err(format!("the CiA 402 path costs {share:.0} instructions, over {CIA402_BUDGET:.0}")) } else { Ok(()) }
 }
 
 /// Builds `bench/icount-qemu` and runs it; returns QEMU's version and the image's stdout.
@@ -304,6 +324,8 @@ icount-qemu calibration instructions=102000 ticks=20400 per_tick=5 overhead=1.01
 icount-qemu kind=rpdo frames=1000 on_frame=447.0 process=1336.0 transmit=731.1 transmit_calls=1000 sent=0
 icount-qemu kind=sdo-upload frames=1000 on_frame=3947.0 process=1336.0 transmit=1245.1 transmit_calls=2000 sent=1000
 icount-qemu kind=sync frames=1000 on_frame=2857.1 process=810.0 transmit=2933.0 transmit_calls=5000 sent=4000
+icount-qemu kind=cia402 frames=1000 on_frame=2465.0 process=1348.0 transmit=403.0 transmit_calls=2000 sent=1000
+icount-qemu kind=cia402-echo frames=1000 on_frame=1709.0 process=1245.0 transmit=393.0 transmit_calls=2000 sent=1000
 icount-qemu worst=store-0x1010 on_frame=186046.9 process=456.0 total=186502.9 sent=1 runs=50
 icount-qemu worst=nmt-reset-node on_frame=216777.1 process=1068.0 total=217845.1 sent=1 runs=50
 icount-qemu isr=slcan-uart0 bytes=22 line=2651.6 last_byte=823.0
@@ -316,7 +338,7 @@ icount-qemu ok
         let r = parse_report(GOOD).unwrap();
         assert_eq!((r.calibration_instructions, r.calibration_ticks, r.per_tick), (102_000, 20_400, 5));
         assert_eq!((r.overhead, r.check), (1.01, (1020, 1019.81)));
-        assert_eq!(r.kinds.len(), 3);
+        assert_eq!(r.kinds.len(), 5);
         let sync = &r.kinds[2];
         assert_eq!(
             (sync.name.as_str(), sync.on_frame, sync.process, sync.transmit, sync.calls_per_frame),
@@ -329,6 +351,14 @@ icount-qemu ok
         );
         assert_eq!(r.slcan, (22, 2651.6, 823.0));
         assert_eq!(r.bxcan, 206.8);
+    }
+
+    #[test]
+    fn the_cia402_share_is_checked_against_its_budget() {
+        // 4216 − 3347 = 869 instructions: within 1,000.
+        assert!(cia402_share(&parse_report(GOOD).unwrap()).is_ok());
+        let slow = GOOD.replace("kind=cia402 frames=1000 on_frame=2465.0", "kind=cia402 frames=1000 on_frame=2700.0");
+        assert!(cia402_share(&parse_report(&slow).unwrap()).unwrap_err().contains("over 1000"));
     }
 
     #[test]

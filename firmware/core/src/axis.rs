@@ -1,0 +1,393 @@
+//! An axis model: a simulated motor and load behind the CiA 402
+//! [`Drive`] trait, so an image without motor control still shows a PLC a
+//! drive that moves (vnode, QEMU, the STM32 board until it drives a motor).
+//!
+//! Integer arithmetic only (Cortex-M3 has no FPU). The state advances one
+//! [`TICK_US`] tick at a time:
+//! - a velocity loop follows the set-point within the acceleration limit;
+//!   in position mode it adds a proportional position correction to the
+//!   velocity feed-forward;
+//! - the position integrates the velocity (Q24 fixed point per tick, as
+//!   the profile's [`crate::profiles::cia402::motion`], so slow motion is not
+//!   lost to rounding and no tick divides 64-bit numbers);
+//! - the torque estimate is the acceleration against the limit plus friction;
+//! - the temperature rises with the square of the torque and cools towards
+//!   ambient;
+//! - faults are injected ([`Axis::inject`]) or follow from the model:
+//!   over-temperature, under-voltage, a following error the drive's own
+//!   monitoring sees, a power stage fault;
+//! - limit and home switches sit at fixed positions.
+
+use crate::profiles::cia402::drive::{Drive, SetPoint, Switches};
+use crate::profiles::cia402::motion::{FRACTION, acceleration_q, speed_per_s, speed_q};
+
+/// Error codes the model reports (CiA 402 / CiA 301 EMCY codes, 0x603F).
+pub mod fault {
+    /// 0x2320 short circuit / earth leakage at the output: the power stage failed.
+    pub const POWER_STAGE: u16 = 0x2320;
+    /// 0x3220 DC link under-voltage.
+    pub const UNDER_VOLTAGE: u16 = 0x3220;
+    /// 0x4310 excess temperature of the drive.
+    pub const OVER_TEMPERATURE: u16 = 0x4310;
+    /// 0x8611 following error: the load does not follow the position demand.
+    pub const FOLLOWING_ERROR: u16 = 0x8611;
+}
+
+/// Faults a test or a demo injects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Injected {
+    /// The motor is 30 °C above the over-temperature limit.
+    OverTemperature,
+    /// The DC link collapses.
+    UnderVoltage,
+    /// The load is blocked: the axis stops whatever the set-point.
+    Blocked,
+    /// The power stage fails.
+    PowerStage,
+}
+
+/// The motor and load a device simulates ([`AxisParams::ZERO`]: an axis
+/// that cannot move, until [`Axis::configure`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AxisParams {
+    /// Encoder increments per motor revolution.
+    pub increments_per_rev: u32,
+    /// Acceleration limit [inc/s²].
+    pub max_acceleration: u32,
+    /// Speed limit [inc/s].
+    pub max_velocity: u32,
+    /// Position loop gain [1/s].
+    pub position_gain: u32,
+    /// Friction torque while moving [‰].
+    pub friction_permille: i16,
+    /// Temperature at rest [°C].
+    pub ambient_c: i16,
+    /// Temperature rise at rated torque, steady state [°C].
+    pub rise_at_rated_c: i16,
+    /// Thermal time constant [s].
+    pub thermal_tau_s: u16,
+    /// Warning (statusword bit 7) at this temperature [°C]; 0 for none.
+    pub warning_c: i16,
+    /// Fault at this temperature [°C], cleared 10 °C below; 0 for none.
+    pub fault_c: i16,
+    /// DC link voltage [mV].
+    pub dc_link_mv: u32,
+    /// The drive's own following-error limit [inc], 0 for none.
+    pub following_limit: u32,
+    /// Negative and positive limit switches [inc]: active at or beyond; equal for none.
+    pub limits: (i64, i64),
+    /// Home switch: active at or above this position [inc], if any.
+    pub home_switch: Option<i64>,
+}
+
+impl AxisParams {
+    /// No motor: all zero bits.
+    pub const ZERO: AxisParams = AxisParams {
+        increments_per_rev: 0,
+        max_acceleration: 0,
+        max_velocity: 0,
+        position_gain: 0,
+        friction_permille: 0,
+        ambient_c: 0,
+        rise_at_rated_c: 0,
+        thermal_tau_s: 0,
+        warning_c: 0,
+        fault_c: 0,
+        dc_link_mv: 0,
+        following_limit: 0,
+        limits: (0, 0),
+        home_switch: None,
+    };
+}
+
+/// A simulated motor and load.
+#[derive(Clone, Debug)]
+pub struct Axis {
+    params: AxisParams,
+    /// Position [Q24 inc].
+    position_q: i64,
+    /// Velocity [Q24 inc/tick].
+    velocity_q: i64,
+    set_point: SetPoint,
+    enabled: bool,
+    torque: i16,
+    /// Temperature above ambient [µ°C].
+    heat_uc: i32,
+    fault: u16,
+    injected: [bool; 4],
+}
+
+impl Axis {
+    /// Unconfigured, at rest: `const` and all zero bits.
+    pub const NEW: Axis = Axis {
+        params: AxisParams::ZERO,
+        position_q: 0,
+        velocity_q: 0,
+        set_point: SetPoint::None,
+        enabled: false,
+        torque: 0,
+        heat_uc: 0,
+        fault: 0,
+        injected: [false; 4],
+    };
+
+    /// Gives the axis its motor and load (at reset application).
+    pub fn configure(&mut self, params: AxisParams) {
+        self.params = params;
+    }
+
+    /// Injects a fault (a test's or a demo's).
+    pub fn inject(&mut self, fault: Injected) {
+        if let Some(f) = self.injected.get_mut(fault as usize) {
+            *f = true;
+        }
+    }
+
+    /// Removes an injected fault (the drive's fault stays until reset).
+    pub fn remove(&mut self, fault: Injected) {
+        if let Some(f) = self.injected.get_mut(fault as usize) {
+            *f = false;
+        }
+    }
+
+    fn injected(&self, fault: Injected) -> bool {
+        self.injected.get(fault as usize).copied().unwrap_or(false)
+    }
+
+    /// The cause of a fault, if one is present now.
+    fn cause(&self) -> u16 {
+        if self.injected(Injected::PowerStage) {
+            fault::POWER_STAGE
+        } else if self.injected(Injected::UnderVoltage) {
+            fault::UNDER_VOLTAGE
+        } else if self.params.fault_c != 0 && self.temperature() >= self.params.fault_c {
+            fault::OVER_TEMPERATURE
+        } else {
+            0
+        }
+    }
+}
+
+impl Drive for Axis {
+    fn reset(&mut self) {
+        *self = Axis { params: self.params, ..Axis::NEW };
+    }
+
+    fn enable(&mut self, on: bool) {
+        self.enabled = on && self.fault == 0;
+        if !self.enabled {
+            self.set_point = SetPoint::None;
+        }
+    }
+
+    fn command(&mut self, set_point: SetPoint) {
+        if self.enabled {
+            self.set_point = set_point;
+        }
+    }
+
+    fn tick(&mut self) {
+        let p = self.params;
+        if self.fault == 0 {
+            self.fault = self.cause();
+        }
+        if self.fault != 0 {
+            self.enabled = false;
+            self.set_point = SetPoint::None;
+        }
+        // Velocity change per tick at the limit, and the speed limit [Q24 per tick].
+        let step = acceleration_q(p.max_acceleration);
+        let v_max = speed_q(i64::from(p.max_velocity));
+        // The velocity the loops ask for, or the torque's acceleration.
+        let wanted = match self.set_point {
+            SetPoint::None => None,
+            SetPoint::Velocity(v) => Some(speed_q(i64::from(v))),
+            SetPoint::Position { position, velocity } => {
+                let error = (position << FRACTION) - self.position_q;
+                if p.following_limit != 0 && (error >> FRACTION).unsigned_abs() > u64::from(p.following_limit) {
+                    self.fault = fault::FOLLOWING_ERROR;
+                }
+                // Gain [1/s] per tick as a Q24 factor, as `speed_q`; both terms
+                // clamped so that the product fits (65,536 inc, 250/s).
+                let gain = speed_q(i64::from(p.position_gain.min(250)));
+                let error = error.clamp(-(1 << 40), 1 << 40);
+                Some(speed_q(i64::from(velocity)) + ((error * gain) >> FRACTION))
+            }
+            // t ‰ of the limit: × t / 1000 as × t × 1049 / 2^20.
+            SetPoint::Torque(t) => Some(self.velocity_q + ((step * i64::from(t) * 1049) >> 20)),
+        };
+        let before = self.velocity_q;
+        self.velocity_q = match wanted {
+            // A blocked load stops dead; with no torque the axis coasts down
+            // with friction (an eighth of the acceleration limit).
+            _ if self.injected(Injected::Blocked) => 0,
+            None => toward(self.velocity_q, 0, (step >> 3).max(1)),
+            Some(w) => toward(self.velocity_q, w.clamp(-v_max, v_max), step),
+        };
+        self.position_q += self.velocity_q;
+        // Torque: the acceleration against the limit, plus friction while moving [‰].
+        let accel = ((self.velocity_q - before).clamp(-3 * step, 3 * step) * 1000) as i32 / (step as i32).max(1);
+        let friction = if self.velocity_q == 0 { 0 } else { i32::from(p.friction_permille) * self.velocity_q.signum() as i32 };
+        self.torque = if self.enabled { (accel + friction).clamp(-3000, 3000) as i16 } else { 0 };
+        // First-order thermal model: the steady rise grows with torque².
+        let tau_ticks = i32::from(p.thermal_tau_s.max(1)) * 1000;
+        let load = i32::from(self.torque) * i32::from(self.torque) / 1000;
+        let steady_uc = i32::from(p.rise_at_rated_c) * load * 1000;
+        self.heat_uc += (steady_uc - self.heat_uc) / tau_ticks;
+    }
+
+    fn position(&self) -> i64 {
+        self.position_q >> FRACTION
+    }
+
+    fn set_position(&mut self, position: i64) {
+        self.position_q = position << FRACTION;
+    }
+
+    fn velocity(&self) -> i32 {
+        speed_per_s(self.velocity_q) as i32
+    }
+
+    fn torque(&self) -> i16 {
+        self.torque
+    }
+
+    fn temperature(&self) -> i16 {
+        let p = &self.params;
+        let extra = if self.injected(Injected::OverTemperature) { p.fault_c.saturating_sub(p.ambient_c).saturating_add(30) } else { 0 };
+        p.ambient_c.saturating_add((self.heat_uc / 1_000_000) as i16).saturating_add(extra)
+    }
+
+    fn dc_link_mv(&self) -> u32 {
+        if self.injected(Injected::UnderVoltage) { 0 } else { self.params.dc_link_mv }
+    }
+
+    fn fault(&self) -> u16 {
+        // A cause shows at once, even while the axis is not ticking.
+        if self.fault != 0 { self.fault } else { self.cause() }
+    }
+
+    fn warning(&self) -> bool {
+        self.params.warning_c != 0 && self.temperature() >= self.params.warning_c
+    }
+
+    fn reset_fault(&mut self) -> bool {
+        let cooled = self.temperature() < self.params.fault_c.saturating_sub(10);
+        if self.cause() == 0 && cooled && !self.injected(Injected::Blocked) {
+            self.fault = 0;
+        }
+        self.fault == 0
+    }
+
+    fn switches(&self) -> Switches {
+        let at = self.position();
+        let (low, high) = self.params.limits;
+        Switches {
+            negative_limit: low < high && at <= low,
+            positive_limit: low < high && at >= high,
+            home: self.params.home_switch.is_some_and(|h| at >= h),
+        }
+    }
+
+    fn max_acceleration(&self) -> u32 {
+        self.params.max_acceleration
+    }
+}
+
+/// `from` moved towards `to` by at most `step`.
+fn toward(from: i64, to: i64, step: i64) -> i64 {
+    if to > from { (from + step).min(to) } else { (from - step).max(to) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PARAMS: AxisParams = AxisParams {
+        increments_per_rev: 4096,
+        max_acceleration: 100_000,
+        max_velocity: 50_000,
+        position_gain: 50,
+        friction_permille: 20,
+        ambient_c: 25,
+        rise_at_rated_c: 60,
+        thermal_tau_s: 60,
+        warning_c: 95,
+        fault_c: 110,
+        dc_link_mv: 24_000,
+        following_limit: 1_000,
+        limits: (-10_000, 10_000),
+        home_switch: Some(500),
+    };
+
+    fn axis() -> Axis {
+        let mut a = Axis::NEW;
+        a.configure(PARAMS);
+        a.enable(true);
+        a
+    }
+
+    #[test]
+    fn an_unconfigured_axis_neither_moves_nor_faults() {
+        let mut a = Axis::NEW;
+        a.enable(true);
+        a.command(SetPoint::Velocity(1000));
+        a.tick();
+        assert_eq!((a.fault(), a.velocity(), a.warning()), (0, 0, false));
+    }
+
+    #[test]
+    fn the_velocity_loop_follows_within_the_acceleration_limit() {
+        let mut a = axis();
+        a.command(SetPoint::Velocity(80_000));
+        for _ in 0..100 {
+            a.tick();
+        }
+        assert_eq!(a.velocity(), 10_000, "100 ms at 100,000 inc/s²");
+        assert!(a.torque() >= 1000, "at the limit: rated torque and friction");
+        for _ in 0..1000 {
+            a.tick();
+        }
+        assert_eq!(a.velocity(), 50_000, "the speed limit");
+        // 0.5 s ramp (12,500 inc) and 0.6 s at 50,000 inc/s.
+        assert!((42_400..42_600).contains(&a.position()), "{}", a.position());
+        assert!(a.switches().positive_limit && a.switches().home && !a.switches().negative_limit);
+    }
+
+    #[test]
+    fn the_position_loop_settles_on_the_set_point() {
+        let mut a = axis();
+        a.command(SetPoint::Position { position: 300, velocity: 0 });
+        for _ in 0..500 {
+            a.tick();
+        }
+        assert_eq!((a.position(), a.velocity()), (300, 0));
+    }
+
+    #[test]
+    fn faults_stop_the_power_stage_and_clear_once_their_cause_is_gone() {
+        for (fault, code) in [
+            (Injected::OverTemperature, fault::OVER_TEMPERATURE),
+            (Injected::UnderVoltage, fault::UNDER_VOLTAGE),
+            (Injected::PowerStage, fault::POWER_STAGE),
+        ] {
+            let mut a = axis();
+            a.command(SetPoint::Velocity(10_000));
+            a.tick();
+            a.inject(fault);
+            assert_eq!(a.fault(), code);
+            a.tick();
+            a.enable(true);
+            assert_eq!(a.torque(), 0, "{fault:?}: the power stage is off");
+            assert!(!a.reset_fault(), "the cause persists");
+            a.remove(fault);
+            assert!(a.reset_fault());
+            assert_eq!(a.fault(), 0);
+        }
+        let mut a = axis();
+        a.inject(Injected::Blocked);
+        a.command(SetPoint::Position { position: 5_000, velocity: 0 });
+        a.tick();
+        assert_eq!(a.fault(), fault::FOLLOWING_ERROR, "a blocked load: the drive's following-error monitoring");
+    }
+}
