@@ -15,10 +15,12 @@
 #![forbid(unsafe_code)]
 
 pub mod abort;
+pub mod axis;
 pub mod frame;
 pub mod id;
 pub mod node;
 pub mod od;
+pub mod profiles;
 pub mod services;
 pub mod storage;
 pub mod time;

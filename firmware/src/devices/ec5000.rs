@@ -12,18 +12,58 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
+use canopen_core::axis::{Axis, AxisParams};
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::store::{self, Scope};
+use canopen_core::time::Instant;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
-/// the firmware beyond the dictionary.
-#[derive(Debug, Default)]
-pub struct App;
+/// the firmware beyond the dictionary, and the CiA 402 profile driving the
+/// axis model (until a board drives the roller's motor).
+#[derive(Debug)]
+pub struct App {
+    /// The CiA 402 profile and the drive behind it.
+    pub drive: Cia402<Axis>,
+}
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App;
+    pub const NEW: App = App { drive: Cia402::new(Axis::NEW) };
 }
+
+/// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
+pub const PROFILE: Config = Config {
+    // The roller's motor encoder: 4096 increments per motor revolution (D41).
+    increments_per_rev: 4096,
+    // D44: NMT leaving Operational is a "CAN failure" for 0x6007.
+    leaving_operational_aborts: true,
+    // 0x6067 and 0x606D are not in the dictionary: 1 mm and 5 mm/s (D42).
+    position_window: 1,
+    velocity_window: 5,
+    // 0x6099 is a single 0..0 VAR: homing 37 does not move (D43).
+    homing_speeds: (0, 0),
+};
+
+/// The roller as the axis model simulates it: 4096 inc/rev, 3000 min⁻¹ at
+/// the motor (about 436 mm/s at the roller with gear 18:1 and feed 157 mm),
+/// 0.2 s from standstill to full speed, a 95 °C warning (0x4231) and a fault at 110 °C.
+pub const AXIS: AxisParams = AxisParams {
+    increments_per_rev: 4096,
+    max_acceleration: 1_024_000,
+    max_velocity: 204_800,
+    position_gain: 40,
+    friction_permille: 50,
+    ambient_c: 25,
+    rise_at_rated_c: 60,
+    thermal_tau_s: 120,
+    warning_c: 95,
+    fault_c: 110,
+    dc_link_mv: 24_000,
+    following_limit: 200_000,
+    limits: (0, 0),
+    home_switch: None,
+};
 
 impl Application for App {
     /// 0x1010 sub 1 stores "all parameters except node-ID" (L744): only a
@@ -31,6 +71,7 @@ impl Application for App {
     const OPTIONS: ServiceOptions = ServiceOptions { not_saved_by_1010: Some((NODE_ID, NODE_ID)), ..ServiceOptions::CIA301 };
 
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.drive.check_write(index, data)?;
         match (index, sub, data) {
             // D34: profile position, profile velocity, homing (as int8 bytes 1, 3, 6) and none.
             (0x6060, 0, [mode]) if !matches!(mode, 0 | 1 | 3 | 6) => Err(AbortCode::InvalidValue),
@@ -72,9 +113,22 @@ impl Application for App {
             // D31: the static node-ID is the one the drive starts with: stored at once.
             let _ = ctx.save_objects(NODE_ID, NODE_ID);
         }
+        self.drive.written(ctx, &PROFILE, index);
+    }
+
+    fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        self.drive.sample(ctx);
+    }
+
+    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        self.drive.poll(ctx, &PROFILE)
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        if event == NmtEvent::ResetApplication {
+            self.drive.drive.configure(AXIS);
+        }
+        self.drive.on_nmt(ctx, &PROFILE, event);
         // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
         if event == NmtEvent::ResetCommunication && (1..=127).contains(&ctx.node_id()) {
             let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);

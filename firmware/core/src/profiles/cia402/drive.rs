@@ -1,0 +1,76 @@
+//! The drive behind the profile: power stage, set-points, actual values,
+//! faults, temperature and switches. The profile never touches hardware; a
+//! board implements this trait for its motor control, and
+//! [`crate::axis::Axis`] simulates a motor and load until one does.
+//!
+//! Units are the drive's own (CiA 402 "internal units"): positions in
+//! increments, velocities in increments per second, accelerations in
+//! increments per second squared, torque in per mille of the rated torque.
+
+/// What the drive's control loops follow during the next tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SetPoint {
+    /// Power stage off or nothing commanded: the drive holds no torque.
+    #[default]
+    None,
+    /// Position loop: be at `position` [inc] moving at `velocity` [inc/s]
+    /// (velocity feed-forward), the profile's demand values.
+    Position {
+        /// Position demand value [inc].
+        position: i64,
+        /// Velocity demand value [inc/s], fed forward.
+        velocity: i32,
+    },
+    /// Velocity loop alone [inc/s] (vl).
+    Velocity(i32),
+    /// Torque [‰ of rated torque].
+    Torque(i16),
+}
+
+/// Switch inputs the homing methods use (CiA 402 digital inputs 0x60FD bits 0-2).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Switches {
+    /// Negative limit switch active.
+    pub negative_limit: bool,
+    /// Positive limit switch active.
+    pub positive_limit: bool,
+    /// Home switch active.
+    pub home: bool,
+}
+
+/// A motor with its power stage, as the CiA 402 profile drives it.
+pub trait Drive {
+    /// Reset application: the drive returns to its power-on state (power
+    /// stage off, no set-point, faults that a reset clears cleared).
+    fn reset(&mut self);
+    /// Switches the power stage on (the motor holds torque) or off (it coasts).
+    fn enable(&mut self, on: bool);
+    /// The set-point for the coming ticks.
+    fn command(&mut self, set_point: SetPoint);
+    /// Advances the drive by one profile tick ([`super::TICK_US`]); a real
+    /// drive samples its feedback here.
+    fn tick(&mut self);
+    /// Position actual value [inc].
+    fn position(&self) -> i64;
+    /// Redefines the actual position as `position` [inc] (homing), without motion.
+    fn set_position(&mut self, position: i64);
+    /// Velocity actual value [inc/s].
+    fn velocity(&self) -> i32;
+    /// Torque actual value [‰ of rated torque].
+    fn torque(&self) -> i16;
+    /// Motor or power stage temperature [°C].
+    fn temperature(&self) -> i16;
+    /// DC link voltage [mV].
+    fn dc_link_mv(&self) -> u32;
+    /// The active fault as a CiA 402 error code (0x603F), 0 for none.
+    fn fault(&self) -> u16;
+    /// A warning condition (statusword bit 7), such as a temperature near its limit.
+    fn warning(&self) -> bool;
+    /// Clears the fault if its cause is gone; false if it persists.
+    fn reset_fault(&mut self) -> bool;
+    /// The switch inputs.
+    fn switches(&self) -> Switches;
+    /// The drive's own acceleration limit [inc/s²]: the "current limit"
+    /// deceleration of the option codes, and the ramp when an object gives none.
+    fn max_acceleration(&self) -> u32;
+}

@@ -1,0 +1,127 @@
+//! Profile position mode (pp, 0x6060 = 1; CiA 402-2 §12): the set-point
+//! handshake (controlword bit 4 new set-point, statusword bit 12 set-point
+//! acknowledge), change set immediately (bit 5), relative targets (bit 6,
+//! 0x60F2), the one-deep set-point buffer with change on set-point (bit 9),
+//! software position limits (0x607D) and target reached (0x6067/0x6068).
+
+use super::motion::Demand;
+
+/// The set-points the trajectory generator holds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Pp {
+    /// A set-point is being executed.
+    active: bool,
+    /// Its target [µinc].
+    target_u: i64,
+    /// A second set-point waits in the buffer.
+    buffered: bool,
+    /// Its target [µinc].
+    next_u: i64,
+    /// The buffered set-point follows without a stop (bit 9 when it came).
+    blend: bool,
+    /// The last accepted target [inc], the base of relative set-points.
+    last_target: i64,
+    /// Statusword bit 12.
+    pub acknowledge: bool,
+}
+
+/// How a new set-point is given.
+#[derive(Clone, Copy, Debug)]
+pub struct SetPointRequest {
+    /// The target [inc], polarity applied, relative not yet.
+    pub target: i64,
+    /// Controlword bit 6.
+    pub relative: bool,
+    /// Controlword bit 5.
+    pub immediately: bool,
+    /// Controlword bit 9.
+    pub blend: bool,
+    /// 0x60F2 bits 0-1: relative to the preceding target (0), the position
+    /// demand (1) or the actual position (2).
+    pub relative_to: u8,
+}
+
+impl Pp {
+    /// No set-point: all zero bits.
+    pub const NEW: Pp = Pp { active: false, target_u: 0, buffered: false, next_u: 0, blend: false, last_target: 0, acknowledge: false };
+
+    /// Clears every set-point (entering the mode, enabling operation).
+    pub fn clear(&mut self, position: i64) {
+        *self = Pp { last_target: position, ..Pp::default() };
+    }
+
+    /// The absolute target [inc] of a set-point.
+    pub fn absolute(&self, request: &SetPointRequest, demand: &Demand, actual: i64) -> i64 {
+        if !request.relative {
+            return request.target;
+        }
+        let base = match request.relative_to & 3 {
+            1 => demand.position(),
+            2 => actual,
+            _ => self.last_target,
+        };
+        base.saturating_add(request.target)
+    }
+
+    /// Controlword bit 4 rose: takes the set-point to absolute `target`
+    /// [inc] if there is room.
+    pub fn new_set_point(&mut self, target: i64, request: &SetPointRequest) {
+        let target_u = target.saturating_mul(1_000_000);
+        if !self.active || request.immediately {
+            (self.active, self.target_u, self.buffered) = (true, target_u, false);
+        } else if !self.buffered {
+            (self.buffered, self.next_u, self.blend) = (true, target_u, request.blend);
+        } else {
+            // Buffer full: the set-point is not taken (bit 12 stays as it is).
+            return;
+        }
+        self.last_target = target;
+        self.acknowledge = true;
+    }
+
+    /// Controlword bit 4 fell: the acknowledge clears unless the buffer is full.
+    pub fn set_point_released(&mut self) {
+        if !(self.active && self.buffered) {
+            self.acknowledge = false;
+        }
+    }
+
+    /// One tick of the trajectory (`new_set_point_held`: controlword bit 4
+    /// is still set); speeds [milli-inc/s], ramps [inc/s²].
+    pub fn tick(&mut self, demand: &mut Demand, speed: i64, acceleration: u32, deceleration: u32, new_set_point_held: bool) {
+        if !self.active {
+            demand.ramp(0, acceleration, deceleration);
+            return;
+        }
+        let direction = (self.target_u - demand.position_u).signum();
+        let beyond = if self.buffered && self.blend && (self.next_u - self.target_u).signum() == direction {
+            (self.next_u - self.target_u).unsigned_abs()
+        } else {
+            0
+        };
+        if demand.move_to(self.target_u, beyond, speed, acceleration, deceleration) {
+            if self.buffered {
+                (self.target_u, self.buffered) = (self.next_u, false);
+                if !self.blend {
+                    demand.velocity_m = 0;
+                }
+                if !new_set_point_held {
+                    self.acknowledge = false;
+                }
+            } else {
+                self.active = false;
+                demand.velocity_m = 0;
+            }
+        }
+    }
+
+    /// No set-point left: the trajectory is at its last target.
+    pub fn done(&self) -> bool {
+        !self.active
+    }
+
+    /// The target the trajectory ends at [inc].
+    pub fn final_target(&self) -> i64 {
+        self.last_target
+    }
+}

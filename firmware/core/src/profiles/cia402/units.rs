@@ -1,0 +1,146 @@
+//! The factor group (CiA 402-2 §6.5): user units (0x607A, 0x6064, 0x60FF,
+//! 0x606C, 0x6083 …) to the drive's increments and back, from the
+//! encoder's increments per motor revolution, the gear ratio 0x6091 and the
+//! feed constant 0x6092, and the polarity 0x607E.
+//!
+//! position [inc] = position [user] × inc/rev × gear (motor revs / shaft revs)
+//! ÷ feed (user units / shaft revs). Velocities and accelerations use the
+//! same factor per second and per second squared. The factors are Q32
+//! fixed-point, computed when the objects change, so the per-frame
+//! conversions are one multiplication each (no division on a Cortex-M3).
+
+/// One direction of a conversion: `value × factor / 2^32`, rounded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Factor(i64);
+
+impl Factor {
+    /// Zero: everything converts to 0 (before reset application).
+    pub const ZERO: Factor = Factor(0);
+
+    /// `numerator / denominator` (1:1 if either is 0 or the ratio does not fit).
+    pub fn ratio(mut numerator: u64, mut denominator: u64) -> Factor {
+        if numerator == 0 || denominator == 0 {
+            return Factor(1 << 32);
+        }
+        while numerator >= 1 << 31 || denominator >= 1 << 31 {
+            numerator >>= 1;
+            denominator = (denominator >> 1).max(1);
+        }
+        Factor(((numerator << 32) / denominator).min(i64::MAX as u64) as i64)
+    }
+
+    /// `value` converted, rounded to the nearest.
+    pub fn apply(self, value: i64) -> i64 {
+        ((i128::from(value) * i128::from(self.0) + (1 << 31)) >> 32) as i64
+    }
+}
+
+/// The conversions of one device at one moment.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Units {
+    /// User position (and velocity, acceleration) units to increments.
+    pub to_inc: Factor,
+    /// Increments to user units.
+    pub to_user: Factor,
+    /// vl velocity (0x6042, min⁻¹ of the motor) to increments per second.
+    pub vl_to_inc: Factor,
+    /// Increments per second to vl velocity.
+    pub vl_to_user: Factor,
+    /// 0x607E bit 7: positions are negated.
+    pub position_negative: bool,
+    /// 0x607E bit 6: velocities are negated.
+    pub velocity_negative: bool,
+}
+
+impl Units {
+    /// Before reset application: all zero bits.
+    pub const ZERO: Units = Units {
+        to_inc: Factor::ZERO,
+        to_user: Factor::ZERO,
+        vl_to_inc: Factor::ZERO,
+        vl_to_user: Factor::ZERO,
+        position_negative: false,
+        velocity_negative: false,
+    };
+
+    /// The factors of `increments_per_rev` with gear `motor_revs : shaft_revs`
+    /// and feed `feed` user units per `feed_revs` shaft revolutions; polarity
+    /// byte `polarity`.
+    pub fn new(increments_per_rev: u32, (motor_revs, shaft_revs): (u32, u32), (feed, feed_revs): (u32, u32), polarity: u8) -> Units {
+        let numerator = u64::from(increments_per_rev) * u64::from(motor_revs) * u64::from(feed_revs);
+        let denominator = u64::from(shaft_revs) * u64::from(feed);
+        Units {
+            to_inc: Factor::ratio(numerator, denominator),
+            to_user: Factor::ratio(denominator, numerator),
+            vl_to_inc: Factor::ratio(u64::from(increments_per_rev), 60),
+            vl_to_user: Factor::ratio(60, u64::from(increments_per_rev)),
+            position_negative: polarity & 0x80 != 0,
+            velocity_negative: polarity & 0x40 != 0,
+        }
+    }
+
+    /// A target or actual position: user units to increments (polarity applied).
+    pub fn position_to_inc(&self, user: i32) -> i64 {
+        negate(self.to_inc.apply(i64::from(user)), self.position_negative)
+    }
+
+    /// Increments to a user position (polarity applied), saturated to 32 bits.
+    pub fn position_to_user(&self, inc: i64) -> i32 {
+        saturate(negate(self.to_user.apply(inc), self.position_negative))
+    }
+
+    /// A velocity: user units per second to increments per second (polarity applied).
+    pub fn velocity_to_inc(&self, user: i32) -> i64 {
+        negate(self.to_inc.apply(i64::from(user)), self.velocity_negative)
+    }
+
+    /// Increments per second to user velocity units (polarity applied).
+    pub fn velocity_to_user(&self, inc: i64) -> i32 {
+        saturate(negate(self.to_user.apply(inc), self.velocity_negative))
+    }
+
+    /// A magnitude (window, ramp, speed): user units to increments, no polarity.
+    pub fn magnitude_to_inc(&self, user: u32) -> i64 {
+        self.to_inc.apply(i64::from(user))
+    }
+}
+
+fn negate(value: i64, negative: bool) -> i64 {
+    if negative { -value } else { value }
+}
+
+fn saturate(value: i64) -> i32 {
+    value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ec5000_mm_with_gear_18_to_1_and_feed_157_mm() {
+        // 4096 inc/rev × 18 / 157 mm = 469.6 inc/mm.
+        let u = Units::new(4096, (18, 1), (157, 1), 0);
+        assert_eq!(u.position_to_inc(1000), 469_605);
+        assert_eq!(u.position_to_user(469_605), 1000, "round trip");
+        assert_eq!(u.position_to_user(469_605 + 200), 1000, "within half a millimetre");
+        assert_eq!(u.position_to_inc(-157), -73_728, "one output revolution = 18 motor revolutions");
+        assert_eq!(u.velocity_to_user(u.velocity_to_inc(-250)), -250);
+    }
+
+    #[test]
+    fn polarity_bits_7_and_6() {
+        let u = Units::new(1000, (1, 1), (1000, 1), 0xC0);
+        assert_eq!(u.position_to_inc(5), -5);
+        assert_eq!(u.position_to_user(-5), 5);
+        assert_eq!(u.velocity_to_inc(7), -7);
+        assert_eq!(Units::new(1000, (1, 1), (1000, 1), 0x80).velocity_to_inc(7), 7);
+    }
+
+    #[test]
+    fn degenerate_factors_are_one_to_one() {
+        let u = Units::new(4096, (0, 0), (0, 1), 0);
+        assert_eq!(u.position_to_inc(123), 123);
+        assert_eq!(Units::new(4096, (1, 1), (4096, 1), 0).vl_to_inc.apply(60), 4096, "60 min⁻¹ = one revolution per second");
+    }
+}
