@@ -124,6 +124,9 @@ impl Application for App {
             // Event frames are always the whole 32-bit STATUS (Ex. 10, L762).
             send(ctx, Reply { regid: reg::STATUS, value: status, wide: true });
         }
+        if self.cyclic.deadline().is_some_and(|due| due <= now) {
+            self.servo.refresh(ctx);
+        }
         while let Some(regid) = self.cyclic.next_due(now) {
             match reply(ctx, regid) {
                 Some(r) if send(ctx, r) => {}
@@ -147,6 +150,7 @@ impl App {
     /// READ 0x3D: once at once, cyclically from now, or stop. False if it is
     /// refused (not a readable register, or all eight slots busy).
     fn read_request(&mut self, ctx: &mut Ctx<'_>, regid: u8, period: Period) -> bool {
+        self.servo.refresh(ctx);
         match period {
             Period::Stop => {
                 self.cyclic.stop(regid);

@@ -206,7 +206,8 @@ impl<D: Drive + Limits> Servo<D> {
     }
 
     /// Runs the drive's ticks due by now, the CAN timeout and the fault
-    /// check; refreshes the actual values. Returns the next tick and the
+    /// check (the actual-value registers wait for [`Servo::refresh`], before
+    /// a reply: a tick stays cheap). Returns the next tick and the
     /// STATUS to send if MODE bit 4 asks for it and a masked bit changed.
     pub fn poll(&mut self, ctx: &mut Ctx<'_>) -> (Option<Instant>, Option<u32>) {
         let now = ctx.now();
@@ -239,7 +240,6 @@ impl<D: Drive + Limits> Servo<D> {
             // A disabled drive ticks until it has coasted to a stop.
             self.next_tick = (self.enabled || self.drive.velocity() != 0).then_some(tick);
         }
-        self.refresh(ctx);
         let status = self.status(ctx);
         let mask = reg::read_u32(ctx, reg::STATUS_MASK);
         let event = (reg::read_u32(ctx, reg::MODE) & MODE_EVENT != 0 && (status ^ self.reported) & mask != 0).then_some(status);

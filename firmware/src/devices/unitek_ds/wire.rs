@@ -98,6 +98,15 @@ pub struct Reply {
 }
 
 impl Reply {
+    /// Decodes a reply (a master's or a trace's view): DLC 4 or 6, the stuff byte ignored.
+    pub fn parse(data: &[u8]) -> Result<Reply, Malformed> {
+        match *data {
+            [regid, b0, b1, _] => Ok(Reply { regid, value: u32::from(u16::from_le_bytes([b0, b1])), wide: false }),
+            [regid, b0, b1, b2, b3, _] => Ok(Reply { regid, value: u32::from_le_bytes([b0, b1, b2, b3]), wide: true }),
+            _ => Err(Malformed),
+        }
+    }
+
     /// The frame's data in `buf`: DLC 4 or 6, the stuff byte 0x00.
     pub fn emit(self, buf: &mut [u8; 6]) -> &[u8] {
         let [b0, b1, b2, b3] = self.value.to_le_bytes();
@@ -154,5 +163,14 @@ mod tests {
         // Ex. 10 (M-L727): STATUS 0x3181.
         assert_eq!(Reply { regid: 0x40, value: 0x3181, wide: true }.emit(&mut buf), [0x40, 0x81, 0x31, 0x00, 0x00, 0x00]);
         assert_eq!(Reply { regid: 0x30, value: 0xFFFF_7FFF, wide: false }.emit(&mut buf), [0x30, 0xFF, 0x7F, 0x00]);
+    }
+
+    #[test]
+    fn replies_parse_back() {
+        assert_eq!(Reply::parse(&[0xE2, 0x01, 0x00, 0x00]), Ok(Reply { regid: 0xE2, value: 1, wide: false }));
+        assert_eq!(Reply::parse(&[0x40, 0x85, 0x31, 0x00, 0x00, 0x00]), Ok(Reply { regid: 0x40, value: 0x3185, wide: true }));
+        for len in [0, 1, 2, 3, 5, 7, 8] {
+            assert_eq!(Reply::parse(&[0x30; 8][..len]), Err(Malformed), "DLC {len}");
+        }
     }
 }
