@@ -1,19 +1,24 @@
 //! The profile's state and the slot hooks that drive it.
 
 use super::controlword::{self as cw, Command};
-use super::drive::{Drive, SetPoint};
+use super::drive::Drive;
 use super::fsa::{self, PdsState, Reaction, Transition};
-use super::hm::{Hm, Phase, Step};
+use super::hm::Hm;
 use super::motion::Demand;
 use super::objects::{self, index, signed, unsigned, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
 use super::units::Units;
-use super::velocity::{Window, vl_limit, vl_ramp};
-use super::{TICK_US, mode, statusword as sw};
+use super::velocity::{Window, vl_limit};
+use super::{TICK_US, mode};
 use crate::abort::AbortCode;
 use crate::node::{CommError, Ctx, NmtEvent};
 use crate::services::nmt::State;
 use crate::time::Instant;
+
+mod status;
+mod trajectory;
+
+use status::{supported_modes, units};
 
 /// A device's constants for the profile (what its manual fixes and no object holds).
 #[derive(Clone, Copy, Debug)]
@@ -120,40 +125,6 @@ impl Profile {
         ticking: false,
         operational: false,
     };
-}
-
-/// Parameters read once per poll, in increments.
-struct Params {
-    acceleration: u32,
-    deceleration: u32,
-    quick_stop: u32,
-    limit: u32,
-    speed_m: i64,
-    halt: Reaction,
-    position_window: i64,
-    position_window_ticks: u32,
-    following_window: Option<i64>,
-    following_ticks: u32,
-    velocity_window: i64,
-    velocity_window_ticks: u32,
-    threshold: i64,
-    threshold_ticks: u32,
-    homing_m: (i64, i64),
-    homing_acceleration: u32,
-    home: i64,
-}
-
-/// Milliseconds as ticks.
-fn ticks(ms: u32) -> u32 {
-    (u64::from(ms) * 1000 / TICK_US).min(u64::from(u32::MAX)) as u32
-}
-
-/// An acceleration in increments, 0 or missing → `fallback`.
-fn ramp(units: &Units, user: Option<u32>, fallback: u32) -> u32 {
-    match user {
-        Some(a) if a != 0 => units.magnitude_to_inc(a).clamp(1, i64::from(u32::MAX)) as u32,
-        _ => fallback,
-    }
 }
 
 impl<D: Drive> Cia402<D> {
@@ -477,265 +448,5 @@ impl<D: Drive> Cia402<D> {
         self.s.pp.new_set_point(target, &request);
         self.s.reached = false;
         self.s.reached_window = Window::NEW;
-    }
-
-    // ---- motion --------------------------------------------------------------------
-
-    fn params(&self, ctx: &Ctx<'_>, config: &Config) -> Params {
-        let u = &self.s.units;
-        let limit = match unsigned(ctx, index::MAX_DECELERATION, 0) {
-            Some(a) if a != 0 => ramp(u, Some(a), 1),
-            _ => self.drive.max_acceleration(),
-        };
-        let vl = self.s.mode == mode::VL;
-        let vl_ramp_of = |index| {
-            let rpm_per_s = vl_ramp(unsigned_or(ctx, index, 1, 0), unsigned_or(ctx, index, 2, 1));
-            match u.vl_to_inc.apply(i64::from(rpm_per_s)) {
-                0 => limit,
-                a => a.clamp(1, i64::from(u32::MAX)) as u32,
-            }
-        };
-        let (acceleration, deceleration, quick_stop) = if vl {
-            (vl_ramp_of(index::VL_ACCELERATION), vl_ramp_of(index::VL_DECELERATION), vl_ramp_of(index::VL_QUICK_STOP))
-        } else {
-            (
-                ramp(u, unsigned(ctx, index::PROFILE_ACCELERATION, 0), limit),
-                ramp(u, unsigned(ctx, index::PROFILE_DECELERATION, 0), limit),
-                ramp(u, unsigned(ctx, index::QUICK_STOP_DECELERATION, 0), limit),
-            )
-        };
-        // Profile velocity 0 or missing: the max profile velocity, else unbounded.
-        let speed = match (unsigned(ctx, index::PROFILE_VELOCITY, 0), unsigned(ctx, index::MAX_PROFILE_VELOCITY, 0)) {
-            (Some(v), Some(m)) if v != 0 && m != 0 => v.min(m),
-            (Some(v), _) if v != 0 => v,
-            (_, Some(m)) if m != 0 => m,
-            _ => u32::MAX / 2,
-        };
-        let window = |index, default: u32| u.magnitude_to_inc(unsigned(ctx, index, 0).unwrap_or(default));
-        let homing_speed = |sub, default: u32| {
-            let v = unsigned(ctx, index::HOMING_SPEEDS, sub).filter(|v| *v != 0).unwrap_or(default);
-            u.magnitude_to_inc(v) * 1000
-        };
-        let following = unsigned(ctx, index::FOLLOWING_ERROR_WINDOW, 0).filter(|w| *w != u32::MAX);
-        Params {
-            acceleration,
-            deceleration,
-            quick_stop,
-            limit,
-            speed_m: u.magnitude_to_inc(speed).saturating_mul(1000),
-            halt: Reaction::of(signed(ctx, index::HALT_OPTION, 0).map_or(-1, |v| v), Reaction::SlowDownRamp),
-            position_window: window(index::POSITION_WINDOW, config.position_window),
-            position_window_ticks: ticks(unsigned_or(ctx, index::POSITION_WINDOW_TIME, 0, 0)),
-            following_window: following.map(|w| u.magnitude_to_inc(w)),
-            following_ticks: ticks(unsigned_or(ctx, index::FOLLOWING_ERROR_TIMEOUT, 0, 0)),
-            velocity_window: window(index::VELOCITY_WINDOW, config.velocity_window),
-            velocity_window_ticks: ticks(unsigned_or(ctx, index::VELOCITY_WINDOW_TIME, 0, 0)),
-            threshold: window(index::VELOCITY_THRESHOLD, 0),
-            threshold_ticks: ticks(unsigned_or(ctx, index::VELOCITY_THRESHOLD_TIME, 0, 0)),
-            homing_m: (homing_speed(1, config.homing_speeds.0), homing_speed(2, config.homing_speeds.1)),
-            homing_acceleration: ramp(u, unsigned(ctx, index::HOMING_ACCELERATION, 0), acceleration),
-            home: u.position_to_inc(signed(ctx, index::HOME_OFFSET, 0).unwrap_or(0)),
-        }
-    }
-
-    /// The deceleration of a stop reaction [inc/s²].
-    fn deceleration(p: &Params, reaction: Reaction) -> u32 {
-        match reaction {
-            Reaction::SlowDownRamp => p.deceleration,
-            Reaction::QuickStopRamp => p.quick_stop,
-            Reaction::Limit | Reaction::Coast => p.limit,
-        }
-    }
-
-    fn tick(&mut self, p: &Params) {
-        let s = &mut self.s;
-        if !s.state.drive_function() {
-            self.drive.tick();
-            s.demand = Demand::at(self.drive.position(), self.drive.velocity());
-            return;
-        }
-        let d = &mut s.demand;
-        let halt = s.controlword & cw::HALT != 0 && s.state == PdsState::OperationEnabled;
-        if s.braking || matches!(s.state, PdsState::QuickStopActive | PdsState::FaultReactionActive) {
-            d.ramp(0, p.acceleration, Self::deceleration(p, s.reaction));
-        } else if halt {
-            d.ramp(0, p.acceleration, Self::deceleration(p, p.halt));
-        } else {
-            match s.mode {
-                mode::PP => s.pp.tick(d, p.speed_m, p.acceleration, p.deceleration, s.controlword & cw::NEW_SET_POINT != 0),
-                mode::PV | mode::VL => d.ramp(s.velocity_target_m, p.acceleration, p.deceleration),
-                mode::HM => {
-                    let started = core::mem::take(&mut s.hm_started);
-                    match s.hm.tick(self.drive.switches(), started) {
-                        Step::Run(direction, fast) => {
-                            let speed = if fast { p.homing_m.0 } else { p.homing_m.1 };
-                            d.ramp(speed * i64::from(direction), p.homing_acceleration, p.homing_acceleration);
-                        }
-                        Step::SetHome => {
-                            self.drive.set_position(p.home);
-                            *d = Demand { position_u: p.home.saturating_mul(1_000_000), velocity_m: 0 };
-                        }
-                        Step::Stop => d.ramp(0, p.homing_acceleration, p.homing_acceleration),
-                    }
-                }
-                _ => d.ramp(0, p.acceleration, p.deceleration),
-            }
-        }
-        let set_point = if s.mode == mode::VL {
-            SetPoint::Velocity(d.velocity())
-        } else {
-            SetPoint::Position { position: d.position(), velocity: d.velocity() }
-        };
-        self.drive.command(set_point);
-        self.drive.tick();
-        if d.velocity_m == 0 {
-            self.stopped();
-        }
-    }
-
-    /// The demand reached standstill: a braking transition, a quick stop or
-    /// a fault reaction completes.
-    fn stopped(&mut self) {
-        let s = &mut self.s;
-        if s.braking {
-            let to = s.pending;
-            self.stop_now(to);
-        } else if s.state == PdsState::FaultReactionActive {
-            self.stop_now(PdsState::Fault);
-        } else if s.state == PdsState::QuickStopActive && !matches!(s.reaction, Reaction::Coast) {
-            // Option codes 1-4 end in Switch on disabled (transition 12); 5-8 hold.
-            if !s.quick_stop_holds {
-                self.stop_now(PdsState::SwitchOnDisabled);
-            }
-        }
-    }
-
-    /// Target reached, speed zero and following error, one tick.
-    fn monitor(&mut self, p: &Params) {
-        let s = &mut self.s;
-        let position = self.drive.position();
-        let velocity = i64::from(self.drive.velocity());
-        match s.mode {
-            mode::PP => {
-                let near = s.pp.done() && (position - s.pp.final_target()).abs() <= p.position_window;
-                s.reached = s.reached_window.tick(near, p.position_window_ticks);
-                let lagging = p.following_window.is_some_and(|w| (s.demand.position() - position).abs() > w);
-                s.following = s.following_window.tick(lagging, p.following_ticks);
-            }
-            mode::PV | mode::VL => {
-                let near = (s.velocity_target_m / 1000 - velocity).abs() <= p.velocity_window;
-                s.reached = s.reached_window.tick(near, p.velocity_window_ticks);
-                s.speed_zero = s.zero_window.tick(velocity.abs() <= p.threshold, p.threshold_ticks);
-            }
-            _ => {}
-        }
-    }
-
-    // ---- objects -------------------------------------------------------------------
-
-    fn statusword(&self) -> u16 {
-        let s = &self.s;
-        let mut word = s.state.statusword() | sw::REMOTE;
-        if s.state != PdsState::NotReadyToSwitchOn && self.drive.dc_link_mv() > 0 {
-            word |= sw::VOLTAGE_ENABLED;
-        }
-        if self.drive.warning() {
-            word |= sw::WARNING;
-        }
-        if s.internal_limit {
-            word |= sw::INTERNAL_LIMIT;
-        }
-        if matches!(s.state, PdsState::OperationEnabled | PdsState::QuickStopActive) {
-            let halted = s.controlword & cw::HALT != 0 || s.state == PdsState::QuickStopActive;
-            let standing = s.demand.velocity_m == 0;
-            let (reached, bit12, bit13) = match s.mode {
-                mode::PP => (s.reached, s.pp.acknowledge, s.following),
-                mode::PV => (s.reached, s.speed_zero, false),
-                mode::VL => (s.reached, false, false),
-                mode::HM => (
-                    s.hm.phase == Phase::Attained || (s.hm.phase == Phase::Idle && standing),
-                    s.hm.phase == Phase::Attained,
-                    s.hm.phase == Phase::Error,
-                ),
-                _ => (false, false, false),
-            };
-            if reached || (halted && standing) {
-                word |= sw::TARGET_REACHED;
-            }
-            if bit12 {
-                word |= sw::BIT12;
-            }
-            if bit13 {
-                word |= sw::BIT13;
-            }
-        }
-        word
-    }
-
-    /// Writes 0x6041 if it changed (the node then checks the TPDOs that map it).
-    fn publish(&mut self, ctx: &mut Ctx<'_>) {
-        let word = self.statusword();
-        if word != self.s.statusword {
-            self.s.statusword = word;
-            objects::set(ctx, index::STATUSWORD, 2, i32::from(word));
-        }
-    }
-
-    /// The actual values in user units.
-    fn actuals(&mut self, ctx: &mut Ctx<'_>) {
-        let u = &self.s.units;
-        let d = &self.drive;
-        if self.s.mode == mode::VL {
-            let rpm = |inc: i32| {
-                let v = u.vl_to_user.apply(i64::from(inc));
-                (if u.velocity_negative { -v } else { v }).clamp(-32768, 32767) as i32
-            };
-            objects::set(ctx, index::VL_VELOCITY_DEMAND, 2, rpm(self.s.demand.velocity()));
-            objects::set(ctx, index::VL_VELOCITY_ACTUAL, 2, rpm(d.velocity()));
-        }
-        objects::set(ctx, index::POSITION_ACTUAL, 4, u.position_to_user(d.position()));
-        objects::set(ctx, index::VELOCITY_ACTUAL, 4, u.velocity_to_user(i64::from(d.velocity())));
-        objects::set(ctx, index::TORQUE_ACTUAL, 2, i32::from(d.torque()));
-        objects::set(ctx, index::POSITION_DEMAND, 4, u.position_to_user(self.s.demand.position()));
-        objects::set(ctx, index::VELOCITY_DEMAND, 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
-        objects::set(ctx, index::POSITION_INTERNAL, 4, d.position() as i32);
-        let switches = d.switches();
-        let inputs = u32::from(switches.negative_limit) | u32::from(switches.positive_limit) << 1 | u32::from(switches.home) << 2;
-        objects::set(ctx, index::DIGITAL_INPUTS, 4, inputs as i32);
-    }
-}
-
-/// The factor group from the dictionary (missing objects: 1:1).
-fn units(ctx: &Ctx<'_>, config: &Config) -> Units {
-    let pair = |index| (unsigned_or(ctx, index, 1, 0), unsigned_or(ctx, index, 2, 0));
-    let gear = match pair(index::GEAR_RATIO) {
-        (0, _) | (_, 0) => (1, 1),
-        g => g,
-    };
-    let feed = match pair(index::FEED_CONSTANT) {
-        (0, _) | (_, 0) => (config.increments_per_rev, 1),
-        f => f,
-    };
-    Units::new(config.increments_per_rev, gear, feed, unsigned_or(ctx, index::POLARITY, 0, 0) as u8)
-}
-
-/// The modes this dictionary supports: 0x6502 (if present) and the objects
-/// each mode needs.
-fn supported_modes(ctx: &Ctx<'_>) -> u32 {
-    let has = |index| ctx.read(index, 0).is_ok() || ctx.read_u32(index, 1).is_some();
-    let mut modes = 0;
-    for (m, object) in [
-        (mode::PP, index::TARGET_POSITION),
-        (mode::VL, index::VL_TARGET_VELOCITY),
-        (mode::PV, index::TARGET_VELOCITY),
-        (mode::HM, index::HOMING_METHOD),
-    ] {
-        if has(object) {
-            modes |= mode::supported_bit(m);
-        }
-    }
-    match unsigned(ctx, index::SUPPORTED_DRIVE_MODES, 0) {
-        Some(declared) => modes & declared,
-        None => modes,
     }
 }

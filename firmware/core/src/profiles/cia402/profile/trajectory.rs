@@ -1,0 +1,202 @@
+//! The trajectory generator: parameters read once per poll, one tick of
+//! the active mode or stop reaction, and the monitoring windows.
+
+use super::{Cia402, Config};
+use crate::node::Ctx;
+use crate::profiles::cia402::controlword as cw;
+use crate::profiles::cia402::drive::{Drive, SetPoint};
+use crate::profiles::cia402::fsa::{PdsState, Reaction};
+use crate::profiles::cia402::hm::Step;
+use crate::profiles::cia402::motion::Demand;
+use crate::profiles::cia402::objects::{index, signed, unsigned, unsigned_or};
+use crate::profiles::cia402::units::Units;
+use crate::profiles::cia402::velocity::vl_ramp;
+use crate::profiles::cia402::{TICK_US, mode};
+
+/// Parameters read once per poll, in increments.
+pub(super) struct Params {
+    acceleration: u32,
+    deceleration: u32,
+    quick_stop: u32,
+    limit: u32,
+    speed_m: i64,
+    halt: Reaction,
+    position_window: i64,
+    position_window_ticks: u32,
+    following_window: Option<i64>,
+    following_ticks: u32,
+    velocity_window: i64,
+    velocity_window_ticks: u32,
+    threshold: i64,
+    threshold_ticks: u32,
+    homing_m: (i64, i64),
+    homing_acceleration: u32,
+    home: i64,
+}
+
+/// Milliseconds as ticks.
+fn ticks(ms: u32) -> u32 {
+    (u64::from(ms) * 1000 / TICK_US).min(u64::from(u32::MAX)) as u32
+}
+
+/// An acceleration in increments, 0 or missing → `fallback`.
+fn ramp(units: &Units, user: Option<u32>, fallback: u32) -> u32 {
+    match user {
+        Some(a) if a != 0 => units.magnitude_to_inc(a).clamp(1, i64::from(u32::MAX)) as u32,
+        _ => fallback,
+    }
+}
+
+impl<D: Drive> Cia402<D> {
+    // ---- motion --------------------------------------------------------------------
+
+    pub(super) fn params(&self, ctx: &Ctx<'_>, config: &Config) -> Params {
+        let u = &self.s.units;
+        let limit = match unsigned(ctx, index::MAX_DECELERATION, 0) {
+            Some(a) if a != 0 => ramp(u, Some(a), 1),
+            _ => self.drive.max_acceleration(),
+        };
+        let vl = self.s.mode == mode::VL;
+        let vl_ramp_of = |index| {
+            let rpm_per_s = vl_ramp(unsigned_or(ctx, index, 1, 0), unsigned_or(ctx, index, 2, 1));
+            match u.vl_to_inc.apply(i64::from(rpm_per_s)) {
+                0 => limit,
+                a => a.clamp(1, i64::from(u32::MAX)) as u32,
+            }
+        };
+        let (acceleration, deceleration, quick_stop) = if vl {
+            (vl_ramp_of(index::VL_ACCELERATION), vl_ramp_of(index::VL_DECELERATION), vl_ramp_of(index::VL_QUICK_STOP))
+        } else {
+            (
+                ramp(u, unsigned(ctx, index::PROFILE_ACCELERATION, 0), limit),
+                ramp(u, unsigned(ctx, index::PROFILE_DECELERATION, 0), limit),
+                ramp(u, unsigned(ctx, index::QUICK_STOP_DECELERATION, 0), limit),
+            )
+        };
+        // Profile velocity 0 or missing: the max profile velocity, else unbounded.
+        let speed = match (unsigned(ctx, index::PROFILE_VELOCITY, 0), unsigned(ctx, index::MAX_PROFILE_VELOCITY, 0)) {
+            (Some(v), Some(m)) if v != 0 && m != 0 => v.min(m),
+            (Some(v), _) if v != 0 => v,
+            (_, Some(m)) if m != 0 => m,
+            _ => u32::MAX / 2,
+        };
+        let window = |index, default: u32| u.magnitude_to_inc(unsigned(ctx, index, 0).unwrap_or(default));
+        let homing_speed = |sub, default: u32| {
+            let v = unsigned(ctx, index::HOMING_SPEEDS, sub).filter(|v| *v != 0).unwrap_or(default);
+            u.magnitude_to_inc(v) * 1000
+        };
+        let following = unsigned(ctx, index::FOLLOWING_ERROR_WINDOW, 0).filter(|w| *w != u32::MAX);
+        Params {
+            acceleration,
+            deceleration,
+            quick_stop,
+            limit,
+            speed_m: u.magnitude_to_inc(speed).saturating_mul(1000),
+            halt: Reaction::of(signed(ctx, index::HALT_OPTION, 0).map_or(-1, |v| v), Reaction::SlowDownRamp),
+            position_window: window(index::POSITION_WINDOW, config.position_window),
+            position_window_ticks: ticks(unsigned_or(ctx, index::POSITION_WINDOW_TIME, 0, 0)),
+            following_window: following.map(|w| u.magnitude_to_inc(w)),
+            following_ticks: ticks(unsigned_or(ctx, index::FOLLOWING_ERROR_TIMEOUT, 0, 0)),
+            velocity_window: window(index::VELOCITY_WINDOW, config.velocity_window),
+            velocity_window_ticks: ticks(unsigned_or(ctx, index::VELOCITY_WINDOW_TIME, 0, 0)),
+            threshold: window(index::VELOCITY_THRESHOLD, 0),
+            threshold_ticks: ticks(unsigned_or(ctx, index::VELOCITY_THRESHOLD_TIME, 0, 0)),
+            homing_m: (homing_speed(1, config.homing_speeds.0), homing_speed(2, config.homing_speeds.1)),
+            homing_acceleration: ramp(u, unsigned(ctx, index::HOMING_ACCELERATION, 0), acceleration),
+            home: u.position_to_inc(signed(ctx, index::HOME_OFFSET, 0).unwrap_or(0)),
+        }
+    }
+
+    /// The deceleration of a stop reaction [inc/s²].
+    pub(super) fn deceleration(p: &Params, reaction: Reaction) -> u32 {
+        match reaction {
+            Reaction::SlowDownRamp => p.deceleration,
+            Reaction::QuickStopRamp => p.quick_stop,
+            Reaction::Limit | Reaction::Coast => p.limit,
+        }
+    }
+
+    pub(super) fn tick(&mut self, p: &Params) {
+        let s = &mut self.s;
+        if !s.state.drive_function() {
+            self.drive.tick();
+            s.demand = Demand::at(self.drive.position(), self.drive.velocity());
+            return;
+        }
+        let d = &mut s.demand;
+        let halt = s.controlword & cw::HALT != 0 && s.state == PdsState::OperationEnabled;
+        if s.braking || matches!(s.state, PdsState::QuickStopActive | PdsState::FaultReactionActive) {
+            d.ramp(0, p.acceleration, Self::deceleration(p, s.reaction));
+        } else if halt {
+            d.ramp(0, p.acceleration, Self::deceleration(p, p.halt));
+        } else {
+            match s.mode {
+                mode::PP => s.pp.tick(d, p.speed_m, p.acceleration, p.deceleration, s.controlword & cw::NEW_SET_POINT != 0),
+                mode::PV | mode::VL => d.ramp(s.velocity_target_m, p.acceleration, p.deceleration),
+                mode::HM => {
+                    let started = core::mem::take(&mut s.hm_started);
+                    match s.hm.tick(self.drive.switches(), started) {
+                        Step::Run(direction, fast) => {
+                            let speed = if fast { p.homing_m.0 } else { p.homing_m.1 };
+                            d.ramp(speed * i64::from(direction), p.homing_acceleration, p.homing_acceleration);
+                        }
+                        Step::SetHome => {
+                            self.drive.set_position(p.home);
+                            *d = Demand { position_u: p.home.saturating_mul(1_000_000), velocity_m: 0 };
+                        }
+                        Step::Stop => d.ramp(0, p.homing_acceleration, p.homing_acceleration),
+                    }
+                }
+                _ => d.ramp(0, p.acceleration, p.deceleration),
+            }
+        }
+        let set_point = if s.mode == mode::VL {
+            SetPoint::Velocity(d.velocity())
+        } else {
+            SetPoint::Position { position: d.position(), velocity: d.velocity() }
+        };
+        self.drive.command(set_point);
+        self.drive.tick();
+        if d.velocity_m == 0 {
+            self.stopped();
+        }
+    }
+
+    /// The demand reached standstill: a braking transition, a quick stop or
+    /// a fault reaction completes.
+    pub(super) fn stopped(&mut self) {
+        let s = &mut self.s;
+        if s.braking {
+            let to = s.pending;
+            self.stop_now(to);
+        } else if s.state == PdsState::FaultReactionActive {
+            self.stop_now(PdsState::Fault);
+        } else if s.state == PdsState::QuickStopActive && !matches!(s.reaction, Reaction::Coast) {
+            // Option codes 1-4 end in Switch on disabled (transition 12); 5-8 hold.
+            if !s.quick_stop_holds {
+                self.stop_now(PdsState::SwitchOnDisabled);
+            }
+        }
+    }
+
+    /// Target reached, speed zero and following error, one tick.
+    pub(super) fn monitor(&mut self, p: &Params) {
+        let s = &mut self.s;
+        let position = self.drive.position();
+        let velocity = i64::from(self.drive.velocity());
+        match s.mode {
+            mode::PP => {
+                let near = s.pp.done() && (position - s.pp.final_target()).abs() <= p.position_window;
+                s.reached = s.reached_window.tick(near, p.position_window_ticks);
+                let lagging = p.following_window.is_some_and(|w| (s.demand.position() - position).abs() > w);
+                s.following = s.following_window.tick(lagging, p.following_ticks);
+            }
+            mode::PV | mode::VL => {
+                let near = (s.velocity_target_m / 1000 - velocity).abs() <= p.velocity_window;
+                s.reached = s.reached_window.tick(near, p.velocity_window_ticks);
+                s.speed_zero = s.zero_window.tick(velocity.abs() <= p.threshold, p.threshold_ticks);
+            }
+            _ => {}
+        }
+    }
+}
