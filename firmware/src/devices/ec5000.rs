@@ -89,6 +89,11 @@ impl Application for App {
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        if (index, sub) == (NODE_ID, 1) {
+            // D31: the static node-ID is the one the drive starts with: stored at
+            // once, and a failed store fails the write.
+            return Some(ctx.write_object(NODE_ID, 1, data).and_then(|()| ctx.save_objects(NODE_ID, NODE_ID)));
+        }
         // F8: 0x1010/0x1011 sub 5 "manufacturer parameters SSW" work as sub 4
         // (the manual does not say which manufacturer objects are SSW, so both
         // sub-indices cover 0x2000–0x5FFF). Decision D40.
@@ -108,11 +113,8 @@ impl Application for App {
         })
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
-        if (index, sub) == (NODE_ID, 1) {
-            // D31: the static node-ID is the one the drive starts with: stored at once.
-            let _ = ctx.save_objects(NODE_ID, NODE_ID);
-        }
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+        // The static node-ID 0x4650 sub 1 is stored as part of its write (`write`).
         self.drive.written(ctx, &PROFILE, index);
     }
 

@@ -33,7 +33,6 @@ impl Application for App {
         match (index, sub, data) {
             // 100 kbit/s (code 3) has no CiA 305 bit timing: refused (D24).
             (BAUD_RATE, 0, [code]) if bit_rate_index(*code).is_none() && *code != NOT_SET => Err(AbortCode::InvalidValue),
-            (SAVE_BUS, 0, data) if data != store::SAVE.to_le_bytes() => Err(AbortCode::CannotStore),
             _ => Ok(()),
         }
     }
@@ -51,16 +50,24 @@ impl Application for App {
                     let _ = ctx.write_object(CYCLIC_TIMER, 0, &[a, b]);
                 }
             }
-            // D17: the preset is stored when written.
-            (PRESET, 0) => {
-                let _ = ctx.save_objects(PRESET, PRESET);
-            }
-            // §5.2.3: "save" to 0x2105 stores the bus parameters.
-            (SAVE_BUS, 0) => {
-                let _ = ctx.save_objects(BAUD_RATE, TERMINATION);
-            }
             _ => {}
         }
+    }
+
+    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        // Stores the device triggers; a failed store fails the write.
+        match (index, sub) {
+            // D17: the preset is stored when written.
+            (PRESET, 0) => Some(ctx.write_object(PRESET, 0, data).and_then(|()| ctx.save_objects(PRESET, PRESET))),
+            // §5.2.3: "save" to 0x2105 stores the bus parameters; anything else is refused.
+            (SAVE_BUS, 0) if data != store::SAVE.to_le_bytes() => Some(Err(AbortCode::CannotStore)),
+            (SAVE_BUS, 0) => Some(ctx.write_object(SAVE_BUS, 0, data).and_then(|()| ctx.save_objects(BAUD_RATE, TERMINATION))),
+            _ => None,
+        }
+    }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
     }
 }
 

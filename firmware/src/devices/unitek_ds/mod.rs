@@ -141,6 +141,10 @@ impl Application for App {
         earliest(deadline, self.cyclic.deadline())
     }
 
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No RPDO: CANopen is off.
+    }
+
     fn canopen(&self) -> bool {
         false
     }
