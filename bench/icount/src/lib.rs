@@ -15,6 +15,7 @@
 //! instead of measuring nothing.
 #![no_std]
 
+pub mod cia402;
 pub mod worst;
 
 /// The interop test node's dictionary, generated from `tests/eds/interop.eds`.

@@ -15,23 +15,26 @@
 //! [`transmit`]: canopen_core::node::Node::transmit
 
 use canopen_core::frame::CanFrame;
+use canopen_core::node::Application;
 use canopen_core::time::{Duration, Instant};
-use canopen_icount::{Dut, Kind};
+use canopen_icount::{Kind, cia402};
+use firmware::can_node::CanNode;
+use firmware::devices::ec5000;
 use std::hint::black_box;
 use std::process::ExitCode;
 
 #[inline(never)]
-fn icount_on_frame(node: &mut Dut, now: Instant, frame: &CanFrame) {
+fn icount_on_frame<N: CanNode>(node: &mut N, now: Instant, frame: &CanFrame) {
     node.on_frame(now, frame);
 }
 
 #[inline(never)]
-fn icount_process(node: &mut Dut, now: Instant) -> Option<Instant> {
+fn icount_process<N: CanNode>(node: &mut N, now: Instant) -> Option<Instant> {
     node.process(now)
 }
 
 #[inline(never)]
-fn icount_transmit(node: &mut Dut) -> Option<CanFrame> {
+fn icount_transmit<N: CanNode>(node: &mut N) -> Option<CanFrame> {
     node.transmit()
 }
 
@@ -56,17 +59,43 @@ fn run(kind: Kind, n: u64) -> Result<(), String> {
     Ok(())
 }
 
+/// The CiA 402 row ([`cia402`]): N RPDOs through the EC5000's application
+/// (`echo` false) or the baseline that copies 0x6040 to 0x6041.
+fn run_cia402<A: Application + Send + 'static>(app: A, echo: bool, n: u64) -> Result<(), String> {
+    let mut now = Instant::from_micros(1_000);
+    let mut node = cia402::setup(app, now).map_err(|e| format!("set-up: {e:02X?}"))?;
+    let (mut sent, mut last) = (0u64, None);
+    for i in 0..n {
+        now += Duration::from_millis(1);
+        let frame = cia402::frame_of(i);
+        icount_on_frame(&mut node, now, &frame);
+        black_box(icount_process(&mut node, now));
+        while let Some(f) = icount_transmit(&mut node) {
+            sent += 1;
+            last = Some(f);
+        }
+    }
+    cia402::check(echo, n, sent, last).map_err(|e| format!("{n} frames: {e:02X?}, expected one TPDO3 each"))?;
+    println!("cia402 (echo {echo}): {n} frames handled, {sent} sent");
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let parsed = match args.as_slice() {
-        [kind, n] => Kind::parse(kind).zip(n.parse::<u64>().ok()),
+    let result = match args.as_slice() {
+        [kind, n] => match (kind.as_str(), n.parse::<u64>()) {
+            ("cia402", Ok(n)) => Some(run_cia402(ec5000::App::NEW, false, n)),
+            ("cia402-echo", Ok(n)) => Some(run_cia402(cia402::Echo, true, n)),
+            (kind, Ok(n)) => Kind::parse(kind).map(|k| run(k, n)),
+            _ => None,
+        },
         _ => None,
     };
-    let Some((kind, n)) = parsed else {
-        eprintln!("usage: canopen-icount rpdo|sdo-upload|sync N");
+    let Some(result) = result else {
+        eprintln!("usage: canopen-icount rpdo|sdo-upload|sync|cia402|cia402-echo N");
         return ExitCode::FAILURE;
     };
-    match run(kind, n) {
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("canopen-icount: {e}");
@@ -88,6 +117,16 @@ mod tests {
         for kind in Kind::ALL {
             run(kind, 10).unwrap();
         }
+        run_cia402(ec5000::App::NEW, false, 10).unwrap();
+        run_cia402(cia402::Echo, true, 10).unwrap();
+    }
+
+    /// The CiA 402 row's check rejects a node whose statusword does not follow.
+    #[test]
+    fn the_cia402_check_needs_the_state_machine() {
+        assert!(cia402::check(false, 2, 2, CanFrame::standard(cia402::TPDO3, &[0x33, 0x02, 0, 0, 0, 0])).is_ok());
+        assert!(cia402::check(false, 2, 2, CanFrame::standard(cia402::TPDO3, &[0x07, 0x00, 0, 0, 0, 0])).is_err());
+        assert!(cia402::check(true, 2, 1, CanFrame::standard(cia402::TPDO3, &[0x07, 0x00, 0, 0, 0, 0])).is_err());
     }
 
     /// A run whose answers are not all there fails: the check counts them.

@@ -7,8 +7,9 @@
 //! - a velocity loop follows the set-point within the acceleration limit;
 //!   in position mode it adds a proportional position correction to the
 //!   velocity feed-forward;
-//! - the position integrates the velocity (micro-increments, so slow
-//!   motion is not lost to rounding);
+//! - the position integrates the velocity (Q24 fixed point per tick, as
+//!   the profile's [`crate::profiles::cia402::motion`], so slow motion is not
+//!   lost to rounding and no tick divides 64-bit numbers);
 //! - the torque estimate is the acceleration against the limit plus friction;
 //! - the temperature rises with the square of the torque and cools towards
 //!   ambient;
@@ -17,11 +18,8 @@
 //!   monitoring sees, a power stage fault;
 //! - limit and home switches sit at fixed positions.
 
-use crate::profiles::cia402::TICK_US;
 use crate::profiles::cia402::drive::{Drive, SetPoint, Switches};
-
-/// Ticks per second.
-const TICKS_PER_S: i64 = 1_000_000 / TICK_US as i64;
+use crate::profiles::cia402::motion::{FRACTION, acceleration_q, speed_per_s, speed_q};
 
 /// Error codes the model reports (CiA 402 / CiA 301 EMCY codes, 0x603F).
 pub mod fault {
@@ -48,7 +46,8 @@ pub enum Injected {
     PowerStage,
 }
 
-/// The motor and load a device simulates.
+/// The motor and load a device simulates ([`AxisParams::ZERO`]: an axis
+/// that cannot move, until [`Axis::configure`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AxisParams {
     /// Encoder increments per motor revolution.
@@ -67,9 +66,9 @@ pub struct AxisParams {
     pub rise_at_rated_c: i16,
     /// Thermal time constant [s].
     pub thermal_tau_s: u16,
-    /// Warning (statusword bit 7) at this temperature [°C].
+    /// Warning (statusword bit 7) at this temperature [°C]; 0 for none.
     pub warning_c: i16,
-    /// Fault at this temperature [°C]; cleared 10 °C below.
+    /// Fault at this temperature [°C], cleared 10 °C below; 0 for none.
     pub fault_c: i16,
     /// DC link voltage [mV].
     pub dc_link_mv: u32,
@@ -81,19 +80,39 @@ pub struct AxisParams {
     pub home_switch: Option<i64>,
 }
 
+impl AxisParams {
+    /// No motor: all zero bits.
+    pub const ZERO: AxisParams = AxisParams {
+        increments_per_rev: 0,
+        max_acceleration: 0,
+        max_velocity: 0,
+        position_gain: 0,
+        friction_permille: 0,
+        ambient_c: 0,
+        rise_at_rated_c: 0,
+        thermal_tau_s: 0,
+        warning_c: 0,
+        fault_c: 0,
+        dc_link_mv: 0,
+        following_limit: 0,
+        limits: (0, 0),
+        home_switch: None,
+    };
+}
+
 /// A simulated motor and load.
 #[derive(Clone, Debug)]
 pub struct Axis {
-    params: Option<AxisParams>,
-    /// Position [µinc].
-    position_u: i64,
-    /// Velocity [milli-inc/s].
-    velocity_m: i64,
+    params: AxisParams,
+    /// Position [Q24 inc].
+    position_q: i64,
+    /// Velocity [Q24 inc/tick].
+    velocity_q: i64,
     set_point: SetPoint,
     enabled: bool,
     torque: i16,
-    /// Temperature [m°C] above ambient.
-    heat_mc: i64,
+    /// Temperature above ambient [µ°C].
+    heat_uc: i32,
     fault: u16,
     injected: [bool; 4],
 }
@@ -101,20 +120,20 @@ pub struct Axis {
 impl Axis {
     /// Unconfigured, at rest: `const` and all zero bits.
     pub const NEW: Axis = Axis {
-        params: None,
-        position_u: 0,
-        velocity_m: 0,
+        params: AxisParams::ZERO,
+        position_q: 0,
+        velocity_q: 0,
         set_point: SetPoint::None,
         enabled: false,
         torque: 0,
-        heat_mc: 0,
+        heat_uc: 0,
         fault: 0,
         injected: [false; 4],
     };
 
     /// Gives the axis its motor and load (at reset application).
     pub fn configure(&mut self, params: AxisParams) {
-        self.params = Some(params);
+        self.params = params;
     }
 
     /// Injects a fault (a test's or a demo's).
@@ -129,41 +148,19 @@ impl Axis {
         if let Some(f) = self.injected.get_mut(fault as usize) {
             *f = false;
         }
-        if fault == Injected::OverTemperature {
-            self.heat_mc = 0;
-        }
     }
 
     fn injected(&self, fault: Injected) -> bool {
         self.injected.get(fault as usize).copied().unwrap_or(false)
     }
 
-    fn params(&self) -> AxisParams {
-        self.params.unwrap_or(AxisParams {
-            increments_per_rev: 4096,
-            max_acceleration: 1_000_000,
-            max_velocity: 1_000_000,
-            position_gain: 50,
-            friction_permille: 0,
-            ambient_c: 25,
-            rise_at_rated_c: 60,
-            thermal_tau_s: 60,
-            warning_c: i16::MAX,
-            fault_c: i16::MAX,
-            dc_link_mv: 24_000,
-            following_limit: 0,
-            limits: (0, 0),
-            home_switch: None,
-        })
-    }
-
     /// The cause of a fault, if one is present now.
-    fn cause(&self, p: &AxisParams) -> u16 {
+    fn cause(&self) -> u16 {
         if self.injected(Injected::PowerStage) {
             fault::POWER_STAGE
         } else if self.injected(Injected::UnderVoltage) {
             fault::UNDER_VOLTAGE
-        } else if self.temperature() >= p.fault_c {
+        } else if self.params.fault_c != 0 && self.temperature() >= self.params.fault_c {
             fault::OVER_TEMPERATURE
         } else {
             0
@@ -173,9 +170,7 @@ impl Axis {
 
 impl Drive for Axis {
     fn reset(&mut self) {
-        let params = self.params;
-        *self = Axis::NEW;
-        self.params = params;
+        *self = Axis { params: self.params, ..Axis::NEW };
     }
 
     fn enable(&mut self, on: bool) {
@@ -192,60 +187,65 @@ impl Drive for Axis {
     }
 
     fn tick(&mut self) {
-        let p = self.params();
+        let p = self.params;
         if self.fault == 0 {
-            self.fault = self.cause(&p);
+            self.fault = self.cause();
         }
         if self.fault != 0 {
             self.enabled = false;
             self.set_point = SetPoint::None;
         }
-        let a = i64::from(p.max_acceleration);
-        // Velocity change per tick at the limit [milli-inc/s].
-        let step = a * 1000 / TICKS_PER_S;
-        let v_max = i64::from(p.max_velocity) * 1000;
-        // Velocity the loops ask for [milli-inc/s], or the torque's acceleration.
+        // Velocity change per tick at the limit, and the speed limit [Q24 per tick].
+        let step = acceleration_q(p.max_acceleration);
+        let v_max = speed_q(i64::from(p.max_velocity));
+        // The velocity the loops ask for, or the torque's acceleration.
         let wanted = match self.set_point {
             SetPoint::None => None,
-            SetPoint::Velocity(v) => Some(i64::from(v) * 1000),
+            SetPoint::Velocity(v) => Some(speed_q(i64::from(v))),
             SetPoint::Position { position, velocity } => {
-                let error_u = position.saturating_mul(1_000_000) - self.position_u;
-                if p.following_limit != 0 && error_u.unsigned_abs() / 1_000_000 > u64::from(p.following_limit) {
+                let error = (position << FRACTION) - self.position_q;
+                if p.following_limit != 0 && (error >> FRACTION).unsigned_abs() > u64::from(p.following_limit) {
                     self.fault = fault::FOLLOWING_ERROR;
                 }
-                Some(i64::from(velocity) * 1000 + error_u / 1000 * i64::from(p.position_gain))
+                // Gain [1/s] per tick as a Q24 factor, as `speed_q`; both terms
+                // clamped so that the product fits (65,536 inc, 250/s).
+                let gain = speed_q(i64::from(p.position_gain.min(250)));
+                let error = error.clamp(-(1 << 40), 1 << 40);
+                Some(speed_q(i64::from(velocity)) + ((error * gain) >> FRACTION))
             }
-            SetPoint::Torque(t) => Some(self.velocity_m + step * i64::from(t) / 1000),
+            // t ‰ of the limit: × t / 1000 as × t × 1049 / 2^20.
+            SetPoint::Torque(t) => Some(self.velocity_q + ((step * i64::from(t) * 1049) >> 20)),
         };
-        let before = self.velocity_m;
-        self.velocity_m = match wanted {
-            // Blocked load or no torque: a blocked axis stops dead; a coasting one
-            // slows with friction (a tenth of the acceleration limit).
+        let before = self.velocity_q;
+        self.velocity_q = match wanted {
+            // A blocked load stops dead; with no torque the axis coasts down
+            // with friction (an eighth of the acceleration limit).
             _ if self.injected(Injected::Blocked) => 0,
-            None => toward(self.velocity_m, 0, step / 10),
-            Some(w) => toward(self.velocity_m, w.clamp(-v_max, v_max), step),
+            None => toward(self.velocity_q, 0, (step >> 3).max(1)),
+            Some(w) => toward(self.velocity_q, w.clamp(-v_max, v_max), step),
         };
-        self.position_u += self.velocity_m * 1000 / TICKS_PER_S;
-        let accel = (self.velocity_m - before) * TICKS_PER_S / 1000;
-        let friction = if self.velocity_m == 0 { 0 } else { i64::from(p.friction_permille) * self.velocity_m.signum() };
-        self.torque = if self.enabled { (accel * 1000 / a.max(1) + friction).clamp(-3000, 3000) as i16 } else { 0 };
-        // First-order thermal model: heat ∝ torque², time constant tau.
-        let tau_ticks = i64::from(p.thermal_tau_s.max(1)) * TICKS_PER_S;
-        let load = i64::from(self.torque) * i64::from(self.torque) / 1000;
-        let steady_mc = i64::from(p.rise_at_rated_c) * load;
-        self.heat_mc += (steady_mc - self.heat_mc) / tau_ticks;
+        self.position_q += self.velocity_q;
+        // Torque: the acceleration against the limit, plus friction while moving [‰].
+        let accel = ((self.velocity_q - before).clamp(-3 * step, 3 * step) * 1000) as i32 / (step as i32).max(1);
+        let friction = if self.velocity_q == 0 { 0 } else { i32::from(p.friction_permille) * self.velocity_q.signum() as i32 };
+        self.torque = if self.enabled { (accel + friction).clamp(-3000, 3000) as i16 } else { 0 };
+        // First-order thermal model: the steady rise grows with torque².
+        let tau_ticks = i32::from(p.thermal_tau_s.max(1)) * 1000;
+        let load = i32::from(self.torque) * i32::from(self.torque) / 1000;
+        let steady_uc = i32::from(p.rise_at_rated_c) * load * 1000;
+        self.heat_uc += (steady_uc - self.heat_uc) / tau_ticks;
     }
 
     fn position(&self) -> i64 {
-        self.position_u.div_euclid(1_000_000)
+        self.position_q >> FRACTION
     }
 
     fn set_position(&mut self, position: i64) {
-        self.position_u = position.saturating_mul(1_000_000);
+        self.position_q = position << FRACTION;
     }
 
     fn velocity(&self) -> i32 {
-        (self.velocity_m / 1000) as i32
+        speed_per_s(self.velocity_q) as i32
     }
 
     fn torque(&self) -> i16 {
@@ -253,51 +253,141 @@ impl Drive for Axis {
     }
 
     fn temperature(&self) -> i16 {
-        let p = self.params();
+        let p = &self.params;
         let extra = if self.injected(Injected::OverTemperature) { p.fault_c.saturating_sub(p.ambient_c).saturating_add(30) } else { 0 };
-        p.ambient_c.saturating_add((self.heat_mc / 1000) as i16).saturating_add(extra)
+        p.ambient_c.saturating_add((self.heat_uc / 1_000_000) as i16).saturating_add(extra)
     }
 
     fn dc_link_mv(&self) -> u32 {
-        if self.injected(Injected::UnderVoltage) { 0 } else { self.params().dc_link_mv }
+        if self.injected(Injected::UnderVoltage) { 0 } else { self.params.dc_link_mv }
     }
 
     fn fault(&self) -> u16 {
         // A cause shows at once, even while the axis is not ticking.
-        if self.fault != 0 { self.fault } else { self.cause(&self.params()) }
+        if self.fault != 0 { self.fault } else { self.cause() }
     }
 
     fn warning(&self) -> bool {
-        self.temperature() >= self.params().warning_c
+        self.params.warning_c != 0 && self.temperature() >= self.params.warning_c
     }
 
     fn reset_fault(&mut self) -> bool {
-        let p = self.params();
-        let cooled = self.temperature() < p.fault_c.saturating_sub(10);
-        let cause = self.cause(&p);
-        if cause == 0 && cooled && !self.injected(Injected::Blocked) {
+        let cooled = self.temperature() < self.params.fault_c.saturating_sub(10);
+        if self.cause() == 0 && cooled && !self.injected(Injected::Blocked) {
             self.fault = 0;
         }
         self.fault == 0
     }
 
     fn switches(&self) -> Switches {
-        let p = self.params();
         let at = self.position();
-        let (low, high) = p.limits;
+        let (low, high) = self.params.limits;
         Switches {
             negative_limit: low < high && at <= low,
             positive_limit: low < high && at >= high,
-            home: p.home_switch.is_some_and(|h| at >= h),
+            home: self.params.home_switch.is_some_and(|h| at >= h),
         }
     }
 
     fn max_acceleration(&self) -> u32 {
-        self.params().max_acceleration
+        self.params.max_acceleration
     }
 }
 
 /// `from` moved towards `to` by at most `step`.
 fn toward(from: i64, to: i64, step: i64) -> i64 {
     if to > from { (from + step).min(to) } else { (from - step).max(to) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PARAMS: AxisParams = AxisParams {
+        increments_per_rev: 4096,
+        max_acceleration: 100_000,
+        max_velocity: 50_000,
+        position_gain: 50,
+        friction_permille: 20,
+        ambient_c: 25,
+        rise_at_rated_c: 60,
+        thermal_tau_s: 60,
+        warning_c: 95,
+        fault_c: 110,
+        dc_link_mv: 24_000,
+        following_limit: 1_000,
+        limits: (-10_000, 10_000),
+        home_switch: Some(500),
+    };
+
+    fn axis() -> Axis {
+        let mut a = Axis::NEW;
+        a.configure(PARAMS);
+        a.enable(true);
+        a
+    }
+
+    #[test]
+    fn an_unconfigured_axis_neither_moves_nor_faults() {
+        let mut a = Axis::NEW;
+        a.enable(true);
+        a.command(SetPoint::Velocity(1000));
+        a.tick();
+        assert_eq!((a.fault(), a.velocity(), a.warning()), (0, 0, false));
+    }
+
+    #[test]
+    fn the_velocity_loop_follows_within_the_acceleration_limit() {
+        let mut a = axis();
+        a.command(SetPoint::Velocity(80_000));
+        for _ in 0..100 {
+            a.tick();
+        }
+        assert_eq!(a.velocity(), 10_000, "100 ms at 100,000 inc/s²");
+        assert!(a.torque() >= 1000, "at the limit: rated torque and friction");
+        for _ in 0..1000 {
+            a.tick();
+        }
+        assert_eq!(a.velocity(), 50_000, "the speed limit");
+        // 0.5 s ramp (12,500 inc) and 0.6 s at 50,000 inc/s.
+        assert!((42_400..42_600).contains(&a.position()), "{}", a.position());
+        assert!(a.switches().positive_limit && a.switches().home && !a.switches().negative_limit);
+    }
+
+    #[test]
+    fn the_position_loop_settles_on_the_set_point() {
+        let mut a = axis();
+        a.command(SetPoint::Position { position: 300, velocity: 0 });
+        for _ in 0..500 {
+            a.tick();
+        }
+        assert_eq!((a.position(), a.velocity()), (300, 0));
+    }
+
+    #[test]
+    fn faults_stop_the_power_stage_and_clear_once_their_cause_is_gone() {
+        for (fault, code) in [
+            (Injected::OverTemperature, fault::OVER_TEMPERATURE),
+            (Injected::UnderVoltage, fault::UNDER_VOLTAGE),
+            (Injected::PowerStage, fault::POWER_STAGE),
+        ] {
+            let mut a = axis();
+            a.command(SetPoint::Velocity(10_000));
+            a.tick();
+            a.inject(fault);
+            assert_eq!(a.fault(), code);
+            a.tick();
+            a.enable(true);
+            assert_eq!(a.torque(), 0, "{fault:?}: the power stage is off");
+            assert!(!a.reset_fault(), "the cause persists");
+            a.remove(fault);
+            assert!(a.reset_fault());
+            assert_eq!(a.fault(), 0);
+        }
+        let mut a = axis();
+        a.inject(Injected::Blocked);
+        a.command(SetPoint::Position { position: 5_000, velocity: 0 });
+        a.tick();
+        assert_eq!(a.fault(), fault::FOLLOWING_ERROR, "a blocked load: the drive's following-error monitoring");
+    }
 }

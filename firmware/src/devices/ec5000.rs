@@ -114,7 +114,8 @@ impl Application for App {
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
-        // The static node-ID 0x4650 sub 1 is stored as part of its write (`write`).
+        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
+        // default `rpdo_written`).
         self.drive.written(ctx, &PROFILE, index);
     }
 

@@ -17,8 +17,17 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The kinds both benches measure: name, what the frame is.
-const KINDS: [(&str, &str); 3] =
-    [("rpdo", "RPDO (8 bytes, 4 objects)"), ("sdo-upload", "expedited SDO upload (0x1018 sub 1)"), ("sync", "SYNC, 4 synchronous TPDOs")];
+const KINDS: [(&str, &str); 5] = [
+    ("rpdo", "RPDO (8 bytes, 4 objects)"),
+    ("sdo-upload", "expedited SDO upload (0x1018 sub 1)"),
+    ("sync", "SYNC, 4 synchronous TPDOs"),
+    ("cia402", "EC5000 RPDO 0x6040 + 0x60FF → CiA 402 state machine → TPDO 0x6041 + 0x606C"),
+    ("cia402-echo", "the same frames, an application copying 0x6040 to 0x6041 (baseline)"),
+];
+
+/// The CiA 402 profile's own part of the `cia402` row (the row minus its
+/// baseline) may cost at most this many thumbv7m instructions per frame.
+const CIA402_BUDGET: f64 = 1_000.0;
 
 /// The image finishes in well under a second; a hang must not stall the task.
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
@@ -81,7 +90,18 @@ pub fn icount(n: u64) -> Result<(), String> {
     let (version, out) = run_qemu_image()?;
     let report = parse_report(&out)?;
     print_thumbv7m(&version, &report, &host);
-    Ok(())
+    cia402_share(&report)
+}
+
+/// The profile's part of the CiA 402 row on thumbv7m, against [`CIA402_BUDGET`].
+fn cia402_share(r: &QemuReport) -> Result<(), String> {
+    let total = |name: &str| r.kinds.iter().find(|k| k.name == name).map(QemuKind::total).ok_or(format!("no `{name}` row from the image"));
+    let (profile, echo) = (total("cia402")?, total("cia402-echo")?);
+    let share = profile - echo;
+    println!(
+        "\nCiA 402 profile's part (cia402 − cia402-echo) on thumbv7m: {profile:.0} − {echo:.0} = {share:.0} instructions per frame (budget {CIA402_BUDGET:.0})"
+    );
+    if share > CIA402_BUDGET { Err(format!("the CiA 402 path costs {share:.0} instructions, over {CIA402_BUDGET:.0}")) } else { Ok(()) }
 }
 
 /// Builds `bench/icount-qemu` and runs it; returns QEMU's version and the image's stdout.

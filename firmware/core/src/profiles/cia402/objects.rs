@@ -116,7 +116,11 @@ pub mod index {
     pub const SUPPORTED_DRIVE_MODES: u16 = 0x6502;
 }
 
+// The readers and the setter are out of line: the profile calls them from
+// some fifty places, and each inlined dictionary look-up costs flash.
+
 /// A signed value (INTEGER8/16/32, sign-extended), if the object exists.
+#[inline(never)]
 pub fn signed(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<i32> {
     match ctx.read(index, sub).ok()? {
         [a] => Some(i32::from(*a as i8)),
@@ -127,17 +131,20 @@ pub fn signed(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<i32> {
 }
 
 /// An unsigned value of at most 32 bits, if the object exists.
+#[inline(never)]
 pub fn unsigned(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<u32> {
     ctx.read_u32(index, sub)
 }
 
 /// An unsigned value, or `default` if the object is missing.
+#[inline(never)]
 pub fn unsigned_or(ctx: &Ctx<'_>, index: u16, sub: u8, default: u32) -> u32 {
     ctx.read_u32(index, sub).unwrap_or(default)
 }
 
 /// Sets a value the profile owns (statusword, actual values) with the
 /// standard's length for it; an object the device lacks is skipped.
+#[inline(never)]
 pub fn set(ctx: &mut Ctx<'_>, index: u16, len: usize, value: i32) {
     if let Some(bytes) = value.to_le_bytes().get(..len) {
         let _ = ctx.set_value(index, 0, bytes);

@@ -4,19 +4,19 @@
 //! 0x60F2), the one-deep set-point buffer with change on set-point (bit 9),
 //! software position limits (0x607D) and target reached (0x6067/0x6068).
 
-use super::motion::Demand;
+use super::motion::{Demand, FRACTION};
 
 /// The set-points the trajectory generator holds.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Pp {
     /// A set-point is being executed.
     active: bool,
-    /// Its target [µinc].
-    target_u: i64,
+    /// Its target [Q24 inc].
+    target_q: i64,
     /// A second set-point waits in the buffer.
     buffered: bool,
-    /// Its target [µinc].
-    next_u: i64,
+    /// Its target [Q24 inc].
+    next_q: i64,
     /// The buffered set-point follows without a stop (bit 9 when it came).
     blend: bool,
     /// The last accepted target [inc], the base of relative set-points.
@@ -43,7 +43,7 @@ pub struct SetPointRequest {
 
 impl Pp {
     /// No set-point: all zero bits.
-    pub const NEW: Pp = Pp { active: false, target_u: 0, buffered: false, next_u: 0, blend: false, last_target: 0, acknowledge: false };
+    pub const NEW: Pp = Pp { active: false, target_q: 0, buffered: false, next_q: 0, blend: false, last_target: 0, acknowledge: false };
 
     /// Clears every set-point (entering the mode, enabling operation).
     pub fn clear(&mut self, position: i64) {
@@ -66,11 +66,11 @@ impl Pp {
     /// Controlword bit 4 rose: takes the set-point to absolute `target`
     /// [inc] if there is room.
     pub fn new_set_point(&mut self, target: i64, request: &SetPointRequest) {
-        let target_u = target.saturating_mul(1_000_000);
+        let target_q = target << FRACTION;
         if !self.active || request.immediately {
-            (self.active, self.target_u, self.buffered) = (true, target_u, false);
+            (self.active, self.target_q, self.buffered) = (true, target_q, false);
         } else if !self.buffered {
-            (self.buffered, self.next_u, self.blend) = (true, target_u, request.blend);
+            (self.buffered, self.next_q, self.blend) = (true, target_q, request.blend);
         } else {
             // Buffer full: the set-point is not taken (bit 12 stays as it is).
             return;
@@ -87,30 +87,30 @@ impl Pp {
     }
 
     /// One tick of the trajectory (`new_set_point_held`: controlword bit 4
-    /// is still set); speeds [milli-inc/s], ramps [inc/s²].
-    pub fn tick(&mut self, demand: &mut Demand, speed: i64, acceleration: u32, deceleration: u32, new_set_point_held: bool) {
+    /// is still set); speed and ramps in [`super::motion`]'s Q24 per-tick units.
+    pub fn tick(&mut self, demand: &mut Demand, speed: i64, acceleration: i64, deceleration: i64, new_set_point_held: bool) {
         if !self.active {
             demand.ramp(0, acceleration, deceleration);
             return;
         }
-        let direction = (self.target_u - demand.position_u).signum();
-        let beyond = if self.buffered && self.blend && (self.next_u - self.target_u).signum() == direction {
-            (self.next_u - self.target_u).unsigned_abs()
+        let direction = (self.target_q - demand.position_q).signum();
+        let beyond = if self.buffered && self.blend && (self.next_q - self.target_q).signum() == direction {
+            (self.next_q - self.target_q).unsigned_abs()
         } else {
             0
         };
-        if demand.move_to(self.target_u, beyond, speed, acceleration, deceleration) {
+        if demand.move_to(self.target_q, beyond, speed, acceleration, deceleration) {
             if self.buffered {
-                (self.target_u, self.buffered) = (self.next_u, false);
+                (self.target_q, self.buffered) = (self.next_q, false);
                 if !self.blend {
-                    demand.velocity_m = 0;
+                    demand.velocity_q = 0;
                 }
                 if !new_set_point_held {
                     self.acknowledge = false;
                 }
             } else {
                 self.active = false;
-                demand.velocity_m = 0;
+                demand.velocity_q = 0;
             }
         }
     }

@@ -4,7 +4,7 @@ use super::controlword::{self as cw, Command};
 use super::drive::Drive;
 use super::fsa::{self, PdsState, Reaction, Transition};
 use super::hm::Hm;
-use super::motion::Demand;
+use super::motion::{Demand, speed_q};
 use super::objects::{self, index, signed, unsigned, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
 use super::units::Units;
@@ -81,8 +81,8 @@ struct Profile {
     pp: Pp,
     hm: Hm,
     hm_started: bool,
-    /// pv or vl target [milli-inc/s].
-    velocity_target_m: i64,
+    /// pv or vl target [Q16 inc/tick].
+    velocity_target: i64,
     internal_limit: bool,
     reached: bool,
     speed_zero: bool,
@@ -104,7 +104,7 @@ impl Profile {
         mode: 0,
         supported: 0,
         units: Units::ZERO,
-        demand: Demand { position_u: 0, velocity_m: 0 },
+        demand: Demand::ZERO,
         braking: false,
         pending: PdsState::NotReadyToSwitchOn,
         reaction: Reaction::Coast,
@@ -112,7 +112,7 @@ impl Profile {
         pp: Pp::NEW,
         hm: Hm::NEW,
         hm_started: false,
-        velocity_target_m: 0,
+        velocity_target: 0,
         internal_limit: false,
         reached: false,
         speed_zero: false,
@@ -203,7 +203,9 @@ impl<D: Drive> Cia402<D> {
         if now < self.s.next_tick {
             return Some(Instant::from_micros(self.s.next_tick));
         }
-        let due = ((now - self.s.next_tick) / TICK_US + 1).min(MAX_CATCH_UP);
+        // 32-bit arithmetic: a 64-bit division is a library call on a Cortex-M3.
+        let late = (now - self.s.next_tick).min(MAX_CATCH_UP * TICK_US) as u32;
+        let due = u64::from(late / TICK_US as u32 + 1).min(MAX_CATCH_UP);
         let p = self.params(ctx, config);
         for _ in 0..due {
             self.tick(&p);
@@ -406,11 +408,11 @@ impl<D: Drive> Cia402<D> {
 
     fn velocity_target(&mut self, ctx: &mut Ctx<'_>) {
         let u = &self.s.units;
-        self.s.velocity_target_m = match self.s.mode {
+        self.s.velocity_target = match self.s.mode {
             mode::PV => {
                 let target = signed(ctx, index::TARGET_VELOCITY, 0).unwrap_or(0);
                 self.s.internal_limit = false;
-                u.velocity_to_inc(target) * 1000
+                speed_q(u.velocity_to_inc(target))
             }
             mode::VL => {
                 let target = signed(ctx, index::VL_TARGET_VELOCITY, 0).unwrap_or(0);
@@ -419,7 +421,7 @@ impl<D: Drive> Cia402<D> {
                 let (limited, clipped) = vl_limit(target, min, max);
                 self.s.internal_limit = clipped;
                 let inc = u.vl_to_inc.apply(i64::from(limited));
-                (if u.velocity_negative { -inc } else { inc }) * 1000
+                speed_q(if u.velocity_negative { -inc } else { inc })
             }
             _ => return,
         };

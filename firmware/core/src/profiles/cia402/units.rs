@@ -26,13 +26,32 @@ impl Factor {
             numerator >>= 1;
             denominator = (denominator >> 1).max(1);
         }
-        Factor(((numerator << 32) / denominator).min(i64::MAX as u64) as i64)
+        Factor(q32_ratio(numerator as u32, denominator as u32).min(i64::MAX as u64) as i64)
     }
 
-    /// `value` converted, rounded to the nearest.
+    /// `value` converted, rounded to the nearest (one copy of the 64 × 64-bit
+    /// multiplication for every call site).
+    #[inline(never)]
     pub fn apply(self, value: i64) -> i64 {
         ((i128::from(value) * i128::from(self.0) + (1 << 31)) >> 32) as i64
     }
+}
+
+/// `(numerator << 32) / denominator` by shift and subtract: it runs when
+/// a factor changes, and spares the image the 64-bit division routine
+/// (most of a kilobyte on a Cortex-M3).
+fn q32_ratio(numerator: u32, denominator: u32) -> u64 {
+    let dividend = u64::from(numerator) << 32;
+    let divisor = u64::from(denominator.max(1));
+    let (mut quotient, mut remainder) = (0u64, 0u64);
+    for bit in (0..64).rev() {
+        remainder = (remainder << 1) | ((dividend >> bit) & 1);
+        if remainder >= divisor {
+            remainder -= divisor;
+            quotient |= 1 << bit;
+        }
+    }
+    quotient
 }
 
 /// The conversions of one device at one moment.
@@ -135,6 +154,13 @@ mod tests {
         assert_eq!(u.position_to_user(-5), 5);
         assert_eq!(u.velocity_to_inc(7), -7);
         assert_eq!(Units::new(1000, (1, 1), (1000, 1), 0x80).velocity_to_inc(7), 7);
+    }
+
+    #[test]
+    fn shift_and_subtract_division() {
+        for (n, d) in [(1u32, 1u32), (73_728, 157), (157, 73_728), (u32::MAX >> 1, 3), (60, 4096)] {
+            assert_eq!(q32_ratio(n, d), (u64::from(n) << 32) / u64::from(d), "{n}/{d}");
+        }
     }
 
     #[test]

@@ -28,7 +28,7 @@ impl<D: Drive> Cia402<D> {
         }
         if matches!(s.state, PdsState::OperationEnabled | PdsState::QuickStopActive) {
             let halted = s.controlword & cw::HALT != 0 || s.state == PdsState::QuickStopActive;
-            let standing = s.demand.velocity_m == 0;
+            let standing = s.demand.velocity_q == 0;
             let (reached, bit12, bit13) = match s.mode {
                 mode::PP => (s.reached, s.pp.acknowledge, s.following),
                 mode::PV => (s.reached, s.speed_zero, false),
@@ -81,10 +81,6 @@ impl<D: Drive> Cia402<D> {
         objects::set(ctx, index::TORQUE_ACTUAL, 2, i32::from(d.torque()));
         objects::set(ctx, index::POSITION_DEMAND, 4, u.position_to_user(self.s.demand.position()));
         objects::set(ctx, index::VELOCITY_DEMAND, 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
-        objects::set(ctx, index::POSITION_INTERNAL, 4, d.position() as i32);
-        let switches = d.switches();
-        let inputs = u32::from(switches.negative_limit) | u32::from(switches.positive_limit) << 1 | u32::from(switches.home) << 2;
-        objects::set(ctx, index::DIGITAL_INPUTS, 4, inputs as i32);
     }
 }
 

@@ -7,19 +7,20 @@ use crate::profiles::cia402::controlword as cw;
 use crate::profiles::cia402::drive::{Drive, SetPoint};
 use crate::profiles::cia402::fsa::{PdsState, Reaction};
 use crate::profiles::cia402::hm::Step;
-use crate::profiles::cia402::motion::Demand;
+use crate::profiles::cia402::mode;
+use crate::profiles::cia402::motion::{Demand, FRACTION, acceleration_q, speed_per_s, speed_q};
 use crate::profiles::cia402::objects::{index, signed, unsigned, unsigned_or};
 use crate::profiles::cia402::units::Units;
 use crate::profiles::cia402::velocity::vl_ramp;
-use crate::profiles::cia402::{TICK_US, mode};
 
-/// Parameters read once per poll, in increments.
+/// Parameters read once per poll: windows in increments, speeds and ramps
+/// in [`crate::profiles::cia402::motion`]'s Q24 per-tick units, times in ticks.
 pub(super) struct Params {
-    acceleration: u32,
-    deceleration: u32,
-    quick_stop: u32,
-    limit: u32,
-    speed_m: i64,
+    acceleration: i64,
+    deceleration: i64,
+    quick_stop: i64,
+    limit: i64,
+    speed: i64,
     halt: Reaction,
     position_window: i64,
     position_window_ticks: u32,
@@ -29,14 +30,14 @@ pub(super) struct Params {
     velocity_window_ticks: u32,
     threshold: i64,
     threshold_ticks: u32,
-    homing_m: (i64, i64),
-    homing_acceleration: u32,
+    homing: (i64, i64),
+    homing_acceleration: i64,
     home: i64,
 }
 
-/// Milliseconds as ticks.
+/// Milliseconds as ticks (one tick is a millisecond, see `motion`).
 fn ticks(ms: u32) -> u32 {
-    (u64::from(ms) * 1000 / TICK_US).min(u64::from(u32::MAX)) as u32
+    ms
 }
 
 /// An acceleration in increments, 0 or missing → `fallback`.
@@ -83,15 +84,15 @@ impl<D: Drive> Cia402<D> {
         let window = |index, default: u32| u.magnitude_to_inc(unsigned(ctx, index, 0).unwrap_or(default));
         let homing_speed = |sub, default: u32| {
             let v = unsigned(ctx, index::HOMING_SPEEDS, sub).filter(|v| *v != 0).unwrap_or(default);
-            u.magnitude_to_inc(v) * 1000
+            speed_q(u.magnitude_to_inc(v))
         };
         let following = unsigned(ctx, index::FOLLOWING_ERROR_WINDOW, 0).filter(|w| *w != u32::MAX);
         Params {
-            acceleration,
-            deceleration,
-            quick_stop,
-            limit,
-            speed_m: u.magnitude_to_inc(speed).saturating_mul(1000),
+            acceleration: acceleration_q(acceleration),
+            deceleration: acceleration_q(deceleration),
+            quick_stop: acceleration_q(quick_stop),
+            limit: acceleration_q(limit),
+            speed: speed_q(u.magnitude_to_inc(speed)),
             halt: Reaction::of(signed(ctx, index::HALT_OPTION, 0).map_or(-1, |v| v), Reaction::SlowDownRamp),
             position_window: window(index::POSITION_WINDOW, config.position_window),
             position_window_ticks: ticks(unsigned_or(ctx, index::POSITION_WINDOW_TIME, 0, 0)),
@@ -101,14 +102,14 @@ impl<D: Drive> Cia402<D> {
             velocity_window_ticks: ticks(unsigned_or(ctx, index::VELOCITY_WINDOW_TIME, 0, 0)),
             threshold: window(index::VELOCITY_THRESHOLD, 0),
             threshold_ticks: ticks(unsigned_or(ctx, index::VELOCITY_THRESHOLD_TIME, 0, 0)),
-            homing_m: (homing_speed(1, config.homing_speeds.0), homing_speed(2, config.homing_speeds.1)),
-            homing_acceleration: ramp(u, unsigned(ctx, index::HOMING_ACCELERATION, 0), acceleration),
+            homing: (homing_speed(1, config.homing_speeds.0), homing_speed(2, config.homing_speeds.1)),
+            homing_acceleration: acceleration_q(ramp(u, unsigned(ctx, index::HOMING_ACCELERATION, 0), acceleration)),
             home: u.position_to_inc(signed(ctx, index::HOME_OFFSET, 0).unwrap_or(0)),
         }
     }
 
     /// The deceleration of a stop reaction [inc/s²].
-    pub(super) fn deceleration(p: &Params, reaction: Reaction) -> u32 {
+    pub(super) fn deceleration(p: &Params, reaction: Reaction) -> i64 {
         match reaction {
             Reaction::SlowDownRamp => p.deceleration,
             Reaction::QuickStopRamp => p.quick_stop,
@@ -131,18 +132,18 @@ impl<D: Drive> Cia402<D> {
             d.ramp(0, p.acceleration, Self::deceleration(p, p.halt));
         } else {
             match s.mode {
-                mode::PP => s.pp.tick(d, p.speed_m, p.acceleration, p.deceleration, s.controlword & cw::NEW_SET_POINT != 0),
-                mode::PV | mode::VL => d.ramp(s.velocity_target_m, p.acceleration, p.deceleration),
+                mode::PP => s.pp.tick(d, p.speed, p.acceleration, p.deceleration, s.controlword & cw::NEW_SET_POINT != 0),
+                mode::PV | mode::VL => d.ramp(s.velocity_target, p.acceleration, p.deceleration),
                 mode::HM => {
                     let started = core::mem::take(&mut s.hm_started);
                     match s.hm.tick(self.drive.switches(), started) {
                         Step::Run(direction, fast) => {
-                            let speed = if fast { p.homing_m.0 } else { p.homing_m.1 };
+                            let speed = if fast { p.homing.0 } else { p.homing.1 };
                             d.ramp(speed * i64::from(direction), p.homing_acceleration, p.homing_acceleration);
                         }
                         Step::SetHome => {
                             self.drive.set_position(p.home);
-                            *d = Demand { position_u: p.home.saturating_mul(1_000_000), velocity_m: 0 };
+                            *d = Demand { position_q: p.home << FRACTION, velocity_q: 0 };
                         }
                         Step::Stop => d.ramp(0, p.homing_acceleration, p.homing_acceleration),
                     }
@@ -157,7 +158,7 @@ impl<D: Drive> Cia402<D> {
         };
         self.drive.command(set_point);
         self.drive.tick();
-        if d.velocity_m == 0 {
+        if d.velocity_q == 0 {
             self.stopped();
         }
     }
@@ -192,7 +193,7 @@ impl<D: Drive> Cia402<D> {
                 s.following = s.following_window.tick(lagging, p.following_ticks);
             }
             mode::PV | mode::VL => {
-                let near = (s.velocity_target_m / 1000 - velocity).abs() <= p.velocity_window;
+                let near = (speed_per_s(s.velocity_target) - velocity).abs() <= p.velocity_window;
                 s.reached = s.reached_window.tick(near, p.velocity_window_ticks);
                 s.speed_zero = s.zero_window.tick(velocity.abs() <= p.threshold, p.threshold_ticks);
             }
