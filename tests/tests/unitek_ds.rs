@@ -201,10 +201,11 @@ fn u5_position_set_point_3000000_is_reached_m_l528() {
     w(&mut b, 0, &[0x51, 0x00, 0x00]);
     w(&mut b, 0, &[0x6E, 0xC0, 0xC6, 0x2D, 0x00]);
     assert_eq!(read(&mut b, 1, 0xF4), r16(0xF4, 0), "not in tolerance yet");
-    run(&mut b, 3000);
-    let p = position(&mut b, 3000);
+    // The position loop runs at most 10 rev/s (its gain is capped by the ramp, U-D3): about 5 s.
+    run(&mut b, 7000);
+    let p = position(&mut b, 7000);
     assert!((3_000_000 - p).abs() <= 100, "within POS_WINDOW: {p}");
-    assert_eq!(read(&mut b, 3000, 0xF4), r16(0xF4, 1));
+    assert_eq!(read(&mut b, 7000, 0xF4), r16(0xF4, 1));
 }
 
 #[test]
@@ -335,7 +336,7 @@ fn u11_status_event_on_tol_with_the_default_mask_m_l681() {
     // Ex. 10: only the activation; the default mask 0x3000 selects Cal and Tol (D9).
     w(&mut b, 0, &[0x51, 0x10, 0x00]);
     assert_eq!(b.rx(ms(1), RX, &[0x6E, 0xC0, 0xC6, 0x2D, 0x00]), [(TX, status(LOOPS | ENA | CAL))], "Tol falls");
-    let sent = run(&mut b, 3000);
+    let sent = run(&mut b, 7000);
     assert_eq!(sent.len(), 1, "{sent:02X?}");
     assert_eq!(sent[0].1, (TX, status(0x3181)), "Tol rises: 0x3181 as printed in the frame");
 }
@@ -349,10 +350,10 @@ fn u12_status_event_on_a_limit_switch_mask_corrected_m_l735() {
     w(&mut b, 0, &[0x51, 0x10, 0x00]);
     // Towards the positive limit switch at +200 revolutions (U-D4), stopping 50 past it.
     w(&mut b, 0, &[0x6E, 0x32, 0x00, 0xC8, 0x00]);
-    let sent = run(&mut b, 10_000);
+    let sent = run(&mut b, 25_000);
     assert_eq!(sent.len(), 1, "only the masked bits: {sent:02X?}");
     assert_eq!(sent[0].1, (TX, status(0x3185)), "Ena, Lim, P-N, N-I, Cal, Tol");
-    assert_eq!(read(&mut b, 10_000, 0xE4), r16(0xE4, 1), "limit switch input");
+    assert_eq!(read(&mut b, 25_000, 0xE4), r16(0xE4, 1), "limit switch input");
 }
 
 // ---- routines (Ex. 11, Ex. 12) ---------------------------------------------
@@ -392,14 +393,15 @@ fn u14_homing_and_positioning_routine_corrected_m_l852() {
     w(&mut b, 0, &[0x51, 0x10, 0x00]);
     assert_eq!(b.rx(ms(10), RX, &[0x6E, 0xC0, 0xC6, 0x2D, 0x00]), [(TX, status(0x1181))]);
     assert_eq!(read(&mut b, 20, 0xF4), r16(0xF4, 0));
-    let sent = run(&mut b, 3000);
+    let sent = run(&mut b, 7000);
     assert_eq!(sent.iter().map(|(_, f)| f.clone()).collect::<Vec<_>>(), [(TX, status(0x3181))]);
-    assert_eq!(read(&mut b, 3000, 0xF4), [0xF4, 0x01, 0x00, 0x00]);
-    assert_eq!(b.rx(ms(3000), RX, &[0x6E, 0x00, 0x00, 0x00, 0x00]), [(TX, status(0x1181))]);
-    run(&mut b, 6000);
+    assert_eq!(read(&mut b, 7000, 0xF4), [0xF4, 0x01, 0x00, 0x00]);
+    assert_eq!(b.rx(ms(7000), RX, &[0x6E, 0x00, 0x00, 0x00, 0x00]), [(TX, status(0x1181))]);
+    let sent = run(&mut b, 14_000);
+    assert_eq!(sent.iter().map(|(_, f)| f.clone()).collect::<Vec<_>>(), [(TX, status(0x3181))], "back at zero");
     // The printed `181 [3] F4 01 00 00` is a DLC-4 reply to a second read.
-    assert_eq!(read(&mut b, 6000, 0xF4), [0xF4, 0x01, 0x00, 0x00]);
-    w(&mut b, 6000, &[0x51, 0x04, 0x00]);
+    assert_eq!(read(&mut b, 14_000, 0xF4), [0xF4, 0x01, 0x00, 0x00]);
+    w(&mut b, 14_000, &[0x51, 0x04, 0x00]);
 }
 
 #[test]
