@@ -157,8 +157,9 @@ impl Session {
         self.write(&[0x3D, 0x6D, 0xFF])?;
         let p = positions(self);
         let steps: Vec<f64> = p.windows(2).map(|w| f64::from(w[1].wrapping_sub(w[0])) / INC_PER_100_MS).collect();
-        // The drive's own time: each 100 ms is 100 ms of motion (vnode's host may wake a tick late).
-        let tolerance = if self.qemu { 0.011 } else { 0.05 };
+        // The drive's own time: each 100 ms is 100 ms of motion, a 1 ms tick either way where
+        // the board's wake-up falls between two ticks (vnode's host may wake later still).
+        let tolerance = if self.qemu { 0.015 } else { 0.05 };
         self.check(steps.len() >= 5, &format!("{} cyclic frames", p.len()));
         self.check(
             steps.iter().all(|s| (s - 1.0).abs() <= tolerance),
