@@ -36,6 +36,8 @@ LOGS = os.path.join(TARGET_DIR, "qemu-smoke")
 
 # Device -> node-id the image starts with (firmware/src/devices/*.rs, from each manual).
 DEVICES = {"ec5000": 127, "unitek-ds": 1, "sendix": 0x3F, "bmaxx4400": 1, "agile": 1}
+# Images that run the CiA 402 profile with the axis model.
+CIA402 = {"ec5000"}
 
 STACK_LINE = re.compile(r"stack: start-up (\d+) bytes, running (\d+) bytes of (\d+)")
 FILTER_LINE = re.compile(r"; filter rejected (\d+) frames, lost (\d+)$")
@@ -306,6 +308,8 @@ class QemuSmokeTest(unittest.TestCase):
         if 0x1400 in od:
             self.check_rpdo(node, q, od)
         rejected = self.check_filter(q, node, node_id, od)
+        if device in CIA402:
+            self.check_cia402(node)
 
         # ---- nothing went wrong on the way ---------------------------------
         emcy = frames.since(0, 0x80 + node_id)
@@ -349,6 +353,41 @@ class QemuSmokeTest(unittest.TestCase):
             self.assertEqual(after, before, "an RPDO on the old COB-ID changed nothing")
             self.check_rpdo(node, q, od)
         return rejected
+
+    def check_cia402(self, node):
+        """The drive answers the CiA 402 state machine and moves: enable by
+        0x6040 (each state read back from 0x6041), a profile velocity move
+        measured by 0x606C and 0x6064, disable voltage. By SDO: the image's
+        clock (-icount) runs slower than the wall clock, too slow for
+        BaseNode402's 0.2 s TPDO waits with the EC5000's event timers
+        (tests/python/test_cia402.py runs BaseNode402 against vnode)."""
+        def statusword():
+            return int.from_bytes(node.sdo.upload(0x6041, 0), "little")
+
+        def i32(index):
+            return int.from_bytes(node.sdo.upload(index, 0), "little", signed=True)
+
+        def wait(what, condition):
+            end = time.monotonic() + WAIT
+            while not condition():
+                self.assertLess(time.monotonic(), end, what)
+                time.sleep(0.02)
+
+        node.sdo.download(0x6060, 0, bytes([3]))
+        node.sdo.download(0x60FF, 0, struct.pack("<i", 0))
+        self.assertEqual(statusword() & 0x4F, 0x40, "Switch on disabled")
+        for controlword, mask, state in [(0x06, 0x6F, 0x21), (0x07, 0x6F, 0x23), (0x0F, 0x6F, 0x27)]:
+            node.sdo.download(0x6040, 0, struct.pack("<H", controlword))
+            wait(f"controlword 0x{controlword:04X}: state 0x{state:02X}", lambda: statusword() & mask == state)
+        start = i32(0x6064)
+        node.sdo.download(0x60FF, 0, struct.pack("<i", 100))
+        wait("0x606C reaches 100 mm/s", lambda: i32(0x606C) == 100)
+        wait("target reached", lambda: statusword() & 0x0400)
+        wait("0x6064 advances", lambda: i32(0x6064) > start + 5)
+        node.sdo.download(0x60FF, 0, struct.pack("<i", 0))
+        wait("standstill", lambda: i32(0x606C) == 0)
+        node.sdo.download(0x6040, 0, struct.pack("<H", 0))
+        wait("Switch on disabled", lambda: statusword() & 0x4F == 0x40)
 
     def mapping(self, node, index):
         """(index, sub, bits) of each object a PDO maps, read from the node."""

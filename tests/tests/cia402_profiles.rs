@@ -253,12 +253,14 @@ fn homing_17_on_the_negative_limit_switch_sets_the_home_offset() {
 }
 
 #[test]
-fn unsupported_homing_method_reports_homing_error() {
+fn unsupported_homing_methods_are_refused_and_the_default_0_reports_homing_error() {
     let mut b = bmaxx_enabled(6);
-    assert_eq!(b.sdo_write(2, 0x6098, 0, &[1]), ok_write(0x6098, 0));
+    assert_eq!(b.sdo_write(2, 0x6098, 0, &[1]), common::abort(0x6098, 0, 0x0609_0030), "index pulse: not in the model");
+    // 0x6098 = 0 (the dictionary's default): no homing method.
     b.rx(ms(400), 0x302, &[0x1F, 0, 6]);
     b.run_until(ms(420));
     assert_eq!(statusword(&mut b) & 0x3400, 0x2400, "error, velocity is zero");
+    assert_eq!(b.node.app().drive.state(), canopen_core::profiles::cia402::fsa::PdsState::OperationEnabled);
 }
 
 #[test]

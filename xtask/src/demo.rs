@@ -1,5 +1,6 @@
 //! `cargo xtask demo [--device ec5000|unitek-ds] [--connect HOST:PORT] [--node-id N]`: the EC5000
-//! RollerDrive image in QEMU, driven the way a PLC drives it, with a live
+//! RollerDrive image in QEMU, driven the way a PLC drives it (CiA 301, then
+//! CiA 402: the state machine, a pv and a pp move, quick stop), with a live
 //! trace of every frame and what it means, then a summary.
 //!
 //! Without `--connect` it builds `ec5000-qemu`, boots it in QEMU with its
@@ -157,6 +158,7 @@ struct Run {
     tpdo3: u16,
     tpdo1_map: Vec<MappingEntry>,
     rpdo1: (u16, Vec<MappingEntry>),
+    rpdo2: (u16, Vec<MappingEntry>),
     rpdo3: (u16, Vec<MappingEntry>),
 }
 
@@ -179,7 +181,7 @@ impl Run {
             }
         }
         let take = |i: usize| pdos.get(i).cloned().unwrap_or_default();
-        let (tpdo1, rpdo1, tpdo3, rpdo3) = (take(0), take(1), take(4), take(5));
+        let (tpdo1, rpdo1, rpdo2, tpdo3, rpdo3) = (take(0), take(1), take(3), take(4), take(5));
         let style = Style { on: std::io::stdout().is_terminal() };
         let observer = Box::new(move |l: &LoggedFrame| {
             let meaning = decoder.decode(&l.frame);
@@ -207,6 +209,7 @@ impl Run {
             tpdo3: tpdo3.0,
             tpdo1_map: tpdo1.1,
             rpdo1,
+            rpdo2,
             rpdo3,
         })
     }
@@ -377,6 +380,111 @@ impl Run {
         let sent = self.m.log().iter().filter(|l| l.direction == Direction::Sent).count() as u64;
         let acks = self.m.counts().acks;
         self.check(acks == sent, &format!("the adapter acknowledged every frame sent ({acks} of {sent})"));
+        self.cia402()
+    }
+
+    /// The CiA 402 part: the state machine by RPDO1, a pv move by RPDO3,
+    /// quick stop, a pp move by RPDO2, disable voltage; each step checked by
+    /// SDO reads of 0x6041, 0x606C and 0x6064 while the trace shows the
+    /// statusword and position TPDOs.
+    fn cia402(&mut self) -> Result<(), String> {
+        self.step("8. CiA 402: enable through the state machine (RPDO1: 0x6040, 0x6060 = 3 pv)");
+        self.enable(MODE_PROFILE_VELOCITY)?;
+
+        self.step(&format!("9. Profile velocity: 0x60FF = {TARGET_VELOCITY} mm/s by RPDO3, the roller ramps up"));
+        self.send_pdo(3, &[CONTROLWORD, TARGET_VELOCITY])?;
+        self.wait_object(0x606C, &format!("0x606C velocity actual value reaches {TARGET_VELOCITY} mm/s"), |v| v == TARGET_VELOCITY as i32)?;
+        self.wait_statusword("statusword bit 10: target reached", |w| w & 0x0400 != 0)?;
+        let from = self.object(0x6064)?;
+        Self::io(self.m.idle(Duration::from_millis(300)))?;
+        let to = self.object(0x6064)?;
+        let moved = to.zip(from).map(|(t, f)| t - f);
+        // QEMU's clock counts instructions and runs slower than the wall clock
+        // (see the heartbeat figures): the distance tells motion, not speed.
+        self.check(moved.is_some_and(|d| d > 0), &format!("0x6064 position actual value advances ({moved:?} mm in 0.3 s of wall time)"));
+
+        self.step("10. Quick stop (controlword 0x000B): the roller brakes, then Switch on disabled");
+        self.send_pdo(3, &[0x000B, TARGET_VELOCITY])?;
+        self.wait_statusword("Switch on disabled once stopped (0x605A default 2)", |w| w & 0x4F == 0x40)?;
+        let v = self.object(0x606C)?;
+        self.check(v == Some(0), &format!("0x606C = 0 after the quick stop ({v:?})"));
+
+        self.step("11. Profile position: 0x6060 = 1, a 250 mm move by RPDO2 (0x607A, new set-point bit 4)");
+        self.send_pdo(3, &[0, 0])?;
+        self.enable(1)?;
+        let target = self.object(0x6064)?.unwrap_or(0) + 250;
+        let raw = u64::from(target as u32);
+        self.send_pdo(2, &[0x001F, raw])?;
+        self.wait_statusword("statusword bit 12: set-point acknowledge", |w| w & 0x1000 != 0)?;
+        self.send_pdo(2, &[CONTROLWORD, raw])?;
+        self.wait_object(0x6064, &format!("0x6064 reaches the target {target} mm"), |p| p == target)?;
+        self.wait_statusword("statusword bit 10: target reached", |w| w & 0x0400 != 0)?;
+
+        self.step("12. Disable voltage (controlword 0x0000): back to Switch on disabled");
+        self.send_pdo(1, &[0, 1, PROFILE_VELOCITY])?;
+        self.wait_statusword("Switch on disabled", |w| w & 0x4F == 0x40)
+    }
+
+    /// Shutdown, switch on, enable operation by RPDO1 in `mode`, each state seen in 0x6041.
+    fn enable(&mut self, mode: u64) -> Result<(), String> {
+        for (cw, mask, state, name) in
+            [(0x06, 0x6F, 0x21, "Ready to switch on"), (0x07, 0x6F, 0x23, "Switched on"), (0x0F, 0x6F, 0x27, "Operation enabled")]
+        {
+            self.send_pdo(1, &[cw, mode, PROFILE_VELOCITY])?;
+            self.wait_statusword(&format!("controlword 0x{cw:04X}: {name}"), |w| w & mask == state)?;
+        }
+        Ok(())
+    }
+
+    /// RPDO `n` (1-3) with `values` in its EDS mapping.
+    fn send_pdo(&mut self, n: u8, values: &[u64]) -> Result<(), String> {
+        let (cob_id, map) = match n {
+            1 => &self.rpdo1,
+            2 => &self.rpdo2,
+            _ => &self.rpdo3,
+        };
+        let data = pdo::encode(map, values).map_err(|e| e.to_string())?;
+        let cob_id = *cob_id;
+        Self::io(self.m.send_std(cob_id, &data))
+    }
+
+    /// A 16- or 32-bit object as a signed number (SDO upload), `None` on an abort.
+    fn object(&mut self, index: u16) -> Result<Option<i32>, String> {
+        Ok(match self.upload(index, 0)? {
+            Ok(v) if v.len() == 2 => Some(i32::from(u16::from_le_bytes([v[0], v[1]]))),
+            Ok(v) if v.len() == 4 => Some(i32::from_le_bytes([v[0], v[1], v[2], v[3]])),
+            _ => None,
+        })
+    }
+
+    /// Polls `index` by SDO (every 20 ms, up to [`WAIT`]) until `ok`; one check.
+    fn wait_object(&mut self, index: u16, what: &str, ok: impl Fn(i32) -> bool) -> Result<(), String> {
+        let deadline = Instant::now() + WAIT;
+        let mut last = None;
+        while Instant::now() < deadline {
+            last = self.object(index)?;
+            if last.is_some_and(&ok) {
+                break;
+            }
+            Self::io(self.m.idle(Duration::from_millis(20)))?;
+        }
+        self.check(last.is_some_and(ok), &format!("{what} (0x{index:04X} = {last:?})"));
+        Ok(())
+    }
+
+    /// [`Run::wait_object`] on the statusword, naming its state.
+    fn wait_statusword(&mut self, what: &str, ok: impl Fn(u16) -> bool) -> Result<(), String> {
+        let deadline = Instant::now() + WAIT;
+        let mut last = None;
+        while Instant::now() < deadline {
+            last = self.object(0x6041)?.map(|w| w as u16);
+            if last.is_some_and(&ok) {
+                break;
+            }
+            Self::io(self.m.idle(Duration::from_millis(20)))?;
+        }
+        let seen = last.map_or("no statusword".to_owned(), |w| format!("0x{w:04X} {}", pds_state(w)));
+        self.check(last.is_some_and(ok), &format!("{what} (0x6041 = {seen})"));
         Ok(())
     }
 
@@ -428,7 +536,7 @@ impl Run {
 
     /// Sends the exit frame and waits for QEMU's exit code.
     fn exit_qemu(&mut self, child: &Mutex<Child>) -> Result<i32, String> {
-        self.step("8. Exit frame: QEMU ends through semihosting");
+        self.step("13. Exit frame: QEMU ends through semihosting");
         let code = send_exit(&mut self.m, child)?;
         match code {
             Some(code) => self.check(code == 0, &format!("QEMU exit code {code}")),
@@ -520,6 +628,21 @@ fn stats(values: &[f64]) -> (f64, f64, f64) {
     }
     let mean = values.iter().sum::<f64>() / values.len() as f64;
     (mean, values.iter().copied().fold(f64::INFINITY, f64::min), values.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+}
+
+/// The PDS state a statusword codes (CiA 402-2 table "State coding").
+fn pds_state(word: u16) -> &'static str {
+    match (word & 0x6F, word & 0x4F) {
+        (_, 0x00) => "Not ready to switch on",
+        (_, 0x40) => "Switch on disabled",
+        (0x21, _) => "Ready to switch on",
+        (0x23, _) => "Switched on",
+        (0x27, _) => "Operation enabled",
+        (0x07, _) => "Quick stop active",
+        (_, 0x0F) => "Fault reaction active",
+        (_, 0x08) => "Fault",
+        _ => "(no state)",
+    }
 }
 
 /// An SDO error with the CiA 301 text of its abort code.

@@ -55,3 +55,15 @@ fn trace_lines_in_candump_columns() {
     let coloured = trace_line(&rx(1, 0x5FF, &[0x80, 0, 0x20, 0, 0, 0, 2, 6]), "SDO abort", Style { on: true });
     assert!(coloured.contains("\x1b[32m<-\x1b[0m") && coloured.ends_with("\x1b[31mSDO abort\x1b[0m"), "{coloured:?}");
 }
+
+#[test]
+fn statusword_state_names_follow_cia_402_state_coding() {
+    assert_eq!(pds_state(0x0250), "Switch on disabled");
+    assert_eq!(pds_state(0x0231), "Ready to switch on");
+    assert_eq!(pds_state(0x0233), "Switched on");
+    assert_eq!(pds_state(0x1637), "Operation enabled");
+    assert_eq!(pds_state(0x0617), "Quick stop active");
+    assert_eq!(pds_state(0x021F), "Fault reaction active");
+    assert_eq!(pds_state(0x0218), "Fault");
+    assert_eq!(pds_state(0x0000), "Not ready to switch on");
+}

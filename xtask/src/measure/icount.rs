@@ -324,6 +324,8 @@ icount-qemu calibration instructions=102000 ticks=20400 per_tick=5 overhead=1.01
 icount-qemu kind=rpdo frames=1000 on_frame=447.0 process=1336.0 transmit=731.1 transmit_calls=1000 sent=0
 icount-qemu kind=sdo-upload frames=1000 on_frame=3947.0 process=1336.0 transmit=1245.1 transmit_calls=2000 sent=1000
 icount-qemu kind=sync frames=1000 on_frame=2857.1 process=810.0 transmit=2933.0 transmit_calls=5000 sent=4000
+icount-qemu kind=cia402 frames=1000 on_frame=2465.0 process=1348.0 transmit=403.0 transmit_calls=2000 sent=1000
+icount-qemu kind=cia402-echo frames=1000 on_frame=1709.0 process=1245.0 transmit=393.0 transmit_calls=2000 sent=1000
 icount-qemu worst=store-0x1010 on_frame=186046.9 process=456.0 total=186502.9 sent=1 runs=50
 icount-qemu worst=nmt-reset-node on_frame=216777.1 process=1068.0 total=217845.1 sent=1 runs=50
 icount-qemu isr=slcan-uart0 bytes=22 line=2651.6 last_byte=823.0
@@ -336,7 +338,7 @@ icount-qemu ok
         let r = parse_report(GOOD).unwrap();
         assert_eq!((r.calibration_instructions, r.calibration_ticks, r.per_tick), (102_000, 20_400, 5));
         assert_eq!((r.overhead, r.check), (1.01, (1020, 1019.81)));
-        assert_eq!(r.kinds.len(), 3);
+        assert_eq!(r.kinds.len(), 5);
         let sync = &r.kinds[2];
         assert_eq!(
             (sync.name.as_str(), sync.on_frame, sync.process, sync.transmit, sync.calls_per_frame),
@@ -349,6 +351,14 @@ icount-qemu ok
         );
         assert_eq!(r.slcan, (22, 2651.6, 823.0));
         assert_eq!(r.bxcan, 206.8);
+    }
+
+    #[test]
+    fn the_cia402_share_is_checked_against_its_budget() {
+        // 4216 − 3347 = 869 instructions: within 1,000.
+        assert!(cia402_share(&parse_report(GOOD).unwrap()).is_ok());
+        let slow = GOOD.replace("kind=cia402 frames=1000 on_frame=2465.0", "kind=cia402 frames=1000 on_frame=2700.0");
+        assert!(cia402_share(&parse_report(&slow).unwrap()).unwrap_err().contains("over 1000"));
     }
 
     #[test]

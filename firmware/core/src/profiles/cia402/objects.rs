@@ -46,8 +46,6 @@ pub mod index {
     pub const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
     /// 0x6062 position demand value (INTEGER32, user units).
     pub const POSITION_DEMAND: u16 = 0x6062;
-    /// 0x6063 position actual internal value (INTEGER32, increments).
-    pub const POSITION_INTERNAL: u16 = 0x6063;
     /// 0x6064 position actual value (INTEGER32).
     pub const POSITION_ACTUAL: u16 = 0x6064;
     /// 0x6065 following error window (UNSIGNED32).
@@ -72,8 +70,6 @@ pub mod index {
     pub const VELOCITY_THRESHOLD_TIME: u16 = 0x6070;
     /// 0x6077 torque actual value [‰] (INTEGER16).
     pub const TORQUE_ACTUAL: u16 = 0x6077;
-    /// 0x6079 DC link circuit voltage [mV] (UNSIGNED32).
-    pub const DC_LINK_VOLTAGE: u16 = 0x6079;
     /// 0x607A target position (INTEGER32).
     pub const TARGET_POSITION: u16 = 0x607A;
     /// 0x607C home offset (INTEGER32).
@@ -102,14 +98,10 @@ pub mod index {
     pub const HOMING_SPEEDS: u16 = 0x6099;
     /// 0x609A homing acceleration (UNSIGNED32).
     pub const HOMING_ACCELERATION: u16 = 0x609A;
-    /// 0x60C5 max acceleration (UNSIGNED32).
-    pub const MAX_ACCELERATION: u16 = 0x60C5;
     /// 0x60C6 max deceleration (UNSIGNED32).
     pub const MAX_DECELERATION: u16 = 0x60C6;
     /// 0x60F2 positioning option code (UNSIGNED16).
     pub const POSITIONING_OPTION: u16 = 0x60F2;
-    /// 0x60FD digital inputs (UNSIGNED32).
-    pub const DIGITAL_INPUTS: u16 = 0x60FD;
     /// 0x60FF target velocity (INTEGER32).
     pub const TARGET_VELOCITY: u16 = 0x60FF;
     /// 0x6502 supported drive modes (UNSIGNED32).

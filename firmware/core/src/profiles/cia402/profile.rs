@@ -138,11 +138,6 @@ impl<D: Drive> Cia402<D> {
         self.s.state
     }
 
-    /// The mode of operation in force (0x6061).
-    pub fn mode(&self) -> i8 {
-        self.s.mode
-    }
-
     /// Reset application (and power-on): transitions 0 and 1 to Switch on
     /// disabled, the factors and supported modes from the dictionary.
     pub fn reset(&mut self, ctx: &mut Ctx<'_>, config: &Config) {
@@ -159,12 +154,14 @@ impl<D: Drive> Cia402<D> {
     }
 
     /// Validates a download before it is stored: 0x6060 takes the
-    /// supported modes only (abort 0x06090030).
+    /// supported modes only, 0x6098 the homing methods [`Hm`] runs (abort
+    /// 0x06090030).
     pub fn check_write(&self, index: u16, data: &[u8]) -> Result<(), AbortCode> {
         match (index, data) {
             (index::MODES_OF_OPERATION, [m]) if *m != 0 && mode::supported_bit(*m as i8) & self.s.supported == 0 => {
                 Err(AbortCode::InvalidValue)
             }
+            (index::HOMING_METHOD, [m]) if !Hm::supports(i32::from(*m as i8)) => Err(AbortCode::InvalidValue),
             _ => Ok(()),
         }
     }
