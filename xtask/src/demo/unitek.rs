@@ -166,12 +166,18 @@ impl Session {
             &format!("every period is 100 ms of motion at 10 % speed ({steps:.3?})"),
         );
 
-        self.step("5. Home (0x78), event STATUS on Tol (0x51 = 0x10), one revolution (0x6E = 65536)");
+        self.step("5. Stop, home (0x78), event STATUS on Tol (0x51 = 0x10), one revolution (0x6E = 65536)");
         self.write(&[0x31, 0x00, 0x00])?;
-        Self::io(self.m.idle(Duration::from_millis(100)))?;
+        // Each step waits for the drive's answer, so no frame overtakes the drive's own time.
+        let deadline = Instant::now() + SLOW_WAIT;
+        while self.read(0x30)? != Some(0) && Instant::now() < deadline {}
         self.write(&[0x78, 0x01, 0x00])?;
-        let mark = self.m.mark();
+        let status = self.read(0x40)?;
+        self.check(status == Some(0x3181), &format!("homed at rest: STATUS 0x3181 = Ena, P-N, N-I, Cal, Tol ({status:08X?})"));
         self.write(&[0x51, 0x10, 0x00])?;
+        let status = self.read(0x40)?;
+        self.check(status == Some(0x3181), &format!("event mode on, still enabled ({status:08X?})"));
+        let mark = self.m.mark();
         self.write(&[0x6E, 0x00, 0x00, 0x01, 0x00])?;
         let arrived =
             Self::io(self.m.wait_for(mark, SLOW_WAIT, |f| f.cob_id() == Some(TX) && f.data() == [0x40, 0x81, 0x31, 0x00, 0x00, 0x00]))?;
@@ -182,8 +188,10 @@ impl Session {
             .filter(|r| r.regid == 0x40)
             .map(|r| r.value)
             .collect();
-        self.check(events.first() == Some(&0x1181), &format!("Tol falls: STATUS 0x1181 ({events:04X?})"));
-        self.check(arrived.is_some(), "in position: STATUS 0x3181 (Ena, P-N, N-I, Cal, Tol), as Ex. 10 prints it");
+        self.check(
+            arrived.is_some() && events == [0x1181, 0x3181],
+            &format!("Tol falls (0x1181), then in position: 0x3181 as Ex. 10 prints it ({events:04X?})"),
+        );
         let at = self.read(0x6D)?.map(|p| p as i32);
         self.check(at.is_some_and(|p| (p - 65536).abs() <= 100), &format!("POS_ACTUAL within POS_WINDOW 100 of 65536 ({at:?})"));
 
