@@ -52,10 +52,10 @@ const TARGET_VELOCITY: u64 = 300;
 pub struct DemoArgs {
     /// Drive a running `vnode --device ec5000` at HOST:PORT instead of booting QEMU.
     #[arg(long, value_name = "HOST:PORT")]
-    connect: Option<String>,
+    pub connect: Option<String>,
     /// The node-id of the node behind `--connect` (default: the EC5000's 127, the QEMU image's).
     #[arg(long, value_name = "N", requires = "connect", value_parser = clap::value_parser!(u8).range(1..=127))]
-    node_id: Option<u8>,
+    pub node_id: Option<u8>,
     /// The device: the EC5000 drive (CiA 402) or the UNITEK DS servo (its register protocol).
     #[arg(long, value_parser = ["ec5000", "unitek-ds"])]
     pub device: Option<String>,
