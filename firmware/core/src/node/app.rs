@@ -251,6 +251,12 @@ pub trait Application {
     /// Where the device's manual departs from CiA 301.
     const OPTIONS: ServiceOptions = ServiceOptions::CIA301;
 
+    /// The device stores parameters by a command of its own (a register, a
+    /// manufacturer object) through [`Ctx::save`] or [`Ctx::save_objects`]:
+    /// its stored set loads at every reset even when the dictionary has no
+    /// 0x1010/0x1011 (which otherwise leave the store code out, `Services::storage`).
+    const STORES: bool = false;
+
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
     fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
