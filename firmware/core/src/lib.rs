@@ -19,6 +19,7 @@ pub mod frame;
 pub mod id;
 pub mod node;
 pub mod od;
+pub mod profiles;
 pub mod services;
 pub mod storage;
 pub mod time;

@@ -111,7 +111,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             LssAction::Start(node_id) => {
                 self.node_id = node_id;
-                self.reset_communication(now);
+                if A::OPTIONS.lss_start_resets_node {
+                    self.reset_application(now);
+                } else {
+                    self.reset_communication(now);
+                }
             }
         }
     }

@@ -234,6 +234,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);
+        if effects.error_class != 0 {
+            self.device_error(effects.error_class, now);
+        }
         value
     }
 

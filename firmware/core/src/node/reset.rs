@@ -77,6 +77,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if A::OPTIONS.tpdo_254_timer_only {
             self.comm.pdos.set_timer_only_254(true);
         }
+        if A::OPTIONS.tpdo_255_timer_only_with_timer {
+            self.comm.pdos.set_timer_only_255_with_timer(true);
+        }
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();

@@ -1,0 +1,171 @@
+//! Position scaling (CiA 406 §6.2: 0x6000 bits 0 and 2, 0x6001, 0x6002,
+//! 0x6501): pure arithmetic, no state.
+//!
+//! The position is kept as a numerator `num = position × R + fraction` in
+//! `0..TMR × R` (R = 0x6501, steps per revolution), and a movement of `d`
+//! steps adds `d × MUR` to it. The output therefore wraps exactly at TMR
+//! whatever TMR is (36000 with MUR 3600: ten turns), and a physical counter
+//! that wraps at a range TMR does not divide cannot make it jump: only
+//! the movement counts, never the counter's absolute value.
+
+use crate::abort::AbortCode;
+
+/// 0x6000 bit 0: code sequence, counting down when the shaft turns clockwise.
+pub const CODE_SEQUENCE: u16 = 1 << 0;
+/// 0x6000 bit 2: scaling function on (0x6001/0x6002 apply).
+pub const SCALING: u16 = 1 << 2;
+/// TMR = 0 in 0x6002 means 2^32 measuring units (CiA 406, manual L2506).
+pub const FULL_RANGE: u64 = 1 << 32;
+
+/// The scaling in force: measuring units per revolution, total measuring
+/// range and direction, from 0x6000/0x6001/0x6002 and the sensor's 0x6501.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Scaling {
+    /// Measuring units per revolution (0x6001, or R with scaling off).
+    pub mur: u32,
+    /// Total measuring range in measuring units, 1..=2^32.
+    pub tmr: u64,
+    /// Steps per revolution of the sensor (0x6501), at least 1.
+    pub resolution: u32,
+    /// Counting direction inverted (0x6000 bit 0).
+    pub ccw: bool,
+}
+
+impl Scaling {
+    /// No scaling yet (all zero bits; every method still answers without dividing by 0).
+    pub const NONE: Scaling = Scaling { mur: 0, tmr: 0, resolution: 0, ccw: false };
+
+    /// The scaling the parameters give. With scaling off (or a MUR of 0)
+    /// the position is the step count itself over the full 32 bits.
+    pub fn new(operating: u16, mur: u32, tmr: u32, resolution: u32) -> Scaling {
+        let resolution = resolution.max(1);
+        let ccw = operating & CODE_SEQUENCE != 0;
+        if operating & SCALING != 0 && mur != 0 {
+            Scaling { mur, tmr: if tmr == 0 { FULL_RANGE } else { u64::from(tmr) }, resolution, ccw }
+        } else {
+            Scaling { mur: resolution, tmr: FULL_RANGE, resolution, ccw }
+        }
+    }
+
+    /// The numerator's modulus, TMR × R (below 2^64: TMR ≤ 2^32, R < 2^32).
+    pub fn modulus(&self) -> u64 {
+        self.tmr.saturating_mul(u64::from(self.resolution)).max(1)
+    }
+
+    /// The numerator after a movement of `steps` sensor steps (positive:
+    /// clockwise, as the sensor counts), in the configured direction.
+    pub fn advance(&self, num: u64, steps: i64) -> u64 {
+        let steps = if self.ccw { -i128::from(steps) } else { i128::from(steps) };
+        let m = i128::from(self.modulus());
+        ((i128::from(num) + steps * i128::from(self.mur)).rem_euclid(m)) as u64
+    }
+
+    /// The numerator of the position at step count `count` with `offset`
+    /// measuring units added (the preset's offset, 0x6509).
+    pub fn at(&self, count: u64, offset: i64) -> u64 {
+        let count = if self.ccw { -i128::from(count) } else { i128::from(count) };
+        let m = i128::from(self.modulus());
+        ((count * i128::from(self.mur) + i128::from(offset) * i128::from(self.resolution)).rem_euclid(m)) as u64
+    }
+
+    /// The position value (0x6004) of a numerator, `0..TMR`.
+    pub fn position(&self, num: u64) -> u32 {
+        (num / u64::from(self.resolution.max(1))) as u32
+    }
+
+    /// The numerator that makes the position `value` while keeping the
+    /// fraction `num` holds (so a preset does not move the next step).
+    pub fn with_position(&self, num: u64, value: u32) -> u64 {
+        let r = u64::from(self.resolution.max(1));
+        u64::from(value) * r + num % r
+    }
+
+    /// Measuring units `v` wrapped into `0..TMR`.
+    pub fn wrap(&self, v: i64) -> u32 {
+        v.rem_euclid(self.tmr.max(1) as i64) as u32
+    }
+}
+
+/// Checks MUR (0x6001) and TMR (0x6002) together: TMR 1..3 is refused with
+/// 0x06090030 (below the smallest MUR, manual L2506), and a pair with
+/// MUR > TMR (TMR = 0 is 2^32) with 0x06040043: the manual keeps the old
+/// value and names no code (docs/devices/sendix.md D16).
+pub fn check_range(mur: u32, tmr: u32) -> Result<(), AbortCode> {
+    match tmr {
+        1..=3 => Err(AbortCode::InvalidValue),
+        0 => Ok(()),
+        _ if mur > tmr => Err(AbortCode::ParameterIncompatible),
+        _ => Ok(()),
+    }
+}
+
+/// Whether `preset` is a position the scaling can show (below TMR).
+pub fn check_preset(scaling: &Scaling, preset: u32) -> Result<(), AbortCode> {
+    if u64::from(preset) < scaling.tmr { Ok(()) } else { Err(AbortCode::InvalidValue) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const R: u32 = 0x4000;
+
+    #[test]
+    fn scaling_off_gives_the_step_count_over_32_bits() {
+        let s = Scaling::new(0, 3600, 36000, R);
+        assert_eq!((s.mur, s.tmr), (R, FULL_RANGE));
+        assert_eq!(s.position(s.at(19642, 0)), 19642);
+        assert_eq!(s.position(s.at(FULL_RANGE + 5, 0)), 5, "wraps at 2^32");
+    }
+
+    #[test]
+    fn tmr_zero_means_2_to_the_32() {
+        let s = Scaling::new(SCALING, 0x1000, 0, R);
+        assert_eq!(s.tmr, FULL_RANGE);
+        assert_eq!(s.position(s.at(4 * u64::from(R), 0)), 0x4000);
+    }
+
+    #[test]
+    fn a_non_binary_range_wraps_at_tmr_in_both_directions() {
+        let s = Scaling::new(SCALING, 3600, 36000, R);
+        let mut num = s.at(0, 0);
+        // Ten turns forward in quarter turns: back to 0.
+        for _ in 0..40 {
+            num = s.advance(num, i64::from(R / 4));
+        }
+        assert_eq!(s.position(num), 0);
+        num = s.advance(num, -1);
+        assert_eq!(s.position(num), 35999, "one step back from 0 is the top of the range");
+        let ccw = Scaling::new(SCALING | CODE_SEQUENCE, 3600, 36000, R);
+        assert_eq!(ccw.position(ccw.advance(0, i64::from(R))), 36000 - 3600, "counter-clockwise counts down");
+    }
+
+    #[test]
+    fn fractions_of_a_unit_add_up_exactly() {
+        // 3600 units per 16384 steps: 1 step is 0.2197 units.
+        let s = Scaling::new(SCALING, 3600, 36000, R);
+        let mut num = 0;
+        for _ in 0..R {
+            num = s.advance(num, 1);
+        }
+        assert_eq!(s.position(num), 3600);
+        assert_eq!(num % u64::from(R), 0, "no rounding error after a whole turn");
+    }
+
+    #[test]
+    fn mur_above_tmr_and_tiny_ranges_are_refused() {
+        assert_eq!(check_range(0x1000, 0x800), Err(AbortCode::ParameterIncompatible));
+        assert_eq!(check_range(4, 3), Err(AbortCode::InvalidValue));
+        assert_eq!(check_range(0x4000, 0), Ok(()));
+        assert_eq!(check_range(3600, 36000), Ok(()));
+        assert_eq!(check_range(3600, 3600), Ok(()));
+    }
+
+    #[test]
+    fn a_preset_must_lie_below_tmr() {
+        let s = Scaling::new(SCALING, 3600, 36000, R);
+        assert_eq!(check_preset(&s, 35999), Ok(()));
+        assert_eq!(check_preset(&s, 36000), Err(AbortCode::InvalidValue));
+        assert_eq!(check_preset(&Scaling::new(0, 0, 0, R), u32::MAX), Ok(()));
+    }
+}
