@@ -284,7 +284,12 @@ impl<P: Sensor> Application for App<P> {
 
 /// CRC-16/CCITT, polynomial 0x1021, start value 0x1021 (§5.5.26).
 pub fn crc16(data: &[u8]) -> u16 {
-    let mut crc: u16 = 0x1021;
+    crc16_ccitt(0x1021, data)
+}
+
+/// CRC-16 with polynomial 0x1021 (no reflection, no final XOR) from `init`.
+pub fn crc16_ccitt(init: u16, data: &[u8]) -> u16 {
+    let mut crc = init;
     for &b in data {
         crc ^= u16::from(b) << 8;
         for _ in 0..8 {

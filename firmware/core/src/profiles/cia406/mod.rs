@@ -193,6 +193,11 @@ impl<P: PositionSource> Encoder<P> {
                 self.sample(ctx, config);
             }
             (index::PRESET_VALUE, 0) => self.preset(ctx, config),
+            // New limits apply to the position held, not only from the next sample.
+            (index::WORK_AREA_LOW_LIMIT | index::WORK_AREA_HIGH_LIMIT, _) => {
+                let position = self.position();
+                self.work_areas(ctx, position);
+            }
             _ => {}
         }
     }
