@@ -12,7 +12,7 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::node::{Application, CommError, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia406::diag::BitEmcy;
 use canopen_core::profiles::cia406::{self, Config, Encoder, ManualShaft, PositionSource, SensorFault, SimulatedShaft};
 use canopen_core::services::nmt::State;
@@ -272,6 +272,10 @@ impl<P: Sensor> Application for App<P> {
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        // §5.5.12: bus-off is a communication error (0x1029:01); the heartbeat one the node handles itself.
+        if event == NmtEvent::CommunicationError(CommError::BusOff) {
+            ctx.error_behaviour(1);
+        }
         if event == NmtEvent::ResetApplication {
             self.encoder.reset(ctx, &CIA406);
             self.after_sample(ctx);

@@ -87,8 +87,10 @@ pub struct ServiceOptions {
     /// boot-up, the node enters Operational by itself, as 0x1F80 bit 2 does
     /// (an encoder's "start in Operational" in 0x6000 bit 14).
     pub start_operational: Option<(u16, u32)>,
-    /// LSS "switch state global" to waiting with a new node-id resets the
-    /// node (application and communication), not only communication as CiA 305 does.
+    /// LSS "switch state global" to waiting after a new node-id was
+    /// configured resets the node (application and communication) at once,
+    /// where CiA 305 waits for an NMT reset (and starts only an unconfigured
+    /// node, with reset communication).
     pub lss_start_resets_node: bool,
 }
 

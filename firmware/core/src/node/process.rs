@@ -4,7 +4,7 @@
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::heartbeat::ConsumerEvent;
-use crate::services::nmt::State;
+use crate::services::nmt::{State, Transition};
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
 use crate::wire::emcy::code;
@@ -36,10 +36,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     || A::OPTIONS
                         .start_operational
                         .is_some_and(|(index, mask)| dict.read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0);
-                let state = self.nmt.boot_up_done(auto_start);
+                let state = self.nmt.boot_up_done(false);
                 let dict = self.od.dictionary();
                 self.comm.reconfigure(0x1017, dict, self.od.image(), self.node_id, now);
                 self.entered(state, now);
+                self.start_pending = auto_start;
+            }
+        }
+        if self.start_pending && self.txq.is_empty() {
+            self.start_pending = false;
+            if let Transition::Entered(s) = self.nmt.enter(State::Operational) {
+                self.entered(s, now);
             }
         }
         if self.nmt.state() != State::Initialising && self.comm.heartbeat.poll(now) {
@@ -115,7 +122,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         let deadlines = [
-            self.boot_pending.then_some(now),
+            (self.boot_pending || self.start_pending).then_some(now),
             self.comm.heartbeat.deadline(),
             self.comm.consumers.deadline(),
             self.comm.guarding.deadline(),

@@ -87,6 +87,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.nmt = Nmt::new();
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
+        self.start_pending = false;
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
     }
 
