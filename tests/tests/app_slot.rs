@@ -86,6 +86,19 @@ impl Application for Probe {
             }
             // 0x2004 is stored alone as soon as it is written.
             (0x2004, 0, _) => ctx.save_objects(0x2004, 0x2004).unwrap(),
+            // 0x2001 = 0xDEAD is a device error (EMCY 0xFF01), any other value clears it.
+            (0x2001, 0, _) => {
+                if ctx.read_u32(0x2001, 0) == Some(0xDEAD) {
+                    ctx.raise_error(0xFF01, [1, 2, 3, 4, 5]);
+                } else {
+                    ctx.clear_error(0xFF01);
+                }
+            }
+            // 0x2003 names a raw identifier the probe claims; a write of 0x2002 (not in TPDO1) is an application event for TPDO1.
+            (0x2003, 0, Source::Sdo) => ctx.refresh_acceptance(),
+            (0x2002, 0, Source::Sdo) => {
+                ctx.trigger_tpdo(0);
+            }
             _ => {}
         }
     }
@@ -121,8 +134,11 @@ impl Application for Probe {
         ctx.send_raw(RAW_OUT, data)
     }
 
-    fn claim_ids(&self, _dict: &'static Dictionary, _image: &[u8], claims: &mut Claims<'_>) {
+    fn claim_ids(&self, dict: &'static Dictionary, image: &[u8], claims: &mut Claims<'_>) {
         claims.claim(RAW_IN, false);
+        if let Some(id @ 1..=0x7FF) = dict.read_u32(image, 0x2003, 0) {
+            claims.claim(id as u16, false);
+        }
     }
 }
 
@@ -264,14 +280,13 @@ fn nmt_and_communication_events_arrive_each_one_whatever_0x1029_says() {
             "nmt CommunicationError(BusOff) in Operational"
         ]
     );
-    assert_eq!(b.node.state(), State::Operational);
+    assert_eq!(b.node.state(), State::Operational, "0x1029:1 = 1: no state change");
     // Reset node: reset application, reset communication, then Pre-operational after the boot-up.
     b.nmt(0x81, ID);
     assert_eq!(
         log(&mut b),
         ["nmt ResetApplication in Initialising", "nmt ResetCommunication in Initialising", "nmt Entered(PreOperational) in PreOperational"]
     );
-    let _ = CommError::LifeGuarding;
 }
 
 #[test]
@@ -344,4 +359,76 @@ fn a_time_frame_reaches_the_device() {
     log(&mut b);
     b.rx(ms(1), 0x100, &[0x10, 0x27, 0x00, 0x00, 0x01, 0x00]);
     assert_eq!(log(&mut b).len(), 1);
+}
+
+#[test]
+fn a_device_raises_and_clears_errors_through_its_context() {
+    let mut b = bench(Probe::default());
+    let out = b.rx(ms(1), SDO_RX, &[0x2B, 0x01, 0x20, 0x00, 0xAD, 0xDE, 0, 0]);
+    assert_eq!(out, [(0x85, vec![0x01, 0xFF, 0x81, 1, 2, 3, 4, 5]), (0x585, ok_write(0x2001, 0))], "EMCY 0xFF01, error register bit 7");
+    assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(vec![0x01, 0xFF, 0x01, 0x02]));
+    let out = b.rx(ms(2), SDO_RX, &[0x2B, 0x01, 0x20, 0x00, 0x00, 0x00, 0, 0]);
+    assert_eq!(out, [(0x85, vec![0, 0, 0, 0, 0, 0, 0, 0]), (0x585, ok_write(0x2001, 0))], "error reset");
+}
+
+#[test]
+fn a_device_triggers_a_tpdo_and_changes_its_claimed_identifiers() {
+    let mut b = bench(Probe::default());
+    // TPDO1 type 254: with the same data only an application event sends it.
+    assert_eq!(b.sdo_write(ID, 0x1800, 2, &[0xFE]), ok_write(0x1800, 2));
+    b.nmt(0x01, ID);
+    b.at(ms(1));
+    assert_eq!(b.sdo_write(ID, 0x2000, 0, &[0x11]), ok_write(0x2000, 0));
+    assert_eq!(b.at(ms(2)), [], "the same data: no change of state");
+    assert!(!b.node.acceptance().accepts(0x3B0, false));
+    let generation = b.node.acceptance().generation();
+    let out = b.rx(ms(3), SDO_RX, &[0x23, 0x03, 0x20, 0x00, 0xB0, 0x03, 0, 0]);
+    assert_eq!(out, [(TPDO1, vec![0x11, 0x22, 0x22, 0xB0, 0x03, 0x00, 0x00]), (0x585, ok_write(0x2003, 0))]);
+    assert!(b.node.acceptance().accepts(0x3B0, false), "claimed after the refresh");
+    assert_ne!(b.node.acceptance().generation(), generation);
+    let out = b.rx(ms(4), SDO_RX, &[0x2F, 0x00, 0x20, 0x00, 0x11, 0, 0, 0]);
+    assert_eq!(out, [(0x585, ok_write(0x2000, 0))], "unchanged, no event");
+    let out = b.rx(ms(5), SDO_RX, &[0x27, 0x02, 0x20, 0x00, 0x01, 0x02, 0x03, 0]);
+    assert_eq!(
+        out,
+        [(TPDO1, vec![0x11, 0x22, 0x22, 0xB0, 0x03, 0x00, 0x00]), (0x585, ok_write(0x2002, 0))],
+        "the trigger sends it unchanged"
+    );
+}
+
+#[test]
+fn the_change_of_state_tpdo_waits_for_its_inhibit_time() {
+    let mut b = bench(Probe::default());
+    // TPDO1 inhibit time 10 ms (100 × 100 µs), set while the PDO is invalid.
+    assert_eq!(b.sdo_write(ID, 0x1800, 1, &[0x85, 0x01, 0x00, 0xC0]), ok_write(0x1800, 1));
+    assert_eq!(b.sdo_write(ID, 0x1800, 3, &[100, 0]), ok_write(0x1800, 3));
+    assert_eq!(b.sdo_write(ID, 0x1800, 1, &[0x85, 0x01, 0x00, 0x40]), ok_write(0x1800, 1));
+    b.nmt(0x01, ID);
+    assert_eq!(b.rx(ms(20), RPDO1, &[0x01, 0, 0, 0, 0, 0, 0, 0]), [(TPDO1, vec![0xFE, 0x22, 0x22, 0x44, 0x44, 0x44, 0x44])]);
+    assert_eq!(b.rx(ms(25), RPDO1, &[0x02, 0, 0, 0, 0, 0, 0, 0]), [], "inhibited");
+    assert_eq!(b.run_until(ms(40)), [(ms(30), (TPDO1, vec![0xFD, 0x22, 0x22, 0x44, 0x44, 0x44, 0x44]))]);
+}
+
+/// Logs the NMT events of a device with node guarding (the b maXX 4400's dictionary).
+#[derive(Default)]
+struct Events(Vec<NmtEvent>);
+
+impl Application for Events {
+    fn on_nmt(&mut self, _ctx: &mut Ctx<'_>, event: NmtEvent) {
+        self.0.push(event);
+    }
+}
+
+#[test]
+fn life_guarding_loss_reaches_the_device() {
+    use firmware::devices::bmaxx4400::od::Ram as Bmaxx;
+    let mut b: Bench<Bmaxx, Events, MemStorage, 4, 4, 0> = Bench::new(Bmaxx::new(ID), Events::default(), MemStorage::new(8192), ID);
+    b.at(ms(0));
+    // Guard time 100 ms, life time factor 2: the master guards once, then stops.
+    assert_eq!(b.sdo_write(ID, 0x100C, 0, &[100, 0]), ok_write(0x100C, 0));
+    assert_eq!(b.sdo_write(ID, 0x100D, 0, &[2]), ok_write(0x100D, 0));
+    assert_eq!(b.rtr(ms(10), 0x705), [(0x705, vec![0x7F])]);
+    b.node.app_mut().0.clear();
+    b.run_until(ms(400));
+    assert_eq!(b.node.app().0, [NmtEvent::CommunicationError(CommError::LifeGuarding)]);
 }

@@ -73,23 +73,19 @@ pub const DEVICE: super::Device = super::Device {
 const DEFAULT_NODE_ID: u8 = 1;
 
 /// The node-id and bit rate from p.387 (0x2183) and p.385 (0x2181) when the
-/// stored parameters set them. The factory p.387 = −1 means "CANopen off"
+/// stored parameters hold them. The factory p.387 = −1 means "CANopen off"
 /// on the real inverter (L654–658); this image starts as node 1 instead, so
 /// that it can be reached and configured (D41). p.385's codes 1–8 are 10,
 /// 20, 50, 100, 125, 250, 500, 1000 kbit/s; 100 kbit/s has no CiA 305
 /// timing and keeps the image's rate.
 pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<u8>) {
-    use canopen_core::od::ObjectDictionary;
-    use canopen_core::services::store::Part;
-    let mut ram = od::Ram::new(DEFAULT_NODE_ID);
-    if !store::load(&od::DICTIONARY, ram.image_mut(), DEFAULT_NODE_ID, storage, Part::Application) {
-        return (DEFAULT_NODE_ID, None);
-    }
-    let node_id = match od::DICTIONARY.read(ram.image(), 0x2183, 0) {
-        Ok(&[lo, hi]) => u8::try_from(i16::from_le_bytes([lo, hi])).ok().filter(|id| (1..=127).contains(id)).unwrap_or(DEFAULT_NODE_ID),
-        _ => DEFAULT_NODE_ID,
-    };
-    let bit_rate = match od::DICTIONARY.read_u32(ram.image(), 0x2181, 0) {
+    let mut value = [0u8; 2];
+    let mut stored = |index| store::stored_value(&od::DICTIONARY, storage, DEFAULT_NODE_ID, index, 0, &mut value).map(|_| value);
+    let node_id = stored(NODE_NUMBER)
+        .and_then(|v| u8::try_from(i16::from_le_bytes(v)).ok())
+        .filter(|id| (1..=127).contains(id))
+        .unwrap_or(DEFAULT_NODE_ID);
+    let bit_rate = match stored(BAUD_RATE).map(u16::from_le_bytes) {
         Some(1) => Some(8),
         Some(2) => Some(7),
         Some(3) => Some(6),
@@ -101,3 +97,8 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
     };
     (node_id, bit_rate)
 }
+
+/// p.387 CAN node number (INTEGER16, −1…127).
+const NODE_NUMBER: u16 = 0x2183;
+/// p.385 CAN baud rate (UNSIGNED16, codes 1…8).
+const BAUD_RATE: u16 = 0x2181;

@@ -90,12 +90,9 @@ const SSW: u8 = 5;
 /// The node-ID the drive starts with when LSS stored none: 0x4650 sub 1
 /// from the stored parameters (D31), else 127. The bit rate is the image's.
 pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<u8>) {
-    use canopen_core::od::ObjectDictionary;
-    use canopen_core::services::store::Part;
-    let mut ram = od::Ram::new(FACTORY_NODE_ID);
-    store::load(&od::DICTIONARY, ram.image_mut(), FACTORY_NODE_ID, storage, Part::Application);
-    let node_id = match od::DICTIONARY.read(ram.image(), NODE_ID, 1) {
-        Ok([id @ 1..=127]) => *id,
+    let mut id = [0];
+    let node_id = match store::stored_value(&od::DICTIONARY, storage, FACTORY_NODE_ID, NODE_ID, 1, &mut id) {
+        Some(1) if (1..=127).contains(&id[0]) => id[0],
         _ => FACTORY_NODE_ID,
     };
     (node_id, None)

@@ -313,6 +313,7 @@ const CYCLIC_TIMER: u16 = 0x6200;
 const PRESET: u16 = 0x6003;
 /// 0x2100 Baud rate, 0x2101 node address, 0x2102 bus termination.
 const BAUD_RATE: u16 = 0x2100;
+const NODE_ADDRESS: u16 = 0x2101;
 const TERMINATION: u16 = 0x2102;
 /// 0x2105 Save all bus parameters.
 const SAVE_BUS: u16 = 0x2105;
@@ -350,15 +351,16 @@ const FACTORY: (u8, u8) = (0x3F, 3);
 /// factory 0x3F at 250 kbit/s; no stored value gives a rate the boards
 /// have no timing for. Decision D24 in docs/devices/sendix.md.
 pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<u8>) {
-    use canopen_core::od::ObjectDictionary;
-    use canopen_core::services::store::{self, Part};
-    let mut ram = od::Ram::new(FACTORY.0);
-    store::load(&od::DICTIONARY, ram.image_mut(), FACTORY.0, storage, Part::Application);
-    let node_id = match ram.node_address() {
+    let mut byte = [NOT_SET];
+    let mut stored = |index| match store::stored_value(&od::DICTIONARY, storage, FACTORY.0, index, 0, &mut byte) {
+        Some(1) => byte[0],
+        _ => NOT_SET,
+    };
+    let node_id = match stored(NODE_ADDRESS) {
         id @ 1..=127 => id,
         _ => FACTORY.0,
     };
     // A code without CiA 305 timing (3, or any stored by an older image) starts at the factory rate.
-    let bit_rate = bit_rate_index(ram.baud_rate()).unwrap_or(FACTORY.1);
+    let bit_rate = bit_rate_index(stored(BAUD_RATE)).unwrap_or(FACTORY.1);
     (node_id, Some(bit_rate))
 }

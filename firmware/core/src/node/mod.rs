@@ -219,6 +219,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Runs `f` with the device's hooks and their context, then queues the
     /// raw frames they sent and follows up what their writes changed.
+    // Inlined: for a hook the device leaves at its default, nothing of it remains.
+    #[inline(always)]
     pub(super) fn with_app<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
         let Node { od, app, storage, comm, node_id, nmt, raw, .. } = self;
         let dict = od.dictionary();
@@ -246,7 +248,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Queues the device's raw frames, keeping [`RAW_RESERVE`] slots free; a
     /// frame that does not fit counts as an overflow (EMCY 0x8110).
+    #[inline(always)]
     pub(super) fn queue_raw(&mut self) {
+        if self.raw.len != 0 {
+            self.queue_raw_frames();
+        }
+    }
+
+    fn queue_raw_frames(&mut self) {
         let n = core::mem::take(&mut self.raw.len);
         for f in self.raw.frames.iter().take(n) {
             if self.txq.free() > RAW_RESERVE {

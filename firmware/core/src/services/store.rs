@@ -449,6 +449,25 @@ pub fn save_lss(
     write_set(dict, image, node_id, storage, 0, 0, Some([lss_node_id, bit_rate]), 0..0, 0..0)
 }
 
+/// The value of (index, sub) in the newest stored set, copied into the
+/// front of `out`, if the set holds one (a writable entry whose scope was
+/// saved); its length. For a device's start-up, before power-on: one value
+/// read from the storage, no image built.
+pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
+    let set = newest(dict, storage)?;
+    let entry = dict.find(index, sub).ok()?;
+    if entry.in_rom() || !entry.attr.contains(Attr::WRITE) || set.header.defaults & scope_bit(entry.index) != 0 {
+        return None;
+    }
+    let range = entry.range();
+    let value = out.get_mut(..range.len())?;
+    storage.read(set.region, HEADER + range.start, value).ok()?;
+    if entry.attr.contains(Attr::NODE_ID) {
+        crate::od::add_le(value, u64::from(node_id));
+    }
+    Some(range.len())
+}
+
 /// Which part of the image a reset reloads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Part {
