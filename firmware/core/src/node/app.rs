@@ -234,10 +234,10 @@ impl Ctx<'_> {
     }
 
     /// The stored value of (index, sub) in the newest parameter set,
-    /// read-only objects included (see [`crate::services::store::StoredSet::value`]):
+    /// read-only objects included ([`crate::services::store::stored_value`]):
     /// how a device gets back a value it keeps across power cycles itself.
     pub fn stored(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Option<usize> {
-        crate::services::store::newest(self.dict, self.storage)?.value(self.dict, self.storage, index, sub, buf)
+        crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
     }
 
     /// Stores a scope as 0x1010 would (the device's

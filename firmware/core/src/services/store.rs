@@ -204,20 +204,6 @@ impl StoredSet {
         (id != 0xFF || rate != 0xFF).then_some((id, rate))
     }
 
-    /// The stored bytes of (index, sub) into `buf`, read-only entries
-    /// included: a value the device keeps across power cycles itself (an
-    /// encoder's preset offset). `None` if its scope was restored to
-    /// defaults, or the entry is in ROM, node-id relative or longer than `buf`.
-    pub fn value(&self, dict: &Dictionary, storage: &mut dyn Storage, index: u16, sub: u8, buf: &mut [u8]) -> Option<usize> {
-        let e = dict.find(index, sub).ok()?;
-        if e.in_rom() || e.attr.contains(Attr::NODE_ID) || self.header.defaults & scope_bit(index) != 0 {
-            return None;
-        }
-        let dst = buf.get_mut(..usize::from(e.len))?;
-        storage.read(self.region, HEADER + usize::from(e.offset), dst).ok()?;
-        Some(dst.len())
-    }
-
     /// Overwrites the writable entries of `part` with this set (after the
     /// reset copied the defaults). Returns whether any value was taken from it.
     pub fn load(&self, dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
@@ -450,13 +436,15 @@ pub fn save_lss(
 }
 
 /// The value of (index, sub) in the newest stored set, copied into the
-/// front of `out`, if the set holds one (a writable entry whose scope was
-/// saved); its length. For a device's start-up, before power-on: one value
-/// read from the storage, no image built.
+/// front of `out`, if the set holds one (an entry whose scope was saved);
+/// its length. For a device's start-up, before power-on: one value read
+/// from the storage, no image built. A read-only entry gives what the
+/// image held when the set was saved: a value the device keeps across
+/// power cycles itself (an encoder's preset offset), which a reset does not load.
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;
-    if entry.in_rom() || !entry.attr.contains(Attr::WRITE) || set.header.defaults & scope_bit(entry.index) != 0 {
+    if entry.in_rom() || set.header.defaults & scope_bit(entry.index) != 0 {
         return None;
     }
     let range = entry.range();
