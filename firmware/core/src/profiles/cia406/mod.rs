@@ -155,10 +155,11 @@ impl<P: PositionSource> Encoder<P> {
     /// the absolute count.
     pub fn reset(&mut self, ctx: &mut Ctx<'_>, config: &Config) {
         let mut buf = [0u8; 4];
-        self.offset = match ctx.stored(index::OFFSET_VALUE, 0, &mut buf) {
+        let stored = match ctx.stored(index::OFFSET_VALUE, 0, &mut buf) {
             Some(4) => u32::from_le_bytes(buf),
             _ => 0,
         };
+        self.set_offset(ctx, stored);
         self.tracking = false;
         self.speed = 0;
         self.gate = Gate::NEW;
@@ -293,7 +294,14 @@ impl<P: PositionSource> Encoder<P> {
         self.scaled = true;
         let operating = ctx.read_u32(index::OPERATING_PARAMETERS, 0).unwrap_or(0) as u16;
         let _ = ctx.set_value(index::OPERATING_STATUS, 0, &operating.to_le_bytes());
-        self.offset = s.wrap(i64::from(self.offset));
+        // The offset stays within the new range; it is stored with the scaling (0x1010) or the next preset.
+        self.set_offset(ctx, self.offset);
+    }
+
+    /// Sets the preset offset (0x6509), wrapped into `0..TMR`.
+    fn set_offset(&mut self, ctx: &mut Ctx<'_>, offset: u32) {
+        self.offset = self.current_scaling(ctx).wrap(i64::from(offset));
+        let _ = ctx.set_value(index::OFFSET_VALUE, 0, &self.offset.to_le_bytes());
     }
 
     /// The preset 0x6003 becomes the position at once; the offset it
@@ -303,10 +311,9 @@ impl<P: PositionSource> Encoder<P> {
         let s = self.current_scaling(ctx);
         let preset = ctx.read_u32(index::PRESET_VALUE, 0).unwrap_or(0);
         let bare = s.position(s.at(self.last_count, 0));
-        self.offset = s.wrap(i64::from(preset) - i64::from(bare));
+        self.set_offset(ctx, s.wrap(i64::from(preset) - i64::from(bare)));
         self.num = s.with_position(s.at(self.last_count, 0), preset);
         let _ = ctx.set_value(index::POSITION_VALUE, 0, &preset.to_le_bytes());
-        let _ = ctx.set_value(index::OFFSET_VALUE, 0, &self.offset.to_le_bytes());
         self.work_areas(ctx, preset);
         if ctx.save_objects(index::OFFSET_VALUE, index::OFFSET_VALUE).is_err() {
             self.set_bits(ctx, index::WARNINGS, config.warnings, WARNING_MEMORY, WARNING_MEMORY, None);
@@ -319,8 +326,7 @@ impl<P: PositionSource> Encoder<P> {
         let dropped = i128::from(self.source.range()) * i128::from(s.mur) / i128::from(s.resolution.max(1));
         let dropped = if count < self.last_count { dropped } else { -dropped };
         let dropped = if s.ccw { -dropped } else { dropped };
-        self.offset = s.wrap((i128::from(self.offset) + dropped).rem_euclid(i128::from(s.tmr.max(1))) as i64);
-        let _ = ctx.set_value(index::OFFSET_VALUE, 0, &self.offset.to_le_bytes());
+        self.set_offset(ctx, s.wrap((i128::from(self.offset) + dropped).rem_euclid(i128::from(s.tmr.max(1))) as i64));
         let _ = ctx.save_objects(index::OFFSET_VALUE, index::OFFSET_VALUE);
     }
 
