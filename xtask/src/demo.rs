@@ -49,14 +49,17 @@ const TARGET_VELOCITY: u64 = 300;
 struct Options {
     connect: Option<String>,
     node_id: u8,
+    /// `ec5000` (the default) or `sendix` ([`sendix`]).
+    device: String,
 }
 
 fn parse(args: &[String]) -> Result<Options, String> {
-    let usage = "usage: cargo xtask demo [--connect HOST:PORT] [--node-id N]";
-    let mut o = Options { connect: None, node_id: ec5000::DEVICE.default_node_id };
+    let usage = "usage: cargo xtask demo [--device ec5000|sendix] [--connect HOST:PORT] [--node-id N]";
+    let mut o = Options { connect: None, node_id: ec5000::DEVICE.default_node_id, device: "ec5000".into() };
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
+            "--device" => o.device = it.next().filter(|d| ["ec5000", "sendix"].contains(&d.as_str())).ok_or(usage)?.clone(),
             "--connect" => o.connect = Some(it.next().ok_or(usage)?.clone()),
             "--node-id" => o.node_id = it.next().and_then(|v| v.parse().ok()).filter(|n| (1..=127).contains(n)).ok_or(usage)?,
             _ => return Err(usage.into()),
@@ -72,6 +75,9 @@ fn parse(args: &[String]) -> Result<Options, String> {
 pub fn demo(args: &[String]) -> Result<(), String> {
     let opts = parse(args)?;
     let wall = Instant::now();
+    if opts.device == "sendix" {
+        return sendix::demo(opts.connect, wall);
+    }
     let Some(addr) = opts.connect.clone() else { return with_qemu(opts.node_id, wall) };
     let mut run = Run::start(&addr, opts.node_id, false)?;
     // A broken connection ends the script; the summary still shows what happened.
@@ -578,6 +584,8 @@ fn describe(e: &SdoClientError) -> String {
         e => e.to_string(),
     }
 }
+
+mod sendix;
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]

@@ -8,6 +8,7 @@
 //! - `demo [--connect HOST:PORT] [--node-id N]`: boots the EC5000 image in
 //!   QEMU and drives it like a PLC (NMT, SDO, PDO, SYNC, heartbeat, EMCY),
 //!   with a live decoded trace and a summary; fails if the node misbehaves.
+//!   `--device sendix`: the Kübler Sendix encoder image (CiA 406) instead.
 //! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
 //! - `bench`: the bus-level benchmarks on the virtual bus (release build), with wall times.
 //! - `build`: every firmware image (each device on each board), with its sizes and the budget check.
@@ -39,7 +40,7 @@ fn main() -> ExitCode {
         Some("smoke") => images::smoke(),
         Some("size") => measure::size(),
         Some("icount") => measure::icount(args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000)),
-        _ => Err("usage: cargo xtask test | demo [--connect HOST:PORT] [--node-id N] | fuzz [SECONDS] | bench | build | qemu DEVICE | smoke | size | icount [N]".into()),
+        _ => Err("usage: cargo xtask test | demo [--device ec5000|sendix] [--connect HOST:PORT] [--node-id N] | fuzz [SECONDS] | bench | build | qemu DEVICE | smoke | size | icount [N]".into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -91,6 +92,7 @@ fn test() -> Result<(), String> {
     images::build()?;
     images::smoke()?;
     demo::demo(&[])?;
+    demo::demo(&["--device".into(), "sendix".into()])?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }
