@@ -222,8 +222,8 @@ impl<P: PositionSource> Encoder<P> {
         };
         self.set_bits(ctx, index::ALARMS, config.alarms, ALARM_POSITION | ALARM_DEVICE, 0, None);
         let range = self.source.range();
-        if self.tracking {
-            let steps = steps_between(self.last_count, count, range);
+        let steps = steps_between(self.last_count, count, range);
+        if self.tracking && steps.unsigned_abs() <= scaling::MAX_STEP as u64 {
             // The physical counter wrapped: the offset takes up what it dropped, so the
             // position does not jump, now or after the next power-on.
             if range != 0 && steps_between(0, count, 0) - steps_between(0, self.last_count, 0) != steps {
@@ -236,7 +236,7 @@ impl<P: PositionSource> Encoder<P> {
                 self.measured(ctx, config, &scaling, m);
             }
         } else {
-            self.num = scaling.at(count, i64::from(self.offset));
+            self.num = scaling.at(count, self.offset);
             self.gate.restart(now);
             self.tracking = true;
         }
@@ -323,10 +323,11 @@ impl<P: PositionSource> Encoder<P> {
     /// The physical counter wrapped at `count`: the offset grows by what
     /// the wrap dropped, so that count and offset give the position held.
     fn rebase(&mut self, ctx: &mut Ctx<'_>, s: &Scaling, count: u64) {
-        let dropped = i128::from(self.source.range()) * i128::from(s.mur) / i128::from(s.resolution.max(1));
-        let dropped = if count < self.last_count { dropped } else { -dropped };
-        let dropped = if s.ccw { -dropped } else { dropped };
-        self.set_offset(ctx, s.wrap((i128::from(self.offset) + dropped).rem_euclid(i128::from(s.tmr.max(1))) as i64));
+        // The range is whole revolutions of the sensor (PositionSource::range).
+        let dropped = i64::from(s.turns(self.source.range() / u64::from(s.resolution.max(1))));
+        let forward = (count < self.last_count) != s.ccw;
+        let dropped = if forward { dropped } else { -dropped };
+        self.set_offset(ctx, s.wrap(i64::from(self.offset) + dropped));
         let _ = ctx.save_objects(index::OFFSET_VALUE, index::OFFSET_VALUE);
     }
 
@@ -387,8 +388,10 @@ fn steps_between(a: u64, b: u64, range: u64) -> i64 {
     if range == 0 {
         return b.wrapping_sub(a) as i64;
     }
-    let d = (i128::from(b) - i128::from(a)).rem_euclid(i128::from(range));
-    if d > i128::from(range / 2) { (d - i128::from(range)) as i64 } else { d as i64 }
+    // Below 2^64, so the difference modulo the range is exact in u64.
+    let d = if b >= a { (b - a) % range } else { range - (a - b) % range };
+    let d = d % range;
+    if d > range / 2 { -((range - d) as i64) } else { d as i64 }
 }
 
 fn le_u32(data: &[u8]) -> u32 {

@@ -37,35 +37,43 @@ impl Scaling {
 
     /// The scaling the parameters give. With scaling off (or a MUR of 0)
     /// the position is the step count itself over the full 32 bits.
+    /// Sensors of up to 2^16 steps per revolution (0x6501): the arithmetic
+    /// stays within 64 bits (TMR × R < 2^48, a count below it × MUR < 2^64).
     pub fn new(operating: u16, mur: u32, tmr: u32, resolution: u32) -> Scaling {
-        let resolution = resolution.max(1);
+        let resolution = resolution.clamp(1, MAX_RESOLUTION);
         let ccw = operating & CODE_SEQUENCE != 0;
         if operating & SCALING != 0 && mur != 0 {
-            Scaling { mur, tmr: if tmr == 0 { FULL_RANGE } else { u64::from(tmr) }, resolution, ccw }
+            Scaling { mur: mur.min(resolution), tmr: if tmr == 0 { FULL_RANGE } else { u64::from(tmr) }, resolution, ccw }
         } else {
             Scaling { mur: resolution, tmr: FULL_RANGE, resolution, ccw }
         }
     }
 
-    /// The numerator's modulus, TMR × R (below 2^64: TMR ≤ 2^32, R < 2^32).
+    /// The numerator's modulus, TMR × R (below 2^48).
     pub fn modulus(&self) -> u64 {
-        self.tmr.saturating_mul(u64::from(self.resolution)).max(1)
+        (self.tmr * u64::from(self.resolution)).max(1)
     }
 
     /// The numerator after a movement of `steps` sensor steps (positive:
-    /// clockwise, as the sensor counts), in the configured direction.
+    /// clockwise, as the sensor counts), in the configured direction;
+    /// `|steps|` at most [`MAX_STEP`].
     pub fn advance(&self, num: u64, steps: i64) -> u64 {
-        let steps = if self.ccw { -i128::from(steps) } else { i128::from(steps) };
-        let m = i128::from(self.modulus());
-        ((i128::from(num) + steps * i128::from(self.mur)).rem_euclid(m)) as u64
+        let m = self.modulus();
+        let steps = if self.ccw { -steps } else { steps };
+        // |steps| ≤ 2^31 and MUR ≤ 2^16: the product fits, and so does num (< 2^48) plus it.
+        let moved = steps.clamp(-MAX_STEP, MAX_STEP) * i64::from(self.mur);
+        (num as i64 + moved).rem_euclid(m as i64) as u64
     }
 
     /// The numerator of the position at step count `count` with `offset`
-    /// measuring units added (the preset's offset, 0x6509).
-    pub fn at(&self, count: u64, offset: i64) -> u64 {
-        let count = if self.ccw { -i128::from(count) } else { i128::from(count) };
-        let m = i128::from(self.modulus());
-        ((count * i128::from(self.mur) + i128::from(offset) * i128::from(self.resolution)).rem_euclid(m)) as u64
+    /// measuring units added (the preset's offset, 0x6509, below TMR).
+    pub fn at(&self, count: u64, offset: u32) -> u64 {
+        let m = self.modulus();
+        let count = count % m;
+        let count = if self.ccw { (m - count) % m } else { count };
+        // count < 2^48 and MUR ≤ 2^16: no overflow.
+        let scaled = (count * u64::from(self.mur)) % m;
+        (scaled + u64::from(offset) * u64::from(self.resolution)) % m
     }
 
     /// The position value (0x6004) of a numerator, `0..TMR`.
@@ -84,7 +92,19 @@ impl Scaling {
     pub fn wrap(&self, v: i64) -> u32 {
         v.rem_euclid(self.tmr.max(1) as i64) as u32
     }
+
+    /// What `turns` whole revolutions move the position by, in measuring units within `0..TMR`.
+    pub fn turns(&self, turns: u64) -> u32 {
+        let tmr = self.tmr.max(1);
+        ((turns % tmr) * u64::from(self.mur) % tmr) as u32
+    }
 }
+
+/// The finest sensor the scaling takes: 2^16 steps per revolution.
+pub const MAX_RESOLUTION: u32 = 1 << 16;
+/// The largest movement between two samples the scaling follows, in steps;
+/// a larger one re-synchronises on the absolute count.
+pub const MAX_STEP: i64 = 1 << 31;
 
 /// Checks MUR (0x6001) and TMR (0x6002) together: TMR 1..3 is refused with
 /// 0x06090030 (below the smallest MUR, manual L2506), and a pair with
@@ -116,6 +136,8 @@ mod tests {
         assert_eq!((s.mur, s.tmr), (R, FULL_RANGE));
         assert_eq!(s.position(s.at(19642, 0)), 19642);
         assert_eq!(s.position(s.at(FULL_RANGE + 5, 0)), 5, "wraps at 2^32");
+        assert_eq!(s.position(s.at(u64::MAX, 0)), u32::MAX, "a 64-bit count");
+        assert_eq!(s.position(s.at(0, 7)), 7, "plus the offset");
     }
 
     #[test]
@@ -138,6 +160,8 @@ mod tests {
         assert_eq!(s.position(num), 35999, "one step back from 0 is the top of the range");
         let ccw = Scaling::new(SCALING | CODE_SEQUENCE, 3600, 36000, R);
         assert_eq!(ccw.position(ccw.advance(0, i64::from(R))), 36000 - 3600, "counter-clockwise counts down");
+        assert_eq!(ccw.position(ccw.at(u64::from(R), 0)), 36000 - 3600);
+        assert_eq!(s.turns(17), 17 * 3600 - 36000, "17 turns are 1.7 ranges");
     }
 
     #[test]

@@ -47,16 +47,18 @@ impl<const V: i32, const J: u16, const R: u32, const W: u32> SimulatedShaft<V, J
 
 impl<const V: i32, const J: u16, const R: u32, const W: u32> PositionSource for SimulatedShaft<V, J, R, W> {
     fn count(&mut self, now: Instant) -> Result<u64, SensorFault> {
-        let us = i128::from(now.as_micros());
-        let moved = us * i128::from(V) / 1_000_000;
+        // Whole seconds and the rest apart: no 128-bit product.
+        let us = now.as_micros();
+        let (secs, rest) = ((us / 1_000_000) as i64, (us % 1_000_000) as i64);
+        let moved = secs.wrapping_mul(i64::from(V)).wrapping_add(rest * i64::from(V) / 1_000_000);
         // Noise that does not drift: a hash of the millisecond, 0..=2J steps (±J about
         // a shaft J steps on), so a shaft at rest at 0 does not wrap back to the top of its range.
         let ms = now.as_micros() / 1000;
         let hash = ms.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32;
-        let noise = (hash % (2 * u64::from(J) + 1)) as i128;
-        let range = i128::from(self.range());
-        let count = moved + noise;
-        Ok(if range == 0 { count as u64 } else { count.rem_euclid(range) as u64 })
+        let noise = (hash % (2 * u64::from(J) + 1)) as i64;
+        let count = moved.wrapping_add(noise);
+        let range = self.range();
+        Ok(if range == 0 { count as u64 } else { count.rem_euclid(range.min(i64::MAX as u64) as i64) as u64 })
     }
 
     fn range(&self) -> u64 {
@@ -89,8 +91,14 @@ impl ManualShaft {
     /// Turns the shaft by `steps` (negative: counter-clockwise), wrapping
     /// the physical counter as the sensor would.
     pub fn turn(&mut self, steps: i64) {
-        let c = i128::from(self.count) + i128::from(steps);
-        self.count = if self.range == 0 { c as u64 } else { c.rem_euclid(i128::from(self.range)) as u64 };
+        let c = self.count.wrapping_add(steps as u64);
+        self.count = if self.range == 0 {
+            c
+        } else if steps >= 0 {
+            (self.count % self.range + steps as u64 % self.range) % self.range
+        } else {
+            (self.count % self.range + self.range - steps.unsigned_abs() % self.range) % self.range
+        };
     }
 
     /// The raw count now.

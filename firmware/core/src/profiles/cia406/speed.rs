@@ -59,15 +59,16 @@ impl Gate {
 
 /// Revolutions per minute of `m` with `resolution` steps per revolution.
 pub fn rpm(m: Measured, resolution: u32) -> i64 {
-    let r = i128::from(resolution.max(1));
-    clamp(i128::from(m.steps) * 60_000 / (r * i128::from(m.ms)))
+    m.steps.saturating_mul(60_000) / (i64::from(resolution.max(1)) * m.ms.min(1 << 31) as i64)
 }
 
 /// The speed value: `m` in `format`, × C1 / C2 (a C2 of 0 counts as 1).
 pub fn value(m: Measured, format: SpeedFormat, resolution: u32, mur: u32, c1: i16, c2: i16) -> i32 {
     let v = match format {
-        SpeedFormat::Rpm => i128::from(rpm(m, resolution)),
-        SpeedFormat::UnitsPerSecond => i128::from(m.steps) * i128::from(mur) * 1000 / (i128::from(resolution.max(1)) * i128::from(m.ms)),
+        SpeedFormat::Rpm => rpm(m, resolution),
+        SpeedFormat::UnitsPerSecond => {
+            m.steps.saturating_mul(i64::from(mur)).saturating_mul(1000) / (i64::from(resolution.max(1)) * m.ms.min(1 << 31) as i64)
+        }
     };
     scale(v, c1, c2)
 }
@@ -75,16 +76,12 @@ pub fn value(m: Measured, format: SpeedFormat, resolution: u32, mur: u32, c1: i1
 /// The acceleration from speed `from` to `to` over `ms`: speed units per
 /// second, × C1 / C2 of 0x6041.
 pub fn acceleration(from: i32, to: i32, ms: u64, c1: i16, c2: i16) -> i32 {
-    scale((i128::from(to) - i128::from(from)) * 1000 / i128::from(ms.max(1)), c1, c2)
+    scale((i64::from(to) - i64::from(from)) * 1000 / ms.clamp(1, 1 << 31) as i64, c1, c2)
 }
 
-fn scale(v: i128, c1: i16, c2: i16) -> i32 {
-    let c2 = if c2 == 0 { 1 } else { i128::from(c2) };
-    clamp(v * i128::from(c1) / c2) as i32
-}
-
-fn clamp(v: i128) -> i64 {
-    v.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i64
+fn scale(v: i64, c1: i16, c2: i16) -> i32 {
+    let c2 = if c2 == 0 { 1 } else { i64::from(c2) };
+    (v.saturating_mul(i64::from(c1)) / c2).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
 #[cfg(test)]
