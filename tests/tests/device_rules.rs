@@ -50,6 +50,10 @@ fn agile_data_set_0_writes_every_data_set_d25() {
     assert_eq!(b.sdo_write(1, 0x2175, 0, &[0x19, 0x00]), abort(0x2175, 0, 0x0609_0031), "each data set's limits");
     assert_eq!(b.sdo_upload(1, 0x2175, 0), Ok(vec![9]), "sub 0 still reads the highest sub-index");
     assert_eq!(b.sdo_write(1, 0x2175, 0, &[0x34]), abort(0x2175, 0, 0x0607_0013), "its own length");
+    // A single-value parameter whose value happens to be 9 is written as itself (0x2183 p.387, INTEGER16).
+    assert_eq!(b.sdo_write(1, 0x2183, 0, &[9, 0]), ok_write(0x2183, 0));
+    assert_eq!(b.sdo_write(1, 0x2183, 0, &[10, 0]), ok_write(0x2183, 0));
+    assert_eq!(b.sdo_upload(1, 0x2183, 0), Ok(vec![10, 0]));
 }
 
 #[test]
@@ -157,6 +161,9 @@ fn sendix_preset_is_stored_when_written_d17() {
     let storage = b.node.storage_mut().clone();
     let mut again = sendix_node(storage);
     assert_eq!(again.sdo_upload(0x3F, 0x6003, 0), Ok(vec![0x10, 0x27, 0, 0]), "after a power cycle");
+    // A store that fails fails the write: the master learns the preset is not permanent.
+    again.node.storage_mut().cut_after(0);
+    assert_eq!(again.sdo_write(0x3F, 0x6003, 0, &[0x20, 0x4E, 0, 0]), abort(0x6003, 0, 0x0606_0000));
 }
 
 #[test]
@@ -238,8 +245,12 @@ fn bmaxx_pdo_mapping_sequence_of_the_manual_d27() {
     assert!(!out.iter().any(|f| f.0 == 0x282), "type 254 does not send on entering Operational: {out:x?}");
     let tpdo2: Vec<u64> = b.run_until(ms(25)).iter().filter(|(_, f)| f.0 == 0x282).map(|(t, _)| t.as_micros() / 1000).collect();
     assert_eq!(tpdo2, [10, 20]);
-    // Mappings change in Pre-operational only.
+    // Mappings and COB-IDs change in Pre-operational only.
     assert_eq!(b.sdo_write(2, 0x1A00, 1, &[0x10, 0x00, 0x41, 0x60]), abort(0x1A00, 1, 0x0800_0022));
+    assert_eq!(b.sdo_write(2, 0x1A00, 2, &[0x10, 0x00, 0x41, 0x60]), abort(0x1A00, 2, 0x0800_0022));
+    assert_eq!(b.sdo_write(2, 0x1A00, 0, &[1]), abort(0x1A00, 0, 0x0800_0022));
+    assert_eq!(b.sdo_write(2, 0x1800, 1, &[0x82, 0x01, 0x00, 0x00]), abort(0x1800, 1, 0x0800_0022));
+    assert_eq!(b.sdo_write(2, 0x1801, 5, &[0x14, 0x00]), ok_write(0x1801, 5), "an event timer may change");
 }
 
 #[test]

@@ -16,7 +16,6 @@
 #![forbid(unsafe_code)]
 
 use canopen_core::frame::CanFrame;
-use canopen_core::node::NoApplication;
 use canopen_core::storage::{Storage, StorageError};
 use canopen_core::time::Instant;
 
@@ -122,7 +121,7 @@ pub struct Entry {
 /// One firmware per dictionary: the node static and its main loop.
 macro_rules! firmware {
     ($feature:literal, $name:ident, $od:path) => {
-        firmware!($feature, $name, $od, NoApplication, NoApplication);
+        firmware!($feature, $name, $od, canopen_core::node::NoApplication, canopen_core::node::NoApplication);
     };
     ($feature:literal, $name:ident, $od:path, $app:ty, $new:expr) => {
         #[cfg(feature = $feature)]

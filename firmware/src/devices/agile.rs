@@ -48,12 +48,17 @@ impl Application for App {
         // D25, §9.3.1: data set 0 writes all four data sets.
         Some((1..=4).try_for_each(|set| ctx.write_object(index, set, data)))
     }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
+    }
 }
 
 /// The value length of a four-data-set parameter (an ARRAY whose sub 0 is
 /// 9: data sets 1–4 and their RAM copies) when `sub` is 0, its "data set 0".
 fn data_sets(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<usize> {
-    let is_parameter = (0x2000..0x3000).contains(&index) && sub == 0 && ctx.read_u32(index, 0) == Some(9);
+    // Sub 9 exists only in such an ARRAY (a VAR parameter has sub 0 alone, whatever its value).
+    let is_parameter = (0x2000..0x3000).contains(&index) && sub == 0 && ctx.read_u32(index, 0) == Some(9) && ctx.read(index, 9).is_ok();
     is_parameter.then(|| ctx.read(index, 1).map_or(0, <[u8]>::len))
 }
 

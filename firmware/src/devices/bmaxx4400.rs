@@ -40,6 +40,10 @@ impl Application for App {
             _ => None,
         }
     }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
+    }
 }
 
 /// 0x1017 Producer heartbeat time.

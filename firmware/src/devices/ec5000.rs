@@ -12,7 +12,7 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions};
 use canopen_core::services::store::{self, Scope};
 
 /// The device's own rules (its hooks in the node): what its manual asks of
@@ -48,6 +48,11 @@ impl Application for App {
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        if (index, sub) == (NODE_ID, 1) {
+            // D31: the static node-ID is the one the drive starts with: stored at
+            // once, and a failed store fails the write.
+            return Some(ctx.write_object(NODE_ID, 1, data).and_then(|()| ctx.save_objects(NODE_ID, NODE_ID)));
+        }
         // F8: 0x1010/0x1011 sub 5 "manufacturer parameters SSW" work as sub 4
         // (the manual does not say which manufacturer objects are SSW, so both
         // sub-indices cover 0x2000–0x5FFF). Decision D40.
@@ -67,18 +72,15 @@ impl Application for App {
         })
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
-        if (index, sub) == (NODE_ID, 1) {
-            // D31: the static node-ID is the one the drive starts with: stored at once.
-            let _ = ctx.save_objects(NODE_ID, NODE_ID);
-        }
-    }
-
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
         if event == NmtEvent::ResetCommunication && (1..=127).contains(&ctx.node_id()) {
             let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
         }
+    }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
     }
 }
 

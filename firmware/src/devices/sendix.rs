@@ -179,6 +179,18 @@ impl<P: Sensor> App<P> {
         }
     }
 
+    /// A preset written: checked against the scaling (after the
+    /// dictionary's length check), applied, its offset and the preset stored.
+    fn preset(&mut self, ctx: &mut Ctx<'_>, data: &[u8]) -> Result<(), AbortCode> {
+        if data.len() == 4 {
+            self.encoder.check_write(ctx, &CIA406, PRESET, 0, data)?;
+        }
+        ctx.write_object(PRESET, 0, data)?;
+        self.encoder.written(ctx, &CIA406, PRESET, 0);
+        self.after_sample(ctx);
+        ctx.save_objects(PRESET, PRESET)
+    }
+
     fn temperature(&mut self, ctx: &mut Ctx<'_>) {
         let now = ctx.now();
         let t = self.encoder.source.temperature(now);
@@ -215,7 +227,6 @@ impl<P: Sensor> Application for App<P> {
         match (index, sub, data) {
             // 100 kbit/s (code 3) has no CiA 305 bit timing: refused (D24).
             (BAUD_RATE, 0, [code]) if bit_rate_index(*code).is_none() && *code != NOT_SET => Err(AbortCode::InvalidValue),
-            (SAVE_BUS, 0, data) if data != store::SAVE.to_le_bytes() => Err(AbortCode::CannotStore),
             // §5.3.4.1 L1028: variable mapping changes only in Pre-operational.
             (0x1A00..=0x1A02, _, _) if ctx.state() != State::PreOperational => Err(AbortCode::DeviceState),
             // L1214: transmission types 252/253 are not supported by the M58.
@@ -239,20 +250,22 @@ impl<P: Sensor> Application for App<P> {
                     let _ = ctx.write_object(CYCLIC_TIMER, 0, &[a, b]);
                 }
             }
-            // D17: the preset is stored when written (the profile sets the position and stores its offset).
-            (PRESET, 0) => {
-                self.encoder.written(ctx, &CIA406, index, sub);
-                let _ = ctx.save_objects(PRESET, PRESET);
-                self.after_sample(ctx);
-            }
-            // §5.2.3: "save" to 0x2105 stores the bus parameters.
-            (SAVE_BUS, 0) => {
-                let _ = ctx.save_objects(BAUD_RATE, TERMINATION);
-            }
             _ => {
                 self.encoder.written(ctx, &CIA406, index, sub);
                 self.after_sample(ctx);
             }
+        }
+    }
+
+    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        // Stores the device triggers; a failed store fails the write.
+        match (index, sub) {
+            // D17, D40: the preset becomes the position at once, and it is stored when written.
+            (PRESET, 0) => Some(self.preset(ctx, data)),
+            // §5.2.3: "save" to 0x2105 stores the bus parameters; anything else is refused.
+            (SAVE_BUS, 0) if data != store::SAVE.to_le_bytes() => Some(Err(AbortCode::CannotStore)),
+            (SAVE_BUS, 0) => Some(ctx.write_object(SAVE_BUS, 0, data).and_then(|()| ctx.save_objects(BAUD_RATE, TERMINATION))),
+            _ => None,
         }
     }
 
@@ -283,6 +296,10 @@ impl<P: Sensor> Application for App<P> {
             self.next_temperature = ctx.now();
             self.temperature(ctx);
         }
+    }
+
+    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
     }
 }
 

@@ -21,7 +21,11 @@ impl App {
     pub const NEW: App = App;
 }
 
-impl canopen_core::node::Application for App {}
+impl canopen_core::node::Application for App {
+    fn rpdo_written(&mut self, _ctx: &mut canopen_core::node::Ctx<'_>, _n: u8) {
+        // No rule of this device reacts to an object an RPDO writes.
+    }
+}
 
 /// The node this device runs, on storage `S`.
 pub type Node<S> = od::Node<App, S>;

@@ -321,7 +321,10 @@ pub trait Application {
     }
 
     /// RPDO `n` wrote its objects: by default [`Application::written`] for
-    /// each mapped object, in mapping order.
+    /// each mapped object, in mapping order (one dictionary look-up per
+    /// object, read from the mapping record, which in Operational is the
+    /// mapping in use). A device no RPDO-written object concerns overrides
+    /// it with nothing and saves the look-ups on every RPDO.
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         let map = 0x1600 + u16::from(n);
         let count = ctx.read_u32(map, 0).unwrap_or(0).min(64) as u8;

@@ -264,7 +264,8 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
             }
             0x1400..=0x1BFF => {
                 let rewrite = options.pdo_rewrite_while_valid;
-                if rewrite && state == State::Operational && !matches!(sub, 2 | 3 | 5) {
+                let mapping = matches!(index, 0x1600..=0x17FF | 0x1A00..=0x1BFF);
+                if rewrite && state == State::Operational && (mapping || sub == 1) {
                     // The manual's order: mappings and COB-IDs change in Pre-operational only.
                     return Some(Err(AbortCode::DeviceState));
                 }
