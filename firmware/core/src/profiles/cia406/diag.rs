@@ -48,7 +48,9 @@ pub enum EmcyChange {
 
 /// The EMCY changes when the bits go from `old` to `new`: a code that
 /// several bits share (the Sendix raises 0x4200 for overspeed and for
-/// temperature) is raised by the first and cleared with the last.
+/// temperature) is raised by the first and cleared with the last, with the
+/// manufacturer bytes of its first entry (a raiser with bytes of its own
+/// passes them to [`super::Encoder::set_bits`]).
 pub fn emcy_changes(table: &[BitEmcy], old: u16, new: u16) -> impl Iterator<Item = EmcyChange> + '_ {
     table.iter().enumerate().filter_map(move |(i, e)| {
         // Each code once, at its first entry.
@@ -56,9 +58,8 @@ pub fn emcy_changes(table: &[BitEmcy], old: u16, new: u16) -> impl Iterator<Item
             return None;
         }
         let mask = table.iter().filter(|p| p.code == e.code).fold(0, |m, p| m | p.mask);
-        let first = table.iter().find(|p| p.code == e.code && new & p.mask != 0).map_or(e.info, |p| p.info);
         match (old & mask != 0, new & mask != 0) {
-            (false, true) => Some(EmcyChange::Raise(e.code, first)),
+            (false, true) => Some(EmcyChange::Raise(e.code, e.info)),
             (true, false) => Some(EmcyChange::Clear(e.code)),
             _ => None,
         }
@@ -86,7 +87,7 @@ mod tests {
             BitEmcy { mask: 0x8000, code: 0x5200, info: [0; 5] },
         ];
         let v: Vec<_> = emcy_changes(&t, 0, 0x4000).collect();
-        assert_eq!(v, [EmcyChange::Raise(0x4200, [2, 0, 0, 0, 0])]);
+        assert_eq!(v, [EmcyChange::Raise(0x4200, [1, 0, 0, 0, 0])]);
         assert_eq!(emcy_changes(&t, 0x4000, 0x4001).count(), 0);
         assert_eq!(emcy_changes(&t, 0x4001, 0x0001).count(), 0);
         let v: Vec<_> = emcy_changes(&t, 0x0001, 0x8000).collect();

@@ -226,7 +226,7 @@ impl<P: PositionSource> Encoder<P> {
         if self.tracking && steps.unsigned_abs() <= scaling::MAX_STEP as u64 {
             // The physical counter wrapped: the offset takes up what it dropped, so the
             // position does not jump, now or after the next power-on.
-            if range != 0 && steps_between(0, count, 0) - steps_between(0, self.last_count, 0) != steps {
+            if range != 0 && steps != 0 && (steps > 0) == (count < self.last_count) {
                 self.rebase(ctx, &scaling, count);
             }
             self.num = scaling.advance(self.num, steps);

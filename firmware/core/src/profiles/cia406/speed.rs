@@ -57,20 +57,27 @@ impl Gate {
     }
 }
 
+/// The largest movement a gate counts, in steps (far beyond any shaft:
+/// the products below stay within 64 bits).
+const MAX_GATE_STEPS: i64 = 1 << 40;
+
+/// Steps per second over `m`.
+fn steps_per_s(m: Measured) -> i64 {
+    m.steps.clamp(-MAX_GATE_STEPS, MAX_GATE_STEPS) * 1000 / m.ms.clamp(1, 1 << 31) as i64
+}
+
 /// Revolutions per minute of `m` with `resolution` steps per revolution.
 pub fn rpm(m: Measured, resolution: u32) -> i64 {
-    m.steps.saturating_mul(60_000) / (i64::from(resolution.max(1)) * m.ms.min(1 << 31) as i64)
+    steps_per_s(m) * 60 / i64::from(resolution.max(1))
 }
 
 /// The speed value: `m` in `format`, × C1 / C2 (a C2 of 0 counts as 1).
 pub fn value(m: Measured, format: SpeedFormat, resolution: u32, mur: u32, c1: i16, c2: i16) -> i32 {
-    let v = match format {
-        SpeedFormat::Rpm => rpm(m, resolution),
-        SpeedFormat::UnitsPerSecond => {
-            m.steps.saturating_mul(i64::from(mur)).saturating_mul(1000) / (i64::from(resolution.max(1)) * m.ms.min(1 << 31) as i64)
-        }
+    let per = match format {
+        SpeedFormat::Rpm => 60,
+        SpeedFormat::UnitsPerSecond => i64::from(mur.min(1 << 16)),
     };
-    scale(v, c1, c2)
+    scale(steps_per_s(m) * per / i64::from(resolution.max(1)), c1, c2)
 }
 
 /// The acceleration from speed `from` to `to` over `ms`: speed units per
@@ -79,9 +86,10 @@ pub fn acceleration(from: i32, to: i32, ms: u64, c1: i16, c2: i16) -> i32 {
     scale((i64::from(to) - i64::from(from)) * 1000 / ms.clamp(1, 1 << 31) as i64, c1, c2)
 }
 
+/// `v` × C1 / C2 within i32 (|v| < 2^47, so the product fits).
 fn scale(v: i64, c1: i16, c2: i16) -> i32 {
     let c2 = if c2 == 0 { 1 } else { i64::from(c2) };
-    (v.saturating_mul(i64::from(c1)) / c2).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
+    (v * i64::from(c1) / c2).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
 #[cfg(test)]
