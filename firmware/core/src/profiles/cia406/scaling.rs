@@ -56,12 +56,12 @@ impl Scaling {
 
     /// The numerator after a movement of `steps` sensor steps (positive:
     /// clockwise, as the sensor counts), in the configured direction;
-    /// `|steps|` at most [`MAX_STEP`].
+    /// `|steps|` at most [`MAX_STEP`] (the caller re-synchronises on larger jumps).
     pub fn advance(&self, num: u64, steps: i64) -> u64 {
         let m = self.modulus();
         let steps = if self.ccw { -steps } else { steps };
         // |steps| ≤ 2^31 and MUR ≤ 2^16: the product fits, and so does num (< 2^48) plus it.
-        let moved = steps.clamp(-MAX_STEP, MAX_STEP) * i64::from(self.mur);
+        let moved = steps * i64::from(self.mur);
         (num as i64 + moved).rem_euclid(m as i64) as u64
     }
 

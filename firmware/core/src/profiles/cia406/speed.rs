@@ -63,7 +63,8 @@ const MAX_GATE_STEPS: i64 = 1 << 40;
 
 /// Steps per second over `m`.
 fn steps_per_s(m: Measured) -> i64 {
-    m.steps.clamp(-MAX_GATE_STEPS, MAX_GATE_STEPS) * 1000 / m.ms.clamp(1, 1 << 31) as i64
+    // A gate lasts at least 1 ms (`Gate::add`), and far less than 2^63.
+    m.steps.clamp(-MAX_GATE_STEPS, MAX_GATE_STEPS) * 1000 / m.ms as i64
 }
 
 /// Revolutions per minute of `m` with `resolution` steps per revolution.
@@ -83,7 +84,7 @@ pub fn value(m: Measured, format: SpeedFormat, resolution: u32, mur: u32, c1: i1
 /// The acceleration from speed `from` to `to` over `ms`: speed units per
 /// second, × C1 / C2 of 0x6041.
 pub fn acceleration(from: i32, to: i32, ms: u64, c1: i16, c2: i16) -> i32 {
-    scale((i64::from(to) - i64::from(from)) * 1000 / ms.clamp(1, 1 << 31) as i64, c1, c2)
+    scale((i64::from(to) - i64::from(from)) * 1000 / ms.max(1) as i64, c1, c2)
 }
 
 /// `v` × C1 / C2 within i32 (|v| < 2^47, so the product fits).
