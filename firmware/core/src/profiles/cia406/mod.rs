@@ -25,7 +25,7 @@ use crate::node::Ctx;
 use crate::time::{Duration, Instant};
 use diag::{BitEmcy, EmcyChange};
 use scaling::Scaling;
-pub use source::{ManualShaft, PositionSource, SensorFault, SimulatedShaft};
+pub use source::{CounterRegister, ManualShaft, PositionSource, QuadratureCounter, SensorFault, SimulatedShaft};
 use speed::{Gate, SpeedFormat};
 
 /// The profile's object indices (CiA 406 v4).

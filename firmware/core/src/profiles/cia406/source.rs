@@ -1,7 +1,8 @@
 //! Where the position comes from: a sensor behind the [`PositionSource`]
-//! trait. A board counts quadrature edges in a timer or reads a magnetic
-//! sensor; the host, the QEMU and the bench images turn a
-//! [`SimulatedShaft`]; tests set a [`ManualShaft`] step by step.
+//! trait. A board counts quadrature edges in a timer ([`QuadratureCounter`]
+//! on its [`CounterRegister`]) or reads a magnetic sensor; the host, the QEMU
+//! and the bench images turn a [`SimulatedShaft`]; tests set a
+//! [`ManualShaft`] step by step.
 
 use crate::time::Instant;
 
@@ -122,6 +123,51 @@ impl PositionSource for ManualShaft {
     }
 }
 
+/// A quadrature counter's register: a timer in encoder mode counting
+/// edges up and down in 16 bits (the board implements it on its timer).
+pub trait CounterRegister {
+    /// The counter now.
+    fn read(&mut self) -> u16;
+}
+
+/// A [`PositionSource`] on a 16-bit quadrature counter: each read extends
+/// the wrapping difference since the last one into a 64-bit count (4 edges
+/// per line: 0x6501 = 4 × lines). It must be read at least once per 32767
+/// edges, which the profile's 2 ms sample does up to 16 M edges per second.
+/// A relative counter starts at 0 at power-on; a device that must keep its
+/// position over a power cycle needs an absolute sensor instead.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct QuadratureCounter<R> {
+    /// The register.
+    pub register: R,
+    last: u16,
+    count: u64,
+    started: bool,
+}
+
+impl<R: CounterRegister> QuadratureCounter<R> {
+    /// A counter at 0 (all zero bits but the register).
+    pub const fn new(register: R) -> Self {
+        QuadratureCounter { register, last: 0, count: 0, started: false }
+    }
+}
+
+impl<R: CounterRegister> PositionSource for QuadratureCounter<R> {
+    fn count(&mut self, _now: Instant) -> Result<u64, SensorFault> {
+        let now = self.register.read();
+        if self.started {
+            self.count = self.count.wrapping_add(now.wrapping_sub(self.last) as i16 as i64 as u64);
+        }
+        self.started = true;
+        self.last = now;
+        Ok(self.count)
+    }
+
+    fn range(&self) -> u64 {
+        0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -142,6 +188,24 @@ mod tests {
         let values: Vec<u64> = (0..200).map(|ms| s.count(Instant::from_micros(ms * 1000)).unwrap()).collect();
         assert!(values.iter().all(|&v| v <= 6), "{values:?}");
         assert!(values.iter().any(|&v| v != values[0]));
+    }
+
+    #[test]
+    fn a_quadrature_counter_extends_its_16_bit_register() {
+        struct Timer(u16);
+        impl CounterRegister for Timer {
+            fn read(&mut self) -> u16 {
+                self.0
+            }
+        }
+        let mut q = QuadratureCounter::new(Timer(0xFFF0));
+        assert_eq!(q.count(Instant::ZERO), Ok(0), "counts from where the timer stands");
+        q.register.0 = 0x0010;
+        assert_eq!(q.count(Instant::ZERO), Ok(0x20), "across the timer's wrap");
+        q.register.0 = 0xFFF0;
+        assert_eq!(q.count(Instant::ZERO), Ok(0), "and back");
+        q.register.0 = 0xFFE0;
+        assert_eq!(q.count(Instant::ZERO), Ok(u64::MAX - 15), "below 0 wraps at 2^64 (range 0)");
     }
 
     #[test]
