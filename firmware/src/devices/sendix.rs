@@ -158,8 +158,8 @@ const CIA406: Config = Config {
         BitEmcy { mask: cia406::ALARM_DEVICE, code: emcy::SENSOR_SYNC, info: [0x13, 0x05, 0, 0, 0] },
     ],
     warnings: &[
-        BitEmcy { mask: cia406::WARNING_OVERSPEED, code: emcy::TEMPERATURE, info: [0; 5] },
-        BitEmcy { mask: WARNING_TEMPERATURE, code: emcy::TEMPERATURE, info: [0; 5] },
+        // Overspeed and temperature share 0x4200 (§5.5.45, §5.8.2).
+        BitEmcy { mask: cia406::WARNING_OVERSPEED | WARNING_TEMPERATURE, code: emcy::TEMPERATURE, info: [0; 5] },
         BitEmcy { mask: cia406::WARNING_MEMORY, code: emcy::MEMORY, info: [0; 5] },
     ],
 };

@@ -26,10 +26,12 @@ pub fn work_area_state(position: u32, low: u32, high: u32, min: i32, max: i32) -
     state
 }
 
-/// An alarm or warning bit and the EMCY it raises while set.
+/// Alarm or warning bits and the EMCY they raise while any of them is set
+/// (one entry per error code: the Sendix raises 0x4200 for overspeed and
+/// for temperature, so its entry has both bits).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BitEmcy {
-    /// The bit (mask) in 0x6503 or 0x6505.
+    /// The bits (mask) in 0x6503 or 0x6505.
     pub mask: u16,
     /// The EMCY error code.
     pub code: u16,
@@ -46,23 +48,13 @@ pub enum EmcyChange {
     Clear(u16),
 }
 
-/// The EMCY changes when the bits go from `old` to `new`: a code that
-/// several bits share (the Sendix raises 0x4200 for overspeed and for
-/// temperature) is raised by the first and cleared with the last, with the
-/// manufacturer bytes of its first entry (a raiser with bytes of its own
-/// passes them to [`super::Encoder::set_bits`]).
+/// The EMCY changes when the bits go from `old` to `new`: a code is raised
+/// by the first of its bits and cleared with the last.
 pub fn emcy_changes(table: &[BitEmcy], old: u16, new: u16) -> impl Iterator<Item = EmcyChange> + '_ {
-    table.iter().enumerate().filter_map(move |(i, e)| {
-        // Each code once, at its first entry.
-        if table.iter().take(i).any(|p| p.code == e.code) {
-            return None;
-        }
-        let mask = table.iter().filter(|p| p.code == e.code).fold(0, |m, p| m | p.mask);
-        match (old & mask != 0, new & mask != 0) {
-            (false, true) => Some(EmcyChange::Raise(e.code, e.info)),
-            (true, false) => Some(EmcyChange::Clear(e.code)),
-            _ => None,
-        }
+    table.iter().filter_map(move |e| match (old & e.mask != 0, new & e.mask != 0) {
+        (false, true) => Some(EmcyChange::Raise(e.code, e.info)),
+        (true, false) => Some(EmcyChange::Clear(e.code)),
+        _ => None,
     })
 }
 
@@ -81,11 +73,7 @@ mod tests {
 
     #[test]
     fn a_shared_code_is_raised_once_and_cleared_with_its_last_bit() {
-        let t = [
-            BitEmcy { mask: 0x0001, code: 0x4200, info: [1, 0, 0, 0, 0] },
-            BitEmcy { mask: 0x4000, code: 0x4200, info: [2, 0, 0, 0, 0] },
-            BitEmcy { mask: 0x8000, code: 0x5200, info: [0; 5] },
-        ];
+        let t = [BitEmcy { mask: 0x4001, code: 0x4200, info: [1, 0, 0, 0, 0] }, BitEmcy { mask: 0x8000, code: 0x5200, info: [0; 5] }];
         let v: Vec<_> = emcy_changes(&t, 0, 0x4000).collect();
         assert_eq!(v, [EmcyChange::Raise(0x4200, [1, 0, 0, 0, 0])]);
         assert_eq!(emcy_changes(&t, 0x4000, 0x4001).count(), 0);
