@@ -88,6 +88,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.comm.pdos.set_timer_only_254(true);
         }
         self.controller.reset();
+        if A::OPTIONS.tpdo_255_timer_only_with_timer {
+            self.comm.pdos.set_timer_only_255_with_timer(true);
+        }
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
@@ -95,6 +98,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.nmt = Nmt::new();
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
+        self.start_pending = false;
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
     }
 
