@@ -152,8 +152,12 @@ class Bench:
         mark = self.frames.mark()
         if 0x1017 not in self.od:
             self.network.send_message(self.error_control(), b"", remote=True)
-        frame = self.frames.wait_for(lambda m: m.arbitration_id == self.error_control(), after=mark)
-        return frame is not None and frame.data[0] & 0x7F == state
+        # A heartbeat already on its way when the command left still shows
+        # the old state: the new one must appear within the wait.
+        frame = self.frames.wait_for(
+            lambda m: m.arbitration_id == self.error_control() and len(m.data) == 1 and m.data[0] & 0x7F == state, after=mark
+        )
+        return frame is not None
 
     def power_cycle(self):
         """Cuts and restores the node's power; whether its boot-up followed."""
