@@ -1,6 +1,9 @@
 //! A node survives any sequence of frames, time steps and process calls,
 //! and afterwards an NMT reset communication brings it back: it answers an
-//! SDO upload of 0x1000 with exactly the expected frame.
+//! SDO upload of 0x1000 with exactly the expected frame. The UNITEK DS
+//! speaks its own register protocol instead (CANopen is off): afterwards it
+//! answers a READ of its firmware register 0x1B on its RX/TX ids, whatever
+//! the frames made of them.
 //!
 //! Input layout (every read past the end gives zeros):
 //! - byte 0: the dictionary (`% 8`: 1..=5 one of the five devices in
@@ -173,8 +176,12 @@ fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, cons
         }
     }
 
-    // Back to a known state: reset communication (broadcast), boot-up.
     drain(&mut node);
+    if !node.app().canopen() {
+        return unitek_answers(&mut node, now);
+    }
+    // Back to a known state: reset communication (broadcast), boot-up.
+
     node.on_frame(now, &CanFrame::standard(0x000, &[0x82, 0]).expect("valid frame"));
     process(&mut node, now);
     let id = node.node_id();
@@ -190,4 +197,24 @@ fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, cons
     let [t0, t1, t2, t3] = device_type.to_le_bytes();
     let expected = CanFrame::standard(0x580 + u16::from(id), &[0x43, 0x00, 0x10, 0x00, t0, t1, t2, t3]).expect("valid frame");
     assert_eq!(answers, [&expected], "SDO upload of 0x1000 after reset communication; sent: {sent:x?}");
+}
+
+/// The register protocol still answers: `3D 1B 00` on the RX id (0x2068)
+/// gets exactly `1B D8 01 00` (firmware 472) on the TX id (0x2069), DLC 6
+/// if 0xDC asks for 32-bit replies. A stop first, so a cyclic read of 0x1B
+/// the input may have started adds nothing.
+fn unitek_answers<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(node: &mut Dut<O, A, R, T, HB>, now: Instant) {
+    let register = |node: &Dut<O, A, R, T, HB>, regid: u16| {
+        node.od().dictionary().read_u32(node.od().image(), 0x2000 + regid, 0).expect("a UNITEK register") as u16
+    };
+    let (rx, tx, wide) = (register(node, 0x68), register(node, 0x69), register(node, 0xDC) >> 8 == 0x01);
+    for data in [[0x3D, 0x1B, 0xFF], [0x3D, 0x1B, 0x00]] {
+        node.on_frame(now, &CanFrame::standard(rx, &data).expect("valid frame"));
+    }
+    node.process(now);
+    let sent = drain(node);
+    let answers: Vec<&CanFrame> = sent.iter().filter(|f| f.cob_id() == Some(tx) && f.data().first() == Some(&0x1B)).collect();
+    let data: &[u8] = if wide { &[0x1B, 0xD8, 0x01, 0, 0, 0] } else { &[0x1B, 0xD8, 0x01, 0] };
+    let expected = CanFrame::standard(tx, data).expect("valid frame");
+    assert_eq!(answers, [&expected], "READ 0x1B on RX {rx:#X}; sent: {sent:x?}");
 }

@@ -15,6 +15,7 @@
 
 #[cfg(test)]
 mod tests;
+mod unitek;
 
 use crate::master::pdo::{self, MappingEntry};
 use canopen_core::abort::AbortCode;
@@ -197,12 +198,20 @@ pub struct Decoder {
     names: Option<ObjectNames>,
     pdos: BTreeMap<u16, PdoInfo>,
     sdo: BTreeMap<u8, SdoContext>,
+    unitek: Option<unitek::Ids>,
 }
 
 impl Decoder {
     /// A decoder that names objects from `names`, if given.
     pub fn new(names: Option<ObjectNames>) -> Self {
-        Decoder { names, pdos: BTreeMap::new(), sdo: BTreeMap::new() }
+        Decoder { names, pdos: BTreeMap::new(), sdo: BTreeMap::new(), unitek: None }
+    }
+
+    /// Decodes frames on `rx` and `tx` as the UNITEK DS register protocol
+    /// (requests to the drive, its replies), registers named from the
+    /// dictionary's objects 0x2000 + REGID.
+    pub fn add_unitek(&mut self, rx: u16, tx: u16) {
+        self.unitek = Some(unitek::Ids { rx, tx });
     }
 
     /// Decodes frames on `cob_id` as a PDO called `label` (`TPDO1 node 127`)
@@ -243,6 +252,9 @@ impl Decoder {
         }
         if let Some(p) = self.pdos.get(&cob_id) {
             return self.pdo(p, data);
+        }
+        if let Some(text) = self.unitek.and_then(|ids| unitek::decode(self.names, ids, cob_id, data)) {
+            return text;
         }
         let node = (cob_id & 0x7F) as u8;
         match cob_id {

@@ -17,12 +17,17 @@ import re
 import socket
 import struct
 import subprocess
+import sys
 import threading
 import time
 import unittest
 
 import can
 import canopen
+
+# The shared UNITEK session sits next to this file, which also runs as `-m unittest <path>`.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import unitek  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TARGET_DIR = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, "target"))
@@ -169,7 +174,10 @@ class QemuSmokeTest(unittest.TestCase):
         od = canopen.import_od(os.path.join(ROOT, "firmware", "eds", f"{device}.eds"), node_id)
         q = QemuImage(device)
         try:
-            rejected = self.check_device(q, device, node_id, od)
+            if device == "unitek-ds":
+                rejected = self.check_unitek(q)
+            else:
+                rejected = self.check_device(q, device, node_id, od)
         except BaseException:
             print(f"\n{device}: QEMU stderr: {''.join(q.stderr)}")
             raise
@@ -206,6 +214,22 @@ class QemuSmokeTest(unittest.TestCase):
         found = [FILTER_LINE.search(line) for line in q.stderr]
         found = [m.groups() for m in found if m]
         self.assertEqual(found, [(str(expected), "0")], f"filter report on stderr: {''.join(q.stderr)}")
+
+    def check_unitek(self, q):
+        """The UNITEK DS is no CANopen node: no boot-up, and its register
+        protocol (python-can, tests/python/unitek.py) owns the bus."""
+        self.assertIsNone(q.bus.recv(0.5), "the UNITEK drive sends no boot-up")
+        frames = FrameLog()
+        q.network = canopen.Network(q.bus)
+        q.network.listeners.append(frames)
+        q.network.connect()
+        # The guest's clock counts instructions (-icount): its 10 ms take 12-30 ms
+        # of wall time on an idle host and more on a busy one, so the wall-time
+        # bounds (0.5-10 x) catch a wrong period, not jitter;
+        # in the guest's own time every period must be exact.
+        rejected = unitek.session(self, q.network.send_message, frames, wall_period=(0.005, 0.1), strict=True)
+        self.assertEqual(q.exit(0), 0, "QEMU exit code")
+        return rejected
 
     def check_device(self, q, device, node_id, od):
         # ---- boot-up: the first frame, before anything was asked ----------

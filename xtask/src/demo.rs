@@ -1,4 +1,4 @@
-//! `cargo xtask demo [--connect HOST:PORT] [--node-id N]`: the EC5000
+//! `cargo xtask demo [--device ec5000|unitek-ds] [--connect HOST:PORT] [--node-id N]`: the EC5000
 //! RollerDrive image in QEMU, driven the way a PLC drives it (CiA 301, then
 //! CiA 402: the state machine, a pv and a pp move, quick stop), with a live
 //! trace of every frame and what it means, then a summary.
@@ -13,10 +13,12 @@
 //! the trace lines come from [`hal_host::decode`]. Every step checks what the
 //! node answers against the device's dictionary (the EDS the PLC would
 //! load), and the demo fails if any check fails, so CI runs it as a test.
+//! `--device unitek-ds` plays the UNITEK DS register protocol instead
+//! ([`unitek`]).
 
 use std::io::IsTerminal;
-use std::process::{Child, Stdio};
-use std::sync::{Arc, Mutex};
+use std::process::Child;
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use canopen_core::od::Dictionary;
@@ -24,16 +26,14 @@ use canopen_core::wire::nmt::NmtState;
 use canopen_core::wire::pdo_mapping::MappingEntry;
 use embedded_can::Frame;
 use firmware::devices::ec5000;
-use hal_host::decode::{Decoder, EXIT_ID, ObjectNames, abort_text, format_value};
+use hal_host::decode::{Decoder, ObjectNames, abort_text, format_value};
 use hal_host::live::{Direction, LiveMaster, LoggedFrame};
 use hal_host::master::SdoClientError;
 use hal_host::master::pdo;
 use hal_host::slcan_client::SlcanClient;
 
-use super::{ensure_apt, ensure_target, images, root};
+use self::qemu::{in_qemu, send_exit};
 
-/// QEMU is killed after this long, whatever happens.
-const QEMU_TIMEOUT: Duration = Duration::from_secs(60);
 /// The longest wait for one expected frame.
 const WAIT: Duration = Duration::from_secs(3);
 /// Producer heartbeat time the demo configures (0x1017), in ms.
@@ -52,16 +52,22 @@ const TARGET_VELOCITY: u64 = 300;
 pub struct DemoArgs {
     /// Drive a running `vnode --device ec5000` at HOST:PORT instead of booting QEMU.
     #[arg(long, value_name = "HOST:PORT")]
-    connect: Option<String>,
+    pub connect: Option<String>,
     /// The node-id of the node behind `--connect` (default: the EC5000's 127, the QEMU image's).
     #[arg(long, value_name = "N", requires = "connect", value_parser = clap::value_parser!(u8).range(1..=127))]
-    node_id: Option<u8>,
+    pub node_id: Option<u8>,
+    /// The device: the EC5000 drive (CiA 402) or the UNITEK DS servo (its register protocol).
+    #[arg(long, value_parser = ["ec5000", "unitek-ds"])]
+    pub device: Option<String>,
 }
 
 /// `cargo xtask demo`.
 pub fn demo(args: &DemoArgs) -> Result<(), String> {
     let node_id = args.node_id.unwrap_or(ec5000::DEVICE.default_node_id);
     let wall = Instant::now();
+    if args.device.as_deref() == Some("unitek-ds") {
+        return unitek::demo(args.connect.as_deref(), wall);
+    }
     let Some(addr) = args.connect.as_deref() else { return with_qemu(node_id, wall) };
     let mut run = Run::start(addr, node_id, false)?;
     // A broken connection ends the script; the summary still shows what happened.
@@ -72,55 +78,13 @@ pub fn demo(args: &DemoArgs) -> Result<(), String> {
 
 /// Builds and boots the image, runs the script, ends QEMU with the exit frame.
 fn with_qemu(node_id: u8, wall: Instant) -> Result<(), String> {
-    ensure_apt(&[("qemu-system-arm", "qemu-system-arm")])?;
-    ensure_target()?;
-    images::build_board("qemu", Some("ec5000"))?;
-    let elf = images::image_path("ec5000", "qemu");
-    let port = std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map_err(|e| e.to_string())?.port();
-    let addr = format!("127.0.0.1:{port}");
-    let target_dir = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root().join("target"), std::path::PathBuf::from);
-    let logs = target_dir.join("qemu-demo");
-    std::fs::create_dir_all(&logs).map_err(|e| format!("{}: {e}", logs.display()))?;
-    let defmt = logs.join("ec5000.defmt");
-    let mut cmd = images::qemu_command(&elf, &addr);
-    cmd.stdout(std::fs::File::create(&defmt).map_err(|e| format!("{}: {e}", defmt.display()))?).stderr(Stdio::null());
-    eprintln!("demo: ec5000-qemu on lm3s6965evb, SLCAN on tcp:{addr}; defmt log in {}", defmt.display());
-    let child = Arc::new(Mutex::new(cmd.spawn().map_err(|e| format!("qemu-system-arm: {e}"))?));
-    let watchdog = spawn_watchdog(Arc::clone(&child));
-    let result = Run::start(&addr, node_id, true).and_then(|mut run| {
-        let script = run.script();
-        let exit = run.exit_qemu(&child);
-        let summary = run.summary(exit.as_ref().ok().copied(), wall);
-        script.and(exit.map(|_| ())).and(summary)
-    });
-    // Whatever happened, QEMU does not outlive the demo.
-    let mut c = child.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    if c.try_wait().ok().flatten().is_none() {
-        let _ = c.kill();
-        let _ = c.wait();
-    }
-    drop(c);
-    drop(watchdog);
-    result
-}
-
-/// Kills QEMU once [`QEMU_TIMEOUT`] has passed; ends with it.
-fn spawn_watchdog(child: Arc<Mutex<Child>>) -> std::thread::JoinHandle<()> {
-    std::thread::spawn(move || {
-        let start = Instant::now();
-        loop {
-            std::thread::sleep(Duration::from_millis(100));
-            let mut c = child.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            if c.try_wait().ok().flatten().is_some() {
-                return;
-            }
-            if start.elapsed() > QEMU_TIMEOUT {
-                eprintln!("demo: QEMU still running after {} s: killed", QEMU_TIMEOUT.as_secs());
-                let _ = c.kill();
-                let _ = c.wait();
-                return;
-            }
-        }
+    in_qemu("ec5000", |addr, child| {
+        Run::start(addr, node_id, true).and_then(|mut run| {
+            let script = run.script();
+            let exit = run.exit_qemu(child);
+            let summary = run.summary(exit.as_ref().ok().copied(), wall);
+            script.and(exit.map(|_| ())).and(summary)
+        })
     })
 }
 
@@ -563,22 +527,12 @@ impl Run {
     /// Sends the exit frame and waits for QEMU's exit code.
     fn exit_qemu(&mut self, child: &Mutex<Child>) -> Result<i32, String> {
         self.step("13. Exit frame: QEMU ends through semihosting");
-        let frame = canopen_core::frame::CanFrame::extended(EXIT_ID, b"EXIT\x00").ok_or("exit frame")?;
-        Self::io(self.m.send(frame))?;
-        let deadline = Instant::now() + Duration::from_secs(5);
-        loop {
-            let status = child.lock().unwrap_or_else(std::sync::PoisonError::into_inner).try_wait().map_err(|e| e.to_string())?;
-            if let Some(status) = status {
-                let code = status.code().unwrap_or(-1);
-                self.check(code == 0, &format!("QEMU exit code {code}"));
-                return Ok(code);
-            }
-            if Instant::now() > deadline {
-                self.check(false, "QEMU exits within 5 s of the exit frame");
-                return Ok(-1);
-            }
-            std::thread::sleep(Duration::from_millis(20));
+        let code = send_exit(&mut self.m, child)?;
+        match code {
+            Some(code) => self.check(code == 0, &format!("QEMU exit code {code}")),
+            None => self.check(false, "QEMU exits within 5 s of the exit frame"),
         }
+        Ok(code.unwrap_or(-1))
     }
 
     fn summary(&mut self, qemu_exit: Option<i32>, wall: Instant) -> Result<(), String> {
@@ -691,6 +645,8 @@ fn describe(e: &SdoClientError) -> String {
     }
 }
 
+mod qemu;
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests;
+mod unitek;

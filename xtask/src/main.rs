@@ -5,9 +5,10 @@
 //!   canopen) and runs every check CI runs: rustfmt, clippy, all tests, the
 //!   strict device-EDS check, the Cortex-M builds with the size budget, the
 //!   python-canopen interop tests against `vnode` and the QEMU smoke tests.
-//! - `demo [--connect HOST:PORT] [--node-id N]`: boots the EC5000 image in
+//! - `demo [--device ec5000|unitek-ds] [--connect HOST:PORT] [--node-id N]`: boots the EC5000 image in
 //!   QEMU and drives it like a PLC (NMT, SDO, PDO, SYNC, heartbeat, EMCY),
 //!   with a live decoded trace and a summary; fails if the node misbehaves.
+//!   `--device unitek-ds` drives the UNITEK DS servo in its register protocol.
 //! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
 //! - `bench`: the bus-level benchmarks on the virtual bus (release build), with wall times.
 //! - `build`: every firmware image (each device on each board), with its sizes and the budget check.
@@ -142,6 +143,7 @@ fn test() -> Result<(), String> {
     images::smoke()?;
     hil::qemu_all()?;
     demo::demo(&demo::DemoArgs::default())?;
+    demo::demo(&demo::DemoArgs { device: Some("unitek-ds".to_owned()), ..demo::DemoArgs::default() })?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }

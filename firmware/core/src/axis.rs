@@ -226,7 +226,8 @@ impl Drive for Axis {
         };
         self.position_q += self.velocity_q;
         // Torque: the acceleration against the limit, plus friction while moving [‰].
-        let accel = ((self.velocity_q - before).clamp(-3 * step, 3 * step) * 1000) as i32 / (step as i32).max(1);
+        // In 64 bits: a Q24 step times 1000 overflows 32 bits from 2,147 inc/s² on.
+        let accel = ((self.velocity_q - before).clamp(-3 * step, 3 * step) * 1000 / step.max(1)) as i32;
         let friction = if self.velocity_q == 0 { 0 } else { i32::from(p.friction_permille) * self.velocity_q.signum() as i32 };
         self.torque = if self.enabled { (accel + friction).clamp(-3000, 3000) as i16 } else { 0 };
         // First-order thermal model: the steady rise grows with torque².

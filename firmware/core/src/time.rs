@@ -82,7 +82,7 @@ impl Add<Duration> for Instant {
 /// The earlier of two deadlines, where `None` is no deadline. The services
 /// fold their deadlines with it: `Iterator::min` over `Option<Instant>`
 /// chains took 250 bytes more flash.
-pub(crate) fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
+pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     match (a, b) {
         (Some(a), Some(b)) => Some(if b < a { b } else { a }),
         (a, None) => a,

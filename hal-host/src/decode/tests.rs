@@ -159,3 +159,21 @@ fn without_a_dictionary_and_extended_frames() {
     assert_eq!(format_value(Some(DataType::OctetString), &[0xDE, 0xAD]), "[DE AD]");
     assert_eq!(format_value(Some(DataType::VisibleString), b"EC5000\0\0"), "\"EC5000\"");
 }
+
+#[test]
+fn unitek_register_protocol_by_name() {
+    use firmware::devices::unitek_ds::od as unitek;
+    let mut d = Decoder::new(Some(ObjectNames::new(&unitek::DICTIONARY, &unitek::NAMES)));
+    d.add_unitek(0x201, 0x181);
+    assert_eq!(d.decode(&f(0x201, &[0x3D, 0x30, 0x0A])), "UNITEK read 0x30 Speed actual value every 10 ms");
+    assert_eq!(d.decode(&f(0x201, &[0x3D, 0x40, 0x00])), "UNITEK read 0x40 Status map");
+    assert_eq!(d.decode(&f(0x201, &[0x3D, 0x30, 0xFF])), "UNITEK stop cyclic 0x30 Speed actual value");
+    assert_eq!(d.decode(&f(0x201, &[0x31, 0xCD, 0x0C])), "UNITEK write 0x31 Speed set point = 3277");
+    assert_eq!(d.decode(&f(0x201, &[0x6E, 0x00, 0x80])), "UNITEK write 0x6E Position destination = -32768");
+    assert_eq!(d.decode(&f(0x201, &[0x51, 0x04, 0x00])), "UNITEK write 0x51 Mode = 0x0004 (4)");
+    assert_eq!(d.decode(&f(0x181, &[0x40, 0x81, 0x31, 0x00, 0x00, 0x00])), "UNITEK 0x40 Status map = 0x00003181 (12673)");
+    assert_eq!(d.decode(&f(0x181, &[0x30, 0x01, 0x80, 0x00])), "UNITEK 0x30 Speed actual value = -32767");
+    assert_eq!(d.decode(&f(0x201, &[0x31])), "UNITEK malformed request [31]");
+    assert_eq!(d.decode(&f(0x181, &[0x31, 0x00])), "UNITEK malformed reply [31 00]");
+    assert_eq!(d.decode(&f(0x202, &[0x31, 0x00, 0x00])), "RPDO1 node 2: [31 00 00] (mapping unknown)", "another drive's id");
+}

@@ -2,6 +2,7 @@
 
 use super::*;
 use canopen_core::frame::CanFrame;
+use hal_host::decode::EXIT_ID;
 
 fn rx(ms: u64, id: u16, data: &[u8]) -> LoggedFrame {
     LoggedFrame { at: Duration::from_millis(ms), direction: Direction::Received, frame: CanFrame::standard(id, data).unwrap() }

@@ -124,6 +124,12 @@ impl Ctx<'_> {
         self.now
     }
 
+    /// The dictionary's entries (data types, access, lengths), for a device
+    /// whose own protocol addresses objects by number.
+    pub fn dictionary(&self) -> &'static Dictionary {
+        self.dict
+    }
+
     /// The active node-id.
     pub fn node_id(&self) -> u8 {
         self.node_id
