@@ -23,9 +23,9 @@ NODE_ID = 5
 class Vnode:
     """One vnode process and a python-canopen network connected to it."""
 
-    def __init__(self, device="interop", node_id=NODE_ID, eds=EDS):
+    def __init__(self, device="interop", node_id=NODE_ID, eds=EDS, extra=()):
         self.proc = subprocess.Popen(
-            [VNODE, "--device", device, "--node-id", str(node_id), "--listen", "127.0.0.1:0"],
+            [VNODE, "--device", device, "--node-id", str(node_id), "--listen", "127.0.0.1:0", *extra],
             stdout=subprocess.PIPE,
             text=True,
         )

@@ -303,7 +303,9 @@ class QemuSmokeTest(unittest.TestCase):
             self.assertEqual(guard.data[0] & 0x7F, OPERATIONAL, "guarded state")
 
         # ---- PDOs both ways, where the device has them ---------------------
-        if 0x1800 in od:
+        if device == "sendix":
+            self.check_encoder(node, q, frames, node_id)
+        elif 0x1800 in od:
             self.check_tpdo(node, frames, od)
         if 0x1400 in od:
             self.check_rpdo(node, q, od)
@@ -324,6 +326,8 @@ class QemuSmokeTest(unittest.TestCase):
             boot = frames.wait_for(lambda m: m.arbitration_id == error_control and bytes(m.data) == b"\x00", after=mark)
             self.assertIsNotNone(boot, "no boot-up after reset node")
             self.assertEqual(u(0x1017), 50, "stored 0x1017 after reset node")
+            if device == "sendix":
+                self.assertEqual(u(0x6003), 1000, "the preset, stored when written, after reset node")
 
         # ---- the end: semihosting exit with status 0 -----------------------
         self.assertEqual(q.exit(0), 0, "QEMU exit code")
@@ -411,6 +415,51 @@ class QemuSmokeTest(unittest.TestCase):
         self.assertIsNotNone(pdo, "no TPDO1")
         expected = b"".join(node.sdo.upload(i, s)[: bits // 8] for i, s, bits in mapped)
         self.assertEqual(bytes(pdo.data), expected, f"TPDO1 maps {[(hex(i), s) for i, s, _ in mapped]}")
+
+    def check_encoder(self, node, q, frames, node_id):
+        """The Sendix (CiA 406): its simulated shaft turns, so the position
+        moves by SDO, TPDO2 carries the position sampled at its SYNC, TPDO1
+        follows the cyclic timer 0x6200, TPDO3 the speed, and a preset sets
+        the position at once."""
+
+        def position():
+            return int.from_bytes(node.sdo.upload(0x6004, 0), "little")
+
+        def ahead(a, b):
+            """How far b is ahead of a (the shaft turns clockwise, scaling off: modulo 2^32)."""
+            return (b - a) % (1 << 32)
+
+        first = position()
+        time.sleep(0.2)
+        second = position()
+        self.assertTrue(0 < ahead(first, second) < 1 << 24, f"the position moves: {first} -> {second}")
+        # TPDO2 (TT 1): one per SYNC, between the positions read before and after.
+        before = position()
+        mark = frames.mark()
+        q.network.send_message(0x80, b"")
+        sync_pdo = frames.wait_for(lambda m: m.arbitration_id == 0x280 + node_id, after=mark)
+        after = position()
+        self.assertIsNotNone(sync_pdo, "no TPDO2 on SYNC")
+        at_sync = int.from_bytes(sync_pdo.data, "little")
+        self.assertLessEqual(ahead(before, at_sync), ahead(before, after), (before, at_sync, after))
+        # TPDO1 on the cyclic timer: its frames move forward.
+        node.sdo.download(0x6200, 0, struct.pack("<H", 50))
+        self.assertEqual(node.sdo.upload(0x1800, 5), struct.pack("<H", 50), "0x6200 is TPDO1's event timer")
+        mark = frames.mark()
+        one = frames.wait_for(lambda m: m.arbitration_id == 0x180 + node_id, after=mark)
+        self.assertIsNotNone(one, "no TPDO1")
+        two = frames.wait_for(lambda m: m.arbitration_id == 0x180 + node_id and m is not one, after=mark)
+        self.assertIsNotNone(two, "no second TPDO1")
+        self.assertGreater(ahead(int.from_bytes(one.data, "little"), int.from_bytes(two.data, "little")), 0)
+        # TPDO3: the speed of the image's shaft, 30 rpm.
+        node.sdo.download(0x1802, 5, struct.pack("<H", 100))
+        mark = frames.mark()
+        speed = frames.wait_for(lambda m: m.arbitration_id == 0x380 + node_id, after=mark)
+        self.assertIsNotNone(speed, "no TPDO3")
+        self.assertIn(int.from_bytes(speed.data, "little", signed=True), (29, 30, 31), "30 rpm")
+        # The preset: the position at once (plus what the shaft turned since).
+        node.sdo.download(0x6003, 0, struct.pack("<I", 1000))
+        self.assertLess(ahead(1000, position()), 1 << 16, "the preset applied")
 
     def check_rpdo(self, node, q, od):
         cob_id = int.from_bytes(node.sdo.upload(0x1400, 1), "little")

@@ -56,8 +56,9 @@ pub struct DemoArgs {
     /// The node-id of the node behind `--connect` (default: the EC5000's 127, the QEMU image's).
     #[arg(long, value_name = "N", requires = "connect", value_parser = clap::value_parser!(u8).range(1..=127))]
     pub node_id: Option<u8>,
-    /// The device: the EC5000 drive (CiA 402) or the UNITEK DS servo (its register protocol).
-    #[arg(long, value_parser = ["ec5000", "unitek-ds"])]
+    /// The device: the EC5000 drive (CiA 402, the default), the Sendix
+    /// encoder (CiA 406) or the UNITEK DS servo (its register protocol).
+    #[arg(long, value_parser = ["ec5000", "sendix", "unitek-ds"])]
     pub device: Option<String>,
 }
 
@@ -65,6 +66,9 @@ pub struct DemoArgs {
 pub fn demo(args: &DemoArgs) -> Result<(), String> {
     let node_id = args.node_id.unwrap_or(ec5000::DEVICE.default_node_id);
     let wall = Instant::now();
+    if args.device.as_deref() == Some("sendix") {
+        return sendix::demo(args.connect.clone(), wall);
+    }
     if args.device.as_deref() == Some("unitek-ds") {
         return unitek::demo(args.connect.as_deref(), wall);
     }
@@ -646,6 +650,8 @@ fn describe(e: &SdoClientError) -> String {
 }
 
 mod qemu;
+mod sendix;
+
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]
 mod tests;

@@ -9,6 +9,7 @@
 //!   QEMU and drives it like a PLC (NMT, SDO, PDO, SYNC, heartbeat, EMCY),
 //!   with a live decoded trace and a summary; fails if the node misbehaves.
 //!   `--device unitek-ds` drives the UNITEK DS servo in its register protocol.
+//!   `--device sendix`: the Kübler Sendix encoder image (CiA 406) instead.
 //! - `fuzz [SECONDS]`: runs the fuzz targets (needs a nightly toolchain and cargo-fuzz).
 //! - `bench`: the bus-level benchmarks on the virtual bus (release build), with wall times.
 //! - `build`: every firmware image (each device on each board), with its sizes and the budget check.
@@ -144,6 +145,7 @@ fn test() -> Result<(), String> {
     hil::qemu_all()?;
     demo::demo(&demo::DemoArgs::default())?;
     demo::demo(&demo::DemoArgs { device: Some("unitek-ds".to_owned()), ..demo::DemoArgs::default() })?;
+    demo::demo(&demo::DemoArgs { device: Some("sendix".to_owned()), ..demo::DemoArgs::default() })?;
     eprintln!("xtask test: all checks passed");
     Ok(())
 }

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod net;
+pub mod sendix;
 
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{Application, Node};

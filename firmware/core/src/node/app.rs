@@ -75,16 +75,35 @@ pub struct ServiceOptions {
     /// expires (or on a trigger or RTR), never on a change of the mapped data
     /// or on entering Operational. CiA 301 makes 254 event-driven, as 255.
     pub tpdo_254_timer_only: bool,
+    /// Transmission type 255 with an event timer (not 0) is timer-only: a
+    /// change of the mapped data sends it only while the timer is 0 (an
+    /// encoder's "cyclic timer"). CiA 301 sends on both.
+    pub tpdo_255_timer_only_with_timer: bool,
     /// Objects (an inclusive index range) that 0x1010 "save" leaves as they
     /// were stored: only the device's own command stores them
     /// ([`Ctx::save_objects`]).
     pub not_saved_by_1010: Option<(u16, u16)>,
+    /// An object (sub 0) and a mask: when any of its bits is set at
+    /// boot-up, the node enters Operational by itself, as 0x1F80 bit 2 does
+    /// (an encoder's "start in Operational" in 0x6000 bit 14).
+    pub start_operational: Option<(u16, u32)>,
+    /// LSS "switch state global" to waiting after a new node-id was
+    /// configured resets the node (application and communication) at once,
+    /// where CiA 305 waits for an NMT reset (and starts only an unconfigured
+    /// node, with reset communication).
+    pub lss_start_resets_node: bool,
 }
 
 impl ServiceOptions {
     /// The strict CiA 301 reading.
-    pub const CIA301: ServiceOptions =
-        ServiceOptions { pdo_rewrite_while_valid: false, tpdo_254_timer_only: false, not_saved_by_1010: None };
+    pub const CIA301: ServiceOptions = ServiceOptions {
+        pdo_rewrite_while_valid: false,
+        tpdo_254_timer_only: false,
+        tpdo_255_timer_only_with_timer: false,
+        not_saved_by_1010: None,
+        start_operational: None,
+        lss_start_resets_node: false,
+    };
 }
 
 /// Raw frames one [`Ctx`] holds until the node queues them.
@@ -164,6 +183,8 @@ impl Ctx<'_> {
     /// Sets a value the device owns, read-only ones included (0x6041
     /// statusword, an "actual" node-id), without access checks or service
     /// side effects; the value must have the entry's length.
+    // Out of line: a profile sets several values per sample (the sendix image was 300 B bigger inlined).
+    #[inline(never)]
     pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.effects.written = true;
         Ok(self.dict.write_unchecked(self.image, index, sub, data)?)
@@ -173,6 +194,14 @@ impl Ctx<'_> {
     /// error was already active or there is no room).
     pub fn raise_error(&mut self, code: u16, info: [u8; 5]) -> bool {
         self.services.emcy().raise(code, info)
+    }
+
+    /// A serious error of 0x1029 class `class` (2 device profile, 3
+    /// manufacturer specific) occurred: once the hook returns, the node
+    /// changes state as that sub-index of 0x1029 says (0 Pre-operational
+    /// if Operational, 1 no change, 2 Stopped), as it does for class 1 itself.
+    pub fn error_behaviour(&mut self, class: u8) {
+        self.effects.error_class = class;
     }
 
     /// Clears an error; the last one cleared sends "error reset".
@@ -210,6 +239,13 @@ impl Ctx<'_> {
     pub fn save_objects(&mut self, first: u16, last: u16) -> Result<(), AbortCode> {
         crate::services::store::save_objects(self.dict, self.image, self.node_id, self.storage, first, last)
             .map_err(super::router::store_abort)
+    }
+
+    /// The stored value of (index, sub) in the newest parameter set,
+    /// read-only objects included ([`crate::services::store::stored_value`]):
+    /// how a device gets back a value it keeps across power cycles itself.
+    pub fn stored(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Option<usize> {
+        crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
     }
 
     /// Stores a scope as 0x1010 would (the device's
@@ -250,6 +286,12 @@ impl Claims<'_> {
 pub trait Application {
     /// Where the device's manual departs from CiA 301.
     const OPTIONS: ServiceOptions = ServiceOptions::CIA301;
+
+    /// The device stores parameters by a command of its own (a register, a
+    /// manufacturer object) through [`Ctx::save`] or [`Ctx::save_objects`]:
+    /// its stored set loads at every reset even when the dictionary has no
+    /// 0x1010/0x1011 (which otherwise leave the store code out, `Services::storage`).
+    const STORES: bool = false;
 
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).

@@ -126,7 +126,13 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
 
     /// What 0x1029 sub 1 says to do on a communication error.
     pub fn error_behaviour(dict: &Dictionary, image: &[u8]) -> ErrorBehaviour {
-        match dict.read(image, 0x1029, 1) {
+        Self::error_behaviour_of(dict, image, 1)
+    }
+
+    /// What 0x1029 sub `class` says to do on an error of that class (1
+    /// communication, 2 device profile, 3 manufacturer specific).
+    pub fn error_behaviour_of(dict: &Dictionary, image: &[u8], class: u8) -> ErrorBehaviour {
+        match dict.read(image, 0x1029, class) {
             Ok([1]) => ErrorBehaviour::NoChange,
             Ok([2]) => ErrorBehaviour::Stopped,
             _ => ErrorBehaviour::PreOperational,

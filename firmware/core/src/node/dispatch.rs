@@ -52,7 +52,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if cob_id == NMT_COB_ID {
             match NmtRequest::parse(data) {
-                Ok(request) if !rtr => self.nmt_command(request, now),
+                Ok(request) if !rtr => {
+                    // A master's command comes before the node's own start.
+                    self.start_pending = false;
+                    self.nmt_command(request, now)
+                }
                 _ => self.counters.malformed += 1,
             }
             return;

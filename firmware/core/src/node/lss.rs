@@ -93,7 +93,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         };
         let Some(lss) = self.lss_mut() else { return };
-        match lss.on_request(request) {
+        // A device that resets itself on leaving configuration with a new node-id (the Sendix, L3567).
+        let leave_resets = A::OPTIONS.lss_start_resets_node
+            && request == LssRequest::SwitchGlobal(false)
+            && lss.mode() == Mode::Configuration
+            && lss.pending_node_id() != lss.active_node_id();
+        let action = lss.on_request(request);
+        if leave_resets && action == LssAction::None {
+            self.reset_application(now);
+            return;
+        }
+        match action {
             LssAction::None => {}
             LssAction::Answer(bytes) => {
                 self.push(SLAVE_COB_ID, &bytes);
@@ -113,7 +123,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             LssAction::Start(node_id) => {
                 self.node_id = node_id;
-                self.reset_communication(now);
+                if A::OPTIONS.lss_start_resets_node {
+                    self.reset_application(now);
+                } else {
+                    self.reset_communication(now);
+                }
             }
         }
     }

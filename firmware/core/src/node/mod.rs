@@ -98,6 +98,9 @@ pub struct Node<
     txq: TxQueue<TX_QUEUE>,
     counters: Counters,
     boot_pending: bool,
+    /// The node starts itself (0x1F80, [`ServiceOptions::start_operational`])
+    /// once its boot-up message has left: TPDOs would overtake it in the priority queue.
+    start_pending: bool,
     /// The RAM image may have changed since the TPDOs last compared their
     /// data (change-of-state detection runs only then, not on every call).
     touched: bool,
@@ -159,6 +162,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             txq: TxQueue::new(),
             counters: Counters { rx: 0, tx: 0, malformed: 0, ignored: 0 },
             boot_pending: false,
+            start_pending: false,
             touched: false,
             reported_overflows: 0,
             lss: LssSlave::new([0; 4], 0, 0, 0),
@@ -242,6 +246,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);
+        if effects.error_class != 0 {
+            self.device_error(effects.error_class, now);
+        }
         value
     }
 

@@ -4,7 +4,7 @@
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::heartbeat::ConsumerEvent;
-use crate::services::nmt::State;
+use crate::services::nmt::{State, Transition};
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtState};
@@ -31,12 +31,22 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if self.push(id, &[NmtState::BootUp.code()]) {
                 self.boot_pending = false;
                 // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
-                let auto_start =
-                    self.od.dictionary().read(self.od.image(), 0x1F80, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0;
-                let state = self.nmt.boot_up_done(auto_start);
+                let dict = self.od.dictionary();
+                let auto_start = dict.read(self.od.image(), 0x1F80, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0
+                    || A::OPTIONS
+                        .start_operational
+                        .is_some_and(|(index, mask)| dict.read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0);
+                let state = self.nmt.boot_up_done(false);
                 let dict = self.od.dictionary();
                 self.comm.reconfigure(0x1017, dict, self.od.image(), self.node_id, now);
                 self.entered(state, now);
+                self.start_pending = auto_start;
+            }
+        }
+        if self.start_pending && self.txq.is_empty() {
+            self.start_pending = false;
+            if let Transition::Entered(s) = self.nmt.enter(State::Operational) {
+                self.entered(s, now);
             }
         }
         if self.nmt.state() != State::Initialising && self.comm.heartbeat.poll(now) {
@@ -119,7 +129,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         let deadlines = [
-            self.boot_pending.then_some(now),
+            (self.boot_pending || self.start_pending).then_some(now),
             self.comm.heartbeat.deadline(),
             self.comm.consumers.deadline(),
             if O::SERVICES.guarding { self.comm.guarding.deadline() } else { None },

@@ -36,10 +36,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.reset_application_from(stored, now);
     }
 
-    /// The newest valid stored set; none on a node without storage
-    /// (`Services::storage`), which then links no store code.
+    /// Whether the node loads stored sets: the dictionary's 0x1010/0x1011
+    /// (`Services::storage`) or the device's own store command (`Application::STORES`).
+    const LOADS_STORED: bool = O::SERVICES.storage || A::STORES;
+
+    /// The newest valid stored set; none on a node without storage, which
+    /// then links no store code.
     fn newest_stored(&mut self) -> Option<StoredSet> {
-        if O::SERVICES.storage { store::newest(self.od.dictionary(), &mut self.storage) } else { None }
+        if Self::LOADS_STORED { store::newest(self.od.dictionary(), &mut self.storage) } else { None }
     }
 
     pub(super) fn reset_application(&mut self, now: Instant) {
@@ -52,7 +56,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_application(image, self.node_id);
-        if let Some(set) = stored.as_ref().filter(|_| O::SERVICES.storage) {
+        if let Some(set) = stored.as_ref().filter(|_| Self::LOADS_STORED) {
             set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
         }
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
@@ -73,7 +77,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_communication(image, self.node_id);
-        if let Some(set) = stored.as_ref().filter(|_| O::SERVICES.storage) {
+        if let Some(set) = stored.as_ref().filter(|_| Self::LOADS_STORED) {
             set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
         }
         if let Some(serial) = self.serial {
@@ -84,6 +88,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.comm.pdos.set_timer_only_254(true);
         }
         self.controller.reset();
+        if A::OPTIONS.tpdo_255_timer_only_with_timer {
+            self.comm.pdos.set_timer_only_255_with_timer(true);
+        }
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
@@ -91,6 +98,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.nmt = Nmt::new();
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
+        self.start_pending = false;
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
     }
 

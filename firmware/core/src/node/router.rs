@@ -32,6 +32,9 @@ pub(crate) struct SdoEffects {
     /// failed): the TPDOs look for changed data at the next process, which
     /// an upload alone does not need.
     pub written: bool,
+    /// A device error of this 0x1029 sub-index (0: none) occurred: the node
+    /// applies the error behaviour.
+    pub error_class: u8,
 }
 
 pub(super) fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {

@@ -53,8 +53,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         let error = if node == 0 { CommError::LifeGuarding } else { CommError::Heartbeat(node) };
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(error)));
+        self.device_error(1, now);
+    }
+
+    /// An error of 0x1029 class `class`: the state change that sub-index asks for.
+    pub(super) fn device_error(&mut self, class: u8, now: Instant) {
         let dict = self.od.dictionary();
-        let next = match Comm::<R, T, HB>::error_behaviour(dict, self.od.image()) {
+        let next = match Comm::<R, T, HB>::error_behaviour_of(dict, self.od.image(), class) {
             ErrorBehaviour::PreOperational if self.nmt.state() == State::Operational => Some(State::PreOperational),
             ErrorBehaviour::Stopped => Some(State::Stopped),
             _ => None,

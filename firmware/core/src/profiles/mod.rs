@@ -1,5 +1,7 @@
 //! Device profiles on the application slot ([`crate::node::Application`]):
-//! they see the dictionary through [`crate::node::Ctx`] and a device behind
-//! a trait, never a CAN frame.
+//! what a CiA device profile asks of a device beyond CiA 301, reached
+//! through the dictionary ([`crate::node::Ctx`]) and a drive or sensor
+//! trait, never a CAN frame.
 
 pub mod cia402;
+pub mod cia406;

@@ -437,13 +437,15 @@ pub fn save_lss(
 }
 
 /// The value of (index, sub) in the newest stored set, copied into the
-/// front of `out`, if the set holds one (a writable entry whose scope was
-/// saved); its length. For a device's start-up, before power-on: one value
-/// read from the storage, no image built.
+/// front of `out`, if the set holds one (an entry whose scope was saved);
+/// its length. For a device's start-up, before power-on: one value read
+/// from the storage, no image built. A read-only entry gives what the
+/// image held when the set was saved: a value the device keeps across
+/// power cycles itself (an encoder's preset offset), which a reset does not load.
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;
-    if entry.in_rom() || !entry.attr.contains(Attr::WRITE) || set.header.defaults & scope_bit(entry.index) != 0 {
+    if entry.in_rom() || set.header.defaults & scope_bit(entry.index) != 0 {
         return None;
     }
     let range = entry.range();

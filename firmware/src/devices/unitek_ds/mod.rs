@@ -83,6 +83,9 @@ impl Limits for Axis {
 }
 
 impl Application for App {
+    // EEPROM store by the function register 0x84; the EDS has no 0x1010.
+    const STORES: bool = true;
+
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         // Power-on is the only reset without CANopen.
         if event == NmtEvent::ResetApplication {

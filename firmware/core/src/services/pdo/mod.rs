@@ -347,6 +347,16 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
     }
 
+    /// Makes type 255 timer-only while its event timer runs (not 0): sent
+    /// when the timer expires (or on a trigger or RTR), not on a change of
+    /// the mapped data; with event timer 0 a change sends it, as CiA 301 says.
+    pub fn set_timer_only_255_with_timer(&mut self, on: bool) {
+        self.settled = false;
+        for tpdo in &mut self.tpdos {
+            tpdo.timer_only_255_with_timer = on;
+        }
+    }
+
     /// Takes each PDO's mapping from the image again (where a device lets
     /// mapping entries change while the PDO is valid, they apply on entering
     /// Operational).

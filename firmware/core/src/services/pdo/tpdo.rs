@@ -41,6 +41,8 @@ pub struct Tpdo {
     no_change_detection: bool,
     /// Type 254 is timer-only (a device's manual, see [`super::Pdos::set_timer_only_254`]).
     pub(super) timer_only_254: bool,
+    /// Type 255 with an event timer is timer-only (see [`super::Pdos::set_timer_only_255_with_timer`]).
+    pub(super) timer_only_255_with_timer: bool,
     /// The last data sent, for change detection.
     last: [u8; MAX_LEN],
     sent: bool,
@@ -78,6 +80,7 @@ impl Tpdo {
         cob_id_writable: false,
         no_change_detection: false,
         timer_only_254: false,
+        timer_only_255_with_timer: false,
         last: [0; MAX_LEN],
         sent: false,
         event: false,
@@ -119,9 +122,14 @@ impl Tpdo {
         matches!(self.params.transmission_type, 254 | 255)
     }
 
-    /// Whether this PDO is of type 254 on a device that makes 254 timer-only.
+    /// Whether this PDO is of type 254 on a device that makes 254 timer-only,
+    /// or of type 255 with an event timer on a device that makes that timer-only.
     fn timer_only(&self) -> bool {
-        self.timer_only_254 && self.params.transmission_type == 254
+        match self.params.transmission_type {
+            254 => self.timer_only_254,
+            255 => self.timer_only_255_with_timer && self.params.event_timer_ms != 0,
+            _ => false,
+        }
     }
 
     /// New parameters or mapping: the PDO starts over.
