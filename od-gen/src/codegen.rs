@@ -357,9 +357,9 @@ pub const BLOCK_THRESHOLD: usize = 64;
 /// [`BLOCK_THRESHOLD`] bytes, guarding with 0x100C and 0x100D (or without
 /// a heartbeat producer 0x1017: CiA 301 asks for one error control
 /// protocol, so such a node keeps answering guarding requests), TIME with
-/// 0x1012. Storage stays on for every dictionary: a device's hooks may
-/// store without 0x1010 (the UNITEK's EEPROM command does), so only a
-/// reference image turns it off ([`generate_with`]).
+/// 0x1012, storage with 0x1010 or 0x1011 (or LSS, which stores its
+/// configuration; a device that stores by a command of its own says so
+/// with `Application::STORES`).
 pub fn services(eds: &Eds) -> Services {
     let has = |i: u16| eds.objects.get(&i).is_some_and(|o| !o.opaque);
     let large = eds
@@ -373,7 +373,7 @@ pub fn services(eds: &Eds) -> Services {
         block_sdo: large,
         guarding: (has(0x100C) && has(0x100D)) || !has(0x1017),
         time: has(0x1012),
-        storage: true,
+        storage: has(0x1010) || has(0x1011) || eds.device.lss_supported,
     }
 }
 

@@ -1124,7 +1124,7 @@ pub struct Ram {
 }
 
 impl od::ObjectDictionary for Ram {
-    const SERVICES: od::Services = od::Services { lss: false, block_sdo: false, guarding: true, time: false, storage: true };
+    const SERVICES: od::Services = od::Services { lss: false, block_sdo: false, guarding: true, time: false, storage: false };
     fn dictionary(&self) -> &'static od::Dictionary {
         &DICTIONARY
     }
