@@ -358,7 +358,8 @@ pub const BLOCK_THRESHOLD: usize = 64;
 /// a heartbeat producer 0x1017: CiA 301 asks for one error control
 /// protocol, so such a node keeps answering guarding requests), TIME with
 /// 0x1012, storage with 0x1010 or 0x1011 (or LSS, which stores its
-/// configuration).
+/// configuration; a device that stores by a command of its own says so
+/// with `Application::STORES`).
 pub fn services(eds: &Eds) -> Services {
     let has = |i: u16| eds.objects.get(&i).is_some_and(|o| !o.opaque);
     let large = eds

@@ -314,6 +314,18 @@ pub fn size() -> Result<(), String> {
             }
         }
     }
+    println!("\nAgainst CANopenNode v4 (Cortex-M3, GCC -Os, gc-sections, the same dictionary; ../shared/notes/perf-review.md §4.4):\n");
+    println!("| image | flash | CANopenNode, same services | ratio |");
+    println!("|---|---:|---:|---:|");
+    for (name, img) in &images {
+        let Some(&(_, c, what)) = CANOPENNODE.iter().find(|(n, _, _)| n == name) else { continue };
+        let flash = img.section(".text") + img.section(".rodata") + img.section(".data");
+        println!("| {name} | {flash} ({}) | {c} ({what}) | {:.2} |", kib(flash), flash as f64 / c as f64);
+    }
     println!("\nELF files: {}", target_dir().join("size").display());
     Ok(())
 }
+
+/// CANopenNode's flash for the `ds301` images' services: image, bytes, configuration.
+const CANOPENNODE: &[(&str, u64, &str)] =
+    &[("ds301", 21_164, "block SDO, CRC16 and node guarding on"), ("ds301-lean", 18_680, "default configuration")];

@@ -1,7 +1,8 @@
-//! `memcpy` for the images: a word or byte loop of a few dozen bytes in
-//! place of `compiler_builtins`' 744-byte one. The compiler calls the ARM
-//! EABI names (`__aeabi_memcpy`, `…4`, `…8`), which `compiler_builtins`
-//! defines weakly, so these definitions win at link time. The core copies
+//! `memcpy` and `memclr` for the images: word or byte loops of a few dozen
+//! bytes in place of `compiler_builtins`' 744 + 556 bytes. The compiler
+//! calls the ARM EABI names (`__aeabi_memcpy`, `__aeabi_memclr`, each with
+//! `4` and `8` variants), which `compiler_builtins` defines weakly, so these
+//! definitions win at link time. The core copies
 //! CAN frames, PDO data and SDO segments, all a handful of bytes: the
 //! large-copy paths of the optimised version never run.
 #![allow(unsafe_code)]
@@ -75,4 +76,57 @@ pub unsafe extern "C" fn memcpy(dst: *mut u8, src: *const u8, n: usize) -> *mut 
     // SAFETY: the caller's contract is `copy`'s.
     unsafe { copy(dst, src, n) };
     dst
+}
+
+/// Zeroes `n` bytes at `dst`; whole words when the address and `n` are
+/// word-aligned. Volatile stores, for the reason given at [`copy`].
+///
+/// # Safety
+/// `dst` writable for `n` bytes.
+#[inline(never)]
+unsafe fn zero(dst: *mut u8, n: usize) {
+    let mut i = 0;
+    if (dst as usize | n) & 3 == 0 {
+        while i < n {
+            // SAFETY: `i + 4 <= n`, `dst` word-aligned and valid for `n` bytes (the caller's contract).
+            unsafe { write_volatile(dst.add(i).cast::<u32>(), 0) };
+            i += 4;
+        }
+    } else {
+        while i < n {
+            // SAFETY: `i < n`, `dst` valid for `n` bytes (the caller's contract).
+            unsafe { write_volatile(dst.add(i), 0) };
+            i += 1;
+        }
+    }
+}
+
+/// The ARM EABI `memclr` the compiler calls (zeroing a large value).
+///
+/// # Safety
+/// As [`zero`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn __aeabi_memclr(dst: *mut u8, n: usize) {
+    // SAFETY: the caller's contract is `zero`'s.
+    unsafe { zero(dst, n) };
+}
+
+/// `__aeabi_memclr` with a word-aligned pointer.
+///
+/// # Safety
+/// As [`zero`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn __aeabi_memclr4(dst: *mut u8, n: usize) {
+    // SAFETY: the caller's contract is `zero`'s.
+    unsafe { zero(dst, n) };
+}
+
+/// `__aeabi_memclr` with a double-word-aligned pointer.
+///
+/// # Safety
+/// As [`zero`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn __aeabi_memclr8(dst: *mut u8, n: usize) {
+    // SAFETY: the caller's contract is `zero`'s.
+    unsafe { zero(dst, n) };
 }
