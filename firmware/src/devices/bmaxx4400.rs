@@ -12,17 +12,80 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::node::{Application, Ctx, ServiceOptions};
+use canopen_core::axis::{Axis, AxisParams};
+use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::profiles::cia402::{Cia402, Config, mode};
+use canopen_core::time::Instant;
+
+mod params;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
-/// the firmware beyond the dictionary.
-#[derive(Debug, Default)]
-pub struct App;
+/// the firmware beyond the dictionary, and the CiA 402 profile driving the
+/// axis model (until the option module talks to a drive).
+#[derive(Debug)]
+pub struct App {
+    /// The CiA 402 profile and the drive behind it.
+    pub drive: Cia402<Axis>,
+}
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App;
+    pub const NEW: App = App { drive: Cia402::new(Axis::NEW) };
 }
+
+/// The profile's constants for the b maXX 4400 (decisions D50-D55 in docs/devices/bmaxx4400.md).
+pub const PROFILE: Config = Config {
+    // §4.4.5: 65536 increments per motor revolution; the default 0x6092 (65536 BE per
+    // revolution) makes 1 BE = 1 INC (D50).
+    increments_per_rev: 65536,
+    // Only guarding/heartbeat loss triggers 0x6007 (App. C 6007h); NMT commands do not.
+    leaving_operational_aborts: false,
+    // 0x606D is not in the dictionary: 0.1 revolution per second (D50).
+    position_window: 0,
+    velocity_window: 6554,
+    homing_speeds: (0, 0),
+};
+
+/// The motor as the axis model simulates it: 65536 increments per
+/// revolution, up to 3000 min⁻¹ (3,276,800 inc/s), 0.1 s from standstill to
+/// full speed, following-error fault at one revolution, a 560 V DC link.
+pub const AXIS: AxisParams = AxisParams {
+    increments_per_rev: 65536,
+    max_acceleration: 32_768_000,
+    max_velocity: 3_276_800,
+    position_gain: 40,
+    friction_permille: 0,
+    ambient_c: 25,
+    rise_at_rated_c: 60,
+    thermal_tau_s: 300,
+    warning_c: 90,
+    fault_c: 105,
+    dc_link_mv: 560_000,
+    following_limit: 65_536,
+    limits: (0, 0),
+    home_switch: None,
+};
+
+/// A 0x6060 value the manual accepts (App. C, M-L5241-5410), with the mode
+/// the profile runs for it and what 0x6061 shows (D51): −3 (drive speed
+/// control) runs pv and shows 3; 7 (interpolated position, drive −4) and the
+/// manufacturer modes hold the axis (profile mode 0) and show themselves,
+/// jog (−6) as −6 and spindle positioning as −106. `None`: refused.
+const fn mode_of(requested: i8) -> Option<(i8, i8)> {
+    Some(match requested {
+        mode::PP | mode::VL | mode::HM => (requested, requested),
+        mode::PV | -3 => (mode::PV, mode::PV),
+        IP | -106 | -7..=-1 => (0, requested),
+        _ => return None,
+    })
+}
+
+/// 0x6060 interpolated position mode.
+const IP: i8 = 7;
+/// 0x6060 modes of operation.
+const MODES_OF_OPERATION: u16 = 0x6060;
+/// 0x6061 modes of operation display.
+const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
 impl Application for App {
     /// §5.5.3 (D27): mapping entries and COB-IDs are rewritten while the PDO
@@ -41,8 +104,57 @@ impl Application for App {
         }
     }
 
-    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
-        // No rule of this device reacts to an object an RPDO writes.
+    fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, _sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        match (index, data) {
+            // D51: the manual's modes, manufacturer-specific ones included; 0, 4, 5, 8..127 are unused.
+            (MODES_OF_OPERATION, [m]) => mode_of(*m as i8).map(|_| ()).ok_or(AbortCode::InvalidValue),
+            _ => self.drive.check_write(index, data),
+        }
+    }
+
+    fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        params::read(ctx, index, sub, offset, buf)
+    }
+
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+        if index == MODES_OF_OPERATION {
+            self.set_mode(ctx);
+        } else {
+            // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
+            self.drive.written(ctx, &PROFILE, index);
+        }
+    }
+
+    fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        self.drive.sample(ctx);
+    }
+
+    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        self.drive.poll(ctx, &PROFILE)
+    }
+
+    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        if event == NmtEvent::ResetApplication {
+            self.drive.drive.configure(AXIS);
+        }
+        self.drive.on_nmt(ctx, &PROFILE, event);
+        if event == NmtEvent::ResetApplication {
+            self.set_mode(ctx);
+        }
+    }
+}
+
+impl App {
+    /// 0x6060 changed: the profile runs the mode [`mode_of`] gives, and
+    /// 0x6061 shows the manual's read-back value.
+    fn set_mode(&mut self, ctx: &mut Ctx<'_>) {
+        let requested = ctx.read(MODES_OF_OPERATION, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0);
+        let (runs, shows) = mode_of(requested as i8).unwrap_or((0, 0));
+        // The profile reads its mode from 0x6060: it sees the mode it runs for the call.
+        let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[runs as u8]);
+        self.drive.written(ctx, &PROFILE, MODES_OF_OPERATION);
+        let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[requested]);
+        let _ = ctx.set_value(MODES_OF_OPERATION_DISPLAY, 0, &[shows as u8]);
     }
 }
 
