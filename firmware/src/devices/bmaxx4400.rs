@@ -33,7 +33,7 @@ impl App {
     pub const NEW: App = App { drive: Cia402::new(Axis::NEW) };
 }
 
-/// The profile's constants for the b maXX 4400 (decisions D50-D55 in docs/devices/bmaxx4400.md).
+/// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
 pub const PROFILE: Config = Config {
     // §4.4.5: 65536 increments per motor revolution; the default 0x6092 (65536 BE per
     // revolution) makes 1 BE = 1 INC (D50).
