@@ -198,3 +198,29 @@ fn m_l1863_life_guarding_loss_with_0x6007_3_quick_stops() {
     assert_eq!(i32_at(&mut b, 0x606C), 0, "stopped on the quick stop ramp");
     assert_eq!(statusword(&mut b), SWITCH_ON_DISABLED, "0x605A default: Switch on disabled");
 }
+
+#[test]
+fn b16_b17_m_l3232_drive_errors_as_emcy_with_the_drive_error_number_and_the_error_reset() {
+    let mut b = enabled(1);
+    // The load blocks during a move of 4 revolutions: drive error 00C1h static following
+    // error → EMCY 8611h, the number in bytes 3-4 (the error register as the core derives it).
+    b.node.app_mut().drive.drive.axis.inject(canopen_core::axis::Injected::Blocked);
+    let target = 262_144i32.to_le_bytes();
+    b.rx(ms(400), RPDO3, &[0x1F, 0x00, target[0], target[1], target[2], target[3]]);
+    let emcy: Vec<_> = b.run_until(ms(1000)).into_iter().filter(|(_, (id, _))| *id == 0x084).map(|(_, (_, d))| d).collect();
+    assert_eq!(emcy, [vec![0x11, 0x86, 0x11, 0x00, 0xC1, 0x00, 0x00, 0x00]]);
+    assert_eq!(statusword(&mut b) & 0x4F, 0x08, "Fault");
+    b.node.app_mut().drive.drive.axis.remove(canopen_core::axis::Injected::Blocked);
+    // Fault reset (RPDO1): "no error" 0x84 [8] 00 … 00 (B17, M-L3235).
+    let out = b.rx(ms(1000), RPDO1, &[0x80, 0x00]);
+    assert!(out.contains(&(0x084, vec![0; 8])), "{out:x?}");
+    assert_eq!(statusword(&mut b), SWITCH_ON_DISABLED);
+}
+
+#[test]
+fn m_l3262_dc_link_under_voltage_is_drive_error_005e_emcy_3100() {
+    let mut b = enabled(3);
+    b.node.app_mut().drive.drive.axis.inject(canopen_core::axis::Injected::UnderVoltage);
+    let emcy: Vec<_> = b.run_until(ms(600)).into_iter().filter(|(_, (id, _))| *id == 0x084).map(|(_, (_, d))| d).collect();
+    assert_eq!(emcy, [vec![0x00, 0x31, 0x05, 0x00, 0x5E, 0x00, 0x00, 0x00]]);
+}

@@ -12,12 +12,15 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::axis::{Axis, AxisParams};
+use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia402::{Cia402, Config, mode};
 use canopen_core::time::Instant;
 
+mod errors;
 mod params;
+
+pub use errors::BmaxxDrive;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile driving the
@@ -25,12 +28,12 @@ mod params;
 #[derive(Debug)]
 pub struct App {
     /// The CiA 402 profile and the drive behind it.
-    pub drive: Cia402<Axis>,
+    pub drive: Cia402<BmaxxDrive>,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW) };
+    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW) };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -135,7 +138,7 @@ impl Application for App {
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         if event == NmtEvent::ResetApplication {
-            self.drive.drive.configure(AXIS);
+            self.drive.drive.axis.configure(AXIS);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
         if event == NmtEvent::ResetApplication {

@@ -364,7 +364,7 @@ impl<D: Drive> Cia402<D> {
     /// quick stop ramp) runs if the drive still can, then transition 14.
     fn fault(&mut self, ctx: &mut Ctx<'_>, code: u16) {
         let reaction = Reaction::of(signed(ctx, index::FAULT_REACTION_OPTION, 0).map_or(-1, |v| v), Reaction::QuickStopRamp);
-        self.fault_reacting(ctx, code, [0; 5], reaction);
+        self.fault_reacting(ctx, code, self.drive.fault_info(), reaction);
     }
 
     /// A fault the device detects (transition 13): 0x603F and an EMCY with
