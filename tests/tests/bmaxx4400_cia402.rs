@@ -224,3 +224,38 @@ fn m_l3262_dc_link_under_voltage_is_drive_error_005e_emcy_3100() {
     let emcy: Vec<_> = b.run_until(ms(600)).into_iter().filter(|(_, (id, _))| *id == 0x084).map(|(_, (_, d))| d).collect();
     assert_eq!(emcy, [vec![0x00, 0x31, 0x05, 0x00, 0x5E, 0x00, 0x00, 0x00]]);
 }
+
+/// Maps `entries` into PDO mapping `index` in Pre-operational (invalid first); the answer to sub 0.
+fn map(b: &mut Bmaxx, index: u16, entries: &[u32]) -> Vec<u8> {
+    assert_eq!(b.sdo_write(ID, index, 0, &[0]), ok_write(index, 0));
+    for (i, e) in entries.iter().enumerate() {
+        let sub = i as u8 + 1;
+        assert_eq!(b.sdo_write(ID, index, sub, &e.to_le_bytes()), ok_write(index, sub));
+    }
+    b.sdo_write(ID, index, 0, &[entries.len() as u8])
+}
+
+#[test]
+fn m_l528_at_most_8_set_points_over_all_rpdos_with_0x607a_counting_double() {
+    let mut b = operational();
+    b.nmt(0x80, ID);
+    // Default: 6040, 6060, 607A (2), 60FF = 5 slots. Then 6042, 6072 (7), 6099.1 (8).
+    assert_eq!(map(&mut b, 0x1600, &[0x6040_0010, 0x6042_0010, 0x6072_0010]), ok_write(0x1600, 0));
+    assert_eq!(map(&mut b, 0x1603, &[0x60FF_0020, 0x6099_0120]), ok_write(0x1603, 0));
+    // A ninth: 6099.2 in RPDO2 (instead of 6040, still mapped in RPDO1).
+    assert_eq!(map(&mut b, 0x1601, &[0x6099_0220, 0x6060_0008]), abort(0x1601, 0, 0x0604_0042));
+    // An object already mapped (6042 in RPDO1) takes no further slot.
+    assert_eq!(map(&mut b, 0x1601, &[0x6042_0010, 0x6060_0008]), ok_write(0x1601, 0));
+}
+
+#[test]
+fn m_l792_0x6041_always_takes_actual_value_slot_1() {
+    let mut b = operational();
+    b.nmt(0x80, ID);
+    // Default TPDOs: 6041, 6061, 6064, 606C = 4. Without 6041 in any TPDO it still counts.
+    assert_eq!(map(&mut b, 0x1A00, &[0x6064_0020, 0x606C_0020]), ok_write(0x1A00, 0));
+    assert_eq!(map(&mut b, 0x1A01, &[0x6061_0008, 0x6077_0010, 0x6062_0020]), ok_write(0x1A01, 0));
+    assert_eq!(map(&mut b, 0x1A02, &[0x606B_0020, 0x6044_0010]), ok_write(0x1A02, 0));
+    // 6041, 6064, 606C, 6061, 6077, 6062, 606B, 6044 = 8: one more is refused.
+    assert_eq!(map(&mut b, 0x1A03, &[0x6043_0010]), abort(0x1A03, 0, 0x0604_0042));
+}

@@ -19,6 +19,7 @@ use canopen_core::time::Instant;
 
 mod errors;
 mod params;
+mod slots;
 
 pub use errors::BmaxxDrive;
 
@@ -107,10 +108,12 @@ impl Application for App {
         }
     }
 
-    fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, _sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         match (index, data) {
             // D51: the manual's modes, manufacturer-specific ones included; 0, 4, 5, 8..127 are unused.
             (MODES_OF_OPERATION, [m]) => mode_of(*m as i8).map(|_| ()).ok_or(AbortCode::InvalidValue),
+            // D55: the BACI's 8 set-point and 8 actual-value slots.
+            (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
             _ => self.drive.check_write(index, data),
         }
     }
