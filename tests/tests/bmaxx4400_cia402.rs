@@ -154,6 +154,9 @@ fn pp_absolute_move_through_rpdo3_with_p0462_offset_by_2_31() {
     let p = i32_at(&mut b, 0x6064);
     assert_eq!(b.sdo_upload(ID, 0x41CE, 0), Ok((p as u32 ^ 0x8000_0000).to_le_bytes().to_vec()));
     assert_eq!(b.sdo_upload(ID, 0x4258, 0), Ok(0x8002_0000u32.to_le_bytes().to_vec()), "P0600: 0x607A + 2^31");
+    // P0830 (0x433E) bit 5: no offset (M-L652-783).
+    assert_eq!(b.sdo_write(ID, 0x433E, 0, &0x0020u16.to_le_bytes()), ok_write(0x433E, 0));
+    assert_eq!(b.sdo_upload(ID, 0x4258, 0), Ok(0x0002_0000u32.to_le_bytes().to_vec()));
 }
 
 #[test]

@@ -17,6 +17,11 @@ enum Conversion {
     DriveMode,
 }
 
+/// P0830 (0x433E) option-module configuration word.
+const CONFIGURATION: u16 = 0x433E;
+/// P0830 bit 5: positions without the 2^31 offset.
+const NO_OFFSET: u32 = 1 << 5;
+
 /// The parameter table: (P, CiA object, conversion).
 const TABLE: [(u16, u16, Conversion); 7] = [
     (300, 0x6040, Conversion::Same),
@@ -59,6 +64,8 @@ pub(super) fn read(ctx: &Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut 
     };
     let y = match conversion {
         Conversion::Same => x,
+        // P0830 bit 5 (§4.3.6): no offset.
+        Conversion::Offset if ctx.read_u32(CONFIGURATION, 0).is_some_and(|c| c & NO_OFFSET != 0) => x,
         Conversion::Offset => x.wrapping_add(i32::MIN),
         Conversion::DriveMode => i32::from(drive_mode(x as i8)),
     };
