@@ -134,6 +134,22 @@ fn a35_m_l2914_modes_of_operation_2_only_display_2() {
     assert_eq!(req(&mut b, &[0x2F, 0x60, 0x60, 0x00, 0x03]), abort(0x6060, 0, 0x0609_0031));
     assert_eq!(req(&mut b, &[0x2F, 0x60, 0x60, 0x00, 0x01]), abort(0x6060, 0, 0x0609_0032));
     assert_eq!(req(&mut b, &[0x40, 0x61, 0x60, 0x00]), [0x4F, 0x61, 0x60, 0x00, 0x02, 0x00, 0x00, 0x00]);
+    // Write-only: a read answers the manual's "not readable" 0x06010000 (§8.3.3, D43).
+    assert_eq!(req(&mut b, &[0x40, 0x60, 0x60, 0x00]), abort(0x6060, 0, 0x0601_0000));
+}
+
+#[test]
+fn m_l1818_m_l2034_pdo_abort_codes() {
+    let mut b = operational();
+    b.nmt(0x80, 1);
+    assert_eq!(req(&mut b, &[0x23, 0x00, 0x14, 0x01, 0x01, 0x02, 0x00, 0x80]), ok_write(0x1400, 1));
+    // RPDO transmission types 241-253 are not allowed (M-L1818-1824).
+    for tt in [241u8, 251, 252, 253] {
+        assert_eq!(req(&mut b, &[0x2F, 0x00, 0x14, 0x02, tt]), abort(0x1400, 2, 0x0609_0030), "{tt}");
+    }
+    // Sub 4 exists for compatibility only: any access aborts (M-L2034-2038).
+    assert_eq!(req(&mut b, &[0x40, 0x00, 0x18, 0x04]), abort(0x1800, 4, 0x0609_0011));
+    assert_eq!(req(&mut b, &[0x40, 0x00, 0x14, 0x04]), abort(0x1400, 4, 0x0609_0011));
 }
 
 #[test]

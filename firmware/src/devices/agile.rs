@@ -79,6 +79,11 @@ impl Application for App {
         }
     }
 
+    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        // D43: the write-only 0x6060 answers the manual's only "not readable" code (§8.3.3).
+        ((index, sub) == (MODES_OF_OPERATION, 0)).then_some(Err(AbortCode::UnsupportedAccess))
+    }
+
     fn download_check(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
         let len = data_sets(ctx, index, sub)?;
         Some(match size {
@@ -236,6 +241,8 @@ const FAULT_NMT: u16 = 0x2025;
 const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
 /// F23.nn heartbeat of node nn.
 const FAULT_HEARTBEAT: u16 = 0x2300;
+/// 0x6060 modes of operation (write-only).
+const MODES_OF_OPERATION: u16 = 0x6060;
 /// 0x6040 controlword.
 const CONTROLWORD: u16 = 0x6040;
 /// p.387 CAN node number (INTEGER16, −1…127).
