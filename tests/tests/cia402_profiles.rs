@@ -227,8 +227,13 @@ fn shutdown_option_1_brakes_on_the_slow_down_ramp_before_transition_8() {
     // 0x6084 = 100,000 inc/s²: 200 ms to stop, Operation enabled until then.
     b.run_until(ms(850));
     assert_eq!(statusword(&mut b) & 0x6F, 0x27);
-    b.run_until(ms(950));
+    // The demand stands at 900 ms; the state changes once the axis has
+    // followed it to a standstill (0x606C = 0), within 0.1 s.
+    b.run_until(ms(900));
+    assert_eq!(statusword(&mut b) & 0x6F, 0x27);
+    b.run_until(ms(1050));
     assert_eq!(statusword(&mut b) & 0x6F, 0x21, "8 once stopped: Ready to switch on");
+    assert_eq!(i32_of(b.sdo_upload(2, 0x606C, 0).unwrap()), 0);
 }
 
 #[test]

@@ -158,7 +158,9 @@ impl<D: Drive> Cia402<D> {
         };
         self.drive.command(set_point);
         self.drive.tick();
-        if d.velocity_q == 0 {
+        // A stop completes when the demand is at rest and the axis has followed
+        // it (0x606C reads 0): disabling earlier would let the motor coast on.
+        if d.velocity_q == 0 && s.units.velocity_to_user(i64::from(self.drive.velocity())) == 0 {
             self.stopped();
         }
     }
