@@ -262,3 +262,25 @@ fn m_l792_0x6041_always_takes_actual_value_slot_1() {
     // 6041, 6064, 606C, 6061, 6077, 6062, 606B, 6044 = 8: one more is refused.
     assert_eq!(map(&mut b, 0x1A03, &[0x6043_0010]), abort(0x1A03, 0, 0x0604_0042));
 }
+
+#[test]
+fn m_l885_user_units_feed_36000_per_revolution_make_36000_be_65536_increments() {
+    let mut b = enabled(1);
+    // §4.4.5's example: 360.00° at 1/100° per revolution.
+    assert_eq!(b.sdo_write(ID, 0x6092, 1, &36_000u32.to_le_bytes()), ok_write(0x6092, 1));
+    assert_eq!(b.sdo_write(ID, 0x6092, 2, &1u32.to_le_bytes()), ok_write(0x6092, 2));
+    assert_eq!(b.sdo_write(ID, 0x6067, 0, &2u32.to_le_bytes()), ok_write(0x6067, 0));
+    assert_eq!(b.sdo_write(ID, 0x6081, 0, &360_000u32.to_le_bytes()), ok_write(0x6081, 0));
+    assert_eq!(b.sdo_write(ID, 0x6083, 0, &3_600_000u32.to_le_bytes()), ok_write(0x6083, 0));
+    assert_eq!(b.sdo_write(ID, 0x6084, 0, &3_600_000u32.to_le_bytes()), ok_write(0x6084, 0));
+    let target = 36_000i32.to_le_bytes();
+    b.rx(ms(400), RPDO3, &[0x1F, 0x00, target[0], target[1], target[2], target[3]]);
+    b.rx(ms(450), RPDO3, &[0x0F, 0x00, target[0], target[1], target[2], target[3]]);
+    b.run_until(ms(1200));
+    assert!((35_999..=36_001).contains(&i32_at(&mut b, 0x6064)));
+    let inc = canopen_core::profiles::cia402::drive::Drive::position(&b.node.app().drive.drive);
+    assert!((65_535..=65_537).contains(&inc), "one revolution: {inc}");
+    // More than 255 revolutions and feeds from 2^24 are refused (§4.4.5).
+    assert_eq!(b.sdo_write(ID, 0x6092, 2, &256u32.to_le_bytes()), abort(0x6092, 2, 0x0609_0031));
+    assert_eq!(b.sdo_write(ID, 0x6092, 1, &(1u32 << 24).to_le_bytes()), abort(0x6092, 1, 0x0609_0031));
+}
