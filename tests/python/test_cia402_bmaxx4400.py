@@ -60,8 +60,8 @@ class Bmaxx4400(unittest.TestCase):
         self.mode(-3)
         self.assertEqual(self.drive.sdo[0x6061].raw, 3)
         self.drive.state = "OPERATION ENABLED"
-        self.drive.sdo[0x60FF].raw = 65536  # one revolution per second
-        self.wait_for("1 rev/s", lambda: abs(self.i32(0x606C) - 65536) < 30)
+        self.drive.sdo[0x60FF].raw = 60  # min⁻¹: one revolution per second
+        self.wait_for("60 min⁻¹", lambda: self.i32(0x606C) == 60)
         moved = self.i32(0x6064)
         time.sleep(0.3)
         self.assertGreater(self.i32(0x6064) - moved, 10000)

@@ -163,12 +163,13 @@ fn pp_absolute_move_through_rpdo3_with_p0462_offset_by_2_31() {
 fn pv_move_in_manufacturer_speed_control_minus_3_through_rpdo4() {
     let mut b = enabled(-3);
     assert_eq!(b.sdo_upload(ID, 0x6061, 0), Ok(vec![3]));
-    // One revolution per second.
-    let v = 65_536i32.to_le_bytes();
+    // 60 min⁻¹: one revolution per second (App. C: speeds in min⁻¹, D57).
+    let v = 60i32.to_le_bytes();
     b.rx(ms(400), RPDO4, &[0x0F, 0x00, v[0], v[1], v[2], v[3]]);
     b.run_until(ms(700));
-    // Within 0.03 %: the profile's Q16 speed per 1 ms tick at 65536 inc/rev (D50).
-    assert!((65_516..=65_556).contains(&i32_at(&mut b, 0x606C)));
+    assert_eq!(i32_at(&mut b, 0x606C), 60);
+    assert_eq!(i32_at(&mut b, 0x606B), 60);
+    assert_eq!(i32_at(&mut b, 0x60FF), 60, "the target stays in min⁻¹");
     assert_eq!(statusword(&mut b) & 0x0400, 0x0400, "target reached");
     let p = i32_at(&mut b, 0x6064);
     b.run_until(ms(1700));
@@ -187,9 +188,28 @@ fn manufacturer_modes_hold_the_axis() {
 }
 
 #[test]
+fn m_l696_p0830_bit_2_speeds_in_tenths_of_min_1() {
+    let mut b = operational();
+    assert_eq!(b.sdo_write(ID, 0x433E, 0, &0x0004u16.to_le_bytes()), ok_write(0x433E, 0));
+    for (t, cw) in [(100, 0x06u8), (200, 0x07), (300, 0x0F)] {
+        b.rx(ms(t), RPDO2, &[cw, 0, 3]);
+    }
+    // 200.0 min⁻¹ is 2000 (§4.3.3, V31).
+    let v = 2000i32.to_le_bytes();
+    b.rx(ms(400), RPDO4, &[0x0F, 0x00, v[0], v[1], v[2], v[3]]);
+    b.run_until(ms(800));
+    assert_eq!(i32_at(&mut b, 0x606C), 2000);
+    let p = i32_at(&mut b, 0x6064);
+    b.run_until(ms(1100));
+    let moved = i32_at(&mut b, 0x6064) - p;
+    // 200 min⁻¹ = 3⅓ rev/s: 65536 BE in 0.3 s.
+    assert!((65_400..=65_700).contains(&moved), "{moved}");
+}
+
+#[test]
 fn m_l1863_life_guarding_loss_with_0x6007_3_quick_stops() {
     let mut b = enabled(3);
-    let v = 65_536i32.to_le_bytes();
+    let v = 60i32.to_le_bytes();
     b.rx(ms(400), RPDO4, &[0x0F, 0x00, v[0], v[1], v[2], v[3]]);
     b.run_until(ms(700));
     assert_eq!(b.sdo_write(ID, 0x6007, 0, &3i16.to_le_bytes()), ok_write(0x6007, 0));

@@ -20,6 +20,7 @@ use canopen_core::time::Instant;
 mod errors;
 mod params;
 mod slots;
+mod speed;
 
 pub use errors::BmaxxDrive;
 
@@ -30,11 +31,13 @@ pub use errors::BmaxxDrive;
 pub struct App {
     /// The CiA 402 profile and the drive behind it.
     pub drive: Cia402<BmaxxDrive>,
+    /// 0x606B and 0x606C as last converted to speed units (D57).
+    speeds: [i32; 2],
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW) };
+    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2] };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -127,16 +130,19 @@ impl Application for App {
             self.set_mode(ctx);
         } else {
             // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
-            self.drive.written(ctx, &PROFILE, index);
+            self.profile_written(ctx, index);
         }
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
         self.drive.sample(ctx);
+        speed::actuals(ctx, &mut self.speeds);
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
-        self.drive.poll(ctx, &PROFILE)
+        let next = self.drive.poll(ctx, &PROFILE);
+        speed::actuals(ctx, &mut self.speeds);
+        next
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
@@ -151,6 +157,17 @@ impl Application for App {
 }
 
 impl App {
+    /// The profile hears of `index`; it reads 0x60FF in user units per
+    /// second while the object holds min⁻¹ (D57).
+    fn profile_written(&mut self, ctx: &mut Ctx<'_>, index: u16) {
+        let Ok(&[a, b, c, d]) = ctx.read(speed::TARGET_VELOCITY, 0) else { return };
+        if let Some(user) = speed::target_for_profile(ctx) {
+            let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &user.to_le_bytes());
+        }
+        self.drive.written(ctx, &PROFILE, index);
+        let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &[a, b, c, d]);
+    }
+
     /// 0x6060 changed: the profile runs the mode [`mode_of`] gives, and
     /// 0x6061 shows the manual's read-back value.
     fn set_mode(&mut self, ctx: &mut Ctx<'_>) {
@@ -158,7 +175,7 @@ impl App {
         let (runs, shows) = mode_of(requested as i8).unwrap_or((0, 0));
         // The profile reads its mode from 0x6060: it sees the mode it runs for the call.
         let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[runs as u8]);
-        self.drive.written(ctx, &PROFILE, MODES_OF_OPERATION);
+        self.profile_written(ctx, MODES_OF_OPERATION);
         let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[requested]);
         let _ = ctx.set_value(MODES_OF_OPERATION_DISPLAY, 0, &[shows as u8]);
     }
