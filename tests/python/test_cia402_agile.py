@@ -54,9 +54,10 @@ class AgileVl(unittest.TestCase):
             self.assertLess(time.monotonic() - start, 0.4, state)
 
     def test_vl_move_on_the_ramps(self):
-        # 3000 min⁻¹ per second up and down.
+        # 3000 min⁻¹ per second up, down and for quick stop.
         self.drive.sdo[0x6048][1].raw = 3000
         self.drive.sdo[0x6049][1].raw = 3000
+        self.drive.sdo[0x604A][1].raw = 3000
         self.drive.state = "OPERATION ENABLED"
         self.drive.sdo[0x6042].raw = 600
         start = time.monotonic()
