@@ -267,3 +267,20 @@ fn unsupported_modes_are_refused_and_the_display_follows_the_mode() {
     assert!(out.contains(&(0x585, ok_write(0x6060, 0))), "{out:x?}");
     assert_eq!(d.b.sdo_upload(ID, 0x6061, 0), Ok(vec![1]));
 }
+
+#[test]
+fn pp_profile_velocity_above_the_motor_limit_is_capped_and_lands_without_overshoot() {
+    let mut d = Drive::enabled(1);
+    // 0x6081 = 500 mm/s; the roller's motor tops out at 436 mm/s.
+    d.b.rx(ms(1000), RPDO1, &[0x0F, 0, 1, 0xF4, 0x01, 0, 0]);
+    d.set_point(1000, 0x1F, 300);
+    d.set_point(1010, 0x0F, 300);
+    let mut furthest = 0;
+    for t in (1020..2500).step_by(5) {
+        d.at(t);
+        furthest = furthest.max(d.position());
+        // The trajectory asks no more than the motor can give (0x606B).
+        assert!(d.demand_velocity() <= 436, "{} mm/s demanded at {t} ms", d.demand_velocity());
+    }
+    assert_eq!((d.position(), furthest), (300, 300));
+}

@@ -245,11 +245,14 @@ fn bmaxx_pdo_mapping_sequence_of_the_manual_d27() {
     assert!(!out.iter().any(|f| f.0 == 0x282), "type 254 does not send on entering Operational: {out:x?}");
     let tpdo2: Vec<u64> = b.run_until(ms(25)).iter().filter(|(_, f)| f.0 == 0x282).map(|(t, _)| t.as_micros() / 1000).collect();
     assert_eq!(tpdo2, [10, 20]);
-    // Mappings and COB-IDs change in Pre-operational only.
+    // Mappings change in Pre-operational only; in Operational a COB-ID follows CiA 301.
     assert_eq!(b.sdo_write(2, 0x1A00, 1, &[0x10, 0x00, 0x41, 0x60]), abort(0x1A00, 1, 0x0800_0022));
     assert_eq!(b.sdo_write(2, 0x1A00, 2, &[0x10, 0x00, 0x41, 0x60]), abort(0x1A00, 2, 0x0800_0022));
     assert_eq!(b.sdo_write(2, 0x1A00, 0, &[1]), abort(0x1A00, 0, 0x0800_0022));
-    assert_eq!(b.sdo_write(2, 0x1800, 1, &[0x82, 0x01, 0x00, 0x00]), abort(0x1800, 1, 0x0800_0022));
+    assert_eq!(b.sdo_write(2, 0x1800, 1, &[0x82, 0x01, 0x00, 0x00]), abort(0x1800, 1, 0x0609_0030), "valid: no move");
+    assert_eq!(b.sdo_write(2, 0x1800, 1, &[0x07, 0x02, 0x00, 0x80]), ok_write(0x1800, 1), "made invalid");
+    let out = b.rx(b.now, 0x602, &[0x23, 0x00, 0x18, 0x01, 0x82, 0x01, 0x00, 0x00]);
+    assert_eq!(out, [(0x182, vec![0, 0, 0, 0]), (0x582, ok_write(0x1800, 1))], "valid again on 0x182, sent at once (type 255)");
     assert_eq!(b.sdo_write(2, 0x1801, 5, &[0x14, 0x00]), ok_write(0x1801, 5), "an event timer may change");
 }
 

@@ -292,6 +292,10 @@ impl Drive for Axis {
     fn max_acceleration(&self) -> u32 {
         self.params.max_acceleration
     }
+
+    fn max_velocity(&self) -> u32 {
+        self.params.max_velocity
+    }
 }
 
 /// `from` moved towards `to` by at most `step`.

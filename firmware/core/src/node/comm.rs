@@ -257,12 +257,14 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                 dict.write(image, index, sub, data).map_err(AbortCode::from).map(|()| self.reconfigure(index, dict, image, node_id, now))
             }
             0x1400..=0x1BFF => {
-                let rewrite = options.pdo_rewrite_while_valid;
+                let operational = state == State::Operational;
                 let mapping = matches!(index, 0x1600..=0x17FF | 0x1A00..=0x1BFF);
-                if rewrite && state == State::Operational && (mapping || sub == 1) {
-                    // The manual's order: mappings and COB-IDs change in Pre-operational only.
+                if options.pdo_rewrite_while_valid && operational && mapping {
+                    // The manual's order: mappings change in Pre-operational only.
                     return Some(Err(AbortCode::DeviceState));
                 }
+                // In Operational a COB-ID follows CiA 301 (it moves only while the PDO is not valid).
+                let rewrite = options.pdo_rewrite_while_valid && !operational;
                 match self.pdos.write_object_with(index, sub, data, dict, image, rewrite) {
                     Some(result) => result,
                     None => dict.write(image, index, sub, data).map_err(Into::into),

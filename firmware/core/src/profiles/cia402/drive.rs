@@ -78,4 +78,7 @@ pub trait Drive {
     /// The drive's own acceleration limit [inc/s²]: the "current limit"
     /// deceleration of the option codes, and the ramp when an object gives none.
     fn max_acceleration(&self) -> u32;
+    /// The motor's speed limit [inc/s]: the trajectory never asks for more
+    /// (a demand the motor cannot follow would overshoot).
+    fn max_velocity(&self) -> u32;
 }

@@ -84,7 +84,7 @@ impl<D: Drive> Cia402<D> {
         let window = |index, default: u32| u.magnitude_to_inc(unsigned(ctx, index, 0).unwrap_or(default));
         let homing_speed = |sub, default: u32| {
             let v = unsigned(ctx, index::HOMING_SPEEDS, sub).filter(|v| *v != 0).unwrap_or(default);
-            speed_q(u.magnitude_to_inc(v))
+            speed_q(u.magnitude_to_inc(v).min(i64::from(self.drive.max_velocity())))
         };
         let following = unsigned(ctx, index::FOLLOWING_ERROR_WINDOW, 0).filter(|w| *w != u32::MAX);
         Params {
@@ -92,7 +92,7 @@ impl<D: Drive> Cia402<D> {
             deceleration: acceleration_q(deceleration),
             quick_stop: acceleration_q(quick_stop),
             limit: acceleration_q(limit),
-            speed: speed_q(u.magnitude_to_inc(speed)),
+            speed: speed_q(u.magnitude_to_inc(speed).min(i64::from(self.drive.max_velocity()))),
             halt: Reaction::of(signed(ctx, index::HALT_OPTION, 0).map_or(-1, |v| v), Reaction::SlowDownRamp),
             position_window: window(index::POSITION_WINDOW, config.position_window),
             position_window_ticks: ticks(unsigned_or(ctx, index::POSITION_WINDOW_TIME, 0, 0)),
@@ -133,7 +133,10 @@ impl<D: Drive> Cia402<D> {
         } else {
             match s.mode {
                 mode::PP => s.pp.tick(d, p.speed, p.acceleration, p.deceleration, s.controlword & cw::NEW_SET_POINT != 0),
-                mode::PV | mode::VL => d.ramp(s.velocity_target, p.acceleration, p.deceleration),
+                mode::PV | mode::VL => {
+                    let limit = speed_q(i64::from(self.drive.max_velocity()));
+                    d.ramp(s.velocity_target.clamp(-limit, limit), p.acceleration, p.deceleration);
+                }
                 mode::HM => {
                     let started = core::mem::take(&mut s.hm_started);
                     match s.hm.tick(self.drive.switches(), started) {
