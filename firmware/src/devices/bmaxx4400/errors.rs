@@ -83,4 +83,7 @@ impl Drive for BmaxxDrive {
     fn max_acceleration(&self) -> u32 {
         self.axis.max_acceleration()
     }
+    fn max_velocity(&self) -> u32 {
+        self.axis.max_velocity()
+    }
 }
