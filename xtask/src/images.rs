@@ -33,7 +33,7 @@ pub const FLASH_BUDGET: u64 = 48 * 1024;
 /// less the 4 KiB of stored parameters, `memory.x`).
 pub const DRIVE_FLASH_BUDGET: u64 = 60 * 1024;
 /// The devices whose images run the CiA 402 profile ([`DRIVE_FLASH_BUDGET`]).
-pub const DRIVES: [&str; 1] = ["ec5000"];
+pub const DRIVES: [&str; 3] = ["ec5000", "agile", "bmaxx4400"];
 
 /// The flash budget of `device`'s images.
 pub fn flash_budget(device: &str) -> u64 {

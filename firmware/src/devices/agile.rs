@@ -12,26 +12,76 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::node::{Application, Ctx};
+use canopen_core::axis::{Axis, AxisParams};
+use canopen_core::node::{Application, CommError, Ctx, NmtEvent, Source};
+use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
+use canopen_core::profiles::cia402::{Cia402, Config};
+use canopen_core::services::nmt::State;
 use canopen_core::services::store;
+use canopen_core::time::Instant;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
-/// the firmware beyond the dictionary.
-#[derive(Debug, Default)]
-pub struct App;
+/// the firmware beyond the dictionary, and the CiA 402 profile in velocity
+/// mode driving the axis model (until a board drives the inverter's motor).
+#[derive(Debug)]
+pub struct App {
+    /// The CiA 402 profile (vl only) and the drive behind it.
+    pub drive: Cia402<Axis>,
+    /// In NMT Operational: leaving it is a bus fault.
+    operational: bool,
+}
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App;
+    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), operational: false };
 }
+
+/// The profile's constants for the Agile (decisions D42-D47 in docs/devices/agile.md).
+pub const PROFILE: Config = Config {
+    // vl works in min⁻¹ at the motor shaft; the axis model counts 4096 per revolution (D42).
+    increments_per_rev: 4096,
+    // The device reacts to leaving Operational itself, with the other bus faults (D44).
+    leaving_operational_aborts: false,
+    // vl has no position or velocity window; pp/pv/hm objects are not in the dictionary.
+    position_window: 0,
+    velocity_window: 0,
+    homing_speeds: (0, 0),
+};
+
+/// The inverter's motor as the axis model simulates it: a 4-pole machine up
+/// to 3000 min⁻¹ (100 Hz), 0.1 s from standstill to full speed at the
+/// inverter's current limit (the vl ramps 0x6048/0x6049 are slower), a
+/// 400 V mains DC link of 560 V.
+pub const AXIS: AxisParams = AxisParams {
+    increments_per_rev: 4096,
+    max_acceleration: 2_048_000,
+    max_velocity: 204_800,
+    position_gain: 40,
+    friction_permille: 0,
+    ambient_c: 25,
+    rise_at_rated_c: 50,
+    thermal_tau_s: 300,
+    warning_c: 80,
+    fault_c: 95,
+    dc_link_mv: 560_000,
+    following_limit: 0,
+    limits: (0, 0),
+    home_switch: None,
+};
 
 impl Application for App {
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.drive.check_write(index, data)?;
         match (index, sub, data) {
             // D6: the communication cycle period in whole milliseconds only.
             (0x1006, 0, [a, b, c, d]) if u32::from_le_bytes([*a, *b, *c, *d]) % 1000 != 0 => Err(AbortCode::InvalidValue),
             _ => Ok(()),
         }
+    }
+
+    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        // D43: the write-only 0x6060 answers the manual's only "not readable" code (§8.3.3).
+        ((index, sub) == (MODES_OF_OPERATION, 0)).then_some(Err(AbortCode::UnsupportedAccess))
     }
 
     fn download_check(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
@@ -49,8 +99,82 @@ impl Application for App {
         Some((1..=4).try_for_each(|set| ctx.write_object(index, set, data)))
     }
 
-    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
-        // No rule of this device reacts to an object an RPDO writes.
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+        // §11.3 (M-L3279-3282), D45: "enable operation" in Switch on disabled
+        // runs Shutdown first (0x0000 → 0x000F), then transitions 3 and 4.
+        if index == CONTROLWORD && self.drive.state() == PdsState::SwitchOnDisabled {
+            let word = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0) as u16;
+            if word & 0x8F == 0x0F {
+                let _ = ctx.set_value(CONTROLWORD, 0, &(word & !0x0001).to_le_bytes());
+                self.drive.written(ctx, &PROFILE, index);
+                let _ = ctx.set_value(CONTROLWORD, 0, &word.to_le_bytes());
+            }
+        }
+        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
+        self.drive.written(ctx, &PROFILE, index);
+    }
+
+    fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        self.drive.sample(ctx);
+    }
+
+    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        self.drive.poll(ctx, &PROFILE)
+    }
+
+    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        let bus_fault = match event {
+            NmtEvent::ResetApplication => {
+                self.drive.drive.configure(AXIS);
+                self.operational = false;
+                None
+            }
+            NmtEvent::Entered(state) => {
+                let left = self.operational && state != State::Operational;
+                self.operational = state == State::Operational;
+                left.then_some(FAULT_NMT)
+            }
+            NmtEvent::CommunicationError(CommError::BusOff) => Some(FAULT_BUS_OFF),
+            NmtEvent::CommunicationError(CommError::LifeGuarding) => Some(FAULT_GUARDING),
+            NmtEvent::CommunicationError(CommError::Heartbeat(node)) => Some(FAULT_HEARTBEAT | u16::from(node)),
+            NmtEvent::CommunicationError(CommError::RpdoTimeout(n)) => Some(FAULT_RPDO_TIMEOUT + u16::from(n)),
+            _ => None,
+        };
+        match bus_fault {
+            Some(fault) if self.drive.state().drive_function() => self.bus_fault(ctx, event, fault),
+            _ => self.drive.on_nmt(ctx, &PROFILE, event),
+        }
+    }
+}
+
+impl App {
+    /// §1.9/§9.5.1 (M-L670-700, L2574-2597), D44: the reaction 0x6007 (p.388)
+    /// asks for on a bus fault while the drive function is on. 1, −1 and −2
+    /// end in Fault with 0x603F 0x1000 and the inverter's fault key (F20.nn,
+    /// F23.nn) in EMCY bytes 6-7; 2 and 3 are the profile's disable voltage
+    /// and quick stop.
+    fn bus_fault(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent, fault: u16) {
+        let [lo, hi] = fault.to_le_bytes();
+        let info = [0, 0, 0, lo, hi];
+        let reaction = match ctx.read(ABORT_CONNECTION, 0) {
+            Ok([1, 0]) => Reaction::Coast,
+            Ok([0xFF, 0xFF]) => Reaction::SlowDownRamp,
+            Ok([0xFE, 0xFF]) => Reaction::QuickStopRamp,
+            // 0, 2 and 3: the profile's reaction (a departure from Operational
+            // counts as a communication error only here, so it is passed as one).
+            _ => {
+                let event = match event {
+                    NmtEvent::Entered(_) => NmtEvent::CommunicationError(CommError::BusOff),
+                    other => other,
+                };
+                self.drive.on_nmt(ctx, &PROFILE, event);
+                return;
+            }
+        };
+        self.drive.raise_fault(ctx, GENERIC_ERROR, info, reaction);
+        if let NmtEvent::Entered(_) = event {
+            self.drive.on_nmt(ctx, &PROFILE, event);
+        }
     }
 }
 
@@ -103,6 +227,24 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
     (node_id, bit_rate)
 }
 
+/// 0x6007 abort connection option code (p.388).
+const ABORT_CONNECTION: u16 = 0x6007;
+/// 0x603F for the faults §12.5 does not map (M-L2636-2656): the bus faults.
+const GENERIC_ERROR: u16 = 0x1000;
+/// Fault keys (§7.3, M-L688-700): group F20 high byte, code low byte.
+const FAULT_BUS_OFF: u16 = 0x2021;
+/// F20.22 guarding failure.
+const FAULT_GUARDING: u16 = 0x2022;
+/// F20.25 NMT state change (Operational → other).
+const FAULT_NMT: u16 = 0x2025;
+/// F20.2A-2C RPDO1-3 event-time timeout (§9.2.19).
+const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
+/// F23.nn heartbeat of node nn.
+const FAULT_HEARTBEAT: u16 = 0x2300;
+/// 0x6060 modes of operation (write-only).
+const MODES_OF_OPERATION: u16 = 0x6060;
+/// 0x6040 controlword.
+const CONTROLWORD: u16 = 0x6040;
 /// p.387 CAN node number (INTEGER16, −1…127).
 const NODE_NUMBER: u16 = 0x2183;
 /// p.385 CAN baud rate (UNSIGNED16, codes 1…8).

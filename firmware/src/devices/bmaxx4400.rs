@@ -12,17 +12,87 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::node::{Application, Ctx, ServiceOptions};
+use canopen_core::axis::AxisParams;
+use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::profiles::cia402::{Cia402, Config, mode};
+use canopen_core::time::Instant;
+
+mod errors;
+mod params;
+mod slots;
+mod speed;
+
+pub use errors::BmaxxDrive;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
-/// the firmware beyond the dictionary.
-#[derive(Debug, Default)]
-pub struct App;
+/// the firmware beyond the dictionary, and the CiA 402 profile driving the
+/// axis model (until the option module talks to a drive).
+#[derive(Debug)]
+pub struct App {
+    /// The CiA 402 profile and the drive behind it.
+    pub drive: Cia402<BmaxxDrive>,
+    /// 0x606B and 0x606C as last converted to speed units (D57).
+    speeds: [i32; 2],
+}
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App;
+    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2] };
 }
+
+/// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
+pub const PROFILE: Config = Config {
+    // §4.4.5: 65536 increments per motor revolution; the default 0x6092 (65536 BE per
+    // revolution) makes 1 BE = 1 INC (D50).
+    increments_per_rev: 65536,
+    // Only guarding/heartbeat loss triggers 0x6007 (App. C 6007h); NMT commands do not.
+    leaving_operational_aborts: false,
+    // 0x606D is not in the dictionary: 0.1 revolution per second (D50).
+    position_window: 0,
+    velocity_window: 6554,
+    homing_speeds: (0, 0),
+};
+
+/// The motor as the axis model simulates it: 65536 increments per
+/// revolution, up to 3000 min⁻¹ (3,276,800 inc/s), 0.1 s from standstill to
+/// full speed, following-error fault at one revolution, a 560 V DC link.
+pub const AXIS: AxisParams = AxisParams {
+    increments_per_rev: 65536,
+    max_acceleration: 32_768_000,
+    max_velocity: 3_276_800,
+    position_gain: 40,
+    friction_permille: 0,
+    ambient_c: 25,
+    rise_at_rated_c: 60,
+    thermal_tau_s: 300,
+    warning_c: 90,
+    fault_c: 105,
+    dc_link_mv: 560_000,
+    following_limit: 65_536,
+    limits: (0, 0),
+    home_switch: None,
+};
+
+/// A 0x6060 value the manual accepts (App. C, M-L5241-5410), with the mode
+/// the profile runs for it and what 0x6061 shows (D51): −3 (drive speed
+/// control) runs pv and shows 3; 7 (interpolated position, drive −4) and the
+/// manufacturer modes hold the axis (profile mode 0) and show themselves,
+/// jog (−6) as −6 and spindle positioning as −106. `None`: refused.
+const fn mode_of(requested: i8) -> Option<(i8, i8)> {
+    Some(match requested {
+        mode::PP | mode::VL | mode::HM => (requested, requested),
+        mode::PV | -3 => (mode::PV, mode::PV),
+        IP | -106 | -7..=-1 => (0, requested),
+        _ => return None,
+    })
+}
+
+/// 0x6060 interpolated position mode.
+const IP: i8 = 7;
+/// 0x6060 modes of operation.
+const MODES_OF_OPERATION: u16 = 0x6060;
+/// 0x6061 modes of operation display.
+const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
 impl Application for App {
     /// §5.5.3 (D27): mapping entries and COB-IDs are rewritten while the PDO
@@ -41,8 +111,73 @@ impl Application for App {
         }
     }
 
-    fn rpdo_written(&mut self, _ctx: &mut Ctx<'_>, _n: u8) {
-        // No rule of this device reacts to an object an RPDO writes.
+    fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        match (index, data) {
+            // D51: the manual's modes, manufacturer-specific ones included; 0, 4, 5, 8..127 are unused.
+            (MODES_OF_OPERATION, [m]) => mode_of(*m as i8).map(|_| ()).ok_or(AbortCode::InvalidValue),
+            // D55: the BACI's 8 set-point and 8 actual-value slots.
+            (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
+            _ => self.drive.check_write(index, data),
+        }
+    }
+
+    fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        params::read(ctx, index, sub, offset, buf)
+    }
+
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+        if index == MODES_OF_OPERATION {
+            self.set_mode(ctx);
+        } else {
+            // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
+            self.profile_written(ctx, index);
+        }
+    }
+
+    fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        self.drive.sample(ctx);
+        speed::actuals(ctx, &mut self.speeds);
+    }
+
+    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        let next = self.drive.poll(ctx, &PROFILE);
+        speed::actuals(ctx, &mut self.speeds);
+        next
+    }
+
+    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        if event == NmtEvent::ResetApplication {
+            self.drive.drive.axis.configure(AXIS);
+        }
+        self.drive.on_nmt(ctx, &PROFILE, event);
+        if event == NmtEvent::ResetApplication {
+            self.set_mode(ctx);
+        }
+    }
+}
+
+impl App {
+    /// The profile hears of `index`; it reads 0x60FF in user units per
+    /// second while the object holds min⁻¹ (D57).
+    fn profile_written(&mut self, ctx: &mut Ctx<'_>, index: u16) {
+        let Ok(&[a, b, c, d]) = ctx.read(speed::TARGET_VELOCITY, 0) else { return };
+        if let Some(user) = speed::target_for_profile(ctx) {
+            let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &user.to_le_bytes());
+        }
+        self.drive.written(ctx, &PROFILE, index);
+        let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &[a, b, c, d]);
+    }
+
+    /// 0x6060 changed: the profile runs the mode [`mode_of`] gives, and
+    /// 0x6061 shows the manual's read-back value.
+    fn set_mode(&mut self, ctx: &mut Ctx<'_>) {
+        let requested = ctx.read(MODES_OF_OPERATION, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0);
+        let (runs, shows) = mode_of(requested as i8).unwrap_or((0, 0));
+        // The profile reads its mode from 0x6060: it sees the mode it runs for the call.
+        let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[runs as u8]);
+        self.profile_written(ctx, MODES_OF_OPERATION);
+        let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[requested]);
+        let _ = ctx.set_value(MODES_OF_OPERATION_DISPLAY, 0, &[shows as u8]);
     }
 }
 

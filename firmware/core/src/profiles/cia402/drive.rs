@@ -64,6 +64,11 @@ pub trait Drive {
     fn dc_link_mv(&self) -> u32;
     /// The active fault as a CiA 402 error code (0x603F), 0 for none.
     fn fault(&self) -> u16;
+    /// The manufacturer-specific field of the fault's EMCY (bytes 3-7),
+    /// such as the drive's own error number; zeros unless a drive has one.
+    fn fault_info(&self) -> [u8; 5] {
+        [0; 5]
+    }
     /// A warning condition (statusword bit 7), such as a temperature near its limit.
     fn warning(&self) -> bool;
     /// Clears the fault if its cause is gone; false if it persists.

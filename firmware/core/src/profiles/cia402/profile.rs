@@ -363,10 +363,25 @@ impl<D: Drive> Cia402<D> {
     /// Transition 13: a fault in any state; the reaction 0x605E (default 2,
     /// quick stop ramp) runs if the drive still can, then transition 14.
     fn fault(&mut self, ctx: &mut Ctx<'_>, code: u16) {
+        let reaction = Reaction::of(signed(ctx, index::FAULT_REACTION_OPTION, 0).map_or(-1, |v| v), Reaction::QuickStopRamp);
+        self.fault_reacting(ctx, code, self.drive.fault_info(), reaction);
+    }
+
+    /// A fault the device detects (transition 13): 0x603F and an EMCY with
+    /// `code` and `info` (EMCY bytes 3-7), then `reaction` if the drive
+    /// function is on (Fault reaction active until the axis stands), else Fault
+    /// at once. For a device's own reactions, such as manufacturer-specific
+    /// 0x6007 values.
+    pub fn raise_fault(&mut self, ctx: &mut Ctx<'_>, code: u16, info: [u8; 5], reaction: Reaction) {
+        self.fault_reacting(ctx, code, info, reaction);
+        self.publish(ctx);
+    }
+
+    /// Transition 13 with the given fault reaction.
+    fn fault_reacting(&mut self, ctx: &mut Ctx<'_>, code: u16, info: [u8; 5], reaction: Reaction) {
         self.s.error_code = code;
         objects::set(ctx, index::ERROR_CODE, 2, i32::from(code));
-        ctx.raise_error(code, [0; 5]);
-        let reaction = Reaction::of(signed(ctx, index::FAULT_REACTION_OPTION, 0).map_or(-1, |v| v), Reaction::QuickStopRamp);
+        ctx.raise_error(code, info);
         if self.s.state.drive_function() && reaction != Reaction::Coast && self.drive.fault() == 0 {
             (self.s.state, self.s.reaction, self.s.braking) = (PdsState::FaultReactionActive, reaction, false);
         } else {

@@ -1,0 +1,99 @@
+"""CiA 402 through python-canopen's BaseNode402: the Baumüller b maXX 4400 in `vnode`.
+
+State changes through RPDO1 (0x6040) within BaseNode402's timeouts; a pv move in the
+manufacturer's speed control mode −3 measured by 0x606C and a pp move measured by 0x6064 and
+the drive parameter P0462 (0x6064 + 2^31). The dictionary has no 0x6502, so the modes are
+written to 0x6060 by SDO rather than through `op_mode` (docs/devices/bmaxx4400.md D51).
+"""
+
+import os
+import struct
+import time
+import unittest
+
+from canopen.profiles.p402 import BaseNode402
+
+from test_interop import ROOT, Vnode
+
+EDS = os.path.join(ROOT, "firmware", "eds", "bmaxx4400.eds")
+NODE_ID = 4
+
+
+class Bmaxx4400(unittest.TestCase):
+    def setUp(self):
+        self.v = Vnode(device="bmaxx4400", node_id=NODE_ID, eds=EDS)
+        self.addCleanup(self.v.close)
+        self.v.network.nodes.pop(NODE_ID, None)
+        self.drive = BaseNode402(NODE_ID, EDS)
+        self.v.network.add_node(self.drive)
+        self.drive.sdo.RESPONSE_TIMEOUT = 2.0
+        self.drive.sdo.upload(0x1000, 0)
+        self.drive.nmt.state = "PRE-OPERATIONAL"
+        # TPDO1 (0x6041) on change with a 100 ms event timer: BaseNode402 sees every
+        # statusword change and a steady period.
+        self.drive.sdo[0x1800][5].raw = 100
+        self.drive.setup_402_state_machine()
+        self.drive.nmt.state = "OPERATIONAL"
+
+    def i32(self, index):
+        return struct.unpack("<i", self.drive.sdo.upload(index, 0))[0]
+
+    def mode(self, value):
+        self.drive.sdo.download(0x6060, 0, struct.pack("<b", value))
+
+    def wait_for(self, what, condition, timeout=3.0):
+        end = time.monotonic() + timeout
+        while not condition():
+            self.assertLess(time.monotonic(), end, what)
+            time.sleep(0.01)
+
+    def test_state_changes_through_the_state_machine(self):
+        self.assertEqual(self.drive.sdo[0x6041].raw & 0x4F, 0x40)
+        for state in ["READY TO SWITCH ON", "SWITCHED ON", "OPERATION ENABLED", "SWITCHED ON",
+                      "READY TO SWITCH ON", "SWITCH ON DISABLED", "OPERATION ENABLED"]:
+            start = time.monotonic()
+            self.drive.state = state
+            self.assertEqual(self.drive.state, state)
+            self.assertLess(time.monotonic() - start, 0.4, state)
+
+    def test_speed_control_minus_3_reads_back_3_and_moves(self):
+        self.mode(-3)
+        self.assertEqual(self.drive.sdo[0x6061].raw, 3)
+        self.drive.state = "OPERATION ENABLED"
+        self.drive.sdo[0x60FF].raw = 60  # min⁻¹: one revolution per second
+        self.wait_for("60 min⁻¹", lambda: self.i32(0x606C) == 60)
+        moved = self.i32(0x6064)
+        time.sleep(0.3)
+        self.assertGreater(self.i32(0x6064) - moved, 10000)
+        # 0x605A's factory value 0 would coast to SWITCH ON DISABLED at once; 6 brakes on
+        # the quick stop ramp and stays in QUICK STOP ACTIVE.
+        self.drive.sdo[0x605A].raw = 6
+        self.drive.state = "QUICK STOP ACTIVE"
+        self.wait_for("standstill in QUICK STOP ACTIVE", lambda: self.i32(0x606C) == 0, 1.0)
+        self.assertEqual(self.drive.state, "QUICK STOP ACTIVE")
+        self.drive.state = "SWITCH ON DISABLED"
+
+    def test_profile_position_move(self):
+        self.mode(1)
+        self.drive.sdo[0x6067].raw = 16
+        self.drive.sdo[0x6081].raw = 655360
+        self.drive.sdo[0x6083].raw = 6553600
+        self.drive.sdo[0x6084].raw = 6553600
+        self.drive.state = "OPERATION ENABLED"
+        self.drive.sdo[0x607A].raw = 131072
+        self.drive.controlword = 0x1F
+        self.wait_for("set-point acknowledge", lambda: self.drive.sdo[0x6041].raw & 0x1000)
+        self.drive.controlword = 0x0F
+        self.wait_for("target reached at two revolutions",
+                      lambda: self.drive.sdo[0x6041].raw & 0x0400 and abs(self.i32(0x6064) - 131072) <= 1)
+        p0462 = struct.unpack("<I", self.drive.sdo.upload(0x41CE, 0))[0]
+        self.assertEqual(p0462, (self.i32(0x6064) + 2**31) % 2**32)
+
+    def test_manufacturer_modes_are_shown(self):
+        for value, shown in [(-106, -106), (-6, -6), (7, 7), (-4, -4), (2, 2)]:
+            self.mode(value)
+            self.assertEqual(struct.unpack("<b", self.drive.sdo.upload(0x6061, 0))[0], shown)
+
+
+if __name__ == "__main__":
+    unittest.main()
