@@ -134,8 +134,11 @@ fn test() -> Result<(), String> {
     run("cargo", &check)?;
     // The no_std crates must build for the MCU: the core, the five device
     // dictionaries, and every dictionary generated from the EDS corpus.
-    run("cargo", &["build", "--release", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "-p", "canopen-tests", "--lib"])?;
-    run("cargo", &["clippy", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "--", "-D", "warnings"])?;
+    run(
+        "cargo",
+        &["build", "--release", "--target", TARGET, "-p", "canopen-core", "-p", "canopen-firmware", "-p", "canopen-tests", "--lib"],
+    )?;
+    run("cargo", &["clippy", "--target", TARGET, "-p", "canopen-core", "-p", "canopen-firmware", "--", "-D", "warnings"])?;
     interop()?;
     ensure_apt(&[("qemu-system-arm", "qemu-system-arm"), ("arm-none-eabi-size", "binutils-arm-none-eabi")])?;
     images::build()?;
