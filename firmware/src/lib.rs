@@ -21,3 +21,11 @@ pub mod devices;
 pub mod runner;
 #[cfg(any(target_os = "none", test))]
 pub mod shared;
+
+/// What [`image!`] expands to, reached through this crate so that a crate
+/// using the macro needs no dependency for it.
+#[cfg(target_os = "none")]
+#[doc(hidden)]
+pub mod __private {
+    pub use static_cell::ConstStaticCell;
+}

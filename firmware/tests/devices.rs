@@ -4,7 +4,7 @@
 //! accessors and index constants reach the objects the manuals name.
 
 use canopen_core::od::{DataType, Dictionary, ObjectDictionary, OdError};
-use firmware::devices::{self, agile, bmaxx4400, ec5000, sendix, unitek_ds};
+use canopen_firmware::devices::{self, agile, bmaxx4400, ec5000, sendix, unitek_ds};
 
 fn image(d: &Dictionary, node_id: u8) -> Vec<u8> {
     let mut img = vec![0u8; d.defaults.len()];

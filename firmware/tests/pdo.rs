@@ -8,7 +8,7 @@ use canopen_core::od::{Dictionary, ObjectDictionary};
 use canopen_core::services::pdo::{PdoEvent, PdoTx, Pdos};
 use canopen_core::services::sync::{SyncEvent, SyncService};
 use canopen_core::time::Instant;
-use firmware::devices::{self, ec5000, sendix};
+use canopen_firmware::devices::{self, ec5000, sendix};
 
 #[derive(Default)]
 struct Bus {

@@ -16,6 +16,28 @@ pub fn generate_strict(eds: &Path, module: &str) {
     }
 }
 
+/// Generates the module for `eds` into `OUT_DIR/<module>.rs` as the tolerant
+/// reader reads it: warnings become cargo warnings (`file:line: warning: ...`),
+/// errors stop the build as cargo errors. The one line of a device crate's
+/// `build.rs`.
+pub fn generate(eds: &Path, module: &str) {
+    println!("cargo::rerun-if-changed={}", eds.display());
+    let (model, diagnostics) = match crate::load_path(eds, Options { strict: false }) {
+        Ok(loaded) => loaded,
+        Err(e) => fail(&e),
+    };
+    if diagnostics.has_errors() {
+        fail(&diagnostics.to_string());
+    }
+    for line in diagnostics.to_string().lines() {
+        println!("cargo::warning={line}");
+    }
+    match crate::codegen::generate(&model, &diagnostics.file) {
+        Ok(code) => write_out(module, &code),
+        Err(e) => fail(&format!("{}: error: {}", diagnostics.file, e.0)),
+    }
+}
+
 /// Writes `code` to `OUT_DIR/<module>.rs`.
 pub fn write_out(module: &str, code: &str) {
     let out = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");

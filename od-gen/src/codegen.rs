@@ -16,27 +16,27 @@ use crate::model::{Access, Eds, Object, ObjectKind, SubObject};
 pub struct LayoutError(pub String);
 
 /// One table entry, placed.
-struct Placed<'a> {
-    obj: &'a Object,
-    sub: &'a SubObject,
-    data_type: DataType,
-    attr: Attr,
-    len: usize,
-    offset: usize,
-    limits: u16,
+pub(crate) struct Placed<'a> {
+    pub(crate) obj: &'a Object,
+    pub(crate) sub: &'a SubObject,
+    pub(crate) data_type: DataType,
+    pub(crate) attr: Attr,
+    pub(crate) len: usize,
+    pub(crate) offset: usize,
+    pub(crate) limits: u16,
 }
 
-/// The placed dictionary.
-struct Layout<'a> {
-    entries: Vec<Placed<'a>>,
-    limits: Vec<(u64, u64)>,
-    rom: Vec<u8>,
-    ram: Vec<u8>,
-    comm_len: usize,
-    node_id_relative: Vec<usize>,
+/// The placed dictionary: what the generated module and [`crate::runtime`] hold.
+pub(crate) struct Layout<'a> {
+    pub(crate) entries: Vec<Placed<'a>>,
+    pub(crate) limits: Vec<(u64, u64)>,
+    pub(crate) rom: Vec<u8>,
+    pub(crate) ram: Vec<u8>,
+    pub(crate) comm_len: usize,
+    pub(crate) node_id_relative: Vec<usize>,
 }
 
-fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
+pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
     let mut l =
         Layout { entries: Vec::new(), limits: Vec::new(), rom: Vec::new(), ram: Vec::new(), comm_len: 0, node_id_relative: Vec::new() };
     for o in eds.objects.values().filter(|o| !o.opaque) {

@@ -2,6 +2,7 @@
 //!
 //! The pipeline is [`lexer`] (INI text) → [`eds`] (the CiA 306 model) →
 //! [`validate`] (consistency rules) → [`codegen`] (Rust for `canopen-core`),
+//! or [`runtime`] (the same tables, built at run time),
 //! with [`export`] and [`doc`] as other outputs; [`build`] serves the
 //! `build.rs` scripts that compile dictionaries into crates. Every stage reports through
 //! [`diag::Diagnostics`], which prints `file:line: error: ...`.
@@ -14,6 +15,7 @@ pub mod eds;
 pub mod export;
 pub mod lexer;
 pub mod model;
+pub mod runtime;
 pub mod validate;
 pub mod value;
 

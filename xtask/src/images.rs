@@ -74,7 +74,7 @@ pub fn image_path(device: &str, board: &str) -> PathBuf {
 pub fn build_board(board: &str, device: Option<&str>) -> Result<(), String> {
     let feature = BOARDS.iter().find(|(b, _)| *b == board).map(|(_, f)| *f).ok_or_else(|| format!("unknown board {board}"))?;
     let bin = device.map(|d| format!("{d}-{board}"));
-    let mut args = vec!["build", "--release", "-p", "firmware", "--target", TARGET, "--features", feature];
+    let mut args = vec!["build", "--release", "-p", "canopen-firmware", "--target", TARGET, "--features", feature];
     match &bin {
         Some(bin) => args.extend(["--bin", bin.as_str()]),
         None => args.push("--bins"),

@@ -22,6 +22,7 @@ mod demo;
 mod hil;
 mod images;
 mod measure;
+mod new_device;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -70,6 +71,8 @@ enum Task {
     Hil(hil::HilArgs),
     /// Flash and RAM of the core and of each device on thumbv7m.
     Size,
+    /// A device crate of your own from the template and an EDS (README, "Your device").
+    NewDevice(new_device::NewDeviceArgs),
     /// Instructions per handled frame (host under callgrind, thumbv7m in QEMU).
     Icount {
         /// Frames per measurement.
@@ -92,6 +95,7 @@ fn main() -> ExitCode {
         Task::Hil(args) => hil::hil(&args),
         Task::Size => measure::size(),
         Task::Icount { n } => measure::icount(n),
+        Task::NewDevice(args) => new_device::new_device(&args).map(|_| ()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -136,10 +140,15 @@ fn test() -> Result<(), String> {
     run("cargo", &check)?;
     // The no_std crates must build for the MCU: the core, the five device
     // dictionaries, and every dictionary generated from the EDS corpus.
-    run("cargo", &["build", "--release", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "-p", "canopen-tests", "--lib"])?;
-    run("cargo", &["clippy", "--target", TARGET, "-p", "canopen-core", "-p", "firmware", "--", "-D", "warnings"])?;
+    run(
+        "cargo",
+        &["build", "--release", "--target", TARGET, "-p", "canopen-core", "-p", "canopen-firmware", "-p", "canopen-tests", "--lib"],
+    )?;
+    run("cargo", &["clippy", "--target", TARGET, "-p", "canopen-core", "-p", "canopen-firmware", "--", "-D", "warnings"])?;
     interop()?;
     ensure_apt(&[("qemu-system-arm", "qemu-system-arm"), ("arm-none-eabi-size", "binutils-arm-none-eabi")])?;
+    // README, "Your device": a corpus EDS to a device crate booted in QEMU (the venv is interop's).
+    new_device::new_device_ci(&root().join(".venv/bin/python").to_string_lossy())?;
     images::build()?;
     images::smoke()?;
     hil::qemu_all()?;
@@ -225,7 +234,7 @@ mod cli_tests {
     fn every_command_has_help_and_version() {
         Cli::command().debug_assert();
         assert_eq!(parse(&["--version"]).err().map(|e| e.kind()), Some(ErrorKind::DisplayVersion));
-        for command in ["test", "demo", "fuzz", "bench", "build", "qemu", "smoke", "size", "icount"] {
+        for command in ["test", "demo", "fuzz", "bench", "build", "qemu", "smoke", "size", "icount", "new-device"] {
             assert_eq!(parse(&[command, "--help"]).err().map(|e| e.kind()), Some(ErrorKind::DisplayHelp), "{command}");
         }
     }
@@ -238,6 +247,7 @@ mod cli_tests {
         assert!(matches!(parse(&["icount", "50"]).map(|c| c.command), Ok(Task::Icount { n: 50 })));
         assert!(parse(&["demo", "--connect", "127.0.0.1:4557", "--node-id", "5"]).is_ok());
         assert!(parse(&["qemu", "sendix", "--listen", "127.0.0.1:4600"]).is_ok());
+        assert!(parse(&["new-device", "pump", "--eds", "pump.eds", "--profile", "cia402", "--node-id", "5", "--out", "x"]).is_ok());
     }
 
     #[test]
@@ -249,6 +259,10 @@ mod cli_tests {
             &["demo", "--node-id", "0", "--connect", "x:1"],
             &["qemu", "nosuch"],
             &["icount", "x"],
+            &["new-device", "pump"],
+            &["new-device", "Pump", "--eds", "pump.eds"],
+            &["new-device", "pump", "--eds", "pump.eds", "--profile", "cia999"],
+            &["new-device", "pump", "--eds", "pump.eds", "--node-id", "128"],
         ] {
             let e = parse(args).err().unwrap_or_else(|| panic!("{args:?} parsed"));
             assert_eq!(e.exit_code(), 2, "{args:?}: {e}");

@@ -84,7 +84,7 @@ impl Image {
 
     /// The dictionary's flash tables (the generated `od` module's statics).
     fn dictionary_rodata(&self) -> u64 {
-        self.symbol_bytes('r', |n| (n.starts_with("canopen_size::") || n.starts_with("firmware::")) && n.contains("od::"))
+        self.symbol_bytes('r', |n| (n.starts_with("canopen_size::") || n.starts_with("canopen_firmware::")) && n.contains("od::"))
     }
 
     /// `.text` from `origin`s starting with `prefix`.

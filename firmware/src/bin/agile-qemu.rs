@@ -2,4 +2,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(qemu, agile);
+canopen_firmware::image!(qemu, agile);

@@ -2,4 +2,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(qemu, bmaxx4400);
+canopen_firmware::image!(qemu, bmaxx4400);

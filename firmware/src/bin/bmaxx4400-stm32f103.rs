@@ -3,4 +3,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(stm32f103, bmaxx4400, bit_rate_kbps = 500);
+canopen_firmware::image!(stm32f103, bmaxx4400, bit_rate_kbps = 500);

@@ -2,4 +2,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(qemu, ec5000);
+canopen_firmware::image!(qemu, ec5000);

@@ -2,4 +2,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(qemu, sendix);
+canopen_firmware::image!(qemu, sendix);

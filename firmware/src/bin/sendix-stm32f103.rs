@@ -3,4 +3,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(stm32f103, sendix, bit_rate_kbps = 250);
+canopen_firmware::image!(stm32f103, sendix, bit_rate_kbps = 250);

@@ -2,4 +2,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(qemu, unitek_ds);
+canopen_firmware::image!(qemu, unitek_ds);

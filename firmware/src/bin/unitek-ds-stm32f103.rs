@@ -3,4 +3,4 @@
 #![no_std]
 #![no_main]
 
-firmware::image!(stm32f103, unitek_ds, bit_rate_kbps = 500);
+canopen_firmware::image!(stm32f103, unitek_ds, bit_rate_kbps = 500);

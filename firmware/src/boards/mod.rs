@@ -36,9 +36,18 @@ pub const fn region_size(image: usize) -> usize {
     (image + 24).next_multiple_of(2)
 }
 
-/// Defines an image's entry point: `firmware::image!(<board>, <device>)`,
-/// optionally followed by `key = value` settings of the board's `Config`
-/// (`bit_rate_kbps = 250` on the STM32F103).
+/// Defines an image's entry point: `canopen_firmware::image!(<board>, <device>)`
+/// for a device of this crate ([`crate::devices`]), or
+/// `canopen_firmware::image!(<board>, device = <path>)` for a device module
+/// of your own crate, optionally followed by `key = value` settings of the
+/// board's `Config` (`bit_rate_kbps = 250` on the STM32F103).
+///
+/// A device module holds what this crate's devices hold: `od` (the module
+/// od-gen generated from its EDS), `App` (its [`canopen_core::node::Application`],
+/// with a `const NEW`), `Node<S>` (`od::Node<App, S>`) and `DEVICE` (a
+/// [`crate::devices::Device`]). The crate using the macro depends on
+/// `cortex-m-rt` and `embassy-executor` itself (their attribute macros
+/// name them); the rest it reaches through this crate.
 ///
 /// The node lives in a `static` built at compile time (so it lies in `.bss`
 /// and its size shows there); start-up hands its storage the board's
@@ -51,7 +60,13 @@ pub const fn region_size(image: usize) -> usize {
 /// `app::run_application`, which reaches the node through requests.
 #[macro_export]
 macro_rules! image {
+    ($board:ident, device = $device:path $(, $key:ident = $value:expr)* $(,)?) => {
+        $crate::image!(@image $board, $device $(, $key = $value)*);
+    };
     ($board:ident, $device:ident $(, $key:ident = $value:expr)* $(,)?) => {
+        $crate::image!(@image $board, $crate::devices::$device $(, $key = $value)*);
+    };
+    (@image $board:ident, $device:path $(, $key:ident = $value:expr)*) => {
         #[::embassy_executor::task]
         async fn application() -> ! {
             $crate::app::run_application(&$crate::app::SHARED).await
@@ -59,12 +74,12 @@ macro_rules! image {
 
         #[::cortex_m_rt::entry]
         fn main() -> ! {
-            use $crate::devices::$device as device;
+            use $device as device;
             type Storage = $crate::boards::$board::Storage<{ $crate::boards::region_size(device::od::RAM_SIZE) }>;
             type Node = device::Node<Storage>;
             // Built at compile time and all zero bits, so in `.bss`: no
             // node-sized value on the stack at start-up (docs/firmware.md, "Stack").
-            static NODE: ::static_cell::ConstStaticCell<Node> = ::static_cell::ConstStaticCell::new(Node::unpowered(
+            static NODE: $crate::__private::ConstStaticCell<Node> = $crate::__private::ConstStaticCell::new(Node::unpowered(
                 device::od::Ram::zeroed(),
                 device::App::NEW,
                 $crate::boards::$board::unattached_storage(),

@@ -4,8 +4,13 @@
 //!
 //! ```text
 //! vnode --device ec5000 --node-id 5 --listen 127.0.0.1:4557 [--storage FILE] [--trace [FILE]]
+//! vnode --eds FILE --node-id 5 [...]
 //! vnode --list
 //! ```
+//!
+//! `--eds` runs any EDS or DCF with the CiA 301/305 services and no device
+//! hooks: the file is read and checked by od-gen when vnode starts, and its
+//! errors come out as `file:line: error: ...` (exit status 1).
 //!
 //! Every client is an adapter on the same bus ([`SlcanServer`]): it sees
 //! the node's frames and the other clients' frames. The node handles each
@@ -23,8 +28,8 @@ use std::process::ExitCode;
 use std::sync::mpsc::{RecvTimeoutError, TrySendError};
 use std::time::{Duration as StdDuration, SystemTime, UNIX_EPOCH};
 
-use canopen_core::node::{Application, NoApplication, Node};
-use canopen_core::od::ObjectDictionary;
+use canopen_core::node::{Application, NoApplication, Node, SDO_SERVERS};
+use canopen_core::od::{Dictionary, ObjectDictionary};
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
 use clap::Parser;
@@ -33,6 +38,7 @@ use hal_host::bus::BitRate;
 use hal_host::slcan::{ServerOptions, SlcanServer};
 use hal_host::storage::{FileStorage, MemStorage};
 use hal_host::trace::BackgroundLog;
+use od_gen::runtime::RuntimeRam;
 
 /// Bytes per storage region: room for the largest device image.
 const REGION: usize = 4096;
@@ -54,8 +60,11 @@ const DEVICES: [&str; 6] = ["ec5000", "unitek-ds", "sendix", "bmaxx4400", "agile
 )]
 struct Cli {
     /// The device to run (`--list` names them).
-    #[arg(long, value_name = "NAME", required_unless_present = "list", value_parser = DEVICES)]
+    #[arg(long, value_name = "NAME", required_unless_present_any = ["list", "eds"], value_parser = DEVICES)]
     device: Option<String>,
+    /// Run the dictionary of this EDS or DCF, without device hooks, instead of a device.
+    #[arg(long, value_name = "FILE", conflicts_with = "device")]
+    eds: Option<PathBuf>,
     /// The node-id: 1..=127, or 255 for an LSS-unconfigured node.
     #[arg(long, value_name = "N", required_unless_present = "list", value_parser = node_id)]
     node_id: Option<u8>,
@@ -106,7 +115,7 @@ fn note(msg: std::fmt::Arguments<'_>) {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let (Some(device), Some(id)) = (cli.device.clone(), cli.node_id) else {
+    let (Some(device), Some(id)) = (cli.device.clone().or_else(|| cli.eds.as_ref().map(|_| String::new())), cli.node_id) else {
         let mut out = std::io::stdout().lock();
         for d in &devices::ALL {
             let _ = writeln!(out, "{:<10} {}", d.name, d.description);
@@ -125,6 +134,14 @@ fn main() -> ExitCode {
         None => Box::new(MemStorage::new(REGION)),
     };
     let result = match device.as_str() {
+        "" => match cli.eds.as_deref().map(load_eds) {
+            Some(Ok(dictionary)) => serve_eds(dictionary, id, storage, &cli),
+            Some(Err(diagnostics)) => {
+                let _ = write!(std::io::stderr().lock(), "{diagnostics}");
+                return ExitCode::FAILURE;
+            }
+            None => Err("no device".into()),
+        },
         "ec5000" => serve::<
             _,
             _,
@@ -181,6 +198,39 @@ fn main() -> ExitCode {
             note(format_args!("{e}"));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Reads and checks an EDS as od-gen does (tolerant: warnings are shown,
+/// errors stop vnode) and builds the core's dictionary from it. `Err` holds
+/// the diagnostics, one `file:line: severity: message` per line.
+fn load_eds(path: &std::path::Path) -> Result<&'static Dictionary, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: error: {e}\n", path.display()))?;
+    let file = path.display().to_string();
+    let (eds, diagnostics) = od_gen::load(&file, &bytes, od_gen::Options::default());
+    if diagnostics.has_errors() {
+        return Err(diagnostics.to_string());
+    }
+    let _ = write!(std::io::stderr().lock(), "{diagnostics}");
+    let tables = od_gen::runtime::Tables::new(&eds).map_err(|e| format!("{file}: error: {}\n", e.0))?;
+    Ok(tables.leak())
+}
+
+/// Runs a dictionary loaded at run time. The PDO and heartbeat-consumer
+/// counts are compile-time parameters of the node, so it gets the smallest
+/// of a few sizes that holds every PDO number and consumer the file has; a
+/// PDO number without a record is an invalid PDO, as on a generated node.
+fn serve_eds(dictionary: &'static Dictionary, id: u8, storage: Box<dyn Storage>, cli: &Cli) -> Result<(), String> {
+    let extent = |first: u16, last: u16| {
+        dictionary.entries.iter().filter(|e| (first..=last).contains(&e.index)).map(|e| usize::from(e.index - first) + 1).max().unwrap_or(0)
+    };
+    let pdos = extent(0x1400, 0x15FF).max(extent(0x1800, 0x19FF));
+    let od = RuntimeRam::new(dictionary, id);
+    match pdos {
+        0..=4 => serve::<_, _, 4, 4, 127, SDO_SERVERS>(od, NoApplication, storage, cli),
+        5..=16 => serve::<_, _, 16, 16, 127, SDO_SERVERS>(od, NoApplication, storage, cli),
+        17..=64 => serve::<_, _, 64, 64, 127, SDO_SERVERS>(od, NoApplication, storage, cli),
+        _ => serve::<_, _, 512, 512, 127, SDO_SERVERS>(od, NoApplication, storage, cli),
     }
 }
 
@@ -251,7 +301,11 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
     {
         // Test harnesses read this line to learn the port; they may close stdout afterwards.
         let mut out = std::io::stdout().lock();
-        let device = cli.device.as_deref().unwrap_or_default();
+        let device = match (&cli.device, &cli.eds) {
+            (Some(device), _) => device.clone(),
+            (None, Some(eds)) => eds.display().to_string(),
+            (None, None) => String::new(),
+        };
         let _ = writeln!(out, "vnode {device} node {} listening on {}", cli.node_id.unwrap_or(255), server.local_addr());
         let _ = out.flush();
     }

@@ -11,7 +11,7 @@
 //!   word of `.rodata`/`.data`. A call back into a function already on the
 //!   path (recursion through such an edge) adds nothing.
 //! - Thread mode starts at `Reset`, in two phases. Start-up builds the node
-//!   (`firmware::app::Started::build`, which returns before the executors
+//!   (`canopen_firmware::app::Started::build`, which returns before the executors
 //!   start) with only SysTick running; afterwards every interrupt is on.
 //!   Each interrupt priority level adds its deepest handler plus the 32-byte
 //!   exception frame the core stacks (36 with alignment padding), since a
@@ -31,7 +31,7 @@ use std::process::Command;
 /// alignment word it may add (CCR.STKALIGN).
 const EXCEPTION_FRAME: u64 = 36;
 /// The start-up phase: the function that builds the node (demangled name).
-const STARTUP: &str = "firmware::app::Started::build";
+const STARTUP: &str = "canopen_firmware::app::Started::build";
 /// The only interrupt enabled during start-up.
 const STARTUP_HANDLER: &str = "SysTick";
 
