@@ -190,3 +190,23 @@ fn pv_target_reached_one_tick_after_enable() {
     assert_eq!(b.run_until(ms(t + 150)), []);
     assert_eq!(statusword(&mut b), 0x1637);
 }
+
+/// The end of time is input too (a board's clock, the fuzzer): the
+/// profile's timers saturate there instead of overflowing.
+#[test]
+fn the_profile_runs_at_the_end_of_time() {
+    let mut b = operational();
+    let end = canopen_core::time::Instant::from_micros(u64::MAX - 500);
+    let [lo, hi] = 0x000Fu16.to_le_bytes();
+    for controlword in [0x0006u16, 0x0007, 0x000F] {
+        let [lo, hi] = controlword.to_le_bytes();
+        b.rx(end, RPDO1, &[lo, hi, 3, 0, 0, 0, 0]);
+    }
+    b.rx(end, RPDO1, &[lo, hi, 3, 0x10, 0, 0, 0]);
+    assert!(b.node.process(end).is_some_and(|d| d >= end), "a deadline no earlier than now");
+    let last = canopen_core::time::Instant::from_micros(u64::MAX);
+    b.at(last);
+    let answer = b.rx(last, 0x600 + u16::from(ID), &[0x40, 0x41, 0x60, 0, 0, 0, 0, 0]);
+    let sdo = answer.iter().find(|(id, _)| *id == 0x580 + u16::from(ID)).expect("an SDO answer");
+    assert_eq!(u16::from_le_bytes([sdo.1[4], sdo.1[5]]) & 0x6F, 0x27, "still Operation enabled");
+}

@@ -195,7 +195,7 @@ impl<D: Drive> Cia402<D> {
                 self.fault(ctx, code);
                 self.publish(ctx);
             }
-            return (self.s.state != PdsState::NotReadyToSwitchOn).then(|| Instant::from_micros(now + IDLE_POLL_US));
+            return (self.s.state != PdsState::NotReadyToSwitchOn).then(|| Instant::from_micros(now.saturating_add(IDLE_POLL_US)));
         }
         if now < self.s.next_tick {
             return Some(Instant::from_micros(self.s.next_tick));
@@ -212,12 +212,12 @@ impl<D: Drive> Cia402<D> {
             }
             self.monitor(&p);
         }
-        self.s.next_tick = (self.s.next_tick + due * TICK_US).max(now + 1);
+        self.s.next_tick = self.s.next_tick.saturating_add(due * TICK_US).max(now.saturating_add(1));
         self.actuals(ctx);
         self.publish(ctx);
         if !self.s.state.drive_function() && self.drive.velocity() == 0 {
             self.s.ticking = false;
-            return Some(Instant::from_micros(now + IDLE_POLL_US));
+            return Some(Instant::from_micros(now.saturating_add(IDLE_POLL_US)));
         }
         Some(Instant::from_micros(self.s.next_tick))
     }
@@ -306,7 +306,7 @@ impl<D: Drive> Cia402<D> {
 
     fn transition(&mut self, ctx: &mut Ctx<'_>, t: Transition) {
         // The new state shows for at least one tick (a stop at rest completes on the next).
-        self.s.next_tick = self.s.next_tick.max(ctx.now().as_micros() + TICK_US);
+        self.s.next_tick = self.s.next_tick.max(ctx.now().as_micros().saturating_add(TICK_US));
         let option = |index, default| Reaction::of(signed(ctx, index, 0).map_or(-1, |v| v), default);
         match t.number {
             4 | 16 => {
@@ -392,7 +392,7 @@ impl<D: Drive> Cia402<D> {
     fn start_ticking(&mut self, ctx: &Ctx<'_>) {
         if !self.s.ticking {
             self.s.ticking = true;
-            self.s.next_tick = ctx.now().as_micros() + TICK_US;
+            self.s.next_tick = ctx.now().as_micros().saturating_add(TICK_US);
         }
     }
 
