@@ -242,10 +242,19 @@ class Bench:
             return
         self.node.sdo.download(0x1800, 5, struct.pack("<H", 50))
         mapped = self.mapping(0x1A00)
+        read = lambda: [self.node.sdo.upload(i, s)[: bits // 8] for i, s, bits in mapped]  # noqa: E731
+        before = read()
         mark = self.frames.mark()
         pdo = self.frames.wait_for(lambda m: m.arbitration_id == cob_id & 0x7FF, after=mark)
-        expected = b"".join(self.node.sdo.upload(i, s)[: bits // 8] for i, s, bits in mapped)
-        self.check(pdo is not None and bytes(pdo.data) == expected, f"TPDO1 0x{cob_id & 0x7FF:03X} carries its mapped objects")
+        after = read()
+        # A value that moves on its own (an encoder's position) is checked
+        # for its place and size only; every other one byte for byte.
+        ok, at = pdo is not None and len(pdo.data) == len(b"".join(after)), 0
+        for first, last in zip(before, after):
+            if ok and first == last:
+                ok = bytes(pdo.data[at : at + len(last)]) == last
+            at += len(last)
+        self.check(ok, f"TPDO1 0x{cob_id & 0x7FF:03X} carries its mapped objects")
         self.node.sdo.download(0x1800, 5, struct.pack("<H", 0))
 
     def check_rpdo(self):
