@@ -184,7 +184,13 @@ fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, cons
         }
     }
 
-    // Back to a known state: reset communication (broadcast), boot-up.
+    // Back to a known state: time for an LSS bit-rate switch in progress to
+    // end (two delays of at most 65.5 s, each ending at a process call), then
+    // reset communication (broadcast), boot-up.
+    for _ in 0..2 {
+        now += Duration::from_secs(140);
+        process(&mut node, now);
+    }
     drain(&mut node);
     node.on_frame(now, &CanFrame::standard(0x000, &[0x82, 0]).expect("valid frame"));
     process(&mut node, now);
