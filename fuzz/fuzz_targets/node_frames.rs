@@ -1,9 +1,9 @@
 //! A node survives any sequence of frames, time steps and process calls,
 //! and afterwards an NMT reset communication brings it back: it answers an
-//! SDO upload of 0x1000 with exactly the expected frame. The UNITEK DS
-//! speaks its own register protocol instead (CANopen is off): afterwards it
-//! answers a READ of its firmware register 0x1B on its RX/TX ids, whatever
-//! the frames made of them.
+//! SDO upload of 0x1000 with exactly the expected frame (on the node-id LSS
+//! may have configured meanwhile). The UNITEK DS speaks its own register
+//! protocol instead (CANopen is off): afterwards it answers a READ of its
+//! firmware register 0x1B on its RX/TX ids, whatever the frames made of them.
 //!
 //! Input layout (every read past the end gives zeros):
 //! - byte 0: the dictionary (`% 8`: 1..=5 one of the five devices in
@@ -96,14 +96,18 @@ fuzz_target!(|data: &[u8]| {
 type Dut<O, A, const R: usize, const T: usize, const HB: usize> = Node<O, A, MemStorage, R, T, HB>;
 
 /// Sends one queued frame, checking it.
-fn send_one<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(node: &mut Dut<O, A, R, T, HB>) -> Option<CanFrame> {
+fn send_one<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(
+    node: &mut Dut<O, A, R, T, HB>,
+) -> Option<CanFrame> {
     let f = node.transmit()?;
     assert!(f.cob_id().is_some(), "the node sent an extended frame: {f:?}");
     assert!(f.dlc() <= 8 && f.data().len() <= 8, "the node sent more than 8 bytes: {f:?}");
     Some(f)
 }
 
-fn drain<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(node: &mut Dut<O, A, R, T, HB>) -> Vec<CanFrame> {
+fn drain<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(
+    node: &mut Dut<O, A, R, T, HB>,
+) -> Vec<CanFrame> {
     let mut out = Vec::new();
     while let Some(f) = send_one(node) {
         out.push(f);
@@ -133,7 +137,13 @@ fn process<O: ObjectDictionary, A: Application, const R: usize, const T: usize, 
     }
 }
 
-fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(od: O, app: A, node_id: u8, device_type: u32, mut ops: Ops) {
+fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, const HB: usize>(
+    od: O,
+    app: A,
+    node_id: u8,
+    device_type: u32,
+    mut ops: Ops,
+) {
     let region = od.dictionary().defaults.len() + 64;
     let mut now = Instant::ZERO;
     let mut node: Dut<O, A, R, T, HB> = Node::new(od, app, MemStorage::new(region), node_id, now);
@@ -176,16 +186,28 @@ fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, cons
         }
     }
 
+    // Back to a known state: time for an LSS bit-rate switch in progress to
+    // end (two delays of at most 65.5 s, each ending at a process call), then
+    // reset communication (broadcast), boot-up.
+    for _ in 0..2 {
+        now += Duration::from_secs(140);
+        process(&mut node, now);
+    }
     drain(&mut node);
     if !node.app().canopen() {
         return unitek_answers(&mut node, now);
     }
-    // Back to a known state: reset communication (broadcast), boot-up.
-
+    // Reset communication (broadcast), boot-up.
     node.on_frame(now, &CanFrame::standard(0x000, &[0x82, 0]).expect("valid frame"));
     process(&mut node, now);
     let id = node.node_id();
-    assert_eq!(id, node_id, "nothing here changes the node-id");
+    // LSS (0x7E5) may have configured another node-id, which becomes active at
+    // this reset, or none (0xFF): an unconfigured node takes part in LSS only.
+    if id == 0xFF {
+        assert_eq!(node.state(), canopen_core::services::nmt::State::Initialising, "an unconfigured node stays in Initialising");
+        return;
+    }
+    assert!((1..=127).contains(&id), "node-id {id} after reset communication (started as {node_id})");
     assert!(node.state().sdo_allowed(), "after reset communication and boot-up the node is in {:?}", node.state());
 
     // An expedited upload of 0x1000 sub 0 gets exactly one answer, the device type.
