@@ -14,9 +14,14 @@ pub mod od {
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::{Axis, AxisParams};
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::store::{self, Scope};
 use canopen_core::time::Instant;
+
+mod monitor;
+use monitor::Monitor;
+pub use monitor::TEMPERATURE_WARNING;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile driving the
@@ -25,11 +30,13 @@ use canopen_core::time::Instant;
 pub struct App {
     /// The CiA 402 profile and the drive behind it.
     pub drive: Cia402<Axis>,
+    /// The EMCY table's warnings (D48).
+    monitor: Monitor,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW) };
+    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), monitor: Monitor::NEW };
 }
 
 /// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
@@ -124,12 +131,16 @@ impl Application for App {
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        // Before the profile's poll, so that statusword bit 7 changes with the EMCY.
+        let level = self.monitor.temperature(ctx, self.drive.drive.temperature());
+        self.drive.drive.set_warning_level(level);
         self.drive.poll(ctx, &PROFILE)
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         if event == NmtEvent::ResetApplication {
             self.drive.drive.configure(AXIS);
+            self.monitor = Monitor::NEW;
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
         // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
