@@ -14,7 +14,6 @@ pub mod od {
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::{Axis, AxisParams};
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
-use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::store::{self, Scope};
 use canopen_core::time::Instant;
@@ -30,7 +29,7 @@ pub use monitor::TEMPERATURE_WARNING;
 pub struct App {
     /// The CiA 402 profile and the drive behind it.
     pub drive: Cia402<Axis>,
-    /// The EMCY table's warnings (D48).
+    /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50).
     monitor: Monitor,
 }
 
@@ -132,7 +131,7 @@ impl Application for App {
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
         // Before the profile's poll, so that statusword bit 7 changes with the EMCY.
-        let level = self.monitor.temperature(ctx, self.drive.drive.temperature());
+        let level = self.monitor.update(ctx, &self.drive, AXIS.increments_per_rev);
         self.drive.drive.set_warning_level(level);
         self.drive.poll(ctx, &PROFILE)
     }
@@ -140,7 +139,7 @@ impl Application for App {
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         if event == NmtEvent::ResetApplication {
             self.drive.drive.configure(AXIS);
-            self.monitor = Monitor::NEW;
+            self.monitor.reset();
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
         // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
