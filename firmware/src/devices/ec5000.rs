@@ -31,11 +31,13 @@ pub struct App {
     pub drive: Cia402<Axis>,
     /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50).
     monitor: Monitor,
+    /// 0x1F51 sub 1 was set to 1: restart at the next poll (D51).
+    restart: bool,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), monitor: Monitor::NEW };
+    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), monitor: Monitor::NEW, restart: false };
 }
 
 /// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
@@ -83,6 +85,8 @@ impl Application for App {
             (0x6060, 0, [mode]) if !matches!(mode, 0 | 1 | 3 | 6) => Err(AbortCode::InvalidValue),
             // D35: polarity bits 7 and 6 only.
             (0x607E, 0, [p]) if p & 0x3F != 0 => Err(AbortCode::InvalidValue),
+            // D51: program control 1 "restart" is the only value the manual describes.
+            (PROGRAM_CONTROL, 1, [v]) if *v != 1 => Err(AbortCode::InvalidValue),
             _ => Ok(()),
         }
     }
@@ -119,7 +123,9 @@ impl Application for App {
         })
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
+        // D51: the restart waits for the poll, after the SDO answer is queued.
+        self.restart |= (index, sub) == (PROGRAM_CONTROL, 1);
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
         // default `rpdo_written`).
         self.drive.written(ctx, &PROFILE, index);
@@ -130,6 +136,9 @@ impl Application for App {
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        if core::mem::take(&mut self.restart) {
+            ctx.reset_node();
+        }
         // Before the profile's poll, so that statusword bit 7 changes with the EMCY.
         let level = self.monitor.update(ctx, &self.drive, AXIS.increments_per_rev);
         self.drive.drive.set_warning_level(level);
@@ -151,6 +160,8 @@ impl Application for App {
 
 /// 0x4650 "Bus Address": sub 1 static (stored) node-ID, sub 2 the active one.
 const NODE_ID: u16 = 0x4650;
+/// 0x1F51 "Switch Bootloader Mode" (program control): sub 1 = 1 restarts the drive.
+const PROGRAM_CONTROL: u16 = 0x1F51;
 /// 0x1010/0x1011 sub 5: manufacturer parameters "SSW" (Man2).
 const SSW: u8 = 5;
 
