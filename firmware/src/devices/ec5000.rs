@@ -31,13 +31,11 @@ pub struct App {
     pub drive: Cia402<Axis>,
     /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50).
     monitor: Monitor,
-    /// 0x1F51 sub 1 was set to 1: restart at the next poll (D51).
-    restart: bool,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), monitor: Monitor::NEW, restart: false };
+    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), monitor: Monitor::NEW };
 }
 
 /// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
@@ -124,8 +122,10 @@ impl Application for App {
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
-        // D51: the restart waits for the poll, after the SDO answer is queued.
-        self.restart |= (index, sub) == (PROGRAM_CONTROL, 1);
+        // D51: the node restarts once the SDO answer is queued.
+        if (index, sub) == (PROGRAM_CONTROL, 1) {
+            ctx.reset_node();
+        }
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
         // default `rpdo_written`).
         self.drive.written(ctx, &PROFILE, index);
@@ -136,9 +136,6 @@ impl Application for App {
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
-        if core::mem::take(&mut self.restart) {
-            ctx.reset_node();
-        }
         // Before the profile's poll, so that statusword bit 7 changes with the EMCY.
         let level = self.monitor.update(ctx, &self.drive, AXIS.increments_per_rev);
         self.drive.drive.set_warning_level(level);

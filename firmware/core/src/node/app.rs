@@ -197,8 +197,9 @@ impl Ctx<'_> {
     }
 
     /// Asks for a reset node (as NMT command 0x81), e.g. for program control
-    /// 0x1F51 (CiA 302-3). Honoured from [`Application::poll`] only: by then
-    /// the answer to the SDO write that asked for it is already queued.
+    /// 0x1F51 (CiA 302-3). Honoured from the hooks of an SDO write only, once
+    /// its answer is queued (in the frame path, whose stack already holds an
+    /// NMT reset; from the timers it would deepen the worst case).
     pub fn reset_node(&mut self) {
         self.effects.reset_node = true;
     }

@@ -20,10 +20,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// (earlier is harmless, later delays heartbeats and timeouts).
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
         // The device's timers first: what they write goes out in this call's TPDOs.
-        let (app_deadline, reset_node) = self.with_app(now, |app, ctx| (app.poll(ctx), ctx.effects.reset_node));
-        if reset_node {
-            self.reset_application(now);
-        }
+        let app_deadline = self.with_app(now, |app, ctx| app.poll(ctx));
         if !self.app.canopen() {
             return app_deadline;
         }
