@@ -59,34 +59,34 @@ const WARNED: u16 = 0x16B7;
 #[test]
 fn temperature_warning_0xffa8_at_95_and_cleared_at_93() {
     let mut b = enabled();
-    // 94 °C: below the threshold; TPDO1 carries the temperature (0x2200 sub 6) only.
+    // 94 °C: below the threshold; TPDO1 carries the temperature (0x2200 sub 6,
+    // updated every 100 ms) only.
     ambient(&mut b, 94);
-    assert_eq!(frames(&mut b, 700, 200), [(0, TPDO1, tpdo1(AT_REST, 0, 94))]);
-    // 95 °C: EMCY 0xFFA8, error register 0x81 (generic + manufacturer), the
-    // temperature in bytes 3-4; the drive keeps running (a warning, no fault
-    // reaction). Bit 7 shows at the next tick (TPDO2); TPDO1 sends the new
-    // temperature at once and the error register and bit 7 once its
-    // inhibit time (100 ms) has passed.
+    assert_eq!(frames(&mut b, 700, 200), [(100, TPDO1, tpdo1(AT_REST, 0, 94))]);
+    // 95 °C: EMCY 0xFFA8 at once, error register 0x81 (generic +
+    // manufacturer), the temperature in bytes 3-4; the drive keeps running (a
+    // warning, no fault reaction). Bit 7 and 0x1001 show at the next tick
+    // (TPDO1, TPDO2), 0x2200 sub 6 at the next 100 ms.
     ambient(&mut b, 95);
     assert_eq!(
         frames(&mut b, 900, 200),
         [
             (0, EMCY, vec![0xA8, 0xFF, 0x81, 95, 0, 0, 0, 0]),
-            (0, TPDO1, tpdo1(AT_REST, 0, 95)),
+            (1, TPDO1, tpdo1(WARNED, 0x81, 94)),
             (1, TPDO2, tpdo2(WARNED)),
-            (100, TPDO1, tpdo1(WARNED, 0x81, 95)),
+            (101, TPDO1, tpdo1(WARNED, 0x81, 95)),
         ]
     );
     // Within the hysteresis: no second EMCY, bit 7 stays.
     ambient(&mut b, 94);
-    assert_eq!(frames(&mut b, 1100, 200), [(0, TPDO1, tpdo1(WARNED, 0x81, 94))]);
+    assert_eq!(frames(&mut b, 1100, 200), [(100, TPDO1, tpdo1(WARNED, 0x81, 94))]);
     ambient(&mut b, 96);
-    assert_eq!(frames(&mut b, 1300, 200), [(0, TPDO1, tpdo1(WARNED, 0x81, 96))]);
+    assert_eq!(frames(&mut b, 1300, 200), [(100, TPDO1, tpdo1(WARNED, 0x81, 96))]);
     // 93 °C = threshold - hysteresis: "error reset", bit 7 off.
     ambient(&mut b, 93);
     assert_eq!(
         frames(&mut b, 1500, 200),
-        [(0, EMCY, vec![0; 8]), (0, TPDO1, tpdo1(WARNED, 0x81, 93)), (1, TPDO2, tpdo2(AT_REST)), (100, TPDO1, tpdo1(AT_REST, 0, 93)),]
+        [(0, EMCY, vec![0; 8]), (1, TPDO1, tpdo1(AT_REST, 0, 96)), (1, TPDO2, tpdo2(AT_REST)), (101, TPDO1, tpdo1(AT_REST, 0, 93))]
     );
     assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![1]), "the warning stays in the history");
     assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(vec![0xA8, 0xFF, 95, 0]), "code and the first two bytes of its information");

@@ -126,6 +126,10 @@ impl Application for App {
         if (index, sub) == (PROGRAM_CONTROL, 1) {
             ctx.reset_node();
         }
+        if index == WARNING_LEVEL {
+            self.monitor.levels(ctx);
+        }
+
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
         // default `rpdo_written`).
         self.drive.written(ctx, &PROFILE, index);
@@ -145,7 +149,7 @@ impl Application for App {
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         if event == NmtEvent::ResetApplication {
             self.drive.drive.configure(AXIS);
-            self.monitor.reset();
+            self.monitor.reset(ctx);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
         // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
@@ -157,6 +161,8 @@ impl Application for App {
 
 /// 0x4650 "Bus Address": sub 1 static (stored) node-ID, sub 2 the active one.
 const NODE_ID: u16 = 0x4650;
+/// 0x4231 "High Temperature Warning Level" (D48).
+const WARNING_LEVEL: u16 = 0x4231;
 /// 0x1F51 "Switch Bootloader Mode" (program control): sub 1 = 1 restarts the drive.
 const PROGRAM_CONTROL: u16 = 0x1F51;
 /// 0x1010/0x1011 sub 5: manufacturer parameters "SSW" (Man2).

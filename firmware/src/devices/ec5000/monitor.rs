@@ -21,6 +21,10 @@ const HEALTH: u16 = 0x2211;
 const GREEN: u8 = 0;
 const YELLOW: u8 = 1;
 const RED: u8 = 2;
+/// The monitoring runs every 100 ms (§6.1: the values are updated at
+/// intervals), not at each of the profile's 1 ms ticks: it would cost more
+/// than the profile's own part of a frame.
+const PERIOD_US: u64 = 100_000;
 /// Entries 0x1003 holds (sub 1..8): a full history is red (D50).
 const HISTORY_DEPTH: u32 = 8;
 
@@ -61,6 +65,14 @@ pub struct Monitor {
     extremes: Option<(i16, i16)>,
     quick_stops: u16,
     rotations: u32,
+    /// 0x4231 sub 1 and sub 2, read when written and at reset application
+    /// (a dictionary look-up in every tick costs more than the rest).
+    threshold: i16,
+    hysteresis: i16,
+    /// What 0x2200 sub 1..9 and 0x2211 sub 1..3 show, so that only a change is
+    /// written, once `shown_valid` (all written since the reset).
+    shown: [i32; 11],
+    shown_valid: bool,
 }
 
 impl Monitor {
@@ -78,13 +90,38 @@ impl Monitor {
         extremes: None,
         quick_stops: 0,
         rotations: 0,
+        // All zero bits, so that the node stays in .bss: 0x4231 is read at reset application.
+        threshold: 0,
+        hysteresis: 0,
+        shown: [0; 11],
+        shown_valid: false,
     };
+
+    /// Reads 0x4231 again (after a write to it, and at reset application).
+    #[inline(never)]
+    pub fn levels(&mut self, ctx: &Ctx<'_>) {
+        self.threshold = signed(ctx, WARNING_LEVEL, 1).unwrap_or(95) as i16;
+        self.hysteresis = signed(ctx, WARNING_LEVEL, 2).unwrap_or(2) as i16;
+    }
 
     /// Counts, checks and shows what the drive did since the last poll;
     /// returns the temperature from which statusword bit 7 is on (D48).
+    #[inline(never)]
     pub fn update(&mut self, ctx: &mut Ctx<'_>, drive: &Cia402<Axis>, increments_per_rev: u32) -> i16 {
         let axis = &drive.drive;
+        // Quick stops at every poll: one at rest lasts a single tick.
+        let state = drive.state();
+        if state == PdsState::QuickStopActive && self.last_state != PdsState::QuickStopActive {
+            self.quick_stops = self.quick_stops.saturating_add(1);
+        }
+        self.last_state = state;
+        // The warning at every poll too, so that the EMCY and bit 7 change together.
+        let t = drive.drive.temperature();
+        let level = self.temperature_warning(ctx, t);
         let now = ctx.now().as_micros();
+        if self.last_us.is_some_and(|last| now.saturating_sub(last) < PERIOD_US) {
+            return level;
+        }
         let elapsed = self.last_us.map_or(0, |last| now.saturating_sub(last).min(u64::from(u32::MAX)) as u32);
         self.last_us = Some(now);
         self.uptime.add(elapsed);
@@ -92,40 +129,22 @@ impl Monitor {
         // standstill is a new reference (homing), not a turn.
         let moving = axis.velocity() != 0;
         let position = axis.position();
-        if moving {
+        // Also the last stretch of a roller that stopped since the last run.
+        if moving || self.moving {
             self.working.add(elapsed);
             let turned = position.abs_diff(self.last_position).min(u64::from(u32::MAX)) as u32;
             let travel = self.travel.saturating_add(turned);
             self.rotations = self.rotations.saturating_add(travel / increments_per_rev.max(1));
             self.travel = travel % increments_per_rev.max(1);
-            if !self.moving {
+            if moving && !self.moving {
                 self.start_stops = self.start_stops.saturating_add(1);
             }
         }
         self.moving = moving;
         self.last_position = position;
-        let state = drive.state();
-        if state == PdsState::QuickStopActive && self.last_state != PdsState::QuickStopActive {
-            self.quick_stops = self.quick_stops.saturating_add(1);
-        }
-        self.last_state = state;
-        let t = axis.temperature();
         let (low, high) = self.extremes.map_or((t, t), |(low, high)| (low.min(t), high.max(t)));
         self.extremes = Some((low, high));
-        let level = self.temperature_warning(ctx, t);
 
-        for (sub, value) in [
-            (1, &self.start_stops.to_le_bytes()[..]),
-            (2, &self.working.s.to_le_bytes()[..]),
-            (3, &self.uptime.s.to_le_bytes()[..]),
-            (4, &low.to_le_bytes()[..]),
-            (5, &high.to_le_bytes()[..]),
-            (6, &t.to_le_bytes()[..]),
-            (7, &self.quick_stops.to_le_bytes()[..]),
-            (9, &self.rotations.to_le_bytes()[..]),
-        ] {
-            let _ = ctx.set_value(MONITORING, sub, value);
-        }
         // D50: the health traffic lights.
         let temperature = if axis.fault() == fault::OVER_TEMPERATURE {
             RED
@@ -140,10 +159,37 @@ impl Monitor {
             n if n < HISTORY_DEPTH => YELLOW,
             _ => RED,
         };
-        for (sub, light) in [(1, temperature), (2, power), (3, errors)] {
-            let _ = ctx.set_value(HEALTH, sub, &[light]);
+        // (object, sub, length, value) of each value shown, in the order of `shown`.
+        let values = [
+            (MONITORING, 1, 4, self.start_stops as i32),
+            (MONITORING, 2, 4, self.working.s as i32),
+            (MONITORING, 3, 4, self.uptime.s as i32),
+            (MONITORING, 4, 2, i32::from(low)),
+            (MONITORING, 5, 2, i32::from(high)),
+            (MONITORING, 6, 2, i32::from(t)),
+            (MONITORING, 7, 2, i32::from(self.quick_stops)),
+            (MONITORING, 9, 4, self.rotations as i32),
+            (HEALTH, 1, 1, i32::from(temperature)),
+            (HEALTH, 2, 1, i32::from(power)),
+            (HEALTH, 3, 1, i32::from(errors)),
+        ];
+        for (i, (index, sub, len, value)) in values.into_iter().enumerate() {
+            self.show(ctx, i, (index, sub), len, value);
         }
+        self.shown_valid = true;
         level
+    }
+
+    /// Writes `value` to (index, sub) with `len` bytes if it differs from what slot `i` shows.
+    #[inline(never)]
+    fn show(&mut self, ctx: &mut Ctx<'_>, i: usize, (index, sub): (u16, u8), len: usize, value: i32) {
+        let valid = self.shown_valid;
+        if let Some(shown) = self.shown.get_mut(i).filter(|s| !valid || **s != value) {
+            *shown = value;
+            if let Some(bytes) = value.to_le_bytes().get(..len) {
+                let _ = ctx.set_value(index, sub, bytes);
+            }
+        }
     }
 
     /// Raises or clears the temperature warning for `temperature` [°C];
@@ -152,8 +198,8 @@ impl Monitor {
     /// temperature still warned while raised.
     fn temperature_warning(&mut self, ctx: &mut Ctx<'_>, temperature: i16) -> i16 {
         // D48: on at T >= threshold, off at T <= threshold - hysteresis (95/93 °C by default).
-        let threshold = signed(ctx, WARNING_LEVEL, 1).unwrap_or(95);
-        let clear_at = threshold - signed(ctx, WARNING_LEVEL, 2).unwrap_or(2);
+        let threshold = i32::from(self.threshold);
+        let clear_at = threshold - i32::from(self.hysteresis);
         let t = i32::from(temperature);
         if !self.warning && t >= threshold {
             self.warning = true;
@@ -168,7 +214,9 @@ impl Monitor {
 
     /// At reset application: the warning is gone with the EMCY state; the
     /// counters go on (they count the roller's life, not the application's).
-    pub fn reset(&mut self) {
+    pub fn reset(&mut self, ctx: &Ctx<'_>) {
         self.warning = false;
+        self.shown_valid = false;
+        self.levels(ctx);
     }
 }
