@@ -171,7 +171,8 @@ fn change_of_state_tpdo_leaves_in_the_same_process_as_the_rpdo() {
     // RPDO3 (0x6040 + 0x60FF): shutdown → TPDO2 with 0x0231 at the same instant.
     let out = b.rx(ms(300), RPDO3, &[0x06, 0x00, 0, 0, 0, 0]);
     // TPDO1 (0x6041, 0x6061, 0x1001, 0x2200 sub 6, 0x6077) and TPDO2 (0x6041, 0x6064) both map it.
-    assert_eq!(out, [(0x185, vec![0x31, 0x02, 3, 0, 0, 0, 0, 0]), (TPDO2, vec![0x31, 0x02, 0, 0, 0, 0])]);
+    // 0x2200 sub 6: the roller at 25 °C ambient (D49).
+    assert_eq!(out, [(0x185, vec![0x31, 0x02, 3, 0, 25, 0, 0, 0]), (TPDO2, vec![0x31, 0x02, 0, 0, 0, 0])]);
 }
 
 #[test]

@@ -18,6 +18,10 @@ use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::store::{self, Scope};
 use canopen_core::time::Instant;
 
+mod monitor;
+use monitor::Monitor;
+pub use monitor::TEMPERATURE_WARNING;
+
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile driving the
 /// axis model (until a board drives the roller's motor).
@@ -25,11 +29,13 @@ use canopen_core::time::Instant;
 pub struct App {
     /// The CiA 402 profile and the drive behind it.
     pub drive: Cia402<Axis>,
+    /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50).
+    monitor: Monitor,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW) };
+    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), monitor: Monitor::NEW };
 }
 
 /// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
@@ -77,6 +83,8 @@ impl Application for App {
             (0x6060, 0, [mode]) if !matches!(mode, 0 | 1 | 3 | 6) => Err(AbortCode::InvalidValue),
             // D35: polarity bits 7 and 6 only.
             (0x607E, 0, [p]) if p & 0x3F != 0 => Err(AbortCode::InvalidValue),
+            // D51: program control 1 "restart" is the only value the manual describes.
+            (PROGRAM_CONTROL, 1, [v]) if *v != 1 => Err(AbortCode::InvalidValue),
             _ => Ok(()),
         }
     }
@@ -113,7 +121,15 @@ impl Application for App {
         })
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
+        // D51: the node restarts once the SDO answer is queued.
+        if (index, sub) == (PROGRAM_CONTROL, 1) {
+            ctx.reset_node();
+        }
+        if index == WARNING_LEVEL {
+            self.monitor.levels(ctx);
+        }
+
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
         // default `rpdo_written`).
         self.drive.written(ctx, &PROFILE, index);
@@ -124,12 +140,16 @@ impl Application for App {
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        // Before the profile's poll, so that statusword bit 7 changes with the EMCY.
+        let level = self.monitor.update(ctx, &self.drive, AXIS.increments_per_rev);
+        self.drive.drive.set_warning_level(level);
         self.drive.poll(ctx, &PROFILE)
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         if event == NmtEvent::ResetApplication {
             self.drive.drive.configure(AXIS);
+            self.monitor.reset(ctx);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
         // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
@@ -141,6 +161,10 @@ impl Application for App {
 
 /// 0x4650 "Bus Address": sub 1 static (stored) node-ID, sub 2 the active one.
 const NODE_ID: u16 = 0x4650;
+/// 0x4231 "High Temperature Warning Level" (D48).
+const WARNING_LEVEL: u16 = 0x4231;
+/// 0x1F51 "Switch Bootloader Mode" (program control): sub 1 = 1 restarts the drive.
+const PROGRAM_CONTROL: u16 = 0x1F51;
 /// 0x1010/0x1011 sub 5: manufacturer parameters "SSW" (Man2).
 const SSW: u8 = 5;
 

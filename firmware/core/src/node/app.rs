@@ -196,6 +196,14 @@ impl Ctx<'_> {
         self.services.emcy().raise(code, info)
     }
 
+    /// Asks for a reset node (as NMT command 0x81), e.g. for program control
+    /// 0x1F51 (CiA 302-3). Honoured from the hooks of an SDO write only, once
+    /// its answer is queued (in the frame path, whose stack already holds an
+    /// NMT reset; from the timers it would deepen the worst case).
+    pub fn reset_node(&mut self) {
+        self.effects.reset_node = true;
+    }
+
     /// A serious error of 0x1029 class `class` (2 device profile, 3
     /// manufacturer specific) occurred: once the hook returns, the node
     /// changes state as that sub-index of 0x1029 says (0 Pre-operational

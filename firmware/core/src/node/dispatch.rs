@@ -181,6 +181,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);
+        // After the answer: the SDO sink has queued it.
+        if effects.reset_node {
+            self.reset_application(now);
+        }
     }
 
     /// The SDO servers with what they need: the hooks and their context,

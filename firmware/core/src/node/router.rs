@@ -35,6 +35,8 @@ pub(crate) struct SdoEffects {
     /// A device error of this 0x1029 sub-index (0: none) occurred: the node
     /// applies the error behaviour.
     pub error_class: u8,
+    /// The device asked for a reset node ([`super::Ctx::reset_node`]).
+    pub reset_node: bool,
 }
 
 pub(super) fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {
