@@ -156,10 +156,5 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the next [`Node::process`], whose deadline then includes the clearing.
     pub fn controller_event(&mut self, event: ControllerEvent, now: Instant) {
         self.controller.on_event(event, now, &mut self.comm.emcy);
-        // The device hears of a bus-off (its 0x6007 or 0x1029 reaction) once
-        // the controller is back on the bus and the node can act on it.
-        if event == ControllerEvent::BusOffRecovered {
-            self.bus_off(now);
-        }
     }
 }
