@@ -5,7 +5,7 @@
 mod common;
 
 use canopen_core::abort::AbortCode;
-use canopen_core::node::{Application, Claims, CommError, Ctx, NmtEvent, NoApplication, Source};
+use canopen_core::node::{Application, Claims, CommError, ControllerEvent, Ctx, NmtEvent, NoApplication, Source};
 use canopen_core::od::Dictionary;
 use canopen_core::services::nmt::State;
 use canopen_core::time::Instant;
@@ -273,7 +273,9 @@ fn nmt_and_communication_events_arrive_each_one_whatever_0x1029_says() {
     assert_eq!(b.sdo_write(ID, 0x1400, 5, &[50, 0]), ok_write(0x1400, 5));
     b.rx(ms(210), RPDO1, &[1, 0, 2, 0, 3, 0, 4, 0]);
     b.run_until(ms(300));
-    b.node.bus_off(ms(300));
+    // The board reports the recovery from a bus-off (bxCAN's TX-empty interrupt with BOFF clear).
+    b.node.controller_event(ControllerEvent::BusOffRecovered, ms(300));
+    b.at(ms(300));
     let events: Vec<String> = log(&mut b).into_iter().filter(|l| l.starts_with("nmt")).collect();
     assert_eq!(
         events,

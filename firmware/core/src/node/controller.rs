@@ -61,6 +61,8 @@ pub(super) struct ControllerErrors {
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
     raise_passive: bool,
+    /// A bus-off recovery the device has not heard of yet (`Node::process` tells it).
+    pub(super) bus_off_unheard: bool,
 }
 
 impl ControllerErrors {
@@ -73,6 +75,7 @@ impl ControllerErrors {
             clears_at: None,
             passive: false,
             raise_passive: false,
+            bus_off_unheard: false,
         }
     }
 
@@ -156,5 +159,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the next [`Node::process`], whose deadline then includes the clearing.
     pub fn controller_event(&mut self, event: ControllerEvent, now: Instant) {
         self.controller.on_event(event, now, &mut self.comm.emcy);
+        // The device hears of it (its 0x6007 or 0x1029 reaction) in the next
+        // `process`, on the path its other hooks already take.
+        self.controller.bus_off_unheard |= event == ControllerEvent::BusOffRecovered;
     }
 }

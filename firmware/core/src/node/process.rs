@@ -103,6 +103,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         let controller_deadline = self.controller.poll(now, booted, &mut self.comm.emcy);
+        if core::mem::take(&mut self.controller.bus_off_unheard) {
+            self.bus_off(now);
+        }
         // Transmit queue overflow (0x8110, once), cleared once the queue drained.
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
