@@ -9,33 +9,20 @@ import struct
 import time
 import unittest
 
-import canopen
-from canopen.profiles.p402 import BaseNode402
 
-from test_interop import ROOT, Vnode
+from drive402 import Drive402Test
+from test_interop import ROOT
 
 EDS = os.path.join(ROOT, "firmware", "eds", "ec5000.eds")
 NODE_ID = 5
 
 
-class Cia402(unittest.TestCase):
+class Cia402(Drive402Test):
+    DEVICE, NODE_ID, EDS = "ec5000", NODE_ID, EDS
+    EVENT_TIMED_TPDOS = (0x1800, 0x1801)
+
     def setUp(self):
-        self.v = Vnode(device="ec5000", node_id=NODE_ID, eds=EDS)
-        self.addCleanup(self.v.close)
-        self.v.network.nodes.pop(NODE_ID, None)
-        self.drive = BaseNode402(NODE_ID, EDS)
-        self.v.network.add_node(self.drive)
-        self.drive.sdo.RESPONSE_TIMEOUT = 2.0
-        self.drive.sdo.upload(0x1000, 0)
-        self.drive.nmt.state = "PRE-OPERATIONAL"
-        # BaseNode402 takes a TPDO it has seen twice as periodic (python-canopen
-        # measures the period) and then waits at most 0.2 s for the next one, so
-        # the PLC sets TPDO1 and TPDO2 (both carry 0x6041) to 100 ms event timers
-        # (the EC5000's default is 2 s with a 100 ms inhibit time).
-        self.drive.sdo[0x1800][5].raw = 100
-        self.drive.sdo[0x1801][5].raw = 100
-        self.drive.setup_402_state_machine()
-        self.drive.nmt.state = "OPERATIONAL"
+        super().setUp()
         # A PLC's SYNC every 10 ms: TPDO3 (0x6041, 0x606C) is synchronous, and
         # BaseNode402 waits for it as its statusword update.
         self.v.network.sync.start(0.01)
@@ -46,12 +33,6 @@ class Cia402(unittest.TestCase):
 
     def i32(self, index):
         return struct.unpack("<i", self.drive.sdo.upload(index, 0))[0]
-
-    def wait_for(self, what, condition, timeout=3.0):
-        end = time.monotonic() + timeout
-        while not condition():
-            self.assertLess(time.monotonic(), end, what)
-            time.sleep(0.01)
 
     def test_state_changes_through_the_state_machine(self):
         self.assertEqual(self.drive.sdo[0x6041].raw & 0x4F, 0x40)

@@ -11,41 +11,23 @@ import struct
 import time
 import unittest
 
-from canopen.profiles.p402 import BaseNode402
 
-from test_interop import ROOT, Vnode
+from drive402 import Drive402Test
+from test_interop import ROOT
 
 EDS = os.path.join(ROOT, "firmware", "eds", "bmaxx4400.eds")
 NODE_ID = 4
 
 
-class Bmaxx4400(unittest.TestCase):
-    def setUp(self):
-        self.v = Vnode(device="bmaxx4400", node_id=NODE_ID, eds=EDS)
-        self.addCleanup(self.v.close)
-        self.v.network.nodes.pop(NODE_ID, None)
-        self.drive = BaseNode402(NODE_ID, EDS)
-        self.v.network.add_node(self.drive)
-        self.drive.sdo.RESPONSE_TIMEOUT = 2.0
-        self.drive.sdo.upload(0x1000, 0)
-        self.drive.nmt.state = "PRE-OPERATIONAL"
-        # TPDO1 (0x6041) on change with a 100 ms event timer: BaseNode402 sees every
-        # statusword change and a steady period.
-        self.drive.sdo[0x1800][5].raw = 100
-        self.drive.setup_402_state_machine()
-        self.drive.nmt.state = "OPERATIONAL"
+class Bmaxx4400(Drive402Test):
+    DEVICE, NODE_ID, EDS = "bmaxx4400", NODE_ID, EDS
+    EVENT_TIMED_TPDOS = (0x1800,)
 
     def i32(self, index):
         return struct.unpack("<i", self.drive.sdo.upload(index, 0))[0]
 
     def mode(self, value):
         self.drive.sdo.download(0x6060, 0, struct.pack("<b", value))
-
-    def wait_for(self, what, condition, timeout=3.0):
-        end = time.monotonic() + timeout
-        while not condition():
-            self.assertLess(time.monotonic(), end, what)
-            time.sleep(0.01)
 
     def test_state_changes_through_the_state_machine(self):
         self.assertEqual(self.drive.sdo[0x6041].raw & 0x4F, 0x40)
