@@ -10,7 +10,6 @@ import struct
 import time
 import unittest
 
-
 from drive402 import Drive402Test
 from test_interop import ROOT
 

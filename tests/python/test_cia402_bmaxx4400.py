@@ -11,7 +11,6 @@ import struct
 import time
 import unittest
 
-
 from drive402 import Drive402Test
 from test_interop import ROOT
 
