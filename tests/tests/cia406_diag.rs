@@ -56,16 +56,40 @@ fn a_position_error_sets_alarm_bit_0_with_emcy_0x1000_l2696() {
     assert_eq!(read(&mut b, 0x6504, 0), [0x01, 0x80], "supported alarms");
     b.node.app_mut().encoder.source.shaft.set_fault(Some(SensorFault::Position));
     let out = b.run_until(ms(10));
-    assert_eq!(out.iter().map(|(_, f)| f.clone()).collect::<Vec<_>>(), [(0x0BF, vec![0x00, 0x10, 0x01, 0, 0, 0, 0, 0])]);
+    // §5.5.3: a position error sets bits 0 and 5 of the error register: 0x21.
+    assert_eq!(out, [(ms(2), (0x0BF, vec![0x00, 0x10, 0x21, 0, 0, 0, 0, 0]))], "at the first sample");
     assert_eq!(read(&mut b, 0x6503, 0), [0x01, 0x00]);
+    assert_eq!(read(&mut b, 0x1001, 0), [0x21], "while it lasts");
     b.node.app_mut().encoder.source.shaft.set_fault(None);
     let out = b.run_until(ms(20));
-    assert_eq!(out.iter().map(|(_, f)| f.clone()).collect::<Vec<_>>(), [(0x0BF, vec![0; 8])], "the zero EMCY when it clears");
+    assert_eq!(out, [(ms(12), (0x0BF, vec![0; 8]))], "the zero EMCY when it clears");
     assert_eq!(read(&mut b, 0x6503, 0), [0x00, 0x00]);
+    assert_eq!(read(&mut b, 0x1001, 0), [0x00], "cleared after");
 }
 
 #[test]
-fn a_sensor_sync_failure_sends_0xff00_with_the_manual_bytes_l3699() {
+fn a_multiturn_error_sends_0x5051_with_the_manual_bytes_l3689() {
+    let mut b = encoder(MemStorage::new(4096), 0, 0);
+    b.node.app_mut().encoder.source.shaft.set_fault(Some(SensorFault::Multiturn));
+    let out = b.run_until(ms(10));
+    // §5.8.1: 0x5051 "Error Multiturn", bytes 03 05; the position is lost: 0x6503 bit 0, 0x1001 = 0x21.
+    assert_eq!(out, [(ms(2), (0x0BF, vec![0x51, 0x50, 0x21, 0x03, 0x05, 0, 0, 0]))]);
+    assert_eq!(read(&mut b, 0x6503, 0), [0x01, 0x00]);
+    assert_eq!(read(&mut b, 0x1001, 0), [0x21]);
+    // The sensor stops answering: its EMCY goes out before 0x5051 clears, with no "error reset" between.
+    b.node.app_mut().encoder.source.shaft.set_fault(Some(SensorFault::Sync));
+    let out = b.run_until(ms(20));
+    assert_eq!(out, [(ms(12), (0x0BF, vec![0x00, 0xFF, 0xA1, 0x13, 0x05, 0, 0, 0]))], "0x5051 still active: 0xA1");
+    assert_eq!(read(&mut b, 0x6503, 0), [0x00, 0x80]);
+    assert_eq!(read(&mut b, 0x1001, 0), [0x81], "0x5051 cleared, 0xFF00 active");
+    b.node.app_mut().encoder.source.shaft.set_fault(None);
+    let out = b.run_until(ms(30));
+    assert_eq!(out, [(ms(22), (0x0BF, vec![0; 8]))]);
+    assert_eq!(read(&mut b, 0x1001, 0), [0x00]);
+}
+
+#[test]
+fn a_sensor_sync_failure_sends_0xff00_with_the_manual_bytes_l3682() {
     let mut b = encoder(MemStorage::new(4096), 0, 0);
     b.node.app_mut().encoder.source.shaft.set_fault(Some(SensorFault::Sync));
     let out = b.run_until(ms(10));
@@ -126,13 +150,67 @@ fn a_preset_that_cannot_be_stored_raises_warning_bit_15_and_emcy_0x5200_l2750() 
 }
 
 #[test]
-fn operating_time_counts_tenths_of_an_hour() {
+fn a_preset_the_memory_fails_to_store_sends_0x5000_with_the_manual_bytes_l3688() {
+    let mut b = encoder(MemStorage::new(4096), 0, 0);
+    // The flash stops taking writes (a power cut to the memory alone, as far as the node can tell).
+    b.node.storage_mut().cut_after(0);
+    let out = b.rx(ms(1), 0x63F, &[0x23, 0x03, 0x60, 0x00, 0x10, 0x00, 0x00, 0x00]);
+    // §5.8.1: 0x5000 "Internal Memory Error NVM", bytes E1 01, then warning bit 15's 0x5200 (§5.5.45).
+    assert_eq!(
+        out,
+        [
+            (0x0BF, vec![0x00, 0x50, 0x01, 0xE1, 0x01, 0, 0, 0]),
+            (0x0BF, vec![0x00, 0x52, 0x01, 0, 0, 0, 0, 0]),
+            (0x5BF, common::abort(0x6003, 0, 0x0606_0000)),
+        ]
+    );
+    assert_eq!(read(&mut b, 0x6505, 0), [0x00, 0x80]);
+}
+
+fn hours(tenths: u64) -> canopen_core::time::Instant {
+    ms(tenths * 360_000)
+}
+
+#[test]
+fn operating_time_counts_tenths_of_an_hour_and_on_after_a_power_cycle() {
     let mut b = encoder(MemStorage::new(4096), 0, 0);
     assert_eq!(read_u32(&mut b, 0x6508, 0), 0);
     b.at(ms(359_999));
     assert_eq!(read_u32(&mut b, 0x6508, 0), 0);
-    b.at(ms(720_000));
+    b.at(hours(2));
     assert_eq!(read_u32(&mut b, 0x6508, 0), 2);
+    let steps = b.node.storage_mut().steps();
+    b.at(hours(9));
+    assert_eq!(b.node.storage_mut().steps(), steps, "nothing stored within the first hour");
+    b.at(hours(10));
+    assert!(b.node.storage_mut().steps() > steps, "stored at one hour");
+    b.at(hours(13));
+    assert_eq!(read_u32(&mut b, 0x6508, 0), 13);
+    // Power cycle 1.3 h after power-on: the hour stored counts on.
+    let storage = b.node.storage_mut().clone();
+    let mut b = encoder(storage, 0, 0);
+    assert_eq!(read_u32(&mut b, 0x6508, 0), 10);
+    b.at(hours(1));
+    assert_eq!(read_u32(&mut b, 0x6508, 0), 11);
+    // An NMT reset node keeps counting from power-on, not from what is stored.
+    b.at(hours(5));
+    b.nmt(0x81, 0x3F);
+    assert_eq!(read_u32(&mut b, 0x6508, 0), 15);
+}
+
+#[test]
+fn a_restore_of_the_defaults_does_not_zero_the_operating_time() {
+    let mut b = encoder(MemStorage::new(4096), 0, 0);
+    b.at(hours(12));
+    assert_eq!(b.sdo_write(0x3F, 0x1011, 1, &0x6461_6F6Cu32.to_le_bytes()), ok_write(0x1011, 1));
+    b.nmt(0x81, 0x3F);
+    assert_eq!(read_u32(&mut b, 0x6508, 0), 12, "the count goes on after the reset");
+    assert_eq!(read(&mut b, 0x6000, 0), [0, 0]);
+    // Nothing stored holds it now: it is stored again within the hour.
+    b.at(hours(13));
+    let storage = b.node.storage_mut().clone();
+    let mut b = encoder(storage, 0, 0);
+    assert_eq!(read_u32(&mut b, 0x6508, 0), 13);
 }
 
 #[test]

@@ -162,10 +162,11 @@ fn sendix_preset_is_stored_when_written_d17() {
     let mut again = sendix_node(storage);
     assert_eq!(again.sdo_upload(0x3F, 0x6003, 0), Ok(vec![0x10, 0x27, 0, 0]), "after a power cycle");
     // A store that fails fails the write: the master learns the preset is not permanent, and
-    // warning 0x6505 bit 15 raises EMCY 0x5200 (L2750, docs/devices/sendix.md D40).
+    // the memory's EMCY 0x5000 (L3688) and warning 0x6505 bit 15's 0x5200 (L2750, docs/devices/sendix.md D40, D42).
     again.node.storage_mut().cut_after(0);
     let out = again.rx(ms(1), 0x63F, &[0x23, 0x03, 0x60, 0x00, 0x20, 0x4E, 0, 0]);
-    assert_eq!(out, [(0x0BF, vec![0x00, 0x52, 0x01, 0, 0, 0, 0, 0]), (0x5BF, abort(0x6003, 0, 0x0606_0000))]);
+    let nvm = vec![0x00, 0x50, 0x01, 0xE1, 0x01, 0, 0, 0];
+    assert_eq!(out, [(0x0BF, nvm), (0x0BF, vec![0x00, 0x52, 0x01, 0, 0, 0, 0, 0]), (0x5BF, abort(0x6003, 0, 0x0606_0000))]);
 }
 
 #[test]

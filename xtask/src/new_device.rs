@@ -2,10 +2,13 @@
 //! outside this tree, from `firmware/template/` and an EDS.
 //!
 //! The EDS is checked as `od-gen check` checks it (warnings shown, errors
-//! stop), the template is copied with the crate's name, the node-id and the
-//! profile filled in, and the path dependencies point at this checkout.
-//! `new_device_ci` is what `cargo xtask test` runs: a corpus EDS into a
-//! temporary folder, built for QEMU, booted, read by python-canopen.
+//! stop) and, with `--profile`, for the objects the profile needs; the
+//! template is copied with the crate's name, the node-id and the device
+//! module of the profile (`firmware/template/profiles/`: the CiA 402
+//! profile driving the axis model, or the CiA 406 profile on a simulated
+//! shaft), and the path dependencies point at this checkout.
+//! `new_device_ci` is what `cargo xtask test` runs: corpus EDS files into a
+//! temporary folder, built for QEMU, booted and driven by python-canopen.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -14,12 +17,20 @@ use clap::{Args, ValueEnum};
 
 use crate::{TARGET, root};
 
-/// The template's files, relative to `firmware/template/`.
-const FILES: [&str; 6] = ["Cargo.toml", ".cargo/config.toml", "memory.x", "build.rs", "src/main.rs", "src/device.rs"];
+/// The template's files, relative to `firmware/template/` (the device module comes from [`device_template`]).
+const FILES: [&str; 5] = ["Cargo.toml", ".cargo/config.toml", "memory.x", "build.rs", "src/main.rs"];
 /// The link flag that selects the QEMU board's regions in the template's `memory.x`.
 const QEMU_RUSTFLAGS: &str = "-C link-arg=--defsym=__qemu_lm3s6965=1";
-/// The corpus EDS CI makes a device from.
-const CI_EDS: &str = "tests/eds-corpus/canopennode__DS301_profile.eds";
+/// What CI makes: (EDS, profile, node-id), each booted and driven by its
+/// python test. The corpus has no CiA 406 EDS (no 0x6004), so the encoder
+/// comes from the Sendix's EDS.
+const CI_DEVICES: [(&str, Profile, u8); 3] = [
+    ("tests/eds-corpus/canopennode__DS301_profile.eds", Profile::None, 0x22),
+    ("tests/eds-corpus/ros2-canopen__cia402_slave.eds", Profile::Cia402, 0x23),
+    ("firmware/eds/sendix.eds", Profile::Cia406, 0x24),
+];
+/// The crate name every CI device gets, so one target folder serves them all.
+const CI_NAME: &str = "corpus-device";
 
 /// A device profile the new device starts from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -30,6 +41,17 @@ pub enum Profile {
     Cia402,
     /// CiA 406 encoders.
     Cia406,
+}
+
+impl Profile {
+    /// The name on the command line.
+    fn name(self) -> &'static str {
+        match self {
+            Profile::None => "none",
+            Profile::Cia402 => "cia402",
+            Profile::Cia406 => "cia406",
+        }
+    }
 }
 
 /// `cargo xtask new-device`.
@@ -59,8 +81,8 @@ fn crate_name(s: &str) -> Result<String, String> {
 
 /// Creates the crate; returns its folder.
 pub fn new_device(args: &NewDeviceArgs) -> Result<PathBuf, String> {
-    let profile = profile_module(args.profile)?;
-    check_eds(&args.eds)?;
+    let eds = check_eds(&args.eds)?;
+    check_profile_objects(&eds, &args.eds, args.profile)?;
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from(&args.name));
     if out.join("Cargo.toml").exists() {
         return Err(format!("{}: a crate is there already", out.display()));
@@ -68,8 +90,9 @@ pub fn new_device(args: &NewDeviceArgs) -> Result<PathBuf, String> {
     let template = root().join("firmware/template");
     let firmware = root().join("firmware");
     let path = |p: &Path| p.display().to_string();
-    for file in FILES {
-        let text = std::fs::read_to_string(template.join(file)).map_err(|e| format!("{}: {e}", template.join(file).display()))?;
+    for file in FILES.into_iter().chain(["src/device.rs"]) {
+        let source = if file == "src/device.rs" { device_template(args.profile) } else { file };
+        let text = std::fs::read_to_string(template.join(source)).map_err(|e| format!("{}: {e}", template.join(source).display()))?;
         let text = match file {
             "Cargo.toml" => text
                 .replace("name = \"canopen-template\"", &format!("name = \"{}\"", args.name))
@@ -77,13 +100,12 @@ pub fn new_device(args: &NewDeviceArgs) -> Result<PathBuf, String> {
                 .replace("path = \"..\"", &format!("path = \"{}\"", path(&firmware)))
                 .replace("path = \"../../od-gen\"", &format!("path = \"{}\"", path(&root().join("od-gen")))),
             "src/device.rs" => {
-                let mut t = text
-                    .replace("name: \"canopen-template\"", &format!("name: \"{}\"", args.name))
-                    .replace("default_node_id: 0x10", &format!("default_node_id: {}", args.node_id));
-                if let Some(module) = profile {
-                    t.push_str(&format!("\n/// The device profile this device implements.\npub use {module} as profile;\n"));
-                }
-                t
+                let value = |index| eds.sub(index, 0).and_then(|s| s.unsigned()).unwrap_or(0);
+                text.replace("name: \"canopen-template\"", &format!("name: \"{}\"", args.name))
+                    .replace("default_node_id: 0x10", &format!("default_node_id: {}", args.node_id))
+                    // The CiA 406 shaft: the sensor's resolution and turns, as the EDS declares them.
+                    .replace("const RESOLUTION: u32 = 4096;", &format!("const RESOLUTION: u32 = {};", value(0x6501)))
+                    .replace("const TURNS: u32 = 0;", &format!("const TURNS: u32 = {};", value(0x6502)))
             }
             _ => text,
         };
@@ -104,70 +126,101 @@ pub fn new_device(args: &NewDeviceArgs) -> Result<PathBuf, String> {
     Ok(out)
 }
 
-/// The core's module for a profile, or what is missing for it.
-fn profile_module(profile: Profile) -> Result<Option<&'static str>, String> {
-    let name = match profile {
-        Profile::None => return Ok(None),
-        Profile::Cia402 => "cia402",
-        Profile::Cia406 => "cia406",
-    };
-    let dir = root().join("firmware/core/src/profiles");
-    if dir.join(name).is_dir() || dir.join(format!("{name}.rs")).is_file() {
-        Ok(Some(match profile {
-            Profile::Cia402 => "canopen_core::profiles::cia402",
-            _ => "canopen_core::profiles::cia406",
-        }))
-    } else {
-        Err(format!(
-            "--profile {name} needs the {name} profile of canopen-core (firmware/core/src/profiles/{name}), which this checkout does not have"
-        ))
+/// The template of the device module (relative to `firmware/template/`).
+fn device_template(profile: Profile) -> &'static str {
+    match profile {
+        Profile::None => "src/device.rs",
+        Profile::Cia402 => "profiles/cia402.rs",
+        Profile::Cia406 => "profiles/cia406.rs",
     }
 }
 
-/// `od-gen check`: warnings shown, errors stop.
-fn check_eds(eds: &Path) -> Result<(), String> {
-    let (_, diagnostics) = od_gen::load_path(eds, od_gen::Options { strict: false })?;
-    eprint!("{diagnostics}");
-    if diagnostics.has_errors() { Err(format!("{}: not a usable EDS (errors above)", eds.display())) } else { Ok(()) }
+/// The objects a profile's device module cannot run without, with their names.
+fn profile_objects(profile: Profile) -> &'static [(u16, &'static str)] {
+    match profile {
+        Profile::None => &[],
+        // The state machine (controlword, statusword) and a mode to move in (CiA 402-2 §6, §6.4).
+        Profile::Cia402 => {
+            &[(0x6040, "controlword"), (0x6041, "statusword"), (0x6060, "modes of operation"), (0x6061, "modes of operation display")]
+        }
+        // The position and the steps per turn the scaling starts from (CiA 406 §6.2, §6.5).
+        Profile::Cia406 => &[(0x6004, "position value"), (0x6501, "single-turn resolution")],
+    }
 }
 
-/// What CI runs: a device from a corpus EDS into a temporary folder, built
-/// for the QEMU board, booted, and read by python-canopen.
+/// The profile's objects are in the EDS; else one line naming the missing ones.
+fn check_profile_objects(eds: &od_gen::Eds, path: &Path, profile: Profile) -> Result<(), String> {
+    let missing: Vec<String> = profile_objects(profile)
+        .iter()
+        .filter(|(index, _)| eds.sub(*index, 0).is_none())
+        .map(|(index, name)| format!("0x{index:04X} {name}"))
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    Err(format!("{}: error: --profile {} needs {}, which the EDS does not define", path.display(), profile.name(), missing.join(", ")))
+}
+
+/// `od-gen check`: warnings shown, errors stop; the parsed EDS.
+fn check_eds(eds: &Path) -> Result<od_gen::Eds, String> {
+    let (parsed, diagnostics) = od_gen::load_path(eds, od_gen::Options { strict: false })?;
+    eprint!("{diagnostics}");
+    if diagnostics.has_errors() { Err(format!("{}: not a usable EDS (errors above)", eds.display())) } else { Ok(parsed) }
+}
+
+/// What CI runs: devices from corpus EDS files into a temporary folder,
+/// built for the QEMU board (one target folder, so only the device crate
+/// builds again), booted, and driven by python-canopen
+/// (`tests/python/test_new_device.py`); an EDS without the profile's
+/// objects is refused.
 pub fn new_device_ci(python: &str) -> Result<(), String> {
     let out = std::env::temp_dir().join(format!("xtask-new-device-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    let args = NewDeviceArgs {
-        name: "corpus-device".into(),
-        eds: root().join(CI_EDS),
-        profile: Profile::None,
-        node_id: 0x22,
-        out: Some(out.clone()),
-    };
     let target = root().join("target/new-device");
-    let result = new_device(&args).and_then(|dir| {
-        eprintln!("+ cargo build --release --no-default-features --features qemu (in {})", dir.display());
-        let status = Command::new("cargo")
-            .args(["build", "--release", "--no-default-features", "--features", "qemu"])
-            .env("CARGO_TARGET_THUMBV7M_NONE_EABI_RUSTFLAGS", QEMU_RUSTFLAGS)
-            // Kept between runs, so only the device's own crate is built again.
-            .env("CARGO_TARGET_DIR", &target)
-            .current_dir(&dir)
-            .status()
-            .map_err(|e| format!("cargo: {e}"))?;
-        if !status.success() {
-            return Err(format!("the new device did not build ({status})"));
+    let result = (|| {
+        // A CiA 402 device from an EDS without the drive objects: refused, naming them.
+        let refused = NewDeviceArgs {
+            name: CI_NAME.into(),
+            eds: root().join(CI_DEVICES[0].0),
+            profile: Profile::Cia402,
+            node_id: 1,
+            out: Some(out.clone()),
+        };
+        match new_device(&refused) {
+            Err(e) if e.contains("0x6040 controlword") && e.contains("0x6041 statusword") => eprintln!("refused as it should be: {e}"),
+            other => return Err(format!("an EDS without 0x6040/0x6041 was not refused for --profile cia402: {other:?}")),
         }
-        let elf = target.join(TARGET).join("release/corpus-device");
-        let status = Command::new(python)
-            .args(["-m", "unittest", "-v", "tests/python/test_new_device.py"])
-            .env("NEW_DEVICE_ELF", &elf)
-            .env("NEW_DEVICE_NODE_ID", "34")
-            .env("NEW_DEVICE_EDS", root().join(CI_EDS))
-            .current_dir(root())
-            .status()
-            .map_err(|e| format!("{python}: {e}"))?;
-        if status.success() { Ok(()) } else { Err("python-canopen could not read the new device".into()) }
-    });
+        for (eds, profile, node_id) in CI_DEVICES {
+            let _ = std::fs::remove_dir_all(&out);
+            let args = NewDeviceArgs { name: CI_NAME.into(), eds: root().join(eds), profile, node_id, out: Some(out.clone()) };
+            let dir = new_device(&args)?;
+            eprintln!("+ cargo build --release --no-default-features --features qemu (in {})", dir.display());
+            let status = Command::new("cargo")
+                .args(["build", "--release", "--no-default-features", "--features", "qemu"])
+                .env("CARGO_TARGET_THUMBV7M_NONE_EABI_RUSTFLAGS", QEMU_RUSTFLAGS)
+                // Kept between runs, so only the device's own crate is built again.
+                .env("CARGO_TARGET_DIR", &target)
+                .current_dir(&dir)
+                .status()
+                .map_err(|e| format!("cargo: {e}"))?;
+            if !status.success() {
+                return Err(format!("the new device from {eds} (--profile {profile:?}) did not build ({status})"));
+            }
+            let elf = target.join(TARGET).join("release").join(CI_NAME);
+            let status = Command::new(python)
+                .args(["-m", "unittest", "-v", "tests/python/test_new_device.py"])
+                .env("NEW_DEVICE_ELF", &elf)
+                .env("NEW_DEVICE_NODE_ID", node_id.to_string())
+                .env("NEW_DEVICE_EDS", root().join(eds))
+                .env("NEW_DEVICE_PROFILE", profile.name())
+                .current_dir(root())
+                .status()
+                .map_err(|e| format!("{python}: {e}"))?;
+            if !status.success() {
+                return Err(format!("python-canopen could not drive the new device from {eds}"));
+            }
+        }
+        Ok(())
+    })();
     let _ = std::fs::remove_dir_all(&out);
     result
 }

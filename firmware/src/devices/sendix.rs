@@ -13,8 +13,9 @@ pub mod od {
 
 use canopen_core::abort::AbortCode;
 use canopen_core::node::{Application, CommError, Ctx, NmtEvent, ServiceOptions, Source};
-use canopen_core::profiles::cia406::diag::BitEmcy;
+use canopen_core::profiles::cia406::diag::{BitEmcy, ErrorEmcy, FaultAlarm};
 use canopen_core::profiles::cia406::{self, Config, Encoder, ManualShaft, PositionSource, SensorFault, SimulatedShaft};
+use canopen_core::services::emcy::register;
 use canopen_core::services::nmt::State;
 use canopen_core::services::store;
 use canopen_core::time::{Duration, Instant};
@@ -139,10 +140,23 @@ pub mod emcy {
     pub const TEMPERATURE: u16 = 0x4200;
     /// Internal memory (0x6505 bit 15).
     pub const MEMORY: u16 = 0x5200;
+    /// "Internal Memory Error NVM": the memory failed a store.
+    pub const NVM: u16 = 0x5000;
+    /// "Error Multiturn": the multi-turn counter failed.
+    pub const MULTITURN: u16 = 0x5051;
     /// Sensor sync failure (the sensor does not answer; 0x6503 bit 15).
     pub const SENSOR_SYNC: u16 = 0xFF00;
     /// The over-temperature EMCY's first manufacturer byte: "sensor error register".
     pub const SENSOR_ERROR_REGISTER: u8 = 0x80;
+}
+
+/// §5.5.3: a position error sets bit 5 "device profile specific" of 0x1001
+/// besides bit 0, so 0x1001 reads 0x21 while it lasts.
+const POSITION_ERROR_REGISTER: u8 = register::PROFILE;
+
+/// An EMCY with the manual's manufacturer bytes and no extra register bit.
+const fn plain(code: u16, info: [u8; 5]) -> ErrorEmcy {
+    ErrorEmcy { code, register: 0, info }
 }
 
 /// The profile as this variant has it.
@@ -152,16 +166,32 @@ const CIA406: Config = Config {
     // "Data update every 2 ms" (§3.8).
     update: Duration::from_millis(2),
     overspeed_rpm: 12_000,
-    alarms: &[
-        BitEmcy { mask: cia406::ALARM_POSITION, code: emcy::ALARM, info: [0; 5] },
+    faults: &[
+        // §5.5.43: a position error is 0x6503 bit 0 with EMCY 0x1000; §5.5.3: 0x1001 = 0x21.
+        FaultAlarm {
+            fault: SensorFault::Position,
+            mask: cia406::ALARM_POSITION,
+            emcy: ErrorEmcy { code: emcy::ALARM, register: POSITION_ERROR_REGISTER, info: [0; 5] },
+        },
+        // §5.8.1: 0x5051 "Error Multiturn", manufacturer bytes 03 05 00 00 00; the turns are
+        // lost, so it is a position error too (0x6503 bit 0, 0x1001 = 0x21), D42.
+        FaultAlarm {
+            fault: SensorFault::Multiturn,
+            mask: cia406::ALARM_POSITION,
+            emcy: ErrorEmcy { code: emcy::MULTITURN, register: POSITION_ERROR_REGISTER, info: [0x03, 0x05, 0, 0, 0] },
+        },
         // §5.8.1: 0xFF00 "Sensor Sync. Failure", manufacturer bytes 13 05 00 00 00.
-        BitEmcy { mask: cia406::ALARM_DEVICE, code: emcy::SENSOR_SYNC, info: [0x13, 0x05, 0, 0, 0] },
+        FaultAlarm { fault: SensorFault::Sync, mask: cia406::ALARM_DEVICE, emcy: plain(emcy::SENSOR_SYNC, [0x13, 0x05, 0, 0, 0]) },
     ],
     warnings: &[
         // Overspeed and temperature share 0x4200 (§5.5.45, §5.8.2).
-        BitEmcy { mask: cia406::WARNING_OVERSPEED | WARNING_TEMPERATURE, code: emcy::TEMPERATURE, info: [0; 5] },
-        BitEmcy { mask: cia406::WARNING_MEMORY, code: emcy::MEMORY, info: [0; 5] },
+        BitEmcy { mask: cia406::WARNING_OVERSPEED | WARNING_TEMPERATURE, emcy: plain(emcy::TEMPERATURE, [0; 5]) },
+        BitEmcy { mask: cia406::WARNING_MEMORY, emcy: plain(emcy::MEMORY, [0; 5]) },
     ],
+    // §5.8.1: 0x5000 "Internal Memory Error NVM", manufacturer bytes E1 01 00 00 00.
+    storage_fault: Some(plain(emcy::NVM, [0xE1, 0x01, 0, 0, 0])),
+    // D46: stored every hour of operation, counted on after a power cycle.
+    operating_time_saved_every: 10,
 };
 
 /// How often the temperature is compared with the limits.

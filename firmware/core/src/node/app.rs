@@ -196,6 +196,12 @@ impl Ctx<'_> {
         self.services.emcy().raise(code, info)
     }
 
+    /// Raises an error that sets the error register bits `register` (0x1001)
+    /// while it lasts, beyond those its code's class sets.
+    pub fn raise_error_with(&mut self, code: u16, register: u8, info: [u8; 5]) -> bool {
+        self.services.emcy().raise_with(code, register, info)
+    }
+
     /// Asks for a reset node (as NMT command 0x81), e.g. for program control
     /// 0x1F51 (CiA 302-3). Honoured from the hooks of an SDO write only, once
     /// its answer is queued (in the frame path, whose stack already holds an
@@ -214,7 +220,11 @@ impl Ctx<'_> {
 
     /// Clears an error; the last one cleared sends "error reset".
     pub fn clear_error(&mut self, code: u16) {
-        self.services.emcy().clear(code);
+        let emcy = self.services.emcy();
+        emcy.clear(code);
+        // No message when other errors stay active: 0x1001 follows at once.
+        let register = emcy.register();
+        let _ = self.dict.write_unchecked(self.image, 0x1001, 0, &[register]);
     }
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).

@@ -141,7 +141,10 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
 
     /// Records a sent EMCY: 0x1001 and, for an error, a new 0x1003 entry (newest at sub 1).
     pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &Emcy) {
-        let _ = dict.write_unchecked(image, 0x1001, 0, &[e.register]);
+        // An error still active: the register as it is now, not as it was when the
+        // message was queued (an error cleared since, without a message, has left it).
+        let register = if self.emcy.is_active(e.code) { self.emcy.register() } else { e.register };
+        let _ = dict.write_unchecked(image, 0x1001, 0, &[register]);
         if e.code == 0 {
             return;
         }

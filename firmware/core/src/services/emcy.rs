@@ -48,6 +48,9 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     inhibit: Duration,
     last_sent: Option<Instant>,
     active: [u16; A],
+    /// Error register bits each active error sets beyond its code's class
+    /// (a device whose manual gives a generic code a profile bit).
+    active_bits: [u8; A],
     active_len: usize,
     queue: [Emcy; Q],
     head: usize,
@@ -75,6 +78,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             inhibit: Duration::ZERO,
             last_sent: None,
             active: [0; A],
+            active_bits: [0; A],
             active_len: 0,
             queue: [Emcy { code: 0, register: 0, info: [0; 5] }; Q],
             head: 0,
@@ -102,8 +106,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.tx_overflow {
             r |= register_bit(code::CAN_OVERRUN);
         }
-        for &code in self.active.iter().take(self.active_len) {
-            r |= register_bit(code);
+        for (&code, &bits) in self.active.iter().zip(&self.active_bits).take(self.active_len) {
+            r |= register_bit(code) | bits;
         }
         r
     }
@@ -116,15 +120,23 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Raises an error: records it as active and queues its message.
     /// Returns false if it was active already (nothing is sent again).
     pub fn raise(&mut self, code: u16, info: [u8; 5]) -> bool {
+        self.raise_with(code, 0, info)
+    }
+
+    /// Raises an error that also sets the error register bits `register`
+    /// while it lasts, beyond those of its code's class (the Sendix's
+    /// position error, generic code 0x1000, sets bit 5 "device profile").
+    pub fn raise_with(&mut self, code: u16, register: u8, info: [u8; 5]) -> bool {
         if self.is_active(code) {
             return false;
         }
-        match self.active.get_mut(self.active_len) {
-            Some(slot) => {
+        match (self.active.get_mut(self.active_len), self.active_bits.get_mut(self.active_len)) {
+            (Some(slot), Some(bits)) => {
                 *slot = code;
+                *bits = register;
                 self.active_len += 1;
             }
-            None => self.lost_errors = true,
+            _ => self.lost_errors = true,
         }
         let register = self.register();
         self.push(Emcy { code, register, info });
@@ -177,6 +189,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         for i in pos..self.active_len.saturating_sub(1) {
             let next = self.active.get(i + 1).copied().unwrap_or(0);
             if let Some(slot) = self.active.get_mut(i) {
+                *slot = next;
+            }
+            let next = self.active_bits.get(i + 1).copied().unwrap_or(0);
+            if let Some(slot) = self.active_bits.get_mut(i) {
                 *slot = next;
             }
         }
@@ -267,6 +283,20 @@ mod tests {
         assert_eq!(e.register(), 0);
         assert_eq!(e.poll(us(1)), Some((0x81, Emcy { code: 0, register: 0, info: [0; 5] })));
         assert_eq!(e.poll(us(2)), None);
+    }
+
+    #[test]
+    fn extra_register_bits_last_as_long_as_their_error() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.configure(0x81, 0);
+        assert!(e.raise_with(0x1000, register::PROFILE, [0; 5]));
+        assert!(e.raise(code::HEARTBEAT, [0; 5]));
+        assert_eq!(e.register(), 0x31);
+        e.clear(0x1000);
+        assert_eq!(e.register(), 0x11, "bit 5 went with 0x1000, the heartbeat's bits stay");
+        assert!(e.raise(0x1000, [0; 5]));
+        assert_eq!(e.register(), 0x11, "raised again without extra bits");
+        assert_eq!(e.poll(us(0)).map(|(_, m)| m.register), Some(0x21));
     }
 
     #[test]

@@ -333,10 +333,12 @@ fn write_set(
             }
         }
         let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
+        // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
+        let stale = old.is_some_and(|set| set.header.defaults & bit != 0);
         match old {
-            Some(set) if !from_image => storage.read(set.region, HEADER + pos, chunk)?,
-            // No set yet: what is not saved from the image is the default (stored relative, as defaults are).
-            None if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
+            Some(set) if !from_image && !stale => storage.read(set.region, HEADER + pos, chunk)?,
+            // No set (or a scope at default): what is not saved from the image is the default (stored relative, as defaults are).
+            _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
             _ => {
                 chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
                 // `$NODEID` values are kept relative to the node-id.

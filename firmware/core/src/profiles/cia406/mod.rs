@@ -23,7 +23,7 @@ pub mod speed;
 use crate::abort::AbortCode;
 use crate::node::Ctx;
 use crate::time::{Duration, Instant};
-use diag::{BitEmcy, EmcyChange};
+use diag::{BitEmcy, EmcyChange, ErrorEmcy, FaultAlarm};
 use scaling::Scaling;
 pub use source::{CounterRegister, ManualShaft, PositionSource, QuadratureCounter, SensorFault, SimulatedShaft};
 use speed::{Gate, SpeedFormat};
@@ -85,7 +85,7 @@ pub const ALARM_DEVICE: u16 = 1 << 15;
 /// 0x6505 bit 0: overspeed.
 pub const WARNING_OVERSPEED: u16 = 1 << 0;
 
-/// One hour-tenth (the unit of 0x6508).
+/// One hour-tenth (the unit of 0x6508), in µs.
 const OPERATING_TIME_UNIT: u64 = 360_000_000;
 
 /// What a device fixes of the profile.
@@ -99,10 +99,19 @@ pub struct Config {
     pub update: Duration,
     /// Speed above which 0x6505 bit 0 (overspeed) is set, in rpm; 0: never.
     pub overspeed_rpm: u32,
-    /// The EMCY each alarm bit (0x6503) raises.
-    pub alarms: &'static [BitEmcy],
+    /// The 0x6503 bits and the EMCY each sensor fault raises; a fault not
+    /// listed sets bit 0 (position error) and raises none.
+    pub faults: &'static [FaultAlarm],
     /// The EMCY each warning bit (0x6505) raises.
     pub warnings: &'static [BitEmcy],
+    /// The EMCY the non-volatile memory raises when it fails a store (a
+    /// storage fault, abort 0x06060000), besides warning bit 15; it stays
+    /// active until a reset communication. `None`: the warning alone.
+    pub storage_fault: Option<ErrorEmcy>,
+    /// The operating time 0x6508 is stored every this many tenths of an
+    /// hour and counts on from the stored value after a power cycle; 0: it
+    /// counts from 0 at each power-on.
+    pub operating_time_saved_every: u32,
 }
 
 /// The profile's state: `const` and all zero bits ([`Encoder::NEW`]), so
@@ -126,6 +135,15 @@ pub struct Encoder<P> {
     gate: Gate,
     speed: i32,
     next_sample: Instant,
+    /// The sensor fault active (index into [`Config::faults`] + 1; 0: none,
+    /// `u8::MAX`: one the table does not list).
+    fault: u8,
+    /// The operating time stored when the device powered on, in 0.1 h.
+    time_base: u32,
+    /// Whether `time_base` has been read (once per power-on, not per reset).
+    time_loaded: bool,
+    /// The operating time the storage holds, in 0.1 h.
+    time_saved: u32,
 }
 
 impl<P: PositionSource> Encoder<P> {
@@ -142,6 +160,10 @@ impl<P: PositionSource> Encoder<P> {
             gate: Gate::NEW,
             speed: 0,
             next_sample: Instant::ZERO,
+            fault: 0,
+            time_base: 0,
+            time_loaded: false,
+            time_saved: 0,
         }
     }
 
@@ -160,6 +182,19 @@ impl<P: PositionSource> Encoder<P> {
             _ => 0,
         };
         self.set_offset(ctx, stored);
+        // The operating time counts on from what was stored at power-on; a
+        // later reset keeps counting (a restore of the defaults does not zero it).
+        let saved = match ctx.stored(index::OPERATING_TIME, 0, &mut buf) {
+            Some(4) => Some(u32::from_le_bytes(buf)),
+            _ => None,
+        };
+        if !self.time_loaded {
+            self.time_base = saved.unwrap_or(0);
+            self.time_loaded = true;
+        }
+        // Nothing stored (a restore of the defaults): stored again at the next interval.
+        self.time_saved = saved.unwrap_or(0);
+        let _ = ctx.set_value(index::OPERATING_TIME, 0, &self.operating_time(ctx.now()).to_le_bytes());
         self.tracking = false;
         self.speed = 0;
         self.gate = Gate::NEW;
@@ -210,24 +245,20 @@ impl<P: PositionSource> Encoder<P> {
         let count = match self.source.count(now) {
             Ok(count) => count,
             Err(fault) => {
-                let bit = match fault {
-                    SensorFault::Position => ALARM_POSITION,
-                    SensorFault::Sync => ALARM_DEVICE,
-                };
-                self.set_bits(ctx, index::ALARMS, config.alarms, bit, bit, None);
+                self.set_fault(ctx, config, Some(fault));
                 // The movement during the fault is unknown: start again from the absolute count.
                 self.tracking = false;
                 return;
             }
         };
-        self.set_bits(ctx, index::ALARMS, config.alarms, ALARM_POSITION | ALARM_DEVICE, 0, None);
+        self.set_fault(ctx, config, None);
         let range = self.source.range();
         let steps = steps_between(self.last_count, count, range);
         if self.tracking && steps.unsigned_abs() <= scaling::MAX_STEP as u64 {
             // The physical counter wrapped: the offset takes up what it dropped, so the
             // position does not jump, now or after the next power-on.
             if range != 0 && steps != 0 && (steps > 0) == (count < self.last_count) {
-                self.rebase(ctx, &scaling, count);
+                self.rebase(ctx, config, &scaling, count);
             }
             self.num = scaling.advance(self.num, steps);
             let signed = if scaling.ccw { -steps } else { steps };
@@ -255,12 +286,62 @@ impl<P: PositionSource> Encoder<P> {
         if now >= self.next_sample {
             self.sample(ctx, config);
             self.next_sample = now + config.update;
-            let tenths = (now.as_micros() / OPERATING_TIME_UNIT) as u32;
+            let tenths = self.operating_time(now);
             if ctx.read_u32(index::OPERATING_TIME, 0) != Some(tenths) {
                 let _ = ctx.set_value(index::OPERATING_TIME, 0, &tenths.to_le_bytes());
+                let every = config.operating_time_saved_every;
+                if every != 0 && tenths >= self.time_saved.saturating_add(every) {
+                    // Stored whatever the outcome: a failed store is tried again one interval later.
+                    self.time_saved = tenths;
+                    if let Err(e) = ctx.save_objects(index::OPERATING_TIME, index::OPERATING_TIME) {
+                        self.store_failed(ctx, config, e);
+                    }
+                }
             }
         }
         Some(self.next_sample)
+    }
+
+    /// The operating time at `now` (since power-on), in 0.1 h.
+    fn operating_time(&self, now: Instant) -> u32 {
+        self.time_base.saturating_add((now.as_micros() / OPERATING_TIME_UNIT) as u32)
+    }
+
+    /// A store the profile triggers failed: warning bit 15 (0x6505) and,
+    /// for a storage fault, the device's memory EMCY.
+    fn store_failed(&mut self, ctx: &mut Ctx<'_>, config: &Config, e: AbortCode) {
+        if let (AbortCode::Hardware, Some(emcy)) = (e, config.storage_fault) {
+            ctx.raise_error_with(emcy.code, emcy.register, emcy.info);
+        }
+        self.set_bits(ctx, index::WARNINGS, config.warnings, WARNING_MEMORY, WARNING_MEMORY, None);
+    }
+
+    /// The sensor reports `fault` (or none): 0x6503 and the EMCY follow
+    /// the [`Config::faults`] entry; a new fault's EMCY goes out before the
+    /// old one's is cleared, so no "error reset" comes between them.
+    fn set_fault(&mut self, ctx: &mut Ctx<'_>, config: &Config, fault: Option<SensorFault>) {
+        let slot = match fault {
+            None => 0,
+            Some(f) => config.faults.iter().position(|a| a.fault == f).map_or(u8::MAX, |i| (i as u8).saturating_add(1)),
+        };
+        if slot == self.fault {
+            return;
+        }
+        let entry = |slot: u8| config.faults.get(usize::from(slot.checked_sub(1)?));
+        let (old, new) = (entry(self.fault), entry(slot));
+        if let Some(a) = new {
+            ctx.raise_error_with(a.emcy.code, a.emcy.register, a.emcy.info);
+        }
+        if let Some(a) = old.filter(|o| new.is_none_or(|n| n.emcy.code != o.emcy.code)) {
+            ctx.clear_error(a.emcy.code);
+        }
+        self.fault = slot;
+        let bits = match (slot, new) {
+            (0, _) => 0,
+            (_, Some(a)) => a.mask,
+            (_, None) => ALARM_POSITION,
+        };
+        let _ = ctx.set_value(index::ALARMS, 0, &bits.to_le_bytes());
     }
 
     /// Sets `bits` of the alarm or warning object `object` to `value`
@@ -275,8 +356,8 @@ impl<P: PositionSource> Encoder<P> {
         let _ = ctx.set_value(object, 0, &new.to_le_bytes());
         for change in diag::emcy_changes(table, old, new) {
             match change {
-                EmcyChange::Raise(code, table_info) => {
-                    ctx.raise_error(code, info.unwrap_or(table_info));
+                EmcyChange::Raise(e) => {
+                    ctx.raise_error_with(e.code, e.register, info.unwrap_or(e.info));
                 }
                 EmcyChange::Clear(code) => ctx.clear_error(code),
             }
@@ -315,20 +396,22 @@ impl<P: PositionSource> Encoder<P> {
         self.num = s.with_position(s.at(self.last_count, 0), preset);
         let _ = ctx.set_value(index::POSITION_VALUE, 0, &preset.to_le_bytes());
         self.work_areas(ctx, preset);
-        if ctx.save_objects(index::OFFSET_VALUE, index::OFFSET_VALUE).is_err() {
-            self.set_bits(ctx, index::WARNINGS, config.warnings, WARNING_MEMORY, WARNING_MEMORY, None);
+        if let Err(e) = ctx.save_objects(index::OFFSET_VALUE, index::OFFSET_VALUE) {
+            self.store_failed(ctx, config, e);
         }
     }
 
     /// The physical counter wrapped at `count`: the offset grows by what
     /// the wrap dropped, so that count and offset give the position held.
-    fn rebase(&mut self, ctx: &mut Ctx<'_>, s: &Scaling, count: u64) {
+    fn rebase(&mut self, ctx: &mut Ctx<'_>, config: &Config, s: &Scaling, count: u64) {
         // The range is whole revolutions of the sensor (PositionSource::range).
         let dropped = i64::from(s.turns(self.source.range() / u64::from(s.resolution.max(1))));
         let forward = (count < self.last_count) != s.ccw;
         let dropped = if forward { dropped } else { -dropped };
         self.set_offset(ctx, s.wrap(i64::from(self.offset) + dropped));
-        let _ = ctx.save_objects(index::OFFSET_VALUE, index::OFFSET_VALUE);
+        if let Err(e) = ctx.save_objects(index::OFFSET_VALUE, index::OFFSET_VALUE) {
+            self.store_failed(ctx, config, e);
+        }
     }
 
     /// A speed gate closed: speed, acceleration, overspeed.

@@ -13,6 +13,9 @@ pub enum SensorFault {
     Position,
     /// The sensor did not answer in time (0x6503 bit 15 "device error").
     Sync,
+    /// The multi-turn counter failed: the turns are not known (a position
+    /// error; the Sendix reports it as EMCY 0x5051, manual §5.8.1).
+    Multiturn,
 }
 
 /// A multi-turn position sensor.

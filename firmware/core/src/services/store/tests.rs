@@ -133,6 +133,22 @@ fn scopes_store_and_restore_their_own_range() {
 }
 
 #[test]
+fn objects_saved_after_a_restore_keep_the_rest_of_their_scope_at_default() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x1017, 0, &100u16.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x1800, 1, &0x4000_0281u32.to_le_bytes()).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::Communication).unwrap();
+    restore_defaults(&DICT, &img, 1, &mut flash, Scope::Communication).unwrap();
+    // A device stores one object of the restored scope before the reset (an encoder's operating time).
+    DICT.write(&mut img, 0x1017, 0, &200u16.to_le_bytes()).unwrap();
+    save_objects(&DICT, &img, 1, &mut flash, 0x1017, 0x1017).unwrap();
+    let img = boot(&mut flash, 1);
+    assert_eq!(DICT.read(&img, 0x1017, 0), Ok(&200u16.to_le_bytes()[..]));
+    assert_eq!(DICT.read(&img, 0x1800, 1), Ok(&0x4000_0181u32.to_le_bytes()[..]), "the restore holds for the rest");
+}
+
+#[test]
 fn a_power_cut_at_any_step_leaves_the_old_or_the_new_set() {
     // Old set: 0x1017 = 111, 0x2000 = 1111. New set: 222, 2222.
     let mut base = Flash::new();
