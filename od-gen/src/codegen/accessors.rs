@@ -2,18 +2,18 @@
 //! `const`) a setter per entry, or one indexed pair for an ARRAY whose
 //! elements share a type and sit back to back.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 use std::fmt::Write;
 
 use canopen_core::od::{Attr, DataType};
 
 use super::emit::doc_escape;
 use super::layout::{Layout, Placed};
-use super::names::{RESERVED, snake};
+use super::names::Taken;
 use crate::model::{Access, Eds, Object, ObjectKind};
 
 /// Whether entries 1..=n of an ARRAY share one type and sit back to back in RAM.
-fn uniform_array<'a>(o: &Object, entries: &'a [&'a Placed<'a>]) -> Option<(&'a Placed<'a>, usize)> {
+fn uniform_array<'a>(o: &Object, entries: &[&'a Placed<'a>]) -> Option<(&'a Placed<'a>, usize)> {
     if o.kind != ObjectKind::Array {
         return None;
     }
@@ -30,52 +30,95 @@ fn uniform_array<'a>(o: &Object, entries: &'a [&'a Placed<'a>]) -> Option<(&'a P
     (contiguous && n >= 2 && first.data_type.size().is_some()).then_some((first, n))
 }
 
-pub(super) fn accessors(
-    w: &mut String,
-    eds: &Eds,
-    l: &Layout<'_>,
-    object_names: &BTreeMap<u16, String>,
-    used: &mut HashSet<String>,
-    source: &str,
-) {
+/// What an object gets: a getter and setter per entry, or for a uniform
+/// ARRAY an indexed pair and sub-index 0's own.
+enum Plan<'a> {
+    Entries(Vec<&'a Placed<'a>>),
+    Indexed { first: &'a Placed<'a>, n: usize, sub0: Option<&'a Placed<'a>> },
+}
+
+pub(super) fn accessors(w: &mut String, eds: &Eds, l: &Layout<'_>, object_names: &BTreeMap<u16, String>, source: &str) {
     let mut by_object: BTreeMap<u16, Vec<&Placed>> = BTreeMap::new();
     for e in &l.entries {
-        by_object.entry(e.obj.index).or_default().push(e);
+        // DOMAIN entries have no accessor (and take no name).
+        if rust_type(e.data_type).is_some() {
+            by_object.entry(e.obj.index).or_default().push(e);
+        }
     }
-    for (index, entries) in &by_object {
+    let plans: Vec<(u16, Plan)> = by_object
+        .into_iter()
+        .map(|(index, entries)| {
+            let plan = match uniform_array(&eds.objects[&index], &entries) {
+                Some((first, n)) => Plan::Indexed { first, n, sub0: entries.iter().copied().find(|e| e.sub.sub == 0) },
+                None => Plan::Entries(entries),
+            };
+            (index, plan)
+        })
+        .collect();
+    // Names (names.rs): the objects' own accessors first, then the sub-indices'.
+    let mut taken = Taken::new();
+    let mut names: BTreeMap<(u16, u8), String> = BTreeMap::new();
+    for (index, plan) in &plans {
         let o = &eds.objects[index];
-        let base = &object_names[index];
-        if let Some((first, n)) = uniform_array(o, entries) {
-            let s0 = entries.iter().find(|e| e.sub.sub == 0);
-            if let Some(s0) = s0 {
-                one_accessor(w, s0, &format!("{base}_sub0"), used, source);
+        match plan {
+            Plan::Indexed { .. } => {
+                names.insert((*index, 1), taken.object(&object_names[index], *index));
             }
-            let ty = rust_type(first.data_type).unwrap_or("u8");
-            let size = first.len;
-            let _ = writeln!(w);
-            let _ = writeln!(w, "    /// 0x{index:04X} {} sub-index `i` (1..={n}) ({source}:{})", doc_escape(&o.name), o.line);
-            let _ = writeln!(w, "    pub fn {base}(&self, i: u8) -> Option<{ty}> {{");
-            let _ = writeln!(w, "        if !(1..={n}).contains(&i) {{\n            return None;\n        }}");
-            let _ = writeln!(w, "        let off = {};", element_offset(first.offset, size));
-            let _ = writeln!(w, "        Some({})", getter_expr(first.data_type, "&self.image", "off", size));
-            let _ = writeln!(w, "    }}");
-            let _ = writeln!(w);
-            let _ =
-                writeln!(w, "    /// Sets 0x{index:04X} {} sub-index `i` (1..={n}); false if `i` is out of range.", doc_escape(&o.name));
-            let _ = writeln!(w, "    pub fn set_{base}(&mut self, i: u8, v: {ty}) -> bool {{");
-            let _ = writeln!(w, "        if !(1..={n}).contains(&i) {{\n            return false;\n        }}");
-            let _ = writeln!(w, "        let off = {};", element_offset(first.offset, size));
-            let _ = writeln!(w, "        {}", setter_stmt(first.data_type, "off", size));
-            let _ = writeln!(w, "        true");
-            let _ = writeln!(w, "    }}");
-            used.insert(base.clone());
-            continue;
-        }
-        for e in entries {
-            let name = if o.kind.has_subs() { format!("{base}_{}", snake(&e.sub.name).trim_start_matches("o_")) } else { base.clone() };
-            one_accessor(w, e, &name, used, source);
+            Plan::Entries(_) if !o.kind.has_subs() => {
+                names.insert((*index, 0), taken.object(&object_names[index], *index));
+            }
+            Plan::Entries(_) => {}
         }
     }
+    for (index, plan) in &plans {
+        let o = &eds.objects[index];
+        let subs: Vec<&Placed> = match plan {
+            Plan::Indexed { sub0, .. } => sub0.iter().copied().collect(),
+            Plan::Entries(entries) if o.kind.has_subs() => entries.clone(),
+            Plan::Entries(_) => Vec::new(),
+        };
+        for e in subs {
+            names.insert((*index, e.sub.sub), taken.sub(&object_names[index], o, e.sub));
+        }
+    }
+    for (index, plan) in &plans {
+        let o = &eds.objects[index];
+        match plan {
+            Plan::Indexed { first, n, sub0 } => {
+                if let Some(s0) = sub0 {
+                    one_accessor(w, s0, &names[&(*index, 0)], source);
+                }
+                indexed_accessors(w, o, first, *n, &names[&(*index, 1)], source);
+            }
+            Plan::Entries(entries) => {
+                for e in entries {
+                    one_accessor(w, e, &names[&(*index, e.sub.sub)], source);
+                }
+            }
+        }
+    }
+}
+
+/// The getter and setter of elements 1..=`n` of a uniform ARRAY.
+fn indexed_accessors(w: &mut String, o: &Object, first: &Placed<'_>, n: usize, name: &str, source: &str) {
+    let index = o.index;
+    let ty = rust_type(first.data_type).unwrap_or("u8");
+    let size = first.len;
+    let _ = writeln!(w);
+    let _ = writeln!(w, "    /// 0x{index:04X} {} sub-index `i` (1..={n}) ({source}:{})", doc_escape(&o.name), o.line);
+    let _ = writeln!(w, "    pub fn {name}(&self, i: u8) -> Option<{ty}> {{");
+    let _ = writeln!(w, "        if !(1..={n}).contains(&i) {{\n            return None;\n        }}");
+    let _ = writeln!(w, "        let off = {};", element_offset(first.offset, size));
+    let _ = writeln!(w, "        Some({})", getter_expr(first.data_type, "&self.image", "off", size));
+    let _ = writeln!(w, "    }}");
+    let _ = writeln!(w);
+    let _ = writeln!(w, "    /// Sets 0x{index:04X} {} sub-index `i` (1..={n}); false if `i` is out of range.", doc_escape(&o.name));
+    let _ = writeln!(w, "    pub fn set_{name}(&mut self, i: u8, v: {ty}) -> bool {{");
+    let _ = writeln!(w, "        if !(1..={n}).contains(&i) {{\n            return false;\n        }}");
+    let _ = writeln!(w, "        let off = {};", element_offset(first.offset, size));
+    let _ = writeln!(w, "        {}", setter_stmt(first.data_type, "off", size));
+    let _ = writeln!(w, "        true");
+    let _ = writeln!(w, "    }}");
 }
 
 /// Offset of element `i` (1-based) of an array starting at `base`, written
@@ -89,15 +132,9 @@ fn element_offset(base: usize, size: usize) -> String {
     }
 }
 
-fn one_accessor(w: &mut String, e: &Placed<'_>, name: &str, used: &mut HashSet<String>, source: &str) {
+fn one_accessor(w: &mut String, e: &Placed<'_>, name: &str, source: &str) {
     let Some(ty) = rust_type(e.data_type) else { return };
-    let mut name = name.to_owned();
-    if name != snake(&e.obj.name) && !used.insert(name.clone()) || RESERVED.contains(&name.as_str()) {
-        name = format!("{name}_{:04x}_{}", e.obj.index, e.sub.sub);
-        used.insert(name.clone());
-    }
-    let (src, lifetime) = if e.attr.contains(Attr::IN_ROM) { ("&ROM", "") } else { ("&self.image", "") };
-    let _ = lifetime;
+    let src = if e.attr.contains(Attr::IN_ROM) { "&ROM" } else { "&self.image" };
     let what = if e.obj.kind.has_subs() {
         format!("0x{:04X} sub {} {} / {}", e.obj.index, e.sub.sub, doc_escape(&e.obj.name), doc_escape(&e.sub.name))
     } else {

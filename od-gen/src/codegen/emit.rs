@@ -1,15 +1,15 @@
 //! The text of the generated module, in the order of the style guide
 //! (§2.5): header, index constants, sizing constants, entry tables, `Ram`.
 
-use std::collections::{BTreeMap, HashSet};
 use std::fmt::Write;
 
-use canopen_core::od::{Attr, NO_LIMITS, Services};
+use canopen_core::od::{Attr, Services};
 
 use super::LayoutError;
 use super::accessors::accessors;
 use super::layout::layout;
-use super::names::snake;
+use super::names::object_names;
+use super::tables::tables;
 use crate::model::Eds;
 
 /// As [`generate`], with the services given (a reference image that
@@ -28,17 +28,7 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w, "use canopen_core::od::{{self, Attr, DataType, DeviceInfo, Entry, Limits, NO_LIMITS}};");
     let _ = writeln!(w);
 
-    // Names: objects, then per-entry accessor names.
-    let mut used: HashSet<String> = HashSet::new();
-    let mut object_names: BTreeMap<u16, String> = BTreeMap::new();
-    for o in eds.objects.values().filter(|o| !o.opaque) {
-        let mut n = snake(&o.name);
-        if !used.insert(n.clone()) {
-            n = format!("{n}_{:04x}", o.index);
-            used.insert(n.clone());
-        }
-        object_names.insert(o.index, n);
-    }
+    let object_names = object_names(eds);
 
     let _ = writeln!(w, "/// Object indices by name.");
     let _ = writeln!(w, "pub mod index {{");
@@ -86,40 +76,7 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     }
     let _ = writeln!(w);
 
-    let entries: Vec<String> = l
-        .entries
-        .iter()
-        .map(|e| {
-            let limits = if e.limits == NO_LIMITS { "NO_LIMITS".to_owned() } else { e.limits.to_string() };
-            format!(
-                "Entry::new(0x{:04X}, 0x{:02X}, DataType::{:?}, {}, {}, {}, {limits})",
-                e.obj.index,
-                e.sub.sub,
-                e.data_type,
-                attr_name(e.attr),
-                e.len,
-                e.offset
-            )
-        })
-        .collect();
-    let _ = writeln!(w, "/// Entry metadata, sorted by (index, sub-index).");
-    array(w, "static ENTRIES: [Entry; ENTRY_COUNT]", &entries, false);
-    let _ = writeln!(w);
-    let limits: Vec<String> = l.limits.iter().map(|(lo, hi)| format!("Limits {{ low: 0x{lo:X}, high: 0x{hi:X} }}")).collect();
-    array(w, &format!("static LIMITS: [Limits; {}]", l.limits.len()), &limits, false);
-    let _ = writeln!(w);
-    let hex = |b: &[u8]| b.iter().map(|b| format!("0x{b:02X}")).collect::<Vec<_>>();
-    array(w, "static ROM: [u8; ROM_SIZE]", &hex(&l.rom), true);
-    let _ = writeln!(w);
-    array(w, "static DEFAULTS: [u8; RAM_SIZE]", &hex(&l.ram), true);
-    let _ = writeln!(w);
-    let relative: Vec<String> = l.node_id_relative.iter().map(ToString::to_string).collect();
-    array(w, &format!("static NODE_ID_RELATIVE: [u16; {}]", relative.len()), &relative, true);
-    let _ = writeln!(w);
-    let _ = writeln!(w, "/// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.");
-    let names: Vec<String> = l.entries.iter().map(|e| format!("\"{}\"", doc_escape(&e.sub.name).replace('\t', "\\t"))).collect();
-    array(w, "pub static NAMES: [&str; ENTRY_COUNT]", &names, false);
-    let _ = writeln!(w);
+    tables(w, &l);
     let f = &eds.device;
     let _ = writeln!(w, "/// The flash half of the dictionary.");
     let _ = writeln!(w, "pub static DICTIONARY: od::Dictionary = od::Dictionary {{");
@@ -182,12 +139,12 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w, "    pub fn reset_application(&mut self, node_id: u8) {{");
     let _ = writeln!(w, "        DICTIONARY.reset_application(&mut self.image, node_id);");
     let _ = writeln!(w, "    }}");
-    accessors(w, eds, &l, &object_names, &mut used, source);
+    accessors(w, eds, &l, &object_names, source);
     let _ = writeln!(w, "}}");
     Ok(out)
 }
 
-fn attr_name(a: Attr) -> String {
+pub(super) fn attr_name(a: Attr) -> String {
     let mut s = String::from(if a.contains(Attr::IN_ROM) {
         "CONST"
     } else if a.contains(Attr::READ) && a.contains(Attr::WRITE) {
@@ -224,46 +181,6 @@ fn attr_expr(a: Attr) -> String {
         }
     }
     format!("Attr({})", parts.join(" | "))
-}
-
-/// `decl = [items];` laid out as rustfmt does: on one line when it fits,
-/// else short items filled line by line, else one item per line.
-fn array(out: &mut String, decl: &str, items: &[String], short: bool) {
-    let one_line = format!("{decl} = [{}];", items.join(", "));
-    if one_line.len() <= 140 {
-        let _ = writeln!(out, "{one_line}");
-        return;
-    }
-    let _ = writeln!(out, "{decl} = [");
-    if short {
-        fill(out, items.iter().cloned());
-    } else {
-        for item in items {
-            let _ = writeln!(out, "    {item},");
-        }
-    }
-    let _ = writeln!(out, "];");
-}
-
-/// Array items filled greedily up to the line width, as rustfmt lays out
-/// arrays of short items (`use_small_heuristics = "Max"`, `max_width = 140`).
-fn fill(out: &mut String, items: impl Iterator<Item = String>) {
-    const WIDTH: usize = 140;
-    let mut line = String::new();
-    for item in items {
-        if !line.is_empty() && 4 + line.len() + 1 + item.len() + 1 > WIDTH {
-            let _ = writeln!(out, "    {line}");
-            line.clear();
-        }
-        if !line.is_empty() {
-            line.push(' ');
-        }
-        line.push_str(&item);
-        line.push(',');
-    }
-    if !line.is_empty() {
-        let _ = writeln!(out, "    {line}");
-    }
 }
 
 pub(super) fn doc_escape(s: &str) -> String {

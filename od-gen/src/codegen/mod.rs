@@ -6,13 +6,15 @@
 //!
 //! `layout` places every entry (offsets in the RAM image and in flash,
 //! the limits table, the `$NODEID`-relative entries); `names` makes the
-//! Rust names; `emit` writes the module and `accessors` the typed
-//! accessors of `Ram`.
+//! Rust names; `emit` writes the module, `tables` its flash tables (each
+//! row with its object as a comment) and `accessors` the typed accessors
+//! of `Ram`.
 
 mod accessors;
 mod emit;
 mod layout;
 mod names;
+mod tables;
 
 use canopen_core::od::{DataType, Number, Services};
 
@@ -76,4 +78,3 @@ pub fn show_value(s: &SubObject) -> String {
     };
     if s.node_id { format!("$NODEID+{v}") } else { v }
 }
-
