@@ -105,8 +105,8 @@ pub struct Config {
     pub warnings: &'static [BitEmcy],
 }
 
-/// The profile's state: `const` and all zero bits ([`Encoder::NEW`]), so
-/// a node holding it stays in `.bss`. The dictionary holds every value a
+/// The profile's state: `const` and all zero bits ([`Encoder::NEW`],
+/// [`crate::node`]). The dictionary holds every value a
 /// master sees; this holds only what lies between two samples.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Encoder<P> {
