@@ -5,7 +5,8 @@
 //! is a device on a board: [`boards`] holds the QEMU and STM32F103 boards,
 //! [`can_node`] the node behind a trait object, [`runner`] the CANopen
 //! task's work, `shared` (MCU builds and unit tests) the channels around it
-//! and the task's loop, `app` (MCU builds only) embassy-time and the
+//! and the task's loop, [`slcan`] the SLCAN codec (the QEMU board's and
+//! hal-host's), `app` (MCU builds only) embassy-time and the
 //! application slot, and `src/bin/` one
 //! `<device>-<board>` entry point per image (see `docs/firmware.md`).
 #![no_std]
@@ -21,6 +22,7 @@ pub mod devices;
 pub mod runner;
 #[cfg(any(target_os = "none", test))]
 pub mod shared;
+pub mod slcan;
 
 /// What [`image!`] expands to, reached through this crate so that a crate
 /// using the macro needs no dependency for it.

@@ -9,9 +9,10 @@
 //!   place or by a thread that never holds up the caller.
 //! - [`storage`]: flash-like [`canopen_core::storage::Storage`] in memory or
 //!   in a file, with power cuts at any erase/write step.
-//! - [`slcan`]: the Lawicel SLCAN protocol and a TCP server speaking it, so
-//!   python-can's `slcan` interface can drive a node running in real time;
-//!   every client is an adapter on one paced bus (the `vnode` binary).
+//! - [`slcan`]: the Lawicel SLCAN adapter (on the firmware's no_std codec,
+//!   `firmware::slcan`) and a TCP server speaking it, so python-can's
+//!   `slcan` interface can drive a node running in real time; every client
+//!   is an adapter on one paced bus (the `vnode` binary).
 //! - [`master`]: a small CANopen master for tests (NMT, SDO client with
 //!   block transfers, PDO codec, heartbeat monitor), sans-IO like the node,
 //!   with a driver that runs SDO transfers on the virtual bus.

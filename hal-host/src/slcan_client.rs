@@ -10,12 +10,12 @@
 //! answers `z`/`Z`, reported as [`AdapterEvent::TxAck`]).
 //!
 //! Frame lines from the adapter are decoded with the crate's SLCAN codec
-//! ([`crate::slcan::decode_command`]); a trailing 4-digit timestamp (`Z1`)
+//! ([`crate::slcan::decode`], the firmware's); a trailing 4-digit timestamp (`Z1`)
 //! is accepted and dropped. Answers are a bare CR ([`AdapterEvent::Ok`]),
 //! BEL ([`AdapterEvent::Error`], which has no CR), `z`/`Z`, or a text line
 //! such as `V1013` ([`AdapterEvent::Text`]).
 
-use crate::slcan::{BEL, CR, Command, MAX_LINE, decode_command, encode_frame};
+use crate::slcan::{BEL, CR, Command, FRAME_LINE, MAX_LINE, decode, encode};
 use canopen_core::frame::CanFrame;
 use std::io::{self, Read, Write};
 use std::net::{Shutdown, TcpStream, ToSocketAddrs};
@@ -89,7 +89,7 @@ fn classify(line: &[u8]) -> AdapterEvent {
 
 /// A frame line, with or without the 4 hex digits of a `Z1` timestamp.
 fn decode_frame_line(line: &[u8]) -> Option<CanFrame> {
-    let as_frame = |l: &[u8]| match decode_command(l) {
+    let as_frame = |l: &[u8]| match decode(l) {
         Ok(Command::Transmit(frame)) => Some(frame),
         _ => None,
     };
@@ -179,9 +179,9 @@ impl SlcanClient {
 
     /// Sends one frame; the adapter answers [`AdapterEvent::TxAck`].
     pub fn send(&mut self, frame: &CanFrame) -> io::Result<()> {
-        let mut line = Vec::with_capacity(MAX_LINE);
-        encode_frame(frame, None, &mut line);
-        self.stream.write_all(&line)
+        let mut line = [0u8; FRAME_LINE];
+        let n = encode(frame, None, &mut line);
+        self.stream.write_all(line.get(..n).unwrap_or(&[]))
     }
 
     /// The next event, waiting until `deadline`; `None` when it passed.

@@ -404,7 +404,7 @@ fn lely_sdev_values_of_every_basic_type() {
     let ram = Ram::new(1);
     assert_eq!(ram.device_type(), 0x0102_0304);
     assert_eq!(ram.identity_object_vendor_id(), 0x360);
-    assert_eq!(ram.identity_object_highest_sub_index_supported(), 4);
+    assert_eq!(ram.identity_object_highest_sub_index(), 4);
     assert!(ram.boolean());
     // Negative hex, `-0x7f` to `-0x7fffffffffffffff`.
     assert_eq!(ram.integer8(), -0x7f);
@@ -449,7 +449,7 @@ fn lely_sdev_values_of_every_basic_type() {
 fn canopendemo_64_bit_real_string_and_node_id_values() {
     use corpus::canopendemo_demo_device::{DICTIONARY, Ram};
     let ram = Ram::new(1);
-    assert_eq!(ram.demo_record_highest_sub_index_supported(), 6);
+    assert_eq!(ram.demo_record_highest_sub_index(), 6);
     assert_eq!(ram.demo_record_i64(), -1_234_567_890_123_456_789);
     assert_eq!(ram.demo_record_u64(), 0x1234_5678_90AB_CDEF);
     assert_eq!(ram.demo_record_r32().to_bits(), 12.345f32.to_bits());
@@ -494,7 +494,7 @@ fn lely_emcy_compact_sub_obj_with_value_override() {
     assert_eq!(HB_CONSUMER_COUNT, 0);
     let ram = Ram::new(1);
     // [1028] CompactSubObj=127, header DefaultValue 0x80000000, [1028Value] 1=0x00000081.
-    assert_eq!(ram.emergency_consumer_object_sub0(), 127);
+    assert_eq!(ram.emergency_consumer_object_highest_sub_index(), 127);
     assert_eq!(ram.emergency_consumer_object(1), Some(0x81));
     for i in 2..=127 {
         assert_eq!(ram.emergency_consumer_object(i), Some(0x8000_0000), "sub {i}");
@@ -504,7 +504,7 @@ fn lely_emcy_compact_sub_obj_with_value_override() {
     assert_eq!(DICTIONARY.find(0x1028, 128), Err(OdError::NoSubIndex));
     assert_eq!(DICTIONARY.read(ram.image(), 0x1028, 1), Ok(&[0x81, 0, 0, 0][..]));
     // [1003] CompactSubObj=10 without values: an empty error history of 10 entries.
-    assert_eq!(ram.pre_defined_error_field_sub0(), 0);
+    assert_eq!(ram.pre_defined_error_field_highest_sub_index(), 0);
     for i in 1..=10 {
         assert_eq!(ram.pre_defined_error_field(i), Some(0));
     }
@@ -520,9 +520,9 @@ fn lely_emcy_compact_sub_obj_with_value_override() {
 fn lely_pdo_transmit_compact_record_takes_its_value_section() {
     use corpus::lely_co_pdo_transmit::Ram;
     let ram = Ram::new(1);
-    assert_eq!(ram.tpdo_mapping_parameter_highest_sub_index_supported(), 2);
-    assert_eq!(ram.tpdo_mapping_parameter_tpdo_mapping_parameter1(), 0x2000_001C);
-    assert_eq!(ram.tpdo_mapping_parameter_tpdo_mapping_parameter2(), 0x2001_0020);
+    assert_eq!(ram.tpdo_mapping_parameter_highest_sub_index(), 2);
+    assert_eq!(ram.tpdo_mapping_parameter_1(), 0x2000_001C);
+    assert_eq!(ram.tpdo_mapping_parameter_2(), 0x2001_0020);
 }
 
 #[test]

@@ -5,8 +5,10 @@
 //!   one codegen unit), prints the sections and the worst-case stack
 //!   ([`stack`]) of each and fails if one exceeds [`FLASH_BUDGET`]
 //!   ([`DRIVE_FLASH_BUDGET`] for the CiA 402 drives),
-//!   [`RAM_BUDGET`] or [`DATA_BUDGET`], or if static RAM and stack leave
-//!   less than [`STACK_MARGIN`] of the chip's RAM ([`chip_ram`]) free.
+//!   [`RAM_BUDGET`] or [`DATA_BUDGET`], if static RAM and stack leave
+//!   less than [`STACK_MARGIN`] of the chip's RAM ([`chip_ram`]) free, or
+//!   if the node's static is not in `.bss` (the unpowered node must be all
+//!   zero bits: the module docs of `canopen_core::node`).
 //! - `qemu <device> [--listen HOST:PORT]`: boots a device's QEMU image with
 //!   its UART (SLCAN) on that TCP port, waiting for the first client.
 //! - `smoke`: runs `tests/python/test_qemu_smoke.py` (python-canopen against
@@ -49,10 +51,8 @@ pub fn chip_ram(board: &str) -> u64 {
 }
 /// RAM that must stay free beyond static RAM and the stack estimate.
 pub const STACK_MARGIN: u64 = 2 * 1024;
-/// `.data` an image may have. The node is built at compile time and must be
-/// all zero bits, to lie in `.bss` (`Node::unpowered`); a field whose
-/// unpowered value is not zero moves the whole node to `.data`, where it
-/// takes its size in flash too.
+/// `.data` an image may have. The node must not be there (its static is
+/// checked to be in `.bss`: canopen_core::node), nor much else.
 pub const DATA_BUDGET: u64 = 256;
 /// Default TCP address of `qemu`'s UART.
 const DEFAULT_LISTEN: &str = "127.0.0.1:4555";
@@ -118,28 +118,57 @@ impl Sizes {
     }
 }
 
-/// GNU size from binutils-arm-none-eabi, or LLVM's (`llvm-size`, or the one
+/// A binutils program for ARM: GNU's (`arm-none-eabi-<name>` from
+/// binutils-arm-none-eabi) or LLVM's (`llvm-<name>`, or the one
 /// `rustup component add llvm-tools` installs).
-fn size_tool() -> Result<String, String> {
+fn binutil(name: &str) -> Result<String, String> {
     let works =
         |tool: &str| Command::new(tool).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success());
-    for tool in ["arm-none-eabi-size", "llvm-size"] {
-        if works(tool) {
-            return Ok(tool.to_owned());
+    for tool in [format!("arm-none-eabi-{name}"), format!("llvm-{name}")] {
+        if works(&tool) {
+            return Ok(tool);
         }
     }
     let sysroot = Command::new("rustc").args(["--print", "sysroot"]).output().map_err(|e| e.to_string())?;
     let sysroot = String::from_utf8_lossy(&sysroot.stdout).trim().to_owned();
-    let bundled = Path::new(&sysroot).join("lib/rustlib/x86_64-unknown-linux-gnu/bin/llvm-size");
+    let bundled = Path::new(&sysroot).join(format!("lib/rustlib/x86_64-unknown-linux-gnu/bin/llvm-{name}"));
     if bundled.exists() {
         return Ok(bundled.to_string_lossy().into_owned());
     }
-    Err("no size tool: `apt-get install binutils-arm-none-eabi` or `rustup component add llvm-tools`".into())
+    Err(format!("no {name} tool: `apt-get install binutils-arm-none-eabi` or `rustup component add llvm-tools`"))
+}
+
+/// Checks that `nm` output for an image has the node's static (`NODE`,
+/// which `firmware::image!` defines) in `.bss` (`b`/`B`): it lies there
+/// only if the unpowered node is all zero bits (canopen_core::node).
+fn node_in_bss(nm: &str) -> Result<(), String> {
+    let node = nm.lines().find_map(|l| {
+        let mut f = l.split_whitespace();
+        let (_address, class, name) = (f.next()?, f.next()?, f.next()?);
+        name.ends_with("::NODE").then_some((class, name))
+    });
+    match node {
+        Some(("b" | "B", _)) => Ok(()),
+        Some((class, name)) => Err(format!(
+            "the node ({name}) is not in .bss but in symbol class `{class}`: the unpowered node must be all zero bits (canopen_core::node)"
+        )),
+        None => Err("no `NODE` symbol: the image no longer builds its node as firmware::image! does".into()),
+    }
+}
+
+/// [`node_in_bss`] for the image at `elf`.
+fn check_node_in_bss(elf: &Path) -> Result<(), String> {
+    let tool = binutil("nm")?;
+    let out = Command::new(&tool).arg("-C").arg(elf).output().map_err(|e| format!("{tool}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("{tool} -C {}: {}", elf.display(), String::from_utf8_lossy(&out.stderr)));
+    }
+    node_in_bss(&String::from_utf8_lossy(&out.stdout))
 }
 
 /// Reads the sections of `elf` with `size -A`.
 pub fn sizes(elf: &Path) -> Result<Sizes, String> {
-    let tool = size_tool()?;
+    let tool = binutil("size")?;
     let out = Command::new(&tool).arg("-A").arg(elf).output().map_err(|e| format!("{tool}: {e}"))?;
     if !out.status.success() {
         return Err(format!("{tool} -A {}: {}", elf.display(), String::from_utf8_lossy(&out.stderr)));
@@ -206,6 +235,9 @@ pub fn build() -> Result<(), String> {
             }
             if s.ram() > RAM_BUDGET {
                 over.push(format!("{name}: {} bytes of RAM > {RAM_BUDGET}", s.ram()));
+            }
+            if let Err(e) = check_node_in_bss(&elf) {
+                over.push(format!("{name}: {e}"));
             }
             if s.data > DATA_BUDGET {
                 over.push(format!("{name}: {} bytes of .data > {DATA_BUDGET} (is the node still all zero bits?)", s.data));
@@ -350,4 +382,19 @@ pub(crate) fn ensure_venv() -> Result<PathBuf, String> {
         run(py, &["-m", "pip", "install", "--quiet", "python-can", "canopen", "pyserial"])?;
     }
     Ok(python)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::node_in_bss;
+
+    #[test]
+    fn the_node_must_be_in_bss() {
+        let nm = "20000060 b ec5000_qemu::__cortex_m_rt_main::NODE\n0000d900 r canopen_firmware::devices::ec5000::od::ENTRIES\n";
+        assert_eq!(node_in_bss(nm), Ok(()));
+        assert_eq!(node_in_bss(&nm.replace(" b ", " B ")), Ok(()));
+        let in_data = node_in_bss(&nm.replace(" b ", " d "));
+        assert!(in_data.as_ref().is_err_and(|e| e.contains("symbol class `d`")), "{in_data:?}");
+        assert!(node_in_bss("0000d900 r canopen_firmware::devices::ec5000::od::ENTRIES\n").is_err());
+    }
 }

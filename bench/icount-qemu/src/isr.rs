@@ -22,7 +22,8 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel as FrameChannel;
 use firmware::app::{RX_QUEUE, convert_frame};
 use firmware::boards::qemu::exit_request;
-use firmware::boards::qemu::slcan::{BEL, Channel, Command, Decoder, reply};
+use firmware::boards::qemu::slcan::reply;
+use firmware::slcan::{BEL, ChannelState, Command, Decoder};
 
 use crate::clock::{Clock, Tally};
 
@@ -32,10 +33,10 @@ pub type Rx = FrameChannel<CriticalSectionRawMutex, CanFrame, RX_QUEUE>;
 /// The SLCAN adapter state of the QEMU board's UART0 handler.
 struct Adapter {
     decoder: Decoder,
-    channel: Channel,
+    channel: ChannelState,
 }
 
-static ADAPTER: Mutex<RefCell<Adapter>> = Mutex::new(RefCell::new(Adapter { decoder: Decoder::new(), channel: Channel::Open }));
+static ADAPTER: Mutex<RefCell<Adapter>> = Mutex::new(RefCell::new(Adapter { decoder: Decoder::new(), channel: ChannelState::Open }));
 
 impl Adapter {
     /// `board.rs`'s `Adapter::on_byte` without the UART writes of the answer.

@@ -16,7 +16,7 @@ pub struct CanFrame {
 
 impl CanFrame {
     /// A data frame on COB-ID 0 with no data, all zero bits: what a free
-    /// slot of a queue holds (so that a node built in a `const` lies in `.bss`).
+    /// slot of a queue holds ([`crate::node`]).
     pub(crate) const EMPTY: CanFrame = CanFrame { id: Id::Standard(StandardId::ZERO), rtr: false, dlc: 0, data: [0; 8] };
 
     /// A data frame with an 11-bit identifier; `None` if `cob_id` > 0x7FF or `data` > 8 bytes.

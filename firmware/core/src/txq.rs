@@ -10,9 +10,9 @@ const FREE: i64 = 0;
 
 /// A priority queue of at most `N` frames.
 ///
-/// A new queue is all zero bits, so that a node built in a `const` lies in
-/// `.bss`: hence a slot is free when its sequence number is 0 rather than
-/// being an `Option` (whose `None` is not zero). Frames queued count up from
+/// A new queue is all zero bits ([`crate::node`]): hence a slot is free
+/// when its sequence number is 0 rather than being an `Option` (whose
+/// `None` is not zero). Frames queued count up from
 /// 1, frames put back ([`TxQueue::push_front`]) down from -1.
 #[derive(Clone, Debug)]
 pub struct TxQueue<const N: usize> {

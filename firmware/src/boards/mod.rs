@@ -77,7 +77,7 @@ macro_rules! image {
             use $device as device;
             type Storage = $crate::boards::$board::Storage<{ $crate::boards::region_size(device::od::RAM_SIZE) }>;
             type Node = device::Node<Storage>;
-            // Built at compile time and all zero bits, so in `.bss`: no
+            // Built at compile time, in `.bss` (canopen_core::node): no
             // node-sized value on the stack at start-up (docs/firmware.md, "Stack").
             static NODE: $crate::__private::ConstStaticCell<Node> = $crate::__private::ConstStaticCell::new(Node::unpowered(
                 device::od::Ram::zeroed(),

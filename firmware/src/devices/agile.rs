@@ -32,7 +32,7 @@ pub struct App {
 }
 
 impl App {
-    /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
+    /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
     pub const NEW: App = App { drive: Cia402::new(Axis::NEW), operational: false };
 }
 

@@ -114,14 +114,14 @@ pub struct App<P = Shaft> {
 
 impl<P: PositionSource + Copy> App<P> {
     /// The state at power-on on `sensor`: `const` and, for [`Shaft`], all
-    /// zero bits, so the node stays in `.bss`.
+    /// zero bits ([`canopen_core::node`]).
     pub const fn with_sensor(sensor: P) -> Self {
         App { encoder: Encoder::new(sensor), next_temperature: Instant::ZERO, next_history: Instant::ZERO }
     }
 }
 
 impl App {
-    /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
+    /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
     pub const NEW: App = App::with_sensor(SimulatedShaft::NEW);
 }
 

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::diag::Severity;
-use crate::model::Access;
+use crate::model::{Access, ObjectKind};
 
 fn read_str(text: &str) -> (Eds, Diagnostics) {
     read("t.eds", text.as_bytes())

@@ -239,773 +239,1082 @@ const RO_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::NODE_ID.0);
 const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 
 /// Entry metadata, sorted by (index, sub-index).
+#[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS),
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 0, NO_LIMITS),
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 1, NO_LIMITS),
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 5, 0),
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 9, NO_LIMITS),
-    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 5, 4, NO_LIMITS),
-    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 15, 9, NO_LIMITS),
-    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 24, NO_LIMITS),
-    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 13, NO_LIMITS),
-    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 15, NO_LIMITS),
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 16, NO_LIMITS),
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 17, NO_LIMITS),
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 21, NO_LIMITS),
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 25, NO_LIMITS),
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 29, NO_LIMITS),
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 30, NO_LIMITS),
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 34, NO_LIMITS),
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 38, NO_LIMITS),
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 42, NO_LIMITS),
-    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 46, NO_LIMITS),
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 47, NO_LIMITS),
-    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 51, NO_LIMITS),
-    Entry::new(0x1016, 0x03, DataType::Unsigned32, RW, 4, 55, NO_LIMITS),
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 59, NO_LIMITS),
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 61, NO_LIMITS),
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 29, NO_LIMITS),
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 33, NO_LIMITS),
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 37, NO_LIMITS),
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 62, NO_LIMITS),
-    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 66, NO_LIMITS),
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 67, 1),
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 68, NO_LIMITS),
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 69, NO_LIMITS),
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 73, NO_LIMITS),
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 77, NO_LIMITS),
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 78, NO_LIMITS),
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 82, NO_LIMITS),
-    Entry::new(0x1400, 0x03, DataType::Unsigned16, RW, 2, 83, NO_LIMITS),
-    Entry::new(0x1400, 0x05, DataType::Unsigned16, RW, 2, 85, NO_LIMITS),
-    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 87, NO_LIMITS),
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 88, NO_LIMITS),
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 92, NO_LIMITS),
-    Entry::new(0x1401, 0x03, DataType::Unsigned16, RW, 2, 93, NO_LIMITS),
-    Entry::new(0x1401, 0x05, DataType::Unsigned16, RW, 2, 95, NO_LIMITS),
-    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 97, NO_LIMITS),
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 98, NO_LIMITS),
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 102, NO_LIMITS),
-    Entry::new(0x1402, 0x03, DataType::Unsigned16, RW, 2, 103, NO_LIMITS),
-    Entry::new(0x1402, 0x05, DataType::Unsigned16, RW, 2, 105, NO_LIMITS),
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 107, 2),
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 108, NO_LIMITS),
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 112, NO_LIMITS),
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 116, NO_LIMITS),
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 120, NO_LIMITS),
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 124, NO_LIMITS),
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 128, NO_LIMITS),
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 132, NO_LIMITS),
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 136, NO_LIMITS),
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 140, 2),
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 141, NO_LIMITS),
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 145, NO_LIMITS),
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 149, NO_LIMITS),
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 153, NO_LIMITS),
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 157, NO_LIMITS),
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 161, NO_LIMITS),
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 165, NO_LIMITS),
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 169, NO_LIMITS),
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 173, 2),
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 174, NO_LIMITS),
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 178, NO_LIMITS),
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 182, NO_LIMITS),
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 186, NO_LIMITS),
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 190, NO_LIMITS),
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 194, NO_LIMITS),
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 198, NO_LIMITS),
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 202, NO_LIMITS),
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 206, NO_LIMITS),
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 207, NO_LIMITS),
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 211, NO_LIMITS),
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 212, NO_LIMITS),
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 214, NO_LIMITS),
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 216, NO_LIMITS),
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 217, NO_LIMITS),
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 221, NO_LIMITS),
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 222, NO_LIMITS),
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 224, NO_LIMITS),
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 226, NO_LIMITS),
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 227, NO_LIMITS),
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 231, NO_LIMITS),
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 232, NO_LIMITS),
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 234, NO_LIMITS),
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 236, 2),
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 237, NO_LIMITS),
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 241, NO_LIMITS),
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 245, NO_LIMITS),
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 249, NO_LIMITS),
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 253, NO_LIMITS),
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 257, NO_LIMITS),
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 261, NO_LIMITS),
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 265, NO_LIMITS),
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 269, 2),
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 270, NO_LIMITS),
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 274, NO_LIMITS),
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 278, NO_LIMITS),
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 282, NO_LIMITS),
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 286, NO_LIMITS),
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 290, NO_LIMITS),
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 294, NO_LIMITS),
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 298, NO_LIMITS),
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 302, 2),
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 303, NO_LIMITS),
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 307, NO_LIMITS),
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 311, NO_LIMITS),
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 315, NO_LIMITS),
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 319, NO_LIMITS),
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 323, NO_LIMITS),
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 327, NO_LIMITS),
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 331, NO_LIMITS),
-    Entry::new(0x20E4, 0x00, DataType::Integer32, RO, 4, 335, 3),
-    Entry::new(0x20F9, 0x00, DataType::Unsigned16, RO, 2, 339, 4),
-    Entry::new(0x20FA, 0x00, DataType::Unsigned16, RO, 2, 341, NO_LIMITS),
-    Entry::new(0x20FE, 0x00, DataType::Unsigned16, RO, 2, 343, NO_LIMITS),
-    Entry::new(0x2104, 0x00, DataType::Unsigned16, RO, 2, 345, NO_LIMITS),
-    Entry::new(0x210E, 0x00, DataType::Unsigned16, RO, 2, 347, NO_LIMITS),
-    Entry::new(0x2112, 0x00, DataType::Unsigned16, RO, 2, 349, NO_LIMITS),
-    Entry::new(0x2114, 0x00, DataType::Unsigned16, RW, 2, 351, 5),
-    Entry::new(0x211A, 0x00, DataType::Integer32, RO, 4, 353, 3),
-    Entry::new(0x211B, 0x00, DataType::Integer32, RO, 4, 357, 3),
-    Entry::new(0x2174, 0x00, DataType::Unsigned8, RO, 1, 361, NO_LIMITS),
-    Entry::new(0x2174, 0x01, DataType::Unsigned16, RW, 2, 362, NO_LIMITS),
-    Entry::new(0x2174, 0x02, DataType::Unsigned16, RW, 2, 364, NO_LIMITS),
-    Entry::new(0x2174, 0x03, DataType::Unsigned16, RW, 2, 366, NO_LIMITS),
-    Entry::new(0x2174, 0x04, DataType::Unsigned16, RW, 2, 368, NO_LIMITS),
-    Entry::new(0x2174, 0x05, DataType::Unsigned16, RW, 2, 370, NO_LIMITS),
-    Entry::new(0x2174, 0x06, DataType::Unsigned16, RW, 2, 372, NO_LIMITS),
-    Entry::new(0x2174, 0x07, DataType::Unsigned16, RW, 2, 374, NO_LIMITS),
-    Entry::new(0x2174, 0x08, DataType::Unsigned16, RW, 2, 376, NO_LIMITS),
-    Entry::new(0x2174, 0x09, DataType::Unsigned16, RW, 2, 378, NO_LIMITS),
-    Entry::new(0x2175, 0x00, DataType::Unsigned8, RO, 1, 380, NO_LIMITS),
-    Entry::new(0x2175, 0x01, DataType::Unsigned16, RW, 2, 381, 6),
-    Entry::new(0x2175, 0x02, DataType::Unsigned16, RW, 2, 383, 6),
-    Entry::new(0x2175, 0x03, DataType::Unsigned16, RW, 2, 385, 6),
-    Entry::new(0x2175, 0x04, DataType::Unsigned16, RW, 2, 387, 6),
-    Entry::new(0x2175, 0x05, DataType::Unsigned16, RW, 2, 389, 6),
-    Entry::new(0x2175, 0x06, DataType::Unsigned16, RW, 2, 391, 6),
-    Entry::new(0x2175, 0x07, DataType::Unsigned16, RW, 2, 393, 6),
-    Entry::new(0x2175, 0x08, DataType::Unsigned16, RW, 2, 395, 6),
-    Entry::new(0x2175, 0x09, DataType::Unsigned16, RW, 2, 397, 6),
-    Entry::new(0x2181, 0x00, DataType::Unsigned16, RW, 2, 399, 7),
-    Entry::new(0x2183, 0x00, DataType::Integer16, RW, 2, 401, 8),
-    Entry::new(0x2184, 0x00, DataType::Unsigned16, RW, 2, 403, 9),
-    Entry::new(0x2188, 0x00, DataType::Unsigned8, RO, 1, 405, NO_LIMITS),
-    Entry::new(0x2188, 0x01, DataType::Unsigned16, RW, 2, 406, 1),
-    Entry::new(0x2188, 0x02, DataType::Unsigned16, RW, 2, 408, 1),
-    Entry::new(0x2188, 0x03, DataType::Unsigned16, RW, 2, 410, 1),
-    Entry::new(0x2188, 0x04, DataType::Unsigned16, RW, 2, 412, 1),
-    Entry::new(0x2188, 0x05, DataType::Unsigned16, RW, 2, 414, 1),
-    Entry::new(0x2188, 0x06, DataType::Unsigned16, RW, 2, 416, 1),
-    Entry::new(0x2188, 0x07, DataType::Unsigned16, RW, 2, 418, 1),
-    Entry::new(0x2188, 0x08, DataType::Unsigned16, RW, 2, 420, 1),
-    Entry::new(0x2188, 0x09, DataType::Unsigned16, RW, 2, 422, 1),
-    Entry::new(0x2197, 0x00, DataType::Integer16, RW, 2, 424, NO_LIMITS),
-    Entry::new(0x219A, 0x00, DataType::Unsigned16, RW, 2, 426, NO_LIMITS),
-    Entry::new(0x219B, 0x00, DataType::Unsigned16, RO, 2, 428, NO_LIMITS),
-    Entry::new(0x219C, 0x00, DataType::Unsigned8, RO, 1, 430, NO_LIMITS),
-    Entry::new(0x219C, 0x01, DataType::Unsigned16, RW, 2, 431, 10),
-    Entry::new(0x219C, 0x02, DataType::Unsigned16, RW, 2, 433, 10),
-    Entry::new(0x219C, 0x03, DataType::Unsigned16, RW, 2, 435, 10),
-    Entry::new(0x219C, 0x04, DataType::Unsigned16, RW, 2, 437, 10),
-    Entry::new(0x219C, 0x05, DataType::Unsigned16, RW, 2, 439, 10),
-    Entry::new(0x219C, 0x06, DataType::Unsigned16, RW, 2, 441, 10),
-    Entry::new(0x219C, 0x07, DataType::Unsigned16, RW, 2, 443, 10),
-    Entry::new(0x219C, 0x08, DataType::Unsigned16, RW, 2, 445, 10),
-    Entry::new(0x219C, 0x09, DataType::Unsigned16, RW, 2, 447, 10),
-    Entry::new(0x219E, 0x00, DataType::Unsigned16, RW, 2, 449, 9),
-    Entry::new(0x21A2, 0x00, DataType::Unsigned8, RO, 1, 451, NO_LIMITS),
-    Entry::new(0x21A2, 0x01, DataType::Integer32, RW, 4, 452, NO_LIMITS),
-    Entry::new(0x21A2, 0x02, DataType::Integer32, RW, 4, 456, NO_LIMITS),
-    Entry::new(0x21A2, 0x03, DataType::Integer32, RW, 4, 460, NO_LIMITS),
-    Entry::new(0x21A2, 0x04, DataType::Integer32, RW, 4, 464, NO_LIMITS),
-    Entry::new(0x21A2, 0x05, DataType::Integer32, RW, 4, 468, NO_LIMITS),
-    Entry::new(0x21A2, 0x06, DataType::Integer32, RW, 4, 472, NO_LIMITS),
-    Entry::new(0x21A2, 0x07, DataType::Integer32, RW, 4, 476, NO_LIMITS),
-    Entry::new(0x21A2, 0x08, DataType::Integer32, RW, 4, 480, NO_LIMITS),
-    Entry::new(0x21A2, 0x09, DataType::Integer32, RW, 4, 484, NO_LIMITS),
-    Entry::new(0x21A3, 0x00, DataType::Unsigned8, RO, 1, 488, NO_LIMITS),
-    Entry::new(0x21A3, 0x01, DataType::Integer32, RW, 4, 489, NO_LIMITS),
-    Entry::new(0x21A3, 0x02, DataType::Integer32, RW, 4, 493, NO_LIMITS),
-    Entry::new(0x21A3, 0x03, DataType::Integer32, RW, 4, 497, NO_LIMITS),
-    Entry::new(0x21A3, 0x04, DataType::Integer32, RW, 4, 501, NO_LIMITS),
-    Entry::new(0x21A3, 0x05, DataType::Integer32, RW, 4, 505, NO_LIMITS),
-    Entry::new(0x21A3, 0x06, DataType::Integer32, RW, 4, 509, NO_LIMITS),
-    Entry::new(0x21A3, 0x07, DataType::Integer32, RW, 4, 513, NO_LIMITS),
-    Entry::new(0x21A3, 0x08, DataType::Integer32, RW, 4, 517, NO_LIMITS),
-    Entry::new(0x21A3, 0x09, DataType::Integer32, RW, 4, 521, NO_LIMITS),
-    Entry::new(0x21A4, 0x00, DataType::Unsigned8, RO, 1, 525, NO_LIMITS),
-    Entry::new(0x21A4, 0x01, DataType::Integer32, RW, 4, 526, 11),
-    Entry::new(0x21A4, 0x02, DataType::Integer32, RW, 4, 530, 11),
-    Entry::new(0x21A4, 0x03, DataType::Integer32, RW, 4, 534, 11),
-    Entry::new(0x21A4, 0x04, DataType::Integer32, RW, 4, 538, 11),
-    Entry::new(0x21A4, 0x05, DataType::Integer32, RW, 4, 542, 11),
-    Entry::new(0x21A4, 0x06, DataType::Integer32, RW, 4, 546, 11),
-    Entry::new(0x21A4, 0x07, DataType::Integer32, RW, 4, 550, 11),
-    Entry::new(0x21A4, 0x08, DataType::Integer32, RW, 4, 554, 11),
-    Entry::new(0x21A4, 0x09, DataType::Integer32, RW, 4, 558, 11),
-    Entry::new(0x21A5, 0x00, DataType::Unsigned8, RO, 1, 562, NO_LIMITS),
-    Entry::new(0x21A5, 0x01, DataType::Integer32, RW, 4, 563, 12),
-    Entry::new(0x21A5, 0x02, DataType::Integer32, RW, 4, 567, 12),
-    Entry::new(0x21A5, 0x03, DataType::Integer32, RW, 4, 571, 12),
-    Entry::new(0x21A5, 0x04, DataType::Integer32, RW, 4, 575, 12),
-    Entry::new(0x21A5, 0x05, DataType::Integer32, RW, 4, 579, 12),
-    Entry::new(0x21A5, 0x06, DataType::Integer32, RW, 4, 583, 12),
-    Entry::new(0x21A5, 0x07, DataType::Integer32, RW, 4, 587, 12),
-    Entry::new(0x21A5, 0x08, DataType::Integer32, RW, 4, 591, 12),
-    Entry::new(0x21A5, 0x09, DataType::Integer32, RW, 4, 595, 12),
-    Entry::new(0x21A6, 0x00, DataType::Unsigned8, RO, 1, 599, NO_LIMITS),
-    Entry::new(0x21A6, 0x01, DataType::Integer32, RW, 4, 600, 13),
-    Entry::new(0x21A6, 0x02, DataType::Integer32, RW, 4, 604, 13),
-    Entry::new(0x21A6, 0x03, DataType::Integer32, RW, 4, 608, 13),
-    Entry::new(0x21A6, 0x04, DataType::Integer32, RW, 4, 612, 13),
-    Entry::new(0x21A6, 0x05, DataType::Integer32, RW, 4, 616, 13),
-    Entry::new(0x21A6, 0x06, DataType::Integer32, RW, 4, 620, 13),
-    Entry::new(0x21A6, 0x07, DataType::Integer32, RW, 4, 624, 13),
-    Entry::new(0x21A6, 0x08, DataType::Integer32, RW, 4, 628, 13),
-    Entry::new(0x21A6, 0x09, DataType::Integer32, RW, 4, 632, 13),
-    Entry::new(0x21A7, 0x00, DataType::Unsigned8, RO, 1, 636, NO_LIMITS),
-    Entry::new(0x21A7, 0x01, DataType::Integer32, RW, 4, 637, 13),
-    Entry::new(0x21A7, 0x02, DataType::Integer32, RW, 4, 641, 13),
-    Entry::new(0x21A7, 0x03, DataType::Integer32, RW, 4, 645, 13),
-    Entry::new(0x21A7, 0x04, DataType::Integer32, RW, 4, 649, 13),
-    Entry::new(0x21A7, 0x05, DataType::Integer32, RW, 4, 653, 13),
-    Entry::new(0x21A7, 0x06, DataType::Integer32, RW, 4, 657, 13),
-    Entry::new(0x21A7, 0x07, DataType::Integer32, RW, 4, 661, 13),
-    Entry::new(0x21A7, 0x08, DataType::Integer32, RW, 4, 665, 13),
-    Entry::new(0x21A7, 0x09, DataType::Integer32, RW, 4, 669, 13),
-    Entry::new(0x21A8, 0x00, DataType::Unsigned8, RO, 1, 673, NO_LIMITS),
-    Entry::new(0x21A8, 0x01, DataType::Integer32, RW, 4, 674, 12),
-    Entry::new(0x21A8, 0x02, DataType::Integer32, RW, 4, 678, 12),
-    Entry::new(0x21A8, 0x03, DataType::Integer32, RW, 4, 682, 12),
-    Entry::new(0x21A8, 0x04, DataType::Integer32, RW, 4, 686, 12),
-    Entry::new(0x21A8, 0x05, DataType::Integer32, RW, 4, 690, 12),
-    Entry::new(0x21A8, 0x06, DataType::Integer32, RW, 4, 694, 12),
-    Entry::new(0x21A8, 0x07, DataType::Integer32, RW, 4, 698, 12),
-    Entry::new(0x21A8, 0x08, DataType::Integer32, RW, 4, 702, 12),
-    Entry::new(0x21A8, 0x09, DataType::Integer32, RW, 4, 706, 12),
-    Entry::new(0x21A9, 0x00, DataType::Unsigned8, RO, 1, 710, NO_LIMITS),
-    Entry::new(0x21A9, 0x01, DataType::Integer32, RW, 4, 711, 12),
-    Entry::new(0x21A9, 0x02, DataType::Integer32, RW, 4, 715, 12),
-    Entry::new(0x21A9, 0x03, DataType::Integer32, RW, 4, 719, 12),
-    Entry::new(0x21A9, 0x04, DataType::Integer32, RW, 4, 723, 12),
-    Entry::new(0x21A9, 0x05, DataType::Integer32, RW, 4, 727, 12),
-    Entry::new(0x21A9, 0x06, DataType::Integer32, RW, 4, 731, 12),
-    Entry::new(0x21A9, 0x07, DataType::Integer32, RW, 4, 735, 12),
-    Entry::new(0x21A9, 0x08, DataType::Integer32, RW, 4, 739, 12),
-    Entry::new(0x21A9, 0x09, DataType::Integer32, RW, 4, 743, 12),
-    Entry::new(0x21E0, 0x00, DataType::Unsigned8, RO, 1, 747, NO_LIMITS),
-    Entry::new(0x21E0, 0x01, DataType::Integer32, RW, 4, 748, NO_LIMITS),
-    Entry::new(0x21E0, 0x02, DataType::Integer32, RW, 4, 752, NO_LIMITS),
-    Entry::new(0x21E0, 0x03, DataType::Integer32, RW, 4, 756, NO_LIMITS),
-    Entry::new(0x21E0, 0x04, DataType::Integer32, RW, 4, 760, NO_LIMITS),
-    Entry::new(0x21E0, 0x05, DataType::Integer32, RW, 4, 764, NO_LIMITS),
-    Entry::new(0x21E0, 0x06, DataType::Integer32, RW, 4, 768, NO_LIMITS),
-    Entry::new(0x21E0, 0x07, DataType::Integer32, RW, 4, 772, NO_LIMITS),
-    Entry::new(0x21E0, 0x08, DataType::Integer32, RW, 4, 776, NO_LIMITS),
-    Entry::new(0x21E0, 0x09, DataType::Integer32, RW, 4, 780, NO_LIMITS),
-    Entry::new(0x2225, 0x00, DataType::Unsigned8, RO, 1, 784, NO_LIMITS),
-    Entry::new(0x2225, 0x01, DataType::Unsigned16, RW, 2, 785, 14),
-    Entry::new(0x2225, 0x02, DataType::Unsigned16, RW, 2, 787, 14),
-    Entry::new(0x2225, 0x03, DataType::Unsigned16, RW, 2, 789, 14),
-    Entry::new(0x2225, 0x04, DataType::Unsigned16, RW, 2, 791, 14),
-    Entry::new(0x2225, 0x05, DataType::Unsigned16, RW, 2, 793, 14),
-    Entry::new(0x2225, 0x06, DataType::Unsigned16, RW, 2, 795, 14),
-    Entry::new(0x2225, 0x07, DataType::Unsigned16, RW, 2, 797, 14),
-    Entry::new(0x2225, 0x08, DataType::Unsigned16, RW, 2, 799, 14),
-    Entry::new(0x2225, 0x09, DataType::Unsigned16, RW, 2, 801, 14),
-    Entry::new(0x227D, 0x00, DataType::Unsigned8, RO, 1, 803, NO_LIMITS),
-    Entry::new(0x227D, 0x01, DataType::Unsigned16, RW, 2, 804, 15),
-    Entry::new(0x227D, 0x02, DataType::Unsigned16, RW, 2, 806, 15),
-    Entry::new(0x227D, 0x03, DataType::Unsigned16, RW, 2, 808, 15),
-    Entry::new(0x227D, 0x04, DataType::Unsigned16, RW, 2, 810, 15),
-    Entry::new(0x227D, 0x05, DataType::Unsigned16, RW, 2, 812, 15),
-    Entry::new(0x227D, 0x06, DataType::Unsigned16, RW, 2, 814, 15),
-    Entry::new(0x227D, 0x07, DataType::Unsigned16, RW, 2, 816, 15),
-    Entry::new(0x227D, 0x08, DataType::Unsigned16, RW, 2, 818, 15),
-    Entry::new(0x227D, 0x09, DataType::Unsigned16, RW, 2, 820, 15),
-    Entry::new(0x227E, 0x00, DataType::Unsigned8, RO, 1, 822, NO_LIMITS),
-    Entry::new(0x227E, 0x01, DataType::Unsigned16, RW, 2, 823, 16),
-    Entry::new(0x227E, 0x02, DataType::Unsigned16, RW, 2, 825, 16),
-    Entry::new(0x227E, 0x03, DataType::Unsigned16, RW, 2, 827, 16),
-    Entry::new(0x227E, 0x04, DataType::Unsigned16, RW, 2, 829, 16),
-    Entry::new(0x227E, 0x05, DataType::Unsigned16, RW, 2, 831, 16),
-    Entry::new(0x227E, 0x06, DataType::Unsigned16, RW, 2, 833, 16),
-    Entry::new(0x227E, 0x07, DataType::Unsigned16, RW, 2, 835, 16),
-    Entry::new(0x227E, 0x08, DataType::Unsigned16, RW, 2, 837, 16),
-    Entry::new(0x227E, 0x09, DataType::Unsigned16, RW, 2, 839, 16),
-    Entry::new(0x249C, 0x00, DataType::Unsigned16, RW, 2, 841, 17),
-    Entry::new(0x250A, 0x00, DataType::Unsigned16, RO, 2, 843, 18),
-    Entry::new(0x250B, 0x00, DataType::Unsigned16, RO, 2, 845, 19),
-    Entry::new(0x258C, 0x00, DataType::Unsigned16, RW, 2, 847, 20),
-    Entry::new(0x258D, 0x00, DataType::Unsigned16, RW, 2, 849, 20),
-    Entry::new(0x258E, 0x00, DataType::Unsigned16, RW, 2, 851, NO_LIMITS),
-    Entry::new(0x258F, 0x00, DataType::Unsigned16, RW, 2, 853, NO_LIMITS),
-    Entry::new(0x25AB, 0x00, DataType::Unsigned16, RW, 2, 855, 21),
-    Entry::new(0x25AC, 0x00, DataType::Unsigned16, RW, 2, 857, 22),
-    Entry::new(0x25AD, 0x00, DataType::Unsigned16, RO, 2, 859, NO_LIMITS),
-    Entry::new(0x3000, 0x00, DataType::Unsigned16, RW, 2, 861, 23),
-    Entry::new(0x3001, 0x00, DataType::Unsigned16, RO_TPDO, 2, 863, NO_LIMITS),
-    Entry::new(0x3002, 0x00, DataType::Unsigned16, RO_TPDO, 2, 865, NO_LIMITS),
-    Entry::new(0x3003, 0x00, DataType::Unsigned8, RW_RPDO, 1, 867, NO_LIMITS),
-    Entry::new(0x3004, 0x00, DataType::Unsigned16, RO_TPDO, 2, 868, NO_LIMITS),
-    Entry::new(0x3005, 0x00, DataType::Unsigned16, RW_RPDO, 2, 870, NO_LIMITS),
-    Entry::new(0x3006, 0x00, DataType::Unsigned16, RW_RPDO, 2, 872, NO_LIMITS),
-    Entry::new(0x3007, 0x00, DataType::Unsigned16, RO_TPDO, 2, 874, NO_LIMITS),
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 876, 24),
-    Entry::new(0x603F, 0x00, DataType::Unsigned16, RO, 2, 878, NO_LIMITS),
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 880, NO_LIMITS),
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 882, NO_LIMITS),
-    Entry::new(0x6042, 0x00, DataType::Integer16, RW_RPDO, 2, 884, 25),
-    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 886, NO_LIMITS),
-    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 888, NO_LIMITS),
-    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 890, NO_LIMITS),
-    Entry::new(0x6046, 0x01, DataType::Unsigned32, RW, 4, 891, 26),
-    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW, 4, 895, 26),
-    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 899, NO_LIMITS),
-    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW, 4, 900, 27),
-    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW, 2, 904, 28),
-    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 906, NO_LIMITS),
-    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW, 4, 907, 27),
-    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW, 2, 911, 28),
-    Entry::new(0x604A, 0x00, DataType::Unsigned8, RO, 1, 913, NO_LIMITS),
-    Entry::new(0x604A, 0x01, DataType::Unsigned32, RW, 4, 914, 27),
-    Entry::new(0x604A, 0x02, DataType::Unsigned16, RW, 2, 918, 28),
-    Entry::new(0x6060, 0x00, DataType::Integer8, WO_RPDO, 1, 920, 29),
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 921, NO_LIMITS),
-    Entry::new(0x6071, 0x00, DataType::Integer16, RW_RPDO, 2, 922, NO_LIMITS),
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 924, NO_LIMITS),
-    Entry::new(0x6078, 0x00, DataType::Integer16, RO_TPDO, 2, 926, NO_LIMITS),
-    Entry::new(0x6079, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928, NO_LIMITS),
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 0, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 1, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 5, 0), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 9, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 5, 4, NO_LIMITS), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 15, 9, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 24, NO_LIMITS), // 0x100A:00 Manufacturer software version
+    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 13, NO_LIMITS), // 0x100C:00 Guard time
+    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 15, NO_LIMITS), // 0x100D:00 Life time factor
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 16, NO_LIMITS), // 0x1010:00 Store parameters / Highest sub-index supported
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 17, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 21, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 25, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 29, NO_LIMITS), // 0x1011:00 Restore default parameters / Highest sub-index supported
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 30, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 34, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 38, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 42, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 46, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 47, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 51, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
+    Entry::new(0x1016, 0x03, DataType::Unsigned32, RW, 4, 55, NO_LIMITS), // 0x1016:03 Consumer heartbeat time / Consumer heartbeat time 3
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 59, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 61, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 29, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 33, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 37, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 62, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 66, NO_LIMITS), // 0x1029:00 Error behavior / Highest sub-index supported
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 67, 1), // 0x1029:01 Error behavior / Communication error
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 68, NO_LIMITS), // 0x1200:00 SDO server parameter / Highest sub-index supported
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 69, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 73, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 77, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / Highest sub-index supported
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 78, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 82, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / Transmission type
+    Entry::new(0x1400, 0x03, DataType::Unsigned16, RW, 2, 83, NO_LIMITS), // 0x1400:03 RPDO1 communication parameter / Inhibit time
+    Entry::new(0x1400, 0x05, DataType::Unsigned16, RW, 2, 85, NO_LIMITS), // 0x1400:05 RPDO1 communication parameter / Event timer
+    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 87, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / Highest sub-index supported
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 88, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 92, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / Transmission type
+    Entry::new(0x1401, 0x03, DataType::Unsigned16, RW, 2, 93, NO_LIMITS), // 0x1401:03 RPDO2 communication parameter / Inhibit time
+    Entry::new(0x1401, 0x05, DataType::Unsigned16, RW, 2, 95, NO_LIMITS), // 0x1401:05 RPDO2 communication parameter / Event timer
+    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 97, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / Highest sub-index supported
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 98, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 102, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / Transmission type
+    Entry::new(0x1402, 0x03, DataType::Unsigned16, RW, 2, 103, NO_LIMITS), // 0x1402:03 RPDO3 communication parameter / Inhibit time
+    Entry::new(0x1402, 0x05, DataType::Unsigned16, RW, 2, 105, NO_LIMITS), // 0x1402:05 RPDO3 communication parameter / Event timer
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 107, 2), // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 108, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / Mapped object 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 112, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / Mapped object 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 116, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / Mapped object 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 120, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / Mapped object 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 124, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / Mapped object 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 128, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / Mapped object 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 132, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / Mapped object 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 136, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / Mapped object 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 140, 2), // 0x1601:00 RPDO2 mapping parameter / Number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 141, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / Mapped object 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 145, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / Mapped object 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 149, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / Mapped object 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 153, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / Mapped object 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 157, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / Mapped object 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 161, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / Mapped object 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 165, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / Mapped object 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 169, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / Mapped object 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 173, 2), // 0x1602:00 RPDO3 mapping parameter / Number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 174, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / Mapped object 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 178, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / Mapped object 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 182, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / Mapped object 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 186, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / Mapped object 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 190, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / Mapped object 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 194, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / Mapped object 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 198, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / Mapped object 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 202, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / Mapped object 8
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 206, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / Highest sub-index supported
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 207, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 211, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / Transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 212, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / Inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 214, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / Event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 216, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / Highest sub-index supported
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 217, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 221, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / Transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 222, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / Inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 224, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / Event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 226, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / Highest sub-index supported
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 227, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 231, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / Transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 232, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / Inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 234, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / Event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 236, 2), // 0x1A00:00 TPDO1 mapping parameter / Number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 237, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / Mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 241, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / Mapped object 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / Mapped object 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / Mapped object 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 253, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / Mapped object 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 257, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / Mapped object 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 261, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / Mapped object 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 265, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / Mapped object 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 269, 2), // 0x1A01:00 TPDO2 mapping parameter / Number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 270, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / Mapped object 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 274, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / Mapped object 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / Mapped object 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / Mapped object 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 286, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / Mapped object 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 290, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / Mapped object 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 294, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / Mapped object 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 298, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / Mapped object 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 302, 2), // 0x1A02:00 TPDO3 mapping parameter / Number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 303, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / Mapped object 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 307, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / Mapped object 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 311, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / Mapped object 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 315, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / Mapped object 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 319, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / Mapped object 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 323, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / Mapped object 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 327, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / Mapped object 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 331, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / Mapped object 8
+    Entry::new(0x20E4, 0x00, DataType::Integer32, RO, 4, 335, 3), // 0x20E4:00 Internal reference frequency
+    Entry::new(0x20F9, 0x00, DataType::Unsigned16, RO, 2, 339, 4), // 0x20F9:00 Active data set
+    Entry::new(0x20FA, 0x00, DataType::Unsigned16, RO, 2, 341, NO_LIMITS), // 0x20FA:00 Digital inputs
+    Entry::new(0x20FE, 0x00, DataType::Unsigned16, RO, 2, 343, NO_LIMITS), // 0x20FE:00 Digital outputs
+    Entry::new(0x2104, 0x00, DataType::Unsigned16, RO, 2, 345, NO_LIMITS), // 0x2104:00 Current error
+    Entry::new(0x210E, 0x00, DataType::Unsigned16, RO, 2, 347, NO_LIMITS), // 0x210E:00 Warnings
+    Entry::new(0x2112, 0x00, DataType::Unsigned16, RO, 2, 349, NO_LIMITS), // 0x2112:00 Application warnings
+    Entry::new(0x2114, 0x00, DataType::Unsigned16, RW, 2, 351, 5), // 0x2114:00 CAN interface
+    Entry::new(0x211A, 0x00, DataType::Integer32, RO, 4, 353, 3), // 0x211A:00 Bus reference frequency
+    Entry::new(0x211B, 0x00, DataType::Integer32, RO, 4, 357, 3), // 0x211B:00 Ramp reference frequency
+    Entry::new(0x2174, 0x00, DataType::Unsigned8, RO, 1, 361, NO_LIMITS), // 0x2174:00 Rated speed / Highest sub-index supported
+    Entry::new(0x2174, 0x01, DataType::Unsigned16, RW, 2, 362, NO_LIMITS), // 0x2174:01 Rated speed / Data set 1
+    Entry::new(0x2174, 0x02, DataType::Unsigned16, RW, 2, 364, NO_LIMITS), // 0x2174:02 Rated speed / Data set 2
+    Entry::new(0x2174, 0x03, DataType::Unsigned16, RW, 2, 366, NO_LIMITS), // 0x2174:03 Rated speed / Data set 3
+    Entry::new(0x2174, 0x04, DataType::Unsigned16, RW, 2, 368, NO_LIMITS), // 0x2174:04 Rated speed / Data set 4
+    Entry::new(0x2174, 0x05, DataType::Unsigned16, RW, 2, 370, NO_LIMITS), // 0x2174:05 Rated speed / All data sets RAM
+    Entry::new(0x2174, 0x06, DataType::Unsigned16, RW, 2, 372, NO_LIMITS), // 0x2174:06 Rated speed / Data set 1 RAM
+    Entry::new(0x2174, 0x07, DataType::Unsigned16, RW, 2, 374, NO_LIMITS), // 0x2174:07 Rated speed / Data set 2 RAM
+    Entry::new(0x2174, 0x08, DataType::Unsigned16, RW, 2, 376, NO_LIMITS), // 0x2174:08 Rated speed / Data set 3 RAM
+    Entry::new(0x2174, 0x09, DataType::Unsigned16, RW, 2, 378, NO_LIMITS), // 0x2174:09 Rated speed / Data set 4 RAM
+    Entry::new(0x2175, 0x00, DataType::Unsigned8, RO, 1, 380, NO_LIMITS), // 0x2175:00 Number of pole pairs / Highest sub-index supported
+    Entry::new(0x2175, 0x01, DataType::Unsigned16, RW, 2, 381, 6), // 0x2175:01 Number of pole pairs / Data set 1
+    Entry::new(0x2175, 0x02, DataType::Unsigned16, RW, 2, 383, 6), // 0x2175:02 Number of pole pairs / Data set 2
+    Entry::new(0x2175, 0x03, DataType::Unsigned16, RW, 2, 385, 6), // 0x2175:03 Number of pole pairs / Data set 3
+    Entry::new(0x2175, 0x04, DataType::Unsigned16, RW, 2, 387, 6), // 0x2175:04 Number of pole pairs / Data set 4
+    Entry::new(0x2175, 0x05, DataType::Unsigned16, RW, 2, 389, 6), // 0x2175:05 Number of pole pairs / All data sets RAM
+    Entry::new(0x2175, 0x06, DataType::Unsigned16, RW, 2, 391, 6), // 0x2175:06 Number of pole pairs / Data set 1 RAM
+    Entry::new(0x2175, 0x07, DataType::Unsigned16, RW, 2, 393, 6), // 0x2175:07 Number of pole pairs / Data set 2 RAM
+    Entry::new(0x2175, 0x08, DataType::Unsigned16, RW, 2, 395, 6), // 0x2175:08 Number of pole pairs / Data set 3 RAM
+    Entry::new(0x2175, 0x09, DataType::Unsigned16, RW, 2, 397, 6), // 0x2175:09 Number of pole pairs / Data set 4 RAM
+    Entry::new(0x2181, 0x00, DataType::Unsigned16, RW, 2, 399, 7), // 0x2181:00 CAN baud rate
+    Entry::new(0x2183, 0x00, DataType::Integer16, RW, 2, 401, 8), // 0x2183:00 CAN node number
+    Entry::new(0x2184, 0x00, DataType::Unsigned16, RW, 2, 403, 9), // 0x2184:00 CAN fault behaviour
+    Entry::new(0x2188, 0x00, DataType::Unsigned8, RO, 1, 405, NO_LIMITS), // 0x2188:00 State machine transition 5 / Highest sub-index supported
+    Entry::new(0x2188, 0x01, DataType::Unsigned16, RW, 2, 406, 1), // 0x2188:01 State machine transition 5 / Data set 1
+    Entry::new(0x2188, 0x02, DataType::Unsigned16, RW, 2, 408, 1), // 0x2188:02 State machine transition 5 / Data set 2
+    Entry::new(0x2188, 0x03, DataType::Unsigned16, RW, 2, 410, 1), // 0x2188:03 State machine transition 5 / Data set 3
+    Entry::new(0x2188, 0x04, DataType::Unsigned16, RW, 2, 412, 1), // 0x2188:04 State machine transition 5 / Data set 4
+    Entry::new(0x2188, 0x05, DataType::Unsigned16, RW, 2, 414, 1), // 0x2188:05 State machine transition 5 / All data sets RAM
+    Entry::new(0x2188, 0x06, DataType::Unsigned16, RW, 2, 416, 1), // 0x2188:06 State machine transition 5 / Data set 1 RAM
+    Entry::new(0x2188, 0x07, DataType::Unsigned16, RW, 2, 418, 1), // 0x2188:07 State machine transition 5 / Data set 2 RAM
+    Entry::new(0x2188, 0x08, DataType::Unsigned16, RW, 2, 420, 1), // 0x2188:08 State machine transition 5 / Data set 3 RAM
+    Entry::new(0x2188, 0x09, DataType::Unsigned16, RW, 2, 422, 1), // 0x2188:09 State machine transition 5 / Data set 4 RAM
+    Entry::new(0x2197, 0x00, DataType::Integer16, RW, 2, 424, NO_LIMITS), // 0x2197:00 Heat sink warning limit
+    Entry::new(0x219A, 0x00, DataType::Unsigned16, RW, 2, 426, NO_LIMITS), // 0x219A:00 Control word parameter
+    Entry::new(0x219B, 0x00, DataType::Unsigned16, RO, 2, 428, NO_LIMITS), // 0x219B:00 Status word parameter
+    Entry::new(0x219C, 0x00, DataType::Unsigned8, RO, 1, 430, NO_LIMITS), // 0x219C:00 Local remote / Highest sub-index supported
+    Entry::new(0x219C, 0x01, DataType::Unsigned16, RW, 2, 431, 10), // 0x219C:01 Local remote / Data set 1
+    Entry::new(0x219C, 0x02, DataType::Unsigned16, RW, 2, 433, 10), // 0x219C:02 Local remote / Data set 2
+    Entry::new(0x219C, 0x03, DataType::Unsigned16, RW, 2, 435, 10), // 0x219C:03 Local remote / Data set 3
+    Entry::new(0x219C, 0x04, DataType::Unsigned16, RW, 2, 437, 10), // 0x219C:04 Local remote / Data set 4
+    Entry::new(0x219C, 0x05, DataType::Unsigned16, RW, 2, 439, 10), // 0x219C:05 Local remote / All data sets RAM
+    Entry::new(0x219C, 0x06, DataType::Unsigned16, RW, 2, 441, 10), // 0x219C:06 Local remote / Data set 1 RAM
+    Entry::new(0x219C, 0x07, DataType::Unsigned16, RW, 2, 443, 10), // 0x219C:07 Local remote / Data set 2 RAM
+    Entry::new(0x219C, 0x08, DataType::Unsigned16, RW, 2, 445, 10), // 0x219C:08 Local remote / Data set 3 RAM
+    Entry::new(0x219C, 0x09, DataType::Unsigned16, RW, 2, 447, 10), // 0x219C:09 Local remote / Data set 4 RAM
+    Entry::new(0x219E, 0x00, DataType::Unsigned16, RW, 2, 449, 9), // 0x219E:00 Data set selection
+    Entry::new(0x21A2, 0x00, DataType::Unsigned8, RO, 1, 451, NO_LIMITS), // 0x21A2:00 Minimum frequency / Highest sub-index supported
+    Entry::new(0x21A2, 0x01, DataType::Integer32, RW, 4, 452, NO_LIMITS), // 0x21A2:01 Minimum frequency / Data set 1
+    Entry::new(0x21A2, 0x02, DataType::Integer32, RW, 4, 456, NO_LIMITS), // 0x21A2:02 Minimum frequency / Data set 2
+    Entry::new(0x21A2, 0x03, DataType::Integer32, RW, 4, 460, NO_LIMITS), // 0x21A2:03 Minimum frequency / Data set 3
+    Entry::new(0x21A2, 0x04, DataType::Integer32, RW, 4, 464, NO_LIMITS), // 0x21A2:04 Minimum frequency / Data set 4
+    Entry::new(0x21A2, 0x05, DataType::Integer32, RW, 4, 468, NO_LIMITS), // 0x21A2:05 Minimum frequency / All data sets RAM
+    Entry::new(0x21A2, 0x06, DataType::Integer32, RW, 4, 472, NO_LIMITS), // 0x21A2:06 Minimum frequency / Data set 1 RAM
+    Entry::new(0x21A2, 0x07, DataType::Integer32, RW, 4, 476, NO_LIMITS), // 0x21A2:07 Minimum frequency / Data set 2 RAM
+    Entry::new(0x21A2, 0x08, DataType::Integer32, RW, 4, 480, NO_LIMITS), // 0x21A2:08 Minimum frequency / Data set 3 RAM
+    Entry::new(0x21A2, 0x09, DataType::Integer32, RW, 4, 484, NO_LIMITS), // 0x21A2:09 Minimum frequency / Data set 4 RAM
+    Entry::new(0x21A3, 0x00, DataType::Unsigned8, RO, 1, 488, NO_LIMITS), // 0x21A3:00 Maximum frequency / Highest sub-index supported
+    Entry::new(0x21A3, 0x01, DataType::Integer32, RW, 4, 489, NO_LIMITS), // 0x21A3:01 Maximum frequency / Data set 1
+    Entry::new(0x21A3, 0x02, DataType::Integer32, RW, 4, 493, NO_LIMITS), // 0x21A3:02 Maximum frequency / Data set 2
+    Entry::new(0x21A3, 0x03, DataType::Integer32, RW, 4, 497, NO_LIMITS), // 0x21A3:03 Maximum frequency / Data set 3
+    Entry::new(0x21A3, 0x04, DataType::Integer32, RW, 4, 501, NO_LIMITS), // 0x21A3:04 Maximum frequency / Data set 4
+    Entry::new(0x21A3, 0x05, DataType::Integer32, RW, 4, 505, NO_LIMITS), // 0x21A3:05 Maximum frequency / All data sets RAM
+    Entry::new(0x21A3, 0x06, DataType::Integer32, RW, 4, 509, NO_LIMITS), // 0x21A3:06 Maximum frequency / Data set 1 RAM
+    Entry::new(0x21A3, 0x07, DataType::Integer32, RW, 4, 513, NO_LIMITS), // 0x21A3:07 Maximum frequency / Data set 2 RAM
+    Entry::new(0x21A3, 0x08, DataType::Integer32, RW, 4, 517, NO_LIMITS), // 0x21A3:08 Maximum frequency / Data set 3 RAM
+    Entry::new(0x21A3, 0x09, DataType::Integer32, RW, 4, 521, NO_LIMITS), // 0x21A3:09 Maximum frequency / Data set 4 RAM
+    Entry::new(0x21A4, 0x00, DataType::Unsigned8, RO, 1, 525, NO_LIMITS), // 0x21A4:00 Acceleration clockwise / Highest sub-index supported
+    Entry::new(0x21A4, 0x01, DataType::Integer32, RW, 4, 526, 11), // 0x21A4:01 Acceleration clockwise / Data set 1
+    Entry::new(0x21A4, 0x02, DataType::Integer32, RW, 4, 530, 11), // 0x21A4:02 Acceleration clockwise / Data set 2
+    Entry::new(0x21A4, 0x03, DataType::Integer32, RW, 4, 534, 11), // 0x21A4:03 Acceleration clockwise / Data set 3
+    Entry::new(0x21A4, 0x04, DataType::Integer32, RW, 4, 538, 11), // 0x21A4:04 Acceleration clockwise / Data set 4
+    Entry::new(0x21A4, 0x05, DataType::Integer32, RW, 4, 542, 11), // 0x21A4:05 Acceleration clockwise / All data sets RAM
+    Entry::new(0x21A4, 0x06, DataType::Integer32, RW, 4, 546, 11), // 0x21A4:06 Acceleration clockwise / Data set 1 RAM
+    Entry::new(0x21A4, 0x07, DataType::Integer32, RW, 4, 550, 11), // 0x21A4:07 Acceleration clockwise / Data set 2 RAM
+    Entry::new(0x21A4, 0x08, DataType::Integer32, RW, 4, 554, 11), // 0x21A4:08 Acceleration clockwise / Data set 3 RAM
+    Entry::new(0x21A4, 0x09, DataType::Integer32, RW, 4, 558, 11), // 0x21A4:09 Acceleration clockwise / Data set 4 RAM
+    Entry::new(0x21A5, 0x00, DataType::Unsigned8, RO, 1, 562, NO_LIMITS), // 0x21A5:00 Deceleration clockwise / Highest sub-index supported
+    Entry::new(0x21A5, 0x01, DataType::Integer32, RW, 4, 563, 12), // 0x21A5:01 Deceleration clockwise / Data set 1
+    Entry::new(0x21A5, 0x02, DataType::Integer32, RW, 4, 567, 12), // 0x21A5:02 Deceleration clockwise / Data set 2
+    Entry::new(0x21A5, 0x03, DataType::Integer32, RW, 4, 571, 12), // 0x21A5:03 Deceleration clockwise / Data set 3
+    Entry::new(0x21A5, 0x04, DataType::Integer32, RW, 4, 575, 12), // 0x21A5:04 Deceleration clockwise / Data set 4
+    Entry::new(0x21A5, 0x05, DataType::Integer32, RW, 4, 579, 12), // 0x21A5:05 Deceleration clockwise / All data sets RAM
+    Entry::new(0x21A5, 0x06, DataType::Integer32, RW, 4, 583, 12), // 0x21A5:06 Deceleration clockwise / Data set 1 RAM
+    Entry::new(0x21A5, 0x07, DataType::Integer32, RW, 4, 587, 12), // 0x21A5:07 Deceleration clockwise / Data set 2 RAM
+    Entry::new(0x21A5, 0x08, DataType::Integer32, RW, 4, 591, 12), // 0x21A5:08 Deceleration clockwise / Data set 3 RAM
+    Entry::new(0x21A5, 0x09, DataType::Integer32, RW, 4, 595, 12), // 0x21A5:09 Deceleration clockwise / Data set 4 RAM
+    Entry::new(0x21A6, 0x00, DataType::Unsigned8, RO, 1, 599, NO_LIMITS), // 0x21A6:00 Acceleration anticlockwise / Highest sub-index supported
+    Entry::new(0x21A6, 0x01, DataType::Integer32, RW, 4, 600, 13), // 0x21A6:01 Acceleration anticlockwise / Data set 1
+    Entry::new(0x21A6, 0x02, DataType::Integer32, RW, 4, 604, 13), // 0x21A6:02 Acceleration anticlockwise / Data set 2
+    Entry::new(0x21A6, 0x03, DataType::Integer32, RW, 4, 608, 13), // 0x21A6:03 Acceleration anticlockwise / Data set 3
+    Entry::new(0x21A6, 0x04, DataType::Integer32, RW, 4, 612, 13), // 0x21A6:04 Acceleration anticlockwise / Data set 4
+    Entry::new(0x21A6, 0x05, DataType::Integer32, RW, 4, 616, 13), // 0x21A6:05 Acceleration anticlockwise / All data sets RAM
+    Entry::new(0x21A6, 0x06, DataType::Integer32, RW, 4, 620, 13), // 0x21A6:06 Acceleration anticlockwise / Data set 1 RAM
+    Entry::new(0x21A6, 0x07, DataType::Integer32, RW, 4, 624, 13), // 0x21A6:07 Acceleration anticlockwise / Data set 2 RAM
+    Entry::new(0x21A6, 0x08, DataType::Integer32, RW, 4, 628, 13), // 0x21A6:08 Acceleration anticlockwise / Data set 3 RAM
+    Entry::new(0x21A6, 0x09, DataType::Integer32, RW, 4, 632, 13), // 0x21A6:09 Acceleration anticlockwise / Data set 4 RAM
+    Entry::new(0x21A7, 0x00, DataType::Unsigned8, RO, 1, 636, NO_LIMITS), // 0x21A7:00 Deceleration anticlockwise / Highest sub-index supported
+    Entry::new(0x21A7, 0x01, DataType::Integer32, RW, 4, 637, 13), // 0x21A7:01 Deceleration anticlockwise / Data set 1
+    Entry::new(0x21A7, 0x02, DataType::Integer32, RW, 4, 641, 13), // 0x21A7:02 Deceleration anticlockwise / Data set 2
+    Entry::new(0x21A7, 0x03, DataType::Integer32, RW, 4, 645, 13), // 0x21A7:03 Deceleration anticlockwise / Data set 3
+    Entry::new(0x21A7, 0x04, DataType::Integer32, RW, 4, 649, 13), // 0x21A7:04 Deceleration anticlockwise / Data set 4
+    Entry::new(0x21A7, 0x05, DataType::Integer32, RW, 4, 653, 13), // 0x21A7:05 Deceleration anticlockwise / All data sets RAM
+    Entry::new(0x21A7, 0x06, DataType::Integer32, RW, 4, 657, 13), // 0x21A7:06 Deceleration anticlockwise / Data set 1 RAM
+    Entry::new(0x21A7, 0x07, DataType::Integer32, RW, 4, 661, 13), // 0x21A7:07 Deceleration anticlockwise / Data set 2 RAM
+    Entry::new(0x21A7, 0x08, DataType::Integer32, RW, 4, 665, 13), // 0x21A7:08 Deceleration anticlockwise / Data set 3 RAM
+    Entry::new(0x21A7, 0x09, DataType::Integer32, RW, 4, 669, 13), // 0x21A7:09 Deceleration anticlockwise / Data set 4 RAM
+    Entry::new(0x21A8, 0x00, DataType::Unsigned8, RO, 1, 673, NO_LIMITS), // 0x21A8:00 Emergency stop clockwise / Highest sub-index supported
+    Entry::new(0x21A8, 0x01, DataType::Integer32, RW, 4, 674, 12), // 0x21A8:01 Emergency stop clockwise / Data set 1
+    Entry::new(0x21A8, 0x02, DataType::Integer32, RW, 4, 678, 12), // 0x21A8:02 Emergency stop clockwise / Data set 2
+    Entry::new(0x21A8, 0x03, DataType::Integer32, RW, 4, 682, 12), // 0x21A8:03 Emergency stop clockwise / Data set 3
+    Entry::new(0x21A8, 0x04, DataType::Integer32, RW, 4, 686, 12), // 0x21A8:04 Emergency stop clockwise / Data set 4
+    Entry::new(0x21A8, 0x05, DataType::Integer32, RW, 4, 690, 12), // 0x21A8:05 Emergency stop clockwise / All data sets RAM
+    Entry::new(0x21A8, 0x06, DataType::Integer32, RW, 4, 694, 12), // 0x21A8:06 Emergency stop clockwise / Data set 1 RAM
+    Entry::new(0x21A8, 0x07, DataType::Integer32, RW, 4, 698, 12), // 0x21A8:07 Emergency stop clockwise / Data set 2 RAM
+    Entry::new(0x21A8, 0x08, DataType::Integer32, RW, 4, 702, 12), // 0x21A8:08 Emergency stop clockwise / Data set 3 RAM
+    Entry::new(0x21A8, 0x09, DataType::Integer32, RW, 4, 706, 12), // 0x21A8:09 Emergency stop clockwise / Data set 4 RAM
+    Entry::new(0x21A9, 0x00, DataType::Unsigned8, RO, 1, 710, NO_LIMITS), // 0x21A9:00 Emergency stop anticlockwise / Highest sub-index supported
+    Entry::new(0x21A9, 0x01, DataType::Integer32, RW, 4, 711, 12), // 0x21A9:01 Emergency stop anticlockwise / Data set 1
+    Entry::new(0x21A9, 0x02, DataType::Integer32, RW, 4, 715, 12), // 0x21A9:02 Emergency stop anticlockwise / Data set 2
+    Entry::new(0x21A9, 0x03, DataType::Integer32, RW, 4, 719, 12), // 0x21A9:03 Emergency stop anticlockwise / Data set 3
+    Entry::new(0x21A9, 0x04, DataType::Integer32, RW, 4, 723, 12), // 0x21A9:04 Emergency stop anticlockwise / Data set 4
+    Entry::new(0x21A9, 0x05, DataType::Integer32, RW, 4, 727, 12), // 0x21A9:05 Emergency stop anticlockwise / All data sets RAM
+    Entry::new(0x21A9, 0x06, DataType::Integer32, RW, 4, 731, 12), // 0x21A9:06 Emergency stop anticlockwise / Data set 1 RAM
+    Entry::new(0x21A9, 0x07, DataType::Integer32, RW, 4, 735, 12), // 0x21A9:07 Emergency stop anticlockwise / Data set 2 RAM
+    Entry::new(0x21A9, 0x08, DataType::Integer32, RW, 4, 739, 12), // 0x21A9:08 Emergency stop anticlockwise / Data set 3 RAM
+    Entry::new(0x21A9, 0x09, DataType::Integer32, RW, 4, 743, 12), // 0x21A9:09 Emergency stop anticlockwise / Data set 4 RAM
+    Entry::new(0x21E0, 0x00, DataType::Unsigned8, RO, 1, 747, NO_LIMITS), // 0x21E0:00 Fixed frequency 1 / Highest sub-index supported
+    Entry::new(0x21E0, 0x01, DataType::Integer32, RW, 4, 748, NO_LIMITS), // 0x21E0:01 Fixed frequency 1 / Data set 1
+    Entry::new(0x21E0, 0x02, DataType::Integer32, RW, 4, 752, NO_LIMITS), // 0x21E0:02 Fixed frequency 1 / Data set 2
+    Entry::new(0x21E0, 0x03, DataType::Integer32, RW, 4, 756, NO_LIMITS), // 0x21E0:03 Fixed frequency 1 / Data set 3
+    Entry::new(0x21E0, 0x04, DataType::Integer32, RW, 4, 760, NO_LIMITS), // 0x21E0:04 Fixed frequency 1 / Data set 4
+    Entry::new(0x21E0, 0x05, DataType::Integer32, RW, 4, 764, NO_LIMITS), // 0x21E0:05 Fixed frequency 1 / All data sets RAM
+    Entry::new(0x21E0, 0x06, DataType::Integer32, RW, 4, 768, NO_LIMITS), // 0x21E0:06 Fixed frequency 1 / Data set 1 RAM
+    Entry::new(0x21E0, 0x07, DataType::Integer32, RW, 4, 772, NO_LIMITS), // 0x21E0:07 Fixed frequency 1 / Data set 2 RAM
+    Entry::new(0x21E0, 0x08, DataType::Integer32, RW, 4, 776, NO_LIMITS), // 0x21E0:08 Fixed frequency 1 / Data set 3 RAM
+    Entry::new(0x21E0, 0x09, DataType::Integer32, RW, 4, 780, NO_LIMITS), // 0x21E0:09 Fixed frequency 1 / Data set 4 RAM
+    Entry::new(0x2225, 0x00, DataType::Unsigned8, RO, 1, 784, NO_LIMITS), // 0x2225:00 Max control deviation / Highest sub-index supported
+    Entry::new(0x2225, 0x01, DataType::Unsigned16, RW, 2, 785, 14), // 0x2225:01 Max control deviation / Data set 1
+    Entry::new(0x2225, 0x02, DataType::Unsigned16, RW, 2, 787, 14), // 0x2225:02 Max control deviation / Data set 2
+    Entry::new(0x2225, 0x03, DataType::Unsigned16, RW, 2, 789, 14), // 0x2225:03 Max control deviation / Data set 3
+    Entry::new(0x2225, 0x04, DataType::Unsigned16, RW, 2, 791, 14), // 0x2225:04 Max control deviation / Data set 4
+    Entry::new(0x2225, 0x05, DataType::Unsigned16, RW, 2, 793, 14), // 0x2225:05 Max control deviation / All data sets RAM
+    Entry::new(0x2225, 0x06, DataType::Unsigned16, RW, 2, 795, 14), // 0x2225:06 Max control deviation / Data set 1 RAM
+    Entry::new(0x2225, 0x07, DataType::Unsigned16, RW, 2, 797, 14), // 0x2225:07 Max control deviation / Data set 2 RAM
+    Entry::new(0x2225, 0x08, DataType::Unsigned16, RW, 2, 799, 14), // 0x2225:08 Max control deviation / Data set 3 RAM
+    Entry::new(0x2225, 0x09, DataType::Unsigned16, RW, 2, 801, 14), // 0x2225:09 Max control deviation / Data set 4 RAM
+    Entry::new(0x227D, 0x00, DataType::Unsigned8, RO, 1, 803, NO_LIMITS), // 0x227D:00 Stop function switch-off threshold / Highest sub-index supported
+    Entry::new(0x227D, 0x01, DataType::Unsigned16, RW, 2, 804, 15), // 0x227D:01 Stop function switch-off threshold / Data set 1
+    Entry::new(0x227D, 0x02, DataType::Unsigned16, RW, 2, 806, 15), // 0x227D:02 Stop function switch-off threshold / Data set 2
+    Entry::new(0x227D, 0x03, DataType::Unsigned16, RW, 2, 808, 15), // 0x227D:03 Stop function switch-off threshold / Data set 3
+    Entry::new(0x227D, 0x04, DataType::Unsigned16, RW, 2, 810, 15), // 0x227D:04 Stop function switch-off threshold / Data set 4
+    Entry::new(0x227D, 0x05, DataType::Unsigned16, RW, 2, 812, 15), // 0x227D:05 Stop function switch-off threshold / All data sets RAM
+    Entry::new(0x227D, 0x06, DataType::Unsigned16, RW, 2, 814, 15), // 0x227D:06 Stop function switch-off threshold / Data set 1 RAM
+    Entry::new(0x227D, 0x07, DataType::Unsigned16, RW, 2, 816, 15), // 0x227D:07 Stop function switch-off threshold / Data set 2 RAM
+    Entry::new(0x227D, 0x08, DataType::Unsigned16, RW, 2, 818, 15), // 0x227D:08 Stop function switch-off threshold / Data set 3 RAM
+    Entry::new(0x227D, 0x09, DataType::Unsigned16, RW, 2, 820, 15), // 0x227D:09 Stop function switch-off threshold / Data set 4 RAM
+    Entry::new(0x227E, 0x00, DataType::Unsigned8, RO, 1, 822, NO_LIMITS), // 0x227E:00 Stop function holding time / Highest sub-index supported
+    Entry::new(0x227E, 0x01, DataType::Unsigned16, RW, 2, 823, 16), // 0x227E:01 Stop function holding time / Data set 1
+    Entry::new(0x227E, 0x02, DataType::Unsigned16, RW, 2, 825, 16), // 0x227E:02 Stop function holding time / Data set 2
+    Entry::new(0x227E, 0x03, DataType::Unsigned16, RW, 2, 827, 16), // 0x227E:03 Stop function holding time / Data set 3
+    Entry::new(0x227E, 0x04, DataType::Unsigned16, RW, 2, 829, 16), // 0x227E:04 Stop function holding time / Data set 4
+    Entry::new(0x227E, 0x05, DataType::Unsigned16, RW, 2, 831, 16), // 0x227E:05 Stop function holding time / All data sets RAM
+    Entry::new(0x227E, 0x06, DataType::Unsigned16, RW, 2, 833, 16), // 0x227E:06 Stop function holding time / Data set 1 RAM
+    Entry::new(0x227E, 0x07, DataType::Unsigned16, RW, 2, 835, 16), // 0x227E:07 Stop function holding time / Data set 2 RAM
+    Entry::new(0x227E, 0x08, DataType::Unsigned16, RW, 2, 837, 16), // 0x227E:08 Stop function holding time / Data set 3 RAM
+    Entry::new(0x227E, 0x09, DataType::Unsigned16, RW, 2, 839, 16), // 0x227E:09 Stop function holding time / Data set 4 RAM
+    Entry::new(0x249C, 0x00, DataType::Unsigned16, RW, 2, 841, 17), // 0x249C:00 Systembus sync mode
+    Entry::new(0x250A, 0x00, DataType::Unsigned16, RO, 2, 843, 18), // 0x250A:00 NMT node state
+    Entry::new(0x250B, 0x00, DataType::Unsigned16, RO, 2, 845, 19), // 0x250B:00 CAN controller state
+    Entry::new(0x258C, 0x00, DataType::Unsigned16, RW, 2, 847, 20), // 0x258C:00 CANopen mux input index write
+    Entry::new(0x258D, 0x00, DataType::Unsigned16, RW, 2, 849, 20), // 0x258D:00 CANopen mux input index read
+    Entry::new(0x258E, 0x00, DataType::Unsigned16, RW, 2, 851, NO_LIMITS), // 0x258E:00 CANopen mux inputs
+    Entry::new(0x258F, 0x00, DataType::Unsigned16, RW, 2, 853, NO_LIMITS), // 0x258F:00 CANopen percentage actual value source
+    Entry::new(0x25AB, 0x00, DataType::Unsigned16, RW, 2, 855, 21), // 0x25AB:00 OS sync time
+    Entry::new(0x25AC, 0x00, DataType::Unsigned16, RW, 2, 857, 22), // 0x25AC:00 OS sync source
+    Entry::new(0x25AD, 0x00, DataType::Unsigned16, RO, 2, 859, NO_LIMITS), // 0x25AD:00 OS sync source actual
+    Entry::new(0x3000, 0x00, DataType::Unsigned16, RW, 2, 861, 23), // 0x3000:00 SYNC jitter
+    Entry::new(0x3001, 0x00, DataType::Unsigned16, RO_TPDO, 2, 863, NO_LIMITS), // 0x3001:00 Digital in actual value
+    Entry::new(0x3002, 0x00, DataType::Unsigned16, RO_TPDO, 2, 865, NO_LIMITS), // 0x3002:00 Digital out actual value
+    Entry::new(0x3003, 0x00, DataType::Unsigned8, RW_RPDO, 1, 867, NO_LIMITS), // 0x3003:00 Digital out set values
+    Entry::new(0x3004, 0x00, DataType::Unsigned16, RO_TPDO, 2, 868, NO_LIMITS), // 0x3004:00 Boolean mux
+    Entry::new(0x3005, 0x00, DataType::Unsigned16, RW_RPDO, 2, 870, NO_LIMITS), // 0x3005:00 Boolean demux
+    Entry::new(0x3006, 0x00, DataType::Unsigned16, RW_RPDO, 2, 872, NO_LIMITS), // 0x3006:00 Percentage set value
+    Entry::new(0x3007, 0x00, DataType::Unsigned16, RO_TPDO, 2, 874, NO_LIMITS), // 0x3007:00 Percentage actual value
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 876, 24), // 0x6007:00 Abort connection option code
+    Entry::new(0x603F, 0x00, DataType::Unsigned16, RO, 2, 878, NO_LIMITS), // 0x603F:00 Error code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 880, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 882, NO_LIMITS), // 0x6041:00 Statusword
+    Entry::new(0x6042, 0x00, DataType::Integer16, RW_RPDO, 2, 884, 25), // 0x6042:00 vl target velocity
+    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 886, NO_LIMITS), // 0x6043:00 vl velocity demand
+    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 888, NO_LIMITS), // 0x6044:00 vl control effort
+    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 890, NO_LIMITS), // 0x6046:00 vl velocity min max amount / Highest sub-index supported
+    Entry::new(0x6046, 0x01, DataType::Unsigned32, RW, 4, 891, 26), // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW, 4, 895, 26), // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 899, NO_LIMITS), // 0x6048:00 vl velocity acceleration / Highest sub-index supported
+    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW, 4, 900, 27), // 0x6048:01 vl velocity acceleration / Delta speed
+    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW, 2, 904, 28), // 0x6048:02 vl velocity acceleration / Delta time
+    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 906, NO_LIMITS), // 0x6049:00 vl velocity deceleration / Highest sub-index supported
+    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW, 4, 907, 27), // 0x6049:01 vl velocity deceleration / Delta speed
+    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW, 2, 911, 28), // 0x6049:02 vl velocity deceleration / Delta time
+    Entry::new(0x604A, 0x00, DataType::Unsigned8, RO, 1, 913, NO_LIMITS), // 0x604A:00 vl velocity quick stop / Highest sub-index supported
+    Entry::new(0x604A, 0x01, DataType::Unsigned32, RW, 4, 914, 27), // 0x604A:01 vl velocity quick stop / Delta speed
+    Entry::new(0x604A, 0x02, DataType::Unsigned16, RW, 2, 918, 28), // 0x604A:02 vl velocity quick stop / Delta time
+    Entry::new(0x6060, 0x00, DataType::Integer8, WO_RPDO, 1, 920, 29), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 921, NO_LIMITS), // 0x6061:00 Modes of operation display
+    Entry::new(0x6071, 0x00, DataType::Integer16, RW_RPDO, 2, 922, NO_LIMITS), // 0x6071:00 Target torque
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 924, NO_LIMITS), // 0x6077:00 Torque actual value
+    Entry::new(0x6078, 0x00, DataType::Integer16, RO_TPDO, 2, 926, NO_LIMITS), // 0x6078:00 Current actual value
+    Entry::new(0x6079, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928, NO_LIMITS), // 0x6079:00 DC link circuit voltage
 ];
 
+#[rustfmt::skip]
 static LIMITS: [Limits; 30] = [
-    Limits { low: 0x0, high: 0x4E20 },
-    Limits { low: 0x0, high: 0x2 },
-    Limits { low: 0x0, high: 0x8 },
-    Limits { low: 0xFFFFFFFFFFFE7960, high: 0x186A0 },
-    Limits { low: 0x1, high: 0x4 },
-    Limits { low: 0x1, high: 0x2 },
-    Limits { low: 0x1, high: 0x18 },
-    Limits { low: 0x1, high: 0x8 },
-    Limits { low: 0xFFFFFFFFFFFFFFFF, high: 0x7F },
-    Limits { low: 0x0, high: 0x5 },
-    Limits { low: 0x0, high: 0x2C },
-    Limits { low: 0x0, high: 0xF423F },
-    Limits { low: 0x1, high: 0xF423F },
-    Limits { low: 0xFFFFFFFFFFFFFFFF, high: 0xF423F },
-    Limits { low: 0x1, high: 0x7D0 },
-    Limits { low: 0x0, high: 0x3E8 },
-    Limits { low: 0x0, high: 0x7D0 },
-    Limits { low: 0x0, high: 0xA },
-    Limits { low: 0x0, high: 0x7F },
-    Limits { low: 0x0, high: 0x4 },
-    Limits { low: 0x0, high: 0x21 },
-    Limits { low: 0x2BC, high: 0x384 },
-    Limits { low: 0x0, high: 0x63 },
-    Limits { low: 0x0, high: 0x4268 },
-    Limits { low: 0xFFFFFFFFFFFFFFFE, high: 0x3 },
-    Limits { low: 0xFFFFFFFFFFFF8000, high: 0x7FFF },
-    Limits { low: 0x0, high: 0x7FFF },
-    Limits { low: 0x1, high: 0x7FFF },
-    Limits { low: 0x1, high: 0xFFFF },
-    Limits { low: 0x2, high: 0x2 },
+    Limits { low: 0x0, high: 0x4E20 }, // 0x1006:00 Communication cycle period
+    Limits { low: 0x0, high: 0x2 }, // 0x1029:01 Error behavior / Communication error and 9 more
+    Limits { low: 0x0, high: 0x8 }, // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects and 5 more
+    Limits { low: 0xFFFFFFFFFFFE7960, high: 0x186A0 }, // 0x20E4:00 Internal reference frequency and 2 more
+    Limits { low: 0x1, high: 0x4 }, // 0x20F9:00 Active data set
+    Limits { low: 0x1, high: 0x2 }, // 0x2114:00 CAN interface
+    Limits { low: 0x1, high: 0x18 }, // 0x2175:01 Number of pole pairs / Data set 1 and 8 more
+    Limits { low: 0x1, high: 0x8 }, // 0x2181:00 CAN baud rate
+    Limits { low: 0xFFFFFFFFFFFFFFFF, high: 0x7F }, // 0x2183:00 CAN node number
+    Limits { low: 0x0, high: 0x5 }, // 0x2184:00 CAN fault behaviour and 1 more
+    Limits { low: 0x0, high: 0x2C }, // 0x219C:01 Local remote / Data set 1 and 8 more
+    Limits { low: 0x0, high: 0xF423F }, // 0x21A4:01 Acceleration clockwise / Data set 1 and 8 more
+    Limits { low: 0x1, high: 0xF423F }, // 0x21A5:01 Deceleration clockwise / Data set 1 and 26 more
+    Limits { low: 0xFFFFFFFFFFFFFFFF, high: 0xF423F }, // 0x21A6:01 Acceleration anticlockwise / Data set 1 and 17 more
+    Limits { low: 0x1, high: 0x7D0 }, // 0x2225:01 Max control deviation / Data set 1 and 8 more
+    Limits { low: 0x0, high: 0x3E8 }, // 0x227D:01 Stop function switch-off threshold / Data set 1 and 8 more
+    Limits { low: 0x0, high: 0x7D0 }, // 0x227E:01 Stop function holding time / Data set 1 and 8 more
+    Limits { low: 0x0, high: 0xA }, // 0x249C:00 Systembus sync mode
+    Limits { low: 0x0, high: 0x7F }, // 0x250A:00 NMT node state
+    Limits { low: 0x0, high: 0x4 }, // 0x250B:00 CAN controller state
+    Limits { low: 0x0, high: 0x21 }, // 0x258C:00 CANopen mux input index write and 1 more
+    Limits { low: 0x2BC, high: 0x384 }, // 0x25AB:00 OS sync time
+    Limits { low: 0x0, high: 0x63 }, // 0x25AC:00 OS sync source
+    Limits { low: 0x0, high: 0x4268 }, // 0x3000:00 SYNC jitter
+    Limits { low: 0xFFFFFFFFFFFFFFFE, high: 0x3 }, // 0x6007:00 Abort connection option code
+    Limits { low: 0xFFFFFFFFFFFF8000, high: 0x7FFF }, // 0x6042:00 vl target velocity
+    Limits { low: 0x0, high: 0x7FFF }, // 0x6046:01 vl velocity min max amount / vl velocity min amount and 1 more
+    Limits { low: 0x1, high: 0x7FFF }, // 0x6048:01 vl velocity acceleration / Delta speed and 2 more
+    Limits { low: 0x1, high: 0xFFFF }, // 0x6048:02 vl velocity acceleration / Delta time and 2 more
+    Limits { low: 0x2, high: 0x2 }, // 0x6060:00 Modes of operation
 ];
 
+#[rustfmt::skip]
 static ROM: [u8; ROM_SIZE] = [
-    0x92, 0x01, 0x41, 0x00, 0x41, 0x47, 0x49, 0x4C, 0x45, 0x41, 0x47, 0x4C, 0x20, 0x34, 0x30, 0x30, 0x20, 0x35, 0x31, 0x32, 0x20, 0x33,
-    0x34, 0x34, 0x35, 0x2E, 0x31, 0x2E, 0x32, 0xD5, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x92, 0x01, 0x41, 0x00, // 0x1000:00 Device type
+    0x41, 0x47, 0x49, 0x4C, 0x45, // 0x1008:00 Manufacturer device name
+    0x41, 0x47, 0x4C, 0x20, 0x34, 0x30, 0x30, 0x20, 0x35, 0x31, 0x32, 0x20, 0x33, 0x34, 0x34, // 0x1009:00 Manufacturer hardware version
+    0x35, 0x2E, 0x31, 0x2E, 0x32, // 0x100A:00 Manufacturer software version
+    0xD5, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0x00, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
+    0x00, 0x00, 0x00, 0x00, // 0x1018:03 Identity object / Revision number
 ];
 
+#[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, 0x80, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03, 0x01, 0x00, 0x00, 0x00, 0x01,
-    0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x03, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x80, 0x00,
-    0x00, 0x00, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x04, 0x00, 0x00, 0x00, 0x00,
-    0x01, 0x00, 0x02, 0x00, 0x06, 0x00, 0x00, 0x80, 0x05, 0x00, 0x00, 0x05, 0x00, 0x02, 0x00, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x05,
-    0x00, 0x03, 0x00, 0x80, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x05, 0x00, 0x04, 0x00, 0x80, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x02, 0x10, 0x00,
-    0x40, 0x60, 0x10, 0x00, 0x42, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80, 0x01, 0x00, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80, 0x02, 0x00,
-    0x80, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80, 0x03, 0x00, 0x80, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x02, 0x10, 0x00, 0x41, 0x60, 0x10,
-    0x00, 0x44, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x09, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x09, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02,
-    0x00, 0x02, 0x00, 0x06, 0x00, 0xFF, 0xFF, 0x01, 0x00, 0x09, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x02, 0x00,
-    0x02, 0x00, 0x02, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x09, 0x2C, 0x00, 0x2C, 0x00, 0x2C, 0x00, 0x2C, 0x00, 0x2C,
-    0x00, 0x2C, 0x00, 0x2C, 0x00, 0x2C, 0x00, 0x2C, 0x00, 0x00, 0x00, 0x09, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x09, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x09, 0xF4, 0x01,
-    0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00,
-    0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0x09, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4,
-    0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00,
-    0x00, 0xF4, 0x01, 0x00, 0x00, 0x09, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,
-    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x09, 0xFF,
-    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,
-    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x09, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00,
-    0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01,
-    0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0x09, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00,
-    0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0xF4, 0x01, 0x00, 0x00, 0x09,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x09, 0xF4, 0x01, 0xF4, 0x01, 0xF4, 0x01, 0xF4,
-    0x01, 0xF4, 0x01, 0xF4, 0x01, 0xF4, 0x01, 0xF4, 0x01, 0xF4, 0x01, 0x09, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00,
-    0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x09, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x0A, 0x00, 0x0A,
-    0x00, 0x0A, 0x00, 0x0A, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01, 0x00, 0x07, 0x00, 0x34, 0x00, 0x20, 0x03, 0x01,
-    0x00, 0x63, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0xFF, 0x7F, 0x00, 0x00, 0x02, 0x96, 0x00,
-    0x00, 0x00, 0x01, 0x00, 0x02, 0x96, 0x00, 0x00, 0x00, 0x01, 0x00, 0x02, 0x96, 0x00, 0x00, 0x00, 0x01, 0x00, 0x02, 0x02, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, // 0x1001:00 Error register
+    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
+    0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
+    0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
+    0x00, 0x00, // 0x100C:00 Guard time
+    0x00, // 0x100D:00 Life time factor
+    0x03, // 0x1010:00 Store parameters / Highest sub-index supported
+    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
+    0x03, // 0x1011:00 Restore default parameters / Highest sub-index supported
+    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
+    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
+    0x03, // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    0x00, 0x00, 0x00, 0x00, // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
+    0x00, 0x00, 0x00, 0x00, // 0x1016:03 Consumer heartbeat time / Consumer heartbeat time 3
+    0x00, 0x00, // 0x1017:00 Producer heartbeat time
+    0x04, // 0x1018:00 Identity object / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x01, // 0x1029:00 Error behavior / Highest sub-index supported
+    0x00, // 0x1029:01 Error behavior / Communication error
+    0x02, // 0x1200:00 SDO server parameter / Highest sub-index supported
+    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
+    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
+    0x05, // 0x1400:00 RPDO1 communication parameter / Highest sub-index supported
+    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
+    0xFF, // 0x1400:02 RPDO1 communication parameter / Transmission type
+    0x00, 0x00, // 0x1400:03 RPDO1 communication parameter / Inhibit time
+    0x00, 0x00, // 0x1400:05 RPDO1 communication parameter / Event timer
+    0x05, // 0x1401:00 RPDO2 communication parameter / Highest sub-index supported
+    0x00, 0x03, 0x00, 0x80, // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
+    0xFF, // 0x1401:02 RPDO2 communication parameter / Transmission type
+    0x00, 0x00, // 0x1401:03 RPDO2 communication parameter / Inhibit time
+    0x00, 0x00, // 0x1401:05 RPDO2 communication parameter / Event timer
+    0x05, // 0x1402:00 RPDO3 communication parameter / Highest sub-index supported
+    0x00, 0x04, 0x00, 0x80, // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
+    0xFF, // 0x1402:02 RPDO3 communication parameter / Transmission type
+    0x00, 0x00, // 0x1402:03 RPDO3 communication parameter / Inhibit time
+    0x00, 0x00, // 0x1402:05 RPDO3 communication parameter / Event timer
+    0x02, // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects
+    0x10, 0x00, 0x40, 0x60, // 0x1600:01 RPDO1 mapping parameter / Mapped object 1
+    0x10, 0x00, 0x42, 0x60, // 0x1600:02 RPDO1 mapping parameter / Mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1600:03 RPDO1 mapping parameter / Mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1600:04 RPDO1 mapping parameter / Mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1600:05 RPDO1 mapping parameter / Mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1600:06 RPDO1 mapping parameter / Mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1600:07 RPDO1 mapping parameter / Mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1600:08 RPDO1 mapping parameter / Mapped object 8
+    0x00, // 0x1601:00 RPDO2 mapping parameter / Number of mapped objects
+    0x00, 0x00, 0x00, 0x00, // 0x1601:01 RPDO2 mapping parameter / Mapped object 1
+    0x00, 0x00, 0x00, 0x00, // 0x1601:02 RPDO2 mapping parameter / Mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1601:03 RPDO2 mapping parameter / Mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1601:04 RPDO2 mapping parameter / Mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1601:05 RPDO2 mapping parameter / Mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1601:06 RPDO2 mapping parameter / Mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1601:07 RPDO2 mapping parameter / Mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1601:08 RPDO2 mapping parameter / Mapped object 8
+    0x00, // 0x1602:00 RPDO3 mapping parameter / Number of mapped objects
+    0x00, 0x00, 0x00, 0x00, // 0x1602:01 RPDO3 mapping parameter / Mapped object 1
+    0x00, 0x00, 0x00, 0x00, // 0x1602:02 RPDO3 mapping parameter / Mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1602:03 RPDO3 mapping parameter / Mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1602:04 RPDO3 mapping parameter / Mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1602:05 RPDO3 mapping parameter / Mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1602:06 RPDO3 mapping parameter / Mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1602:07 RPDO3 mapping parameter / Mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1602:08 RPDO3 mapping parameter / Mapped object 8
+    0x05, // 0x1800:00 TPDO1 communication parameter / Highest sub-index supported
+    0x80, 0x01, 0x00, 0x00, // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
+    0xFF, // 0x1800:02 TPDO1 communication parameter / Transmission type
+    0x00, 0x00, // 0x1800:03 TPDO1 communication parameter / Inhibit time
+    0x00, 0x00, // 0x1800:05 TPDO1 communication parameter / Event timer
+    0x05, // 0x1801:00 TPDO2 communication parameter / Highest sub-index supported
+    0x80, 0x02, 0x00, 0x80, // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
+    0xFF, // 0x1801:02 TPDO2 communication parameter / Transmission type
+    0x00, 0x00, // 0x1801:03 TPDO2 communication parameter / Inhibit time
+    0x00, 0x00, // 0x1801:05 TPDO2 communication parameter / Event timer
+    0x05, // 0x1802:00 TPDO3 communication parameter / Highest sub-index supported
+    0x80, 0x03, 0x00, 0x80, // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
+    0xFF, // 0x1802:02 TPDO3 communication parameter / Transmission type
+    0x00, 0x00, // 0x1802:03 TPDO3 communication parameter / Inhibit time
+    0x00, 0x00, // 0x1802:05 TPDO3 communication parameter / Event timer
+    0x02, // 0x1A00:00 TPDO1 mapping parameter / Number of mapped objects
+    0x10, 0x00, 0x41, 0x60, // 0x1A00:01 TPDO1 mapping parameter / Mapped object 1
+    0x10, 0x00, 0x44, 0x60, // 0x1A00:02 TPDO1 mapping parameter / Mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:03 TPDO1 mapping parameter / Mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:04 TPDO1 mapping parameter / Mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:05 TPDO1 mapping parameter / Mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:06 TPDO1 mapping parameter / Mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:07 TPDO1 mapping parameter / Mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:08 TPDO1 mapping parameter / Mapped object 8
+    0x00, // 0x1A01:00 TPDO2 mapping parameter / Number of mapped objects
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:01 TPDO2 mapping parameter / Mapped object 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:02 TPDO2 mapping parameter / Mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:03 TPDO2 mapping parameter / Mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:04 TPDO2 mapping parameter / Mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:05 TPDO2 mapping parameter / Mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:06 TPDO2 mapping parameter / Mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:07 TPDO2 mapping parameter / Mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:08 TPDO2 mapping parameter / Mapped object 8
+    0x00, // 0x1A02:00 TPDO3 mapping parameter / Number of mapped objects
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:01 TPDO3 mapping parameter / Mapped object 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:02 TPDO3 mapping parameter / Mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:03 TPDO3 mapping parameter / Mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:04 TPDO3 mapping parameter / Mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:05 TPDO3 mapping parameter / Mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO3 mapping parameter / Mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO3 mapping parameter / Mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO3 mapping parameter / Mapped object 8
+    0x00, 0x00, 0x00, 0x00, // 0x20E4:00 Internal reference frequency
+    0x01, 0x00, // 0x20F9:00 Active data set
+    0x00, 0x00, // 0x20FA:00 Digital inputs
+    0x00, 0x00, // 0x20FE:00 Digital outputs
+    0x00, 0x00, // 0x2104:00 Current error
+    0x00, 0x00, // 0x210E:00 Warnings
+    0x00, 0x00, // 0x2112:00 Application warnings
+    0x01, 0x00, // 0x2114:00 CAN interface
+    0x00, 0x00, 0x00, 0x00, // 0x211A:00 Bus reference frequency
+    0x00, 0x00, 0x00, 0x00, // 0x211B:00 Ramp reference frequency
+    0x09, // 0x2174:00 Rated speed / Highest sub-index supported
+    0x00, 0x00, // 0x2174:01 Rated speed / Data set 1
+    0x00, 0x00, // 0x2174:02 Rated speed / Data set 2
+    0x00, 0x00, // 0x2174:03 Rated speed / Data set 3
+    0x00, 0x00, // 0x2174:04 Rated speed / Data set 4
+    0x00, 0x00, // 0x2174:05 Rated speed / All data sets RAM
+    0x00, 0x00, // 0x2174:06 Rated speed / Data set 1 RAM
+    0x00, 0x00, // 0x2174:07 Rated speed / Data set 2 RAM
+    0x00, 0x00, // 0x2174:08 Rated speed / Data set 3 RAM
+    0x00, 0x00, // 0x2174:09 Rated speed / Data set 4 RAM
+    0x09, // 0x2175:00 Number of pole pairs / Highest sub-index supported
+    0x02, 0x00, // 0x2175:01 Number of pole pairs / Data set 1
+    0x02, 0x00, // 0x2175:02 Number of pole pairs / Data set 2
+    0x02, 0x00, // 0x2175:03 Number of pole pairs / Data set 3
+    0x02, 0x00, // 0x2175:04 Number of pole pairs / Data set 4
+    0x02, 0x00, // 0x2175:05 Number of pole pairs / All data sets RAM
+    0x02, 0x00, // 0x2175:06 Number of pole pairs / Data set 1 RAM
+    0x02, 0x00, // 0x2175:07 Number of pole pairs / Data set 2 RAM
+    0x02, 0x00, // 0x2175:08 Number of pole pairs / Data set 3 RAM
+    0x02, 0x00, // 0x2175:09 Number of pole pairs / Data set 4 RAM
+    0x06, 0x00, // 0x2181:00 CAN baud rate
+    0xFF, 0xFF, // 0x2183:00 CAN node number
+    0x01, 0x00, // 0x2184:00 CAN fault behaviour
+    0x09, // 0x2188:00 State machine transition 5 / Highest sub-index supported
+    0x02, 0x00, // 0x2188:01 State machine transition 5 / Data set 1
+    0x02, 0x00, // 0x2188:02 State machine transition 5 / Data set 2
+    0x02, 0x00, // 0x2188:03 State machine transition 5 / Data set 3
+    0x02, 0x00, // 0x2188:04 State machine transition 5 / Data set 4
+    0x02, 0x00, // 0x2188:05 State machine transition 5 / All data sets RAM
+    0x02, 0x00, // 0x2188:06 State machine transition 5 / Data set 1 RAM
+    0x02, 0x00, // 0x2188:07 State machine transition 5 / Data set 2 RAM
+    0x02, 0x00, // 0x2188:08 State machine transition 5 / Data set 3 RAM
+    0x02, 0x00, // 0x2188:09 State machine transition 5 / Data set 4 RAM
+    0x00, 0x00, // 0x2197:00 Heat sink warning limit
+    0x00, 0x00, // 0x219A:00 Control word parameter
+    0x00, 0x00, // 0x219B:00 Status word parameter
+    0x09, // 0x219C:00 Local remote / Highest sub-index supported
+    0x2C, 0x00, // 0x219C:01 Local remote / Data set 1
+    0x2C, 0x00, // 0x219C:02 Local remote / Data set 2
+    0x2C, 0x00, // 0x219C:03 Local remote / Data set 3
+    0x2C, 0x00, // 0x219C:04 Local remote / Data set 4
+    0x2C, 0x00, // 0x219C:05 Local remote / All data sets RAM
+    0x2C, 0x00, // 0x219C:06 Local remote / Data set 1 RAM
+    0x2C, 0x00, // 0x219C:07 Local remote / Data set 2 RAM
+    0x2C, 0x00, // 0x219C:08 Local remote / Data set 3 RAM
+    0x2C, 0x00, // 0x219C:09 Local remote / Data set 4 RAM
+    0x00, 0x00, // 0x219E:00 Data set selection
+    0x09, // 0x21A2:00 Minimum frequency / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:01 Minimum frequency / Data set 1
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:02 Minimum frequency / Data set 2
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:03 Minimum frequency / Data set 3
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:04 Minimum frequency / Data set 4
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:05 Minimum frequency / All data sets RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:06 Minimum frequency / Data set 1 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:07 Minimum frequency / Data set 2 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:08 Minimum frequency / Data set 3 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A2:09 Minimum frequency / Data set 4 RAM
+    0x09, // 0x21A3:00 Maximum frequency / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:01 Maximum frequency / Data set 1
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:02 Maximum frequency / Data set 2
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:03 Maximum frequency / Data set 3
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:04 Maximum frequency / Data set 4
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:05 Maximum frequency / All data sets RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:06 Maximum frequency / Data set 1 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:07 Maximum frequency / Data set 2 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:08 Maximum frequency / Data set 3 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21A3:09 Maximum frequency / Data set 4 RAM
+    0x09, // 0x21A4:00 Acceleration clockwise / Highest sub-index supported
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:01 Acceleration clockwise / Data set 1
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:02 Acceleration clockwise / Data set 2
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:03 Acceleration clockwise / Data set 3
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:04 Acceleration clockwise / Data set 4
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:05 Acceleration clockwise / All data sets RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:06 Acceleration clockwise / Data set 1 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:07 Acceleration clockwise / Data set 2 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:08 Acceleration clockwise / Data set 3 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A4:09 Acceleration clockwise / Data set 4 RAM
+    0x09, // 0x21A5:00 Deceleration clockwise / Highest sub-index supported
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:01 Deceleration clockwise / Data set 1
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:02 Deceleration clockwise / Data set 2
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:03 Deceleration clockwise / Data set 3
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:04 Deceleration clockwise / Data set 4
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:05 Deceleration clockwise / All data sets RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:06 Deceleration clockwise / Data set 1 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:07 Deceleration clockwise / Data set 2 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:08 Deceleration clockwise / Data set 3 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A5:09 Deceleration clockwise / Data set 4 RAM
+    0x09, // 0x21A6:00 Acceleration anticlockwise / Highest sub-index supported
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:01 Acceleration anticlockwise / Data set 1
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:02 Acceleration anticlockwise / Data set 2
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:03 Acceleration anticlockwise / Data set 3
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:04 Acceleration anticlockwise / Data set 4
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:05 Acceleration anticlockwise / All data sets RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:06 Acceleration anticlockwise / Data set 1 RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:07 Acceleration anticlockwise / Data set 2 RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:08 Acceleration anticlockwise / Data set 3 RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A6:09 Acceleration anticlockwise / Data set 4 RAM
+    0x09, // 0x21A7:00 Deceleration anticlockwise / Highest sub-index supported
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:01 Deceleration anticlockwise / Data set 1
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:02 Deceleration anticlockwise / Data set 2
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:03 Deceleration anticlockwise / Data set 3
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:04 Deceleration anticlockwise / Data set 4
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:05 Deceleration anticlockwise / All data sets RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:06 Deceleration anticlockwise / Data set 1 RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:07 Deceleration anticlockwise / Data set 2 RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:08 Deceleration anticlockwise / Data set 3 RAM
+    0xFF, 0xFF, 0xFF, 0xFF, // 0x21A7:09 Deceleration anticlockwise / Data set 4 RAM
+    0x09, // 0x21A8:00 Emergency stop clockwise / Highest sub-index supported
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:01 Emergency stop clockwise / Data set 1
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:02 Emergency stop clockwise / Data set 2
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:03 Emergency stop clockwise / Data set 3
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:04 Emergency stop clockwise / Data set 4
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:05 Emergency stop clockwise / All data sets RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:06 Emergency stop clockwise / Data set 1 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:07 Emergency stop clockwise / Data set 2 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:08 Emergency stop clockwise / Data set 3 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A8:09 Emergency stop clockwise / Data set 4 RAM
+    0x09, // 0x21A9:00 Emergency stop anticlockwise / Highest sub-index supported
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:01 Emergency stop anticlockwise / Data set 1
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:02 Emergency stop anticlockwise / Data set 2
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:03 Emergency stop anticlockwise / Data set 3
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:04 Emergency stop anticlockwise / Data set 4
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:05 Emergency stop anticlockwise / All data sets RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:06 Emergency stop anticlockwise / Data set 1 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:07 Emergency stop anticlockwise / Data set 2 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:08 Emergency stop anticlockwise / Data set 3 RAM
+    0xF4, 0x01, 0x00, 0x00, // 0x21A9:09 Emergency stop anticlockwise / Data set 4 RAM
+    0x09, // 0x21E0:00 Fixed frequency 1 / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:01 Fixed frequency 1 / Data set 1
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:02 Fixed frequency 1 / Data set 2
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:03 Fixed frequency 1 / Data set 3
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:04 Fixed frequency 1 / Data set 4
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:05 Fixed frequency 1 / All data sets RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:06 Fixed frequency 1 / Data set 1 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:07 Fixed frequency 1 / Data set 2 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:08 Fixed frequency 1 / Data set 3 RAM
+    0x00, 0x00, 0x00, 0x00, // 0x21E0:09 Fixed frequency 1 / Data set 4 RAM
+    0x09, // 0x2225:00 Max control deviation / Highest sub-index supported
+    0xF4, 0x01, // 0x2225:01 Max control deviation / Data set 1
+    0xF4, 0x01, // 0x2225:02 Max control deviation / Data set 2
+    0xF4, 0x01, // 0x2225:03 Max control deviation / Data set 3
+    0xF4, 0x01, // 0x2225:04 Max control deviation / Data set 4
+    0xF4, 0x01, // 0x2225:05 Max control deviation / All data sets RAM
+    0xF4, 0x01, // 0x2225:06 Max control deviation / Data set 1 RAM
+    0xF4, 0x01, // 0x2225:07 Max control deviation / Data set 2 RAM
+    0xF4, 0x01, // 0x2225:08 Max control deviation / Data set 3 RAM
+    0xF4, 0x01, // 0x2225:09 Max control deviation / Data set 4 RAM
+    0x09, // 0x227D:00 Stop function switch-off threshold / Highest sub-index supported
+    0x0A, 0x00, // 0x227D:01 Stop function switch-off threshold / Data set 1
+    0x0A, 0x00, // 0x227D:02 Stop function switch-off threshold / Data set 2
+    0x0A, 0x00, // 0x227D:03 Stop function switch-off threshold / Data set 3
+    0x0A, 0x00, // 0x227D:04 Stop function switch-off threshold / Data set 4
+    0x0A, 0x00, // 0x227D:05 Stop function switch-off threshold / All data sets RAM
+    0x0A, 0x00, // 0x227D:06 Stop function switch-off threshold / Data set 1 RAM
+    0x0A, 0x00, // 0x227D:07 Stop function switch-off threshold / Data set 2 RAM
+    0x0A, 0x00, // 0x227D:08 Stop function switch-off threshold / Data set 3 RAM
+    0x0A, 0x00, // 0x227D:09 Stop function switch-off threshold / Data set 4 RAM
+    0x09, // 0x227E:00 Stop function holding time / Highest sub-index supported
+    0x0A, 0x00, // 0x227E:01 Stop function holding time / Data set 1
+    0x0A, 0x00, // 0x227E:02 Stop function holding time / Data set 2
+    0x0A, 0x00, // 0x227E:03 Stop function holding time / Data set 3
+    0x0A, 0x00, // 0x227E:04 Stop function holding time / Data set 4
+    0x0A, 0x00, // 0x227E:05 Stop function holding time / All data sets RAM
+    0x0A, 0x00, // 0x227E:06 Stop function holding time / Data set 1 RAM
+    0x0A, 0x00, // 0x227E:07 Stop function holding time / Data set 2 RAM
+    0x0A, 0x00, // 0x227E:08 Stop function holding time / Data set 3 RAM
+    0x0A, 0x00, // 0x227E:09 Stop function holding time / Data set 4 RAM
+    0x00, 0x00, // 0x249C:00 Systembus sync mode
+    0x00, 0x00, // 0x250A:00 NMT node state
+    0x00, 0x00, // 0x250B:00 CAN controller state
+    0x01, 0x00, // 0x258C:00 CANopen mux input index write
+    0x01, 0x00, // 0x258D:00 CANopen mux input index read
+    0x07, 0x00, // 0x258E:00 CANopen mux inputs
+    0x34, 0x00, // 0x258F:00 CANopen percentage actual value source
+    0x20, 0x03, // 0x25AB:00 OS sync time
+    0x01, 0x00, // 0x25AC:00 OS sync source
+    0x63, 0x00, // 0x25AD:00 OS sync source actual
+    0x00, 0x00, // 0x3000:00 SYNC jitter
+    0x00, 0x00, // 0x3001:00 Digital in actual value
+    0x00, 0x00, // 0x3002:00 Digital out actual value
+    0x00, // 0x3003:00 Digital out set values
+    0x00, 0x00, // 0x3004:00 Boolean mux
+    0x00, 0x00, // 0x3005:00 Boolean demux
+    0x00, 0x00, // 0x3006:00 Percentage set value
+    0x00, 0x00, // 0x3007:00 Percentage actual value
+    0x01, 0x00, // 0x6007:00 Abort connection option code
+    0x00, 0x00, // 0x603F:00 Error code
+    0x00, 0x00, // 0x6040:00 Controlword
+    0x00, 0x00, // 0x6041:00 Statusword
+    0x00, 0x00, // 0x6042:00 vl target velocity
+    0x00, 0x00, // 0x6043:00 vl velocity demand
+    0x00, 0x00, // 0x6044:00 vl control effort
+    0x02, // 0x6046:00 vl velocity min max amount / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    0xFF, 0x7F, 0x00, 0x00, // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    0x02, // 0x6048:00 vl velocity acceleration / Highest sub-index supported
+    0x96, 0x00, 0x00, 0x00, // 0x6048:01 vl velocity acceleration / Delta speed
+    0x01, 0x00, // 0x6048:02 vl velocity acceleration / Delta time
+    0x02, // 0x6049:00 vl velocity deceleration / Highest sub-index supported
+    0x96, 0x00, 0x00, 0x00, // 0x6049:01 vl velocity deceleration / Delta speed
+    0x01, 0x00, // 0x6049:02 vl velocity deceleration / Delta time
+    0x02, // 0x604A:00 vl velocity quick stop / Highest sub-index supported
+    0x96, 0x00, 0x00, 0x00, // 0x604A:01 vl velocity quick stop / Delta speed
+    0x01, 0x00, // 0x604A:02 vl velocity quick stop / Delta time
+    0x02, // 0x6060:00 Modes of operation
+    0x02, // 0x6061:00 Modes of operation display
+    0x00, 0x00, // 0x6071:00 Target torque
+    0x00, 0x00, // 0x6077:00 Torque actual value
+    0x00, 0x00, // 0x6078:00 Current actual value
+    0x00, 0x00, 0x00, 0x00, // 0x6079:00 DC link circuit voltage
 ];
 
-static NODE_ID_RELATIVE: [u16; 9] = [18, 32, 33, 35, 40, 45, 77, 82, 87];
+#[rustfmt::skip]
+static NODE_ID_RELATIVE: [u16; 9] = [
+    18, // 0x1014:00 COB-ID EMCY
+    32, // 0x1200:01 SDO server parameter / COB-ID client to server
+    33, // 0x1200:02 SDO server parameter / COB-ID server to client
+    35, // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
+    40, // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
+    45, // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
+    77, // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
+    82, // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
+    87, // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
+];
 
 /// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.
+#[rustfmt::skip]
 pub static NAMES: [&str; ENTRY_COUNT] = [
-    "Device type",
-    "Error register",
-    "COB-ID SYNC message",
-    "Communication cycle period",
-    "Synchronous window length",
-    "Manufacturer device name",
-    "Manufacturer hardware version",
-    "Manufacturer software version",
-    "Guard time",
-    "Life time factor",
-    "Highest sub-index supported",
-    "Save all parameters",
-    "Save communication parameters",
-    "Save application parameters",
-    "Highest sub-index supported",
-    "Restore all default parameters",
-    "Restore communication default parameters",
-    "Restore application default parameters",
-    "COB-ID EMCY",
-    "Highest sub-index supported",
-    "Consumer heartbeat time 1",
-    "Consumer heartbeat time 2",
-    "Consumer heartbeat time 3",
-    "Producer heartbeat time",
-    "Highest sub-index supported",
-    "Vendor-ID",
-    "Product code",
-    "Revision number",
-    "Serial number",
-    "Highest sub-index supported",
-    "Communication error",
-    "Highest sub-index supported",
-    "COB-ID client to server",
-    "COB-ID server to client",
-    "Highest sub-index supported",
-    "COB-ID used by RPDO",
-    "Transmission type",
-    "Inhibit time",
-    "Event timer",
-    "Highest sub-index supported",
-    "COB-ID used by RPDO",
-    "Transmission type",
-    "Inhibit time",
-    "Event timer",
-    "Highest sub-index supported",
-    "COB-ID used by RPDO",
-    "Transmission type",
-    "Inhibit time",
-    "Event timer",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Mapped object 3",
-    "Mapped object 4",
-    "Mapped object 5",
-    "Mapped object 6",
-    "Mapped object 7",
-    "Mapped object 8",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Mapped object 3",
-    "Mapped object 4",
-    "Mapped object 5",
-    "Mapped object 6",
-    "Mapped object 7",
-    "Mapped object 8",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Mapped object 3",
-    "Mapped object 4",
-    "Mapped object 5",
-    "Mapped object 6",
-    "Mapped object 7",
-    "Mapped object 8",
-    "Highest sub-index supported",
-    "COB-ID used by TPDO",
-    "Transmission type",
-    "Inhibit time",
-    "Event timer",
-    "Highest sub-index supported",
-    "COB-ID used by TPDO",
-    "Transmission type",
-    "Inhibit time",
-    "Event timer",
-    "Highest sub-index supported",
-    "COB-ID used by TPDO",
-    "Transmission type",
-    "Inhibit time",
-    "Event timer",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Mapped object 3",
-    "Mapped object 4",
-    "Mapped object 5",
-    "Mapped object 6",
-    "Mapped object 7",
-    "Mapped object 8",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Mapped object 3",
-    "Mapped object 4",
-    "Mapped object 5",
-    "Mapped object 6",
-    "Mapped object 7",
-    "Mapped object 8",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Mapped object 3",
-    "Mapped object 4",
-    "Mapped object 5",
-    "Mapped object 6",
-    "Mapped object 7",
-    "Mapped object 8",
-    "Internal reference frequency",
-    "Active data set",
-    "Digital inputs",
-    "Digital outputs",
-    "Current error",
-    "Warnings",
-    "Application warnings",
-    "CAN interface",
-    "Bus reference frequency",
-    "Ramp reference frequency",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "CAN baud rate",
-    "CAN node number",
-    "CAN fault behaviour",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Heat sink warning limit",
-    "Control word parameter",
-    "Status word parameter",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Data set selection",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Highest sub-index supported",
-    "Data set 1",
-    "Data set 2",
-    "Data set 3",
-    "Data set 4",
-    "All data sets RAM",
-    "Data set 1 RAM",
-    "Data set 2 RAM",
-    "Data set 3 RAM",
-    "Data set 4 RAM",
-    "Systembus sync mode",
-    "NMT node state",
-    "CAN controller state",
-    "CANopen mux input index write",
-    "CANopen mux input index read",
-    "CANopen mux inputs",
-    "CANopen percentage actual value source",
-    "OS sync time",
-    "OS sync source",
-    "OS sync source actual",
-    "SYNC jitter",
-    "Digital in actual value",
-    "Digital out actual value",
-    "Digital out set values",
-    "Boolean mux",
-    "Boolean demux",
-    "Percentage set value",
-    "Percentage actual value",
-    "Abort connection option code",
-    "Error code",
-    "Controlword",
-    "Statusword",
-    "vl target velocity",
-    "vl velocity demand",
-    "vl control effort",
-    "Highest sub-index supported",
-    "vl velocity min amount",
-    "vl velocity max amount",
-    "Highest sub-index supported",
-    "Delta speed",
-    "Delta time",
-    "Highest sub-index supported",
-    "Delta speed",
-    "Delta time",
-    "Highest sub-index supported",
-    "Delta speed",
-    "Delta time",
-    "Modes of operation",
-    "Modes of operation display",
-    "Target torque",
-    "Torque actual value",
-    "Current actual value",
-    "DC link circuit voltage",
+    "Device type", // 0x1000:00
+    "Error register", // 0x1001:00
+    "COB-ID SYNC message", // 0x1005:00
+    "Communication cycle period", // 0x1006:00
+    "Synchronous window length", // 0x1007:00
+    "Manufacturer device name", // 0x1008:00
+    "Manufacturer hardware version", // 0x1009:00
+    "Manufacturer software version", // 0x100A:00
+    "Guard time", // 0x100C:00
+    "Life time factor", // 0x100D:00
+    "Highest sub-index supported", // 0x1010:00
+    "Save all parameters", // 0x1010:01
+    "Save communication parameters", // 0x1010:02
+    "Save application parameters", // 0x1010:03
+    "Highest sub-index supported", // 0x1011:00
+    "Restore all default parameters", // 0x1011:01
+    "Restore communication default parameters", // 0x1011:02
+    "Restore application default parameters", // 0x1011:03
+    "COB-ID EMCY", // 0x1014:00
+    "Highest sub-index supported", // 0x1016:00
+    "Consumer heartbeat time 1", // 0x1016:01
+    "Consumer heartbeat time 2", // 0x1016:02
+    "Consumer heartbeat time 3", // 0x1016:03
+    "Producer heartbeat time", // 0x1017:00
+    "Highest sub-index supported", // 0x1018:00
+    "Vendor-ID", // 0x1018:01
+    "Product code", // 0x1018:02
+    "Revision number", // 0x1018:03
+    "Serial number", // 0x1018:04
+    "Highest sub-index supported", // 0x1029:00
+    "Communication error", // 0x1029:01
+    "Highest sub-index supported", // 0x1200:00
+    "COB-ID client to server", // 0x1200:01
+    "COB-ID server to client", // 0x1200:02
+    "Highest sub-index supported", // 0x1400:00
+    "COB-ID used by RPDO", // 0x1400:01
+    "Transmission type", // 0x1400:02
+    "Inhibit time", // 0x1400:03
+    "Event timer", // 0x1400:05
+    "Highest sub-index supported", // 0x1401:00
+    "COB-ID used by RPDO", // 0x1401:01
+    "Transmission type", // 0x1401:02
+    "Inhibit time", // 0x1401:03
+    "Event timer", // 0x1401:05
+    "Highest sub-index supported", // 0x1402:00
+    "COB-ID used by RPDO", // 0x1402:01
+    "Transmission type", // 0x1402:02
+    "Inhibit time", // 0x1402:03
+    "Event timer", // 0x1402:05
+    "Number of mapped objects", // 0x1600:00
+    "Mapped object 1", // 0x1600:01
+    "Mapped object 2", // 0x1600:02
+    "Mapped object 3", // 0x1600:03
+    "Mapped object 4", // 0x1600:04
+    "Mapped object 5", // 0x1600:05
+    "Mapped object 6", // 0x1600:06
+    "Mapped object 7", // 0x1600:07
+    "Mapped object 8", // 0x1600:08
+    "Number of mapped objects", // 0x1601:00
+    "Mapped object 1", // 0x1601:01
+    "Mapped object 2", // 0x1601:02
+    "Mapped object 3", // 0x1601:03
+    "Mapped object 4", // 0x1601:04
+    "Mapped object 5", // 0x1601:05
+    "Mapped object 6", // 0x1601:06
+    "Mapped object 7", // 0x1601:07
+    "Mapped object 8", // 0x1601:08
+    "Number of mapped objects", // 0x1602:00
+    "Mapped object 1", // 0x1602:01
+    "Mapped object 2", // 0x1602:02
+    "Mapped object 3", // 0x1602:03
+    "Mapped object 4", // 0x1602:04
+    "Mapped object 5", // 0x1602:05
+    "Mapped object 6", // 0x1602:06
+    "Mapped object 7", // 0x1602:07
+    "Mapped object 8", // 0x1602:08
+    "Highest sub-index supported", // 0x1800:00
+    "COB-ID used by TPDO", // 0x1800:01
+    "Transmission type", // 0x1800:02
+    "Inhibit time", // 0x1800:03
+    "Event timer", // 0x1800:05
+    "Highest sub-index supported", // 0x1801:00
+    "COB-ID used by TPDO", // 0x1801:01
+    "Transmission type", // 0x1801:02
+    "Inhibit time", // 0x1801:03
+    "Event timer", // 0x1801:05
+    "Highest sub-index supported", // 0x1802:00
+    "COB-ID used by TPDO", // 0x1802:01
+    "Transmission type", // 0x1802:02
+    "Inhibit time", // 0x1802:03
+    "Event timer", // 0x1802:05
+    "Number of mapped objects", // 0x1A00:00
+    "Mapped object 1", // 0x1A00:01
+    "Mapped object 2", // 0x1A00:02
+    "Mapped object 3", // 0x1A00:03
+    "Mapped object 4", // 0x1A00:04
+    "Mapped object 5", // 0x1A00:05
+    "Mapped object 6", // 0x1A00:06
+    "Mapped object 7", // 0x1A00:07
+    "Mapped object 8", // 0x1A00:08
+    "Number of mapped objects", // 0x1A01:00
+    "Mapped object 1", // 0x1A01:01
+    "Mapped object 2", // 0x1A01:02
+    "Mapped object 3", // 0x1A01:03
+    "Mapped object 4", // 0x1A01:04
+    "Mapped object 5", // 0x1A01:05
+    "Mapped object 6", // 0x1A01:06
+    "Mapped object 7", // 0x1A01:07
+    "Mapped object 8", // 0x1A01:08
+    "Number of mapped objects", // 0x1A02:00
+    "Mapped object 1", // 0x1A02:01
+    "Mapped object 2", // 0x1A02:02
+    "Mapped object 3", // 0x1A02:03
+    "Mapped object 4", // 0x1A02:04
+    "Mapped object 5", // 0x1A02:05
+    "Mapped object 6", // 0x1A02:06
+    "Mapped object 7", // 0x1A02:07
+    "Mapped object 8", // 0x1A02:08
+    "Internal reference frequency", // 0x20E4:00
+    "Active data set", // 0x20F9:00
+    "Digital inputs", // 0x20FA:00
+    "Digital outputs", // 0x20FE:00
+    "Current error", // 0x2104:00
+    "Warnings", // 0x210E:00
+    "Application warnings", // 0x2112:00
+    "CAN interface", // 0x2114:00
+    "Bus reference frequency", // 0x211A:00
+    "Ramp reference frequency", // 0x211B:00
+    "Highest sub-index supported", // 0x2174:00
+    "Data set 1", // 0x2174:01
+    "Data set 2", // 0x2174:02
+    "Data set 3", // 0x2174:03
+    "Data set 4", // 0x2174:04
+    "All data sets RAM", // 0x2174:05
+    "Data set 1 RAM", // 0x2174:06
+    "Data set 2 RAM", // 0x2174:07
+    "Data set 3 RAM", // 0x2174:08
+    "Data set 4 RAM", // 0x2174:09
+    "Highest sub-index supported", // 0x2175:00
+    "Data set 1", // 0x2175:01
+    "Data set 2", // 0x2175:02
+    "Data set 3", // 0x2175:03
+    "Data set 4", // 0x2175:04
+    "All data sets RAM", // 0x2175:05
+    "Data set 1 RAM", // 0x2175:06
+    "Data set 2 RAM", // 0x2175:07
+    "Data set 3 RAM", // 0x2175:08
+    "Data set 4 RAM", // 0x2175:09
+    "CAN baud rate", // 0x2181:00
+    "CAN node number", // 0x2183:00
+    "CAN fault behaviour", // 0x2184:00
+    "Highest sub-index supported", // 0x2188:00
+    "Data set 1", // 0x2188:01
+    "Data set 2", // 0x2188:02
+    "Data set 3", // 0x2188:03
+    "Data set 4", // 0x2188:04
+    "All data sets RAM", // 0x2188:05
+    "Data set 1 RAM", // 0x2188:06
+    "Data set 2 RAM", // 0x2188:07
+    "Data set 3 RAM", // 0x2188:08
+    "Data set 4 RAM", // 0x2188:09
+    "Heat sink warning limit", // 0x2197:00
+    "Control word parameter", // 0x219A:00
+    "Status word parameter", // 0x219B:00
+    "Highest sub-index supported", // 0x219C:00
+    "Data set 1", // 0x219C:01
+    "Data set 2", // 0x219C:02
+    "Data set 3", // 0x219C:03
+    "Data set 4", // 0x219C:04
+    "All data sets RAM", // 0x219C:05
+    "Data set 1 RAM", // 0x219C:06
+    "Data set 2 RAM", // 0x219C:07
+    "Data set 3 RAM", // 0x219C:08
+    "Data set 4 RAM", // 0x219C:09
+    "Data set selection", // 0x219E:00
+    "Highest sub-index supported", // 0x21A2:00
+    "Data set 1", // 0x21A2:01
+    "Data set 2", // 0x21A2:02
+    "Data set 3", // 0x21A2:03
+    "Data set 4", // 0x21A2:04
+    "All data sets RAM", // 0x21A2:05
+    "Data set 1 RAM", // 0x21A2:06
+    "Data set 2 RAM", // 0x21A2:07
+    "Data set 3 RAM", // 0x21A2:08
+    "Data set 4 RAM", // 0x21A2:09
+    "Highest sub-index supported", // 0x21A3:00
+    "Data set 1", // 0x21A3:01
+    "Data set 2", // 0x21A3:02
+    "Data set 3", // 0x21A3:03
+    "Data set 4", // 0x21A3:04
+    "All data sets RAM", // 0x21A3:05
+    "Data set 1 RAM", // 0x21A3:06
+    "Data set 2 RAM", // 0x21A3:07
+    "Data set 3 RAM", // 0x21A3:08
+    "Data set 4 RAM", // 0x21A3:09
+    "Highest sub-index supported", // 0x21A4:00
+    "Data set 1", // 0x21A4:01
+    "Data set 2", // 0x21A4:02
+    "Data set 3", // 0x21A4:03
+    "Data set 4", // 0x21A4:04
+    "All data sets RAM", // 0x21A4:05
+    "Data set 1 RAM", // 0x21A4:06
+    "Data set 2 RAM", // 0x21A4:07
+    "Data set 3 RAM", // 0x21A4:08
+    "Data set 4 RAM", // 0x21A4:09
+    "Highest sub-index supported", // 0x21A5:00
+    "Data set 1", // 0x21A5:01
+    "Data set 2", // 0x21A5:02
+    "Data set 3", // 0x21A5:03
+    "Data set 4", // 0x21A5:04
+    "All data sets RAM", // 0x21A5:05
+    "Data set 1 RAM", // 0x21A5:06
+    "Data set 2 RAM", // 0x21A5:07
+    "Data set 3 RAM", // 0x21A5:08
+    "Data set 4 RAM", // 0x21A5:09
+    "Highest sub-index supported", // 0x21A6:00
+    "Data set 1", // 0x21A6:01
+    "Data set 2", // 0x21A6:02
+    "Data set 3", // 0x21A6:03
+    "Data set 4", // 0x21A6:04
+    "All data sets RAM", // 0x21A6:05
+    "Data set 1 RAM", // 0x21A6:06
+    "Data set 2 RAM", // 0x21A6:07
+    "Data set 3 RAM", // 0x21A6:08
+    "Data set 4 RAM", // 0x21A6:09
+    "Highest sub-index supported", // 0x21A7:00
+    "Data set 1", // 0x21A7:01
+    "Data set 2", // 0x21A7:02
+    "Data set 3", // 0x21A7:03
+    "Data set 4", // 0x21A7:04
+    "All data sets RAM", // 0x21A7:05
+    "Data set 1 RAM", // 0x21A7:06
+    "Data set 2 RAM", // 0x21A7:07
+    "Data set 3 RAM", // 0x21A7:08
+    "Data set 4 RAM", // 0x21A7:09
+    "Highest sub-index supported", // 0x21A8:00
+    "Data set 1", // 0x21A8:01
+    "Data set 2", // 0x21A8:02
+    "Data set 3", // 0x21A8:03
+    "Data set 4", // 0x21A8:04
+    "All data sets RAM", // 0x21A8:05
+    "Data set 1 RAM", // 0x21A8:06
+    "Data set 2 RAM", // 0x21A8:07
+    "Data set 3 RAM", // 0x21A8:08
+    "Data set 4 RAM", // 0x21A8:09
+    "Highest sub-index supported", // 0x21A9:00
+    "Data set 1", // 0x21A9:01
+    "Data set 2", // 0x21A9:02
+    "Data set 3", // 0x21A9:03
+    "Data set 4", // 0x21A9:04
+    "All data sets RAM", // 0x21A9:05
+    "Data set 1 RAM", // 0x21A9:06
+    "Data set 2 RAM", // 0x21A9:07
+    "Data set 3 RAM", // 0x21A9:08
+    "Data set 4 RAM", // 0x21A9:09
+    "Highest sub-index supported", // 0x21E0:00
+    "Data set 1", // 0x21E0:01
+    "Data set 2", // 0x21E0:02
+    "Data set 3", // 0x21E0:03
+    "Data set 4", // 0x21E0:04
+    "All data sets RAM", // 0x21E0:05
+    "Data set 1 RAM", // 0x21E0:06
+    "Data set 2 RAM", // 0x21E0:07
+    "Data set 3 RAM", // 0x21E0:08
+    "Data set 4 RAM", // 0x21E0:09
+    "Highest sub-index supported", // 0x2225:00
+    "Data set 1", // 0x2225:01
+    "Data set 2", // 0x2225:02
+    "Data set 3", // 0x2225:03
+    "Data set 4", // 0x2225:04
+    "All data sets RAM", // 0x2225:05
+    "Data set 1 RAM", // 0x2225:06
+    "Data set 2 RAM", // 0x2225:07
+    "Data set 3 RAM", // 0x2225:08
+    "Data set 4 RAM", // 0x2225:09
+    "Highest sub-index supported", // 0x227D:00
+    "Data set 1", // 0x227D:01
+    "Data set 2", // 0x227D:02
+    "Data set 3", // 0x227D:03
+    "Data set 4", // 0x227D:04
+    "All data sets RAM", // 0x227D:05
+    "Data set 1 RAM", // 0x227D:06
+    "Data set 2 RAM", // 0x227D:07
+    "Data set 3 RAM", // 0x227D:08
+    "Data set 4 RAM", // 0x227D:09
+    "Highest sub-index supported", // 0x227E:00
+    "Data set 1", // 0x227E:01
+    "Data set 2", // 0x227E:02
+    "Data set 3", // 0x227E:03
+    "Data set 4", // 0x227E:04
+    "All data sets RAM", // 0x227E:05
+    "Data set 1 RAM", // 0x227E:06
+    "Data set 2 RAM", // 0x227E:07
+    "Data set 3 RAM", // 0x227E:08
+    "Data set 4 RAM", // 0x227E:09
+    "Systembus sync mode", // 0x249C:00
+    "NMT node state", // 0x250A:00
+    "CAN controller state", // 0x250B:00
+    "CANopen mux input index write", // 0x258C:00
+    "CANopen mux input index read", // 0x258D:00
+    "CANopen mux inputs", // 0x258E:00
+    "CANopen percentage actual value source", // 0x258F:00
+    "OS sync time", // 0x25AB:00
+    "OS sync source", // 0x25AC:00
+    "OS sync source actual", // 0x25AD:00
+    "SYNC jitter", // 0x3000:00
+    "Digital in actual value", // 0x3001:00
+    "Digital out actual value", // 0x3002:00
+    "Digital out set values", // 0x3003:00
+    "Boolean mux", // 0x3004:00
+    "Boolean demux", // 0x3005:00
+    "Percentage set value", // 0x3006:00
+    "Percentage actual value", // 0x3007:00
+    "Abort connection option code", // 0x6007:00
+    "Error code", // 0x603F:00
+    "Controlword", // 0x6040:00
+    "Statusword", // 0x6041:00
+    "vl target velocity", // 0x6042:00
+    "vl velocity demand", // 0x6043:00
+    "vl control effort", // 0x6044:00
+    "Highest sub-index supported", // 0x6046:00
+    "vl velocity min amount", // 0x6046:01
+    "vl velocity max amount", // 0x6046:02
+    "Highest sub-index supported", // 0x6048:00
+    "Delta speed", // 0x6048:01
+    "Delta time", // 0x6048:02
+    "Highest sub-index supported", // 0x6049:00
+    "Delta speed", // 0x6049:01
+    "Delta time", // 0x6049:02
+    "Highest sub-index supported", // 0x604A:00
+    "Delta speed", // 0x604A:01
+    "Delta time", // 0x604A:02
+    "Modes of operation", // 0x6060:00
+    "Modes of operation display", // 0x6061:00
+    "Target torque", // 0x6071:00
+    "Torque actual value", // 0x6077:00
+    "Current actual value", // 0x6078:00
+    "DC link circuit voltage", // 0x6079:00
 ];
 
 /// The flash half of the dictionary.
@@ -1152,12 +1461,12 @@ impl Ram {
     }
 
     /// 0x1010 sub 0 Store parameters / Highest sub-index supported (agile.eds:251, UNSIGNED8 ro)
-    pub fn store_parameters_sub0(&self) -> u8 {
+    pub fn store_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 16))
     }
 
     /// Sets 0x1010 sub 0 Store parameters / Highest sub-index supported.
-    pub fn set_store_parameters_sub0(&mut self, v: u8) {
+    pub fn set_store_parameters_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 16, v.to_le_bytes());
     }
 
@@ -1181,12 +1490,12 @@ impl Ram {
     }
 
     /// 0x1011 sub 0 Restore default parameters / Highest sub-index supported (agile.eds:288, UNSIGNED8 ro)
-    pub fn restore_default_parameters_sub0(&self) -> u8 {
+    pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 29))
     }
 
     /// Sets 0x1011 sub 0 Restore default parameters / Highest sub-index supported.
-    pub fn set_restore_default_parameters_sub0(&mut self, v: u8) {
+    pub fn set_restore_default_parameters_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 29, v.to_le_bytes());
     }
 
@@ -1220,12 +1529,12 @@ impl Ram {
     }
 
     /// 0x1016 sub 0 Consumer heartbeat time / Highest sub-index supported (agile.eds:333, UNSIGNED8 ro)
-    pub fn consumer_heartbeat_time_sub0(&self) -> u8 {
+    pub fn consumer_heartbeat_time_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 46))
     }
 
     /// Sets 0x1016 sub 0 Consumer heartbeat time / Highest sub-index supported.
-    pub fn set_consumer_heartbeat_time_sub0(&mut self, v: u8) {
+    pub fn set_consumer_heartbeat_time_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 46, v.to_le_bytes());
     }
 
@@ -1259,12 +1568,12 @@ impl Ram {
     }
 
     /// 0x1018 sub 0 Identity object / Highest sub-index supported (agile.eds:378, UNSIGNED8 ro)
-    pub fn identity_object_highest_sub_index_supported(&self) -> u8 {
+    pub fn identity_object_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 61))
     }
 
     /// Sets 0x1018 sub 0 Identity object / Highest sub-index supported.
-    pub fn set_identity_object_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_identity_object_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 61, v.to_le_bytes());
     }
 
@@ -1294,12 +1603,12 @@ impl Ram {
     }
 
     /// 0x1029 sub 0 Error behavior / Highest sub-index supported (agile.eds:423, UNSIGNED8 ro)
-    pub fn error_behavior_highest_sub_index_supported(&self) -> u8 {
+    pub fn error_behavior_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 66))
     }
 
     /// Sets 0x1029 sub 0 Error behavior / Highest sub-index supported.
-    pub fn set_error_behavior_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_error_behavior_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 66, v.to_le_bytes());
     }
 
@@ -1314,12 +1623,12 @@ impl Ram {
     }
 
     /// 0x1200 sub 0 SDO server parameter / Highest sub-index supported (agile.eds:446, UNSIGNED8 ro)
-    pub fn sdo_server_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn sdo_server_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 68))
     }
 
     /// Sets 0x1200 sub 0 SDO server parameter / Highest sub-index supported.
-    pub fn set_sdo_server_parameter_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_sdo_server_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 68, v.to_le_bytes());
     }
 
@@ -1344,12 +1653,12 @@ impl Ram {
     }
 
     /// 0x1400 sub 0 RPDO1 communication parameter / Highest sub-index supported (agile.eds:475, UNSIGNED8 ro)
-    pub fn rpdo1_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn rpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 77))
     }
 
     /// Sets 0x1400 sub 0 RPDO1 communication parameter / Highest sub-index supported.
-    pub fn set_rpdo1_communication_parameter_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_rpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 77, v.to_le_bytes());
     }
 
@@ -1394,12 +1703,12 @@ impl Ram {
     }
 
     /// 0x1401 sub 0 RPDO2 communication parameter / Highest sub-index supported (agile.eds:520, UNSIGNED8 ro)
-    pub fn rpdo2_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn rpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 87))
     }
 
     /// Sets 0x1401 sub 0 RPDO2 communication parameter / Highest sub-index supported.
-    pub fn set_rpdo2_communication_parameter_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_rpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 87, v.to_le_bytes());
     }
 
@@ -1444,12 +1753,12 @@ impl Ram {
     }
 
     /// 0x1402 sub 0 RPDO3 communication parameter / Highest sub-index supported (agile.eds:565, UNSIGNED8 ro)
-    pub fn rpdo3_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn rpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 97))
     }
 
     /// Sets 0x1402 sub 0 RPDO3 communication parameter / Highest sub-index supported.
-    pub fn set_rpdo3_communication_parameter_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_rpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 97, v.to_le_bytes());
     }
 
@@ -1764,12 +2073,12 @@ impl Ram {
     }
 
     /// 0x1800 sub 0 TPDO1 communication parameter / Highest sub-index supported (agile.eds:847, UNSIGNED8 ro)
-    pub fn tpdo1_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn tpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 206))
     }
 
     /// Sets 0x1800 sub 0 TPDO1 communication parameter / Highest sub-index supported.
-    pub fn set_tpdo1_communication_parameter_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_tpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 206, v.to_le_bytes());
     }
 
@@ -1814,12 +2123,12 @@ impl Ram {
     }
 
     /// 0x1801 sub 0 TPDO2 communication parameter / Highest sub-index supported (agile.eds:892, UNSIGNED8 ro)
-    pub fn tpdo2_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn tpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 216))
     }
 
     /// Sets 0x1801 sub 0 TPDO2 communication parameter / Highest sub-index supported.
-    pub fn set_tpdo2_communication_parameter_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_tpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 216, v.to_le_bytes());
     }
 
@@ -1864,12 +2173,12 @@ impl Ram {
     }
 
     /// 0x1802 sub 0 TPDO3 communication parameter / Highest sub-index supported (agile.eds:937, UNSIGNED8 ro)
-    pub fn tpdo3_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn tpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 226))
     }
 
     /// Sets 0x1802 sub 0 TPDO3 communication parameter / Highest sub-index supported.
-    pub fn set_tpdo3_communication_parameter_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_tpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 226, v.to_le_bytes());
     }
 
@@ -2284,12 +2593,12 @@ impl Ram {
     }
 
     /// 0x2174 sub 0 Rated speed / Highest sub-index supported (agile.eds:1309, UNSIGNED8 ro)
-    pub fn rated_speed_sub0(&self) -> u8 {
+    pub fn rated_speed_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 361))
     }
 
     /// Sets 0x2174 sub 0 Rated speed / Highest sub-index supported.
-    pub fn set_rated_speed_sub0(&mut self, v: u8) {
+    pub fn set_rated_speed_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 361, v.to_le_bytes());
     }
 
@@ -2313,12 +2622,12 @@ impl Ram {
     }
 
     /// 0x2175 sub 0 Number of pole pairs / Highest sub-index supported (agile.eds:1394, UNSIGNED8 ro)
-    pub fn number_of_pole_pairs_sub0(&self) -> u8 {
+    pub fn number_of_pole_pairs_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 380))
     }
 
     /// Sets 0x2175 sub 0 Number of pole pairs / Highest sub-index supported.
-    pub fn set_number_of_pole_pairs_sub0(&mut self, v: u8) {
+    pub fn set_number_of_pole_pairs_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 380, v.to_le_bytes());
     }
 
@@ -2372,12 +2681,12 @@ impl Ram {
     }
 
     /// 0x2188 sub 0 State machine transition 5 / Highest sub-index supported (agile.eds:1527, UNSIGNED8 ro)
-    pub fn state_machine_transition_5_sub0(&self) -> u8 {
+    pub fn state_machine_transition_5_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 405))
     }
 
     /// Sets 0x2188 sub 0 State machine transition 5 / Highest sub-index supported.
-    pub fn set_state_machine_transition_5_sub0(&mut self, v: u8) {
+    pub fn set_state_machine_transition_5_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 405, v.to_le_bytes());
     }
 
@@ -2431,12 +2740,12 @@ impl Ram {
     }
 
     /// 0x219C sub 0 Local remote / Highest sub-index supported (agile.eds:1654, UNSIGNED8 ro)
-    pub fn local_remote_sub0(&self) -> u8 {
+    pub fn local_remote_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 430))
     }
 
     /// Sets 0x219C sub 0 Local remote / Highest sub-index supported.
-    pub fn set_local_remote_sub0(&mut self, v: u8) {
+    pub fn set_local_remote_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 430, v.to_le_bytes());
     }
 
@@ -2470,12 +2779,12 @@ impl Ram {
     }
 
     /// 0x21A2 sub 0 Minimum frequency / Highest sub-index supported (agile.eds:1767, UNSIGNED8 ro)
-    pub fn minimum_frequency_sub0(&self) -> u8 {
+    pub fn minimum_frequency_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 451))
     }
 
     /// Sets 0x21A2 sub 0 Minimum frequency / Highest sub-index supported.
-    pub fn set_minimum_frequency_sub0(&mut self, v: u8) {
+    pub fn set_minimum_frequency_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 451, v.to_le_bytes());
     }
 
@@ -2499,12 +2808,12 @@ impl Ram {
     }
 
     /// 0x21A3 sub 0 Maximum frequency / Highest sub-index supported (agile.eds:1852, UNSIGNED8 ro)
-    pub fn maximum_frequency_sub0(&self) -> u8 {
+    pub fn maximum_frequency_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 488))
     }
 
     /// Sets 0x21A3 sub 0 Maximum frequency / Highest sub-index supported.
-    pub fn set_maximum_frequency_sub0(&mut self, v: u8) {
+    pub fn set_maximum_frequency_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 488, v.to_le_bytes());
     }
 
@@ -2528,12 +2837,12 @@ impl Ram {
     }
 
     /// 0x21A4 sub 0 Acceleration clockwise / Highest sub-index supported (agile.eds:1937, UNSIGNED8 ro)
-    pub fn acceleration_clockwise_sub0(&self) -> u8 {
+    pub fn acceleration_clockwise_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 525))
     }
 
     /// Sets 0x21A4 sub 0 Acceleration clockwise / Highest sub-index supported.
-    pub fn set_acceleration_clockwise_sub0(&mut self, v: u8) {
+    pub fn set_acceleration_clockwise_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 525, v.to_le_bytes());
     }
 
@@ -2557,12 +2866,12 @@ impl Ram {
     }
 
     /// 0x21A5 sub 0 Deceleration clockwise / Highest sub-index supported (agile.eds:2040, UNSIGNED8 ro)
-    pub fn deceleration_clockwise_sub0(&self) -> u8 {
+    pub fn deceleration_clockwise_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 562))
     }
 
     /// Sets 0x21A5 sub 0 Deceleration clockwise / Highest sub-index supported.
-    pub fn set_deceleration_clockwise_sub0(&mut self, v: u8) {
+    pub fn set_deceleration_clockwise_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 562, v.to_le_bytes());
     }
 
@@ -2586,12 +2895,12 @@ impl Ram {
     }
 
     /// 0x21A6 sub 0 Acceleration anticlockwise / Highest sub-index supported (agile.eds:2143, UNSIGNED8 ro)
-    pub fn acceleration_anticlockwise_sub0(&self) -> u8 {
+    pub fn acceleration_anticlockwise_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 599))
     }
 
     /// Sets 0x21A6 sub 0 Acceleration anticlockwise / Highest sub-index supported.
-    pub fn set_acceleration_anticlockwise_sub0(&mut self, v: u8) {
+    pub fn set_acceleration_anticlockwise_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 599, v.to_le_bytes());
     }
 
@@ -2615,12 +2924,12 @@ impl Ram {
     }
 
     /// 0x21A7 sub 0 Deceleration anticlockwise / Highest sub-index supported (agile.eds:2246, UNSIGNED8 ro)
-    pub fn deceleration_anticlockwise_sub0(&self) -> u8 {
+    pub fn deceleration_anticlockwise_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 636))
     }
 
     /// Sets 0x21A7 sub 0 Deceleration anticlockwise / Highest sub-index supported.
-    pub fn set_deceleration_anticlockwise_sub0(&mut self, v: u8) {
+    pub fn set_deceleration_anticlockwise_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 636, v.to_le_bytes());
     }
 
@@ -2644,12 +2953,12 @@ impl Ram {
     }
 
     /// 0x21A8 sub 0 Emergency stop clockwise / Highest sub-index supported (agile.eds:2349, UNSIGNED8 ro)
-    pub fn emergency_stop_clockwise_sub0(&self) -> u8 {
+    pub fn emergency_stop_clockwise_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 673))
     }
 
     /// Sets 0x21A8 sub 0 Emergency stop clockwise / Highest sub-index supported.
-    pub fn set_emergency_stop_clockwise_sub0(&mut self, v: u8) {
+    pub fn set_emergency_stop_clockwise_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 673, v.to_le_bytes());
     }
 
@@ -2673,12 +2982,12 @@ impl Ram {
     }
 
     /// 0x21A9 sub 0 Emergency stop anticlockwise / Highest sub-index supported (agile.eds:2452, UNSIGNED8 ro)
-    pub fn emergency_stop_anticlockwise_sub0(&self) -> u8 {
+    pub fn emergency_stop_anticlockwise_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 710))
     }
 
     /// Sets 0x21A9 sub 0 Emergency stop anticlockwise / Highest sub-index supported.
-    pub fn set_emergency_stop_anticlockwise_sub0(&mut self, v: u8) {
+    pub fn set_emergency_stop_anticlockwise_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 710, v.to_le_bytes());
     }
 
@@ -2702,12 +3011,12 @@ impl Ram {
     }
 
     /// 0x21E0 sub 0 Fixed frequency 1 / Highest sub-index supported (agile.eds:2555, UNSIGNED8 ro)
-    pub fn fixed_frequency_1_sub0(&self) -> u8 {
+    pub fn fixed_frequency_1_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 747))
     }
 
     /// Sets 0x21E0 sub 0 Fixed frequency 1 / Highest sub-index supported.
-    pub fn set_fixed_frequency_1_sub0(&mut self, v: u8) {
+    pub fn set_fixed_frequency_1_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 747, v.to_le_bytes());
     }
 
@@ -2731,12 +3040,12 @@ impl Ram {
     }
 
     /// 0x2225 sub 0 Max control deviation / Highest sub-index supported (agile.eds:2640, UNSIGNED8 ro)
-    pub fn max_control_deviation_sub0(&self) -> u8 {
+    pub fn max_control_deviation_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 784))
     }
 
     /// Sets 0x2225 sub 0 Max control deviation / Highest sub-index supported.
-    pub fn set_max_control_deviation_sub0(&mut self, v: u8) {
+    pub fn set_max_control_deviation_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 784, v.to_le_bytes());
     }
 
@@ -2760,12 +3069,12 @@ impl Ram {
     }
 
     /// 0x227D sub 0 Stop function switch-off threshold / Highest sub-index supported (agile.eds:2743, UNSIGNED8 ro)
-    pub fn stop_function_switch_off_threshold_sub0(&self) -> u8 {
+    pub fn stop_function_switch_off_threshold_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 803))
     }
 
     /// Sets 0x227D sub 0 Stop function switch-off threshold / Highest sub-index supported.
-    pub fn set_stop_function_switch_off_threshold_sub0(&mut self, v: u8) {
+    pub fn set_stop_function_switch_off_threshold_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 803, v.to_le_bytes());
     }
 
@@ -2789,12 +3098,12 @@ impl Ram {
     }
 
     /// 0x227E sub 0 Stop function holding time / Highest sub-index supported (agile.eds:2846, UNSIGNED8 ro)
-    pub fn stop_function_holding_time_sub0(&self) -> u8 {
+    pub fn stop_function_holding_time_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 822))
     }
 
     /// Sets 0x227E sub 0 Stop function holding time / Highest sub-index supported.
-    pub fn set_stop_function_holding_time_sub0(&mut self, v: u8) {
+    pub fn set_stop_function_holding_time_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 822, v.to_le_bytes());
     }
 
@@ -3068,12 +3377,12 @@ impl Ram {
     }
 
     /// 0x6046 sub 0 vl velocity min max amount / Highest sub-index supported (agile.eds:3169, UNSIGNED8 ro)
-    pub fn vl_velocity_min_max_amount_sub0(&self) -> u8 {
+    pub fn vl_velocity_min_max_amount_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 890))
     }
 
     /// Sets 0x6046 sub 0 vl velocity min max amount / Highest sub-index supported.
-    pub fn set_vl_velocity_min_max_amount_sub0(&mut self, v: u8) {
+    pub fn set_vl_velocity_min_max_amount_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 890, v.to_le_bytes());
     }
 
@@ -3097,12 +3406,12 @@ impl Ram {
     }
 
     /// 0x6048 sub 0 vl velocity acceleration / Highest sub-index supported (agile.eds:3202, UNSIGNED8 ro)
-    pub fn vl_velocity_acceleration_highest_sub_index_supported(&self) -> u8 {
+    pub fn vl_velocity_acceleration_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 899))
     }
 
     /// Sets 0x6048 sub 0 vl velocity acceleration / Highest sub-index supported.
-    pub fn set_vl_velocity_acceleration_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_vl_velocity_acceleration_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 899, v.to_le_bytes());
     }
 
@@ -3127,12 +3436,12 @@ impl Ram {
     }
 
     /// 0x6049 sub 0 vl velocity deceleration / Highest sub-index supported (agile.eds:3235, UNSIGNED8 ro)
-    pub fn vl_velocity_deceleration_highest_sub_index_supported(&self) -> u8 {
+    pub fn vl_velocity_deceleration_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 906))
     }
 
     /// Sets 0x6049 sub 0 vl velocity deceleration / Highest sub-index supported.
-    pub fn set_vl_velocity_deceleration_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_vl_velocity_deceleration_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 906, v.to_le_bytes());
     }
 
@@ -3157,12 +3466,12 @@ impl Ram {
     }
 
     /// 0x604A sub 0 vl velocity quick stop / Highest sub-index supported (agile.eds:3268, UNSIGNED8 ro)
-    pub fn vl_velocity_quick_stop_highest_sub_index_supported(&self) -> u8 {
+    pub fn vl_velocity_quick_stop_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 913))
     }
 
     /// Sets 0x604A sub 0 vl velocity quick stop / Highest sub-index supported.
-    pub fn set_vl_velocity_quick_stop_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_vl_velocity_quick_stop_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 913, v.to_le_bytes());
     }
 

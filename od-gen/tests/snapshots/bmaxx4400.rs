@@ -456,853 +456,1201 @@ const RO_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::NODE_ID.0);
 const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 
 /// Entry metadata, sorted by (index, sub-index).
+#[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS),
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 4, NO_LIMITS),
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 5, NO_LIMITS),
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 9, NO_LIMITS),
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 10, NO_LIMITS),
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 14, NO_LIMITS),
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 18, NO_LIMITS),
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 22, NO_LIMITS),
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 26, NO_LIMITS),
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 30, NO_LIMITS),
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 34, NO_LIMITS),
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 38, NO_LIMITS),
-    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 42, NO_LIMITS),
-    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 46, NO_LIMITS),
-    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 50, NO_LIMITS),
-    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 54, NO_LIMITS),
-    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 58, NO_LIMITS),
-    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 62, NO_LIMITS),
-    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 66, NO_LIMITS),
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 70, NO_LIMITS),
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 74, 0),
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 78, NO_LIMITS),
-    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 82, NO_LIMITS),
-    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 93, NO_LIMITS),
-    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 100, NO_LIMITS),
-    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 107, NO_LIMITS),
-    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 111, NO_LIMITS),
-    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 113, NO_LIMITS),
-    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 114, NO_LIMITS),
-    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 118, NO_LIMITS),
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 122, NO_LIMITS),
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 123, NO_LIMITS),
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 127, NO_LIMITS),
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 131, NO_LIMITS),
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 132, NO_LIMITS),
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 136, NO_LIMITS),
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 140, NO_LIMITS),
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 144, NO_LIMITS),
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 146, NO_LIMITS),
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 148, NO_LIMITS),
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 149, NO_LIMITS),
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 153, NO_LIMITS),
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 157, NO_LIMITS),
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 161, NO_LIMITS),
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 165, NO_LIMITS),
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 166, NO_LIMITS),
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 170, NO_LIMITS),
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 174, NO_LIMITS),
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 175, NO_LIMITS),
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 179, NO_LIMITS),
-    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 180, NO_LIMITS),
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 181, NO_LIMITS),
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 185, NO_LIMITS),
-    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 186, NO_LIMITS),
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 187, NO_LIMITS),
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 191, NO_LIMITS),
-    Entry::new(0x1403, 0x00, DataType::Unsigned8, RO, 1, 192, NO_LIMITS),
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 193, NO_LIMITS),
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 197, NO_LIMITS),
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 198, 1),
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 199, NO_LIMITS),
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 203, NO_LIMITS),
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 207, NO_LIMITS),
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 211, NO_LIMITS),
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 215, NO_LIMITS),
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 219, NO_LIMITS),
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 223, NO_LIMITS),
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 227, NO_LIMITS),
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 231, 1),
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 232, NO_LIMITS),
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 236, NO_LIMITS),
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 240, NO_LIMITS),
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 244, NO_LIMITS),
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 248, NO_LIMITS),
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 252, NO_LIMITS),
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 256, NO_LIMITS),
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 260, NO_LIMITS),
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 264, 1),
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 265, NO_LIMITS),
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 269, NO_LIMITS),
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 273, NO_LIMITS),
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 277, NO_LIMITS),
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 281, NO_LIMITS),
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 285, NO_LIMITS),
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 289, NO_LIMITS),
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 293, NO_LIMITS),
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 297, 1),
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 298, NO_LIMITS),
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 302, NO_LIMITS),
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 306, NO_LIMITS),
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 310, NO_LIMITS),
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 314, NO_LIMITS),
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 318, NO_LIMITS),
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 322, NO_LIMITS),
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 326, NO_LIMITS),
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 330, NO_LIMITS),
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 331, NO_LIMITS),
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 335, NO_LIMITS),
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 336, NO_LIMITS),
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 338, NO_LIMITS),
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 340, NO_LIMITS),
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 341, NO_LIMITS),
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 345, NO_LIMITS),
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 346, NO_LIMITS),
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 348, NO_LIMITS),
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 350, NO_LIMITS),
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 351, NO_LIMITS),
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 355, NO_LIMITS),
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 356, NO_LIMITS),
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 358, NO_LIMITS),
-    Entry::new(0x1803, 0x00, DataType::Unsigned8, RO, 1, 360, NO_LIMITS),
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 361, NO_LIMITS),
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 365, NO_LIMITS),
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 366, NO_LIMITS),
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 368, NO_LIMITS),
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 370, 1),
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 371, NO_LIMITS),
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 375, NO_LIMITS),
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 379, NO_LIMITS),
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 383, NO_LIMITS),
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 387, NO_LIMITS),
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 391, NO_LIMITS),
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 395, NO_LIMITS),
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 399, NO_LIMITS),
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 403, 1),
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 404, NO_LIMITS),
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 408, NO_LIMITS),
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 412, NO_LIMITS),
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 416, NO_LIMITS),
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 420, NO_LIMITS),
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 424, NO_LIMITS),
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 428, NO_LIMITS),
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 432, NO_LIMITS),
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 436, 1),
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 437, NO_LIMITS),
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 441, NO_LIMITS),
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 445, NO_LIMITS),
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 449, NO_LIMITS),
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 453, NO_LIMITS),
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 457, NO_LIMITS),
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 461, NO_LIMITS),
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 465, NO_LIMITS),
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 469, 1),
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 470, NO_LIMITS),
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 474, NO_LIMITS),
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 478, NO_LIMITS),
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 482, NO_LIMITS),
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 486, NO_LIMITS),
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 490, NO_LIMITS),
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 494, NO_LIMITS),
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 498, NO_LIMITS),
-    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 502, 2),
-    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 504, 3),
-    Entry::new(0x40E9, 0x00, DataType::Unsigned16, RO, 2, 506, NO_LIMITS),
-    Entry::new(0x40EA, 0x00, DataType::Unsigned16, RO, 2, 508, NO_LIMITS),
-    Entry::new(0x40EB, 0x00, DataType::Unsigned16, RO, 2, 510, NO_LIMITS),
-    Entry::new(0x40F0, 0x00, DataType::Unsigned16, RO, 2, 512, NO_LIMITS),
-    Entry::new(0x40F1, 0x00, DataType::Unsigned16, RO, 2, 514, NO_LIMITS),
-    Entry::new(0x40F2, 0x00, DataType::Unsigned16, RO, 2, 516, NO_LIMITS),
-    Entry::new(0x40F3, 0x00, DataType::Unsigned16, RO, 2, 518, NO_LIMITS),
-    Entry::new(0x40F4, 0x00, DataType::Unsigned16, RO, 2, 520, NO_LIMITS),
-    Entry::new(0x40F5, 0x00, DataType::Unsigned16, RO, 2, 522, NO_LIMITS),
-    Entry::new(0x40F6, 0x00, DataType::Unsigned16, RO, 2, 524, NO_LIMITS),
-    Entry::new(0x40F7, 0x00, DataType::Unsigned16, RO, 2, 526, NO_LIMITS),
-    Entry::new(0x40F8, 0x00, DataType::Unsigned16, RO, 2, 528, NO_LIMITS),
-    Entry::new(0x40F9, 0x00, DataType::Unsigned16, RO, 2, 530, NO_LIMITS),
-    Entry::new(0x40FA, 0x00, DataType::Unsigned16, RO, 2, 532, NO_LIMITS),
-    Entry::new(0x4106, 0x00, DataType::Unsigned16, RO_TPDO, 2, 534, NO_LIMITS),
-    Entry::new(0x4107, 0x00, DataType::Unsigned16, RO_TPDO, 2, 536, NO_LIMITS),
-    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 538, NO_LIMITS),
-    Entry::new(0x412D, 0x00, DataType::Unsigned16, RO_TPDO, 2, 540, NO_LIMITS),
-    Entry::new(0x4130, 0x00, DataType::Integer16, RO_TPDO, 2, 542, NO_LIMITS),
-    Entry::new(0x4158, 0x00, DataType::Integer16, RO_TPDO, 2, 544, NO_LIMITS),
-    Entry::new(0x415F, 0x00, DataType::Integer16, RO_TPDO, 2, 546, NO_LIMITS),
-    Entry::new(0x4160, 0x00, DataType::Integer16, RO_TPDO, 2, 548, NO_LIMITS),
-    Entry::new(0x4161, 0x00, DataType::Integer32, RO_TPDO, 4, 550, NO_LIMITS),
-    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 554, NO_LIMITS),
-    Entry::new(0x4168, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS),
-    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 558, NO_LIMITS),
-    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 562, NO_LIMITS),
-    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 564, NO_LIMITS),
-    Entry::new(0x416D, 0x00, DataType::Integer32, RO_TPDO, 4, 566, NO_LIMITS),
-    Entry::new(0x416F, 0x00, DataType::Integer32, RO_TPDO, 4, 570, NO_LIMITS),
-    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 574, NO_LIMITS),
-    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 578, NO_LIMITS),
-    Entry::new(0x4187, 0x00, DataType::Unsigned32, RO_TPDO, 4, 582, NO_LIMITS),
-    Entry::new(0x4188, 0x00, DataType::Unsigned32, RO_TPDO, 4, 586, NO_LIMITS),
-    Entry::new(0x41CC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 590, NO_LIMITS),
-    Entry::new(0x41CD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 592, NO_LIMITS),
-    Entry::new(0x41CE, 0x00, DataType::Unsigned32, RO_TPDO, 4, 594, NO_LIMITS),
-    Entry::new(0x41CF, 0x00, DataType::Unsigned32, RO_TPDO, 4, 598, NO_LIMITS),
-    Entry::new(0x41D0, 0x00, DataType::Integer16, RO_TPDO, 2, 602, NO_LIMITS),
-    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 604, NO_LIMITS),
-    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 606, NO_LIMITS),
-    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 610, NO_LIMITS),
-    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 612, 4),
-    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 614, 5),
-    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 616, 5),
-    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 618, 6),
-    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 620, NO_LIMITS),
-    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 624, NO_LIMITS),
-    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 626, NO_LIMITS),
-    Entry::new(0x4321, 0x00, DataType::Unsigned16, RO, 2, 628, NO_LIMITS),
-    Entry::new(0x4322, 0x00, DataType::Unsigned16, RO, 2, 630, NO_LIMITS),
-    Entry::new(0x4323, 0x00, DataType::Unsigned16, RO, 2, 632, NO_LIMITS),
-    Entry::new(0x4324, 0x00, DataType::Unsigned16, RO, 2, 634, NO_LIMITS),
-    Entry::new(0x4325, 0x00, DataType::Unsigned16, RO, 2, 636, NO_LIMITS),
-    Entry::new(0x4326, 0x00, DataType::Unsigned16, RO, 2, 638, NO_LIMITS),
-    Entry::new(0x4327, 0x00, DataType::Unsigned16, RO, 2, 640, NO_LIMITS),
-    Entry::new(0x4328, 0x00, DataType::Unsigned16, RO, 2, 642, NO_LIMITS),
-    Entry::new(0x4329, 0x00, DataType::Unsigned16, RO, 2, 644, NO_LIMITS),
-    Entry::new(0x432A, 0x00, DataType::Unsigned16, RO, 2, 646, NO_LIMITS),
-    Entry::new(0x432B, 0x00, DataType::Unsigned16, RO, 2, 648, NO_LIMITS),
-    Entry::new(0x432C, 0x00, DataType::Unsigned16, RO, 2, 650, NO_LIMITS),
-    Entry::new(0x432D, 0x00, DataType::Unsigned16, RO, 2, 652, NO_LIMITS),
-    Entry::new(0x432E, 0x00, DataType::Unsigned16, RO, 2, 654, NO_LIMITS),
-    Entry::new(0x432F, 0x00, DataType::Unsigned16, RO, 2, 656, NO_LIMITS),
-    Entry::new(0x4330, 0x00, DataType::Unsigned16, RO, 2, 658, NO_LIMITS),
-    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 660, NO_LIMITS),
-    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 662, NO_LIMITS),
-    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 664, NO_LIMITS),
-    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 666, NO_LIMITS),
-    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 668, 7),
-    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 670, NO_LIMITS),
-    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 672, 8),
-    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 674, NO_LIMITS),
-    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 676, 8),
-    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 678, 8),
-    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 680, 8),
-    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 682, 9),
-    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 684, 10),
-    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 688, 11),
-    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 692, NO_LIMITS),
-    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 694, 12),
-    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 696, 13),
-    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 698, 14),
-    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 700, 15),
-    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 702, NO_LIMITS),
-    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 706, 14),
-    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 708, 14),
-    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 710, 14),
-    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 712, NO_LIMITS),
-    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 714, NO_LIMITS),
-    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 716, NO_LIMITS),
-    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 720, 16),
-    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 722, NO_LIMITS),
-    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 726, NO_LIMITS),
-    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 730, NO_LIMITS),
-    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 734, NO_LIMITS),
-    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 738, NO_LIMITS),
-    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 742, 4),
-    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 744, 17),
-    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 746, 5),
-    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 748, NO_LIMITS),
-    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 750, NO_LIMITS),
-    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 752, NO_LIMITS),
-    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 754, NO_LIMITS),
-    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 756, 5),
-    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 758, 18),
-    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 762, 18),
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 766, NO_LIMITS),
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 768, NO_LIMITS),
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 770, NO_LIMITS),
-    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 772, NO_LIMITS),
-    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 774, NO_LIMITS),
-    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 776, NO_LIMITS),
-    Entry::new(0x6045, 0x00, DataType::Integer16, RO, 2, 778, NO_LIMITS),
-    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 780, NO_LIMITS),
-    Entry::new(0x6046, 0x01, DataType::Unsigned32, RO_TPDO, 4, 781, NO_LIMITS),
-    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 785, NO_LIMITS),
-    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 789, NO_LIMITS),
-    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 790, NO_LIMITS),
-    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 794, NO_LIMITS),
-    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 796, NO_LIMITS),
-    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 797, NO_LIMITS),
-    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 801, NO_LIMITS),
-    Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 803, NO_LIMITS),
-    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 804, NO_LIMITS),
-    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 808, NO_LIMITS),
-    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 812, NO_LIMITS),
-    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 813, NO_LIMITS),
-    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 817, NO_LIMITS),
-    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 821, NO_LIMITS),
-    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 825, NO_LIMITS),
-    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 827, NO_LIMITS),
-    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 829, NO_LIMITS),
-    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 831, NO_LIMITS),
-    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 833, NO_LIMITS),
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 835, NO_LIMITS),
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 836, NO_LIMITS),
-    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 837, NO_LIMITS),
-    Entry::new(0x6063, 0x00, DataType::Integer32, RO_TPDO, 4, 841, NO_LIMITS),
-    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 845, NO_LIMITS),
-    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 849, 14),
-    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 851, NO_LIMITS),
-    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 855, NO_LIMITS),
-    Entry::new(0x6069, 0x00, DataType::Integer32, RO_TPDO, 4, 857, NO_LIMITS),
-    Entry::new(0x606A, 0x00, DataType::Integer16, RO, 2, 861, NO_LIMITS),
-    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 863, NO_LIMITS),
-    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 867, NO_LIMITS),
-    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 871, NO_LIMITS),
-    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 873, NO_LIMITS),
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 875, NO_LIMITS),
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 877, NO_LIMITS),
-    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 881, NO_LIMITS),
-    Entry::new(0x607D, 0x00, DataType::Unsigned8, RO, 1, 885, NO_LIMITS),
-    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 886, NO_LIMITS),
-    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 890, NO_LIMITS),
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 894, NO_LIMITS),
-    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 898, 19),
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 902, NO_LIMITS),
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 906, NO_LIMITS),
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 910, NO_LIMITS),
-    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 914, NO_LIMITS),
-    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 918, NO_LIMITS),
-    Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 920, NO_LIMITS),
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 921, 20),
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 925, 21),
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 929, NO_LIMITS),
-    Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 930, NO_LIMITS),
-    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 931, NO_LIMITS),
-    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 935, NO_LIMITS),
-    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 939, NO_LIMITS),
-    Entry::new(0x60C0, 0x00, DataType::Integer16, RO, 2, 943, NO_LIMITS),
-    Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 945, NO_LIMITS),
-    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 946, NO_LIMITS),
-    Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 950, NO_LIMITS),
-    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 951, 21),
-    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 952, 22),
-    Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 953, NO_LIMITS),
-    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 954, NO_LIMITS),
-    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 955, NO_LIMITS),
-    Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 956, NO_LIMITS),
-    Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 957, NO_LIMITS),
-    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 961, NO_LIMITS),
-    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 965, 23),
-    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 966, NO_LIMITS),
-    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 968, NO_LIMITS),
-    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 969, 23),
-    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 970, NO_LIMITS),
-    Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 974, NO_LIMITS),
-    Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 975, NO_LIMITS),
-    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 977, NO_LIMITS),
-    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 979, 12),
-    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 981, NO_LIMITS),
-    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 983, NO_LIMITS),
-    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 985, NO_LIMITS),
-    Entry::new(0x60FB, 0x07, DataType::Integer32, RO_TPDO, 4, 987, NO_LIMITS),
-    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 991, NO_LIMITS),
-    Entry::new(0x60FB, 0x09, DataType::Unsigned32, RO_TPDO, 4, 995, NO_LIMITS),
-    Entry::new(0x60FB, 0x0A, DataType::Unsigned32, RO_TPDO, 4, 999, NO_LIMITS),
-    Entry::new(0x60FB, 0x0B, DataType::Integer32, RO_TPDO, 4, 1003, NO_LIMITS),
-    Entry::new(0x60FB, 0x0C, DataType::Unsigned16, RO_TPDO, 2, 1007, NO_LIMITS),
-    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1009, NO_LIMITS),
-    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 1011, NO_LIMITS),
-    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 1013, NO_LIMITS),
-    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 1017, NO_LIMITS),
-    Entry::new(0x60FB, 0x11, DataType::Integer16, RO_TPDO, 2, 1019, NO_LIMITS),
-    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1021, NO_LIMITS),
-    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1023, NO_LIMITS),
-    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1027, NO_LIMITS),
-    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 1031, NO_LIMITS),
-    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 1033, NO_LIMITS),
-    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1035, NO_LIMITS),
-    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1039, NO_LIMITS),
-    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1041, NO_LIMITS),
-    Entry::new(0x60FB, 0x1A, DataType::Integer32, RO_TPDO, 4, 1043, NO_LIMITS),
-    Entry::new(0x60FB, 0x1B, DataType::Unsigned16, RO_TPDO, 2, 1047, NO_LIMITS),
-    Entry::new(0x60FD, 0x00, DataType::Unsigned32, RO_TPDO, 4, 1049, NO_LIMITS),
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 1053, NO_LIMITS),
-    Entry::new(0x6510, 0x00, DataType::Unsigned8, RO, 1, 1057, NO_LIMITS),
-    Entry::new(0x6510, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1058, NO_LIMITS),
-    Entry::new(0x6510, 0x02, DataType::Unsigned32, RO_TPDO, 4, 1062, NO_LIMITS),
-    Entry::new(0x6510, 0x03, DataType::Unsigned32, RO_TPDO, 4, 1066, NO_LIMITS),
-    Entry::new(0x6510, 0x04, DataType::Unsigned32, RO_TPDO, 4, 1070, NO_LIMITS),
-    Entry::new(0x6510, 0x05, DataType::Unsigned32, RO_TPDO, 4, 1074, NO_LIMITS),
-    Entry::new(0x6510, 0x06, DataType::Unsigned32, RO_TPDO, 4, 1078, NO_LIMITS),
-    Entry::new(0x6510, 0x07, DataType::Unsigned32, RO_TPDO, 4, 1082, NO_LIMITS),
-    Entry::new(0x6510, 0x08, DataType::Unsigned32, RO_TPDO, 4, 1086, NO_LIMITS),
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 4, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 5, NO_LIMITS), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 9, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 18, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 22, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 26, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 30, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 34, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 38, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 42, NO_LIMITS), // 0x1003:09 Pre-defined error field / Standard error field 9
+    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 46, NO_LIMITS), // 0x1003:0A Pre-defined error field / Standard error field 10
+    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 50, NO_LIMITS), // 0x1003:0B Pre-defined error field / Standard error field 11
+    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 54, NO_LIMITS), // 0x1003:0C Pre-defined error field / Standard error field 12
+    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 58, NO_LIMITS), // 0x1003:0D Pre-defined error field / Standard error field 13
+    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 62, NO_LIMITS), // 0x1003:0E Pre-defined error field / Standard error field 14
+    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 66, NO_LIMITS), // 0x1003:0F Pre-defined error field / Standard error field 15
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 70, NO_LIMITS), // 0x1005:00 COB-ID SYNC
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 74, 0), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 78, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 82, NO_LIMITS), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 93, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 100, NO_LIMITS), // 0x100A:00 Manufacturer software version
+    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 107, NO_LIMITS), // 0x100B:00 Node-ID
+    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 111, NO_LIMITS), // 0x100C:00 Guard time
+    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 113, NO_LIMITS), // 0x100D:00 Life time factor
+    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 114, NO_LIMITS), // 0x100E:00 COB-ID guarding protocol
+    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 118, NO_LIMITS), // 0x100F:00 Number of SDOs supported
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 122, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 123, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 127, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 131, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 132, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 136, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 140, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 144, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 146, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 148, NO_LIMITS), // 0x1018:00 Identity object / Identity object highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 149, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 153, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 157, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 161, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 165, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 166, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 170, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 174, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 175, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 179, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
+    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 180, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 181, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 185, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
+    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 186, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 187, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 191, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
+    Entry::new(0x1403, 0x00, DataType::Unsigned8, RO, 1, 192, NO_LIMITS), // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 193, NO_LIMITS), // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 197, NO_LIMITS), // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 198, 1), // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 199, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 203, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 207, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 211, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 215, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 219, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 223, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 227, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 231, 1), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 232, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 236, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 240, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 244, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 248, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 252, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 256, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 260, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 264, 1), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 265, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 269, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 273, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 277, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 281, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 285, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 289, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 293, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 297, 1), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 298, NO_LIMITS), // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 302, NO_LIMITS), // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 306, NO_LIMITS), // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 310, NO_LIMITS), // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 314, NO_LIMITS), // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 318, NO_LIMITS), // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 322, NO_LIMITS), // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 326, NO_LIMITS), // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 330, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 331, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 335, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 336, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 338, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 340, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 341, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 345, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 346, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 348, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 350, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 351, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 355, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 356, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 358, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    Entry::new(0x1803, 0x00, DataType::Unsigned8, RO, 1, 360, NO_LIMITS), // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 361, NO_LIMITS), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 365, NO_LIMITS), // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 366, NO_LIMITS), // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 368, NO_LIMITS), // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 370, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 371, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 375, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 379, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 383, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 387, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 391, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 395, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 399, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 403, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 404, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 408, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 412, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 416, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 420, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 424, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 428, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 432, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 436, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 437, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 441, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 445, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 449, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 453, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 457, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 461, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 465, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 469, 1), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 470, NO_LIMITS), // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 474, NO_LIMITS), // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 478, NO_LIMITS), // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 482, NO_LIMITS), // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 486, NO_LIMITS), // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 490, NO_LIMITS), // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 494, NO_LIMITS), // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 498, NO_LIMITS), // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
+    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 502, 2), // 0x4039:00 P0057 Motor nominal speed
+    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 504, 3), // 0x4041:00 P0065 Motor pole pair number
+    Entry::new(0x40E9, 0x00, DataType::Unsigned16, RO, 2, 506, NO_LIMITS), // 0x40E9:00 P0233 Amplifier Hiperface error detail
+    Entry::new(0x40EA, 0x00, DataType::Unsigned16, RO, 2, 508, NO_LIMITS), // 0x40EA:00 P0234 Encoder 1 error detail
+    Entry::new(0x40EB, 0x00, DataType::Unsigned16, RO, 2, 510, NO_LIMITS), // 0x40EB:00 P0235 Encoder 2 error detail
+    Entry::new(0x40F0, 0x00, DataType::Unsigned16, RO, 2, 512, NO_LIMITS), // 0x40F0:00 P0240 Small module A error detail
+    Entry::new(0x40F1, 0x00, DataType::Unsigned16, RO, 2, 514, NO_LIMITS), // 0x40F1:00 P0241 Small module B error detail
+    Entry::new(0x40F2, 0x00, DataType::Unsigned16, RO, 2, 516, NO_LIMITS), // 0x40F2:00 P0242 Small module C error detail
+    Entry::new(0x40F3, 0x00, DataType::Unsigned16, RO, 2, 518, NO_LIMITS), // 0x40F3:00 P0243 Small module D error detail
+    Entry::new(0x40F4, 0x00, DataType::Unsigned16, RO, 2, 520, NO_LIMITS), // 0x40F4:00 P0244 Small module F error detail
+    Entry::new(0x40F5, 0x00, DataType::Unsigned16, RO, 2, 522, NO_LIMITS), // 0x40F5:00 P0245 Big module G error detail
+    Entry::new(0x40F6, 0x00, DataType::Unsigned16, RO, 2, 524, NO_LIMITS), // 0x40F6:00 P0246 Big module H error detail
+    Entry::new(0x40F7, 0x00, DataType::Unsigned16, RO, 2, 526, NO_LIMITS), // 0x40F7:00 P0247 Big module J error detail
+    Entry::new(0x40F8, 0x00, DataType::Unsigned16, RO, 2, 528, NO_LIMITS), // 0x40F8:00 P0248 Big module K error detail
+    Entry::new(0x40F9, 0x00, DataType::Unsigned16, RO, 2, 530, NO_LIMITS), // 0x40F9:00 P0249 Big module L error detail
+    Entry::new(0x40FA, 0x00, DataType::Unsigned16, RO, 2, 532, NO_LIMITS), // 0x40FA:00 P0250 Big module M error detail
+    Entry::new(0x4106, 0x00, DataType::Unsigned16, RO_TPDO, 2, 534, NO_LIMITS), // 0x4106:00 P0262 Amplifier warnings
+    Entry::new(0x4107, 0x00, DataType::Unsigned16, RO_TPDO, 2, 536, NO_LIMITS), // 0x4107:00 P0263 Motor warnings
+    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 538, NO_LIMITS), // 0x412C:00 P0300 Drive control word
+    Entry::new(0x412D, 0x00, DataType::Unsigned16, RO_TPDO, 2, 540, NO_LIMITS), // 0x412D:00 P0301 Drive status word
+    Entry::new(0x4130, 0x00, DataType::Integer16, RO_TPDO, 2, 542, NO_LIMITS), // 0x4130:00 P0304 Operation mode actual
+    Entry::new(0x4158, 0x00, DataType::Integer16, RO_TPDO, 2, 544, NO_LIMITS), // 0x4158:00 P0344 Torque actual value raw
+    Entry::new(0x415F, 0x00, DataType::Integer16, RO_TPDO, 2, 546, NO_LIMITS), // 0x415F:00 P0351 Ramp function generator output
+    Entry::new(0x4160, 0x00, DataType::Integer16, RO_TPDO, 2, 548, NO_LIMITS), // 0x4160:00 P0352 Speed set value total
+    Entry::new(0x4161, 0x00, DataType::Integer32, RO_TPDO, 4, 550, NO_LIMITS), // 0x4161:00 P0353 Speed actual value raw
+    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 554, NO_LIMITS), // 0x4165:00 P0357 Torque limit direct
+    Entry::new(0x4168, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS), // 0x4168:00 P0360 Position controller status raw
+    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 558, NO_LIMITS), // 0x416A:00 P0362 Position actual value raw
+    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 562, NO_LIMITS), // 0x416B:00 P0363 Position set angle raw
+    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 564, NO_LIMITS), // 0x416C:00 P0364 Position set revolutions raw
+    Entry::new(0x416D, 0x00, DataType::Integer32, RO_TPDO, 4, 566, NO_LIMITS), // 0x416D:00 P0365 Speed feed forward raw
+    Entry::new(0x416F, 0x00, DataType::Integer32, RO_TPDO, 4, 570, NO_LIMITS), // 0x416F:00 P0367 Position control deviation raw
+    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 574, NO_LIMITS), // 0x4171:00 P0369 Position set value
+    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 578, NO_LIMITS), // 0x4172:00 P0370 Position IP set angle
+    Entry::new(0x4187, 0x00, DataType::Unsigned32, RO_TPDO, 4, 582, NO_LIMITS), // 0x4187:00 P0391 Encoder 1 actual angle raw
+    Entry::new(0x4188, 0x00, DataType::Unsigned32, RO_TPDO, 4, 586, NO_LIMITS), // 0x4188:00 P0392 Encoder 1 actual revolutions raw
+    Entry::new(0x41CC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 590, NO_LIMITS), // 0x41CC:00 P0460 Positioning status raw
+    Entry::new(0x41CD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 592, NO_LIMITS), // 0x41CD:00 P0461 Digital input output status
+    Entry::new(0x41CE, 0x00, DataType::Unsigned32, RO_TPDO, 4, 594, NO_LIMITS), // 0x41CE:00 P0462 Positioning actual value
+    Entry::new(0x41CF, 0x00, DataType::Unsigned32, RO_TPDO, 4, 598, NO_LIMITS), // 0x41CF:00 P0463 Positioning set value
+    Entry::new(0x41D0, 0x00, DataType::Integer16, RO_TPDO, 2, 602, NO_LIMITS), // 0x41D0:00 P0464 Positioning speed set value raw
+    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 604, NO_LIMITS), // 0x4214:00 P0532 Sync interval
+    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 606, NO_LIMITS), // 0x4258:00 P0600 Positioning target unsigned
+    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 610, NO_LIMITS), // 0x4259:00 P0601 Positioning mode
+    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 612, 4), // 0x425A:00 P0602 Positioning speed 1
+    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 614, 5), // 0x425B:00 P0603 Positioning acceleration 1
+    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 616, 5), // 0x425C:00 P0604 Positioning deceleration 1
+    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 618, 6), // 0x425D:00 P0605 Positioning bend 0 raw
+    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 620, NO_LIMITS), // 0x425F:00 P0607 Positioning target 1
+    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 624, NO_LIMITS), // 0x4260:00 P0608 Positioning target input 1
+    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 626, NO_LIMITS), // 0x4320:00 P0800 BACI cycle time factor
+    Entry::new(0x4321, 0x00, DataType::Unsigned16, RO, 2, 628, NO_LIMITS), // 0x4321:00 P0801 BACI process data parameter number 1
+    Entry::new(0x4322, 0x00, DataType::Unsigned16, RO, 2, 630, NO_LIMITS), // 0x4322:00 P0802 BACI process data parameter number 2
+    Entry::new(0x4323, 0x00, DataType::Unsigned16, RO, 2, 632, NO_LIMITS), // 0x4323:00 P0803 BACI process data parameter number 3
+    Entry::new(0x4324, 0x00, DataType::Unsigned16, RO, 2, 634, NO_LIMITS), // 0x4324:00 P0804 BACI process data parameter number 4
+    Entry::new(0x4325, 0x00, DataType::Unsigned16, RO, 2, 636, NO_LIMITS), // 0x4325:00 P0805 BACI process data parameter number 5
+    Entry::new(0x4326, 0x00, DataType::Unsigned16, RO, 2, 638, NO_LIMITS), // 0x4326:00 P0806 BACI process data parameter number 6
+    Entry::new(0x4327, 0x00, DataType::Unsigned16, RO, 2, 640, NO_LIMITS), // 0x4327:00 P0807 BACI process data parameter number 7
+    Entry::new(0x4328, 0x00, DataType::Unsigned16, RO, 2, 642, NO_LIMITS), // 0x4328:00 P0808 BACI process data parameter number 8
+    Entry::new(0x4329, 0x00, DataType::Unsigned16, RO, 2, 644, NO_LIMITS), // 0x4329:00 P0809 BACI process data parameter number 9
+    Entry::new(0x432A, 0x00, DataType::Unsigned16, RO, 2, 646, NO_LIMITS), // 0x432A:00 P0810 BACI process data parameter number 10
+    Entry::new(0x432B, 0x00, DataType::Unsigned16, RO, 2, 648, NO_LIMITS), // 0x432B:00 P0811 BACI process data parameter number 11
+    Entry::new(0x432C, 0x00, DataType::Unsigned16, RO, 2, 650, NO_LIMITS), // 0x432C:00 P0812 BACI process data parameter number 12
+    Entry::new(0x432D, 0x00, DataType::Unsigned16, RO, 2, 652, NO_LIMITS), // 0x432D:00 P0813 BACI process data parameter number 13
+    Entry::new(0x432E, 0x00, DataType::Unsigned16, RO, 2, 654, NO_LIMITS), // 0x432E:00 P0814 BACI process data parameter number 14
+    Entry::new(0x432F, 0x00, DataType::Unsigned16, RO, 2, 656, NO_LIMITS), // 0x432F:00 P0815 BACI process data parameter number 15
+    Entry::new(0x4330, 0x00, DataType::Unsigned16, RO, 2, 658, NO_LIMITS), // 0x4330:00 P0816 BACI process data parameter number 16
+    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 660, NO_LIMITS), // 0x4332:00 P0818 BACI cycle offset set values
+    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 662, NO_LIMITS), // 0x4333:00 P0819 BACI cycle offset actual values
+    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 664, NO_LIMITS), // 0x433E:00 P0830 Option module G configuration 1
+    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 666, NO_LIMITS), // 0x4348:00 P0840 Option module H configuration 1
+    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 668, 7), // 0x43E8:00 P1000 Operation mode set
+    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 670, NO_LIMITS), // 0x43E9:00 P1001 Drive parameter 1001
+    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 672, 8), // 0x43EB:00 P1003 Stop option code raw
+    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 674, NO_LIMITS), // 0x43EC:00 P1004 Quick stop code raw
+    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 676, 8), // 0x43ED:00 P1005 Shutdown code raw
+    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 678, 8), // 0x43EE:00 P1006 Disable operation code raw
+    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 680, 8), // 0x43EF:00 P1007 Error reaction code raw
+    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 682, 9), // 0x4407:00 P1031 Maximum speed
+    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 684, 10), // 0x4411:00 P1041 Speed set value upper limit
+    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 688, 11), // 0x4412:00 P1042 Speed set value lower limit
+    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 692, NO_LIMITS), // 0x441A:00 P1050 Position controller mode raw
+    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 694, 12), // 0x441B:00 P1051 Position controller Kv factor raw
+    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 696, 13), // 0x441D:00 P1053 Speed feed forward factor raw
+    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 698, 14), // 0x4420:00 P1056 Following error time
+    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 700, 15), // 0x4431:00 P1073 Encoder 1 monitoring lower limit
+    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 702, NO_LIMITS), // 0x4493:00 P1171 Ramp function generator input
+    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 706, 14), // 0x4494:00 P1172 Ramp function generator ramp up time
+    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 708, 14), // 0x4495:00 P1173 Ramp function generator ramp down time
+    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 710, 14), // 0x4496:00 P1174 Ramp function generator stop time
+    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 712, NO_LIMITS), // 0x44A6:00 P1190 Positioning mode word
+    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 714, NO_LIMITS), // 0x44A7:00 P1191 Positioning actual record number
+    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 716, NO_LIMITS), // 0x44AA:00 P1194 Positioning window
+    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 720, 16), // 0x44AB:00 P1195 Positioning window time
+    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 722, NO_LIMITS), // 0x44AC:00 P1196 Software limit switch 1
+    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 726, NO_LIMITS), // 0x44AD:00 P1197 Software limit switch 2
+    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 730, NO_LIMITS), // 0x44AE:00 P1198 Positioning clip environment 1
+    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 734, NO_LIMITS), // 0x44AF:00 P1199 Positioning clip environment 2
+    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 738, NO_LIMITS), // 0x44B0:00 P1200 Positioning home position
+    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 742, 4), // 0x44B1:00 P1201 Homing speed
+    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 744, 17), // 0x44B2:00 P1202 Homing final speed
+    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 746, 5), // 0x44B3:00 P1203 Homing acceleration raw
+    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 748, NO_LIMITS), // 0x44B4:00 P1204 Homing deceleration raw
+    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 750, NO_LIMITS), // 0x44B5:00 P1205 Homing mode
+    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 752, NO_LIMITS), // 0x44B8:00 P1208 Positioning switch mode raw
+    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 754, NO_LIMITS), // 0x44B9:00 P1209 Positioning encoder offset raw
+    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 756, 5), // 0x44BD:00 P1213 Positioning stop deceleration
+    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 758, 18), // 0x4BEA:00 P3050 Position scaling user unit
+    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 762, 18), // 0x4BEB:00 P3051 Position scaling revolutions
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 766, NO_LIMITS), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 768, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 770, NO_LIMITS), // 0x6041:00 Statusword
+    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 772, NO_LIMITS), // 0x6042:00 vl target velocity
+    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 774, NO_LIMITS), // 0x6043:00 vl velocity demand
+    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 776, NO_LIMITS), // 0x6044:00 vl control effort
+    Entry::new(0x6045, 0x00, DataType::Integer16, RO, 2, 778, NO_LIMITS), // 0x6045:00 vl manipulated velocity
+    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 780, NO_LIMITS), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    Entry::new(0x6046, 0x01, DataType::Unsigned32, RO_TPDO, 4, 781, NO_LIMITS), // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 785, NO_LIMITS), // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 789, NO_LIMITS), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
+    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 790, NO_LIMITS), // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
+    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 794, NO_LIMITS), // 0x6048:02 vl velocity acceleration / vl acceleration delta time
+    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 796, NO_LIMITS), // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
+    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 797, NO_LIMITS), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
+    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 801, NO_LIMITS), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
+    Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 803, NO_LIMITS), // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
+    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 804, NO_LIMITS), // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 808, NO_LIMITS), // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 812, NO_LIMITS), // 0x604D:00 vl pole number
+    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 813, NO_LIMITS), // 0x604F:00 vl ramp function time
+    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 817, NO_LIMITS), // 0x6050:00 vl slow down time
+    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 821, NO_LIMITS), // 0x6051:00 vl quick stop time
+    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 825, NO_LIMITS), // 0x605A:00 Quick stop option code
+    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 827, NO_LIMITS), // 0x605B:00 Shutdown option code
+    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 829, NO_LIMITS), // 0x605C:00 Disable operation option code
+    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 831, NO_LIMITS), // 0x605D:00 Halt option code
+    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 833, NO_LIMITS), // 0x605E:00 Fault reaction option code
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 835, NO_LIMITS), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 836, NO_LIMITS), // 0x6061:00 Modes of operation display
+    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 837, NO_LIMITS), // 0x6062:00 Position demand value
+    Entry::new(0x6063, 0x00, DataType::Integer32, RO_TPDO, 4, 841, NO_LIMITS), // 0x6063:00 Position actual internal value
+    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 845, NO_LIMITS), // 0x6064:00 Position actual value
+    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 849, 14), // 0x6066:00 Following error time out
+    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 851, NO_LIMITS), // 0x6067:00 Position window
+    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 855, NO_LIMITS), // 0x6068:00 Position window time
+    Entry::new(0x6069, 0x00, DataType::Integer32, RO_TPDO, 4, 857, NO_LIMITS), // 0x6069:00 Velocity sensor actual value
+    Entry::new(0x606A, 0x00, DataType::Integer16, RO, 2, 861, NO_LIMITS), // 0x606A:00 Sensor selection code
+    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 863, NO_LIMITS), // 0x606B:00 Velocity demand value
+    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 867, NO_LIMITS), // 0x606C:00 Velocity actual value
+    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 871, NO_LIMITS), // 0x606F:00 Velocity threshold
+    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 873, NO_LIMITS), // 0x6072:00 Max torque
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 875, NO_LIMITS), // 0x6077:00 Torque actual value
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 877, NO_LIMITS), // 0x607A:00 Target position
+    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 881, NO_LIMITS), // 0x607C:00 Home offset
+    Entry::new(0x607D, 0x00, DataType::Unsigned8, RO, 1, 885, NO_LIMITS), // 0x607D:00 Software position limit / Software position limit highest sub-index
+    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 886, NO_LIMITS), // 0x607D:01 Software position limit / Min position limit
+    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 890, NO_LIMITS), // 0x607D:02 Software position limit / Max position limit
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 894, NO_LIMITS), // 0x607F:00 Max profile velocity
+    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 898, 19), // 0x6080:00 Max motor speed
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 902, NO_LIMITS), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 906, NO_LIMITS), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 910, NO_LIMITS), // 0x6084:00 Profile deceleration
+    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 914, NO_LIMITS), // 0x6085:00 Quick stop deceleration
+    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 918, NO_LIMITS), // 0x6086:00 Motion profile type
+    Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 920, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 921, 20), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 925, 21), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 929, NO_LIMITS), // 0x6098:00 Homing method
+    Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 930, NO_LIMITS), // 0x6099:00 Homing speeds / Homing speeds highest sub-index
+    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 931, NO_LIMITS), // 0x6099:01 Homing speeds / Speed during search for switch
+    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 935, NO_LIMITS), // 0x6099:02 Homing speeds / Speed during search for zero
+    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 939, NO_LIMITS), // 0x609A:00 Homing acceleration
+    Entry::new(0x60C0, 0x00, DataType::Integer16, RO, 2, 943, NO_LIMITS), // 0x60C0:00 Interpolation sub mode select
+    Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 945, NO_LIMITS), // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
+    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 946, NO_LIMITS), // 0x60C1:01 Interpolation data record / Interpolation data record position
+    Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 950, NO_LIMITS), // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
+    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 951, 21), // 0x60C2:01 Interpolation time period / ip time units
+    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 952, 22), // 0x60C2:02 Interpolation time period / ip time index
+    Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 953, NO_LIMITS), // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
+    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 954, NO_LIMITS), // 0x60C3:01 Interpolation sync definition / Synchronize on group
+    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 955, NO_LIMITS), // 0x60C3:02 Interpolation sync definition / ip sync every n event
+    Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 956, NO_LIMITS), // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
+    Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 957, NO_LIMITS), // 0x60C4:01 Interpolation data configuration / Maximum buffer size
+    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 961, NO_LIMITS), // 0x60C4:02 Interpolation data configuration / Actual buffer size
+    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 965, 23), // 0x60C4:03 Interpolation data configuration / Buffer organisation
+    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 966, NO_LIMITS), // 0x60C4:04 Interpolation data configuration / Buffer position
+    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 968, NO_LIMITS), // 0x60C4:05 Interpolation data configuration / Size of data record
+    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 969, 23), // 0x60C4:06 Interpolation data configuration / Buffer clear
+    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 970, NO_LIMITS), // 0x60F8:00 Max slippage
+    Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 974, NO_LIMITS), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
+    Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 975, NO_LIMITS), // 0x60FB:01 Position control parameter set / Position controller status
+    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 977, NO_LIMITS), // 0x60FB:02 Position control parameter set / Position controller mode
+    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 979, 12), // 0x60FB:03 Position control parameter set / Position controller Kv factor
+    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 981, NO_LIMITS), // 0x60FB:04 Position control parameter set / Position set revolutions
+    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 983, NO_LIMITS), // 0x60FB:05 Position control parameter set / Position set angle
+    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 985, NO_LIMITS), // 0x60FB:06 Position control parameter set / Speed feed forward factor
+    Entry::new(0x60FB, 0x07, DataType::Integer32, RO_TPDO, 4, 987, NO_LIMITS), // 0x60FB:07 Position control parameter set / Position control deviation
+    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 991, NO_LIMITS), // 0x60FB:08 Position control parameter set / Position controller actual value
+    Entry::new(0x60FB, 0x09, DataType::Unsigned32, RO_TPDO, 4, 995, NO_LIMITS), // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
+    Entry::new(0x60FB, 0x0A, DataType::Unsigned32, RO_TPDO, 4, 999, NO_LIMITS), // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
+    Entry::new(0x60FB, 0x0B, DataType::Integer32, RO_TPDO, 4, 1003, NO_LIMITS), // 0x60FB:0B Position control parameter set / Speed feed forward
+    Entry::new(0x60FB, 0x0C, DataType::Unsigned16, RO_TPDO, 2, 1007, NO_LIMITS), // 0x60FB:0C Position control parameter set / Positioning status
+    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1009, NO_LIMITS), // 0x60FB:0D Position control parameter set / Actual positioning record number
+    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 1011, NO_LIMITS), // 0x60FB:0E Position control parameter set / Positioning mode bits
+    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 1013, NO_LIMITS), // 0x60FB:0F Position control parameter set / Home position
+    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 1017, NO_LIMITS), // 0x60FB:10 Position control parameter set / Positioning switch mode
+    Entry::new(0x60FB, 0x11, DataType::Integer16, RO_TPDO, 2, 1019, NO_LIMITS), // 0x60FB:11 Position control parameter set / Positioning speed set value
+    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1021, NO_LIMITS), // 0x60FB:12 Position control parameter set / Positioning bend 0
+    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1023, NO_LIMITS), // 0x60FB:13 Position control parameter set / Clip environment 1
+    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1027, NO_LIMITS), // 0x60FB:14 Position control parameter set / Clip environment 2
+    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 1031, NO_LIMITS), // 0x60FB:15 Position control parameter set / Target input 0
+    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 1033, NO_LIMITS), // 0x60FB:16 Position control parameter set / Target input 1
+    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1035, NO_LIMITS), // 0x60FB:17 Position control parameter set / IP set angle
+    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1039, NO_LIMITS), // 0x60FB:18 Position control parameter set / Positioning encoder offset
+    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1041, NO_LIMITS), // 0x60FB:19 Position control parameter set / Homing deceleration
+    Entry::new(0x60FB, 0x1A, DataType::Integer32, RO_TPDO, 4, 1043, NO_LIMITS), // 0x60FB:1A Position control parameter set / Actual speed normalised
+    Entry::new(0x60FB, 0x1B, DataType::Unsigned16, RO_TPDO, 2, 1047, NO_LIMITS), // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
+    Entry::new(0x60FD, 0x00, DataType::Unsigned32, RO_TPDO, 4, 1049, NO_LIMITS), // 0x60FD:00 Digital inputs
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 1053, NO_LIMITS), // 0x60FF:00 Target velocity
+    Entry::new(0x6510, 0x00, DataType::Unsigned8, RO, 1, 1057, NO_LIMITS), // 0x6510:00 Drive data / Drive data highest sub-index
+    Entry::new(0x6510, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1058, NO_LIMITS), // 0x6510:01 Drive data / Controller type
+    Entry::new(0x6510, 0x02, DataType::Unsigned32, RO_TPDO, 4, 1062, NO_LIMITS), // 0x6510:02 Drive data / Software type
+    Entry::new(0x6510, 0x03, DataType::Unsigned32, RO_TPDO, 4, 1066, NO_LIMITS), // 0x6510:03 Drive data / Software ID
+    Entry::new(0x6510, 0x04, DataType::Unsigned32, RO_TPDO, 4, 1070, NO_LIMITS), // 0x6510:04 Drive data / Software version
+    Entry::new(0x6510, 0x05, DataType::Unsigned32, RO_TPDO, 4, 1074, NO_LIMITS), // 0x6510:05 Drive data / Parameter table version
+    Entry::new(0x6510, 0x06, DataType::Unsigned32, RO_TPDO, 4, 1078, NO_LIMITS), // 0x6510:06 Drive data / Amplifier software version
+    Entry::new(0x6510, 0x07, DataType::Unsigned32, RO_TPDO, 4, 1082, NO_LIMITS), // 0x6510:07 Drive data / FPGA version
+    Entry::new(0x6510, 0x08, DataType::Unsigned32, RO_TPDO, 4, 1086, NO_LIMITS), // 0x6510:08 Drive data / Bootloader version
 ];
 
+#[rustfmt::skip]
 static LIMITS: [Limits; 24] = [
-    Limits { low: 0x0, high: 0x1F40 },
-    Limits { low: 0x0, high: 0x8 },
-    Limits { low: 0x1, high: 0x5DC0 },
-    Limits { low: 0x1, high: 0x78 },
-    Limits { low: 0x1, high: 0x3390 },
-    Limits { low: 0x19, high: 0xAFC8 },
-    Limits { low: 0x0, high: 0x1FFF },
-    Limits { low: 0xFFFFFFFFFFFFFF80, high: 0x7F },
-    Limits { low: 0x0, high: 0x3 },
-    Limits { low: 0x14, high: 0x5DC0 },
-    Limits { low: 0x0, high: 0x40000000 },
-    Limits { low: 0xFFFFFFFFC0000000, high: 0x0 },
-    Limits { low: 0x0, high: 0x7FFF },
-    Limits { low: 0x0, high: 0x5000 },
-    Limits { low: 0x0, high: 0xFDE8 },
-    Limits { low: 0x0, high: 0x1000 },
-    Limits { low: 0x1, high: 0xFFFF },
-    Limits { low: 0x1, high: 0x32 },
-    Limits { low: 0x1, high: 0xFFFFFF },
-    Limits { low: 0x0, high: 0xFFFF },
-    Limits { low: 0x0, high: 0xFFFFFF },
-    Limits { low: 0x1, high: 0xFF },
-    Limits { low: 0xFFFFFFFFFFFFFF80, high: 0x3F },
-    Limits { low: 0x0, high: 0x1 },
+    Limits { low: 0x0, high: 0x1F40 }, // 0x1006:00 Communication cycle period
+    Limits { low: 0x0, high: 0x8 }, // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects and 7 more
+    Limits { low: 0x1, high: 0x5DC0 }, // 0x4039:00 P0057 Motor nominal speed
+    Limits { low: 0x1, high: 0x78 }, // 0x4041:00 P0065 Motor pole pair number
+    Limits { low: 0x1, high: 0x3390 }, // 0x425A:00 P0602 Positioning speed 1 and 1 more
+    Limits { low: 0x19, high: 0xAFC8 }, // 0x425B:00 P0603 Positioning acceleration 1 and 3 more
+    Limits { low: 0x0, high: 0x1FFF }, // 0x425D:00 P0605 Positioning bend 0 raw
+    Limits { low: 0xFFFFFFFFFFFFFF80, high: 0x7F }, // 0x43E8:00 P1000 Operation mode set
+    Limits { low: 0x0, high: 0x3 }, // 0x43EB:00 P1003 Stop option code raw and 3 more
+    Limits { low: 0x14, high: 0x5DC0 }, // 0x4407:00 P1031 Maximum speed
+    Limits { low: 0x0, high: 0x40000000 }, // 0x4411:00 P1041 Speed set value upper limit
+    Limits { low: 0xFFFFFFFFC0000000, high: 0x0 }, // 0x4412:00 P1042 Speed set value lower limit
+    Limits { low: 0x0, high: 0x7FFF }, // 0x441B:00 P1051 Position controller Kv factor raw and 1 more
+    Limits { low: 0x0, high: 0x5000 }, // 0x441D:00 P1053 Speed feed forward factor raw
+    Limits { low: 0x0, high: 0xFDE8 }, // 0x4420:00 P1056 Following error time and 4 more
+    Limits { low: 0x0, high: 0x1000 }, // 0x4431:00 P1073 Encoder 1 monitoring lower limit
+    Limits { low: 0x1, high: 0xFFFF }, // 0x44AB:00 P1195 Positioning window time
+    Limits { low: 0x1, high: 0x32 }, // 0x44B2:00 P1202 Homing final speed
+    Limits { low: 0x1, high: 0xFFFFFF }, // 0x4BEA:00 P3050 Position scaling user unit and 1 more
+    Limits { low: 0x0, high: 0xFFFF }, // 0x6080:00 Max motor speed
+    Limits { low: 0x0, high: 0xFFFFFF }, // 0x6092:01 Feed constant / Feed
+    Limits { low: 0x1, high: 0xFF }, // 0x6092:02 Feed constant / Shaft revolutions and 1 more
+    Limits { low: 0xFFFFFFFFFFFFFF80, high: 0x3F }, // 0x60C2:02 Interpolation time period / ip time index
+    Limits { low: 0x0, high: 0x1 }, // 0x60C4:03 Interpolation data configuration / Buffer organisation and 1 more
 ];
 
 static ROM: [u8; ROM_SIZE] = [];
 
+#[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x92, 0x01, 0x02, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x62, 0x20, 0x6D, 0x61, 0x58, 0x58,
-    0x20, 0x34, 0x34, 0x30, 0x30, 0x48, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, 0x53, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x07, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x02,
-    0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x04, 0x15, 0x00, 0x00, 0x00, 0xEA,
-    0x58, 0x05, 0x00, 0x02, 0x00, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x06, 0x00, 0x00, 0x80, 0x05, 0x00, 0x00, 0x02, 0x00,
-    0x02, 0x00, 0x00, 0xFF, 0x02, 0x00, 0x03, 0x00, 0x00, 0xFF, 0x02, 0x00, 0x04, 0x00, 0x00, 0xFF, 0x02, 0x00, 0x05, 0x00, 0x00, 0xFF,
-    0x01, 0x10, 0x00, 0x40, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x10, 0x00, 0x40, 0x60, 0x08, 0x00, 0x60, 0x60, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x02, 0x10, 0x00, 0x40, 0x60, 0x20, 0x00, 0x7A, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x10, 0x00, 0x40, 0x60, 0x20, 0x00, 0xFF, 0x60, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x05, 0x80, 0x01, 0x00, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80, 0x02, 0x00, 0x00, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80,
-    0x03, 0x00, 0x00, 0xFE, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80, 0x04, 0x00, 0x00, 0xFE, 0x00, 0x00, 0x00, 0x00, 0x01, 0x10, 0x00, 0x41,
-    0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x10, 0x00, 0x41, 0x60, 0x08, 0x00, 0x61, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x10, 0x00, 0x41,
-    0x60, 0x20, 0x00, 0x64, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x6C, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x09, 0x00, 0x01, 0x00, 0x19, 0x00,
-    0x19, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x08, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x07, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x14, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01, 0x00, 0x19, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x19, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x01,
-    0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01,
-    0x00, 0x00, 0x00, 0x00, 0x02, 0x02, 0xFD, 0x02, 0x00, 0x00, 0x06, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00,
-    0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1B, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x08, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x92, 0x01, 0x02, 0x02, // 0x1000:00 Device type
+    0x00, // 0x1001:00 Error register
+    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
+    0x00, // 0x1003:00 Pre-defined error field / Number of errors
+    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
+    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
+    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
+    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
+    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
+    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
+    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
+    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
+    0x00, 0x00, 0x00, 0x00, // 0x1003:09 Pre-defined error field / Standard error field 9
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0A Pre-defined error field / Standard error field 10
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0B Pre-defined error field / Standard error field 11
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0C Pre-defined error field / Standard error field 12
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0D Pre-defined error field / Standard error field 13
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0E Pre-defined error field / Standard error field 14
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0F Pre-defined error field / Standard error field 15
+    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC
+    0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
+    0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
+    0x62, 0x20, 0x6D, 0x61, 0x58, 0x58, 0x20, 0x34, 0x34, 0x30, 0x30, // 0x1008:00 Manufacturer device name
+    0x48, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x1009:00 Manufacturer hardware version
+    0x53, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x100A:00 Manufacturer software version
+    0x00, 0x00, 0x00, 0x00, // 0x100B:00 Node-ID
+    0x00, 0x00, // 0x100C:00 Guard time
+    0x00, // 0x100D:00 Life time factor
+    0x00, 0x07, 0x00, 0x00, // 0x100E:00 COB-ID guarding protocol
+    0x01, 0x00, 0x00, 0x00, // 0x100F:00 Number of SDOs supported
+    0x02, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
+    0x02, // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
+    0x00, 0x00, // 0x1015:00 Inhibit time EMCY
+    0x00, 0x00, // 0x1017:00 Producer heartbeat time
+    0x04, // 0x1018:00 Identity object / Identity object highest sub-index
+    0x15, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0xEA, 0x58, 0x05, 0x00, // 0x1018:02 Identity object / Product code
+    0x02, 0x00, 0x03, 0x00, // 0x1018:03 Identity object / Revision number
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x02, // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
+    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
+    0x02, // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
+    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
+    0xFF, // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
+    0x02, // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
+    0x00, 0x03, 0x00, 0x00, // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
+    0xFF, // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
+    0x02, // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
+    0x00, 0x04, 0x00, 0x00, // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
+    0xFF, // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
+    0x02, // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
+    0x00, 0x05, 0x00, 0x00, // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
+    0xFF, // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
+    0x01, // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
+    0x10, 0x00, 0x40, 0x60, // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
+    0x00, 0x00, 0x00, 0x00, // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
+    0x02, // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
+    0x10, 0x00, 0x40, 0x60, // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
+    0x08, 0x00, 0x60, 0x60, // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
+    0x02, // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
+    0x10, 0x00, 0x40, 0x60, // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
+    0x20, 0x00, 0x7A, 0x60, // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
+    0x02, // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
+    0x10, 0x00, 0x40, 0x60, // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
+    0x20, 0x00, 0xFF, 0x60, // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
+    0x05, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    0x80, 0x01, 0x00, 0x00, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    0xFF, // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    0x00, 0x00, // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    0x00, 0x00, // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    0x05, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    0x80, 0x02, 0x00, 0x00, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    0xFF, // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    0x00, 0x00, // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    0x00, 0x00, // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    0x05, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    0x80, 0x03, 0x00, 0x00, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    0xFE, // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    0x00, 0x00, // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    0x00, 0x00, // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    0x05, // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
+    0x80, 0x04, 0x00, 0x00, // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
+    0xFE, // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
+    0x00, 0x00, // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
+    0x00, 0x00, // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
+    0x01, // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    0x10, 0x00, 0x41, 0x60, // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
+    0x02, // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    0x10, 0x00, 0x41, 0x60, // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
+    0x08, 0x00, 0x61, 0x60, // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
+    0x02, // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    0x10, 0x00, 0x41, 0x60, // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
+    0x20, 0x00, 0x64, 0x60, // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
+    0x02, // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
+    0x10, 0x00, 0x41, 0x60, // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
+    0x20, 0x00, 0x6C, 0x60, // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
+    0x01, 0x00, // 0x4039:00 P0057 Motor nominal speed
+    0x01, 0x00, // 0x4041:00 P0065 Motor pole pair number
+    0x00, 0x00, // 0x40E9:00 P0233 Amplifier Hiperface error detail
+    0x00, 0x00, // 0x40EA:00 P0234 Encoder 1 error detail
+    0x00, 0x00, // 0x40EB:00 P0235 Encoder 2 error detail
+    0x00, 0x00, // 0x40F0:00 P0240 Small module A error detail
+    0x00, 0x00, // 0x40F1:00 P0241 Small module B error detail
+    0x00, 0x00, // 0x40F2:00 P0242 Small module C error detail
+    0x00, 0x00, // 0x40F3:00 P0243 Small module D error detail
+    0x00, 0x00, // 0x40F4:00 P0244 Small module F error detail
+    0x00, 0x00, // 0x40F5:00 P0245 Big module G error detail
+    0x00, 0x00, // 0x40F6:00 P0246 Big module H error detail
+    0x00, 0x00, // 0x40F7:00 P0247 Big module J error detail
+    0x00, 0x00, // 0x40F8:00 P0248 Big module K error detail
+    0x00, 0x00, // 0x40F9:00 P0249 Big module L error detail
+    0x00, 0x00, // 0x40FA:00 P0250 Big module M error detail
+    0x00, 0x00, // 0x4106:00 P0262 Amplifier warnings
+    0x00, 0x00, // 0x4107:00 P0263 Motor warnings
+    0x00, 0x00, // 0x412C:00 P0300 Drive control word
+    0x00, 0x00, // 0x412D:00 P0301 Drive status word
+    0x00, 0x00, // 0x4130:00 P0304 Operation mode actual
+    0x00, 0x00, // 0x4158:00 P0344 Torque actual value raw
+    0x00, 0x00, // 0x415F:00 P0351 Ramp function generator output
+    0x00, 0x00, // 0x4160:00 P0352 Speed set value total
+    0x00, 0x00, 0x00, 0x00, // 0x4161:00 P0353 Speed actual value raw
+    0x00, 0x00, // 0x4165:00 P0357 Torque limit direct
+    0x00, 0x00, // 0x4168:00 P0360 Position controller status raw
+    0x00, 0x00, 0x00, 0x00, // 0x416A:00 P0362 Position actual value raw
+    0x00, 0x00, // 0x416B:00 P0363 Position set angle raw
+    0x00, 0x00, // 0x416C:00 P0364 Position set revolutions raw
+    0x00, 0x00, 0x00, 0x00, // 0x416D:00 P0365 Speed feed forward raw
+    0x00, 0x00, 0x00, 0x00, // 0x416F:00 P0367 Position control deviation raw
+    0x00, 0x00, 0x00, 0x00, // 0x4171:00 P0369 Position set value
+    0x00, 0x00, 0x00, 0x00, // 0x4172:00 P0370 Position IP set angle
+    0x00, 0x00, 0x00, 0x00, // 0x4187:00 P0391 Encoder 1 actual angle raw
+    0x00, 0x00, 0x00, 0x00, // 0x4188:00 P0392 Encoder 1 actual revolutions raw
+    0x00, 0x00, // 0x41CC:00 P0460 Positioning status raw
+    0x00, 0x00, // 0x41CD:00 P0461 Digital input output status
+    0x00, 0x00, 0x00, 0x00, // 0x41CE:00 P0462 Positioning actual value
+    0x00, 0x00, 0x00, 0x00, // 0x41CF:00 P0463 Positioning set value
+    0x00, 0x00, // 0x41D0:00 P0464 Positioning speed set value raw
+    0x00, 0x00, // 0x4214:00 P0532 Sync interval
+    0x00, 0x00, 0x00, 0x00, // 0x4258:00 P0600 Positioning target unsigned
+    0x09, 0x00, // 0x4259:00 P0601 Positioning mode
+    0x01, 0x00, // 0x425A:00 P0602 Positioning speed 1
+    0x19, 0x00, // 0x425B:00 P0603 Positioning acceleration 1
+    0x19, 0x00, // 0x425C:00 P0604 Positioning deceleration 1
+    0x00, 0x00, // 0x425D:00 P0605 Positioning bend 0 raw
+    0x00, 0x00, 0x00, 0x00, // 0x425F:00 P0607 Positioning target 1
+    0x00, 0x00, // 0x4260:00 P0608 Positioning target input 1
+    0x08, 0x00, // 0x4320:00 P0800 BACI cycle time factor
+    0x00, 0x00, // 0x4321:00 P0801 BACI process data parameter number 1
+    0x00, 0x00, // 0x4322:00 P0802 BACI process data parameter number 2
+    0x00, 0x00, // 0x4323:00 P0803 BACI process data parameter number 3
+    0x00, 0x00, // 0x4324:00 P0804 BACI process data parameter number 4
+    0x00, 0x00, // 0x4325:00 P0805 BACI process data parameter number 5
+    0x00, 0x00, // 0x4326:00 P0806 BACI process data parameter number 6
+    0x00, 0x00, // 0x4327:00 P0807 BACI process data parameter number 7
+    0x00, 0x00, // 0x4328:00 P0808 BACI process data parameter number 8
+    0x00, 0x00, // 0x4329:00 P0809 BACI process data parameter number 9
+    0x00, 0x00, // 0x432A:00 P0810 BACI process data parameter number 10
+    0x00, 0x00, // 0x432B:00 P0811 BACI process data parameter number 11
+    0x00, 0x00, // 0x432C:00 P0812 BACI process data parameter number 12
+    0x00, 0x00, // 0x432D:00 P0813 BACI process data parameter number 13
+    0x00, 0x00, // 0x432E:00 P0814 BACI process data parameter number 14
+    0x00, 0x00, // 0x432F:00 P0815 BACI process data parameter number 15
+    0x00, 0x00, // 0x4330:00 P0816 BACI process data parameter number 16
+    0x07, 0x00, // 0x4332:00 P0818 BACI cycle offset set values
+    0x00, 0x00, // 0x4333:00 P0819 BACI cycle offset actual values
+    0x00, 0x00, // 0x433E:00 P0830 Option module G configuration 1
+    0x00, 0x00, // 0x4348:00 P0840 Option module H configuration 1
+    0x00, 0x00, // 0x43E8:00 P1000 Operation mode set
+    0x00, 0x00, // 0x43E9:00 P1001 Drive parameter 1001
+    0x00, 0x00, // 0x43EB:00 P1003 Stop option code raw
+    0x00, 0x00, // 0x43EC:00 P1004 Quick stop code raw
+    0x00, 0x00, // 0x43ED:00 P1005 Shutdown code raw
+    0x00, 0x00, // 0x43EE:00 P1006 Disable operation code raw
+    0x00, 0x00, // 0x43EF:00 P1007 Error reaction code raw
+    0x14, 0x00, // 0x4407:00 P1031 Maximum speed
+    0x00, 0x00, 0x00, 0x00, // 0x4411:00 P1041 Speed set value upper limit
+    0x00, 0x00, 0x00, 0x00, // 0x4412:00 P1042 Speed set value lower limit
+    0x00, 0x00, // 0x441A:00 P1050 Position controller mode raw
+    0x00, 0x00, // 0x441B:00 P1051 Position controller Kv factor raw
+    0x00, 0x40, // 0x441D:00 P1053 Speed feed forward factor raw
+    0x00, 0x00, // 0x4420:00 P1056 Following error time
+    0x00, 0x00, // 0x4431:00 P1073 Encoder 1 monitoring lower limit
+    0x00, 0x00, 0x00, 0x00, // 0x4493:00 P1171 Ramp function generator input
+    0x00, 0x00, // 0x4494:00 P1172 Ramp function generator ramp up time
+    0x00, 0x00, // 0x4495:00 P1173 Ramp function generator ramp down time
+    0x00, 0x00, // 0x4496:00 P1174 Ramp function generator stop time
+    0x00, 0x00, // 0x44A6:00 P1190 Positioning mode word
+    0x00, 0x00, // 0x44A7:00 P1191 Positioning actual record number
+    0x00, 0x00, 0x00, 0x00, // 0x44AA:00 P1194 Positioning window
+    0x01, 0x00, // 0x44AB:00 P1195 Positioning window time
+    0x00, 0x00, 0x00, 0x00, // 0x44AC:00 P1196 Software limit switch 1
+    0x00, 0x00, 0x00, 0x00, // 0x44AD:00 P1197 Software limit switch 2
+    0x00, 0x00, 0x00, 0x00, // 0x44AE:00 P1198 Positioning clip environment 1
+    0x00, 0x00, 0x00, 0x00, // 0x44AF:00 P1199 Positioning clip environment 2
+    0x00, 0x00, 0x00, 0x00, // 0x44B0:00 P1200 Positioning home position
+    0x01, 0x00, // 0x44B1:00 P1201 Homing speed
+    0x01, 0x00, // 0x44B2:00 P1202 Homing final speed
+    0x19, 0x00, // 0x44B3:00 P1203 Homing acceleration raw
+    0x00, 0x00, // 0x44B4:00 P1204 Homing deceleration raw
+    0x00, 0x00, // 0x44B5:00 P1205 Homing mode
+    0x00, 0x00, // 0x44B8:00 P1208 Positioning switch mode raw
+    0x00, 0x00, // 0x44B9:00 P1209 Positioning encoder offset raw
+    0x19, 0x00, // 0x44BD:00 P1213 Positioning stop deceleration
+    0x00, 0x00, 0x01, 0x00, // 0x4BEA:00 P3050 Position scaling user unit
+    0x01, 0x00, 0x00, 0x00, // 0x4BEB:00 P3051 Position scaling revolutions
+    0x00, 0x00, // 0x6007:00 Abort connection option code
+    0x00, 0x00, // 0x6040:00 Controlword
+    0x00, 0x00, // 0x6041:00 Statusword
+    0x00, 0x00, // 0x6042:00 vl target velocity
+    0x00, 0x00, // 0x6043:00 vl velocity demand
+    0x00, 0x00, // 0x6044:00 vl control effort
+    0x00, 0x00, // 0x6045:00 vl manipulated velocity
+    0x02, // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    0x00, 0x00, 0x00, 0x00, // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    0x02, // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
+    0x00, 0x00, // 0x6048:02 vl velocity acceleration / vl acceleration delta time
+    0x02, // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
+    0x00, 0x00, // 0x6049:02 vl velocity deceleration / vl deceleration delta time
+    0x02, // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
+    0x01, 0x00, 0x00, 0x00, // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    0x01, 0x00, 0x00, 0x00, // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    0x00, // 0x604D:00 vl pole number
+    0x00, 0x00, 0x00, 0x00, // 0x604F:00 vl ramp function time
+    0x00, 0x00, 0x00, 0x00, // 0x6050:00 vl slow down time
+    0x00, 0x00, 0x00, 0x00, // 0x6051:00 vl quick stop time
+    0x00, 0x00, // 0x605A:00 Quick stop option code
+    0x00, 0x00, // 0x605B:00 Shutdown option code
+    0x00, 0x00, // 0x605C:00 Disable operation option code
+    0x00, 0x00, // 0x605D:00 Halt option code
+    0x00, 0x00, // 0x605E:00 Fault reaction option code
+    0x00, // 0x6060:00 Modes of operation
+    0x00, // 0x6061:00 Modes of operation display
+    0x00, 0x00, 0x00, 0x00, // 0x6062:00 Position demand value
+    0x00, 0x00, 0x00, 0x00, // 0x6063:00 Position actual internal value
+    0x00, 0x00, 0x00, 0x00, // 0x6064:00 Position actual value
+    0x00, 0x00, // 0x6066:00 Following error time out
+    0x00, 0x00, 0x00, 0x00, // 0x6067:00 Position window
+    0x00, 0x00, // 0x6068:00 Position window time
+    0x00, 0x00, 0x00, 0x00, // 0x6069:00 Velocity sensor actual value
+    0x00, 0x00, // 0x606A:00 Sensor selection code
+    0x00, 0x00, 0x00, 0x00, // 0x606B:00 Velocity demand value
+    0x00, 0x00, 0x00, 0x00, // 0x606C:00 Velocity actual value
+    0x00, 0x00, // 0x606F:00 Velocity threshold
+    0x00, 0x00, // 0x6072:00 Max torque
+    0x00, 0x00, // 0x6077:00 Torque actual value
+    0x00, 0x00, 0x00, 0x00, // 0x607A:00 Target position
+    0x00, 0x00, 0x00, 0x00, // 0x607C:00 Home offset
+    0x02, // 0x607D:00 Software position limit / Software position limit highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x607D:01 Software position limit / Min position limit
+    0x00, 0x00, 0x00, 0x00, // 0x607D:02 Software position limit / Max position limit
+    0x00, 0x00, 0x00, 0x00, // 0x607F:00 Max profile velocity
+    0x00, 0x00, 0x00, 0x00, // 0x6080:00 Max motor speed
+    0x00, 0x00, 0x00, 0x00, // 0x6081:00 Profile velocity
+    0x00, 0x00, 0x00, 0x00, // 0x6083:00 Profile acceleration
+    0x00, 0x00, 0x00, 0x00, // 0x6084:00 Profile deceleration
+    0x00, 0x00, 0x00, 0x00, // 0x6085:00 Quick stop deceleration
+    0x00, 0x00, // 0x6086:00 Motion profile type
+    0x02, // 0x6092:00 Feed constant / Feed constant highest sub-index
+    0x00, 0x00, 0x01, 0x00, // 0x6092:01 Feed constant / Feed
+    0x01, 0x00, 0x00, 0x00, // 0x6092:02 Feed constant / Shaft revolutions
+    0x00, // 0x6098:00 Homing method
+    0x02, // 0x6099:00 Homing speeds / Homing speeds highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x6099:01 Homing speeds / Speed during search for switch
+    0x00, 0x00, 0x00, 0x00, // 0x6099:02 Homing speeds / Speed during search for zero
+    0x00, 0x00, 0x00, 0x00, // 0x609A:00 Homing acceleration
+    0x00, 0x00, // 0x60C0:00 Interpolation sub mode select
+    0x01, // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x60C1:01 Interpolation data record / Interpolation data record position
+    0x02, // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
+    0x02, // 0x60C2:01 Interpolation time period / ip time units
+    0xFD, // 0x60C2:02 Interpolation time period / ip time index
+    0x02, // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
+    0x00, // 0x60C3:01 Interpolation sync definition / Synchronize on group
+    0x00, // 0x60C3:02 Interpolation sync definition / ip sync every n event
+    0x06, // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
+    0x01, 0x00, 0x00, 0x00, // 0x60C4:01 Interpolation data configuration / Maximum buffer size
+    0x01, 0x00, 0x00, 0x00, // 0x60C4:02 Interpolation data configuration / Actual buffer size
+    0x00, // 0x60C4:03 Interpolation data configuration / Buffer organisation
+    0x01, 0x00, // 0x60C4:04 Interpolation data configuration / Buffer position
+    0x01, // 0x60C4:05 Interpolation data configuration / Size of data record
+    0x00, // 0x60C4:06 Interpolation data configuration / Buffer clear
+    0x00, 0x00, 0x00, 0x00, // 0x60F8:00 Max slippage
+    0x1B, // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
+    0x00, 0x00, // 0x60FB:01 Position control parameter set / Position controller status
+    0x00, 0x00, // 0x60FB:02 Position control parameter set / Position controller mode
+    0x00, 0x00, // 0x60FB:03 Position control parameter set / Position controller Kv factor
+    0x00, 0x00, // 0x60FB:04 Position control parameter set / Position set revolutions
+    0x00, 0x00, // 0x60FB:05 Position control parameter set / Position set angle
+    0x00, 0x40, // 0x60FB:06 Position control parameter set / Speed feed forward factor
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:07 Position control parameter set / Position control deviation
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:08 Position control parameter set / Position controller actual value
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:0B Position control parameter set / Speed feed forward
+    0x00, 0x00, // 0x60FB:0C Position control parameter set / Positioning status
+    0x00, 0x00, // 0x60FB:0D Position control parameter set / Actual positioning record number
+    0x00, 0x00, // 0x60FB:0E Position control parameter set / Positioning mode bits
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:0F Position control parameter set / Home position
+    0x00, 0x00, // 0x60FB:10 Position control parameter set / Positioning switch mode
+    0x00, 0x00, // 0x60FB:11 Position control parameter set / Positioning speed set value
+    0x00, 0x00, // 0x60FB:12 Position control parameter set / Positioning bend 0
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:13 Position control parameter set / Clip environment 1
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:14 Position control parameter set / Clip environment 2
+    0x00, 0x00, // 0x60FB:15 Position control parameter set / Target input 0
+    0x00, 0x00, // 0x60FB:16 Position control parameter set / Target input 1
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:17 Position control parameter set / IP set angle
+    0x00, 0x00, // 0x60FB:18 Position control parameter set / Positioning encoder offset
+    0x00, 0x00, // 0x60FB:19 Position control parameter set / Homing deceleration
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:1A Position control parameter set / Actual speed normalised
+    0x00, 0x00, // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
+    0x00, 0x00, 0x00, 0x00, // 0x60FD:00 Digital inputs
+    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
+    0x08, // 0x6510:00 Drive data / Drive data highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x6510:01 Drive data / Controller type
+    0x00, 0x00, 0x00, 0x00, // 0x6510:02 Drive data / Software type
+    0x00, 0x00, 0x00, 0x00, // 0x6510:03 Drive data / Software ID
+    0x00, 0x00, 0x00, 0x00, // 0x6510:04 Drive data / Software version
+    0x00, 0x00, 0x00, 0x00, // 0x6510:05 Drive data / Parameter table version
+    0x00, 0x00, 0x00, 0x00, // 0x6510:06 Drive data / Amplifier software version
+    0x00, 0x00, 0x00, 0x00, // 0x6510:07 Drive data / FPGA version
+    0x00, 0x00, 0x00, 0x00, // 0x6510:08 Drive data / Bootloader version
 ];
 
-static NODE_ID_RELATIVE: [u16; 13] = [25, 28, 36, 45, 46, 48, 51, 54, 57, 96, 101, 106, 111];
+#[rustfmt::skip]
+static NODE_ID_RELATIVE: [u16; 13] = [
+    25, // 0x100B:00 Node-ID
+    28, // 0x100E:00 COB-ID guarding protocol
+    36, // 0x1014:00 COB-ID EMCY
+    45, // 0x1200:01 SDO server parameter / COB-ID client to server
+    46, // 0x1200:02 SDO server parameter / COB-ID server to client
+    48, // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
+    51, // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
+    54, // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
+    57, // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
+    96, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    101, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    106, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    111, // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
+];
 
 /// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.
+#[rustfmt::skip]
 pub static NAMES: [&str; ENTRY_COUNT] = [
-    "Device type",
-    "Error register",
-    "Manufacturer status register",
-    "Number of errors",
-    "Standard error field 1",
-    "Standard error field 2",
-    "Standard error field 3",
-    "Standard error field 4",
-    "Standard error field 5",
-    "Standard error field 6",
-    "Standard error field 7",
-    "Standard error field 8",
-    "Standard error field 9",
-    "Standard error field 10",
-    "Standard error field 11",
-    "Standard error field 12",
-    "Standard error field 13",
-    "Standard error field 14",
-    "Standard error field 15",
-    "COB-ID SYNC",
-    "Communication cycle period",
-    "Synchronous window length",
-    "Manufacturer device name",
-    "Manufacturer hardware version",
-    "Manufacturer software version",
-    "Node-ID",
-    "Guard time",
-    "Life time factor",
-    "COB-ID guarding protocol",
-    "Number of SDOs supported",
-    "Store parameters highest sub-index",
-    "Save all parameters",
-    "Save communication parameters",
-    "Restore default parameters highest sub-index",
-    "Restore all default parameters",
-    "Restore communication default parameters",
-    "COB-ID EMCY",
-    "Inhibit time EMCY",
-    "Producer heartbeat time",
-    "Identity object highest sub-index",
-    "Vendor-ID",
-    "Product code",
-    "Revision number",
-    "Serial number",
-    "SDO server highest sub-index",
-    "COB-ID client to server",
-    "COB-ID server to client",
-    "RPDO1 communication highest sub-index",
-    "RPDO1 COB-ID",
-    "RPDO1 transmission type",
-    "RPDO2 communication highest sub-index",
-    "RPDO2 COB-ID",
-    "RPDO2 transmission type",
-    "RPDO3 communication highest sub-index",
-    "RPDO3 COB-ID",
-    "RPDO3 transmission type",
-    "RPDO4 communication highest sub-index",
-    "RPDO4 COB-ID",
-    "RPDO4 transmission type",
-    "RPDO1 number of mapped objects",
-    "RPDO1 mapping entry 1",
-    "RPDO1 mapping entry 2",
-    "RPDO1 mapping entry 3",
-    "RPDO1 mapping entry 4",
-    "RPDO1 mapping entry 5",
-    "RPDO1 mapping entry 6",
-    "RPDO1 mapping entry 7",
-    "RPDO1 mapping entry 8",
-    "RPDO2 number of mapped objects",
-    "RPDO2 mapping entry 1",
-    "RPDO2 mapping entry 2",
-    "RPDO2 mapping entry 3",
-    "RPDO2 mapping entry 4",
-    "RPDO2 mapping entry 5",
-    "RPDO2 mapping entry 6",
-    "RPDO2 mapping entry 7",
-    "RPDO2 mapping entry 8",
-    "RPDO3 number of mapped objects",
-    "RPDO3 mapping entry 1",
-    "RPDO3 mapping entry 2",
-    "RPDO3 mapping entry 3",
-    "RPDO3 mapping entry 4",
-    "RPDO3 mapping entry 5",
-    "RPDO3 mapping entry 6",
-    "RPDO3 mapping entry 7",
-    "RPDO3 mapping entry 8",
-    "RPDO4 number of mapped objects",
-    "RPDO4 mapping entry 1",
-    "RPDO4 mapping entry 2",
-    "RPDO4 mapping entry 3",
-    "RPDO4 mapping entry 4",
-    "RPDO4 mapping entry 5",
-    "RPDO4 mapping entry 6",
-    "RPDO4 mapping entry 7",
-    "RPDO4 mapping entry 8",
-    "TPDO1 communication highest sub-index",
-    "TPDO1 COB-ID",
-    "TPDO1 transmission type",
-    "TPDO1 inhibit time",
-    "TPDO1 event timer",
-    "TPDO2 communication highest sub-index",
-    "TPDO2 COB-ID",
-    "TPDO2 transmission type",
-    "TPDO2 inhibit time",
-    "TPDO2 event timer",
-    "TPDO3 communication highest sub-index",
-    "TPDO3 COB-ID",
-    "TPDO3 transmission type",
-    "TPDO3 inhibit time",
-    "TPDO3 event timer",
-    "TPDO4 communication highest sub-index",
-    "TPDO4 COB-ID",
-    "TPDO4 transmission type",
-    "TPDO4 inhibit time",
-    "TPDO4 event timer",
-    "TPDO1 number of mapped objects",
-    "TPDO1 mapping entry 1",
-    "TPDO1 mapping entry 2",
-    "TPDO1 mapping entry 3",
-    "TPDO1 mapping entry 4",
-    "TPDO1 mapping entry 5",
-    "TPDO1 mapping entry 6",
-    "TPDO1 mapping entry 7",
-    "TPDO1 mapping entry 8",
-    "TPDO2 number of mapped objects",
-    "TPDO2 mapping entry 1",
-    "TPDO2 mapping entry 2",
-    "TPDO2 mapping entry 3",
-    "TPDO2 mapping entry 4",
-    "TPDO2 mapping entry 5",
-    "TPDO2 mapping entry 6",
-    "TPDO2 mapping entry 7",
-    "TPDO2 mapping entry 8",
-    "TPDO3 number of mapped objects",
-    "TPDO3 mapping entry 1",
-    "TPDO3 mapping entry 2",
-    "TPDO3 mapping entry 3",
-    "TPDO3 mapping entry 4",
-    "TPDO3 mapping entry 5",
-    "TPDO3 mapping entry 6",
-    "TPDO3 mapping entry 7",
-    "TPDO3 mapping entry 8",
-    "TPDO4 number of mapped objects",
-    "TPDO4 mapping entry 1",
-    "TPDO4 mapping entry 2",
-    "TPDO4 mapping entry 3",
-    "TPDO4 mapping entry 4",
-    "TPDO4 mapping entry 5",
-    "TPDO4 mapping entry 6",
-    "TPDO4 mapping entry 7",
-    "TPDO4 mapping entry 8",
-    "P0057 Motor nominal speed",
-    "P0065 Motor pole pair number",
-    "P0233 Amplifier Hiperface error detail",
-    "P0234 Encoder 1 error detail",
-    "P0235 Encoder 2 error detail",
-    "P0240 Small module A error detail",
-    "P0241 Small module B error detail",
-    "P0242 Small module C error detail",
-    "P0243 Small module D error detail",
-    "P0244 Small module F error detail",
-    "P0245 Big module G error detail",
-    "P0246 Big module H error detail",
-    "P0247 Big module J error detail",
-    "P0248 Big module K error detail",
-    "P0249 Big module L error detail",
-    "P0250 Big module M error detail",
-    "P0262 Amplifier warnings",
-    "P0263 Motor warnings",
-    "P0300 Drive control word",
-    "P0301 Drive status word",
-    "P0304 Operation mode actual",
-    "P0344 Torque actual value raw",
-    "P0351 Ramp function generator output",
-    "P0352 Speed set value total",
-    "P0353 Speed actual value raw",
-    "P0357 Torque limit direct",
-    "P0360 Position controller status raw",
-    "P0362 Position actual value raw",
-    "P0363 Position set angle raw",
-    "P0364 Position set revolutions raw",
-    "P0365 Speed feed forward raw",
-    "P0367 Position control deviation raw",
-    "P0369 Position set value",
-    "P0370 Position IP set angle",
-    "P0391 Encoder 1 actual angle raw",
-    "P0392 Encoder 1 actual revolutions raw",
-    "P0460 Positioning status raw",
-    "P0461 Digital input output status",
-    "P0462 Positioning actual value",
-    "P0463 Positioning set value",
-    "P0464 Positioning speed set value raw",
-    "P0532 Sync interval",
-    "P0600 Positioning target unsigned",
-    "P0601 Positioning mode",
-    "P0602 Positioning speed 1",
-    "P0603 Positioning acceleration 1",
-    "P0604 Positioning deceleration 1",
-    "P0605 Positioning bend 0 raw",
-    "P0607 Positioning target 1",
-    "P0608 Positioning target input 1",
-    "P0800 BACI cycle time factor",
-    "P0801 BACI process data parameter number 1",
-    "P0802 BACI process data parameter number 2",
-    "P0803 BACI process data parameter number 3",
-    "P0804 BACI process data parameter number 4",
-    "P0805 BACI process data parameter number 5",
-    "P0806 BACI process data parameter number 6",
-    "P0807 BACI process data parameter number 7",
-    "P0808 BACI process data parameter number 8",
-    "P0809 BACI process data parameter number 9",
-    "P0810 BACI process data parameter number 10",
-    "P0811 BACI process data parameter number 11",
-    "P0812 BACI process data parameter number 12",
-    "P0813 BACI process data parameter number 13",
-    "P0814 BACI process data parameter number 14",
-    "P0815 BACI process data parameter number 15",
-    "P0816 BACI process data parameter number 16",
-    "P0818 BACI cycle offset set values",
-    "P0819 BACI cycle offset actual values",
-    "P0830 Option module G configuration 1",
-    "P0840 Option module H configuration 1",
-    "P1000 Operation mode set",
-    "P1001 Drive parameter 1001",
-    "P1003 Stop option code raw",
-    "P1004 Quick stop code raw",
-    "P1005 Shutdown code raw",
-    "P1006 Disable operation code raw",
-    "P1007 Error reaction code raw",
-    "P1031 Maximum speed",
-    "P1041 Speed set value upper limit",
-    "P1042 Speed set value lower limit",
-    "P1050 Position controller mode raw",
-    "P1051 Position controller Kv factor raw",
-    "P1053 Speed feed forward factor raw",
-    "P1056 Following error time",
-    "P1073 Encoder 1 monitoring lower limit",
-    "P1171 Ramp function generator input",
-    "P1172 Ramp function generator ramp up time",
-    "P1173 Ramp function generator ramp down time",
-    "P1174 Ramp function generator stop time",
-    "P1190 Positioning mode word",
-    "P1191 Positioning actual record number",
-    "P1194 Positioning window",
-    "P1195 Positioning window time",
-    "P1196 Software limit switch 1",
-    "P1197 Software limit switch 2",
-    "P1198 Positioning clip environment 1",
-    "P1199 Positioning clip environment 2",
-    "P1200 Positioning home position",
-    "P1201 Homing speed",
-    "P1202 Homing final speed",
-    "P1203 Homing acceleration raw",
-    "P1204 Homing deceleration raw",
-    "P1205 Homing mode",
-    "P1208 Positioning switch mode raw",
-    "P1209 Positioning encoder offset raw",
-    "P1213 Positioning stop deceleration",
-    "P3050 Position scaling user unit",
-    "P3051 Position scaling revolutions",
-    "Abort connection option code",
-    "Controlword",
-    "Statusword",
-    "vl target velocity",
-    "vl velocity demand",
-    "vl control effort",
-    "vl manipulated velocity",
-    "vl velocity min max amount highest sub-index",
-    "vl velocity min amount",
-    "vl velocity max amount",
-    "vl velocity acceleration highest sub-index",
-    "vl acceleration delta speed",
-    "vl acceleration delta time",
-    "vl velocity deceleration highest sub-index",
-    "vl deceleration delta speed",
-    "vl deceleration delta time",
-    "vl dimension factor highest sub-index",
-    "vl dimension factor numerator",
-    "vl dimension factor denominator",
-    "vl pole number",
-    "vl ramp function time",
-    "vl slow down time",
-    "vl quick stop time",
-    "Quick stop option code",
-    "Shutdown option code",
-    "Disable operation option code",
-    "Halt option code",
-    "Fault reaction option code",
-    "Modes of operation",
-    "Modes of operation display",
-    "Position demand value",
-    "Position actual internal value",
-    "Position actual value",
-    "Following error time out",
-    "Position window",
-    "Position window time",
-    "Velocity sensor actual value",
-    "Sensor selection code",
-    "Velocity demand value",
-    "Velocity actual value",
-    "Velocity threshold",
-    "Max torque",
-    "Torque actual value",
-    "Target position",
-    "Home offset",
-    "Software position limit highest sub-index",
-    "Min position limit",
-    "Max position limit",
-    "Max profile velocity",
-    "Max motor speed",
-    "Profile velocity",
-    "Profile acceleration",
-    "Profile deceleration",
-    "Quick stop deceleration",
-    "Motion profile type",
-    "Feed constant highest sub-index",
-    "Feed",
-    "Shaft revolutions",
-    "Homing method",
-    "Homing speeds highest sub-index",
-    "Speed during search for switch",
-    "Speed during search for zero",
-    "Homing acceleration",
-    "Interpolation sub mode select",
-    "Interpolation data record highest sub-index",
-    "Interpolation data record position",
-    "Interpolation time period highest sub-index",
-    "ip time units",
-    "ip time index",
-    "Interpolation sync definition highest sub-index",
-    "Synchronize on group",
-    "ip sync every n event",
-    "Interpolation data configuration highest sub-index",
-    "Maximum buffer size",
-    "Actual buffer size",
-    "Buffer organisation",
-    "Buffer position",
-    "Size of data record",
-    "Buffer clear",
-    "Max slippage",
-    "Position control parameter set highest sub-index",
-    "Position controller status",
-    "Position controller mode",
-    "Position controller Kv factor",
-    "Position set revolutions",
-    "Position set angle",
-    "Speed feed forward factor",
-    "Position control deviation",
-    "Position controller actual value",
-    "Encoder 1 actual revolutions",
-    "Encoder 1 actual angle",
-    "Speed feed forward",
-    "Positioning status",
-    "Actual positioning record number",
-    "Positioning mode bits",
-    "Home position",
-    "Positioning switch mode",
-    "Positioning speed set value",
-    "Positioning bend 0",
-    "Clip environment 1",
-    "Clip environment 2",
-    "Target input 0",
-    "Target input 1",
-    "IP set angle",
-    "Positioning encoder offset",
-    "Homing deceleration",
-    "Actual speed normalised",
-    "Amplifier and motor warnings",
-    "Digital inputs",
-    "Target velocity",
-    "Drive data highest sub-index",
-    "Controller type",
-    "Software type",
-    "Software ID",
-    "Software version",
-    "Parameter table version",
-    "Amplifier software version",
-    "FPGA version",
-    "Bootloader version",
+    "Device type", // 0x1000:00
+    "Error register", // 0x1001:00
+    "Manufacturer status register", // 0x1002:00
+    "Number of errors", // 0x1003:00
+    "Standard error field 1", // 0x1003:01
+    "Standard error field 2", // 0x1003:02
+    "Standard error field 3", // 0x1003:03
+    "Standard error field 4", // 0x1003:04
+    "Standard error field 5", // 0x1003:05
+    "Standard error field 6", // 0x1003:06
+    "Standard error field 7", // 0x1003:07
+    "Standard error field 8", // 0x1003:08
+    "Standard error field 9", // 0x1003:09
+    "Standard error field 10", // 0x1003:0A
+    "Standard error field 11", // 0x1003:0B
+    "Standard error field 12", // 0x1003:0C
+    "Standard error field 13", // 0x1003:0D
+    "Standard error field 14", // 0x1003:0E
+    "Standard error field 15", // 0x1003:0F
+    "COB-ID SYNC", // 0x1005:00
+    "Communication cycle period", // 0x1006:00
+    "Synchronous window length", // 0x1007:00
+    "Manufacturer device name", // 0x1008:00
+    "Manufacturer hardware version", // 0x1009:00
+    "Manufacturer software version", // 0x100A:00
+    "Node-ID", // 0x100B:00
+    "Guard time", // 0x100C:00
+    "Life time factor", // 0x100D:00
+    "COB-ID guarding protocol", // 0x100E:00
+    "Number of SDOs supported", // 0x100F:00
+    "Store parameters highest sub-index", // 0x1010:00
+    "Save all parameters", // 0x1010:01
+    "Save communication parameters", // 0x1010:02
+    "Restore default parameters highest sub-index", // 0x1011:00
+    "Restore all default parameters", // 0x1011:01
+    "Restore communication default parameters", // 0x1011:02
+    "COB-ID EMCY", // 0x1014:00
+    "Inhibit time EMCY", // 0x1015:00
+    "Producer heartbeat time", // 0x1017:00
+    "Identity object highest sub-index", // 0x1018:00
+    "Vendor-ID", // 0x1018:01
+    "Product code", // 0x1018:02
+    "Revision number", // 0x1018:03
+    "Serial number", // 0x1018:04
+    "SDO server highest sub-index", // 0x1200:00
+    "COB-ID client to server", // 0x1200:01
+    "COB-ID server to client", // 0x1200:02
+    "RPDO1 communication highest sub-index", // 0x1400:00
+    "RPDO1 COB-ID", // 0x1400:01
+    "RPDO1 transmission type", // 0x1400:02
+    "RPDO2 communication highest sub-index", // 0x1401:00
+    "RPDO2 COB-ID", // 0x1401:01
+    "RPDO2 transmission type", // 0x1401:02
+    "RPDO3 communication highest sub-index", // 0x1402:00
+    "RPDO3 COB-ID", // 0x1402:01
+    "RPDO3 transmission type", // 0x1402:02
+    "RPDO4 communication highest sub-index", // 0x1403:00
+    "RPDO4 COB-ID", // 0x1403:01
+    "RPDO4 transmission type", // 0x1403:02
+    "RPDO1 number of mapped objects", // 0x1600:00
+    "RPDO1 mapping entry 1", // 0x1600:01
+    "RPDO1 mapping entry 2", // 0x1600:02
+    "RPDO1 mapping entry 3", // 0x1600:03
+    "RPDO1 mapping entry 4", // 0x1600:04
+    "RPDO1 mapping entry 5", // 0x1600:05
+    "RPDO1 mapping entry 6", // 0x1600:06
+    "RPDO1 mapping entry 7", // 0x1600:07
+    "RPDO1 mapping entry 8", // 0x1600:08
+    "RPDO2 number of mapped objects", // 0x1601:00
+    "RPDO2 mapping entry 1", // 0x1601:01
+    "RPDO2 mapping entry 2", // 0x1601:02
+    "RPDO2 mapping entry 3", // 0x1601:03
+    "RPDO2 mapping entry 4", // 0x1601:04
+    "RPDO2 mapping entry 5", // 0x1601:05
+    "RPDO2 mapping entry 6", // 0x1601:06
+    "RPDO2 mapping entry 7", // 0x1601:07
+    "RPDO2 mapping entry 8", // 0x1601:08
+    "RPDO3 number of mapped objects", // 0x1602:00
+    "RPDO3 mapping entry 1", // 0x1602:01
+    "RPDO3 mapping entry 2", // 0x1602:02
+    "RPDO3 mapping entry 3", // 0x1602:03
+    "RPDO3 mapping entry 4", // 0x1602:04
+    "RPDO3 mapping entry 5", // 0x1602:05
+    "RPDO3 mapping entry 6", // 0x1602:06
+    "RPDO3 mapping entry 7", // 0x1602:07
+    "RPDO3 mapping entry 8", // 0x1602:08
+    "RPDO4 number of mapped objects", // 0x1603:00
+    "RPDO4 mapping entry 1", // 0x1603:01
+    "RPDO4 mapping entry 2", // 0x1603:02
+    "RPDO4 mapping entry 3", // 0x1603:03
+    "RPDO4 mapping entry 4", // 0x1603:04
+    "RPDO4 mapping entry 5", // 0x1603:05
+    "RPDO4 mapping entry 6", // 0x1603:06
+    "RPDO4 mapping entry 7", // 0x1603:07
+    "RPDO4 mapping entry 8", // 0x1603:08
+    "TPDO1 communication highest sub-index", // 0x1800:00
+    "TPDO1 COB-ID", // 0x1800:01
+    "TPDO1 transmission type", // 0x1800:02
+    "TPDO1 inhibit time", // 0x1800:03
+    "TPDO1 event timer", // 0x1800:05
+    "TPDO2 communication highest sub-index", // 0x1801:00
+    "TPDO2 COB-ID", // 0x1801:01
+    "TPDO2 transmission type", // 0x1801:02
+    "TPDO2 inhibit time", // 0x1801:03
+    "TPDO2 event timer", // 0x1801:05
+    "TPDO3 communication highest sub-index", // 0x1802:00
+    "TPDO3 COB-ID", // 0x1802:01
+    "TPDO3 transmission type", // 0x1802:02
+    "TPDO3 inhibit time", // 0x1802:03
+    "TPDO3 event timer", // 0x1802:05
+    "TPDO4 communication highest sub-index", // 0x1803:00
+    "TPDO4 COB-ID", // 0x1803:01
+    "TPDO4 transmission type", // 0x1803:02
+    "TPDO4 inhibit time", // 0x1803:03
+    "TPDO4 event timer", // 0x1803:05
+    "TPDO1 number of mapped objects", // 0x1A00:00
+    "TPDO1 mapping entry 1", // 0x1A00:01
+    "TPDO1 mapping entry 2", // 0x1A00:02
+    "TPDO1 mapping entry 3", // 0x1A00:03
+    "TPDO1 mapping entry 4", // 0x1A00:04
+    "TPDO1 mapping entry 5", // 0x1A00:05
+    "TPDO1 mapping entry 6", // 0x1A00:06
+    "TPDO1 mapping entry 7", // 0x1A00:07
+    "TPDO1 mapping entry 8", // 0x1A00:08
+    "TPDO2 number of mapped objects", // 0x1A01:00
+    "TPDO2 mapping entry 1", // 0x1A01:01
+    "TPDO2 mapping entry 2", // 0x1A01:02
+    "TPDO2 mapping entry 3", // 0x1A01:03
+    "TPDO2 mapping entry 4", // 0x1A01:04
+    "TPDO2 mapping entry 5", // 0x1A01:05
+    "TPDO2 mapping entry 6", // 0x1A01:06
+    "TPDO2 mapping entry 7", // 0x1A01:07
+    "TPDO2 mapping entry 8", // 0x1A01:08
+    "TPDO3 number of mapped objects", // 0x1A02:00
+    "TPDO3 mapping entry 1", // 0x1A02:01
+    "TPDO3 mapping entry 2", // 0x1A02:02
+    "TPDO3 mapping entry 3", // 0x1A02:03
+    "TPDO3 mapping entry 4", // 0x1A02:04
+    "TPDO3 mapping entry 5", // 0x1A02:05
+    "TPDO3 mapping entry 6", // 0x1A02:06
+    "TPDO3 mapping entry 7", // 0x1A02:07
+    "TPDO3 mapping entry 8", // 0x1A02:08
+    "TPDO4 number of mapped objects", // 0x1A03:00
+    "TPDO4 mapping entry 1", // 0x1A03:01
+    "TPDO4 mapping entry 2", // 0x1A03:02
+    "TPDO4 mapping entry 3", // 0x1A03:03
+    "TPDO4 mapping entry 4", // 0x1A03:04
+    "TPDO4 mapping entry 5", // 0x1A03:05
+    "TPDO4 mapping entry 6", // 0x1A03:06
+    "TPDO4 mapping entry 7", // 0x1A03:07
+    "TPDO4 mapping entry 8", // 0x1A03:08
+    "P0057 Motor nominal speed", // 0x4039:00
+    "P0065 Motor pole pair number", // 0x4041:00
+    "P0233 Amplifier Hiperface error detail", // 0x40E9:00
+    "P0234 Encoder 1 error detail", // 0x40EA:00
+    "P0235 Encoder 2 error detail", // 0x40EB:00
+    "P0240 Small module A error detail", // 0x40F0:00
+    "P0241 Small module B error detail", // 0x40F1:00
+    "P0242 Small module C error detail", // 0x40F2:00
+    "P0243 Small module D error detail", // 0x40F3:00
+    "P0244 Small module F error detail", // 0x40F4:00
+    "P0245 Big module G error detail", // 0x40F5:00
+    "P0246 Big module H error detail", // 0x40F6:00
+    "P0247 Big module J error detail", // 0x40F7:00
+    "P0248 Big module K error detail", // 0x40F8:00
+    "P0249 Big module L error detail", // 0x40F9:00
+    "P0250 Big module M error detail", // 0x40FA:00
+    "P0262 Amplifier warnings", // 0x4106:00
+    "P0263 Motor warnings", // 0x4107:00
+    "P0300 Drive control word", // 0x412C:00
+    "P0301 Drive status word", // 0x412D:00
+    "P0304 Operation mode actual", // 0x4130:00
+    "P0344 Torque actual value raw", // 0x4158:00
+    "P0351 Ramp function generator output", // 0x415F:00
+    "P0352 Speed set value total", // 0x4160:00
+    "P0353 Speed actual value raw", // 0x4161:00
+    "P0357 Torque limit direct", // 0x4165:00
+    "P0360 Position controller status raw", // 0x4168:00
+    "P0362 Position actual value raw", // 0x416A:00
+    "P0363 Position set angle raw", // 0x416B:00
+    "P0364 Position set revolutions raw", // 0x416C:00
+    "P0365 Speed feed forward raw", // 0x416D:00
+    "P0367 Position control deviation raw", // 0x416F:00
+    "P0369 Position set value", // 0x4171:00
+    "P0370 Position IP set angle", // 0x4172:00
+    "P0391 Encoder 1 actual angle raw", // 0x4187:00
+    "P0392 Encoder 1 actual revolutions raw", // 0x4188:00
+    "P0460 Positioning status raw", // 0x41CC:00
+    "P0461 Digital input output status", // 0x41CD:00
+    "P0462 Positioning actual value", // 0x41CE:00
+    "P0463 Positioning set value", // 0x41CF:00
+    "P0464 Positioning speed set value raw", // 0x41D0:00
+    "P0532 Sync interval", // 0x4214:00
+    "P0600 Positioning target unsigned", // 0x4258:00
+    "P0601 Positioning mode", // 0x4259:00
+    "P0602 Positioning speed 1", // 0x425A:00
+    "P0603 Positioning acceleration 1", // 0x425B:00
+    "P0604 Positioning deceleration 1", // 0x425C:00
+    "P0605 Positioning bend 0 raw", // 0x425D:00
+    "P0607 Positioning target 1", // 0x425F:00
+    "P0608 Positioning target input 1", // 0x4260:00
+    "P0800 BACI cycle time factor", // 0x4320:00
+    "P0801 BACI process data parameter number 1", // 0x4321:00
+    "P0802 BACI process data parameter number 2", // 0x4322:00
+    "P0803 BACI process data parameter number 3", // 0x4323:00
+    "P0804 BACI process data parameter number 4", // 0x4324:00
+    "P0805 BACI process data parameter number 5", // 0x4325:00
+    "P0806 BACI process data parameter number 6", // 0x4326:00
+    "P0807 BACI process data parameter number 7", // 0x4327:00
+    "P0808 BACI process data parameter number 8", // 0x4328:00
+    "P0809 BACI process data parameter number 9", // 0x4329:00
+    "P0810 BACI process data parameter number 10", // 0x432A:00
+    "P0811 BACI process data parameter number 11", // 0x432B:00
+    "P0812 BACI process data parameter number 12", // 0x432C:00
+    "P0813 BACI process data parameter number 13", // 0x432D:00
+    "P0814 BACI process data parameter number 14", // 0x432E:00
+    "P0815 BACI process data parameter number 15", // 0x432F:00
+    "P0816 BACI process data parameter number 16", // 0x4330:00
+    "P0818 BACI cycle offset set values", // 0x4332:00
+    "P0819 BACI cycle offset actual values", // 0x4333:00
+    "P0830 Option module G configuration 1", // 0x433E:00
+    "P0840 Option module H configuration 1", // 0x4348:00
+    "P1000 Operation mode set", // 0x43E8:00
+    "P1001 Drive parameter 1001", // 0x43E9:00
+    "P1003 Stop option code raw", // 0x43EB:00
+    "P1004 Quick stop code raw", // 0x43EC:00
+    "P1005 Shutdown code raw", // 0x43ED:00
+    "P1006 Disable operation code raw", // 0x43EE:00
+    "P1007 Error reaction code raw", // 0x43EF:00
+    "P1031 Maximum speed", // 0x4407:00
+    "P1041 Speed set value upper limit", // 0x4411:00
+    "P1042 Speed set value lower limit", // 0x4412:00
+    "P1050 Position controller mode raw", // 0x441A:00
+    "P1051 Position controller Kv factor raw", // 0x441B:00
+    "P1053 Speed feed forward factor raw", // 0x441D:00
+    "P1056 Following error time", // 0x4420:00
+    "P1073 Encoder 1 monitoring lower limit", // 0x4431:00
+    "P1171 Ramp function generator input", // 0x4493:00
+    "P1172 Ramp function generator ramp up time", // 0x4494:00
+    "P1173 Ramp function generator ramp down time", // 0x4495:00
+    "P1174 Ramp function generator stop time", // 0x4496:00
+    "P1190 Positioning mode word", // 0x44A6:00
+    "P1191 Positioning actual record number", // 0x44A7:00
+    "P1194 Positioning window", // 0x44AA:00
+    "P1195 Positioning window time", // 0x44AB:00
+    "P1196 Software limit switch 1", // 0x44AC:00
+    "P1197 Software limit switch 2", // 0x44AD:00
+    "P1198 Positioning clip environment 1", // 0x44AE:00
+    "P1199 Positioning clip environment 2", // 0x44AF:00
+    "P1200 Positioning home position", // 0x44B0:00
+    "P1201 Homing speed", // 0x44B1:00
+    "P1202 Homing final speed", // 0x44B2:00
+    "P1203 Homing acceleration raw", // 0x44B3:00
+    "P1204 Homing deceleration raw", // 0x44B4:00
+    "P1205 Homing mode", // 0x44B5:00
+    "P1208 Positioning switch mode raw", // 0x44B8:00
+    "P1209 Positioning encoder offset raw", // 0x44B9:00
+    "P1213 Positioning stop deceleration", // 0x44BD:00
+    "P3050 Position scaling user unit", // 0x4BEA:00
+    "P3051 Position scaling revolutions", // 0x4BEB:00
+    "Abort connection option code", // 0x6007:00
+    "Controlword", // 0x6040:00
+    "Statusword", // 0x6041:00
+    "vl target velocity", // 0x6042:00
+    "vl velocity demand", // 0x6043:00
+    "vl control effort", // 0x6044:00
+    "vl manipulated velocity", // 0x6045:00
+    "vl velocity min max amount highest sub-index", // 0x6046:00
+    "vl velocity min amount", // 0x6046:01
+    "vl velocity max amount", // 0x6046:02
+    "vl velocity acceleration highest sub-index", // 0x6048:00
+    "vl acceleration delta speed", // 0x6048:01
+    "vl acceleration delta time", // 0x6048:02
+    "vl velocity deceleration highest sub-index", // 0x6049:00
+    "vl deceleration delta speed", // 0x6049:01
+    "vl deceleration delta time", // 0x6049:02
+    "vl dimension factor highest sub-index", // 0x604C:00
+    "vl dimension factor numerator", // 0x604C:01
+    "vl dimension factor denominator", // 0x604C:02
+    "vl pole number", // 0x604D:00
+    "vl ramp function time", // 0x604F:00
+    "vl slow down time", // 0x6050:00
+    "vl quick stop time", // 0x6051:00
+    "Quick stop option code", // 0x605A:00
+    "Shutdown option code", // 0x605B:00
+    "Disable operation option code", // 0x605C:00
+    "Halt option code", // 0x605D:00
+    "Fault reaction option code", // 0x605E:00
+    "Modes of operation", // 0x6060:00
+    "Modes of operation display", // 0x6061:00
+    "Position demand value", // 0x6062:00
+    "Position actual internal value", // 0x6063:00
+    "Position actual value", // 0x6064:00
+    "Following error time out", // 0x6066:00
+    "Position window", // 0x6067:00
+    "Position window time", // 0x6068:00
+    "Velocity sensor actual value", // 0x6069:00
+    "Sensor selection code", // 0x606A:00
+    "Velocity demand value", // 0x606B:00
+    "Velocity actual value", // 0x606C:00
+    "Velocity threshold", // 0x606F:00
+    "Max torque", // 0x6072:00
+    "Torque actual value", // 0x6077:00
+    "Target position", // 0x607A:00
+    "Home offset", // 0x607C:00
+    "Software position limit highest sub-index", // 0x607D:00
+    "Min position limit", // 0x607D:01
+    "Max position limit", // 0x607D:02
+    "Max profile velocity", // 0x607F:00
+    "Max motor speed", // 0x6080:00
+    "Profile velocity", // 0x6081:00
+    "Profile acceleration", // 0x6083:00
+    "Profile deceleration", // 0x6084:00
+    "Quick stop deceleration", // 0x6085:00
+    "Motion profile type", // 0x6086:00
+    "Feed constant highest sub-index", // 0x6092:00
+    "Feed", // 0x6092:01
+    "Shaft revolutions", // 0x6092:02
+    "Homing method", // 0x6098:00
+    "Homing speeds highest sub-index", // 0x6099:00
+    "Speed during search for switch", // 0x6099:01
+    "Speed during search for zero", // 0x6099:02
+    "Homing acceleration", // 0x609A:00
+    "Interpolation sub mode select", // 0x60C0:00
+    "Interpolation data record highest sub-index", // 0x60C1:00
+    "Interpolation data record position", // 0x60C1:01
+    "Interpolation time period highest sub-index", // 0x60C2:00
+    "ip time units", // 0x60C2:01
+    "ip time index", // 0x60C2:02
+    "Interpolation sync definition highest sub-index", // 0x60C3:00
+    "Synchronize on group", // 0x60C3:01
+    "ip sync every n event", // 0x60C3:02
+    "Interpolation data configuration highest sub-index", // 0x60C4:00
+    "Maximum buffer size", // 0x60C4:01
+    "Actual buffer size", // 0x60C4:02
+    "Buffer organisation", // 0x60C4:03
+    "Buffer position", // 0x60C4:04
+    "Size of data record", // 0x60C4:05
+    "Buffer clear", // 0x60C4:06
+    "Max slippage", // 0x60F8:00
+    "Position control parameter set highest sub-index", // 0x60FB:00
+    "Position controller status", // 0x60FB:01
+    "Position controller mode", // 0x60FB:02
+    "Position controller Kv factor", // 0x60FB:03
+    "Position set revolutions", // 0x60FB:04
+    "Position set angle", // 0x60FB:05
+    "Speed feed forward factor", // 0x60FB:06
+    "Position control deviation", // 0x60FB:07
+    "Position controller actual value", // 0x60FB:08
+    "Encoder 1 actual revolutions", // 0x60FB:09
+    "Encoder 1 actual angle", // 0x60FB:0A
+    "Speed feed forward", // 0x60FB:0B
+    "Positioning status", // 0x60FB:0C
+    "Actual positioning record number", // 0x60FB:0D
+    "Positioning mode bits", // 0x60FB:0E
+    "Home position", // 0x60FB:0F
+    "Positioning switch mode", // 0x60FB:10
+    "Positioning speed set value", // 0x60FB:11
+    "Positioning bend 0", // 0x60FB:12
+    "Clip environment 1", // 0x60FB:13
+    "Clip environment 2", // 0x60FB:14
+    "Target input 0", // 0x60FB:15
+    "Target input 1", // 0x60FB:16
+    "IP set angle", // 0x60FB:17
+    "Positioning encoder offset", // 0x60FB:18
+    "Homing deceleration", // 0x60FB:19
+    "Actual speed normalised", // 0x60FB:1A
+    "Amplifier and motor warnings", // 0x60FB:1B
+    "Digital inputs", // 0x60FD:00
+    "Target velocity", // 0x60FF:00
+    "Drive data highest sub-index", // 0x6510:00
+    "Controller type", // 0x6510:01
+    "Software type", // 0x6510:02
+    "Software ID", // 0x6510:03
+    "Software version", // 0x6510:04
+    "Parameter table version", // 0x6510:05
+    "Amplifier software version", // 0x6510:06
+    "FPGA version", // 0x6510:07
+    "Bootloader version", // 0x6510:08
 ];
 
 /// The flash half of the dictionary.
@@ -1399,12 +1747,12 @@ impl Ram {
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (bmaxx4400.eds:347, UNSIGNED8 rw)
-    pub fn pre_defined_error_field_sub0(&self) -> u8 {
+    pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 9))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
-    pub fn set_pre_defined_error_field_sub0(&mut self, v: u8) {
+    pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 9, v.to_le_bytes());
     }
 
@@ -1538,12 +1886,12 @@ impl Ram {
     }
 
     /// 0x1010 sub 0 Store parameters / Store parameters highest sub-index (bmaxx4400.eds:570, UNSIGNED8 ro)
-    pub fn store_parameters_sub0(&self) -> u8 {
+    pub fn store_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 122))
     }
 
     /// Sets 0x1010 sub 0 Store parameters / Store parameters highest sub-index.
-    pub fn set_store_parameters_sub0(&mut self, v: u8) {
+    pub fn set_store_parameters_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 122, v.to_le_bytes());
     }
 
@@ -1567,12 +1915,12 @@ impl Ram {
     }
 
     /// 0x1011 sub 0 Restore default parameters / Restore default parameters highest sub-index (bmaxx4400.eds:599, UNSIGNED8 ro)
-    pub fn restore_default_parameters_sub0(&self) -> u8 {
+    pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 131))
     }
 
     /// Sets 0x1011 sub 0 Restore default parameters / Restore default parameters highest sub-index.
-    pub fn set_restore_default_parameters_sub0(&mut self, v: u8) {
+    pub fn set_restore_default_parameters_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 131, v.to_le_bytes());
     }
 
@@ -1626,12 +1974,12 @@ impl Ram {
     }
 
     /// 0x1018 sub 0 Identity object / Identity object highest sub-index (bmaxx4400.eds:294, UNSIGNED8 ro)
-    pub fn identity_object_identity_object_highest_sub_index(&self) -> u8 {
+    pub fn identity_object_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 148))
     }
 
     /// Sets 0x1018 sub 0 Identity object / Identity object highest sub-index.
-    pub fn set_identity_object_identity_object_highest_sub_index(&mut self, v: u8) {
+    pub fn set_identity_object_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 148, v.to_le_bytes());
     }
 
@@ -1676,12 +2024,12 @@ impl Ram {
     }
 
     /// 0x1200 sub 0 SDO server parameter / SDO server highest sub-index (bmaxx4400.eds:652, UNSIGNED8 ro)
-    pub fn sdo_server_parameter_sdo_server_highest_sub_index(&self) -> u8 {
+    pub fn sdo_server_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 165))
     }
 
     /// Sets 0x1200 sub 0 SDO server parameter / SDO server highest sub-index.
-    pub fn set_sdo_server_parameter_sdo_server_highest_sub_index(&mut self, v: u8) {
+    pub fn set_sdo_server_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 165, v.to_le_bytes());
     }
 
@@ -1706,1042 +2054,1042 @@ impl Ram {
     }
 
     /// 0x1400 sub 0 RPDO1 communication parameter / RPDO1 communication highest sub-index (bmaxx4400.eds:681, UNSIGNED8 ro)
-    pub fn rpdo1_communication_parameter_rpdo1_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 174))
     }
 
     /// Sets 0x1400 sub 0 RPDO1 communication parameter / RPDO1 communication highest sub-index.
-    pub fn set_rpdo1_communication_parameter_rpdo1_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_rpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 174, v.to_le_bytes());
     }
 
     /// 0x1400 sub 1 RPDO1 communication parameter / RPDO1 COB-ID (bmaxx4400.eds:689, UNSIGNED32 rw, $NODEID-relative)
-    pub fn rpdo1_communication_parameter_rpdo1_cob_id(&self) -> u32 {
+    pub fn rpdo1_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 175))
     }
 
     /// Sets 0x1400 sub 1 RPDO1 communication parameter / RPDO1 COB-ID.
-    pub fn set_rpdo1_communication_parameter_rpdo1_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo1_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 175, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO1 communication parameter / RPDO1 transmission type (bmaxx4400.eds:697, UNSIGNED8 rw)
-    pub fn rpdo1_communication_parameter_rpdo1_transmission_type(&self) -> u8 {
+    pub fn rpdo1_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 179))
     }
 
     /// Sets 0x1400 sub 2 RPDO1 communication parameter / RPDO1 transmission type.
-    pub fn set_rpdo1_communication_parameter_rpdo1_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 179, v.to_le_bytes());
     }
 
     /// 0x1401 sub 0 RPDO2 communication parameter / RPDO2 communication highest sub-index (bmaxx4400.eds:710, UNSIGNED8 ro)
-    pub fn rpdo2_communication_parameter_rpdo2_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 180))
     }
 
     /// Sets 0x1401 sub 0 RPDO2 communication parameter / RPDO2 communication highest sub-index.
-    pub fn set_rpdo2_communication_parameter_rpdo2_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_rpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 180, v.to_le_bytes());
     }
 
     /// 0x1401 sub 1 RPDO2 communication parameter / RPDO2 COB-ID (bmaxx4400.eds:718, UNSIGNED32 rw, $NODEID-relative)
-    pub fn rpdo2_communication_parameter_rpdo2_cob_id(&self) -> u32 {
+    pub fn rpdo2_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 181))
     }
 
     /// Sets 0x1401 sub 1 RPDO2 communication parameter / RPDO2 COB-ID.
-    pub fn set_rpdo2_communication_parameter_rpdo2_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo2_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 181, v.to_le_bytes());
     }
 
     /// 0x1401 sub 2 RPDO2 communication parameter / RPDO2 transmission type (bmaxx4400.eds:726, UNSIGNED8 rw)
-    pub fn rpdo2_communication_parameter_rpdo2_transmission_type(&self) -> u8 {
+    pub fn rpdo2_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 185))
     }
 
     /// Sets 0x1401 sub 2 RPDO2 communication parameter / RPDO2 transmission type.
-    pub fn set_rpdo2_communication_parameter_rpdo2_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 185, v.to_le_bytes());
     }
 
     /// 0x1402 sub 0 RPDO3 communication parameter / RPDO3 communication highest sub-index (bmaxx4400.eds:739, UNSIGNED8 ro)
-    pub fn rpdo3_communication_parameter_rpdo3_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 186))
     }
 
     /// Sets 0x1402 sub 0 RPDO3 communication parameter / RPDO3 communication highest sub-index.
-    pub fn set_rpdo3_communication_parameter_rpdo3_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_rpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 186, v.to_le_bytes());
     }
 
     /// 0x1402 sub 1 RPDO3 communication parameter / RPDO3 COB-ID (bmaxx4400.eds:747, UNSIGNED32 rw, $NODEID-relative)
-    pub fn rpdo3_communication_parameter_rpdo3_cob_id(&self) -> u32 {
+    pub fn rpdo3_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 187))
     }
 
     /// Sets 0x1402 sub 1 RPDO3 communication parameter / RPDO3 COB-ID.
-    pub fn set_rpdo3_communication_parameter_rpdo3_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo3_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 187, v.to_le_bytes());
     }
 
     /// 0x1402 sub 2 RPDO3 communication parameter / RPDO3 transmission type (bmaxx4400.eds:755, UNSIGNED8 rw)
-    pub fn rpdo3_communication_parameter_rpdo3_transmission_type(&self) -> u8 {
+    pub fn rpdo3_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 191))
     }
 
     /// Sets 0x1402 sub 2 RPDO3 communication parameter / RPDO3 transmission type.
-    pub fn set_rpdo3_communication_parameter_rpdo3_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 191, v.to_le_bytes());
     }
 
     /// 0x1403 sub 0 RPDO4 communication parameter / RPDO4 communication highest sub-index (bmaxx4400.eds:768, UNSIGNED8 ro)
-    pub fn rpdo4_communication_parameter_rpdo4_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo4_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 192))
     }
 
     /// Sets 0x1403 sub 0 RPDO4 communication parameter / RPDO4 communication highest sub-index.
-    pub fn set_rpdo4_communication_parameter_rpdo4_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_rpdo4_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 192, v.to_le_bytes());
     }
 
     /// 0x1403 sub 1 RPDO4 communication parameter / RPDO4 COB-ID (bmaxx4400.eds:776, UNSIGNED32 rw, $NODEID-relative)
-    pub fn rpdo4_communication_parameter_rpdo4_cob_id(&self) -> u32 {
+    pub fn rpdo4_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 193))
     }
 
     /// Sets 0x1403 sub 1 RPDO4 communication parameter / RPDO4 COB-ID.
-    pub fn set_rpdo4_communication_parameter_rpdo4_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo4_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 193, v.to_le_bytes());
     }
 
     /// 0x1403 sub 2 RPDO4 communication parameter / RPDO4 transmission type (bmaxx4400.eds:784, UNSIGNED8 rw)
-    pub fn rpdo4_communication_parameter_rpdo4_transmission_type(&self) -> u8 {
+    pub fn rpdo4_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 197))
     }
 
     /// Sets 0x1403 sub 2 RPDO4 communication parameter / RPDO4 transmission type.
-    pub fn set_rpdo4_communication_parameter_rpdo4_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo4_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 197, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO1 mapping parameter / RPDO1 number of mapped objects (bmaxx4400.eds:797, UNSIGNED8 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 198))
     }
 
     /// Sets 0x1600 sub 0 RPDO1 mapping parameter / RPDO1 number of mapped objects.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_rpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 198, v.to_le_bytes());
     }
 
     /// 0x1600 sub 1 RPDO1 mapping parameter / RPDO1 mapping entry 1 (bmaxx4400.eds:807, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 199))
     }
 
     /// Sets 0x1600 sub 1 RPDO1 mapping parameter / RPDO1 mapping entry 1.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 199, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO1 mapping parameter / RPDO1 mapping entry 2 (bmaxx4400.eds:815, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 203))
     }
 
     /// Sets 0x1600 sub 2 RPDO1 mapping parameter / RPDO1 mapping entry 2.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 203, v.to_le_bytes());
     }
 
     /// 0x1600 sub 3 RPDO1 mapping parameter / RPDO1 mapping entry 3 (bmaxx4400.eds:823, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 207))
     }
 
     /// Sets 0x1600 sub 3 RPDO1 mapping parameter / RPDO1 mapping entry 3.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 207, v.to_le_bytes());
     }
 
     /// 0x1600 sub 4 RPDO1 mapping parameter / RPDO1 mapping entry 4 (bmaxx4400.eds:831, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 211))
     }
 
     /// Sets 0x1600 sub 4 RPDO1 mapping parameter / RPDO1 mapping entry 4.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 211, v.to_le_bytes());
     }
 
     /// 0x1600 sub 5 RPDO1 mapping parameter / RPDO1 mapping entry 5 (bmaxx4400.eds:839, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 215))
     }
 
     /// Sets 0x1600 sub 5 RPDO1 mapping parameter / RPDO1 mapping entry 5.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 215, v.to_le_bytes());
     }
 
     /// 0x1600 sub 6 RPDO1 mapping parameter / RPDO1 mapping entry 6 (bmaxx4400.eds:847, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 219))
     }
 
     /// Sets 0x1600 sub 6 RPDO1 mapping parameter / RPDO1 mapping entry 6.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 219, v.to_le_bytes());
     }
 
     /// 0x1600 sub 7 RPDO1 mapping parameter / RPDO1 mapping entry 7 (bmaxx4400.eds:855, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 223))
     }
 
     /// Sets 0x1600 sub 7 RPDO1 mapping parameter / RPDO1 mapping entry 7.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 223, v.to_le_bytes());
     }
 
     /// 0x1600 sub 8 RPDO1 mapping parameter / RPDO1 mapping entry 8 (bmaxx4400.eds:863, UNSIGNED32 rw)
-    pub fn rpdo1_mapping_parameter_rpdo1_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo1_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 227))
     }
 
     /// Sets 0x1600 sub 8 RPDO1 mapping parameter / RPDO1 mapping entry 8.
-    pub fn set_rpdo1_mapping_parameter_rpdo1_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo1_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 227, v.to_le_bytes());
     }
 
     /// 0x1601 sub 0 RPDO2 mapping parameter / RPDO2 number of mapped objects (bmaxx4400.eds:876, UNSIGNED8 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 231))
     }
 
     /// Sets 0x1601 sub 0 RPDO2 mapping parameter / RPDO2 number of mapped objects.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_rpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 231, v.to_le_bytes());
     }
 
     /// 0x1601 sub 1 RPDO2 mapping parameter / RPDO2 mapping entry 1 (bmaxx4400.eds:886, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 232))
     }
 
     /// Sets 0x1601 sub 1 RPDO2 mapping parameter / RPDO2 mapping entry 1.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 232, v.to_le_bytes());
     }
 
     /// 0x1601 sub 2 RPDO2 mapping parameter / RPDO2 mapping entry 2 (bmaxx4400.eds:894, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 236))
     }
 
     /// Sets 0x1601 sub 2 RPDO2 mapping parameter / RPDO2 mapping entry 2.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 236, v.to_le_bytes());
     }
 
     /// 0x1601 sub 3 RPDO2 mapping parameter / RPDO2 mapping entry 3 (bmaxx4400.eds:902, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 240))
     }
 
     /// Sets 0x1601 sub 3 RPDO2 mapping parameter / RPDO2 mapping entry 3.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 240, v.to_le_bytes());
     }
 
     /// 0x1601 sub 4 RPDO2 mapping parameter / RPDO2 mapping entry 4 (bmaxx4400.eds:910, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 244))
     }
 
     /// Sets 0x1601 sub 4 RPDO2 mapping parameter / RPDO2 mapping entry 4.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 244, v.to_le_bytes());
     }
 
     /// 0x1601 sub 5 RPDO2 mapping parameter / RPDO2 mapping entry 5 (bmaxx4400.eds:918, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 248))
     }
 
     /// Sets 0x1601 sub 5 RPDO2 mapping parameter / RPDO2 mapping entry 5.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 248, v.to_le_bytes());
     }
 
     /// 0x1601 sub 6 RPDO2 mapping parameter / RPDO2 mapping entry 6 (bmaxx4400.eds:926, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 252))
     }
 
     /// Sets 0x1601 sub 6 RPDO2 mapping parameter / RPDO2 mapping entry 6.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 252, v.to_le_bytes());
     }
 
     /// 0x1601 sub 7 RPDO2 mapping parameter / RPDO2 mapping entry 7 (bmaxx4400.eds:934, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 256))
     }
 
     /// Sets 0x1601 sub 7 RPDO2 mapping parameter / RPDO2 mapping entry 7.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 256, v.to_le_bytes());
     }
 
     /// 0x1601 sub 8 RPDO2 mapping parameter / RPDO2 mapping entry 8 (bmaxx4400.eds:942, UNSIGNED32 rw)
-    pub fn rpdo2_mapping_parameter_rpdo2_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo2_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 260))
     }
 
     /// Sets 0x1601 sub 8 RPDO2 mapping parameter / RPDO2 mapping entry 8.
-    pub fn set_rpdo2_mapping_parameter_rpdo2_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo2_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 260, v.to_le_bytes());
     }
 
     /// 0x1602 sub 0 RPDO3 mapping parameter / RPDO3 number of mapped objects (bmaxx4400.eds:955, UNSIGNED8 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 264))
     }
 
     /// Sets 0x1602 sub 0 RPDO3 mapping parameter / RPDO3 number of mapped objects.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_rpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 264, v.to_le_bytes());
     }
 
     /// 0x1602 sub 1 RPDO3 mapping parameter / RPDO3 mapping entry 1 (bmaxx4400.eds:965, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 265))
     }
 
     /// Sets 0x1602 sub 1 RPDO3 mapping parameter / RPDO3 mapping entry 1.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 265, v.to_le_bytes());
     }
 
     /// 0x1602 sub 2 RPDO3 mapping parameter / RPDO3 mapping entry 2 (bmaxx4400.eds:973, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 269))
     }
 
     /// Sets 0x1602 sub 2 RPDO3 mapping parameter / RPDO3 mapping entry 2.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 269, v.to_le_bytes());
     }
 
     /// 0x1602 sub 3 RPDO3 mapping parameter / RPDO3 mapping entry 3 (bmaxx4400.eds:981, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 273))
     }
 
     /// Sets 0x1602 sub 3 RPDO3 mapping parameter / RPDO3 mapping entry 3.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 273, v.to_le_bytes());
     }
 
     /// 0x1602 sub 4 RPDO3 mapping parameter / RPDO3 mapping entry 4 (bmaxx4400.eds:989, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 277))
     }
 
     /// Sets 0x1602 sub 4 RPDO3 mapping parameter / RPDO3 mapping entry 4.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 277, v.to_le_bytes());
     }
 
     /// 0x1602 sub 5 RPDO3 mapping parameter / RPDO3 mapping entry 5 (bmaxx4400.eds:997, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 281))
     }
 
     /// Sets 0x1602 sub 5 RPDO3 mapping parameter / RPDO3 mapping entry 5.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 281, v.to_le_bytes());
     }
 
     /// 0x1602 sub 6 RPDO3 mapping parameter / RPDO3 mapping entry 6 (bmaxx4400.eds:1005, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 285))
     }
 
     /// Sets 0x1602 sub 6 RPDO3 mapping parameter / RPDO3 mapping entry 6.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 285, v.to_le_bytes());
     }
 
     /// 0x1602 sub 7 RPDO3 mapping parameter / RPDO3 mapping entry 7 (bmaxx4400.eds:1013, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 289))
     }
 
     /// Sets 0x1602 sub 7 RPDO3 mapping parameter / RPDO3 mapping entry 7.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 289, v.to_le_bytes());
     }
 
     /// 0x1602 sub 8 RPDO3 mapping parameter / RPDO3 mapping entry 8 (bmaxx4400.eds:1021, UNSIGNED32 rw)
-    pub fn rpdo3_mapping_parameter_rpdo3_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo3_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 293))
     }
 
     /// Sets 0x1602 sub 8 RPDO3 mapping parameter / RPDO3 mapping entry 8.
-    pub fn set_rpdo3_mapping_parameter_rpdo3_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo3_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 293, v.to_le_bytes());
     }
 
     /// 0x1603 sub 0 RPDO4 mapping parameter / RPDO4 number of mapped objects (bmaxx4400.eds:1034, UNSIGNED8 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo4_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 297))
     }
 
     /// Sets 0x1603 sub 0 RPDO4 mapping parameter / RPDO4 number of mapped objects.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_rpdo4_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 297, v.to_le_bytes());
     }
 
     /// 0x1603 sub 1 RPDO4 mapping parameter / RPDO4 mapping entry 1 (bmaxx4400.eds:1044, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 298))
     }
 
     /// Sets 0x1603 sub 1 RPDO4 mapping parameter / RPDO4 mapping entry 1.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 298, v.to_le_bytes());
     }
 
     /// 0x1603 sub 2 RPDO4 mapping parameter / RPDO4 mapping entry 2 (bmaxx4400.eds:1052, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 302))
     }
 
     /// Sets 0x1603 sub 2 RPDO4 mapping parameter / RPDO4 mapping entry 2.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 302, v.to_le_bytes());
     }
 
     /// 0x1603 sub 3 RPDO4 mapping parameter / RPDO4 mapping entry 3 (bmaxx4400.eds:1060, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 306))
     }
 
     /// Sets 0x1603 sub 3 RPDO4 mapping parameter / RPDO4 mapping entry 3.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 306, v.to_le_bytes());
     }
 
     /// 0x1603 sub 4 RPDO4 mapping parameter / RPDO4 mapping entry 4 (bmaxx4400.eds:1068, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 310))
     }
 
     /// Sets 0x1603 sub 4 RPDO4 mapping parameter / RPDO4 mapping entry 4.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 310, v.to_le_bytes());
     }
 
     /// 0x1603 sub 5 RPDO4 mapping parameter / RPDO4 mapping entry 5 (bmaxx4400.eds:1076, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 314))
     }
 
     /// Sets 0x1603 sub 5 RPDO4 mapping parameter / RPDO4 mapping entry 5.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 314, v.to_le_bytes());
     }
 
     /// 0x1603 sub 6 RPDO4 mapping parameter / RPDO4 mapping entry 6 (bmaxx4400.eds:1084, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 318))
     }
 
     /// Sets 0x1603 sub 6 RPDO4 mapping parameter / RPDO4 mapping entry 6.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 318, v.to_le_bytes());
     }
 
     /// 0x1603 sub 7 RPDO4 mapping parameter / RPDO4 mapping entry 7 (bmaxx4400.eds:1092, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 322))
     }
 
     /// Sets 0x1603 sub 7 RPDO4 mapping parameter / RPDO4 mapping entry 7.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 322, v.to_le_bytes());
     }
 
     /// 0x1603 sub 8 RPDO4 mapping parameter / RPDO4 mapping entry 8 (bmaxx4400.eds:1100, UNSIGNED32 rw)
-    pub fn rpdo4_mapping_parameter_rpdo4_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo4_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 326))
     }
 
     /// Sets 0x1603 sub 8 RPDO4 mapping parameter / RPDO4 mapping entry 8.
-    pub fn set_rpdo4_mapping_parameter_rpdo4_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo4_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 326, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index (bmaxx4400.eds:1113, UNSIGNED8 ro)
-    pub fn tpdo1_communication_parameter_tpdo1_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 330))
     }
 
     /// Sets 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index.
-    pub fn set_tpdo1_communication_parameter_tpdo1_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_tpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 330, v.to_le_bytes());
     }
 
     /// 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID (bmaxx4400.eds:1121, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo1_communication_parameter_tpdo1_cob_id(&self) -> u32 {
+    pub fn tpdo1_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 331))
     }
 
     /// Sets 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID.
-    pub fn set_tpdo1_communication_parameter_tpdo1_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo1_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 331, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type (bmaxx4400.eds:1129, UNSIGNED8 rw)
-    pub fn tpdo1_communication_parameter_tpdo1_transmission_type(&self) -> u8 {
+    pub fn tpdo1_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 335))
     }
 
     /// Sets 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type.
-    pub fn set_tpdo1_communication_parameter_tpdo1_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 335, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time (bmaxx4400.eds:1137, UNSIGNED16 rw)
-    pub fn tpdo1_communication_parameter_tpdo1_inhibit_time(&self) -> u16 {
+    pub fn tpdo1_communication_parameter_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 336))
     }
 
     /// Sets 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time.
-    pub fn set_tpdo1_communication_parameter_tpdo1_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo1_communication_parameter_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 336, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer (bmaxx4400.eds:1145, UNSIGNED16 rw)
-    pub fn tpdo1_communication_parameter_tpdo1_event_timer(&self) -> u16 {
+    pub fn tpdo1_communication_parameter_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 338))
     }
 
     /// Sets 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer.
-    pub fn set_tpdo1_communication_parameter_tpdo1_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo1_communication_parameter_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 338, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index (bmaxx4400.eds:1158, UNSIGNED8 ro)
-    pub fn tpdo2_communication_parameter_tpdo2_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 340))
     }
 
     /// Sets 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index.
-    pub fn set_tpdo2_communication_parameter_tpdo2_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_tpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 340, v.to_le_bytes());
     }
 
     /// 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID (bmaxx4400.eds:1166, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo2_communication_parameter_tpdo2_cob_id(&self) -> u32 {
+    pub fn tpdo2_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 341))
     }
 
     /// Sets 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID.
-    pub fn set_tpdo2_communication_parameter_tpdo2_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo2_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 341, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type (bmaxx4400.eds:1174, UNSIGNED8 rw)
-    pub fn tpdo2_communication_parameter_tpdo2_transmission_type(&self) -> u8 {
+    pub fn tpdo2_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 345))
     }
 
     /// Sets 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type.
-    pub fn set_tpdo2_communication_parameter_tpdo2_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 345, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time (bmaxx4400.eds:1182, UNSIGNED16 rw)
-    pub fn tpdo2_communication_parameter_tpdo2_inhibit_time(&self) -> u16 {
+    pub fn tpdo2_communication_parameter_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 346))
     }
 
     /// Sets 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time.
-    pub fn set_tpdo2_communication_parameter_tpdo2_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo2_communication_parameter_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 346, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer (bmaxx4400.eds:1190, UNSIGNED16 rw)
-    pub fn tpdo2_communication_parameter_tpdo2_event_timer(&self) -> u16 {
+    pub fn tpdo2_communication_parameter_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 348))
     }
 
     /// Sets 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer.
-    pub fn set_tpdo2_communication_parameter_tpdo2_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo2_communication_parameter_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 348, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index (bmaxx4400.eds:1203, UNSIGNED8 ro)
-    pub fn tpdo3_communication_parameter_tpdo3_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 350))
     }
 
     /// Sets 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index.
-    pub fn set_tpdo3_communication_parameter_tpdo3_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_tpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 350, v.to_le_bytes());
     }
 
     /// 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID (bmaxx4400.eds:1211, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo3_communication_parameter_tpdo3_cob_id(&self) -> u32 {
+    pub fn tpdo3_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 351))
     }
 
     /// Sets 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID.
-    pub fn set_tpdo3_communication_parameter_tpdo3_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo3_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 351, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type (bmaxx4400.eds:1219, UNSIGNED8 rw)
-    pub fn tpdo3_communication_parameter_tpdo3_transmission_type(&self) -> u8 {
+    pub fn tpdo3_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 355))
     }
 
     /// Sets 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type.
-    pub fn set_tpdo3_communication_parameter_tpdo3_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 355, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time (bmaxx4400.eds:1227, UNSIGNED16 rw)
-    pub fn tpdo3_communication_parameter_tpdo3_inhibit_time(&self) -> u16 {
+    pub fn tpdo3_communication_parameter_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 356))
     }
 
     /// Sets 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time.
-    pub fn set_tpdo3_communication_parameter_tpdo3_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo3_communication_parameter_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 356, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer (bmaxx4400.eds:1235, UNSIGNED16 rw)
-    pub fn tpdo3_communication_parameter_tpdo3_event_timer(&self) -> u16 {
+    pub fn tpdo3_communication_parameter_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 358))
     }
 
     /// Sets 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer.
-    pub fn set_tpdo3_communication_parameter_tpdo3_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo3_communication_parameter_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 358, v.to_le_bytes());
     }
 
     /// 0x1803 sub 0 TPDO4 communication parameter / TPDO4 communication highest sub-index (bmaxx4400.eds:1248, UNSIGNED8 ro)
-    pub fn tpdo4_communication_parameter_tpdo4_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo4_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 360))
     }
 
     /// Sets 0x1803 sub 0 TPDO4 communication parameter / TPDO4 communication highest sub-index.
-    pub fn set_tpdo4_communication_parameter_tpdo4_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_tpdo4_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 360, v.to_le_bytes());
     }
 
     /// 0x1803 sub 1 TPDO4 communication parameter / TPDO4 COB-ID (bmaxx4400.eds:1256, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo4_communication_parameter_tpdo4_cob_id(&self) -> u32 {
+    pub fn tpdo4_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 361))
     }
 
     /// Sets 0x1803 sub 1 TPDO4 communication parameter / TPDO4 COB-ID.
-    pub fn set_tpdo4_communication_parameter_tpdo4_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo4_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 361, v.to_le_bytes());
     }
 
     /// 0x1803 sub 2 TPDO4 communication parameter / TPDO4 transmission type (bmaxx4400.eds:1264, UNSIGNED8 rw)
-    pub fn tpdo4_communication_parameter_tpdo4_transmission_type(&self) -> u8 {
+    pub fn tpdo4_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 365))
     }
 
     /// Sets 0x1803 sub 2 TPDO4 communication parameter / TPDO4 transmission type.
-    pub fn set_tpdo4_communication_parameter_tpdo4_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo4_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 365, v.to_le_bytes());
     }
 
     /// 0x1803 sub 3 TPDO4 communication parameter / TPDO4 inhibit time (bmaxx4400.eds:1272, UNSIGNED16 rw)
-    pub fn tpdo4_communication_parameter_tpdo4_inhibit_time(&self) -> u16 {
+    pub fn tpdo4_communication_parameter_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 366))
     }
 
     /// Sets 0x1803 sub 3 TPDO4 communication parameter / TPDO4 inhibit time.
-    pub fn set_tpdo4_communication_parameter_tpdo4_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo4_communication_parameter_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 366, v.to_le_bytes());
     }
 
     /// 0x1803 sub 5 TPDO4 communication parameter / TPDO4 event timer (bmaxx4400.eds:1280, UNSIGNED16 rw)
-    pub fn tpdo4_communication_parameter_tpdo4_event_timer(&self) -> u16 {
+    pub fn tpdo4_communication_parameter_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 368))
     }
 
     /// Sets 0x1803 sub 5 TPDO4 communication parameter / TPDO4 event timer.
-    pub fn set_tpdo4_communication_parameter_tpdo4_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo4_communication_parameter_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 368, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects (bmaxx4400.eds:1293, UNSIGNED8 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 370))
     }
 
     /// Sets 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 370, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapping entry 1 (bmaxx4400.eds:1303, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 371))
     }
 
     /// Sets 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapping entry 1.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 371, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapping entry 2 (bmaxx4400.eds:1311, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 375))
     }
 
     /// Sets 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapping entry 2.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 375, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapping entry 3 (bmaxx4400.eds:1319, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 379))
     }
 
     /// Sets 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapping entry 3.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 379, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapping entry 4 (bmaxx4400.eds:1327, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 383))
     }
 
     /// Sets 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapping entry 4.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 383, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapping entry 5 (bmaxx4400.eds:1335, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 387))
     }
 
     /// Sets 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapping entry 5.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 387, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapping entry 6 (bmaxx4400.eds:1343, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 391))
     }
 
     /// Sets 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapping entry 6.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 391, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapping entry 7 (bmaxx4400.eds:1351, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 395))
     }
 
     /// Sets 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapping entry 7.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 395, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapping entry 8 (bmaxx4400.eds:1359, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 399))
     }
 
     /// Sets 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapping entry 8.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 399, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects (bmaxx4400.eds:1372, UNSIGNED8 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 403))
     }
 
     /// Sets 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 403, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapping entry 1 (bmaxx4400.eds:1382, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 404))
     }
 
     /// Sets 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapping entry 1.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 404, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapping entry 2 (bmaxx4400.eds:1390, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 408))
     }
 
     /// Sets 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapping entry 2.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 408, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapping entry 3 (bmaxx4400.eds:1398, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 412))
     }
 
     /// Sets 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapping entry 3.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 412, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapping entry 4 (bmaxx4400.eds:1406, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 416))
     }
 
     /// Sets 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapping entry 4.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 416, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapping entry 5 (bmaxx4400.eds:1414, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 420))
     }
 
     /// Sets 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapping entry 5.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 420, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapping entry 6 (bmaxx4400.eds:1422, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 424))
     }
 
     /// Sets 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapping entry 6.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 424, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapping entry 7 (bmaxx4400.eds:1430, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 428))
     }
 
     /// Sets 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapping entry 7.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 428, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapping entry 8 (bmaxx4400.eds:1438, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 432))
     }
 
     /// Sets 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapping entry 8.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 432, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects (bmaxx4400.eds:1451, UNSIGNED8 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 436))
     }
 
     /// Sets 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 436, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapping entry 1 (bmaxx4400.eds:1461, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 437))
     }
 
     /// Sets 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapping entry 1.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 437, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapping entry 2 (bmaxx4400.eds:1469, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 441))
     }
 
     /// Sets 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapping entry 2.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 441, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapping entry 3 (bmaxx4400.eds:1477, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 445))
     }
 
     /// Sets 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapping entry 3.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 445, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapping entry 4 (bmaxx4400.eds:1485, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 449))
     }
 
     /// Sets 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapping entry 4.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 449, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapping entry 5 (bmaxx4400.eds:1493, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 453))
     }
 
     /// Sets 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapping entry 5.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 453, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapping entry 6 (bmaxx4400.eds:1501, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 457))
     }
 
     /// Sets 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapping entry 6.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 457, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapping entry 7 (bmaxx4400.eds:1509, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 461))
     }
 
     /// Sets 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapping entry 7.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 461, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapping entry 8 (bmaxx4400.eds:1517, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 465))
     }
 
     /// Sets 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapping entry 8.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 465, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 0 TPDO4 mapping parameter / TPDO4 number of mapped objects (bmaxx4400.eds:1530, UNSIGNED8 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo4_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 469))
     }
 
     /// Sets 0x1A03 sub 0 TPDO4 mapping parameter / TPDO4 number of mapped objects.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo4_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 469, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 1 TPDO4 mapping parameter / TPDO4 mapping entry 1 (bmaxx4400.eds:1540, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 470))
     }
 
     /// Sets 0x1A03 sub 1 TPDO4 mapping parameter / TPDO4 mapping entry 1.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 470, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 2 TPDO4 mapping parameter / TPDO4 mapping entry 2 (bmaxx4400.eds:1548, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 474))
     }
 
     /// Sets 0x1A03 sub 2 TPDO4 mapping parameter / TPDO4 mapping entry 2.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 474, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 3 TPDO4 mapping parameter / TPDO4 mapping entry 3 (bmaxx4400.eds:1556, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 478))
     }
 
     /// Sets 0x1A03 sub 3 TPDO4 mapping parameter / TPDO4 mapping entry 3.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 478, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 4 TPDO4 mapping parameter / TPDO4 mapping entry 4 (bmaxx4400.eds:1564, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 482))
     }
 
     /// Sets 0x1A03 sub 4 TPDO4 mapping parameter / TPDO4 mapping entry 4.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 482, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 5 TPDO4 mapping parameter / TPDO4 mapping entry 5 (bmaxx4400.eds:1572, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 486))
     }
 
     /// Sets 0x1A03 sub 5 TPDO4 mapping parameter / TPDO4 mapping entry 5.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 486, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 6 TPDO4 mapping parameter / TPDO4 mapping entry 6 (bmaxx4400.eds:1580, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 490))
     }
 
     /// Sets 0x1A03 sub 6 TPDO4 mapping parameter / TPDO4 mapping entry 6.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 490, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 7 TPDO4 mapping parameter / TPDO4 mapping entry 7 (bmaxx4400.eds:1588, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 494))
     }
 
     /// Sets 0x1A03 sub 7 TPDO4 mapping parameter / TPDO4 mapping entry 7.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 494, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 8 TPDO4 mapping parameter / TPDO4 mapping entry 8 (bmaxx4400.eds:1596, UNSIGNED32 rw)
-    pub fn tpdo4_mapping_parameter_tpdo4_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo4_mapping_parameter_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 498))
     }
 
     /// Sets 0x1A03 sub 8 TPDO4 mapping parameter / TPDO4 mapping entry 8.
-    pub fn set_tpdo4_mapping_parameter_tpdo4_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo4_mapping_parameter_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 498, v.to_le_bytes());
     }
 
@@ -3906,12 +4254,12 @@ impl Ram {
     }
 
     /// 0x6046 sub 0 vl velocity min max amount / vl velocity min max amount highest sub-index (bmaxx4400.eds:1665, UNSIGNED8 ro)
-    pub fn vl_velocity_min_max_amount_sub0(&self) -> u8 {
+    pub fn vl_velocity_min_max_amount_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 780))
     }
 
     /// Sets 0x6046 sub 0 vl velocity min max amount / vl velocity min max amount highest sub-index.
-    pub fn set_vl_velocity_min_max_amount_sub0(&mut self, v: u8) {
+    pub fn set_vl_velocity_min_max_amount_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 780, v.to_le_bytes());
     }
 
@@ -3935,72 +4283,72 @@ impl Ram {
     }
 
     /// 0x6048 sub 0 vl velocity acceleration / vl velocity acceleration highest sub-index (bmaxx4400.eds:1694, UNSIGNED8 ro)
-    pub fn vl_velocity_acceleration_vl_velocity_acceleration_highest_sub_index(&self) -> u8 {
+    pub fn vl_velocity_acceleration_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 789))
     }
 
     /// Sets 0x6048 sub 0 vl velocity acceleration / vl velocity acceleration highest sub-index.
-    pub fn set_vl_velocity_acceleration_vl_velocity_acceleration_highest_sub_index(&mut self, v: u8) {
+    pub fn set_vl_velocity_acceleration_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 789, v.to_le_bytes());
     }
 
     /// 0x6048 sub 1 vl velocity acceleration / vl acceleration delta speed (bmaxx4400.eds:1702, UNSIGNED32 rw, PDO-mappable)
-    pub fn vl_velocity_acceleration_vl_acceleration_delta_speed(&self) -> u32 {
+    pub fn vl_velocity_acceleration_acceleration_delta_speed(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 790))
     }
 
     /// Sets 0x6048 sub 1 vl velocity acceleration / vl acceleration delta speed.
-    pub fn set_vl_velocity_acceleration_vl_acceleration_delta_speed(&mut self, v: u32) {
+    pub fn set_vl_velocity_acceleration_acceleration_delta_speed(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 790, v.to_le_bytes());
     }
 
     /// 0x6048 sub 2 vl velocity acceleration / vl acceleration delta time (bmaxx4400.eds:1710, UNSIGNED16 rw, PDO-mappable)
-    pub fn vl_velocity_acceleration_vl_acceleration_delta_time(&self) -> u16 {
+    pub fn vl_velocity_acceleration_acceleration_delta_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 794))
     }
 
     /// Sets 0x6048 sub 2 vl velocity acceleration / vl acceleration delta time.
-    pub fn set_vl_velocity_acceleration_vl_acceleration_delta_time(&mut self, v: u16) {
+    pub fn set_vl_velocity_acceleration_acceleration_delta_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 794, v.to_le_bytes());
     }
 
     /// 0x6049 sub 0 vl velocity deceleration / vl velocity deceleration highest sub-index (bmaxx4400.eds:1723, UNSIGNED8 ro)
-    pub fn vl_velocity_deceleration_vl_velocity_deceleration_highest_sub_index(&self) -> u8 {
+    pub fn vl_velocity_deceleration_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 796))
     }
 
     /// Sets 0x6049 sub 0 vl velocity deceleration / vl velocity deceleration highest sub-index.
-    pub fn set_vl_velocity_deceleration_vl_velocity_deceleration_highest_sub_index(&mut self, v: u8) {
+    pub fn set_vl_velocity_deceleration_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 796, v.to_le_bytes());
     }
 
     /// 0x6049 sub 1 vl velocity deceleration / vl deceleration delta speed (bmaxx4400.eds:1731, UNSIGNED32 rw, PDO-mappable)
-    pub fn vl_velocity_deceleration_vl_deceleration_delta_speed(&self) -> u32 {
+    pub fn vl_velocity_deceleration_deceleration_delta_speed(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 797))
     }
 
     /// Sets 0x6049 sub 1 vl velocity deceleration / vl deceleration delta speed.
-    pub fn set_vl_velocity_deceleration_vl_deceleration_delta_speed(&mut self, v: u32) {
+    pub fn set_vl_velocity_deceleration_deceleration_delta_speed(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 797, v.to_le_bytes());
     }
 
     /// 0x6049 sub 2 vl velocity deceleration / vl deceleration delta time (bmaxx4400.eds:1739, UNSIGNED16 rw, PDO-mappable)
-    pub fn vl_velocity_deceleration_vl_deceleration_delta_time(&self) -> u16 {
+    pub fn vl_velocity_deceleration_deceleration_delta_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 801))
     }
 
     /// Sets 0x6049 sub 2 vl velocity deceleration / vl deceleration delta time.
-    pub fn set_vl_velocity_deceleration_vl_deceleration_delta_time(&mut self, v: u16) {
+    pub fn set_vl_velocity_deceleration_deceleration_delta_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 801, v.to_le_bytes());
     }
 
     /// 0x604C sub 0 vl dimension factor / vl dimension factor highest sub-index (bmaxx4400.eds:1752, UNSIGNED8 ro)
-    pub fn vl_dimension_factor_sub0(&self) -> u8 {
+    pub fn vl_dimension_factor_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 803))
     }
 
     /// Sets 0x604C sub 0 vl dimension factor / vl dimension factor highest sub-index.
-    pub fn set_vl_dimension_factor_sub0(&mut self, v: u8) {
+    pub fn set_vl_dimension_factor_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 803, v.to_le_bytes());
     }
 
@@ -4284,12 +4632,12 @@ impl Ram {
     }
 
     /// 0x607D sub 0 Software position limit / Software position limit highest sub-index (bmaxx4400.eds:1991, UNSIGNED8 ro)
-    pub fn software_position_limit_sub0(&self) -> u8 {
+    pub fn software_position_limit_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 885))
     }
 
     /// Sets 0x607D sub 0 Software position limit / Software position limit highest sub-index.
-    pub fn set_software_position_limit_sub0(&mut self, v: u8) {
+    pub fn set_software_position_limit_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 885, v.to_le_bytes());
     }
 
@@ -4383,12 +4731,12 @@ impl Ram {
     }
 
     /// 0x6092 sub 0 Feed constant / Feed constant highest sub-index (bmaxx4400.eds:2078, UNSIGNED8 ro)
-    pub fn feed_constant_sub0(&self) -> u8 {
+    pub fn feed_constant_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 920))
     }
 
     /// Sets 0x6092 sub 0 Feed constant / Feed constant highest sub-index.
-    pub fn set_feed_constant_sub0(&mut self, v: u8) {
+    pub fn set_feed_constant_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 920, v.to_le_bytes());
     }
 
@@ -4422,12 +4770,12 @@ impl Ram {
     }
 
     /// 0x6099 sub 0 Homing speeds / Homing speeds highest sub-index (bmaxx4400.eds:2119, UNSIGNED8 ro)
-    pub fn homing_speeds_sub0(&self) -> u8 {
+    pub fn homing_speeds_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 930))
     }
 
     /// Sets 0x6099 sub 0 Homing speeds / Homing speeds highest sub-index.
-    pub fn set_homing_speeds_sub0(&mut self, v: u8) {
+    pub fn set_homing_speeds_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 930, v.to_le_bytes());
     }
 
@@ -4471,32 +4819,32 @@ impl Ram {
     }
 
     /// 0x60C1 sub 0 Interpolation data record / Interpolation data record highest sub-index (bmaxx4400.eds:2164, UNSIGNED8 ro)
-    pub fn interpolation_data_record_interpolation_data_record_highest_sub_index(&self) -> u8 {
+    pub fn interpolation_data_record_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 945))
     }
 
     /// Sets 0x60C1 sub 0 Interpolation data record / Interpolation data record highest sub-index.
-    pub fn set_interpolation_data_record_interpolation_data_record_highest_sub_index(&mut self, v: u8) {
+    pub fn set_interpolation_data_record_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 945, v.to_le_bytes());
     }
 
     /// 0x60C1 sub 1 Interpolation data record / Interpolation data record position (bmaxx4400.eds:2172, INTEGER32 rw, PDO-mappable)
-    pub fn interpolation_data_record_interpolation_data_record_position(&self) -> i32 {
+    pub fn interpolation_data_record_position(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 946))
     }
 
     /// Sets 0x60C1 sub 1 Interpolation data record / Interpolation data record position.
-    pub fn set_interpolation_data_record_interpolation_data_record_position(&mut self, v: i32) {
+    pub fn set_interpolation_data_record_position(&mut self, v: i32) {
         od::store::<4>(&mut self.image, 946, v.to_le_bytes());
     }
 
     /// 0x60C2 sub 0 Interpolation time period / Interpolation time period highest sub-index (bmaxx4400.eds:2185, UNSIGNED8 ro)
-    pub fn interpolation_time_period_interpolation_time_period_highest_sub_index(&self) -> u8 {
+    pub fn interpolation_time_period_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 950))
     }
 
     /// Sets 0x60C2 sub 0 Interpolation time period / Interpolation time period highest sub-index.
-    pub fn set_interpolation_time_period_interpolation_time_period_highest_sub_index(&mut self, v: u8) {
+    pub fn set_interpolation_time_period_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 950, v.to_le_bytes());
     }
 
@@ -4521,12 +4869,12 @@ impl Ram {
     }
 
     /// 0x60C3 sub 0 Interpolation sync definition / Interpolation sync definition highest sub-index (bmaxx4400.eds:2218, UNSIGNED8 ro)
-    pub fn interpolation_sync_definition_interpolation_sync_definition_highest_sub_index(&self) -> u8 {
+    pub fn interpolation_sync_definition_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 953))
     }
 
     /// Sets 0x60C3 sub 0 Interpolation sync definition / Interpolation sync definition highest sub-index.
-    pub fn set_interpolation_sync_definition_interpolation_sync_definition_highest_sub_index(&mut self, v: u8) {
+    pub fn set_interpolation_sync_definition_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 953, v.to_le_bytes());
     }
 
@@ -4551,12 +4899,12 @@ impl Ram {
     }
 
     /// 0x60C4 sub 0 Interpolation data configuration / Interpolation data configuration highest sub-index (bmaxx4400.eds:2247, UNSIGNED8 ro)
-    pub fn interpolation_data_configuration_interpolation_data_configuration_highest_sub_index(&self) -> u8 {
+    pub fn interpolation_data_configuration_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 956))
     }
 
     /// Sets 0x60C4 sub 0 Interpolation data configuration / Interpolation data configuration highest sub-index.
-    pub fn set_interpolation_data_configuration_interpolation_data_configuration_highest_sub_index(&mut self, v: u8) {
+    pub fn set_interpolation_data_configuration_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 956, v.to_le_bytes());
     }
 
@@ -4631,62 +4979,62 @@ impl Ram {
     }
 
     /// 0x60FB sub 0 Position control parameter set / Position control parameter set highest sub-index (bmaxx4400.eds:2320, UNSIGNED8 ro)
-    pub fn position_control_parameter_set_position_control_parameter_set_highest_sub_index(&self) -> u8 {
+    pub fn position_control_parameter_set_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 974))
     }
 
     /// Sets 0x60FB sub 0 Position control parameter set / Position control parameter set highest sub-index.
-    pub fn set_position_control_parameter_set_position_control_parameter_set_highest_sub_index(&mut self, v: u8) {
+    pub fn set_position_control_parameter_set_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 974, v.to_le_bytes());
     }
 
     /// 0x60FB sub 1 Position control parameter set / Position controller status (bmaxx4400.eds:2328, UNSIGNED16 ro, PDO-mappable)
-    pub fn position_control_parameter_set_position_controller_status(&self) -> u16 {
+    pub fn position_control_parameter_set_controller_status(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 975))
     }
 
     /// Sets 0x60FB sub 1 Position control parameter set / Position controller status.
-    pub fn set_position_control_parameter_set_position_controller_status(&mut self, v: u16) {
+    pub fn set_position_control_parameter_set_controller_status(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 975, v.to_le_bytes());
     }
 
     /// 0x60FB sub 2 Position control parameter set / Position controller mode (bmaxx4400.eds:2336, UNSIGNED16 rwr, PDO-mappable)
-    pub fn position_control_parameter_set_position_controller_mode(&self) -> u16 {
+    pub fn position_control_parameter_set_controller_mode(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 977))
     }
 
     /// Sets 0x60FB sub 2 Position control parameter set / Position controller mode.
-    pub fn set_position_control_parameter_set_position_controller_mode(&mut self, v: u16) {
+    pub fn set_position_control_parameter_set_controller_mode(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 977, v.to_le_bytes());
     }
 
     /// 0x60FB sub 3 Position control parameter set / Position controller Kv factor (bmaxx4400.eds:2344, UNSIGNED16 rwr, PDO-mappable)
-    pub fn position_control_parameter_set_position_controller_kv_factor(&self) -> u16 {
+    pub fn position_control_parameter_set_controller_kv_factor(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 979))
     }
 
     /// Sets 0x60FB sub 3 Position control parameter set / Position controller Kv factor.
-    pub fn set_position_control_parameter_set_position_controller_kv_factor(&mut self, v: u16) {
+    pub fn set_position_control_parameter_set_controller_kv_factor(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 979, v.to_le_bytes());
     }
 
     /// 0x60FB sub 4 Position control parameter set / Position set revolutions (bmaxx4400.eds:2354, UNSIGNED16 rw, PDO-mappable)
-    pub fn position_control_parameter_set_position_set_revolutions(&self) -> u16 {
+    pub fn position_control_parameter_set_set_revolutions(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 981))
     }
 
     /// Sets 0x60FB sub 4 Position control parameter set / Position set revolutions.
-    pub fn set_position_control_parameter_set_position_set_revolutions(&mut self, v: u16) {
+    pub fn set_position_control_parameter_set_set_revolutions(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 981, v.to_le_bytes());
     }
 
     /// 0x60FB sub 5 Position control parameter set / Position set angle (bmaxx4400.eds:2362, UNSIGNED16 rw, PDO-mappable)
-    pub fn position_control_parameter_set_position_set_angle(&self) -> u16 {
+    pub fn position_control_parameter_set_set_angle(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 983))
     }
 
     /// Sets 0x60FB sub 5 Position control parameter set / Position set angle.
-    pub fn set_position_control_parameter_set_position_set_angle(&mut self, v: u16) {
+    pub fn set_position_control_parameter_set_set_angle(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 983, v.to_le_bytes());
     }
 
@@ -4701,22 +5049,22 @@ impl Ram {
     }
 
     /// 0x60FB sub 7 Position control parameter set / Position control deviation (bmaxx4400.eds:2378, INTEGER32 ro, PDO-mappable)
-    pub fn position_control_parameter_set_position_control_deviation(&self) -> i32 {
+    pub fn position_control_parameter_set_deviation(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 987))
     }
 
     /// Sets 0x60FB sub 7 Position control parameter set / Position control deviation.
-    pub fn set_position_control_parameter_set_position_control_deviation(&mut self, v: i32) {
+    pub fn set_position_control_parameter_set_deviation(&mut self, v: i32) {
         od::store::<4>(&mut self.image, 987, v.to_le_bytes());
     }
 
     /// 0x60FB sub 8 Position control parameter set / Position controller actual value (bmaxx4400.eds:2386, UNSIGNED32 rw, PDO-mappable)
-    pub fn position_control_parameter_set_position_controller_actual_value(&self) -> u32 {
+    pub fn position_control_parameter_set_controller_actual_value(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 991))
     }
 
     /// Sets 0x60FB sub 8 Position control parameter set / Position controller actual value.
-    pub fn set_position_control_parameter_set_position_controller_actual_value(&mut self, v: u32) {
+    pub fn set_position_control_parameter_set_controller_actual_value(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 991, v.to_le_bytes());
     }
 
@@ -4931,12 +5279,12 @@ impl Ram {
     }
 
     /// 0x6510 sub 0 Drive data / Drive data highest sub-index (bmaxx4400.eds:2567, UNSIGNED8 ro)
-    pub fn drive_data_drive_data_highest_sub_index(&self) -> u8 {
+    pub fn drive_data_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 1057))
     }
 
     /// Sets 0x6510 sub 0 Drive data / Drive data highest sub-index.
-    pub fn set_drive_data_drive_data_highest_sub_index(&mut self, v: u8) {
+    pub fn set_drive_data_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 1057, v.to_le_bytes());
     }
 

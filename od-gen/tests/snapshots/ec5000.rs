@@ -212,531 +212,745 @@ const RO_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::NODE_ID.0);
 const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 
 /// Entry metadata, sorted by (index, sub-index).
+#[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS),
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 4, NO_LIMITS),
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 5, NO_LIMITS),
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 9, NO_LIMITS),
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 10, NO_LIMITS),
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 14, NO_LIMITS),
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 18, NO_LIMITS),
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 22, NO_LIMITS),
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 26, NO_LIMITS),
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 30, NO_LIMITS),
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 34, NO_LIMITS),
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 38, NO_LIMITS),
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 42, NO_LIMITS),
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 46, NO_LIMITS),
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 50, NO_LIMITS),
-    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 6, 0, NO_LIMITS),
-    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 4, 6, NO_LIMITS),
-    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 4, 10, NO_LIMITS),
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, CONST, 1, 14, NO_LIMITS),
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 54, NO_LIMITS),
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 58, NO_LIMITS),
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 62, NO_LIMITS),
-    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 66, NO_LIMITS),
-    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 70, NO_LIMITS),
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, CONST, 1, 15, NO_LIMITS),
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 74, NO_LIMITS),
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 78, NO_LIMITS),
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 82, NO_LIMITS),
-    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 86, NO_LIMITS),
-    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 90, NO_LIMITS),
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 94, NO_LIMITS),
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 98, NO_LIMITS),
-    Entry::new(0x1016, 0x00, DataType::Unsigned8, CONST, 1, 16, NO_LIMITS),
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 100, NO_LIMITS),
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 104, NO_LIMITS),
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS),
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 106, NO_LIMITS),
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 110, NO_LIMITS),
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 114, NO_LIMITS),
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 118, NO_LIMITS),
-    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 122, NO_LIMITS),
-    Entry::new(0x1029, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS),
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 123, NO_LIMITS),
-    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 124, NO_LIMITS),
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS),
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 125, NO_LIMITS),
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 129, NO_LIMITS),
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 20, NO_LIMITS),
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 133, 0),
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 137, NO_LIMITS),
-    Entry::new(0x1401, 0x00, DataType::Unsigned8, CONST, 1, 21, NO_LIMITS),
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 138, 0),
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 142, NO_LIMITS),
-    Entry::new(0x1402, 0x00, DataType::Unsigned8, CONST, 1, 22, NO_LIMITS),
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 143, 0),
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 147, NO_LIMITS),
-    Entry::new(0x1403, 0x00, DataType::Unsigned8, CONST, 1, 23, NO_LIMITS),
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 148, 0),
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 152, NO_LIMITS),
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, CONST, 1, 24, NO_LIMITS),
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 153, NO_LIMITS),
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 157, NO_LIMITS),
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 161, NO_LIMITS),
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 165, NO_LIMITS),
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 169, NO_LIMITS),
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 173, NO_LIMITS),
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 177, NO_LIMITS),
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 181, NO_LIMITS),
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, CONST, 1, 25, NO_LIMITS),
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 185, NO_LIMITS),
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 189, NO_LIMITS),
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 193, NO_LIMITS),
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 197, NO_LIMITS),
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 201, NO_LIMITS),
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 205, NO_LIMITS),
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 209, NO_LIMITS),
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 213, NO_LIMITS),
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, CONST, 1, 26, NO_LIMITS),
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 217, NO_LIMITS),
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 221, NO_LIMITS),
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 225, NO_LIMITS),
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 229, NO_LIMITS),
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 233, NO_LIMITS),
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 237, NO_LIMITS),
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 241, NO_LIMITS),
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 245, NO_LIMITS),
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 249, 1),
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 250, NO_LIMITS),
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 254, NO_LIMITS),
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 258, NO_LIMITS),
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 262, NO_LIMITS),
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 266, NO_LIMITS),
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 270, NO_LIMITS),
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 274, NO_LIMITS),
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 278, NO_LIMITS),
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 27, NO_LIMITS),
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 282, NO_LIMITS),
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 286, NO_LIMITS),
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 287, NO_LIMITS),
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 289, NO_LIMITS),
-    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 291, NO_LIMITS),
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS),
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 292, NO_LIMITS),
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 296, NO_LIMITS),
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 297, NO_LIMITS),
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 299, NO_LIMITS),
-    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 301, NO_LIMITS),
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS),
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 302, NO_LIMITS),
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 306, NO_LIMITS),
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 307, NO_LIMITS),
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 309, NO_LIMITS),
-    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 311, NO_LIMITS),
-    Entry::new(0x1803, 0x00, DataType::Unsigned8, CONST, 1, 30, NO_LIMITS),
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 312, NO_LIMITS),
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 316, NO_LIMITS),
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 317, NO_LIMITS),
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 319, NO_LIMITS),
-    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 321, NO_LIMITS),
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, CONST, 1, 31, NO_LIMITS),
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 322, NO_LIMITS),
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 326, NO_LIMITS),
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 330, NO_LIMITS),
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 334, NO_LIMITS),
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 338, NO_LIMITS),
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 342, NO_LIMITS),
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 346, NO_LIMITS),
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 350, NO_LIMITS),
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, CONST, 1, 32, NO_LIMITS),
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 354, NO_LIMITS),
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 358, NO_LIMITS),
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 362, NO_LIMITS),
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 366, NO_LIMITS),
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 370, NO_LIMITS),
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 374, NO_LIMITS),
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 378, NO_LIMITS),
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 382, NO_LIMITS),
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, CONST, 1, 33, NO_LIMITS),
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 386, NO_LIMITS),
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 390, NO_LIMITS),
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 394, NO_LIMITS),
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 398, NO_LIMITS),
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 402, NO_LIMITS),
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 406, NO_LIMITS),
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 410, NO_LIMITS),
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 414, NO_LIMITS),
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 418, 1),
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 419, NO_LIMITS),
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 423, NO_LIMITS),
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 427, NO_LIMITS),
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 431, NO_LIMITS),
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 435, NO_LIMITS),
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 439, NO_LIMITS),
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 443, NO_LIMITS),
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 447, NO_LIMITS),
-    Entry::new(0x1F51, 0x00, DataType::Unsigned8, CONST, 1, 34, NO_LIMITS),
-    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 451, 2),
-    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 452, NO_LIMITS),
-    Entry::new(0x2200, 0x00, DataType::Unsigned8, RO, 1, 456, NO_LIMITS),
-    Entry::new(0x2200, 0x01, DataType::Unsigned32, RO_TPDO, 4, 457, NO_LIMITS),
-    Entry::new(0x2200, 0x02, DataType::Unsigned32, RO_TPDO, 4, 461, NO_LIMITS),
-    Entry::new(0x2200, 0x03, DataType::Unsigned32, RO_TPDO, 4, 465, NO_LIMITS),
-    Entry::new(0x2200, 0x04, DataType::Integer16, RO_TPDO, 2, 469, NO_LIMITS),
-    Entry::new(0x2200, 0x05, DataType::Integer16, RO_TPDO, 2, 471, NO_LIMITS),
-    Entry::new(0x2200, 0x06, DataType::Integer16, RO_TPDO, 2, 473, NO_LIMITS),
-    Entry::new(0x2200, 0x07, DataType::Unsigned16, RO_TPDO, 2, 475, NO_LIMITS),
-    Entry::new(0x2200, 0x08, DataType::Unsigned8, RO_TPDO, 1, 477, NO_LIMITS),
-    Entry::new(0x2200, 0x09, DataType::Unsigned32, RO_TPDO, 4, 478, NO_LIMITS),
-    Entry::new(0x2210, 0x00, DataType::Unsigned8, RO_TPDO, 1, 482, NO_LIMITS),
-    Entry::new(0x2211, 0x00, DataType::Unsigned8, RO_TPDO, 1, 483, NO_LIMITS),
-    Entry::new(0x2211, 0x01, DataType::Unsigned8, RO_TPDO, 1, 484, NO_LIMITS),
-    Entry::new(0x2211, 0x02, DataType::Unsigned8, RO_TPDO, 1, 485, NO_LIMITS),
-    Entry::new(0x2211, 0x03, DataType::Unsigned8, RO_TPDO, 1, 486, NO_LIMITS),
-    Entry::new(0x2220, 0x00, DataType::Unsigned8, RO_TPDO, 1, 487, NO_LIMITS),
-    Entry::new(0x2220, 0x01, DataType::Integer16, RO_TPDO, 2, 488, NO_LIMITS),
-    Entry::new(0x4048, 0x00, DataType::Unsigned8, CONST, 1, 35, NO_LIMITS),
-    Entry::new(0x4231, 0x00, DataType::Unsigned8, CONST, 1, 36, NO_LIMITS),
-    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 490, 3),
-    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 492, 4),
-    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 494, 5),
-    Entry::new(0x4650, 0x00, DataType::Unsigned8, CONST, 1, 37, NO_LIMITS),
-    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 496, 6),
-    Entry::new(0x4650, 0x02, DataType::Unsigned8, RO, 1, 497, 6),
-    Entry::new(0x4651, 0x00, DataType::Unsigned8, CONST, 1, 38, NO_LIMITS),
-    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 498, 7),
-    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 500, 8),
-    Entry::new(0x4FFE, 0x00, DataType::Unsigned8, RO, 1, 502, NO_LIMITS),
-    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 503, NO_LIMITS),
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 507, 9),
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 509, NO_LIMITS),
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 511, NO_LIMITS),
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 513, 10),
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 514, NO_LIMITS),
-    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 515, NO_LIMITS),
-    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 519, NO_LIMITS),
-    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 523, NO_LIMITS),
-    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 527, NO_LIMITS),
-    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 531, 11),
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 533, NO_LIMITS),
-    Entry::new(0x6079, 0x00, DataType::Unsigned16, RO_TPDO, 2, 535, NO_LIMITS),
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 537, NO_LIMITS),
-    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 541, 12),
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 542, 13),
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 546, 13),
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 550, NO_LIMITS),
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 554, NO_LIMITS),
-    Entry::new(0x6091, 0x00, DataType::Unsigned8, CONST, 1, 39, NO_LIMITS),
-    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 558, 14),
-    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 562, NO_LIMITS),
-    Entry::new(0x6092, 0x00, DataType::Unsigned8, CONST, 1, 40, NO_LIMITS),
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 566, NO_LIMITS),
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 570, NO_LIMITS),
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 574, 15),
-    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 575, 16),
-    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 579, 17),
-    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 583, 18),
-    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 587, 19),
-    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 591, NO_LIMITS),
-    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 595, NO_LIMITS),
-    Entry::new(0x60E3, 0x00, DataType::Unsigned8, CONST, 1, 41, NO_LIMITS),
-    Entry::new(0x60E3, 0x01, DataType::Integer8, CONST, 1, 42, NO_LIMITS),
-    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 599, NO_LIMITS),
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 601, 20),
-    Entry::new(0x6402, 0x00, DataType::Unsigned16, RO, 2, 605, NO_LIMITS),
-    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 607, NO_LIMITS),
-    Entry::new(0x6404, 0x00, DataType::VisibleString, CONST, 9, 43, NO_LIMITS),
-    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 623, NO_LIMITS),
-    Entry::new(0x67FE, 0x00, DataType::Unsigned32, RO, 4, 627, NO_LIMITS),
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 4, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 5, NO_LIMITS), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 9, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 18, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 22, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 26, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 30, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 34, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 38, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 42, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 46, NO_LIMITS), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 50, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 6, 0, NO_LIMITS), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 4, 6, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 4, 10, NO_LIMITS), // 0x100A:00 Manufacturer software version
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, CONST, 1, 14, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 54, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters except node-ID
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 58, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 62, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 66, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 70, NO_LIMITS), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, CONST, 1, 15, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 74, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 78, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 82, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 86, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 90, NO_LIMITS), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 94, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 98, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1016, 0x00, DataType::Unsigned8, CONST, 1, 16, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Consumer heartbeat time highest sub-index
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 100, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 104, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 106, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 110, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 114, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 118, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 122, NO_LIMITS), // 0x1019:00 Synchronous counter overflow value
+    Entry::new(0x1029, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS), // 0x1029:00 Error behaviour / Error behaviour highest sub-index
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 123, NO_LIMITS), // 0x1029:01 Error behaviour / Communication error
+    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 124, NO_LIMITS), // 0x1029:02 Error behaviour / Specific error class
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 125, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 129, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 20, NO_LIMITS), // 0x1400:00 RPDO communication parameter 1 / RPDO1 communication highest sub-index
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 133, 0), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 137, NO_LIMITS), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
+    Entry::new(0x1401, 0x00, DataType::Unsigned8, CONST, 1, 21, NO_LIMITS), // 0x1401:00 RPDO communication parameter 2 / RPDO2 communication highest sub-index
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 138, 0), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 142, NO_LIMITS), // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
+    Entry::new(0x1402, 0x00, DataType::Unsigned8, CONST, 1, 22, NO_LIMITS), // 0x1402:00 RPDO communication parameter 3 / RPDO3 communication highest sub-index
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 143, 0), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 147, NO_LIMITS), // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
+    Entry::new(0x1403, 0x00, DataType::Unsigned8, CONST, 1, 23, NO_LIMITS), // 0x1403:00 RPDO communication parameter 4 / RPDO4 communication highest sub-index
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 148, 0), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 152, NO_LIMITS), // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, CONST, 1, 24, NO_LIMITS), // 0x1600:00 RPDO mapping parameter 1 / RPDO1 number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 153, NO_LIMITS), // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 157, NO_LIMITS), // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 161, NO_LIMITS), // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 165, NO_LIMITS), // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 169, NO_LIMITS), // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 173, NO_LIMITS), // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 177, NO_LIMITS), // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 181, NO_LIMITS), // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, CONST, 1, 25, NO_LIMITS), // 0x1601:00 RPDO mapping parameter 2 / RPDO2 number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 185, NO_LIMITS), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 189, NO_LIMITS), // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 193, NO_LIMITS), // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 197, NO_LIMITS), // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 201, NO_LIMITS), // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 205, NO_LIMITS), // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 209, NO_LIMITS), // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 213, NO_LIMITS), // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, CONST, 1, 26, NO_LIMITS), // 0x1602:00 RPDO mapping parameter 3 / RPDO3 number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 217, NO_LIMITS), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 221, NO_LIMITS), // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 225, NO_LIMITS), // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 229, NO_LIMITS), // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 233, NO_LIMITS), // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 237, NO_LIMITS), // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 241, NO_LIMITS), // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 245, NO_LIMITS), // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 249, 1), // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 250, NO_LIMITS), // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 254, NO_LIMITS), // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 258, NO_LIMITS), // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 262, NO_LIMITS), // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 266, NO_LIMITS), // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 270, NO_LIMITS), // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 274, NO_LIMITS), // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 27, NO_LIMITS), // 0x1800:00 TPDO communication parameter 1 / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 282, NO_LIMITS), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 286, NO_LIMITS), // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 287, NO_LIMITS), // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 289, NO_LIMITS), // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
+    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 291, NO_LIMITS), // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS), // 0x1801:00 TPDO communication parameter 2 / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 292, NO_LIMITS), // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 296, NO_LIMITS), // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 297, NO_LIMITS), // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 299, NO_LIMITS), // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
+    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 301, NO_LIMITS), // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS), // 0x1802:00 TPDO communication parameter 3 / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 302, NO_LIMITS), // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 306, NO_LIMITS), // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 307, NO_LIMITS), // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 309, NO_LIMITS), // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
+    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 311, NO_LIMITS), // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
+    Entry::new(0x1803, 0x00, DataType::Unsigned8, CONST, 1, 30, NO_LIMITS), // 0x1803:00 TPDO communication parameter 4 / TPDO4 communication highest sub-index
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 312, NO_LIMITS), // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 316, NO_LIMITS), // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 317, NO_LIMITS), // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 319, NO_LIMITS), // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
+    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 321, NO_LIMITS), // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, CONST, 1, 31, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter 1 / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 322, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 326, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 330, NO_LIMITS), // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 334, NO_LIMITS), // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 338, NO_LIMITS), // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 342, NO_LIMITS), // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 346, NO_LIMITS), // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 350, NO_LIMITS), // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, CONST, 1, 32, NO_LIMITS), // 0x1A01:00 TPDO mapping parameter 2 / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 354, NO_LIMITS), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 358, NO_LIMITS), // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 362, NO_LIMITS), // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 366, NO_LIMITS), // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 370, NO_LIMITS), // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 374, NO_LIMITS), // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 378, NO_LIMITS), // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 382, NO_LIMITS), // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, CONST, 1, 33, NO_LIMITS), // 0x1A02:00 TPDO mapping parameter 3 / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 386, NO_LIMITS), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 390, NO_LIMITS), // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 394, NO_LIMITS), // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 398, NO_LIMITS), // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 402, NO_LIMITS), // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 406, NO_LIMITS), // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 410, NO_LIMITS), // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 414, NO_LIMITS), // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 418, 1), // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 419, NO_LIMITS), // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 423, NO_LIMITS), // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 427, NO_LIMITS), // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 431, NO_LIMITS), // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 435, NO_LIMITS), // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 439, NO_LIMITS), // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 443, NO_LIMITS), // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 447, NO_LIMITS), // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
+    Entry::new(0x1F51, 0x00, DataType::Unsigned8, CONST, 1, 34, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
+    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 451, 2), // 0x1F51:01 Program control / Program control 1
+    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 452, NO_LIMITS), // 0x1F80:00 NMT startup
+    Entry::new(0x2200, 0x00, DataType::Unsigned8, RO, 1, 456, NO_LIMITS), // 0x2200:00 Monitoring values / Monitoring values highest sub-index
+    Entry::new(0x2200, 0x01, DataType::Unsigned32, RO_TPDO, 4, 457, NO_LIMITS), // 0x2200:01 Monitoring values / Number of start stops
+    Entry::new(0x2200, 0x02, DataType::Unsigned32, RO_TPDO, 4, 461, NO_LIMITS), // 0x2200:02 Monitoring values / Working hours
+    Entry::new(0x2200, 0x03, DataType::Unsigned32, RO_TPDO, 4, 465, NO_LIMITS), // 0x2200:03 Monitoring values / Uptime
+    Entry::new(0x2200, 0x04, DataType::Integer16, RO_TPDO, 2, 469, NO_LIMITS), // 0x2200:04 Monitoring values / Absolute minimum temperature
+    Entry::new(0x2200, 0x05, DataType::Integer16, RO_TPDO, 2, 471, NO_LIMITS), // 0x2200:05 Monitoring values / Absolute maximum temperature
+    Entry::new(0x2200, 0x06, DataType::Integer16, RO_TPDO, 2, 473, NO_LIMITS), // 0x2200:06 Monitoring values / Actual temperature
+    Entry::new(0x2200, 0x07, DataType::Unsigned16, RO_TPDO, 2, 475, NO_LIMITS), // 0x2200:07 Monitoring values / Number of quick stops
+    Entry::new(0x2200, 0x08, DataType::Unsigned8, RO_TPDO, 1, 477, NO_LIMITS), // 0x2200:08 Monitoring values / Mechanical power average
+    Entry::new(0x2200, 0x09, DataType::Unsigned32, RO_TPDO, 4, 478, NO_LIMITS), // 0x2200:09 Monitoring values / Number of rotations
+    Entry::new(0x2210, 0x00, DataType::Unsigned8, RO_TPDO, 1, 482, NO_LIMITS), // 0x2210:00 Lifetime traffic light
+    Entry::new(0x2211, 0x00, DataType::Unsigned8, RO_TPDO, 1, 483, NO_LIMITS), // 0x2211:00 Health traffic light / Health traffic light highest sub-index
+    Entry::new(0x2211, 0x01, DataType::Unsigned8, RO_TPDO, 1, 484, NO_LIMITS), // 0x2211:01 Health traffic light / Temperature traffic light
+    Entry::new(0x2211, 0x02, DataType::Unsigned8, RO_TPDO, 1, 485, NO_LIMITS), // 0x2211:02 Health traffic light / Power traffic light
+    Entry::new(0x2211, 0x03, DataType::Unsigned8, RO_TPDO, 1, 486, NO_LIMITS), // 0x2211:03 Health traffic light / Error quantity traffic light
+    Entry::new(0x2220, 0x00, DataType::Unsigned8, RO_TPDO, 1, 487, NO_LIMITS), // 0x2220:00 Analog value output / Analog value output highest sub-index
+    Entry::new(0x2220, 0x01, DataType::Integer16, RO_TPDO, 2, 488, NO_LIMITS), // 0x2220:01 Analog value output / Analog voltage
+    Entry::new(0x4048, 0x00, DataType::Unsigned8, CONST, 1, 35, NO_LIMITS), // 0x4048:00 Nominal power
+    Entry::new(0x4231, 0x00, DataType::Unsigned8, CONST, 1, 36, NO_LIMITS), // 0x4231:00 High temperature warning level / High temperature warning level highest sub-index
+    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 490, 3), // 0x4231:01 High temperature warning level / High temperature warning threshold
+    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 492, 4), // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 494, 5), // 0x4645:00 Positioning deceleration ramp
+    Entry::new(0x4650, 0x00, DataType::Unsigned8, CONST, 1, 37, NO_LIMITS), // 0x4650:00 Bus address / Bus address highest sub-index
+    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 496, 6), // 0x4650:01 Bus address / Node-ID static
+    Entry::new(0x4650, 0x02, DataType::Unsigned8, RO, 1, 497, 6), // 0x4650:02 Bus address / Node-ID actual
+    Entry::new(0x4651, 0x00, DataType::Unsigned8, CONST, 1, 38, NO_LIMITS), // 0x4651:00 Baud rate / Baud rate highest sub-index
+    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 498, 7), // 0x4651:01 Baud rate / CAN bit rate
+    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 500, 8), // 0x4651:02 Baud rate / UART baud rate
+    Entry::new(0x4FFE, 0x00, DataType::Unsigned8, RO, 1, 502, NO_LIMITS), // 0x4FFE:00 Actual SDO server user
+    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 503, NO_LIMITS), // 0x4FFF:00 User login
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 507, 9), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 509, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 511, NO_LIMITS), // 0x6041:00 Statusword
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 513, 10), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 514, NO_LIMITS), // 0x6061:00 Modes of operation display
+    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 515, NO_LIMITS), // 0x6062:00 Position demand value
+    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 519, NO_LIMITS), // 0x6064:00 Position actual value
+    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 523, NO_LIMITS), // 0x606B:00 Velocity demand value
+    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 527, NO_LIMITS), // 0x606C:00 Velocity actual value
+    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 531, 11), // 0x6073:00 Max current
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 533, NO_LIMITS), // 0x6077:00 Torque actual value
+    Entry::new(0x6079, 0x00, DataType::Unsigned16, RO_TPDO, 2, 535, NO_LIMITS), // 0x6079:00 DC link circuit voltage
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 537, NO_LIMITS), // 0x607A:00 Target position
+    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 541, 12), // 0x607E:00 Polarity
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 542, 13), // 0x607F:00 Max profile velocity
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 546, 13), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 550, NO_LIMITS), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 554, NO_LIMITS), // 0x6084:00 Profile deceleration
+    Entry::new(0x6091, 0x00, DataType::Unsigned8, CONST, 1, 39, NO_LIMITS), // 0x6091:00 Gear ratio / Gear ratio highest sub-index
+    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 558, 14), // 0x6091:01 Gear ratio / Motor shaft revolutions
+    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 562, NO_LIMITS), // 0x6091:02 Gear ratio / Driving shaft revolutions
+    Entry::new(0x6092, 0x00, DataType::Unsigned8, CONST, 1, 40, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 566, NO_LIMITS), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 570, NO_LIMITS), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 574, 15), // 0x6098:00 Homing method
+    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 575, 16), // 0x6099:00 Homing speeds
+    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 579, 17), // 0x60A8:00 SI unit position
+    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 583, 18), // 0x60A9:00 SI unit velocity
+    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 587, 19), // 0x60AA:00 SI unit acceleration
+    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 591, NO_LIMITS), // 0x60C5:00 Max acceleration
+    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 595, NO_LIMITS), // 0x60C6:00 Max deceleration
+    Entry::new(0x60E3, 0x00, DataType::Unsigned8, CONST, 1, 41, NO_LIMITS), // 0x60E3:00 Supported homing methods / Number of supported homing methods
+    Entry::new(0x60E3, 0x01, DataType::Integer8, CONST, 1, 42, NO_LIMITS), // 0x60E3:01 Supported homing methods / Supported homing method 1
+    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 599, NO_LIMITS), // 0x60F2:00 Positioning option code
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 601, 20), // 0x60FF:00 Target velocity
+    Entry::new(0x6402, 0x00, DataType::Unsigned16, RO, 2, 605, NO_LIMITS), // 0x6402:00 Motor type
+    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 607, NO_LIMITS), // 0x6403:00 Motor catalogue number
+    Entry::new(0x6404, 0x00, DataType::VisibleString, CONST, 9, 43, NO_LIMITS), // 0x6404:00 Motor manufacturer
+    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 623, NO_LIMITS), // 0x6502:00 Supported drive modes
+    Entry::new(0x67FE, 0x00, DataType::Unsigned32, RO, 4, 627, NO_LIMITS), // 0x67FE:00 Version number
 ];
 
+#[rustfmt::skip]
 static LIMITS: [Limits; 21] = [
-    Limits { low: 0x1, high: 0xFFFFFFFF },
-    Limits { low: 0x0, high: 0x8 },
-    Limits { low: 0x0, high: 0xFF },
-    Limits { low: 0x32, high: 0x6E },
-    Limits { low: 0x2, high: 0x32 },
-    Limits { low: 0x0, high: 0xFFFF },
-    Limits { low: 0x1, high: 0x7F },
-    Limits { low: 0x7D, high: 0xFA },
-    Limits { low: 0x4B00, high: 0x4B00 },
-    Limits { low: 0x0, high: 0x3 },
-    Limits { low: 0x0, high: 0x6 },
-    Limits { low: 0x0, high: 0x3E8 },
-    Limits { low: 0x0, high: 0xC0 },
-    Limits { low: 0x0, high: 0xBB8 },
-    Limits { low: 0x9, high: 0x6C },
-    Limits { low: 0x25, high: 0x25 },
-    Limits { low: 0x0, high: 0x0 },
-    Limits { low: 0xFD010000, high: 0xFD010000 },
-    Limits { low: 0xFD010300, high: 0xFD010300 },
-    Limits { low: 0xFD015700, high: 0xFD015700 },
-    Limits { low: 0xFFFFFFFFFFFFF448, high: 0xBB8 },
+    Limits { low: 0x1, high: 0xFFFFFFFF }, // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID and 3 more
+    Limits { low: 0x0, high: 0x8 }, // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects and 1 more
+    Limits { low: 0x0, high: 0xFF }, // 0x1F51:01 Program control / Program control 1
+    Limits { low: 0x32, high: 0x6E }, // 0x4231:01 High temperature warning level / High temperature warning threshold
+    Limits { low: 0x2, high: 0x32 }, // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    Limits { low: 0x0, high: 0xFFFF }, // 0x4645:00 Positioning deceleration ramp
+    Limits { low: 0x1, high: 0x7F }, // 0x4650:01 Bus address / Node-ID static and 1 more
+    Limits { low: 0x7D, high: 0xFA }, // 0x4651:01 Baud rate / CAN bit rate
+    Limits { low: 0x4B00, high: 0x4B00 }, // 0x4651:02 Baud rate / UART baud rate
+    Limits { low: 0x0, high: 0x3 }, // 0x6007:00 Abort connection option code
+    Limits { low: 0x0, high: 0x6 }, // 0x6060:00 Modes of operation
+    Limits { low: 0x0, high: 0x3E8 }, // 0x6073:00 Max current
+    Limits { low: 0x0, high: 0xC0 }, // 0x607E:00 Polarity
+    Limits { low: 0x0, high: 0xBB8 }, // 0x607F:00 Max profile velocity and 1 more
+    Limits { low: 0x9, high: 0x6C }, // 0x6091:01 Gear ratio / Motor shaft revolutions
+    Limits { low: 0x25, high: 0x25 }, // 0x6098:00 Homing method
+    Limits { low: 0x0, high: 0x0 }, // 0x6099:00 Homing speeds
+    Limits { low: 0xFD010000, high: 0xFD010000 }, // 0x60A8:00 SI unit position
+    Limits { low: 0xFD010300, high: 0xFD010300 }, // 0x60A9:00 SI unit velocity
+    Limits { low: 0xFD015700, high: 0xFD015700 }, // 0x60AA:00 SI unit acceleration
+    Limits { low: 0xFFFFFFFFFFFFF448, high: 0xBB8 }, // 0x60FF:00 Target velocity
 ];
 
+#[rustfmt::skip]
 static ROM: [u8; ROM_SIZE] = [
-    0x45, 0x43, 0x35, 0x30, 0x30, 0x30, 0x31, 0x2E, 0x30, 0x30, 0x32, 0x2E, 0x30, 0x31, 0x05, 0x05, 0x01, 0x04, 0x02, 0x02, 0x02, 0x02,
-    0x02, 0x02, 0x03, 0x02, 0x02, 0x06, 0x06, 0x06, 0x06, 0x05, 0x02, 0x02, 0x01, 0x14, 0x02, 0x02, 0x02, 0x02, 0x02, 0x01, 0x25, 0x49,
-    0x6E, 0x74, 0x65, 0x72, 0x72, 0x6F, 0x6C, 0x6C,
+    0x45, 0x43, 0x35, 0x30, 0x30, 0x30, // 0x1008:00 Manufacturer device name
+    0x31, 0x2E, 0x30, 0x30, // 0x1009:00 Manufacturer hardware version
+    0x32, 0x2E, 0x30, 0x31, // 0x100A:00 Manufacturer software version
+    0x05, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    0x05, // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    0x01, // 0x1016:00 Consumer heartbeat time / Consumer heartbeat time highest sub-index
+    0x04, // 0x1018:00 Identity object / Identity highest sub-index
+    0x02, // 0x1029:00 Error behaviour / Error behaviour highest sub-index
+    0x02, // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    0x02, // 0x1400:00 RPDO communication parameter 1 / RPDO1 communication highest sub-index
+    0x02, // 0x1401:00 RPDO communication parameter 2 / RPDO2 communication highest sub-index
+    0x02, // 0x1402:00 RPDO communication parameter 3 / RPDO3 communication highest sub-index
+    0x02, // 0x1403:00 RPDO communication parameter 4 / RPDO4 communication highest sub-index
+    0x03, // 0x1600:00 RPDO mapping parameter 1 / RPDO1 number of mapped objects
+    0x02, // 0x1601:00 RPDO mapping parameter 2 / RPDO2 number of mapped objects
+    0x02, // 0x1602:00 RPDO mapping parameter 3 / RPDO3 number of mapped objects
+    0x06, // 0x1800:00 TPDO communication parameter 1 / TPDO1 communication highest sub-index
+    0x06, // 0x1801:00 TPDO communication parameter 2 / TPDO2 communication highest sub-index
+    0x06, // 0x1802:00 TPDO communication parameter 3 / TPDO3 communication highest sub-index
+    0x06, // 0x1803:00 TPDO communication parameter 4 / TPDO4 communication highest sub-index
+    0x05, // 0x1A00:00 TPDO mapping parameter 1 / TPDO1 number of mapped objects
+    0x02, // 0x1A01:00 TPDO mapping parameter 2 / TPDO2 number of mapped objects
+    0x02, // 0x1A02:00 TPDO mapping parameter 3 / TPDO3 number of mapped objects
+    0x01, // 0x1F51:00 Program control / Program control highest sub-index
+    0x14, // 0x4048:00 Nominal power
+    0x02, // 0x4231:00 High temperature warning level / High temperature warning level highest sub-index
+    0x02, // 0x4650:00 Bus address / Bus address highest sub-index
+    0x02, // 0x4651:00 Baud rate / Baud rate highest sub-index
+    0x02, // 0x6091:00 Gear ratio / Gear ratio highest sub-index
+    0x02, // 0x6092:00 Feed constant / Feed constant highest sub-index
+    0x01, // 0x60E3:00 Supported homing methods / Number of supported homing methods
+    0x25, // 0x60E3:01 Supported homing methods / Supported homing method 1
+    0x49, 0x6E, 0x74, 0x65, 0x72, 0x72, 0x6F, 0x6C, 0x6C, // 0x6404:00 Motor manufacturer
 ];
 
+#[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x92, 0x01, 0x42, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00,
-    0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00,
-    0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xFB, 0x03, 0x00, 0x00,
-    0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x06, 0x00, 0x00, 0x80, 0x05, 0x00,
-    0x00, 0x00, 0x02, 0x00, 0x00, 0xFF, 0x00, 0x03, 0x00, 0x00, 0xFF, 0x00, 0x04, 0x00, 0x00, 0xFF, 0x00, 0x05, 0x00, 0x00, 0xFF, 0x10,
-    0x00, 0x40, 0x60, 0x08, 0x00, 0x60, 0x60, 0x20, 0x00, 0x81, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x40, 0x60, 0x20, 0x00, 0x7A, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x40,
-    0x60, 0x20, 0x00, 0xFF, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x01, 0x00, 0x00,
-    0xFF, 0xE8, 0x03, 0xD0, 0x07, 0x00, 0x80, 0x02, 0x00, 0x00, 0xFF, 0xE8, 0x03, 0xD0, 0x07, 0x00, 0x80, 0x03, 0x00, 0x00, 0x01, 0xE8,
-    0x03, 0xD0, 0x07, 0x00, 0x80, 0x04, 0x00, 0x00, 0xFF, 0xE8, 0x03, 0xD0, 0x07, 0x00, 0x10, 0x00, 0x41, 0x60, 0x08, 0x00, 0x61, 0x60,
-    0x08, 0x00, 0x01, 0x10, 0x10, 0x06, 0x00, 0x22, 0x10, 0x00, 0x77, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x64, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x6C, 0x60, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x09, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03,
-    0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x5F, 0x00, 0x02, 0x00, 0x64, 0x00, 0x7F, 0x7F, 0xFA, 0x00, 0x00, 0x4B, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0xE8, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xD0, 0x07, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x12, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x9D, 0x00, 0x00, 0x00, 0x01, 0x00,
-    0x00, 0x00, 0x25, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0xFD, 0x00, 0x03, 0x01, 0xFD, 0x00, 0x57, 0x01, 0xFD, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x25, 0x00, 0x00, 0x00, 0x00, 0x01, 0x03, 0x00,
+    0x92, 0x01, 0x42, 0x00, // 0x1000:00 Device type
+    0x00, // 0x1001:00 Error register
+    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
+    0x00, // 0x1003:00 Pre-defined error field / Number of errors
+    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
+    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
+    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
+    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
+    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
+    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
+    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
+    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
+    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
+    0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
+    0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
+    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters except node-ID
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    0x01, 0x00, 0x00, 0x00, // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    0x01, 0x00, 0x00, 0x00, // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
+    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
+    0x00, 0x00, // 0x1015:00 Inhibit time EMCY
+    0x00, 0x00, 0x00, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    0x00, 0x00, // 0x1017:00 Producer heartbeat time
+    0xFB, 0x03, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0x01, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
+    0x01, 0x00, 0x01, 0x00, // 0x1018:03 Identity object / Revision number
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x00, // 0x1019:00 Synchronous counter overflow value
+    0x00, // 0x1029:01 Error behaviour / Communication error
+    0x00, // 0x1029:02 Error behaviour / Specific error class
+    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
+    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
+    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    0xFF, // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
+    0x00, 0x03, 0x00, 0x00, // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    0xFF, // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
+    0x00, 0x04, 0x00, 0x00, // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    0xFF, // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
+    0x00, 0x05, 0x00, 0x00, // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    0xFF, // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
+    0x10, 0x00, 0x40, 0x60, // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
+    0x08, 0x00, 0x60, 0x60, // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
+    0x20, 0x00, 0x81, 0x60, // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
+    0x10, 0x00, 0x40, 0x60, // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
+    0x20, 0x00, 0x7A, 0x60, // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
+    0x10, 0x00, 0x40, 0x60, // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
+    0x20, 0x00, 0xFF, 0x60, // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
+    0x00, // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
+    0x00, 0x00, 0x00, 0x00, // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
+    0x00, 0x00, 0x00, 0x00, // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
+    0x80, 0x01, 0x00, 0x00, // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
+    0xFF, // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
+    0xE8, 0x03, // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
+    0xD0, 0x07, // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
+    0x00, // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
+    0x80, 0x02, 0x00, 0x00, // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
+    0xFF, // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
+    0xE8, 0x03, // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
+    0xD0, 0x07, // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
+    0x00, // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
+    0x80, 0x03, 0x00, 0x00, // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
+    0x01, // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
+    0xE8, 0x03, // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
+    0xD0, 0x07, // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
+    0x00, // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
+    0x80, 0x04, 0x00, 0x00, // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
+    0xFF, // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
+    0xE8, 0x03, // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
+    0xD0, 0x07, // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
+    0x00, // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
+    0x10, 0x00, 0x41, 0x60, // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
+    0x08, 0x00, 0x61, 0x60, // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
+    0x08, 0x00, 0x01, 0x10, // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
+    0x10, 0x06, 0x00, 0x22, // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
+    0x10, 0x00, 0x77, 0x60, // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
+    0x10, 0x00, 0x41, 0x60, // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
+    0x20, 0x00, 0x64, 0x60, // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
+    0x10, 0x00, 0x41, 0x60, // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
+    0x20, 0x00, 0x6C, 0x60, // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
+    0x00, // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
+    0x00, // 0x1F51:01 Program control / Program control 1
+    0x00, 0x00, 0x00, 0x00, // 0x1F80:00 NMT startup
+    0x09, // 0x2200:00 Monitoring values / Monitoring values highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x2200:01 Monitoring values / Number of start stops
+    0x00, 0x00, 0x00, 0x00, // 0x2200:02 Monitoring values / Working hours
+    0x00, 0x00, 0x00, 0x00, // 0x2200:03 Monitoring values / Uptime
+    0x00, 0x00, // 0x2200:04 Monitoring values / Absolute minimum temperature
+    0x00, 0x00, // 0x2200:05 Monitoring values / Absolute maximum temperature
+    0x00, 0x00, // 0x2200:06 Monitoring values / Actual temperature
+    0x00, 0x00, // 0x2200:07 Monitoring values / Number of quick stops
+    0x00, // 0x2200:08 Monitoring values / Mechanical power average
+    0x00, 0x00, 0x00, 0x00, // 0x2200:09 Monitoring values / Number of rotations
+    0x00, // 0x2210:00 Lifetime traffic light
+    0x03, // 0x2211:00 Health traffic light / Health traffic light highest sub-index
+    0x00, // 0x2211:01 Health traffic light / Temperature traffic light
+    0x00, // 0x2211:02 Health traffic light / Power traffic light
+    0x00, // 0x2211:03 Health traffic light / Error quantity traffic light
+    0x01, // 0x2220:00 Analog value output / Analog value output highest sub-index
+    0x00, 0x00, // 0x2220:01 Analog value output / Analog voltage
+    0x5F, 0x00, // 0x4231:01 High temperature warning level / High temperature warning threshold
+    0x02, 0x00, // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    0x64, 0x00, // 0x4645:00 Positioning deceleration ramp
+    0x7F, // 0x4650:01 Bus address / Node-ID static
+    0x7F, // 0x4650:02 Bus address / Node-ID actual
+    0xFA, 0x00, // 0x4651:01 Baud rate / CAN bit rate
+    0x00, 0x4B, // 0x4651:02 Baud rate / UART baud rate
+    0x00, // 0x4FFE:00 Actual SDO server user
+    0x00, 0x00, 0x00, 0x00, // 0x4FFF:00 User login
+    0x00, 0x00, // 0x6007:00 Abort connection option code
+    0x00, 0x00, // 0x6040:00 Controlword
+    0x00, 0x00, // 0x6041:00 Statusword
+    0x03, // 0x6060:00 Modes of operation
+    0x03, // 0x6061:00 Modes of operation display
+    0x00, 0x00, 0x00, 0x00, // 0x6062:00 Position demand value
+    0x00, 0x00, 0x00, 0x00, // 0x6064:00 Position actual value
+    0x00, 0x00, 0x00, 0x00, // 0x606B:00 Velocity demand value
+    0x00, 0x00, 0x00, 0x00, // 0x606C:00 Velocity actual value
+    0xE8, 0x03, // 0x6073:00 Max current
+    0x00, 0x00, // 0x6077:00 Torque actual value
+    0x00, 0x00, // 0x6079:00 DC link circuit voltage
+    0x00, 0x00, 0x00, 0x00, // 0x607A:00 Target position
+    0x00, // 0x607E:00 Polarity
+    0xD0, 0x07, 0x00, 0x00, // 0x607F:00 Max profile velocity
+    0x00, 0x00, 0x00, 0x00, // 0x6081:00 Profile velocity
+    0x00, 0x00, 0x00, 0x00, // 0x6083:00 Profile acceleration
+    0x00, 0x00, 0x00, 0x00, // 0x6084:00 Profile deceleration
+    0x12, 0x00, 0x00, 0x00, // 0x6091:01 Gear ratio / Motor shaft revolutions
+    0x01, 0x00, 0x00, 0x00, // 0x6091:02 Gear ratio / Driving shaft revolutions
+    0x9D, 0x00, 0x00, 0x00, // 0x6092:01 Feed constant / Feed
+    0x01, 0x00, 0x00, 0x00, // 0x6092:02 Feed constant / Shaft revolutions
+    0x25, // 0x6098:00 Homing method
+    0x00, 0x00, 0x00, 0x00, // 0x6099:00 Homing speeds
+    0x00, 0x00, 0x01, 0xFD, // 0x60A8:00 SI unit position
+    0x00, 0x03, 0x01, 0xFD, // 0x60A9:00 SI unit velocity
+    0x00, 0x57, 0x01, 0xFD, // 0x60AA:00 SI unit acceleration
+    0x00, 0x00, 0x00, 0x00, // 0x60C5:00 Max acceleration
+    0x00, 0x00, 0x00, 0x00, // 0x60C6:00 Max deceleration
+    0x00, 0x00, // 0x60F2:00 Positioning option code
+    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
+    0x03, 0x00, // 0x6402:00 Motor type
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x6403:00 Motor catalogue number
+    0x25, 0x00, 0x00, 0x00, // 0x6502:00 Supported drive modes
+    0x00, 0x01, 0x03, 0x00, // 0x67FE:00 Version number
 ];
 
-static NODE_ID_RELATIVE: [u16; 11] = [30, 45, 46, 48, 51, 54, 57, 96, 102, 108, 114];
+#[rustfmt::skip]
+static NODE_ID_RELATIVE: [u16; 11] = [
+    30, // 0x1014:00 COB-ID EMCY
+    45, // 0x1200:01 SDO server parameter / COB-ID client to server
+    46, // 0x1200:02 SDO server parameter / COB-ID server to client
+    48, // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    51, // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    54, // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    57, // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    96, // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
+    102, // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
+    108, // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
+    114, // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
+];
 
 /// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.
+#[rustfmt::skip]
 pub static NAMES: [&str; ENTRY_COUNT] = [
-    "Device type",
-    "Error register",
-    "Manufacturer status register",
-    "Number of errors",
-    "Standard error field 1",
-    "Standard error field 2",
-    "Standard error field 3",
-    "Standard error field 4",
-    "Standard error field 5",
-    "Standard error field 6",
-    "Standard error field 7",
-    "Standard error field 8",
-    "COB-ID SYNC message",
-    "Communication cycle period",
-    "Synchronous window length",
-    "Manufacturer device name",
-    "Manufacturer hardware version",
-    "Manufacturer software version",
-    "Store parameters highest sub-index",
-    "Save all parameters except node-ID",
-    "Save communication parameters",
-    "Save application parameters",
-    "Save manufacturer parameters ASW",
-    "Save manufacturer parameters SSW",
-    "Restore parameters highest sub-index",
-    "Restore all default parameters except node-ID",
-    "Restore communication default parameters",
-    "Restore application default parameters",
-    "Restore manufacturer default parameters ASW",
-    "Restore manufacturer default parameters SSW",
-    "COB-ID EMCY",
-    "Inhibit time EMCY",
-    "Consumer heartbeat time highest sub-index",
-    "Consumer heartbeat time 1",
-    "Producer heartbeat time",
-    "Identity highest sub-index",
-    "Vendor-ID",
-    "Product code",
-    "Revision number",
-    "Serial number",
-    "Synchronous counter overflow value",
-    "Error behaviour highest sub-index",
-    "Communication error",
-    "Specific error class",
-    "SDO server highest sub-index",
-    "COB-ID client to server",
-    "COB-ID server to client",
-    "RPDO1 communication highest sub-index",
-    "RPDO1 COB-ID",
-    "RPDO1 transmission type",
-    "RPDO2 communication highest sub-index",
-    "RPDO2 COB-ID",
-    "RPDO2 transmission type",
-    "RPDO3 communication highest sub-index",
-    "RPDO3 COB-ID",
-    "RPDO3 transmission type",
-    "RPDO4 communication highest sub-index",
-    "RPDO4 COB-ID",
-    "RPDO4 transmission type",
-    "RPDO1 number of mapped objects",
-    "RPDO1 mapping entry 1",
-    "RPDO1 mapping entry 2",
-    "RPDO1 mapping entry 3",
-    "RPDO1 mapping entry 4",
-    "RPDO1 mapping entry 5",
-    "RPDO1 mapping entry 6",
-    "RPDO1 mapping entry 7",
-    "RPDO1 mapping entry 8",
-    "RPDO2 number of mapped objects",
-    "RPDO2 mapping entry 1",
-    "RPDO2 mapping entry 2",
-    "RPDO2 mapping entry 3",
-    "RPDO2 mapping entry 4",
-    "RPDO2 mapping entry 5",
-    "RPDO2 mapping entry 6",
-    "RPDO2 mapping entry 7",
-    "RPDO2 mapping entry 8",
-    "RPDO3 number of mapped objects",
-    "RPDO3 mapping entry 1",
-    "RPDO3 mapping entry 2",
-    "RPDO3 mapping entry 3",
-    "RPDO3 mapping entry 4",
-    "RPDO3 mapping entry 5",
-    "RPDO3 mapping entry 6",
-    "RPDO3 mapping entry 7",
-    "RPDO3 mapping entry 8",
-    "RPDO4 number of mapped objects",
-    "RPDO4 mapping entry 1",
-    "RPDO4 mapping entry 2",
-    "RPDO4 mapping entry 3",
-    "RPDO4 mapping entry 4",
-    "RPDO4 mapping entry 5",
-    "RPDO4 mapping entry 6",
-    "RPDO4 mapping entry 7",
-    "RPDO4 mapping entry 8",
-    "TPDO1 communication highest sub-index",
-    "TPDO1 COB-ID",
-    "TPDO1 transmission type",
-    "TPDO1 inhibit time",
-    "TPDO1 event timer",
-    "TPDO1 SYNC start value",
-    "TPDO2 communication highest sub-index",
-    "TPDO2 COB-ID",
-    "TPDO2 transmission type",
-    "TPDO2 inhibit time",
-    "TPDO2 event timer",
-    "TPDO2 SYNC start value",
-    "TPDO3 communication highest sub-index",
-    "TPDO3 COB-ID",
-    "TPDO3 transmission type",
-    "TPDO3 inhibit time",
-    "TPDO3 event timer",
-    "TPDO3 SYNC start value",
-    "TPDO4 communication highest sub-index",
-    "TPDO4 COB-ID",
-    "TPDO4 transmission type",
-    "TPDO4 inhibit time",
-    "TPDO4 event timer",
-    "TPDO4 SYNC start value",
-    "TPDO1 number of mapped objects",
-    "TPDO1 mapping entry 1",
-    "TPDO1 mapping entry 2",
-    "TPDO1 mapping entry 3",
-    "TPDO1 mapping entry 4",
-    "TPDO1 mapping entry 5",
-    "TPDO1 mapping entry 6",
-    "TPDO1 mapping entry 7",
-    "TPDO1 mapping entry 8",
-    "TPDO2 number of mapped objects",
-    "TPDO2 mapping entry 1",
-    "TPDO2 mapping entry 2",
-    "TPDO2 mapping entry 3",
-    "TPDO2 mapping entry 4",
-    "TPDO2 mapping entry 5",
-    "TPDO2 mapping entry 6",
-    "TPDO2 mapping entry 7",
-    "TPDO2 mapping entry 8",
-    "TPDO3 number of mapped objects",
-    "TPDO3 mapping entry 1",
-    "TPDO3 mapping entry 2",
-    "TPDO3 mapping entry 3",
-    "TPDO3 mapping entry 4",
-    "TPDO3 mapping entry 5",
-    "TPDO3 mapping entry 6",
-    "TPDO3 mapping entry 7",
-    "TPDO3 mapping entry 8",
-    "TPDO4 number of mapped objects",
-    "TPDO4 mapping entry 1",
-    "TPDO4 mapping entry 2",
-    "TPDO4 mapping entry 3",
-    "TPDO4 mapping entry 4",
-    "TPDO4 mapping entry 5",
-    "TPDO4 mapping entry 6",
-    "TPDO4 mapping entry 7",
-    "TPDO4 mapping entry 8",
-    "Program control highest sub-index",
-    "Program control 1",
-    "NMT startup",
-    "Monitoring values highest sub-index",
-    "Number of start stops",
-    "Working hours",
-    "Uptime",
-    "Absolute minimum temperature",
-    "Absolute maximum temperature",
-    "Actual temperature",
-    "Number of quick stops",
-    "Mechanical power average",
-    "Number of rotations",
-    "Lifetime traffic light",
-    "Health traffic light highest sub-index",
-    "Temperature traffic light",
-    "Power traffic light",
-    "Error quantity traffic light",
-    "Analog value output highest sub-index",
-    "Analog voltage",
-    "Nominal power",
-    "High temperature warning level highest sub-index",
-    "High temperature warning threshold",
-    "High temperature warning hysteresis",
-    "Positioning deceleration ramp",
-    "Bus address highest sub-index",
-    "Node-ID static",
-    "Node-ID actual",
-    "Baud rate highest sub-index",
-    "CAN bit rate",
-    "UART baud rate",
-    "Actual SDO server user",
-    "User login",
-    "Abort connection option code",
-    "Controlword",
-    "Statusword",
-    "Modes of operation",
-    "Modes of operation display",
-    "Position demand value",
-    "Position actual value",
-    "Velocity demand value",
-    "Velocity actual value",
-    "Max current",
-    "Torque actual value",
-    "DC link circuit voltage",
-    "Target position",
-    "Polarity",
-    "Max profile velocity",
-    "Profile velocity",
-    "Profile acceleration",
-    "Profile deceleration",
-    "Gear ratio highest sub-index",
-    "Motor shaft revolutions",
-    "Driving shaft revolutions",
-    "Feed constant highest sub-index",
-    "Feed",
-    "Shaft revolutions",
-    "Homing method",
-    "Homing speeds",
-    "SI unit position",
-    "SI unit velocity",
-    "SI unit acceleration",
-    "Max acceleration",
-    "Max deceleration",
-    "Number of supported homing methods",
-    "Supported homing method 1",
-    "Positioning option code",
-    "Target velocity",
-    "Motor type",
-    "Motor catalogue number",
-    "Motor manufacturer",
-    "Supported drive modes",
-    "Version number",
+    "Device type", // 0x1000:00
+    "Error register", // 0x1001:00
+    "Manufacturer status register", // 0x1002:00
+    "Number of errors", // 0x1003:00
+    "Standard error field 1", // 0x1003:01
+    "Standard error field 2", // 0x1003:02
+    "Standard error field 3", // 0x1003:03
+    "Standard error field 4", // 0x1003:04
+    "Standard error field 5", // 0x1003:05
+    "Standard error field 6", // 0x1003:06
+    "Standard error field 7", // 0x1003:07
+    "Standard error field 8", // 0x1003:08
+    "COB-ID SYNC message", // 0x1005:00
+    "Communication cycle period", // 0x1006:00
+    "Synchronous window length", // 0x1007:00
+    "Manufacturer device name", // 0x1008:00
+    "Manufacturer hardware version", // 0x1009:00
+    "Manufacturer software version", // 0x100A:00
+    "Store parameters highest sub-index", // 0x1010:00
+    "Save all parameters except node-ID", // 0x1010:01
+    "Save communication parameters", // 0x1010:02
+    "Save application parameters", // 0x1010:03
+    "Save manufacturer parameters ASW", // 0x1010:04
+    "Save manufacturer parameters SSW", // 0x1010:05
+    "Restore parameters highest sub-index", // 0x1011:00
+    "Restore all default parameters except node-ID", // 0x1011:01
+    "Restore communication default parameters", // 0x1011:02
+    "Restore application default parameters", // 0x1011:03
+    "Restore manufacturer default parameters ASW", // 0x1011:04
+    "Restore manufacturer default parameters SSW", // 0x1011:05
+    "COB-ID EMCY", // 0x1014:00
+    "Inhibit time EMCY", // 0x1015:00
+    "Consumer heartbeat time highest sub-index", // 0x1016:00
+    "Consumer heartbeat time 1", // 0x1016:01
+    "Producer heartbeat time", // 0x1017:00
+    "Identity highest sub-index", // 0x1018:00
+    "Vendor-ID", // 0x1018:01
+    "Product code", // 0x1018:02
+    "Revision number", // 0x1018:03
+    "Serial number", // 0x1018:04
+    "Synchronous counter overflow value", // 0x1019:00
+    "Error behaviour highest sub-index", // 0x1029:00
+    "Communication error", // 0x1029:01
+    "Specific error class", // 0x1029:02
+    "SDO server highest sub-index", // 0x1200:00
+    "COB-ID client to server", // 0x1200:01
+    "COB-ID server to client", // 0x1200:02
+    "RPDO1 communication highest sub-index", // 0x1400:00
+    "RPDO1 COB-ID", // 0x1400:01
+    "RPDO1 transmission type", // 0x1400:02
+    "RPDO2 communication highest sub-index", // 0x1401:00
+    "RPDO2 COB-ID", // 0x1401:01
+    "RPDO2 transmission type", // 0x1401:02
+    "RPDO3 communication highest sub-index", // 0x1402:00
+    "RPDO3 COB-ID", // 0x1402:01
+    "RPDO3 transmission type", // 0x1402:02
+    "RPDO4 communication highest sub-index", // 0x1403:00
+    "RPDO4 COB-ID", // 0x1403:01
+    "RPDO4 transmission type", // 0x1403:02
+    "RPDO1 number of mapped objects", // 0x1600:00
+    "RPDO1 mapping entry 1", // 0x1600:01
+    "RPDO1 mapping entry 2", // 0x1600:02
+    "RPDO1 mapping entry 3", // 0x1600:03
+    "RPDO1 mapping entry 4", // 0x1600:04
+    "RPDO1 mapping entry 5", // 0x1600:05
+    "RPDO1 mapping entry 6", // 0x1600:06
+    "RPDO1 mapping entry 7", // 0x1600:07
+    "RPDO1 mapping entry 8", // 0x1600:08
+    "RPDO2 number of mapped objects", // 0x1601:00
+    "RPDO2 mapping entry 1", // 0x1601:01
+    "RPDO2 mapping entry 2", // 0x1601:02
+    "RPDO2 mapping entry 3", // 0x1601:03
+    "RPDO2 mapping entry 4", // 0x1601:04
+    "RPDO2 mapping entry 5", // 0x1601:05
+    "RPDO2 mapping entry 6", // 0x1601:06
+    "RPDO2 mapping entry 7", // 0x1601:07
+    "RPDO2 mapping entry 8", // 0x1601:08
+    "RPDO3 number of mapped objects", // 0x1602:00
+    "RPDO3 mapping entry 1", // 0x1602:01
+    "RPDO3 mapping entry 2", // 0x1602:02
+    "RPDO3 mapping entry 3", // 0x1602:03
+    "RPDO3 mapping entry 4", // 0x1602:04
+    "RPDO3 mapping entry 5", // 0x1602:05
+    "RPDO3 mapping entry 6", // 0x1602:06
+    "RPDO3 mapping entry 7", // 0x1602:07
+    "RPDO3 mapping entry 8", // 0x1602:08
+    "RPDO4 number of mapped objects", // 0x1603:00
+    "RPDO4 mapping entry 1", // 0x1603:01
+    "RPDO4 mapping entry 2", // 0x1603:02
+    "RPDO4 mapping entry 3", // 0x1603:03
+    "RPDO4 mapping entry 4", // 0x1603:04
+    "RPDO4 mapping entry 5", // 0x1603:05
+    "RPDO4 mapping entry 6", // 0x1603:06
+    "RPDO4 mapping entry 7", // 0x1603:07
+    "RPDO4 mapping entry 8", // 0x1603:08
+    "TPDO1 communication highest sub-index", // 0x1800:00
+    "TPDO1 COB-ID", // 0x1800:01
+    "TPDO1 transmission type", // 0x1800:02
+    "TPDO1 inhibit time", // 0x1800:03
+    "TPDO1 event timer", // 0x1800:05
+    "TPDO1 SYNC start value", // 0x1800:06
+    "TPDO2 communication highest sub-index", // 0x1801:00
+    "TPDO2 COB-ID", // 0x1801:01
+    "TPDO2 transmission type", // 0x1801:02
+    "TPDO2 inhibit time", // 0x1801:03
+    "TPDO2 event timer", // 0x1801:05
+    "TPDO2 SYNC start value", // 0x1801:06
+    "TPDO3 communication highest sub-index", // 0x1802:00
+    "TPDO3 COB-ID", // 0x1802:01
+    "TPDO3 transmission type", // 0x1802:02
+    "TPDO3 inhibit time", // 0x1802:03
+    "TPDO3 event timer", // 0x1802:05
+    "TPDO3 SYNC start value", // 0x1802:06
+    "TPDO4 communication highest sub-index", // 0x1803:00
+    "TPDO4 COB-ID", // 0x1803:01
+    "TPDO4 transmission type", // 0x1803:02
+    "TPDO4 inhibit time", // 0x1803:03
+    "TPDO4 event timer", // 0x1803:05
+    "TPDO4 SYNC start value", // 0x1803:06
+    "TPDO1 number of mapped objects", // 0x1A00:00
+    "TPDO1 mapping entry 1", // 0x1A00:01
+    "TPDO1 mapping entry 2", // 0x1A00:02
+    "TPDO1 mapping entry 3", // 0x1A00:03
+    "TPDO1 mapping entry 4", // 0x1A00:04
+    "TPDO1 mapping entry 5", // 0x1A00:05
+    "TPDO1 mapping entry 6", // 0x1A00:06
+    "TPDO1 mapping entry 7", // 0x1A00:07
+    "TPDO1 mapping entry 8", // 0x1A00:08
+    "TPDO2 number of mapped objects", // 0x1A01:00
+    "TPDO2 mapping entry 1", // 0x1A01:01
+    "TPDO2 mapping entry 2", // 0x1A01:02
+    "TPDO2 mapping entry 3", // 0x1A01:03
+    "TPDO2 mapping entry 4", // 0x1A01:04
+    "TPDO2 mapping entry 5", // 0x1A01:05
+    "TPDO2 mapping entry 6", // 0x1A01:06
+    "TPDO2 mapping entry 7", // 0x1A01:07
+    "TPDO2 mapping entry 8", // 0x1A01:08
+    "TPDO3 number of mapped objects", // 0x1A02:00
+    "TPDO3 mapping entry 1", // 0x1A02:01
+    "TPDO3 mapping entry 2", // 0x1A02:02
+    "TPDO3 mapping entry 3", // 0x1A02:03
+    "TPDO3 mapping entry 4", // 0x1A02:04
+    "TPDO3 mapping entry 5", // 0x1A02:05
+    "TPDO3 mapping entry 6", // 0x1A02:06
+    "TPDO3 mapping entry 7", // 0x1A02:07
+    "TPDO3 mapping entry 8", // 0x1A02:08
+    "TPDO4 number of mapped objects", // 0x1A03:00
+    "TPDO4 mapping entry 1", // 0x1A03:01
+    "TPDO4 mapping entry 2", // 0x1A03:02
+    "TPDO4 mapping entry 3", // 0x1A03:03
+    "TPDO4 mapping entry 4", // 0x1A03:04
+    "TPDO4 mapping entry 5", // 0x1A03:05
+    "TPDO4 mapping entry 6", // 0x1A03:06
+    "TPDO4 mapping entry 7", // 0x1A03:07
+    "TPDO4 mapping entry 8", // 0x1A03:08
+    "Program control highest sub-index", // 0x1F51:00
+    "Program control 1", // 0x1F51:01
+    "NMT startup", // 0x1F80:00
+    "Monitoring values highest sub-index", // 0x2200:00
+    "Number of start stops", // 0x2200:01
+    "Working hours", // 0x2200:02
+    "Uptime", // 0x2200:03
+    "Absolute minimum temperature", // 0x2200:04
+    "Absolute maximum temperature", // 0x2200:05
+    "Actual temperature", // 0x2200:06
+    "Number of quick stops", // 0x2200:07
+    "Mechanical power average", // 0x2200:08
+    "Number of rotations", // 0x2200:09
+    "Lifetime traffic light", // 0x2210:00
+    "Health traffic light highest sub-index", // 0x2211:00
+    "Temperature traffic light", // 0x2211:01
+    "Power traffic light", // 0x2211:02
+    "Error quantity traffic light", // 0x2211:03
+    "Analog value output highest sub-index", // 0x2220:00
+    "Analog voltage", // 0x2220:01
+    "Nominal power", // 0x4048:00
+    "High temperature warning level highest sub-index", // 0x4231:00
+    "High temperature warning threshold", // 0x4231:01
+    "High temperature warning hysteresis", // 0x4231:02
+    "Positioning deceleration ramp", // 0x4645:00
+    "Bus address highest sub-index", // 0x4650:00
+    "Node-ID static", // 0x4650:01
+    "Node-ID actual", // 0x4650:02
+    "Baud rate highest sub-index", // 0x4651:00
+    "CAN bit rate", // 0x4651:01
+    "UART baud rate", // 0x4651:02
+    "Actual SDO server user", // 0x4FFE:00
+    "User login", // 0x4FFF:00
+    "Abort connection option code", // 0x6007:00
+    "Controlword", // 0x6040:00
+    "Statusword", // 0x6041:00
+    "Modes of operation", // 0x6060:00
+    "Modes of operation display", // 0x6061:00
+    "Position demand value", // 0x6062:00
+    "Position actual value", // 0x6064:00
+    "Velocity demand value", // 0x606B:00
+    "Velocity actual value", // 0x606C:00
+    "Max current", // 0x6073:00
+    "Torque actual value", // 0x6077:00
+    "DC link circuit voltage", // 0x6079:00
+    "Target position", // 0x607A:00
+    "Polarity", // 0x607E:00
+    "Max profile velocity", // 0x607F:00
+    "Profile velocity", // 0x6081:00
+    "Profile acceleration", // 0x6083:00
+    "Profile deceleration", // 0x6084:00
+    "Gear ratio highest sub-index", // 0x6091:00
+    "Motor shaft revolutions", // 0x6091:01
+    "Driving shaft revolutions", // 0x6091:02
+    "Feed constant highest sub-index", // 0x6092:00
+    "Feed", // 0x6092:01
+    "Shaft revolutions", // 0x6092:02
+    "Homing method", // 0x6098:00
+    "Homing speeds", // 0x6099:00
+    "SI unit position", // 0x60A8:00
+    "SI unit velocity", // 0x60A9:00
+    "SI unit acceleration", // 0x60AA:00
+    "Max acceleration", // 0x60C5:00
+    "Max deceleration", // 0x60C6:00
+    "Number of supported homing methods", // 0x60E3:00
+    "Supported homing method 1", // 0x60E3:01
+    "Positioning option code", // 0x60F2:00
+    "Target velocity", // 0x60FF:00
+    "Motor type", // 0x6402:00
+    "Motor catalogue number", // 0x6403:00
+    "Motor manufacturer", // 0x6404:00
+    "Supported drive modes", // 0x6502:00
+    "Version number", // 0x67FE:00
 ];
 
 /// The flash half of the dictionary.
@@ -833,12 +1047,12 @@ impl Ram {
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (ec5000.eds:181, UNSIGNED8 rw)
-    pub fn pre_defined_error_field_sub0(&self) -> u8 {
+    pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 9))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
-    pub fn set_pre_defined_error_field_sub0(&mut self, v: u8) {
+    pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 9, v.to_le_bytes());
     }
 
@@ -907,7 +1121,7 @@ impl Ram {
     }
 
     /// 0x1010 sub 0 Store parameters / Store parameters highest sub-index (ec5000.eds:306, UNSIGNED8 const, in flash)
-    pub fn store_parameters_sub0(&self) -> u8 {
+    pub fn store_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 14))
     }
 
@@ -931,7 +1145,7 @@ impl Ram {
     }
 
     /// 0x1011 sub 0 Restore default parameters / Restore parameters highest sub-index (ec5000.eds:359, UNSIGNED8 const, in flash)
-    pub fn restore_default_parameters_sub0(&self) -> u8 {
+    pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 15))
     }
 
@@ -975,17 +1189,17 @@ impl Ram {
     }
 
     /// 0x1016 sub 0 Consumer heartbeat time / Consumer heartbeat time highest sub-index (ec5000.eds:428, UNSIGNED8 const, in flash)
-    pub fn consumer_heartbeat_time_consumer_heartbeat_time_highest_sub_index(&self) -> u8 {
+    pub fn consumer_heartbeat_time_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 16))
     }
 
     /// 0x1016 sub 1 Consumer heartbeat time / Consumer heartbeat time 1 (ec5000.eds:436, UNSIGNED32 rw)
-    pub fn consumer_heartbeat_time_consumer_heartbeat_time_1(&self) -> u32 {
+    pub fn consumer_heartbeat_time_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 100))
     }
 
     /// Sets 0x1016 sub 1 Consumer heartbeat time / Consumer heartbeat time 1.
-    pub fn set_consumer_heartbeat_time_consumer_heartbeat_time_1(&mut self, v: u32) {
+    pub fn set_consumer_heartbeat_time_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 100, v.to_le_bytes());
     }
 
@@ -1000,7 +1214,7 @@ impl Ram {
     }
 
     /// 0x1018 sub 0 Identity object / Identity highest sub-index (ec5000.eds:457, UNSIGNED8 const, in flash)
-    pub fn identity_object_identity_highest_sub_index(&self) -> u8 {
+    pub fn identity_object_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 17))
     }
 
@@ -1055,7 +1269,7 @@ impl Ram {
     }
 
     /// 0x1029 sub 0 Error behaviour / Error behaviour highest sub-index (ec5000.eds:510, UNSIGNED8 const, in flash)
-    pub fn error_behaviour_sub0(&self) -> u8 {
+    pub fn error_behaviour_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 18))
     }
 
@@ -1079,7 +1293,7 @@ impl Ram {
     }
 
     /// 0x1200 sub 0 SDO server parameter / SDO server highest sub-index (ec5000.eds:539, UNSIGNED8 const, in flash)
-    pub fn sdo_server_parameter_sdo_server_highest_sub_index(&self) -> u8 {
+    pub fn sdo_server_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 19))
     }
 
@@ -1104,1027 +1318,1027 @@ impl Ram {
     }
 
     /// 0x1400 sub 0 RPDO communication parameter 1 / RPDO1 communication highest sub-index (ec5000.eds:568, UNSIGNED8 const, in flash)
-    pub fn rpdo_communication_parameter_1_rpdo1_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo_communication_parameter_1_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 20))
     }
 
     /// 0x1400 sub 1 RPDO communication parameter 1 / RPDO1 COB-ID (ec5000.eds:576, UNSIGNED32 ro, $NODEID-relative)
-    pub fn rpdo_communication_parameter_1_rpdo1_cob_id(&self) -> u32 {
+    pub fn rpdo_communication_parameter_1_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 133))
     }
 
     /// Sets 0x1400 sub 1 RPDO communication parameter 1 / RPDO1 COB-ID.
-    pub fn set_rpdo_communication_parameter_1_rpdo1_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo_communication_parameter_1_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 133, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO communication parameter 1 / RPDO1 transmission type (ec5000.eds:586, UNSIGNED8 rw)
-    pub fn rpdo_communication_parameter_1_rpdo1_transmission_type(&self) -> u8 {
+    pub fn rpdo_communication_parameter_1_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 137))
     }
 
     /// Sets 0x1400 sub 2 RPDO communication parameter 1 / RPDO1 transmission type.
-    pub fn set_rpdo_communication_parameter_1_rpdo1_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo_communication_parameter_1_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 137, v.to_le_bytes());
     }
 
     /// 0x1401 sub 0 RPDO communication parameter 2 / RPDO2 communication highest sub-index (ec5000.eds:599, UNSIGNED8 const, in flash)
-    pub fn rpdo_communication_parameter_2_rpdo2_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo_communication_parameter_2_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 21))
     }
 
     /// 0x1401 sub 1 RPDO communication parameter 2 / RPDO2 COB-ID (ec5000.eds:607, UNSIGNED32 ro, $NODEID-relative)
-    pub fn rpdo_communication_parameter_2_rpdo2_cob_id(&self) -> u32 {
+    pub fn rpdo_communication_parameter_2_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 138))
     }
 
     /// Sets 0x1401 sub 1 RPDO communication parameter 2 / RPDO2 COB-ID.
-    pub fn set_rpdo_communication_parameter_2_rpdo2_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo_communication_parameter_2_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 138, v.to_le_bytes());
     }
 
     /// 0x1401 sub 2 RPDO communication parameter 2 / RPDO2 transmission type (ec5000.eds:617, UNSIGNED8 rw)
-    pub fn rpdo_communication_parameter_2_rpdo2_transmission_type(&self) -> u8 {
+    pub fn rpdo_communication_parameter_2_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 142))
     }
 
     /// Sets 0x1401 sub 2 RPDO communication parameter 2 / RPDO2 transmission type.
-    pub fn set_rpdo_communication_parameter_2_rpdo2_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo_communication_parameter_2_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 142, v.to_le_bytes());
     }
 
     /// 0x1402 sub 0 RPDO communication parameter 3 / RPDO3 communication highest sub-index (ec5000.eds:630, UNSIGNED8 const, in flash)
-    pub fn rpdo_communication_parameter_3_rpdo3_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo_communication_parameter_3_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 22))
     }
 
     /// 0x1402 sub 1 RPDO communication parameter 3 / RPDO3 COB-ID (ec5000.eds:638, UNSIGNED32 ro, $NODEID-relative)
-    pub fn rpdo_communication_parameter_3_rpdo3_cob_id(&self) -> u32 {
+    pub fn rpdo_communication_parameter_3_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 143))
     }
 
     /// Sets 0x1402 sub 1 RPDO communication parameter 3 / RPDO3 COB-ID.
-    pub fn set_rpdo_communication_parameter_3_rpdo3_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo_communication_parameter_3_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 143, v.to_le_bytes());
     }
 
     /// 0x1402 sub 2 RPDO communication parameter 3 / RPDO3 transmission type (ec5000.eds:648, UNSIGNED8 rw)
-    pub fn rpdo_communication_parameter_3_rpdo3_transmission_type(&self) -> u8 {
+    pub fn rpdo_communication_parameter_3_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 147))
     }
 
     /// Sets 0x1402 sub 2 RPDO communication parameter 3 / RPDO3 transmission type.
-    pub fn set_rpdo_communication_parameter_3_rpdo3_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo_communication_parameter_3_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 147, v.to_le_bytes());
     }
 
     /// 0x1403 sub 0 RPDO communication parameter 4 / RPDO4 communication highest sub-index (ec5000.eds:661, UNSIGNED8 const, in flash)
-    pub fn rpdo_communication_parameter_4_rpdo4_communication_highest_sub_index(&self) -> u8 {
+    pub fn rpdo_communication_parameter_4_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 23))
     }
 
     /// 0x1403 sub 1 RPDO communication parameter 4 / RPDO4 COB-ID (ec5000.eds:669, UNSIGNED32 ro, $NODEID-relative)
-    pub fn rpdo_communication_parameter_4_rpdo4_cob_id(&self) -> u32 {
+    pub fn rpdo_communication_parameter_4_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 148))
     }
 
     /// Sets 0x1403 sub 1 RPDO communication parameter 4 / RPDO4 COB-ID.
-    pub fn set_rpdo_communication_parameter_4_rpdo4_cob_id(&mut self, v: u32) {
+    pub fn set_rpdo_communication_parameter_4_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 148, v.to_le_bytes());
     }
 
     /// 0x1403 sub 2 RPDO communication parameter 4 / RPDO4 transmission type (ec5000.eds:679, UNSIGNED8 rw)
-    pub fn rpdo_communication_parameter_4_rpdo4_transmission_type(&self) -> u8 {
+    pub fn rpdo_communication_parameter_4_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 152))
     }
 
     /// Sets 0x1403 sub 2 RPDO communication parameter 4 / RPDO4 transmission type.
-    pub fn set_rpdo_communication_parameter_4_rpdo4_transmission_type(&mut self, v: u8) {
+    pub fn set_rpdo_communication_parameter_4_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 152, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO mapping parameter 1 / RPDO1 number of mapped objects (ec5000.eds:692, UNSIGNED8 const, in flash)
-    pub fn rpdo_mapping_parameter_1_rpdo1_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo_mapping_parameter_1_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 24))
     }
 
     /// 0x1600 sub 1 RPDO mapping parameter 1 / RPDO1 mapping entry 1 (ec5000.eds:700, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 153))
     }
 
     /// Sets 0x1600 sub 1 RPDO mapping parameter 1 / RPDO1 mapping entry 1.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 153, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO mapping parameter 1 / RPDO1 mapping entry 2 (ec5000.eds:708, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 157))
     }
 
     /// Sets 0x1600 sub 2 RPDO mapping parameter 1 / RPDO1 mapping entry 2.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 157, v.to_le_bytes());
     }
 
     /// 0x1600 sub 3 RPDO mapping parameter 1 / RPDO1 mapping entry 3 (ec5000.eds:716, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 161))
     }
 
     /// Sets 0x1600 sub 3 RPDO mapping parameter 1 / RPDO1 mapping entry 3.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 161, v.to_le_bytes());
     }
 
     /// 0x1600 sub 4 RPDO mapping parameter 1 / RPDO1 mapping entry 4 (ec5000.eds:724, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 165))
     }
 
     /// Sets 0x1600 sub 4 RPDO mapping parameter 1 / RPDO1 mapping entry 4.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 165, v.to_le_bytes());
     }
 
     /// 0x1600 sub 5 RPDO mapping parameter 1 / RPDO1 mapping entry 5 (ec5000.eds:732, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 169))
     }
 
     /// Sets 0x1600 sub 5 RPDO mapping parameter 1 / RPDO1 mapping entry 5.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 169, v.to_le_bytes());
     }
 
     /// 0x1600 sub 6 RPDO mapping parameter 1 / RPDO1 mapping entry 6 (ec5000.eds:740, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 173))
     }
 
     /// Sets 0x1600 sub 6 RPDO mapping parameter 1 / RPDO1 mapping entry 6.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 173, v.to_le_bytes());
     }
 
     /// 0x1600 sub 7 RPDO mapping parameter 1 / RPDO1 mapping entry 7 (ec5000.eds:748, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 177))
     }
 
     /// Sets 0x1600 sub 7 RPDO mapping parameter 1 / RPDO1 mapping entry 7.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 177, v.to_le_bytes());
     }
 
     /// 0x1600 sub 8 RPDO mapping parameter 1 / RPDO1 mapping entry 8 (ec5000.eds:756, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_1_rpdo1_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_1_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 181))
     }
 
     /// Sets 0x1600 sub 8 RPDO mapping parameter 1 / RPDO1 mapping entry 8.
-    pub fn set_rpdo_mapping_parameter_1_rpdo1_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_1_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 181, v.to_le_bytes());
     }
 
     /// 0x1601 sub 0 RPDO mapping parameter 2 / RPDO2 number of mapped objects (ec5000.eds:769, UNSIGNED8 const, in flash)
-    pub fn rpdo_mapping_parameter_2_rpdo2_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo_mapping_parameter_2_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 25))
     }
 
     /// 0x1601 sub 1 RPDO mapping parameter 2 / RPDO2 mapping entry 1 (ec5000.eds:777, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 185))
     }
 
     /// Sets 0x1601 sub 1 RPDO mapping parameter 2 / RPDO2 mapping entry 1.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 185, v.to_le_bytes());
     }
 
     /// 0x1601 sub 2 RPDO mapping parameter 2 / RPDO2 mapping entry 2 (ec5000.eds:785, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 189))
     }
 
     /// Sets 0x1601 sub 2 RPDO mapping parameter 2 / RPDO2 mapping entry 2.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 189, v.to_le_bytes());
     }
 
     /// 0x1601 sub 3 RPDO mapping parameter 2 / RPDO2 mapping entry 3 (ec5000.eds:793, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 193))
     }
 
     /// Sets 0x1601 sub 3 RPDO mapping parameter 2 / RPDO2 mapping entry 3.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 193, v.to_le_bytes());
     }
 
     /// 0x1601 sub 4 RPDO mapping parameter 2 / RPDO2 mapping entry 4 (ec5000.eds:801, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 197))
     }
 
     /// Sets 0x1601 sub 4 RPDO mapping parameter 2 / RPDO2 mapping entry 4.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 197, v.to_le_bytes());
     }
 
     /// 0x1601 sub 5 RPDO mapping parameter 2 / RPDO2 mapping entry 5 (ec5000.eds:809, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 201))
     }
 
     /// Sets 0x1601 sub 5 RPDO mapping parameter 2 / RPDO2 mapping entry 5.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 201, v.to_le_bytes());
     }
 
     /// 0x1601 sub 6 RPDO mapping parameter 2 / RPDO2 mapping entry 6 (ec5000.eds:817, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 205))
     }
 
     /// Sets 0x1601 sub 6 RPDO mapping parameter 2 / RPDO2 mapping entry 6.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 205, v.to_le_bytes());
     }
 
     /// 0x1601 sub 7 RPDO mapping parameter 2 / RPDO2 mapping entry 7 (ec5000.eds:825, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 209))
     }
 
     /// Sets 0x1601 sub 7 RPDO mapping parameter 2 / RPDO2 mapping entry 7.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 209, v.to_le_bytes());
     }
 
     /// 0x1601 sub 8 RPDO mapping parameter 2 / RPDO2 mapping entry 8 (ec5000.eds:833, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_2_rpdo2_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_2_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 213))
     }
 
     /// Sets 0x1601 sub 8 RPDO mapping parameter 2 / RPDO2 mapping entry 8.
-    pub fn set_rpdo_mapping_parameter_2_rpdo2_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_2_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 213, v.to_le_bytes());
     }
 
     /// 0x1602 sub 0 RPDO mapping parameter 3 / RPDO3 number of mapped objects (ec5000.eds:846, UNSIGNED8 const, in flash)
-    pub fn rpdo_mapping_parameter_3_rpdo3_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo_mapping_parameter_3_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 26))
     }
 
     /// 0x1602 sub 1 RPDO mapping parameter 3 / RPDO3 mapping entry 1 (ec5000.eds:854, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 217))
     }
 
     /// Sets 0x1602 sub 1 RPDO mapping parameter 3 / RPDO3 mapping entry 1.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 217, v.to_le_bytes());
     }
 
     /// 0x1602 sub 2 RPDO mapping parameter 3 / RPDO3 mapping entry 2 (ec5000.eds:862, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 221))
     }
 
     /// Sets 0x1602 sub 2 RPDO mapping parameter 3 / RPDO3 mapping entry 2.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 221, v.to_le_bytes());
     }
 
     /// 0x1602 sub 3 RPDO mapping parameter 3 / RPDO3 mapping entry 3 (ec5000.eds:870, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 225))
     }
 
     /// Sets 0x1602 sub 3 RPDO mapping parameter 3 / RPDO3 mapping entry 3.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 225, v.to_le_bytes());
     }
 
     /// 0x1602 sub 4 RPDO mapping parameter 3 / RPDO3 mapping entry 4 (ec5000.eds:878, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 229))
     }
 
     /// Sets 0x1602 sub 4 RPDO mapping parameter 3 / RPDO3 mapping entry 4.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 229, v.to_le_bytes());
     }
 
     /// 0x1602 sub 5 RPDO mapping parameter 3 / RPDO3 mapping entry 5 (ec5000.eds:886, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 233))
     }
 
     /// Sets 0x1602 sub 5 RPDO mapping parameter 3 / RPDO3 mapping entry 5.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 233, v.to_le_bytes());
     }
 
     /// 0x1602 sub 6 RPDO mapping parameter 3 / RPDO3 mapping entry 6 (ec5000.eds:894, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 237))
     }
 
     /// Sets 0x1602 sub 6 RPDO mapping parameter 3 / RPDO3 mapping entry 6.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 237, v.to_le_bytes());
     }
 
     /// 0x1602 sub 7 RPDO mapping parameter 3 / RPDO3 mapping entry 7 (ec5000.eds:902, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 241))
     }
 
     /// Sets 0x1602 sub 7 RPDO mapping parameter 3 / RPDO3 mapping entry 7.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 241, v.to_le_bytes());
     }
 
     /// 0x1602 sub 8 RPDO mapping parameter 3 / RPDO3 mapping entry 8 (ec5000.eds:910, UNSIGNED32 ro)
-    pub fn rpdo_mapping_parameter_3_rpdo3_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_3_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 245))
     }
 
     /// Sets 0x1602 sub 8 RPDO mapping parameter 3 / RPDO3 mapping entry 8.
-    pub fn set_rpdo_mapping_parameter_3_rpdo3_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_3_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 245, v.to_le_bytes());
     }
 
     /// 0x1603 sub 0 RPDO mapping parameter 4 / RPDO4 number of mapped objects (ec5000.eds:923, UNSIGNED8 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_number_of_mapped_objects(&self) -> u8 {
+    pub fn rpdo_mapping_parameter_4_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 249))
     }
 
     /// Sets 0x1603 sub 0 RPDO mapping parameter 4 / RPDO4 number of mapped objects.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_rpdo_mapping_parameter_4_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 249, v.to_le_bytes());
     }
 
     /// 0x1603 sub 1 RPDO mapping parameter 4 / RPDO4 mapping entry 1 (ec5000.eds:933, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_1(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 250))
     }
 
     /// Sets 0x1603 sub 1 RPDO mapping parameter 4 / RPDO4 mapping entry 1.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 250, v.to_le_bytes());
     }
 
     /// 0x1603 sub 2 RPDO mapping parameter 4 / RPDO4 mapping entry 2 (ec5000.eds:941, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_2(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 254))
     }
 
     /// Sets 0x1603 sub 2 RPDO mapping parameter 4 / RPDO4 mapping entry 2.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 254, v.to_le_bytes());
     }
 
     /// 0x1603 sub 3 RPDO mapping parameter 4 / RPDO4 mapping entry 3 (ec5000.eds:949, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_3(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 258))
     }
 
     /// Sets 0x1603 sub 3 RPDO mapping parameter 4 / RPDO4 mapping entry 3.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 258, v.to_le_bytes());
     }
 
     /// 0x1603 sub 4 RPDO mapping parameter 4 / RPDO4 mapping entry 4 (ec5000.eds:957, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_4(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 262))
     }
 
     /// Sets 0x1603 sub 4 RPDO mapping parameter 4 / RPDO4 mapping entry 4.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 262, v.to_le_bytes());
     }
 
     /// 0x1603 sub 5 RPDO mapping parameter 4 / RPDO4 mapping entry 5 (ec5000.eds:965, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_5(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 266))
     }
 
     /// Sets 0x1603 sub 5 RPDO mapping parameter 4 / RPDO4 mapping entry 5.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 266, v.to_le_bytes());
     }
 
     /// 0x1603 sub 6 RPDO mapping parameter 4 / RPDO4 mapping entry 6 (ec5000.eds:973, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_6(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 270))
     }
 
     /// Sets 0x1603 sub 6 RPDO mapping parameter 4 / RPDO4 mapping entry 6.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 270, v.to_le_bytes());
     }
 
     /// 0x1603 sub 7 RPDO mapping parameter 4 / RPDO4 mapping entry 7 (ec5000.eds:981, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_7(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 274))
     }
 
     /// Sets 0x1603 sub 7 RPDO mapping parameter 4 / RPDO4 mapping entry 7.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 274, v.to_le_bytes());
     }
 
     /// 0x1603 sub 8 RPDO mapping parameter 4 / RPDO4 mapping entry 8 (ec5000.eds:989, UNSIGNED32 rw)
-    pub fn rpdo_mapping_parameter_4_rpdo4_mapping_entry_8(&self) -> u32 {
+    pub fn rpdo_mapping_parameter_4_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 278))
     }
 
     /// Sets 0x1603 sub 8 RPDO mapping parameter 4 / RPDO4 mapping entry 8.
-    pub fn set_rpdo_mapping_parameter_4_rpdo4_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_rpdo_mapping_parameter_4_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 278, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO communication parameter 1 / TPDO1 communication highest sub-index (ec5000.eds:1002, UNSIGNED8 const, in flash)
-    pub fn tpdo_communication_parameter_1_tpdo1_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo_communication_parameter_1_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 27))
     }
 
     /// 0x1800 sub 1 TPDO communication parameter 1 / TPDO1 COB-ID (ec5000.eds:1010, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo_communication_parameter_1_tpdo1_cob_id(&self) -> u32 {
+    pub fn tpdo_communication_parameter_1_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 282))
     }
 
     /// Sets 0x1800 sub 1 TPDO communication parameter 1 / TPDO1 COB-ID.
-    pub fn set_tpdo_communication_parameter_1_tpdo1_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo_communication_parameter_1_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 282, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO communication parameter 1 / TPDO1 transmission type (ec5000.eds:1018, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_1_tpdo1_transmission_type(&self) -> u8 {
+    pub fn tpdo_communication_parameter_1_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 286))
     }
 
     /// Sets 0x1800 sub 2 TPDO communication parameter 1 / TPDO1 transmission type.
-    pub fn set_tpdo_communication_parameter_1_tpdo1_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_1_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 286, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO communication parameter 1 / TPDO1 inhibit time (ec5000.eds:1026, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_1_tpdo1_inhibit_time(&self) -> u16 {
+    pub fn tpdo_communication_parameter_1_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 287))
     }
 
     /// Sets 0x1800 sub 3 TPDO communication parameter 1 / TPDO1 inhibit time.
-    pub fn set_tpdo_communication_parameter_1_tpdo1_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_1_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 287, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO communication parameter 1 / TPDO1 event timer (ec5000.eds:1034, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_1_tpdo1_event_timer(&self) -> u16 {
+    pub fn tpdo_communication_parameter_1_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 289))
     }
 
     /// Sets 0x1800 sub 5 TPDO communication parameter 1 / TPDO1 event timer.
-    pub fn set_tpdo_communication_parameter_1_tpdo1_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_1_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 289, v.to_le_bytes());
     }
 
     /// 0x1800 sub 6 TPDO communication parameter 1 / TPDO1 SYNC start value (ec5000.eds:1042, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_1_tpdo1_sync_start_value(&self) -> u8 {
+    pub fn tpdo_communication_parameter_1_sync_start_value(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 291))
     }
 
     /// Sets 0x1800 sub 6 TPDO communication parameter 1 / TPDO1 SYNC start value.
-    pub fn set_tpdo_communication_parameter_1_tpdo1_sync_start_value(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_1_sync_start_value(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 291, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO communication parameter 2 / TPDO2 communication highest sub-index (ec5000.eds:1055, UNSIGNED8 const, in flash)
-    pub fn tpdo_communication_parameter_2_tpdo2_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo_communication_parameter_2_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 28))
     }
 
     /// 0x1801 sub 1 TPDO communication parameter 2 / TPDO2 COB-ID (ec5000.eds:1063, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo_communication_parameter_2_tpdo2_cob_id(&self) -> u32 {
+    pub fn tpdo_communication_parameter_2_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 292))
     }
 
     /// Sets 0x1801 sub 1 TPDO communication parameter 2 / TPDO2 COB-ID.
-    pub fn set_tpdo_communication_parameter_2_tpdo2_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo_communication_parameter_2_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 292, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO communication parameter 2 / TPDO2 transmission type (ec5000.eds:1071, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_2_tpdo2_transmission_type(&self) -> u8 {
+    pub fn tpdo_communication_parameter_2_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 296))
     }
 
     /// Sets 0x1801 sub 2 TPDO communication parameter 2 / TPDO2 transmission type.
-    pub fn set_tpdo_communication_parameter_2_tpdo2_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_2_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 296, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO communication parameter 2 / TPDO2 inhibit time (ec5000.eds:1079, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_2_tpdo2_inhibit_time(&self) -> u16 {
+    pub fn tpdo_communication_parameter_2_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 297))
     }
 
     /// Sets 0x1801 sub 3 TPDO communication parameter 2 / TPDO2 inhibit time.
-    pub fn set_tpdo_communication_parameter_2_tpdo2_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_2_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 297, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO communication parameter 2 / TPDO2 event timer (ec5000.eds:1087, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_2_tpdo2_event_timer(&self) -> u16 {
+    pub fn tpdo_communication_parameter_2_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 299))
     }
 
     /// Sets 0x1801 sub 5 TPDO communication parameter 2 / TPDO2 event timer.
-    pub fn set_tpdo_communication_parameter_2_tpdo2_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_2_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 299, v.to_le_bytes());
     }
 
     /// 0x1801 sub 6 TPDO communication parameter 2 / TPDO2 SYNC start value (ec5000.eds:1095, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_2_tpdo2_sync_start_value(&self) -> u8 {
+    pub fn tpdo_communication_parameter_2_sync_start_value(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 301))
     }
 
     /// Sets 0x1801 sub 6 TPDO communication parameter 2 / TPDO2 SYNC start value.
-    pub fn set_tpdo_communication_parameter_2_tpdo2_sync_start_value(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_2_sync_start_value(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 301, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO communication parameter 3 / TPDO3 communication highest sub-index (ec5000.eds:1108, UNSIGNED8 const, in flash)
-    pub fn tpdo_communication_parameter_3_tpdo3_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo_communication_parameter_3_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 29))
     }
 
     /// 0x1802 sub 1 TPDO communication parameter 3 / TPDO3 COB-ID (ec5000.eds:1116, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo_communication_parameter_3_tpdo3_cob_id(&self) -> u32 {
+    pub fn tpdo_communication_parameter_3_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 302))
     }
 
     /// Sets 0x1802 sub 1 TPDO communication parameter 3 / TPDO3 COB-ID.
-    pub fn set_tpdo_communication_parameter_3_tpdo3_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo_communication_parameter_3_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 302, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO communication parameter 3 / TPDO3 transmission type (ec5000.eds:1124, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_3_tpdo3_transmission_type(&self) -> u8 {
+    pub fn tpdo_communication_parameter_3_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 306))
     }
 
     /// Sets 0x1802 sub 2 TPDO communication parameter 3 / TPDO3 transmission type.
-    pub fn set_tpdo_communication_parameter_3_tpdo3_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_3_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 306, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO communication parameter 3 / TPDO3 inhibit time (ec5000.eds:1132, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_3_tpdo3_inhibit_time(&self) -> u16 {
+    pub fn tpdo_communication_parameter_3_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 307))
     }
 
     /// Sets 0x1802 sub 3 TPDO communication parameter 3 / TPDO3 inhibit time.
-    pub fn set_tpdo_communication_parameter_3_tpdo3_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_3_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 307, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO communication parameter 3 / TPDO3 event timer (ec5000.eds:1140, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_3_tpdo3_event_timer(&self) -> u16 {
+    pub fn tpdo_communication_parameter_3_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 309))
     }
 
     /// Sets 0x1802 sub 5 TPDO communication parameter 3 / TPDO3 event timer.
-    pub fn set_tpdo_communication_parameter_3_tpdo3_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_3_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 309, v.to_le_bytes());
     }
 
     /// 0x1802 sub 6 TPDO communication parameter 3 / TPDO3 SYNC start value (ec5000.eds:1148, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_3_tpdo3_sync_start_value(&self) -> u8 {
+    pub fn tpdo_communication_parameter_3_sync_start_value(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 311))
     }
 
     /// Sets 0x1802 sub 6 TPDO communication parameter 3 / TPDO3 SYNC start value.
-    pub fn set_tpdo_communication_parameter_3_tpdo3_sync_start_value(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_3_sync_start_value(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 311, v.to_le_bytes());
     }
 
     /// 0x1803 sub 0 TPDO communication parameter 4 / TPDO4 communication highest sub-index (ec5000.eds:1161, UNSIGNED8 const, in flash)
-    pub fn tpdo_communication_parameter_4_tpdo4_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo_communication_parameter_4_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 30))
     }
 
     /// 0x1803 sub 1 TPDO communication parameter 4 / TPDO4 COB-ID (ec5000.eds:1169, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo_communication_parameter_4_tpdo4_cob_id(&self) -> u32 {
+    pub fn tpdo_communication_parameter_4_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 312))
     }
 
     /// Sets 0x1803 sub 1 TPDO communication parameter 4 / TPDO4 COB-ID.
-    pub fn set_tpdo_communication_parameter_4_tpdo4_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo_communication_parameter_4_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 312, v.to_le_bytes());
     }
 
     /// 0x1803 sub 2 TPDO communication parameter 4 / TPDO4 transmission type (ec5000.eds:1177, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_4_tpdo4_transmission_type(&self) -> u8 {
+    pub fn tpdo_communication_parameter_4_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 316))
     }
 
     /// Sets 0x1803 sub 2 TPDO communication parameter 4 / TPDO4 transmission type.
-    pub fn set_tpdo_communication_parameter_4_tpdo4_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_4_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 316, v.to_le_bytes());
     }
 
     /// 0x1803 sub 3 TPDO communication parameter 4 / TPDO4 inhibit time (ec5000.eds:1185, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_4_tpdo4_inhibit_time(&self) -> u16 {
+    pub fn tpdo_communication_parameter_4_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 317))
     }
 
     /// Sets 0x1803 sub 3 TPDO communication parameter 4 / TPDO4 inhibit time.
-    pub fn set_tpdo_communication_parameter_4_tpdo4_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_4_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 317, v.to_le_bytes());
     }
 
     /// 0x1803 sub 5 TPDO communication parameter 4 / TPDO4 event timer (ec5000.eds:1193, UNSIGNED16 rw)
-    pub fn tpdo_communication_parameter_4_tpdo4_event_timer(&self) -> u16 {
+    pub fn tpdo_communication_parameter_4_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 319))
     }
 
     /// Sets 0x1803 sub 5 TPDO communication parameter 4 / TPDO4 event timer.
-    pub fn set_tpdo_communication_parameter_4_tpdo4_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo_communication_parameter_4_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 319, v.to_le_bytes());
     }
 
     /// 0x1803 sub 6 TPDO communication parameter 4 / TPDO4 SYNC start value (ec5000.eds:1201, UNSIGNED8 rw)
-    pub fn tpdo_communication_parameter_4_tpdo4_sync_start_value(&self) -> u8 {
+    pub fn tpdo_communication_parameter_4_sync_start_value(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 321))
     }
 
     /// Sets 0x1803 sub 6 TPDO communication parameter 4 / TPDO4 SYNC start value.
-    pub fn set_tpdo_communication_parameter_4_tpdo4_sync_start_value(&mut self, v: u8) {
+    pub fn set_tpdo_communication_parameter_4_sync_start_value(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 321, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO mapping parameter 1 / TPDO1 number of mapped objects (ec5000.eds:1214, UNSIGNED8 const, in flash)
-    pub fn tpdo_mapping_parameter_1_tpdo1_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo_mapping_parameter_1_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 31))
     }
 
     /// 0x1A00 sub 1 TPDO mapping parameter 1 / TPDO1 mapping entry 1 (ec5000.eds:1222, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 322))
     }
 
     /// Sets 0x1A00 sub 1 TPDO mapping parameter 1 / TPDO1 mapping entry 1.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 322, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO mapping parameter 1 / TPDO1 mapping entry 2 (ec5000.eds:1230, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 326))
     }
 
     /// Sets 0x1A00 sub 2 TPDO mapping parameter 1 / TPDO1 mapping entry 2.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 326, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO mapping parameter 1 / TPDO1 mapping entry 3 (ec5000.eds:1238, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 330))
     }
 
     /// Sets 0x1A00 sub 3 TPDO mapping parameter 1 / TPDO1 mapping entry 3.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 330, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO mapping parameter 1 / TPDO1 mapping entry 4 (ec5000.eds:1246, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 334))
     }
 
     /// Sets 0x1A00 sub 4 TPDO mapping parameter 1 / TPDO1 mapping entry 4.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 334, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO mapping parameter 1 / TPDO1 mapping entry 5 (ec5000.eds:1254, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 338))
     }
 
     /// Sets 0x1A00 sub 5 TPDO mapping parameter 1 / TPDO1 mapping entry 5.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 338, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO mapping parameter 1 / TPDO1 mapping entry 6 (ec5000.eds:1262, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 342))
     }
 
     /// Sets 0x1A00 sub 6 TPDO mapping parameter 1 / TPDO1 mapping entry 6.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 342, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO mapping parameter 1 / TPDO1 mapping entry 7 (ec5000.eds:1270, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 346))
     }
 
     /// Sets 0x1A00 sub 7 TPDO mapping parameter 1 / TPDO1 mapping entry 7.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 346, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO mapping parameter 1 / TPDO1 mapping entry 8 (ec5000.eds:1278, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_1_tpdo1_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_1_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 350))
     }
 
     /// Sets 0x1A00 sub 8 TPDO mapping parameter 1 / TPDO1 mapping entry 8.
-    pub fn set_tpdo_mapping_parameter_1_tpdo1_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_1_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 350, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO mapping parameter 2 / TPDO2 number of mapped objects (ec5000.eds:1291, UNSIGNED8 const, in flash)
-    pub fn tpdo_mapping_parameter_2_tpdo2_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo_mapping_parameter_2_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 32))
     }
 
     /// 0x1A01 sub 1 TPDO mapping parameter 2 / TPDO2 mapping entry 1 (ec5000.eds:1299, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 354))
     }
 
     /// Sets 0x1A01 sub 1 TPDO mapping parameter 2 / TPDO2 mapping entry 1.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 354, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO mapping parameter 2 / TPDO2 mapping entry 2 (ec5000.eds:1307, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 358))
     }
 
     /// Sets 0x1A01 sub 2 TPDO mapping parameter 2 / TPDO2 mapping entry 2.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 358, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO mapping parameter 2 / TPDO2 mapping entry 3 (ec5000.eds:1315, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 362))
     }
 
     /// Sets 0x1A01 sub 3 TPDO mapping parameter 2 / TPDO2 mapping entry 3.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 362, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO mapping parameter 2 / TPDO2 mapping entry 4 (ec5000.eds:1323, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 366))
     }
 
     /// Sets 0x1A01 sub 4 TPDO mapping parameter 2 / TPDO2 mapping entry 4.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 366, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO mapping parameter 2 / TPDO2 mapping entry 5 (ec5000.eds:1331, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 370))
     }
 
     /// Sets 0x1A01 sub 5 TPDO mapping parameter 2 / TPDO2 mapping entry 5.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 370, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO mapping parameter 2 / TPDO2 mapping entry 6 (ec5000.eds:1339, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 374))
     }
 
     /// Sets 0x1A01 sub 6 TPDO mapping parameter 2 / TPDO2 mapping entry 6.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 374, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO mapping parameter 2 / TPDO2 mapping entry 7 (ec5000.eds:1347, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 378))
     }
 
     /// Sets 0x1A01 sub 7 TPDO mapping parameter 2 / TPDO2 mapping entry 7.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 378, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO mapping parameter 2 / TPDO2 mapping entry 8 (ec5000.eds:1355, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_2_tpdo2_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_2_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 382))
     }
 
     /// Sets 0x1A01 sub 8 TPDO mapping parameter 2 / TPDO2 mapping entry 8.
-    pub fn set_tpdo_mapping_parameter_2_tpdo2_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_2_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 382, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO mapping parameter 3 / TPDO3 number of mapped objects (ec5000.eds:1368, UNSIGNED8 const, in flash)
-    pub fn tpdo_mapping_parameter_3_tpdo3_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo_mapping_parameter_3_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 33))
     }
 
     /// 0x1A02 sub 1 TPDO mapping parameter 3 / TPDO3 mapping entry 1 (ec5000.eds:1376, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 386))
     }
 
     /// Sets 0x1A02 sub 1 TPDO mapping parameter 3 / TPDO3 mapping entry 1.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 386, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO mapping parameter 3 / TPDO3 mapping entry 2 (ec5000.eds:1384, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 390))
     }
 
     /// Sets 0x1A02 sub 2 TPDO mapping parameter 3 / TPDO3 mapping entry 2.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 390, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO mapping parameter 3 / TPDO3 mapping entry 3 (ec5000.eds:1392, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 394))
     }
 
     /// Sets 0x1A02 sub 3 TPDO mapping parameter 3 / TPDO3 mapping entry 3.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 394, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO mapping parameter 3 / TPDO3 mapping entry 4 (ec5000.eds:1400, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 398))
     }
 
     /// Sets 0x1A02 sub 4 TPDO mapping parameter 3 / TPDO3 mapping entry 4.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 398, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO mapping parameter 3 / TPDO3 mapping entry 5 (ec5000.eds:1408, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 402))
     }
 
     /// Sets 0x1A02 sub 5 TPDO mapping parameter 3 / TPDO3 mapping entry 5.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 402, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO mapping parameter 3 / TPDO3 mapping entry 6 (ec5000.eds:1416, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 406))
     }
 
     /// Sets 0x1A02 sub 6 TPDO mapping parameter 3 / TPDO3 mapping entry 6.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 406, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO mapping parameter 3 / TPDO3 mapping entry 7 (ec5000.eds:1424, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 410))
     }
 
     /// Sets 0x1A02 sub 7 TPDO mapping parameter 3 / TPDO3 mapping entry 7.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 410, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO mapping parameter 3 / TPDO3 mapping entry 8 (ec5000.eds:1432, UNSIGNED32 ro)
-    pub fn tpdo_mapping_parameter_3_tpdo3_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_3_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 414))
     }
 
     /// Sets 0x1A02 sub 8 TPDO mapping parameter 3 / TPDO3 mapping entry 8.
-    pub fn set_tpdo_mapping_parameter_3_tpdo3_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_3_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 414, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 0 TPDO mapping parameter 4 / TPDO4 number of mapped objects (ec5000.eds:1445, UNSIGNED8 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo_mapping_parameter_4_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 418))
     }
 
     /// Sets 0x1A03 sub 0 TPDO mapping parameter 4 / TPDO4 number of mapped objects.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo_mapping_parameter_4_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 418, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 1 TPDO mapping parameter 4 / TPDO4 mapping entry 1 (ec5000.eds:1455, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_1(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 419))
     }
 
     /// Sets 0x1A03 sub 1 TPDO mapping parameter 4 / TPDO4 mapping entry 1.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_1(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 419, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 2 TPDO mapping parameter 4 / TPDO4 mapping entry 2 (ec5000.eds:1463, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_2(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 423))
     }
 
     /// Sets 0x1A03 sub 2 TPDO mapping parameter 4 / TPDO4 mapping entry 2.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_2(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 423, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 3 TPDO mapping parameter 4 / TPDO4 mapping entry 3 (ec5000.eds:1471, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_3(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 427))
     }
 
     /// Sets 0x1A03 sub 3 TPDO mapping parameter 4 / TPDO4 mapping entry 3.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_3(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 427, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 4 TPDO mapping parameter 4 / TPDO4 mapping entry 4 (ec5000.eds:1479, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_4(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 431))
     }
 
     /// Sets 0x1A03 sub 4 TPDO mapping parameter 4 / TPDO4 mapping entry 4.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_4(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 431, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 5 TPDO mapping parameter 4 / TPDO4 mapping entry 5 (ec5000.eds:1487, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_5(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 435))
     }
 
     /// Sets 0x1A03 sub 5 TPDO mapping parameter 4 / TPDO4 mapping entry 5.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_5(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 435, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 6 TPDO mapping parameter 4 / TPDO4 mapping entry 6 (ec5000.eds:1495, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_6(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 439))
     }
 
     /// Sets 0x1A03 sub 6 TPDO mapping parameter 4 / TPDO4 mapping entry 6.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_6(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 439, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 7 TPDO mapping parameter 4 / TPDO4 mapping entry 7 (ec5000.eds:1503, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_7(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 443))
     }
 
     /// Sets 0x1A03 sub 7 TPDO mapping parameter 4 / TPDO4 mapping entry 7.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_7(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 443, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 8 TPDO mapping parameter 4 / TPDO4 mapping entry 8 (ec5000.eds:1511, UNSIGNED32 rw)
-    pub fn tpdo_mapping_parameter_4_tpdo4_mapping_entry_8(&self) -> u32 {
+    pub fn tpdo_mapping_parameter_4_entry_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 447))
     }
 
     /// Sets 0x1A03 sub 8 TPDO mapping parameter 4 / TPDO4 mapping entry 8.
-    pub fn set_tpdo_mapping_parameter_4_tpdo4_mapping_entry_8(&mut self, v: u32) {
+    pub fn set_tpdo_mapping_parameter_4_entry_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 447, v.to_le_bytes());
     }
 
     /// 0x1F51 sub 0 Program control / Program control highest sub-index (ec5000.eds:1524, UNSIGNED8 const, in flash)
-    pub fn program_control_program_control_highest_sub_index(&self) -> u8 {
+    pub fn program_control_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 34))
     }
 
     /// 0x1F51 sub 1 Program control / Program control 1 (ec5000.eds:1532, UNSIGNED8 rw)
-    pub fn program_control_program_control_1(&self) -> u8 {
+    pub fn program_control_1(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 451))
     }
 
     /// Sets 0x1F51 sub 1 Program control / Program control 1.
-    pub fn set_program_control_program_control_1(&mut self, v: u8) {
+    pub fn set_program_control_1(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 451, v.to_le_bytes());
     }
 
@@ -2139,12 +2353,12 @@ impl Ram {
     }
 
     /// 0x2200 sub 0 Monitoring values / Monitoring values highest sub-index (ec5000.eds:1555, UNSIGNED8 ro)
-    pub fn monitoring_values_monitoring_values_highest_sub_index(&self) -> u8 {
+    pub fn monitoring_values_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 456))
     }
 
     /// Sets 0x2200 sub 0 Monitoring values / Monitoring values highest sub-index.
-    pub fn set_monitoring_values_monitoring_values_highest_sub_index(&mut self, v: u8) {
+    pub fn set_monitoring_values_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 456, v.to_le_bytes());
     }
 
@@ -2249,12 +2463,12 @@ impl Ram {
     }
 
     /// 0x2211 sub 0 Health traffic light / Health traffic light highest sub-index (ec5000.eds:1648, UNSIGNED8 ro, PDO-mappable)
-    pub fn health_traffic_light_health_traffic_light_highest_sub_index(&self) -> u8 {
+    pub fn health_traffic_light_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 483))
     }
 
     /// Sets 0x2211 sub 0 Health traffic light / Health traffic light highest sub-index.
-    pub fn set_health_traffic_light_health_traffic_light_highest_sub_index(&mut self, v: u8) {
+    pub fn set_health_traffic_light_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 483, v.to_le_bytes());
     }
 
@@ -2289,22 +2503,22 @@ impl Ram {
     }
 
     /// 0x2220 sub 0 Analog value output / Analog value output highest sub-index (ec5000.eds:1685, UNSIGNED8 ro, PDO-mappable)
-    pub fn analog_value_output_analog_value_output_highest_sub_index(&self) -> u8 {
+    pub fn analog_value_output_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 487))
     }
 
     /// Sets 0x2220 sub 0 Analog value output / Analog value output highest sub-index.
-    pub fn set_analog_value_output_analog_value_output_highest_sub_index(&mut self, v: u8) {
+    pub fn set_analog_value_output_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 487, v.to_le_bytes());
     }
 
     /// 0x2220 sub 1 Analog value output / Analog voltage (ec5000.eds:1693, INTEGER16 ro, PDO-mappable)
-    pub fn analog_value_output_analog_voltage(&self) -> i16 {
+    pub fn analog_value_output_voltage(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 488))
     }
 
     /// Sets 0x2220 sub 1 Analog value output / Analog voltage.
-    pub fn set_analog_value_output_analog_voltage(&mut self, v: i16) {
+    pub fn set_analog_value_output_voltage(&mut self, v: i16) {
         od::store::<2>(&mut self.image, 488, v.to_le_bytes());
     }
 
@@ -2314,27 +2528,27 @@ impl Ram {
     }
 
     /// 0x4231 sub 0 High temperature warning level / High temperature warning level highest sub-index (ec5000.eds:1714, UNSIGNED8 const, in flash)
-    pub fn high_temperature_warning_level_high_temperature_warning_level_highest_sub_index(&self) -> u8 {
+    pub fn high_temperature_warning_level_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 36))
     }
 
     /// 0x4231 sub 1 High temperature warning level / High temperature warning threshold (ec5000.eds:1722, INTEGER16 rw)
-    pub fn high_temperature_warning_level_high_temperature_warning_threshold(&self) -> i16 {
+    pub fn high_temperature_warning_level_threshold(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 490))
     }
 
     /// Sets 0x4231 sub 1 High temperature warning level / High temperature warning threshold.
-    pub fn set_high_temperature_warning_level_high_temperature_warning_threshold(&mut self, v: i16) {
+    pub fn set_high_temperature_warning_level_threshold(&mut self, v: i16) {
         od::store::<2>(&mut self.image, 490, v.to_le_bytes());
     }
 
     /// 0x4231 sub 2 High temperature warning level / High temperature warning hysteresis (ec5000.eds:1732, INTEGER16 rw)
-    pub fn high_temperature_warning_level_high_temperature_warning_hysteresis(&self) -> i16 {
+    pub fn high_temperature_warning_level_hysteresis(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 492))
     }
 
     /// Sets 0x4231 sub 2 High temperature warning level / High temperature warning hysteresis.
-    pub fn set_high_temperature_warning_level_high_temperature_warning_hysteresis(&mut self, v: i16) {
+    pub fn set_high_temperature_warning_level_hysteresis(&mut self, v: i16) {
         od::store::<2>(&mut self.image, 492, v.to_le_bytes());
     }
 
@@ -2349,7 +2563,7 @@ impl Ram {
     }
 
     /// 0x4650 sub 0 Bus address / Bus address highest sub-index (ec5000.eds:1757, UNSIGNED8 const, in flash)
-    pub fn bus_address_bus_address_highest_sub_index(&self) -> u8 {
+    pub fn bus_address_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 37))
     }
 
@@ -2374,7 +2588,7 @@ impl Ram {
     }
 
     /// 0x4651 sub 0 Baud rate / Baud rate highest sub-index (ec5000.eds:1790, UNSIGNED8 const, in flash)
-    pub fn baud_rate_baud_rate_highest_sub_index(&self) -> u8 {
+    pub fn baud_rate_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 38))
     }
 
@@ -2599,7 +2813,7 @@ impl Ram {
     }
 
     /// 0x6091 sub 0 Gear ratio / Gear ratio highest sub-index (ec5000.eds:1995, UNSIGNED8 const, in flash)
-    pub fn gear_ratio_sub0(&self) -> u8 {
+    pub fn gear_ratio_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 39))
     }
 
@@ -2623,7 +2837,7 @@ impl Ram {
     }
 
     /// 0x6092 sub 0 Feed constant / Feed constant highest sub-index (ec5000.eds:2026, UNSIGNED8 const, in flash)
-    pub fn feed_constant_sub0(&self) -> u8 {
+    pub fn feed_constant_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 40))
     }
 
@@ -2722,7 +2936,7 @@ impl Ram {
     }
 
     /// 0x60E3 sub 1 Supported homing methods / Supported homing method 1 (ec5000.eds:2129, INTEGER8 const, in flash)
-    pub fn supported_homing_methods_supported_homing_method_1(&self) -> i8 {
+    pub fn supported_homing_methods_method_1(&self) -> i8 {
         i8::from_le_bytes(od::load::<1>(&ROM, 42))
     }
 

@@ -124,179 +124,244 @@ const RO_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::NODE_ID.0);
 const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 
 /// Entry metadata, sorted by (index, sub-index).
+#[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS),
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 0, NO_LIMITS),
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 1, NO_LIMITS),
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 2, NO_LIMITS),
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 6, NO_LIMITS),
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 10, NO_LIMITS),
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 14, NO_LIMITS),
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 18, NO_LIMITS),
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 22, NO_LIMITS),
-    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 26, NO_LIMITS),
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 27, NO_LIMITS),
-    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 31, NO_LIMITS),
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 35, 0),
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 4, NO_LIMITS),
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 5, NO_LIMITS),
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 9, NO_LIMITS),
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 13, NO_LIMITS),
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 37, NO_LIMITS),
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS),
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 41, NO_LIMITS),
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 45, NO_LIMITS),
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS),
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 49, NO_LIMITS),
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 53, NO_LIMITS),
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 54, NO_LIMITS),
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 55, NO_LIMITS),
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 59, NO_LIMITS),
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS),
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 63, NO_LIMITS),
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 67, NO_LIMITS),
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 68, NO_LIMITS),
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 70, NO_LIMITS),
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 72, NO_LIMITS),
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 73, NO_LIMITS),
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 77, NO_LIMITS),
-    Entry::new(0x2001, 0x00, DataType::Boolean, RW_TPDO_RPDO, 1, 81, NO_LIMITS),
-    Entry::new(0x2002, 0x00, DataType::Integer8, RW_TPDO_RPDO, 1, 82, NO_LIMITS),
-    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO, 2, 83, 1),
-    Entry::new(0x2004, 0x00, DataType::Integer32, RW, 4, 85, NO_LIMITS),
-    Entry::new(0x2005, 0x00, DataType::Unsigned8, RW, 1, 89, NO_LIMITS),
-    Entry::new(0x2006, 0x00, DataType::Unsigned16, RO_TPDO, 2, 90, NO_LIMITS),
-    Entry::new(0x2007, 0x00, DataType::Unsigned32, RW_RPDO, 4, 92, 2),
-    Entry::new(0x2008, 0x00, DataType::Real32, RW, 4, 96, 3),
-    Entry::new(0x2009, 0x00, DataType::VisibleString, RO, 11, 100, NO_LIMITS),
-    Entry::new(0x200A, 0x00, DataType::OctetString, RW, 16, 111, NO_LIMITS),
-    Entry::new(0x200B, 0x00, DataType::UnicodeString, RW, 16, 127, NO_LIMITS),
-    Entry::new(0x200C, 0x00, DataType::TimeOfDay, RW, 6, 143, NO_LIMITS),
-    Entry::new(0x200D, 0x00, DataType::TimeDifference, RW, 6, 149, NO_LIMITS),
-    Entry::new(0x200F, 0x00, DataType::Domain, RW, 0, 0, NO_LIMITS),
-    Entry::new(0x2010, 0x00, DataType::Integer24, RW, 3, 155, NO_LIMITS),
-    Entry::new(0x2011, 0x00, DataType::Real64, RW, 8, 158, NO_LIMITS),
-    Entry::new(0x2012, 0x00, DataType::Integer40, RW, 5, 166, NO_LIMITS),
-    Entry::new(0x2013, 0x00, DataType::Integer48, RW, 6, 171, NO_LIMITS),
-    Entry::new(0x2014, 0x00, DataType::Integer56, RW, 7, 177, NO_LIMITS),
-    Entry::new(0x2015, 0x00, DataType::Integer64, RW, 8, 184, NO_LIMITS),
-    Entry::new(0x2016, 0x00, DataType::Unsigned24, RW, 3, 192, 4),
-    Entry::new(0x2018, 0x00, DataType::Unsigned40, RW, 5, 195, NO_LIMITS),
-    Entry::new(0x2019, 0x00, DataType::Unsigned48, RW, 6, 200, NO_LIMITS),
-    Entry::new(0x201A, 0x00, DataType::Unsigned56, RW, 7, 206, NO_LIMITS),
-    Entry::new(0x201B, 0x00, DataType::Unsigned64, CONST, 8, 20, NO_LIMITS),
-    Entry::new(0x2100, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS),
-    Entry::new(0x2100, 0x01, DataType::Integer16, RW_RPDO, 2, 213, 5),
-    Entry::new(0x2100, 0x02, DataType::Integer16, RW_RPDO, 2, 215, 5),
-    Entry::new(0x2100, 0x03, DataType::Integer16, RW_RPDO, 2, 217, 5),
-    Entry::new(0x2200, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS),
-    Entry::new(0x2200, 0x01, DataType::Unsigned8, RW, 1, 219, 6),
-    Entry::new(0x2200, 0x02, DataType::Real64, RW_TPDO, 8, 220, NO_LIMITS),
-    Entry::new(0x2200, 0x03, DataType::VisibleString, RW, 16, 228, NO_LIMITS),
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 0, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 1, NO_LIMITS), // 0x1003:00 Pre-defined error field / Highest sub-index supported
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 2, NO_LIMITS), // 0x1003:01 Pre-defined error field / Pre-defined error field1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 6, NO_LIMITS), // 0x1003:02 Pre-defined error field / Pre-defined error field2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1003:03 Pre-defined error field / Pre-defined error field3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1003:04 Pre-defined error field / Pre-defined error field4
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 18, NO_LIMITS), // 0x1005:00 COB-ID SYNC
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 22, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 26, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 27, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
+    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 31, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 35, 0), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 4, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 5, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 9, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 13, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 37, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS), // 0x1200:00 SDO server parameter / Highest sub-index supported
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 41, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 45, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS), // 0x1400:00 RPDO communication parameter / Highest sub-index supported
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 49, NO_LIMITS), // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 53, NO_LIMITS), // 0x1400:02 RPDO communication parameter / Transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 54, NO_LIMITS), // 0x1600:00 RPDO mapping parameter / Number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 55, NO_LIMITS), // 0x1600:01 RPDO mapping parameter / Mapped object 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 59, NO_LIMITS), // 0x1600:02 RPDO mapping parameter / Mapped object 2
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS), // 0x1800:00 TPDO communication parameter / Highest sub-index supported
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 63, NO_LIMITS), // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 67, NO_LIMITS), // 0x1800:02 TPDO communication parameter / Transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 68, NO_LIMITS), // 0x1800:03 TPDO communication parameter / Inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 70, NO_LIMITS), // 0x1800:05 TPDO communication parameter / Event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 72, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter / Number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 73, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter / Mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 77, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter / Mapped object 2
+    Entry::new(0x2001, 0x00, DataType::Boolean, RW_TPDO_RPDO, 1, 81, NO_LIMITS), // 0x2001:00 Boolean value
+    Entry::new(0x2002, 0x00, DataType::Integer8, RW_TPDO_RPDO, 1, 82, NO_LIMITS), // 0x2002:00 Integer8 value
+    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO, 2, 83, 1), // 0x2003:00 Integer16 value
+    Entry::new(0x2004, 0x00, DataType::Integer32, RW, 4, 85, NO_LIMITS), // 0x2004:00 Integer32 value
+    Entry::new(0x2005, 0x00, DataType::Unsigned8, RW, 1, 89, NO_LIMITS), // 0x2005:00 Unsigned8 value
+    Entry::new(0x2006, 0x00, DataType::Unsigned16, RO_TPDO, 2, 90, NO_LIMITS), // 0x2006:00 Unsigned16 value
+    Entry::new(0x2007, 0x00, DataType::Unsigned32, RW_RPDO, 4, 92, 2), // 0x2007:00 Unsigned32 value
+    Entry::new(0x2008, 0x00, DataType::Real32, RW, 4, 96, 3), // 0x2008:00 Real32 value
+    Entry::new(0x2009, 0x00, DataType::VisibleString, RO, 11, 100, NO_LIMITS), // 0x2009:00 Visible string value
+    Entry::new(0x200A, 0x00, DataType::OctetString, RW, 16, 111, NO_LIMITS), // 0x200A:00 Octet string value
+    Entry::new(0x200B, 0x00, DataType::UnicodeString, RW, 16, 127, NO_LIMITS), // 0x200B:00 Unicode string value
+    Entry::new(0x200C, 0x00, DataType::TimeOfDay, RW, 6, 143, NO_LIMITS), // 0x200C:00 Time of day value
+    Entry::new(0x200D, 0x00, DataType::TimeDifference, RW, 6, 149, NO_LIMITS), // 0x200D:00 Time difference value
+    Entry::new(0x200F, 0x00, DataType::Domain, RW, 0, 0, NO_LIMITS), // 0x200F:00 Domain value
+    Entry::new(0x2010, 0x00, DataType::Integer24, RW, 3, 155, NO_LIMITS), // 0x2010:00 Integer24 value
+    Entry::new(0x2011, 0x00, DataType::Real64, RW, 8, 158, NO_LIMITS), // 0x2011:00 Real64 value
+    Entry::new(0x2012, 0x00, DataType::Integer40, RW, 5, 166, NO_LIMITS), // 0x2012:00 Integer40 value
+    Entry::new(0x2013, 0x00, DataType::Integer48, RW, 6, 171, NO_LIMITS), // 0x2013:00 Integer48 value
+    Entry::new(0x2014, 0x00, DataType::Integer56, RW, 7, 177, NO_LIMITS), // 0x2014:00 Integer56 value
+    Entry::new(0x2015, 0x00, DataType::Integer64, RW, 8, 184, NO_LIMITS), // 0x2015:00 Integer64 value
+    Entry::new(0x2016, 0x00, DataType::Unsigned24, RW, 3, 192, 4), // 0x2016:00 Unsigned24 value
+    Entry::new(0x2018, 0x00, DataType::Unsigned40, RW, 5, 195, NO_LIMITS), // 0x2018:00 Unsigned40 value
+    Entry::new(0x2019, 0x00, DataType::Unsigned48, RW, 6, 200, NO_LIMITS), // 0x2019:00 Unsigned48 value
+    Entry::new(0x201A, 0x00, DataType::Unsigned56, RW, 7, 206, NO_LIMITS), // 0x201A:00 Unsigned56 value
+    Entry::new(0x201B, 0x00, DataType::Unsigned64, CONST, 8, 20, NO_LIMITS), // 0x201B:00 Unsigned64 value
+    Entry::new(0x2100, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS), // 0x2100:00 Setpoints / Highest sub-index supported
+    Entry::new(0x2100, 0x01, DataType::Integer16, RW_RPDO, 2, 213, 5), // 0x2100:01 Setpoints / Setpoint 1
+    Entry::new(0x2100, 0x02, DataType::Integer16, RW_RPDO, 2, 215, 5), // 0x2100:02 Setpoints / Setpoint 2
+    Entry::new(0x2100, 0x03, DataType::Integer16, RW_RPDO, 2, 217, 5), // 0x2100:03 Setpoints / Setpoint 3
+    Entry::new(0x2200, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS), // 0x2200:00 Motor / Highest sub-index supported
+    Entry::new(0x2200, 0x01, DataType::Unsigned8, RW, 1, 219, 6), // 0x2200:01 Motor / Pole pairs
+    Entry::new(0x2200, 0x02, DataType::Real64, RW_TPDO, 8, 220, NO_LIMITS), // 0x2200:02 Motor / Speed
+    Entry::new(0x2200, 0x03, DataType::VisibleString, RW, 16, 228, NO_LIMITS), // 0x2200:03 Motor / Label
 ];
 
+#[rustfmt::skip]
 static LIMITS: [Limits; 7] = [
-    Limits { low: 0x0, high: 0xEA60 },
-    Limits { low: 0xFFFFFFFFFFFFFF9C, high: 0x64 },
-    Limits { low: 0x10, high: 0xFFFF },
-    Limits { low: 0xBFF8000000000000, high: 0x4004000000000000 },
-    Limits { low: 0x0, high: 0xFFFF00 },
-    Limits { low: 0xFFFFFFFFFFFFFC18, high: 0x3E8 },
-    Limits { low: 0x1, high: 0x20 },
+    Limits { low: 0x0, high: 0xEA60 }, // 0x1017:00 Producer heartbeat time
+    Limits { low: 0xFFFFFFFFFFFFFF9C, high: 0x64 }, // 0x2003:00 Integer16 value
+    Limits { low: 0x10, high: 0xFFFF }, // 0x2007:00 Unsigned32 value
+    Limits { low: 0xBFF8000000000000, high: 0x4004000000000000 }, // 0x2008:00 Real32 value
+    Limits { low: 0x0, high: 0xFFFF00 }, // 0x2016:00 Unsigned24 value
+    Limits { low: 0xFFFFFFFFFFFFFC18, high: 0x3E8 }, // 0x2100:01 Setpoints / Setpoint 1 and 2 more
+    Limits { low: 0x1, high: 0x20 }, // 0x2200:01 Motor / Pole pairs
 ];
 
+#[rustfmt::skip]
 static ROM: [u8; ROM_SIZE] = [
-    0x91, 0x01, 0x02, 0x00, 0x04, 0x78, 0x56, 0x34, 0x12, 0x01, 0x00, 0x00, 0x00, 0x02, 0x00, 0x01, 0x00, 0x02, 0x02, 0x05, 0xFF, 0xFF,
-    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x03, 0x03,
+    0x91, 0x01, 0x02, 0x00, // 0x1000:00 Device type
+    0x04, // 0x1018:00 Identity object / Highest sub-index supported
+    0x78, 0x56, 0x34, 0x12, // 0x1018:01 Identity object / Vendor-ID
+    0x01, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
+    0x02, 0x00, 0x01, 0x00, // 0x1018:03 Identity object / Revision number
+    0x02, // 0x1200:00 SDO server parameter / Highest sub-index supported
+    0x02, // 0x1400:00 RPDO communication parameter / Highest sub-index supported
+    0x05, // 0x1800:00 TPDO communication parameter / Highest sub-index supported
+    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, // 0x201B:00 Unsigned64 value
+    0x03, // 0x2100:00 Setpoints / Highest sub-index supported
+    0x03, // 0x2200:00 Motor / Highest sub-index supported
 ];
 
+#[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00,
-    0x80, 0x00, 0x00, 0x00, 0x02, 0xF4, 0x01, 0x05, 0x00, 0x00, 0x00, 0x00, 0x00, 0xE8, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x06, 0x00,
-    0x00, 0x80, 0x05, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0xFF, 0x02, 0x20, 0x00, 0x07, 0x20, 0x08, 0x00, 0x05, 0x00, 0x80, 0x01, 0x00,
-    0x40, 0xFE, 0x00, 0x00, 0x64, 0x00, 0x02, 0x10, 0x00, 0x06, 0x20, 0x10, 0x00, 0x03, 0x20, 0x01, 0x80, 0xF9, 0xFF, 0x88, 0xA9, 0xCB,
-    0xED, 0x0F, 0xEF, 0xBE, 0x20, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x3E, 0x6D, 0x69, 0x6E, 0x69, 0x20, 0x64, 0x65, 0x76, 0x69, 0x63,
-    0x65, 0x01, 0x02, 0xA0, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x47, 0x00, 0x72, 0x00, 0xFC,
-    0x00, 0xDF, 0x00, 0x65, 0x00, 0x20, 0x00, 0x13, 0x27, 0x00, 0x00, 0x00, 0x2E, 0x93, 0x02, 0x6D, 0x01, 0xE8, 0x03, 0x00, 0x00, 0x01,
-    0x00, 0x01, 0x00, 0x80, 0x7B, 0x14, 0xAE, 0x47, 0xE1, 0x7A, 0x64, 0xBF, 0x00, 0x00, 0x00, 0x00, 0x80, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,
-    0x7F, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x56, 0x34, 0x12, 0xFF, 0xFF, 0xFF,
-    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x45, 0x23, 0x01, 0xEF, 0xCD, 0xAB, 0x00, 0xF6, 0xFF, 0x00, 0x00, 0x0A, 0x00, 0x04,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x4D, 0x31, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00,
+    0x00, // 0x1001:00 Error register
+    0x00, // 0x1003:00 Pre-defined error field / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Pre-defined error field1
+    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Pre-defined error field2
+    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Pre-defined error field3
+    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Pre-defined error field4
+    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC
+    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
+    0x02, // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    0xF4, 0x01, 0x05, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
+    0x00, 0x00, 0x00, 0x00, // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
+    0xE8, 0x03, // 0x1017:00 Producer heartbeat time
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
+    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
+    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
+    0xFF, // 0x1400:02 RPDO communication parameter / Transmission type
+    0x02, // 0x1600:00 RPDO mapping parameter / Number of mapped objects
+    0x20, 0x00, 0x07, 0x20, // 0x1600:01 RPDO mapping parameter / Mapped object 1
+    0x08, 0x00, 0x05, 0x00, // 0x1600:02 RPDO mapping parameter / Mapped object 2
+    0x80, 0x01, 0x00, 0x40, // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
+    0xFE, // 0x1800:02 TPDO communication parameter / Transmission type
+    0x00, 0x00, // 0x1800:03 TPDO communication parameter / Inhibit time
+    0x64, 0x00, // 0x1800:05 TPDO communication parameter / Event timer
+    0x02, // 0x1A00:00 TPDO mapping parameter / Number of mapped objects
+    0x10, 0x00, 0x06, 0x20, // 0x1A00:01 TPDO mapping parameter / Mapped object 1
+    0x10, 0x00, 0x03, 0x20, // 0x1A00:02 TPDO mapping parameter / Mapped object 2
+    0x01, // 0x2001:00 Boolean value
+    0x80, // 0x2002:00 Integer8 value
+    0xF9, 0xFF, // 0x2003:00 Integer16 value
+    0x88, 0xA9, 0xCB, 0xED, // 0x2004:00 Integer32 value
+    0x0F, // 0x2005:00 Unsigned8 value
+    0xEF, 0xBE, // 0x2006:00 Unsigned16 value
+    0x20, 0x00, 0x00, 0x00, // 0x2007:00 Unsigned32 value
+    0x00, 0x00, 0x80, 0x3E, // 0x2008:00 Real32 value
+    0x6D, 0x69, 0x6E, 0x69, 0x20, 0x64, 0x65, 0x76, 0x69, 0x63, 0x65, // 0x2009:00 Visible string value
+    0x01, 0x02, 0xA0, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x200A:00 Octet string value
+    0x47, 0x00, 0x72, 0x00, 0xFC, 0x00, 0xDF, 0x00, 0x65, 0x00, 0x20, 0x00, 0x13, 0x27, 0x00, 0x00, // 0x200B:00 Unicode string value
+    0x00, 0x2E, 0x93, 0x02, 0x6D, 0x01, // 0x200C:00 Time of day value
+    0xE8, 0x03, 0x00, 0x00, 0x01, 0x00, // 0x200D:00 Time difference value
+    0x01, 0x00, 0x80, // 0x2010:00 Integer24 value
+    0x7B, 0x14, 0xAE, 0x47, 0xE1, 0x7A, 0x64, 0xBF, // 0x2011:00 Real64 value
+    0x00, 0x00, 0x00, 0x00, 0x80, // 0x2012:00 Integer40 value
+    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F, // 0x2013:00 Integer48 value
+    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, // 0x2014:00 Integer56 value
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, // 0x2015:00 Integer64 value
+    0x56, 0x34, 0x12, // 0x2016:00 Unsigned24 value
+    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, // 0x2018:00 Unsigned40 value
+    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, // 0x2019:00 Unsigned48 value
+    0x45, 0x23, 0x01, 0xEF, 0xCD, 0xAB, 0x00, // 0x201A:00 Unsigned56 value
+    0xF6, 0xFF, // 0x2100:01 Setpoints / Setpoint 1
+    0x00, 0x00, // 0x2100:02 Setpoints / Setpoint 2
+    0x0A, 0x00, // 0x2100:03 Setpoints / Setpoint 3
+    0x04, // 0x2200:01 Motor / Pole pairs
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x2200:02 Motor / Speed
+    0x4D, 0x31, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x2200:03 Motor / Label
 ];
 
-static NODE_ID_RELATIVE: [u16; 5] = [8, 19, 20, 22, 28];
+#[rustfmt::skip]
+static NODE_ID_RELATIVE: [u16; 5] = [
+    8, // 0x1014:00 COB-ID EMCY
+    19, // 0x1200:01 SDO server parameter / COB-ID client to server
+    20, // 0x1200:02 SDO server parameter / COB-ID server to client
+    22, // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
+    28, // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
+];
 
 /// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.
+#[rustfmt::skip]
 pub static NAMES: [&str; ENTRY_COUNT] = [
-    "Device type",
-    "Error register",
-    "Highest sub-index supported",
-    "Pre-defined error field1",
-    "Pre-defined error field2",
-    "Pre-defined error field3",
-    "Pre-defined error field4",
-    "COB-ID SYNC",
-    "COB-ID EMCY",
-    "Highest sub-index supported",
-    "Consumer heartbeat time1",
-    "Consumer heartbeat time of node 6",
-    "Producer heartbeat time",
-    "Highest sub-index supported",
-    "Vendor-ID",
-    "Product code",
-    "Revision number",
-    "Serial number",
-    "Highest sub-index supported",
-    "COB-ID client to server",
-    "COB-ID server to client",
-    "Highest sub-index supported",
-    "COB-ID used by RPDO",
-    "Transmission type",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Highest sub-index supported",
-    "COB-ID used by TPDO",
-    "Transmission type",
-    "Inhibit time",
-    "Event timer",
-    "Number of mapped objects",
-    "Mapped object 1",
-    "Mapped object 2",
-    "Boolean value",
-    "Integer8 value",
-    "Integer16 value",
-    "Integer32 value",
-    "Unsigned8 value",
-    "Unsigned16 value",
-    "Unsigned32 value",
-    "Real32 value",
-    "Visible string value",
-    "Octet string value",
-    "Unicode string value",
-    "Time of day value",
-    "Time difference value",
-    "Domain value",
-    "Integer24 value",
-    "Real64 value",
-    "Integer40 value",
-    "Integer48 value",
-    "Integer56 value",
-    "Integer64 value",
-    "Unsigned24 value",
-    "Unsigned40 value",
-    "Unsigned48 value",
-    "Unsigned56 value",
-    "Unsigned64 value",
-    "Highest sub-index supported",
-    "Setpoint 1",
-    "Setpoint 2",
-    "Setpoint 3",
-    "Highest sub-index supported",
-    "Pole pairs",
-    "Speed",
-    "Label",
+    "Device type", // 0x1000:00
+    "Error register", // 0x1001:00
+    "Highest sub-index supported", // 0x1003:00
+    "Pre-defined error field1", // 0x1003:01
+    "Pre-defined error field2", // 0x1003:02
+    "Pre-defined error field3", // 0x1003:03
+    "Pre-defined error field4", // 0x1003:04
+    "COB-ID SYNC", // 0x1005:00
+    "COB-ID EMCY", // 0x1014:00
+    "Highest sub-index supported", // 0x1016:00
+    "Consumer heartbeat time1", // 0x1016:01
+    "Consumer heartbeat time of node 6", // 0x1016:02
+    "Producer heartbeat time", // 0x1017:00
+    "Highest sub-index supported", // 0x1018:00
+    "Vendor-ID", // 0x1018:01
+    "Product code", // 0x1018:02
+    "Revision number", // 0x1018:03
+    "Serial number", // 0x1018:04
+    "Highest sub-index supported", // 0x1200:00
+    "COB-ID client to server", // 0x1200:01
+    "COB-ID server to client", // 0x1200:02
+    "Highest sub-index supported", // 0x1400:00
+    "COB-ID used by RPDO", // 0x1400:01
+    "Transmission type", // 0x1400:02
+    "Number of mapped objects", // 0x1600:00
+    "Mapped object 1", // 0x1600:01
+    "Mapped object 2", // 0x1600:02
+    "Highest sub-index supported", // 0x1800:00
+    "COB-ID used by TPDO", // 0x1800:01
+    "Transmission type", // 0x1800:02
+    "Inhibit time", // 0x1800:03
+    "Event timer", // 0x1800:05
+    "Number of mapped objects", // 0x1A00:00
+    "Mapped object 1", // 0x1A00:01
+    "Mapped object 2", // 0x1A00:02
+    "Boolean value", // 0x2001:00
+    "Integer8 value", // 0x2002:00
+    "Integer16 value", // 0x2003:00
+    "Integer32 value", // 0x2004:00
+    "Unsigned8 value", // 0x2005:00
+    "Unsigned16 value", // 0x2006:00
+    "Unsigned32 value", // 0x2007:00
+    "Real32 value", // 0x2008:00
+    "Visible string value", // 0x2009:00
+    "Octet string value", // 0x200A:00
+    "Unicode string value", // 0x200B:00
+    "Time of day value", // 0x200C:00
+    "Time difference value", // 0x200D:00
+    "Domain value", // 0x200F:00
+    "Integer24 value", // 0x2010:00
+    "Real64 value", // 0x2011:00
+    "Integer40 value", // 0x2012:00
+    "Integer48 value", // 0x2013:00
+    "Integer56 value", // 0x2014:00
+    "Integer64 value", // 0x2015:00
+    "Unsigned24 value", // 0x2016:00
+    "Unsigned40 value", // 0x2018:00
+    "Unsigned48 value", // 0x2019:00
+    "Unsigned56 value", // 0x201A:00
+    "Unsigned64 value", // 0x201B:00
+    "Highest sub-index supported", // 0x2100:00
+    "Setpoint 1", // 0x2100:01
+    "Setpoint 2", // 0x2100:02
+    "Setpoint 3", // 0x2100:03
+    "Highest sub-index supported", // 0x2200:00
+    "Pole pairs", // 0x2200:01
+    "Speed", // 0x2200:02
+    "Label", // 0x2200:03
 ];
 
 /// The flash half of the dictionary.
@@ -378,12 +443,12 @@ impl Ram {
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Highest sub-index supported (mini.eds:117, UNSIGNED8 rw)
-    pub fn pre_defined_error_field_sub0(&self) -> u8 {
+    pub fn pre_defined_error_field_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 1))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Highest sub-index supported.
-    pub fn set_pre_defined_error_field_sub0(&mut self, v: u8) {
+    pub fn set_pre_defined_error_field_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 1, v.to_le_bytes());
     }
 
@@ -427,12 +492,12 @@ impl Ram {
     }
 
     /// 0x1016 sub 0 Consumer heartbeat time / Highest sub-index supported (mini.eds:141, UNSIGNED8 ro)
-    pub fn consumer_heartbeat_time_sub0(&self) -> u8 {
+    pub fn consumer_heartbeat_time_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 26))
     }
 
     /// Sets 0x1016 sub 0 Consumer heartbeat time / Highest sub-index supported.
-    pub fn set_consumer_heartbeat_time_sub0(&mut self, v: u8) {
+    pub fn set_consumer_heartbeat_time_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 26, v.to_le_bytes());
     }
 
@@ -466,7 +531,7 @@ impl Ram {
     }
 
     /// 0x1018 sub 0 Identity object / Highest sub-index supported (mini.eds:172, UNSIGNED8 const, in flash)
-    pub fn identity_object_highest_sub_index_supported(&self) -> u8 {
+    pub fn identity_object_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 4))
     }
 
@@ -496,7 +561,7 @@ impl Ram {
     }
 
     /// 0x1200 sub 0 SDO server parameter / Highest sub-index supported (mini.eds:217, UNSIGNED8 const, in flash)
-    pub fn sdo_server_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn sdo_server_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 17))
     }
 
@@ -521,7 +586,7 @@ impl Ram {
     }
 
     /// 0x1400 sub 0 RPDO communication parameter / Highest sub-index supported (mini.eds:246, UNSIGNED8 const, in flash)
-    pub fn rpdo_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn rpdo_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 18))
     }
 
@@ -576,7 +641,7 @@ impl Ram {
     }
 
     /// 0x1800 sub 0 TPDO communication parameter / Highest sub-index supported (mini.eds:304, UNSIGNED8 const, in flash)
-    pub fn tpdo_communication_parameter_highest_sub_index_supported(&self) -> u8 {
+    pub fn tpdo_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 19))
     }
 
@@ -886,7 +951,7 @@ impl Ram {
     }
 
     /// 0x2100 sub 0 Setpoints / Highest sub-index supported (mini.eds:584, UNSIGNED8 const, in flash)
-    pub fn setpoints_sub0(&self) -> u8 {
+    pub fn setpoints_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 28))
     }
 
@@ -910,7 +975,7 @@ impl Ram {
     }
 
     /// 0x2200 sub 0 Motor / Highest sub-index supported (mini.eds:627, UNSIGNED8 const, in flash)
-    pub fn motor_highest_sub_index_supported(&self) -> u8 {
+    pub fn motor_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&ROM, 29))
     }
 

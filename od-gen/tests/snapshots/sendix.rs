@@ -161,333 +161,468 @@ const RO_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::NODE_ID.0);
 const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 
 /// Entry metadata, sorted by (index, sub-index).
+#[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS),
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 0, NO_LIMITS),
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 1, NO_LIMITS),
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 2, NO_LIMITS),
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 6, NO_LIMITS),
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 10, NO_LIMITS),
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 14, NO_LIMITS),
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 18, NO_LIMITS),
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 22, NO_LIMITS),
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 26, NO_LIMITS),
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 30, NO_LIMITS),
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 34, NO_LIMITS),
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 38, NO_LIMITS),
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 42, NO_LIMITS),
-    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 22, 4, NO_LIMITS),
-    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 3, 26, NO_LIMITS),
-    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 29, NO_LIMITS),
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 46, NO_LIMITS),
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 47, NO_LIMITS),
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 51, NO_LIMITS),
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 55, NO_LIMITS),
-    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 59, NO_LIMITS),
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 63, NO_LIMITS),
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 64, NO_LIMITS),
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 68, NO_LIMITS),
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 72, NO_LIMITS),
-    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 76, NO_LIMITS),
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 80, NO_LIMITS),
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 84, NO_LIMITS),
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 86, NO_LIMITS),
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 88, NO_LIMITS),
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 89, NO_LIMITS),
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 93, NO_LIMITS),
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 97, NO_LIMITS),
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 101, NO_LIMITS),
-    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 105, NO_LIMITS),
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 106, 0),
-    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 107, 0),
-    Entry::new(0x1029, 0x03, DataType::Unsigned8, RW, 1, 108, 0),
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 109, NO_LIMITS),
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 110, NO_LIMITS),
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 114, NO_LIMITS),
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 118, NO_LIMITS),
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 119, NO_LIMITS),
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 123, NO_LIMITS),
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 124, NO_LIMITS),
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 126, NO_LIMITS),
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 128, NO_LIMITS),
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 129, NO_LIMITS),
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 133, NO_LIMITS),
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 134, NO_LIMITS),
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 136, NO_LIMITS),
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 138, NO_LIMITS),
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 139, NO_LIMITS),
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 143, NO_LIMITS),
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 144, NO_LIMITS),
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 146, NO_LIMITS),
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 148, 1),
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 149, NO_LIMITS),
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 153, NO_LIMITS),
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 157, NO_LIMITS),
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 161, NO_LIMITS),
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 165, NO_LIMITS),
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 169, NO_LIMITS),
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 173, NO_LIMITS),
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 177, NO_LIMITS),
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 181, 1),
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 182, NO_LIMITS),
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 186, NO_LIMITS),
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 190, NO_LIMITS),
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 194, NO_LIMITS),
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 198, NO_LIMITS),
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 202, NO_LIMITS),
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 206, NO_LIMITS),
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 210, NO_LIMITS),
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 214, 1),
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 215, NO_LIMITS),
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 219, NO_LIMITS),
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 223, NO_LIMITS),
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 227, NO_LIMITS),
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 231, NO_LIMITS),
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 235, NO_LIMITS),
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 239, NO_LIMITS),
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 243, NO_LIMITS),
-    Entry::new(0x1F51, 0x00, DataType::Unsigned8, RO, 1, 247, NO_LIMITS),
-    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 248, 2),
-    Entry::new(0x2100, 0x00, DataType::Unsigned8, RW, 1, 249, NO_LIMITS),
-    Entry::new(0x2101, 0x00, DataType::Unsigned8, RW, 1, 250, 3),
-    Entry::new(0x2102, 0x00, DataType::Unsigned8, RW, 1, 251, 4),
-    Entry::new(0x2103, 0x00, DataType::Unsigned16, RO, 2, 252, NO_LIMITS),
-    Entry::new(0x2105, 0x00, DataType::Unsigned32, RW, 4, 254, NO_LIMITS),
-    Entry::new(0x2150, 0x00, DataType::Integer16, RO_TPDO, 2, 258, NO_LIMITS),
-    Entry::new(0x2162, 0x00, DataType::Unsigned16, RO_TPDO, 2, 260, NO_LIMITS),
-    Entry::new(0x6000, 0x00, DataType::Unsigned16, RW, 2, 262, NO_LIMITS),
-    Entry::new(0x6001, 0x00, DataType::Unsigned32, RW, 4, 264, 5),
-    Entry::new(0x6002, 0x00, DataType::Unsigned32, RW, 4, 268, NO_LIMITS),
-    Entry::new(0x6003, 0x00, DataType::Unsigned32, RW, 4, 272, NO_LIMITS),
-    Entry::new(0x6004, 0x00, DataType::Unsigned32, RO_TPDO, 4, 276, NO_LIMITS),
-    Entry::new(0x600B, 0x00, DataType::Unsigned64, RO_TPDO, 8, 280, NO_LIMITS),
-    Entry::new(0x600C, 0x00, DataType::Unsigned32, RO_TPDO, 4, 288, NO_LIMITS),
-    Entry::new(0x6030, 0x00, DataType::Unsigned8, RO, 1, 292, NO_LIMITS),
-    Entry::new(0x6030, 0x01, DataType::Integer32, RO_TPDO, 4, 293, NO_LIMITS),
-    Entry::new(0x6031, 0x00, DataType::Unsigned8, RO, 1, 297, NO_LIMITS),
-    Entry::new(0x6031, 0x01, DataType::Integer16, RW, 2, 298, 6),
-    Entry::new(0x6031, 0x02, DataType::Integer16, RW, 2, 300, 7),
-    Entry::new(0x6031, 0x03, DataType::Integer16, RW, 2, 302, 8),
-    Entry::new(0x6031, 0x04, DataType::Integer16, RW, 2, 304, 8),
-    Entry::new(0x6040, 0x00, DataType::Unsigned8, RO, 1, 306, NO_LIMITS),
-    Entry::new(0x6040, 0x01, DataType::Integer32, RO_TPDO, 4, 307, NO_LIMITS),
-    Entry::new(0x6041, 0x00, DataType::Unsigned8, RO, 1, 311, NO_LIMITS),
-    Entry::new(0x6041, 0x01, DataType::Integer16, RW, 2, 312, 6),
-    Entry::new(0x6041, 0x02, DataType::Integer16, RW, 2, 314, 7),
-    Entry::new(0x6041, 0x03, DataType::Integer16, RW, 2, 316, 8),
-    Entry::new(0x6041, 0x04, DataType::Integer16, RW, 2, 318, 8),
-    Entry::new(0x6200, 0x00, DataType::Unsigned16, RW, 2, 320, NO_LIMITS),
-    Entry::new(0x6400, 0x00, DataType::Unsigned8, RO, 1, 322, NO_LIMITS),
-    Entry::new(0x6400, 0x01, DataType::Unsigned8, RO_TPDO, 1, 323, NO_LIMITS),
-    Entry::new(0x6400, 0x02, DataType::Unsigned8, RO_TPDO, 1, 324, NO_LIMITS),
-    Entry::new(0x6401, 0x00, DataType::Unsigned8, RO, 1, 325, NO_LIMITS),
-    Entry::new(0x6401, 0x01, DataType::Unsigned32, RW, 4, 326, NO_LIMITS),
-    Entry::new(0x6401, 0x02, DataType::Unsigned32, RW, 4, 330, NO_LIMITS),
-    Entry::new(0x6402, 0x00, DataType::Unsigned8, RO, 1, 334, NO_LIMITS),
-    Entry::new(0x6402, 0x01, DataType::Unsigned32, RW, 4, 335, NO_LIMITS),
-    Entry::new(0x6402, 0x02, DataType::Unsigned32, RW, 4, 339, NO_LIMITS),
-    Entry::new(0x6500, 0x00, DataType::Unsigned16, RO, 2, 343, NO_LIMITS),
-    Entry::new(0x6501, 0x00, DataType::Unsigned32, RO, 4, 345, NO_LIMITS),
-    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 349, NO_LIMITS),
-    Entry::new(0x6503, 0x00, DataType::Unsigned16, RO_TPDO, 2, 353, NO_LIMITS),
-    Entry::new(0x6504, 0x00, DataType::Unsigned16, RO, 2, 355, NO_LIMITS),
-    Entry::new(0x6505, 0x00, DataType::Unsigned16, RO_TPDO, 2, 357, NO_LIMITS),
-    Entry::new(0x6506, 0x00, DataType::Unsigned16, RO, 2, 359, NO_LIMITS),
-    Entry::new(0x6507, 0x00, DataType::Unsigned32, RO, 4, 361, NO_LIMITS),
-    Entry::new(0x6508, 0x00, DataType::Unsigned32, RO, 4, 365, NO_LIMITS),
-    Entry::new(0x6509, 0x00, DataType::Integer32, RO, 4, 369, NO_LIMITS),
-    Entry::new(0x650A, 0x00, DataType::Unsigned8, RO, 1, 373, NO_LIMITS),
-    Entry::new(0x650A, 0x01, DataType::Integer32, RO, 4, 374, NO_LIMITS),
-    Entry::new(0x650A, 0x02, DataType::Integer32, RO, 4, 378, NO_LIMITS),
-    Entry::new(0x650A, 0x03, DataType::Integer32, RO, 4, 382, NO_LIMITS),
-    Entry::new(0x650B, 0x00, DataType::Unsigned32, RO, 4, 386, NO_LIMITS),
-    Entry::new(0x650D, 0x00, DataType::Unsigned8, RO, 1, 390, NO_LIMITS),
-    Entry::new(0x650E, 0x00, DataType::Unsigned32, RO, 4, 391, NO_LIMITS),
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 0, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 1, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 2, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 6, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 18, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 22, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 26, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 30, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 34, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 38, NO_LIMITS), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 42, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 22, 4, NO_LIMITS), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 3, 26, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 29, NO_LIMITS), // 0x100A:00 Manufacturer software version
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 46, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 47, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 51, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 55, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 59, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 63, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 64, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 68, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 72, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 76, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 80, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 84, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 86, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 88, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 89, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 93, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 97, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 101, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 105, NO_LIMITS), // 0x1029:00 Error behavior / Error behavior highest sub-index
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 106, 0), // 0x1029:01 Error behavior / Communication error
+    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 107, 0), // 0x1029:02 Error behavior / Device profile specific error
+    Entry::new(0x1029, 0x03, DataType::Unsigned8, RW, 1, 108, 0), // 0x1029:03 Error behavior / Manufacturer specific error
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 109, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 110, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 114, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 118, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 119, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 123, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 124, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 126, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 128, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 129, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 133, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 134, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 136, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 138, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 139, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 143, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 144, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 146, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 148, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 149, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 153, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 157, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 161, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 165, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 169, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 173, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 177, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 181, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 182, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 186, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 190, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 194, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 198, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 202, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 206, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 210, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 214, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 215, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 219, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 223, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 227, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 231, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 235, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 239, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 243, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
+    Entry::new(0x1F51, 0x00, DataType::Unsigned8, RO, 1, 247, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
+    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 248, 2), // 0x1F51:01 Program control / Program 1 control
+    Entry::new(0x2100, 0x00, DataType::Unsigned8, RW, 1, 249, NO_LIMITS), // 0x2100:00 Baud rate
+    Entry::new(0x2101, 0x00, DataType::Unsigned8, RW, 1, 250, 3), // 0x2101:00 Node address
+    Entry::new(0x2102, 0x00, DataType::Unsigned8, RW, 1, 251, 4), // 0x2102:00 CAN bus termination
+    Entry::new(0x2103, 0x00, DataType::Unsigned16, RO, 2, 252, NO_LIMITS), // 0x2103:00 Firmware flash version
+    Entry::new(0x2105, 0x00, DataType::Unsigned32, RW, 4, 254, NO_LIMITS), // 0x2105:00 Save all bus parameters
+    Entry::new(0x2150, 0x00, DataType::Integer16, RO_TPDO, 2, 258, NO_LIMITS), // 0x2150:00 Actual position sensor temperature
+    Entry::new(0x2162, 0x00, DataType::Unsigned16, RO_TPDO, 2, 260, NO_LIMITS), // 0x2162:00 Raw position CRC value
+    Entry::new(0x6000, 0x00, DataType::Unsigned16, RW, 2, 262, NO_LIMITS), // 0x6000:00 Operating parameters
+    Entry::new(0x6001, 0x00, DataType::Unsigned32, RW, 4, 264, 5), // 0x6001:00 Measuring units per revolution
+    Entry::new(0x6002, 0x00, DataType::Unsigned32, RW, 4, 268, NO_LIMITS), // 0x6002:00 Total measuring range in measuring units
+    Entry::new(0x6003, 0x00, DataType::Unsigned32, RW, 4, 272, NO_LIMITS), // 0x6003:00 Preset value
+    Entry::new(0x6004, 0x00, DataType::Unsigned32, RO_TPDO, 4, 276, NO_LIMITS), // 0x6004:00 Position value
+    Entry::new(0x600B, 0x00, DataType::Unsigned64, RO_TPDO, 8, 280, NO_LIMITS), // 0x600B:00 Position high resolution raw value
+    Entry::new(0x600C, 0x00, DataType::Unsigned32, RO_TPDO, 4, 288, NO_LIMITS), // 0x600C:00 Position raw value
+    Entry::new(0x6030, 0x00, DataType::Unsigned8, RO, 1, 292, NO_LIMITS), // 0x6030:00 Speed value / Speed value number of channels
+    Entry::new(0x6030, 0x01, DataType::Integer32, RO_TPDO, 4, 293, NO_LIMITS), // 0x6030:01 Speed value / Speed value channel 1
+    Entry::new(0x6031, 0x00, DataType::Unsigned8, RO, 1, 297, NO_LIMITS), // 0x6031:00 Speed parameters / Speed parameters number of entries
+    Entry::new(0x6031, 0x01, DataType::Integer16, RW, 2, 298, 6), // 0x6031:01 Speed parameters / Speed source selector
+    Entry::new(0x6031, 0x02, DataType::Integer16, RW, 2, 300, 7), // 0x6031:02 Speed parameters / Speed integration time
+    Entry::new(0x6031, 0x03, DataType::Integer16, RW, 2, 302, 8), // 0x6031:03 Speed parameters / Speed calculation multiplier
+    Entry::new(0x6031, 0x04, DataType::Integer16, RW, 2, 304, 8), // 0x6031:04 Speed parameters / Speed calculation divisor
+    Entry::new(0x6040, 0x00, DataType::Unsigned8, RO, 1, 306, NO_LIMITS), // 0x6040:00 Acceleration value / Acceleration value number of channels
+    Entry::new(0x6040, 0x01, DataType::Integer32, RO_TPDO, 4, 307, NO_LIMITS), // 0x6040:01 Acceleration value / Acceleration value channel 1
+    Entry::new(0x6041, 0x00, DataType::Unsigned8, RO, 1, 311, NO_LIMITS), // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries
+    Entry::new(0x6041, 0x01, DataType::Integer16, RW, 2, 312, 6), // 0x6041:01 Acceleration parameters / Acceleration source selector
+    Entry::new(0x6041, 0x02, DataType::Integer16, RW, 2, 314, 7), // 0x6041:02 Acceleration parameters / Acceleration integration time
+    Entry::new(0x6041, 0x03, DataType::Integer16, RW, 2, 316, 8), // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
+    Entry::new(0x6041, 0x04, DataType::Integer16, RW, 2, 318, 8), // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
+    Entry::new(0x6200, 0x00, DataType::Unsigned16, RW, 2, 320, NO_LIMITS), // 0x6200:00 Cyclic timer
+    Entry::new(0x6400, 0x00, DataType::Unsigned8, RO, 1, 322, NO_LIMITS), // 0x6400:00 Work area state / Work area state number of work areas
+    Entry::new(0x6400, 0x01, DataType::Unsigned8, RO_TPDO, 1, 323, NO_LIMITS), // 0x6400:01 Work area state / Work area state channel 1
+    Entry::new(0x6400, 0x02, DataType::Unsigned8, RO_TPDO, 1, 324, NO_LIMITS), // 0x6400:02 Work area state / Work area state channel 2
+    Entry::new(0x6401, 0x00, DataType::Unsigned8, RO, 1, 325, NO_LIMITS), // 0x6401:00 Work area low limit / Work area low limit number of work areas
+    Entry::new(0x6401, 0x01, DataType::Unsigned32, RW, 4, 326, NO_LIMITS), // 0x6401:01 Work area low limit / Work area low limit channel 1
+    Entry::new(0x6401, 0x02, DataType::Unsigned32, RW, 4, 330, NO_LIMITS), // 0x6401:02 Work area low limit / Work area low limit channel 2
+    Entry::new(0x6402, 0x00, DataType::Unsigned8, RO, 1, 334, NO_LIMITS), // 0x6402:00 Work area high limit / Work area high limit number of work areas
+    Entry::new(0x6402, 0x01, DataType::Unsigned32, RW, 4, 335, NO_LIMITS), // 0x6402:01 Work area high limit / Work area high limit channel 1
+    Entry::new(0x6402, 0x02, DataType::Unsigned32, RW, 4, 339, NO_LIMITS), // 0x6402:02 Work area high limit / Work area high limit channel 2
+    Entry::new(0x6500, 0x00, DataType::Unsigned16, RO, 2, 343, NO_LIMITS), // 0x6500:00 Operating status
+    Entry::new(0x6501, 0x00, DataType::Unsigned32, RO, 4, 345, NO_LIMITS), // 0x6501:00 Single-turn resolution
+    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 349, NO_LIMITS), // 0x6502:00 Number of distinguishable revolutions
+    Entry::new(0x6503, 0x00, DataType::Unsigned16, RO_TPDO, 2, 353, NO_LIMITS), // 0x6503:00 Alarms
+    Entry::new(0x6504, 0x00, DataType::Unsigned16, RO, 2, 355, NO_LIMITS), // 0x6504:00 Supported alarms
+    Entry::new(0x6505, 0x00, DataType::Unsigned16, RO_TPDO, 2, 357, NO_LIMITS), // 0x6505:00 Warnings
+    Entry::new(0x6506, 0x00, DataType::Unsigned16, RO, 2, 359, NO_LIMITS), // 0x6506:00 Supported warnings
+    Entry::new(0x6507, 0x00, DataType::Unsigned32, RO, 4, 361, NO_LIMITS), // 0x6507:00 Profile and software version
+    Entry::new(0x6508, 0x00, DataType::Unsigned32, RO, 4, 365, NO_LIMITS), // 0x6508:00 Operating time
+    Entry::new(0x6509, 0x00, DataType::Integer32, RO, 4, 369, NO_LIMITS), // 0x6509:00 Offset value
+    Entry::new(0x650A, 0x00, DataType::Unsigned8, RO, 1, 373, NO_LIMITS), // 0x650A:00 Module identification / Module identification highest sub-index
+    Entry::new(0x650A, 0x01, DataType::Integer32, RO, 4, 374, NO_LIMITS), // 0x650A:01 Module identification / Manufacturer offset value
+    Entry::new(0x650A, 0x02, DataType::Integer32, RO, 4, 378, NO_LIMITS), // 0x650A:02 Module identification / Manufacturer minimum position value
+    Entry::new(0x650A, 0x03, DataType::Integer32, RO, 4, 382, NO_LIMITS), // 0x650A:03 Module identification / Manufacturer maximum position value
+    Entry::new(0x650B, 0x00, DataType::Unsigned32, RO, 4, 386, NO_LIMITS), // 0x650B:00 Encoder serial number
+    Entry::new(0x650D, 0x00, DataType::Unsigned8, RO, 1, 390, NO_LIMITS), // 0x650D:00 Absolute accuracy
+    Entry::new(0x650E, 0x00, DataType::Unsigned32, RO, 4, 391, NO_LIMITS), // 0x650E:00 Device capability
 ];
 
+#[rustfmt::skip]
 static LIMITS: [Limits; 9] = [
-    Limits { low: 0x0, high: 0x2 },
-    Limits { low: 0x0, high: 0x8 },
-    Limits { low: 0x0, high: 0x3 },
-    Limits { low: 0x1, high: 0xFF },
-    Limits { low: 0x0, high: 0x1 },
-    Limits { low: 0x4, high: 0x4000 },
-    Limits { low: 0x2, high: 0x2 },
-    Limits { low: 0x5, high: 0x7D0 },
-    Limits { low: 0x1, high: 0x7FFF },
+    Limits { low: 0x0, high: 0x2 }, // 0x1029:01 Error behavior / Communication error and 2 more
+    Limits { low: 0x0, high: 0x8 }, // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects and 2 more
+    Limits { low: 0x0, high: 0x3 }, // 0x1F51:01 Program control / Program 1 control
+    Limits { low: 0x1, high: 0xFF }, // 0x2101:00 Node address
+    Limits { low: 0x0, high: 0x1 }, // 0x2102:00 CAN bus termination
+    Limits { low: 0x4, high: 0x4000 }, // 0x6001:00 Measuring units per revolution
+    Limits { low: 0x2, high: 0x2 }, // 0x6031:01 Speed parameters / Speed source selector and 1 more
+    Limits { low: 0x5, high: 0x7D0 }, // 0x6031:02 Speed parameters / Speed integration time and 1 more
+    Limits { low: 0x1, high: 0x7FFF }, // 0x6031:03 Speed parameters / Speed calculation multiplier and 3 more
 ];
 
+#[rustfmt::skip]
 static ROM: [u8; ROM_SIZE] = [
-    0x96, 0x01, 0x0B, 0x00, 0x4B, 0x75, 0x65, 0x62, 0x6C, 0x65, 0x72, 0x20, 0x53, 0x65, 0x6E, 0x64, 0x69, 0x78, 0x20, 0x45, 0x6E, 0x63,
-    0x6F, 0x64, 0x65, 0x72, 0x31, 0x2E, 0x30, 0x56, 0x31, 0x2E, 0x30, 0x2E,
+    0x96, 0x01, 0x0B, 0x00, // 0x1000:00 Device type
+    0x4B, 0x75, 0x65, 0x62, 0x6C, 0x65, 0x72, 0x20, 0x53, 0x65, 0x6E, 0x64, 0x69, 0x78, 0x20, 0x45,
+    0x6E, 0x63, 0x6F, 0x64, 0x65, 0x72, // 0x1008:00 Manufacturer device name
+    0x31, 0x2E, 0x30, // 0x1009:00 Manufacturer hardware version
+    0x56, 0x31, 0x2E, 0x30, 0x2E, // 0x100A:00 Manufacturer software version
 ];
 
+#[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x04, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x04, 0x01, 0x00,
-    0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x04, 0x13, 0x00, 0x00, 0x00, 0x01, 0x20, 0x68, 0x58, 0x66, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03, 0x00, 0x01, 0x01, 0x02,
-    0x00, 0x06, 0x00, 0x00, 0x80, 0x05, 0x00, 0x00, 0x05, 0x80, 0x01, 0x00, 0x40, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80, 0x02, 0x00,
-    0x40, 0x01, 0x00, 0x00, 0x00, 0x00, 0x05, 0x80, 0x03, 0x00, 0x40, 0xFF, 0x00, 0x00, 0x00, 0x00, 0x01, 0x20, 0x00, 0x04, 0x60, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x20, 0x00, 0x04, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x20, 0x01, 0x30, 0x60, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x01, 0xFF, 0xFF, 0x01, 0x00, 0x01, 0x73, 0x61, 0x76, 0x65, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x04, 0x02, 0x00, 0x64, 0x00, 0x01, 0x00, 0x01, 0x00, 0x01, 0x00,
-    0x00, 0x00, 0x00, 0x04, 0x02, 0x00, 0x64, 0x00, 0x01, 0x00, 0x01, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x10, 0x00, 0x00, 0x00, 0x10, 0x00, 0x00, 0x00, 0x40, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x20, 0x00, 0x00, 0x01, 0x80, 0x00, 0x00, 0x05, 0xC0, 0x00, 0x04, 0x06, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x03,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x0A, 0x02, 0x00, 0x00, 0x00,
+    0x00, // 0x1001:00 Error register
+    0x00, // 0x1003:00 Pre-defined error field / Number of errors
+    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
+    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
+    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
+    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
+    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
+    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
+    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
+    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
+    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
+    0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
+    0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
+    0x04, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters
+    0x04, // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
+    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
+    0x00, 0x00, // 0x1015:00 Inhibit time EMCY
+    0x00, 0x00, // 0x1017:00 Producer heartbeat time
+    0x04, // 0x1018:00 Identity object / Identity highest sub-index
+    0x13, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0x01, 0x20, 0x68, 0x58, // 0x1018:02 Identity object / Product code
+    0x66, 0x00, 0x00, 0x00, // 0x1018:03 Identity object / Revision number
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x03, // 0x1029:00 Error behavior / Error behavior highest sub-index
+    0x00, // 0x1029:01 Error behavior / Communication error
+    0x01, // 0x1029:02 Error behavior / Device profile specific error
+    0x01, // 0x1029:03 Error behavior / Manufacturer specific error
+    0x02, // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
+    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
+    0x05, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    0x80, 0x01, 0x00, 0x40, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    0xFF, // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    0x00, 0x00, // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    0x00, 0x00, // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    0x05, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    0x80, 0x02, 0x00, 0x40, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    0x01, // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    0x00, 0x00, // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    0x00, 0x00, // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    0x05, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    0x80, 0x03, 0x00, 0x40, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    0xFF, // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    0x00, 0x00, // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    0x00, 0x00, // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    0x01, // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    0x20, 0x00, 0x04, 0x60, // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
+    0x01, // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    0x20, 0x00, 0x04, 0x60, // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
+    0x01, // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    0x20, 0x01, 0x30, 0x60, // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
+    0x01, // 0x1F51:00 Program control / Program control highest sub-index
+    0x01, // 0x1F51:01 Program control / Program 1 control
+    0xFF, // 0x2100:00 Baud rate
+    0xFF, // 0x2101:00 Node address
+    0x01, // 0x2102:00 CAN bus termination
+    0x00, 0x01, // 0x2103:00 Firmware flash version
+    0x73, 0x61, 0x76, 0x65, // 0x2105:00 Save all bus parameters
+    0x00, 0x00, // 0x2150:00 Actual position sensor temperature
+    0x00, 0x00, // 0x2162:00 Raw position CRC value
+    0x00, 0x00, // 0x6000:00 Operating parameters
+    0x00, 0x40, 0x00, 0x00, // 0x6001:00 Measuring units per revolution
+    0x00, 0x00, 0x00, 0x10, // 0x6002:00 Total measuring range in measuring units
+    0x00, 0x00, 0x00, 0x00, // 0x6003:00 Preset value
+    0x00, 0x00, 0x00, 0x00, // 0x6004:00 Position value
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x600B:00 Position high resolution raw value
+    0x00, 0x00, 0x00, 0x00, // 0x600C:00 Position raw value
+    0x01, // 0x6030:00 Speed value / Speed value number of channels
+    0x00, 0x00, 0x00, 0x00, // 0x6030:01 Speed value / Speed value channel 1
+    0x04, // 0x6031:00 Speed parameters / Speed parameters number of entries
+    0x02, 0x00, // 0x6031:01 Speed parameters / Speed source selector
+    0x64, 0x00, // 0x6031:02 Speed parameters / Speed integration time
+    0x01, 0x00, // 0x6031:03 Speed parameters / Speed calculation multiplier
+    0x01, 0x00, // 0x6031:04 Speed parameters / Speed calculation divisor
+    0x01, // 0x6040:00 Acceleration value / Acceleration value number of channels
+    0x00, 0x00, 0x00, 0x00, // 0x6040:01 Acceleration value / Acceleration value channel 1
+    0x04, // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries
+    0x02, 0x00, // 0x6041:01 Acceleration parameters / Acceleration source selector
+    0x64, 0x00, // 0x6041:02 Acceleration parameters / Acceleration integration time
+    0x01, 0x00, // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
+    0x01, 0x00, // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
+    0x00, 0x00, // 0x6200:00 Cyclic timer
+    0x02, // 0x6400:00 Work area state / Work area state number of work areas
+    0x00, // 0x6400:01 Work area state / Work area state channel 1
+    0x00, // 0x6400:02 Work area state / Work area state channel 2
+    0x02, // 0x6401:00 Work area low limit / Work area low limit number of work areas
+    0x00, 0x00, 0x00, 0x00, // 0x6401:01 Work area low limit / Work area low limit channel 1
+    0x00, 0x00, 0x00, 0x00, // 0x6401:02 Work area low limit / Work area low limit channel 2
+    0x02, // 0x6402:00 Work area high limit / Work area high limit number of work areas
+    0x00, 0x00, 0x00, 0x10, // 0x6402:01 Work area high limit / Work area high limit channel 1
+    0x00, 0x00, 0x00, 0x10, // 0x6402:02 Work area high limit / Work area high limit channel 2
+    0x00, 0x00, // 0x6500:00 Operating status
+    0x00, 0x40, 0x00, 0x00, // 0x6501:00 Single-turn resolution
+    0x00, 0x00, 0x00, 0x20, // 0x6502:00 Number of distinguishable revolutions
+    0x00, 0x00, // 0x6503:00 Alarms
+    0x01, 0x80, // 0x6504:00 Supported alarms
+    0x00, 0x00, // 0x6505:00 Warnings
+    0x05, 0xC0, // 0x6506:00 Supported warnings
+    0x00, 0x04, 0x06, 0x01, // 0x6507:00 Profile and software version
+    0x00, 0x00, 0x00, 0x00, // 0x6508:00 Operating time
+    0x00, 0x00, 0x00, 0x00, // 0x6509:00 Offset value
+    0x03, // 0x650A:00 Module identification / Module identification highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x650A:01 Module identification / Manufacturer offset value
+    0x00, 0x00, 0x00, 0x00, // 0x650A:02 Module identification / Manufacturer minimum position value
+    0xFF, 0xFF, 0xFF, 0x7F, // 0x650A:03 Module identification / Manufacturer maximum position value
+    0x00, 0x00, 0x00, 0x00, // 0x650B:00 Encoder serial number
+    0x0A, // 0x650D:00 Absolute accuracy
+    0x02, 0x00, 0x00, 0x00, // 0x650E:00 Device capability
 ];
 
-static NODE_ID_RELATIVE: [u16; 6] = [27, 40, 41, 43, 48, 53];
+#[rustfmt::skip]
+static NODE_ID_RELATIVE: [u16; 6] = [
+    27, // 0x1014:00 COB-ID EMCY
+    40, // 0x1200:01 SDO server parameter / COB-ID client to server
+    41, // 0x1200:02 SDO server parameter / COB-ID server to client
+    43, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    48, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    53, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+];
 
 /// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.
+#[rustfmt::skip]
 pub static NAMES: [&str; ENTRY_COUNT] = [
-    "Device type",
-    "Error register",
-    "Number of errors",
-    "Standard error field 1",
-    "Standard error field 2",
-    "Standard error field 3",
-    "Standard error field 4",
-    "Standard error field 5",
-    "Standard error field 6",
-    "Standard error field 7",
-    "Standard error field 8",
-    "COB-ID SYNC message",
-    "Communication cycle period",
-    "Synchronous window length",
-    "Manufacturer device name",
-    "Manufacturer hardware version",
-    "Manufacturer software version",
-    "Store parameters highest sub-index",
-    "Save all parameters",
-    "Save communication parameters",
-    "Save application parameters",
-    "Save manufacturer parameters",
-    "Restore parameters highest sub-index",
-    "Restore all default parameters",
-    "Restore communication default parameters",
-    "Restore application default parameters",
-    "Restore manufacturer default parameters",
-    "COB-ID EMCY",
-    "Inhibit time EMCY",
-    "Producer heartbeat time",
-    "Identity highest sub-index",
-    "Vendor-ID",
-    "Product code",
-    "Revision number",
-    "Serial number",
-    "Error behavior highest sub-index",
-    "Communication error",
-    "Device profile specific error",
-    "Manufacturer specific error",
-    "SDO server highest sub-index",
-    "COB-ID client to server",
-    "COB-ID server to client",
-    "TPDO1 communication highest sub-index",
-    "TPDO1 COB-ID",
-    "TPDO1 transmission type",
-    "TPDO1 inhibit time",
-    "TPDO1 event timer",
-    "TPDO2 communication highest sub-index",
-    "TPDO2 COB-ID",
-    "TPDO2 transmission type",
-    "TPDO2 inhibit time",
-    "TPDO2 event timer",
-    "TPDO3 communication highest sub-index",
-    "TPDO3 COB-ID",
-    "TPDO3 transmission type",
-    "TPDO3 inhibit time",
-    "TPDO3 event timer",
-    "TPDO1 number of mapped objects",
-    "TPDO1 mapped object 1",
-    "TPDO1 mapped object 2",
-    "TPDO1 mapped object 3",
-    "TPDO1 mapped object 4",
-    "TPDO1 mapped object 5",
-    "TPDO1 mapped object 6",
-    "TPDO1 mapped object 7",
-    "TPDO1 mapped object 8",
-    "TPDO2 number of mapped objects",
-    "TPDO2 mapped object 1",
-    "TPDO2 mapped object 2",
-    "TPDO2 mapped object 3",
-    "TPDO2 mapped object 4",
-    "TPDO2 mapped object 5",
-    "TPDO2 mapped object 6",
-    "TPDO2 mapped object 7",
-    "TPDO2 mapped object 8",
-    "TPDO3 number of mapped objects",
-    "TPDO3 mapped object 1",
-    "TPDO3 mapped object 2",
-    "TPDO3 mapped object 3",
-    "TPDO3 mapped object 4",
-    "TPDO3 mapped object 5",
-    "TPDO3 mapped object 6",
-    "TPDO3 mapped object 7",
-    "TPDO3 mapped object 8",
-    "Program control highest sub-index",
-    "Program 1 control",
-    "Baud rate",
-    "Node address",
-    "CAN bus termination",
-    "Firmware flash version",
-    "Save all bus parameters",
-    "Actual position sensor temperature",
-    "Raw position CRC value",
-    "Operating parameters",
-    "Measuring units per revolution",
-    "Total measuring range in measuring units",
-    "Preset value",
-    "Position value",
-    "Position high resolution raw value",
-    "Position raw value",
-    "Speed value number of channels",
-    "Speed value channel 1",
-    "Speed parameters number of entries",
-    "Speed source selector",
-    "Speed integration time",
-    "Speed calculation multiplier",
-    "Speed calculation divisor",
-    "Acceleration value number of channels",
-    "Acceleration value channel 1",
-    "Acceleration parameters number of entries",
-    "Acceleration source selector",
-    "Acceleration integration time",
-    "Acceleration calculation multiplier",
-    "Acceleration calculation divisor",
-    "Cyclic timer",
-    "Work area state number of work areas",
-    "Work area state channel 1",
-    "Work area state channel 2",
-    "Work area low limit number of work areas",
-    "Work area low limit channel 1",
-    "Work area low limit channel 2",
-    "Work area high limit number of work areas",
-    "Work area high limit channel 1",
-    "Work area high limit channel 2",
-    "Operating status",
-    "Single-turn resolution",
-    "Number of distinguishable revolutions",
-    "Alarms",
-    "Supported alarms",
-    "Warnings",
-    "Supported warnings",
-    "Profile and software version",
-    "Operating time",
-    "Offset value",
-    "Module identification highest sub-index",
-    "Manufacturer offset value",
-    "Manufacturer minimum position value",
-    "Manufacturer maximum position value",
-    "Encoder serial number",
-    "Absolute accuracy",
-    "Device capability",
+    "Device type", // 0x1000:00
+    "Error register", // 0x1001:00
+    "Number of errors", // 0x1003:00
+    "Standard error field 1", // 0x1003:01
+    "Standard error field 2", // 0x1003:02
+    "Standard error field 3", // 0x1003:03
+    "Standard error field 4", // 0x1003:04
+    "Standard error field 5", // 0x1003:05
+    "Standard error field 6", // 0x1003:06
+    "Standard error field 7", // 0x1003:07
+    "Standard error field 8", // 0x1003:08
+    "COB-ID SYNC message", // 0x1005:00
+    "Communication cycle period", // 0x1006:00
+    "Synchronous window length", // 0x1007:00
+    "Manufacturer device name", // 0x1008:00
+    "Manufacturer hardware version", // 0x1009:00
+    "Manufacturer software version", // 0x100A:00
+    "Store parameters highest sub-index", // 0x1010:00
+    "Save all parameters", // 0x1010:01
+    "Save communication parameters", // 0x1010:02
+    "Save application parameters", // 0x1010:03
+    "Save manufacturer parameters", // 0x1010:04
+    "Restore parameters highest sub-index", // 0x1011:00
+    "Restore all default parameters", // 0x1011:01
+    "Restore communication default parameters", // 0x1011:02
+    "Restore application default parameters", // 0x1011:03
+    "Restore manufacturer default parameters", // 0x1011:04
+    "COB-ID EMCY", // 0x1014:00
+    "Inhibit time EMCY", // 0x1015:00
+    "Producer heartbeat time", // 0x1017:00
+    "Identity highest sub-index", // 0x1018:00
+    "Vendor-ID", // 0x1018:01
+    "Product code", // 0x1018:02
+    "Revision number", // 0x1018:03
+    "Serial number", // 0x1018:04
+    "Error behavior highest sub-index", // 0x1029:00
+    "Communication error", // 0x1029:01
+    "Device profile specific error", // 0x1029:02
+    "Manufacturer specific error", // 0x1029:03
+    "SDO server highest sub-index", // 0x1200:00
+    "COB-ID client to server", // 0x1200:01
+    "COB-ID server to client", // 0x1200:02
+    "TPDO1 communication highest sub-index", // 0x1800:00
+    "TPDO1 COB-ID", // 0x1800:01
+    "TPDO1 transmission type", // 0x1800:02
+    "TPDO1 inhibit time", // 0x1800:03
+    "TPDO1 event timer", // 0x1800:05
+    "TPDO2 communication highest sub-index", // 0x1801:00
+    "TPDO2 COB-ID", // 0x1801:01
+    "TPDO2 transmission type", // 0x1801:02
+    "TPDO2 inhibit time", // 0x1801:03
+    "TPDO2 event timer", // 0x1801:05
+    "TPDO3 communication highest sub-index", // 0x1802:00
+    "TPDO3 COB-ID", // 0x1802:01
+    "TPDO3 transmission type", // 0x1802:02
+    "TPDO3 inhibit time", // 0x1802:03
+    "TPDO3 event timer", // 0x1802:05
+    "TPDO1 number of mapped objects", // 0x1A00:00
+    "TPDO1 mapped object 1", // 0x1A00:01
+    "TPDO1 mapped object 2", // 0x1A00:02
+    "TPDO1 mapped object 3", // 0x1A00:03
+    "TPDO1 mapped object 4", // 0x1A00:04
+    "TPDO1 mapped object 5", // 0x1A00:05
+    "TPDO1 mapped object 6", // 0x1A00:06
+    "TPDO1 mapped object 7", // 0x1A00:07
+    "TPDO1 mapped object 8", // 0x1A00:08
+    "TPDO2 number of mapped objects", // 0x1A01:00
+    "TPDO2 mapped object 1", // 0x1A01:01
+    "TPDO2 mapped object 2", // 0x1A01:02
+    "TPDO2 mapped object 3", // 0x1A01:03
+    "TPDO2 mapped object 4", // 0x1A01:04
+    "TPDO2 mapped object 5", // 0x1A01:05
+    "TPDO2 mapped object 6", // 0x1A01:06
+    "TPDO2 mapped object 7", // 0x1A01:07
+    "TPDO2 mapped object 8", // 0x1A01:08
+    "TPDO3 number of mapped objects", // 0x1A02:00
+    "TPDO3 mapped object 1", // 0x1A02:01
+    "TPDO3 mapped object 2", // 0x1A02:02
+    "TPDO3 mapped object 3", // 0x1A02:03
+    "TPDO3 mapped object 4", // 0x1A02:04
+    "TPDO3 mapped object 5", // 0x1A02:05
+    "TPDO3 mapped object 6", // 0x1A02:06
+    "TPDO3 mapped object 7", // 0x1A02:07
+    "TPDO3 mapped object 8", // 0x1A02:08
+    "Program control highest sub-index", // 0x1F51:00
+    "Program 1 control", // 0x1F51:01
+    "Baud rate", // 0x2100:00
+    "Node address", // 0x2101:00
+    "CAN bus termination", // 0x2102:00
+    "Firmware flash version", // 0x2103:00
+    "Save all bus parameters", // 0x2105:00
+    "Actual position sensor temperature", // 0x2150:00
+    "Raw position CRC value", // 0x2162:00
+    "Operating parameters", // 0x6000:00
+    "Measuring units per revolution", // 0x6001:00
+    "Total measuring range in measuring units", // 0x6002:00
+    "Preset value", // 0x6003:00
+    "Position value", // 0x6004:00
+    "Position high resolution raw value", // 0x600B:00
+    "Position raw value", // 0x600C:00
+    "Speed value number of channels", // 0x6030:00
+    "Speed value channel 1", // 0x6030:01
+    "Speed parameters number of entries", // 0x6031:00
+    "Speed source selector", // 0x6031:01
+    "Speed integration time", // 0x6031:02
+    "Speed calculation multiplier", // 0x6031:03
+    "Speed calculation divisor", // 0x6031:04
+    "Acceleration value number of channels", // 0x6040:00
+    "Acceleration value channel 1", // 0x6040:01
+    "Acceleration parameters number of entries", // 0x6041:00
+    "Acceleration source selector", // 0x6041:01
+    "Acceleration integration time", // 0x6041:02
+    "Acceleration calculation multiplier", // 0x6041:03
+    "Acceleration calculation divisor", // 0x6041:04
+    "Cyclic timer", // 0x6200:00
+    "Work area state number of work areas", // 0x6400:00
+    "Work area state channel 1", // 0x6400:01
+    "Work area state channel 2", // 0x6400:02
+    "Work area low limit number of work areas", // 0x6401:00
+    "Work area low limit channel 1", // 0x6401:01
+    "Work area low limit channel 2", // 0x6401:02
+    "Work area high limit number of work areas", // 0x6402:00
+    "Work area high limit channel 1", // 0x6402:01
+    "Work area high limit channel 2", // 0x6402:02
+    "Operating status", // 0x6500:00
+    "Single-turn resolution", // 0x6501:00
+    "Number of distinguishable revolutions", // 0x6502:00
+    "Alarms", // 0x6503:00
+    "Supported alarms", // 0x6504:00
+    "Warnings", // 0x6505:00
+    "Supported warnings", // 0x6506:00
+    "Profile and software version", // 0x6507:00
+    "Operating time", // 0x6508:00
+    "Offset value", // 0x6509:00
+    "Module identification highest sub-index", // 0x650A:00
+    "Manufacturer offset value", // 0x650A:01
+    "Manufacturer minimum position value", // 0x650A:02
+    "Manufacturer maximum position value", // 0x650A:03
+    "Encoder serial number", // 0x650B:00
+    "Absolute accuracy", // 0x650D:00
+    "Device capability", // 0x650E:00
 ];
 
 /// The flash half of the dictionary.
@@ -569,12 +704,12 @@ impl Ram {
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (sendix.eds:184, UNSIGNED8 rw)
-    pub fn pre_defined_error_field_sub0(&self) -> u8 {
+    pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 1))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
-    pub fn set_pre_defined_error_field_sub0(&mut self, v: u8) {
+    pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 1, v.to_le_bytes());
     }
 
@@ -643,12 +778,12 @@ impl Ram {
     }
 
     /// 0x1010 sub 0 Store parameters / Store parameters highest sub-index (sendix.eds:309, UNSIGNED8 ro)
-    pub fn store_parameters_sub0(&self) -> u8 {
+    pub fn store_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 46))
     }
 
     /// Sets 0x1010 sub 0 Store parameters / Store parameters highest sub-index.
-    pub fn set_store_parameters_sub0(&mut self, v: u8) {
+    pub fn set_store_parameters_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 46, v.to_le_bytes());
     }
 
@@ -672,12 +807,12 @@ impl Ram {
     }
 
     /// 0x1011 sub 0 Restore default parameters / Restore parameters highest sub-index (sendix.eds:354, UNSIGNED8 ro)
-    pub fn restore_default_parameters_sub0(&self) -> u8 {
+    pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 63))
     }
 
     /// Sets 0x1011 sub 0 Restore default parameters / Restore parameters highest sub-index.
-    pub fn set_restore_default_parameters_sub0(&mut self, v: u8) {
+    pub fn set_restore_default_parameters_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 63, v.to_le_bytes());
     }
 
@@ -731,12 +866,12 @@ impl Ram {
     }
 
     /// 0x1018 sub 0 Identity object / Identity highest sub-index (sendix.eds:86, UNSIGNED8 ro)
-    pub fn identity_object_identity_highest_sub_index(&self) -> u8 {
+    pub fn identity_object_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 88))
     }
 
     /// Sets 0x1018 sub 0 Identity object / Identity highest sub-index.
-    pub fn set_identity_object_identity_highest_sub_index(&mut self, v: u8) {
+    pub fn set_identity_object_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 88, v.to_le_bytes());
     }
 
@@ -781,12 +916,12 @@ impl Ram {
     }
 
     /// 0x1029 sub 0 Error behavior / Error behavior highest sub-index (sendix.eds:423, UNSIGNED8 ro)
-    pub fn error_behavior_sub0(&self) -> u8 {
+    pub fn error_behavior_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 105))
     }
 
     /// Sets 0x1029 sub 0 Error behavior / Error behavior highest sub-index.
-    pub fn set_error_behavior_sub0(&mut self, v: u8) {
+    pub fn set_error_behavior_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 105, v.to_le_bytes());
     }
 
@@ -810,12 +945,12 @@ impl Ram {
     }
 
     /// 0x1200 sub 0 SDO server parameter / SDO server highest sub-index (sendix.eds:466, UNSIGNED8 ro)
-    pub fn sdo_server_parameter_sdo_server_highest_sub_index(&self) -> u8 {
+    pub fn sdo_server_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 109))
     }
 
     /// Sets 0x1200 sub 0 SDO server parameter / SDO server highest sub-index.
-    pub fn set_sdo_server_parameter_sdo_server_highest_sub_index(&mut self, v: u8) {
+    pub fn set_sdo_server_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 109, v.to_le_bytes());
     }
 
@@ -840,442 +975,442 @@ impl Ram {
     }
 
     /// 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index (sendix.eds:495, UNSIGNED8 ro)
-    pub fn tpdo1_communication_parameter_tpdo1_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 118))
     }
 
     /// Sets 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index.
-    pub fn set_tpdo1_communication_parameter_tpdo1_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_tpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 118, v.to_le_bytes());
     }
 
     /// 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID (sendix.eds:503, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo1_communication_parameter_tpdo1_cob_id(&self) -> u32 {
+    pub fn tpdo1_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 119))
     }
 
     /// Sets 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID.
-    pub fn set_tpdo1_communication_parameter_tpdo1_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo1_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 119, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type (sendix.eds:511, UNSIGNED8 rw)
-    pub fn tpdo1_communication_parameter_tpdo1_transmission_type(&self) -> u8 {
+    pub fn tpdo1_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 123))
     }
 
     /// Sets 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type.
-    pub fn set_tpdo1_communication_parameter_tpdo1_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 123, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time (sendix.eds:519, UNSIGNED16 rw)
-    pub fn tpdo1_communication_parameter_tpdo1_inhibit_time(&self) -> u16 {
+    pub fn tpdo1_communication_parameter_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 124))
     }
 
     /// Sets 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time.
-    pub fn set_tpdo1_communication_parameter_tpdo1_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo1_communication_parameter_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 124, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer (sendix.eds:527, UNSIGNED16 rw)
-    pub fn tpdo1_communication_parameter_tpdo1_event_timer(&self) -> u16 {
+    pub fn tpdo1_communication_parameter_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 126))
     }
 
     /// Sets 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer.
-    pub fn set_tpdo1_communication_parameter_tpdo1_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo1_communication_parameter_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 126, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index (sendix.eds:540, UNSIGNED8 ro)
-    pub fn tpdo2_communication_parameter_tpdo2_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 128))
     }
 
     /// Sets 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index.
-    pub fn set_tpdo2_communication_parameter_tpdo2_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_tpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 128, v.to_le_bytes());
     }
 
     /// 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID (sendix.eds:548, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo2_communication_parameter_tpdo2_cob_id(&self) -> u32 {
+    pub fn tpdo2_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 129))
     }
 
     /// Sets 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID.
-    pub fn set_tpdo2_communication_parameter_tpdo2_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo2_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 129, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type (sendix.eds:556, UNSIGNED8 rw)
-    pub fn tpdo2_communication_parameter_tpdo2_transmission_type(&self) -> u8 {
+    pub fn tpdo2_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 133))
     }
 
     /// Sets 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type.
-    pub fn set_tpdo2_communication_parameter_tpdo2_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 133, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time (sendix.eds:564, UNSIGNED16 rw)
-    pub fn tpdo2_communication_parameter_tpdo2_inhibit_time(&self) -> u16 {
+    pub fn tpdo2_communication_parameter_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 134))
     }
 
     /// Sets 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time.
-    pub fn set_tpdo2_communication_parameter_tpdo2_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo2_communication_parameter_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 134, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer (sendix.eds:572, UNSIGNED16 rw)
-    pub fn tpdo2_communication_parameter_tpdo2_event_timer(&self) -> u16 {
+    pub fn tpdo2_communication_parameter_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 136))
     }
 
     /// Sets 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer.
-    pub fn set_tpdo2_communication_parameter_tpdo2_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo2_communication_parameter_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 136, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index (sendix.eds:585, UNSIGNED8 ro)
-    pub fn tpdo3_communication_parameter_tpdo3_communication_highest_sub_index(&self) -> u8 {
+    pub fn tpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 138))
     }
 
     /// Sets 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index.
-    pub fn set_tpdo3_communication_parameter_tpdo3_communication_highest_sub_index(&mut self, v: u8) {
+    pub fn set_tpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 138, v.to_le_bytes());
     }
 
     /// 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID (sendix.eds:593, UNSIGNED32 rw, $NODEID-relative)
-    pub fn tpdo3_communication_parameter_tpdo3_cob_id(&self) -> u32 {
+    pub fn tpdo3_communication_parameter_cob_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 139))
     }
 
     /// Sets 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID.
-    pub fn set_tpdo3_communication_parameter_tpdo3_cob_id(&mut self, v: u32) {
+    pub fn set_tpdo3_communication_parameter_cob_id(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 139, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type (sendix.eds:601, UNSIGNED8 rw)
-    pub fn tpdo3_communication_parameter_tpdo3_transmission_type(&self) -> u8 {
+    pub fn tpdo3_communication_parameter_transmission_type(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 143))
     }
 
     /// Sets 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type.
-    pub fn set_tpdo3_communication_parameter_tpdo3_transmission_type(&mut self, v: u8) {
+    pub fn set_tpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 143, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time (sendix.eds:609, UNSIGNED16 rw)
-    pub fn tpdo3_communication_parameter_tpdo3_inhibit_time(&self) -> u16 {
+    pub fn tpdo3_communication_parameter_inhibit_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 144))
     }
 
     /// Sets 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time.
-    pub fn set_tpdo3_communication_parameter_tpdo3_inhibit_time(&mut self, v: u16) {
+    pub fn set_tpdo3_communication_parameter_inhibit_time(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 144, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer (sendix.eds:617, UNSIGNED16 rw)
-    pub fn tpdo3_communication_parameter_tpdo3_event_timer(&self) -> u16 {
+    pub fn tpdo3_communication_parameter_event_timer(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 146))
     }
 
     /// Sets 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer.
-    pub fn set_tpdo3_communication_parameter_tpdo3_event_timer(&mut self, v: u16) {
+    pub fn set_tpdo3_communication_parameter_event_timer(&mut self, v: u16) {
         od::store::<2>(&mut self.image, 146, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects (sendix.eds:630, UNSIGNED8 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 148))
     }
 
     /// Sets 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 148, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapped object 1 (sendix.eds:640, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_1(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 149))
     }
 
     /// Sets 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapped object 1.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_1(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 149, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapped object 2 (sendix.eds:648, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_2(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 153))
     }
 
     /// Sets 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapped object 2.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_2(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 153, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapped object 3 (sendix.eds:656, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_3(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 157))
     }
 
     /// Sets 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapped object 3.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_3(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 157, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapped object 4 (sendix.eds:664, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_4(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 161))
     }
 
     /// Sets 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapped object 4.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_4(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 161, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapped object 5 (sendix.eds:672, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_5(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 165))
     }
 
     /// Sets 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapped object 5.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_5(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 165, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapped object 6 (sendix.eds:680, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_6(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 169))
     }
 
     /// Sets 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapped object 6.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_6(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 169, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapped object 7 (sendix.eds:688, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_7(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 173))
     }
 
     /// Sets 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapped object 7.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_7(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 173, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapped object 8 (sendix.eds:696, UNSIGNED32 rw)
-    pub fn tpdo1_mapping_parameter_tpdo1_mapped_object_8(&self) -> u32 {
+    pub fn tpdo1_mapping_parameter_mapped_object_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 177))
     }
 
     /// Sets 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapped object 8.
-    pub fn set_tpdo1_mapping_parameter_tpdo1_mapped_object_8(&mut self, v: u32) {
+    pub fn set_tpdo1_mapping_parameter_mapped_object_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 177, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects (sendix.eds:709, UNSIGNED8 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 181))
     }
 
     /// Sets 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 181, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapped object 1 (sendix.eds:719, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_1(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 182))
     }
 
     /// Sets 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapped object 1.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_1(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 182, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapped object 2 (sendix.eds:727, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_2(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 186))
     }
 
     /// Sets 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapped object 2.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_2(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 186, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapped object 3 (sendix.eds:735, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_3(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 190))
     }
 
     /// Sets 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapped object 3.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_3(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 190, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapped object 4 (sendix.eds:743, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_4(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 194))
     }
 
     /// Sets 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapped object 4.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_4(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 194, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapped object 5 (sendix.eds:751, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_5(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 198))
     }
 
     /// Sets 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapped object 5.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_5(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 198, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapped object 6 (sendix.eds:759, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_6(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 202))
     }
 
     /// Sets 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapped object 6.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_6(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 202, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapped object 7 (sendix.eds:767, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_7(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 206))
     }
 
     /// Sets 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapped object 7.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_7(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 206, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapped object 8 (sendix.eds:775, UNSIGNED32 rw)
-    pub fn tpdo2_mapping_parameter_tpdo2_mapped_object_8(&self) -> u32 {
+    pub fn tpdo2_mapping_parameter_mapped_object_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 210))
     }
 
     /// Sets 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapped object 8.
-    pub fn set_tpdo2_mapping_parameter_tpdo2_mapped_object_8(&mut self, v: u32) {
+    pub fn set_tpdo2_mapping_parameter_mapped_object_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 210, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects (sendix.eds:788, UNSIGNED8 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_number_of_mapped_objects(&self) -> u8 {
+    pub fn tpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 214))
     }
 
     /// Sets 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_number_of_mapped_objects(&mut self, v: u8) {
+    pub fn set_tpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 214, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapped object 1 (sendix.eds:798, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_1(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 215))
     }
 
     /// Sets 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapped object 1.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_1(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_1(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 215, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapped object 2 (sendix.eds:806, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_2(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 219))
     }
 
     /// Sets 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapped object 2.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_2(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_2(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 219, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapped object 3 (sendix.eds:814, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_3(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_3(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 223))
     }
 
     /// Sets 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapped object 3.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_3(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_3(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 223, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapped object 4 (sendix.eds:822, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_4(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_4(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 227))
     }
 
     /// Sets 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapped object 4.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_4(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_4(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 227, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapped object 5 (sendix.eds:830, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_5(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_5(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 231))
     }
 
     /// Sets 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapped object 5.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_5(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_5(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 231, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapped object 6 (sendix.eds:838, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_6(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_6(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 235))
     }
 
     /// Sets 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapped object 6.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_6(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_6(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 235, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapped object 7 (sendix.eds:846, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_7(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_7(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 239))
     }
 
     /// Sets 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapped object 7.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_7(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_7(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 239, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapped object 8 (sendix.eds:854, UNSIGNED32 rw)
-    pub fn tpdo3_mapping_parameter_tpdo3_mapped_object_8(&self) -> u32 {
+    pub fn tpdo3_mapping_parameter_mapped_object_8(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 243))
     }
 
     /// Sets 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapped object 8.
-    pub fn set_tpdo3_mapping_parameter_tpdo3_mapped_object_8(&mut self, v: u32) {
+    pub fn set_tpdo3_mapping_parameter_mapped_object_8(&mut self, v: u32) {
         od::store::<4>(&mut self.image, 243, v.to_le_bytes());
     }
 
     /// 0x1F51 sub 0 Program control / Program control highest sub-index (sendix.eds:867, UNSIGNED8 ro)
-    pub fn program_control_program_control_highest_sub_index(&self) -> u8 {
+    pub fn program_control_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 247))
     }
 
     /// Sets 0x1F51 sub 0 Program control / Program control highest sub-index.
-    pub fn set_program_control_program_control_highest_sub_index(&mut self, v: u8) {
+    pub fn set_program_control_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 247, v.to_le_bytes());
     }
 
     /// 0x1F51 sub 1 Program control / Program 1 control (sendix.eds:875, UNSIGNED8 rw)
-    pub fn program_control_program_1_control(&self) -> u8 {
+    pub fn program_control_1_control(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 248))
     }
 
     /// Sets 0x1F51 sub 1 Program control / Program 1 control.
-    pub fn set_program_control_program_1_control(&mut self, v: u8) {
+    pub fn set_program_control_1_control(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 248, v.to_le_bytes());
     }
 
@@ -1420,32 +1555,32 @@ impl Ram {
     }
 
     /// 0x6030 sub 0 Speed value / Speed value number of channels (sendix.eds:948, UNSIGNED8 ro)
-    pub fn speed_value_speed_value_number_of_channels(&self) -> u8 {
+    pub fn speed_value_number_of_channels(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 292))
     }
 
     /// Sets 0x6030 sub 0 Speed value / Speed value number of channels.
-    pub fn set_speed_value_speed_value_number_of_channels(&mut self, v: u8) {
+    pub fn set_speed_value_number_of_channels(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 292, v.to_le_bytes());
     }
 
     /// 0x6030 sub 1 Speed value / Speed value channel 1 (sendix.eds:956, INTEGER32 ro, PDO-mappable)
-    pub fn speed_value_speed_value_channel_1(&self) -> i32 {
+    pub fn speed_value_channel_1(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 293))
     }
 
     /// Sets 0x6030 sub 1 Speed value / Speed value channel 1.
-    pub fn set_speed_value_speed_value_channel_1(&mut self, v: i32) {
+    pub fn set_speed_value_channel_1(&mut self, v: i32) {
         od::store::<4>(&mut self.image, 293, v.to_le_bytes());
     }
 
     /// 0x6031 sub 0 Speed parameters / Speed parameters number of entries (sendix.eds:969, UNSIGNED8 ro)
-    pub fn speed_parameters_sub0(&self) -> u8 {
+    pub fn speed_parameters_number_of_entries(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 297))
     }
 
     /// Sets 0x6031 sub 0 Speed parameters / Speed parameters number of entries.
-    pub fn set_speed_parameters_sub0(&mut self, v: u8) {
+    pub fn set_speed_parameters_number_of_entries(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 297, v.to_le_bytes());
     }
 
@@ -1469,32 +1604,32 @@ impl Ram {
     }
 
     /// 0x6040 sub 0 Acceleration value / Acceleration value number of channels (sendix.eds:1022, UNSIGNED8 ro)
-    pub fn acceleration_value_acceleration_value_number_of_channels(&self) -> u8 {
+    pub fn acceleration_value_number_of_channels(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 306))
     }
 
     /// Sets 0x6040 sub 0 Acceleration value / Acceleration value number of channels.
-    pub fn set_acceleration_value_acceleration_value_number_of_channels(&mut self, v: u8) {
+    pub fn set_acceleration_value_number_of_channels(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 306, v.to_le_bytes());
     }
 
     /// 0x6040 sub 1 Acceleration value / Acceleration value channel 1 (sendix.eds:1030, INTEGER32 ro, PDO-mappable)
-    pub fn acceleration_value_acceleration_value_channel_1(&self) -> i32 {
+    pub fn acceleration_value_channel_1(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 307))
     }
 
     /// Sets 0x6040 sub 1 Acceleration value / Acceleration value channel 1.
-    pub fn set_acceleration_value_acceleration_value_channel_1(&mut self, v: i32) {
+    pub fn set_acceleration_value_channel_1(&mut self, v: i32) {
         od::store::<4>(&mut self.image, 307, v.to_le_bytes());
     }
 
     /// 0x6041 sub 0 Acceleration parameters / Acceleration parameters number of entries (sendix.eds:1043, UNSIGNED8 ro)
-    pub fn acceleration_parameters_sub0(&self) -> u8 {
+    pub fn acceleration_parameters_number_of_entries(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 311))
     }
 
     /// Sets 0x6041 sub 0 Acceleration parameters / Acceleration parameters number of entries.
-    pub fn set_acceleration_parameters_sub0(&mut self, v: u8) {
+    pub fn set_acceleration_parameters_number_of_entries(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 311, v.to_le_bytes());
     }
 
@@ -1528,12 +1663,12 @@ impl Ram {
     }
 
     /// 0x6400 sub 0 Work area state / Work area state number of work areas (sendix.eds:1104, UNSIGNED8 ro)
-    pub fn work_area_state_sub0(&self) -> u8 {
+    pub fn work_area_state_number_of_work_areas(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 322))
     }
 
     /// Sets 0x6400 sub 0 Work area state / Work area state number of work areas.
-    pub fn set_work_area_state_sub0(&mut self, v: u8) {
+    pub fn set_work_area_state_number_of_work_areas(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 322, v.to_le_bytes());
     }
 
@@ -1557,12 +1692,12 @@ impl Ram {
     }
 
     /// 0x6401 sub 0 Work area low limit / Work area low limit number of work areas (sendix.eds:1133, UNSIGNED8 ro)
-    pub fn work_area_low_limit_sub0(&self) -> u8 {
+    pub fn work_area_low_limit_number_of_work_areas(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 325))
     }
 
     /// Sets 0x6401 sub 0 Work area low limit / Work area low limit number of work areas.
-    pub fn set_work_area_low_limit_sub0(&mut self, v: u8) {
+    pub fn set_work_area_low_limit_number_of_work_areas(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 325, v.to_le_bytes());
     }
 
@@ -1586,12 +1721,12 @@ impl Ram {
     }
 
     /// 0x6402 sub 0 Work area high limit / Work area high limit number of work areas (sendix.eds:1162, UNSIGNED8 ro)
-    pub fn work_area_high_limit_sub0(&self) -> u8 {
+    pub fn work_area_high_limit_number_of_work_areas(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 334))
     }
 
     /// Sets 0x6402 sub 0 Work area high limit / Work area high limit number of work areas.
-    pub fn set_work_area_high_limit_sub0(&mut self, v: u8) {
+    pub fn set_work_area_high_limit_number_of_work_areas(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 334, v.to_le_bytes());
     }
 
@@ -1715,12 +1850,12 @@ impl Ram {
     }
 
     /// 0x650A sub 0 Module identification / Module identification highest sub-index (sendix.eds:1271, UNSIGNED8 ro)
-    pub fn module_identification_sub0(&self) -> u8 {
+    pub fn module_identification_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 373))
     }
 
     /// Sets 0x650A sub 0 Module identification / Module identification highest sub-index.
-    pub fn set_module_identification_sub0(&mut self, v: u8) {
+    pub fn set_module_identification_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 373, v.to_le_bytes());
     }
 

@@ -539,563 +539,793 @@ const RO_TPDO: Attr = Attr(Attr::READ.0 | Attr::MAP_TPDO.0);
 const RW_TPDO_RPDO: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::MAP_TPDO.0 | Attr::MAP_RPDO.0);
 
 /// Entry metadata, sorted by (index, sub-index).
+#[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS),
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 4, NO_LIMITS),
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 5, NO_LIMITS),
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 6, NO_LIMITS),
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 10, NO_LIMITS),
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 14, NO_LIMITS),
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 18, NO_LIMITS),
-    Entry::new(0x2001, 0x00, DataType::Integer16, RO_TPDO, 2, 22, NO_LIMITS),
-    Entry::new(0x2002, 0x00, DataType::Integer16, RO_TPDO, 2, 24, NO_LIMITS),
-    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 26, NO_LIMITS),
-    Entry::new(0x2004, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 28, NO_LIMITS),
-    Entry::new(0x2005, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 30, NO_LIMITS),
-    Entry::new(0x2006, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 32, NO_LIMITS),
-    Entry::new(0x2007, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 34, NO_LIMITS),
-    Entry::new(0x2008, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 38, NO_LIMITS),
-    Entry::new(0x2009, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 42, NO_LIMITS),
-    Entry::new(0x200A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 46, NO_LIMITS),
-    Entry::new(0x200B, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 50, NO_LIMITS),
-    Entry::new(0x200C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 54, NO_LIMITS),
-    Entry::new(0x200D, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 58, NO_LIMITS),
-    Entry::new(0x200E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 62, NO_LIMITS),
-    Entry::new(0x200F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 64, NO_LIMITS),
-    Entry::new(0x2010, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 66, NO_LIMITS),
-    Entry::new(0x2011, 0x00, DataType::Unsigned32, RO_TPDO, 4, 68, NO_LIMITS),
-    Entry::new(0x2012, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 72, NO_LIMITS),
-    Entry::new(0x2013, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 74, NO_LIMITS),
-    Entry::new(0x2014, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 76, NO_LIMITS),
-    Entry::new(0x2015, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 78, NO_LIMITS),
-    Entry::new(0x2016, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 80, NO_LIMITS),
-    Entry::new(0x2017, 0x00, DataType::Unsigned16, WO, 2, 82, NO_LIMITS),
-    Entry::new(0x2018, 0x00, DataType::Unsigned16, WO, 2, 84, NO_LIMITS),
-    Entry::new(0x2019, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 86, NO_LIMITS),
-    Entry::new(0x201A, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 88, NO_LIMITS),
-    Entry::new(0x201B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 90, NO_LIMITS),
-    Entry::new(0x201C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 92, NO_LIMITS),
-    Entry::new(0x201D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 94, NO_LIMITS),
-    Entry::new(0x201E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 96, NO_LIMITS),
-    Entry::new(0x201F, 0x00, DataType::Integer16, RO_TPDO, 2, 98, NO_LIMITS),
-    Entry::new(0x2020, 0x00, DataType::Integer16, RO_TPDO, 2, 100, NO_LIMITS),
-    Entry::new(0x2021, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 102, NO_LIMITS),
-    Entry::new(0x2022, 0x00, DataType::Integer16, RO_TPDO, 2, 104, NO_LIMITS),
-    Entry::new(0x2023, 0x00, DataType::Integer16, RO_TPDO, 2, 106, NO_LIMITS),
-    Entry::new(0x2024, 0x00, DataType::Unsigned16, RO_TPDO, 2, 108, NO_LIMITS),
-    Entry::new(0x2025, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 110, NO_LIMITS),
-    Entry::new(0x2026, 0x00, DataType::Integer16, RO_TPDO, 2, 112, NO_LIMITS),
-    Entry::new(0x2027, 0x00, DataType::Integer16, RO_TPDO, 2, 114, NO_LIMITS),
-    Entry::new(0x2028, 0x00, DataType::Integer16, RO_TPDO, 2, 116, NO_LIMITS),
-    Entry::new(0x2029, 0x00, DataType::Integer16, RO_TPDO, 2, 118, NO_LIMITS),
-    Entry::new(0x202A, 0x00, DataType::Integer16, RO_TPDO, 2, 120, NO_LIMITS),
-    Entry::new(0x202B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 122, NO_LIMITS),
-    Entry::new(0x202C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 124, NO_LIMITS),
-    Entry::new(0x202D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 126, NO_LIMITS),
-    Entry::new(0x202E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 128, NO_LIMITS),
-    Entry::new(0x202F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 130, NO_LIMITS),
-    Entry::new(0x2030, 0x00, DataType::Integer16, RO_TPDO, 2, 134, 0),
-    Entry::new(0x2031, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 136, 0),
-    Entry::new(0x2032, 0x00, DataType::Integer16, RO_TPDO, 2, 138, NO_LIMITS),
-    Entry::new(0x2033, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 140, NO_LIMITS),
-    Entry::new(0x2034, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 142, NO_LIMITS),
-    Entry::new(0x2035, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 144, NO_LIMITS),
-    Entry::new(0x2036, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 148, NO_LIMITS),
-    Entry::new(0x2037, 0x00, DataType::Unsigned16, RO_TPDO, 2, 150, NO_LIMITS),
-    Entry::new(0x2038, 0x00, DataType::Integer16, RO_TPDO, 2, 152, NO_LIMITS),
-    Entry::new(0x2039, 0x00, DataType::Integer16, RO_TPDO, 2, 154, NO_LIMITS),
-    Entry::new(0x203B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 156, NO_LIMITS),
-    Entry::new(0x203C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 158, NO_LIMITS),
-    Entry::new(0x203D, 0x00, DataType::Unsigned16, WO, 2, 160, NO_LIMITS),
-    Entry::new(0x203E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 162, NO_LIMITS),
-    Entry::new(0x203F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 164, NO_LIMITS),
-    Entry::new(0x2040, 0x00, DataType::Unsigned32, RO_TPDO, 4, 166, NO_LIMITS),
-    Entry::new(0x2041, 0x00, DataType::Integer16, RO_TPDO, 2, 170, NO_LIMITS),
-    Entry::new(0x2042, 0x00, DataType::Integer16, RO_TPDO, 2, 172, NO_LIMITS),
-    Entry::new(0x2043, 0x00, DataType::Unsigned16, RO_TPDO, 2, 174, NO_LIMITS),
-    Entry::new(0x2044, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 176, NO_LIMITS),
-    Entry::new(0x2045, 0x00, DataType::Unsigned32, RO_TPDO, 4, 178, NO_LIMITS),
-    Entry::new(0x2046, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 182, NO_LIMITS),
-    Entry::new(0x2048, 0x00, DataType::Integer16, RO_TPDO, 2, 184, NO_LIMITS),
-    Entry::new(0x2049, 0x00, DataType::Unsigned16, RO_TPDO, 2, 186, NO_LIMITS),
-    Entry::new(0x204A, 0x00, DataType::Unsigned16, RO_TPDO, 2, 188, NO_LIMITS),
-    Entry::new(0x204B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 190, NO_LIMITS),
-    Entry::new(0x204C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 192, NO_LIMITS),
-    Entry::new(0x204D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 194, NO_LIMITS),
-    Entry::new(0x204E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 196, NO_LIMITS),
-    Entry::new(0x204F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 198, NO_LIMITS),
-    Entry::new(0x2050, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 200, NO_LIMITS),
-    Entry::new(0x2051, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 202, NO_LIMITS),
-    Entry::new(0x2052, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 204, NO_LIMITS),
-    Entry::new(0x2053, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 208, NO_LIMITS),
-    Entry::new(0x2054, 0x00, DataType::Integer16, RO_TPDO, 2, 210, NO_LIMITS),
-    Entry::new(0x2055, 0x00, DataType::Integer16, RO_TPDO, 2, 212, NO_LIMITS),
-    Entry::new(0x2056, 0x00, DataType::Integer16, RO_TPDO, 2, 214, NO_LIMITS),
-    Entry::new(0x2057, 0x00, DataType::Integer16, RO_TPDO, 2, 216, NO_LIMITS),
-    Entry::new(0x2058, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 218, NO_LIMITS),
-    Entry::new(0x2059, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 220, NO_LIMITS),
-    Entry::new(0x205A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 222, NO_LIMITS),
-    Entry::new(0x205B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 226, NO_LIMITS),
-    Entry::new(0x205C, 0x00, DataType::Unsigned16, RO_TPDO, 2, 228, NO_LIMITS),
-    Entry::new(0x205D, 0x00, DataType::Integer16, RO_TPDO, 2, 230, NO_LIMITS),
-    Entry::new(0x205E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 232, NO_LIMITS),
-    Entry::new(0x205F, 0x00, DataType::Integer16, RO_TPDO, 2, 234, NO_LIMITS),
-    Entry::new(0x2060, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 236, NO_LIMITS),
-    Entry::new(0x2061, 0x00, DataType::Unsigned16, RO_TPDO, 2, 238, NO_LIMITS),
-    Entry::new(0x2062, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 240, NO_LIMITS),
-    Entry::new(0x2063, 0x00, DataType::Unsigned16, RO_TPDO, 2, 244, NO_LIMITS),
-    Entry::new(0x2064, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 246, NO_LIMITS),
-    Entry::new(0x2065, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 248, NO_LIMITS),
-    Entry::new(0x2066, 0x00, DataType::Unsigned16, RO_TPDO, 2, 252, NO_LIMITS),
-    Entry::new(0x2067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 254, NO_LIMITS),
-    Entry::new(0x2068, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 258, 1),
-    Entry::new(0x2069, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 260, 2),
-    Entry::new(0x206A, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 262, NO_LIMITS),
-    Entry::new(0x206B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 264, NO_LIMITS),
-    Entry::new(0x206C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 266, NO_LIMITS),
-    Entry::new(0x206D, 0x00, DataType::Integer32, RO_TPDO, 4, 268, 3),
-    Entry::new(0x206E, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 272, 3),
-    Entry::new(0x206F, 0x00, DataType::Integer32, RO_TPDO, 4, 276, NO_LIMITS),
-    Entry::new(0x2070, 0x00, DataType::Integer32, RO_TPDO, 4, 280, NO_LIMITS),
-    Entry::new(0x2071, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 284, NO_LIMITS),
-    Entry::new(0x2072, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 286, NO_LIMITS),
-    Entry::new(0x2073, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 290, 4),
-    Entry::new(0x2074, 0x00, DataType::Integer16, RO_TPDO, 2, 292, NO_LIMITS),
-    Entry::new(0x2075, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 294, NO_LIMITS),
-    Entry::new(0x2076, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 296, NO_LIMITS),
-    Entry::new(0x2077, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 298, NO_LIMITS),
-    Entry::new(0x2078, 0x00, DataType::Unsigned16, WO, 2, 300, NO_LIMITS),
-    Entry::new(0x2079, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 302, NO_LIMITS),
-    Entry::new(0x207A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 304, NO_LIMITS),
-    Entry::new(0x207B, 0x00, DataType::Unsigned32, RO_TPDO, 4, 308, NO_LIMITS),
-    Entry::new(0x207C, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 312, NO_LIMITS),
-    Entry::new(0x207D, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 316, NO_LIMITS),
-    Entry::new(0x207E, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 320, NO_LIMITS),
-    Entry::new(0x207F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 324, NO_LIMITS),
-    Entry::new(0x2080, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 328, NO_LIMITS),
-    Entry::new(0x2082, 0x00, DataType::Unsigned16, RO_TPDO, 2, 330, NO_LIMITS),
-    Entry::new(0x2083, 0x00, DataType::Unsigned16, WO, 2, 332, NO_LIMITS),
-    Entry::new(0x2084, 0x00, DataType::Unsigned16, WO, 2, 334, 5),
-    Entry::new(0x2085, 0x00, DataType::Unsigned16, WO, 2, 336, NO_LIMITS),
-    Entry::new(0x2086, 0x00, DataType::Integer16, RO_TPDO, 2, 338, NO_LIMITS),
-    Entry::new(0x2088, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 340, NO_LIMITS),
-    Entry::new(0x2089, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 344, NO_LIMITS),
-    Entry::new(0x208A, 0x00, DataType::Integer16, RO_TPDO, 2, 348, NO_LIMITS),
-    Entry::new(0x208B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 350, NO_LIMITS),
-    Entry::new(0x208C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 352, NO_LIMITS),
-    Entry::new(0x208D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 354, NO_LIMITS),
-    Entry::new(0x208E, 0x00, DataType::Unsigned16, WO, 2, 356, NO_LIMITS),
-    Entry::new(0x208F, 0x00, DataType::Unsigned32, RO_TPDO, 4, 358, NO_LIMITS),
-    Entry::new(0x2090, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 362, 0),
-    Entry::new(0x2091, 0x00, DataType::Integer32, RO_TPDO, 4, 364, NO_LIMITS),
-    Entry::new(0x2092, 0x00, DataType::Unsigned16, RO_TPDO, 2, 368, NO_LIMITS),
-    Entry::new(0x2093, 0x00, DataType::Unsigned16, RO_TPDO, 2, 370, NO_LIMITS),
-    Entry::new(0x2094, 0x00, DataType::Unsigned16, RO_TPDO, 2, 372, NO_LIMITS),
-    Entry::new(0x2095, 0x00, DataType::Unsigned16, RO_TPDO, 2, 374, NO_LIMITS),
-    Entry::new(0x2096, 0x00, DataType::Unsigned16, RO_TPDO, 2, 376, NO_LIMITS),
-    Entry::new(0x2097, 0x00, DataType::Unsigned16, RO_TPDO, 2, 378, NO_LIMITS),
-    Entry::new(0x2098, 0x00, DataType::Integer16, RO_TPDO, 2, 380, NO_LIMITS),
-    Entry::new(0x2099, 0x00, DataType::Unsigned16, RO_TPDO, 2, 382, NO_LIMITS),
-    Entry::new(0x209A, 0x00, DataType::Integer16, RO_TPDO, 2, 384, NO_LIMITS),
-    Entry::new(0x209B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 386, NO_LIMITS),
-    Entry::new(0x209C, 0x00, DataType::Integer16, RO_TPDO, 2, 388, NO_LIMITS),
-    Entry::new(0x209D, 0x00, DataType::Integer16, RO_TPDO, 2, 390, NO_LIMITS),
-    Entry::new(0x209E, 0x00, DataType::Integer16, RO_TPDO, 2, 392, NO_LIMITS),
-    Entry::new(0x209F, 0x00, DataType::Integer16, RO_TPDO, 2, 394, NO_LIMITS),
-    Entry::new(0x20A0, 0x00, DataType::Integer16, RO_TPDO, 2, 396, NO_LIMITS),
-    Entry::new(0x20A1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 398, NO_LIMITS),
-    Entry::new(0x20A2, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 400, NO_LIMITS),
-    Entry::new(0x20A3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 402, NO_LIMITS),
-    Entry::new(0x20A4, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 404, NO_LIMITS),
-    Entry::new(0x20A5, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 406, NO_LIMITS),
-    Entry::new(0x20A6, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 410, NO_LIMITS),
-    Entry::new(0x20A7, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 412, NO_LIMITS),
-    Entry::new(0x20A8, 0x00, DataType::Integer16, RO_TPDO, 2, 414, NO_LIMITS),
-    Entry::new(0x20A9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 416, NO_LIMITS),
-    Entry::new(0x20AA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 418, NO_LIMITS),
-    Entry::new(0x20AB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 420, NO_LIMITS),
-    Entry::new(0x20AC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 422, NO_LIMITS),
-    Entry::new(0x20AD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 424, NO_LIMITS),
-    Entry::new(0x20AE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 426, NO_LIMITS),
-    Entry::new(0x20AF, 0x00, DataType::Integer16, RO_TPDO, 2, 428, NO_LIMITS),
-    Entry::new(0x20B0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 430, NO_LIMITS),
-    Entry::new(0x20B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 432, NO_LIMITS),
-    Entry::new(0x20B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 434, NO_LIMITS),
-    Entry::new(0x20B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 436, NO_LIMITS),
-    Entry::new(0x20B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 438, NO_LIMITS),
-    Entry::new(0x20B5, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 440, NO_LIMITS),
-    Entry::new(0x20B6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 442, NO_LIMITS),
-    Entry::new(0x20B7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 444, NO_LIMITS),
-    Entry::new(0x20B8, 0x00, DataType::Integer16, RO_TPDO, 2, 446, NO_LIMITS),
-    Entry::new(0x20B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 448, NO_LIMITS),
-    Entry::new(0x20BA, 0x00, DataType::Integer16, RO_TPDO, 2, 450, NO_LIMITS),
-    Entry::new(0x20BB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 452, NO_LIMITS),
-    Entry::new(0x20BC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 454, NO_LIMITS),
-    Entry::new(0x20BD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 456, NO_LIMITS),
-    Entry::new(0x20BE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 458, NO_LIMITS),
-    Entry::new(0x20BF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 460, NO_LIMITS),
-    Entry::new(0x20C0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 462, NO_LIMITS),
-    Entry::new(0x20C1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 464, NO_LIMITS),
-    Entry::new(0x20C2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 466, NO_LIMITS),
-    Entry::new(0x20C3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 468, NO_LIMITS),
-    Entry::new(0x20C4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 470, NO_LIMITS),
-    Entry::new(0x20C5, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 472, NO_LIMITS),
-    Entry::new(0x20C6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 474, NO_LIMITS),
-    Entry::new(0x20C7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 476, NO_LIMITS),
-    Entry::new(0x20C8, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 478, NO_LIMITS),
-    Entry::new(0x20C9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 480, NO_LIMITS),
-    Entry::new(0x20CA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 482, NO_LIMITS),
-    Entry::new(0x20CB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 484, NO_LIMITS),
-    Entry::new(0x20CC, 0x00, DataType::Integer16, RO_TPDO, 2, 486, NO_LIMITS),
-    Entry::new(0x20CD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 488, NO_LIMITS),
-    Entry::new(0x20CE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 490, NO_LIMITS),
-    Entry::new(0x20CF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 492, NO_LIMITS),
-    Entry::new(0x20D0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 494, NO_LIMITS),
-    Entry::new(0x20D1, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 496, NO_LIMITS),
-    Entry::new(0x20D2, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 500, NO_LIMITS),
-    Entry::new(0x20D3, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 504, NO_LIMITS),
-    Entry::new(0x20D4, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 508, NO_LIMITS),
-    Entry::new(0x20D5, 0x00, DataType::Integer32, RO_TPDO, 4, 512, NO_LIMITS),
-    Entry::new(0x20D6, 0x00, DataType::Integer32, RO_TPDO, 4, 516, NO_LIMITS),
-    Entry::new(0x20D7, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 520, NO_LIMITS),
-    Entry::new(0x20D8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 524, NO_LIMITS),
-    Entry::new(0x20D9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 526, NO_LIMITS),
-    Entry::new(0x20DA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 528, NO_LIMITS),
-    Entry::new(0x20DB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 530, NO_LIMITS),
-    Entry::new(0x20DC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 532, NO_LIMITS),
-    Entry::new(0x20DE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 534, NO_LIMITS),
-    Entry::new(0x20DF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 536, NO_LIMITS),
-    Entry::new(0x20E0, 0x00, DataType::Unsigned16, RO_TPDO, 2, 538, NO_LIMITS),
-    Entry::new(0x20E1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 540, NO_LIMITS),
-    Entry::new(0x20E2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 542, NO_LIMITS),
-    Entry::new(0x20E3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 544, NO_LIMITS),
-    Entry::new(0x20E4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 546, NO_LIMITS),
-    Entry::new(0x20E5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 548, NO_LIMITS),
-    Entry::new(0x20E6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 550, NO_LIMITS),
-    Entry::new(0x20E7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 552, NO_LIMITS),
-    Entry::new(0x20E8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 554, NO_LIMITS),
-    Entry::new(0x20E9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS),
-    Entry::new(0x20EA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 558, NO_LIMITS),
-    Entry::new(0x20EB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 560, NO_LIMITS),
-    Entry::new(0x20EC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 562, NO_LIMITS),
-    Entry::new(0x20ED, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 564, NO_LIMITS),
-    Entry::new(0x20EE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 568, NO_LIMITS),
-    Entry::new(0x20EF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 570, NO_LIMITS),
-    Entry::new(0x20F0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 572, NO_LIMITS),
-    Entry::new(0x20F1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 574, NO_LIMITS),
-    Entry::new(0x20F2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 576, NO_LIMITS),
-    Entry::new(0x20F3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 578, NO_LIMITS),
-    Entry::new(0x20F4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 580, NO_LIMITS),
-    Entry::new(0x20F5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 582, NO_LIMITS),
-    Entry::new(0x20F6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 584, NO_LIMITS),
-    Entry::new(0x20F7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 586, NO_LIMITS),
-    Entry::new(0x20F8, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 588, NO_LIMITS),
-    Entry::new(0x20F9, 0x00, DataType::Unsigned16, WO, 2, 592, NO_LIMITS),
-    Entry::new(0x20FA, 0x00, DataType::Unsigned16, WO, 2, 594, NO_LIMITS),
-    Entry::new(0x20FB, 0x00, DataType::Integer16, RO_TPDO, 2, 596, NO_LIMITS),
-    Entry::new(0x20FC, 0x00, DataType::Integer16, RO_TPDO, 2, 598, NO_LIMITS),
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 4, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 5, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 6, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 18, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x2001, 0x00, DataType::Integer16, RO_TPDO, 2, 22, NO_LIMITS), // 0x2001:00 User specific options
+    Entry::new(0x2002, 0x00, DataType::Integer16, RO_TPDO, 2, 24, NO_LIMITS), // 0x2002:00 User specific safety state
+    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 26, NO_LIMITS), // 0x2003:00 User specific command specials
+    Entry::new(0x2004, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 28, NO_LIMITS), // 0x2004:00 User key
+    Entry::new(0x2005, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 30, NO_LIMITS), // 0x2005:00 Nominal motor frequency
+    Entry::new(0x2006, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 32, NO_LIMITS), // 0x2006:00 Nominal motor voltage
+    Entry::new(0x2007, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 34, NO_LIMITS), // 0x2007:00 UF DC premagnetisation time
+    Entry::new(0x2008, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 38, NO_LIMITS), // 0x2008:00 UF DC voltage
+    Entry::new(0x2009, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 42, NO_LIMITS), // 0x2009:00 UF DC frequency
+    Entry::new(0x200A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 46, NO_LIMITS), // 0x200A:00 UF minimum voltage
+    Entry::new(0x200B, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 50, NO_LIMITS), // 0x200B:00 UF minimum frequency
+    Entry::new(0x200C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 54, NO_LIMITS), // 0x200C:00 UF corner voltage
+    Entry::new(0x200D, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 58, NO_LIMITS), // 0x200D:00 UF corner frequency
+    Entry::new(0x200E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 62, NO_LIMITS), // 0x200E:00 UF power factor
+    Entry::new(0x200F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 64, NO_LIMITS), // 0x200F:00 UF extra
+    Entry::new(0x2010, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 66, NO_LIMITS), // 0x2010:00 Oscilloscope trigger channel
+    Entry::new(0x2011, 0x00, DataType::Unsigned32, RO_TPDO, 4, 68, NO_LIMITS), // 0x2011:00 Control status
+    Entry::new(0x2012, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 72, NO_LIMITS), // 0x2012:00 Oscilloscope trigger level
+    Entry::new(0x2013, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 74, NO_LIMITS), // 0x2013:00 Oscilloscope trigger edge
+    Entry::new(0x2014, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 76, NO_LIMITS), // 0x2014:00 Oscilloscope trigger source
+    Entry::new(0x2015, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 78, NO_LIMITS), // 0x2015:00 Oscilloscope source
+    Entry::new(0x2016, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 80, NO_LIMITS), // 0x2016:00 Oscilloscope skip
+    Entry::new(0x2017, 0x00, DataType::Unsigned16, WO, 2, 82, NO_LIMITS), // 0x2017:00 Oscilloscope read command
+    Entry::new(0x2018, 0x00, DataType::Unsigned16, WO, 2, 84, NO_LIMITS), // 0x2018:00 Oscilloscope run command
+    Entry::new(0x2019, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 86, NO_LIMITS), // 0x2019:00 PWM frequency
+    Entry::new(0x201A, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 88, NO_LIMITS), // 0x201A:00 Lookup temporary
+    Entry::new(0x201B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 90, NO_LIMITS), // 0x201B:00 Firmware version
+    Entry::new(0x201C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 92, NO_LIMITS), // 0x201C:00 Current controller proportional gain
+    Entry::new(0x201D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 94, NO_LIMITS), // 0x201D:00 Current controller integral time
+    Entry::new(0x201E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 96, NO_LIMITS), // 0x201E:00 Digital command cutoff
+    Entry::new(0x201F, 0x00, DataType::Integer16, RO_TPDO, 2, 98, NO_LIMITS), // 0x201F:00 Phase 3 current offset
+    Entry::new(0x2020, 0x00, DataType::Integer16, RO_TPDO, 2, 100, NO_LIMITS), // 0x2020:00 Current actual value
+    Entry::new(0x2021, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 102, NO_LIMITS), // 0x2021:00 D current set point
+    Entry::new(0x2022, 0x00, DataType::Integer16, RO_TPDO, 2, 104, NO_LIMITS), // 0x2022:00 Current command after ramp
+    Entry::new(0x2023, 0x00, DataType::Integer16, RO_TPDO, 2, 106, NO_LIMITS), // 0x2023:00 D current reference
+    Entry::new(0x2024, 0x00, DataType::Unsigned16, RO_TPDO, 2, 108, NO_LIMITS), // 0x2024:00 Maximum current in use
+    Entry::new(0x2025, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 110, NO_LIMITS), // 0x2025:00 Current command ramp
+    Entry::new(0x2026, 0x00, DataType::Integer16, RO_TPDO, 2, 112, NO_LIMITS), // 0x2026:00 Current command
+    Entry::new(0x2027, 0x00, DataType::Integer16, RO_TPDO, 2, 114, NO_LIMITS), // 0x2027:00 Q current actual value
+    Entry::new(0x2028, 0x00, DataType::Integer16, RO_TPDO, 2, 116, NO_LIMITS), // 0x2028:00 D current actual value
+    Entry::new(0x2029, 0x00, DataType::Integer16, RO_TPDO, 2, 118, NO_LIMITS), // 0x2029:00 Q output voltage
+    Entry::new(0x202A, 0x00, DataType::Integer16, RO_TPDO, 2, 120, NO_LIMITS), // 0x202A:00 D output voltage
+    Entry::new(0x202B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 122, NO_LIMITS), // 0x202B:00 Current controller max integration count
+    Entry::new(0x202C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 124, NO_LIMITS), // 0x202C:00 Speed controller proportional gain
+    Entry::new(0x202D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 126, NO_LIMITS), // 0x202D:00 Speed controller integral time
+    Entry::new(0x202E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 128, NO_LIMITS), // 0x202E:00 Speed controller derivative time
+    Entry::new(0x202F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 130, NO_LIMITS), // 0x202F:00 Analog input 1 offset and scale
+    Entry::new(0x2030, 0x00, DataType::Integer16, RO_TPDO, 2, 134, 0), // 0x2030:00 Speed actual value
+    Entry::new(0x2031, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 136, 0), // 0x2031:00 Speed set point
+    Entry::new(0x2032, 0x00, DataType::Integer16, RO_TPDO, 2, 138, NO_LIMITS), // 0x2032:00 Speed command after ramp
+    Entry::new(0x2033, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 140, NO_LIMITS), // 0x2033:00 Speed error
+    Entry::new(0x2034, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 142, NO_LIMITS), // 0x2034:00 Speed limit
+    Entry::new(0x2035, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 144, NO_LIMITS), // 0x2035:00 Acceleration ramp
+    Entry::new(0x2036, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 148, NO_LIMITS), // 0x2036:00 Speed command source
+    Entry::new(0x2037, 0x00, DataType::Unsigned16, RO_TPDO, 2, 150, NO_LIMITS), // 0x2037:00 Current to speed loop factor
+    Entry::new(0x2038, 0x00, DataType::Integer16, RO_TPDO, 2, 152, NO_LIMITS), // 0x2038:00 Q current error
+    Entry::new(0x2039, 0x00, DataType::Integer16, RO_TPDO, 2, 154, NO_LIMITS), // 0x2039:00 D current error
+    Entry::new(0x203B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 156, NO_LIMITS), // 0x203B:00 Speed controller max integration count
+    Entry::new(0x203C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 158, NO_LIMITS), // 0x203C:00 Current derating by speed
+    Entry::new(0x203D, 0x00, DataType::Unsigned16, WO, 2, 160, NO_LIMITS), // 0x203D:00 Read request
+    Entry::new(0x203E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 162, NO_LIMITS), // 0x203E:00 Negative speed limit
+    Entry::new(0x203F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 164, NO_LIMITS), // 0x203F:00 Positive speed limit
+    Entry::new(0x2040, 0x00, DataType::Unsigned32, RO_TPDO, 4, 166, NO_LIMITS), // 0x2040:00 Status map
+    Entry::new(0x2041, 0x00, DataType::Integer16, RO_TPDO, 2, 170, NO_LIMITS), // 0x2041:00 Increment delta
+    Entry::new(0x2042, 0x00, DataType::Integer16, RO_TPDO, 2, 172, NO_LIMITS), // 0x2042:00 Motor mechanical angle
+    Entry::new(0x2043, 0x00, DataType::Unsigned16, RO_TPDO, 2, 174, NO_LIMITS), // 0x2043:00 Motor electrical angle
+    Entry::new(0x2044, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 176, NO_LIMITS), // 0x2044:00 Feedback phase angle offset
+    Entry::new(0x2045, 0x00, DataType::Unsigned32, RO_TPDO, 4, 178, NO_LIMITS), // 0x2045:00 I2t and regen energy monitor
+    Entry::new(0x2046, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 182, NO_LIMITS), // 0x2046:00 Digital current limit
+    Entry::new(0x2048, 0x00, DataType::Integer16, RO_TPDO, 2, 184, NO_LIMITS), // 0x2048:00 Current limit in use
+    Entry::new(0x2049, 0x00, DataType::Unsigned16, RO_TPDO, 2, 186, NO_LIMITS), // 0x2049:00 Motor temperature
+    Entry::new(0x204A, 0x00, DataType::Unsigned16, RO_TPDO, 2, 188, NO_LIMITS), // 0x204A:00 Power stage temperature
+    Entry::new(0x204B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 190, NO_LIMITS), // 0x204B:00 Air temperature
+    Entry::new(0x204C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 192, NO_LIMITS), // 0x204C:00 Current derating by temperature
+    Entry::new(0x204D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 194, NO_LIMITS), // 0x204D:00 Motor maximum current
+    Entry::new(0x204E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 196, NO_LIMITS), // 0x204E:00 Motor continuous current
+    Entry::new(0x204F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 198, NO_LIMITS), // 0x204F:00 Motor pole count
+    Entry::new(0x2050, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 200, NO_LIMITS), // 0x2050:00 Analog input 1 cutoff window
+    Entry::new(0x2051, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 202, NO_LIMITS), // 0x2051:00 Mode
+    Entry::new(0x2052, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 204, NO_LIMITS), // 0x2052:00 Status mask
+    Entry::new(0x2053, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 208, NO_LIMITS), // 0x2053:00 Analog input 2 cutoff window
+    Entry::new(0x2054, 0x00, DataType::Integer16, RO_TPDO, 2, 210, NO_LIMITS), // 0x2054:00 Phase 1 current actual value
+    Entry::new(0x2055, 0x00, DataType::Integer16, RO_TPDO, 2, 212, NO_LIMITS), // 0x2055:00 Phase 2 current actual value
+    Entry::new(0x2056, 0x00, DataType::Integer16, RO_TPDO, 2, 214, NO_LIMITS), // 0x2056:00 Phase 3 current actual value
+    Entry::new(0x2057, 0x00, DataType::Integer16, RO_TPDO, 2, 216, NO_LIMITS), // 0x2057:00 Ramped current limit in use
+    Entry::new(0x2058, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 218, NO_LIMITS), // 0x2058:00 Current derating TD
+    Entry::new(0x2059, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 220, NO_LIMITS), // 0x2059:00 Rated motor speed
+    Entry::new(0x205A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 222, NO_LIMITS), // 0x205A:00 Device options
+    Entry::new(0x205B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 226, NO_LIMITS), // 0x205B:00 Acceleration gain
+    Entry::new(0x205C, 0x00, DataType::Unsigned16, RO_TPDO, 2, 228, NO_LIMITS), // 0x205C:00 Rotor signals
+    Entry::new(0x205D, 0x00, DataType::Integer16, RO_TPDO, 2, 230, NO_LIMITS), // 0x205D:00 Internal speed command
+    Entry::new(0x205E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 232, NO_LIMITS), // 0x205E:00 Speed actual value filter
+    Entry::new(0x205F, 0x00, DataType::Integer16, RO_TPDO, 2, 234, NO_LIMITS), // 0x205F:00 Filtered current actual value
+    Entry::new(0x2060, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 236, NO_LIMITS), // 0x2060:00 Analog input filter
+    Entry::new(0x2061, 0x00, DataType::Unsigned16, RO_TPDO, 2, 238, NO_LIMITS), // 0x2061:00 It monitor
+    Entry::new(0x2062, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 240, NO_LIMITS), // 0x2062:00 Device serial number
+    Entry::new(0x2063, 0x00, DataType::Unsigned16, RO_TPDO, 2, 244, NO_LIMITS), // 0x2063:00 FPGA status
+    Entry::new(0x2064, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 246, NO_LIMITS), // 0x2064:00 Mains supply voltage
+    Entry::new(0x2065, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 248, NO_LIMITS), // 0x2065:00 Regen resistor rating
+    Entry::new(0x2066, 0x00, DataType::Unsigned16, RO_TPDO, 2, 252, NO_LIMITS), // 0x2066:00 Battery voltage
+    Entry::new(0x2067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 254, NO_LIMITS), // 0x2067:00 Device type code
+    Entry::new(0x2068, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 258, 1), // 0x2068:00 CAN receive id
+    Entry::new(0x2069, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 260, 2), // 0x2069:00 CAN transmit id
+    Entry::new(0x206A, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 262, NO_LIMITS), // 0x206A:00 Position controller proportional gain
+    Entry::new(0x206B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 264, NO_LIMITS), // 0x206B:00 Position controller integral time
+    Entry::new(0x206C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 266, NO_LIMITS), // 0x206C:00 Position controller derivative time
+    Entry::new(0x206D, 0x00, DataType::Integer32, RO_TPDO, 4, 268, 3), // 0x206D:00 Position actual value
+    Entry::new(0x206E, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 272, 3), // 0x206E:00 Position destination
+    Entry::new(0x206F, 0x00, DataType::Integer32, RO_TPDO, 4, 276, NO_LIMITS), // 0x206F:00 Position actual value 2
+    Entry::new(0x2070, 0x00, DataType::Integer32, RO_TPDO, 4, 280, NO_LIMITS), // 0x2070:00 Position error
+    Entry::new(0x2071, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 284, NO_LIMITS), // 0x2071:00 Position controller max integration count
+    Entry::new(0x2072, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 286, NO_LIMITS), // 0x2072:00 Reference zero offset
+    Entry::new(0x2073, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 290, 4), // 0x2073:00 CAN bit rate code
+    Entry::new(0x2074, 0x00, DataType::Integer16, RO_TPDO, 2, 292, NO_LIMITS), // 0x2074:00 Position zero capture
+    Entry::new(0x2075, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 294, NO_LIMITS), // 0x2075:00 Resolver position at reference switch
+    Entry::new(0x2076, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 296, NO_LIMITS), // 0x2076:00 Homing speed fast
+    Entry::new(0x2077, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 298, NO_LIMITS), // 0x2077:00 Homing speed slow
+    Entry::new(0x2078, 0x00, DataType::Unsigned16, WO, 2, 300, NO_LIMITS), // 0x2078:00 Start homing
+    Entry::new(0x2079, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 302, NO_LIMITS), // 0x2079:00 Position tolerance window
+    Entry::new(0x207A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 304, NO_LIMITS), // 0x207A:00 Position preset
+    Entry::new(0x207B, 0x00, DataType::Unsigned32, RO_TPDO, 4, 308, NO_LIMITS), // 0x207B:00 User zero offset
+    Entry::new(0x207C, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 312, NO_LIMITS), // 0x207C:00 Display position scale
+    Entry::new(0x207D, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 316, NO_LIMITS), // 0x207D:00 Display position offset
+    Entry::new(0x207E, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 320, NO_LIMITS), // 0x207E:00 Second encoder scale
+    Entry::new(0x207F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 324, NO_LIMITS), // 0x207F:00 Slack offset
+    Entry::new(0x2080, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 328, NO_LIMITS), // 0x2080:00 Slack position difference
+    Entry::new(0x2082, 0x00, DataType::Unsigned16, RO_TPDO, 2, 330, NO_LIMITS), // 0x2082:00 Device serial number extension
+    Entry::new(0x2083, 0x00, DataType::Unsigned16, WO, 2, 332, NO_LIMITS), // 0x2083:00 Read parameters from EEPROM
+    Entry::new(0x2084, 0x00, DataType::Unsigned16, WO, 2, 334, 5), // 0x2084:00 Write parameters to EEPROM
+    Entry::new(0x2085, 0x00, DataType::Unsigned16, WO, 2, 336, NO_LIMITS), // 0x2085:00 Auto functions
+    Entry::new(0x2086, 0x00, DataType::Integer16, RO_TPDO, 2, 338, NO_LIMITS), // 0x2086:00 Read info
+    Entry::new(0x2088, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 340, NO_LIMITS), // 0x2088:00 CAN receive id 2
+    Entry::new(0x2089, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 344, NO_LIMITS), // 0x2089:00 CAN transmit id 2
+    Entry::new(0x208A, 0x00, DataType::Integer16, RO_TPDO, 2, 348, NO_LIMITS), // 0x208A:00 Output voltage usage
+    Entry::new(0x208B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 350, NO_LIMITS), // 0x208B:00 Field weakening start point
+    Entry::new(0x208C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 352, NO_LIMITS), // 0x208C:00 Field weakening proportional gain
+    Entry::new(0x208D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 354, NO_LIMITS), // 0x208D:00 Field weakening integral time
+    Entry::new(0x208E, 0x00, DataType::Unsigned16, WO, 2, 356, NO_LIMITS), // 0x208E:00 Clear error list
+    Entry::new(0x208F, 0x00, DataType::Unsigned32, RO_TPDO, 4, 358, NO_LIMITS), // 0x208F:00 Warning and error map
+    Entry::new(0x2090, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 362, 0), // 0x2090:00 Torque set point
+    Entry::new(0x2091, 0x00, DataType::Integer32, RO_TPDO, 4, 364, NO_LIMITS), // 0x2091:00 Position command
+    Entry::new(0x2092, 0x00, DataType::Unsigned16, RO_TPDO, 2, 368, NO_LIMITS), // 0x2092:00 CAN bus off count
+    Entry::new(0x2093, 0x00, DataType::Unsigned16, RO_TPDO, 2, 370, NO_LIMITS), // 0x2093:00 CAN write error time
+    Entry::new(0x2094, 0x00, DataType::Unsigned16, RO_TPDO, 2, 372, NO_LIMITS), // 0x2094:00 FPGA first error
+    Entry::new(0x2095, 0x00, DataType::Unsigned16, RO_TPDO, 2, 374, NO_LIMITS), // 0x2095:00 CAN read count
+    Entry::new(0x2096, 0x00, DataType::Unsigned16, RO_TPDO, 2, 376, NO_LIMITS), // 0x2096:00 CAN write count
+    Entry::new(0x2097, 0x00, DataType::Unsigned16, RO_TPDO, 2, 378, NO_LIMITS), // 0x2097:00 CAN reject count
+    Entry::new(0x2098, 0x00, DataType::Integer16, RO_TPDO, 2, 380, NO_LIMITS), // 0x2098:00 Output block
+    Entry::new(0x2099, 0x00, DataType::Unsigned16, RO_TPDO, 2, 382, NO_LIMITS), // 0x2099:00 Interrupt time info
+    Entry::new(0x209A, 0x00, DataType::Integer16, RO_TPDO, 2, 384, NO_LIMITS), // 0x209A:00 Debug temperature
+    Entry::new(0x209B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 386, NO_LIMITS), // 0x209B:00 Input block
+    Entry::new(0x209C, 0x00, DataType::Integer16, RO_TPDO, 2, 388, NO_LIMITS), // 0x209C:00 PT100 sensor 1 temperature
+    Entry::new(0x209D, 0x00, DataType::Integer16, RO_TPDO, 2, 390, NO_LIMITS), // 0x209D:00 PT100 sensor 2 temperature
+    Entry::new(0x209E, 0x00, DataType::Integer16, RO_TPDO, 2, 392, NO_LIMITS), // 0x209E:00 PT100 sensor 3 temperature
+    Entry::new(0x209F, 0x00, DataType::Integer16, RO_TPDO, 2, 394, NO_LIMITS), // 0x209F:00 PT100 sensor 4 temperature
+    Entry::new(0x20A0, 0x00, DataType::Integer16, RO_TPDO, 2, 396, NO_LIMITS), // 0x20A0:00 Internal torque
+    Entry::new(0x20A1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 398, NO_LIMITS), // 0x20A1:00 Ballast counter
+    Entry::new(0x20A2, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 400, NO_LIMITS), // 0x20A2:00 Current derating TM
+    Entry::new(0x20A3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 402, NO_LIMITS), // 0x20A3:00 Motor temperature cutoff
+    Entry::new(0x20A4, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 404, NO_LIMITS), // 0x20A4:00 Motor options
+    Entry::new(0x20A5, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 406, NO_LIMITS), // 0x20A5:00 DC bus minimum and maximum
+    Entry::new(0x20A6, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 410, NO_LIMITS), // 0x20A6:00 Feedback increments per revolution
+    Entry::new(0x20A7, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 412, NO_LIMITS), // 0x20A7:00 Resolver pole count
+    Entry::new(0x20A8, 0x00, DataType::Integer16, RO_TPDO, 2, 414, NO_LIMITS), // 0x20A8:00 Filtered speed actual value
+    Entry::new(0x20A9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 416, NO_LIMITS), // 0x20A9:00 Current sensor 1 ADC
+    Entry::new(0x20AA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 418, NO_LIMITS), // 0x20AA:00 Current sensor 2 ADC
+    Entry::new(0x20AB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 420, NO_LIMITS), // 0x20AB:00 Foreground frequency
+    Entry::new(0x20AC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 422, NO_LIMITS), // 0x20AC:00 PWM phase 1
+    Entry::new(0x20AD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 424, NO_LIMITS), // 0x20AD:00 PWM phase 2
+    Entry::new(0x20AE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 426, NO_LIMITS), // 0x20AE:00 PWM phase 3
+    Entry::new(0x20AF, 0x00, DataType::Integer16, RO_TPDO, 2, 428, NO_LIMITS), // 0x20AF:00 Interrupt timer delta
+    Entry::new(0x20B0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 430, NO_LIMITS), // 0x20B0:00 Serial boot function
+    Entry::new(0x20B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 432, NO_LIMITS), // 0x20B1:00 Motor q leakage inductance
+    Entry::new(0x20B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 434, NO_LIMITS), // 0x20B2:00 Nominal magnetising current
+    Entry::new(0x20B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 436, NO_LIMITS), // 0x20B3:00 Motor magnetising inductance
+    Entry::new(0x20B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 438, NO_LIMITS), // 0x20B4:00 Rotor resistance
+    Entry::new(0x20B5, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 440, NO_LIMITS), // 0x20B5:00 Minimum magnetising current
+    Entry::new(0x20B6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 442, NO_LIMITS), // 0x20B6:00 Rotor time constant
+    Entry::new(0x20B7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 444, NO_LIMITS), // 0x20B7:00 Debug pointer 1
+    Entry::new(0x20B8, 0x00, DataType::Integer16, RO_TPDO, 2, 446, NO_LIMITS), // 0x20B8:00 Debug pointer 1 value
+    Entry::new(0x20B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 448, NO_LIMITS), // 0x20B9:00 Debug pointer 2
+    Entry::new(0x20BA, 0x00, DataType::Integer16, RO_TPDO, 2, 450, NO_LIMITS), // 0x20BA:00 Debug pointer 2 value
+    Entry::new(0x20BB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 452, NO_LIMITS), // 0x20BB:00 Motor d leakage inductance
+    Entry::new(0x20BC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 454, NO_LIMITS), // 0x20BC:00 Stator resistance
+    Entry::new(0x20BD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 456, NO_LIMITS), // 0x20BD:00 Stator time constant
+    Entry::new(0x20BE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 458, NO_LIMITS), // 0x20BE:00 Logic definition END1
+    Entry::new(0x20BF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 460, NO_LIMITS), // 0x20BF:00 Logic definition END2
+    Entry::new(0x20C0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 462, NO_LIMITS), // 0x20C0:00 Logic definition DIN1
+    Entry::new(0x20C1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 464, NO_LIMITS), // 0x20C1:00 Logic definition DIN2
+    Entry::new(0x20C2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 466, NO_LIMITS), // 0x20C2:00 Logic definition DOUT1
+    Entry::new(0x20C3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 468, NO_LIMITS), // 0x20C3:00 Logic definition DOUT2
+    Entry::new(0x20C4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 470, NO_LIMITS), // 0x20C4:00 Peak current limit
+    Entry::new(0x20C5, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 472, NO_LIMITS), // 0x20C5:00 Continuous current limit
+    Entry::new(0x20C6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 474, NO_LIMITS), // 0x20C6:00 Device current rating
+    Entry::new(0x20C7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 476, NO_LIMITS), // 0x20C7:00 Limit switch stop ramp
+    Entry::new(0x20C8, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 478, NO_LIMITS), // 0x20C8:00 Maximum speed
+    Entry::new(0x20C9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 480, NO_LIMITS), // 0x20C9:00 Position PI proportional gain
+    Entry::new(0x20CA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 482, NO_LIMITS), // 0x20CA:00 Position PI integral time
+    Entry::new(0x20CB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 484, NO_LIMITS), // 0x20CB:00 Current feed forward gain
+    Entry::new(0x20CC, 0x00, DataType::Integer16, RO_TPDO, 2, 486, NO_LIMITS), // 0x20CC:00 Position PI error
+    Entry::new(0x20CD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 488, NO_LIMITS), // 0x20CD:00 Position PI integral limit
+    Entry::new(0x20CE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 490, NO_LIMITS), // 0x20CE:00 Maximum speed internal
+    Entry::new(0x20CF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 492, NO_LIMITS), // 0x20CF:00 Position PI Ky factor
+    Entry::new(0x20D0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 494, NO_LIMITS), // 0x20D0:00 CAN timeout
+    Entry::new(0x20D1, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 496, NO_LIMITS), // 0x20D1:00 Comparison variable 1
+    Entry::new(0x20D2, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 500, NO_LIMITS), // 0x20D2:00 Comparison variable 2
+    Entry::new(0x20D3, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 504, NO_LIMITS), // 0x20D3:00 Comparison variable 3
+    Entry::new(0x20D4, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 508, NO_LIMITS), // 0x20D4:00 Comparison variable 4
+    Entry::new(0x20D5, 0x00, DataType::Integer32, RO_TPDO, 4, 512, NO_LIMITS), // 0x20D5:00 Analog input 1
+    Entry::new(0x20D6, 0x00, DataType::Integer32, RO_TPDO, 4, 516, NO_LIMITS), // 0x20D6:00 Analog input 2
+    Entry::new(0x20D7, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 520, NO_LIMITS), // 0x20D7:00 Analog input 2 offset and scale
+    Entry::new(0x20D8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 524, NO_LIMITS), // 0x20D8:00 IO bit map
+    Entry::new(0x20D9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 526, NO_LIMITS), // 0x20D9:00 Current at 200 percent
+    Entry::new(0x20DA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 528, NO_LIMITS), // 0x20DA:00 Logic definition DOUT3
+    Entry::new(0x20DB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 530, NO_LIMITS), // 0x20DB:00 Logic definition DOUT4
+    Entry::new(0x20DC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 532, NO_LIMITS), // 0x20DC:00 DAC definition
+    Entry::new(0x20DE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 534, NO_LIMITS), // 0x20DE:00 Digital output 3
+    Entry::new(0x20DF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 536, NO_LIMITS), // 0x20DF:00 Digital output 4
+    Entry::new(0x20E0, 0x00, DataType::Unsigned16, RO_TPDO, 2, 538, NO_LIMITS), // 0x20E0:00 Digital output 1
+    Entry::new(0x20E1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 540, NO_LIMITS), // 0x20E1:00 Digital output 2
+    Entry::new(0x20E2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 542, NO_LIMITS), // 0x20E2:00 Device ready
+    Entry::new(0x20E3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 544, NO_LIMITS), // 0x20E3:00 Internal run
+    Entry::new(0x20E4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 546, NO_LIMITS), // 0x20E4:00 Limit switch input 1
+    Entry::new(0x20E5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 548, NO_LIMITS), // 0x20E5:00 Limit switch input 2
+    Entry::new(0x20E6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 550, NO_LIMITS), // 0x20E6:00 Digital input 1
+    Entry::new(0x20E7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 552, NO_LIMITS), // 0x20E7:00 Digital input 2
+    Entry::new(0x20E8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 554, NO_LIMITS), // 0x20E8:00 Run input
+    Entry::new(0x20E9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS), // 0x20E9:00 Power stage fault
+    Entry::new(0x20EA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 558, NO_LIMITS), // 0x20EA:00 Regen circuit message
+    Entry::new(0x20EB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 560, NO_LIMITS), // 0x20EB:00 DC bus voltage
+    Entry::new(0x20EC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 562, NO_LIMITS), // 0x20EC:00 Resolver loss of signal
+    Entry::new(0x20ED, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 564, NO_LIMITS), // 0x20ED:00 Deceleration ramp
+    Entry::new(0x20EE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 568, NO_LIMITS), // 0x20EE:00 Current sensor calibration
+    Entry::new(0x20EF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 570, NO_LIMITS), // 0x20EF:00 No fault output
+    Entry::new(0x20F0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 572, NO_LIMITS), // 0x20F0:00 Peak current time
+    Entry::new(0x20F1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 574, NO_LIMITS), // 0x20F1:00 Brake delay time
+    Entry::new(0x20F2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 576, NO_LIMITS), // 0x20F2:00 Brake on
+    Entry::new(0x20F3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 578, NO_LIMITS), // 0x20F3:00 Continuous current message
+    Entry::new(0x20F4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 580, NO_LIMITS), // 0x20F4:00 Position in tolerance
+    Entry::new(0x20F5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 582, NO_LIMITS), // 0x20F5:00 Speed below 1 percent
+    Entry::new(0x20F6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 584, NO_LIMITS), // 0x20F6:00 Power
+    Entry::new(0x20F7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 586, NO_LIMITS), // 0x20F7:00 Work
+    Entry::new(0x20F8, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 588, NO_LIMITS), // 0x20F8:00 Axis label
+    Entry::new(0x20F9, 0x00, DataType::Unsigned16, WO, 2, 592, NO_LIMITS), // 0x20F9:00 Write ASCII label to EEPROM
+    Entry::new(0x20FA, 0x00, DataType::Unsigned16, WO, 2, 594, NO_LIMITS), // 0x20FA:00 Read ASCII label from EEPROM
+    Entry::new(0x20FB, 0x00, DataType::Integer16, RO_TPDO, 2, 596, NO_LIMITS), // 0x20FB:00 Analog input 1 calculated
+    Entry::new(0x20FC, 0x00, DataType::Integer16, RO_TPDO, 2, 598, NO_LIMITS), // 0x20FC:00 Analog input 2 calculated
 ];
 
+#[rustfmt::skip]
 static LIMITS: [Limits; 6] = [
-    Limits { low: 0xFFFFFFFFFFFF8001, high: 0x7FFF },
-    Limits { low: 0x201, high: 0x27F },
-    Limits { low: 0x181, high: 0x1FF },
-    Limits { low: 0xFFFFFFFF80000001, high: 0x7FFFFFFF },
-    Limits { low: 0x4002, high: 0x4425 },
-    Limits { low: 0x0, high: 0x1 },
+    Limits { low: 0xFFFFFFFFFFFF8001, high: 0x7FFF }, // 0x2030:00 Speed actual value and 2 more
+    Limits { low: 0x201, high: 0x27F }, // 0x2068:00 CAN receive id
+    Limits { low: 0x181, high: 0x1FF }, // 0x2069:00 CAN transmit id
+    Limits { low: 0xFFFFFFFF80000001, high: 0x7FFFFFFF }, // 0x206D:00 Position actual value and 1 more
+    Limits { low: 0x4002, high: 0x4425 }, // 0x2073:00 CAN bit rate code
+    Limits { low: 0x0, high: 0x1 }, // 0x2084:00 Write parameters to EEPROM
 ];
 
 static ROM: [u8; ROM_SIZE] = [];
 
+#[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x04, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xD8, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xDC, 0x05, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x64, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x64, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xE8, 0x7A, 0x01, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0xD8, 0x01, 0x0A, 0x00, 0xE8, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0xE9, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x50, 0x00, 0x0A, 0x00, 0x64, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x10, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xFF, 0x7F, 0x64, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x50, 0x00, 0xFF, 0x7F, 0x00, 0x00, 0x00, 0x80, 0xFF, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0xB0, 0xFD, 0x00, 0x00, 0x00, 0x00, 0xFF, 0x7F, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x35, 0x00, 0x35, 0x00,
-    0x06, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x30, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0xB8, 0x0B, 0x08, 0x08, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x15, 0xCD,
-    0x5B, 0x07, 0x00, 0x00, 0xE6, 0x00, 0x19, 0x00, 0x50, 0x00, 0x00, 0x00, 0x13, 0x13, 0x01, 0x00, 0x01, 0x02, 0x81, 0x01, 0x0F, 0x00,
-    0xF5, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x33, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x25, 0x40, 0x00, 0x00, 0x00, 0x00, 0x78, 0x00, 0x78, 0x00, 0x00, 0x00, 0x64, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0xE0, 0x15, 0x58, 0x1B, 0x01, 0x30, 0x64, 0x00, 0x00, 0x00, 0x00, 0x04, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x7B, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0xD0, 0x07, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x7B, 0x00, 0x00, 0x00, 0x05, 0x80, 0x04, 0x80,
-    0x0C, 0x80, 0x0C, 0x80, 0x00, 0x00, 0x00, 0x00, 0xA3, 0x20, 0x3D, 0x3A, 0x32, 0x00, 0x0A, 0x00, 0x10, 0x0E, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x0E, 0x00, 0x00, 0x00, 0x00, 0x3E, 0x00, 0x00, 0x00, 0x10, 0x27, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x10, 0x00, 0x00, 0x49, 0x03,
-    0x00, 0x00, 0x00, 0x00, 0x30, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x64, 0x00, 0x01, 0x00, 0x26, 0x02, 0x00, 0x00,
-    0x05, 0x00, 0xFA, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x4D, 0x44, 0x00, 0x00, 0x00, 0x00,
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, // 0x1000:00 Device type
+    0x00, // 0x1001:00 Error register
+    0x04, // 0x1018:00 Identity object / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0x00, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
+    0xD8, 0x01, 0x00, 0x00, // 0x1018:03 Identity object / Revision number
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x00, 0x00, // 0x2001:00 User specific options
+    0x00, 0x00, // 0x2002:00 User specific safety state
+    0x00, 0x00, // 0x2003:00 User specific command specials
+    0x00, 0x00, // 0x2004:00 User key
+    0xDC, 0x05, // 0x2005:00 Nominal motor frequency
+    0x00, 0x00, // 0x2006:00 Nominal motor voltage
+    0x00, 0x00, 0x00, 0x00, // 0x2007:00 UF DC premagnetisation time
+    0x00, 0x00, 0x00, 0x00, // 0x2008:00 UF DC voltage
+    0x64, 0x00, 0x00, 0x00, // 0x2009:00 UF DC frequency
+    0x00, 0x00, 0x00, 0x00, // 0x200A:00 UF minimum voltage
+    0x00, 0x00, 0x00, 0x00, // 0x200B:00 UF minimum frequency
+    0x00, 0x00, 0x00, 0x00, // 0x200C:00 UF corner voltage
+    0x00, 0x00, 0x00, 0x00, // 0x200D:00 UF corner frequency
+    0x00, 0x00, // 0x200E:00 UF power factor
+    0x64, 0x00, // 0x200F:00 UF extra
+    0x00, 0x00, // 0x2010:00 Oscilloscope trigger channel
+    0x00, 0x00, 0x00, 0x00, // 0x2011:00 Control status
+    0xE8, 0x7A, // 0x2012:00 Oscilloscope trigger level
+    0x01, 0x00, // 0x2013:00 Oscilloscope trigger edge
+    0x00, 0x00, // 0x2014:00 Oscilloscope trigger source
+    0x01, 0x00, // 0x2015:00 Oscilloscope source
+    0x01, 0x00, // 0x2016:00 Oscilloscope skip
+    0x00, 0x00, // 0x2017:00 Oscilloscope read command
+    0x00, 0x00, // 0x2018:00 Oscilloscope run command
+    0x00, 0x00, // 0x2019:00 PWM frequency
+    0x00, 0x00, // 0x201A:00 Lookup temporary
+    0xD8, 0x01, // 0x201B:00 Firmware version
+    0x0A, 0x00, // 0x201C:00 Current controller proportional gain
+    0xE8, 0x03, // 0x201D:00 Current controller integral time
+    0x00, 0x00, // 0x201E:00 Digital command cutoff
+    0x00, 0x00, // 0x201F:00 Phase 3 current offset
+    0x00, 0x00, // 0x2020:00 Current actual value
+    0x00, 0x00, // 0x2021:00 D current set point
+    0x00, 0x00, // 0x2022:00 Current command after ramp
+    0x00, 0x00, // 0x2023:00 D current reference
+    0x00, 0x00, // 0x2024:00 Maximum current in use
+    0xE9, 0x03, // 0x2025:00 Current command ramp
+    0x00, 0x00, // 0x2026:00 Current command
+    0x00, 0x00, // 0x2027:00 Q current actual value
+    0x00, 0x00, // 0x2028:00 D current actual value
+    0x00, 0x00, // 0x2029:00 Q output voltage
+    0x00, 0x00, // 0x202A:00 D output voltage
+    0x50, 0x00, // 0x202B:00 Current controller max integration count
+    0x0A, 0x00, // 0x202C:00 Speed controller proportional gain
+    0x64, 0x00, // 0x202D:00 Speed controller integral time
+    0x00, 0x00, // 0x202E:00 Speed controller derivative time
+    0x00, 0x00, 0x00, 0x10, // 0x202F:00 Analog input 1 offset and scale
+    0x00, 0x00, // 0x2030:00 Speed actual value
+    0x00, 0x00, // 0x2031:00 Speed set point
+    0x00, 0x00, // 0x2032:00 Speed command after ramp
+    0x00, 0x00, // 0x2033:00 Speed error
+    0xFF, 0x7F, // 0x2034:00 Speed limit
+    0x64, 0x00, 0x01, 0x00, // 0x2035:00 Acceleration ramp
+    0x00, 0x00, // 0x2036:00 Speed command source
+    0x00, 0x00, // 0x2037:00 Current to speed loop factor
+    0x00, 0x00, // 0x2038:00 Q current error
+    0x00, 0x00, // 0x2039:00 D current error
+    0x50, 0x00, // 0x203B:00 Speed controller max integration count
+    0xFF, 0x7F, // 0x203C:00 Current derating by speed
+    0x00, 0x00, // 0x203D:00 Read request
+    0x00, 0x80, // 0x203E:00 Negative speed limit
+    0xFF, 0x7F, // 0x203F:00 Positive speed limit
+    0x00, 0x00, 0x00, 0x00, // 0x2040:00 Status map
+    0x00, 0x00, // 0x2041:00 Increment delta
+    0x00, 0x00, // 0x2042:00 Motor mechanical angle
+    0x00, 0x00, // 0x2043:00 Motor electrical angle
+    0xB0, 0xFD, // 0x2044:00 Feedback phase angle offset
+    0x00, 0x00, 0x00, 0x00, // 0x2045:00 I2t and regen energy monitor
+    0xFF, 0x7F, // 0x2046:00 Digital current limit
+    0x00, 0x00, // 0x2048:00 Current limit in use
+    0x00, 0x00, // 0x2049:00 Motor temperature
+    0x00, 0x00, // 0x204A:00 Power stage temperature
+    0x00, 0x00, // 0x204B:00 Air temperature
+    0x00, 0x00, // 0x204C:00 Current derating by temperature
+    0x35, 0x00, // 0x204D:00 Motor maximum current
+    0x35, 0x00, // 0x204E:00 Motor continuous current
+    0x06, 0x00, // 0x204F:00 Motor pole count
+    0x00, 0x00, // 0x2050:00 Analog input 1 cutoff window
+    0x00, 0x00, // 0x2051:00 Mode
+    0x00, 0x30, 0x00, 0x00, // 0x2052:00 Status mask
+    0x00, 0x00, // 0x2053:00 Analog input 2 cutoff window
+    0x00, 0x00, // 0x2054:00 Phase 1 current actual value
+    0x00, 0x00, // 0x2055:00 Phase 2 current actual value
+    0x00, 0x00, // 0x2056:00 Phase 3 current actual value
+    0x00, 0x00, // 0x2057:00 Ramped current limit in use
+    0x00, 0x00, // 0x2058:00 Current derating TD
+    0xB8, 0x0B, // 0x2059:00 Rated motor speed
+    0x08, 0x08, 0x00, 0x00, // 0x205A:00 Device options
+    0x00, 0x00, // 0x205B:00 Acceleration gain
+    0x00, 0x00, // 0x205C:00 Rotor signals
+    0x00, 0x00, // 0x205D:00 Internal speed command
+    0x02, 0x00, // 0x205E:00 Speed actual value filter
+    0x00, 0x00, // 0x205F:00 Filtered current actual value
+    0x00, 0x00, // 0x2060:00 Analog input filter
+    0x00, 0x00, // 0x2061:00 It monitor
+    0x15, 0xCD, 0x5B, 0x07, // 0x2062:00 Device serial number
+    0x00, 0x00, // 0x2063:00 FPGA status
+    0xE6, 0x00, // 0x2064:00 Mains supply voltage
+    0x19, 0x00, 0x50, 0x00, // 0x2065:00 Regen resistor rating
+    0x00, 0x00, // 0x2066:00 Battery voltage
+    0x13, 0x13, 0x01, 0x00, // 0x2067:00 Device type code
+    0x01, 0x02, // 0x2068:00 CAN receive id
+    0x81, 0x01, // 0x2069:00 CAN transmit id
+    0x0F, 0x00, // 0x206A:00 Position controller proportional gain
+    0xF5, 0x01, // 0x206B:00 Position controller integral time
+    0x00, 0x00, // 0x206C:00 Position controller derivative time
+    0x00, 0x00, 0x00, 0x00, // 0x206D:00 Position actual value
+    0x00, 0x00, 0x00, 0x00, // 0x206E:00 Position destination
+    0x00, 0x00, 0x00, 0x00, // 0x206F:00 Position actual value 2
+    0x00, 0x00, 0x00, 0x00, // 0x2070:00 Position error
+    0x33, 0x00, // 0x2071:00 Position controller max integration count
+    0x00, 0x00, 0x00, 0x00, // 0x2072:00 Reference zero offset
+    0x25, 0x40, // 0x2073:00 CAN bit rate code
+    0x00, 0x00, // 0x2074:00 Position zero capture
+    0x00, 0x00, // 0x2075:00 Resolver position at reference switch
+    0x78, 0x00, // 0x2076:00 Homing speed fast
+    0x78, 0x00, // 0x2077:00 Homing speed slow
+    0x00, 0x00, // 0x2078:00 Start homing
+    0x64, 0x00, // 0x2079:00 Position tolerance window
+    0x00, 0x00, 0x00, 0x00, // 0x207A:00 Position preset
+    0x00, 0x00, 0x00, 0x00, // 0x207B:00 User zero offset
+    0x00, 0x00, 0x00, 0x00, // 0x207C:00 Display position scale
+    0x00, 0x00, 0x00, 0x00, // 0x207D:00 Display position offset
+    0x00, 0x00, 0x00, 0x00, // 0x207E:00 Second encoder scale
+    0x00, 0x00, 0x00, 0x00, // 0x207F:00 Slack offset
+    0x00, 0x00, // 0x2080:00 Slack position difference
+    0x00, 0x00, // 0x2082:00 Device serial number extension
+    0x00, 0x00, // 0x2083:00 Read parameters from EEPROM
+    0x00, 0x00, // 0x2084:00 Write parameters to EEPROM
+    0x00, 0x00, // 0x2085:00 Auto functions
+    0x00, 0x00, // 0x2086:00 Read info
+    0x00, 0x00, 0x00, 0x00, // 0x2088:00 CAN receive id 2
+    0x00, 0x00, 0x00, 0x00, // 0x2089:00 CAN transmit id 2
+    0x00, 0x00, // 0x208A:00 Output voltage usage
+    0x00, 0x00, // 0x208B:00 Field weakening start point
+    0x00, 0x00, // 0x208C:00 Field weakening proportional gain
+    0x00, 0x00, // 0x208D:00 Field weakening integral time
+    0x00, 0x00, // 0x208E:00 Clear error list
+    0x00, 0x00, 0x00, 0x00, // 0x208F:00 Warning and error map
+    0x00, 0x00, // 0x2090:00 Torque set point
+    0x00, 0x00, 0x00, 0x00, // 0x2091:00 Position command
+    0x00, 0x00, // 0x2092:00 CAN bus off count
+    0x00, 0x00, // 0x2093:00 CAN write error time
+    0x00, 0x00, // 0x2094:00 FPGA first error
+    0x00, 0x00, // 0x2095:00 CAN read count
+    0x00, 0x00, // 0x2096:00 CAN write count
+    0x00, 0x00, // 0x2097:00 CAN reject count
+    0x00, 0x00, // 0x2098:00 Output block
+    0x00, 0x00, // 0x2099:00 Interrupt time info
+    0x00, 0x00, // 0x209A:00 Debug temperature
+    0x00, 0x00, // 0x209B:00 Input block
+    0x00, 0x00, // 0x209C:00 PT100 sensor 1 temperature
+    0x00, 0x00, // 0x209D:00 PT100 sensor 2 temperature
+    0x00, 0x00, // 0x209E:00 PT100 sensor 3 temperature
+    0x00, 0x00, // 0x209F:00 PT100 sensor 4 temperature
+    0x00, 0x00, // 0x20A0:00 Internal torque
+    0x00, 0x00, // 0x20A1:00 Ballast counter
+    0xE0, 0x15, // 0x20A2:00 Current derating TM
+    0x58, 0x1B, // 0x20A3:00 Motor temperature cutoff
+    0x01, 0x30, // 0x20A4:00 Motor options
+    0x64, 0x00, 0x00, 0x00, // 0x20A5:00 DC bus minimum and maximum
+    0x00, 0x04, // 0x20A6:00 Feedback increments per revolution
+    0x02, 0x00, // 0x20A7:00 Resolver pole count
+    0x00, 0x00, // 0x20A8:00 Filtered speed actual value
+    0x00, 0x00, // 0x20A9:00 Current sensor 1 ADC
+    0x00, 0x00, // 0x20AA:00 Current sensor 2 ADC
+    0x00, 0x00, // 0x20AB:00 Foreground frequency
+    0x00, 0x00, // 0x20AC:00 PWM phase 1
+    0x00, 0x00, // 0x20AD:00 PWM phase 2
+    0x00, 0x00, // 0x20AE:00 PWM phase 3
+    0x00, 0x00, // 0x20AF:00 Interrupt timer delta
+    0x00, 0x00, // 0x20B0:00 Serial boot function
+    0x00, 0x00, // 0x20B1:00 Motor q leakage inductance
+    0x00, 0x00, // 0x20B2:00 Nominal magnetising current
+    0x7B, 0x00, // 0x20B3:00 Motor magnetising inductance
+    0x00, 0x00, // 0x20B4:00 Rotor resistance
+    0x00, 0x00, // 0x20B5:00 Minimum magnetising current
+    0xD0, 0x07, // 0x20B6:00 Rotor time constant
+    0x00, 0x00, // 0x20B7:00 Debug pointer 1
+    0x00, 0x00, // 0x20B8:00 Debug pointer 1 value
+    0x00, 0x00, // 0x20B9:00 Debug pointer 2
+    0x00, 0x00, // 0x20BA:00 Debug pointer 2 value
+    0x00, 0x00, // 0x20BB:00 Motor d leakage inductance
+    0x7B, 0x00, // 0x20BC:00 Stator resistance
+    0x00, 0x00, // 0x20BD:00 Stator time constant
+    0x05, 0x80, // 0x20BE:00 Logic definition END1
+    0x04, 0x80, // 0x20BF:00 Logic definition END2
+    0x0C, 0x80, // 0x20C0:00 Logic definition DIN1
+    0x0C, 0x80, // 0x20C1:00 Logic definition DIN2
+    0x00, 0x00, // 0x20C2:00 Logic definition DOUT1
+    0x00, 0x00, // 0x20C3:00 Logic definition DOUT2
+    0xA3, 0x20, // 0x20C4:00 Peak current limit
+    0x3D, 0x3A, // 0x20C5:00 Continuous current limit
+    0x32, 0x00, // 0x20C6:00 Device current rating
+    0x0A, 0x00, // 0x20C7:00 Limit switch stop ramp
+    0x10, 0x0E, // 0x20C8:00 Maximum speed
+    0x00, 0x00, // 0x20C9:00 Position PI proportional gain
+    0x00, 0x00, // 0x20CA:00 Position PI integral time
+    0x00, 0x00, // 0x20CB:00 Current feed forward gain
+    0x00, 0x00, // 0x20CC:00 Position PI error
+    0x00, 0x00, // 0x20CD:00 Position PI integral limit
+    0x10, 0x0E, // 0x20CE:00 Maximum speed internal
+    0x00, 0x00, // 0x20CF:00 Position PI Ky factor
+    0x00, 0x00, // 0x20D0:00 CAN timeout
+    0x3E, 0x00, 0x00, 0x00, // 0x20D1:00 Comparison variable 1
+    0x10, 0x27, 0x00, 0x00, // 0x20D2:00 Comparison variable 2
+    0x00, 0x00, 0x00, 0x00, // 0x20D3:00 Comparison variable 3
+    0x00, 0x00, 0x00, 0x00, // 0x20D4:00 Comparison variable 4
+    0x00, 0x00, 0x00, 0x00, // 0x20D5:00 Analog input 1
+    0x00, 0x00, 0x00, 0x00, // 0x20D6:00 Analog input 2
+    0x00, 0x00, 0x00, 0x10, // 0x20D7:00 Analog input 2 offset and scale
+    0x00, 0x00, // 0x20D8:00 IO bit map
+    0x49, 0x03, // 0x20D9:00 Current at 200 percent
+    0x00, 0x00, // 0x20DA:00 Logic definition DOUT3
+    0x00, 0x00, // 0x20DB:00 Logic definition DOUT4
+    0x30, 0x00, // 0x20DC:00 DAC definition
+    0x00, 0x00, // 0x20DE:00 Digital output 3
+    0x00, 0x00, // 0x20DF:00 Digital output 4
+    0x00, 0x00, // 0x20E0:00 Digital output 1
+    0x00, 0x00, // 0x20E1:00 Digital output 2
+    0x00, 0x00, // 0x20E2:00 Device ready
+    0x00, 0x00, // 0x20E3:00 Internal run
+    0x00, 0x00, // 0x20E4:00 Limit switch input 1
+    0x00, 0x00, // 0x20E5:00 Limit switch input 2
+    0x00, 0x00, // 0x20E6:00 Digital input 1
+    0x00, 0x00, // 0x20E7:00 Digital input 2
+    0x00, 0x00, // 0x20E8:00 Run input
+    0x00, 0x00, // 0x20E9:00 Power stage fault
+    0x00, 0x00, // 0x20EA:00 Regen circuit message
+    0x00, 0x00, // 0x20EB:00 DC bus voltage
+    0x00, 0x00, // 0x20EC:00 Resolver loss of signal
+    0x64, 0x00, 0x01, 0x00, // 0x20ED:00 Deceleration ramp
+    0x26, 0x02, // 0x20EE:00 Current sensor calibration
+    0x00, 0x00, // 0x20EF:00 No fault output
+    0x05, 0x00, // 0x20F0:00 Peak current time
+    0xFA, 0x00, // 0x20F1:00 Brake delay time
+    0x00, 0x00, // 0x20F2:00 Brake on
+    0x00, 0x00, // 0x20F3:00 Continuous current message
+    0x00, 0x00, // 0x20F4:00 Position in tolerance
+    0x00, 0x00, // 0x20F5:00 Speed below 1 percent
+    0x00, 0x00, // 0x20F6:00 Power
+    0x00, 0x00, // 0x20F7:00 Work
+    0x4D, 0x44, 0x00, 0x00, // 0x20F8:00 Axis label
+    0x00, 0x00, // 0x20F9:00 Write ASCII label to EEPROM
+    0x00, 0x00, // 0x20FA:00 Read ASCII label from EEPROM
+    0x00, 0x00, // 0x20FB:00 Analog input 1 calculated
+    0x00, 0x00, // 0x20FC:00 Analog input 2 calculated
 ];
 
 static NODE_ID_RELATIVE: [u16; 0] = [];
 
 /// Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them.
+#[rustfmt::skip]
 pub static NAMES: [&str; ENTRY_COUNT] = [
-    "Device type",
-    "Error register",
-    "Highest sub-index supported",
-    "Vendor-ID",
-    "Product code",
-    "Revision number",
-    "Serial number",
-    "User specific options",
-    "User specific safety state",
-    "User specific command specials",
-    "User key",
-    "Nominal motor frequency",
-    "Nominal motor voltage",
-    "UF DC premagnetisation time",
-    "UF DC voltage",
-    "UF DC frequency",
-    "UF minimum voltage",
-    "UF minimum frequency",
-    "UF corner voltage",
-    "UF corner frequency",
-    "UF power factor",
-    "UF extra",
-    "Oscilloscope trigger channel",
-    "Control status",
-    "Oscilloscope trigger level",
-    "Oscilloscope trigger edge",
-    "Oscilloscope trigger source",
-    "Oscilloscope source",
-    "Oscilloscope skip",
-    "Oscilloscope read command",
-    "Oscilloscope run command",
-    "PWM frequency",
-    "Lookup temporary",
-    "Firmware version",
-    "Current controller proportional gain",
-    "Current controller integral time",
-    "Digital command cutoff",
-    "Phase 3 current offset",
-    "Current actual value",
-    "D current set point",
-    "Current command after ramp",
-    "D current reference",
-    "Maximum current in use",
-    "Current command ramp",
-    "Current command",
-    "Q current actual value",
-    "D current actual value",
-    "Q output voltage",
-    "D output voltage",
-    "Current controller max integration count",
-    "Speed controller proportional gain",
-    "Speed controller integral time",
-    "Speed controller derivative time",
-    "Analog input 1 offset and scale",
-    "Speed actual value",
-    "Speed set point",
-    "Speed command after ramp",
-    "Speed error",
-    "Speed limit",
-    "Acceleration ramp",
-    "Speed command source",
-    "Current to speed loop factor",
-    "Q current error",
-    "D current error",
-    "Speed controller max integration count",
-    "Current derating by speed",
-    "Read request",
-    "Negative speed limit",
-    "Positive speed limit",
-    "Status map",
-    "Increment delta",
-    "Motor mechanical angle",
-    "Motor electrical angle",
-    "Feedback phase angle offset",
-    "I2t and regen energy monitor",
-    "Digital current limit",
-    "Current limit in use",
-    "Motor temperature",
-    "Power stage temperature",
-    "Air temperature",
-    "Current derating by temperature",
-    "Motor maximum current",
-    "Motor continuous current",
-    "Motor pole count",
-    "Analog input 1 cutoff window",
-    "Mode",
-    "Status mask",
-    "Analog input 2 cutoff window",
-    "Phase 1 current actual value",
-    "Phase 2 current actual value",
-    "Phase 3 current actual value",
-    "Ramped current limit in use",
-    "Current derating TD",
-    "Rated motor speed",
-    "Device options",
-    "Acceleration gain",
-    "Rotor signals",
-    "Internal speed command",
-    "Speed actual value filter",
-    "Filtered current actual value",
-    "Analog input filter",
-    "It monitor",
-    "Device serial number",
-    "FPGA status",
-    "Mains supply voltage",
-    "Regen resistor rating",
-    "Battery voltage",
-    "Device type code",
-    "CAN receive id",
-    "CAN transmit id",
-    "Position controller proportional gain",
-    "Position controller integral time",
-    "Position controller derivative time",
-    "Position actual value",
-    "Position destination",
-    "Position actual value 2",
-    "Position error",
-    "Position controller max integration count",
-    "Reference zero offset",
-    "CAN bit rate code",
-    "Position zero capture",
-    "Resolver position at reference switch",
-    "Homing speed fast",
-    "Homing speed slow",
-    "Start homing",
-    "Position tolerance window",
-    "Position preset",
-    "User zero offset",
-    "Display position scale",
-    "Display position offset",
-    "Second encoder scale",
-    "Slack offset",
-    "Slack position difference",
-    "Device serial number extension",
-    "Read parameters from EEPROM",
-    "Write parameters to EEPROM",
-    "Auto functions",
-    "Read info",
-    "CAN receive id 2",
-    "CAN transmit id 2",
-    "Output voltage usage",
-    "Field weakening start point",
-    "Field weakening proportional gain",
-    "Field weakening integral time",
-    "Clear error list",
-    "Warning and error map",
-    "Torque set point",
-    "Position command",
-    "CAN bus off count",
-    "CAN write error time",
-    "FPGA first error",
-    "CAN read count",
-    "CAN write count",
-    "CAN reject count",
-    "Output block",
-    "Interrupt time info",
-    "Debug temperature",
-    "Input block",
-    "PT100 sensor 1 temperature",
-    "PT100 sensor 2 temperature",
-    "PT100 sensor 3 temperature",
-    "PT100 sensor 4 temperature",
-    "Internal torque",
-    "Ballast counter",
-    "Current derating TM",
-    "Motor temperature cutoff",
-    "Motor options",
-    "DC bus minimum and maximum",
-    "Feedback increments per revolution",
-    "Resolver pole count",
-    "Filtered speed actual value",
-    "Current sensor 1 ADC",
-    "Current sensor 2 ADC",
-    "Foreground frequency",
-    "PWM phase 1",
-    "PWM phase 2",
-    "PWM phase 3",
-    "Interrupt timer delta",
-    "Serial boot function",
-    "Motor q leakage inductance",
-    "Nominal magnetising current",
-    "Motor magnetising inductance",
-    "Rotor resistance",
-    "Minimum magnetising current",
-    "Rotor time constant",
-    "Debug pointer 1",
-    "Debug pointer 1 value",
-    "Debug pointer 2",
-    "Debug pointer 2 value",
-    "Motor d leakage inductance",
-    "Stator resistance",
-    "Stator time constant",
-    "Logic definition END1",
-    "Logic definition END2",
-    "Logic definition DIN1",
-    "Logic definition DIN2",
-    "Logic definition DOUT1",
-    "Logic definition DOUT2",
-    "Peak current limit",
-    "Continuous current limit",
-    "Device current rating",
-    "Limit switch stop ramp",
-    "Maximum speed",
-    "Position PI proportional gain",
-    "Position PI integral time",
-    "Current feed forward gain",
-    "Position PI error",
-    "Position PI integral limit",
-    "Maximum speed internal",
-    "Position PI Ky factor",
-    "CAN timeout",
-    "Comparison variable 1",
-    "Comparison variable 2",
-    "Comparison variable 3",
-    "Comparison variable 4",
-    "Analog input 1",
-    "Analog input 2",
-    "Analog input 2 offset and scale",
-    "IO bit map",
-    "Current at 200 percent",
-    "Logic definition DOUT3",
-    "Logic definition DOUT4",
-    "DAC definition",
-    "Digital output 3",
-    "Digital output 4",
-    "Digital output 1",
-    "Digital output 2",
-    "Device ready",
-    "Internal run",
-    "Limit switch input 1",
-    "Limit switch input 2",
-    "Digital input 1",
-    "Digital input 2",
-    "Run input",
-    "Power stage fault",
-    "Regen circuit message",
-    "DC bus voltage",
-    "Resolver loss of signal",
-    "Deceleration ramp",
-    "Current sensor calibration",
-    "No fault output",
-    "Peak current time",
-    "Brake delay time",
-    "Brake on",
-    "Continuous current message",
-    "Position in tolerance",
-    "Speed below 1 percent",
-    "Power",
-    "Work",
-    "Axis label",
-    "Write ASCII label to EEPROM",
-    "Read ASCII label from EEPROM",
-    "Analog input 1 calculated",
-    "Analog input 2 calculated",
+    "Device type", // 0x1000:00
+    "Error register", // 0x1001:00
+    "Highest sub-index supported", // 0x1018:00
+    "Vendor-ID", // 0x1018:01
+    "Product code", // 0x1018:02
+    "Revision number", // 0x1018:03
+    "Serial number", // 0x1018:04
+    "User specific options", // 0x2001:00
+    "User specific safety state", // 0x2002:00
+    "User specific command specials", // 0x2003:00
+    "User key", // 0x2004:00
+    "Nominal motor frequency", // 0x2005:00
+    "Nominal motor voltage", // 0x2006:00
+    "UF DC premagnetisation time", // 0x2007:00
+    "UF DC voltage", // 0x2008:00
+    "UF DC frequency", // 0x2009:00
+    "UF minimum voltage", // 0x200A:00
+    "UF minimum frequency", // 0x200B:00
+    "UF corner voltage", // 0x200C:00
+    "UF corner frequency", // 0x200D:00
+    "UF power factor", // 0x200E:00
+    "UF extra", // 0x200F:00
+    "Oscilloscope trigger channel", // 0x2010:00
+    "Control status", // 0x2011:00
+    "Oscilloscope trigger level", // 0x2012:00
+    "Oscilloscope trigger edge", // 0x2013:00
+    "Oscilloscope trigger source", // 0x2014:00
+    "Oscilloscope source", // 0x2015:00
+    "Oscilloscope skip", // 0x2016:00
+    "Oscilloscope read command", // 0x2017:00
+    "Oscilloscope run command", // 0x2018:00
+    "PWM frequency", // 0x2019:00
+    "Lookup temporary", // 0x201A:00
+    "Firmware version", // 0x201B:00
+    "Current controller proportional gain", // 0x201C:00
+    "Current controller integral time", // 0x201D:00
+    "Digital command cutoff", // 0x201E:00
+    "Phase 3 current offset", // 0x201F:00
+    "Current actual value", // 0x2020:00
+    "D current set point", // 0x2021:00
+    "Current command after ramp", // 0x2022:00
+    "D current reference", // 0x2023:00
+    "Maximum current in use", // 0x2024:00
+    "Current command ramp", // 0x2025:00
+    "Current command", // 0x2026:00
+    "Q current actual value", // 0x2027:00
+    "D current actual value", // 0x2028:00
+    "Q output voltage", // 0x2029:00
+    "D output voltage", // 0x202A:00
+    "Current controller max integration count", // 0x202B:00
+    "Speed controller proportional gain", // 0x202C:00
+    "Speed controller integral time", // 0x202D:00
+    "Speed controller derivative time", // 0x202E:00
+    "Analog input 1 offset and scale", // 0x202F:00
+    "Speed actual value", // 0x2030:00
+    "Speed set point", // 0x2031:00
+    "Speed command after ramp", // 0x2032:00
+    "Speed error", // 0x2033:00
+    "Speed limit", // 0x2034:00
+    "Acceleration ramp", // 0x2035:00
+    "Speed command source", // 0x2036:00
+    "Current to speed loop factor", // 0x2037:00
+    "Q current error", // 0x2038:00
+    "D current error", // 0x2039:00
+    "Speed controller max integration count", // 0x203B:00
+    "Current derating by speed", // 0x203C:00
+    "Read request", // 0x203D:00
+    "Negative speed limit", // 0x203E:00
+    "Positive speed limit", // 0x203F:00
+    "Status map", // 0x2040:00
+    "Increment delta", // 0x2041:00
+    "Motor mechanical angle", // 0x2042:00
+    "Motor electrical angle", // 0x2043:00
+    "Feedback phase angle offset", // 0x2044:00
+    "I2t and regen energy monitor", // 0x2045:00
+    "Digital current limit", // 0x2046:00
+    "Current limit in use", // 0x2048:00
+    "Motor temperature", // 0x2049:00
+    "Power stage temperature", // 0x204A:00
+    "Air temperature", // 0x204B:00
+    "Current derating by temperature", // 0x204C:00
+    "Motor maximum current", // 0x204D:00
+    "Motor continuous current", // 0x204E:00
+    "Motor pole count", // 0x204F:00
+    "Analog input 1 cutoff window", // 0x2050:00
+    "Mode", // 0x2051:00
+    "Status mask", // 0x2052:00
+    "Analog input 2 cutoff window", // 0x2053:00
+    "Phase 1 current actual value", // 0x2054:00
+    "Phase 2 current actual value", // 0x2055:00
+    "Phase 3 current actual value", // 0x2056:00
+    "Ramped current limit in use", // 0x2057:00
+    "Current derating TD", // 0x2058:00
+    "Rated motor speed", // 0x2059:00
+    "Device options", // 0x205A:00
+    "Acceleration gain", // 0x205B:00
+    "Rotor signals", // 0x205C:00
+    "Internal speed command", // 0x205D:00
+    "Speed actual value filter", // 0x205E:00
+    "Filtered current actual value", // 0x205F:00
+    "Analog input filter", // 0x2060:00
+    "It monitor", // 0x2061:00
+    "Device serial number", // 0x2062:00
+    "FPGA status", // 0x2063:00
+    "Mains supply voltage", // 0x2064:00
+    "Regen resistor rating", // 0x2065:00
+    "Battery voltage", // 0x2066:00
+    "Device type code", // 0x2067:00
+    "CAN receive id", // 0x2068:00
+    "CAN transmit id", // 0x2069:00
+    "Position controller proportional gain", // 0x206A:00
+    "Position controller integral time", // 0x206B:00
+    "Position controller derivative time", // 0x206C:00
+    "Position actual value", // 0x206D:00
+    "Position destination", // 0x206E:00
+    "Position actual value 2", // 0x206F:00
+    "Position error", // 0x2070:00
+    "Position controller max integration count", // 0x2071:00
+    "Reference zero offset", // 0x2072:00
+    "CAN bit rate code", // 0x2073:00
+    "Position zero capture", // 0x2074:00
+    "Resolver position at reference switch", // 0x2075:00
+    "Homing speed fast", // 0x2076:00
+    "Homing speed slow", // 0x2077:00
+    "Start homing", // 0x2078:00
+    "Position tolerance window", // 0x2079:00
+    "Position preset", // 0x207A:00
+    "User zero offset", // 0x207B:00
+    "Display position scale", // 0x207C:00
+    "Display position offset", // 0x207D:00
+    "Second encoder scale", // 0x207E:00
+    "Slack offset", // 0x207F:00
+    "Slack position difference", // 0x2080:00
+    "Device serial number extension", // 0x2082:00
+    "Read parameters from EEPROM", // 0x2083:00
+    "Write parameters to EEPROM", // 0x2084:00
+    "Auto functions", // 0x2085:00
+    "Read info", // 0x2086:00
+    "CAN receive id 2", // 0x2088:00
+    "CAN transmit id 2", // 0x2089:00
+    "Output voltage usage", // 0x208A:00
+    "Field weakening start point", // 0x208B:00
+    "Field weakening proportional gain", // 0x208C:00
+    "Field weakening integral time", // 0x208D:00
+    "Clear error list", // 0x208E:00
+    "Warning and error map", // 0x208F:00
+    "Torque set point", // 0x2090:00
+    "Position command", // 0x2091:00
+    "CAN bus off count", // 0x2092:00
+    "CAN write error time", // 0x2093:00
+    "FPGA first error", // 0x2094:00
+    "CAN read count", // 0x2095:00
+    "CAN write count", // 0x2096:00
+    "CAN reject count", // 0x2097:00
+    "Output block", // 0x2098:00
+    "Interrupt time info", // 0x2099:00
+    "Debug temperature", // 0x209A:00
+    "Input block", // 0x209B:00
+    "PT100 sensor 1 temperature", // 0x209C:00
+    "PT100 sensor 2 temperature", // 0x209D:00
+    "PT100 sensor 3 temperature", // 0x209E:00
+    "PT100 sensor 4 temperature", // 0x209F:00
+    "Internal torque", // 0x20A0:00
+    "Ballast counter", // 0x20A1:00
+    "Current derating TM", // 0x20A2:00
+    "Motor temperature cutoff", // 0x20A3:00
+    "Motor options", // 0x20A4:00
+    "DC bus minimum and maximum", // 0x20A5:00
+    "Feedback increments per revolution", // 0x20A6:00
+    "Resolver pole count", // 0x20A7:00
+    "Filtered speed actual value", // 0x20A8:00
+    "Current sensor 1 ADC", // 0x20A9:00
+    "Current sensor 2 ADC", // 0x20AA:00
+    "Foreground frequency", // 0x20AB:00
+    "PWM phase 1", // 0x20AC:00
+    "PWM phase 2", // 0x20AD:00
+    "PWM phase 3", // 0x20AE:00
+    "Interrupt timer delta", // 0x20AF:00
+    "Serial boot function", // 0x20B0:00
+    "Motor q leakage inductance", // 0x20B1:00
+    "Nominal magnetising current", // 0x20B2:00
+    "Motor magnetising inductance", // 0x20B3:00
+    "Rotor resistance", // 0x20B4:00
+    "Minimum magnetising current", // 0x20B5:00
+    "Rotor time constant", // 0x20B6:00
+    "Debug pointer 1", // 0x20B7:00
+    "Debug pointer 1 value", // 0x20B8:00
+    "Debug pointer 2", // 0x20B9:00
+    "Debug pointer 2 value", // 0x20BA:00
+    "Motor d leakage inductance", // 0x20BB:00
+    "Stator resistance", // 0x20BC:00
+    "Stator time constant", // 0x20BD:00
+    "Logic definition END1", // 0x20BE:00
+    "Logic definition END2", // 0x20BF:00
+    "Logic definition DIN1", // 0x20C0:00
+    "Logic definition DIN2", // 0x20C1:00
+    "Logic definition DOUT1", // 0x20C2:00
+    "Logic definition DOUT2", // 0x20C3:00
+    "Peak current limit", // 0x20C4:00
+    "Continuous current limit", // 0x20C5:00
+    "Device current rating", // 0x20C6:00
+    "Limit switch stop ramp", // 0x20C7:00
+    "Maximum speed", // 0x20C8:00
+    "Position PI proportional gain", // 0x20C9:00
+    "Position PI integral time", // 0x20CA:00
+    "Current feed forward gain", // 0x20CB:00
+    "Position PI error", // 0x20CC:00
+    "Position PI integral limit", // 0x20CD:00
+    "Maximum speed internal", // 0x20CE:00
+    "Position PI Ky factor", // 0x20CF:00
+    "CAN timeout", // 0x20D0:00
+    "Comparison variable 1", // 0x20D1:00
+    "Comparison variable 2", // 0x20D2:00
+    "Comparison variable 3", // 0x20D3:00
+    "Comparison variable 4", // 0x20D4:00
+    "Analog input 1", // 0x20D5:00
+    "Analog input 2", // 0x20D6:00
+    "Analog input 2 offset and scale", // 0x20D7:00
+    "IO bit map", // 0x20D8:00
+    "Current at 200 percent", // 0x20D9:00
+    "Logic definition DOUT3", // 0x20DA:00
+    "Logic definition DOUT4", // 0x20DB:00
+    "DAC definition", // 0x20DC:00
+    "Digital output 3", // 0x20DE:00
+    "Digital output 4", // 0x20DF:00
+    "Digital output 1", // 0x20E0:00
+    "Digital output 2", // 0x20E1:00
+    "Device ready", // 0x20E2:00
+    "Internal run", // 0x20E3:00
+    "Limit switch input 1", // 0x20E4:00
+    "Limit switch input 2", // 0x20E5:00
+    "Digital input 1", // 0x20E6:00
+    "Digital input 2", // 0x20E7:00
+    "Run input", // 0x20E8:00
+    "Power stage fault", // 0x20E9:00
+    "Regen circuit message", // 0x20EA:00
+    "DC bus voltage", // 0x20EB:00
+    "Resolver loss of signal", // 0x20EC:00
+    "Deceleration ramp", // 0x20ED:00
+    "Current sensor calibration", // 0x20EE:00
+    "No fault output", // 0x20EF:00
+    "Peak current time", // 0x20F0:00
+    "Brake delay time", // 0x20F1:00
+    "Brake on", // 0x20F2:00
+    "Continuous current message", // 0x20F3:00
+    "Position in tolerance", // 0x20F4:00
+    "Speed below 1 percent", // 0x20F5:00
+    "Power", // 0x20F6:00
+    "Work", // 0x20F7:00
+    "Axis label", // 0x20F8:00
+    "Write ASCII label to EEPROM", // 0x20F9:00
+    "Read ASCII label from EEPROM", // 0x20FA:00
+    "Analog input 1 calculated", // 0x20FB:00
+    "Analog input 2 calculated", // 0x20FC:00
 ];
 
 /// The flash half of the dictionary.
@@ -1182,12 +1412,12 @@ impl Ram {
     }
 
     /// 0x1018 sub 0 Identity object / Highest sub-index supported (unitek-ds.eds:336, UNSIGNED8 ro)
-    pub fn identity_object_highest_sub_index_supported(&self) -> u8 {
+    pub fn identity_object_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 5))
     }
 
     /// Sets 0x1018 sub 0 Identity object / Highest sub-index supported.
-    pub fn set_identity_object_highest_sub_index_supported(&mut self, v: u8) {
+    pub fn set_identity_object_highest_sub_index(&mut self, v: u8) {
         od::store::<1>(&mut self.image, 5, v.to_le_bytes());
     }
 

@@ -299,8 +299,8 @@ impl Claims<'_> {
 
 /// Hooks a device implements; every method has a default, so a device
 /// module overrides only what its manual asks for. The value lives in the
-/// node, which a firmware image builds at compile time in `.bss`: a device
-/// type must be `const`-constructible and all zero bits.
+/// node, so a device type must be `const`-constructible and all zero bits
+/// ([`crate::node`]).
 pub trait Application {
     /// Where the device's manual departs from CiA 301.
     const OPTIONS: ServiceOptions = ServiceOptions::CIA301;

@@ -58,7 +58,7 @@ impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB>
 
 impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// The services before the first [`Comm::configure`]: all off, and all
-    /// zero bits, so that a node built in a `const` lies in `.bss`.
+    /// zero bits ([`crate::node`]).
     pub const fn new() -> Self {
         Comm {
             heartbeat: Producer::new(),

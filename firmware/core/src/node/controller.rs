@@ -45,7 +45,7 @@ pub enum ControllerEvent {
 }
 
 /// The controller's errors as the node keeps them. All zero bits when
-/// none is active (the node is built in a `const`).
+/// none is active ([`crate::node`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(super) struct ControllerErrors {
     /// Received frames lost since power-on (wrapping).

@@ -45,7 +45,7 @@ pub struct AcceptanceList {
     ids: [AcceptedId; ACCEPTANCE_CAPACITY],
     len: usize,
     /// More identifiers than fit: the list is not complete. Not `complete`,
-    /// so that a new list is all zero bits (a node built in a `const` lies in `.bss`).
+    /// so that a new list is all zero bits ([`crate::node`]).
     overflowed: bool,
     generation: u32,
 }

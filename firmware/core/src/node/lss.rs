@@ -20,8 +20,7 @@ pub trait BitRateControl {
 
 /// The LSS bit-rate switch: silent until `at`, then switch (first phase) or
 /// resume (second phase). CiA 305 §5.2.3. Not an `Option` in the node: its
-/// `None` would not be all zero bits, and a node built in a `const` must
-/// be, to lie in `.bss`.
+/// `None` would not be all zero bits ([`crate::node`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Switch {
     index: u8,

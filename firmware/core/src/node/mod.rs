@@ -14,6 +14,35 @@
 //! (SDO access to the dictionary), `lss`, `filter` (acceptance list),
 //! `controller` (CAN controller events → EMCY) and `comm` (the
 //! communication services and their configuration).
+//!
+//! # All zero bits, so the node lies in `.bss`
+//!
+//! A firmware image builds its node at compile time, in a `static`
+//! ([`Node::unpowered`] is a `const fn`), and powers it on where it lies,
+//! so no node-sized value is ever built on the stack and copied (as it is
+//! when [`Node::new`] returns one). The static lies in `.bss`, cleared at
+//! start-up and free in flash, only if every byte of the unpowered node is
+//! zero: one field that is not moves the whole node, kilobytes, to `.data`,
+//! where it takes its size in flash too. So every state the node holds
+//! (the services', the profiles', a device's [`Application`], the storage
+//! a board gives it, a zeroed `Ram`) has a `const` value before power-on
+//! that is all zero bits. The rule shapes the data:
+//!
+//! - no `Option` whose `None` is not zero: a value with a `bool` beside it
+//!   (the LSS slave, the LSS switch, a heartbeat consumer's last state,
+//!   CiA 406's scaling), or `Option<NonZero…>` (the SDO server's timeout);
+//! - flags that are usually `true` negated (a TPDO's `no_change_detection`,
+//!   the acceptance list's `overflowed`);
+//! - 0 for "not configured": COB-ID 0 (NMT's, never a PDO's or SYNC's)
+//!   until the first configuration, sequence number 0 for a free slot of the
+//!   transmit queue, the zero variant first in an enum (a PDO mapping's
+//!   `Dummy` source);
+//! - a `const` start value per type (`UNCONFIGURED`, `NEW`, `EMPTY`, `ZERO`)
+//!   apart from `Default`, which is what a dictionary without the object
+//!   gives.
+//!
+//! `cargo xtask build` holds every image to it: the node's static must be
+//! in `.bss`, and `.data` at most 256 bytes.
 
 mod app;
 mod comm;
@@ -107,7 +136,7 @@ pub struct Node<
     reported_overflows: u32,
     /// The LSS slave, in use when `lss_active` (the dictionary says
     /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
-    /// not be all zero bits, which [`Node::unpowered`] must be.
+    /// not be all zero bits (see the module docs).
     lss: LssSlave,
     lss_active: bool,
     /// A serial number the board reports, written to 0x1018 sub 4 at every reset.
@@ -144,11 +173,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// whole image).
     ///
     /// A `const fn`, and what it builds besides `od`, `app` and `storage`
-    /// is all zero bits: a firmware image builds the node in its `static`
-    /// at compile time, where it lies in `.bss` (with a zeroed `Ram` and a
-    /// storage that is zero bits too), and powers it on there, so that no
-    /// node-sized value is ever built on the stack and copied, as it is
-    /// when [`Node::new`] returns one.
+    /// is all zero bits, so a firmware image's node lies in `.bss` (see the
+    /// module docs).
     pub const fn unpowered(od: O, app: A, storage: S) -> Self {
         Node {
             od,

@@ -61,8 +61,7 @@ struct Monitor {
     /// Deadline once armed by the first heartbeat.
     deadline: Option<Instant>,
     /// The last state reported, valid once `heard`. Not an `Option`: its
-    /// `None` would not be all-zero bits, and a node built in a `const`
-    /// must be, to lie in `.bss` (see `Node::unpowered`).
+    /// `None` would not be all zero bits ([`crate::node`]).
     state: NmtState,
     heard: bool,
     /// It missed its heartbeat and has not been heard of since.

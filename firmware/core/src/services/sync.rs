@@ -107,8 +107,8 @@ const fn clamp_overflow(value: u8) -> u8 {
 
 impl SyncService {
     /// Before the first [`SyncService::configure`]: COB-ID 0, NMT's, which
-    /// never reaches a SYNC consumer, and all zero bits, so that a node built
-    /// in a `const` lies in `.bss` ([`SyncService::default`] is a consumer on 0x80).
+    /// never reaches a SYNC consumer, and all zero bits ([`crate::node`];
+    /// [`SyncService::default`] is a consumer on 0x80).
     pub const UNCONFIGURED: SyncService =
         SyncService { cob_id: 0, producer: false, period: Duration::ZERO, window: Duration::ZERO, overflow: 0, counter: 0, next: None };
 

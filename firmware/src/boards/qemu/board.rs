@@ -20,10 +20,11 @@ use lm3s6965::{Interrupt, interrupt};
 use static_cell::StaticCell;
 
 use super::ram_storage::RamStorage;
-use super::slcan::{self, BEL, Channel, Command, Decoder, FRAME_LINE};
+use super::slcan::reply;
 use super::uart;
 use crate::app::{self, CanNode, Controller, SHARED, Started};
 use crate::boards::{stack, systick};
+use crate::slcan::{self, BEL, ChannelState, Command, Decoder, FRAME_LINE};
 
 /// Nothing to configure: the emulated bus has no bit rate.
 #[derive(Clone, Copy, Debug)]
@@ -157,7 +158,6 @@ fn accepted(cs: critical_section::CriticalSection, frame: &CanFrame) -> bool {
 /// made room.
 #[embassy_executor::task]
 async fn slcan_tx() -> ! {
-    let mut line = [0u8; FRAME_LINE];
     loop {
         TX_READY.wait().await;
         // The node has run since the handler paused: there may be room again.
@@ -165,7 +165,9 @@ async fn slcan_tx() -> ! {
         let mut sent = false;
         while OPEN.load(Ordering::Relaxed) {
             let Ok(frame) = TX.try_receive() else { break };
-            let n = slcan::encode(&frame, &mut line);
+            // On the stack, not in the task's state: no await while it lives.
+            let mut line = [0u8; FRAME_LINE];
+            let n = slcan::encode(&frame, None, &mut line);
             // One whole line: the handler's answers must not land inside it.
             critical_section::with(|_| uart::write_all(line.get(..n).unwrap_or(&[])));
             sent = true;
@@ -179,10 +181,10 @@ async fn slcan_tx() -> ! {
 /// The SLCAN adapter state the UART0 handler keeps.
 struct Adapter {
     decoder: Decoder,
-    channel: Channel,
+    channel: ChannelState,
 }
 
-static ADAPTER: Mutex<RefCell<Adapter>> = Mutex::new(RefCell::new(Adapter { decoder: Decoder::new(), channel: Channel::Closed }));
+static ADAPTER: Mutex<RefCell<Adapter>> = Mutex::new(RefCell::new(Adapter { decoder: Decoder::new(), channel: ChannelState::Closed }));
 /// Whether the channel is open (or listen-only), for [`slcan_tx`].
 static OPEN: AtomicBool = AtomicBool::new(false);
 
@@ -193,10 +195,10 @@ impl Adapter {
             uart::write_all(&[BEL]);
             return;
         };
-        let (next, answer) = slcan::reply(self.channel, &command);
+        let (next, answer) = reply(self.channel, &command);
         if next != self.channel {
             self.channel = next;
-            OPEN.store(next != Channel::Closed, Ordering::Relaxed);
+            OPEN.store(next != ChannelState::Closed, Ordering::Relaxed);
             // Open now: the CANopen task fills `TX` from the node's queue.
             SHARED.wake();
         }

@@ -1,7 +1,7 @@
 //! The QEMU board: lm3s6965evb (Cortex-M3) under `qemu-system-arm`.
 //!
 //! QEMU emulates no CAN controller, so the board plays a serial CAN adapter
-//! (SLCAN, [`slcan`]) on UART0 whose only other bus member is the node; the
+//! (SLCAN, [`crate::slcan`], answering as [`slcan`] says) on UART0 whose only other bus member is the node; the
 //! host connects with python-can's `slcan` interface through the TCP socket
 //! QEMU makes of the UART. Frames from the host pass a software acceptance
 //! filter, the node's identifier list, as bxCAN's banks do on the STM32

@@ -16,8 +16,8 @@ pub type StorageHandle = ();
 /// Two regions of `REGION` bytes.
 ///
 /// The bytes are kept inverted, so that an erased region (0xFF) is zero
-/// bits: the image's node, which holds its storage, is built in a `const`
-/// and lies in `.bss` rather than taking twice `REGION` bytes of flash.
+/// bits: the image's node holds its storage and must be
+/// ([`canopen_core::node`]).
 #[derive(Clone, Debug)]
 pub struct RamStorage<const REGION: usize> {
     /// Each byte's complement.

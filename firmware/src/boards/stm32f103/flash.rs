@@ -21,8 +21,8 @@ fn stalling<R>(op: impl FnOnce() -> R) -> R {
 /// The flash controller of an STM32F103C8 (64 KiB, 1 KiB pages), holding
 /// parameter sets of `REGION` bytes.
 ///
-/// Built in a `const` without the peripheral (the image's node, which holds
-/// its storage, lies in `.bss`) and given it at start-up ([`Flash::attach`]);
+/// Built in a `const` without the peripheral (the image's node holds its
+/// storage: [`canopen_core::node`]) and given it at start-up ([`Flash::attach`]);
 /// until then every access fails.
 pub struct Flash<const REGION: usize> {
     parts: Option<Parts>,

@@ -90,7 +90,7 @@ impl Monitor {
         extremes: None,
         quick_stops: 0,
         rotations: 0,
-        // All zero bits, so that the node stays in .bss: 0x4231 is read at reset application.
+        // Zero, as the whole node (canopen_core::node): 0x4231 is read at reset application.
         threshold: 0,
         hysteresis: 0,
         shown: [0; 11],

@@ -52,7 +52,7 @@ const fn comm_error_code(error: Option<CommError>) -> u16 {
 }
 
 /// The CiA 402 profile with the drive it controls. `const`-constructible
-/// and all zero bits (with a zero-bits drive), so it lives in `.bss`.
+/// and all zero bits with a zero-bits drive ([`crate::node`]).
 #[derive(Clone, Debug)]
 pub struct Cia402<D> {
     /// The drive (the axis model, or a board's motor control).

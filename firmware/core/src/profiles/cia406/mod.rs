@@ -114,8 +114,8 @@ pub struct Config {
     pub operating_time_saved_every: u32,
 }
 
-/// The profile's state: `const` and all zero bits ([`Encoder::NEW`]), so
-/// a node holding it stays in `.bss`. The dictionary holds every value a
+/// The profile's state: `const` and all zero bits ([`Encoder::NEW`],
+/// [`crate::node`]). The dictionary holds every value a
 /// master sees; this holds only what lies between two samples.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Encoder<P> {

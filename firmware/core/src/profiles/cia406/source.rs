@@ -39,8 +39,7 @@ pub trait PositionSource {
 /// A shaft that turns on its own: `STEPS_PER_S` (negative: counter-clockwise),
 /// `JITTER` steps of noise either way (about a mean `JITTER` steps on), a physical counter of `WRAP_TURNS`
 /// revolutions of `RESOLUTION` steps (0: 2^64 steps). The count is a pure
-/// function of time, so the state is all zero bits and a node holding it
-/// stays in `.bss`.
+/// function of time, so the state is all zero bits ([`crate::node`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SimulatedShaft<const STEPS_PER_S: i32, const JITTER: u16, const RESOLUTION: u32, const WRAP_TURNS: u32>;
 

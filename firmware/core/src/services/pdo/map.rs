@@ -38,7 +38,7 @@ pub enum Direction {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Source {
     /// A dummy entry (RPDO only): the bytes are skipped. First, so that
-    /// [`Mapping::EMPTY`] is all zero bits (a node built in a `const` lies in `.bss`).
+    /// [`Mapping::EMPTY`] is all zero bits ([`crate::node`]).
     #[default]
     Dummy,
     /// At this offset of the RAM image.

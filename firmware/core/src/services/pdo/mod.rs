@@ -284,8 +284,8 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
 
 impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The PDOs before their first [`Pdos::configure`]: stopped, with empty
-    /// mappings, and all zero bits, so that a node built in a `const` lies in
-    /// `.bss` ([`Pdos::default`] is invalid PDOs as a dictionary without
+    /// mappings, and all zero bits ([`crate::node`]; [`Pdos::default`] is
+    /// invalid PDOs as a dictionary without
     /// PDO records gives). The `rx_ids` of 0 are NMT's COB-ID, which never
     /// reaches the PDOs, and they do not listen before `configure` anyway.
     pub const fn unconfigured() -> Self {

@@ -42,8 +42,8 @@ impl Default for Rpdo {
 }
 
 impl Rpdo {
-    /// Before the first [`super::Pdos::configure`]: all zero bits (a node
-    /// built in a `const` lies in `.bss`), an empty mapping, so it listens to nothing.
+    /// Before the first [`super::Pdos::configure`]: all zero bits
+    /// ([`crate::node`]), an empty mapping, so it listens to nothing.
     pub(super) const UNCONFIGURED: Rpdo = Rpdo {
         params: CommParams::UNCONFIGURED,
         mapping: Some(Mapping::EMPTY),

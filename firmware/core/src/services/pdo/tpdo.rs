@@ -72,8 +72,8 @@ impl Default for Tpdo {
 }
 
 impl Tpdo {
-    /// Before the first [`super::Pdos::configure`]: all zero bits (a node
-    /// built in a `const` lies in `.bss`), an empty mapping, so it sends nothing.
+    /// Before the first [`super::Pdos::configure`]: all zero bits
+    /// ([`crate::node`]), an empty mapping, so it sends nothing.
     pub(super) const UNCONFIGURED: Tpdo = Tpdo {
         params: CommParams::UNCONFIGURED,
         mapping: Some(Mapping::EMPTY),

@@ -104,8 +104,7 @@ struct Channel {
     /// abort names it without the caller passing it.
     mux: Mux,
     /// In microseconds; `None`: [`DEFAULT_TIMEOUT`]. So that a new server
-    /// is all zero bits (a node built in a `const` lies in `.bss`) in the
-    /// size of a `Duration`.
+    /// is all zero bits ([`crate::node`]) in the size of a `Duration`.
     timeout_us: Option<NonZeroU64>,
     /// When the transfer in progress times out (meaningless when idle).
     deadline: Instant,

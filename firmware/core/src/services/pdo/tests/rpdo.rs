@@ -1,0 +1,153 @@
+//! RPDOs (event-driven and synchronous, lengths, timeout, dummy entries)
+//! and the synchronous window (0x1007).
+
+use super::*;
+
+// ---- RPDOs ----------------------------------------------------------------------------
+
+#[test]
+fn event_driven_rpdo_writes_at_once() {
+    let mut node = Node::operational(ms(0));
+    assert!(node.rx(ms(1), 0x201, &[0x34, 0x12, 0x56]));
+    assert_eq!((node.get(0x2001, 0), node.get(0x2000, 0)), (vec![0x34, 0x12], vec![0x56]));
+    assert_eq!(node.events(), [PdoEvent::Received(0)]);
+    assert!(!node.rx(ms(1), 0x301, &[1]), "RPDO2 maps nothing: disabled");
+    assert!(!node.rx(ms(1), 0x202, &[1, 2, 3]));
+    assert_eq!(node.events(), []);
+}
+
+#[test]
+fn rpdo_length_errors() {
+    let mut node = Node::operational(ms(0));
+    // Shorter than mapped: not processed, EMCY 0x8210 once.
+    assert!(node.rx(ms(1), 0x201, &[1, 2]));
+    assert!(node.rx(ms(2), 0x201, &[]));
+    assert_eq!(node.get(0x2001, 0), [0, 0]);
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: code::PDO_LENGTH }]);
+    // The right length ends it.
+    assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
+    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: 0x8210 }, PdoEvent::Received(0)]);
+    // Longer: the mapped bytes are processed, EMCY 0x8220.
+    assert!(node.rx(ms(4), 0x201, &[4, 5, 6, 7, 8, 9, 10, 11]));
+    assert_eq!(node.get(0x2001, 0), [4, 5]);
+    assert_eq!(node.get(0x2000, 0), [6]);
+    assert!(node.rx(ms(5), 0x201, &[4, 5, 6, 7]));
+    assert!(node.rx(ms(6), 0x201, &[7]));
+    assert!(node.rx(ms(7), 0x201, &[1, 2, 3]));
+    assert_eq!(
+        node.events(),
+        [
+            PdoEvent::Error { rpdo: 0, code: code::PDO_LENGTH_EXCEEDED },
+            PdoEvent::Received(0),
+            PdoEvent::Received(0),
+            PdoEvent::ErrorCleared { rpdo: 0, code: 0x8220 },
+            PdoEvent::Error { rpdo: 0, code: 0x8210 },
+            PdoEvent::ErrorCleared { rpdo: 0, code: 0x8210 },
+            PdoEvent::Received(0),
+        ]
+    );
+}
+
+#[test]
+fn synchronous_rpdo_is_written_on_the_next_sync() {
+    let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo(0x1400, 2, &[1]), Ok(()), "the type may change while valid");
+    assert!(node.rx(ms(1), 0x201, &[1, 0, 2]));
+    assert!(node.rx(ms(2), 0x201, &[3, 0, 4]));
+    assert!(node.pdos.rpdo(0).unwrap().has_buffered());
+    assert_eq!((node.get(0x2000, 0), node.events()), (vec![0], vec![]));
+    node.sync(sync_at(ms(10), None));
+    assert_eq!((node.get(0x2001, 0), node.get(0x2000, 0)), (vec![3, 0], vec![4]), "the last one");
+    assert_eq!(node.events(), [PdoEvent::Received(0)]);
+    node.sync(sync_at(ms(20), None));
+    assert_eq!(node.events(), []);
+}
+
+#[test]
+fn configure_forgets_raised_errors_but_keeps_change_detection() {
+    let mut node = Node::operational(ms(0));
+    node.pdos.set_change_detection(0, false);
+    assert!(node.rx(ms(1), 0x201, &[1]));
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: 0x8210 }]);
+    assert_eq!(node.pdos.configure(&DICT, &node.image), Ok(()));
+    node.pdos.enter_operational(ms(2));
+    assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
+    assert_eq!(node.events(), [PdoEvent::Received(0)], "no 0x8210 to clear after reset communication");
+    assert!(!node.pdos.tpdo(0).unwrap().change_detection());
+}
+
+#[test]
+fn rpdo_timeout_is_armed_by_the_first_rpdo() {
+    let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo(0x1400, 5, &50u16.to_le_bytes()), Ok(()));
+    assert_eq!(node.poll(ms(1000)), None, "not armed before the first RPDO");
+    node.frames();
+    assert!(node.rx(ms(1000), 0x201, &[0, 0, 0]));
+    node.events();
+    assert_eq!(node.pdos.deadline(), Some(ms(1050)));
+    assert!(node.rx(ms(1020), 0x201, &[0, 0, 0]));
+    assert_eq!(node.poll(ms(1069)), Some(ms(1070)));
+    node.events();
+    assert_eq!(node.poll(ms(1070)), None);
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: code::RPDO_TIMEOUT }]);
+    assert_eq!(node.poll(ms(2000)), None);
+    assert_eq!(node.events(), [], "raised once");
+    assert!(node.rx(ms(2100), 0x201, &[0, 0, 0]));
+    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: 0x8250 }, PdoEvent::Received(0)]);
+    assert_eq!(node.pdos.deadline(), Some(ms(2150)));
+    // A too-short RPDO does not count as received.
+    assert!(node.rx(ms(2140), 0x201, &[0]));
+    assert_eq!(node.pdos.deadline(), Some(ms(2150)));
+}
+
+#[test]
+fn dummy_entries_skip_bytes_of_an_rpdo() {
+    // CiA 310 case 3.33.
+    let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo32(0x1400, 1, 0x8000_0201), Ok(()));
+    assert_eq!(node.sdo(0x1600, 0, &[0]), Ok(()));
+    for (sub, entry) in [(1, 0x2000_0008u32), (2, 0x0006_0010), (3, 0x0001_0008), (4, 0x2001_0010)] {
+        assert_eq!(node.sdo32(0x1600, sub, entry), Ok(()));
+    }
+    assert_eq!(node.sdo(0x1600, 0, &[4]), Ok(()));
+    assert_eq!(node.sdo32(0x1400, 1, 0x201), Ok(()));
+    assert!(node.rx(ms(1), 0x201, &[0xAA, 0xFF, 0xFF, 0xFF, 0x34, 0x12]));
+    assert_eq!((node.get(0x2000, 0), node.get(0x2001, 0)), (vec![0xAA], vec![0x34, 0x12]));
+}
+
+// ---- The synchronous window (0x1007) ---------------------------------------------------
+
+#[test]
+fn synchronous_rpdos_after_the_window_are_discarded() {
+    let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo(0x1400, 2, &[0]), Ok(()));
+    let window = |at| SyncEvent { at, counter: None, window_end: Some(at + Duration::from_millis(2)) };
+    node.sync(window(ms(10)));
+    assert!(node.rx(ms(12), 0x201, &[1, 0, 1]), "inside the window");
+    node.sync(window(ms(20)));
+    assert_eq!(node.get(0x2000, 0), [1]);
+    assert!(node.rx(us(22_001), 0x201, &[2, 0, 2]), "after it");
+    node.sync(window(ms(30)));
+    assert_eq!(node.get(0x2000, 0), [1]);
+    assert_eq!(node.events(), [PdoEvent::Received(0)]);
+}
+
+#[test]
+fn a_refused_synchronous_tpdo_is_retried_only_inside_the_window() {
+    let mut node = Node::operational(ms(0));
+    node.remap_tpdo(1, &[0x2000_0008], 0x281, 1);
+    node.poll(ms(0));
+    node.frames();
+    let window = |at| SyncEvent { at, counter: None, window_end: Some(at + Duration::from_millis(2)) };
+    node.bus.refuse = true;
+    node.sync(window(ms(10)));
+    node.bus.refuse = false;
+    assert_eq!(node.poll(ms(11)), None);
+    tx!(node, [(0x281, [0])]);
+    node.bus.refuse = true;
+    node.sync(window(ms(20)));
+    node.bus.refuse = false;
+    node.poll(us(22_001));
+    node.poll(ms(25));
+    tx!(node, []);
+}

@@ -1,0 +1,84 @@
+//! Where each entry lies: its offset in the RAM image or in the flash
+//! constants, its row of the limits table, and which entries are
+//! `$NODEID`-relative. [`crate::runtime`] builds the same tables from it.
+
+use canopen_core::od::{Attr, DataType, NO_LIMITS};
+
+use crate::model::{Eds, Object, SubObject};
+
+/// Why a dictionary cannot be laid out.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LayoutError(pub String);
+
+/// One table entry, placed.
+pub(crate) struct Placed<'a> {
+    pub(crate) obj: &'a Object,
+    pub(crate) sub: &'a SubObject,
+    pub(crate) data_type: DataType,
+    pub(crate) attr: Attr,
+    pub(crate) len: usize,
+    pub(crate) offset: usize,
+    pub(crate) limits: u16,
+}
+
+/// The placed dictionary: what the generated module and [`crate::runtime`] hold.
+pub(crate) struct Layout<'a> {
+    pub(crate) entries: Vec<Placed<'a>>,
+    pub(crate) limits: Vec<(u64, u64)>,
+    pub(crate) rom: Vec<u8>,
+    pub(crate) ram: Vec<u8>,
+    pub(crate) comm_len: usize,
+    pub(crate) node_id_relative: Vec<usize>,
+}
+
+pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
+    let mut l =
+        Layout { entries: Vec::new(), limits: Vec::new(), rom: Vec::new(), ram: Vec::new(), comm_len: 0, node_id_relative: Vec::new() };
+    for o in eds.objects.values().filter(|o| !o.opaque) {
+        for s in o.subs.values() {
+            let Some(t) = s.data_type else { continue };
+            let mut attr = s.access.attr(s.pdo_mapping);
+            if s.node_id {
+                // A `$NODEID` value changes with the node-id, so even a `const` one lives in RAM.
+                attr = Attr(attr.union(Attr::NODE_ID).0 & !Attr::IN_ROM.0);
+            }
+            let len = s.size();
+            let mut value = s.value.clone();
+            value.resize(len, 0);
+            let offset = if t == DataType::Domain {
+                0
+            } else if attr.contains(Attr::IN_ROM) {
+                l.rom.extend_from_slice(&value);
+                l.rom.len() - len
+            } else {
+                l.ram.extend_from_slice(&value);
+                l.ram.len() - len
+            };
+            let limits = match s.limits {
+                Some((lo, hi)) => {
+                    let pair = (lo.to_limit(), hi.to_limit());
+                    let pos = l.limits.iter().position(|p| *p == pair).unwrap_or_else(|| {
+                        l.limits.push(pair);
+                        l.limits.len() - 1
+                    });
+                    u16::try_from(pos).map_err(|_| LayoutError("more than 65535 distinct limits".into()))?
+                }
+                None => NO_LIMITS,
+            };
+            if s.node_id && !attr.contains(Attr::IN_ROM) {
+                l.node_id_relative.push(l.entries.len());
+            }
+            l.entries.push(Placed { obj: o, sub: s, data_type: t, attr, len, offset, limits });
+        }
+        if o.index < 0x2000 {
+            l.comm_len = l.ram.len();
+        }
+    }
+    if l.ram.len() > usize::from(u16::MAX) || l.rom.len() > usize::from(u16::MAX) {
+        return Err(LayoutError(format!("RAM image {} B / ROM {} B exceed 65535 B", l.ram.len(), l.rom.len())));
+    }
+    if l.entries.len() > usize::from(u16::MAX) {
+        return Err(LayoutError("more than 65535 entries".into()));
+    }
+    Ok(l)
+}

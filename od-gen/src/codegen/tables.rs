@@ -1,0 +1,116 @@
+//! The flash tables of the generated module: entries, limits, constants,
+//! defaults, `$NODEID`-relative entries and names. Every row says which
+//! object it belongs to (`// 0x1018:01 Identity object / Vendor-ID`), so a
+//! reviewer checks a default or a limit without counting offsets. The
+//! tables are laid out here, row by row, and marked `#[rustfmt::skip]`:
+//! rustfmt would refill the byte rows around the comments.
+
+use std::fmt::Write;
+
+use canopen_core::od::{Attr, DataType, NO_LIMITS};
+
+use super::emit::{attr_name, doc_escape};
+use super::layout::{Layout, Placed};
+
+/// Bytes per line of a long value.
+const BYTES_PER_LINE: usize = 16;
+
+/// The object of an entry, as a row's comment: `0x1018:01 Identity object /
+/// Vendor-ID`, or `0x1000:00 Device type` for a VAR.
+fn label(e: &Placed<'_>) -> String {
+    let name = if e.obj.kind.has_subs() { format!("{} / {}", e.obj.name, e.sub.name) } else { e.obj.name.clone() };
+    format!("0x{:04X}:{:02X} {}", e.obj.index, e.sub.sub, name.replace(['\t', '\r', '\n'], " "))
+}
+
+/// `decl = [rows];`, one row per line with its comment; `[]` without rows.
+fn table(w: &mut String, doc: Option<&str>, decl: &str, rows: &[(String, String)]) {
+    if let Some(doc) = doc {
+        let _ = writeln!(w, "/// {doc}");
+    }
+    if rows.is_empty() {
+        let _ = writeln!(w, "{decl} = [];");
+        let _ = writeln!(w);
+        return;
+    }
+    let _ = writeln!(w, "#[rustfmt::skip]");
+    let _ = writeln!(w, "{decl} = [");
+    for (items, comment) in rows {
+        let _ = writeln!(w, "    {items} // {comment}");
+    }
+    let _ = writeln!(w, "];");
+    let _ = writeln!(w);
+}
+
+/// The bytes of one value as table items, a line break every
+/// [`BYTES_PER_LINE`] (the row's comment follows the last line).
+fn byte_items(bytes: &[u8]) -> String {
+    let lines: Vec<String> =
+        bytes.chunks(BYTES_PER_LINE).map(|c| c.iter().map(|b| format!("0x{b:02X},")).collect::<Vec<_>>().join(" ")).collect();
+    lines.join("\n    ")
+}
+
+/// One row per entry that has bytes in `image` (the constants or the
+/// defaults), each `len` bytes at its offset, in order.
+fn value_rows<'a>(entries: impl Iterator<Item = &'a Placed<'a>>, image: &[u8]) -> Vec<(String, String)> {
+    entries.filter(|e| e.len > 0).map(|e| (byte_items(image.get(e.offset..e.offset + e.len).unwrap_or_default()), label(e))).collect()
+}
+
+/// Writes the tables of `l`.
+pub(super) fn tables(w: &mut String, l: &Layout<'_>) {
+    let entries: Vec<(String, String)> = l
+        .entries
+        .iter()
+        .map(|e| {
+            let limits = if e.limits == NO_LIMITS { "NO_LIMITS".to_owned() } else { e.limits.to_string() };
+            let item = format!(
+                "Entry::new(0x{:04X}, 0x{:02X}, DataType::{:?}, {}, {}, {}, {limits}),",
+                e.obj.index,
+                e.sub.sub,
+                e.data_type,
+                attr_name(e.attr),
+                e.len,
+                e.offset
+            );
+            (item, label(e))
+        })
+        .collect();
+    table(w, Some("Entry metadata, sorted by (index, sub-index)."), "static ENTRIES: [Entry; ENTRY_COUNT]", &entries);
+
+    let limits: Vec<(String, String)> = l
+        .limits
+        .iter()
+        .enumerate()
+        .map(|(i, (lo, hi))| {
+            let users: Vec<&Placed> = l.entries.iter().filter(|e| usize::from(e.limits) == i).collect();
+            let comment = match users.as_slice() {
+                [] => "no entry".to_owned(),
+                [one] => label(one),
+                [first, more @ ..] => format!("{} and {} more", label(first), more.len()),
+            };
+            (format!("Limits {{ low: 0x{lo:X}, high: 0x{hi:X} }},"), comment)
+        })
+        .collect();
+    table(w, None, &format!("static LIMITS: [Limits; {}]", l.limits.len()), &limits);
+
+    // A DOMAIN has no bytes in either image.
+    let in_rom = |e: &&Placed<'_>| e.attr.contains(Attr::IN_ROM) && e.data_type != DataType::Domain;
+    let in_ram = |e: &&Placed<'_>| !e.attr.contains(Attr::IN_ROM) && e.data_type != DataType::Domain;
+    table(w, None, "static ROM: [u8; ROM_SIZE]", &value_rows(l.entries.iter().filter(in_rom), &l.rom));
+    table(w, None, "static DEFAULTS: [u8; RAM_SIZE]", &value_rows(l.entries.iter().filter(in_ram), &l.ram));
+
+    let relative: Vec<(String, String)> =
+        l.node_id_relative.iter().map(|&i| (format!("{i},"), l.entries.get(i).map(label).unwrap_or_default())).collect();
+    table(w, None, &format!("static NODE_ID_RELATIVE: [u16; {}]", relative.len()), &relative);
+
+    let names: Vec<(String, String)> = l
+        .entries
+        .iter()
+        .map(|e| (format!("\"{}\",", doc_escape(&e.sub.name).replace('\t', "\\t")), format!("0x{:04X}:{:02X}", e.obj.index, e.sub.sub)))
+        .collect();
+    table(
+        w,
+        Some("Entry names (`ParameterName`), parallel to the entry table. Left out of an image that never reads them."),
+        "pub static NAMES: [&str; ENTRY_COUNT]",
+        &names,
+    );
+}
