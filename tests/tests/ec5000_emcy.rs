@@ -32,7 +32,7 @@ fn enabled() -> Ec5000 {
 }
 
 fn ambient(b: &mut Ec5000, celsius: i16) {
-    b.node.app_mut().drive.drive.set_ambient(celsius);
+    b.node.app_mut().drive.drive.axis.set_ambient(celsius);
 }
 
 /// The frames of the next `span` ms, with their time in ms after `from`.

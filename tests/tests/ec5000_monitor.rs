@@ -79,11 +79,11 @@ fn quick_stops_are_counted() {
 fn temperatures_actual_lowest_and_highest() {
     let mut b = enabled();
     assert_eq!([i16_of(&mut b, 4), i16_of(&mut b, 5), i16_of(&mut b, 6)], [25, 25, 25]);
-    b.node.app_mut().drive.drive.set_ambient(40);
+    b.node.app_mut().drive.drive.axis.set_ambient(40);
     b.run_until(ms(900));
-    b.node.app_mut().drive.drive.set_ambient(-5);
+    b.node.app_mut().drive.drive.axis.set_ambient(-5);
     b.run_until(ms(1100));
-    b.node.app_mut().drive.drive.set_ambient(30);
+    b.node.app_mut().drive.drive.axis.set_ambient(30);
     b.run_until(ms(1300));
     assert_eq!([i16_of(&mut b, 4), i16_of(&mut b, 5), i16_of(&mut b, 6)], [-5, 40, 30]);
 }
@@ -95,21 +95,21 @@ fn health_traffic_lights() {
     assert_eq!(lights(&mut b), [0, 0, 0], "all green");
     assert_eq!(b.sdo_upload(ID, 0x2210, 0), Ok(vec![0]), "lifetime green");
     // The temperature warning: temperature yellow; one error in 0x1003: yellow.
-    b.node.app_mut().drive.drive.set_ambient(95);
+    b.node.app_mut().drive.drive.axis.set_ambient(95);
     b.run_until(ms(900));
     assert_eq!(lights(&mut b), [1, 0, 1]);
     // The over-temperature fault: red.
-    b.node.app_mut().drive.drive.inject(Injected::OverTemperature);
+    b.node.app_mut().drive.drive.axis.inject(Injected::OverTemperature);
     b.run_until(ms(1100));
     assert_eq!(lights(&mut b)[0], 2);
     // The DC link collapses: power red.
-    b.node.app_mut().drive.drive.inject(Injected::UnderVoltage);
+    b.node.app_mut().drive.drive.axis.inject(Injected::UnderVoltage);
     b.run_until(ms(1300));
     assert_eq!(lights(&mut b)[1], 2);
     // Cooled and powered again: temperature and power green; 0x1003 cleared: green.
-    b.node.app_mut().drive.drive.remove(Injected::OverTemperature);
-    b.node.app_mut().drive.drive.remove(Injected::UnderVoltage);
-    b.node.app_mut().drive.drive.set_ambient(25);
+    b.node.app_mut().drive.drive.axis.remove(Injected::OverTemperature);
+    b.node.app_mut().drive.drive.axis.remove(Injected::UnderVoltage);
+    b.node.app_mut().drive.drive.axis.set_ambient(25);
     b.run_until(ms(1500));
     assert_eq!(lights(&mut b)[..2], [2, 0], "temperature red until the fault is reset");
     b.rx(ms(1500), RPDO1, &[0x00, 0, 3, 0, 0, 0, 0]);
@@ -124,9 +124,9 @@ fn a_full_error_history_is_red() {
     let mut b = enabled();
     // Eight warnings raised and cleared: 0x1003 full.
     for i in 0..8u64 {
-        b.node.app_mut().drive.drive.set_ambient(95);
+        b.node.app_mut().drive.drive.axis.set_ambient(95);
         b.run_until(ms(800 + 200 * i));
-        b.node.app_mut().drive.drive.set_ambient(25);
+        b.node.app_mut().drive.drive.axis.set_ambient(25);
         b.run_until(ms(900 + 200 * i));
     }
     assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![8]));

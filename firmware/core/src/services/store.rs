@@ -334,9 +334,12 @@ fn write_set(
         }
         let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
         match old {
-            Some(set) if !from_image => storage.read(set.region, HEADER + pos, chunk)?,
+            // A saved scope that the newest set marks as defaults (0x1011) keeps its defaults, not the values before.
+            Some(set) if !from_image && (save & bit == 0 || set.header.defaults & bit == 0) => {
+                storage.read(set.region, HEADER + pos, chunk)?
+            }
             // No set yet: what is not saved from the image is the default (stored relative, as defaults are).
-            None if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
+            _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
             _ => {
                 chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
                 // `$NODEID` values are kept relative to the node-id.

@@ -195,6 +195,10 @@ impl<D: Drive> Cia402<D> {
                 self.fault(ctx, code);
                 self.publish(ctx);
             }
+            if !self.drive.at_rest() {
+                self.start_ticking(ctx);
+                return Some(Instant::from_micros(self.s.next_tick));
+            }
             return (self.s.state != PdsState::NotReadyToSwitchOn).then(|| Instant::from_micros(now.saturating_add(IDLE_POLL_US)));
         }
         if now < self.s.next_tick {
@@ -215,7 +219,7 @@ impl<D: Drive> Cia402<D> {
         self.s.next_tick = self.s.next_tick.saturating_add(due * TICK_US).max(now.saturating_add(1));
         self.actuals(ctx);
         self.publish(ctx);
-        if !self.s.state.drive_function() && self.drive.velocity() == 0 {
+        if !self.s.state.drive_function() && self.drive.at_rest() {
             self.s.ticking = false;
             return Some(Instant::from_micros(now.saturating_add(IDLE_POLL_US)));
         }
