@@ -1,7 +1,7 @@
 //! The EC5000 roller on the bench: node 5 with the axis model, driven by
 //! its fixed PDOs in virtual time.
 
-use super::{Bench, ms};
+use super::{Bench, F, ms};
 use firmware::devices::ec5000::{self, Roller};
 use hal_host::storage::MemStorage;
 
@@ -56,12 +56,13 @@ pub fn emcy(b: &mut Ec5000, from: u64, span: u64) -> Vec<(u64, Vec<u8>)> {
     frames(b, from, span).into_iter().filter(|(_, id, _)| *id == EMCY).map(|(t, _, d)| (t, d)).collect()
 }
 
-/// RPDO3 at `t` ms: controlword and target velocity [mm/s].
-pub fn pv(b: &mut Ec5000, t: u64, controlword: u16, velocity: i32) {
+/// RPDO3 at `t` ms: controlword and target velocity [mm/s]; the frames the
+/// node sends in answer (what it sent before `t` is dropped).
+pub fn pv(b: &mut Ec5000, t: u64, controlword: u16, velocity: i32) -> Vec<F> {
     let [c0, c1] = controlword.to_le_bytes();
     let [v0, v1, v2, v3] = velocity.to_le_bytes();
     b.run_until(ms(t));
-    b.rx(ms(t), RPDO3, &[c0, c1, v0, v1, v2, v3]);
+    b.rx(ms(t), RPDO3, &[c0, c1, v0, v1, v2, v3])
 }
 
 /// An integer value read by SDO (at most 4 bytes, sign-extended).

@@ -60,6 +60,10 @@ impl Drive for Roller {
         (self.fault, self.demand, self.standing_ms, self.lagging_ms) = (0, 0, 0, 0);
     }
     fn enable(&mut self, on: bool) {
+        // Switched off, the roller has no demand to follow.
+        if !on {
+            (self.demand, self.standing_ms, self.lagging_ms) = (0, 0, 0);
+        }
         self.axis.enable(on);
     }
     fn command(&mut self, set_point: SetPoint) {
@@ -71,11 +75,13 @@ impl Drive for Roller {
     }
     fn tick(&mut self) {
         self.axis.tick();
-        let (demand, actual) = (self.demand.unsigned_abs(), self.axis.velocity().unsigned_abs());
+        let (demand, actual) = (self.demand, self.axis.velocity());
+        // The speed in the demanded direction: a roller pushed back lags too.
+        let along = if demand < 0 { -i64::from(actual) } else { i64::from(actual) };
         let count = |ms: u16, on: bool| if on { ms.saturating_add(1) } else { 0 };
-        let moving = demand >= MIN_VELOCITY && self.axis.fault() == 0;
-        self.standing_ms = count(self.standing_ms, moving && actual < MIN_VELOCITY);
-        self.lagging_ms = count(self.lagging_ms, moving && actual < demand / 2);
+        let moving = demand.unsigned_abs() >= MIN_VELOCITY && self.axis.fault() == 0;
+        self.standing_ms = count(self.standing_ms, moving && actual.unsigned_abs() < MIN_VELOCITY);
+        self.lagging_ms = count(self.lagging_ms, moving && along < i64::from(demand.unsigned_abs() / 2));
         if self.fault == 0 {
             if self.standing_ms >= BLOCKED_MS {
                 self.fault = BLOCKED;
@@ -146,5 +152,37 @@ impl Drive for Roller {
     }
     fn at_rest(&self) -> bool {
         self.axis.at_rest()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::devices::ec5000::AXIS;
+    use canopen_core::axis::Injected;
+
+    fn roller() -> Roller {
+        let mut r = Roller::NEW;
+        r.axis.configure(AXIS);
+        r.enable(true);
+        r
+    }
+
+    #[test]
+    fn the_models_generic_faults_take_the_manuals_codes() {
+        // A following error beyond the drive's 200,000 inc: 0x8600, not 0x8611.
+        let mut r = roller();
+        r.command(SetPoint::Position { position: 300_000, velocity: 0 });
+        r.tick();
+        assert_eq!(r.fault(), POSITION_REGULATOR);
+        // The power stage: 0xFF15, not 0x2320.
+        let mut r = roller();
+        r.axis.inject(Injected::PowerStage);
+        assert_eq!(r.fault(), OVER_CURRENT_OUTPUT);
+        // Codes the table shares with CiA 402 stay.
+        r.axis.remove(Injected::PowerStage);
+        assert!(r.reset_fault());
+        r.axis.inject(Injected::UnderVoltage);
+        assert_eq!((r.fault(), r.fault_info()), (fault::UNDER_VOLTAGE, [0; 5]));
     }
 }

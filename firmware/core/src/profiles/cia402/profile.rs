@@ -193,8 +193,9 @@ impl<D: Drive> Cia402<D> {
             let code = self.drive.fault();
             if code != 0 && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
-                self.publish(ctx);
             }
+            // Bit 7 follows a warning that comes or goes while the drive is off.
+            self.publish(ctx);
             if !self.drive.at_rest() {
                 self.start_ticking(ctx);
                 return Some(Instant::from_micros(self.s.next_tick));
