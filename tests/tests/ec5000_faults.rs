@@ -40,7 +40,7 @@ fn reset_frames(register: u8, position: u8) -> Vec<F> {
 }
 
 #[test]
-fn l1664_0x3210_supply_voltage_too_high() {
+fn l1670_0x3210_supply_voltage_too_high() {
     // Error register 0x05 (generic, voltage); bytes 3-4 the DC link [mV]: 36,000.
     let (raised, reset, sw) = fault_and_reset(Injected::OverVoltage);
     assert_eq!(raised, [(1, vec![0x10, 0x32, 0x05, 0xA0, 0x8C, 0, 0, 0])]);
@@ -48,7 +48,7 @@ fn l1664_0x3210_supply_voltage_too_high() {
 }
 
 #[test]
-fn l1665_0x3220_supply_voltage_too_low() {
+fn l1672_0x3220_supply_voltage_too_low() {
     // The DC link collapsed: 0 mV; statusword bit 4 (voltage enabled) goes off.
     let (raised, reset, sw) = fault_and_reset(Injected::UnderVoltage);
     assert_eq!(raised, [(1, vec![0x20, 0x32, 0x05, 0, 0, 0, 0, 0])]);
@@ -57,7 +57,7 @@ fn l1665_0x3220_supply_voltage_too_low() {
 }
 
 #[test]
-fn l1666_0x4310_motor_temperature_too_high() {
+fn l1674_0x4310_motor_temperature_too_high() {
     // The warning 0xFFA8 first (D48), then the fault with the temperature [°C].
     let (raised, reset, sw) = fault_and_reset(Injected::OverTemperature);
     assert_eq!(raised, [(0, vec![0xA8, 0xFF, 0x81, 140, 0, 0, 0, 0]), (1, vec![0x10, 0x43, 0x89, 140, 0, 0, 0, 0])]);
@@ -67,7 +67,7 @@ fn l1666_0x4310_motor_temperature_too_high() {
 }
 
 #[test]
-fn l1739_0xff15_over_current_regulator_output_is_the_power_stage_fault() {
+fn l1713_0xff15_over_current_regulator_output_is_the_power_stage_fault() {
     // The model's power stage fault (CiA 0x2320, not in the manual's table).
     let (raised, reset, sw) = fault_and_reset(Injected::PowerStage);
     assert_eq!(raised, [(1, vec![0x15, 0xFF, 0x81, 0, 0, 0, 0, 0])]);
@@ -75,7 +75,7 @@ fn l1739_0xff15_over_current_regulator_output_is_the_power_stage_fault() {
 }
 
 #[test]
-fn l1672_0x7121_motor_shaft_is_blocked() {
+fn l1686_0x7121_motor_shaft_is_blocked() {
     let mut b = enabled();
     pv(&mut b, 1000, 0x0F, 100);
     b.run_until(ms(2000));
@@ -104,7 +104,7 @@ fn l1672_0x7121_motor_shaft_is_blocked() {
 }
 
 #[test]
-fn l1744_0xffd4_then_0xff50_motor_speed_error_heavy_load() {
+fn l1745_0xffd4_then_l1719_0xff50_motor_speed_error_heavy_load() {
     let mut b = enabled();
     pv(&mut b, 1000, 0x0F, 100);
     b.run_until(ms(2000));
@@ -123,16 +123,18 @@ fn l1744_0xffd4_then_0xff50_motor_speed_error_heavy_load() {
 }
 
 #[test]
-fn l1667_0x4320_and_l1741_0xffa9_motor_temperature_too_low() {
+fn l1676_0x4320_and_l1723_0xffa9_motor_temperature_too_low() {
     let mut b = enabled();
     // -20 °C: the warning 0xFFA9 with the temperature (0xFFEC), bit 7.
     roller(&mut b).axis.set_ambient(-20);
     assert_eq!(emcy(&mut b, 700, 300), [(0, vec![0xA9, 0xFF, 0x81, 0xEC, 0xFF, 0, 0, 0])]);
     assert_eq!(statusword(&mut b), 0x16B7);
+    assert_eq!(value(&mut b, 0x2211, 1), 1, "temperature light yellow (D50)");
     // -30 °C: the fault 0x4320 (generic, temperature, manufacturer).
     roller(&mut b).axis.set_ambient(-30);
     assert_eq!(emcy(&mut b, 1000, 300), [(1, vec![0x20, 0x43, 0x89, 0xE2, 0xFF, 0, 0, 0])]);
     assert_eq!(statusword(&mut b), 0x0298, "Fault, warning");
+    assert_eq!(value(&mut b, 0x2211, 1), 2, "red");
     // Still -30 °C: fault reset refused. At -25 °C it is accepted, and with the
     // warning still active no "error reset" goes out.
     pv(&mut b, 1300, 0x00, 0);

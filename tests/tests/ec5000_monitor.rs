@@ -142,7 +142,7 @@ fn power_cycled(b: &mut Ec5000) -> Ec5000 {
 }
 
 #[test]
-fn l642_the_counters_are_stored_when_the_dc_link_collapses_and_survive_the_power_off() {
+fn l634_the_counters_are_stored_when_the_dc_link_collapses_and_survive_the_power_off() {
     let mut b = worked();
     let steps = b.node.storage_mut().steps();
     roller(&mut b).axis.inject(Injected::UnderVoltage);
@@ -158,7 +158,7 @@ fn l642_the_counters_are_stored_when_the_dc_link_collapses_and_survive_the_power
 }
 
 #[test]
-fn l642_without_a_warning_the_counters_of_the_last_8_hours_are_lost() {
+fn l634_without_a_warning_the_counters_of_the_last_8_hours_are_lost() {
     let mut b = worked();
     // Nothing stored yet: a power cut now starts from zero.
     assert_eq!(counters(&mut power_cycled(&mut b)), [0, 0, 25, 25, 0, 0]);

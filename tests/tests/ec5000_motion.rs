@@ -1,4 +1,4 @@
-//! Zero Motion Hold on the EC5000 (M-L101, L141, L255-264; D52): the roller
+//! Zero Motion Hold on the EC5000 (M-L101, L141, L264-275; D52): the roller
 //! has no brake, so at standstill it holds its position with the power stage
 //! on (Operation enabled: halt, a target below the minimum speed, a stop) or
 //! freewheels with it off (the controlword switched it off), checked in
@@ -24,7 +24,7 @@ const HOLDING: u16 = 0x1637;
 const SWITCHED_ON: u16 = 0x0233;
 
 #[test]
-fn l255_zero_motion_hold_holds_under_load_and_the_switched_off_roller_freewheels() {
+fn l267_l274_zero_motion_hold_holds_under_load_and_the_switched_off_roller_freewheels() {
     let mut b = enabled();
     // Goods pull the roller forwards with 150 ‰ of the rated torque (friction
     // alone holds 125 ‰). With the power stage on, the position loop holds it:
@@ -65,7 +65,7 @@ fn l255_zero_motion_hold_holds_under_load_and_the_switched_off_roller_freewheels
 }
 
 #[test]
-fn l253_halt_stops_into_zero_motion_hold_under_load_and_resumes() {
+fn l273_halt_stops_into_zero_motion_hold_under_load_and_resumes() {
     let mut b = enabled();
     roller(&mut b).axis.set_load(-1000);
     pv(&mut b, 1000, 0x0F, 100);
@@ -85,7 +85,7 @@ fn l253_halt_stops_into_zero_motion_hold_under_load_and_resumes() {
 }
 
 #[test]
-fn l252_a_target_below_the_minimum_speed_stops_the_roller() {
+fn l266_a_target_below_the_minimum_speed_stops_the_roller() {
     let mut b = enabled();
     // 10 mm/s is below the motor's 100 min⁻¹ (14.5 mm/s at the roller): no
     // motion, the demand stays 0; bit 12 (speed 0) stays, bit 10 (target
@@ -100,7 +100,7 @@ fn l252_a_target_below_the_minimum_speed_stops_the_roller() {
 }
 
 #[test]
-fn l255_below_the_minimum_speed_the_position_of_that_moment_is_held() {
+fn l267_below_the_minimum_speed_the_position_of_that_moment_is_held() {
     let mut b = enabled();
     // A slow deceleration (0x6084 = 100 mm/s²) from 100 mm/s to 0: TPDO3 on
     // SYNC every 50 ms shows the ramp, which ends at 14.5 mm/s, not at 0.
@@ -133,7 +133,7 @@ fn l255_below_the_minimum_speed_the_position_of_that_moment_is_held() {
 }
 
 #[test]
-fn l255_the_demand_drops_from_the_minimum_speed_to_0_in_one_tick() {
+fn l267_the_demand_drops_from_the_minimum_speed_to_0_in_one_tick() {
     let mut b = enabled();
     b.sdo_download(ID, 0x6084, 0, &100u32.to_le_bytes()).expect("0x6084");
     pv(&mut b, 1000, 0x0F, 100);

@@ -3,7 +3,7 @@
 //! D53; 0xFFD4), the monitoring values 0x2200 (D49) with the counters kept
 //! across power-off (D55), and the traffic lights 0x2210/0x2211 (D50).
 
-use super::roller::{COLD_FAULT_C, Roller};
+use super::roller::{COLD_FAULT_C, Roller, TOO_COLD};
 use canopen_core::axis::fault;
 use canopen_core::node::Ctx;
 use canopen_core::profiles::cia402::Cia402;
@@ -181,9 +181,9 @@ impl Monitor {
         self.extremes = Some((low, high));
 
         // D50: the health traffic lights.
-        let temperature = if axis.fault() == fault::OVER_TEMPERATURE {
+        let temperature = if matches!(axis.fault(), fault::OVER_TEMPERATURE | TOO_COLD) {
             RED
-        } else if self.warning {
+        } else if self.warning || self.cold {
             YELLOW
         } else {
             GREEN
