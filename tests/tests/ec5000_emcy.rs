@@ -66,16 +66,16 @@ fn temperature_warning_0xffa8_at_95_and_cleared_at_93() {
 #[test]
 fn threshold_and_hysteresis_follow_0x4231() {
     let mut b = enabled();
-    b.sdo_download(ID, 0x4231, 1, &100i16.to_le_bytes()).expect("threshold 100 °C");
+    b.sdo_download(ID, 0x4231, 1, &90i16.to_le_bytes()).expect("threshold 90 °C");
     b.sdo_download(ID, 0x4231, 2, &10i16.to_le_bytes()).expect("hysteresis 10 K");
     let emcy = |out: Vec<(u64, u16, Vec<u8>)>| out.into_iter().filter(|(_, id, _)| *id == EMCY).collect::<Vec<_>>();
-    ambient(&mut b, 99);
+    ambient(&mut b, 89);
     assert_eq!(emcy(frames(&mut b, 700, 200)), []);
-    ambient(&mut b, 100);
-    assert_eq!(emcy(frames(&mut b, 900, 200)), [(0, EMCY, vec![0xA8, 0xFF, 0x81, 100, 0, 0, 0, 0])]);
-    ambient(&mut b, 91);
-    assert_eq!(emcy(frames(&mut b, 1100, 200)), [], "above 100 - 10");
     ambient(&mut b, 90);
+    assert_eq!(emcy(frames(&mut b, 900, 200)), [(0, EMCY, vec![0xA8, 0xFF, 0x81, 90, 0, 0, 0, 0])]);
+    ambient(&mut b, 81);
+    assert_eq!(emcy(frames(&mut b, 1100, 200)), [], "above 90 - 10");
+    ambient(&mut b, 80);
     assert_eq!(emcy(frames(&mut b, 1300, 200)), [(0, EMCY, vec![0; 8])]);
     // Limits as the manual prints them: 50..110 °C and 2..50 K.
     assert_eq!(b.sdo_download(ID, 0x4231, 1, &111i16.to_le_bytes()), Err(0x0609_0031));

@@ -160,3 +160,22 @@ fn l595_0x1003_holds_each_code_with_its_first_two_manufacturer_bytes() {
     assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(0xFFE2_4320u32.to_le_bytes().to_vec()));
     assert_eq!(b.sdo_upload(ID, 0x1003, 2), Ok(0xFFE2_FFA9u32.to_le_bytes().to_vec()));
 }
+
+#[test]
+fn l1725_0xffaa_power_reduced_by_temperature_limiter() {
+    let mut b = enabled();
+    pv(&mut b, 1000, 0x0F, 300);
+    b.run_until(ms(2000));
+    assert_eq!(value(&mut b, 0x606C, 0), 300);
+    // 100 °C: the warning 0xFFA8 (95 °C, D48) and the limiter 0xFFAA with the
+    // temperature; the speed limit halves (218 mm/s), the power light turns yellow.
+    roller(&mut b).axis.set_ambient(100);
+    assert_eq!(emcy(&mut b, 2000, 1000), [(0, vec![0xA8, 0xFF, 0x81, 100, 0, 0, 0, 0]), (0, vec![0xAA, 0xFF, 0x81, 100, 0, 0, 0, 0])]);
+    assert_eq!((value(&mut b, 0x606C, 0), value(&mut b, 0x2211, 2)), (218, 1));
+    // 98 °C = 100 - the 2 K of 0x4231 sub 2: full speed again; 0xFFA8 stays, so no error reset.
+    roller(&mut b).axis.set_ambient(98);
+    assert_eq!(emcy(&mut b, 3000, 1000), []);
+    assert_eq!((value(&mut b, 0x606C, 0), value(&mut b, 0x2211, 2)), (300, 0));
+    roller(&mut b).axis.set_ambient(93);
+    assert_eq!(emcy(&mut b, 4000, 1000), [(0, vec![0; 8])]);
+}

@@ -21,7 +21,7 @@ use canopen_core::time::Instant;
 mod monitor;
 mod roller;
 use monitor::Monitor;
-pub use monitor::{COLD_WARNING, SPEED_WARNING, TEMPERATURE_WARNING};
+pub use monitor::{COLD_WARNING, DERATING, SPEED_WARNING, TEMPERATURE_WARNING};
 pub use roller::{BLOCKED, COLD_FAULT_C, MIN_VELOCITY, OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller, SPEED_ERROR, TOO_COLD};
 
 /// The device's own rules (its hooks in the node): what its manual asks of

@@ -16,6 +16,10 @@ pub const TEMPERATURE_WARNING: u16 = 0xFFA8;
 /// EMCY 0xFFA9 "Motor temperature close to low" (W), 10 °C above the cold fault (D53).
 pub const COLD_WARNING: u16 = 0xFFA9;
 const COLD_WARNING_C: i16 = COLD_FAULT_C + 10;
+/// EMCY 0xFFAA "Power reduced by temperature limiter" (W): half the speed
+/// limit from 100 °C, 5 K above the warning and 10 K below the fault (D53).
+pub const DERATING: u16 = 0xFFAA;
+const DERATING_C: i16 = 100;
 /// EMCY 0xFFD4 "Motor speed warning (heavy load)" (W).
 pub const SPEED_WARNING: u16 = 0xFFD4;
 /// 0x4231 "High Temperature Warning Level": sub 1 threshold, sub 2 hysteresis [°C].
@@ -66,6 +70,7 @@ pub struct Monitor {
     warning: bool,
     cold: bool,
     slowed: bool,
+    derated: bool,
     /// The counters were read from the stored set (at power-on).
     restored: bool,
     /// A remanent value changed since it was stored; the uptime of that store [s].
@@ -101,6 +106,7 @@ impl Monitor {
         warning: false,
         cold: false,
         slowed: false,
+        derated: false,
         restored: false,
         dirty: false,
         stored_s: 0,
@@ -151,6 +157,8 @@ impl Monitor {
         let hysteresis = self.hysteresis;
         warn(ctx, &mut self.cold, t <= COLD_WARNING_C, t >= COLD_WARNING_C + hysteresis, COLD_WARNING, info(t));
         roller.cold = self.cold;
+        warn(ctx, &mut self.derated, t >= DERATING_C, t <= DERATING_C - hysteresis, DERATING, info(t));
+        roller.derated = self.derated;
         warn(ctx, &mut self.slowed, roller.slowed(), !roller.slowed(), SPEED_WARNING, [0; 5]);
         let axis = &drive.drive;
         let now = ctx.now().as_micros();
@@ -188,7 +196,13 @@ impl Monitor {
         } else {
             GREEN
         };
-        let power = if axis.dc_link_mv() == 0 { RED } else { GREEN };
+        let power = if axis.dc_link_mv() == 0 {
+            RED
+        } else if self.derated {
+            YELLOW
+        } else {
+            GREEN
+        };
         let errors = match ctx.read_u32(0x1003, 0).unwrap_or(0) {
             0 => GREEN,
             n if n < HISTORY_DEPTH => YELLOW,
@@ -255,7 +269,7 @@ impl Monitor {
     /// counters go on (they count the roller's life, not the application's),
     /// and at power-on they start from the stored ones (D55).
     pub fn reset(&mut self, ctx: &mut Ctx<'_>) {
-        (self.warning, self.cold, self.slowed, self.shown_valid) = (false, false, false, false);
+        (self.warning, self.cold, self.slowed, self.derated, self.shown_valid) = (false, false, false, false, false);
         self.levels(ctx);
         if core::mem::replace(&mut self.restored, true) {
             return;

@@ -35,6 +35,8 @@ pub struct Roller {
     pub axis: Axis,
     /// The monitoring raised the low-temperature warning 0xFFA9 (statusword bit 7).
     pub cold: bool,
+    /// The temperature limiter halves the speed limit (warning 0xFFAA).
+    pub derated: bool,
     /// A fault of the roller's own monitoring, until a fault reset.
     fault: u16,
     /// The velocity demand of the last set-point [inc/s].
@@ -46,7 +48,7 @@ pub struct Roller {
 
 impl Roller {
     /// At power-on: all zero bits.
-    pub const NEW: Roller = Roller { axis: Axis::NEW, cold: false, fault: 0, demand: 0, standing_ms: 0, lagging_ms: 0 };
+    pub const NEW: Roller = Roller { axis: Axis::NEW, cold: false, derated: false, fault: 0, demand: 0, standing_ms: 0, lagging_ms: 0 };
 
     /// The speed warning 0xFFD4: the roller turns slower than half its demand (heavy load).
     pub fn slowed(&self) -> bool {
@@ -129,7 +131,7 @@ impl Drive for Roller {
         [lo, hi, 0, 0, 0]
     }
     fn warning(&self) -> bool {
-        self.axis.warning() || self.cold || self.slowed()
+        self.axis.warning() || self.cold || self.derated || self.slowed()
     }
     fn reset_fault(&mut self) -> bool {
         let cleared = self.axis.reset_fault() && self.temperature() > COLD_FAULT_C;
@@ -145,7 +147,7 @@ impl Drive for Roller {
         self.axis.max_acceleration()
     }
     fn max_velocity(&self) -> u32 {
-        self.axis.max_velocity()
+        self.axis.max_velocity() >> u32::from(self.derated)
     }
     fn min_velocity(&self) -> u32 {
         MIN_VELOCITY
