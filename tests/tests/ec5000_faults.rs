@@ -58,9 +58,16 @@ fn l1672_0x3220_supply_voltage_too_low() {
 
 #[test]
 fn l1674_0x4310_motor_temperature_too_high() {
-    // The warning 0xFFA8 first (D48), then the fault with the temperature [°C].
+    // The warnings 0xFFA8 (D48) and 0xFFAA (the limiter) first, then the fault with the temperature [°C].
     let (raised, reset, sw) = fault_and_reset(Injected::OverTemperature);
-    assert_eq!(raised, [(0, vec![0xA8, 0xFF, 0x81, 140, 0, 0, 0, 0]), (1, vec![0x10, 0x43, 0x89, 140, 0, 0, 0, 0])]);
+    assert_eq!(
+        raised,
+        [
+            (0, vec![0xA8, 0xFF, 0x81, 140, 0, 0, 0, 0]),
+            (0, vec![0xAA, 0xFF, 0x81, 140, 0, 0, 0, 0]),
+            (1, vec![0x10, 0x43, 0x89, 140, 0, 0, 0, 0])
+        ]
+    );
     // The warning clears with the temperature (25 °C again) before the reset,
     // while the fault is active: "error reset" comes with the fault reset.
     assert_eq!((reset[0].clone(), sw), ((EMCY, vec![0; 8]), 0x0250));

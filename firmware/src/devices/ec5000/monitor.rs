@@ -239,7 +239,7 @@ impl Monitor {
         let valid = self.shown_valid;
         if let Some(shown) = self.shown.get_mut(i).filter(|s| !valid || **s != value) {
             *shown = value;
-            self.dirty |= index == MONITORING && REMANENT.contains(&sub);
+            self.dirty |= valid && index == MONITORING && REMANENT.contains(&sub);
             if let Some(bytes) = value.to_le_bytes().get(..len) {
                 let _ = ctx.set_value(index, sub, bytes);
             }
