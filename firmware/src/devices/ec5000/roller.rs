@@ -79,11 +79,11 @@ impl Drive for Roller {
         self.axis.tick();
         let (demand, actual) = (self.demand, self.axis.velocity());
         // The speed in the demanded direction: a roller pushed back lags too.
-        let along = if demand < 0 { -i64::from(actual) } else { i64::from(actual) };
+        let along = if demand < 0 { actual.saturating_neg() } else { actual };
         let count = |ms: u16, on: bool| if on { ms.saturating_add(1) } else { 0 };
         let moving = demand.unsigned_abs() >= MIN_VELOCITY && self.axis.fault() == 0;
         self.standing_ms = count(self.standing_ms, moving && actual.unsigned_abs() < MIN_VELOCITY);
-        self.lagging_ms = count(self.lagging_ms, moving && along < i64::from(demand.unsigned_abs() / 2));
+        self.lagging_ms = count(self.lagging_ms, moving && along < (demand / 2).saturating_abs());
         if self.fault == 0 {
             if self.standing_ms >= BLOCKED_MS {
                 self.fault = BLOCKED;
