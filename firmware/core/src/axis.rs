@@ -175,12 +175,6 @@ impl Axis {
         self.load = permille;
     }
 
-    /// Sets the temperature from which [`Drive::warning`] is on: a device with
-    /// its own warning hysteresis moves it so that statusword bit 7 follows.
-    pub fn set_warning_level(&mut self, celsius: i16) {
-        self.params.warning_c = celsius;
-    }
-
     fn injected(&self, fault: Injected) -> bool {
         self.injected.get(fault as usize).copied().unwrap_or(false)
     }

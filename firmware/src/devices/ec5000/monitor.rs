@@ -93,6 +93,8 @@ pub struct Monitor {
     /// 0x4231 sub 1 and sub 2, read when written and at reset application
     /// (a dictionary look-up in every tick costs more than the rest).
     threshold: i16,
+    /// The temperature the warnings were last checked at [°C] (`i16::MIN`: check again).
+    checked_c: i16,
     hysteresis: i16,
     /// What 0x2200 sub 1..9 and 0x2211 sub 1..3 show, so that only a change is
     /// written, once `shown_valid` (all written since the reset).
@@ -123,6 +125,7 @@ impl Monitor {
         rotations: 0,
         // All zero bits, so that the node stays in .bss: 0x4231 is read at reset application.
         threshold: 0,
+        checked_c: 0,
         hysteresis: 0,
         shown: [0; 11],
         shown_valid: false,
@@ -133,10 +136,11 @@ impl Monitor {
     pub fn levels(&mut self, ctx: &Ctx<'_>) {
         self.threshold = signed(ctx, WARNING_LEVEL, 1).unwrap_or(95) as i16;
         self.hysteresis = signed(ctx, WARNING_LEVEL, 2).unwrap_or(2) as i16;
+        self.checked_c = i16::MIN;
     }
 
     /// Counts, checks and shows what the drive did since the last poll, and
-    /// sets the levels of statusword bit 7 in the roller (D48, D53).
+    /// tells the roller its warnings for statusword bit 7 (D48, D53).
     #[inline(never)]
     pub fn update(&mut self, ctx: &mut Ctx<'_>, drive: &mut Cia402<Roller>, increments_per_rev: u32) {
         // Quick stops at every poll: one at rest lasts a single tick.
@@ -145,21 +149,24 @@ impl Monitor {
             self.quick_stops = self.quick_stops.saturating_add(1);
         }
         self.last_state = state;
-        // The warnings at every poll too, so that the EMCY and bit 7 change together.
+        // The warnings at every poll too, so that the EMCY and bit 7 change
+        // together; checked again only when what they depend on changed (the
+        // poll runs with every frame).
         let roller = &mut drive.drive;
         let t = roller.temperature();
-        let level = self.temperature_warning(ctx, t);
-        roller.axis.set_warning_level(level);
-        let info = |t: i16| {
+        let slowed = roller.slowed();
+        if t != self.checked_c || slowed != self.slowed {
+            self.checked_c = t;
             let [lo, hi] = t.to_le_bytes();
-            [lo, hi, 0, 0, 0]
-        };
-        let hysteresis = self.hysteresis;
-        warn(ctx, &mut self.cold, t <= COLD_WARNING_C, t >= COLD_WARNING_C + hysteresis, COLD_WARNING, info(t));
-        roller.cold = self.cold;
-        warn(ctx, &mut self.derated, t >= DERATING_C, t <= DERATING_C - hysteresis, DERATING, info(t));
-        roller.derated = self.derated;
-        warn(ctx, &mut self.slowed, roller.slowed(), !roller.slowed(), SPEED_WARNING, [0; 5]);
+            let info = [lo, hi, 0, 0, 0];
+            let (threshold, hysteresis) = (self.threshold, self.hysteresis);
+            // D48: on at T >= threshold, off at T <= threshold - hysteresis (95/93 °C by default).
+            warn(ctx, &mut self.warning, t >= threshold, t <= threshold.saturating_sub(hysteresis), TEMPERATURE_WARNING, info);
+            warn(ctx, &mut self.cold, t <= COLD_WARNING_C, t >= COLD_WARNING_C + hysteresis, COLD_WARNING, info);
+            warn(ctx, &mut self.derated, t >= DERATING_C, t <= DERATING_C - hysteresis, DERATING, info);
+            warn(ctx, &mut self.slowed, slowed, !slowed, SPEED_WARNING, [0; 5]);
+            (roller.warned, roller.derated) = (self.warning || self.cold || self.derated, self.derated);
+        }
         let axis = &drive.drive;
         let now = ctx.now().as_micros();
         if self.last_us.is_some_and(|last| now.saturating_sub(last) < PERIOD_US) {
@@ -244,19 +251,6 @@ impl Monitor {
                 let _ = ctx.set_value(index, sub, bytes);
             }
         }
-    }
-
-    /// Raises or clears the temperature warning for `temperature` [°C];
-    /// returns the temperature from which statusword bit 7 shows it, so that
-    /// bit 7 and the EMCY agree: the threshold while clear, the lowest
-    /// temperature still warned while raised.
-    fn temperature_warning(&mut self, ctx: &mut Ctx<'_>, temperature: i16) -> i16 {
-        // D48: on at T >= threshold, off at T <= threshold - hysteresis (95/93 °C by default).
-        let threshold = self.threshold;
-        let clear_at = threshold.saturating_sub(self.hysteresis);
-        let [lo, hi] = temperature.to_le_bytes();
-        warn(ctx, &mut self.warning, temperature >= threshold, temperature <= clear_at, TEMPERATURE_WARNING, [lo, hi, 0, 0, 0]);
-        if self.warning { clear_at.saturating_add(1) } else { threshold }
     }
 
     /// Stores the counters again after 0x1011 marked the manufacturer

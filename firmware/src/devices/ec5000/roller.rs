@@ -33,8 +33,9 @@ const SPEED_ERROR_MS: u16 = 2000;
 pub struct Roller {
     /// The simulated motor and load (faults are injected here).
     pub axis: Axis,
-    /// The monitoring raised the low-temperature warning 0xFFA9 (statusword bit 7).
-    pub cold: bool,
+    /// The monitoring holds a temperature warning (0xFFA8, 0xFFA9, 0xFFAA):
+    /// statusword bit 7, as the EMCY says.
+    pub warned: bool,
     /// The temperature limiter halves the speed limit (warning 0xFFAA).
     pub derated: bool,
     /// A fault of the roller's own monitoring, until a fault reset.
@@ -48,7 +49,7 @@ pub struct Roller {
 
 impl Roller {
     /// At power-on: all zero bits.
-    pub const NEW: Roller = Roller { axis: Axis::NEW, cold: false, derated: false, fault: 0, demand: 0, standing_ms: 0, lagging_ms: 0 };
+    pub const NEW: Roller = Roller { axis: Axis::NEW, warned: false, derated: false, fault: 0, demand: 0, standing_ms: 0, lagging_ms: 0 };
 
     /// The speed warning 0xFFD4: the roller turns slower than half its demand (heavy load).
     pub fn slowed(&self) -> bool {
@@ -131,7 +132,7 @@ impl Drive for Roller {
         [lo, hi, 0, 0, 0]
     }
     fn warning(&self) -> bool {
-        self.axis.warning() || self.cold || self.derated || self.slowed()
+        self.warned || self.slowed()
     }
     fn reset_fault(&mut self) -> bool {
         let cleared = self.axis.reset_fault() && self.temperature() > COLD_FAULT_C;

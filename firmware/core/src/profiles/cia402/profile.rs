@@ -9,7 +9,7 @@ use super::objects::{self, index, signed, unsigned, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
 use super::units::Units;
 use super::velocity::{Window, vl_limit};
-use super::{TICK_US, mode};
+use super::{TICK_US, mode, statusword};
 use crate::abort::AbortCode;
 use crate::node::{CommError, Ctx, NmtEvent};
 use crate::services::nmt::State;
@@ -195,7 +195,9 @@ impl<D: Drive> Cia402<D> {
                 self.fault(ctx, code);
             }
             // Bit 7 follows a warning that comes or goes while the drive is off.
-            self.publish(ctx);
+            if self.drive.warning() != (self.s.statusword & statusword::WARNING != 0) {
+                self.publish(ctx);
+            }
             if !self.drive.at_rest() {
                 self.start_ticking(ctx);
                 return Some(Instant::from_micros(self.s.next_tick));
