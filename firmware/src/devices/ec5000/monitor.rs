@@ -140,7 +140,8 @@ impl Monitor {
     }
 
     /// Counts, checks and shows what the drive did since the last poll, and
-    /// tells the roller its warnings for statusword bit 7 (D48, D53).
+    /// tells the roller its warnings for statusword bit 7 (D48, D53); the
+    /// profile then writes the statusword again.
     #[inline(never)]
     pub fn update(&mut self, ctx: &mut Ctx<'_>, drive: &mut Cia402<Roller>, increments_per_rev: u32) {
         // Quick stops at every poll: one at rest lasts a single tick.
@@ -166,6 +167,7 @@ impl Monitor {
             warn(ctx, &mut self.derated, t >= DERATING_C, t <= DERATING_C - hysteresis, DERATING, info);
             warn(ctx, &mut self.slowed, slowed, !slowed, SPEED_WARNING, [0; 5]);
             (roller.warned, roller.derated) = (self.warning || self.cold || self.derated, self.derated);
+            drive.refresh();
         }
         let axis = &drive.drive;
         let now = ctx.now().as_micros();

@@ -9,7 +9,7 @@ use super::objects::{self, index, signed, unsigned, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
 use super::units::Units;
 use super::velocity::{Window, vl_limit};
-use super::{TICK_US, mode, statusword};
+use super::{TICK_US, mode};
 use crate::abort::AbortCode;
 use crate::node::{CommError, Ctx, NmtEvent};
 use crate::services::nmt::State;
@@ -94,6 +94,8 @@ struct Profile {
     next_tick: u64,
     ticking: bool,
     operational: bool,
+    /// [`Cia402::refresh`]: the statusword is written at the next idle poll.
+    refresh: bool,
 }
 
 impl Profile {
@@ -124,6 +126,7 @@ impl Profile {
         next_tick: 0,
         ticking: false,
         operational: false,
+        refresh: false,
     };
 }
 
@@ -181,6 +184,12 @@ impl<D: Drive> Cia402<D> {
         self.publish(ctx);
     }
 
+    /// The drive's warning (bit 7) changed: while the profile is idle, its
+    /// next poll writes 0x6041 (ticking, it writes it at each tick).
+    pub fn refresh(&mut self) {
+        self.s.refresh = true;
+    }
+
     /// Before SYNC TPDOs: the actual values.
     pub fn sample(&mut self, ctx: &mut Ctx<'_>) {
         self.actuals(ctx);
@@ -191,11 +200,11 @@ impl<D: Drive> Cia402<D> {
         let now = ctx.now().as_micros();
         if !self.s.ticking {
             let code = self.drive.fault();
+            // A fault, or a warning the device reported (`refresh`), changes the statusword.
             if code != 0 && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
-            }
-            // Bit 7 follows a warning that comes or goes while the drive is off.
-            if self.drive.warning() != (self.s.statusword & statusword::WARNING != 0) {
+                self.publish(ctx);
+            } else if core::mem::take(&mut self.s.refresh) {
                 self.publish(ctx);
             }
             if !self.drive.at_rest() {
