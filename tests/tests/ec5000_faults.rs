@@ -186,3 +186,24 @@ fn l1725_0xffaa_power_reduced_by_temperature_limiter() {
     roller(&mut b).axis.set_ambient(93);
     assert_eq!(emcy(&mut b, 4000, 1000), [(0, vec![0; 8])]);
 }
+
+#[test]
+fn a_fault_while_the_drive_is_off_shows_in_the_statusword_at_once() {
+    // Switch on disabled (the profile does not tick): the supply fails; the
+    // EMCY and the TPDOs with Fault leave at the next poll. (TPDO1 samples
+    // 0x1001 before the core records the EMCY in it: the register follows
+    // after the inhibit time.)
+    let mut b = enabled();
+    pv(&mut b, 800, 0x00, 0);
+    b.run_until(ms(1000));
+    roller(&mut b).axis.inject(Injected::OverVoltage);
+    assert_eq!(
+        frames(&mut b, 1000, 300),
+        [
+            (0, EMCY, vec![0x10, 0x32, 0x05, 0xA0, 0x8C, 0, 0, 0]),
+            (0, TPDO1, vec![0x18, 0x02, 3, 0, 25, 0, 0, 0]),
+            (0, TPDO2, vec![0x18, 0x02, 0, 0, 0, 0]),
+            (100, TPDO1, vec![0x18, 0x02, 3, 0x05, 25, 0, 0, 0]),
+        ]
+    );
+}
