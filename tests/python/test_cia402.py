@@ -84,6 +84,20 @@ class Cia402(Drive402Test):
         self.wait_for("target reached at 150 mm",
                       lambda: self.drive.sdo[0x6041].raw & 0x0400 and self.i32(0x6064) == 150)
 
+    def test_zero_motion_hold_below_the_minimum_speed(self):
+        # docs/devices/ec5000.md D52: 10 mm/s is below the motor's 100 min⁻¹
+        # (14.5 mm/s): the roller holds its position with the power stage on.
+        self.drive.op_mode = "PROFILED VELOCITY"
+        self.drive.state = "OPERATION ENABLED"
+        held = self.i32(0x6064)
+        self.drive.sdo[0x60FF].raw = 10
+        time.sleep(0.3)
+        self.assertEqual((self.i32(0x606B), self.i32(0x606C), self.i32(0x6064)), (0, 0, held))
+        self.assertEqual(self.drive.state, "OPERATION ENABLED")
+        # 15 mm/s turns it.
+        self.drive.sdo[0x60FF].raw = 15
+        self.wait_for("15 mm/s", lambda: self.i32(0x606C) == 15)
+
     def test_homing_37(self):
         self.drive.op_mode = "PROFILED VELOCITY"
         self.drive.state = "OPERATION ENABLED"

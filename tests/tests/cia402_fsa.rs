@@ -147,7 +147,7 @@ fn fault_reaction_fault_and_reset_transitions_13_14_15() {
             (0x000F, Some(OPERATION_ENABLED), Some(ENABLED_AT_REST)),
         ],
     );
-    b.node.app_mut().drive.drive.inject(canopen_core::axis::Injected::UnderVoltage);
+    b.node.app_mut().drive.drive.axis.inject(canopen_core::axis::Injected::UnderVoltage);
     let out = b.run_until(ms(t + 300));
     // 13 and 14: the drive lost its power stage, so no ramp: Fault at once,
     // EMCY 0x3220 with error register 0x05 (generic + voltage).
@@ -157,7 +157,7 @@ fn fault_reaction_fault_and_reset_transitions_13_14_15() {
     assert_eq!(statusword(&mut b), FAULT & !0x0010);
     // Fault reset while the cause persists: stays in Fault.
     assert_eq!(command(&mut b, t + 500, 0x0080), Vec::<u16>::new());
-    b.node.app_mut().drive.drive.remove(canopen_core::axis::Injected::UnderVoltage);
+    b.node.app_mut().drive.drive.axis.remove(canopen_core::axis::Injected::UnderVoltage);
     command(&mut b, t + 700, 0x0000);
     // 15 on the rising edge; the EMCY "error reset" follows.
     let out = b.rx(ms(t + 900), RPDO1, &[0x80, 0x00, 3, 0, 0, 0, 0]);

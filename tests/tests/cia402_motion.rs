@@ -231,15 +231,19 @@ fn a_drive_fault_runs_the_fault_reaction_and_fault_reset_recovers() {
     let mut d = Drive::enabled(3);
     d.velocity_command(1000, 0x0F, 100);
     d.at(1400);
-    d.b.node.app_mut().drive.drive.inject(Injected::OverTemperature);
+    d.b.node.app_mut().drive.drive.axis.inject(Injected::OverTemperature);
     let out = d.b.run_until(ms(1450));
-    // The EC5000 warns first (0xFFA8 at 140 °C, D48), then faults: EMCY 0x4310
-    // with error register 0x89 (generic, temperature, and the warning's manufacturer bit).
+    // The EC5000 warns first (0xFFA8 at 140 °C, D48, and the limiter 0xFFAA, D53), then faults: EMCY 0x4310
+    // with error register 0x89 (generic, temperature, and the warning's manufacturer bit)
+    // and the temperature in bytes 3-4 (D54).
     let emcy: Vec<_> = out.iter().filter(|(_, (id, _))| *id == 0x085).map(|(_, (_, d))| d.clone()).collect();
-    assert_eq!(emcy, [vec![0xA8, 0xFF, 0x81, 140, 0, 0, 0, 0], vec![0x10, 0x43, 0x89, 0, 0, 0, 0, 0]]);
+    assert_eq!(
+        emcy,
+        [vec![0xA8, 0xFF, 0x81, 140, 0, 0, 0, 0], vec![0xAA, 0xFF, 0x81, 140, 0, 0, 0, 0], vec![0x10, 0x43, 0x89, 140, 0, 0, 0, 0]]
+    );
     assert_eq!(d.statusword() & 0x4F, 0x08, "Fault (the over-temperature switches the power stage off)");
     assert_eq!(d.statusword() & 0x0080, 0x0080, "warning: above 95 °C");
-    d.b.node.app_mut().drive.drive.remove(Injected::OverTemperature);
+    d.b.node.app_mut().drive.drive.axis.remove(Injected::OverTemperature);
     d.velocity_command(1500, 0x00, 0);
     d.velocity_command(1600, 0x80, 0);
     assert_eq!(d.statusword() & 0x4F, 0x40, "15: Switch on disabled");

@@ -5,39 +5,10 @@
 
 mod common;
 
-use common::{Bench, ms};
-use firmware::devices::ec5000;
-use hal_host::storage::MemStorage;
-
-const ID: u8 = 5;
-const RPDO1: u16 = 0x205;
-const EMCY: u16 = 0x085;
-const TPDO1: u16 = 0x185;
-const TPDO2: u16 = 0x285;
-
-type Ec5000 = Bench<ec5000::od::Ram, ec5000::App, MemStorage, 4, 4, 1>;
-
-/// Operational at 10 ms, then Operation enabled in pv at rest by t = 700 ms
-/// (the profile ticks every millisecond from then on).
-fn enabled() -> Ec5000 {
-    let mut b = Bench::new(ec5000::od::Ram::new(ID), ec5000::App::NEW, MemStorage::new(4096), ID);
-    b.at(ms(0));
-    b.now = ms(10);
-    b.nmt(0x01, ID);
-    for (t, cw) in [(100, 0x06), (300, 0x07), (500, 0x0F)] {
-        b.rx(ms(t), RPDO1, &[cw, 0, 3, 0, 0, 0, 0]);
-    }
-    b.run_until(ms(700));
-    b
-}
+use common::ec5000::*;
 
 fn ambient(b: &mut Ec5000, celsius: i16) {
-    b.node.app_mut().drive.drive.set_ambient(celsius);
-}
-
-/// The frames of the next `span` ms, with their time in ms after `from`.
-fn frames(b: &mut Ec5000, from: u64, span: u64) -> Vec<(u64, u16, Vec<u8>)> {
-    b.run_until(ms(from + span)).into_iter().map(|(at, (id, d))| (at.as_micros() / 1000 - from, id, d)).collect()
+    roller(b).axis.set_ambient(celsius);
 }
 
 /// TPDO1 (0x6041, 0x6061, 0x1001, 0x2200 sub 6 actual temperature, 0x6077).
@@ -95,16 +66,16 @@ fn temperature_warning_0xffa8_at_95_and_cleared_at_93() {
 #[test]
 fn threshold_and_hysteresis_follow_0x4231() {
     let mut b = enabled();
-    b.sdo_download(ID, 0x4231, 1, &100i16.to_le_bytes()).expect("threshold 100 °C");
+    b.sdo_download(ID, 0x4231, 1, &90i16.to_le_bytes()).expect("threshold 90 °C");
     b.sdo_download(ID, 0x4231, 2, &10i16.to_le_bytes()).expect("hysteresis 10 K");
     let emcy = |out: Vec<(u64, u16, Vec<u8>)>| out.into_iter().filter(|(_, id, _)| *id == EMCY).collect::<Vec<_>>();
-    ambient(&mut b, 99);
+    ambient(&mut b, 89);
     assert_eq!(emcy(frames(&mut b, 700, 200)), []);
-    ambient(&mut b, 100);
-    assert_eq!(emcy(frames(&mut b, 900, 200)), [(0, EMCY, vec![0xA8, 0xFF, 0x81, 100, 0, 0, 0, 0])]);
-    ambient(&mut b, 91);
-    assert_eq!(emcy(frames(&mut b, 1100, 200)), [], "above 100 - 10");
     ambient(&mut b, 90);
+    assert_eq!(emcy(frames(&mut b, 900, 200)), [(0, EMCY, vec![0xA8, 0xFF, 0x81, 90, 0, 0, 0, 0])]);
+    ambient(&mut b, 81);
+    assert_eq!(emcy(frames(&mut b, 1100, 200)), [], "above 90 - 10");
+    ambient(&mut b, 80);
     assert_eq!(emcy(frames(&mut b, 1300, 200)), [(0, EMCY, vec![0; 8])]);
     // Limits as the manual prints them: 50..110 °C and 2..50 K.
     assert_eq!(b.sdo_download(ID, 0x4231, 1, &111i16.to_le_bytes()), Err(0x0609_0031));

@@ -4,28 +4,8 @@
 mod common;
 
 use canopen_core::axis::Injected;
-use common::{Bench, ms};
-use firmware::devices::ec5000;
-use hal_host::storage::MemStorage;
-
-const ID: u8 = 5;
-const RPDO1: u16 = 0x205;
-const RPDO3: u16 = 0x405;
-
-type Ec5000 = Bench<ec5000::od::Ram, ec5000::App, MemStorage, 4, 4, 1>;
-
-/// Operational at 10 ms, Operation enabled in pv at rest by 700 ms.
-fn enabled() -> Ec5000 {
-    let mut b = Bench::new(ec5000::od::Ram::new(ID), ec5000::App::NEW, MemStorage::new(4096), ID);
-    b.at(ms(0));
-    b.now = ms(10);
-    b.nmt(0x01, ID);
-    for (t, cw) in [(100, 0x06), (300, 0x07), (500, 0x0F)] {
-        b.rx(ms(t), RPDO1, &[cw, 0, 3, 0, 0, 0, 0]);
-    }
-    b.run_until(ms(700));
-    b
-}
+use common::ec5000::*;
+use common::ms;
 
 fn u32_of(b: &mut Ec5000, index: u16, sub: u8) -> u32 {
     let v = b.sdo_upload(ID, index, sub).expect("upload");
@@ -79,11 +59,11 @@ fn quick_stops_are_counted() {
 fn temperatures_actual_lowest_and_highest() {
     let mut b = enabled();
     assert_eq!([i16_of(&mut b, 4), i16_of(&mut b, 5), i16_of(&mut b, 6)], [25, 25, 25]);
-    b.node.app_mut().drive.drive.set_ambient(40);
+    roller(&mut b).axis.set_ambient(40);
     b.run_until(ms(900));
-    b.node.app_mut().drive.drive.set_ambient(-5);
+    roller(&mut b).axis.set_ambient(-5);
     b.run_until(ms(1100));
-    b.node.app_mut().drive.drive.set_ambient(30);
+    roller(&mut b).axis.set_ambient(30);
     b.run_until(ms(1300));
     assert_eq!([i16_of(&mut b, 4), i16_of(&mut b, 5), i16_of(&mut b, 6)], [-5, 40, 30]);
 }
@@ -95,21 +75,21 @@ fn health_traffic_lights() {
     assert_eq!(lights(&mut b), [0, 0, 0], "all green");
     assert_eq!(b.sdo_upload(ID, 0x2210, 0), Ok(vec![0]), "lifetime green");
     // The temperature warning: temperature yellow; one error in 0x1003: yellow.
-    b.node.app_mut().drive.drive.set_ambient(95);
+    roller(&mut b).axis.set_ambient(95);
     b.run_until(ms(900));
     assert_eq!(lights(&mut b), [1, 0, 1]);
     // The over-temperature fault: red.
-    b.node.app_mut().drive.drive.inject(Injected::OverTemperature);
+    roller(&mut b).axis.inject(Injected::OverTemperature);
     b.run_until(ms(1100));
     assert_eq!(lights(&mut b)[0], 2);
     // The DC link collapses: power red.
-    b.node.app_mut().drive.drive.inject(Injected::UnderVoltage);
+    roller(&mut b).axis.inject(Injected::UnderVoltage);
     b.run_until(ms(1300));
     assert_eq!(lights(&mut b)[1], 2);
     // Cooled and powered again: temperature and power green; 0x1003 cleared: green.
-    b.node.app_mut().drive.drive.remove(Injected::OverTemperature);
-    b.node.app_mut().drive.drive.remove(Injected::UnderVoltage);
-    b.node.app_mut().drive.drive.set_ambient(25);
+    roller(&mut b).axis.remove(Injected::OverTemperature);
+    roller(&mut b).axis.remove(Injected::UnderVoltage);
+    roller(&mut b).axis.set_ambient(25);
     b.run_until(ms(1500));
     assert_eq!(lights(&mut b)[..2], [2, 0], "temperature red until the fault is reset");
     b.rx(ms(1500), RPDO1, &[0x00, 0, 3, 0, 0, 0, 0]);
@@ -124,11 +104,84 @@ fn a_full_error_history_is_red() {
     let mut b = enabled();
     // Eight warnings raised and cleared: 0x1003 full.
     for i in 0..8u64 {
-        b.node.app_mut().drive.drive.set_ambient(95);
+        roller(&mut b).axis.set_ambient(95);
         b.run_until(ms(800 + 200 * i));
-        b.node.app_mut().drive.drive.set_ambient(25);
+        roller(&mut b).axis.set_ambient(25);
         b.run_until(ms(900 + 200 * i));
     }
     assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![8]));
     assert_eq!(b.sdo_upload(ID, 0x2211, 3), Ok(vec![2]));
+}
+
+/// The remanent counters (D55): 0x2200 sub 1, 2, 4, 5, 7, 9.
+fn counters(b: &mut Ec5000) -> [u32; 6] {
+    [1, 2, 4, 5, 7, 9].map(|sub| u32_of(b, 0x2200, sub))
+}
+
+/// Two seconds at 100 mm/s and a quick stop in a 40 °C hall, then Switch on
+/// disabled at 25 °C by 4000 ms: one start, 2 s working, 25 motor revolutions.
+fn worked() -> Ec5000 {
+    let mut b = enabled();
+    roller(&mut b).axis.set_ambient(40);
+    b.rx(ms(1000), RPDO3, &[0x0F, 0, 100, 0, 0, 0]);
+    b.run_until(ms(3000));
+    b.rx(ms(3000), RPDO3, &[0x0B, 0, 100, 0, 0, 0]);
+    b.run_until(ms(3500));
+    roller(&mut b).axis.set_ambient(25);
+    b.rx(ms(3500), RPDO3, &[0x00, 0, 0, 0, 0, 0]);
+    b.run_until(ms(4000));
+    assert_eq!(counters(&mut b), [1, 2, 25, 40, 1, 25]);
+    b
+}
+
+/// Powers the roller on again on the storage `b` left, Operation enabled by 700 ms.
+fn power_cycled(b: &mut Ec5000) -> Ec5000 {
+    let mut storage = b.node.storage_mut().clone();
+    storage.power_on();
+    enabled_on(storage)
+}
+
+#[test]
+fn l634_the_counters_are_stored_when_the_dc_link_collapses_and_survive_the_power_off() {
+    let mut b = worked();
+    let steps = b.node.storage_mut().steps();
+    roller(&mut b).axis.inject(Injected::UnderVoltage);
+    b.run_until(ms(4200));
+    assert!(b.node.storage_mut().steps() > steps, "stored");
+    let mut b = power_cycled(&mut b);
+    assert_eq!(counters(&mut b), [1, 2, 25, 40, 1, 25], "as before the power-off");
+    assert_eq!(u32_of(&mut b, 0x2200, 3), 0, "the uptime counts from power-on");
+    // Counting goes on from there.
+    b.rx(ms(1000), RPDO3, &[0x0F, 0, 100, 0, 0, 0]);
+    b.run_until(ms(3000));
+    assert_eq!(counters(&mut b)[..2], [2, 4]);
+}
+
+#[test]
+fn l634_without_a_warning_the_counters_of_the_last_8_hours_are_lost() {
+    let mut b = worked();
+    // Nothing stored yet: a power cut now starts from zero.
+    assert_eq!(counters(&mut power_cycled(&mut b)), [0, 0, 25, 25, 0, 0]);
+    // Every 8 hours of uptime the changed counters are stored.
+    let steps = b.node.storage_mut().steps();
+    b.run_until(ms(8 * 3600 * 1000 - 1000));
+    assert_eq!(b.node.storage_mut().steps(), steps, "not before 8 h");
+    b.run_until(ms(8 * 3600 * 1000 + 200));
+    assert!(b.node.storage_mut().steps() > steps, "at 8 h");
+    assert_eq!(counters(&mut power_cycled(&mut b)), [1, 2, 25, 40, 1, 25]);
+}
+
+#[test]
+fn restoring_the_parameters_keeps_the_counters() {
+    let mut b = worked();
+    roller(&mut b).axis.inject(Injected::UnderVoltage);
+    b.run_until(ms(4200));
+    b.sdo_download(ID, 0x4231, 1, &100i16.to_le_bytes()).expect("0x4231");
+    b.sdo_download(ID, 0x1010, 1, b"save").expect("save");
+    // 0x1011 sub 1 "load": the parameters return to their defaults at the next
+    // start, the roller's life counters stay.
+    b.sdo_download(ID, 0x1011, 1, b"load").expect("load");
+    let mut b = power_cycled(&mut b);
+    assert_eq!(b.sdo_upload(ID, 0x4231, 1), Ok(95i16.to_le_bytes().to_vec()), "the default threshold");
+    assert_eq!(counters(&mut b), [1, 2, 25, 40, 1, 25]);
 }

@@ -4,26 +4,8 @@
 
 mod common;
 
-use common::{Bench, abort, ms};
-use firmware::devices::ec5000;
-use hal_host::storage::MemStorage;
-
-const ID: u8 = 5;
-const RPDO1: u16 = 0x205;
-
-type Ec5000 = Bench<ec5000::od::Ram, ec5000::App, MemStorage, 4, 4, 1>;
-
-fn enabled() -> Ec5000 {
-    let mut b = Bench::new(ec5000::od::Ram::new(ID), ec5000::App::NEW, MemStorage::new(4096), ID);
-    b.at(ms(0));
-    b.now = ms(10);
-    b.nmt(0x01, ID);
-    for (t, cw) in [(100, 0x06), (300, 0x07), (500, 0x0F)] {
-        b.rx(ms(t), RPDO1, &[cw, 0, 3, 0, 0, 0, 0]);
-    }
-    b.run_until(ms(700));
-    b
-}
+use common::ec5000::*;
+use common::{abort, ms};
 
 #[test]
 fn writing_1_restarts_the_drive() {

@@ -14,8 +14,10 @@
 //! - the temperature rises with the square of the torque and cools towards
 //!   ambient;
 //! - faults are injected ([`Axis::inject`]) or follow from the model:
-//!   over-temperature, under-voltage, a following error the drive's own
-//!   monitoring sees, a power stage fault;
+//!   over-temperature, under- and over-voltage, a following error the
+//!   drive's own monitoring sees, a power stage fault;
+//! - an external load ([`Axis::set_load`], a conveyor's slope) turns a
+//!   coasting axis; the loops hold against it up to the torque limit;
 //! - limit and home switches sit at fixed positions.
 
 use crate::profiles::cia402::drive::{Drive, SetPoint, Switches};
@@ -25,6 +27,8 @@ use crate::profiles::cia402::motion::{FRACTION, acceleration_q, speed_per_s, spe
 pub mod fault {
     /// 0x2320 short circuit / earth leakage at the output: the power stage failed.
     pub const POWER_STAGE: u16 = 0x2320;
+    /// 0x3210 DC link over-voltage.
+    pub const OVER_VOLTAGE: u16 = 0x3210;
     /// 0x3220 DC link under-voltage.
     pub const UNDER_VOLTAGE: u16 = 0x3220;
     /// 0x4310 excess temperature of the drive.
@@ -44,7 +48,12 @@ pub enum Injected {
     Blocked,
     /// The power stage fails.
     PowerStage,
+    /// The supply rises to 1.5 times the DC link voltage.
+    OverVoltage,
 }
+
+/// The torque the power stage gives at most [‰ of rated torque].
+const TORQUE_LIMIT: i64 = 3000;
 
 /// The motor and load a device simulates ([`AxisParams::ZERO`]: an axis
 /// that cannot move, until [`Axis::configure`]).
@@ -114,7 +123,9 @@ pub struct Axis {
     /// Temperature above ambient [µ°C].
     heat_uc: i32,
     fault: u16,
-    injected: [bool; 4],
+    injected: [bool; 5],
+    /// External load torque [‰ of rated torque], positive in the positive direction.
+    load: i16,
 }
 
 impl Axis {
@@ -128,7 +139,8 @@ impl Axis {
         torque: 0,
         heat_uc: 0,
         fault: 0,
-        injected: [false; 4],
+        injected: [false; 5],
+        load: 0,
     };
 
     /// Gives the axis its motor and load (at reset application).
@@ -155,10 +167,12 @@ impl Axis {
         self.params.ambient_c = celsius;
     }
 
-    /// Sets the temperature from which [`Drive::warning`] is on: a device with
-    /// its own warning hysteresis moves it so that statusword bit 7 follows.
-    pub fn set_warning_level(&mut self, celsius: i16) {
-        self.params.warning_c = celsius;
+    /// Sets the external load torque [‰ of rated torque] (a test's or a
+    /// demo's: goods on an inclined conveyor). With the power stage off it
+    /// turns the axis once it overcomes friction; the loops hold against it
+    /// up to the torque limit (3000 ‰), and a larger load slips through.
+    pub fn set_load(&mut self, permille: i16) {
+        self.load = permille;
     }
 
     fn injected(&self, fault: Injected) -> bool {
@@ -171,6 +185,8 @@ impl Axis {
             fault::POWER_STAGE
         } else if self.injected(Injected::UnderVoltage) {
             fault::UNDER_VOLTAGE
+        } else if self.injected(Injected::OverVoltage) {
+            fault::OVER_VOLTAGE
         } else if self.params.fault_c != 0 && self.temperature() >= self.params.fault_c {
             fault::OVER_TEMPERATURE
         } else {
@@ -228,19 +244,29 @@ impl Drive for Axis {
             SetPoint::Torque(t) => Some(self.velocity_q + ((step * i64::from(t) * 1049) >> 20)),
         };
         let before = self.velocity_q;
+        // The external load's acceleration [Q24 per tick²]; the loops' torque
+        // holds against it up to the torque limit.
+        let load = step * i64::from(self.load) / 1000;
+        let authority = step * TORQUE_LIMIT / 1000;
         self.velocity_q = match wanted {
             // A blocked load stops dead; with no torque the axis coasts down
-            // with friction (an eighth of the acceleration limit).
+            // with friction (an eighth of the acceleration limit), or turns
+            // with a load that overcomes it.
             _ if self.injected(Injected::Blocked) => 0,
-            None => toward(self.velocity_q, 0, (step >> 3).max(1)),
-            Some(w) => toward(self.velocity_q, w.clamp(-v_max, v_max), step),
+            None => toward(self.velocity_q + load, 0, (step >> 3).max(1)).clamp(-v_max, v_max),
+            Some(w) => {
+                let change = (w.clamp(-v_max, v_max) - self.velocity_q).clamp(-step, step);
+                self.velocity_q + (change - load).clamp(-authority, authority) + load
+            }
         };
         self.position_q += self.velocity_q;
         // Torque: the acceleration against the limit, plus friction while moving [‰].
         // In 64 bits: a Q24 step times 1000 overflows 32 bits from 2,147 inc/s² on.
         let accel = ((self.velocity_q - before).clamp(-3 * step, 3 * step) * 1000 / step.max(1)) as i32;
         let friction = if self.velocity_q == 0 { 0 } else { i32::from(p.friction_permille) * self.velocity_q.signum() as i32 };
-        self.torque = if self.enabled { (accel + friction).clamp(-3000, 3000) as i16 } else { 0 };
+        // The drive holds the load against its direction.
+        let limit = TORQUE_LIMIT as i32;
+        self.torque = if self.enabled { (accel + friction - i32::from(self.load)).clamp(-limit, limit) as i16 } else { 0 };
         // First-order thermal model: the steady rise grows with torque².
         let tau_ticks = i32::from(p.thermal_tau_s.max(1)) * 1000;
         let load = i32::from(self.torque) * i32::from(self.torque) / 1000;
@@ -271,7 +297,13 @@ impl Drive for Axis {
     }
 
     fn dc_link_mv(&self) -> u32 {
-        if self.injected(Injected::UnderVoltage) { 0 } else { self.params.dc_link_mv }
+        if self.injected(Injected::UnderVoltage) {
+            0
+        } else if self.injected(Injected::OverVoltage) {
+            self.params.dc_link_mv / 2 * 3
+        } else {
+            self.params.dc_link_mv
+        }
     }
 
     fn fault(&self) -> u16 {
@@ -307,6 +339,11 @@ impl Drive for Axis {
 
     fn max_velocity(&self) -> u32 {
         self.params.max_velocity
+    }
+
+    fn at_rest(&self) -> bool {
+        // Friction holds a coasting axis against a load of up to an eighth of the acceleration limit.
+        self.velocity_q == 0 && (self.enabled || self.load.unsigned_abs() <= 125)
     }
 }
 
@@ -385,6 +422,7 @@ mod tests {
         for (fault, code) in [
             (Injected::OverTemperature, fault::OVER_TEMPERATURE),
             (Injected::UnderVoltage, fault::UNDER_VOLTAGE),
+            (Injected::OverVoltage, fault::OVER_VOLTAGE),
             (Injected::PowerStage, fault::POWER_STAGE),
         ] {
             let mut a = axis();
@@ -405,5 +443,38 @@ mod tests {
         a.command(SetPoint::Position { position: 5_000, velocity: 0 });
         a.tick();
         assert_eq!(a.fault(), fault::FOLLOWING_ERROR, "a blocked load: the drive's following-error monitoring");
+    }
+
+    #[test]
+    fn a_load_turns_a_coasting_axis_and_the_loops_hold_it() {
+        // Friction holds a coasting axis against a load of up to 125 ‰ (an
+        // eighth of the acceleration limit).
+        let mut a = axis();
+        a.enable(false);
+        a.set_load(100);
+        for _ in 0..100 {
+            a.tick();
+        }
+        assert_eq!((a.position(), a.velocity()), (0, 0), "static friction holds");
+        // 625 ‰: 500 ‰ net, 50,000 inc/s² for 100 ms = 250 inc.
+        a.set_load(625);
+        for _ in 0..100 {
+            a.tick();
+        }
+        assert_eq!((a.position(), a.velocity()), (252, 5_000), "the load turns it");
+        // The position loop holds the same load where it is, the torque against it.
+        let mut a = axis();
+        a.set_load(625);
+        a.command(SetPoint::Position { position: 0, velocity: 0 });
+        for _ in 0..1000 {
+            a.tick();
+        }
+        assert_eq!((a.position(), a.velocity(), a.torque()), (0, 0, -625));
+        // Beyond the torque limit it slips.
+        a.set_load(3500);
+        for _ in 0..100 {
+            a.tick();
+        }
+        assert!(a.position() > 0, "{}", a.position());
     }
 }

@@ -12,30 +12,32 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::axis::{Axis, AxisParams};
+use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::store::{self, Scope};
 use canopen_core::time::Instant;
 
 mod monitor;
+mod roller;
 use monitor::Monitor;
-pub use monitor::TEMPERATURE_WARNING;
+pub use monitor::{COLD_WARNING, DERATING, SPEED_WARNING, TEMPERATURE_WARNING};
+pub use roller::{BLOCKED, COLD_FAULT_C, MIN_VELOCITY, OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller, SPEED_ERROR, TOO_COLD};
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile driving the
 /// axis model (until a board drives the roller's motor).
 #[derive(Debug)]
 pub struct App {
-    /// The CiA 402 profile and the drive behind it.
-    pub drive: Cia402<Axis>,
-    /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50).
+    /// The CiA 402 profile and the roller behind it.
+    pub drive: Cia402<Roller>,
+    /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50, D53, D55).
     monitor: Monitor,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), monitor: Monitor::NEW };
+    pub const NEW: App = App { drive: Cia402::new(Roller::NEW), monitor: Monitor::NEW };
 }
 
 /// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
@@ -114,7 +116,7 @@ impl Application for App {
                 if save {
                     ctx.save(Scope::Manufacturer)
                 } else {
-                    ctx.restore_defaults(Scope::Manufacturer)
+                    ctx.restore_defaults(Scope::Manufacturer).map(|()| self.monitor.keep(ctx))
                 }
             }
             _ => Err(AbortCode::CannotStore),
@@ -129,6 +131,10 @@ impl Application for App {
         if index == WARNING_LEVEL {
             self.monitor.levels(ctx);
         }
+        // D55: restored parameters leave the roller's life counters as they are.
+        if index == 0x1011 {
+            self.monitor.keep(ctx);
+        }
 
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
         // default `rpdo_written`).
@@ -141,14 +147,13 @@ impl Application for App {
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
         // Before the profile's poll, so that statusword bit 7 changes with the EMCY.
-        let level = self.monitor.update(ctx, &self.drive, AXIS.increments_per_rev);
-        self.drive.drive.set_warning_level(level);
+        self.monitor.update(ctx, &mut self.drive, AXIS.increments_per_rev);
         self.drive.poll(ctx, &PROFILE)
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         if event == NmtEvent::ResetApplication {
-            self.drive.drive.configure(AXIS);
+            self.drive.drive.axis.configure(AXIS);
             self.monitor.reset(ctx);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
@@ -178,6 +183,10 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
     };
     (node_id, None)
 }
+
+/// EMCY 0x6010 "Restart (powerfail, watchdog)" (M §9.1): the board reports
+/// a restart the firmware did not ask for with it (D53).
+pub const RESTART: u16 = 0x6010;
 
 /// The manual's fallback node-ID.
 const FACTORY_NODE_ID: u8 = 127;

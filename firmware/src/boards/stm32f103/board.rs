@@ -31,11 +31,14 @@ pub struct Config {
     /// CAN bit rate in kbit/s (one of the CiA 305 rates the device
     /// supports) when neither LSS nor the device's own start-up settings give one.
     pub bit_rate_kbps: u32,
+    /// The EMCY code of a restart the firmware did not ask for (watchdog,
+    /// panic, HardFault), see [`ResetCause::emcy`].
+    pub restart_emcy: u16,
 }
 
 impl Config {
-    /// 250 kbit/s.
-    pub const DEFAULT: Config = Config { bit_rate_kbps: 250 };
+    /// 250 kbit/s; CiA 301's 0x6100 "internal software" for a restart.
+    pub const DEFAULT: Config = Config { bit_rate_kbps: 250, restart_emcy: reset_cause::INTERNAL_SOFTWARE };
 }
 
 /// Two regions of flash pages, each holding a set of `REGION` bytes.
@@ -133,7 +136,7 @@ pub fn run<A>(
     let started = Started::build(make_node, || flash, app::now());
     // Why the last reset happened: an EMCY the node sends after its boot-up
     // (it waits for the call after the one that queues the boot-up).
-    if let Some((code, info)) = cause.emcy(flags) {
+    if let Some((code, info)) = cause.emcy(flags, config.restart_emcy) {
         started.node.raise_error(code, info);
         defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
     }
@@ -175,7 +178,7 @@ pub fn run<A>(
     }
     let spawner = CANOPEN_EXECUTOR.start(EXECUTOR_IRQ);
     spawner.spawn(spawned(canopen(started.node)));
-    spawner.spawn(spawned(feed_watchdog(watchdog, cause, flags)));
+    spawner.spawn(spawned(feed_watchdog(watchdog, cause.emcy(flags, config.restart_emcy).map(|(code, _)| code))));
     THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
         spawner.spawn(spawned(application));
     })
@@ -261,9 +264,9 @@ async fn canopen(node: &'static mut dyn CanNode) -> ! {
 /// node has sent its boot-up, the EMCY `run` raised for the cause of the
 /// last reset is cleared again a second later (the 0x1003 entry stays).
 #[embassy_executor::task]
-async fn feed_watchdog(mut watchdog: IndependentWatchdog, cause: ResetCause, flags: u8) -> ! {
+async fn feed_watchdog(mut watchdog: IndependentWatchdog, reset_emcy: Option<u16>) -> ! {
     // Raised on the node at start-up (`run`); cleared a second after the boot-up.
-    let mut clear = cause.emcy(flags).map(|(code, _)| (code, 4u8));
+    let mut clear = reset_emcy.map(|code| (code, 4u8));
     let mut stack_used = 0;
     let mut tick = 0u32;
     loop {

@@ -66,10 +66,13 @@ pub fn classify(csr: u32, left: Option<u32>) -> ResetCause {
 }
 
 impl ResetCause {
-    /// The EMCY to send after boot-up (code, manufacturer bytes), if any.
-    pub fn emcy(self, flags: u8) -> Option<(u16, [u8; 5])> {
+    /// The EMCY to send after boot-up (code, manufacturer bytes), if any:
+    /// `restart` is the code of a restart the firmware did not ask for
+    /// (watchdog, panic, HardFault): [`INTERNAL_SOFTWARE`], unless the
+    /// device's manual has its own (the EC5000's 0x6010, docs/devices/ec5000.md D53).
+    pub fn emcy(self, flags: u8, restart: u16) -> Option<(u16, [u8; 5])> {
         let code = match self {
-            ResetCause::Watchdog | ResetCause::Panic | ResetCause::HardFault => INTERNAL_SOFTWARE,
+            ResetCause::Watchdog | ResetCause::Panic | ResetCause::HardFault => restart,
             ResetCause::Crystal => DEVICE_HARDWARE,
             ResetCause::PowerOrPin | ResetCause::Other => return None,
         };
@@ -141,11 +144,11 @@ mod tests {
 
     #[test]
     fn emcy_codes_and_what_0x1003_records() {
-        assert_eq!(ResetCause::Watchdog.emcy(0x24), Some((0x6100, [1, 0x24, 0, 0, 0])));
-        assert_eq!(ResetCause::Panic.emcy(0x14), Some((0x6100, [2, 0x14, 0, 0, 0])));
-        assert_eq!(ResetCause::HardFault.emcy(0x14), Some((0x6100, [3, 0x14, 0, 0, 0])));
-        assert_eq!(ResetCause::Crystal.emcy(0x24), Some((0x5000, [4, 0x24, 0, 0, 0])));
-        assert_eq!(ResetCause::PowerOrPin.emcy(0x0C), None);
-        assert_eq!(ResetCause::Other.emcy(0x14), None);
+        assert_eq!(ResetCause::Watchdog.emcy(0x24, INTERNAL_SOFTWARE), Some((0x6100, [1, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::Panic.emcy(0x14, INTERNAL_SOFTWARE), Some((0x6100, [2, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::HardFault.emcy(0x14, INTERNAL_SOFTWARE), Some((0x6100, [3, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::Crystal.emcy(0x24, INTERNAL_SOFTWARE), Some((0x5000, [4, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::PowerOrPin.emcy(0x0C, INTERNAL_SOFTWARE), None);
+        assert_eq!(ResetCause::Other.emcy(0x14, INTERNAL_SOFTWARE), None);
     }
 }

@@ -1,16 +1,27 @@
-//! The EC5000's own monitoring beyond CiA 402: the over-temperature warning
-//! EMCY 0xFFA8 with the threshold and hysteresis of 0x4231 (D48), the
-//! monitoring values 0x2200 (D49) and the traffic lights 0x2210/0x2211 (D50).
+//! The EC5000's own monitoring beyond CiA 402: the warnings of its EMCY
+//! table (0xFFA8/0xFFA9 with the threshold and hysteresis of 0x4231, D48 and
+//! D53; 0xFFD4), the monitoring values 0x2200 (D49) with the counters kept
+//! across power-off (D55), and the traffic lights 0x2210/0x2211 (D50).
 
-use canopen_core::axis::{Axis, fault};
+use super::roller::{COLD_FAULT_C, Roller, TOO_COLD};
+use canopen_core::axis::fault;
 use canopen_core::node::Ctx;
 use canopen_core::profiles::cia402::Cia402;
 use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::PdsState;
 use canopen_core::profiles::cia402::objects::signed;
 
-/// EMCY 0xFFA8 "Motor temperature close to high" (class W, §5.2).
+/// EMCY 0xFFA8 "Motor temperature close to high" (class W, §9.2).
 pub const TEMPERATURE_WARNING: u16 = 0xFFA8;
+/// EMCY 0xFFA9 "Motor temperature close to low" (W), 10 °C above the cold fault (D53).
+pub const COLD_WARNING: u16 = 0xFFA9;
+const COLD_WARNING_C: i16 = COLD_FAULT_C + 10;
+/// EMCY 0xFFAA "Power reduced by temperature limiter" (W): half the speed
+/// limit from 100 °C, 5 K above the warning and 10 K below the fault (D53).
+pub const DERATING: u16 = 0xFFAA;
+const DERATING_C: i16 = 100;
+/// EMCY 0xFFD4 "Motor speed warning (heavy load)" (W).
+pub const SPEED_WARNING: u16 = 0xFFD4;
 /// 0x4231 "High Temperature Warning Level": sub 1 threshold, sub 2 hysteresis [°C].
 const WARNING_LEVEL: u16 = 0x4231;
 /// 0x2200 "Monitoring Values".
@@ -27,6 +38,12 @@ const RED: u8 = 2;
 const PERIOD_US: u64 = 100_000;
 /// Entries 0x1003 holds (sub 1..8): a full history is red (D50).
 const HISTORY_DEPTH: u32 = 8;
+/// The 0x2200 sub-indices kept across power-off (D55): start/stops, working
+/// time, lowest and highest temperature, quick stops, rotations.
+const REMANENT: [u8; 6] = [1, 2, 4, 5, 7, 9];
+/// Changed counters are stored at most this often [s of uptime] (D55), and
+/// when the DC link collapses.
+const STORE_PERIOD_S: u32 = 8 * 3600;
 
 /// Whole seconds and the microseconds towards the next one: a 32-bit count
 /// (a 64-bit division is a library call on a Cortex-M3).
@@ -49,8 +66,16 @@ impl Seconds {
 /// What the monitoring remembers between polls.
 #[derive(Debug)]
 pub struct Monitor {
-    /// EMCY 0xFFA8 is active.
+    /// EMCY 0xFFA8, 0xFFA9 and 0xFFD4 are active.
     warning: bool,
+    cold: bool,
+    slowed: bool,
+    derated: bool,
+    /// The counters were read from the stored set (at power-on).
+    restored: bool,
+    /// A remanent value changed since it was stored; the uptime of that store [s].
+    dirty: bool,
+    stored_s: u32,
     /// The time of the last poll [µs], `None` before the first one.
     last_us: Option<u64>,
     /// The position then [inc], and increments turned towards the next motor revolution.
@@ -68,6 +93,8 @@ pub struct Monitor {
     /// 0x4231 sub 1 and sub 2, read when written and at reset application
     /// (a dictionary look-up in every tick costs more than the rest).
     threshold: i16,
+    /// The temperature the warnings were last checked at [°C] (`i16::MIN`: check again).
+    checked_c: i16,
     hysteresis: i16,
     /// What 0x2200 sub 1..9 and 0x2211 sub 1..3 show, so that only a change is
     /// written, once `shown_valid` (all written since the reset).
@@ -79,6 +106,12 @@ impl Monitor {
     /// At power-on: no warning, nothing counted.
     pub const NEW: Monitor = Monitor {
         warning: false,
+        cold: false,
+        slowed: false,
+        derated: false,
+        restored: false,
+        dirty: false,
+        stored_s: 0,
         last_us: None,
         last_position: 0,
         travel: 0,
@@ -92,6 +125,7 @@ impl Monitor {
         rotations: 0,
         // Zero, as the whole node (canopen_core::node): 0x4231 is read at reset application.
         threshold: 0,
+        checked_c: 0,
         hysteresis: 0,
         shown: [0; 11],
         shown_valid: false,
@@ -102,25 +136,43 @@ impl Monitor {
     pub fn levels(&mut self, ctx: &Ctx<'_>) {
         self.threshold = signed(ctx, WARNING_LEVEL, 1).unwrap_or(95) as i16;
         self.hysteresis = signed(ctx, WARNING_LEVEL, 2).unwrap_or(2) as i16;
+        self.checked_c = i16::MIN;
     }
 
-    /// Counts, checks and shows what the drive did since the last poll;
-    /// returns the temperature from which statusword bit 7 is on (D48).
+    /// Counts, checks and shows what the drive did since the last poll, and
+    /// tells the roller its warnings for statusword bit 7 (D48, D53); the
+    /// profile then writes the statusword again.
     #[inline(never)]
-    pub fn update(&mut self, ctx: &mut Ctx<'_>, drive: &Cia402<Axis>, increments_per_rev: u32) -> i16 {
-        let axis = &drive.drive;
+    pub fn update(&mut self, ctx: &mut Ctx<'_>, drive: &mut Cia402<Roller>, increments_per_rev: u32) {
         // Quick stops at every poll: one at rest lasts a single tick.
         let state = drive.state();
         if state == PdsState::QuickStopActive && self.last_state != PdsState::QuickStopActive {
             self.quick_stops = self.quick_stops.saturating_add(1);
         }
         self.last_state = state;
-        // The warning at every poll too, so that the EMCY and bit 7 change together.
-        let t = drive.drive.temperature();
-        let level = self.temperature_warning(ctx, t);
+        // The warnings at every poll too, so that the EMCY and bit 7 change
+        // together; checked again only when what they depend on changed (the
+        // poll runs with every frame).
+        let roller = &mut drive.drive;
+        let t = roller.temperature();
+        let slowed = roller.slowed();
+        if t != self.checked_c || slowed != self.slowed {
+            self.checked_c = t;
+            let [lo, hi] = t.to_le_bytes();
+            let info = [lo, hi, 0, 0, 0];
+            let (threshold, hysteresis) = (self.threshold, self.hysteresis);
+            // D48: on at T >= threshold, off at T <= threshold - hysteresis (95/93 °C by default).
+            warn(ctx, &mut self.warning, t >= threshold, t <= threshold.saturating_sub(hysteresis), TEMPERATURE_WARNING, info);
+            warn(ctx, &mut self.cold, t <= COLD_WARNING_C, t >= COLD_WARNING_C + hysteresis, COLD_WARNING, info);
+            warn(ctx, &mut self.derated, t >= DERATING_C, t <= DERATING_C - hysteresis, DERATING, info);
+            warn(ctx, &mut self.slowed, slowed, !slowed, SPEED_WARNING, [0; 5]);
+            (roller.warned, roller.derated) = (self.warning || self.cold || self.derated, self.derated);
+            drive.refresh();
+        }
+        let axis = &drive.drive;
         let now = ctx.now().as_micros();
         if self.last_us.is_some_and(|last| now.saturating_sub(last) < PERIOD_US) {
-            return level;
+            return;
         }
         let elapsed = self.last_us.map_or(0, |last| now.saturating_sub(last).min(u64::from(u32::MAX)) as u32);
         self.last_us = Some(now);
@@ -146,14 +198,20 @@ impl Monitor {
         self.extremes = Some((low, high));
 
         // D50: the health traffic lights.
-        let temperature = if axis.fault() == fault::OVER_TEMPERATURE {
+        let temperature = if matches!(axis.fault(), fault::OVER_TEMPERATURE | TOO_COLD) {
             RED
-        } else if self.warning {
+        } else if self.warning || self.cold {
             YELLOW
         } else {
             GREEN
         };
-        let power = if axis.dc_link_mv() == 0 { RED } else { GREEN };
+        let power = if axis.dc_link_mv() == 0 {
+            RED
+        } else if self.derated {
+            YELLOW
+        } else {
+            GREEN
+        };
         let errors = match ctx.read_u32(0x1003, 0).unwrap_or(0) {
             0 => GREEN,
             n if n < HISTORY_DEPTH => YELLOW,
@@ -177,7 +235,11 @@ impl Monitor {
             self.show(ctx, i, (index, sub), len, value);
         }
         self.shown_valid = true;
-        level
+        // D55: changed counters at most every 8 h, and at once when the power fails.
+        if self.dirty && (power == RED || self.uptime.s.wrapping_sub(self.stored_s) >= STORE_PERIOD_S) {
+            self.stored_s = self.uptime.s;
+            self.dirty = ctx.save_objects(MONITORING, MONITORING).is_err();
+        }
     }
 
     /// Writes `value` to (index, sub) with `len` bytes if it differs from what slot `i` shows.
@@ -186,37 +248,53 @@ impl Monitor {
         let valid = self.shown_valid;
         if let Some(shown) = self.shown.get_mut(i).filter(|s| !valid || **s != value) {
             *shown = value;
+            self.dirty |= valid && index == MONITORING && REMANENT.contains(&sub);
             if let Some(bytes) = value.to_le_bytes().get(..len) {
                 let _ = ctx.set_value(index, sub, bytes);
             }
         }
     }
 
-    /// Raises or clears the temperature warning for `temperature` [°C];
-    /// returns the temperature from which statusword bit 7 shows it, so that
-    /// bit 7 and the EMCY agree: the threshold while clear, the lowest
-    /// temperature still warned while raised.
-    fn temperature_warning(&mut self, ctx: &mut Ctx<'_>, temperature: i16) -> i16 {
-        // D48: on at T >= threshold, off at T <= threshold - hysteresis (95/93 °C by default).
-        let threshold = i32::from(self.threshold);
-        let clear_at = threshold - i32::from(self.hysteresis);
-        let t = i32::from(temperature);
-        if !self.warning && t >= threshold {
-            self.warning = true;
-            let [lo, hi] = temperature.to_le_bytes();
-            ctx.raise_error(TEMPERATURE_WARNING, [lo, hi, 0, 0, 0]);
-        } else if self.warning && t <= clear_at {
-            self.warning = false;
-            ctx.clear_error(TEMPERATURE_WARNING);
-        }
-        (if self.warning { clear_at + 1 } else { threshold }) as i16
+    /// Stores the counters again after 0x1011 marked the manufacturer
+    /// parameters for their defaults (D55).
+    pub fn keep(&mut self, ctx: &mut Ctx<'_>) {
+        self.dirty = ctx.save_objects(MONITORING, MONITORING).is_err();
     }
 
-    /// At reset application: the warning is gone with the EMCY state; the
-    /// counters go on (they count the roller's life, not the application's).
-    pub fn reset(&mut self, ctx: &Ctx<'_>) {
-        self.warning = false;
-        self.shown_valid = false;
+    /// At reset application: the warnings are gone with the EMCY state; the
+    /// counters go on (they count the roller's life, not the application's),
+    /// and at power-on they start from the stored ones (D55).
+    pub fn reset(&mut self, ctx: &mut Ctx<'_>) {
+        (self.warning, self.cold, self.slowed, self.derated, self.shown_valid) = (false, false, false, false, false);
         self.levels(ctx);
+        if core::mem::replace(&mut self.restored, true) {
+            return;
+        }
+        for sub in REMANENT {
+            let mut v = [0; 4];
+            if ctx.stored(MONITORING, sub, &mut v).is_none() {
+                return;
+            }
+            let [w, n] = [u32::from_le_bytes(v), u32::from(u16::from_le_bytes([v[0], v[1]]))];
+            match sub {
+                1 => self.start_stops = w,
+                2 => self.working.s = w,
+                4 => self.extremes = Some((n as i16, n as i16)),
+                5 => self.extremes = self.extremes.map(|(low, _)| (low, n as i16)),
+                7 => self.quick_stops = n as u16,
+                _ => self.rotations = w,
+            }
+        }
+    }
+}
+
+/// Raises EMCY `code` with `info` when `on`, clears it when `off` (a warning: no fault reaction).
+fn warn(ctx: &mut Ctx<'_>, active: &mut bool, on: bool, off: bool, code: u16, info: [u8; 5]) {
+    if !*active && on {
+        *active = true;
+        ctx.raise_error(code, info);
+    } else if *active && off {
+        *active = false;
+        ctx.clear_error(code);
     }
 }

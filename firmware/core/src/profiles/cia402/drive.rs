@@ -81,4 +81,18 @@ pub trait Drive {
     /// The motor's speed limit [inc/s]: the trajectory never asks for more
     /// (a demand the motor cannot follow would overshoot).
     fn max_velocity(&self) -> u32;
+    /// The lowest speed the motor runs at [inc/s], 0 for none: a pv or vl
+    /// target below it stops the axis, and a stop ramp (halt, quick stop, a
+    /// braking transition, pv to 0) ends once the demand falls below it: the
+    /// position of that moment is held ("Zero Motion Hold" of a drive without
+    /// a brake).
+    fn min_velocity(&self) -> u32 {
+        0
+    }
+    /// The drive stays at rest without ticks, so the profile may stop
+    /// ticking it while its function is off (a load that turns a
+    /// freewheeling motor keeps it ticking).
+    fn at_rest(&self) -> bool {
+        self.velocity() == 0
+    }
 }

@@ -94,6 +94,8 @@ struct Profile {
     next_tick: u64,
     ticking: bool,
     operational: bool,
+    /// [`Cia402::refresh`]: the statusword is written at the next idle poll.
+    refresh: bool,
 }
 
 impl Profile {
@@ -124,6 +126,7 @@ impl Profile {
         next_tick: 0,
         ticking: false,
         operational: false,
+        refresh: false,
     };
 }
 
@@ -181,6 +184,12 @@ impl<D: Drive> Cia402<D> {
         self.publish(ctx);
     }
 
+    /// The drive's warning (bit 7) changed: while the profile is idle, its
+    /// next poll writes 0x6041 (ticking, it writes it at each tick).
+    pub fn refresh(&mut self) {
+        self.s.refresh = true;
+    }
+
     /// Before SYNC TPDOs: the actual values.
     pub fn sample(&mut self, ctx: &mut Ctx<'_>) {
         self.actuals(ctx);
@@ -191,9 +200,16 @@ impl<D: Drive> Cia402<D> {
         let now = ctx.now().as_micros();
         if !self.s.ticking {
             let code = self.drive.fault();
+            // A fault, or a warning the device reported (`refresh`), changes the statusword.
             if code != 0 && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
                 self.publish(ctx);
+            } else if core::mem::take(&mut self.s.refresh) {
+                self.publish(ctx);
+            }
+            if !self.drive.at_rest() {
+                self.start_ticking(ctx);
+                return Some(Instant::from_micros(self.s.next_tick));
             }
             return (self.s.state != PdsState::NotReadyToSwitchOn).then(|| Instant::from_micros(now.saturating_add(IDLE_POLL_US)));
         }
@@ -215,7 +231,7 @@ impl<D: Drive> Cia402<D> {
         self.s.next_tick = self.s.next_tick.saturating_add(due * TICK_US).max(now.saturating_add(1));
         self.actuals(ctx);
         self.publish(ctx);
-        if !self.s.state.drive_function() && self.drive.velocity() == 0 {
+        if !self.s.state.drive_function() && self.drive.at_rest() {
             self.s.ticking = false;
             return Some(Instant::from_micros(now.saturating_add(IDLE_POLL_US)));
         }

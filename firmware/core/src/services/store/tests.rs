@@ -149,6 +149,24 @@ fn objects_saved_after_a_restore_keep_the_rest_of_their_scope_at_default() {
 }
 
 #[test]
+fn storing_one_object_after_a_restore_keeps_the_other_defaults() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x1017, 0, &100u16.to_le_bytes()).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    restore_defaults(&DICT, &img, 1, &mut flash, Scope::Communication).unwrap();
+    // A device keeps a read-only value of the same scope (a counter) after the restore.
+    img[0] = 9;
+    save_objects(&DICT, &img, 1, &mut flash, 0x1001, 0x1001).unwrap();
+    let img2 = boot(&mut flash, 1);
+    assert_eq!(DICT.read(&img2, 0x1017, 0), Ok(&0u16.to_le_bytes()[..]), "the restored default, not the value before");
+    assert_eq!(stored_value(&DICT, &mut flash, 1, 0x1001, 0, &mut [0]), Some(1));
+    let mut v = [0];
+    stored_value(&DICT, &mut flash, 1, 0x1001, 0, &mut v);
+    assert_eq!(v, [9]);
+}
+
+#[test]
 fn a_power_cut_at_any_step_leaves_the_old_or_the_new_set() {
     // Old set: 0x1017 = 111, 0x2000 = 1111. New set: 222, 2222.
     let mut base = Flash::new();

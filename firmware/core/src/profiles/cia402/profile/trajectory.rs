@@ -126,16 +126,22 @@ impl<D: Drive> Cia402<D> {
         }
         let d = &mut s.demand;
         let halt = s.controlword & cw::HALT != 0 && s.state == PdsState::OperationEnabled;
+        // Below the motor's minimum speed a stop ends, and a pv or vl target stops.
+        let min = speed_q(i64::from(self.drive.min_velocity()));
+        let mut stopping = true;
         if s.braking || matches!(s.state, PdsState::QuickStopActive | PdsState::FaultReactionActive) {
             d.ramp(0, p.acceleration, Self::deceleration(p, s.reaction));
         } else if halt {
             d.ramp(0, p.acceleration, Self::deceleration(p, p.halt));
         } else {
+            stopping = false;
             match s.mode {
                 mode::PP => s.pp.tick(d, p.speed, p.acceleration, p.deceleration, s.controlword & cw::NEW_SET_POINT != 0),
                 mode::PV | mode::VL => {
                     let limit = speed_q(i64::from(self.drive.max_velocity()));
-                    d.ramp(s.velocity_target.clamp(-limit, limit), p.acceleration, p.deceleration);
+                    let target = if s.velocity_target.abs() < min { 0 } else { s.velocity_target.clamp(-limit, limit) };
+                    stopping = target == 0;
+                    d.ramp(target, p.acceleration, p.deceleration);
                 }
                 mode::HM => {
                     let started = core::mem::take(&mut s.hm_started);
@@ -153,6 +159,9 @@ impl<D: Drive> Cia402<D> {
                 }
                 _ => d.ramp(0, p.acceleration, p.deceleration),
             }
+        }
+        if stopping && d.velocity_q.abs() < min {
+            d.velocity_q = 0;
         }
         let set_point = if s.mode == mode::VL {
             SetPoint::Velocity(d.velocity())
