@@ -12,8 +12,7 @@
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use bxcan::filter::{BankConfig, ListEntry16, Mask32};
-use bxcan::{Fifo, Interrupts, StandardId};
+use bxcan::Interrupts;
 use canopen_core::node::AcceptedId;
 use cortex_m::peripheral::DWT;
 use critical_section::Mutex;
@@ -59,39 +58,47 @@ fn with_can(f: impl FnOnce(&mut Option<bxcan::Can<Instance>>)) {
     });
 }
 
-/// Programs the filter banks for the node's identifiers (`filters`)
-/// through bxcan's filter API, every bank into FIFO 0, the unused ones off.
-/// bxCAN stops receiving while its filters are in initialisation mode
-/// (FMR.FINIT, while `banks` lives), a few microseconds here: a frame that
-/// completes in that window is lost to this node. bxcan's API costs about
-/// 500 bytes of flash per image over direct register writes (its bounds
-/// assertion with its message, a read-modify-write of four registers per
-/// bank), measured with `arm-none-eabi-size` on the STM32 images.
+/// Programs the filter banks for the node's identifiers (`filters`), every
+/// bank into FIFO 0, the unused ones off. bxCAN stops receiving while its
+/// filters are in initialisation mode (FMR.FINIT), a few microseconds
+/// here: a frame that completes in that window is lost to this node.
+///
+/// Raw registers, not bxcan's `modify_filters`/`enable_bank`: measured on
+/// every STM32 image, bxcan's API (a read-modify-write of four registers and
+/// a bounds assertion per bank) costs about 1.5 KB of flash (unitek-ds
+/// 32,732 → 34,260 B, ec5000 59,328 → 60,860 B) and no longer fits the
+/// bmaxx4400 image in the flash region.
 pub fn set_filters(ids: &[AcceptedId], complete: bool) {
-    let lists = filters::fits(ids, complete);
-    let mut list = filters::list_banks(ids);
-    with_can(|slot| {
-        let Some(can) = slot.as_mut() else { return };
-        let mut banks = can.modify_filters();
-        banks.clear();
-        for index in 0..filters::BANKS as u8 {
-            // One call site for both kinds of bank: bxcan's `enable_bank` is inlined where it is called.
-            let config: BankConfig = match list.next() {
-                Some(bank) if lists => filters::list_entries(bank).map(list_entry).into(),
-                // Every standard frame, data or remote (identifier 0, mask IDE only); no 29-bit frame.
-                _ if !lists && index == 0 => Mask32::frames_with_std_id(StandardId::ZERO, StandardId::ZERO).into(),
-                _ => break,
-            };
-            banks.enable_bank(index, Fifo::Fifo0, config);
+    let can = registers();
+    critical_section::with(|_| {
+        can.fmr().modify(|_, w| w.finit().set_bit());
+        // SAFETY: every bit pattern is valid in the filter registers
+        // (RM0008 §24.9.4), and they are written only in filter
+        // initialisation mode, with every bank inactive until the last write.
+        unsafe {
+            can.fa1r().write(|w| w.bits(0));
+            can.ffa1r().write(|w| w.bits(0));
+            let lists = filters::fits(ids, complete);
+            let mut active = 0u32;
+            if lists {
+                for (bank, (fr1, fr2)) in can.fb_iter().zip(filters::list_banks(ids).map(filters::list_bank)) {
+                    bank.fr1().write(|w| w.bits(fr1));
+                    bank.fr2().write(|w| w.bits(fr2));
+                    active = active << 1 | 1;
+                }
+            } else if let Some(bank) = can.fb_iter().next() {
+                let (fr1, fr2) = filters::ALL_STANDARD;
+                bank.fr1().write(|w| w.bits(fr1));
+                bank.fr2().write(|w| w.bits(fr2));
+                active = 1;
+            }
+            // List banks are 16-bit list mode; the fallback bank is one 32-bit mask.
+            can.fm1r().write(|w| w.bits(if lists { active } else { 0 }));
+            can.fs1r().write(|w| w.bits(if lists { 0 } else { active }));
+            can.fa1r().write(|w| w.bits(active));
         }
+        can.fmr().modify(|_, w| w.finit().clear_bit());
     });
-}
-
-/// A 16-bit list entry for one identifier the node consumes.
-fn list_entry(id: AcceptedId) -> ListEntry16 {
-    // COB-IDs are 11-bit: `new` cannot refuse the masked value.
-    let cob_id = StandardId::new(id.cob_id & 0x7FF).unwrap_or(StandardId::MAX);
-    if id.rtr { ListEntry16::remote_frames_with_id(cob_id) } else { ListEntry16::data_frames_with_id(cob_id) }
 }
 
 /// How long [`set_bit_timing`] waits for initialisation mode: bxCAN enters
@@ -134,9 +141,9 @@ fn registers() -> &'static pac::can::RegisterBlock {
     // through it are not used by bxcan after `start`; they are accessed in
     // `start` (before the interrupts are unmasked), and then IER.ERRIE/BOFIE/
     // EPVIE, MSR.ERRI and ESR only by the CAN interrupts (one priority, so
-    // they never preempt each other), MCR.INRQ and BTR only by the CANopen
-    // task inside a critical section (the filters go through bxcan's
-    // `modify_filters`). The receive FIFO (RF0R, its mailbox) is read only by
+    // they never preempt each other), MCR.INRQ, BTR and the filter registers
+    // FMR, FM1R, FS1R, FFA1R, FA1R, FiRx only by the CANopen task inside a
+    // critical section. The receive FIFO (RF0R, its mailbox) is read only by
     // the FIFO 0 interrupt; the transmit mailboxes only by the CANopen task,
     // which reads TSR, while the TX-empty interrupt only writes TSR's RQCP
     // flags (write 1 to clear: mailbox contents, TME and CODE stay).
