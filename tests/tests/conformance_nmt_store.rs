@@ -12,6 +12,7 @@
 mod common;
 
 use canopen_core::node::NoApplication;
+use canopen_core::od::{Dictionary, ObjectDictionary, Services};
 use canopen_core::services::nmt::State;
 use common::{Bench, F, abort, ms, ok_write};
 use hal_host::fixtures::interop::od as interop;
@@ -297,4 +298,37 @@ fn cct_10_4_stop_remote_node() {
     assert_eq!(b.rx(ms(2), 0x000, &[0x01, ID, 0]), []);
     assert_eq!(b.rx(ms(3), 0x000, &[0x03, ID]), []);
     assert_eq!(b.node.state(), State::Stopped);
+}
+
+/// The interop dictionary linked without storage (`Services::storage`
+/// off), as the `ds301-lean` size reference does with CANopenNode's
+/// profile: 0x1010/0x1011 stay in the dictionary, but nothing can be stored.
+struct NoStorage(interop::Ram);
+
+impl ObjectDictionary for NoStorage {
+    const SERVICES: Services = Services { storage: false, ..<interop::Ram as ObjectDictionary>::SERVICES };
+    fn dictionary(&self) -> &'static Dictionary {
+        self.0.dictionary()
+    }
+    fn image(&self) -> &[u8] {
+        self.0.image()
+    }
+    fn image_mut(&mut self) -> &mut [u8] {
+        self.0.image_mut()
+    }
+}
+
+#[test]
+fn a_node_without_storage_refuses_save_and_restore_and_writes_nothing() {
+    let mut b: Bench<_, _, _, 4, 4, 4> = Bench::new(NoStorage(interop::Ram::new(ID)), NoApplication, MemStorage::new(4096), ID);
+    assert_eq!(b.at(ms(0)), [boot_up()]);
+    assert_eq!(b.sdo_download(ID, 0x1017, 0, &500u16.to_le_bytes()), Ok(()));
+    // "save" and "load": 0x08000020, the data cannot be stored; an unknown sub-index stays 0x06090011.
+    assert_eq!(b.sdo_download(ID, 0x1010, 1, b"save"), Err(0x0800_0020));
+    assert_eq!(b.sdo_download(ID, 0x1011, 1, b"load"), Err(0x0800_0020));
+    assert_eq!(b.sdo_download(ID, 0x1010, 9, b"save"), Err(0x0609_0011));
+    assert!(b.node.storage_mut().region(0).is_some_and(|r| r.iter().all(|&x| x == 0xFF)), "region 0 erased");
+    assert!(b.node.storage_mut().region(1).is_some_and(|r| r.iter().all(|&x| x == 0xFF)), "region 1 erased");
+    assert_eq!(b.nmt(0x81, ID), [boot_up()]);
+    assert_eq!(b.sdo_upload(ID, 0x1017, 0), Ok(vec![0, 0]), "the default after reset node");
 }

@@ -120,6 +120,10 @@ pub struct Ctx<'a> {
     pub(super) now: Instant,
     pub(super) options: ServiceOptions,
     pub(super) effects: SdoEffects,
+    /// 0x1010/0x1011 (`Ctx::store_command`), or their refusal on a node
+    /// without storage: a function chosen per node type, so that such a
+    /// node links no store code.
+    pub(super) store: super::router::StoreCommand,
     /// Raw frames sent by the hook, queued by the node when the hook returns
     /// (an SDO transfer holds the transmit queue while its hooks run).
     pub(super) raw: &'a mut RawBurst,

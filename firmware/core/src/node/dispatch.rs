@@ -206,6 +206,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             now,
             options: A::OPTIONS,
             effects: SdoEffects::default(),
+            store: Ctx::store_command_for(Self::LOADS_STORED),
             raw,
         };
         (ctx, app, sdo, txq, sdo_cob_ids)

@@ -240,6 +240,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             now,
             options: A::OPTIONS,
             effects: router::SdoEffects::default(),
+            store: Ctx::store_command_for(Self::LOADS_STORED),
             raw,
         };
         let value = f(app, &mut ctx);

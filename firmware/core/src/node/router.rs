@@ -55,7 +55,28 @@ pub(super) fn store_abort(e: StoreError) -> AbortCode {
     }
 }
 
+/// How a node carries out a 0x1010/0x1011 download (see [`Ctx::store_command`]).
+pub(crate) type StoreCommand = fn(&mut Ctx<'_>, u16, u8, &[u8]) -> Result<(), AbortCode>;
+
 impl Ctx<'_> {
+    /// The store command of a node that stores ([`Ctx::store_command`]) or not ([`Ctx::no_store`]).
+    pub(super) const fn store_command_for(stores: bool) -> StoreCommand {
+        fn store(ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+            ctx.store_command(index, sub, data)
+        }
+        fn no_store(ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+            ctx.no_store(index, sub, data)
+        }
+        if stores { store } else { no_store }
+    }
+
+    /// 0x1010/0x1011 on a node without storage (a reference image that
+    /// leaves it out while its dictionary lists the objects): nothing can be stored.
+    fn no_store(&mut self, index: u16, sub: u8, _: &[u8]) -> Result<(), AbortCode> {
+        self.dict.find(index, sub)?;
+        Err(AbortCode::CannotStore)
+    }
+
     fn plain(&mut self) -> crate::od::DictionaryAccess<'_> {
         crate::od::DictionaryAccess { dictionary: self.dict, image: self.image }
     }
@@ -130,7 +151,7 @@ impl Ctx<'_> {
     pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.effects.written = true;
         let result = match index {
-            0x1010 | 0x1011 => self.store_command(index, sub, data),
+            0x1010 | 0x1011 => (self.store)(self, index, sub, data),
             0x1029 if sub > 0 => {
                 if matches!(data, [v] if *v > 2) {
                     return Err(AbortCode::InvalidValue);
