@@ -11,10 +11,12 @@
 
 mod common;
 
+use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
 use canopen_core::od::{Dictionary, ObjectDictionary, Services};
 use canopen_core::services::nmt::State;
 use common::{Bench, F, abort, ms, ok_write};
+use embedded_can::Frame;
 use hal_host::fixtures::interop::od as interop;
 use hal_host::storage::MemStorage;
 
@@ -331,4 +333,59 @@ fn a_node_without_storage_refuses_save_and_restore_and_writes_nothing() {
     assert!(b.node.storage_mut().region(1).is_some_and(|r| r.iter().all(|&x| x == 0xFF)), "region 1 erased");
     assert_eq!(b.nmt(0x81, ID), [boot_up()]);
     assert_eq!(b.sdo_upload(ID, 0x1017, 0), Ok(vec![0, 0]), "the default after reset node");
+}
+
+/// One received frame, no `process`.
+fn deliver(b: &mut Interop, t: u64, cob_id: u16, data: &[u8]) {
+    b.node.on_frame(ms(t), &CanFrame::standard(cob_id, data).expect("valid frame"));
+}
+
+#[test]
+fn reset_node_with_a_stored_set_takes_a_stage_per_process_and_boots_up_after_the_last() {
+    let mut b = interop();
+    change_parameters(&mut b);
+    assert_eq!(b.sdo_download(ID, 0x1010, 1, b"save"), Ok(()));
+    assert_eq!(b.sdo_download(ID, 0x2000, 0, &[0x55]), Ok(()));
+    deliver(&mut b, 10, 0x000, &[0x81, ID]);
+    assert!(b.node.resetting());
+    assert_eq!(b.node.state(), State::Initialising);
+    let mut stages = 0;
+    while b.node.resetting() {
+        // Each call before the last asks to be called again at once and sends nothing.
+        assert_eq!(b.node.transmit(), None, "nothing before the reset is complete (stage {stages})");
+        let deadline = b.node.process(ms(10));
+        stages += 1;
+        if b.node.resetting() {
+            assert_eq!(deadline, Some(ms(10)), "stage {stages}");
+            // The node is Initialising: an SDO request meanwhile is ignored, not answered.
+            let ignored = b.node.counters().ignored;
+            deliver(&mut b, 10, 0x604, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
+            assert_eq!(b.node.counters().ignored, ignored + 1, "stage {stages}");
+        }
+    }
+    // Find the stored set, the application part, the communication part, the services, RPDOs, TPDOs, the rest.
+    assert_eq!(stages, 7);
+    assert_eq!(b.node.transmit().map(|f| (f.cob_id(), f.data().to_vec())), Some((Some(0x704), vec![0x00])), "the boot-up, last");
+    assert_eq!(b.node.transmit(), None);
+    assert_eq!(b.node.state(), State::PreOperational);
+    assert!(is(parameters(&mut b), CHANGED), "both parts loaded from the stored set");
+}
+
+#[test]
+fn an_nmt_or_lss_frame_during_a_reset_meets_the_finished_reset() {
+    let mut b = interop();
+    deliver(&mut b, 10, 0x000, &[0x82, ID]);
+    b.node.process(ms(10));
+    assert!(b.node.resetting());
+    // Start, while Initialising: ignored by the NMT state machine, as before the boot-up it always was.
+    deliver(&mut b, 10, 0x000, &[0x01, ID]);
+    assert!(!b.node.resetting(), "the reset completed before the command");
+    assert_eq!(b.at(ms(10)), [boot_up()]);
+    assert_eq!(b.node.state(), State::PreOperational);
+    // The application's access also finds the reset complete.
+    deliver(&mut b, 11, 0x000, &[0x82, ID]);
+    assert!(b.node.resetting());
+    let _ = b.node.od_mut();
+    assert!(!b.node.resetting());
+    assert_eq!(b.at(ms(11)), [boot_up()]);
 }

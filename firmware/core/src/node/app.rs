@@ -121,8 +121,9 @@ pub struct Ctx<'a> {
     pub(super) options: ServiceOptions,
     pub(super) effects: SdoEffects,
     /// 0x1010/0x1011 (`Ctx::store_command`), or their refusal on a node
-    /// without storage: a function chosen per node type, so that such a
-    /// node links no store code.
+    /// whose dictionary links no storage (`Services::storage`): a function
+    /// chosen per node type, so that such a node links no store code for
+    /// them (a device's own store command, `Application::STORES`, goes through `Ctx::save`).
     pub(super) store: super::router::StoreCommand,
     /// Raw frames sent by the hook, queued by the node when the hook returns
     /// (an SDO transfer holds the transmit queue while its hooks run).

@@ -124,6 +124,12 @@ pub struct Node<
     raw: app::RawBurst,
     /// The CAN controller's errors (`controller`).
     controller: controller::ControllerErrors,
+    /// The reset in progress, if any (`reset`).
+    reset: reset::Stage,
+    /// The newest stored set the reset in progress found.
+    reset_stored: Option<crate::services::store::StoredSet>,
+    /// When the reset in progress last moved on.
+    reset_at: Instant,
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -174,6 +180,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             acceptance: filter::AcceptanceList::new(),
             raw: app::RawBurst::EMPTY,
             controller: controller::ControllerErrors::new(),
+            reset: reset::Stage::Idle,
+            reset_stored: None,
+            reset_at: Instant::ZERO,
         }
     }
 
@@ -196,6 +205,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// hook (use [`Node::write_object`] for a write with the services'
     /// rules); change-of-state TPDOs see the new values at the next [`Node::process`].
     pub fn od_mut(&mut self) -> &mut O {
+        self.complete_reset();
         self.touched = true;
         &mut self.od
     }
@@ -205,6 +215,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// 0 at the next SYNC), inhibit time permitting. False if that TPDO is
     /// not valid or of another type.
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
+        self.complete_reset();
         self.touched = true;
         self.comm.pdos.trigger(n)
     }
@@ -214,6 +225,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// service's rules and side effects, then [`Application::written`] with
     /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
     pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.complete_reset();
         self.with_app(now, |app, ctx| router::Router { ctx, app, by: Source::App }.write_with_hooks(index, sub, data))
     }
 
@@ -240,7 +252,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             now,
             options: A::OPTIONS,
             effects: router::SdoEffects::default(),
-            store: Ctx::store_command_for(Self::LOADS_STORED),
+            store: Ctx::store_command_for(O::SERVICES.storage),
             raw,
         };
         let value = f(app, &mut ctx);
@@ -280,11 +292,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The device's hooks, mutably.
     pub fn app_mut(&mut self) -> &mut A {
+        self.complete_reset();
         &mut self.app
     }
 
     /// The storage.
     pub fn storage_mut(&mut self) -> &mut S {
+        self.complete_reset();
         &mut self.storage
     }
 
@@ -311,11 +325,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Raises an application error: EMCY with `code`, error register, 0x1003.
     pub fn raise_error(&mut self, code: u16, info: [u8; 5]) {
+        self.complete_reset();
         self.comm.emcy.raise(code, info);
     }
 
     /// Clears an application error; the last one cleared sends "error reset".
     pub fn clear_error(&mut self, code: u16) {
+        self.complete_reset();
         self.comm.emcy.clear(code);
     }
 

@@ -19,6 +19,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Runs timers and queued work; returns when it wants to be called again
     /// (earlier is harmless, later delays heartbeats and timeouts).
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        // A reset in progress goes on a stage per call; the call of its last stage goes on below.
+        if self.resetting() {
+            self.reset_step(now);
+            if self.resetting() {
+                return Some(now);
+            }
+        }
         // The device's timers first: what they write goes out in this call's TPDOs.
         let app_deadline = self.with_app(now, |app, ctx| app.poll(ctx));
         if !self.app.canopen() {
