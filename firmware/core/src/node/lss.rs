@@ -195,7 +195,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Sets 0x1018 sub 4 (the serial number, part of the LSS address), which
     /// only the device knows; it holds over every reset.
     pub fn set_serial_number(&mut self, serial: u32) {
-        self.complete_reset();
         self.serial = Some(serial);
         let dict = self.od.dictionary();
         let _ = dict.write_unchecked(self.od.image_mut(), 0x1018, 4, &serial.to_le_bytes());

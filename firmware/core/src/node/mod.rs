@@ -205,7 +205,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// hook (use [`Node::write_object`] for a write with the services'
     /// rules); change-of-state TPDOs see the new values at the next [`Node::process`].
     pub fn od_mut(&mut self) -> &mut O {
-        self.complete_reset();
         self.touched = true;
         &mut self.od
     }
@@ -215,7 +214,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// 0 at the next SYNC), inhibit time permitting. False if that TPDO is
     /// not valid or of another type.
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
-        self.complete_reset();
         self.touched = true;
         self.comm.pdos.trigger(n)
     }
@@ -225,7 +223,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// service's rules and side effects, then [`Application::written`] with
     /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
     pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.complete_reset();
         self.with_app(now, |app, ctx| router::Router { ctx, app, by: Source::App }.write_with_hooks(index, sub, data))
     }
 
@@ -240,6 +237,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // Inlined: for a hook the device leaves at its default, nothing of it remains.
     #[inline(always)]
     pub(super) fn with_app<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
+        let (value, error_class) = self.with_app_initialising(now, f);
+        if error_class != 0 {
+            self.device_error(error_class, now);
+        }
+        value
+    }
+
+    /// [`Node::with_app`] for a node resetting (Initialising), where a
+    /// device error changes no state: the 0x1029 class the hook reported
+    /// (0: none) is returned, not followed. The reset's stages use it, so
+    /// that no state change is reachable from them (the stack estimate
+    /// counts every call the code holds, taken or not).
+    #[inline(always)]
+    pub(super) fn with_app_initialising<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
         let Node { od, app, storage, comm, node_id, nmt, raw, .. } = self;
         let dict = od.dictionary();
         let mut ctx = Ctx {
@@ -259,10 +270,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);
-        if effects.error_class != 0 {
-            self.device_error(effects.error_class, now);
-        }
-        value
+        (value, effects.error_class)
     }
 
     /// Queues the device's raw frames, keeping [`RAW_RESERVE`] slots free; a
@@ -292,13 +300,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The device's hooks, mutably.
     pub fn app_mut(&mut self) -> &mut A {
-        self.complete_reset();
         &mut self.app
     }
 
     /// The storage.
     pub fn storage_mut(&mut self) -> &mut S {
-        self.complete_reset();
         &mut self.storage
     }
 
@@ -325,13 +331,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Raises an application error: EMCY with `code`, error register, 0x1003.
     pub fn raise_error(&mut self, code: u16, info: [u8; 5]) {
-        self.complete_reset();
         self.comm.emcy.raise(code, info);
     }
 
     /// Clears an application error; the last one cleared sends "error reset".
     pub fn clear_error(&mut self, code: u16) {
-        self.complete_reset();
         self.comm.emcy.clear(code);
     }
 

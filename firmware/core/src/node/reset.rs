@@ -102,9 +102,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.reset != Stage::Idle
     }
 
-    /// Runs the rest of a reset in progress at once: before anything that
-    /// reads or changes the node as a finished reset leaves it.
-    pub(super) fn complete_reset(&mut self) {
+    /// Runs a reset at once (power-on). A reset a frame started runs from
+    /// [`Node::process`] only: the device's reset hooks then run on its
+    /// stack path, not on a second one (the worst-case stack estimate adds
+    /// every path a device hook can start, docs/firmware.md "Stack").
+    fn complete_reset(&mut self) {
         while self.reset != Stage::Idle {
             self.reset_step(self.reset_at);
         }
@@ -112,74 +114,97 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// One stage of the reset in progress. The next stage is set before the
     /// device's hooks run, so a reset they ask for starts over cleanly.
+    /// Each stage a function of its own: the device's reset hooks then run
+    /// on a small frame, not on one holding every stage's locals.
+    #[inline(never)]
     pub(super) fn reset_step(&mut self, now: Instant) {
         self.reset_at = now;
         match self.reset {
             Stage::Idle => {}
             Stage::FindThenApplication | Stage::FindThenCommunication => {
-                self.reset_stored = self.newest_stored();
                 self.reset = if self.reset == Stage::FindThenApplication { Stage::Application } else { Stage::Communication };
+                self.reset_stored = self.newest_stored();
             }
-            Stage::Application => {
-                self.reset = Stage::Communication;
-                let dict = self.od.dictionary();
-                let image = self.od.image_mut();
-                dict.reset_application(image, self.node_id);
-                if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
-                    set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
-                }
-                self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
-            }
-            Stage::Communication => {
-                self.reset = Stage::Services;
-                // CiA 305: a node-id configured by LSS becomes active here.
-                if let Some(lss) = self.lss_mut() {
-                    self.node_id = lss.reset_communication();
-                }
-                let dict = self.od.dictionary();
-                let image = self.od.image_mut();
-                dict.reset_communication(image, self.node_id);
-                if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
-                    set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
-                }
-                if let Some(serial) = self.serial {
-                    let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
-                }
-            }
+            Stage::Application => self.reset_application_part(now),
+            Stage::Communication => self.reset_communication_part(),
             Stage::Services => {
                 self.reset = Stage::Rpdos;
                 let dict = self.od.dictionary();
                 self.comm.configure(dict, self.od.image(), self.node_id, now);
             }
-            Stage::Rpdos | Stage::Tpdos => {
-                let transmit = self.reset == Stage::Tpdos;
-                self.reset = if transmit { Stage::Finish } else { Stage::Tpdos };
+            Stage::Rpdos => {
+                self.reset = Stage::Tpdos;
                 let dict = self.od.dictionary();
-                self.comm.configure_pdos(dict, self.od.image(), transmit);
-                if !transmit {
-                    return;
-                }
-                if A::OPTIONS.tpdo_254_timer_only {
-                    self.comm.pdos.set_timer_only_254(true);
-                }
-                self.controller.reset();
-                if A::OPTIONS.tpdo_255_timer_only_with_timer {
-                    self.comm.pdos.set_timer_only_255_with_timer(true);
-                }
+                self.comm.configure_pdos(dict, self.od.image(), false);
             }
-            Stage::Finish => {
-                self.reset = Stage::Idle;
-                self.refresh_lss();
-                self.sdo.reset_all();
-                self.configure_sdo();
-                self.refresh_acceptance();
-                self.nmt = Nmt::new();
-                // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
-                self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
-                self.start_pending = false;
-                self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
-            }
+            Stage::Tpdos => self.reset_tpdos(),
+            Stage::Finish => self.reset_finish(now),
         }
+    }
+
+    /// Reset application: the application part of the image from its
+    /// defaults and the stored set, then the device's hook.
+    #[inline(never)]
+    fn reset_application_part(&mut self, now: Instant) {
+        self.reset = Stage::Communication;
+        let dict = self.od.dictionary();
+        let image = self.od.image_mut();
+        dict.reset_application(image, self.node_id);
+        if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
+            set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
+        }
+        self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
+    }
+
+    /// Reset communication, the image: the node-id LSS configured, the
+    /// communication part from its defaults and the stored set, the serial number.
+    #[inline(never)]
+    fn reset_communication_part(&mut self) {
+        self.reset = Stage::Services;
+        // CiA 305: a node-id configured by LSS becomes active here.
+        if let Some(lss) = self.lss_mut() {
+            self.node_id = lss.reset_communication();
+        }
+        let dict = self.od.dictionary();
+        let image = self.od.image_mut();
+        dict.reset_communication(image, self.node_id);
+        if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
+            set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
+        }
+        if let Some(serial) = self.serial {
+            let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
+        }
+    }
+
+    /// The TPDOs, with the device's transmission-type rules, and the controller's errors.
+    #[inline(never)]
+    fn reset_tpdos(&mut self) {
+        self.reset = Stage::Finish;
+        let dict = self.od.dictionary();
+        self.comm.configure_pdos(dict, self.od.image(), true);
+        if A::OPTIONS.tpdo_254_timer_only {
+            self.comm.pdos.set_timer_only_254(true);
+        }
+        self.controller.reset();
+        if A::OPTIONS.tpdo_255_timer_only_with_timer {
+            self.comm.pdos.set_timer_only_255_with_timer(true);
+        }
+    }
+
+    /// The end of reset communication: LSS, SDO servers, acceptance list,
+    /// NMT; the boot-up is due and the device hears of the reset.
+    #[inline(never)]
+    fn reset_finish(&mut self, now: Instant) {
+        self.reset = Stage::Idle;
+        self.refresh_lss();
+        self.sdo.reset_all();
+        self.configure_sdo();
+        self.refresh_acceptance();
+        self.nmt = Nmt::new();
+        // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
+        self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
+        self.start_pending = false;
+        self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
     }
 
     /// Reads the SDO server parameters 0x1200 + i sub 1 and 2 (reset
