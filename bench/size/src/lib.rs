@@ -18,6 +18,11 @@
 use canopen_core::frame::CanFrame;
 use canopen_core::storage::{Storage, StorageError};
 use canopen_core::time::Instant;
+// Linked into every image, the reference dictionaries' too: a board links
+// the firmware crate, and with it the small `memcpy`/`memclr` that replace
+// `compiler_builtins`' on the MCU (`firmware/src/boards/mem.rs`). Without a
+// use of the crate, an image without a device would not link it at all.
+use firmware as _;
 
 /// A CAN frame as the board's controller driver hands it over.
 #[repr(C)]
