@@ -114,8 +114,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// One stage of the reset in progress. The next stage is set before the
     /// device's hooks run, so a reset they ask for starts over cleanly.
-    /// Each stage a function of its own: the device's reset hooks then run
-    /// on a small frame, not on one holding every stage's locals.
+    /// The two stages with the device's reset hooks are functions of their
+    /// own: the hooks then run on a small frame, not on one holding every
+    /// stage's locals.
     #[inline(never)]
     pub(super) fn reset_step(&mut self, now: Instant) {
         self.reset_at = now;
@@ -126,7 +127,22 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.reset_stored = self.newest_stored();
             }
             Stage::Application => self.reset_application_part(now),
-            Stage::Communication => self.reset_communication_part(),
+            Stage::Communication => {
+                self.reset = Stage::Services;
+                // CiA 305: a node-id configured by LSS becomes active here.
+                if let Some(lss) = self.lss_mut() {
+                    self.node_id = lss.reset_communication();
+                }
+                let dict = self.od.dictionary();
+                let image = self.od.image_mut();
+                dict.reset_communication(image, self.node_id);
+                if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
+                    set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
+                }
+                if let Some(serial) = self.serial {
+                    let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
+                }
+            }
             Stage::Services => {
                 self.reset = Stage::Rpdos;
                 let dict = self.od.dictionary();
@@ -137,7 +153,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let dict = self.od.dictionary();
                 self.comm.configure_pdos(dict, self.od.image(), false);
             }
-            Stage::Tpdos => self.reset_tpdos(),
+            Stage::Tpdos => {
+                self.reset = Stage::Finish;
+                let dict = self.od.dictionary();
+                self.comm.configure_pdos(dict, self.od.image(), true);
+                if A::OPTIONS.tpdo_254_timer_only {
+                    self.comm.pdos.set_timer_only_254(true);
+                }
+                self.controller.reset();
+                if A::OPTIONS.tpdo_255_timer_only_with_timer {
+                    self.comm.pdos.set_timer_only_255_with_timer(true);
+                }
+            }
             Stage::Finish => self.reset_finish(now),
         }
     }
@@ -154,41 +181,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
         }
         self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
-    }
-
-    /// Reset communication, the image: the node-id LSS configured, the
-    /// communication part from its defaults and the stored set, the serial number.
-    #[inline(never)]
-    fn reset_communication_part(&mut self) {
-        self.reset = Stage::Services;
-        // CiA 305: a node-id configured by LSS becomes active here.
-        if let Some(lss) = self.lss_mut() {
-            self.node_id = lss.reset_communication();
-        }
-        let dict = self.od.dictionary();
-        let image = self.od.image_mut();
-        dict.reset_communication(image, self.node_id);
-        if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
-            set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
-        }
-        if let Some(serial) = self.serial {
-            let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
-        }
-    }
-
-    /// The TPDOs, with the device's transmission-type rules, and the controller's errors.
-    #[inline(never)]
-    fn reset_tpdos(&mut self) {
-        self.reset = Stage::Finish;
-        let dict = self.od.dictionary();
-        self.comm.configure_pdos(dict, self.od.image(), true);
-        if A::OPTIONS.tpdo_254_timer_only {
-            self.comm.pdos.set_timer_only_254(true);
-        }
-        self.controller.reset();
-        if A::OPTIONS.tpdo_255_timer_only_with_timer {
-            self.comm.pdos.set_timer_only_255_with_timer(true);
-        }
     }
 
     /// The end of reset communication: LSS, SDO servers, acceptance list,
