@@ -120,11 +120,6 @@ pub struct Ctx<'a> {
     pub(super) now: Instant,
     pub(super) options: ServiceOptions,
     pub(super) effects: SdoEffects,
-    /// 0x1010/0x1011 (`Ctx::store_command`), or their refusal on a node
-    /// whose dictionary links no storage (`Services::storage`): a function
-    /// chosen per node type, so that such a node links no store code for
-    /// them (a device's own store command, `Application::STORES`, goes through `Ctx::save`).
-    pub(super) store: super::router::StoreCommand,
     /// Raw frames sent by the hook, queued by the node when the hook returns
     /// (an SDO transfer holds the transmit queue while its hooks run).
     pub(super) raw: &'a mut RawBurst,
@@ -179,9 +174,11 @@ impl Ctx<'_> {
     /// object (a heartbeat time restarts the producer, a PDO parameter
     /// reconfigures the PDO). The device's own hooks do not run again for it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if index != 0x1010 && index != 0x1011 {
-            self.precheck(index, sub, data)?;
+        if index == 0x1010 || index == 0x1011 {
+            self.effects.written = true;
+            return self.store_command(index, sub, data);
         }
+        self.precheck(index, sub, data)?;
         self.route_write(index, sub, data)
     }
 

@@ -183,7 +183,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
+        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
         sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
         let effects = ctx.effects;
         self.queue_raw();
@@ -213,7 +213,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             now,
             options: A::OPTIONS,
             effects: SdoEffects::default(),
-            store: Ctx::store_command_for(O::SERVICES.storage),
             raw,
         };
         (ctx, app, sdo, txq, sdo_cob_ids)

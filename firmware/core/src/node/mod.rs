@@ -223,7 +223,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// service's rules and side effects, then [`Application::written`] with
     /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
     pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.with_app(now, |app, ctx| router::Router { ctx, app, by: Source::App }.write_with_hooks(index, sub, data))
+        self.with_app(now, |app, ctx| {
+            router::Router { ctx, app, by: Source::App, od: core::marker::PhantomData::<O> }.write_with_hooks(index, sub, data)
+        })
     }
 
     /// The CAN controller went bus-off (the board reports it): the device
@@ -263,7 +265,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             now,
             options: A::OPTIONS,
             effects: router::SdoEffects::default(),
-            store: Ctx::store_command_for(O::SERVICES.storage),
             raw,
         };
         let value = f(app, &mut ctx);

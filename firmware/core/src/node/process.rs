@@ -70,7 +70,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // Idle servers have no timer and nothing to send: skip building the router for them.
         if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
-            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
+            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
                     let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx });

@@ -67,7 +67,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Whether the node loads stored sets: the dictionary's 0x1010/0x1011
     /// (`Services::storage`) or the device's own store command (`Application::STORES`).
-    pub(super) const LOADS_STORED: bool = O::SERVICES.storage || A::STORES;
+    const LOADS_STORED: bool = O::SERVICES.storage || A::STORES;
 
     /// The newest valid stored set; none on a node without storage, which
     /// then links no store code.
