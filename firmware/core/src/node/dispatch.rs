@@ -190,7 +190,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.follow_sdo(effects);
         // After the answer: the SDO sink has queued it.
         if effects.reset_node {
-            self.reset_application(now);
+            self.reset_application();
         }
     }
 

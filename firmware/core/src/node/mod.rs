@@ -128,8 +128,6 @@ pub struct Node<
     reset: reset::Stage,
     /// The newest stored set the reset in progress found.
     reset_stored: Option<crate::services::store::StoredSet>,
-    /// When the reset in progress last moved on.
-    reset_at: Instant,
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -182,7 +180,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             controller: controller::ControllerErrors::new(),
             reset: reset::Stage::Idle,
             reset_stored: None,
-            reset_at: Instant::ZERO,
         }
     }
 

@@ -59,10 +59,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // One check of the stored sets serves the LSS configuration and both parts of the reset.
         let stored = self.newest_stored();
         self.load_lss_configuration(stored);
-        self.begin_reset(true, now);
+        self.begin_reset(true);
         self.reset_stored = stored;
         self.reset = Stage::Application;
-        self.complete_reset();
+        self.complete_reset(now);
     }
 
     /// Whether the node loads stored sets: the dictionary's 0x1010/0x1011
@@ -76,21 +76,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// Starts reset application (and then communication): see [`Stage`].
-    pub(super) fn reset_application(&mut self, now: Instant) {
-        self.begin_reset(true, now);
+    pub(super) fn reset_application(&mut self) {
+        self.begin_reset(true);
     }
 
     /// Starts reset communication: see [`Stage`].
-    pub(super) fn reset_communication(&mut self, now: Instant) {
-        self.begin_reset(false, now);
+    pub(super) fn reset_communication(&mut self) {
+        self.begin_reset(false);
     }
 
     /// The node is Initialising from here on; a reset that includes the
     /// application stays one if a reset communication interrupts it.
-    fn begin_reset(&mut self, application: bool, now: Instant) {
+    fn begin_reset(&mut self, application: bool) {
         let application = application || matches!(self.reset, Stage::FindThenApplication | Stage::Application);
         self.reset = if application { Stage::FindThenApplication } else { Stage::FindThenCommunication };
-        self.reset_at = now;
         self.nmt = Nmt::new();
         self.boot_pending = false;
         self.start_pending = false;
@@ -106,9 +105,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// [`Node::process`] only: the device's reset hooks then run on its
     /// stack path, not on a second one (the worst-case stack estimate adds
     /// every path a device hook can start, docs/firmware.md "Stack").
-    fn complete_reset(&mut self) {
+    fn complete_reset(&mut self, now: Instant) {
         while self.reset != Stage::Idle {
-            self.reset_step(self.reset_at);
+            self.reset_step(now);
         }
     }
 
@@ -119,7 +118,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// stage's locals.
     #[inline(never)]
     pub(super) fn reset_step(&mut self, now: Instant) {
-        self.reset_at = now;
         match self.reset {
             Stage::Idle => {}
             Stage::FindThenApplication | Stage::FindThenCommunication => {
