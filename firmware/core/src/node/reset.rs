@@ -178,7 +178,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
             set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
         }
-        self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
+        self.reset_hook(now, NmtEvent::ResetApplication);
+    }
+
+    /// The device hears of the reset (its hook: `Application::on_nmt`),
+    /// once for each part; a device error it reports changes no state while
+    /// the node is Initialising. One function for both parts: one hook context built.
+    #[inline(never)]
+    fn reset_hook(&mut self, now: Instant, event: NmtEvent) {
+        self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, event));
     }
 
     /// The end of reset communication: LSS, SDO servers, acceptance list,
@@ -194,7 +202,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
         self.start_pending = false;
-        self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
+        self.reset_hook(now, NmtEvent::ResetCommunication);
     }
 
     /// Reads the SDO server parameters 0x1200 + i sub 1 and 2 (reset
