@@ -19,8 +19,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Runs timers and queued work; returns when it wants to be called again
     /// (earlier is harmless, later delays heartbeats and timeouts).
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
-        // A reset in progress goes on a stage per call; the call of its last stage goes on below.
-        if self.resetting() {
+        // A reset in progress goes on a stage per call; the call of its last
+        // stage goes on below. A device with CANopen off starts none (power-on
+        // completes its own), so for it this is left out.
+        if self.app.canopen() && self.resetting() {
             self.reset_step(now);
             if self.resetting() {
                 return Some(now);
