@@ -169,7 +169,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Reset application: the application part of the image from its
     /// defaults and the stored set, then the device's hook.
-    #[inline(never)]
     fn reset_application_part(&mut self, now: Instant) {
         self.reset = Stage::Communication;
         let dict = self.od.dictionary();
@@ -184,14 +183,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The device hears of the reset (its hook: `Application::on_nmt`),
     /// once for each part; a device error it reports changes no state while
     /// the node is Initialising. One function for both parts: one hook context built.
-    #[inline(never)]
     fn reset_hook(&mut self, now: Instant, event: NmtEvent) {
         self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, event));
     }
 
     /// The end of reset communication: LSS, SDO servers, acceptance list,
     /// NMT; the boot-up is due and the device hears of the reset.
-    #[inline(never)]
     fn reset_finish(&mut self, now: Instant) {
         self.reset = Stage::Idle;
         self.refresh_lss();
