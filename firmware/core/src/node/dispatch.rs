@@ -62,6 +62,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         let state = self.nmt.state();
+        // Until the boot-up, a reset's stages included (CiA 301 §7.3.2.2.1).
         if state == State::Initialising {
             self.counters.ignored += 1;
             return;
@@ -176,14 +177,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
+        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
         sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);
         // After the answer: the SDO sink has queued it.
         if effects.reset_node {
-            self.reset_application(now);
+            self.reset_application();
         }
     }
 
