@@ -246,8 +246,8 @@ impl Drive for Axis {
         let before = self.velocity_q;
         // The external load's acceleration [Q24 per tick²]; the loops' torque
         // holds against it up to the torque limit.
-        let load = step * i64::from(self.load) / 1000;
-        let authority = step * TORQUE_LIMIT / 1000;
+        let load = per_mille(step * i64::from(self.load));
+        let authority = step * (TORQUE_LIMIT / 1000);
         self.velocity_q = match wanted {
             // A blocked load stops dead; with no torque the axis coasts down
             // with friction (an eighth of the acceleration limit), or turns
@@ -261,8 +261,12 @@ impl Drive for Axis {
         };
         self.position_q += self.velocity_q;
         // Torque: the acceleration against the limit, plus friction while moving [‰].
-        // In 64 bits: a Q24 step times 1000 overflows 32 bits from 2,147 inc/s² on.
-        let accel = ((self.velocity_q - before).clamp(-3 * step, 3 * step) * 1000 / step.max(1)) as i32;
+        // The change against the step, both cut to 19 bits so that the ‰
+        // ratio divides in 32 bits (|change| ≤ 3 steps: 3 · 2^19 · 1000 < 2^31).
+        let step = step.max(1);
+        let shift = (64 - step.leading_zeros()).saturating_sub(19);
+        let change = (self.velocity_q - before).clamp(-3 * step, 3 * step) >> shift;
+        let accel = (change as i32 * 1000) / ((step >> shift) as i32).max(1);
         let friction = if self.velocity_q == 0 { 0 } else { i32::from(p.friction_permille) * self.velocity_q.signum() as i32 };
         // The drive holds the load against its direction.
         let limit = TORQUE_LIMIT as i32;
@@ -347,6 +351,22 @@ impl Drive for Axis {
     }
 }
 
+/// `x` / 1000, truncated as `/` does, in 32-bit divisions: a 64-bit one
+/// links about 1 KiB of compiler_builtins into every drive image.
+fn per_mille(x: i64) -> i64 {
+    let mut n = x.unsigned_abs();
+    let mut q: u64 = 0;
+    let mut r: u32 = 0;
+    // Long division by 16-bit digits: r < 1000, so r · 2^16 + digit fits 32 bits.
+    for _ in 0..4 {
+        let cur = (r << 16) | (n >> 48) as u32;
+        n <<= 16;
+        q = (q << 16) | u64::from(cur / 1000);
+        r = cur % 1000;
+    }
+    if x < 0 { -(q as i64) } else { q as i64 }
+}
+
 /// `from` moved towards `to` by at most `step`.
 fn toward(from: i64, to: i64, step: i64) -> i64 {
     if to > from { (from + step).min(to) } else { (from - step).max(to) }
@@ -378,6 +398,22 @@ mod tests {
         a.configure(PARAMS);
         a.enable(true);
         a
+    }
+
+    #[test]
+    fn per_mille_divides_as_the_64_bit_division_does() {
+        let mut x: i64 = 0x2545_F491_4F6C_DD1D;
+        for special in [0, 1, -1, 999, -999, 1000, -1000, 1001, i64::MAX, i64::MIN, i64::MIN + 1] {
+            assert_eq!(per_mille(special), special / 1000, "{special}");
+        }
+        for _ in 0..100_000 {
+            // xorshift: values of every magnitude and both signs.
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = x >> (x as u64 % 64);
+            assert_eq!(per_mille(v), v / 1000, "{v}");
+        }
     }
 
     #[test]
