@@ -18,6 +18,7 @@ use canopen_core::profiles::cia402::{Cia402, Config, mode};
 use canopen_core::time::Instant;
 
 mod errors;
+mod ip;
 mod params;
 mod slots;
 mod speed;
@@ -33,11 +34,13 @@ pub struct App {
     pub drive: Cia402<BmaxxDrive>,
     /// 0x606B and 0x606C as last converted to speed units (D57).
     speeds: [i32; 2],
+    /// The interpolation time period in use, as a power of two of ticks (D58).
+    ip_period: u8,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits, so the node stays in `.bss`.
-    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2] };
+    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0 };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -75,20 +78,18 @@ pub const AXIS: AxisParams = AxisParams {
 
 /// A 0x6060 value the manual accepts (App. C, M-L5241-5410), with the mode
 /// the profile runs for it and what 0x6061 shows (D51): −3 (drive speed
-/// control) runs pv and shows 3; 7 (interpolated position, drive −4) and the
-/// manufacturer modes hold the axis (profile mode 0) and show themselves,
-/// jog (−6) as −6 and spindle positioning as −106. `None`: refused.
+/// control) runs pv and shows 3; −4 (drive position control, the drive
+/// mode of ip) runs ip and shows −4 (D59); the other manufacturer modes
+/// hold the axis (profile mode 0) and show themselves. `None`: refused.
 const fn mode_of(requested: i8) -> Option<(i8, i8)> {
     Some(match requested {
-        mode::PP | mode::VL | mode::HM => (requested, requested),
+        mode::PP | mode::VL | mode::HM | mode::IP => (requested, requested),
         mode::PV | -3 => (mode::PV, mode::PV),
-        IP | -106 | -7..=-1 => (0, requested),
+        -4 => (mode::IP, -4),
+        -106 | -7..=-1 => (0, requested),
         _ => return None,
     })
 }
-
-/// 0x6060 interpolated position mode.
-const IP: i8 = 7;
 /// 0x6060 modes of operation.
 const MODES_OF_OPERATION: u16 = 0x6060;
 /// 0x6061 modes of operation display.
@@ -115,6 +116,8 @@ impl Application for App {
         match (index, data) {
             // D51: the manual's modes, manufacturer-specific ones included; 0, 4, 5, 8..127 are unused.
             (MODES_OF_OPERATION, [m]) => mode_of(*m as i8).map(|_| ()).ok_or(AbortCode::InvalidValue),
+            // D58: 2000, 4000 or 8000 µs, taken when sub 2 is written.
+            (ip::TIME_PERIOD, [i]) if sub == 2 => ip::period(ctx, Some(*i as i8)).map(|_| ()).ok_or(AbortCode::InvalidValue),
             // D55: the BACI's 8 set-point and 8 actual-value slots.
             (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
             _ => self.drive.check_write(index, data),
@@ -125,9 +128,11 @@ impl Application for App {
         params::read(ctx, index, sub, offset, buf)
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
         if index == MODES_OF_OPERATION {
             self.set_mode(ctx);
+        } else if (index, sub) == (ip::TIME_PERIOD, 2) {
+            self.ip_period = ip::period(ctx, None).unwrap_or(self.ip_period);
         } else {
             // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
             self.profile_written(ctx, index);
@@ -136,6 +141,8 @@ impl Application for App {
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
         self.drive.sample(ctx);
+        // D58: every SYNC takes the interpolation data record.
+        self.drive.interpolate(ip::set_point(ctx), self.ip_period);
         speed::actuals(ctx, &mut self.speeds);
     }
 
@@ -152,6 +159,7 @@ impl Application for App {
         self.drive.on_nmt(ctx, &PROFILE, event);
         if event == NmtEvent::ResetApplication {
             self.set_mode(ctx);
+            self.ip_period = ip::period(ctx, None).unwrap_or(1);
         }
     }
 }

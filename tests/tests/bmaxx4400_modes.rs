@@ -1,0 +1,161 @@
+//! The Baumüller b maXX 4400 (seed 003): interpolated position mode as App. C
+//! describes it (60C0h-60C4h, M-L6237-6450: linear interpolation, one record
+//! in 0x60C1 sub 1 taken on every SYNC, time period 0x60C2 of 2, 4 or 8 ms)
+//! with the drive's position control −4 running the same interpolation, as
+//! exact frames with time and the axis moving (D58, D59 in
+//! docs/devices/bmaxx4400.md). Manual lines as "M-L" in the test names.
+
+mod common;
+
+use common::{Bench, abort, ms, ok_write};
+use firmware::devices::bmaxx4400;
+use hal_host::storage::MemStorage;
+
+type Bmaxx = Bench<bmaxx4400::od::Ram, bmaxx4400::App, MemStorage, 4, 4, 0>;
+
+const ID: u8 = 4;
+const SYNC: u16 = 0x080;
+const RPDO2: u16 = 0x304;
+const RPDO3: u16 = 0x404;
+const TPDO3: u16 = 0x384;
+
+fn i32_at(b: &mut Bmaxx, index: u16) -> i32 {
+    let v = b.sdo_upload(ID, index, 0).expect("readable");
+    i32::from_le_bytes([v[0], v[1], v[2], v[3]])
+}
+
+/// Maps `entries` into PDO mapping `index` (Pre-operational, sub 0 = 0 first).
+fn map(b: &mut Bmaxx, index: u16, entries: &[u32]) {
+    assert_eq!(b.sdo_write(ID, index, 0, &[0]), ok_write(index, 0));
+    for (i, e) in entries.iter().enumerate() {
+        let sub = i as u8 + 1;
+        assert_eq!(b.sdo_write(ID, index, sub, &e.to_le_bytes()), ok_write(index, sub));
+    }
+    assert_eq!(b.sdo_write(ID, index, 0, &[entries.len() as u8]), ok_write(index, 0));
+}
+
+/// The ip set-up a PLC makes: RPDO3 = controlword + 0x60C1 sub 1, TPDO3 =
+/// statusword + position demand 0x6062 on every SYNC (type 1); then
+/// Operational and Operation enabled in `mode` (RPDO2) at 100-300 ms.
+fn ip_ready(mode: i8) -> Bmaxx {
+    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    map(&mut b, 0x1602, &[0x6040_0010, 0x60C1_0120]);
+    map(&mut b, 0x1A02, &[0x6041_0010, 0x6062_0020]);
+    assert_eq!(b.sdo_write(ID, 0x1802, 2, &[1]), ok_write(0x1802, 2));
+    assert_eq!(b.sdo_write(ID, 0x6067, 0, &16u32.to_le_bytes()), ok_write(0x6067, 0), "position window");
+    b.now = ms(10);
+    b.nmt(0x01, ID);
+    for (t, cw) in [(100, 0x06u8), (200, 0x07), (300, 0x0F)] {
+        b.rx(ms(t), RPDO2, &[cw, 0, mode as u8]);
+    }
+    b.run_until(ms(400));
+    b
+}
+
+/// At `t`: the record `target` with controlword `cw` (RPDO3), then a SYNC;
+/// the TPDO3 the SYNC makes (statusword, position demand).
+fn record_and_sync(b: &mut Bmaxx, t: u64, cw: u16, target: i32) -> (u16, i32) {
+    b.run_until(ms(t));
+    let [c0, c1] = cw.to_le_bytes();
+    let [p0, p1, p2, p3] = target.to_le_bytes();
+    b.rx(ms(t), RPDO3, &[c0, c1, p0, p1, p2, p3]);
+    let out = b.rx(ms(t), SYNC, &[]);
+    let tpdo: Vec<_> = out.iter().filter(|(id, _)| *id == TPDO3).collect();
+    assert_eq!(tpdo.len(), 1, "one TPDO3 per SYNC at {t} ms: {out:x?}");
+    let d = &tpdo[0].1;
+    (u16::from_le_bytes([d[0], d[1]]), i32::from_le_bytes([d[2], d[3], d[4], d[5]]))
+}
+
+#[test]
+fn m_l6237_ip_follows_the_records_of_every_sync_at_2_ms_and_reaches_the_last() {
+    let mut b = ip_ready(7);
+    assert_eq!(b.sdo_upload(ID, 0x6061, 0), Ok(vec![7]));
+    // Bit 4 off: Operation enabled without ip active (bit 12 = 0), the axis stands.
+    assert_eq!(record_and_sync(&mut b, 400, 0x000F, 0), (0x0637, 0));
+    // Bit 4 on: ip active (bit 12). Records 1000 inc apart every 2 ms
+    // (0x60C2 default 2 · 10^-3 s): 500,000 inc/s ≈ 458 min⁻¹. Each SYNC
+    // shows the demand on the record of the SYNC before (one period behind).
+    assert_eq!(record_and_sync(&mut b, 402, 0x001F, 0).0 & 0x1000, 0x1000, "ip mode active");
+    for k in 1..=50 {
+        let (status, demand) = record_and_sync(&mut b, 402 + 2 * k as u64, 0x001F, 1000 * k);
+        // Target reached (bit 10) only while the demand stood on record 0 (SYNC 1).
+        let reached = if k == 1 { 0x0400 } else { 0 };
+        assert_eq!((status & 0x167F, demand), (0x1237 | reached, 1000 * (k - 1)), "SYNC {k}");
+        if k == 40 {
+            // Halfway between two SYNCs the demand is halfway between the records.
+            b.run_until(ms(402 + 2 * k as u64 + 1));
+            assert_eq!(i32_at(&mut b, 0x6062), 39_500);
+            let rpm = i32_at(&mut b, 0x606C);
+            assert!((440..=480).contains(&rpm), "the axis runs at the records' speed: {rpm} min⁻¹");
+        }
+    }
+    // The master holds the last record: the axis settles on it, target reached.
+    for k in 51..=150 {
+        record_and_sync(&mut b, 402 + 2 * k as u64, 0x001F, 50_000);
+    }
+    let (status, demand) = record_and_sync(&mut b, 704, 0x001F, 50_000);
+    assert_eq!((status, demand), (0x1637, 50_000), "target reached (bit 10), ip active (bit 12)");
+    assert!((49_984..=50_016).contains(&i32_at(&mut b, 0x6064)), "within the position window");
+    assert_eq!(i32_at(&mut b, 0x606C), 0);
+    // Bit 4 off again: records are ignored, the axis stays.
+    record_and_sync(&mut b, 706, 0x000F, 90_000);
+    b.run_until(ms(800));
+    assert_eq!(i32_at(&mut b, 0x6062), 50_000);
+}
+
+#[test]
+fn m_l6336_time_period_4_ms_taken_when_sub_2_is_written_and_only_2_4_8_ms() {
+    let mut b = ip_ready(7);
+    // 4000 µs: sub 1 = 4, sub 2 = −3 (App. C's example); sub 1 alone is not taken.
+    assert_eq!(b.sdo_write(ID, 0x60C2, 1, &[4]), ok_write(0x60C2, 1));
+    record_and_sync(&mut b, 400, 0x001F, 0);
+    record_and_sync(&mut b, 404, 0x001F, 4000);
+    b.run_until(ms(405));
+    assert_eq!(i32_at(&mut b, 0x6062), 2000, "2 ms period still: half-way after 1 ms");
+    assert_eq!(b.sdo_write(ID, 0x60C2, 2, &[0xFD]), ok_write(0x60C2, 2));
+    record_and_sync(&mut b, 408, 0x001F, 8000);
+    b.run_until(ms(409));
+    assert_eq!(i32_at(&mut b, 0x6062), 5000, "4 ms period: a quarter after 1 ms");
+    b.run_until(ms(412));
+    assert_eq!(i32_at(&mut b, 0x6062), 8000);
+    // 3 ms, 1 ms and 16 ms are refused (0x06090030); the 4 ms stay.
+    assert_eq!(b.sdo_write(ID, 0x60C2, 1, &[3]), ok_write(0x60C2, 1));
+    assert_eq!(b.sdo_write(ID, 0x60C2, 2, &[0xFD]), abort(0x60C2, 2, 0x0609_0030));
+    assert_eq!(b.sdo_write(ID, 0x60C2, 1, &[1]), ok_write(0x60C2, 1));
+    assert_eq!(b.sdo_write(ID, 0x60C2, 2, &[0xFD]), abort(0x60C2, 2, 0x0609_0030));
+    assert_eq!(b.sdo_write(ID, 0x60C2, 1, &[16]), ok_write(0x60C2, 1));
+    assert_eq!(b.sdo_write(ID, 0x60C2, 2, &[0xFD]), abort(0x60C2, 2, 0x0609_0030));
+    // 80 · 10^-4 s = 8 ms is allowed.
+    assert_eq!(b.sdo_write(ID, 0x60C2, 1, &[80]), ok_write(0x60C2, 1));
+    assert_eq!(b.sdo_write(ID, 0x60C2, 2, &[0xFC]), ok_write(0x60C2, 2));
+    record_and_sync(&mut b, 420, 0x001F, 16_000);
+    b.run_until(ms(422));
+    assert_eq!(i32_at(&mut b, 0x6062), 10_000, "8 ms period: a quarter after 2 ms");
+}
+
+#[test]
+fn m_l5293_position_control_minus_4_runs_the_interpolation_and_shows_minus_4() {
+    let mut b = ip_ready(-4);
+    assert_eq!(b.sdo_upload(ID, 0x6061, 0), Ok(vec![0xFC]));
+    assert_eq!(b.sdo_upload(ID, 0x43E8, 0), Ok((-4i16).to_le_bytes().to_vec()), "P1000: drive mode −4");
+    record_and_sync(&mut b, 400, 0x001F, 0);
+    for k in 1..=10 {
+        record_and_sync(&mut b, 400 + 2 * k as u64, 0x001F, 655 * k);
+    }
+    b.run_until(ms(600));
+    assert!((6_534..=6_566).contains(&i32_at(&mut b, 0x6064)), "a tenth of a revolution");
+}
+
+#[test]
+fn m_l6310_records_are_increments_whatever_the_user_units() {
+    let mut b = ip_ready(7);
+    // 36000 BE per revolution (§4.4.5): 0x60C1 still counts 65536 per revolution (y = x to P0369).
+    assert_eq!(b.sdo_write(ID, 0x6092, 1, &36_000u32.to_le_bytes()), ok_write(0x6092, 1));
+    record_and_sync(&mut b, 400, 0x001F, 0);
+    record_and_sync(&mut b, 402, 0x001F, 65_536);
+    b.run_until(ms(700));
+    let inc = canopen_core::profiles::cia402::drive::Drive::position(&b.node.app().drive.drive);
+    assert!((65_520..=65_552).contains(&inc), "one revolution: {inc}");
+    assert!((35_990..=36_010).contains(&i32_at(&mut b, 0x6064)), "0x6064 in BE: 360.00°");
+}
