@@ -159,3 +159,29 @@ fn m_l6310_records_are_increments_whatever_the_user_units() {
     assert!((65_520..=65_552).contains(&inc), "one revolution: {inc}");
     assert!((35_990..=36_010).contains(&i32_at(&mut b, 0x6064)), "0x6064 in BE: 360.00°");
 }
+
+#[test]
+fn m_l940_gear_factor_0x604c_10_to_5_doubles_the_motor_speed_of_0x60ff() {
+    let mut b = ip_ready(3);
+    // §4.4.6's example: numerator 10, denominator 5: 100 min⁻¹ at the object is 200 at the motor.
+    assert_eq!(b.sdo_write(ID, 0x604C, 1, &10i32.to_le_bytes()), ok_write(0x604C, 1));
+    assert_eq!(b.sdo_write(ID, 0x604C, 2, &5i32.to_le_bytes()), ok_write(0x604C, 2));
+    // 30 min⁻¹ through RPDO4 (6040 + 60FF): the motor turns at 60 min⁻¹, one revolution a second.
+    let v = 30i32.to_le_bytes();
+    b.rx(ms(400), 0x504, &[0x0F, 0x00, v[0], v[1], v[2], v[3]]);
+    b.run_until(ms(700));
+    assert_eq!(i32_at(&mut b, 0x606C), 30, "0x606C in the object's units");
+    assert_eq!(i32_at(&mut b, 0x606B), 30);
+    let p = i32_at(&mut b, 0x6064);
+    b.run_until(ms(1700));
+    let moved = i32_at(&mut b, 0x6064) - p;
+    assert!((65_000..=66_100).contains(&moved), "one motor revolution in a second: {moved}");
+    // A negative factor turns the other way; a zero denominator and ±33000 overrun are refused.
+    assert_eq!(b.sdo_write(ID, 0x604C, 1, &(-10i32).to_le_bytes()), ok_write(0x604C, 1));
+    b.run_until(ms(2000));
+    assert_eq!(i32_at(&mut b, 0x606C), 30, "-30 min⁻¹ at the motor read back through -10/5");
+    assert!(canopen_core::profiles::cia402::drive::Drive::velocity(&b.node.app().drive.drive) < 0, "turning backwards");
+    assert_eq!(b.sdo_write(ID, 0x604C, 2, &0i32.to_le_bytes()), abort(0x604C, 2, 0x0609_0030));
+    assert_eq!(b.sdo_write(ID, 0x604C, 1, &33_001i32.to_le_bytes()), abort(0x604C, 1, 0x0609_0031));
+    assert_eq!(b.sdo_write(ID, 0x604C, 2, &(-33_001i32).to_le_bytes()), abort(0x604C, 2, 0x0609_0032));
+}

@@ -116,6 +116,8 @@ impl Application for App {
         match (index, data) {
             // D51: the manual's modes, manufacturer-specific ones included; 0, 4, 5, 8..127 are unused.
             (MODES_OF_OPERATION, [m]) => mode_of(*m as i8).map(|_| ()).ok_or(AbortCode::InvalidValue),
+            // D60: a gear factor with denominator 0 would divide by zero.
+            (speed::GEAR_FACTOR, [0, 0, 0, 0]) if sub == 2 => Err(AbortCode::InvalidValue),
             // D58: 2000, 4000 or 8000 µs, taken when sub 2 is written.
             (ip::TIME_PERIOD, [i]) if sub == 2 => ip::period(ctx, Some(*i as i8)).map(|_| ()).ok_or(AbortCode::InvalidValue),
             // D55: the BACI's 8 set-point and 8 actual-value slots.
@@ -134,8 +136,9 @@ impl Application for App {
         } else if (index, sub) == (ip::TIME_PERIOD, 2) {
             self.ip_period = ip::period(ctx, None).unwrap_or(self.ip_period);
         } else {
-            // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
-            self.profile_written(ctx, index);
+            // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
+            // default `rpdo_written`); a new gear factor converts 0x60FF anew (D60).
+            self.profile_written(ctx, if index == speed::GEAR_FACTOR { speed::TARGET_VELOCITY } else { index });
         }
     }
 

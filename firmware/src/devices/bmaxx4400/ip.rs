@@ -17,18 +17,19 @@ pub(super) const TIME_PERIOD: u16 = 0x60C2;
 /// The period of (ip time units, ip time index) as a power of two of 1 ms
 /// ticks: 2, 4 or 8 ms ("Zulässig sind nur Einträge, die 2000, 4000 und
 /// 8000 µs entsprechen"); `None` for any other period.
-pub(super) const fn period_log2(units: u8, index: i8) -> Option<u8> {
-    match (units, index) {
-        (2, -3) | (20, -4) | (200, -5) => Some(1),
-        (4, -3) | (40, -4) => Some(2),
-        (8, -3) | (80, -4) => Some(3),
-        _ => None,
+pub(super) fn period_log2(units: u32, index: i8) -> Option<u8> {
+    // units · 10^index s in µs: index −6..=−3 multiplies by 1..1000.
+    let exponent = i32::from(index) + 6;
+    if !(0..=3).contains(&exponent) {
+        return None;
     }
+    let us = (0..exponent).fold(units, |u, _| u * 10);
+    [2000, 4000, 8000].iter().position(|p| *p == us).map(|i| i as u8 + 1)
 }
 
 /// The period 0x60C2 holds now (at reset application: the stored or default one).
 pub(super) fn period(ctx: &Ctx<'_>, index: Option<i8>) -> Option<u8> {
-    let units = ctx.read_u32(TIME_PERIOD, 1)? as u8;
+    let units = ctx.read_u32(TIME_PERIOD, 1)?;
     let index = match index {
         Some(i) => i,
         None => ctx.read_u32(TIME_PERIOD, 2)? as u8 as i8,
