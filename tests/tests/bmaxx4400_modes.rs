@@ -105,6 +105,26 @@ fn m_l6237_ip_follows_the_records_of_every_sync_at_2_ms_and_reaches_the_last() {
 }
 
 #[test]
+fn m_l6237_a_halt_suspends_the_interpolation_and_brakes() {
+    let mut b = ip_ready(7);
+    assert_eq!(b.sdo_write(ID, 0x6084, 0, &65_536_000u32.to_le_bytes()), ok_write(0x6084, 0), "1000 rev/s²");
+    record_and_sync(&mut b, 400, 0x001F, 0);
+    for k in 1..=20 {
+        record_and_sync(&mut b, 400 + 2 * k as u64, 0x001F, 1000 * k);
+    }
+    // Halt (bit 8) with 0x605D = 1 (slow down ramp): records are ignored, the demand brakes.
+    assert_eq!(b.sdo_write(ID, 0x605D, 0, &1i16.to_le_bytes()), ok_write(0x605D, 0));
+    let (_, at_halt) = record_and_sync(&mut b, 442, 0x011F, 21_000);
+    for k in 22..=60 {
+        record_and_sync(&mut b, 400 + 2 * k as u64, 0x011F, 1000 * k);
+    }
+    let (status, demand) = record_and_sync(&mut b, 522, 0x011F, 61_000);
+    // 500,000 inc/s braked at 65,536,000 inc/s²: about 1,900 inc beyond where the halt came.
+    assert!((at_halt + 1_500..=at_halt + 2_500).contains(&demand), "{at_halt} → {demand}");
+    assert_eq!(status & 0x1400, 0x1400, "standing (bit 10), ip still enabled (bit 12)");
+}
+
+#[test]
 fn m_l6336_time_period_4_ms_taken_when_sub_2_is_written_and_only_2_4_8_ms() {
     let mut b = ip_ready(7);
     // 4000 µs: sub 1 = 4, sub 2 = −3 (App. C's example); sub 1 alone is not taken.
