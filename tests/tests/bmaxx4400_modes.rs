@@ -1,9 +1,12 @@
-//! The Baumüller b maXX 4400 (seed 003): interpolated position mode as App. C
-//! describes it (60C0h-60C4h, M-L6237-6450: linear interpolation, one record
-//! in 0x60C1 sub 1 taken on every SYNC, time period 0x60C2 of 2, 4 or 8 ms)
-//! with the drive's position control −4 running the same interpolation, as
-//! exact frames with time and the axis moving (D58, D59 in
-//! docs/devices/bmaxx4400.md). Manual lines as "M-L" in the test names.
+//! The Baumüller b maXX 4400 (seed 003), the rest of its modes and
+//! positioning, as exact frames with time and the axis moving: interpolated
+//! position as App. C describes it (60C0h-60C4h, M-L6237-6450: linear
+//! interpolation, one record in 0x60C1 sub 1 taken on every SYNC, time period
+//! 0x60C2 of 2, 4 or 8 ms) with the drive's position control −4 running the
+//! same interpolation; the gear factor 0x604C (§4.4.6); the positioning EMCYs
+//! 8600h with drive errors 196/197 (software limits, §4.4.3) and 200
+//! (positioning without homing, §4.4.8). Decisions D58-D61 in
+//! docs/devices/bmaxx4400.md; manual lines as "M-L" in the test names.
 
 mod common;
 
