@@ -84,6 +84,7 @@ class Bmaxx4400(Drive402Test):
         # App. C 60C0h-60C4h (D58): 0x60C1 sub 1 in increments, taken on every SYNC; the
         # default period 0x60C2 is 2 ms. Records a hundredth of a revolution apart.
         self.mode(7)
+        self.drive.sdo[0x6067].raw = 16  # position window for target reached (factory value 0)
         self.drive.state = "OPERATION ENABLED"
         self.drive.controlword = 0x1F
         self.wait_for("ip mode active", lambda: self.drive.sdo[0x6041].raw & 0x1000)
