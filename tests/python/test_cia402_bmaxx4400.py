@@ -1,9 +1,11 @@
 """CiA 402 through python-canopen's BaseNode402: the Baumüller b maXX 4400 in `vnode`.
 
 State changes through RPDO1 (0x6040) within BaseNode402's timeouts; a pv move in the
-manufacturer's speed control mode −3 measured by 0x606C and a pp move measured by 0x6064 and
-the drive parameter P0462 (0x6064 + 2^31). The dictionary has no 0x6502, so the modes are
-written to 0x6060 by SDO rather than through `op_mode` (docs/devices/bmaxx4400.md D51).
+manufacturer's speed control mode −3 measured by 0x606C; a pp move (after the homing the
+CANopen positioning mode requires) measured by 0x6064 and the drive parameter P0462
+(0x6064 + 2^31); interpolated position following the records each SYNC takes. The dictionary
+has no 0x6502, so the modes are written to 0x6060 by SDO rather than through `op_mode`
+(docs/devices/bmaxx4400.md D51).
 """
 
 import os
@@ -55,6 +57,14 @@ class Bmaxx4400(Drive402Test):
         self.drive.state = "SWITCH ON DISABLED"
 
     def test_profile_position_move(self):
+        # The CANopen positioning mode (P0601 = 9) positions only after a homing since
+        # power-on (§4.4.8, D61): method 35, the current position, in hm first.
+        self.drive.sdo[0x6098].raw = 35
+        self.mode(6)
+        self.drive.state = "OPERATION ENABLED"
+        self.drive.controlword = 0x1F
+        self.wait_for("homing attained", lambda: self.drive.sdo[0x6041].raw & 0x1400 == 0x1400)
+        self.drive.controlword = 0x0F
         self.mode(1)
         self.drive.sdo[0x6067].raw = 16
         self.drive.sdo[0x6081].raw = 655360
@@ -69,6 +79,25 @@ class Bmaxx4400(Drive402Test):
                       lambda: self.drive.sdo[0x6041].raw & 0x0400 and abs(self.i32(0x6064) - 131072) <= 1)
         p0462 = struct.unpack("<I", self.drive.sdo.upload(0x41CE, 0))[0]
         self.assertEqual(p0462, (self.i32(0x6064) + 2**31) % 2**32)
+
+    def test_interpolated_position_follows_the_records_taken_on_sync(self):
+        # App. C 60C0h-60C4h (D58): 0x60C1 sub 1 in increments, taken on every SYNC; the
+        # default period 0x60C2 is 2 ms. Records a hundredth of a revolution apart.
+        self.mode(7)
+        self.drive.sdo[0x6067].raw = 16  # position window for target reached (factory value 0)
+        self.drive.state = "OPERATION ENABLED"
+        self.drive.controlword = 0x1F
+        self.wait_for("ip mode active", lambda: self.drive.sdo[0x6041].raw & 0x1000)
+        for k in range(1, 101):
+            self.drive.sdo[0x60C1][1].raw = 655 * k
+            self.v.network.sync.transmit()
+            if k == 50:
+                self.assertTrue(0 < self.i32(0x6064) <= 655 * 50, "moving with the records")
+        self.v.network.sync.transmit()
+        self.wait_for("on the last record, target reached",
+                      lambda: abs(self.i32(0x6064) - 65500) <= 16 and self.drive.sdo[0x6041].raw & 0x1400 == 0x1400)
+        self.drive.controlword = 0x0F
+        self.wait_for("ip mode inactive", lambda: not self.drive.sdo[0x6041].raw & 0x1000)
 
     def test_manufacturer_modes_are_shown(self):
         for value, shown in [(-106, -106), (-6, -6), (7, 7), (-4, -4), (2, 2)]:

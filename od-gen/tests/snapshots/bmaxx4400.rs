@@ -82,223 +82,223 @@ pub mod index {
     pub const TPDO3_MAPPING_PARAMETER: u16 = 0x1A02;
     /// 0x1A03 TPDO4 mapping parameter (bmaxx4400.eds:1525)
     pub const TPDO4_MAPPING_PARAMETER: u16 = 0x1A03;
-    /// 0x4039 P0057 Motor nominal speed (bmaxx4400.eds:2639)
+    /// 0x4039 P0057 Motor nominal speed (bmaxx4400.eds:2643)
     pub const P0057_MOTOR_NOMINAL_SPEED: u16 = 0x4039;
-    /// 0x4041 P0065 Motor pole pair number (bmaxx4400.eds:2649)
+    /// 0x4041 P0065 Motor pole pair number (bmaxx4400.eds:2653)
     pub const P0065_MOTOR_POLE_PAIR_NUMBER: u16 = 0x4041;
-    /// 0x40E9 P0233 Amplifier Hiperface error detail (bmaxx4400.eds:2659)
+    /// 0x40E9 P0233 Amplifier Hiperface error detail (bmaxx4400.eds:2663)
     pub const P0233_AMPLIFIER_HIPERFACE_ERROR_DETAIL: u16 = 0x40E9;
-    /// 0x40EA P0234 Encoder 1 error detail (bmaxx4400.eds:2667)
+    /// 0x40EA P0234 Encoder 1 error detail (bmaxx4400.eds:2671)
     pub const P0234_ENCODER_1_ERROR_DETAIL: u16 = 0x40EA;
-    /// 0x40EB P0235 Encoder 2 error detail (bmaxx4400.eds:2675)
+    /// 0x40EB P0235 Encoder 2 error detail (bmaxx4400.eds:2679)
     pub const P0235_ENCODER_2_ERROR_DETAIL: u16 = 0x40EB;
-    /// 0x40F0 P0240 Small module A error detail (bmaxx4400.eds:2683)
+    /// 0x40F0 P0240 Small module A error detail (bmaxx4400.eds:2687)
     pub const P0240_SMALL_MODULE_A_ERROR_DETAIL: u16 = 0x40F0;
-    /// 0x40F1 P0241 Small module B error detail (bmaxx4400.eds:2691)
+    /// 0x40F1 P0241 Small module B error detail (bmaxx4400.eds:2695)
     pub const P0241_SMALL_MODULE_B_ERROR_DETAIL: u16 = 0x40F1;
-    /// 0x40F2 P0242 Small module C error detail (bmaxx4400.eds:2699)
+    /// 0x40F2 P0242 Small module C error detail (bmaxx4400.eds:2703)
     pub const P0242_SMALL_MODULE_C_ERROR_DETAIL: u16 = 0x40F2;
-    /// 0x40F3 P0243 Small module D error detail (bmaxx4400.eds:2707)
+    /// 0x40F3 P0243 Small module D error detail (bmaxx4400.eds:2711)
     pub const P0243_SMALL_MODULE_D_ERROR_DETAIL: u16 = 0x40F3;
-    /// 0x40F4 P0244 Small module F error detail (bmaxx4400.eds:2715)
+    /// 0x40F4 P0244 Small module F error detail (bmaxx4400.eds:2719)
     pub const P0244_SMALL_MODULE_F_ERROR_DETAIL: u16 = 0x40F4;
-    /// 0x40F5 P0245 Big module G error detail (bmaxx4400.eds:2723)
+    /// 0x40F5 P0245 Big module G error detail (bmaxx4400.eds:2727)
     pub const P0245_BIG_MODULE_G_ERROR_DETAIL: u16 = 0x40F5;
-    /// 0x40F6 P0246 Big module H error detail (bmaxx4400.eds:2731)
+    /// 0x40F6 P0246 Big module H error detail (bmaxx4400.eds:2735)
     pub const P0246_BIG_MODULE_H_ERROR_DETAIL: u16 = 0x40F6;
-    /// 0x40F7 P0247 Big module J error detail (bmaxx4400.eds:2739)
+    /// 0x40F7 P0247 Big module J error detail (bmaxx4400.eds:2743)
     pub const P0247_BIG_MODULE_J_ERROR_DETAIL: u16 = 0x40F7;
-    /// 0x40F8 P0248 Big module K error detail (bmaxx4400.eds:2747)
+    /// 0x40F8 P0248 Big module K error detail (bmaxx4400.eds:2751)
     pub const P0248_BIG_MODULE_K_ERROR_DETAIL: u16 = 0x40F8;
-    /// 0x40F9 P0249 Big module L error detail (bmaxx4400.eds:2755)
+    /// 0x40F9 P0249 Big module L error detail (bmaxx4400.eds:2759)
     pub const P0249_BIG_MODULE_L_ERROR_DETAIL: u16 = 0x40F9;
-    /// 0x40FA P0250 Big module M error detail (bmaxx4400.eds:2763)
+    /// 0x40FA P0250 Big module M error detail (bmaxx4400.eds:2767)
     pub const P0250_BIG_MODULE_M_ERROR_DETAIL: u16 = 0x40FA;
-    /// 0x4106 P0262 Amplifier warnings (bmaxx4400.eds:2771)
+    /// 0x4106 P0262 Amplifier warnings (bmaxx4400.eds:2775)
     pub const P0262_AMPLIFIER_WARNINGS: u16 = 0x4106;
-    /// 0x4107 P0263 Motor warnings (bmaxx4400.eds:2779)
+    /// 0x4107 P0263 Motor warnings (bmaxx4400.eds:2783)
     pub const P0263_MOTOR_WARNINGS: u16 = 0x4107;
-    /// 0x412C P0300 Drive control word (bmaxx4400.eds:2787)
+    /// 0x412C P0300 Drive control word (bmaxx4400.eds:2791)
     pub const P0300_DRIVE_CONTROL_WORD: u16 = 0x412C;
-    /// 0x412D P0301 Drive status word (bmaxx4400.eds:2795)
+    /// 0x412D P0301 Drive status word (bmaxx4400.eds:2799)
     pub const P0301_DRIVE_STATUS_WORD: u16 = 0x412D;
-    /// 0x4130 P0304 Operation mode actual (bmaxx4400.eds:2803)
+    /// 0x4130 P0304 Operation mode actual (bmaxx4400.eds:2807)
     pub const P0304_OPERATION_MODE_ACTUAL: u16 = 0x4130;
-    /// 0x4158 P0344 Torque actual value raw (bmaxx4400.eds:2811)
+    /// 0x4158 P0344 Torque actual value raw (bmaxx4400.eds:2815)
     pub const P0344_TORQUE_ACTUAL_VALUE_RAW: u16 = 0x4158;
-    /// 0x415F P0351 Ramp function generator output (bmaxx4400.eds:2819)
+    /// 0x415F P0351 Ramp function generator output (bmaxx4400.eds:2823)
     pub const P0351_RAMP_FUNCTION_GENERATOR_OUTPUT: u16 = 0x415F;
-    /// 0x4160 P0352 Speed set value total (bmaxx4400.eds:2827)
+    /// 0x4160 P0352 Speed set value total (bmaxx4400.eds:2831)
     pub const P0352_SPEED_SET_VALUE_TOTAL: u16 = 0x4160;
-    /// 0x4161 P0353 Speed actual value raw (bmaxx4400.eds:2835)
+    /// 0x4161 P0353 Speed actual value raw (bmaxx4400.eds:2839)
     pub const P0353_SPEED_ACTUAL_VALUE_RAW: u16 = 0x4161;
-    /// 0x4165 P0357 Torque limit direct (bmaxx4400.eds:2843)
+    /// 0x4165 P0357 Torque limit direct (bmaxx4400.eds:2847)
     pub const P0357_TORQUE_LIMIT_DIRECT: u16 = 0x4165;
-    /// 0x4168 P0360 Position controller status raw (bmaxx4400.eds:2851)
+    /// 0x4168 P0360 Position controller status raw (bmaxx4400.eds:2855)
     pub const P0360_POSITION_CONTROLLER_STATUS_RAW: u16 = 0x4168;
-    /// 0x416A P0362 Position actual value raw (bmaxx4400.eds:2859)
+    /// 0x416A P0362 Position actual value raw (bmaxx4400.eds:2863)
     pub const P0362_POSITION_ACTUAL_VALUE_RAW: u16 = 0x416A;
-    /// 0x416B P0363 Position set angle raw (bmaxx4400.eds:2867)
+    /// 0x416B P0363 Position set angle raw (bmaxx4400.eds:2871)
     pub const P0363_POSITION_SET_ANGLE_RAW: u16 = 0x416B;
-    /// 0x416C P0364 Position set revolutions raw (bmaxx4400.eds:2875)
+    /// 0x416C P0364 Position set revolutions raw (bmaxx4400.eds:2879)
     pub const P0364_POSITION_SET_REVOLUTIONS_RAW: u16 = 0x416C;
-    /// 0x416D P0365 Speed feed forward raw (bmaxx4400.eds:2883)
+    /// 0x416D P0365 Speed feed forward raw (bmaxx4400.eds:2887)
     pub const P0365_SPEED_FEED_FORWARD_RAW: u16 = 0x416D;
-    /// 0x416F P0367 Position control deviation raw (bmaxx4400.eds:2891)
+    /// 0x416F P0367 Position control deviation raw (bmaxx4400.eds:2895)
     pub const P0367_POSITION_CONTROL_DEVIATION_RAW: u16 = 0x416F;
-    /// 0x4171 P0369 Position set value (bmaxx4400.eds:2899)
+    /// 0x4171 P0369 Position set value (bmaxx4400.eds:2903)
     pub const P0369_POSITION_SET_VALUE: u16 = 0x4171;
-    /// 0x4172 P0370 Position IP set angle (bmaxx4400.eds:2907)
+    /// 0x4172 P0370 Position IP set angle (bmaxx4400.eds:2911)
     pub const P0370_POSITION_IP_SET_ANGLE: u16 = 0x4172;
-    /// 0x4187 P0391 Encoder 1 actual angle raw (bmaxx4400.eds:2915)
+    /// 0x4187 P0391 Encoder 1 actual angle raw (bmaxx4400.eds:2919)
     pub const P0391_ENCODER_1_ACTUAL_ANGLE_RAW: u16 = 0x4187;
-    /// 0x4188 P0392 Encoder 1 actual revolutions raw (bmaxx4400.eds:2923)
+    /// 0x4188 P0392 Encoder 1 actual revolutions raw (bmaxx4400.eds:2927)
     pub const P0392_ENCODER_1_ACTUAL_REVOLUTIONS_RAW: u16 = 0x4188;
-    /// 0x41CC P0460 Positioning status raw (bmaxx4400.eds:2931)
+    /// 0x41CC P0460 Positioning status raw (bmaxx4400.eds:2935)
     pub const P0460_POSITIONING_STATUS_RAW: u16 = 0x41CC;
-    /// 0x41CD P0461 Digital input output status (bmaxx4400.eds:2939)
+    /// 0x41CD P0461 Digital input output status (bmaxx4400.eds:2943)
     pub const P0461_DIGITAL_INPUT_OUTPUT_STATUS: u16 = 0x41CD;
-    /// 0x41CE P0462 Positioning actual value (bmaxx4400.eds:2947)
+    /// 0x41CE P0462 Positioning actual value (bmaxx4400.eds:2951)
     pub const P0462_POSITIONING_ACTUAL_VALUE: u16 = 0x41CE;
-    /// 0x41CF P0463 Positioning set value (bmaxx4400.eds:2955)
+    /// 0x41CF P0463 Positioning set value (bmaxx4400.eds:2959)
     pub const P0463_POSITIONING_SET_VALUE: u16 = 0x41CF;
-    /// 0x41D0 P0464 Positioning speed set value raw (bmaxx4400.eds:2963)
+    /// 0x41D0 P0464 Positioning speed set value raw (bmaxx4400.eds:2967)
     pub const P0464_POSITIONING_SPEED_SET_VALUE_RAW: u16 = 0x41D0;
-    /// 0x4214 P0532 Sync interval (bmaxx4400.eds:2971)
+    /// 0x4214 P0532 Sync interval (bmaxx4400.eds:2975)
     pub const P0532_SYNC_INTERVAL: u16 = 0x4214;
-    /// 0x4258 P0600 Positioning target unsigned (bmaxx4400.eds:2979)
+    /// 0x4258 P0600 Positioning target unsigned (bmaxx4400.eds:2983)
     pub const P0600_POSITIONING_TARGET_UNSIGNED: u16 = 0x4258;
-    /// 0x4259 P0601 Positioning mode (bmaxx4400.eds:2987)
+    /// 0x4259 P0601 Positioning mode (bmaxx4400.eds:2991)
     pub const P0601_POSITIONING_MODE: u16 = 0x4259;
-    /// 0x425A P0602 Positioning speed 1 (bmaxx4400.eds:2995)
+    /// 0x425A P0602 Positioning speed 1 (bmaxx4400.eds:2999)
     pub const P0602_POSITIONING_SPEED_1: u16 = 0x425A;
-    /// 0x425B P0603 Positioning acceleration 1 (bmaxx4400.eds:3005)
+    /// 0x425B P0603 Positioning acceleration 1 (bmaxx4400.eds:3009)
     pub const P0603_POSITIONING_ACCELERATION_1: u16 = 0x425B;
-    /// 0x425C P0604 Positioning deceleration 1 (bmaxx4400.eds:3015)
+    /// 0x425C P0604 Positioning deceleration 1 (bmaxx4400.eds:3019)
     pub const P0604_POSITIONING_DECELERATION_1: u16 = 0x425C;
-    /// 0x425D P0605 Positioning bend 0 raw (bmaxx4400.eds:3025)
+    /// 0x425D P0605 Positioning bend 0 raw (bmaxx4400.eds:3029)
     pub const P0605_POSITIONING_BEND_0_RAW: u16 = 0x425D;
-    /// 0x425F P0607 Positioning target 1 (bmaxx4400.eds:3035)
+    /// 0x425F P0607 Positioning target 1 (bmaxx4400.eds:3039)
     pub const P0607_POSITIONING_TARGET_1: u16 = 0x425F;
-    /// 0x4260 P0608 Positioning target input 1 (bmaxx4400.eds:3043)
+    /// 0x4260 P0608 Positioning target input 1 (bmaxx4400.eds:3047)
     pub const P0608_POSITIONING_TARGET_INPUT_1: u16 = 0x4260;
-    /// 0x4320 P0800 BACI cycle time factor (bmaxx4400.eds:3051)
+    /// 0x4320 P0800 BACI cycle time factor (bmaxx4400.eds:3055)
     pub const P0800_BACI_CYCLE_TIME_FACTOR: u16 = 0x4320;
-    /// 0x4321 P0801 BACI process data parameter number 1 (bmaxx4400.eds:3059)
+    /// 0x4321 P0801 BACI process data parameter number 1 (bmaxx4400.eds:3063)
     pub const P0801_BACI_PROCESS_DATA_PARAMETER_NUMBER_1: u16 = 0x4321;
-    /// 0x4322 P0802 BACI process data parameter number 2 (bmaxx4400.eds:3067)
+    /// 0x4322 P0802 BACI process data parameter number 2 (bmaxx4400.eds:3071)
     pub const P0802_BACI_PROCESS_DATA_PARAMETER_NUMBER_2: u16 = 0x4322;
-    /// 0x4323 P0803 BACI process data parameter number 3 (bmaxx4400.eds:3075)
+    /// 0x4323 P0803 BACI process data parameter number 3 (bmaxx4400.eds:3079)
     pub const P0803_BACI_PROCESS_DATA_PARAMETER_NUMBER_3: u16 = 0x4323;
-    /// 0x4324 P0804 BACI process data parameter number 4 (bmaxx4400.eds:3083)
+    /// 0x4324 P0804 BACI process data parameter number 4 (bmaxx4400.eds:3087)
     pub const P0804_BACI_PROCESS_DATA_PARAMETER_NUMBER_4: u16 = 0x4324;
-    /// 0x4325 P0805 BACI process data parameter number 5 (bmaxx4400.eds:3091)
+    /// 0x4325 P0805 BACI process data parameter number 5 (bmaxx4400.eds:3095)
     pub const P0805_BACI_PROCESS_DATA_PARAMETER_NUMBER_5: u16 = 0x4325;
-    /// 0x4326 P0806 BACI process data parameter number 6 (bmaxx4400.eds:3099)
+    /// 0x4326 P0806 BACI process data parameter number 6 (bmaxx4400.eds:3103)
     pub const P0806_BACI_PROCESS_DATA_PARAMETER_NUMBER_6: u16 = 0x4326;
-    /// 0x4327 P0807 BACI process data parameter number 7 (bmaxx4400.eds:3107)
+    /// 0x4327 P0807 BACI process data parameter number 7 (bmaxx4400.eds:3111)
     pub const P0807_BACI_PROCESS_DATA_PARAMETER_NUMBER_7: u16 = 0x4327;
-    /// 0x4328 P0808 BACI process data parameter number 8 (bmaxx4400.eds:3115)
+    /// 0x4328 P0808 BACI process data parameter number 8 (bmaxx4400.eds:3119)
     pub const P0808_BACI_PROCESS_DATA_PARAMETER_NUMBER_8: u16 = 0x4328;
-    /// 0x4329 P0809 BACI process data parameter number 9 (bmaxx4400.eds:3123)
+    /// 0x4329 P0809 BACI process data parameter number 9 (bmaxx4400.eds:3127)
     pub const P0809_BACI_PROCESS_DATA_PARAMETER_NUMBER_9: u16 = 0x4329;
-    /// 0x432A P0810 BACI process data parameter number 10 (bmaxx4400.eds:3131)
+    /// 0x432A P0810 BACI process data parameter number 10 (bmaxx4400.eds:3135)
     pub const P0810_BACI_PROCESS_DATA_PARAMETER_NUMBER_10: u16 = 0x432A;
-    /// 0x432B P0811 BACI process data parameter number 11 (bmaxx4400.eds:3139)
+    /// 0x432B P0811 BACI process data parameter number 11 (bmaxx4400.eds:3143)
     pub const P0811_BACI_PROCESS_DATA_PARAMETER_NUMBER_11: u16 = 0x432B;
-    /// 0x432C P0812 BACI process data parameter number 12 (bmaxx4400.eds:3147)
+    /// 0x432C P0812 BACI process data parameter number 12 (bmaxx4400.eds:3151)
     pub const P0812_BACI_PROCESS_DATA_PARAMETER_NUMBER_12: u16 = 0x432C;
-    /// 0x432D P0813 BACI process data parameter number 13 (bmaxx4400.eds:3155)
+    /// 0x432D P0813 BACI process data parameter number 13 (bmaxx4400.eds:3159)
     pub const P0813_BACI_PROCESS_DATA_PARAMETER_NUMBER_13: u16 = 0x432D;
-    /// 0x432E P0814 BACI process data parameter number 14 (bmaxx4400.eds:3163)
+    /// 0x432E P0814 BACI process data parameter number 14 (bmaxx4400.eds:3167)
     pub const P0814_BACI_PROCESS_DATA_PARAMETER_NUMBER_14: u16 = 0x432E;
-    /// 0x432F P0815 BACI process data parameter number 15 (bmaxx4400.eds:3171)
+    /// 0x432F P0815 BACI process data parameter number 15 (bmaxx4400.eds:3175)
     pub const P0815_BACI_PROCESS_DATA_PARAMETER_NUMBER_15: u16 = 0x432F;
-    /// 0x4330 P0816 BACI process data parameter number 16 (bmaxx4400.eds:3179)
+    /// 0x4330 P0816 BACI process data parameter number 16 (bmaxx4400.eds:3183)
     pub const P0816_BACI_PROCESS_DATA_PARAMETER_NUMBER_16: u16 = 0x4330;
-    /// 0x4332 P0818 BACI cycle offset set values (bmaxx4400.eds:3187)
+    /// 0x4332 P0818 BACI cycle offset set values (bmaxx4400.eds:3191)
     pub const P0818_BACI_CYCLE_OFFSET_SET_VALUES: u16 = 0x4332;
-    /// 0x4333 P0819 BACI cycle offset actual values (bmaxx4400.eds:3195)
+    /// 0x4333 P0819 BACI cycle offset actual values (bmaxx4400.eds:3199)
     pub const P0819_BACI_CYCLE_OFFSET_ACTUAL_VALUES: u16 = 0x4333;
-    /// 0x433E P0830 Option module G configuration 1 (bmaxx4400.eds:3203)
+    /// 0x433E P0830 Option module G configuration 1 (bmaxx4400.eds:3207)
     pub const P0830_OPTION_MODULE_G_CONFIGURATION_1: u16 = 0x433E;
-    /// 0x4348 P0840 Option module H configuration 1 (bmaxx4400.eds:3211)
+    /// 0x4348 P0840 Option module H configuration 1 (bmaxx4400.eds:3215)
     pub const P0840_OPTION_MODULE_H_CONFIGURATION_1: u16 = 0x4348;
-    /// 0x43E8 P1000 Operation mode set (bmaxx4400.eds:3219)
+    /// 0x43E8 P1000 Operation mode set (bmaxx4400.eds:3223)
     pub const P1000_OPERATION_MODE_SET: u16 = 0x43E8;
-    /// 0x43E9 P1001 Drive parameter 1001 (bmaxx4400.eds:3229)
+    /// 0x43E9 P1001 Drive parameter 1001 (bmaxx4400.eds:3233)
     pub const P1001_DRIVE_PARAMETER_1001: u16 = 0x43E9;
-    /// 0x43EB P1003 Stop option code raw (bmaxx4400.eds:3237)
+    /// 0x43EB P1003 Stop option code raw (bmaxx4400.eds:3241)
     pub const P1003_STOP_OPTION_CODE_RAW: u16 = 0x43EB;
-    /// 0x43EC P1004 Quick stop code raw (bmaxx4400.eds:3247)
+    /// 0x43EC P1004 Quick stop code raw (bmaxx4400.eds:3251)
     pub const P1004_QUICK_STOP_CODE_RAW: u16 = 0x43EC;
-    /// 0x43ED P1005 Shutdown code raw (bmaxx4400.eds:3255)
+    /// 0x43ED P1005 Shutdown code raw (bmaxx4400.eds:3259)
     pub const P1005_SHUTDOWN_CODE_RAW: u16 = 0x43ED;
-    /// 0x43EE P1006 Disable operation code raw (bmaxx4400.eds:3265)
+    /// 0x43EE P1006 Disable operation code raw (bmaxx4400.eds:3269)
     pub const P1006_DISABLE_OPERATION_CODE_RAW: u16 = 0x43EE;
-    /// 0x43EF P1007 Error reaction code raw (bmaxx4400.eds:3275)
+    /// 0x43EF P1007 Error reaction code raw (bmaxx4400.eds:3279)
     pub const P1007_ERROR_REACTION_CODE_RAW: u16 = 0x43EF;
-    /// 0x4407 P1031 Maximum speed (bmaxx4400.eds:3285)
+    /// 0x4407 P1031 Maximum speed (bmaxx4400.eds:3289)
     pub const P1031_MAXIMUM_SPEED: u16 = 0x4407;
-    /// 0x4411 P1041 Speed set value upper limit (bmaxx4400.eds:3295)
+    /// 0x4411 P1041 Speed set value upper limit (bmaxx4400.eds:3299)
     pub const P1041_SPEED_SET_VALUE_UPPER_LIMIT: u16 = 0x4411;
-    /// 0x4412 P1042 Speed set value lower limit (bmaxx4400.eds:3305)
+    /// 0x4412 P1042 Speed set value lower limit (bmaxx4400.eds:3309)
     pub const P1042_SPEED_SET_VALUE_LOWER_LIMIT: u16 = 0x4412;
-    /// 0x441A P1050 Position controller mode raw (bmaxx4400.eds:3315)
+    /// 0x441A P1050 Position controller mode raw (bmaxx4400.eds:3319)
     pub const P1050_POSITION_CONTROLLER_MODE_RAW: u16 = 0x441A;
-    /// 0x441B P1051 Position controller Kv factor raw (bmaxx4400.eds:3323)
+    /// 0x441B P1051 Position controller Kv factor raw (bmaxx4400.eds:3327)
     pub const P1051_POSITION_CONTROLLER_KV_FACTOR_RAW: u16 = 0x441B;
-    /// 0x441D P1053 Speed feed forward factor raw (bmaxx4400.eds:3333)
+    /// 0x441D P1053 Speed feed forward factor raw (bmaxx4400.eds:3337)
     pub const P1053_SPEED_FEED_FORWARD_FACTOR_RAW: u16 = 0x441D;
-    /// 0x4420 P1056 Following error time (bmaxx4400.eds:3343)
+    /// 0x4420 P1056 Following error time (bmaxx4400.eds:3347)
     pub const P1056_FOLLOWING_ERROR_TIME: u16 = 0x4420;
-    /// 0x4431 P1073 Encoder 1 monitoring lower limit (bmaxx4400.eds:3353)
+    /// 0x4431 P1073 Encoder 1 monitoring lower limit (bmaxx4400.eds:3357)
     pub const P1073_ENCODER_1_MONITORING_LOWER_LIMIT: u16 = 0x4431;
-    /// 0x4493 P1171 Ramp function generator input (bmaxx4400.eds:3363)
+    /// 0x4493 P1171 Ramp function generator input (bmaxx4400.eds:3367)
     pub const P1171_RAMP_FUNCTION_GENERATOR_INPUT: u16 = 0x4493;
-    /// 0x4494 P1172 Ramp function generator ramp up time (bmaxx4400.eds:3371)
+    /// 0x4494 P1172 Ramp function generator ramp up time (bmaxx4400.eds:3375)
     pub const P1172_RAMP_FUNCTION_GENERATOR_RAMP_UP_TIME: u16 = 0x4494;
-    /// 0x4495 P1173 Ramp function generator ramp down time (bmaxx4400.eds:3381)
+    /// 0x4495 P1173 Ramp function generator ramp down time (bmaxx4400.eds:3385)
     pub const P1173_RAMP_FUNCTION_GENERATOR_RAMP_DOWN_TIME: u16 = 0x4495;
-    /// 0x4496 P1174 Ramp function generator stop time (bmaxx4400.eds:3391)
+    /// 0x4496 P1174 Ramp function generator stop time (bmaxx4400.eds:3395)
     pub const P1174_RAMP_FUNCTION_GENERATOR_STOP_TIME: u16 = 0x4496;
-    /// 0x44A6 P1190 Positioning mode word (bmaxx4400.eds:3401)
+    /// 0x44A6 P1190 Positioning mode word (bmaxx4400.eds:3405)
     pub const P1190_POSITIONING_MODE_WORD: u16 = 0x44A6;
-    /// 0x44A7 P1191 Positioning actual record number (bmaxx4400.eds:3409)
+    /// 0x44A7 P1191 Positioning actual record number (bmaxx4400.eds:3413)
     pub const P1191_POSITIONING_ACTUAL_RECORD_NUMBER: u16 = 0x44A7;
-    /// 0x44AA P1194 Positioning window (bmaxx4400.eds:3417)
+    /// 0x44AA P1194 Positioning window (bmaxx4400.eds:3421)
     pub const P1194_POSITIONING_WINDOW: u16 = 0x44AA;
-    /// 0x44AB P1195 Positioning window time (bmaxx4400.eds:3425)
+    /// 0x44AB P1195 Positioning window time (bmaxx4400.eds:3429)
     pub const P1195_POSITIONING_WINDOW_TIME: u16 = 0x44AB;
-    /// 0x44AC P1196 Software limit switch 1 (bmaxx4400.eds:3435)
+    /// 0x44AC P1196 Software limit switch 1 (bmaxx4400.eds:3439)
     pub const P1196_SOFTWARE_LIMIT_SWITCH_1: u16 = 0x44AC;
-    /// 0x44AD P1197 Software limit switch 2 (bmaxx4400.eds:3443)
+    /// 0x44AD P1197 Software limit switch 2 (bmaxx4400.eds:3447)
     pub const P1197_SOFTWARE_LIMIT_SWITCH_2: u16 = 0x44AD;
-    /// 0x44AE P1198 Positioning clip environment 1 (bmaxx4400.eds:3451)
+    /// 0x44AE P1198 Positioning clip environment 1 (bmaxx4400.eds:3455)
     pub const P1198_POSITIONING_CLIP_ENVIRONMENT_1: u16 = 0x44AE;
-    /// 0x44AF P1199 Positioning clip environment 2 (bmaxx4400.eds:3459)
+    /// 0x44AF P1199 Positioning clip environment 2 (bmaxx4400.eds:3463)
     pub const P1199_POSITIONING_CLIP_ENVIRONMENT_2: u16 = 0x44AF;
-    /// 0x44B0 P1200 Positioning home position (bmaxx4400.eds:3467)
+    /// 0x44B0 P1200 Positioning home position (bmaxx4400.eds:3471)
     pub const P1200_POSITIONING_HOME_POSITION: u16 = 0x44B0;
-    /// 0x44B1 P1201 Homing speed (bmaxx4400.eds:3475)
+    /// 0x44B1 P1201 Homing speed (bmaxx4400.eds:3479)
     pub const P1201_HOMING_SPEED: u16 = 0x44B1;
-    /// 0x44B2 P1202 Homing final speed (bmaxx4400.eds:3485)
+    /// 0x44B2 P1202 Homing final speed (bmaxx4400.eds:3489)
     pub const P1202_HOMING_FINAL_SPEED: u16 = 0x44B2;
-    /// 0x44B3 P1203 Homing acceleration raw (bmaxx4400.eds:3495)
+    /// 0x44B3 P1203 Homing acceleration raw (bmaxx4400.eds:3499)
     pub const P1203_HOMING_ACCELERATION_RAW: u16 = 0x44B3;
-    /// 0x44B4 P1204 Homing deceleration raw (bmaxx4400.eds:3505)
+    /// 0x44B4 P1204 Homing deceleration raw (bmaxx4400.eds:3509)
     pub const P1204_HOMING_DECELERATION_RAW: u16 = 0x44B4;
-    /// 0x44B5 P1205 Homing mode (bmaxx4400.eds:3513)
+    /// 0x44B5 P1205 Homing mode (bmaxx4400.eds:3517)
     pub const P1205_HOMING_MODE: u16 = 0x44B5;
-    /// 0x44B8 P1208 Positioning switch mode raw (bmaxx4400.eds:3521)
+    /// 0x44B8 P1208 Positioning switch mode raw (bmaxx4400.eds:3525)
     pub const P1208_POSITIONING_SWITCH_MODE_RAW: u16 = 0x44B8;
-    /// 0x44B9 P1209 Positioning encoder offset raw (bmaxx4400.eds:3529)
+    /// 0x44B9 P1209 Positioning encoder offset raw (bmaxx4400.eds:3533)
     pub const P1209_POSITIONING_ENCODER_OFFSET_RAW: u16 = 0x44B9;
-    /// 0x44BD P1213 Positioning stop deceleration (bmaxx4400.eds:3537)
+    /// 0x44BD P1213 Positioning stop deceleration (bmaxx4400.eds:3541)
     pub const P1213_POSITIONING_STOP_DECELERATION: u16 = 0x44BD;
-    /// 0x4BEA P3050 Position scaling user unit (bmaxx4400.eds:3547)
+    /// 0x4BEA P3050 Position scaling user unit (bmaxx4400.eds:3551)
     pub const P3050_POSITION_SCALING_USER_UNIT: u16 = 0x4BEA;
-    /// 0x4BEB P3051 Position scaling revolutions (bmaxx4400.eds:3557)
+    /// 0x4BEB P3051 Position scaling revolutions (bmaxx4400.eds:3561)
     pub const P3051_POSITION_SCALING_REVOLUTIONS: u16 = 0x4BEB;
     /// 0x6007 Abort connection option code (bmaxx4400.eds:1604)
     pub const ABORT_CONNECTION_OPTION_CODE: u16 = 0x6007;
@@ -322,101 +322,101 @@ pub mod index {
     pub const VL_VELOCITY_DECELERATION: u16 = 0x6049;
     /// 0x604C vl dimension factor (bmaxx4400.eds:1747)
     pub const VL_DIMENSION_FACTOR: u16 = 0x604C;
-    /// 0x604D vl pole number (bmaxx4400.eds:1776)
+    /// 0x604D vl pole number (bmaxx4400.eds:1780)
     pub const VL_POLE_NUMBER: u16 = 0x604D;
-    /// 0x604F vl ramp function time (bmaxx4400.eds:1784)
+    /// 0x604F vl ramp function time (bmaxx4400.eds:1788)
     pub const VL_RAMP_FUNCTION_TIME: u16 = 0x604F;
-    /// 0x6050 vl slow down time (bmaxx4400.eds:1792)
+    /// 0x6050 vl slow down time (bmaxx4400.eds:1796)
     pub const VL_SLOW_DOWN_TIME: u16 = 0x6050;
-    /// 0x6051 vl quick stop time (bmaxx4400.eds:1800)
+    /// 0x6051 vl quick stop time (bmaxx4400.eds:1804)
     pub const VL_QUICK_STOP_TIME: u16 = 0x6051;
-    /// 0x605A Quick stop option code (bmaxx4400.eds:1808)
+    /// 0x605A Quick stop option code (bmaxx4400.eds:1812)
     pub const QUICK_STOP_OPTION_CODE: u16 = 0x605A;
-    /// 0x605B Shutdown option code (bmaxx4400.eds:1816)
+    /// 0x605B Shutdown option code (bmaxx4400.eds:1820)
     pub const SHUTDOWN_OPTION_CODE: u16 = 0x605B;
-    /// 0x605C Disable operation option code (bmaxx4400.eds:1824)
+    /// 0x605C Disable operation option code (bmaxx4400.eds:1828)
     pub const DISABLE_OPERATION_OPTION_CODE: u16 = 0x605C;
-    /// 0x605D Halt option code (bmaxx4400.eds:1832)
+    /// 0x605D Halt option code (bmaxx4400.eds:1836)
     pub const HALT_OPTION_CODE: u16 = 0x605D;
-    /// 0x605E Fault reaction option code (bmaxx4400.eds:1840)
+    /// 0x605E Fault reaction option code (bmaxx4400.eds:1844)
     pub const FAULT_REACTION_OPTION_CODE: u16 = 0x605E;
-    /// 0x6060 Modes of operation (bmaxx4400.eds:1848)
+    /// 0x6060 Modes of operation (bmaxx4400.eds:1852)
     pub const MODES_OF_OPERATION: u16 = 0x6060;
-    /// 0x6061 Modes of operation display (bmaxx4400.eds:1856)
+    /// 0x6061 Modes of operation display (bmaxx4400.eds:1860)
     pub const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
-    /// 0x6062 Position demand value (bmaxx4400.eds:1864)
+    /// 0x6062 Position demand value (bmaxx4400.eds:1868)
     pub const POSITION_DEMAND_VALUE: u16 = 0x6062;
-    /// 0x6063 Position actual internal value (bmaxx4400.eds:1872)
+    /// 0x6063 Position actual internal value (bmaxx4400.eds:1876)
     pub const POSITION_ACTUAL_INTERNAL_VALUE: u16 = 0x6063;
-    /// 0x6064 Position actual value (bmaxx4400.eds:1880)
+    /// 0x6064 Position actual value (bmaxx4400.eds:1884)
     pub const POSITION_ACTUAL_VALUE: u16 = 0x6064;
-    /// 0x6066 Following error time out (bmaxx4400.eds:1888)
+    /// 0x6066 Following error time out (bmaxx4400.eds:1892)
     pub const FOLLOWING_ERROR_TIME_OUT: u16 = 0x6066;
-    /// 0x6067 Position window (bmaxx4400.eds:1898)
+    /// 0x6067 Position window (bmaxx4400.eds:1902)
     pub const POSITION_WINDOW: u16 = 0x6067;
-    /// 0x6068 Position window time (bmaxx4400.eds:1906)
+    /// 0x6068 Position window time (bmaxx4400.eds:1910)
     pub const POSITION_WINDOW_TIME: u16 = 0x6068;
-    /// 0x6069 Velocity sensor actual value (bmaxx4400.eds:1914)
+    /// 0x6069 Velocity sensor actual value (bmaxx4400.eds:1918)
     pub const VELOCITY_SENSOR_ACTUAL_VALUE: u16 = 0x6069;
-    /// 0x606A Sensor selection code (bmaxx4400.eds:1922)
+    /// 0x606A Sensor selection code (bmaxx4400.eds:1926)
     pub const SENSOR_SELECTION_CODE: u16 = 0x606A;
-    /// 0x606B Velocity demand value (bmaxx4400.eds:1930)
+    /// 0x606B Velocity demand value (bmaxx4400.eds:1934)
     pub const VELOCITY_DEMAND_VALUE: u16 = 0x606B;
-    /// 0x606C Velocity actual value (bmaxx4400.eds:1938)
+    /// 0x606C Velocity actual value (bmaxx4400.eds:1942)
     pub const VELOCITY_ACTUAL_VALUE: u16 = 0x606C;
-    /// 0x606F Velocity threshold (bmaxx4400.eds:1946)
+    /// 0x606F Velocity threshold (bmaxx4400.eds:1950)
     pub const VELOCITY_THRESHOLD: u16 = 0x606F;
-    /// 0x6072 Max torque (bmaxx4400.eds:1954)
+    /// 0x6072 Max torque (bmaxx4400.eds:1958)
     pub const MAX_TORQUE: u16 = 0x6072;
-    /// 0x6077 Torque actual value (bmaxx4400.eds:1962)
+    /// 0x6077 Torque actual value (bmaxx4400.eds:1966)
     pub const TORQUE_ACTUAL_VALUE: u16 = 0x6077;
-    /// 0x607A Target position (bmaxx4400.eds:1970)
+    /// 0x607A Target position (bmaxx4400.eds:1974)
     pub const TARGET_POSITION: u16 = 0x607A;
-    /// 0x607C Home offset (bmaxx4400.eds:1978)
+    /// 0x607C Home offset (bmaxx4400.eds:1982)
     pub const HOME_OFFSET: u16 = 0x607C;
-    /// 0x607D Software position limit (bmaxx4400.eds:1986)
+    /// 0x607D Software position limit (bmaxx4400.eds:1990)
     pub const SOFTWARE_POSITION_LIMIT: u16 = 0x607D;
-    /// 0x607F Max profile velocity (bmaxx4400.eds:2015)
+    /// 0x607F Max profile velocity (bmaxx4400.eds:2019)
     pub const MAX_PROFILE_VELOCITY: u16 = 0x607F;
-    /// 0x6080 Max motor speed (bmaxx4400.eds:2023)
+    /// 0x6080 Max motor speed (bmaxx4400.eds:2027)
     pub const MAX_MOTOR_SPEED: u16 = 0x6080;
-    /// 0x6081 Profile velocity (bmaxx4400.eds:2033)
+    /// 0x6081 Profile velocity (bmaxx4400.eds:2037)
     pub const PROFILE_VELOCITY: u16 = 0x6081;
-    /// 0x6083 Profile acceleration (bmaxx4400.eds:2041)
+    /// 0x6083 Profile acceleration (bmaxx4400.eds:2045)
     pub const PROFILE_ACCELERATION: u16 = 0x6083;
-    /// 0x6084 Profile deceleration (bmaxx4400.eds:2049)
+    /// 0x6084 Profile deceleration (bmaxx4400.eds:2053)
     pub const PROFILE_DECELERATION: u16 = 0x6084;
-    /// 0x6085 Quick stop deceleration (bmaxx4400.eds:2057)
+    /// 0x6085 Quick stop deceleration (bmaxx4400.eds:2061)
     pub const QUICK_STOP_DECELERATION: u16 = 0x6085;
-    /// 0x6086 Motion profile type (bmaxx4400.eds:2065)
+    /// 0x6086 Motion profile type (bmaxx4400.eds:2069)
     pub const MOTION_PROFILE_TYPE: u16 = 0x6086;
-    /// 0x6092 Feed constant (bmaxx4400.eds:2073)
+    /// 0x6092 Feed constant (bmaxx4400.eds:2077)
     pub const FEED_CONSTANT: u16 = 0x6092;
-    /// 0x6098 Homing method (bmaxx4400.eds:2106)
+    /// 0x6098 Homing method (bmaxx4400.eds:2110)
     pub const HOMING_METHOD: u16 = 0x6098;
-    /// 0x6099 Homing speeds (bmaxx4400.eds:2114)
+    /// 0x6099 Homing speeds (bmaxx4400.eds:2118)
     pub const HOMING_SPEEDS: u16 = 0x6099;
-    /// 0x609A Homing acceleration (bmaxx4400.eds:2143)
+    /// 0x609A Homing acceleration (bmaxx4400.eds:2147)
     pub const HOMING_ACCELERATION: u16 = 0x609A;
-    /// 0x60C0 Interpolation sub mode select (bmaxx4400.eds:2151)
+    /// 0x60C0 Interpolation sub mode select (bmaxx4400.eds:2155)
     pub const INTERPOLATION_SUB_MODE_SELECT: u16 = 0x60C0;
-    /// 0x60C1 Interpolation data record (bmaxx4400.eds:2159)
+    /// 0x60C1 Interpolation data record (bmaxx4400.eds:2163)
     pub const INTERPOLATION_DATA_RECORD: u16 = 0x60C1;
-    /// 0x60C2 Interpolation time period (bmaxx4400.eds:2180)
+    /// 0x60C2 Interpolation time period (bmaxx4400.eds:2184)
     pub const INTERPOLATION_TIME_PERIOD: u16 = 0x60C2;
-    /// 0x60C3 Interpolation sync definition (bmaxx4400.eds:2213)
+    /// 0x60C3 Interpolation sync definition (bmaxx4400.eds:2217)
     pub const INTERPOLATION_SYNC_DEFINITION: u16 = 0x60C3;
-    /// 0x60C4 Interpolation data configuration (bmaxx4400.eds:2242)
+    /// 0x60C4 Interpolation data configuration (bmaxx4400.eds:2246)
     pub const INTERPOLATION_DATA_CONFIGURATION: u16 = 0x60C4;
-    /// 0x60F8 Max slippage (bmaxx4400.eds:2307)
+    /// 0x60F8 Max slippage (bmaxx4400.eds:2311)
     pub const MAX_SLIPPAGE: u16 = 0x60F8;
-    /// 0x60FB Position control parameter set (bmaxx4400.eds:2315)
+    /// 0x60FB Position control parameter set (bmaxx4400.eds:2319)
     pub const POSITION_CONTROL_PARAMETER_SET: u16 = 0x60FB;
-    /// 0x60FD Digital inputs (bmaxx4400.eds:2546)
+    /// 0x60FD Digital inputs (bmaxx4400.eds:2550)
     pub const DIGITAL_INPUTS: u16 = 0x60FD;
-    /// 0x60FF Target velocity (bmaxx4400.eds:2554)
+    /// 0x60FF Target velocity (bmaxx4400.eds:2558)
     pub const TARGET_VELOCITY: u16 = 0x60FF;
-    /// 0x6510 Drive data (bmaxx4400.eds:2562)
+    /// 0x6510 Drive data (bmaxx4400.eds:2566)
     pub const DRIVE_DATA: u16 = 0x6510;
 }
 
@@ -735,8 +735,8 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 797, NO_LIMITS), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
     Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 801, NO_LIMITS), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
     Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 803, NO_LIMITS), // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
-    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 804, NO_LIMITS), // 0x604C:01 vl dimension factor / vl dimension factor numerator
-    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 808, NO_LIMITS), // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 804, 19), // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 808, 19), // 0x604C:02 vl dimension factor / vl dimension factor denominator
     Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 812, NO_LIMITS), // 0x604D:00 vl pole number
     Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 813, NO_LIMITS), // 0x604F:00 vl ramp function time
     Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 817, NO_LIMITS), // 0x6050:00 vl slow down time
@@ -767,15 +767,15 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 886, NO_LIMITS), // 0x607D:01 Software position limit / Min position limit
     Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 890, NO_LIMITS), // 0x607D:02 Software position limit / Max position limit
     Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 894, NO_LIMITS), // 0x607F:00 Max profile velocity
-    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 898, 19), // 0x6080:00 Max motor speed
+    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 898, 20), // 0x6080:00 Max motor speed
     Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 902, NO_LIMITS), // 0x6081:00 Profile velocity
     Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 906, NO_LIMITS), // 0x6083:00 Profile acceleration
     Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 910, NO_LIMITS), // 0x6084:00 Profile deceleration
     Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 914, NO_LIMITS), // 0x6085:00 Quick stop deceleration
     Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 918, NO_LIMITS), // 0x6086:00 Motion profile type
     Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 920, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 921, 20), // 0x6092:01 Feed constant / Feed
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 925, 21), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 921, 21), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 925, 22), // 0x6092:02 Feed constant / Shaft revolutions
     Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 929, NO_LIMITS), // 0x6098:00 Homing method
     Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 930, NO_LIMITS), // 0x6099:00 Homing speeds / Homing speeds highest sub-index
     Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 931, NO_LIMITS), // 0x6099:01 Homing speeds / Speed during search for switch
@@ -785,18 +785,18 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 945, NO_LIMITS), // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
     Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 946, NO_LIMITS), // 0x60C1:01 Interpolation data record / Interpolation data record position
     Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 950, NO_LIMITS), // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
-    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 951, 21), // 0x60C2:01 Interpolation time period / ip time units
-    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 952, 22), // 0x60C2:02 Interpolation time period / ip time index
+    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 951, 22), // 0x60C2:01 Interpolation time period / ip time units
+    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 952, 23), // 0x60C2:02 Interpolation time period / ip time index
     Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 953, NO_LIMITS), // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
     Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 954, NO_LIMITS), // 0x60C3:01 Interpolation sync definition / Synchronize on group
     Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 955, NO_LIMITS), // 0x60C3:02 Interpolation sync definition / ip sync every n event
     Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 956, NO_LIMITS), // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
     Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 957, NO_LIMITS), // 0x60C4:01 Interpolation data configuration / Maximum buffer size
     Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 961, NO_LIMITS), // 0x60C4:02 Interpolation data configuration / Actual buffer size
-    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 965, 23), // 0x60C4:03 Interpolation data configuration / Buffer organisation
+    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 965, 24), // 0x60C4:03 Interpolation data configuration / Buffer organisation
     Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 966, NO_LIMITS), // 0x60C4:04 Interpolation data configuration / Buffer position
     Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 968, NO_LIMITS), // 0x60C4:05 Interpolation data configuration / Size of data record
-    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 969, 23), // 0x60C4:06 Interpolation data configuration / Buffer clear
+    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 969, 24), // 0x60C4:06 Interpolation data configuration / Buffer clear
     Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 970, NO_LIMITS), // 0x60F8:00 Max slippage
     Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 974, NO_LIMITS), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
     Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 975, NO_LIMITS), // 0x60FB:01 Position control parameter set / Position controller status
@@ -840,7 +840,7 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
 ];
 
 #[rustfmt::skip]
-static LIMITS: [Limits; 24] = [
+static LIMITS: [Limits; 25] = [
     Limits { low: 0x0, high: 0x1F40 }, // 0x1006:00 Communication cycle period
     Limits { low: 0x0, high: 0x8 }, // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects and 7 more
     Limits { low: 0x1, high: 0x5DC0 }, // 0x4039:00 P0057 Motor nominal speed
@@ -860,6 +860,7 @@ static LIMITS: [Limits; 24] = [
     Limits { low: 0x1, high: 0xFFFF }, // 0x44AB:00 P1195 Positioning window time
     Limits { low: 0x1, high: 0x32 }, // 0x44B2:00 P1202 Homing final speed
     Limits { low: 0x1, high: 0xFFFFFF }, // 0x4BEA:00 P3050 Position scaling user unit and 1 more
+    Limits { low: 0xFFFFFFFFFFFF7F18, high: 0x80E8 }, // 0x604C:01 vl dimension factor / vl dimension factor numerator and 1 more
     Limits { low: 0x0, high: 0xFFFF }, // 0x6080:00 Max motor speed
     Limits { low: 0x0, high: 0xFFFFFF }, // 0x6092:01 Feed constant / Feed
     Limits { low: 0x1, high: 0xFF }, // 0x6092:02 Feed constant / Shaft revolutions and 1 more
@@ -3093,7 +3094,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 498, v.to_le_bytes());
     }
 
-    /// 0x4039 P0057 Motor nominal speed (bmaxx4400.eds:2639, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x4039 P0057 Motor nominal speed (bmaxx4400.eds:2643, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0057_motor_nominal_speed(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 502))
     }
@@ -3103,7 +3104,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 502, v.to_le_bytes());
     }
 
-    /// 0x4041 P0065 Motor pole pair number (bmaxx4400.eds:2649, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x4041 P0065 Motor pole pair number (bmaxx4400.eds:2653, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0065_motor_pole_pair_number(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 504))
     }
@@ -3113,7 +3114,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 504, v.to_le_bytes());
     }
 
-    /// 0x40E9 P0233 Amplifier Hiperface error detail (bmaxx4400.eds:2659, UNSIGNED16 ro)
+    /// 0x40E9 P0233 Amplifier Hiperface error detail (bmaxx4400.eds:2663, UNSIGNED16 ro)
     pub fn p0233_amplifier_hiperface_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 506))
     }
@@ -3123,7 +3124,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 506, v.to_le_bytes());
     }
 
-    /// 0x40EA P0234 Encoder 1 error detail (bmaxx4400.eds:2667, UNSIGNED16 ro)
+    /// 0x40EA P0234 Encoder 1 error detail (bmaxx4400.eds:2671, UNSIGNED16 ro)
     pub fn p0234_encoder_1_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 508))
     }
@@ -3133,7 +3134,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 508, v.to_le_bytes());
     }
 
-    /// 0x40EB P0235 Encoder 2 error detail (bmaxx4400.eds:2675, UNSIGNED16 ro)
+    /// 0x40EB P0235 Encoder 2 error detail (bmaxx4400.eds:2679, UNSIGNED16 ro)
     pub fn p0235_encoder_2_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 510))
     }
@@ -3143,7 +3144,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 510, v.to_le_bytes());
     }
 
-    /// 0x40F0 P0240 Small module A error detail (bmaxx4400.eds:2683, UNSIGNED16 ro)
+    /// 0x40F0 P0240 Small module A error detail (bmaxx4400.eds:2687, UNSIGNED16 ro)
     pub fn p0240_small_module_a_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 512))
     }
@@ -3153,7 +3154,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 512, v.to_le_bytes());
     }
 
-    /// 0x40F1 P0241 Small module B error detail (bmaxx4400.eds:2691, UNSIGNED16 ro)
+    /// 0x40F1 P0241 Small module B error detail (bmaxx4400.eds:2695, UNSIGNED16 ro)
     pub fn p0241_small_module_b_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 514))
     }
@@ -3163,7 +3164,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 514, v.to_le_bytes());
     }
 
-    /// 0x40F2 P0242 Small module C error detail (bmaxx4400.eds:2699, UNSIGNED16 ro)
+    /// 0x40F2 P0242 Small module C error detail (bmaxx4400.eds:2703, UNSIGNED16 ro)
     pub fn p0242_small_module_c_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 516))
     }
@@ -3173,7 +3174,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 516, v.to_le_bytes());
     }
 
-    /// 0x40F3 P0243 Small module D error detail (bmaxx4400.eds:2707, UNSIGNED16 ro)
+    /// 0x40F3 P0243 Small module D error detail (bmaxx4400.eds:2711, UNSIGNED16 ro)
     pub fn p0243_small_module_d_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 518))
     }
@@ -3183,7 +3184,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 518, v.to_le_bytes());
     }
 
-    /// 0x40F4 P0244 Small module F error detail (bmaxx4400.eds:2715, UNSIGNED16 ro)
+    /// 0x40F4 P0244 Small module F error detail (bmaxx4400.eds:2719, UNSIGNED16 ro)
     pub fn p0244_small_module_f_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 520))
     }
@@ -3193,7 +3194,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 520, v.to_le_bytes());
     }
 
-    /// 0x40F5 P0245 Big module G error detail (bmaxx4400.eds:2723, UNSIGNED16 ro)
+    /// 0x40F5 P0245 Big module G error detail (bmaxx4400.eds:2727, UNSIGNED16 ro)
     pub fn p0245_big_module_g_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 522))
     }
@@ -3203,7 +3204,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 522, v.to_le_bytes());
     }
 
-    /// 0x40F6 P0246 Big module H error detail (bmaxx4400.eds:2731, UNSIGNED16 ro)
+    /// 0x40F6 P0246 Big module H error detail (bmaxx4400.eds:2735, UNSIGNED16 ro)
     pub fn p0246_big_module_h_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 524))
     }
@@ -3213,7 +3214,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 524, v.to_le_bytes());
     }
 
-    /// 0x40F7 P0247 Big module J error detail (bmaxx4400.eds:2739, UNSIGNED16 ro)
+    /// 0x40F7 P0247 Big module J error detail (bmaxx4400.eds:2743, UNSIGNED16 ro)
     pub fn p0247_big_module_j_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 526))
     }
@@ -3223,7 +3224,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 526, v.to_le_bytes());
     }
 
-    /// 0x40F8 P0248 Big module K error detail (bmaxx4400.eds:2747, UNSIGNED16 ro)
+    /// 0x40F8 P0248 Big module K error detail (bmaxx4400.eds:2751, UNSIGNED16 ro)
     pub fn p0248_big_module_k_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 528))
     }
@@ -3233,7 +3234,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 528, v.to_le_bytes());
     }
 
-    /// 0x40F9 P0249 Big module L error detail (bmaxx4400.eds:2755, UNSIGNED16 ro)
+    /// 0x40F9 P0249 Big module L error detail (bmaxx4400.eds:2759, UNSIGNED16 ro)
     pub fn p0249_big_module_l_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 530))
     }
@@ -3243,7 +3244,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 530, v.to_le_bytes());
     }
 
-    /// 0x40FA P0250 Big module M error detail (bmaxx4400.eds:2763, UNSIGNED16 ro)
+    /// 0x40FA P0250 Big module M error detail (bmaxx4400.eds:2767, UNSIGNED16 ro)
     pub fn p0250_big_module_m_error_detail(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 532))
     }
@@ -3253,7 +3254,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 532, v.to_le_bytes());
     }
 
-    /// 0x4106 P0262 Amplifier warnings (bmaxx4400.eds:2771, UNSIGNED16 ro, PDO-mappable)
+    /// 0x4106 P0262 Amplifier warnings (bmaxx4400.eds:2775, UNSIGNED16 ro, PDO-mappable)
     pub fn p0262_amplifier_warnings(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 534))
     }
@@ -3263,7 +3264,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 534, v.to_le_bytes());
     }
 
-    /// 0x4107 P0263 Motor warnings (bmaxx4400.eds:2779, UNSIGNED16 ro, PDO-mappable)
+    /// 0x4107 P0263 Motor warnings (bmaxx4400.eds:2783, UNSIGNED16 ro, PDO-mappable)
     pub fn p0263_motor_warnings(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 536))
     }
@@ -3273,7 +3274,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 536, v.to_le_bytes());
     }
 
-    /// 0x412C P0300 Drive control word (bmaxx4400.eds:2787, UNSIGNED16 rw, PDO-mappable)
+    /// 0x412C P0300 Drive control word (bmaxx4400.eds:2791, UNSIGNED16 rw, PDO-mappable)
     pub fn p0300_drive_control_word(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 538))
     }
@@ -3283,7 +3284,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 538, v.to_le_bytes());
     }
 
-    /// 0x412D P0301 Drive status word (bmaxx4400.eds:2795, UNSIGNED16 ro, PDO-mappable)
+    /// 0x412D P0301 Drive status word (bmaxx4400.eds:2799, UNSIGNED16 ro, PDO-mappable)
     pub fn p0301_drive_status_word(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 540))
     }
@@ -3293,7 +3294,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 540, v.to_le_bytes());
     }
 
-    /// 0x4130 P0304 Operation mode actual (bmaxx4400.eds:2803, INTEGER16 ro, PDO-mappable)
+    /// 0x4130 P0304 Operation mode actual (bmaxx4400.eds:2807, INTEGER16 ro, PDO-mappable)
     pub fn p0304_operation_mode_actual(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 542))
     }
@@ -3303,7 +3304,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 542, v.to_le_bytes());
     }
 
-    /// 0x4158 P0344 Torque actual value raw (bmaxx4400.eds:2811, INTEGER16 ro, PDO-mappable)
+    /// 0x4158 P0344 Torque actual value raw (bmaxx4400.eds:2815, INTEGER16 ro, PDO-mappable)
     pub fn p0344_torque_actual_value_raw(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 544))
     }
@@ -3313,7 +3314,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 544, v.to_le_bytes());
     }
 
-    /// 0x415F P0351 Ramp function generator output (bmaxx4400.eds:2819, INTEGER16 ro, PDO-mappable)
+    /// 0x415F P0351 Ramp function generator output (bmaxx4400.eds:2823, INTEGER16 ro, PDO-mappable)
     pub fn p0351_ramp_function_generator_output(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 546))
     }
@@ -3323,7 +3324,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 546, v.to_le_bytes());
     }
 
-    /// 0x4160 P0352 Speed set value total (bmaxx4400.eds:2827, INTEGER16 ro, PDO-mappable)
+    /// 0x4160 P0352 Speed set value total (bmaxx4400.eds:2831, INTEGER16 ro, PDO-mappable)
     pub fn p0352_speed_set_value_total(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 548))
     }
@@ -3333,7 +3334,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 548, v.to_le_bytes());
     }
 
-    /// 0x4161 P0353 Speed actual value raw (bmaxx4400.eds:2835, INTEGER32 ro, PDO-mappable)
+    /// 0x4161 P0353 Speed actual value raw (bmaxx4400.eds:2839, INTEGER32 ro, PDO-mappable)
     pub fn p0353_speed_actual_value_raw(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 550))
     }
@@ -3343,7 +3344,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 550, v.to_le_bytes());
     }
 
-    /// 0x4165 P0357 Torque limit direct (bmaxx4400.eds:2843, UNSIGNED16 rw, PDO-mappable)
+    /// 0x4165 P0357 Torque limit direct (bmaxx4400.eds:2847, UNSIGNED16 rw, PDO-mappable)
     pub fn p0357_torque_limit_direct(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 554))
     }
@@ -3353,7 +3354,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 554, v.to_le_bytes());
     }
 
-    /// 0x4168 P0360 Position controller status raw (bmaxx4400.eds:2851, UNSIGNED16 ro, PDO-mappable)
+    /// 0x4168 P0360 Position controller status raw (bmaxx4400.eds:2855, UNSIGNED16 ro, PDO-mappable)
     pub fn p0360_position_controller_status_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 556))
     }
@@ -3363,7 +3364,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 556, v.to_le_bytes());
     }
 
-    /// 0x416A P0362 Position actual value raw (bmaxx4400.eds:2859, UNSIGNED32 rw, PDO-mappable)
+    /// 0x416A P0362 Position actual value raw (bmaxx4400.eds:2863, UNSIGNED32 rw, PDO-mappable)
     pub fn p0362_position_actual_value_raw(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 558))
     }
@@ -3373,7 +3374,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 558, v.to_le_bytes());
     }
 
-    /// 0x416B P0363 Position set angle raw (bmaxx4400.eds:2867, UNSIGNED16 rw, PDO-mappable)
+    /// 0x416B P0363 Position set angle raw (bmaxx4400.eds:2871, UNSIGNED16 rw, PDO-mappable)
     pub fn p0363_position_set_angle_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 562))
     }
@@ -3383,7 +3384,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 562, v.to_le_bytes());
     }
 
-    /// 0x416C P0364 Position set revolutions raw (bmaxx4400.eds:2875, UNSIGNED16 rw, PDO-mappable)
+    /// 0x416C P0364 Position set revolutions raw (bmaxx4400.eds:2879, UNSIGNED16 rw, PDO-mappable)
     pub fn p0364_position_set_revolutions_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 564))
     }
@@ -3393,7 +3394,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 564, v.to_le_bytes());
     }
 
-    /// 0x416D P0365 Speed feed forward raw (bmaxx4400.eds:2883, INTEGER32 ro, PDO-mappable)
+    /// 0x416D P0365 Speed feed forward raw (bmaxx4400.eds:2887, INTEGER32 ro, PDO-mappable)
     pub fn p0365_speed_feed_forward_raw(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 566))
     }
@@ -3403,7 +3404,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 566, v.to_le_bytes());
     }
 
-    /// 0x416F P0367 Position control deviation raw (bmaxx4400.eds:2891, INTEGER32 ro, PDO-mappable)
+    /// 0x416F P0367 Position control deviation raw (bmaxx4400.eds:2895, INTEGER32 ro, PDO-mappable)
     pub fn p0367_position_control_deviation_raw(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 570))
     }
@@ -3413,7 +3414,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 570, v.to_le_bytes());
     }
 
-    /// 0x4171 P0369 Position set value (bmaxx4400.eds:2899, UNSIGNED32 rw, PDO-mappable)
+    /// 0x4171 P0369 Position set value (bmaxx4400.eds:2903, UNSIGNED32 rw, PDO-mappable)
     pub fn p0369_position_set_value(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 574))
     }
@@ -3423,7 +3424,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 574, v.to_le_bytes());
     }
 
-    /// 0x4172 P0370 Position IP set angle (bmaxx4400.eds:2907, UNSIGNED32 rw, PDO-mappable)
+    /// 0x4172 P0370 Position IP set angle (bmaxx4400.eds:2911, UNSIGNED32 rw, PDO-mappable)
     pub fn p0370_position_ip_set_angle(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 578))
     }
@@ -3433,7 +3434,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 578, v.to_le_bytes());
     }
 
-    /// 0x4187 P0391 Encoder 1 actual angle raw (bmaxx4400.eds:2915, UNSIGNED32 ro, PDO-mappable)
+    /// 0x4187 P0391 Encoder 1 actual angle raw (bmaxx4400.eds:2919, UNSIGNED32 ro, PDO-mappable)
     pub fn p0391_encoder_1_actual_angle_raw(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 582))
     }
@@ -3443,7 +3444,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 582, v.to_le_bytes());
     }
 
-    /// 0x4188 P0392 Encoder 1 actual revolutions raw (bmaxx4400.eds:2923, UNSIGNED32 ro, PDO-mappable)
+    /// 0x4188 P0392 Encoder 1 actual revolutions raw (bmaxx4400.eds:2927, UNSIGNED32 ro, PDO-mappable)
     pub fn p0392_encoder_1_actual_revolutions_raw(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 586))
     }
@@ -3453,7 +3454,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 586, v.to_le_bytes());
     }
 
-    /// 0x41CC P0460 Positioning status raw (bmaxx4400.eds:2931, UNSIGNED16 ro, PDO-mappable)
+    /// 0x41CC P0460 Positioning status raw (bmaxx4400.eds:2935, UNSIGNED16 ro, PDO-mappable)
     pub fn p0460_positioning_status_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 590))
     }
@@ -3463,7 +3464,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 590, v.to_le_bytes());
     }
 
-    /// 0x41CD P0461 Digital input output status (bmaxx4400.eds:2939, UNSIGNED16 ro, PDO-mappable)
+    /// 0x41CD P0461 Digital input output status (bmaxx4400.eds:2943, UNSIGNED16 ro, PDO-mappable)
     pub fn p0461_digital_input_output_status(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 592))
     }
@@ -3473,7 +3474,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 592, v.to_le_bytes());
     }
 
-    /// 0x41CE P0462 Positioning actual value (bmaxx4400.eds:2947, UNSIGNED32 ro, PDO-mappable)
+    /// 0x41CE P0462 Positioning actual value (bmaxx4400.eds:2951, UNSIGNED32 ro, PDO-mappable)
     pub fn p0462_positioning_actual_value(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 594))
     }
@@ -3483,7 +3484,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 594, v.to_le_bytes());
     }
 
-    /// 0x41CF P0463 Positioning set value (bmaxx4400.eds:2955, UNSIGNED32 ro, PDO-mappable)
+    /// 0x41CF P0463 Positioning set value (bmaxx4400.eds:2959, UNSIGNED32 ro, PDO-mappable)
     pub fn p0463_positioning_set_value(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 598))
     }
@@ -3493,7 +3494,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 598, v.to_le_bytes());
     }
 
-    /// 0x41D0 P0464 Positioning speed set value raw (bmaxx4400.eds:2963, INTEGER16 ro, PDO-mappable)
+    /// 0x41D0 P0464 Positioning speed set value raw (bmaxx4400.eds:2967, INTEGER16 ro, PDO-mappable)
     pub fn p0464_positioning_speed_set_value_raw(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 602))
     }
@@ -3503,7 +3504,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 602, v.to_le_bytes());
     }
 
-    /// 0x4214 P0532 Sync interval (bmaxx4400.eds:2971, UNSIGNED16 rw, PDO-mappable)
+    /// 0x4214 P0532 Sync interval (bmaxx4400.eds:2975, UNSIGNED16 rw, PDO-mappable)
     pub fn p0532_sync_interval(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 604))
     }
@@ -3513,7 +3514,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 604, v.to_le_bytes());
     }
 
-    /// 0x4258 P0600 Positioning target unsigned (bmaxx4400.eds:2979, UNSIGNED32 rw, PDO-mappable)
+    /// 0x4258 P0600 Positioning target unsigned (bmaxx4400.eds:2983, UNSIGNED32 rw, PDO-mappable)
     pub fn p0600_positioning_target_unsigned(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 606))
     }
@@ -3523,7 +3524,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 606, v.to_le_bytes());
     }
 
-    /// 0x4259 P0601 Positioning mode (bmaxx4400.eds:2987, INTEGER16 rw, PDO-mappable)
+    /// 0x4259 P0601 Positioning mode (bmaxx4400.eds:2991, INTEGER16 rw, PDO-mappable)
     pub fn p0601_positioning_mode(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 610))
     }
@@ -3533,7 +3534,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 610, v.to_le_bytes());
     }
 
-    /// 0x425A P0602 Positioning speed 1 (bmaxx4400.eds:2995, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x425A P0602 Positioning speed 1 (bmaxx4400.eds:2999, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0602_positioning_speed_1(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 612))
     }
@@ -3543,7 +3544,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 612, v.to_le_bytes());
     }
 
-    /// 0x425B P0603 Positioning acceleration 1 (bmaxx4400.eds:3005, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x425B P0603 Positioning acceleration 1 (bmaxx4400.eds:3009, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0603_positioning_acceleration_1(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 614))
     }
@@ -3553,7 +3554,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 614, v.to_le_bytes());
     }
 
-    /// 0x425C P0604 Positioning deceleration 1 (bmaxx4400.eds:3015, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x425C P0604 Positioning deceleration 1 (bmaxx4400.eds:3019, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0604_positioning_deceleration_1(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 616))
     }
@@ -3563,7 +3564,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 616, v.to_le_bytes());
     }
 
-    /// 0x425D P0605 Positioning bend 0 raw (bmaxx4400.eds:3025, UNSIGNED16 rw, PDO-mappable)
+    /// 0x425D P0605 Positioning bend 0 raw (bmaxx4400.eds:3029, UNSIGNED16 rw, PDO-mappable)
     pub fn p0605_positioning_bend_0_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 618))
     }
@@ -3573,7 +3574,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 618, v.to_le_bytes());
     }
 
-    /// 0x425F P0607 Positioning target 1 (bmaxx4400.eds:3035, INTEGER32 rw, PDO-mappable)
+    /// 0x425F P0607 Positioning target 1 (bmaxx4400.eds:3039, INTEGER32 rw, PDO-mappable)
     pub fn p0607_positioning_target_1(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 620))
     }
@@ -3583,7 +3584,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 620, v.to_le_bytes());
     }
 
-    /// 0x4260 P0608 Positioning target input 1 (bmaxx4400.eds:3043, INTEGER16 rw, PDO-mappable)
+    /// 0x4260 P0608 Positioning target input 1 (bmaxx4400.eds:3047, INTEGER16 rw, PDO-mappable)
     pub fn p0608_positioning_target_input_1(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 624))
     }
@@ -3593,7 +3594,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 624, v.to_le_bytes());
     }
 
-    /// 0x4320 P0800 BACI cycle time factor (bmaxx4400.eds:3051, UNSIGNED16 rw)
+    /// 0x4320 P0800 BACI cycle time factor (bmaxx4400.eds:3055, UNSIGNED16 rw)
     pub fn p0800_baci_cycle_time_factor(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 626))
     }
@@ -3603,7 +3604,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 626, v.to_le_bytes());
     }
 
-    /// 0x4321 P0801 BACI process data parameter number 1 (bmaxx4400.eds:3059, UNSIGNED16 ro)
+    /// 0x4321 P0801 BACI process data parameter number 1 (bmaxx4400.eds:3063, UNSIGNED16 ro)
     pub fn p0801_baci_process_data_parameter_number_1(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 628))
     }
@@ -3613,7 +3614,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 628, v.to_le_bytes());
     }
 
-    /// 0x4322 P0802 BACI process data parameter number 2 (bmaxx4400.eds:3067, UNSIGNED16 ro)
+    /// 0x4322 P0802 BACI process data parameter number 2 (bmaxx4400.eds:3071, UNSIGNED16 ro)
     pub fn p0802_baci_process_data_parameter_number_2(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 630))
     }
@@ -3623,7 +3624,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 630, v.to_le_bytes());
     }
 
-    /// 0x4323 P0803 BACI process data parameter number 3 (bmaxx4400.eds:3075, UNSIGNED16 ro)
+    /// 0x4323 P0803 BACI process data parameter number 3 (bmaxx4400.eds:3079, UNSIGNED16 ro)
     pub fn p0803_baci_process_data_parameter_number_3(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 632))
     }
@@ -3633,7 +3634,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 632, v.to_le_bytes());
     }
 
-    /// 0x4324 P0804 BACI process data parameter number 4 (bmaxx4400.eds:3083, UNSIGNED16 ro)
+    /// 0x4324 P0804 BACI process data parameter number 4 (bmaxx4400.eds:3087, UNSIGNED16 ro)
     pub fn p0804_baci_process_data_parameter_number_4(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 634))
     }
@@ -3643,7 +3644,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 634, v.to_le_bytes());
     }
 
-    /// 0x4325 P0805 BACI process data parameter number 5 (bmaxx4400.eds:3091, UNSIGNED16 ro)
+    /// 0x4325 P0805 BACI process data parameter number 5 (bmaxx4400.eds:3095, UNSIGNED16 ro)
     pub fn p0805_baci_process_data_parameter_number_5(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 636))
     }
@@ -3653,7 +3654,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 636, v.to_le_bytes());
     }
 
-    /// 0x4326 P0806 BACI process data parameter number 6 (bmaxx4400.eds:3099, UNSIGNED16 ro)
+    /// 0x4326 P0806 BACI process data parameter number 6 (bmaxx4400.eds:3103, UNSIGNED16 ro)
     pub fn p0806_baci_process_data_parameter_number_6(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 638))
     }
@@ -3663,7 +3664,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 638, v.to_le_bytes());
     }
 
-    /// 0x4327 P0807 BACI process data parameter number 7 (bmaxx4400.eds:3107, UNSIGNED16 ro)
+    /// 0x4327 P0807 BACI process data parameter number 7 (bmaxx4400.eds:3111, UNSIGNED16 ro)
     pub fn p0807_baci_process_data_parameter_number_7(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 640))
     }
@@ -3673,7 +3674,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 640, v.to_le_bytes());
     }
 
-    /// 0x4328 P0808 BACI process data parameter number 8 (bmaxx4400.eds:3115, UNSIGNED16 ro)
+    /// 0x4328 P0808 BACI process data parameter number 8 (bmaxx4400.eds:3119, UNSIGNED16 ro)
     pub fn p0808_baci_process_data_parameter_number_8(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 642))
     }
@@ -3683,7 +3684,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 642, v.to_le_bytes());
     }
 
-    /// 0x4329 P0809 BACI process data parameter number 9 (bmaxx4400.eds:3123, UNSIGNED16 ro)
+    /// 0x4329 P0809 BACI process data parameter number 9 (bmaxx4400.eds:3127, UNSIGNED16 ro)
     pub fn p0809_baci_process_data_parameter_number_9(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 644))
     }
@@ -3693,7 +3694,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 644, v.to_le_bytes());
     }
 
-    /// 0x432A P0810 BACI process data parameter number 10 (bmaxx4400.eds:3131, UNSIGNED16 ro)
+    /// 0x432A P0810 BACI process data parameter number 10 (bmaxx4400.eds:3135, UNSIGNED16 ro)
     pub fn p0810_baci_process_data_parameter_number_10(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 646))
     }
@@ -3703,7 +3704,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 646, v.to_le_bytes());
     }
 
-    /// 0x432B P0811 BACI process data parameter number 11 (bmaxx4400.eds:3139, UNSIGNED16 ro)
+    /// 0x432B P0811 BACI process data parameter number 11 (bmaxx4400.eds:3143, UNSIGNED16 ro)
     pub fn p0811_baci_process_data_parameter_number_11(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 648))
     }
@@ -3713,7 +3714,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 648, v.to_le_bytes());
     }
 
-    /// 0x432C P0812 BACI process data parameter number 12 (bmaxx4400.eds:3147, UNSIGNED16 ro)
+    /// 0x432C P0812 BACI process data parameter number 12 (bmaxx4400.eds:3151, UNSIGNED16 ro)
     pub fn p0812_baci_process_data_parameter_number_12(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 650))
     }
@@ -3723,7 +3724,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 650, v.to_le_bytes());
     }
 
-    /// 0x432D P0813 BACI process data parameter number 13 (bmaxx4400.eds:3155, UNSIGNED16 ro)
+    /// 0x432D P0813 BACI process data parameter number 13 (bmaxx4400.eds:3159, UNSIGNED16 ro)
     pub fn p0813_baci_process_data_parameter_number_13(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 652))
     }
@@ -3733,7 +3734,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 652, v.to_le_bytes());
     }
 
-    /// 0x432E P0814 BACI process data parameter number 14 (bmaxx4400.eds:3163, UNSIGNED16 ro)
+    /// 0x432E P0814 BACI process data parameter number 14 (bmaxx4400.eds:3167, UNSIGNED16 ro)
     pub fn p0814_baci_process_data_parameter_number_14(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 654))
     }
@@ -3743,7 +3744,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 654, v.to_le_bytes());
     }
 
-    /// 0x432F P0815 BACI process data parameter number 15 (bmaxx4400.eds:3171, UNSIGNED16 ro)
+    /// 0x432F P0815 BACI process data parameter number 15 (bmaxx4400.eds:3175, UNSIGNED16 ro)
     pub fn p0815_baci_process_data_parameter_number_15(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 656))
     }
@@ -3753,7 +3754,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 656, v.to_le_bytes());
     }
 
-    /// 0x4330 P0816 BACI process data parameter number 16 (bmaxx4400.eds:3179, UNSIGNED16 ro)
+    /// 0x4330 P0816 BACI process data parameter number 16 (bmaxx4400.eds:3183, UNSIGNED16 ro)
     pub fn p0816_baci_process_data_parameter_number_16(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 658))
     }
@@ -3763,7 +3764,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 658, v.to_le_bytes());
     }
 
-    /// 0x4332 P0818 BACI cycle offset set values (bmaxx4400.eds:3187, UNSIGNED16 rw)
+    /// 0x4332 P0818 BACI cycle offset set values (bmaxx4400.eds:3191, UNSIGNED16 rw)
     pub fn p0818_baci_cycle_offset_set_values(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 660))
     }
@@ -3773,7 +3774,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 660, v.to_le_bytes());
     }
 
-    /// 0x4333 P0819 BACI cycle offset actual values (bmaxx4400.eds:3195, UNSIGNED16 rw)
+    /// 0x4333 P0819 BACI cycle offset actual values (bmaxx4400.eds:3199, UNSIGNED16 rw)
     pub fn p0819_baci_cycle_offset_actual_values(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 662))
     }
@@ -3783,7 +3784,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 662, v.to_le_bytes());
     }
 
-    /// 0x433E P0830 Option module G configuration 1 (bmaxx4400.eds:3203, UNSIGNED16 rw)
+    /// 0x433E P0830 Option module G configuration 1 (bmaxx4400.eds:3207, UNSIGNED16 rw)
     pub fn p0830_option_module_g_configuration_1(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 664))
     }
@@ -3793,7 +3794,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 664, v.to_le_bytes());
     }
 
-    /// 0x4348 P0840 Option module H configuration 1 (bmaxx4400.eds:3211, UNSIGNED16 rw)
+    /// 0x4348 P0840 Option module H configuration 1 (bmaxx4400.eds:3215, UNSIGNED16 rw)
     pub fn p0840_option_module_h_configuration_1(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 666))
     }
@@ -3803,7 +3804,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 666, v.to_le_bytes());
     }
 
-    /// 0x43E8 P1000 Operation mode set (bmaxx4400.eds:3219, INTEGER16 rww, PDO-mappable)
+    /// 0x43E8 P1000 Operation mode set (bmaxx4400.eds:3223, INTEGER16 rww, PDO-mappable)
     pub fn p1000_operation_mode_set(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 668))
     }
@@ -3813,7 +3814,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 668, v.to_le_bytes());
     }
 
-    /// 0x43E9 P1001 Drive parameter 1001 (bmaxx4400.eds:3229, UNSIGNED16 rw)
+    /// 0x43E9 P1001 Drive parameter 1001 (bmaxx4400.eds:3233, UNSIGNED16 rw)
     pub fn p1001_drive_parameter_1001(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 670))
     }
@@ -3823,7 +3824,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 670, v.to_le_bytes());
     }
 
-    /// 0x43EB P1003 Stop option code raw (bmaxx4400.eds:3237, INTEGER16 rwr, PDO-mappable)
+    /// 0x43EB P1003 Stop option code raw (bmaxx4400.eds:3241, INTEGER16 rwr, PDO-mappable)
     pub fn p1003_stop_option_code_raw(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 672))
     }
@@ -3833,7 +3834,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 672, v.to_le_bytes());
     }
 
-    /// 0x43EC P1004 Quick stop code raw (bmaxx4400.eds:3247, INTEGER16 rwr, PDO-mappable)
+    /// 0x43EC P1004 Quick stop code raw (bmaxx4400.eds:3251, INTEGER16 rwr, PDO-mappable)
     pub fn p1004_quick_stop_code_raw(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 674))
     }
@@ -3843,7 +3844,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 674, v.to_le_bytes());
     }
 
-    /// 0x43ED P1005 Shutdown code raw (bmaxx4400.eds:3255, INTEGER16 rwr, PDO-mappable)
+    /// 0x43ED P1005 Shutdown code raw (bmaxx4400.eds:3259, INTEGER16 rwr, PDO-mappable)
     pub fn p1005_shutdown_code_raw(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 676))
     }
@@ -3853,7 +3854,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 676, v.to_le_bytes());
     }
 
-    /// 0x43EE P1006 Disable operation code raw (bmaxx4400.eds:3265, INTEGER16 rwr, PDO-mappable)
+    /// 0x43EE P1006 Disable operation code raw (bmaxx4400.eds:3269, INTEGER16 rwr, PDO-mappable)
     pub fn p1006_disable_operation_code_raw(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 678))
     }
@@ -3863,7 +3864,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 678, v.to_le_bytes());
     }
 
-    /// 0x43EF P1007 Error reaction code raw (bmaxx4400.eds:3275, INTEGER16 rwr, PDO-mappable)
+    /// 0x43EF P1007 Error reaction code raw (bmaxx4400.eds:3279, INTEGER16 rwr, PDO-mappable)
     pub fn p1007_error_reaction_code_raw(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 680))
     }
@@ -3873,7 +3874,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 680, v.to_le_bytes());
     }
 
-    /// 0x4407 P1031 Maximum speed (bmaxx4400.eds:3285, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x4407 P1031 Maximum speed (bmaxx4400.eds:3289, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1031_maximum_speed(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 682))
     }
@@ -3883,7 +3884,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 682, v.to_le_bytes());
     }
 
-    /// 0x4411 P1041 Speed set value upper limit (bmaxx4400.eds:3295, INTEGER32 rw, PDO-mappable)
+    /// 0x4411 P1041 Speed set value upper limit (bmaxx4400.eds:3299, INTEGER32 rw, PDO-mappable)
     pub fn p1041_speed_set_value_upper_limit(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 684))
     }
@@ -3893,7 +3894,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 684, v.to_le_bytes());
     }
 
-    /// 0x4412 P1042 Speed set value lower limit (bmaxx4400.eds:3305, INTEGER32 rw, PDO-mappable)
+    /// 0x4412 P1042 Speed set value lower limit (bmaxx4400.eds:3309, INTEGER32 rw, PDO-mappable)
     pub fn p1042_speed_set_value_lower_limit(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 688))
     }
@@ -3903,7 +3904,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 688, v.to_le_bytes());
     }
 
-    /// 0x441A P1050 Position controller mode raw (bmaxx4400.eds:3315, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x441A P1050 Position controller mode raw (bmaxx4400.eds:3319, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1050_position_controller_mode_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 692))
     }
@@ -3913,7 +3914,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 692, v.to_le_bytes());
     }
 
-    /// 0x441B P1051 Position controller Kv factor raw (bmaxx4400.eds:3323, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x441B P1051 Position controller Kv factor raw (bmaxx4400.eds:3327, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1051_position_controller_kv_factor_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 694))
     }
@@ -3923,7 +3924,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 694, v.to_le_bytes());
     }
 
-    /// 0x441D P1053 Speed feed forward factor raw (bmaxx4400.eds:3333, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x441D P1053 Speed feed forward factor raw (bmaxx4400.eds:3337, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1053_speed_feed_forward_factor_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 696))
     }
@@ -3933,7 +3934,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 696, v.to_le_bytes());
     }
 
-    /// 0x4420 P1056 Following error time (bmaxx4400.eds:3343, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x4420 P1056 Following error time (bmaxx4400.eds:3347, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1056_following_error_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 698))
     }
@@ -3943,7 +3944,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 698, v.to_le_bytes());
     }
 
-    /// 0x4431 P1073 Encoder 1 monitoring lower limit (bmaxx4400.eds:3353, UNSIGNED16 rw, PDO-mappable)
+    /// 0x4431 P1073 Encoder 1 monitoring lower limit (bmaxx4400.eds:3357, UNSIGNED16 rw, PDO-mappable)
     pub fn p1073_encoder_1_monitoring_lower_limit(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 700))
     }
@@ -3953,7 +3954,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 700, v.to_le_bytes());
     }
 
-    /// 0x4493 P1171 Ramp function generator input (bmaxx4400.eds:3363, INTEGER32 rw, PDO-mappable)
+    /// 0x4493 P1171 Ramp function generator input (bmaxx4400.eds:3367, INTEGER32 rw, PDO-mappable)
     pub fn p1171_ramp_function_generator_input(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 702))
     }
@@ -3963,7 +3964,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 702, v.to_le_bytes());
     }
 
-    /// 0x4494 P1172 Ramp function generator ramp up time (bmaxx4400.eds:3371, UNSIGNED16 rw, PDO-mappable)
+    /// 0x4494 P1172 Ramp function generator ramp up time (bmaxx4400.eds:3375, UNSIGNED16 rw, PDO-mappable)
     pub fn p1172_ramp_function_generator_ramp_up_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 706))
     }
@@ -3973,7 +3974,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 706, v.to_le_bytes());
     }
 
-    /// 0x4495 P1173 Ramp function generator ramp down time (bmaxx4400.eds:3381, UNSIGNED16 rw, PDO-mappable)
+    /// 0x4495 P1173 Ramp function generator ramp down time (bmaxx4400.eds:3385, UNSIGNED16 rw, PDO-mappable)
     pub fn p1173_ramp_function_generator_ramp_down_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 708))
     }
@@ -3983,7 +3984,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 708, v.to_le_bytes());
     }
 
-    /// 0x4496 P1174 Ramp function generator stop time (bmaxx4400.eds:3391, UNSIGNED16 rw, PDO-mappable)
+    /// 0x4496 P1174 Ramp function generator stop time (bmaxx4400.eds:3395, UNSIGNED16 rw, PDO-mappable)
     pub fn p1174_ramp_function_generator_stop_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 710))
     }
@@ -3993,7 +3994,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 710, v.to_le_bytes());
     }
 
-    /// 0x44A6 P1190 Positioning mode word (bmaxx4400.eds:3401, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x44A6 P1190 Positioning mode word (bmaxx4400.eds:3405, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1190_positioning_mode_word(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 712))
     }
@@ -4003,7 +4004,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 712, v.to_le_bytes());
     }
 
-    /// 0x44A7 P1191 Positioning actual record number (bmaxx4400.eds:3409, UNSIGNED16 rw, PDO-mappable)
+    /// 0x44A7 P1191 Positioning actual record number (bmaxx4400.eds:3413, UNSIGNED16 rw, PDO-mappable)
     pub fn p1191_positioning_actual_record_number(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 714))
     }
@@ -4013,7 +4014,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 714, v.to_le_bytes());
     }
 
-    /// 0x44AA P1194 Positioning window (bmaxx4400.eds:3417, UNSIGNED32 rw, PDO-mappable)
+    /// 0x44AA P1194 Positioning window (bmaxx4400.eds:3421, UNSIGNED32 rw, PDO-mappable)
     pub fn p1194_positioning_window(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 716))
     }
@@ -4023,7 +4024,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 716, v.to_le_bytes());
     }
 
-    /// 0x44AB P1195 Positioning window time (bmaxx4400.eds:3425, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x44AB P1195 Positioning window time (bmaxx4400.eds:3429, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1195_positioning_window_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 720))
     }
@@ -4033,7 +4034,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 720, v.to_le_bytes());
     }
 
-    /// 0x44AC P1196 Software limit switch 1 (bmaxx4400.eds:3435, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x44AC P1196 Software limit switch 1 (bmaxx4400.eds:3439, UNSIGNED32 rwr, PDO-mappable)
     pub fn p1196_software_limit_switch_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 722))
     }
@@ -4043,7 +4044,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 722, v.to_le_bytes());
     }
 
-    /// 0x44AD P1197 Software limit switch 2 (bmaxx4400.eds:3443, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x44AD P1197 Software limit switch 2 (bmaxx4400.eds:3447, UNSIGNED32 rwr, PDO-mappable)
     pub fn p1197_software_limit_switch_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 726))
     }
@@ -4053,7 +4054,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 726, v.to_le_bytes());
     }
 
-    /// 0x44AE P1198 Positioning clip environment 1 (bmaxx4400.eds:3451, UNSIGNED32 rw, PDO-mappable)
+    /// 0x44AE P1198 Positioning clip environment 1 (bmaxx4400.eds:3455, UNSIGNED32 rw, PDO-mappable)
     pub fn p1198_positioning_clip_environment_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 730))
     }
@@ -4063,7 +4064,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 730, v.to_le_bytes());
     }
 
-    /// 0x44AF P1199 Positioning clip environment 2 (bmaxx4400.eds:3459, UNSIGNED32 rw, PDO-mappable)
+    /// 0x44AF P1199 Positioning clip environment 2 (bmaxx4400.eds:3463, UNSIGNED32 rw, PDO-mappable)
     pub fn p1199_positioning_clip_environment_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 734))
     }
@@ -4073,7 +4074,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 734, v.to_le_bytes());
     }
 
-    /// 0x44B0 P1200 Positioning home position (bmaxx4400.eds:3467, UNSIGNED32 rw, PDO-mappable)
+    /// 0x44B0 P1200 Positioning home position (bmaxx4400.eds:3471, UNSIGNED32 rw, PDO-mappable)
     pub fn p1200_positioning_home_position(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 738))
     }
@@ -4083,7 +4084,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 738, v.to_le_bytes());
     }
 
-    /// 0x44B1 P1201 Homing speed (bmaxx4400.eds:3475, UNSIGNED16 rw, PDO-mappable)
+    /// 0x44B1 P1201 Homing speed (bmaxx4400.eds:3479, UNSIGNED16 rw, PDO-mappable)
     pub fn p1201_homing_speed(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 742))
     }
@@ -4093,7 +4094,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 742, v.to_le_bytes());
     }
 
-    /// 0x44B2 P1202 Homing final speed (bmaxx4400.eds:3485, UNSIGNED16 rw, PDO-mappable)
+    /// 0x44B2 P1202 Homing final speed (bmaxx4400.eds:3489, UNSIGNED16 rw, PDO-mappable)
     pub fn p1202_homing_final_speed(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 744))
     }
@@ -4103,7 +4104,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 744, v.to_le_bytes());
     }
 
-    /// 0x44B3 P1203 Homing acceleration raw (bmaxx4400.eds:3495, UNSIGNED16 rw, PDO-mappable)
+    /// 0x44B3 P1203 Homing acceleration raw (bmaxx4400.eds:3499, UNSIGNED16 rw, PDO-mappable)
     pub fn p1203_homing_acceleration_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 746))
     }
@@ -4113,7 +4114,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 746, v.to_le_bytes());
     }
 
-    /// 0x44B4 P1204 Homing deceleration raw (bmaxx4400.eds:3505, UNSIGNED16 rw, PDO-mappable)
+    /// 0x44B4 P1204 Homing deceleration raw (bmaxx4400.eds:3509, UNSIGNED16 rw, PDO-mappable)
     pub fn p1204_homing_deceleration_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 748))
     }
@@ -4123,7 +4124,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 748, v.to_le_bytes());
     }
 
-    /// 0x44B5 P1205 Homing mode (bmaxx4400.eds:3513, INTEGER16 rwr, PDO-mappable)
+    /// 0x44B5 P1205 Homing mode (bmaxx4400.eds:3517, INTEGER16 rwr, PDO-mappable)
     pub fn p1205_homing_mode(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 750))
     }
@@ -4133,7 +4134,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 750, v.to_le_bytes());
     }
 
-    /// 0x44B8 P1208 Positioning switch mode raw (bmaxx4400.eds:3521, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x44B8 P1208 Positioning switch mode raw (bmaxx4400.eds:3525, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1208_positioning_switch_mode_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 752))
     }
@@ -4143,7 +4144,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 752, v.to_le_bytes());
     }
 
-    /// 0x44B9 P1209 Positioning encoder offset raw (bmaxx4400.eds:3529, UNSIGNED16 rw, PDO-mappable)
+    /// 0x44B9 P1209 Positioning encoder offset raw (bmaxx4400.eds:3533, UNSIGNED16 rw, PDO-mappable)
     pub fn p1209_positioning_encoder_offset_raw(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 754))
     }
@@ -4153,7 +4154,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 754, v.to_le_bytes());
     }
 
-    /// 0x44BD P1213 Positioning stop deceleration (bmaxx4400.eds:3537, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x44BD P1213 Positioning stop deceleration (bmaxx4400.eds:3541, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1213_positioning_stop_deceleration(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 756))
     }
@@ -4163,7 +4164,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 756, v.to_le_bytes());
     }
 
-    /// 0x4BEA P3050 Position scaling user unit (bmaxx4400.eds:3547, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x4BEA P3050 Position scaling user unit (bmaxx4400.eds:3551, UNSIGNED32 rwr, PDO-mappable)
     pub fn p3050_position_scaling_user_unit(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 758))
     }
@@ -4173,7 +4174,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 758, v.to_le_bytes());
     }
 
-    /// 0x4BEB P3051 Position scaling revolutions (bmaxx4400.eds:3557, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x4BEB P3051 Position scaling revolutions (bmaxx4400.eds:3561, UNSIGNED32 rwr, PDO-mappable)
     pub fn p3051_position_scaling_revolutions(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 762))
     }
@@ -4371,7 +4372,7 @@ impl Ram {
         true
     }
 
-    /// 0x604D vl pole number (bmaxx4400.eds:1776, UNSIGNED8 rwr, PDO-mappable)
+    /// 0x604D vl pole number (bmaxx4400.eds:1780, UNSIGNED8 rwr, PDO-mappable)
     pub fn vl_pole_number(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 812))
     }
@@ -4381,7 +4382,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 812, v.to_le_bytes());
     }
 
-    /// 0x604F vl ramp function time (bmaxx4400.eds:1784, UNSIGNED32 rw, PDO-mappable)
+    /// 0x604F vl ramp function time (bmaxx4400.eds:1788, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_ramp_function_time(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 813))
     }
@@ -4391,7 +4392,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 813, v.to_le_bytes());
     }
 
-    /// 0x6050 vl slow down time (bmaxx4400.eds:1792, UNSIGNED32 rw, PDO-mappable)
+    /// 0x6050 vl slow down time (bmaxx4400.eds:1796, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_slow_down_time(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 817))
     }
@@ -4401,7 +4402,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 817, v.to_le_bytes());
     }
 
-    /// 0x6051 vl quick stop time (bmaxx4400.eds:1800, UNSIGNED32 rw, PDO-mappable)
+    /// 0x6051 vl quick stop time (bmaxx4400.eds:1804, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_quick_stop_time(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 821))
     }
@@ -4411,7 +4412,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 821, v.to_le_bytes());
     }
 
-    /// 0x605A Quick stop option code (bmaxx4400.eds:1808, INTEGER16 rwr, PDO-mappable)
+    /// 0x605A Quick stop option code (bmaxx4400.eds:1812, INTEGER16 rwr, PDO-mappable)
     pub fn quick_stop_option_code(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 825))
     }
@@ -4421,7 +4422,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 825, v.to_le_bytes());
     }
 
-    /// 0x605B Shutdown option code (bmaxx4400.eds:1816, INTEGER16 rwr, PDO-mappable)
+    /// 0x605B Shutdown option code (bmaxx4400.eds:1820, INTEGER16 rwr, PDO-mappable)
     pub fn shutdown_option_code(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 827))
     }
@@ -4431,7 +4432,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 827, v.to_le_bytes());
     }
 
-    /// 0x605C Disable operation option code (bmaxx4400.eds:1824, INTEGER16 rwr, PDO-mappable)
+    /// 0x605C Disable operation option code (bmaxx4400.eds:1828, INTEGER16 rwr, PDO-mappable)
     pub fn disable_operation_option_code(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 829))
     }
@@ -4441,7 +4442,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 829, v.to_le_bytes());
     }
 
-    /// 0x605D Halt option code (bmaxx4400.eds:1832, INTEGER16 rwr, PDO-mappable)
+    /// 0x605D Halt option code (bmaxx4400.eds:1836, INTEGER16 rwr, PDO-mappable)
     pub fn halt_option_code(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 831))
     }
@@ -4451,7 +4452,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 831, v.to_le_bytes());
     }
 
-    /// 0x605E Fault reaction option code (bmaxx4400.eds:1840, INTEGER16 rwr, PDO-mappable)
+    /// 0x605E Fault reaction option code (bmaxx4400.eds:1844, INTEGER16 rwr, PDO-mappable)
     pub fn fault_reaction_option_code(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 833))
     }
@@ -4461,7 +4462,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 833, v.to_le_bytes());
     }
 
-    /// 0x6060 Modes of operation (bmaxx4400.eds:1848, INTEGER8 rww, PDO-mappable)
+    /// 0x6060 Modes of operation (bmaxx4400.eds:1852, INTEGER8 rww, PDO-mappable)
     pub fn modes_of_operation(&self) -> i8 {
         i8::from_le_bytes(od::load::<1>(&self.image, 835))
     }
@@ -4471,7 +4472,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 835, v.to_le_bytes());
     }
 
-    /// 0x6061 Modes of operation display (bmaxx4400.eds:1856, INTEGER8 ro, PDO-mappable)
+    /// 0x6061 Modes of operation display (bmaxx4400.eds:1860, INTEGER8 ro, PDO-mappable)
     pub fn modes_of_operation_display(&self) -> i8 {
         i8::from_le_bytes(od::load::<1>(&self.image, 836))
     }
@@ -4481,7 +4482,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 836, v.to_le_bytes());
     }
 
-    /// 0x6062 Position demand value (bmaxx4400.eds:1864, INTEGER32 ro, PDO-mappable)
+    /// 0x6062 Position demand value (bmaxx4400.eds:1868, INTEGER32 ro, PDO-mappable)
     pub fn position_demand_value(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 837))
     }
@@ -4491,7 +4492,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 837, v.to_le_bytes());
     }
 
-    /// 0x6063 Position actual internal value (bmaxx4400.eds:1872, INTEGER32 ro, PDO-mappable)
+    /// 0x6063 Position actual internal value (bmaxx4400.eds:1876, INTEGER32 ro, PDO-mappable)
     pub fn position_actual_internal_value(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 841))
     }
@@ -4501,7 +4502,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 841, v.to_le_bytes());
     }
 
-    /// 0x6064 Position actual value (bmaxx4400.eds:1880, INTEGER32 ro, PDO-mappable)
+    /// 0x6064 Position actual value (bmaxx4400.eds:1884, INTEGER32 ro, PDO-mappable)
     pub fn position_actual_value(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 845))
     }
@@ -4511,7 +4512,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 845, v.to_le_bytes());
     }
 
-    /// 0x6066 Following error time out (bmaxx4400.eds:1888, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x6066 Following error time out (bmaxx4400.eds:1892, UNSIGNED16 rwr, PDO-mappable)
     pub fn following_error_time_out(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 849))
     }
@@ -4521,7 +4522,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 849, v.to_le_bytes());
     }
 
-    /// 0x6067 Position window (bmaxx4400.eds:1898, UNSIGNED32 rw, PDO-mappable)
+    /// 0x6067 Position window (bmaxx4400.eds:1902, UNSIGNED32 rw, PDO-mappable)
     pub fn position_window(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 851))
     }
@@ -4531,7 +4532,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 851, v.to_le_bytes());
     }
 
-    /// 0x6068 Position window time (bmaxx4400.eds:1906, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x6068 Position window time (bmaxx4400.eds:1910, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_window_time(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 855))
     }
@@ -4541,7 +4542,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 855, v.to_le_bytes());
     }
 
-    /// 0x6069 Velocity sensor actual value (bmaxx4400.eds:1914, INTEGER32 ro, PDO-mappable)
+    /// 0x6069 Velocity sensor actual value (bmaxx4400.eds:1918, INTEGER32 ro, PDO-mappable)
     pub fn velocity_sensor_actual_value(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 857))
     }
@@ -4551,7 +4552,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 857, v.to_le_bytes());
     }
 
-    /// 0x606A Sensor selection code (bmaxx4400.eds:1922, INTEGER16 ro)
+    /// 0x606A Sensor selection code (bmaxx4400.eds:1926, INTEGER16 ro)
     pub fn sensor_selection_code(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 861))
     }
@@ -4561,7 +4562,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 861, v.to_le_bytes());
     }
 
-    /// 0x606B Velocity demand value (bmaxx4400.eds:1930, INTEGER32 ro, PDO-mappable)
+    /// 0x606B Velocity demand value (bmaxx4400.eds:1934, INTEGER32 ro, PDO-mappable)
     pub fn velocity_demand_value(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 863))
     }
@@ -4571,7 +4572,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 863, v.to_le_bytes());
     }
 
-    /// 0x606C Velocity actual value (bmaxx4400.eds:1938, INTEGER32 ro, PDO-mappable)
+    /// 0x606C Velocity actual value (bmaxx4400.eds:1942, INTEGER32 ro, PDO-mappable)
     pub fn velocity_actual_value(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 867))
     }
@@ -4581,7 +4582,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 867, v.to_le_bytes());
     }
 
-    /// 0x606F Velocity threshold (bmaxx4400.eds:1946, UNSIGNED16 rw, PDO-mappable)
+    /// 0x606F Velocity threshold (bmaxx4400.eds:1950, UNSIGNED16 rw, PDO-mappable)
     pub fn velocity_threshold(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 871))
     }
@@ -4591,7 +4592,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 871, v.to_le_bytes());
     }
 
-    /// 0x6072 Max torque (bmaxx4400.eds:1954, UNSIGNED16 rw, PDO-mappable)
+    /// 0x6072 Max torque (bmaxx4400.eds:1958, UNSIGNED16 rw, PDO-mappable)
     pub fn max_torque(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 873))
     }
@@ -4601,7 +4602,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 873, v.to_le_bytes());
     }
 
-    /// 0x6077 Torque actual value (bmaxx4400.eds:1962, INTEGER16 ro, PDO-mappable)
+    /// 0x6077 Torque actual value (bmaxx4400.eds:1966, INTEGER16 ro, PDO-mappable)
     pub fn torque_actual_value(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 875))
     }
@@ -4611,7 +4612,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 875, v.to_le_bytes());
     }
 
-    /// 0x607A Target position (bmaxx4400.eds:1970, INTEGER32 rw, PDO-mappable)
+    /// 0x607A Target position (bmaxx4400.eds:1974, INTEGER32 rw, PDO-mappable)
     pub fn target_position(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 877))
     }
@@ -4621,7 +4622,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 877, v.to_le_bytes());
     }
 
-    /// 0x607C Home offset (bmaxx4400.eds:1978, INTEGER32 rw, PDO-mappable)
+    /// 0x607C Home offset (bmaxx4400.eds:1982, INTEGER32 rw, PDO-mappable)
     pub fn home_offset(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 881))
     }
@@ -4631,7 +4632,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 881, v.to_le_bytes());
     }
 
-    /// 0x607D sub 0 Software position limit / Software position limit highest sub-index (bmaxx4400.eds:1991, UNSIGNED8 ro)
+    /// 0x607D sub 0 Software position limit / Software position limit highest sub-index (bmaxx4400.eds:1995, UNSIGNED8 ro)
     pub fn software_position_limit_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 885))
     }
@@ -4641,7 +4642,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 885, v.to_le_bytes());
     }
 
-    /// 0x607D Software position limit sub-index `i` (1..=2) (bmaxx4400.eds:1986)
+    /// 0x607D Software position limit sub-index `i` (1..=2) (bmaxx4400.eds:1990)
     pub fn software_position_limit(&self, i: u8) -> Option<i32> {
         if !(1..=2).contains(&i) {
             return None;
@@ -4660,7 +4661,7 @@ impl Ram {
         true
     }
 
-    /// 0x607F Max profile velocity (bmaxx4400.eds:2015, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x607F Max profile velocity (bmaxx4400.eds:2019, UNSIGNED32 rwr, PDO-mappable)
     pub fn max_profile_velocity(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 894))
     }
@@ -4670,7 +4671,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 894, v.to_le_bytes());
     }
 
-    /// 0x6080 Max motor speed (bmaxx4400.eds:2023, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x6080 Max motor speed (bmaxx4400.eds:2027, UNSIGNED32 rwr, PDO-mappable)
     pub fn max_motor_speed(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 898))
     }
@@ -4680,7 +4681,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 898, v.to_le_bytes());
     }
 
-    /// 0x6081 Profile velocity (bmaxx4400.eds:2033, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x6081 Profile velocity (bmaxx4400.eds:2037, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_velocity(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 902))
     }
@@ -4690,7 +4691,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 902, v.to_le_bytes());
     }
 
-    /// 0x6083 Profile acceleration (bmaxx4400.eds:2041, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x6083 Profile acceleration (bmaxx4400.eds:2045, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_acceleration(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 906))
     }
@@ -4700,7 +4701,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 906, v.to_le_bytes());
     }
 
-    /// 0x6084 Profile deceleration (bmaxx4400.eds:2049, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x6084 Profile deceleration (bmaxx4400.eds:2053, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_deceleration(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 910))
     }
@@ -4710,7 +4711,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 910, v.to_le_bytes());
     }
 
-    /// 0x6085 Quick stop deceleration (bmaxx4400.eds:2057, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x6085 Quick stop deceleration (bmaxx4400.eds:2061, UNSIGNED32 rwr, PDO-mappable)
     pub fn quick_stop_deceleration(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 914))
     }
@@ -4720,7 +4721,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 914, v.to_le_bytes());
     }
 
-    /// 0x6086 Motion profile type (bmaxx4400.eds:2065, INTEGER16 rwr, PDO-mappable)
+    /// 0x6086 Motion profile type (bmaxx4400.eds:2069, INTEGER16 rwr, PDO-mappable)
     pub fn motion_profile_type(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 918))
     }
@@ -4730,7 +4731,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 918, v.to_le_bytes());
     }
 
-    /// 0x6092 sub 0 Feed constant / Feed constant highest sub-index (bmaxx4400.eds:2078, UNSIGNED8 ro)
+    /// 0x6092 sub 0 Feed constant / Feed constant highest sub-index (bmaxx4400.eds:2082, UNSIGNED8 ro)
     pub fn feed_constant_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 920))
     }
@@ -4740,7 +4741,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 920, v.to_le_bytes());
     }
 
-    /// 0x6092 Feed constant sub-index `i` (1..=2) (bmaxx4400.eds:2073)
+    /// 0x6092 Feed constant sub-index `i` (1..=2) (bmaxx4400.eds:2077)
     pub fn feed_constant(&self, i: u8) -> Option<u32> {
         if !(1..=2).contains(&i) {
             return None;
@@ -4759,7 +4760,7 @@ impl Ram {
         true
     }
 
-    /// 0x6098 Homing method (bmaxx4400.eds:2106, INTEGER8 rwr, PDO-mappable)
+    /// 0x6098 Homing method (bmaxx4400.eds:2110, INTEGER8 rwr, PDO-mappable)
     pub fn homing_method(&self) -> i8 {
         i8::from_le_bytes(od::load::<1>(&self.image, 929))
     }
@@ -4769,7 +4770,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 929, v.to_le_bytes());
     }
 
-    /// 0x6099 sub 0 Homing speeds / Homing speeds highest sub-index (bmaxx4400.eds:2119, UNSIGNED8 ro)
+    /// 0x6099 sub 0 Homing speeds / Homing speeds highest sub-index (bmaxx4400.eds:2123, UNSIGNED8 ro)
     pub fn homing_speeds_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 930))
     }
@@ -4779,7 +4780,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 930, v.to_le_bytes());
     }
 
-    /// 0x6099 Homing speeds sub-index `i` (1..=2) (bmaxx4400.eds:2114)
+    /// 0x6099 Homing speeds sub-index `i` (1..=2) (bmaxx4400.eds:2118)
     pub fn homing_speeds(&self, i: u8) -> Option<u32> {
         if !(1..=2).contains(&i) {
             return None;
@@ -4798,7 +4799,7 @@ impl Ram {
         true
     }
 
-    /// 0x609A Homing acceleration (bmaxx4400.eds:2143, UNSIGNED32 rw, PDO-mappable)
+    /// 0x609A Homing acceleration (bmaxx4400.eds:2147, UNSIGNED32 rw, PDO-mappable)
     pub fn homing_acceleration(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 939))
     }
@@ -4808,7 +4809,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 939, v.to_le_bytes());
     }
 
-    /// 0x60C0 Interpolation sub mode select (bmaxx4400.eds:2151, INTEGER16 ro)
+    /// 0x60C0 Interpolation sub mode select (bmaxx4400.eds:2155, INTEGER16 ro)
     pub fn interpolation_sub_mode_select(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 943))
     }
@@ -4818,7 +4819,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 943, v.to_le_bytes());
     }
 
-    /// 0x60C1 sub 0 Interpolation data record / Interpolation data record highest sub-index (bmaxx4400.eds:2164, UNSIGNED8 ro)
+    /// 0x60C1 sub 0 Interpolation data record / Interpolation data record highest sub-index (bmaxx4400.eds:2168, UNSIGNED8 ro)
     pub fn interpolation_data_record_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 945))
     }
@@ -4828,7 +4829,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 945, v.to_le_bytes());
     }
 
-    /// 0x60C1 sub 1 Interpolation data record / Interpolation data record position (bmaxx4400.eds:2172, INTEGER32 rw, PDO-mappable)
+    /// 0x60C1 sub 1 Interpolation data record / Interpolation data record position (bmaxx4400.eds:2176, INTEGER32 rw, PDO-mappable)
     pub fn interpolation_data_record_position(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 946))
     }
@@ -4838,7 +4839,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 946, v.to_le_bytes());
     }
 
-    /// 0x60C2 sub 0 Interpolation time period / Interpolation time period highest sub-index (bmaxx4400.eds:2185, UNSIGNED8 ro)
+    /// 0x60C2 sub 0 Interpolation time period / Interpolation time period highest sub-index (bmaxx4400.eds:2189, UNSIGNED8 ro)
     pub fn interpolation_time_period_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 950))
     }
@@ -4848,7 +4849,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 950, v.to_le_bytes());
     }
 
-    /// 0x60C2 sub 1 Interpolation time period / ip time units (bmaxx4400.eds:2193, UNSIGNED8 rw)
+    /// 0x60C2 sub 1 Interpolation time period / ip time units (bmaxx4400.eds:2197, UNSIGNED8 rw)
     pub fn interpolation_time_period_ip_time_units(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 951))
     }
@@ -4858,7 +4859,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 951, v.to_le_bytes());
     }
 
-    /// 0x60C2 sub 2 Interpolation time period / ip time index (bmaxx4400.eds:2203, INTEGER8 rw, PDO-mappable)
+    /// 0x60C2 sub 2 Interpolation time period / ip time index (bmaxx4400.eds:2207, INTEGER8 rw, PDO-mappable)
     pub fn interpolation_time_period_ip_time_index(&self) -> i8 {
         i8::from_le_bytes(od::load::<1>(&self.image, 952))
     }
@@ -4868,7 +4869,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 952, v.to_le_bytes());
     }
 
-    /// 0x60C3 sub 0 Interpolation sync definition / Interpolation sync definition highest sub-index (bmaxx4400.eds:2218, UNSIGNED8 ro)
+    /// 0x60C3 sub 0 Interpolation sync definition / Interpolation sync definition highest sub-index (bmaxx4400.eds:2222, UNSIGNED8 ro)
     pub fn interpolation_sync_definition_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 953))
     }
@@ -4878,7 +4879,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 953, v.to_le_bytes());
     }
 
-    /// 0x60C3 sub 1 Interpolation sync definition / Synchronize on group (bmaxx4400.eds:2226, UNSIGNED8 rw, PDO-mappable)
+    /// 0x60C3 sub 1 Interpolation sync definition / Synchronize on group (bmaxx4400.eds:2230, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_sync_definition_synchronize_on_group(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 954))
     }
@@ -4888,7 +4889,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 954, v.to_le_bytes());
     }
 
-    /// 0x60C3 sub 2 Interpolation sync definition / ip sync every n event (bmaxx4400.eds:2234, UNSIGNED8 rw, PDO-mappable)
+    /// 0x60C3 sub 2 Interpolation sync definition / ip sync every n event (bmaxx4400.eds:2238, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_sync_definition_ip_sync_every_n_event(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 955))
     }
@@ -4898,7 +4899,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 955, v.to_le_bytes());
     }
 
-    /// 0x60C4 sub 0 Interpolation data configuration / Interpolation data configuration highest sub-index (bmaxx4400.eds:2247, UNSIGNED8 ro)
+    /// 0x60C4 sub 0 Interpolation data configuration / Interpolation data configuration highest sub-index (bmaxx4400.eds:2251, UNSIGNED8 ro)
     pub fn interpolation_data_configuration_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 956))
     }
@@ -4908,7 +4909,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 956, v.to_le_bytes());
     }
 
-    /// 0x60C4 sub 1 Interpolation data configuration / Maximum buffer size (bmaxx4400.eds:2255, UNSIGNED32 ro, PDO-mappable)
+    /// 0x60C4 sub 1 Interpolation data configuration / Maximum buffer size (bmaxx4400.eds:2259, UNSIGNED32 ro, PDO-mappable)
     pub fn interpolation_data_configuration_maximum_buffer_size(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 957))
     }
@@ -4918,7 +4919,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 957, v.to_le_bytes());
     }
 
-    /// 0x60C4 sub 2 Interpolation data configuration / Actual buffer size (bmaxx4400.eds:2263, UNSIGNED32 rw, PDO-mappable)
+    /// 0x60C4 sub 2 Interpolation data configuration / Actual buffer size (bmaxx4400.eds:2267, UNSIGNED32 rw, PDO-mappable)
     pub fn interpolation_data_configuration_actual_buffer_size(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 961))
     }
@@ -4928,7 +4929,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 961, v.to_le_bytes());
     }
 
-    /// 0x60C4 sub 3 Interpolation data configuration / Buffer organisation (bmaxx4400.eds:2271, UNSIGNED8 rw, PDO-mappable)
+    /// 0x60C4 sub 3 Interpolation data configuration / Buffer organisation (bmaxx4400.eds:2275, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_organisation(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 965))
     }
@@ -4938,7 +4939,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 965, v.to_le_bytes());
     }
 
-    /// 0x60C4 sub 4 Interpolation data configuration / Buffer position (bmaxx4400.eds:2281, UNSIGNED16 rw, PDO-mappable)
+    /// 0x60C4 sub 4 Interpolation data configuration / Buffer position (bmaxx4400.eds:2285, UNSIGNED16 rw, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_position(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 966))
     }
@@ -4948,7 +4949,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 966, v.to_le_bytes());
     }
 
-    /// 0x60C4 sub 5 Interpolation data configuration / Size of data record (bmaxx4400.eds:2289, UNSIGNED8 wo, PDO-mappable)
+    /// 0x60C4 sub 5 Interpolation data configuration / Size of data record (bmaxx4400.eds:2293, UNSIGNED8 wo, PDO-mappable)
     pub fn interpolation_data_configuration_size_of_data_record(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 968))
     }
@@ -4958,7 +4959,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 968, v.to_le_bytes());
     }
 
-    /// 0x60C4 sub 6 Interpolation data configuration / Buffer clear (bmaxx4400.eds:2297, UNSIGNED8 wo, PDO-mappable)
+    /// 0x60C4 sub 6 Interpolation data configuration / Buffer clear (bmaxx4400.eds:2301, UNSIGNED8 wo, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_clear(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 969))
     }
@@ -4968,7 +4969,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 969, v.to_le_bytes());
     }
 
-    /// 0x60F8 Max slippage (bmaxx4400.eds:2307, INTEGER32 rw, PDO-mappable)
+    /// 0x60F8 Max slippage (bmaxx4400.eds:2311, INTEGER32 rw, PDO-mappable)
     pub fn max_slippage(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 970))
     }
@@ -4978,7 +4979,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 970, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 0 Position control parameter set / Position control parameter set highest sub-index (bmaxx4400.eds:2320, UNSIGNED8 ro)
+    /// 0x60FB sub 0 Position control parameter set / Position control parameter set highest sub-index (bmaxx4400.eds:2324, UNSIGNED8 ro)
     pub fn position_control_parameter_set_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 974))
     }
@@ -4988,7 +4989,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 974, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 1 Position control parameter set / Position controller status (bmaxx4400.eds:2328, UNSIGNED16 ro, PDO-mappable)
+    /// 0x60FB sub 1 Position control parameter set / Position controller status (bmaxx4400.eds:2332, UNSIGNED16 ro, PDO-mappable)
     pub fn position_control_parameter_set_controller_status(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 975))
     }
@@ -4998,7 +4999,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 975, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 2 Position control parameter set / Position controller mode (bmaxx4400.eds:2336, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x60FB sub 2 Position control parameter set / Position controller mode (bmaxx4400.eds:2340, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_controller_mode(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 977))
     }
@@ -5008,7 +5009,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 977, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 3 Position control parameter set / Position controller Kv factor (bmaxx4400.eds:2344, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x60FB sub 3 Position control parameter set / Position controller Kv factor (bmaxx4400.eds:2348, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_controller_kv_factor(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 979))
     }
@@ -5018,7 +5019,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 979, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 4 Position control parameter set / Position set revolutions (bmaxx4400.eds:2354, UNSIGNED16 rw, PDO-mappable)
+    /// 0x60FB sub 4 Position control parameter set / Position set revolutions (bmaxx4400.eds:2358, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_set_revolutions(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 981))
     }
@@ -5028,7 +5029,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 981, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 5 Position control parameter set / Position set angle (bmaxx4400.eds:2362, UNSIGNED16 rw, PDO-mappable)
+    /// 0x60FB sub 5 Position control parameter set / Position set angle (bmaxx4400.eds:2366, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_set_angle(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 983))
     }
@@ -5038,7 +5039,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 983, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 6 Position control parameter set / Speed feed forward factor (bmaxx4400.eds:2370, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x60FB sub 6 Position control parameter set / Speed feed forward factor (bmaxx4400.eds:2374, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_speed_feed_forward_factor(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 985))
     }
@@ -5048,7 +5049,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 985, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 7 Position control parameter set / Position control deviation (bmaxx4400.eds:2378, INTEGER32 ro, PDO-mappable)
+    /// 0x60FB sub 7 Position control parameter set / Position control deviation (bmaxx4400.eds:2382, INTEGER32 ro, PDO-mappable)
     pub fn position_control_parameter_set_deviation(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 987))
     }
@@ -5058,7 +5059,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 987, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 8 Position control parameter set / Position controller actual value (bmaxx4400.eds:2386, UNSIGNED32 rw, PDO-mappable)
+    /// 0x60FB sub 8 Position control parameter set / Position controller actual value (bmaxx4400.eds:2390, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_controller_actual_value(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 991))
     }
@@ -5068,7 +5069,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 991, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 9 Position control parameter set / Encoder 1 actual revolutions (bmaxx4400.eds:2394, UNSIGNED32 ro, PDO-mappable)
+    /// 0x60FB sub 9 Position control parameter set / Encoder 1 actual revolutions (bmaxx4400.eds:2398, UNSIGNED32 ro, PDO-mappable)
     pub fn position_control_parameter_set_encoder_1_actual_revolutions(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 995))
     }
@@ -5078,7 +5079,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 995, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 10 Position control parameter set / Encoder 1 actual angle (bmaxx4400.eds:2402, UNSIGNED32 ro, PDO-mappable)
+    /// 0x60FB sub 10 Position control parameter set / Encoder 1 actual angle (bmaxx4400.eds:2406, UNSIGNED32 ro, PDO-mappable)
     pub fn position_control_parameter_set_encoder_1_actual_angle(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 999))
     }
@@ -5088,7 +5089,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 999, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 11 Position control parameter set / Speed feed forward (bmaxx4400.eds:2410, INTEGER32 ro, PDO-mappable)
+    /// 0x60FB sub 11 Position control parameter set / Speed feed forward (bmaxx4400.eds:2414, INTEGER32 ro, PDO-mappable)
     pub fn position_control_parameter_set_speed_feed_forward(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 1003))
     }
@@ -5098,7 +5099,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1003, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 12 Position control parameter set / Positioning status (bmaxx4400.eds:2418, UNSIGNED16 ro, PDO-mappable)
+    /// 0x60FB sub 12 Position control parameter set / Positioning status (bmaxx4400.eds:2422, UNSIGNED16 ro, PDO-mappable)
     pub fn position_control_parameter_set_positioning_status(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1007))
     }
@@ -5108,7 +5109,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1007, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 13 Position control parameter set / Actual positioning record number (bmaxx4400.eds:2426, UNSIGNED16 rw, PDO-mappable)
+    /// 0x60FB sub 13 Position control parameter set / Actual positioning record number (bmaxx4400.eds:2430, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_actual_positioning_record_number(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1009))
     }
@@ -5118,7 +5119,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1009, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 14 Position control parameter set / Positioning mode bits (bmaxx4400.eds:2434, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x60FB sub 14 Position control parameter set / Positioning mode bits (bmaxx4400.eds:2438, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_positioning_mode_bits(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1011))
     }
@@ -5128,7 +5129,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1011, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 15 Position control parameter set / Home position (bmaxx4400.eds:2442, UNSIGNED32 rwr, PDO-mappable)
+    /// 0x60FB sub 15 Position control parameter set / Home position (bmaxx4400.eds:2446, UNSIGNED32 rwr, PDO-mappable)
     pub fn position_control_parameter_set_home_position(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1013))
     }
@@ -5138,7 +5139,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1013, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 16 Position control parameter set / Positioning switch mode (bmaxx4400.eds:2450, UNSIGNED16 rwr, PDO-mappable)
+    /// 0x60FB sub 16 Position control parameter set / Positioning switch mode (bmaxx4400.eds:2454, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_positioning_switch_mode(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1017))
     }
@@ -5148,7 +5149,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1017, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 17 Position control parameter set / Positioning speed set value (bmaxx4400.eds:2458, INTEGER16 ro, PDO-mappable)
+    /// 0x60FB sub 17 Position control parameter set / Positioning speed set value (bmaxx4400.eds:2462, INTEGER16 ro, PDO-mappable)
     pub fn position_control_parameter_set_positioning_speed_set_value(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 1019))
     }
@@ -5158,7 +5159,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1019, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 18 Position control parameter set / Positioning bend 0 (bmaxx4400.eds:2466, UNSIGNED16 rw, PDO-mappable)
+    /// 0x60FB sub 18 Position control parameter set / Positioning bend 0 (bmaxx4400.eds:2470, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_positioning_bend_0(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1021))
     }
@@ -5168,7 +5169,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1021, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 19 Position control parameter set / Clip environment 1 (bmaxx4400.eds:2474, UNSIGNED32 rw, PDO-mappable)
+    /// 0x60FB sub 19 Position control parameter set / Clip environment 1 (bmaxx4400.eds:2478, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_clip_environment_1(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1023))
     }
@@ -5178,7 +5179,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1023, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 20 Position control parameter set / Clip environment 2 (bmaxx4400.eds:2482, UNSIGNED32 rw, PDO-mappable)
+    /// 0x60FB sub 20 Position control parameter set / Clip environment 2 (bmaxx4400.eds:2486, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_clip_environment_2(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1027))
     }
@@ -5188,7 +5189,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1027, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 21 Position control parameter set / Target input 0 (bmaxx4400.eds:2490, INTEGER16 rw, PDO-mappable)
+    /// 0x60FB sub 21 Position control parameter set / Target input 0 (bmaxx4400.eds:2494, INTEGER16 rw, PDO-mappable)
     pub fn position_control_parameter_set_target_input_0(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 1031))
     }
@@ -5198,7 +5199,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1031, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 22 Position control parameter set / Target input 1 (bmaxx4400.eds:2498, INTEGER16 rw, PDO-mappable)
+    /// 0x60FB sub 22 Position control parameter set / Target input 1 (bmaxx4400.eds:2502, INTEGER16 rw, PDO-mappable)
     pub fn position_control_parameter_set_target_input_1(&self) -> i16 {
         i16::from_le_bytes(od::load::<2>(&self.image, 1033))
     }
@@ -5208,7 +5209,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1033, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 23 Position control parameter set / IP set angle (bmaxx4400.eds:2506, UNSIGNED32 rw, PDO-mappable)
+    /// 0x60FB sub 23 Position control parameter set / IP set angle (bmaxx4400.eds:2510, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_ip_set_angle(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1035))
     }
@@ -5218,7 +5219,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1035, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 24 Position control parameter set / Positioning encoder offset (bmaxx4400.eds:2514, UNSIGNED16 rw, PDO-mappable)
+    /// 0x60FB sub 24 Position control parameter set / Positioning encoder offset (bmaxx4400.eds:2518, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_positioning_encoder_offset(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1039))
     }
@@ -5228,7 +5229,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1039, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 25 Position control parameter set / Homing deceleration (bmaxx4400.eds:2522, UNSIGNED16 rw, PDO-mappable)
+    /// 0x60FB sub 25 Position control parameter set / Homing deceleration (bmaxx4400.eds:2526, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_homing_deceleration(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1041))
     }
@@ -5238,7 +5239,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1041, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 26 Position control parameter set / Actual speed normalised (bmaxx4400.eds:2530, INTEGER32 ro, PDO-mappable)
+    /// 0x60FB sub 26 Position control parameter set / Actual speed normalised (bmaxx4400.eds:2534, INTEGER32 ro, PDO-mappable)
     pub fn position_control_parameter_set_actual_speed_normalised(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 1043))
     }
@@ -5248,7 +5249,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1043, v.to_le_bytes());
     }
 
-    /// 0x60FB sub 27 Position control parameter set / Amplifier and motor warnings (bmaxx4400.eds:2538, UNSIGNED16 ro, PDO-mappable)
+    /// 0x60FB sub 27 Position control parameter set / Amplifier and motor warnings (bmaxx4400.eds:2542, UNSIGNED16 ro, PDO-mappable)
     pub fn position_control_parameter_set_amplifier_and_motor_warnings(&self) -> u16 {
         u16::from_le_bytes(od::load::<2>(&self.image, 1047))
     }
@@ -5258,7 +5259,7 @@ impl Ram {
         od::store::<2>(&mut self.image, 1047, v.to_le_bytes());
     }
 
-    /// 0x60FD Digital inputs (bmaxx4400.eds:2546, UNSIGNED32 ro, PDO-mappable)
+    /// 0x60FD Digital inputs (bmaxx4400.eds:2550, UNSIGNED32 ro, PDO-mappable)
     pub fn digital_inputs(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1049))
     }
@@ -5268,7 +5269,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1049, v.to_le_bytes());
     }
 
-    /// 0x60FF Target velocity (bmaxx4400.eds:2554, INTEGER32 rw, PDO-mappable)
+    /// 0x60FF Target velocity (bmaxx4400.eds:2558, INTEGER32 rw, PDO-mappable)
     pub fn target_velocity(&self) -> i32 {
         i32::from_le_bytes(od::load::<4>(&self.image, 1053))
     }
@@ -5278,7 +5279,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1053, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 0 Drive data / Drive data highest sub-index (bmaxx4400.eds:2567, UNSIGNED8 ro)
+    /// 0x6510 sub 0 Drive data / Drive data highest sub-index (bmaxx4400.eds:2571, UNSIGNED8 ro)
     pub fn drive_data_highest_sub_index(&self) -> u8 {
         u8::from_le_bytes(od::load::<1>(&self.image, 1057))
     }
@@ -5288,7 +5289,7 @@ impl Ram {
         od::store::<1>(&mut self.image, 1057, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 1 Drive data / Controller type (bmaxx4400.eds:2575, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 1 Drive data / Controller type (bmaxx4400.eds:2579, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_controller_type(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1058))
     }
@@ -5298,7 +5299,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1058, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 2 Drive data / Software type (bmaxx4400.eds:2583, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 2 Drive data / Software type (bmaxx4400.eds:2587, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_software_type(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1062))
     }
@@ -5308,7 +5309,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1062, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 3 Drive data / Software ID (bmaxx4400.eds:2591, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 3 Drive data / Software ID (bmaxx4400.eds:2595, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_software_id(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1066))
     }
@@ -5318,7 +5319,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1066, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 4 Drive data / Software version (bmaxx4400.eds:2599, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 4 Drive data / Software version (bmaxx4400.eds:2603, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_software_version(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1070))
     }
@@ -5328,7 +5329,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1070, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 5 Drive data / Parameter table version (bmaxx4400.eds:2607, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 5 Drive data / Parameter table version (bmaxx4400.eds:2611, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_parameter_table_version(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1074))
     }
@@ -5338,7 +5339,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1074, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 6 Drive data / Amplifier software version (bmaxx4400.eds:2615, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 6 Drive data / Amplifier software version (bmaxx4400.eds:2619, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_amplifier_software_version(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1078))
     }
@@ -5348,7 +5349,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1078, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 7 Drive data / FPGA version (bmaxx4400.eds:2623, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 7 Drive data / FPGA version (bmaxx4400.eds:2627, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_fpga_version(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1082))
     }
@@ -5358,7 +5359,7 @@ impl Ram {
         od::store::<4>(&mut self.image, 1082, v.to_le_bytes());
     }
 
-    /// 0x6510 sub 8 Drive data / Bootloader version (bmaxx4400.eds:2631, UNSIGNED32 ro, PDO-mappable)
+    /// 0x6510 sub 8 Drive data / Bootloader version (bmaxx4400.eds:2635, UNSIGNED32 ro, PDO-mappable)
     pub fn drive_data_bootloader_version(&self) -> u32 {
         u32::from_le_bytes(od::load::<4>(&self.image, 1086))
     }

@@ -2,8 +2,9 @@
 //! on the application slot: the power drive system state machine
 //! ([`fsa`], controlword 0x6040 / statusword 0x6041), the option codes
 //! 0x605A-0x605E, error code 0x603F, abort connection 0x6007, and the modes
-//! profile position ([`pp`]), profile velocity, velocity ([`velocity`]) and
-//! homing ([`hm`]), with the factor group ([`units`]).
+//! profile position ([`pp`]), profile velocity, velocity ([`velocity`]),
+//! homing ([`hm`]) and interpolated position ([`ip`]), with the factor
+//! group ([`units`]).
 //!
 //! Read first: CiA 402-2 §6 (device control: figure "State machine",
 //! tables "Command coding" and "State coding"), §6.3 (option codes), then
@@ -25,6 +26,7 @@ pub mod controlword;
 pub mod drive;
 pub mod fsa;
 pub mod hm;
+pub mod ip;
 pub mod motion;
 pub mod objects;
 pub mod pp;
@@ -48,6 +50,8 @@ pub mod mode {
     pub const PV: i8 = 3;
     /// Homing.
     pub const HM: i8 = 6;
+    /// Interpolated position.
+    pub const IP: i8 = 7;
 
     /// The bit of a mode in 0x6502 supported drive modes (CiA 402-2 §6.4.2):
     /// pp 0, vl 1, pv 2, tq 3, hm 5, ip 6, csp 7, csv 8, cst 9.
@@ -72,7 +76,7 @@ pub mod statusword {
     pub const TARGET_REACHED: u16 = 1 << 10;
     /// Bit 11 internal limit active (a software limit or min/max amount clipped a target).
     pub const INTERNAL_LIMIT: u16 = 1 << 11;
-    /// Bit 12: pp set-point acknowledge, pv speed is zero, hm homing attained.
+    /// Bit 12: pp set-point acknowledge, pv speed is zero, hm homing attained, ip mode active.
     pub const BIT12: u16 = 1 << 12;
     /// Bit 13: pp following error, hm homing error.
     pub const BIT13: u16 = 1 << 13;

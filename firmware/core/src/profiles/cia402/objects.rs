@@ -98,6 +98,8 @@ pub mod index {
     pub const HOMING_SPEEDS: u16 = 0x6099;
     /// 0x609A homing acceleration (UNSIGNED32).
     pub const HOMING_ACCELERATION: u16 = 0x609A;
+    /// 0x60C1 interpolation data record: the set-point (sub 1, INTEGER32).
+    pub const INTERPOLATION_DATA_RECORD: u16 = 0x60C1;
     /// 0x60C6 max deceleration (UNSIGNED32).
     pub const MAX_DECELERATION: u16 = 0x60C6;
     /// 0x60F2 positioning option code (UNSIGNED16).

@@ -4,6 +4,7 @@ use super::controlword::{self as cw, Command};
 use super::drive::Drive;
 use super::fsa::{self, PdsState, Reaction, Transition};
 use super::hm::Hm;
+use super::ip::Ip;
 use super::motion::{Demand, speed_q};
 use super::objects::{self, index, signed, unsigned, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
@@ -81,6 +82,7 @@ struct Profile {
     pp: Pp,
     hm: Hm,
     hm_started: bool,
+    ip: Ip,
     /// pv or vl target [Q16 inc/tick].
     velocity_target: i64,
     internal_limit: bool,
@@ -114,6 +116,7 @@ impl Profile {
         pp: Pp::NEW,
         hm: Hm::NEW,
         hm_started: false,
+        ip: Ip::NEW,
         velocity_target: 0,
         internal_limit: false,
         reached: false,
@@ -188,6 +191,21 @@ impl<D: Drive> Cia402<D> {
     /// next poll writes 0x6041 (ticking, it writes it at each tick).
     pub fn refresh(&mut self) {
         self.s.refresh = true;
+    }
+
+    /// A SYNC's interpolation data record (ip): the position demand
+    /// reaches `target` [inc] after `1 << period_log2` ticks. Taken while
+    /// the interpolation runs (Operation enabled, controlword bit 4, no
+    /// halt); otherwise the record is ignored.
+    pub fn interpolate(&mut self, target: i64, period_log2: u8) {
+        if self.s.mode == mode::IP && self.ip_active() && self.s.controlword & cw::HALT == 0 {
+            self.s.ip.set_point(&self.s.demand, target, period_log2);
+        }
+    }
+
+    /// Statusword bit 12 in ip: the interpolation runs.
+    fn ip_active(&self) -> bool {
+        self.s.state == PdsState::OperationEnabled && !self.s.braking && self.s.controlword & cw::NEW_SET_POINT != 0
     }
 
     /// Before SYNC TPDOs: the actual values.
@@ -290,6 +308,8 @@ impl<D: Drive> Cia402<D> {
                 self.s.hm_started = true;
             }
             mode::HM if fell => self.s.hm.interrupt(),
+            // Enabling or disabling the interpolation starts from where the demand is.
+            mode::IP if rose || fell => self.s.ip = Ip::NEW,
             _ => {}
         }
     }
@@ -330,6 +350,7 @@ impl<D: Drive> Cia402<D> {
                     self.s.demand = Demand::at(self.drive.position(), self.drive.velocity());
                     self.s.pp.clear(self.drive.position());
                     self.s.hm = Hm::NEW;
+                    self.s.ip = Ip::NEW;
                     (self.s.reached, self.s.speed_zero, self.s.following) = (false, false, false);
                     (self.s.reached_window, self.s.zero_window, self.s.following_window) = (Window::NEW, Window::NEW, Window::NEW);
                 }
@@ -428,6 +449,7 @@ impl<D: Drive> Cia402<D> {
         if requested != self.s.mode {
             self.s.hm.interrupt();
             self.s.pp.clear(self.s.demand.position());
+            self.s.ip = Ip::NEW;
             self.s.mode = requested;
             self.velocity_target(ctx);
         }

@@ -33,6 +33,7 @@ impl<D: Drive> Cia402<D> {
                 mode::PP => (s.reached, s.pp.acknowledge, s.following),
                 mode::PV => (s.reached, s.speed_zero, false),
                 mode::VL => (s.reached, false, false),
+                mode::IP => (s.reached, self.ip_active(), false),
                 // CiA 402-2 homing status: bits 13, 12, 10 (000 in progress, 001
                 // interrupted or not started, 011 attained, 10x error moving or standing).
                 mode::HM => (
@@ -108,6 +109,7 @@ pub(super) fn supported_modes(ctx: &Ctx<'_>) -> u32 {
         (mode::VL, index::VL_TARGET_VELOCITY),
         (mode::PV, index::TARGET_VELOCITY),
         (mode::HM, index::HOMING_METHOD),
+        (mode::IP, index::INTERPOLATION_DATA_RECORD),
     ] {
         if has(object) {
             modes |= mode::supported_bit(m);

@@ -157,6 +157,7 @@ impl<D: Drive> Cia402<D> {
                         Step::Stop => d.ramp(0, p.homing_acceleration, p.homing_acceleration),
                     }
                 }
+                mode::IP if s.controlword & cw::NEW_SET_POINT != 0 => s.ip.tick(d),
                 _ => d.ramp(0, p.acceleration, p.deceleration),
             }
         }
@@ -200,8 +201,11 @@ impl<D: Drive> Cia402<D> {
         let position = self.drive.position();
         let velocity = i64::from(self.drive.velocity());
         match s.mode {
-            mode::PP => {
-                let near = s.pp.done() && (position - s.pp.final_target()).abs() <= p.position_window;
+            mode::PP | mode::IP => {
+                // In ip the demand stands on the last set-point once the segment is done.
+                let (done, target) =
+                    if s.mode == mode::PP { (s.pp.done(), s.pp.final_target()) } else { (s.ip.done(), s.demand.position()) };
+                let near = done && (position - target).abs() <= p.position_window;
                 s.reached = s.reached_window.tick(near, p.position_window_ticks);
                 let lagging = p.following_window.is_some_and(|w| (s.demand.position() - position).abs() > w);
                 s.following = s.following_window.tick(lagging, p.following_ticks);
