@@ -19,6 +19,8 @@ pub trait CanNode: Send {
     fn on_frame(&mut self, now: Instant, frame: &CanFrame);
     /// [`Node::process`].
     fn process(&mut self, now: Instant) -> Option<Instant>;
+    /// [`Node::resetting`].
+    fn resetting(&self) -> bool;
     /// [`Node::transmit`].
     fn transmit(&mut self) -> Option<CanFrame>;
     /// [`Node::requeue`].
@@ -64,6 +66,10 @@ where
 
     fn process(&mut self, now: Instant) -> Option<Instant> {
         Node::process(self, now)
+    }
+
+    fn resetting(&self) -> bool {
+        Node::resetting(self)
     }
 
     fn transmit(&mut self) -> Option<CanFrame> {

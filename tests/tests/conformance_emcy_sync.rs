@@ -102,6 +102,26 @@ fn cct_5_6_error_history_matches_the_emcy() {
     assert_eq!(u32_le(b.sdo_upload(ID, 0x1003, 2).unwrap()), 0x0001_8210);
 }
 
+#[test]
+fn a_full_error_history_drops_the_oldest_and_writing_0_clears_it() {
+    let mut b = interop();
+    // Ten application errors, one per millisecond: 0x1003 holds eight (sub 1..8), newest first.
+    for k in 0..10u16 {
+        b.node.raise_error(0xFF00 + k, [k as u8, 0x10, 0, 0, 0]);
+        assert_eq!(b.at(ms(1 + u64::from(k))).len(), 1, "error {k}: one EMCY");
+    }
+    assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![8]));
+    for sub in 1..=8u8 {
+        let k = 10 - u32::from(sub);
+        assert_eq!(u32_le(b.sdo_upload(ID, 0x1003, sub).unwrap()), (0x1000 + k) << 16 | (0xFF00 + k), "sub {sub}");
+    }
+    // CiA 301 §7.5.2.4: writing 0 to sub 0 empties it, every field too.
+    assert_eq!(b.sdo_download(ID, 0x1003, 0, &[0]), Ok(()));
+    assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![0]));
+    assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(vec![0, 0, 0, 0]));
+    assert_eq!(b.sdo_upload(ID, 0x1003, 8), Ok(vec![0, 0, 0, 0]));
+}
+
 // ---- SYNC -----------------------------------------------------------------------
 
 #[test]

@@ -11,9 +11,12 @@
 
 mod common;
 
+use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
+use canopen_core::od::{Dictionary, ObjectDictionary, Services};
 use canopen_core::services::nmt::State;
 use common::{Bench, F, abort, ms, ok_write};
+use embedded_can::Frame;
 use hal_host::fixtures::interop::od as interop;
 use hal_host::storage::MemStorage;
 
@@ -297,4 +300,88 @@ fn cct_10_4_stop_remote_node() {
     assert_eq!(b.rx(ms(2), 0x000, &[0x01, ID, 0]), []);
     assert_eq!(b.rx(ms(3), 0x000, &[0x03, ID]), []);
     assert_eq!(b.node.state(), State::Stopped);
+}
+
+/// The interop dictionary linked without storage (`Services::storage`
+/// off), as the `ds301-lean` size reference does with CANopenNode's
+/// profile: 0x1010/0x1011 stay in the dictionary, but nothing can be stored.
+struct NoStorage(interop::Ram);
+
+impl ObjectDictionary for NoStorage {
+    const SERVICES: Services = Services { storage: false, ..<interop::Ram as ObjectDictionary>::SERVICES };
+    fn dictionary(&self) -> &'static Dictionary {
+        self.0.dictionary()
+    }
+    fn image(&self) -> &[u8] {
+        self.0.image()
+    }
+    fn image_mut(&mut self) -> &mut [u8] {
+        self.0.image_mut()
+    }
+}
+
+#[test]
+fn a_node_without_storage_refuses_save_and_restore_and_writes_nothing() {
+    let mut b: Bench<_, _, _, 4, 4, 4> = Bench::new(NoStorage(interop::Ram::new(ID)), NoApplication, MemStorage::new(4096), ID);
+    assert_eq!(b.at(ms(0)), [boot_up()]);
+    assert_eq!(b.sdo_download(ID, 0x1017, 0, &500u16.to_le_bytes()), Ok(()));
+    // "save" and "load": 0x08000020, the data cannot be stored; an unknown sub-index stays 0x06090011.
+    assert_eq!(b.sdo_download(ID, 0x1010, 1, b"save"), Err(0x0800_0020));
+    assert_eq!(b.sdo_download(ID, 0x1011, 1, b"load"), Err(0x0800_0020));
+    assert_eq!(b.sdo_download(ID, 0x1010, 9, b"save"), Err(0x0609_0011));
+    assert!(b.node.storage_mut().region(0).is_some_and(|r| r.iter().all(|&x| x == 0xFF)), "region 0 erased");
+    assert!(b.node.storage_mut().region(1).is_some_and(|r| r.iter().all(|&x| x == 0xFF)), "region 1 erased");
+    assert_eq!(b.nmt(0x81, ID), [boot_up()]);
+    assert_eq!(b.sdo_upload(ID, 0x1017, 0), Ok(vec![0, 0]), "the default after reset node");
+}
+
+/// One received frame, no `process`.
+fn deliver(b: &mut Interop, t: u64, cob_id: u16, data: &[u8]) {
+    b.node.on_frame(ms(t), &CanFrame::standard(cob_id, data).expect("valid frame"));
+}
+
+#[test]
+fn reset_node_with_a_stored_set_takes_a_stage_per_process_and_boots_up_after_the_last() {
+    let mut b = interop();
+    change_parameters(&mut b);
+    assert_eq!(b.sdo_download(ID, 0x1010, 1, b"save"), Ok(()));
+    assert_eq!(b.sdo_download(ID, 0x2000, 0, &[0x55]), Ok(()));
+    deliver(&mut b, 10, 0x000, &[0x81, ID]);
+    assert!(b.node.resetting());
+    assert_eq!(b.node.state(), State::Initialising);
+    let mut stages = 0;
+    while b.node.resetting() {
+        // Each call before the last asks to be called again at once and sends nothing.
+        assert_eq!(b.node.transmit(), None, "nothing before the reset is complete (stage {stages})");
+        let deadline = b.node.process(ms(10));
+        stages += 1;
+        if b.node.resetting() {
+            assert_eq!(deadline, Some(ms(10)), "stage {stages}");
+            // The node is Initialising: an SDO request meanwhile is ignored, not answered.
+            let ignored = b.node.counters().ignored;
+            deliver(&mut b, 10, 0x604, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
+            assert_eq!(b.node.counters().ignored, ignored + 1, "stage {stages}");
+        }
+    }
+    // Find the stored set, the application part, the communication part, the services, RPDOs, TPDOs, the rest.
+    assert_eq!(stages, 7);
+    assert_eq!(b.node.transmit().map(|f| (f.cob_id(), f.data().to_vec())), Some((Some(0x704), vec![0x00])), "the boot-up, last");
+    assert_eq!(b.node.transmit(), None);
+    assert_eq!(b.node.state(), State::PreOperational);
+    assert!(is(parameters(&mut b), CHANGED), "both parts loaded from the stored set");
+}
+
+#[test]
+fn an_nmt_command_during_a_reset_is_ignored_as_while_initialising() {
+    let mut b = interop();
+    deliver(&mut b, 10, 0x000, &[0x82, ID]);
+    b.node.process(ms(10));
+    assert!(b.node.resetting());
+    // Start and reset node before the boot-up: the NMT state machine ignores both (CiA 301 §7.3.2.2.1).
+    deliver(&mut b, 10, 0x000, &[0x01, ID]);
+    deliver(&mut b, 10, 0x000, &[0x81, 0]);
+    assert!(b.node.resetting(), "the reset goes on");
+    assert_eq!(b.at(ms(10)), [boot_up()]);
+    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.at(ms(20)), [], "one reset, one boot-up");
 }

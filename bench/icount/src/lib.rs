@@ -84,10 +84,14 @@ impl Answer {
     }
 }
 
-/// Delivers a frame, runs the node's timers and collects what it sends.
+/// Delivers a frame, runs the node's timers (a reset to its end, a stage
+/// per call) and collects what it sends.
 pub fn exchange(node: &mut Dut, now: Instant, frame: &CanFrame) -> Answer {
     node.on_frame(now, frame);
     node.process(now);
+    while node.resetting() {
+        node.process(now);
+    }
     Answer::drain(node)
 }
 

@@ -18,6 +18,11 @@
 use canopen_core::frame::CanFrame;
 use canopen_core::storage::{Storage, StorageError};
 use canopen_core::time::Instant;
+// Linked into every image, the reference dictionaries' too: a board links
+// the firmware crate, and with it the small `memcpy`/`memclr` that replace
+// `compiler_builtins`' on the MCU (`firmware/src/boards/mem.rs`). Without a
+// use of the crate, an image without a device would not link it at all.
+use firmware as _;
 
 /// A CAN frame as the board's controller driver hands it over.
 #[repr(C)]
@@ -80,8 +85,10 @@ pub struct Board {
     pub node_id: u8,
 }
 
-/// [`Storage`] on the board's flash callbacks.
-pub struct BoardFlash(&'static Board);
+/// [`Storage`] on the board's flash callbacks: unattached (`None`, zero
+/// bits) in the node built at compile time, attached at power-on, as the
+/// firmware images' storage is (`firmware::image!`).
+pub struct BoardFlash(Option<&'static Board>);
 
 fn status(ok: bool) -> Result<(), StorageError> {
     if ok { Ok(()) } else { Err(StorageError::Failed) }
@@ -91,23 +98,29 @@ fn range(offset: usize, len: usize) -> Result<(u32, u32), StorageError> {
     Ok((u32::try_from(offset).map_err(|_| StorageError::OutOfRange)?, u32::try_from(len).map_err(|_| StorageError::OutOfRange)?))
 }
 
+impl BoardFlash {
+    fn board(&self) -> Result<&'static Board, StorageError> {
+        self.0.ok_or(StorageError::Failed)
+    }
+}
+
 impl Storage for BoardFlash {
     fn region_size(&self) -> usize {
-        self.0.flash_region_size as usize
+        self.0.map_or(0, |b| b.flash_region_size as usize)
     }
 
     fn read(&mut self, region: u8, offset: usize, buf: &mut [u8]) -> Result<(), StorageError> {
         let (offset, len) = range(offset, buf.len())?;
-        status((self.0.flash_read)(region, offset, buf.as_mut_ptr(), len))
+        status((self.board()?.flash_read)(region, offset, buf.as_mut_ptr(), len))
     }
 
     fn erase(&mut self, region: u8) -> Result<(), StorageError> {
-        status((self.0.flash_erase)(region))
+        status((self.board()?.flash_erase)(region))
     }
 
     fn write(&mut self, region: u8, offset: usize, data: &[u8]) -> Result<(), StorageError> {
         let (offset, len) = range(offset, data.len())?;
-        status((self.0.flash_write)(region, offset, data.as_ptr(), len))
+        status((self.board()?.flash_write)(region, offset, data.as_ptr(), len))
     }
 }
 
@@ -127,25 +140,23 @@ macro_rules! firmware {
         #[cfg(feature = $feature)]
         mod $name {
             use super::*;
-            use static_cell::StaticCell;
+            use static_cell::ConstStaticCell;
             use $od as od;
 
             type NodeT = od::Node<$app, BoardFlash>;
 
-            static NODE: StaticCell<NodeT> = StaticCell::new();
+            /// Built at compile time and all zero bits, so in `.bss`, as
+            /// the firmware images build theirs (`firmware::image!`).
+            static NODE: ConstStaticCell<NodeT> = ConstStaticCell::new(NodeT::unpowered(od::Ram::zeroed(), $new, BoardFlash(None)));
 
-            /// Power-on as the images do it (`firmware::image!`): the node
-            /// built in `NODE`, then powered on there. Out of line: building
-            /// it still takes a node-sized temporary on the stack, and
-            /// inlined into the loop that frame was the loop's, where every
-            /// stack access needed an extra instruction to reach past it
-            /// (1.7 KiB of code).
+            /// Power-on as the images do it (`firmware::image!`): the
+            /// storage attached, then the node powered on where it lies.
             #[inline(never)]
             fn init(board: &'static Board) -> &'static mut NodeT {
                 let now = Instant::from_micros((board.now)());
-                let id = board.node_id;
-                let node = NODE.init_with(|| NodeT::unpowered(od::Ram::zeroed(), $new, BoardFlash(board)));
-                node.power_on(id, now);
+                let node = NODE.take();
+                node.storage_mut().0 = Some(board);
+                node.power_on(board.node_id, now);
                 node
             }
 

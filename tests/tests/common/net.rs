@@ -69,7 +69,13 @@ where
         self.counters().ignored == ignored
     }
     fn process(&mut self, now: Instant) -> Option<Instant> {
-        Node::process(self, now)
+        // A reset goes on a stage per call, as the firmware's task steps it, until the boot-up is queued.
+        loop {
+            let deadline = Node::process(self, now);
+            if !self.resetting() {
+                return deadline;
+            }
+        }
     }
     fn transmit(&mut self) -> Option<CanFrame> {
         Node::transmit(self)

@@ -174,9 +174,11 @@ impl Ctx<'_> {
     /// object (a heartbeat time restarts the producer, a PDO parameter
     /// reconfigures the PDO). The device's own hooks do not run again for it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if index != 0x1010 && index != 0x1011 {
-            self.precheck(index, sub, data)?;
+        if index == 0x1010 || index == 0x1011 {
+            self.effects.written = true;
+            return self.store_command(index, sub, data);
         }
+        self.precheck(index, sub, data)?;
         self.route_write(index, sub, data)
     }
 

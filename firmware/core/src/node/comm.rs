@@ -48,6 +48,8 @@ pub struct Comm<const R: usize, const T: usize, const HB: usize> {
     pub pdos: Pdos<R, T>,
     /// PDO mappings that did not resolve at the last reset communication.
     pub mapping_errors: u32,
+    /// The RPDOs' mapping failed at this reset (their count stands for the TPDOs' too).
+    rpdo_mapping_failed: bool,
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB> {
@@ -69,10 +71,12 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             sync: SyncService::UNCONFIGURED,
             pdos: Pdos::unconfigured(),
             mapping_errors: 0,
+            rpdo_mapping_failed: false,
         }
     }
 
-    /// Reads every communication parameter again (after reset communication).
+    /// Reads every communication parameter but the PDOs' again (after reset
+    /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         self.emcy.reset();
         self.configure_emcy(dict, image);
@@ -81,14 +85,23 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             self.reconfigure(index, dict, image, node_id, now);
         }
         self.sync.configure(dict, image);
-        if self.pdos.configure(dict, image).is_err() {
-            // That PDO stays disabled; the count is visible to tools and tests.
-            self.mapping_errors = self.mapping_errors.saturating_add(1);
-        }
         for i in 0..HB {
             let value = dict.read_u32(image, 0x1016, (i + 1) as u8).unwrap_or(0);
             self.consumers.configure(i, value);
         }
+    }
+
+    /// Configures the RPDOs (`transmit` false) or the TPDOs from the image
+    /// (after reset communication: the RPDOs first). A mapping that does not
+    /// resolve leaves its PDO disabled and counts once per reset in
+    /// `mapping_errors`, for tools and tests.
+    pub fn configure_pdos(&mut self, dict: &Dictionary, image: &[u8], transmit: bool) {
+        let result = if transmit { self.pdos.configure_tpdos(dict, image) } else { self.pdos.configure_rpdos(dict, image) };
+        // The RPDOs' count stands for both halves.
+        if result.is_err() && !(transmit && self.rpdo_mapping_failed) {
+            self.mapping_errors = self.mapping_errors.saturating_add(1);
+        }
+        self.rpdo_mapping_failed = !transmit && result.is_err();
     }
 
     /// Applies 0x1014/0x1015.

@@ -34,6 +34,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         };
         let rtr = frame.is_remote_frame();
         let data = frame.data();
+        // A node resetting is Initialising, as CiA 301 has it until the
+        // boot-up: only NMT (whose state machine ignores every command then)
+        // and LSS reach it; anything else is ignored.
+        if self.resetting() && cob_id != NMT_COB_ID && cob_id != LSS_MASTER_COB_ID {
+            self.counters.ignored += 1;
+            return;
+        }
         // A device's own protocol sees every frame first, whatever the NMT state.
         if self.with_app(now, |app, ctx| app.on_frame(ctx, cob_id, rtr, data)) {
             return;
@@ -176,14 +183,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
+        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
         sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);
         // After the answer: the SDO sink has queued it.
         if effects.reset_node {
-            self.reset_application(now);
+            self.reset_application();
         }
     }
 

@@ -99,7 +99,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             && lss.pending_node_id() != lss.active_node_id();
         let action = lss.on_request(request);
         if leave_resets && action == LssAction::None {
-            self.reset_application(now);
+            self.reset_application();
             return;
         }
         match action {
@@ -123,9 +123,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             LssAction::Start(node_id) => {
                 self.node_id = node_id;
                 if A::OPTIONS.lss_start_resets_node {
-                    self.reset_application(now);
+                    self.reset_application();
                 } else {
-                    self.reset_communication(now);
+                    self.reset_communication();
                 }
             }
         }

@@ -153,6 +153,10 @@ pub struct Node<
     raw: app::RawBurst,
     /// The CAN controller's errors (`controller`).
     controller: controller::ControllerErrors,
+    /// The reset in progress, if any (`reset`).
+    reset: reset::Stage,
+    /// The newest stored set the reset in progress found.
+    reset_stored: Option<crate::services::store::StoredSet>,
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -200,6 +204,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             acceptance: filter::AcceptanceList::new(),
             raw: app::RawBurst::EMPTY,
             controller: controller::ControllerErrors::new(),
+            reset: reset::Stage::Idle,
+            reset_stored: None,
         }
     }
 
@@ -240,7 +246,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// service's rules and side effects, then [`Application::written`] with
     /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
     pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.with_app(now, |app, ctx| router::Router { ctx, app, by: Source::App }.write_with_hooks(index, sub, data))
+        self.with_app(now, |app, ctx| {
+            router::Router { ctx, app, by: Source::App, od: core::marker::PhantomData::<O> }.write_with_hooks(index, sub, data)
+        })
     }
 
     /// The CAN controller went bus-off (the board reports it): the device
@@ -254,6 +262,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // Inlined: for a hook the device leaves at its default, nothing of it remains.
     #[inline(always)]
     pub(super) fn with_app<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
+        let (value, error_class) = self.with_app_initialising(now, f);
+        if error_class != 0 {
+            self.device_error(error_class, now);
+        }
+        value
+    }
+
+    /// [`Node::with_app`] for a node resetting (Initialising), where a
+    /// device error changes no state: the 0x1029 class the hook reported
+    /// (0: none) is returned, not followed. The reset's stages use it, so
+    /// that no state change is reachable from them (the stack estimate
+    /// counts every call the code holds, taken or not).
+    #[inline(always)]
+    pub(super) fn with_app_initialising<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
         let Node { od, app, storage, comm, node_id, nmt, raw, .. } = self;
         let dict = od.dictionary();
         let mut ctx = Ctx {
@@ -272,10 +294,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let effects = ctx.effects;
         self.queue_raw();
         self.follow_sdo(effects);
-        if effects.error_class != 0 {
-            self.device_error(effects.error_class, now);
-        }
-        value
+        (value, effects.error_class)
     }
 
     /// Queues the device's raw frames, keeping [`RAW_RESERVE`] slots free; a

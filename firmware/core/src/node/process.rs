@@ -19,6 +19,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Runs timers and queued work; returns when it wants to be called again
     /// (earlier is harmless, later delays heartbeats and timeouts).
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        // A reset in progress goes on a stage per call; the call of its last
+        // stage goes on below. A device with CANopen off starts none (power-on
+        // completes its own), so for it this is left out.
+        if self.app.canopen() && self.resetting() {
+            self.reset_step(now);
+            if self.resetting() {
+                return Some(now);
+            }
+        }
         // The device's timers first: what they write goes out in this call's TPDOs.
         let app_deadline = self.with_app(now, |app, ctx| app.poll(ctx));
         if !self.app.canopen() {
@@ -63,7 +72,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // Idle servers have no timer and nothing to send: skip building the router for them.
         if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
-            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo };
+            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
                     let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx });

@@ -17,6 +17,32 @@ use super::{Application, NmtEvent, Node};
 /// First SDO server parameter object.
 const SDO_SERVER_PARAMETER: u16 = 0x1200;
 
+/// A reset in progress. NMT reset node and reset communication do their
+/// work a stage per [`Node::process`] call, so that no call does all of it
+/// (docs/firmware.md, "Longest step"); the node is Initialising until the
+/// last stage has queued the boot-up, as CiA 301 §7.3.2.2.1 asks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Stage {
+    /// No reset in progress (zero bits: the unpowered node's).
+    Idle,
+    /// Finds the newest stored set (a CRC over it), then resets the application.
+    FindThenApplication,
+    /// Finds the newest stored set, then resets communication.
+    FindThenCommunication,
+    /// The application part of the image: defaults, then the stored set.
+    Application,
+    /// The communication part of the image: defaults, then the stored set.
+    Communication,
+    /// The communication services but the PDOs configured from the image.
+    Services,
+    /// The RPDOs configured from the image.
+    Rpdos,
+    /// The TPDOs configured from the image.
+    Tpdos,
+    /// LSS, SDO servers and the acceptance list; then the boot-up is due.
+    Finish,
+}
+
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
@@ -33,7 +59,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // One check of the stored sets serves the LSS configuration and both parts of the reset.
         let stored = self.newest_stored();
         self.load_lss_configuration(stored);
-        self.reset_application_from(stored, now);
+        self.begin_reset(true);
+        self.reset_stored = stored;
+        self.reset = Stage::Application;
+        self.complete_reset(now);
     }
 
     /// Whether the node loads stored sets: the dictionary's 0x1010/0x1011
@@ -46,51 +75,125 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if Self::LOADS_STORED { store::newest(self.od.dictionary(), &mut self.storage) } else { None }
     }
 
-    pub(super) fn reset_application(&mut self, now: Instant) {
-        let stored = self.newest_stored();
-        self.reset_application_from(stored, now);
+    /// Starts reset application (and then communication): see [`Stage`].
+    pub(super) fn reset_application(&mut self) {
+        self.begin_reset(true);
     }
 
-    /// Reset application (and then communication) with the newest stored set already found.
-    pub(super) fn reset_application_from(&mut self, stored: Option<StoredSet>, now: Instant) {
+    /// Starts reset communication: see [`Stage`].
+    pub(super) fn reset_communication(&mut self) {
+        self.begin_reset(false);
+    }
+
+    /// The node is Initialising from here on; a reset that includes the
+    /// application stays one if a reset communication interrupts it.
+    fn begin_reset(&mut self, application: bool) {
+        let application = application || matches!(self.reset, Stage::FindThenApplication | Stage::Application);
+        self.reset = if application { Stage::FindThenApplication } else { Stage::FindThenCommunication };
+        self.nmt = Nmt::new();
+        self.boot_pending = false;
+        self.start_pending = false;
+    }
+
+    /// Whether a reset is in progress: [`Node::process`] carries it on, a
+    /// stage per call, and returns `now` as its deadline until it is done.
+    pub fn resetting(&self) -> bool {
+        self.reset != Stage::Idle
+    }
+
+    /// Runs a reset at once (power-on). A reset a frame started runs from
+    /// [`Node::process`] only: the device's reset hooks then run on its
+    /// stack path, not on a second one (the worst-case stack estimate adds
+    /// every path a device hook can start, docs/firmware.md "Stack").
+    fn complete_reset(&mut self, now: Instant) {
+        while self.reset != Stage::Idle {
+            self.reset_step(now);
+        }
+    }
+
+    /// One stage of the reset in progress. The next stage is set before the
+    /// device's hooks run, so a reset they ask for starts over cleanly.
+    /// The two stages with the device's reset hooks are functions of their
+    /// own: the hooks then run on a small frame, not on one holding every
+    /// stage's locals.
+    #[inline(never)]
+    pub(super) fn reset_step(&mut self, now: Instant) {
+        match self.reset {
+            Stage::Idle => {}
+            Stage::FindThenApplication | Stage::FindThenCommunication => {
+                self.reset = if self.reset == Stage::FindThenApplication { Stage::Application } else { Stage::Communication };
+                self.reset_stored = self.newest_stored();
+            }
+            Stage::Application => self.reset_application_part(now),
+            Stage::Communication => {
+                self.reset = Stage::Services;
+                // CiA 305: a node-id configured by LSS becomes active here.
+                if let Some(lss) = self.lss_mut() {
+                    self.node_id = lss.reset_communication();
+                }
+                let dict = self.od.dictionary();
+                let image = self.od.image_mut();
+                dict.reset_communication(image, self.node_id);
+                if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
+                    set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
+                }
+                if let Some(serial) = self.serial {
+                    let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
+                }
+            }
+            Stage::Services => {
+                self.reset = Stage::Rpdos;
+                let dict = self.od.dictionary();
+                self.comm.configure(dict, self.od.image(), self.node_id, now);
+            }
+            Stage::Rpdos => {
+                self.reset = Stage::Tpdos;
+                let dict = self.od.dictionary();
+                self.comm.configure_pdos(dict, self.od.image(), false);
+            }
+            Stage::Tpdos => {
+                self.reset = Stage::Finish;
+                let dict = self.od.dictionary();
+                self.comm.configure_pdos(dict, self.od.image(), true);
+                if A::OPTIONS.tpdo_254_timer_only {
+                    self.comm.pdos.set_timer_only_254(true);
+                }
+                self.controller.reset();
+                if A::OPTIONS.tpdo_255_timer_only_with_timer {
+                    self.comm.pdos.set_timer_only_255_with_timer(true);
+                }
+            }
+            Stage::Finish => self.reset_finish(now),
+        }
+    }
+
+    /// Reset application: the application part of the image from its
+    /// defaults and the stored set, then the device's hook.
+    #[inline(never)]
+    fn reset_application_part(&mut self, now: Instant) {
+        self.reset = Stage::Communication;
         let dict = self.od.dictionary();
         let image = self.od.image_mut();
         dict.reset_application(image, self.node_id);
-        if let Some(set) = stored.as_ref().filter(|_| Self::LOADS_STORED) {
+        if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
             set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
         }
-        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetApplication));
-        self.reset_communication_from(stored, now);
+        self.reset_hook(now, NmtEvent::ResetApplication);
     }
 
-    pub(super) fn reset_communication(&mut self, now: Instant) {
-        let stored = self.newest_stored();
-        self.reset_communication_from(stored, now);
+    /// The device hears of the reset (its hook: `Application::on_nmt`),
+    /// once for each part; a device error it reports changes no state while
+    /// the node is Initialising. One function for both parts: one hook context built.
+    #[inline(never)]
+    fn reset_hook(&mut self, now: Instant, event: NmtEvent) {
+        self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, event));
     }
 
-    /// Reset communication with the newest stored set already found.
-    pub(super) fn reset_communication_from(&mut self, stored: Option<StoredSet>, now: Instant) {
-        // CiA 305: a node-id configured by LSS becomes active here.
-        if let Some(lss) = self.lss_mut() {
-            self.node_id = lss.reset_communication();
-        }
-        let dict = self.od.dictionary();
-        let image = self.od.image_mut();
-        dict.reset_communication(image, self.node_id);
-        if let Some(set) = stored.as_ref().filter(|_| Self::LOADS_STORED) {
-            set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
-        }
-        if let Some(serial) = self.serial {
-            let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
-        }
-        self.comm.configure(dict, image, self.node_id, now);
-        if A::OPTIONS.tpdo_254_timer_only {
-            self.comm.pdos.set_timer_only_254(true);
-        }
-        self.controller.reset();
-        if A::OPTIONS.tpdo_255_timer_only_with_timer {
-            self.comm.pdos.set_timer_only_255_with_timer(true);
-        }
+    /// The end of reset communication: LSS, SDO servers, acceptance list,
+    /// NMT; the boot-up is due and the device hears of the reset.
+    #[inline(never)]
+    fn reset_finish(&mut self, now: Instant) {
+        self.reset = Stage::Idle;
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
@@ -99,7 +202,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
         self.start_pending = false;
-        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::ResetCommunication));
+        self.reset_hook(now, NmtEvent::ResetCommunication);
     }
 
     /// Reads the SDO server parameters 0x1200 + i sub 1 and 2 (reset

@@ -5,17 +5,20 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::{DataType, ObjectAccess};
+use crate::od::{DataType, ObjectAccess, ObjectDictionary};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
+use core::marker::PhantomData;
 
 use super::app::{Application, Ctx, Source};
 
 /// One SDO access (or application request) in flight: the device's hooks
 /// around the context's writes.
-pub(crate) struct Router<'c, 'a, A: Application> {
+pub(crate) struct Router<'c, 'a, A: Application, O: ObjectDictionary> {
     pub ctx: &'c mut Ctx<'a>,
     pub app: &'c mut A,
     pub by: Source,
+    /// The node's dictionary type: whether it links storage (`Services::storage`).
+    pub od: PhantomData<O>,
 }
 
 /// What accesses changed beyond the objects themselves, for the node to
@@ -56,6 +59,14 @@ pub(super) fn store_abort(e: StoreError) -> AbortCode {
 }
 
 impl Ctx<'_> {
+    /// 0x1010/0x1011 on a node whose dictionary links no storage
+    /// (`Services::storage` off while the dictionary lists the objects, as
+    /// the `ds301-lean` reference has it): nothing can be stored.
+    pub(super) fn no_store(&mut self, index: u16, sub: u8) -> Result<(), AbortCode> {
+        self.dict.find(index, sub)?;
+        Err(AbortCode::CannotStore)
+    }
+
     fn plain(&mut self) -> crate::od::DictionaryAccess<'_> {
         crate::od::DictionaryAccess { dictionary: self.dict, image: self.image }
     }
@@ -68,7 +79,7 @@ impl Ctx<'_> {
 
     /// 0x1010 / 0x1011: the signature triggers the command; the entry itself keeps
     /// its read-back value (the capability bits).
-    fn store_command(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    pub(super) fn store_command(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.dict.find(index, sub)?;
         let scope = Scope::from_sub(sub).ok_or(if sub == 0 { AbortCode::ReadOnly } else { AbortCode::CannotStore })?;
         let (signature, is_save) = if index == 0x1010 { (SAVE, true) } else { (LOAD, false) };
@@ -127,10 +138,11 @@ impl Ctx<'_> {
     }
 
     /// A checked write: the service that owns the object applies its rules.
+    /// Not 0x1010/0x1011: their callers choose whether the node stores
+    /// ([`Ctx::store_command`]), so that a node without storage links none of it.
     pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.effects.written = true;
         let result = match index {
-            0x1010 | 0x1011 => self.store_command(index, sub, data),
             0x1029 if sub > 0 => {
                 if matches!(data, [v] if *v > 2) {
                     return Err(AbortCode::InvalidValue);
@@ -154,7 +166,7 @@ impl Ctx<'_> {
     }
 }
 
-impl<A: Application> Router<'_, '_, A> {
+impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
     /// A complete write with the hooks: serve, the dictionary's checks,
     /// validate, the owner's rules, then react.
     pub(super) fn write_with_hooks(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -163,17 +175,23 @@ impl<A: Application> Router<'_, '_, A> {
             return r;
         }
         // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
-        if index != 0x1010 && index != 0x1011 {
+        let store = index == 0x1010 || index == 0x1011;
+        if !store {
             self.ctx.precheck(index, sub, data)?;
         }
         self.app.check_write(self.ctx, index, sub, data)?;
-        self.ctx.route_write(index, sub, data)?;
+        if store {
+            self.ctx.effects.written = true;
+            if O::SERVICES.storage { self.ctx.store_command(index, sub, data) } else { self.ctx.no_store(index, sub) }?;
+        } else {
+            self.ctx.route_write(index, sub, data)?;
+        }
         self.app.written(self.ctx, index, sub, self.by);
         Ok(())
     }
 }
 
-impl<A: Application> ObjectAccess for Router<'_, '_, A> {
+impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> {
     fn upload_size(&mut self, index: u16, sub: u8) -> Result<usize, AbortCode> {
         if let Some(r) = self.app.upload_size(self.ctx, index, sub) {
             return r;

@@ -18,8 +18,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         match self.nmt.on_command(request, self.node_id) {
             Transition::None => {}
             Transition::Entered(state) => self.entered(state, now),
-            Transition::ResetApplication => self.reset_application(now),
-            Transition::ResetCommunication => self.reset_communication(now),
+            Transition::ResetApplication => self.reset_application(),
+            Transition::ResetCommunication => self.reset_communication(),
         }
     }
 

@@ -189,13 +189,20 @@ pub struct StoredSet {
 /// Finds the newest valid set. Only the newer header's payload is checked
 /// when it is intact: an older set cannot win over it, valid or not.
 pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
-    let a = read_header(storage, 0, dict).map(|header| StoredSet { region: 0, header });
-    let b = read_header(storage, 1, dict).map(|header| StoredSet { region: 1, header });
-    let (first, second) = match (a, b) {
-        (Some(x), Some(y)) if y.header.seq.wrapping_sub(x.header.seq) as i32 > 0 => (Some(y), Some(x)),
-        (x, y) => (x.or(y), x.and(y)),
+    let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
+    // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
+    let one_first = match &headers {
+        [Some(a), Some(b)] => b.seq.wrapping_sub(a.seq) as i32 > 0,
+        [a, _] => a.is_none(),
     };
-    [first, second].into_iter().flatten().find(|set| payload_intact(storage, set.region, &set.header))
+    for region in if one_first { [1u8, 0] } else { [0, 1] } {
+        if let Some(header) = headers.get(usize::from(region)).copied().flatten()
+            && payload_intact(storage, region, &header)
+        {
+            return Some(StoredSet { region, header });
+        }
+    }
+    None
 }
 
 impl StoredSet {

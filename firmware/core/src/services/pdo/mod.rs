@@ -44,6 +44,26 @@ pub mod map;
 pub mod rpdo;
 pub mod tpdo;
 
+/// The mapping of PDO mapping record `index` as configured: `None` for a
+/// record the dictionary lacks (no PDO to speak of) or one that does not
+/// resolve, whose error is kept in `first_error` if it is the first.
+fn configured_mapping(
+    dict: &Dictionary,
+    image: &[u8],
+    index: u16,
+    direction: Direction,
+    first_error: &mut Option<MappingError>,
+) -> Option<Mapping> {
+    match Mapping::read(dict, image, index, direction) {
+        Ok(m) => Some(m),
+        Err(AbortCode::NoObject) if object(dict, index).is_empty() => None,
+        Err(code) => {
+            first_error.get_or_insert(MappingError { index, code });
+            None
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests;
 
@@ -304,35 +324,43 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The PDOs stop until [`Pdos::enter_operational`]. `Err` names the first
     /// mapping that did not resolve; every PDO is configured either way.
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8]) -> Result<(), MappingError> {
+        let receive = self.configure_rpdos(dict, image);
+        let transmit = self.configure_tpdos(dict, image);
+        receive.and(transmit)
+    }
+
+    /// The RPDO half of [`Pdos::configure`] (a reset does the halves in
+    /// separate steps, RPDOs first): the PDOs leave Operational too.
+    pub fn configure_rpdos(&mut self, dict: &Dictionary, image: &[u8]) -> Result<(), MappingError> {
         self.settled = false;
         let mut first_error = None;
-        let mut mapping = |index: u16, direction| match Mapping::read(dict, image, index, direction) {
-            Ok(m) => Some(m),
-            // A mapping record that does not exist: no PDO to speak of.
-            Err(AbortCode::NoObject) if object(dict, index).is_empty() => None,
-            Err(code) => {
-                first_error.get_or_insert(MappingError { index, code });
-                None
-            }
-        };
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
             // Reset communication also resets the node's errors: nothing is raised any more.
             *rpdo = Rpdo::default();
-            rpdo.set(CommParams::read(dict, image, RPDO_COMM + n), mapping(RPDO_MAP + n, Direction::Receive));
+            let mapping = configured_mapping(dict, image, RPDO_MAP + n, Direction::Receive, &mut first_error);
+            rpdo.set(CommParams::read(dict, image, RPDO_COMM + n), mapping);
             rpdo.cob_id_writable = cob_id_writable(dict, RPDO_COMM + n);
         }
+        self.window_end = None;
+        self.operational = false;
+        self.refresh_rx_ids();
+        first_error.map_or(Ok(()), Err)
+    }
+
+    /// The TPDO half of [`Pdos::configure`].
+    pub fn configure_tpdos(&mut self, dict: &Dictionary, image: &[u8]) -> Result<(), MappingError> {
+        self.settled = false;
+        let mut first_error = None;
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
             // Change detection is the application's choice and survives.
             let (change_detection, timer_only) = (tpdo.change_detection(), tpdo.timer_only_254);
             *tpdo = Tpdo::default();
             tpdo.set_change_detection(change_detection);
             tpdo.timer_only_254 = timer_only;
-            tpdo.set(CommParams::read(dict, image, TPDO_COMM + n), mapping(TPDO_MAP + n, Direction::Transmit));
+            let mapping = configured_mapping(dict, image, TPDO_MAP + n, Direction::Transmit, &mut first_error);
+            tpdo.set(CommParams::read(dict, image, TPDO_COMM + n), mapping);
             tpdo.cob_id_writable = cob_id_writable(dict, TPDO_COMM + n);
         }
-        self.window_end = None;
-        self.operational = false;
-        self.refresh_rx_ids();
         first_error.map_or(Ok(()), Err)
     }
 
