@@ -193,6 +193,7 @@ impl Ctx<'_> {
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
     /// error was already active or there is no room).
     pub fn raise_error(&mut self, code: u16, info: [u8; 5]) -> bool {
+        self.effects.services = true;
         self.services.emcy().raise(code, info)
     }
 
@@ -214,6 +215,7 @@ impl Ctx<'_> {
 
     /// Clears an error; the last one cleared sends "error reset".
     pub fn clear_error(&mut self, code: u16) {
+        self.effects.services = true;
         self.services.emcy().clear(code);
     }
 

@@ -5,6 +5,7 @@ use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
 use crate::services::nmt::State;
+use crate::services::pdo::ALL_TPDOS;
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -43,6 +44,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if cob_id == LSS_MASTER_COB_ID && self.lss_on() && !rtr {
+            self.stale = true;
             self.lss_request(now, data);
             return;
         }
@@ -51,6 +53,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if cob_id == NMT_COB_ID {
+            self.stale = true;
             match NmtRequest::parse(data) {
                 Ok(request) if !rtr => {
                     // A master's command comes before the node's own start.
@@ -68,6 +71,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if cob_id == ERROR_CONTROL_BASE + u16::from(self.node_id) {
             if O::SERVICES.guarding && rtr && !self.comm.heartbeat.active() {
+                self.stale = true;
                 let expired = self.comm.guarding.is_expired();
                 let byte = self.comm.guarding.on_request(state.reported(), now);
                 self.push(cob_id, &[byte]);
@@ -80,6 +84,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if (ERROR_CONTROL_BASE + 1..=ERROR_CONTROL_BASE + 0x7F).contains(&cob_id) && !rtr {
+            self.stale = true;
             match data {
                 [b] => match NmtState::from_code(*b) {
                     Some(s) => {
@@ -93,6 +98,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             return;
         }
+        // A received SYNC moves no deadline of the node's own (its errors
+        // queue an EMCY, which the next process sends).
         if state.sdo_allowed() && cob_id == self.comm.sync.cob_id() && !rtr {
             match self.comm.sync.on_frame(now, data) {
                 Ok(event) => self.synchronise(now, &event),
@@ -114,7 +121,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             };
             let (received, timeouts) = (sink.received, sink.timeouts);
             if matched {
-                self.touched = true;
+                // Only the TPDOs these RPDOs write to look for a change (an
+                // RTR may have left its TPDO waiting to retry).
+                self.touched |= self.comm.pdos.reached_by(received);
                 self.pdo_events(now, received, timeouts);
                 return;
             }
@@ -129,6 +138,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 return;
             }
             if O::SERVICES.time && Some(cob_id) == self.comm.time_cob_id && !rtr {
+                self.stale = true;
                 match TimeOfDay::parse(data) {
                     Some(t) => self.with_app(now, |app, ctx| app.on_time(ctx, t)),
                     None => self.counters.malformed += 1,
@@ -142,7 +152,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
     /// The device samples first, so the synchronous TPDOs carry its values.
     pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
-        self.touched = true;
         self.with_app(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
@@ -150,6 +159,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let mut sink = PdoSink::new(txq, &mut comm.emcy);
             comm.pdos.on_sync(event, dict, od.image_mut(), &mut sink);
             let (received, timeouts) = (sink.received, sink.timeouts);
+            // The synchronous RPDOs' objects, and the TPDOs left to retry.
+            self.touched |= self.comm.pdos.reached_by(received);
             self.pdo_events(now, received, timeouts);
         }
     }
@@ -215,7 +226,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// request, or from a server's timers in `process`).
     #[inline(always)]
     pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
-        self.touched |= effects.written;
+        if effects.written {
+            self.touched = ALL_TPDOS;
+        } else if effects.wrote.1 != 0 {
+            let (offset, len) = effects.wrote;
+            self.touched |= self.comm.pdos.tpdos_mapping(offset, len) | self.comm.pdos.retrying();
+        }
+        self.stale |= effects.services;
         if effects.sdo_changed {
             self.configure_sdo();
         }

@@ -8,6 +8,7 @@ use crate::id::CobId;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
 use crate::services::nmt::Nmt;
+use crate::services::pdo::ALL_TPDOS;
 use crate::services::store::{self, Part, StoredSet};
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -29,7 +30,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn power_on(&mut self, node_id: u8, now: Instant) {
         self.node_id = node_id;
         // The TPDOs compare their data at their first chance, whatever the image held before.
-        self.touched = true;
+        self.touched = ALL_TPDOS;
         // One check of the stored sets serves the LSS configuration and both parts of the reset.
         let stored = self.newest_stored();
         self.load_lss_configuration(stored);
@@ -70,6 +71,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Reset communication with the newest stored set already found.
     pub(super) fn reset_communication_from(&mut self, stored: Option<StoredSet>, now: Instant) {
+        self.stale = true;
+        self.touched = ALL_TPDOS;
         // CiA 305: a node-id configured by LSS becomes active here.
         if let Some(lss) = self.lss_mut() {
             self.node_id = lss.reset_communication();

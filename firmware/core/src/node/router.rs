@@ -28,10 +28,18 @@ pub(crate) struct SdoEffects {
     /// the node rebuilds its acceptance list (not after every SDO request,
     /// which would cost more than the request itself).
     pub consumed_changed: bool,
-    /// A write was attempted (it may have changed the image even if it
-    /// failed): the TPDOs look for changed data at the next process, which
-    /// an upload alone does not need.
+    /// A write was attempted that may have changed any part of the image
+    /// (even if it failed): every TPDO looks for changed data at the next
+    /// process, which an upload alone does not need.
     pub written: bool,
+    /// The image bytes (offset, length) the one plain write of an object
+    /// changed (length 0: none): only the TPDOs mapping them look for
+    /// changed data.
+    pub wrote: (u16, u16),
+    /// A hook or a write changed a service beyond the dictionary (an error
+    /// raised or cleared, a communication object written): the next
+    /// process runs every service.
+    pub services: bool,
     /// A device error of this 0x1029 sub-index (0: none) occurred: the node
     /// applies the error behaviour.
     pub error_class: u8,
@@ -128,7 +136,11 @@ impl Ctx<'_> {
 
     /// A checked write: the service that owns the object applies its rules.
     pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if index >= 0x2000 {
+            return self.write_plain(index, sub, data);
+        }
         self.effects.written = true;
+        self.effects.services = true;
         let result = match index {
             0x1010 | 0x1011 => self.store_command(index, sub, data),
             0x1029 if sub > 0 => {
@@ -151,6 +163,21 @@ impl Ctx<'_> {
             self.effects.consumed_changed = true;
         }
         result
+    }
+}
+
+impl Ctx<'_> {
+    /// A write no service owns (an application or profile object): the
+    /// dictionary's own, remembering which bytes changed.
+    fn write_plain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let entry = self.dict.write_entry(self.image, index, sub, data)?;
+        if self.effects.wrote.1 == 0 {
+            self.effects.wrote = (entry.offset, entry.len);
+        } else {
+            // A second write in one access: any TPDO may look.
+            self.effects.written = true;
+        }
+        Ok(())
     }
 }
 

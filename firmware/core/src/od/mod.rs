@@ -220,13 +220,18 @@ impl Dictionary {
     /// Writes a value as an SDO download would: access, length and limits are
     /// checked before any byte changes.
     pub fn write(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
+        self.write_entry(image, index, sub, data).map(|_| ())
+    }
+
+    /// [`Dictionary::write`], returning the entry written.
+    pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, OdError> {
         let entry = self.find(index, sub)?;
         self.check_write(entry, data)?;
         let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
         let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
         head.copy_from_slice(data.get(..head.len()).unwrap_or(&[]));
         tail.fill(0);
-        Ok(())
+        Ok(entry)
     }
 
     /// The checks of [`Dictionary::write`] before any byte changes: access,

@@ -263,7 +263,17 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// method that may change a PDO clears `settled`.
     settled_deadline: Option<Instant>,
     settled: bool,
+    /// Bit t of entry n: RPDO n writes an object event-driven TPDO t maps,
+    /// worked out whenever a mapping or a type changes, so that an RPDO
+    /// only makes the TPDOs it can change look for a change.
+    rpdo_reach: [u32; R],
+    /// Bit t: TPDO t waits to retry a frame the queue refused (blocked, or
+    /// a synchronous frame pending), as of the last poll or SYNC.
+    retry: u32,
 }
+
+/// All TPDOs (a mask of [`Pdos::poll_changed`]).
+pub const ALL_TPDOS: u32 = u32::MAX;
 
 /// `rx_ids` entry of an RPDO that listens to nothing (not a valid 11-bit id).
 const NO_ID: u16 = u16::MAX;
@@ -278,6 +288,8 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             operational: false,
             settled_deadline: None,
             settled: false,
+            rpdo_reach: [ALL_TPDOS; R],
+            retry: 0,
         }
     }
 }
@@ -297,6 +309,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             operational: false,
             settled_deadline: None,
             settled: false,
+            rpdo_reach: [0; R],
+            retry: 0,
         }
     }
 
@@ -382,6 +396,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.window_end = None;
         self.rpdos.iter_mut().for_each(Rpdo::restart);
         self.tpdos.iter_mut().for_each(|t| t.restart(Some(now)));
+        self.retry = 0;
     }
 
     /// NMT left Operational: the PDOs stop; frames, RTRs and SYNCs are ignored.
@@ -409,7 +424,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// if that TPDO is not valid or of another type. Call [`Pdos::poll`] after.
     pub fn trigger(&mut self, n: usize) -> bool {
         self.settled = false;
-        self.tpdos.get_mut(n).is_some_and(Tpdo::trigger)
+        let triggered = self.tpdos.get_mut(n).is_some_and(Tpdo::trigger);
+        self.retry = retry_mask(&self.tpdos);
+        triggered
     }
 
     /// Turns change-of-state detection of TPDO `n` on or off (on by default).
@@ -455,6 +472,38 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
+        for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
+            let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
+            *reach = slots.iter().fold(0, |mask, slot| match slot.source {
+                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, offset, u16::from(slot.len)),
+                _ => mask,
+            });
+        }
+        self.retry = retry_mask(&self.tpdos);
+    }
+
+    /// The event-driven TPDOs that map any byte of `len` image bytes at
+    /// `offset` (what a write there may change).
+    pub fn tpdos_mapping(&self, offset: u16, len: u16) -> u32 {
+        tpdos_mapping(&self.tpdos, offset, len)
+    }
+
+    /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
+    /// to, and the TPDOs waiting to retry: those a [`Pdos::poll_changed`]
+    /// after those RPDOs must look at.
+    pub fn reached_by(&self, rpdos: u32) -> u32 {
+        let mut mask = self.retry;
+        let mut bits = rpdos;
+        while bits != 0 {
+            mask |= self.rpdo_reach.get(bits.trailing_zeros() as usize).copied().unwrap_or(ALL_TPDOS);
+            bits &= bits - 1;
+        }
+        mask
+    }
+
+    /// The TPDOs waiting to retry a refused frame.
+    pub fn retrying(&self) -> u32 {
+        self.retry
     }
 
     fn write_parameter(
@@ -532,8 +581,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let window_open = self.window_end.is_none_or(|end| now <= end);
         let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
         let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
-        self.settled = false;
         rpdo.on_frame(n, now, data, window_open, image, out);
+        // Only this RPDO's timeout moved, and only later (or it started):
+        // the settled deadline stays good, or early, which is harmless.
+        self.settled_deadline = earliest(self.settled_deadline, rpdo.deadline());
         true
     }
 
@@ -545,7 +596,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
         self.settled = false;
-        tpdo.on_rtr(now, dict, image, tx)
+        let answered = tpdo.on_rtr(now, dict, image, tx);
+        self.retry = retry_mask(&self.tpdos);
+        answered
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then
@@ -554,20 +607,33 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return;
         }
-        self.settled = false;
+        // No deadline moves: synchronous TPDOs have none, and a refused
+        // frame is retried through `retry`.
         self.window_end = sync.window_end;
         for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
             rpdo.on_sync(n, image, tx);
         }
-        for tpdo in self.tpdos.iter_mut() {
+        let mut retry = 0;
+        for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
             tpdo.on_sync(sync, dict, image, tx);
+            if tpdo.retrying() {
+                retry |= 1u32.checked_shl(t as u32).unwrap_or(0);
+            }
         }
+        self.retry = retry;
     }
 
     /// Runs the timers (event timers, inhibit times, RPDO deadlines), change
     /// detection and retries; returns the next deadline. Call it when that
     /// deadline is reached and after the application changed mapped objects.
     pub fn poll(&mut self, now: Instant, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+        self.poll_changed(now, ALL_TPDOS, dict, image, tx)
+    }
+
+    /// [`Pdos::poll`] where only the TPDOs of `changed` (bit t: TPDO t;
+    /// TPDOs past 31 always) may see changed data: the others are looked
+    /// at only when a timer of theirs is due or they wait to retry.
+    pub fn poll_changed(&mut self, now: Instant, changed: u32, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
         if !self.operational {
             return None;
         }
@@ -575,9 +641,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdo.poll(n, now, tx);
         }
         let window_end = self.window_end;
-        for tpdo in self.tpdos.iter_mut() {
-            tpdo.poll(now, window_end, dict, image, tx);
+        let mut retry = 0;
+        for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
+            let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
+            if changed & bit != 0 || bit == 0 || tpdo.due(now) {
+                tpdo.poll(now, window_end, dict, image, tx);
+            }
+            if tpdo.retrying() {
+                retry |= bit;
+            }
         }
+        self.retry = retry;
         self.settled = false;
         self.settled_deadline = self.deadline();
         self.settled = true;
@@ -596,6 +670,24 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let rpdos = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
         self.tpdos.iter().fold(rpdos, |d, t| earliest(d, t.deadline()))
     }
+}
+
+/// [`Pdos::tpdos_mapping`] (a free function: it runs while the RPDOs are borrowed).
+fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
+    let (start, end) = (u32::from(offset), u32::from(offset) + u32::from(len));
+    let mut mask = 0;
+    for (t, tpdo) in tpdos.iter().enumerate() {
+        if tpdo.maps_any(start, end) {
+            mask |= 1u32.checked_shl(t as u32).unwrap_or(0);
+        }
+    }
+    // TPDOs past 31 have no bit: they are always looked at.
+    if tpdos.len() > 32 { mask | ALL_TPDOS } else { mask }
+}
+
+/// Bit t: TPDO t waits to retry.
+fn retry_mask(tpdos: &[Tpdo]) -> u32 {
+    tpdos.iter().enumerate().fold(0, |mask, (t, tpdo)| if tpdo.retrying() { mask | 1u32.checked_shl(t as u32).unwrap_or(0) } else { mask })
 }
 
 /// Whether sub 1 of a communication record can be written at all.

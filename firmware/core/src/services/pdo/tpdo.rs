@@ -303,6 +303,27 @@ impl Tpdo {
 
     /// The next time [`Tpdo::poll`] has work: the event timer, or the end of
     /// the inhibit time of a pending event. `Instant::ZERO` means "now".
+    /// Whether a frame the queue refused waits to be retried.
+    pub(super) fn retrying(&self) -> bool {
+        self.blocked || self.pending_sync.is_some()
+    }
+
+    /// Whether [`Tpdo::poll`] has work at `now` without a change of the
+    /// mapped data: a timer due, or a retry.
+    pub(super) fn due(&self, now: Instant) -> bool {
+        self.retrying() || self.deadline().is_some_and(|d| d <= now)
+    }
+
+    /// Whether this TPDO is event-driven (it looks for changes) and maps an
+    /// image byte in `start..end`.
+    pub(super) fn maps_any(&self, start: u32, end: u32) -> bool {
+        let Some(mapping) = self.mapping.as_ref().filter(|_| self.is_event_driven()) else { return false };
+        mapping.slots().iter().any(|slot| match slot.source {
+            super::map::Source::Ram(offset) => u32::from(offset) < end && start < u32::from(offset) + u32::from(slot.len),
+            _ => false,
+        })
+    }
+
     pub(super) fn deadline(&self) -> Option<Instant> {
         self.cob_id()?;
         if !self.is_event_driven() {
