@@ -5,6 +5,7 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
+use crate::od::access::{copy_small, upload_value};
 use crate::od::{DataType, ObjectAccess};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 
@@ -213,6 +214,27 @@ impl<A: Application> ObjectAccess for Router<'_, '_, A> {
             return r;
         }
         self.ctx.plain().read(index, sub, offset, buf)
+    }
+
+    fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
+        // The hooks in the order upload_size, read would call them; the
+        // plain tables looked up once for both.
+        let (size, entry) = match self.app.upload_size(self.ctx, index, sub) {
+            Some(r) => (r?, None),
+            None => {
+                let entry = self.ctx.dict.find(index, sub)?;
+                (upload_value(self.ctx.dict, self.ctx.image, entry)?.len(), Some(entry))
+            }
+        };
+        let Some(dst) = buf.get_mut(..size).filter(|_| size != 0) else { return Ok(size) };
+        if let Some(r) = self.app.read(self.ctx, index, sub, 0, dst) {
+            r?;
+        } else if let Some(entry) = entry {
+            copy_small(buf, upload_value(self.ctx.dict, self.ctx.image, entry)?);
+        } else {
+            self.ctx.plain().read(index, sub, 0, dst)?;
+        }
+        Ok(size)
     }
 
     fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {

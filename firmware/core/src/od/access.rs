@@ -19,6 +19,18 @@ pub trait ObjectAccess {
     /// returns how many were copied (fewer at the end of the value).
     fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode>;
 
+    /// The size of (index, sub), and its value in `buf` when it has 1 to
+    /// 4 bytes (an expedited upload): what [`ObjectAccess::upload_size`]
+    /// and [`ObjectAccess::read`] say, with one dictionary look-up where
+    /// an implementation can.
+    fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
+        let size = self.upload_size(index, sub)?;
+        if let Some(dst) = buf.get_mut(..size).filter(|_| size != 0) {
+            self.read(index, sub, 0, dst)?;
+        }
+        Ok(size)
+    }
+
     /// Checks before a download starts that (index, sub) exists, is writable,
     /// and, when the client announced it, that `size` fits the entry.
     fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode>;
@@ -27,7 +39,7 @@ pub trait ObjectAccess {
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
 }
 
-use super::{DataType, Dictionary, OdError};
+use super::{DataType, Dictionary, Entry, OdError};
 
 /// [`ObjectAccess`] straight onto a generated dictionary and its RAM image,
 /// with the checks CiA 301 asks of every entry and no side effects.
@@ -42,11 +54,28 @@ pub struct DictionaryAccess<'a> {
 impl DictionaryAccess<'_> {
     fn value(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
         let entry = self.dictionary.find(index, sub)?;
-        if entry.data_type == DataType::Domain {
-            // A DOMAIN's bytes belong to the application; the plain tables have none.
-            return if entry.readable() { Err(AbortCode::NoData) } else { Err(AbortCode::WriteOnly) };
-        }
-        Ok(self.dictionary.read(self.image, index, sub)?)
+        upload_value(self.dictionary, self.image, entry)
+    }
+}
+
+/// What an SDO upload of `entry` reads from the plain tables.
+pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
+    if entry.data_type == DataType::Domain {
+        // A DOMAIN's bytes belong to the application; the plain tables have none.
+        return if entry.readable() { Err(AbortCode::NoData) } else { Err(AbortCode::WriteOnly) };
+    }
+    if !entry.readable() {
+        return Err(AbortCode::WriteOnly);
+    }
+    let value = dictionary.value(image, entry);
+    Ok(if entry.data_type == DataType::VisibleString { super::until_nul(value) } else { value })
+}
+
+/// Copies `src` into the front of `dst` (at most 4 bytes), byte by byte:
+/// no `memcpy` call for a handful of bytes.
+pub(crate) fn copy_small(dst: &mut [u8; 4], src: &[u8]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d = *s;
     }
 }
 

@@ -13,7 +13,7 @@
 //! Nothing here panics on any input: every slice access is checked and a
 //! malformed request becomes an [`OdError`] that names its SDO abort code.
 
-mod access;
+pub(crate) mod access;
 mod entry;
 mod types;
 mod value;
@@ -385,7 +385,7 @@ pub fn load_str(image: &[u8], offset: usize, len: usize) -> &[u8] {
     until_nul(image.get(offset..offset + len).unwrap_or(&[]))
 }
 
-fn until_nul(s: &[u8]) -> &[u8] {
+pub(crate) fn until_nul(s: &[u8]) -> &[u8] {
     let used = s.iter().position(|&b| b == 0).unwrap_or(s.len());
     s.get(..used).unwrap_or(s)
 }
