@@ -77,13 +77,16 @@ impl<const N: usize> TxQueue<N> {
         *free = frame;
         self.used |= 1 << slot;
         let key = frame.priority();
+        // The new frame stays behind queued frames up to `limit`: its equals
+        // too, unless it goes ahead of them.
+        let limit = if ahead { key.checked_sub(1) } else { Some(key) };
         // One insertion step from the tail: queued frames that leave after
         // the new one move back by one.
         let mut at = (self.head + self.len) & (N - 1);
         for _ in 0..self.len {
             let before = at.wrapping_sub(1) & (N - 1);
             let (Some(&k), Some(&o)) = (self.keys.get(before), self.order.get(before)) else { break };
-            if k < key || (!ahead && k == key) {
+            if limit.is_some_and(|l| k <= l) {
                 break;
             }
             if let (Some(kk), Some(oo)) = (self.keys.get_mut(at), self.order.get_mut(at)) {

@@ -198,6 +198,27 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
+    /// Which TPDOs look for changed data after the writes of `effects`,
+    /// whether the next process runs every service, and the SDO servers
+    /// and the acceptance list read again where their objects changed.
+    // Out of line: `with_app` is inlined at every hook call.
+    #[inline(never)]
+    fn follow_writes(&mut self, effects: SdoEffects) {
+        if effects.written {
+            self.touched = ALL_TPDOS;
+        } else if effects.wrote.1 != 0 {
+            let (offset, len) = effects.wrote;
+            self.touched |= self.comm.pdos.tpdos_mapping(offset, len) | self.comm.pdos.retrying();
+        }
+        self.stale |= effects.services;
+        if effects.sdo_changed {
+            self.configure_sdo();
+        }
+        if effects.consumed_changed {
+            self.refresh_acceptance();
+        }
+    }
+
     /// The SDO servers with what they need: the hooks and their context,
     /// and beside them the transmit queue and the servers' COB-IDs.
     #[allow(clippy::type_complexity)]
@@ -226,18 +247,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// request, or from a server's timers in `process`).
     #[inline(always)]
     pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
-        if effects.written {
-            self.touched = ALL_TPDOS;
-        } else if effects.wrote.1 != 0 {
-            let (offset, len) = effects.wrote;
-            self.touched |= self.comm.pdos.tpdos_mapping(offset, len) | self.comm.pdos.retrying();
-        }
-        self.stale |= effects.services;
-        if effects.sdo_changed {
-            self.configure_sdo();
-        }
-        if effects.consumed_changed {
-            self.refresh_acceptance();
+        if effects.written || effects.wrote.1 != 0 || effects.services || effects.sdo_changed || effects.consumed_changed {
+            self.follow_writes(effects);
         }
     }
 }

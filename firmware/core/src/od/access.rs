@@ -58,6 +58,17 @@ impl DictionaryAccess<'_> {
     }
 }
 
+/// Copies what fits of `src` into `buf`; returns the bytes copied. A byte
+/// loop: an SDO read moves at most 7 bytes, less than a `memcpy` call costs.
+pub(crate) fn copy_from(buf: &mut [u8], src: &[u8]) -> usize {
+    let mut n = 0;
+    for (d, s) in buf.iter_mut().zip(src) {
+        *d = *s;
+        n += 1;
+    }
+    n
+}
+
 /// What an SDO upload of `entry` reads from the plain tables.
 pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
     if entry.data_type == DataType::Domain {
@@ -71,14 +82,6 @@ pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: 
     Ok(if entry.data_type == DataType::VisibleString { super::until_nul(value) } else { value })
 }
 
-/// Copies `src` into the front of `dst` (at most 4 bytes), byte by byte:
-/// no `memcpy` call for a handful of bytes.
-pub(crate) fn copy_small(dst: &mut [u8; 4], src: &[u8]) {
-    for (d, s) in dst.iter_mut().zip(src) {
-        *d = *s;
-    }
-}
-
 impl ObjectAccess for DictionaryAccess<'_> {
     fn upload_size(&mut self, index: u16, sub: u8) -> Result<usize, AbortCode> {
         self.value(index, sub).map(<[u8]>::len)
@@ -86,12 +89,7 @@ impl ObjectAccess for DictionaryAccess<'_> {
 
     fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
         let value = self.value(index, sub)?;
-        let rest = value.get(offset..).unwrap_or(&[]);
-        let n = rest.len().min(buf.len());
-        if let (Some(dst), Some(src)) = (buf.get_mut(..n), rest.get(..n)) {
-            dst.copy_from_slice(src);
-        }
-        Ok(n)
+        Ok(copy_from(buf, value.get(offset..).unwrap_or(&[])))
     }
 
     fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {

@@ -424,9 +424,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// if that TPDO is not valid or of another type. Call [`Pdos::poll`] after.
     pub fn trigger(&mut self, n: usize) -> bool {
         self.settled = false;
-        let triggered = self.tpdos.get_mut(n).is_some_and(Tpdo::trigger);
-        self.retry = retry_mask(&self.tpdos);
-        triggered
+        // A retry bit left set only makes the next poll look at the TPDO.
+        self.tpdos.get_mut(n).is_some_and(Tpdo::trigger)
     }
 
     /// Turns change-of-state detection of TPDO `n` on or off (on by default).
@@ -491,6 +490,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
     /// to, and the TPDOs waiting to retry: those a [`Pdos::poll_changed`]
     /// after those RPDOs must look at.
+    #[inline(never)]
     pub fn reached_by(&self, rpdos: u32) -> u32 {
         let mut mask = self.retry;
         let mut bits = rpdos;
@@ -584,7 +584,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         rpdo.on_frame(n, now, data, window_open, image, out);
         // Only this RPDO's timeout moved, and only later (or it started):
         // the settled deadline stays good, or early, which is harmless.
-        self.settled_deadline = earliest(self.settled_deadline, rpdo.deadline());
+        self.settled_deadline = earliest(self.settled_deadline, rpdo.timeout_at());
         true
     }
 
@@ -594,10 +594,13 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return false;
         }
-        let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
+        let Some(t) = self.tpdos.iter().position(|t| t.cob_id() == Some(cob_id)) else { return false };
+        let Some(tpdo) = self.tpdos.get_mut(t) else { return false };
         self.settled = false;
         let answered = tpdo.on_rtr(now, dict, image, tx);
-        self.retry = retry_mask(&self.tpdos);
+        if tpdo.retrying() {
+            self.retry |= 1u32.checked_shl(t as u32).unwrap_or(0);
+        }
         answered
     }
 
@@ -673,6 +676,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 }
 
 /// [`Pdos::tpdos_mapping`] (a free function: it runs while the RPDOs are borrowed).
+#[inline(never)]
 fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
     let (start, end) = (u32::from(offset), u32::from(offset) + u32::from(len));
     let mut mask = 0;
@@ -686,6 +690,7 @@ fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
 }
 
 /// Bit t: TPDO t waits to retry.
+#[inline(never)]
 fn retry_mask(tpdos: &[Tpdo]) -> u32 {
     tpdos.iter().enumerate().fold(0, |mask, (t, tpdo)| if tpdo.retrying() { mask | 1u32.checked_shl(t as u32).unwrap_or(0) } else { mask })
 }
