@@ -8,7 +8,7 @@ use crate::services::nmt::State;
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::{Instant, earliest};
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtState};
 use crate::wire::time_stamp::TimeOfDay;
@@ -108,14 +108,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     self.comm.emcy.signal(e.emcy_code(), [0; 5]);
                 }
             }
+            self.quiet &= !self.comm.emcy.has_queued();
             return;
         }
         if state.pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
-            let dict = od.dictionary();
             let mut sink = PdoSink::new(txq, &mut comm.emcy);
             let matched = if rtr {
-                comm.pdos.on_rtr(now, cob_id, dict, od.image(), &mut sink)
+                comm.pdos.on_rtr(now, cob_id, od.image(), &mut sink)
             } else {
                 comm.pdos.on_frame(now, cob_id, data, od.image_mut(), &mut sink)
             };
@@ -124,6 +124,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 // Only the TPDOs these RPDOs write to look for a change (an
                 // RTR may have left its TPDO waiting to retry).
                 self.touched |= self.comm.pdos.reached_by(received);
+                // A timer started (or an RTR changed a TPDO), or an error was signalled.
+                match self.comm.pdos.settled() {
+                    Some(deadline) => self.next = earliest(self.next, deadline),
+                    None => self.quiet = false,
+                }
+                self.quiet &= !self.comm.emcy.has_queued();
                 self.pdo_events(now, received, timeouts);
                 return;
             }
@@ -135,6 +141,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 && !rtr
             {
                 self.sdo_request(i, now, data, tx);
+                // A transfer goes on, or an answer waits for room in the queue.
+                self.quiet &= self.sdo.is_idle(i);
                 return;
             }
             if O::SERVICES.time && Some(cob_id) == self.comm.time_cob_id && !rtr {
@@ -155,9 +163,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.with_app(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
-            let dict = od.dictionary();
             let mut sink = PdoSink::new(txq, &mut comm.emcy);
-            comm.pdos.on_sync(event, dict, od.image_mut(), &mut sink);
+            comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, timeouts) = (sink.received, sink.timeouts);
             // The synchronous RPDOs' objects, and the TPDOs left to retry.
             self.touched |= self.comm.pdos.reached_by(received);

@@ -115,6 +115,13 @@ pub struct Node<
     /// The earliest deadline of every service but the SDO servers and the
     /// PDOs, as the last full [`Node::process`] found it.
     core_deadline: Option<Instant>,
+    /// The last [`Node::process`] left nothing to do before `next` (no SDO
+    /// transfer, no EMCY waiting): until then, and unless `stale` or
+    /// `touched` say otherwise, the next one only runs the device's timers.
+    quiet: bool,
+    /// The node's own deadline (without the device's) as the last
+    /// [`Node::process`] returned it, made earlier by what happened since.
+    next: Option<Instant>,
     reported_overflows: u32,
     /// The LSS slave, in use when `lss_active` (the dictionary says
     /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
@@ -177,6 +184,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             touched: 0,
             stale: false,
             core_deadline: None,
+            quiet: false,
+            next: None,
             reported_overflows: 0,
             lss: LssSlave::new([0; 4], 0, 0, 0),
             lss_active: false,

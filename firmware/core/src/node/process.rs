@@ -30,6 +30,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if !self.app.canopen() {
             return app_deadline;
         }
+        if self.quiet && !self.stale && self.touched == 0 && self.next.is_none_or(|d| now < d) {
+            return earliest(self.next, app_deadline);
+        }
         // Before the boot-up is queued below: nothing may precede it in the queue.
         let booted = !self.boot_pending;
         let full = self.stale || self.core_deadline.is_some_and(|d| d <= now);
@@ -72,9 +75,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if self.touched != 0 || pdo_deadline.is_some_and(|d| d <= now) {
                 let changed = core::mem::take(&mut self.touched);
                 let Node { od, comm, txq, .. } = self;
-                let dict = od.dictionary();
                 let mut sink = PdoSink::new(txq, &mut comm.emcy);
-                pdo_deadline = comm.pdos.poll_changed(now, changed, dict, od.image(), &mut sink);
+                pdo_deadline = comm.pdos.poll_changed(now, changed, od.image(), &mut sink);
                 let (received, timeouts) = (sink.received, sink.timeouts);
                 self.pdo_events(now, received, timeouts);
             }
@@ -90,8 +92,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.process_emcy(now, booted);
             self.core_deadline = earliest(self.core_deadline, self.emcy_deadline());
         }
-        let deadline = earliest(earliest(self.core_deadline, sdo_deadline), earliest(pdo_deadline, app_deadline));
-        if controller_deadline.is_some() { earliest(deadline, controller_deadline) } else { deadline }
+        let mut deadline = earliest(earliest(self.core_deadline, sdo_deadline), pdo_deadline);
+        if controller_deadline.is_some() {
+            deadline = earliest(deadline, controller_deadline);
+        }
+        self.next = deadline;
+        // No SDO deadline: every server is idle (or the state stopped them all).
+        self.quiet = sdo_deadline.is_none() && !self.comm.emcy.has_queued();
+        earliest(deadline, app_deadline)
     }
 
     /// The services besides SDO, PDO and EMCY: the LSS bit-rate switch,

@@ -267,9 +267,6 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// worked out whenever a mapping or a type changes, so that an RPDO
     /// only makes the TPDOs it can change look for a change.
     rpdo_reach: [u32; R],
-    /// Bit t: TPDO t waits to retry a frame the queue refused (blocked, or
-    /// a synchronous frame pending), as of the last poll or SYNC.
-    retry: u32,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -289,7 +286,6 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [ALL_TPDOS; R],
-            retry: 0,
         }
     }
 }
@@ -310,7 +306,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [0; R],
-            retry: 0,
         }
     }
 
@@ -396,7 +391,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.window_end = None;
         self.rpdos.iter_mut().for_each(Rpdo::restart);
         self.tpdos.iter_mut().for_each(|t| t.restart(Some(now)));
-        self.retry = 0;
     }
 
     /// NMT left Operational: the PDOs stop; frames, RTRs and SYNCs are ignored.
@@ -424,7 +418,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// if that TPDO is not valid or of another type. Call [`Pdos::poll`] after.
     pub fn trigger(&mut self, n: usize) -> bool {
         self.settled = false;
-        // A retry bit left set only makes the next poll look at the TPDO.
         self.tpdos.get_mut(n).is_some_and(Tpdo::trigger)
     }
 
@@ -478,7 +471,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 _ => mask,
             });
         }
-        self.retry = retry_mask(&self.tpdos);
     }
 
     /// The event-driven TPDOs that map any byte of `len` image bytes at
@@ -492,7 +484,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// after those RPDOs must look at.
     #[inline(never)]
     pub fn reached_by(&self, rpdos: u32) -> u32 {
-        let mut mask = self.retry;
+        let mut mask = self.retrying();
         let mut bits = rpdos;
         while bits != 0 {
             mask |= self.rpdo_reach.get(bits.trailing_zeros() as usize).copied().unwrap_or(ALL_TPDOS);
@@ -503,7 +495,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// The TPDOs waiting to retry a refused frame.
     pub fn retrying(&self) -> u32 {
-        self.retry
+        retry_mask(&self.tpdos)
     }
 
     fn write_parameter(
@@ -590,53 +582,43 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once
     /// its inhibit time is over). Ignored unless Operational.
-    pub fn on_rtr(&mut self, now: Instant, cob_id: u16, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub fn on_rtr(&mut self, now: Instant, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.operational {
             return false;
         }
-        let Some(t) = self.tpdos.iter().position(|t| t.cob_id() == Some(cob_id)) else { return false };
-        let Some(tpdo) = self.tpdos.get_mut(t) else { return false };
+        let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
         self.settled = false;
-        let answered = tpdo.on_rtr(now, dict, image, tx);
-        if tpdo.retrying() {
-            self.retry |= 1u32.checked_shl(t as u32).unwrap_or(0);
-        }
-        answered
+        tpdo.on_rtr(now, image, tx)
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then
     /// synchronous TPDOs are sent. Ignored unless Operational.
-    pub fn on_sync(&mut self, sync: &SyncEvent, dict: &Dictionary, image: &mut [u8], tx: &mut impl PdoTx) {
+    pub fn on_sync(&mut self, sync: &SyncEvent, image: &mut [u8], tx: &mut impl PdoTx) {
         if !self.operational {
             return;
         }
         // No deadline moves: synchronous TPDOs have none, and a refused
-        // frame is retried through `retry`.
+        // frame is retried at the next change ([`Pdos::retrying`]).
         self.window_end = sync.window_end;
         for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
             rpdo.on_sync(n, image, tx);
         }
-        let mut retry = 0;
-        for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
-            tpdo.on_sync(sync, dict, image, tx);
-            if tpdo.retrying() {
-                retry |= 1u32.checked_shl(t as u32).unwrap_or(0);
-            }
+        for tpdo in self.tpdos.iter_mut() {
+            tpdo.on_sync(sync, image, tx);
         }
-        self.retry = retry;
     }
 
     /// Runs the timers (event timers, inhibit times, RPDO deadlines), change
     /// detection and retries; returns the next deadline. Call it when that
     /// deadline is reached and after the application changed mapped objects.
-    pub fn poll(&mut self, now: Instant, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
-        self.poll_changed(now, ALL_TPDOS, dict, image, tx)
+    pub fn poll(&mut self, now: Instant, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+        self.poll_changed(now, ALL_TPDOS, image, tx)
     }
 
     /// [`Pdos::poll`] where only the TPDOs of `changed` (bit t: TPDO t;
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
-    pub fn poll_changed(&mut self, now: Instant, changed: u32, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+    pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
         if !self.operational {
             return None;
         }
@@ -644,21 +626,21 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdo.poll(n, now, tx);
         }
         let window_end = self.window_end;
-        let mut retry = 0;
         for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
             let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
             if changed & bit != 0 || bit == 0 || tpdo.due(now) {
-                tpdo.poll(now, window_end, dict, image, tx);
-            }
-            if tpdo.retrying() {
-                retry |= bit;
+                tpdo.poll(now, window_end, image, tx);
             }
         }
-        self.retry = retry;
         self.settled = false;
         self.settled_deadline = self.deadline();
         self.settled = true;
         self.settled_deadline
+    }
+
+    /// [`Pdos::deadline`] when it is known without walking the PDOs.
+    pub fn settled(&self) -> Option<Option<Instant>> {
+        (self.settled || !self.operational).then_some(self.settled_deadline.filter(|_| self.operational))
     }
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`

@@ -231,11 +231,11 @@ impl Node {
     }
 
     fn poll(&mut self, t: Instant) -> Option<Instant> {
-        self.pdos.poll(t, &DICT, &self.image, &mut self.bus)
+        self.pdos.poll(t, &self.image, &mut self.bus)
     }
 
     fn sync(&mut self, sync: SyncEvent) {
-        self.pdos.on_sync(&sync, &DICT, &mut self.image, &mut self.bus);
+        self.pdos.on_sync(&sync, &mut self.image, &mut self.bus);
     }
 
     fn rx(&mut self, t: Instant, cob_id: u16, data: &[u8]) -> bool {
@@ -243,7 +243,7 @@ impl Node {
     }
 
     fn rtr(&mut self, t: Instant, cob_id: u16) -> bool {
-        self.pdos.on_rtr(t, cob_id, &DICT, &self.image, &mut self.bus)
+        self.pdos.on_rtr(t, cob_id, &self.image, &mut self.bus)
     }
 
     fn frames(&mut self) -> Vec<(u16, Vec<u8>)> {
@@ -305,7 +305,7 @@ fn a_mapping_that_does_not_resolve_silences_its_pdo() {
     assert_eq!(pdos.rpdo(0).unwrap().cob_id(), Some(0x201), "the others are configured");
     pdos.enter_operational(ms(0));
     let mut bus = Bus::default();
-    assert_eq!(pdos.poll(ms(0), &DICT, &image, &mut bus), None);
+    assert_eq!(pdos.poll(ms(0), &image, &mut bus), None);
     assert!(bus.frames.is_empty());
 }
 
@@ -983,8 +983,8 @@ fn a_poll_for_other_tpdos_leaves_a_changed_one_for_its_own_turn() {
     tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
     node.set(0x2002, 0, &[1, 2, 3, 4]);
     // Told that only TPDO2 may have changed, TPDO1 does not look.
-    node.pdos.poll_changed(ms(1), 0b10, &DICT, &node.image, &mut node.bus);
+    node.pdos.poll_changed(ms(1), 0b10, &node.image, &mut node.bus);
     tx!(node, []);
-    node.pdos.poll_changed(ms(2), 0b1, &DICT, &node.image, &mut node.bus);
+    node.pdos.poll_changed(ms(2), 0b1, &node.image, &mut node.bus);
     tx!(node, [(0x181, [1, 2, 3, 4, 0])]);
 }
