@@ -171,8 +171,10 @@ impl Ctx<'_> {
     /// A write no service owns (an application or profile object): the
     /// dictionary's own, remembering which bytes changed.
     fn write_plain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let entry = self.dict.write_entry(self.image, index, sub, data)?;
-        if self.effects.wrote.1 == 0 {
+        let (entry, changed) = self.dict.write_entry(self.image, index, sub, data)?;
+        if !changed {
+            // The same value again: no TPDO has new data.
+        } else if self.effects.wrote.1 == 0 {
             self.effects.wrote = (entry.offset, entry.len);
         } else {
             // A second write in one access: any TPDO may look.

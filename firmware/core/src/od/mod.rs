@@ -223,15 +223,21 @@ impl Dictionary {
         self.write_entry(image, index, sub, data).map(|_| ())
     }
 
-    /// [`Dictionary::write`], returning the entry written.
-    pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, OdError> {
+    /// [`Dictionary::write`], returning the entry written, and whether a
+    /// byte of the image changed (a TPDO mapping it cannot have new data otherwise).
+    pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(&'static Entry, bool), OdError> {
         let entry = self.find(index, sub)?;
         self.check_write(entry, data)?;
         let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
-        let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
-        head.copy_from_slice(data.get(..head.len()).unwrap_or(&[]));
-        tail.fill(0);
-        Ok(entry)
+        let mut changed = false;
+        // Byte by byte: the value and the zeros past a shorter one, without `memcpy`.
+        let mut src = data.iter();
+        for b in slot.iter_mut() {
+            let new = src.next().copied().unwrap_or(0);
+            changed |= *b != new;
+            *b = new;
+        }
+        Ok((entry, changed))
     }
 
     /// The checks of [`Dictionary::write`] before any byte changes: access,
