@@ -229,14 +229,18 @@ impl Dictionary {
         let entry = self.find(index, sub)?;
         self.check_write(entry, data)?;
         let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
-        let mut changed = false;
-        // Byte by byte: the value and the zeros past a shorter one, without `memcpy`.
-        let mut src = data.iter();
-        for b in slot.iter_mut() {
-            let new = src.next().copied().unwrap_or(0);
-            changed |= *b != new;
-            *b = new;
+        let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
+        let data = data.get(..head.len()).unwrap_or(&[]);
+        let changed = *head != *data || tail.iter().any(|&b| b != 0);
+        if head.len() <= 8 {
+            // Byte by byte: no `memcpy` call for a value of a few bytes.
+            for (d, s) in head.iter_mut().zip(data) {
+                *d = *s;
+            }
+        } else {
+            head.copy_from_slice(data);
         }
+        tail.fill(0);
         Ok((entry, changed))
     }
 
