@@ -158,6 +158,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// register follow (see the [module docs](self)); the messages leave at
     /// the next [`Node::process`], whose deadline then includes the clearing.
     pub fn controller_event(&mut self, event: ControllerEvent, now: Instant) {
+        self.stale = true;
         self.controller.on_event(event, now, &mut self.comm.emcy);
         // The device hears of it (its 0x6007 or 0x1029 reaction) in the next
         // `process`, on the path its other hooks already take.

@@ -5,9 +5,10 @@ use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
 use crate::services::nmt::State;
+use crate::services::pdo::ALL_TPDOS;
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::{Instant, earliest};
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtState};
 use crate::wire::time_stamp::TimeOfDay;
@@ -50,6 +51,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if cob_id == LSS_MASTER_COB_ID && self.lss_on() && !rtr {
+            self.stale = true;
             self.lss_request(now, data);
             return;
         }
@@ -58,6 +60,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if cob_id == NMT_COB_ID {
+            self.stale = true;
             match NmtRequest::parse(data) {
                 Ok(request) if !rtr => {
                     // A master's command comes before the node's own start.
@@ -75,6 +78,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if cob_id == ERROR_CONTROL_BASE + u16::from(self.node_id) {
             if O::SERVICES.guarding && rtr && !self.comm.heartbeat.active() {
+                self.stale = true;
                 let expired = self.comm.guarding.is_expired();
                 let byte = self.comm.guarding.on_request(state.reported(), now);
                 self.push(cob_id, &[byte]);
@@ -87,6 +91,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if (ERROR_CONTROL_BASE + 1..=ERROR_CONTROL_BASE + 0x7F).contains(&cob_id) && !rtr {
+            self.stale = true;
             match data {
                 [b] => match NmtState::from_code(*b) {
                     Some(s) => {
@@ -100,6 +105,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             return;
         }
+        // A received SYNC moves no deadline of the node's own (its errors
+        // queue an EMCY, which the next process sends).
         if state.sdo_allowed() && cob_id == self.comm.sync.cob_id() && !rtr {
             match self.comm.sync.on_frame(now, data) {
                 Ok(event) => self.synchronise(now, &event),
@@ -108,20 +115,28 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     self.comm.emcy.signal(e.emcy_code(), [0; 5]);
                 }
             }
+            self.quiet &= !self.comm.emcy.has_queued();
             return;
         }
         if state.pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
-            let dict = od.dictionary();
             let mut sink = PdoSink::new(txq, &mut comm.emcy);
             let matched = if rtr {
-                comm.pdos.on_rtr(now, cob_id, dict, od.image(), &mut sink)
+                comm.pdos.on_rtr(now, cob_id, od.image(), &mut sink)
             } else {
                 comm.pdos.on_frame(now, cob_id, data, od.image_mut(), &mut sink)
             };
             let (received, timeouts) = (sink.received, sink.timeouts);
             if matched {
-                self.touched = true;
+                // Only the TPDOs these RPDOs write to look for a change (an
+                // RTR may have left its TPDO waiting to retry).
+                self.touched |= self.comm.pdos.reached_by(received);
+                // A timer started (or an RTR changed a TPDO), or an error was signalled.
+                match self.comm.pdos.settled() {
+                    Some(deadline) => self.next = earliest(self.next, deadline),
+                    None => self.quiet = false,
+                }
+                self.quiet &= !self.comm.emcy.has_queued();
                 self.pdo_events(now, received, timeouts);
                 return;
             }
@@ -133,9 +148,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 && !rtr
             {
                 self.sdo_request(i, now, data, tx);
+                // A transfer goes on, or an answer waits for room in the queue.
+                self.quiet &= self.sdo.is_idle(i);
                 return;
             }
             if O::SERVICES.time && Some(cob_id) == self.comm.time_cob_id && !rtr {
+                self.stale = true;
                 match TimeOfDay::parse(data) {
                     Some(t) => self.with_app(now, |app, ctx| app.on_time(ctx, t)),
                     None => self.counters.malformed += 1,
@@ -149,14 +167,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
     /// The device samples first, so the synchronous TPDOs carry its values.
     pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
-        self.touched = true;
         self.with_app(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
-            let dict = od.dictionary();
             let mut sink = PdoSink::new(txq, &mut comm.emcy);
-            comm.pdos.on_sync(event, dict, od.image_mut(), &mut sink);
+            comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, timeouts) = (sink.received, sink.timeouts);
+            // The synchronous RPDOs' objects, and the TPDOs left to retry.
+            self.touched |= self.comm.pdos.reached_by(received);
             self.pdo_events(now, received, timeouts);
         }
     }
@@ -194,6 +212,27 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
+    /// Which TPDOs look for changed data after the writes of `effects`,
+    /// whether the next process runs every service, and the SDO servers
+    /// and the acceptance list read again where their objects changed.
+    // Out of line: `with_app` is inlined at every hook call.
+    #[inline(never)]
+    fn follow_writes(&mut self, effects: SdoEffects) {
+        if effects.written {
+            self.touched = ALL_TPDOS;
+        } else if effects.wrote.1 != 0 {
+            let (offset, len) = effects.wrote;
+            self.touched |= self.comm.pdos.tpdos_mapping(offset, len) | self.comm.pdos.retrying();
+        }
+        self.stale |= effects.services;
+        if effects.sdo_changed {
+            self.configure_sdo();
+        }
+        if effects.consumed_changed {
+            self.refresh_acceptance();
+        }
+    }
+
     /// The SDO servers with what they need: the hooks and their context,
     /// and beside them the transmit queue and the servers' COB-IDs.
     #[allow(clippy::type_complexity)]
@@ -222,12 +261,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// request, or from a server's timers in `process`).
     #[inline(always)]
     pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
-        self.touched |= effects.written;
-        if effects.sdo_changed {
-            self.configure_sdo();
-        }
-        if effects.consumed_changed {
-            self.refresh_acceptance();
+        if effects.written || effects.wrote.1 != 0 || effects.services || effects.sdo_changed || effects.consumed_changed {
+            self.follow_writes(effects);
         }
     }
 }

@@ -176,12 +176,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// A bit rate the board must switch its CAN controller to now (once).
     pub fn take_bit_rate_change(&mut self) -> Option<u8> {
+        self.stale = true;
         self.bit_rate_request.take()
     }
 
     /// Hands a pending bit-rate change to the controller; call it after
     /// [`Node::process`]. Returns whether the rate changed.
     pub fn apply_bit_rate(&mut self, controller: &mut impl BitRateControl) -> bool {
+        self.stale = true;
         match self.bit_rate_request.take() {
             Some(index) => {
                 controller.set_bit_rate(index);
@@ -194,6 +196,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Sets 0x1018 sub 4 (the serial number, part of the LSS address), which
     /// only the device knows; it holds over every reset.
     pub fn set_serial_number(&mut self, serial: u32) {
+        self.stale = true;
         self.serial = Some(serial);
         let dict = self.od.dictionary();
         let _ = dict.write_unchecked(self.od.image_mut(), 0x1018, 4, &serial.to_le_bytes());

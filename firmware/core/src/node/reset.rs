@@ -8,6 +8,7 @@ use crate::id::CobId;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
 use crate::services::nmt::Nmt;
+use crate::services::pdo::ALL_TPDOS;
 use crate::services::store::{self, Part, StoredSet};
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -55,7 +56,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn power_on(&mut self, node_id: u8, now: Instant) {
         self.node_id = node_id;
         // The TPDOs compare their data at their first chance, whatever the image held before.
-        self.touched = true;
+        self.touched = ALL_TPDOS;
         // One check of the stored sets serves the LSS configuration and both parts of the reset.
         let stored = self.newest_stored();
         self.load_lss_configuration(stored);
@@ -194,6 +195,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[inline(never)]
     fn reset_finish(&mut self, now: Instant) {
         self.reset = Stage::Idle;
+        // Every service and every TPDO looks at the new configuration at the next process.
+        self.stale = true;
+        self.touched = ALL_TPDOS;
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();

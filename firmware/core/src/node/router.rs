@@ -5,7 +5,8 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::{DataType, ObjectAccess, ObjectDictionary};
+use crate::od::access::{copy_from, upload_value};
+use crate::od::{DataType, Entry, ObjectAccess, ObjectDictionary};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use core::marker::PhantomData;
 
@@ -31,10 +32,18 @@ pub(crate) struct SdoEffects {
     /// the node rebuilds its acceptance list (not after every SDO request,
     /// which would cost more than the request itself).
     pub consumed_changed: bool,
-    /// A write was attempted (it may have changed the image even if it
-    /// failed): the TPDOs look for changed data at the next process, which
-    /// an upload alone does not need.
+    /// A write was attempted that may have changed any part of the image
+    /// (even if it failed): every TPDO looks for changed data at the next
+    /// process, which an upload alone does not need.
     pub written: bool,
+    /// The image bytes (offset, length) the one plain write of an object
+    /// changed (length 0: none): only the TPDOs mapping them look for
+    /// changed data.
+    pub wrote: (u16, u16),
+    /// A hook or a write changed a service beyond the dictionary (an error
+    /// raised or cleared, a communication object written): the next
+    /// process runs every service.
+    pub services: bool,
     /// A device error of this 0x1029 sub-index (0: none) occurred: the node
     /// applies the error behaviour.
     pub error_class: u8,
@@ -141,7 +150,11 @@ impl Ctx<'_> {
     /// Not 0x1010/0x1011: their callers choose whether the node stores
     /// ([`Ctx::store_command`]), so that a node without storage links none of it.
     pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if index >= 0x2000 {
+            return self.write_plain(index, sub, data);
+        }
         self.effects.written = true;
+        self.effects.services = true;
         let result = match index {
             0x1029 if sub > 0 => {
                 if matches!(data, [v] if *v > 2) {
@@ -166,7 +179,39 @@ impl Ctx<'_> {
     }
 }
 
+impl Ctx<'_> {
+    /// A write no service owns (an application or profile object): the
+    /// dictionary's own, remembering which bytes changed.
+    fn write_plain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let (entry, changed) = self.dict.write_entry(self.image, index, sub, data)?;
+        if !changed {
+            // The same value again: no TPDO has new data.
+        } else if self.effects.wrote.1 == 0 {
+            self.effects.wrote = (entry.offset, entry.len);
+        } else {
+            // A second write in one access: any TPDO may look.
+            self.effects.written = true;
+        }
+        Ok(())
+    }
+}
+
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
+    /// [`ObjectAccess::read`], from `entry` when the caller already looked it up.
+    // One call of the device's read hook for both callers (each inlined a copy).
+    #[inline(never)]
+    fn read_from(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8], entry: Option<&'static Entry>) -> Result<usize, AbortCode> {
+        if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
+            return r;
+        }
+        let entry = match entry {
+            Some(entry) => entry,
+            None => self.ctx.dict.find(index, sub)?,
+        };
+        let value = upload_value(self.ctx.dict, self.ctx.image, entry)?;
+        Ok(copy_from(buf, value.get(offset..).unwrap_or(&[])))
+    }
+
     /// A complete write with the hooks: serve, the dictionary's checks,
     /// validate, the owner's rules, then react.
     pub(super) fn write_with_hooks(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -200,10 +245,22 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
     }
 
     fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
-            return r;
-        }
-        self.ctx.plain().read(index, sub, offset, buf)
+        self.read_from(index, sub, offset, buf, None)
+    }
+
+    fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
+        // The hooks in the order upload_size, read would call them; the
+        // plain tables looked up once for both.
+        let (size, entry) = match self.app.upload_size(self.ctx, index, sub) {
+            Some(r) => (r?, None),
+            None => {
+                let entry = self.ctx.dict.find(index, sub)?;
+                (upload_value(self.ctx.dict, self.ctx.image, entry)?.len(), Some(entry))
+            }
+        };
+        let Some(dst) = buf.get_mut(..size).filter(|_| size != 0) else { return Ok(size) };
+        self.read_from(index, sub, 0, dst, entry)?;
+        Ok(size)
     }
 
     fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {

@@ -4,6 +4,7 @@
 
 use crate::od::ObjectDictionary;
 use crate::services::nmt::{State, Transition};
+use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::Instant;
 use crate::wire::emcy::code;
@@ -24,7 +25,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     pub(super) fn entered(&mut self, state: State, now: Instant) {
-        self.touched = true;
+        self.touched = ALL_TPDOS;
+        self.stale = true;
         if state.pdo_allowed() {
             if A::OPTIONS.pdo_rewrite_while_valid {
                 // Mapping entries written in Pre-operational apply now.
@@ -58,6 +60,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// An error of 0x1029 class `class`: the state change that sub-index asks for.
     pub(super) fn device_error(&mut self, class: u8, now: Instant) {
+        self.stale = true;
         let dict = self.od.dictionary();
         let next = match Comm::<R, T, HB>::error_behaviour_of(dict, self.od.image(), class) {
             ErrorBehaviour::PreOperational if self.nmt.state() == State::Operational => Some(State::PreOperational),

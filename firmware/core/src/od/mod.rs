@@ -13,7 +13,7 @@
 //! Nothing here panics on any input: every slice access is checked and a
 //! malformed request becomes an [`OdError`] that names its SDO abort code.
 
-mod access;
+pub(crate) mod access;
 mod entry;
 mod types;
 mod value;
@@ -220,13 +220,28 @@ impl Dictionary {
     /// Writes a value as an SDO download would: access, length and limits are
     /// checked before any byte changes.
     pub fn write(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
+        self.write_entry(image, index, sub, data).map(|_| ())
+    }
+
+    /// [`Dictionary::write`], returning the entry written, and whether a
+    /// byte of the image changed (a TPDO mapping it cannot have new data otherwise).
+    pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(&'static Entry, bool), OdError> {
         let entry = self.find(index, sub)?;
         self.check_write(entry, data)?;
         let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
         let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
-        head.copy_from_slice(data.get(..head.len()).unwrap_or(&[]));
+        let data = data.get(..head.len()).unwrap_or(&[]);
+        let changed = *head != *data || tail.iter().any(|&b| b != 0);
+        if head.len() <= 8 {
+            // Byte by byte: no `memcpy` call for a value of a few bytes.
+            for (d, s) in head.iter_mut().zip(data) {
+                *d = *s;
+            }
+        } else {
+            head.copy_from_slice(data);
+        }
         tail.fill(0);
-        Ok(())
+        Ok((entry, changed))
     }
 
     /// The checks of [`Dictionary::write`] before any byte changes: access,
@@ -380,7 +395,7 @@ pub fn load_str(image: &[u8], offset: usize, len: usize) -> &[u8] {
     until_nul(image.get(offset..offset + len).unwrap_or(&[]))
 }
 
-fn until_nul(s: &[u8]) -> &[u8] {
+pub(crate) fn until_nul(s: &[u8]) -> &[u8] {
     let used = s.iter().position(|&b| b == 0).unwrap_or(s.len());
     s.get(..used).unwrap_or(s)
 }

@@ -174,3 +174,16 @@ fn dictionary_access_reads_in_pieces_and_checks_downloads() {
     assert_eq!(od.write(0x1017, 0, &[0x64, 0]), Ok(()));
     assert_eq!(od.upload_size(0x1017, 0), Ok(2));
 }
+
+#[test]
+fn a_write_tells_whether_the_image_changed() {
+    let mut img = image(1);
+    let (entry, changed) = DICT.write_entry(&mut img, 0x2000, 0, &7i16.to_le_bytes()).unwrap();
+    assert_eq!((entry.index, changed), (0x2000, true));
+    assert!(!DICT.write_entry(&mut img, 0x2000, 0, &7i16.to_le_bytes()).unwrap().1, "the same value");
+    // A shorter string clears the rest of its slot: a change even where its bytes match.
+    assert!(DICT.write_entry(&mut img, 0x2001, 0, b"abcd").unwrap().1);
+    assert!(DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
+    assert!(!DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
+    assert_eq!(DICT.read(&img, 0x2001, 0), Ok(&b"ab"[..]));
+}

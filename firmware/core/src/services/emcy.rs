@@ -248,6 +248,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         Some(e)
     }
 
+    /// Whether messages wait to go out (or, while EMCY is off, to be recorded).
+    pub fn has_queued(&self) -> bool {
+        self.len != 0
+    }
+
     /// When the next queued message may go out.
     pub fn deadline(&self) -> Option<Instant> {
         self.cob_id?;

@@ -157,6 +157,11 @@ impl Rpdo {
     }
 
     /// When the event timer expires.
+    /// When the RPDO times out, if its timer runs.
+    pub(super) fn timeout_at(&self) -> Option<Instant> {
+        self.timeout_at
+    }
+
     pub(super) fn deadline(&self) -> Option<Instant> {
         self.cob_id().and(self.timeout_at)
     }
