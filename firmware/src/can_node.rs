@@ -135,7 +135,7 @@ where
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let od = self.od_mut();
-        Ok(od.dictionary().write_unchecked(od.image_mut(), index, sub, data)?)
+        od.dictionary().write_unchecked(od.image_mut(), index, sub, data)
     }
 }
 

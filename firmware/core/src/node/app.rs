@@ -161,7 +161,7 @@ impl Ctx<'_> {
 
     /// The value of (index, sub) as the dictionary holds it.
     pub fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
-        Ok(self.dict.read(self.image, index, sub)?)
+        self.dict.read(self.image, index, sub)
     }
 
     /// An integer value of at most 32 bits (zero-extended), if (index, sub) exists.
@@ -189,7 +189,7 @@ impl Ctx<'_> {
     #[inline(never)]
     pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.effects.written = true;
-        Ok(self.dict.write_unchecked(self.image, index, sub, data)?)
+        self.dict.write_unchecked(self.image, index, sub, data)
     }
 
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the

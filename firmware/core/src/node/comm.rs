@@ -193,7 +193,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     pub fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
         match self.sync.write_object(index, sub, data, dict, image) {
             Some(result) => result,
-            None => dict.write(image, index, sub, data).map_err(Into::into),
+            None => dict.write(image, index, sub, data),
         }
     }
 }
@@ -272,11 +272,11 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                 if self.consumers.conflicts(usize::from(sub) - 1, value) {
                     return Some(Err(AbortCode::ParameterIncompatible));
                 }
-                dict.write(image, index, sub, data).map_err(AbortCode::from).map(|()| self.consumers.configure(usize::from(sub) - 1, value))
+                dict.write(image, index, sub, data).map(|()| self.consumers.configure(usize::from(sub) - 1, value))
             }
             0x1005..=0x1007 | 0x1019 => self.write_sync(index, sub, data, dict, image),
             0x100C | 0x100D | 0x1015 | 0x1017 => {
-                dict.write(image, index, sub, data).map_err(AbortCode::from).map(|()| self.reconfigure(index, dict, image, node_id, now))
+                dict.write(image, index, sub, data).map(|()| self.reconfigure(index, dict, image, node_id, now))
             }
             0x1400..=0x1BFF => {
                 let operational = state == State::Operational;
@@ -289,7 +289,7 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                 let rewrite = options.pdo_rewrite_while_valid && !operational;
                 match self.pdos.write_object_with(index, sub, data, dict, image, rewrite) {
                     Some(result) => result,
-                    None => dict.write(image, index, sub, data).map_err(Into::into),
+                    None => dict.write(image, index, sub, data),
                 }
             }
             _ => return None,

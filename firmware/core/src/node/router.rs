@@ -117,7 +117,7 @@ impl Ctx<'_> {
         if entry.data_type == DataType::Domain && entry.writable() {
             return Ok(());
         }
-        Ok(self.dict.check_write(entry, data)?)
+        self.dict.check_write(entry, data)
     }
 
     /// An SDO server parameter 0x1200 + i (CiA 301 §7.5.2.33). Sub 1 and 2,

@@ -39,7 +39,7 @@ pub trait ObjectAccess {
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
 }
 
-use super::{DataType, Dictionary, Entry, OdError};
+use super::{DataType, Dictionary, Entry};
 
 /// [`ObjectAccess`] straight onto a generated dictionary and its RAM image,
 /// with the checks CiA 301 asks of every entry and no side effects.
@@ -109,6 +109,6 @@ impl ObjectAccess for DictionaryAccess<'_> {
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.dictionary.write(self.image, index, sub, data).map_err(|e: OdError| e.into())
+        self.dictionary.write(self.image, index, sub, data)
     }
 }
