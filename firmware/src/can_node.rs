@@ -9,7 +9,7 @@ use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, Application, ControllerEvent, Node};
 use canopen_core::od::ObjectDictionary;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
 
@@ -30,7 +30,7 @@ pub trait CanNode: Send {
     /// [`Node::clear_error`].
     fn clear_error(&mut self, code: u16);
     /// [`Node::state`].
-    fn state(&self) -> State;
+    fn state(&self) -> NmtState;
     /// [`Node::node_id`].
     fn node_id(&self) -> u8;
     /// [`Node::acceptance`]: what the board's acceptance filter passes.
@@ -88,7 +88,7 @@ where
         Node::clear_error(self, code);
     }
 
-    fn state(&self) -> State {
+    fn state(&self) -> NmtState {
         Node::state(self)
     }
 

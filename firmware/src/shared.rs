@@ -15,7 +15,7 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
 use embassy_futures::select::{Either3, select3};
 use embassy_sync::blocking_mutex::Mutex;
@@ -113,7 +113,7 @@ impl Shared {
 
     /// The next NMT state the node entered, in order: none is lost unless
     /// more than [`STATE_QUEUE`] wait (see [`StateQueue`]).
-    pub async fn next_state(&self) -> State {
+    pub async fn next_state(&self) -> NmtState {
         loop {
             // `try_borrow_mut`: `borrow_mut`'s panic message pulls `core::fmt` into the images.
             if let Some(state) = self.states.lock(|q| q.try_borrow_mut().ok()?.pop()) {
@@ -181,7 +181,7 @@ impl Requests<'_> {
 struct States<'a>(&'a Shared);
 
 impl StateSink for States<'_> {
-    fn entered(&mut self, state: State) {
+    fn entered(&mut self, state: NmtState) {
         let lost = self.0.states.lock(|q| {
             let mut q = q.try_borrow_mut().ok()?;
             let before = q.lost();
@@ -317,7 +317,7 @@ mod tests {
         assert!(shared.rx.try_send(nmt(0x01)).is_ok());
         let triggered = run(shared, &mut node, &mut bus, async {
             // Operational once the task took the NMT frame.
-            while shared.next_state().await != State::Operational {}
+            while shared.next_state().await != NmtState::Operational {}
             requests.trigger_tpdo(0).await
         });
         assert!(triggered);
@@ -343,6 +343,6 @@ mod tests {
             }
             states
         });
-        assert_eq!(states, [State::PreOperational, State::Operational, State::Stopped, State::Operational]);
+        assert_eq!(states, [NmtState::PreOperational, NmtState::Operational, NmtState::Stopped, NmtState::Operational]);
     }
 }

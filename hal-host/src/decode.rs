@@ -22,7 +22,7 @@ use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::od::{DataType, Dictionary, Kind, Number};
 use canopen_core::wire::emcy::Emcy;
-use canopen_core::wire::nmt::{NmtCommand, NmtRequest, NmtState};
+use canopen_core::wire::nmt::{NmtCommand, NmtRequest, NmtStateCode};
 use canopen_core::wire::sdo::{InitiateData, SdoRequest, SdoResponse};
 use embedded_can::Frame;
 use std::collections::BTreeMap;
@@ -144,12 +144,12 @@ fn nmt_command_text(command: NmtCommand) -> &'static str {
 }
 
 /// The name CiA 301 gives an NMT state.
-pub fn nmt_state_text(state: NmtState) -> &'static str {
+pub fn nmt_state_text(state: NmtStateCode) -> &'static str {
     match state {
-        NmtState::BootUp => "Boot-up",
-        NmtState::Stopped => "Stopped",
-        NmtState::Operational => "Operational",
-        NmtState::PreOperational => "Pre-operational",
+        NmtStateCode::BootUp => "Boot-up",
+        NmtStateCode::Stopped => "Stopped",
+        NmtStateCode::Operational => "Operational",
+        NmtStateCode::PreOperational => "Pre-operational",
     }
 }
 
@@ -293,7 +293,7 @@ impl Decoder {
             0x601..=0x67F => self.sdo_request(node, data),
             0x701..=0x77F => match data {
                 [0x00] => format!("Boot-up node {node}"),
-                [code] => match NmtState::from_code(*code) {
+                [code] => match NmtStateCode::from_code(*code) {
                     Some(state) => format!("Heartbeat node {node}: {}", nmt_state_text(state)),
                     None => format!("Heartbeat node {node}: unknown state 0x{code:02X}"),
                 },

@@ -7,7 +7,7 @@ mod common;
 use canopen_core::abort::AbortCode;
 use canopen_core::node::{Application, Claims, CommError, ControllerEvent, Ctx, NmtEvent, NoApplication, Source};
 use canopen_core::od::Dictionary;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
 use canopen_core::wire::time_stamp::TimeOfDay;
 use common::{Bench, abort, ms, ok_write};
@@ -285,7 +285,7 @@ fn nmt_and_communication_events_arrive_each_one_whatever_0x1029_says() {
             "nmt CommunicationError(BusOff) in Operational"
         ]
     );
-    assert_eq!(b.node.state(), State::Operational, "0x1029:1 = 1: no state change");
+    assert_eq!(b.node.state(), NmtState::Operational, "0x1029:1 = 1: no state change");
     // Reset node: reset application, reset communication, then Pre-operational after the boot-up.
     b.nmt(0x81, ID);
     assert_eq!(

@@ -8,7 +8,7 @@
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, BitRateControl, NoApplication};
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
 use embedded_can::Frame;
 use firmware::boards::qemu::ram_storage::RamStorage;
@@ -84,7 +84,7 @@ impl Task {
         self.runner.on_request(&mut self.node, request)
     }
 
-    fn states(&mut self) -> Vec<State> {
+    fn states(&mut self) -> Vec<NmtState> {
         std::iter::from_fn(|| self.states.pop()).collect()
     }
 }
@@ -92,12 +92,12 @@ impl Task {
 #[test]
 fn every_nmt_state_reaches_the_application() {
     let mut task = Task::new();
-    assert_eq!(task.states(), [State::PreOperational]);
+    assert_eq!(task.states(), [NmtState::PreOperational]);
     // Three NMT commands handled in one wake-up of the task, before its step.
     task.frame(1, 0x000, &[0x01, ID]);
     task.frame(1, 0x000, &[0x02, ID]);
     task.frame(1, 0x000, &[0x01, ID]);
-    assert_eq!(task.states(), [State::Operational, State::Stopped, State::Operational]);
+    assert_eq!(task.states(), [NmtState::Operational, NmtState::Stopped, NmtState::Operational]);
     task.step(1);
     assert_eq!(task.states(), [], "no change in the step");
     // Reset node: Initialising, then pre-operational once the boot-up left.
@@ -109,7 +109,7 @@ fn every_nmt_state_reaches_the_application() {
         sent.extend(task.step(2));
     }
     assert_eq!(sent, [(0x73F, vec![0x00])]);
-    assert_eq!(task.states(), [State::Initialising, State::PreOperational]);
+    assert_eq!(task.states(), [NmtState::Initialising, NmtState::PreOperational]);
     assert_eq!(task.states.lost(), 0);
 }
 

@@ -16,7 +16,7 @@ use canopen_core::axis::{Axis, AxisParams};
 use canopen_core::node::{Application, CommError, Ctx, NmtEvent, Source};
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::{Cia402, Config};
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::services::store;
 use canopen_core::time::Instant;
 
@@ -130,8 +130,8 @@ impl Application for App {
                 None
             }
             NmtEvent::Entered(state) => {
-                let left = self.operational && state != State::Operational;
-                self.operational = state == State::Operational;
+                let left = self.operational && state != NmtState::Operational;
+                self.operational = state == NmtState::Operational;
                 left.then_some(FAULT_NMT)
             }
             NmtEvent::CommunicationError(CommError::BusOff) => Some(FAULT_BUS_OFF),

@@ -16,7 +16,7 @@ use canopen_core::node::{Application, CommError, Ctx, NmtEvent, ServiceOptions, 
 use canopen_core::profiles::cia406::diag::{BitEmcy, ErrorEmcy, FaultAlarm};
 use canopen_core::profiles::cia406::{self, Config, Encoder, ManualShaft, PositionSource, SensorFault, SimulatedShaft};
 use canopen_core::services::emcy::register;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::services::store;
 use canopen_core::time::{Duration, Instant};
 
@@ -258,7 +258,7 @@ impl<P: Sensor> Application for App<P> {
             // 100 kbit/s (code 3) has no CiA 305 bit timing: refused (D24).
             (BAUD_RATE, 0, [code]) if bit_rate_index(*code).is_none() && *code != NOT_SET => Err(AbortCode::InvalidValue),
             // §5.3.4.1 L1028: variable mapping changes only in Pre-operational.
-            (0x1A00..=0x1A02, _, _) if ctx.state() != State::PreOperational => Err(AbortCode::DeviceState),
+            (0x1A00..=0x1A02, _, _) if ctx.state() != NmtState::PreOperational => Err(AbortCode::DeviceState),
             // L1214: transmission types 252/253 are not supported by the M58.
             (0x1800..=0x1802, 2, [252 | 253]) => Err(AbortCode::InvalidValue),
             // §5.5.13 L2057, D9: a valid TPDO COB-ID must keep bit 30 (no RTR).

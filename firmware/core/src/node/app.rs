@@ -13,7 +13,7 @@
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::Dictionary;
-use crate::services::nmt::State;
+use crate::services::nmt::NmtState;
 use crate::services::store::Scope;
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -51,7 +51,7 @@ pub enum CommError {
 pub enum NmtEvent {
     /// The node entered this state (each change, so Operational → Stopped →
     /// Operational is three events, not one).
-    Entered(State),
+    Entered(NmtState),
     /// Reset application (and power-on): the application objects hold their
     /// defaults and the stored set. Reset communication follows.
     ResetApplication,
@@ -116,7 +116,7 @@ pub struct Ctx<'a> {
     pub(super) services: &'a mut dyn super::comm::Services,
     pub(super) storage: &'a mut dyn Storage,
     pub(super) node_id: u8,
-    pub(super) state: State,
+    pub(super) state: NmtState,
     pub(super) now: Instant,
     pub(super) options: ServiceOptions,
     pub(super) effects: SdoEffects,
@@ -155,7 +155,7 @@ impl Ctx<'_> {
     }
 
     /// The NMT state.
-    pub fn state(&self) -> State {
+    pub fn state(&self) -> NmtState {
         self.state
     }
 

@@ -6,7 +6,7 @@ use crate::id::CobId;
 use crate::od::Dictionary;
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
-use crate::services::nmt::State;
+use crate::services::nmt::NmtState;
 use crate::services::pdo::Pdos;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
@@ -220,7 +220,7 @@ pub(crate) trait Services {
         node_id: u8,
         now: Instant,
         options: ServiceOptions,
-        state: State,
+        state: NmtState,
     ) -> Option<Result<(), AbortCode>>;
 }
 
@@ -243,7 +243,7 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         node_id: u8,
         now: Instant,
         options: ServiceOptions,
-        state: State,
+        state: NmtState,
     ) -> Option<Result<(), AbortCode>> {
         Some(match index {
             0x1003 => {
@@ -279,7 +279,7 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                 dict.write(image, index, sub, data).map(|()| self.reconfigure(index, dict, image, node_id, now))
             }
             0x1400..=0x1BFF => {
-                let operational = state == State::Operational;
+                let operational = state == NmtState::Operational;
                 let mapping = matches!(index, 0x1600..=0x17FF | 0x1A00..=0x1BFF);
                 if options.pdo_rewrite_while_valid && operational && mapping {
                     // The manual's order: mappings change in Pre-operational only.

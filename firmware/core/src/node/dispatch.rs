@@ -4,13 +4,13 @@
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
-use crate::services::nmt::State;
+use crate::services::nmt::NmtState;
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
-use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtState};
+use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode};
 use crate::wire::time_stamp::TimeOfDay;
 
 use super::router::{Router, SdoEffects};
@@ -72,7 +72,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         let state = self.nmt.state();
-        if state == State::Initialising {
+        if state == NmtState::Initialising {
             self.counters.ignored += 1;
             return;
         }
@@ -93,7 +93,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if (ERROR_CONTROL_BASE + 1..=ERROR_CONTROL_BASE + 0x7F).contains(&cob_id) && !rtr {
             self.stale = true;
             match data {
-                [b] => match NmtState::from_code(*b) {
+                [b] => match NmtStateCode::from_code(*b) {
                     Some(s) => {
                         if self.comm.consumers.on_heartbeat((cob_id - ERROR_CONTROL_BASE) as u8, s, now) {
                             self.communication_recovered();

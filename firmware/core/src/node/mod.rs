@@ -66,7 +66,7 @@ use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::LssSlave;
-use crate::services::nmt::{Nmt, State};
+use crate::services::nmt::{Nmt, NmtState};
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::sdo_server::SdoServers;
 use crate::storage::Storage;
@@ -237,7 +237,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// The NMT state.
-    pub fn state(&self) -> State {
+    pub fn state(&self) -> NmtState {
         self.nmt.state()
     }
 

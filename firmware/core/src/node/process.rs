@@ -4,11 +4,11 @@
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::heartbeat::ConsumerEvent;
-use crate::services::nmt::{State, Transition};
+use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
-use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtState};
+use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtStateCode};
 
 use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
@@ -118,7 +118,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let switch_deadline = self.process_switch(now);
         if self.boot_pending {
             let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
-            if self.push(id, &[NmtState::BootUp.code()]) {
+            if self.push(id, &[NmtStateCode::BootUp.code()]) {
                 self.boot_pending = false;
                 // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
                 let dict = self.od.dictionary();
@@ -135,11 +135,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if self.start_pending && self.txq.is_empty() {
             self.start_pending = false;
-            if let Transition::Entered(s) = self.nmt.enter(State::Operational) {
+            if let Transition::Entered(s) = self.nmt.enter(NmtState::Operational) {
                 self.entered(s, now);
             }
         }
-        if self.nmt.state() != State::Initialising && self.comm.heartbeat.poll(now) {
+        if self.nmt.state() != NmtState::Initialising && self.comm.heartbeat.poll(now) {
             let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
             self.push(id, &[self.nmt.state().reported().code()]);
         }

@@ -3,7 +3,7 @@
 //! error behaviour.
 
 use crate::od::ObjectDictionary;
-use crate::services::nmt::{State, Transition};
+use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -24,7 +24,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    pub(super) fn entered(&mut self, state: State, now: Instant) {
+    pub(super) fn entered(&mut self, state: NmtState, now: Instant) {
         self.touched = ALL_TPDOS;
         self.stale = true;
         if state.pdo_allowed() {
@@ -63,8 +63,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.stale = true;
         let dict = self.od.dictionary();
         let next = match Comm::<R, T, HB>::error_behaviour_of(dict, self.od.image(), class) {
-            ErrorBehaviour::PreOperational if self.nmt.state() == State::Operational => Some(State::PreOperational),
-            ErrorBehaviour::Stopped => Some(State::Stopped),
+            ErrorBehaviour::PreOperational if self.nmt.state() == NmtState::Operational => Some(NmtState::PreOperational),
+            ErrorBehaviour::Stopped => Some(NmtState::Stopped),
             _ => None,
         };
         if let Some(s) = next

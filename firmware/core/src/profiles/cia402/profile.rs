@@ -12,7 +12,7 @@ use super::velocity::{Window, vl_limit};
 use super::{TICK_US, mode};
 use crate::abort::AbortCode;
 use crate::node::{CommError, Ctx, NmtEvent};
-use crate::services::nmt::State;
+use crate::services::nmt::NmtState;
 use crate::time::Instant;
 
 mod status;
@@ -146,7 +146,7 @@ impl<D: Drive> Cia402<D> {
         self.s.units = units(ctx, config);
         self.s.supported = supported_modes(ctx);
         self.s.state = PdsState::SwitchOnDisabled;
-        self.s.operational = ctx.state() == State::Operational;
+        self.s.operational = ctx.state() == NmtState::Operational;
         objects::set(ctx, index::ERROR_CODE, 2, 0);
         self.set_mode(ctx);
         self.publish(ctx);
@@ -232,8 +232,8 @@ impl<D: Drive> Cia402<D> {
                 return;
             }
             NmtEvent::Entered(state) => {
-                let left = self.s.operational && state != State::Operational;
-                self.s.operational = state == State::Operational;
+                let left = self.s.operational && state != NmtState::Operational;
+                self.s.operational = state == NmtState::Operational;
                 if !(left && config.leaving_operational_aborts) {
                     return;
                 }
