@@ -12,6 +12,7 @@ use canopen_core::od::ObjectDictionary;
 use canopen_core::services::nmt::NmtState;
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 
 /// What the CANopen task needs from a node, whatever its dictionary.
 pub trait CanNode: Send {
@@ -26,9 +27,9 @@ pub trait CanNode: Send {
     /// [`Node::requeue`].
     fn requeue(&mut self, frame: CanFrame);
     /// [`Node::raise_error`].
-    fn raise_error(&mut self, code: u16, info: [u8; 5]);
+    fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]);
     /// [`Node::clear_error`].
-    fn clear_error(&mut self, code: u16);
+    fn clear_error(&mut self, code: EmcyCode);
     /// [`Node::state`].
     fn state(&self) -> NmtState;
     /// [`Node::node_id`].
@@ -80,11 +81,11 @@ where
         Node::requeue(self, frame);
     }
 
-    fn raise_error(&mut self, code: u16, info: [u8; 5]) {
+    fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) {
         Node::raise_error(self, code, info);
     }
 
-    fn clear_error(&mut self, code: u16) {
+    fn clear_error(&mut self, code: EmcyCode) {
         Node::clear_error(self, code);
     }
 

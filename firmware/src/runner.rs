@@ -17,6 +17,7 @@ use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, BitRateControl, ControllerEvent};
 use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 
 use crate::can_node::CanNode;
 
@@ -80,12 +81,12 @@ pub enum Request {
     /// Raise an application error: EMCY, error register, 0x1003.
     RaiseError {
         /// Error code (CiA 301 table 21 or the device profile's).
-        code: u16,
+        code: EmcyCode,
         /// Manufacturer-specific error field.
         info: [u8; 5],
     },
     /// Clear an application error; the last one cleared sends "error reset".
-    ClearError(u16),
+    ClearError(EmcyCode),
 }
 
 /// The node's answer to a [`Request`].

@@ -17,6 +17,7 @@ use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use embassy_futures::select::{Either3, select3};
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
@@ -99,8 +100,8 @@ impl Shared {
     /// Clears an error the board raised on the node before the task ran
     /// (the STM32's reset cause), at the task's next wake-up: the board's
     /// own way, beside the application's [`Requests`].
-    pub fn clear_board_error(&self, code: u16) {
-        self.board_clear.store(0x1_0000 | u32::from(code), Ordering::Relaxed);
+    pub fn clear_board_error(&self, code: EmcyCode) {
+        self.board_clear.store(0x1_0000 | u32::from(code.value()), Ordering::Relaxed);
         self.wake();
     }
 
@@ -167,12 +168,12 @@ impl Requests<'_> {
     }
 
     /// Raises an application error (EMCY, error register, 0x1003).
-    pub async fn raise_error(&mut self, code: u16, info: [u8; 5]) {
+    pub async fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) {
         self.call(Request::RaiseError { code, info }).await;
     }
 
     /// Clears an application error.
-    pub async fn clear_error(&mut self, code: u16) {
+    pub async fn clear_error(&mut self, code: EmcyCode) {
         self.call(Request::ClearError(code)).await;
     }
 }
@@ -227,7 +228,7 @@ pub async fn serve<T: Future<Output = ()>>(
             Either3::Second(()) => {
                 let clear = shared.board_clear.swap(0, Ordering::Relaxed);
                 if clear != 0 {
-                    node.clear_error(clear as u16);
+                    node.clear_error(EmcyCode(clear as u16));
                 }
                 if let Some(request) = shared.request.try_take() {
                     shared.reply.signal(runner.on_request(node, request));

@@ -8,6 +8,7 @@ use canopen_core::od::{Dictionary, ObjectDictionary};
 use canopen_core::services::pdo::{PdoEvent, PdoTx, Pdos};
 use canopen_core::services::sync::{SyncEvent, SyncService};
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use canopen_firmware::devices::{self, ec5000, sendix};
 
 #[derive(Default)]
@@ -71,7 +72,7 @@ fn ec5000_rpdo1_writes_controlword_mode_and_profile_velocity() {
     assert_eq!(d.read(ram.image(), ec5000::od::index::PROFILE_VELOCITY, 0), Ok(&10_000u32.to_le_bytes()[..]));
     // A frame of 2 bytes is too short for 7 mapped bytes: EMCY 0x8210, nothing written.
     assert!(pdos.on_frame(ms(2), 0x201, &[0x06, 0x00], ram.image_mut(), &mut bus));
-    assert_eq!(bus.events[1..], [PdoEvent::Error { rpdo: 0, code: 0x8210 }]);
+    assert_eq!(bus.events[1..], [PdoEvent::Error { rpdo: 0, code: EmcyCode(0x8210) }]);
     assert_eq!(ram.controlword(), 0x000F);
 }
 

@@ -21,7 +21,7 @@ use crate::master::pdo::{self, MappingEntry};
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::od::{DataType, Dictionary, Kind, Number};
-use canopen_core::wire::emcy::Emcy;
+use canopen_core::wire::emcy::{Emcy, EmcyCode};
 use canopen_core::wire::nmt::{NmtCommand, NmtRequest, NmtStateCode};
 use canopen_core::wire::sdo::{InitiateData, SdoRequest, SdoResponse};
 use embedded_can::Frame;
@@ -273,11 +273,13 @@ impl Decoder {
                 _ => format!("SYNC malformed ({} bytes)", data.len()),
             },
             0x081..=0x0FF => match Emcy::parse(data) {
-                Some(Emcy { code: 0, register, .. }) => format!("EMCY node {node}: error reset, register 0x{register:02X}"),
+                Some(Emcy { code: EmcyCode::NO_ERROR, register, .. }) => {
+                    format!("EMCY node {node}: error reset, register 0x{register:02X}")
+                }
                 Some(e) => format!(
                     "EMCY node {node}: 0x{:04X} {}, register 0x{:02X}, info [{}]",
-                    e.code,
-                    emcy_text(e.code),
+                    e.code.value(),
+                    emcy_text(e.code.value()),
                     e.register,
                     hex_bytes(&e.info)
                 ),

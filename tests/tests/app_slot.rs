@@ -9,6 +9,7 @@ use canopen_core::node::{Application, Claims, CommError, ControllerEvent, Ctx, N
 use canopen_core::od::Dictionary;
 use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use canopen_core::wire::time_stamp::TimeOfDay;
 use common::{Bench, abort, ms, ok_write};
 use hal_host::fixtures::interop::od::Ram;
@@ -89,9 +90,9 @@ impl Application for Probe {
             // 0x2001 = 0xDEAD is a device error (EMCY 0xFF01), any other value clears it.
             (0x2001, 0, _) => {
                 if ctx.read_u32(0x2001, 0) == Some(0xDEAD) {
-                    ctx.raise_error(0xFF01, [1, 2, 3, 4, 5]);
+                    ctx.raise_error(EmcyCode(0xFF01), [1, 2, 3, 4, 5]);
                 } else {
-                    ctx.clear_error(0xFF01);
+                    ctx.clear_error(EmcyCode(0xFF01));
                 }
             }
             // 0x2003 names a raw identifier the probe claims; a write of 0x2002 (not in TPDO1) is an application event for TPDO1.

@@ -10,6 +10,7 @@ use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, BitRateControl, NoApplication};
 use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use embedded_can::Frame;
 use firmware::boards::qemu::ram_storage::RamStorage;
 use firmware::boards::region_size;
@@ -131,10 +132,10 @@ fn requests_are_answered_and_their_frames_leave_in_the_next_step() {
     assert_eq!(task.step(5), [(TPDO1, vec![0x40, 0xE2, 0x01, 0x00])], "an application event sends it unchanged");
     assert_eq!(task.request(Request::TriggerTpdo(7)), Reply::NotTriggered, "no TPDO8");
 
-    assert_eq!(task.request(Request::RaiseError { code: 0xFF01, info: [1, 2, 3, 4, 5] }), Reply::Done);
+    assert_eq!(task.request(Request::RaiseError { code: EmcyCode(0xFF01), info: [1, 2, 3, 4, 5] }), Reply::Done);
     // Generic + manufacturer-specific bits in the error register.
     assert_eq!(task.step(6), [(EMCY, vec![0x01, 0xFF, 0x81, 1, 2, 3, 4, 5])]);
-    assert_eq!(task.request(Request::ClearError(0xFF01)), Reply::Done);
+    assert_eq!(task.request(Request::ClearError(EmcyCode(0xFF01))), Reply::Done);
     assert_eq!(task.step(7), [(EMCY, vec![0; 8])], "error reset");
 }
 

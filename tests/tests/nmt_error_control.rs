@@ -7,6 +7,7 @@ mod common;
 
 use canopen_core::node::NoApplication;
 use canopen_core::services::nmt::NmtState;
+use canopen_core::wire::emcy::EmcyCode;
 use common::{Bench, abort, ms, ok_write};
 use firmware::devices::{bmaxx4400, ec5000};
 use hal_host::storage::MemStorage;
@@ -164,8 +165,8 @@ fn emcy_cob_id_changes_only_while_emcy_is_off() {
     assert_eq!(b.sdo_write(5, 0x1014, 0, &0x0000_0090u32.to_le_bytes()), abort(0x1014, 0, 0x0609_0030));
     assert_eq!(b.sdo_write(5, 0x1014, 0, &0x8000_0085u32.to_le_bytes()), ok_write(0x1014, 0));
     assert_eq!(b.sdo_write(5, 0x1014, 0, &0x0000_0090u32.to_le_bytes()), ok_write(0x1014, 0));
-    b.node.raise_error(0x5000, [0; 5]);
+    b.node.raise_error(EmcyCode(0x5000), [0; 5]);
     assert_eq!(b.at(ms(1)), [(0x090, vec![0x00, 0x50, 0x01, 0, 0, 0, 0, 0])]);
-    b.node.clear_error(0x5000);
+    b.node.clear_error(EmcyCode(0x5000));
     assert_eq!(b.at(ms(2)), [(0x090, vec![0, 0, 0, 0, 0, 0, 0, 0])]);
 }

@@ -17,6 +17,7 @@ use crate::services::nmt::NmtState;
 use crate::services::store::Scope;
 use crate::storage::Storage;
 use crate::time::Instant;
+use crate::wire::emcy::EmcyCode;
 use crate::wire::time_stamp::TimeOfDay;
 
 use super::filter::AcceptanceList;
@@ -194,14 +195,14 @@ impl Ctx<'_> {
 
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
     /// error was already active or there is no room).
-    pub fn raise_error(&mut self, code: u16, info: [u8; 5]) -> bool {
+    pub fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) -> bool {
         self.effects.services = true;
         self.services.emcy().raise(code, info)
     }
 
     /// Raises an error that sets the error register bits `register` (0x1001)
     /// while it lasts, beyond those its code's class sets.
-    pub fn raise_error_with(&mut self, code: u16, register: u8, info: [u8; 5]) -> bool {
+    pub fn raise_error_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
         self.effects.services = true;
         self.services.emcy().raise_with(code, register, info)
     }
@@ -223,7 +224,7 @@ impl Ctx<'_> {
     }
 
     /// Clears an error; the last one cleared sends "error reset".
-    pub fn clear_error(&mut self, code: u16) {
+    pub fn clear_error(&mut self, code: EmcyCode) {
         self.effects.services = true;
         let emcy = self.services.emcy();
         emcy.clear(code);

@@ -10,7 +10,7 @@ use crate::services::nmt::NmtState;
 use crate::services::pdo::Pdos;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
-use crate::wire::emcy::Emcy;
+use crate::wire::emcy::{Emcy, EmcyCode};
 
 use super::app::ServiceOptions;
 use super::router::u32_of;
@@ -158,7 +158,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // message was queued (an error cleared since, without a message, has left it).
         let register = if self.emcy.is_active(e.code) { self.emcy.register() } else { e.register };
         let _ = dict.write_unchecked(image, 0x1001, 0, &[register]);
-        if e.code == 0 {
+        if e.code == EmcyCode::NO_ERROR {
             return;
         }
         let Ok(count) = dict.find(0x1003, 0) else { return };
@@ -174,7 +174,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             }
         }
         let [i0, i1, ..] = e.info;
-        let value = u32::from(e.code) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
+        let value = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
         let _ = dict.write_unchecked(image, 0x1003, 1, &value.to_le_bytes());
         let _ = dict.write_unchecked(image, 0x1003, 0, &[used.saturating_add(1).min(capacity)]);
     }

@@ -72,6 +72,7 @@ use crate::services::sdo_server::SdoServers;
 use crate::storage::Storage;
 use crate::time::Instant;
 use crate::txq::TxQueue;
+use crate::wire::emcy::EmcyCode;
 
 /// Frames the transmit queue holds.
 pub const TX_QUEUE: usize = 32;
@@ -377,13 +378,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// Raises an application error: EMCY with `code`, error register, 0x1003.
-    pub fn raise_error(&mut self, code: u16, info: [u8; 5]) {
+    pub fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) {
         self.stale = true;
         self.comm.emcy.raise(code, info);
     }
 
     /// Clears an application error; the last one cleared sends "error reset".
-    pub fn clear_error(&mut self, code: u16) {
+    pub fn clear_error(&mut self, code: EmcyCode) {
         self.stale = true;
         self.comm.emcy.clear(code);
     }

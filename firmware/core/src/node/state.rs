@@ -7,7 +7,7 @@ use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::Instant;
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 use crate::wire::nmt::NmtRequest;
 
 use super::{Application, Comm, CommError, ErrorBehaviour, NmtEvent, Node};
@@ -50,8 +50,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// life guarding), also while an earlier one is still active.
     pub(super) fn communication_error(&mut self, node: u8, now: Instant) {
         let info = [node, 0, 0, 0, 0];
-        if !self.comm.emcy.raise(code::HEARTBEAT, info) {
-            self.comm.emcy.signal(code::HEARTBEAT, info);
+        if !self.comm.emcy.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info) {
+            self.comm.emcy.signal(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info);
         }
         let error = if node == 0 { CommError::LifeGuarding } else { CommError::Heartbeat(node) };
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(error)));
@@ -79,7 +79,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// (and the last error cleared sends "error reset").
     pub(super) fn communication_recovered(&mut self) {
         if !self.comm.consumers.any_timed_out() && !self.comm.guarding.is_expired() {
-            self.comm.emcy.clear(code::HEARTBEAT);
+            self.comm.emcy.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         }
     }
 }

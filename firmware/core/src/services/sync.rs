@@ -26,7 +26,7 @@ use crate::od::Dictionary;
 use crate::services::pdo::map::{le_u32, object, sub_entry, value_u32};
 use crate::services::pdo::precheck;
 use crate::time::{Duration, Instant};
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
 
 /// 0x1005 COB-ID SYNC message.
@@ -70,8 +70,8 @@ pub struct SyncLengthError {
 
 impl SyncLengthError {
     /// The EMCY error code the node raises: 0x8240 unexpected SYNC data length.
-    pub const fn emcy_code(&self) -> u16 {
-        code::SYNC_LENGTH
+    pub const fn emcy_code(&self) -> EmcyCode {
+        EmcyCode::UNEXPECTED_SYNC_LENGTH
     }
 }
 
@@ -320,7 +320,7 @@ mod tests {
         assert_eq!(sync.on_frame(ms(1), &[3]).map(|e| e.counter), Ok(Some(3)));
         for data in [&[][..], &[1, 2][..], &[0; 8][..]] {
             let err = sync.on_frame(ms(2), data).unwrap_err();
-            assert_eq!((err.len, err.emcy_code()), (data.len(), 0x8240));
+            assert_eq!((err.len, err.emcy_code()), (data.len(), EmcyCode(0x8240)));
         }
     }
 

@@ -135,7 +135,7 @@ pub fn run<A>(
     // (it waits for the call after the one that queues the boot-up).
     if let Some((code, info)) = cause.emcy(flags) {
         started.node.raise_error(code, info);
-        defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
+        defmt::warn!("EMCY {=u16:#06x}: reset by {}", code.value(), cause);
     }
     let node_id = started.node.node_id();
     let lss = started.node.bit_rate();

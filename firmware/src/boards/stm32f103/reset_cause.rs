@@ -18,6 +18,8 @@
 //! in 0x1003 sub 1 (bits 16–23 and 24–31), so an SDO upload of 0x1003:01
 //! reads the reset cause (docs/firmware.md, "Reset cause").
 
+use canopen_core::wire::emcy::EmcyCode;
+
 /// Why the chip reset (byte 3 of the EMCY, bits 16–23 of 0x1003 sub 1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
@@ -37,11 +39,6 @@ pub enum ResetCause {
     /// window watchdog or a low-power reset: logged only.
     Other = 5,
 }
-
-/// EMCY "internal software" (CiA 301 table 21).
-pub const INTERNAL_SOFTWARE: u16 = 0x6100;
-/// EMCY "device hardware" (CiA 301 table 21).
-pub const DEVICE_HARDWARE: u16 = 0x5000;
 
 /// RCC_CSR flags (RM0008 §7.3.10).
 const PINRSTF: u32 = 1 << 26;
@@ -67,10 +64,10 @@ pub fn classify(csr: u32, left: Option<u32>) -> ResetCause {
 
 impl ResetCause {
     /// The EMCY to send after boot-up (code, manufacturer bytes), if any.
-    pub fn emcy(self, flags: u8) -> Option<(u16, [u8; 5])> {
+    pub fn emcy(self, flags: u8) -> Option<(EmcyCode, [u8; 5])> {
         let code = match self {
-            ResetCause::Watchdog | ResetCause::Panic | ResetCause::HardFault => INTERNAL_SOFTWARE,
-            ResetCause::Crystal => DEVICE_HARDWARE,
+            ResetCause::Watchdog | ResetCause::Panic | ResetCause::HardFault => EmcyCode::INTERNAL_SOFTWARE,
+            ResetCause::Crystal => EmcyCode::DEVICE_HARDWARE,
             ResetCause::PowerOrPin | ResetCause::Other => return None,
         };
         Some((code, [self as u8, flags, 0, 0, 0]))
@@ -141,10 +138,10 @@ mod tests {
 
     #[test]
     fn emcy_codes_and_what_0x1003_records() {
-        assert_eq!(ResetCause::Watchdog.emcy(0x24), Some((0x6100, [1, 0x24, 0, 0, 0])));
-        assert_eq!(ResetCause::Panic.emcy(0x14), Some((0x6100, [2, 0x14, 0, 0, 0])));
-        assert_eq!(ResetCause::HardFault.emcy(0x14), Some((0x6100, [3, 0x14, 0, 0, 0])));
-        assert_eq!(ResetCause::Crystal.emcy(0x24), Some((0x5000, [4, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::Watchdog.emcy(0x24), Some((EmcyCode(0x6100), [1, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::Panic.emcy(0x14), Some((EmcyCode(0x6100), [2, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::HardFault.emcy(0x14), Some((EmcyCode(0x6100), [3, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::Crystal.emcy(0x24), Some((EmcyCode(0x5000), [4, 0x24, 0, 0, 0])));
         assert_eq!(ResetCause::PowerOrPin.emcy(0x0C), None);
         assert_eq!(ResetCause::Other.emcy(0x14), None);
     }

@@ -8,9 +8,10 @@ use canopen_core::profiles::cia402::Cia402;
 use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::PdsState;
 use canopen_core::profiles::cia402::objects::signed;
+use canopen_core::wire::emcy::EmcyCode;
 
 /// EMCY 0xFFA8 "Motor temperature close to high" (class W, §5.2).
-pub const TEMPERATURE_WARNING: u16 = 0xFFA8;
+pub const TEMPERATURE_WARNING: EmcyCode = EmcyCode(0xFFA8);
 /// 0x4231 "High Temperature Warning Level": sub 1 threshold, sub 2 hysteresis [°C].
 const WARNING_LEVEL: u16 = 0x4231;
 /// 0x2200 "Monitoring Values".

@@ -71,6 +71,7 @@ use crate::abort::AbortCode;
 use crate::od::{Dictionary, Entry};
 use crate::services::sync::SyncEvent;
 use crate::time::{Duration, Instant, earliest};
+use crate::wire::emcy::EmcyCode;
 use crate::wire::pdo_mapping::MappingEntry;
 use map::{Direction, Mapping, Slot, le_u32, object, sub_entry, value_u32};
 use rpdo::Rpdo;
@@ -224,14 +225,14 @@ pub enum PdoEvent {
         /// The RPDO (0-based).
         rpdo: usize,
         /// The EMCY error code.
-        code: u16,
+        code: EmcyCode,
     },
     /// That condition ended (a good RPDO arrived): the node clears `code`.
     ErrorCleared {
         /// The RPDO (0-based).
         rpdo: usize,
         /// The EMCY error code.
-        code: u16,
+        code: EmcyCode,
     },
 }
 

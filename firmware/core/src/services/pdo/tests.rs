@@ -9,7 +9,7 @@
 
 use super::*;
 use crate::od::{Attr, DataType, DeviceInfo, Entry, Limits, NO_LIMITS};
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 
 // ---- The dictionary ------------------------------------------------------------
 
