@@ -302,7 +302,14 @@ impl Runner {
         controller: &mut impl Controller,
         states: &mut impl StateSink,
     ) -> Option<Instant> {
-        let deadline = node.process(now);
+        // A reset runs a stage per `process` call (each call bounded); the
+        // frames that come meanwhile wait in the receive channel until it
+        // is done, so they meet the node after its boot-up, as a master
+        // that sends right after an NMT reset expects.
+        let mut deadline = node.process(now);
+        while node.resetting() {
+            deadline = node.process(now);
+        }
         if let Some(index) = node.take_bit_rate_change() {
             controller.set_bit_rate(index);
         }

@@ -315,7 +315,12 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
     let mut held = None;
     loop {
         let now = clock();
-        let deadline = node.process(now);
+        // A reset runs a stage per call: frames that come meanwhile wait on
+        // the wire's side until it is done, as on a board.
+        let mut deadline = node.process(now);
+        while node.resetting() {
+            deadline = node.process(now);
+        }
         if let Some(index) = node.take_bit_rate_change() {
             match BitRate::from_cia_index(index) {
                 Some(rate) => {

@@ -26,6 +26,9 @@ fn node_thread(channels: SlcanChannels, start: mpsc::Receiver<()>) -> std::threa
             Node::new(od::Ram::new(NODE), NoApplication, MemStorage::new(4096), NODE, clock());
         loop {
             node.process(clock());
+            while node.resetting() {
+                node.process(clock());
+            }
             while let Some(frame) = node.transmit() {
                 if channels.to_client.send(frame).is_err() {
                     return;

@@ -35,13 +35,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         };
         let rtr = frame.is_remote_frame();
         let data = frame.data();
-        // A node resetting is Initialising, as CiA 301 has it until the
-        // boot-up: only NMT (whose state machine ignores every command then)
-        // and LSS reach it; anything else is ignored.
-        if self.resetting() && cob_id != NMT_COB_ID && cob_id != LSS_MASTER_COB_ID {
-            self.counters.ignored += 1;
-            return;
-        }
         // A device's own protocol sees every frame first, whatever the NMT state.
         if self.with_app(now, |app, ctx| app.on_frame(ctx, cob_id, rtr, data)) {
             return;
@@ -72,6 +65,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         let state = self.nmt.state();
+        // Until the boot-up, a reset's stages included (CiA 301 §7.3.2.2.1).
         if state == NmtState::Initialising {
             self.counters.ignored += 1;
             return;

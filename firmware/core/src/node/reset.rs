@@ -21,7 +21,7 @@ const SDO_SERVER_PARAMETER: u16 = 0x1200;
 /// A reset in progress. NMT reset node and reset communication do their
 /// work a stage per [`Node::process`] call, so that no call does all of it
 /// (docs/firmware.md, "Longest step"); the node is Initialising until the
-/// last stage has queued the boot-up, as CiA 301 §7.3.2.2.1 asks.
+/// call of the last stage queues the boot-up, as CiA 301 §7.3.2.2.1 asks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Stage {
     /// No reset in progress (zero bits: the unpowered node's).
@@ -113,10 +113,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// One stage of the reset in progress. The next stage is set before the
-    /// device's hooks run, so a reset they ask for starts over cleanly.
-    /// The two stages with the device's reset hooks are functions of their
-    /// own: the hooks then run on a small frame, not on one holding every
-    /// stage's locals.
+    /// device's hooks run, so a reset they ask for starts over cleanly. Out
+    /// of line: the stages' locals and the device's reset hooks take a
+    /// frame of their own, not one on top of all of `process`'s.
     #[inline(never)]
     pub(super) fn reset_step(&mut self, now: Instant) {
         match self.reset {
@@ -170,7 +169,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Reset application: the application part of the image from its
     /// defaults and the stored set, then the device's hook.
-    #[inline(never)]
     fn reset_application_part(&mut self, now: Instant) {
         self.reset = Stage::Communication;
         let dict = self.od.dictionary();
@@ -184,15 +182,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The device hears of the reset (its hook: `Application::on_nmt`),
     /// once for each part; a device error it reports changes no state while
-    /// the node is Initialising. One function for both parts: one hook context built.
-    #[inline(never)]
+    /// the node is Initialising.
     fn reset_hook(&mut self, now: Instant, event: NmtEvent) {
         self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, event));
     }
 
     /// The end of reset communication: LSS, SDO servers, acceptance list,
     /// NMT; the boot-up is due and the device hears of the reset.
-    #[inline(never)]
     fn reset_finish(&mut self, now: Instant) {
         self.reset = Stage::Idle;
         // Every service and every TPDO looks at the new configuration at the next process.
