@@ -13,6 +13,7 @@
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::Dictionary;
+use crate::od::index;
 use crate::services::nmt::NmtState;
 use crate::services::store::Scope;
 use crate::storage::Storage;
@@ -175,7 +176,7 @@ impl Ctx<'_> {
     /// object (a heartbeat time restarts the producer, a PDO parameter
     /// reconfigures the PDO). The device's own hooks do not run again for it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if index == 0x1010 || index == 0x1011 {
+        if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
             self.effects.written = true;
             return self.store_command(index, sub, data);
         }
@@ -230,7 +231,7 @@ impl Ctx<'_> {
         emcy.clear(code);
         // No message when other errors stay active: 0x1001 follows at once.
         let register = emcy.register();
-        let _ = self.dict.write_unchecked(self.image, 0x1001, 0, &[register]);
+        let _ = self.dict.write_unchecked(self.image, index::ERROR_REGISTER, 0, &[register]);
     }
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
@@ -364,13 +365,13 @@ pub trait Application {
     /// mapping in use). A device no RPDO-written object concerns overrides
     /// it with nothing and saves the look-ups on every RPDO.
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
-        let map = 0x1600 + u16::from(n);
+        let map = index::RPDO_MAPPING_PARAMETER + u16::from(n);
         let count = ctx.read_u32(map, 0).unwrap_or(0).min(64) as u8;
         for sub in 1..=count {
             let entry = ctx.read_u32(map, sub).unwrap_or(0);
             let (index, object_sub) = ((entry >> 16) as u16, (entry >> 8) as u8);
             // Dummy entries (data types 0x0001..0x0007 and the like) map nothing.
-            if index >= 0x1000 {
+            if index >= index::COMMUNICATION_AREA {
                 self.written(ctx, index, object_sub, Source::Rpdo(n));
             }
         }

@@ -10,6 +10,7 @@ use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
 
 use super::{Application, Node};
 use crate::od::ObjectDictionary;
+use crate::od::index;
 
 /// The board's side of LSS "activate bit timing": the CAN controller.
 pub trait BitRateControl {
@@ -78,7 +79,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // A loop, not four calls: each inlined its own `read_u32`.
         let mut address = [0u32; 4];
         for (part, sub) in address.iter_mut().zip(1u8..) {
-            *part = dict.read_u32(image, 0x1018, sub).unwrap_or(0);
+            *part = dict.read_u32(image, index::IDENTITY, sub).unwrap_or(0);
         }
         if let Some(lss) = self.lss_mut() {
             lss.set_address(address);
@@ -199,7 +200,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.stale = true;
         self.serial = Some(serial);
         let dict = self.od.dictionary();
-        let _ = dict.write_unchecked(self.od.image_mut(), 0x1018, 4, &serial.to_le_bytes());
+        let _ = dict.write_unchecked(self.od.image_mut(), index::IDENTITY, 4, &serial.to_le_bytes());
         self.refresh_lss();
     }
 

@@ -3,6 +3,7 @@
 
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
+use crate::od::index;
 use crate::services::heartbeat::ConsumerEvent;
 use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
@@ -122,13 +123,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.boot_pending = false;
                 // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
                 let dict = self.od.dictionary();
-                let auto_start = dict.read(self.od.image(), 0x1F80, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0
-                    || A::OPTIONS
-                        .start_operational
-                        .is_some_and(|(index, mask)| dict.read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0);
+                let auto_start =
+                    dict.read(self.od.image(), index::NMT_STARTUP, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0
+                        || A::OPTIONS
+                            .start_operational
+                            .is_some_and(|(index, mask)| dict.read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0);
                 let state = self.nmt.boot_up_done(false);
                 let dict = self.od.dictionary();
-                self.comm.reconfigure(0x1017, dict, self.od.image(), self.node_id, now);
+                self.comm.reconfigure(index::PRODUCER_HEARTBEAT_TIME, dict, self.od.image(), self.node_id, now);
                 self.entered(state, now);
                 self.start_pending = auto_start;
             }

@@ -6,6 +6,7 @@
 use crate::abort::AbortCode;
 use crate::id::CobId;
 use crate::od::access::{copy_from, upload_value};
+use crate::od::index;
 use crate::od::{DataType, Entry, ObjectAccess, ObjectDictionary};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use core::marker::PhantomData;
@@ -91,7 +92,7 @@ impl Ctx<'_> {
     pub(super) fn store_command(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.dict.find(index, sub)?;
         let scope = Scope::from_sub(sub).ok_or(if sub == 0 { AbortCode::ReadOnly } else { AbortCode::CannotStore })?;
-        let (signature, is_save) = if index == 0x1010 { (SAVE, true) } else { (LOAD, false) };
+        let (signature, is_save) = if index == index::STORE_PARAMETERS { (SAVE, true) } else { (LOAD, false) };
         if u32_of(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
@@ -131,7 +132,7 @@ impl Ctx<'_> {
             1 | 2 => {
                 let new = CobId(u32_of(data)?);
                 let own = if sub == 1 { 0x600 } else { 0x580 } + u16::from(self.node_id);
-                let restricted = new.is_restricted() && !(index == 0x1200 && new.can_id() == own);
+                let restricted = new.is_restricted() && !(index == index::SDO_SERVER_PARAMETER && new.can_id() == own);
                 let old = self.current_u32(index, sub).map(CobId);
                 let moves = old.is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
                 if new.is_extended() || (new.is_valid() && restricted) || moves {
@@ -150,19 +151,19 @@ impl Ctx<'_> {
     /// Not 0x1010/0x1011: their callers choose whether the node stores
     /// ([`Ctx::store_command`]), so that a node without storage links none of it.
     pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if index >= 0x2000 {
+        if index >= index::MANUFACTURER_SPECIFIC {
             return self.write_plain(index, sub, data);
         }
         self.effects.written = true;
         self.effects.services = true;
         let result = match index {
-            0x1029 if sub > 0 => {
+            index::ERROR_BEHAVIOUR if sub > 0 => {
                 if matches!(data, [v] if *v > 2) {
                     return Err(AbortCode::InvalidValue);
                 }
                 self.plain().write(index, sub, data)
             }
-            0x1200..=0x127F => self.write_sdo_server(index, sub, data),
+            index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST => self.write_sdo_server(index, sub, data),
             _ => {
                 let (dict, now, node_id, options) = (self.dict, self.now, self.node_id, self.options);
                 match self.services.write_object(index, sub, data, dict, self.image, node_id, now, options, self.state) {
@@ -172,7 +173,9 @@ impl Ctx<'_> {
             }
         };
         // SYNC, TIME, heartbeat consumers, SDO servers, RPDOs and TPDOs (RTR).
-        if result.is_ok() && matches!(index, 0x1005 | 0x1012 | 0x1016 | 0x1200..=0x127F | 0x1400..=0x15FF | 0x1800..=0x19FF) {
+        if result.is_ok()
+            && matches!(index, index::COB_ID_SYNC | index::COB_ID_TIME_STAMP | index::CONSUMER_HEARTBEAT_TIME | index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST | index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_COMMUNICATION_PARAMETER_LAST | index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_COMMUNICATION_PARAMETER_LAST)
+        {
             self.effects.consumed_changed = true;
         }
         result
@@ -220,7 +223,7 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
             return r;
         }
         // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
-        let store = index == 0x1010 || index == 0x1011;
+        let store = index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS;
         if !store {
             self.ctx.precheck(index, sub, data)?;
         }
@@ -267,7 +270,7 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
         if let Some(r) = self.app.download_check(self.ctx, index, sub, size) {
             return r;
         }
-        if index == 0x1010 || index == 0x1011 {
+        if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
             // The signature is 4 bytes, whatever the entry's own size.
             self.ctx.dict.find(index, sub)?;
             return match size {

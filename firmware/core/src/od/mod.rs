@@ -16,6 +16,7 @@
 
 pub(crate) mod access;
 mod entry;
+pub mod index;
 mod types;
 mod value;
 

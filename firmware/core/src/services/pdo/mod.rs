@@ -68,7 +68,7 @@ fn configured_mapping(
 mod tests;
 
 use crate::abort::AbortCode;
-use crate::od::{Dictionary, Entry};
+use crate::od::{Dictionary, Entry, index};
 use crate::services::sync::SyncEvent;
 use crate::time::{Duration, Instant, earliest};
 use crate::wire::emcy::EmcyCode;
@@ -257,15 +257,6 @@ pub struct MappingError {
     pub code: AbortCode,
 }
 
-/// First RPDO communication record.
-const RPDO_COMM: u16 = 0x1400;
-/// First RPDO mapping record.
-const RPDO_MAP: u16 = 0x1600;
-/// First TPDO communication record.
-const TPDO_COMM: u16 = 0x1800;
-/// First TPDO mapping record.
-const TPDO_MAP: u16 = 0x1A00;
-
 /// The PDOs of a node: `R` RPDOs and `T` TPDOs (the generated
 /// `RPDO_COUNT` and `TPDO_COUNT`).
 #[derive(Clone, Debug)]
@@ -347,9 +338,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
             // Reset communication also resets the node's errors: nothing is raised any more.
             *rpdo = Rpdo::default();
-            let mapping = configured_mapping(dict, image, RPDO_MAP + n, Direction::Receive, &mut first_error);
-            rpdo.set(CommParams::read(dict, image, RPDO_COMM + n), mapping);
-            rpdo.cob_id_writable = cob_id_writable(dict, RPDO_COMM + n);
+            let mapping = configured_mapping(dict, image, index::RPDO_MAPPING_PARAMETER + n, Direction::Receive, &mut first_error);
+            rpdo.set(CommParams::read(dict, image, index::RPDO_COMMUNICATION_PARAMETER + n), mapping);
+            rpdo.cob_id_writable = cob_id_writable(dict, index::RPDO_COMMUNICATION_PARAMETER + n);
         }
         self.window_end = None;
         self.operational = false;
@@ -367,9 +358,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             *tpdo = Tpdo::default();
             tpdo.set_change_detection(change_detection);
             tpdo.timer_only_254 = timer_only;
-            let mapping = configured_mapping(dict, image, TPDO_MAP + n, Direction::Transmit, &mut first_error);
-            tpdo.set(CommParams::read(dict, image, TPDO_COMM + n), mapping);
-            tpdo.cob_id_writable = cob_id_writable(dict, TPDO_COMM + n);
+            let mapping = configured_mapping(dict, image, index::TPDO_MAPPING_PARAMETER + n, Direction::Transmit, &mut first_error);
+            tpdo.set(CommParams::read(dict, image, index::TPDO_COMMUNICATION_PARAMETER + n), mapping);
+            tpdo.cob_id_writable = cob_id_writable(dict, index::TPDO_COMMUNICATION_PARAMETER + n);
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
         self.refresh_rx_ids();
@@ -403,12 +394,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn reload_mappings(&mut self, dict: &Dictionary, image: &[u8]) {
         self.settled = false;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, RPDO_MAP + n, Direction::Receive) {
+            if let Ok(mapping) = Mapping::read(dict, image, index::RPDO_MAPPING_PARAMETER + n, Direction::Receive) {
                 rpdo.set(rpdo.params, Some(mapping));
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, TPDO_MAP + n, Direction::Transmit) {
+            if let Ok(mapping) = Mapping::read(dict, image, index::TPDO_MAPPING_PARAMETER + n, Direction::Transmit) {
                 tpdo.set(tpdo.params, Some(mapping));
             }
         }
@@ -540,13 +531,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     ) -> Option<Result<(), AbortCode>> {
         // The same rules for both directions: only the PDO's reaction differs.
         let (direction, base) = match index {
-            RPDO_COMM..=0x17FF => (Direction::Receive, RPDO_COMM),
-            TPDO_COMM..=0x1BFF => (Direction::Transmit, TPDO_COMM),
+            index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST => {
+                (Direction::Receive, index::RPDO_COMMUNICATION_PARAMETER)
+            }
+            index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST => {
+                (Direction::Transmit, index::TPDO_COMMUNICATION_PARAMETER)
+            }
             _ => return None,
         };
         let offset = index.wrapping_sub(base);
-        let is_mapping = offset >= RPDO_MAP - RPDO_COMM;
-        let n = usize::from(offset % (RPDO_MAP - RPDO_COMM));
+        let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
+        let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
         let (params, cob_id_writable) = match direction {
             Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
             Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
