@@ -124,7 +124,8 @@ fn ec5000_pdo4_mappings_are_dynamic() {
     assert_eq!(sdo(&mut ram, 0x1403, 1, &0x8000_0501u32.to_le_bytes()), Err(AbortCode::ReadOnly));
     assert_eq!(sdo(&mut ram, 0x1603, 1, &0x6041_0010u32.to_le_bytes()), Err(AbortCode::NotMappable), "ro");
     assert_eq!(sdo(&mut ram, 0x1603, 1, &0x6040_0010u32.to_le_bytes()), Ok(()));
-    assert_eq!(sdo(&mut ram, 0x1603, 0, &[9]), Err(AbortCode::PdoTooLong));
+    // The EDS's high limit of sub 0 answers first, as it does in the node.
+    assert_eq!(sdo(&mut ram, 0x1603, 0, &[9]), Err(AbortCode::ValueTooHigh));
     assert_eq!(sdo(&mut ram, 0x1603, 0, &[1]), Ok(()));
     // The static mappings of PDO1..3 are read-only.
     assert_eq!(sdo(&mut ram, 0x1A00, 0, &[0]), Err(AbortCode::ReadOnly));

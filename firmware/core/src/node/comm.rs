@@ -3,8 +3,8 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::Dictionary;
 use crate::od::index;
+use crate::od::{Dictionary, u32_exact};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::nmt::NmtState;
@@ -14,7 +14,6 @@ use crate::time::Instant;
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 use super::app::ServiceOptions;
-use super::router::u32_of;
 
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
@@ -266,7 +265,7 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
             index::COB_ID_TIME_STAMP if sub == 0 => self.write_time_cob_id(data, dict, image, node_id, now),
             index::COB_ID_EMCY if sub == 0 => self.write_emcy_cob_id(data, dict, image),
             index::CONSUMER_HEARTBEAT_TIME if sub > 0 => {
-                let value = match u32_of(data) {
+                let value = match u32_exact(data) {
                     Ok(v) => v,
                     Err(e) => return Some(Err(e)),
                 };
@@ -305,7 +304,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// 29-bit CAN-ID (bits 11..30 are 0), no CAN-ID 0, no restricted CAN-ID
     /// while valid; the CAN-ID changes only while EMCY is or becomes off.
     fn write_emcy_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        let new = CobId(u32_of(data)?);
+        let new = CobId(u32_exact(data)?);
         let moves = dict
             .read_u32(image, index::COB_ID_EMCY, 0)
             .map(CobId)
@@ -321,7 +320,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// 0x1012 COB-ID TIME (CiA 301 §7.5.2.13): bit 31 consume, bit 30
     /// produce. No 29-bit CAN-ID, no restricted CAN-ID while consumed or produced.
     fn write_time_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8], node_id: u8, now: Instant) -> Result<(), AbortCode> {
-        let new = CobId(u32_of(data)?);
+        let new = CobId(u32_exact(data)?);
         let used = new.0 & (CobId::BIT31 | CobId::BIT30) != 0;
         if new.is_extended() || (used && new.is_restricted()) {
             return Err(AbortCode::InvalidValue);

@@ -7,7 +7,7 @@ use crate::abort::AbortCode;
 use crate::id::CobId;
 use crate::od::access::{copy_from, upload_value};
 use crate::od::index;
-use crate::od::{DataType, Entry, ObjectAccess, ObjectDictionary};
+use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, u32_exact};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use core::marker::PhantomData;
 
@@ -52,14 +52,6 @@ pub(crate) struct SdoEffects {
     pub reset_node: bool,
 }
 
-pub(super) fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {
-    match *data {
-        [a, b, c, d] => Ok(u32::from_le_bytes([a, b, c, d])),
-        [_, _, _, _, _, ..] => Err(AbortCode::LengthTooHigh),
-        _ => Err(AbortCode::LengthTooLow),
-    }
-}
-
 /// The abort code of a failed store or restore.
 pub(super) fn store_abort(e: StoreError) -> AbortCode {
     match e {
@@ -93,7 +85,7 @@ impl Ctx<'_> {
         self.dict.find(index, sub)?;
         let scope = Scope::from_sub(sub).ok_or(if sub == 0 { AbortCode::ReadOnly } else { AbortCode::CannotStore })?;
         let (signature, is_save) = if index == index::STORE_PARAMETERS { (SAVE, true) } else { (LOAD, false) };
-        if u32_of(data)? != signature {
+        if u32_exact(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
         if is_save {
@@ -107,18 +99,9 @@ impl Ctx<'_> {
         self.dict.read_u32(self.image, index, sub)
     }
 
-    /// The checks every download passes before the object's own rules: the
-    /// entry exists and is writable, the length fits, and the value is
-    /// within the EDS limits. So an access or range error gets its own abort
-    /// code (0x06010002, 0x0607001x, 0x06090031/32) whatever the object's
-    /// owner would say about the value.
+    /// [`precheck`]: the checks every download passes before the object's own rules.
     pub(super) fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let entry = self.dict.find(index, sub)?;
-        // A writable DOMAIN has no length or limits to check here.
-        if entry.data_type == DataType::Domain && entry.writable() {
-            return Ok(());
-        }
-        self.dict.check_write(entry, data)
+        precheck(self.dict, index, sub, data).map(|_| ())
     }
 
     /// An SDO server parameter 0x1200 + i (CiA 301 §7.5.2.33). Sub 1 and 2,
@@ -130,7 +113,7 @@ impl Ctx<'_> {
     fn write_sdo_server(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         match sub {
             1 | 2 => {
-                let new = CobId(u32_of(data)?);
+                let new = CobId(u32_exact(data)?);
                 let own = if sub == 1 { 0x600 } else { 0x580 } + u16::from(self.node_id);
                 let restricted = new.is_restricted() && !(index == index::SDO_SERVER_PARAMETER && new.can_id() == own);
                 let old = self.current_u32(index, sub).map(CobId);

@@ -17,10 +17,13 @@
 pub(crate) mod access;
 mod entry;
 pub mod index;
+mod lookup;
 mod types;
 mod value;
 
 pub use access::{DictionaryAccess, ObjectAccess};
+pub use lookup::le_u32;
+pub(crate) use lookup::{object, precheck, sub_entry, u32_exact, value_u32};
 
 use crate::abort::AbortCode;
 
@@ -279,18 +282,6 @@ impl Dictionary {
             }
         }
     }
-}
-
-/// Up to 4 little-endian bytes as a `u32` (missing bytes read as 0): the
-/// value of an integer entry of at most 32 bits.
-// Out of line: it had a copy in each of its callers (66 bytes more).
-#[inline(never)]
-pub fn le_u32(bytes: &[u8]) -> u32 {
-    let mut b = [0u8; 4];
-    for (dst, src) in b.iter_mut().zip(bytes) {
-        *dst = *src;
-    }
-    u32::from_le_bytes(b)
 }
 
 /// Adds `n` to the little-endian integer in `bytes`, wrapping at its width.

@@ -22,9 +22,7 @@
 
 use crate::abort::AbortCode;
 use crate::id::is_restricted_can_id;
-use crate::od::{Dictionary, index};
-use crate::services::pdo::map::{le_u32, object, sub_entry, value_u32};
-use crate::services::pdo::precheck;
+use crate::od::{Dictionary, index, le_u32, object, precheck, sub_entry, value_u32};
 use crate::time::{Duration, Instant};
 use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};

@@ -17,7 +17,7 @@
 //!   an RPDO, where they skip bytes: 0x06040041 in a TPDO.
 
 use crate::abort::AbortCode;
-use crate::od::{Attr, DataType, Dictionary, Entry};
+use crate::od::{Attr, DataType, Dictionary, Entry, object, sub_entry, value_u32};
 use crate::wire::pdo_mapping::MappingEntry;
 
 /// Most entries one mapping can hold: with byte granularity, 8 bytes hold at most 8 objects.
@@ -210,29 +210,3 @@ impl Mapping {
         }
     }
 }
-
-/// The entries of object `index`: two binary searches over the sorted
-/// table, never a scan of the dictionary.
-pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
-    let entries: &'static [Entry] = dict.entries;
-    let first = u32::from(index) << 8;
-    let start = entries.partition_point(|e| e.key() < first);
-    let end = entries.partition_point(|e| e.key() < first + 0x100);
-    entries.get(start..end).unwrap_or(&[])
-}
-
-/// Sub-index `sub` within the entries of one object (at most 255 of them).
-// Out of line, as `value_u32`: a dozen callers each had a copy (536 bytes for both).
-#[inline(never)]
-pub(crate) fn sub_entry(record: &'static [Entry], sub: u8) -> Option<&'static Entry> {
-    record.iter().find(|e| e.sub == sub)
-}
-
-/// The value of an integer entry of up to 4 bytes, little-endian.
-// Out of line: see `sub_entry`.
-#[inline(never)]
-pub(crate) fn value_u32(dict: &Dictionary, image: &[u8], entry: &Entry) -> u32 {
-    le_u32(dict.value(image, entry))
-}
-
-pub(crate) use crate::od::le_u32;

@@ -68,12 +68,13 @@ fn configured_mapping(
 mod tests;
 
 use crate::abort::AbortCode;
-use crate::od::{Dictionary, Entry, index};
+use crate::od::{Dictionary, index};
+use crate::od::{le_u32, object, precheck, sub_entry, value_u32};
 use crate::services::sync::SyncEvent;
 use crate::time::{Duration, Instant, earliest};
 use crate::wire::emcy::EmcyCode;
 use crate::wire::pdo_mapping::MappingEntry;
-use map::{Direction, Mapping, Slot, le_u32, object, sub_entry, value_u32};
+use map::{Direction, Mapping, Slot};
 use rpdo::Rpdo;
 use tpdo::Tpdo;
 
@@ -706,21 +707,6 @@ fn retry_mask(tpdos: &[Tpdo]) -> u32 {
 /// Whether sub 1 of a communication record can be written at all.
 fn cob_id_writable(dict: &Dictionary, index: u16) -> bool {
     dict.find(index, 1).is_ok_and(|e| e.writable())
-}
-
-/// The checks `Dictionary::write` makes before any semantic rule: the entry
-/// exists, is writable, and `data` has its exact length (PDO and SYNC
-/// parameters are fixed-size integers).
-pub(crate) fn precheck(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
-    let entry = dict.find(index, sub)?;
-    if !entry.writable() {
-        return Err(AbortCode::ReadOnly);
-    }
-    match data.len().cmp(&usize::from(entry.len)) {
-        core::cmp::Ordering::Greater => Err(AbortCode::LengthTooHigh),
-        core::cmp::Ordering::Less => Err(AbortCode::LengthTooLow),
-        core::cmp::Ordering::Equal => Ok(entry),
-    }
 }
 
 /// An SDO download into a communication record; returns the new record.
