@@ -9,9 +9,10 @@ use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, Application, ControllerEvent, Node};
 use canopen_core::od::ObjectDictionary;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 
 /// What the CANopen task needs from a node, whatever its dictionary.
 pub trait CanNode: Send {
@@ -26,11 +27,11 @@ pub trait CanNode: Send {
     /// [`Node::requeue`].
     fn requeue(&mut self, frame: CanFrame);
     /// [`Node::raise_error`].
-    fn raise_error(&mut self, code: u16, info: [u8; 5]);
+    fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]);
     /// [`Node::clear_error`].
-    fn clear_error(&mut self, code: u16);
+    fn clear_error(&mut self, code: EmcyCode);
     /// [`Node::state`].
-    fn state(&self) -> State;
+    fn state(&self) -> NmtState;
     /// [`Node::node_id`].
     fn node_id(&self) -> u8;
     /// [`Node::acceptance`]: what the board's acceptance filter passes.
@@ -80,15 +81,15 @@ where
         Node::requeue(self, frame);
     }
 
-    fn raise_error(&mut self, code: u16, info: [u8; 5]) {
+    fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) {
         Node::raise_error(self, code, info);
     }
 
-    fn clear_error(&mut self, code: u16) {
+    fn clear_error(&mut self, code: EmcyCode) {
         Node::clear_error(self, code);
     }
 
-    fn state(&self) -> State {
+    fn state(&self) -> NmtState {
         Node::state(self)
     }
 
@@ -135,7 +136,7 @@ where
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let od = self.od_mut();
-        Ok(od.dictionary().write_unchecked(od.image_mut(), index, sub, data)?)
+        od.dictionary().write_unchecked(od.image_mut(), index, sub, data)
     }
 }
 

@@ -15,8 +15,9 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, BitRateControl, ControllerEvent};
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 
 use crate::can_node::CanNode;
 
@@ -80,12 +81,12 @@ pub enum Request {
     /// Raise an application error: EMCY, error register, 0x1003.
     RaiseError {
         /// Error code (CiA 301 table 21 or the device profile's).
-        code: u16,
+        code: EmcyCode,
         /// Manufacturer-specific error field.
         info: [u8; 5],
     },
     /// Clear an application error; the last one cleared sends "error reset".
-    ClearError(u16),
+    ClearError(EmcyCode),
 }
 
 /// The node's answer to a [`Request`].
@@ -116,7 +117,7 @@ pub trait Controller: BitRateControl {
 /// Where the NMT states the node enters go: the application's queue.
 pub trait StateSink {
     /// The node is now in `state`.
-    fn entered(&mut self, state: State);
+    fn entered(&mut self, state: NmtState);
 }
 
 /// NMT states in the order the node entered them, for the application:
@@ -124,7 +125,7 @@ pub trait StateSink {
 /// so the last state the application reads is always the node's.
 #[derive(Clone, Debug)]
 pub struct StateQueue<const N: usize> {
-    states: [State; N],
+    states: [NmtState; N],
     head: usize,
     len: usize,
     lost: u32,
@@ -139,11 +140,11 @@ impl<const N: usize> Default for StateQueue<N> {
 impl<const N: usize> StateQueue<N> {
     /// An empty queue.
     pub const fn new() -> Self {
-        StateQueue { states: [State::Initialising; N], head: 0, len: 0, lost: 0 }
+        StateQueue { states: [NmtState::Initialising; N], head: 0, len: 0, lost: 0 }
     }
 
     /// The oldest state not taken yet.
-    pub fn pop(&mut self) -> Option<State> {
+    pub fn pop(&mut self) -> Option<NmtState> {
         if self.len == 0 {
             return None;
         }
@@ -160,7 +161,7 @@ impl<const N: usize> StateQueue<N> {
 }
 
 impl<const N: usize> StateSink for StateQueue<N> {
-    fn entered(&mut self, state: State) {
+    fn entered(&mut self, state: NmtState) {
         let at = if self.len < N {
             self.len += 1;
             (self.head + self.len - 1) % N
@@ -222,7 +223,7 @@ struct Reported {
 /// The CANopen task's state between steps.
 #[derive(Debug, Default)]
 pub struct Runner {
-    state: Option<State>,
+    state: Option<NmtState>,
     acceptance: Option<u32>,
     reported: Reported,
 }
@@ -351,19 +352,19 @@ mod tests {
     fn the_state_queue_keeps_the_order_and_the_newest() {
         let mut q = StateQueue::<3>::new();
         assert_eq!(q.pop(), None);
-        for s in [State::Operational, State::Stopped, State::Operational] {
+        for s in [NmtState::Operational, NmtState::Stopped, NmtState::Operational] {
             q.entered(s);
         }
         // Full: the newest entry is replaced, and the loss counted.
-        q.entered(State::PreOperational);
+        q.entered(NmtState::PreOperational);
         assert_eq!(q.lost(), 1);
-        let states: Vec<State> = core::iter::from_fn(|| q.pop()).collect();
-        assert_eq!(states, [State::Operational, State::Stopped, State::PreOperational]);
+        let states: Vec<NmtState> = core::iter::from_fn(|| q.pop()).collect();
+        assert_eq!(states, [NmtState::Operational, NmtState::Stopped, NmtState::PreOperational]);
         // Wraps around.
-        for s in [State::Stopped, State::Operational] {
+        for s in [NmtState::Stopped, NmtState::Operational] {
             q.entered(s);
         }
-        assert_eq!(core::iter::from_fn(|| q.pop()).collect::<Vec<_>>(), [State::Stopped, State::Operational]);
+        assert_eq!(core::iter::from_fn(|| q.pop()).collect::<Vec<_>>(), [NmtState::Stopped, NmtState::Operational]);
         assert_eq!(q.lost(), 1);
     }
 }

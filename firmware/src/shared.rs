@@ -15,8 +15,9 @@ use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use embassy_futures::select::{Either3, select3};
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
@@ -99,8 +100,8 @@ impl Shared {
     /// Clears an error the board raised on the node before the task ran
     /// (the STM32's reset cause), at the task's next wake-up: the board's
     /// own way, beside the application's [`Requests`].
-    pub fn clear_board_error(&self, code: u16) {
-        self.board_clear.store(0x1_0000 | u32::from(code), Ordering::Relaxed);
+    pub fn clear_board_error(&self, code: EmcyCode) {
+        self.board_clear.store(0x1_0000 | u32::from(code.value()), Ordering::Relaxed);
         self.wake();
     }
 
@@ -113,7 +114,7 @@ impl Shared {
 
     /// The next NMT state the node entered, in order: none is lost unless
     /// more than [`STATE_QUEUE`] wait (see [`StateQueue`]).
-    pub async fn next_state(&self) -> State {
+    pub async fn next_state(&self) -> NmtState {
         loop {
             // `try_borrow_mut`: `borrow_mut`'s panic message pulls `core::fmt` into the images.
             if let Some(state) = self.states.lock(|q| q.try_borrow_mut().ok()?.pop()) {
@@ -167,12 +168,12 @@ impl Requests<'_> {
     }
 
     /// Raises an application error (EMCY, error register, 0x1003).
-    pub async fn raise_error(&mut self, code: u16, info: [u8; 5]) {
+    pub async fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) {
         self.call(Request::RaiseError { code, info }).await;
     }
 
     /// Clears an application error.
-    pub async fn clear_error(&mut self, code: u16) {
+    pub async fn clear_error(&mut self, code: EmcyCode) {
         self.call(Request::ClearError(code)).await;
     }
 }
@@ -181,7 +182,7 @@ impl Requests<'_> {
 struct States<'a>(&'a Shared);
 
 impl StateSink for States<'_> {
-    fn entered(&mut self, state: State) {
+    fn entered(&mut self, state: NmtState) {
         let lost = self.0.states.lock(|q| {
             let mut q = q.try_borrow_mut().ok()?;
             let before = q.lost();
@@ -227,7 +228,7 @@ pub async fn serve<T: Future<Output = ()>>(
             Either3::Second(()) => {
                 let clear = shared.board_clear.swap(0, Ordering::Relaxed);
                 if clear != 0 {
-                    node.clear_error(clear as u16);
+                    node.clear_error(EmcyCode(clear as u16));
                 }
                 if let Some(request) = shared.request.try_take() {
                     shared.reply.signal(runner.on_request(node, request));
@@ -317,7 +318,7 @@ mod tests {
         assert!(shared.rx.try_send(nmt(0x01)).is_ok());
         let triggered = run(shared, &mut node, &mut bus, async {
             // Operational once the task took the NMT frame.
-            while shared.next_state().await != State::Operational {}
+            while shared.next_state().await != NmtState::Operational {}
             requests.trigger_tpdo(0).await
         });
         assert!(triggered);
@@ -343,6 +344,6 @@ mod tests {
             }
             states
         });
-        assert_eq!(states, [State::PreOperational, State::Operational, State::Stopped, State::Operational]);
+        assert_eq!(states, [NmtState::PreOperational, NmtState::Operational, NmtState::Stopped, NmtState::Operational]);
     }
 }

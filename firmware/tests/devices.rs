@@ -3,7 +3,8 @@
 //! EDS by od-gen's reader), `$NODEID` values follow the node-id, and the typed
 //! accessors and index constants reach the objects the manuals name.
 
-use canopen_core::od::{DataType, Dictionary, ObjectDictionary, OdError};
+use canopen_core::abort::AbortCode;
+use canopen_core::od::{DataType, Dictionary, ObjectDictionary};
 use canopen_firmware::devices::{self, agile, bmaxx4400, ec5000, sendix, unitek_ds};
 
 fn image(d: &Dictionary, node_id: u8) -> Vec<u8> {
@@ -103,7 +104,7 @@ fn default_pdo_mappings_are_the_manuals() {
     let img = image(&sendix::od::DICTIONARY, 1);
     assert_eq!(sendix::od::DICTIONARY.read(&img, 0x1A00, 1), Ok(&0x6004_0020u32.to_le_bytes()[..]));
     assert_eq!(sendix::od::RPDO_COUNT, 0);
-    assert_eq!(sendix::od::DICTIONARY.find(0x1400, 0), Err(OdError::NoObject));
+    assert_eq!(sendix::od::DICTIONARY.find(0x1400, 0), Err(AbortCode::NoObject));
 }
 
 #[test]

@@ -204,7 +204,7 @@ fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, cons
     // LSS (0x7E5) may have configured another node-id, which becomes active at
     // this reset, or none (0xFF): an unconfigured node takes part in LSS only.
     if id == 0xFF {
-        assert_eq!(node.state(), canopen_core::services::nmt::State::Initialising, "an unconfigured node stays in Initialising");
+        assert_eq!(node.state(), canopen_core::services::nmt::NmtState::Initialising, "an unconfigured node stays in Initialising");
         return;
     }
     assert!((1..=127).contains(&id), "node-id {id} after reset communication (started as {node_id})");

@@ -21,8 +21,8 @@ use crate::master::pdo::{self, MappingEntry};
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::od::{DataType, Dictionary, Kind, Number};
-use canopen_core::wire::emcy::Emcy;
-use canopen_core::wire::nmt::{NmtCommand, NmtRequest, NmtState};
+use canopen_core::wire::emcy::{Emcy, EmcyCode};
+use canopen_core::wire::nmt::{NmtCommand, NmtRequest, NmtStateCode};
 use canopen_core::wire::sdo::{InitiateData, SdoRequest, SdoResponse};
 use embedded_can::Frame;
 use std::collections::BTreeMap;
@@ -144,12 +144,12 @@ fn nmt_command_text(command: NmtCommand) -> &'static str {
 }
 
 /// The name CiA 301 gives an NMT state.
-pub fn nmt_state_text(state: NmtState) -> &'static str {
+pub fn nmt_state_text(state: NmtStateCode) -> &'static str {
     match state {
-        NmtState::BootUp => "Boot-up",
-        NmtState::Stopped => "Stopped",
-        NmtState::Operational => "Operational",
-        NmtState::PreOperational => "Pre-operational",
+        NmtStateCode::BootUp => "Boot-up",
+        NmtStateCode::Stopped => "Stopped",
+        NmtStateCode::Operational => "Operational",
+        NmtStateCode::PreOperational => "Pre-operational",
     }
 }
 
@@ -273,11 +273,13 @@ impl Decoder {
                 _ => format!("SYNC malformed ({} bytes)", data.len()),
             },
             0x081..=0x0FF => match Emcy::parse(data) {
-                Some(Emcy { code: 0, register, .. }) => format!("EMCY node {node}: error reset, register 0x{register:02X}"),
+                Some(Emcy { code: EmcyCode::NO_ERROR, register, .. }) => {
+                    format!("EMCY node {node}: error reset, register 0x{register:02X}")
+                }
                 Some(e) => format!(
                     "EMCY node {node}: 0x{:04X} {}, register 0x{:02X}, info [{}]",
-                    e.code,
-                    emcy_text(e.code),
+                    e.code.value(),
+                    emcy_text(e.code.value()),
                     e.register,
                     hex_bytes(&e.info)
                 ),
@@ -293,7 +295,7 @@ impl Decoder {
             0x601..=0x67F => self.sdo_request(node, data),
             0x701..=0x77F => match data {
                 [0x00] => format!("Boot-up node {node}"),
-                [code] => match NmtState::from_code(*code) {
+                [code] => match NmtStateCode::from_code(*code) {
                     Some(state) => format!("Heartbeat node {node}: {}", nmt_state_text(state)),
                     None => format!("Heartbeat node {node}: unknown state 0x{code:02X}"),
                 },

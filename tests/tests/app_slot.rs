@@ -7,8 +7,9 @@ mod common;
 use canopen_core::abort::AbortCode;
 use canopen_core::node::{Application, Claims, CommError, ControllerEvent, Ctx, NmtEvent, NoApplication, Source};
 use canopen_core::od::Dictionary;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use canopen_core::wire::time_stamp::TimeOfDay;
 use common::{Bench, abort, ms, ok_write};
 use hal_host::fixtures::interop::od::Ram;
@@ -89,9 +90,9 @@ impl Application for Probe {
             // 0x2001 = 0xDEAD is a device error (EMCY 0xFF01), any other value clears it.
             (0x2001, 0, _) => {
                 if ctx.read_u32(0x2001, 0) == Some(0xDEAD) {
-                    ctx.raise_error(0xFF01, [1, 2, 3, 4, 5]);
+                    ctx.raise_error(EmcyCode(0xFF01), [1, 2, 3, 4, 5]);
                 } else {
-                    ctx.clear_error(0xFF01);
+                    ctx.clear_error(EmcyCode(0xFF01));
                 }
             }
             // 0x2003 names a raw identifier the probe claims; a write of 0x2002 (not in TPDO1) is an application event for TPDO1.
@@ -285,7 +286,7 @@ fn nmt_and_communication_events_arrive_each_one_whatever_0x1029_says() {
             "nmt CommunicationError(BusOff) in Operational"
         ]
     );
-    assert_eq!(b.node.state(), State::Operational, "0x1029:1 = 1: no state change");
+    assert_eq!(b.node.state(), NmtState::Operational, "0x1029:1 = 1: no state change");
     // Reset node: reset application, reset communication, then Pre-operational after the boot-up.
     b.nmt(0x81, ID);
     assert_eq!(

@@ -207,7 +207,7 @@ fn bus_of_127(warm_up: Duration) -> (Net, hal_host::bus::PortId, Vec<NodeHandle>
     net.configure(m, 1, 0x1006, 0, &SYNC_PERIOD_US.to_le_bytes());
     net.send(m, 0x000, &[0x01, 0x00]);
     net.run_for(warm_up);
-    assert!(nodes.iter().all(|&n| net.node::<Interop>(n).state() == canopen_core::services::nmt::State::Operational));
+    assert!(nodes.iter().all(|&n| net.node::<Interop>(n).state() == canopen_core::services::nmt::NmtState::Operational));
     while net.bus().recv(m).is_some() {}
     (net, m, nodes)
 }

@@ -7,7 +7,7 @@
 mod common;
 
 use canopen_core::node::NoApplication;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use common::net::{Net, bits, us};
 use hal_host::bus::BitRate;
 use hal_host::fixtures::interop::od::{Node, Ram};
@@ -49,7 +49,7 @@ fn boot_ups_meet_on_the_wire_and_leave_in_identifier_order() {
 ";
     assert_eq!(net.candump_since(us(0)), expected);
     let states: Vec<_> = nodes.iter().map(|&n| net.node::<Interop>(n).state()).collect();
-    assert_eq!(states, [State::PreOperational, State::PreOperational, State::Operational, State::PreOperational]);
+    assert_eq!(states, [NmtState::PreOperational, NmtState::PreOperational, NmtState::Operational, NmtState::PreOperational]);
 }
 
 #[test]
@@ -66,7 +66,7 @@ fn heartbeat_consumer_on_one_node_watches_a_producer_on_another() {
     net.run_until(us(2000));
     net.send(m, 0x000, &[0x01, 0x00]);
     net.run_until(us(350_000));
-    assert_eq!(net.node::<Interop>(b).state(), State::Operational);
+    assert_eq!(net.node::<Interop>(b).state(), NmtState::Operational);
 
     // A's link breaks: its frames still go out, nobody receives them. B's
     // consumer expires 150 ms after the last heartbeat it received
@@ -76,9 +76,9 @@ fn heartbeat_consumer_on_one_node_watches_a_producer_on_another() {
     let port = a.port;
     let cut = net.bus().drop_where(move |p, _| p == port);
     net.run_until(us(451_412));
-    assert_eq!(net.node::<Interop>(b).state(), State::Operational);
+    assert_eq!(net.node::<Interop>(b).state(), NmtState::Operational);
     net.run_until(us(451_413));
-    assert_eq!(net.node::<Interop>(b).state(), State::PreOperational);
+    assert_eq!(net.node::<Interop>(b).state(), NmtState::PreOperational);
     assert_eq!(bits(0x082, &[0x30, 0x81, 0x11, 0x01, 0, 0, 0, 0]).0, 118);
 
     // The link comes back: B hears A again from 501 413 µs on, and with no
@@ -88,7 +88,7 @@ fn heartbeat_consumer_on_one_node_watches_a_producer_on_another() {
     // history.
     assert!(net.bus().remove_fault(cut));
     net.run_until(us(800_000));
-    assert_eq!(net.node::<Interop>(b).state(), State::PreOperational);
+    assert_eq!(net.node::<Interop>(b).state(), NmtState::PreOperational);
     let expected = "\
 (0000000000.002065) vcan0 000#0100
 (0000000000.002169) vcan0 181#11222244444444

@@ -12,7 +12,7 @@
 mod common;
 
 use canopen_core::node::NoApplication;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use common::net::{Net, NodeHandle, bits, us};
 use hal_host::bus::{BitRate, PortId};
 use hal_host::fixtures::interop::od::{Node, Ram};
@@ -122,7 +122,7 @@ fn synchronous_rpdo_takes_effect_at_the_next_sync() {
 
     net.run_until(us(40_000));
     for n in &nodes {
-        assert_eq!(net.node::<Interop>(*n).state(), State::Operational);
+        assert_eq!(net.node::<Interop>(*n).state(), NmtState::Operational);
     }
     // A SYNC 10 ms after the write, 48 bits long; in Pre-operational it is
     // produced but no PDO answers. From the first SYNC in Operational on,

@@ -8,8 +8,9 @@
 use canopen_core::abort::AbortCode;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, BitRateControl, NoApplication};
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use embedded_can::Frame;
 use firmware::boards::qemu::ram_storage::RamStorage;
 use firmware::boards::region_size;
@@ -84,7 +85,7 @@ impl Task {
         self.runner.on_request(&mut self.node, request)
     }
 
-    fn states(&mut self) -> Vec<State> {
+    fn states(&mut self) -> Vec<NmtState> {
         std::iter::from_fn(|| self.states.pop()).collect()
     }
 }
@@ -92,12 +93,12 @@ impl Task {
 #[test]
 fn every_nmt_state_reaches_the_application() {
     let mut task = Task::new();
-    assert_eq!(task.states(), [State::PreOperational]);
+    assert_eq!(task.states(), [NmtState::PreOperational]);
     // Three NMT commands handled in one wake-up of the task, before its step.
     task.frame(1, 0x000, &[0x01, ID]);
     task.frame(1, 0x000, &[0x02, ID]);
     task.frame(1, 0x000, &[0x01, ID]);
-    assert_eq!(task.states(), [State::Operational, State::Stopped, State::Operational]);
+    assert_eq!(task.states(), [NmtState::Operational, NmtState::Stopped, NmtState::Operational]);
     task.step(1);
     assert_eq!(task.states(), [], "no change in the step");
     // Reset node: Initialising, then pre-operational once the boot-up left.
@@ -106,7 +107,7 @@ fn every_nmt_state_reaches_the_application() {
     // One step runs every stage of the reset (a `process` call each) and sends the boot-up.
     assert_eq!(task.step(2), [(0x73F, vec![0x00])]);
     assert!(!task.node.resetting());
-    assert_eq!(task.states(), [State::Initialising, State::PreOperational]);
+    assert_eq!(task.states(), [NmtState::Initialising, NmtState::PreOperational]);
     assert_eq!(task.states.lost(), 0);
 }
 
@@ -128,10 +129,10 @@ fn requests_are_answered_and_their_frames_leave_in_the_next_step() {
     assert_eq!(task.step(5), [(TPDO1, vec![0x40, 0xE2, 0x01, 0x00])], "an application event sends it unchanged");
     assert_eq!(task.request(Request::TriggerTpdo(7)), Reply::NotTriggered, "no TPDO8");
 
-    assert_eq!(task.request(Request::RaiseError { code: 0xFF01, info: [1, 2, 3, 4, 5] }), Reply::Done);
+    assert_eq!(task.request(Request::RaiseError { code: EmcyCode(0xFF01), info: [1, 2, 3, 4, 5] }), Reply::Done);
     // Generic + manufacturer-specific bits in the error register.
     assert_eq!(task.step(6), [(EMCY, vec![0x01, 0xFF, 0x81, 1, 2, 3, 4, 5])]);
-    assert_eq!(task.request(Request::ClearError(0xFF01)), Reply::Done);
+    assert_eq!(task.request(Request::ClearError(EmcyCode(0xFF01))), Reply::Done);
     assert_eq!(task.step(7), [(EMCY, vec![0; 8])], "error reset");
 }
 

@@ -115,7 +115,7 @@ fn over_temperature_sends_the_manual_frame_s20_l3699() {
     assert_eq!(emcy, [(1000, vec![0x00, 0x42, 0x09, 0x80, 0x56, 0x20, 0x50, 0x2E])]);
     assert_eq!(read(&mut b, 0x1001, 0), [0x09]);
     assert_eq!(read(&mut b, 0x6505, 0), [0x00, 0x40], "warning bit 14");
-    assert_eq!(b.node.state(), canopen_core::services::nmt::State::Operational, "0x1029:02 = 1 (default): no change");
+    assert_eq!(b.node.state(), canopen_core::services::nmt::NmtState::Operational, "0x1029:02 = 1 (default): no change");
     b.node.app_mut().encoder.source.temperature.tenths = 100;
     let out = b.run_until(ms(2500));
     assert!(out.iter().any(|(_, f)| *f == (0x0BF, vec![0; 8])), "cleared: {out:x?}");
@@ -128,14 +128,14 @@ fn over_temperature_follows_0x1029_sub_2_l2003() {
     b.nmt(0x01, 0x3F);
     b.node.app_mut().encoder.source.temperature = hot();
     b.run_until(ms(1000));
-    assert_eq!(b.node.state(), canopen_core::services::nmt::State::PreOperational, "0: to Pre-operational");
+    assert_eq!(b.node.state(), canopen_core::services::nmt::NmtState::PreOperational, "0: to Pre-operational");
     assert_eq!(b.sdo_write(0x3F, 0x1029, 2, &[2]), ok_write(0x1029, 2));
     b.node.app_mut().encoder.source.temperature.tenths = 100;
     b.run_until(ms(2000));
     b.nmt(0x01, 0x3F);
     b.node.app_mut().encoder.source.temperature = hot();
     b.run_until(ms(3000));
-    assert_eq!(b.node.state(), canopen_core::services::nmt::State::Stopped, "2: to Stopped");
+    assert_eq!(b.node.state(), canopen_core::services::nmt::NmtState::Stopped, "2: to Stopped");
 }
 
 #[test]

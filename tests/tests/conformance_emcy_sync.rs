@@ -12,6 +12,7 @@ mod common;
 
 use canopen_core::node::NoApplication;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use common::{Bench, F, ms, ok_write};
 use hal_host::fixtures::interop::od as interop;
 use hal_host::storage::MemStorage;
@@ -107,7 +108,7 @@ fn a_full_error_history_drops_the_oldest_and_writing_0_clears_it() {
     let mut b = interop();
     // Ten application errors, one per millisecond: 0x1003 holds eight (sub 1..8), newest first.
     for k in 0..10u16 {
-        b.node.raise_error(0xFF00 + k, [k as u8, 0x10, 0, 0, 0]);
+        b.node.raise_error(EmcyCode(0xFF00 + k), [k as u8, 0x10, 0, 0, 0]);
         assert_eq!(b.at(ms(1 + u64::from(k))).len(), 1, "error {k}: one EMCY");
     }
     assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![8]));

@@ -15,7 +15,7 @@
 mod common;
 
 use canopen_core::node::NoApplication;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use common::{Bench, F, ms};
 use firmware::devices::bmaxx4400;
 use hal_host::fixtures::interop::od as interop;
@@ -114,7 +114,7 @@ fn cct_7_6_life_guarding() {
     // The master stops: after the life time (300 ms) EMCY 0x8130 and 0x1029 (Pre-operational).
     assert_eq!(b.run_until(ms(709)), []);
     assert_eq!(b.run_until(ms(710)), [(ms(710), hb_emcy(0))]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     // Guarding resumes: the error is over.
     assert_eq!(b.rtr(ms(800), EC), [no_error(), (EC, vec![0xFF])]);
     assert_eq!(b.run_until(ms(1099)), []);
@@ -181,7 +181,7 @@ fn cct_7_105_consumer_time_longer_than_the_producer_time() {
     b.nmt(0x01, ID);
     b.at(ms(1));
     assert_eq!(heartbeats_from_5(&mut b, 10, 2000, 100), []);
-    assert_eq!(b.node.state(), State::Operational);
+    assert_eq!(b.node.state(), NmtState::Operational);
 }
 
 #[test]
@@ -194,7 +194,7 @@ fn cct_7_106_consumer_time_shorter_than_the_producer_time() {
     // then 0x1029: Pre-operational); each heartbeat after it ends the error.
     let out = heartbeats_from_5(&mut b, 10, 310, 150);
     assert_eq!(out, [(110, hb_emcy(5)), (160, no_error()), (260, hb_emcy(5)), (310, no_error())]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![2]));
     assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(vec![0x30, 0x81, 0x05, 0x00]));
 }

@@ -14,7 +14,7 @@ mod common;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
 use canopen_core::od::{Dictionary, ObjectDictionary, Services};
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use common::{Bench, F, abort, ms, ok_write};
 use embedded_can::Frame;
 use hal_host::fixtures::interop::od as interop;
@@ -187,7 +187,7 @@ fn cct_9_1_boot_up_and_default_parameters() {
     let mut b = interop();
     change_parameters(&mut b);
     assert_eq!(b.nmt(0x81, ID), [boot_up()]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert!(is(parameters(&mut b), DEFAULT));
     assert_eq!(b.run_until(ms(5000)), [], "0x1017 = 0: no heartbeat");
 }
@@ -212,7 +212,7 @@ fn cct_9_3_operational() {
     let mut b = interop();
     assert_eq!(b.sdo_download(ID, 0x1017, 0, &100u16.to_le_bytes()), Ok(()));
     assert_eq!(b.nmt(0x01, ID), [(0x184, TPDO1.to_vec())]);
-    assert_eq!(b.node.state(), State::Operational);
+    assert_eq!(b.node.state(), NmtState::Operational);
     assert_eq!(b.run_until(ms(100)), [(ms(100), (0x704, vec![0x05]))]);
     assert_eq!(b.rx(ms(110), 0x304, &[0x55, 0x66, 0x77]), [(0x184, vec![0x55, 0x66, 0x77, 0x44, 0x44, 0x44, 0x44])]);
     assert_eq!(b.rx(ms(120), 0x080, &[]).len(), 1, "TPDO2 on SYNC");
@@ -225,7 +225,7 @@ fn cct_9_4_stopped() {
     assert_eq!(b.sdo_download(ID, 0x1017, 0, &100u16.to_le_bytes()), Ok(()));
     b.nmt(0x01, ID);
     assert_eq!(b.nmt(0x02, ID), []);
-    assert_eq!(b.node.state(), State::Stopped);
+    assert_eq!(b.node.state(), NmtState::Stopped);
     assert_eq!(b.run_until(ms(100)), [(ms(100), (0x704, vec![0x04]))], "heartbeat goes on");
     assert_eq!(b.rx(ms(110), 0x604, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]), [], "no SDO");
     assert_eq!(b.rx(ms(120), 0x304, &[0x55, 0x66, 0x77]), [], "no PDO");
@@ -246,14 +246,14 @@ fn cct_10_1_reset_node_and_reset_communication() {
     b.nmt(0x01, ID);
     // Reset communication: 0x1000–0x1FFF to defaults, the application area kept.
     assert_eq!(b.nmt(0x82, ID), [boot_up()]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     let (comm, app) = parameters(&mut b);
     assert_eq!((comm, app), (DEFAULT.0.to_vec(), CHANGED.1.to_vec()));
     // Reset node: everything to defaults.
     change_parameters(&mut b);
     b.nmt(0x02, ID);
     assert_eq!(b.nmt(0x81, ID), [boot_up()]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert!(is(parameters(&mut b), DEFAULT));
     // Broadcast (node-ID 0) too; another node's reset is not ours.
     assert_eq!(b.nmt(0x81, 0), [boot_up()]);
@@ -267,11 +267,11 @@ fn cct_10_2_enter_pre_operational() {
     for from in [0x01, 0x02] {
         b.nmt(from, ID);
         assert_eq!(b.nmt(0x80, ID), []);
-        assert_eq!(b.node.state(), State::PreOperational);
+        assert_eq!(b.node.state(), NmtState::PreOperational);
     }
     b.nmt(0x01, 0);
     assert_eq!(b.nmt(0x80, 0), [], "broadcast");
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.nmt(0x80, ID), [], "already there");
 }
 
@@ -279,27 +279,27 @@ fn cct_10_2_enter_pre_operational() {
 fn cct_10_3_start_remote_node() {
     let mut b = interop();
     assert_eq!(b.nmt(0x01, 5), [], "another node");
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.nmt(0x01, ID), [(0x184, TPDO1.to_vec())]);
     assert_eq!(b.nmt(0x01, ID), [], "already Operational: nothing sent again");
     b.nmt(0x02, ID);
     assert_eq!(b.nmt(0x01, 0), [(0x184, TPDO1.to_vec())], "from Stopped, broadcast");
-    assert_eq!(b.node.state(), State::Operational);
+    assert_eq!(b.node.state(), NmtState::Operational);
 }
 
 #[test]
 fn cct_10_4_stop_remote_node() {
     let mut b = interop();
     assert_eq!(b.nmt(0x02, ID), []);
-    assert_eq!(b.node.state(), State::Stopped);
+    assert_eq!(b.node.state(), NmtState::Stopped);
     b.nmt(0x01, ID);
     assert_eq!(b.nmt(0x02, 0), []);
-    assert_eq!(b.node.state(), State::Stopped);
+    assert_eq!(b.node.state(), NmtState::Stopped);
     // Malformed NMT frames are ignored.
     assert_eq!(b.rx(ms(1), 0x000, &[0x01]), []);
     assert_eq!(b.rx(ms(2), 0x000, &[0x01, ID, 0]), []);
     assert_eq!(b.rx(ms(3), 0x000, &[0x03, ID]), []);
-    assert_eq!(b.node.state(), State::Stopped);
+    assert_eq!(b.node.state(), NmtState::Stopped);
 }
 
 /// The interop dictionary linked without storage (`Services::storage`
@@ -348,7 +348,7 @@ fn reset_node_with_a_stored_set_takes_a_stage_per_process_and_boots_up_after_the
     assert_eq!(b.sdo_download(ID, 0x2000, 0, &[0x55]), Ok(()));
     deliver(&mut b, 10, 0x000, &[0x81, ID]);
     assert!(b.node.resetting());
-    assert_eq!(b.node.state(), State::Initialising);
+    assert_eq!(b.node.state(), NmtState::Initialising);
     let mut stages = 0;
     while b.node.resetting() {
         // Each call before the last asks to be called again at once and sends nothing.
@@ -367,7 +367,7 @@ fn reset_node_with_a_stored_set_takes_a_stage_per_process_and_boots_up_after_the
     assert_eq!(stages, 7);
     assert_eq!(b.node.transmit().map(|f| (f.cob_id(), f.data().to_vec())), Some((Some(0x704), vec![0x00])), "the boot-up, last");
     assert_eq!(b.node.transmit(), None);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert!(is(parameters(&mut b), CHANGED), "both parts loaded from the stored set");
 }
 
@@ -382,6 +382,6 @@ fn an_nmt_command_during_a_reset_is_ignored_as_while_initialising() {
     deliver(&mut b, 10, 0x000, &[0x81, 0]);
     assert!(b.node.resetting(), "the reset goes on");
     assert_eq!(b.at(ms(10)), [boot_up()]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.at(ms(20)), [], "one reset, one boot-up");
 }

@@ -14,7 +14,8 @@
 
 use std::path::{Path, PathBuf};
 
-use canopen_core::od::{DataType, Dictionary, ObjectDictionary, OdError};
+use canopen_core::abort::AbortCode;
+use canopen_core::od::{DataType, Dictionary, ObjectDictionary};
 use canopen_tests::corpus;
 use od_gen::{Options, Severity};
 
@@ -350,9 +351,9 @@ fn every_dictionary_is_sorted_and_every_readable_entry_reads() {
             assert_eq!(dict.find(e.index, e.sub), Ok(e), "{name}");
             let read = dict.read(&image, e.index, e.sub);
             if !e.readable() {
-                assert_eq!(read, Err(OdError::WriteOnly), "{name} 0x{:04X} sub {}", e.index, e.sub);
+                assert_eq!(read, Err(AbortCode::WriteOnly), "{name} 0x{:04X} sub {}", e.index, e.sub);
             } else if e.data_type == DataType::Domain {
-                assert_eq!(read, Err(OdError::NoStorage), "{name} 0x{:04X} sub {}", e.index, e.sub);
+                assert_eq!(read, Err(AbortCode::CannotStore), "{name} 0x{:04X} sub {}", e.index, e.sub);
             } else {
                 let value = read.unwrap_or_else(|err| panic!("{name} 0x{:04X} sub {}: {err:?}", e.index, e.sub));
                 assert_eq!(dict.value(&image, e).len(), usize::from(e.len), "{name} 0x{:04X} sub {}", e.index, e.sub);
@@ -441,8 +442,8 @@ fn lely_sdev_values_of_every_basic_type() {
     // `365 43200000`: 43200000 ms = 0x02932E00, then 365 days = 0x016D.
     assert_eq!(ram.time_of_day(), [0x00, 0x2E, 0x93, 0x02, 0x6D, 0x01]);
     assert_eq!(ram.time_diff(), [0x00, 0x2E, 0x93, 0x02, 0x6D, 0x01]);
-    assert_eq!(DICTIONARY.read(ram.image(), 0x200F, 0), Err(OdError::NoStorage));
-    assert_eq!(DICTIONARY.read(ram.image(), 0x2017, 0), Err(OdError::NoObject));
+    assert_eq!(DICTIONARY.read(ram.image(), 0x200F, 0), Err(AbortCode::CannotStore));
+    assert_eq!(DICTIONARY.read(ram.image(), 0x2017, 0), Err(AbortCode::NoObject));
 }
 
 #[test]
@@ -468,7 +469,7 @@ fn canopendemo_64_bit_real_string_and_node_id_values() {
     assert_eq!(ram.demo_strings_octet_string(), &octets[..]);
     // `00000000000000000000` is ten zero bytes, not an octal zero (line 2265).
     assert_eq!(ram.error_status_bits(), &[0u8; 10][..]);
-    assert_eq!(DICTIONARY.read(ram.image(), 0x2122, 0), Err(OdError::NoStorage));
+    assert_eq!(DICTIONARY.read(ram.image(), 0x2122, 0), Err(AbortCode::CannotStore));
     // COB-IDs written offset first: `0x600+$NODEID`, `0x40000180+$NODEID`.
     for node in [1u8, 0x7F] {
         let ram = Ram::new(node);
@@ -501,7 +502,7 @@ fn lely_emcy_compact_sub_obj_with_value_override() {
     }
     assert_eq!(ram.emergency_consumer_object(0), None);
     assert_eq!(ram.emergency_consumer_object(128), None);
-    assert_eq!(DICTIONARY.find(0x1028, 128), Err(OdError::NoSubIndex));
+    assert_eq!(DICTIONARY.find(0x1028, 128), Err(AbortCode::NoSubIndex));
     assert_eq!(DICTIONARY.read(ram.image(), 0x1028, 1), Ok(&[0x81, 0, 0, 0][..]));
     // [1003] CompactSubObj=10 without values: an empty error history of 10 entries.
     assert_eq!(ram.pre_defined_error_field_highest_sub_index(), 0);
@@ -558,7 +559,7 @@ fn python_datatypes_values_of_every_basic_type() {
     let mut utf16 = vec![0x61, 0, 0x62, 0, 0x63, 0, 0x13, 0x27];
     utf16.resize(16, 0);
     assert_eq!(ram.unicode_string(), &utf16[..]);
-    assert_eq!(DICTIONARY.read(ram.image(), 0x200F, 0), Err(OdError::NoStorage));
+    assert_eq!(DICTIONARY.read(ram.image(), 0x200F, 0), Err(AbortCode::CannotStore));
 }
 
 #[test]
@@ -582,8 +583,8 @@ fn python_sample_decimal_node_id_offsets_in_both_orders() {
     assert!(DICTIONARY.find(0x3010, 0).is_ok());
     assert!(DICTIONARY.find(0x1A00, 0).is_ok());
     // DataType 0x40 is left out; so is the empty ARRAY 0x3003.
-    assert_eq!(DICTIONARY.find(0x2020, 0), Err(OdError::NoObject));
-    assert_eq!(DICTIONARY.find(0x3003, 0), Err(OdError::NoObject));
+    assert_eq!(DICTIONARY.find(0x2020, 0), Err(AbortCode::NoObject));
+    assert_eq!(DICTIONARY.find(0x3003, 0), Err(AbortCode::NoObject));
 }
 
 #[test]
@@ -596,10 +597,10 @@ fn hex_sub_index_sections_are_hex() {
             assert!(DICTIONARY.find(index, sub).is_ok(), "0x{index:04X} sub 0x{sub:02X}");
         }
         for sub in 0x0A..=0x0F {
-            assert_eq!(DICTIONARY.find(index, sub), Err(OdError::NoSubIndex), "0x{index:04X} sub 0x{sub:02X}");
+            assert_eq!(DICTIONARY.find(index, sub), Err(AbortCode::NoSubIndex), "0x{index:04X} sub 0x{sub:02X}");
         }
     }
-    assert_eq!(DICTIONARY.find(0x30A0, 0x13), Err(OdError::NoSubIndex));
+    assert_eq!(DICTIONARY.find(0x30A0, 0x13), Err(AbortCode::NoSubIndex));
 }
 
 #[test]
@@ -641,6 +642,6 @@ fn compact_pdo_objects_are_synthesised() {
     assert_eq!(ram.rpdo_mapping_parameter_1_number_of_mapped_objects(), 0);
     assert_eq!(DICTIONARY.read(ram.image(), 0x1803, 1), Ok(&0x485u32.to_le_bytes()[..]));
     assert_eq!(DICTIONARY.read(ram.image(), 0x1A03, 8), Ok(&[0, 0, 0, 0][..]));
-    assert_eq!(DICTIONARY.find(0x1A03, 9), Err(OdError::NoSubIndex));
-    assert_eq!(DICTIONARY.find(0x1404, 0), Err(OdError::NoObject));
+    assert_eq!(DICTIONARY.find(0x1A03, 9), Err(AbortCode::NoSubIndex));
+    assert_eq!(DICTIONARY.find(0x1404, 0), Err(AbortCode::NoObject));
 }

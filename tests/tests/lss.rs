@@ -8,7 +8,7 @@ mod common;
 
 use canopen_core::node::NoApplication;
 use canopen_core::services::lss::Mode;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Duration;
 use common::net::Net;
 use common::{Bench, ms};
@@ -105,13 +105,13 @@ fn an_unconfigured_node_speaks_only_lss_until_it_gets_a_node_id() {
     assert_eq!(b.at(ms(0)), [], "no boot-up");
     assert_eq!(b.rx(ms(1), 0x000, &[0x01, 0x00]), []);
     assert_eq!(b.rx(ms(2), 0x67F, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]), []);
-    assert_eq!(b.node.state(), State::Initialising);
+    assert_eq!(b.node.state(), NmtState::Initialising);
     assert_eq!(b.rx(ms(3), LSS, &[0x4C, 0, 0, 0, 0, 0, 0, 0]), [(0x7E4, vec![0x50, 0, 0, 0, 0, 0, 0, 0])]);
     b.rx(ms(4), LSS, &[0x04, 0x01, 0, 0, 0, 0, 0, 0]);
     assert_eq!(b.rx(ms(5), LSS, &[0x5E, 0, 0, 0, 0, 0, 0, 0]), [(0x7E4, vec![0x5E, 0xFF, 0, 0, 0, 0, 0, 0])]);
     assert_eq!(b.rx(ms(6), LSS, &[0x11, 0x0A, 0, 0, 0, 0, 0, 0]), [(0x7E4, vec![0x11, 0, 0, 0, 0, 0, 0, 0])]);
     assert_eq!(b.rx(ms(7), LSS, &[0x04, 0x00, 0, 0, 0, 0, 0, 0]), [(0x70A, vec![0x00])], "leaving configuration starts the node");
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.sdo_read(0x0A, 0x1018, 4), [0x43, 0x18, 0x10, 0x04, 77, 0, 0, 0]);
     assert_eq!(b.rx(ms(8), LSS, &[0x4C, 0, 0, 0, 0, 0, 0, 0]), [], "configured now");
 }

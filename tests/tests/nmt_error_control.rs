@@ -6,7 +6,8 @@
 mod common;
 
 use canopen_core::node::NoApplication;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
+use canopen_core::wire::emcy::EmcyCode;
 use common::{Bench, abort, ms, ok_write};
 use firmware::devices::{bmaxx4400, ec5000};
 use hal_host::storage::MemStorage;
@@ -22,9 +23,9 @@ fn ec5000(id: u8) -> Ec5000 {
 #[test]
 fn boots_up_into_pre_operational_with_the_boot_up_frame() {
     let mut b = ec5000(5);
-    assert_eq!(b.node.state(), State::Initialising);
+    assert_eq!(b.node.state(), NmtState::Initialising);
     assert_eq!(b.at(ms(0)), [(0x705, vec![0x00])]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.at(ms(1000)), []);
 }
 
@@ -34,16 +35,16 @@ fn every_nmt_command_addressed_and_broadcast() {
     b.at(ms(0));
     // Entering Operational sends the event-driven TPDOs once (TPDO1 statusword/mode/velocity, TPDO3).
     assert_eq!(b.rx(ms(1), 0x000, &[0x01, 0x05]), [(0x185, vec![0, 0, 3, 0, 0, 0, 0, 0]), (0x285, vec![0, 0, 0, 0, 0, 0])]);
-    assert_eq!(b.node.state(), State::Operational);
+    assert_eq!(b.node.state(), NmtState::Operational);
     assert_eq!(b.rx(ms(2), 0x000, &[0x02, 0x06]), [], "other node");
-    assert_eq!(b.node.state(), State::Operational);
+    assert_eq!(b.node.state(), NmtState::Operational);
     assert_eq!(b.rx(ms(3), 0x000, &[0x02, 0x00]), []);
-    assert_eq!(b.node.state(), State::Stopped);
+    assert_eq!(b.node.state(), NmtState::Stopped);
     assert_eq!(b.rx(ms(4), 0x000, &[0x80, 0x05]), []);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.rx(ms(5), 0x000, &[0x82, 0x00]), [(0x705, vec![0x00])], "reset communication boots up again");
     assert_eq!(b.rx(ms(6), 0x000, &[0x81, 0x05]), [(0x705, vec![0x00])], "reset node too");
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
 }
 
 #[test]
@@ -63,7 +64,7 @@ fn malformed_nmt_and_heartbeat_frames_are_counted_and_ignored() {
     assert_eq!(b.rx(ms(1), 0x000, &[0x01]), []);
     assert_eq!(b.rx(ms(2), 0x000, &[0x07, 0x05]), []);
     assert_eq!(b.rx(ms(3), 0x703, &[0x05, 0x00]), []);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.node.counters().malformed, 3);
 }
 
@@ -98,7 +99,7 @@ fn heartbeat_consumer_times_out_with_emcy_history_and_error_behaviour() {
     assert!(b.run_until(ms(1099)).is_empty());
     assert_eq!(b.run_until(ms(1100)), [(ms(1100), (0x085, vec![0x30, 0x81, 0x11, 0x03, 0, 0, 0, 0]))]);
     // 0x1029 sub 1 = 0: a communication error takes an Operational node to Pre-operational.
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.sdo_read(5, 0x1001, 0), [0x4F, 0x01, 0x10, 0x00, 0x11, 0, 0, 0]);
     assert_eq!(b.sdo_read(5, 0x1003, 0), [0x4F, 0x03, 0x10, 0x00, 0x01, 0, 0, 0]);
     assert_eq!(b.sdo_read(5, 0x1003, 1), [0x43, 0x03, 0x10, 0x01, 0x30, 0x81, 0x03, 0x00]);
@@ -136,7 +137,7 @@ fn node_guarding_toggles_and_life_guarding_expires() {
     assert!(b.run_until(ms(509)).is_empty());
     let expired = b.run_until(ms(510));
     assert_eq!(expired, [(ms(510), (0x087, vec![0x30, 0x81, 0x11, 0x00, 0, 0, 0, 0]))]);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
 }
 
 // ---- Store and restore ---------------------------------------------------------
@@ -164,8 +165,8 @@ fn emcy_cob_id_changes_only_while_emcy_is_off() {
     assert_eq!(b.sdo_write(5, 0x1014, 0, &0x0000_0090u32.to_le_bytes()), abort(0x1014, 0, 0x0609_0030));
     assert_eq!(b.sdo_write(5, 0x1014, 0, &0x8000_0085u32.to_le_bytes()), ok_write(0x1014, 0));
     assert_eq!(b.sdo_write(5, 0x1014, 0, &0x0000_0090u32.to_le_bytes()), ok_write(0x1014, 0));
-    b.node.raise_error(0x5000, [0; 5]);
+    b.node.raise_error(EmcyCode(0x5000), [0; 5]);
     assert_eq!(b.at(ms(1)), [(0x090, vec![0x00, 0x50, 0x01, 0, 0, 0, 0, 0])]);
-    b.node.clear_error(0x5000);
+    b.node.clear_error(EmcyCode(0x5000));
     assert_eq!(b.at(ms(2)), [(0x090, vec![0, 0, 0, 0, 0, 0, 0, 0])]);
 }

@@ -7,7 +7,7 @@
 use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
 use canopen_core::od::ObjectDictionary;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
 use embedded_can::Frame;
 use firmware::boards::qemu::ram_storage::RamStorage;
@@ -49,12 +49,12 @@ fn an_unpowered_node_is_silent_until_its_power_on() {
     node.on_frame(ms(0), &frame(0x000, &[0x01, ID]));
     node.on_frame(ms(0), &frame(0x600 + u16::from(ID), &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]));
     assert_eq!(step(&mut node, 1), []);
-    assert_eq!(node.state(), State::Initialising);
+    assert_eq!(node.state(), NmtState::Initialising);
     assert!(node.od().image().iter().all(|b| *b == 0), "the image stays as built");
 
     node.power_on(ID, ms(2));
     assert_eq!(step(&mut node, 2), [(0x700 + u16::from(ID), vec![0x00])], "boot-up");
-    assert_eq!(node.state(), State::PreOperational);
+    assert_eq!(node.state(), NmtState::PreOperational);
 }
 
 #[test]

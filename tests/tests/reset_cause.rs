@@ -8,9 +8,10 @@
 mod common;
 
 use canopen_core::node::NoApplication;
+use canopen_core::wire::emcy::EmcyCode;
 use common::{Bench, ms};
 use embedded_can::Frame as _;
-use firmware::boards::stm32f103::reset_cause::{INTERNAL_SOFTWARE, ResetCause, classify};
+use firmware::boards::stm32f103::reset_cause::{ResetCause, classify};
 use firmware::devices::ec5000;
 use firmware::devices::ec5000::od;
 use hal_host::storage::MemStorage;
@@ -25,7 +26,7 @@ fn a_panic_reset_is_an_emcy_after_boot_up_and_readable_in_0x1003() {
     // RCC_CSR after the firmware's SYSRESETREQ: SFTRSTF | PINRSTF; the panic's reason left in RAM.
     let csr = (1 << 28) | (1 << 26);
     let cause = classify(csr, Some(ResetCause::Panic as u32));
-    let (code, info) = cause.emcy((csr >> 24) as u8, INTERNAL_SOFTWARE).expect("a panic is reported");
+    let (code, info) = cause.emcy((csr >> 24) as u8, EmcyCode::INTERNAL_SOFTWARE).expect("a panic is reported");
     b.node.raise_error(code, info);
     assert_eq!(
         b.at(ms(250)),
@@ -45,7 +46,7 @@ fn a_cause_raised_before_the_boot_up_leaves_right_after_it() {
     // the CANopen task runs it: the EMCY waits for the boot-up.
     let mut b: Ec5000 = Bench::new(od::Ram::new(ID), NoApplication, MemStorage::new(2048), ID);
     let csr = (1 << 29) | (1 << 26); // IWDGRSTF | PINRSTF
-    let (code, info) = classify(csr, None).emcy((csr >> 24) as u8, INTERNAL_SOFTWARE).expect("a watchdog reset is reported");
+    let (code, info) = classify(csr, None).emcy((csr >> 24) as u8, EmcyCode::INTERNAL_SOFTWARE).expect("a watchdog reset is reported");
     b.node.raise_error(code, info);
     // By priority the EMCY (0x85) would pass the boot-up (0x705) if both
     // were queued in one call: the EMCY waits for the next, due at once.
@@ -61,7 +62,8 @@ fn a_crystal_that_did_not_start_is_a_hardware_emcy() {
     let mut b: Ec5000 = Bench::new(od::Ram::new(ID), NoApplication, MemStorage::new(2048), ID);
     b.at(ms(0));
     let csr = (1 << 29) | (1 << 26); // IWDGRSTF | PINRSTF
-    let (code, info) = classify(csr, Some(ResetCause::Crystal as u32)).emcy((csr >> 24) as u8, INTERNAL_SOFTWARE).expect("reported");
+    let (code, info) =
+        classify(csr, Some(ResetCause::Crystal as u32)).emcy((csr >> 24) as u8, EmcyCode::INTERNAL_SOFTWARE).expect("reported");
     b.node.raise_error(code, info);
     assert_eq!(b.at(ms(250)), [(0x85, vec![0x00, 0x50, 0x01, 0x04, 0x24, 0x00, 0x00, 0x00])]);
     assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(0x2404_5000u32.to_le_bytes().to_vec()));

@@ -4,7 +4,7 @@
 
 mod common;
 
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use common::sendix::{Encoder, encoder, read, read_u32};
 use common::{Bench, abort, ms, ok_write};
 use firmware::devices::sendix::{self, BenchSensor};
@@ -32,7 +32,7 @@ fn sdo(b: &mut Encoder, request: [u8; 8]) -> Vec<u8> {
 fn s1_start_node_63_l1056() {
     let mut b = node();
     let out = b.rx(ms(1), 0x000, &[0x01, 0x3F]);
-    assert_eq!(b.node.state(), State::Operational);
+    assert_eq!(b.node.state(), NmtState::Operational);
     assert_eq!(out, [(0x1BF, vec![0xBA, 0x4C, 0x00, 0x00]), (0x3BF, vec![0, 0, 0, 0])], "TPDO1 and TPDO3 once on entering Operational");
 }
 
@@ -95,7 +95,7 @@ fn s9_operating_parameters_0x5005_l2471() {
     assert_eq!(b.sdo_write(0x3F, 0x1010, 1, b"save"), ok_write(0x1010, 1));
     assert_eq!(b.rx(ms(1), 0x000, &[0x81, 0x3F]), [(0x73F, vec![0x00])], "the boot-up first, alone");
     let out = b.at(ms(1));
-    assert_eq!(b.node.state(), State::Operational, "no NMT start needed");
+    assert_eq!(b.node.state(), NmtState::Operational, "no NMT start needed");
     assert!(out.iter().any(|f| f.0 == 0x1BF), "TPDO1 flows: {out:x?}");
 }
 
@@ -242,7 +242,7 @@ fn s18_the_trace_l3575() {
     // The trace prints DLC 4 with six bytes: the frame is 4 bytes.
     assert_eq!(out, vec![vec![0xBA, 0x4C, 0x00, 0x00]; 4]);
     assert_eq!(b.rx(ms(43), 0x000, &[0x80, 0x3F]), []);
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.run_until(ms(100)).iter().filter(|(_, f)| f.0 == 0x1BF).count(), 0, "no PDO in Pre-operational");
 }
 
@@ -254,11 +254,11 @@ fn s19_no_heartbeat_consumer_on_the_m5868_and_bus_off_follows_0x1029_1_l1970() {
     // Bus-off is this variant's communication error: 0x1029:01 = 0 → Pre-operational.
     b.rx(ms(1), 0x000, &[0x01, 0x3F]);
     b.node.bus_off(ms(2));
-    assert_eq!(b.node.state(), State::PreOperational);
+    assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.sdo_write(0x3F, 0x1029, 1, &[2]), ok_write(0x1029, 1));
     b.rx(ms(3), 0x000, &[0x01, 0x3F]);
     b.node.bus_off(ms(4));
-    assert_eq!(b.node.state(), State::Stopped);
+    assert_eq!(b.node.state(), NmtState::Stopped);
 }
 
 #[test]

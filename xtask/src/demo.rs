@@ -22,7 +22,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use canopen_core::od::Dictionary;
-use canopen_core::wire::nmt::NmtState;
+use canopen_core::wire::nmt::NmtStateCode;
 use canopen_core::wire::pdo_mapping::MappingEntry;
 use embedded_can::Frame;
 use firmware::devices::ec5000;
@@ -273,7 +273,7 @@ impl Run {
     }
 
     /// Waits for a heartbeat reporting `state` from log position `since` on.
-    fn expect_state(&mut self, since: usize, state: NmtState, what: &str) -> Result<(), String> {
+    fn expect_state(&mut self, since: usize, state: NmtStateCode, what: &str) -> Result<(), String> {
         let hb = 0x700 + u16::from(self.node);
         let got = Self::io(self.m.wait_for(since, WAIT, |f| f.cob_id() == Some(hb) && f.data() == [state.code()]))?;
         self.check(got.is_some(), what);
@@ -310,13 +310,13 @@ impl Run {
         let mark = self.m.mark();
         self.restarts.push(mark);
         Self::io(self.m.idle(Duration::from_millis(u64::from(HEARTBEAT_MS) * 4 + 50)))?;
-        self.expect_state(mark, NmtState::PreOperational, "heartbeats report Pre-operational")?;
+        self.expect_state(mark, NmtStateCode::PreOperational, "heartbeats report Pre-operational")?;
 
         self.step("5. NMT start: Operational, PDOs");
         self.download(0x1800, 5, &TPDO1_EVENT_MS.to_le_bytes())?;
         let mark = self.m.mark();
         self.nmt(0x01)?;
-        self.expect_state(mark, NmtState::Operational, "heartbeats report Operational")?;
+        self.expect_state(mark, NmtStateCode::Operational, "heartbeats report Operational")?;
         let rpdo1 = pdo::encode(&self.rpdo1.1, &[CONTROLWORD, MODE_PROFILE_VELOCITY, PROFILE_VELOCITY]).map_err(|e| e.to_string())?;
         let rpdo3 = pdo::encode(&self.rpdo3.1, &[CONTROLWORD, TARGET_VELOCITY]).map_err(|e| e.to_string())?;
         Self::io(self.m.send_std(self.rpdo1.0, &rpdo1))?;
@@ -353,7 +353,7 @@ impl Run {
         self.step("7. NMT stop, pre-operational, start");
         let mark = self.m.mark();
         self.nmt(0x02)?;
-        self.expect_state(mark, NmtState::Stopped, "heartbeats report Stopped")?;
+        self.expect_state(mark, NmtStateCode::Stopped, "heartbeats report Stopped")?;
         let stopped = self.m.mark();
         Self::io(self.m.idle(Duration::from_millis(u64::from(TPDO1_EVENT_MS) * 2)))?;
         let pdos = self
@@ -367,11 +367,11 @@ impl Run {
         self.check(pdos == 0, &format!("no PDO while stopped ({pdos} in {} ms)", 2 * TPDO1_EVENT_MS));
         let mark = self.m.mark();
         self.nmt(0x80)?;
-        self.expect_state(mark, NmtState::PreOperational, "heartbeats report Pre-operational")?;
+        self.expect_state(mark, NmtStateCode::PreOperational, "heartbeats report Pre-operational")?;
         self.upload_expect_eds(0x1001, 0)?;
         let mark = self.m.mark();
         self.nmt(0x01)?;
-        self.expect_state(mark, NmtState::Operational, "heartbeats report Operational")?;
+        self.expect_state(mark, NmtStateCode::Operational, "heartbeats report Operational")?;
         // The adapter answers each frame with `z` once it has taken it.
         Self::io(self.m.idle(Duration::from_millis(50)))?;
         let sent = self.m.log().iter().filter(|l| l.direction == Direction::Sent).count() as u64;

@@ -165,6 +165,9 @@ impl Clock {
 
     /// Instructions per span of `tally`, without the reads' own.
     pub fn per_span(&self, tally: &Tally) -> f64 {
+        if tally.spans == 0 {
+            return 0.0;
+        }
         (tally.ticks * u64::from(self.per_tick)) as f64 / tally.spans.max(1) as f64 - self.overhead
     }
 

@@ -113,7 +113,9 @@ fn per_frame(clock: &mut Clock, kind: Kind) -> Result<(), Failure> {
     for i in 0..FRAMES {
         now += Duration::from_millis(1);
         let (now, frame) = black_box((now, kind.frame(i)));
-        clock.time(&mut rx, || node.on_frame(now, &frame));
+        if let Some(frame) = frame {
+            clock.time(&mut rx, || node.on_frame(now, &frame));
+        }
         black_box(clock.time(&mut process, || node.process(now)));
         // Each call a span of its own: the loop around them is the bench's.
         while let Some(frame) = clock.time(&mut tx, || node.transmit()) {

@@ -6,8 +6,8 @@
 //! The node is the interop test dictionary (`tests/eds/interop.eds`, 4 RPDO
 //! / 4 TPDO), node-id [`NODE_ID`], no application, and the QEMU board's RAM
 //! storage. The sequences:
-//! - [`Kind`]: frames measured N at a time (RPDO, expedited SDO upload,
-//!   SYNC with four TPDOs);
+//! - [`Kind`]: frames measured N at a time (RPDO, expedited SDO upload and
+//!   download, SYNC with four TPDOs, and idle: no frame);
 //! - [`worst::CASES`]: expensive single frames, for the worst case of what
 //!   the CANopen task does for one received frame.
 //!
@@ -183,20 +183,28 @@ pub enum Kind {
     Rpdo,
     /// An expedited SDO upload of 0x1018 sub 1 (one answer).
     SdoUpload,
+    /// An expedited SDO download of 0x2003 (u32, mapped in the event-driven
+    /// TPDO1) with its default value: the answer, and TPDO1's change
+    /// detection, which finds no change.
+    SdoDownload,
     /// A SYNC with four synchronous TPDOs (type 1; 7 + 8 + 8 + 8 bytes).
     Sync,
+    /// No frame: `process` (and an empty `transmit`) with nothing due.
+    Idle,
 }
 
 impl Kind {
     /// Every kind, in the order the benches report them.
-    pub const ALL: [Kind; 3] = [Kind::Rpdo, Kind::SdoUpload, Kind::Sync];
+    pub const ALL: [Kind; 5] = [Kind::Rpdo, Kind::SdoUpload, Kind::SdoDownload, Kind::Sync, Kind::Idle];
 
     /// The name on the command line and in reports.
     pub const fn name(self) -> &'static str {
         match self {
             Kind::Rpdo => "rpdo",
             Kind::SdoUpload => "sdo-upload",
+            Kind::SdoDownload => "sdo-download",
             Kind::Sync => "sync",
+            Kind::Idle => "idle",
         }
     }
 
@@ -205,20 +213,22 @@ impl Kind {
         Kind::ALL.into_iter().find(|k| k.name() == s)
     }
 
-    /// The frame of iteration `i`.
-    pub fn frame(self, i: u64) -> CanFrame {
+    /// The frame of iteration `i` (none for [`Kind::Idle`]).
+    pub fn frame(self, i: u64) -> Option<CanFrame> {
         match self {
-            Kind::Rpdo => frame(0x200 + u16::from(NODE_ID), &i.to_le_bytes()),
-            Kind::SdoUpload => sdo([0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]),
-            Kind::Sync => frame(0x080, &[]),
+            Kind::Rpdo => Some(frame(0x200 + u16::from(NODE_ID), &i.to_le_bytes())),
+            Kind::SdoUpload => Some(sdo([0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0])),
+            Kind::SdoDownload => Some(sdo([0x23, 0x03, 0x20, 0x00, 0x44, 0x44, 0x44, 0x44])),
+            Kind::Sync => Some(frame(0x080, &[])),
+            Kind::Idle => None,
         }
     }
 
     /// Frames the node sends for each one it handles.
     pub const fn answers(self) -> usize {
         match self {
-            Kind::Rpdo => 0,
-            Kind::SdoUpload => 1,
+            Kind::Rpdo | Kind::Idle => 0,
+            Kind::SdoUpload | Kind::SdoDownload => 1,
             Kind::Sync => 4,
         }
     }
@@ -244,6 +254,10 @@ impl Kind {
         // 0x1018 sub 1, vendor-ID 0 (tests/eds/interop.eds).
         let want = CanFrame::standard(SDO_TX, &[0x43, 0x18, 0x10, 0x01, 0, 0, 0, 0]);
         if self == Kind::SdoUpload && n > 0 && last != want {
+            return mismatch;
+        }
+        let want = CanFrame::standard(SDO_TX, &[0x60, 0x03, 0x20, 0x00, 0, 0, 0, 0]);
+        if self == Kind::SdoDownload && n > 0 && last != want {
             return mismatch;
         }
         Ok(())

@@ -45,8 +45,9 @@ fn run(kind: Kind, n: u64) -> Result<(), String> {
     let mut last = None;
     for i in 0..n {
         now += Duration::from_millis(1);
-        let frame = kind.frame(i);
-        icount_on_frame(&mut node, now, &frame);
+        if let Some(frame) = kind.frame(i) {
+            icount_on_frame(&mut node, now, &frame);
+        }
         black_box(icount_process(&mut node, now));
         while let Some(f) = icount_transmit(&mut node) {
             sent += 1;
@@ -92,7 +93,7 @@ fn main() -> ExitCode {
         _ => None,
     };
     let Some(result) = result else {
-        eprintln!("usage: canopen-icount rpdo|sdo-upload|sync|cia402|cia402-echo N");
+        eprintln!("usage: canopen-icount rpdo|sdo-upload|sdo-download|sync|idle|cia402|cia402-echo N");
         return ExitCode::FAILURE;
     };
     match result {

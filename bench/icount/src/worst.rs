@@ -71,7 +71,7 @@ pub const CASES: [Case; 12] = [
     Case {
         name: "sync-4-tpdos",
         what: "SYNC with all four TPDOs synchronous (7 + 8 + 8 + 8 bytes)",
-        prepare: |now| Ok((Kind::Sync.setup(now)?, Kind::Sync.frame(0))),
+        prepare: |now| Ok((Kind::Sync.setup(now)?, crate::frame(0x080, &[]))),
         check: |_, _, answer| answer.expect("SYNC", 4, None),
     },
     Case {

@@ -151,27 +151,6 @@ impl AbortCode {
     }
 }
 
-impl From<crate::od::OdError> for AbortCode {
-    // Out of line: each of the dozen `?` on an `OdError` had a copy with its
-    // own switch table (714 bytes of flash more).
-    #[inline(never)]
-    fn from(e: crate::od::OdError) -> Self {
-        use crate::od::OdError;
-        match e {
-            OdError::NoObject => AbortCode::NoObject,
-            OdError::NoSubIndex => AbortCode::NoSubIndex,
-            OdError::WriteOnly => AbortCode::WriteOnly,
-            OdError::ReadOnly => AbortCode::ReadOnly,
-            OdError::LengthMismatch => AbortCode::LengthMismatch,
-            OdError::TooLong => AbortCode::LengthTooHigh,
-            OdError::TooShort => AbortCode::LengthTooLow,
-            OdError::ValueTooHigh => AbortCode::ValueTooHigh,
-            OdError::ValueTooLow => AbortCode::ValueTooLow,
-            OdError::NoStorage => AbortCode::CannotStore,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,7 +161,6 @@ mod tests {
             assert_eq!(AbortCode::from_code(c.code()), Some(c));
         }
         assert_eq!(AbortCode::from_code(0x1234_5678), None);
-        assert_eq!(AbortCode::from(crate::od::OdError::TooShort).code(), 0x0607_0013);
     }
 
     #[test]

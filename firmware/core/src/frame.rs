@@ -6,18 +6,25 @@
 use embedded_can::{ExtendedId, Id, StandardId};
 
 /// A classic CAN data or remote frame (at most 8 data bytes).
+///
+/// 16 bytes, word-aligned, and so is `Option<CanFrame>` (the `bool`s give
+/// it a niche): the queue, its pushes and pops move it as four words, where
+/// the 20 bytes of an `embedded_can::Id` inside took a `memcpy` call.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CanFrame {
-    id: Id,
-    rtr: bool,
-    dlc: u8,
+    /// The identifier's raw bits (11 or 29).
+    raw: u32,
     data: [u8; 8],
+    dlc: u8,
+    rtr: bool,
+    /// A 29-bit identifier.
+    extended: bool,
 }
 
 impl CanFrame {
     /// A data frame on COB-ID 0 with no data, all zero bits: what a free
     /// slot of a queue holds ([`crate::node`]).
-    pub(crate) const EMPTY: CanFrame = CanFrame { id: Id::Standard(StandardId::ZERO), rtr: false, dlc: 0, data: [0; 8] };
+    pub(crate) const EMPTY: CanFrame = CanFrame { raw: 0, data: [0; 8], dlc: 0, rtr: false, extended: false };
 
     /// A data frame with an 11-bit identifier; `None` if `cob_id` > 0x7FF or `data` > 8 bytes.
     pub fn standard(cob_id: u16, data: &[u8]) -> Option<Self> {
@@ -31,32 +38,23 @@ impl CanFrame {
 
     /// The 11-bit identifier, or `None` for an extended frame (CANopen uses 11 bits).
     pub fn cob_id(&self) -> Option<u16> {
-        match self.id {
-            Id::Standard(id) => Some(id.as_raw()),
-            Id::Extended(_) => None,
-        }
+        if self.extended { None } else { Some(self.raw as u16) }
     }
 
     /// The raw identifier (11 or 29 bits).
     pub fn raw_id(&self) -> u32 {
-        match self.id {
-            Id::Standard(id) => u32::from(id.as_raw()),
-            Id::Extended(id) => id.as_raw(),
-        }
+        self.raw
     }
 
     /// Whether the identifier is 29 bits.
     pub fn is_extended_id(&self) -> bool {
-        matches!(self.id, Id::Extended(_))
+        self.extended
     }
 
     /// Arbitration priority: lower wins. Standard frames win over extended
     /// ones with the same 11 leading bits, data frames over remote frames.
     pub fn priority(&self) -> u32 {
-        let (base, ide, ext) = match self.id {
-            Id::Standard(id) => (u32::from(id.as_raw()), 0, 0),
-            Id::Extended(id) => (id.as_raw() >> 18, 1, id.as_raw() & 0x3_FFFF),
-        };
+        let (base, ide, ext) = if self.extended { (self.raw >> 18, 1, self.raw & 0x3_FFFF) } else { (self.raw, 0, 0) };
         // After the 11 base bits: RTR (standard) or SRR = 1 (extended), then IDE.
         let bit20 = if ide == 1 { 1 } else { u32::from(self.rtr) };
         (base << 21) | (bit20 << 20) | (ide << 19) | (ext << 1) | u32::from(self.rtr && ide == 1)
@@ -67,11 +65,13 @@ impl embedded_can::Frame for CanFrame {
     fn new(id: impl Into<Id>, data: &[u8]) -> Option<Self> {
         let mut buf = [0u8; 8];
         buf.get_mut(..data.len())?.copy_from_slice(data);
-        Some(CanFrame { id: id.into(), rtr: false, dlc: data.len() as u8, data: buf })
+        let (raw, extended) = raw_of(id.into());
+        Some(CanFrame { raw, data: buf, dlc: data.len() as u8, rtr: false, extended })
     }
 
     fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
-        (dlc <= 8).then(|| CanFrame { id: id.into(), rtr: true, dlc: dlc as u8, data: [0; 8] })
+        let (raw, extended) = raw_of(id.into());
+        (dlc <= 8).then_some(CanFrame { raw, data: [0; 8], dlc: dlc as u8, rtr: true, extended })
     }
 
     fn is_extended(&self) -> bool {
@@ -83,7 +83,11 @@ impl embedded_can::Frame for CanFrame {
     }
 
     fn id(&self) -> Id {
-        self.id
+        if self.extended {
+            Id::Extended(ExtendedId::new(self.raw).unwrap_or(ExtendedId::ZERO))
+        } else {
+            Id::Standard(StandardId::new(self.raw as u16).unwrap_or(StandardId::ZERO))
+        }
     }
 
     fn dlc(&self) -> usize {
@@ -92,6 +96,14 @@ impl embedded_can::Frame for CanFrame {
 
     fn data(&self) -> &[u8] {
         if self.rtr { &[] } else { self.data.get(..usize::from(self.dlc)).unwrap_or(&self.data) }
+    }
+}
+
+/// An identifier's raw bits and whether it has 29.
+fn raw_of(id: Id) -> (u32, bool) {
+    match id {
+        Id::Standard(id) => (u32::from(id.as_raw()), false),
+        Id::Extended(id) => (id.as_raw(), true),
     }
 }
 
@@ -131,5 +143,14 @@ mod tests {
         assert!(a.priority() < a_rtr.priority());
         assert!(a_rtr.priority() < a_ext.priority(), "SRR is recessive: a standard RTR beats an extended frame");
         assert!(a_ext.priority() < b.priority());
+    }
+
+    #[test]
+    fn a_frame_and_an_optional_frame_are_four_words() {
+        assert_eq!((core::mem::size_of::<CanFrame>(), core::mem::size_of::<Option<CanFrame>>()), (16, 16));
+        let x = CanFrame::extended(0x1ABC_DEF0, &[1, 2]).unwrap();
+        assert_eq!(x.id(), Id::Extended(ExtendedId::new(0x1ABC_DEF0).unwrap()));
+        let r = CanFrame::remote(0x7FF, 0).unwrap();
+        assert_eq!(r.id(), Id::Standard(StandardId::new(0x7FF).unwrap()));
     }
 }

@@ -83,10 +83,9 @@ impl Add<Duration> for Instant {
 /// fold their deadlines with it: `Iterator::min` over `Option<Instant>`
 /// chains took 250 bytes more flash.
 pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
-    match (a, b) {
-        (Some(a), Some(b)) => Some(if b < a { b } else { a }),
-        (a, None) => a,
-        (None, b) => b,
+    match b {
+        Some(t) if a.is_none_or(|s| t < s) => b,
+        _ => a,
     }
 }
 

@@ -5,24 +5,29 @@
 
 use crate::frame::CanFrame;
 
-/// The sequence number of a free slot.
-const FREE: i64 = 0;
-
-/// A priority queue of at most `N` frames.
+/// A priority queue of at most `N` frames (a power of two, at most 32).
 ///
-/// A new queue is all zero bits ([`crate::node`]): hence a slot is free
-/// when its sequence number is 0 rather than being an `Option` (whose
-/// `None` is not zero). Frames queued count up from
-/// 1, frames put back ([`TxQueue::push_front`]) down from -1.
+/// Frames stay in their slots; `order`, a ring, keeps the occupied slots
+/// sorted, the frame that leaves next at `head`: a pop takes the head, and
+/// a push is one insertion step from the tail, with nothing to move when
+/// the new frame leaves last (a burst of one identifier, TPDOs queued in
+/// identifier order, an answer into an empty queue). The queue scanned every
+/// slot for the lowest (priority, sequence number) before. Ties need no
+/// sequence number: a frame is inserted behind every queued frame of its
+/// priority ([`TxQueue::push`]) or ahead of them ([`TxQueue::push_front`]).
+///
+/// A new queue is all zero bits ([`crate::node`]).
 #[derive(Clone, Debug)]
 pub struct TxQueue<const N: usize> {
-    /// (priority, sequence number, frame); free where the sequence number is 0.
-    slots: [(u32, i64, CanFrame); N],
+    slots: [CanFrame; N],
+    /// Occupied slots in the order they leave: `order[(head + j) % N]` for `j` in `0..len`.
+    order: [u8; N],
+    /// The priority of the frame in `order[i]`, beside it, so that the insertion compares words.
+    keys: [u32; N],
+    head: usize,
     len: usize,
-    /// The sequence number of the last frame queued.
-    next_seq: i64,
-    /// The sequence number of the last frame put back.
-    front_seq: i64,
+    /// Bit `i` set: slot `i` holds a frame.
+    used: u32,
     overflows: u32,
 }
 
@@ -33,23 +38,21 @@ impl<const N: usize> Default for TxQueue<N> {
 }
 
 impl<const N: usize> TxQueue<N> {
+    /// The occupancy bitmap is one `u32`; ring positions wrap with a mask.
+    const FITS: () = assert!(N <= 32 && N.is_power_of_two(), "a TxQueue holds a power of two frames, at most 32");
+
     /// An empty queue.
     pub const fn new() -> Self {
-        TxQueue { slots: [(0, FREE, CanFrame::EMPTY); N], len: 0, next_seq: 0, front_seq: 0, overflows: 0 }
+        let () = Self::FITS;
+        TxQueue { slots: [CanFrame::EMPTY; N], order: [0; N], keys: [0; N], head: 0, len: 0, used: 0, overflows: 0 }
     }
 
-    /// Queues a frame; false (and one more overflow) when full.
+    /// Queues a frame behind every queued frame of its priority; false (and
+    /// one more overflow) when full.
     // Out of line: every service that sends had a copy (128 bytes more).
     #[inline(never)]
     pub fn push(&mut self, frame: CanFrame) -> bool {
-        let seq = self.next_seq + 1;
-        if self.insert(frame, seq) {
-            self.next_seq = seq;
-            true
-        } else {
-            self.overflows = self.overflows.saturating_add(1);
-            false
-        }
+        self.insert(frame, false)
     }
 
     /// Counts a frame refused before it reached the queue (a sender's share was used up).
@@ -60,42 +63,61 @@ impl<const N: usize> TxQueue<N> {
     /// Puts back a frame the controller handed back, ahead of every queued
     /// frame with its identifier (bxCAN mailbox pre-emption).
     pub fn push_front(&mut self, frame: CanFrame) -> bool {
-        let seq = self.front_seq - 1;
-        let ok = self.insert(frame, seq);
-        if ok {
-            self.front_seq = seq;
-        } else {
-            self.overflows = self.overflows.saturating_add(1);
-        }
-        ok
+        self.insert(frame, true)
     }
 
-    fn insert(&mut self, frame: CanFrame, seq: i64) -> bool {
-        let Some(slot) = self.slots.iter_mut().find(|(_, q, _)| *q == FREE) else { return false };
-        *slot = (frame.priority(), seq, frame);
+    fn insert(&mut self, frame: CanFrame, ahead: bool) -> bool {
+        // The lowest free slot; none when all N are used.
+        let slot = (!self.used).trailing_zeros() as usize;
+        let Some(free) = self.slots.get_mut(slot).filter(|_| self.len < N) else {
+            self.overflows = self.overflows.saturating_add(1);
+            return false;
+        };
+        *free = frame;
+        self.used |= 1 << slot;
+        let key = frame.priority();
+        // The new frame stays behind queued frames up to `limit`: its equals
+        // too, unless it goes ahead of them.
+        let limit = if ahead { key.checked_sub(1) } else { Some(key) };
+        // One insertion step from the tail: queued frames that leave after
+        // the new one move back by one.
+        let mut at = (self.head + self.len) & (N - 1);
+        for _ in 0..self.len {
+            let before = at.wrapping_sub(1) & (N - 1);
+            let (Some(&k), Some(&o)) = (self.keys.get(before), self.order.get(before)) else { break };
+            if limit.is_some_and(|l| k <= l) {
+                break;
+            }
+            if let (Some(kk), Some(oo)) = (self.keys.get_mut(at), self.order.get_mut(at)) {
+                (*kk, *oo) = (k, o);
+            }
+            at = before;
+        }
+        if let (Some(kk), Some(oo)) = (self.keys.get_mut(at), self.order.get_mut(at)) {
+            (*kk, *oo) = (key, slot as u8);
+        }
         self.len += 1;
         true
     }
 
-    fn best(&self) -> Option<usize> {
+    /// The frame that goes next, without removing it.
+    pub fn peek(&self) -> Option<&CanFrame> {
         if self.len == 0 {
             return None;
         }
-        self.slots.iter().enumerate().filter(|(_, (_, q, _))| *q != FREE).map(|(i, (p, q, _))| (p, q, i)).min().map(|(_, _, i)| i)
-    }
-
-    /// The frame that goes next, without removing it.
-    pub fn peek(&self) -> Option<&CanFrame> {
-        self.best().and_then(|i| self.slots.get(i)).map(|(_, _, f)| f)
+        self.slots.get(usize::from(*self.order.get(self.head)?))
     }
 
     /// Removes the frame that goes next.
     pub fn pop(&mut self) -> Option<CanFrame> {
-        let i = self.best()?;
-        let (_, seq, f) = self.slots.get_mut(i)?;
-        *seq = FREE;
+        if self.len == 0 {
+            return None;
+        }
+        let slot = *self.order.get(self.head)?;
+        self.head = (self.head + 1) & (N - 1);
         self.len -= 1;
-        Some(*f)
+        self.used &= !(1 << slot);
+        self.slots.get(usize::from(slot)).copied()
     }
 
     /// Frames queued.
@@ -120,7 +142,7 @@ impl<const N: usize> TxQueue<N> {
 
     /// Drops every queued frame (the node goes silent, e.g. for an LSS bit-rate switch).
     pub fn clear(&mut self) {
-        self.slots.iter_mut().for_each(|(_, seq, _)| *seq = FREE);
+        self.used = 0;
         self.len = 0;
     }
 }
@@ -173,5 +195,47 @@ mod tests {
         assert_eq!(q.free(), 1);
         q.clear();
         assert_eq!(q.pop(), None);
+    }
+
+    #[test]
+    fn matches_a_model_of_priority_then_queueing_order() {
+        // The model: (priority, sequence) with sequence numbers counting up
+        // for push and down for push_front, the lowest pair leaves first.
+        let mut q = TxQueue::<8>::new();
+        let mut model: Vec<(u32, i64, CanFrame)> = Vec::new();
+        let (mut up, mut down) = (0i64, 0i64);
+        let mut seed = 0x1234_5678u32;
+        for step in 0..5000u32 {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            let id = [0x181, 0x281, 0x581, 0x581, 0x701, 0x080][(seed % 6) as usize];
+            let frame = f(id, step as u8);
+            match (seed >> 8) % 4 {
+                0 | 1 => {
+                    up += 1;
+                    let ok = q.push(frame);
+                    assert_eq!(ok, model.len() < 8);
+                    if ok {
+                        model.push((frame.priority(), up, frame));
+                    }
+                }
+                2 => {
+                    down -= 1;
+                    let ok = q.push_front(frame);
+                    assert_eq!(ok, model.len() < 8);
+                    if ok {
+                        model.push((frame.priority(), down, frame));
+                    }
+                }
+                _ => {
+                    let best = model.iter().enumerate().min_by_key(|(_, (p, s, _))| (*p, *s)).map(|(i, _)| i);
+                    let want = best.map(|i| model.remove(i).2);
+                    assert_eq!(q.peek().copied(), want);
+                    assert_eq!(q.pop(), want);
+                }
+            }
+            assert_eq!((q.len(), q.free()), (model.len(), 8 - model.len()));
+        }
     }
 }

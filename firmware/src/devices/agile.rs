@@ -16,9 +16,10 @@ use canopen_core::axis::{Axis, AxisParams};
 use canopen_core::node::{Application, CommError, Ctx, NmtEvent, Source};
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::{Cia402, Config};
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::services::store;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile in velocity
@@ -130,8 +131,8 @@ impl Application for App {
                 None
             }
             NmtEvent::Entered(state) => {
-                let left = self.operational && state != State::Operational;
-                self.operational = state == State::Operational;
+                let left = self.operational && state != NmtState::Operational;
+                self.operational = state == NmtState::Operational;
                 left.then_some(FAULT_NMT)
             }
             NmtEvent::CommunicationError(CommError::BusOff) => Some(FAULT_BUS_OFF),
@@ -171,7 +172,7 @@ impl App {
                 return;
             }
         };
-        self.drive.raise_fault(ctx, GENERIC_ERROR, info, reaction);
+        self.drive.raise_fault(ctx, EmcyCode::GENERIC, info, reaction);
         if let NmtEvent::Entered(_) = event {
             self.drive.on_nmt(ctx, &PROFILE, event);
         }
@@ -230,7 +231,6 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
 /// 0x6007 abort connection option code (p.388).
 const ABORT_CONNECTION: u16 = 0x6007;
 /// 0x603F for the faults §12.5 does not map (M-L2636-2656): the bus faults.
-const GENERIC_ERROR: u16 = 0x1000;
 /// Fault keys (§7.3, M-L688-700): group F20 high byte, code low byte.
 const FAULT_BUS_OFF: u16 = 0x2021;
 /// F20.22 guarding failure.

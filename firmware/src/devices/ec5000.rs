@@ -186,7 +186,7 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
 
 /// EMCY 0x6010 "Restart (powerfail, watchdog)" (M §9.1): the board reports
 /// a restart the firmware did not ask for with it (D53).
-pub const RESTART: u16 = 0x6010;
+pub const RESTART: canopen_core::wire::emcy::EmcyCode = canopen_core::wire::emcy::EmcyCode(0x6010);
 
 /// The manual's fallback node-ID.
 const FACTORY_NODE_ID: u8 = 127;

@@ -16,9 +16,10 @@ use canopen_core::node::{Application, CommError, Ctx, NmtEvent, ServiceOptions, 
 use canopen_core::profiles::cia406::diag::{BitEmcy, ErrorEmcy, FaultAlarm};
 use canopen_core::profiles::cia406::{self, Config, Encoder, ManualShaft, PositionSource, SensorFault, SimulatedShaft};
 use canopen_core::services::emcy::register;
-use canopen_core::services::nmt::State;
+use canopen_core::services::nmt::NmtState;
 use canopen_core::services::store;
 use canopen_core::time::{Duration, Instant};
+use canopen_core::wire::emcy::EmcyCode;
 
 /// What the Sendix's sensor chip reports besides the position: its
 /// temperature and the limits and version its registers hold (the bytes of
@@ -134,18 +135,20 @@ const WARNING_TEMPERATURE: u16 = 1 << 14;
 
 /// EMCY codes of the manual (§5.8.1, §5.5.43–45).
 pub mod emcy {
+    use canopen_core::wire::emcy::EmcyCode;
+
     /// An alarm in 0x6503 (position error).
-    pub const ALARM: u16 = 0x1000;
+    pub const ALARM: EmcyCode = EmcyCode(0x1000);
     /// Overspeed and temperature (0x6505 bits 0 and 14).
-    pub const TEMPERATURE: u16 = 0x4200;
+    pub const TEMPERATURE: EmcyCode = EmcyCode(0x4200);
     /// Internal memory (0x6505 bit 15).
-    pub const MEMORY: u16 = 0x5200;
+    pub const MEMORY: EmcyCode = EmcyCode(0x5200);
     /// "Internal Memory Error NVM": the memory failed a store.
-    pub const NVM: u16 = 0x5000;
+    pub const NVM: EmcyCode = EmcyCode(0x5000);
     /// "Error Multiturn": the multi-turn counter failed.
-    pub const MULTITURN: u16 = 0x5051;
+    pub const MULTITURN: EmcyCode = EmcyCode(0x5051);
     /// Sensor sync failure (the sensor does not answer; 0x6503 bit 15).
-    pub const SENSOR_SYNC: u16 = 0xFF00;
+    pub const SENSOR_SYNC: EmcyCode = EmcyCode(0xFF00);
     /// The over-temperature EMCY's first manufacturer byte: "sensor error register".
     pub const SENSOR_ERROR_REGISTER: u8 = 0x80;
 }
@@ -155,7 +158,7 @@ pub mod emcy {
 const POSITION_ERROR_REGISTER: u8 = register::PROFILE;
 
 /// An EMCY with the manual's manufacturer bytes and no extra register bit.
-const fn plain(code: u16, info: [u8; 5]) -> ErrorEmcy {
+const fn plain(code: EmcyCode, info: [u8; 5]) -> ErrorEmcy {
     ErrorEmcy { code, register: 0, info }
 }
 
@@ -258,7 +261,7 @@ impl<P: Sensor> Application for App<P> {
             // 100 kbit/s (code 3) has no CiA 305 bit timing: refused (D24).
             (BAUD_RATE, 0, [code]) if bit_rate_index(*code).is_none() && *code != NOT_SET => Err(AbortCode::InvalidValue),
             // §5.3.4.1 L1028: variable mapping changes only in Pre-operational.
-            (0x1A00..=0x1A02, _, _) if ctx.state() != State::PreOperational => Err(AbortCode::DeviceState),
+            (0x1A00..=0x1A02, _, _) if ctx.state() != NmtState::PreOperational => Err(AbortCode::DeviceState),
             // L1214: transmission types 252/253 are not supported by the M58.
             (0x1800..=0x1802, 2, [252 | 253]) => Err(AbortCode::InvalidValue),
             // §5.5.13 L2057, D9: a valid TPDO COB-ID must keep bit 30 (no RTR).

@@ -21,6 +21,7 @@ use canopen_core::node::{Application, Ctx, NmtEvent, Source};
 use canopen_core::profiles::cia406::diag::{ErrorEmcy, FaultAlarm};
 use canopen_core::profiles::cia406::{self, Config, Encoder, SensorFault, SimulatedShaft};
 use canopen_core::time::{Duration, Instant};
+use canopen_core::wire::emcy::EmcyCode;
 
 /// Sensor steps per revolution (the EDS's 0x6501).
 const RESOLUTION: u32 = 4096;
@@ -60,9 +61,9 @@ const PROFILE: Config = Config {
         FaultAlarm {
             fault: SensorFault::Position,
             mask: cia406::ALARM_POSITION,
-            emcy: ErrorEmcy { code: 0x1000, register: 0, info: [0; 5] },
+            emcy: ErrorEmcy { code: EmcyCode::GENERIC, register: 0, info: [0; 5] },
         },
-        FaultAlarm { fault: SensorFault::Sync, mask: cia406::ALARM_DEVICE, emcy: ErrorEmcy { code: 0xFF00, register: 0, info: [0; 5] } },
+        FaultAlarm { fault: SensorFault::Sync, mask: cia406::ALARM_DEVICE, emcy: ErrorEmcy { code: EmcyCode(0xFF00), register: 0, info: [0; 5] } },
     ],
     warnings: &[],
     storage_fault: None,

@@ -1,6 +1,6 @@
 //! Heartbeat monitor: the master's heartbeat consumer. CiA 301 v4.2
 //! §7.2.8.3.2.1 (heartbeat protocol) and §7.2.8.3.3 (boot-up); state codes
-//! table 57 ([`canopen_core::wire::nmt::NmtState`]).
+//! table 57 ([`canopen_core::wire::nmt::NmtStateCode`]).
 //!
 //! Every frame on 0x700 + node-ID with one data byte tells the node's NMT
 //! state. The monitor keeps the last state and time of every node it has
@@ -12,7 +12,7 @@
 
 use canopen_core::time::{Duration, Instant};
 use canopen_core::wire::nmt::ERROR_CONTROL_BASE;
-pub use canopen_core::wire::nmt::NmtState;
+pub use canopen_core::wire::nmt::NmtStateCode;
 use std::collections::{BTreeMap, VecDeque};
 
 /// Something the monitor noticed.
@@ -31,9 +31,9 @@ pub enum HeartbeatEvent {
         /// The node.
         node_id: u8,
         /// The state known before (`None` if none was, or after a timeout).
-        previous: Option<NmtState>,
+        previous: Option<NmtStateCode>,
         /// The state the heartbeat reports.
-        state: NmtState,
+        state: NmtStateCode,
         /// When it arrived.
         at: Instant,
     },
@@ -51,7 +51,7 @@ pub enum HeartbeatEvent {
 /// What the monitor knows of one node.
 #[derive(Clone, Copy, Debug, Default)]
 struct Entry {
-    state: Option<NmtState>,
+    state: Option<NmtStateCode>,
     last: Option<Instant>,
     timeout: Option<Duration>,
     deadline: Option<Instant>,
@@ -97,7 +97,7 @@ impl HeartbeatMonitor {
             return false;
         };
         let state = match *data {
-            [code] => NmtState::from_code(code),
+            [code] => NmtStateCode::from_code(code),
             _ => None,
         };
         let Some(state) = state else {
@@ -110,10 +110,10 @@ impl HeartbeatMonitor {
         e.last = Some(now);
         e.timed_out = false;
         e.deadline = match (state, e.timeout) {
-            (NmtState::BootUp, _) | (_, None) => None,
+            (NmtStateCode::BootUp, _) | (_, None) => None,
             (_, Some(t)) => Some(now + t),
         };
-        if state == NmtState::BootUp {
+        if state == NmtStateCode::BootUp {
             self.events.push_back(HeartbeatEvent::BootUp { node_id, at: now });
         } else if previous != Some(state) {
             self.events.push_back(HeartbeatEvent::StateChanged { node_id, previous, state, at: now });
@@ -143,7 +143,7 @@ impl HeartbeatMonitor {
     }
 
     /// The last state `node_id` reported (`None` if unknown, or lost to a timeout).
-    pub fn state(&self, node_id: u8) -> Option<NmtState> {
+    pub fn state(&self, node_id: u8) -> Option<NmtStateCode> {
         self.nodes.get(&node_id).and_then(|e| e.state)
     }
 
@@ -180,15 +180,19 @@ mod tests {
         assert_eq!(m.pop_event(), Some(HeartbeatEvent::BootUp { node_id: 5, at: ms(0) }));
         assert_eq!(m.process(ms(5000)), None);
         assert!(m.on_frame(ms(5100), 0x705, &[0x7F]));
-        let pre_op =
-            HeartbeatEvent::StateChanged { node_id: 5, previous: Some(NmtState::BootUp), state: NmtState::PreOperational, at: ms(5100) };
+        let pre_op = HeartbeatEvent::StateChanged {
+            node_id: 5,
+            previous: Some(NmtStateCode::BootUp),
+            state: NmtStateCode::PreOperational,
+            at: ms(5100),
+        };
         assert_eq!(m.pop_event(), Some(pre_op));
         // The same state again: no event, the deadline moves.
         assert!(m.on_frame(ms(5600), 0x705, &[0x7F]));
         assert_eq!(m.pop_event(), None);
         assert_eq!(m.process(ms(6599)), Some(ms(6600)));
         assert_eq!(m.pop_event(), None);
-        assert_eq!((m.state(5), m.last_seen(5), m.is_timed_out(5)), (Some(NmtState::PreOperational), Some(ms(5600)), false));
+        assert_eq!((m.state(5), m.last_seen(5), m.is_timed_out(5)), (Some(NmtStateCode::PreOperational), Some(ms(5600)), false));
         assert_eq!(m.process(ms(6600)), None);
         assert_eq!(m.pop_event(), Some(HeartbeatEvent::Timeout { node_id: 5, last: ms(5600), at: ms(6600) }));
         assert_eq!(m.process(ms(9000)), None);
@@ -196,7 +200,7 @@ mod tests {
         assert_eq!((m.state(5), m.is_timed_out(5)), (None, true));
         // Heard again: monitoring resumes. The toggle bit (guarding) is ignored.
         assert!(m.on_frame(ms(9000), 0x705, &[0x85]));
-        let op = HeartbeatEvent::StateChanged { node_id: 5, previous: None, state: NmtState::Operational, at: ms(9000) };
+        let op = HeartbeatEvent::StateChanged { node_id: 5, previous: None, state: NmtStateCode::Operational, at: ms(9000) };
         assert_eq!(m.pop_event(), Some(op));
         assert_eq!(m.process(ms(9000)), Some(ms(10_000)));
         assert!(!m.is_timed_out(5));
@@ -209,7 +213,7 @@ mod tests {
     fn unwatched_nodes_are_tracked_and_bad_frames_counted() {
         let mut m = HeartbeatMonitor::new();
         assert!(m.on_frame(ms(1), 0x77F, &[0x04]));
-        assert_eq!(m.state(127), Some(NmtState::Stopped));
+        assert_eq!(m.state(127), Some(NmtStateCode::Stopped));
         assert_eq!(m.process(ms(100_000)), None);
         for data in [&[][..], &[0x01], &[0x05, 0x00]] {
             assert!(m.on_frame(ms(2), 0x701, data));

@@ -17,12 +17,25 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The kinds both benches measure: name, what the frame is.
-const KINDS: [(&str, &str); 5] = [
+const KINDS: [(&str, &str); 7] = [
     ("rpdo", "RPDO (8 bytes, 4 objects)"),
     ("sdo-upload", "expedited SDO upload (0x1018 sub 1)"),
+    ("sdo-download", "expedited SDO download (0x2003, u32, mapped in TPDO1)"),
     ("sync", "SYNC, 4 synchronous TPDOs"),
+    ("idle", "idle (`process` with nothing due, an empty `transmit`)"),
     ("cia402", "EC5000 RPDO 0x6040 + 0x60FF → CiA 402 state machine → TPDO 0x6041 + 0x606C"),
     ("cia402-echo", "the same frames, an application copying 0x6040 to 0x6041 (baseline)"),
+];
+
+/// CANopenNode v4 for the same node, frames and state on thumbv7m (`-Os`,
+/// one full 1 ms tick per frame: `../shared/notes/perf-review.md` §0.1), and
+/// the aim for this stack (issue 12): kind, CANopenNode, aim.
+const CANOPENNODE: [(&str, f64, f64); 5] = [
+    ("rpdo", 1121.2, 560.0),
+    ("sdo-upload", 1206.2, 600.0),
+    ("sdo-download", 1171.2, 700.0),
+    ("sync", 2005.3, 1000.0),
+    ("idle", 729.2, 120.0),
 ];
 
 /// The CiA 402 profile's own part of the `cia402` row (the row minus its
@@ -90,7 +103,21 @@ pub fn icount(n: u64) -> Result<(), String> {
     let (version, out) = run_qemu_image()?;
     let report = parse_report(&out)?;
     print_thumbv7m(&version, &report, &host);
+    print_against_canopennode(&report);
     cia402_share(&report)
+}
+
+/// The thumbv7m rows beside CANopenNode's, with the ratio and the aim.
+fn print_against_canopennode(r: &QemuReport) {
+    println!("\nthumbv7m against CANopenNode v4 (-Os, one full 1 ms tick per frame; perf-review.md §0.1):\n");
+    println!("| frame | this stack | CANopenNode | ratio | aim | met |");
+    println!("|---|---:|---:|---:|---:|---|");
+    for (kind, c, aim) in CANOPENNODE {
+        let Some(k) = r.kinds.iter().find(|k| k.name == kind) else { continue };
+        let what = KINDS.iter().find(|(n, _)| *n == kind).map_or(kind, |(_, w)| *w);
+        let ours = k.total();
+        println!("| {what} | {ours:.0} | {c:.0} | {:.2} | ≤ {aim:.0} | {} |", ours / c, if ours <= aim { "yes" } else { "no" });
+    }
 }
 
 /// The profile's part of the CiA 402 row on thumbv7m, against [`CIA402_BUDGET`].
@@ -99,7 +126,8 @@ fn cia402_share(r: &QemuReport) -> Result<(), String> {
     let (profile, echo) = (total("cia402")?, total("cia402-echo")?);
     let share = profile - echo;
     println!(
-        "\nCiA 402 profile's part (cia402 − cia402-echo) on thumbv7m: {profile:.0} − {echo:.0} = {share:.0} instructions per frame (budget {CIA402_BUDGET:.0})"
+        "\nCiA 402 profile's part (cia402 − cia402-echo) on thumbv7m: {profile:.0} − {echo:.0} = {share:.0} instructions per frame (budget {CIA402_BUDGET:.0}); \
+         the whole path (RPDO → state machine → TPDO) {profile:.0}, aim {CIA402_BUDGET:.0}"
     );
     if share > CIA402_BUDGET { Err(format!("the CiA 402 path costs {share:.0} instructions, over {CIA402_BUDGET:.0}")) } else { Ok(()) }
 }
@@ -333,7 +361,9 @@ Timer with period zero, disabling
 icount-qemu calibration instructions=102000 ticks=20400 per_tick=5 overhead=1.01 check_known=1020 check_measured=1019.81
 icount-qemu kind=rpdo frames=1000 on_frame=447.0 process=1336.0 transmit=731.1 transmit_calls=1000 sent=0
 icount-qemu kind=sdo-upload frames=1000 on_frame=3947.0 process=1336.0 transmit=1245.1 transmit_calls=2000 sent=1000
+icount-qemu kind=sdo-download frames=1000 on_frame=900.0 process=300.0 transmit=80.0 transmit_calls=2000 sent=1000
 icount-qemu kind=sync frames=1000 on_frame=2857.1 process=810.0 transmit=2933.0 transmit_calls=5000 sent=4000
+icount-qemu kind=idle frames=1000 on_frame=0.0 process=100.0 transmit=19.0 transmit_calls=1000 sent=0
 icount-qemu kind=cia402 frames=1000 on_frame=2465.0 process=1348.0 transmit=403.0 transmit_calls=2000 sent=1000
 icount-qemu kind=cia402-echo frames=1000 on_frame=1709.0 process=1245.0 transmit=393.0 transmit_calls=2000 sent=1000
 icount-qemu worst=store-0x1010 on_frame=186046.9 process=456.0 total=186502.9 longest=186046.9 calls=1 sent=1 runs=50
@@ -348,8 +378,8 @@ icount-qemu ok
         let r = parse_report(GOOD).unwrap();
         assert_eq!((r.calibration_instructions, r.calibration_ticks, r.per_tick), (102_000, 20_400, 5));
         assert_eq!((r.overhead, r.check), (1.01, (1020, 1019.81)));
-        assert_eq!(r.kinds.len(), 5);
-        let sync = &r.kinds[2];
+        assert_eq!(r.kinds.len(), 7);
+        let sync = &r.kinds[3];
         assert_eq!(
             (sync.name.as_str(), sync.on_frame, sync.process, sync.transmit, sync.calls_per_frame),
             ("sync", 2857.1, 810.0, 2933.0, 5.0)

@@ -13,10 +13,12 @@
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::Dictionary;
-use crate::services::nmt::State;
+use crate::od::index;
+use crate::services::nmt::NmtState;
 use crate::services::store::Scope;
 use crate::storage::Storage;
 use crate::time::Instant;
+use crate::wire::emcy::EmcyCode;
 use crate::wire::time_stamp::TimeOfDay;
 
 use super::filter::AcceptanceList;
@@ -51,7 +53,7 @@ pub enum CommError {
 pub enum NmtEvent {
     /// The node entered this state (each change, so Operational → Stopped →
     /// Operational is three events, not one).
-    Entered(State),
+    Entered(NmtState),
     /// Reset application (and power-on): the application objects hold their
     /// defaults and the stored set. Reset communication follows.
     ResetApplication,
@@ -116,7 +118,7 @@ pub struct Ctx<'a> {
     pub(super) services: &'a mut dyn super::comm::Services,
     pub(super) storage: &'a mut dyn Storage,
     pub(super) node_id: u8,
-    pub(super) state: State,
+    pub(super) state: NmtState,
     pub(super) now: Instant,
     pub(super) options: ServiceOptions,
     pub(super) effects: SdoEffects,
@@ -155,13 +157,13 @@ impl Ctx<'_> {
     }
 
     /// The NMT state.
-    pub fn state(&self) -> State {
+    pub fn state(&self) -> NmtState {
         self.state
     }
 
     /// The value of (index, sub) as the dictionary holds it.
     pub fn read(&self, index: u16, sub: u8) -> Result<&[u8], AbortCode> {
-        Ok(self.dict.read(self.image, index, sub)?)
+        self.dict.read(self.image, index, sub)
     }
 
     /// An integer value of at most 32 bits (zero-extended), if (index, sub) exists.
@@ -174,7 +176,7 @@ impl Ctx<'_> {
     /// object (a heartbeat time restarts the producer, a PDO parameter
     /// reconfigures the PDO). The device's own hooks do not run again for it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        if index == 0x1010 || index == 0x1011 {
+        if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
             self.effects.written = true;
             return self.store_command(index, sub, data);
         }
@@ -189,18 +191,20 @@ impl Ctx<'_> {
     #[inline(never)]
     pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.effects.written = true;
-        Ok(self.dict.write_unchecked(self.image, index, sub, data)?)
+        self.dict.write_unchecked(self.image, index, sub, data)
     }
 
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
     /// error was already active or there is no room).
-    pub fn raise_error(&mut self, code: u16, info: [u8; 5]) -> bool {
+    pub fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) -> bool {
+        self.effects.services = true;
         self.services.emcy().raise(code, info)
     }
 
     /// Raises an error that sets the error register bits `register` (0x1001)
     /// while it lasts, beyond those its code's class sets.
-    pub fn raise_error_with(&mut self, code: u16, register: u8, info: [u8; 5]) -> bool {
+    pub fn raise_error_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
+        self.effects.services = true;
         self.services.emcy().raise_with(code, register, info)
     }
 
@@ -221,12 +225,13 @@ impl Ctx<'_> {
     }
 
     /// Clears an error; the last one cleared sends "error reset".
-    pub fn clear_error(&mut self, code: u16) {
+    pub fn clear_error(&mut self, code: EmcyCode) {
+        self.effects.services = true;
         let emcy = self.services.emcy();
         emcy.clear(code);
         // No message when other errors stay active: 0x1001 follows at once.
         let register = emcy.register();
-        let _ = self.dict.write_unchecked(self.image, 0x1001, 0, &[register]);
+        let _ = self.dict.write_unchecked(self.image, index::ERROR_REGISTER, 0, &[register]);
     }
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
@@ -360,13 +365,13 @@ pub trait Application {
     /// mapping in use). A device no RPDO-written object concerns overrides
     /// it with nothing and saves the look-ups on every RPDO.
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
-        let map = 0x1600 + u16::from(n);
+        let map = index::RPDO_MAPPING_PARAMETER + u16::from(n);
         let count = ctx.read_u32(map, 0).unwrap_or(0).min(64) as u8;
         for sub in 1..=count {
             let entry = ctx.read_u32(map, sub).unwrap_or(0);
             let (index, object_sub) = ((entry >> 16) as u16, (entry >> 8) as u8);
             // Dummy entries (data types 0x0001..0x0007 and the like) map nothing.
-            if index >= 0x1000 {
+            if index >= index::COMMUNICATION_AREA {
                 self.written(ctx, index, object_sub, Source::Rpdo(n));
             }
         }

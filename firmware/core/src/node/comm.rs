@@ -3,17 +3,17 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::Dictionary;
+use crate::od::index;
+use crate::od::{Dictionary, u32_exact};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
-use crate::services::nmt::State;
+use crate::services::nmt::NmtState;
 use crate::services::pdo::Pdos;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
-use crate::wire::emcy::Emcy;
+use crate::wire::emcy::{Emcy, EmcyCode};
 
 use super::app::ServiceOptions;
-use super::router::u32_of;
 
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
@@ -81,12 +81,12 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         self.emcy.reset();
         self.configure_emcy(dict, image);
         self.guarding.reset();
-        for index in [0x100C, 0x1017, 0x1012] {
+        for index in [index::GUARD_TIME, index::PRODUCER_HEARTBEAT_TIME, index::COB_ID_TIME_STAMP] {
             self.reconfigure(index, dict, image, node_id, now);
         }
         self.sync.configure(dict, image);
         for i in 0..HB {
-            let value = dict.read_u32(image, 0x1016, (i + 1) as u8).unwrap_or(0);
+            let value = dict.read_u32(image, index::CONSUMER_HEARTBEAT_TIME, (i + 1) as u8).unwrap_or(0);
             self.consumers.configure(i, value);
         }
     }
@@ -107,8 +107,8 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// Applies 0x1014/0x1015.
     pub fn configure_emcy(&mut self, dict: &Dictionary, image: &[u8]) {
         // Without 0x1014 the pre-defined connection set applies, and 0x1015 defaults to 0.
-        let cob = dict.read_u32(image, 0x1014, 0).unwrap_or(0x8000_0000);
-        let inhibit = dict.read_u32(image, 0x1015, 0).unwrap_or(0) as u16;
+        let cob = dict.read_u32(image, index::COB_ID_EMCY, 0).unwrap_or(0x8000_0000);
+        let inhibit = dict.read_u32(image, index::INHIBIT_TIME_EMCY, 0).unwrap_or(0) as u16;
         self.emcy.configure(cob, inhibit);
     }
 
@@ -116,23 +116,23 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         let _ = node_id;
         match index {
-            0x1017 => {
-                self.heartbeat.configure(dict.read_u32(image, 0x1017, 0).unwrap_or(0) as u16, now);
+            index::PRODUCER_HEARTBEAT_TIME => {
+                self.heartbeat.configure(dict.read_u32(image, index::PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0) as u16, now);
                 if self.heartbeat.active() {
                     // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
                     self.guarding.disarm();
                 }
             }
-            0x100C | 0x100D => {
-                let guard = dict.read_u32(image, 0x100C, 0).unwrap_or(0) as u16;
-                let factor = dict.read_u32(image, 0x100D, 0).unwrap_or(0) as u8;
+            index::GUARD_TIME | index::LIFE_TIME_FACTOR => {
+                let guard = dict.read_u32(image, index::GUARD_TIME, 0).unwrap_or(0) as u16;
+                let factor = dict.read_u32(image, index::LIFE_TIME_FACTOR, 0).unwrap_or(0) as u8;
                 self.guarding.configure(guard, factor);
             }
-            0x1012 => {
-                let v = dict.read_u32(image, 0x1012, 0).unwrap_or(0);
+            index::COB_ID_TIME_STAMP => {
+                let v = dict.read_u32(image, index::COB_ID_TIME_STAMP, 0).unwrap_or(0);
                 self.time_cob_id = (v & 0x8000_0000 != 0).then_some((v & 0x7FF) as u16);
             }
-            0x1015 => self.configure_emcy(dict, image),
+            index::INHIBIT_TIME_EMCY => self.configure_emcy(dict, image),
             _ => {}
         }
     }
@@ -145,7 +145,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// What 0x1029 sub `class` says to do on an error of that class (1
     /// communication, 2 device profile, 3 manufacturer specific).
     pub fn error_behaviour_of(dict: &Dictionary, image: &[u8], class: u8) -> ErrorBehaviour {
-        match dict.read(image, 0x1029, class) {
+        match dict.read(image, index::ERROR_BEHAVIOUR, class) {
             Ok([1]) => ErrorBehaviour::NoChange,
             Ok([2]) => ErrorBehaviour::Stopped,
             _ => ErrorBehaviour::PreOperational,
@@ -157,33 +157,33 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // An error still active: the register as it is now, not as it was when the
         // message was queued (an error cleared since, without a message, has left it).
         let register = if self.emcy.is_active(e.code) { self.emcy.register() } else { e.register };
-        let _ = dict.write_unchecked(image, 0x1001, 0, &[register]);
-        if e.code == 0 {
+        let _ = dict.write_unchecked(image, index::ERROR_REGISTER, 0, &[register]);
+        if e.code == EmcyCode::NO_ERROR {
             return;
         }
-        let Ok(count) = dict.find(0x1003, 0) else { return };
-        let capacity = dict.entries.iter().filter(|x| x.index == 0x1003 && x.sub > 0).count().min(254) as u8;
+        let Ok(count) = dict.find(index::PRE_DEFINED_ERROR_FIELD, 0) else { return };
+        let capacity = dict.entries.iter().filter(|x| x.index == index::PRE_DEFINED_ERROR_FIELD && x.sub > 0).count().min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
         for sub in (2..=used.saturating_add(1).min(capacity)).rev() {
-            if let Ok(prev) = dict.read(image, 0x1003, sub - 1) {
+            if let Ok(prev) = dict.read(image, index::PRE_DEFINED_ERROR_FIELD, sub - 1) {
                 let mut b = [0u8; 4];
                 if let Some(dst) = b.get_mut(..prev.len().min(4)) {
                     dst.copy_from_slice(prev.get(..dst.len()).unwrap_or(&[]));
                 }
-                let _ = dict.write_unchecked(image, 0x1003, sub, &b);
+                let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, sub, &b);
             }
         }
         let [i0, i1, ..] = e.info;
-        let value = u32::from(e.code) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
-        let _ = dict.write_unchecked(image, 0x1003, 1, &value.to_le_bytes());
-        let _ = dict.write_unchecked(image, 0x1003, 0, &[used.saturating_add(1).min(capacity)]);
+        let value = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
+        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 1, &value.to_le_bytes());
+        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 0, &[used.saturating_add(1).min(capacity)]);
     }
 
     /// 0x1003 sub 0 ← 0: the history is empty.
     pub fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        let _ = dict.write_unchecked(image, 0x1003, 0, &[0]);
+        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 0, &[0]);
         for sub in 1..=254u8 {
-            if dict.write_unchecked(image, 0x1003, sub, &[0; 4]).is_err() {
+            if dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, sub, &[0; 4]).is_err() {
                 break;
             }
         }
@@ -193,7 +193,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     pub fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
         match self.sync.write_object(index, sub, data, dict, image) {
             Some(result) => result,
-            None => dict.write(image, index, sub, data).map_err(Into::into),
+            None => dict.write(image, index, sub, data),
         }
     }
 }
@@ -220,7 +220,7 @@ pub(crate) trait Services {
         node_id: u8,
         now: Instant,
         options: ServiceOptions,
-        state: State,
+        state: NmtState,
     ) -> Option<Result<(), AbortCode>>;
 }
 
@@ -243,10 +243,10 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         node_id: u8,
         now: Instant,
         options: ServiceOptions,
-        state: State,
+        state: NmtState,
     ) -> Option<Result<(), AbortCode>> {
         Some(match index {
-            0x1003 => {
+            index::PRE_DEFINED_ERROR_FIELD => {
                 // The precheck found the entry writable.
                 if sub != 0 {
                     return Some(Err(AbortCode::ReadOnly));
@@ -262,25 +262,27 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                     _ => Err(AbortCode::LengthTooHigh),
                 }
             }
-            0x1012 if sub == 0 => self.write_time_cob_id(data, dict, image, node_id, now),
-            0x1014 if sub == 0 => self.write_emcy_cob_id(data, dict, image),
-            0x1016 if sub > 0 => {
-                let value = match u32_of(data) {
+            index::COB_ID_TIME_STAMP if sub == 0 => self.write_time_cob_id(data, dict, image, node_id, now),
+            index::COB_ID_EMCY if sub == 0 => self.write_emcy_cob_id(data, dict, image),
+            index::CONSUMER_HEARTBEAT_TIME if sub > 0 => {
+                let value = match u32_exact(data) {
                     Ok(v) => v,
                     Err(e) => return Some(Err(e)),
                 };
                 if self.consumers.conflicts(usize::from(sub) - 1, value) {
                     return Some(Err(AbortCode::ParameterIncompatible));
                 }
-                dict.write(image, index, sub, data).map_err(AbortCode::from).map(|()| self.consumers.configure(usize::from(sub) - 1, value))
+                dict.write(image, index, sub, data).map(|()| self.consumers.configure(usize::from(sub) - 1, value))
             }
-            0x1005..=0x1007 | 0x1019 => self.write_sync(index, sub, data, dict, image),
-            0x100C | 0x100D | 0x1015 | 0x1017 => {
-                dict.write(image, index, sub, data).map_err(AbortCode::from).map(|()| self.reconfigure(index, dict, image, node_id, now))
+            index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW => {
+                self.write_sync(index, sub, data, dict, image)
             }
-            0x1400..=0x1BFF => {
-                let operational = state == State::Operational;
-                let mapping = matches!(index, 0x1600..=0x17FF | 0x1A00..=0x1BFF);
+            index::GUARD_TIME | index::LIFE_TIME_FACTOR | index::INHIBIT_TIME_EMCY | index::PRODUCER_HEARTBEAT_TIME => {
+                dict.write(image, index, sub, data).map(|()| self.reconfigure(index, dict, image, node_id, now))
+            }
+            index::RPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST => {
+                let operational = state == NmtState::Operational;
+                let mapping = matches!(index, index::RPDO_MAPPING_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST | index::TPDO_MAPPING_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST);
                 if options.pdo_rewrite_while_valid && operational && mapping {
                     // The manual's order: mappings change in Pre-operational only.
                     return Some(Err(AbortCode::DeviceState));
@@ -289,7 +291,7 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                 let rewrite = options.pdo_rewrite_while_valid && !operational;
                 match self.pdos.write_object_with(index, sub, data, dict, image, rewrite) {
                     Some(result) => result,
-                    None => dict.write(image, index, sub, data).map_err(Into::into),
+                    None => dict.write(image, index, sub, data),
                 }
             }
             _ => return None,
@@ -302,13 +304,15 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// 29-bit CAN-ID (bits 11..30 are 0), no CAN-ID 0, no restricted CAN-ID
     /// while valid; the CAN-ID changes only while EMCY is or becomes off.
     fn write_emcy_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        let new = CobId(u32_of(data)?);
-        let moves =
-            dict.read_u32(image, 0x1014, 0).map(CobId).is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
+        let new = CobId(u32_exact(data)?);
+        let moves = dict
+            .read_u32(image, index::COB_ID_EMCY, 0)
+            .map(CobId)
+            .is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
         if new.0 & !(CobId::BIT31 | 0x7FF) != 0 || new.can_id() == 0 || (new.is_valid() && new.is_restricted()) || moves {
             return Err(AbortCode::InvalidValue);
         }
-        dict.write(image, 0x1014, 0, data)?;
+        dict.write(image, index::COB_ID_EMCY, 0, data)?;
         self.configure_emcy(dict, image);
         Ok(())
     }
@@ -316,13 +320,13 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// 0x1012 COB-ID TIME (CiA 301 §7.5.2.13): bit 31 consume, bit 30
     /// produce. No 29-bit CAN-ID, no restricted CAN-ID while consumed or produced.
     fn write_time_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8], node_id: u8, now: Instant) -> Result<(), AbortCode> {
-        let new = CobId(u32_of(data)?);
+        let new = CobId(u32_exact(data)?);
         let used = new.0 & (CobId::BIT31 | CobId::BIT30) != 0;
         if new.is_extended() || (used && new.is_restricted()) {
             return Err(AbortCode::InvalidValue);
         }
-        dict.write(image, 0x1012, 0, data)?;
-        self.reconfigure(0x1012, dict, image, node_id, now);
+        dict.write(image, index::COB_ID_TIME_STAMP, 0, data)?;
+        self.reconfigure(index::COB_ID_TIME_STAMP, dict, image, node_id, now);
         Ok(())
     }
 }

@@ -14,7 +14,7 @@
 use crate::od::ObjectDictionary;
 use crate::storage::Storage;
 use crate::time::{Duration, Instant, earliest};
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 
 use crate::services::emcy::EmcyProducer;
 
@@ -85,21 +85,21 @@ impl ControllerErrors {
             ControllerEvent::RxOverrun { lost } => {
                 self.lost = self.lost.wrapping_add(lost);
                 // Manufacturer-specific field: frames lost so far.
-                emcy.raise(code::CAN_OVERRUN, count(self.lost));
+                emcy.raise(EmcyCode::CAN_OVERRUN, count(self.lost));
                 self.overrun_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
-                emcy.raise(code::BUS_OFF_RECOVERED, count(self.recoveries));
+                emcy.raise(EmcyCode::RECOVERED_FROM_BUS_OFF, count(self.recoveries));
                 self.bus_off_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
-                emcy.raise(code::CAN_PASSIVE, [0; 5]);
+                emcy.raise(EmcyCode::CAN_ERROR_PASSIVE, [0; 5]);
             }
             ControllerEvent::ErrorActive if self.passive => {
                 self.passive = false;
-                emcy.clear(code::CAN_PASSIVE);
+                emcy.clear(EmcyCode::CAN_ERROR_PASSIVE);
             }
             ControllerEvent::ErrorPassive | ControllerEvent::ErrorActive => {}
         }
@@ -122,9 +122,10 @@ impl ControllerErrors {
                 return Some(now);
             }
             self.raise_passive = false;
-            emcy.raise(code::CAN_PASSIVE, [0; 5]);
+            emcy.raise(EmcyCode::CAN_ERROR_PASSIVE, [0; 5]);
         }
-        for (clears_at, error) in [(&mut self.overrun_clears_at, code::CAN_OVERRUN), (&mut self.bus_off_clears_at, code::BUS_OFF_RECOVERED)]
+        for (clears_at, error) in
+            [(&mut self.overrun_clears_at, EmcyCode::CAN_OVERRUN), (&mut self.bus_off_clears_at, EmcyCode::RECOVERED_FROM_BUS_OFF)]
         {
             if clears_at.is_some_and(|t| t <= now) {
                 *clears_at = None;
@@ -158,6 +159,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// register follow (see the [module docs](self)); the messages leave at
     /// the next [`Node::process`], whose deadline then includes the clearing.
     pub fn controller_event(&mut self, event: ControllerEvent, now: Instant) {
+        self.stale = true;
         self.controller.on_event(event, now, &mut self.comm.emcy);
         // The device hears of it (its 0x6007 or 0x1029 reaction) in the next
         // `process`, on the path its other hooks already take.

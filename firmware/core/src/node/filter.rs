@@ -14,6 +14,7 @@
 //! only when the list itself changed.
 
 use crate::od::ObjectDictionary;
+use crate::od::index;
 use crate::services::lss::UNCONFIGURED;
 use crate::storage::Storage;
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
@@ -25,9 +26,6 @@ use super::{Application, Node};
 /// here (4 SDO servers, 4 + 4 PDOs, 4 heartbeat consumers: 21) there is
 /// room to spare; a node with more is listed as "accept everything".
 pub const ACCEPTANCE_CAPACITY: usize = 32;
-
-/// Heartbeat consumer parameter (CiA 301 §7.5.2.19).
-const CONSUMER_HEARTBEAT_TIME: u16 = 0x1016;
 
 /// One identifier the node reacts to.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -139,7 +137,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // communication, or the SDO download that wrote one).
             let dict = self.od.dictionary();
             for sub in (1..=HB).filter_map(|s| u8::try_from(s).ok()) {
-                let value = dict.read_u32(self.od.image(), CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
+                let value = dict.read_u32(self.od.image(), index::CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
                 let (producer, time_ms) = ((value >> 16) as u8, value as u16);
                 // The node's own 0x700 + id is node guarding, never a heartbeat it consumes.
                 if time_ms != 0 && (1..=127).contains(&producer) && producer != self.node_id {

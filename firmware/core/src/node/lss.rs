@@ -10,6 +10,7 @@ use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
 
 use super::{Application, Node};
 use crate::od::ObjectDictionary;
+use crate::od::index;
 
 /// The board's side of LSS "activate bit timing": the CAN controller.
 pub trait BitRateControl {
@@ -78,7 +79,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // A loop, not four calls: each inlined its own `read_u32`.
         let mut address = [0u32; 4];
         for (part, sub) in address.iter_mut().zip(1u8..) {
-            *part = dict.read_u32(image, 0x1018, sub).unwrap_or(0);
+            *part = dict.read_u32(image, index::IDENTITY, sub).unwrap_or(0);
         }
         if let Some(lss) = self.lss_mut() {
             lss.set_address(address);
@@ -176,12 +177,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// A bit rate the board must switch its CAN controller to now (once).
     pub fn take_bit_rate_change(&mut self) -> Option<u8> {
+        self.stale = true;
         self.bit_rate_request.take()
     }
 
     /// Hands a pending bit-rate change to the controller; call it after
     /// [`Node::process`]. Returns whether the rate changed.
     pub fn apply_bit_rate(&mut self, controller: &mut impl BitRateControl) -> bool {
+        self.stale = true;
         match self.bit_rate_request.take() {
             Some(index) => {
                 controller.set_bit_rate(index);
@@ -194,9 +197,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Sets 0x1018 sub 4 (the serial number, part of the LSS address), which
     /// only the device knows; it holds over every reset.
     pub fn set_serial_number(&mut self, serial: u32) {
+        self.stale = true;
         self.serial = Some(serial);
         let dict = self.od.dictionary();
-        let _ = dict.write_unchecked(self.od.image_mut(), 0x1018, 4, &serial.to_le_bytes());
+        let _ = dict.write_unchecked(self.od.image_mut(), index::IDENTITY, 4, &serial.to_le_bytes());
         self.refresh_lss();
     }
 

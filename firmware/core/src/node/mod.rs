@@ -66,11 +66,13 @@ use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::LssSlave;
-use crate::services::nmt::{Nmt, State};
+use crate::services::nmt::{Nmt, NmtState};
+use crate::services::pdo::ALL_TPDOS;
 use crate::services::sdo_server::SdoServers;
 use crate::storage::Storage;
 use crate::time::Instant;
 use crate::txq::TxQueue;
+use crate::wire::emcy::EmcyCode;
 
 /// Frames the transmit queue holds.
 pub const TX_QUEUE: usize = 32;
@@ -130,9 +132,26 @@ pub struct Node<
     /// The node starts itself (0x1F80, [`ServiceOptions::start_operational`])
     /// once its boot-up message has left: TPDOs would overtake it in the priority queue.
     start_pending: bool,
-    /// The RAM image may have changed since the TPDOs last compared their
-    /// data (change-of-state detection runs only then, not on every call).
-    touched: bool,
+    /// Bit t: the RAM image may have changed under TPDO t since it last
+    /// compared its data (change-of-state detection runs only then, not on
+    /// every call, and only for the TPDOs a write can change).
+    touched: u32,
+    /// Something beyond PDO data and SDO transfers changed since the last
+    /// full [`Node::process`] (a frame for NMT, heartbeat, SYNC or LSS, a
+    /// reset, a state change, an error, a communication object written):
+    /// the next one runs every service again instead of answering from
+    /// `core_deadline`.
+    stale: bool,
+    /// The earliest deadline of every service but the SDO servers and the
+    /// PDOs, as the last full [`Node::process`] found it.
+    core_deadline: Option<Instant>,
+    /// The last [`Node::process`] left nothing to do before `next` (no SDO
+    /// transfer, no EMCY waiting): until then, and unless `stale` or
+    /// `touched` say otherwise, the next one only runs the device's timers.
+    quiet: bool,
+    /// The node's own deadline (without the device's) as the last
+    /// [`Node::process`] returned it, made earlier by what happened since.
+    next: Option<Instant>,
     reported_overflows: u32,
     /// The LSS slave, in use when `lss_active` (the dictionary says
     /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
@@ -193,7 +212,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             counters: Counters { rx: 0, tx: 0, malformed: 0, ignored: 0 },
             boot_pending: false,
             start_pending: false,
-            touched: false,
+            touched: 0,
+            stale: false,
+            core_deadline: None,
+            quiet: false,
+            next: None,
             reported_overflows: 0,
             lss: LssSlave::new([0; 4], 0, 0, 0),
             lss_active: false,
@@ -215,7 +238,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// The NMT state.
-    pub fn state(&self) -> State {
+    pub fn state(&self) -> NmtState {
         self.nmt.state()
     }
 
@@ -228,7 +251,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// hook (use [`Node::write_object`] for a write with the services'
     /// rules); change-of-state TPDOs see the new values at the next [`Node::process`].
     pub fn od_mut(&mut self) -> &mut O {
-        self.touched = true;
+        self.touched = ALL_TPDOS;
         &mut self.od
     }
 
@@ -237,7 +260,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// 0 at the next SYNC), inhibit time permitting. False if that TPDO is
     /// not valid or of another type.
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
-        self.touched = true;
+        self.touched = ALL_TPDOS;
         self.comm.pdos.trigger(n)
     }
 
@@ -254,6 +277,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The CAN controller went bus-off (the board reports it): the device
     /// hears [`CommError::BusOff`].
     pub fn bus_off(&mut self, now: Instant) {
+        self.stale = true;
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::BusOff)));
     }
 
@@ -354,28 +378,34 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// Raises an application error: EMCY with `code`, error register, 0x1003.
-    pub fn raise_error(&mut self, code: u16, info: [u8; 5]) {
+    pub fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) {
+        self.stale = true;
         self.comm.emcy.raise(code, info);
     }
 
     /// Clears an application error; the last one cleared sends "error reset".
-    pub fn clear_error(&mut self, code: u16) {
+    pub fn clear_error(&mut self, code: EmcyCode) {
+        self.stale = true;
         self.comm.emcy.clear(code);
     }
 
     /// The next frame to send, highest priority first.
     pub fn transmit(&mut self) -> Option<CanFrame> {
         // LSS "activate bit timing": silent from the request until the second delay ends.
-        if self.switch.active() {
+        if self.switch.active() || self.txq.is_empty() {
             return None;
         }
-        let f = self.txq.pop()?;
+        // The last frame: a drained queue lets the node start itself and ends a queue overflow.
+        if self.txq.len() == 1 && (self.start_pending || self.comm.emcy.tx_overflow_active()) {
+            self.stale = true;
+        }
         self.counters.tx = self.counters.tx.wrapping_add(1);
-        Some(f)
+        self.txq.pop()
     }
 
     /// Puts back a frame the controller could not send (it goes out first).
     pub fn requeue(&mut self, frame: CanFrame) {
+        self.stale = true;
         if self.txq.push_front(frame) {
             self.counters.tx = self.counters.tx.wrapping_sub(1);
         }

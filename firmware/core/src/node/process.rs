@@ -3,11 +3,13 @@
 
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
+use crate::od::index;
 use crate::services::heartbeat::ConsumerEvent;
-use crate::services::nmt::{State, Transition};
+use crate::services::nmt::{NmtState, Transition};
+use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
-use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtState};
+use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtStateCode};
 
 use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
@@ -18,6 +20,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 {
     /// Runs timers and queued work; returns when it wants to be called again
     /// (earlier is harmless, later delays heartbeats and timeouts).
+    ///
+    /// Only what may have work runs: the services besides SDO and PDO when
+    /// something changed them (`stale`) or their earliest deadline is due,
+    /// the SDO servers while one is busy, the TPDOs a write may have
+    /// changed or whose timers are due.
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
         // A reset in progress goes on a stage per call; the call of its last
         // stage goes on below. A device with CANopen off starts none (power-on
@@ -33,40 +40,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if !self.app.canopen() {
             return app_deadline;
         }
-        let switch_deadline = self.process_switch(now);
+        if self.quiet && !self.stale && self.touched == 0 && self.next.is_none_or(|d| now < d) {
+            return earliest(self.next, app_deadline);
+        }
+        // Before the boot-up is queued below: nothing may precede it in the queue.
         let booted = !self.boot_pending;
-        if self.boot_pending {
-            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
-            if self.push(id, &[NmtState::BootUp.code()]) {
-                self.boot_pending = false;
-                // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
-                let dict = self.od.dictionary();
-                let auto_start = dict.read(self.od.image(), 0x1F80, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0
-                    || A::OPTIONS
-                        .start_operational
-                        .is_some_and(|(index, mask)| dict.read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0);
-                let state = self.nmt.boot_up_done(false);
-                let dict = self.od.dictionary();
-                self.comm.reconfigure(0x1017, dict, self.od.image(), self.node_id, now);
-                self.entered(state, now);
-                self.start_pending = auto_start;
-            }
-        }
-        if self.start_pending && self.txq.is_empty() {
-            self.start_pending = false;
-            if let Transition::Entered(s) = self.nmt.enter(State::Operational) {
-                self.entered(s, now);
-            }
-        }
-        if self.nmt.state() != State::Initialising && self.comm.heartbeat.poll(now) {
-            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
-            self.push(id, &[self.nmt.state().reported().code()]);
-        }
-        while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {
-            self.communication_error(node_id, now);
-        }
-        if O::SERVICES.guarding && self.comm.guarding.poll(now) {
-            self.communication_error(0, now);
+        let full = self.stale || self.core_deadline.is_some_and(|d| d <= now);
+        if full {
+            self.stale = false;
+            self.process_core(now);
         }
         let mut sdo_deadline = None;
         // Idle servers have no timer and nothing to send: skip building the router for them.
@@ -83,7 +65,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.queue_raw();
             self.follow_sdo(effects);
         }
-        if self.nmt.state().sdo_allowed() {
+        if full && self.nmt.state().sdo_allowed() {
             // The SYNC producer (0x1005 bit 30): the node runs its own synchronous PDOs too.
             if let Some(event) = self.comm.sync.poll(now) {
                 let mut buf = [0u8; 1];
@@ -96,17 +78,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         let mut pdo_deadline = None;
         if self.nmt.state().pdo_allowed() {
-            // Building every TPDO to detect changes costs more than anything
-            // else here: do it only when the image may have changed or a PDO
-            // timer is due, not for every heartbeat of another node.
-            // The deadline is worked out once: when nothing is due it is the answer.
-            pdo_deadline = if self.touched { None } else { self.comm.pdos.deadline() };
-            if self.touched || pdo_deadline.is_some_and(|d| d <= now) {
-                self.touched = false;
+            // Building a TPDO to detect changes costs more than anything
+            // else here: only the TPDOs a write may have changed, and those
+            // whose timers are due, not for every heartbeat of another node.
+            pdo_deadline = self.comm.pdos.deadline();
+            if self.touched != 0 || pdo_deadline.is_some_and(|d| d <= now) {
+                let changed = core::mem::take(&mut self.touched);
                 let Node { od, comm, txq, .. } = self;
-                let dict = od.dictionary();
                 let mut sink = PdoSink::new(txq, &mut comm.emcy);
-                pdo_deadline = comm.pdos.poll(now, dict, od.image(), &mut sink);
+                pdo_deadline = comm.pdos.poll_changed(now, changed, od.image(), &mut sink);
                 let (received, timeouts) = (sink.received, sink.timeouts);
                 self.pdo_events(now, received, timeouts);
             }
@@ -115,6 +95,79 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if core::mem::take(&mut self.controller.bus_off_unheard) {
             self.bus_off(now);
         }
+        // EMCY: what the PDOs, the SDO servers or the hooks raised in this
+        // call goes out in it, as does the queue overflow's.
+        let overflow = self.txq.overflows() != self.reported_overflows || (self.txq.is_empty() && self.comm.emcy.tx_overflow_active());
+        if full || overflow || self.comm.emcy.has_queued() {
+            self.process_emcy(now, booted);
+            self.core_deadline = earliest(self.core_deadline, self.emcy_deadline());
+        }
+        let mut deadline = earliest(earliest(self.core_deadline, sdo_deadline), pdo_deadline);
+        if controller_deadline.is_some() {
+            deadline = earliest(deadline, controller_deadline);
+        }
+        self.next = deadline;
+        // No SDO deadline: every server is idle (or the state stopped them all).
+        self.quiet = sdo_deadline.is_none() && !self.comm.emcy.has_queued();
+        earliest(deadline, app_deadline)
+    }
+
+    /// The services besides SDO, PDO and EMCY: the LSS bit-rate switch,
+    /// boot-up and the node's own start, heartbeat and guarding, the
+    /// heartbeat consumers; their earliest deadline into `core_deadline`.
+    fn process_core(&mut self, now: Instant) {
+        let switch_deadline = self.process_switch(now);
+        if self.boot_pending {
+            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
+            if self.push(id, &[NmtStateCode::BootUp.code()]) {
+                self.boot_pending = false;
+                // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
+                let dict = self.od.dictionary();
+                let auto_start =
+                    dict.read(self.od.image(), index::NMT_STARTUP, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0
+                        || A::OPTIONS
+                            .start_operational
+                            .is_some_and(|(index, mask)| dict.read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0);
+                let state = self.nmt.boot_up_done(false);
+                let dict = self.od.dictionary();
+                self.comm.reconfigure(index::PRODUCER_HEARTBEAT_TIME, dict, self.od.image(), self.node_id, now);
+                self.entered(state, now);
+                self.start_pending = auto_start;
+            }
+        }
+        if self.start_pending && self.txq.is_empty() {
+            self.start_pending = false;
+            if let Transition::Entered(s) = self.nmt.enter(NmtState::Operational) {
+                self.entered(s, now);
+            }
+        }
+        if self.nmt.state() != NmtState::Initialising && self.comm.heartbeat.poll(now) {
+            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
+            self.push(id, &[self.nmt.state().reported().code()]);
+        }
+        while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {
+            self.communication_error(node_id, now);
+        }
+        if O::SERVICES.guarding && self.comm.guarding.poll(now) {
+            self.communication_error(0, now);
+        }
+        let deadlines = [
+            (self.boot_pending || self.start_pending).then_some(now),
+            self.comm.heartbeat.deadline(),
+            self.comm.consumers.deadline(),
+            if O::SERVICES.guarding { self.comm.guarding.deadline() } else { None },
+            if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
+            switch_deadline,
+        ];
+        // The EMCY deadline joins after this call's EMCY work.
+        self.core_deadline = deadlines.into_iter().fold(None, earliest);
+        // What ran here may have changed a service again (a state entered):
+        // the SYNC producer and EMCY of this call see it, the next call need not.
+        self.stale = false;
+    }
+
+    /// The transmit queue's overflow EMCY, then the EMCY messages.
+    fn process_emcy(&mut self, now: Instant, booted: bool) {
         // Transmit queue overflow (0x8110, once), cleared once the queue drained.
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
@@ -130,30 +183,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             while let Some(e) = self.comm.emcy.take_unsent() {
                 let dict = self.od.dictionary();
                 self.comm.record(dict, self.od.image_mut(), &e);
-                self.touched = true;
+                self.touched = ALL_TPDOS;
             }
             while self.txq.free() > 0 {
                 let Some((cob_id, e)) = self.comm.emcy.poll(now) else { break };
                 let dict = self.od.dictionary();
                 self.comm.record(dict, self.od.image_mut(), &e);
-                self.touched = true;
+                self.touched = ALL_TPDOS;
                 self.push(cob_id, &e.emit());
             }
         }
-        let deadlines = [
-            (self.boot_pending || self.start_pending).then_some(now),
-            self.comm.heartbeat.deadline(),
-            self.comm.consumers.deadline(),
-            if O::SERVICES.guarding { self.comm.guarding.deadline() } else { None },
-            if self.nmt.state().sdo_allowed() { self.comm.emcy.deadline() } else { None },
-            sdo_deadline,
-            pdo_deadline,
-            if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
-            switch_deadline,
-            app_deadline,
-        ];
-        // Outside the array: nearly always `None`, and each element costs every call.
-        let deadline = deadlines.into_iter().fold(None, earliest);
-        if controller_deadline.is_some() { earliest(deadline, controller_deadline) } else { deadline }
+    }
+
+    /// When EMCY next has work (only outside Initialising and Stopped).
+    fn emcy_deadline(&self) -> Option<Instant> {
+        if self.nmt.state().sdo_allowed() { self.comm.emcy.deadline() } else { None }
     }
 }

@@ -6,16 +6,15 @@
 
 use crate::id::CobId;
 use crate::od::ObjectDictionary;
+use crate::od::index;
 use crate::services::lss::UNCONFIGURED;
 use crate::services::nmt::Nmt;
+use crate::services::pdo::ALL_TPDOS;
 use crate::services::store::{self, Part, StoredSet};
 use crate::storage::Storage;
 use crate::time::Instant;
 
 use super::{Application, NmtEvent, Node};
-
-/// First SDO server parameter object.
-const SDO_SERVER_PARAMETER: u16 = 0x1200;
 
 /// A reset in progress. NMT reset node and reset communication do their
 /// work a stage per [`Node::process`] call, so that no call does all of it
@@ -55,7 +54,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn power_on(&mut self, node_id: u8, now: Instant) {
         self.node_id = node_id;
         // The TPDOs compare their data at their first chance, whatever the image held before.
-        self.touched = true;
+        self.touched = ALL_TPDOS;
         // One check of the stored sets serves the LSS configuration and both parts of the reset.
         let stored = self.newest_stored();
         self.load_lss_configuration(stored);
@@ -137,7 +136,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
                 }
                 if let Some(serial) = self.serial {
-                    let _ = dict.write_unchecked(image, 0x1018, 4, &serial.to_le_bytes());
+                    let _ = dict.write_unchecked(image, index::IDENTITY, 4, &serial.to_le_bytes());
                 }
             }
             Stage::Services => {
@@ -190,6 +189,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// NMT; the boot-up is due and the device hears of the reset.
     fn reset_finish(&mut self, now: Instant) {
         self.reset = Stage::Idle;
+        // Every service and every TPDO looks at the new configuration at the next process.
+        self.stale = true;
+        self.touched = ALL_TPDOS;
         self.refresh_lss();
         self.sdo.reset_all();
         self.configure_sdo();
@@ -210,7 +212,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let image = self.od.image();
         for (i, slot) in self.sdo_cob_ids.iter_mut().enumerate() {
             // 128 servers at most: 0x1280 and up are SDO client parameters.
-            let Some(index) = u16::try_from(i).ok().filter(|&i| i < 0x80).map(|i| SDO_SERVER_PARAMETER + i) else { break };
+            let Some(index) = u16::try_from(i).ok().filter(|&i| i < 0x80).map(|i| index::SDO_SERVER_PARAMETER + i) else { break };
             let (default_rx, default_tx) =
                 if i == 0 { (Some(0x600 + u32::from(self.node_id)), Some(0x580 + u32::from(self.node_id))) } else { (None, None) };
             let rx = dict.read_u32(image, index, 1).or(default_rx);

@@ -5,7 +5,9 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::{DataType, ObjectAccess, ObjectDictionary};
+use crate::od::access::{copy_from, upload_value};
+use crate::od::index;
+use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, u32_exact};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use core::marker::PhantomData;
 
@@ -31,23 +33,23 @@ pub(crate) struct SdoEffects {
     /// the node rebuilds its acceptance list (not after every SDO request,
     /// which would cost more than the request itself).
     pub consumed_changed: bool,
-    /// A write was attempted (it may have changed the image even if it
-    /// failed): the TPDOs look for changed data at the next process, which
-    /// an upload alone does not need.
+    /// A write was attempted that may have changed any part of the image
+    /// (even if it failed): every TPDO looks for changed data at the next
+    /// process, which an upload alone does not need.
     pub written: bool,
+    /// The image bytes (offset, length) the one plain write of an object
+    /// changed (length 0: none): only the TPDOs mapping them look for
+    /// changed data.
+    pub wrote: (u16, u16),
+    /// A hook or a write changed a service beyond the dictionary (an error
+    /// raised or cleared, a communication object written): the next
+    /// process runs every service.
+    pub services: bool,
     /// A device error of this 0x1029 sub-index (0: none) occurred: the node
     /// applies the error behaviour.
     pub error_class: u8,
     /// The device asked for a reset node ([`super::Ctx::reset_node`]).
     pub reset_node: bool,
-}
-
-pub(super) fn u32_of(data: &[u8]) -> Result<u32, AbortCode> {
-    match *data {
-        [a, b, c, d] => Ok(u32::from_le_bytes([a, b, c, d])),
-        [_, _, _, _, _, ..] => Err(AbortCode::LengthTooHigh),
-        _ => Err(AbortCode::LengthTooLow),
-    }
 }
 
 /// The abort code of a failed store or restore.
@@ -82,8 +84,8 @@ impl Ctx<'_> {
     pub(super) fn store_command(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.dict.find(index, sub)?;
         let scope = Scope::from_sub(sub).ok_or(if sub == 0 { AbortCode::ReadOnly } else { AbortCode::CannotStore })?;
-        let (signature, is_save) = if index == 0x1010 { (SAVE, true) } else { (LOAD, false) };
-        if u32_of(data)? != signature {
+        let (signature, is_save) = if index == index::STORE_PARAMETERS { (SAVE, true) } else { (LOAD, false) };
+        if u32_exact(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
         if is_save {
@@ -97,18 +99,9 @@ impl Ctx<'_> {
         self.dict.read_u32(self.image, index, sub)
     }
 
-    /// The checks every download passes before the object's own rules: the
-    /// entry exists and is writable, the length fits, and the value is
-    /// within the EDS limits. So an access or range error gets its own abort
-    /// code (0x06010002, 0x0607001x, 0x06090031/32) whatever the object's
-    /// owner would say about the value.
+    /// [`precheck`]: the checks every download passes before the object's own rules.
     pub(super) fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let entry = self.dict.find(index, sub)?;
-        // A writable DOMAIN has no length or limits to check here.
-        if entry.data_type == DataType::Domain && entry.writable() {
-            return Ok(());
-        }
-        Ok(self.dict.check_write(entry, data)?)
+        precheck(self.dict, index, sub, data).map(|_| ())
     }
 
     /// An SDO server parameter 0x1200 + i (CiA 301 §7.5.2.33). Sub 1 and 2,
@@ -120,9 +113,9 @@ impl Ctx<'_> {
     fn write_sdo_server(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         match sub {
             1 | 2 => {
-                let new = CobId(u32_of(data)?);
+                let new = CobId(u32_exact(data)?);
                 let own = if sub == 1 { 0x600 } else { 0x580 } + u16::from(self.node_id);
-                let restricted = new.is_restricted() && !(index == 0x1200 && new.can_id() == own);
+                let restricted = new.is_restricted() && !(index == index::SDO_SERVER_PARAMETER && new.can_id() == own);
                 let old = self.current_u32(index, sub).map(CobId);
                 let moves = old.is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
                 if new.is_extended() || (new.is_valid() && restricted) || moves {
@@ -141,15 +134,19 @@ impl Ctx<'_> {
     /// Not 0x1010/0x1011: their callers choose whether the node stores
     /// ([`Ctx::store_command`]), so that a node without storage links none of it.
     pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        if index >= index::MANUFACTURER_SPECIFIC {
+            return self.write_plain(index, sub, data);
+        }
         self.effects.written = true;
+        self.effects.services = true;
         let result = match index {
-            0x1029 if sub > 0 => {
+            index::ERROR_BEHAVIOUR if sub > 0 => {
                 if matches!(data, [v] if *v > 2) {
                     return Err(AbortCode::InvalidValue);
                 }
                 self.plain().write(index, sub, data)
             }
-            0x1200..=0x127F => self.write_sdo_server(index, sub, data),
+            index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST => self.write_sdo_server(index, sub, data),
             _ => {
                 let (dict, now, node_id, options) = (self.dict, self.now, self.node_id, self.options);
                 match self.services.write_object(index, sub, data, dict, self.image, node_id, now, options, self.state) {
@@ -159,14 +156,48 @@ impl Ctx<'_> {
             }
         };
         // SYNC, TIME, heartbeat consumers, SDO servers, RPDOs and TPDOs (RTR).
-        if result.is_ok() && matches!(index, 0x1005 | 0x1012 | 0x1016 | 0x1200..=0x127F | 0x1400..=0x15FF | 0x1800..=0x19FF) {
+        if result.is_ok()
+            && matches!(index, index::COB_ID_SYNC | index::COB_ID_TIME_STAMP | index::CONSUMER_HEARTBEAT_TIME | index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST | index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_COMMUNICATION_PARAMETER_LAST | index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_COMMUNICATION_PARAMETER_LAST)
+        {
             self.effects.consumed_changed = true;
         }
         result
     }
 }
 
+impl Ctx<'_> {
+    /// A write no service owns (an application or profile object): the
+    /// dictionary's own, remembering which bytes changed.
+    fn write_plain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let (entry, changed) = self.dict.write_entry(self.image, index, sub, data)?;
+        if !changed {
+            // The same value again: no TPDO has new data.
+        } else if self.effects.wrote.1 == 0 {
+            self.effects.wrote = (entry.offset, entry.len);
+        } else {
+            // A second write in one access: any TPDO may look.
+            self.effects.written = true;
+        }
+        Ok(())
+    }
+}
+
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
+    /// [`ObjectAccess::read`], from `entry` when the caller already looked it up.
+    // One call of the device's read hook for both callers (each inlined a copy).
+    #[inline(never)]
+    fn read_from(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8], entry: Option<&'static Entry>) -> Result<usize, AbortCode> {
+        if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
+            return r;
+        }
+        let entry = match entry {
+            Some(entry) => entry,
+            None => self.ctx.dict.find(index, sub)?,
+        };
+        let value = upload_value(self.ctx.dict, self.ctx.image, entry)?;
+        Ok(copy_from(buf, value.get(offset..).unwrap_or(&[])))
+    }
+
     /// A complete write with the hooks: serve, the dictionary's checks,
     /// validate, the owner's rules, then react.
     pub(super) fn write_with_hooks(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
@@ -175,7 +206,7 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
             return r;
         }
         // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
-        let store = index == 0x1010 || index == 0x1011;
+        let store = index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS;
         if !store {
             self.ctx.precheck(index, sub, data)?;
         }
@@ -200,17 +231,29 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
     }
 
     fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
-            return r;
-        }
-        self.ctx.plain().read(index, sub, offset, buf)
+        self.read_from(index, sub, offset, buf, None)
+    }
+
+    fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
+        // The hooks in the order upload_size, read would call them; the
+        // plain tables looked up once for both.
+        let (size, entry) = match self.app.upload_size(self.ctx, index, sub) {
+            Some(r) => (r?, None),
+            None => {
+                let entry = self.ctx.dict.find(index, sub)?;
+                (upload_value(self.ctx.dict, self.ctx.image, entry)?.len(), Some(entry))
+            }
+        };
+        let Some(dst) = buf.get_mut(..size).filter(|_| size != 0) else { return Ok(size) };
+        self.read_from(index, sub, 0, dst, entry)?;
+        Ok(size)
     }
 
     fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {
         if let Some(r) = self.app.download_check(self.ctx, index, sub, size) {
             return r;
         }
-        if index == 0x1010 || index == 0x1011 {
+        if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
             // The signature is 4 bytes, whatever the entry's own size.
             self.ctx.dict.find(index, sub)?;
             return match size {

@@ -8,7 +8,7 @@ use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::SdoTx;
 use crate::txq::TxQueue;
 
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 
 use super::{EMCY_SLOTS, TX_QUEUE};
 
@@ -59,7 +59,7 @@ impl PdoTx for PdoSink<'_> {
         match event {
             PdoEvent::Received(n) => self.received |= bit(n),
             PdoEvent::Error { rpdo, code } => {
-                if code == code::RPDO_TIMEOUT {
+                if code == EmcyCode::RPDO_TIMEOUT {
                     self.timeouts |= bit(rpdo);
                 }
                 self.emcy.raise(code, [rpdo as u8 + 1, 0, 0, 0, 0]);

@@ -3,10 +3,11 @@
 //! error behaviour.
 
 use crate::od::ObjectDictionary;
-use crate::services::nmt::{State, Transition};
+use crate::services::nmt::{NmtState, Transition};
+use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::Instant;
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 use crate::wire::nmt::NmtRequest;
 
 use super::{Application, Comm, CommError, ErrorBehaviour, NmtEvent, Node};
@@ -23,8 +24,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    pub(super) fn entered(&mut self, state: State, now: Instant) {
-        self.touched = true;
+    pub(super) fn entered(&mut self, state: NmtState, now: Instant) {
+        self.touched = ALL_TPDOS;
+        self.stale = true;
         if state.pdo_allowed() {
             if A::OPTIONS.pdo_rewrite_while_valid {
                 // Mapping entries written in Pre-operational apply now.
@@ -48,8 +50,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// life guarding), also while an earlier one is still active.
     pub(super) fn communication_error(&mut self, node: u8, now: Instant) {
         let info = [node, 0, 0, 0, 0];
-        if !self.comm.emcy.raise(code::HEARTBEAT, info) {
-            self.comm.emcy.signal(code::HEARTBEAT, info);
+        if !self.comm.emcy.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info) {
+            self.comm.emcy.signal(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info);
         }
         let error = if node == 0 { CommError::LifeGuarding } else { CommError::Heartbeat(node) };
         self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(error)));
@@ -58,10 +60,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// An error of 0x1029 class `class`: the state change that sub-index asks for.
     pub(super) fn device_error(&mut self, class: u8, now: Instant) {
+        self.stale = true;
         let dict = self.od.dictionary();
         let next = match Comm::<R, T, HB>::error_behaviour_of(dict, self.od.image(), class) {
-            ErrorBehaviour::PreOperational if self.nmt.state() == State::Operational => Some(State::PreOperational),
-            ErrorBehaviour::Stopped => Some(State::Stopped),
+            ErrorBehaviour::PreOperational if self.nmt.state() == NmtState::Operational => Some(NmtState::PreOperational),
+            ErrorBehaviour::Stopped => Some(NmtState::Stopped),
             _ => None,
         };
         if let Some(s) = next
@@ -76,7 +79,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// (and the last error cleared sends "error reset").
     pub(super) fn communication_recovered(&mut self) {
         if !self.comm.consumers.any_timed_out() && !self.comm.guarding.is_expired() {
-            self.comm.emcy.clear(code::HEARTBEAT);
+            self.comm.emcy.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         }
     }
 }

@@ -11,62 +11,25 @@
 //!   `$NODEID` fix-ups.
 //!
 //! Nothing here panics on any input: every slice access is checked and a
-//! malformed request becomes an [`OdError`] that names its SDO abort code.
+//! malformed request gets its SDO [`AbortCode`] (CiA 301 §7.2.4.3.17): the
+//! dictionary speaks the abort table, so no layer above translates errors.
 
-mod access;
+pub(crate) mod access;
 mod entry;
+pub mod index;
+mod lookup;
 mod types;
 mod value;
 
 pub use access::{DictionaryAccess, ObjectAccess};
+pub use lookup::le_u32;
+pub(crate) use lookup::{object, precheck, sub_entry, u32_exact, value_u32};
+
+use crate::abort::AbortCode;
 
 pub use entry::{Attr, Entry, Limits, NO_LIMITS};
 pub use types::{DataType, Kind};
-pub use value::{Number, RangeError};
-
-/// A failed dictionary access, one variant per CiA 301 SDO abort code.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OdError {
-    /// 0x06020000: object does not exist in the object dictionary.
-    NoObject,
-    /// 0x06090011: sub-index does not exist.
-    NoSubIndex,
-    /// 0x06010001: attempt to read a write-only object.
-    WriteOnly,
-    /// 0x06010002: attempt to write a read-only object.
-    ReadOnly,
-    /// 0x06070010: data type does not match, length of service parameter does not match.
-    LengthMismatch,
-    /// 0x06070012: data type does not match, length of service parameter too high.
-    TooLong,
-    /// 0x06070013: data type does not match, length of service parameter too low.
-    TooShort,
-    /// 0x06090031: value of parameter written too high.
-    ValueTooHigh,
-    /// 0x06090032: value of parameter written too low.
-    ValueTooLow,
-    /// 0x08000020: data cannot be transferred or stored to the application
-    /// (a DOMAIN entry, whose bytes belong to the application, reached the dictionary).
-    NoStorage,
-}
-
-impl OdError {
-    /// The SDO abort code CiA 301 §7.2.4.3.17 assigns to this error.
-    pub const fn abort_code(self) -> u32 {
-        match self {
-            OdError::NoObject => 0x0602_0000,
-            OdError::NoSubIndex => 0x0609_0011,
-            OdError::WriteOnly => 0x0601_0001,
-            OdError::ReadOnly => 0x0601_0002,
-            OdError::LengthMismatch => 0x0607_0010,
-            OdError::TooLong => 0x0607_0012,
-            OdError::TooShort => 0x0607_0013,
-            OdError::ValueTooHigh => 0x0609_0031,
-            OdError::ValueTooLow => 0x0609_0032,
-            OdError::NoStorage => 0x0800_0020,
-        }
-    }
-}
+pub use value::Number;
 
 /// Facts from the EDS `[DeviceInfo]` section that the firmware acts on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -171,15 +134,19 @@ pub trait ObjectDictionary {
 
 impl Dictionary {
     /// Finds an entry by index and sub-index. O(log n).
-    pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, OdError> {
+    pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
         let entries = self.entries;
         let key = (u32::from(index) << 8) | u32::from(sub);
         match entries.binary_search_by_key(&key, Entry::key) {
-            Ok(pos) => entries.get(pos).ok_or(OdError::NoObject),
+            Ok(pos) => entries.get(pos).ok_or(AbortCode::NoObject),
             // The neighbours tell whether the object exists with other sub-indices.
             Err(pos) => {
                 let same_object = |p: Option<usize>| p.and_then(|p| entries.get(p)).is_some_and(|e| e.index == index);
-                if same_object(Some(pos)) || same_object(pos.checked_sub(1)) { Err(OdError::NoSubIndex) } else { Err(OdError::NoObject) }
+                if same_object(Some(pos)) || same_object(pos.checked_sub(1)) {
+                    Err(AbortCode::NoSubIndex)
+                } else {
+                    Err(AbortCode::NoObject)
+                }
             }
         }
     }
@@ -199,13 +166,13 @@ impl Dictionary {
 
     /// Reads a value as an SDO upload would: access checked, a VISIBLE_STRING
     /// ends at its first NUL (CiA 301 lets it be shorter than its capacity).
-    pub fn read<'a>(&self, image: &'a [u8], index: u16, sub: u8) -> Result<&'a [u8], OdError> {
+    pub fn read<'a>(&self, image: &'a [u8], index: u16, sub: u8) -> Result<&'a [u8], AbortCode> {
         let entry = self.find(index, sub)?;
         if !entry.readable() {
-            return Err(OdError::WriteOnly);
+            return Err(AbortCode::WriteOnly);
         }
         if entry.data_type == DataType::Domain {
-            return Err(OdError::NoStorage);
+            return Err(AbortCode::CannotStore);
         }
         let value = self.value(image, entry);
         Ok(if entry.data_type == DataType::VisibleString { until_nul(value) } else { value })
@@ -219,41 +186,53 @@ impl Dictionary {
 
     /// Writes a value as an SDO download would: access, length and limits are
     /// checked before any byte changes.
-    pub fn write(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
+    pub fn write(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        self.write_entry(image, index, sub, data).map(|_| ())
+    }
+
+    /// [`Dictionary::write`], returning the entry written, and whether a
+    /// byte of the image changed (a TPDO mapping it cannot have new data otherwise).
+    pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(&'static Entry, bool), AbortCode> {
         let entry = self.find(index, sub)?;
         self.check_write(entry, data)?;
-        let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
+        let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
         let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
-        head.copy_from_slice(data.get(..head.len()).unwrap_or(&[]));
+        let data = data.get(..head.len()).unwrap_or(&[]);
+        let changed = *head != *data || tail.iter().any(|&b| b != 0);
+        if head.len() <= 8 {
+            // Byte by byte: no `memcpy` call for a value of a few bytes.
+            for (d, s) in head.iter_mut().zip(data) {
+                *d = *s;
+            }
+        } else {
+            head.copy_from_slice(data);
+        }
         tail.fill(0);
-        Ok(())
+        Ok((entry, changed))
     }
 
     /// The checks of [`Dictionary::write`] before any byte changes: access,
     /// length and limits. The node's SDO router runs them first on every
     /// communication object.
-    pub(crate) fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), OdError> {
+    pub(crate) fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
         if !entry.writable() {
-            return Err(OdError::ReadOnly);
+            return Err(AbortCode::ReadOnly);
         }
         if entry.data_type == DataType::Domain {
-            return Err(OdError::NoStorage);
+            return Err(AbortCode::CannotStore);
         }
         let len = usize::from(entry.len);
         if entry.data_type.is_variable_length() {
             if data.len() > len {
-                return Err(OdError::TooLong);
+                return Err(AbortCode::LengthTooHigh);
             }
         } else if data.len() > len {
-            return Err(OdError::TooLong);
+            return Err(AbortCode::LengthTooHigh);
         } else if data.len() < len {
-            return Err(OdError::TooShort);
+            return Err(AbortCode::LengthTooLow);
         }
         if let Some(limits) = self.limits_of(entry) {
-            limits.check(entry.data_type, data).map_err(|e| match e {
-                RangeError::TooHigh => OdError::ValueTooHigh,
-                RangeError::TooLow => OdError::ValueTooLow,
-            })?;
+            limits.check(entry.data_type, data)?;
         }
         Ok(())
     }
@@ -262,15 +241,15 @@ impl Dictionary {
     /// error history, a statusword), without the SDO access check: read-only
     /// means read-only for the bus, not for the device. Length must fit;
     /// a shorter value is zero-filled.
-    pub fn write_unchecked(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), OdError> {
+    pub fn write_unchecked(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let entry = self.find(index, sub)?;
         if entry.in_rom() || entry.data_type == DataType::Domain {
-            return Err(OdError::NoStorage);
+            return Err(AbortCode::CannotStore);
         }
         if data.len() > usize::from(entry.len) {
-            return Err(OdError::TooLong);
+            return Err(AbortCode::LengthTooHigh);
         }
-        let slot = image.get_mut(entry.range()).ok_or(OdError::NoStorage)?;
+        let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
         let (head, tail) = slot.split_at_mut(data.len());
         head.copy_from_slice(data);
         tail.fill(0);
@@ -303,18 +282,6 @@ impl Dictionary {
             }
         }
     }
-}
-
-/// Up to 4 little-endian bytes as a `u32` (missing bytes read as 0): the
-/// value of an integer entry of at most 32 bits.
-// Out of line: it had a copy in each of its callers (66 bytes more).
-#[inline(never)]
-pub fn le_u32(bytes: &[u8]) -> u32 {
-    let mut b = [0u8; 4];
-    for (dst, src) in b.iter_mut().zip(bytes) {
-        *dst = *src;
-    }
-    u32::from_le_bytes(b)
 }
 
 /// Adds `n` to the little-endian integer in `bytes`, wrapping at its width.
@@ -380,7 +347,7 @@ pub fn load_str(image: &[u8], offset: usize, len: usize) -> &[u8] {
     until_nul(image.get(offset..offset + len).unwrap_or(&[]))
 }
 
-fn until_nul(s: &[u8]) -> &[u8] {
+pub(crate) fn until_nul(s: &[u8]) -> &[u8] {
     let used = s.iter().position(|&b| b == 0).unwrap_or(s.len());
     s.get(..used).unwrap_or(s)
 }

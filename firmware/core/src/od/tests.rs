@@ -53,10 +53,10 @@ fn image(node_id: u8) -> [u8; 14] {
 #[test]
 fn find_tells_missing_object_from_missing_sub_index() {
     assert_eq!(DICT.find(0x1017, 0).map(|e| e.offset), Ok(5));
-    assert_eq!(DICT.find(0x1017, 1), Err(OdError::NoSubIndex));
-    assert_eq!(DICT.find(0x1002, 0), Err(OdError::NoObject));
-    assert_eq!(DICT.find(0x0000, 0), Err(OdError::NoObject));
-    assert_eq!(DICT.find(0xFFFF, 0xFF), Err(OdError::NoObject));
+    assert_eq!(DICT.find(0x1017, 1), Err(AbortCode::NoSubIndex));
+    assert_eq!(DICT.find(0x1002, 0), Err(AbortCode::NoObject));
+    assert_eq!(DICT.find(0x0000, 0), Err(AbortCode::NoObject));
+    assert_eq!(DICT.find(0xFFFF, 0xFF), Err(AbortCode::NoObject));
 }
 
 #[test]
@@ -85,16 +85,16 @@ fn reset_communication_leaves_the_application_area_alone() {
 fn writes_are_checked_before_anything_changes() {
     let mut img = image(1);
     let before = img;
-    assert_eq!(DICT.write(&mut img, 0x1000, 0, &[0; 4]), Err(OdError::ReadOnly));
-    assert_eq!(DICT.write(&mut img, 0x1001, 0, &[0]), Err(OdError::ReadOnly));
-    assert_eq!(DICT.write(&mut img, 0x1017, 0, &[0]), Err(OdError::TooShort));
-    assert_eq!(DICT.write(&mut img, 0x1017, 0, &[0, 0, 0]), Err(OdError::TooLong));
-    assert_eq!(DICT.write(&mut img, 0x2000, 0, &101i16.to_le_bytes()), Err(OdError::ValueTooHigh));
-    assert_eq!(DICT.write(&mut img, 0x2000, 0, &(-101i16).to_le_bytes()), Err(OdError::ValueTooLow));
-    assert_eq!(DICT.write(&mut img, 0x2001, 0, b"abcde"), Err(OdError::TooLong));
-    assert_eq!(DICT.write(&mut img, 0x3000, 0, &[0]), Err(OdError::NoObject));
+    assert_eq!(DICT.write(&mut img, 0x1000, 0, &[0; 4]), Err(AbortCode::ReadOnly));
+    assert_eq!(DICT.write(&mut img, 0x1001, 0, &[0]), Err(AbortCode::ReadOnly));
+    assert_eq!(DICT.write(&mut img, 0x1017, 0, &[0]), Err(AbortCode::LengthTooLow));
+    assert_eq!(DICT.write(&mut img, 0x1017, 0, &[0, 0, 0]), Err(AbortCode::LengthTooHigh));
+    assert_eq!(DICT.write(&mut img, 0x2000, 0, &101i16.to_le_bytes()), Err(AbortCode::ValueTooHigh));
+    assert_eq!(DICT.write(&mut img, 0x2000, 0, &(-101i16).to_le_bytes()), Err(AbortCode::ValueTooLow));
+    assert_eq!(DICT.write(&mut img, 0x2001, 0, b"abcde"), Err(AbortCode::LengthTooHigh));
+    assert_eq!(DICT.write(&mut img, 0x3000, 0, &[0]), Err(AbortCode::NoObject));
     assert_eq!(img, before);
-    assert_eq!(DICT.read(&img, 0x2002, 0), Err(OdError::WriteOnly));
+    assert_eq!(DICT.read(&img, 0x2002, 0), Err(AbortCode::WriteOnly));
 }
 
 #[test]
@@ -116,13 +116,6 @@ fn load_and_store_never_panic_out_of_range() {
     assert_eq!(img, [1; 4]);
     store::<2>(&mut img, 2, [9, 9]);
     assert_eq!(load::<2>(&img, 2), [9, 9]);
-}
-
-#[test]
-fn abort_codes_are_the_cia301_values() {
-    assert_eq!(OdError::NoObject.abort_code(), 0x0602_0000);
-    assert_eq!(OdError::NoSubIndex.abort_code(), 0x0609_0011);
-    assert_eq!(OdError::ValueTooLow.abort_code(), 0x0609_0032);
 }
 
 #[test]
@@ -173,4 +166,17 @@ fn dictionary_access_reads_in_pieces_and_checks_downloads() {
     assert_eq!(od.write(0x2000, 0, &200i16.to_le_bytes()), Err(AbortCode::ValueTooHigh));
     assert_eq!(od.write(0x1017, 0, &[0x64, 0]), Ok(()));
     assert_eq!(od.upload_size(0x1017, 0), Ok(2));
+}
+
+#[test]
+fn a_write_tells_whether_the_image_changed() {
+    let mut img = image(1);
+    let (entry, changed) = DICT.write_entry(&mut img, 0x2000, 0, &7i16.to_le_bytes()).unwrap();
+    assert_eq!((entry.index, changed), (0x2000, true));
+    assert!(!DICT.write_entry(&mut img, 0x2000, 0, &7i16.to_le_bytes()).unwrap().1, "the same value");
+    // A shorter string clears the rest of its slot: a change even where its bytes match.
+    assert!(DICT.write_entry(&mut img, 0x2001, 0, b"abcd").unwrap().1);
+    assert!(DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
+    assert!(!DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
+    assert_eq!(DICT.read(&img, 0x2001, 0), Ok(&b"ab"[..]));
 }

@@ -2,6 +2,7 @@
 
 use super::entry::Limits;
 use super::types::{DataType, Kind};
+use crate::abort::AbortCode;
 
 /// A number decoded from a value of a numeric type.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -12,15 +13,6 @@ pub enum Number {
     Unsigned(u64),
     /// From REAL32 or REAL64.
     Real(f64),
-}
-
-/// Why a value was refused against its limits. CiA 301 abort codes 0x06090031/0x06090032.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RangeError {
-    /// Above the high limit (abort 0x06090031).
-    TooHigh,
-    /// Below the low limit (abort 0x06090032).
-    TooLow,
 }
 
 /// The bits of the f64 equal to the f32 with bits `b` (as `f64::from`, NaN
@@ -110,9 +102,10 @@ impl Number {
 }
 
 impl Limits {
-    /// Checks little-endian `bytes` of type `data_type` against the limits.
+    /// Checks little-endian `bytes` of type `data_type` against the limits:
+    /// [`AbortCode::ValueTooLow`] or [`AbortCode::ValueTooHigh`] outside.
     /// Values of non-numeric types always pass.
-    pub fn check(&self, data_type: DataType, bytes: &[u8]) -> Result<(), RangeError> {
+    pub fn check(&self, data_type: DataType, bytes: &[u8]) -> Result<(), AbortCode> {
         let kind = data_type.kind();
         let (Some(value), Some(low), Some(high)) =
             (Number::decode(data_type, bytes), Number::from_limit(kind, self.low), Number::from_limit(kind, self.high))
@@ -120,9 +113,9 @@ impl Limits {
             return Ok(());
         };
         if value.less_than(low) {
-            Err(RangeError::TooLow)
+            Err(AbortCode::ValueTooLow)
         } else if high.less_than(value) {
-            Err(RangeError::TooHigh)
+            Err(AbortCode::ValueTooHigh)
         } else {
             Ok(())
         }
@@ -145,14 +138,14 @@ mod tests {
     #[test]
     fn checks_limits_by_kind() {
         let l = Limits { low: Number::Signed(-10).to_limit(), high: Number::Signed(10).to_limit() };
-        assert_eq!(l.check(DataType::Integer16, &(-11i16).to_le_bytes()), Err(RangeError::TooLow));
-        assert_eq!(l.check(DataType::Integer16, &11i16.to_le_bytes()), Err(RangeError::TooHigh));
+        assert_eq!(l.check(DataType::Integer16, &(-11i16).to_le_bytes()), Err(AbortCode::ValueTooLow));
+        assert_eq!(l.check(DataType::Integer16, &11i16.to_le_bytes()), Err(AbortCode::ValueTooHigh));
         assert_eq!(l.check(DataType::Integer16, &(-10i16).to_le_bytes()), Ok(()));
         let r = Limits { low: Number::Real(-1.5).to_limit(), high: Number::Real(2.5).to_limit() };
-        assert_eq!(r.check(DataType::Real32, &3.0f32.to_le_bytes()), Err(RangeError::TooHigh));
+        assert_eq!(r.check(DataType::Real32, &3.0f32.to_le_bytes()), Err(AbortCode::ValueTooHigh));
         assert_eq!(r.check(DataType::Real32, &2.5f32.to_le_bytes()), Ok(()));
         let u = Limits { low: 1, high: 0xFFFF_FFFF };
-        assert_eq!(u.check(DataType::Unsigned32, &0u32.to_le_bytes()), Err(RangeError::TooLow));
+        assert_eq!(u.check(DataType::Unsigned32, &0u32.to_le_bytes()), Err(AbortCode::ValueTooLow));
         assert_eq!(u.check(DataType::Unsigned32, &u32::MAX.to_le_bytes()), Ok(()));
     }
 
@@ -189,11 +182,11 @@ mod tests {
         assert_eq!(r.check(DataType::Real32, &(-0.0f32).to_le_bytes()), Ok(()));
         assert_eq!(r.check(DataType::Real64, &f64::NAN.to_le_bytes()), Ok(()));
         assert_eq!(r.check(DataType::Real32, &f32::INFINITY.to_le_bytes()), Ok(()));
-        assert_eq!(r.check(DataType::Real32, &(-1.0e-45f32).to_le_bytes()), Err(RangeError::TooLow));
+        assert_eq!(r.check(DataType::Real32, &(-1.0e-45f32).to_le_bytes()), Err(AbortCode::ValueTooLow));
         let n = Limits { low: Number::Real(-2.0).to_limit(), high: Number::Real(-1.0).to_limit() };
-        assert_eq!(n.check(DataType::Real64, &(-2.5f64).to_le_bytes()), Err(RangeError::TooLow));
-        assert_eq!(n.check(DataType::Real64, &(-0.5f64).to_le_bytes()), Err(RangeError::TooHigh));
+        assert_eq!(n.check(DataType::Real64, &(-2.5f64).to_le_bytes()), Err(AbortCode::ValueTooLow));
+        assert_eq!(n.check(DataType::Real64, &(-0.5f64).to_le_bytes()), Err(AbortCode::ValueTooHigh));
         assert_eq!(n.check(DataType::Real32, &(-1.0f32).to_le_bytes()), Ok(()));
-        assert_eq!(n.check(DataType::Real32, &f32::NEG_INFINITY.to_le_bytes()), Err(RangeError::TooLow));
+        assert_eq!(n.check(DataType::Real32, &f32::NEG_INFINITY.to_le_bytes()), Err(AbortCode::ValueTooLow));
     }
 }

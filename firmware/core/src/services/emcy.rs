@@ -7,7 +7,7 @@
 //! generic bit of the error register, so the loss is visible.
 
 use crate::time::{Duration, Instant};
-use crate::wire::emcy::{Emcy, code};
+use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
 pub mod register {
@@ -28,8 +28,8 @@ pub mod register {
 }
 
 /// The error register bit an error code sets besides GENERIC (CiA 301 table 21).
-pub const fn register_bit(code: u16) -> u8 {
-    match code >> 12 {
+pub const fn register_bit(code: EmcyCode) -> u8 {
+    match code.0 >> 12 {
         0x2 => register::CURRENT,
         0x3 => register::VOLTAGE,
         0x4 => register::TEMPERATURE,
@@ -47,7 +47,7 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     cob_id: Option<u16>,
     inhibit: Duration,
     last_sent: Option<Instant>,
-    active: [u16; A],
+    active: [EmcyCode; A],
     /// Error register bits each active error sets beyond its code's class
     /// (a device whose manual gives a generic code a profile bit).
     active_bits: [u8; A],
@@ -77,10 +77,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             cob_id: None,
             inhibit: Duration::ZERO,
             last_sent: None,
-            active: [0; A],
+            active: [EmcyCode::NO_ERROR; A],
             active_bits: [0; A],
             active_len: 0,
-            queue: [Emcy { code: 0, register: 0, info: [0; 5] }; Q],
+            queue: [Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] }; Q],
             head: 0,
             len: 0,
             overflows: 0,
@@ -104,7 +104,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     pub fn register(&self) -> u8 {
         let mut r = if self.active_len > 0 || self.lost_errors || self.tx_overflow { register::GENERIC } else { 0 };
         if self.tx_overflow {
-            r |= register_bit(code::CAN_OVERRUN);
+            r |= register_bit(EmcyCode::CAN_OVERRUN);
         }
         for (&code, &bits) in self.active.iter().zip(&self.active_bits).take(self.active_len) {
             r |= register_bit(code) | bits;
@@ -113,20 +113,20 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Whether `code` is active.
-    pub fn is_active(&self, code: u16) -> bool {
+    pub fn is_active(&self, code: EmcyCode) -> bool {
         self.active.iter().take(self.active_len).any(|&c| c == code)
     }
 
     /// Raises an error: records it as active and queues its message.
     /// Returns false if it was active already (nothing is sent again).
-    pub fn raise(&mut self, code: u16, info: [u8; 5]) -> bool {
+    pub fn raise(&mut self, code: EmcyCode, info: [u8; 5]) -> bool {
         self.raise_with(code, 0, info)
     }
 
     /// Raises an error that also sets the error register bits `register`
     /// while it lasts, beyond those of its code's class (the Sendix's
     /// position error, generic code 0x1000, sets bit 5 "device profile").
-    pub fn raise_with(&mut self, code: u16, register: u8, info: [u8; 5]) -> bool {
+    pub fn raise_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
         if self.is_active(code) {
             return false;
         }
@@ -145,7 +145,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Sends a message for an event that has no lasting state (e.g. a PDO
     /// length error): it sets no active error.
-    pub fn signal(&mut self, code: u16, info: [u8; 5]) {
+    pub fn signal(&mut self, code: EmcyCode, info: [u8; 5]) {
         let register = self.register() | register::GENERIC | register_bit(code);
         self.push(Emcy { code, register, info });
     }
@@ -161,7 +161,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_overflow = true;
         let [a, b, c, d] = refused.to_le_bytes();
         let register = self.register();
-        self.push(Emcy { code: code::CAN_OVERRUN, register, info: [a, b, c, d, 1] });
+        self.push(Emcy { code: EmcyCode::CAN_OVERRUN, register, info: [a, b, c, d, 1] });
     }
 
     /// The transmit queue drained after an overflow: the error clears, and
@@ -173,7 +173,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_overflow = false;
         if self.active_len == 0 {
             self.lost_errors = false;
-            self.push(Emcy { code: 0, register: self.register(), info: [0; 5] });
+            self.push(Emcy { code: EmcyCode::NO_ERROR, register: self.register(), info: [0; 5] });
         }
     }
 
@@ -183,11 +183,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
-    pub fn clear(&mut self, code: u16) {
+    pub fn clear(&mut self, code: EmcyCode) {
         let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
         // A plain loop: `copy_within` pulls `memmove` (1.6 KiB) into every image.
         for i in pos..self.active_len.saturating_sub(1) {
-            let next = self.active.get(i + 1).copied().unwrap_or(0);
+            let next = self.active.get(i + 1).copied().unwrap_or(EmcyCode::NO_ERROR);
             if let Some(slot) = self.active.get_mut(i) {
                 *slot = next;
             }
@@ -199,7 +199,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.active_len -= 1;
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
-            self.push(Emcy { code: 0, register: self.register(), info: [0; 5] });
+            self.push(Emcy { code: EmcyCode::NO_ERROR, register: self.register(), info: [0; 5] });
         }
     }
 
@@ -248,6 +248,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         Some(e)
     }
 
+    /// Whether messages wait to go out (or, while EMCY is off, to be recorded).
+    pub fn has_queued(&self) -> bool {
+        self.len != 0
+    }
+
     /// When the next queued message may go out.
     pub fn deadline(&self) -> Option<Instant> {
         self.cob_id?;
@@ -275,13 +280,13 @@ mod tests {
     fn raise_and_clear_drive_the_register_and_error_reset() {
         let mut e = EmcyProducer::<4, 4>::default();
         e.configure(0x81, 0);
-        assert!(e.raise(code::HEARTBEAT, [3, 0, 0, 0, 0]));
-        assert!(!e.raise(code::HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
+        assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]));
+        assert!(!e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
         assert_eq!(e.register(), 0x11);
-        assert_eq!(e.poll(us(0)), Some((0x81, Emcy { code: 0x8130, register: 0x11, info: [3, 0, 0, 0, 0] })));
-        e.clear(code::HEARTBEAT);
+        assert_eq!(e.poll(us(0)), Some((0x81, Emcy { code: EmcyCode(0x8130), register: 0x11, info: [3, 0, 0, 0, 0] })));
+        e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0);
-        assert_eq!(e.poll(us(1)), Some((0x81, Emcy { code: 0, register: 0, info: [0; 5] })));
+        assert_eq!(e.poll(us(1)), Some((0x81, Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] })));
         assert_eq!(e.poll(us(2)), None);
     }
 
@@ -289,12 +294,12 @@ mod tests {
     fn extra_register_bits_last_as_long_as_their_error() {
         let mut e = EmcyProducer::<4, 4>::default();
         e.configure(0x81, 0);
-        assert!(e.raise_with(0x1000, register::PROFILE, [0; 5]));
-        assert!(e.raise(code::HEARTBEAT, [0; 5]));
+        assert!(e.raise_with(EmcyCode(0x1000), register::PROFILE, [0; 5]));
+        assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [0; 5]));
         assert_eq!(e.register(), 0x31);
-        e.clear(0x1000);
+        e.clear(EmcyCode(0x1000));
         assert_eq!(e.register(), 0x11, "bit 5 went with 0x1000, the heartbeat's bits stay");
-        assert!(e.raise(0x1000, [0; 5]));
+        assert!(e.raise(EmcyCode(0x1000), [0; 5]));
         assert_eq!(e.register(), 0x11, "raised again without extra bits");
         assert_eq!(e.poll(us(0)).map(|(_, m)| m.register), Some(0x21));
     }
@@ -303,28 +308,28 @@ mod tests {
     fn inhibit_time_spaces_messages() {
         let mut e = EmcyProducer::<4, 4>::default();
         e.configure(0x85, 10); // 1 ms
-        e.signal(code::PDO_LENGTH, [0; 5]);
-        e.signal(code::PDO_LENGTH_EXCEEDED, [0; 5]);
+        e.signal(EmcyCode::PDO_LENGTH, [0; 5]);
+        e.signal(EmcyCode::PDO_LENGTH_EXCEEDED, [0; 5]);
         assert!(e.poll(us(100)).is_some());
         assert_eq!(e.deadline(), Some(us(1100)));
         assert_eq!(e.poll(us(1099)), None);
-        assert_eq!(e.poll(us(1100)).map(|(_, m)| m.code), Some(0x8220));
+        assert_eq!(e.poll(us(1100)).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
     }
 
     #[test]
     fn a_full_queue_counts_and_shows_in_the_register() {
         let mut e = EmcyProducer::<1, 2>::default();
         e.configure(0x8000_0081, 0);
-        e.signal(0x8210, [0; 5]);
-        e.signal(0x8210, [0; 5]);
-        e.signal(0x8210, [0; 5]);
+        e.signal(EmcyCode(0x8210), [0; 5]);
+        e.signal(EmcyCode(0x8210), [0; 5]);
+        e.signal(EmcyCode(0x8210), [0; 5]);
         assert_eq!(e.overflows(), 1);
         assert_eq!(e.register() & register::GENERIC, register::GENERIC);
         assert_eq!(e.poll(us(0)), None, "EMCY off (bit 31)");
-        assert_eq!(e.take_unsent().map(|m| m.code), Some(0x8210), "recorded, not sent");
-        assert!(e.raise(0x8130, [0; 5]));
-        assert!(e.raise(0x8110, [0; 5]), "more active errors than slots are still reported");
-        assert_eq!(register_bit(0x4210), register::TEMPERATURE);
-        assert_eq!(register_bit(0xFF00), register::MANUFACTURER);
+        assert_eq!(e.take_unsent().map(|m| m.code), Some(EmcyCode(0x8210)), "recorded, not sent");
+        assert!(e.raise(EmcyCode(0x8130), [0; 5]));
+        assert!(e.raise(EmcyCode(0x8110), [0; 5]), "more active errors than slots are still reported");
+        assert_eq!(register_bit(EmcyCode(0x4210)), register::TEMPERATURE);
+        assert_eq!(register_bit(EmcyCode(0xFF00)), register::MANUFACTURER);
     }
 }

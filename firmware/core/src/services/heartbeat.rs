@@ -5,7 +5,7 @@
 //! time other than 0 the node does not answer guarding requests.
 
 use crate::time::{Duration, Instant, earliest};
-use crate::wire::nmt::NmtState;
+use crate::wire::nmt::NmtStateCode;
 
 /// The heartbeat producer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -62,7 +62,7 @@ struct Monitor {
     deadline: Option<Instant>,
     /// The last state reported, valid once `heard`. Not an `Option`: its
     /// `None` would not be all zero bits ([`crate::node`]).
-    state: NmtState,
+    state: NmtStateCode,
     heard: bool,
     /// It missed its heartbeat and has not been heard of since.
     timed_out: bool,
@@ -71,7 +71,7 @@ struct Monitor {
 impl Monitor {
     /// An entry that monitors nothing.
     const OFF: Monitor =
-        Monitor { node_id: 0, time: Duration::ZERO, deadline: None, state: NmtState::BootUp, heard: false, timed_out: false };
+        Monitor { node_id: 0, time: Duration::ZERO, deadline: None, state: NmtStateCode::BootUp, heard: false, timed_out: false };
 }
 
 /// A heartbeat consumer event.
@@ -124,11 +124,11 @@ impl<const N: usize> Consumer<N> {
 
     /// A heartbeat (or boot-up) from `node_id` arrived at `now`. Returns
     /// true if that node had timed out: it is back.
-    pub fn on_heartbeat(&mut self, node_id: u8, state: NmtState, now: Instant) -> bool {
+    pub fn on_heartbeat(&mut self, node_id: u8, state: NmtStateCode, now: Instant) -> bool {
         let mut back = false;
         for m in self.monitors.iter_mut().filter(|m| m.node_id == node_id && m.node_id != 0) {
             // A boot-up message means the producer restarted: monitoring starts over.
-            m.deadline = if state == NmtState::BootUp { None } else { Some(now + m.time) };
+            m.deadline = if state == NmtStateCode::BootUp { None } else { Some(now + m.time) };
             m.state = state;
             m.heard = true;
             back |= core::mem::take(&mut m.timed_out);
@@ -155,7 +155,7 @@ impl<const N: usize> Consumer<N> {
     }
 
     /// The last state `node_id` reported.
-    pub fn state_of(&self, node_id: u8) -> Option<NmtState> {
+    pub fn state_of(&self, node_id: u8) -> Option<NmtStateCode> {
         self.monitors.iter().find(|m| m.node_id == node_id).and_then(|m| m.heard.then_some(m.state))
     }
 }
@@ -198,7 +198,7 @@ impl Guarding {
     }
 
     /// A guarding RTR arrived: returns the response byte (state | toggle).
-    pub fn on_request(&mut self, state: NmtState, now: Instant) -> u8 {
+    pub fn on_request(&mut self, state: NmtStateCode, now: Instant) -> u8 {
         let byte = state.code() | if self.toggle { 0x80 } else { 0 };
         self.toggle = !self.toggle;
         self.deadline = (self.lifetime != Duration::ZERO).then(|| now + self.lifetime);
@@ -254,16 +254,16 @@ mod tests {
         c.configure(0, 0x0003_0064); // node 3, 100 ms
         assert_eq!(c.state_of(3), None, "not heard of yet");
         assert_eq!(c.poll(ms(1000)), None, "not armed before the first heartbeat");
-        c.on_heartbeat(3, NmtState::Operational, ms(1000));
+        c.on_heartbeat(3, NmtStateCode::Operational, ms(1000));
         assert_eq!(c.poll(ms(1099)), None);
         assert_eq!(c.poll(ms(1100)), Some(ConsumerEvent::Timeout { node_id: 3 }));
         assert_eq!(c.poll(ms(5000)), None, "reported once");
         assert!(c.any_timed_out());
-        assert!(c.on_heartbeat(3, NmtState::Operational, ms(5500)), "back");
+        assert!(c.on_heartbeat(3, NmtStateCode::Operational, ms(5500)), "back");
         assert!(!c.any_timed_out());
-        c.on_heartbeat(3, NmtState::BootUp, ms(6000));
+        c.on_heartbeat(3, NmtStateCode::BootUp, ms(6000));
         assert_eq!(c.deadline(), None);
-        assert_eq!(c.state_of(3), Some(NmtState::BootUp));
+        assert_eq!(c.state_of(3), Some(NmtStateCode::BootUp));
         assert!(c.conflicts(1, 0x0003_0010));
         assert!(!c.conflicts(1, 0x0003_0000));
         assert!(!c.conflicts(0, 0x0003_0010));
@@ -273,13 +273,13 @@ mod tests {
     fn guarding_toggles_and_watches_the_life_time() {
         let mut g = Guarding::default();
         g.configure(100, 3);
-        assert_eq!(g.on_request(NmtState::PreOperational, ms(0)), 0x7F);
-        assert_eq!(g.on_request(NmtState::PreOperational, ms(100)), 0xFF);
-        assert_eq!(g.on_request(NmtState::Operational, ms(200)), 0x05);
+        assert_eq!(g.on_request(NmtStateCode::PreOperational, ms(0)), 0x7F);
+        assert_eq!(g.on_request(NmtStateCode::PreOperational, ms(100)), 0xFF);
+        assert_eq!(g.on_request(NmtStateCode::Operational, ms(200)), 0x05);
         assert!(!g.poll(ms(499)));
         assert!(g.poll(ms(500)));
         assert!(!g.poll(ms(900)));
         g.reset();
-        assert_eq!(g.on_request(NmtState::Stopped, ms(1000)), 0x04);
+        assert_eq!(g.on_request(NmtStateCode::Stopped, ms(1000)), 0x04);
     }
 }

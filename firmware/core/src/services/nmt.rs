@@ -4,11 +4,11 @@
 //! Reset node and reset communication go back through Initialising; the node
 //! restores the object ranges each reset covers and sends the boot-up frame.
 
-use crate::wire::nmt::{NmtCommand, NmtRequest, NmtState};
+use crate::wire::nmt::{NmtCommand, NmtRequest, NmtStateCode};
 
 /// The NMT state of this node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum State {
+pub enum NmtState {
     /// Before the boot-up message; nothing but the reset runs.
     Initialising,
     /// SDO, SYNC, EMCY, TIME, error control; no PDO.
@@ -19,25 +19,25 @@ pub enum State {
     Stopped,
 }
 
-impl State {
+impl NmtState {
     /// The state as heartbeat and guarding report it.
-    pub const fn reported(self) -> NmtState {
+    pub const fn reported(self) -> NmtStateCode {
         match self {
-            State::Initialising => NmtState::BootUp,
-            State::PreOperational => NmtState::PreOperational,
-            State::Operational => NmtState::Operational,
-            State::Stopped => NmtState::Stopped,
+            NmtState::Initialising => NmtStateCode::BootUp,
+            NmtState::PreOperational => NmtStateCode::PreOperational,
+            NmtState::Operational => NmtStateCode::Operational,
+            NmtState::Stopped => NmtStateCode::Stopped,
         }
     }
 
     /// SDO, SYNC, EMCY and TIME run in Pre-operational and Operational (CiA 301 table 64).
     pub const fn sdo_allowed(self) -> bool {
-        matches!(self, State::PreOperational | State::Operational)
+        matches!(self, NmtState::PreOperational | NmtState::Operational)
     }
 
     /// PDOs run in Operational only.
     pub const fn pdo_allowed(self) -> bool {
-        matches!(self, State::Operational)
+        matches!(self, NmtState::Operational)
     }
 }
 
@@ -47,7 +47,7 @@ pub enum Transition {
     /// Nothing (not addressed, or already in that state).
     None,
     /// The state changed to the one given.
-    Entered(State),
+    Entered(NmtState),
     /// Reset application: restore 0x2000 and up, then reset communication.
     ResetApplication,
     /// Reset communication: restore 0x1000–0x1FFF, boot up again.
@@ -57,7 +57,7 @@ pub enum Transition {
 /// The NMT slave.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Nmt {
-    state: State,
+    state: NmtState,
 }
 
 impl Default for Nmt {
@@ -69,18 +69,18 @@ impl Default for Nmt {
 impl Nmt {
     /// A node still initialising.
     pub const fn new() -> Self {
-        Nmt { state: State::Initialising }
+        Nmt { state: NmtState::Initialising }
     }
 
     /// The current state.
-    pub const fn state(&self) -> State {
+    pub const fn state(&self) -> NmtState {
         self.state
     }
 
     /// Initialisation finished: the boot-up message went out. A self-starting
     /// node (0x1F80 bit 2, see the node) goes on to Operational.
-    pub fn boot_up_done(&mut self, auto_start: bool) -> State {
-        self.state = if auto_start { State::Operational } else { State::PreOperational };
+    pub fn boot_up_done(&mut self, auto_start: bool) -> NmtState {
+        self.state = if auto_start { NmtState::Operational } else { NmtState::PreOperational };
         self.state
     }
 
@@ -89,19 +89,19 @@ impl Nmt {
         if request.node_id != 0 && request.node_id != node_id {
             return Transition::None;
         }
-        if self.state == State::Initialising {
+        if self.state == NmtState::Initialising {
             return Transition::None;
         }
         let next = match request.command {
-            NmtCommand::Start => State::Operational,
-            NmtCommand::Stop => State::Stopped,
-            NmtCommand::EnterPreOperational => State::PreOperational,
+            NmtCommand::Start => NmtState::Operational,
+            NmtCommand::Stop => NmtState::Stopped,
+            NmtCommand::EnterPreOperational => NmtState::PreOperational,
             NmtCommand::ResetNode => {
-                self.state = State::Initialising;
+                self.state = NmtState::Initialising;
                 return Transition::ResetApplication;
             }
             NmtCommand::ResetCommunication => {
-                self.state = State::Initialising;
+                self.state = NmtState::Initialising;
                 return Transition::ResetCommunication;
             }
         };
@@ -113,8 +113,8 @@ impl Nmt {
     }
 
     /// Forces a state (error behaviour 0x1029, or the application).
-    pub fn enter(&mut self, state: State) -> Transition {
-        if state == self.state || self.state == State::Initialising {
+    pub fn enter(&mut self, state: NmtState) -> Transition {
+        if state == self.state || self.state == NmtState::Initialising {
             return Transition::None;
         }
         self.state = state;
@@ -134,23 +134,23 @@ mod tests {
     fn every_command_from_every_state() {
         let mut n = Nmt::new();
         assert_eq!(n.on_command(cmd(NmtCommand::Start, 5), 5), Transition::None, "ignored while initialising");
-        assert_eq!(n.boot_up_done(false), State::PreOperational);
-        assert_eq!(n.on_command(cmd(NmtCommand::Start, 5), 5), Transition::Entered(State::Operational));
+        assert_eq!(n.boot_up_done(false), NmtState::PreOperational);
+        assert_eq!(n.on_command(cmd(NmtCommand::Start, 5), 5), Transition::Entered(NmtState::Operational));
         assert_eq!(n.on_command(cmd(NmtCommand::Start, 0), 5), Transition::None);
-        assert_eq!(n.on_command(cmd(NmtCommand::Stop, 0), 5), Transition::Entered(State::Stopped));
-        assert_eq!(n.on_command(cmd(NmtCommand::EnterPreOperational, 5), 5), Transition::Entered(State::PreOperational));
+        assert_eq!(n.on_command(cmd(NmtCommand::Stop, 0), 5), Transition::Entered(NmtState::Stopped));
+        assert_eq!(n.on_command(cmd(NmtCommand::EnterPreOperational, 5), 5), Transition::Entered(NmtState::PreOperational));
         assert_eq!(n.on_command(cmd(NmtCommand::Stop, 6), 5), Transition::None, "other node");
         assert_eq!(n.on_command(cmd(NmtCommand::ResetCommunication, 5), 5), Transition::ResetCommunication);
-        assert_eq!(n.state(), State::Initialising);
-        assert_eq!(n.boot_up_done(true), State::Operational);
+        assert_eq!(n.state(), NmtState::Initialising);
+        assert_eq!(n.boot_up_done(true), NmtState::Operational);
         assert_eq!(n.on_command(cmd(NmtCommand::ResetNode, 0), 5), Transition::ResetApplication);
     }
 
     #[test]
     fn services_per_state() {
-        assert!(!State::Stopped.sdo_allowed() && !State::Stopped.pdo_allowed());
-        assert!(State::PreOperational.sdo_allowed() && !State::PreOperational.pdo_allowed());
-        assert!(State::Operational.sdo_allowed() && State::Operational.pdo_allowed());
-        assert_eq!(State::PreOperational.reported().code(), 0x7F);
+        assert!(!NmtState::Stopped.sdo_allowed() && !NmtState::Stopped.pdo_allowed());
+        assert!(NmtState::PreOperational.sdo_allowed() && !NmtState::PreOperational.pdo_allowed());
+        assert!(NmtState::Operational.sdo_allowed() && NmtState::Operational.pdo_allowed());
+        assert_eq!(NmtState::PreOperational.reported().code(), 0x7F);
     }
 }

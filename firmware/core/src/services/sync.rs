@@ -22,21 +22,10 @@
 
 use crate::abort::AbortCode;
 use crate::id::is_restricted_can_id;
-use crate::od::Dictionary;
-use crate::services::pdo::map::{le_u32, object, sub_entry, value_u32};
-use crate::services::pdo::precheck;
+use crate::od::{Dictionary, index, le_u32, object, precheck, sub_entry, value_u32};
 use crate::time::{Duration, Instant};
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
-
-/// 0x1005 COB-ID SYNC message.
-const COB_ID_SYNC: u16 = 0x1005;
-/// 0x1006 communication cycle period (µs).
-const CYCLE_PERIOD: u16 = 0x1006;
-/// 0x1007 synchronous window length (µs).
-const WINDOW_LENGTH: u16 = 0x1007;
-/// 0x1019 synchronous counter overflow value.
-const COUNTER_OVERFLOW: u16 = 0x1019;
 
 /// A SYNC, received or produced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,8 +59,8 @@ pub struct SyncLengthError {
 
 impl SyncLengthError {
     /// The EMCY error code the node raises: 0x8240 unexpected SYNC data length.
-    pub const fn emcy_code(&self) -> u16 {
-        code::SYNC_LENGTH
+    pub const fn emcy_code(&self) -> EmcyCode {
+        EmcyCode::UNEXPECTED_SYNC_LENGTH
     }
 }
 
@@ -123,13 +112,13 @@ impl SyncService {
             sub_entry(object(dict, index), 0).map(|e| value_u32(dict, image, e))
         }
         let value = |index: u16| value_of(dict, image, index);
-        let cob = value(COB_ID_SYNC).and_then(|v| CobIdSync::from_u32(v).ok());
+        let cob = value(index::COB_ID_SYNC).and_then(|v| CobIdSync::from_u32(v).ok());
         *self = SyncService {
             cob_id: cob.map_or(SYNC_COB_ID, |c| c.can_id),
             producer: cob.is_some_and(|c| c.producer),
-            period: Duration::from_micros(u64::from(value(CYCLE_PERIOD).unwrap_or(0))),
-            window: Duration::from_micros(u64::from(value(WINDOW_LENGTH).unwrap_or(0))),
-            overflow: clamp_overflow(value(COUNTER_OVERFLOW).unwrap_or(0) as u8),
+            period: Duration::from_micros(u64::from(value(index::COMMUNICATION_CYCLE_PERIOD).unwrap_or(0))),
+            window: Duration::from_micros(u64::from(value(index::SYNCHRONOUS_WINDOW_LENGTH).unwrap_or(0))),
+            overflow: clamp_overflow(value(index::SYNCHRONOUS_COUNTER_OVERFLOW).unwrap_or(0) as u8),
             counter: 0,
             next: None,
         };
@@ -202,7 +191,10 @@ impl SyncService {
     /// 0x1007 or 0x1019; else the outcome, with the image and the service
     /// updated on success.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
-        if !matches!(index, COB_ID_SYNC | CYCLE_PERIOD | WINDOW_LENGTH | COUNTER_OVERFLOW) {
+        if !matches!(
+            index,
+            index::COB_ID_SYNC | index::COMMUNICATION_CYCLE_PERIOD | index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW
+        ) {
             return None;
         }
         Some(self.write(index, sub, data, dict, image))
@@ -212,7 +204,7 @@ impl SyncService {
         precheck(dict, index, sub, data)?;
         let value = le_u32(data);
         match index {
-            COB_ID_SYNC => {
+            index::COB_ID_SYNC => {
                 let new = CobIdSync::from_u32(value).map_err(|_| AbortCode::InvalidValue)?;
                 if is_restricted_can_id(new.can_id) || (self.producer && new.producer && new.can_id != self.cob_id) {
                     return Err(AbortCode::InvalidValue);
@@ -222,12 +214,12 @@ impl SyncService {
                 self.producer = new.producer;
                 self.restart_producer();
             }
-            CYCLE_PERIOD => {
+            index::COMMUNICATION_CYCLE_PERIOD => {
                 dict.write(image, index, sub, data)?;
                 self.period = Duration::from_micros(u64::from(value));
                 self.next = None;
             }
-            WINDOW_LENGTH => {
+            index::SYNCHRONOUS_WINDOW_LENGTH => {
                 dict.write(image, index, sub, data)?;
                 self.window = Duration::from_micros(u64::from(value));
             }
@@ -320,7 +312,7 @@ mod tests {
         assert_eq!(sync.on_frame(ms(1), &[3]).map(|e| e.counter), Ok(Some(3)));
         for data in [&[][..], &[1, 2][..], &[0; 8][..]] {
             let err = sync.on_frame(ms(2), data).unwrap_err();
-            assert_eq!((err.len, err.emcy_code()), (data.len(), 0x8240));
+            assert_eq!((err.len, err.emcy_code()), (data.len(), EmcyCode(0x8240)));
         }
     }
 

@@ -61,9 +61,10 @@ impl NmtRequest {
     }
 }
 
-/// NMT state as heartbeat and node guarding report it (CiA 301 table 57).
+/// The NMT state byte as heartbeat and node guarding report it (CiA 301
+/// table 57): the wire form of [`crate::services::nmt::NmtState`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NmtState {
+pub enum NmtStateCode {
     /// 0x00: boot-up.
     BootUp,
     /// 0x04: stopped.
@@ -74,24 +75,24 @@ pub enum NmtState {
     PreOperational,
 }
 
-impl NmtState {
+impl NmtStateCode {
     /// The state code (bits 0..6 of the error-control byte).
     pub const fn code(self) -> u8 {
         match self {
-            NmtState::BootUp => 0x00,
-            NmtState::Stopped => 0x04,
-            NmtState::Operational => 0x05,
-            NmtState::PreOperational => 0x7F,
+            NmtStateCode::BootUp => 0x00,
+            NmtStateCode::Stopped => 0x04,
+            NmtStateCode::Operational => 0x05,
+            NmtStateCode::PreOperational => 0x7F,
         }
     }
 
     /// The state with this code; bit 7 (the guarding toggle) is ignored.
-    pub const fn from_code(code: u8) -> Option<NmtState> {
+    pub const fn from_code(code: u8) -> Option<NmtStateCode> {
         Some(match code & 0x7F {
-            0x00 => NmtState::BootUp,
-            0x04 => NmtState::Stopped,
-            0x05 => NmtState::Operational,
-            0x7F => NmtState::PreOperational,
+            0x00 => NmtStateCode::BootUp,
+            0x04 => NmtStateCode::Stopped,
+            0x05 => NmtStateCode::Operational,
+            0x7F => NmtStateCode::PreOperational,
             _ => return None,
         })
     }
@@ -122,10 +123,10 @@ mod tests {
 
     #[test]
     fn state_codes() {
-        for s in [NmtState::BootUp, NmtState::Stopped, NmtState::Operational, NmtState::PreOperational] {
-            assert_eq!(NmtState::from_code(s.code()), Some(s));
-            assert_eq!(NmtState::from_code(s.code() | 0x80), Some(s));
+        for s in [NmtStateCode::BootUp, NmtStateCode::Stopped, NmtStateCode::Operational, NmtStateCode::PreOperational] {
+            assert_eq!(NmtStateCode::from_code(s.code()), Some(s));
+            assert_eq!(NmtStateCode::from_code(s.code() | 0x80), Some(s));
         }
-        assert_eq!(NmtState::from_code(0x01), None);
+        assert_eq!(NmtStateCode::from_code(0x01), None);
     }
 }

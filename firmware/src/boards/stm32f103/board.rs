@@ -4,6 +4,7 @@
 use canopen_core::node::{AcceptanceList, BitRateControl};
 use canopen_core::services::store;
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 use cortex_m::peripheral::{DCB, DWT, NVIC, SCB};
 use cortex_m_rt::{ExceptionFrame, exception};
 use defmt_rtt as _;
@@ -33,12 +34,12 @@ pub struct Config {
     pub bit_rate_kbps: u32,
     /// The EMCY code of a restart the firmware did not ask for (watchdog,
     /// panic, HardFault), see [`ResetCause::emcy`].
-    pub restart_emcy: u16,
+    pub restart_emcy: EmcyCode,
 }
 
 impl Config {
     /// 250 kbit/s; CiA 301's 0x6100 "internal software" for a restart.
-    pub const DEFAULT: Config = Config { bit_rate_kbps: 250, restart_emcy: reset_cause::INTERNAL_SOFTWARE };
+    pub const DEFAULT: Config = Config { bit_rate_kbps: 250, restart_emcy: EmcyCode::INTERNAL_SOFTWARE };
 }
 
 /// Two regions of flash pages, each holding a set of `REGION` bytes.
@@ -138,7 +139,7 @@ pub fn run<A>(
     // (it waits for the call after the one that queues the boot-up).
     if let Some((code, info)) = cause.emcy(flags, config.restart_emcy) {
         started.node.raise_error(code, info);
-        defmt::warn!("EMCY {=u16:#06x}: reset by {}", code, cause);
+        defmt::warn!("EMCY {=u16:#06x}: reset by {}", code.value(), cause);
     }
     let node_id = started.node.node_id();
     let lss = started.node.bit_rate();
@@ -264,7 +265,7 @@ async fn canopen(node: &'static mut dyn CanNode) -> ! {
 /// node has sent its boot-up, the EMCY `run` raised for the cause of the
 /// last reset is cleared again a second later (the 0x1003 entry stays).
 #[embassy_executor::task]
-async fn feed_watchdog(mut watchdog: IndependentWatchdog, reset_emcy: Option<u16>) -> ! {
+async fn feed_watchdog(mut watchdog: IndependentWatchdog, reset_emcy: Option<EmcyCode>) -> ! {
     // Raised on the node at start-up (`run`); cleared a second after the boot-up.
     let mut clear = reset_emcy.map(|code| (code, 4u8));
     let mut stack_used = 0;

@@ -18,6 +18,8 @@
 //! in 0x1003 sub 1 (bits 16–23 and 24–31), so an SDO upload of 0x1003:01
 //! reads the reset cause (docs/firmware.md, "Reset cause").
 
+use canopen_core::wire::emcy::EmcyCode;
+
 /// Why the chip reset (byte 3 of the EMCY, bits 16–23 of 0x1003 sub 1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(target_os = "none", derive(defmt::Format))]
@@ -37,11 +39,6 @@ pub enum ResetCause {
     /// window watchdog or a low-power reset: logged only.
     Other = 5,
 }
-
-/// EMCY "internal software" (CiA 301 table 21).
-pub const INTERNAL_SOFTWARE: u16 = 0x6100;
-/// EMCY "device hardware" (CiA 301 table 21).
-pub const DEVICE_HARDWARE: u16 = 0x5000;
 
 /// RCC_CSR flags (RM0008 §7.3.10).
 const PINRSTF: u32 = 1 << 26;
@@ -68,12 +65,12 @@ pub fn classify(csr: u32, left: Option<u32>) -> ResetCause {
 impl ResetCause {
     /// The EMCY to send after boot-up (code, manufacturer bytes), if any:
     /// `restart` is the code of a restart the firmware did not ask for
-    /// (watchdog, panic, HardFault): [`INTERNAL_SOFTWARE`], unless the
+    /// (watchdog, panic, HardFault): [`EmcyCode::INTERNAL_SOFTWARE`], unless the
     /// device's manual has its own (the EC5000's 0x6010, docs/devices/ec5000.md D53).
-    pub fn emcy(self, flags: u8, restart: u16) -> Option<(u16, [u8; 5])> {
+    pub fn emcy(self, flags: u8, restart: EmcyCode) -> Option<(EmcyCode, [u8; 5])> {
         let code = match self {
             ResetCause::Watchdog | ResetCause::Panic | ResetCause::HardFault => restart,
-            ResetCause::Crystal => DEVICE_HARDWARE,
+            ResetCause::Crystal => EmcyCode::DEVICE_HARDWARE,
             ResetCause::PowerOrPin | ResetCause::Other => return None,
         };
         Some((code, [self as u8, flags, 0, 0, 0]))
@@ -144,11 +141,11 @@ mod tests {
 
     #[test]
     fn emcy_codes_and_what_0x1003_records() {
-        assert_eq!(ResetCause::Watchdog.emcy(0x24, INTERNAL_SOFTWARE), Some((0x6100, [1, 0x24, 0, 0, 0])));
-        assert_eq!(ResetCause::Panic.emcy(0x14, INTERNAL_SOFTWARE), Some((0x6100, [2, 0x14, 0, 0, 0])));
-        assert_eq!(ResetCause::HardFault.emcy(0x14, INTERNAL_SOFTWARE), Some((0x6100, [3, 0x14, 0, 0, 0])));
-        assert_eq!(ResetCause::Crystal.emcy(0x24, INTERNAL_SOFTWARE), Some((0x5000, [4, 0x24, 0, 0, 0])));
-        assert_eq!(ResetCause::PowerOrPin.emcy(0x0C, INTERNAL_SOFTWARE), None);
-        assert_eq!(ResetCause::Other.emcy(0x14, INTERNAL_SOFTWARE), None);
+        assert_eq!(ResetCause::Watchdog.emcy(0x24, EmcyCode::INTERNAL_SOFTWARE), Some((EmcyCode(0x6100), [1, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::Panic.emcy(0x14, EmcyCode::INTERNAL_SOFTWARE), Some((EmcyCode(0x6100), [2, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::HardFault.emcy(0x14, EmcyCode::INTERNAL_SOFTWARE), Some((EmcyCode(0x6100), [3, 0x14, 0, 0, 0])));
+        assert_eq!(ResetCause::Crystal.emcy(0x24, EmcyCode::INTERNAL_SOFTWARE), Some((EmcyCode(0x5000), [4, 0x24, 0, 0, 0])));
+        assert_eq!(ResetCause::PowerOrPin.emcy(0x0C, EmcyCode::INTERNAL_SOFTWARE), None);
+        assert_eq!(ResetCause::Other.emcy(0x14, EmcyCode::INTERNAL_SOFTWARE), None);
     }
 }

@@ -10,9 +10,10 @@
 //!   set-point, and a fault reset acknowledges the error once homed.
 
 use canopen_core::node::Ctx;
+use canopen_core::wire::emcy::EmcyCode;
 
 /// EMCY 8600h positioning controller.
-pub(super) const CODE: u16 = 0x8600;
+pub(super) const CODE: EmcyCode = EmcyCode(0x8600);
 /// Drive error 00C4h software limit switch 1 (196).
 const LIMIT_1: u8 = 0xC4;
 /// Drive error 00C5h software limit switch 2 (197).

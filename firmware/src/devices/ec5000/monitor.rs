@@ -10,18 +10,19 @@ use canopen_core::profiles::cia402::Cia402;
 use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::PdsState;
 use canopen_core::profiles::cia402::objects::signed;
+use canopen_core::wire::emcy::EmcyCode;
 
 /// EMCY 0xFFA8 "Motor temperature close to high" (class W, §9.2).
-pub const TEMPERATURE_WARNING: u16 = 0xFFA8;
+pub const TEMPERATURE_WARNING: EmcyCode = EmcyCode(0xFFA8);
 /// EMCY 0xFFA9 "Motor temperature close to low" (W), 10 °C above the cold fault (D53).
-pub const COLD_WARNING: u16 = 0xFFA9;
+pub const COLD_WARNING: EmcyCode = EmcyCode(0xFFA9);
 const COLD_WARNING_C: i16 = COLD_FAULT_C + 10;
 /// EMCY 0xFFAA "Power reduced by temperature limiter" (W): half the speed
 /// limit from 100 °C, 5 K above the warning and 10 K below the fault (D53).
-pub const DERATING: u16 = 0xFFAA;
+pub const DERATING: EmcyCode = EmcyCode(0xFFAA);
 const DERATING_C: i16 = 100;
 /// EMCY 0xFFD4 "Motor speed warning (heavy load)" (W).
-pub const SPEED_WARNING: u16 = 0xFFD4;
+pub const SPEED_WARNING: EmcyCode = EmcyCode(0xFFD4);
 /// 0x4231 "High Temperature Warning Level": sub 1 threshold, sub 2 hysteresis [°C].
 const WARNING_LEVEL: u16 = 0x4231;
 /// 0x2200 "Monitoring Values".
@@ -289,7 +290,7 @@ impl Monitor {
 }
 
 /// Raises EMCY `code` with `info` when `on`, clears it when `off` (a warning: no fault reaction).
-fn warn(ctx: &mut Ctx<'_>, active: &mut bool, on: bool, off: bool, code: u16, info: [u8; 5]) {
+fn warn(ctx: &mut Ctx<'_>, active: &mut bool, on: bool, off: bool, code: EmcyCode, info: [u8; 5]) {
     if !*active && on {
         *active = true;
         ctx.raise_error(code, info);

@@ -13,8 +13,9 @@ use super::velocity::{Window, vl_limit};
 use super::{TICK_US, mode};
 use crate::abort::AbortCode;
 use crate::node::{CommError, Ctx, NmtEvent};
-use crate::services::nmt::State;
+use crate::services::nmt::NmtState;
 use crate::time::Instant;
+use crate::wire::emcy::EmcyCode;
 
 mod status;
 mod trajectory;
@@ -44,11 +45,11 @@ const IDLE_POLL_US: u64 = 100_000;
 const MAX_CATCH_UP: u64 = 200;
 /// Error code 0x603F / EMCY of a communication error (0x6007 = 1): CiA 301 0x8100
 /// communication, 0x8130 life guarding or heartbeat, 0x8140 bus-off recovered.
-const fn comm_error_code(error: Option<CommError>) -> u16 {
+const fn comm_error_code(error: Option<CommError>) -> EmcyCode {
     match error {
-        Some(CommError::Heartbeat(_) | CommError::LifeGuarding) => 0x8130,
-        Some(CommError::BusOff) => 0x8140,
-        _ => 0x8100,
+        Some(CommError::Heartbeat(_) | CommError::LifeGuarding) => EmcyCode::LIFE_GUARD_OR_HEARTBEAT,
+        Some(CommError::BusOff) => EmcyCode::RECOVERED_FROM_BUS_OFF,
+        _ => EmcyCode::COMMUNICATION,
     }
 }
 
@@ -92,7 +93,7 @@ struct Profile {
     reached_window: Window,
     zero_window: Window,
     following_window: Window,
-    error_code: u16,
+    error_code: EmcyCode,
     next_tick: u64,
     ticking: bool,
     operational: bool,
@@ -125,7 +126,7 @@ impl Profile {
         reached_window: Window::NEW,
         zero_window: Window::NEW,
         following_window: Window::NEW,
-        error_code: 0,
+        error_code: EmcyCode::NO_ERROR,
         next_tick: 0,
         ticking: false,
         operational: false,
@@ -152,7 +153,7 @@ impl<D: Drive> Cia402<D> {
         self.s.units = units(ctx, config);
         self.s.supported = supported_modes(ctx);
         self.s.state = PdsState::SwitchOnDisabled;
-        self.s.operational = ctx.state() == State::Operational;
+        self.s.operational = ctx.state() == NmtState::Operational;
         objects::set(ctx, index::ERROR_CODE, 2, 0);
         self.set_mode(ctx);
         self.publish(ctx);
@@ -217,9 +218,9 @@ impl<D: Drive> Cia402<D> {
     pub fn poll(&mut self, ctx: &mut Ctx<'_>, config: &Config) -> Option<Instant> {
         let now = ctx.now().as_micros();
         if !self.s.ticking {
-            let code = self.drive.fault();
+            let code = EmcyCode(self.drive.fault());
             // A fault, or a warning the device reported (`refresh`), changes the statusword.
-            if code != 0 && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
+            if code != EmcyCode::NO_ERROR && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
                 self.publish(ctx);
             } else if core::mem::take(&mut self.s.refresh) {
@@ -240,8 +241,8 @@ impl<D: Drive> Cia402<D> {
         let p = self.params(ctx, config);
         for _ in 0..due {
             self.tick(&p);
-            let code = self.drive.fault();
-            if code != 0 && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
+            let code = EmcyCode(self.drive.fault());
+            if code != EmcyCode::NO_ERROR && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
             }
             self.monitor(&p);
@@ -266,8 +267,8 @@ impl<D: Drive> Cia402<D> {
                 return;
             }
             NmtEvent::Entered(state) => {
-                let left = self.s.operational && state != State::Operational;
-                self.s.operational = state == State::Operational;
+                let left = self.s.operational && state != NmtState::Operational;
+                self.s.operational = state == NmtState::Operational;
                 if !(left && config.leaving_operational_aborts) {
                     return;
                 }
@@ -319,7 +320,7 @@ impl<D: Drive> Cia402<D> {
             // Transition 15 once the cause is gone.
             if self.drive.reset_fault() {
                 ctx.clear_error(self.s.error_code);
-                self.s.error_code = 0;
+                self.s.error_code = EmcyCode::NO_ERROR;
                 objects::set(ctx, index::ERROR_CODE, 2, 0);
                 self.s.state = PdsState::SwitchOnDisabled;
             }
@@ -399,7 +400,7 @@ impl<D: Drive> Cia402<D> {
 
     /// Transition 13: a fault in any state; the reaction 0x605E (default 2,
     /// quick stop ramp) runs if the drive still can, then transition 14.
-    fn fault(&mut self, ctx: &mut Ctx<'_>, code: u16) {
+    fn fault(&mut self, ctx: &mut Ctx<'_>, code: EmcyCode) {
         let reaction = Reaction::of(signed(ctx, index::FAULT_REACTION_OPTION, 0).map_or(-1, |v| v), Reaction::QuickStopRamp);
         self.fault_reacting(ctx, code, self.drive.fault_info(), reaction);
     }
@@ -409,15 +410,15 @@ impl<D: Drive> Cia402<D> {
     /// function is on (Fault reaction active until the axis stands), else Fault
     /// at once. For a device's own reactions, such as manufacturer-specific
     /// 0x6007 values.
-    pub fn raise_fault(&mut self, ctx: &mut Ctx<'_>, code: u16, info: [u8; 5], reaction: Reaction) {
+    pub fn raise_fault(&mut self, ctx: &mut Ctx<'_>, code: EmcyCode, info: [u8; 5], reaction: Reaction) {
         self.fault_reacting(ctx, code, info, reaction);
         self.publish(ctx);
     }
 
     /// Transition 13 with the given fault reaction.
-    fn fault_reacting(&mut self, ctx: &mut Ctx<'_>, code: u16, info: [u8; 5], reaction: Reaction) {
+    fn fault_reacting(&mut self, ctx: &mut Ctx<'_>, code: EmcyCode, info: [u8; 5], reaction: Reaction) {
         self.s.error_code = code;
-        objects::set(ctx, index::ERROR_CODE, 2, i32::from(code));
+        objects::set(ctx, index::ERROR_CODE, 2, i32::from(code.value()));
         ctx.raise_error(code, info);
         if self.s.state.drive_function() && reaction != Reaction::Coast && self.drive.fault() == 0 {
             (self.s.state, self.s.reaction, self.s.braking) = (PdsState::FaultReactionActive, reaction, false);

@@ -2,6 +2,7 @@
 //! (0x6503/0x6505, CiA 406 §6.4–6.5): pure functions of the values.
 
 use super::SensorFault;
+use crate::wire::emcy::EmcyCode;
 
 /// 0x6400 bit 0: the position is outside the module's min/max (0x650A:02/03).
 pub const OUT_OF_RANGE: u8 = 1 << 0;
@@ -32,7 +33,7 @@ pub fn work_area_state(position: u32, low: u32, high: u32, min: i32, max: i32) -
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ErrorEmcy {
     /// The EMCY error code.
-    pub code: u16,
+    pub code: EmcyCode,
     /// Error register (0x1001) bits the error sets while it lasts, beyond
     /// those of its code's class (CiA 301 table 21 gives 0x1000 none; the
     /// Sendix's position error sets bit 5 "device profile", manual §5.5.3).
@@ -71,7 +72,7 @@ pub enum EmcyChange {
     /// The first bit of this code came on.
     Raise(ErrorEmcy),
     /// The last bit of this code went off.
-    Clear(u16),
+    Clear(EmcyCode),
 }
 
 /// The EMCY changes when the bits go from `old` to `new`: a code is raised
@@ -99,14 +100,14 @@ mod tests {
 
     #[test]
     fn a_shared_code_is_raised_once_and_cleared_with_its_last_bit() {
-        let temperature = ErrorEmcy { code: 0x4200, register: 0, info: [1, 0, 0, 0, 0] };
-        let memory = ErrorEmcy { code: 0x5200, register: 0, info: [0; 5] };
+        let temperature = ErrorEmcy { code: EmcyCode(0x4200), register: 0, info: [1, 0, 0, 0, 0] };
+        let memory = ErrorEmcy { code: EmcyCode(0x5200), register: 0, info: [0; 5] };
         let t = [BitEmcy { mask: 0x4001, emcy: temperature }, BitEmcy { mask: 0x8000, emcy: memory }];
         let v: Vec<_> = emcy_changes(&t, 0, 0x4000).collect();
         assert_eq!(v, [EmcyChange::Raise(temperature)]);
         assert_eq!(emcy_changes(&t, 0x4000, 0x4001).count(), 0);
         assert_eq!(emcy_changes(&t, 0x4001, 0x0001).count(), 0);
         let v: Vec<_> = emcy_changes(&t, 0x0001, 0x8000).collect();
-        assert_eq!(v, [EmcyChange::Clear(0x4200), EmcyChange::Raise(memory)]);
+        assert_eq!(v, [EmcyChange::Clear(EmcyCode(0x4200)), EmcyChange::Raise(memory)]);
     }
 }

@@ -22,6 +22,7 @@ pub mod speed;
 
 use crate::abort::AbortCode;
 use crate::node::Ctx;
+use crate::od::le_u32;
 use crate::time::{Duration, Instant};
 use diag::{BitEmcy, EmcyChange, ErrorEmcy, FaultAlarm};
 use scaling::Scaling;
@@ -475,14 +476,6 @@ fn steps_between(a: u64, b: u64, range: u64) -> i64 {
     let d = if b >= a { (b - a) % range } else { range - (a - b) % range };
     let d = d % range;
     if d > range / 2 { -((range - d) as i64) } else { d as i64 }
-}
-
-fn le_u32(data: &[u8]) -> u32 {
-    let mut b = [0u8; 4];
-    for (d, s) in b.iter_mut().zip(data) {
-        *d = *s;
-    }
-    u32::from_le_bytes(b)
 }
 
 #[cfg(test)]

@@ -17,13 +17,17 @@
 //!   an RPDO, where they skip bytes: 0x06040041 in a TPDO.
 
 use crate::abort::AbortCode;
-use crate::od::{Attr, DataType, Dictionary, Entry};
+use crate::od::{Attr, DataType, Dictionary, Entry, object, sub_entry, value_u32};
 use crate::wire::pdo_mapping::MappingEntry;
 
 /// Most entries one mapping can hold: with byte granularity, 8 bytes hold at most 8 objects.
 pub const MAX_ENTRIES: usize = 8;
 /// Most data bytes of a PDO (a classic CAN frame).
 pub const MAX_LEN: usize = 8;
+
+/// A [`Mapping`] byte that is no image byte: the constant in its low 8 bits.
+/// RAM image offsets stay below it ([`Slot::resolve`]).
+const CONSTANT: u16 = 0x8000;
 
 /// Which way a PDO carries data.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,6 +87,10 @@ impl Slot {
         if usize::from(object.len) > MAX_LEN {
             return Err(AbortCode::PdoTooLong);
         }
+        // A RAM image past 32 KiB would reach the constant marker of the byte table.
+        if !object.in_rom() && u32::from(object.offset) + u32::from(object.len) > u32::from(CONSTANT) {
+            return Err(AbortCode::NotMappable);
+        }
         let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
         Ok(Slot { source, len: object.len as u8 })
     }
@@ -90,16 +98,26 @@ impl Slot {
 
 /// A mapping resolved against the dictionary: at most [`MAX_ENTRIES`]
 /// slots and [`MAX_LEN`] bytes.
+///
+/// Beside the slots, built with them when the mapping changes, where every
+/// PDO byte comes from or goes to (`gather`): building a TPDO or applying an
+/// RPDO is one load and one store per byte, instead of a walk over the
+/// slots with a copy per object.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Mapping {
     slots: [Slot; MAX_ENTRIES],
+    /// PDO byte i: the RAM image offset it is read from or written to, or
+    /// [`CONSTANT`] with the byte itself (a ROM object's value, or 0 for a
+    /// dummy entry, which an RPDO does not write).
+    gather: [u16; MAX_LEN],
     count: u8,
     len: u8,
 }
 
 impl Mapping {
     /// The mapping of sub-index 0 = 0: nothing mapped (the PDO is disabled).
-    pub const EMPTY: Mapping = Mapping { slots: [Slot { source: Source::Dummy, len: 0 }; MAX_ENTRIES], count: 0, len: 0 };
+    pub const EMPTY: Mapping =
+        Mapping { slots: [Slot { source: Source::Dummy, len: 0 }; MAX_ENTRIES], gather: [0; MAX_LEN], count: 0, len: 0 };
 
     /// Reads and resolves the mapping record `index` (0x1600+n or 0x1A00+n)
     /// as the image holds it.
@@ -142,6 +160,17 @@ impl Mapping {
         }
         mapping.count = count as u8;
         mapping.len = total as u8;
+        let mut bytes = mapping.gather.iter_mut();
+        for slot in mapping.slots.iter().take(count) {
+            for i in 0..u16::from(slot.len) {
+                let Some(g) = bytes.next() else { break };
+                *g = match slot.source {
+                    Source::Ram(offset) => offset + i,
+                    Source::Rom(offset) => CONSTANT | u16::from(dict.rom.get(usize::from(offset + i)).copied().unwrap_or(0)),
+                    Source::Dummy => CONSTANT,
+                };
+            }
+        }
         Ok(mapping)
     }
 
@@ -162,64 +191,22 @@ impl Mapping {
 
     /// Copies the mapped values into `out`; returns the PDO length. Dummy
     /// slots (never in a valid TPDO) read as zeros.
-    pub fn build(&self, dict: &Dictionary, image: &[u8], out: &mut [u8; MAX_LEN]) -> usize {
-        let mut pos = 0usize;
-        for slot in self.slots() {
-            let len = usize::from(slot.len);
-            let src = match slot.source {
-                Source::Ram(offset) => image.get(usize::from(offset)..usize::from(offset) + len),
-                Source::Rom(offset) => dict.rom.get(usize::from(offset)..usize::from(offset) + len),
-                Source::Dummy => None,
-            };
-            if let Some(dst) = out.get_mut(pos..pos + len) {
-                match src {
-                    Some(src) => dst.copy_from_slice(src),
-                    None => dst.fill(0),
-                }
-            }
-            pos += len;
+    pub fn build(&self, image: &[u8], out: &mut [u8; MAX_LEN]) -> usize {
+        for (o, &g) in out.iter_mut().zip(self.gather.iter().take(usize::from(self.len))) {
+            *o = if g & CONSTANT != 0 { g as u8 } else { image.get(usize::from(g)).copied().unwrap_or(0) };
         }
-        pos
+        usize::from(self.len)
     }
 
     /// Writes the mapped objects from received PDO data, which the caller
     /// has checked holds at least [`Mapping::len`] bytes. Dummy slots are skipped.
     pub fn apply(&self, image: &mut [u8], data: &[u8]) {
-        let mut pos = 0usize;
-        for slot in self.slots() {
-            let len = usize::from(slot.len);
-            if let (Source::Ram(offset), Some(src)) = (slot.source, data.get(pos..pos + len))
-                && let Some(dst) = image.get_mut(usize::from(offset)..usize::from(offset) + len)
+        for (&b, &g) in data.iter().zip(self.gather.iter().take(usize::from(self.len))) {
+            if g & CONSTANT == 0
+                && let Some(d) = image.get_mut(usize::from(g))
             {
-                dst.copy_from_slice(src);
+                *d = b;
             }
-            pos += len;
         }
     }
 }
-
-/// The entries of object `index`: two binary searches over the sorted
-/// table, never a scan of the dictionary.
-pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
-    let entries: &'static [Entry] = dict.entries;
-    let first = u32::from(index) << 8;
-    let start = entries.partition_point(|e| e.key() < first);
-    let end = entries.partition_point(|e| e.key() < first + 0x100);
-    entries.get(start..end).unwrap_or(&[])
-}
-
-/// Sub-index `sub` within the entries of one object (at most 255 of them).
-// Out of line, as `value_u32`: a dozen callers each had a copy (536 bytes for both).
-#[inline(never)]
-pub(crate) fn sub_entry(record: &'static [Entry], sub: u8) -> Option<&'static Entry> {
-    record.iter().find(|e| e.sub == sub)
-}
-
-/// The value of an integer entry of up to 4 bytes, little-endian.
-// Out of line: see `sub_entry`.
-#[inline(never)]
-pub(crate) fn value_u32(dict: &Dictionary, image: &[u8], entry: &Entry) -> u32 {
-    le_u32(dict.value(image, entry))
-}
-
-pub(crate) use crate::od::le_u32;

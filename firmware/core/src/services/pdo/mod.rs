@@ -68,11 +68,13 @@ fn configured_mapping(
 mod tests;
 
 use crate::abort::AbortCode;
-use crate::od::{Dictionary, Entry};
+use crate::od::{Dictionary, index};
+use crate::od::{le_u32, object, precheck, sub_entry, value_u32};
 use crate::services::sync::SyncEvent;
 use crate::time::{Duration, Instant, earliest};
+use crate::wire::emcy::EmcyCode;
 use crate::wire::pdo_mapping::MappingEntry;
-use map::{Direction, Mapping, Slot, le_u32, object, sub_entry, value_u32};
+use map::{Direction, Mapping, Slot};
 use rpdo::Rpdo;
 use tpdo::Tpdo;
 
@@ -224,14 +226,14 @@ pub enum PdoEvent {
         /// The RPDO (0-based).
         rpdo: usize,
         /// The EMCY error code.
-        code: u16,
+        code: EmcyCode,
     },
     /// That condition ended (a good RPDO arrived): the node clears `code`.
     ErrorCleared {
         /// The RPDO (0-based).
         rpdo: usize,
         /// The EMCY error code.
-        code: u16,
+        code: EmcyCode,
     },
 }
 
@@ -256,15 +258,6 @@ pub struct MappingError {
     pub code: AbortCode,
 }
 
-/// First RPDO communication record.
-const RPDO_COMM: u16 = 0x1400;
-/// First RPDO mapping record.
-const RPDO_MAP: u16 = 0x1600;
-/// First TPDO communication record.
-const TPDO_COMM: u16 = 0x1800;
-/// First TPDO mapping record.
-const TPDO_MAP: u16 = 0x1A00;
-
 /// The PDOs of a node: `R` RPDOs and `T` TPDOs (the generated
 /// `RPDO_COUNT` and `TPDO_COUNT`).
 #[derive(Clone, Debug)]
@@ -283,7 +276,14 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// method that may change a PDO clears `settled`.
     settled_deadline: Option<Instant>,
     settled: bool,
+    /// Bit t of entry n: RPDO n writes an object event-driven TPDO t maps,
+    /// worked out whenever a mapping or a type changes, so that an RPDO
+    /// only makes the TPDOs it can change look for a change.
+    rpdo_reach: [u32; R],
 }
+
+/// All TPDOs (a mask of [`Pdos::poll_changed`]).
+pub const ALL_TPDOS: u32 = u32::MAX;
 
 /// `rx_ids` entry of an RPDO that listens to nothing (not a valid 11-bit id).
 const NO_ID: u16 = u16::MAX;
@@ -298,6 +298,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             operational: false,
             settled_deadline: None,
             settled: false,
+            rpdo_reach: [ALL_TPDOS; R],
         }
     }
 }
@@ -317,6 +318,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             operational: false,
             settled_deadline: None,
             settled: false,
+            rpdo_reach: [0; R],
         }
     }
 
@@ -337,9 +339,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
             // Reset communication also resets the node's errors: nothing is raised any more.
             *rpdo = Rpdo::default();
-            let mapping = configured_mapping(dict, image, RPDO_MAP + n, Direction::Receive, &mut first_error);
-            rpdo.set(CommParams::read(dict, image, RPDO_COMM + n), mapping);
-            rpdo.cob_id_writable = cob_id_writable(dict, RPDO_COMM + n);
+            let mapping = configured_mapping(dict, image, index::RPDO_MAPPING_PARAMETER + n, Direction::Receive, &mut first_error);
+            rpdo.set(CommParams::read(dict, image, index::RPDO_COMMUNICATION_PARAMETER + n), mapping);
+            rpdo.cob_id_writable = cob_id_writable(dict, index::RPDO_COMMUNICATION_PARAMETER + n);
         }
         self.window_end = None;
         self.operational = false;
@@ -357,10 +359,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             *tpdo = Tpdo::default();
             tpdo.set_change_detection(change_detection);
             tpdo.timer_only_254 = timer_only;
-            let mapping = configured_mapping(dict, image, TPDO_MAP + n, Direction::Transmit, &mut first_error);
-            tpdo.set(CommParams::read(dict, image, TPDO_COMM + n), mapping);
-            tpdo.cob_id_writable = cob_id_writable(dict, TPDO_COMM + n);
+            let mapping = configured_mapping(dict, image, index::TPDO_MAPPING_PARAMETER + n, Direction::Transmit, &mut first_error);
+            tpdo.set(CommParams::read(dict, image, index::TPDO_COMMUNICATION_PARAMETER + n), mapping);
+            tpdo.cob_id_writable = cob_id_writable(dict, index::TPDO_COMMUNICATION_PARAMETER + n);
         }
+        // What each RPDO reaches depends on the TPDOs' mappings.
+        self.refresh_rx_ids();
         first_error.map_or(Ok(()), Err)
     }
 
@@ -391,12 +395,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn reload_mappings(&mut self, dict: &Dictionary, image: &[u8]) {
         self.settled = false;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, RPDO_MAP + n, Direction::Receive) {
+            if let Ok(mapping) = Mapping::read(dict, image, index::RPDO_MAPPING_PARAMETER + n, Direction::Receive) {
                 rpdo.set(rpdo.params, Some(mapping));
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, TPDO_MAP + n, Direction::Transmit) {
+            if let Ok(mapping) = Mapping::read(dict, image, index::TPDO_MAPPING_PARAMETER + n, Direction::Transmit) {
                 tpdo.set(tpdo.params, Some(mapping));
             }
         }
@@ -483,6 +487,38 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
+        for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
+            let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
+            *reach = slots.iter().fold(0, |mask, slot| match slot.source {
+                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, offset, u16::from(slot.len)),
+                _ => mask,
+            });
+        }
+    }
+
+    /// The event-driven TPDOs that map any byte of `len` image bytes at
+    /// `offset` (what a write there may change).
+    pub fn tpdos_mapping(&self, offset: u16, len: u16) -> u32 {
+        tpdos_mapping(&self.tpdos, offset, len)
+    }
+
+    /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
+    /// to, and the TPDOs waiting to retry: those a [`Pdos::poll_changed`]
+    /// after those RPDOs must look at.
+    #[inline(never)]
+    pub fn reached_by(&self, rpdos: u32) -> u32 {
+        let mut mask = self.retrying();
+        let mut bits = rpdos;
+        while bits != 0 {
+            mask |= self.rpdo_reach.get(bits.trailing_zeros() as usize).copied().unwrap_or(ALL_TPDOS);
+            bits &= bits - 1;
+        }
+        mask
+    }
+
+    /// The TPDOs waiting to retry a refused frame.
+    pub fn retrying(&self) -> u32 {
+        retry_mask(&self.tpdos)
     }
 
     fn write_parameter(
@@ -496,13 +532,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     ) -> Option<Result<(), AbortCode>> {
         // The same rules for both directions: only the PDO's reaction differs.
         let (direction, base) = match index {
-            RPDO_COMM..=0x17FF => (Direction::Receive, RPDO_COMM),
-            TPDO_COMM..=0x1BFF => (Direction::Transmit, TPDO_COMM),
+            index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST => {
+                (Direction::Receive, index::RPDO_COMMUNICATION_PARAMETER)
+            }
+            index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST => {
+                (Direction::Transmit, index::TPDO_COMMUNICATION_PARAMETER)
+            }
             _ => return None,
         };
         let offset = index.wrapping_sub(base);
-        let is_mapping = offset >= RPDO_MAP - RPDO_COMM;
-        let n = usize::from(offset % (RPDO_MAP - RPDO_COMM));
+        let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
+        let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
         let (params, cob_id_writable) = match direction {
             Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
             Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
@@ -560,42 +600,52 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let window_open = self.window_end.is_none_or(|end| now <= end);
         let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
         let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
-        self.settled = false;
         rpdo.on_frame(n, now, data, window_open, image, out);
+        // Only this RPDO's timeout moved, and only later (or it started):
+        // the settled deadline stays good, or early, which is harmless.
+        self.settled_deadline = earliest(self.settled_deadline, rpdo.timeout_at());
         true
     }
 
     /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once
     /// its inhibit time is over). Ignored unless Operational.
-    pub fn on_rtr(&mut self, now: Instant, cob_id: u16, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub fn on_rtr(&mut self, now: Instant, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.operational {
             return false;
         }
         let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
         self.settled = false;
-        tpdo.on_rtr(now, dict, image, tx)
+        tpdo.on_rtr(now, image, tx)
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then
     /// synchronous TPDOs are sent. Ignored unless Operational.
-    pub fn on_sync(&mut self, sync: &SyncEvent, dict: &Dictionary, image: &mut [u8], tx: &mut impl PdoTx) {
+    pub fn on_sync(&mut self, sync: &SyncEvent, image: &mut [u8], tx: &mut impl PdoTx) {
         if !self.operational {
             return;
         }
-        self.settled = false;
+        // No deadline moves: synchronous TPDOs have none, and a refused
+        // frame is retried at the next change ([`Pdos::retrying`]).
         self.window_end = sync.window_end;
         for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
             rpdo.on_sync(n, image, tx);
         }
         for tpdo in self.tpdos.iter_mut() {
-            tpdo.on_sync(sync, dict, image, tx);
+            tpdo.on_sync(sync, image, tx);
         }
     }
 
     /// Runs the timers (event timers, inhibit times, RPDO deadlines), change
     /// detection and retries; returns the next deadline. Call it when that
     /// deadline is reached and after the application changed mapped objects.
-    pub fn poll(&mut self, now: Instant, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+    pub fn poll(&mut self, now: Instant, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+        self.poll_changed(now, ALL_TPDOS, image, tx)
+    }
+
+    /// [`Pdos::poll`] where only the TPDOs of `changed` (bit t: TPDO t;
+    /// TPDOs past 31 always) may see changed data: the others are looked
+    /// at only when a timer of theirs is due or they wait to retry.
+    pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
         if !self.operational {
             return None;
         }
@@ -603,13 +653,21 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdo.poll(n, now, tx);
         }
         let window_end = self.window_end;
-        for tpdo in self.tpdos.iter_mut() {
-            tpdo.poll(now, window_end, dict, image, tx);
+        for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
+            let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
+            if changed & bit != 0 || bit == 0 || tpdo.due(now) {
+                tpdo.poll(now, window_end, image, tx);
+            }
         }
         self.settled = false;
         self.settled_deadline = self.deadline();
         self.settled = true;
         self.settled_deadline
+    }
+
+    /// [`Pdos::deadline`] when it is known without walking the PDOs.
+    pub fn settled(&self) -> Option<Option<Instant>> {
+        (self.settled || !self.operational).then_some(self.settled_deadline.filter(|_| self.operational))
     }
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
@@ -626,24 +684,29 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     }
 }
 
+/// [`Pdos::tpdos_mapping`] (a free function: it runs while the RPDOs are borrowed).
+#[inline(never)]
+fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
+    let (start, end) = (u32::from(offset), u32::from(offset) + u32::from(len));
+    let mut mask = 0;
+    for (t, tpdo) in tpdos.iter().enumerate() {
+        if tpdo.maps_any(start, end) {
+            mask |= 1u32.checked_shl(t as u32).unwrap_or(0);
+        }
+    }
+    // TPDOs past 31 have no bit: they are always looked at.
+    if tpdos.len() > 32 { mask | ALL_TPDOS } else { mask }
+}
+
+/// Bit t: TPDO t waits to retry.
+#[inline(never)]
+fn retry_mask(tpdos: &[Tpdo]) -> u32 {
+    tpdos.iter().enumerate().fold(0, |mask, (t, tpdo)| if tpdo.retrying() { mask | 1u32.checked_shl(t as u32).unwrap_or(0) } else { mask })
+}
+
 /// Whether sub 1 of a communication record can be written at all.
 fn cob_id_writable(dict: &Dictionary, index: u16) -> bool {
     dict.find(index, 1).is_ok_and(|e| e.writable())
-}
-
-/// The checks `Dictionary::write` makes before any semantic rule: the entry
-/// exists, is writable, and `data` has its exact length (PDO and SYNC
-/// parameters are fixed-size integers).
-pub(crate) fn precheck(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
-    let entry = dict.find(index, sub)?;
-    if !entry.writable() {
-        return Err(AbortCode::ReadOnly);
-    }
-    match data.len().cmp(&usize::from(entry.len)) {
-        core::cmp::Ordering::Greater => Err(AbortCode::LengthTooHigh),
-        core::cmp::Ordering::Less => Err(AbortCode::LengthTooLow),
-        core::cmp::Ordering::Equal => Ok(entry),
-    }
 }
 
 /// An SDO download into a communication record; returns the new record.

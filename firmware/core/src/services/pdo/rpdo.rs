@@ -15,7 +15,7 @@
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoEvent, PdoTx};
 use crate::time::{Duration, Instant};
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 
 /// The state of one RPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,7 +32,7 @@ pub struct Rpdo {
     /// EMCY 0x8250 is raised.
     timed_out: bool,
     /// EMCY 0x8210 or 0x8220 raised and not yet ended.
-    length_error: Option<u16>,
+    length_error: Option<EmcyCode>,
 }
 
 impl Default for Rpdo {
@@ -101,8 +101,8 @@ impl Rpdo {
         // By reference: copying the mapping out costs more than the frame's own work.
         let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return };
         let error = match data.len().cmp(&len) {
-            core::cmp::Ordering::Less => Some(code::PDO_LENGTH),
-            core::cmp::Ordering::Greater => Some(code::PDO_LENGTH_EXCEEDED),
+            core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
+            core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
             core::cmp::Ordering::Equal => None,
         };
         if error != self.length_error {
@@ -119,7 +119,7 @@ impl Rpdo {
         }
         if self.timed_out {
             self.timed_out = false;
-            out.event(PdoEvent::ErrorCleared { rpdo: n, code: code::RPDO_TIMEOUT });
+            out.event(PdoEvent::ErrorCleared { rpdo: n, code: EmcyCode::RPDO_TIMEOUT });
         }
         let timer = self.params.event_timer();
         self.timeout_at = (timer != Duration::ZERO).then(|| now + timer);
@@ -152,11 +152,16 @@ impl Rpdo {
         if self.timeout_at.is_some_and(|t| now >= t) {
             self.timeout_at = None;
             self.timed_out = true;
-            out.event(PdoEvent::Error { rpdo: n, code: code::RPDO_TIMEOUT });
+            out.event(PdoEvent::Error { rpdo: n, code: EmcyCode::RPDO_TIMEOUT });
         }
     }
 
     /// When the event timer expires.
+    /// When the RPDO times out, if its timer runs.
+    pub(super) fn timeout_at(&self) -> Option<Instant> {
+        self.timeout_at
+    }
+
     pub(super) fn deadline(&self) -> Option<Instant> {
         self.cob_id().and(self.timeout_at)
     }

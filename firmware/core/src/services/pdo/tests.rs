@@ -9,7 +9,7 @@
 
 use super::*;
 use crate::od::{Attr, DataType, DeviceInfo, Entry, Limits, NO_LIMITS};
-use crate::wire::emcy::code;
+use crate::wire::emcy::EmcyCode;
 
 // ---- The dictionary ------------------------------------------------------------
 
@@ -234,11 +234,11 @@ impl Node {
     }
 
     fn poll(&mut self, t: Instant) -> Option<Instant> {
-        self.pdos.poll(t, &DICT, &self.image, &mut self.bus)
+        self.pdos.poll(t, &self.image, &mut self.bus)
     }
 
     fn sync(&mut self, sync: SyncEvent) {
-        self.pdos.on_sync(&sync, &DICT, &mut self.image, &mut self.bus);
+        self.pdos.on_sync(&sync, &mut self.image, &mut self.bus);
     }
 
     fn rx(&mut self, t: Instant, cob_id: u16, data: &[u8]) -> bool {
@@ -246,7 +246,7 @@ impl Node {
     }
 
     fn rtr(&mut self, t: Instant, cob_id: u16) -> bool {
-        self.pdos.on_rtr(t, cob_id, &DICT, &self.image, &mut self.bus)
+        self.pdos.on_rtr(t, cob_id, &self.image, &mut self.bus)
     }
 
     fn frames(&mut self) -> Vec<(u16, Vec<u8>)> {

@@ -24,7 +24,6 @@
 
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
-use crate::od::Dictionary;
 use crate::services::sync::SyncEvent;
 use crate::time::{Duration, Instant};
 
@@ -178,9 +177,9 @@ impl Tpdo {
         true
     }
 
-    fn build(&self, dict: &Dictionary, image: &[u8]) -> ([u8; MAX_LEN], usize) {
+    fn build(&self, image: &[u8]) -> ([u8; MAX_LEN], usize) {
         let mut buf = [0u8; MAX_LEN];
-        let len = self.mapping.as_ref().map_or(0, |m| m.build(dict, image, &mut buf));
+        let len = self.mapping.as_ref().map_or(0, |m| m.build(image, &mut buf));
         (buf, len)
     }
 
@@ -205,7 +204,7 @@ impl Tpdo {
     }
 
     /// Types 254/255: timers, change detection, and the send once the inhibit time allows.
-    fn service_event(&mut self, now: Instant, cob_id: u16, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) {
+    fn service_event(&mut self, now: Instant, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
         let timer = self.params.event_timer();
         if timer != Duration::ZERO {
             match self.event_at {
@@ -214,7 +213,7 @@ impl Tpdo {
                 Some(_) => {}
             }
         }
-        let (buf, len) = self.build(dict, image);
+        let (buf, len) = self.build(image);
         self.change_pending = !self.no_change_detection && !self.timer_only() && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
@@ -225,10 +224,10 @@ impl Tpdo {
     }
 
     /// Timers and retries.
-    pub(super) fn poll(&mut self, now: Instant, window_end: Option<Instant>, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn poll(&mut self, now: Instant, window_end: Option<Instant>, image: &[u8], tx: &mut impl PdoTx) {
         let Some(cob_id) = self.cob_id() else { return };
         if self.is_event_driven() {
-            self.service_event(now, cob_id, dict, image, tx);
+            self.service_event(now, cob_id, image, tx);
         } else if let Some(buf) = self.pending_sync {
             let len = self.mapping.as_ref().map_or(0, Mapping::len);
             if window_end.is_some_and(|end| now > end) || self.transmit(cob_id, buf, len, tx) {
@@ -238,13 +237,13 @@ impl Tpdo {
     }
 
     /// A SYNC (received or produced).
-    pub(super) fn on_sync(&mut self, sync: &SyncEvent, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
         let Some(cob_id) = self.cob_id() else { return };
         // A frame refused at the previous SYNC is stale now.
         self.pending_sync = None;
         let send = match self.params.transmission_type {
             0 => {
-                let (buf, len) = self.build(dict, image);
+                let (buf, len) = self.build(image);
                 (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
             }
             n @ 1..=240 => {
@@ -258,11 +257,11 @@ impl Tpdo {
                 self.sync_count = self.sync_count.saturating_add(1);
                 (self.sync_count >= n).then(|| {
                     self.sync_count = 0;
-                    self.build(dict, image)
+                    self.build(image)
                 })
             }
             252 => {
-                self.sample = Some(self.build(dict, image).0);
+                self.sample = Some(self.build(image).0);
                 None
             }
             _ => None,
@@ -275,7 +274,7 @@ impl Tpdo {
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
-    pub(super) fn on_rtr(&mut self, now: Instant, dict: &Dictionary, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub(super) fn on_rtr(&mut self, now: Instant, image: &[u8], tx: &mut impl PdoTx) -> bool {
         let Some(cob_id) = self.cob_id() else { return false };
         if !self.params.rtr_allowed() {
             return false;
@@ -283,18 +282,18 @@ impl Tpdo {
         match self.params.transmission_type {
             252 => {
                 // Before the first SYNC there is no sample yet: send what is there now (as Lely does).
-                let (fresh, len) = self.build(dict, image);
+                let (fresh, len) = self.build(image);
                 let buf = self.sample.unwrap_or(fresh);
                 self.transmit(cob_id, buf, len, tx)
             }
             253 => {
-                let (buf, len) = self.build(dict, image);
+                let (buf, len) = self.build(image);
                 self.transmit(cob_id, buf, len, tx)
             }
             254 | 255 => {
                 self.event = true;
                 self.blocked = false;
-                self.service_event(now, cob_id, dict, image, tx);
+                self.service_event(now, cob_id, image, tx);
                 true
             }
             _ => false,
@@ -303,6 +302,27 @@ impl Tpdo {
 
     /// The next time [`Tpdo::poll`] has work: the event timer, or the end of
     /// the inhibit time of a pending event. `Instant::ZERO` means "now".
+    /// Whether a frame the queue refused waits to be retried.
+    pub(super) fn retrying(&self) -> bool {
+        self.blocked || self.pending_sync.is_some()
+    }
+
+    /// Whether [`Tpdo::poll`] has work at `now` without a change of the
+    /// mapped data: a timer due, or a retry.
+    pub(super) fn due(&self, now: Instant) -> bool {
+        self.retrying() || self.deadline().is_some_and(|d| d <= now)
+    }
+
+    /// Whether this TPDO is event-driven (it looks for changes) and maps an
+    /// image byte in `start..end`.
+    pub(super) fn maps_any(&self, start: u32, end: u32) -> bool {
+        let Some(mapping) = self.mapping.as_ref().filter(|_| self.is_event_driven()) else { return false };
+        mapping.slots().iter().any(|slot| match slot.source {
+            super::map::Source::Ram(offset) => u32::from(offset) < end && start < u32::from(offset) + u32::from(slot.len),
+            _ => false,
+        })
+    }
+
     pub(super) fn deadline(&self) -> Option<Instant> {
         self.cob_id()?;
         if !self.is_event_driven() {

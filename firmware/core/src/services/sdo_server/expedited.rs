@@ -33,7 +33,13 @@ impl Channel {
 
     /// Initiate SDO upload.
     pub(super) fn initiate_upload(&mut self, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        match od.upload_size(self.mux.index, self.mux.sub) {
+        let (index, sub) = (self.mux.index, self.mux.sub);
+        let mut data = [0u8; EXPEDITED_MAX];
+        match od.upload_small(index, sub, &mut data) {
+            Ok(size @ 1..=EXPEDITED_MAX) => {
+                let size = Some(u8::try_from(size).unwrap_or(4));
+                self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Expedited { data, size } }, tx);
+            }
             Ok(size) => self.upload_response(size, od, tx),
             Err(code) => self.abort(code, tx),
         }

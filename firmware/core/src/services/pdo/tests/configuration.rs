@@ -32,7 +32,7 @@ fn a_mapping_that_does_not_resolve_silences_its_pdo() {
     assert_eq!(pdos.rpdo(0).unwrap().cob_id(), Some(0x201), "the others are configured");
     pdos.enter_operational(ms(0));
     let mut bus = Bus::default();
-    assert_eq!(pdos.poll(ms(0), &DICT, &image, &mut bus), None);
+    assert_eq!(pdos.poll(ms(0), &image, &mut bus), None);
     assert!(bus.frames.is_empty());
 }
 

@@ -23,10 +23,10 @@ fn rpdo_length_errors() {
     assert!(node.rx(ms(1), 0x201, &[1, 2]));
     assert!(node.rx(ms(2), 0x201, &[]));
     assert_eq!(node.get(0x2001, 0), [0, 0]);
-    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: code::PDO_LENGTH }]);
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH }]);
     // The right length ends it.
     assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
-    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: 0x8210 }, PdoEvent::Received(0)]);
+    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8210) }, PdoEvent::Received(0)]);
     // Longer: the mapped bytes are processed, EMCY 0x8220.
     assert!(node.rx(ms(4), 0x201, &[4, 5, 6, 7, 8, 9, 10, 11]));
     assert_eq!(node.get(0x2001, 0), [4, 5]);
@@ -37,12 +37,12 @@ fn rpdo_length_errors() {
     assert_eq!(
         node.events(),
         [
-            PdoEvent::Error { rpdo: 0, code: code::PDO_LENGTH_EXCEEDED },
+            PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH_EXCEEDED },
             PdoEvent::Received(0),
             PdoEvent::Received(0),
-            PdoEvent::ErrorCleared { rpdo: 0, code: 0x8220 },
-            PdoEvent::Error { rpdo: 0, code: 0x8210 },
-            PdoEvent::ErrorCleared { rpdo: 0, code: 0x8210 },
+            PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8220) },
+            PdoEvent::Error { rpdo: 0, code: EmcyCode(0x8210) },
+            PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8210) },
             PdoEvent::Received(0),
         ]
     );
@@ -68,7 +68,7 @@ fn configure_forgets_raised_errors_but_keeps_change_detection() {
     let mut node = Node::operational(ms(0));
     node.pdos.set_change_detection(0, false);
     assert!(node.rx(ms(1), 0x201, &[1]));
-    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: 0x8210 }]);
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: EmcyCode(0x8210) }]);
     assert_eq!(node.pdos.configure(&DICT, &node.image), Ok(()));
     node.pdos.enter_operational(ms(2));
     assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
@@ -89,11 +89,11 @@ fn rpdo_timeout_is_armed_by_the_first_rpdo() {
     assert_eq!(node.poll(ms(1069)), Some(ms(1070)));
     node.events();
     assert_eq!(node.poll(ms(1070)), None);
-    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: code::RPDO_TIMEOUT }]);
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: EmcyCode::RPDO_TIMEOUT }]);
     assert_eq!(node.poll(ms(2000)), None);
     assert_eq!(node.events(), [], "raised once");
     assert!(node.rx(ms(2100), 0x201, &[0, 0, 0]));
-    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: 0x8250 }, PdoEvent::Received(0)]);
+    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8250) }, PdoEvent::Received(0)]);
     assert_eq!(node.pdos.deadline(), Some(ms(2150)));
     // A too-short RPDO does not count as received.
     assert!(node.rx(ms(2140), 0x201, &[0]));
