@@ -39,7 +39,7 @@ fn every_entry_matches_its_eds() {
                     assert!(got.is_empty());
                     continue;
                 }
-                assert_eq!(&got[..expected.len()], &expected[..], "{} 0x{:04X} sub {}", dev.name, e.index, e.sub);
+                assert_eq!(&got[..expected.len()], &expected[..], "{} 0x{:04X} sub {}", dev.name, { e.index }, { e.sub });
                 assert!(got[expected.len()..].iter().all(|&b| b == 0));
             }
         }

@@ -125,14 +125,14 @@ fn reads_by_access_type<O: ObjectDictionary, const R: usize, const T: usize, con
     for e in entries(dict) {
         let got = b.sdo_upload(ID, e.index, e.sub);
         if e.readable() {
-            let v = got.unwrap_or_else(|code| panic!("{name} {:04X}:{}: abort {code:08X}", e.index, e.sub));
+            let v = got.unwrap_or_else(|code| panic!("{name} {:04X}:{}: abort {code:08X}", { e.index }, { e.sub }));
             if e.data_type.size().is_some() {
-                assert_eq!(v.len(), usize::from(e.len), "{name} {:04X}:{}", e.index, e.sub);
+                assert_eq!(v.len(), usize::from(e.len), "{name} {:04X}:{}", { e.index }, { e.sub });
             } else {
-                assert!(v.len() <= usize::from(e.len), "{name} {:04X}:{}", e.index, e.sub);
+                assert!(v.len() <= usize::from(e.len), "{name} {:04X}:{}", { e.index }, { e.sub });
             }
         } else {
-            assert_eq!(got, Err(0x0601_0001), "{name} {:04X}:{}", e.index, e.sub);
+            assert_eq!(got, Err(0x0601_0001), "{name} {:04X}:{}", { e.index }, { e.sub });
         }
     }
 }
@@ -164,7 +164,7 @@ fn cct_4_7_access_by_access_type_in_operational() {
 fn check_defaults<O: ObjectDictionary, const R: usize, const T: usize, const HB: usize>(b: &mut B<O, R, T, HB>, name: &str) {
     let dict = dictionary(b);
     for e in entries(dict).filter(|e| e.readable()) {
-        assert_eq!(b.sdo_upload(ID, e.index, e.sub), Ok(default_value(dict, e)), "{name} {:04X}:{}", e.index, e.sub);
+        assert_eq!(b.sdo_upload(ID, e.index, e.sub), Ok(default_value(dict, e)), "{name} {:04X}:{}", { e.index }, { e.sub });
     }
 }
 
@@ -211,8 +211,8 @@ fn read_only_refuses_writes<O: ObjectDictionary, const R: usize, const T: usize,
         if value.is_empty() {
             value.push(0);
         }
-        assert_eq!(b.sdo_download(ID, e.index, e.sub, &value), Err(0x0601_0002), "{name} {:04X}:{}", e.index, e.sub);
-        assert_eq!(b.sdo_upload(ID, e.index, e.sub), Ok(default_value(dict, e)), "{name} {:04X}:{} unchanged", e.index, e.sub);
+        assert_eq!(b.sdo_download(ID, e.index, e.sub, &value), Err(0x0601_0002), "{name} {:04X}:{}", { e.index }, { e.sub });
+        assert_eq!(b.sdo_upload(ID, e.index, e.sub), Ok(default_value(dict, e)), "{name} {:04X}:{} unchanged", { e.index }, { e.sub });
     }
 }
 
@@ -226,7 +226,7 @@ fn write_only_refuses_reads<O: ObjectDictionary, const R: usize, const T: usize,
     let dict = dictionary(&b);
     let mut n = 0;
     for e in dict.entries.iter().filter(|e| !e.readable()) {
-        assert_eq!(b.sdo_upload(ID, e.index, e.sub), Err(0x0601_0001), "{name} {:04X}:{}", e.index, e.sub);
+        assert_eq!(b.sdo_upload(ID, e.index, e.sub), Err(0x0601_0001), "{name} {:04X}:{}", { e.index }, { e.sub });
         // A block upload too, where the device serves block transfer (else
         // its command specifier is unknown: 0x05040001).
         let [lo, hi] = e.index.to_le_bytes();
@@ -255,7 +255,7 @@ fn no_structure_sub_index<O: ObjectDictionary, const R: usize, const T: usize, c
             continue;
         }
         last = Some(e.index);
-        assert_eq!(b.sdo_upload(ID, e.index, 0xFF), Err(0x0609_0011), "{name} {:04X}", e.index);
+        assert_eq!(b.sdo_upload(ID, e.index, 0xFF), Err(0x0609_0011), "{name} {:04X}", { e.index });
     }
 }
 
@@ -284,7 +284,7 @@ fn limits_respected<O: ObjectDictionary, const R: usize, const T: usize, const H
             Kind::Unsigned => (i128::from(limits.low), i128::from(limits.high), 0, (1i128 << bits) - 1),
             _ => continue,
         };
-        let at = format!("{name} {:04X}:{}", e.index, e.sub);
+        let at = format!("{name} {:04X}:{}", { e.index }, { e.sub });
         let original = b.sdo_upload(ID, e.index, e.sub).unwrap();
         if low > min {
             assert_eq!(b.sdo_download(ID, e.index, e.sub, &le(low - 1, len)), Err(0x0609_0032), "{at} low − 1");
@@ -317,7 +317,7 @@ fn read_and_write_back<O: ObjectDictionary, const R: usize, const T: usize, cons
     let mut b = boot::<O, R, T, HB>(ram);
     let dict = dictionary(&b);
     for e in entries(dict).filter(|e| e.readable() && e.writable() && !is_command(e)) {
-        let at = format!("{name} {:04X}:{}", e.index, e.sub);
+        let at = format!("{name} {:04X}:{}", { e.index }, { e.sub });
         let value = b.sdo_upload(ID, e.index, e.sub).unwrap_or_else(|code| panic!("{at}: abort {code:08X}"));
         assert_eq!(b.sdo_download(ID, e.index, e.sub, &value), Ok(()), "{at}");
         assert_eq!(b.sdo_upload(ID, e.index, e.sub), Ok(value), "{at}");

@@ -351,19 +351,19 @@ fn every_dictionary_is_sorted_and_every_readable_entry_reads() {
             assert_eq!(dict.find(e.index, e.sub), Ok(e), "{name}");
             let read = dict.read(&image, e.index, e.sub);
             if !e.readable() {
-                assert_eq!(read, Err(AbortCode::WriteOnly), "{name} 0x{:04X} sub {}", e.index, e.sub);
+                assert_eq!(read, Err(AbortCode::WriteOnly), "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
             } else if e.data_type == DataType::Domain {
-                assert_eq!(read, Err(AbortCode::CannotStore), "{name} 0x{:04X} sub {}", e.index, e.sub);
+                assert_eq!(read, Err(AbortCode::CannotStore), "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
             } else {
-                let value = read.unwrap_or_else(|err| panic!("{name} 0x{:04X} sub {}: {err:?}", e.index, e.sub));
-                assert_eq!(dict.value(&image, e).len(), usize::from(e.len), "{name} 0x{:04X} sub {}", e.index, e.sub);
+                let value = read.unwrap_or_else(|err| panic!("{name} 0x{:04X} sub {}: {err:?}", { e.index }, { e.sub }));
+                assert_eq!(dict.value(&image, e).len(), usize::from(e.len), "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
                 if e.data_type == DataType::VisibleString {
-                    assert!(value.len() <= usize::from(e.len), "{name} 0x{:04X} sub {}", e.index, e.sub);
+                    assert!(value.len() <= usize::from(e.len), "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
                 } else {
-                    assert_eq!(value.len(), usize::from(e.len), "{name} 0x{:04X} sub {}", e.index, e.sub);
+                    assert_eq!(value.len(), usize::from(e.len), "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
                 }
                 if let Some(size) = e.data_type.size() {
-                    assert_eq!(usize::from(e.len), size, "{name} 0x{:04X} sub {}", e.index, e.sub);
+                    assert_eq!(usize::from(e.len), size, "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
                 }
             }
         }
@@ -383,10 +383,10 @@ fn node_id_relative_entries_move_with_the_node_id_and_nothing_else_does() {
         let mut covered = vec![false; a.len()];
         for &pos in dict.node_id_relative {
             let e = &dict.entries[usize::from(pos)];
-            assert!(!e.in_rom(), "{name} 0x{:04X} sub {}", e.index, e.sub);
+            assert!(!e.in_rom(), "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
             let (va, vb) = (le(&a[e.range()]), le(&b[e.range()]));
             let mask = if e.len >= 8 { u64::MAX } else { (1u64 << (8 * e.len)) - 1 };
-            assert_eq!(vb.wrapping_sub(va) & mask, 0x7E, "{name} 0x{:04X} sub {}", e.index, e.sub);
+            assert_eq!(vb.wrapping_sub(va) & mask, 0x7E, "{name} 0x{:04X} sub {}", { e.index }, { e.sub });
             covered[e.range()].iter_mut().for_each(|c| *c = true);
             relative_total += 1;
         }

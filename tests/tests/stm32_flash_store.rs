@@ -60,7 +60,11 @@ fn power_cycle_load(dict: &Dictionary, defaults: &[u8], storage: &MemStorage) ->
 
 /// The stored entries whose bytes differ between `a` and `b`, as `index:sub`.
 fn differing(dict: &Dictionary, a: &[u8], b: &[u8]) -> Vec<String> {
-    dict.entries.iter().filter(|e| stored(e) && a[e.range()] != b[e.range()]).map(|e| format!("{:#06x}:{}", e.index, e.sub)).collect()
+    dict.entries
+        .iter()
+        .filter(|e| stored(e) && a[e.range()] != b[e.range()])
+        .map(|e| format!("{:#06x}:{}", { e.index }, { e.sub }))
+        .collect()
 }
 
 fn no_violations(storage: &MemStorage, what: &str) {

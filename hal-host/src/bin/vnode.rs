@@ -222,7 +222,13 @@ fn load_eds(path: &std::path::Path) -> Result<&'static Dictionary, String> {
 /// PDO number without a record is an invalid PDO, as on a generated node.
 fn serve_eds(dictionary: &'static Dictionary, id: u8, storage: Box<dyn Storage>, cli: &Cli) -> Result<(), String> {
     let extent = |first: u16, last: u16| {
-        dictionary.entries.iter().filter(|e| (first..=last).contains(&e.index)).map(|e| usize::from(e.index - first) + 1).max().unwrap_or(0)
+        dictionary
+            .entries
+            .iter()
+            .filter(|e| (first..=last).contains(&{ e.index }))
+            .map(|e| usize::from(e.index - first) + 1)
+            .max()
+            .unwrap_or(0)
     };
     let pdos = extent(0x1400, 0x15FF).max(extent(0x1800, 0x19FF));
     let od = RuntimeRam::new(dictionary, id);

@@ -18,7 +18,7 @@ pub(crate) struct Placed<'a> {
     pub(crate) attr: Attr,
     pub(crate) len: usize,
     pub(crate) offset: usize,
-    pub(crate) limits: u16,
+    pub(crate) limits: u8,
 }
 
 /// The placed dictionary: what the generated module and [`crate::runtime`] hold.
@@ -61,7 +61,10 @@ pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
                         l.limits.push(pair);
                         l.limits.len() - 1
                     });
-                    u16::try_from(pos).map_err(|_| LayoutError("more than 65535 distinct limits".into()))?
+                    // The entry's limits field is one byte, NO_LIMITS its last value.
+                    u8::try_from(pos).ok().filter(|&p| p != NO_LIMITS).ok_or_else(|| {
+                        LayoutError(format!("more than {NO_LIMITS} distinct LowLimit/HighLimit pairs (0x{:04X}:{:02X})", o.index, s.sub))
+                    })?
                 }
                 None => NO_LIMITS,
             };

@@ -4,7 +4,7 @@
 use super::*;
 use crate::abort::AbortCode;
 
-const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u16) -> Entry {
+const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u8) -> Entry {
     Entry { index, sub, data_type, attr, len, offset, limits }
 }
 
@@ -179,4 +179,11 @@ fn a_write_tells_whether_the_image_changed() {
     assert!(DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
     assert!(!DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
     assert_eq!(DICT.read(&img, 0x2001, 0), Ok(&b"ab"[..]));
+}
+
+#[test]
+fn an_entry_is_ten_bytes_in_flash() {
+    // The largest dictionary has about 380 entries: two bytes more each would
+    // not fit the b maXX 4400 image (Entry's docs).
+    assert_eq!(core::mem::size_of::<Entry>(), 10);
 }
