@@ -393,7 +393,18 @@ pub(crate) fn ensure_venv() -> Result<PathBuf, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::node_in_bss;
+    use super::{flash_budget, node_in_bss};
+
+    #[test]
+    fn a_drive_may_fill_its_program_region_the_others_48_kib() {
+        // The EC5000's and the Agile's sets fit a page each (2 KiB of
+        // storage), the b maXX 4400's takes two (4 KiB).
+        assert_eq!(flash_budget("ec5000"), 62 * 1024);
+        assert_eq!(flash_budget("agile"), 62 * 1024);
+        assert_eq!(flash_budget("bmaxx4400"), 60 * 1024);
+        assert_eq!(flash_budget("sendix"), 48 * 1024);
+        assert_eq!(flash_budget("unitek-ds"), 48 * 1024);
+    }
 
     #[test]
     fn the_node_must_be_in_bss() {

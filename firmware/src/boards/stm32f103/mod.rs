@@ -51,8 +51,8 @@ pub use board::{Config, Storage, StorageHandle, run, unattached_storage};
 pub const LINKED_STORAGE_KIB: [(&str, u32); 5] = include!(concat!(env!("OUT_DIR"), "/linked_storage.rs"));
 
 /// KiB of flash an image without its own `__storage_kib` leaves after its
-/// program (the template and out-of-tree images): room for two regions of
-/// two pages, any set up to 2 KiB.
+/// program (the template and out-of-tree images; `memory.x`'s fallback):
+/// room for two regions of two pages, any set up to 2 KiB.
 pub const DEFAULT_STORAGE_KIB: u32 = 4;
 
 /// Bytes of flash the image `image` (its bin name) links its program into:
