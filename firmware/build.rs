@@ -5,29 +5,55 @@
 //!
 //! For MCU builds it also hands the linker the cortex-m-rt and defmt
 //! scripts; the memory layout is the root `memory.x`, with a symbol that
-//! selects the QEMU board's regions.
+//! selects the QEMU board's regions, and for each STM32F103 image one that
+//! sizes the flash its stored parameters take (the program gets the rest).
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 const DEVICES: [&str; 5] = ["ec5000", "unitek-ds", "sendix", "bmaxx4400", "agile"];
 
 fn main() {
+    let mut linked = String::from("[\n");
+    let mut storage = Vec::new();
     for device in DEVICES {
-        od_gen::build::generate_strict(&Path::new("eds").join(format!("{device}.eds")), &device.replace('-', "_"));
+        let ram_size = od_gen::build::generate_strict(&Path::new("eds").join(format!("{device}.eds")), &device.replace('-', "_"));
+        let kib = storage_kib(ram_size);
+        let _ = writeln!(linked, "    (\"{device}-stm32f103\", {kib}),");
+        storage.push((device, kib));
     }
+    linked.push(']');
+    // The firmware checks these against its flash layout (`boards::stm32f103::LINKED_STORAGE_KIB`).
+    let out = std::env::var("OUT_DIR").expect("cargo sets OUT_DIR");
+    std::fs::write(Path::new(&out).join("linked_storage.rs"), linked).expect("OUT_DIR is writable");
     if std::env::var("CARGO_CFG_TARGET_OS").is_ok_and(|os| os == "none") {
-        link_board();
+        link_board(&storage);
     }
+}
+
+/// KiB of STM32F103C8 flash the stored parameters of a device whose RAM
+/// image is `ram_size` bytes take: two regions of the 1 KiB pages one set
+/// needs, the image plus the 24-byte store header in half-words
+/// (`boards::region_size`, `Layout::stm32f103c8`; the firmware checks that
+/// they agree with this at compile time).
+fn storage_kib(ram_size: usize) -> usize {
+    2 * (ram_size + 24).next_multiple_of(2).div_ceil(1024).max(1)
 }
 
 /// Puts the board's memory layout into `OUT_DIR` as `memory.x` (the name
 /// cortex-m-rt's `link.x` includes) and adds the linker scripts to the bins.
-fn link_board() {
+fn link_board(storage: &[(&str, usize)]) {
     // One layout file, the root `memory.x` (the linker finds it first: it runs
-    // in the workspace root); the QEMU board selects its own regions in it.
+    // in the workspace root); the QEMU board selects its own regions in it,
+    // each STM32 image the flash its storage takes.
     println!("cargo::rerun-if-changed=../memory.x");
     if std::env::var_os("CARGO_FEATURE_BOARD_QEMU").is_some() {
         println!("cargo::rustc-link-arg-bins=--defsym=__qemu_lm3s6965=1");
+    }
+    if std::env::var_os("CARGO_FEATURE_BOARD_STM32F103").is_some() {
+        for (device, kib) in storage {
+            println!("cargo::rustc-link-arg-bin={device}-stm32f103=--defsym=__storage_kib={kib}");
+        }
     }
     for script in ["-Tlink.x", "-Tdefmt.x"] {
         println!("cargo::rustc-link-arg-bins={script}");

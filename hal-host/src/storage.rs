@@ -318,13 +318,15 @@ mod tests {
     use super::*;
 
     fn c8(region: usize) -> Layout {
-        Layout { base: 60 * 1024, page: 1024, stride: 2048, region: region as u32 }
+        Layout::stm32f103c8(region)
     }
 
     #[test]
     fn the_model_enforces_the_parts_rules() {
+        // The b maXX 4400's set: two pages a region, from 60 KiB.
         let mut f = FlashModel::new(c8(1114));
         let base = 60 * 1024;
+        assert_eq!(f.layout().base, base);
         let mut two = [0u8; 2];
         assert_eq!(f.read(base + 1, &mut two), Err(StorageError::OutOfRange), "odd offset (the HAL's AddressMisaligned)");
         assert_eq!(f.read(base, &mut [0u8; 3]), Err(StorageError::OutOfRange), "odd length");
@@ -389,7 +391,13 @@ mod tests {
             s.erase(1).unwrap();
             assert_eq!(s.steps(), pages, "{region} bytes on {page}-byte pages");
         }
-        // Region 1 starts a stride after region 0, on its own pages.
+        // Region 1 starts a stride after region 0, on its own pages: on the
+        // STM32F103C8 a set of one page has one-page regions at 62 and 63 KiB,
+        // and the page below them is the program's.
+        let mut f = FlashModel::new(c8(600));
+        assert_eq!((f.layout().base, f.layout().stride), (62 * 1024, 1024));
+        assert_eq!(f.erase_page(61 * 1024), Err(StorageError::OutOfRange), "a program page");
+        f.erase_page(63 * 1024).unwrap();
         let mut s = MemStorage::with_layout(c8(600));
         s.write(0, 0, &[0; 600]).unwrap();
         s.erase(1).unwrap();

@@ -7,12 +7,24 @@ use crate::Options;
 
 /// Generates the module for `eds` into `OUT_DIR/<module>.rs`, strictly (any
 /// warning fails the build), and asks cargo to rerun when the file changes.
-/// Stops the build with the diagnostics if the file is not valid.
-pub fn generate_strict(eds: &Path, module: &str) {
+/// Stops the build with the diagnostics if the file is not valid. Returns
+/// the size of the module's RAM image (its `RAM_SIZE`), for a build script
+/// that sizes something by it (the firmware's flash storage).
+pub fn generate_strict(eds: &Path, module: &str) -> usize {
     println!("cargo::rerun-if-changed={}", eds.display());
-    match crate::generate_path(eds, Options { strict: true }) {
-        Ok(code) => write_out(module, &code),
-        Err(diagnostics) => fail(&diagnostics),
+    let (model, diagnostics) = match crate::load_path(eds, Options { strict: true }) {
+        Ok(loaded) => loaded,
+        Err(e) => fail(&e),
+    };
+    if diagnostics.has_errors() {
+        fail(&diagnostics.to_string());
+    }
+    match crate::codegen::generate(&model, &diagnostics.file).and_then(|code| Ok((code, crate::codegen::ram_size(&model)?))) {
+        Ok((code, ram_size)) => {
+            write_out(module, &code);
+            ram_size
+        }
+        Err(e) => fail(&format!("{}: error: {}", diagnostics.file, e.0)),
     }
 }
 

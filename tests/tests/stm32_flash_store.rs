@@ -195,6 +195,31 @@ fn a_store_erases_one_page_where_the_set_fits_one() {
     assert_eq!(pages, [1, 1, 1, 2, 1]);
 }
 
+/// On the F103C8 the storage takes the pages its sets need and the program
+/// the rest: region 0 starts where each STM32 image's `memory.x` flash ends
+/// (firmware/build.rs gives the linker `__storage_kib` from the RAM image
+/// od-gen computes), region 1 right after it, and both end at 64 KiB.
+#[test]
+fn each_images_storage_starts_where_its_program_flash_ends() {
+    use firmware::boards::stm32f103::{LINKED_STORAGE_KIB, program_flash};
+    let mut regions = Vec::new();
+    for device in &firmware::devices::ALL {
+        let image = format!("{}-stm32f103", device.name);
+        let layout = Layout::stm32f103c8(region_size(device.dictionary.defaults.len()));
+        let linked = LINKED_STORAGE_KIB.iter().find(|(name, _)| *name == image).map(|&(_, kib)| kib);
+        assert_eq!(linked.map(|kib| 64 * 1024 - kib * 1024), Some(layout.base), "{image}: build.rs and the layout disagree");
+        assert_eq!(program_flash(&image), layout.base, "{image}");
+        assert_eq!(layout.base + 2 * layout.stride, 64 * 1024, "{image}: region 1 ends the flash");
+        regions.push((device.name, layout.base / 1024, layout.stride / 1024));
+    }
+    assert_eq!(
+        regions,
+        [("ec5000", 62, 1), ("unitek-ds", 62, 1), ("sendix", 62, 1), ("bmaxx4400", 60, 2), ("agile", 62, 1)],
+        "(device, program KiB, KiB per region)"
+    );
+    assert_eq!(program_flash("my-device"), 60 * 1024, "an image of your own keeps 4 KiB for its storage");
+}
+
 /// The same through the node: SDO 0x1017 = 50 ms, 0x1010 sub 2 "save",
 /// power cycle, and 0x1017 is 50 ms; then LSS "store configuration" with a
 /// stored set gives the stored node-id after the next power cycle.

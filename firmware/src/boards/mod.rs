@@ -11,7 +11,9 @@
 //! Each board exports the same items, which [`crate::image!`] uses:
 //! `Config` (with a `DEFAULT`), `Storage<const REGION: usize>` (with an
 //! `attach(StorageHandle)`), `StorageHandle` (what the storage gets at
-//! start-up), `const fn unattached_storage()` and
+//! start-up), `const fn unattached_storage()`,
+//! `const fn check_link(image, region)` (stops an image's build whose
+//! storage and program's flash disagree) and
 //! `run(config, make_node, application) -> !`.
 
 #[cfg(all(feature = "board-qemu", feature = "board-stm32f103"))]
@@ -75,7 +77,11 @@ macro_rules! image {
         #[::cortex_m_rt::entry]
         fn main() -> ! {
             use $device as device;
-            type Storage = $crate::boards::$board::Storage<{ $crate::boards::region_size(device::od::RAM_SIZE) }>;
+            const REGION: usize = $crate::boards::region_size(device::od::RAM_SIZE);
+            // The storage's flash layout and the program's `memory.x` region
+            // (build.rs sizes it per image) must agree.
+            const { $crate::boards::$board::check_link(env!("CARGO_BIN_NAME"), REGION) };
+            type Storage = $crate::boards::$board::Storage<REGION>;
             type Node = device::Node<Storage>;
             // Built at compile time, in `.bss` (canopen_core::node): no
             // node-sized value on the stack at start-up (docs/firmware.md, "Stack").

@@ -30,6 +30,11 @@ pub fn generate(eds: &Eds, source: &str) -> Result<String, LayoutError> {
     generate_with(eds, source, services(eds))
 }
 
+/// Bytes of the RAM image of the module [`generate`] makes for `eds` (its `RAM_SIZE`).
+pub fn ram_size(eds: &Eds) -> Result<usize, LayoutError> {
+    Ok(layout(eds)?.ram.len())
+}
+
 /// Values longer than this (or a DOMAIN) make block transfer worth linking:
 /// below it a segmented transfer takes a handful of frames.
 pub const BLOCK_THRESHOLD: usize = 64;

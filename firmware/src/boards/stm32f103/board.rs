@@ -21,7 +21,7 @@ use stm32f1xx_hal::watchdog::IndependentWatchdog;
 use super::bit_timing;
 use super::can;
 use super::flash::Flash;
-use super::flash_storage::{FlashStorage, Layout};
+use super::flash_storage::{FlashStorage, HalfWordFlash, Layout};
 use super::reset_cause::{self, ResetCause};
 use crate::app::{self, CanNode, Controller, SHARED, Started};
 use crate::boards::{stack, systick};
@@ -54,8 +54,10 @@ pub const fn unattached_storage<const REGION: usize>() -> Storage<REGION> {
 }
 
 impl<const REGION: usize> Storage<REGION> {
-    /// Hands the storage its flash controller (before the node's power-on).
-    pub fn attach(&mut self, handle: StorageHandle) {
+    /// Hands the storage its flash controller (before the node's power-on)
+    /// and logs the sets it holds.
+    pub fn attach(&mut self, mut handle: StorageHandle) {
+        log_stored_sets(&mut handle, self.flash().layout());
         self.flash_mut().attach(handle);
     }
 }
@@ -133,7 +135,6 @@ pub fn run<A>(
     // The BTR table is computed for PCLK1_HZ.
     defmt::assert_eq!(rcc.clocks.pclk1().raw(), PCLK1_HZ);
     systick::init(core.SYST, rcc.clocks.sysclk().raw());
-    log_stored_sets(&mut flash);
     let started = Started::build(make_node, || flash, app::now());
     // Why the last reset happened: an EMCY the node sends after its boot-up
     // (it waits for the call after the one that queues the boot-up).
@@ -205,11 +206,10 @@ fn start_crystal(rcc: &pac::RCC) {
 
 /// Logs the stored parameter sets the node will look at (header only: the
 /// node checks the CRC when it loads).
-fn log_stored_sets(flash: &mut stm32f1xx_hal::flash::Parts) {
+fn log_stored_sets(flash: &mut stm32f1xx_hal::flash::Parts, layout: Layout) {
     let writer = flash.writer(SectorSize::Sz1K, FlashSize::Sz64K);
-    const LAYOUT: Layout = Layout::stm32f103c8(0);
     for region in 0..2u32 {
-        let at = LAYOUT.base + region * LAYOUT.stride;
+        let at = layout.base + region * layout.stride;
         let header = writer.read(at, 16).ok().and_then(|h| h.try_into().ok()).map(|h: [u8; 16]| h);
         match header {
             Some([m0, m1, m2, m3, _, _, _, _, _, _, _, _, s0, s1, s2, s3]) if u32::from_le_bytes([m0, m1, m2, m3]) == store::MAGIC => {

@@ -14,8 +14,9 @@
 //! header at offset 0; an odd trailing byte therefore waits here until the
 //! next byte of the same half-word arrives, or is programmed with 0xFF as
 //! its partner before anything else happens. A store erases only the pages
-//! the set occupies ([`Layout::region`] rounded up to pages), so every
-//! image but the b maXX 4400's erases one page per store, not two.
+//! the set occupies ([`Layout::region`] rounded up to pages), and each
+//! region has just those pages ([`Layout::stm32f103c8`]): one for every
+//! image but the b maXX 4400's, whose set takes two.
 
 use canopen_core::storage::{Storage, StorageError};
 
@@ -33,13 +34,22 @@ pub struct Layout {
 }
 
 impl Layout {
-    /// STM32F103C8 (64 KiB, 1 KiB pages): region 0 at 60 KiB, region 1 at
-    /// 62 KiB, so the 60 KiB below stay for the program (the root
-    /// `memory.x`); each region has two pages because the largest RAM image
-    /// (b maXX 4400, 1090 bytes) plus the store header does not fit one.
-    /// `region` is what the image's set needs (`boards::region_size`).
+    /// STM32F103C8 (64 KiB, 1 KiB pages) for sets of `region` bytes (what
+    /// the image's set needs, `boards::region_size`): each region has the
+    /// whole pages one set needs (at least one), and the two lie at the end
+    /// of flash, region 1 right after region 0, so the program gets all
+    /// below [`Layout::base`] (the image's `memory.x` region, which the
+    /// firmware's build script sizes the same way: [`super::LINKED_STORAGE_KIB`]).
+    /// One page for every set but the b maXX 4400's (1090 bytes of RAM image
+    /// plus the store header), which takes two.
     pub const fn stm32f103c8(region: usize) -> Layout {
-        let layout = Layout { base: 60 * 1024, page: 1024, stride: 2 * 1024, region: region as u32 };
+        const PAGE: u32 = 1024;
+        const FLASH: u32 = 64 * 1024;
+        let pages = if region == 0 { 1 } else { region.div_ceil(PAGE as usize) };
+        // Half the flash at most: the program needs the rest.
+        assert!(pages <= 16, "the RAM image does not fit a storage region");
+        let stride = pages as u32 * PAGE;
+        let layout = Layout { base: FLASH - 2 * stride, page: PAGE, stride, region: region as u32 };
         assert!(layout.is_valid(), "the RAM image does not fit a storage region");
         layout
     }
