@@ -13,6 +13,9 @@
 //! - [`id`]: node-IDs, COB-ID entries and the restricted CAN-IDs.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
+// Nothing panics on input (docs: style guide §2.3): no indexing or slicing,
+// `unwrap`, `expect` or `panic!` in the library; tests may use them.
+#![cfg_attr(not(test), deny(clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod abort;
 pub mod axis;

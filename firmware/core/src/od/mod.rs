@@ -222,13 +222,11 @@ impl Dictionary {
             return Err(AbortCode::CannotStore);
         }
         let len = usize::from(entry.len);
-        if entry.data_type.is_variable_length() {
-            if data.len() > len {
-                return Err(AbortCode::LengthTooHigh);
-            }
-        } else if data.len() > len {
+        if data.len() > len {
             return Err(AbortCode::LengthTooHigh);
-        } else if data.len() < len {
+        }
+        // A string or domain may be shorter than its capacity.
+        if data.len() < len && !entry.data_type.is_variable_length() {
             return Err(AbortCode::LengthTooLow);
         }
         if let Some(limits) = self.limits_of(entry) {

@@ -13,7 +13,6 @@
 //! (client → server, COB-ID 0x600 + node-ID) and responses (server → client,
 //! 0x580 + node-ID) have their own types. Parsers never panic; reserved bits
 //! ("x" in CiA 301) are ignored on input and sent as 0.
-#![deny(clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use super::sdo_block::{BlockDownloadRequest, BlockDownloadResponse, BlockUploadRequest, BlockUploadResponse};
 
@@ -321,7 +320,6 @@ impl SdoResponse {
 }
 
 #[cfg(test)]
-#[allow(clippy::indexing_slicing, clippy::unwrap_used, clippy::panic)]
 mod tests {
     use super::*;
 

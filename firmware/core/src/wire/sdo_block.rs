@@ -20,7 +20,6 @@
 //!
 //! Sub-block segments carry no command specifier: whoever receives them
 //! knows from its state that a sub-block is under way.
-#![deny(clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use super::sdo::{SdoParseError, frame, multiplexer, with_multiplexer};
 
@@ -356,7 +355,6 @@ impl BlockSegment {
 }
 
 #[cfg(test)]
-#[allow(clippy::indexing_slicing, clippy::unwrap_used, clippy::panic)]
 mod tests {
     use super::*;
 

@@ -13,6 +13,11 @@
 //! (data written into the dictionary, EMCY conditions) comes out through
 //! [`PdoTx::event`].
 //!
+//! This file holds [`Pdos`] (configuration and the frames in and out);
+//! `comm_params` the cached communication record and its rules, `write` the
+//! SDO downloads of the parameter records, `map` the mappings, `rpdo` and
+//! `tpdo` one PDO each.
+//!
 //! Every call does bounded work: finding an RPDO or TPDO by COB-ID is a
 //! walk over the `R` or `T` PDOs, building or applying a PDO copies at most
 //! 8 bytes, and the dictionary is searched only when a mapping is configured
@@ -40,9 +45,13 @@
 //!   sent yet, so the data "changed"); synchronous acyclic ones on the first
 //!   SYNC. Event timers start then.
 
+mod comm_params;
 pub mod map;
 pub mod rpdo;
 pub mod tpdo;
+mod write;
+
+pub use comm_params::{COB_ID_INVALID, COB_ID_NO_RTR, CommParams};
 
 /// The mapping of PDO mapping record `index` as configured: `None` for a
 /// record the dictionary lacks (no PDO to speak of) or one that does not
@@ -68,151 +77,14 @@ fn configured_mapping(
 mod tests;
 
 use crate::abort::AbortCode;
+use crate::od::object;
 use crate::od::{Dictionary, index};
-use crate::od::{le_u32, object, precheck, sub_entry, value_u32};
 use crate::services::sync::SyncEvent;
-use crate::time::{Duration, Instant, earliest};
+use crate::time::{Instant, earliest};
 use crate::wire::emcy::EmcyCode;
-use crate::wire::pdo_mapping::MappingEntry;
-use map::{Direction, Mapping, Slot};
+use map::{Direction, Mapping};
 use rpdo::Rpdo;
 use tpdo::Tpdo;
-
-/// COB-ID bit 31: the PDO does not exist (is not valid).
-pub const COB_ID_INVALID: u32 = 1 << 31;
-/// COB-ID bit 30: no RTR allowed on this PDO.
-pub const COB_ID_NO_RTR: u32 = 1 << 30;
-/// COB-ID bit 29 (29-bit frame) and bits 11..28: extended identifiers, not supported.
-const COB_ID_EXTENDED: u32 = 0x3FFF_F800;
-
-pub use crate::id::is_restricted_can_id;
-
-/// The communication parameter record of one PDO (0x1400+n or 0x1800+n) as cached.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct CommParams {
-    /// Sub 1: COB-ID (bit 31 = not valid, bit 30 = no RTR, bits 0..10 = CAN-ID).
-    pub cob_id: u32,
-    /// Sub 2: transmission type.
-    pub transmission_type: u8,
-    /// Sub 3: inhibit time in 100 µs (0 if the record has no sub 3).
-    pub inhibit_time_100us: u16,
-    /// Sub 5: event timer in ms (0 if the record has no sub 5).
-    pub event_timer_ms: u16,
-    /// Sub 6: SYNC start value (0 if the record has no sub 6).
-    pub sync_start: u8,
-}
-
-impl Default for CommParams {
-    fn default() -> Self {
-        Self::DEFAULT
-    }
-}
-
-impl CommParams {
-    /// A record without sub-indices: an invalid PDO of type 254.
-    pub const DEFAULT: CommParams =
-        CommParams { cob_id: COB_ID_INVALID, transmission_type: 254, inhibit_time_100us: 0, event_timer_ms: 0, sync_start: 0 };
-
-    /// All zero bits, for the PDOs before their first configuration (which
-    /// their empty mapping keeps silent); not a record anyone wrote.
-    const UNCONFIGURED: CommParams =
-        CommParams { cob_id: 0, transmission_type: 0, inhibit_time_100us: 0, event_timer_ms: 0, sync_start: 0 };
-
-    /// Reads record `index` (0x1400+n or 0x1800+n): two binary searches. A
-    /// record without sub 1 is an invalid PDO; a missing sub 2 reads as 254.
-    pub fn read(dict: &Dictionary, image: &[u8], index: u16) -> CommParams {
-        let mut params = CommParams::default();
-        // One pass over the record's entries rather than a search per sub-index.
-        for entry in object(dict, index) {
-            let value = value_u32(dict, image, entry);
-            match entry.sub {
-                1 => params.cob_id = value,
-                2 => params.transmission_type = value as u8,
-                3 => params.inhibit_time_100us = value as u16,
-                5 => params.event_timer_ms = value as u16,
-                6 => params.sync_start = value as u8,
-                _ => {}
-            }
-        }
-        params
-    }
-
-    /// Bit 31 clear: the PDO exists.
-    pub const fn valid(&self) -> bool {
-        self.cob_id & COB_ID_INVALID == 0
-    }
-
-    /// Bit 30 clear: RTRs are allowed.
-    pub const fn rtr_allowed(&self) -> bool {
-        self.cob_id & COB_ID_NO_RTR == 0
-    }
-
-    /// The 11-bit CAN-ID.
-    pub const fn can_id(&self) -> u16 {
-        (self.cob_id & 0x7FF) as u16
-    }
-
-    /// Types 0..=240 work with the SYNC.
-    pub const fn is_synchronous(&self) -> bool {
-        self.transmission_type <= 240
-    }
-
-    /// Sub 3 as a duration.
-    pub const fn inhibit_time(&self) -> Duration {
-        Duration::from_micros(self.inhibit_time_100us as u64 * 100)
-    }
-
-    /// Sub 5 as a duration.
-    pub const fn event_timer(&self) -> Duration {
-        Duration::from_millis(self.event_timer_ms as u64)
-    }
-
-    /// Applies an SDO download of sub-index `sub` (already checked for
-    /// length) and returns the new record, or the abort code CiA 301 gives.
-    /// With `rewrite`, the CAN-ID may change while the PDO stays valid
-    /// (a device whose manual allows it, [`Pdos::write_object_with`]).
-    fn with(self, direction: Direction, sub: u8, value: u32, rewrite: bool) -> Result<CommParams, AbortCode> {
-        let mut new = self;
-        match sub {
-            1 => {
-                new.cob_id = value;
-                let can_id_changes = new.can_id() != self.can_id();
-                if value & COB_ID_EXTENDED != 0
-                    || (new.valid() && is_restricted_can_id(new.can_id()))
-                    || (!rewrite && new.valid() && self.valid() && can_id_changes)
-                    || (direction == Direction::Transmit && new.valid() && !new.rtr_allowed() && matches!(new.transmission_type, 252 | 253))
-                {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
-            2 => {
-                new.transmission_type = value as u8;
-                let reserved = match direction {
-                    Direction::Receive => 241..=253,
-                    Direction::Transmit => 241..=251,
-                };
-                if reserved.contains(&new.transmission_type) || (matches!(new.transmission_type, 252 | 253) && !new.rtr_allowed()) {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
-            3 => {
-                new.inhibit_time_100us = value as u16;
-                if self.valid() && new.inhibit_time_100us != self.inhibit_time_100us {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
-            5 => new.event_timer_ms = value as u16,
-            6 => {
-                new.sync_start = value as u8;
-                if new.sync_start > 240 || (self.valid() && new.sync_start != self.sync_start) {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
-            _ => {}
-        }
-        Ok(new)
-    }
-}
 
 /// What the PDOs tell the node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -454,33 +326,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
     }
 
-    /// An SDO download of (index, sub): `None` if it is not a parameter of
-    /// one of these PDOs, else the outcome. On success the image holds the
-    /// value (through [`Dictionary::write`]) and the PDO uses it.
-    pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
-        self.write_object_with(index, sub, data, dict, image, false)
-    }
-
-    /// [`Pdos::write_object`], with `rewrite` for a device whose manual
-    /// lets a valid PDO change: mapping entries are written while sub 0 is
-    /// not 0 (each entry checked as it is written; the PDO takes the new
-    /// mapping when sub 0 is written or at [`Pdos::reload_mappings`]), and
-    /// the COB-ID may move while valid.
-    pub fn write_object_with(
-        &mut self,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        dict: &Dictionary,
-        image: &mut [u8],
-        rewrite: bool,
-    ) -> Option<Result<(), AbortCode>> {
-        self.settled = false;
-        let result = self.write_parameter(index, sub, data, dict, image, rewrite);
-        self.refresh_rx_ids();
-        result
-    }
-
     // Out of line: configure and write_object each had a copy (100 bytes more).
     #[inline(never)]
     fn refresh_rx_ids(&mut self) {
@@ -519,76 +364,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The TPDOs waiting to retry a refused frame.
     pub fn retrying(&self) -> u32 {
         retry_mask(&self.tpdos)
-    }
-
-    fn write_parameter(
-        &mut self,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        dict: &Dictionary,
-        image: &mut [u8],
-        rewrite: bool,
-    ) -> Option<Result<(), AbortCode>> {
-        // The same rules for both directions: only the PDO's reaction differs.
-        let (direction, base) = match index {
-            index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST => {
-                (Direction::Receive, index::RPDO_COMMUNICATION_PARAMETER)
-            }
-            index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST => {
-                (Direction::Transmit, index::TPDO_COMMUNICATION_PARAMETER)
-            }
-            _ => return None,
-        };
-        let offset = index.wrapping_sub(base);
-        let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
-        let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
-        let (params, cob_id_writable) = match direction {
-            Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
-            Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
-        };
-        if is_mapping {
-            let locked = params.valid() && cob_id_writable && !rewrite;
-            let mapping = match write_map(locked, rewrite, direction, index, sub, data, dict, image) {
-                Ok(Some(mapping)) => mapping,
-                Ok(None) => return Some(Ok(())),
-                Err(code) => return Some(Err(code)),
-            };
-            match direction {
-                Direction::Receive => self.rpdos.get_mut(n).map(|r| r.set(params, Some(mapping))),
-                Direction::Transmit => self.tpdos.get_mut(n).map(|t| t.set(params, Some(mapping))),
-            };
-            return Some(Ok(()));
-        }
-        let new = match write_comm(params, direction, index, sub, data, dict, image, rewrite) {
-            Ok(new) => new,
-            Err(code) => return Some(Err(code)),
-        };
-        let restart = (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type);
-        let timer_changed = params.event_timer_ms != new.event_timer_ms;
-        match direction {
-            Direction::Receive => {
-                if let Some(rpdo) = self.rpdos.get_mut(n) {
-                    rpdo.params = new;
-                    if restart {
-                        rpdo.restart();
-                    } else if timer_changed {
-                        rpdo.disarm_timer();
-                    }
-                }
-            }
-            Direction::Transmit => {
-                if let Some(tpdo) = self.tpdos.get_mut(n) {
-                    tpdo.params = new;
-                    if restart {
-                        tpdo.restart(None);
-                    } else if timer_changed {
-                        tpdo.rearm_timer();
-                    }
-                }
-            }
-        }
-        Some(Ok(()))
     }
 
     /// A data frame on `cob_id`: true if it belongs to a valid RPDO (then it
@@ -707,62 +482,4 @@ fn retry_mask(tpdos: &[Tpdo]) -> u32 {
 /// Whether sub 1 of a communication record can be written at all.
 fn cob_id_writable(dict: &Dictionary, index: u16) -> bool {
     dict.find(index, 1).is_ok_and(|e| e.writable())
-}
-
-/// An SDO download into a communication record; returns the new record.
-#[allow(clippy::too_many_arguments)]
-fn write_comm(
-    params: CommParams,
-    direction: Direction,
-    index: u16,
-    sub: u8,
-    data: &[u8],
-    dict: &Dictionary,
-    image: &mut [u8],
-    rewrite: bool,
-) -> Result<CommParams, AbortCode> {
-    precheck(dict, index, sub, data)?;
-    let new = params.with(direction, sub, le_u32(data), rewrite)?;
-    dict.write(image, index, sub, data)?;
-    Ok(new)
-}
-
-/// An SDO download into a mapping record; returns the new mapping when sub 0 was written.
-#[allow(clippy::too_many_arguments)]
-fn write_map(
-    locked: bool,
-    rewrite: bool,
-    direction: Direction,
-    index: u16,
-    sub: u8,
-    data: &[u8],
-    dict: &Dictionary,
-    image: &mut [u8],
-) -> Result<Option<Mapping>, AbortCode> {
-    let entry = precheck(dict, index, sub, data)?;
-    if (locked || sub != 0) && dict.value(image, entry) == data {
-        // Writing back the current value changes nothing and is allowed
-        // (sub 0 of an open mapping is always resolved again).
-        return Ok(None);
-    }
-    if locked {
-        return Err(AbortCode::UnsupportedAccess);
-    }
-    let record = object(dict, index);
-    let mapping = if sub == 0 {
-        let count = data.first().copied().unwrap_or(0);
-        Some(Mapping::from_record(dict, image, record, u32::from(count), direction)?)
-    } else {
-        let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
-        if count != 0 && !rewrite {
-            return Err(AbortCode::UnsupportedAccess);
-        }
-        let value = le_u32(data);
-        if value != 0 {
-            Slot::resolve(dict, MappingEntry::from_u32(value), direction)?;
-        }
-        None
-    };
-    dict.write(image, index, sub, data)?;
-    Ok(mapping)
 }

@@ -1,7 +1,7 @@
 //! SDO server tests: exact frames in, exact frames out, at exact virtual
 //! times, then nothing else. Frames are written as candump-style hex; CCT
 //! numbers refer to the CiA conformance test cases (cia-notes.md, appendix A).
-#![allow(clippy::indexing_slicing, clippy::unwrap_used, clippy::panic, clippy::arithmetic_side_effects)]
+#![allow(clippy::arithmetic_side_effects)]
 
 use super::*;
 use crate::od::{Attr, DataType, DeviceInfo, Dictionary, DictionaryAccess, Entry, Limits, NO_LIMITS};

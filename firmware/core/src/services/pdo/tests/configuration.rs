@@ -1,5 +1,6 @@
 //! Configuration from the dictionary, the NMT states, reset communication.
 
+use super::map::Slot;
 use super::*;
 
 // ---- Configuration -------------------------------------------------------------

@@ -2,6 +2,8 @@
 //! procedure with every abort code, then the communication parameters.
 
 use super::*;
+use crate::id::is_restricted_can_id;
+use crate::time::Duration;
 
 // ---- The mapping procedure (SDO) ------------------------------------------------------
 

@@ -2,6 +2,7 @@
 //! and the synchronous window (0x1007).
 
 use super::*;
+use crate::time::Duration;
 
 // ---- RPDOs ----------------------------------------------------------------------------
 

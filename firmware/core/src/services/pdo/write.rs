@@ -1,0 +1,167 @@
+//! SDO downloads of the PDO parameter records: the communication records
+//! through [`CommParams`]' rules, the mapping records by the mapping
+//! procedure of CiA 301 §7.5.2.36 (the decisions are listed in the module
+//! docs of [`super`]).
+
+use super::map::{Direction, Mapping, Slot};
+use super::{CommParams, Pdos};
+use crate::abort::AbortCode;
+use crate::od::{Dictionary, index, le_u32, object, precheck, sub_entry, value_u32};
+use crate::wire::pdo_mapping::MappingEntry;
+
+impl<const R: usize, const T: usize> Pdos<R, T> {
+    /// An SDO download of (index, sub): `None` if it is not a parameter of
+    /// one of these PDOs, else the outcome. On success the image holds the
+    /// value (through [`Dictionary::write`]) and the PDO uses it.
+    pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
+        self.write_object_with(index, sub, data, dict, image, false)
+    }
+
+    /// [`Pdos::write_object`], with `rewrite` for a device whose manual
+    /// lets a valid PDO change: mapping entries are written while sub 0 is
+    /// not 0 (each entry checked as it is written; the PDO takes the new
+    /// mapping when sub 0 is written or at [`Pdos::reload_mappings`]), and
+    /// the COB-ID may move while valid.
+    pub fn write_object_with(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        dict: &Dictionary,
+        image: &mut [u8],
+        rewrite: bool,
+    ) -> Option<Result<(), AbortCode>> {
+        self.settled = false;
+        let result = self.write_parameter(index, sub, data, dict, image, rewrite);
+        self.refresh_rx_ids();
+        result
+    }
+
+    fn write_parameter(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        dict: &Dictionary,
+        image: &mut [u8],
+        rewrite: bool,
+    ) -> Option<Result<(), AbortCode>> {
+        // The same rules for both directions: only the PDO's reaction differs.
+        let (direction, base) = match index {
+            index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST => {
+                (Direction::Receive, index::RPDO_COMMUNICATION_PARAMETER)
+            }
+            index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST => {
+                (Direction::Transmit, index::TPDO_COMMUNICATION_PARAMETER)
+            }
+            _ => return None,
+        };
+        let offset = index.wrapping_sub(base);
+        let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
+        let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
+        let (params, cob_id_writable) = match direction {
+            Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
+            Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
+        };
+        if is_mapping {
+            let locked = params.valid() && cob_id_writable && !rewrite;
+            let mapping = match write_map(locked, rewrite, direction, index, sub, data, dict, image) {
+                Ok(Some(mapping)) => mapping,
+                Ok(None) => return Some(Ok(())),
+                Err(code) => return Some(Err(code)),
+            };
+            match direction {
+                Direction::Receive => self.rpdos.get_mut(n).map(|r| r.set(params, Some(mapping))),
+                Direction::Transmit => self.tpdos.get_mut(n).map(|t| t.set(params, Some(mapping))),
+            };
+            return Some(Ok(()));
+        }
+        let new = match write_comm(params, direction, index, sub, data, dict, image, rewrite) {
+            Ok(new) => new,
+            Err(code) => return Some(Err(code)),
+        };
+        let restart = (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type);
+        let timer_changed = params.event_timer_ms != new.event_timer_ms;
+        match direction {
+            Direction::Receive => {
+                if let Some(rpdo) = self.rpdos.get_mut(n) {
+                    rpdo.params = new;
+                    if restart {
+                        rpdo.restart();
+                    } else if timer_changed {
+                        rpdo.disarm_timer();
+                    }
+                }
+            }
+            Direction::Transmit => {
+                if let Some(tpdo) = self.tpdos.get_mut(n) {
+                    tpdo.params = new;
+                    if restart {
+                        tpdo.restart(None);
+                    } else if timer_changed {
+                        tpdo.rearm_timer();
+                    }
+                }
+            }
+        }
+        Some(Ok(()))
+    }
+}
+
+/// An SDO download into a communication record; returns the new record.
+#[allow(clippy::too_many_arguments)]
+fn write_comm(
+    params: CommParams,
+    direction: Direction,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+    dict: &Dictionary,
+    image: &mut [u8],
+    rewrite: bool,
+) -> Result<CommParams, AbortCode> {
+    precheck(dict, index, sub, data)?;
+    let new = params.with(direction, sub, le_u32(data), rewrite)?;
+    dict.write(image, index, sub, data)?;
+    Ok(new)
+}
+
+/// An SDO download into a mapping record; returns the new mapping when sub 0 was written.
+#[allow(clippy::too_many_arguments)]
+fn write_map(
+    locked: bool,
+    rewrite: bool,
+    direction: Direction,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+    dict: &Dictionary,
+    image: &mut [u8],
+) -> Result<Option<Mapping>, AbortCode> {
+    let entry = precheck(dict, index, sub, data)?;
+    if (locked || sub != 0) && dict.value(image, entry) == data {
+        // Writing back the current value changes nothing and is allowed
+        // (sub 0 of an open mapping is always resolved again).
+        return Ok(None);
+    }
+    if locked {
+        return Err(AbortCode::UnsupportedAccess);
+    }
+    let record = object(dict, index);
+    let mapping = if sub == 0 {
+        let count = data.first().copied().unwrap_or(0);
+        Some(Mapping::from_record(dict, image, record, u32::from(count), direction)?)
+    } else {
+        let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
+        if count != 0 && !rewrite {
+            return Err(AbortCode::UnsupportedAccess);
+        }
+        let value = le_u32(data);
+        if value != 0 {
+            Slot::resolve(dict, MappingEntry::from_u32(value), direction)?;
+        }
+        None
+    };
+    dict.write(image, index, sub, data)?;
+    Ok(mapping)
+}
