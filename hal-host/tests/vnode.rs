@@ -215,7 +215,7 @@ fn masters_share_the_bus() {
     // hear it: it is no part of what is checked here.
     let boot_up = |f: &String| f.as_str() != "t705100";
     assert_eq!(a.upload(UPLOAD_1000, "t585").as_deref(), Some(DEVICE_TYPE));
-    let mut b_next = || std::iter::from_fn(|| b.next()).find(boot_up);
+    let b_next = || std::iter::from_fn(|| b.next()).find(boot_up);
     assert_eq!(b_next().as_deref(), Some(UPLOAD_1000));
     assert_eq!(b_next().as_deref(), Some(DEVICE_TYPE));
     let vendor = b.upload(UPLOAD_1018_1, VENDOR_ID_PREFIX).expect("B's answer");
