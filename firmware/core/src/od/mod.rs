@@ -195,20 +195,7 @@ impl Dictionary {
     pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(&'static Entry, bool), AbortCode> {
         let entry = self.find(index, sub)?;
         self.check_write(entry, data)?;
-        let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
-        let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
-        let data = data.get(..head.len()).unwrap_or(&[]);
-        let changed = *head != *data || tail.iter().any(|&b| b != 0);
-        if head.len() <= 8 {
-            // Byte by byte: no `memcpy` call for a value of a few bytes.
-            for (d, s) in head.iter_mut().zip(data) {
-                *d = *s;
-            }
-        } else {
-            head.copy_from_slice(data);
-        }
-        tail.fill(0);
-        Ok((entry, changed))
+        Ok((entry, store_checked(image, entry, data)?))
     }
 
     /// The checks of [`Dictionary::write`] before any byte changes: access,
@@ -280,6 +267,27 @@ impl Dictionary {
             }
         }
     }
+}
+
+/// Stores `data` into `entry`'s bytes of the RAM image, zero-filling the
+/// rest of a shorter string; returns whether a byte changed. For an entry
+/// that passed [`Dictionary::check_write`] (or a writable DOMAIN, which the
+/// plain tables cannot store).
+pub(crate) fn store_checked(image: &mut [u8], entry: &Entry, data: &[u8]) -> Result<bool, AbortCode> {
+    if entry.data_type == DataType::Domain {
+        return Err(AbortCode::CannotStore);
+    }
+    let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
+    // Compare, copy and zero-fill in one byte loop: no `memcmp`, `memcpy`
+    // or `memset` call for the few bytes most values have.
+    let mut changed = false;
+    let mut src = data.iter();
+    for d in slot.iter_mut() {
+        let s = src.next().copied().unwrap_or(0);
+        changed |= *d != s;
+        *d = s;
+    }
+    Ok(changed)
 }
 
 /// Adds `n` to the little-endian integer in `bytes`, wrapping at its width.
