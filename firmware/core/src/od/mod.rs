@@ -133,21 +133,21 @@ pub trait ObjectDictionary {
 }
 
 impl Dictionary {
-    /// Finds an entry by index and sub-index. O(log n).
+    /// Finds an entry by index and sub-index. O(log n): a binary search for
+    /// the object on the 16-bit index alone, then the sub-index where it
+    /// usually is (sub-indices run 0, 1, 2, ...), else along the object's
+    /// entries (at most 256).
     pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        let entries = self.entries;
-        let key = (u32::from(index) << 8) | u32::from(sub);
-        match entries.binary_search_by_key(&key, Entry::key) {
-            Ok(pos) => entries.get(pos).ok_or(AbortCode::NoObject),
-            // The neighbours tell whether the object exists with other sub-indices.
-            Err(pos) => {
-                let same_object = |p: Option<usize>| p.and_then(|p| entries.get(p)).is_some_and(|e| e.index == index);
-                if same_object(Some(pos)) || same_object(pos.checked_sub(1)) {
-                    Err(AbortCode::NoSubIndex)
-                } else {
-                    Err(AbortCode::NoObject)
-                }
-            }
+        let entries: &'static [Entry] = self.entries;
+        let first = entries.partition_point(|e| e.index < index);
+        let record = entries.get(first..).unwrap_or(&[]);
+        match record.first() {
+            Some(e) if e.index == index => {}
+            _ => return Err(AbortCode::NoObject),
+        }
+        match record.get(usize::from(sub)) {
+            Some(e) if e.index == index && e.sub == sub => Ok(e),
+            _ => record.iter().take_while(|e| e.index == index).find(|e| e.sub == sub).ok_or(AbortCode::NoSubIndex),
         }
     }
 
@@ -278,6 +278,12 @@ pub(crate) fn store_checked(image: &mut [u8], entry: &Entry, data: &[u8]) -> Res
         return Err(AbortCode::CannotStore);
     }
     let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
+    // A 32-bit value, the commonest: one word compared and stored.
+    if let (Ok(d), Ok(s)) = (<&mut [u8; 4]>::try_from(&mut *slot), <&[u8; 4]>::try_from(data)) {
+        let changed = *d != *s;
+        *d = *s;
+        return Ok(changed);
+    }
     // Compare, copy and zero-fill in one byte loop: no `memcmp`, `memcpy`
     // or `memset` call for the few bytes most values have.
     let mut changed = false;
