@@ -5,7 +5,7 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::access::{copy_from, upload_value};
+use crate::od::access::{copy_from, plain_value, upload_value};
 use crate::od::index;
 use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
@@ -185,12 +185,12 @@ impl Ctx<'_> {
     }
 }
 
-/// A value of at most 4 bytes, zero-padded: four fixed loads, where a copy
-/// loop of variable length becomes a `memcpy` call.
-fn small_value(value: &[u8]) -> [u8; 4] {
+/// The first `size` bytes of a value (at most 4), zero-padded: four fixed
+/// loads, where a copy loop of variable length becomes a `memcpy` call.
+fn small_value(value: &[u8], size: usize) -> [u8; 4] {
     let mut out = [0u8; 4];
     for (i, d) in out.iter_mut().enumerate() {
-        *d = value.get(i).copied().unwrap_or(0);
+        *d = if i < size { value.get(i).copied().unwrap_or(0) } else { 0 };
     }
     out
 }
@@ -267,8 +267,9 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
                 if let Some(r) = self.read_hook(index, sub, 0, dst) {
                     r?;
                 } else {
-                    // The entry was readable a moment ago; a hook may not have changed that.
-                    *buf = small_value(upload_value(self.ctx.dict, self.ctx.image, entry)?);
+                    // Read after the hook, which may have changed the image;
+                    // the entry's checks passed above.
+                    *buf = small_value(plain_value(self.ctx.dict, self.ctx.image, entry), size);
                 }
                 return Ok(size);
             }
