@@ -284,15 +284,26 @@ pub(crate) fn store_checked(image: &mut [u8], entry: &Entry, data: &[u8]) -> Res
         *d = *s;
         return Ok(changed);
     }
-    // Compare, copy and zero-fill in one byte loop: no `memcmp`, `memcpy`
-    // or `memset` call for the few bytes most values have.
-    let mut changed = false;
-    let mut src = data.iter();
-    for d in slot.iter_mut() {
-        let s = src.next().copied().unwrap_or(0);
-        changed |= *d != s;
-        *d = s;
+    if slot.len() <= 8 {
+        // Compare, copy and zero-fill in one byte loop: no `memcmp`,
+        // `memcpy` or `memset` call for the few bytes most values have.
+        let mut changed = false;
+        let mut src = data.iter();
+        for d in slot.iter_mut() {
+            let s = src.next().copied().unwrap_or(0);
+            changed |= *d != s;
+            *d = s;
+        }
+        return Ok(changed);
     }
+    // A long string or a segmented or block download: the library's
+    // compare and copy (the byte loop took a 200-byte block download end
+    // from 2,147 to 4,112 thumbv7m instructions).
+    let (head, tail) = slot.split_at_mut(data.len().min(slot.len()));
+    let data = data.get(..head.len()).unwrap_or(&[]);
+    let changed = *head != *data || tail.iter().any(|&b| b != 0);
+    head.copy_from_slice(data);
+    tail.fill(0);
     Ok(changed)
 }
 
