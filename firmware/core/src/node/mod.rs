@@ -101,6 +101,25 @@ pub struct Counters {
     pub ignored: u32,
 }
 
+/// The counters are diagnostics: each wraps at `u32::MAX` (a reader takes
+/// differences), so no count can overflow.
+impl Counters {
+    /// One frame received.
+    fn count_rx(&mut self) {
+        self.rx = self.rx.wrapping_add(1);
+    }
+
+    /// One frame ignored.
+    fn count_ignored(&mut self) {
+        self.ignored = self.ignored.wrapping_add(1);
+    }
+
+    /// One malformed frame.
+    fn count_malformed(&mut self) {
+        self.malformed = self.malformed.wrapping_add(1);
+    }
+}
+
 /// A CANopen slave.
 ///
 /// `R`, `T` and `HB` are the RPDO, TPDO and heartbeat-consumer counts of the
