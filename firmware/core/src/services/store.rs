@@ -29,6 +29,13 @@ pub const MAGIC: u32 = 0x5350_4F43;
 const VERSION: u16 = 1;
 const HEADER: usize = 24;
 
+/// Where byte `at` of the image lies in a region: behind the header.
+// `at` is a position in the image (a slice, below isize::MAX): 24 more fit a usize.
+#[allow(clippy::arithmetic_side_effects)]
+fn payload(at: usize) -> usize {
+    HEADER + at
+}
+
 /// Which parameters a command covers (the 0x1010/0x1011 sub-index).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scope {
@@ -151,8 +158,9 @@ struct Header {
 fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<Header> {
     let mut h = [0u8; HEADER];
     storage.read(region, 0, &mut h).ok()?;
-    let word = |i: usize| h.get(i..i + 4).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
-    let half = |i: usize| h.get(i..i + 2).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes);
+    // As in `od::load`: a wrapped end is below `i`, and `get` refuses it.
+    let word = |i: usize| h.get(i..i.wrapping_add(4)).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
+    let half = |i: usize| h.get(i..i.wrapping_add(2)).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes);
     if word(0)? != MAGIC || half(4)? != VERSION || word(8)? != dict.layout_id {
         return None;
     }
@@ -162,6 +170,8 @@ fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Opti
 }
 
 /// Whether the payload of `region` matches the header's CRC (else the write was cut short).
+// `off` < `header.len` in the loop, and `off + n` ≤ `header.len` (a u16).
+#[allow(clippy::arithmetic_side_effects)]
 fn payload_intact(storage: &mut dyn Storage, region: u8, header: &Header) -> bool {
     let mut crc = !0u32;
     let mut buf = [0u8; 64];
@@ -169,7 +179,7 @@ fn payload_intact(storage: &mut dyn Storage, region: u8, header: &Header) -> boo
     while off < usize::from(header.len) {
         let n = buf.len().min(usize::from(header.len) - off);
         let Some(chunk) = buf.get_mut(..n) else { return false };
-        if storage.read(region, HEADER + off, chunk).is_err() {
+        if storage.read(region, payload(off), chunk).is_err() {
             return false;
         }
         crc = crc32_update(crc, chunk);
@@ -263,7 +273,7 @@ impl StoredSet {
     /// one at a time, so an absolute default is right) and the load stops.
     fn read_into(&self, dict: &Dictionary, image: &mut [u8], storage: &mut dyn Storage, range: core::ops::Range<usize>) -> bool {
         let (Some(dst), Some(defaults)) = (image.get_mut(range.clone()), dict.defaults.get(range.clone())) else { return false };
-        if dst.is_empty() || storage.read(self.region, HEADER + range.start, dst).is_ok() {
+        if dst.is_empty() || storage.read(self.region, payload(range.start), dst).is_ok() {
             return true;
         }
         dst.copy_from_slice(defaults);
@@ -271,6 +281,9 @@ impl StoredSet {
     }
 }
 
+/// Subtracts `n` from the little-endian integer in `bytes`, wrapping at its width.
+// `v` is -255..=255, and `borrow >> 8` plus 1 cannot reach u64::MAX.
+#[allow(clippy::arithmetic_side_effects)]
 fn sub_le(bytes: &mut [u8], n: u64) {
     let mut borrow = n;
     for b in bytes.iter_mut() {
@@ -291,7 +304,9 @@ fn sub_le(bytes: &mut [u8], n: u64) {
 /// Within the saved scopes, only the bytes of `from_image` come from the
 /// image, never those of `keep`: the rest keeps the newest set (the
 /// defaults if there is none).
-#[allow(clippy::too_many_arguments)]
+// Every position and length below is at most `len` ≤ u16::MAX (checked
+// first), and each subtraction follows the comparison that orders it.
+#[allow(clippy::too_many_arguments, clippy::arithmetic_side_effects)]
 fn write_set(
     dict: &Dictionary,
     image: &[u8],
@@ -304,11 +319,11 @@ fn write_set(
     keep: Range<usize>,
 ) -> Result<(), StoreError> {
     let len = dict.defaults.len();
-    if HEADER + len > storage.region_size() || len > usize::from(u16::MAX) {
+    if len > usize::from(u16::MAX) || payload(len) > storage.region_size() {
         return Err(StoreError::TooLarge);
     }
     let old = newest(dict, storage);
-    let target = old.map_or(0, |set| 1 - set.region);
+    let target = old.map_or(0, |set| set.region ^ 1);
     let mut defaults = old.map_or(0b111, |set| set.header.defaults);
     defaults = (defaults & !save) | reset;
     storage.erase(target)?;
@@ -343,7 +358,7 @@ fn write_set(
         // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
         let stale = old.is_some_and(|set| set.header.defaults & bit != 0);
         match old {
-            Some(set) if !from_image && !stale => storage.read(set.region, HEADER + pos, chunk)?,
+            Some(set) if !from_image && !stale => storage.read(set.region, payload(pos), chunk)?,
             // No set (or a scope at default): what is not saved from the image is the default (stored relative, as defaults are).
             _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
             _ => {
@@ -356,7 +371,7 @@ fn write_set(
                 }
             }
         }
-        storage.write(target, HEADER + pos, chunk)?;
+        storage.write(target, payload(pos), chunk)?;
         crc = crc32_update(crc, chunk);
         pos += n;
     }
@@ -459,7 +474,7 @@ pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, i
     }
     let range = entry.range();
     let value = out.get_mut(..range.len())?;
-    storage.read(set.region, HEADER + range.start, value).ok()?;
+    storage.read(set.region, payload(range.start), value).ok()?;
     if entry.attr.contains(Attr::NODE_ID) {
         crate::od::add_le(value, u64::from(node_id));
     }

@@ -88,7 +88,10 @@ impl Slot {
             return Err(AbortCode::PdoTooLong);
         }
         // A RAM image past 32 KiB would reach the constant marker of the byte table.
-        if !object.in_rom() && u32::from(object.offset) + u32::from(object.len) > u32::from(CONSTANT) {
+        // Two u16s: the sum fits a u32.
+        #[allow(clippy::arithmetic_side_effects)]
+        let end = u32::from(object.offset) + u32::from(object.len);
+        if !object.in_rom() && end > u32::from(CONSTANT) {
             return Err(AbortCode::NotMappable);
         }
         let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
@@ -131,6 +134,9 @@ impl Mapping {
     /// record as the image holds them: the configured mapping, or the one
     /// an SDO download of sub 0 = `count` asks for. At most one binary
     /// search per entry.
+    // `total` is at most MAX_ENTRIES × 255; od-gen lays out each value
+    // inside its u16-addressed table, so `offset + i` fits a u16.
+    #[allow(clippy::arithmetic_side_effects)]
     pub(super) fn from_record(
         dict: &Dictionary,
         image: &[u8],
