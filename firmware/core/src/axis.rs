@@ -71,7 +71,8 @@ pub struct AxisParams {
     pub friction_permille: i16,
     /// Temperature at rest [°C].
     pub ambient_c: i16,
-    /// Temperature rise at rated torque, steady state [°C].
+    /// Temperature rise at rated torque, steady state [°C]; at most 200
+    /// (the model's heat, in µ°C at 3× rated torque, then fits an i32).
     pub rise_at_rated_c: i16,
     /// Thermal time constant [s].
     pub thermal_tau_s: u16,
@@ -213,6 +214,11 @@ impl Drive for Axis {
         }
     }
 
+    // Positions wrap (as `Demand::ramp`'s). Every other term is bounded:
+    // velocities by `speed_q` (< 2^47), steps by `acceleration_q` (< 2^37),
+    // the position error to 2^40 times a gain below 2^32, torques to
+    // ±3000 ‰ and loads to an i16, the heat by `rise_at_rated_c` (≤ 200 °C).
+    #[allow(clippy::arithmetic_side_effects)]
     fn tick(&mut self) {
         let p = self.params;
         if self.fault == 0 {
@@ -230,7 +236,7 @@ impl Drive for Axis {
             SetPoint::None => None,
             SetPoint::Velocity(v) => Some(speed_q(i64::from(v))),
             SetPoint::Position { position, velocity } => {
-                let error = (position << FRACTION) - self.position_q;
+                let error = (position << FRACTION).wrapping_sub(self.position_q);
                 if p.following_limit != 0 && (error >> FRACTION).unsigned_abs() > u64::from(p.following_limit) {
                     self.fault = fault::FOLLOWING_ERROR;
                 }
@@ -259,7 +265,7 @@ impl Drive for Axis {
                 self.velocity_q + (change - load).clamp(-authority, authority) + load
             }
         };
-        self.position_q += self.velocity_q;
+        self.position_q = self.position_q.wrapping_add(self.velocity_q);
         // Torque: the acceleration against the limit, plus friction while moving [‰].
         // The change against the step, both cut to 19 bits so that the ‰
         // ratio divides in 32 bits (|change| ≤ 3 steps: 3 · 2^19 · 1000 < 2^31).
@@ -300,6 +306,8 @@ impl Drive for Axis {
         p.ambient_c.saturating_add((self.heat_uc / 1_000_000) as i16).saturating_add(extra)
     }
 
+    // A DC link below 2.8 MV: × 1.5 fits a u32.
+    #[allow(clippy::arithmetic_side_effects)]
     fn dc_link_mv(&self) -> u32 {
         if self.injected(Injected::UnderVoltage) {
             0
@@ -353,6 +361,8 @@ impl Drive for Axis {
 
 /// `x` / 1000, truncated as `/` does, in 32-bit divisions: a 64-bit one
 /// links about 1 KiB of compiler_builtins into every drive image.
+// The quotient is below |x| / 1000: its negation fits.
+#[allow(clippy::arithmetic_side_effects)]
 fn per_mille(x: i64) -> i64 {
     let mut n = x.unsigned_abs();
     let mut q: u64 = 0;
@@ -368,6 +378,8 @@ fn per_mille(x: i64) -> i64 {
 }
 
 /// `from` moved towards `to` by at most `step`.
+// Velocities and steps of the model (see `tick`): far from i64's ends.
+#[allow(clippy::arithmetic_side_effects)]
 fn toward(from: i64, to: i64, step: i64) -> i64 {
     if to > from { (from + step).min(to) } else { (from - step).max(to) }
 }
