@@ -218,7 +218,7 @@ impl<D: Drive> Cia402<D> {
     pub fn poll(&mut self, ctx: &mut Ctx<'_>, config: &Config) -> Option<Instant> {
         let now = ctx.now().as_micros();
         if !self.s.ticking {
-            let code = EmcyCode(self.drive.fault());
+            let code = self.drive.fault();
             // A fault, or a warning the device reported (`refresh`), changes the statusword.
             if code != EmcyCode::NO_ERROR && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
@@ -244,7 +244,7 @@ impl<D: Drive> Cia402<D> {
         let p = self.params(ctx, config);
         for _ in 0..due {
             self.tick(&p);
-            let code = EmcyCode(self.drive.fault());
+            let code = self.drive.fault();
             if code != EmcyCode::NO_ERROR && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
             }
@@ -426,7 +426,7 @@ impl<D: Drive> Cia402<D> {
         self.s.error_code = code;
         objects::set(ctx, index::ERROR_CODE, 2, i32::from(code.value()));
         ctx.raise_error(code, info);
-        if self.s.state.drive_function() && reaction != Reaction::Coast && self.drive.fault() == 0 {
+        if self.s.state.drive_function() && reaction != Reaction::Coast && self.drive.fault() == EmcyCode::NO_ERROR {
             (self.s.state, self.s.reaction, self.s.braking) = (PdsState::FaultReactionActive, reaction, false);
         } else {
             self.stop_now(PdsState::Fault);

@@ -20,21 +20,28 @@
 //!   coasting axis; the loops hold against it up to the torque limit;
 //! - limit and home switches sit at fixed positions.
 
+mod forward;
+
+pub use forward::AxisDrive;
+
 use crate::profiles::cia402::drive::{Drive, SetPoint, Switches};
 use crate::profiles::cia402::motion::{FRACTION, acceleration_q, speed_per_s, speed_q};
+use crate::wire::emcy::EmcyCode;
 
 /// Error codes the model reports (CiA 402 / CiA 301 EMCY codes, 0x603F).
 pub mod fault {
+    use crate::wire::emcy::EmcyCode;
+
     /// 0x2320 short circuit / earth leakage at the output: the power stage failed.
-    pub const POWER_STAGE: u16 = 0x2320;
+    pub const POWER_STAGE: EmcyCode = EmcyCode(0x2320);
     /// 0x3210 DC link over-voltage.
-    pub const OVER_VOLTAGE: u16 = 0x3210;
+    pub const OVER_VOLTAGE: EmcyCode = EmcyCode(0x3210);
     /// 0x3220 DC link under-voltage.
-    pub const UNDER_VOLTAGE: u16 = 0x3220;
+    pub const UNDER_VOLTAGE: EmcyCode = EmcyCode(0x3220);
     /// 0x4310 excess temperature of the drive.
-    pub const OVER_TEMPERATURE: u16 = 0x4310;
+    pub const OVER_TEMPERATURE: EmcyCode = EmcyCode(0x4310);
     /// 0x8611 following error: the load does not follow the position demand.
-    pub const FOLLOWING_ERROR: u16 = 0x8611;
+    pub const FOLLOWING_ERROR: EmcyCode = EmcyCode(0x8611);
 }
 
 /// Faults a test or a demo injects.
@@ -123,7 +130,7 @@ pub struct Axis {
     torque: i16,
     /// Temperature above ambient [µ°C].
     heat_uc: i32,
-    fault: u16,
+    fault: EmcyCode,
     injected: [bool; 5],
     /// External load torque [‰ of rated torque], positive in the positive direction.
     load: i16,
@@ -139,7 +146,7 @@ impl Axis {
         enabled: false,
         torque: 0,
         heat_uc: 0,
-        fault: 0,
+        fault: EmcyCode::NO_ERROR,
         injected: [false; 5],
         load: 0,
     };
@@ -181,7 +188,7 @@ impl Axis {
     }
 
     /// The cause of a fault, if one is present now.
-    fn cause(&self) -> u16 {
+    fn cause(&self) -> EmcyCode {
         if self.injected(Injected::PowerStage) {
             fault::POWER_STAGE
         } else if self.injected(Injected::UnderVoltage) {
@@ -191,7 +198,7 @@ impl Axis {
         } else if self.params.fault_c != 0 && self.temperature() >= self.params.fault_c {
             fault::OVER_TEMPERATURE
         } else {
-            0
+            EmcyCode::NO_ERROR
         }
     }
 }
@@ -202,7 +209,7 @@ impl Drive for Axis {
     }
 
     fn enable(&mut self, on: bool) {
-        self.enabled = on && self.fault == 0;
+        self.enabled = on && self.fault == EmcyCode::NO_ERROR;
         if !self.enabled {
             self.set_point = SetPoint::None;
         }
@@ -221,10 +228,10 @@ impl Drive for Axis {
     #[allow(clippy::arithmetic_side_effects)]
     fn tick(&mut self) {
         let p = self.params;
-        if self.fault == 0 {
+        if self.fault == EmcyCode::NO_ERROR {
             self.fault = self.cause();
         }
-        if self.fault != 0 {
+        if self.fault != EmcyCode::NO_ERROR {
             self.enabled = false;
             self.set_point = SetPoint::None;
         }
@@ -318,9 +325,9 @@ impl Drive for Axis {
         }
     }
 
-    fn fault(&self) -> u16 {
+    fn fault(&self) -> EmcyCode {
         // A cause shows at once, even while the axis is not ticking.
-        if self.fault != 0 { self.fault } else { self.cause() }
+        if self.fault != EmcyCode::NO_ERROR { self.fault } else { self.cause() }
     }
 
     fn warning(&self) -> bool {
@@ -329,10 +336,10 @@ impl Drive for Axis {
 
     fn reset_fault(&mut self) -> bool {
         let cooled = self.temperature() < self.params.fault_c.saturating_sub(10);
-        if self.cause() == 0 && cooled && !self.injected(Injected::Blocked) {
-            self.fault = 0;
+        if self.cause() == EmcyCode::NO_ERROR && cooled && !self.injected(Injected::Blocked) {
+            self.fault = EmcyCode::NO_ERROR;
         }
-        self.fault == 0
+        self.fault == EmcyCode::NO_ERROR
     }
 
     fn switches(&self) -> Switches {
@@ -434,7 +441,7 @@ mod tests {
         a.enable(true);
         a.command(SetPoint::Velocity(1000));
         a.tick();
-        assert_eq!((a.fault(), a.velocity(), a.warning()), (0, 0, false));
+        assert_eq!((a.fault(), a.velocity(), a.warning()), (EmcyCode::NO_ERROR, 0, false));
     }
 
     #[test]
@@ -484,7 +491,7 @@ mod tests {
             assert!(!a.reset_fault(), "the cause persists");
             a.remove(fault);
             assert!(a.reset_fault());
-            assert_eq!(a.fault(), 0);
+            assert_eq!(a.fault(), EmcyCode::NO_ERROR);
         }
         let mut a = axis();
         a.inject(Injected::Blocked);
