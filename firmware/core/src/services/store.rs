@@ -29,13 +29,6 @@ pub const MAGIC: u32 = 0x5350_4F43;
 const VERSION: u16 = 1;
 const HEADER: usize = 24;
 
-/// Where byte `at` of the image lies in a region: behind the header.
-// `at` is a position in the image (a slice, below isize::MAX): 24 more fit a usize.
-#[allow(clippy::arithmetic_side_effects)]
-fn payload(at: usize) -> usize {
-    HEADER + at
-}
-
 /// Which parameters a command covers (the 0x1010/0x1011 sub-index).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Scope {
@@ -179,7 +172,7 @@ fn payload_intact(storage: &mut dyn Storage, region: u8, header: &Header) -> boo
     while off < usize::from(header.len) {
         let n = buf.len().min(usize::from(header.len) - off);
         let Some(chunk) = buf.get_mut(..n) else { return false };
-        if storage.read(region, payload(off), chunk).is_err() {
+        if storage.read(region, HEADER + off, chunk).is_err() {
             return false;
         }
         crc = crc32_update(crc, chunk);
@@ -271,9 +264,11 @@ impl StoredSet {
     /// Copies `range` of the stored image into `image`. If the storage
     /// fails, the range gets its defaults back (`$NODEID` entries are loaded
     /// one at a time, so an absolute default is right) and the load stops.
+    // `range` lies in the image (a slice, below isize::MAX): 24 more fit.
+    #[allow(clippy::arithmetic_side_effects)]
     fn read_into(&self, dict: &Dictionary, image: &mut [u8], storage: &mut dyn Storage, range: core::ops::Range<usize>) -> bool {
         let (Some(dst), Some(defaults)) = (image.get_mut(range.clone()), dict.defaults.get(range.clone())) else { return false };
-        if dst.is_empty() || storage.read(self.region, payload(range.start), dst).is_ok() {
+        if dst.is_empty() || storage.read(self.region, HEADER + range.start, dst).is_ok() {
             return true;
         }
         dst.copy_from_slice(defaults);
@@ -304,8 +299,9 @@ fn sub_le(bytes: &mut [u8], n: u64) {
 /// Within the saved scopes, only the bytes of `from_image` come from the
 /// image, never those of `keep`: the rest keeps the newest set (the
 /// defaults if there is none).
-// Every position and length below is at most `len` ≤ u16::MAX (checked
-// first), and each subtraction follows the comparison that orders it.
+// `len` is a slice's length (below isize::MAX: 24 more fit), every position
+// below it, `set.region` 0 or 1, and each subtraction follows the comparison
+// that orders it.
 #[allow(clippy::too_many_arguments, clippy::arithmetic_side_effects)]
 fn write_set(
     dict: &Dictionary,
@@ -319,11 +315,11 @@ fn write_set(
     keep: Range<usize>,
 ) -> Result<(), StoreError> {
     let len = dict.defaults.len();
-    if len > usize::from(u16::MAX) || payload(len) > storage.region_size() {
+    if HEADER + len > storage.region_size() || len > usize::from(u16::MAX) {
         return Err(StoreError::TooLarge);
     }
     let old = newest(dict, storage);
-    let target = old.map_or(0, |set| set.region ^ 1);
+    let target = old.map_or(0, |set| 1 - set.region);
     let mut defaults = old.map_or(0b111, |set| set.header.defaults);
     defaults = (defaults & !save) | reset;
     storage.erase(target)?;
@@ -358,7 +354,7 @@ fn write_set(
         // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
         let stale = old.is_some_and(|set| set.header.defaults & bit != 0);
         match old {
-            Some(set) if !from_image && !stale => storage.read(set.region, payload(pos), chunk)?,
+            Some(set) if !from_image && !stale => storage.read(set.region, HEADER + pos, chunk)?,
             // No set (or a scope at default): what is not saved from the image is the default (stored relative, as defaults are).
             _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
             _ => {
@@ -371,7 +367,7 @@ fn write_set(
                 }
             }
         }
-        storage.write(target, payload(pos), chunk)?;
+        storage.write(target, HEADER + pos, chunk)?;
         crc = crc32_update(crc, chunk);
         pos += n;
     }
@@ -466,6 +462,8 @@ pub fn save_lss(
 /// from the storage, no image built. A read-only entry gives what the
 /// image held when the set was saved: a value the device keeps across
 /// power cycles itself (an encoder's preset offset), which a reset does not load.
+// An entry's range: two u16s, and 24 more fit a usize.
+#[allow(clippy::arithmetic_side_effects)]
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;
@@ -474,7 +472,7 @@ pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, i
     }
     let range = entry.range();
     let value = out.get_mut(..range.len())?;
-    storage.read(set.region, payload(range.start), value).ok()?;
+    storage.read(set.region, HEADER + range.start, value).ok()?;
     if entry.attr.contains(Attr::NODE_ID) {
         crate::od::add_le(value, u64::from(node_id));
     }

@@ -90,17 +90,18 @@ impl Units {
     /// and feed `feed` user units per `feed_revs` shaft revolutions; polarity
     /// byte `polarity`.
     pub fn new(increments_per_rev: u32, (motor_revs, shaft_revs): (u32, u32), (feed, feed_revs): (u32, u32), polarity: u8) -> Units {
-        // A u32 × u32 fits a u64; the third factor may not (a fine encoder
-        // behind a large gear): both terms then lose low bits first, as
-        // `Factor::ratio` drops them anyway.
+        // A u32 × u32 fits a u64; the third factor may not (0x6091 and
+        // 0x6092 take any u32). A gear term past 32 bits loses its low bits
+        // first, and the denominator with it, as `Factor::ratio` drops them
+        // anyway; the product then fits.
         #[allow(clippy::arithmetic_side_effects)]
         let (mut gear, mut denominator) = (u64::from(increments_per_rev) * u64::from(motor_revs), u64::from(shaft_revs) * u64::from(feed));
-        let numerator = loop {
-            match gear.checked_mul(u64::from(feed_revs)) {
-                Some(n) => break n,
-                None => (gear, denominator) = (gear >> 1, (denominator >> 1).max(1)),
-            }
-        };
+        while gear >> 32 != 0 {
+            (gear, denominator) = (gear >> 1, (denominator >> 1).max(1));
+        }
+        // Two factors below 2^32.
+        #[allow(clippy::arithmetic_side_effects)]
+        let numerator = gear * u64::from(feed_revs);
         Units {
             to_inc: Factor::ratio(numerator, denominator),
             to_user: Factor::ratio(denominator, numerator),

@@ -101,6 +101,7 @@ pub fn acceleration(from: i32, to: i32, ms: u64, c1: i16, c2: i16) -> i32 {
 /// 2^-15), so the answer is the same limit.
 // After the cut, |v × C1| < 2^62, and C2 is not 0.
 #[allow(clippy::arithmetic_side_effects)]
+#[inline(never)]
 fn scale(v: i64, c1: i16, c2: i16) -> i32 {
     let c2 = if c2 == 0 { 1 } else { i64::from(c2) };
     let v = v.clamp(-(1 << 47), 1 << 47);
