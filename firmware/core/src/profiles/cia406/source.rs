@@ -201,6 +201,22 @@ mod tests {
     }
 
     #[test]
+    fn a_manual_shaft_wraps_at_a_range_past_2_to_the_63() {
+        let mut s = ManualShaft::with_range(u64::MAX);
+        s.set(u64::MAX - 3);
+        s.turn(5);
+        assert_eq!(s.get(), 2, "2^64 - 4 + 5 = 2^64 + 1, 2 past the range 2^64 - 1");
+        s.turn(-3);
+        assert_eq!(s.get(), u64::MAX - 1);
+        let mut small = ManualShaft::with_range(10);
+        small.set(8);
+        small.turn(-10);
+        assert_eq!(small.get(), 8, "a whole range back");
+        small.turn(13);
+        assert_eq!(small.get(), 1);
+    }
+
+    #[test]
     fn jitter_stays_within_its_bound_and_is_not_constant() {
         let mut s = SimulatedShaft::<0, 3, 0, 0>::NEW;
         let values: Vec<u64> = (0..200).map(|ms| s.count(Instant::from_micros(ms * 1000)).unwrap()).collect();

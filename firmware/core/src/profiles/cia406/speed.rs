@@ -140,4 +140,15 @@ mod tests {
         assert_eq!(acceleration(0, 60, 100, 1, 1), 600);
         assert_eq!(acceleration(60, 0, 100, 1, 1), -600);
     }
+
+    #[test]
+    fn a_speed_past_64_bits_saturates_at_the_i32_limits() {
+        // 2^40 steps in 1 ms at 2^16 units per step: 2^66 units/s before the division.
+        let m = Measured { steps: 1 << 40, ms: 1 };
+        assert_eq!(value(m, SpeedFormat::UnitsPerSecond, 1, 1 << 16, 1, 1), i32::MAX);
+        assert_eq!(value(Measured { steps: -(1 << 40), ms: 1 }, SpeedFormat::UnitsPerSecond, 1, 1 << 16, 1, 1), i32::MIN);
+        // The largest C1 against the smallest C2, and the other way round.
+        assert_eq!(value(m, SpeedFormat::UnitsPerSecond, 1, 1 << 16, i16::MAX, -1), i32::MIN);
+        assert_eq!(value(m, SpeedFormat::UnitsPerSecond, 1, 1 << 16, 1, i16::MAX), i32::MAX);
+    }
 }
