@@ -434,3 +434,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Counters;
+
+    #[test]
+    fn the_frame_counters_wrap() {
+        let mut c = Counters { rx: u32::MAX, tx: 7, malformed: u32::MAX, ignored: u32::MAX };
+        c.count_rx();
+        c.count_malformed();
+        c.count_ignored();
+        assert_eq!(c, Counters { rx: 0, tx: 7, malformed: 0, ignored: 0 });
+    }
+}
