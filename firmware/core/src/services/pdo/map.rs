@@ -62,6 +62,8 @@ pub struct Slot {
 
 impl Slot {
     /// Checks one mapping entry for `direction` and resolves it: one binary search.
+    // Offset and length are u16s: their sum fits a u32.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
         if entry.is_dummy() {
             if direction == Direction::Transmit {
@@ -88,10 +90,7 @@ impl Slot {
             return Err(AbortCode::PdoTooLong);
         }
         // A RAM image past 32 KiB would reach the constant marker of the byte table.
-        // Two u16s: the sum fits a u32.
-        #[allow(clippy::arithmetic_side_effects)]
-        let end = u32::from(object.offset) + u32::from(object.len);
-        if !object.in_rom() && end > u32::from(CONSTANT) {
+        if !object.in_rom() && u32::from(object.offset) + u32::from(object.len) > u32::from(CONSTANT) {
             return Err(AbortCode::NotMappable);
         }
         let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
