@@ -66,16 +66,48 @@ impl<const N: usize> TxQueue<N> {
         self.insert(frame, true)
     }
 
+    /// Queues a data frame on the 11-bit `cob_id` (above 0x7FF: refused,
+    /// not counted) with `len` (at most 8) data bytes, behind every queued
+    /// frame of its priority, and hands back its data, zeroed, for the
+    /// caller to write in place; `None` (and one more overflow) when full.
+    /// A burst (the TPDOs of a SYNC) moves no frame: each is built where
+    /// it waits.
+    // Out of line, and not generic over a builder: one copy for every sender.
+    #[inline(never)]
+    pub fn push_data(&mut self, cob_id: u16, len: u8) -> Option<&mut [u8; 8]> {
+        if cob_id > 0x7FF || len > 8 {
+            return None;
+        }
+        // A standard data frame's priority: its identifier in the top 11 bits.
+        let frame = self.reserve(u32::from(cob_id) << 21, false)?;
+        *frame = CanFrame::EMPTY;
+        frame.set_standard(cob_id, len);
+        Some(frame.data_mut())
+    }
+
     fn insert(&mut self, frame: CanFrame, ahead: bool) -> bool {
-        // The lowest free slot; none when all N are used.
+        self.reserve(frame.priority(), ahead).map(|slot| *slot = frame).is_some()
+    }
+
+    /// The lowest free slot, put into the order for a frame of priority
+    /// `key` (behind its equals, or `ahead` of them); `None` (and one more
+    /// overflow) when all N are used.
+    // Out of line: the core of every push.
+    #[inline(never)]
+    fn reserve(&mut self, key: u32, ahead: bool) -> Option<&mut CanFrame> {
         let slot = (!self.used).trailing_zeros() as usize;
-        let Some(free) = self.slots.get_mut(slot).filter(|_| self.len < N) else {
+        if slot >= N || self.len >= N {
             self.overflows = self.overflows.saturating_add(1);
-            return false;
-        };
-        *free = frame;
+            return None;
+        }
         self.used |= 1 << slot;
-        let key = frame.priority();
+        self.link(slot, key, ahead);
+        self.slots.get_mut(slot)
+    }
+
+    /// Puts the frame in `slot`, of priority `key`, into the order.
+    #[inline(always)]
+    fn link(&mut self, slot: usize, key: u32, ahead: bool) {
         // The new frame stays behind queued frames up to `limit`: its equals
         // too, unless it goes ahead of them.
         let limit = if ahead { key.checked_sub(1) } else { Some(key) };
@@ -97,7 +129,6 @@ impl<const N: usize> TxQueue<N> {
             (*kk, *oo) = (key, slot as u8);
         }
         self.len += 1;
-        true
     }
 
     /// The frame that goes next, without removing it.
@@ -198,6 +229,28 @@ mod tests {
     }
 
     #[test]
+    fn a_frame_built_in_its_slot_takes_its_place_among_the_others() {
+        let mut q = TxQueue::<4>::new();
+        assert!(q.push(f(0x281, 2)));
+        // The slot it gets was used before: its data comes zeroed.
+        assert_eq!(q.pop(), Some(f(0x281, 2)));
+        assert!(q.push(f(0x581, 9)));
+        let data = q.push_data(0x181, 3).unwrap();
+        assert_eq!(*data, [0; 8]);
+        data[..3].copy_from_slice(&[1, 2, 3]);
+        assert!(q.push(f(0x181, 4)));
+        assert_eq!(q.push_data(0x800, 1), None, "not an 11-bit identifier");
+        assert_eq!(q.push_data(0x181, 9), None, "more than 8 bytes");
+        assert_eq!(q.overflows(), 0);
+        assert!(q.push_data(0x701, 0).is_some());
+        assert_eq!(q.push_data(0x080, 1), None, "full");
+        assert_eq!(q.overflows(), 1);
+        let order: Vec<CanFrame> = core::iter::from_fn(|| q.pop()).collect();
+        let built = CanFrame::standard(0x181, &[1, 2, 3]).unwrap();
+        assert_eq!(order, [built, f(0x181, 4), f(0x581, 9), CanFrame::standard(0x701, &[]).unwrap()]);
+    }
+
+    #[test]
     fn matches_a_model_of_priority_then_queueing_order() {
         // The model: (priority, sequence) with sequence numbers counting up
         // for push and down for push_front, the lowest pair leaves first.
@@ -212,11 +265,21 @@ mod tests {
             let id = [0x181, 0x281, 0x581, 0x581, 0x701, 0x080][(seed % 6) as usize];
             let frame = f(id, step as u8);
             match (seed >> 8) % 4 {
-                0 | 1 => {
+                0 => {
                     up += 1;
                     let ok = q.push(frame);
                     assert_eq!(ok, model.len() < 8);
                     if ok {
+                        model.push((frame.priority(), up, frame));
+                    }
+                }
+                1 => {
+                    // The same frame, built in its slot.
+                    up += 1;
+                    let slot = q.push_data(id, 1);
+                    assert_eq!(slot.is_some(), model.len() < 8);
+                    if let Some(data) = slot {
+                        data[0] = step as u8;
                         model.push((frame.priority(), up, frame));
                     }
                 }

@@ -4,6 +4,7 @@
 
 use crate::frame::CanFrame;
 use crate::services::emcy::EmcyProducer;
+use crate::services::pdo::map::MAX_LEN;
 use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::SdoTx;
 use crate::txq::TxQueue;
@@ -53,6 +54,11 @@ fn bit(n: usize) -> u32 {
 impl PdoTx for PdoSink<'_> {
     fn send(&mut self, cob_id: u16, data: &[u8]) -> bool {
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
+    }
+
+    fn send_with(&mut self, cob_id: u16, len: usize, build: impl FnOnce(&mut [u8; MAX_LEN])) -> bool {
+        let data = self.txq.push_data(cob_id, u8::try_from(len).unwrap_or(u8::MAX));
+        data.map(build).is_some()
     }
 
     fn event(&mut self, event: PdoEvent) {

@@ -194,7 +194,8 @@ impl Tpdo {
 
     /// Hands a frame to the queue; remembers it when accepted.
     fn transmit(&mut self, cob_id: u16, buf: [u8; MAX_LEN], len: usize, tx: &mut impl PdoTx) -> bool {
-        let ok = tx.send(cob_id, buf.get(..len).unwrap_or(&[]));
+        // `buf` is zero past `len` (`build`): copied as two words, no `memcpy`.
+        let ok = tx.send_with(cob_id, len, |data| *data = buf);
         if ok {
             self.last = buf;
             self.sent = true;
@@ -238,6 +239,12 @@ impl Tpdo {
         }
     }
 
+    /// Whether a SYNC has work for it: valid, of type 0..=240 or 252
+    /// ([`Tpdo::on_sync`] does nothing for the others).
+    pub(super) fn is_synchronous(&self) -> bool {
+        self.cob_id().is_some() && matches!(self.params.transmission_type, 0..=240 | 252)
+    }
+
     /// A SYNC (received or produced).
     pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
         let Some(cob_id) = self.cob_id() else { return };
@@ -257,10 +264,11 @@ impl Tpdo {
                     }
                 }
                 self.sync_count = self.sync_count.saturating_add(1);
-                (self.sync_count >= n).then(|| {
+                if self.sync_count >= n {
                     self.sync_count = 0;
-                    self.build(image)
-                })
+                    self.send_cyclic(cob_id, image, tx);
+                }
+                None
             }
             252 => {
                 self.sample = Some(self.build(image).0);
@@ -273,6 +281,25 @@ impl Tpdo {
         {
             self.pending_sync = Some(buf);
         }
+    }
+
+    /// Types 1..=240, on their SYNC: the frame is built where it waits in
+    /// the queue (no copy of its data; `last` is kept only for the types
+    /// that look for changes). A frame the queue refuses waits inside the
+    /// window ([`Tpdo::poll`]).
+    fn send_cyclic(&mut self, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
+        let Some(mapping) = self.mapping.as_ref() else { return };
+        let ok = tx.send_with(cob_id, mapping.len(), |data| {
+            mapping.build(image, data);
+        });
+        if ok {
+            self.sent = true;
+            self.event = false;
+            self.change_pending = false;
+        } else {
+            self.pending_sync = Some(self.build(image).0);
+        }
+        self.blocked = !ok;
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
