@@ -177,8 +177,6 @@ impl Tpdo {
         true
     }
 
-    // Out of line: the unrolled gather at each of its five callers cost 300 bytes and more.
-    #[inline(never)]
     fn build(&self, image: &[u8]) -> ([u8; MAX_LEN], usize) {
         let mut buf = [0u8; MAX_LEN];
         let len = self.mapping.as_ref().map_or(0, |m| m.build(image, &mut buf));
