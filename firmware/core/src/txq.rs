@@ -85,6 +85,8 @@ impl<const N: usize> TxQueue<N> {
         Some(frame.data_mut())
     }
 
+    // Out of line: the core of push and push_front.
+    #[inline(never)]
     fn insert(&mut self, frame: CanFrame, ahead: bool) -> bool {
         self.reserve(frame.priority(), ahead).map(|slot| *slot = frame).is_some()
     }
@@ -92,8 +94,7 @@ impl<const N: usize> TxQueue<N> {
     /// The lowest free slot, put into the order for a frame of priority
     /// `key` (behind its equals, or `ahead` of them); `None` (and one more
     /// overflow) when all N are used.
-    // Out of line: the core of every push.
-    #[inline(never)]
+    #[inline(always)]
     fn reserve(&mut self, key: u32, ahead: bool) -> Option<&mut CanFrame> {
         let slot = (!self.used).trailing_zeros() as usize;
         if slot >= N || self.len >= N {

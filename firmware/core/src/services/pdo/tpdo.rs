@@ -282,19 +282,17 @@ impl Tpdo {
     }
 
     /// Types 1..=240, on their SYNC: the frame is built where it waits in
-    /// the queue (no copy of its data; `last` is kept only for the types
-    /// that look for changes). A frame the queue refuses waits inside the
+    /// the queue (no copy of its data). Nothing else to note when it is
+    /// accepted: `last` and `sent` serve change detection, and `event` and
+    /// `change_pending` stay false, in the other types only (a new type
+    /// restarts the PDO). A frame the queue refuses waits inside the
     /// window ([`Tpdo::poll`]).
     fn send_cyclic(&mut self, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
         let Some(mapping) = self.mapping.as_ref() else { return };
         let ok = tx.send_with(cob_id, mapping.len(), |data| {
             mapping.build(image, data);
         });
-        if ok {
-            self.sent = true;
-            self.event = false;
-            self.change_pending = false;
-        } else {
+        if !ok {
             self.pending_sync = Some(self.build(image).0);
         }
         self.blocked = !ok;
