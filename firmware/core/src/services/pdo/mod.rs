@@ -526,7 +526,8 @@ fn next_bit(bits: &mut u32) -> Option<usize> {
 /// Bit t: TPDO t waits to retry.
 #[inline(never)]
 fn retry_mask(tpdos: &[Tpdo]) -> u32 {
-    tpdos.iter().enumerate().fold(0, |mask, (t, tpdo)| if tpdo.retrying() { mask | 1u32.checked_shl(t as u32).unwrap_or(0) } else { mask })
+    // TPDOs past 31 have no bit (they are always looked at).
+    tpdos.iter().take(32).enumerate().fold(0, |mask, (t, tpdo)| mask | u32::from(tpdo.retrying()) << t)
 }
 
 /// Whether sub 1 of a communication record can be written at all.
