@@ -36,15 +36,11 @@ impl CanFrame {
         embedded_can::Frame::new_remote(StandardId::new(cob_id)?, dlc)
     }
 
-    /// Makes this a standard data frame on `cob_id` (11 bits) with `dlc`
-    /// (at most 8) data bytes, keeping the data (for a queue slot a frame is built in).
-    pub(crate) fn set_standard(&mut self, cob_id: u16, dlc: u8) {
-        (self.raw, self.dlc, self.rtr, self.extended) = (u32::from(cob_id), dlc, false, false);
-    }
-
-    /// The 8 data bytes, also those past the length (for a queue slot a frame is built in).
-    pub(crate) fn data_mut(&mut self) -> &mut [u8; 8] {
-        &mut self.data
+    /// A standard data frame on `cob_id` (11 bits, unchecked) with all 8
+    /// data bytes given and `dlc` (at most 8, unchecked) of them sent: no
+    /// slice copy, for the transmit queue's own checked constructor.
+    pub(crate) const fn standard_unchecked(cob_id: u16, data: [u8; 8], dlc: u8) -> Self {
+        CanFrame { raw: cob_id as u32, data, dlc, rtr: false, extended: false }
     }
 
     /// The 11-bit identifier, or `None` for an extended frame (CANopen uses 11 bits).

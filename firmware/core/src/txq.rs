@@ -67,22 +67,21 @@ impl<const N: usize> TxQueue<N> {
     }
 
     /// Queues a data frame on the 11-bit `cob_id` (above 0x7FF: refused,
-    /// not counted) with `len` (at most 8) data bytes, behind every queued
-    /// frame of its priority, and hands back its data, zeroed, for the
-    /// caller to write in place; `None` (and one more overflow) when full.
-    /// A burst (the TPDOs of a SYNC) moves no frame: each is built where
-    /// it waits.
-    // Out of line, and not generic over a builder: one copy for every sender.
+    /// not counted) whose first `len` (at most 8) of `data` are sent,
+    /// behind every queued frame of its priority; false (and one more
+    /// overflow) when full. The frame is written straight into its slot:
+    /// no `CanFrame` built by slice copy and moved (the TPDOs, a SYNC's
+    /// burst above all).
+    // Out of line, with the slot reservation in line: one copy for the TPDOs.
     #[inline(never)]
-    pub fn push_data(&mut self, cob_id: u16, len: u8) -> Option<&mut [u8; 8]> {
+    pub fn push_data(&mut self, cob_id: u16, data: &[u8; 8], len: u8) -> bool {
         if cob_id > 0x7FF || len > 8 {
-            return None;
+            return false;
         }
         // A standard data frame's priority: its identifier in the top 11 bits.
-        let frame = self.reserve(u32::from(cob_id) << 21, false)?;
-        *frame = CanFrame::EMPTY;
-        frame.set_standard(cob_id, len);
-        Some(frame.data_mut())
+        let Some(frame) = self.reserve(u32::from(cob_id) << 21, false) else { return false };
+        *frame = CanFrame::standard_unchecked(cob_id, *data, len);
+        true
     }
 
     // Out of line: the core of push and push_front.
@@ -232,21 +231,19 @@ mod tests {
     }
 
     #[test]
-    fn a_frame_built_in_its_slot_takes_its_place_among_the_others() {
+    fn a_frame_written_into_its_slot_takes_its_place_among_the_others() {
         let mut q = TxQueue::<4>::new();
         assert!(q.push(f(0x281, 2)));
-        // The slot it gets was used before: its data comes zeroed.
         assert_eq!(q.pop(), Some(f(0x281, 2)));
         assert!(q.push(f(0x581, 9)));
-        let data = q.push_data(0x181, 3).unwrap();
-        assert_eq!(*data, [0; 8]);
-        data[..3].copy_from_slice(&[1, 2, 3]);
+        // Bytes past the length are the caller's (zeros from a TPDO's build).
+        assert!(q.push_data(0x181, &[1, 2, 3, 0, 0, 0, 0, 0], 3));
         assert!(q.push(f(0x181, 4)));
-        assert_eq!(q.push_data(0x800, 1), None, "not an 11-bit identifier");
-        assert_eq!(q.push_data(0x181, 9), None, "more than 8 bytes");
+        assert!(!q.push_data(0x800, &[0; 8], 1), "not an 11-bit identifier");
+        assert!(!q.push_data(0x181, &[0; 8], 9), "more than 8 bytes");
         assert_eq!(q.overflows(), 0);
-        assert!(q.push_data(0x701, 0).is_some());
-        assert_eq!(q.push_data(0x080, 1), None, "full");
+        assert!(q.push_data(0x701, &[0; 8], 0));
+        assert!(!q.push_data(0x080, &[0; 8], 1), "full");
         assert_eq!(q.overflows(), 1);
         let order: Vec<CanFrame> = core::iter::from_fn(|| q.pop()).collect();
         let built = CanFrame::standard(0x181, &[1, 2, 3]).unwrap();
@@ -277,12 +274,11 @@ mod tests {
                     }
                 }
                 1 => {
-                    // The same frame, built in its slot.
+                    // The same frame, written into its slot.
                     up += 1;
-                    let slot = q.push_data(id, 1);
-                    assert_eq!(slot.is_some(), model.len() < 8);
-                    if let Some(data) = slot {
-                        data[0] = step as u8;
+                    let ok = q.push_data(id, &[step as u8, 0, 0, 0, 0, 0, 0, 0], 1);
+                    assert_eq!(ok, model.len() < 8);
+                    if ok {
                         model.push((frame.priority(), up, frame));
                     }
                 }

@@ -56,9 +56,8 @@ impl PdoTx for PdoSink<'_> {
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
     }
 
-    fn send_with(&mut self, cob_id: u16, len: usize, build: impl FnOnce(&mut [u8; MAX_LEN])) -> bool {
-        let data = self.txq.push_data(cob_id, u8::try_from(len).unwrap_or(u8::MAX));
-        data.map(build).is_some()
+    fn send_data(&mut self, cob_id: u16, data: &[u8; MAX_LEN], len: usize) -> bool {
+        self.txq.push_data(cob_id, data, u8::try_from(len).unwrap_or(u8::MAX))
     }
 
     fn event(&mut self, event: PdoEvent) {

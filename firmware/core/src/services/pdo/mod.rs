@@ -115,14 +115,11 @@ pub trait PdoTx {
     /// at a later poll, see [`tpdo`]).
     fn send(&mut self, cob_id: u16, data: &[u8]) -> bool;
 
-    /// Queues a frame of `len` bytes (at most 8) whose data `build` writes
-    /// into the 8 bytes it is given (zeroed), where the frame waits: what
-    /// a synchronous TPDO sends. The default builds it here and calls
-    /// [`PdoTx::send`]; `build` is not called when the queue is full.
-    fn send_with(&mut self, cob_id: u16, len: usize, build: impl FnOnce(&mut [u8; map::MAX_LEN])) -> bool {
-        let mut buf = [0; map::MAX_LEN];
-        build(&mut buf);
-        self.send(cob_id, buf.get(..len).unwrap_or(&buf))
+    /// Queues a frame of the first `len` (at most 8) of `data`, whose
+    /// bytes past `len` are zero (what a TPDO builds), so that a sink can
+    /// copy the whole 8 bytes as words. The default calls [`PdoTx::send`].
+    fn send_data(&mut self, cob_id: u16, data: &[u8; map::MAX_LEN], len: usize) -> bool {
+        self.send(cob_id, data.get(..len).unwrap_or(data))
     }
 
     /// Reports an event; the default ignores it.

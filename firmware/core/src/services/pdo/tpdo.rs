@@ -193,7 +193,7 @@ impl Tpdo {
     /// Hands a frame to the queue; remembers it when accepted.
     fn transmit(&mut self, cob_id: u16, buf: [u8; MAX_LEN], len: usize, tx: &mut impl PdoTx) -> bool {
         // `buf` is zero past `len` (`build`): copied as two words, no `memcpy`.
-        let ok = tx.send_with(cob_id, len, |data| *data = buf);
+        let ok = tx.send_data(cob_id, &buf, len);
         if ok {
             self.last = buf;
             self.sent = true;
@@ -262,11 +262,10 @@ impl Tpdo {
                     }
                 }
                 self.sync_count = self.sync_count.saturating_add(1);
-                if self.sync_count >= n {
+                (self.sync_count >= n).then(|| {
                     self.sync_count = 0;
-                    self.send_cyclic(cob_id, image, tx);
-                }
-                None
+                    self.build(image)
+                })
             }
             252 => {
                 self.sample = Some(self.build(image).0);
@@ -279,23 +278,6 @@ impl Tpdo {
         {
             self.pending_sync = Some(buf);
         }
-    }
-
-    /// Types 1..=240, on their SYNC: the frame is built where it waits in
-    /// the queue (no copy of its data). Nothing else to note when it is
-    /// accepted: `last` and `sent` serve change detection, and `event` and
-    /// `change_pending` stay false, in the other types only (a new type
-    /// restarts the PDO). A frame the queue refuses waits inside the
-    /// window ([`Tpdo::poll`]).
-    fn send_cyclic(&mut self, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
-        let Some(mapping) = self.mapping.as_ref() else { return };
-        let ok = tx.send_with(cob_id, mapping.len(), |data| {
-            mapping.build(image, data);
-        });
-        if !ok {
-            self.pending_sync = Some(self.build(image).0);
-        }
-        self.blocked = !ok;
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
