@@ -1,6 +1,8 @@
 //! Received frames: which service a COB-ID goes to in which NMT state,
 //! and what the node does with the result.
 
+use core::cell::Cell;
+
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
@@ -15,7 +17,7 @@ use crate::wire::time_stamp::TimeOfDay;
 
 use super::router::{Router, SdoEffects};
 use super::sinks::{PdoSink, SdoSink};
-use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE};
+use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE, store};
 use crate::services::sdo_server::SdoServers;
 use crate::txq::TxQueue;
 
@@ -199,10 +201,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
+        // The client has given up waiting for a store's answer (or aborted it).
+        self.store_answer.drop_for(i);
+        let staged = Cell::new(None);
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
-        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
+        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: Some(&staged) };
+        let mut sink = SdoSink { txq, cob_id: tx_cob, hold: Some(&staged), held: None };
+        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut sink);
+        let held = sink.held;
         let effects = ctx.effects;
+        if let (Some(frame), Some((index, sub))) = (held, staged.get()) {
+            self.store_answer = store::StoreAnswer::sdo(i, tx_cob, frame, index, sub);
+        }
         self.queue_raw();
         self.follow_sdo(effects);
         // After the answer: the SDO sink has queued it.
@@ -239,7 +249,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         &mut self,
         now: Instant,
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
-        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, .. } = self;
+        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, store, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {
             dict,
@@ -252,6 +262,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             options: A::OPTIONS,
             effects: SdoEffects::default(),
             raw,
+            store,
         };
         (ctx, app, sdo, txq, sdo_cob_ids)
     }

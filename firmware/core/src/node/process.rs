@@ -26,6 +26,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        // A store goes on a stage per call, and alone in its call; a reset
+        // that came meanwhile waits for it, so it loads what was stored.
+        if self.store.busy() {
+            self.store_step();
+            return Some(now);
+        }
         // A reset in progress goes on a stage per call; the call of its last
         // stage goes on below. A device with CANopen off starts none (power-on
         // completes its own), so for it this is left out.
@@ -54,10 +60,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // Idle servers have no timer and nothing to send: skip building the router for them.
         if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
-            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
+            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
-                    let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx });
+                    let mut sink = SdoSink { txq, cob_id: tx, hold: None, held: None };
+                    let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut sink);
                     sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }

@@ -71,6 +71,8 @@ pub enum StoreError {
     Storage(StorageError),
     /// The image does not fit a region.
     TooLarge,
+    /// Another store is in progress (abort 0x08000022 in the node).
+    Busy,
 }
 
 impl From<StorageError> for StoreError {
@@ -161,21 +163,18 @@ fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Opti
     (usize::from(header.len) == dict.defaults.len()).then_some(header)
 }
 
-/// Whether the payload of `region` matches the header's CRC (else the write was cut short).
-fn payload_intact(storage: &mut dyn Storage, region: u8, header: &Header) -> bool {
-    let mut crc = !0u32;
+/// The CRC-32 of `range` of the payload of `region`, continued from `crc`
+/// (`None` if the storage fails).
+fn crc_of(storage: &mut dyn Storage, region: u8, range: Range<usize>, mut crc: u32) -> Option<u32> {
     let mut buf = [0u8; 64];
-    let mut off = 0;
-    while off < usize::from(header.len) {
-        let n = buf.len().min(usize::from(header.len) - off);
-        let Some(chunk) = buf.get_mut(..n) else { return false };
-        if storage.read(region, HEADER + off, chunk).is_err() {
-            return false;
-        }
+    let mut off = range.start;
+    while off < range.end {
+        let chunk = buf.get_mut(..(range.end - off).min(64))?;
+        storage.read(region, HEADER + off, chunk).ok()?;
         crc = crc32_update(crc, chunk);
-        off += n;
+        off += chunk.len();
     }
-    !crc == header.crc
+    Some(crc)
 }
 
 /// The newest valid parameter set in a [`Storage`]: found once by
@@ -186,23 +185,70 @@ pub struct StoredSet {
     header: Header,
 }
 
+/// [`newest`] a piece at a time: the headers, then the payload's CRC in
+/// pieces of a given size. All zero bits before its first step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Finder {
+    headers: [Option<Header>; 2],
+    started: bool,
+    /// The region whose set is checked first (the newer one).
+    first: u8,
+    /// Sets found broken so far: the region checked is `first ^ tried`; 2 = none left.
+    tried: u8,
+    /// Payload bytes of the set in hand checked so far, and their CRC.
+    pos: u16,
+    crc: u32,
+}
+
+impl Finder {
+    const NEW: Finder = Finder { headers: [None, None], started: false, first: 0, tried: 0, pos: 0, crc: 0 };
+
+    /// Checks at most `budget` payload bytes; the newest valid set (or
+    /// none) once found. Only the newer header's payload is checked when it
+    /// is intact: an older set cannot win over it, valid or not.
+    fn step(&mut self, dict: &Dictionary, storage: &mut dyn Storage, budget: usize) -> Option<Option<StoredSet>> {
+        if !self.started {
+            self.started = true;
+            self.headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
+            // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
+            self.first = match &self.headers {
+                [Some(a), Some(b)] => u8::from(b.seq.wrapping_sub(a.seq) as i32 > 0),
+                [a, _] => u8::from(a.is_none()),
+            };
+            self.crc = !0;
+        }
+        while self.tried < 2 {
+            let region = self.first ^ self.tried;
+            if let Some(header) = self.headers.get(usize::from(region)).copied().flatten() {
+                let (pos, len) = (usize::from(self.pos), usize::from(header.len));
+                let end = len.min(pos.saturating_add(budget));
+                match crc_of(storage, region, pos..end, self.crc) {
+                    Some(crc) if end < len => {
+                        (self.pos, self.crc) = (end as u16, crc);
+                        return None;
+                    }
+                    Some(crc) if !crc == header.crc => return Some(Some(StoredSet { region, header })),
+                    // Cut short, or the storage failed: the other set, in the next step.
+                    _ => {}
+                }
+                (self.tried, self.pos, self.crc) = (self.tried + 1, 0, !0);
+                return None;
+            }
+            self.tried += 1;
+        }
+        Some(None)
+    }
+}
+
 /// Finds the newest valid set. Only the newer header's payload is checked
 /// when it is intact: an older set cannot win over it, valid or not.
 pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
-    let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
-    // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
-    let one_first = match &headers {
-        [Some(a), Some(b)] => b.seq.wrapping_sub(a.seq) as i32 > 0,
-        [a, _] => a.is_none(),
-    };
-    for region in if one_first { [1u8, 0] } else { [0, 1] } {
-        if let Some(header) = headers.get(usize::from(region)).copied().flatten()
-            && payload_intact(storage, region, &header)
-        {
-            return Some(StoredSet { region, header });
+    let mut finder = Finder::NEW;
+    loop {
+        if let Some(found) = finder.step(dict, storage, usize::MAX) {
+            return found;
         }
     }
-    None
 }
 
 impl StoredSet {
@@ -271,114 +317,9 @@ impl StoredSet {
     }
 }
 
-fn sub_le(bytes: &mut [u8], n: u64) {
-    let mut borrow = n;
-    for b in bytes.iter_mut() {
-        let v = i64::from(*b) - (borrow & 0xFF) as i64;
-        borrow >>= 8;
-        if v < 0 {
-            *b = (v + 256) as u8;
-            borrow += 1;
-        } else {
-            *b = v as u8;
-        }
-    }
-}
-
-/// Writes a new set: the scopes in `save` from the image, the scopes in
-/// `reset` marked as defaults, every other scope kept from the newest set.
-///
-/// Within the saved scopes, only the bytes of `from_image` come from the
-/// image, never those of `keep`: the rest keeps the newest set (the
-/// defaults if there is none).
-#[allow(clippy::too_many_arguments)]
-fn write_set(
-    dict: &Dictionary,
-    image: &[u8],
-    node_id: u8,
-    storage: &mut dyn Storage,
-    save: u16,
-    reset: u16,
-    lss: Option<[u8; 2]>,
-    from_image: Range<usize>,
-    keep: Range<usize>,
-) -> Result<(), StoreError> {
-    let len = dict.defaults.len();
-    if HEADER + len > storage.region_size() || len > usize::from(u16::MAX) {
-        return Err(StoreError::TooLarge);
-    }
-    let old = newest(dict, storage);
-    let target = old.map_or(0, |set| 1 - set.region);
-    let mut defaults = old.map_or(0b111, |set| set.header.defaults);
-    defaults = (defaults & !save) | reset;
-    storage.erase(target)?;
-    let [manufacturer, application] = scope_starts(dict);
-    let mut crc = !0u32;
-    let mut buf = [0u8; 64];
-    let mut pos = 0;
-    // The payload in chunks, each within one scope and taken from one source.
-    while pos < len {
-        let (bit, end) = match pos {
-            p if p < manufacturer => (Scope::Communication.mask(), manufacturer),
-            p if p < application => (Scope::Manufacturer.mask(), application),
-            _ => (Scope::Application.mask(), len),
-        };
-        let mut n = buf.len().min(end - pos);
-        // A chunk lies wholly inside or outside each of the two ranges.
-        for edge in [from_image.start, from_image.end, keep.start, keep.end] {
-            if edge > pos && edge < pos + n {
-                n = edge - pos;
-            }
-        }
-        let picked = save & bit != 0 && from_image.contains(&pos) && !keep.contains(&pos);
-        let from_image = picked || (old.is_none() && save & bit == 0);
-        let relative = || dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).map(|e| e.range());
-        if from_image {
-            // A `$NODEID` value (at most 8 bytes) is adjusted whole, so no chunk cuts one.
-            if let Some(r) = relative().find(|r| r.start > pos && r.start < pos + n && r.end > pos + n) {
-                n = r.start - pos;
-            }
-        }
-        let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
-        // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
-        let stale = old.is_some_and(|set| set.header.defaults & bit != 0);
-        match old {
-            Some(set) if !from_image && !stale => storage.read(set.region, HEADER + pos, chunk)?,
-            // No set (or a scope at default): what is not saved from the image is the default (stored relative, as defaults are).
-            _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
-            _ => {
-                chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
-                // `$NODEID` values are kept relative to the node-id.
-                for r in relative().filter(|r| r.start >= pos && r.end <= pos + n) {
-                    if let Some(value) = chunk.get_mut(r.start - pos..r.end - pos) {
-                        sub_le(value, u64::from(node_id));
-                    }
-                }
-            }
-        }
-        storage.write(target, HEADER + pos, chunk)?;
-        crc = crc32_update(crc, chunk);
-        pos += n;
-    }
-    let seq = old.map_or(1, |set| set.header.seq.wrapping_add(1));
-    // The LSS configuration rides along with every set: a new one or the old one.
-    let lss_bytes = lss.or(old.map(|set| set.header.lss)).unwrap_or([0xFF, 0xFF]);
-    let [m0, m1, m2, m3] = MAGIC.to_le_bytes();
-    let [v0, v1] = VERSION.to_le_bytes();
-    let [l0, l1, l2, l3] = dict.layout_id.to_le_bytes();
-    let [s0, s1, s2, s3] = seq.to_le_bytes();
-    let [n0, n1] = (len as u16).to_le_bytes();
-    let [d0, d1] = defaults.to_le_bytes();
-    let [c0, c1, c2, c3] = (!crc).to_le_bytes();
-    let [i0, i1] = lss_bytes;
-    let h: [u8; HEADER] = [m0, m1, m2, m3, v0, v1, i0, i1, l0, l1, l2, l3, s0, s1, s2, s3, n0, n1, d0, d1, c0, c1, c2, c3];
-    storage.write(target, 0, &h)?;
-    Ok(())
-}
-
 /// 0x1010 "save": stores the scope's parameters.
 pub fn save(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    save_except(dict, image, node_id, storage, scope, None)
+    Job::save(dict, scope, None).finish(dict, image, node_id, storage)
 }
 
 /// 0x1010 "save" of a device that stores the objects `keep` (an inclusive
@@ -391,8 +332,7 @@ pub fn save_except(
     scope: Scope,
     keep: Option<(u16, u16)>,
 ) -> Result<(), StoreError> {
-    let keep = keep.map_or(0..0, |(first, last)| byte_range(dict, first, last));
-    write_set(dict, image, node_id, storage, scope.mask(), 0, None, 0..image.len(), keep)
+    Job::save(dict, scope, keep).finish(dict, image, node_id, storage)
 }
 
 /// Stores the objects `first..=last` alone: every other value keeps what the
@@ -405,16 +345,7 @@ pub fn save_objects(
     first: u16,
     last: u16,
 ) -> Result<(), StoreError> {
-    let range = byte_range(dict, first, last);
-    let Some(scope_last) = range.end.checked_sub(1).filter(|_| !range.is_empty()) else { return Ok(()) };
-    let scope_first = range.start;
-    let [manufacturer, application] = scope_starts(dict);
-    let bit = |pos: usize| match pos {
-        p if p < manufacturer => Scope::Communication.mask(),
-        p if p < application => Scope::Manufacturer.mask(),
-        _ => Scope::Application.mask(),
-    };
-    write_set(dict, image, node_id, storage, bit(scope_first) | bit(scope_last), 0, None, range, 0..0)
+    Job::save_objects(dict, first, last).finish(dict, image, node_id, storage)
 }
 
 /// The bytes of the image the RAM values of objects `first..=last` take
@@ -428,7 +359,7 @@ fn byte_range(dict: &Dictionary, first: u16, last: u16) -> Range<usize> {
 
 /// 0x1011 "load": the scope uses its defaults from the next reset on.
 pub fn restore_defaults(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, 0, scope.mask(), None, 0..0, 0..0)
+    Job::restore(scope).finish(dict, image, node_id, storage)
 }
 
 /// LSS "store configuration" (CiA 305 §5.2.4): the node-id and bit-rate
@@ -442,7 +373,7 @@ pub fn save_lss(
     lss_node_id: u8,
     bit_rate: u8,
 ) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, 0, 0, Some([lss_node_id, bit_rate]), 0..0, 0..0)
+    Job::lss(lss_node_id, bit_rate).finish(dict, image, node_id, storage)
 }
 
 /// The value of (index, sub) in the newest stored set, copied into the
@@ -483,5 +414,8 @@ pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn 
     newest(dict, storage).is_some_and(|set| set.load(dict, image, node_id, storage, part))
 }
 
+mod job;
 #[cfg(test)]
 mod tests;
+
+pub use job::Job;

@@ -1,0 +1,98 @@
+//! The store in stages: an SDO download of 0x1010/0x1011 or an LSS "store
+//! configuration" starts it, [`Node::process`] runs a stage per call
+//! (`services::store::Job`), and its answer goes out when it ends, so that
+//! no call does a whole store (docs/firmware.md, "Store and restore in stages").
+//!
+//! Meanwhile:
+//! - a frame from the same SDO client ends its wait: the store goes on to
+//!   its end, unanswered (the client gave up or aborted; an answer after
+//!   its next request would be taken for that one's);
+//! - a second store by SDO or LSS is refused (SDO abort 0x08000022, LSS
+//!   "storage failed"): both would write the same region; one the device
+//!   runs itself (`Ctx::save`, …, `Node::write_object`) first ends the
+//!   running one in its call, whose answer then goes out at the next `process`;
+//! - an NMT reset waits for the store (the reset loads what it stored); its
+//!   SDO answer is dropped, as a reset ends every SDO transfer, and so it is
+//!   in Stopped;
+//! - every other frame is served as usual; a value written between two
+//!   stages is stored as it was before or after, whole.
+
+use crate::od::ObjectDictionary;
+use crate::services::lss::LssSlave;
+use crate::storage::Storage;
+use crate::wire::lss::SLAVE_COB_ID;
+use crate::wire::sdo::SdoResponse;
+
+use super::router::store_abort;
+use super::{Application, Node};
+
+/// Who hears the end of the store in progress. All zero bits when nobody.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct StoreAnswer {
+    /// SDO server `i` as `i + 1`; 0 for LSS.
+    server: u8,
+    /// The answer's COB-ID (0: no answer).
+    cob_id: u16,
+    /// The answer for success.
+    frame: [u8; 8],
+    /// The object an SDO abort names.
+    index: u16,
+    sub: u8,
+}
+
+impl StoreAnswer {
+    /// No answer due.
+    pub(super) const NONE: StoreAnswer = StoreAnswer { server: 0, cob_id: 0, frame: [0; 8], index: 0, sub: 0 };
+
+    /// SDO server `i`'s answer `frame` (on `cob_id`) to a download of (index, sub).
+    pub(super) fn sdo(i: usize, cob_id: u16, frame: [u8; 8], index: u16, sub: u8) -> StoreAnswer {
+        StoreAnswer { server: (i as u8).wrapping_add(1), cob_id, frame, index, sub }
+    }
+
+    /// Drops the answer if SDO server `i` waits for it.
+    pub(super) fn drop_for(&mut self, i: usize) {
+        if self.cob_id != 0 && usize::from(self.server) == i + 1 {
+            *self = StoreAnswer::NONE;
+        }
+    }
+}
+
+impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
+    Node<O, A, S, R, T, HB, SDO>
+{
+    /// Whether a store is in progress: [`Node::process`] goes on with it a
+    /// stage per call and returns `now` as its deadline until it is done.
+    pub fn storing(&self) -> bool {
+        self.store.busy()
+    }
+
+    /// LSS "store configuration": a store in stages, answered at its end;
+    /// refused at once ("storage failed") while another store runs, or
+    /// without storage.
+    pub(super) fn store_lss(&mut self, node_id: u8, bit_rate: u8) {
+        if !O::SERVICES.storage || self.store.busy() {
+            self.push(SLAVE_COB_ID, &LssSlave::store_result(false));
+            return;
+        }
+        self.store = crate::services::store::Job::lss(node_id, bit_rate);
+        let frame = LssSlave::store_result(true);
+        self.store_answer = StoreAnswer { server: 0, cob_id: SLAVE_COB_ID, frame, index: 0, sub: 0 };
+    }
+
+    /// One stage of the store in progress; at its end, its answer.
+    pub(super) fn store_step(&mut self) {
+        let Node { od, storage, store, node_id, .. } = self;
+        let Some(result) = store.step(od.dictionary(), od.image(), *node_id, storage) else { return };
+        let answer = core::mem::replace(&mut self.store_answer, StoreAnswer::NONE);
+        let sdo = answer.server != 0;
+        if answer.cob_id == 0 || (sdo && !self.nmt.state().sdo_allowed()) {
+            return;
+        }
+        let frame = match result {
+            Ok(()) => answer.frame,
+            Err(e) if sdo => SdoResponse::Abort { index: answer.index, sub: answer.sub, code: store_abort(e).code() }.emit(),
+            Err(_) => LssSlave::store_result(false),
+        };
+        self.push(answer.cob_id, &frame);
+    }
+}

@@ -1,0 +1,339 @@
+//! A store in stages ([`Job`]): the node runs one [`Job::step`] per
+//! `process` call, so that no call checks, copies or CRCs more than
+//! [`STAGE`] bytes (docs/firmware.md, "Store and restore in stages").
+//!
+//! The steps are those of one store, in order: find the newest valid set
+//! (its payload's CRC, a piece per step), erase the other region, write the
+//! payload (a piece per step, each ending at a value's end, so that every
+//! value is taken whole from the image of one step), then the header. A
+//! power cut at any step leaves the old set valid until the header of the
+//! new one is written, as in one call.
+
+use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_starts};
+use crate::od::Dictionary;
+use crate::storage::{Storage, StorageError};
+
+/// Payload bytes a step checks or writes at most (a value longer than this
+/// goes whole into one step). 256 bytes are about 6,000 instructions on
+/// thumbv7m at the heaviest step, the write with its CRC (`cargo xtask icount`).
+pub const STAGE: usize = 256;
+
+/// Where a [`Job`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// Nothing to do (zero bits: a node's job before any store).
+    Idle,
+    /// Finding the newest valid set (the CRC of its payload).
+    Find,
+    /// Erasing the region not holding it.
+    Erase,
+    /// Writing the payload, then the header.
+    Write,
+    /// Run to its end by [`Job::settle`]: the next step gives the result.
+    Settled,
+}
+
+/// A store or restore in progress: what it writes and how far it got. All
+/// zero bits when idle ([`Job::IDLE`]), so a node holding one stays in `.bss`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Job {
+    phase: Phase,
+    /// Scopes saved from the image, and scopes marked as defaults ([`Scope`] bits).
+    save: u16,
+    reset: u16,
+    /// A new LSS configuration (node-id, bit-rate table index), if `new_lss`.
+    lss: [u8; 2],
+    new_lss: bool,
+    /// The image bytes the saved scopes take from the image (start, end),
+    /// but for those of `keep`, which keep the newest set's.
+    from_image: (u16, u16),
+    keep: (u16, u16),
+    find: Finder,
+    /// The newest valid set found, which the new one follows.
+    old: Option<StoredSet>,
+    /// Payload bytes written, the entry the next step's end is looked for
+    /// from, and the CRC so far.
+    pos: u16,
+    entry: u16,
+    crc: u32,
+    /// The error a settled job ended with ([`StoreError`] as a number; 0: none).
+    error: u8,
+}
+
+/// A range of the image as a [`Job`] keeps it (images are checked to be below 64 KiB).
+fn span(range: core::ops::Range<usize>) -> (u16, u16) {
+    (range.start as u16, range.end as u16)
+}
+
+impl Job {
+    /// No store in progress.
+    pub const IDLE: Job = Job {
+        phase: Phase::Idle,
+        save: 0,
+        reset: 0,
+        lss: [0; 2],
+        new_lss: false,
+        from_image: (0, 0),
+        keep: (0, 0),
+        find: Finder::NEW,
+        old: None,
+        pos: 0,
+        entry: 0,
+        crc: 0,
+        error: 0,
+    };
+
+    const fn new(save: u16, reset: u16, from_image: (u16, u16), keep: (u16, u16)) -> Job {
+        Job { phase: Phase::Find, save, reset, from_image, keep, ..Job::IDLE }
+    }
+
+    /// 0x1010 "save" of `scope`; the objects `keep` (an inclusive index
+    /// range), if any, keep their stored values.
+    pub fn save(dict: &Dictionary, scope: Scope, keep: Option<(u16, u16)>) -> Job {
+        let keep = keep.map_or((0, 0), |(first, last)| span(byte_range(dict, first, last)));
+        Job::new(scope.mask(), 0, (0, u16::MAX), keep)
+    }
+
+    /// Stores the objects `first..=last` alone (see [`super::save_objects`]);
+    /// nothing to do if none of them is in RAM.
+    pub fn save_objects(dict: &Dictionary, first: u16, last: u16) -> Job {
+        let range = byte_range(dict, first, last);
+        let Some(last) = range.end.checked_sub(1).filter(|_| !range.is_empty()) else { return Job::IDLE };
+        let [manufacturer, application] = scope_starts(dict);
+        let bit = |pos: usize| match pos {
+            p if p < manufacturer => Scope::Communication.mask(),
+            p if p < application => Scope::Manufacturer.mask(),
+            _ => Scope::Application.mask(),
+        };
+        Job::new(bit(range.start) | bit(last), 0, span(range), (0, 0))
+    }
+
+    /// 0x1011 "load": the scope uses its defaults from the next reset on.
+    pub const fn restore(scope: Scope) -> Job {
+        Job::new(0, scope.mask(), (0, 0), (0, 0))
+    }
+
+    /// LSS "store configuration": the parameters as stored, with a new LSS configuration.
+    pub const fn lss(node_id: u8, bit_rate: u8) -> Job {
+        Job { lss: [node_id, bit_rate], new_lss: true, ..Job::new(0, 0, (0, 0), (0, 0)) }
+    }
+
+    /// Whether the store has steps left.
+    pub fn busy(&self) -> bool {
+        self.phase != Phase::Idle
+    }
+
+    /// The next step: `None` while steps are left, then the result (at
+    /// once for an idle job). A failed step ends the job; the old set stays.
+    pub fn step(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) -> Option<Result<(), StoreError>> {
+        self.step_with(dict, image, node_id, storage, STAGE)
+    }
+
+    /// Runs the rest of the job in this call; its next [`Job::step`] gives
+    /// the result (for a store whose answer waits, when another has to run now).
+    pub fn settle(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) {
+        if self.busy() {
+            let error = match self.finish(dict, image, node_id, storage) {
+                Ok(()) => 0,
+                Err(StoreError::TooLarge) => 1,
+                Err(StoreError::Busy) => 2,
+                Err(StoreError::Storage(StorageError::OutOfRange)) => 3,
+                Err(StoreError::Storage(StorageError::Failed)) => 4,
+            };
+            (self.phase, self.error) = (Phase::Settled, error);
+        }
+    }
+
+    /// The whole store in one call.
+    pub fn finish(mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) -> Result<(), StoreError> {
+        loop {
+            if let Some(result) = self.step(dict, image, node_id, storage) {
+                return result;
+            }
+        }
+    }
+
+    /// [`Job::step`] with steps of `budget` bytes.
+    pub(super) fn step_with(
+        &mut self,
+        dict: &Dictionary,
+        image: &[u8],
+        node_id: u8,
+        storage: &mut dyn Storage,
+        budget: usize,
+    ) -> Option<Result<(), StoreError>> {
+        match self.advance(dict, image, node_id, storage, budget) {
+            Ok(false) => None,
+            done => {
+                self.phase = Phase::Idle;
+                Some(done.map(|_| ()))
+            }
+        }
+    }
+
+    /// One step; true when the job is done.
+    fn advance(
+        &mut self,
+        dict: &Dictionary,
+        image: &[u8],
+        node_id: u8,
+        storage: &mut dyn Storage,
+        budget: usize,
+    ) -> Result<bool, StoreError> {
+        let len = dict.defaults.len();
+        match self.phase {
+            Phase::Idle => return Ok(true),
+            Phase::Settled => {
+                return match self.error {
+                    0 => Ok(true),
+                    1 => Err(StoreError::TooLarge),
+                    2 => Err(StoreError::Busy),
+                    3 => Err(StoreError::Storage(StorageError::OutOfRange)),
+                    _ => Err(StoreError::Storage(StorageError::Failed)),
+                };
+            }
+            Phase::Find => {
+                if HEADER + len > storage.region_size() || len >= usize::from(u16::MAX) {
+                    return Err(StoreError::TooLarge);
+                }
+                if let Some(old) = self.find.step(dict, storage, budget) {
+                    (self.old, self.phase) = (old, Phase::Erase);
+                }
+            }
+            Phase::Erase => {
+                storage.erase(self.target())?;
+                (self.phase, self.crc) = (Phase::Write, !0);
+            }
+            Phase::Write => {
+                let stop = self.stage_end(dict, len, budget);
+                self.write(dict, image, node_id, storage, stop)?;
+                if stop >= len {
+                    self.write_header(dict, storage)?;
+                    return Ok(true);
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    /// The region the new set goes to: the one not holding the newest.
+    fn target(&self) -> u8 {
+        self.old.map_or(0, |set| 1 - set.region)
+    }
+
+    /// Where this step's writing ends: after the last whole value within
+    /// `budget` bytes (at least one value), or at the end of the image.
+    fn stage_end(&mut self, dict: &Dictionary, len: usize, budget: usize) -> usize {
+        let pos = usize::from(self.pos);
+        let mut stop = pos;
+        while let Some(e) = dict.entries.get(usize::from(self.entry)) {
+            let end = e.range().end;
+            if !e.in_rom() && e.len > 0 && end > stop {
+                if stop > pos && end > pos.saturating_add(budget) {
+                    return stop;
+                }
+                stop = end;
+            }
+            self.entry += 1;
+        }
+        len
+    }
+
+    /// Writes the payload from `self.pos` to `stop`: the scopes saved from
+    /// the image, the scopes marked default from the defaults, every other
+    /// scope kept from the newest set (the defaults if there is none).
+    fn write(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, stop: usize) -> Result<(), StoreError> {
+        let old = self.old;
+        let target = self.target();
+        let [manufacturer, application] = scope_starts(dict);
+        let from_image = usize::from(self.from_image.0)..usize::from(self.from_image.1);
+        let keep = usize::from(self.keep.0)..usize::from(self.keep.1);
+        let mut buf = [0u8; 64];
+        let mut pos = usize::from(self.pos);
+        // The payload in chunks, each within one scope and taken from one source.
+        while pos < stop {
+            let (bit, end) = match pos {
+                p if p < manufacturer => (Scope::Communication.mask(), manufacturer),
+                p if p < application => (Scope::Manufacturer.mask(), application),
+                _ => (Scope::Application.mask(), stop),
+            };
+            let mut n = buf.len().min(end.min(stop) - pos);
+            // A chunk lies wholly inside or outside each of the two ranges.
+            for edge in [from_image.start, from_image.end, keep.start, keep.end] {
+                if edge > pos && edge < pos + n {
+                    n = edge - pos;
+                }
+            }
+            let picked = self.save & bit != 0 && from_image.contains(&pos) && !keep.contains(&pos);
+            let from_image = picked || (old.is_none() && self.save & bit == 0);
+            let relative = || dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).map(|e| e.range());
+            if from_image {
+                // A `$NODEID` value (at most 8 bytes) is adjusted whole, so no chunk cuts one.
+                if let Some(r) = relative().find(|r| r.start > pos && r.start < pos + n && r.end > pos + n) {
+                    n = r.start - pos;
+                }
+            }
+            let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
+            // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
+            let stale = old.is_some_and(|set| set.header.defaults & bit != 0);
+            match old {
+                Some(set) if !from_image && !stale => storage.read(set.region, HEADER + pos, chunk)?,
+                // No set (or a scope at default): what is not saved from the image is the default (stored relative, as defaults are).
+                _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
+                _ => {
+                    chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
+                    // `$NODEID` values are kept relative to the node-id.
+                    for r in relative().filter(|r| r.start >= pos && r.end <= pos + n) {
+                        if let Some(value) = chunk.get_mut(r.start - pos..r.end - pos) {
+                            sub_le(value, node_id);
+                        }
+                    }
+                }
+            }
+            storage.write(target, HEADER + pos, chunk)?;
+            self.crc = crc32_update(self.crc, chunk);
+            pos += n;
+        }
+        self.pos = pos as u16;
+        Ok(())
+    }
+
+    /// The header, last: the new set is valid from here on.
+    fn write_header(&self, dict: &Dictionary, storage: &mut dyn Storage) -> Result<(), StoreError> {
+        let old = self.old;
+        let defaults = (old.map_or(0b111, |set| set.header.defaults) & !self.save) | self.reset;
+        let seq = old.map_or(1, |set| set.header.seq.wrapping_add(1));
+        // The LSS configuration rides along with every set: a new one or the old one.
+        let lss = if self.new_lss { self.lss } else { old.map_or([0xFF, 0xFF], |set| set.header.lss) };
+        let mut h = [0u8; HEADER];
+        let fields: [&[u8]; 8] = [
+            &MAGIC.to_le_bytes(),
+            &VERSION.to_le_bytes(),
+            &lss,
+            &dict.layout_id.to_le_bytes(),
+            &seq.to_le_bytes(),
+            &(dict.defaults.len() as u16).to_le_bytes(),
+            &defaults.to_le_bytes(),
+            &(!self.crc).to_le_bytes(),
+        ];
+        let mut at = 0;
+        for field in fields {
+            if let Some(dst) = h.get_mut(at..at + field.len()) {
+                dst.copy_from_slice(field);
+            }
+            at += field.len();
+        }
+        storage.write(self.target(), 0, &h)?;
+        Ok(())
+    }
+}
+
+/// Subtracts `n` from a little-endian value (a `$NODEID` value stored relative).
+fn sub_le(bytes: &mut [u8], n: u8) {
+    let mut borrow = u16::from(n);
+    for b in bytes.iter_mut() {
+        let v = u16::from(*b).wrapping_sub(borrow);
+        *b = v as u8;
+        borrow = u16::from(v > 0xFF);
+    }
+}
