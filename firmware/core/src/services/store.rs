@@ -186,9 +186,10 @@ pub struct StoredSet {
 }
 
 /// [`newest`] a piece at a time: the headers, then the payload's CRC in
-/// pieces of a given size. All zero bits before its first step.
+/// pieces of [`STAGE`] bytes, a [`Finder::step`] each (a reset's first
+/// stages). All zero bits before its first step ([`Finder::NEW`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Finder {
+pub struct Finder {
     headers: [Option<Header>; 2],
     started: bool,
     /// The region whose set is checked first (the newer one).
@@ -201,12 +202,18 @@ struct Finder {
 }
 
 impl Finder {
-    const NEW: Finder = Finder { headers: [None, None], started: false, first: 0, tried: 0, pos: 0, crc: 0 };
+    /// Nothing checked yet.
+    pub const NEW: Finder = Finder { headers: [None, None], started: false, first: 0, tried: 0, pos: 0, crc: 0 };
+
+    /// The next piece: `None` while pieces are left, then the newest valid set, if any.
+    pub fn step(&mut self, dict: &Dictionary, storage: &mut dyn Storage) -> Option<Option<StoredSet>> {
+        self.step_with(dict, storage, STAGE)
+    }
 
     /// Checks at most `budget` payload bytes; the newest valid set (or
     /// none) once found. Only the newer header's payload is checked when it
     /// is intact: an older set cannot win over it, valid or not.
-    fn step(&mut self, dict: &Dictionary, storage: &mut dyn Storage, budget: usize) -> Option<Option<StoredSet>> {
+    fn step_with(&mut self, dict: &Dictionary, storage: &mut dyn Storage, budget: usize) -> Option<Option<StoredSet>> {
         if !self.started {
             self.started = true;
             self.headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
@@ -245,7 +252,7 @@ impl Finder {
 pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
     let mut finder = Finder::NEW;
     loop {
-        if let Some(found) = finder.step(dict, storage, usize::MAX) {
+        if let Some(found) = finder.step_with(dict, storage, usize::MAX) {
             return found;
         }
     }
@@ -418,4 +425,4 @@ mod job;
 #[cfg(test)]
 mod tests;
 
-pub use job::Job;
+pub use job::{Job, STAGE};

@@ -196,7 +196,7 @@ impl Job {
                 if HEADER + len > storage.region_size() || len >= usize::from(u16::MAX) {
                     return Err(StoreError::TooLarge);
                 }
-                if let Some(old) = self.find.step(dict, storage, budget) {
+                if let Some(old) = self.find.step_with(dict, storage, budget) {
                     (self.old, self.phase) = (old, Phase::Erase);
                 }
             }
