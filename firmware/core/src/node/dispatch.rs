@@ -202,15 +202,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
         // The client has given up waiting for a store's answer (or aborted it).
-        self.store_answer.drop_for(i);
+        if O::SERVICES.storage {
+            self.store_answer.drop_for(i);
+        }
         let staged = Cell::new(None);
+        // Without storage no store starts: the compiler leaves the answer's holding out.
+        let staged_ref = if O::SERVICES.storage { Some(&staged) } else { None };
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: Some(&staged) };
-        let mut sink = SdoSink { txq, cob_id: tx_cob, hold: Some(&staged), held: None };
+        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: staged_ref };
+        let mut sink = SdoSink { txq, cob_id: tx_cob, hold: staged_ref, held: None };
         sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut sink);
         let held = sink.held;
         let effects = ctx.effects;
-        if let (Some(frame), Some((index, sub))) = (held, staged.get()) {
+        if let (true, Some(frame), Some((index, sub))) = (O::SERVICES.storage, held, staged.get()) {
             self.store_answer = store::StoreAnswer::sdo(i, tx_cob, frame, index, sub);
         }
         self.queue_raw();

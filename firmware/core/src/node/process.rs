@@ -28,7 +28,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
         // A store goes on a stage per call, and alone in its call; a reset
         // that came meanwhile waits for it, so it loads what was stored.
-        if self.store.busy() {
+        if O::SERVICES.storage && self.store.busy() {
             self.store_step();
             return Some(now);
         }

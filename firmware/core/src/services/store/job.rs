@@ -9,8 +9,8 @@
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_starts};
-use crate::od::Dictionary;
+use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_bit, scope_starts};
+use crate::od::{Attr, Dictionary};
 use crate::storage::{Storage, StorageError};
 
 /// Payload bytes a step checks or writes at most (a value longer than this
@@ -205,9 +205,7 @@ impl Job {
                 (self.phase, self.crc) = (Phase::Write, !0);
             }
             Phase::Write => {
-                let stop = self.stage_end(dict, len, budget);
-                self.write(dict, image, node_id, storage, stop)?;
-                if stop >= len {
+                if self.write(dict, image, node_id, storage, budget)? {
                     self.write_header(dict, storage)?;
                     return Ok(true);
                 }
@@ -221,80 +219,70 @@ impl Job {
         self.old.map_or(0, |set| 1 - set.region)
     }
 
-    /// Where this step's writing ends: after the last whole value within
-    /// `budget` bytes (at least one value), or at the end of the image.
-    fn stage_end(&mut self, dict: &Dictionary, len: usize, budget: usize) -> usize {
-        let pos = usize::from(self.pos);
-        let mut stop = pos;
-        while let Some(e) = dict.entries.get(usize::from(self.entry)) {
-            let end = e.range().end;
-            if !e.in_rom() && e.len > 0 && end > stop {
-                if stop > pos && end > pos.saturating_add(budget) {
-                    return stop;
+    /// Writes the next whole values, about `budget` bytes of them (at
+    /// least one), each from its source: the image for the scopes and
+    /// objects saved, the newest set for the others (the defaults where it
+    /// marks the scope as default, or where there is none). True once the
+    /// whole payload is written.
+    fn write(
+        &mut self,
+        dict: &Dictionary,
+        image: &[u8],
+        node_id: u8,
+        storage: &mut dyn Storage,
+        budget: usize,
+    ) -> Result<bool, StoreError> {
+        let target = self.target();
+        let start = usize::from(self.pos);
+        let mut pos = start;
+        let from_image = self.from_image.0..self.from_image.1;
+        let keep = self.keep.0..self.keep.1;
+        let mut buf = [0u8; 64];
+        for e in dict.entries.get(usize::from(self.entry)..).unwrap_or(&[]) {
+            let r = e.range();
+            if !e.in_rom() && e.len > 0 && r.end > pos {
+                if pos > start && r.end > start.saturating_add(budget) {
+                    self.pos = pos as u16;
+                    return Ok(false);
                 }
-                stop = end;
+                // Bytes between values (none in a generated image) as the defaults have them.
+                self.put(storage, target, pos, dict.defaults.get(pos..r.start).unwrap_or(&[]))?;
+                let bit = scope_bit(e.index);
+                let saved = self.save & bit != 0 && from_image.contains(&{ e.offset }) && !keep.contains(&{ e.offset });
+                // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
+                let old = self.old.filter(|set| set.header.defaults & bit == 0);
+                pos = r.start;
+                while pos < r.end {
+                    let n = (r.end - pos).min(buf.len());
+                    let piece = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
+                    match old {
+                        _ if saved => {
+                            piece.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
+                            // `$NODEID` values (at most 8 bytes) are kept relative to the node-id.
+                            if e.attr.contains(Attr::NODE_ID) {
+                                sub_le(piece, node_id);
+                            }
+                        }
+                        Some(set) => storage.read(set.region, HEADER + pos, piece)?,
+                        // No set: the defaults (stored relative, as defaults are).
+                        None => piece.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
+                    }
+                    self.put(storage, target, pos, piece)?;
+                    pos += n;
+                }
             }
             self.entry += 1;
         }
-        len
+        self.put(storage, target, pos, dict.defaults.get(pos..).unwrap_or(&[]))?;
+        Ok(true)
     }
 
-    /// Writes the payload from `self.pos` to `stop`: the scopes saved from
-    /// the image, the scopes marked default from the defaults, every other
-    /// scope kept from the newest set (the defaults if there is none).
-    fn write(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, stop: usize) -> Result<(), StoreError> {
-        let old = self.old;
-        let target = self.target();
-        let [manufacturer, application] = scope_starts(dict);
-        let from_image = usize::from(self.from_image.0)..usize::from(self.from_image.1);
-        let keep = usize::from(self.keep.0)..usize::from(self.keep.1);
-        let mut buf = [0u8; 64];
-        let mut pos = usize::from(self.pos);
-        // The payload in chunks, each within one scope and taken from one source.
-        while pos < stop {
-            let (bit, end) = match pos {
-                p if p < manufacturer => (Scope::Communication.mask(), manufacturer),
-                p if p < application => (Scope::Manufacturer.mask(), application),
-                _ => (Scope::Application.mask(), stop),
-            };
-            let mut n = buf.len().min(end.min(stop) - pos);
-            // A chunk lies wholly inside or outside each of the two ranges.
-            for edge in [from_image.start, from_image.end, keep.start, keep.end] {
-                if edge > pos && edge < pos + n {
-                    n = edge - pos;
-                }
-            }
-            let picked = self.save & bit != 0 && from_image.contains(&pos) && !keep.contains(&pos);
-            let from_image = picked || (old.is_none() && self.save & bit == 0);
-            let relative = || dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).map(|e| e.range());
-            if from_image {
-                // A `$NODEID` value (at most 8 bytes) is adjusted whole, so no chunk cuts one.
-                if let Some(r) = relative().find(|r| r.start > pos && r.start < pos + n && r.end > pos + n) {
-                    n = r.start - pos;
-                }
-            }
-            let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
-            // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
-            let stale = old.is_some_and(|set| set.header.defaults & bit != 0);
-            match old {
-                Some(set) if !from_image && !stale => storage.read(set.region, HEADER + pos, chunk)?,
-                // No set (or a scope at default): what is not saved from the image is the default (stored relative, as defaults are).
-                _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
-                _ => {
-                    chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
-                    // `$NODEID` values are kept relative to the node-id.
-                    for r in relative().filter(|r| r.start >= pos && r.end <= pos + n) {
-                        if let Some(value) = chunk.get_mut(r.start - pos..r.end - pos) {
-                            sub_le(value, node_id);
-                        }
-                    }
-                }
-            }
-            storage.write(target, HEADER + pos, chunk)?;
-            self.crc = crc32_update(self.crc, chunk);
-            pos += n;
+    /// Writes `bytes` at payload offset `pos` of `target` and takes them into the CRC.
+    fn put(&mut self, storage: &mut dyn Storage, target: u8, pos: usize, bytes: &[u8]) -> Result<(), StoreError> {
+        if !bytes.is_empty() {
+            storage.write(target, HEADER + pos, bytes)?;
+            self.crc = crc32_update(self.crc, bytes);
         }
-        self.pos = pos as u16;
         Ok(())
     }
 
