@@ -21,7 +21,6 @@ use crate::od::ObjectDictionary;
 use crate::services::lss::LssSlave;
 use crate::storage::Storage;
 use crate::wire::lss::SLAVE_COB_ID;
-use crate::wire::sdo::SdoResponse;
 
 use super::router::store_abort;
 use super::{Application, Node};
@@ -90,7 +89,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         let frame = match result {
             Ok(()) => answer.frame,
-            Err(e) if sdo => SdoResponse::Abort { index: answer.index, sub: answer.sub, code: store_abort(e).code() }.emit(),
+            Err(e) if sdo => {
+                // The SDO abort frame (CiA 301 §7.2.4.3.17), as the server words it.
+                let [i0, i1] = answer.index.to_le_bytes();
+                let [c0, c1, c2, c3] = store_abort(e).code().to_le_bytes();
+                [0x80, i0, i1, answer.sub, c0, c1, c2, c3]
+            }
             Err(_) => LssSlave::store_result(false),
         };
         self.push(answer.cob_id, &frame);

@@ -91,19 +91,6 @@ const fn scope_bit(index: u16) -> u16 {
     }
 }
 
-/// Where the manufacturer and the application scope begin in the image (the
-/// communication scope begins at 0): the offset of the first value in RAM at
-/// or after 0x2000 and 0x6000.
-fn scope_starts(dict: &Dictionary) -> [usize; 2] {
-    let start = |index: u16| {
-        let first = dict.entries.partition_point(|e| e.index < index);
-        let later = dict.entries.get(first..).unwrap_or(&[]);
-        later.iter().find(|e| !e.in_rom() && e.len > 0).map_or(dict.defaults.len(), |e| usize::from(e.offset))
-    };
-    let manufacturer = start(0x2000).max(dict.comm_len);
-    [manufacturer, start(0x6000).max(manufacturer)]
-}
-
 /// CRC-32 (reflected, polynomial 0xEDB88320) of each value of a nibble.
 /// Chosen by measurement on thumbv7m (`cargo xtask icount`, `cargo xtask
 /// size`): against the bitwise loop it saves about 52 instructions per byte
@@ -153,13 +140,17 @@ struct Header {
 fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<Header> {
     let mut h = [0u8; HEADER];
     storage.read(region, 0, &mut h).ok()?;
-    let word = |i: usize| h.get(i..i + 4).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
-    let half = |i: usize| h.get(i..i + 2).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes);
-    if word(0)? != MAGIC || half(4)? != VERSION || word(8)? != dict.layout_id {
+    // Little-endian words: magic, version and LSS, layout id, sequence number, length and default scopes, CRC.
+    let mut words = [0u32; HEADER / 4];
+    for (word, bytes) in words.iter_mut().zip(h.chunks_exact(4)) {
+        *word = u32::from_le_bytes(bytes.try_into().unwrap_or_default());
+    }
+    let [magic, version_lss, layout, seq, len_defaults, crc] = words;
+    if magic != MAGIC || version_lss as u16 != VERSION || layout != dict.layout_id {
         return None;
     }
-    let lss = [*h.get(6)?, *h.get(7)?];
-    let header = Header { lss, seq: word(12)?, len: half(16)?, defaults: half(18)?, crc: word(20)? };
+    let lss = [(version_lss >> 16) as u8, (version_lss >> 24) as u8];
+    let header = Header { lss, seq, len: len_defaults as u16, defaults: (len_defaults >> 16) as u16, crc };
     (usize::from(header.len) == dict.defaults.len()).then_some(header)
 }
 

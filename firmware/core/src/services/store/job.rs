@@ -9,7 +9,7 @@
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_bit, scope_starts};
+use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_bit};
 use crate::od::{Attr, Dictionary};
 use crate::storage::{Storage, StorageError};
 
@@ -98,14 +98,10 @@ impl Job {
     /// nothing to do if none of them is in RAM.
     pub fn save_objects(dict: &Dictionary, first: u16, last: u16) -> Job {
         let range = byte_range(dict, first, last);
-        let Some(last) = range.end.checked_sub(1).filter(|_| !range.is_empty()) else { return Job::IDLE };
-        let [manufacturer, application] = scope_starts(dict);
-        let bit = |pos: usize| match pos {
-            p if p < manufacturer => Scope::Communication.mask(),
-            p if p < application => Scope::Manufacturer.mask(),
-            _ => Scope::Application.mask(),
-        };
-        Job::new(bit(range.start) | bit(last), 0, span(range), (0, 0))
+        if range.is_empty() {
+            return Job::IDLE;
+        }
+        Job::new(scope_bit(first) | scope_bit(last), 0, span(range), (0, 0))
     }
 
     /// 0x1011 "load": the scope uses its defaults from the next reset on.
@@ -293,23 +289,18 @@ impl Job {
         let seq = old.map_or(1, |set| set.header.seq.wrapping_add(1));
         // The LSS configuration rides along with every set: a new one or the old one.
         let lss = if self.new_lss { self.lss } else { old.map_or([0xFF, 0xFF], |set| set.header.lss) };
-        let mut h = [0u8; HEADER];
-        let fields: [&[u8]; 8] = [
-            &MAGIC.to_le_bytes(),
-            &VERSION.to_le_bytes(),
-            &lss,
-            &dict.layout_id.to_le_bytes(),
-            &seq.to_le_bytes(),
-            &(dict.defaults.len() as u16).to_le_bytes(),
-            &defaults.to_le_bytes(),
-            &(!self.crc).to_le_bytes(),
+        // Magic, version and LSS, layout id, sequence number, length and default scopes, CRC: little-endian words.
+        let words = [
+            MAGIC,
+            u32::from(VERSION) | u32::from(lss[0]) << 16 | u32::from(lss[1]) << 24,
+            dict.layout_id,
+            seq,
+            dict.defaults.len() as u32 | u32::from(defaults) << 16,
+            !self.crc,
         ];
-        let mut at = 0;
-        for field in fields {
-            if let Some(dst) = h.get_mut(at..at + field.len()) {
-                dst.copy_from_slice(field);
-            }
-            at += field.len();
+        let mut h = [0u8; HEADER];
+        for (dst, word) in h.chunks_exact_mut(4).zip(words) {
+            dst.copy_from_slice(&word.to_le_bytes());
         }
         storage.write(self.target(), 0, &h)?;
         Ok(())
