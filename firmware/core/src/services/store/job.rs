@@ -12,11 +12,21 @@
 use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_bit};
 use crate::od::{Attr, Dictionary};
 use crate::storage::{Storage, StorageError};
+use core::ops::Range;
 
 /// Payload bytes a step checks or writes at most (a value longer than this
 /// goes whole into one step). 256 bytes are about 6,000 instructions on
 /// thumbv7m at the heaviest step, the write with its CRC (`cargo xtask icount`).
 pub const STAGE: usize = 256;
+
+/// Where a run of the payload comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Source {
+    Defaults,
+    Image,
+    /// The newest valid set.
+    Stored,
+}
 
 /// Where a [`Job`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -218,8 +228,8 @@ impl Job {
     /// Writes the next whole values, about `budget` bytes of them (at
     /// least one), each from its source: the image for the scopes and
     /// objects saved, the newest set for the others (the defaults where it
-    /// marks the scope as default, or where there is none). True once the
-    /// whole payload is written.
+    /// marks the scope as default, or where there is none). Adjacent values
+    /// from one source go in one run. True once the whole payload is written.
     fn write(
         &mut self,
         dict: &Dictionary,
@@ -228,56 +238,78 @@ impl Job {
         storage: &mut dyn Storage,
         budget: usize,
     ) -> Result<bool, StoreError> {
-        let target = self.target();
         let start = usize::from(self.pos);
-        let mut pos = start;
         let from_image = self.from_image.0..self.from_image.1;
         let keep = self.keep.0..self.keep.1;
-        let mut buf = [0u8; 64];
+        // The run in hand: its source, its bytes, and the length of the
+        // `$NODEID` value it starts with (0: none).
+        let mut run = (Source::Defaults, start..start, 0);
         for e in dict.entries.get(usize::from(self.entry)..).unwrap_or(&[]) {
             let r = e.range();
-            if !e.in_rom() && e.len > 0 && r.end > pos {
-                if pos > start && r.end > start.saturating_add(budget) {
-                    self.pos = pos as u16;
+            if !e.in_rom() && e.len > 0 && r.end > run.1.end {
+                if run.1.end > start && r.end > start.saturating_add(budget) {
+                    self.pos = run.1.end as u16;
+                    self.copy(dict, image, node_id, storage, run)?;
                     return Ok(false);
                 }
-                // Bytes between values (none in a generated image) as the defaults have them.
-                self.put(storage, target, pos, dict.defaults.get(pos..r.start).unwrap_or(&[]))?;
                 let bit = scope_bit(e.index);
-                let saved = self.save & bit != 0 && from_image.contains(&{ e.offset }) && !keep.contains(&{ e.offset });
-                // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
-                let old = self.old.filter(|set| set.header.defaults & bit == 0);
-                pos = r.start;
-                while pos < r.end {
-                    let n = (r.end - pos).min(buf.len());
-                    let piece = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
-                    match old {
-                        _ if saved => {
-                            piece.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
-                            // `$NODEID` values (at most 8 bytes) are kept relative to the node-id.
-                            if e.attr.contains(Attr::NODE_ID) {
-                                sub_le(piece, node_id);
-                            }
-                        }
-                        Some(set) => storage.read(set.region, HEADER + pos, piece)?,
-                        // No set: the defaults (stored relative, as defaults are).
-                        None => piece.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
-                    }
-                    self.put(storage, target, pos, piece)?;
-                    pos += n;
+                let source = if self.save & bit != 0 && from_image.contains(&{ e.offset }) && !keep.contains(&{ e.offset }) {
+                    Source::Image
+                } else if self.old.is_some_and(|set| set.header.defaults & bit == 0) {
+                    Source::Stored
+                } else {
+                    // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
+                    Source::Defaults
+                };
+                // `$NODEID` values are stored relative to the node-id: each starts a run of its own.
+                let relative = if source == Source::Image && e.attr.contains(Attr::NODE_ID) { e.len } else { 0 };
+                if source == run.0 && relative == 0 && run.2 == 0 {
+                    run.1.end = r.end;
+                } else {
+                    // The bytes before the value (none in a generated image) go with the run before.
+                    run.1.end = r.start;
+                    self.copy(dict, image, node_id, storage, run)?;
+                    run = (source, r, relative);
                 }
             }
             self.entry += 1;
         }
-        self.put(storage, target, pos, dict.defaults.get(pos..).unwrap_or(&[]))?;
+        run.1.end = dict.defaults.len();
+        self.copy(dict, image, node_id, storage, run)?;
         Ok(true)
     }
 
-    /// Writes `bytes` at payload offset `pos` of `target` and takes them into the CRC.
-    fn put(&mut self, storage: &mut dyn Storage, target: u8, pos: usize, bytes: &[u8]) -> Result<(), StoreError> {
-        if !bytes.is_empty() {
-            storage.write(target, HEADER + pos, bytes)?;
-            self.crc = crc32_update(self.crc, bytes);
+    /// Writes a run of the payload from its source, in pieces.
+    fn copy(
+        &mut self,
+        dict: &Dictionary,
+        image: &[u8],
+        node_id: u8,
+        storage: &mut dyn Storage,
+        (source, range, relative): (Source, Range<usize>, u16),
+    ) -> Result<(), StoreError> {
+        let target = self.target();
+        let mut buf = [0u8; 64];
+        let mut pos = range.start;
+        while pos < range.end {
+            let n = (range.end - pos).min(buf.len());
+            let piece = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
+            match (source, self.old) {
+                (Source::Stored, Some(set)) => storage.read(set.region, HEADER + pos, piece)?,
+                (Source::Image, _) => {
+                    piece.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
+                    if pos == range.start
+                        && let Some(value) = piece.get_mut(..usize::from(relative))
+                    {
+                        sub_le(value, node_id);
+                    }
+                }
+                // The defaults are stored relative, as the set keeps them.
+                _ => piece.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
+            }
+            storage.write(target, HEADER + pos, piece)?;
+            self.crc = crc32_update(self.crc, piece);
+            pos += n;
         }
         Ok(())
     }
