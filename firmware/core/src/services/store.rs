@@ -181,20 +181,18 @@ pub struct StoredSet {
 /// stages). All zero bits before its first step ([`Finder::NEW`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Finder {
-    headers: [Option<Header>; 2],
-    started: bool,
-    /// The region whose set is checked first (the newer one).
-    first: u8,
-    /// Sets found broken so far: the region checked is `first ^ tried`; 2 = none left.
+    /// Sets found broken so far: the region checked is the newer one's,
+    /// then the other; 2 = none left.
     tried: u8,
-    /// Payload bytes of the set in hand checked so far, and their CRC.
+    /// Payload bytes of the set in hand checked so far, and their CRC
+    /// inverted (0 before the first byte, so that a new finder is all zero bits).
     pos: u16,
     crc: u32,
 }
 
 impl Finder {
     /// Nothing checked yet.
-    pub const NEW: Finder = Finder { headers: [None, None], started: false, first: 0, tried: 0, pos: 0, crc: 0 };
+    pub const NEW: Finder = Finder { tried: 0, pos: 0, crc: 0 };
 
     /// The next piece: `None` while pieces are left, then the newest valid set, if any.
     pub fn step(&mut self, dict: &Dictionary, storage: &mut dyn Storage) -> Option<Option<StoredSet>> {
@@ -203,33 +201,31 @@ impl Finder {
 
     /// Checks at most `budget` payload bytes; the newest valid set (or
     /// none) once found. Only the newer header's payload is checked when it
-    /// is intact: an older set cannot win over it, valid or not.
+    /// is intact: an older set cannot win over it, valid or not. The
+    /// headers are read at every step (the storage does not change between
+    /// steps), which costs less than keeping them.
     fn step_with(&mut self, dict: &Dictionary, storage: &mut dyn Storage, budget: usize) -> Option<Option<StoredSet>> {
-        if !self.started {
-            self.started = true;
-            self.headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
-            // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
-            self.first = match &self.headers {
-                [Some(a), Some(b)] => u8::from(b.seq.wrapping_sub(a.seq) as i32 > 0),
-                [a, _] => u8::from(a.is_none()),
-            };
-            self.crc = !0;
-        }
+        let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
+        // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
+        let first = match &headers {
+            [Some(a), Some(b)] => u8::from(b.seq.wrapping_sub(a.seq) as i32 > 0),
+            [a, _] => u8::from(a.is_none()),
+        };
         while self.tried < 2 {
-            let region = self.first ^ self.tried;
-            if let Some(header) = self.headers.get(usize::from(region)).copied().flatten() {
+            let region = first ^ self.tried;
+            if let Some(header) = headers.get(usize::from(region)).copied().flatten() {
                 let (pos, len) = (usize::from(self.pos), usize::from(header.len));
                 let end = len.min(pos.saturating_add(budget));
-                match crc_of(storage, region, pos..end, self.crc) {
+                match crc_of(storage, region, pos..end, !self.crc) {
                     Some(crc) if end < len => {
-                        (self.pos, self.crc) = (end as u16, crc);
+                        (self.pos, self.crc) = (end as u16, !crc);
                         return None;
                     }
                     Some(crc) if !crc == header.crc => return Some(Some(StoredSet { region, header })),
                     // Cut short, or the storage failed: the other set, in the next step.
                     _ => {}
                 }
-                (self.tried, self.pos, self.crc) = (self.tried + 1, 0, !0);
+                (self.tried, self.pos, self.crc) = (self.tried + 1, 0, 0);
                 return None;
             }
             self.tried += 1;

@@ -139,18 +139,19 @@ impl Job {
     /// the result (for a store whose answer waits, when another has to run now).
     pub fn settle(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) {
         if self.busy() {
+            // A job fails for its size or its storage (both kinds of storage failure are one abort code).
             let error = match self.finish(dict, image, node_id, storage) {
                 Ok(()) => 0,
                 Err(StoreError::TooLarge) => 1,
-                Err(StoreError::Busy) => 2,
-                Err(StoreError::Storage(StorageError::OutOfRange)) => 3,
-                Err(StoreError::Storage(StorageError::Failed)) => 4,
+                Err(_) => 2,
             };
             (self.phase, self.error) = (Phase::Settled, error);
         }
     }
 
     /// The whole store in one call.
+    // Out of line: the device's stores, the synchronous API and `settle` share it.
+    #[inline(never)]
     pub fn finish(mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) -> Result<(), StoreError> {
         loop {
             if let Some(result) = self.step(dict, image, node_id, storage) {
@@ -193,8 +194,6 @@ impl Job {
                 return match self.error {
                     0 => Ok(true),
                     1 => Err(StoreError::TooLarge),
-                    2 => Err(StoreError::Busy),
-                    3 => Err(StoreError::Storage(StorageError::OutOfRange)),
                     _ => Err(StoreError::Storage(StorageError::Failed)),
                 };
             }
@@ -296,16 +295,16 @@ impl Job {
             let piece = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
             match (source, self.old) {
                 (Source::Stored, Some(set)) => storage.read(set.region, HEADER + pos, piece)?,
-                (Source::Image, _) => {
-                    piece.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
+                // The defaults are stored relative, as the set keeps them.
+                _ => {
+                    let from = if source == Source::Image { image } else { dict.defaults };
+                    piece.copy_from_slice(from.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
                     if pos == range.start
                         && let Some(value) = piece.get_mut(..usize::from(relative))
                     {
                         sub_le(value, node_id);
                     }
                 }
-                // The defaults are stored relative, as the set keeps them.
-                _ => piece.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
             }
             storage.write(target, HEADER + pos, piece)?;
             self.crc = crc32_update(self.crc, piece);

@@ -322,7 +322,8 @@ fn the_newest_set_is_checked_alone_unless_its_payload_is_broken() {
     flash.regions[1][HEADER + 1] ^= 0x01;
     let mut counting = Counting(&mut flash, 0);
     let set = newest(&DICT, &mut counting).unwrap();
-    assert_eq!(counting.1, 2 * HEADER + 2 * DEFAULTS.len());
+    // Both headers again for the second set, a step of its own.
+    assert_eq!(counting.1, 4 * HEADER + 2 * DEFAULTS.len());
     assert_eq!((set.region, set.header.seq), (0, 1));
     assert_eq!(DICT.read(&boot(&mut flash, 1), 0x1017, 0), Ok(&111u16.to_le_bytes()[..]));
 }
@@ -458,4 +459,23 @@ fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
             break;
         }
     }
+}
+
+#[test]
+fn a_settled_store_gives_its_result_at_its_next_step() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x2000, 0, &7u32.to_le_bytes()).unwrap();
+    let mut job = Job::save(&DICT, Scope::All, None);
+    assert_eq!(job.step(&DICT, &img, 1, &mut flash), None);
+    job.settle(&DICT, &img, 1, &mut flash);
+    assert!(job.busy(), "the result is still to be taken");
+    assert_eq!(job.step(&DICT, &img, 1, &mut flash), Some(Ok(())));
+    assert!(!job.busy());
+    assert_eq!(DICT.read(&boot(&mut flash, 1), 0x2000, 0), Ok(&7u32.to_le_bytes()[..]));
+    // A storage that fails: the settled job fails with it.
+    let mut job = Job::save(&DICT, Scope::All, None);
+    let mut cut = Flash { regions: flash.regions, budget: Some(1) };
+    job.settle(&DICT, &img, 1, &mut cut);
+    assert_eq!(job.step(&DICT, &img, 1, &mut cut), Some(Err(StoreError::Storage(StorageError::Failed))));
 }
