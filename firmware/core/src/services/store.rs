@@ -177,7 +177,7 @@ pub struct StoredSet {
 }
 
 /// [`newest`] a piece at a time: the headers, then the payload's CRC in
-/// pieces of [`STAGE`] bytes, a [`Finder::step`] each (a reset's first
+/// pieces of [`CHECK_STAGE`] bytes, a [`Finder::step`] each (a reset's first
 /// stages). All zero bits before its first step ([`Finder::NEW`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Finder {
@@ -196,7 +196,7 @@ impl Finder {
 
     /// The next piece: `None` while pieces are left, then the newest valid set, if any.
     pub fn step(&mut self, dict: &Dictionary, storage: &mut dyn Storage) -> Option<Option<StoredSet>> {
-        self.step_with(dict, storage, STAGE)
+        self.step_with(dict, storage, CHECK_STAGE)
     }
 
     /// Checks at most `budget` payload bytes; the newest valid set (or
@@ -412,4 +412,4 @@ mod job;
 #[cfg(test)]
 mod tests;
 
-pub use job::{Job, STAGE};
+pub use job::{CHECK_STAGE, Job, STAGE};

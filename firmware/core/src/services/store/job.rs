@@ -1,6 +1,6 @@
 //! A store in stages ([`Job`]): the node runs one [`Job::step`] per
 //! `process` call, so that no call checks, copies or CRCs more than
-//! [`STAGE`] bytes (docs/firmware.md, "Store and restore in stages").
+//! [`STAGE`] bytes, or checks more than [`CHECK_STAGE`] (docs/firmware.md, "Store and restore in stages").
 //!
 //! The steps are those of one store, in order: find the newest valid set
 //! (its payload's CRC, a piece per step), erase the other region, write the
@@ -14,10 +14,14 @@ use crate::od::{Attr, Dictionary};
 use crate::storage::{Storage, StorageError};
 use core::ops::Range;
 
-/// Payload bytes a step checks or writes at most (a value longer than this
-/// goes whole into one step). 256 bytes are about 6,000 instructions on
-/// thumbv7m at the heaviest step, the write with its CRC (`cargo xtask icount`).
-pub const STAGE: usize = 256;
+/// Payload bytes a step writes at most (a value longer than this goes
+/// whole into one step): about 7,000 instructions on thumbv7m at the
+/// heaviest, the communication parameters with their many `$NODEID` values
+/// (`cargo xtask icount`).
+pub const STAGE: usize = 128;
+/// Payload bytes a step checks at most (the CRC of the newest set, at a
+/// store and at a reset): about 7,000 instructions too.
+pub const CHECK_STAGE: usize = 4 * STAGE;
 
 /// Where a run of the payload comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -201,7 +205,7 @@ impl Job {
                 if HEADER + len > storage.region_size() || len >= usize::from(u16::MAX) {
                     return Err(StoreError::TooLarge);
                 }
-                if let Some(old) = self.find.step_with(dict, storage, budget) {
+                if let Some(old) = self.find.step_with(dict, storage, budget.saturating_mul(4)) {
                     (self.old, self.phase) = (old, Phase::Erase);
                 }
             }
