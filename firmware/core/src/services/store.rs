@@ -15,7 +15,7 @@
 //! Only writable entries are taken from a stored set; `$NODEID` entries are
 //! stored relative to the node-id, so they follow a node-id change.
 
-use crate::od::{Attr, Dictionary};
+use crate::od::{Attr, Dictionary, Entry};
 use crate::storage::{Storage, StorageError};
 use core::ops::Range;
 
@@ -253,61 +253,44 @@ impl StoredSet {
     }
 
     /// Overwrites the writable entries of `part` with this set (after the
-    /// reset copied the defaults). Returns whether any value was taken from it.
+    /// reset copied the defaults). Returns whether any value was taken from
+    /// it. If the storage fails, the part gets its defaults back.
     pub fn load(&self, dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
-        // The table is sorted by index, so each part is one run of it.
-        let split = dict.entries.partition_point(|e| e.index < 0x2000);
-        let Some((communication, application)) = dict.entries.split_at_checked(split) else { return false };
-        let entries = match part {
-            Part::Communication => communication,
-            Part::Application => application,
+        let communication = part == Part::Communication;
+        let wanted = |e: &Entry| {
+            (e.index < 0x2000) == communication
+                && !e.in_rom()
+                && e.len > 0
+                && e.attr.contains(Attr::WRITE)
+                && self.header.defaults & scope_bit(e.index) == 0
         };
-        // Adjacent values to load are read with one call: a call per entry cost more than the copying.
+        // Adjacent values are read with one call: a call per entry cost more than the copying.
         let mut run = 0..0;
         let mut used = false;
-        for e in entries.iter().filter(|e| !e.in_rom() && e.len > 0) {
-            let r = e.range();
-            let wanted = e.attr.contains(Attr::WRITE) && self.header.defaults & scope_bit(e.index) == 0;
-            let relative = e.attr.contains(Attr::NODE_ID);
-            if wanted && !relative && !run.is_empty() && run.end == r.start {
-                run.end = r.end;
-                continue;
+        for r in dict.entries.iter().filter(|e| wanted(e)).map(Entry::range).chain(core::iter::once(usize::MAX..usize::MAX)) {
+            if run.end != r.start {
+                let read =
+                    image.get_mut(run.clone()).map(|dst| dst.is_empty() || storage.read(self.region, HEADER + run.start, dst).is_ok());
+                if read != Some(true) {
+                    if communication {
+                        dict.reset_communication(image, node_id)
+                    } else {
+                        dict.reset_application(image, node_id)
+                    }
+                    return false;
+                }
+                run.start = r.start;
             }
-            // `e` does not extend the run: read what it holds.
-            if !self.read_into(dict, image, storage, run.clone()) {
-                return used;
-            }
-            used |= !run.is_empty();
-            run = 0..0;
-            if !wanted {
-                continue;
-            }
-            if !relative {
-                run = r;
-                continue;
-            }
-            if !self.read_into(dict, image, storage, r.clone()) {
-                return used;
-            }
-            if let Some(value) = image.get_mut(r) {
+            run.end = r.end;
+            used = true;
+        }
+        // `$NODEID` values are stored relative to the node-id.
+        for e in dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).filter(|e| wanted(e)) {
+            if let Some(value) = image.get_mut(e.range()) {
                 crate::od::add_le(value, u64::from(node_id));
-                used = true;
             }
         }
-        let last = self.read_into(dict, image, storage, run.clone());
-        used || (last && !run.is_empty())
-    }
-
-    /// Copies `range` of the stored image into `image`. If the storage
-    /// fails, the range gets its defaults back (`$NODEID` entries are loaded
-    /// one at a time, so an absolute default is right) and the load stops.
-    fn read_into(&self, dict: &Dictionary, image: &mut [u8], storage: &mut dyn Storage, range: core::ops::Range<usize>) -> bool {
-        let (Some(dst), Some(defaults)) = (image.get_mut(range.clone()), dict.defaults.get(range.clone())) else { return false };
-        if dst.is_empty() || storage.read(self.region, HEADER + range.start, dst).is_ok() {
-            return true;
-        }
-        dst.copy_from_slice(defaults);
-        false
+        used
     }
 }
 
