@@ -1,6 +1,7 @@
 //! A store in stages ([`Job`]): the node runs one [`Job::step`] per
-//! `process` call, so that no call checks, copies or CRCs more than
-//! [`STAGE`] bytes, or checks more than [`CHECK_STAGE`] (docs/firmware.md, "Store and restore in stages").
+//! `process` call, so that no call writes more than [`STAGE`] bytes or
+//! checks more than [`CHECK_STAGE`] (docs/firmware.md, "Store and restore
+//! in stages").
 //!
 //! The steps are those of one store, in order: find the newest valid set
 //! (its payload's CRC, a piece per step), erase the other region, write the
@@ -15,12 +16,12 @@ use crate::storage::{Storage, StorageError};
 use core::ops::Range;
 
 /// Payload bytes a step writes at most (a value longer than this goes
-/// whole into one step): about 7,000 instructions on thumbv7m at the
-/// heaviest, the communication parameters with their many `$NODEID` values
-/// (`cargo xtask icount`).
+/// whole into one step): at most about 9,000 instructions on thumbv7m, for
+/// the communication parameters with their many `$NODEID` values, each a
+/// run of its own (`cargo xtask icount`, the interop dictionary).
 pub const STAGE: usize = 128;
 /// Payload bytes a step checks at most (the CRC of the newest set, at a
-/// store and at a reset): about 7,000 instructions too.
+/// store and at a reset): about 7,000 instructions.
 pub const CHECK_STAGE: usize = 4 * STAGE;
 
 /// Where a run of the payload comes from.
@@ -65,8 +66,7 @@ pub struct Job {
     find: Finder,
     /// The newest valid set found, which the new one follows.
     old: Option<StoredSet>,
-    /// Payload bytes written, the entry the next step's end is looked for
-    /// from, and the CRC so far.
+    /// Payload bytes written, the entry the next step starts from, and the CRC so far.
     pos: u16,
     entry: u16,
     crc: u32,
