@@ -210,12 +210,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let staged_ref = if O::SERVICES.storage { Some(&staged) } else { None };
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
         let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: staged_ref };
-        let mut sink = SdoSink { txq, cob_id: tx_cob, hold: staged_ref, held: None };
-        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut sink);
-        let held = sink.held;
+        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob, hold: staged_ref });
         let effects = ctx.effects;
-        if let (true, Some(frame), Some((index, sub))) = (O::SERVICES.storage, held, staged.get()) {
-            self.store_answer = store::StoreAnswer::sdo(i, tx_cob, frame, index, sub);
+        if let (true, Some((index, sub))) = (O::SERVICES.storage, staged.get()) {
+            self.store_answer = store::StoreAnswer::sdo(i, tx_cob, index, sub);
         }
         self.queue_raw();
         self.follow_sdo(effects);

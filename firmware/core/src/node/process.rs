@@ -26,11 +26,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
-        // A store goes on a stage per call, and alone in its call; a reset
-        // that came meanwhile waits for it, so it loads what was stored.
+        // A store goes on a stage per call, alone in its call but for the
+        // last, whose SDO poll below sends the answer; a reset that came
+        // meanwhile waits for it, so it loads what was stored.
         if O::SERVICES.storage && self.store.busy() {
             self.store_step();
-            return Some(now);
+            if self.store.busy() || self.resetting() {
+                return Some(now);
+            }
         }
         // A reset in progress goes on a stage per call; the call of its last
         // stage goes on below. A device with CANopen off starts none (power-on
@@ -63,8 +66,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
-                    let mut sink = SdoSink { txq, cob_id: tx, hold: None, held: None };
-                    let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut sink);
+                    let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx, hold: None });
                     sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }

@@ -32,8 +32,6 @@ pub(super) struct StoreAnswer {
     server: u8,
     /// The answer's COB-ID (0: no answer).
     cob_id: u16,
-    /// The answer for success.
-    frame: [u8; 8],
     /// The object an SDO abort names.
     index: u16,
     sub: u8,
@@ -41,14 +39,14 @@ pub(super) struct StoreAnswer {
 
 impl StoreAnswer {
     /// No answer due.
-    pub(super) const NONE: StoreAnswer = StoreAnswer { server: 0, cob_id: 0, frame: [0; 8], index: 0, sub: 0 };
+    pub(super) const NONE: StoreAnswer = StoreAnswer { server: 0, cob_id: 0, index: 0, sub: 0 };
 
-    /// SDO server `i`'s answer `frame` (on `cob_id`) to a download of (index, sub).
-    pub(super) fn sdo(i: usize, cob_id: u16, frame: [u8; 8], index: u16, sub: u8) -> StoreAnswer {
-        StoreAnswer { server: (i as u8).wrapping_add(1), cob_id, frame, index, sub }
+    /// SDO server `i` (answering on `cob_id`) holds the answer to a download of (index, sub).
+    pub(super) fn sdo(i: usize, cob_id: u16, index: u16, sub: u8) -> StoreAnswer {
+        StoreAnswer { server: (i as u8).wrapping_add(1), cob_id, index, sub }
     }
 
-    /// Drops the answer if SDO server `i` waits for it.
+    /// Drops the answer if SDO server `i` holds it (its client sent a frame: the server answers that now).
     pub(super) fn drop_for(&mut self, i: usize) {
         if self.cob_id != 0 && usize::from(self.server) == i + 1 {
             *self = StoreAnswer::NONE;
@@ -74,28 +72,30 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         self.store = crate::services::store::Job::lss(node_id, bit_rate);
-        let frame = LssSlave::store_result(true);
-        self.store_answer = StoreAnswer { server: 0, cob_id: SLAVE_COB_ID, frame, index: 0, sub: 0 };
+        self.store_answer = StoreAnswer { server: 0, cob_id: SLAVE_COB_ID, index: 0, sub: 0 };
     }
 
-    /// One stage of the store in progress; at its end, its answer.
+    /// One stage of the store in progress; at its end, its answer: the
+    /// SDO server's download response, which it kept unsent ([`SdoSink`]'s
+    /// `hold`) and sends at this call's SDO poll, or in its place an abort;
+    /// or the LSS answer.
+    ///
+    /// [`SdoSink`]: super::sinks::SdoSink
     pub(super) fn store_step(&mut self) {
         let Node { od, storage, store, node_id, .. } = self;
         let Some(result) = store.step(od.dictionary(), od.image(), *node_id, storage) else { return };
         let answer = core::mem::replace(&mut self.store_answer, StoreAnswer::NONE);
-        let sdo = answer.server != 0;
-        if answer.cob_id == 0 || (sdo && !self.nmt.state().sdo_allowed()) {
-            return;
-        }
-        let frame = match result {
-            Ok(()) => answer.frame,
-            Err(e) if sdo => {
-                // The SDO abort frame (CiA 301 §7.2.4.3.17), as the server words it.
+        let frame = match (answer.server, result) {
+            (_, _) if answer.cob_id == 0 => return,
+            (0, result) => LssSlave::store_result(result.is_ok()),
+            (_, Ok(())) => return,
+            (server, Err(e)) => {
+                // The server drops the response it kept; the abort (CiA 301 §7.2.4.3.17) goes instead.
+                self.sdo.reset(usize::from(server) - 1);
                 let [i0, i1] = answer.index.to_le_bytes();
                 let [c0, c1, c2, c3] = store_abort(e).code().to_le_bytes();
                 [0x80, i0, i1, answer.sub, c0, c1, c2, c3]
             }
-            Err(_) => LssSlave::store_result(false),
         };
         self.push(answer.cob_id, &frame);
     }

@@ -44,8 +44,10 @@ enum Phase {
     Erase,
     /// Writing the payload, then the header.
     Write,
-    /// Run to its end by [`Job::settle`]: the next step gives the result.
+    /// Run to its end by [`Job::settle`]: the next step gives the result, success...
     Settled,
+    /// ... or a failure (of the storage: a job that does not fit fails at its first step).
+    SettledFailed,
 }
 
 /// A store or restore in progress: what it writes and how far it got. All
@@ -70,8 +72,6 @@ pub struct Job {
     pos: u16,
     entry: u16,
     crc: u32,
-    /// The error a settled job ended with ([`StoreError`] as a number; 0: none).
-    error: u8,
 }
 
 /// A range of the image as a [`Job`] keeps it (images are checked to be below 64 KiB).
@@ -94,7 +94,6 @@ impl Job {
         pos: 0,
         entry: 0,
         crc: 0,
-        error: 0,
     };
 
     const fn new(save: u16, reset: u16, from_image: (u16, u16), keep: (u16, u16)) -> Job {
@@ -143,13 +142,8 @@ impl Job {
     /// the result (for a store whose answer waits, when another has to run now).
     pub fn settle(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) {
         if self.busy() {
-            // A job fails for its size or its storage (both kinds of storage failure are one abort code).
-            let error = match self.finish(dict, image, node_id, storage) {
-                Ok(()) => 0,
-                Err(StoreError::TooLarge) => 1,
-                Err(_) => 2,
-            };
-            (self.phase, self.error) = (Phase::Settled, error);
+            let done = self.finish(dict, image, node_id, storage).is_ok();
+            self.phase = if done { Phase::Settled } else { Phase::SettledFailed };
         }
     }
 
@@ -194,13 +188,8 @@ impl Job {
         let len = dict.defaults.len();
         match self.phase {
             Phase::Idle => return Ok(true),
-            Phase::Settled => {
-                return match self.error {
-                    0 => Ok(true),
-                    1 => Err(StoreError::TooLarge),
-                    _ => Err(StoreError::Storage(StorageError::Failed)),
-                };
-            }
+            Phase::Settled => return Ok(true),
+            Phase::SettledFailed => return Err(StoreError::Storage(StorageError::Failed)),
             Phase::Find => {
                 if HEADER + len > storage.region_size() || len >= usize::from(u16::MAX) {
                     return Err(StoreError::TooLarge);
