@@ -274,6 +274,14 @@ impl Ctx<'_> {
         crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
     }
 
+    /// Whether the node's store in stages is in progress (an SDO 0x1010 or
+    /// 0x1011, LSS "store configuration"): until it ends, the stores above
+    /// are refused (0x08000022); from the first [`Application::poll`] after
+    /// it, they work again. The hooks of its 0x1010/0x1011 write run while it does.
+    pub fn storing(&self) -> bool {
+        self.store.busy()
+    }
+
     /// Stores a scope as 0x1010 would (the device's
     /// [`ServiceOptions::not_saved_by_1010`] objects keep their stored values).
     pub fn save(&mut self, scope: Scope) -> Result<(), AbortCode> {

@@ -84,12 +84,13 @@ impl Ctx<'_> {
         Job::save(self.dict, scope, self.options.not_saved_by_1010)
     }
 
-    /// Runs a store in this call. A store in stages in progress ends first,
-    /// in this call too (both write the same region; its answer goes out
-    /// at the next `process`): a device hook that stores while one runs
-    /// (the EC5000 keeps its counters after 0x1011) makes its call do both.
+    /// Runs a store in this call; refused (0x08000022) while the node's
+    /// store in stages is in progress: both would write the same region
+    /// ([`Ctx::storing`] tells a device's hook to wait for its end).
     pub(super) fn run_store(&mut self, job: Job) -> Result<(), AbortCode> {
-        self.store.settle(self.dict, self.image, self.node_id, self.storage);
+        if self.store.busy() {
+            return Err(store_abort(StoreError::Busy));
+        }
         job.finish(self.dict, self.image, self.node_id, self.storage).map_err(store_abort)
     }
 
@@ -111,14 +112,13 @@ impl Ctx<'_> {
         }
         let job = if is_save { self.save_job(scope) } else { Job::restore(scope) };
         match staged {
-            // Another store in stages is under way (begun on another SDO server).
-            Some(_) if self.store.busy() => Err(store_abort(StoreError::Busy)),
-            Some(answer) => {
+            Some(answer) if !self.store.busy() => {
                 *self.store = job;
                 answer.set(Some((index, sub)));
                 Ok(())
             }
-            None => self.run_store(job),
+            // Or another store in stages is under way (begun on another SDO server).
+            _ => self.run_store(job),
         }
     }
 

@@ -7,10 +7,10 @@
 //! - a frame from the same SDO client ends its wait: the store goes on to
 //!   its end, unanswered (the client gave up or aborted; an answer after
 //!   its next request would be taken for that one's);
-//! - a second store by SDO or LSS is refused (SDO abort 0x08000022, LSS
-//!   "storage failed"): both would write the same region; one the device
-//!   runs itself (`Ctx::save`, …, `Node::write_object`) first ends the
-//!   running one in its call, whose answer then goes out at the next `process`;
+//! - a second store is refused (SDO abort 0x08000022, LSS "storage
+//!   failed", `StoreError::Busy` for the device's own `Ctx::save`, …):
+//!   both would write the same region; a device hook asks `Ctx::storing`
+//!   and stores at its first poll after it (the EC5000 after 0x1011);
 //! - an NMT reset waits for the store (the reset loads what it stored); its
 //!   SDO answer is dropped, as a reset ends every SDO transfer, and so it is
 //!   in Stopped;

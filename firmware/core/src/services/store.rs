@@ -327,8 +327,6 @@ pub fn save_objects(
 
 /// The bytes of the image the RAM values of objects `first..=last` take
 /// (the image is in index order, so they are one run).
-// Out of line: a device's own stores and its 0x1010 exceptions share it.
-#[inline(never)]
 fn byte_range(dict: &Dictionary, first: u16, last: u16) -> Range<usize> {
     let mut ram = dict.entries.iter().filter(|e| (first..=last).contains(&{ e.index }) && !e.in_rom() && e.len > 0);
     let Some(start) = ram.next().map(|e| e.range()) else { return 0..0 };

@@ -12,7 +12,7 @@
 
 use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_bit};
 use crate::od::{Attr, Dictionary};
-use crate::storage::{Storage, StorageError};
+use crate::storage::Storage;
 use core::ops::Range;
 
 /// Payload bytes a step writes at most (a value longer than this goes
@@ -44,10 +44,6 @@ enum Phase {
     Erase,
     /// Writing the payload, then the header.
     Write,
-    /// Run to its end by [`Job::settle`]: the next step gives the result, success...
-    Settled,
-    /// ... or a failure (of the storage: a job that does not fit fails at its first step).
-    SettledFailed,
 }
 
 /// A store or restore in progress: what it writes and how far it got. All
@@ -96,6 +92,8 @@ impl Job {
         crc: 0,
     };
 
+    // Out of line: a job is some 60 bytes, built in one place.
+    #[inline(never)]
     const fn new(save: u16, reset: u16, from_image: (u16, u16), keep: (u16, u16)) -> Job {
         Job { phase: Phase::Find, save, reset, from_image, keep, ..Job::IDLE }
     }
@@ -138,17 +136,8 @@ impl Job {
         self.step_with(dict, image, node_id, storage, STAGE)
     }
 
-    /// Runs the rest of the job in this call; its next [`Job::step`] gives
-    /// the result (for a store whose answer waits, when another has to run now).
-    pub fn settle(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) {
-        if self.busy() {
-            let done = self.finish(dict, image, node_id, storage).is_ok();
-            self.phase = if done { Phase::Settled } else { Phase::SettledFailed };
-        }
-    }
-
     /// The whole store in one call.
-    // Out of line: the device's stores, the synchronous API and `settle` share it.
+    // Out of line: the device's stores and the synchronous API share it.
     #[inline(never)]
     pub fn finish(mut self, dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage) -> Result<(), StoreError> {
         loop {
@@ -188,8 +177,6 @@ impl Job {
         let len = dict.defaults.len();
         match self.phase {
             Phase::Idle => return Ok(true),
-            Phase::Settled => return Ok(true),
-            Phase::SettledFailed => return Err(StoreError::Storage(StorageError::Failed)),
             Phase::Find => {
                 if HEADER + len > storage.region_size() || len >= usize::from(u16::MAX) {
                     return Err(StoreError::TooLarge);

@@ -460,22 +460,3 @@ fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
         }
     }
 }
-
-#[test]
-fn a_settled_store_gives_its_result_at_its_next_step() {
-    let mut flash = Flash::new();
-    let mut img = boot(&mut flash, 1);
-    DICT.write(&mut img, 0x2000, 0, &7u32.to_le_bytes()).unwrap();
-    let mut job = Job::save(&DICT, Scope::All, None);
-    assert_eq!(job.step(&DICT, &img, 1, &mut flash), None);
-    job.settle(&DICT, &img, 1, &mut flash);
-    assert!(job.busy(), "the result is still to be taken");
-    assert_eq!(job.step(&DICT, &img, 1, &mut flash), Some(Ok(())));
-    assert!(!job.busy());
-    assert_eq!(DICT.read(&boot(&mut flash, 1), 0x2000, 0), Ok(&7u32.to_le_bytes()[..]));
-    // A storage that fails: the settled job fails with it.
-    let mut job = Job::save(&DICT, Scope::All, None);
-    let mut cut = Flash { regions: flash.regions, budget: Some(1) };
-    job.settle(&DICT, &img, 1, &mut cut);
-    assert_eq!(job.step(&DICT, &img, 1, &mut cut), Some(Err(StoreError::Storage(StorageError::Failed))));
-}
