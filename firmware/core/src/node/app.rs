@@ -182,8 +182,8 @@ impl Ctx<'_> {
             self.effects.written = true;
             return self.store_command(index, sub, data, None);
         }
-        self.precheck(index, sub, data)?;
-        self.route_write(index, sub, data)
+        let entry = self.precheck(index, sub, data)?;
+        self.route_write(index, sub, data, entry)
     }
 
     /// Sets a value the device owns, read-only ones included (0x6041
@@ -252,7 +252,11 @@ impl Ctx<'_> {
         match (CanFrame::standard(cob_id, data), self.raw.frames.get_mut(self.raw.len)) {
             (Some(frame), Some(slot)) => {
                 *slot = frame;
-                self.raw.len += 1;
+                // `get_mut` found the slot: `len` is below the burst's length.
+                #[allow(clippy::arithmetic_side_effects)]
+                {
+                    self.raw.len += 1;
+                }
                 true
             }
             _ => false,

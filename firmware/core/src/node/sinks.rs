@@ -6,6 +6,7 @@ use core::cell::Cell;
 
 use crate::frame::CanFrame;
 use crate::services::emcy::EmcyProducer;
+use crate::services::pdo::map::MAX_LEN;
 use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::SdoTx;
 use crate::txq::TxQueue;
@@ -64,6 +65,10 @@ impl PdoTx for PdoSink<'_> {
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
     }
 
+    fn send_data(&mut self, cob_id: u16, data: &[u8; MAX_LEN], len: usize) -> bool {
+        self.txq.push_data(cob_id, data, u8::try_from(len).unwrap_or(u8::MAX))
+    }
+
     fn event(&mut self, event: PdoEvent) {
         match event {
             PdoEvent::Received(n) => self.received |= bit(n),
@@ -71,7 +76,8 @@ impl PdoTx for PdoSink<'_> {
                 if code == EmcyCode::RPDO_TIMEOUT {
                     self.timeouts |= bit(rpdo);
                 }
-                self.emcy.raise(code, [rpdo as u8 + 1, 0, 0, 0, 0]);
+                // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
+                self.emcy.raise(code, [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
             }
             PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(code),
         }

@@ -48,7 +48,7 @@ impl StoreAnswer {
 
     /// Drops the answer if SDO server `i` holds it (its client sent a frame: the server answers that now).
     pub(super) fn drop_for(&mut self, i: usize) {
-        if self.cob_id != 0 && usize::from(self.server) == i + 1 {
+        if self.cob_id != 0 && usize::from(self.server) == i.wrapping_add(1) {
             *self = StoreAnswer::NONE;
         }
     }
@@ -91,7 +91,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             (_, Ok(())) => return,
             (server, Err(e)) => {
                 // The server drops the response it kept; the abort (CiA 301 §7.2.4.3.17) goes instead.
-                self.sdo.reset(usize::from(server) - 1);
+                self.sdo.reset(usize::from(server).wrapping_sub(1));
                 let [i0, i1] = answer.index.to_le_bytes();
                 let [c0, c1, c2, c3] = store_abort(e).code().to_le_bytes();
                 [0x80, i0, i1, answer.sub, c0, c1, c2, c3]

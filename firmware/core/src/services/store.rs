@@ -156,6 +156,8 @@ fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Opti
 
 /// The CRC-32 of `range` of the payload of `region`, continued from `crc`
 /// (`None` if the storage fails).
+// `off` ≤ `range.end`, a payload offset (below 64 KiB: 24 more fit).
+#[allow(clippy::arithmetic_side_effects)]
 fn crc_of(storage: &mut dyn Storage, region: u8, range: Range<usize>, mut crc: u32) -> Option<u32> {
     let mut buf = [0u8; 64];
     let mut off = range.start;
@@ -225,10 +227,10 @@ impl Finder {
                     // Cut short, or the storage failed: the other set, in the next step.
                     _ => {}
                 }
-                (self.tried, self.pos, self.crc) = (self.tried + 1, 0, 0);
+                (self.tried, self.pos, self.crc) = (self.tried.wrapping_add(1), 0, 0);
                 return None;
             }
-            self.tried += 1;
+            self.tried = self.tried.wrapping_add(1);
         }
         Some(None)
     }
@@ -255,6 +257,8 @@ impl StoredSet {
     /// Overwrites the writable entries of `part` with this set (after the
     /// reset copied the defaults). Returns whether any value was taken from
     /// it. If the storage fails, the part gets its defaults back.
+    // `run` lies in the image (a slice, below isize::MAX): 24 more fit.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn load(&self, dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
         let communication = part == Part::Communication;
         let wanted = |e: &Entry| {
@@ -359,6 +363,8 @@ pub fn save_lss(
 /// from the storage, no image built. A read-only entry gives what the
 /// image held when the set was saved: a value the device keeps across
 /// power cycles itself (an encoder's preset offset), which a reset does not load.
+// An entry's range: two u16s, and 24 more fit a usize.
+#[allow(clippy::arithmetic_side_effects)]
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;

@@ -166,6 +166,8 @@ impl Job {
     }
 
     /// One step; true when the job is done.
+    // `len` is a slice's length (below isize::MAX: 24 more fit).
+    #[allow(clippy::arithmetic_side_effects)]
     fn advance(
         &mut self,
         dict: &Dictionary,
@@ -201,7 +203,7 @@ impl Job {
 
     /// The region the new set goes to: the one not holding the newest.
     fn target(&self) -> u8 {
-        self.old.map_or(0, |set| 1 - set.region)
+        self.old.map_or(0, |set| set.region ^ 1)
     }
 
     /// Writes the next whole values, about `budget` bytes of them (at
@@ -209,6 +211,8 @@ impl Job {
     /// objects saved, the newest set for the others (the defaults where it
     /// marks the scope as default, or where there is none). Adjacent values
     /// from one source go in one run. True once the whole payload is written.
+    // `entry` counts entries of a slice.
+    #[allow(clippy::arithmetic_side_effects)]
     fn write(
         &mut self,
         dict: &Dictionary,
@@ -259,6 +263,8 @@ impl Job {
     }
 
     /// Writes a run of the payload from its source, in pieces.
+    // `pos` ≤ `range.end`, a payload offset (below 64 KiB: 24 more fit).
+    #[allow(clippy::arithmetic_side_effects)]
     fn copy(
         &mut self,
         dict: &Dictionary,
