@@ -194,9 +194,8 @@ pub struct Node<
     controller: controller::ControllerErrors,
     /// The reset in progress, if any (`reset`).
     reset: reset::Stage,
-    /// The newest stored set the reset in progress found, and its search.
+    /// The newest stored set the reset in progress found.
     reset_stored: Option<crate::services::store::StoredSet>,
-    finder: crate::services::store::Finder,
     /// The store in progress, a stage per [`Node::process`] call (`store`).
     store: crate::services::store::Job,
     /// The answer that goes out when it ends, if any.
@@ -254,7 +253,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             controller: controller::ControllerErrors::new(),
             reset: reset::Stage::Idle,
             reset_stored: None,
-            finder: crate::services::store::Finder::NEW,
             store: crate::services::store::Job::IDLE,
             store_answer: store::StoreAnswer::NONE,
         }

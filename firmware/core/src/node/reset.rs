@@ -10,7 +10,7 @@ use crate::od::index;
 use crate::services::lss::UNCONFIGURED;
 use crate::services::nmt::Nmt;
 use crate::services::pdo::ALL_TPDOS;
-use crate::services::store::{self, Finder, Part, StoredSet};
+use crate::services::store::{self, Part, StoredSet};
 use crate::storage::Storage;
 use crate::time::Instant;
 
@@ -24,9 +24,9 @@ use super::{Application, NmtEvent, Node};
 pub(super) enum Stage {
     /// No reset in progress (zero bits: the unpowered node's).
     Idle,
-    /// Finds the newest stored set (a CRC over it, a piece per stage), then resets the application.
+    /// Finds the newest stored set (a CRC over it), then resets the application.
     FindThenApplication,
-    /// Finds the newest stored set (a piece per stage), then resets communication.
+    /// Finds the newest stored set, then resets communication.
     FindThenCommunication,
     /// The application part of the image: defaults, then the stored set.
     Application,
@@ -91,7 +91,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     fn begin_reset(&mut self, application: bool) {
         let application = application || matches!(self.reset, Stage::FindThenApplication | Stage::Application);
         self.reset = if application { Stage::FindThenApplication } else { Stage::FindThenCommunication };
-        self.finder = Finder::NEW;
         self.nmt = Nmt::new();
         self.boot_pending = false;
         self.start_pending = false;
@@ -122,14 +121,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         match self.reset {
             Stage::Idle => {}
             Stage::FindThenApplication | Stage::FindThenCommunication => {
-                let found = if Self::LOADS_STORED {
-                    let Some(found) = self.finder.step(self.od.dictionary(), &mut self.storage) else { return };
-                    found
-                } else {
-                    None
-                };
                 self.reset = if self.reset == Stage::FindThenApplication { Stage::Application } else { Stage::Communication };
-                self.reset_stored = found;
+                self.reset_stored = self.newest_stored();
             }
             Stage::Application => self.reset_application_part(now),
             Stage::Communication => {

@@ -179,10 +179,10 @@ pub struct StoredSet {
 }
 
 /// [`newest`] a piece at a time: the headers, then the payload's CRC in
-/// pieces of [`CHECK_STAGE`] bytes, a [`Finder::step`] each (a reset's first
-/// stages). All zero bits before its first step ([`Finder::NEW`]).
+/// pieces, a step each (a store's first stages, [`Job`]). All zero bits
+/// before its first step ([`Finder::NEW`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Finder {
+struct Finder {
     /// Sets found broken so far: the region checked is the newer one's,
     /// then the other; 2 = none left.
     tried: u8,
@@ -194,12 +194,7 @@ pub struct Finder {
 
 impl Finder {
     /// Nothing checked yet.
-    pub const NEW: Finder = Finder { tried: 0, pos: 0, crc: 0 };
-
-    /// The next piece: `None` while pieces are left, then the newest valid set, if any.
-    pub fn step(&mut self, dict: &Dictionary, storage: &mut dyn Storage) -> Option<Option<StoredSet>> {
-        self.step_with(dict, storage, CHECK_STAGE)
-    }
+    const NEW: Finder = Finder { tried: 0, pos: 0, crc: 0 };
 
     /// Checks at most `budget` payload bytes; the newest valid set (or
     /// none) once found. Only the newer header's payload is checked when it
