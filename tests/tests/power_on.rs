@@ -22,9 +22,12 @@ fn ms(t: u64) -> Instant {
     Instant::from_micros(t * 1000)
 }
 
-/// Runs the node at `t` and returns what it sends.
+/// Runs the node at `t` (a store to its end, a stage per call) and returns what it sends.
 fn step(node: &mut od::Node<NoApplication, Storage>, t: u64) -> Vec<(u16, Vec<u8>)> {
     node.process(ms(t));
+    while node.storing() {
+        node.process(ms(t));
+    }
     std::iter::from_fn(|| node.transmit()).map(|f| (f.cob_id().expect("11-bit"), f.data().to_vec())).collect()
 }
 

@@ -89,7 +89,7 @@ impl Answer {
 pub fn exchange(node: &mut Dut, now: Instant, frame: &CanFrame) -> Answer {
     node.on_frame(now, frame);
     node.process(now);
-    while node.resetting() {
+    while node.resetting() || node.storing() {
         node.process(now);
     }
     Answer::drain(node)

@@ -40,8 +40,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         assert!(t >= self.now, "time runs forward");
         self.now = t;
         self.node.process(t);
-        // A reset goes on a stage per call until the boot-up is queued.
-        while self.node.resetting() {
+        // A reset goes on a stage per call until the boot-up is queued, a store until its answer is.
+        while self.node.resetting() || self.node.storing() {
             self.node.process(t);
         }
         self.drain()

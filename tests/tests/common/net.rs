@@ -72,7 +72,7 @@ where
         // A reset goes on a stage per call, as the firmware's task steps it, until the boot-up is queued.
         loop {
             let deadline = Node::process(self, now);
-            if !self.resetting() {
+            if !self.resetting() && !self.storing() {
                 return deadline;
             }
         }

@@ -125,6 +125,8 @@ pub struct Ctx<'a> {
     /// Raw frames sent by the hook, queued by the node when the hook returns
     /// (an SDO transfer holds the transmit queue while its hooks run).
     pub(super) raw: &'a mut RawBurst,
+    /// The node's store in stages (an SDO 0x1010/0x1011 in progress, or idle).
+    pub(super) store: &'a mut crate::services::store::Job,
 }
 
 /// Raw frames a hook sent, until the node queues them.
@@ -178,7 +180,7 @@ impl Ctx<'_> {
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
             self.effects.written = true;
-            return self.store_command(index, sub, data);
+            return self.store_command(index, sub, data, None);
         }
         let entry = self.precheck(index, sub, data)?;
         self.route_write(index, sub, data, entry)
@@ -266,8 +268,7 @@ impl Ctx<'_> {
     /// stay unsaved). For a store the device's own command triggers (a
     /// preset stored when written, a "save bus parameters" object).
     pub fn save_objects(&mut self, first: u16, last: u16) -> Result<(), AbortCode> {
-        crate::services::store::save_objects(self.dict, self.image, self.node_id, self.storage, first, last)
-            .map_err(super::router::store_abort)
+        self.run_store(crate::services::store::Job::save_objects(self.dict, first, last))
     }
 
     /// The stored value of (index, sub) in the newest parameter set,
@@ -277,16 +278,23 @@ impl Ctx<'_> {
         crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
     }
 
+    /// Whether the node's store in stages is in progress (an SDO 0x1010 or
+    /// 0x1011, LSS "store configuration"): until it ends, the stores above
+    /// are refused (0x08000022); from the first [`Application::poll`] after
+    /// it, they work again. The hooks of its 0x1010/0x1011 write run while it does.
+    pub fn storing(&self) -> bool {
+        self.store.busy()
+    }
+
     /// Stores a scope as 0x1010 would (the device's
     /// [`ServiceOptions::not_saved_by_1010`] objects keep their stored values).
     pub fn save(&mut self, scope: Scope) -> Result<(), AbortCode> {
-        self.save_scope(scope)
+        self.run_store(self.save_job(scope))
     }
 
     /// Marks a scope for its defaults from the next reset on, as 0x1011 would.
     pub fn restore_defaults(&mut self, scope: Scope) -> Result<(), AbortCode> {
-        crate::services::store::restore_defaults(self.dict, self.image, self.node_id, self.storage, scope)
-            .map_err(super::router::store_abort)
+        self.run_store(crate::services::store::Job::restore(scope))
     }
 
     /// The node rebuilds its acceptance list (the identifiers

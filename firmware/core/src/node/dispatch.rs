@@ -1,6 +1,8 @@
 //! Received frames: which service a COB-ID goes to in which NMT state,
 //! and what the node does with the result.
 
+use core::cell::Cell;
+
 use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
@@ -15,7 +17,7 @@ use crate::wire::time_stamp::TimeOfDay;
 
 use super::router::{Router, SdoEffects};
 use super::sinks::{PdoSink, SdoSink};
-use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE};
+use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE, store};
 use crate::services::sdo_server::SdoServers;
 use crate::txq::TxQueue;
 
@@ -200,10 +202,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
+        // The client has given up waiting for a store's answer (or aborted it).
+        if O::SERVICES.storage {
+            self.store_answer.drop_for(i);
+        }
+        let staged = Cell::new(None);
+        // Without storage no store starts: the compiler leaves the answer's holding out.
+        let staged_ref = if O::SERVICES.storage { Some(&staged) } else { None };
         let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
-        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob });
+        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: staged_ref };
+        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob, hold: staged_ref });
         let effects = ctx.effects;
+        if let (true, Some((index, sub))) = (O::SERVICES.storage, staged.get()) {
+            self.store_answer = store::StoreAnswer::sdo(i, tx_cob, index, sub);
+        }
         self.queue_raw();
         self.follow_sdo(effects);
         // After the answer: the SDO sink has queued it.
@@ -240,7 +252,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         &mut self,
         now: Instant,
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
-        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, .. } = self;
+        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, store, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {
             dict,
@@ -253,6 +265,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             options: A::OPTIONS,
             effects: SdoEffects::default(),
             raw,
+            store,
         };
         (ctx, app, sdo, txq, sdo_cob_ids)
     }

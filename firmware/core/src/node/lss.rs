@@ -3,7 +3,7 @@
 //! timing". The protocol itself is [`crate::services::lss`].
 
 use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
-use crate::services::store::{self, StoredSet};
+use crate::services::store::StoredSet;
 use crate::storage::Storage;
 use crate::time::{Duration, Instant};
 use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
@@ -114,13 +114,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.txq.clear();
                 self.switch = Switch { index, delay, at: now + delay, phase: Phase::Silent };
             }
-            LssAction::Store { node_id, bit_rate } => {
-                let dict = self.od.dictionary();
-                // Without storage (`Services::storage`) the answer is "storage failed".
-                let ok = O::SERVICES.storage
-                    && store::save_lss(dict, self.od.image(), self.node_id, &mut self.storage, node_id, bit_rate).is_ok();
-                self.push(SLAVE_COB_ID, &LssSlave::store_result(ok));
-            }
+            // In stages; without storage (`Services::storage`) the answer is "storage failed".
+            LssAction::Store { node_id, bit_rate } => self.store_lss(node_id, bit_rate),
             LssAction::Start(node_id) => {
                 self.node_id = node_id;
                 if A::OPTIONS.lss_start_resets_node {

@@ -55,6 +55,7 @@ mod reset;
 mod router;
 mod sinks;
 mod state;
+mod store;
 
 pub use app::{Application, Claims, CommError, Ctx, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
@@ -195,6 +196,10 @@ pub struct Node<
     reset: reset::Stage,
     /// The newest stored set the reset in progress found.
     reset_stored: Option<crate::services::store::StoredSet>,
+    /// The store in progress, a stage per [`Node::process`] call (`store`).
+    store: crate::services::store::Job,
+    /// The answer that goes out when it ends, if any.
+    store_answer: store::StoreAnswer,
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -248,6 +253,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             controller: controller::ControllerErrors::new(),
             reset: reset::Stage::Idle,
             reset_stored: None,
+            store: crate::services::store::Job::IDLE,
+            store_answer: store::StoreAnswer::NONE,
         }
     }
 
@@ -289,7 +296,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
     pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.with_app(now, |app, ctx| {
-            router::Router { ctx, app, by: Source::App, od: core::marker::PhantomData::<O> }.write_with_hooks(index, sub, data)
+            router::Router { ctx, app, by: Source::App, od: core::marker::PhantomData::<O>, staged: None }
+                .write_with_hooks(index, sub, data)
         })
     }
 
@@ -319,7 +327,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// counts every call the code holds, taken or not).
     #[inline(always)]
     pub(super) fn with_app_initialising<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
-        let Node { od, app, storage, comm, node_id, nmt, raw, .. } = self;
+        let Node { od, app, storage, comm, node_id, nmt, raw, store, .. } = self;
         let dict = od.dictionary();
         let mut ctx = Ctx {
             dict,
@@ -332,6 +340,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             options: A::OPTIONS,
             effects: router::SdoEffects::default(),
             raw,
+            store,
         };
         let value = f(app, &mut ctx);
         let effects = ctx.effects;

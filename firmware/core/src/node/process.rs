@@ -26,6 +26,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        // A store goes on a stage per call, alone in its call but for the
+        // last, whose SDO poll below sends the answer; a reset that came
+        // meanwhile waits for it, so it loads what was stored.
+        if O::SERVICES.storage && self.store.busy() {
+            self.store_step();
+            if self.store.busy() || self.resetting() {
+                return Some(now);
+            }
+        }
         // A reset in progress goes on a stage per call; the call of its last
         // stage goes on below. A device with CANopen off starts none (power-on
         // completes its own), so for it this is left out.
@@ -54,10 +63,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // Idle servers have no timer and nothing to send: skip building the router for them.
         if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
-            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O> };
+            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
-                    let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx });
+                    let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx, hold: None });
                     sdo_deadline = earliest(sdo_deadline, deadline);
                 }
             }

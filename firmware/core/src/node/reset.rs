@@ -30,8 +30,10 @@ pub(super) enum Stage {
     FindThenCommunication,
     /// The application part of the image: defaults, then the stored set.
     Application,
-    /// The communication part of the image: defaults, then the stored set.
+    /// The communication part of the image: defaults.
     Communication,
+    /// The communication part of the image: the stored set.
+    CommunicationStored,
     /// The communication services but the PDOs configured from the image.
     Services,
     /// The RPDOs configured from the image.
@@ -124,14 +126,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             Stage::Application => self.reset_application_part(now),
             Stage::Communication => {
-                self.reset = Stage::Services;
+                self.reset = Stage::CommunicationStored;
                 // CiA 305: a node-id configured by LSS becomes active here.
                 if let Some(lss) = self.lss_mut() {
                     self.node_id = lss.reset_communication();
                 }
                 let dict = self.od.dictionary();
+                dict.reset_communication(self.od.image_mut(), self.node_id);
+            }
+            Stage::CommunicationStored => {
+                self.reset = Stage::Services;
+                let dict = self.od.dictionary();
                 let image = self.od.image_mut();
-                dict.reset_communication(image, self.node_id);
                 if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
                     set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
                 }

@@ -8,7 +8,8 @@ use crate::id::CobId;
 use crate::od::access::{copy_from, plain_value, upload_value};
 use crate::od::index;
 use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
-use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
+use crate::services::store::{Job, LOAD, SAVE, Scope, StoreError};
+use core::cell::Cell;
 use core::marker::PhantomData;
 
 use super::app::{Application, Ctx, Source};
@@ -21,6 +22,10 @@ pub(crate) struct Router<'c, 'a, A: Application, O: ObjectDictionary> {
     pub by: Source,
     /// The node's dictionary type: whether it links storage (`Services::storage`).
     pub od: PhantomData<O>,
+    /// For an SDO request: a 0x1010/0x1011 command starts the node's store
+    /// in stages and notes its (index, sub) here, and the SDO answer waits
+    /// for the store's end. Elsewhere (`None`) the store runs in the call.
+    pub staged: Option<&'c Cell<Option<(u16, u8)>>>,
 }
 
 /// What accesses changed beyond the objects themselves, for the node to
@@ -57,6 +62,7 @@ pub(super) fn store_abort(e: StoreError) -> AbortCode {
     match e {
         StoreError::Storage(_) => AbortCode::Hardware,
         StoreError::TooLarge => AbortCode::CannotStore,
+        StoreError::Busy => AbortCode::DeviceState,
     }
 }
 
@@ -74,24 +80,45 @@ impl Ctx<'_> {
     }
 
     /// 0x1010 "save" of `scope`, leaving the device's own objects as stored.
-    pub(super) fn save_scope(&mut self, scope: Scope) -> Result<(), AbortCode> {
-        let keep = self.options.not_saved_by_1010;
-        store::save_except(self.dict, self.image, self.node_id, self.storage, scope, keep).map_err(store_abort)
+    pub(super) fn save_job(&self, scope: Scope) -> Job {
+        Job::save(self.dict, scope, self.options.not_saved_by_1010)
+    }
+
+    /// Runs a store in this call; refused (0x08000022) while the node's
+    /// store in stages is in progress: both would write the same region
+    /// ([`Ctx::storing`] tells a device's hook to wait for its end).
+    pub(super) fn run_store(&mut self, job: Job) -> Result<(), AbortCode> {
+        if self.store.busy() {
+            return Err(store_abort(StoreError::Busy));
+        }
+        job.finish(self.dict, self.image, self.node_id, self.storage).map_err(store_abort)
     }
 
     /// 0x1010 / 0x1011: the signature triggers the command; the entry itself keeps
-    /// its read-back value (the capability bits).
-    pub(super) fn store_command(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    /// its read-back value (the capability bits). With `staged`, the node
+    /// runs the store a stage per `process` call (see [`Router::staged`]).
+    pub(super) fn store_command(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        staged: Option<&Cell<Option<(u16, u8)>>>,
+    ) -> Result<(), AbortCode> {
         self.dict.find(index, sub)?;
         let scope = Scope::from_sub(sub).ok_or(if sub == 0 { AbortCode::ReadOnly } else { AbortCode::CannotStore })?;
         let (signature, is_save) = if index == index::STORE_PARAMETERS { (SAVE, true) } else { (LOAD, false) };
         if u32_exact(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
-        if is_save {
-            self.save_scope(scope)
-        } else {
-            store::restore_defaults(self.dict, self.image, self.node_id, self.storage, scope).map_err(store_abort)
+        let job = if is_save { self.save_job(scope) } else { Job::restore(scope) };
+        match staged {
+            Some(answer) if !self.store.busy() => {
+                *self.store = job;
+                answer.set(Some((index, sub)));
+                Ok(())
+            }
+            // Or another store in stages is under way (begun on another SDO server).
+            _ => self.run_store(job),
         }
     }
 
@@ -234,7 +261,7 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
             Some(entry) => self.ctx.route_write(index, sub, data, entry)?,
             None => {
                 self.ctx.effects.written = true;
-                if O::SERVICES.storage { self.ctx.store_command(index, sub, data) } else { self.ctx.no_store(index, sub) }?;
+                if O::SERVICES.storage { self.ctx.store_command(index, sub, data, self.staged) } else { self.ctx.no_store(index, sub) }?;
             }
         }
         self.app.written(self.ctx, index, sub, self.by);

@@ -2,6 +2,8 @@
 //! EMCY and the application, borrowed field by field so that a service and
 //! its sink can be used at once.
 
+use core::cell::Cell;
+
 use crate::frame::CanFrame;
 use crate::services::emcy::EmcyProducer;
 use crate::services::pdo::map::MAX_LEN;
@@ -20,10 +22,17 @@ const SDO_RESERVE: usize = 4;
 pub(super) struct SdoSink<'a> {
     pub(super) txq: &'a mut TxQueue<TX_QUEUE>,
     pub(super) cob_id: u16,
+    /// Set once the request started a store in stages: its answer is
+    /// refused, so the server keeps it and sends it at its next poll, the
+    /// first after the store (or drops it when its client moves on).
+    pub(super) hold: Option<&'a Cell<Option<(u16, u8)>>>,
 }
 
 impl SdoTx for SdoSink<'_> {
     fn send(&mut self, data: [u8; 8]) -> bool {
+        if self.hold.is_some_and(|h| h.get().is_some()) {
+            return false;
+        }
         self.txq.free() > SDO_RESERVE && CanFrame::standard(self.cob_id, &data).is_some_and(|f| self.txq.push(f))
     }
 }

@@ -15,7 +15,7 @@
 //! Only writable entries are taken from a stored set; `$NODEID` entries are
 //! stored relative to the node-id, so they follow a node-id change.
 
-use crate::od::{Attr, Dictionary};
+use crate::od::{Attr, Dictionary, Entry};
 use crate::storage::{Storage, StorageError};
 use core::ops::Range;
 
@@ -71,6 +71,8 @@ pub enum StoreError {
     Storage(StorageError),
     /// The image does not fit a region.
     TooLarge,
+    /// Another store is in progress (abort 0x08000022 in the node).
+    Busy,
 }
 
 impl From<StorageError> for StoreError {
@@ -87,19 +89,6 @@ const fn scope_bit(index: u16) -> u16 {
         0x2000..=0x5FFF => Scope::Manufacturer.mask(),
         _ => Scope::Application.mask(),
     }
-}
-
-/// Where the manufacturer and the application scope begin in the image (the
-/// communication scope begins at 0): the offset of the first value in RAM at
-/// or after 0x2000 and 0x6000.
-fn scope_starts(dict: &Dictionary) -> [usize; 2] {
-    let start = |index: u16| {
-        let first = dict.entries.partition_point(|e| e.index < index);
-        let later = dict.entries.get(first..).unwrap_or(&[]);
-        later.iter().find(|e| !e.in_rom() && e.len > 0).map_or(dict.defaults.len(), |e| usize::from(e.offset))
-    };
-    let manufacturer = start(0x2000).max(dict.comm_len);
-    [manufacturer, start(0x6000).max(manufacturer)]
 }
 
 /// CRC-32 (reflected, polynomial 0xEDB88320) of each value of a nibble.
@@ -151,34 +140,34 @@ struct Header {
 fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<Header> {
     let mut h = [0u8; HEADER];
     storage.read(region, 0, &mut h).ok()?;
-    // As in `od::load`: a wrapped end is below `i`, and `get` refuses it.
-    let word = |i: usize| h.get(i..i.wrapping_add(4)).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
-    let half = |i: usize| h.get(i..i.wrapping_add(2)).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes);
-    if word(0)? != MAGIC || half(4)? != VERSION || word(8)? != dict.layout_id {
+    // Little-endian words: magic, version and LSS, layout id, sequence number, length and default scopes, CRC.
+    let mut words = [0u32; HEADER / 4];
+    for (word, bytes) in words.iter_mut().zip(h.chunks_exact(4)) {
+        *word = u32::from_le_bytes(bytes.try_into().unwrap_or_default());
+    }
+    let [magic, version_lss, layout, seq, len_defaults, crc] = words;
+    if magic != MAGIC || version_lss as u16 != VERSION || layout != dict.layout_id {
         return None;
     }
-    let lss = [*h.get(6)?, *h.get(7)?];
-    let header = Header { lss, seq: word(12)?, len: half(16)?, defaults: half(18)?, crc: word(20)? };
+    let lss = [(version_lss >> 16) as u8, (version_lss >> 24) as u8];
+    let header = Header { lss, seq, len: len_defaults as u16, defaults: (len_defaults >> 16) as u16, crc };
     (usize::from(header.len) == dict.defaults.len()).then_some(header)
 }
 
-/// Whether the payload of `region` matches the header's CRC (else the write was cut short).
-// `off` < `header.len` in the loop, and `off + n` ≤ `header.len` (a u16).
+/// The CRC-32 of `range` of the payload of `region`, continued from `crc`
+/// (`None` if the storage fails).
+// `off` ≤ `range.end`, a payload offset (below 64 KiB: 24 more fit).
 #[allow(clippy::arithmetic_side_effects)]
-fn payload_intact(storage: &mut dyn Storage, region: u8, header: &Header) -> bool {
-    let mut crc = !0u32;
+fn crc_of(storage: &mut dyn Storage, region: u8, range: Range<usize>, mut crc: u32) -> Option<u32> {
     let mut buf = [0u8; 64];
-    let mut off = 0;
-    while off < usize::from(header.len) {
-        let n = buf.len().min(usize::from(header.len) - off);
-        let Some(chunk) = buf.get_mut(..n) else { return false };
-        if storage.read(region, HEADER + off, chunk).is_err() {
-            return false;
-        }
+    let mut off = range.start;
+    while off < range.end {
+        let chunk = buf.get_mut(..(range.end - off).min(64))?;
+        storage.read(region, HEADER + off, chunk).ok()?;
         crc = crc32_update(crc, chunk);
-        off += n;
+        off += chunk.len();
     }
-    !crc == header.crc
+    Some(crc)
 }
 
 /// The newest valid parameter set in a [`Storage`]: found once by
@@ -189,23 +178,68 @@ pub struct StoredSet {
     header: Header,
 }
 
+/// [`newest`] a piece at a time: the headers, then the payload's CRC in
+/// pieces, a step each (a store's first stages, [`Job`]). All zero bits
+/// before its first step ([`Finder::NEW`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Finder {
+    /// Sets found broken so far: the region checked is the newer one's,
+    /// then the other; 2 = none left.
+    tried: u8,
+    /// Payload bytes of the set in hand checked so far, and their CRC
+    /// inverted (0 before the first byte, so that a new finder is all zero bits).
+    pos: u16,
+    crc: u32,
+}
+
+impl Finder {
+    /// Nothing checked yet.
+    const NEW: Finder = Finder { tried: 0, pos: 0, crc: 0 };
+
+    /// Checks at most `budget` payload bytes; the newest valid set (or
+    /// none) once found. Only the newer header's payload is checked when it
+    /// is intact: an older set cannot win over it, valid or not. The
+    /// headers are read at every step (the storage does not change between
+    /// steps), which costs less than keeping them.
+    fn step_with(&mut self, dict: &Dictionary, storage: &mut dyn Storage, budget: usize) -> Option<Option<StoredSet>> {
+        let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
+        // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
+        let first = match &headers {
+            [Some(a), Some(b)] => u8::from(b.seq.wrapping_sub(a.seq) as i32 > 0),
+            [a, _] => u8::from(a.is_none()),
+        };
+        while self.tried < 2 {
+            let region = first ^ self.tried;
+            if let Some(header) = headers.get(usize::from(region)).copied().flatten() {
+                let (pos, len) = (usize::from(self.pos), usize::from(header.len));
+                let end = len.min(pos.saturating_add(budget));
+                match crc_of(storage, region, pos..end, !self.crc) {
+                    Some(crc) if end < len => {
+                        (self.pos, self.crc) = (end as u16, !crc);
+                        return None;
+                    }
+                    Some(crc) if !crc == header.crc => return Some(Some(StoredSet { region, header })),
+                    // Cut short, or the storage failed: the other set, in the next step.
+                    _ => {}
+                }
+                (self.tried, self.pos, self.crc) = (self.tried.wrapping_add(1), 0, 0);
+                return None;
+            }
+            self.tried = self.tried.wrapping_add(1);
+        }
+        Some(None)
+    }
+}
+
 /// Finds the newest valid set. Only the newer header's payload is checked
 /// when it is intact: an older set cannot win over it, valid or not.
 pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
-    let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
-    // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
-    let one_first = match &headers {
-        [Some(a), Some(b)] => b.seq.wrapping_sub(a.seq) as i32 > 0,
-        [a, _] => a.is_none(),
-    };
-    for region in if one_first { [1u8, 0] } else { [0, 1] } {
-        if let Some(header) = headers.get(usize::from(region)).copied().flatten()
-            && payload_intact(storage, region, &header)
-        {
-            return Some(StoredSet { region, header });
+    let mut finder = Finder::NEW;
+    loop {
+        if let Some(found) = finder.step_with(dict, storage, usize::MAX) {
+            return found;
         }
     }
-    None
 }
 
 impl StoredSet {
@@ -216,180 +250,52 @@ impl StoredSet {
     }
 
     /// Overwrites the writable entries of `part` with this set (after the
-    /// reset copied the defaults). Returns whether any value was taken from it.
+    /// reset copied the defaults). Returns whether any value was taken from
+    /// it. If the storage fails, the part gets its defaults back.
+    // `run` lies in the image (a slice, below isize::MAX): 24 more fit.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn load(&self, dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
-        // The table is sorted by index, so each part is one run of it.
-        let split = dict.entries.partition_point(|e| e.index < 0x2000);
-        let Some((communication, application)) = dict.entries.split_at_checked(split) else { return false };
-        let entries = match part {
-            Part::Communication => communication,
-            Part::Application => application,
+        let communication = part == Part::Communication;
+        let wanted = |e: &Entry| {
+            (e.index < 0x2000) == communication
+                && !e.in_rom()
+                && e.len > 0
+                && e.attr.contains(Attr::WRITE)
+                && self.header.defaults & scope_bit(e.index) == 0
         };
-        // Adjacent values to load are read with one call: a call per entry cost more than the copying.
+        // Adjacent values are read with one call: a call per entry cost more than the copying.
         let mut run = 0..0;
         let mut used = false;
-        for e in entries.iter().filter(|e| !e.in_rom() && e.len > 0) {
-            let r = e.range();
-            let wanted = e.attr.contains(Attr::WRITE) && self.header.defaults & scope_bit(e.index) == 0;
-            let relative = e.attr.contains(Attr::NODE_ID);
-            if wanted && !relative && !run.is_empty() && run.end == r.start {
-                run.end = r.end;
-                continue;
-            }
-            // `e` does not extend the run: read what it holds.
-            if !self.read_into(dict, image, storage, run.clone()) {
-                return used;
-            }
-            used |= !run.is_empty();
-            run = 0..0;
-            if !wanted {
-                continue;
-            }
-            if !relative {
-                run = r;
-                continue;
-            }
-            if !self.read_into(dict, image, storage, r.clone()) {
-                return used;
-            }
-            if let Some(value) = image.get_mut(r) {
-                crate::od::add_le(value, u64::from(node_id));
-                used = true;
-            }
-        }
-        let last = self.read_into(dict, image, storage, run.clone());
-        used || (last && !run.is_empty())
-    }
-
-    /// Copies `range` of the stored image into `image`. If the storage
-    /// fails, the range gets its defaults back (`$NODEID` entries are loaded
-    /// one at a time, so an absolute default is right) and the load stops.
-    // `range` lies in the image (a slice, below isize::MAX): 24 more fit.
-    #[allow(clippy::arithmetic_side_effects)]
-    fn read_into(&self, dict: &Dictionary, image: &mut [u8], storage: &mut dyn Storage, range: core::ops::Range<usize>) -> bool {
-        let (Some(dst), Some(defaults)) = (image.get_mut(range.clone()), dict.defaults.get(range.clone())) else { return false };
-        if dst.is_empty() || storage.read(self.region, HEADER + range.start, dst).is_ok() {
-            return true;
-        }
-        dst.copy_from_slice(defaults);
-        false
-    }
-}
-
-/// Subtracts `n` from the little-endian integer in `bytes`, wrapping at its width.
-// `v` is -255..=255, and `borrow >> 8` plus 1 cannot reach u64::MAX.
-#[allow(clippy::arithmetic_side_effects)]
-fn sub_le(bytes: &mut [u8], n: u64) {
-    let mut borrow = n;
-    for b in bytes.iter_mut() {
-        let v = i64::from(*b) - (borrow & 0xFF) as i64;
-        borrow >>= 8;
-        if v < 0 {
-            *b = (v + 256) as u8;
-            borrow += 1;
-        } else {
-            *b = v as u8;
-        }
-    }
-}
-
-/// Writes a new set: the scopes in `save` from the image, the scopes in
-/// `reset` marked as defaults, every other scope kept from the newest set.
-///
-/// Within the saved scopes, only the bytes of `from_image` come from the
-/// image, never those of `keep`: the rest keeps the newest set (the
-/// defaults if there is none).
-// `len` is a slice's length (below isize::MAX: 24 more fit), every position
-// below it, `set.region` 0 or 1, and each subtraction follows the comparison
-// that orders it.
-#[allow(clippy::too_many_arguments, clippy::arithmetic_side_effects)]
-fn write_set(
-    dict: &Dictionary,
-    image: &[u8],
-    node_id: u8,
-    storage: &mut dyn Storage,
-    save: u16,
-    reset: u16,
-    lss: Option<[u8; 2]>,
-    from_image: Range<usize>,
-    keep: Range<usize>,
-) -> Result<(), StoreError> {
-    let len = dict.defaults.len();
-    if HEADER + len > storage.region_size() || len > usize::from(u16::MAX) {
-        return Err(StoreError::TooLarge);
-    }
-    let old = newest(dict, storage);
-    let target = old.map_or(0, |set| 1 - set.region);
-    let mut defaults = old.map_or(0b111, |set| set.header.defaults);
-    defaults = (defaults & !save) | reset;
-    storage.erase(target)?;
-    let [manufacturer, application] = scope_starts(dict);
-    let mut crc = !0u32;
-    let mut buf = [0u8; 64];
-    let mut pos = 0;
-    // The payload in chunks, each within one scope and taken from one source.
-    while pos < len {
-        let (bit, end) = match pos {
-            p if p < manufacturer => (Scope::Communication.mask(), manufacturer),
-            p if p < application => (Scope::Manufacturer.mask(), application),
-            _ => (Scope::Application.mask(), len),
-        };
-        let mut n = buf.len().min(end - pos);
-        // A chunk lies wholly inside or outside each of the two ranges.
-        for edge in [from_image.start, from_image.end, keep.start, keep.end] {
-            if edge > pos && edge < pos + n {
-                n = edge - pos;
-            }
-        }
-        let picked = save & bit != 0 && from_image.contains(&pos) && !keep.contains(&pos);
-        let from_image = picked || (old.is_none() && save & bit == 0);
-        let relative = || dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).map(|e| e.range());
-        if from_image {
-            // A `$NODEID` value (at most 8 bytes) is adjusted whole, so no chunk cuts one.
-            if let Some(r) = relative().find(|r| r.start > pos && r.start < pos + n && r.end > pos + n) {
-                n = r.start - pos;
-            }
-        }
-        let chunk = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
-        // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
-        let stale = old.is_some_and(|set| set.header.defaults & bit != 0);
-        match old {
-            Some(set) if !from_image && !stale => storage.read(set.region, HEADER + pos, chunk)?,
-            // No set (or a scope at default): what is not saved from the image is the default (stored relative, as defaults are).
-            _ if !from_image => chunk.copy_from_slice(dict.defaults.get(pos..pos + n).ok_or(StoreError::TooLarge)?),
-            _ => {
-                chunk.copy_from_slice(image.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
-                // `$NODEID` values are kept relative to the node-id.
-                for r in relative().filter(|r| r.start >= pos && r.end <= pos + n) {
-                    if let Some(value) = chunk.get_mut(r.start - pos..r.end - pos) {
-                        sub_le(value, u64::from(node_id));
+        for r in dict.entries.iter().filter(|e| wanted(e)).map(Entry::range).chain(core::iter::once(usize::MAX..usize::MAX)) {
+            if run.end != r.start {
+                let read =
+                    image.get_mut(run.clone()).map(|dst| dst.is_empty() || storage.read(self.region, HEADER + run.start, dst).is_ok());
+                if read != Some(true) {
+                    if communication {
+                        dict.reset_communication(image, node_id)
+                    } else {
+                        dict.reset_application(image, node_id)
                     }
+                    return false;
                 }
+                run.start = r.start;
+            }
+            run.end = r.end;
+            used = true;
+        }
+        // `$NODEID` values are stored relative to the node-id.
+        for e in dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).filter(|e| wanted(e)) {
+            if let Some(value) = image.get_mut(e.range()) {
+                crate::od::add_le(value, u64::from(node_id));
             }
         }
-        storage.write(target, HEADER + pos, chunk)?;
-        crc = crc32_update(crc, chunk);
-        pos += n;
+        used
     }
-    let seq = old.map_or(1, |set| set.header.seq.wrapping_add(1));
-    // The LSS configuration rides along with every set: a new one or the old one.
-    let lss_bytes = lss.or(old.map(|set| set.header.lss)).unwrap_or([0xFF, 0xFF]);
-    let [m0, m1, m2, m3] = MAGIC.to_le_bytes();
-    let [v0, v1] = VERSION.to_le_bytes();
-    let [l0, l1, l2, l3] = dict.layout_id.to_le_bytes();
-    let [s0, s1, s2, s3] = seq.to_le_bytes();
-    let [n0, n1] = (len as u16).to_le_bytes();
-    let [d0, d1] = defaults.to_le_bytes();
-    let [c0, c1, c2, c3] = (!crc).to_le_bytes();
-    let [i0, i1] = lss_bytes;
-    let h: [u8; HEADER] = [m0, m1, m2, m3, v0, v1, i0, i1, l0, l1, l2, l3, s0, s1, s2, s3, n0, n1, d0, d1, c0, c1, c2, c3];
-    storage.write(target, 0, &h)?;
-    Ok(())
 }
 
 /// 0x1010 "save": stores the scope's parameters.
 pub fn save(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    save_except(dict, image, node_id, storage, scope, None)
+    Job::save(dict, scope, None).finish(dict, image, node_id, storage)
 }
 
 /// 0x1010 "save" of a device that stores the objects `keep` (an inclusive
@@ -402,8 +308,7 @@ pub fn save_except(
     scope: Scope,
     keep: Option<(u16, u16)>,
 ) -> Result<(), StoreError> {
-    let keep = keep.map_or(0..0, |(first, last)| byte_range(dict, first, last));
-    write_set(dict, image, node_id, storage, scope.mask(), 0, None, 0..image.len(), keep)
+    Job::save(dict, scope, keep).finish(dict, image, node_id, storage)
 }
 
 /// Stores the objects `first..=last` alone: every other value keeps what the
@@ -416,16 +321,7 @@ pub fn save_objects(
     first: u16,
     last: u16,
 ) -> Result<(), StoreError> {
-    let range = byte_range(dict, first, last);
-    let Some(scope_last) = range.end.checked_sub(1).filter(|_| !range.is_empty()) else { return Ok(()) };
-    let scope_first = range.start;
-    let [manufacturer, application] = scope_starts(dict);
-    let bit = |pos: usize| match pos {
-        p if p < manufacturer => Scope::Communication.mask(),
-        p if p < application => Scope::Manufacturer.mask(),
-        _ => Scope::Application.mask(),
-    };
-    write_set(dict, image, node_id, storage, bit(scope_first) | bit(scope_last), 0, None, range, 0..0)
+    Job::save_objects(dict, first, last).finish(dict, image, node_id, storage)
 }
 
 /// The bytes of the image the RAM values of objects `first..=last` take
@@ -439,7 +335,7 @@ fn byte_range(dict: &Dictionary, first: u16, last: u16) -> Range<usize> {
 
 /// 0x1011 "load": the scope uses its defaults from the next reset on.
 pub fn restore_defaults(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, 0, scope.mask(), None, 0..0, 0..0)
+    Job::restore(scope).finish(dict, image, node_id, storage)
 }
 
 /// LSS "store configuration" (CiA 305 §5.2.4): the node-id and bit-rate
@@ -453,7 +349,7 @@ pub fn save_lss(
     lss_node_id: u8,
     bit_rate: u8,
 ) -> Result<(), StoreError> {
-    write_set(dict, image, node_id, storage, 0, 0, Some([lss_node_id, bit_rate]), 0..0, 0..0)
+    Job::lss(lss_node_id, bit_rate).finish(dict, image, node_id, storage)
 }
 
 /// The value of (index, sub) in the newest stored set, copied into the
@@ -496,5 +392,8 @@ pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn 
     newest(dict, storage).is_some_and(|set| set.load(dict, image, node_id, storage, part))
 }
 
+mod job;
 #[cfg(test)]
 mod tests;
+
+pub use job::{CHECK_STAGE, Job, STAGE};

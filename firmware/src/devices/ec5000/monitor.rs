@@ -76,6 +76,9 @@ pub struct Monitor {
     restored: bool,
     /// A remanent value changed since it was stored; the uptime of that store [s].
     dirty: bool,
+    /// The counters are to be stored again once the node's store in stages
+    /// (an SDO 0x1011 restore) is done (D55).
+    keep_pending: bool,
     stored_s: u32,
     /// The time of the last poll [µs], `None` before the first one.
     last_us: Option<u64>,
@@ -112,6 +115,7 @@ impl Monitor {
         derated: false,
         restored: false,
         dirty: false,
+        keep_pending: false,
         stored_s: 0,
         last_us: None,
         last_position: 0,
@@ -145,6 +149,9 @@ impl Monitor {
     /// profile then writes the statusword again.
     #[inline(never)]
     pub fn update(&mut self, ctx: &mut Ctx<'_>, drive: &mut Cia402<Roller>, increments_per_rev: u32) {
+        if self.keep_pending {
+            self.keep(ctx);
+        }
         // Quick stops at every poll: one at rest lasts a single tick.
         let state = drive.state();
         if state == PdsState::QuickStopActive && self.last_state != PdsState::QuickStopActive {
@@ -258,8 +265,13 @@ impl Monitor {
 
     /// Stores the counters again after 0x1011 marked the manufacturer
     /// parameters for their defaults (D55).
+    /// While the node's store in stages runs (the restore itself, by SDO),
+    /// at the first poll after it.
     pub fn keep(&mut self, ctx: &mut Ctx<'_>) {
-        self.dirty = ctx.save_objects(MONITORING, MONITORING).is_err();
+        self.keep_pending = ctx.storing();
+        if !self.keep_pending {
+            self.dirty = ctx.save_objects(MONITORING, MONITORING).is_err();
+        }
     }
 
     /// At reset application: the warnings are gone with the EMCY state; the

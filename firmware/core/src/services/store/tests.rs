@@ -322,7 +322,8 @@ fn the_newest_set_is_checked_alone_unless_its_payload_is_broken() {
     flash.regions[1][HEADER + 1] ^= 0x01;
     let mut counting = Counting(&mut flash, 0);
     let set = newest(&DICT, &mut counting).unwrap();
-    assert_eq!(counting.1, 2 * HEADER + 2 * DEFAULTS.len());
+    // Both headers again for the second set, a step of its own.
+    assert_eq!(counting.1, 4 * HEADER + 2 * DEFAULTS.len());
     assert_eq!((set.region, set.header.seq), (0, 1));
     assert_eq!(DICT.read(&boot(&mut flash, 1), 0x1017, 0), Ok(&111u16.to_le_bytes()[..]));
 }
@@ -405,4 +406,57 @@ fn a_value_longer_than_a_chunk_is_stored_and_loaded_whole() {
         assert!(load(&LONG, &mut fresh, 1, &mut flash, part));
     }
     assert_eq!(fresh, img);
+}
+
+#[test]
+fn a_store_in_stages_takes_each_value_whole_from_the_image_of_one_step() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    let a = img;
+    let mut b = img;
+    DICT.write(&mut b, 0x1017, 0, &0x2222u16.to_le_bytes()).unwrap();
+    DICT.write(&mut b, 0x1800, 1, &0x4000_0333u32.to_le_bytes()).unwrap();
+    DICT.write(&mut b, 0x2000, 0, &0x4444_4444u32.to_le_bytes()).unwrap();
+    DICT.write(&mut b, 0x6060, 0, &[0x55]).unwrap();
+    // Steps of 3 bytes would cut 0x1800 sub 1 (bytes 3..7) and 0x2000 (7..11);
+    // the image flips between the two versions after every step.
+    let mut job = Job::save(&DICT, Scope::All, None);
+    let mut steps = 0;
+    let result = loop {
+        if let Some(result) = job.step_with(&DICT, &img, 1, &mut flash, 3) {
+            break result;
+        }
+        steps += 1;
+        img = if steps % 2 == 0 { a } else { b };
+    };
+    assert_eq!(result, Ok(()));
+    assert!(steps > 4, "{steps} steps");
+    let loaded = boot(&mut flash, 1);
+    for (index, sub) in [(0x1017, 0), (0x1800, 1), (0x2000, 0), (0x6060, 0)] {
+        let v = DICT.read(&loaded, index, sub).unwrap();
+        assert!(v == DICT.read(&a, index, sub).unwrap() || v == DICT.read(&b, index, sub).unwrap(), "{index:#x}:{sub}: {v:02x?}");
+    }
+}
+
+#[test]
+fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 2);
+    DICT.write(&mut img, 0x2000, 0, &1111u32.to_le_bytes()).unwrap();
+    save(&DICT, &img, 2, &mut flash, Scope::All).unwrap();
+    DICT.write(&mut img, 0x2000, 0, &2222u32.to_le_bytes()).unwrap();
+    let base = flash.regions;
+    for cut in 0.. {
+        // Run `cut` steps of 2 bytes, then lose the job (the power is gone).
+        let mut f = Flash { regions: base, budget: None };
+        let mut job = Job::save(&DICT, Scope::All, None);
+        let done = (0..=cut).any(|_| job.step_with(&DICT, &img, 2, &mut f, 2).is_some());
+        let loaded = boot(&mut f, 2);
+        let want: u32 = if done { 2222 } else { 1111 };
+        assert_eq!(DICT.read(&loaded, 0x2000, 0), Ok(&want.to_le_bytes()[..]), "after {cut} steps");
+        if done {
+            assert!(cut > 4, "{cut} steps");
+            break;
+        }
+    }
 }
