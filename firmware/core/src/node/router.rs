@@ -5,7 +5,7 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::access::{copy_from, plain_value, upload_value};
+use crate::od::access::{copy_from, upload_value};
 use crate::od::index;
 use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
 use crate::services::store::{Job, LOAD, SAVE, Scope, StoreError};
@@ -214,28 +214,12 @@ impl Ctx<'_> {
     }
 }
 
-/// The first `size` bytes of a value (at most 4), zero-padded: four fixed
-/// loads, where a copy loop of variable length becomes a `memcpy` call.
-fn small_value(value: &[u8], size: usize) -> [u8; 4] {
-    let mut out = [0u8; 4];
-    for (i, d) in out.iter_mut().enumerate() {
-        *d = if i < size { value.get(i).copied().unwrap_or(0) } else { 0 };
-    }
-    out
-}
-
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
-    /// The device's read hook, in one place for its two callers.
-    #[inline(never)]
-    fn read_hook(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
-        self.app.read(self.ctx, index, sub, offset, buf)
-    }
-
     /// [`ObjectAccess::read`], from `entry` when the caller already looked it up.
-    // Out of line: `read` and the hooks' path of `upload_small` call it.
+    // One call of the device's read hook for both callers (each inlined a copy).
     #[inline(never)]
     fn read_from(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8], entry: Option<&'static Entry>) -> Result<usize, AbortCode> {
-        if let Some(r) = self.read_hook(index, sub, offset, buf) {
+        if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
             return r;
         }
         let entry = match entry {
@@ -284,27 +268,15 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
     fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
         // The hooks in the order upload_size, read would call them; the
         // plain tables looked up once for both.
-        let size = match self.app.upload_size(self.ctx, index, sub) {
-            Some(r) => r?,
+        let (size, entry) = match self.app.upload_size(self.ctx, index, sub) {
+            Some(r) => (r?, None),
             None => {
                 let entry = self.ctx.dict.find(index, sub)?;
-                let size = upload_value(self.ctx.dict, self.ctx.image, entry)?.len();
-                if !(1..=4).contains(&size) {
-                    return Ok(size);
-                }
-                let Some(dst) = buf.get_mut(..size) else { return Ok(size) };
-                if let Some(r) = self.read_hook(index, sub, 0, dst) {
-                    r?;
-                } else {
-                    // Read after the hook, which may have changed the image;
-                    // the entry's checks passed above.
-                    *buf = small_value(plain_value(self.ctx.dict, self.ctx.image, entry), size);
-                }
-                return Ok(size);
+                (upload_value(self.ctx.dict, self.ctx.image, entry)?.len(), Some(entry))
             }
         };
         let Some(dst) = buf.get_mut(..size).filter(|_| size != 0) else { return Ok(size) };
-        self.read_from(index, sub, 0, dst, None)?;
+        self.read_from(index, sub, 0, dst, entry)?;
         Ok(size)
     }
 
