@@ -37,9 +37,9 @@ pub(crate) struct SdoEffects {
     /// (even if it failed): every TPDO looks for changed data at the next
     /// process, which an upload alone does not need.
     pub written: bool,
-    /// The image bytes (offset, length) the one plain write of an object
-    /// changed (length 0: none): only the TPDOs mapping them look for
-    /// changed data.
+    /// The image bytes (offset, length) the plain writes of objects
+    /// changed, one range covering them all (length 0: none): only the
+    /// TPDOs mapping them look for changed data.
     pub wrote: (u16, u16),
     /// A hook or a write changed a service beyond the dictionary (an error
     /// raised or cleared, a communication object written): the next
@@ -170,15 +170,27 @@ impl Ctx<'_> {
     /// dictionary's own, remembering which bytes changed.
     fn write_plain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let (entry, changed) = self.dict.write_entry(self.image, index, sub, data)?;
-        if !changed {
-            // The same value again: no TPDO has new data.
-        } else if self.effects.wrote.1 == 0 {
-            self.effects.wrote = (entry.offset, entry.len);
-        } else {
-            // A second write in one access: any TPDO may look.
-            self.effects.written = true;
+        // The same value again: no TPDO has new data.
+        if changed {
+            self.effects.wrote_bytes(entry.offset, entry.len);
         }
         Ok(())
+    }
+}
+
+impl SdoEffects {
+    /// `len` image bytes at `offset` changed: `wrote` grows to cover them
+    /// (with the bytes between two writes, which costs at most a compare
+    /// of a TPDO that maps those).
+    pub(super) fn wrote_bytes(&mut self, offset: u16, len: u16) {
+        let (start, old_len) = self.wrote;
+        self.wrote = if old_len == 0 {
+            (offset, len)
+        } else {
+            let begin = start.min(offset);
+            let end = (u32::from(start) + u32::from(old_len)).max(u32::from(offset) + u32::from(len));
+            (begin, u16::try_from(end - u32::from(begin)).unwrap_or(u16::MAX))
+        };
     }
 }
 

@@ -4,6 +4,7 @@
 //! takes the standard's default (or the mode is unsupported).
 
 use crate::node::Ctx;
+use crate::od::EntryRef;
 
 /// Object indices of CiA 402-2 (a profile namespace: 0x6040 is a
 /// controlword here and an acceleration in CiA 406).
@@ -116,10 +117,20 @@ pub mod index {
 /// A signed value (INTEGER8/16/32, sign-extended), if the object exists.
 #[inline(never)]
 pub fn signed(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<i32> {
-    match ctx.read(index, sub).ok()? {
-        [a] => Some(i32::from(*a as i8)),
-        [a, b] => Some(i32::from(i16::from_le_bytes([*a, *b]))),
-        [a, b, c, d] => Some(i32::from_le_bytes([*a, *b, *c, *d])),
+    signed_value(ctx.read(index, sub).ok()?)
+}
+
+/// [`signed`] of an object [`Located`] found.
+#[inline(never)]
+pub fn signed_at(ctx: &Ctx<'_>, at: EntryRef) -> Option<i32> {
+    signed_value(ctx.read_at(at).ok()?)
+}
+
+fn signed_value(bytes: &[u8]) -> Option<i32> {
+    match *bytes {
+        [a] => Some(i32::from(a as i8)),
+        [a, b] => Some(i32::from(i16::from_le_bytes([a, b]))),
+        [a, b, c, d] => Some(i32::from_le_bytes([a, b, c, d])),
         _ => None,
     }
 }
@@ -128,6 +139,12 @@ pub fn signed(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<i32> {
 #[inline(never)]
 pub fn unsigned(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<u32> {
     ctx.read_u32(index, sub)
+}
+
+/// [`unsigned`] of an object [`Located`] found.
+#[inline(never)]
+pub fn unsigned_at(ctx: &Ctx<'_>, at: EntryRef) -> Option<u32> {
+    ctx.read_at(at).ok().map(crate::od::le_u32)
 }
 
 /// An unsigned value, or `default` if the object is missing.
@@ -142,5 +159,68 @@ pub fn unsigned_or(ctx: &Ctx<'_>, index: u16, sub: u8, default: u32) -> u32 {
 pub fn set(ctx: &mut Ctx<'_>, index: u16, len: usize, value: i32) {
     if let Some(bytes) = value.to_le_bytes().get(..len) {
         let _ = ctx.set_value(index, 0, bytes);
+    }
+}
+
+/// [`set`] of an object [`Located`] found.
+#[inline(never)]
+pub fn set_at(ctx: &mut Ctx<'_>, at: EntryRef, len: usize, value: i32) {
+    if let Some(bytes) = value.to_le_bytes().get(..len) {
+        let _ = ctx.set_at(at, bytes);
+    }
+}
+
+/// The objects the profile reads or writes with every frame, SYNC or
+/// tick, found once at reset application: a dictionary search costs more
+/// than a step of the state machine. All [`EntryRef::NONE`] (all zero
+/// bits) until then.
+#[derive(Clone, Copy, Debug)]
+pub struct Located {
+    /// 0x6040.
+    pub controlword: EntryRef,
+    /// 0x6041.
+    pub statusword: EntryRef,
+    /// 0x605A.
+    pub quick_stop_option: EntryRef,
+    /// 0x60FF.
+    pub target_velocity: EntryRef,
+    /// 0x6042.
+    pub vl_target_velocity: EntryRef,
+    /// 0x6064, 0x606C, 0x6077, 0x6062, 0x606B (the actual values every mode shows).
+    pub actuals: [EntryRef; 5],
+    /// 0x6043, 0x6044 (vl).
+    pub vl_actuals: [EntryRef; 2],
+}
+
+impl Located {
+    /// Nothing found yet.
+    pub const NONE: Located = Located {
+        controlword: EntryRef::NONE,
+        statusword: EntryRef::NONE,
+        quick_stop_option: EntryRef::NONE,
+        target_velocity: EntryRef::NONE,
+        vl_target_velocity: EntryRef::NONE,
+        actuals: [EntryRef::NONE; 5],
+        vl_actuals: [EntryRef::NONE; 2],
+    };
+
+    /// The objects in the node's dictionary (sub 0).
+    pub fn find(ctx: &Ctx<'_>) -> Located {
+        let at = |index| ctx.locate(index, 0);
+        Located {
+            controlword: at(index::CONTROLWORD),
+            statusword: at(index::STATUSWORD),
+            quick_stop_option: at(index::QUICK_STOP_OPTION),
+            target_velocity: at(index::TARGET_VELOCITY),
+            vl_target_velocity: at(index::VL_TARGET_VELOCITY),
+            actuals: [
+                at(index::POSITION_ACTUAL),
+                at(index::VELOCITY_ACTUAL),
+                at(index::TORQUE_ACTUAL),
+                at(index::POSITION_DEMAND),
+                at(index::VELOCITY_DEMAND),
+            ],
+            vl_actuals: [at(index::VL_VELOCITY_DEMAND), at(index::VL_VELOCITY_ACTUAL)],
+        }
     }
 }

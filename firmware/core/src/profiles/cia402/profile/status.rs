@@ -61,7 +61,7 @@ impl<D: Drive> Cia402<D> {
         let word = self.statusword();
         if word != self.s.statusword {
             self.s.statusword = word;
-            objects::set(ctx, index::STATUSWORD, 2, i32::from(word));
+            objects::set_at(ctx, self.s.at.statusword, 2, i32::from(word));
         }
     }
 
@@ -74,14 +74,16 @@ impl<D: Drive> Cia402<D> {
                 let v = u.vl_to_user.apply(i64::from(inc));
                 (if u.velocity_negative { -v } else { v }).clamp(-32768, 32767) as i32
             };
-            objects::set(ctx, index::VL_VELOCITY_DEMAND, 2, rpm(self.s.demand.velocity()));
-            objects::set(ctx, index::VL_VELOCITY_ACTUAL, 2, rpm(d.velocity()));
+            let [demand, actual] = self.s.at.vl_actuals;
+            objects::set_at(ctx, demand, 2, rpm(self.s.demand.velocity()));
+            objects::set_at(ctx, actual, 2, rpm(d.velocity()));
         }
-        objects::set(ctx, index::POSITION_ACTUAL, 4, u.position_to_user(d.position()));
-        objects::set(ctx, index::VELOCITY_ACTUAL, 4, u.velocity_to_user(i64::from(d.velocity())));
-        objects::set(ctx, index::TORQUE_ACTUAL, 2, i32::from(d.torque()));
-        objects::set(ctx, index::POSITION_DEMAND, 4, u.position_to_user(self.s.demand.position()));
-        objects::set(ctx, index::VELOCITY_DEMAND, 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
+        let [position, velocity, torque, position_demand, velocity_demand] = self.s.at.actuals;
+        objects::set_at(ctx, position, 4, u.position_to_user(d.position()));
+        objects::set_at(ctx, velocity, 4, u.velocity_to_user(i64::from(d.velocity())));
+        objects::set_at(ctx, torque, 2, i32::from(d.torque()));
+        objects::set_at(ctx, position_demand, 4, u.position_to_user(self.s.demand.position()));
+        objects::set_at(ctx, velocity_demand, 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
     }
 }
 
