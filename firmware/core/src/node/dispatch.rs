@@ -221,7 +221,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.touched = ALL_TPDOS;
         } else if effects.wrote.1 != 0 {
             let (offset, len) = effects.wrote;
-            self.touched |= self.comm.pdos.tpdos_mapping(offset, len) | self.comm.pdos.retrying();
+            // A poll for any TPDO retries every TPDO waiting to ([`crate::services::pdo::Pdos::poll_changed`]).
+            let mask = self.comm.pdos.tpdos_mapping(offset, len);
+            self.touched |= if mask != 0 { mask } else { self.comm.pdos.retrying() };
         }
         self.stale |= effects.services;
         if effects.sdo_changed {

@@ -352,13 +352,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// after those RPDOs must look at.
     #[inline(never)]
     pub fn reached_by(&self, rpdos: u32) -> u32 {
-        let mut mask = self.retrying();
+        let mut mask = 0;
         let mut bits = rpdos;
         while bits != 0 {
             mask |= self.rpdo_reach.get(bits.trailing_zeros() as usize).copied().unwrap_or(ALL_TPDOS);
             bits &= bits - 1;
         }
-        mask
+        // A poll for any TPDO retries every TPDO waiting to ([`Pdos::poll_changed`]).
+        if mask != 0 { mask } else { self.retrying() }
     }
 
     /// The TPDOs waiting to retry a refused frame.
@@ -424,20 +425,29 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return None;
         }
+        // The deadline is folded in the same walk ([`Pdos::deadline`] once
+        // more would cost as much as the polls): each PDO's after its poll.
+        let mut deadline = None;
         for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
             rpdo.poll(n, now, tx);
+            deadline = earliest(deadline, rpdo.deadline());
         }
         let window_end = self.window_end;
         for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
             let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
-            if changed & bit != 0 || bit == 0 || tpdo.due(now) {
+            let polled = changed & bit != 0 || bit == 0 || tpdo.retrying();
+            let before = if polled { None } else { tpdo.deadline() };
+            let next = if polled || before.is_some_and(|d| d <= now) {
                 tpdo.poll(now, window_end, image, tx);
-            }
+                tpdo.deadline()
+            } else {
+                before
+            };
+            deadline = earliest(deadline, next);
         }
-        self.settled = false;
-        self.settled_deadline = self.deadline();
+        self.settled_deadline = deadline;
         self.settled = true;
-        self.settled_deadline
+        deadline
     }
 
     /// [`Pdos::deadline`] when it is known without walking the PDOs.
