@@ -182,7 +182,14 @@ impl<D: Drive> Cia402<D> {
         match index {
             index::CONTROLWORD => self.controlword(ctx),
             index::MODES_OF_OPERATION => self.set_mode(ctx),
-            index::TARGET_VELOCITY | index::VL_TARGET_VELOCITY => self.velocity_target(ctx),
+            index::TARGET_VELOCITY | index::VL_TARGET_VELOCITY => {
+                // Of the statusword, a new target changes bit 11 alone (pv and vl limits).
+                let limited = self.s.internal_limit;
+                self.velocity_target(ctx);
+                if self.s.internal_limit == limited {
+                    return;
+                }
+            }
             index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY => {
                 self.s.units = units(ctx, config);
                 self.velocity_target(ctx);

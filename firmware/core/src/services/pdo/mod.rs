@@ -152,6 +152,10 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// worked out whenever a mapping or a type changes, so that an RPDO
     /// only makes the TPDOs it can change look for a change.
     rpdo_reach: [u32; R],
+    /// Bit n: RPDO n's event timer may be running (only a received RPDO
+    /// starts one), so [`Pdos::poll_changed`] walks only those RPDOs, not
+    /// every RPDO after every frame. RPDOs past 31 set every bit.
+    rpdo_timers: u32,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -171,6 +175,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [ALL_TPDOS; R],
+            rpdo_timers: 0,
         }
     }
 }
@@ -191,6 +196,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [0; R],
+            rpdo_timers: 0,
         }
     }
 
@@ -377,6 +383,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
         let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
         rpdo.on_frame(n, now, data, window_open, image, out);
+        if rpdo.timeout_at().is_some() {
+            self.rpdo_timers |= 1u32.checked_shl(n as u32).unwrap_or(u32::MAX);
+        }
         // Only this RPDO's timeout moved, and only later (or it started):
         // the settled deadline stays good, or early, which is harmless.
         self.settled_deadline = earliest(self.settled_deadline, rpdo.timeout_at());
@@ -428,9 +437,16 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         // The deadline is folded in the same walk ([`Pdos::deadline`] once
         // more would cost as much as the polls): each PDO's after its poll.
         let mut deadline = None;
-        for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
-            rpdo.poll(n, now, tx);
-            deadline = earliest(deadline, rpdo.deadline());
+        if self.rpdo_timers != 0 {
+            let mut timers = 0;
+            for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
+                rpdo.poll(n, now, tx);
+                deadline = earliest(deadline, rpdo.deadline());
+                if rpdo.timeout_at().is_some() {
+                    timers |= 1u32.checked_shl(n as u32).unwrap_or(u32::MAX);
+                }
+            }
+            self.rpdo_timers = timers;
         }
         let window_end = self.window_end;
         for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
