@@ -156,6 +156,10 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// starts one), so [`Pdos::poll_changed`] walks only those RPDOs, not
     /// every RPDO after every frame. RPDOs past 31 set every bit.
     rpdo_timers: u32,
+    /// Bit t: TPDO t has a valid COB-ID and a mapping (it can send), worked
+    /// out whenever a parameter or a mapping changes; TPDOs past 31 count
+    /// as live. The others are not walked by [`Pdos::poll_changed`].
+    tpdo_live: u32,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -176,6 +180,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             settled: false,
             rpdo_reach: [ALL_TPDOS; R],
             rpdo_timers: 0,
+            tpdo_live: 0,
         }
     }
 }
@@ -197,6 +202,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             settled: false,
             rpdo_reach: [0; R],
             rpdo_timers: 0,
+            tpdo_live: 0,
         }
     }
 
@@ -338,6 +344,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
+        self.tpdo_live =
+            self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| {
+                if tpdo.cob_id().is_some() { live | 1u32.checked_shl(t as u32).unwrap_or(u32::MAX) } else { live }
+            });
         for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
             let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
             *reach = slots.iter().fold(0, |mask, slot| match slot.source {
@@ -448,9 +458,13 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             }
             self.rpdo_timers = timers;
         }
-        let window_end = self.window_end;
+        let (window_end, live) = (self.window_end, self.tpdo_live);
         for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
             let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
+            // A TPDO that cannot send has nothing to poll and no deadline.
+            if live & bit == 0 && bit != 0 {
+                continue;
+            }
             let polled = changed & bit != 0 || bit == 0 || tpdo.retrying();
             let before = if polled { None } else { tpdo.deadline() };
             let next = if polled || before.is_some_and(|d| d <= now) {
