@@ -135,42 +135,10 @@ pub trait ObjectDictionary {
 impl Dictionary {
     /// Finds an entry by index and sub-index. O(log n).
     pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        let entries: &'static [Entry] = self.entries;
-        self.position(index, sub).and_then(|pos| entries.get(pos).ok_or(AbortCode::NoObject))
-    }
-
-    /// An entry found once, for a caller that reads or writes it often
-    /// ([`Dictionary::entry`] gets it back without a search); [`EntryRef::NONE`]
-    /// if the dictionary lacks it.
-    pub fn locate(&self, index: u16, sub: u8) -> EntryRef {
-        self.find_ref(index, sub).map_or(EntryRef::NONE, |(r, _)| r)
-    }
-
-    /// [`Dictionary::find`], with the entry's [`EntryRef`].
-    pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
-        let pos = self.position(index, sub)?;
-        let entries: &'static [Entry] = self.entries;
-        match (u16::try_from(pos + 1), entries.get(pos)) {
-            (Ok(r), Some(entry)) => Ok((EntryRef(r), entry)),
-            _ => Err(AbortCode::NoObject),
-        }
-    }
-
-    /// The entry [`Dictionary::locate`] found (`None` for [`EntryRef::NONE`],
-    /// or a reference into another dictionary's table that does not fit this one).
-    pub fn entry(&self, r: EntryRef) -> Option<&'static Entry> {
-        let entries: &'static [Entry] = self.entries;
-        usize::from(r.0).checked_sub(1).and_then(|pos| entries.get(pos))
-    }
-
-    /// The position of (index, sub) in `entries`, or why there is none.
-    // Inlined: `find`, on every SDO request, stays one function as before `find_ref` shared this.
-    #[inline(always)]
-    fn position(&self, index: u16, sub: u8) -> Result<usize, AbortCode> {
         let entries = self.entries;
         let key = (u32::from(index) << 8) | u32::from(sub);
         match entries.binary_search_by_key(&key, Entry::key) {
-            Ok(pos) => Ok(pos),
+            Ok(pos) => entries.get(pos).ok_or(AbortCode::NoObject),
             // The neighbours tell whether the object exists with other sub-indices.
             Err(pos) => {
                 let same_object = |p: Option<usize>| p.and_then(|p| entries.get(p)).is_some_and(|e| e.index == index);
@@ -181,6 +149,30 @@ impl Dictionary {
                 }
             }
         }
+    }
+
+    /// An entry found once, for a caller that reads or writes it often
+    /// ([`Dictionary::entry`] gets it back without a search); [`EntryRef::NONE`]
+    /// if the dictionary lacks it.
+    // Out of line: a profile locates its objects one after the other at reset application.
+    #[inline(never)]
+    pub fn locate(&self, index: u16, sub: u8) -> EntryRef {
+        self.find_ref(index, sub).map_or(EntryRef::NONE, |(r, _)| r)
+    }
+
+    /// [`Dictionary::find`], with the entry's [`EntryRef`].
+    pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
+        let entry = self.find(index, sub)?;
+        // The position from the address `find` returned: no second search.
+        let pos = (entry as *const Entry as usize).wrapping_sub(self.entries.as_ptr() as usize) / core::mem::size_of::<Entry>();
+        u16::try_from(pos + 1).map(|r| (EntryRef(r), entry)).map_err(|_| AbortCode::NoObject)
+    }
+
+    /// The entry [`Dictionary::locate`] found (`None` for [`EntryRef::NONE`],
+    /// or a reference into another dictionary's table that does not fit this one).
+    pub fn entry(&self, r: EntryRef) -> Option<&'static Entry> {
+        let entries: &'static [Entry] = self.entries;
+        usize::from(r.0).checked_sub(1).and_then(|pos| entries.get(pos))
     }
 
     /// The limits of an entry, if it has any.
@@ -203,7 +195,6 @@ impl Dictionary {
     }
 
     /// [`Dictionary::read`] of an entry already found.
-    #[inline]
     pub fn read_entry<'a>(&self, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
         if !entry.readable() {
             return Err(AbortCode::WriteOnly);

@@ -205,6 +205,8 @@ impl Located {
     };
 
     /// The objects in the node's dictionary (sub 0).
+    // Out of line: it runs at reset application only.
+    #[inline(never)]
     pub fn find(ctx: &Ctx<'_>) -> Located {
         let at = |index| ctx.locate(index, 0);
         Located {
