@@ -182,6 +182,8 @@ impl SdoEffects {
     /// `len` image bytes at `offset` changed: `wrote` grows to cover them
     /// (with the bytes between two writes, which costs at most a compare
     /// of a TPDO that maps those).
+    // Out of line: a plain write and every value the device sets come here.
+    #[inline(never)]
     pub(super) fn wrote_bytes(&mut self, offset: u16, len: u16) {
         let (start, old_len) = self.wrote;
         self.wrote = if old_len == 0 {

@@ -154,8 +154,6 @@ impl Dictionary {
     /// An entry found once, for a caller that reads or writes it often
     /// ([`Dictionary::entry`] gets it back without a search); [`EntryRef::NONE`]
     /// if the dictionary lacks it.
-    // Out of line: a profile locates its objects one after the other at reset application.
-    #[inline(never)]
     pub fn locate(&self, index: u16, sub: u8) -> EntryRef {
         self.find_ref(index, sub).map_or(EntryRef::NONE, |(r, _)| r)
     }
@@ -281,16 +279,13 @@ impl Dictionary {
             return Err(AbortCode::LengthTooHigh);
         }
         let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
-        let (head, tail) = slot.split_at_mut(data.len());
         let mut changed = false;
-        // Byte by byte: a value the device sets has a few bytes, less than a `memcpy` call costs.
-        for (d, &s) in head.iter_mut().zip(data) {
+        // Byte by byte, the bytes past `data` zero: a value the device sets
+        // has a few bytes, less than a `memcpy` call costs.
+        for (i, d) in slot.iter_mut().enumerate() {
+            let s = data.get(i).copied().unwrap_or(0);
             changed |= *d != s;
             *d = s;
-        }
-        for d in tail {
-            changed |= *d != 0;
-            *d = 0;
         }
         Ok(changed)
     }

@@ -173,56 +173,58 @@ pub fn set_at(ctx: &mut Ctx<'_>, at: EntryRef, len: usize, value: i32) {
 /// The objects the profile reads or writes with every frame, SYNC or
 /// tick, found once at reset application: a dictionary search costs more
 /// than a step of the state machine. All [`EntryRef::NONE`] (all zero
-/// bits) until then.
+/// bits) until then; [`Located::at`] with one of the `Located` constants
+/// ([`Located::CONTROLWORD`], …) names an object.
 #[derive(Clone, Copy, Debug)]
-pub struct Located {
-    /// 0x6040.
-    pub controlword: EntryRef,
-    /// 0x6041.
-    pub statusword: EntryRef,
-    /// 0x605A.
-    pub quick_stop_option: EntryRef,
-    /// 0x60FF.
-    pub target_velocity: EntryRef,
-    /// 0x6042.
-    pub vl_target_velocity: EntryRef,
-    /// 0x6064, 0x606C, 0x6077, 0x6062, 0x606B (the actual values every mode shows).
-    pub actuals: [EntryRef; 5],
-    /// 0x6043, 0x6044 (vl).
-    pub vl_actuals: [EntryRef; 2],
-}
+pub struct Located([EntryRef; HOT.len()]);
+
+/// The objects [`Located`] finds (sub 0 each), in the order of its constants.
+const HOT: [u16; 12] = [
+    index::CONTROLWORD,
+    index::STATUSWORD,
+    index::QUICK_STOP_OPTION,
+    index::TARGET_VELOCITY,
+    index::VL_TARGET_VELOCITY,
+    index::POSITION_ACTUAL,
+    index::VELOCITY_ACTUAL,
+    index::TORQUE_ACTUAL,
+    index::POSITION_DEMAND,
+    index::VELOCITY_DEMAND,
+    index::VL_VELOCITY_DEMAND,
+    index::VL_VELOCITY_ACTUAL,
+];
 
 impl Located {
     /// Nothing found yet.
-    pub const NONE: Located = Located {
-        controlword: EntryRef::NONE,
-        statusword: EntryRef::NONE,
-        quick_stop_option: EntryRef::NONE,
-        target_velocity: EntryRef::NONE,
-        vl_target_velocity: EntryRef::NONE,
-        actuals: [EntryRef::NONE; 5],
-        vl_actuals: [EntryRef::NONE; 2],
-    };
+    pub const NONE: Located = Located([EntryRef::NONE; HOT.len()]);
+    /// 0x6040.
+    pub const CONTROLWORD: usize = 0;
+    /// 0x6041.
+    pub const STATUSWORD: usize = 1;
+    /// 0x605A.
+    pub const QUICK_STOP_OPTION: usize = 2;
+    /// 0x60FF.
+    pub const TARGET_VELOCITY: usize = 3;
+    /// 0x6042.
+    pub const VL_TARGET_VELOCITY: usize = 4;
+    /// 0x6064, 0x606C, 0x6077, 0x6062, 0x606B: the actual values every mode shows, from here on.
+    pub const ACTUALS: usize = 5;
+    /// 0x6043, 0x6044 (vl), from here on.
+    pub const VL_ACTUALS: usize = 10;
 
-    /// The objects in the node's dictionary (sub 0).
+    /// The objects in the node's dictionary.
     // Out of line: it runs at reset application only.
     #[inline(never)]
     pub fn find(ctx: &Ctx<'_>) -> Located {
-        let at = |index| ctx.locate(index, 0);
-        Located {
-            controlword: at(index::CONTROLWORD),
-            statusword: at(index::STATUSWORD),
-            quick_stop_option: at(index::QUICK_STOP_OPTION),
-            target_velocity: at(index::TARGET_VELOCITY),
-            vl_target_velocity: at(index::VL_TARGET_VELOCITY),
-            actuals: [
-                at(index::POSITION_ACTUAL),
-                at(index::VELOCITY_ACTUAL),
-                at(index::TORQUE_ACTUAL),
-                at(index::POSITION_DEMAND),
-                at(index::VELOCITY_DEMAND),
-            ],
-            vl_actuals: [at(index::VL_VELOCITY_DEMAND), at(index::VL_VELOCITY_ACTUAL)],
+        let mut found = Located::NONE;
+        for (at, &index) in found.0.iter_mut().zip(&HOT) {
+            *at = ctx.locate(index, 0);
         }
+        found
+    }
+
+    /// Object `i` (one of the constants): [`EntryRef::NONE`] if missing.
+    pub fn at(&self, i: usize) -> EntryRef {
+        self.0.get(i).copied().unwrap_or(EntryRef::NONE)
     }
 }

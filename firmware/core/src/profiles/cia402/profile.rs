@@ -304,7 +304,7 @@ impl<D: Drive> Cia402<D> {
     // ---- device control ------------------------------------------------------------
 
     fn controlword(&mut self, ctx: &mut Ctx<'_>) {
-        let word = unsigned_at(ctx, self.s.at.controlword).unwrap_or(0) as u16;
+        let word = unsigned_at(ctx, self.s.at.at(Located::CONTROLWORD)).unwrap_or(0) as u16;
         let previous = core::mem::replace(&mut self.s.controlword, word);
         if let Some(command) = cw::decode(word, previous) {
             self.command(ctx, command);
@@ -337,7 +337,7 @@ impl<D: Drive> Cia402<D> {
             }
             return;
         }
-        let stays = matches!(signed_at(ctx, self.s.at.quick_stop_option), Some(5..=8));
+        let stays = matches!(signed_at(ctx, self.s.at.at(Located::QUICK_STOP_OPTION)), Some(5..=8));
         match fsa::next(self.s.state, command, stays) {
             Some(t) => {
                 self.transition(ctx, t);
@@ -386,7 +386,7 @@ impl<D: Drive> Cia402<D> {
             }
             11 => {
                 // 0x605A default 2: quick stop ramp, then Switch on disabled.
-                let code = signed_at(ctx, self.s.at.quick_stop_option);
+                let code = signed_at(ctx, self.s.at.at(Located::QUICK_STOP_OPTION));
                 self.s.quick_stop_holds = matches!(code, Some(5..=8));
                 self.s.reaction = Reaction::of(code.unwrap_or(-1), Reaction::QuickStopRamp);
                 self.s.braking = false;
@@ -472,12 +472,12 @@ impl<D: Drive> Cia402<D> {
         let u = &self.s.units;
         self.s.velocity_target = match self.s.mode {
             mode::PV => {
-                let target = signed_at(ctx, self.s.at.target_velocity).unwrap_or(0);
+                let target = signed_at(ctx, self.s.at.at(Located::TARGET_VELOCITY)).unwrap_or(0);
                 self.s.internal_limit = false;
                 speed_q(u.velocity_to_inc(target))
             }
             mode::VL => {
-                let target = signed_at(ctx, self.s.at.vl_target_velocity).unwrap_or(0);
+                let target = signed_at(ctx, self.s.at.at(Located::VL_TARGET_VELOCITY)).unwrap_or(0);
                 let min = unsigned_or(ctx, index::VL_MIN_MAX, 1, 0);
                 let max = unsigned_or(ctx, index::VL_MIN_MAX, 2, 0);
                 let (limited, clipped) = vl_limit(target, min, max);

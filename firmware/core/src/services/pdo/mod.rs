@@ -345,9 +345,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
         self.tpdo_live =
-            self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| {
-                if tpdo.cob_id().is_some() { live | 1u32.checked_shl(t as u32).unwrap_or(u32::MAX) } else { live }
-            });
+            self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| if tpdo.cob_id().is_some() { live | bit_of(t) } else { live });
         for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
             let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
             *reach = slots.iter().fold(0, |mask, slot| match slot.source {
@@ -394,7 +392,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
         rpdo.on_frame(n, now, data, window_open, image, out);
         if rpdo.timeout_at().is_some() {
-            self.rpdo_timers |= 1u32.checked_shl(n as u32).unwrap_or(u32::MAX);
+            self.rpdo_timers |= bit_of(n);
         }
         // Only this RPDO's timeout moved, and only later (or it started):
         // the settled deadline stays good, or early, which is harmless.
@@ -440,45 +438,32 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// [`Pdos::poll`] where only the TPDOs of `changed` (bit t: TPDO t;
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
-    #[inline(never)]
     pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
         if !self.operational {
             return None;
         }
-        // The deadline is folded in the same walk ([`Pdos::deadline`] once
-        // more would cost as much as the polls): each PDO's after its poll.
-        let mut deadline = None;
         if self.rpdo_timers != 0 {
             let mut timers = 0;
             for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
                 rpdo.poll(n, now, tx);
-                deadline = earliest(deadline, rpdo.deadline());
                 if rpdo.timeout_at().is_some() {
-                    timers |= 1u32.checked_shl(n as u32).unwrap_or(u32::MAX);
+                    timers |= bit_of(n);
                 }
             }
             self.rpdo_timers = timers;
         }
         let (window_end, live) = (self.window_end, self.tpdo_live);
         for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
-            let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
-            // A TPDO that cannot send has nothing to poll and no deadline.
-            if live & bit == 0 && bit != 0 {
-                continue;
-            }
-            let polled = changed & bit != 0 || bit == 0 || tpdo.retrying();
-            let before = if polled { None } else { tpdo.deadline() };
-            let next = if polled || before.is_some_and(|d| d <= now) {
+            // A TPDO that cannot send has nothing to poll.
+            let bit = bit_of(t);
+            if live & bit != 0 && (changed & bit != 0 || bit == u32::MAX || tpdo.retrying() || tpdo.deadline().is_some_and(|d| d <= now)) {
                 tpdo.poll(now, window_end, image, tx);
-                tpdo.deadline()
-            } else {
-                before
-            };
-            deadline = earliest(deadline, next);
+            }
         }
-        self.settled_deadline = deadline;
+        self.settled = false;
+        self.settled_deadline = self.deadline();
         self.settled = true;
-        deadline
+        self.settled_deadline
     }
 
     /// [`Pdos::deadline`] when it is known without walking the PDOs.
@@ -488,7 +473,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
     /// means at once). `None` while not Operational.
-    // Out of line: `poll_changed` no longer calls it, and inlined into `process` it cost 260 bytes.
+    // Out of line: `process` and `poll_changed` share it.
     #[inline(never)]
     pub fn deadline(&self) -> Option<Instant> {
         if !self.operational {
@@ -497,9 +482,23 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if self.settled {
             return self.settled_deadline;
         }
-        let rpdos = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
-        self.tpdos.iter().fold(rpdos, |d, t| earliest(d, t.deadline()))
+        // Only the RPDOs whose timer may run and the TPDOs that can send have one.
+        let mut deadline = None;
+        if self.rpdo_timers != 0 {
+            deadline = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
+        }
+        for (t, tpdo) in self.tpdos.iter().enumerate() {
+            if self.tpdo_live & bit_of(t) != 0 {
+                deadline = earliest(deadline, tpdo.deadline());
+            }
+        }
+        deadline
     }
+}
+
+/// Bit n of the PDO masks; PDOs past 31 share every bit (each is then always looked at).
+fn bit_of(n: usize) -> u32 {
+    1u32.checked_shl(n as u32).unwrap_or(u32::MAX)
 }
 
 /// [`Pdos::tpdos_mapping`] (a free function: it runs while the RPDOs are borrowed).

@@ -7,7 +7,7 @@ use crate::profiles::cia402::controlword as cw;
 use crate::profiles::cia402::drive::Drive;
 use crate::profiles::cia402::fsa::PdsState;
 use crate::profiles::cia402::hm::Phase;
-use crate::profiles::cia402::objects::{self, index, unsigned, unsigned_or};
+use crate::profiles::cia402::objects::{self, Located, index, unsigned, unsigned_or};
 use crate::profiles::cia402::units::Units;
 use crate::profiles::cia402::{mode, statusword as sw};
 
@@ -61,7 +61,7 @@ impl<D: Drive> Cia402<D> {
         let word = self.statusword();
         if word != self.s.statusword {
             self.s.statusword = word;
-            objects::set_at(ctx, self.s.at.statusword, 2, i32::from(word));
+            objects::set_at(ctx, self.s.at.at(Located::STATUSWORD), 2, i32::from(word));
         }
     }
 
@@ -74,16 +74,16 @@ impl<D: Drive> Cia402<D> {
                 let v = u.vl_to_user.apply(i64::from(inc));
                 (if u.velocity_negative { -v } else { v }).clamp(-32768, 32767) as i32
             };
-            let [demand, actual] = self.s.at.vl_actuals;
-            objects::set_at(ctx, demand, 2, rpm(self.s.demand.velocity()));
-            objects::set_at(ctx, actual, 2, rpm(d.velocity()));
+            let at = |i| self.s.at.at(Located::VL_ACTUALS + i);
+            objects::set_at(ctx, at(0), 2, rpm(self.s.demand.velocity()));
+            objects::set_at(ctx, at(1), 2, rpm(d.velocity()));
         }
-        let [position, velocity, torque, position_demand, velocity_demand] = self.s.at.actuals;
-        objects::set_at(ctx, position, 4, u.position_to_user(d.position()));
-        objects::set_at(ctx, velocity, 4, u.velocity_to_user(i64::from(d.velocity())));
-        objects::set_at(ctx, torque, 2, i32::from(d.torque()));
-        objects::set_at(ctx, position_demand, 4, u.position_to_user(self.s.demand.position()));
-        objects::set_at(ctx, velocity_demand, 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
+        let at = |i| self.s.at.at(Located::ACTUALS + i);
+        objects::set_at(ctx, at(0), 4, u.position_to_user(d.position()));
+        objects::set_at(ctx, at(1), 4, u.velocity_to_user(i64::from(d.velocity())));
+        objects::set_at(ctx, at(2), 2, i32::from(d.torque()));
+        objects::set_at(ctx, at(3), 4, u.position_to_user(self.s.demand.position()));
+        objects::set_at(ctx, at(4), 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
     }
 }
 
