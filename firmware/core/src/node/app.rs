@@ -13,7 +13,7 @@
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::index;
-use crate::od::{Dictionary, Entry, EntryRef};
+use crate::od::{Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
 use crate::services::store::Scope;
 use crate::storage::Storage;
@@ -190,8 +190,8 @@ impl Ctx<'_> {
     // Out of line: a profile sets several values per sample (the sendix image was 300 B bigger inlined).
     #[inline(never)]
     pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let entry = self.dict.find(index, sub)?;
-        self.set_entry(entry, data)
+        self.effects.written = true;
+        self.dict.write_unchecked(self.image, index, sub, data)
     }
 
     /// An entry found once, for [`Ctx::read_at`] and [`Ctx::set_at`] on
@@ -202,6 +202,7 @@ impl Ctx<'_> {
     }
 
     /// [`Ctx::read`] of an entry [`Ctx::locate`] found.
+    #[inline(never)]
     pub fn read_at(&self, entry: EntryRef) -> Result<&[u8], AbortCode> {
         self.dict.read_entry(self.image, self.dict.entry(entry).ok_or(AbortCode::NoObject)?)
     }
@@ -211,12 +212,7 @@ impl Ctx<'_> {
     #[inline(never)]
     pub fn set_at(&mut self, entry: EntryRef, data: &[u8]) -> Result<(), AbortCode> {
         let entry = self.dict.entry(entry).ok_or(AbortCode::NoObject)?;
-        self.set_entry(entry, data)
-    }
-
-    /// Writes `entry` unchecked; only the TPDOs mapping its bytes look for
-    /// a change, and none if the value stayed the same.
-    fn set_entry(&mut self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        // Only the TPDOs mapping its bytes look for a change, none if the value stayed the same.
         if self.dict.write_unchecked_entry(self.image, entry, data)? {
             self.effects.wrote_bytes(entry.offset, entry.len);
         }

@@ -154,7 +154,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if O::SERVICES.time && Some(cob_id) == self.comm.time_cob_id && !rtr {
                 self.stale = true;
                 match TimeOfDay::parse(data) {
-                    Some(t) => self.with_app(now, |app, ctx| app.on_time(ctx, t)),
+                    Some(t) => self.with_app_cold(now, |app, ctx| app.on_time(ctx, t)),
                     None => self.counters.malformed += 1,
                 }
                 return;
@@ -166,7 +166,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
     /// The device samples first, so the synchronous TPDOs carry its values.
     pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
-        self.with_app(now, |app, ctx| app.sample(ctx));
+        self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
             let mut sink = PdoSink::new(txq, &mut comm.emcy);

@@ -186,13 +186,12 @@ impl SdoEffects {
     #[inline(never)]
     pub(super) fn wrote_bytes(&mut self, offset: u16, len: u16) {
         let (start, old_len) = self.wrote;
-        self.wrote = if old_len == 0 {
-            (offset, len)
+        let (begin, end) = if old_len == 0 {
+            (offset, offset.saturating_add(len))
         } else {
-            let begin = start.min(offset);
-            let end = (u32::from(start) + u32::from(old_len)).max(u32::from(offset) + u32::from(len));
-            (begin, u16::try_from(end - u32::from(begin)).unwrap_or(u16::MAX))
+            (start.min(offset), start.saturating_add(old_len).max(offset.saturating_add(len)))
         };
+        self.wrote = (begin, end - begin);
     }
 }
 

@@ -159,6 +159,7 @@ impl Dictionary {
     }
 
     /// [`Dictionary::find`], with the entry's [`EntryRef`].
+    #[inline(never)]
     pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
         let entry = self.find(index, sub)?;
         // The position from the address `find` returned: no second search.

@@ -117,17 +117,13 @@ pub mod index {
 /// A signed value (INTEGER8/16/32, sign-extended), if the object exists.
 #[inline(never)]
 pub fn signed(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<i32> {
-    signed_value(ctx.read(index, sub).ok()?)
+    signed_at(ctx, ctx.locate(index, sub))
 }
 
 /// [`signed`] of an object [`Located`] found.
 #[inline(never)]
 pub fn signed_at(ctx: &Ctx<'_>, at: EntryRef) -> Option<i32> {
-    signed_value(ctx.read_at(at).ok()?)
-}
-
-fn signed_value(bytes: &[u8]) -> Option<i32> {
-    match *bytes {
+    match *ctx.read_at(at).ok()? {
         [a] => Some(i32::from(a as i8)),
         [a, b] => Some(i32::from(i16::from_le_bytes([a, b]))),
         [a, b, c, d] => Some(i32::from_le_bytes([a, b, c, d])),
@@ -141,16 +137,10 @@ pub fn unsigned(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<u32> {
     ctx.read_u32(index, sub)
 }
 
-/// [`unsigned`] of an object [`Located`] found.
-#[inline(never)]
-pub fn unsigned_at(ctx: &Ctx<'_>, at: EntryRef) -> Option<u32> {
-    ctx.read_at(at).ok().map(crate::od::le_u32)
-}
-
 /// An unsigned value, or `default` if the object is missing.
 #[inline(never)]
 pub fn unsigned_or(ctx: &Ctx<'_>, index: u16, sub: u8, default: u32) -> u32 {
-    ctx.read_u32(index, sub).unwrap_or(default)
+    unsigned(ctx, index, sub).unwrap_or(default)
 }
 
 /// Sets a value the profile owns (statusword, actual values) with the

@@ -6,7 +6,7 @@ use super::fsa::{self, PdsState, Reaction, Transition};
 use super::hm::Hm;
 use super::ip::Ip;
 use super::motion::{Demand, speed_q};
-use super::objects::{self, Located, index, signed, signed_at, unsigned_at, unsigned_or};
+use super::objects::{self, Located, index, signed, signed_at, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
 use super::units::Units;
 use super::velocity::{Window, vl_limit};
@@ -304,7 +304,7 @@ impl<D: Drive> Cia402<D> {
     // ---- device control ------------------------------------------------------------
 
     fn controlword(&mut self, ctx: &mut Ctx<'_>) {
-        let word = unsigned_at(ctx, self.s.at.at(Located::CONTROLWORD)).unwrap_or(0) as u16;
+        let word = ctx.read_at(self.s.at.at(Located::CONTROLWORD)).map_or(0, crate::od::le_u32) as u16;
         let previous = core::mem::replace(&mut self.s.controlword, word);
         if let Some(command) = cw::decode(word, previous) {
             self.command(ctx, command);
