@@ -349,7 +349,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
             let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
             *reach = slots.iter().fold(0, |mask, slot| match slot.source {
-                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, offset, u16::from(slot.len)),
+                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, self.tpdo_live, offset, u16::from(slot.len)),
                 _ => mask,
             });
         }
@@ -358,7 +358,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The event-driven TPDOs that map any byte of `len` image bytes at
     /// `offset` (what a write there may change).
     pub fn tpdos_mapping(&self, offset: u16, len: u16) -> u32 {
-        tpdos_mapping(&self.tpdos, offset, len)
+        tpdos_mapping(&self.tpdos, self.tpdo_live, offset, len)
     }
 
     /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
@@ -391,12 +391,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
         let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
         rpdo.on_frame(n, now, data, window_open, image, out);
-        if rpdo.timeout_at().is_some() {
+        if let Some(timeout) = rpdo.timeout_at() {
             self.rpdo_timers |= bit_of(n);
+            // Only this RPDO's timeout moved, and only later (or it started):
+            // the settled deadline stays good, or early, which is harmless.
+            self.settled_deadline = earliest(self.settled_deadline, Some(timeout));
         }
-        // Only this RPDO's timeout moved, and only later (or it started):
-        // the settled deadline stays good, or early, which is harmless.
-        self.settled_deadline = earliest(self.settled_deadline, rpdo.timeout_at());
         true
     }
 
@@ -503,12 +503,14 @@ fn bit_of(n: usize) -> u32 {
 
 /// [`Pdos::tpdos_mapping`] (a free function: it runs while the RPDOs are borrowed).
 #[inline(never)]
-fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
+fn tpdos_mapping(tpdos: &[Tpdo], live: u32, offset: u16, len: u16) -> u32 {
     let (start, end) = (u32::from(offset), u32::from(offset) + u32::from(len));
     let mut mask = 0;
     for (t, tpdo) in tpdos.iter().enumerate() {
-        if tpdo.maps_any(start, end) {
-            mask |= 1u32.checked_shl(t as u32).unwrap_or(0);
+        // A TPDO that cannot send is not polled ([`Pdos::poll_changed`]): no need to look.
+        let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
+        if live & bit != 0 && tpdo.maps_any(start, end) {
+            mask |= bit;
         }
     }
     // TPDOs past 31 have no bit: they are always looked at.
