@@ -259,13 +259,13 @@ impl Ctx<'_> {
         let _ = self.dict.write_unchecked(self.image, index::ERROR_REGISTER, 0, &[register]);
     }
 
-    /// The object slot `i` (0-based) of RPDO `n`'s mapping in use writes,
-    /// as (index, sub): `None` past the mapping's end, (0, 0) for a dummy
-    /// entry. What [`Application::rpdo_written`] reports, without a
-    /// dictionary search.
-    pub fn rpdo_object(&self, n: u8, i: usize) -> Option<(u16, u8)> {
-        let at = self.services.rpdo_mapping(usize::from(n))?.object(i)?;
-        Some(self.dict.entry(at).map_or((0, 0), |e| (e.index, e.sub)))
+    /// The objects RPDO `n`'s mapping in use writes, in mapping order, as
+    /// (index, sub); (0, 0) for a dummy entry. What
+    /// [`Application::rpdo_written`] reports, without a dictionary search.
+    pub fn rpdo_objects(&self, n: u8) -> impl Iterator<Item = (u16, u8)> + use<> {
+        let (objects, count) = self.services.rpdo_objects(usize::from(n));
+        let dict = self.dict;
+        objects.into_iter().take(count).map(move |at| dict.entry(at).map_or((0, 0), |e| (e.index, e.sub)))
     }
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
@@ -394,18 +394,16 @@ pub trait Application {
     }
 
     /// RPDO `n` wrote its objects: by default [`Application::written`] for
-    /// each mapped object, in mapping order ([`Ctx::rpdo_object`]: the
+    /// each mapped object, in mapping order ([`Ctx::rpdo_objects`]: the
     /// mapping in use, resolved when it was configured, so no dictionary
     /// search). A device no RPDO-written object concerns overrides it with
     /// nothing.
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
-        let mut i = 0;
-        while let Some((index, sub)) = ctx.rpdo_object(n, i) {
+        for (index, sub) in ctx.rpdo_objects(n) {
             // Dummy entries map nothing.
             if index >= index::COMMUNICATION_AREA {
                 self.written(ctx, index, sub, Source::Rpdo(n));
             }
-            i += 1;
         }
     }
 

@@ -293,9 +293,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         value
     }
 
-    /// [`Node::with_app`] for a hook off the per-frame paths (NMT events,
-    /// TIME, bus-off, an application's write): what follows the hook is one
-    /// out-of-line call instead of a copy at each of these sites.
+    /// [`Node::with_app`] for every hook but the RPDO's and the raw frame's
+    /// (NMT events, TIME, bus-off, the SYNC sample, the device's timers, an
+    /// application's write): what follows the hook is one out-of-line call
+    /// instead of a copy at each site (about 17 thumbv7m instructions more
+    /// per call, 200 bytes less in a drive image).
     #[inline(always)]
     pub(super) fn with_app_cold<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
         let (value, effects) = self.run_hook(now, f);

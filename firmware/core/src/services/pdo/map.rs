@@ -117,7 +117,7 @@ pub struct Mapping {
     gather: [u16; MAX_LEN],
     /// Slot i: the dictionary entry it maps ([`EntryRef::NONE`] for a
     /// dummy), so that the device hears which objects an RPDO wrote
-    /// ([`crate::node::Ctx::rpdo_object`]) without a search per object.
+    /// ([`crate::node::Ctx::rpdo_objects`]) without a search per object.
     objects: [EntryRef; MAX_ENTRIES],
     count: u8,
     len: u8,
@@ -193,10 +193,10 @@ impl Mapping {
         self.slots.get(..usize::from(self.count)).unwrap_or(&[])
     }
 
-    /// The dictionary entry slot `i` maps: `None` past the mapping,
-    /// [`EntryRef::NONE`] for a dummy entry.
-    pub fn object(&self, i: usize) -> Option<EntryRef> {
-        self.objects.get(..usize::from(self.count)).and_then(|o| o.get(i)).copied()
+    /// The dictionary entry each slot maps ([`EntryRef::NONE`] for a dummy
+    /// entry), and how many slots there are.
+    pub fn objects(&self) -> ([EntryRef; MAX_ENTRIES], usize) {
+        (self.objects, usize::from(self.count))
     }
 
     /// Number of mapped bytes.
