@@ -337,7 +337,9 @@ impl<D: Drive> Cia402<D> {
             }
             return;
         }
-        let stays = matches!(signed_at(ctx, self.s.at.at(Located::QUICK_STOP_OPTION)), Some(5..=8));
+        // 0x605A decides only transition 16, out of Quick stop active.
+        let stays =
+            self.s.state == PdsState::QuickStopActive && matches!(signed_at(ctx, self.s.at.at(Located::QUICK_STOP_OPTION)), Some(5..=8));
         match fsa::next(self.s.state, command, stays) {
             Some(t) => {
                 self.transition(ctx, t);
