@@ -9,7 +9,7 @@ use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
-use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtStateCode};
+use crate::wire::nmt::{NmtStateCode, error_control_cob_id};
 
 use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
@@ -118,7 +118,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     fn process_core(&mut self, now: Instant) {
         let switch_deadline = self.process_switch(now);
         if self.boot_pending {
-            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
+            let id = error_control_cob_id(self.node_id);
             if self.push(id, &[NmtStateCode::BootUp.code()]) {
                 self.boot_pending = false;
                 // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
@@ -142,7 +142,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         if self.nmt.state() != NmtState::Initialising && self.comm.heartbeat.poll(now) {
-            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
+            let id = error_control_cob_id(self.node_id);
             self.push(id, &[self.nmt.state().reported().code()]);
         }
         while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {

@@ -8,7 +8,7 @@ use crate::profiles::cia402::drive::Drive;
 use crate::profiles::cia402::fsa::PdsState;
 use crate::profiles::cia402::hm::Phase;
 use crate::profiles::cia402::objects::{self, Located, index, unsigned, unsigned_or};
-use crate::profiles::cia402::units::Units;
+use crate::profiles::cia402::units::{self, Units};
 use crate::profiles::cia402::{mode, statusword as sw};
 
 impl<D: Drive> Cia402<D> {
@@ -72,13 +72,13 @@ impl<D: Drive> Cia402<D> {
         if self.s.mode == mode::VL {
             let rpm = |inc: i32| {
                 let v = u.vl_to_user.apply(i64::from(inc));
-                (if u.velocity_negative { -v } else { v }).clamp(-32768, 32767) as i32
+                units::negate(v, u.velocity_negative).clamp(-32768, 32767) as i32
             };
-            let at = |i| self.s.at.at(Located::VL_ACTUALS + i);
+            let at = |i: usize| self.s.at.at(Located::VL_ACTUALS.saturating_add(i));
             objects::set_at(ctx, at(0), 2, rpm(self.s.demand.velocity()));
             objects::set_at(ctx, at(1), 2, rpm(d.velocity()));
         }
-        let at = |i| self.s.at.at(Located::ACTUALS + i);
+        let at = |i: usize| self.s.at.at(Located::ACTUALS.saturating_add(i));
         objects::set_at(ctx, at(0), 4, u.position_to_user(d.position()));
         objects::set_at(ctx, at(1), 4, u.velocity_to_user(i64::from(d.velocity())));
         objects::set_at(ctx, at(2), 2, i32::from(d.torque()));
