@@ -15,6 +15,7 @@ use crate::frame::CanFrame;
 use crate::od::index;
 use crate::od::{Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
+use crate::services::pdo::map::Mapping;
 use crate::services::store::Scope;
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -263,7 +264,8 @@ impl Ctx<'_> {
     /// (index, sub); (0, 0) for a dummy entry. What
     /// [`Application::rpdo_written`] reports, without a dictionary search.
     pub fn rpdo_objects(&self, n: u8) -> impl Iterator<Item = (u16, u8)> + use<> {
-        let (objects, count) = self.services.rpdo_objects(usize::from(n));
+        let none = ([EntryRef::NONE; crate::services::pdo::map::MAX_ENTRIES], 0);
+        let (objects, count) = self.services.rpdo_mapping(usize::from(n)).map_or(none, Mapping::objects);
         let dict = self.dict;
         objects.into_iter().take(count).map(move |at| dict.entry(at).map_or((0, 0), |e| (e.index, e.sub)))
     }

@@ -3,14 +3,13 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::EntryRef;
 use crate::od::index;
 use crate::od::{Dictionary, u32_exact};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::nmt::NmtState;
 use crate::services::pdo::Pdos;
-use crate::services::pdo::map::{MAX_ENTRIES, Mapping};
+use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::{Emcy, EmcyCode};
@@ -215,9 +214,8 @@ pub(crate) trait Services {
     /// [`Pdos::trigger`].
     fn trigger_tpdo(&mut self, n: usize) -> bool;
 
-    /// The entries the mapping RPDO `n` (0-based) uses maps, and how many
-    /// (none if it did not resolve).
-    fn rpdo_objects(&self, n: usize) -> ([EntryRef; MAX_ENTRIES], usize);
+    /// The mapping RPDO `n` (0-based) uses, if it resolved.
+    fn rpdo_mapping(&self, n: usize) -> Option<&Mapping>;
 
     /// A checked write of an object a service owns (its rules and its
     /// reconfiguration); `None` if no service owns (index, sub).
@@ -245,8 +243,8 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         self.pdos.trigger(n)
     }
 
-    fn rpdo_objects(&self, n: usize) -> ([EntryRef; MAX_ENTRIES], usize) {
-        self.pdos.rpdo(n).and_then(|r| r.mapping()).map_or(([EntryRef::NONE; MAX_ENTRIES], 0), Mapping::objects)
+    fn rpdo_mapping(&self, n: usize) -> Option<&Mapping> {
+        self.pdos.rpdo(n).and_then(|r| r.mapping())
     }
 
     fn write_object(

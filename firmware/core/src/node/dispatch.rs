@@ -185,7 +185,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if received | timeouts == 0 {
             return;
         }
-        self.with_app(now, |app, ctx| {
+        self.with_app_cold(now, |app, ctx| {
             let mut bits = received;
             while bits != 0 {
                 app.rpdo_written(ctx, bits.trailing_zeros() as u8);

@@ -37,9 +37,9 @@ pub(crate) struct SdoEffects {
     /// (even if it failed): every TPDO looks for changed data at the next
     /// process, which an upload alone does not need.
     pub written: bool,
-    /// The image bytes (offset, length) the plain writes of objects
-    /// changed, one range covering them all (length 0: none): only the
-    /// TPDOs mapping them look for changed data.
+    /// The image bytes (offset, length) the one plain write of an object
+    /// changed (length 0: none): only the TPDOs mapping them look for
+    /// changed data.
     pub wrote: (u16, u16),
     /// A hook or a write changed a service beyond the dictionary (an error
     /// raised or cleared, a communication object written): the next
@@ -181,19 +181,16 @@ impl Ctx<'_> {
 }
 
 impl SdoEffects {
-    /// `len` image bytes at `offset` changed: `wrote` grows to cover them
-    /// (with the bytes between two writes, which costs at most a compare
-    /// of a TPDO that maps those).
+    /// `len` image bytes at `offset` changed: the TPDOs mapping them look
+    /// for a change; after a second write in one access, every TPDO.
     // Out of line: a plain write and every value the device sets come here.
     #[inline(never)]
     pub(super) fn wrote_bytes(&mut self, offset: u16, len: u16) {
-        let (start, old_len) = self.wrote;
-        let (begin, end) = if old_len == 0 {
-            (offset, offset.saturating_add(len))
+        if self.wrote.1 == 0 {
+            self.wrote = (offset, len);
         } else {
-            (start.min(offset), start.saturating_add(old_len).max(offset.saturating_add(len)))
-        };
-        self.wrote = (begin, end.saturating_sub(begin));
+            self.written = true;
+        }
     }
 }
 
