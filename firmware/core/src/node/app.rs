@@ -12,9 +12,10 @@
 
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
-use crate::od::Dictionary;
 use crate::od::index;
+use crate::od::{Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
+use crate::services::pdo::map::Mapping;
 use crate::services::store::Scope;
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -196,6 +197,31 @@ impl Ctx<'_> {
         self.dict.write_unchecked(self.image, index, sub, data)
     }
 
+    /// An entry found once, for [`Ctx::read_at`] and [`Ctx::set_at`] on
+    /// every frame without a dictionary search ([`EntryRef::NONE`] if the
+    /// dictionary lacks it).
+    pub fn locate(&self, index: u16, sub: u8) -> EntryRef {
+        self.dict.locate(index, sub)
+    }
+
+    /// [`Ctx::read`] of an entry [`Ctx::locate`] found.
+    #[inline(never)]
+    pub fn read_at(&self, entry: EntryRef) -> Result<&[u8], AbortCode> {
+        self.dict.read_entry(self.image, self.dict.entry(entry).ok_or(AbortCode::NoObject)?)
+    }
+
+    /// [`Ctx::set_value`] of an entry [`Ctx::locate`] found.
+    // Out of line, as `set_value`.
+    #[inline(never)]
+    pub fn set_at(&mut self, entry: EntryRef, data: &[u8]) -> Result<(), AbortCode> {
+        let entry = self.dict.entry(entry).ok_or(AbortCode::NoObject)?;
+        // Only the TPDOs mapping its bytes look for a change, none if the value stayed the same.
+        if self.dict.write_unchecked_entry(self.image, entry, data)? {
+            self.effects.wrote_bytes(entry.offset, entry.len);
+        }
+        Ok(())
+    }
+
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
     /// error was already active or there is no room).
     pub fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) -> bool {
@@ -234,6 +260,16 @@ impl Ctx<'_> {
         // No message when other errors stay active: 0x1001 follows at once.
         let register = emcy.register();
         let _ = self.dict.write_unchecked(self.image, index::ERROR_REGISTER, 0, &[register]);
+    }
+
+    /// The objects RPDO `n`'s mapping in use writes, in mapping order, as
+    /// (index, sub); (0, 0) for a dummy entry. What
+    /// [`Application::rpdo_written`] reports, without a dictionary search.
+    pub fn rpdo_objects(&self, n: u8) -> impl Iterator<Item = (u16, u8)> + use<> {
+        let none = ([EntryRef::NONE; crate::services::pdo::map::MAX_ENTRIES], 0);
+        let (objects, count) = self.services.rpdo_mapping(usize::from(n)).map_or(none, Mapping::objects);
+        let dict = self.dict;
+        objects.into_iter().take(count).map(move |at| dict.entry(at).map_or((0, 0), |e| (e.index, e.sub)))
     }
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
@@ -372,19 +408,15 @@ pub trait Application {
     }
 
     /// RPDO `n` wrote its objects: by default [`Application::written`] for
-    /// each mapped object, in mapping order (one dictionary look-up per
-    /// object, read from the mapping record, which in Operational is the
-    /// mapping in use). A device no RPDO-written object concerns overrides
-    /// it with nothing and saves the look-ups on every RPDO.
+    /// each mapped object, in mapping order ([`Ctx::rpdo_objects`]: the
+    /// mapping in use, resolved when it was configured, so no dictionary
+    /// search). A device no RPDO-written object concerns overrides it with
+    /// nothing.
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
-        let map = index::RPDO_MAPPING_PARAMETER + u16::from(n);
-        let count = ctx.read_u32(map, 0).unwrap_or(0).min(64) as u8;
-        for sub in 1..=count {
-            let entry = ctx.read_u32(map, sub).unwrap_or(0);
-            let (index, object_sub) = ((entry >> 16) as u16, (entry >> 8) as u8);
-            // Dummy entries (data types 0x0001..0x0007 and the like) map nothing.
+        for (index, sub) in ctx.rpdo_objects(n) {
+            // Dummy entries map nothing.
             if index >= index::COMMUNICATION_AREA {
-                self.written(ctx, index, object_sub, Source::Rpdo(n));
+                self.written(ctx, index, sub, Source::Rpdo(n));
             }
         }
     }

@@ -9,6 +9,7 @@ use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::nmt::NmtState;
 use crate::services::pdo::Pdos;
+use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::{Emcy, EmcyCode};
@@ -213,6 +214,9 @@ pub(crate) trait Services {
     /// [`Pdos::trigger`].
     fn trigger_tpdo(&mut self, n: usize) -> bool;
 
+    /// The mapping RPDO `n` (0-based) uses, if it resolved.
+    fn rpdo_mapping(&self, n: usize) -> Option<&Mapping>;
+
     /// A checked write of an object a service owns (its rules and its
     /// reconfiguration); `None` if no service owns (index, sub).
     #[allow(clippy::too_many_arguments)]
@@ -237,6 +241,10 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
 
     fn trigger_tpdo(&mut self, n: usize) -> bool {
         self.pdos.trigger(n)
+    }
+
+    fn rpdo_mapping(&self, n: usize) -> Option<&Mapping> {
+        self.pdos.rpdo(n).and_then(|r| r.mapping())
     }
 
     fn write_object(

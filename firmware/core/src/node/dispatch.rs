@@ -157,7 +157,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if O::SERVICES.time && Some(cob_id) == self.comm.time_cob_id && !rtr {
                 self.stale = true;
                 match TimeOfDay::parse(data) {
-                    Some(t) => self.with_app(now, |app, ctx| app.on_time(ctx, t)),
+                    Some(t) => self.with_app_cold(now, |app, ctx| app.on_time(ctx, t)),
                     None => self.counters.count_malformed(),
                 }
                 return;
@@ -169,7 +169,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
     /// The device samples first, so the synchronous TPDOs carry its values.
     pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
-        self.with_app(now, |app, ctx| app.sample(ctx));
+        self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
             let mut sink = PdoSink::new(txq, &mut comm.emcy);
@@ -187,7 +187,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if received | timeouts == 0 {
             return;
         }
-        self.with_app(now, |app, ctx| {
+        self.with_app_cold(now, |app, ctx| {
             let mut bits = received;
             while bits != 0 {
                 app.rpdo_written(ctx, bits.trailing_zeros() as u8);
@@ -234,7 +234,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.touched = ALL_TPDOS;
         } else if effects.wrote.1 != 0 {
             let (offset, len) = effects.wrote;
-            self.touched |= self.comm.pdos.tpdos_mapping(offset, len) | self.comm.pdos.retrying();
+            // A poll for any TPDO retries every TPDO waiting to ([`crate::services::pdo::Pdos::poll_changed`]).
+            let mask = self.comm.pdos.tpdos_mapping(offset, len);
+            self.touched |= if mask != 0 { mask } else { self.comm.pdos.retrying() };
         }
         self.stale |= effects.services;
         if effects.sdo_changed {

@@ -295,7 +295,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// service's rules and side effects, then [`Application::written`] with
     /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
     pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.with_app(now, |app, ctx| {
+        self.with_app_cold(now, |app, ctx| {
             router::Router { ctx, app, by: Source::App, od: core::marker::PhantomData::<O>, staged: None }
                 .write_with_hooks(index, sub, data)
         })
@@ -305,7 +305,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// hears [`CommError::BusOff`].
     pub fn bus_off(&mut self, now: Instant) {
         self.stale = true;
-        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::BusOff)));
+        self.with_app_cold(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::BusOff)));
     }
 
     /// Runs `f` with the device's hooks and their context, then queues the
@@ -320,13 +320,50 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         value
     }
 
-    /// [`Node::with_app`] for a node resetting (Initialising), where a
-    /// device error changes no state: the 0x1029 class the hook reported
-    /// (0: none) is returned, not followed. The reset's stages use it, so
-    /// that no state change is reachable from them (the stack estimate
-    /// counts every call the code holds, taken or not).
+    /// [`Node::with_app`] for every hook but the RPDO's and the raw frame's
+    /// (NMT events, TIME, bus-off, the SYNC sample, the device's timers, an
+    /// application's write): what follows the hook is one out-of-line call
+    /// instead of a copy at each site (about 17 thumbv7m instructions more
+    /// per call, 200 bytes less in a drive image).
     #[inline(always)]
-    pub(super) fn with_app_initialising<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
+    pub(super) fn with_app_cold<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
+        let (value, effects) = self.run_hook(now, f);
+        if Self::FOLD_HOOKS {
+            self.queue_raw();
+            self.follow_sdo(effects);
+            if effects.error_class != 0 {
+                self.device_error(effects.error_class, now);
+            }
+        } else {
+            self.after_cold_hook(now, effects);
+        }
+        value
+    }
+
+    /// A device without state (a zero-sized application, `NoApplication`)
+    /// mostly leaves the hooks at their defaults, whose follow-up folds away
+    /// inline; for the others an out-of-line follow-up is smaller. Either
+    /// does the same.
+    const FOLD_HOOKS: bool = core::mem::size_of::<A>() == 0;
+
+    #[inline(never)]
+    fn after_cold_hook(&mut self, now: Instant, effects: router::SdoEffects) {
+        self.follow_hook(effects);
+        if effects.error_class != 0 {
+            self.device_error(effects.error_class, now);
+        }
+    }
+
+    /// The raw frames a hook sent queued, its writes followed up.
+    #[inline(never)]
+    fn follow_hook(&mut self, effects: router::SdoEffects) {
+        self.queue_raw();
+        self.follow_sdo(effects);
+    }
+
+    /// The hook `f` with its context; what it changed beyond its writes.
+    #[inline(always)]
+    fn run_hook<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, router::SdoEffects) {
         let Node { od, app, storage, comm, node_id, nmt, raw, store, .. } = self;
         let dict = od.dictionary();
         let mut ctx = Ctx {
@@ -343,7 +380,30 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             store,
         };
         let value = f(app, &mut ctx);
-        let effects = ctx.effects;
+        (value, ctx.effects)
+    }
+
+    /// [`Node::with_app_initialising`] for the reset's stages: the follow-up out of line.
+    #[inline(always)]
+    pub(super) fn with_app_resetting<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
+        let (value, effects) = self.run_hook(now, f);
+        if Self::FOLD_HOOKS {
+            self.queue_raw();
+            self.follow_sdo(effects);
+        } else {
+            self.follow_hook(effects);
+        }
+        (value, effects.error_class)
+    }
+
+    /// [`Node::with_app`] for a node resetting (Initialising), where a
+    /// device error changes no state: the 0x1029 class the hook reported
+    /// (0: none) is returned, not followed. The reset's stages use it, so
+    /// that no state change is reachable from them (the stack estimate
+    /// counts every call the code holds, taken or not).
+    #[inline(always)]
+    pub(super) fn with_app_initialising<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
+        let (value, effects) = self.run_hook(now, f);
         self.queue_raw();
         self.follow_sdo(effects);
         (value, effects.error_class)

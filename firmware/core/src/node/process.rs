@@ -45,7 +45,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         // The device's timers first: what they write goes out in this call's TPDOs.
-        let app_deadline = self.with_app(now, |app, ctx| app.poll(ctx));
+        let app_deadline = self.with_app_cold(now, |app, ctx| app.poll(ctx));
         if !self.app.canopen() {
             return app_deadline;
         }

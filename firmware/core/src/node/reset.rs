@@ -188,7 +188,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// once for each part; a device error it reports changes no state while
     /// the node is Initialising.
     fn reset_hook(&mut self, now: Instant, event: NmtEvent) {
-        self.with_app_initialising(now, |app, ctx| app.on_nmt(ctx, event));
+        self.with_app_resetting(now, |app, ctx| app.on_nmt(ctx, event));
     }
 
     /// The end of reset communication: LSS, SDO servers, acceptance list,

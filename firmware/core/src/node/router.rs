@@ -214,6 +214,21 @@ impl Ctx<'_> {
     }
 }
 
+impl SdoEffects {
+    /// `len` image bytes at `offset` changed: the TPDOs mapping them look
+    /// for a change; after a second write in one access, every TPDO (as
+    /// `write_plain` does).
+    // Out of line: every value the device sets comes here.
+    #[inline(never)]
+    pub(super) fn wrote_bytes(&mut self, offset: u16, len: u16) {
+        if self.wrote.1 == 0 {
+            self.wrote = (offset, len);
+        } else {
+            self.written = true;
+        }
+    }
+}
+
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
     /// [`ObjectAccess::read`], from `entry` when the caller already looked it up.
     // One call of the device's read hook for both callers (each inlined a copy).

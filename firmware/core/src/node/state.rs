@@ -42,7 +42,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // Stopped: a transfer in progress ends without a frame (CiA 301 table 64).
             self.sdo.reset_all();
         }
-        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::Entered(state)));
+        self.with_app_cold(now, |app, ctx| app.on_nmt(ctx, NmtEvent::Entered(state)));
     }
 
     /// A communication error (heartbeat or life guarding): EMCY 0x8130 and
@@ -54,7 +54,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.comm.emcy.signal(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info);
         }
         let error = if node == 0 { CommError::LifeGuarding } else { CommError::Heartbeat(node) };
-        self.with_app(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(error)));
+        self.with_app_cold(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(error)));
         self.device_error(1, now);
     }
 

@@ -108,3 +108,22 @@ impl Entry {
         self.offset as usize..self.offset as usize + self.len as usize
     }
 }
+
+/// An entry a caller found once with [`super::Dictionary::locate`] and
+/// keeps: its position in the dictionary's table plus one, so that the
+/// all-zero [`EntryRef::NONE`] stands for an object the dictionary lacks
+/// (and a value holding it can be all zero bits, [`crate::node`]). A profile
+/// reads and writes its objects on every frame; this spares the binary
+/// search each time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EntryRef(pub(super) u16);
+
+impl EntryRef {
+    /// No entry.
+    pub const NONE: EntryRef = EntryRef(0);
+
+    /// Whether the dictionary has the entry.
+    pub const fn is_some(self) -> bool {
+        self.0 != 0
+    }
+}

@@ -27,7 +27,7 @@ pub(crate) use lookup::{object, precheck, sub_entry, u32_exact, value_u32};
 
 use crate::abort::AbortCode;
 
-pub use entry::{Attr, Entry, Limits, NO_LIMITS};
+pub use entry::{Attr, Entry, EntryRef, Limits, NO_LIMITS};
 pub use types::{DataType, Kind};
 pub use value::Number;
 
@@ -151,6 +151,32 @@ impl Dictionary {
         }
     }
 
+    /// An entry found once, for a caller that reads or writes it often
+    /// ([`Dictionary::entry`] gets it back without a search); [`EntryRef::NONE`]
+    /// if the dictionary lacks it.
+    pub fn locate(&self, index: u16, sub: u8) -> EntryRef {
+        self.find_ref(index, sub).map_or(EntryRef::NONE, |(r, _)| r)
+    }
+
+    /// [`Dictionary::find`], with the entry's [`EntryRef`].
+    #[inline(never)]
+    pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
+        let entry = self.find(index, sub)?;
+        // The position from the address `find` returned: no second search.
+        let pos = (entry as *const Entry as usize).wrapping_sub(self.entries.as_ptr() as usize).checked_div(core::mem::size_of::<Entry>());
+        match pos.and_then(|p| p.checked_add(1)).and_then(|r| u16::try_from(r).ok()) {
+            Some(r) => Ok((EntryRef(r), entry)),
+            None => Err(AbortCode::NoObject),
+        }
+    }
+
+    /// The entry [`Dictionary::locate`] found (`None` for [`EntryRef::NONE`],
+    /// or a reference into another dictionary's table that does not fit this one).
+    pub fn entry(&self, r: EntryRef) -> Option<&'static Entry> {
+        let entries: &'static [Entry] = self.entries;
+        usize::from(r.0).checked_sub(1).and_then(|pos| entries.get(pos))
+    }
+
     /// The limits of an entry, if it has any.
     pub fn limits_of(&self, entry: &Entry) -> Option<&'static Limits> {
         self.limits.get(usize::from(entry.limits))
@@ -167,7 +193,11 @@ impl Dictionary {
     /// Reads a value as an SDO upload would: access checked, a VISIBLE_STRING
     /// ends at its first NUL (CiA 301 lets it be shorter than its capacity).
     pub fn read<'a>(&self, image: &'a [u8], index: u16, sub: u8) -> Result<&'a [u8], AbortCode> {
-        let entry = self.find(index, sub)?;
+        self.read_entry(image, self.find(index, sub)?)
+    }
+
+    /// [`Dictionary::read`] of an entry already found.
+    pub fn read_entry<'a>(&self, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
         if !entry.readable() {
             return Err(AbortCode::WriteOnly);
         }
@@ -227,7 +257,12 @@ impl Dictionary {
     /// means read-only for the bus, not for the device. Length must fit;
     /// a shorter value is zero-filled.
     pub fn write_unchecked(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let entry = self.find(index, sub)?;
+        self.write_unchecked_entry(image, self.find(index, sub)?, data).map(|_| ())
+    }
+
+    /// [`Dictionary::write_unchecked`] of an entry already found; true if a
+    /// byte of the image changed (a TPDO mapping it has no new data otherwise).
+    pub fn write_unchecked_entry(&self, image: &mut [u8], entry: &Entry, data: &[u8]) -> Result<bool, AbortCode> {
         if entry.in_rom() || entry.data_type == DataType::Domain {
             return Err(AbortCode::CannotStore);
         }
@@ -235,10 +270,15 @@ impl Dictionary {
             return Err(AbortCode::LengthTooHigh);
         }
         let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
-        let (head, tail) = slot.split_at_mut(data.len());
-        head.copy_from_slice(data);
-        tail.fill(0);
-        Ok(())
+        let mut changed = false;
+        // Byte by byte, the bytes past `data` zero: a value the device sets
+        // has a few bytes, less than a `memcpy` call costs.
+        for (i, d) in slot.iter_mut().enumerate() {
+            let s = data.get(i).copied().unwrap_or(0);
+            changed |= *d != s;
+            *d = s;
+        }
+        Ok(changed)
     }
 
     /// Restores the communication area (0x1000–0x1FFF) to its defaults and

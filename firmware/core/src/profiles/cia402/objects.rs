@@ -4,6 +4,7 @@
 //! takes the standard's default (or the mode is unsupported).
 
 use crate::node::Ctx;
+use crate::od::EntryRef;
 
 /// Object indices of CiA 402-2 (a profile namespace: 0x6040 is a
 /// controlword here and an acceleration in CiA 406).
@@ -116,10 +117,16 @@ pub mod index {
 /// A signed value (INTEGER8/16/32, sign-extended), if the object exists.
 #[inline(never)]
 pub fn signed(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<i32> {
-    match ctx.read(index, sub).ok()? {
-        [a] => Some(i32::from(*a as i8)),
-        [a, b] => Some(i32::from(i16::from_le_bytes([*a, *b]))),
-        [a, b, c, d] => Some(i32::from_le_bytes([*a, *b, *c, *d])),
+    signed_at(ctx, ctx.locate(index, sub))
+}
+
+/// [`signed`] of an object [`Located`] found.
+#[inline(never)]
+pub fn signed_at(ctx: &Ctx<'_>, at: EntryRef) -> Option<i32> {
+    match *ctx.read_at(at).ok()? {
+        [a] => Some(i32::from(a as i8)),
+        [a, b] => Some(i32::from(i16::from_le_bytes([a, b]))),
+        [a, b, c, d] => Some(i32::from_le_bytes([a, b, c, d])),
         _ => None,
     }
 }
@@ -133,7 +140,7 @@ pub fn unsigned(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<u32> {
 /// An unsigned value, or `default` if the object is missing.
 #[inline(never)]
 pub fn unsigned_or(ctx: &Ctx<'_>, index: u16, sub: u8, default: u32) -> u32 {
-    ctx.read_u32(index, sub).unwrap_or(default)
+    unsigned(ctx, index, sub).unwrap_or(default)
 }
 
 /// Sets a value the profile owns (statusword, actual values) with the
@@ -142,5 +149,72 @@ pub fn unsigned_or(ctx: &Ctx<'_>, index: u16, sub: u8, default: u32) -> u32 {
 pub fn set(ctx: &mut Ctx<'_>, index: u16, len: usize, value: i32) {
     if let Some(bytes) = value.to_le_bytes().get(..len) {
         let _ = ctx.set_value(index, 0, bytes);
+    }
+}
+
+/// [`set`] of an object [`Located`] found.
+#[inline(never)]
+pub fn set_at(ctx: &mut Ctx<'_>, at: EntryRef, len: usize, value: i32) {
+    if let Some(bytes) = value.to_le_bytes().get(..len) {
+        let _ = ctx.set_at(at, bytes);
+    }
+}
+
+/// The objects the profile reads or writes with every frame, SYNC or
+/// tick, found once at reset application: a dictionary search costs more
+/// than a step of the state machine. All [`EntryRef::NONE`] (all zero
+/// bits) until then; [`Located::at`] with one of the `Located` constants
+/// ([`Located::CONTROLWORD`], …) names an object.
+#[derive(Clone, Copy, Debug)]
+pub struct Located([EntryRef; HOT.len()]);
+
+/// The objects [`Located`] finds (sub 0 each), in the order of its constants.
+const HOT: [u16; 12] = [
+    index::CONTROLWORD,
+    index::STATUSWORD,
+    index::QUICK_STOP_OPTION,
+    index::TARGET_VELOCITY,
+    index::VL_TARGET_VELOCITY,
+    index::POSITION_ACTUAL,
+    index::VELOCITY_ACTUAL,
+    index::TORQUE_ACTUAL,
+    index::POSITION_DEMAND,
+    index::VELOCITY_DEMAND,
+    index::VL_VELOCITY_DEMAND,
+    index::VL_VELOCITY_ACTUAL,
+];
+
+impl Located {
+    /// Nothing found yet.
+    pub const NONE: Located = Located([EntryRef::NONE; HOT.len()]);
+    /// 0x6040.
+    pub const CONTROLWORD: usize = 0;
+    /// 0x6041.
+    pub const STATUSWORD: usize = 1;
+    /// 0x605A.
+    pub const QUICK_STOP_OPTION: usize = 2;
+    /// 0x60FF.
+    pub const TARGET_VELOCITY: usize = 3;
+    /// 0x6042.
+    pub const VL_TARGET_VELOCITY: usize = 4;
+    /// 0x6064, 0x606C, 0x6077, 0x6062, 0x606B: the actual values every mode shows, from here on.
+    pub const ACTUALS: usize = 5;
+    /// 0x6043, 0x6044 (vl), from here on.
+    pub const VL_ACTUALS: usize = 10;
+
+    /// The objects in the node's dictionary.
+    // Out of line: it runs at reset application only.
+    #[inline(never)]
+    pub fn find(ctx: &Ctx<'_>) -> Located {
+        let mut found = Located::NONE;
+        for (at, &index) in found.0.iter_mut().zip(&HOT) {
+            *at = ctx.locate(index, 0);
+        }
+        found
+    }
+
+    /// Object `i` (one of the constants): [`EntryRef::NONE`] if missing.
+    pub fn at(&self, i: usize) -> EntryRef {
+        self.0.get(i).copied().unwrap_or(EntryRef::NONE)
     }
 }

@@ -6,7 +6,7 @@ use super::fsa::{self, PdsState, Reaction, Transition};
 use super::hm::Hm;
 use super::ip::Ip;
 use super::motion::{Demand, speed_q};
-use super::objects::{self, index, signed, unsigned, unsigned_or};
+use super::objects::{self, Located, index, signed, signed_at, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
 use super::units::{self, Units};
 use super::velocity::{Window, vl_limit};
@@ -99,6 +99,8 @@ struct Profile {
     operational: bool,
     /// [`Cia402::refresh`]: the statusword is written at the next idle poll.
     refresh: bool,
+    /// The objects of every frame and tick, found at reset application.
+    at: Located,
 }
 
 impl Profile {
@@ -131,6 +133,7 @@ impl Profile {
         ticking: false,
         operational: false,
         refresh: false,
+        at: Located::NONE,
     };
 }
 
@@ -150,6 +153,7 @@ impl<D: Drive> Cia402<D> {
     pub fn reset(&mut self, ctx: &mut Ctx<'_>, config: &Config) {
         self.drive.reset();
         self.s = Profile::NEW;
+        self.s.at = Located::find(ctx);
         self.s.units = units(ctx, config);
         self.s.supported = supported_modes(ctx);
         self.s.state = PdsState::SwitchOnDisabled;
@@ -178,7 +182,14 @@ impl<D: Drive> Cia402<D> {
         match index {
             index::CONTROLWORD => self.controlword(ctx),
             index::MODES_OF_OPERATION => self.set_mode(ctx),
-            index::TARGET_VELOCITY | index::VL_TARGET_VELOCITY => self.velocity_target(ctx),
+            index::TARGET_VELOCITY | index::VL_TARGET_VELOCITY => {
+                // Of the statusword, a new target changes bit 11 alone (pv and vl limits).
+                let limited = self.s.internal_limit;
+                self.velocity_target(ctx);
+                if self.s.internal_limit == limited {
+                    return;
+                }
+            }
             index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY => {
                 self.s.units = units(ctx, config);
                 self.velocity_target(ctx);
@@ -299,7 +310,7 @@ impl<D: Drive> Cia402<D> {
     // ---- device control ------------------------------------------------------------
 
     fn controlword(&mut self, ctx: &mut Ctx<'_>) {
-        let word = unsigned(ctx, index::CONTROLWORD, 0).unwrap_or(0) as u16;
+        let word = ctx.read_at(self.s.at.at(Located::CONTROLWORD)).map_or(0, crate::od::le_u32) as u16;
         let previous = core::mem::replace(&mut self.s.controlword, word);
         if let Some(command) = cw::decode(word, previous) {
             self.command(ctx, command);
@@ -332,7 +343,9 @@ impl<D: Drive> Cia402<D> {
             }
             return;
         }
-        let stays = matches!(signed(ctx, index::QUICK_STOP_OPTION, 0), Some(5..=8));
+        // 0x605A decides only transition 16, out of Quick stop active.
+        let stays =
+            self.s.state == PdsState::QuickStopActive && matches!(signed_at(ctx, self.s.at.at(Located::QUICK_STOP_OPTION)), Some(5..=8));
         match fsa::next(self.s.state, command, stays) {
             Some(t) => {
                 self.transition(ctx, t);
@@ -381,7 +394,7 @@ impl<D: Drive> Cia402<D> {
             }
             11 => {
                 // 0x605A default 2: quick stop ramp, then Switch on disabled.
-                let code = signed(ctx, index::QUICK_STOP_OPTION, 0);
+                let code = signed_at(ctx, self.s.at.at(Located::QUICK_STOP_OPTION));
                 self.s.quick_stop_holds = matches!(code, Some(5..=8));
                 self.s.reaction = Reaction::of(code.unwrap_or(-1), Reaction::QuickStopRamp);
                 self.s.braking = false;
@@ -467,12 +480,12 @@ impl<D: Drive> Cia402<D> {
         let u = &self.s.units;
         self.s.velocity_target = match self.s.mode {
             mode::PV => {
-                let target = signed(ctx, index::TARGET_VELOCITY, 0).unwrap_or(0);
+                let target = signed_at(ctx, self.s.at.at(Located::TARGET_VELOCITY)).unwrap_or(0);
                 self.s.internal_limit = false;
                 speed_q(u.velocity_to_inc(target))
             }
             mode::VL => {
-                let target = signed(ctx, index::VL_TARGET_VELOCITY, 0).unwrap_or(0);
+                let target = signed_at(ctx, self.s.at.at(Located::VL_TARGET_VELOCITY)).unwrap_or(0);
                 let min = unsigned_or(ctx, index::VL_MIN_MAX, 1, 0);
                 let max = unsigned_or(ctx, index::VL_MIN_MAX, 2, 0);
                 let (limited, clipped) = vl_limit(target, min, max);

@@ -114,22 +114,33 @@ impl Units {
 
     /// A target or actual position: user units to increments (polarity applied).
     pub fn position_to_inc(&self, user: i32) -> i64 {
-        negate(self.to_inc.apply(i64::from(user)), self.position_negative)
+        self.inc_of(user, self.position_negative)
     }
 
     /// Increments to a user position (polarity applied), saturated to 32 bits.
     pub fn position_to_user(&self, inc: i64) -> i32 {
-        saturate(negate(self.to_user.apply(inc), self.position_negative))
+        self.user_of(inc, self.position_negative)
     }
 
     /// A velocity: user units per second to increments per second (polarity applied).
     pub fn velocity_to_inc(&self, user: i32) -> i64 {
-        negate(self.to_inc.apply(i64::from(user)), self.velocity_negative)
+        self.inc_of(user, self.velocity_negative)
     }
 
     /// Increments per second to user velocity units (polarity applied).
     pub fn velocity_to_user(&self, inc: i64) -> i32 {
-        saturate(negate(self.to_user.apply(inc), self.velocity_negative))
+        self.user_of(inc, self.velocity_negative)
+    }
+
+    // Out of line, as the next: the profile converts in some twenty places.
+    #[inline(never)]
+    fn inc_of(&self, user: i32, negative: bool) -> i64 {
+        negate(self.to_inc.apply(i64::from(user)), negative)
+    }
+
+    #[inline(never)]
+    fn user_of(&self, inc: i64, negative: bool) -> i32 {
+        saturate(negate(self.to_user.apply(inc), negative))
     }
 
     /// A magnitude (window, ramp, speed): user units to increments, no polarity.

@@ -17,7 +17,7 @@
 //!   an RPDO, where they skip bytes: 0x06040041 in a TPDO.
 
 use crate::abort::AbortCode;
-use crate::od::{Attr, DataType, Dictionary, Entry, object, sub_entry, value_u32};
+use crate::od::{Attr, DataType, Dictionary, Entry, EntryRef, object, sub_entry, value_u32};
 use crate::wire::pdo_mapping::MappingEntry;
 
 /// Most entries one mapping can hold: with byte granularity, 8 bytes hold at most 8 objects.
@@ -64,20 +64,25 @@ pub struct Slot {
 
 impl Slot {
     /// Checks one mapping entry for `direction` and resolves it: one binary search.
+    pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
+        Slot::resolve_ref(dict, entry, direction).map(|(slot, _)| slot)
+    }
+
+    /// [`Slot::resolve`], with the mapped entry ([`EntryRef::NONE`] for a dummy entry).
     // Offset and length are u16s: their sum fits a u32.
     #[allow(clippy::arithmetic_side_effects)]
-    pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
+    fn resolve_ref(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<(Slot, EntryRef), AbortCode> {
         if entry.is_dummy() {
             if direction == Direction::Transmit {
                 return Err(AbortCode::NotMappable);
             }
             let size = DataType::from_index(entry.index).and_then(DataType::size).unwrap_or(0);
             return match entry.bytes() {
-                Some(len) if usize::from(len) == size => Ok(Slot { source: Source::Dummy, len }),
+                Some(len) if usize::from(len) == size => Ok((Slot { source: Source::Dummy, len }, EntryRef::NONE)),
                 _ => Err(AbortCode::ParameterIncompatible),
             };
         }
-        let object = dict.find(entry.index, entry.sub)?;
+        let (at, object) = dict.find_ref(entry.index, entry.sub)?;
         let allowed = match direction {
             Direction::Receive => object.attr.contains(Attr::MAP_RPDO) && !object.in_rom(),
             Direction::Transmit => object.attr.contains(Attr::MAP_TPDO),
@@ -96,7 +101,7 @@ impl Slot {
             return Err(AbortCode::NotMappable);
         }
         let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
-        Ok(Slot { source, len: object.len as u8 })
+        Ok((Slot { source, len: object.len as u8 }, at))
     }
 }
 
@@ -114,14 +119,23 @@ pub struct Mapping {
     /// to, or the byte itself (a ROM object's value, or 0 for a dummy entry,
     /// which an RPDO does not write, and for the bytes past the length).
     gather: [u16; MAX_LEN],
+    /// Slot i: the dictionary entry it maps ([`EntryRef::NONE`] for a
+    /// dummy), so that the device hears which objects an RPDO wrote
+    /// ([`crate::node::Ctx::rpdo_objects`]) without a search per object.
+    objects: [EntryRef; MAX_ENTRIES],
     count: u8,
     len: u8,
 }
 
 impl Mapping {
     /// The mapping of sub-index 0 = 0: nothing mapped (the PDO is disabled).
-    pub const EMPTY: Mapping =
-        Mapping { slots: [Slot { source: Source::Dummy, len: 0 }; MAX_ENTRIES], gather: [0; MAX_LEN], count: 0, len: 0 };
+    pub const EMPTY: Mapping = Mapping {
+        slots: [Slot { source: Source::Dummy, len: 0 }; MAX_ENTRIES],
+        gather: [0; MAX_LEN],
+        objects: [EntryRef::NONE; MAX_ENTRIES],
+        count: 0,
+        len: 0,
+    };
 
     /// Reads and resolves the mapping record `index` (0x1600+n or 0x1A00+n)
     /// as the image holds it.
@@ -157,13 +171,13 @@ impl Mapping {
         }
         let mut mapping = Mapping::EMPTY;
         let mut total = 0usize;
-        for (slot, &raw) in mapping.slots.iter_mut().zip(raw.iter().take(count)) {
-            let resolved = Slot::resolve(dict, MappingEntry::from_u32(raw), direction)?;
+        for ((slot, object), &raw) in mapping.slots.iter_mut().zip(&mut mapping.objects).zip(raw.iter().take(count)) {
+            let (resolved, at) = Slot::resolve_ref(dict, MappingEntry::from_u32(raw), direction)?;
             total += usize::from(resolved.len);
             if total > MAX_LEN {
                 return Err(AbortCode::PdoTooLong);
             }
-            *slot = resolved;
+            (*slot, *object) = (resolved, at);
         }
         mapping.count = count as u8;
         mapping.len = total as u8;
@@ -184,6 +198,12 @@ impl Mapping {
     /// The resolved entries.
     pub fn slots(&self) -> &[Slot] {
         self.slots.get(..usize::from(self.count)).unwrap_or(&[])
+    }
+
+    /// The dictionary entry each slot maps ([`EntryRef::NONE`] for a dummy
+    /// entry), and how many slots there are.
+    pub fn objects(&self) -> ([EntryRef; MAX_ENTRIES], usize) {
+        (self.objects, usize::from(self.count))
     }
 
     /// Number of mapped bytes.

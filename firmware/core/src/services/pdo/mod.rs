@@ -159,6 +159,14 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// worked out whenever a mapping or a type changes, so that an RPDO
     /// only makes the TPDOs it can change look for a change.
     rpdo_reach: [u32; R],
+    /// Bit n: RPDO n's event timer may be running (only a received RPDO
+    /// starts one), so [`Pdos::poll_changed`] walks only those RPDOs, not
+    /// every RPDO after every frame. RPDOs past 31 set every bit.
+    rpdo_timers: u32,
+    /// Bit t: TPDO t has a valid COB-ID and a mapping (it can send), worked
+    /// out whenever a parameter or a mapping changes; TPDOs past 31 count
+    /// as live. The others are not walked by [`Pdos::poll_changed`].
+    tpdo_live: u32,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -178,6 +186,8 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [ALL_TPDOS; R],
+            rpdo_timers: 0,
+            tpdo_live: 0,
         }
     }
 }
@@ -198,6 +208,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [0; R],
+            rpdo_timers: 0,
+            tpdo_live: 0,
         }
     }
 
@@ -342,10 +354,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
+        self.tpdo_live =
+            self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| if tpdo.cob_id().is_some() { live | bit_of(t) } else { live });
         for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
             let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
             *reach = slots.iter().fold(0, |mask, slot| match slot.source {
-                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, offset, u16::from(slot.len)),
+                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, self.tpdo_live, offset, u16::from(slot.len)),
                 _ => mask,
             });
         }
@@ -354,7 +368,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The event-driven TPDOs that map any byte of `len` image bytes at
     /// `offset` (what a write there may change).
     pub fn tpdos_mapping(&self, offset: u16, len: u16) -> u32 {
-        tpdos_mapping(&self.tpdos, offset, len)
+        tpdos_mapping(&self.tpdos, self.tpdo_live, offset, len)
     }
 
     /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
@@ -362,13 +376,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// after those RPDOs must look at.
     #[inline(never)]
     pub fn reached_by(&self, rpdos: u32) -> u32 {
-        let mut mask = self.retrying();
+        let mut mask = 0;
         let mut bits = rpdos;
         while bits != 0 {
             mask |= self.rpdo_reach.get(bits.trailing_zeros() as usize).copied().unwrap_or(ALL_TPDOS);
             bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
         }
-        mask
+        // A poll for any TPDO retries every TPDO waiting to ([`Pdos::poll_changed`]).
+        if mask != 0 { mask } else { self.retrying() }
     }
 
     /// The TPDOs waiting to retry a refused frame.
@@ -386,9 +401,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
         let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
         rpdo.on_frame(n, now, data, window_open, image, out);
-        // Only this RPDO's timeout moved, and only later (or it started):
-        // the settled deadline stays good, or early, which is harmless.
-        self.settled_deadline = earliest(self.settled_deadline, rpdo.timeout_at());
+        if let Some(timeout) = rpdo.timeout_at() {
+            self.rpdo_timers |= bit_of(n);
+            // Only this RPDO's timeout moved, and only later (or it started):
+            // the settled deadline stays good, or early, which is harmless.
+            self.settled_deadline = earliest(self.settled_deadline, Some(timeout));
+        }
         true
     }
 
@@ -434,13 +452,21 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return None;
         }
-        for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
-            rpdo.poll(n, now, tx);
+        if self.rpdo_timers != 0 {
+            let mut timers = 0;
+            for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
+                rpdo.poll(n, now, tx);
+                if rpdo.timeout_at().is_some() {
+                    timers |= bit_of(n);
+                }
+            }
+            self.rpdo_timers = timers;
         }
-        let window_end = self.window_end;
+        let (window_end, live) = (self.window_end, self.tpdo_live);
         for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
-            let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
-            if changed & bit != 0 || bit == 0 || tpdo.due(now) {
+            // A TPDO that cannot send has nothing to poll.
+            let bit = bit_of(t);
+            if live & bit != 0 && (changed & bit != 0 || bit == u32::MAX || tpdo.retrying() || tpdo.deadline().is_some_and(|d| d <= now)) {
                 tpdo.poll(now, window_end, image, tx);
             }
         }
@@ -457,6 +483,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
     /// means at once). `None` while not Operational.
+    // Out of line: `process` and `poll_changed` share it.
+    #[inline(never)]
     pub fn deadline(&self) -> Option<Instant> {
         if !self.operational {
             return None;
@@ -464,9 +492,23 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if self.settled {
             return self.settled_deadline;
         }
-        let rpdos = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
-        self.tpdos.iter().fold(rpdos, |d, t| earliest(d, t.deadline()))
+        // Only the RPDOs whose timer may run and the TPDOs that can send have one.
+        let mut deadline = None;
+        if self.rpdo_timers != 0 {
+            deadline = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
+        }
+        for (t, tpdo) in self.tpdos.iter().enumerate() {
+            if self.tpdo_live & bit_of(t) != 0 {
+                deadline = earliest(deadline, tpdo.deadline());
+            }
+        }
+        deadline
     }
+}
+
+/// Bit n of the PDO masks; PDOs past 31 share every bit (each is then always looked at).
+fn bit_of(n: usize) -> u32 {
+    1u32.checked_shl(n as u32).unwrap_or(u32::MAX)
 }
 
 /// Object `base` + `n`: PDO `n`'s (0-based) parameter record.
@@ -480,12 +522,14 @@ const fn nth(base: u16, n: u16) -> u16 {
 // Two u16s: the sum fits a u32.
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
-fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
+fn tpdos_mapping(tpdos: &[Tpdo], live: u32, offset: u16, len: u16) -> u32 {
     let (start, end) = (u32::from(offset), u32::from(offset) + u32::from(len));
     let mut mask = 0;
     for (t, tpdo) in tpdos.iter().enumerate() {
-        if tpdo.maps_any(start, end) {
-            mask |= 1u32.checked_shl(t as u32).unwrap_or(0);
+        // A TPDO that cannot send is not polled ([`Pdos::poll_changed`]): no need to look.
+        let bit = 1u32.checked_shl(t as u32).unwrap_or(0);
+        if live & bit != 0 && tpdo.maps_any(start, end) {
+            mask |= bit;
         }
     }
     // TPDOs past 31 have no bit: they are always looked at.

@@ -310,12 +310,6 @@ impl Tpdo {
         self.blocked || self.pending_sync.is_some()
     }
 
-    /// Whether [`Tpdo::poll`] has work at `now` without a change of the
-    /// mapped data: a timer due, or a retry.
-    pub(super) fn due(&self, now: Instant) -> bool {
-        self.retrying() || self.deadline().is_some_and(|d| d <= now)
-    }
-
     /// Whether this TPDO is event-driven (it looks for changes) and maps an
     /// image byte in `start..end`.
     // Two u16s: the sum fits a u32.

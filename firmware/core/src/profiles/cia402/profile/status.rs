@@ -7,7 +7,7 @@ use crate::profiles::cia402::controlword as cw;
 use crate::profiles::cia402::drive::Drive;
 use crate::profiles::cia402::fsa::PdsState;
 use crate::profiles::cia402::hm::Phase;
-use crate::profiles::cia402::objects::{self, index, unsigned, unsigned_or};
+use crate::profiles::cia402::objects::{self, Located, index, unsigned, unsigned_or};
 use crate::profiles::cia402::units::{self, Units};
 use crate::profiles::cia402::{mode, statusword as sw};
 
@@ -61,7 +61,7 @@ impl<D: Drive> Cia402<D> {
         let word = self.statusword();
         if word != self.s.statusword {
             self.s.statusword = word;
-            objects::set(ctx, index::STATUSWORD, 2, i32::from(word));
+            objects::set_at(ctx, self.s.at.at(Located::STATUSWORD), 2, i32::from(word));
         }
     }
 
@@ -74,14 +74,16 @@ impl<D: Drive> Cia402<D> {
                 let v = u.vl_to_user.apply(i64::from(inc));
                 units::negate(v, u.velocity_negative).clamp(-32768, 32767) as i32
             };
-            objects::set(ctx, index::VL_VELOCITY_DEMAND, 2, rpm(self.s.demand.velocity()));
-            objects::set(ctx, index::VL_VELOCITY_ACTUAL, 2, rpm(d.velocity()));
+            let at = |i: usize| self.s.at.at(Located::VL_ACTUALS.saturating_add(i));
+            objects::set_at(ctx, at(0), 2, rpm(self.s.demand.velocity()));
+            objects::set_at(ctx, at(1), 2, rpm(d.velocity()));
         }
-        objects::set(ctx, index::POSITION_ACTUAL, 4, u.position_to_user(d.position()));
-        objects::set(ctx, index::VELOCITY_ACTUAL, 4, u.velocity_to_user(i64::from(d.velocity())));
-        objects::set(ctx, index::TORQUE_ACTUAL, 2, i32::from(d.torque()));
-        objects::set(ctx, index::POSITION_DEMAND, 4, u.position_to_user(self.s.demand.position()));
-        objects::set(ctx, index::VELOCITY_DEMAND, 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
+        let at = |i: usize| self.s.at.at(Located::ACTUALS.saturating_add(i));
+        objects::set_at(ctx, at(0), 4, u.position_to_user(d.position()));
+        objects::set_at(ctx, at(1), 4, u.velocity_to_user(i64::from(d.velocity())));
+        objects::set_at(ctx, at(2), 2, i32::from(d.torque()));
+        objects::set_at(ctx, at(3), 4, u.position_to_user(self.s.demand.position()));
+        objects::set_at(ctx, at(4), 4, u.velocity_to_user(i64::from(self.s.demand.velocity())));
     }
 }
 
