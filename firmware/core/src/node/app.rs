@@ -21,6 +21,7 @@ use crate::time::Instant;
 use crate::wire::emcy::EmcyCode;
 use crate::wire::time_stamp::TimeOfDay;
 
+use super::controller::CanEmcyCodes;
 use super::filter::AcceptanceList;
 use super::router::SdoEffects;
 
@@ -311,6 +312,10 @@ impl Claims<'_> {
 pub trait Application {
     /// Where the device's manual departs from CiA 301.
     const OPTIONS: ServiceOptions = ServiceOptions::CIA301;
+
+    /// The EMCY codes of the CAN controller's errors (and of frames that
+    /// break the protocol), where the device's manual has its own.
+    const CAN_EMCY: CanEmcyCodes = CanEmcyCodes::CIA301;
 
     /// The device stores parameters by a command of its own (a register, a
     /// manufacturer object) through [`Ctx::save`] or [`Ctx::save_objects`]:

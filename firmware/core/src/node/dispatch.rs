@@ -60,7 +60,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     self.start_pending = false;
                     self.nmt_command(request, now)
                 }
-                _ => self.counters.malformed += 1,
+                _ => self.broken_frame(now),
             }
             return;
         }
@@ -97,9 +97,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                                 self.communication_recovered();
                             }
                         }
-                        None => self.counters.malformed += 1,
+                        None => self.broken_frame(now),
                     },
-                    _ => self.counters.malformed += 1,
+                    _ => self.broken_frame(now),
                 }
                 return;
             }
@@ -165,6 +165,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
     /// The device samples first, so the synchronous TPDOs carry its values.
+    /// An NMT command or heartbeat message the node cannot parse: counted
+    /// and ignored, and the device's protocol warning raised if it has one.
+    #[cold]
+    fn broken_frame(&mut self, now: Instant) {
+        self.counters.malformed += 1;
+        if let Some(code) = A::CAN_EMCY.protocol {
+            // The next `process` sends it and takes the clearing's deadline, as for a controller event.
+            self.stale = true;
+            self.controller.protocol_error::<A>(now, &mut self.comm.emcy, code);
+        }
+    }
+
     pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
         self.with_app(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {

@@ -91,7 +91,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.pdo_events(now, received, timeouts);
             }
         }
-        let controller_deadline = self.controller.poll(now, booted, &mut self.comm.emcy);
+        let controller_deadline = self.controller.poll::<A>(now, booted, &mut self.comm.emcy);
         if core::mem::take(&mut self.controller.bus_off_unheard) {
             self.bus_off(now);
         }
@@ -171,7 +171,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // Transmit queue overflow (0x8110, once), cleared once the queue drained.
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
-            self.comm.emcy.tx_overflow(self.reported_overflows);
+            self.comm.emcy.tx_overflow(A::CAN_EMCY.overrun, self.reported_overflows);
         } else if self.txq.is_empty() {
             self.comm.emcy.tx_drained();
         }
