@@ -209,6 +209,38 @@ fn m_l940_gear_factor_0x604c_10_to_5_doubles_the_motor_speed_of_0x60ff() {
     assert_eq!(b.sdo_write(ID, 0x604C, 2, &(-33_001i32).to_le_bytes()), abort(0x604C, 2, 0x0609_0032));
 }
 
+#[test]
+fn m_l940_gear_factor_0x604c_applies_to_the_vl_objects_6042_6043_6044_and_their_ramp() {
+    let mut b = ip_ready(2);
+    assert_eq!(b.sdo_write(ID, 0x604C, 1, &10i32.to_le_bytes()), ok_write(0x604C, 1));
+    assert_eq!(b.sdo_write(ID, 0x604C, 2, &5i32.to_le_bytes()), ok_write(0x604C, 2));
+    // §4.4.6 lists 6042h, 6043h, 6048h among the objects the factor scales: a ramp of
+    // 60 per second in the object's units, then 30 min⁻¹ (INTEGER16) by SDO at 400 ms.
+    assert_eq!(b.sdo_write(ID, 0x6048, 1, &60u32.to_le_bytes()), ok_write(0x6048, 1));
+    assert_eq!(b.sdo_write(ID, 0x6048, 2, &1u16.to_le_bytes()), ok_write(0x6048, 2));
+    b.run_until(ms(400));
+    assert_eq!(b.sdo_write(ID, 0x6042, 0, &30i16.to_le_bytes()), ok_write(0x6042, 0));
+    b.run_until(ms(650));
+    let demand = b.sdo_upload(ID, 0x6043, 0).map(|v| i16::from_le_bytes([v[0], v[1]]));
+    assert_eq!(demand, Ok(15), "half-way up the ramp after 250 ms, in the object's units");
+    b.run_until(ms(1200));
+    assert_eq!(b.sdo_upload(ID, 0x6044, 0), Ok(30i16.to_le_bytes().to_vec()), "0x6044 in the object's units");
+    assert_eq!(b.sdo_upload(ID, 0x6043, 0), Ok(30i16.to_le_bytes().to_vec()));
+    // The motor turns at 60 min⁻¹: one revolution (65536 increments) a second.
+    let p = i32_at(&mut b, 0x6064);
+    b.run_until(ms(2200));
+    let moved = i32_at(&mut b, 0x6064) - p;
+    assert!((65_000..=66_100).contains(&moved), "one motor revolution in a second: {moved}");
+    // A negative factor turns the motor the other way; 0x6044 reads 30 through it.
+    assert_eq!(b.sdo_write(ID, 0x604C, 1, &(-10i32).to_le_bytes()), ok_write(0x604C, 1));
+    b.run_until(ms(4000));
+    assert_eq!(b.sdo_upload(ID, 0x6044, 0), Ok(30i16.to_le_bytes().to_vec()));
+    let p = i32_at(&mut b, 0x6064);
+    b.run_until(ms(5000));
+    let moved = i32_at(&mut b, 0x6064) - p;
+    assert!((-66_100..=-65_000).contains(&moved), "one revolution backwards: {moved}");
+}
+
 const RPDO1: u16 = 0x204;
 const EMCY: u16 = 0x084;
 

@@ -142,8 +142,9 @@ impl Application for App {
             self.ip_period = ip::period(ctx, None).unwrap_or(self.ip_period);
         } else {
             // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
-            // default `rpdo_written`); a new gear factor converts 0x60FF anew (D60).
-            self.profile_written(ctx, if index == speed::GEAR_FACTOR { speed::TARGET_VELOCITY } else { index });
+            // default `rpdo_written`); a new gear factor (the profile's vl
+            // dimension factor) converts 0x60FF and 0x6042 anew (D60).
+            self.profile_written(ctx, index);
         }
     }
 

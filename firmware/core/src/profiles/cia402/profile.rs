@@ -179,7 +179,7 @@ impl<D: Drive> Cia402<D> {
             index::CONTROLWORD => self.controlword(ctx),
             index::MODES_OF_OPERATION => self.set_mode(ctx),
             index::TARGET_VELOCITY | index::VL_TARGET_VELOCITY => self.velocity_target(ctx),
-            index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY => {
+            index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY | index::VL_DIMENSION_FACTOR => {
                 self.s.units = units(ctx, config);
                 self.velocity_target(ctx);
             }
