@@ -102,8 +102,16 @@ const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
 impl Application for App {
     /// §5.5.3 (D27): mapping entries and COB-IDs are rewritten while the PDO
-    /// is valid, in Pre-operational; §5.5.2 (D26): type 254 is time-triggered.
-    const OPTIONS: ServiceOptions = ServiceOptions { pdo_rewrite_while_valid: true, tpdo_254_timer_only: true, ..ServiceOptions::CIA301 };
+    /// is valid, in Pre-operational; §5.5.2 (D26): type 254 is time-triggered;
+    /// P0830 bit 0 (§4.3.1): boot-up as DS 301 V3; bit 4 (§4.3.5): a life
+    /// guarding event enters Pre-operational only when set (D62).
+    const OPTIONS: ServiceOptions = ServiceOptions {
+        pdo_rewrite_while_valid: true,
+        tpdo_254_timer_only: true,
+        boot_up_v3: Some((speed::CONFIGURATION, 1 << 0)),
+        communication_error_pre_operational: Some((speed::CONFIGURATION, 1 << 4)),
+        ..ServiceOptions::CIA301
+    };
 
     fn download_check(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
         // D9: masters following the manual write 0x1017 with one byte (2F).

@@ -95,6 +95,16 @@ pub struct ServiceOptions {
     /// where CiA 305 waits for an NMT reset (and starts only an unconfigured
     /// node, with reset communication).
     pub lss_start_resets_node: bool,
+    /// An object (sub 0) and a mask: when any of its bits is set at
+    /// boot-up, the boot-up message is DS 301 V3's, an empty frame on
+    /// 0x80 + node-ID and then eight zero bytes on it ("reset of the error
+    /// register"), in place of 0x700 + node-ID with one zero byte.
+    pub boot_up_v3: Option<(u16, u32)>,
+    /// An object (sub 0) and a mask standing in for 0x1029 sub 1: a
+    /// communication error (class 1: life guarding, heartbeat, a device's
+    /// bus-off) enters Pre-operational when any of its bits is set, and
+    /// changes no state when none is.
+    pub communication_error_pre_operational: Option<(u16, u32)>,
 }
 
 impl ServiceOptions {
@@ -106,6 +116,8 @@ impl ServiceOptions {
         not_saved_by_1010: None,
         start_operational: None,
         lss_start_resets_node: false,
+        boot_up_v3: None,
+        communication_error_pre_operational: None,
     };
 }
 

@@ -19,7 +19,7 @@ const FEED_CONSTANT: u16 = 0x6092;
 /// 0x604C gear factor ("vl dimension factor"): numerator (sub 1), denominator (sub 2).
 pub(super) const GEAR_FACTOR: u16 = 0x604C;
 /// P0830 (0x433E) option-module configuration word.
-const CONFIGURATION: u16 = 0x433E;
+pub(super) const CONFIGURATION: u16 = 0x433E;
 /// P0830 bit 2: speeds in 0.1 min⁻¹.
 const TENTH: u32 = 1 << 2;
 
