@@ -133,7 +133,7 @@ pub struct Ctx<'a> {
     pub(super) node_id: u8,
     pub(super) state: NmtState,
     pub(super) now: Instant,
-    pub(super) options: ServiceOptions,
+    pub(super) options: &'static ServiceOptions,
     pub(super) effects: SdoEffects,
     /// Raw frames sent by the hook, queued by the node when the hook returns
     /// (an SDO transfer holds the transmit queue while its hooks run).

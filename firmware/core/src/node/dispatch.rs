@@ -261,7 +261,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             node_id: *node_id,
             state: nmt.state(),
             now,
-            options: A::OPTIONS,
+            options: &A::OPTIONS,
             effects: SdoEffects::default(),
             raw,
         };
