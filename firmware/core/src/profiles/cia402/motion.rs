@@ -47,7 +47,9 @@ pub const fn speed_per_s(q: i64) -> i64 {
 }
 
 /// increments/s² → Q24 increments per tick²: × 2^24 / 10^6, computed as
-/// × round(2^40 / 10^6) / 2^16; at least 1 so that every ramp ends.
+/// × round(2^40 / 10^6) / 2^16; at least 1 so that every ramp ends. Out of
+/// line: the 64-bit product at each caller cost about 200 B.
+#[inline(never)]
 pub const fn acceleration_q(per_s2: u32) -> i64 {
     let q = ((per_s2 as u64 * 1_099_512) >> 16) as i64;
     if q < 1 { 1 } else { q }

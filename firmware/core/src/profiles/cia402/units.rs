@@ -134,6 +134,8 @@ impl Units {
     }
 
     /// A magnitude (window, ramp, speed): user units to increments, no polarity.
+    // Out of line: some ten callers.
+    #[inline(never)]
     pub fn magnitude_to_inc(&self, user: u32) -> i64 {
         self.to_inc.apply(i64::from(user))
     }
