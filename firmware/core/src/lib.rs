@@ -14,8 +14,15 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 // Nothing panics on input (docs: style guide §2.3): no indexing or slicing,
-// `unwrap`, `expect` or `panic!` in the library; tests may use them.
-#![cfg_attr(not(test), deny(clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+// `unwrap`, `expect` or `panic!` in the library; tests may use them. No
+// arithmetic that can overflow either: counters and positions wrap
+// (`wrapping_*`), and every other `+ - * / %` carries a narrow
+// `#[allow(clippy::arithmetic_side_effects)]` with the reason it cannot
+// overflow (`Instant` and `Duration` saturate: clippy.toml).
+#![cfg_attr(
+    not(test),
+    deny(clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::arithmetic_side_effects)
+)]
 
 pub mod abort;
 pub mod axis;

@@ -40,6 +40,8 @@ impl<const N: usize> Default for TxQueue<N> {
 impl<const N: usize> TxQueue<N> {
     /// The occupancy bitmap is one `u32`; ring positions wrap with a mask.
     const FITS: () = assert!(N <= 32 && N.is_power_of_two(), "a TxQueue holds a power of two frames, at most 32");
+    /// Ring positions are modulo N.
+    const MASK: usize = N - 1;
 
     /// An empty queue.
     pub const fn new() -> Self {
@@ -81,9 +83,9 @@ impl<const N: usize> TxQueue<N> {
         let limit = if ahead { key.checked_sub(1) } else { Some(key) };
         // One insertion step from the tail: queued frames that leave after
         // the new one move back by one.
-        let mut at = (self.head + self.len) & (N - 1);
+        let mut at = self.head.wrapping_add(self.len) & Self::MASK;
         for _ in 0..self.len {
-            let before = at.wrapping_sub(1) & (N - 1);
+            let before = at.wrapping_sub(1) & Self::MASK;
             let (Some(&k), Some(&o)) = (self.keys.get(before), self.order.get(before)) else { break };
             if limit.is_some_and(|l| k <= l) {
                 break;
@@ -96,7 +98,11 @@ impl<const N: usize> TxQueue<N> {
         if let (Some(kk), Some(oo)) = (self.keys.get_mut(at), self.order.get_mut(at)) {
             (*kk, *oo) = (key, slot as u8);
         }
-        self.len += 1;
+        // A free slot was found above, with `len` < N.
+        #[allow(clippy::arithmetic_side_effects)]
+        {
+            self.len += 1;
+        }
         true
     }
 
@@ -114,8 +120,12 @@ impl<const N: usize> TxQueue<N> {
             return None;
         }
         let slot = *self.order.get(self.head)?;
-        self.head = (self.head + 1) & (N - 1);
-        self.len -= 1;
+        self.head = self.head.wrapping_add(1) & Self::MASK;
+        // `len` != 0: checked above.
+        #[allow(clippy::arithmetic_side_effects)]
+        {
+            self.len -= 1;
+        }
         self.used &= !(1 << slot);
         self.slots.get(usize::from(slot)).copied()
     }
@@ -131,6 +141,8 @@ impl<const N: usize> TxQueue<N> {
     }
 
     /// Free slots.
+    // `len` ≤ N: `insert` refuses a frame once N are queued.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn free(&self) -> usize {
         N - self.len
     }

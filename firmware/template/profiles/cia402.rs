@@ -7,7 +7,10 @@
 //! 0x6041 follows; in Operation enabled the mode 0x6060 moves the axis
 //! (0x6064 position, 0x606C velocity). Your own rules go around the calls
 //! into the profile, as in the devices of canopen-firmware (`ec5000.rs`,
-//! `agile.rs`).
+//! `agile.rs`). A drive of your own that keeps the axis model but reports
+//! its own fault codes (`Drive::fault`, an `EmcyCode`) or monitors the motor
+//! implements `canopen_core::axis::AxisDrive` around the `Axis` and writes
+//! only those methods (the EC5000's `Roller`, the b maXX 4400's `BmaxxDrive`).
 
 /// The object dictionary generated from `device.eds`.
 #[allow(missing_docs, dead_code, clippy::all)]

@@ -263,7 +263,11 @@ impl Ctx<'_> {
         match (CanFrame::standard(cob_id, data), self.raw.frames.get_mut(self.raw.len)) {
             (Some(frame), Some(slot)) => {
                 *slot = frame;
-                self.raw.len += 1;
+                // `get_mut` found the slot: `len` is below the burst's length.
+                #[allow(clippy::arithmetic_side_effects)]
+                {
+                    self.raw.len += 1;
+                }
                 true
             }
             _ => false,

@@ -86,7 +86,10 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
         self.sync.configure(dict, image);
         for i in 0..HB {
-            let value = dict.read_u32(image, index::CONSUMER_HEARTBEAT_TIME, (i + 1) as u8).unwrap_or(0);
+            // i < HB, at most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
+            #[allow(clippy::arithmetic_side_effects)]
+            let sub = (i + 1) as u8;
+            let value = dict.read_u32(image, index::CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
             self.consumers.configure(i, value);
         }
     }
@@ -165,7 +168,10 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         let capacity = dict.entries.iter().filter(|x| x.index == index::PRE_DEFINED_ERROR_FIELD && x.sub > 0).count().min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
         for sub in (2..=used.saturating_add(1).min(capacity)).rev() {
-            if let Ok(prev) = dict.read(image, index::PRE_DEFINED_ERROR_FIELD, sub - 1) {
+            // sub ≥ 2: the range starts there.
+            #[allow(clippy::arithmetic_side_effects)]
+            let older = sub - 1;
+            if let Ok(prev) = dict.read(image, index::PRE_DEFINED_ERROR_FIELD, older) {
                 let mut b = [0u8; 4];
                 if let Some(dst) = b.get_mut(..prev.len().min(4)) {
                     dst.copy_from_slice(prev.get(..dst.len()).unwrap_or(&[]));
@@ -269,10 +275,13 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                     Ok(v) => v,
                     Err(e) => return Some(Err(e)),
                 };
-                if self.consumers.conflicts(usize::from(sub) - 1, value) {
+                // sub > 0: the match arm's guard.
+                #[allow(clippy::arithmetic_side_effects)]
+                let consumer = usize::from(sub) - 1;
+                if self.consumers.conflicts(consumer, value) {
                     return Some(Err(AbortCode::ParameterIncompatible));
                 }
-                dict.write(image, index, sub, data).map(|()| self.consumers.configure(usize::from(sub) - 1, value))
+                dict.write(image, index, sub, data).map(|()| self.consumers.configure(consumer, value))
             }
             index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW => {
                 self.write_sync(index, sub, data, dict, image)

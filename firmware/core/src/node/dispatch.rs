@@ -10,7 +10,7 @@ use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
-use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode};
+use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode, error_control_cob_id};
 use crate::wire::time_stamp::TimeOfDay;
 
 use super::router::{Router, SdoEffects};
@@ -27,10 +27,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// from a task that owns the node, not from the CAN RX interrupt.
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
         use embedded_can::Frame;
-        self.counters.rx = self.counters.rx.wrapping_add(1);
+        self.counters.count_rx();
         // CANopen uses 11-bit identifiers only.
         let Some(cob_id) = frame.cob_id() else {
-            self.counters.ignored += 1;
+            self.counters.count_ignored();
             return;
         };
         let rtr = frame.is_remote_frame();
@@ -40,7 +40,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if !self.app.canopen() {
-            self.counters.ignored += 1;
+            self.counters.count_ignored();
             return;
         }
         if cob_id == LSS_MASTER_COB_ID && self.lss_on() && !rtr {
@@ -49,7 +49,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         if self.node_id == UNCONFIGURED {
-            self.counters.ignored += 1;
+            self.counters.count_ignored();
             return;
         }
         if cob_id == NMT_COB_ID {
@@ -67,14 +67,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let state = self.nmt.state();
         // Until the boot-up, a reset's stages included (CiA 301 §7.3.2.2.1).
         if state == NmtState::Initialising {
-            self.counters.ignored += 1;
+            self.counters.count_ignored();
             return;
         }
         // 0x601..=0x67F is restricted for every object but the SDO servers'
         // own pre-defined identifiers (CiA 301 §7.3.5): a request there
         // skips the checks for the other services (about 70 thumbv7m instructions).
         if !(0x601..=0x67F).contains(&cob_id) {
-            if cob_id == ERROR_CONTROL_BASE + u16::from(self.node_id) {
+            if cob_id == error_control_cob_id(self.node_id) {
                 if O::SERVICES.guarding && rtr && !self.comm.heartbeat.active() {
                     self.stale = true;
                     let expired = self.comm.guarding.is_expired();
@@ -84,7 +84,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                         self.communication_recovered();
                     }
                 } else {
-                    self.counters.ignored += 1;
+                    self.counters.count_ignored();
                 }
                 return;
             }
@@ -92,8 +92,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.stale = true;
                 match data {
                     [b] => match NmtStateCode::from_code(*b) {
+                        // The low byte of 0x701..=0x77F is the producer's node-ID.
                         Some(s) => {
-                            if self.comm.consumers.on_heartbeat((cob_id - ERROR_CONTROL_BASE) as u8, s, now) {
+                            if self.comm.consumers.on_heartbeat(cob_id as u8, s, now) {
                                 self.communication_recovered();
                             }
                         }
@@ -109,7 +110,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 match self.comm.sync.on_frame(now, data) {
                     Ok(event) => self.synchronise(now, &event),
                     Err(e) => {
-                        self.counters.malformed += 1;
+                        self.counters.count_malformed();
                         self.comm.emcy.signal(e.emcy_code(), [0; 5]);
                     }
                 }
@@ -155,12 +156,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.stale = true;
                 match TimeOfDay::parse(data) {
                     Some(t) => self.with_app(now, |app, ctx| app.on_time(ctx, t)),
-                    None => self.counters.malformed += 1,
+                    None => self.counters.count_malformed(),
                 }
                 return;
             }
         }
-        self.counters.ignored += 1;
+        self.counters.count_ignored();
     }
 
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
@@ -169,7 +170,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// and ignored, and the device's protocol warning raised if it has one.
     #[cold]
     fn broken_frame(&mut self, now: Instant) {
-        self.counters.malformed += 1;
+        self.counters.count_malformed();
         if let Some(code) = A::CAN_EMCY.protocol {
             // The next `process` sends it and takes the clearing's deadline, as for a controller event.
             self.stale = true;
@@ -200,12 +201,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let mut bits = received;
             while bits != 0 {
                 app.rpdo_written(ctx, bits.trailing_zeros() as u8);
-                bits &= bits - 1;
+                bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
             }
             let mut bits = timeouts;
             while bits != 0 {
                 app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::RpdoTimeout(bits.trailing_zeros() as u8)));
-                bits &= bits - 1;
+                bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
             }
         });
     }

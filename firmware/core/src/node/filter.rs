@@ -18,7 +18,7 @@ use crate::od::index;
 use crate::services::lss::UNCONFIGURED;
 use crate::storage::Storage;
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
-use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID};
+use crate::wire::nmt::{NMT_COB_ID, error_control_cob_id};
 
 use super::{Application, Node};
 
@@ -91,7 +91,11 @@ impl AcceptanceList {
         match self.ids.get_mut(self.len) {
             Some(slot) => {
                 *slot = id;
-                self.len += 1;
+                // `get_mut` found the slot: `len` is below the list's length.
+                #[allow(clippy::arithmetic_side_effects)]
+                {
+                    self.len += 1;
+                }
             }
             None => self.overflowed = true,
         }
@@ -115,7 +119,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // An unconfigured node takes part in LSS only; a device that switched CANopen off, in nothing.
         if self.node_id != UNCONFIGURED && self.app.canopen() {
             list.insert(NMT_COB_ID, false);
-            list.insert(ERROR_CONTROL_BASE + u16::from(self.node_id), true);
+            list.insert(error_control_cob_id(self.node_id), true);
             list.insert(self.comm.sync.cob_id(), false);
             if let Some(time) = self.comm.time_cob_id {
                 list.insert(time, false);
@@ -141,7 +145,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let (producer, time_ms) = ((value >> 16) as u8, value as u16);
                 // The node's own 0x700 + id is node guarding, never a heartbeat it consumes.
                 if time_ms != 0 && (1..=127).contains(&producer) && producer != self.node_id {
-                    list.insert(ERROR_CONTROL_BASE + u16::from(producer), false);
+                    list.insert(error_control_cob_id(producer), false);
                 }
             }
         }

@@ -89,7 +89,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A frame on 0x7E5.
     pub(super) fn lss_request(&mut self, now: Instant, data: &[u8]) {
         let Ok(request) = LssRequest::parse(data) else {
-            self.counters.malformed += 1;
+            self.counters.count_malformed();
             return;
         };
         let Some(lss) = self.lss_mut() else { return };

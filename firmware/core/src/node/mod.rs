@@ -101,6 +101,25 @@ pub struct Counters {
     pub ignored: u32,
 }
 
+/// The counters are diagnostics: each wraps at `u32::MAX` (a reader takes
+/// differences), so no count can overflow.
+impl Counters {
+    /// One frame received.
+    fn count_rx(&mut self) {
+        self.rx = self.rx.wrapping_add(1);
+    }
+
+    /// One frame ignored.
+    fn count_ignored(&mut self) {
+        self.ignored = self.ignored.wrapping_add(1);
+    }
+
+    /// One malformed frame.
+    fn count_malformed(&mut self) {
+        self.malformed = self.malformed.wrapping_add(1);
+    }
+}
+
 /// A CANopen slave.
 ///
 /// `R`, `T` and `HB` are the RPDO, TPDO and heartbeat-consumer counts of the
@@ -413,5 +432,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     fn push(&mut self, cob_id: u16, data: &[u8]) -> bool {
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Counters;
+
+    #[test]
+    fn the_frame_counters_wrap() {
+        let mut c = Counters { rx: u32::MAX, tx: 7, malformed: u32::MAX, ignored: u32::MAX };
+        c.count_rx();
+        c.count_malformed();
+        c.count_ignored();
+        assert_eq!(c, Counters { rx: 0, tx: 7, malformed: 0, ignored: 0 });
     }
 }

@@ -9,7 +9,7 @@ use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
 use crate::time::{Instant, earliest};
-use crate::wire::nmt::{ERROR_CONTROL_BASE, NmtStateCode};
+use crate::wire::nmt::{NmtStateCode, error_control_cob_id};
 
 use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
@@ -128,10 +128,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if self.boot_pending {
             let sent = match A::OPTIONS.boot_up_v3 {
                 Some(switch) if self.option_set(switch) => {
-                    let id = V3_BOOT_UP_BASE + u16::from(self.node_id);
+                    let id = V3_BOOT_UP_BASE | u16::from(self.node_id);
                     self.push(id, &[]) && self.push(id, &[0; 8])
                 }
-                _ => self.push(ERROR_CONTROL_BASE + u16::from(self.node_id), &[NmtStateCode::BootUp.code()]),
+                _ => self.push(error_control_cob_id(self.node_id), &[NmtStateCode::BootUp.code()]),
             };
             if sent {
                 self.boot_pending = false;
@@ -154,7 +154,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         if self.nmt.state() != NmtState::Initialising && self.comm.heartbeat.poll(now) {
-            let id = ERROR_CONTROL_BASE + u16::from(self.node_id);
+            let id = error_control_cob_id(self.node_id);
             self.push(id, &[self.nmt.state().reported().code()]);
         }
         while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {

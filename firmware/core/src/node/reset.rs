@@ -212,6 +212,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let image = self.od.image();
         for (i, slot) in self.sdo_cob_ids.iter_mut().enumerate() {
             // 128 servers at most: 0x1280 and up are SDO client parameters.
+            // i < 0x80: 0x1200 + i stays below 0x1280.
+            #[allow(clippy::arithmetic_side_effects)]
             let Some(index) = u16::try_from(i).ok().filter(|&i| i < 0x80).map(|i| index::SDO_SERVER_PARAMETER + i) else { break };
             let (default_rx, default_tx) =
                 if i == 0 { (Some(0x600 + u32::from(self.node_id)), Some(0x580 + u32::from(self.node_id))) } else { (None, None) };

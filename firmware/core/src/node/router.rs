@@ -114,6 +114,8 @@ impl Ctx<'_> {
         match sub {
             1 | 2 => {
                 let new = CobId(u32_exact(data)?);
+                // A u8 node-ID on 0x600 or 0x580 stays below 0x700.
+                #[allow(clippy::arithmetic_side_effects)]
                 let own = if sub == 1 { 0x600 } else { 0x580 } + u16::from(self.node_id);
                 let restricted = new.is_restricted() && !(index == index::SDO_SERVER_PARAMETER && new.can_id() == own);
                 let old = self.current_u32(index, sub).map(CobId);

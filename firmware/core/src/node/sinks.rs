@@ -62,7 +62,8 @@ impl PdoTx for PdoSink<'_> {
                 if code == EmcyCode::RPDO_TIMEOUT {
                     self.timeouts |= bit(rpdo);
                 }
-                self.emcy.raise(code, [rpdo as u8 + 1, 0, 0, 0, 0]);
+                // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
+                self.emcy.raise(code, [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
             }
             PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(code),
         }

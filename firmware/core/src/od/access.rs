@@ -64,7 +64,11 @@ pub(crate) fn copy_from(buf: &mut [u8], src: &[u8]) -> usize {
     let mut n = 0;
     for (d, s) in buf.iter_mut().zip(src) {
         *d = *s;
-        n += 1;
+        // At most `buf.len()` steps.
+        #[allow(clippy::arithmetic_side_effects)]
+        {
+            n += 1;
+        }
     }
     n
 }

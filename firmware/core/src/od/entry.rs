@@ -102,6 +102,8 @@ impl Entry {
     }
 
     /// Byte range of the value in its image (RAM or ROM).
+    // Two u16s: the sum fits a usize.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn range(&self) -> core::ops::Range<usize> {
         self.offset as usize..self.offset as usize + self.len as usize
     }

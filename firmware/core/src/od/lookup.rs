@@ -12,7 +12,8 @@ pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
     let entries: &'static [Entry] = dict.entries;
     let first = u32::from(index) << 8;
     let start = entries.partition_point(|e| e.key() < first);
-    let end = entries.partition_point(|e| e.key() < first + 0x100);
+    // The object's last key: sub-index 0xFF.
+    let end = entries.partition_point(|e| e.key() <= first | 0xFF);
     entries.get(start..end).unwrap_or(&[])
 }
 

@@ -283,6 +283,8 @@ impl Dictionary {
 }
 
 /// Adds `n` to the little-endian integer in `bytes`, wrapping at its width.
+// A byte plus a carry byte is at most 510; `carry >> 8` plus 1 cannot reach u64::MAX.
+#[allow(clippy::arithmetic_side_effects)]
 pub(crate) fn add_le(bytes: &mut [u8], n: u64) {
     let mut carry = n;
     for b in bytes.iter_mut() {
@@ -295,15 +297,17 @@ pub(crate) fn add_le(bytes: &mut [u8], n: u64) {
 /// Copies `N` bytes at `offset` out of an image. Generated accessors call
 /// this with constant offsets, so the bounds check folds away; an offset out
 /// of range (impossible for generated code) yields zeros rather than a panic.
+/// Here and below, an end that wraps lies below `offset`, so `get` refuses
+/// the range as it refuses one past the image.
 #[inline(always)]
 pub fn load<const N: usize>(image: &[u8], offset: usize) -> [u8; N] {
-    image.get(offset..offset + N).and_then(|s| s.try_into().ok()).unwrap_or([0; N])
+    image.get(offset..offset.wrapping_add(N)).and_then(|s| s.try_into().ok()).unwrap_or([0; N])
 }
 
 /// Stores `N` bytes at `offset` of an image; the counterpart of [`load`].
 #[inline(always)]
 pub fn store<const N: usize>(image: &mut [u8], offset: usize, value: [u8; N]) {
-    if let Some(slot) = image.get_mut(offset..offset + N) {
+    if let Some(slot) = image.get_mut(offset..offset.wrapping_add(N)) {
         slot.copy_from_slice(&value);
     }
 }
@@ -312,7 +316,7 @@ pub fn store<const N: usize>(image: &mut [u8], offset: usize, value: [u8; N]) {
 #[inline(always)]
 pub fn load_uint<const N: usize>(image: &[u8], offset: usize) -> u64 {
     let mut b = [0u8; 8];
-    if let (Some(dst), Some(src)) = (b.get_mut(..N), image.get(offset..offset + N)) {
+    if let (Some(dst), Some(src)) = (b.get_mut(..N), image.get(offset..offset.wrapping_add(N))) {
         dst.copy_from_slice(src);
     }
     u64::from_le_bytes(b)
@@ -321,6 +325,8 @@ pub fn load_uint<const N: usize>(image: &[u8], offset: usize) -> u64 {
 /// Reads an `N`-byte little-endian two's-complement integer, sign-extended.
 #[inline(always)]
 pub fn load_int<const N: usize>(image: &[u8], offset: usize) -> i64 {
+    // 8 to 64 bits: the shift is 0..=56.
+    #[allow(clippy::arithmetic_side_effects)]
     let shift = 64 - 8 * N.clamp(1, 8) as u32;
     ((load_uint::<N>(image, offset) << shift) as i64) >> shift
 }
@@ -328,7 +334,7 @@ pub fn load_int<const N: usize>(image: &[u8], offset: usize) -> i64 {
 /// Stores the low `N` bytes of `value`, little-endian.
 #[inline(always)]
 pub fn store_uint<const N: usize>(image: &mut [u8], offset: usize, value: u64) {
-    if let (Some(dst), Some(src)) = (image.get_mut(offset..offset + N), value.to_le_bytes().get(..N)) {
+    if let (Some(dst), Some(src)) = (image.get_mut(offset..offset.wrapping_add(N)), value.to_le_bytes().get(..N)) {
         dst.copy_from_slice(src);
     }
 }
@@ -336,13 +342,13 @@ pub fn store_uint<const N: usize>(image: &mut [u8], offset: usize, value: u64) {
 /// The `len` bytes of an OCTET_STRING or UNICODE_STRING entry.
 #[inline]
 pub fn load_bytes(image: &[u8], offset: usize, len: usize) -> &[u8] {
-    image.get(offset..offset + len).unwrap_or(&[])
+    image.get(offset..offset.wrapping_add(len)).unwrap_or(&[])
 }
 
 /// The bytes of a string entry up to its first NUL.
 #[inline]
 pub fn load_str(image: &[u8], offset: usize, len: usize) -> &[u8] {
-    until_nul(image.get(offset..offset + len).unwrap_or(&[]))
+    until_nul(image.get(offset..offset.wrapping_add(len)).unwrap_or(&[]))
 }
 
 pub(crate) fn until_nul(s: &[u8]) -> &[u8] {
@@ -354,7 +360,7 @@ pub(crate) fn until_nul(s: &[u8]) -> &[u8] {
 /// number of bytes stored.
 #[inline]
 pub fn store_str(image: &mut [u8], offset: usize, len: usize, value: &[u8]) -> usize {
-    let Some(slot) = image.get_mut(offset..offset + len) else { return 0 };
+    let Some(slot) = image.get_mut(offset..offset.wrapping_add(len)) else { return 0 };
     let n = value.len().min(slot.len());
     let (head, tail) = slot.split_at_mut(n);
     head.copy_from_slice(value.get(..n).unwrap_or(&[]));

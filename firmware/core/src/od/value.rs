@@ -18,6 +18,9 @@ pub enum Number {
 /// The bits of the f64 equal to the f32 with bits `b` (as `f64::from`, NaN
 /// payload kept). In integer arithmetic: a Cortex-M3 has no FPU, and the
 /// soft-float conversion and comparison would be the only float code in an image.
+// A subnormal's mantissa (1..2^23) has 41..=63 leading zeros, so `shift` is
+// 1..=23; an exponent below 0xFF plus 896 stays below 2^11.
+#[allow(clippy::arithmetic_side_effects)]
 fn widen_f32(b: u32) -> u64 {
     let sign = u64::from(b >> 31) << 63;
     let exponent = u64::from((b >> 23) & 0xFF);
@@ -37,6 +40,8 @@ fn widen_f32(b: u32) -> u64 {
 
 /// A key that orders f64 bit patterns as `<` orders the numbers, in
 /// integer arithmetic: -0 and +0 are equal, and NaN (`None`) compares with nothing.
+// The magnitude is at most infinity's bits (below 2^63): its negation fits.
+#[allow(clippy::arithmetic_side_effects)]
 fn order_key(bits: u64) -> Option<i64> {
     let magnitude = bits & !(1 << 63);
     if magnitude > f64::INFINITY.to_bits() {
@@ -60,6 +65,8 @@ impl Number {
         Some(match data_type.kind() {
             Kind::Unsigned => Number::Unsigned(unsigned),
             Kind::Signed => {
+                // size ≤ 8: checked above.
+                #[allow(clippy::arithmetic_side_effects)]
                 let shift = 64 - 8 * size as u32;
                 Number::Signed(((unsigned << shift) as i64) >> shift)
             }

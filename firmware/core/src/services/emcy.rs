@@ -138,7 +138,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             (Some(slot), Some(bits)) => {
                 *slot = code;
                 *bits = register;
-                self.active_len += 1;
+                // `get_mut` found the slot: `active_len` < A.
+                #[allow(clippy::arithmetic_side_effects)]
+                {
+                    self.active_len += 1;
+                }
             }
             _ => self.lost_errors = true,
         }
@@ -193,16 +197,23 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
         // A plain loop: `copy_within` pulls `memmove` (1.6 KiB) into every image.
         for i in pos..self.active_len.saturating_sub(1) {
-            let next = self.active.get(i + 1).copied().unwrap_or(EmcyCode::NO_ERROR);
+            // i + 1 < active_len ≤ A: the loop's bound.
+            #[allow(clippy::arithmetic_side_effects)]
+            let after = i + 1;
+            let next = self.active.get(after).copied().unwrap_or(EmcyCode::NO_ERROR);
             if let Some(slot) = self.active.get_mut(i) {
                 *slot = next;
             }
-            let next = self.active_bits.get(i + 1).copied().unwrap_or(0);
+            let next = self.active_bits.get(after).copied().unwrap_or(0);
             if let Some(slot) = self.active_bits.get_mut(i) {
                 *slot = next;
             }
         }
-        self.active_len -= 1;
+        // `position` found the code among the first `active_len`: it is at least 1.
+        #[allow(clippy::arithmetic_side_effects)]
+        {
+            self.active_len -= 1;
+        }
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
             self.push(Emcy { code: EmcyCode::NO_ERROR, register: self.register(), info: [0; 5] });
@@ -222,10 +233,33 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             self.lost_errors = true;
             return;
         }
-        if let Some(slot) = self.queue.get_mut((self.head + self.len) % Q.max(1)) {
+        if let Some(slot) = self.queue.get_mut(Self::ring(self.head, self.len)) {
             *slot = e;
-            self.len += 1;
+            // `len` < Q: checked above.
+            #[allow(clippy::arithmetic_side_effects)]
+            {
+                self.len += 1;
+            }
         }
+    }
+
+    /// The ring position `n` after `head`.
+    // `head` < Q and `n` ≤ Q: the sum fits; `Q.max(1)` is never zero.
+    #[allow(clippy::arithmetic_side_effects)]
+    fn ring(head: usize, n: usize) -> usize {
+        (head + n) % Q.max(1)
+    }
+
+    /// Takes the oldest queued message (`len` != 0).
+    fn pop(&mut self) -> Option<Emcy> {
+        let e = *self.queue.get(self.head)?;
+        self.head = Self::ring(self.head, 1);
+        // The callers checked `len` != 0.
+        #[allow(clippy::arithmetic_side_effects)]
+        {
+            self.len -= 1;
+        }
+        Some(e)
     }
 
     /// The next message that may go out at `now` (inhibit time respected).
@@ -234,9 +268,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.len == 0 || self.last_sent.is_some_and(|t| now < t + self.inhibit) {
             return None;
         }
-        let e = *self.queue.get(self.head)?;
-        self.head = (self.head + 1) % Q.max(1);
-        self.len -= 1;
+        let e = self.pop()?;
         self.last_sent = Some(now);
         Some((cob_id, e))
     }
@@ -248,10 +280,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.cob_id.is_some() || self.len == 0 {
             return None;
         }
-        let e = *self.queue.get(self.head)?;
-        self.head = (self.head + 1) % Q.max(1);
-        self.len -= 1;
-        Some(e)
+        self.pop()
     }
 
     /// Whether messages wait to go out (or, while EMCY is off, to be recorded).

@@ -179,6 +179,8 @@ impl Guarding {
 
     /// Sets the life time from 0x100C (guard time, ms) × 0x100D (factor).
     /// Life guarding starts with the first guarding request.
+    // A u16 times a u8 fits a u64.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn configure(&mut self, guard_time_ms: u16, factor: u8) {
         self.lifetime = Duration::from_millis(u64::from(guard_time_ms) * u64::from(factor));
         self.deadline = None;

@@ -147,7 +147,11 @@ impl LssSlave {
                 let expected = part as u8;
                 // The four parts come in order; anything else starts over.
                 if self.selective == expected && self.address.get(usize::from(expected)) == Some(&value) {
-                    self.selective += 1;
+                    // `expected` is an address part, 0..=3.
+                    #[allow(clippy::arithmetic_side_effects)]
+                    {
+                        self.selective += 1;
+                    }
                     if self.selective == 4 {
                         self.selective = 0;
                         self.mode = Mode::Configuration;
@@ -179,7 +183,10 @@ impl LssSlave {
             Q::ActivateBitTiming(delay_ms) if configuring => LssAction::ActivateBitTiming { delay_ms, index: self.pending_bit_rate },
             Q::StoreConfiguration if configuring => LssAction::Store { node_id: self.pending_node_id, bit_rate: self.pending_bit_rate },
             Q::Inquire(part) if configuring => {
-                LssAction::Answer(answer_u32(0x5A + part as u8, self.address.get(part as usize).copied().unwrap_or(0)))
+                // An address part is 0..=3: 0x5A..=0x5D.
+                #[allow(clippy::arithmetic_side_effects)]
+                let cs = 0x5A + part as u8;
+                LssAction::Answer(answer_u32(cs, self.address.get(part as usize).copied().unwrap_or(0)))
             }
             Q::InquireNodeId if configuring => LssAction::Answer(answer(0x5E, self.active_node_id, 0)),
             Q::IdentifyRemote(k, value) => {

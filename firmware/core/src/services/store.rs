@@ -151,8 +151,9 @@ struct Header {
 fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<Header> {
     let mut h = [0u8; HEADER];
     storage.read(region, 0, &mut h).ok()?;
-    let word = |i: usize| h.get(i..i + 4).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
-    let half = |i: usize| h.get(i..i + 2).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes);
+    // As in `od::load`: a wrapped end is below `i`, and `get` refuses it.
+    let word = |i: usize| h.get(i..i.wrapping_add(4)).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes);
+    let half = |i: usize| h.get(i..i.wrapping_add(2)).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes);
     if word(0)? != MAGIC || half(4)? != VERSION || word(8)? != dict.layout_id {
         return None;
     }
@@ -162,6 +163,8 @@ fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Opti
 }
 
 /// Whether the payload of `region` matches the header's CRC (else the write was cut short).
+// `off` < `header.len` in the loop, and `off + n` ≤ `header.len` (a u16).
+#[allow(clippy::arithmetic_side_effects)]
 fn payload_intact(storage: &mut dyn Storage, region: u8, header: &Header) -> bool {
     let mut crc = !0u32;
     let mut buf = [0u8; 64];
@@ -261,6 +264,8 @@ impl StoredSet {
     /// Copies `range` of the stored image into `image`. If the storage
     /// fails, the range gets its defaults back (`$NODEID` entries are loaded
     /// one at a time, so an absolute default is right) and the load stops.
+    // `range` lies in the image (a slice, below isize::MAX): 24 more fit.
+    #[allow(clippy::arithmetic_side_effects)]
     fn read_into(&self, dict: &Dictionary, image: &mut [u8], storage: &mut dyn Storage, range: core::ops::Range<usize>) -> bool {
         let (Some(dst), Some(defaults)) = (image.get_mut(range.clone()), dict.defaults.get(range.clone())) else { return false };
         if dst.is_empty() || storage.read(self.region, HEADER + range.start, dst).is_ok() {
@@ -271,6 +276,9 @@ impl StoredSet {
     }
 }
 
+/// Subtracts `n` from the little-endian integer in `bytes`, wrapping at its width.
+// `v` is -255..=255, and `borrow >> 8` plus 1 cannot reach u64::MAX.
+#[allow(clippy::arithmetic_side_effects)]
 fn sub_le(bytes: &mut [u8], n: u64) {
     let mut borrow = n;
     for b in bytes.iter_mut() {
@@ -291,7 +299,10 @@ fn sub_le(bytes: &mut [u8], n: u64) {
 /// Within the saved scopes, only the bytes of `from_image` come from the
 /// image, never those of `keep`: the rest keeps the newest set (the
 /// defaults if there is none).
-#[allow(clippy::too_many_arguments)]
+// `len` is a slice's length (below isize::MAX: 24 more fit), every position
+// below it, `set.region` 0 or 1, and each subtraction follows the comparison
+// that orders it.
+#[allow(clippy::too_many_arguments, clippy::arithmetic_side_effects)]
 fn write_set(
     dict: &Dictionary,
     image: &[u8],
@@ -451,6 +462,8 @@ pub fn save_lss(
 /// from the storage, no image built. A read-only entry gives what the
 /// image held when the set was saved: a value the device keeps across
 /// power cycles itself (an encoder's preset offset), which a reset does not load.
+// An entry's range: two u16s, and 24 more fit a usize.
+#[allow(clippy::arithmetic_side_effects)]
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;

@@ -173,7 +173,7 @@ impl SyncService {
                 }
                 self.next = Some(next);
                 let counter = (self.overflow != 0).then(|| {
-                    self.counter = if self.counter >= self.overflow { 1 } else { self.counter + 1 };
+                    self.counter = if self.counter >= self.overflow { 1 } else { self.counter.wrapping_add(1) };
                     self.counter
                 });
                 Some(self.event(now, counter))

@@ -103,6 +103,12 @@ pub const NMT_COB_ID: u16 = 0x000;
 /// Base COB-ID of error control (heartbeat, boot-up, guarding): 0x700 + node-id.
 pub const ERROR_CONTROL_BASE: u16 = 0x700;
 
+/// The error control COB-ID of node `node_id` (0x700 + node-ID). A `u8`
+/// sits below bit 8, so the OR is the sum and cannot carry.
+pub const fn error_control_cob_id(node_id: u8) -> u16 {
+    ERROR_CONTROL_BASE | node_id as u16
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -199,6 +199,8 @@ fn segment_frame(byte0: u8, d: [u8; 7]) -> [u8; 8] {
 const TOGGLE: u8 = 0x10;
 
 /// Decodes the `nnes` bits (bits 3–0) of an initiate frame with bytes 4–7.
+// `n` is two bits: 4 − n is 1..=4.
+#[allow(clippy::arithmetic_side_effects)]
 fn initiate_data(b0: u8, f: &[u8; 8]) -> InitiateData {
     let expedited = b0 & 0x02 != 0;
     let size_indicated = b0 & 0x01 != 0;
@@ -212,6 +214,8 @@ fn initiate_data(b0: u8, f: &[u8; 8]) -> InitiateData {
 
 /// The `nnes` bits and bytes 4–7 of an initiate frame. An expedited size
 /// outside 1..=4 is sent as the nearest valid one.
+// `k` is clamped to 1..=4 first.
+#[allow(clippy::arithmetic_side_effects)]
 fn emit_initiate_data(data: &InitiateData) -> (u8, [u8; 4]) {
     match *data {
         InitiateData::Expedited { data, size: Some(k) } => (((4 - k.clamp(1, 4)) << 2) | 0x03, data),
@@ -222,11 +226,15 @@ fn emit_initiate_data(data: &InitiateData) -> (u8, [u8; 4]) {
 }
 
 /// Byte 0 of a segment: `t nnn c` in bits 4–0, with 7 − `len` unused bytes.
+// `len` is cut to 7 first.
+#[allow(clippy::arithmetic_side_effects)]
 fn segment_byte0(cs: u8, toggle: bool, len: u8, last: bool) -> u8 {
     cs | if toggle { TOGGLE } else { 0 } | ((7 - len.min(7)) << 1) | u8::from(last)
 }
 
 /// The `len` and `last` fields of a segment's byte 0.
+// Three bits: 7 − n is 0..=7.
+#[allow(clippy::arithmetic_side_effects)]
 fn segment_fields(b0: u8) -> (bool, u8, bool) {
     (b0 & TOGGLE != 0, 7 - ((b0 >> 1) & 0x07), b0 & 0x01 != 0)
 }

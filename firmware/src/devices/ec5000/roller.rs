@@ -4,19 +4,20 @@
 //! blocked shaft, a speed the load holds down, a motor too cold, and the
 //! minimum speed below which it holds its position (Zero Motion Hold).
 
-use canopen_core::axis::{Axis, fault};
-use canopen_core::profiles::cia402::drive::{Drive, SetPoint, Switches};
+use canopen_core::axis::{Axis, AxisDrive, fault};
+use canopen_core::profiles::cia402::drive::{Drive, SetPoint};
+use canopen_core::wire::emcy::EmcyCode;
 
 /// 0x4320 "Motor temperature too low" (F).
-pub const TOO_COLD: u16 = 0x4320;
+pub const TOO_COLD: EmcyCode = EmcyCode(0x4320);
 /// 0x7121 "Motor shaft is blocked" (F).
-pub const BLOCKED: u16 = 0x7121;
+pub const BLOCKED: EmcyCode = EmcyCode(0x7121);
 /// 0x8600 "Position regulator failure" (F): the model's following error 0x8611.
-pub const POSITION_REGULATOR: u16 = 0x8600;
+pub const POSITION_REGULATOR: EmcyCode = EmcyCode(0x8600);
 /// 0xFF15 "Over current regulator output" (F): the model's power stage fault 0x2320.
-pub const OVER_CURRENT_OUTPUT: u16 = 0xFF15;
+pub const OVER_CURRENT_OUTPUT: EmcyCode = EmcyCode(0xFF15);
 /// 0xFF50 "Motor speed error (heavy load)" (F).
-pub const SPEED_ERROR: u16 = 0xFF50;
+pub const SPEED_ERROR: EmcyCode = EmcyCode(0xFF50);
 
 /// The lowest motor speed [inc/s]: 100 min⁻¹ at 4096 inc/rev (D52).
 pub const MIN_VELOCITY: u32 = 6_827;
@@ -39,7 +40,7 @@ pub struct Roller {
     /// The temperature limiter halves the speed limit (warning 0xFFAA).
     pub derated: bool,
     /// A fault of the roller's own monitoring, until a fault reset.
-    fault: u16,
+    fault: EmcyCode,
     /// The velocity demand of the last set-point [inc/s].
     demand: i32,
     /// Milliseconds the roller stood, and turned at less than half the demand, against its demand.
@@ -49,7 +50,8 @@ pub struct Roller {
 
 impl Roller {
     /// At power-on: all zero bits.
-    pub const NEW: Roller = Roller { axis: Axis::NEW, warned: false, derated: false, fault: 0, demand: 0, standing_ms: 0, lagging_ms: 0 };
+    pub const NEW: Roller =
+        Roller { axis: Axis::NEW, warned: false, derated: false, fault: EmcyCode::NO_ERROR, demand: 0, standing_ms: 0, lagging_ms: 0 };
 
     /// The speed warning 0xFFD4: the roller turns slower than half its demand (heavy load).
     pub fn slowed(&self) -> bool {
@@ -57,10 +59,17 @@ impl Roller {
     }
 }
 
-impl Drive for Roller {
+/// The axis model with the roller's monitoring; the rest is the axis's.
+impl AxisDrive for Roller {
+    fn axis(&self) -> &Axis {
+        &self.axis
+    }
+    fn axis_mut(&mut self) -> &mut Axis {
+        &mut self.axis
+    }
     fn reset(&mut self) {
         self.axis.reset();
-        (self.fault, self.demand, self.standing_ms, self.lagging_ms) = (0, 0, 0, 0);
+        (self.fault, self.demand, self.standing_ms, self.lagging_ms) = (EmcyCode::NO_ERROR, 0, 0, 0);
     }
     fn enable(&mut self, on: bool) {
         // Switched off, the roller has no demand to follow.
@@ -82,10 +91,10 @@ impl Drive for Roller {
         // The speed in the demanded direction: a roller pushed back lags too.
         let along = if demand < 0 { actual.saturating_neg() } else { actual };
         let count = |ms: u16, on: bool| if on { ms.saturating_add(1) } else { 0 };
-        let moving = demand.unsigned_abs() >= MIN_VELOCITY && self.axis.fault() == 0;
+        let moving = demand.unsigned_abs() >= MIN_VELOCITY && self.axis.fault() == EmcyCode::NO_ERROR;
         self.standing_ms = count(self.standing_ms, moving && actual.unsigned_abs() < MIN_VELOCITY);
         self.lagging_ms = count(self.lagging_ms, moving && along < (demand / 2).saturating_abs());
-        if self.fault == 0 {
+        if self.fault == EmcyCode::NO_ERROR {
             if self.standing_ms >= BLOCKED_MS {
                 self.fault = BLOCKED;
             } else if self.lagging_ms >= SPEED_ERROR_MS {
@@ -93,28 +102,10 @@ impl Drive for Roller {
             }
         }
     }
-    fn position(&self) -> i64 {
-        self.axis.position()
-    }
-    fn set_position(&mut self, position: i64) {
-        self.axis.set_position(position);
-    }
-    fn velocity(&self) -> i32 {
-        self.axis.velocity()
-    }
-    fn torque(&self) -> i16 {
-        self.axis.torque()
-    }
-    fn temperature(&self) -> i16 {
-        self.axis.temperature()
-    }
-    fn dc_link_mv(&self) -> u32 {
-        self.axis.dc_link_mv()
-    }
-    fn fault(&self) -> u16 {
+    fn fault(&self) -> EmcyCode {
         match self.axis.fault() {
-            _ if self.fault != 0 => self.fault,
-            0 if self.temperature() <= COLD_FAULT_C => TOO_COLD,
+            _ if self.fault != EmcyCode::NO_ERROR => self.fault,
+            EmcyCode::NO_ERROR if self.axis.temperature() <= COLD_FAULT_C => TOO_COLD,
             fault::POWER_STAGE => OVER_CURRENT_OUTPUT,
             fault::FOLLOWING_ERROR => POSITION_REGULATOR,
             code => code,
@@ -123,9 +114,9 @@ impl Drive for Roller {
     /// Bytes 3-4: the temperature [°C] of a temperature fault, the DC link
     /// voltage [mV] of a voltage fault (D54).
     fn fault_info(&self) -> [u8; 5] {
-        let value = match self.fault() >> 8 {
-            0x32 => self.dc_link_mv().min(0xFFFF) as u16,
-            0x43 => self.temperature() as u16,
+        let value = match AxisDrive::fault(self).value() >> 8 {
+            0x32 => self.axis.dc_link_mv().min(0xFFFF) as u16,
+            0x43 => self.axis.temperature() as u16,
             _ => 0,
         };
         let [lo, hi] = value.to_le_bytes();
@@ -135,17 +126,11 @@ impl Drive for Roller {
         self.warned || self.slowed()
     }
     fn reset_fault(&mut self) -> bool {
-        let cleared = self.axis.reset_fault() && self.temperature() > COLD_FAULT_C;
+        let cleared = self.axis.reset_fault() && self.axis.temperature() > COLD_FAULT_C;
         if cleared {
-            (self.fault, self.standing_ms, self.lagging_ms) = (0, 0, 0);
+            (self.fault, self.standing_ms, self.lagging_ms) = (EmcyCode::NO_ERROR, 0, 0);
         }
         cleared
-    }
-    fn switches(&self) -> Switches {
-        self.axis.switches()
-    }
-    fn max_acceleration(&self) -> u32 {
-        self.axis.max_acceleration()
     }
     fn max_velocity(&self) -> u32 {
         self.axis.max_velocity() >> u32::from(self.derated)
@@ -153,16 +138,15 @@ impl Drive for Roller {
     fn min_velocity(&self) -> u32 {
         MIN_VELOCITY
     }
-    fn at_rest(&self) -> bool {
-        self.axis.at_rest()
-    }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    // `Drive` alone, as the profile sees the roller (not `AxisDrive`).
+    use super::{OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller};
     use crate::devices::ec5000::AXIS;
-    use canopen_core::axis::Injected;
+    use canopen_core::axis::{Injected, fault};
+    use canopen_core::profiles::cia402::drive::{Drive, SetPoint};
 
     fn roller() -> Roller {
         let mut r = Roller::NEW;

@@ -12,6 +12,7 @@
 use canopen_core::node::Ctx;
 use canopen_core::profiles::cia402::drive::{Drive, SetPoint};
 use canopen_core::time::{Duration, Instant};
+use canopen_core::wire::emcy::EmcyCode;
 
 use super::registers::{self as reg, read_i32, set};
 
@@ -178,7 +179,7 @@ impl<D: Drive + Limits> Servo<D> {
     /// timeout has not struck (the RUN input is always on in the model).
     fn apply_enable(&mut self, ctx: &mut Ctx<'_>) {
         let mode = reg::read_u32(ctx, reg::MODE);
-        let want = mode & MODE_DISABLE == 0 && self.drive.fault() == 0 && !self.timed_out;
+        let want = mode & MODE_DISABLE == 0 && self.drive.fault() == EmcyCode::NO_ERROR && !self.timed_out;
         if want != self.enabled {
             self.enabled = want;
             self.drive.enable(want);
@@ -224,7 +225,7 @@ impl<D: Drive + Limits> Servo<D> {
                 deadline = Some(expiry);
             }
         }
-        if self.enabled && self.drive.fault() != 0 || self.timed_out {
+        if self.enabled && self.drive.fault() != EmcyCode::NO_ERROR || self.timed_out {
             self.apply_enable(ctx);
         }
         if let Some(mut tick) = self.next_tick {
@@ -267,7 +268,7 @@ impl<D: Drive + Limits> Servo<D> {
     fn errors(&self) -> u32 {
         use canopen_core::axis::fault;
         let drive = match self.drive.fault() {
-            0 => 0,
+            EmcyCode::NO_ERROR => 0,
             fault::UNDER_VOLTAGE => error::DC_LINK,
             fault::OVER_TEMPERATURE => error::TEMPERATURE,
             fault::FOLLOWING_ERROR => error::FOLLOWING,
@@ -284,7 +285,7 @@ impl<D: Drive + Limits> Servo<D> {
         let torque = div_round(i64::from(self.drive.torque()) * NUM_MAX, TORQUE_AT_NUM_MAX).clamp(-NUM_MAX, NUM_MAX);
         let status = self.status(ctx);
         let switches = self.drive.switches();
-        let ready = self.drive.fault() == 0 && !self.timed_out;
+        let ready = self.drive.fault() == EmcyCode::NO_ERROR && !self.timed_out;
         set(ctx, reg::SPEED_ACTUAL, speed as u32);
         set(ctx, reg::POS_ACTUAL, self.drive.position() as u32);
         set(ctx, reg::TORQUE_OUT, torque as u32);

@@ -7,6 +7,8 @@
 //! increments, velocities in increments per second, accelerations in
 //! increments per second squared, torque in per mille of the rated torque.
 
+use crate::wire::emcy::EmcyCode;
+
 /// What the drive's control loops follow during the next tick.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SetPoint {
@@ -62,8 +64,8 @@ pub trait Drive {
     fn temperature(&self) -> i16;
     /// DC link voltage [mV].
     fn dc_link_mv(&self) -> u32;
-    /// The active fault as a CiA 402 error code (0x603F), 0 for none.
-    fn fault(&self) -> u16;
+    /// The active fault as a CiA 402 error code (0x603F), [`EmcyCode::NO_ERROR`] for none.
+    fn fault(&self) -> EmcyCode;
     /// The manufacturer-specific field of the fault's EMCY (bytes 3-7),
     /// such as the drive's own error number; zeros unless a drive has one.
     fn fault_info(&self) -> [u8; 5] {

@@ -71,6 +71,8 @@ impl Hm {
 
     /// One tick: what the trajectory does, given the switches. Method 35/37
     /// sets home at its start ([`Step::SetHome`] once).
+    // `direction` is -1, 0 or +1: its negation fits.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn tick(&mut self, switches: Switches, just_started: bool) -> Step {
         let on_switch = if self.direction < 0 { switches.negative_limit } else { switches.positive_limit };
         match self.phase {

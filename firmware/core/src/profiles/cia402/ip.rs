@@ -31,7 +31,7 @@ impl Ip {
     pub fn set_point(&mut self, demand: &Demand, target: i64, period_log2: u8) {
         let period_log2 = period_log2.min(7);
         self.target_q = target << FRACTION;
-        self.step_q = (self.target_q - demand.position_q) >> period_log2;
+        self.step_q = self.target_q.wrapping_sub(demand.position_q) >> period_log2;
         self.remaining = 1 << period_log2;
     }
 
@@ -42,10 +42,14 @@ impl Ip {
             (demand.velocity_q, self.step_q) = (0, 0);
             return;
         }
-        self.remaining -= 1;
+        // `remaining` != 0: checked above.
+        #[allow(clippy::arithmetic_side_effects)]
+        {
+            self.remaining -= 1;
+        }
         demand.velocity_q = self.step_q;
         // The last step lands exactly on the set-point (the shift rounds down).
-        demand.position_q = if self.remaining == 0 { self.target_q } else { demand.position_q + self.step_q };
+        demand.position_q = if self.remaining == 0 { self.target_q } else { demand.position_q.wrapping_add(self.step_q) };
     }
 
     /// The demand stands on the last set-point: the record repeated the

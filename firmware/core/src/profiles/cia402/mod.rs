@@ -55,6 +55,8 @@ pub mod mode {
 
     /// The bit of a mode in 0x6502 supported drive modes (CiA 402-2 §6.4.2):
     /// pp 0, vl 1, pv 2, tq 3, hm 5, ip 6, csp 7, csv 8, cst 9.
+    // `mode` is 1..=10 where it shifts.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn supported_bit(mode: i8) -> u32 {
         match mode {
             1..=4 => 1 << (mode - 1),

@@ -17,6 +17,8 @@ pub const FRACTION: u32 = 24;
 
 /// increments/s → Q24 increments per tick: × 2^24 / 1000, computed as
 /// × round(2^40 / 1000) / 2^16.
+// |per_s| ≤ 2^32 after the clamp, times about 2^30: below 2^63.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn speed_q(per_s: i64) -> i64 {
     // Clamped so that the product fits: a saturating 64-bit multiplication
     // would check for overflow with a division on a Cortex-M3.
@@ -33,6 +35,8 @@ pub const fn speed_q(per_s: i64) -> i64 {
 /// Q24 increments per tick → increments/s, rounded. Out of line: inlined
 /// at each of its callers the 64-bit clamp and multiply cost each drive
 /// image about 800 B of flash, the call one instruction a frame.
+// |q| ≤ i64::MAX / 1001 after the clamp: × 1000 plus 2^23 fits.
+#[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
 pub const fn speed_per_s(q: i64) -> i64 {
     const LIMIT: i64 = i64::MAX / 1001;
@@ -49,6 +53,8 @@ pub const fn speed_per_s(q: i64) -> i64 {
 /// increments/s² → Q24 increments per tick²: × 2^24 / 10^6, computed as
 /// × round(2^40 / 10^6) / 2^16; at least 1 so that every ramp ends. Out of
 /// line: the 64-bit product at each caller cost about 200 B.
+// A u32 times about 2^20 fits a u64.
+#[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
 pub const fn acceleration_q(per_s2: u32) -> i64 {
     let q = ((per_s2 as u64 * 1_099_512) >> 16) as i64;
@@ -91,8 +97,14 @@ impl Demand {
         let v = self.velocity_q;
         let speeding_up = (target > 0 && target > v && v >= 0) || (target < 0 && target < v && v <= 0);
         let step = if speeding_up { acceleration } else { deceleration };
-        self.velocity_q = if target > v { (v + step).min(target) } else { (v - step).max(target) };
-        self.position_q += self.velocity_q;
+        // Velocities come from `speed_q` (|v| < 2^47) and accelerations from
+        // `acceleration_q` (< 2^37): a step cannot overflow.
+        #[allow(clippy::arithmetic_side_effects)]
+        let velocity = if target > v { (v + step).min(target) } else { (v - step).max(target) };
+        self.velocity_q = velocity;
+        // Positions wrap like an encoder count: 2^63 in Q24 is a multiple of
+        // 2^32 increments, so the 32-bit position objects wrap as before.
+        self.position_q = self.position_q.wrapping_add(velocity);
     }
 
     /// One tick of a point-to-point move to `target` [Q24 inc], `beyond`
@@ -101,15 +113,17 @@ impl Demand {
     /// reached (the demand is then exactly on it).
     #[inline(never)]
     pub fn move_to(&mut self, target: i64, beyond: u64, speed: i64, acceleration: i64, deceleration: i64) -> bool {
-        let distance = target - self.position_q;
+        let distance = target.wrapping_sub(self.position_q);
         // v² = 2·a·d, every term in Q24 per-tick units.
         let room = distance.unsigned_abs().saturating_add(beyond);
         // Saturated (and so conservative) far from the target, where the speed limit rules.
         let braking = isqrt(deceleration.unsigned_abs().saturating_mul(2).saturating_mul(room));
+        // The square root is below 2^32, the sign ±1 or 0.
+        #[allow(clippy::arithmetic_side_effects)]
         let wanted = (braking.min(speed.unsigned_abs()) as i64) * distance.signum();
         let before = self.position_q;
         self.ramp(wanted, acceleration, deceleration);
-        let moved = self.position_q - before;
+        let moved = self.position_q.wrapping_sub(before);
         if distance == 0 || (moved.signum() == distance.signum() && moved.abs() >= distance.abs()) {
             self.position_q = target;
             if beyond == 0 {
@@ -123,6 +137,8 @@ impl Demand {
 
 /// ⌊√n⌋ digit by digit: `u64::isqrt` divides, and a 64-bit division is a
 /// library call of most of a kilobyte on a Cortex-M3.
+// `root` < 2^32 and `bit` ≤ 2^62: their sum fits, and `rest` loses it only when it holds it.
+#[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
 fn isqrt(n: u64) -> u64 {
     let (mut rest, mut root, mut bit) = (n, 0u64, 1u64 << 62);

@@ -93,12 +93,10 @@ impl Pp {
             demand.ramp(0, acceleration, deceleration);
             return;
         }
-        let direction = (self.target_q - demand.position_q).signum();
-        let beyond = if self.buffered && self.blend && (self.next_q - self.target_q).signum() == direction {
-            (self.next_q - self.target_q).unsigned_abs()
-        } else {
-            0
-        };
+        // Positions wrap (`Demand::ramp`): so do their differences.
+        let direction = self.target_q.wrapping_sub(demand.position_q).signum();
+        let ahead = self.next_q.wrapping_sub(self.target_q);
+        let beyond = if self.buffered && self.blend && ahead.signum() == direction { ahead.unsigned_abs() } else { 0 };
         if demand.move_to(self.target_q, beyond, speed, acceleration, deceleration) {
             if self.buffered {
                 (self.target_q, self.buffered) = (self.next_q, false);

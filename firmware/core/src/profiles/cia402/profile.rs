@@ -8,7 +8,7 @@ use super::ip::Ip;
 use super::motion::{Demand, speed_q};
 use super::objects::{self, index, signed, unsigned, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
-use super::units::Units;
+use super::units::{self, Units};
 use super::velocity::{Window, vl_limit};
 use super::{TICK_US, mode};
 use crate::abort::AbortCode;
@@ -218,7 +218,7 @@ impl<D: Drive> Cia402<D> {
     pub fn poll(&mut self, ctx: &mut Ctx<'_>, config: &Config) -> Option<Instant> {
         let now = ctx.now().as_micros();
         if !self.s.ticking {
-            let code = EmcyCode(self.drive.fault());
+            let code = self.drive.fault();
             // A fault, or a warning the device reported (`refresh`), changes the statusword.
             if code != EmcyCode::NO_ERROR && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
@@ -236,18 +236,24 @@ impl<D: Drive> Cia402<D> {
             return Some(Instant::from_micros(self.s.next_tick));
         }
         // 32-bit arithmetic: a 64-bit division is a library call on a Cortex-M3.
+        // `now` ≥ `next_tick` (checked above) and `late` ≤ MAX_CATCH_UP ticks: no term overflows.
+        #[allow(clippy::arithmetic_side_effects)]
         let late = (now - self.s.next_tick).min(MAX_CATCH_UP * TICK_US) as u32;
+        #[allow(clippy::arithmetic_side_effects)]
         let due = u64::from(late / TICK_US as u32 + 1).min(MAX_CATCH_UP);
         let p = self.params(ctx, config);
         for _ in 0..due {
             self.tick(&p);
-            let code = EmcyCode(self.drive.fault());
+            let code = self.drive.fault();
             if code != EmcyCode::NO_ERROR && !matches!(self.s.state, PdsState::Fault | PdsState::FaultReactionActive) {
                 self.fault(ctx, code);
             }
             self.monitor(&p);
         }
-        self.s.next_tick = self.s.next_tick.saturating_add(due * TICK_US).max(now.saturating_add(1));
+        // `due` ≤ MAX_CATCH_UP.
+        #[allow(clippy::arithmetic_side_effects)]
+        let advance = due * TICK_US;
+        self.s.next_tick = self.s.next_tick.saturating_add(advance).max(now.saturating_add(1));
         self.actuals(ctx);
         self.publish(ctx);
         if !self.s.state.drive_function() && self.drive.at_rest() {
@@ -420,7 +426,7 @@ impl<D: Drive> Cia402<D> {
         self.s.error_code = code;
         objects::set(ctx, index::ERROR_CODE, 2, i32::from(code.value()));
         ctx.raise_error(code, info);
-        if self.s.state.drive_function() && reaction != Reaction::Coast && self.drive.fault() == 0 {
+        if self.s.state.drive_function() && reaction != Reaction::Coast && self.drive.fault() == EmcyCode::NO_ERROR {
             (self.s.state, self.s.reaction, self.s.braking) = (PdsState::FaultReactionActive, reaction, false);
         } else {
             self.stop_now(PdsState::Fault);
@@ -472,7 +478,7 @@ impl<D: Drive> Cia402<D> {
                 let (limited, clipped) = vl_limit(target, min, max);
                 self.s.internal_limit = clipped;
                 let inc = u.vl_to_inc.apply(i64::from(limited));
-                speed_q(if u.velocity_negative { -inc } else { inc })
+                speed_q(units::negate(inc, u.velocity_negative))
             }
             _ => return,
         };

@@ -31,6 +31,8 @@ impl Factor {
 
     /// `value` converted, rounded to the nearest (one copy of the 64 × 64-bit
     /// multiplication for every call site).
+    // Two i64s multiply within an i128 (below 2^126), and 2^31 more fits.
+    #[allow(clippy::arithmetic_side_effects)]
     #[inline(never)]
     pub fn apply(self, value: i64) -> i64 {
         ((i128::from(value) * i128::from(self.0) + (1 << 31)) >> 32) as i64
@@ -40,6 +42,8 @@ impl Factor {
 /// `(numerator << 32) / denominator` by shift and subtract: it runs when
 /// a factor changes, and spares the image the 64-bit division routine
 /// (most of a kilobyte on a Cortex-M3).
+// `remainder` < `divisor` < 2^32 before each shift; it only subtracts what it holds.
+#[allow(clippy::arithmetic_side_effects)]
 fn q32_ratio(numerator: u32, denominator: u32) -> u64 {
     let dividend = u64::from(numerator) << 32;
     let divisor = u64::from(denominator.max(1));
@@ -86,8 +90,18 @@ impl Units {
     /// and feed `feed` user units per `feed_revs` shaft revolutions; polarity
     /// byte `polarity`.
     pub fn new(increments_per_rev: u32, (motor_revs, shaft_revs): (u32, u32), (feed, feed_revs): (u32, u32), polarity: u8) -> Units {
-        let numerator = u64::from(increments_per_rev) * u64::from(motor_revs) * u64::from(feed_revs);
-        let denominator = u64::from(shaft_revs) * u64::from(feed);
+        // A u32 × u32 fits a u64; the third factor may not (0x6091 and
+        // 0x6092 take any u32). A gear term past 32 bits loses its low bits
+        // first, and the denominator with it, as `Factor::ratio` drops them
+        // anyway; the product then fits.
+        #[allow(clippy::arithmetic_side_effects)]
+        let (mut gear, mut denominator) = (u64::from(increments_per_rev) * u64::from(motor_revs), u64::from(shaft_revs) * u64::from(feed));
+        while gear >> 32 != 0 {
+            (gear, denominator) = (gear >> 1, (denominator >> 1).max(1));
+        }
+        // Two factors below 2^32.
+        #[allow(clippy::arithmetic_side_effects)]
+        let numerator = gear * u64::from(feed_revs);
         Units {
             to_inc: Factor::ratio(numerator, denominator),
             to_user: Factor::ratio(denominator, numerator),
@@ -103,6 +117,9 @@ impl Units {
     /// 0x604C (CiA 402-2: min⁻¹ of the motor = vl value × `numerator` /
     /// `denominator`; a negative factor turns the other way; 0 counts as 1).
     // Out of line: inlined into its two callers it cost 164 B of flash.
+    // A u32 times a magnitude of at most 2^31, and 60 times one, fit a u64;
+    // `Factor::ratio` is at most i64::MAX, so its negation fits.
+    #[allow(clippy::arithmetic_side_effects)]
     #[inline(never)]
     pub fn with_vl_dimension(self, increments_per_rev: u32, numerator: i32, denominator: i32) -> Units {
         let magnitude = |v: i32| u64::from(v.unsigned_abs().max(1));
@@ -141,8 +158,10 @@ impl Units {
     }
 }
 
-fn negate(value: i64, negative: bool) -> i64 {
-    if negative { -value } else { value }
+/// `value`, negated if `negative` (a polarity bit).
+pub(super) fn negate(value: i64, negative: bool) -> i64 {
+    // `apply` keeps 64 bits of its product: the negation wraps as they do.
+    if negative { value.wrapping_neg() } else { value }
 }
 
 /// Out of line: the 64-bit clamp at each of its callers cost 112 B.
@@ -180,6 +199,15 @@ mod tests {
         for (n, d) in [(1u32, 1u32), (73_728, 157), (157, 73_728), (u32::MAX >> 1, 3), (60, 4096)] {
             assert_eq!(q32_ratio(n, d), (u64::from(n) << 32) / u64::from(d), "{n}/{d}");
         }
+    }
+
+    #[test]
+    fn a_product_past_64_bits_keeps_its_ratio() {
+        // 2^24 inc/rev × 2^20 motor revs × 2^24 feed revs = 2^68 against
+        // 2^20 shaft revs × 2^28 user units = 2^48: 2^20 inc per user unit.
+        let u = Units::new(1 << 24, (1 << 20, 1 << 20), (1 << 28, 1 << 24), 0);
+        assert_eq!(u.position_to_inc(3), 3 << 20);
+        assert_eq!(u.position_to_user(3 << 20), 3);
     }
 
     #[test]

@@ -8,6 +8,8 @@
 /// A vl target with its min/max amount (CiA 402-2 §7 "velocity limit
 /// function"): above max → max; between 0 and min → min; 0 stays 0. The
 /// flag tells whether a limit applied (statusword bit 11).
+// `limited` is at most i32::MAX: its negation fits.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn vl_limit(target: i32, min: u32, max: u32) -> (i32, bool) {
     let magnitude = target.unsigned_abs();
     let limited = if magnitude > max && max != 0 {
@@ -23,6 +25,8 @@ pub const fn vl_limit(target: i32, min: u32, max: u32) -> (i32, bool) {
 
 /// A vl ramp (delta speed [min⁻¹] per delta time [s]) as min⁻¹ per second;
 /// a zero time counts as one second.
+// The divisor is at least 1.
+#[allow(clippy::arithmetic_side_effects)]
 pub const fn vl_ramp(delta_speed: u32, delta_time: u32) -> u32 {
     delta_speed / if delta_time == 0 { 1 } else { delta_time }
 }

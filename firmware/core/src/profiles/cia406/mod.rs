@@ -262,6 +262,8 @@ impl<P: PositionSource> Encoder<P> {
                 self.rebase(ctx, config, &scaling, count);
             }
             self.num = scaling.advance(self.num, steps);
+            // |steps| ≤ MAX_STEP: checked above.
+            #[allow(clippy::arithmetic_side_effects)]
             let signed = if scaling.ccw { -steps } else { steps };
             let length = Duration::from_millis(u64::from(ctx.read_u32(index::SPEED_PARAMETERS, 2).unwrap_or(100).max(1)));
             if let Some(m) = self.gate.add(now, signed, length) {
@@ -393,7 +395,10 @@ impl<P: PositionSource> Encoder<P> {
         let s = self.current_scaling(ctx);
         let preset = ctx.read_u32(index::PRESET_VALUE, 0).unwrap_or(0);
         let bare = s.position(s.at(self.last_count, 0));
-        self.set_offset(ctx, s.wrap(i64::from(preset) - i64::from(bare)));
+        // Two u32s: the difference fits an i64.
+        #[allow(clippy::arithmetic_side_effects)]
+        let offset = i64::from(preset) - i64::from(bare);
+        self.set_offset(ctx, s.wrap(offset));
         self.num = s.with_position(s.at(self.last_count, 0), preset);
         let _ = ctx.set_value(index::POSITION_VALUE, 0, &preset.to_le_bytes());
         self.work_areas(ctx, preset);
@@ -404,6 +409,8 @@ impl<P: PositionSource> Encoder<P> {
 
     /// The physical counter wrapped at `count`: the offset grows by what
     /// the wrap dropped, so that count and offset give the position held.
+    // Turns of a u32 range, an offset below 2^32: the sum fits an i64; the divisor is at least 1.
+    #[allow(clippy::arithmetic_side_effects)]
     fn rebase(&mut self, ctx: &mut Ctx<'_>, config: &Config, s: &Scaling, count: u64) {
         // The range is whole revolutions of the sensor (PositionSource::range).
         let dropped = i64::from(s.turns(self.source.range() / u64::from(s.resolution.max(1))));
@@ -468,6 +475,9 @@ fn scaling_of(ctx: &Ctx<'_>) -> Scaling {
 
 /// The signed movement from count `a` to `b` on a counter wrapping at
 /// `range` (0: 2^64): the shorter way round.
+// Each subtraction follows the comparison that orders it; `range` is not 0
+// where it divides, and `d` < `range`.
+#[allow(clippy::arithmetic_side_effects)]
 fn steps_between(a: u64, b: u64, range: u64) -> i64 {
     if range == 0 {
         return b.wrapping_sub(a) as i64;

@@ -50,6 +50,8 @@ impl Scaling {
     }
 
     /// The numerator's modulus, TMR × R (below 2^48).
+    // TMR ≤ 2^32 and R ≤ 2^16 (`new`): the product is below 2^49.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn modulus(&self) -> u64 {
         (self.tmr * u64::from(self.resolution)).max(1)
     }
@@ -57,6 +59,8 @@ impl Scaling {
     /// The numerator after a movement of `steps` sensor steps (positive:
     /// clockwise, as the sensor counts), in the configured direction;
     /// `|steps|` at most [`MAX_STEP`] (the caller re-synchronises on larger jumps).
+    // See the bounds below; the modulus is at least 1.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn advance(&self, num: u64, steps: i64) -> u64 {
         let m = self.modulus();
         let steps = if self.ccw { -steps } else { steps };
@@ -67,6 +71,8 @@ impl Scaling {
 
     /// The numerator of the position at step count `count` with `offset`
     /// measuring units added (the preset's offset, 0x6509, below TMR).
+    // Below the modulus (< 2^49) each product with MUR or R (≤ 2^16) fits; m ≥ 1.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn at(&self, count: u64, offset: u32) -> u64 {
         let m = self.modulus();
         let count = count % m;
@@ -77,12 +83,16 @@ impl Scaling {
     }
 
     /// The position value (0x6004) of a numerator, `0..TMR`.
+    // The divisor is at least 1.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn position(&self, num: u64) -> u32 {
         (num / u64::from(self.resolution.max(1))) as u32
     }
 
     /// The numerator that makes the position `value` while keeping the
     /// fraction `num` holds (so a preset does not move the next step).
+    // A u32 times R (≤ 2^16) plus a remainder below R fits a u64; r ≥ 1.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn with_position(&self, num: u64, value: u32) -> u64 {
         let r = u64::from(self.resolution.max(1));
         u64::from(value) * r + num % r
@@ -94,6 +104,8 @@ impl Scaling {
     }
 
     /// What `turns` whole revolutions move the position by, in measuring units within `0..TMR`.
+    // Below TMR (≤ 2^32) times MUR (≤ 2^16): no overflow; tmr ≥ 1.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn turns(&self, turns: u64) -> u32 {
         let tmr = self.tmr.max(1);
         ((turns % tmr) * u64::from(self.mur) % tmr) as u32

@@ -49,6 +49,8 @@ impl<const V: i32, const J: u16, const R: u32, const W: u32> SimulatedShaft<V, J
 }
 
 impl<const V: i32, const J: u16, const R: u32, const W: u32> PositionSource for SimulatedShaft<V, J, R, W> {
+    // `rest` < 10^6 times an i32 fits; 2J + 1 ≤ 2^17 is not 0.
+    #[allow(clippy::arithmetic_side_effects)]
     fn count(&mut self, now: Instant) -> Result<u64, SensorFault> {
         // Whole seconds and the rest apart: no 128-bit product.
         let us = now.as_micros();
@@ -64,6 +66,8 @@ impl<const V: i32, const J: u16, const R: u32, const W: u32> PositionSource for 
         Ok(if range == 0 { count as u64 } else { count.rem_euclid(range.min(i64::MAX as u64) as i64) as u64 })
     }
 
+    // Two u32s: the product fits a u64.
+    #[allow(clippy::arithmetic_side_effects)]
     fn range(&self) -> u64 {
         u64::from(R) * u64::from(W)
     }
@@ -87,20 +91,24 @@ impl ManualShaft {
     }
 
     /// Sets the raw count (taken modulo the range).
+    // The range is not 0 where it divides.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn set(&mut self, count: u64) {
         self.count = if self.range == 0 { count } else { count % self.range };
     }
 
     /// Turns the shaft by `steps` (negative: counter-clockwise), wrapping
     /// the physical counter as the sensor would.
+    // The range is not 0 where it divides, and a remainder is below it.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn turn(&mut self, steps: i64) {
-        let c = self.count.wrapping_add(steps as u64);
-        self.count = if self.range == 0 {
-            c
+        let r = self.range;
+        self.count = if r == 0 {
+            self.count.wrapping_add(steps as u64)
         } else if steps >= 0 {
-            (self.count % self.range + steps as u64 % self.range) % self.range
+            add_mod(self.count % r, steps as u64 % r, r)
         } else {
-            (self.count % self.range + self.range - steps.unsigned_abs() % self.range) % self.range
+            add_mod(self.count % r, r - steps.unsigned_abs() % r, r)
         };
     }
 
@@ -170,6 +178,14 @@ impl<R: CounterRegister> PositionSource for QuadratureCounter<R> {
     }
 }
 
+/// `(a + b) mod m` for `a` below `m` and `b` at most `m`, for any `m`
+/// (their sum may pass 2^64).
+// `b` ≤ `m`, and each branch's result is below `m`.
+#[allow(clippy::arithmetic_side_effects)]
+fn add_mod(a: u64, b: u64, m: u64) -> u64 {
+    if a >= m - b { a - (m - b) } else { a + b }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,6 +198,22 @@ mod tests {
         assert_eq!(s.count(Instant::from_micros(70_000)), Ok(70 % 64), "4 turns of 16 steps");
         let mut back = SimulatedShaft::<-1000, 0, 16, 4>::NEW;
         assert_eq!(back.count(Instant::from_micros(1_000)), Ok(63));
+    }
+
+    #[test]
+    fn a_manual_shaft_wraps_at_a_range_past_2_to_the_63() {
+        let mut s = ManualShaft::with_range(u64::MAX);
+        s.set(u64::MAX - 3);
+        s.turn(5);
+        assert_eq!(s.get(), 2, "2^64 - 4 + 5 = 2^64 + 1, 2 past the range 2^64 - 1");
+        s.turn(-3);
+        assert_eq!(s.get(), u64::MAX - 1);
+        let mut small = ManualShaft::with_range(10);
+        small.set(8);
+        small.turn(-10);
+        assert_eq!(small.get(), 8, "a whole range back");
+        small.turn(13);
+        assert_eq!(small.get(), 1);
     }
 
     #[test]

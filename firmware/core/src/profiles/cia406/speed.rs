@@ -62,34 +62,49 @@ impl Gate {
 const MAX_GATE_STEPS: i64 = 1 << 40;
 
 /// Steps per second over `m`.
+// |steps| ≤ 2^40, × 1000 below 2^50; the divisor is at least 1.
+#[allow(clippy::arithmetic_side_effects)]
 fn steps_per_s(m: Measured) -> i64 {
     // A gate lasts at least 1 ms (`Gate::add`), and far less than 2^63.
     m.steps.clamp(-MAX_GATE_STEPS, MAX_GATE_STEPS) * 1000 / m.ms as i64
 }
 
 /// Revolutions per minute of `m` with `resolution` steps per revolution.
+// `steps_per_s` is below 2^50: × 60 fits; the divisor is at least 1.
+#[allow(clippy::arithmetic_side_effects)]
 pub fn rpm(m: Measured, resolution: u32) -> i64 {
     steps_per_s(m) * 60 / i64::from(resolution.max(1))
 }
 
 /// The speed value: `m` in `format`, × C1 / C2 (a C2 of 0 counts as 1).
+// The divisor is at least 1. Where the product saturates (|speed| beyond
+// 2^47 steps/s), `scale` answers the same limit the exact value would.
+#[allow(clippy::arithmetic_side_effects)]
 pub fn value(m: Measured, format: SpeedFormat, resolution: u32, mur: u32, c1: i16, c2: i16) -> i32 {
     let per = match format {
         SpeedFormat::Rpm => 60,
         SpeedFormat::UnitsPerSecond => i64::from(mur.min(1 << 16)),
     };
-    scale(steps_per_s(m) * per / i64::from(resolution.max(1)), c1, c2)
+    scale(steps_per_s(m).saturating_mul(per) / i64::from(resolution.max(1)), c1, c2)
 }
 
 /// The acceleration from speed `from` to `to` over `ms`: speed units per
 /// second, × C1 / C2 of 0x6041.
+// The difference of two i32s, × 1000, fits an i64; the divisor is at least 1.
+#[allow(clippy::arithmetic_side_effects)]
 pub fn acceleration(from: i32, to: i32, ms: u64, c1: i16, c2: i16) -> i32 {
     scale((i64::from(to) - i64::from(from)) * 1000 / ms.max(1) as i64, c1, c2)
 }
 
-/// `v` × C1 / C2 within i32 (|v| < 2^47, so the product fits).
+/// `v` × C1 / C2 within i32. `v` is cut to ±2^47 first: the product then
+/// fits, and a larger `v` is beyond i32 for any C1/C2 but 0 (|C1/C2| ≥
+/// 2^-15), so the answer is the same limit.
+// After the cut, |v × C1| < 2^62, and C2 is not 0.
+#[allow(clippy::arithmetic_side_effects)]
+#[inline(never)]
 fn scale(v: i64, c1: i16, c2: i16) -> i32 {
     let c2 = if c2 == 0 { 1 } else { i64::from(c2) };
+    let v = v.clamp(-(1 << 47), 1 << 47);
     (v * i64::from(c1) / c2).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
@@ -124,5 +139,16 @@ mod tests {
     fn acceleration_is_the_change_of_speed_per_second() {
         assert_eq!(acceleration(0, 60, 100, 1, 1), 600);
         assert_eq!(acceleration(60, 0, 100, 1, 1), -600);
+    }
+
+    #[test]
+    fn a_speed_past_64_bits_saturates_at_the_i32_limits() {
+        // 2^40 steps in 1 ms at 2^16 units per step: 2^66 units/s before the division.
+        let m = Measured { steps: 1 << 40, ms: 1 };
+        assert_eq!(value(m, SpeedFormat::UnitsPerSecond, 1, 1 << 16, 1, 1), i32::MAX);
+        assert_eq!(value(Measured { steps: -(1 << 40), ms: 1 }, SpeedFormat::UnitsPerSecond, 1, 1 << 16, 1, 1), i32::MIN);
+        // The largest C1 against the smallest C2, and the other way round.
+        assert_eq!(value(m, SpeedFormat::UnitsPerSecond, 1, 1 << 16, i16::MAX, -1), i32::MIN);
+        assert_eq!(value(m, SpeedFormat::UnitsPerSecond, 1, 1 << 16, 1, i16::MAX), i32::MAX);
     }
 }

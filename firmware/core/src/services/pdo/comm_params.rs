@@ -87,6 +87,8 @@ impl CommParams {
     }
 
     /// Sub 3 as a duration.
+    // A u16 times 100 fits a u64.
+    #[allow(clippy::arithmetic_side_effects)]
     pub const fn inhibit_time(&self) -> Duration {
         Duration::from_micros(self.inhibit_time_100us as u64 * 100)
     }

@@ -62,6 +62,8 @@ pub struct Slot {
 
 impl Slot {
     /// Checks one mapping entry for `direction` and resolves it: one binary search.
+    // Offset and length are u16s: their sum fits a u32.
+    #[allow(clippy::arithmetic_side_effects)]
     pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
         if entry.is_dummy() {
             if direction == Direction::Transmit {
@@ -131,6 +133,9 @@ impl Mapping {
     /// record as the image holds them: the configured mapping, or the one
     /// an SDO download of sub 0 = `count` asks for. At most one binary
     /// search per entry.
+    // `total` is at most MAX_ENTRIES × 255; od-gen lays out each value
+    // inside its u16-addressed table, so `offset + i` fits a u16.
+    #[allow(clippy::arithmetic_side_effects)]
     pub(super) fn from_record(
         dict: &Dictionary,
         image: &[u8],

@@ -211,9 +211,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
             // Reset communication also resets the node's errors: nothing is raised any more.
             *rpdo = Rpdo::default();
-            let mapping = configured_mapping(dict, image, index::RPDO_MAPPING_PARAMETER + n, Direction::Receive, &mut first_error);
-            rpdo.set(CommParams::read(dict, image, index::RPDO_COMMUNICATION_PARAMETER + n), mapping);
-            rpdo.cob_id_writable = cob_id_writable(dict, index::RPDO_COMMUNICATION_PARAMETER + n);
+            let mapping = configured_mapping(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive, &mut first_error);
+            rpdo.set(CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n)), mapping);
+            rpdo.cob_id_writable = cob_id_writable(dict, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
         }
         self.window_end = None;
         self.operational = false;
@@ -231,9 +231,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             *tpdo = Tpdo::default();
             tpdo.set_change_detection(change_detection);
             tpdo.timer_only_254 = timer_only;
-            let mapping = configured_mapping(dict, image, index::TPDO_MAPPING_PARAMETER + n, Direction::Transmit, &mut first_error);
-            tpdo.set(CommParams::read(dict, image, index::TPDO_COMMUNICATION_PARAMETER + n), mapping);
-            tpdo.cob_id_writable = cob_id_writable(dict, index::TPDO_COMMUNICATION_PARAMETER + n);
+            let mapping = configured_mapping(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit, &mut first_error);
+            tpdo.set(CommParams::read(dict, image, nth(index::TPDO_COMMUNICATION_PARAMETER, n)), mapping);
+            tpdo.cob_id_writable = cob_id_writable(dict, nth(index::TPDO_COMMUNICATION_PARAMETER, n));
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
         self.refresh_rx_ids();
@@ -267,12 +267,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn reload_mappings(&mut self, dict: &Dictionary, image: &[u8]) {
         self.settled = false;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, index::RPDO_MAPPING_PARAMETER + n, Direction::Receive) {
+            if let Ok(mapping) = Mapping::read(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive) {
                 rpdo.set(rpdo.params, Some(mapping));
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, index::TPDO_MAPPING_PARAMETER + n, Direction::Transmit) {
+            if let Ok(mapping) = Mapping::read(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit) {
                 tpdo.set(tpdo.params, Some(mapping));
             }
         }
@@ -356,7 +356,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let mut bits = rpdos;
         while bits != 0 {
             mask |= self.rpdo_reach.get(bits.trailing_zeros() as usize).copied().unwrap_or(ALL_TPDOS);
-            bits &= bits - 1;
+            bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
         }
         mask
     }
@@ -459,7 +459,16 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     }
 }
 
+/// Object `base` + `n`: PDO `n`'s (0-based) parameter record.
+// Fewer than 512 PDOs of a kind (0x1400..=0x15FF and the like): the index fits.
+#[allow(clippy::arithmetic_side_effects)]
+const fn nth(base: u16, n: u16) -> u16 {
+    base + n
+}
+
 /// [`Pdos::tpdos_mapping`] (a free function: it runs while the RPDOs are borrowed).
+// Two u16s: the sum fits a u32.
+#[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
 fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
     let (start, end) = (u32::from(offset), u32::from(offset) + u32::from(len));

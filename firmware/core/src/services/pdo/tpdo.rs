@@ -315,6 +315,8 @@ impl Tpdo {
 
     /// Whether this TPDO is event-driven (it looks for changes) and maps an
     /// image byte in `start..end`.
+    // Two u16s: the sum fits a u32.
+    #[allow(clippy::arithmetic_side_effects)]
     pub(super) fn maps_any(&self, start: u32, end: u32) -> bool {
         let Some(mapping) = self.mapping.as_ref().filter(|_| self.is_event_driven()) else { return false };
         mapping.slots().iter().any(|slot| match slot.source {

@@ -8,7 +8,7 @@ use crate::profiles::cia402::drive::Drive;
 use crate::profiles::cia402::fsa::PdsState;
 use crate::profiles::cia402::hm::Phase;
 use crate::profiles::cia402::objects::{self, index, signed, unsigned, unsigned_or};
-use crate::profiles::cia402::units::Units;
+use crate::profiles::cia402::units::{self, Units};
 use crate::profiles::cia402::{mode, statusword as sw};
 
 impl<D: Drive> Cia402<D> {
@@ -72,7 +72,7 @@ impl<D: Drive> Cia402<D> {
         if self.s.mode == mode::VL {
             let rpm = |inc: i32| {
                 let v = u.vl_to_user.apply(i64::from(inc));
-                (if u.velocity_negative { -v } else { v }).clamp(-32768, 32767) as i32
+                units::negate(v, u.velocity_negative).clamp(-32768, 32767) as i32
             };
             objects::set(ctx, index::VL_VELOCITY_DEMAND, 2, rpm(self.s.demand.velocity()));
             objects::set(ctx, index::VL_VELOCITY_ACTUAL, 2, rpm(d.velocity()));

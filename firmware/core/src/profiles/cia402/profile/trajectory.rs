@@ -140,6 +140,8 @@ impl<D: Drive> Cia402<D> {
                 mode::PP => s.pp.tick(d, p.speed, p.acceleration, p.deceleration, s.controlword & cw::NEW_SET_POINT != 0),
                 mode::PV | mode::VL => {
                     let limit = speed_q(i64::from(self.drive.max_velocity()));
+                    // `speed_q` keeps |limit| below 2^47: its negation fits.
+                    #[allow(clippy::arithmetic_side_effects)]
                     let target = if s.velocity_target.abs() < min { 0 } else { s.velocity_target.clamp(-limit, limit) };
                     stopping = target == 0;
                     d.ramp(target, p.acceleration, p.deceleration);
@@ -149,7 +151,10 @@ impl<D: Drive> Cia402<D> {
                     match s.hm.tick(self.drive.switches(), started) {
                         Step::Run(direction, fast) => {
                             let speed = if fast { p.homing.0 } else { p.homing.1 };
-                            d.ramp(speed * i64::from(direction), p.homing_acceleration, p.homing_acceleration);
+                            // `direction` is ±1.
+                            #[allow(clippy::arithmetic_side_effects)]
+                            let velocity = speed * i64::from(direction);
+                            d.ramp(velocity, p.homing_acceleration, p.homing_acceleration);
                         }
                         Step::SetHome => {
                             self.drive.set_position(p.home);
@@ -206,12 +211,15 @@ impl<D: Drive> Cia402<D> {
                 // In ip the demand stands on the last set-point once the segment is done.
                 let (done, target) =
                     if s.mode == mode::PP { (s.pp.done(), s.pp.final_target()) } else { (s.ip.done(), s.demand.position()) };
-                let near = done && (position - target).abs() <= p.position_window;
+                // Positions wrap (`Demand::ramp`): so do their differences.
+                let near = done && position.wrapping_sub(target).abs() <= p.position_window;
                 s.reached = s.reached_window.tick(near, p.position_window_ticks);
-                let lagging = p.following_window.is_some_and(|w| (s.demand.position() - position).abs() > w);
+                let lagging = p.following_window.is_some_and(|w| s.demand.position().wrapping_sub(position).abs() > w);
                 s.following = s.following_window.tick(lagging, p.following_ticks);
             }
             mode::PV | mode::VL => {
+                // `speed_per_s` of a Q24 velocity and an i32: the difference fits.
+                #[allow(clippy::arithmetic_side_effects)]
                 let near = (speed_per_s(s.velocity_target) - velocity).abs() <= p.velocity_window;
                 s.reached = s.reached_window.tick(near, p.velocity_window_ticks);
                 s.speed_zero = s.zero_window.tick(velocity.abs() <= p.threshold, p.threshold_ticks);

@@ -20,21 +20,28 @@
 //!   coasting axis; the loops hold against it up to the torque limit;
 //! - limit and home switches sit at fixed positions.
 
+mod forward;
+
+pub use forward::AxisDrive;
+
 use crate::profiles::cia402::drive::{Drive, SetPoint, Switches};
 use crate::profiles::cia402::motion::{FRACTION, acceleration_q, speed_per_s, speed_q};
+use crate::wire::emcy::EmcyCode;
 
 /// Error codes the model reports (CiA 402 / CiA 301 EMCY codes, 0x603F).
 pub mod fault {
+    use crate::wire::emcy::EmcyCode;
+
     /// 0x2320 short circuit / earth leakage at the output: the power stage failed.
-    pub const POWER_STAGE: u16 = 0x2320;
+    pub const POWER_STAGE: EmcyCode = EmcyCode(0x2320);
     /// 0x3210 DC link over-voltage.
-    pub const OVER_VOLTAGE: u16 = 0x3210;
+    pub const OVER_VOLTAGE: EmcyCode = EmcyCode(0x3210);
     /// 0x3220 DC link under-voltage.
-    pub const UNDER_VOLTAGE: u16 = 0x3220;
+    pub const UNDER_VOLTAGE: EmcyCode = EmcyCode(0x3220);
     /// 0x4310 excess temperature of the drive.
-    pub const OVER_TEMPERATURE: u16 = 0x4310;
+    pub const OVER_TEMPERATURE: EmcyCode = EmcyCode(0x4310);
     /// 0x8611 following error: the load does not follow the position demand.
-    pub const FOLLOWING_ERROR: u16 = 0x8611;
+    pub const FOLLOWING_ERROR: EmcyCode = EmcyCode(0x8611);
 }
 
 /// Faults a test or a demo injects.
@@ -71,7 +78,8 @@ pub struct AxisParams {
     pub friction_permille: i16,
     /// Temperature at rest [°C].
     pub ambient_c: i16,
-    /// Temperature rise at rated torque, steady state [°C].
+    /// Temperature rise at rated torque, steady state [°C]; at most 200
+    /// (the model's heat, in µ°C at 3× rated torque, then fits an i32).
     pub rise_at_rated_c: i16,
     /// Thermal time constant [s].
     pub thermal_tau_s: u16,
@@ -122,7 +130,7 @@ pub struct Axis {
     torque: i16,
     /// Temperature above ambient [µ°C].
     heat_uc: i32,
-    fault: u16,
+    fault: EmcyCode,
     injected: [bool; 5],
     /// External load torque [‰ of rated torque], positive in the positive direction.
     load: i16,
@@ -138,7 +146,7 @@ impl Axis {
         enabled: false,
         torque: 0,
         heat_uc: 0,
-        fault: 0,
+        fault: EmcyCode::NO_ERROR,
         injected: [false; 5],
         load: 0,
     };
@@ -180,7 +188,7 @@ impl Axis {
     }
 
     /// The cause of a fault, if one is present now.
-    fn cause(&self) -> u16 {
+    fn cause(&self) -> EmcyCode {
         if self.injected(Injected::PowerStage) {
             fault::POWER_STAGE
         } else if self.injected(Injected::UnderVoltage) {
@@ -190,7 +198,7 @@ impl Axis {
         } else if self.params.fault_c != 0 && self.temperature() >= self.params.fault_c {
             fault::OVER_TEMPERATURE
         } else {
-            0
+            EmcyCode::NO_ERROR
         }
     }
 }
@@ -201,7 +209,7 @@ impl Drive for Axis {
     }
 
     fn enable(&mut self, on: bool) {
-        self.enabled = on && self.fault == 0;
+        self.enabled = on && self.fault == EmcyCode::NO_ERROR;
         if !self.enabled {
             self.set_point = SetPoint::None;
         }
@@ -213,12 +221,17 @@ impl Drive for Axis {
         }
     }
 
+    // Positions wrap (as `Demand::ramp`'s). Every other term is bounded:
+    // velocities by `speed_q` (< 2^47), steps by `acceleration_q` (< 2^37),
+    // the position error to 2^40 times a gain below 2^32, torques to
+    // ±3000 ‰ and loads to an i16, the heat by `rise_at_rated_c` (≤ 200 °C).
+    #[allow(clippy::arithmetic_side_effects)]
     fn tick(&mut self) {
         let p = self.params;
-        if self.fault == 0 {
+        if self.fault == EmcyCode::NO_ERROR {
             self.fault = self.cause();
         }
-        if self.fault != 0 {
+        if self.fault != EmcyCode::NO_ERROR {
             self.enabled = false;
             self.set_point = SetPoint::None;
         }
@@ -230,7 +243,7 @@ impl Drive for Axis {
             SetPoint::None => None,
             SetPoint::Velocity(v) => Some(speed_q(i64::from(v))),
             SetPoint::Position { position, velocity } => {
-                let error = (position << FRACTION) - self.position_q;
+                let error = (position << FRACTION).wrapping_sub(self.position_q);
                 if p.following_limit != 0 && (error >> FRACTION).unsigned_abs() > u64::from(p.following_limit) {
                     self.fault = fault::FOLLOWING_ERROR;
                 }
@@ -259,7 +272,7 @@ impl Drive for Axis {
                 self.velocity_q + (change - load).clamp(-authority, authority) + load
             }
         };
-        self.position_q += self.velocity_q;
+        self.position_q = self.position_q.wrapping_add(self.velocity_q);
         // Torque: the acceleration against the limit, plus friction while moving [‰].
         // The change against the step, both cut to 19 bits so that the ‰
         // ratio divides in 32 bits (|change| ≤ 3 steps: 3 · 2^19 · 1000 < 2^31).
@@ -300,6 +313,8 @@ impl Drive for Axis {
         p.ambient_c.saturating_add((self.heat_uc / 1_000_000) as i16).saturating_add(extra)
     }
 
+    // A DC link below 2.8 MV: × 1.5 fits a u32.
+    #[allow(clippy::arithmetic_side_effects)]
     fn dc_link_mv(&self) -> u32 {
         if self.injected(Injected::UnderVoltage) {
             0
@@ -310,9 +325,9 @@ impl Drive for Axis {
         }
     }
 
-    fn fault(&self) -> u16 {
+    fn fault(&self) -> EmcyCode {
         // A cause shows at once, even while the axis is not ticking.
-        if self.fault != 0 { self.fault } else { self.cause() }
+        if self.fault != EmcyCode::NO_ERROR { self.fault } else { self.cause() }
     }
 
     fn warning(&self) -> bool {
@@ -321,10 +336,10 @@ impl Drive for Axis {
 
     fn reset_fault(&mut self) -> bool {
         let cooled = self.temperature() < self.params.fault_c.saturating_sub(10);
-        if self.cause() == 0 && cooled && !self.injected(Injected::Blocked) {
-            self.fault = 0;
+        if self.cause() == EmcyCode::NO_ERROR && cooled && !self.injected(Injected::Blocked) {
+            self.fault = EmcyCode::NO_ERROR;
         }
-        self.fault == 0
+        self.fault == EmcyCode::NO_ERROR
     }
 
     fn switches(&self) -> Switches {
@@ -353,6 +368,8 @@ impl Drive for Axis {
 
 /// `x` / 1000, truncated as `/` does, in 32-bit divisions: a 64-bit one
 /// links about 1 KiB of compiler_builtins into every drive image.
+// The quotient is below |x| / 1000: its negation fits.
+#[allow(clippy::arithmetic_side_effects)]
 fn per_mille(x: i64) -> i64 {
     let mut n = x.unsigned_abs();
     let mut q: u64 = 0;
@@ -368,6 +385,8 @@ fn per_mille(x: i64) -> i64 {
 }
 
 /// `from` moved towards `to` by at most `step`.
+// Velocities and steps of the model (see `tick`): far from i64's ends.
+#[allow(clippy::arithmetic_side_effects)]
 fn toward(from: i64, to: i64, step: i64) -> i64 {
     if to > from { (from + step).min(to) } else { (from - step).max(to) }
 }
@@ -422,7 +441,7 @@ mod tests {
         a.enable(true);
         a.command(SetPoint::Velocity(1000));
         a.tick();
-        assert_eq!((a.fault(), a.velocity(), a.warning()), (0, 0, false));
+        assert_eq!((a.fault(), a.velocity(), a.warning()), (EmcyCode::NO_ERROR, 0, false));
     }
 
     #[test]
@@ -472,7 +491,7 @@ mod tests {
             assert!(!a.reset_fault(), "the cause persists");
             a.remove(fault);
             assert!(a.reset_fault());
-            assert_eq!(a.fault(), 0);
+            assert_eq!(a.fault(), EmcyCode::NO_ERROR);
         }
         let mut a = axis();
         a.inject(Injected::Blocked);
