@@ -36,6 +36,13 @@ impl CanFrame {
         embedded_can::Frame::new_remote(StandardId::new(cob_id)?, dlc)
     }
 
+    /// A standard data frame on `cob_id` (11 bits, unchecked) with all 8
+    /// data bytes given and `dlc` (at most 8, unchecked) of them sent: no
+    /// slice copy, for the transmit queue's own checked constructor.
+    pub(crate) const fn standard_unchecked(cob_id: u16, data: [u8; 8], dlc: u8) -> Self {
+        CanFrame { raw: cob_id as u32, data, dlc, rtr: false, extended: false }
+    }
+
     /// The 11-bit identifier, or `None` for an extended frame (CANopen uses 11 bits).
     pub fn cob_id(&self) -> Option<u16> {
         if self.extended { None } else { Some(self.raw as u16) }

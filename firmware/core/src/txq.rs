@@ -68,16 +68,48 @@ impl<const N: usize> TxQueue<N> {
         self.insert(frame, true)
     }
 
-    fn insert(&mut self, frame: CanFrame, ahead: bool) -> bool {
-        // The lowest free slot; none when all N are used.
-        let slot = (!self.used).trailing_zeros() as usize;
-        let Some(free) = self.slots.get_mut(slot).filter(|_| self.len < N) else {
-            self.overflows = self.overflows.saturating_add(1);
+    /// Queues a data frame on the 11-bit `cob_id` (above 0x7FF: refused,
+    /// not counted) whose first `len` (at most 8) of `data` are sent,
+    /// behind every queued frame of its priority; false (and one more
+    /// overflow) when full. The frame is written straight into its slot:
+    /// no `CanFrame` built by slice copy and moved (the TPDOs, a SYNC's
+    /// burst above all).
+    // Out of line, with the slot reservation in line: one copy for the TPDOs.
+    #[inline(never)]
+    pub fn push_data(&mut self, cob_id: u16, data: &[u8; 8], len: u8) -> bool {
+        if cob_id > 0x7FF || len > 8 {
             return false;
-        };
-        *free = frame;
+        }
+        // A standard data frame's priority: its identifier in the top 11 bits.
+        let Some(frame) = self.reserve(u32::from(cob_id) << 21, false) else { return false };
+        *frame = CanFrame::standard_unchecked(cob_id, *data, len);
+        true
+    }
+
+    // Out of line: the core of push and push_front.
+    #[inline(never)]
+    fn insert(&mut self, frame: CanFrame, ahead: bool) -> bool {
+        self.reserve(frame.priority(), ahead).map(|slot| *slot = frame).is_some()
+    }
+
+    /// The lowest free slot, put into the order for a frame of priority
+    /// `key` (behind its equals, or `ahead` of them); `None` (and one more
+    /// overflow) when all N are used.
+    #[inline(always)]
+    fn reserve(&mut self, key: u32, ahead: bool) -> Option<&mut CanFrame> {
+        let slot = (!self.used).trailing_zeros() as usize;
+        if slot >= N || self.len >= N {
+            self.overflows = self.overflows.saturating_add(1);
+            return None;
+        }
         self.used |= 1 << slot;
-        let key = frame.priority();
+        self.link(slot, key, ahead);
+        self.slots.get_mut(slot)
+    }
+
+    /// Puts the frame in `slot`, of priority `key`, into the order.
+    #[inline(always)]
+    fn link(&mut self, slot: usize, key: u32, ahead: bool) {
         // The new frame stays behind queued frames up to `limit`: its equals
         // too, unless it goes ahead of them.
         let limit = if ahead { key.checked_sub(1) } else { Some(key) };
@@ -98,12 +130,11 @@ impl<const N: usize> TxQueue<N> {
         if let (Some(kk), Some(oo)) = (self.keys.get_mut(at), self.order.get_mut(at)) {
             (*kk, *oo) = (key, slot as u8);
         }
-        // A free slot was found above, with `len` < N.
+        // A free slot was found before (`reserve`), with `len` < N.
         #[allow(clippy::arithmetic_side_effects)]
         {
             self.len += 1;
         }
-        true
     }
 
     /// The frame that goes next, without removing it.
@@ -115,6 +146,8 @@ impl<const N: usize> TxQueue<N> {
     }
 
     /// Removes the frame that goes next.
+    // In line: its one caller, `Node::transmit`, has checked that the queue is not empty.
+    #[inline(always)]
     pub fn pop(&mut self) -> Option<CanFrame> {
         if self.len == 0 {
             return None;
@@ -210,6 +243,26 @@ mod tests {
     }
 
     #[test]
+    fn a_frame_written_into_its_slot_takes_its_place_among_the_others() {
+        let mut q = TxQueue::<4>::new();
+        assert!(q.push(f(0x281, 2)));
+        assert_eq!(q.pop(), Some(f(0x281, 2)));
+        assert!(q.push(f(0x581, 9)));
+        // Bytes past the length are the caller's (zeros from a TPDO's build).
+        assert!(q.push_data(0x181, &[1, 2, 3, 0, 0, 0, 0, 0], 3));
+        assert!(q.push(f(0x181, 4)));
+        assert!(!q.push_data(0x800, &[0; 8], 1), "not an 11-bit identifier");
+        assert!(!q.push_data(0x181, &[0; 8], 9), "more than 8 bytes");
+        assert_eq!(q.overflows(), 0);
+        assert!(q.push_data(0x701, &[0; 8], 0));
+        assert!(!q.push_data(0x080, &[0; 8], 1), "full");
+        assert_eq!(q.overflows(), 1);
+        let order: Vec<CanFrame> = core::iter::from_fn(|| q.pop()).collect();
+        let built = CanFrame::standard(0x181, &[1, 2, 3]).unwrap();
+        assert_eq!(order, [built, f(0x181, 4), f(0x581, 9), CanFrame::standard(0x701, &[]).unwrap()]);
+    }
+
+    #[test]
     fn matches_a_model_of_priority_then_queueing_order() {
         // The model: (priority, sequence) with sequence numbers counting up
         // for push and down for push_front, the lowest pair leaves first.
@@ -224,9 +277,18 @@ mod tests {
             let id = [0x181, 0x281, 0x581, 0x581, 0x701, 0x080][(seed % 6) as usize];
             let frame = f(id, step as u8);
             match (seed >> 8) % 4 {
-                0 | 1 => {
+                0 => {
                     up += 1;
                     let ok = q.push(frame);
+                    assert_eq!(ok, model.len() < 8);
+                    if ok {
+                        model.push((frame.priority(), up, frame));
+                    }
+                }
+                1 => {
+                    // The same frame, written into its slot.
+                    up += 1;
+                    let ok = q.push_data(id, &[step as u8, 0, 0, 0, 0, 0, 0, 0], 1);
                     assert_eq!(ok, model.len() < 8);
                     if ok {
                         model.push((frame.priority(), up, frame));

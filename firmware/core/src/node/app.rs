@@ -193,8 +193,8 @@ impl Ctx<'_> {
             self.effects.written = true;
             return self.store_command(index, sub, data);
         }
-        self.precheck(index, sub, data)?;
-        self.route_write(index, sub, data)
+        let entry = self.precheck(index, sub, data)?;
+        self.route_write(index, sub, data, entry)
     }
 
     /// Sets a value the device owns, read-only ones included (0x6041

@@ -5,9 +5,9 @@
 
 use crate::abort::AbortCode;
 use crate::id::CobId;
-use crate::od::access::{copy_from, upload_value};
+use crate::od::access::{copy_from, plain_value, upload_value};
 use crate::od::index;
-use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, u32_exact};
+use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
 use crate::services::store::{self, LOAD, SAVE, Scope, StoreError};
 use core::marker::PhantomData;
 
@@ -99,9 +99,10 @@ impl Ctx<'_> {
         self.dict.read_u32(self.image, index, sub)
     }
 
-    /// [`precheck`]: the checks every download passes before the object's own rules.
-    pub(super) fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        precheck(self.dict, index, sub, data).map(|_| ())
+    /// [`precheck`]: the checks every download passes before the object's
+    /// own rules; the entry, for [`Ctx::route_write`].
+    pub(super) fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
+        precheck(self.dict, index, sub, data)
     }
 
     /// An SDO server parameter 0x1200 + i (CiA 301 §7.5.2.33). Sub 1 and 2,
@@ -110,7 +111,7 @@ impl Ctx<'_> {
     /// default server keeps its own pre-defined ones), and its CAN-ID
     /// changes only while it is or becomes not valid. Sub 3, the client's
     /// node-ID: 0 (none assigned) or 1..=127.
-    fn write_sdo_server(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    fn write_sdo_server(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
         match sub {
             1 | 2 => {
                 let new = CobId(u32_exact(data)?);
@@ -127,17 +128,18 @@ impl Ctx<'_> {
             3 if matches!(data, [id] if *id > 127) => return Err(AbortCode::InvalidValue),
             _ => {}
         }
-        self.plain().write(index, sub, data)?;
+        store_checked(self.image, entry, data)?;
         self.effects.sdo_changed = true;
         Ok(())
     }
 
-    /// A checked write: the service that owns the object applies its rules.
+    /// A checked write of (index, sub), whose `entry` passed [`Ctx::precheck`]:
+    /// the service that owns the object applies its rules.
     /// Not 0x1010/0x1011: their callers choose whether the node stores
     /// ([`Ctx::store_command`]), so that a node without storage links none of it.
-    pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+    pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
         if index >= index::MANUFACTURER_SPECIFIC {
-            return self.write_plain(index, sub, data);
+            return self.write_plain(entry, data);
         }
         self.effects.written = true;
         self.effects.services = true;
@@ -146,14 +148,14 @@ impl Ctx<'_> {
                 if matches!(data, [v] if *v > 2) {
                     return Err(AbortCode::InvalidValue);
                 }
-                self.plain().write(index, sub, data)
+                store_checked(self.image, entry, data).map(|_| ())
             }
-            index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST => self.write_sdo_server(index, sub, data),
+            index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST => self.write_sdo_server(index, sub, data, entry),
             _ => {
                 let (dict, now, node_id, options) = (self.dict, self.now, self.node_id, self.options);
                 match self.services.write_object(index, sub, data, dict, self.image, node_id, now, options, self.state) {
                     Some(result) => result,
-                    None => self.plain().write(index, sub, data),
+                    None => store_checked(self.image, entry, data).map(|_| ()),
                 }
             }
         };
@@ -169,9 +171,10 @@ impl Ctx<'_> {
 
 impl Ctx<'_> {
     /// A write no service owns (an application or profile object): the
-    /// dictionary's own, remembering which bytes changed.
-    fn write_plain(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        let (entry, changed) = self.dict.write_entry(self.image, index, sub, data)?;
+    /// dictionary's own, remembering which bytes changed. The precheck
+    /// looked the entry up and checked the value: no second look-up.
+    fn write_plain(&mut self, entry: &'static Entry, data: &[u8]) -> Result<(), AbortCode> {
+        let changed = store_checked(self.image, entry, data)?;
         if !changed {
             // The same value again: no TPDO has new data.
         } else if self.effects.wrote.1 == 0 {
@@ -184,12 +187,28 @@ impl Ctx<'_> {
     }
 }
 
+/// The first `size` bytes of a value (at most 4), zero-padded: four fixed
+/// loads, where a copy loop of variable length becomes a `memcpy` call.
+fn small_value(value: &[u8], size: usize) -> [u8; 4] {
+    let mut out = [0u8; 4];
+    for (i, d) in out.iter_mut().enumerate() {
+        *d = if i < size { value.get(i).copied().unwrap_or(0) } else { 0 };
+    }
+    out
+}
+
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
+    /// The device's read hook, in one place for its two callers.
+    #[inline(never)]
+    fn read_hook(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        self.app.read(self.ctx, index, sub, offset, buf)
+    }
+
     /// [`ObjectAccess::read`], from `entry` when the caller already looked it up.
-    // One call of the device's read hook for both callers (each inlined a copy).
+    // Out of line: `read` and the hooks' path of `upload_small` call it.
     #[inline(never)]
     fn read_from(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8], entry: Option<&'static Entry>) -> Result<usize, AbortCode> {
-        if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
+        if let Some(r) = self.read_hook(index, sub, offset, buf) {
             return r;
         }
         let entry = match entry {
@@ -209,15 +228,14 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
         }
         // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
         let store = index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS;
-        if !store {
-            self.ctx.precheck(index, sub, data)?;
-        }
+        let entry = if store { None } else { Some(self.ctx.precheck(index, sub, data)?) };
         self.app.check_write(self.ctx, index, sub, data)?;
-        if store {
-            self.ctx.effects.written = true;
-            if O::SERVICES.storage { self.ctx.store_command(index, sub, data) } else { self.ctx.no_store(index, sub) }?;
-        } else {
-            self.ctx.route_write(index, sub, data)?;
+        match entry {
+            Some(entry) => self.ctx.route_write(index, sub, data, entry)?,
+            None => {
+                self.ctx.effects.written = true;
+                if O::SERVICES.storage { self.ctx.store_command(index, sub, data) } else { self.ctx.no_store(index, sub) }?;
+            }
         }
         self.app.written(self.ctx, index, sub, self.by);
         Ok(())
@@ -239,15 +257,27 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
     fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
         // The hooks in the order upload_size, read would call them; the
         // plain tables looked up once for both.
-        let (size, entry) = match self.app.upload_size(self.ctx, index, sub) {
-            Some(r) => (r?, None),
+        let size = match self.app.upload_size(self.ctx, index, sub) {
+            Some(r) => r?,
             None => {
                 let entry = self.ctx.dict.find(index, sub)?;
-                (upload_value(self.ctx.dict, self.ctx.image, entry)?.len(), Some(entry))
+                let size = upload_value(self.ctx.dict, self.ctx.image, entry)?.len();
+                if !(1..=4).contains(&size) {
+                    return Ok(size);
+                }
+                let Some(dst) = buf.get_mut(..size) else { return Ok(size) };
+                if let Some(r) = self.read_hook(index, sub, 0, dst) {
+                    r?;
+                } else {
+                    // Read after the hook, which may have changed the image;
+                    // the entry's checks passed above.
+                    *buf = small_value(plain_value(self.ctx.dict, self.ctx.image, entry), size);
+                }
+                return Ok(size);
             }
         };
         let Some(dst) = buf.get_mut(..size).filter(|_| size != 0) else { return Ok(size) };
-        self.read_from(index, sub, 0, dst, entry)?;
+        self.read_from(index, sub, 0, dst, None)?;
         Ok(size)
     }
 

@@ -4,6 +4,7 @@
 
 use crate::frame::CanFrame;
 use crate::services::emcy::EmcyProducer;
+use crate::services::pdo::map::MAX_LEN;
 use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::SdoTx;
 use crate::txq::TxQueue;
@@ -53,6 +54,10 @@ fn bit(n: usize) -> u32 {
 impl PdoTx for PdoSink<'_> {
     fn send(&mut self, cob_id: u16, data: &[u8]) -> bool {
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
+    }
+
+    fn send_data(&mut self, cob_id: u16, data: &[u8; MAX_LEN], len: usize) -> bool {
+        self.txq.push_data(cob_id, data, u8::try_from(len).unwrap_or(u8::MAX))
     }
 
     fn event(&mut self, event: PdoEvent) {

@@ -82,8 +82,14 @@ pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: 
     if !entry.readable() {
         return Err(AbortCode::WriteOnly);
     }
+    Ok(plain_value(dictionary, image, entry))
+}
+
+/// The bytes an upload of `entry` sends once [`upload_value`] accepted it:
+/// a VISIBLE_STRING up to its first NUL.
+pub(crate) fn plain_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: &Entry) -> &'a [u8] {
     let value = dictionary.value(image, entry);
-    Ok(if entry.data_type == DataType::VisibleString { super::until_nul(value) } else { value })
+    if entry.data_type == DataType::VisibleString { super::until_nul(value) } else { value }
 }
 
 impl ObjectAccess for DictionaryAccess<'_> {

@@ -203,34 +203,39 @@ impl SyncService {
     fn write(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
         precheck(dict, index, sub, data)?;
         let value = le_u32(data);
-        match index {
+        // The object's own rules first, then one write for all four.
+        let cob = match index {
             index::COB_ID_SYNC => {
                 let new = CobIdSync::from_u32(value).map_err(|_| AbortCode::InvalidValue)?;
                 if is_restricted_can_id(new.can_id) || (self.producer && new.producer && new.can_id != self.cob_id) {
                     return Err(AbortCode::InvalidValue);
                 }
-                dict.write(image, index, sub, data)?;
-                self.cob_id = new.can_id;
-                self.producer = new.producer;
-                self.restart_producer();
+                Some(new)
             }
-            index::COMMUNICATION_CYCLE_PERIOD => {
-                dict.write(image, index, sub, data)?;
-                self.period = Duration::from_micros(u64::from(value));
-                self.next = None;
-            }
-            index::SYNCHRONOUS_WINDOW_LENGTH => {
-                dict.write(image, index, sub, data)?;
-                self.window = Duration::from_micros(u64::from(value));
-            }
-            _ => {
+            index::SYNCHRONOUS_COUNTER_OVERFLOW => {
                 if value == 1 || value > 240 {
                     return Err(AbortCode::InvalidValue);
                 }
                 if self.period != Duration::ZERO {
                     return Err(AbortCode::DeviceState);
                 }
-                dict.write(image, index, sub, data)?;
+                None
+            }
+            _ => None,
+        };
+        dict.write(image, index, sub, data)?;
+        match (index, cob) {
+            (_, Some(new)) => {
+                self.cob_id = new.can_id;
+                self.producer = new.producer;
+                self.restart_producer();
+            }
+            (index::COMMUNICATION_CYCLE_PERIOD, _) => {
+                self.period = Duration::from_micros(u64::from(value));
+                self.next = None;
+            }
+            (index::SYNCHRONOUS_WINDOW_LENGTH, _) => self.window = Duration::from_micros(u64::from(value)),
+            _ => {
                 self.overflow = value as u8;
                 self.restart_producer();
             }

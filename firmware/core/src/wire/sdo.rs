@@ -198,6 +198,19 @@ fn segment_frame(byte0: u8, d: [u8; 7]) -> [u8; 8] {
 
 const TOGGLE: u8 = 0x10;
 
+/// The initiate download response (scs = 3), as [`SdoResponse::emit`] makes it.
+pub(crate) fn initiate_download_response(index: u16, sub: u8) -> [u8; 8] {
+    with_multiplexer(0x60, index, sub, [0; 4])
+}
+
+/// The expedited initiate upload response (scs = 2, e = 1, s = 1) with the
+/// first `size` (1 to 4) bytes of `data` valid, as [`SdoResponse::emit`]
+/// makes it; the other bytes of `data` go out as they are.
+pub(crate) fn expedited_upload_response(index: u16, sub: u8, data: [u8; 4], size: usize) -> [u8; 8] {
+    let n = 4usize.saturating_sub(size) as u8 & 0x03;
+    with_multiplexer(0x43 | (n << 2), index, sub, data)
+}
+
 /// Decodes the `nnes` bits (bits 3–0) of an initiate frame with bytes 4–7.
 // `n` is two bits: 4 − n is 1..=4.
 #[allow(clippy::arithmetic_side_effects)]
@@ -313,7 +326,7 @@ impl SdoResponse {
     /// The 8 data bytes of this response.
     pub fn emit(&self) -> [u8; 8] {
         match *self {
-            SdoResponse::InitiateDownload { index, sub } => with_multiplexer(0x60, index, sub, [0; 4]),
+            SdoResponse::InitiateDownload { index, sub } => initiate_download_response(index, sub),
             SdoResponse::DownloadSegment { toggle } => [0x20 | if toggle { TOGGLE } else { 0 }, 0, 0, 0, 0, 0, 0, 0],
             SdoResponse::InitiateUpload { index, sub, ref data } => {
                 let (bits, tail) = emit_initiate_data(data);
@@ -330,6 +343,17 @@ impl SdoResponse {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn responses_built_in_place_are_the_emitted_ones() {
+        assert_eq!(initiate_download_response(0x2003, 7), SdoResponse::InitiateDownload { index: 0x2003, sub: 7 }.emit());
+        for size in 1..=4u8 {
+            let data = [1, 2, 3, 4];
+            let emitted =
+                SdoResponse::InitiateUpload { index: 0x1018, sub: 1, data: InitiateData::Expedited { data, size: Some(size) } }.emit();
+            assert_eq!(expedited_upload_response(0x1018, 1, data, usize::from(size)), emitted, "size {size}");
+        }
+    }
 
     // Frames of CiA 301 §7.2.4.3 with the values of CCT cases 2.1, 2.3, 2.13
     // and 2.15 (device type 0x00020192, heartbeat 1000 ms).

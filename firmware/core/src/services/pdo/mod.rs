@@ -115,6 +115,13 @@ pub trait PdoTx {
     /// at a later poll, see [`tpdo`]).
     fn send(&mut self, cob_id: u16, data: &[u8]) -> bool;
 
+    /// Queues a frame of the first `len` (at most 8) of `data`, whose
+    /// bytes past `len` are zero (what a TPDO builds), so that a sink can
+    /// copy the whole 8 bytes as words. The default calls [`PdoTx::send`].
+    fn send_data(&mut self, cob_id: u16, data: &[u8; map::MAX_LEN], len: usize) -> bool {
+        self.send(cob_id, data.get(..len).unwrap_or(data))
+    }
+
     /// Reports an event; the default ignores it.
     fn event(&mut self, event: PdoEvent) {
         let _ = event;
@@ -152,6 +159,12 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// worked out whenever a mapping or a type changes, so that an RPDO
     /// only makes the TPDOs it can change look for a change.
     rpdo_reach: [u32; R],
+    /// Bit n: RPDO n is synchronous (only those buffer data for a SYNC).
+    /// PDOs past 31 have no bit and are always looked at.
+    sync_rpdos: u32,
+    /// Bit t: TPDO t is valid and synchronous (types 0..=240 and 252: the
+    /// only ones a SYNC does something for), so that a SYNC visits just those.
+    sync_tpdos: u32,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -171,6 +184,8 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [ALL_TPDOS; R],
+            sync_rpdos: 0,
+            sync_tpdos: 0,
         }
     }
 }
@@ -191,6 +206,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             settled_deadline: None,
             settled: false,
             rpdo_reach: [0; R],
+            sync_rpdos: 0,
+            sync_tpdos: 0,
         }
     }
 
@@ -326,12 +343,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
     }
 
+    /// Works out again what the PDOs' parameters and mappings imply: the
+    /// CAN-IDs the RPDOs listen to, the TPDOs each RPDO reaches, and which
+    /// PDOs a SYNC has work for. Every change of a parameter or a mapping ends here.
     // Out of line: configure and write_object each had a copy (100 bytes more).
     #[inline(never)]
     fn refresh_rx_ids(&mut self) {
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
+        self.sync_rpdos = mask_of(&self.rpdos, |r| r.params.is_synchronous());
+        self.sync_tpdos = mask_of(&self.tpdos, Tpdo::is_synchronous);
         for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
             let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
             *reach = slots.iter().fold(0, |mask, slot| match slot.source {
@@ -402,10 +424,23 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         // No deadline moves: synchronous TPDOs have none, and a refused
         // frame is retried at the next change ([`Pdos::retrying`]).
         self.window_end = sync.window_end;
-        for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
+        // Only the synchronous PDOs, in order (those past 31 always).
+        let mut bits = self.sync_rpdos;
+        while let Some(n) = next_bit(&mut bits) {
+            if let Some(rpdo) = self.rpdos.get_mut(n) {
+                rpdo.on_sync(n, image, tx);
+            }
+        }
+        for (n, rpdo) in self.rpdos.iter_mut().enumerate().skip(32) {
             rpdo.on_sync(n, image, tx);
         }
-        for tpdo in self.tpdos.iter_mut() {
+        let mut bits = self.sync_tpdos;
+        while let Some(t) = next_bit(&mut bits) {
+            if let Some(tpdo) = self.tpdos.get_mut(t) {
+                tpdo.on_sync(sync, image, tx);
+            }
+        }
+        for tpdo in self.tpdos.iter_mut().skip(32) {
             tpdo.on_sync(sync, image, tx);
         }
     }
@@ -482,10 +517,23 @@ fn tpdos_mapping(tpdos: &[Tpdo], offset: u16, len: u16) -> u32 {
     if tpdos.len() > 32 { mask | ALL_TPDOS } else { mask }
 }
 
+/// Bit i: `f` holds for PDO i (PDOs past 31 have no bit).
+fn mask_of<P>(pdos: &[P], f: impl Fn(&P) -> bool) -> u32 {
+    pdos.iter().take(32).enumerate().fold(0, |mask, (i, p)| if f(p) { mask | 1 << i } else { mask })
+}
+
+/// The lowest set bit of `bits`, cleared.
+fn next_bit(bits: &mut u32) -> Option<usize> {
+    let n = bits.trailing_zeros() as usize;
+    *bits &= bits.wrapping_sub(1);
+    (n < 32).then_some(n)
+}
+
 /// Bit t: TPDO t waits to retry.
 #[inline(never)]
 fn retry_mask(tpdos: &[Tpdo]) -> u32 {
-    tpdos.iter().enumerate().fold(0, |mask, (t, tpdo)| if tpdo.retrying() { mask | 1u32.checked_shl(t as u32).unwrap_or(0) } else { mask })
+    // TPDOs past 31 have no bit (they are always looked at).
+    tpdos.iter().take(32).enumerate().fold(0, |mask, (t, tpdo)| mask | u32::from(tpdo.retrying()) << t)
 }
 
 /// Whether sub 1 of a communication record can be written at all.

@@ -4,7 +4,7 @@
 use super::{Buffer, Channel, Mux, SdoTx, State, segmented};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::wire::sdo::{InitiateData, SdoResponse};
+use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
 
 /// Largest value an expedited transfer carries.
 const EXPEDITED_MAX: usize = 4;
@@ -13,33 +13,40 @@ impl Channel {
     /// Initiate SDO download: writes an expedited value at once, or opens a
     /// segmented download.
     pub(super) fn initiate_download(&mut self, data: InitiateData, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let mux = self.mux;
         let (data, size) = match data {
             InitiateData::Expedited { data, size } => (data, size),
             InitiateData::Segmented { size } => return self.start_segmented_download(size, buf, od, tx),
         };
         let len = match size {
             Some(k) => usize::from(k),
-            None => match unsized_expedited_len(od, mux) {
+            None => match unsized_expedited_len(od, self.mux) {
                 Ok(k) => k,
                 Err(code) => return self.abort(code, tx),
             },
         };
-        match od.write(mux.index, mux.sub, data.get(..len).unwrap_or(&data)) {
-            Ok(()) => self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx),
+        self.expedited_download(data, len, od, tx);
+    }
+
+    /// Writes the first `len` bytes (1 to 4) of an expedited download and answers.
+    // Out of line, as `initiate_upload`: inlined, the devices' write and read
+    // hooks grew the images (sendix +490 B).
+    #[inline(never)]
+    // Out of line, as `initiate_upload`: the quick path and the general one call it.
+    pub(super) fn expedited_download(&mut self, data: [u8; 4], len: usize, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let Mux { index, sub } = self.mux;
+        match od.write(index, sub, data.get(..len).unwrap_or(&data)) {
+            Ok(()) => self.emit(initiate_download_response(index, sub), tx),
             Err(code) => self.abort(code, tx),
         }
     }
 
     /// Initiate SDO upload.
+    #[inline(never)]
     pub(super) fn initiate_upload(&mut self, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let (index, sub) = (self.mux.index, self.mux.sub);
+        let Mux { index, sub } = self.mux;
         let mut data = [0u8; EXPEDITED_MAX];
         match od.upload_small(index, sub, &mut data) {
-            Ok(size @ 1..=EXPEDITED_MAX) => {
-                let size = Some(u8::try_from(size).unwrap_or(4));
-                self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Expedited { data, size } }, tx);
-            }
+            Ok(size @ 1..=EXPEDITED_MAX) => self.emit(expedited_upload_response(index, sub, data, size), tx),
             Ok(size) => self.upload_response(size, od, tx),
             Err(code) => self.abort(code, tx),
         }
@@ -58,8 +65,7 @@ impl Channel {
             {
                 return self.abort(code, tx);
             }
-            let size = Some(u8::try_from(size).unwrap_or(4));
-            self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Expedited { data, size } }, tx);
+            self.emit(expedited_upload_response(index, sub, data, size), tx);
         } else {
             self.state = State::SegmentedUpload(segmented::Upload::new(size));
             let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
