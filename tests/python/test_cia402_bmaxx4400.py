@@ -1,7 +1,8 @@
 """CiA 402 through python-canopen's BaseNode402: the Baumüller b maXX 4400 in `vnode`.
 
 State changes through RPDO1 (0x6040) within BaseNode402's timeouts; a pv move in the
-manufacturer's speed control mode −3 measured by 0x606C; a pp move measured by 0x6064 and the drive parameter P0462
+manufacturer's speed control mode −3 measured by 0x606C; a pp move (after the homing the
+CANopen positioning mode requires) measured by 0x6064 and the drive parameter P0462
 (0x6064 + 2^31); interpolated position following the records each SYNC takes. The dictionary
 has no 0x6502, so the modes are written to 0x6060 by SDO rather than through `op_mode`
 (docs/devices/bmaxx4400.md D51).
@@ -56,6 +57,14 @@ class Bmaxx4400(Drive402Test):
         self.drive.state = "SWITCH ON DISABLED"
 
     def test_profile_position_move(self):
+        # The CANopen positioning mode (P0601 = 9) positions only after a homing since
+        # power-on (§4.4.8, D61): method 35, the current position, in hm first.
+        self.drive.sdo[0x6098].raw = 35
+        self.mode(6)
+        self.drive.state = "OPERATION ENABLED"
+        self.drive.controlword = 0x1F
+        self.wait_for("homing attained", lambda: self.drive.sdo[0x6041].raw & 0x1400 == 0x1400)
+        self.drive.controlword = 0x0F
         self.mode(1)
         self.drive.sdo[0x6067].raw = 16
         self.drive.sdo[0x6081].raw = 655360

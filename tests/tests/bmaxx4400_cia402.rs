@@ -49,11 +49,19 @@ fn i32_at(b: &mut Bmaxx, index: u16) -> i32 {
     i32::from_le_bytes([v[0], v[1], v[2], v[3]])
 }
 
-/// Operation enabled in `mode` (RPDO2: 0x6040 + 0x6060) at 100-300 ms.
+/// Operation enabled in `mode` (RPDO2: 0x6040 + 0x6060) at 100-300 ms; pp
+/// after a homing on the current position (method 35) in hm at 300-320 ms,
+/// which the CANopen positioning mode P0601 = 9 requires (§4.4.8, D61).
 fn enabled(mode: i8) -> Bmaxx {
     let mut b = operational();
+    let first = if mode == 1 { 6 } else { mode };
+    assert_eq!(b.sdo_write(ID, 0x6098, 0, &[35]), ok_write(0x6098, 0));
     for (t, cw) in [(100, 0x06u8), (200, 0x07), (300, 0x0F)] {
-        b.rx(ms(t), RPDO2, &[cw, 0, mode as u8]);
+        b.rx(ms(t), RPDO2, &[cw, 0, first as u8]);
+    }
+    if mode == 1 {
+        b.rx(ms(310), RPDO2, &[0x1F, 0, 6]);
+        b.rx(ms(320), RPDO2, &[0x0F, 0, 1]);
     }
     b.run_until(ms(350));
     assert_eq!(statusword(&mut b) & 0x6F, OPERATION_ENABLED & 0x6F);

@@ -208,3 +208,151 @@ fn m_l940_gear_factor_0x604c_10_to_5_doubles_the_motor_speed_of_0x60ff() {
     assert_eq!(b.sdo_write(ID, 0x604C, 1, &33_001i32.to_le_bytes()), abort(0x604C, 1, 0x0609_0031));
     assert_eq!(b.sdo_write(ID, 0x604C, 2, &(-33_001i32).to_le_bytes()), abort(0x604C, 2, 0x0609_0032));
 }
+
+#[test]
+fn m_l940_gear_factor_0x604c_applies_to_the_vl_objects_6042_6043_6044_and_their_ramp() {
+    let mut b = ip_ready(2);
+    assert_eq!(b.sdo_write(ID, 0x604C, 1, &10i32.to_le_bytes()), ok_write(0x604C, 1));
+    assert_eq!(b.sdo_write(ID, 0x604C, 2, &5i32.to_le_bytes()), ok_write(0x604C, 2));
+    // §4.4.6 lists 6042h, 6043h, 6048h among the objects the factor scales: a ramp of
+    // 60 per second in the object's units, then 30 min⁻¹ (INTEGER16) by SDO at 400 ms.
+    assert_eq!(b.sdo_write(ID, 0x6048, 1, &60u32.to_le_bytes()), ok_write(0x6048, 1));
+    assert_eq!(b.sdo_write(ID, 0x6048, 2, &1u16.to_le_bytes()), ok_write(0x6048, 2));
+    b.run_until(ms(400));
+    assert_eq!(b.sdo_write(ID, 0x6042, 0, &30i16.to_le_bytes()), ok_write(0x6042, 0));
+    b.run_until(ms(650));
+    let demand = b.sdo_upload(ID, 0x6043, 0).map(|v| i16::from_le_bytes([v[0], v[1]]));
+    assert_eq!(demand, Ok(15), "half-way up the ramp after 250 ms, in the object's units");
+    b.run_until(ms(1200));
+    assert_eq!(b.sdo_upload(ID, 0x6044, 0), Ok(30i16.to_le_bytes().to_vec()), "0x6044 in the object's units");
+    assert_eq!(b.sdo_upload(ID, 0x6043, 0), Ok(30i16.to_le_bytes().to_vec()));
+    // The motor turns at 60 min⁻¹: one revolution (65536 increments) a second.
+    let p = i32_at(&mut b, 0x6064);
+    b.run_until(ms(2200));
+    let moved = i32_at(&mut b, 0x6064) - p;
+    assert!((65_000..=66_100).contains(&moved), "one motor revolution in a second: {moved}");
+    // A negative factor turns the motor the other way; 0x6044 reads 30 through it.
+    assert_eq!(b.sdo_write(ID, 0x604C, 1, &(-10i32).to_le_bytes()), ok_write(0x604C, 1));
+    b.run_until(ms(4000));
+    assert_eq!(b.sdo_upload(ID, 0x6044, 0), Ok(30i16.to_le_bytes().to_vec()));
+    let p = i32_at(&mut b, 0x6064);
+    b.run_until(ms(5000));
+    let moved = i32_at(&mut b, 0x6064) - p;
+    assert!((-66_100..=-65_000).contains(&moved), "one revolution backwards: {moved}");
+}
+
+const RPDO1: u16 = 0x204;
+const EMCY: u16 = 0x084;
+
+/// The EMCY frames among `out`.
+fn emcys(out: &[(u16, Vec<u8>)]) -> Vec<Vec<u8>> {
+    out.iter().filter(|(id, _)| *id == EMCY).map(|(_, d)| d.clone()).collect()
+}
+
+/// Operation enabled in pp after a homing on the current position (method 35) at 100-320 ms.
+fn pp_homed() -> Bmaxx {
+    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    b.now = ms(10);
+    b.nmt(0x01, ID);
+    assert_eq!(b.sdo_write(ID, 0x6098, 0, &[35]), ok_write(0x6098, 0));
+    for (t, cw, mode) in [(100, 0x06u8, 6u8), (200, 0x07, 6), (300, 0x0F, 6), (310, 0x1F, 6), (320, 0x0F, 1)] {
+        let out = b.rx(ms(t), RPDO2, &[cw, 0, mode]);
+        assert_eq!(emcys(&out), Vec::<Vec<u8>>::new(), "{t} ms");
+    }
+    b
+}
+
+#[test]
+fn m_l856_a_target_beyond_software_limit_2_is_emcy_8600_drive_error_197_and_no_motion() {
+    let mut b = pp_homed();
+    assert_eq!(b.sdo_write(ID, 0x607D, 1, &(-100_000i32).to_le_bytes()), ok_write(0x607D, 1));
+    assert_eq!(b.sdo_write(ID, 0x607D, 2, &100_000i32.to_le_bytes()), ok_write(0x607D, 2));
+    // 0x605A = 2: the drive brakes on the quick stop ramp ("Verhalten über 605Ahex einstellbar").
+    assert_eq!(b.sdo_write(ID, 0x605A, 0, &2i16.to_le_bytes()), ok_write(0x605A, 0));
+    let t = 200_000i32.to_le_bytes();
+    let out = b.rx(ms(400), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]]);
+    // EMCY 8600h, the error register as the core derives it (as for 8611h in B16), drive
+    // error 00C5h (197) in bytes 3-4.
+    assert_eq!(emcys(&out), [vec![0x00, 0x86, 0x11, 0x00, 0xC5, 0, 0, 0]]);
+    b.run_until(ms(600));
+    assert_eq!(b.sdo_upload(ID, 0x6041, 0).map(|v| v[0] & 0x4F), Ok(0x08), "Fault");
+    assert_eq!(i32_at(&mut b, 0x6064), 0, "no motion");
+    // Fault reset (RPDO1): "no error"; the next target inside the limits moves.
+    let out = b.rx(ms(600), RPDO1, &[0x80, 0x00]);
+    assert_eq!(emcys(&out), [vec![0; 8]]);
+    for (t, cw) in [(610, 0x06u8), (620, 0x07), (630, 0x0F)] {
+        b.rx(ms(t), RPDO1, &[cw, 0]);
+    }
+    // Below limit 1: drive error 00C4h (196).
+    let t = (-150_000i32).to_le_bytes();
+    let out = b.rx(ms(700), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]]);
+    assert_eq!(emcys(&out), [vec![0x00, 0x86, 0x11, 0x00, 0xC4, 0, 0, 0]]);
+    b.rx(ms(800), RPDO1, &[0x80, 0x00]);
+    for (t, cw) in [(810, 0x06u8), (820, 0x07), (830, 0x0F)] {
+        b.rx(ms(t), RPDO1, &[cw, 0]);
+    }
+    let t = 65_536i32.to_le_bytes();
+    let out = b.rx(ms(900), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]]);
+    assert_eq!(emcys(&out), Vec::<Vec<u8>>::new());
+    b.rx(ms(910), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.run_until(ms(2500));
+    assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "one revolution");
+}
+
+#[test]
+fn m_l1002_positioning_without_homing_is_emcy_8600_drive_error_200_until_homed_and_acknowledged() {
+    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    b.now = ms(10);
+    b.nmt(0x01, ID);
+    b.rx(ms(100), RPDO2, &[0x06, 0, 1]);
+    b.rx(ms(200), RPDO2, &[0x07, 0, 1]);
+    // Enabled in pp without a homing since power-on: EMCY 8600h, drive error 00C8h (200), once.
+    let out = b.rx(ms(300), RPDO2, &[0x0F, 0, 1]);
+    assert_eq!(emcys(&out), [vec![0x00, 0x86, 0x11, 0x00, 0xC8, 0, 0, 0]]);
+    assert_eq!(b.sdo_upload(ID, 0x6041, 0), Ok(vec![0x37, 0x02]), "Operation enabled: the drive holds its position");
+    // A set-point is not taken (no acknowledge, no motion, no second EMCY).
+    let t = 65_536i32.to_le_bytes();
+    let out = b.rx(ms(400), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]]);
+    assert_eq!(emcys(&out), Vec::<Vec<u8>>::new());
+    b.run_until(ms(600));
+    assert_eq!(b.sdo_upload(ID, 0x6041, 0), Ok(vec![0x37, 0x06]), "standing on its position, no set-point acknowledge (bit 12)");
+    assert_eq!(i32_at(&mut b, 0x6064), 0);
+    // A fault reset before homing does not acknowledge it.
+    let out = b.rx(ms(600), RPDO1, &[0x8F, 0x00]);
+    assert_eq!(emcys(&out), Vec::<Vec<u8>>::new());
+    // Homing on the current position (hm, method 35), back to pp, fault reset: "no error".
+    assert_eq!(b.sdo_write(ID, 0x6098, 0, &[35]), ok_write(0x6098, 0));
+    b.rx(ms(700), RPDO2, &[0x0F, 0, 6]);
+    b.rx(ms(710), RPDO2, &[0x1F, 0, 6]);
+    assert_eq!(b.sdo_upload(ID, 0x6041, 0), Ok(vec![0x37, 0x16]), "homing attained");
+    b.rx(ms(720), RPDO2, &[0x0F, 0, 1]);
+    let out = b.rx(ms(730), RPDO1, &[0x8F, 0x00]);
+    assert_eq!(emcys(&out), [vec![0; 8]]);
+    // Now the set-point moves the axis.
+    b.rx(ms(740), RPDO1, &[0x0F, 0x00]);
+    b.rx(ms(750), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.rx(ms(760), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.run_until(ms(2500));
+    assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "one revolution");
+}
+
+#[test]
+fn m_l1074_other_positioning_modes_than_p0601_9_need_no_homing() {
+    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    b.now = ms(10);
+    b.nmt(0x01, ID);
+    assert_eq!(b.sdo_write(ID, 0x4259, 0, &10i16.to_le_bytes()), ok_write(0x4259, 0));
+    let mut emcy = Vec::new();
+    for (t, cw) in [(100, 0x06u8), (200, 0x07), (300, 0x0F)] {
+        emcy.extend(emcys(&b.rx(ms(t), RPDO2, &[cw, 0, 1])));
+    }
+    let t = 65_536i32.to_le_bytes();
+    emcy.extend(emcys(&b.rx(ms(400), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]])));
+    b.rx(ms(410), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.run_until(ms(2000));
+    assert_eq!(emcy, Vec::<Vec<u8>>::new());
+    assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "one revolution");
+}

@@ -196,3 +196,13 @@ fn a_transmit_queue_overflow_and_lost_received_frames_clear_apart() {
     assert_eq!(at(ms(1010), b.run_until(ms(3000))), emcy(ERROR_RESET));
     assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x00]));
 }
+
+#[test]
+fn a_broken_nmt_or_heartbeat_frame_is_counted_and_sends_nothing_with_cia301_codes() {
+    // `CanEmcyCodes::CIA301` has no protocol code (the EC5000's 0xFFD3 is its manual's).
+    let mut b = interop();
+    assert_eq!(b.rx(ms(10), 0x000, &[0x01]), []);
+    assert_eq!(b.rx(ms(20), 0x705, &[0x05, 0x00]), []);
+    assert_eq!(b.node.counters().malformed, 2);
+    assert_eq!(b.node.process(ms(21)), None, "nothing to clear");
+}

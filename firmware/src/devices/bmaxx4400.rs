@@ -14,12 +14,15 @@ pub mod od {
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
-use canopen_core::profiles::cia402::{Cia402, Config, mode};
+use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
+use canopen_core::profiles::cia402::objects::index::{CONTROLWORD, QUICK_STOP_OPTION, STATUSWORD};
+use canopen_core::profiles::cia402::{Cia402, Config, mode, statusword};
 use canopen_core::time::Instant;
 
 mod errors;
 mod ip;
 mod params;
+mod positioning;
 mod slots;
 mod speed;
 
@@ -36,11 +39,13 @@ pub struct App {
     speeds: [i32; 2],
     /// The interpolation time period in use, as a power of two of ticks (D58).
     ip_period: u8,
+    /// A homing completed since power-on (reset application) (D61).
+    homed: bool,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0 };
+    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -97,8 +102,16 @@ const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 
 impl Application for App {
     /// §5.5.3 (D27): mapping entries and COB-IDs are rewritten while the PDO
-    /// is valid, in Pre-operational; §5.5.2 (D26): type 254 is time-triggered.
-    const OPTIONS: ServiceOptions = ServiceOptions { pdo_rewrite_while_valid: true, tpdo_254_timer_only: true, ..ServiceOptions::CIA301 };
+    /// is valid, in Pre-operational; §5.5.2 (D26): type 254 is time-triggered;
+    /// P0830 bit 0 (§4.3.1): boot-up as DS 301 V3; bit 4 (§4.3.5): a life
+    /// guarding event enters Pre-operational only when set (D62).
+    const OPTIONS: ServiceOptions = ServiceOptions {
+        pdo_rewrite_while_valid: true,
+        tpdo_254_timer_only: true,
+        boot_up_v3: Some((speed::CONFIGURATION, 1 << 0)),
+        communication_error_pre_operational: Some((speed::CONFIGURATION, 1 << 4)),
+        ..ServiceOptions::CIA301
+    };
 
     fn download_check(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
         // D9: masters following the manual write 0x1017 with one byte (2F).
@@ -137,8 +150,9 @@ impl Application for App {
             self.ip_period = ip::period(ctx, None).unwrap_or(self.ip_period);
         } else {
             // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
-            // default `rpdo_written`); a new gear factor converts 0x60FF anew (D60).
-            self.profile_written(ctx, if index == speed::GEAR_FACTOR { speed::TARGET_VELOCITY } else { index });
+            // default `rpdo_written`); a new gear factor (the profile's vl
+            // dimension factor) converts 0x60FF and 0x6042 anew (D60).
+            self.profile_written(ctx, index);
         }
     }
 
@@ -161,6 +175,8 @@ impl Application for App {
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
         if event == NmtEvent::ResetApplication {
+            // The axis model starts again at 0: the homing is lost.
+            self.homed = false;
             self.set_mode(ctx);
             self.ip_period = ip::period(ctx, None).unwrap_or(1);
         }
@@ -170,13 +186,48 @@ impl Application for App {
 impl App {
     /// The profile hears of `index`; it reads 0x60FF in user units per
     /// second while the object holds min⁻¹ (D57).
+    /// Before a homing (D61) the profile sees no new set-point in pp.
     fn profile_written(&mut self, ctx: &mut Ctx<'_>, index: u16) {
         let Ok(&[a, b, c, d]) = ctx.read(speed::TARGET_VELOCITY, 0) else { return };
         if let Some(user) = speed::target_for_profile(ctx) {
             let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &user.to_le_bytes());
         }
+        let cw = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0);
+        // A homing shows as attained (statusword bits 12 and 10 in hm) until the next write.
+        let (running, status) = running(ctx);
+        if running == mode::HM && status & HOMING_ATTAINED == HOMING_ATTAINED {
+            self.homed = true;
+        }
+        let hold = index == CONTROLWORD && running == mode::PP && !self.homed && positioning::homing_required(ctx);
+        if hold {
+            let _ = ctx.set_value(CONTROLWORD, 0, &((cw & !0x10) as u16).to_le_bytes());
+        }
         self.drive.written(ctx, &PROFILE, index);
+        let _ = ctx.set_value(CONTROLWORD, 0, &(cw as u16).to_le_bytes());
         let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &[a, b, c, d]);
+        self.positioning(ctx, cw);
+    }
+
+    /// The positioning errors after the profile ran (D61): pp enabled
+    /// without homing; a new target the software limits cut; a fault reset
+    /// once homed acknowledges the first.
+    fn positioning(&mut self, ctx: &mut Ctx<'_>, cw: u32) {
+        if cw & 0x80 != 0 && self.homed {
+            ctx.clear_error(positioning::CODE);
+        }
+        let (running, status) = running(ctx);
+        if running != mode::PP || self.drive.state() != PdsState::OperationEnabled {
+            return;
+        }
+        if !self.homed && positioning::homing_required(ctx) {
+            // Raised once: an active error is not raised again.
+            ctx.raise_error(positioning::CODE, positioning::not_homed());
+        } else if cw & 0x10 != 0 && status & statusword::INTERNAL_LIMIT != 0 {
+            // A new set-point (bit 4) the software limits cut: the fault follows at
+            // once, so no later write finds bit 11 still set while enabled.
+            let reaction = Reaction::of(ctx.read_u32(QUICK_STOP_OPTION, 0).map_or(-1, |v| v as i16 as i32), Reaction::QuickStopRamp);
+            self.drive.raise_fault(ctx, positioning::CODE, positioning::limit(ctx, cw), reaction);
+        }
     }
 
     /// 0x6060 changed: the profile runs the mode [`mode_of`] gives, and
@@ -191,6 +242,16 @@ impl App {
         let _ = ctx.set_value(MODES_OF_OPERATION_DISPLAY, 0, &[shows as u8]);
     }
 }
+
+/// The mode the profile runs (0x6061 as it wrote it: pp and hm show
+/// themselves) and the statusword.
+fn running(ctx: &Ctx<'_>) -> (i8, u16) {
+    let shown = ctx.read(MODES_OF_OPERATION_DISPLAY, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0);
+    (shown as i8, ctx.read_u32(STATUSWORD, 0).unwrap_or(0) as u16)
+}
+
+/// Statusword bits 12 and 10 in hm: homing attained.
+const HOMING_ATTAINED: u16 = statusword::BIT12 | statusword::TARGET_REACHED;
 
 /// 0x1017 Producer heartbeat time.
 const HEARTBEAT_TIME: u16 = 0x1017;

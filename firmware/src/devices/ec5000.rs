@@ -13,10 +13,11 @@ pub mod od {
 
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::AxisParams;
-use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::node::{Application, CanEmcyCodes, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::store::{self, Scope};
 use canopen_core::time::Instant;
+use canopen_core::wire::emcy::EmcyCode;
 
 mod monitor;
 mod roller;
@@ -77,6 +78,15 @@ impl Application for App {
     /// 0x1010 sub 1 stores "all parameters except node-ID" (L744): only a
     /// write to 0x4650 sub 1 (or LSS) makes a node-ID permanent.
     const OPTIONS: ServiceOptions = ServiceOptions { not_saved_by_1010: Some((NODE_ID, NODE_ID)), ..ServiceOptions::CIA301 };
+
+    /// The manual's CAN warnings (M §9.2 L1737-1743, D63) in place of CiA 301's
+    /// 0x8140, 0x8110 and 0x8120; 0xFFD3 for a broken NMT or heartbeat frame.
+    const CAN_EMCY: CanEmcyCodes = CanEmcyCodes {
+        bus_off_recovered: EmcyCode(0xFFD0),
+        overrun: EmcyCode(0xFFD1),
+        error_passive: EmcyCode(0xFFD2),
+        protocol: Some(EmcyCode(0xFFD3)),
+    };
 
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.drive.check_write(index, data)?;
@@ -186,7 +196,7 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
 
 /// EMCY 0x6010 "Restart (powerfail, watchdog)" (M §9.1): the board reports
 /// a restart the firmware did not ask for with it (D53).
-pub const RESTART: canopen_core::wire::emcy::EmcyCode = canopen_core::wire::emcy::EmcyCode(0x6010);
+pub const RESTART: EmcyCode = EmcyCode(0x6010);
 
 /// The manual's fallback node-ID.
 const FACTORY_NODE_ID: u8 = 127;

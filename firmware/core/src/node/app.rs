@@ -22,6 +22,7 @@ use crate::time::Instant;
 use crate::wire::emcy::EmcyCode;
 use crate::wire::time_stamp::TimeOfDay;
 
+use super::controller::CanEmcyCodes;
 use super::filter::AcceptanceList;
 use super::router::SdoEffects;
 
@@ -95,6 +96,16 @@ pub struct ServiceOptions {
     /// where CiA 305 waits for an NMT reset (and starts only an unconfigured
     /// node, with reset communication).
     pub lss_start_resets_node: bool,
+    /// An object (sub 0) and a mask: when any of its bits is set at
+    /// boot-up, the boot-up message is DS 301 V3's, an empty frame on
+    /// 0x80 + node-ID and then eight zero bytes on it ("reset of the error
+    /// register"), in place of 0x700 + node-ID with one zero byte.
+    pub boot_up_v3: Option<(u16, u32)>,
+    /// An object (sub 0) and a mask standing in for 0x1029 sub 1: a
+    /// communication error (class 1: life guarding, heartbeat, a device's
+    /// bus-off) enters Pre-operational when any of its bits is set, and
+    /// changes no state when none is.
+    pub communication_error_pre_operational: Option<(u16, u32)>,
 }
 
 impl ServiceOptions {
@@ -106,6 +117,8 @@ impl ServiceOptions {
         not_saved_by_1010: None,
         start_operational: None,
         lss_start_resets_node: false,
+        boot_up_v3: None,
+        communication_error_pre_operational: None,
     };
 }
 
@@ -121,7 +134,7 @@ pub struct Ctx<'a> {
     pub(super) node_id: u8,
     pub(super) state: NmtState,
     pub(super) now: Instant,
-    pub(super) options: ServiceOptions,
+    pub(super) options: &'static ServiceOptions,
     pub(super) effects: SdoEffects,
     /// Raw frames sent by the hook, queued by the node when the hook returns
     /// (an SDO transfer holds the transmit queue while its hooks run).
@@ -359,6 +372,10 @@ impl Claims<'_> {
 pub trait Application {
     /// Where the device's manual departs from CiA 301.
     const OPTIONS: ServiceOptions = ServiceOptions::CIA301;
+
+    /// The EMCY codes of the CAN controller's errors (and of frames that
+    /// break the protocol), where the device's manual has its own.
+    const CAN_EMCY: CanEmcyCodes = CanEmcyCodes::CIA301;
 
     /// The device stores parameters by a command of its own (a register, a
     /// manufacturer object) through [`Ctx::save`] or [`Ctx::save_objects`]:

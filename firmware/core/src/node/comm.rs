@@ -229,7 +229,7 @@ pub(crate) trait Services {
         image: &mut [u8],
         node_id: u8,
         now: Instant,
-        options: ServiceOptions,
+        options: &ServiceOptions,
         state: NmtState,
     ) -> Option<Result<(), AbortCode>>;
 }
@@ -256,7 +256,7 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         image: &mut [u8],
         node_id: u8,
         now: Instant,
-        options: ServiceOptions,
+        options: &ServiceOptions,
         state: NmtState,
     ) -> Option<Result<(), AbortCode>> {
         Some(match index {

@@ -10,13 +10,18 @@
 //! for [`TRANSIENT_ERROR_HOLD`]; a repeat meanwhile sends nothing new (the
 //! error is active already) but holds it longer. Clearing the last active
 //! error sends "error reset" (0x0000), as for every error of the node.
+//!
+//! The codes are CiA 301's unless the device's manual has its own
+//! ([`CanEmcyCodes`], [`super::Application::CAN_EMCY`]); a device may also
+//! name a code for frames that break the CANopen protocol (an NMT command or
+//! a heartbeat message the node cannot parse), transient as a frame loss.
 
 use crate::od::ObjectDictionary;
 use crate::storage::Storage;
 use crate::time::{Duration, Instant, earliest};
 use crate::wire::emcy::EmcyCode;
 
-use crate::services::emcy::EmcyProducer;
+use crate::services::emcy::{EmcyProducer, register};
 
 use super::{Application, EMCY_SLOTS, Node};
 
@@ -25,6 +30,34 @@ type EmcyQueue = EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>;
 /// How long a frame loss or a bus-off recovery stays active without
 /// recurring before it is cleared ("error reset").
 pub const TRANSIENT_ERROR_HOLD: Duration = Duration::from_secs(1);
+
+/// The EMCY codes of the controller's errors. Each is raised with the
+/// communication bit of the error register (CiA 301: "overrun, error
+/// state"), also where a device's code is manufacturer-specific.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CanEmcyCodes {
+    /// Frames lost: received (the controller or the board's queue) or not
+    /// sent (the node's transmit queue full).
+    pub overrun: EmcyCode,
+    /// The controller is error passive.
+    pub error_passive: EmcyCode,
+    /// The controller recovered from bus-off.
+    pub bus_off_recovered: EmcyCode,
+    /// A frame that breaks the protocol (an NMT command or heartbeat
+    /// message of the wrong length or with an unknown value), if the device
+    /// reports it; such frames are counted and ignored either way.
+    pub protocol: Option<EmcyCode>,
+}
+
+impl CanEmcyCodes {
+    /// CiA 301's codes: 0x8110, 0x8120 and 0x8140; a broken frame only counted.
+    pub const CIA301: CanEmcyCodes = CanEmcyCodes {
+        overrun: EmcyCode::CAN_OVERRUN,
+        error_passive: EmcyCode::CAN_ERROR_PASSIVE,
+        bus_off_recovered: EmcyCode::RECOVERED_FROM_BUS_OFF,
+        protocol: None,
+    };
+}
 
 /// What a board's CAN controller (or its driver) reports to the node
 /// ([`Node::controller_event`]).
@@ -56,7 +89,9 @@ pub(super) struct ControllerErrors {
     overrun_clears_at: Option<Instant>,
     /// When the bus-off recovery clears, if it is active.
     bus_off_clears_at: Option<Instant>,
-    /// The earlier of the two: [`ControllerErrors::poll`] compares only this.
+    /// When the protocol warning clears, if it is active.
+    protocol_clears_at: Option<Instant>,
+    /// The earliest of the three: [`ControllerErrors::poll`] compares only this.
     clears_at: Option<Instant>,
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
@@ -72,6 +107,7 @@ impl ControllerErrors {
             recoveries: 0,
             overrun_clears_at: None,
             bus_off_clears_at: None,
+            protocol_clears_at: None,
             clears_at: None,
             passive: false,
             raise_passive: false,
@@ -79,31 +115,47 @@ impl ControllerErrors {
         }
     }
 
-    fn on_event(&mut self, event: ControllerEvent, now: Instant, emcy: &mut EmcyQueue) {
+    fn on_event<A: Application>(&mut self, event: ControllerEvent, now: Instant, emcy: &mut EmcyQueue) {
+        let codes = A::CAN_EMCY;
         match event {
             ControllerEvent::RxOverrun { lost: 0 } => {}
             ControllerEvent::RxOverrun { lost } => {
                 self.lost = self.lost.wrapping_add(lost);
                 // Manufacturer-specific field: frames lost so far.
-                emcy.raise(EmcyCode::CAN_OVERRUN, count(self.lost));
+                raise(emcy, codes.overrun, count(self.lost));
                 self.overrun_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
-                emcy.raise(EmcyCode::RECOVERED_FROM_BUS_OFF, count(self.recoveries));
+                raise(emcy, codes.bus_off_recovered, count(self.recoveries));
                 self.bus_off_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
-                emcy.raise(EmcyCode::CAN_ERROR_PASSIVE, [0; 5]);
+                raise(emcy, codes.error_passive, [0; 5]);
             }
             ControllerEvent::ErrorActive if self.passive => {
                 self.passive = false;
-                emcy.clear(EmcyCode::CAN_ERROR_PASSIVE);
+                emcy.clear(codes.error_passive);
             }
             ControllerEvent::ErrorPassive | ControllerEvent::ErrorActive => {}
         }
+        self.update_clears_at::<A>();
+    }
+
+    fn update_clears_at<A: Application>(&mut self) {
         self.clears_at = earliest(self.overrun_clears_at, self.bus_off_clears_at);
+        if A::CAN_EMCY.protocol.is_some() {
+            self.clears_at = earliest(self.clears_at, self.protocol_clears_at);
+        }
+    }
+
+    /// A frame that breaks the protocol, if the device reports those:
+    /// raised (once) and held like a frame loss.
+    pub(super) fn protocol_error<A: Application>(&mut self, now: Instant, emcy: &mut EmcyQueue, code: EmcyCode) {
+        raise(emcy, code, [0; 5]);
+        self.protocol_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
+        self.update_clears_at::<A>();
     }
 
     /// Clears what stayed quiet long enough; the next deadline, if any.
@@ -111,28 +163,34 @@ impl ControllerErrors {
     /// sends by identifier, and nothing may precede the boot-up). Every
     /// `Node::process` asks, so the common answer takes one compare.
     #[inline(always)]
-    pub(super) fn poll(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
-        if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) { self.poll_due(now, booted, emcy) } else { self.clears_at }
+    pub(super) fn poll<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
+        if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) { self.poll_due::<A>(now, booted, emcy) } else { self.clears_at }
     }
 
     #[inline(never)]
-    fn poll_due(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
+    fn poll_due<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
+        let codes = A::CAN_EMCY;
         if self.raise_passive {
             if !booted {
                 return Some(now);
             }
             self.raise_passive = false;
-            emcy.raise(EmcyCode::CAN_ERROR_PASSIVE, [0; 5]);
+            raise(emcy, codes.error_passive, [0; 5]);
         }
-        for (clears_at, error) in
-            [(&mut self.overrun_clears_at, EmcyCode::CAN_OVERRUN), (&mut self.bus_off_clears_at, EmcyCode::RECOVERED_FROM_BUS_OFF)]
+        for (clears_at, error) in [
+            (&mut self.overrun_clears_at, codes.overrun),
+            (&mut self.bus_off_clears_at, codes.bus_off_recovered),
+            (&mut self.protocol_clears_at, codes.protocol.unwrap_or(EmcyCode::NO_ERROR)),
+        ]
+        .into_iter()
+        .take(if codes.protocol.is_some() { 3 } else { 2 })
         {
             if clears_at.is_some_and(|t| t <= now) {
                 *clears_at = None;
                 emcy.clear(error);
             }
         }
-        self.clears_at = earliest(self.overrun_clears_at, self.bus_off_clears_at);
+        self.update_clears_at::<A>();
         self.clears_at
     }
 
@@ -142,9 +200,15 @@ impl ControllerErrors {
     pub(super) fn reset(&mut self) {
         self.overrun_clears_at = None;
         self.bus_off_clears_at = None;
+        self.protocol_clears_at = None;
         self.clears_at = None;
         self.raise_passive = self.passive;
     }
+}
+
+/// Raises a controller error with the communication bit (see [`CanEmcyCodes`]).
+fn raise(emcy: &mut EmcyQueue, code: EmcyCode, info: [u8; 5]) {
+    emcy.raise_with(code, register::COMMUNICATION, info);
 }
 
 fn count(n: u32) -> [u8; 5] {
@@ -160,7 +224,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the next [`Node::process`], whose deadline then includes the clearing.
     pub fn controller_event(&mut self, event: ControllerEvent, now: Instant) {
         self.stale = true;
-        self.controller.on_event(event, now, &mut self.comm.emcy);
+        self.controller.on_event::<A>(event, now, &mut self.comm.emcy);
         // The device hears of it (its 0x6007 or 0x1029 reaction) in the next
         // `process`, on the path its other hooks already take.
         self.controller.bus_off_unheard |= event == ControllerEvent::BusOffRecovered;

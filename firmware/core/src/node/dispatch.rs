@@ -62,7 +62,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     self.start_pending = false;
                     self.nmt_command(request, now)
                 }
-                _ => self.counters.count_malformed(),
+                _ => self.broken_frame(now),
             }
             return;
         }
@@ -100,9 +100,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                                 self.communication_recovered();
                             }
                         }
-                        None => self.counters.count_malformed(),
+                        None => self.broken_frame(now),
                     },
-                    _ => self.counters.count_malformed(),
+                    _ => self.broken_frame(now),
                 }
                 return;
             }
@@ -168,6 +168,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
     /// The device samples first, so the synchronous TPDOs carry its values.
+    /// An NMT command or heartbeat message the node cannot parse: counted
+    /// and ignored, and the device's protocol warning raised if it has one.
+    #[cold]
+    fn broken_frame(&mut self, now: Instant) {
+        self.counters.count_malformed();
+        if let Some(code) = A::CAN_EMCY.protocol {
+            // The next `process` sends it and takes the clearing's deadline, as for a controller event.
+            self.stale = true;
+            self.controller.protocol_error::<A>(now, &mut self.comm.emcy, code);
+        }
+    }
+
     pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
         self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
@@ -264,7 +276,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             node_id: *node_id,
             state: nmt.state(),
             now,
-            options: A::OPTIONS,
+            options: &A::OPTIONS,
             effects: SdoEffects::default(),
             raw,
             store,

@@ -59,7 +59,7 @@ mod store;
 
 pub use app::{Application, Claims, CommError, Ctx, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
-pub use controller::{ControllerEvent, TRANSIENT_ERROR_HOLD};
+pub use controller::{CanEmcyCodes, ControllerEvent, TRANSIENT_ERROR_HOLD};
 pub use filter::{ACCEPTANCE_CAPACITY, AcceptanceList, AcceptedId};
 pub use lss::BitRateControl;
 
@@ -374,7 +374,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             node_id: *node_id,
             state: nmt.state(),
             now,
-            options: A::OPTIONS,
+            options: &A::OPTIONS,
             effects: router::SdoEffects::default(),
             raw,
             store,

@@ -15,6 +15,9 @@ use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
 use super::{Application, Node, Source};
 
+/// DS 301 V3's boot-up leaves on the EMCY's pre-defined identifier, 0x80 + node-ID.
+const V3_BOOT_UP_BASE: u16 = 0x80;
+
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
@@ -100,7 +103,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.pdo_events(now, received, timeouts);
             }
         }
-        let controller_deadline = self.controller.poll(now, booted, &mut self.comm.emcy);
+        let controller_deadline = self.controller.poll::<A>(now, booted, &mut self.comm.emcy);
         if core::mem::take(&mut self.controller.bus_off_unheard) {
             self.bus_off(now);
         }
@@ -121,22 +124,31 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         earliest(deadline, app_deadline)
     }
 
+    /// Whether a [`super::ServiceOptions`] switch (object sub 0, mask) is on.
+    pub(super) fn option_set(&self, (index, mask): (u16, u32)) -> bool {
+        self.od.dictionary().read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0
+    }
+
     /// The services besides SDO, PDO and EMCY: the LSS bit-rate switch,
     /// boot-up and the node's own start, heartbeat and guarding, the
     /// heartbeat consumers; their earliest deadline into `core_deadline`.
     fn process_core(&mut self, now: Instant) {
         let switch_deadline = self.process_switch(now);
         if self.boot_pending {
-            let id = error_control_cob_id(self.node_id);
-            if self.push(id, &[NmtStateCode::BootUp.code()]) {
+            let sent = match A::OPTIONS.boot_up_v3 {
+                Some(switch) if self.option_set(switch) => {
+                    let id = V3_BOOT_UP_BASE | u16::from(self.node_id);
+                    self.push(id, &[]) && self.push(id, &[0; 8])
+                }
+                _ => self.push(error_control_cob_id(self.node_id), &[NmtStateCode::BootUp.code()]),
+            };
+            if sent {
                 self.boot_pending = false;
                 // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
                 let dict = self.od.dictionary();
                 let auto_start =
                     dict.read(self.od.image(), index::NMT_STARTUP, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0
-                        || A::OPTIONS
-                            .start_operational
-                            .is_some_and(|(index, mask)| dict.read_u32(self.od.image(), index, 0).unwrap_or(0) & mask != 0);
+                        || A::OPTIONS.start_operational.is_some_and(|switch| self.option_set(switch));
                 let state = self.nmt.boot_up_done(false);
                 let dict = self.od.dictionary();
                 self.comm.reconfigure(index::PRODUCER_HEARTBEAT_TIME, dict, self.od.image(), self.node_id, now);
@@ -180,7 +192,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // Transmit queue overflow (0x8110, once), cleared once the queue drained.
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();
-            self.comm.emcy.tx_overflow(self.reported_overflows);
+            self.comm.emcy.tx_overflow(A::CAN_EMCY.overrun, self.reported_overflows);
         } else if self.txq.is_empty() {
             self.comm.emcy.tx_drained();
         }

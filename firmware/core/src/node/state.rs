@@ -62,7 +62,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn device_error(&mut self, class: u8, now: Instant) {
         self.stale = true;
         let dict = self.od.dictionary();
-        let next = match Comm::<R, T, HB>::error_behaviour_of(dict, self.od.image(), class) {
+        let behaviour = match A::OPTIONS.communication_error_pre_operational {
+            Some(switch) if class == 1 => {
+                if self.option_set(switch) {
+                    ErrorBehaviour::PreOperational
+                } else {
+                    ErrorBehaviour::NoChange
+                }
+            }
+            _ => Comm::<R, T, HB>::error_behaviour_of(dict, self.od.image(), class),
+        };
+        let next = match behaviour {
             ErrorBehaviour::PreOperational if self.nmt.state() == NmtState::Operational => Some(NmtState::PreOperational),
             ErrorBehaviour::Stopped => Some(NmtState::Stopped),
             _ => None,

@@ -61,6 +61,9 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     /// error of its own, beside the active list, because it shares its code
     /// (0x8110) with the receive overrun, which comes and goes apart from it.
     tx_overflow: bool,
+    /// The error register bits of the transmit queue overflow's code (0
+    /// before the first: the node is all zero bits at power-on).
+    tx_bits: u8,
 }
 
 impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {
@@ -86,6 +89,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             overflows: 0,
             lost_errors: false,
             tx_overflow: false,
+            tx_bits: 0,
         }
     }
 
@@ -104,7 +108,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     pub fn register(&self) -> u8 {
         let mut r = if self.active_len > 0 || self.lost_errors || self.tx_overflow { register::GENERIC } else { 0 };
         if self.tx_overflow {
-            r |= register_bit(EmcyCode::CAN_OVERRUN);
+            r |= self.tx_bits;
         }
         for (&code, &bits) in self.active.iter().zip(&self.active_bits).take(self.active_len) {
             r |= register_bit(code) | bits;
@@ -154,18 +158,20 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.push(Emcy { code, register, info });
     }
 
-    /// The transmit queue refused frames (`refused`: so far): raises 0x8110
-    /// once, with bytes 3–6 the count and byte 7 = 1 (transmit; a receive
-    /// overrun has 0 there), until [`EmcyProducer::tx_drained`]. Apart from
-    /// the receive overrun's 0x8110: each raises and clears on its own.
-    pub fn tx_overflow(&mut self, refused: u32) {
+    /// The transmit queue refused frames (`refused`: so far): raises `code`
+    /// (0x8110, or the device's code for lost frames) once, with bytes 3–6
+    /// the count and byte 7 = 1 (transmit; a receive overrun has 0 there),
+    /// until [`EmcyProducer::tx_drained`]. Apart from the receive overrun's
+    /// 0x8110: each raises and clears on its own.
+    pub fn tx_overflow(&mut self, code: EmcyCode, refused: u32) {
         if self.tx_overflow {
             return;
         }
         self.tx_overflow = true;
+        self.tx_bits = register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
         let register = self.register();
-        self.push(Emcy { code: EmcyCode::CAN_OVERRUN, register, info: [a, b, c, d, 1] });
+        self.push(Emcy { code, register, info: [a, b, c, d, 1] });
     }
 
     /// The transmit queue drained after an overflow: the error clears, and

@@ -19,14 +19,19 @@ const FEED_CONSTANT: u16 = 0x6092;
 /// 0x604C gear factor ("vl dimension factor"): numerator (sub 1), denominator (sub 2).
 pub(super) const GEAR_FACTOR: u16 = 0x604C;
 /// P0830 (0x433E) option-module configuration word.
-const CONFIGURATION: u16 = 0x433E;
+pub(super) const CONFIGURATION: u16 = 0x433E;
 /// P0830 bit 2: speeds in 0.1 min⁻¹.
 const TENTH: u32 = 1 << 2;
+
+/// Whether P0830 has any of the bits of `mask` set.
+fn configured(ctx: &Ctx<'_>, mask: u32) -> bool {
+    ctx.read_u32(CONFIGURATION, 0).is_some_and(|c| c & mask != 0)
+}
 
 /// Speed units to BE/s as (numerator, denominator, negative): feed ·
 /// gear numerator / (60 or 600 · revolutions · gear denominator).
 fn scales(ctx: &Ctx<'_>) -> (u64, u64, bool) {
-    let per_minute = if ctx.read_u32(CONFIGURATION, 0).is_some_and(|c| c & TENTH != 0) { 600 } else { 60 };
+    let per_minute = if configured(ctx, TENTH) { 600 } else { 60 };
     let feed = u64::from(ctx.read_u32(FEED_CONSTANT, 1).filter(|f| *f != 0).unwrap_or(65536));
     let revs = u64::from(ctx.read_u32(FEED_CONSTANT, 2).filter(|r| *r != 0).unwrap_or(1));
     // A zero factor (check_write refuses a zero denominator) counts as 1.

@@ -31,6 +31,8 @@ pub mod index {
     pub const VL_DECELERATION: u16 = 0x6049;
     /// 0x604A vl velocity quick stop.
     pub const VL_QUICK_STOP: u16 = 0x604A;
+    /// 0x604C vl dimension factor: numerator (sub 1), denominator (sub 2), INTEGER32.
+    pub const VL_DIMENSION_FACTOR: u16 = 0x604C;
     /// 0x605A quick stop option code (INTEGER16).
     pub const QUICK_STOP_OPTION: u16 = 0x605A;
     /// 0x605B shutdown option code.

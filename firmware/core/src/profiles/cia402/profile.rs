@@ -190,7 +190,7 @@ impl<D: Drive> Cia402<D> {
                     return;
                 }
             }
-            index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY => {
+            index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY | index::VL_DIMENSION_FACTOR => {
                 self.s.units = units(ctx, config);
                 self.velocity_target(ctx);
             }

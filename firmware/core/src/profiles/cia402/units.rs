@@ -105,14 +105,31 @@ impl Units {
         Units {
             to_inc: Factor::ratio(numerator, denominator),
             to_user: Factor::ratio(denominator, numerator),
-            vl_to_inc: Factor::ratio(u64::from(increments_per_rev), 60),
-            vl_to_user: Factor::ratio(60, u64::from(increments_per_rev)),
+            vl_to_inc: Factor::ZERO,
+            vl_to_user: Factor::ZERO,
             position_negative: polarity & 0x80 != 0,
             velocity_negative: polarity & 0x40 != 0,
         }
+        .with_vl_dimension(increments_per_rev, 1, 1)
     }
 
-    /// A target or actual position: user units to increments (polarity applied).
+    /// The vl factors of `increments_per_rev` with the vl dimension factor
+    /// 0x604C (CiA 402-2: min⁻¹ of the motor = vl value × `numerator` /
+    /// `denominator`; a negative factor turns the other way; 0 counts as 1).
+    // Out of line: inlined into its two callers it cost 164 B of flash.
+    // A u32 times a magnitude of at most 2^31, and 60 times one, fit a u64;
+    // `Factor::ratio` is at most i64::MAX, so its negation fits.
+    #[allow(clippy::arithmetic_side_effects)]
+    #[inline(never)]
+    pub fn with_vl_dimension(self, increments_per_rev: u32, numerator: i32, denominator: i32) -> Units {
+        let magnitude = |v: i32| u64::from(v.unsigned_abs().max(1));
+        let (motor, vl) = (u64::from(increments_per_rev) * magnitude(numerator), 60 * magnitude(denominator));
+        let sign = |f: Factor| if (numerator < 0) != (denominator < 0) { Factor(-f.0) } else { f };
+        Units { vl_to_inc: sign(Factor::ratio(motor, vl)), vl_to_user: sign(Factor::ratio(vl, motor)), ..self }
+    }
+
+    /// A target or actual position: user units to increments (polarity
+    /// applied; [`Units::inc_of`] is out of line already).
     pub fn position_to_inc(&self, user: i32) -> i64 {
         self.inc_of(user, self.position_negative)
     }
@@ -144,6 +161,8 @@ impl Units {
     }
 
     /// A magnitude (window, ramp, speed): user units to increments, no polarity.
+    // Out of line: some ten callers.
+    #[inline(never)]
     pub fn magnitude_to_inc(&self, user: u32) -> i64 {
         self.to_inc.apply(i64::from(user))
     }
@@ -155,6 +174,8 @@ pub(super) fn negate(value: i64, negative: bool) -> i64 {
     if negative { value.wrapping_neg() } else { value }
 }
 
+/// Out of line: the 64-bit clamp at each of its callers cost 112 B.
+#[inline(never)]
 fn saturate(value: i64) -> i32 {
     value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
@@ -204,5 +225,18 @@ mod tests {
         let u = Units::new(4096, (0, 0), (0, 1), 0);
         assert_eq!(u.position_to_inc(123), 123);
         assert_eq!(Units::new(4096, (1, 1), (4096, 1), 0).vl_to_inc.apply(60), 4096, "60 min⁻¹ = one revolution per second");
+    }
+
+    #[test]
+    fn vl_dimension_factor_scales_vl_velocities_to_motor_speed() {
+        // b maXX 4400 §4.4.6: 100 × 10 / 5 = 200 min⁻¹ of a 65536-increment motor.
+        let u = Units::new(65536, (1, 1), (65536, 1), 0).with_vl_dimension(65536, 10, 5);
+        assert_eq!(u.vl_to_inc.apply(100), 218_453, "200 min⁻¹ = 218,453.3 inc/s");
+        assert_eq!(u.vl_to_user.apply(200 * 65536 / 60), 100);
+        let reversed = Units::new(65536, (1, 1), (65536, 1), 0).with_vl_dimension(65536, -10, 5);
+        assert_eq!(reversed.vl_to_inc.apply(100), -218_453);
+        assert_eq!(reversed.vl_to_user.apply(-(200 * 65536 / 60)), 100);
+        let zero = Units::new(60, (1, 1), (60, 1), 0).with_vl_dimension(60, 0, 0);
+        assert_eq!(zero.vl_to_inc.apply(7), 7, "0 counts as 1");
     }
 }

@@ -7,7 +7,7 @@ use crate::profiles::cia402::controlword as cw;
 use crate::profiles::cia402::drive::Drive;
 use crate::profiles::cia402::fsa::PdsState;
 use crate::profiles::cia402::hm::Phase;
-use crate::profiles::cia402::objects::{self, Located, index, unsigned, unsigned_or};
+use crate::profiles::cia402::objects::{self, Located, index, signed, unsigned, unsigned_or};
 use crate::profiles::cia402::units::{self, Units};
 use crate::profiles::cia402::{mode, statusword as sw};
 
@@ -98,7 +98,11 @@ pub(super) fn units(ctx: &Ctx<'_>, config: &Config) -> Units {
         (0, _) | (_, 0) => (config.increments_per_rev, 1),
         f => f,
     };
-    Units::new(config.increments_per_rev, gear, feed, unsigned_or(ctx, index::POLARITY, 0, 0) as u8)
+    let units = Units::new(config.increments_per_rev, gear, feed, unsigned_or(ctx, index::POLARITY, 0, 0) as u8);
+    match (signed(ctx, index::VL_DIMENSION_FACTOR, 1), signed(ctx, index::VL_DIMENSION_FACTOR, 2)) {
+        (Some(numerator), Some(denominator)) => units.with_vl_dimension(config.increments_per_rev, numerator, denominator),
+        _ => units,
+    }
 }
 
 /// The modes this dictionary supports: 0x6502 (if present) and the objects

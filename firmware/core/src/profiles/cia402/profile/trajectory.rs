@@ -60,7 +60,8 @@ impl<D: Drive> Cia402<D> {
         let vl = self.s.mode == mode::VL;
         let vl_ramp_of = |index| {
             let rpm_per_s = vl_ramp(unsigned_or(ctx, index, 1, 0), unsigned_or(ctx, index, 2, 1));
-            match u.vl_to_inc.apply(i64::from(rpm_per_s)) {
+            // A magnitude: a negative vl dimension factor turns the motor, not the ramp.
+            match u.vl_to_inc.apply(i64::from(rpm_per_s)).abs() {
                 0 => limit,
                 a => a.clamp(1, i64::from(u32::MAX)) as u32,
             }

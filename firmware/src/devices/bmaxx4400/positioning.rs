@@ -1,0 +1,49 @@
+//! The option module's positioning errors (§4.4.3 M-L856-875, §4.4.8
+//! M-L1002-1016; EMCY 8600h "Positioning Controller" with the drive error
+//! number, §5.6.2 M-L3699-3707), D61:
+//! - a new pp target outside the software limits 0x607D: no motion, drive
+//!   error 00C4h (below limit 1, sub 1) or 00C5h (beyond limit 2, sub 2),
+//!   the drive reacts as 0x605A says and a fault reset acknowledges it;
+//! - positioning without homing: while P0601 is 9 (the CANopen mode, which
+//!   requires homing, M-L1020), pp enabled before a homing since power-on
+//!   raises drive error 00C8h; the drive holds its position and takes no
+//!   set-point, and a fault reset acknowledges the error once homed.
+
+use canopen_core::node::Ctx;
+use canopen_core::wire::emcy::EmcyCode;
+
+/// EMCY 8600h positioning controller.
+pub(super) const CODE: EmcyCode = EmcyCode(0x8600);
+/// Drive error 00C4h software limit switch 1 (196).
+const LIMIT_1: u8 = 0xC4;
+/// Drive error 00C5h software limit switch 2 (197).
+const LIMIT_2: u8 = 0xC5;
+/// Drive error 00C8h positioning started without homing (200).
+const NOT_HOMED: u8 = 0xC8;
+/// P0601 (0x4259) positioning mode: 9 is the CANopen mode.
+const POSITIONING_MODE: u16 = 0x4259;
+
+/// EMCY bytes 3-7 for drive error `number` (most significant byte first, D54).
+const fn info(number: u8) -> [u8; 5] {
+    [0, number, 0, 0, 0]
+}
+
+/// Positioning waits for a homing (P0601 = 9).
+pub(super) fn homing_required(ctx: &Ctx<'_>) -> bool {
+    ctx.read_u32(POSITIONING_MODE, 0) == Some(9)
+}
+
+/// The error of positioning before homing.
+pub(super) const fn not_homed() -> [u8; 5] {
+    info(NOT_HOMED)
+}
+
+/// The error of a target the profile limited (statusword bit 11) with
+/// controlword `cw`: limit 1 for a target below 0x607D sub 1 (relative:
+/// a negative distance), else limit 2.
+pub(super) fn limit(ctx: &Ctx<'_>, cw: u32) -> [u8; 5] {
+    let read = |index, sub| ctx.read_u32(index, sub).unwrap_or(0) as i32;
+    let target = read(0x607A, 0);
+    let below = if cw & 0x40 != 0 { target < 0 } else { target < read(0x607D, 1) };
+    info(if below { LIMIT_1 } else { LIMIT_2 })
+}
