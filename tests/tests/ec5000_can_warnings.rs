@@ -125,3 +125,19 @@ fn the_warnings_stack_and_error_reset_follows_the_last() {
     assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![REGISTER]));
     assert_eq!(report(&mut b, 3000, ControllerEvent::ErrorActive), [ERROR_RESET.to_vec()]);
 }
+
+#[test]
+fn m_l1741_an_rpdo_too_long_is_0x8210_like_one_too_short_d64() {
+    // RPDO3 maps 0x6040 and 0x60FF: 6 bytes. The manual's one code for a PDO
+    // of the wrong length, "PDO not processed, length error", in place of
+    // CiA 301's 0x8220 for a long one (D64); byte 3 is the RPDO's number.
+    let mut long = enabled();
+    let sent = receive(&mut long, 1000, RPDO3, &[0x0F, 0, 0, 0, 0, 0, 0xAA, 0xBB]);
+    let mut short = enabled();
+    assert_eq!(sent, receive(&mut short, 1000, RPDO3, &[0x0F, 0, 0]));
+    // Error register 0x11: generic and communication.
+    assert_eq!(sent, [vec![0x10, 0x82, 0x11, 3, 0, 0, 0, 0]]);
+    // The right length ends it in both: "error reset" or the next error's frame.
+    let ended = receive(&mut long, 2000, RPDO3, &[0x0F, 0, 0, 0, 0, 0]);
+    assert_eq!(ended, receive(&mut short, 2000, RPDO3, &[0x0F, 0, 0, 0, 0, 0]));
+}

@@ -80,12 +80,14 @@ impl Application for App {
     const OPTIONS: ServiceOptions = ServiceOptions { not_saved_by_1010: Some((NODE_ID, NODE_ID)), ..ServiceOptions::CIA301 };
 
     /// The manual's CAN warnings (M §9.2 L1737-1743, D63) in place of CiA 301's
-    /// 0x8140, 0x8110 and 0x8120; 0xFFD3 for a broken NMT or heartbeat frame.
+    /// 0x8140, 0x8110 and 0x8120; 0xFFD3 for a broken NMT or heartbeat frame;
+    /// its one PDO length code 0x8210 for an RPDO too long as well (D64).
     const CAN_EMCY: CanEmcyCodes = CanEmcyCodes {
         bus_off_recovered: EmcyCode(0xFFD0),
         overrun: EmcyCode(0xFFD1),
         error_passive: EmcyCode(0xFFD2),
         protocol: Some(EmcyCode(0xFFD3)),
+        rpdo_too_long: EmcyCode::PDO_LENGTH,
     };
 
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {

@@ -47,15 +47,18 @@ pub struct CanEmcyCodes {
     /// message of the wrong length or with an unknown value), if the device
     /// reports it; such frames are counted and ignored either way.
     pub protocol: Option<EmcyCode>,
+    /// An RPDO longer than its mapping (its mapped bytes are processed).
+    pub rpdo_too_long: EmcyCode,
 }
 
 impl CanEmcyCodes {
-    /// CiA 301's codes: 0x8110, 0x8120 and 0x8140; a broken frame only counted.
+    /// CiA 301's codes: 0x8110, 0x8120, 0x8140 and 0x8220; a broken frame only counted.
     pub const CIA301: CanEmcyCodes = CanEmcyCodes {
         overrun: EmcyCode::CAN_OVERRUN,
         error_passive: EmcyCode::CAN_ERROR_PASSIVE,
         bus_off_recovered: EmcyCode::RECOVERED_FROM_BUS_OFF,
         protocol: None,
+        rpdo_too_long: EmcyCode::PDO_LENGTH_EXCEEDED,
     };
 }
 

@@ -121,7 +121,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             if state.pdo_allowed() {
                 let Node { od, comm, txq, .. } = self;
-                let mut sink = PdoSink::new(txq, &mut comm.emcy);
+                let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
                 let matched = if rtr {
                     comm.pdos.on_rtr(now, cob_id, od.image(), &mut sink)
                 } else {
@@ -184,7 +184,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
-            let mut sink = PdoSink::new(txq, &mut comm.emcy);
+            let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
             comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, timeouts) = (sink.received, sink.timeouts);
             // The synchronous RPDOs' objects, and the TPDOs left to retry.

@@ -97,7 +97,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if self.touched != 0 || pdo_deadline.is_some_and(|d| d <= now) {
                 let changed = core::mem::take(&mut self.touched);
                 let Node { od, comm, txq, .. } = self;
-                let mut sink = PdoSink::new(txq, &mut comm.emcy);
+                let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
                 pdo_deadline = comm.pdos.poll_changed(now, changed, od.image(), &mut sink);
                 let (received, timeouts) = (sink.received, sink.timeouts);
                 self.pdo_events(now, received, timeouts);

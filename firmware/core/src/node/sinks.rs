@@ -47,11 +47,18 @@ pub(super) struct PdoSink<'a> {
     pub(super) received: u32,
     /// Bit n: RPDO n timed out.
     pub(super) timeouts: u32,
+    /// The device's code for an RPDO longer than its mapping (`CanEmcyCodes::rpdo_too_long`).
+    too_long: EmcyCode,
 }
 
 impl<'a> PdoSink<'a> {
-    pub(super) fn new(txq: &'a mut TxQueue<TX_QUEUE>, emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>) -> Self {
-        PdoSink { txq, emcy, received: 0, timeouts: 0 }
+    pub(super) fn new(txq: &'a mut TxQueue<TX_QUEUE>, emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>, too_long: EmcyCode) -> Self {
+        PdoSink { txq, emcy, received: 0, timeouts: 0, too_long }
+    }
+
+    /// `code` as the device reports it.
+    fn device_code(&self, code: EmcyCode) -> EmcyCode {
+        if code == EmcyCode::PDO_LENGTH_EXCEEDED { self.too_long } else { code }
     }
 }
 
@@ -77,9 +84,9 @@ impl PdoTx for PdoSink<'_> {
                     self.timeouts |= bit(rpdo);
                 }
                 // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
-                self.emcy.raise(code, [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
+                self.emcy.raise(self.device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
             }
-            PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(code),
+            PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(self.device_code(code)),
         }
     }
 }
