@@ -167,6 +167,12 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// out whenever a parameter or a mapping changes; TPDOs past 31 count
     /// as live. The others are not walked by [`Pdos::poll_changed`].
     tpdo_live: u32,
+    /// Bit n: RPDO n is synchronous (only those buffer data for a SYNC).
+    /// PDOs past 31 have no bit and are always looked at.
+    sync_rpdos: u32,
+    /// Bit t: TPDO t is valid and synchronous (types 0..=240 and 252: the
+    /// only ones a SYNC does something for), so that a SYNC visits just those.
+    sync_tpdos: u32,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -188,6 +194,8 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             rpdo_reach: [ALL_TPDOS; R],
             rpdo_timers: 0,
             tpdo_live: 0,
+            sync_rpdos: 0,
+            sync_tpdos: 0,
         }
     }
 }
@@ -210,6 +218,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdo_reach: [0; R],
             rpdo_timers: 0,
             tpdo_live: 0,
+            sync_rpdos: 0,
+            sync_tpdos: 0,
         }
     }
 
@@ -356,6 +366,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         self.tpdo_live =
             self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| if tpdo.cob_id().is_some() { live | bit_of(t) } else { live });
+        self.sync_rpdos = mask_of(&self.rpdos, |r| r.params.is_synchronous());
+        self.sync_tpdos = mask_of(&self.tpdos, Tpdo::is_synchronous);
         for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
             let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
             *reach = slots.iter().fold(0, |mask, slot| match slot.source {
@@ -430,10 +442,23 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         // No deadline moves: synchronous TPDOs have none, and a refused
         // frame is retried at the next change ([`Pdos::retrying`]).
         self.window_end = sync.window_end;
-        for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
+        // Only the synchronous PDOs, in order (those past 31 always).
+        let mut bits = self.sync_rpdos;
+        while let Some(n) = next_bit(&mut bits) {
+            if let Some(rpdo) = self.rpdos.get_mut(n) {
+                rpdo.on_sync(n, image, tx);
+            }
+        }
+        for (n, rpdo) in self.rpdos.iter_mut().enumerate().skip(32) {
             rpdo.on_sync(n, image, tx);
         }
-        for tpdo in self.tpdos.iter_mut() {
+        let mut bits = self.sync_tpdos;
+        while let Some(t) = next_bit(&mut bits) {
+            if let Some(tpdo) = self.tpdos.get_mut(t) {
+                tpdo.on_sync(sync, image, tx);
+            }
+        }
+        for tpdo in self.tpdos.iter_mut().skip(32) {
             tpdo.on_sync(sync, image, tx);
         }
     }
@@ -534,6 +559,18 @@ fn tpdos_mapping(tpdos: &[Tpdo], live: u32, offset: u16, len: u16) -> u32 {
     }
     // TPDOs past 31 have no bit: they are always looked at.
     if tpdos.len() > 32 { mask | ALL_TPDOS } else { mask }
+}
+
+/// Bit i: `f` holds for PDO i (PDOs past 31 have no bit).
+fn mask_of<P>(pdos: &[P], f: impl Fn(&P) -> bool) -> u32 {
+    pdos.iter().take(32).enumerate().fold(0, |mask, (i, p)| if f(p) { mask | 1 << i } else { mask })
+}
+
+/// The lowest set bit of `bits`, cleared.
+fn next_bit(bits: &mut u32) -> Option<usize> {
+    let n = bits.trailing_zeros() as usize;
+    *bits &= bits.wrapping_sub(1);
+    (n < 32).then_some(n)
 }
 
 /// Bit t: TPDO t waits to retry.

@@ -191,8 +191,6 @@ impl Tpdo {
     }
 
     /// Hands a frame to the queue; remembers it when accepted.
-    // Out of line: its four callers each had a copy.
-    #[inline(never)]
     fn transmit(&mut self, cob_id: u16, buf: [u8; MAX_LEN], len: usize, tx: &mut impl PdoTx) -> bool {
         // `buf` is zero past `len` (`build`): copied as two words, no `memcpy`.
         let ok = tx.send_data(cob_id, &buf, len);
@@ -237,6 +235,12 @@ impl Tpdo {
                 self.pending_sync = None;
             }
         }
+    }
+
+    /// Whether a SYNC has work for it: valid, of type 0..=240 or 252
+    /// ([`Tpdo::on_sync`] does nothing for the others).
+    pub(super) fn is_synchronous(&self) -> bool {
+        self.cob_id().is_some() && matches!(self.params.transmission_type, 0..=240 | 252)
     }
 
     /// A SYNC (received or produced).

@@ -178,6 +178,29 @@ fn cyclic_synchronous_tpdo_sends_every_nth_sync() {
 }
 
 #[test]
+fn a_sync_reaches_the_tpdos_that_are_synchronous_and_valid_at_that_moment() {
+    // The PDOs keep a mask of their synchronous TPDOs: every download of a
+    // type or COB-ID must reach it.
+    let mut node = Node::operational(ms(0));
+    node.remap_tpdo(1, &[0x2000_0008], 0x281, 1);
+    node.set(0x2000, 0, &[7]);
+    node.sync(sync_at(ms(10), None));
+    tx!(node, [(0x281, [7])]);
+    assert_eq!(node.sdo(0x1801, 2, &[254]), Ok(()));
+    node.sync(sync_at(ms(20), None));
+    tx!(node, []);
+    assert_eq!(node.sdo(0x1801, 2, &[1]), Ok(()));
+    node.sync(sync_at(ms(30), None));
+    tx!(node, [(0x281, [7])]);
+    assert_eq!(node.sdo32(0x1801, 1, 0x8000_0281), Ok(()));
+    node.sync(sync_at(ms(40), None));
+    tx!(node, []);
+    assert_eq!(node.sdo32(0x1801, 1, 0x281), Ok(()));
+    node.sync(sync_at(ms(50), None));
+    tx!(node, [(0x281, [7])]);
+}
+
+#[test]
 fn sync_start_value_makes_the_matching_sync_the_first() {
     // CiA 310 cases 3.8, 3.14: 0x1019 > 0 and sub 6 = 5.
     let mut node = Node::operational(ms(0));
