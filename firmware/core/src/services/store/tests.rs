@@ -20,6 +20,8 @@ static DICT: Dictionary = Dictionary {
     rom: &[],
     defaults: &DEFAULTS,
     comm_len: 7,
+    stored_len: 12,
+    comm_rest: 0,
     node_id_relative: &[2],
     layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -388,6 +390,7 @@ static LONG: Dictionary = Dictionary {
     entries: &LONG_ENTRIES,
     defaults: &[0; 82],
     comm_len: 2,
+    stored_len: 82,
     node_id_relative: &[],
     layout_id: crate::od::layout_id(&LONG_ENTRIES),
     ..DICT
