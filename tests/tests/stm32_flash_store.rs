@@ -409,3 +409,32 @@ mod core_store_scenarios {
         }
     }
 }
+
+/// The b maXX 4400's set holds its writable values alone: every read-only
+/// RAM value (actual values the drive computes) changed does not change a
+/// byte of the flash after a save, the header's length is `STORED_SIZE`,
+/// and the set with its header fits one 1 KiB page.
+#[test]
+fn bmaxx4400_read_only_values_are_not_in_the_set() {
+    use firmware::devices::bmaxx4400::od;
+    let dict = &od::DICTIONARY;
+    let layout = Layout::stm32f103c8(region_size(od::STORED_SIZE));
+    let defaults = od::Ram::new(ID).image().to_vec();
+    let read_only: Vec<&Entry> = dict.entries.iter().filter(|e| !e.in_rom() && e.len > 0 && !stored(e)).collect();
+    assert!(read_only.len() > 10, "the drive has read-only values in RAM");
+    let mut touched = defaults.clone();
+    for e in &read_only {
+        touched[e.range()].iter_mut().for_each(|b| *b ^= 0x5A);
+    }
+    let (mut a, mut b) = (MemStorage::with_layout(layout), MemStorage::with_layout(layout));
+    store::save(dict, &defaults, ID, &mut a, Scope::All).unwrap();
+    store::save(dict, &touched, ID, &mut b, Scope::All).unwrap();
+    assert_eq!(a.region(0), b.region(0), "the read-only values are not in the set");
+    let set = a.region(0).unwrap();
+    assert_eq!(usize::from(u16::from_le_bytes([set[16], set[17]])), od::STORED_SIZE, "the header's length");
+    const { assert!(od::STORED_SIZE < od::RAM_SIZE && od::STORED_SIZE + 24 <= 1024, "the set with its header fits a page") };
+    assert_eq!(layout.pages_per_set(), 1);
+    for e in read_only {
+        assert_eq!(store::stored_value(dict, &mut a, ID, e.index, e.sub, &mut [0; 256]), None, "{:#06x}:{}", { e.index }, { e.sub });
+    }
+}
