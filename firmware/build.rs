@@ -11,14 +11,20 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-const DEVICES: [&str; 5] = ["ec5000", "unitek-ds", "sendix", "bmaxx4400", "agile"];
+/// The devices, each with the read-only objects it stores itself
+/// (`save_objects`, read back with `Ctx::stored` or `store::stored_value`):
+/// a stored set holds them with the writable values. The EC5000's
+/// monitoring records 0x2200; the Sendix's CiA 406 operating time 0x6508
+/// and preset offset 0x6509.
+const DEVICES: [(&str, &[u16]); 5] =
+    [("ec5000", &[0x2200]), ("unitek-ds", &[]), ("sendix", &[0x6508, 0x6509]), ("bmaxx4400", &[]), ("agile", &[])];
 
 fn main() {
     let mut linked = String::from("[\n");
     let mut storage = Vec::new();
-    for device in DEVICES {
-        let ram_size = od_gen::build::generate_strict(&Path::new("eds").join(format!("{device}.eds")), &device.replace('-', "_"));
-        let kib = storage_kib(ram_size);
+    for (device, kept) in DEVICES {
+        let stored_size = od_gen::build::generate_strict(&Path::new("eds").join(format!("{device}.eds")), &device.replace('-', "_"), kept);
+        let kib = storage_kib(stored_size);
         let _ = writeln!(linked, "    (\"{device}-stm32f103\", {kib}),");
         storage.push((device, kib));
     }
@@ -31,13 +37,13 @@ fn main() {
     }
 }
 
-/// KiB of STM32F103C8 flash the stored parameters of a device whose RAM
-/// image is `ram_size` bytes take: two regions of the 1 KiB pages one set
-/// needs, the image plus the 24-byte store header in half-words
+/// KiB of STM32F103C8 flash the stored parameters of a device whose stored
+/// set is `stored_size` bytes (od-gen's `STORED_SIZE`) take: two regions of
+/// the 1 KiB pages one set needs, the set plus the 24-byte store header in half-words
 /// (`boards::region_size`, `Layout::stm32f103c8`; the firmware checks that
 /// they agree with this at compile time).
-fn storage_kib(ram_size: usize) -> usize {
-    2 * (ram_size + 24).next_multiple_of(2).div_ceil(1024).max(1)
+fn storage_kib(stored_size: usize) -> usize {
+    2 * (stored_size + 24).next_multiple_of(2).div_ceil(1024).max(1)
 }
 
 /// Puts the board's memory layout into `OUT_DIR` as `memory.x` (the name

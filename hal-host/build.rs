@@ -3,5 +3,5 @@
 use std::path::Path;
 
 fn main() {
-    od_gen::build::generate_strict(Path::new("../tests/eds/interop.eds"), "interop");
+    od_gen::build::generate_strict(Path::new("../tests/eds/interop.eds"), "interop", &[]);
 }

@@ -32,7 +32,7 @@ PDOMapping=0
 ";
 
 fn main() {
-    od_gen::build::generate_strict(Path::new("../../tests/eds/interop.eds"), "interop");
+    od_gen::build::generate_strict(Path::new("../../tests/eds/interop.eds"), "interop", &[]);
 
     // Not strict: the file has empty vendor fields and `1:00PM` times (warnings).
     let ds301 = Path::new("../../tests/eds-corpus/canopennode__DS301_profile.eds");

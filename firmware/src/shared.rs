@@ -258,7 +258,7 @@ mod tests {
     use crate::boards::region_size;
     use crate::devices::sendix;
 
-    type Node = sendix::od::Node<NoApplication, RamStorage<{ region_size(sendix::od::RAM_SIZE) }>>;
+    type Node = sendix::od::Node<NoApplication, RamStorage<{ region_size(sendix::od::STORED_SIZE) }>>;
 
     const ID: u8 = 0x3F;
 

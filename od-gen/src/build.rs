@@ -7,22 +7,28 @@ use crate::Options;
 
 /// Generates the module for `eds` into `OUT_DIR/<module>.rs`, strictly (any
 /// warning fails the build), and asks cargo to rerun when the file changes.
-/// Stops the build with the diagnostics if the file is not valid. Returns
-/// the size of the module's RAM image (its `RAM_SIZE`), for a build script
-/// that sizes something by it (the firmware's flash storage).
-pub fn generate_strict(eds: &Path, module: &str) -> usize {
+/// Stops the build with the diagnostics if the file is not valid. `kept`
+/// names the read-only objects the device stores itself ([`crate::model::Eds::kept`]).
+/// Returns the bytes a stored parameter set of the module holds (its
+/// `STORED_SIZE`), for a build script that sizes something by it (the
+/// firmware's flash storage).
+pub fn generate_strict(eds: &Path, module: &str, kept: &[u16]) -> usize {
     println!("cargo::rerun-if-changed={}", eds.display());
-    let (model, diagnostics) = match crate::load_path(eds, Options { strict: true }) {
+    let (mut model, diagnostics) = match crate::load_path(eds, Options { strict: true }) {
         Ok(loaded) => loaded,
         Err(e) => fail(&e),
     };
     if diagnostics.has_errors() {
         fail(&diagnostics.to_string());
     }
-    match crate::codegen::generate(&model, &diagnostics.file).and_then(|code| Ok((code, crate::codegen::ram_size(&model)?))) {
-        Ok((code, ram_size)) => {
+    if let Some(index) = kept.iter().find(|i| !model.objects.contains_key(i)) {
+        fail(&format!("{}: error: kept object 0x{index:04X} is not in the dictionary", diagnostics.file));
+    }
+    model.kept = kept.to_vec();
+    match crate::codegen::generate(&model, &diagnostics.file).and_then(|code| Ok((code, crate::codegen::stored_size(&model)?))) {
+        Ok((code, stored_size)) => {
             write_out(module, &code);
-            ram_size
+            stored_size
         }
         Err(e) => fail(&format!("{}: error: {}", diagnostics.file, e.0)),
     }

@@ -314,6 +314,11 @@ pub struct Eds {
     pub other_sections: Vec<Section>,
     /// The objects by index.
     pub objects: BTreeMap<u16, Object>,
+    /// Read-only objects the device stores itself (a preset offset, an
+    /// operating time it saves with `save_objects`): their RAM values join
+    /// the writable ones at the front of the image, in the stored set. Not
+    /// from the file: the firmware's build names them.
+    pub kept: Vec<u16>,
 }
 
 impl Eds {

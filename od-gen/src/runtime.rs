@@ -20,8 +20,12 @@ pub struct Tables {
     pub rom: Vec<u8>,
     /// The RAM image from the defaults, `$NODEID` not yet added.
     pub defaults: Vec<u8>,
-    /// Length of the RAM prefix that holds 0x1000–0x1FFF.
+    /// Length of the RAM prefix that holds the stored values of 0x1000–0x1FFF.
     pub comm_len: usize,
+    /// Length of the stored prefix of the RAM image.
+    pub stored_len: usize,
+    /// Length of the other values of 0x1000–0x1FFF, after the stored prefix.
+    pub comm_rest: usize,
     /// Positions in `entries` of the `$NODEID`-relative entries.
     pub node_id_relative: Vec<u16>,
     /// Device facts from `[DeviceInfo]`.
@@ -44,6 +48,8 @@ impl Tables {
             rom: l.rom,
             defaults: l.ram,
             comm_len: l.comm_len,
+            stored_len: l.stored_len,
+            comm_rest: l.comm_rest,
             node_id_relative: l.node_id_relative.iter().map(|&p| p as u16).collect(),
             device: DeviceInfo {
                 baud_rates: f.baud_rates,
@@ -67,6 +73,8 @@ impl Tables {
             rom: self.rom.leak(),
             defaults: self.defaults.leak(),
             comm_len: self.comm_len,
+            stored_len: self.stored_len,
+            comm_rest: self.comm_rest,
             node_id_relative: self.node_id_relative.leak(),
             device: self.device,
             layout_id: od::layout_id(entries),

@@ -18,7 +18,7 @@ use firmware::can_node::CanNode;
 use firmware::devices::sendix;
 use firmware::runner::{Controller, ControllerStatus, Reply, Request, Runner, StateQueue, Value};
 
-type Storage = RamStorage<{ region_size(sendix::od::RAM_SIZE) }>;
+type Storage = RamStorage<{ region_size(sendix::od::STORED_SIZE) }>;
 
 const ID: u8 = 0x3F;
 const TPDO1: u16 = 0x1BF;

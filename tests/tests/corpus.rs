@@ -15,7 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use canopen_core::abort::AbortCode;
-use canopen_core::od::{DataType, Dictionary, ObjectDictionary};
+use canopen_core::od::{DataType, Dictionary, Entry, ObjectDictionary};
 use canopen_tests::corpus;
 use od_gen::{Options, Severity};
 
@@ -373,6 +373,30 @@ fn every_dictionary_is_sorted_and_every_readable_entry_reads() {
 /// The little-endian unsigned value of `bytes`.
 fn le(bytes: &[u8]) -> u64 {
     bytes.iter().rev().fold(0, |acc, &b| (acc << 8) | u64::from(b))
+}
+
+/// The RAM image of every corpus dictionary: the values a reset loads from
+/// a stored set (in RAM, not empty, writable: `StoredSet::load`) are its
+/// prefix of `stored_len` bytes, in index order with the communication area
+/// first; every other RAM value lies after it, the rest of the communication
+/// area first; the values tile the image.
+#[test]
+fn stored_values_are_the_prefix_of_every_ram_image() {
+    for (name, dict, _) in all_modules() {
+        let ram: Vec<&Entry> = dict.entries.iter().filter(|e| !e.in_rom() && e.len > 0).collect();
+        let (stored, rest): (Vec<&Entry>, Vec<&Entry>) = ram.iter().partition(|e| e.writable());
+        let end = |e: &Entry| usize::from(e.offset) + usize::from(e.len);
+        assert_eq!(stored.iter().map(|e| usize::from(e.len)).sum::<usize>(), dict.stored_len, "{name}: prefix length");
+        assert!(stored.iter().all(|e| end(e) <= dict.stored_len), "{name}: a stored value after the prefix");
+        assert!(rest.iter().all(|e| usize::from(e.offset) >= dict.stored_len), "{name}: another value in the prefix");
+        for part in [&stored, &rest] {
+            // Entries are in index order: so are their offsets within each part.
+            assert!(part.windows(2).all(|w| end(w[0]) == usize::from(w[1].offset)), "{name}: a part is not in index order");
+        }
+        let comm = |part: &Vec<&Entry>| part.iter().filter(|e| e.index < 0x2000).map(|e| usize::from(e.len)).sum::<usize>();
+        assert_eq!((comm(&stored), comm(&rest)), (dict.comm_len, dict.comm_rest), "{name}: communication runs");
+        assert_eq!(ram.iter().map(|e| usize::from(e.len)).sum::<usize>(), dict.defaults.len(), "{name}: values tile the image");
+    }
 }
 
 #[test]

@@ -14,7 +14,7 @@ use firmware::boards::qemu::ram_storage::RamStorage;
 use firmware::boards::region_size;
 use firmware::devices::ec5000::od;
 
-type Storage = RamStorage<{ region_size(od::RAM_SIZE) }>;
+type Storage = RamStorage<{ region_size(od::STORED_SIZE) }>;
 
 const ID: u8 = 127;
 

@@ -125,7 +125,7 @@ fn power_cut_at_every_step(name: &str, dict: &Dictionary, defaults: &[u8], layou
     let steps = probe.steps() - before;
     // One step per page erased and per half-word programmed.
     let pages = u64::from(layout.pages_per_set());
-    assert_eq!(steps, pages + (dict.defaults.len() as u64 + 24).div_ceil(2), "{name}: steps of a save");
+    assert_eq!(steps, pages + (dict.stored_len as u64 + 24).div_ceil(2), "{name}: steps of a save");
     let (mut got_old, mut got_new) = (0, 0);
     for k in 1..=steps {
         let mut s = base.clone();
@@ -164,20 +164,20 @@ macro_rules! devices {
                 #[test]
                 fn every_stored_entry_survives_a_save_and_a_power_cycle_on_1k_pages() {
                     let (dict, defaults) = parts();
-                    round_trip(stringify!($device), dict, &defaults, Layout::stm32f103c8(region_size(od::RAM_SIZE)));
+                    round_trip(stringify!($device), dict, &defaults, Layout::stm32f103c8(region_size(od::STORED_SIZE)));
                 }
 
                 #[test]
                 fn every_stored_entry_survives_on_2k_pages() {
                     let (dict, defaults) = parts();
-                    let region = region_size(od::RAM_SIZE) as u32;
+                    let region = region_size(od::STORED_SIZE) as u32;
                     round_trip(stringify!($device), dict, &defaults, Layout { base: 124 * 1024, page: 2048, stride: 2048, region });
                 }
 
                 #[test]
                 fn a_power_cut_at_every_step_of_a_save_keeps_a_whole_set() {
                     let (dict, defaults) = parts();
-                    power_cut_at_every_step(stringify!($device), dict, &defaults, Layout::stm32f103c8(region_size(od::RAM_SIZE)));
+                    power_cut_at_every_step(stringify!($device), dict, &defaults, Layout::stm32f103c8(region_size(od::STORED_SIZE)));
                 }
             }
         )*
@@ -190,14 +190,15 @@ devices!(ec5000, unitek_ds, sendix, bmaxx4400, agile);
 #[test]
 fn a_store_erases_one_page_where_the_set_fits_one() {
     use firmware::devices::{agile, bmaxx4400, ec5000, sendix, unitek_ds};
-    let pages = [ec5000::od::RAM_SIZE, unitek_ds::od::RAM_SIZE, sendix::od::RAM_SIZE, bmaxx4400::od::RAM_SIZE, agile::od::RAM_SIZE]
-        .map(|n| Layout::stm32f103c8(region_size(n)).pages_per_set());
-    assert_eq!(pages, [1, 1, 1, 2, 1]);
+    let pages =
+        [ec5000::od::STORED_SIZE, unitek_ds::od::STORED_SIZE, sendix::od::STORED_SIZE, bmaxx4400::od::STORED_SIZE, agile::od::STORED_SIZE]
+            .map(|n| Layout::stm32f103c8(region_size(n)).pages_per_set());
+    assert_eq!(pages, [1, 1, 1, 1, 1]);
 }
 
 /// On the F103C8 the storage takes the pages its sets need and the program
 /// the rest: region 0 starts where each STM32 image's `memory.x` flash ends
-/// (firmware/build.rs gives the linker `__storage_kib` from the RAM image
+/// (firmware/build.rs gives the linker `__storage_kib` from the stored set
 /// od-gen computes), region 1 right after it, and both end at 64 KiB.
 #[test]
 fn each_images_storage_starts_where_its_program_flash_ends() {
@@ -205,7 +206,7 @@ fn each_images_storage_starts_where_its_program_flash_ends() {
     let mut regions = Vec::new();
     for device in &firmware::devices::ALL {
         let image = format!("{}-stm32f103", device.name);
-        let layout = Layout::stm32f103c8(region_size(device.dictionary.defaults.len()));
+        let layout = Layout::stm32f103c8(region_size(device.dictionary.stored_len));
         let linked = LINKED_STORAGE_KIB.iter().find(|(name, _)| *name == image).map(|&(_, kib)| kib);
         assert_eq!(linked.map(|kib| 64 * 1024 - kib * 1024), Some(layout.base), "{image}: build.rs and the layout disagree");
         assert_eq!(program_flash(&image), layout.base, "{image}");
@@ -214,7 +215,7 @@ fn each_images_storage_starts_where_its_program_flash_ends() {
     }
     assert_eq!(
         regions,
-        [("ec5000", 62, 1), ("unitek-ds", 62, 1), ("sendix", 62, 1), ("bmaxx4400", 60, 2), ("agile", 62, 1)],
+        [("ec5000", 62, 1), ("unitek-ds", 62, 1), ("sendix", 62, 1), ("bmaxx4400", 62, 1), ("agile", 62, 1)],
         "(device, program KiB, KiB per region)"
     );
     assert_eq!(program_flash("my-device"), 60 * 1024, "an image of your own keeps 4 KiB for its storage");
@@ -227,7 +228,7 @@ fn each_images_storage_starts_where_its_program_flash_ends() {
 fn ec5000_heartbeat_saved_by_sdo_comes_back_and_lss_stores_over_it() {
     use firmware::devices::ec5000::od;
     type Ec5000 = Bench<od::Ram, NoApplication, MemStorage, { od::RPDO_COUNT }, { od::TPDO_COUNT }, { od::HB_CONSUMER_COUNT }>;
-    let storage = MemStorage::with_layout(Layout::stm32f103c8(region_size(od::RAM_SIZE)));
+    let storage = MemStorage::with_layout(Layout::stm32f103c8(region_size(od::STORED_SIZE)));
     let mut b: Ec5000 = Bench::new(od::Ram::new(ID), NoApplication, storage, ID);
     b.at(ms(0));
     assert_eq!(b.sdo_download(ID, 0x1017, 0, &50u16.to_le_bytes()), Ok(()));
@@ -278,6 +279,8 @@ mod core_store_scenarios {
         rom: &[],
         defaults: &DEFAULTS,
         comm_len: 7,
+        stored_len: 12,
+        comm_rest: 0,
         node_id_relative: &[2],
         layout_id: canopen_core::od::layout_id(&ENTRIES),
         device: DeviceInfo {
@@ -404,5 +407,34 @@ mod core_store_scenarios {
             assert!(got == Some((0x20, 3)) || got == Some((0x21, 4)), "cut {cut}: {got:?}");
             no_violations(&f, "core scenario");
         }
+    }
+}
+
+/// The b maXX 4400's set holds its writable values alone: every read-only
+/// RAM value (actual values the drive computes) changed does not change a
+/// byte of the flash after a save, the header's length is `STORED_SIZE`,
+/// and the set with its header fits one 1 KiB page.
+#[test]
+fn bmaxx4400_read_only_values_are_not_in_the_set() {
+    use firmware::devices::bmaxx4400::od;
+    let dict = &od::DICTIONARY;
+    let layout = Layout::stm32f103c8(region_size(od::STORED_SIZE));
+    let defaults = od::Ram::new(ID).image().to_vec();
+    let read_only: Vec<&Entry> = dict.entries.iter().filter(|e| !e.in_rom() && e.len > 0 && !stored(e)).collect();
+    assert!(read_only.len() > 10, "the drive has read-only values in RAM");
+    let mut touched = defaults.clone();
+    for e in &read_only {
+        touched[e.range()].iter_mut().for_each(|b| *b ^= 0x5A);
+    }
+    let (mut a, mut b) = (MemStorage::with_layout(layout), MemStorage::with_layout(layout));
+    store::save(dict, &defaults, ID, &mut a, Scope::All).unwrap();
+    store::save(dict, &touched, ID, &mut b, Scope::All).unwrap();
+    assert_eq!(a.region(0), b.region(0), "the read-only values are not in the set");
+    let set = a.region(0).unwrap();
+    assert_eq!(usize::from(u16::from_le_bytes([set[16], set[17]])), od::STORED_SIZE, "the header's length");
+    const { assert!(od::STORED_SIZE < od::RAM_SIZE && od::STORED_SIZE + 24 <= 1024, "the set with its header fits a page") };
+    assert_eq!(layout.pages_per_set(), 1);
+    for e in read_only {
+        assert_eq!(store::stored_value(dict, &mut a, ID, e.index, e.sub, &mut [0; 256]), None, "{:#06x}:{}", { e.index }, { e.sub });
     }
 }

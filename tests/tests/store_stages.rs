@@ -94,8 +94,8 @@ fn a_save_takes_a_stage_per_process_and_is_answered_after_the_last() {
     assert!(b.node.storing());
     let (stages, sent) = finish(&mut b);
     // Find the old set (the image in pieces of 256 bytes), erase, write (the same pieces and the header).
-    let pieces = (interop::RAM_SIZE).div_ceil(256);
-    assert!(stages > 2 * pieces, "{stages} stages for {} bytes", interop::RAM_SIZE);
+    let pieces = (interop::STORED_SIZE).div_ceil(256);
+    assert!(stages > 2 * pieces, "{stages} stages for {} bytes", interop::STORED_SIZE);
     assert_eq!(sent, [(TX, ok_write(0x1010, 1))]);
     assert_eq!(parameters(&mut boot(cycled(&mut b))), p(700, 0x77), "the new set after a power cycle");
     // A restore in stages too: the defaults from the next start on.

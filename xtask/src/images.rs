@@ -397,11 +397,10 @@ mod tests {
 
     #[test]
     fn a_drive_may_fill_its_program_region_the_others_48_kib() {
-        // The EC5000's and the Agile's sets fit a page each (2 KiB of
-        // storage), the b maXX 4400's takes two (4 KiB).
+        // The drives' sets (their writable values) fit a page each: 2 KiB of storage.
         assert_eq!(flash_budget("ec5000"), 62 * 1024);
         assert_eq!(flash_budget("agile"), 62 * 1024);
-        assert_eq!(flash_budget("bmaxx4400"), 60 * 1024);
+        assert_eq!(flash_budget("bmaxx4400"), 62 * 1024);
         assert_eq!(flash_budget("sendix"), 48 * 1024);
         assert_eq!(flash_budget("unitek-ds"), 48 * 1024);
     }

@@ -31,8 +31,9 @@ mod stack;
 #[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]
 mod systick;
 
-/// Bytes of a storage region for a dictionary whose RAM image is `image`
-/// bytes: the image plus the store header (24 bytes, `services::store`),
+/// Bytes of a storage region for a dictionary whose stored set is `image`
+/// bytes (its `STORED_SIZE`, the prefix of the RAM image a set holds): the
+/// set plus the store header (24 bytes, `services::store`),
 /// rounded up to a flash half-word.
 pub const fn region_size(image: usize) -> usize {
     (image + 24).next_multiple_of(2)
@@ -77,7 +78,7 @@ macro_rules! image {
         #[::cortex_m_rt::entry]
         fn main() -> ! {
             use $device as device;
-            const REGION: usize = $crate::boards::region_size(device::od::RAM_SIZE);
+            const REGION: usize = $crate::boards::region_size(device::od::STORED_SIZE);
             // The storage's flash layout and the program's `memory.x` region
             // (build.rs sizes it per image) must agree.
             const { $crate::boards::$board::check_link(env!("CARGO_BIN_NAME"), REGION) };

@@ -44,6 +44,7 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     for (name, doc, v) in [
         ("ENTRY_COUNT", "Number of entries in the dictionary.", l.entries.len()),
         ("RAM_SIZE", "Size of the RAM image in bytes.", l.ram.len()),
+        ("STORED_SIZE", "Bytes at the front of the RAM image a stored parameter set holds.", l.stored_len),
         ("ROM_SIZE", "Size of the constant values in flash, in bytes.", l.rom.len()),
         ("RPDO_COUNT", "RPDOs (communication objects 0x1400–0x15FF).", count(0x1400..=0x15FF)),
         ("TPDO_COUNT", "TPDOs (communication objects 0x1800–0x19FF).", count(0x1800..=0x19FF)),
@@ -85,6 +86,8 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w, "    rom: &ROM,");
     let _ = writeln!(w, "    defaults: &DEFAULTS,");
     let _ = writeln!(w, "    comm_len: {},", l.comm_len);
+    let _ = writeln!(w, "    stored_len: STORED_SIZE,");
+    let _ = writeln!(w, "    comm_rest: {},", l.comm_rest);
     let _ = writeln!(w, "    node_id_relative: &NODE_ID_RELATIVE,");
     let _ = writeln!(w, "    layout_id: od::layout_id(&ENTRIES),");
     let _ = writeln!(w, "    device: DeviceInfo {{");

@@ -28,12 +28,36 @@ pub(crate) struct Layout<'a> {
     pub(crate) rom: Vec<u8>,
     pub(crate) ram: Vec<u8>,
     pub(crate) comm_len: usize,
+    pub(crate) comm_rest: usize,
+    pub(crate) stored_len: usize,
     pub(crate) node_id_relative: Vec<usize>,
 }
 
+/// Whether a stored parameter set carries the RAM value of `attr`, `len`
+/// bytes, of object `index`: what a reset loads from it (a writable value,
+/// `StoredSet::load`), or a read-only one the device stores itself
+/// ([`Eds::kept`]). A `$NODEID` value is in RAM even when `const`, but is
+/// stored only if writable.
+fn stored(eds: &Eds, index: u16, attr: Attr, len: usize) -> bool {
+    !attr.contains(Attr::IN_ROM) && len > 0 && (attr.contains(Attr::WRITE) || eds.kept.contains(&index))
+}
+
 pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
-    let mut l =
-        Layout { entries: Vec::new(), limits: Vec::new(), rom: Vec::new(), ram: Vec::new(), comm_len: 0, node_id_relative: Vec::new() };
+    let mut l = Layout {
+        entries: Vec::new(),
+        limits: Vec::new(),
+        rom: Vec::new(),
+        ram: Vec::new(),
+        comm_len: 0,
+        comm_rest: 0,
+        stored_len: 0,
+        node_id_relative: Vec::new(),
+    };
+    // The RAM values in four runs, each in index order: stored communication,
+    // other stored, the rest of communication, the rest of the others. The
+    // stored set is then the prefix of the first two; each reset part is two runs.
+    let mut runs: [Vec<u8>; 4] = Default::default();
+    let mut ram_run = Vec::new();
     for o in eds.objects.values().filter(|o| !o.opaque) {
         for s in o.subs.values() {
             let Some(t) = s.data_type else { continue };
@@ -51,8 +75,11 @@ pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
                 l.rom.extend_from_slice(&value);
                 l.rom.len() - len
             } else {
-                l.ram.extend_from_slice(&value);
-                l.ram.len() - len
+                let run = usize::from(!stored(eds, o.index, attr, len)) * 2 + usize::from(o.index >= 0x2000);
+                ram_run.push((l.entries.len(), run));
+                let bytes = &mut runs[run];
+                bytes.extend_from_slice(&value);
+                bytes.len() - len
             };
             let limits = match s.limits {
                 Some((lo, hi)) => {
@@ -73,10 +100,14 @@ pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
             }
             l.entries.push(Placed { obj: o, sub: s, data_type: t, attr, len, offset, limits });
         }
-        if o.index < 0x2000 {
-            l.comm_len = l.ram.len();
-        }
     }
+    // Each offset was within its run: move it by the runs before.
+    let starts = [0, runs[0].len(), runs[0].len() + runs[1].len(), runs[0].len() + runs[1].len() + runs[2].len()];
+    for (entry, run) in ram_run {
+        l.entries[entry].offset += starts[run];
+    }
+    (l.comm_len, l.stored_len, l.comm_rest) = (runs[0].len(), starts[2], runs[2].len());
+    l.ram = runs.concat();
     if l.ram.len() > usize::from(u16::MAX) || l.rom.len() > usize::from(u16::MAX) {
         return Err(LayoutError(format!("RAM image {} B / ROM {} B exceed 65535 B", l.ram.len(), l.rom.len())));
     }

@@ -35,6 +35,12 @@ pub fn ram_size(eds: &Eds) -> Result<usize, LayoutError> {
     Ok(layout(eds)?.ram.len())
 }
 
+/// Bytes of that image a stored parameter set holds (its `STORED_SIZE`):
+/// the values at its front a reset loads, and those of [`Eds::kept`].
+pub fn stored_size(eds: &Eds) -> Result<usize, LayoutError> {
+    Ok(layout(eds)?.stored_len)
+}
+
 /// Values longer than this (or a DOMAIN) make block transfer worth linking:
 /// below it a segmented transfer takes a handful of frames.
 pub const BLOCK_THRESHOLD: usize = 64;

@@ -96,7 +96,10 @@ pub(super) fn tables(w: &mut String, l: &Layout<'_>) {
     let in_rom = |e: &&Placed<'_>| e.attr.contains(Attr::IN_ROM) && e.data_type != DataType::Domain;
     let in_ram = |e: &&Placed<'_>| !e.attr.contains(Attr::IN_ROM) && e.data_type != DataType::Domain;
     table(w, None, "static ROM: [u8; ROM_SIZE]", &value_rows(l.entries.iter().filter(in_rom), &l.rom));
-    table(w, None, "static DEFAULTS: [u8; RAM_SIZE]", &value_rows(l.entries.iter().filter(in_ram), &l.ram));
+    // The RAM image is not in index order (the stored values come first): its rows go by offset.
+    let mut ram: Vec<&Placed<'_>> = l.entries.iter().filter(in_ram).collect();
+    ram.sort_by_key(|e| e.offset);
+    table(w, None, "static DEFAULTS: [u8; RAM_SIZE]", &value_rows(ram.into_iter(), &l.ram));
 
     let relative: Vec<(String, String)> =
         l.node_id_relative.iter().map(|&i| (format!("{i},"), l.entries.get(i).map(label).unwrap_or_default())).collect();

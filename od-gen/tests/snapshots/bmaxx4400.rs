@@ -424,6 +424,8 @@ pub mod index {
 pub const ENTRY_COUNT: usize = 379;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 1090;
+/// Bytes at the front of the RAM image a stored parameter set holds.
+pub const STORED_SIZE: usize = 714;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 0;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -458,376 +460,376 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 4, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 5, NO_LIMITS), // 0x1002:00 Manufacturer status register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 9, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 18, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 22, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 26, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 30, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 34, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 38, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 42, NO_LIMITS), // 0x1003:09 Pre-defined error field / Standard error field 9
-    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 46, NO_LIMITS), // 0x1003:0A Pre-defined error field / Standard error field 10
-    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 50, NO_LIMITS), // 0x1003:0B Pre-defined error field / Standard error field 11
-    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 54, NO_LIMITS), // 0x1003:0C Pre-defined error field / Standard error field 12
-    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 58, NO_LIMITS), // 0x1003:0D Pre-defined error field / Standard error field 13
-    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 62, NO_LIMITS), // 0x1003:0E Pre-defined error field / Standard error field 14
-    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 66, NO_LIMITS), // 0x1003:0F Pre-defined error field / Standard error field 15
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 70, NO_LIMITS), // 0x1005:00 COB-ID SYNC
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 74, 0), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 78, NO_LIMITS), // 0x1007:00 Synchronous window length
-    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 82, NO_LIMITS), // 0x1008:00 Manufacturer device name
-    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 93, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
-    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 100, NO_LIMITS), // 0x100A:00 Manufacturer software version
-    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 107, NO_LIMITS), // 0x100B:00 Node-ID
-    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 111, NO_LIMITS), // 0x100C:00 Guard time
-    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 113, NO_LIMITS), // 0x100D:00 Life time factor
-    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 114, NO_LIMITS), // 0x100E:00 COB-ID guarding protocol
-    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 118, NO_LIMITS), // 0x100F:00 Number of SDOs supported
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 122, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 123, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 127, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 131, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 132, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 136, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 140, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 144, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 146, NO_LIMITS), // 0x1017:00 Producer heartbeat time
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 148, NO_LIMITS), // 0x1018:00 Identity object / Identity object highest sub-index
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 149, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 153, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 157, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 161, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 165, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 166, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 170, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 174, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 175, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 179, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
-    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 180, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 181, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 185, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
-    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 186, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 187, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 191, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
-    Entry::new(0x1403, 0x00, DataType::Unsigned8, RO, 1, 192, NO_LIMITS), // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 193, NO_LIMITS), // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 197, NO_LIMITS), // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 198, 1), // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 199, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 203, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 207, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 211, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 215, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 219, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 223, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 227, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 231, 1), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 232, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 236, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 240, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 244, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 248, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 252, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 256, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 260, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 264, 1), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 265, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 269, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 273, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 277, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 281, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 285, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 289, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 293, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 297, 1), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 298, NO_LIMITS), // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 302, NO_LIMITS), // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 306, NO_LIMITS), // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 310, NO_LIMITS), // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 314, NO_LIMITS), // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 318, NO_LIMITS), // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 322, NO_LIMITS), // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 326, NO_LIMITS), // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 330, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 331, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 335, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 336, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 338, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 340, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 341, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 345, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 346, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 348, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 350, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 351, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 355, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 356, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 358, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
-    Entry::new(0x1803, 0x00, DataType::Unsigned8, RO, 1, 360, NO_LIMITS), // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 361, NO_LIMITS), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 365, NO_LIMITS), // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 366, NO_LIMITS), // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 368, NO_LIMITS), // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 370, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 371, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 375, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 379, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 383, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 387, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 391, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 395, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 399, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 403, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 404, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 408, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 412, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 416, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 420, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 424, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 428, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 432, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 436, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 437, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 441, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 445, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 449, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 453, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 457, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 461, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 465, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 469, 1), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 470, NO_LIMITS), // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 474, NO_LIMITS), // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 478, NO_LIMITS), // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 482, NO_LIMITS), // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 486, NO_LIMITS), // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 490, NO_LIMITS), // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 494, NO_LIMITS), // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 498, NO_LIMITS), // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
-    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 502, 2), // 0x4039:00 P0057 Motor nominal speed
-    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 504, 3), // 0x4041:00 P0065 Motor pole pair number
-    Entry::new(0x40E9, 0x00, DataType::Unsigned16, RO, 2, 506, NO_LIMITS), // 0x40E9:00 P0233 Amplifier Hiperface error detail
-    Entry::new(0x40EA, 0x00, DataType::Unsigned16, RO, 2, 508, NO_LIMITS), // 0x40EA:00 P0234 Encoder 1 error detail
-    Entry::new(0x40EB, 0x00, DataType::Unsigned16, RO, 2, 510, NO_LIMITS), // 0x40EB:00 P0235 Encoder 2 error detail
-    Entry::new(0x40F0, 0x00, DataType::Unsigned16, RO, 2, 512, NO_LIMITS), // 0x40F0:00 P0240 Small module A error detail
-    Entry::new(0x40F1, 0x00, DataType::Unsigned16, RO, 2, 514, NO_LIMITS), // 0x40F1:00 P0241 Small module B error detail
-    Entry::new(0x40F2, 0x00, DataType::Unsigned16, RO, 2, 516, NO_LIMITS), // 0x40F2:00 P0242 Small module C error detail
-    Entry::new(0x40F3, 0x00, DataType::Unsigned16, RO, 2, 518, NO_LIMITS), // 0x40F3:00 P0243 Small module D error detail
-    Entry::new(0x40F4, 0x00, DataType::Unsigned16, RO, 2, 520, NO_LIMITS), // 0x40F4:00 P0244 Small module F error detail
-    Entry::new(0x40F5, 0x00, DataType::Unsigned16, RO, 2, 522, NO_LIMITS), // 0x40F5:00 P0245 Big module G error detail
-    Entry::new(0x40F6, 0x00, DataType::Unsigned16, RO, 2, 524, NO_LIMITS), // 0x40F6:00 P0246 Big module H error detail
-    Entry::new(0x40F7, 0x00, DataType::Unsigned16, RO, 2, 526, NO_LIMITS), // 0x40F7:00 P0247 Big module J error detail
-    Entry::new(0x40F8, 0x00, DataType::Unsigned16, RO, 2, 528, NO_LIMITS), // 0x40F8:00 P0248 Big module K error detail
-    Entry::new(0x40F9, 0x00, DataType::Unsigned16, RO, 2, 530, NO_LIMITS), // 0x40F9:00 P0249 Big module L error detail
-    Entry::new(0x40FA, 0x00, DataType::Unsigned16, RO, 2, 532, NO_LIMITS), // 0x40FA:00 P0250 Big module M error detail
-    Entry::new(0x4106, 0x00, DataType::Unsigned16, RO_TPDO, 2, 534, NO_LIMITS), // 0x4106:00 P0262 Amplifier warnings
-    Entry::new(0x4107, 0x00, DataType::Unsigned16, RO_TPDO, 2, 536, NO_LIMITS), // 0x4107:00 P0263 Motor warnings
-    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 538, NO_LIMITS), // 0x412C:00 P0300 Drive control word
-    Entry::new(0x412D, 0x00, DataType::Unsigned16, RO_TPDO, 2, 540, NO_LIMITS), // 0x412D:00 P0301 Drive status word
-    Entry::new(0x4130, 0x00, DataType::Integer16, RO_TPDO, 2, 542, NO_LIMITS), // 0x4130:00 P0304 Operation mode actual
-    Entry::new(0x4158, 0x00, DataType::Integer16, RO_TPDO, 2, 544, NO_LIMITS), // 0x4158:00 P0344 Torque actual value raw
-    Entry::new(0x415F, 0x00, DataType::Integer16, RO_TPDO, 2, 546, NO_LIMITS), // 0x415F:00 P0351 Ramp function generator output
-    Entry::new(0x4160, 0x00, DataType::Integer16, RO_TPDO, 2, 548, NO_LIMITS), // 0x4160:00 P0352 Speed set value total
-    Entry::new(0x4161, 0x00, DataType::Integer32, RO_TPDO, 4, 550, NO_LIMITS), // 0x4161:00 P0353 Speed actual value raw
-    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 554, NO_LIMITS), // 0x4165:00 P0357 Torque limit direct
-    Entry::new(0x4168, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS), // 0x4168:00 P0360 Position controller status raw
-    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 558, NO_LIMITS), // 0x416A:00 P0362 Position actual value raw
-    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 562, NO_LIMITS), // 0x416B:00 P0363 Position set angle raw
-    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 564, NO_LIMITS), // 0x416C:00 P0364 Position set revolutions raw
-    Entry::new(0x416D, 0x00, DataType::Integer32, RO_TPDO, 4, 566, NO_LIMITS), // 0x416D:00 P0365 Speed feed forward raw
-    Entry::new(0x416F, 0x00, DataType::Integer32, RO_TPDO, 4, 570, NO_LIMITS), // 0x416F:00 P0367 Position control deviation raw
-    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 574, NO_LIMITS), // 0x4171:00 P0369 Position set value
-    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 578, NO_LIMITS), // 0x4172:00 P0370 Position IP set angle
-    Entry::new(0x4187, 0x00, DataType::Unsigned32, RO_TPDO, 4, 582, NO_LIMITS), // 0x4187:00 P0391 Encoder 1 actual angle raw
-    Entry::new(0x4188, 0x00, DataType::Unsigned32, RO_TPDO, 4, 586, NO_LIMITS), // 0x4188:00 P0392 Encoder 1 actual revolutions raw
-    Entry::new(0x41CC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 590, NO_LIMITS), // 0x41CC:00 P0460 Positioning status raw
-    Entry::new(0x41CD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 592, NO_LIMITS), // 0x41CD:00 P0461 Digital input output status
-    Entry::new(0x41CE, 0x00, DataType::Unsigned32, RO_TPDO, 4, 594, NO_LIMITS), // 0x41CE:00 P0462 Positioning actual value
-    Entry::new(0x41CF, 0x00, DataType::Unsigned32, RO_TPDO, 4, 598, NO_LIMITS), // 0x41CF:00 P0463 Positioning set value
-    Entry::new(0x41D0, 0x00, DataType::Integer16, RO_TPDO, 2, 602, NO_LIMITS), // 0x41D0:00 P0464 Positioning speed set value raw
-    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 604, NO_LIMITS), // 0x4214:00 P0532 Sync interval
-    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 606, NO_LIMITS), // 0x4258:00 P0600 Positioning target unsigned
-    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 610, NO_LIMITS), // 0x4259:00 P0601 Positioning mode
-    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 612, 4), // 0x425A:00 P0602 Positioning speed 1
-    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 614, 5), // 0x425B:00 P0603 Positioning acceleration 1
-    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 616, 5), // 0x425C:00 P0604 Positioning deceleration 1
-    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 618, 6), // 0x425D:00 P0605 Positioning bend 0 raw
-    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 620, NO_LIMITS), // 0x425F:00 P0607 Positioning target 1
-    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 624, NO_LIMITS), // 0x4260:00 P0608 Positioning target input 1
-    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 626, NO_LIMITS), // 0x4320:00 P0800 BACI cycle time factor
-    Entry::new(0x4321, 0x00, DataType::Unsigned16, RO, 2, 628, NO_LIMITS), // 0x4321:00 P0801 BACI process data parameter number 1
-    Entry::new(0x4322, 0x00, DataType::Unsigned16, RO, 2, 630, NO_LIMITS), // 0x4322:00 P0802 BACI process data parameter number 2
-    Entry::new(0x4323, 0x00, DataType::Unsigned16, RO, 2, 632, NO_LIMITS), // 0x4323:00 P0803 BACI process data parameter number 3
-    Entry::new(0x4324, 0x00, DataType::Unsigned16, RO, 2, 634, NO_LIMITS), // 0x4324:00 P0804 BACI process data parameter number 4
-    Entry::new(0x4325, 0x00, DataType::Unsigned16, RO, 2, 636, NO_LIMITS), // 0x4325:00 P0805 BACI process data parameter number 5
-    Entry::new(0x4326, 0x00, DataType::Unsigned16, RO, 2, 638, NO_LIMITS), // 0x4326:00 P0806 BACI process data parameter number 6
-    Entry::new(0x4327, 0x00, DataType::Unsigned16, RO, 2, 640, NO_LIMITS), // 0x4327:00 P0807 BACI process data parameter number 7
-    Entry::new(0x4328, 0x00, DataType::Unsigned16, RO, 2, 642, NO_LIMITS), // 0x4328:00 P0808 BACI process data parameter number 8
-    Entry::new(0x4329, 0x00, DataType::Unsigned16, RO, 2, 644, NO_LIMITS), // 0x4329:00 P0809 BACI process data parameter number 9
-    Entry::new(0x432A, 0x00, DataType::Unsigned16, RO, 2, 646, NO_LIMITS), // 0x432A:00 P0810 BACI process data parameter number 10
-    Entry::new(0x432B, 0x00, DataType::Unsigned16, RO, 2, 648, NO_LIMITS), // 0x432B:00 P0811 BACI process data parameter number 11
-    Entry::new(0x432C, 0x00, DataType::Unsigned16, RO, 2, 650, NO_LIMITS), // 0x432C:00 P0812 BACI process data parameter number 12
-    Entry::new(0x432D, 0x00, DataType::Unsigned16, RO, 2, 652, NO_LIMITS), // 0x432D:00 P0813 BACI process data parameter number 13
-    Entry::new(0x432E, 0x00, DataType::Unsigned16, RO, 2, 654, NO_LIMITS), // 0x432E:00 P0814 BACI process data parameter number 14
-    Entry::new(0x432F, 0x00, DataType::Unsigned16, RO, 2, 656, NO_LIMITS), // 0x432F:00 P0815 BACI process data parameter number 15
-    Entry::new(0x4330, 0x00, DataType::Unsigned16, RO, 2, 658, NO_LIMITS), // 0x4330:00 P0816 BACI process data parameter number 16
-    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 660, NO_LIMITS), // 0x4332:00 P0818 BACI cycle offset set values
-    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 662, NO_LIMITS), // 0x4333:00 P0819 BACI cycle offset actual values
-    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 664, NO_LIMITS), // 0x433E:00 P0830 Option module G configuration 1
-    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 666, NO_LIMITS), // 0x4348:00 P0840 Option module H configuration 1
-    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 668, 7), // 0x43E8:00 P1000 Operation mode set
-    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 670, NO_LIMITS), // 0x43E9:00 P1001 Drive parameter 1001
-    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 672, 8), // 0x43EB:00 P1003 Stop option code raw
-    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 674, NO_LIMITS), // 0x43EC:00 P1004 Quick stop code raw
-    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 676, 8), // 0x43ED:00 P1005 Shutdown code raw
-    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 678, 8), // 0x43EE:00 P1006 Disable operation code raw
-    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 680, 8), // 0x43EF:00 P1007 Error reaction code raw
-    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 682, 9), // 0x4407:00 P1031 Maximum speed
-    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 684, 10), // 0x4411:00 P1041 Speed set value upper limit
-    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 688, 11), // 0x4412:00 P1042 Speed set value lower limit
-    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 692, NO_LIMITS), // 0x441A:00 P1050 Position controller mode raw
-    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 694, 12), // 0x441B:00 P1051 Position controller Kv factor raw
-    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 696, 13), // 0x441D:00 P1053 Speed feed forward factor raw
-    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 698, 14), // 0x4420:00 P1056 Following error time
-    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 700, 15), // 0x4431:00 P1073 Encoder 1 monitoring lower limit
-    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 702, NO_LIMITS), // 0x4493:00 P1171 Ramp function generator input
-    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 706, 14), // 0x4494:00 P1172 Ramp function generator ramp up time
-    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 708, 14), // 0x4495:00 P1173 Ramp function generator ramp down time
-    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 710, 14), // 0x4496:00 P1174 Ramp function generator stop time
-    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 712, NO_LIMITS), // 0x44A6:00 P1190 Positioning mode word
-    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 714, NO_LIMITS), // 0x44A7:00 P1191 Positioning actual record number
-    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 716, NO_LIMITS), // 0x44AA:00 P1194 Positioning window
-    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 720, 16), // 0x44AB:00 P1195 Positioning window time
-    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 722, NO_LIMITS), // 0x44AC:00 P1196 Software limit switch 1
-    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 726, NO_LIMITS), // 0x44AD:00 P1197 Software limit switch 2
-    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 730, NO_LIMITS), // 0x44AE:00 P1198 Positioning clip environment 1
-    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 734, NO_LIMITS), // 0x44AF:00 P1199 Positioning clip environment 2
-    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 738, NO_LIMITS), // 0x44B0:00 P1200 Positioning home position
-    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 742, 4), // 0x44B1:00 P1201 Homing speed
-    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 744, 17), // 0x44B2:00 P1202 Homing final speed
-    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 746, 5), // 0x44B3:00 P1203 Homing acceleration raw
-    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 748, NO_LIMITS), // 0x44B4:00 P1204 Homing deceleration raw
-    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 750, NO_LIMITS), // 0x44B5:00 P1205 Homing mode
-    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 752, NO_LIMITS), // 0x44B8:00 P1208 Positioning switch mode raw
-    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 754, NO_LIMITS), // 0x44B9:00 P1209 Positioning encoder offset raw
-    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 756, 5), // 0x44BD:00 P1213 Positioning stop deceleration
-    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 758, 18), // 0x4BEA:00 P3050 Position scaling user unit
-    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 762, 18), // 0x4BEB:00 P3051 Position scaling revolutions
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 766, NO_LIMITS), // 0x6007:00 Abort connection option code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 768, NO_LIMITS), // 0x6040:00 Controlword
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 770, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 772, NO_LIMITS), // 0x6042:00 vl target velocity
-    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 774, NO_LIMITS), // 0x6043:00 vl velocity demand
-    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 776, NO_LIMITS), // 0x6044:00 vl control effort
-    Entry::new(0x6045, 0x00, DataType::Integer16, RO, 2, 778, NO_LIMITS), // 0x6045:00 vl manipulated velocity
-    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 780, NO_LIMITS), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
-    Entry::new(0x6046, 0x01, DataType::Unsigned32, RO_TPDO, 4, 781, NO_LIMITS), // 0x6046:01 vl velocity min max amount / vl velocity min amount
-    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 785, NO_LIMITS), // 0x6046:02 vl velocity min max amount / vl velocity max amount
-    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 789, NO_LIMITS), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
-    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 790, NO_LIMITS), // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
-    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 794, NO_LIMITS), // 0x6048:02 vl velocity acceleration / vl acceleration delta time
-    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 796, NO_LIMITS), // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
-    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 797, NO_LIMITS), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
-    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 801, NO_LIMITS), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
-    Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 803, NO_LIMITS), // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
-    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 804, 19), // 0x604C:01 vl dimension factor / vl dimension factor numerator
-    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 808, 19), // 0x604C:02 vl dimension factor / vl dimension factor denominator
-    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 812, NO_LIMITS), // 0x604D:00 vl pole number
-    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 813, NO_LIMITS), // 0x604F:00 vl ramp function time
-    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 817, NO_LIMITS), // 0x6050:00 vl slow down time
-    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 821, NO_LIMITS), // 0x6051:00 vl quick stop time
-    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 825, NO_LIMITS), // 0x605A:00 Quick stop option code
-    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 827, NO_LIMITS), // 0x605B:00 Shutdown option code
-    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 829, NO_LIMITS), // 0x605C:00 Disable operation option code
-    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 831, NO_LIMITS), // 0x605D:00 Halt option code
-    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 833, NO_LIMITS), // 0x605E:00 Fault reaction option code
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 835, NO_LIMITS), // 0x6060:00 Modes of operation
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 836, NO_LIMITS), // 0x6061:00 Modes of operation display
-    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 837, NO_LIMITS), // 0x6062:00 Position demand value
-    Entry::new(0x6063, 0x00, DataType::Integer32, RO_TPDO, 4, 841, NO_LIMITS), // 0x6063:00 Position actual internal value
-    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 845, NO_LIMITS), // 0x6064:00 Position actual value
-    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 849, 14), // 0x6066:00 Following error time out
-    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 851, NO_LIMITS), // 0x6067:00 Position window
-    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 855, NO_LIMITS), // 0x6068:00 Position window time
-    Entry::new(0x6069, 0x00, DataType::Integer32, RO_TPDO, 4, 857, NO_LIMITS), // 0x6069:00 Velocity sensor actual value
-    Entry::new(0x606A, 0x00, DataType::Integer16, RO, 2, 861, NO_LIMITS), // 0x606A:00 Sensor selection code
-    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 863, NO_LIMITS), // 0x606B:00 Velocity demand value
-    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 867, NO_LIMITS), // 0x606C:00 Velocity actual value
-    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 871, NO_LIMITS), // 0x606F:00 Velocity threshold
-    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 873, NO_LIMITS), // 0x6072:00 Max torque
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 875, NO_LIMITS), // 0x6077:00 Torque actual value
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 877, NO_LIMITS), // 0x607A:00 Target position
-    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 881, NO_LIMITS), // 0x607C:00 Home offset
-    Entry::new(0x607D, 0x00, DataType::Unsigned8, RO, 1, 885, NO_LIMITS), // 0x607D:00 Software position limit / Software position limit highest sub-index
-    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 886, NO_LIMITS), // 0x607D:01 Software position limit / Min position limit
-    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 890, NO_LIMITS), // 0x607D:02 Software position limit / Max position limit
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 894, NO_LIMITS), // 0x607F:00 Max profile velocity
-    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 898, 20), // 0x6080:00 Max motor speed
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 902, NO_LIMITS), // 0x6081:00 Profile velocity
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 906, NO_LIMITS), // 0x6083:00 Profile acceleration
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 910, NO_LIMITS), // 0x6084:00 Profile deceleration
-    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 914, NO_LIMITS), // 0x6085:00 Quick stop deceleration
-    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 918, NO_LIMITS), // 0x6086:00 Motion profile type
-    Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 920, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 921, 21), // 0x6092:01 Feed constant / Feed
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 925, 22), // 0x6092:02 Feed constant / Shaft revolutions
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 929, NO_LIMITS), // 0x6098:00 Homing method
-    Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 930, NO_LIMITS), // 0x6099:00 Homing speeds / Homing speeds highest sub-index
-    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 931, NO_LIMITS), // 0x6099:01 Homing speeds / Speed during search for switch
-    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 935, NO_LIMITS), // 0x6099:02 Homing speeds / Speed during search for zero
-    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 939, NO_LIMITS), // 0x609A:00 Homing acceleration
-    Entry::new(0x60C0, 0x00, DataType::Integer16, RO, 2, 943, NO_LIMITS), // 0x60C0:00 Interpolation sub mode select
-    Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 945, NO_LIMITS), // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
-    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 946, NO_LIMITS), // 0x60C1:01 Interpolation data record / Interpolation data record position
-    Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 950, NO_LIMITS), // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
-    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 951, 22), // 0x60C2:01 Interpolation time period / ip time units
-    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 952, 23), // 0x60C2:02 Interpolation time period / ip time index
-    Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 953, NO_LIMITS), // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
-    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 954, NO_LIMITS), // 0x60C3:01 Interpolation sync definition / Synchronize on group
-    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 955, NO_LIMITS), // 0x60C3:02 Interpolation sync definition / ip sync every n event
-    Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 956, NO_LIMITS), // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
-    Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 957, NO_LIMITS), // 0x60C4:01 Interpolation data configuration / Maximum buffer size
-    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 961, NO_LIMITS), // 0x60C4:02 Interpolation data configuration / Actual buffer size
-    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 965, 24), // 0x60C4:03 Interpolation data configuration / Buffer organisation
-    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 966, NO_LIMITS), // 0x60C4:04 Interpolation data configuration / Buffer position
-    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 968, NO_LIMITS), // 0x60C4:05 Interpolation data configuration / Size of data record
-    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 969, 24), // 0x60C4:06 Interpolation data configuration / Buffer clear
-    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 970, NO_LIMITS), // 0x60F8:00 Max slippage
-    Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 974, NO_LIMITS), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
-    Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 975, NO_LIMITS), // 0x60FB:01 Position control parameter set / Position controller status
-    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 977, NO_LIMITS), // 0x60FB:02 Position control parameter set / Position controller mode
-    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 979, 12), // 0x60FB:03 Position control parameter set / Position controller Kv factor
-    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 981, NO_LIMITS), // 0x60FB:04 Position control parameter set / Position set revolutions
-    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 983, NO_LIMITS), // 0x60FB:05 Position control parameter set / Position set angle
-    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 985, NO_LIMITS), // 0x60FB:06 Position control parameter set / Speed feed forward factor
-    Entry::new(0x60FB, 0x07, DataType::Integer32, RO_TPDO, 4, 987, NO_LIMITS), // 0x60FB:07 Position control parameter set / Position control deviation
-    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 991, NO_LIMITS), // 0x60FB:08 Position control parameter set / Position controller actual value
-    Entry::new(0x60FB, 0x09, DataType::Unsigned32, RO_TPDO, 4, 995, NO_LIMITS), // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
-    Entry::new(0x60FB, 0x0A, DataType::Unsigned32, RO_TPDO, 4, 999, NO_LIMITS), // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
-    Entry::new(0x60FB, 0x0B, DataType::Integer32, RO_TPDO, 4, 1003, NO_LIMITS), // 0x60FB:0B Position control parameter set / Speed feed forward
-    Entry::new(0x60FB, 0x0C, DataType::Unsigned16, RO_TPDO, 2, 1007, NO_LIMITS), // 0x60FB:0C Position control parameter set / Positioning status
-    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1009, NO_LIMITS), // 0x60FB:0D Position control parameter set / Actual positioning record number
-    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 1011, NO_LIMITS), // 0x60FB:0E Position control parameter set / Positioning mode bits
-    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 1013, NO_LIMITS), // 0x60FB:0F Position control parameter set / Home position
-    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 1017, NO_LIMITS), // 0x60FB:10 Position control parameter set / Positioning switch mode
-    Entry::new(0x60FB, 0x11, DataType::Integer16, RO_TPDO, 2, 1019, NO_LIMITS), // 0x60FB:11 Position control parameter set / Positioning speed set value
-    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1021, NO_LIMITS), // 0x60FB:12 Position control parameter set / Positioning bend 0
-    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1023, NO_LIMITS), // 0x60FB:13 Position control parameter set / Clip environment 1
-    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1027, NO_LIMITS), // 0x60FB:14 Position control parameter set / Clip environment 2
-    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 1031, NO_LIMITS), // 0x60FB:15 Position control parameter set / Target input 0
-    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 1033, NO_LIMITS), // 0x60FB:16 Position control parameter set / Target input 1
-    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 1035, NO_LIMITS), // 0x60FB:17 Position control parameter set / IP set angle
-    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1039, NO_LIMITS), // 0x60FB:18 Position control parameter set / Positioning encoder offset
-    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 1041, NO_LIMITS), // 0x60FB:19 Position control parameter set / Homing deceleration
-    Entry::new(0x60FB, 0x1A, DataType::Integer32, RO_TPDO, 4, 1043, NO_LIMITS), // 0x60FB:1A Position control parameter set / Actual speed normalised
-    Entry::new(0x60FB, 0x1B, DataType::Unsigned16, RO_TPDO, 2, 1047, NO_LIMITS), // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
-    Entry::new(0x60FD, 0x00, DataType::Unsigned32, RO_TPDO, 4, 1049, NO_LIMITS), // 0x60FD:00 Digital inputs
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 1053, NO_LIMITS), // 0x60FF:00 Target velocity
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 714, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 718, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 719, NO_LIMITS), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 0, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 723, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 727, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 731, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 735, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 739, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 743, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 747, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 751, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 755, NO_LIMITS), // 0x1003:09 Pre-defined error field / Standard error field 9
+    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 759, NO_LIMITS), // 0x1003:0A Pre-defined error field / Standard error field 10
+    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 763, NO_LIMITS), // 0x1003:0B Pre-defined error field / Standard error field 11
+    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 767, NO_LIMITS), // 0x1003:0C Pre-defined error field / Standard error field 12
+    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 771, NO_LIMITS), // 0x1003:0D Pre-defined error field / Standard error field 13
+    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 775, NO_LIMITS), // 0x1003:0E Pre-defined error field / Standard error field 14
+    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 779, NO_LIMITS), // 0x1003:0F Pre-defined error field / Standard error field 15
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 783, NO_LIMITS), // 0x1005:00 COB-ID SYNC
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 1, 0), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 5, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 787, NO_LIMITS), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 798, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 805, NO_LIMITS), // 0x100A:00 Manufacturer software version
+    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 812, NO_LIMITS), // 0x100B:00 Node-ID
+    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 9, NO_LIMITS), // 0x100C:00 Guard time
+    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 11, NO_LIMITS), // 0x100D:00 Life time factor
+    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 12, NO_LIMITS), // 0x100E:00 COB-ID guarding protocol
+    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 816, NO_LIMITS), // 0x100F:00 Number of SDOs supported
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 820, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 16, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 20, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 821, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 24, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 28, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 32, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 36, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 38, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 822, NO_LIMITS), // 0x1018:00 Identity object / Identity object highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 823, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 827, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 831, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 835, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 839, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 840, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 844, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 848, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 40, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 44, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
+    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 849, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 45, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 49, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
+    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 850, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 50, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 54, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
+    Entry::new(0x1403, 0x00, DataType::Unsigned8, RO, 1, 851, NO_LIMITS), // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 55, NO_LIMITS), // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 59, NO_LIMITS), // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 60, 1), // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 61, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 65, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 69, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 73, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 77, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 81, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 85, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 89, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 93, 1), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 94, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 98, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 102, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 106, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 110, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 114, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 118, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 122, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 126, 1), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 127, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 131, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 135, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 139, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 143, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 147, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 151, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 155, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 159, 1), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 160, NO_LIMITS), // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 164, NO_LIMITS), // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 168, NO_LIMITS), // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 172, NO_LIMITS), // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 176, NO_LIMITS), // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 180, NO_LIMITS), // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 184, NO_LIMITS), // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 852, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 192, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 196, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 197, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 199, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 853, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 201, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 205, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 206, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 208, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 854, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 210, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 214, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 215, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 217, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    Entry::new(0x1803, 0x00, DataType::Unsigned8, RO, 1, 855, NO_LIMITS), // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 219, NO_LIMITS), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 223, NO_LIMITS), // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 224, NO_LIMITS), // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 226, NO_LIMITS), // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 228, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 229, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 233, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 237, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 241, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 253, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 257, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 261, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 262, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 266, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 270, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 274, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 286, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 290, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 294, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 295, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 299, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 303, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 307, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 311, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 315, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 319, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 323, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 327, 1), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 328, NO_LIMITS), // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 332, NO_LIMITS), // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 336, NO_LIMITS), // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 340, NO_LIMITS), // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 344, NO_LIMITS), // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 348, NO_LIMITS), // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 352, NO_LIMITS), // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 356, NO_LIMITS), // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
+    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 360, 2), // 0x4039:00 P0057 Motor nominal speed
+    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 362, 3), // 0x4041:00 P0065 Motor pole pair number
+    Entry::new(0x40E9, 0x00, DataType::Unsigned16, RO, 2, 856, NO_LIMITS), // 0x40E9:00 P0233 Amplifier Hiperface error detail
+    Entry::new(0x40EA, 0x00, DataType::Unsigned16, RO, 2, 858, NO_LIMITS), // 0x40EA:00 P0234 Encoder 1 error detail
+    Entry::new(0x40EB, 0x00, DataType::Unsigned16, RO, 2, 860, NO_LIMITS), // 0x40EB:00 P0235 Encoder 2 error detail
+    Entry::new(0x40F0, 0x00, DataType::Unsigned16, RO, 2, 862, NO_LIMITS), // 0x40F0:00 P0240 Small module A error detail
+    Entry::new(0x40F1, 0x00, DataType::Unsigned16, RO, 2, 864, NO_LIMITS), // 0x40F1:00 P0241 Small module B error detail
+    Entry::new(0x40F2, 0x00, DataType::Unsigned16, RO, 2, 866, NO_LIMITS), // 0x40F2:00 P0242 Small module C error detail
+    Entry::new(0x40F3, 0x00, DataType::Unsigned16, RO, 2, 868, NO_LIMITS), // 0x40F3:00 P0243 Small module D error detail
+    Entry::new(0x40F4, 0x00, DataType::Unsigned16, RO, 2, 870, NO_LIMITS), // 0x40F4:00 P0244 Small module F error detail
+    Entry::new(0x40F5, 0x00, DataType::Unsigned16, RO, 2, 872, NO_LIMITS), // 0x40F5:00 P0245 Big module G error detail
+    Entry::new(0x40F6, 0x00, DataType::Unsigned16, RO, 2, 874, NO_LIMITS), // 0x40F6:00 P0246 Big module H error detail
+    Entry::new(0x40F7, 0x00, DataType::Unsigned16, RO, 2, 876, NO_LIMITS), // 0x40F7:00 P0247 Big module J error detail
+    Entry::new(0x40F8, 0x00, DataType::Unsigned16, RO, 2, 878, NO_LIMITS), // 0x40F8:00 P0248 Big module K error detail
+    Entry::new(0x40F9, 0x00, DataType::Unsigned16, RO, 2, 880, NO_LIMITS), // 0x40F9:00 P0249 Big module L error detail
+    Entry::new(0x40FA, 0x00, DataType::Unsigned16, RO, 2, 882, NO_LIMITS), // 0x40FA:00 P0250 Big module M error detail
+    Entry::new(0x4106, 0x00, DataType::Unsigned16, RO_TPDO, 2, 884, NO_LIMITS), // 0x4106:00 P0262 Amplifier warnings
+    Entry::new(0x4107, 0x00, DataType::Unsigned16, RO_TPDO, 2, 886, NO_LIMITS), // 0x4107:00 P0263 Motor warnings
+    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 364, NO_LIMITS), // 0x412C:00 P0300 Drive control word
+    Entry::new(0x412D, 0x00, DataType::Unsigned16, RO_TPDO, 2, 888, NO_LIMITS), // 0x412D:00 P0301 Drive status word
+    Entry::new(0x4130, 0x00, DataType::Integer16, RO_TPDO, 2, 890, NO_LIMITS), // 0x4130:00 P0304 Operation mode actual
+    Entry::new(0x4158, 0x00, DataType::Integer16, RO_TPDO, 2, 892, NO_LIMITS), // 0x4158:00 P0344 Torque actual value raw
+    Entry::new(0x415F, 0x00, DataType::Integer16, RO_TPDO, 2, 894, NO_LIMITS), // 0x415F:00 P0351 Ramp function generator output
+    Entry::new(0x4160, 0x00, DataType::Integer16, RO_TPDO, 2, 896, NO_LIMITS), // 0x4160:00 P0352 Speed set value total
+    Entry::new(0x4161, 0x00, DataType::Integer32, RO_TPDO, 4, 898, NO_LIMITS), // 0x4161:00 P0353 Speed actual value raw
+    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 366, NO_LIMITS), // 0x4165:00 P0357 Torque limit direct
+    Entry::new(0x4168, 0x00, DataType::Unsigned16, RO_TPDO, 2, 902, NO_LIMITS), // 0x4168:00 P0360 Position controller status raw
+    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 368, NO_LIMITS), // 0x416A:00 P0362 Position actual value raw
+    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 372, NO_LIMITS), // 0x416B:00 P0363 Position set angle raw
+    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 374, NO_LIMITS), // 0x416C:00 P0364 Position set revolutions raw
+    Entry::new(0x416D, 0x00, DataType::Integer32, RO_TPDO, 4, 904, NO_LIMITS), // 0x416D:00 P0365 Speed feed forward raw
+    Entry::new(0x416F, 0x00, DataType::Integer32, RO_TPDO, 4, 908, NO_LIMITS), // 0x416F:00 P0367 Position control deviation raw
+    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 376, NO_LIMITS), // 0x4171:00 P0369 Position set value
+    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 380, NO_LIMITS), // 0x4172:00 P0370 Position IP set angle
+    Entry::new(0x4187, 0x00, DataType::Unsigned32, RO_TPDO, 4, 912, NO_LIMITS), // 0x4187:00 P0391 Encoder 1 actual angle raw
+    Entry::new(0x4188, 0x00, DataType::Unsigned32, RO_TPDO, 4, 916, NO_LIMITS), // 0x4188:00 P0392 Encoder 1 actual revolutions raw
+    Entry::new(0x41CC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 920, NO_LIMITS), // 0x41CC:00 P0460 Positioning status raw
+    Entry::new(0x41CD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 922, NO_LIMITS), // 0x41CD:00 P0461 Digital input output status
+    Entry::new(0x41CE, 0x00, DataType::Unsigned32, RO_TPDO, 4, 924, NO_LIMITS), // 0x41CE:00 P0462 Positioning actual value
+    Entry::new(0x41CF, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928, NO_LIMITS), // 0x41CF:00 P0463 Positioning set value
+    Entry::new(0x41D0, 0x00, DataType::Integer16, RO_TPDO, 2, 932, NO_LIMITS), // 0x41D0:00 P0464 Positioning speed set value raw
+    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 384, NO_LIMITS), // 0x4214:00 P0532 Sync interval
+    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 386, NO_LIMITS), // 0x4258:00 P0600 Positioning target unsigned
+    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 390, NO_LIMITS), // 0x4259:00 P0601 Positioning mode
+    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 392, 4), // 0x425A:00 P0602 Positioning speed 1
+    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 394, 5), // 0x425B:00 P0603 Positioning acceleration 1
+    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 396, 5), // 0x425C:00 P0604 Positioning deceleration 1
+    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 398, 6), // 0x425D:00 P0605 Positioning bend 0 raw
+    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 400, NO_LIMITS), // 0x425F:00 P0607 Positioning target 1
+    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 404, NO_LIMITS), // 0x4260:00 P0608 Positioning target input 1
+    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 406, NO_LIMITS), // 0x4320:00 P0800 BACI cycle time factor
+    Entry::new(0x4321, 0x00, DataType::Unsigned16, RO, 2, 934, NO_LIMITS), // 0x4321:00 P0801 BACI process data parameter number 1
+    Entry::new(0x4322, 0x00, DataType::Unsigned16, RO, 2, 936, NO_LIMITS), // 0x4322:00 P0802 BACI process data parameter number 2
+    Entry::new(0x4323, 0x00, DataType::Unsigned16, RO, 2, 938, NO_LIMITS), // 0x4323:00 P0803 BACI process data parameter number 3
+    Entry::new(0x4324, 0x00, DataType::Unsigned16, RO, 2, 940, NO_LIMITS), // 0x4324:00 P0804 BACI process data parameter number 4
+    Entry::new(0x4325, 0x00, DataType::Unsigned16, RO, 2, 942, NO_LIMITS), // 0x4325:00 P0805 BACI process data parameter number 5
+    Entry::new(0x4326, 0x00, DataType::Unsigned16, RO, 2, 944, NO_LIMITS), // 0x4326:00 P0806 BACI process data parameter number 6
+    Entry::new(0x4327, 0x00, DataType::Unsigned16, RO, 2, 946, NO_LIMITS), // 0x4327:00 P0807 BACI process data parameter number 7
+    Entry::new(0x4328, 0x00, DataType::Unsigned16, RO, 2, 948, NO_LIMITS), // 0x4328:00 P0808 BACI process data parameter number 8
+    Entry::new(0x4329, 0x00, DataType::Unsigned16, RO, 2, 950, NO_LIMITS), // 0x4329:00 P0809 BACI process data parameter number 9
+    Entry::new(0x432A, 0x00, DataType::Unsigned16, RO, 2, 952, NO_LIMITS), // 0x432A:00 P0810 BACI process data parameter number 10
+    Entry::new(0x432B, 0x00, DataType::Unsigned16, RO, 2, 954, NO_LIMITS), // 0x432B:00 P0811 BACI process data parameter number 11
+    Entry::new(0x432C, 0x00, DataType::Unsigned16, RO, 2, 956, NO_LIMITS), // 0x432C:00 P0812 BACI process data parameter number 12
+    Entry::new(0x432D, 0x00, DataType::Unsigned16, RO, 2, 958, NO_LIMITS), // 0x432D:00 P0813 BACI process data parameter number 13
+    Entry::new(0x432E, 0x00, DataType::Unsigned16, RO, 2, 960, NO_LIMITS), // 0x432E:00 P0814 BACI process data parameter number 14
+    Entry::new(0x432F, 0x00, DataType::Unsigned16, RO, 2, 962, NO_LIMITS), // 0x432F:00 P0815 BACI process data parameter number 15
+    Entry::new(0x4330, 0x00, DataType::Unsigned16, RO, 2, 964, NO_LIMITS), // 0x4330:00 P0816 BACI process data parameter number 16
+    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 408, NO_LIMITS), // 0x4332:00 P0818 BACI cycle offset set values
+    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 410, NO_LIMITS), // 0x4333:00 P0819 BACI cycle offset actual values
+    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 412, NO_LIMITS), // 0x433E:00 P0830 Option module G configuration 1
+    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 414, NO_LIMITS), // 0x4348:00 P0840 Option module H configuration 1
+    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 416, 7), // 0x43E8:00 P1000 Operation mode set
+    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 418, NO_LIMITS), // 0x43E9:00 P1001 Drive parameter 1001
+    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 420, 8), // 0x43EB:00 P1003 Stop option code raw
+    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 422, NO_LIMITS), // 0x43EC:00 P1004 Quick stop code raw
+    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 424, 8), // 0x43ED:00 P1005 Shutdown code raw
+    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 426, 8), // 0x43EE:00 P1006 Disable operation code raw
+    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 428, 8), // 0x43EF:00 P1007 Error reaction code raw
+    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 430, 9), // 0x4407:00 P1031 Maximum speed
+    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 432, 10), // 0x4411:00 P1041 Speed set value upper limit
+    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 436, 11), // 0x4412:00 P1042 Speed set value lower limit
+    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 440, NO_LIMITS), // 0x441A:00 P1050 Position controller mode raw
+    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 442, 12), // 0x441B:00 P1051 Position controller Kv factor raw
+    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 444, 13), // 0x441D:00 P1053 Speed feed forward factor raw
+    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 446, 14), // 0x4420:00 P1056 Following error time
+    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 448, 15), // 0x4431:00 P1073 Encoder 1 monitoring lower limit
+    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 450, NO_LIMITS), // 0x4493:00 P1171 Ramp function generator input
+    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 454, 14), // 0x4494:00 P1172 Ramp function generator ramp up time
+    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 456, 14), // 0x4495:00 P1173 Ramp function generator ramp down time
+    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 458, 14), // 0x4496:00 P1174 Ramp function generator stop time
+    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 460, NO_LIMITS), // 0x44A6:00 P1190 Positioning mode word
+    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 462, NO_LIMITS), // 0x44A7:00 P1191 Positioning actual record number
+    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 464, NO_LIMITS), // 0x44AA:00 P1194 Positioning window
+    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 468, 16), // 0x44AB:00 P1195 Positioning window time
+    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 470, NO_LIMITS), // 0x44AC:00 P1196 Software limit switch 1
+    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 474, NO_LIMITS), // 0x44AD:00 P1197 Software limit switch 2
+    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 478, NO_LIMITS), // 0x44AE:00 P1198 Positioning clip environment 1
+    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 482, NO_LIMITS), // 0x44AF:00 P1199 Positioning clip environment 2
+    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 486, NO_LIMITS), // 0x44B0:00 P1200 Positioning home position
+    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 490, 4), // 0x44B1:00 P1201 Homing speed
+    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 492, 17), // 0x44B2:00 P1202 Homing final speed
+    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 494, 5), // 0x44B3:00 P1203 Homing acceleration raw
+    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 496, NO_LIMITS), // 0x44B4:00 P1204 Homing deceleration raw
+    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 498, NO_LIMITS), // 0x44B5:00 P1205 Homing mode
+    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 500, NO_LIMITS), // 0x44B8:00 P1208 Positioning switch mode raw
+    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 502, NO_LIMITS), // 0x44B9:00 P1209 Positioning encoder offset raw
+    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 504, 5), // 0x44BD:00 P1213 Positioning stop deceleration
+    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 506, 18), // 0x4BEA:00 P3050 Position scaling user unit
+    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 510, 18), // 0x4BEB:00 P3051 Position scaling revolutions
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 514, NO_LIMITS), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 516, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 966, NO_LIMITS), // 0x6041:00 Statusword
+    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 518, NO_LIMITS), // 0x6042:00 vl target velocity
+    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 968, NO_LIMITS), // 0x6043:00 vl velocity demand
+    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 970, NO_LIMITS), // 0x6044:00 vl control effort
+    Entry::new(0x6045, 0x00, DataType::Integer16, RO, 2, 972, NO_LIMITS), // 0x6045:00 vl manipulated velocity
+    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 974, NO_LIMITS), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    Entry::new(0x6046, 0x01, DataType::Unsigned32, RO_TPDO, 4, 975, NO_LIMITS), // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 520, NO_LIMITS), // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 979, NO_LIMITS), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
+    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 524, NO_LIMITS), // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
+    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 528, NO_LIMITS), // 0x6048:02 vl velocity acceleration / vl acceleration delta time
+    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 980, NO_LIMITS), // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
+    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 530, NO_LIMITS), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
+    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 534, NO_LIMITS), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
+    Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 981, NO_LIMITS), // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
+    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 536, 19), // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 540, 19), // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 544, NO_LIMITS), // 0x604D:00 vl pole number
+    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 545, NO_LIMITS), // 0x604F:00 vl ramp function time
+    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 549, NO_LIMITS), // 0x6050:00 vl slow down time
+    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 553, NO_LIMITS), // 0x6051:00 vl quick stop time
+    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 557, NO_LIMITS), // 0x605A:00 Quick stop option code
+    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 559, NO_LIMITS), // 0x605B:00 Shutdown option code
+    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 561, NO_LIMITS), // 0x605C:00 Disable operation option code
+    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 563, NO_LIMITS), // 0x605D:00 Halt option code
+    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 565, NO_LIMITS), // 0x605E:00 Fault reaction option code
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 567, NO_LIMITS), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 982, NO_LIMITS), // 0x6061:00 Modes of operation display
+    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 983, NO_LIMITS), // 0x6062:00 Position demand value
+    Entry::new(0x6063, 0x00, DataType::Integer32, RO_TPDO, 4, 987, NO_LIMITS), // 0x6063:00 Position actual internal value
+    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 991, NO_LIMITS), // 0x6064:00 Position actual value
+    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 568, 14), // 0x6066:00 Following error time out
+    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 570, NO_LIMITS), // 0x6067:00 Position window
+    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 574, NO_LIMITS), // 0x6068:00 Position window time
+    Entry::new(0x6069, 0x00, DataType::Integer32, RO_TPDO, 4, 995, NO_LIMITS), // 0x6069:00 Velocity sensor actual value
+    Entry::new(0x606A, 0x00, DataType::Integer16, RO, 2, 999, NO_LIMITS), // 0x606A:00 Sensor selection code
+    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 1001, NO_LIMITS), // 0x606B:00 Velocity demand value
+    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 1005, NO_LIMITS), // 0x606C:00 Velocity actual value
+    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 576, NO_LIMITS), // 0x606F:00 Velocity threshold
+    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 578, NO_LIMITS), // 0x6072:00 Max torque
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 1009, NO_LIMITS), // 0x6077:00 Torque actual value
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 580, NO_LIMITS), // 0x607A:00 Target position
+    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 584, NO_LIMITS), // 0x607C:00 Home offset
+    Entry::new(0x607D, 0x00, DataType::Unsigned8, RO, 1, 1011, NO_LIMITS), // 0x607D:00 Software position limit / Software position limit highest sub-index
+    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 588, NO_LIMITS), // 0x607D:01 Software position limit / Min position limit
+    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 592, NO_LIMITS), // 0x607D:02 Software position limit / Max position limit
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 596, NO_LIMITS), // 0x607F:00 Max profile velocity
+    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 600, 20), // 0x6080:00 Max motor speed
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 604, NO_LIMITS), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 608, NO_LIMITS), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 612, NO_LIMITS), // 0x6084:00 Profile deceleration
+    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 616, NO_LIMITS), // 0x6085:00 Quick stop deceleration
+    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 620, NO_LIMITS), // 0x6086:00 Motion profile type
+    Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 1012, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 622, 21), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 626, 22), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 630, NO_LIMITS), // 0x6098:00 Homing method
+    Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 1013, NO_LIMITS), // 0x6099:00 Homing speeds / Homing speeds highest sub-index
+    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 631, NO_LIMITS), // 0x6099:01 Homing speeds / Speed during search for switch
+    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 635, NO_LIMITS), // 0x6099:02 Homing speeds / Speed during search for zero
+    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 639, NO_LIMITS), // 0x609A:00 Homing acceleration
+    Entry::new(0x60C0, 0x00, DataType::Integer16, RO, 2, 1014, NO_LIMITS), // 0x60C0:00 Interpolation sub mode select
+    Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 1016, NO_LIMITS), // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
+    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 643, NO_LIMITS), // 0x60C1:01 Interpolation data record / Interpolation data record position
+    Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 1017, NO_LIMITS), // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
+    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 647, 22), // 0x60C2:01 Interpolation time period / ip time units
+    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 648, 23), // 0x60C2:02 Interpolation time period / ip time index
+    Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 1018, NO_LIMITS), // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
+    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 649, NO_LIMITS), // 0x60C3:01 Interpolation sync definition / Synchronize on group
+    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 650, NO_LIMITS), // 0x60C3:02 Interpolation sync definition / ip sync every n event
+    Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 1019, NO_LIMITS), // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
+    Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1020, NO_LIMITS), // 0x60C4:01 Interpolation data configuration / Maximum buffer size
+    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 651, NO_LIMITS), // 0x60C4:02 Interpolation data configuration / Actual buffer size
+    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 655, 24), // 0x60C4:03 Interpolation data configuration / Buffer organisation
+    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 656, NO_LIMITS), // 0x60C4:04 Interpolation data configuration / Buffer position
+    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 658, NO_LIMITS), // 0x60C4:05 Interpolation data configuration / Size of data record
+    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 659, 24), // 0x60C4:06 Interpolation data configuration / Buffer clear
+    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 660, NO_LIMITS), // 0x60F8:00 Max slippage
+    Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 1024, NO_LIMITS), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
+    Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 1025, NO_LIMITS), // 0x60FB:01 Position control parameter set / Position controller status
+    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 664, NO_LIMITS), // 0x60FB:02 Position control parameter set / Position controller mode
+    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 666, 12), // 0x60FB:03 Position control parameter set / Position controller Kv factor
+    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 668, NO_LIMITS), // 0x60FB:04 Position control parameter set / Position set revolutions
+    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 670, NO_LIMITS), // 0x60FB:05 Position control parameter set / Position set angle
+    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 672, NO_LIMITS), // 0x60FB:06 Position control parameter set / Speed feed forward factor
+    Entry::new(0x60FB, 0x07, DataType::Integer32, RO_TPDO, 4, 1027, NO_LIMITS), // 0x60FB:07 Position control parameter set / Position control deviation
+    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 674, NO_LIMITS), // 0x60FB:08 Position control parameter set / Position controller actual value
+    Entry::new(0x60FB, 0x09, DataType::Unsigned32, RO_TPDO, 4, 1031, NO_LIMITS), // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
+    Entry::new(0x60FB, 0x0A, DataType::Unsigned32, RO_TPDO, 4, 1035, NO_LIMITS), // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
+    Entry::new(0x60FB, 0x0B, DataType::Integer32, RO_TPDO, 4, 1039, NO_LIMITS), // 0x60FB:0B Position control parameter set / Speed feed forward
+    Entry::new(0x60FB, 0x0C, DataType::Unsigned16, RO_TPDO, 2, 1043, NO_LIMITS), // 0x60FB:0C Position control parameter set / Positioning status
+    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 678, NO_LIMITS), // 0x60FB:0D Position control parameter set / Actual positioning record number
+    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 680, NO_LIMITS), // 0x60FB:0E Position control parameter set / Positioning mode bits
+    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 682, NO_LIMITS), // 0x60FB:0F Position control parameter set / Home position
+    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 686, NO_LIMITS), // 0x60FB:10 Position control parameter set / Positioning switch mode
+    Entry::new(0x60FB, 0x11, DataType::Integer16, RO_TPDO, 2, 1045, NO_LIMITS), // 0x60FB:11 Position control parameter set / Positioning speed set value
+    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 688, NO_LIMITS), // 0x60FB:12 Position control parameter set / Positioning bend 0
+    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 690, NO_LIMITS), // 0x60FB:13 Position control parameter set / Clip environment 1
+    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 694, NO_LIMITS), // 0x60FB:14 Position control parameter set / Clip environment 2
+    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 698, NO_LIMITS), // 0x60FB:15 Position control parameter set / Target input 0
+    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 700, NO_LIMITS), // 0x60FB:16 Position control parameter set / Target input 1
+    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 702, NO_LIMITS), // 0x60FB:17 Position control parameter set / IP set angle
+    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 706, NO_LIMITS), // 0x60FB:18 Position control parameter set / Positioning encoder offset
+    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 708, NO_LIMITS), // 0x60FB:19 Position control parameter set / Homing deceleration
+    Entry::new(0x60FB, 0x1A, DataType::Integer32, RO_TPDO, 4, 1047, NO_LIMITS), // 0x60FB:1A Position control parameter set / Actual speed normalised
+    Entry::new(0x60FB, 0x1B, DataType::Unsigned16, RO_TPDO, 2, 1051, NO_LIMITS), // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
+    Entry::new(0x60FD, 0x00, DataType::Unsigned32, RO_TPDO, 4, 1053, NO_LIMITS), // 0x60FD:00 Digital inputs
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 710, NO_LIMITS), // 0x60FF:00 Target velocity
     Entry::new(0x6510, 0x00, DataType::Unsigned8, RO, 1, 1057, NO_LIMITS), // 0x6510:00 Drive data / Drive data highest sub-index
     Entry::new(0x6510, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1058, NO_LIMITS), // 0x6510:01 Drive data / Controller type
     Entry::new(0x6510, 0x02, DataType::Unsigned32, RO_TPDO, 4, 1062, NO_LIMITS), // 0x6510:02 Drive data / Software type
@@ -872,63 +874,25 @@ static ROM: [u8; ROM_SIZE] = [];
 
 #[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x92, 0x01, 0x02, 0x02, // 0x1000:00 Device type
-    0x00, // 0x1001:00 Error register
-    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
     0x00, // 0x1003:00 Pre-defined error field / Number of errors
-    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
-    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
-    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
-    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
-    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
-    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
-    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
-    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
-    0x00, 0x00, 0x00, 0x00, // 0x1003:09 Pre-defined error field / Standard error field 9
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0A Pre-defined error field / Standard error field 10
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0B Pre-defined error field / Standard error field 11
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0C Pre-defined error field / Standard error field 12
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0D Pre-defined error field / Standard error field 13
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0E Pre-defined error field / Standard error field 14
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0F Pre-defined error field / Standard error field 15
-    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC
     0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
     0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
-    0x62, 0x20, 0x6D, 0x61, 0x58, 0x58, 0x20, 0x34, 0x34, 0x30, 0x30, // 0x1008:00 Manufacturer device name
-    0x48, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x1009:00 Manufacturer hardware version
-    0x53, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x100A:00 Manufacturer software version
-    0x00, 0x00, 0x00, 0x00, // 0x100B:00 Node-ID
     0x00, 0x00, // 0x100C:00 Guard time
     0x00, // 0x100D:00 Life time factor
     0x00, 0x07, 0x00, 0x00, // 0x100E:00 COB-ID guarding protocol
-    0x01, 0x00, 0x00, 0x00, // 0x100F:00 Number of SDOs supported
-    0x02, // 0x1010:00 Store parameters / Store parameters highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
     0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x02, // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
     0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
     0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
     0x00, 0x00, // 0x1015:00 Inhibit time EMCY
     0x00, 0x00, // 0x1017:00 Producer heartbeat time
-    0x04, // 0x1018:00 Identity object / Identity object highest sub-index
-    0x15, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
-    0xEA, 0x58, 0x05, 0x00, // 0x1018:02 Identity object / Product code
-    0x02, 0x00, 0x03, 0x00, // 0x1018:03 Identity object / Revision number
-    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
-    0x02, // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
-    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
-    0x02, // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
     0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
     0xFF, // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
-    0x02, // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
     0x00, 0x03, 0x00, 0x00, // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
     0xFF, // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
-    0x02, // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
     0x00, 0x04, 0x00, 0x00, // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
     0xFF, // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
-    0x02, // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
     0x00, 0x05, 0x00, 0x00, // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
     0xFF, // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
     0x01, // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
@@ -967,22 +931,18 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
     0x00, 0x00, 0x00, 0x00, // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
     0x00, 0x00, 0x00, 0x00, // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
-    0x05, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
     0x80, 0x01, 0x00, 0x00, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
     0xFF, // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
     0x00, 0x00, // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
     0x00, 0x00, // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
-    0x05, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
     0x80, 0x02, 0x00, 0x00, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
     0xFF, // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
     0x00, 0x00, // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
     0x00, 0x00, // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
-    0x05, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
     0x80, 0x03, 0x00, 0x00, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
     0xFE, // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
     0x00, 0x00, // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
     0x00, 0x00, // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
-    0x05, // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
     0x80, 0x04, 0x00, 0x00, // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
     0xFE, // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
     0x00, 0x00, // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
@@ -1025,45 +985,13 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
     0x01, 0x00, // 0x4039:00 P0057 Motor nominal speed
     0x01, 0x00, // 0x4041:00 P0065 Motor pole pair number
-    0x00, 0x00, // 0x40E9:00 P0233 Amplifier Hiperface error detail
-    0x00, 0x00, // 0x40EA:00 P0234 Encoder 1 error detail
-    0x00, 0x00, // 0x40EB:00 P0235 Encoder 2 error detail
-    0x00, 0x00, // 0x40F0:00 P0240 Small module A error detail
-    0x00, 0x00, // 0x40F1:00 P0241 Small module B error detail
-    0x00, 0x00, // 0x40F2:00 P0242 Small module C error detail
-    0x00, 0x00, // 0x40F3:00 P0243 Small module D error detail
-    0x00, 0x00, // 0x40F4:00 P0244 Small module F error detail
-    0x00, 0x00, // 0x40F5:00 P0245 Big module G error detail
-    0x00, 0x00, // 0x40F6:00 P0246 Big module H error detail
-    0x00, 0x00, // 0x40F7:00 P0247 Big module J error detail
-    0x00, 0x00, // 0x40F8:00 P0248 Big module K error detail
-    0x00, 0x00, // 0x40F9:00 P0249 Big module L error detail
-    0x00, 0x00, // 0x40FA:00 P0250 Big module M error detail
-    0x00, 0x00, // 0x4106:00 P0262 Amplifier warnings
-    0x00, 0x00, // 0x4107:00 P0263 Motor warnings
     0x00, 0x00, // 0x412C:00 P0300 Drive control word
-    0x00, 0x00, // 0x412D:00 P0301 Drive status word
-    0x00, 0x00, // 0x4130:00 P0304 Operation mode actual
-    0x00, 0x00, // 0x4158:00 P0344 Torque actual value raw
-    0x00, 0x00, // 0x415F:00 P0351 Ramp function generator output
-    0x00, 0x00, // 0x4160:00 P0352 Speed set value total
-    0x00, 0x00, 0x00, 0x00, // 0x4161:00 P0353 Speed actual value raw
     0x00, 0x00, // 0x4165:00 P0357 Torque limit direct
-    0x00, 0x00, // 0x4168:00 P0360 Position controller status raw
     0x00, 0x00, 0x00, 0x00, // 0x416A:00 P0362 Position actual value raw
     0x00, 0x00, // 0x416B:00 P0363 Position set angle raw
     0x00, 0x00, // 0x416C:00 P0364 Position set revolutions raw
-    0x00, 0x00, 0x00, 0x00, // 0x416D:00 P0365 Speed feed forward raw
-    0x00, 0x00, 0x00, 0x00, // 0x416F:00 P0367 Position control deviation raw
     0x00, 0x00, 0x00, 0x00, // 0x4171:00 P0369 Position set value
     0x00, 0x00, 0x00, 0x00, // 0x4172:00 P0370 Position IP set angle
-    0x00, 0x00, 0x00, 0x00, // 0x4187:00 P0391 Encoder 1 actual angle raw
-    0x00, 0x00, 0x00, 0x00, // 0x4188:00 P0392 Encoder 1 actual revolutions raw
-    0x00, 0x00, // 0x41CC:00 P0460 Positioning status raw
-    0x00, 0x00, // 0x41CD:00 P0461 Digital input output status
-    0x00, 0x00, 0x00, 0x00, // 0x41CE:00 P0462 Positioning actual value
-    0x00, 0x00, 0x00, 0x00, // 0x41CF:00 P0463 Positioning set value
-    0x00, 0x00, // 0x41D0:00 P0464 Positioning speed set value raw
     0x00, 0x00, // 0x4214:00 P0532 Sync interval
     0x00, 0x00, 0x00, 0x00, // 0x4258:00 P0600 Positioning target unsigned
     0x09, 0x00, // 0x4259:00 P0601 Positioning mode
@@ -1074,22 +1002,6 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x425F:00 P0607 Positioning target 1
     0x00, 0x00, // 0x4260:00 P0608 Positioning target input 1
     0x08, 0x00, // 0x4320:00 P0800 BACI cycle time factor
-    0x00, 0x00, // 0x4321:00 P0801 BACI process data parameter number 1
-    0x00, 0x00, // 0x4322:00 P0802 BACI process data parameter number 2
-    0x00, 0x00, // 0x4323:00 P0803 BACI process data parameter number 3
-    0x00, 0x00, // 0x4324:00 P0804 BACI process data parameter number 4
-    0x00, 0x00, // 0x4325:00 P0805 BACI process data parameter number 5
-    0x00, 0x00, // 0x4326:00 P0806 BACI process data parameter number 6
-    0x00, 0x00, // 0x4327:00 P0807 BACI process data parameter number 7
-    0x00, 0x00, // 0x4328:00 P0808 BACI process data parameter number 8
-    0x00, 0x00, // 0x4329:00 P0809 BACI process data parameter number 9
-    0x00, 0x00, // 0x432A:00 P0810 BACI process data parameter number 10
-    0x00, 0x00, // 0x432B:00 P0811 BACI process data parameter number 11
-    0x00, 0x00, // 0x432C:00 P0812 BACI process data parameter number 12
-    0x00, 0x00, // 0x432D:00 P0813 BACI process data parameter number 13
-    0x00, 0x00, // 0x432E:00 P0814 BACI process data parameter number 14
-    0x00, 0x00, // 0x432F:00 P0815 BACI process data parameter number 15
-    0x00, 0x00, // 0x4330:00 P0816 BACI process data parameter number 16
     0x07, 0x00, // 0x4332:00 P0818 BACI cycle offset set values
     0x00, 0x00, // 0x4333:00 P0819 BACI cycle offset actual values
     0x00, 0x00, // 0x433E:00 P0830 Option module G configuration 1
@@ -1134,21 +1046,12 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x01, 0x00, 0x00, 0x00, // 0x4BEB:00 P3051 Position scaling revolutions
     0x00, 0x00, // 0x6007:00 Abort connection option code
     0x00, 0x00, // 0x6040:00 Controlword
-    0x00, 0x00, // 0x6041:00 Statusword
     0x00, 0x00, // 0x6042:00 vl target velocity
-    0x00, 0x00, // 0x6043:00 vl velocity demand
-    0x00, 0x00, // 0x6044:00 vl control effort
-    0x00, 0x00, // 0x6045:00 vl manipulated velocity
-    0x02, // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
-    0x00, 0x00, 0x00, 0x00, // 0x6046:01 vl velocity min max amount / vl velocity min amount
     0x00, 0x00, 0x00, 0x00, // 0x6046:02 vl velocity min max amount / vl velocity max amount
-    0x02, // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
     0x00, 0x00, // 0x6048:02 vl velocity acceleration / vl acceleration delta time
-    0x02, // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
     0x00, 0x00, // 0x6049:02 vl velocity deceleration / vl deceleration delta time
-    0x02, // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
     0x01, 0x00, 0x00, 0x00, // 0x604C:01 vl dimension factor / vl dimension factor numerator
     0x01, 0x00, 0x00, 0x00, // 0x604C:02 vl dimension factor / vl dimension factor denominator
     0x00, // 0x604D:00 vl pole number
@@ -1161,23 +1064,13 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x605D:00 Halt option code
     0x00, 0x00, // 0x605E:00 Fault reaction option code
     0x00, // 0x6060:00 Modes of operation
-    0x00, // 0x6061:00 Modes of operation display
-    0x00, 0x00, 0x00, 0x00, // 0x6062:00 Position demand value
-    0x00, 0x00, 0x00, 0x00, // 0x6063:00 Position actual internal value
-    0x00, 0x00, 0x00, 0x00, // 0x6064:00 Position actual value
     0x00, 0x00, // 0x6066:00 Following error time out
     0x00, 0x00, 0x00, 0x00, // 0x6067:00 Position window
     0x00, 0x00, // 0x6068:00 Position window time
-    0x00, 0x00, 0x00, 0x00, // 0x6069:00 Velocity sensor actual value
-    0x00, 0x00, // 0x606A:00 Sensor selection code
-    0x00, 0x00, 0x00, 0x00, // 0x606B:00 Velocity demand value
-    0x00, 0x00, 0x00, 0x00, // 0x606C:00 Velocity actual value
     0x00, 0x00, // 0x606F:00 Velocity threshold
     0x00, 0x00, // 0x6072:00 Max torque
-    0x00, 0x00, // 0x6077:00 Torque actual value
     0x00, 0x00, 0x00, 0x00, // 0x607A:00 Target position
     0x00, 0x00, 0x00, 0x00, // 0x607C:00 Home offset
-    0x02, // 0x607D:00 Software position limit / Software position limit highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x607D:01 Software position limit / Min position limit
     0x00, 0x00, 0x00, 0x00, // 0x607D:02 Software position limit / Max position limit
     0x00, 0x00, 0x00, 0x00, // 0x607F:00 Max profile velocity
@@ -1187,49 +1080,33 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x6084:00 Profile deceleration
     0x00, 0x00, 0x00, 0x00, // 0x6085:00 Quick stop deceleration
     0x00, 0x00, // 0x6086:00 Motion profile type
-    0x02, // 0x6092:00 Feed constant / Feed constant highest sub-index
     0x00, 0x00, 0x01, 0x00, // 0x6092:01 Feed constant / Feed
     0x01, 0x00, 0x00, 0x00, // 0x6092:02 Feed constant / Shaft revolutions
     0x00, // 0x6098:00 Homing method
-    0x02, // 0x6099:00 Homing speeds / Homing speeds highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x6099:01 Homing speeds / Speed during search for switch
     0x00, 0x00, 0x00, 0x00, // 0x6099:02 Homing speeds / Speed during search for zero
     0x00, 0x00, 0x00, 0x00, // 0x609A:00 Homing acceleration
-    0x00, 0x00, // 0x60C0:00 Interpolation sub mode select
-    0x01, // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x60C1:01 Interpolation data record / Interpolation data record position
-    0x02, // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
     0x02, // 0x60C2:01 Interpolation time period / ip time units
     0xFD, // 0x60C2:02 Interpolation time period / ip time index
-    0x02, // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
     0x00, // 0x60C3:01 Interpolation sync definition / Synchronize on group
     0x00, // 0x60C3:02 Interpolation sync definition / ip sync every n event
-    0x06, // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
-    0x01, 0x00, 0x00, 0x00, // 0x60C4:01 Interpolation data configuration / Maximum buffer size
     0x01, 0x00, 0x00, 0x00, // 0x60C4:02 Interpolation data configuration / Actual buffer size
     0x00, // 0x60C4:03 Interpolation data configuration / Buffer organisation
     0x01, 0x00, // 0x60C4:04 Interpolation data configuration / Buffer position
     0x01, // 0x60C4:05 Interpolation data configuration / Size of data record
     0x00, // 0x60C4:06 Interpolation data configuration / Buffer clear
     0x00, 0x00, 0x00, 0x00, // 0x60F8:00 Max slippage
-    0x1B, // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
-    0x00, 0x00, // 0x60FB:01 Position control parameter set / Position controller status
     0x00, 0x00, // 0x60FB:02 Position control parameter set / Position controller mode
     0x00, 0x00, // 0x60FB:03 Position control parameter set / Position controller Kv factor
     0x00, 0x00, // 0x60FB:04 Position control parameter set / Position set revolutions
     0x00, 0x00, // 0x60FB:05 Position control parameter set / Position set angle
     0x00, 0x40, // 0x60FB:06 Position control parameter set / Speed feed forward factor
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:07 Position control parameter set / Position control deviation
     0x00, 0x00, 0x00, 0x00, // 0x60FB:08 Position control parameter set / Position controller actual value
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:0B Position control parameter set / Speed feed forward
-    0x00, 0x00, // 0x60FB:0C Position control parameter set / Positioning status
     0x00, 0x00, // 0x60FB:0D Position control parameter set / Actual positioning record number
     0x00, 0x00, // 0x60FB:0E Position control parameter set / Positioning mode bits
     0x00, 0x00, 0x00, 0x00, // 0x60FB:0F Position control parameter set / Home position
     0x00, 0x00, // 0x60FB:10 Position control parameter set / Positioning switch mode
-    0x00, 0x00, // 0x60FB:11 Position control parameter set / Positioning speed set value
     0x00, 0x00, // 0x60FB:12 Position control parameter set / Positioning bend 0
     0x00, 0x00, 0x00, 0x00, // 0x60FB:13 Position control parameter set / Clip environment 1
     0x00, 0x00, 0x00, 0x00, // 0x60FB:14 Position control parameter set / Clip environment 2
@@ -1238,10 +1115,135 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x60FB:17 Position control parameter set / IP set angle
     0x00, 0x00, // 0x60FB:18 Position control parameter set / Positioning encoder offset
     0x00, 0x00, // 0x60FB:19 Position control parameter set / Homing deceleration
+    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
+    0x92, 0x01, 0x02, 0x02, // 0x1000:00 Device type
+    0x00, // 0x1001:00 Error register
+    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
+    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
+    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
+    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
+    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
+    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
+    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
+    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
+    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
+    0x00, 0x00, 0x00, 0x00, // 0x1003:09 Pre-defined error field / Standard error field 9
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0A Pre-defined error field / Standard error field 10
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0B Pre-defined error field / Standard error field 11
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0C Pre-defined error field / Standard error field 12
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0D Pre-defined error field / Standard error field 13
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0E Pre-defined error field / Standard error field 14
+    0x00, 0x00, 0x00, 0x00, // 0x1003:0F Pre-defined error field / Standard error field 15
+    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC
+    0x62, 0x20, 0x6D, 0x61, 0x58, 0x58, 0x20, 0x34, 0x34, 0x30, 0x30, // 0x1008:00 Manufacturer device name
+    0x48, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x1009:00 Manufacturer hardware version
+    0x53, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x100A:00 Manufacturer software version
+    0x00, 0x00, 0x00, 0x00, // 0x100B:00 Node-ID
+    0x01, 0x00, 0x00, 0x00, // 0x100F:00 Number of SDOs supported
+    0x02, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    0x02, // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    0x04, // 0x1018:00 Identity object / Identity object highest sub-index
+    0x15, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0xEA, 0x58, 0x05, 0x00, // 0x1018:02 Identity object / Product code
+    0x02, 0x00, 0x03, 0x00, // 0x1018:03 Identity object / Revision number
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x02, // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
+    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
+    0x02, // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
+    0x02, // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
+    0x02, // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
+    0x02, // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
+    0x05, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    0x05, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    0x05, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    0x05, // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
+    0x00, 0x00, // 0x40E9:00 P0233 Amplifier Hiperface error detail
+    0x00, 0x00, // 0x40EA:00 P0234 Encoder 1 error detail
+    0x00, 0x00, // 0x40EB:00 P0235 Encoder 2 error detail
+    0x00, 0x00, // 0x40F0:00 P0240 Small module A error detail
+    0x00, 0x00, // 0x40F1:00 P0241 Small module B error detail
+    0x00, 0x00, // 0x40F2:00 P0242 Small module C error detail
+    0x00, 0x00, // 0x40F3:00 P0243 Small module D error detail
+    0x00, 0x00, // 0x40F4:00 P0244 Small module F error detail
+    0x00, 0x00, // 0x40F5:00 P0245 Big module G error detail
+    0x00, 0x00, // 0x40F6:00 P0246 Big module H error detail
+    0x00, 0x00, // 0x40F7:00 P0247 Big module J error detail
+    0x00, 0x00, // 0x40F8:00 P0248 Big module K error detail
+    0x00, 0x00, // 0x40F9:00 P0249 Big module L error detail
+    0x00, 0x00, // 0x40FA:00 P0250 Big module M error detail
+    0x00, 0x00, // 0x4106:00 P0262 Amplifier warnings
+    0x00, 0x00, // 0x4107:00 P0263 Motor warnings
+    0x00, 0x00, // 0x412D:00 P0301 Drive status word
+    0x00, 0x00, // 0x4130:00 P0304 Operation mode actual
+    0x00, 0x00, // 0x4158:00 P0344 Torque actual value raw
+    0x00, 0x00, // 0x415F:00 P0351 Ramp function generator output
+    0x00, 0x00, // 0x4160:00 P0352 Speed set value total
+    0x00, 0x00, 0x00, 0x00, // 0x4161:00 P0353 Speed actual value raw
+    0x00, 0x00, // 0x4168:00 P0360 Position controller status raw
+    0x00, 0x00, 0x00, 0x00, // 0x416D:00 P0365 Speed feed forward raw
+    0x00, 0x00, 0x00, 0x00, // 0x416F:00 P0367 Position control deviation raw
+    0x00, 0x00, 0x00, 0x00, // 0x4187:00 P0391 Encoder 1 actual angle raw
+    0x00, 0x00, 0x00, 0x00, // 0x4188:00 P0392 Encoder 1 actual revolutions raw
+    0x00, 0x00, // 0x41CC:00 P0460 Positioning status raw
+    0x00, 0x00, // 0x41CD:00 P0461 Digital input output status
+    0x00, 0x00, 0x00, 0x00, // 0x41CE:00 P0462 Positioning actual value
+    0x00, 0x00, 0x00, 0x00, // 0x41CF:00 P0463 Positioning set value
+    0x00, 0x00, // 0x41D0:00 P0464 Positioning speed set value raw
+    0x00, 0x00, // 0x4321:00 P0801 BACI process data parameter number 1
+    0x00, 0x00, // 0x4322:00 P0802 BACI process data parameter number 2
+    0x00, 0x00, // 0x4323:00 P0803 BACI process data parameter number 3
+    0x00, 0x00, // 0x4324:00 P0804 BACI process data parameter number 4
+    0x00, 0x00, // 0x4325:00 P0805 BACI process data parameter number 5
+    0x00, 0x00, // 0x4326:00 P0806 BACI process data parameter number 6
+    0x00, 0x00, // 0x4327:00 P0807 BACI process data parameter number 7
+    0x00, 0x00, // 0x4328:00 P0808 BACI process data parameter number 8
+    0x00, 0x00, // 0x4329:00 P0809 BACI process data parameter number 9
+    0x00, 0x00, // 0x432A:00 P0810 BACI process data parameter number 10
+    0x00, 0x00, // 0x432B:00 P0811 BACI process data parameter number 11
+    0x00, 0x00, // 0x432C:00 P0812 BACI process data parameter number 12
+    0x00, 0x00, // 0x432D:00 P0813 BACI process data parameter number 13
+    0x00, 0x00, // 0x432E:00 P0814 BACI process data parameter number 14
+    0x00, 0x00, // 0x432F:00 P0815 BACI process data parameter number 15
+    0x00, 0x00, // 0x4330:00 P0816 BACI process data parameter number 16
+    0x00, 0x00, // 0x6041:00 Statusword
+    0x00, 0x00, // 0x6043:00 vl velocity demand
+    0x00, 0x00, // 0x6044:00 vl control effort
+    0x00, 0x00, // 0x6045:00 vl manipulated velocity
+    0x02, // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    0x02, // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
+    0x02, // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
+    0x02, // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
+    0x00, // 0x6061:00 Modes of operation display
+    0x00, 0x00, 0x00, 0x00, // 0x6062:00 Position demand value
+    0x00, 0x00, 0x00, 0x00, // 0x6063:00 Position actual internal value
+    0x00, 0x00, 0x00, 0x00, // 0x6064:00 Position actual value
+    0x00, 0x00, 0x00, 0x00, // 0x6069:00 Velocity sensor actual value
+    0x00, 0x00, // 0x606A:00 Sensor selection code
+    0x00, 0x00, 0x00, 0x00, // 0x606B:00 Velocity demand value
+    0x00, 0x00, 0x00, 0x00, // 0x606C:00 Velocity actual value
+    0x00, 0x00, // 0x6077:00 Torque actual value
+    0x02, // 0x607D:00 Software position limit / Software position limit highest sub-index
+    0x02, // 0x6092:00 Feed constant / Feed constant highest sub-index
+    0x02, // 0x6099:00 Homing speeds / Homing speeds highest sub-index
+    0x00, 0x00, // 0x60C0:00 Interpolation sub mode select
+    0x01, // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
+    0x02, // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
+    0x02, // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
+    0x06, // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
+    0x01, 0x00, 0x00, 0x00, // 0x60C4:01 Interpolation data configuration / Maximum buffer size
+    0x1B, // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
+    0x00, 0x00, // 0x60FB:01 Position control parameter set / Position controller status
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:07 Position control parameter set / Position control deviation
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
+    0x00, 0x00, 0x00, 0x00, // 0x60FB:0B Position control parameter set / Speed feed forward
+    0x00, 0x00, // 0x60FB:0C Position control parameter set / Positioning status
+    0x00, 0x00, // 0x60FB:11 Position control parameter set / Positioning speed set value
     0x00, 0x00, 0x00, 0x00, // 0x60FB:1A Position control parameter set / Actual speed normalised
     0x00, 0x00, // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
     0x00, 0x00, 0x00, 0x00, // 0x60FD:00 Digital inputs
-    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
     0x08, // 0x6510:00 Drive data / Drive data highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x6510:01 Drive data / Controller type
     0x00, 0x00, 0x00, 0x00, // 0x6510:02 Drive data / Software type
@@ -1660,7 +1662,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 502,
+    comm_len: 360,
+    stored_len: STORED_SIZE,
+    comm_rest: 142,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -1719,42 +1723,42 @@ impl Ram {
 
     /// 0x1000 Device type (bmaxx4400.eds:273, UNSIGNED32 ro)
     pub fn device_type(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 0))
+        u32::from_le_bytes(od::load::<4>(&self.image, 714))
     }
 
     /// Sets 0x1000 Device type.
     pub fn set_device_type(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 0, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 714, v.to_le_bytes());
     }
 
     /// 0x1001 Error register (bmaxx4400.eds:281, UNSIGNED8 ro)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 4))
+        u8::from_le_bytes(od::load::<1>(&self.image, 718))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 4, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 718, v.to_le_bytes());
     }
 
     /// 0x1002 Manufacturer status register (bmaxx4400.eds:334, UNSIGNED32 ro)
     pub fn manufacturer_status_register(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 5))
+        u32::from_le_bytes(od::load::<4>(&self.image, 719))
     }
 
     /// Sets 0x1002 Manufacturer status register.
     pub fn set_manufacturer_status_register(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 5, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 719, v.to_le_bytes());
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (bmaxx4400.eds:347, UNSIGNED8 rw)
     pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 9))
+        u8::from_le_bytes(od::load::<1>(&self.image, 0))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
     pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 9, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 0, v.to_le_bytes());
     }
 
     /// 0x1003 Pre-defined error field sub-index `i` (1..=15) (bmaxx4400.eds:342)
@@ -1762,7 +1766,7 @@ impl Ram {
         if !(1..=15).contains(&i) {
             return None;
         }
-        let off = 6 + usize::from(i) * 4;
+        let off = 719 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1771,129 +1775,129 @@ impl Ram {
         if !(1..=15).contains(&i) {
             return false;
         }
-        let off = 6 + usize::from(i) * 4;
+        let off = 719 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1005 COB-ID SYNC (bmaxx4400.eds:475, UNSIGNED32 ro)
     pub fn cob_id_sync(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 70))
+        u32::from_le_bytes(od::load::<4>(&self.image, 783))
     }
 
     /// Sets 0x1005 COB-ID SYNC.
     pub fn set_cob_id_sync(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 70, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 783, v.to_le_bytes());
     }
 
     /// 0x1006 Communication cycle period (bmaxx4400.eds:483, UNSIGNED32 rw)
     pub fn communication_cycle_period(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 74))
+        u32::from_le_bytes(od::load::<4>(&self.image, 1))
     }
 
     /// Sets 0x1006 Communication cycle period.
     pub fn set_communication_cycle_period(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 74, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1, v.to_le_bytes());
     }
 
     /// 0x1007 Synchronous window length (bmaxx4400.eds:493, UNSIGNED32 rw)
     pub fn synchronous_window_length(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 78))
+        u32::from_le_bytes(od::load::<4>(&self.image, 5))
     }
 
     /// Sets 0x1007 Synchronous window length.
     pub fn set_synchronous_window_length(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 78, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 5, v.to_le_bytes());
     }
 
     /// 0x1008 Manufacturer device name (bmaxx4400.eds:501, VISIBLE_STRING ro)
     pub fn manufacturer_device_name(&self) -> &[u8] {
-        od::load_str(&self.image, 82, 11)
+        od::load_str(&self.image, 787, 11)
     }
 
     /// Sets 0x1008 Manufacturer device name. Cut to 11 bytes; returns the number stored.
     pub fn set_manufacturer_device_name(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 82, 11, v)
+        od::store_str(&mut self.image, 787, 11, v)
     }
 
     /// 0x1009 Manufacturer hardware version (bmaxx4400.eds:509, VISIBLE_STRING ro)
     pub fn manufacturer_hardware_version(&self) -> &[u8] {
-        od::load_str(&self.image, 93, 7)
+        od::load_str(&self.image, 798, 7)
     }
 
     /// Sets 0x1009 Manufacturer hardware version. Cut to 7 bytes; returns the number stored.
     pub fn set_manufacturer_hardware_version(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 93, 7, v)
+        od::store_str(&mut self.image, 798, 7, v)
     }
 
     /// 0x100A Manufacturer software version (bmaxx4400.eds:517, VISIBLE_STRING ro)
     pub fn manufacturer_software_version(&self) -> &[u8] {
-        od::load_str(&self.image, 100, 7)
+        od::load_str(&self.image, 805, 7)
     }
 
     /// Sets 0x100A Manufacturer software version. Cut to 7 bytes; returns the number stored.
     pub fn set_manufacturer_software_version(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 100, 7, v)
+        od::store_str(&mut self.image, 805, 7, v)
     }
 
     /// 0x100B Node-ID (bmaxx4400.eds:525, UNSIGNED32 ro, $NODEID-relative)
     pub fn node_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 107))
+        u32::from_le_bytes(od::load::<4>(&self.image, 812))
     }
 
     /// Sets 0x100B Node-ID.
     pub fn set_node_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 107, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 812, v.to_le_bytes());
     }
 
     /// 0x100C Guard time (bmaxx4400.eds:533, UNSIGNED16 rw)
     pub fn guard_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 111))
+        u16::from_le_bytes(od::load::<2>(&self.image, 9))
     }
 
     /// Sets 0x100C Guard time.
     pub fn set_guard_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 111, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 9, v.to_le_bytes());
     }
 
     /// 0x100D Life time factor (bmaxx4400.eds:541, UNSIGNED8 rw)
     pub fn life_time_factor(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 113))
+        u8::from_le_bytes(od::load::<1>(&self.image, 11))
     }
 
     /// Sets 0x100D Life time factor.
     pub fn set_life_time_factor(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 113, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 11, v.to_le_bytes());
     }
 
     /// 0x100E COB-ID guarding protocol (bmaxx4400.eds:549, UNSIGNED32 rw, $NODEID-relative)
     pub fn cob_id_guarding_protocol(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 114))
+        u32::from_le_bytes(od::load::<4>(&self.image, 12))
     }
 
     /// Sets 0x100E COB-ID guarding protocol.
     pub fn set_cob_id_guarding_protocol(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 114, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 12, v.to_le_bytes());
     }
 
     /// 0x100F Number of SDOs supported (bmaxx4400.eds:557, UNSIGNED32 ro)
     pub fn number_of_sdos_supported(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 118))
+        u32::from_le_bytes(od::load::<4>(&self.image, 816))
     }
 
     /// Sets 0x100F Number of SDOs supported.
     pub fn set_number_of_sdos_supported(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 118, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 816, v.to_le_bytes());
     }
 
     /// 0x1010 sub 0 Store parameters / Store parameters highest sub-index (bmaxx4400.eds:570, UNSIGNED8 ro)
     pub fn store_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 122))
+        u8::from_le_bytes(od::load::<1>(&self.image, 820))
     }
 
     /// Sets 0x1010 sub 0 Store parameters / Store parameters highest sub-index.
     pub fn set_store_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 122, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 820, v.to_le_bytes());
     }
 
     /// 0x1010 Store parameters sub-index `i` (1..=2) (bmaxx4400.eds:565)
@@ -1901,7 +1905,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 119 + usize::from(i) * 4;
+        let off = 12 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1910,19 +1914,19 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 119 + usize::from(i) * 4;
+        let off = 12 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1011 sub 0 Restore default parameters / Restore default parameters highest sub-index (bmaxx4400.eds:599, UNSIGNED8 ro)
     pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 131))
+        u8::from_le_bytes(od::load::<1>(&self.image, 821))
     }
 
     /// Sets 0x1011 sub 0 Restore default parameters / Restore default parameters highest sub-index.
     pub fn set_restore_default_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 131, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 821, v.to_le_bytes());
     }
 
     /// 0x1011 Restore default parameters sub-index `i` (1..=2) (bmaxx4400.eds:594)
@@ -1930,7 +1934,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 128 + usize::from(i) * 4;
+        let off = 20 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1939,2418 +1943,2419 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 128 + usize::from(i) * 4;
+        let off = 20 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1014 COB-ID EMCY (bmaxx4400.eds:623, UNSIGNED32 rw, $NODEID-relative)
     pub fn cob_id_emcy(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 140))
+        u32::from_le_bytes(od::load::<4>(&self.image, 32))
     }
 
     /// Sets 0x1014 COB-ID EMCY.
     pub fn set_cob_id_emcy(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 140, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 32, v.to_le_bytes());
     }
 
     /// 0x1015 Inhibit time EMCY (bmaxx4400.eds:631, UNSIGNED16 rw)
     pub fn inhibit_time_emcy(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 144))
+        u16::from_le_bytes(od::load::<2>(&self.image, 36))
     }
 
     /// Sets 0x1015 Inhibit time EMCY.
     pub fn set_inhibit_time_emcy(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 144, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 36, v.to_le_bytes());
     }
 
     /// 0x1017 Producer heartbeat time (bmaxx4400.eds:639, UNSIGNED16 rw)
     pub fn producer_heartbeat_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 146))
+        u16::from_le_bytes(od::load::<2>(&self.image, 38))
     }
 
     /// Sets 0x1017 Producer heartbeat time.
     pub fn set_producer_heartbeat_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 146, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 38, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Identity object highest sub-index (bmaxx4400.eds:294, UNSIGNED8 ro)
     pub fn identity_object_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 148))
+        u8::from_le_bytes(od::load::<1>(&self.image, 822))
     }
 
     /// Sets 0x1018 sub 0 Identity object / Identity object highest sub-index.
     pub fn set_identity_object_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 148, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 822, v.to_le_bytes());
     }
 
     /// 0x1018 sub 1 Identity object / Vendor-ID (bmaxx4400.eds:302, UNSIGNED32 ro)
     pub fn identity_object_vendor_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 149))
+        u32::from_le_bytes(od::load::<4>(&self.image, 823))
     }
 
     /// Sets 0x1018 sub 1 Identity object / Vendor-ID.
     pub fn set_identity_object_vendor_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 149, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 823, v.to_le_bytes());
     }
 
     /// 0x1018 sub 2 Identity object / Product code (bmaxx4400.eds:310, UNSIGNED32 ro)
     pub fn identity_object_product_code(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 153))
+        u32::from_le_bytes(od::load::<4>(&self.image, 827))
     }
 
     /// Sets 0x1018 sub 2 Identity object / Product code.
     pub fn set_identity_object_product_code(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 153, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 827, v.to_le_bytes());
     }
 
     /// 0x1018 sub 3 Identity object / Revision number (bmaxx4400.eds:318, UNSIGNED32 ro)
     pub fn identity_object_revision_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 157))
+        u32::from_le_bytes(od::load::<4>(&self.image, 831))
     }
 
     /// Sets 0x1018 sub 3 Identity object / Revision number.
     pub fn set_identity_object_revision_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 157, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 831, v.to_le_bytes());
     }
 
     /// 0x1018 sub 4 Identity object / Serial number (bmaxx4400.eds:326, UNSIGNED32 ro)
     pub fn identity_object_serial_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 161))
+        u32::from_le_bytes(od::load::<4>(&self.image, 835))
     }
 
     /// Sets 0x1018 sub 4 Identity object / Serial number.
     pub fn set_identity_object_serial_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 161, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 835, v.to_le_bytes());
     }
 
     /// 0x1200 sub 0 SDO server parameter / SDO server highest sub-index (bmaxx4400.eds:652, UNSIGNED8 ro)
     pub fn sdo_server_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 165))
+        u8::from_le_bytes(od::load::<1>(&self.image, 839))
     }
 
     /// Sets 0x1200 sub 0 SDO server parameter / SDO server highest sub-index.
     pub fn set_sdo_server_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 165, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 839, v.to_le_bytes());
     }
 
     /// 0x1200 sub 1 SDO server parameter / COB-ID client to server (bmaxx4400.eds:660, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_client_to_server(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 166))
+        u32::from_le_bytes(od::load::<4>(&self.image, 840))
     }
 
     /// Sets 0x1200 sub 1 SDO server parameter / COB-ID client to server.
     pub fn set_sdo_server_parameter_cob_id_client_to_server(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 166, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 840, v.to_le_bytes());
     }
 
     /// 0x1200 sub 2 SDO server parameter / COB-ID server to client (bmaxx4400.eds:668, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_server_to_client(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 170))
+        u32::from_le_bytes(od::load::<4>(&self.image, 844))
     }
 
     /// Sets 0x1200 sub 2 SDO server parameter / COB-ID server to client.
     pub fn set_sdo_server_parameter_cob_id_server_to_client(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 170, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 844, v.to_le_bytes());
     }
 
     /// 0x1400 sub 0 RPDO1 communication parameter / RPDO1 communication highest sub-index (bmaxx4400.eds:681, UNSIGNED8 ro)
     pub fn rpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 174))
+        u8::from_le_bytes(od::load::<1>(&self.image, 848))
     }
 
     /// Sets 0x1400 sub 0 RPDO1 communication parameter / RPDO1 communication highest sub-index.
     pub fn set_rpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 174, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 848, v.to_le_bytes());
     }
 
     /// 0x1400 sub 1 RPDO1 communication parameter / RPDO1 COB-ID (bmaxx4400.eds:689, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo1_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 175))
+        u32::from_le_bytes(od::load::<4>(&self.image, 40))
     }
 
     /// Sets 0x1400 sub 1 RPDO1 communication parameter / RPDO1 COB-ID.
     pub fn set_rpdo1_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 175, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 40, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO1 communication parameter / RPDO1 transmission type (bmaxx4400.eds:697, UNSIGNED8 rw)
     pub fn rpdo1_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 179))
+        u8::from_le_bytes(od::load::<1>(&self.image, 44))
     }
 
     /// Sets 0x1400 sub 2 RPDO1 communication parameter / RPDO1 transmission type.
     pub fn set_rpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 179, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 44, v.to_le_bytes());
     }
 
     /// 0x1401 sub 0 RPDO2 communication parameter / RPDO2 communication highest sub-index (bmaxx4400.eds:710, UNSIGNED8 ro)
     pub fn rpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 180))
+        u8::from_le_bytes(od::load::<1>(&self.image, 849))
     }
 
     /// Sets 0x1401 sub 0 RPDO2 communication parameter / RPDO2 communication highest sub-index.
     pub fn set_rpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 180, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 849, v.to_le_bytes());
     }
 
     /// 0x1401 sub 1 RPDO2 communication parameter / RPDO2 COB-ID (bmaxx4400.eds:718, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo2_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 181))
+        u32::from_le_bytes(od::load::<4>(&self.image, 45))
     }
 
     /// Sets 0x1401 sub 1 RPDO2 communication parameter / RPDO2 COB-ID.
     pub fn set_rpdo2_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 181, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 45, v.to_le_bytes());
     }
 
     /// 0x1401 sub 2 RPDO2 communication parameter / RPDO2 transmission type (bmaxx4400.eds:726, UNSIGNED8 rw)
     pub fn rpdo2_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 185))
+        u8::from_le_bytes(od::load::<1>(&self.image, 49))
     }
 
     /// Sets 0x1401 sub 2 RPDO2 communication parameter / RPDO2 transmission type.
     pub fn set_rpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 185, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 49, v.to_le_bytes());
     }
 
     /// 0x1402 sub 0 RPDO3 communication parameter / RPDO3 communication highest sub-index (bmaxx4400.eds:739, UNSIGNED8 ro)
     pub fn rpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 186))
+        u8::from_le_bytes(od::load::<1>(&self.image, 850))
     }
 
     /// Sets 0x1402 sub 0 RPDO3 communication parameter / RPDO3 communication highest sub-index.
     pub fn set_rpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 186, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 850, v.to_le_bytes());
     }
 
     /// 0x1402 sub 1 RPDO3 communication parameter / RPDO3 COB-ID (bmaxx4400.eds:747, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo3_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 187))
+        u32::from_le_bytes(od::load::<4>(&self.image, 50))
     }
 
     /// Sets 0x1402 sub 1 RPDO3 communication parameter / RPDO3 COB-ID.
     pub fn set_rpdo3_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 187, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 50, v.to_le_bytes());
     }
 
     /// 0x1402 sub 2 RPDO3 communication parameter / RPDO3 transmission type (bmaxx4400.eds:755, UNSIGNED8 rw)
     pub fn rpdo3_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 191))
+        u8::from_le_bytes(od::load::<1>(&self.image, 54))
     }
 
     /// Sets 0x1402 sub 2 RPDO3 communication parameter / RPDO3 transmission type.
     pub fn set_rpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 191, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 54, v.to_le_bytes());
     }
 
     /// 0x1403 sub 0 RPDO4 communication parameter / RPDO4 communication highest sub-index (bmaxx4400.eds:768, UNSIGNED8 ro)
     pub fn rpdo4_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 192))
+        u8::from_le_bytes(od::load::<1>(&self.image, 851))
     }
 
     /// Sets 0x1403 sub 0 RPDO4 communication parameter / RPDO4 communication highest sub-index.
     pub fn set_rpdo4_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 192, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 851, v.to_le_bytes());
     }
 
     /// 0x1403 sub 1 RPDO4 communication parameter / RPDO4 COB-ID (bmaxx4400.eds:776, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo4_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 193))
+        u32::from_le_bytes(od::load::<4>(&self.image, 55))
     }
 
     /// Sets 0x1403 sub 1 RPDO4 communication parameter / RPDO4 COB-ID.
     pub fn set_rpdo4_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 193, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 55, v.to_le_bytes());
     }
 
     /// 0x1403 sub 2 RPDO4 communication parameter / RPDO4 transmission type (bmaxx4400.eds:784, UNSIGNED8 rw)
     pub fn rpdo4_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 197))
+        u8::from_le_bytes(od::load::<1>(&self.image, 59))
     }
 
     /// Sets 0x1403 sub 2 RPDO4 communication parameter / RPDO4 transmission type.
     pub fn set_rpdo4_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 197, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 59, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO1 mapping parameter / RPDO1 number of mapped objects (bmaxx4400.eds:797, UNSIGNED8 rw)
     pub fn rpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 198))
+        u8::from_le_bytes(od::load::<1>(&self.image, 60))
     }
 
     /// Sets 0x1600 sub 0 RPDO1 mapping parameter / RPDO1 number of mapped objects.
     pub fn set_rpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 198, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 60, v.to_le_bytes());
     }
 
     /// 0x1600 sub 1 RPDO1 mapping parameter / RPDO1 mapping entry 1 (bmaxx4400.eds:807, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 199))
+        u32::from_le_bytes(od::load::<4>(&self.image, 61))
     }
 
     /// Sets 0x1600 sub 1 RPDO1 mapping parameter / RPDO1 mapping entry 1.
     pub fn set_rpdo1_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 199, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 61, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO1 mapping parameter / RPDO1 mapping entry 2 (bmaxx4400.eds:815, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 203))
+        u32::from_le_bytes(od::load::<4>(&self.image, 65))
     }
 
     /// Sets 0x1600 sub 2 RPDO1 mapping parameter / RPDO1 mapping entry 2.
     pub fn set_rpdo1_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 203, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 65, v.to_le_bytes());
     }
 
     /// 0x1600 sub 3 RPDO1 mapping parameter / RPDO1 mapping entry 3 (bmaxx4400.eds:823, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 207))
+        u32::from_le_bytes(od::load::<4>(&self.image, 69))
     }
 
     /// Sets 0x1600 sub 3 RPDO1 mapping parameter / RPDO1 mapping entry 3.
     pub fn set_rpdo1_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 207, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 69, v.to_le_bytes());
     }
 
     /// 0x1600 sub 4 RPDO1 mapping parameter / RPDO1 mapping entry 4 (bmaxx4400.eds:831, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 211))
+        u32::from_le_bytes(od::load::<4>(&self.image, 73))
     }
 
     /// Sets 0x1600 sub 4 RPDO1 mapping parameter / RPDO1 mapping entry 4.
     pub fn set_rpdo1_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 211, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 73, v.to_le_bytes());
     }
 
     /// 0x1600 sub 5 RPDO1 mapping parameter / RPDO1 mapping entry 5 (bmaxx4400.eds:839, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 215))
+        u32::from_le_bytes(od::load::<4>(&self.image, 77))
     }
 
     /// Sets 0x1600 sub 5 RPDO1 mapping parameter / RPDO1 mapping entry 5.
     pub fn set_rpdo1_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 215, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 77, v.to_le_bytes());
     }
 
     /// 0x1600 sub 6 RPDO1 mapping parameter / RPDO1 mapping entry 6 (bmaxx4400.eds:847, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 219))
+        u32::from_le_bytes(od::load::<4>(&self.image, 81))
     }
 
     /// Sets 0x1600 sub 6 RPDO1 mapping parameter / RPDO1 mapping entry 6.
     pub fn set_rpdo1_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 219, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 81, v.to_le_bytes());
     }
 
     /// 0x1600 sub 7 RPDO1 mapping parameter / RPDO1 mapping entry 7 (bmaxx4400.eds:855, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 223))
+        u32::from_le_bytes(od::load::<4>(&self.image, 85))
     }
 
     /// Sets 0x1600 sub 7 RPDO1 mapping parameter / RPDO1 mapping entry 7.
     pub fn set_rpdo1_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 223, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 85, v.to_le_bytes());
     }
 
     /// 0x1600 sub 8 RPDO1 mapping parameter / RPDO1 mapping entry 8 (bmaxx4400.eds:863, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 227))
+        u32::from_le_bytes(od::load::<4>(&self.image, 89))
     }
 
     /// Sets 0x1600 sub 8 RPDO1 mapping parameter / RPDO1 mapping entry 8.
     pub fn set_rpdo1_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 227, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 89, v.to_le_bytes());
     }
 
     /// 0x1601 sub 0 RPDO2 mapping parameter / RPDO2 number of mapped objects (bmaxx4400.eds:876, UNSIGNED8 rw)
     pub fn rpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 231))
+        u8::from_le_bytes(od::load::<1>(&self.image, 93))
     }
 
     /// Sets 0x1601 sub 0 RPDO2 mapping parameter / RPDO2 number of mapped objects.
     pub fn set_rpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 231, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 93, v.to_le_bytes());
     }
 
     /// 0x1601 sub 1 RPDO2 mapping parameter / RPDO2 mapping entry 1 (bmaxx4400.eds:886, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 232))
+        u32::from_le_bytes(od::load::<4>(&self.image, 94))
     }
 
     /// Sets 0x1601 sub 1 RPDO2 mapping parameter / RPDO2 mapping entry 1.
     pub fn set_rpdo2_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 232, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 94, v.to_le_bytes());
     }
 
     /// 0x1601 sub 2 RPDO2 mapping parameter / RPDO2 mapping entry 2 (bmaxx4400.eds:894, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 236))
+        u32::from_le_bytes(od::load::<4>(&self.image, 98))
     }
 
     /// Sets 0x1601 sub 2 RPDO2 mapping parameter / RPDO2 mapping entry 2.
     pub fn set_rpdo2_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 236, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 98, v.to_le_bytes());
     }
 
     /// 0x1601 sub 3 RPDO2 mapping parameter / RPDO2 mapping entry 3 (bmaxx4400.eds:902, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 240))
+        u32::from_le_bytes(od::load::<4>(&self.image, 102))
     }
 
     /// Sets 0x1601 sub 3 RPDO2 mapping parameter / RPDO2 mapping entry 3.
     pub fn set_rpdo2_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 240, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 102, v.to_le_bytes());
     }
 
     /// 0x1601 sub 4 RPDO2 mapping parameter / RPDO2 mapping entry 4 (bmaxx4400.eds:910, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 244))
+        u32::from_le_bytes(od::load::<4>(&self.image, 106))
     }
 
     /// Sets 0x1601 sub 4 RPDO2 mapping parameter / RPDO2 mapping entry 4.
     pub fn set_rpdo2_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 244, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 106, v.to_le_bytes());
     }
 
     /// 0x1601 sub 5 RPDO2 mapping parameter / RPDO2 mapping entry 5 (bmaxx4400.eds:918, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 248))
+        u32::from_le_bytes(od::load::<4>(&self.image, 110))
     }
 
     /// Sets 0x1601 sub 5 RPDO2 mapping parameter / RPDO2 mapping entry 5.
     pub fn set_rpdo2_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 248, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 110, v.to_le_bytes());
     }
 
     /// 0x1601 sub 6 RPDO2 mapping parameter / RPDO2 mapping entry 6 (bmaxx4400.eds:926, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 252))
+        u32::from_le_bytes(od::load::<4>(&self.image, 114))
     }
 
     /// Sets 0x1601 sub 6 RPDO2 mapping parameter / RPDO2 mapping entry 6.
     pub fn set_rpdo2_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 252, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 114, v.to_le_bytes());
     }
 
     /// 0x1601 sub 7 RPDO2 mapping parameter / RPDO2 mapping entry 7 (bmaxx4400.eds:934, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 256))
+        u32::from_le_bytes(od::load::<4>(&self.image, 118))
     }
 
     /// Sets 0x1601 sub 7 RPDO2 mapping parameter / RPDO2 mapping entry 7.
     pub fn set_rpdo2_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 256, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 118, v.to_le_bytes());
     }
 
     /// 0x1601 sub 8 RPDO2 mapping parameter / RPDO2 mapping entry 8 (bmaxx4400.eds:942, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 260))
+        u32::from_le_bytes(od::load::<4>(&self.image, 122))
     }
 
     /// Sets 0x1601 sub 8 RPDO2 mapping parameter / RPDO2 mapping entry 8.
     pub fn set_rpdo2_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 260, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 122, v.to_le_bytes());
     }
 
     /// 0x1602 sub 0 RPDO3 mapping parameter / RPDO3 number of mapped objects (bmaxx4400.eds:955, UNSIGNED8 rw)
     pub fn rpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 264))
+        u8::from_le_bytes(od::load::<1>(&self.image, 126))
     }
 
     /// Sets 0x1602 sub 0 RPDO3 mapping parameter / RPDO3 number of mapped objects.
     pub fn set_rpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 264, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 126, v.to_le_bytes());
     }
 
     /// 0x1602 sub 1 RPDO3 mapping parameter / RPDO3 mapping entry 1 (bmaxx4400.eds:965, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 265))
+        u32::from_le_bytes(od::load::<4>(&self.image, 127))
     }
 
     /// Sets 0x1602 sub 1 RPDO3 mapping parameter / RPDO3 mapping entry 1.
     pub fn set_rpdo3_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 265, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 127, v.to_le_bytes());
     }
 
     /// 0x1602 sub 2 RPDO3 mapping parameter / RPDO3 mapping entry 2 (bmaxx4400.eds:973, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 269))
+        u32::from_le_bytes(od::load::<4>(&self.image, 131))
     }
 
     /// Sets 0x1602 sub 2 RPDO3 mapping parameter / RPDO3 mapping entry 2.
     pub fn set_rpdo3_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 269, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 131, v.to_le_bytes());
     }
 
     /// 0x1602 sub 3 RPDO3 mapping parameter / RPDO3 mapping entry 3 (bmaxx4400.eds:981, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 273))
+        u32::from_le_bytes(od::load::<4>(&self.image, 135))
     }
 
     /// Sets 0x1602 sub 3 RPDO3 mapping parameter / RPDO3 mapping entry 3.
     pub fn set_rpdo3_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 273, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 135, v.to_le_bytes());
     }
 
     /// 0x1602 sub 4 RPDO3 mapping parameter / RPDO3 mapping entry 4 (bmaxx4400.eds:989, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 277))
+        u32::from_le_bytes(od::load::<4>(&self.image, 139))
     }
 
     /// Sets 0x1602 sub 4 RPDO3 mapping parameter / RPDO3 mapping entry 4.
     pub fn set_rpdo3_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 277, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 139, v.to_le_bytes());
     }
 
     /// 0x1602 sub 5 RPDO3 mapping parameter / RPDO3 mapping entry 5 (bmaxx4400.eds:997, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 281))
+        u32::from_le_bytes(od::load::<4>(&self.image, 143))
     }
 
     /// Sets 0x1602 sub 5 RPDO3 mapping parameter / RPDO3 mapping entry 5.
     pub fn set_rpdo3_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 281, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 143, v.to_le_bytes());
     }
 
     /// 0x1602 sub 6 RPDO3 mapping parameter / RPDO3 mapping entry 6 (bmaxx4400.eds:1005, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 285))
+        u32::from_le_bytes(od::load::<4>(&self.image, 147))
     }
 
     /// Sets 0x1602 sub 6 RPDO3 mapping parameter / RPDO3 mapping entry 6.
     pub fn set_rpdo3_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 285, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 147, v.to_le_bytes());
     }
 
     /// 0x1602 sub 7 RPDO3 mapping parameter / RPDO3 mapping entry 7 (bmaxx4400.eds:1013, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 289))
+        u32::from_le_bytes(od::load::<4>(&self.image, 151))
     }
 
     /// Sets 0x1602 sub 7 RPDO3 mapping parameter / RPDO3 mapping entry 7.
     pub fn set_rpdo3_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 289, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 151, v.to_le_bytes());
     }
 
     /// 0x1602 sub 8 RPDO3 mapping parameter / RPDO3 mapping entry 8 (bmaxx4400.eds:1021, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 293))
+        u32::from_le_bytes(od::load::<4>(&self.image, 155))
     }
 
     /// Sets 0x1602 sub 8 RPDO3 mapping parameter / RPDO3 mapping entry 8.
     pub fn set_rpdo3_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 293, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 155, v.to_le_bytes());
     }
 
     /// 0x1603 sub 0 RPDO4 mapping parameter / RPDO4 number of mapped objects (bmaxx4400.eds:1034, UNSIGNED8 rw)
     pub fn rpdo4_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 297))
+        u8::from_le_bytes(od::load::<1>(&self.image, 159))
     }
 
     /// Sets 0x1603 sub 0 RPDO4 mapping parameter / RPDO4 number of mapped objects.
     pub fn set_rpdo4_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 297, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 159, v.to_le_bytes());
     }
 
     /// 0x1603 sub 1 RPDO4 mapping parameter / RPDO4 mapping entry 1 (bmaxx4400.eds:1044, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 298))
+        u32::from_le_bytes(od::load::<4>(&self.image, 160))
     }
 
     /// Sets 0x1603 sub 1 RPDO4 mapping parameter / RPDO4 mapping entry 1.
     pub fn set_rpdo4_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 298, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 160, v.to_le_bytes());
     }
 
     /// 0x1603 sub 2 RPDO4 mapping parameter / RPDO4 mapping entry 2 (bmaxx4400.eds:1052, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 302))
+        u32::from_le_bytes(od::load::<4>(&self.image, 164))
     }
 
     /// Sets 0x1603 sub 2 RPDO4 mapping parameter / RPDO4 mapping entry 2.
     pub fn set_rpdo4_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 302, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 164, v.to_le_bytes());
     }
 
     /// 0x1603 sub 3 RPDO4 mapping parameter / RPDO4 mapping entry 3 (bmaxx4400.eds:1060, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 306))
+        u32::from_le_bytes(od::load::<4>(&self.image, 168))
     }
 
     /// Sets 0x1603 sub 3 RPDO4 mapping parameter / RPDO4 mapping entry 3.
     pub fn set_rpdo4_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 306, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 168, v.to_le_bytes());
     }
 
     /// 0x1603 sub 4 RPDO4 mapping parameter / RPDO4 mapping entry 4 (bmaxx4400.eds:1068, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 310))
+        u32::from_le_bytes(od::load::<4>(&self.image, 172))
     }
 
     /// Sets 0x1603 sub 4 RPDO4 mapping parameter / RPDO4 mapping entry 4.
     pub fn set_rpdo4_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 310, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 172, v.to_le_bytes());
     }
 
     /// 0x1603 sub 5 RPDO4 mapping parameter / RPDO4 mapping entry 5 (bmaxx4400.eds:1076, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 314))
+        u32::from_le_bytes(od::load::<4>(&self.image, 176))
     }
 
     /// Sets 0x1603 sub 5 RPDO4 mapping parameter / RPDO4 mapping entry 5.
     pub fn set_rpdo4_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 314, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 176, v.to_le_bytes());
     }
 
     /// 0x1603 sub 6 RPDO4 mapping parameter / RPDO4 mapping entry 6 (bmaxx4400.eds:1084, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 318))
+        u32::from_le_bytes(od::load::<4>(&self.image, 180))
     }
 
     /// Sets 0x1603 sub 6 RPDO4 mapping parameter / RPDO4 mapping entry 6.
     pub fn set_rpdo4_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 318, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 180, v.to_le_bytes());
     }
 
     /// 0x1603 sub 7 RPDO4 mapping parameter / RPDO4 mapping entry 7 (bmaxx4400.eds:1092, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 322))
+        u32::from_le_bytes(od::load::<4>(&self.image, 184))
     }
 
     /// Sets 0x1603 sub 7 RPDO4 mapping parameter / RPDO4 mapping entry 7.
     pub fn set_rpdo4_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 322, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 184, v.to_le_bytes());
     }
 
     /// 0x1603 sub 8 RPDO4 mapping parameter / RPDO4 mapping entry 8 (bmaxx4400.eds:1100, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 326))
+        u32::from_le_bytes(od::load::<4>(&self.image, 188))
     }
 
     /// Sets 0x1603 sub 8 RPDO4 mapping parameter / RPDO4 mapping entry 8.
     pub fn set_rpdo4_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 326, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 188, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index (bmaxx4400.eds:1113, UNSIGNED8 ro)
     pub fn tpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 330))
+        u8::from_le_bytes(od::load::<1>(&self.image, 852))
     }
 
     /// Sets 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index.
     pub fn set_tpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 330, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 852, v.to_le_bytes());
     }
 
     /// 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID (bmaxx4400.eds:1121, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo1_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 331))
+        u32::from_le_bytes(od::load::<4>(&self.image, 192))
     }
 
     /// Sets 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID.
     pub fn set_tpdo1_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 331, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 192, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type (bmaxx4400.eds:1129, UNSIGNED8 rw)
     pub fn tpdo1_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 335))
+        u8::from_le_bytes(od::load::<1>(&self.image, 196))
     }
 
     /// Sets 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type.
     pub fn set_tpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 335, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 196, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time (bmaxx4400.eds:1137, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 336))
+        u16::from_le_bytes(od::load::<2>(&self.image, 197))
     }
 
     /// Sets 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time.
     pub fn set_tpdo1_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 336, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 197, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer (bmaxx4400.eds:1145, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 338))
+        u16::from_le_bytes(od::load::<2>(&self.image, 199))
     }
 
     /// Sets 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer.
     pub fn set_tpdo1_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 338, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 199, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index (bmaxx4400.eds:1158, UNSIGNED8 ro)
     pub fn tpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 340))
+        u8::from_le_bytes(od::load::<1>(&self.image, 853))
     }
 
     /// Sets 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index.
     pub fn set_tpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 340, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 853, v.to_le_bytes());
     }
 
     /// 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID (bmaxx4400.eds:1166, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo2_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 341))
+        u32::from_le_bytes(od::load::<4>(&self.image, 201))
     }
 
     /// Sets 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID.
     pub fn set_tpdo2_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 341, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 201, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type (bmaxx4400.eds:1174, UNSIGNED8 rw)
     pub fn tpdo2_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 345))
+        u8::from_le_bytes(od::load::<1>(&self.image, 205))
     }
 
     /// Sets 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type.
     pub fn set_tpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 345, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 205, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time (bmaxx4400.eds:1182, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 346))
+        u16::from_le_bytes(od::load::<2>(&self.image, 206))
     }
 
     /// Sets 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time.
     pub fn set_tpdo2_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 346, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 206, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer (bmaxx4400.eds:1190, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 348))
+        u16::from_le_bytes(od::load::<2>(&self.image, 208))
     }
 
     /// Sets 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer.
     pub fn set_tpdo2_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 348, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 208, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index (bmaxx4400.eds:1203, UNSIGNED8 ro)
     pub fn tpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 350))
+        u8::from_le_bytes(od::load::<1>(&self.image, 854))
     }
 
     /// Sets 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index.
     pub fn set_tpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 350, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 854, v.to_le_bytes());
     }
 
     /// 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID (bmaxx4400.eds:1211, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo3_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 351))
+        u32::from_le_bytes(od::load::<4>(&self.image, 210))
     }
 
     /// Sets 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID.
     pub fn set_tpdo3_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 351, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 210, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type (bmaxx4400.eds:1219, UNSIGNED8 rw)
     pub fn tpdo3_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 355))
+        u8::from_le_bytes(od::load::<1>(&self.image, 214))
     }
 
     /// Sets 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type.
     pub fn set_tpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 355, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 214, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time (bmaxx4400.eds:1227, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 356))
+        u16::from_le_bytes(od::load::<2>(&self.image, 215))
     }
 
     /// Sets 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time.
     pub fn set_tpdo3_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 356, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 215, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer (bmaxx4400.eds:1235, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 358))
+        u16::from_le_bytes(od::load::<2>(&self.image, 217))
     }
 
     /// Sets 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer.
     pub fn set_tpdo3_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 358, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 217, v.to_le_bytes());
     }
 
     /// 0x1803 sub 0 TPDO4 communication parameter / TPDO4 communication highest sub-index (bmaxx4400.eds:1248, UNSIGNED8 ro)
     pub fn tpdo4_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 360))
+        u8::from_le_bytes(od::load::<1>(&self.image, 855))
     }
 
     /// Sets 0x1803 sub 0 TPDO4 communication parameter / TPDO4 communication highest sub-index.
     pub fn set_tpdo4_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 360, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 855, v.to_le_bytes());
     }
 
     /// 0x1803 sub 1 TPDO4 communication parameter / TPDO4 COB-ID (bmaxx4400.eds:1256, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo4_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 361))
+        u32::from_le_bytes(od::load::<4>(&self.image, 219))
     }
 
     /// Sets 0x1803 sub 1 TPDO4 communication parameter / TPDO4 COB-ID.
     pub fn set_tpdo4_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 361, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 219, v.to_le_bytes());
     }
 
     /// 0x1803 sub 2 TPDO4 communication parameter / TPDO4 transmission type (bmaxx4400.eds:1264, UNSIGNED8 rw)
     pub fn tpdo4_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 365))
+        u8::from_le_bytes(od::load::<1>(&self.image, 223))
     }
 
     /// Sets 0x1803 sub 2 TPDO4 communication parameter / TPDO4 transmission type.
     pub fn set_tpdo4_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 365, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 223, v.to_le_bytes());
     }
 
     /// 0x1803 sub 3 TPDO4 communication parameter / TPDO4 inhibit time (bmaxx4400.eds:1272, UNSIGNED16 rw)
     pub fn tpdo4_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 366))
+        u16::from_le_bytes(od::load::<2>(&self.image, 224))
     }
 
     /// Sets 0x1803 sub 3 TPDO4 communication parameter / TPDO4 inhibit time.
     pub fn set_tpdo4_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 366, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 224, v.to_le_bytes());
     }
 
     /// 0x1803 sub 5 TPDO4 communication parameter / TPDO4 event timer (bmaxx4400.eds:1280, UNSIGNED16 rw)
     pub fn tpdo4_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 368))
+        u16::from_le_bytes(od::load::<2>(&self.image, 226))
     }
 
     /// Sets 0x1803 sub 5 TPDO4 communication parameter / TPDO4 event timer.
     pub fn set_tpdo4_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 368, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 226, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects (bmaxx4400.eds:1293, UNSIGNED8 rw)
     pub fn tpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 370))
+        u8::from_le_bytes(od::load::<1>(&self.image, 228))
     }
 
     /// Sets 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects.
     pub fn set_tpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 370, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 228, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapping entry 1 (bmaxx4400.eds:1303, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 371))
+        u32::from_le_bytes(od::load::<4>(&self.image, 229))
     }
 
     /// Sets 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapping entry 1.
     pub fn set_tpdo1_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 371, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 229, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapping entry 2 (bmaxx4400.eds:1311, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 375))
+        u32::from_le_bytes(od::load::<4>(&self.image, 233))
     }
 
     /// Sets 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapping entry 2.
     pub fn set_tpdo1_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 375, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 233, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapping entry 3 (bmaxx4400.eds:1319, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 379))
+        u32::from_le_bytes(od::load::<4>(&self.image, 237))
     }
 
     /// Sets 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapping entry 3.
     pub fn set_tpdo1_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 379, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 237, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapping entry 4 (bmaxx4400.eds:1327, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 383))
+        u32::from_le_bytes(od::load::<4>(&self.image, 241))
     }
 
     /// Sets 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapping entry 4.
     pub fn set_tpdo1_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 383, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 241, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapping entry 5 (bmaxx4400.eds:1335, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 387))
+        u32::from_le_bytes(od::load::<4>(&self.image, 245))
     }
 
     /// Sets 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapping entry 5.
     pub fn set_tpdo1_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 387, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 245, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapping entry 6 (bmaxx4400.eds:1343, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 391))
+        u32::from_le_bytes(od::load::<4>(&self.image, 249))
     }
 
     /// Sets 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapping entry 6.
     pub fn set_tpdo1_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 391, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 249, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapping entry 7 (bmaxx4400.eds:1351, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 395))
+        u32::from_le_bytes(od::load::<4>(&self.image, 253))
     }
 
     /// Sets 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapping entry 7.
     pub fn set_tpdo1_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 395, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 253, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapping entry 8 (bmaxx4400.eds:1359, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 399))
+        u32::from_le_bytes(od::load::<4>(&self.image, 257))
     }
 
     /// Sets 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapping entry 8.
     pub fn set_tpdo1_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 399, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 257, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects (bmaxx4400.eds:1372, UNSIGNED8 rw)
     pub fn tpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 403))
+        u8::from_le_bytes(od::load::<1>(&self.image, 261))
     }
 
     /// Sets 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects.
     pub fn set_tpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 403, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 261, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapping entry 1 (bmaxx4400.eds:1382, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 404))
+        u32::from_le_bytes(od::load::<4>(&self.image, 262))
     }
 
     /// Sets 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapping entry 1.
     pub fn set_tpdo2_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 404, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 262, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapping entry 2 (bmaxx4400.eds:1390, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 408))
+        u32::from_le_bytes(od::load::<4>(&self.image, 266))
     }
 
     /// Sets 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapping entry 2.
     pub fn set_tpdo2_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 408, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 266, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapping entry 3 (bmaxx4400.eds:1398, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 412))
+        u32::from_le_bytes(od::load::<4>(&self.image, 270))
     }
 
     /// Sets 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapping entry 3.
     pub fn set_tpdo2_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 412, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 270, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapping entry 4 (bmaxx4400.eds:1406, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 416))
+        u32::from_le_bytes(od::load::<4>(&self.image, 274))
     }
 
     /// Sets 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapping entry 4.
     pub fn set_tpdo2_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 416, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 274, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapping entry 5 (bmaxx4400.eds:1414, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 420))
+        u32::from_le_bytes(od::load::<4>(&self.image, 278))
     }
 
     /// Sets 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapping entry 5.
     pub fn set_tpdo2_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 420, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 278, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapping entry 6 (bmaxx4400.eds:1422, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 424))
+        u32::from_le_bytes(od::load::<4>(&self.image, 282))
     }
 
     /// Sets 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapping entry 6.
     pub fn set_tpdo2_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 424, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 282, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapping entry 7 (bmaxx4400.eds:1430, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 428))
+        u32::from_le_bytes(od::load::<4>(&self.image, 286))
     }
 
     /// Sets 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapping entry 7.
     pub fn set_tpdo2_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 428, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 286, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapping entry 8 (bmaxx4400.eds:1438, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 432))
+        u32::from_le_bytes(od::load::<4>(&self.image, 290))
     }
 
     /// Sets 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapping entry 8.
     pub fn set_tpdo2_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 432, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 290, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects (bmaxx4400.eds:1451, UNSIGNED8 rw)
     pub fn tpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 436))
+        u8::from_le_bytes(od::load::<1>(&self.image, 294))
     }
 
     /// Sets 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects.
     pub fn set_tpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 436, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 294, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapping entry 1 (bmaxx4400.eds:1461, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 437))
+        u32::from_le_bytes(od::load::<4>(&self.image, 295))
     }
 
     /// Sets 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapping entry 1.
     pub fn set_tpdo3_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 437, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 295, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapping entry 2 (bmaxx4400.eds:1469, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 441))
+        u32::from_le_bytes(od::load::<4>(&self.image, 299))
     }
 
     /// Sets 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapping entry 2.
     pub fn set_tpdo3_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 441, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 299, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapping entry 3 (bmaxx4400.eds:1477, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 445))
+        u32::from_le_bytes(od::load::<4>(&self.image, 303))
     }
 
     /// Sets 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapping entry 3.
     pub fn set_tpdo3_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 445, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 303, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapping entry 4 (bmaxx4400.eds:1485, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 449))
+        u32::from_le_bytes(od::load::<4>(&self.image, 307))
     }
 
     /// Sets 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapping entry 4.
     pub fn set_tpdo3_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 449, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 307, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapping entry 5 (bmaxx4400.eds:1493, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 453))
+        u32::from_le_bytes(od::load::<4>(&self.image, 311))
     }
 
     /// Sets 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapping entry 5.
     pub fn set_tpdo3_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 453, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 311, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapping entry 6 (bmaxx4400.eds:1501, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 457))
+        u32::from_le_bytes(od::load::<4>(&self.image, 315))
     }
 
     /// Sets 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapping entry 6.
     pub fn set_tpdo3_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 457, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 315, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapping entry 7 (bmaxx4400.eds:1509, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 461))
+        u32::from_le_bytes(od::load::<4>(&self.image, 319))
     }
 
     /// Sets 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapping entry 7.
     pub fn set_tpdo3_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 461, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 319, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapping entry 8 (bmaxx4400.eds:1517, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 465))
+        u32::from_le_bytes(od::load::<4>(&self.image, 323))
     }
 
     /// Sets 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapping entry 8.
     pub fn set_tpdo3_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 465, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 323, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 0 TPDO4 mapping parameter / TPDO4 number of mapped objects (bmaxx4400.eds:1530, UNSIGNED8 rw)
     pub fn tpdo4_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 469))
+        u8::from_le_bytes(od::load::<1>(&self.image, 327))
     }
 
     /// Sets 0x1A03 sub 0 TPDO4 mapping parameter / TPDO4 number of mapped objects.
     pub fn set_tpdo4_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 469, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 327, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 1 TPDO4 mapping parameter / TPDO4 mapping entry 1 (bmaxx4400.eds:1540, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 470))
+        u32::from_le_bytes(od::load::<4>(&self.image, 328))
     }
 
     /// Sets 0x1A03 sub 1 TPDO4 mapping parameter / TPDO4 mapping entry 1.
     pub fn set_tpdo4_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 470, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 328, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 2 TPDO4 mapping parameter / TPDO4 mapping entry 2 (bmaxx4400.eds:1548, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 474))
+        u32::from_le_bytes(od::load::<4>(&self.image, 332))
     }
 
     /// Sets 0x1A03 sub 2 TPDO4 mapping parameter / TPDO4 mapping entry 2.
     pub fn set_tpdo4_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 474, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 332, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 3 TPDO4 mapping parameter / TPDO4 mapping entry 3 (bmaxx4400.eds:1556, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 478))
+        u32::from_le_bytes(od::load::<4>(&self.image, 336))
     }
 
     /// Sets 0x1A03 sub 3 TPDO4 mapping parameter / TPDO4 mapping entry 3.
     pub fn set_tpdo4_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 478, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 336, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 4 TPDO4 mapping parameter / TPDO4 mapping entry 4 (bmaxx4400.eds:1564, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 482))
+        u32::from_le_bytes(od::load::<4>(&self.image, 340))
     }
 
     /// Sets 0x1A03 sub 4 TPDO4 mapping parameter / TPDO4 mapping entry 4.
     pub fn set_tpdo4_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 482, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 340, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 5 TPDO4 mapping parameter / TPDO4 mapping entry 5 (bmaxx4400.eds:1572, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 486))
+        u32::from_le_bytes(od::load::<4>(&self.image, 344))
     }
 
     /// Sets 0x1A03 sub 5 TPDO4 mapping parameter / TPDO4 mapping entry 5.
     pub fn set_tpdo4_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 486, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 344, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 6 TPDO4 mapping parameter / TPDO4 mapping entry 6 (bmaxx4400.eds:1580, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 490))
+        u32::from_le_bytes(od::load::<4>(&self.image, 348))
     }
 
     /// Sets 0x1A03 sub 6 TPDO4 mapping parameter / TPDO4 mapping entry 6.
     pub fn set_tpdo4_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 490, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 348, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 7 TPDO4 mapping parameter / TPDO4 mapping entry 7 (bmaxx4400.eds:1588, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 494))
+        u32::from_le_bytes(od::load::<4>(&self.image, 352))
     }
 
     /// Sets 0x1A03 sub 7 TPDO4 mapping parameter / TPDO4 mapping entry 7.
     pub fn set_tpdo4_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 494, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 352, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 8 TPDO4 mapping parameter / TPDO4 mapping entry 8 (bmaxx4400.eds:1596, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 498))
+        u32::from_le_bytes(od::load::<4>(&self.image, 356))
     }
 
     /// Sets 0x1A03 sub 8 TPDO4 mapping parameter / TPDO4 mapping entry 8.
     pub fn set_tpdo4_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 498, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 356, v.to_le_bytes());
     }
 
     /// 0x4039 P0057 Motor nominal speed (bmaxx4400.eds:2643, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0057_motor_nominal_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 502))
+        u16::from_le_bytes(od::load::<2>(&self.image, 360))
     }
 
     /// Sets 0x4039 P0057 Motor nominal speed.
     pub fn set_p0057_motor_nominal_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 502, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 360, v.to_le_bytes());
     }
 
     /// 0x4041 P0065 Motor pole pair number (bmaxx4400.eds:2653, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0065_motor_pole_pair_number(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 504))
+        u16::from_le_bytes(od::load::<2>(&self.image, 362))
     }
 
     /// Sets 0x4041 P0065 Motor pole pair number.
     pub fn set_p0065_motor_pole_pair_number(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 504, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 362, v.to_le_bytes());
     }
 
     /// 0x40E9 P0233 Amplifier Hiperface error detail (bmaxx4400.eds:2663, UNSIGNED16 ro)
     pub fn p0233_amplifier_hiperface_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 506))
+        u16::from_le_bytes(od::load::<2>(&self.image, 856))
     }
 
     /// Sets 0x40E9 P0233 Amplifier Hiperface error detail.
     pub fn set_p0233_amplifier_hiperface_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 506, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 856, v.to_le_bytes());
     }
 
     /// 0x40EA P0234 Encoder 1 error detail (bmaxx4400.eds:2671, UNSIGNED16 ro)
     pub fn p0234_encoder_1_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 508))
+        u16::from_le_bytes(od::load::<2>(&self.image, 858))
     }
 
     /// Sets 0x40EA P0234 Encoder 1 error detail.
     pub fn set_p0234_encoder_1_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 508, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 858, v.to_le_bytes());
     }
 
     /// 0x40EB P0235 Encoder 2 error detail (bmaxx4400.eds:2679, UNSIGNED16 ro)
     pub fn p0235_encoder_2_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 510))
+        u16::from_le_bytes(od::load::<2>(&self.image, 860))
     }
 
     /// Sets 0x40EB P0235 Encoder 2 error detail.
     pub fn set_p0235_encoder_2_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 510, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 860, v.to_le_bytes());
     }
 
     /// 0x40F0 P0240 Small module A error detail (bmaxx4400.eds:2687, UNSIGNED16 ro)
     pub fn p0240_small_module_a_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 512))
+        u16::from_le_bytes(od::load::<2>(&self.image, 862))
     }
 
     /// Sets 0x40F0 P0240 Small module A error detail.
     pub fn set_p0240_small_module_a_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 512, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 862, v.to_le_bytes());
     }
 
     /// 0x40F1 P0241 Small module B error detail (bmaxx4400.eds:2695, UNSIGNED16 ro)
     pub fn p0241_small_module_b_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 514))
+        u16::from_le_bytes(od::load::<2>(&self.image, 864))
     }
 
     /// Sets 0x40F1 P0241 Small module B error detail.
     pub fn set_p0241_small_module_b_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 514, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 864, v.to_le_bytes());
     }
 
     /// 0x40F2 P0242 Small module C error detail (bmaxx4400.eds:2703, UNSIGNED16 ro)
     pub fn p0242_small_module_c_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 516))
+        u16::from_le_bytes(od::load::<2>(&self.image, 866))
     }
 
     /// Sets 0x40F2 P0242 Small module C error detail.
     pub fn set_p0242_small_module_c_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 516, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 866, v.to_le_bytes());
     }
 
     /// 0x40F3 P0243 Small module D error detail (bmaxx4400.eds:2711, UNSIGNED16 ro)
     pub fn p0243_small_module_d_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 518))
+        u16::from_le_bytes(od::load::<2>(&self.image, 868))
     }
 
     /// Sets 0x40F3 P0243 Small module D error detail.
     pub fn set_p0243_small_module_d_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 518, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 868, v.to_le_bytes());
     }
 
     /// 0x40F4 P0244 Small module F error detail (bmaxx4400.eds:2719, UNSIGNED16 ro)
     pub fn p0244_small_module_f_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 520))
+        u16::from_le_bytes(od::load::<2>(&self.image, 870))
     }
 
     /// Sets 0x40F4 P0244 Small module F error detail.
     pub fn set_p0244_small_module_f_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 520, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 870, v.to_le_bytes());
     }
 
     /// 0x40F5 P0245 Big module G error detail (bmaxx4400.eds:2727, UNSIGNED16 ro)
     pub fn p0245_big_module_g_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 522))
+        u16::from_le_bytes(od::load::<2>(&self.image, 872))
     }
 
     /// Sets 0x40F5 P0245 Big module G error detail.
     pub fn set_p0245_big_module_g_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 522, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 872, v.to_le_bytes());
     }
 
     /// 0x40F6 P0246 Big module H error detail (bmaxx4400.eds:2735, UNSIGNED16 ro)
     pub fn p0246_big_module_h_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 524))
+        u16::from_le_bytes(od::load::<2>(&self.image, 874))
     }
 
     /// Sets 0x40F6 P0246 Big module H error detail.
     pub fn set_p0246_big_module_h_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 524, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 874, v.to_le_bytes());
     }
 
     /// 0x40F7 P0247 Big module J error detail (bmaxx4400.eds:2743, UNSIGNED16 ro)
     pub fn p0247_big_module_j_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 526))
+        u16::from_le_bytes(od::load::<2>(&self.image, 876))
     }
 
     /// Sets 0x40F7 P0247 Big module J error detail.
     pub fn set_p0247_big_module_j_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 526, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 876, v.to_le_bytes());
     }
 
     /// 0x40F8 P0248 Big module K error detail (bmaxx4400.eds:2751, UNSIGNED16 ro)
     pub fn p0248_big_module_k_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 528))
+        u16::from_le_bytes(od::load::<2>(&self.image, 878))
     }
 
     /// Sets 0x40F8 P0248 Big module K error detail.
     pub fn set_p0248_big_module_k_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 528, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 878, v.to_le_bytes());
     }
 
     /// 0x40F9 P0249 Big module L error detail (bmaxx4400.eds:2759, UNSIGNED16 ro)
     pub fn p0249_big_module_l_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 530))
+        u16::from_le_bytes(od::load::<2>(&self.image, 880))
     }
 
     /// Sets 0x40F9 P0249 Big module L error detail.
     pub fn set_p0249_big_module_l_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 530, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 880, v.to_le_bytes());
     }
 
     /// 0x40FA P0250 Big module M error detail (bmaxx4400.eds:2767, UNSIGNED16 ro)
     pub fn p0250_big_module_m_error_detail(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 532))
+        u16::from_le_bytes(od::load::<2>(&self.image, 882))
     }
 
     /// Sets 0x40FA P0250 Big module M error detail.
     pub fn set_p0250_big_module_m_error_detail(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 532, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 882, v.to_le_bytes());
     }
 
     /// 0x4106 P0262 Amplifier warnings (bmaxx4400.eds:2775, UNSIGNED16 ro, PDO-mappable)
     pub fn p0262_amplifier_warnings(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 534))
+        u16::from_le_bytes(od::load::<2>(&self.image, 884))
     }
 
     /// Sets 0x4106 P0262 Amplifier warnings.
     pub fn set_p0262_amplifier_warnings(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 534, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 884, v.to_le_bytes());
     }
 
     /// 0x4107 P0263 Motor warnings (bmaxx4400.eds:2783, UNSIGNED16 ro, PDO-mappable)
     pub fn p0263_motor_warnings(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 536))
+        u16::from_le_bytes(od::load::<2>(&self.image, 886))
     }
 
     /// Sets 0x4107 P0263 Motor warnings.
     pub fn set_p0263_motor_warnings(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 536, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 886, v.to_le_bytes());
     }
 
     /// 0x412C P0300 Drive control word (bmaxx4400.eds:2791, UNSIGNED16 rw, PDO-mappable)
     pub fn p0300_drive_control_word(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 538))
+        u16::from_le_bytes(od::load::<2>(&self.image, 364))
     }
 
     /// Sets 0x412C P0300 Drive control word.
     pub fn set_p0300_drive_control_word(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 538, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 364, v.to_le_bytes());
     }
 
     /// 0x412D P0301 Drive status word (bmaxx4400.eds:2799, UNSIGNED16 ro, PDO-mappable)
     pub fn p0301_drive_status_word(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 540))
+        u16::from_le_bytes(od::load::<2>(&self.image, 888))
     }
 
     /// Sets 0x412D P0301 Drive status word.
     pub fn set_p0301_drive_status_word(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 540, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 888, v.to_le_bytes());
     }
 
     /// 0x4130 P0304 Operation mode actual (bmaxx4400.eds:2807, INTEGER16 ro, PDO-mappable)
     pub fn p0304_operation_mode_actual(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 542))
+        i16::from_le_bytes(od::load::<2>(&self.image, 890))
     }
 
     /// Sets 0x4130 P0304 Operation mode actual.
     pub fn set_p0304_operation_mode_actual(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 542, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 890, v.to_le_bytes());
     }
 
     /// 0x4158 P0344 Torque actual value raw (bmaxx4400.eds:2815, INTEGER16 ro, PDO-mappable)
     pub fn p0344_torque_actual_value_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 544))
+        i16::from_le_bytes(od::load::<2>(&self.image, 892))
     }
 
     /// Sets 0x4158 P0344 Torque actual value raw.
     pub fn set_p0344_torque_actual_value_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 544, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 892, v.to_le_bytes());
     }
 
     /// 0x415F P0351 Ramp function generator output (bmaxx4400.eds:2823, INTEGER16 ro, PDO-mappable)
     pub fn p0351_ramp_function_generator_output(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 546))
+        i16::from_le_bytes(od::load::<2>(&self.image, 894))
     }
 
     /// Sets 0x415F P0351 Ramp function generator output.
     pub fn set_p0351_ramp_function_generator_output(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 546, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 894, v.to_le_bytes());
     }
 
     /// 0x4160 P0352 Speed set value total (bmaxx4400.eds:2831, INTEGER16 ro, PDO-mappable)
     pub fn p0352_speed_set_value_total(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 548))
+        i16::from_le_bytes(od::load::<2>(&self.image, 896))
     }
 
     /// Sets 0x4160 P0352 Speed set value total.
     pub fn set_p0352_speed_set_value_total(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 548, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 896, v.to_le_bytes());
     }
 
     /// 0x4161 P0353 Speed actual value raw (bmaxx4400.eds:2839, INTEGER32 ro, PDO-mappable)
     pub fn p0353_speed_actual_value_raw(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 550))
+        i32::from_le_bytes(od::load::<4>(&self.image, 898))
     }
 
     /// Sets 0x4161 P0353 Speed actual value raw.
     pub fn set_p0353_speed_actual_value_raw(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 550, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 898, v.to_le_bytes());
     }
 
     /// 0x4165 P0357 Torque limit direct (bmaxx4400.eds:2847, UNSIGNED16 rw, PDO-mappable)
     pub fn p0357_torque_limit_direct(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 554))
+        u16::from_le_bytes(od::load::<2>(&self.image, 366))
     }
 
     /// Sets 0x4165 P0357 Torque limit direct.
     pub fn set_p0357_torque_limit_direct(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 554, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 366, v.to_le_bytes());
     }
 
     /// 0x4168 P0360 Position controller status raw (bmaxx4400.eds:2855, UNSIGNED16 ro, PDO-mappable)
     pub fn p0360_position_controller_status_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 556))
+        u16::from_le_bytes(od::load::<2>(&self.image, 902))
     }
 
     /// Sets 0x4168 P0360 Position controller status raw.
     pub fn set_p0360_position_controller_status_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 556, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 902, v.to_le_bytes());
     }
 
     /// 0x416A P0362 Position actual value raw (bmaxx4400.eds:2863, UNSIGNED32 rw, PDO-mappable)
     pub fn p0362_position_actual_value_raw(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 558))
+        u32::from_le_bytes(od::load::<4>(&self.image, 368))
     }
 
     /// Sets 0x416A P0362 Position actual value raw.
     pub fn set_p0362_position_actual_value_raw(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 558, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 368, v.to_le_bytes());
     }
 
     /// 0x416B P0363 Position set angle raw (bmaxx4400.eds:2871, UNSIGNED16 rw, PDO-mappable)
     pub fn p0363_position_set_angle_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 562))
+        u16::from_le_bytes(od::load::<2>(&self.image, 372))
     }
 
     /// Sets 0x416B P0363 Position set angle raw.
     pub fn set_p0363_position_set_angle_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 562, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 372, v.to_le_bytes());
     }
 
     /// 0x416C P0364 Position set revolutions raw (bmaxx4400.eds:2879, UNSIGNED16 rw, PDO-mappable)
     pub fn p0364_position_set_revolutions_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 564))
+        u16::from_le_bytes(od::load::<2>(&self.image, 374))
     }
 
     /// Sets 0x416C P0364 Position set revolutions raw.
     pub fn set_p0364_position_set_revolutions_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 564, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 374, v.to_le_bytes());
     }
 
     /// 0x416D P0365 Speed feed forward raw (bmaxx4400.eds:2887, INTEGER32 ro, PDO-mappable)
     pub fn p0365_speed_feed_forward_raw(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 566))
+        i32::from_le_bytes(od::load::<4>(&self.image, 904))
     }
 
     /// Sets 0x416D P0365 Speed feed forward raw.
     pub fn set_p0365_speed_feed_forward_raw(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 566, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 904, v.to_le_bytes());
     }
 
     /// 0x416F P0367 Position control deviation raw (bmaxx4400.eds:2895, INTEGER32 ro, PDO-mappable)
     pub fn p0367_position_control_deviation_raw(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 570))
+        i32::from_le_bytes(od::load::<4>(&self.image, 908))
     }
 
     /// Sets 0x416F P0367 Position control deviation raw.
     pub fn set_p0367_position_control_deviation_raw(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 570, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 908, v.to_le_bytes());
     }
 
     /// 0x4171 P0369 Position set value (bmaxx4400.eds:2903, UNSIGNED32 rw, PDO-mappable)
     pub fn p0369_position_set_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 574))
+        u32::from_le_bytes(od::load::<4>(&self.image, 376))
     }
 
     /// Sets 0x4171 P0369 Position set value.
     pub fn set_p0369_position_set_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 574, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 376, v.to_le_bytes());
     }
 
     /// 0x4172 P0370 Position IP set angle (bmaxx4400.eds:2911, UNSIGNED32 rw, PDO-mappable)
     pub fn p0370_position_ip_set_angle(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 578))
+        u32::from_le_bytes(od::load::<4>(&self.image, 380))
     }
 
     /// Sets 0x4172 P0370 Position IP set angle.
     pub fn set_p0370_position_ip_set_angle(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 578, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 380, v.to_le_bytes());
     }
 
     /// 0x4187 P0391 Encoder 1 actual angle raw (bmaxx4400.eds:2919, UNSIGNED32 ro, PDO-mappable)
     pub fn p0391_encoder_1_actual_angle_raw(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 582))
+        u32::from_le_bytes(od::load::<4>(&self.image, 912))
     }
 
     /// Sets 0x4187 P0391 Encoder 1 actual angle raw.
     pub fn set_p0391_encoder_1_actual_angle_raw(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 582, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 912, v.to_le_bytes());
     }
 
     /// 0x4188 P0392 Encoder 1 actual revolutions raw (bmaxx4400.eds:2927, UNSIGNED32 ro, PDO-mappable)
     pub fn p0392_encoder_1_actual_revolutions_raw(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 586))
+        u32::from_le_bytes(od::load::<4>(&self.image, 916))
     }
 
     /// Sets 0x4188 P0392 Encoder 1 actual revolutions raw.
     pub fn set_p0392_encoder_1_actual_revolutions_raw(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 586, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 916, v.to_le_bytes());
     }
 
     /// 0x41CC P0460 Positioning status raw (bmaxx4400.eds:2935, UNSIGNED16 ro, PDO-mappable)
     pub fn p0460_positioning_status_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 590))
+        u16::from_le_bytes(od::load::<2>(&self.image, 920))
     }
 
     /// Sets 0x41CC P0460 Positioning status raw.
     pub fn set_p0460_positioning_status_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 590, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 920, v.to_le_bytes());
     }
 
     /// 0x41CD P0461 Digital input output status (bmaxx4400.eds:2943, UNSIGNED16 ro, PDO-mappable)
     pub fn p0461_digital_input_output_status(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 592))
+        u16::from_le_bytes(od::load::<2>(&self.image, 922))
     }
 
     /// Sets 0x41CD P0461 Digital input output status.
     pub fn set_p0461_digital_input_output_status(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 592, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 922, v.to_le_bytes());
     }
 
     /// 0x41CE P0462 Positioning actual value (bmaxx4400.eds:2951, UNSIGNED32 ro, PDO-mappable)
     pub fn p0462_positioning_actual_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 594))
+        u32::from_le_bytes(od::load::<4>(&self.image, 924))
     }
 
     /// Sets 0x41CE P0462 Positioning actual value.
     pub fn set_p0462_positioning_actual_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 594, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 924, v.to_le_bytes());
     }
 
     /// 0x41CF P0463 Positioning set value (bmaxx4400.eds:2959, UNSIGNED32 ro, PDO-mappable)
     pub fn p0463_positioning_set_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 598))
+        u32::from_le_bytes(od::load::<4>(&self.image, 928))
     }
 
     /// Sets 0x41CF P0463 Positioning set value.
     pub fn set_p0463_positioning_set_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 598, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 928, v.to_le_bytes());
     }
 
     /// 0x41D0 P0464 Positioning speed set value raw (bmaxx4400.eds:2967, INTEGER16 ro, PDO-mappable)
     pub fn p0464_positioning_speed_set_value_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 602))
+        i16::from_le_bytes(od::load::<2>(&self.image, 932))
     }
 
     /// Sets 0x41D0 P0464 Positioning speed set value raw.
     pub fn set_p0464_positioning_speed_set_value_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 602, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 932, v.to_le_bytes());
     }
 
     /// 0x4214 P0532 Sync interval (bmaxx4400.eds:2975, UNSIGNED16 rw, PDO-mappable)
     pub fn p0532_sync_interval(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 604))
+        u16::from_le_bytes(od::load::<2>(&self.image, 384))
     }
 
     /// Sets 0x4214 P0532 Sync interval.
     pub fn set_p0532_sync_interval(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 604, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 384, v.to_le_bytes());
     }
 
     /// 0x4258 P0600 Positioning target unsigned (bmaxx4400.eds:2983, UNSIGNED32 rw, PDO-mappable)
     pub fn p0600_positioning_target_unsigned(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 606))
+        u32::from_le_bytes(od::load::<4>(&self.image, 386))
     }
 
     /// Sets 0x4258 P0600 Positioning target unsigned.
     pub fn set_p0600_positioning_target_unsigned(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 606, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 386, v.to_le_bytes());
     }
 
     /// 0x4259 P0601 Positioning mode (bmaxx4400.eds:2991, INTEGER16 rw, PDO-mappable)
     pub fn p0601_positioning_mode(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 610))
+        i16::from_le_bytes(od::load::<2>(&self.image, 390))
     }
 
     /// Sets 0x4259 P0601 Positioning mode.
     pub fn set_p0601_positioning_mode(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 610, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 390, v.to_le_bytes());
     }
 
     /// 0x425A P0602 Positioning speed 1 (bmaxx4400.eds:2999, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0602_positioning_speed_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 612))
+        u16::from_le_bytes(od::load::<2>(&self.image, 392))
     }
 
     /// Sets 0x425A P0602 Positioning speed 1.
     pub fn set_p0602_positioning_speed_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 612, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 392, v.to_le_bytes());
     }
 
     /// 0x425B P0603 Positioning acceleration 1 (bmaxx4400.eds:3009, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0603_positioning_acceleration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 614))
+        u16::from_le_bytes(od::load::<2>(&self.image, 394))
     }
 
     /// Sets 0x425B P0603 Positioning acceleration 1.
     pub fn set_p0603_positioning_acceleration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 614, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 394, v.to_le_bytes());
     }
 
     /// 0x425C P0604 Positioning deceleration 1 (bmaxx4400.eds:3019, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0604_positioning_deceleration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 616))
+        u16::from_le_bytes(od::load::<2>(&self.image, 396))
     }
 
     /// Sets 0x425C P0604 Positioning deceleration 1.
     pub fn set_p0604_positioning_deceleration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 616, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 396, v.to_le_bytes());
     }
 
     /// 0x425D P0605 Positioning bend 0 raw (bmaxx4400.eds:3029, UNSIGNED16 rw, PDO-mappable)
     pub fn p0605_positioning_bend_0_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 618))
+        u16::from_le_bytes(od::load::<2>(&self.image, 398))
     }
 
     /// Sets 0x425D P0605 Positioning bend 0 raw.
     pub fn set_p0605_positioning_bend_0_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 618, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 398, v.to_le_bytes());
     }
 
     /// 0x425F P0607 Positioning target 1 (bmaxx4400.eds:3039, INTEGER32 rw, PDO-mappable)
     pub fn p0607_positioning_target_1(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 620))
+        i32::from_le_bytes(od::load::<4>(&self.image, 400))
     }
 
     /// Sets 0x425F P0607 Positioning target 1.
     pub fn set_p0607_positioning_target_1(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 620, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 400, v.to_le_bytes());
     }
 
     /// 0x4260 P0608 Positioning target input 1 (bmaxx4400.eds:3047, INTEGER16 rw, PDO-mappable)
     pub fn p0608_positioning_target_input_1(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 624))
+        i16::from_le_bytes(od::load::<2>(&self.image, 404))
     }
 
     /// Sets 0x4260 P0608 Positioning target input 1.
     pub fn set_p0608_positioning_target_input_1(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 624, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 404, v.to_le_bytes());
     }
 
     /// 0x4320 P0800 BACI cycle time factor (bmaxx4400.eds:3055, UNSIGNED16 rw)
     pub fn p0800_baci_cycle_time_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 626))
+        u16::from_le_bytes(od::load::<2>(&self.image, 406))
     }
 
     /// Sets 0x4320 P0800 BACI cycle time factor.
     pub fn set_p0800_baci_cycle_time_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 626, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 406, v.to_le_bytes());
     }
 
     /// 0x4321 P0801 BACI process data parameter number 1 (bmaxx4400.eds:3063, UNSIGNED16 ro)
     pub fn p0801_baci_process_data_parameter_number_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 628))
+        u16::from_le_bytes(od::load::<2>(&self.image, 934))
     }
 
     /// Sets 0x4321 P0801 BACI process data parameter number 1.
     pub fn set_p0801_baci_process_data_parameter_number_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 628, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 934, v.to_le_bytes());
     }
 
     /// 0x4322 P0802 BACI process data parameter number 2 (bmaxx4400.eds:3071, UNSIGNED16 ro)
     pub fn p0802_baci_process_data_parameter_number_2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 630))
+        u16::from_le_bytes(od::load::<2>(&self.image, 936))
     }
 
     /// Sets 0x4322 P0802 BACI process data parameter number 2.
     pub fn set_p0802_baci_process_data_parameter_number_2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 630, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 936, v.to_le_bytes());
     }
 
     /// 0x4323 P0803 BACI process data parameter number 3 (bmaxx4400.eds:3079, UNSIGNED16 ro)
     pub fn p0803_baci_process_data_parameter_number_3(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 632))
+        u16::from_le_bytes(od::load::<2>(&self.image, 938))
     }
 
     /// Sets 0x4323 P0803 BACI process data parameter number 3.
     pub fn set_p0803_baci_process_data_parameter_number_3(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 632, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 938, v.to_le_bytes());
     }
 
     /// 0x4324 P0804 BACI process data parameter number 4 (bmaxx4400.eds:3087, UNSIGNED16 ro)
     pub fn p0804_baci_process_data_parameter_number_4(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 634))
+        u16::from_le_bytes(od::load::<2>(&self.image, 940))
     }
 
     /// Sets 0x4324 P0804 BACI process data parameter number 4.
     pub fn set_p0804_baci_process_data_parameter_number_4(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 634, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 940, v.to_le_bytes());
     }
 
     /// 0x4325 P0805 BACI process data parameter number 5 (bmaxx4400.eds:3095, UNSIGNED16 ro)
     pub fn p0805_baci_process_data_parameter_number_5(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 636))
+        u16::from_le_bytes(od::load::<2>(&self.image, 942))
     }
 
     /// Sets 0x4325 P0805 BACI process data parameter number 5.
     pub fn set_p0805_baci_process_data_parameter_number_5(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 636, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 942, v.to_le_bytes());
     }
 
     /// 0x4326 P0806 BACI process data parameter number 6 (bmaxx4400.eds:3103, UNSIGNED16 ro)
     pub fn p0806_baci_process_data_parameter_number_6(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 638))
+        u16::from_le_bytes(od::load::<2>(&self.image, 944))
     }
 
     /// Sets 0x4326 P0806 BACI process data parameter number 6.
     pub fn set_p0806_baci_process_data_parameter_number_6(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 638, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 944, v.to_le_bytes());
     }
 
     /// 0x4327 P0807 BACI process data parameter number 7 (bmaxx4400.eds:3111, UNSIGNED16 ro)
     pub fn p0807_baci_process_data_parameter_number_7(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 640))
+        u16::from_le_bytes(od::load::<2>(&self.image, 946))
     }
 
     /// Sets 0x4327 P0807 BACI process data parameter number 7.
     pub fn set_p0807_baci_process_data_parameter_number_7(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 640, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 946, v.to_le_bytes());
     }
 
     /// 0x4328 P0808 BACI process data parameter number 8 (bmaxx4400.eds:3119, UNSIGNED16 ro)
     pub fn p0808_baci_process_data_parameter_number_8(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 642))
+        u16::from_le_bytes(od::load::<2>(&self.image, 948))
     }
 
     /// Sets 0x4328 P0808 BACI process data parameter number 8.
     pub fn set_p0808_baci_process_data_parameter_number_8(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 642, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 948, v.to_le_bytes());
     }
 
     /// 0x4329 P0809 BACI process data parameter number 9 (bmaxx4400.eds:3127, UNSIGNED16 ro)
     pub fn p0809_baci_process_data_parameter_number_9(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 644))
+        u16::from_le_bytes(od::load::<2>(&self.image, 950))
     }
 
     /// Sets 0x4329 P0809 BACI process data parameter number 9.
     pub fn set_p0809_baci_process_data_parameter_number_9(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 644, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 950, v.to_le_bytes());
     }
 
     /// 0x432A P0810 BACI process data parameter number 10 (bmaxx4400.eds:3135, UNSIGNED16 ro)
     pub fn p0810_baci_process_data_parameter_number_10(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 646))
+        u16::from_le_bytes(od::load::<2>(&self.image, 952))
     }
 
     /// Sets 0x432A P0810 BACI process data parameter number 10.
     pub fn set_p0810_baci_process_data_parameter_number_10(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 646, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 952, v.to_le_bytes());
     }
 
     /// 0x432B P0811 BACI process data parameter number 11 (bmaxx4400.eds:3143, UNSIGNED16 ro)
     pub fn p0811_baci_process_data_parameter_number_11(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 648))
+        u16::from_le_bytes(od::load::<2>(&self.image, 954))
     }
 
     /// Sets 0x432B P0811 BACI process data parameter number 11.
     pub fn set_p0811_baci_process_data_parameter_number_11(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 648, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 954, v.to_le_bytes());
     }
 
     /// 0x432C P0812 BACI process data parameter number 12 (bmaxx4400.eds:3151, UNSIGNED16 ro)
     pub fn p0812_baci_process_data_parameter_number_12(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 650))
+        u16::from_le_bytes(od::load::<2>(&self.image, 956))
     }
 
     /// Sets 0x432C P0812 BACI process data parameter number 12.
     pub fn set_p0812_baci_process_data_parameter_number_12(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 650, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 956, v.to_le_bytes());
     }
 
     /// 0x432D P0813 BACI process data parameter number 13 (bmaxx4400.eds:3159, UNSIGNED16 ro)
     pub fn p0813_baci_process_data_parameter_number_13(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 652))
+        u16::from_le_bytes(od::load::<2>(&self.image, 958))
     }
 
     /// Sets 0x432D P0813 BACI process data parameter number 13.
     pub fn set_p0813_baci_process_data_parameter_number_13(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 652, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 958, v.to_le_bytes());
     }
 
     /// 0x432E P0814 BACI process data parameter number 14 (bmaxx4400.eds:3167, UNSIGNED16 ro)
     pub fn p0814_baci_process_data_parameter_number_14(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 654))
+        u16::from_le_bytes(od::load::<2>(&self.image, 960))
     }
 
     /// Sets 0x432E P0814 BACI process data parameter number 14.
     pub fn set_p0814_baci_process_data_parameter_number_14(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 654, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 960, v.to_le_bytes());
     }
 
     /// 0x432F P0815 BACI process data parameter number 15 (bmaxx4400.eds:3175, UNSIGNED16 ro)
     pub fn p0815_baci_process_data_parameter_number_15(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 656))
+        u16::from_le_bytes(od::load::<2>(&self.image, 962))
     }
 
     /// Sets 0x432F P0815 BACI process data parameter number 15.
     pub fn set_p0815_baci_process_data_parameter_number_15(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 656, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 962, v.to_le_bytes());
     }
 
     /// 0x4330 P0816 BACI process data parameter number 16 (bmaxx4400.eds:3183, UNSIGNED16 ro)
     pub fn p0816_baci_process_data_parameter_number_16(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 658))
+        u16::from_le_bytes(od::load::<2>(&self.image, 964))
     }
 
     /// Sets 0x4330 P0816 BACI process data parameter number 16.
     pub fn set_p0816_baci_process_data_parameter_number_16(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 658, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 964, v.to_le_bytes());
     }
 
     /// 0x4332 P0818 BACI cycle offset set values (bmaxx4400.eds:3191, UNSIGNED16 rw)
     pub fn p0818_baci_cycle_offset_set_values(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 660))
+        u16::from_le_bytes(od::load::<2>(&self.image, 408))
     }
 
     /// Sets 0x4332 P0818 BACI cycle offset set values.
     pub fn set_p0818_baci_cycle_offset_set_values(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 660, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 408, v.to_le_bytes());
     }
 
     /// 0x4333 P0819 BACI cycle offset actual values (bmaxx4400.eds:3199, UNSIGNED16 rw)
     pub fn p0819_baci_cycle_offset_actual_values(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 662))
+        u16::from_le_bytes(od::load::<2>(&self.image, 410))
     }
 
     /// Sets 0x4333 P0819 BACI cycle offset actual values.
     pub fn set_p0819_baci_cycle_offset_actual_values(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 662, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 410, v.to_le_bytes());
     }
 
     /// 0x433E P0830 Option module G configuration 1 (bmaxx4400.eds:3207, UNSIGNED16 rw)
     pub fn p0830_option_module_g_configuration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 664))
+        u16::from_le_bytes(od::load::<2>(&self.image, 412))
     }
 
     /// Sets 0x433E P0830 Option module G configuration 1.
     pub fn set_p0830_option_module_g_configuration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 664, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 412, v.to_le_bytes());
     }
 
     /// 0x4348 P0840 Option module H configuration 1 (bmaxx4400.eds:3215, UNSIGNED16 rw)
     pub fn p0840_option_module_h_configuration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 666))
+        u16::from_le_bytes(od::load::<2>(&self.image, 414))
     }
 
     /// Sets 0x4348 P0840 Option module H configuration 1.
     pub fn set_p0840_option_module_h_configuration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 666, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 414, v.to_le_bytes());
     }
 
     /// 0x43E8 P1000 Operation mode set (bmaxx4400.eds:3223, INTEGER16 rww, PDO-mappable)
     pub fn p1000_operation_mode_set(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 668))
+        i16::from_le_bytes(od::load::<2>(&self.image, 416))
     }
 
     /// Sets 0x43E8 P1000 Operation mode set.
     pub fn set_p1000_operation_mode_set(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 668, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 416, v.to_le_bytes());
     }
 
     /// 0x43E9 P1001 Drive parameter 1001 (bmaxx4400.eds:3233, UNSIGNED16 rw)
     pub fn p1001_drive_parameter_1001(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 670))
+        u16::from_le_bytes(od::load::<2>(&self.image, 418))
     }
 
     /// Sets 0x43E9 P1001 Drive parameter 1001.
     pub fn set_p1001_drive_parameter_1001(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 670, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 418, v.to_le_bytes());
     }
 
     /// 0x43EB P1003 Stop option code raw (bmaxx4400.eds:3241, INTEGER16 rwr, PDO-mappable)
     pub fn p1003_stop_option_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 672))
+        i16::from_le_bytes(od::load::<2>(&self.image, 420))
     }
 
     /// Sets 0x43EB P1003 Stop option code raw.
     pub fn set_p1003_stop_option_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 672, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 420, v.to_le_bytes());
     }
 
     /// 0x43EC P1004 Quick stop code raw (bmaxx4400.eds:3251, INTEGER16 rwr, PDO-mappable)
     pub fn p1004_quick_stop_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 674))
+        i16::from_le_bytes(od::load::<2>(&self.image, 422))
     }
 
     /// Sets 0x43EC P1004 Quick stop code raw.
     pub fn set_p1004_quick_stop_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 674, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 422, v.to_le_bytes());
     }
 
     /// 0x43ED P1005 Shutdown code raw (bmaxx4400.eds:3259, INTEGER16 rwr, PDO-mappable)
     pub fn p1005_shutdown_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 676))
+        i16::from_le_bytes(od::load::<2>(&self.image, 424))
     }
 
     /// Sets 0x43ED P1005 Shutdown code raw.
     pub fn set_p1005_shutdown_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 676, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 424, v.to_le_bytes());
     }
 
     /// 0x43EE P1006 Disable operation code raw (bmaxx4400.eds:3269, INTEGER16 rwr, PDO-mappable)
     pub fn p1006_disable_operation_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 678))
+        i16::from_le_bytes(od::load::<2>(&self.image, 426))
     }
 
     /// Sets 0x43EE P1006 Disable operation code raw.
     pub fn set_p1006_disable_operation_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 678, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 426, v.to_le_bytes());
     }
 
     /// 0x43EF P1007 Error reaction code raw (bmaxx4400.eds:3279, INTEGER16 rwr, PDO-mappable)
     pub fn p1007_error_reaction_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 680))
+        i16::from_le_bytes(od::load::<2>(&self.image, 428))
     }
 
     /// Sets 0x43EF P1007 Error reaction code raw.
     pub fn set_p1007_error_reaction_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 680, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 428, v.to_le_bytes());
     }
 
     /// 0x4407 P1031 Maximum speed (bmaxx4400.eds:3289, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1031_maximum_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 682))
+        u16::from_le_bytes(od::load::<2>(&self.image, 430))
     }
 
     /// Sets 0x4407 P1031 Maximum speed.
     pub fn set_p1031_maximum_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 682, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 430, v.to_le_bytes());
     }
 
     /// 0x4411 P1041 Speed set value upper limit (bmaxx4400.eds:3299, INTEGER32 rw, PDO-mappable)
     pub fn p1041_speed_set_value_upper_limit(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 684))
+        i32::from_le_bytes(od::load::<4>(&self.image, 432))
     }
 
     /// Sets 0x4411 P1041 Speed set value upper limit.
     pub fn set_p1041_speed_set_value_upper_limit(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 684, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 432, v.to_le_bytes());
     }
 
     /// 0x4412 P1042 Speed set value lower limit (bmaxx4400.eds:3309, INTEGER32 rw, PDO-mappable)
     pub fn p1042_speed_set_value_lower_limit(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 688))
+        i32::from_le_bytes(od::load::<4>(&self.image, 436))
     }
 
     /// Sets 0x4412 P1042 Speed set value lower limit.
     pub fn set_p1042_speed_set_value_lower_limit(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 688, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 436, v.to_le_bytes());
     }
 
     /// 0x441A P1050 Position controller mode raw (bmaxx4400.eds:3319, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1050_position_controller_mode_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 692))
+        u16::from_le_bytes(od::load::<2>(&self.image, 440))
     }
 
     /// Sets 0x441A P1050 Position controller mode raw.
     pub fn set_p1050_position_controller_mode_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 692, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 440, v.to_le_bytes());
     }
 
     /// 0x441B P1051 Position controller Kv factor raw (bmaxx4400.eds:3327, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1051_position_controller_kv_factor_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 694))
+        u16::from_le_bytes(od::load::<2>(&self.image, 442))
     }
 
     /// Sets 0x441B P1051 Position controller Kv factor raw.
     pub fn set_p1051_position_controller_kv_factor_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 694, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 442, v.to_le_bytes());
     }
 
     /// 0x441D P1053 Speed feed forward factor raw (bmaxx4400.eds:3337, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1053_speed_feed_forward_factor_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 696))
+        u16::from_le_bytes(od::load::<2>(&self.image, 444))
     }
 
     /// Sets 0x441D P1053 Speed feed forward factor raw.
     pub fn set_p1053_speed_feed_forward_factor_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 696, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 444, v.to_le_bytes());
     }
 
     /// 0x4420 P1056 Following error time (bmaxx4400.eds:3347, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1056_following_error_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 698))
+        u16::from_le_bytes(od::load::<2>(&self.image, 446))
     }
 
     /// Sets 0x4420 P1056 Following error time.
     pub fn set_p1056_following_error_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 698, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 446, v.to_le_bytes());
     }
 
     /// 0x4431 P1073 Encoder 1 monitoring lower limit (bmaxx4400.eds:3357, UNSIGNED16 rw, PDO-mappable)
     pub fn p1073_encoder_1_monitoring_lower_limit(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 700))
+        u16::from_le_bytes(od::load::<2>(&self.image, 448))
     }
 
     /// Sets 0x4431 P1073 Encoder 1 monitoring lower limit.
     pub fn set_p1073_encoder_1_monitoring_lower_limit(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 700, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 448, v.to_le_bytes());
     }
 
     /// 0x4493 P1171 Ramp function generator input (bmaxx4400.eds:3367, INTEGER32 rw, PDO-mappable)
     pub fn p1171_ramp_function_generator_input(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 702))
+        i32::from_le_bytes(od::load::<4>(&self.image, 450))
     }
 
     /// Sets 0x4493 P1171 Ramp function generator input.
     pub fn set_p1171_ramp_function_generator_input(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 702, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 450, v.to_le_bytes());
     }
 
     /// 0x4494 P1172 Ramp function generator ramp up time (bmaxx4400.eds:3375, UNSIGNED16 rw, PDO-mappable)
     pub fn p1172_ramp_function_generator_ramp_up_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 706))
+        u16::from_le_bytes(od::load::<2>(&self.image, 454))
     }
 
     /// Sets 0x4494 P1172 Ramp function generator ramp up time.
     pub fn set_p1172_ramp_function_generator_ramp_up_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 706, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 454, v.to_le_bytes());
     }
 
     /// 0x4495 P1173 Ramp function generator ramp down time (bmaxx4400.eds:3385, UNSIGNED16 rw, PDO-mappable)
     pub fn p1173_ramp_function_generator_ramp_down_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 708))
+        u16::from_le_bytes(od::load::<2>(&self.image, 456))
     }
 
     /// Sets 0x4495 P1173 Ramp function generator ramp down time.
     pub fn set_p1173_ramp_function_generator_ramp_down_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 708, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 456, v.to_le_bytes());
     }
 
     /// 0x4496 P1174 Ramp function generator stop time (bmaxx4400.eds:3395, UNSIGNED16 rw, PDO-mappable)
     pub fn p1174_ramp_function_generator_stop_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 710))
+        u16::from_le_bytes(od::load::<2>(&self.image, 458))
     }
 
     /// Sets 0x4496 P1174 Ramp function generator stop time.
     pub fn set_p1174_ramp_function_generator_stop_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 710, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 458, v.to_le_bytes());
     }
 
     /// 0x44A6 P1190 Positioning mode word (bmaxx4400.eds:3405, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1190_positioning_mode_word(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 712))
+        u16::from_le_bytes(od::load::<2>(&self.image, 460))
     }
 
     /// Sets 0x44A6 P1190 Positioning mode word.
     pub fn set_p1190_positioning_mode_word(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 712, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 460, v.to_le_bytes());
     }
 
     /// 0x44A7 P1191 Positioning actual record number (bmaxx4400.eds:3413, UNSIGNED16 rw, PDO-mappable)
     pub fn p1191_positioning_actual_record_number(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 714))
+        u16::from_le_bytes(od::load::<2>(&self.image, 462))
     }
 
     /// Sets 0x44A7 P1191 Positioning actual record number.
     pub fn set_p1191_positioning_actual_record_number(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 714, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 462, v.to_le_bytes());
     }
 
     /// 0x44AA P1194 Positioning window (bmaxx4400.eds:3421, UNSIGNED32 rw, PDO-mappable)
     pub fn p1194_positioning_window(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 716))
+        u32::from_le_bytes(od::load::<4>(&self.image, 464))
     }
 
     /// Sets 0x44AA P1194 Positioning window.
     pub fn set_p1194_positioning_window(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 716, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 464, v.to_le_bytes());
     }
 
     /// 0x44AB P1195 Positioning window time (bmaxx4400.eds:3429, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1195_positioning_window_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 720))
+        u16::from_le_bytes(od::load::<2>(&self.image, 468))
     }
 
     /// Sets 0x44AB P1195 Positioning window time.
     pub fn set_p1195_positioning_window_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 720, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 468, v.to_le_bytes());
     }
 
     /// 0x44AC P1196 Software limit switch 1 (bmaxx4400.eds:3439, UNSIGNED32 rwr, PDO-mappable)
     pub fn p1196_software_limit_switch_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 722))
+        u32::from_le_bytes(od::load::<4>(&self.image, 470))
     }
 
     /// Sets 0x44AC P1196 Software limit switch 1.
     pub fn set_p1196_software_limit_switch_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 722, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 470, v.to_le_bytes());
     }
 
     /// 0x44AD P1197 Software limit switch 2 (bmaxx4400.eds:3447, UNSIGNED32 rwr, PDO-mappable)
     pub fn p1197_software_limit_switch_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 726))
+        u32::from_le_bytes(od::load::<4>(&self.image, 474))
     }
 
     /// Sets 0x44AD P1197 Software limit switch 2.
     pub fn set_p1197_software_limit_switch_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 726, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 474, v.to_le_bytes());
     }
 
     /// 0x44AE P1198 Positioning clip environment 1 (bmaxx4400.eds:3455, UNSIGNED32 rw, PDO-mappable)
     pub fn p1198_positioning_clip_environment_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 730))
+        u32::from_le_bytes(od::load::<4>(&self.image, 478))
     }
 
     /// Sets 0x44AE P1198 Positioning clip environment 1.
     pub fn set_p1198_positioning_clip_environment_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 730, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 478, v.to_le_bytes());
     }
 
     /// 0x44AF P1199 Positioning clip environment 2 (bmaxx4400.eds:3463, UNSIGNED32 rw, PDO-mappable)
     pub fn p1199_positioning_clip_environment_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 734))
+        u32::from_le_bytes(od::load::<4>(&self.image, 482))
     }
 
     /// Sets 0x44AF P1199 Positioning clip environment 2.
     pub fn set_p1199_positioning_clip_environment_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 734, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 482, v.to_le_bytes());
     }
 
     /// 0x44B0 P1200 Positioning home position (bmaxx4400.eds:3471, UNSIGNED32 rw, PDO-mappable)
     pub fn p1200_positioning_home_position(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 738))
+        u32::from_le_bytes(od::load::<4>(&self.image, 486))
     }
 
     /// Sets 0x44B0 P1200 Positioning home position.
     pub fn set_p1200_positioning_home_position(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 738, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 486, v.to_le_bytes());
     }
 
     /// 0x44B1 P1201 Homing speed (bmaxx4400.eds:3479, UNSIGNED16 rw, PDO-mappable)
     pub fn p1201_homing_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 742))
+        u16::from_le_bytes(od::load::<2>(&self.image, 490))
     }
 
     /// Sets 0x44B1 P1201 Homing speed.
     pub fn set_p1201_homing_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 742, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 490, v.to_le_bytes());
     }
 
     /// 0x44B2 P1202 Homing final speed (bmaxx4400.eds:3489, UNSIGNED16 rw, PDO-mappable)
     pub fn p1202_homing_final_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 744))
+        u16::from_le_bytes(od::load::<2>(&self.image, 492))
     }
 
     /// Sets 0x44B2 P1202 Homing final speed.
     pub fn set_p1202_homing_final_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 744, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 492, v.to_le_bytes());
     }
 
     /// 0x44B3 P1203 Homing acceleration raw (bmaxx4400.eds:3499, UNSIGNED16 rw, PDO-mappable)
     pub fn p1203_homing_acceleration_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 746))
+        u16::from_le_bytes(od::load::<2>(&self.image, 494))
     }
 
     /// Sets 0x44B3 P1203 Homing acceleration raw.
     pub fn set_p1203_homing_acceleration_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 746, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 494, v.to_le_bytes());
     }
 
     /// 0x44B4 P1204 Homing deceleration raw (bmaxx4400.eds:3509, UNSIGNED16 rw, PDO-mappable)
     pub fn p1204_homing_deceleration_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 748))
+        u16::from_le_bytes(od::load::<2>(&self.image, 496))
     }
 
     /// Sets 0x44B4 P1204 Homing deceleration raw.
     pub fn set_p1204_homing_deceleration_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 748, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 496, v.to_le_bytes());
     }
 
     /// 0x44B5 P1205 Homing mode (bmaxx4400.eds:3517, INTEGER16 rwr, PDO-mappable)
     pub fn p1205_homing_mode(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 750))
+        i16::from_le_bytes(od::load::<2>(&self.image, 498))
     }
 
     /// Sets 0x44B5 P1205 Homing mode.
     pub fn set_p1205_homing_mode(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 750, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 498, v.to_le_bytes());
     }
 
     /// 0x44B8 P1208 Positioning switch mode raw (bmaxx4400.eds:3525, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1208_positioning_switch_mode_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 752))
+        u16::from_le_bytes(od::load::<2>(&self.image, 500))
     }
 
     /// Sets 0x44B8 P1208 Positioning switch mode raw.
     pub fn set_p1208_positioning_switch_mode_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 752, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 500, v.to_le_bytes());
     }
 
     /// 0x44B9 P1209 Positioning encoder offset raw (bmaxx4400.eds:3533, UNSIGNED16 rw, PDO-mappable)
     pub fn p1209_positioning_encoder_offset_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 754))
+        u16::from_le_bytes(od::load::<2>(&self.image, 502))
     }
 
     /// Sets 0x44B9 P1209 Positioning encoder offset raw.
     pub fn set_p1209_positioning_encoder_offset_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 754, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 502, v.to_le_bytes());
     }
 
     /// 0x44BD P1213 Positioning stop deceleration (bmaxx4400.eds:3541, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1213_positioning_stop_deceleration(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 756))
+        u16::from_le_bytes(od::load::<2>(&self.image, 504))
     }
 
     /// Sets 0x44BD P1213 Positioning stop deceleration.
     pub fn set_p1213_positioning_stop_deceleration(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 756, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 504, v.to_le_bytes());
     }
 
     /// 0x4BEA P3050 Position scaling user unit (bmaxx4400.eds:3551, UNSIGNED32 rwr, PDO-mappable)
     pub fn p3050_position_scaling_user_unit(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 758))
+        u32::from_le_bytes(od::load::<4>(&self.image, 506))
     }
 
     /// Sets 0x4BEA P3050 Position scaling user unit.
     pub fn set_p3050_position_scaling_user_unit(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 758, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 506, v.to_le_bytes());
     }
 
     /// 0x4BEB P3051 Position scaling revolutions (bmaxx4400.eds:3561, UNSIGNED32 rwr, PDO-mappable)
     pub fn p3051_position_scaling_revolutions(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 762))
+        u32::from_le_bytes(od::load::<4>(&self.image, 510))
     }
 
     /// Sets 0x4BEB P3051 Position scaling revolutions.
     pub fn set_p3051_position_scaling_revolutions(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 762, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 510, v.to_le_bytes());
     }
 
     /// 0x6007 Abort connection option code (bmaxx4400.eds:1604, INTEGER16 rw, PDO-mappable)
     pub fn abort_connection_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 766))
+        i16::from_le_bytes(od::load::<2>(&self.image, 514))
     }
 
     /// Sets 0x6007 Abort connection option code.
     pub fn set_abort_connection_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 766, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 514, v.to_le_bytes());
     }
 
     /// 0x6040 Controlword (bmaxx4400.eds:1612, UNSIGNED16 rw, PDO-mappable)
     pub fn controlword(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 768))
+        u16::from_le_bytes(od::load::<2>(&self.image, 516))
     }
 
     /// Sets 0x6040 Controlword.
     pub fn set_controlword(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 768, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 516, v.to_le_bytes());
     }
 
     /// 0x6041 Statusword (bmaxx4400.eds:1620, UNSIGNED16 ro, PDO-mappable)
     pub fn statusword(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 770))
+        u16::from_le_bytes(od::load::<2>(&self.image, 966))
     }
 
     /// Sets 0x6041 Statusword.
     pub fn set_statusword(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 770, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 966, v.to_le_bytes());
     }
 
     /// 0x6042 vl target velocity (bmaxx4400.eds:1628, INTEGER16 rw, PDO-mappable)
     pub fn vl_target_velocity(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 772))
+        i16::from_le_bytes(od::load::<2>(&self.image, 518))
     }
 
     /// Sets 0x6042 vl target velocity.
     pub fn set_vl_target_velocity(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 772, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 518, v.to_le_bytes());
     }
 
     /// 0x6043 vl velocity demand (bmaxx4400.eds:1636, INTEGER16 ro, PDO-mappable)
     pub fn vl_velocity_demand(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 774))
+        i16::from_le_bytes(od::load::<2>(&self.image, 968))
     }
 
     /// Sets 0x6043 vl velocity demand.
     pub fn set_vl_velocity_demand(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 774, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 968, v.to_le_bytes());
     }
 
     /// 0x6044 vl control effort (bmaxx4400.eds:1644, INTEGER16 ro, PDO-mappable)
     pub fn vl_control_effort(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 776))
+        i16::from_le_bytes(od::load::<2>(&self.image, 970))
     }
 
     /// Sets 0x6044 vl control effort.
     pub fn set_vl_control_effort(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 776, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 970, v.to_le_bytes());
     }
 
     /// 0x6045 vl manipulated velocity (bmaxx4400.eds:1652, INTEGER16 ro)
     pub fn vl_manipulated_velocity(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 778))
+        i16::from_le_bytes(od::load::<2>(&self.image, 972))
     }
 
     /// Sets 0x6045 vl manipulated velocity.
     pub fn set_vl_manipulated_velocity(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 778, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 972, v.to_le_bytes());
     }
 
     /// 0x6046 sub 0 vl velocity min max amount / vl velocity min max amount highest sub-index (bmaxx4400.eds:1665, UNSIGNED8 ro)
     pub fn vl_velocity_min_max_amount_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 780))
+        u8::from_le_bytes(od::load::<1>(&self.image, 974))
     }
 
     /// Sets 0x6046 sub 0 vl velocity min max amount / vl velocity min max amount highest sub-index.
     pub fn set_vl_velocity_min_max_amount_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 780, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 974, v.to_le_bytes());
     }
 
-    /// 0x6046 vl velocity min max amount sub-index `i` (1..=2) (bmaxx4400.eds:1660)
-    pub fn vl_velocity_min_max_amount(&self, i: u8) -> Option<u32> {
-        if !(1..=2).contains(&i) {
-            return None;
-        }
-        let off = 777 + usize::from(i) * 4;
-        Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
+    /// 0x6046 sub 1 vl velocity min max amount / vl velocity min amount (bmaxx4400.eds:1673, UNSIGNED32 ro, PDO-mappable)
+    pub fn vl_velocity_min_max_amount_amount(&self) -> u32 {
+        u32::from_le_bytes(od::load::<4>(&self.image, 975))
     }
 
-    /// Sets 0x6046 vl velocity min max amount sub-index `i` (1..=2); false if `i` is out of range.
-    pub fn set_vl_velocity_min_max_amount(&mut self, i: u8, v: u32) -> bool {
-        if !(1..=2).contains(&i) {
-            return false;
-        }
-        let off = 777 + usize::from(i) * 4;
-        od::store::<4>(&mut self.image, off, v.to_le_bytes());
-        true
+    /// Sets 0x6046 sub 1 vl velocity min max amount / vl velocity min amount.
+    pub fn set_vl_velocity_min_max_amount_amount(&mut self, v: u32) {
+        od::store::<4>(&mut self.image, 975, v.to_le_bytes());
+    }
+
+    /// 0x6046 sub 2 vl velocity min max amount / vl velocity max amount (bmaxx4400.eds:1681, UNSIGNED32 rw, PDO-mappable)
+    pub fn vl_velocity_min_max_amount_max_amount(&self) -> u32 {
+        u32::from_le_bytes(od::load::<4>(&self.image, 520))
+    }
+
+    /// Sets 0x6046 sub 2 vl velocity min max amount / vl velocity max amount.
+    pub fn set_vl_velocity_min_max_amount_max_amount(&mut self, v: u32) {
+        od::store::<4>(&mut self.image, 520, v.to_le_bytes());
     }
 
     /// 0x6048 sub 0 vl velocity acceleration / vl velocity acceleration highest sub-index (bmaxx4400.eds:1694, UNSIGNED8 ro)
     pub fn vl_velocity_acceleration_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 789))
+        u8::from_le_bytes(od::load::<1>(&self.image, 979))
     }
 
     /// Sets 0x6048 sub 0 vl velocity acceleration / vl velocity acceleration highest sub-index.
     pub fn set_vl_velocity_acceleration_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 789, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 979, v.to_le_bytes());
     }
 
     /// 0x6048 sub 1 vl velocity acceleration / vl acceleration delta speed (bmaxx4400.eds:1702, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_velocity_acceleration_acceleration_delta_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 790))
+        u32::from_le_bytes(od::load::<4>(&self.image, 524))
     }
 
     /// Sets 0x6048 sub 1 vl velocity acceleration / vl acceleration delta speed.
     pub fn set_vl_velocity_acceleration_acceleration_delta_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 790, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 524, v.to_le_bytes());
     }
 
     /// 0x6048 sub 2 vl velocity acceleration / vl acceleration delta time (bmaxx4400.eds:1710, UNSIGNED16 rw, PDO-mappable)
     pub fn vl_velocity_acceleration_acceleration_delta_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 794))
+        u16::from_le_bytes(od::load::<2>(&self.image, 528))
     }
 
     /// Sets 0x6048 sub 2 vl velocity acceleration / vl acceleration delta time.
     pub fn set_vl_velocity_acceleration_acceleration_delta_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 794, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 528, v.to_le_bytes());
     }
 
     /// 0x6049 sub 0 vl velocity deceleration / vl velocity deceleration highest sub-index (bmaxx4400.eds:1723, UNSIGNED8 ro)
     pub fn vl_velocity_deceleration_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 796))
+        u8::from_le_bytes(od::load::<1>(&self.image, 980))
     }
 
     /// Sets 0x6049 sub 0 vl velocity deceleration / vl velocity deceleration highest sub-index.
     pub fn set_vl_velocity_deceleration_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 796, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 980, v.to_le_bytes());
     }
 
     /// 0x6049 sub 1 vl velocity deceleration / vl deceleration delta speed (bmaxx4400.eds:1731, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_velocity_deceleration_deceleration_delta_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 797))
+        u32::from_le_bytes(od::load::<4>(&self.image, 530))
     }
 
     /// Sets 0x6049 sub 1 vl velocity deceleration / vl deceleration delta speed.
     pub fn set_vl_velocity_deceleration_deceleration_delta_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 797, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 530, v.to_le_bytes());
     }
 
     /// 0x6049 sub 2 vl velocity deceleration / vl deceleration delta time (bmaxx4400.eds:1739, UNSIGNED16 rw, PDO-mappable)
     pub fn vl_velocity_deceleration_deceleration_delta_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 801))
+        u16::from_le_bytes(od::load::<2>(&self.image, 534))
     }
 
     /// Sets 0x6049 sub 2 vl velocity deceleration / vl deceleration delta time.
     pub fn set_vl_velocity_deceleration_deceleration_delta_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 801, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 534, v.to_le_bytes());
     }
 
     /// 0x604C sub 0 vl dimension factor / vl dimension factor highest sub-index (bmaxx4400.eds:1752, UNSIGNED8 ro)
     pub fn vl_dimension_factor_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 803))
+        u8::from_le_bytes(od::load::<1>(&self.image, 981))
     }
 
     /// Sets 0x604C sub 0 vl dimension factor / vl dimension factor highest sub-index.
     pub fn set_vl_dimension_factor_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 803, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 981, v.to_le_bytes());
     }
 
     /// 0x604C vl dimension factor sub-index `i` (1..=2) (bmaxx4400.eds:1747)
@@ -4358,7 +4363,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 800 + usize::from(i) * 4;
+        let off = 532 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4367,279 +4372,279 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 800 + usize::from(i) * 4;
+        let off = 532 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x604D vl pole number (bmaxx4400.eds:1780, UNSIGNED8 rwr, PDO-mappable)
     pub fn vl_pole_number(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 812))
+        u8::from_le_bytes(od::load::<1>(&self.image, 544))
     }
 
     /// Sets 0x604D vl pole number.
     pub fn set_vl_pole_number(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 812, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 544, v.to_le_bytes());
     }
 
     /// 0x604F vl ramp function time (bmaxx4400.eds:1788, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_ramp_function_time(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 813))
+        u32::from_le_bytes(od::load::<4>(&self.image, 545))
     }
 
     /// Sets 0x604F vl ramp function time.
     pub fn set_vl_ramp_function_time(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 813, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 545, v.to_le_bytes());
     }
 
     /// 0x6050 vl slow down time (bmaxx4400.eds:1796, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_slow_down_time(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 817))
+        u32::from_le_bytes(od::load::<4>(&self.image, 549))
     }
 
     /// Sets 0x6050 vl slow down time.
     pub fn set_vl_slow_down_time(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 817, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 549, v.to_le_bytes());
     }
 
     /// 0x6051 vl quick stop time (bmaxx4400.eds:1804, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_quick_stop_time(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 821))
+        u32::from_le_bytes(od::load::<4>(&self.image, 553))
     }
 
     /// Sets 0x6051 vl quick stop time.
     pub fn set_vl_quick_stop_time(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 821, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 553, v.to_le_bytes());
     }
 
     /// 0x605A Quick stop option code (bmaxx4400.eds:1812, INTEGER16 rwr, PDO-mappable)
     pub fn quick_stop_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 825))
+        i16::from_le_bytes(od::load::<2>(&self.image, 557))
     }
 
     /// Sets 0x605A Quick stop option code.
     pub fn set_quick_stop_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 825, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 557, v.to_le_bytes());
     }
 
     /// 0x605B Shutdown option code (bmaxx4400.eds:1820, INTEGER16 rwr, PDO-mappable)
     pub fn shutdown_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 827))
+        i16::from_le_bytes(od::load::<2>(&self.image, 559))
     }
 
     /// Sets 0x605B Shutdown option code.
     pub fn set_shutdown_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 827, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 559, v.to_le_bytes());
     }
 
     /// 0x605C Disable operation option code (bmaxx4400.eds:1828, INTEGER16 rwr, PDO-mappable)
     pub fn disable_operation_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 829))
+        i16::from_le_bytes(od::load::<2>(&self.image, 561))
     }
 
     /// Sets 0x605C Disable operation option code.
     pub fn set_disable_operation_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 829, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 561, v.to_le_bytes());
     }
 
     /// 0x605D Halt option code (bmaxx4400.eds:1836, INTEGER16 rwr, PDO-mappable)
     pub fn halt_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 831))
+        i16::from_le_bytes(od::load::<2>(&self.image, 563))
     }
 
     /// Sets 0x605D Halt option code.
     pub fn set_halt_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 831, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 563, v.to_le_bytes());
     }
 
     /// 0x605E Fault reaction option code (bmaxx4400.eds:1844, INTEGER16 rwr, PDO-mappable)
     pub fn fault_reaction_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 833))
+        i16::from_le_bytes(od::load::<2>(&self.image, 565))
     }
 
     /// Sets 0x605E Fault reaction option code.
     pub fn set_fault_reaction_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 833, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 565, v.to_le_bytes());
     }
 
     /// 0x6060 Modes of operation (bmaxx4400.eds:1852, INTEGER8 rww, PDO-mappable)
     pub fn modes_of_operation(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 835))
+        i8::from_le_bytes(od::load::<1>(&self.image, 567))
     }
 
     /// Sets 0x6060 Modes of operation.
     pub fn set_modes_of_operation(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 835, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 567, v.to_le_bytes());
     }
 
     /// 0x6061 Modes of operation display (bmaxx4400.eds:1860, INTEGER8 ro, PDO-mappable)
     pub fn modes_of_operation_display(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 836))
+        i8::from_le_bytes(od::load::<1>(&self.image, 982))
     }
 
     /// Sets 0x6061 Modes of operation display.
     pub fn set_modes_of_operation_display(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 836, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 982, v.to_le_bytes());
     }
 
     /// 0x6062 Position demand value (bmaxx4400.eds:1868, INTEGER32 ro, PDO-mappable)
     pub fn position_demand_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 837))
+        i32::from_le_bytes(od::load::<4>(&self.image, 983))
     }
 
     /// Sets 0x6062 Position demand value.
     pub fn set_position_demand_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 837, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 983, v.to_le_bytes());
     }
 
     /// 0x6063 Position actual internal value (bmaxx4400.eds:1876, INTEGER32 ro, PDO-mappable)
     pub fn position_actual_internal_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 841))
+        i32::from_le_bytes(od::load::<4>(&self.image, 987))
     }
 
     /// Sets 0x6063 Position actual internal value.
     pub fn set_position_actual_internal_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 841, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 987, v.to_le_bytes());
     }
 
     /// 0x6064 Position actual value (bmaxx4400.eds:1884, INTEGER32 ro, PDO-mappable)
     pub fn position_actual_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 845))
+        i32::from_le_bytes(od::load::<4>(&self.image, 991))
     }
 
     /// Sets 0x6064 Position actual value.
     pub fn set_position_actual_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 845, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 991, v.to_le_bytes());
     }
 
     /// 0x6066 Following error time out (bmaxx4400.eds:1892, UNSIGNED16 rwr, PDO-mappable)
     pub fn following_error_time_out(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 849))
+        u16::from_le_bytes(od::load::<2>(&self.image, 568))
     }
 
     /// Sets 0x6066 Following error time out.
     pub fn set_following_error_time_out(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 849, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 568, v.to_le_bytes());
     }
 
     /// 0x6067 Position window (bmaxx4400.eds:1902, UNSIGNED32 rw, PDO-mappable)
     pub fn position_window(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 851))
+        u32::from_le_bytes(od::load::<4>(&self.image, 570))
     }
 
     /// Sets 0x6067 Position window.
     pub fn set_position_window(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 851, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 570, v.to_le_bytes());
     }
 
     /// 0x6068 Position window time (bmaxx4400.eds:1910, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_window_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 855))
+        u16::from_le_bytes(od::load::<2>(&self.image, 574))
     }
 
     /// Sets 0x6068 Position window time.
     pub fn set_position_window_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 855, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 574, v.to_le_bytes());
     }
 
     /// 0x6069 Velocity sensor actual value (bmaxx4400.eds:1918, INTEGER32 ro, PDO-mappable)
     pub fn velocity_sensor_actual_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 857))
+        i32::from_le_bytes(od::load::<4>(&self.image, 995))
     }
 
     /// Sets 0x6069 Velocity sensor actual value.
     pub fn set_velocity_sensor_actual_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 857, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 995, v.to_le_bytes());
     }
 
     /// 0x606A Sensor selection code (bmaxx4400.eds:1926, INTEGER16 ro)
     pub fn sensor_selection_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 861))
+        i16::from_le_bytes(od::load::<2>(&self.image, 999))
     }
 
     /// Sets 0x606A Sensor selection code.
     pub fn set_sensor_selection_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 861, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 999, v.to_le_bytes());
     }
 
     /// 0x606B Velocity demand value (bmaxx4400.eds:1934, INTEGER32 ro, PDO-mappable)
     pub fn velocity_demand_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 863))
+        i32::from_le_bytes(od::load::<4>(&self.image, 1001))
     }
 
     /// Sets 0x606B Velocity demand value.
     pub fn set_velocity_demand_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 863, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1001, v.to_le_bytes());
     }
 
     /// 0x606C Velocity actual value (bmaxx4400.eds:1942, INTEGER32 ro, PDO-mappable)
     pub fn velocity_actual_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 867))
+        i32::from_le_bytes(od::load::<4>(&self.image, 1005))
     }
 
     /// Sets 0x606C Velocity actual value.
     pub fn set_velocity_actual_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 867, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1005, v.to_le_bytes());
     }
 
     /// 0x606F Velocity threshold (bmaxx4400.eds:1950, UNSIGNED16 rw, PDO-mappable)
     pub fn velocity_threshold(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 871))
+        u16::from_le_bytes(od::load::<2>(&self.image, 576))
     }
 
     /// Sets 0x606F Velocity threshold.
     pub fn set_velocity_threshold(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 871, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 576, v.to_le_bytes());
     }
 
     /// 0x6072 Max torque (bmaxx4400.eds:1958, UNSIGNED16 rw, PDO-mappable)
     pub fn max_torque(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 873))
+        u16::from_le_bytes(od::load::<2>(&self.image, 578))
     }
 
     /// Sets 0x6072 Max torque.
     pub fn set_max_torque(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 873, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 578, v.to_le_bytes());
     }
 
     /// 0x6077 Torque actual value (bmaxx4400.eds:1966, INTEGER16 ro, PDO-mappable)
     pub fn torque_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 875))
+        i16::from_le_bytes(od::load::<2>(&self.image, 1009))
     }
 
     /// Sets 0x6077 Torque actual value.
     pub fn set_torque_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 875, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 1009, v.to_le_bytes());
     }
 
     /// 0x607A Target position (bmaxx4400.eds:1974, INTEGER32 rw, PDO-mappable)
     pub fn target_position(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 877))
+        i32::from_le_bytes(od::load::<4>(&self.image, 580))
     }
 
     /// Sets 0x607A Target position.
     pub fn set_target_position(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 877, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 580, v.to_le_bytes());
     }
 
     /// 0x607C Home offset (bmaxx4400.eds:1982, INTEGER32 rw, PDO-mappable)
     pub fn home_offset(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 881))
+        i32::from_le_bytes(od::load::<4>(&self.image, 584))
     }
 
     /// Sets 0x607C Home offset.
     pub fn set_home_offset(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 881, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 584, v.to_le_bytes());
     }
 
     /// 0x607D sub 0 Software position limit / Software position limit highest sub-index (bmaxx4400.eds:1995, UNSIGNED8 ro)
     pub fn software_position_limit_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 885))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1011))
     }
 
     /// Sets 0x607D sub 0 Software position limit / Software position limit highest sub-index.
     pub fn set_software_position_limit_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 885, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1011, v.to_le_bytes());
     }
 
     /// 0x607D Software position limit sub-index `i` (1..=2) (bmaxx4400.eds:1990)
@@ -4647,7 +4652,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 882 + usize::from(i) * 4;
+        let off = 584 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4656,89 +4661,89 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 882 + usize::from(i) * 4;
+        let off = 584 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x607F Max profile velocity (bmaxx4400.eds:2019, UNSIGNED32 rwr, PDO-mappable)
     pub fn max_profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 894))
+        u32::from_le_bytes(od::load::<4>(&self.image, 596))
     }
 
     /// Sets 0x607F Max profile velocity.
     pub fn set_max_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 894, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 596, v.to_le_bytes());
     }
 
     /// 0x6080 Max motor speed (bmaxx4400.eds:2027, UNSIGNED32 rwr, PDO-mappable)
     pub fn max_motor_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 898))
+        u32::from_le_bytes(od::load::<4>(&self.image, 600))
     }
 
     /// Sets 0x6080 Max motor speed.
     pub fn set_max_motor_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 898, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 600, v.to_le_bytes());
     }
 
     /// 0x6081 Profile velocity (bmaxx4400.eds:2037, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 902))
+        u32::from_le_bytes(od::load::<4>(&self.image, 604))
     }
 
     /// Sets 0x6081 Profile velocity.
     pub fn set_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 902, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 604, v.to_le_bytes());
     }
 
     /// 0x6083 Profile acceleration (bmaxx4400.eds:2045, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 906))
+        u32::from_le_bytes(od::load::<4>(&self.image, 608))
     }
 
     /// Sets 0x6083 Profile acceleration.
     pub fn set_profile_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 906, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 608, v.to_le_bytes());
     }
 
     /// 0x6084 Profile deceleration (bmaxx4400.eds:2053, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 910))
+        u32::from_le_bytes(od::load::<4>(&self.image, 612))
     }
 
     /// Sets 0x6084 Profile deceleration.
     pub fn set_profile_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 910, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 612, v.to_le_bytes());
     }
 
     /// 0x6085 Quick stop deceleration (bmaxx4400.eds:2061, UNSIGNED32 rwr, PDO-mappable)
     pub fn quick_stop_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 914))
+        u32::from_le_bytes(od::load::<4>(&self.image, 616))
     }
 
     /// Sets 0x6085 Quick stop deceleration.
     pub fn set_quick_stop_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 914, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 616, v.to_le_bytes());
     }
 
     /// 0x6086 Motion profile type (bmaxx4400.eds:2069, INTEGER16 rwr, PDO-mappable)
     pub fn motion_profile_type(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 918))
+        i16::from_le_bytes(od::load::<2>(&self.image, 620))
     }
 
     /// Sets 0x6086 Motion profile type.
     pub fn set_motion_profile_type(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 918, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 620, v.to_le_bytes());
     }
 
     /// 0x6092 sub 0 Feed constant / Feed constant highest sub-index (bmaxx4400.eds:2082, UNSIGNED8 ro)
     pub fn feed_constant_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 920))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1012))
     }
 
     /// Sets 0x6092 sub 0 Feed constant / Feed constant highest sub-index.
     pub fn set_feed_constant_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 920, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1012, v.to_le_bytes());
     }
 
     /// 0x6092 Feed constant sub-index `i` (1..=2) (bmaxx4400.eds:2077)
@@ -4746,7 +4751,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 917 + usize::from(i) * 4;
+        let off = 618 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4755,29 +4760,29 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 917 + usize::from(i) * 4;
+        let off = 618 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x6098 Homing method (bmaxx4400.eds:2110, INTEGER8 rwr, PDO-mappable)
     pub fn homing_method(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 929))
+        i8::from_le_bytes(od::load::<1>(&self.image, 630))
     }
 
     /// Sets 0x6098 Homing method.
     pub fn set_homing_method(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 929, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 630, v.to_le_bytes());
     }
 
     /// 0x6099 sub 0 Homing speeds / Homing speeds highest sub-index (bmaxx4400.eds:2123, UNSIGNED8 ro)
     pub fn homing_speeds_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 930))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1013))
     }
 
     /// Sets 0x6099 sub 0 Homing speeds / Homing speeds highest sub-index.
     pub fn set_homing_speeds_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 930, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1013, v.to_le_bytes());
     }
 
     /// 0x6099 Homing speeds sub-index `i` (1..=2) (bmaxx4400.eds:2118)
@@ -4785,7 +4790,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 927 + usize::from(i) * 4;
+        let off = 627 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4794,489 +4799,489 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 927 + usize::from(i) * 4;
+        let off = 627 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x609A Homing acceleration (bmaxx4400.eds:2147, UNSIGNED32 rw, PDO-mappable)
     pub fn homing_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 939))
+        u32::from_le_bytes(od::load::<4>(&self.image, 639))
     }
 
     /// Sets 0x609A Homing acceleration.
     pub fn set_homing_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 939, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 639, v.to_le_bytes());
     }
 
     /// 0x60C0 Interpolation sub mode select (bmaxx4400.eds:2155, INTEGER16 ro)
     pub fn interpolation_sub_mode_select(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 943))
+        i16::from_le_bytes(od::load::<2>(&self.image, 1014))
     }
 
     /// Sets 0x60C0 Interpolation sub mode select.
     pub fn set_interpolation_sub_mode_select(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 943, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 1014, v.to_le_bytes());
     }
 
     /// 0x60C1 sub 0 Interpolation data record / Interpolation data record highest sub-index (bmaxx4400.eds:2168, UNSIGNED8 ro)
     pub fn interpolation_data_record_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 945))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1016))
     }
 
     /// Sets 0x60C1 sub 0 Interpolation data record / Interpolation data record highest sub-index.
     pub fn set_interpolation_data_record_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 945, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1016, v.to_le_bytes());
     }
 
     /// 0x60C1 sub 1 Interpolation data record / Interpolation data record position (bmaxx4400.eds:2176, INTEGER32 rw, PDO-mappable)
     pub fn interpolation_data_record_position(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 946))
+        i32::from_le_bytes(od::load::<4>(&self.image, 643))
     }
 
     /// Sets 0x60C1 sub 1 Interpolation data record / Interpolation data record position.
     pub fn set_interpolation_data_record_position(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 946, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 643, v.to_le_bytes());
     }
 
     /// 0x60C2 sub 0 Interpolation time period / Interpolation time period highest sub-index (bmaxx4400.eds:2189, UNSIGNED8 ro)
     pub fn interpolation_time_period_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 950))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1017))
     }
 
     /// Sets 0x60C2 sub 0 Interpolation time period / Interpolation time period highest sub-index.
     pub fn set_interpolation_time_period_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 950, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1017, v.to_le_bytes());
     }
 
     /// 0x60C2 sub 1 Interpolation time period / ip time units (bmaxx4400.eds:2197, UNSIGNED8 rw)
     pub fn interpolation_time_period_ip_time_units(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 951))
+        u8::from_le_bytes(od::load::<1>(&self.image, 647))
     }
 
     /// Sets 0x60C2 sub 1 Interpolation time period / ip time units.
     pub fn set_interpolation_time_period_ip_time_units(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 951, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 647, v.to_le_bytes());
     }
 
     /// 0x60C2 sub 2 Interpolation time period / ip time index (bmaxx4400.eds:2207, INTEGER8 rw, PDO-mappable)
     pub fn interpolation_time_period_ip_time_index(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 952))
+        i8::from_le_bytes(od::load::<1>(&self.image, 648))
     }
 
     /// Sets 0x60C2 sub 2 Interpolation time period / ip time index.
     pub fn set_interpolation_time_period_ip_time_index(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 952, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 648, v.to_le_bytes());
     }
 
     /// 0x60C3 sub 0 Interpolation sync definition / Interpolation sync definition highest sub-index (bmaxx4400.eds:2222, UNSIGNED8 ro)
     pub fn interpolation_sync_definition_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 953))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1018))
     }
 
     /// Sets 0x60C3 sub 0 Interpolation sync definition / Interpolation sync definition highest sub-index.
     pub fn set_interpolation_sync_definition_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 953, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1018, v.to_le_bytes());
     }
 
     /// 0x60C3 sub 1 Interpolation sync definition / Synchronize on group (bmaxx4400.eds:2230, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_sync_definition_synchronize_on_group(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 954))
+        u8::from_le_bytes(od::load::<1>(&self.image, 649))
     }
 
     /// Sets 0x60C3 sub 1 Interpolation sync definition / Synchronize on group.
     pub fn set_interpolation_sync_definition_synchronize_on_group(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 954, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 649, v.to_le_bytes());
     }
 
     /// 0x60C3 sub 2 Interpolation sync definition / ip sync every n event (bmaxx4400.eds:2238, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_sync_definition_ip_sync_every_n_event(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 955))
+        u8::from_le_bytes(od::load::<1>(&self.image, 650))
     }
 
     /// Sets 0x60C3 sub 2 Interpolation sync definition / ip sync every n event.
     pub fn set_interpolation_sync_definition_ip_sync_every_n_event(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 955, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 650, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 0 Interpolation data configuration / Interpolation data configuration highest sub-index (bmaxx4400.eds:2251, UNSIGNED8 ro)
     pub fn interpolation_data_configuration_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 956))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1019))
     }
 
     /// Sets 0x60C4 sub 0 Interpolation data configuration / Interpolation data configuration highest sub-index.
     pub fn set_interpolation_data_configuration_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 956, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1019, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 1 Interpolation data configuration / Maximum buffer size (bmaxx4400.eds:2259, UNSIGNED32 ro, PDO-mappable)
     pub fn interpolation_data_configuration_maximum_buffer_size(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 957))
+        u32::from_le_bytes(od::load::<4>(&self.image, 1020))
     }
 
     /// Sets 0x60C4 sub 1 Interpolation data configuration / Maximum buffer size.
     pub fn set_interpolation_data_configuration_maximum_buffer_size(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 957, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1020, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 2 Interpolation data configuration / Actual buffer size (bmaxx4400.eds:2267, UNSIGNED32 rw, PDO-mappable)
     pub fn interpolation_data_configuration_actual_buffer_size(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 961))
+        u32::from_le_bytes(od::load::<4>(&self.image, 651))
     }
 
     /// Sets 0x60C4 sub 2 Interpolation data configuration / Actual buffer size.
     pub fn set_interpolation_data_configuration_actual_buffer_size(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 961, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 651, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 3 Interpolation data configuration / Buffer organisation (bmaxx4400.eds:2275, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_organisation(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 965))
+        u8::from_le_bytes(od::load::<1>(&self.image, 655))
     }
 
     /// Sets 0x60C4 sub 3 Interpolation data configuration / Buffer organisation.
     pub fn set_interpolation_data_configuration_buffer_organisation(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 965, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 655, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 4 Interpolation data configuration / Buffer position (bmaxx4400.eds:2285, UNSIGNED16 rw, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_position(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 966))
+        u16::from_le_bytes(od::load::<2>(&self.image, 656))
     }
 
     /// Sets 0x60C4 sub 4 Interpolation data configuration / Buffer position.
     pub fn set_interpolation_data_configuration_buffer_position(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 966, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 656, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 5 Interpolation data configuration / Size of data record (bmaxx4400.eds:2293, UNSIGNED8 wo, PDO-mappable)
     pub fn interpolation_data_configuration_size_of_data_record(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 968))
+        u8::from_le_bytes(od::load::<1>(&self.image, 658))
     }
 
     /// Sets 0x60C4 sub 5 Interpolation data configuration / Size of data record.
     pub fn set_interpolation_data_configuration_size_of_data_record(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 968, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 658, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 6 Interpolation data configuration / Buffer clear (bmaxx4400.eds:2301, UNSIGNED8 wo, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_clear(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 969))
+        u8::from_le_bytes(od::load::<1>(&self.image, 659))
     }
 
     /// Sets 0x60C4 sub 6 Interpolation data configuration / Buffer clear.
     pub fn set_interpolation_data_configuration_buffer_clear(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 969, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 659, v.to_le_bytes());
     }
 
     /// 0x60F8 Max slippage (bmaxx4400.eds:2311, INTEGER32 rw, PDO-mappable)
     pub fn max_slippage(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 970))
+        i32::from_le_bytes(od::load::<4>(&self.image, 660))
     }
 
     /// Sets 0x60F8 Max slippage.
     pub fn set_max_slippage(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 970, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 660, v.to_le_bytes());
     }
 
     /// 0x60FB sub 0 Position control parameter set / Position control parameter set highest sub-index (bmaxx4400.eds:2324, UNSIGNED8 ro)
     pub fn position_control_parameter_set_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 974))
+        u8::from_le_bytes(od::load::<1>(&self.image, 1024))
     }
 
     /// Sets 0x60FB sub 0 Position control parameter set / Position control parameter set highest sub-index.
     pub fn set_position_control_parameter_set_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 974, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 1024, v.to_le_bytes());
     }
 
     /// 0x60FB sub 1 Position control parameter set / Position controller status (bmaxx4400.eds:2332, UNSIGNED16 ro, PDO-mappable)
     pub fn position_control_parameter_set_controller_status(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 975))
+        u16::from_le_bytes(od::load::<2>(&self.image, 1025))
     }
 
     /// Sets 0x60FB sub 1 Position control parameter set / Position controller status.
     pub fn set_position_control_parameter_set_controller_status(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 975, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 1025, v.to_le_bytes());
     }
 
     /// 0x60FB sub 2 Position control parameter set / Position controller mode (bmaxx4400.eds:2340, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_controller_mode(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 977))
+        u16::from_le_bytes(od::load::<2>(&self.image, 664))
     }
 
     /// Sets 0x60FB sub 2 Position control parameter set / Position controller mode.
     pub fn set_position_control_parameter_set_controller_mode(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 977, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 664, v.to_le_bytes());
     }
 
     /// 0x60FB sub 3 Position control parameter set / Position controller Kv factor (bmaxx4400.eds:2348, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_controller_kv_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 979))
+        u16::from_le_bytes(od::load::<2>(&self.image, 666))
     }
 
     /// Sets 0x60FB sub 3 Position control parameter set / Position controller Kv factor.
     pub fn set_position_control_parameter_set_controller_kv_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 979, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 666, v.to_le_bytes());
     }
 
     /// 0x60FB sub 4 Position control parameter set / Position set revolutions (bmaxx4400.eds:2358, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_set_revolutions(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 981))
+        u16::from_le_bytes(od::load::<2>(&self.image, 668))
     }
 
     /// Sets 0x60FB sub 4 Position control parameter set / Position set revolutions.
     pub fn set_position_control_parameter_set_set_revolutions(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 981, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 668, v.to_le_bytes());
     }
 
     /// 0x60FB sub 5 Position control parameter set / Position set angle (bmaxx4400.eds:2366, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_set_angle(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 983))
+        u16::from_le_bytes(od::load::<2>(&self.image, 670))
     }
 
     /// Sets 0x60FB sub 5 Position control parameter set / Position set angle.
     pub fn set_position_control_parameter_set_set_angle(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 983, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 670, v.to_le_bytes());
     }
 
     /// 0x60FB sub 6 Position control parameter set / Speed feed forward factor (bmaxx4400.eds:2374, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_speed_feed_forward_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 985))
+        u16::from_le_bytes(od::load::<2>(&self.image, 672))
     }
 
     /// Sets 0x60FB sub 6 Position control parameter set / Speed feed forward factor.
     pub fn set_position_control_parameter_set_speed_feed_forward_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 985, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 672, v.to_le_bytes());
     }
 
     /// 0x60FB sub 7 Position control parameter set / Position control deviation (bmaxx4400.eds:2382, INTEGER32 ro, PDO-mappable)
     pub fn position_control_parameter_set_deviation(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 987))
+        i32::from_le_bytes(od::load::<4>(&self.image, 1027))
     }
 
     /// Sets 0x60FB sub 7 Position control parameter set / Position control deviation.
     pub fn set_position_control_parameter_set_deviation(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 987, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1027, v.to_le_bytes());
     }
 
     /// 0x60FB sub 8 Position control parameter set / Position controller actual value (bmaxx4400.eds:2390, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_controller_actual_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 991))
+        u32::from_le_bytes(od::load::<4>(&self.image, 674))
     }
 
     /// Sets 0x60FB sub 8 Position control parameter set / Position controller actual value.
     pub fn set_position_control_parameter_set_controller_actual_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 991, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 674, v.to_le_bytes());
     }
 
     /// 0x60FB sub 9 Position control parameter set / Encoder 1 actual revolutions (bmaxx4400.eds:2398, UNSIGNED32 ro, PDO-mappable)
     pub fn position_control_parameter_set_encoder_1_actual_revolutions(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 995))
+        u32::from_le_bytes(od::load::<4>(&self.image, 1031))
     }
 
     /// Sets 0x60FB sub 9 Position control parameter set / Encoder 1 actual revolutions.
     pub fn set_position_control_parameter_set_encoder_1_actual_revolutions(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 995, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1031, v.to_le_bytes());
     }
 
     /// 0x60FB sub 10 Position control parameter set / Encoder 1 actual angle (bmaxx4400.eds:2406, UNSIGNED32 ro, PDO-mappable)
     pub fn position_control_parameter_set_encoder_1_actual_angle(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 999))
+        u32::from_le_bytes(od::load::<4>(&self.image, 1035))
     }
 
     /// Sets 0x60FB sub 10 Position control parameter set / Encoder 1 actual angle.
     pub fn set_position_control_parameter_set_encoder_1_actual_angle(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 999, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1035, v.to_le_bytes());
     }
 
     /// 0x60FB sub 11 Position control parameter set / Speed feed forward (bmaxx4400.eds:2414, INTEGER32 ro, PDO-mappable)
     pub fn position_control_parameter_set_speed_feed_forward(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 1003))
+        i32::from_le_bytes(od::load::<4>(&self.image, 1039))
     }
 
     /// Sets 0x60FB sub 11 Position control parameter set / Speed feed forward.
     pub fn set_position_control_parameter_set_speed_feed_forward(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 1003, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1039, v.to_le_bytes());
     }
 
     /// 0x60FB sub 12 Position control parameter set / Positioning status (bmaxx4400.eds:2422, UNSIGNED16 ro, PDO-mappable)
     pub fn position_control_parameter_set_positioning_status(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1007))
+        u16::from_le_bytes(od::load::<2>(&self.image, 1043))
     }
 
     /// Sets 0x60FB sub 12 Position control parameter set / Positioning status.
     pub fn set_position_control_parameter_set_positioning_status(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1007, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 1043, v.to_le_bytes());
     }
 
     /// 0x60FB sub 13 Position control parameter set / Actual positioning record number (bmaxx4400.eds:2430, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_actual_positioning_record_number(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1009))
+        u16::from_le_bytes(od::load::<2>(&self.image, 678))
     }
 
     /// Sets 0x60FB sub 13 Position control parameter set / Actual positioning record number.
     pub fn set_position_control_parameter_set_actual_positioning_record_number(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1009, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 678, v.to_le_bytes());
     }
 
     /// 0x60FB sub 14 Position control parameter set / Positioning mode bits (bmaxx4400.eds:2438, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_positioning_mode_bits(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1011))
+        u16::from_le_bytes(od::load::<2>(&self.image, 680))
     }
 
     /// Sets 0x60FB sub 14 Position control parameter set / Positioning mode bits.
     pub fn set_position_control_parameter_set_positioning_mode_bits(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1011, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 680, v.to_le_bytes());
     }
 
     /// 0x60FB sub 15 Position control parameter set / Home position (bmaxx4400.eds:2446, UNSIGNED32 rwr, PDO-mappable)
     pub fn position_control_parameter_set_home_position(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1013))
+        u32::from_le_bytes(od::load::<4>(&self.image, 682))
     }
 
     /// Sets 0x60FB sub 15 Position control parameter set / Home position.
     pub fn set_position_control_parameter_set_home_position(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1013, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 682, v.to_le_bytes());
     }
 
     /// 0x60FB sub 16 Position control parameter set / Positioning switch mode (bmaxx4400.eds:2454, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_positioning_switch_mode(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1017))
+        u16::from_le_bytes(od::load::<2>(&self.image, 686))
     }
 
     /// Sets 0x60FB sub 16 Position control parameter set / Positioning switch mode.
     pub fn set_position_control_parameter_set_positioning_switch_mode(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1017, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 686, v.to_le_bytes());
     }
 
     /// 0x60FB sub 17 Position control parameter set / Positioning speed set value (bmaxx4400.eds:2462, INTEGER16 ro, PDO-mappable)
     pub fn position_control_parameter_set_positioning_speed_set_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 1019))
+        i16::from_le_bytes(od::load::<2>(&self.image, 1045))
     }
 
     /// Sets 0x60FB sub 17 Position control parameter set / Positioning speed set value.
     pub fn set_position_control_parameter_set_positioning_speed_set_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 1019, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 1045, v.to_le_bytes());
     }
 
     /// 0x60FB sub 18 Position control parameter set / Positioning bend 0 (bmaxx4400.eds:2470, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_positioning_bend_0(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1021))
+        u16::from_le_bytes(od::load::<2>(&self.image, 688))
     }
 
     /// Sets 0x60FB sub 18 Position control parameter set / Positioning bend 0.
     pub fn set_position_control_parameter_set_positioning_bend_0(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1021, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 688, v.to_le_bytes());
     }
 
     /// 0x60FB sub 19 Position control parameter set / Clip environment 1 (bmaxx4400.eds:2478, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_clip_environment_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1023))
+        u32::from_le_bytes(od::load::<4>(&self.image, 690))
     }
 
     /// Sets 0x60FB sub 19 Position control parameter set / Clip environment 1.
     pub fn set_position_control_parameter_set_clip_environment_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1023, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 690, v.to_le_bytes());
     }
 
     /// 0x60FB sub 20 Position control parameter set / Clip environment 2 (bmaxx4400.eds:2486, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_clip_environment_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1027))
+        u32::from_le_bytes(od::load::<4>(&self.image, 694))
     }
 
     /// Sets 0x60FB sub 20 Position control parameter set / Clip environment 2.
     pub fn set_position_control_parameter_set_clip_environment_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1027, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 694, v.to_le_bytes());
     }
 
     /// 0x60FB sub 21 Position control parameter set / Target input 0 (bmaxx4400.eds:2494, INTEGER16 rw, PDO-mappable)
     pub fn position_control_parameter_set_target_input_0(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 1031))
+        i16::from_le_bytes(od::load::<2>(&self.image, 698))
     }
 
     /// Sets 0x60FB sub 21 Position control parameter set / Target input 0.
     pub fn set_position_control_parameter_set_target_input_0(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 1031, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 698, v.to_le_bytes());
     }
 
     /// 0x60FB sub 22 Position control parameter set / Target input 1 (bmaxx4400.eds:2502, INTEGER16 rw, PDO-mappable)
     pub fn position_control_parameter_set_target_input_1(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 1033))
+        i16::from_le_bytes(od::load::<2>(&self.image, 700))
     }
 
     /// Sets 0x60FB sub 22 Position control parameter set / Target input 1.
     pub fn set_position_control_parameter_set_target_input_1(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 1033, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 700, v.to_le_bytes());
     }
 
     /// 0x60FB sub 23 Position control parameter set / IP set angle (bmaxx4400.eds:2510, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_ip_set_angle(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1035))
+        u32::from_le_bytes(od::load::<4>(&self.image, 702))
     }
 
     /// Sets 0x60FB sub 23 Position control parameter set / IP set angle.
     pub fn set_position_control_parameter_set_ip_set_angle(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1035, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 702, v.to_le_bytes());
     }
 
     /// 0x60FB sub 24 Position control parameter set / Positioning encoder offset (bmaxx4400.eds:2518, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_positioning_encoder_offset(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1039))
+        u16::from_le_bytes(od::load::<2>(&self.image, 706))
     }
 
     /// Sets 0x60FB sub 24 Position control parameter set / Positioning encoder offset.
     pub fn set_position_control_parameter_set_positioning_encoder_offset(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1039, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 706, v.to_le_bytes());
     }
 
     /// 0x60FB sub 25 Position control parameter set / Homing deceleration (bmaxx4400.eds:2526, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_homing_deceleration(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1041))
+        u16::from_le_bytes(od::load::<2>(&self.image, 708))
     }
 
     /// Sets 0x60FB sub 25 Position control parameter set / Homing deceleration.
     pub fn set_position_control_parameter_set_homing_deceleration(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1041, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 708, v.to_le_bytes());
     }
 
     /// 0x60FB sub 26 Position control parameter set / Actual speed normalised (bmaxx4400.eds:2534, INTEGER32 ro, PDO-mappable)
     pub fn position_control_parameter_set_actual_speed_normalised(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 1043))
+        i32::from_le_bytes(od::load::<4>(&self.image, 1047))
     }
 
     /// Sets 0x60FB sub 26 Position control parameter set / Actual speed normalised.
     pub fn set_position_control_parameter_set_actual_speed_normalised(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 1043, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1047, v.to_le_bytes());
     }
 
     /// 0x60FB sub 27 Position control parameter set / Amplifier and motor warnings (bmaxx4400.eds:2542, UNSIGNED16 ro, PDO-mappable)
     pub fn position_control_parameter_set_amplifier_and_motor_warnings(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 1047))
+        u16::from_le_bytes(od::load::<2>(&self.image, 1051))
     }
 
     /// Sets 0x60FB sub 27 Position control parameter set / Amplifier and motor warnings.
     pub fn set_position_control_parameter_set_amplifier_and_motor_warnings(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 1047, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 1051, v.to_le_bytes());
     }
 
     /// 0x60FD Digital inputs (bmaxx4400.eds:2550, UNSIGNED32 ro, PDO-mappable)
     pub fn digital_inputs(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1049))
+        u32::from_le_bytes(od::load::<4>(&self.image, 1053))
     }
 
     /// Sets 0x60FD Digital inputs.
     pub fn set_digital_inputs(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1049, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1053, v.to_le_bytes());
     }
 
     /// 0x60FF Target velocity (bmaxx4400.eds:2558, INTEGER32 rw, PDO-mappable)
     pub fn target_velocity(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 1053))
+        i32::from_le_bytes(od::load::<4>(&self.image, 710))
     }
 
     /// Sets 0x60FF Target velocity.
     pub fn set_target_velocity(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 1053, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 710, v.to_le_bytes());
     }
 
     /// 0x6510 sub 0 Drive data / Drive data highest sub-index (bmaxx4400.eds:2571, UNSIGNED8 ro)

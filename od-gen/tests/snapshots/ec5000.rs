@@ -180,6 +180,8 @@ pub mod index {
 pub const ENTRY_COUNT: usize = 228;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 631;
+/// Bytes at the front of the RAM image a stored parameter set holds.
+pub const STORED_SIZE: usize = 289;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 52;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -214,231 +216,231 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 4, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 5, NO_LIMITS), // 0x1002:00 Manufacturer status register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 9, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 18, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 22, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 26, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 30, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 34, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 38, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 42, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 46, NO_LIMITS), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 50, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 289, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 293, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 294, NO_LIMITS), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 0, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 298, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 302, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 306, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 310, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 314, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 318, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 322, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 326, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 1, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 5, NO_LIMITS), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 9, NO_LIMITS), // 0x1007:00 Synchronous window length
     Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 6, 0, NO_LIMITS), // 0x1008:00 Manufacturer device name
     Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 4, 6, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
     Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 4, 10, NO_LIMITS), // 0x100A:00 Manufacturer software version
     Entry::new(0x1010, 0x00, DataType::Unsigned8, CONST, 1, 14, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 54, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters except node-ID
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 58, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 62, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
-    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 66, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
-    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 70, NO_LIMITS), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 13, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters except node-ID
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 17, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 21, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 25, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 29, NO_LIMITS), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
     Entry::new(0x1011, 0x00, DataType::Unsigned8, CONST, 1, 15, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 74, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 78, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 82, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
-    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 86, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
-    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 90, NO_LIMITS), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 94, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 98, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 33, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 37, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 41, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 45, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 49, NO_LIMITS), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 53, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 57, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
     Entry::new(0x1016, 0x00, DataType::Unsigned8, CONST, 1, 16, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Consumer heartbeat time highest sub-index
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 100, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 104, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 59, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 63, NO_LIMITS), // 0x1017:00 Producer heartbeat time
     Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 106, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 110, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 114, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 118, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 122, NO_LIMITS), // 0x1019:00 Synchronous counter overflow value
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 330, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 334, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 338, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 342, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 65, NO_LIMITS), // 0x1019:00 Synchronous counter overflow value
     Entry::new(0x1029, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS), // 0x1029:00 Error behaviour / Error behaviour highest sub-index
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 123, NO_LIMITS), // 0x1029:01 Error behaviour / Communication error
-    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 124, NO_LIMITS), // 0x1029:02 Error behaviour / Specific error class
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 66, NO_LIMITS), // 0x1029:01 Error behaviour / Communication error
+    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 67, NO_LIMITS), // 0x1029:02 Error behaviour / Specific error class
     Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 125, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 129, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 346, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 350, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
     Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 20, NO_LIMITS), // 0x1400:00 RPDO communication parameter 1 / RPDO1 communication highest sub-index
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 133, 0), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 137, NO_LIMITS), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 354, 0), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 68, NO_LIMITS), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
     Entry::new(0x1401, 0x00, DataType::Unsigned8, CONST, 1, 21, NO_LIMITS), // 0x1401:00 RPDO communication parameter 2 / RPDO2 communication highest sub-index
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 138, 0), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 142, NO_LIMITS), // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 358, 0), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 69, NO_LIMITS), // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
     Entry::new(0x1402, 0x00, DataType::Unsigned8, CONST, 1, 22, NO_LIMITS), // 0x1402:00 RPDO communication parameter 3 / RPDO3 communication highest sub-index
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 143, 0), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 147, NO_LIMITS), // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 362, 0), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 70, NO_LIMITS), // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
     Entry::new(0x1403, 0x00, DataType::Unsigned8, CONST, 1, 23, NO_LIMITS), // 0x1403:00 RPDO communication parameter 4 / RPDO4 communication highest sub-index
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 148, 0), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 152, NO_LIMITS), // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 366, 0), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 71, NO_LIMITS), // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
     Entry::new(0x1600, 0x00, DataType::Unsigned8, CONST, 1, 24, NO_LIMITS), // 0x1600:00 RPDO mapping parameter 1 / RPDO1 number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 153, NO_LIMITS), // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 157, NO_LIMITS), // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 161, NO_LIMITS), // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 165, NO_LIMITS), // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 169, NO_LIMITS), // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 173, NO_LIMITS), // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 177, NO_LIMITS), // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 181, NO_LIMITS), // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 370, NO_LIMITS), // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 374, NO_LIMITS), // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 378, NO_LIMITS), // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 382, NO_LIMITS), // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 386, NO_LIMITS), // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 390, NO_LIMITS), // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 394, NO_LIMITS), // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 398, NO_LIMITS), // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
     Entry::new(0x1601, 0x00, DataType::Unsigned8, CONST, 1, 25, NO_LIMITS), // 0x1601:00 RPDO mapping parameter 2 / RPDO2 number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 185, NO_LIMITS), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 189, NO_LIMITS), // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 193, NO_LIMITS), // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 197, NO_LIMITS), // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 201, NO_LIMITS), // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 205, NO_LIMITS), // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 209, NO_LIMITS), // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 213, NO_LIMITS), // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 402, NO_LIMITS), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 406, NO_LIMITS), // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 410, NO_LIMITS), // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 414, NO_LIMITS), // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 418, NO_LIMITS), // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 422, NO_LIMITS), // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 426, NO_LIMITS), // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 430, NO_LIMITS), // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
     Entry::new(0x1602, 0x00, DataType::Unsigned8, CONST, 1, 26, NO_LIMITS), // 0x1602:00 RPDO mapping parameter 3 / RPDO3 number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 217, NO_LIMITS), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 221, NO_LIMITS), // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 225, NO_LIMITS), // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 229, NO_LIMITS), // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 233, NO_LIMITS), // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 237, NO_LIMITS), // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 241, NO_LIMITS), // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 245, NO_LIMITS), // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 249, 1), // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 250, NO_LIMITS), // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 254, NO_LIMITS), // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 258, NO_LIMITS), // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 262, NO_LIMITS), // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 266, NO_LIMITS), // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 270, NO_LIMITS), // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 274, NO_LIMITS), // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 434, NO_LIMITS), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 438, NO_LIMITS), // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 442, NO_LIMITS), // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 446, NO_LIMITS), // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 450, NO_LIMITS), // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 454, NO_LIMITS), // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 458, NO_LIMITS), // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 462, NO_LIMITS), // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 72, 1), // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 73, NO_LIMITS), // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 77, NO_LIMITS), // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 81, NO_LIMITS), // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 85, NO_LIMITS), // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 89, NO_LIMITS), // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 93, NO_LIMITS), // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 97, NO_LIMITS), // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 101, NO_LIMITS), // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
     Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 27, NO_LIMITS), // 0x1800:00 TPDO communication parameter 1 / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 282, NO_LIMITS), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 286, NO_LIMITS), // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 287, NO_LIMITS), // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 289, NO_LIMITS), // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
-    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 291, NO_LIMITS), // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 105, NO_LIMITS), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 109, NO_LIMITS), // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 110, NO_LIMITS), // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 112, NO_LIMITS), // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
+    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 114, NO_LIMITS), // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
     Entry::new(0x1801, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS), // 0x1801:00 TPDO communication parameter 2 / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 292, NO_LIMITS), // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 296, NO_LIMITS), // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 297, NO_LIMITS), // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 299, NO_LIMITS), // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
-    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 301, NO_LIMITS), // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 115, NO_LIMITS), // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 119, NO_LIMITS), // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 120, NO_LIMITS), // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 122, NO_LIMITS), // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
+    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 124, NO_LIMITS), // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
     Entry::new(0x1802, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS), // 0x1802:00 TPDO communication parameter 3 / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 302, NO_LIMITS), // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 306, NO_LIMITS), // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 307, NO_LIMITS), // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 309, NO_LIMITS), // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
-    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 311, NO_LIMITS), // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 125, NO_LIMITS), // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 129, NO_LIMITS), // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 130, NO_LIMITS), // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 132, NO_LIMITS), // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
+    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 134, NO_LIMITS), // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
     Entry::new(0x1803, 0x00, DataType::Unsigned8, CONST, 1, 30, NO_LIMITS), // 0x1803:00 TPDO communication parameter 4 / TPDO4 communication highest sub-index
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 312, NO_LIMITS), // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 316, NO_LIMITS), // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 317, NO_LIMITS), // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 319, NO_LIMITS), // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
-    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 321, NO_LIMITS), // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 135, NO_LIMITS), // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 139, NO_LIMITS), // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 140, NO_LIMITS), // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 142, NO_LIMITS), // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
+    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 144, NO_LIMITS), // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
     Entry::new(0x1A00, 0x00, DataType::Unsigned8, CONST, 1, 31, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter 1 / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 322, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 326, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 330, NO_LIMITS), // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 334, NO_LIMITS), // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 338, NO_LIMITS), // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 342, NO_LIMITS), // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 346, NO_LIMITS), // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 350, NO_LIMITS), // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 466, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 470, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 474, NO_LIMITS), // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 478, NO_LIMITS), // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 482, NO_LIMITS), // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 486, NO_LIMITS), // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 490, NO_LIMITS), // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 494, NO_LIMITS), // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
     Entry::new(0x1A01, 0x00, DataType::Unsigned8, CONST, 1, 32, NO_LIMITS), // 0x1A01:00 TPDO mapping parameter 2 / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 354, NO_LIMITS), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 358, NO_LIMITS), // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 362, NO_LIMITS), // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 366, NO_LIMITS), // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 370, NO_LIMITS), // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 374, NO_LIMITS), // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 378, NO_LIMITS), // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 382, NO_LIMITS), // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 498, NO_LIMITS), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 502, NO_LIMITS), // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 506, NO_LIMITS), // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 510, NO_LIMITS), // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 514, NO_LIMITS), // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 518, NO_LIMITS), // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 522, NO_LIMITS), // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 526, NO_LIMITS), // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
     Entry::new(0x1A02, 0x00, DataType::Unsigned8, CONST, 1, 33, NO_LIMITS), // 0x1A02:00 TPDO mapping parameter 3 / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 386, NO_LIMITS), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 390, NO_LIMITS), // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 394, NO_LIMITS), // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 398, NO_LIMITS), // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 402, NO_LIMITS), // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 406, NO_LIMITS), // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 410, NO_LIMITS), // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 414, NO_LIMITS), // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 418, 1), // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 419, NO_LIMITS), // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 423, NO_LIMITS), // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 427, NO_LIMITS), // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 431, NO_LIMITS), // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 435, NO_LIMITS), // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 439, NO_LIMITS), // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 443, NO_LIMITS), // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 447, NO_LIMITS), // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 530, NO_LIMITS), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 534, NO_LIMITS), // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 538, NO_LIMITS), // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 542, NO_LIMITS), // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 546, NO_LIMITS), // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 550, NO_LIMITS), // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 554, NO_LIMITS), // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 558, NO_LIMITS), // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 145, 1), // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 146, NO_LIMITS), // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 150, NO_LIMITS), // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 154, NO_LIMITS), // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 158, NO_LIMITS), // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 162, NO_LIMITS), // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 166, NO_LIMITS), // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 170, NO_LIMITS), // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 174, NO_LIMITS), // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
     Entry::new(0x1F51, 0x00, DataType::Unsigned8, CONST, 1, 34, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
-    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 451, 2), // 0x1F51:01 Program control / Program control 1
-    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 452, NO_LIMITS), // 0x1F80:00 NMT startup
-    Entry::new(0x2200, 0x00, DataType::Unsigned8, RO, 1, 456, NO_LIMITS), // 0x2200:00 Monitoring values / Monitoring values highest sub-index
-    Entry::new(0x2200, 0x01, DataType::Unsigned32, RO_TPDO, 4, 457, NO_LIMITS), // 0x2200:01 Monitoring values / Number of start stops
-    Entry::new(0x2200, 0x02, DataType::Unsigned32, RO_TPDO, 4, 461, NO_LIMITS), // 0x2200:02 Monitoring values / Working hours
-    Entry::new(0x2200, 0x03, DataType::Unsigned32, RO_TPDO, 4, 465, NO_LIMITS), // 0x2200:03 Monitoring values / Uptime
-    Entry::new(0x2200, 0x04, DataType::Integer16, RO_TPDO, 2, 469, NO_LIMITS), // 0x2200:04 Monitoring values / Absolute minimum temperature
-    Entry::new(0x2200, 0x05, DataType::Integer16, RO_TPDO, 2, 471, NO_LIMITS), // 0x2200:05 Monitoring values / Absolute maximum temperature
-    Entry::new(0x2200, 0x06, DataType::Integer16, RO_TPDO, 2, 473, NO_LIMITS), // 0x2200:06 Monitoring values / Actual temperature
-    Entry::new(0x2200, 0x07, DataType::Unsigned16, RO_TPDO, 2, 475, NO_LIMITS), // 0x2200:07 Monitoring values / Number of quick stops
-    Entry::new(0x2200, 0x08, DataType::Unsigned8, RO_TPDO, 1, 477, NO_LIMITS), // 0x2200:08 Monitoring values / Mechanical power average
-    Entry::new(0x2200, 0x09, DataType::Unsigned32, RO_TPDO, 4, 478, NO_LIMITS), // 0x2200:09 Monitoring values / Number of rotations
-    Entry::new(0x2210, 0x00, DataType::Unsigned8, RO_TPDO, 1, 482, NO_LIMITS), // 0x2210:00 Lifetime traffic light
-    Entry::new(0x2211, 0x00, DataType::Unsigned8, RO_TPDO, 1, 483, NO_LIMITS), // 0x2211:00 Health traffic light / Health traffic light highest sub-index
-    Entry::new(0x2211, 0x01, DataType::Unsigned8, RO_TPDO, 1, 484, NO_LIMITS), // 0x2211:01 Health traffic light / Temperature traffic light
-    Entry::new(0x2211, 0x02, DataType::Unsigned8, RO_TPDO, 1, 485, NO_LIMITS), // 0x2211:02 Health traffic light / Power traffic light
-    Entry::new(0x2211, 0x03, DataType::Unsigned8, RO_TPDO, 1, 486, NO_LIMITS), // 0x2211:03 Health traffic light / Error quantity traffic light
-    Entry::new(0x2220, 0x00, DataType::Unsigned8, RO_TPDO, 1, 487, NO_LIMITS), // 0x2220:00 Analog value output / Analog value output highest sub-index
-    Entry::new(0x2220, 0x01, DataType::Integer16, RO_TPDO, 2, 488, NO_LIMITS), // 0x2220:01 Analog value output / Analog voltage
+    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 178, 2), // 0x1F51:01 Program control / Program control 1
+    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 179, NO_LIMITS), // 0x1F80:00 NMT startup
+    Entry::new(0x2200, 0x00, DataType::Unsigned8, RO, 1, 562, NO_LIMITS), // 0x2200:00 Monitoring values / Monitoring values highest sub-index
+    Entry::new(0x2200, 0x01, DataType::Unsigned32, RO_TPDO, 4, 563, NO_LIMITS), // 0x2200:01 Monitoring values / Number of start stops
+    Entry::new(0x2200, 0x02, DataType::Unsigned32, RO_TPDO, 4, 567, NO_LIMITS), // 0x2200:02 Monitoring values / Working hours
+    Entry::new(0x2200, 0x03, DataType::Unsigned32, RO_TPDO, 4, 571, NO_LIMITS), // 0x2200:03 Monitoring values / Uptime
+    Entry::new(0x2200, 0x04, DataType::Integer16, RO_TPDO, 2, 575, NO_LIMITS), // 0x2200:04 Monitoring values / Absolute minimum temperature
+    Entry::new(0x2200, 0x05, DataType::Integer16, RO_TPDO, 2, 577, NO_LIMITS), // 0x2200:05 Monitoring values / Absolute maximum temperature
+    Entry::new(0x2200, 0x06, DataType::Integer16, RO_TPDO, 2, 579, NO_LIMITS), // 0x2200:06 Monitoring values / Actual temperature
+    Entry::new(0x2200, 0x07, DataType::Unsigned16, RO_TPDO, 2, 581, NO_LIMITS), // 0x2200:07 Monitoring values / Number of quick stops
+    Entry::new(0x2200, 0x08, DataType::Unsigned8, RO_TPDO, 1, 583, NO_LIMITS), // 0x2200:08 Monitoring values / Mechanical power average
+    Entry::new(0x2200, 0x09, DataType::Unsigned32, RO_TPDO, 4, 584, NO_LIMITS), // 0x2200:09 Monitoring values / Number of rotations
+    Entry::new(0x2210, 0x00, DataType::Unsigned8, RO_TPDO, 1, 588, NO_LIMITS), // 0x2210:00 Lifetime traffic light
+    Entry::new(0x2211, 0x00, DataType::Unsigned8, RO_TPDO, 1, 589, NO_LIMITS), // 0x2211:00 Health traffic light / Health traffic light highest sub-index
+    Entry::new(0x2211, 0x01, DataType::Unsigned8, RO_TPDO, 1, 590, NO_LIMITS), // 0x2211:01 Health traffic light / Temperature traffic light
+    Entry::new(0x2211, 0x02, DataType::Unsigned8, RO_TPDO, 1, 591, NO_LIMITS), // 0x2211:02 Health traffic light / Power traffic light
+    Entry::new(0x2211, 0x03, DataType::Unsigned8, RO_TPDO, 1, 592, NO_LIMITS), // 0x2211:03 Health traffic light / Error quantity traffic light
+    Entry::new(0x2220, 0x00, DataType::Unsigned8, RO_TPDO, 1, 593, NO_LIMITS), // 0x2220:00 Analog value output / Analog value output highest sub-index
+    Entry::new(0x2220, 0x01, DataType::Integer16, RO_TPDO, 2, 594, NO_LIMITS), // 0x2220:01 Analog value output / Analog voltage
     Entry::new(0x4048, 0x00, DataType::Unsigned8, CONST, 1, 35, NO_LIMITS), // 0x4048:00 Nominal power
     Entry::new(0x4231, 0x00, DataType::Unsigned8, CONST, 1, 36, NO_LIMITS), // 0x4231:00 High temperature warning level / High temperature warning level highest sub-index
-    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 490, 3), // 0x4231:01 High temperature warning level / High temperature warning threshold
-    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 492, 4), // 0x4231:02 High temperature warning level / High temperature warning hysteresis
-    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 494, 5), // 0x4645:00 Positioning deceleration ramp
+    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 183, 3), // 0x4231:01 High temperature warning level / High temperature warning threshold
+    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 185, 4), // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 187, 5), // 0x4645:00 Positioning deceleration ramp
     Entry::new(0x4650, 0x00, DataType::Unsigned8, CONST, 1, 37, NO_LIMITS), // 0x4650:00 Bus address / Bus address highest sub-index
-    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 496, 6), // 0x4650:01 Bus address / Node-ID static
-    Entry::new(0x4650, 0x02, DataType::Unsigned8, RO, 1, 497, 6), // 0x4650:02 Bus address / Node-ID actual
+    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 189, 6), // 0x4650:01 Bus address / Node-ID static
+    Entry::new(0x4650, 0x02, DataType::Unsigned8, RO, 1, 596, 6), // 0x4650:02 Bus address / Node-ID actual
     Entry::new(0x4651, 0x00, DataType::Unsigned8, CONST, 1, 38, NO_LIMITS), // 0x4651:00 Baud rate / Baud rate highest sub-index
-    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 498, 7), // 0x4651:01 Baud rate / CAN bit rate
-    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 500, 8), // 0x4651:02 Baud rate / UART baud rate
-    Entry::new(0x4FFE, 0x00, DataType::Unsigned8, RO, 1, 502, NO_LIMITS), // 0x4FFE:00 Actual SDO server user
-    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 503, NO_LIMITS), // 0x4FFF:00 User login
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 507, 9), // 0x6007:00 Abort connection option code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 509, NO_LIMITS), // 0x6040:00 Controlword
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 511, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 513, 10), // 0x6060:00 Modes of operation
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 514, NO_LIMITS), // 0x6061:00 Modes of operation display
-    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 515, NO_LIMITS), // 0x6062:00 Position demand value
-    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 519, NO_LIMITS), // 0x6064:00 Position actual value
-    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 523, NO_LIMITS), // 0x606B:00 Velocity demand value
-    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 527, NO_LIMITS), // 0x606C:00 Velocity actual value
-    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 531, 11), // 0x6073:00 Max current
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 533, NO_LIMITS), // 0x6077:00 Torque actual value
-    Entry::new(0x6079, 0x00, DataType::Unsigned16, RO_TPDO, 2, 535, NO_LIMITS), // 0x6079:00 DC link circuit voltage
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 537, NO_LIMITS), // 0x607A:00 Target position
-    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 541, 12), // 0x607E:00 Polarity
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 542, 13), // 0x607F:00 Max profile velocity
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 546, 13), // 0x6081:00 Profile velocity
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 550, NO_LIMITS), // 0x6083:00 Profile acceleration
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 554, NO_LIMITS), // 0x6084:00 Profile deceleration
+    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 190, 7), // 0x4651:01 Baud rate / CAN bit rate
+    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 192, 8), // 0x4651:02 Baud rate / UART baud rate
+    Entry::new(0x4FFE, 0x00, DataType::Unsigned8, RO, 1, 597, NO_LIMITS), // 0x4FFE:00 Actual SDO server user
+    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 194, NO_LIMITS), // 0x4FFF:00 User login
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 198, 9), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 200, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 598, NO_LIMITS), // 0x6041:00 Statusword
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 202, 10), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 600, NO_LIMITS), // 0x6061:00 Modes of operation display
+    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 601, NO_LIMITS), // 0x6062:00 Position demand value
+    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 605, NO_LIMITS), // 0x6064:00 Position actual value
+    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 609, NO_LIMITS), // 0x606B:00 Velocity demand value
+    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 613, NO_LIMITS), // 0x606C:00 Velocity actual value
+    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 203, 11), // 0x6073:00 Max current
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 617, NO_LIMITS), // 0x6077:00 Torque actual value
+    Entry::new(0x6079, 0x00, DataType::Unsigned16, RO_TPDO, 2, 619, NO_LIMITS), // 0x6079:00 DC link circuit voltage
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 205, NO_LIMITS), // 0x607A:00 Target position
+    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 209, 12), // 0x607E:00 Polarity
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 210, 13), // 0x607F:00 Max profile velocity
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 214, 13), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 218, NO_LIMITS), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 222, NO_LIMITS), // 0x6084:00 Profile deceleration
     Entry::new(0x6091, 0x00, DataType::Unsigned8, CONST, 1, 39, NO_LIMITS), // 0x6091:00 Gear ratio / Gear ratio highest sub-index
-    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 558, 14), // 0x6091:01 Gear ratio / Motor shaft revolutions
-    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 562, NO_LIMITS), // 0x6091:02 Gear ratio / Driving shaft revolutions
+    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 226, 14), // 0x6091:01 Gear ratio / Motor shaft revolutions
+    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 230, NO_LIMITS), // 0x6091:02 Gear ratio / Driving shaft revolutions
     Entry::new(0x6092, 0x00, DataType::Unsigned8, CONST, 1, 40, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 566, NO_LIMITS), // 0x6092:01 Feed constant / Feed
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 570, NO_LIMITS), // 0x6092:02 Feed constant / Shaft revolutions
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 574, 15), // 0x6098:00 Homing method
-    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 575, 16), // 0x6099:00 Homing speeds
-    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 579, 17), // 0x60A8:00 SI unit position
-    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 583, 18), // 0x60A9:00 SI unit velocity
-    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 587, 19), // 0x60AA:00 SI unit acceleration
-    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 591, NO_LIMITS), // 0x60C5:00 Max acceleration
-    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 595, NO_LIMITS), // 0x60C6:00 Max deceleration
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 234, NO_LIMITS), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 238, NO_LIMITS), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 242, 15), // 0x6098:00 Homing method
+    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 243, 16), // 0x6099:00 Homing speeds
+    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 247, 17), // 0x60A8:00 SI unit position
+    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 251, 18), // 0x60A9:00 SI unit velocity
+    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 255, 19), // 0x60AA:00 SI unit acceleration
+    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 259, NO_LIMITS), // 0x60C5:00 Max acceleration
+    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 263, NO_LIMITS), // 0x60C6:00 Max deceleration
     Entry::new(0x60E3, 0x00, DataType::Unsigned8, CONST, 1, 41, NO_LIMITS), // 0x60E3:00 Supported homing methods / Number of supported homing methods
     Entry::new(0x60E3, 0x01, DataType::Integer8, CONST, 1, 42, NO_LIMITS), // 0x60E3:01 Supported homing methods / Supported homing method 1
-    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 599, NO_LIMITS), // 0x60F2:00 Positioning option code
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 601, 20), // 0x60FF:00 Target velocity
-    Entry::new(0x6402, 0x00, DataType::Unsigned16, RO, 2, 605, NO_LIMITS), // 0x6402:00 Motor type
-    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 607, NO_LIMITS), // 0x6403:00 Motor catalogue number
+    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 267, NO_LIMITS), // 0x60F2:00 Positioning option code
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 269, 20), // 0x60FF:00 Target velocity
+    Entry::new(0x6402, 0x00, DataType::Unsigned16, RO, 2, 621, NO_LIMITS), // 0x6402:00 Motor type
+    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 273, NO_LIMITS), // 0x6403:00 Motor catalogue number
     Entry::new(0x6404, 0x00, DataType::VisibleString, CONST, 9, 43, NO_LIMITS), // 0x6404:00 Motor manufacturer
     Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 623, NO_LIMITS), // 0x6502:00 Supported drive modes
     Entry::new(0x67FE, 0x00, DataType::Unsigned32, RO, 4, 627, NO_LIMITS), // 0x67FE:00 Version number
@@ -508,18 +510,7 @@ static ROM: [u8; ROM_SIZE] = [
 
 #[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x92, 0x01, 0x42, 0x00, // 0x1000:00 Device type
-    0x00, // 0x1001:00 Error register
-    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
     0x00, // 0x1003:00 Pre-defined error field / Number of errors
-    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
-    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
-    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
-    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
-    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
-    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
-    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
-    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
     0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
     0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
     0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
@@ -537,47 +528,13 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x1015:00 Inhibit time EMCY
     0x00, 0x00, 0x00, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
     0x00, 0x00, // 0x1017:00 Producer heartbeat time
-    0xFB, 0x03, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
-    0x01, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
-    0x01, 0x00, 0x01, 0x00, // 0x1018:03 Identity object / Revision number
-    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
     0x00, // 0x1019:00 Synchronous counter overflow value
     0x00, // 0x1029:01 Error behaviour / Communication error
     0x00, // 0x1029:02 Error behaviour / Specific error class
-    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
-    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
-    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
     0xFF, // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
-    0x00, 0x03, 0x00, 0x00, // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
     0xFF, // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
-    0x00, 0x04, 0x00, 0x00, // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
     0xFF, // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
-    0x00, 0x05, 0x00, 0x00, // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
     0xFF, // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
-    0x10, 0x00, 0x40, 0x60, // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
-    0x08, 0x00, 0x60, 0x60, // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
-    0x20, 0x00, 0x81, 0x60, // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
-    0x10, 0x00, 0x40, 0x60, // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
-    0x20, 0x00, 0x7A, 0x60, // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
-    0x10, 0x00, 0x40, 0x60, // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
-    0x20, 0x00, 0xFF, 0x60, // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
     0x00, // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
     0x00, 0x00, 0x00, 0x00, // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
     0x00, 0x00, 0x00, 0x00, // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
@@ -607,6 +564,93 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0xE8, 0x03, // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
     0xD0, 0x07, // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
     0x00, // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
+    0x00, // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
+    0x00, // 0x1F51:01 Program control / Program control 1
+    0x00, 0x00, 0x00, 0x00, // 0x1F80:00 NMT startup
+    0x5F, 0x00, // 0x4231:01 High temperature warning level / High temperature warning threshold
+    0x02, 0x00, // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    0x64, 0x00, // 0x4645:00 Positioning deceleration ramp
+    0x7F, // 0x4650:01 Bus address / Node-ID static
+    0xFA, 0x00, // 0x4651:01 Baud rate / CAN bit rate
+    0x00, 0x4B, // 0x4651:02 Baud rate / UART baud rate
+    0x00, 0x00, 0x00, 0x00, // 0x4FFF:00 User login
+    0x00, 0x00, // 0x6007:00 Abort connection option code
+    0x00, 0x00, // 0x6040:00 Controlword
+    0x03, // 0x6060:00 Modes of operation
+    0xE8, 0x03, // 0x6073:00 Max current
+    0x00, 0x00, 0x00, 0x00, // 0x607A:00 Target position
+    0x00, // 0x607E:00 Polarity
+    0xD0, 0x07, 0x00, 0x00, // 0x607F:00 Max profile velocity
+    0x00, 0x00, 0x00, 0x00, // 0x6081:00 Profile velocity
+    0x00, 0x00, 0x00, 0x00, // 0x6083:00 Profile acceleration
+    0x00, 0x00, 0x00, 0x00, // 0x6084:00 Profile deceleration
+    0x12, 0x00, 0x00, 0x00, // 0x6091:01 Gear ratio / Motor shaft revolutions
+    0x01, 0x00, 0x00, 0x00, // 0x6091:02 Gear ratio / Driving shaft revolutions
+    0x9D, 0x00, 0x00, 0x00, // 0x6092:01 Feed constant / Feed
+    0x01, 0x00, 0x00, 0x00, // 0x6092:02 Feed constant / Shaft revolutions
+    0x25, // 0x6098:00 Homing method
+    0x00, 0x00, 0x00, 0x00, // 0x6099:00 Homing speeds
+    0x00, 0x00, 0x01, 0xFD, // 0x60A8:00 SI unit position
+    0x00, 0x03, 0x01, 0xFD, // 0x60A9:00 SI unit velocity
+    0x00, 0x57, 0x01, 0xFD, // 0x60AA:00 SI unit acceleration
+    0x00, 0x00, 0x00, 0x00, // 0x60C5:00 Max acceleration
+    0x00, 0x00, 0x00, 0x00, // 0x60C6:00 Max deceleration
+    0x00, 0x00, // 0x60F2:00 Positioning option code
+    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x6403:00 Motor catalogue number
+    0x92, 0x01, 0x42, 0x00, // 0x1000:00 Device type
+    0x00, // 0x1001:00 Error register
+    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
+    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
+    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
+    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
+    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
+    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
+    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
+    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
+    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
+    0xFB, 0x03, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0x01, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
+    0x01, 0x00, 0x01, 0x00, // 0x1018:03 Identity object / Revision number
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
+    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
+    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    0x00, 0x03, 0x00, 0x00, // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    0x00, 0x04, 0x00, 0x00, // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    0x00, 0x05, 0x00, 0x00, // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    0x10, 0x00, 0x40, 0x60, // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
+    0x08, 0x00, 0x60, 0x60, // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
+    0x20, 0x00, 0x81, 0x60, // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
+    0x10, 0x00, 0x40, 0x60, // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
+    0x20, 0x00, 0x7A, 0x60, // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
+    0x10, 0x00, 0x40, 0x60, // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
+    0x20, 0x00, 0xFF, 0x60, // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    0x00, 0x00, 0x00, 0x00, // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
+    0x00, 0x00, 0x00, 0x00, // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
+    0x00, 0x00, 0x00, 0x00, // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
+    0x00, 0x00, 0x00, 0x00, // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
+    0x00, 0x00, 0x00, 0x00, // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
+    0x00, 0x00, 0x00, 0x00, // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
     0x10, 0x00, 0x41, 0x60, // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
     0x08, 0x00, 0x61, 0x60, // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
     0x08, 0x00, 0x01, 0x10, // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
@@ -631,17 +675,6 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
     0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
     0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
-    0x00, // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
-    0x00, // 0x1F51:01 Program control / Program control 1
-    0x00, 0x00, 0x00, 0x00, // 0x1F80:00 NMT startup
     0x09, // 0x2200:00 Monitoring values / Monitoring values highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x2200:01 Monitoring values / Number of start stops
     0x00, 0x00, 0x00, 0x00, // 0x2200:02 Monitoring values / Working hours
@@ -659,48 +692,17 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, // 0x2211:03 Health traffic light / Error quantity traffic light
     0x01, // 0x2220:00 Analog value output / Analog value output highest sub-index
     0x00, 0x00, // 0x2220:01 Analog value output / Analog voltage
-    0x5F, 0x00, // 0x4231:01 High temperature warning level / High temperature warning threshold
-    0x02, 0x00, // 0x4231:02 High temperature warning level / High temperature warning hysteresis
-    0x64, 0x00, // 0x4645:00 Positioning deceleration ramp
-    0x7F, // 0x4650:01 Bus address / Node-ID static
     0x7F, // 0x4650:02 Bus address / Node-ID actual
-    0xFA, 0x00, // 0x4651:01 Baud rate / CAN bit rate
-    0x00, 0x4B, // 0x4651:02 Baud rate / UART baud rate
     0x00, // 0x4FFE:00 Actual SDO server user
-    0x00, 0x00, 0x00, 0x00, // 0x4FFF:00 User login
-    0x00, 0x00, // 0x6007:00 Abort connection option code
-    0x00, 0x00, // 0x6040:00 Controlword
     0x00, 0x00, // 0x6041:00 Statusword
-    0x03, // 0x6060:00 Modes of operation
     0x03, // 0x6061:00 Modes of operation display
     0x00, 0x00, 0x00, 0x00, // 0x6062:00 Position demand value
     0x00, 0x00, 0x00, 0x00, // 0x6064:00 Position actual value
     0x00, 0x00, 0x00, 0x00, // 0x606B:00 Velocity demand value
     0x00, 0x00, 0x00, 0x00, // 0x606C:00 Velocity actual value
-    0xE8, 0x03, // 0x6073:00 Max current
     0x00, 0x00, // 0x6077:00 Torque actual value
     0x00, 0x00, // 0x6079:00 DC link circuit voltage
-    0x00, 0x00, 0x00, 0x00, // 0x607A:00 Target position
-    0x00, // 0x607E:00 Polarity
-    0xD0, 0x07, 0x00, 0x00, // 0x607F:00 Max profile velocity
-    0x00, 0x00, 0x00, 0x00, // 0x6081:00 Profile velocity
-    0x00, 0x00, 0x00, 0x00, // 0x6083:00 Profile acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x6084:00 Profile deceleration
-    0x12, 0x00, 0x00, 0x00, // 0x6091:01 Gear ratio / Motor shaft revolutions
-    0x01, 0x00, 0x00, 0x00, // 0x6091:02 Gear ratio / Driving shaft revolutions
-    0x9D, 0x00, 0x00, 0x00, // 0x6092:01 Feed constant / Feed
-    0x01, 0x00, 0x00, 0x00, // 0x6092:02 Feed constant / Shaft revolutions
-    0x25, // 0x6098:00 Homing method
-    0x00, 0x00, 0x00, 0x00, // 0x6099:00 Homing speeds
-    0x00, 0x00, 0x01, 0xFD, // 0x60A8:00 SI unit position
-    0x00, 0x03, 0x01, 0xFD, // 0x60A9:00 SI unit velocity
-    0x00, 0x57, 0x01, 0xFD, // 0x60AA:00 SI unit acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x60C5:00 Max acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x60C6:00 Max deceleration
-    0x00, 0x00, // 0x60F2:00 Positioning option code
-    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
     0x03, 0x00, // 0x6402:00 Motor type
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x6403:00 Motor catalogue number
     0x25, 0x00, 0x00, 0x00, // 0x6502:00 Supported drive modes
     0x00, 0x01, 0x03, 0x00, // 0x67FE:00 Version number
 ];
@@ -959,7 +961,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 456,
+    comm_len: 183,
+    stored_len: STORED_SIZE,
+    comm_rest: 273,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -1018,42 +1022,42 @@ impl Ram {
 
     /// 0x1000 Device type (ec5000.eds:152, UNSIGNED32 ro)
     pub fn device_type(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 0))
+        u32::from_le_bytes(od::load::<4>(&self.image, 289))
     }
 
     /// Sets 0x1000 Device type.
     pub fn set_device_type(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 0, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 289, v.to_le_bytes());
     }
 
     /// 0x1001 Error register (ec5000.eds:160, UNSIGNED8 ro, PDO-mappable)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 4))
+        u8::from_le_bytes(od::load::<1>(&self.image, 293))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 4, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 293, v.to_le_bytes());
     }
 
     /// 0x1002 Manufacturer status register (ec5000.eds:168, UNSIGNED32 ro, PDO-mappable)
     pub fn manufacturer_status_register(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 5))
+        u32::from_le_bytes(od::load::<4>(&self.image, 294))
     }
 
     /// Sets 0x1002 Manufacturer status register.
     pub fn set_manufacturer_status_register(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 5, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 294, v.to_le_bytes());
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (ec5000.eds:181, UNSIGNED8 rw)
     pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 9))
+        u8::from_le_bytes(od::load::<1>(&self.image, 0))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
     pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 9, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 0, v.to_le_bytes());
     }
 
     /// 0x1003 Pre-defined error field sub-index `i` (1..=8) (ec5000.eds:176)
@@ -1061,7 +1065,7 @@ impl Ram {
         if !(1..=8).contains(&i) {
             return None;
         }
-        let off = 6 + usize::from(i) * 4;
+        let off = 294 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1070,39 +1074,39 @@ impl Ram {
         if !(1..=8).contains(&i) {
             return false;
         }
-        let off = 6 + usize::from(i) * 4;
+        let off = 294 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1005 COB-ID SYNC message (ec5000.eds:253, UNSIGNED32 rw)
     pub fn cob_id_sync_message(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 42))
+        u32::from_le_bytes(od::load::<4>(&self.image, 1))
     }
 
     /// Sets 0x1005 COB-ID SYNC message.
     pub fn set_cob_id_sync_message(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 42, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 1, v.to_le_bytes());
     }
 
     /// 0x1006 Communication cycle period (ec5000.eds:261, UNSIGNED32 rw)
     pub fn communication_cycle_period(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 46))
+        u32::from_le_bytes(od::load::<4>(&self.image, 5))
     }
 
     /// Sets 0x1006 Communication cycle period.
     pub fn set_communication_cycle_period(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 46, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 5, v.to_le_bytes());
     }
 
     /// 0x1007 Synchronous window length (ec5000.eds:269, UNSIGNED32 rw)
     pub fn synchronous_window_length(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 50))
+        u32::from_le_bytes(od::load::<4>(&self.image, 9))
     }
 
     /// Sets 0x1007 Synchronous window length.
     pub fn set_synchronous_window_length(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 50, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 9, v.to_le_bytes());
     }
 
     /// 0x1008 Manufacturer device name (ec5000.eds:277, VISIBLE_STRING const, in flash)
@@ -1130,7 +1134,7 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return None;
         }
-        let off = 50 + usize::from(i) * 4;
+        let off = 9 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1139,7 +1143,7 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return false;
         }
-        let off = 50 + usize::from(i) * 4;
+        let off = 9 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -1154,7 +1158,7 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return None;
         }
-        let off = 70 + usize::from(i) * 4;
+        let off = 29 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1163,29 +1167,29 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return false;
         }
-        let off = 70 + usize::from(i) * 4;
+        let off = 29 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1014 COB-ID EMCY (ec5000.eds:407, UNSIGNED32 rw, $NODEID-relative)
     pub fn cob_id_emcy(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 94))
+        u32::from_le_bytes(od::load::<4>(&self.image, 53))
     }
 
     /// Sets 0x1014 COB-ID EMCY.
     pub fn set_cob_id_emcy(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 94, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 53, v.to_le_bytes());
     }
 
     /// 0x1015 Inhibit time EMCY (ec5000.eds:415, UNSIGNED16 rw)
     pub fn inhibit_time_emcy(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 98))
+        u16::from_le_bytes(od::load::<2>(&self.image, 57))
     }
 
     /// Sets 0x1015 Inhibit time EMCY.
     pub fn set_inhibit_time_emcy(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 98, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 57, v.to_le_bytes());
     }
 
     /// 0x1016 sub 0 Consumer heartbeat time / Consumer heartbeat time highest sub-index (ec5000.eds:428, UNSIGNED8 const, in flash)
@@ -1195,22 +1199,22 @@ impl Ram {
 
     /// 0x1016 sub 1 Consumer heartbeat time / Consumer heartbeat time 1 (ec5000.eds:436, UNSIGNED32 rw)
     pub fn consumer_heartbeat_time_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 100))
+        u32::from_le_bytes(od::load::<4>(&self.image, 59))
     }
 
     /// Sets 0x1016 sub 1 Consumer heartbeat time / Consumer heartbeat time 1.
     pub fn set_consumer_heartbeat_time_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 100, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 59, v.to_le_bytes());
     }
 
     /// 0x1017 Producer heartbeat time (ec5000.eds:444, UNSIGNED16 rw)
     pub fn producer_heartbeat_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 104))
+        u16::from_le_bytes(od::load::<2>(&self.image, 63))
     }
 
     /// Sets 0x1017 Producer heartbeat time.
     pub fn set_producer_heartbeat_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 104, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 63, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Identity highest sub-index (ec5000.eds:457, UNSIGNED8 const, in flash)
@@ -1220,52 +1224,52 @@ impl Ram {
 
     /// 0x1018 sub 1 Identity object / Vendor-ID (ec5000.eds:465, UNSIGNED32 ro)
     pub fn identity_object_vendor_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 106))
+        u32::from_le_bytes(od::load::<4>(&self.image, 330))
     }
 
     /// Sets 0x1018 sub 1 Identity object / Vendor-ID.
     pub fn set_identity_object_vendor_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 106, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 330, v.to_le_bytes());
     }
 
     /// 0x1018 sub 2 Identity object / Product code (ec5000.eds:473, UNSIGNED32 ro)
     pub fn identity_object_product_code(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 110))
+        u32::from_le_bytes(od::load::<4>(&self.image, 334))
     }
 
     /// Sets 0x1018 sub 2 Identity object / Product code.
     pub fn set_identity_object_product_code(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 110, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 334, v.to_le_bytes());
     }
 
     /// 0x1018 sub 3 Identity object / Revision number (ec5000.eds:481, UNSIGNED32 ro)
     pub fn identity_object_revision_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 114))
+        u32::from_le_bytes(od::load::<4>(&self.image, 338))
     }
 
     /// Sets 0x1018 sub 3 Identity object / Revision number.
     pub fn set_identity_object_revision_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 114, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 338, v.to_le_bytes());
     }
 
     /// 0x1018 sub 4 Identity object / Serial number (ec5000.eds:489, UNSIGNED32 ro)
     pub fn identity_object_serial_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 118))
+        u32::from_le_bytes(od::load::<4>(&self.image, 342))
     }
 
     /// Sets 0x1018 sub 4 Identity object / Serial number.
     pub fn set_identity_object_serial_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 118, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 342, v.to_le_bytes());
     }
 
     /// 0x1019 Synchronous counter overflow value (ec5000.eds:497, UNSIGNED8 rw)
     pub fn synchronous_counter_overflow_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 122))
+        u8::from_le_bytes(od::load::<1>(&self.image, 65))
     }
 
     /// Sets 0x1019 Synchronous counter overflow value.
     pub fn set_synchronous_counter_overflow_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 122, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 65, v.to_le_bytes());
     }
 
     /// 0x1029 sub 0 Error behaviour / Error behaviour highest sub-index (ec5000.eds:510, UNSIGNED8 const, in flash)
@@ -1278,7 +1282,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 122 + usize::from(i);
+        let off = 65 + usize::from(i);
         Some(u8::from_le_bytes(od::load::<1>(&self.image, off)))
     }
 
@@ -1287,7 +1291,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 122 + usize::from(i);
+        let off = 65 + usize::from(i);
         od::store::<1>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -1299,22 +1303,22 @@ impl Ram {
 
     /// 0x1200 sub 1 SDO server parameter / COB-ID client to server (ec5000.eds:547, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_client_to_server(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 125))
+        u32::from_le_bytes(od::load::<4>(&self.image, 346))
     }
 
     /// Sets 0x1200 sub 1 SDO server parameter / COB-ID client to server.
     pub fn set_sdo_server_parameter_cob_id_client_to_server(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 125, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 346, v.to_le_bytes());
     }
 
     /// 0x1200 sub 2 SDO server parameter / COB-ID server to client (ec5000.eds:555, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_server_to_client(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 129))
+        u32::from_le_bytes(od::load::<4>(&self.image, 350))
     }
 
     /// Sets 0x1200 sub 2 SDO server parameter / COB-ID server to client.
     pub fn set_sdo_server_parameter_cob_id_server_to_client(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 129, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 350, v.to_le_bytes());
     }
 
     /// 0x1400 sub 0 RPDO communication parameter 1 / RPDO1 communication highest sub-index (ec5000.eds:568, UNSIGNED8 const, in flash)
@@ -1324,22 +1328,22 @@ impl Ram {
 
     /// 0x1400 sub 1 RPDO communication parameter 1 / RPDO1 COB-ID (ec5000.eds:576, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_1_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 133))
+        u32::from_le_bytes(od::load::<4>(&self.image, 354))
     }
 
     /// Sets 0x1400 sub 1 RPDO communication parameter 1 / RPDO1 COB-ID.
     pub fn set_rpdo_communication_parameter_1_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 133, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 354, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO communication parameter 1 / RPDO1 transmission type (ec5000.eds:586, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_1_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 137))
+        u8::from_le_bytes(od::load::<1>(&self.image, 68))
     }
 
     /// Sets 0x1400 sub 2 RPDO communication parameter 1 / RPDO1 transmission type.
     pub fn set_rpdo_communication_parameter_1_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 137, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 68, v.to_le_bytes());
     }
 
     /// 0x1401 sub 0 RPDO communication parameter 2 / RPDO2 communication highest sub-index (ec5000.eds:599, UNSIGNED8 const, in flash)
@@ -1349,22 +1353,22 @@ impl Ram {
 
     /// 0x1401 sub 1 RPDO communication parameter 2 / RPDO2 COB-ID (ec5000.eds:607, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_2_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 138))
+        u32::from_le_bytes(od::load::<4>(&self.image, 358))
     }
 
     /// Sets 0x1401 sub 1 RPDO communication parameter 2 / RPDO2 COB-ID.
     pub fn set_rpdo_communication_parameter_2_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 138, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 358, v.to_le_bytes());
     }
 
     /// 0x1401 sub 2 RPDO communication parameter 2 / RPDO2 transmission type (ec5000.eds:617, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_2_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 142))
+        u8::from_le_bytes(od::load::<1>(&self.image, 69))
     }
 
     /// Sets 0x1401 sub 2 RPDO communication parameter 2 / RPDO2 transmission type.
     pub fn set_rpdo_communication_parameter_2_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 142, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 69, v.to_le_bytes());
     }
 
     /// 0x1402 sub 0 RPDO communication parameter 3 / RPDO3 communication highest sub-index (ec5000.eds:630, UNSIGNED8 const, in flash)
@@ -1374,22 +1378,22 @@ impl Ram {
 
     /// 0x1402 sub 1 RPDO communication parameter 3 / RPDO3 COB-ID (ec5000.eds:638, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_3_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 143))
+        u32::from_le_bytes(od::load::<4>(&self.image, 362))
     }
 
     /// Sets 0x1402 sub 1 RPDO communication parameter 3 / RPDO3 COB-ID.
     pub fn set_rpdo_communication_parameter_3_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 143, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 362, v.to_le_bytes());
     }
 
     /// 0x1402 sub 2 RPDO communication parameter 3 / RPDO3 transmission type (ec5000.eds:648, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_3_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 147))
+        u8::from_le_bytes(od::load::<1>(&self.image, 70))
     }
 
     /// Sets 0x1402 sub 2 RPDO communication parameter 3 / RPDO3 transmission type.
     pub fn set_rpdo_communication_parameter_3_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 147, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 70, v.to_le_bytes());
     }
 
     /// 0x1403 sub 0 RPDO communication parameter 4 / RPDO4 communication highest sub-index (ec5000.eds:661, UNSIGNED8 const, in flash)
@@ -1399,22 +1403,22 @@ impl Ram {
 
     /// 0x1403 sub 1 RPDO communication parameter 4 / RPDO4 COB-ID (ec5000.eds:669, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_4_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 148))
+        u32::from_le_bytes(od::load::<4>(&self.image, 366))
     }
 
     /// Sets 0x1403 sub 1 RPDO communication parameter 4 / RPDO4 COB-ID.
     pub fn set_rpdo_communication_parameter_4_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 148, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 366, v.to_le_bytes());
     }
 
     /// 0x1403 sub 2 RPDO communication parameter 4 / RPDO4 transmission type (ec5000.eds:679, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_4_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 152))
+        u8::from_le_bytes(od::load::<1>(&self.image, 71))
     }
 
     /// Sets 0x1403 sub 2 RPDO communication parameter 4 / RPDO4 transmission type.
     pub fn set_rpdo_communication_parameter_4_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 152, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 71, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO mapping parameter 1 / RPDO1 number of mapped objects (ec5000.eds:692, UNSIGNED8 const, in flash)
@@ -1424,82 +1428,82 @@ impl Ram {
 
     /// 0x1600 sub 1 RPDO mapping parameter 1 / RPDO1 mapping entry 1 (ec5000.eds:700, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 153))
+        u32::from_le_bytes(od::load::<4>(&self.image, 370))
     }
 
     /// Sets 0x1600 sub 1 RPDO mapping parameter 1 / RPDO1 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_1_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 153, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 370, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO mapping parameter 1 / RPDO1 mapping entry 2 (ec5000.eds:708, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 157))
+        u32::from_le_bytes(od::load::<4>(&self.image, 374))
     }
 
     /// Sets 0x1600 sub 2 RPDO mapping parameter 1 / RPDO1 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_1_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 157, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 374, v.to_le_bytes());
     }
 
     /// 0x1600 sub 3 RPDO mapping parameter 1 / RPDO1 mapping entry 3 (ec5000.eds:716, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 161))
+        u32::from_le_bytes(od::load::<4>(&self.image, 378))
     }
 
     /// Sets 0x1600 sub 3 RPDO mapping parameter 1 / RPDO1 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_1_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 161, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 378, v.to_le_bytes());
     }
 
     /// 0x1600 sub 4 RPDO mapping parameter 1 / RPDO1 mapping entry 4 (ec5000.eds:724, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 165))
+        u32::from_le_bytes(od::load::<4>(&self.image, 382))
     }
 
     /// Sets 0x1600 sub 4 RPDO mapping parameter 1 / RPDO1 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_1_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 165, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 382, v.to_le_bytes());
     }
 
     /// 0x1600 sub 5 RPDO mapping parameter 1 / RPDO1 mapping entry 5 (ec5000.eds:732, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 169))
+        u32::from_le_bytes(od::load::<4>(&self.image, 386))
     }
 
     /// Sets 0x1600 sub 5 RPDO mapping parameter 1 / RPDO1 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_1_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 169, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 386, v.to_le_bytes());
     }
 
     /// 0x1600 sub 6 RPDO mapping parameter 1 / RPDO1 mapping entry 6 (ec5000.eds:740, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 173))
+        u32::from_le_bytes(od::load::<4>(&self.image, 390))
     }
 
     /// Sets 0x1600 sub 6 RPDO mapping parameter 1 / RPDO1 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_1_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 173, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 390, v.to_le_bytes());
     }
 
     /// 0x1600 sub 7 RPDO mapping parameter 1 / RPDO1 mapping entry 7 (ec5000.eds:748, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 177))
+        u32::from_le_bytes(od::load::<4>(&self.image, 394))
     }
 
     /// Sets 0x1600 sub 7 RPDO mapping parameter 1 / RPDO1 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_1_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 177, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 394, v.to_le_bytes());
     }
 
     /// 0x1600 sub 8 RPDO mapping parameter 1 / RPDO1 mapping entry 8 (ec5000.eds:756, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 181))
+        u32::from_le_bytes(od::load::<4>(&self.image, 398))
     }
 
     /// Sets 0x1600 sub 8 RPDO mapping parameter 1 / RPDO1 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_1_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 181, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 398, v.to_le_bytes());
     }
 
     /// 0x1601 sub 0 RPDO mapping parameter 2 / RPDO2 number of mapped objects (ec5000.eds:769, UNSIGNED8 const, in flash)
@@ -1509,82 +1513,82 @@ impl Ram {
 
     /// 0x1601 sub 1 RPDO mapping parameter 2 / RPDO2 mapping entry 1 (ec5000.eds:777, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 185))
+        u32::from_le_bytes(od::load::<4>(&self.image, 402))
     }
 
     /// Sets 0x1601 sub 1 RPDO mapping parameter 2 / RPDO2 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_2_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 185, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 402, v.to_le_bytes());
     }
 
     /// 0x1601 sub 2 RPDO mapping parameter 2 / RPDO2 mapping entry 2 (ec5000.eds:785, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 189))
+        u32::from_le_bytes(od::load::<4>(&self.image, 406))
     }
 
     /// Sets 0x1601 sub 2 RPDO mapping parameter 2 / RPDO2 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_2_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 189, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 406, v.to_le_bytes());
     }
 
     /// 0x1601 sub 3 RPDO mapping parameter 2 / RPDO2 mapping entry 3 (ec5000.eds:793, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 193))
+        u32::from_le_bytes(od::load::<4>(&self.image, 410))
     }
 
     /// Sets 0x1601 sub 3 RPDO mapping parameter 2 / RPDO2 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_2_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 193, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 410, v.to_le_bytes());
     }
 
     /// 0x1601 sub 4 RPDO mapping parameter 2 / RPDO2 mapping entry 4 (ec5000.eds:801, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 197))
+        u32::from_le_bytes(od::load::<4>(&self.image, 414))
     }
 
     /// Sets 0x1601 sub 4 RPDO mapping parameter 2 / RPDO2 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_2_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 197, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 414, v.to_le_bytes());
     }
 
     /// 0x1601 sub 5 RPDO mapping parameter 2 / RPDO2 mapping entry 5 (ec5000.eds:809, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 201))
+        u32::from_le_bytes(od::load::<4>(&self.image, 418))
     }
 
     /// Sets 0x1601 sub 5 RPDO mapping parameter 2 / RPDO2 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_2_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 201, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 418, v.to_le_bytes());
     }
 
     /// 0x1601 sub 6 RPDO mapping parameter 2 / RPDO2 mapping entry 6 (ec5000.eds:817, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 205))
+        u32::from_le_bytes(od::load::<4>(&self.image, 422))
     }
 
     /// Sets 0x1601 sub 6 RPDO mapping parameter 2 / RPDO2 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_2_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 205, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 422, v.to_le_bytes());
     }
 
     /// 0x1601 sub 7 RPDO mapping parameter 2 / RPDO2 mapping entry 7 (ec5000.eds:825, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 209))
+        u32::from_le_bytes(od::load::<4>(&self.image, 426))
     }
 
     /// Sets 0x1601 sub 7 RPDO mapping parameter 2 / RPDO2 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_2_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 209, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 426, v.to_le_bytes());
     }
 
     /// 0x1601 sub 8 RPDO mapping parameter 2 / RPDO2 mapping entry 8 (ec5000.eds:833, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 213))
+        u32::from_le_bytes(od::load::<4>(&self.image, 430))
     }
 
     /// Sets 0x1601 sub 8 RPDO mapping parameter 2 / RPDO2 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_2_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 213, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 430, v.to_le_bytes());
     }
 
     /// 0x1602 sub 0 RPDO mapping parameter 3 / RPDO3 number of mapped objects (ec5000.eds:846, UNSIGNED8 const, in flash)
@@ -1594,172 +1598,172 @@ impl Ram {
 
     /// 0x1602 sub 1 RPDO mapping parameter 3 / RPDO3 mapping entry 1 (ec5000.eds:854, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 217))
+        u32::from_le_bytes(od::load::<4>(&self.image, 434))
     }
 
     /// Sets 0x1602 sub 1 RPDO mapping parameter 3 / RPDO3 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_3_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 217, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 434, v.to_le_bytes());
     }
 
     /// 0x1602 sub 2 RPDO mapping parameter 3 / RPDO3 mapping entry 2 (ec5000.eds:862, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 221))
+        u32::from_le_bytes(od::load::<4>(&self.image, 438))
     }
 
     /// Sets 0x1602 sub 2 RPDO mapping parameter 3 / RPDO3 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_3_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 221, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 438, v.to_le_bytes());
     }
 
     /// 0x1602 sub 3 RPDO mapping parameter 3 / RPDO3 mapping entry 3 (ec5000.eds:870, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 225))
+        u32::from_le_bytes(od::load::<4>(&self.image, 442))
     }
 
     /// Sets 0x1602 sub 3 RPDO mapping parameter 3 / RPDO3 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_3_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 225, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 442, v.to_le_bytes());
     }
 
     /// 0x1602 sub 4 RPDO mapping parameter 3 / RPDO3 mapping entry 4 (ec5000.eds:878, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 229))
+        u32::from_le_bytes(od::load::<4>(&self.image, 446))
     }
 
     /// Sets 0x1602 sub 4 RPDO mapping parameter 3 / RPDO3 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_3_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 229, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 446, v.to_le_bytes());
     }
 
     /// 0x1602 sub 5 RPDO mapping parameter 3 / RPDO3 mapping entry 5 (ec5000.eds:886, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 233))
+        u32::from_le_bytes(od::load::<4>(&self.image, 450))
     }
 
     /// Sets 0x1602 sub 5 RPDO mapping parameter 3 / RPDO3 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_3_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 233, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 450, v.to_le_bytes());
     }
 
     /// 0x1602 sub 6 RPDO mapping parameter 3 / RPDO3 mapping entry 6 (ec5000.eds:894, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 237))
+        u32::from_le_bytes(od::load::<4>(&self.image, 454))
     }
 
     /// Sets 0x1602 sub 6 RPDO mapping parameter 3 / RPDO3 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_3_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 237, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 454, v.to_le_bytes());
     }
 
     /// 0x1602 sub 7 RPDO mapping parameter 3 / RPDO3 mapping entry 7 (ec5000.eds:902, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 241))
+        u32::from_le_bytes(od::load::<4>(&self.image, 458))
     }
 
     /// Sets 0x1602 sub 7 RPDO mapping parameter 3 / RPDO3 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_3_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 241, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 458, v.to_le_bytes());
     }
 
     /// 0x1602 sub 8 RPDO mapping parameter 3 / RPDO3 mapping entry 8 (ec5000.eds:910, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 245))
+        u32::from_le_bytes(od::load::<4>(&self.image, 462))
     }
 
     /// Sets 0x1602 sub 8 RPDO mapping parameter 3 / RPDO3 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_3_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 245, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 462, v.to_le_bytes());
     }
 
     /// 0x1603 sub 0 RPDO mapping parameter 4 / RPDO4 number of mapped objects (ec5000.eds:923, UNSIGNED8 rw)
     pub fn rpdo_mapping_parameter_4_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 249))
+        u8::from_le_bytes(od::load::<1>(&self.image, 72))
     }
 
     /// Sets 0x1603 sub 0 RPDO mapping parameter 4 / RPDO4 number of mapped objects.
     pub fn set_rpdo_mapping_parameter_4_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 249, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 72, v.to_le_bytes());
     }
 
     /// 0x1603 sub 1 RPDO mapping parameter 4 / RPDO4 mapping entry 1 (ec5000.eds:933, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 250))
+        u32::from_le_bytes(od::load::<4>(&self.image, 73))
     }
 
     /// Sets 0x1603 sub 1 RPDO mapping parameter 4 / RPDO4 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_4_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 250, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 73, v.to_le_bytes());
     }
 
     /// 0x1603 sub 2 RPDO mapping parameter 4 / RPDO4 mapping entry 2 (ec5000.eds:941, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 254))
+        u32::from_le_bytes(od::load::<4>(&self.image, 77))
     }
 
     /// Sets 0x1603 sub 2 RPDO mapping parameter 4 / RPDO4 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_4_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 254, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 77, v.to_le_bytes());
     }
 
     /// 0x1603 sub 3 RPDO mapping parameter 4 / RPDO4 mapping entry 3 (ec5000.eds:949, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 258))
+        u32::from_le_bytes(od::load::<4>(&self.image, 81))
     }
 
     /// Sets 0x1603 sub 3 RPDO mapping parameter 4 / RPDO4 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_4_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 258, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 81, v.to_le_bytes());
     }
 
     /// 0x1603 sub 4 RPDO mapping parameter 4 / RPDO4 mapping entry 4 (ec5000.eds:957, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 262))
+        u32::from_le_bytes(od::load::<4>(&self.image, 85))
     }
 
     /// Sets 0x1603 sub 4 RPDO mapping parameter 4 / RPDO4 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_4_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 262, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 85, v.to_le_bytes());
     }
 
     /// 0x1603 sub 5 RPDO mapping parameter 4 / RPDO4 mapping entry 5 (ec5000.eds:965, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 266))
+        u32::from_le_bytes(od::load::<4>(&self.image, 89))
     }
 
     /// Sets 0x1603 sub 5 RPDO mapping parameter 4 / RPDO4 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_4_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 266, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 89, v.to_le_bytes());
     }
 
     /// 0x1603 sub 6 RPDO mapping parameter 4 / RPDO4 mapping entry 6 (ec5000.eds:973, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 270))
+        u32::from_le_bytes(od::load::<4>(&self.image, 93))
     }
 
     /// Sets 0x1603 sub 6 RPDO mapping parameter 4 / RPDO4 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_4_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 270, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 93, v.to_le_bytes());
     }
 
     /// 0x1603 sub 7 RPDO mapping parameter 4 / RPDO4 mapping entry 7 (ec5000.eds:981, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 274))
+        u32::from_le_bytes(od::load::<4>(&self.image, 97))
     }
 
     /// Sets 0x1603 sub 7 RPDO mapping parameter 4 / RPDO4 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_4_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 274, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 97, v.to_le_bytes());
     }
 
     /// 0x1603 sub 8 RPDO mapping parameter 4 / RPDO4 mapping entry 8 (ec5000.eds:989, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 278))
+        u32::from_le_bytes(od::load::<4>(&self.image, 101))
     }
 
     /// Sets 0x1603 sub 8 RPDO mapping parameter 4 / RPDO4 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_4_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 278, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 101, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO communication parameter 1 / TPDO1 communication highest sub-index (ec5000.eds:1002, UNSIGNED8 const, in flash)
@@ -1769,52 +1773,52 @@ impl Ram {
 
     /// 0x1800 sub 1 TPDO communication parameter 1 / TPDO1 COB-ID (ec5000.eds:1010, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_1_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 282))
+        u32::from_le_bytes(od::load::<4>(&self.image, 105))
     }
 
     /// Sets 0x1800 sub 1 TPDO communication parameter 1 / TPDO1 COB-ID.
     pub fn set_tpdo_communication_parameter_1_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 282, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 105, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO communication parameter 1 / TPDO1 transmission type (ec5000.eds:1018, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_1_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 286))
+        u8::from_le_bytes(od::load::<1>(&self.image, 109))
     }
 
     /// Sets 0x1800 sub 2 TPDO communication parameter 1 / TPDO1 transmission type.
     pub fn set_tpdo_communication_parameter_1_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 286, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 109, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO communication parameter 1 / TPDO1 inhibit time (ec5000.eds:1026, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_1_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 287))
+        u16::from_le_bytes(od::load::<2>(&self.image, 110))
     }
 
     /// Sets 0x1800 sub 3 TPDO communication parameter 1 / TPDO1 inhibit time.
     pub fn set_tpdo_communication_parameter_1_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 287, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 110, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO communication parameter 1 / TPDO1 event timer (ec5000.eds:1034, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_1_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 289))
+        u16::from_le_bytes(od::load::<2>(&self.image, 112))
     }
 
     /// Sets 0x1800 sub 5 TPDO communication parameter 1 / TPDO1 event timer.
     pub fn set_tpdo_communication_parameter_1_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 289, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 112, v.to_le_bytes());
     }
 
     /// 0x1800 sub 6 TPDO communication parameter 1 / TPDO1 SYNC start value (ec5000.eds:1042, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_1_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 291))
+        u8::from_le_bytes(od::load::<1>(&self.image, 114))
     }
 
     /// Sets 0x1800 sub 6 TPDO communication parameter 1 / TPDO1 SYNC start value.
     pub fn set_tpdo_communication_parameter_1_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 291, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 114, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO communication parameter 2 / TPDO2 communication highest sub-index (ec5000.eds:1055, UNSIGNED8 const, in flash)
@@ -1824,52 +1828,52 @@ impl Ram {
 
     /// 0x1801 sub 1 TPDO communication parameter 2 / TPDO2 COB-ID (ec5000.eds:1063, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_2_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 292))
+        u32::from_le_bytes(od::load::<4>(&self.image, 115))
     }
 
     /// Sets 0x1801 sub 1 TPDO communication parameter 2 / TPDO2 COB-ID.
     pub fn set_tpdo_communication_parameter_2_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 292, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 115, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO communication parameter 2 / TPDO2 transmission type (ec5000.eds:1071, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_2_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 296))
+        u8::from_le_bytes(od::load::<1>(&self.image, 119))
     }
 
     /// Sets 0x1801 sub 2 TPDO communication parameter 2 / TPDO2 transmission type.
     pub fn set_tpdo_communication_parameter_2_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 296, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 119, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO communication parameter 2 / TPDO2 inhibit time (ec5000.eds:1079, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_2_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 297))
+        u16::from_le_bytes(od::load::<2>(&self.image, 120))
     }
 
     /// Sets 0x1801 sub 3 TPDO communication parameter 2 / TPDO2 inhibit time.
     pub fn set_tpdo_communication_parameter_2_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 297, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 120, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO communication parameter 2 / TPDO2 event timer (ec5000.eds:1087, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_2_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 299))
+        u16::from_le_bytes(od::load::<2>(&self.image, 122))
     }
 
     /// Sets 0x1801 sub 5 TPDO communication parameter 2 / TPDO2 event timer.
     pub fn set_tpdo_communication_parameter_2_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 299, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 122, v.to_le_bytes());
     }
 
     /// 0x1801 sub 6 TPDO communication parameter 2 / TPDO2 SYNC start value (ec5000.eds:1095, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_2_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 301))
+        u8::from_le_bytes(od::load::<1>(&self.image, 124))
     }
 
     /// Sets 0x1801 sub 6 TPDO communication parameter 2 / TPDO2 SYNC start value.
     pub fn set_tpdo_communication_parameter_2_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 301, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 124, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO communication parameter 3 / TPDO3 communication highest sub-index (ec5000.eds:1108, UNSIGNED8 const, in flash)
@@ -1879,52 +1883,52 @@ impl Ram {
 
     /// 0x1802 sub 1 TPDO communication parameter 3 / TPDO3 COB-ID (ec5000.eds:1116, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_3_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 302))
+        u32::from_le_bytes(od::load::<4>(&self.image, 125))
     }
 
     /// Sets 0x1802 sub 1 TPDO communication parameter 3 / TPDO3 COB-ID.
     pub fn set_tpdo_communication_parameter_3_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 302, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 125, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO communication parameter 3 / TPDO3 transmission type (ec5000.eds:1124, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_3_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 306))
+        u8::from_le_bytes(od::load::<1>(&self.image, 129))
     }
 
     /// Sets 0x1802 sub 2 TPDO communication parameter 3 / TPDO3 transmission type.
     pub fn set_tpdo_communication_parameter_3_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 306, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 129, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO communication parameter 3 / TPDO3 inhibit time (ec5000.eds:1132, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_3_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 307))
+        u16::from_le_bytes(od::load::<2>(&self.image, 130))
     }
 
     /// Sets 0x1802 sub 3 TPDO communication parameter 3 / TPDO3 inhibit time.
     pub fn set_tpdo_communication_parameter_3_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 307, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 130, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO communication parameter 3 / TPDO3 event timer (ec5000.eds:1140, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_3_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 309))
+        u16::from_le_bytes(od::load::<2>(&self.image, 132))
     }
 
     /// Sets 0x1802 sub 5 TPDO communication parameter 3 / TPDO3 event timer.
     pub fn set_tpdo_communication_parameter_3_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 309, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 132, v.to_le_bytes());
     }
 
     /// 0x1802 sub 6 TPDO communication parameter 3 / TPDO3 SYNC start value (ec5000.eds:1148, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_3_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 311))
+        u8::from_le_bytes(od::load::<1>(&self.image, 134))
     }
 
     /// Sets 0x1802 sub 6 TPDO communication parameter 3 / TPDO3 SYNC start value.
     pub fn set_tpdo_communication_parameter_3_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 311, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 134, v.to_le_bytes());
     }
 
     /// 0x1803 sub 0 TPDO communication parameter 4 / TPDO4 communication highest sub-index (ec5000.eds:1161, UNSIGNED8 const, in flash)
@@ -1934,52 +1938,52 @@ impl Ram {
 
     /// 0x1803 sub 1 TPDO communication parameter 4 / TPDO4 COB-ID (ec5000.eds:1169, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_4_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 312))
+        u32::from_le_bytes(od::load::<4>(&self.image, 135))
     }
 
     /// Sets 0x1803 sub 1 TPDO communication parameter 4 / TPDO4 COB-ID.
     pub fn set_tpdo_communication_parameter_4_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 312, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 135, v.to_le_bytes());
     }
 
     /// 0x1803 sub 2 TPDO communication parameter 4 / TPDO4 transmission type (ec5000.eds:1177, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_4_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 316))
+        u8::from_le_bytes(od::load::<1>(&self.image, 139))
     }
 
     /// Sets 0x1803 sub 2 TPDO communication parameter 4 / TPDO4 transmission type.
     pub fn set_tpdo_communication_parameter_4_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 316, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 139, v.to_le_bytes());
     }
 
     /// 0x1803 sub 3 TPDO communication parameter 4 / TPDO4 inhibit time (ec5000.eds:1185, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_4_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 317))
+        u16::from_le_bytes(od::load::<2>(&self.image, 140))
     }
 
     /// Sets 0x1803 sub 3 TPDO communication parameter 4 / TPDO4 inhibit time.
     pub fn set_tpdo_communication_parameter_4_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 317, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 140, v.to_le_bytes());
     }
 
     /// 0x1803 sub 5 TPDO communication parameter 4 / TPDO4 event timer (ec5000.eds:1193, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_4_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 319))
+        u16::from_le_bytes(od::load::<2>(&self.image, 142))
     }
 
     /// Sets 0x1803 sub 5 TPDO communication parameter 4 / TPDO4 event timer.
     pub fn set_tpdo_communication_parameter_4_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 319, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 142, v.to_le_bytes());
     }
 
     /// 0x1803 sub 6 TPDO communication parameter 4 / TPDO4 SYNC start value (ec5000.eds:1201, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_4_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 321))
+        u8::from_le_bytes(od::load::<1>(&self.image, 144))
     }
 
     /// Sets 0x1803 sub 6 TPDO communication parameter 4 / TPDO4 SYNC start value.
     pub fn set_tpdo_communication_parameter_4_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 321, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 144, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO mapping parameter 1 / TPDO1 number of mapped objects (ec5000.eds:1214, UNSIGNED8 const, in flash)
@@ -1989,82 +1993,82 @@ impl Ram {
 
     /// 0x1A00 sub 1 TPDO mapping parameter 1 / TPDO1 mapping entry 1 (ec5000.eds:1222, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 322))
+        u32::from_le_bytes(od::load::<4>(&self.image, 466))
     }
 
     /// Sets 0x1A00 sub 1 TPDO mapping parameter 1 / TPDO1 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_1_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 322, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 466, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO mapping parameter 1 / TPDO1 mapping entry 2 (ec5000.eds:1230, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 326))
+        u32::from_le_bytes(od::load::<4>(&self.image, 470))
     }
 
     /// Sets 0x1A00 sub 2 TPDO mapping parameter 1 / TPDO1 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_1_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 326, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 470, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO mapping parameter 1 / TPDO1 mapping entry 3 (ec5000.eds:1238, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 330))
+        u32::from_le_bytes(od::load::<4>(&self.image, 474))
     }
 
     /// Sets 0x1A00 sub 3 TPDO mapping parameter 1 / TPDO1 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_1_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 330, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 474, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO mapping parameter 1 / TPDO1 mapping entry 4 (ec5000.eds:1246, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 334))
+        u32::from_le_bytes(od::load::<4>(&self.image, 478))
     }
 
     /// Sets 0x1A00 sub 4 TPDO mapping parameter 1 / TPDO1 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_1_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 334, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 478, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO mapping parameter 1 / TPDO1 mapping entry 5 (ec5000.eds:1254, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 338))
+        u32::from_le_bytes(od::load::<4>(&self.image, 482))
     }
 
     /// Sets 0x1A00 sub 5 TPDO mapping parameter 1 / TPDO1 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_1_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 338, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 482, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO mapping parameter 1 / TPDO1 mapping entry 6 (ec5000.eds:1262, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 342))
+        u32::from_le_bytes(od::load::<4>(&self.image, 486))
     }
 
     /// Sets 0x1A00 sub 6 TPDO mapping parameter 1 / TPDO1 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_1_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 342, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 486, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO mapping parameter 1 / TPDO1 mapping entry 7 (ec5000.eds:1270, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 346))
+        u32::from_le_bytes(od::load::<4>(&self.image, 490))
     }
 
     /// Sets 0x1A00 sub 7 TPDO mapping parameter 1 / TPDO1 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_1_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 346, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 490, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO mapping parameter 1 / TPDO1 mapping entry 8 (ec5000.eds:1278, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 350))
+        u32::from_le_bytes(od::load::<4>(&self.image, 494))
     }
 
     /// Sets 0x1A00 sub 8 TPDO mapping parameter 1 / TPDO1 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_1_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 350, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 494, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO mapping parameter 2 / TPDO2 number of mapped objects (ec5000.eds:1291, UNSIGNED8 const, in flash)
@@ -2074,82 +2078,82 @@ impl Ram {
 
     /// 0x1A01 sub 1 TPDO mapping parameter 2 / TPDO2 mapping entry 1 (ec5000.eds:1299, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 354))
+        u32::from_le_bytes(od::load::<4>(&self.image, 498))
     }
 
     /// Sets 0x1A01 sub 1 TPDO mapping parameter 2 / TPDO2 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_2_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 354, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 498, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO mapping parameter 2 / TPDO2 mapping entry 2 (ec5000.eds:1307, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 358))
+        u32::from_le_bytes(od::load::<4>(&self.image, 502))
     }
 
     /// Sets 0x1A01 sub 2 TPDO mapping parameter 2 / TPDO2 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_2_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 358, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 502, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO mapping parameter 2 / TPDO2 mapping entry 3 (ec5000.eds:1315, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 362))
+        u32::from_le_bytes(od::load::<4>(&self.image, 506))
     }
 
     /// Sets 0x1A01 sub 3 TPDO mapping parameter 2 / TPDO2 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_2_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 362, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 506, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO mapping parameter 2 / TPDO2 mapping entry 4 (ec5000.eds:1323, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 366))
+        u32::from_le_bytes(od::load::<4>(&self.image, 510))
     }
 
     /// Sets 0x1A01 sub 4 TPDO mapping parameter 2 / TPDO2 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_2_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 366, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 510, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO mapping parameter 2 / TPDO2 mapping entry 5 (ec5000.eds:1331, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 370))
+        u32::from_le_bytes(od::load::<4>(&self.image, 514))
     }
 
     /// Sets 0x1A01 sub 5 TPDO mapping parameter 2 / TPDO2 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_2_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 370, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 514, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO mapping parameter 2 / TPDO2 mapping entry 6 (ec5000.eds:1339, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 374))
+        u32::from_le_bytes(od::load::<4>(&self.image, 518))
     }
 
     /// Sets 0x1A01 sub 6 TPDO mapping parameter 2 / TPDO2 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_2_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 374, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 518, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO mapping parameter 2 / TPDO2 mapping entry 7 (ec5000.eds:1347, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 378))
+        u32::from_le_bytes(od::load::<4>(&self.image, 522))
     }
 
     /// Sets 0x1A01 sub 7 TPDO mapping parameter 2 / TPDO2 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_2_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 378, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 522, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO mapping parameter 2 / TPDO2 mapping entry 8 (ec5000.eds:1355, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 382))
+        u32::from_le_bytes(od::load::<4>(&self.image, 526))
     }
 
     /// Sets 0x1A01 sub 8 TPDO mapping parameter 2 / TPDO2 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_2_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 382, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 526, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO mapping parameter 3 / TPDO3 number of mapped objects (ec5000.eds:1368, UNSIGNED8 const, in flash)
@@ -2159,172 +2163,172 @@ impl Ram {
 
     /// 0x1A02 sub 1 TPDO mapping parameter 3 / TPDO3 mapping entry 1 (ec5000.eds:1376, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 386))
+        u32::from_le_bytes(od::load::<4>(&self.image, 530))
     }
 
     /// Sets 0x1A02 sub 1 TPDO mapping parameter 3 / TPDO3 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_3_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 386, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 530, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO mapping parameter 3 / TPDO3 mapping entry 2 (ec5000.eds:1384, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 390))
+        u32::from_le_bytes(od::load::<4>(&self.image, 534))
     }
 
     /// Sets 0x1A02 sub 2 TPDO mapping parameter 3 / TPDO3 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_3_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 390, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 534, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO mapping parameter 3 / TPDO3 mapping entry 3 (ec5000.eds:1392, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 394))
+        u32::from_le_bytes(od::load::<4>(&self.image, 538))
     }
 
     /// Sets 0x1A02 sub 3 TPDO mapping parameter 3 / TPDO3 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_3_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 394, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 538, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO mapping parameter 3 / TPDO3 mapping entry 4 (ec5000.eds:1400, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 398))
+        u32::from_le_bytes(od::load::<4>(&self.image, 542))
     }
 
     /// Sets 0x1A02 sub 4 TPDO mapping parameter 3 / TPDO3 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_3_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 398, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 542, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO mapping parameter 3 / TPDO3 mapping entry 5 (ec5000.eds:1408, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 402))
+        u32::from_le_bytes(od::load::<4>(&self.image, 546))
     }
 
     /// Sets 0x1A02 sub 5 TPDO mapping parameter 3 / TPDO3 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_3_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 402, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 546, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO mapping parameter 3 / TPDO3 mapping entry 6 (ec5000.eds:1416, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 406))
+        u32::from_le_bytes(od::load::<4>(&self.image, 550))
     }
 
     /// Sets 0x1A02 sub 6 TPDO mapping parameter 3 / TPDO3 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_3_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 406, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 550, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO mapping parameter 3 / TPDO3 mapping entry 7 (ec5000.eds:1424, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 410))
+        u32::from_le_bytes(od::load::<4>(&self.image, 554))
     }
 
     /// Sets 0x1A02 sub 7 TPDO mapping parameter 3 / TPDO3 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_3_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 410, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 554, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO mapping parameter 3 / TPDO3 mapping entry 8 (ec5000.eds:1432, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 414))
+        u32::from_le_bytes(od::load::<4>(&self.image, 558))
     }
 
     /// Sets 0x1A02 sub 8 TPDO mapping parameter 3 / TPDO3 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_3_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 414, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 558, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 0 TPDO mapping parameter 4 / TPDO4 number of mapped objects (ec5000.eds:1445, UNSIGNED8 rw)
     pub fn tpdo_mapping_parameter_4_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 418))
+        u8::from_le_bytes(od::load::<1>(&self.image, 145))
     }
 
     /// Sets 0x1A03 sub 0 TPDO mapping parameter 4 / TPDO4 number of mapped objects.
     pub fn set_tpdo_mapping_parameter_4_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 418, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 145, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 1 TPDO mapping parameter 4 / TPDO4 mapping entry 1 (ec5000.eds:1455, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 419))
+        u32::from_le_bytes(od::load::<4>(&self.image, 146))
     }
 
     /// Sets 0x1A03 sub 1 TPDO mapping parameter 4 / TPDO4 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_4_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 419, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 146, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 2 TPDO mapping parameter 4 / TPDO4 mapping entry 2 (ec5000.eds:1463, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 423))
+        u32::from_le_bytes(od::load::<4>(&self.image, 150))
     }
 
     /// Sets 0x1A03 sub 2 TPDO mapping parameter 4 / TPDO4 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_4_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 423, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 150, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 3 TPDO mapping parameter 4 / TPDO4 mapping entry 3 (ec5000.eds:1471, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 427))
+        u32::from_le_bytes(od::load::<4>(&self.image, 154))
     }
 
     /// Sets 0x1A03 sub 3 TPDO mapping parameter 4 / TPDO4 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_4_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 427, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 154, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 4 TPDO mapping parameter 4 / TPDO4 mapping entry 4 (ec5000.eds:1479, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 431))
+        u32::from_le_bytes(od::load::<4>(&self.image, 158))
     }
 
     /// Sets 0x1A03 sub 4 TPDO mapping parameter 4 / TPDO4 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_4_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 431, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 158, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 5 TPDO mapping parameter 4 / TPDO4 mapping entry 5 (ec5000.eds:1487, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 435))
+        u32::from_le_bytes(od::load::<4>(&self.image, 162))
     }
 
     /// Sets 0x1A03 sub 5 TPDO mapping parameter 4 / TPDO4 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_4_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 435, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 162, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 6 TPDO mapping parameter 4 / TPDO4 mapping entry 6 (ec5000.eds:1495, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 439))
+        u32::from_le_bytes(od::load::<4>(&self.image, 166))
     }
 
     /// Sets 0x1A03 sub 6 TPDO mapping parameter 4 / TPDO4 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_4_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 439, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 166, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 7 TPDO mapping parameter 4 / TPDO4 mapping entry 7 (ec5000.eds:1503, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 443))
+        u32::from_le_bytes(od::load::<4>(&self.image, 170))
     }
 
     /// Sets 0x1A03 sub 7 TPDO mapping parameter 4 / TPDO4 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_4_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 443, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 170, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 8 TPDO mapping parameter 4 / TPDO4 mapping entry 8 (ec5000.eds:1511, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 447))
+        u32::from_le_bytes(od::load::<4>(&self.image, 174))
     }
 
     /// Sets 0x1A03 sub 8 TPDO mapping parameter 4 / TPDO4 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_4_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 447, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 174, v.to_le_bytes());
     }
 
     /// 0x1F51 sub 0 Program control / Program control highest sub-index (ec5000.eds:1524, UNSIGNED8 const, in flash)
@@ -2334,192 +2338,192 @@ impl Ram {
 
     /// 0x1F51 sub 1 Program control / Program control 1 (ec5000.eds:1532, UNSIGNED8 rw)
     pub fn program_control_1(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 451))
+        u8::from_le_bytes(od::load::<1>(&self.image, 178))
     }
 
     /// Sets 0x1F51 sub 1 Program control / Program control 1.
     pub fn set_program_control_1(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 451, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 178, v.to_le_bytes());
     }
 
     /// 0x1F80 NMT startup (ec5000.eds:1542, UNSIGNED32 rw)
     pub fn nmt_startup(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 452))
+        u32::from_le_bytes(od::load::<4>(&self.image, 179))
     }
 
     /// Sets 0x1F80 NMT startup.
     pub fn set_nmt_startup(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 452, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 179, v.to_le_bytes());
     }
 
     /// 0x2200 sub 0 Monitoring values / Monitoring values highest sub-index (ec5000.eds:1555, UNSIGNED8 ro)
     pub fn monitoring_values_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 456))
+        u8::from_le_bytes(od::load::<1>(&self.image, 562))
     }
 
     /// Sets 0x2200 sub 0 Monitoring values / Monitoring values highest sub-index.
     pub fn set_monitoring_values_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 456, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 562, v.to_le_bytes());
     }
 
     /// 0x2200 sub 1 Monitoring values / Number of start stops (ec5000.eds:1563, UNSIGNED32 ro, PDO-mappable)
     pub fn monitoring_values_number_of_start_stops(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 457))
+        u32::from_le_bytes(od::load::<4>(&self.image, 563))
     }
 
     /// Sets 0x2200 sub 1 Monitoring values / Number of start stops.
     pub fn set_monitoring_values_number_of_start_stops(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 457, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 563, v.to_le_bytes());
     }
 
     /// 0x2200 sub 2 Monitoring values / Working hours (ec5000.eds:1571, UNSIGNED32 ro, PDO-mappable)
     pub fn monitoring_values_working_hours(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 461))
+        u32::from_le_bytes(od::load::<4>(&self.image, 567))
     }
 
     /// Sets 0x2200 sub 2 Monitoring values / Working hours.
     pub fn set_monitoring_values_working_hours(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 461, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 567, v.to_le_bytes());
     }
 
     /// 0x2200 sub 3 Monitoring values / Uptime (ec5000.eds:1579, UNSIGNED32 ro, PDO-mappable)
     pub fn monitoring_values_uptime(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 465))
+        u32::from_le_bytes(od::load::<4>(&self.image, 571))
     }
 
     /// Sets 0x2200 sub 3 Monitoring values / Uptime.
     pub fn set_monitoring_values_uptime(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 465, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 571, v.to_le_bytes());
     }
 
     /// 0x2200 sub 4 Monitoring values / Absolute minimum temperature (ec5000.eds:1587, INTEGER16 ro, PDO-mappable)
     pub fn monitoring_values_absolute_minimum_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 469))
+        i16::from_le_bytes(od::load::<2>(&self.image, 575))
     }
 
     /// Sets 0x2200 sub 4 Monitoring values / Absolute minimum temperature.
     pub fn set_monitoring_values_absolute_minimum_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 469, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 575, v.to_le_bytes());
     }
 
     /// 0x2200 sub 5 Monitoring values / Absolute maximum temperature (ec5000.eds:1595, INTEGER16 ro, PDO-mappable)
     pub fn monitoring_values_absolute_maximum_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 471))
+        i16::from_le_bytes(od::load::<2>(&self.image, 577))
     }
 
     /// Sets 0x2200 sub 5 Monitoring values / Absolute maximum temperature.
     pub fn set_monitoring_values_absolute_maximum_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 471, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 577, v.to_le_bytes());
     }
 
     /// 0x2200 sub 6 Monitoring values / Actual temperature (ec5000.eds:1603, INTEGER16 ro, PDO-mappable)
     pub fn monitoring_values_actual_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 473))
+        i16::from_le_bytes(od::load::<2>(&self.image, 579))
     }
 
     /// Sets 0x2200 sub 6 Monitoring values / Actual temperature.
     pub fn set_monitoring_values_actual_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 473, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 579, v.to_le_bytes());
     }
 
     /// 0x2200 sub 7 Monitoring values / Number of quick stops (ec5000.eds:1611, UNSIGNED16 ro, PDO-mappable)
     pub fn monitoring_values_number_of_quick_stops(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 475))
+        u16::from_le_bytes(od::load::<2>(&self.image, 581))
     }
 
     /// Sets 0x2200 sub 7 Monitoring values / Number of quick stops.
     pub fn set_monitoring_values_number_of_quick_stops(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 475, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 581, v.to_le_bytes());
     }
 
     /// 0x2200 sub 8 Monitoring values / Mechanical power average (ec5000.eds:1619, UNSIGNED8 ro, PDO-mappable)
     pub fn monitoring_values_mechanical_power_average(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 477))
+        u8::from_le_bytes(od::load::<1>(&self.image, 583))
     }
 
     /// Sets 0x2200 sub 8 Monitoring values / Mechanical power average.
     pub fn set_monitoring_values_mechanical_power_average(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 477, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 583, v.to_le_bytes());
     }
 
     /// 0x2200 sub 9 Monitoring values / Number of rotations (ec5000.eds:1627, UNSIGNED32 ro, PDO-mappable)
     pub fn monitoring_values_number_of_rotations(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 478))
+        u32::from_le_bytes(od::load::<4>(&self.image, 584))
     }
 
     /// Sets 0x2200 sub 9 Monitoring values / Number of rotations.
     pub fn set_monitoring_values_number_of_rotations(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 478, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 584, v.to_le_bytes());
     }
 
     /// 0x2210 Lifetime traffic light (ec5000.eds:1635, UNSIGNED8 ro, PDO-mappable)
     pub fn lifetime_traffic_light(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 482))
+        u8::from_le_bytes(od::load::<1>(&self.image, 588))
     }
 
     /// Sets 0x2210 Lifetime traffic light.
     pub fn set_lifetime_traffic_light(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 482, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 588, v.to_le_bytes());
     }
 
     /// 0x2211 sub 0 Health traffic light / Health traffic light highest sub-index (ec5000.eds:1648, UNSIGNED8 ro, PDO-mappable)
     pub fn health_traffic_light_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 483))
+        u8::from_le_bytes(od::load::<1>(&self.image, 589))
     }
 
     /// Sets 0x2211 sub 0 Health traffic light / Health traffic light highest sub-index.
     pub fn set_health_traffic_light_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 483, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 589, v.to_le_bytes());
     }
 
     /// 0x2211 sub 1 Health traffic light / Temperature traffic light (ec5000.eds:1656, UNSIGNED8 ro, PDO-mappable)
     pub fn health_traffic_light_temperature_traffic_light(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 484))
+        u8::from_le_bytes(od::load::<1>(&self.image, 590))
     }
 
     /// Sets 0x2211 sub 1 Health traffic light / Temperature traffic light.
     pub fn set_health_traffic_light_temperature_traffic_light(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 484, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 590, v.to_le_bytes());
     }
 
     /// 0x2211 sub 2 Health traffic light / Power traffic light (ec5000.eds:1664, UNSIGNED8 ro, PDO-mappable)
     pub fn health_traffic_light_power_traffic_light(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 485))
+        u8::from_le_bytes(od::load::<1>(&self.image, 591))
     }
 
     /// Sets 0x2211 sub 2 Health traffic light / Power traffic light.
     pub fn set_health_traffic_light_power_traffic_light(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 485, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 591, v.to_le_bytes());
     }
 
     /// 0x2211 sub 3 Health traffic light / Error quantity traffic light (ec5000.eds:1672, UNSIGNED8 ro, PDO-mappable)
     pub fn health_traffic_light_error_quantity_traffic_light(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 486))
+        u8::from_le_bytes(od::load::<1>(&self.image, 592))
     }
 
     /// Sets 0x2211 sub 3 Health traffic light / Error quantity traffic light.
     pub fn set_health_traffic_light_error_quantity_traffic_light(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 486, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 592, v.to_le_bytes());
     }
 
     /// 0x2220 sub 0 Analog value output / Analog value output highest sub-index (ec5000.eds:1685, UNSIGNED8 ro, PDO-mappable)
     pub fn analog_value_output_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 487))
+        u8::from_le_bytes(od::load::<1>(&self.image, 593))
     }
 
     /// Sets 0x2220 sub 0 Analog value output / Analog value output highest sub-index.
     pub fn set_analog_value_output_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 487, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 593, v.to_le_bytes());
     }
 
     /// 0x2220 sub 1 Analog value output / Analog voltage (ec5000.eds:1693, INTEGER16 ro, PDO-mappable)
     pub fn analog_value_output_voltage(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 488))
+        i16::from_le_bytes(od::load::<2>(&self.image, 594))
     }
 
     /// Sets 0x2220 sub 1 Analog value output / Analog voltage.
     pub fn set_analog_value_output_voltage(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 488, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 594, v.to_le_bytes());
     }
 
     /// 0x4048 Nominal power (ec5000.eds:1701, UNSIGNED8 const, in flash)
@@ -2534,32 +2538,32 @@ impl Ram {
 
     /// 0x4231 sub 1 High temperature warning level / High temperature warning threshold (ec5000.eds:1722, INTEGER16 rw)
     pub fn high_temperature_warning_level_threshold(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 490))
+        i16::from_le_bytes(od::load::<2>(&self.image, 183))
     }
 
     /// Sets 0x4231 sub 1 High temperature warning level / High temperature warning threshold.
     pub fn set_high_temperature_warning_level_threshold(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 490, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 183, v.to_le_bytes());
     }
 
     /// 0x4231 sub 2 High temperature warning level / High temperature warning hysteresis (ec5000.eds:1732, INTEGER16 rw)
     pub fn high_temperature_warning_level_hysteresis(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 492))
+        i16::from_le_bytes(od::load::<2>(&self.image, 185))
     }
 
     /// Sets 0x4231 sub 2 High temperature warning level / High temperature warning hysteresis.
     pub fn set_high_temperature_warning_level_hysteresis(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 492, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 185, v.to_le_bytes());
     }
 
     /// 0x4645 Positioning deceleration ramp (ec5000.eds:1742, UNSIGNED16 rw)
     pub fn positioning_deceleration_ramp(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 494))
+        u16::from_le_bytes(od::load::<2>(&self.image, 187))
     }
 
     /// Sets 0x4645 Positioning deceleration ramp.
     pub fn set_positioning_deceleration_ramp(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 494, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 187, v.to_le_bytes());
     }
 
     /// 0x4650 sub 0 Bus address / Bus address highest sub-index (ec5000.eds:1757, UNSIGNED8 const, in flash)
@@ -2569,22 +2573,22 @@ impl Ram {
 
     /// 0x4650 sub 1 Bus address / Node-ID static (ec5000.eds:1765, UNSIGNED8 rw)
     pub fn bus_address_node_id_static(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 496))
+        u8::from_le_bytes(od::load::<1>(&self.image, 189))
     }
 
     /// Sets 0x4650 sub 1 Bus address / Node-ID static.
     pub fn set_bus_address_node_id_static(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 496, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 189, v.to_le_bytes());
     }
 
     /// 0x4650 sub 2 Bus address / Node-ID actual (ec5000.eds:1775, UNSIGNED8 ro)
     pub fn bus_address_node_id_actual(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 497))
+        u8::from_le_bytes(od::load::<1>(&self.image, 596))
     }
 
     /// Sets 0x4650 sub 2 Bus address / Node-ID actual.
     pub fn set_bus_address_node_id_actual(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 497, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 596, v.to_le_bytes());
     }
 
     /// 0x4651 sub 0 Baud rate / Baud rate highest sub-index (ec5000.eds:1790, UNSIGNED8 const, in flash)
@@ -2594,222 +2598,222 @@ impl Ram {
 
     /// 0x4651 sub 1 Baud rate / CAN bit rate (ec5000.eds:1798, UNSIGNED16 rw)
     pub fn baud_rate_can_bit_rate(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 498))
+        u16::from_le_bytes(od::load::<2>(&self.image, 190))
     }
 
     /// Sets 0x4651 sub 1 Baud rate / CAN bit rate.
     pub fn set_baud_rate_can_bit_rate(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 498, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 190, v.to_le_bytes());
     }
 
     /// 0x4651 sub 2 Baud rate / UART baud rate (ec5000.eds:1808, UNSIGNED16 rw)
     pub fn baud_rate_uart_baud_rate(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 500))
+        u16::from_le_bytes(od::load::<2>(&self.image, 192))
     }
 
     /// Sets 0x4651 sub 2 Baud rate / UART baud rate.
     pub fn set_baud_rate_uart_baud_rate(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 500, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 192, v.to_le_bytes());
     }
 
     /// 0x4FFE Actual SDO server user (ec5000.eds:1818, UNSIGNED8 ro)
     pub fn actual_sdo_server_user(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 502))
+        u8::from_le_bytes(od::load::<1>(&self.image, 597))
     }
 
     /// Sets 0x4FFE Actual SDO server user.
     pub fn set_actual_sdo_server_user(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 502, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 597, v.to_le_bytes());
     }
 
     /// 0x4FFF User login (ec5000.eds:1826, UNSIGNED32 wo)
     pub fn user_login(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 503))
+        u32::from_le_bytes(od::load::<4>(&self.image, 194))
     }
 
     /// Sets 0x4FFF User login.
     pub fn set_user_login(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 503, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 194, v.to_le_bytes());
     }
 
     /// 0x6007 Abort connection option code (ec5000.eds:1834, INTEGER16 rw)
     pub fn abort_connection_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 507))
+        i16::from_le_bytes(od::load::<2>(&self.image, 198))
     }
 
     /// Sets 0x6007 Abort connection option code.
     pub fn set_abort_connection_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 507, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 198, v.to_le_bytes());
     }
 
     /// 0x6040 Controlword (ec5000.eds:1844, UNSIGNED16 rww, PDO-mappable)
     pub fn controlword(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 509))
+        u16::from_le_bytes(od::load::<2>(&self.image, 200))
     }
 
     /// Sets 0x6040 Controlword.
     pub fn set_controlword(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 509, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 200, v.to_le_bytes());
     }
 
     /// 0x6041 Statusword (ec5000.eds:1852, UNSIGNED16 ro, PDO-mappable)
     pub fn statusword(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 511))
+        u16::from_le_bytes(od::load::<2>(&self.image, 598))
     }
 
     /// Sets 0x6041 Statusword.
     pub fn set_statusword(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 511, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 598, v.to_le_bytes());
     }
 
     /// 0x6060 Modes of operation (ec5000.eds:1860, INTEGER8 rww, PDO-mappable)
     pub fn modes_of_operation(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 513))
+        i8::from_le_bytes(od::load::<1>(&self.image, 202))
     }
 
     /// Sets 0x6060 Modes of operation.
     pub fn set_modes_of_operation(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 513, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 202, v.to_le_bytes());
     }
 
     /// 0x6061 Modes of operation display (ec5000.eds:1870, INTEGER8 ro, PDO-mappable)
     pub fn modes_of_operation_display(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 514))
+        i8::from_le_bytes(od::load::<1>(&self.image, 600))
     }
 
     /// Sets 0x6061 Modes of operation display.
     pub fn set_modes_of_operation_display(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 514, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 600, v.to_le_bytes());
     }
 
     /// 0x6062 Position demand value (ec5000.eds:1878, INTEGER32 ro, PDO-mappable)
     pub fn position_demand_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 515))
+        i32::from_le_bytes(od::load::<4>(&self.image, 601))
     }
 
     /// Sets 0x6062 Position demand value.
     pub fn set_position_demand_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 515, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 601, v.to_le_bytes());
     }
 
     /// 0x6064 Position actual value (ec5000.eds:1886, INTEGER32 ro, PDO-mappable)
     pub fn position_actual_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 519))
+        i32::from_le_bytes(od::load::<4>(&self.image, 605))
     }
 
     /// Sets 0x6064 Position actual value.
     pub fn set_position_actual_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 519, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 605, v.to_le_bytes());
     }
 
     /// 0x606B Velocity demand value (ec5000.eds:1894, INTEGER32 ro, PDO-mappable)
     pub fn velocity_demand_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 523))
+        i32::from_le_bytes(od::load::<4>(&self.image, 609))
     }
 
     /// Sets 0x606B Velocity demand value.
     pub fn set_velocity_demand_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 523, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 609, v.to_le_bytes());
     }
 
     /// 0x606C Velocity actual value (ec5000.eds:1902, INTEGER32 ro, PDO-mappable)
     pub fn velocity_actual_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 527))
+        i32::from_le_bytes(od::load::<4>(&self.image, 613))
     }
 
     /// Sets 0x606C Velocity actual value.
     pub fn set_velocity_actual_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 527, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 613, v.to_le_bytes());
     }
 
     /// 0x6073 Max current (ec5000.eds:1910, UNSIGNED16 rwr, PDO-mappable)
     pub fn max_current(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 531))
+        u16::from_le_bytes(od::load::<2>(&self.image, 203))
     }
 
     /// Sets 0x6073 Max current.
     pub fn set_max_current(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 531, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 203, v.to_le_bytes());
     }
 
     /// 0x6077 Torque actual value (ec5000.eds:1920, INTEGER16 ro, PDO-mappable)
     pub fn torque_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 533))
+        i16::from_le_bytes(od::load::<2>(&self.image, 617))
     }
 
     /// Sets 0x6077 Torque actual value.
     pub fn set_torque_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 533, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 617, v.to_le_bytes());
     }
 
     /// 0x6079 DC link circuit voltage (ec5000.eds:1928, UNSIGNED16 ro, PDO-mappable)
     pub fn dc_link_circuit_voltage(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 535))
+        u16::from_le_bytes(od::load::<2>(&self.image, 619))
     }
 
     /// Sets 0x6079 DC link circuit voltage.
     pub fn set_dc_link_circuit_voltage(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 535, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 619, v.to_le_bytes());
     }
 
     /// 0x607A Target position (ec5000.eds:1936, INTEGER32 rww, PDO-mappable)
     pub fn target_position(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 537))
+        i32::from_le_bytes(od::load::<4>(&self.image, 205))
     }
 
     /// Sets 0x607A Target position.
     pub fn set_target_position(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 537, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 205, v.to_le_bytes());
     }
 
     /// 0x607E Polarity (ec5000.eds:1944, UNSIGNED8 rw)
     pub fn polarity(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 541))
+        u8::from_le_bytes(od::load::<1>(&self.image, 209))
     }
 
     /// Sets 0x607E Polarity.
     pub fn set_polarity(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 541, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 209, v.to_le_bytes());
     }
 
     /// 0x607F Max profile velocity (ec5000.eds:1954, UNSIGNED32 rww, PDO-mappable)
     pub fn max_profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 542))
+        u32::from_le_bytes(od::load::<4>(&self.image, 210))
     }
 
     /// Sets 0x607F Max profile velocity.
     pub fn set_max_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 542, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 210, v.to_le_bytes());
     }
 
     /// 0x6081 Profile velocity (ec5000.eds:1964, UNSIGNED32 rww, PDO-mappable)
     pub fn profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 546))
+        u32::from_le_bytes(od::load::<4>(&self.image, 214))
     }
 
     /// Sets 0x6081 Profile velocity.
     pub fn set_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 546, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 214, v.to_le_bytes());
     }
 
     /// 0x6083 Profile acceleration (ec5000.eds:1974, UNSIGNED32 rww, PDO-mappable)
     pub fn profile_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 550))
+        u32::from_le_bytes(od::load::<4>(&self.image, 218))
     }
 
     /// Sets 0x6083 Profile acceleration.
     pub fn set_profile_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 550, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 218, v.to_le_bytes());
     }
 
     /// 0x6084 Profile deceleration (ec5000.eds:1982, UNSIGNED32 rww, PDO-mappable)
     pub fn profile_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 554))
+        u32::from_le_bytes(od::load::<4>(&self.image, 222))
     }
 
     /// Sets 0x6084 Profile deceleration.
     pub fn set_profile_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 554, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 222, v.to_le_bytes());
     }
 
     /// 0x6091 sub 0 Gear ratio / Gear ratio highest sub-index (ec5000.eds:1995, UNSIGNED8 const, in flash)
@@ -2822,7 +2826,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 554 + usize::from(i) * 4;
+        let off = 222 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2831,7 +2835,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 554 + usize::from(i) * 4;
+        let off = 222 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2846,7 +2850,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 562 + usize::from(i) * 4;
+        let off = 230 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2855,79 +2859,79 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 562 + usize::from(i) * 4;
+        let off = 230 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x6098 Homing method (ec5000.eds:2050, INTEGER8 rww, PDO-mappable)
     pub fn homing_method(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 574))
+        i8::from_le_bytes(od::load::<1>(&self.image, 242))
     }
 
     /// Sets 0x6098 Homing method.
     pub fn set_homing_method(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 574, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 242, v.to_le_bytes());
     }
 
     /// 0x6099 Homing speeds (ec5000.eds:2060, UNSIGNED32 rw)
     pub fn homing_speeds(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 575))
+        u32::from_le_bytes(od::load::<4>(&self.image, 243))
     }
 
     /// Sets 0x6099 Homing speeds.
     pub fn set_homing_speeds(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 575, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 243, v.to_le_bytes());
     }
 
     /// 0x60A8 SI unit position (ec5000.eds:2070, UNSIGNED32 rw)
     pub fn si_unit_position(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 579))
+        u32::from_le_bytes(od::load::<4>(&self.image, 247))
     }
 
     /// Sets 0x60A8 SI unit position.
     pub fn set_si_unit_position(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 579, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 247, v.to_le_bytes());
     }
 
     /// 0x60A9 SI unit velocity (ec5000.eds:2080, UNSIGNED32 rw)
     pub fn si_unit_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 583))
+        u32::from_le_bytes(od::load::<4>(&self.image, 251))
     }
 
     /// Sets 0x60A9 SI unit velocity.
     pub fn set_si_unit_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 583, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 251, v.to_le_bytes());
     }
 
     /// 0x60AA SI unit acceleration (ec5000.eds:2090, UNSIGNED32 rw)
     pub fn si_unit_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 587))
+        u32::from_le_bytes(od::load::<4>(&self.image, 255))
     }
 
     /// Sets 0x60AA SI unit acceleration.
     pub fn set_si_unit_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 587, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 255, v.to_le_bytes());
     }
 
     /// 0x60C5 Max acceleration (ec5000.eds:2100, UNSIGNED32 rw)
     pub fn max_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 591))
+        u32::from_le_bytes(od::load::<4>(&self.image, 259))
     }
 
     /// Sets 0x60C5 Max acceleration.
     pub fn set_max_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 591, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 259, v.to_le_bytes());
     }
 
     /// 0x60C6 Max deceleration (ec5000.eds:2108, UNSIGNED32 rw)
     pub fn max_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 595))
+        u32::from_le_bytes(od::load::<4>(&self.image, 263))
     }
 
     /// Sets 0x60C6 Max deceleration.
     pub fn set_max_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 595, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 263, v.to_le_bytes());
     }
 
     /// 0x60E3 sub 0 Supported homing methods / Number of supported homing methods (ec5000.eds:2121, UNSIGNED8 const, in flash)
@@ -2942,42 +2946,42 @@ impl Ram {
 
     /// 0x60F2 Positioning option code (ec5000.eds:2137, UNSIGNED16 rww, PDO-mappable)
     pub fn positioning_option_code(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 599))
+        u16::from_le_bytes(od::load::<2>(&self.image, 267))
     }
 
     /// Sets 0x60F2 Positioning option code.
     pub fn set_positioning_option_code(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 599, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 267, v.to_le_bytes());
     }
 
     /// 0x60FF Target velocity (ec5000.eds:2145, INTEGER32 rww, PDO-mappable)
     pub fn target_velocity(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 601))
+        i32::from_le_bytes(od::load::<4>(&self.image, 269))
     }
 
     /// Sets 0x60FF Target velocity.
     pub fn set_target_velocity(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 601, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 269, v.to_le_bytes());
     }
 
     /// 0x6402 Motor type (ec5000.eds:2155, UNSIGNED16 ro)
     pub fn motor_type(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 605))
+        u16::from_le_bytes(od::load::<2>(&self.image, 621))
     }
 
     /// Sets 0x6402 Motor type.
     pub fn set_motor_type(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 605, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 621, v.to_le_bytes());
     }
 
     /// 0x6403 Motor catalogue number (ec5000.eds:2163, VISIBLE_STRING rw)
     pub fn motor_catalogue_number(&self) -> &[u8] {
-        od::load_str(&self.image, 607, 16)
+        od::load_str(&self.image, 273, 16)
     }
 
     /// Sets 0x6403 Motor catalogue number. Cut to 16 bytes; returns the number stored.
     pub fn set_motor_catalogue_number(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 607, 16, v)
+        od::store_str(&mut self.image, 273, 16, v)
     }
 
     /// 0x6404 Motor manufacturer (ec5000.eds:2171, VISIBLE_STRING const, in flash)

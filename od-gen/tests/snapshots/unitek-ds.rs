@@ -512,6 +512,8 @@ pub mod index {
 pub const ENTRY_COUNT: usize = 254;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 600;
+/// Bytes at the front of the RAM image a stored parameter set holds.
+pub const STORED_SIZE: usize = 348;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 0;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -541,258 +543,258 @@ const RW_TPDO_RPDO: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::MAP_TPDO.0 
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 4, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 5, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 6, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 10, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 14, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 18, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x2001, 0x00, DataType::Integer16, RO_TPDO, 2, 22, NO_LIMITS), // 0x2001:00 User specific options
-    Entry::new(0x2002, 0x00, DataType::Integer16, RO_TPDO, 2, 24, NO_LIMITS), // 0x2002:00 User specific safety state
-    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 26, NO_LIMITS), // 0x2003:00 User specific command specials
-    Entry::new(0x2004, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 28, NO_LIMITS), // 0x2004:00 User key
-    Entry::new(0x2005, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 30, NO_LIMITS), // 0x2005:00 Nominal motor frequency
-    Entry::new(0x2006, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 32, NO_LIMITS), // 0x2006:00 Nominal motor voltage
-    Entry::new(0x2007, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 34, NO_LIMITS), // 0x2007:00 UF DC premagnetisation time
-    Entry::new(0x2008, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 38, NO_LIMITS), // 0x2008:00 UF DC voltage
-    Entry::new(0x2009, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 42, NO_LIMITS), // 0x2009:00 UF DC frequency
-    Entry::new(0x200A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 46, NO_LIMITS), // 0x200A:00 UF minimum voltage
-    Entry::new(0x200B, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 50, NO_LIMITS), // 0x200B:00 UF minimum frequency
-    Entry::new(0x200C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 54, NO_LIMITS), // 0x200C:00 UF corner voltage
-    Entry::new(0x200D, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 58, NO_LIMITS), // 0x200D:00 UF corner frequency
-    Entry::new(0x200E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 62, NO_LIMITS), // 0x200E:00 UF power factor
-    Entry::new(0x200F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 64, NO_LIMITS), // 0x200F:00 UF extra
-    Entry::new(0x2010, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 66, NO_LIMITS), // 0x2010:00 Oscilloscope trigger channel
-    Entry::new(0x2011, 0x00, DataType::Unsigned32, RO_TPDO, 4, 68, NO_LIMITS), // 0x2011:00 Control status
-    Entry::new(0x2012, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 72, NO_LIMITS), // 0x2012:00 Oscilloscope trigger level
-    Entry::new(0x2013, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 74, NO_LIMITS), // 0x2013:00 Oscilloscope trigger edge
-    Entry::new(0x2014, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 76, NO_LIMITS), // 0x2014:00 Oscilloscope trigger source
-    Entry::new(0x2015, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 78, NO_LIMITS), // 0x2015:00 Oscilloscope source
-    Entry::new(0x2016, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 80, NO_LIMITS), // 0x2016:00 Oscilloscope skip
-    Entry::new(0x2017, 0x00, DataType::Unsigned16, WO, 2, 82, NO_LIMITS), // 0x2017:00 Oscilloscope read command
-    Entry::new(0x2018, 0x00, DataType::Unsigned16, WO, 2, 84, NO_LIMITS), // 0x2018:00 Oscilloscope run command
-    Entry::new(0x2019, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 86, NO_LIMITS), // 0x2019:00 PWM frequency
-    Entry::new(0x201A, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 88, NO_LIMITS), // 0x201A:00 Lookup temporary
-    Entry::new(0x201B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 90, NO_LIMITS), // 0x201B:00 Firmware version
-    Entry::new(0x201C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 92, NO_LIMITS), // 0x201C:00 Current controller proportional gain
-    Entry::new(0x201D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 94, NO_LIMITS), // 0x201D:00 Current controller integral time
-    Entry::new(0x201E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 96, NO_LIMITS), // 0x201E:00 Digital command cutoff
-    Entry::new(0x201F, 0x00, DataType::Integer16, RO_TPDO, 2, 98, NO_LIMITS), // 0x201F:00 Phase 3 current offset
-    Entry::new(0x2020, 0x00, DataType::Integer16, RO_TPDO, 2, 100, NO_LIMITS), // 0x2020:00 Current actual value
-    Entry::new(0x2021, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 102, NO_LIMITS), // 0x2021:00 D current set point
-    Entry::new(0x2022, 0x00, DataType::Integer16, RO_TPDO, 2, 104, NO_LIMITS), // 0x2022:00 Current command after ramp
-    Entry::new(0x2023, 0x00, DataType::Integer16, RO_TPDO, 2, 106, NO_LIMITS), // 0x2023:00 D current reference
-    Entry::new(0x2024, 0x00, DataType::Unsigned16, RO_TPDO, 2, 108, NO_LIMITS), // 0x2024:00 Maximum current in use
-    Entry::new(0x2025, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 110, NO_LIMITS), // 0x2025:00 Current command ramp
-    Entry::new(0x2026, 0x00, DataType::Integer16, RO_TPDO, 2, 112, NO_LIMITS), // 0x2026:00 Current command
-    Entry::new(0x2027, 0x00, DataType::Integer16, RO_TPDO, 2, 114, NO_LIMITS), // 0x2027:00 Q current actual value
-    Entry::new(0x2028, 0x00, DataType::Integer16, RO_TPDO, 2, 116, NO_LIMITS), // 0x2028:00 D current actual value
-    Entry::new(0x2029, 0x00, DataType::Integer16, RO_TPDO, 2, 118, NO_LIMITS), // 0x2029:00 Q output voltage
-    Entry::new(0x202A, 0x00, DataType::Integer16, RO_TPDO, 2, 120, NO_LIMITS), // 0x202A:00 D output voltage
-    Entry::new(0x202B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 122, NO_LIMITS), // 0x202B:00 Current controller max integration count
-    Entry::new(0x202C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 124, NO_LIMITS), // 0x202C:00 Speed controller proportional gain
-    Entry::new(0x202D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 126, NO_LIMITS), // 0x202D:00 Speed controller integral time
-    Entry::new(0x202E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 128, NO_LIMITS), // 0x202E:00 Speed controller derivative time
-    Entry::new(0x202F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 130, NO_LIMITS), // 0x202F:00 Analog input 1 offset and scale
-    Entry::new(0x2030, 0x00, DataType::Integer16, RO_TPDO, 2, 134, 0), // 0x2030:00 Speed actual value
-    Entry::new(0x2031, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 136, 0), // 0x2031:00 Speed set point
-    Entry::new(0x2032, 0x00, DataType::Integer16, RO_TPDO, 2, 138, NO_LIMITS), // 0x2032:00 Speed command after ramp
-    Entry::new(0x2033, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 140, NO_LIMITS), // 0x2033:00 Speed error
-    Entry::new(0x2034, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 142, NO_LIMITS), // 0x2034:00 Speed limit
-    Entry::new(0x2035, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 144, NO_LIMITS), // 0x2035:00 Acceleration ramp
-    Entry::new(0x2036, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 148, NO_LIMITS), // 0x2036:00 Speed command source
-    Entry::new(0x2037, 0x00, DataType::Unsigned16, RO_TPDO, 2, 150, NO_LIMITS), // 0x2037:00 Current to speed loop factor
-    Entry::new(0x2038, 0x00, DataType::Integer16, RO_TPDO, 2, 152, NO_LIMITS), // 0x2038:00 Q current error
-    Entry::new(0x2039, 0x00, DataType::Integer16, RO_TPDO, 2, 154, NO_LIMITS), // 0x2039:00 D current error
-    Entry::new(0x203B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 156, NO_LIMITS), // 0x203B:00 Speed controller max integration count
-    Entry::new(0x203C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 158, NO_LIMITS), // 0x203C:00 Current derating by speed
-    Entry::new(0x203D, 0x00, DataType::Unsigned16, WO, 2, 160, NO_LIMITS), // 0x203D:00 Read request
-    Entry::new(0x203E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 162, NO_LIMITS), // 0x203E:00 Negative speed limit
-    Entry::new(0x203F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 164, NO_LIMITS), // 0x203F:00 Positive speed limit
-    Entry::new(0x2040, 0x00, DataType::Unsigned32, RO_TPDO, 4, 166, NO_LIMITS), // 0x2040:00 Status map
-    Entry::new(0x2041, 0x00, DataType::Integer16, RO_TPDO, 2, 170, NO_LIMITS), // 0x2041:00 Increment delta
-    Entry::new(0x2042, 0x00, DataType::Integer16, RO_TPDO, 2, 172, NO_LIMITS), // 0x2042:00 Motor mechanical angle
-    Entry::new(0x2043, 0x00, DataType::Unsigned16, RO_TPDO, 2, 174, NO_LIMITS), // 0x2043:00 Motor electrical angle
-    Entry::new(0x2044, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 176, NO_LIMITS), // 0x2044:00 Feedback phase angle offset
-    Entry::new(0x2045, 0x00, DataType::Unsigned32, RO_TPDO, 4, 178, NO_LIMITS), // 0x2045:00 I2t and regen energy monitor
-    Entry::new(0x2046, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 182, NO_LIMITS), // 0x2046:00 Digital current limit
-    Entry::new(0x2048, 0x00, DataType::Integer16, RO_TPDO, 2, 184, NO_LIMITS), // 0x2048:00 Current limit in use
-    Entry::new(0x2049, 0x00, DataType::Unsigned16, RO_TPDO, 2, 186, NO_LIMITS), // 0x2049:00 Motor temperature
-    Entry::new(0x204A, 0x00, DataType::Unsigned16, RO_TPDO, 2, 188, NO_LIMITS), // 0x204A:00 Power stage temperature
-    Entry::new(0x204B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 190, NO_LIMITS), // 0x204B:00 Air temperature
-    Entry::new(0x204C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 192, NO_LIMITS), // 0x204C:00 Current derating by temperature
-    Entry::new(0x204D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 194, NO_LIMITS), // 0x204D:00 Motor maximum current
-    Entry::new(0x204E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 196, NO_LIMITS), // 0x204E:00 Motor continuous current
-    Entry::new(0x204F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 198, NO_LIMITS), // 0x204F:00 Motor pole count
-    Entry::new(0x2050, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 200, NO_LIMITS), // 0x2050:00 Analog input 1 cutoff window
-    Entry::new(0x2051, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 202, NO_LIMITS), // 0x2051:00 Mode
-    Entry::new(0x2052, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 204, NO_LIMITS), // 0x2052:00 Status mask
-    Entry::new(0x2053, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 208, NO_LIMITS), // 0x2053:00 Analog input 2 cutoff window
-    Entry::new(0x2054, 0x00, DataType::Integer16, RO_TPDO, 2, 210, NO_LIMITS), // 0x2054:00 Phase 1 current actual value
-    Entry::new(0x2055, 0x00, DataType::Integer16, RO_TPDO, 2, 212, NO_LIMITS), // 0x2055:00 Phase 2 current actual value
-    Entry::new(0x2056, 0x00, DataType::Integer16, RO_TPDO, 2, 214, NO_LIMITS), // 0x2056:00 Phase 3 current actual value
-    Entry::new(0x2057, 0x00, DataType::Integer16, RO_TPDO, 2, 216, NO_LIMITS), // 0x2057:00 Ramped current limit in use
-    Entry::new(0x2058, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 218, NO_LIMITS), // 0x2058:00 Current derating TD
-    Entry::new(0x2059, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 220, NO_LIMITS), // 0x2059:00 Rated motor speed
-    Entry::new(0x205A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 222, NO_LIMITS), // 0x205A:00 Device options
-    Entry::new(0x205B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 226, NO_LIMITS), // 0x205B:00 Acceleration gain
-    Entry::new(0x205C, 0x00, DataType::Unsigned16, RO_TPDO, 2, 228, NO_LIMITS), // 0x205C:00 Rotor signals
-    Entry::new(0x205D, 0x00, DataType::Integer16, RO_TPDO, 2, 230, NO_LIMITS), // 0x205D:00 Internal speed command
-    Entry::new(0x205E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 232, NO_LIMITS), // 0x205E:00 Speed actual value filter
-    Entry::new(0x205F, 0x00, DataType::Integer16, RO_TPDO, 2, 234, NO_LIMITS), // 0x205F:00 Filtered current actual value
-    Entry::new(0x2060, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 236, NO_LIMITS), // 0x2060:00 Analog input filter
-    Entry::new(0x2061, 0x00, DataType::Unsigned16, RO_TPDO, 2, 238, NO_LIMITS), // 0x2061:00 It monitor
-    Entry::new(0x2062, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 240, NO_LIMITS), // 0x2062:00 Device serial number
-    Entry::new(0x2063, 0x00, DataType::Unsigned16, RO_TPDO, 2, 244, NO_LIMITS), // 0x2063:00 FPGA status
-    Entry::new(0x2064, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 246, NO_LIMITS), // 0x2064:00 Mains supply voltage
-    Entry::new(0x2065, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 248, NO_LIMITS), // 0x2065:00 Regen resistor rating
-    Entry::new(0x2066, 0x00, DataType::Unsigned16, RO_TPDO, 2, 252, NO_LIMITS), // 0x2066:00 Battery voltage
-    Entry::new(0x2067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 254, NO_LIMITS), // 0x2067:00 Device type code
-    Entry::new(0x2068, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 258, 1), // 0x2068:00 CAN receive id
-    Entry::new(0x2069, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 260, 2), // 0x2069:00 CAN transmit id
-    Entry::new(0x206A, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 262, NO_LIMITS), // 0x206A:00 Position controller proportional gain
-    Entry::new(0x206B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 264, NO_LIMITS), // 0x206B:00 Position controller integral time
-    Entry::new(0x206C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 266, NO_LIMITS), // 0x206C:00 Position controller derivative time
-    Entry::new(0x206D, 0x00, DataType::Integer32, RO_TPDO, 4, 268, 3), // 0x206D:00 Position actual value
-    Entry::new(0x206E, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 272, 3), // 0x206E:00 Position destination
-    Entry::new(0x206F, 0x00, DataType::Integer32, RO_TPDO, 4, 276, NO_LIMITS), // 0x206F:00 Position actual value 2
-    Entry::new(0x2070, 0x00, DataType::Integer32, RO_TPDO, 4, 280, NO_LIMITS), // 0x2070:00 Position error
-    Entry::new(0x2071, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 284, NO_LIMITS), // 0x2071:00 Position controller max integration count
-    Entry::new(0x2072, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 286, NO_LIMITS), // 0x2072:00 Reference zero offset
-    Entry::new(0x2073, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 290, 4), // 0x2073:00 CAN bit rate code
-    Entry::new(0x2074, 0x00, DataType::Integer16, RO_TPDO, 2, 292, NO_LIMITS), // 0x2074:00 Position zero capture
-    Entry::new(0x2075, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 294, NO_LIMITS), // 0x2075:00 Resolver position at reference switch
-    Entry::new(0x2076, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 296, NO_LIMITS), // 0x2076:00 Homing speed fast
-    Entry::new(0x2077, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 298, NO_LIMITS), // 0x2077:00 Homing speed slow
-    Entry::new(0x2078, 0x00, DataType::Unsigned16, WO, 2, 300, NO_LIMITS), // 0x2078:00 Start homing
-    Entry::new(0x2079, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 302, NO_LIMITS), // 0x2079:00 Position tolerance window
-    Entry::new(0x207A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 304, NO_LIMITS), // 0x207A:00 Position preset
-    Entry::new(0x207B, 0x00, DataType::Unsigned32, RO_TPDO, 4, 308, NO_LIMITS), // 0x207B:00 User zero offset
-    Entry::new(0x207C, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 312, NO_LIMITS), // 0x207C:00 Display position scale
-    Entry::new(0x207D, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 316, NO_LIMITS), // 0x207D:00 Display position offset
-    Entry::new(0x207E, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 320, NO_LIMITS), // 0x207E:00 Second encoder scale
-    Entry::new(0x207F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 324, NO_LIMITS), // 0x207F:00 Slack offset
-    Entry::new(0x2080, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 328, NO_LIMITS), // 0x2080:00 Slack position difference
-    Entry::new(0x2082, 0x00, DataType::Unsigned16, RO_TPDO, 2, 330, NO_LIMITS), // 0x2082:00 Device serial number extension
-    Entry::new(0x2083, 0x00, DataType::Unsigned16, WO, 2, 332, NO_LIMITS), // 0x2083:00 Read parameters from EEPROM
-    Entry::new(0x2084, 0x00, DataType::Unsigned16, WO, 2, 334, 5), // 0x2084:00 Write parameters to EEPROM
-    Entry::new(0x2085, 0x00, DataType::Unsigned16, WO, 2, 336, NO_LIMITS), // 0x2085:00 Auto functions
-    Entry::new(0x2086, 0x00, DataType::Integer16, RO_TPDO, 2, 338, NO_LIMITS), // 0x2086:00 Read info
-    Entry::new(0x2088, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 340, NO_LIMITS), // 0x2088:00 CAN receive id 2
-    Entry::new(0x2089, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 344, NO_LIMITS), // 0x2089:00 CAN transmit id 2
-    Entry::new(0x208A, 0x00, DataType::Integer16, RO_TPDO, 2, 348, NO_LIMITS), // 0x208A:00 Output voltage usage
-    Entry::new(0x208B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 350, NO_LIMITS), // 0x208B:00 Field weakening start point
-    Entry::new(0x208C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 352, NO_LIMITS), // 0x208C:00 Field weakening proportional gain
-    Entry::new(0x208D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 354, NO_LIMITS), // 0x208D:00 Field weakening integral time
-    Entry::new(0x208E, 0x00, DataType::Unsigned16, WO, 2, 356, NO_LIMITS), // 0x208E:00 Clear error list
-    Entry::new(0x208F, 0x00, DataType::Unsigned32, RO_TPDO, 4, 358, NO_LIMITS), // 0x208F:00 Warning and error map
-    Entry::new(0x2090, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 362, 0), // 0x2090:00 Torque set point
-    Entry::new(0x2091, 0x00, DataType::Integer32, RO_TPDO, 4, 364, NO_LIMITS), // 0x2091:00 Position command
-    Entry::new(0x2092, 0x00, DataType::Unsigned16, RO_TPDO, 2, 368, NO_LIMITS), // 0x2092:00 CAN bus off count
-    Entry::new(0x2093, 0x00, DataType::Unsigned16, RO_TPDO, 2, 370, NO_LIMITS), // 0x2093:00 CAN write error time
-    Entry::new(0x2094, 0x00, DataType::Unsigned16, RO_TPDO, 2, 372, NO_LIMITS), // 0x2094:00 FPGA first error
-    Entry::new(0x2095, 0x00, DataType::Unsigned16, RO_TPDO, 2, 374, NO_LIMITS), // 0x2095:00 CAN read count
-    Entry::new(0x2096, 0x00, DataType::Unsigned16, RO_TPDO, 2, 376, NO_LIMITS), // 0x2096:00 CAN write count
-    Entry::new(0x2097, 0x00, DataType::Unsigned16, RO_TPDO, 2, 378, NO_LIMITS), // 0x2097:00 CAN reject count
-    Entry::new(0x2098, 0x00, DataType::Integer16, RO_TPDO, 2, 380, NO_LIMITS), // 0x2098:00 Output block
-    Entry::new(0x2099, 0x00, DataType::Unsigned16, RO_TPDO, 2, 382, NO_LIMITS), // 0x2099:00 Interrupt time info
-    Entry::new(0x209A, 0x00, DataType::Integer16, RO_TPDO, 2, 384, NO_LIMITS), // 0x209A:00 Debug temperature
-    Entry::new(0x209B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 386, NO_LIMITS), // 0x209B:00 Input block
-    Entry::new(0x209C, 0x00, DataType::Integer16, RO_TPDO, 2, 388, NO_LIMITS), // 0x209C:00 PT100 sensor 1 temperature
-    Entry::new(0x209D, 0x00, DataType::Integer16, RO_TPDO, 2, 390, NO_LIMITS), // 0x209D:00 PT100 sensor 2 temperature
-    Entry::new(0x209E, 0x00, DataType::Integer16, RO_TPDO, 2, 392, NO_LIMITS), // 0x209E:00 PT100 sensor 3 temperature
-    Entry::new(0x209F, 0x00, DataType::Integer16, RO_TPDO, 2, 394, NO_LIMITS), // 0x209F:00 PT100 sensor 4 temperature
-    Entry::new(0x20A0, 0x00, DataType::Integer16, RO_TPDO, 2, 396, NO_LIMITS), // 0x20A0:00 Internal torque
-    Entry::new(0x20A1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 398, NO_LIMITS), // 0x20A1:00 Ballast counter
-    Entry::new(0x20A2, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 400, NO_LIMITS), // 0x20A2:00 Current derating TM
-    Entry::new(0x20A3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 402, NO_LIMITS), // 0x20A3:00 Motor temperature cutoff
-    Entry::new(0x20A4, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 404, NO_LIMITS), // 0x20A4:00 Motor options
-    Entry::new(0x20A5, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 406, NO_LIMITS), // 0x20A5:00 DC bus minimum and maximum
-    Entry::new(0x20A6, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 410, NO_LIMITS), // 0x20A6:00 Feedback increments per revolution
-    Entry::new(0x20A7, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 412, NO_LIMITS), // 0x20A7:00 Resolver pole count
-    Entry::new(0x20A8, 0x00, DataType::Integer16, RO_TPDO, 2, 414, NO_LIMITS), // 0x20A8:00 Filtered speed actual value
-    Entry::new(0x20A9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 416, NO_LIMITS), // 0x20A9:00 Current sensor 1 ADC
-    Entry::new(0x20AA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 418, NO_LIMITS), // 0x20AA:00 Current sensor 2 ADC
-    Entry::new(0x20AB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 420, NO_LIMITS), // 0x20AB:00 Foreground frequency
-    Entry::new(0x20AC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 422, NO_LIMITS), // 0x20AC:00 PWM phase 1
-    Entry::new(0x20AD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 424, NO_LIMITS), // 0x20AD:00 PWM phase 2
-    Entry::new(0x20AE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 426, NO_LIMITS), // 0x20AE:00 PWM phase 3
-    Entry::new(0x20AF, 0x00, DataType::Integer16, RO_TPDO, 2, 428, NO_LIMITS), // 0x20AF:00 Interrupt timer delta
-    Entry::new(0x20B0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 430, NO_LIMITS), // 0x20B0:00 Serial boot function
-    Entry::new(0x20B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 432, NO_LIMITS), // 0x20B1:00 Motor q leakage inductance
-    Entry::new(0x20B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 434, NO_LIMITS), // 0x20B2:00 Nominal magnetising current
-    Entry::new(0x20B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 436, NO_LIMITS), // 0x20B3:00 Motor magnetising inductance
-    Entry::new(0x20B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 438, NO_LIMITS), // 0x20B4:00 Rotor resistance
-    Entry::new(0x20B5, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 440, NO_LIMITS), // 0x20B5:00 Minimum magnetising current
-    Entry::new(0x20B6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 442, NO_LIMITS), // 0x20B6:00 Rotor time constant
-    Entry::new(0x20B7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 444, NO_LIMITS), // 0x20B7:00 Debug pointer 1
-    Entry::new(0x20B8, 0x00, DataType::Integer16, RO_TPDO, 2, 446, NO_LIMITS), // 0x20B8:00 Debug pointer 1 value
-    Entry::new(0x20B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 448, NO_LIMITS), // 0x20B9:00 Debug pointer 2
-    Entry::new(0x20BA, 0x00, DataType::Integer16, RO_TPDO, 2, 450, NO_LIMITS), // 0x20BA:00 Debug pointer 2 value
-    Entry::new(0x20BB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 452, NO_LIMITS), // 0x20BB:00 Motor d leakage inductance
-    Entry::new(0x20BC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 454, NO_LIMITS), // 0x20BC:00 Stator resistance
-    Entry::new(0x20BD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 456, NO_LIMITS), // 0x20BD:00 Stator time constant
-    Entry::new(0x20BE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 458, NO_LIMITS), // 0x20BE:00 Logic definition END1
-    Entry::new(0x20BF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 460, NO_LIMITS), // 0x20BF:00 Logic definition END2
-    Entry::new(0x20C0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 462, NO_LIMITS), // 0x20C0:00 Logic definition DIN1
-    Entry::new(0x20C1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 464, NO_LIMITS), // 0x20C1:00 Logic definition DIN2
-    Entry::new(0x20C2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 466, NO_LIMITS), // 0x20C2:00 Logic definition DOUT1
-    Entry::new(0x20C3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 468, NO_LIMITS), // 0x20C3:00 Logic definition DOUT2
-    Entry::new(0x20C4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 470, NO_LIMITS), // 0x20C4:00 Peak current limit
-    Entry::new(0x20C5, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 472, NO_LIMITS), // 0x20C5:00 Continuous current limit
-    Entry::new(0x20C6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 474, NO_LIMITS), // 0x20C6:00 Device current rating
-    Entry::new(0x20C7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 476, NO_LIMITS), // 0x20C7:00 Limit switch stop ramp
-    Entry::new(0x20C8, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 478, NO_LIMITS), // 0x20C8:00 Maximum speed
-    Entry::new(0x20C9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 480, NO_LIMITS), // 0x20C9:00 Position PI proportional gain
-    Entry::new(0x20CA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 482, NO_LIMITS), // 0x20CA:00 Position PI integral time
-    Entry::new(0x20CB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 484, NO_LIMITS), // 0x20CB:00 Current feed forward gain
-    Entry::new(0x20CC, 0x00, DataType::Integer16, RO_TPDO, 2, 486, NO_LIMITS), // 0x20CC:00 Position PI error
-    Entry::new(0x20CD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 488, NO_LIMITS), // 0x20CD:00 Position PI integral limit
-    Entry::new(0x20CE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 490, NO_LIMITS), // 0x20CE:00 Maximum speed internal
-    Entry::new(0x20CF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 492, NO_LIMITS), // 0x20CF:00 Position PI Ky factor
-    Entry::new(0x20D0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 494, NO_LIMITS), // 0x20D0:00 CAN timeout
-    Entry::new(0x20D1, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 496, NO_LIMITS), // 0x20D1:00 Comparison variable 1
-    Entry::new(0x20D2, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 500, NO_LIMITS), // 0x20D2:00 Comparison variable 2
-    Entry::new(0x20D3, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 504, NO_LIMITS), // 0x20D3:00 Comparison variable 3
-    Entry::new(0x20D4, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 508, NO_LIMITS), // 0x20D4:00 Comparison variable 4
-    Entry::new(0x20D5, 0x00, DataType::Integer32, RO_TPDO, 4, 512, NO_LIMITS), // 0x20D5:00 Analog input 1
-    Entry::new(0x20D6, 0x00, DataType::Integer32, RO_TPDO, 4, 516, NO_LIMITS), // 0x20D6:00 Analog input 2
-    Entry::new(0x20D7, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 520, NO_LIMITS), // 0x20D7:00 Analog input 2 offset and scale
-    Entry::new(0x20D8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 524, NO_LIMITS), // 0x20D8:00 IO bit map
-    Entry::new(0x20D9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 526, NO_LIMITS), // 0x20D9:00 Current at 200 percent
-    Entry::new(0x20DA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 528, NO_LIMITS), // 0x20DA:00 Logic definition DOUT3
-    Entry::new(0x20DB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 530, NO_LIMITS), // 0x20DB:00 Logic definition DOUT4
-    Entry::new(0x20DC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 532, NO_LIMITS), // 0x20DC:00 DAC definition
-    Entry::new(0x20DE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 534, NO_LIMITS), // 0x20DE:00 Digital output 3
-    Entry::new(0x20DF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 536, NO_LIMITS), // 0x20DF:00 Digital output 4
-    Entry::new(0x20E0, 0x00, DataType::Unsigned16, RO_TPDO, 2, 538, NO_LIMITS), // 0x20E0:00 Digital output 1
-    Entry::new(0x20E1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 540, NO_LIMITS), // 0x20E1:00 Digital output 2
-    Entry::new(0x20E2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 542, NO_LIMITS), // 0x20E2:00 Device ready
-    Entry::new(0x20E3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 544, NO_LIMITS), // 0x20E3:00 Internal run
-    Entry::new(0x20E4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 546, NO_LIMITS), // 0x20E4:00 Limit switch input 1
-    Entry::new(0x20E5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 548, NO_LIMITS), // 0x20E5:00 Limit switch input 2
-    Entry::new(0x20E6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 550, NO_LIMITS), // 0x20E6:00 Digital input 1
-    Entry::new(0x20E7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 552, NO_LIMITS), // 0x20E7:00 Digital input 2
-    Entry::new(0x20E8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 554, NO_LIMITS), // 0x20E8:00 Run input
-    Entry::new(0x20E9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS), // 0x20E9:00 Power stage fault
-    Entry::new(0x20EA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 558, NO_LIMITS), // 0x20EA:00 Regen circuit message
-    Entry::new(0x20EB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 560, NO_LIMITS), // 0x20EB:00 DC bus voltage
-    Entry::new(0x20EC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 562, NO_LIMITS), // 0x20EC:00 Resolver loss of signal
-    Entry::new(0x20ED, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 564, NO_LIMITS), // 0x20ED:00 Deceleration ramp
-    Entry::new(0x20EE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 568, NO_LIMITS), // 0x20EE:00 Current sensor calibration
-    Entry::new(0x20EF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 570, NO_LIMITS), // 0x20EF:00 No fault output
-    Entry::new(0x20F0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 572, NO_LIMITS), // 0x20F0:00 Peak current time
-    Entry::new(0x20F1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 574, NO_LIMITS), // 0x20F1:00 Brake delay time
-    Entry::new(0x20F2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 576, NO_LIMITS), // 0x20F2:00 Brake on
-    Entry::new(0x20F3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 578, NO_LIMITS), // 0x20F3:00 Continuous current message
-    Entry::new(0x20F4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 580, NO_LIMITS), // 0x20F4:00 Position in tolerance
-    Entry::new(0x20F5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 582, NO_LIMITS), // 0x20F5:00 Speed below 1 percent
-    Entry::new(0x20F6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 584, NO_LIMITS), // 0x20F6:00 Power
-    Entry::new(0x20F7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 586, NO_LIMITS), // 0x20F7:00 Work
-    Entry::new(0x20F8, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 588, NO_LIMITS), // 0x20F8:00 Axis label
-    Entry::new(0x20F9, 0x00, DataType::Unsigned16, WO, 2, 592, NO_LIMITS), // 0x20F9:00 Write ASCII label to EEPROM
-    Entry::new(0x20FA, 0x00, DataType::Unsigned16, WO, 2, 594, NO_LIMITS), // 0x20FA:00 Read ASCII label from EEPROM
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 348, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 352, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 353, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 354, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 358, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 362, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 366, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x2001, 0x00, DataType::Integer16, RO_TPDO, 2, 370, NO_LIMITS), // 0x2001:00 User specific options
+    Entry::new(0x2002, 0x00, DataType::Integer16, RO_TPDO, 2, 372, NO_LIMITS), // 0x2002:00 User specific safety state
+    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 0, NO_LIMITS), // 0x2003:00 User specific command specials
+    Entry::new(0x2004, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 2, NO_LIMITS), // 0x2004:00 User key
+    Entry::new(0x2005, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 4, NO_LIMITS), // 0x2005:00 Nominal motor frequency
+    Entry::new(0x2006, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 6, NO_LIMITS), // 0x2006:00 Nominal motor voltage
+    Entry::new(0x2007, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 8, NO_LIMITS), // 0x2007:00 UF DC premagnetisation time
+    Entry::new(0x2008, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 12, NO_LIMITS), // 0x2008:00 UF DC voltage
+    Entry::new(0x2009, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 16, NO_LIMITS), // 0x2009:00 UF DC frequency
+    Entry::new(0x200A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 20, NO_LIMITS), // 0x200A:00 UF minimum voltage
+    Entry::new(0x200B, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 24, NO_LIMITS), // 0x200B:00 UF minimum frequency
+    Entry::new(0x200C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 28, NO_LIMITS), // 0x200C:00 UF corner voltage
+    Entry::new(0x200D, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 32, NO_LIMITS), // 0x200D:00 UF corner frequency
+    Entry::new(0x200E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 36, NO_LIMITS), // 0x200E:00 UF power factor
+    Entry::new(0x200F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 38, NO_LIMITS), // 0x200F:00 UF extra
+    Entry::new(0x2010, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 40, NO_LIMITS), // 0x2010:00 Oscilloscope trigger channel
+    Entry::new(0x2011, 0x00, DataType::Unsigned32, RO_TPDO, 4, 374, NO_LIMITS), // 0x2011:00 Control status
+    Entry::new(0x2012, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 42, NO_LIMITS), // 0x2012:00 Oscilloscope trigger level
+    Entry::new(0x2013, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 44, NO_LIMITS), // 0x2013:00 Oscilloscope trigger edge
+    Entry::new(0x2014, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 46, NO_LIMITS), // 0x2014:00 Oscilloscope trigger source
+    Entry::new(0x2015, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 48, NO_LIMITS), // 0x2015:00 Oscilloscope source
+    Entry::new(0x2016, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 50, NO_LIMITS), // 0x2016:00 Oscilloscope skip
+    Entry::new(0x2017, 0x00, DataType::Unsigned16, WO, 2, 52, NO_LIMITS), // 0x2017:00 Oscilloscope read command
+    Entry::new(0x2018, 0x00, DataType::Unsigned16, WO, 2, 54, NO_LIMITS), // 0x2018:00 Oscilloscope run command
+    Entry::new(0x2019, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 56, NO_LIMITS), // 0x2019:00 PWM frequency
+    Entry::new(0x201A, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 58, NO_LIMITS), // 0x201A:00 Lookup temporary
+    Entry::new(0x201B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 378, NO_LIMITS), // 0x201B:00 Firmware version
+    Entry::new(0x201C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 60, NO_LIMITS), // 0x201C:00 Current controller proportional gain
+    Entry::new(0x201D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 62, NO_LIMITS), // 0x201D:00 Current controller integral time
+    Entry::new(0x201E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 64, NO_LIMITS), // 0x201E:00 Digital command cutoff
+    Entry::new(0x201F, 0x00, DataType::Integer16, RO_TPDO, 2, 380, NO_LIMITS), // 0x201F:00 Phase 3 current offset
+    Entry::new(0x2020, 0x00, DataType::Integer16, RO_TPDO, 2, 382, NO_LIMITS), // 0x2020:00 Current actual value
+    Entry::new(0x2021, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 66, NO_LIMITS), // 0x2021:00 D current set point
+    Entry::new(0x2022, 0x00, DataType::Integer16, RO_TPDO, 2, 384, NO_LIMITS), // 0x2022:00 Current command after ramp
+    Entry::new(0x2023, 0x00, DataType::Integer16, RO_TPDO, 2, 386, NO_LIMITS), // 0x2023:00 D current reference
+    Entry::new(0x2024, 0x00, DataType::Unsigned16, RO_TPDO, 2, 388, NO_LIMITS), // 0x2024:00 Maximum current in use
+    Entry::new(0x2025, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 68, NO_LIMITS), // 0x2025:00 Current command ramp
+    Entry::new(0x2026, 0x00, DataType::Integer16, RO_TPDO, 2, 390, NO_LIMITS), // 0x2026:00 Current command
+    Entry::new(0x2027, 0x00, DataType::Integer16, RO_TPDO, 2, 392, NO_LIMITS), // 0x2027:00 Q current actual value
+    Entry::new(0x2028, 0x00, DataType::Integer16, RO_TPDO, 2, 394, NO_LIMITS), // 0x2028:00 D current actual value
+    Entry::new(0x2029, 0x00, DataType::Integer16, RO_TPDO, 2, 396, NO_LIMITS), // 0x2029:00 Q output voltage
+    Entry::new(0x202A, 0x00, DataType::Integer16, RO_TPDO, 2, 398, NO_LIMITS), // 0x202A:00 D output voltage
+    Entry::new(0x202B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 70, NO_LIMITS), // 0x202B:00 Current controller max integration count
+    Entry::new(0x202C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 72, NO_LIMITS), // 0x202C:00 Speed controller proportional gain
+    Entry::new(0x202D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 74, NO_LIMITS), // 0x202D:00 Speed controller integral time
+    Entry::new(0x202E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 76, NO_LIMITS), // 0x202E:00 Speed controller derivative time
+    Entry::new(0x202F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 78, NO_LIMITS), // 0x202F:00 Analog input 1 offset and scale
+    Entry::new(0x2030, 0x00, DataType::Integer16, RO_TPDO, 2, 400, 0), // 0x2030:00 Speed actual value
+    Entry::new(0x2031, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 82, 0), // 0x2031:00 Speed set point
+    Entry::new(0x2032, 0x00, DataType::Integer16, RO_TPDO, 2, 402, NO_LIMITS), // 0x2032:00 Speed command after ramp
+    Entry::new(0x2033, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 84, NO_LIMITS), // 0x2033:00 Speed error
+    Entry::new(0x2034, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 86, NO_LIMITS), // 0x2034:00 Speed limit
+    Entry::new(0x2035, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 88, NO_LIMITS), // 0x2035:00 Acceleration ramp
+    Entry::new(0x2036, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 92, NO_LIMITS), // 0x2036:00 Speed command source
+    Entry::new(0x2037, 0x00, DataType::Unsigned16, RO_TPDO, 2, 404, NO_LIMITS), // 0x2037:00 Current to speed loop factor
+    Entry::new(0x2038, 0x00, DataType::Integer16, RO_TPDO, 2, 406, NO_LIMITS), // 0x2038:00 Q current error
+    Entry::new(0x2039, 0x00, DataType::Integer16, RO_TPDO, 2, 408, NO_LIMITS), // 0x2039:00 D current error
+    Entry::new(0x203B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 94, NO_LIMITS), // 0x203B:00 Speed controller max integration count
+    Entry::new(0x203C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 96, NO_LIMITS), // 0x203C:00 Current derating by speed
+    Entry::new(0x203D, 0x00, DataType::Unsigned16, WO, 2, 98, NO_LIMITS), // 0x203D:00 Read request
+    Entry::new(0x203E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 100, NO_LIMITS), // 0x203E:00 Negative speed limit
+    Entry::new(0x203F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 102, NO_LIMITS), // 0x203F:00 Positive speed limit
+    Entry::new(0x2040, 0x00, DataType::Unsigned32, RO_TPDO, 4, 410, NO_LIMITS), // 0x2040:00 Status map
+    Entry::new(0x2041, 0x00, DataType::Integer16, RO_TPDO, 2, 414, NO_LIMITS), // 0x2041:00 Increment delta
+    Entry::new(0x2042, 0x00, DataType::Integer16, RO_TPDO, 2, 416, NO_LIMITS), // 0x2042:00 Motor mechanical angle
+    Entry::new(0x2043, 0x00, DataType::Unsigned16, RO_TPDO, 2, 418, NO_LIMITS), // 0x2043:00 Motor electrical angle
+    Entry::new(0x2044, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 104, NO_LIMITS), // 0x2044:00 Feedback phase angle offset
+    Entry::new(0x2045, 0x00, DataType::Unsigned32, RO_TPDO, 4, 420, NO_LIMITS), // 0x2045:00 I2t and regen energy monitor
+    Entry::new(0x2046, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 106, NO_LIMITS), // 0x2046:00 Digital current limit
+    Entry::new(0x2048, 0x00, DataType::Integer16, RO_TPDO, 2, 424, NO_LIMITS), // 0x2048:00 Current limit in use
+    Entry::new(0x2049, 0x00, DataType::Unsigned16, RO_TPDO, 2, 426, NO_LIMITS), // 0x2049:00 Motor temperature
+    Entry::new(0x204A, 0x00, DataType::Unsigned16, RO_TPDO, 2, 428, NO_LIMITS), // 0x204A:00 Power stage temperature
+    Entry::new(0x204B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 430, NO_LIMITS), // 0x204B:00 Air temperature
+    Entry::new(0x204C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 108, NO_LIMITS), // 0x204C:00 Current derating by temperature
+    Entry::new(0x204D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 110, NO_LIMITS), // 0x204D:00 Motor maximum current
+    Entry::new(0x204E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 112, NO_LIMITS), // 0x204E:00 Motor continuous current
+    Entry::new(0x204F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 114, NO_LIMITS), // 0x204F:00 Motor pole count
+    Entry::new(0x2050, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 116, NO_LIMITS), // 0x2050:00 Analog input 1 cutoff window
+    Entry::new(0x2051, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 118, NO_LIMITS), // 0x2051:00 Mode
+    Entry::new(0x2052, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 120, NO_LIMITS), // 0x2052:00 Status mask
+    Entry::new(0x2053, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 124, NO_LIMITS), // 0x2053:00 Analog input 2 cutoff window
+    Entry::new(0x2054, 0x00, DataType::Integer16, RO_TPDO, 2, 432, NO_LIMITS), // 0x2054:00 Phase 1 current actual value
+    Entry::new(0x2055, 0x00, DataType::Integer16, RO_TPDO, 2, 434, NO_LIMITS), // 0x2055:00 Phase 2 current actual value
+    Entry::new(0x2056, 0x00, DataType::Integer16, RO_TPDO, 2, 436, NO_LIMITS), // 0x2056:00 Phase 3 current actual value
+    Entry::new(0x2057, 0x00, DataType::Integer16, RO_TPDO, 2, 438, NO_LIMITS), // 0x2057:00 Ramped current limit in use
+    Entry::new(0x2058, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 126, NO_LIMITS), // 0x2058:00 Current derating TD
+    Entry::new(0x2059, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 128, NO_LIMITS), // 0x2059:00 Rated motor speed
+    Entry::new(0x205A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 130, NO_LIMITS), // 0x205A:00 Device options
+    Entry::new(0x205B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 134, NO_LIMITS), // 0x205B:00 Acceleration gain
+    Entry::new(0x205C, 0x00, DataType::Unsigned16, RO_TPDO, 2, 440, NO_LIMITS), // 0x205C:00 Rotor signals
+    Entry::new(0x205D, 0x00, DataType::Integer16, RO_TPDO, 2, 442, NO_LIMITS), // 0x205D:00 Internal speed command
+    Entry::new(0x205E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 136, NO_LIMITS), // 0x205E:00 Speed actual value filter
+    Entry::new(0x205F, 0x00, DataType::Integer16, RO_TPDO, 2, 444, NO_LIMITS), // 0x205F:00 Filtered current actual value
+    Entry::new(0x2060, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 138, NO_LIMITS), // 0x2060:00 Analog input filter
+    Entry::new(0x2061, 0x00, DataType::Unsigned16, RO_TPDO, 2, 446, NO_LIMITS), // 0x2061:00 It monitor
+    Entry::new(0x2062, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 140, NO_LIMITS), // 0x2062:00 Device serial number
+    Entry::new(0x2063, 0x00, DataType::Unsigned16, RO_TPDO, 2, 448, NO_LIMITS), // 0x2063:00 FPGA status
+    Entry::new(0x2064, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 144, NO_LIMITS), // 0x2064:00 Mains supply voltage
+    Entry::new(0x2065, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 146, NO_LIMITS), // 0x2065:00 Regen resistor rating
+    Entry::new(0x2066, 0x00, DataType::Unsigned16, RO_TPDO, 2, 450, NO_LIMITS), // 0x2066:00 Battery voltage
+    Entry::new(0x2067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 150, NO_LIMITS), // 0x2067:00 Device type code
+    Entry::new(0x2068, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 154, 1), // 0x2068:00 CAN receive id
+    Entry::new(0x2069, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 156, 2), // 0x2069:00 CAN transmit id
+    Entry::new(0x206A, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 158, NO_LIMITS), // 0x206A:00 Position controller proportional gain
+    Entry::new(0x206B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 160, NO_LIMITS), // 0x206B:00 Position controller integral time
+    Entry::new(0x206C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 162, NO_LIMITS), // 0x206C:00 Position controller derivative time
+    Entry::new(0x206D, 0x00, DataType::Integer32, RO_TPDO, 4, 452, 3), // 0x206D:00 Position actual value
+    Entry::new(0x206E, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 164, 3), // 0x206E:00 Position destination
+    Entry::new(0x206F, 0x00, DataType::Integer32, RO_TPDO, 4, 456, NO_LIMITS), // 0x206F:00 Position actual value 2
+    Entry::new(0x2070, 0x00, DataType::Integer32, RO_TPDO, 4, 460, NO_LIMITS), // 0x2070:00 Position error
+    Entry::new(0x2071, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 168, NO_LIMITS), // 0x2071:00 Position controller max integration count
+    Entry::new(0x2072, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 170, NO_LIMITS), // 0x2072:00 Reference zero offset
+    Entry::new(0x2073, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 174, 4), // 0x2073:00 CAN bit rate code
+    Entry::new(0x2074, 0x00, DataType::Integer16, RO_TPDO, 2, 464, NO_LIMITS), // 0x2074:00 Position zero capture
+    Entry::new(0x2075, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 176, NO_LIMITS), // 0x2075:00 Resolver position at reference switch
+    Entry::new(0x2076, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 178, NO_LIMITS), // 0x2076:00 Homing speed fast
+    Entry::new(0x2077, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 180, NO_LIMITS), // 0x2077:00 Homing speed slow
+    Entry::new(0x2078, 0x00, DataType::Unsigned16, WO, 2, 182, NO_LIMITS), // 0x2078:00 Start homing
+    Entry::new(0x2079, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 184, NO_LIMITS), // 0x2079:00 Position tolerance window
+    Entry::new(0x207A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 186, NO_LIMITS), // 0x207A:00 Position preset
+    Entry::new(0x207B, 0x00, DataType::Unsigned32, RO_TPDO, 4, 466, NO_LIMITS), // 0x207B:00 User zero offset
+    Entry::new(0x207C, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 190, NO_LIMITS), // 0x207C:00 Display position scale
+    Entry::new(0x207D, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 194, NO_LIMITS), // 0x207D:00 Display position offset
+    Entry::new(0x207E, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 198, NO_LIMITS), // 0x207E:00 Second encoder scale
+    Entry::new(0x207F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 202, NO_LIMITS), // 0x207F:00 Slack offset
+    Entry::new(0x2080, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 206, NO_LIMITS), // 0x2080:00 Slack position difference
+    Entry::new(0x2082, 0x00, DataType::Unsigned16, RO_TPDO, 2, 470, NO_LIMITS), // 0x2082:00 Device serial number extension
+    Entry::new(0x2083, 0x00, DataType::Unsigned16, WO, 2, 208, NO_LIMITS), // 0x2083:00 Read parameters from EEPROM
+    Entry::new(0x2084, 0x00, DataType::Unsigned16, WO, 2, 210, 5), // 0x2084:00 Write parameters to EEPROM
+    Entry::new(0x2085, 0x00, DataType::Unsigned16, WO, 2, 212, NO_LIMITS), // 0x2085:00 Auto functions
+    Entry::new(0x2086, 0x00, DataType::Integer16, RO_TPDO, 2, 472, NO_LIMITS), // 0x2086:00 Read info
+    Entry::new(0x2088, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 214, NO_LIMITS), // 0x2088:00 CAN receive id 2
+    Entry::new(0x2089, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 218, NO_LIMITS), // 0x2089:00 CAN transmit id 2
+    Entry::new(0x208A, 0x00, DataType::Integer16, RO_TPDO, 2, 474, NO_LIMITS), // 0x208A:00 Output voltage usage
+    Entry::new(0x208B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 222, NO_LIMITS), // 0x208B:00 Field weakening start point
+    Entry::new(0x208C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 224, NO_LIMITS), // 0x208C:00 Field weakening proportional gain
+    Entry::new(0x208D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 226, NO_LIMITS), // 0x208D:00 Field weakening integral time
+    Entry::new(0x208E, 0x00, DataType::Unsigned16, WO, 2, 228, NO_LIMITS), // 0x208E:00 Clear error list
+    Entry::new(0x208F, 0x00, DataType::Unsigned32, RO_TPDO, 4, 476, NO_LIMITS), // 0x208F:00 Warning and error map
+    Entry::new(0x2090, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 230, 0), // 0x2090:00 Torque set point
+    Entry::new(0x2091, 0x00, DataType::Integer32, RO_TPDO, 4, 480, NO_LIMITS), // 0x2091:00 Position command
+    Entry::new(0x2092, 0x00, DataType::Unsigned16, RO_TPDO, 2, 484, NO_LIMITS), // 0x2092:00 CAN bus off count
+    Entry::new(0x2093, 0x00, DataType::Unsigned16, RO_TPDO, 2, 486, NO_LIMITS), // 0x2093:00 CAN write error time
+    Entry::new(0x2094, 0x00, DataType::Unsigned16, RO_TPDO, 2, 488, NO_LIMITS), // 0x2094:00 FPGA first error
+    Entry::new(0x2095, 0x00, DataType::Unsigned16, RO_TPDO, 2, 490, NO_LIMITS), // 0x2095:00 CAN read count
+    Entry::new(0x2096, 0x00, DataType::Unsigned16, RO_TPDO, 2, 492, NO_LIMITS), // 0x2096:00 CAN write count
+    Entry::new(0x2097, 0x00, DataType::Unsigned16, RO_TPDO, 2, 494, NO_LIMITS), // 0x2097:00 CAN reject count
+    Entry::new(0x2098, 0x00, DataType::Integer16, RO_TPDO, 2, 496, NO_LIMITS), // 0x2098:00 Output block
+    Entry::new(0x2099, 0x00, DataType::Unsigned16, RO_TPDO, 2, 498, NO_LIMITS), // 0x2099:00 Interrupt time info
+    Entry::new(0x209A, 0x00, DataType::Integer16, RO_TPDO, 2, 500, NO_LIMITS), // 0x209A:00 Debug temperature
+    Entry::new(0x209B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 502, NO_LIMITS), // 0x209B:00 Input block
+    Entry::new(0x209C, 0x00, DataType::Integer16, RO_TPDO, 2, 504, NO_LIMITS), // 0x209C:00 PT100 sensor 1 temperature
+    Entry::new(0x209D, 0x00, DataType::Integer16, RO_TPDO, 2, 506, NO_LIMITS), // 0x209D:00 PT100 sensor 2 temperature
+    Entry::new(0x209E, 0x00, DataType::Integer16, RO_TPDO, 2, 508, NO_LIMITS), // 0x209E:00 PT100 sensor 3 temperature
+    Entry::new(0x209F, 0x00, DataType::Integer16, RO_TPDO, 2, 510, NO_LIMITS), // 0x209F:00 PT100 sensor 4 temperature
+    Entry::new(0x20A0, 0x00, DataType::Integer16, RO_TPDO, 2, 512, NO_LIMITS), // 0x20A0:00 Internal torque
+    Entry::new(0x20A1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 514, NO_LIMITS), // 0x20A1:00 Ballast counter
+    Entry::new(0x20A2, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 232, NO_LIMITS), // 0x20A2:00 Current derating TM
+    Entry::new(0x20A3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 234, NO_LIMITS), // 0x20A3:00 Motor temperature cutoff
+    Entry::new(0x20A4, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 236, NO_LIMITS), // 0x20A4:00 Motor options
+    Entry::new(0x20A5, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 238, NO_LIMITS), // 0x20A5:00 DC bus minimum and maximum
+    Entry::new(0x20A6, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 242, NO_LIMITS), // 0x20A6:00 Feedback increments per revolution
+    Entry::new(0x20A7, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 244, NO_LIMITS), // 0x20A7:00 Resolver pole count
+    Entry::new(0x20A8, 0x00, DataType::Integer16, RO_TPDO, 2, 516, NO_LIMITS), // 0x20A8:00 Filtered speed actual value
+    Entry::new(0x20A9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 518, NO_LIMITS), // 0x20A9:00 Current sensor 1 ADC
+    Entry::new(0x20AA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 520, NO_LIMITS), // 0x20AA:00 Current sensor 2 ADC
+    Entry::new(0x20AB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 522, NO_LIMITS), // 0x20AB:00 Foreground frequency
+    Entry::new(0x20AC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 524, NO_LIMITS), // 0x20AC:00 PWM phase 1
+    Entry::new(0x20AD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 526, NO_LIMITS), // 0x20AD:00 PWM phase 2
+    Entry::new(0x20AE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 528, NO_LIMITS), // 0x20AE:00 PWM phase 3
+    Entry::new(0x20AF, 0x00, DataType::Integer16, RO_TPDO, 2, 530, NO_LIMITS), // 0x20AF:00 Interrupt timer delta
+    Entry::new(0x20B0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 246, NO_LIMITS), // 0x20B0:00 Serial boot function
+    Entry::new(0x20B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 248, NO_LIMITS), // 0x20B1:00 Motor q leakage inductance
+    Entry::new(0x20B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 250, NO_LIMITS), // 0x20B2:00 Nominal magnetising current
+    Entry::new(0x20B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 252, NO_LIMITS), // 0x20B3:00 Motor magnetising inductance
+    Entry::new(0x20B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 254, NO_LIMITS), // 0x20B4:00 Rotor resistance
+    Entry::new(0x20B5, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 256, NO_LIMITS), // 0x20B5:00 Minimum magnetising current
+    Entry::new(0x20B6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 258, NO_LIMITS), // 0x20B6:00 Rotor time constant
+    Entry::new(0x20B7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 260, NO_LIMITS), // 0x20B7:00 Debug pointer 1
+    Entry::new(0x20B8, 0x00, DataType::Integer16, RO_TPDO, 2, 532, NO_LIMITS), // 0x20B8:00 Debug pointer 1 value
+    Entry::new(0x20B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 262, NO_LIMITS), // 0x20B9:00 Debug pointer 2
+    Entry::new(0x20BA, 0x00, DataType::Integer16, RO_TPDO, 2, 534, NO_LIMITS), // 0x20BA:00 Debug pointer 2 value
+    Entry::new(0x20BB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 264, NO_LIMITS), // 0x20BB:00 Motor d leakage inductance
+    Entry::new(0x20BC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 266, NO_LIMITS), // 0x20BC:00 Stator resistance
+    Entry::new(0x20BD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 268, NO_LIMITS), // 0x20BD:00 Stator time constant
+    Entry::new(0x20BE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 270, NO_LIMITS), // 0x20BE:00 Logic definition END1
+    Entry::new(0x20BF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 272, NO_LIMITS), // 0x20BF:00 Logic definition END2
+    Entry::new(0x20C0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 274, NO_LIMITS), // 0x20C0:00 Logic definition DIN1
+    Entry::new(0x20C1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 276, NO_LIMITS), // 0x20C1:00 Logic definition DIN2
+    Entry::new(0x20C2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 278, NO_LIMITS), // 0x20C2:00 Logic definition DOUT1
+    Entry::new(0x20C3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 280, NO_LIMITS), // 0x20C3:00 Logic definition DOUT2
+    Entry::new(0x20C4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 282, NO_LIMITS), // 0x20C4:00 Peak current limit
+    Entry::new(0x20C5, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 284, NO_LIMITS), // 0x20C5:00 Continuous current limit
+    Entry::new(0x20C6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 286, NO_LIMITS), // 0x20C6:00 Device current rating
+    Entry::new(0x20C7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 288, NO_LIMITS), // 0x20C7:00 Limit switch stop ramp
+    Entry::new(0x20C8, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 290, NO_LIMITS), // 0x20C8:00 Maximum speed
+    Entry::new(0x20C9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 292, NO_LIMITS), // 0x20C9:00 Position PI proportional gain
+    Entry::new(0x20CA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 294, NO_LIMITS), // 0x20CA:00 Position PI integral time
+    Entry::new(0x20CB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 296, NO_LIMITS), // 0x20CB:00 Current feed forward gain
+    Entry::new(0x20CC, 0x00, DataType::Integer16, RO_TPDO, 2, 536, NO_LIMITS), // 0x20CC:00 Position PI error
+    Entry::new(0x20CD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 298, NO_LIMITS), // 0x20CD:00 Position PI integral limit
+    Entry::new(0x20CE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 538, NO_LIMITS), // 0x20CE:00 Maximum speed internal
+    Entry::new(0x20CF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 300, NO_LIMITS), // 0x20CF:00 Position PI Ky factor
+    Entry::new(0x20D0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 302, NO_LIMITS), // 0x20D0:00 CAN timeout
+    Entry::new(0x20D1, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 304, NO_LIMITS), // 0x20D1:00 Comparison variable 1
+    Entry::new(0x20D2, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 308, NO_LIMITS), // 0x20D2:00 Comparison variable 2
+    Entry::new(0x20D3, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 312, NO_LIMITS), // 0x20D3:00 Comparison variable 3
+    Entry::new(0x20D4, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 316, NO_LIMITS), // 0x20D4:00 Comparison variable 4
+    Entry::new(0x20D5, 0x00, DataType::Integer32, RO_TPDO, 4, 540, NO_LIMITS), // 0x20D5:00 Analog input 1
+    Entry::new(0x20D6, 0x00, DataType::Integer32, RO_TPDO, 4, 544, NO_LIMITS), // 0x20D6:00 Analog input 2
+    Entry::new(0x20D7, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 320, NO_LIMITS), // 0x20D7:00 Analog input 2 offset and scale
+    Entry::new(0x20D8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 548, NO_LIMITS), // 0x20D8:00 IO bit map
+    Entry::new(0x20D9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 550, NO_LIMITS), // 0x20D9:00 Current at 200 percent
+    Entry::new(0x20DA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 324, NO_LIMITS), // 0x20DA:00 Logic definition DOUT3
+    Entry::new(0x20DB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 326, NO_LIMITS), // 0x20DB:00 Logic definition DOUT4
+    Entry::new(0x20DC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 328, NO_LIMITS), // 0x20DC:00 DAC definition
+    Entry::new(0x20DE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 552, NO_LIMITS), // 0x20DE:00 Digital output 3
+    Entry::new(0x20DF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 554, NO_LIMITS), // 0x20DF:00 Digital output 4
+    Entry::new(0x20E0, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS), // 0x20E0:00 Digital output 1
+    Entry::new(0x20E1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 558, NO_LIMITS), // 0x20E1:00 Digital output 2
+    Entry::new(0x20E2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 560, NO_LIMITS), // 0x20E2:00 Device ready
+    Entry::new(0x20E3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 562, NO_LIMITS), // 0x20E3:00 Internal run
+    Entry::new(0x20E4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 564, NO_LIMITS), // 0x20E4:00 Limit switch input 1
+    Entry::new(0x20E5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 566, NO_LIMITS), // 0x20E5:00 Limit switch input 2
+    Entry::new(0x20E6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 568, NO_LIMITS), // 0x20E6:00 Digital input 1
+    Entry::new(0x20E7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 570, NO_LIMITS), // 0x20E7:00 Digital input 2
+    Entry::new(0x20E8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 572, NO_LIMITS), // 0x20E8:00 Run input
+    Entry::new(0x20E9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 574, NO_LIMITS), // 0x20E9:00 Power stage fault
+    Entry::new(0x20EA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 576, NO_LIMITS), // 0x20EA:00 Regen circuit message
+    Entry::new(0x20EB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 578, NO_LIMITS), // 0x20EB:00 DC bus voltage
+    Entry::new(0x20EC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 580, NO_LIMITS), // 0x20EC:00 Resolver loss of signal
+    Entry::new(0x20ED, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 330, NO_LIMITS), // 0x20ED:00 Deceleration ramp
+    Entry::new(0x20EE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 334, NO_LIMITS), // 0x20EE:00 Current sensor calibration
+    Entry::new(0x20EF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 582, NO_LIMITS), // 0x20EF:00 No fault output
+    Entry::new(0x20F0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 336, NO_LIMITS), // 0x20F0:00 Peak current time
+    Entry::new(0x20F1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 338, NO_LIMITS), // 0x20F1:00 Brake delay time
+    Entry::new(0x20F2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 584, NO_LIMITS), // 0x20F2:00 Brake on
+    Entry::new(0x20F3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 586, NO_LIMITS), // 0x20F3:00 Continuous current message
+    Entry::new(0x20F4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 588, NO_LIMITS), // 0x20F4:00 Position in tolerance
+    Entry::new(0x20F5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 590, NO_LIMITS), // 0x20F5:00 Speed below 1 percent
+    Entry::new(0x20F6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 592, NO_LIMITS), // 0x20F6:00 Power
+    Entry::new(0x20F7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 594, NO_LIMITS), // 0x20F7:00 Work
+    Entry::new(0x20F8, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 340, NO_LIMITS), // 0x20F8:00 Axis label
+    Entry::new(0x20F9, 0x00, DataType::Unsigned16, WO, 2, 344, NO_LIMITS), // 0x20F9:00 Write ASCII label to EEPROM
+    Entry::new(0x20FA, 0x00, DataType::Unsigned16, WO, 2, 346, NO_LIMITS), // 0x20FA:00 Read ASCII label from EEPROM
     Entry::new(0x20FB, 0x00, DataType::Integer16, RO_TPDO, 2, 596, NO_LIMITS), // 0x20FB:00 Analog input 1 calculated
     Entry::new(0x20FC, 0x00, DataType::Integer16, RO_TPDO, 2, 598, NO_LIMITS), // 0x20FC:00 Analog input 2 calculated
 ];
@@ -811,15 +813,6 @@ static ROM: [u8; ROM_SIZE] = [];
 
 #[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, 0x00, 0x00, 0x00, // 0x1000:00 Device type
-    0x00, // 0x1001:00 Error register
-    0x04, // 0x1018:00 Identity object / Highest sub-index supported
-    0x00, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
-    0x00, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
-    0xD8, 0x01, 0x00, 0x00, // 0x1018:03 Identity object / Revision number
-    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
-    0x00, 0x00, // 0x2001:00 User specific options
-    0x00, 0x00, // 0x2002:00 User specific safety state
     0x00, 0x00, // 0x2003:00 User specific command specials
     0x00, 0x00, // 0x2004:00 User key
     0xDC, 0x05, // 0x2005:00 Nominal motor frequency
@@ -834,7 +827,6 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x200E:00 UF power factor
     0x64, 0x00, // 0x200F:00 UF extra
     0x00, 0x00, // 0x2010:00 Oscilloscope trigger channel
-    0x00, 0x00, 0x00, 0x00, // 0x2011:00 Control status
     0xE8, 0x7A, // 0x2012:00 Oscilloscope trigger level
     0x01, 0x00, // 0x2013:00 Oscilloscope trigger edge
     0x00, 0x00, // 0x2014:00 Oscilloscope trigger source
@@ -844,53 +836,28 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x2018:00 Oscilloscope run command
     0x00, 0x00, // 0x2019:00 PWM frequency
     0x00, 0x00, // 0x201A:00 Lookup temporary
-    0xD8, 0x01, // 0x201B:00 Firmware version
     0x0A, 0x00, // 0x201C:00 Current controller proportional gain
     0xE8, 0x03, // 0x201D:00 Current controller integral time
     0x00, 0x00, // 0x201E:00 Digital command cutoff
-    0x00, 0x00, // 0x201F:00 Phase 3 current offset
-    0x00, 0x00, // 0x2020:00 Current actual value
     0x00, 0x00, // 0x2021:00 D current set point
-    0x00, 0x00, // 0x2022:00 Current command after ramp
-    0x00, 0x00, // 0x2023:00 D current reference
-    0x00, 0x00, // 0x2024:00 Maximum current in use
     0xE9, 0x03, // 0x2025:00 Current command ramp
-    0x00, 0x00, // 0x2026:00 Current command
-    0x00, 0x00, // 0x2027:00 Q current actual value
-    0x00, 0x00, // 0x2028:00 D current actual value
-    0x00, 0x00, // 0x2029:00 Q output voltage
-    0x00, 0x00, // 0x202A:00 D output voltage
     0x50, 0x00, // 0x202B:00 Current controller max integration count
     0x0A, 0x00, // 0x202C:00 Speed controller proportional gain
     0x64, 0x00, // 0x202D:00 Speed controller integral time
     0x00, 0x00, // 0x202E:00 Speed controller derivative time
     0x00, 0x00, 0x00, 0x10, // 0x202F:00 Analog input 1 offset and scale
-    0x00, 0x00, // 0x2030:00 Speed actual value
     0x00, 0x00, // 0x2031:00 Speed set point
-    0x00, 0x00, // 0x2032:00 Speed command after ramp
     0x00, 0x00, // 0x2033:00 Speed error
     0xFF, 0x7F, // 0x2034:00 Speed limit
     0x64, 0x00, 0x01, 0x00, // 0x2035:00 Acceleration ramp
     0x00, 0x00, // 0x2036:00 Speed command source
-    0x00, 0x00, // 0x2037:00 Current to speed loop factor
-    0x00, 0x00, // 0x2038:00 Q current error
-    0x00, 0x00, // 0x2039:00 D current error
     0x50, 0x00, // 0x203B:00 Speed controller max integration count
     0xFF, 0x7F, // 0x203C:00 Current derating by speed
     0x00, 0x00, // 0x203D:00 Read request
     0x00, 0x80, // 0x203E:00 Negative speed limit
     0xFF, 0x7F, // 0x203F:00 Positive speed limit
-    0x00, 0x00, 0x00, 0x00, // 0x2040:00 Status map
-    0x00, 0x00, // 0x2041:00 Increment delta
-    0x00, 0x00, // 0x2042:00 Motor mechanical angle
-    0x00, 0x00, // 0x2043:00 Motor electrical angle
     0xB0, 0xFD, // 0x2044:00 Feedback phase angle offset
-    0x00, 0x00, 0x00, 0x00, // 0x2045:00 I2t and regen energy monitor
     0xFF, 0x7F, // 0x2046:00 Digital current limit
-    0x00, 0x00, // 0x2048:00 Current limit in use
-    0x00, 0x00, // 0x2049:00 Motor temperature
-    0x00, 0x00, // 0x204A:00 Power stage temperature
-    0x00, 0x00, // 0x204B:00 Air temperature
     0x00, 0x00, // 0x204C:00 Current derating by temperature
     0x35, 0x00, // 0x204D:00 Motor maximum current
     0x35, 0x00, // 0x204E:00 Motor continuous current
@@ -899,96 +866,52 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x2051:00 Mode
     0x00, 0x30, 0x00, 0x00, // 0x2052:00 Status mask
     0x00, 0x00, // 0x2053:00 Analog input 2 cutoff window
-    0x00, 0x00, // 0x2054:00 Phase 1 current actual value
-    0x00, 0x00, // 0x2055:00 Phase 2 current actual value
-    0x00, 0x00, // 0x2056:00 Phase 3 current actual value
-    0x00, 0x00, // 0x2057:00 Ramped current limit in use
     0x00, 0x00, // 0x2058:00 Current derating TD
     0xB8, 0x0B, // 0x2059:00 Rated motor speed
     0x08, 0x08, 0x00, 0x00, // 0x205A:00 Device options
     0x00, 0x00, // 0x205B:00 Acceleration gain
-    0x00, 0x00, // 0x205C:00 Rotor signals
-    0x00, 0x00, // 0x205D:00 Internal speed command
     0x02, 0x00, // 0x205E:00 Speed actual value filter
-    0x00, 0x00, // 0x205F:00 Filtered current actual value
     0x00, 0x00, // 0x2060:00 Analog input filter
-    0x00, 0x00, // 0x2061:00 It monitor
     0x15, 0xCD, 0x5B, 0x07, // 0x2062:00 Device serial number
-    0x00, 0x00, // 0x2063:00 FPGA status
     0xE6, 0x00, // 0x2064:00 Mains supply voltage
     0x19, 0x00, 0x50, 0x00, // 0x2065:00 Regen resistor rating
-    0x00, 0x00, // 0x2066:00 Battery voltage
     0x13, 0x13, 0x01, 0x00, // 0x2067:00 Device type code
     0x01, 0x02, // 0x2068:00 CAN receive id
     0x81, 0x01, // 0x2069:00 CAN transmit id
     0x0F, 0x00, // 0x206A:00 Position controller proportional gain
     0xF5, 0x01, // 0x206B:00 Position controller integral time
     0x00, 0x00, // 0x206C:00 Position controller derivative time
-    0x00, 0x00, 0x00, 0x00, // 0x206D:00 Position actual value
     0x00, 0x00, 0x00, 0x00, // 0x206E:00 Position destination
-    0x00, 0x00, 0x00, 0x00, // 0x206F:00 Position actual value 2
-    0x00, 0x00, 0x00, 0x00, // 0x2070:00 Position error
     0x33, 0x00, // 0x2071:00 Position controller max integration count
     0x00, 0x00, 0x00, 0x00, // 0x2072:00 Reference zero offset
     0x25, 0x40, // 0x2073:00 CAN bit rate code
-    0x00, 0x00, // 0x2074:00 Position zero capture
     0x00, 0x00, // 0x2075:00 Resolver position at reference switch
     0x78, 0x00, // 0x2076:00 Homing speed fast
     0x78, 0x00, // 0x2077:00 Homing speed slow
     0x00, 0x00, // 0x2078:00 Start homing
     0x64, 0x00, // 0x2079:00 Position tolerance window
     0x00, 0x00, 0x00, 0x00, // 0x207A:00 Position preset
-    0x00, 0x00, 0x00, 0x00, // 0x207B:00 User zero offset
     0x00, 0x00, 0x00, 0x00, // 0x207C:00 Display position scale
     0x00, 0x00, 0x00, 0x00, // 0x207D:00 Display position offset
     0x00, 0x00, 0x00, 0x00, // 0x207E:00 Second encoder scale
     0x00, 0x00, 0x00, 0x00, // 0x207F:00 Slack offset
     0x00, 0x00, // 0x2080:00 Slack position difference
-    0x00, 0x00, // 0x2082:00 Device serial number extension
     0x00, 0x00, // 0x2083:00 Read parameters from EEPROM
     0x00, 0x00, // 0x2084:00 Write parameters to EEPROM
     0x00, 0x00, // 0x2085:00 Auto functions
-    0x00, 0x00, // 0x2086:00 Read info
     0x00, 0x00, 0x00, 0x00, // 0x2088:00 CAN receive id 2
     0x00, 0x00, 0x00, 0x00, // 0x2089:00 CAN transmit id 2
-    0x00, 0x00, // 0x208A:00 Output voltage usage
     0x00, 0x00, // 0x208B:00 Field weakening start point
     0x00, 0x00, // 0x208C:00 Field weakening proportional gain
     0x00, 0x00, // 0x208D:00 Field weakening integral time
     0x00, 0x00, // 0x208E:00 Clear error list
-    0x00, 0x00, 0x00, 0x00, // 0x208F:00 Warning and error map
     0x00, 0x00, // 0x2090:00 Torque set point
-    0x00, 0x00, 0x00, 0x00, // 0x2091:00 Position command
-    0x00, 0x00, // 0x2092:00 CAN bus off count
-    0x00, 0x00, // 0x2093:00 CAN write error time
-    0x00, 0x00, // 0x2094:00 FPGA first error
-    0x00, 0x00, // 0x2095:00 CAN read count
-    0x00, 0x00, // 0x2096:00 CAN write count
-    0x00, 0x00, // 0x2097:00 CAN reject count
-    0x00, 0x00, // 0x2098:00 Output block
-    0x00, 0x00, // 0x2099:00 Interrupt time info
-    0x00, 0x00, // 0x209A:00 Debug temperature
-    0x00, 0x00, // 0x209B:00 Input block
-    0x00, 0x00, // 0x209C:00 PT100 sensor 1 temperature
-    0x00, 0x00, // 0x209D:00 PT100 sensor 2 temperature
-    0x00, 0x00, // 0x209E:00 PT100 sensor 3 temperature
-    0x00, 0x00, // 0x209F:00 PT100 sensor 4 temperature
-    0x00, 0x00, // 0x20A0:00 Internal torque
-    0x00, 0x00, // 0x20A1:00 Ballast counter
     0xE0, 0x15, // 0x20A2:00 Current derating TM
     0x58, 0x1B, // 0x20A3:00 Motor temperature cutoff
     0x01, 0x30, // 0x20A4:00 Motor options
     0x64, 0x00, 0x00, 0x00, // 0x20A5:00 DC bus minimum and maximum
     0x00, 0x04, // 0x20A6:00 Feedback increments per revolution
     0x02, 0x00, // 0x20A7:00 Resolver pole count
-    0x00, 0x00, // 0x20A8:00 Filtered speed actual value
-    0x00, 0x00, // 0x20A9:00 Current sensor 1 ADC
-    0x00, 0x00, // 0x20AA:00 Current sensor 2 ADC
-    0x00, 0x00, // 0x20AB:00 Foreground frequency
-    0x00, 0x00, // 0x20AC:00 PWM phase 1
-    0x00, 0x00, // 0x20AD:00 PWM phase 2
-    0x00, 0x00, // 0x20AE:00 PWM phase 3
-    0x00, 0x00, // 0x20AF:00 Interrupt timer delta
     0x00, 0x00, // 0x20B0:00 Serial boot function
     0x00, 0x00, // 0x20B1:00 Motor q leakage inductance
     0x00, 0x00, // 0x20B2:00 Nominal magnetising current
@@ -997,9 +920,7 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x20B5:00 Minimum magnetising current
     0xD0, 0x07, // 0x20B6:00 Rotor time constant
     0x00, 0x00, // 0x20B7:00 Debug pointer 1
-    0x00, 0x00, // 0x20B8:00 Debug pointer 1 value
     0x00, 0x00, // 0x20B9:00 Debug pointer 2
-    0x00, 0x00, // 0x20BA:00 Debug pointer 2 value
     0x00, 0x00, // 0x20BB:00 Motor d leakage inductance
     0x7B, 0x00, // 0x20BC:00 Stator resistance
     0x00, 0x00, // 0x20BD:00 Stator time constant
@@ -1017,23 +938,111 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x20C9:00 Position PI proportional gain
     0x00, 0x00, // 0x20CA:00 Position PI integral time
     0x00, 0x00, // 0x20CB:00 Current feed forward gain
-    0x00, 0x00, // 0x20CC:00 Position PI error
     0x00, 0x00, // 0x20CD:00 Position PI integral limit
-    0x10, 0x0E, // 0x20CE:00 Maximum speed internal
     0x00, 0x00, // 0x20CF:00 Position PI Ky factor
     0x00, 0x00, // 0x20D0:00 CAN timeout
     0x3E, 0x00, 0x00, 0x00, // 0x20D1:00 Comparison variable 1
     0x10, 0x27, 0x00, 0x00, // 0x20D2:00 Comparison variable 2
     0x00, 0x00, 0x00, 0x00, // 0x20D3:00 Comparison variable 3
     0x00, 0x00, 0x00, 0x00, // 0x20D4:00 Comparison variable 4
-    0x00, 0x00, 0x00, 0x00, // 0x20D5:00 Analog input 1
-    0x00, 0x00, 0x00, 0x00, // 0x20D6:00 Analog input 2
     0x00, 0x00, 0x00, 0x10, // 0x20D7:00 Analog input 2 offset and scale
-    0x00, 0x00, // 0x20D8:00 IO bit map
-    0x49, 0x03, // 0x20D9:00 Current at 200 percent
     0x00, 0x00, // 0x20DA:00 Logic definition DOUT3
     0x00, 0x00, // 0x20DB:00 Logic definition DOUT4
     0x30, 0x00, // 0x20DC:00 DAC definition
+    0x64, 0x00, 0x01, 0x00, // 0x20ED:00 Deceleration ramp
+    0x26, 0x02, // 0x20EE:00 Current sensor calibration
+    0x05, 0x00, // 0x20F0:00 Peak current time
+    0xFA, 0x00, // 0x20F1:00 Brake delay time
+    0x4D, 0x44, 0x00, 0x00, // 0x20F8:00 Axis label
+    0x00, 0x00, // 0x20F9:00 Write ASCII label to EEPROM
+    0x00, 0x00, // 0x20FA:00 Read ASCII label from EEPROM
+    0x00, 0x00, 0x00, 0x00, // 0x1000:00 Device type
+    0x00, // 0x1001:00 Error register
+    0x04, // 0x1018:00 Identity object / Highest sub-index supported
+    0x00, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
+    0x00, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
+    0xD8, 0x01, 0x00, 0x00, // 0x1018:03 Identity object / Revision number
+    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
+    0x00, 0x00, // 0x2001:00 User specific options
+    0x00, 0x00, // 0x2002:00 User specific safety state
+    0x00, 0x00, 0x00, 0x00, // 0x2011:00 Control status
+    0xD8, 0x01, // 0x201B:00 Firmware version
+    0x00, 0x00, // 0x201F:00 Phase 3 current offset
+    0x00, 0x00, // 0x2020:00 Current actual value
+    0x00, 0x00, // 0x2022:00 Current command after ramp
+    0x00, 0x00, // 0x2023:00 D current reference
+    0x00, 0x00, // 0x2024:00 Maximum current in use
+    0x00, 0x00, // 0x2026:00 Current command
+    0x00, 0x00, // 0x2027:00 Q current actual value
+    0x00, 0x00, // 0x2028:00 D current actual value
+    0x00, 0x00, // 0x2029:00 Q output voltage
+    0x00, 0x00, // 0x202A:00 D output voltage
+    0x00, 0x00, // 0x2030:00 Speed actual value
+    0x00, 0x00, // 0x2032:00 Speed command after ramp
+    0x00, 0x00, // 0x2037:00 Current to speed loop factor
+    0x00, 0x00, // 0x2038:00 Q current error
+    0x00, 0x00, // 0x2039:00 D current error
+    0x00, 0x00, 0x00, 0x00, // 0x2040:00 Status map
+    0x00, 0x00, // 0x2041:00 Increment delta
+    0x00, 0x00, // 0x2042:00 Motor mechanical angle
+    0x00, 0x00, // 0x2043:00 Motor electrical angle
+    0x00, 0x00, 0x00, 0x00, // 0x2045:00 I2t and regen energy monitor
+    0x00, 0x00, // 0x2048:00 Current limit in use
+    0x00, 0x00, // 0x2049:00 Motor temperature
+    0x00, 0x00, // 0x204A:00 Power stage temperature
+    0x00, 0x00, // 0x204B:00 Air temperature
+    0x00, 0x00, // 0x2054:00 Phase 1 current actual value
+    0x00, 0x00, // 0x2055:00 Phase 2 current actual value
+    0x00, 0x00, // 0x2056:00 Phase 3 current actual value
+    0x00, 0x00, // 0x2057:00 Ramped current limit in use
+    0x00, 0x00, // 0x205C:00 Rotor signals
+    0x00, 0x00, // 0x205D:00 Internal speed command
+    0x00, 0x00, // 0x205F:00 Filtered current actual value
+    0x00, 0x00, // 0x2061:00 It monitor
+    0x00, 0x00, // 0x2063:00 FPGA status
+    0x00, 0x00, // 0x2066:00 Battery voltage
+    0x00, 0x00, 0x00, 0x00, // 0x206D:00 Position actual value
+    0x00, 0x00, 0x00, 0x00, // 0x206F:00 Position actual value 2
+    0x00, 0x00, 0x00, 0x00, // 0x2070:00 Position error
+    0x00, 0x00, // 0x2074:00 Position zero capture
+    0x00, 0x00, 0x00, 0x00, // 0x207B:00 User zero offset
+    0x00, 0x00, // 0x2082:00 Device serial number extension
+    0x00, 0x00, // 0x2086:00 Read info
+    0x00, 0x00, // 0x208A:00 Output voltage usage
+    0x00, 0x00, 0x00, 0x00, // 0x208F:00 Warning and error map
+    0x00, 0x00, 0x00, 0x00, // 0x2091:00 Position command
+    0x00, 0x00, // 0x2092:00 CAN bus off count
+    0x00, 0x00, // 0x2093:00 CAN write error time
+    0x00, 0x00, // 0x2094:00 FPGA first error
+    0x00, 0x00, // 0x2095:00 CAN read count
+    0x00, 0x00, // 0x2096:00 CAN write count
+    0x00, 0x00, // 0x2097:00 CAN reject count
+    0x00, 0x00, // 0x2098:00 Output block
+    0x00, 0x00, // 0x2099:00 Interrupt time info
+    0x00, 0x00, // 0x209A:00 Debug temperature
+    0x00, 0x00, // 0x209B:00 Input block
+    0x00, 0x00, // 0x209C:00 PT100 sensor 1 temperature
+    0x00, 0x00, // 0x209D:00 PT100 sensor 2 temperature
+    0x00, 0x00, // 0x209E:00 PT100 sensor 3 temperature
+    0x00, 0x00, // 0x209F:00 PT100 sensor 4 temperature
+    0x00, 0x00, // 0x20A0:00 Internal torque
+    0x00, 0x00, // 0x20A1:00 Ballast counter
+    0x00, 0x00, // 0x20A8:00 Filtered speed actual value
+    0x00, 0x00, // 0x20A9:00 Current sensor 1 ADC
+    0x00, 0x00, // 0x20AA:00 Current sensor 2 ADC
+    0x00, 0x00, // 0x20AB:00 Foreground frequency
+    0x00, 0x00, // 0x20AC:00 PWM phase 1
+    0x00, 0x00, // 0x20AD:00 PWM phase 2
+    0x00, 0x00, // 0x20AE:00 PWM phase 3
+    0x00, 0x00, // 0x20AF:00 Interrupt timer delta
+    0x00, 0x00, // 0x20B8:00 Debug pointer 1 value
+    0x00, 0x00, // 0x20BA:00 Debug pointer 2 value
+    0x00, 0x00, // 0x20CC:00 Position PI error
+    0x10, 0x0E, // 0x20CE:00 Maximum speed internal
+    0x00, 0x00, 0x00, 0x00, // 0x20D5:00 Analog input 1
+    0x00, 0x00, 0x00, 0x00, // 0x20D6:00 Analog input 2
+    0x00, 0x00, // 0x20D8:00 IO bit map
+    0x49, 0x03, // 0x20D9:00 Current at 200 percent
     0x00, 0x00, // 0x20DE:00 Digital output 3
     0x00, 0x00, // 0x20DF:00 Digital output 4
     0x00, 0x00, // 0x20E0:00 Digital output 1
@@ -1049,20 +1058,13 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x20EA:00 Regen circuit message
     0x00, 0x00, // 0x20EB:00 DC bus voltage
     0x00, 0x00, // 0x20EC:00 Resolver loss of signal
-    0x64, 0x00, 0x01, 0x00, // 0x20ED:00 Deceleration ramp
-    0x26, 0x02, // 0x20EE:00 Current sensor calibration
     0x00, 0x00, // 0x20EF:00 No fault output
-    0x05, 0x00, // 0x20F0:00 Peak current time
-    0xFA, 0x00, // 0x20F1:00 Brake delay time
     0x00, 0x00, // 0x20F2:00 Brake on
     0x00, 0x00, // 0x20F3:00 Continuous current message
     0x00, 0x00, // 0x20F4:00 Position in tolerance
     0x00, 0x00, // 0x20F5:00 Speed below 1 percent
     0x00, 0x00, // 0x20F6:00 Power
     0x00, 0x00, // 0x20F7:00 Work
-    0x4D, 0x44, 0x00, 0x00, // 0x20F8:00 Axis label
-    0x00, 0x00, // 0x20F9:00 Write ASCII label to EEPROM
-    0x00, 0x00, // 0x20FA:00 Read ASCII label from EEPROM
     0x00, 0x00, // 0x20FB:00 Analog input 1 calculated
     0x00, 0x00, // 0x20FC:00 Analog input 2 calculated
 ];
@@ -1334,7 +1336,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 22,
+    comm_len: 0,
+    stored_len: STORED_SIZE,
+    comm_rest: 22,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -1393,2522 +1397,2522 @@ impl Ram {
 
     /// 0x1000 Device type (unitek-ds.eds:315, UNSIGNED32 ro)
     pub fn device_type(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 0))
+        u32::from_le_bytes(od::load::<4>(&self.image, 348))
     }
 
     /// Sets 0x1000 Device type.
     pub fn set_device_type(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 0, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 348, v.to_le_bytes());
     }
 
     /// 0x1001 Error register (unitek-ds.eds:323, UNSIGNED8 ro)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 4))
+        u8::from_le_bytes(od::load::<1>(&self.image, 352))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 4, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 352, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Highest sub-index supported (unitek-ds.eds:336, UNSIGNED8 ro)
     pub fn identity_object_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 5))
+        u8::from_le_bytes(od::load::<1>(&self.image, 353))
     }
 
     /// Sets 0x1018 sub 0 Identity object / Highest sub-index supported.
     pub fn set_identity_object_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 5, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 353, v.to_le_bytes());
     }
 
     /// 0x1018 sub 1 Identity object / Vendor-ID (unitek-ds.eds:344, UNSIGNED32 ro)
     pub fn identity_object_vendor_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 6))
+        u32::from_le_bytes(od::load::<4>(&self.image, 354))
     }
 
     /// Sets 0x1018 sub 1 Identity object / Vendor-ID.
     pub fn set_identity_object_vendor_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 6, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 354, v.to_le_bytes());
     }
 
     /// 0x1018 sub 2 Identity object / Product code (unitek-ds.eds:352, UNSIGNED32 ro)
     pub fn identity_object_product_code(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 10))
+        u32::from_le_bytes(od::load::<4>(&self.image, 358))
     }
 
     /// Sets 0x1018 sub 2 Identity object / Product code.
     pub fn set_identity_object_product_code(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 10, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 358, v.to_le_bytes());
     }
 
     /// 0x1018 sub 3 Identity object / Revision number (unitek-ds.eds:360, UNSIGNED32 ro)
     pub fn identity_object_revision_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 14))
+        u32::from_le_bytes(od::load::<4>(&self.image, 362))
     }
 
     /// Sets 0x1018 sub 3 Identity object / Revision number.
     pub fn set_identity_object_revision_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 14, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 362, v.to_le_bytes());
     }
 
     /// 0x1018 sub 4 Identity object / Serial number (unitek-ds.eds:368, UNSIGNED32 ro)
     pub fn identity_object_serial_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 18))
+        u32::from_le_bytes(od::load::<4>(&self.image, 366))
     }
 
     /// Sets 0x1018 sub 4 Identity object / Serial number.
     pub fn set_identity_object_serial_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 18, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 366, v.to_le_bytes());
     }
 
     /// 0x2001 User specific options (unitek-ds.eds:376, INTEGER16 ro, PDO-mappable)
     pub fn user_specific_options(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 22))
+        i16::from_le_bytes(od::load::<2>(&self.image, 370))
     }
 
     /// Sets 0x2001 User specific options.
     pub fn set_user_specific_options(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 22, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 370, v.to_le_bytes());
     }
 
     /// 0x2002 User specific safety state (unitek-ds.eds:384, INTEGER16 ro, PDO-mappable)
     pub fn user_specific_safety_state(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 24))
+        i16::from_le_bytes(od::load::<2>(&self.image, 372))
     }
 
     /// Sets 0x2002 User specific safety state.
     pub fn set_user_specific_safety_state(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 24, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 372, v.to_le_bytes());
     }
 
     /// 0x2003 User specific command specials (unitek-ds.eds:392, INTEGER16 rw, PDO-mappable)
     pub fn user_specific_command_specials(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 26))
+        i16::from_le_bytes(od::load::<2>(&self.image, 0))
     }
 
     /// Sets 0x2003 User specific command specials.
     pub fn set_user_specific_command_specials(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 26, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 0, v.to_le_bytes());
     }
 
     /// 0x2004 User key (unitek-ds.eds:400, UNSIGNED16 rw, PDO-mappable)
     pub fn user_key(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 28))
+        u16::from_le_bytes(od::load::<2>(&self.image, 2))
     }
 
     /// Sets 0x2004 User key.
     pub fn set_user_key(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 28, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 2, v.to_le_bytes());
     }
 
     /// 0x2005 Nominal motor frequency (unitek-ds.eds:408, UNSIGNED16 rw, PDO-mappable)
     pub fn nominal_motor_frequency(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 30))
+        u16::from_le_bytes(od::load::<2>(&self.image, 4))
     }
 
     /// Sets 0x2005 Nominal motor frequency.
     pub fn set_nominal_motor_frequency(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 30, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 4, v.to_le_bytes());
     }
 
     /// 0x2006 Nominal motor voltage (unitek-ds.eds:416, UNSIGNED16 rw, PDO-mappable)
     pub fn nominal_motor_voltage(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 32))
+        u16::from_le_bytes(od::load::<2>(&self.image, 6))
     }
 
     /// Sets 0x2006 Nominal motor voltage.
     pub fn set_nominal_motor_voltage(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 32, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 6, v.to_le_bytes());
     }
 
     /// 0x2007 UF DC premagnetisation time (unitek-ds.eds:424, INTEGER32 rw, PDO-mappable)
     pub fn uf_dc_premagnetisation_time(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 34))
+        i32::from_le_bytes(od::load::<4>(&self.image, 8))
     }
 
     /// Sets 0x2007 UF DC premagnetisation time.
     pub fn set_uf_dc_premagnetisation_time(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 34, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 8, v.to_le_bytes());
     }
 
     /// 0x2008 UF DC voltage (unitek-ds.eds:432, INTEGER32 rw, PDO-mappable)
     pub fn uf_dc_voltage(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 38))
+        i32::from_le_bytes(od::load::<4>(&self.image, 12))
     }
 
     /// Sets 0x2008 UF DC voltage.
     pub fn set_uf_dc_voltage(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 38, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 12, v.to_le_bytes());
     }
 
     /// 0x2009 UF DC frequency (unitek-ds.eds:440, INTEGER32 rw, PDO-mappable)
     pub fn uf_dc_frequency(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 42))
+        i32::from_le_bytes(od::load::<4>(&self.image, 16))
     }
 
     /// Sets 0x2009 UF DC frequency.
     pub fn set_uf_dc_frequency(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 42, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 16, v.to_le_bytes());
     }
 
     /// 0x200A UF minimum voltage (unitek-ds.eds:448, INTEGER32 rw, PDO-mappable)
     pub fn uf_minimum_voltage(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 46))
+        i32::from_le_bytes(od::load::<4>(&self.image, 20))
     }
 
     /// Sets 0x200A UF minimum voltage.
     pub fn set_uf_minimum_voltage(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 46, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 20, v.to_le_bytes());
     }
 
     /// 0x200B UF minimum frequency (unitek-ds.eds:456, INTEGER32 rw, PDO-mappable)
     pub fn uf_minimum_frequency(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 50))
+        i32::from_le_bytes(od::load::<4>(&self.image, 24))
     }
 
     /// Sets 0x200B UF minimum frequency.
     pub fn set_uf_minimum_frequency(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 50, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 24, v.to_le_bytes());
     }
 
     /// 0x200C UF corner voltage (unitek-ds.eds:464, INTEGER32 rw, PDO-mappable)
     pub fn uf_corner_voltage(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 54))
+        i32::from_le_bytes(od::load::<4>(&self.image, 28))
     }
 
     /// Sets 0x200C UF corner voltage.
     pub fn set_uf_corner_voltage(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 54, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 28, v.to_le_bytes());
     }
 
     /// 0x200D UF corner frequency (unitek-ds.eds:472, INTEGER32 rw, PDO-mappable)
     pub fn uf_corner_frequency(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 58))
+        i32::from_le_bytes(od::load::<4>(&self.image, 32))
     }
 
     /// Sets 0x200D UF corner frequency.
     pub fn set_uf_corner_frequency(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 58, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 32, v.to_le_bytes());
     }
 
     /// 0x200E UF power factor (unitek-ds.eds:480, UNSIGNED16 rw, PDO-mappable)
     pub fn uf_power_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 62))
+        u16::from_le_bytes(od::load::<2>(&self.image, 36))
     }
 
     /// Sets 0x200E UF power factor.
     pub fn set_uf_power_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 62, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 36, v.to_le_bytes());
     }
 
     /// 0x200F UF extra (unitek-ds.eds:488, INTEGER16 rw, PDO-mappable)
     pub fn uf_extra(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 64))
+        i16::from_le_bytes(od::load::<2>(&self.image, 38))
     }
 
     /// Sets 0x200F UF extra.
     pub fn set_uf_extra(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 64, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 38, v.to_le_bytes());
     }
 
     /// 0x2010 Oscilloscope trigger channel (unitek-ds.eds:496, UNSIGNED16 rw, PDO-mappable)
     pub fn oscilloscope_trigger_channel(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 66))
+        u16::from_le_bytes(od::load::<2>(&self.image, 40))
     }
 
     /// Sets 0x2010 Oscilloscope trigger channel.
     pub fn set_oscilloscope_trigger_channel(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 66, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 40, v.to_le_bytes());
     }
 
     /// 0x2011 Control status (unitek-ds.eds:504, UNSIGNED32 ro, PDO-mappable)
     pub fn control_status(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 68))
+        u32::from_le_bytes(od::load::<4>(&self.image, 374))
     }
 
     /// Sets 0x2011 Control status.
     pub fn set_control_status(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 68, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 374, v.to_le_bytes());
     }
 
     /// 0x2012 Oscilloscope trigger level (unitek-ds.eds:512, UNSIGNED16 rw, PDO-mappable)
     pub fn oscilloscope_trigger_level(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 72))
+        u16::from_le_bytes(od::load::<2>(&self.image, 42))
     }
 
     /// Sets 0x2012 Oscilloscope trigger level.
     pub fn set_oscilloscope_trigger_level(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 72, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 42, v.to_le_bytes());
     }
 
     /// 0x2013 Oscilloscope trigger edge (unitek-ds.eds:520, UNSIGNED16 rw, PDO-mappable)
     pub fn oscilloscope_trigger_edge(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 74))
+        u16::from_le_bytes(od::load::<2>(&self.image, 44))
     }
 
     /// Sets 0x2013 Oscilloscope trigger edge.
     pub fn set_oscilloscope_trigger_edge(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 74, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 44, v.to_le_bytes());
     }
 
     /// 0x2014 Oscilloscope trigger source (unitek-ds.eds:528, UNSIGNED16 rw, PDO-mappable)
     pub fn oscilloscope_trigger_source(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 76))
+        u16::from_le_bytes(od::load::<2>(&self.image, 46))
     }
 
     /// Sets 0x2014 Oscilloscope trigger source.
     pub fn set_oscilloscope_trigger_source(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 76, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 46, v.to_le_bytes());
     }
 
     /// 0x2015 Oscilloscope source (unitek-ds.eds:536, UNSIGNED16 rw, PDO-mappable)
     pub fn oscilloscope_source(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 78))
+        u16::from_le_bytes(od::load::<2>(&self.image, 48))
     }
 
     /// Sets 0x2015 Oscilloscope source.
     pub fn set_oscilloscope_source(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 78, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 48, v.to_le_bytes());
     }
 
     /// 0x2016 Oscilloscope skip (unitek-ds.eds:544, UNSIGNED16 rw, PDO-mappable)
     pub fn oscilloscope_skip(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 80))
+        u16::from_le_bytes(od::load::<2>(&self.image, 50))
     }
 
     /// Sets 0x2016 Oscilloscope skip.
     pub fn set_oscilloscope_skip(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 80, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 50, v.to_le_bytes());
     }
 
     /// 0x2017 Oscilloscope read command (unitek-ds.eds:552, UNSIGNED16 wo)
     pub fn oscilloscope_read_command(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 82))
+        u16::from_le_bytes(od::load::<2>(&self.image, 52))
     }
 
     /// Sets 0x2017 Oscilloscope read command.
     pub fn set_oscilloscope_read_command(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 82, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 52, v.to_le_bytes());
     }
 
     /// 0x2018 Oscilloscope run command (unitek-ds.eds:560, UNSIGNED16 wo)
     pub fn oscilloscope_run_command(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 84))
+        u16::from_le_bytes(od::load::<2>(&self.image, 54))
     }
 
     /// Sets 0x2018 Oscilloscope run command.
     pub fn set_oscilloscope_run_command(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 84, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 54, v.to_le_bytes());
     }
 
     /// 0x2019 PWM frequency (unitek-ds.eds:568, UNSIGNED16 rw, PDO-mappable)
     pub fn pwm_frequency(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 86))
+        u16::from_le_bytes(od::load::<2>(&self.image, 56))
     }
 
     /// Sets 0x2019 PWM frequency.
     pub fn set_pwm_frequency(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 86, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 56, v.to_le_bytes());
     }
 
     /// 0x201A Lookup temporary (unitek-ds.eds:576, INTEGER16 rw, PDO-mappable)
     pub fn lookup_temporary(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 88))
+        i16::from_le_bytes(od::load::<2>(&self.image, 58))
     }
 
     /// Sets 0x201A Lookup temporary.
     pub fn set_lookup_temporary(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 88, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 58, v.to_le_bytes());
     }
 
     /// 0x201B Firmware version (unitek-ds.eds:584, UNSIGNED16 ro, PDO-mappable)
     pub fn firmware_version(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 90))
+        u16::from_le_bytes(od::load::<2>(&self.image, 378))
     }
 
     /// Sets 0x201B Firmware version.
     pub fn set_firmware_version(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 90, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 378, v.to_le_bytes());
     }
 
     /// 0x201C Current controller proportional gain (unitek-ds.eds:592, UNSIGNED16 rw, PDO-mappable)
     pub fn current_controller_proportional_gain(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 92))
+        u16::from_le_bytes(od::load::<2>(&self.image, 60))
     }
 
     /// Sets 0x201C Current controller proportional gain.
     pub fn set_current_controller_proportional_gain(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 92, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 60, v.to_le_bytes());
     }
 
     /// 0x201D Current controller integral time (unitek-ds.eds:600, UNSIGNED16 rw, PDO-mappable)
     pub fn current_controller_integral_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 94))
+        u16::from_le_bytes(od::load::<2>(&self.image, 62))
     }
 
     /// Sets 0x201D Current controller integral time.
     pub fn set_current_controller_integral_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 94, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 62, v.to_le_bytes());
     }
 
     /// 0x201E Digital command cutoff (unitek-ds.eds:608, UNSIGNED16 rw, PDO-mappable)
     pub fn digital_command_cutoff(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 96))
+        u16::from_le_bytes(od::load::<2>(&self.image, 64))
     }
 
     /// Sets 0x201E Digital command cutoff.
     pub fn set_digital_command_cutoff(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 96, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 64, v.to_le_bytes());
     }
 
     /// 0x201F Phase 3 current offset (unitek-ds.eds:616, INTEGER16 ro, PDO-mappable)
     pub fn phase_3_current_offset(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 98))
+        i16::from_le_bytes(od::load::<2>(&self.image, 380))
     }
 
     /// Sets 0x201F Phase 3 current offset.
     pub fn set_phase_3_current_offset(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 98, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 380, v.to_le_bytes());
     }
 
     /// 0x2020 Current actual value (unitek-ds.eds:624, INTEGER16 ro, PDO-mappable)
     pub fn current_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 100))
+        i16::from_le_bytes(od::load::<2>(&self.image, 382))
     }
 
     /// Sets 0x2020 Current actual value.
     pub fn set_current_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 100, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 382, v.to_le_bytes());
     }
 
     /// 0x2021 D current set point (unitek-ds.eds:632, INTEGER16 rw, PDO-mappable)
     pub fn d_current_set_point(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 102))
+        i16::from_le_bytes(od::load::<2>(&self.image, 66))
     }
 
     /// Sets 0x2021 D current set point.
     pub fn set_d_current_set_point(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 102, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 66, v.to_le_bytes());
     }
 
     /// 0x2022 Current command after ramp (unitek-ds.eds:640, INTEGER16 ro, PDO-mappable)
     pub fn current_command_after_ramp(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 104))
+        i16::from_le_bytes(od::load::<2>(&self.image, 384))
     }
 
     /// Sets 0x2022 Current command after ramp.
     pub fn set_current_command_after_ramp(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 104, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 384, v.to_le_bytes());
     }
 
     /// 0x2023 D current reference (unitek-ds.eds:648, INTEGER16 ro, PDO-mappable)
     pub fn d_current_reference(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 106))
+        i16::from_le_bytes(od::load::<2>(&self.image, 386))
     }
 
     /// Sets 0x2023 D current reference.
     pub fn set_d_current_reference(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 106, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 386, v.to_le_bytes());
     }
 
     /// 0x2024 Maximum current in use (unitek-ds.eds:656, UNSIGNED16 ro, PDO-mappable)
     pub fn maximum_current_in_use(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 108))
+        u16::from_le_bytes(od::load::<2>(&self.image, 388))
     }
 
     /// Sets 0x2024 Maximum current in use.
     pub fn set_maximum_current_in_use(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 108, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 388, v.to_le_bytes());
     }
 
     /// 0x2025 Current command ramp (unitek-ds.eds:664, UNSIGNED16 rw, PDO-mappable)
     pub fn current_command_ramp(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 110))
+        u16::from_le_bytes(od::load::<2>(&self.image, 68))
     }
 
     /// Sets 0x2025 Current command ramp.
     pub fn set_current_command_ramp(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 110, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 68, v.to_le_bytes());
     }
 
     /// 0x2026 Current command (unitek-ds.eds:672, INTEGER16 ro, PDO-mappable)
     pub fn current_command(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 112))
+        i16::from_le_bytes(od::load::<2>(&self.image, 390))
     }
 
     /// Sets 0x2026 Current command.
     pub fn set_current_command(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 112, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 390, v.to_le_bytes());
     }
 
     /// 0x2027 Q current actual value (unitek-ds.eds:680, INTEGER16 ro, PDO-mappable)
     pub fn q_current_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 114))
+        i16::from_le_bytes(od::load::<2>(&self.image, 392))
     }
 
     /// Sets 0x2027 Q current actual value.
     pub fn set_q_current_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 114, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 392, v.to_le_bytes());
     }
 
     /// 0x2028 D current actual value (unitek-ds.eds:688, INTEGER16 ro, PDO-mappable)
     pub fn d_current_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 116))
+        i16::from_le_bytes(od::load::<2>(&self.image, 394))
     }
 
     /// Sets 0x2028 D current actual value.
     pub fn set_d_current_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 116, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 394, v.to_le_bytes());
     }
 
     /// 0x2029 Q output voltage (unitek-ds.eds:696, INTEGER16 ro, PDO-mappable)
     pub fn q_output_voltage(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 118))
+        i16::from_le_bytes(od::load::<2>(&self.image, 396))
     }
 
     /// Sets 0x2029 Q output voltage.
     pub fn set_q_output_voltage(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 118, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 396, v.to_le_bytes());
     }
 
     /// 0x202A D output voltage (unitek-ds.eds:704, INTEGER16 ro, PDO-mappable)
     pub fn d_output_voltage(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 120))
+        i16::from_le_bytes(od::load::<2>(&self.image, 398))
     }
 
     /// Sets 0x202A D output voltage.
     pub fn set_d_output_voltage(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 120, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 398, v.to_le_bytes());
     }
 
     /// 0x202B Current controller max integration count (unitek-ds.eds:712, UNSIGNED16 rw, PDO-mappable)
     pub fn current_controller_max_integration_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 122))
+        u16::from_le_bytes(od::load::<2>(&self.image, 70))
     }
 
     /// Sets 0x202B Current controller max integration count.
     pub fn set_current_controller_max_integration_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 122, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 70, v.to_le_bytes());
     }
 
     /// 0x202C Speed controller proportional gain (unitek-ds.eds:720, UNSIGNED16 rw, PDO-mappable)
     pub fn speed_controller_proportional_gain(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 124))
+        u16::from_le_bytes(od::load::<2>(&self.image, 72))
     }
 
     /// Sets 0x202C Speed controller proportional gain.
     pub fn set_speed_controller_proportional_gain(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 124, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 72, v.to_le_bytes());
     }
 
     /// 0x202D Speed controller integral time (unitek-ds.eds:728, UNSIGNED16 rw, PDO-mappable)
     pub fn speed_controller_integral_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 126))
+        u16::from_le_bytes(od::load::<2>(&self.image, 74))
     }
 
     /// Sets 0x202D Speed controller integral time.
     pub fn set_speed_controller_integral_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 126, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 74, v.to_le_bytes());
     }
 
     /// 0x202E Speed controller derivative time (unitek-ds.eds:736, UNSIGNED16 rw, PDO-mappable)
     pub fn speed_controller_derivative_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 128))
+        u16::from_le_bytes(od::load::<2>(&self.image, 76))
     }
 
     /// Sets 0x202E Speed controller derivative time.
     pub fn set_speed_controller_derivative_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 128, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 76, v.to_le_bytes());
     }
 
     /// 0x202F Analog input 1 offset and scale (unitek-ds.eds:744, INTEGER32 rw, PDO-mappable)
     pub fn analog_input_1_offset_and_scale(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 130))
+        i32::from_le_bytes(od::load::<4>(&self.image, 78))
     }
 
     /// Sets 0x202F Analog input 1 offset and scale.
     pub fn set_analog_input_1_offset_and_scale(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 130, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 78, v.to_le_bytes());
     }
 
     /// 0x2030 Speed actual value (unitek-ds.eds:752, INTEGER16 ro, PDO-mappable)
     pub fn speed_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 134))
+        i16::from_le_bytes(od::load::<2>(&self.image, 400))
     }
 
     /// Sets 0x2030 Speed actual value.
     pub fn set_speed_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 134, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 400, v.to_le_bytes());
     }
 
     /// 0x2031 Speed set point (unitek-ds.eds:762, INTEGER16 rw, PDO-mappable)
     pub fn speed_set_point(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 136))
+        i16::from_le_bytes(od::load::<2>(&self.image, 82))
     }
 
     /// Sets 0x2031 Speed set point.
     pub fn set_speed_set_point(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 136, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 82, v.to_le_bytes());
     }
 
     /// 0x2032 Speed command after ramp (unitek-ds.eds:772, INTEGER16 ro, PDO-mappable)
     pub fn speed_command_after_ramp(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 138))
+        i16::from_le_bytes(od::load::<2>(&self.image, 402))
     }
 
     /// Sets 0x2032 Speed command after ramp.
     pub fn set_speed_command_after_ramp(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 138, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 402, v.to_le_bytes());
     }
 
     /// 0x2033 Speed error (unitek-ds.eds:780, INTEGER16 rw, PDO-mappable)
     pub fn speed_error(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 140))
+        i16::from_le_bytes(od::load::<2>(&self.image, 84))
     }
 
     /// Sets 0x2033 Speed error.
     pub fn set_speed_error(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 140, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 84, v.to_le_bytes());
     }
 
     /// 0x2034 Speed limit (unitek-ds.eds:788, INTEGER16 rw, PDO-mappable)
     pub fn speed_limit(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 142))
+        i16::from_le_bytes(od::load::<2>(&self.image, 86))
     }
 
     /// Sets 0x2034 Speed limit.
     pub fn set_speed_limit(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 142, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 86, v.to_le_bytes());
     }
 
     /// 0x2035 Acceleration ramp (unitek-ds.eds:796, UNSIGNED32 rw, PDO-mappable)
     pub fn acceleration_ramp(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 144))
+        u32::from_le_bytes(od::load::<4>(&self.image, 88))
     }
 
     /// Sets 0x2035 Acceleration ramp.
     pub fn set_acceleration_ramp(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 144, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 88, v.to_le_bytes());
     }
 
     /// 0x2036 Speed command source (unitek-ds.eds:804, UNSIGNED16 rw, PDO-mappable)
     pub fn speed_command_source(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 148))
+        u16::from_le_bytes(od::load::<2>(&self.image, 92))
     }
 
     /// Sets 0x2036 Speed command source.
     pub fn set_speed_command_source(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 148, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 92, v.to_le_bytes());
     }
 
     /// 0x2037 Current to speed loop factor (unitek-ds.eds:812, UNSIGNED16 ro, PDO-mappable)
     pub fn current_to_speed_loop_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 150))
+        u16::from_le_bytes(od::load::<2>(&self.image, 404))
     }
 
     /// Sets 0x2037 Current to speed loop factor.
     pub fn set_current_to_speed_loop_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 150, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 404, v.to_le_bytes());
     }
 
     /// 0x2038 Q current error (unitek-ds.eds:820, INTEGER16 ro, PDO-mappable)
     pub fn q_current_error(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 152))
+        i16::from_le_bytes(od::load::<2>(&self.image, 406))
     }
 
     /// Sets 0x2038 Q current error.
     pub fn set_q_current_error(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 152, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 406, v.to_le_bytes());
     }
 
     /// 0x2039 D current error (unitek-ds.eds:828, INTEGER16 ro, PDO-mappable)
     pub fn d_current_error(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 154))
+        i16::from_le_bytes(od::load::<2>(&self.image, 408))
     }
 
     /// Sets 0x2039 D current error.
     pub fn set_d_current_error(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 154, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 408, v.to_le_bytes());
     }
 
     /// 0x203B Speed controller max integration count (unitek-ds.eds:836, UNSIGNED16 rw, PDO-mappable)
     pub fn speed_controller_max_integration_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 156))
+        u16::from_le_bytes(od::load::<2>(&self.image, 94))
     }
 
     /// Sets 0x203B Speed controller max integration count.
     pub fn set_speed_controller_max_integration_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 156, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 94, v.to_le_bytes());
     }
 
     /// 0x203C Current derating by speed (unitek-ds.eds:844, UNSIGNED16 rw, PDO-mappable)
     pub fn current_derating_by_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 158))
+        u16::from_le_bytes(od::load::<2>(&self.image, 96))
     }
 
     /// Sets 0x203C Current derating by speed.
     pub fn set_current_derating_by_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 158, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 96, v.to_le_bytes());
     }
 
     /// 0x203D Read request (unitek-ds.eds:852, UNSIGNED16 wo)
     pub fn read_request(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 160))
+        u16::from_le_bytes(od::load::<2>(&self.image, 98))
     }
 
     /// Sets 0x203D Read request.
     pub fn set_read_request(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 160, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 98, v.to_le_bytes());
     }
 
     /// 0x203E Negative speed limit (unitek-ds.eds:860, INTEGER16 rw, PDO-mappable)
     pub fn negative_speed_limit(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 162))
+        i16::from_le_bytes(od::load::<2>(&self.image, 100))
     }
 
     /// Sets 0x203E Negative speed limit.
     pub fn set_negative_speed_limit(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 162, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 100, v.to_le_bytes());
     }
 
     /// 0x203F Positive speed limit (unitek-ds.eds:868, INTEGER16 rw, PDO-mappable)
     pub fn positive_speed_limit(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 164))
+        i16::from_le_bytes(od::load::<2>(&self.image, 102))
     }
 
     /// Sets 0x203F Positive speed limit.
     pub fn set_positive_speed_limit(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 164, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 102, v.to_le_bytes());
     }
 
     /// 0x2040 Status map (unitek-ds.eds:876, UNSIGNED32 ro, PDO-mappable)
     pub fn status_map(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 166))
+        u32::from_le_bytes(od::load::<4>(&self.image, 410))
     }
 
     /// Sets 0x2040 Status map.
     pub fn set_status_map(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 166, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 410, v.to_le_bytes());
     }
 
     /// 0x2041 Increment delta (unitek-ds.eds:884, INTEGER16 ro, PDO-mappable)
     pub fn increment_delta(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 170))
+        i16::from_le_bytes(od::load::<2>(&self.image, 414))
     }
 
     /// Sets 0x2041 Increment delta.
     pub fn set_increment_delta(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 170, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 414, v.to_le_bytes());
     }
 
     /// 0x2042 Motor mechanical angle (unitek-ds.eds:892, INTEGER16 ro, PDO-mappable)
     pub fn motor_mechanical_angle(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 172))
+        i16::from_le_bytes(od::load::<2>(&self.image, 416))
     }
 
     /// Sets 0x2042 Motor mechanical angle.
     pub fn set_motor_mechanical_angle(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 172, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 416, v.to_le_bytes());
     }
 
     /// 0x2043 Motor electrical angle (unitek-ds.eds:900, UNSIGNED16 ro, PDO-mappable)
     pub fn motor_electrical_angle(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 174))
+        u16::from_le_bytes(od::load::<2>(&self.image, 418))
     }
 
     /// Sets 0x2043 Motor electrical angle.
     pub fn set_motor_electrical_angle(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 174, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 418, v.to_le_bytes());
     }
 
     /// 0x2044 Feedback phase angle offset (unitek-ds.eds:908, INTEGER16 rw, PDO-mappable)
     pub fn feedback_phase_angle_offset(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 176))
+        i16::from_le_bytes(od::load::<2>(&self.image, 104))
     }
 
     /// Sets 0x2044 Feedback phase angle offset.
     pub fn set_feedback_phase_angle_offset(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 176, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 104, v.to_le_bytes());
     }
 
     /// 0x2045 I2t and regen energy monitor (unitek-ds.eds:916, UNSIGNED32 ro, PDO-mappable)
     pub fn i2t_and_regen_energy_monitor(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 178))
+        u32::from_le_bytes(od::load::<4>(&self.image, 420))
     }
 
     /// Sets 0x2045 I2t and regen energy monitor.
     pub fn set_i2t_and_regen_energy_monitor(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 178, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 420, v.to_le_bytes());
     }
 
     /// 0x2046 Digital current limit (unitek-ds.eds:924, UNSIGNED16 rw, PDO-mappable)
     pub fn digital_current_limit(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 182))
+        u16::from_le_bytes(od::load::<2>(&self.image, 106))
     }
 
     /// Sets 0x2046 Digital current limit.
     pub fn set_digital_current_limit(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 182, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 106, v.to_le_bytes());
     }
 
     /// 0x2048 Current limit in use (unitek-ds.eds:932, INTEGER16 ro, PDO-mappable)
     pub fn current_limit_in_use(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 184))
+        i16::from_le_bytes(od::load::<2>(&self.image, 424))
     }
 
     /// Sets 0x2048 Current limit in use.
     pub fn set_current_limit_in_use(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 184, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 424, v.to_le_bytes());
     }
 
     /// 0x2049 Motor temperature (unitek-ds.eds:940, UNSIGNED16 ro, PDO-mappable)
     pub fn motor_temperature(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 186))
+        u16::from_le_bytes(od::load::<2>(&self.image, 426))
     }
 
     /// Sets 0x2049 Motor temperature.
     pub fn set_motor_temperature(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 186, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 426, v.to_le_bytes());
     }
 
     /// 0x204A Power stage temperature (unitek-ds.eds:948, UNSIGNED16 ro, PDO-mappable)
     pub fn power_stage_temperature(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 188))
+        u16::from_le_bytes(od::load::<2>(&self.image, 428))
     }
 
     /// Sets 0x204A Power stage temperature.
     pub fn set_power_stage_temperature(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 188, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 428, v.to_le_bytes());
     }
 
     /// 0x204B Air temperature (unitek-ds.eds:956, UNSIGNED16 ro, PDO-mappable)
     pub fn air_temperature(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 190))
+        u16::from_le_bytes(od::load::<2>(&self.image, 430))
     }
 
     /// Sets 0x204B Air temperature.
     pub fn set_air_temperature(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 190, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 430, v.to_le_bytes());
     }
 
     /// 0x204C Current derating by temperature (unitek-ds.eds:964, UNSIGNED16 rw, PDO-mappable)
     pub fn current_derating_by_temperature(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 192))
+        u16::from_le_bytes(od::load::<2>(&self.image, 108))
     }
 
     /// Sets 0x204C Current derating by temperature.
     pub fn set_current_derating_by_temperature(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 192, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 108, v.to_le_bytes());
     }
 
     /// 0x204D Motor maximum current (unitek-ds.eds:972, UNSIGNED16 rw, PDO-mappable)
     pub fn motor_maximum_current(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 194))
+        u16::from_le_bytes(od::load::<2>(&self.image, 110))
     }
 
     /// Sets 0x204D Motor maximum current.
     pub fn set_motor_maximum_current(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 194, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 110, v.to_le_bytes());
     }
 
     /// 0x204E Motor continuous current (unitek-ds.eds:980, UNSIGNED16 rw, PDO-mappable)
     pub fn motor_continuous_current(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 196))
+        u16::from_le_bytes(od::load::<2>(&self.image, 112))
     }
 
     /// Sets 0x204E Motor continuous current.
     pub fn set_motor_continuous_current(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 196, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 112, v.to_le_bytes());
     }
 
     /// 0x204F Motor pole count (unitek-ds.eds:988, UNSIGNED16 rw, PDO-mappable)
     pub fn motor_pole_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 198))
+        u16::from_le_bytes(od::load::<2>(&self.image, 114))
     }
 
     /// Sets 0x204F Motor pole count.
     pub fn set_motor_pole_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 198, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 114, v.to_le_bytes());
     }
 
     /// 0x2050 Analog input 1 cutoff window (unitek-ds.eds:996, UNSIGNED16 rw, PDO-mappable)
     pub fn analog_input_1_cutoff_window(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 200))
+        u16::from_le_bytes(od::load::<2>(&self.image, 116))
     }
 
     /// Sets 0x2050 Analog input 1 cutoff window.
     pub fn set_analog_input_1_cutoff_window(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 200, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 116, v.to_le_bytes());
     }
 
     /// 0x2051 Mode (unitek-ds.eds:1004, UNSIGNED16 rw, PDO-mappable)
     pub fn mode(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 202))
+        u16::from_le_bytes(od::load::<2>(&self.image, 118))
     }
 
     /// Sets 0x2051 Mode.
     pub fn set_mode(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 202, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 118, v.to_le_bytes());
     }
 
     /// 0x2052 Status mask (unitek-ds.eds:1012, UNSIGNED32 rw, PDO-mappable)
     pub fn status_mask(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 204))
+        u32::from_le_bytes(od::load::<4>(&self.image, 120))
     }
 
     /// Sets 0x2052 Status mask.
     pub fn set_status_mask(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 204, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 120, v.to_le_bytes());
     }
 
     /// 0x2053 Analog input 2 cutoff window (unitek-ds.eds:1020, UNSIGNED16 rw, PDO-mappable)
     pub fn analog_input_2_cutoff_window(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 208))
+        u16::from_le_bytes(od::load::<2>(&self.image, 124))
     }
 
     /// Sets 0x2053 Analog input 2 cutoff window.
     pub fn set_analog_input_2_cutoff_window(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 208, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 124, v.to_le_bytes());
     }
 
     /// 0x2054 Phase 1 current actual value (unitek-ds.eds:1028, INTEGER16 ro, PDO-mappable)
     pub fn phase_1_current_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 210))
+        i16::from_le_bytes(od::load::<2>(&self.image, 432))
     }
 
     /// Sets 0x2054 Phase 1 current actual value.
     pub fn set_phase_1_current_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 210, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 432, v.to_le_bytes());
     }
 
     /// 0x2055 Phase 2 current actual value (unitek-ds.eds:1036, INTEGER16 ro, PDO-mappable)
     pub fn phase_2_current_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 212))
+        i16::from_le_bytes(od::load::<2>(&self.image, 434))
     }
 
     /// Sets 0x2055 Phase 2 current actual value.
     pub fn set_phase_2_current_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 212, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 434, v.to_le_bytes());
     }
 
     /// 0x2056 Phase 3 current actual value (unitek-ds.eds:1044, INTEGER16 ro, PDO-mappable)
     pub fn phase_3_current_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 214))
+        i16::from_le_bytes(od::load::<2>(&self.image, 436))
     }
 
     /// Sets 0x2056 Phase 3 current actual value.
     pub fn set_phase_3_current_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 214, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 436, v.to_le_bytes());
     }
 
     /// 0x2057 Ramped current limit in use (unitek-ds.eds:1052, INTEGER16 ro, PDO-mappable)
     pub fn ramped_current_limit_in_use(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 216))
+        i16::from_le_bytes(od::load::<2>(&self.image, 438))
     }
 
     /// Sets 0x2057 Ramped current limit in use.
     pub fn set_ramped_current_limit_in_use(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 216, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 438, v.to_le_bytes());
     }
 
     /// 0x2058 Current derating TD (unitek-ds.eds:1060, UNSIGNED16 rw, PDO-mappable)
     pub fn current_derating_td(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 218))
+        u16::from_le_bytes(od::load::<2>(&self.image, 126))
     }
 
     /// Sets 0x2058 Current derating TD.
     pub fn set_current_derating_td(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 218, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 126, v.to_le_bytes());
     }
 
     /// 0x2059 Rated motor speed (unitek-ds.eds:1068, UNSIGNED16 rw, PDO-mappable)
     pub fn rated_motor_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 220))
+        u16::from_le_bytes(od::load::<2>(&self.image, 128))
     }
 
     /// Sets 0x2059 Rated motor speed.
     pub fn set_rated_motor_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 220, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 128, v.to_le_bytes());
     }
 
     /// 0x205A Device options (unitek-ds.eds:1076, UNSIGNED32 rw, PDO-mappable)
     pub fn device_options(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 222))
+        u32::from_le_bytes(od::load::<4>(&self.image, 130))
     }
 
     /// Sets 0x205A Device options.
     pub fn set_device_options(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 222, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 130, v.to_le_bytes());
     }
 
     /// 0x205B Acceleration gain (unitek-ds.eds:1084, UNSIGNED16 rw, PDO-mappable)
     pub fn acceleration_gain(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 226))
+        u16::from_le_bytes(od::load::<2>(&self.image, 134))
     }
 
     /// Sets 0x205B Acceleration gain.
     pub fn set_acceleration_gain(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 226, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 134, v.to_le_bytes());
     }
 
     /// 0x205C Rotor signals (unitek-ds.eds:1092, UNSIGNED16 ro, PDO-mappable)
     pub fn rotor_signals(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 228))
+        u16::from_le_bytes(od::load::<2>(&self.image, 440))
     }
 
     /// Sets 0x205C Rotor signals.
     pub fn set_rotor_signals(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 228, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 440, v.to_le_bytes());
     }
 
     /// 0x205D Internal speed command (unitek-ds.eds:1100, INTEGER16 ro, PDO-mappable)
     pub fn internal_speed_command(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 230))
+        i16::from_le_bytes(od::load::<2>(&self.image, 442))
     }
 
     /// Sets 0x205D Internal speed command.
     pub fn set_internal_speed_command(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 230, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 442, v.to_le_bytes());
     }
 
     /// 0x205E Speed actual value filter (unitek-ds.eds:1108, INTEGER16 rw, PDO-mappable)
     pub fn speed_actual_value_filter(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 232))
+        i16::from_le_bytes(od::load::<2>(&self.image, 136))
     }
 
     /// Sets 0x205E Speed actual value filter.
     pub fn set_speed_actual_value_filter(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 232, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 136, v.to_le_bytes());
     }
 
     /// 0x205F Filtered current actual value (unitek-ds.eds:1116, INTEGER16 ro, PDO-mappable)
     pub fn filtered_current_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 234))
+        i16::from_le_bytes(od::load::<2>(&self.image, 444))
     }
 
     /// Sets 0x205F Filtered current actual value.
     pub fn set_filtered_current_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 234, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 444, v.to_le_bytes());
     }
 
     /// 0x2060 Analog input filter (unitek-ds.eds:1124, UNSIGNED16 rw, PDO-mappable)
     pub fn analog_input_filter(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 236))
+        u16::from_le_bytes(od::load::<2>(&self.image, 138))
     }
 
     /// Sets 0x2060 Analog input filter.
     pub fn set_analog_input_filter(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 236, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 138, v.to_le_bytes());
     }
 
     /// 0x2061 It monitor (unitek-ds.eds:1132, UNSIGNED16 ro, PDO-mappable)
     pub fn it_monitor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 238))
+        u16::from_le_bytes(od::load::<2>(&self.image, 446))
     }
 
     /// Sets 0x2061 It monitor.
     pub fn set_it_monitor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 238, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 446, v.to_le_bytes());
     }
 
     /// 0x2062 Device serial number (unitek-ds.eds:1140, UNSIGNED32 rw, PDO-mappable)
     pub fn device_serial_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 240))
+        u32::from_le_bytes(od::load::<4>(&self.image, 140))
     }
 
     /// Sets 0x2062 Device serial number.
     pub fn set_device_serial_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 240, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 140, v.to_le_bytes());
     }
 
     /// 0x2063 FPGA status (unitek-ds.eds:1148, UNSIGNED16 ro, PDO-mappable)
     pub fn fpga_status(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 244))
+        u16::from_le_bytes(od::load::<2>(&self.image, 448))
     }
 
     /// Sets 0x2063 FPGA status.
     pub fn set_fpga_status(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 244, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 448, v.to_le_bytes());
     }
 
     /// 0x2064 Mains supply voltage (unitek-ds.eds:1156, UNSIGNED16 rw, PDO-mappable)
     pub fn mains_supply_voltage(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 246))
+        u16::from_le_bytes(od::load::<2>(&self.image, 144))
     }
 
     /// Sets 0x2064 Mains supply voltage.
     pub fn set_mains_supply_voltage(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 246, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 144, v.to_le_bytes());
     }
 
     /// 0x2065 Regen resistor rating (unitek-ds.eds:1164, UNSIGNED32 rw, PDO-mappable)
     pub fn regen_resistor_rating(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 248))
+        u32::from_le_bytes(od::load::<4>(&self.image, 146))
     }
 
     /// Sets 0x2065 Regen resistor rating.
     pub fn set_regen_resistor_rating(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 248, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 146, v.to_le_bytes());
     }
 
     /// 0x2066 Battery voltage (unitek-ds.eds:1172, UNSIGNED16 ro, PDO-mappable)
     pub fn battery_voltage(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 252))
+        u16::from_le_bytes(od::load::<2>(&self.image, 450))
     }
 
     /// Sets 0x2066 Battery voltage.
     pub fn set_battery_voltage(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 252, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 450, v.to_le_bytes());
     }
 
     /// 0x2067 Device type code (unitek-ds.eds:1180, UNSIGNED32 rw, PDO-mappable)
     pub fn device_type_code(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 254))
+        u32::from_le_bytes(od::load::<4>(&self.image, 150))
     }
 
     /// Sets 0x2067 Device type code.
     pub fn set_device_type_code(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 254, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 150, v.to_le_bytes());
     }
 
     /// 0x2068 CAN receive id (unitek-ds.eds:1188, UNSIGNED16 rw, PDO-mappable)
     pub fn can_receive_id(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 258))
+        u16::from_le_bytes(od::load::<2>(&self.image, 154))
     }
 
     /// Sets 0x2068 CAN receive id.
     pub fn set_can_receive_id(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 258, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 154, v.to_le_bytes());
     }
 
     /// 0x2069 CAN transmit id (unitek-ds.eds:1198, UNSIGNED16 rw, PDO-mappable)
     pub fn can_transmit_id(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 260))
+        u16::from_le_bytes(od::load::<2>(&self.image, 156))
     }
 
     /// Sets 0x2069 CAN transmit id.
     pub fn set_can_transmit_id(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 260, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 156, v.to_le_bytes());
     }
 
     /// 0x206A Position controller proportional gain (unitek-ds.eds:1208, UNSIGNED16 rw, PDO-mappable)
     pub fn position_controller_proportional_gain(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 262))
+        u16::from_le_bytes(od::load::<2>(&self.image, 158))
     }
 
     /// Sets 0x206A Position controller proportional gain.
     pub fn set_position_controller_proportional_gain(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 262, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 158, v.to_le_bytes());
     }
 
     /// 0x206B Position controller integral time (unitek-ds.eds:1216, UNSIGNED16 rw, PDO-mappable)
     pub fn position_controller_integral_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 264))
+        u16::from_le_bytes(od::load::<2>(&self.image, 160))
     }
 
     /// Sets 0x206B Position controller integral time.
     pub fn set_position_controller_integral_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 264, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 160, v.to_le_bytes());
     }
 
     /// 0x206C Position controller derivative time (unitek-ds.eds:1224, UNSIGNED16 rw, PDO-mappable)
     pub fn position_controller_derivative_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 266))
+        u16::from_le_bytes(od::load::<2>(&self.image, 162))
     }
 
     /// Sets 0x206C Position controller derivative time.
     pub fn set_position_controller_derivative_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 266, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 162, v.to_le_bytes());
     }
 
     /// 0x206D Position actual value (unitek-ds.eds:1232, INTEGER32 ro, PDO-mappable)
     pub fn position_actual_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 268))
+        i32::from_le_bytes(od::load::<4>(&self.image, 452))
     }
 
     /// Sets 0x206D Position actual value.
     pub fn set_position_actual_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 268, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 452, v.to_le_bytes());
     }
 
     /// 0x206E Position destination (unitek-ds.eds:1242, INTEGER32 rw, PDO-mappable)
     pub fn position_destination(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 272))
+        i32::from_le_bytes(od::load::<4>(&self.image, 164))
     }
 
     /// Sets 0x206E Position destination.
     pub fn set_position_destination(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 272, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 164, v.to_le_bytes());
     }
 
     /// 0x206F Position actual value 2 (unitek-ds.eds:1252, INTEGER32 ro, PDO-mappable)
     pub fn position_actual_value_2(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 276))
+        i32::from_le_bytes(od::load::<4>(&self.image, 456))
     }
 
     /// Sets 0x206F Position actual value 2.
     pub fn set_position_actual_value_2(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 276, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 456, v.to_le_bytes());
     }
 
     /// 0x2070 Position error (unitek-ds.eds:1260, INTEGER32 ro, PDO-mappable)
     pub fn position_error(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 280))
+        i32::from_le_bytes(od::load::<4>(&self.image, 460))
     }
 
     /// Sets 0x2070 Position error.
     pub fn set_position_error(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 280, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 460, v.to_le_bytes());
     }
 
     /// 0x2071 Position controller max integration count (unitek-ds.eds:1268, UNSIGNED16 rw, PDO-mappable)
     pub fn position_controller_max_integration_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 284))
+        u16::from_le_bytes(od::load::<2>(&self.image, 168))
     }
 
     /// Sets 0x2071 Position controller max integration count.
     pub fn set_position_controller_max_integration_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 284, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 168, v.to_le_bytes());
     }
 
     /// 0x2072 Reference zero offset (unitek-ds.eds:1276, INTEGER32 rw, PDO-mappable)
     pub fn reference_zero_offset(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 286))
+        i32::from_le_bytes(od::load::<4>(&self.image, 170))
     }
 
     /// Sets 0x2072 Reference zero offset.
     pub fn set_reference_zero_offset(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 286, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 170, v.to_le_bytes());
     }
 
     /// 0x2073 CAN bit rate code (unitek-ds.eds:1284, UNSIGNED16 rw, PDO-mappable)
     pub fn can_bit_rate_code(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 290))
+        u16::from_le_bytes(od::load::<2>(&self.image, 174))
     }
 
     /// Sets 0x2073 CAN bit rate code.
     pub fn set_can_bit_rate_code(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 290, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 174, v.to_le_bytes());
     }
 
     /// 0x2074 Position zero capture (unitek-ds.eds:1294, INTEGER16 ro, PDO-mappable)
     pub fn position_zero_capture(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 292))
+        i16::from_le_bytes(od::load::<2>(&self.image, 464))
     }
 
     /// Sets 0x2074 Position zero capture.
     pub fn set_position_zero_capture(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 292, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 464, v.to_le_bytes());
     }
 
     /// 0x2075 Resolver position at reference switch (unitek-ds.eds:1302, UNSIGNED16 rw, PDO-mappable)
     pub fn resolver_position_at_reference_switch(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 294))
+        u16::from_le_bytes(od::load::<2>(&self.image, 176))
     }
 
     /// Sets 0x2075 Resolver position at reference switch.
     pub fn set_resolver_position_at_reference_switch(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 294, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 176, v.to_le_bytes());
     }
 
     /// 0x2076 Homing speed fast (unitek-ds.eds:1310, INTEGER16 rw, PDO-mappable)
     pub fn homing_speed_fast(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 296))
+        i16::from_le_bytes(od::load::<2>(&self.image, 178))
     }
 
     /// Sets 0x2076 Homing speed fast.
     pub fn set_homing_speed_fast(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 296, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 178, v.to_le_bytes());
     }
 
     /// 0x2077 Homing speed slow (unitek-ds.eds:1318, INTEGER16 rw, PDO-mappable)
     pub fn homing_speed_slow(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 298))
+        i16::from_le_bytes(od::load::<2>(&self.image, 180))
     }
 
     /// Sets 0x2077 Homing speed slow.
     pub fn set_homing_speed_slow(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 298, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 180, v.to_le_bytes());
     }
 
     /// 0x2078 Start homing (unitek-ds.eds:1326, UNSIGNED16 wo)
     pub fn start_homing(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 300))
+        u16::from_le_bytes(od::load::<2>(&self.image, 182))
     }
 
     /// Sets 0x2078 Start homing.
     pub fn set_start_homing(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 300, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 182, v.to_le_bytes());
     }
 
     /// 0x2079 Position tolerance window (unitek-ds.eds:1334, UNSIGNED16 rw, PDO-mappable)
     pub fn position_tolerance_window(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 302))
+        u16::from_le_bytes(od::load::<2>(&self.image, 184))
     }
 
     /// Sets 0x2079 Position tolerance window.
     pub fn set_position_tolerance_window(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 302, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 184, v.to_le_bytes());
     }
 
     /// 0x207A Position preset (unitek-ds.eds:1342, UNSIGNED32 rw, PDO-mappable)
     pub fn position_preset(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 304))
+        u32::from_le_bytes(od::load::<4>(&self.image, 186))
     }
 
     /// Sets 0x207A Position preset.
     pub fn set_position_preset(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 304, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 186, v.to_le_bytes());
     }
 
     /// 0x207B User zero offset (unitek-ds.eds:1350, UNSIGNED32 ro, PDO-mappable)
     pub fn user_zero_offset(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 308))
+        u32::from_le_bytes(od::load::<4>(&self.image, 466))
     }
 
     /// Sets 0x207B User zero offset.
     pub fn set_user_zero_offset(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 308, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 466, v.to_le_bytes());
     }
 
     /// 0x207C Display position scale (unitek-ds.eds:1358, UNSIGNED32 rw, PDO-mappable)
     pub fn display_position_scale(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 312))
+        u32::from_le_bytes(od::load::<4>(&self.image, 190))
     }
 
     /// Sets 0x207C Display position scale.
     pub fn set_display_position_scale(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 312, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 190, v.to_le_bytes());
     }
 
     /// 0x207D Display position offset (unitek-ds.eds:1366, UNSIGNED32 rw, PDO-mappable)
     pub fn display_position_offset(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 316))
+        u32::from_le_bytes(od::load::<4>(&self.image, 194))
     }
 
     /// Sets 0x207D Display position offset.
     pub fn set_display_position_offset(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 316, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 194, v.to_le_bytes());
     }
 
     /// 0x207E Second encoder scale (unitek-ds.eds:1374, UNSIGNED32 rw, PDO-mappable)
     pub fn second_encoder_scale(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 320))
+        u32::from_le_bytes(od::load::<4>(&self.image, 198))
     }
 
     /// Sets 0x207E Second encoder scale.
     pub fn set_second_encoder_scale(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 320, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 198, v.to_le_bytes());
     }
 
     /// 0x207F Slack offset (unitek-ds.eds:1382, UNSIGNED32 rw, PDO-mappable)
     pub fn slack_offset(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 324))
+        u32::from_le_bytes(od::load::<4>(&self.image, 202))
     }
 
     /// Sets 0x207F Slack offset.
     pub fn set_slack_offset(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 324, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 202, v.to_le_bytes());
     }
 
     /// 0x2080 Slack position difference (unitek-ds.eds:1390, UNSIGNED16 rw, PDO-mappable)
     pub fn slack_position_difference(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 328))
+        u16::from_le_bytes(od::load::<2>(&self.image, 206))
     }
 
     /// Sets 0x2080 Slack position difference.
     pub fn set_slack_position_difference(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 328, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 206, v.to_le_bytes());
     }
 
     /// 0x2082 Device serial number extension (unitek-ds.eds:1398, UNSIGNED16 ro, PDO-mappable)
     pub fn device_serial_number_extension(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 330))
+        u16::from_le_bytes(od::load::<2>(&self.image, 470))
     }
 
     /// Sets 0x2082 Device serial number extension.
     pub fn set_device_serial_number_extension(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 330, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 470, v.to_le_bytes());
     }
 
     /// 0x2083 Read parameters from EEPROM (unitek-ds.eds:1406, UNSIGNED16 wo)
     pub fn read_parameters_from_eeprom(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 332))
+        u16::from_le_bytes(od::load::<2>(&self.image, 208))
     }
 
     /// Sets 0x2083 Read parameters from EEPROM.
     pub fn set_read_parameters_from_eeprom(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 332, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 208, v.to_le_bytes());
     }
 
     /// 0x2084 Write parameters to EEPROM (unitek-ds.eds:1414, UNSIGNED16 wo)
     pub fn write_parameters_to_eeprom(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 334))
+        u16::from_le_bytes(od::load::<2>(&self.image, 210))
     }
 
     /// Sets 0x2084 Write parameters to EEPROM.
     pub fn set_write_parameters_to_eeprom(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 334, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 210, v.to_le_bytes());
     }
 
     /// 0x2085 Auto functions (unitek-ds.eds:1424, UNSIGNED16 wo)
     pub fn auto_functions(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 336))
+        u16::from_le_bytes(od::load::<2>(&self.image, 212))
     }
 
     /// Sets 0x2085 Auto functions.
     pub fn set_auto_functions(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 336, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 212, v.to_le_bytes());
     }
 
     /// 0x2086 Read info (unitek-ds.eds:1432, INTEGER16 ro, PDO-mappable)
     pub fn read_info(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 338))
+        i16::from_le_bytes(od::load::<2>(&self.image, 472))
     }
 
     /// Sets 0x2086 Read info.
     pub fn set_read_info(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 338, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 472, v.to_le_bytes());
     }
 
     /// 0x2088 CAN receive id 2 (unitek-ds.eds:1440, UNSIGNED32 rw, PDO-mappable)
     pub fn can_receive_id_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 340))
+        u32::from_le_bytes(od::load::<4>(&self.image, 214))
     }
 
     /// Sets 0x2088 CAN receive id 2.
     pub fn set_can_receive_id_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 340, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 214, v.to_le_bytes());
     }
 
     /// 0x2089 CAN transmit id 2 (unitek-ds.eds:1448, UNSIGNED32 rw, PDO-mappable)
     pub fn can_transmit_id_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 344))
+        u32::from_le_bytes(od::load::<4>(&self.image, 218))
     }
 
     /// Sets 0x2089 CAN transmit id 2.
     pub fn set_can_transmit_id_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 344, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 218, v.to_le_bytes());
     }
 
     /// 0x208A Output voltage usage (unitek-ds.eds:1456, INTEGER16 ro, PDO-mappable)
     pub fn output_voltage_usage(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 348))
+        i16::from_le_bytes(od::load::<2>(&self.image, 474))
     }
 
     /// Sets 0x208A Output voltage usage.
     pub fn set_output_voltage_usage(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 348, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 474, v.to_le_bytes());
     }
 
     /// 0x208B Field weakening start point (unitek-ds.eds:1464, UNSIGNED16 rw, PDO-mappable)
     pub fn field_weakening_start_point(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 350))
+        u16::from_le_bytes(od::load::<2>(&self.image, 222))
     }
 
     /// Sets 0x208B Field weakening start point.
     pub fn set_field_weakening_start_point(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 350, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 222, v.to_le_bytes());
     }
 
     /// 0x208C Field weakening proportional gain (unitek-ds.eds:1472, UNSIGNED16 rw, PDO-mappable)
     pub fn field_weakening_proportional_gain(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 352))
+        u16::from_le_bytes(od::load::<2>(&self.image, 224))
     }
 
     /// Sets 0x208C Field weakening proportional gain.
     pub fn set_field_weakening_proportional_gain(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 352, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 224, v.to_le_bytes());
     }
 
     /// 0x208D Field weakening integral time (unitek-ds.eds:1480, UNSIGNED16 rw, PDO-mappable)
     pub fn field_weakening_integral_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 354))
+        u16::from_le_bytes(od::load::<2>(&self.image, 226))
     }
 
     /// Sets 0x208D Field weakening integral time.
     pub fn set_field_weakening_integral_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 354, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 226, v.to_le_bytes());
     }
 
     /// 0x208E Clear error list (unitek-ds.eds:1488, UNSIGNED16 wo)
     pub fn clear_error_list(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 356))
+        u16::from_le_bytes(od::load::<2>(&self.image, 228))
     }
 
     /// Sets 0x208E Clear error list.
     pub fn set_clear_error_list(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 356, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 228, v.to_le_bytes());
     }
 
     /// 0x208F Warning and error map (unitek-ds.eds:1496, UNSIGNED32 ro, PDO-mappable)
     pub fn warning_and_error_map(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 358))
+        u32::from_le_bytes(od::load::<4>(&self.image, 476))
     }
 
     /// Sets 0x208F Warning and error map.
     pub fn set_warning_and_error_map(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 358, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 476, v.to_le_bytes());
     }
 
     /// 0x2090 Torque set point (unitek-ds.eds:1504, INTEGER16 rw, PDO-mappable)
     pub fn torque_set_point(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 362))
+        i16::from_le_bytes(od::load::<2>(&self.image, 230))
     }
 
     /// Sets 0x2090 Torque set point.
     pub fn set_torque_set_point(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 362, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 230, v.to_le_bytes());
     }
 
     /// 0x2091 Position command (unitek-ds.eds:1514, INTEGER32 ro, PDO-mappable)
     pub fn position_command(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 364))
+        i32::from_le_bytes(od::load::<4>(&self.image, 480))
     }
 
     /// Sets 0x2091 Position command.
     pub fn set_position_command(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 364, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 480, v.to_le_bytes());
     }
 
     /// 0x2092 CAN bus off count (unitek-ds.eds:1522, UNSIGNED16 ro, PDO-mappable)
     pub fn can_bus_off_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 368))
+        u16::from_le_bytes(od::load::<2>(&self.image, 484))
     }
 
     /// Sets 0x2092 CAN bus off count.
     pub fn set_can_bus_off_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 368, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 484, v.to_le_bytes());
     }
 
     /// 0x2093 CAN write error time (unitek-ds.eds:1530, UNSIGNED16 ro, PDO-mappable)
     pub fn can_write_error_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 370))
+        u16::from_le_bytes(od::load::<2>(&self.image, 486))
     }
 
     /// Sets 0x2093 CAN write error time.
     pub fn set_can_write_error_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 370, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 486, v.to_le_bytes());
     }
 
     /// 0x2094 FPGA first error (unitek-ds.eds:1538, UNSIGNED16 ro, PDO-mappable)
     pub fn fpga_first_error(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 372))
+        u16::from_le_bytes(od::load::<2>(&self.image, 488))
     }
 
     /// Sets 0x2094 FPGA first error.
     pub fn set_fpga_first_error(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 372, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 488, v.to_le_bytes());
     }
 
     /// 0x2095 CAN read count (unitek-ds.eds:1546, UNSIGNED16 ro, PDO-mappable)
     pub fn can_read_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 374))
+        u16::from_le_bytes(od::load::<2>(&self.image, 490))
     }
 
     /// Sets 0x2095 CAN read count.
     pub fn set_can_read_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 374, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 490, v.to_le_bytes());
     }
 
     /// 0x2096 CAN write count (unitek-ds.eds:1554, UNSIGNED16 ro, PDO-mappable)
     pub fn can_write_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 376))
+        u16::from_le_bytes(od::load::<2>(&self.image, 492))
     }
 
     /// Sets 0x2096 CAN write count.
     pub fn set_can_write_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 376, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 492, v.to_le_bytes());
     }
 
     /// 0x2097 CAN reject count (unitek-ds.eds:1562, UNSIGNED16 ro, PDO-mappable)
     pub fn can_reject_count(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 378))
+        u16::from_le_bytes(od::load::<2>(&self.image, 494))
     }
 
     /// Sets 0x2097 CAN reject count.
     pub fn set_can_reject_count(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 378, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 494, v.to_le_bytes());
     }
 
     /// 0x2098 Output block (unitek-ds.eds:1570, INTEGER16 ro, PDO-mappable)
     pub fn output_block(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 380))
+        i16::from_le_bytes(od::load::<2>(&self.image, 496))
     }
 
     /// Sets 0x2098 Output block.
     pub fn set_output_block(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 380, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 496, v.to_le_bytes());
     }
 
     /// 0x2099 Interrupt time info (unitek-ds.eds:1578, UNSIGNED16 ro, PDO-mappable)
     pub fn interrupt_time_info(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 382))
+        u16::from_le_bytes(od::load::<2>(&self.image, 498))
     }
 
     /// Sets 0x2099 Interrupt time info.
     pub fn set_interrupt_time_info(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 382, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 498, v.to_le_bytes());
     }
 
     /// 0x209A Debug temperature (unitek-ds.eds:1586, INTEGER16 ro, PDO-mappable)
     pub fn debug_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 384))
+        i16::from_le_bytes(od::load::<2>(&self.image, 500))
     }
 
     /// Sets 0x209A Debug temperature.
     pub fn set_debug_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 384, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 500, v.to_le_bytes());
     }
 
     /// 0x209B Input block (unitek-ds.eds:1594, UNSIGNED16 ro, PDO-mappable)
     pub fn input_block(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 386))
+        u16::from_le_bytes(od::load::<2>(&self.image, 502))
     }
 
     /// Sets 0x209B Input block.
     pub fn set_input_block(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 386, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 502, v.to_le_bytes());
     }
 
     /// 0x209C PT100 sensor 1 temperature (unitek-ds.eds:1602, INTEGER16 ro, PDO-mappable)
     pub fn pt100_sensor_1_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 388))
+        i16::from_le_bytes(od::load::<2>(&self.image, 504))
     }
 
     /// Sets 0x209C PT100 sensor 1 temperature.
     pub fn set_pt100_sensor_1_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 388, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 504, v.to_le_bytes());
     }
 
     /// 0x209D PT100 sensor 2 temperature (unitek-ds.eds:1610, INTEGER16 ro, PDO-mappable)
     pub fn pt100_sensor_2_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 390))
+        i16::from_le_bytes(od::load::<2>(&self.image, 506))
     }
 
     /// Sets 0x209D PT100 sensor 2 temperature.
     pub fn set_pt100_sensor_2_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 390, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 506, v.to_le_bytes());
     }
 
     /// 0x209E PT100 sensor 3 temperature (unitek-ds.eds:1618, INTEGER16 ro, PDO-mappable)
     pub fn pt100_sensor_3_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 392))
+        i16::from_le_bytes(od::load::<2>(&self.image, 508))
     }
 
     /// Sets 0x209E PT100 sensor 3 temperature.
     pub fn set_pt100_sensor_3_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 392, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 508, v.to_le_bytes());
     }
 
     /// 0x209F PT100 sensor 4 temperature (unitek-ds.eds:1626, INTEGER16 ro, PDO-mappable)
     pub fn pt100_sensor_4_temperature(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 394))
+        i16::from_le_bytes(od::load::<2>(&self.image, 510))
     }
 
     /// Sets 0x209F PT100 sensor 4 temperature.
     pub fn set_pt100_sensor_4_temperature(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 394, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 510, v.to_le_bytes());
     }
 
     /// 0x20A0 Internal torque (unitek-ds.eds:1634, INTEGER16 ro, PDO-mappable)
     pub fn internal_torque(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 396))
+        i16::from_le_bytes(od::load::<2>(&self.image, 512))
     }
 
     /// Sets 0x20A0 Internal torque.
     pub fn set_internal_torque(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 396, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 512, v.to_le_bytes());
     }
 
     /// 0x20A1 Ballast counter (unitek-ds.eds:1642, UNSIGNED16 ro, PDO-mappable)
     pub fn ballast_counter(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 398))
+        u16::from_le_bytes(od::load::<2>(&self.image, 514))
     }
 
     /// Sets 0x20A1 Ballast counter.
     pub fn set_ballast_counter(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 398, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 514, v.to_le_bytes());
     }
 
     /// 0x20A2 Current derating TM (unitek-ds.eds:1650, INTEGER16 rw, PDO-mappable)
     pub fn current_derating_tm(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 400))
+        i16::from_le_bytes(od::load::<2>(&self.image, 232))
     }
 
     /// Sets 0x20A2 Current derating TM.
     pub fn set_current_derating_tm(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 400, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 232, v.to_le_bytes());
     }
 
     /// 0x20A3 Motor temperature cutoff (unitek-ds.eds:1658, UNSIGNED16 rw, PDO-mappable)
     pub fn motor_temperature_cutoff(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 402))
+        u16::from_le_bytes(od::load::<2>(&self.image, 234))
     }
 
     /// Sets 0x20A3 Motor temperature cutoff.
     pub fn set_motor_temperature_cutoff(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 402, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 234, v.to_le_bytes());
     }
 
     /// 0x20A4 Motor options (unitek-ds.eds:1666, INTEGER16 rw, PDO-mappable)
     pub fn motor_options(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 404))
+        i16::from_le_bytes(od::load::<2>(&self.image, 236))
     }
 
     /// Sets 0x20A4 Motor options.
     pub fn set_motor_options(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 404, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 236, v.to_le_bytes());
     }
 
     /// 0x20A5 DC bus minimum and maximum (unitek-ds.eds:1674, UNSIGNED32 rw, PDO-mappable)
     pub fn dc_bus_minimum_and_maximum(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 406))
+        u32::from_le_bytes(od::load::<4>(&self.image, 238))
     }
 
     /// Sets 0x20A5 DC bus minimum and maximum.
     pub fn set_dc_bus_minimum_and_maximum(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 406, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 238, v.to_le_bytes());
     }
 
     /// 0x20A6 Feedback increments per revolution (unitek-ds.eds:1682, INTEGER16 rw, PDO-mappable)
     pub fn feedback_increments_per_revolution(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 410))
+        i16::from_le_bytes(od::load::<2>(&self.image, 242))
     }
 
     /// Sets 0x20A6 Feedback increments per revolution.
     pub fn set_feedback_increments_per_revolution(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 410, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 242, v.to_le_bytes());
     }
 
     /// 0x20A7 Resolver pole count (unitek-ds.eds:1690, INTEGER16 rw, PDO-mappable)
     pub fn resolver_pole_count(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 412))
+        i16::from_le_bytes(od::load::<2>(&self.image, 244))
     }
 
     /// Sets 0x20A7 Resolver pole count.
     pub fn set_resolver_pole_count(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 412, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 244, v.to_le_bytes());
     }
 
     /// 0x20A8 Filtered speed actual value (unitek-ds.eds:1698, INTEGER16 ro, PDO-mappable)
     pub fn filtered_speed_actual_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 414))
+        i16::from_le_bytes(od::load::<2>(&self.image, 516))
     }
 
     /// Sets 0x20A8 Filtered speed actual value.
     pub fn set_filtered_speed_actual_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 414, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 516, v.to_le_bytes());
     }
 
     /// 0x20A9 Current sensor 1 ADC (unitek-ds.eds:1706, UNSIGNED16 ro, PDO-mappable)
     pub fn current_sensor_1_adc(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 416))
+        u16::from_le_bytes(od::load::<2>(&self.image, 518))
     }
 
     /// Sets 0x20A9 Current sensor 1 ADC.
     pub fn set_current_sensor_1_adc(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 416, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 518, v.to_le_bytes());
     }
 
     /// 0x20AA Current sensor 2 ADC (unitek-ds.eds:1714, UNSIGNED16 ro, PDO-mappable)
     pub fn current_sensor_2_adc(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 418))
+        u16::from_le_bytes(od::load::<2>(&self.image, 520))
     }
 
     /// Sets 0x20AA Current sensor 2 ADC.
     pub fn set_current_sensor_2_adc(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 418, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 520, v.to_le_bytes());
     }
 
     /// 0x20AB Foreground frequency (unitek-ds.eds:1722, UNSIGNED16 ro, PDO-mappable)
     pub fn foreground_frequency(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 420))
+        u16::from_le_bytes(od::load::<2>(&self.image, 522))
     }
 
     /// Sets 0x20AB Foreground frequency.
     pub fn set_foreground_frequency(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 420, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 522, v.to_le_bytes());
     }
 
     /// 0x20AC PWM phase 1 (unitek-ds.eds:1730, UNSIGNED16 ro, PDO-mappable)
     pub fn pwm_phase_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 422))
+        u16::from_le_bytes(od::load::<2>(&self.image, 524))
     }
 
     /// Sets 0x20AC PWM phase 1.
     pub fn set_pwm_phase_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 422, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 524, v.to_le_bytes());
     }
 
     /// 0x20AD PWM phase 2 (unitek-ds.eds:1738, UNSIGNED16 ro, PDO-mappable)
     pub fn pwm_phase_2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 424))
+        u16::from_le_bytes(od::load::<2>(&self.image, 526))
     }
 
     /// Sets 0x20AD PWM phase 2.
     pub fn set_pwm_phase_2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 424, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 526, v.to_le_bytes());
     }
 
     /// 0x20AE PWM phase 3 (unitek-ds.eds:1746, UNSIGNED16 ro, PDO-mappable)
     pub fn pwm_phase_3(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 426))
+        u16::from_le_bytes(od::load::<2>(&self.image, 528))
     }
 
     /// Sets 0x20AE PWM phase 3.
     pub fn set_pwm_phase_3(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 426, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 528, v.to_le_bytes());
     }
 
     /// 0x20AF Interrupt timer delta (unitek-ds.eds:1754, INTEGER16 ro, PDO-mappable)
     pub fn interrupt_timer_delta(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 428))
+        i16::from_le_bytes(od::load::<2>(&self.image, 530))
     }
 
     /// Sets 0x20AF Interrupt timer delta.
     pub fn set_interrupt_timer_delta(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 428, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 530, v.to_le_bytes());
     }
 
     /// 0x20B0 Serial boot function (unitek-ds.eds:1762, UNSIGNED16 rw, PDO-mappable)
     pub fn serial_boot_function(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 430))
+        u16::from_le_bytes(od::load::<2>(&self.image, 246))
     }
 
     /// Sets 0x20B0 Serial boot function.
     pub fn set_serial_boot_function(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 430, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 246, v.to_le_bytes());
     }
 
     /// 0x20B1 Motor q leakage inductance (unitek-ds.eds:1770, UNSIGNED16 rw, PDO-mappable)
     pub fn motor_q_leakage_inductance(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 432))
+        u16::from_le_bytes(od::load::<2>(&self.image, 248))
     }
 
     /// Sets 0x20B1 Motor q leakage inductance.
     pub fn set_motor_q_leakage_inductance(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 432, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 248, v.to_le_bytes());
     }
 
     /// 0x20B2 Nominal magnetising current (unitek-ds.eds:1778, UNSIGNED16 rw, PDO-mappable)
     pub fn nominal_magnetising_current(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 434))
+        u16::from_le_bytes(od::load::<2>(&self.image, 250))
     }
 
     /// Sets 0x20B2 Nominal magnetising current.
     pub fn set_nominal_magnetising_current(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 434, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 250, v.to_le_bytes());
     }
 
     /// 0x20B3 Motor magnetising inductance (unitek-ds.eds:1786, UNSIGNED16 rw, PDO-mappable)
     pub fn motor_magnetising_inductance(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 436))
+        u16::from_le_bytes(od::load::<2>(&self.image, 252))
     }
 
     /// Sets 0x20B3 Motor magnetising inductance.
     pub fn set_motor_magnetising_inductance(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 436, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 252, v.to_le_bytes());
     }
 
     /// 0x20B4 Rotor resistance (unitek-ds.eds:1794, UNSIGNED16 rw, PDO-mappable)
     pub fn rotor_resistance(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 438))
+        u16::from_le_bytes(od::load::<2>(&self.image, 254))
     }
 
     /// Sets 0x20B4 Rotor resistance.
     pub fn set_rotor_resistance(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 438, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 254, v.to_le_bytes());
     }
 
     /// 0x20B5 Minimum magnetising current (unitek-ds.eds:1802, INTEGER16 rw, PDO-mappable)
     pub fn minimum_magnetising_current(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 440))
+        i16::from_le_bytes(od::load::<2>(&self.image, 256))
     }
 
     /// Sets 0x20B5 Minimum magnetising current.
     pub fn set_minimum_magnetising_current(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 440, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 256, v.to_le_bytes());
     }
 
     /// 0x20B6 Rotor time constant (unitek-ds.eds:1810, UNSIGNED16 rw, PDO-mappable)
     pub fn rotor_time_constant(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 442))
+        u16::from_le_bytes(od::load::<2>(&self.image, 258))
     }
 
     /// Sets 0x20B6 Rotor time constant.
     pub fn set_rotor_time_constant(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 442, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 258, v.to_le_bytes());
     }
 
     /// 0x20B7 Debug pointer 1 (unitek-ds.eds:1818, UNSIGNED16 rw, PDO-mappable)
     pub fn debug_pointer_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 444))
+        u16::from_le_bytes(od::load::<2>(&self.image, 260))
     }
 
     /// Sets 0x20B7 Debug pointer 1.
     pub fn set_debug_pointer_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 444, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 260, v.to_le_bytes());
     }
 
     /// 0x20B8 Debug pointer 1 value (unitek-ds.eds:1826, INTEGER16 ro, PDO-mappable)
     pub fn debug_pointer_1_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 446))
+        i16::from_le_bytes(od::load::<2>(&self.image, 532))
     }
 
     /// Sets 0x20B8 Debug pointer 1 value.
     pub fn set_debug_pointer_1_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 446, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 532, v.to_le_bytes());
     }
 
     /// 0x20B9 Debug pointer 2 (unitek-ds.eds:1834, UNSIGNED16 rw, PDO-mappable)
     pub fn debug_pointer_2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 448))
+        u16::from_le_bytes(od::load::<2>(&self.image, 262))
     }
 
     /// Sets 0x20B9 Debug pointer 2.
     pub fn set_debug_pointer_2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 448, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 262, v.to_le_bytes());
     }
 
     /// 0x20BA Debug pointer 2 value (unitek-ds.eds:1842, INTEGER16 ro, PDO-mappable)
     pub fn debug_pointer_2_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 450))
+        i16::from_le_bytes(od::load::<2>(&self.image, 534))
     }
 
     /// Sets 0x20BA Debug pointer 2 value.
     pub fn set_debug_pointer_2_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 450, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 534, v.to_le_bytes());
     }
 
     /// 0x20BB Motor d leakage inductance (unitek-ds.eds:1850, UNSIGNED16 rw, PDO-mappable)
     pub fn motor_d_leakage_inductance(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 452))
+        u16::from_le_bytes(od::load::<2>(&self.image, 264))
     }
 
     /// Sets 0x20BB Motor d leakage inductance.
     pub fn set_motor_d_leakage_inductance(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 452, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 264, v.to_le_bytes());
     }
 
     /// 0x20BC Stator resistance (unitek-ds.eds:1858, UNSIGNED16 rw, PDO-mappable)
     pub fn stator_resistance(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 454))
+        u16::from_le_bytes(od::load::<2>(&self.image, 266))
     }
 
     /// Sets 0x20BC Stator resistance.
     pub fn set_stator_resistance(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 454, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 266, v.to_le_bytes());
     }
 
     /// 0x20BD Stator time constant (unitek-ds.eds:1866, UNSIGNED16 rw, PDO-mappable)
     pub fn stator_time_constant(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 456))
+        u16::from_le_bytes(od::load::<2>(&self.image, 268))
     }
 
     /// Sets 0x20BD Stator time constant.
     pub fn set_stator_time_constant(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 456, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 268, v.to_le_bytes());
     }
 
     /// 0x20BE Logic definition END1 (unitek-ds.eds:1874, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_end1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 458))
+        u16::from_le_bytes(od::load::<2>(&self.image, 270))
     }
 
     /// Sets 0x20BE Logic definition END1.
     pub fn set_logic_definition_end1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 458, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 270, v.to_le_bytes());
     }
 
     /// 0x20BF Logic definition END2 (unitek-ds.eds:1882, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_end2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 460))
+        u16::from_le_bytes(od::load::<2>(&self.image, 272))
     }
 
     /// Sets 0x20BF Logic definition END2.
     pub fn set_logic_definition_end2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 460, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 272, v.to_le_bytes());
     }
 
     /// 0x20C0 Logic definition DIN1 (unitek-ds.eds:1890, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_din1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 462))
+        u16::from_le_bytes(od::load::<2>(&self.image, 274))
     }
 
     /// Sets 0x20C0 Logic definition DIN1.
     pub fn set_logic_definition_din1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 462, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 274, v.to_le_bytes());
     }
 
     /// 0x20C1 Logic definition DIN2 (unitek-ds.eds:1898, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_din2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 464))
+        u16::from_le_bytes(od::load::<2>(&self.image, 276))
     }
 
     /// Sets 0x20C1 Logic definition DIN2.
     pub fn set_logic_definition_din2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 464, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 276, v.to_le_bytes());
     }
 
     /// 0x20C2 Logic definition DOUT1 (unitek-ds.eds:1906, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_dout1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 466))
+        u16::from_le_bytes(od::load::<2>(&self.image, 278))
     }
 
     /// Sets 0x20C2 Logic definition DOUT1.
     pub fn set_logic_definition_dout1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 466, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 278, v.to_le_bytes());
     }
 
     /// 0x20C3 Logic definition DOUT2 (unitek-ds.eds:1914, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_dout2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 468))
+        u16::from_le_bytes(od::load::<2>(&self.image, 280))
     }
 
     /// Sets 0x20C3 Logic definition DOUT2.
     pub fn set_logic_definition_dout2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 468, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 280, v.to_le_bytes());
     }
 
     /// 0x20C4 Peak current limit (unitek-ds.eds:1922, UNSIGNED16 rw, PDO-mappable)
     pub fn peak_current_limit(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 470))
+        u16::from_le_bytes(od::load::<2>(&self.image, 282))
     }
 
     /// Sets 0x20C4 Peak current limit.
     pub fn set_peak_current_limit(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 470, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 282, v.to_le_bytes());
     }
 
     /// 0x20C5 Continuous current limit (unitek-ds.eds:1930, UNSIGNED16 rw, PDO-mappable)
     pub fn continuous_current_limit(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 472))
+        u16::from_le_bytes(od::load::<2>(&self.image, 284))
     }
 
     /// Sets 0x20C5 Continuous current limit.
     pub fn set_continuous_current_limit(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 472, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 284, v.to_le_bytes());
     }
 
     /// 0x20C6 Device current rating (unitek-ds.eds:1938, UNSIGNED16 rw, PDO-mappable)
     pub fn device_current_rating(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 474))
+        u16::from_le_bytes(od::load::<2>(&self.image, 286))
     }
 
     /// Sets 0x20C6 Device current rating.
     pub fn set_device_current_rating(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 474, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 286, v.to_le_bytes());
     }
 
     /// 0x20C7 Limit switch stop ramp (unitek-ds.eds:1946, UNSIGNED16 rw, PDO-mappable)
     pub fn limit_switch_stop_ramp(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 476))
+        u16::from_le_bytes(od::load::<2>(&self.image, 288))
     }
 
     /// Sets 0x20C7 Limit switch stop ramp.
     pub fn set_limit_switch_stop_ramp(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 476, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 288, v.to_le_bytes());
     }
 
     /// 0x20C8 Maximum speed (unitek-ds.eds:1954, UNSIGNED16 rw, PDO-mappable)
     pub fn maximum_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 478))
+        u16::from_le_bytes(od::load::<2>(&self.image, 290))
     }
 
     /// Sets 0x20C8 Maximum speed.
     pub fn set_maximum_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 478, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 290, v.to_le_bytes());
     }
 
     /// 0x20C9 Position PI proportional gain (unitek-ds.eds:1962, UNSIGNED16 rw, PDO-mappable)
     pub fn position_pi_proportional_gain(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 480))
+        u16::from_le_bytes(od::load::<2>(&self.image, 292))
     }
 
     /// Sets 0x20C9 Position PI proportional gain.
     pub fn set_position_pi_proportional_gain(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 480, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 292, v.to_le_bytes());
     }
 
     /// 0x20CA Position PI integral time (unitek-ds.eds:1970, UNSIGNED16 rw, PDO-mappable)
     pub fn position_pi_integral_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 482))
+        u16::from_le_bytes(od::load::<2>(&self.image, 294))
     }
 
     /// Sets 0x20CA Position PI integral time.
     pub fn set_position_pi_integral_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 482, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 294, v.to_le_bytes());
     }
 
     /// 0x20CB Current feed forward gain (unitek-ds.eds:1978, UNSIGNED16 rw, PDO-mappable)
     pub fn current_feed_forward_gain(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 484))
+        u16::from_le_bytes(od::load::<2>(&self.image, 296))
     }
 
     /// Sets 0x20CB Current feed forward gain.
     pub fn set_current_feed_forward_gain(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 484, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 296, v.to_le_bytes());
     }
 
     /// 0x20CC Position PI error (unitek-ds.eds:1986, INTEGER16 ro, PDO-mappable)
     pub fn position_pi_error(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 486))
+        i16::from_le_bytes(od::load::<2>(&self.image, 536))
     }
 
     /// Sets 0x20CC Position PI error.
     pub fn set_position_pi_error(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 486, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 536, v.to_le_bytes());
     }
 
     /// 0x20CD Position PI integral limit (unitek-ds.eds:1994, UNSIGNED16 rw, PDO-mappable)
     pub fn position_pi_integral_limit(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 488))
+        u16::from_le_bytes(od::load::<2>(&self.image, 298))
     }
 
     /// Sets 0x20CD Position PI integral limit.
     pub fn set_position_pi_integral_limit(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 488, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 298, v.to_le_bytes());
     }
 
     /// 0x20CE Maximum speed internal (unitek-ds.eds:2002, UNSIGNED16 ro, PDO-mappable)
     pub fn maximum_speed_internal(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 490))
+        u16::from_le_bytes(od::load::<2>(&self.image, 538))
     }
 
     /// Sets 0x20CE Maximum speed internal.
     pub fn set_maximum_speed_internal(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 490, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 538, v.to_le_bytes());
     }
 
     /// 0x20CF Position PI Ky factor (unitek-ds.eds:2010, UNSIGNED16 rw, PDO-mappable)
     pub fn position_pi_ky_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 492))
+        u16::from_le_bytes(od::load::<2>(&self.image, 300))
     }
 
     /// Sets 0x20CF Position PI Ky factor.
     pub fn set_position_pi_ky_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 492, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 300, v.to_le_bytes());
     }
 
     /// 0x20D0 CAN timeout (unitek-ds.eds:2018, UNSIGNED16 rw, PDO-mappable)
     pub fn can_timeout(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 494))
+        u16::from_le_bytes(od::load::<2>(&self.image, 302))
     }
 
     /// Sets 0x20D0 CAN timeout.
     pub fn set_can_timeout(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 494, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 302, v.to_le_bytes());
     }
 
     /// 0x20D1 Comparison variable 1 (unitek-ds.eds:2026, INTEGER32 rw, PDO-mappable)
     pub fn comparison_variable_1(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 496))
+        i32::from_le_bytes(od::load::<4>(&self.image, 304))
     }
 
     /// Sets 0x20D1 Comparison variable 1.
     pub fn set_comparison_variable_1(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 496, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 304, v.to_le_bytes());
     }
 
     /// 0x20D2 Comparison variable 2 (unitek-ds.eds:2034, INTEGER32 rw, PDO-mappable)
     pub fn comparison_variable_2(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 500))
+        i32::from_le_bytes(od::load::<4>(&self.image, 308))
     }
 
     /// Sets 0x20D2 Comparison variable 2.
     pub fn set_comparison_variable_2(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 500, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 308, v.to_le_bytes());
     }
 
     /// 0x20D3 Comparison variable 3 (unitek-ds.eds:2042, INTEGER32 rw, PDO-mappable)
     pub fn comparison_variable_3(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 504))
+        i32::from_le_bytes(od::load::<4>(&self.image, 312))
     }
 
     /// Sets 0x20D3 Comparison variable 3.
     pub fn set_comparison_variable_3(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 504, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 312, v.to_le_bytes());
     }
 
     /// 0x20D4 Comparison variable 4 (unitek-ds.eds:2050, INTEGER32 rw, PDO-mappable)
     pub fn comparison_variable_4(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 508))
+        i32::from_le_bytes(od::load::<4>(&self.image, 316))
     }
 
     /// Sets 0x20D4 Comparison variable 4.
     pub fn set_comparison_variable_4(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 508, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 316, v.to_le_bytes());
     }
 
     /// 0x20D5 Analog input 1 (unitek-ds.eds:2058, INTEGER32 ro, PDO-mappable)
     pub fn analog_input_1(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 512))
+        i32::from_le_bytes(od::load::<4>(&self.image, 540))
     }
 
     /// Sets 0x20D5 Analog input 1.
     pub fn set_analog_input_1(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 512, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 540, v.to_le_bytes());
     }
 
     /// 0x20D6 Analog input 2 (unitek-ds.eds:2066, INTEGER32 ro, PDO-mappable)
     pub fn analog_input_2(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 516))
+        i32::from_le_bytes(od::load::<4>(&self.image, 544))
     }
 
     /// Sets 0x20D6 Analog input 2.
     pub fn set_analog_input_2(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 516, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 544, v.to_le_bytes());
     }
 
     /// 0x20D7 Analog input 2 offset and scale (unitek-ds.eds:2074, INTEGER32 rw, PDO-mappable)
     pub fn analog_input_2_offset_and_scale(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 520))
+        i32::from_le_bytes(od::load::<4>(&self.image, 320))
     }
 
     /// Sets 0x20D7 Analog input 2 offset and scale.
     pub fn set_analog_input_2_offset_and_scale(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 520, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 320, v.to_le_bytes());
     }
 
     /// 0x20D8 IO bit map (unitek-ds.eds:2082, UNSIGNED16 ro, PDO-mappable)
     pub fn io_bit_map(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 524))
+        u16::from_le_bytes(od::load::<2>(&self.image, 548))
     }
 
     /// Sets 0x20D8 IO bit map.
     pub fn set_io_bit_map(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 524, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 548, v.to_le_bytes());
     }
 
     /// 0x20D9 Current at 200 percent (unitek-ds.eds:2090, UNSIGNED16 ro, PDO-mappable)
     pub fn current_at_200_percent(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 526))
+        u16::from_le_bytes(od::load::<2>(&self.image, 550))
     }
 
     /// Sets 0x20D9 Current at 200 percent.
     pub fn set_current_at_200_percent(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 526, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 550, v.to_le_bytes());
     }
 
     /// 0x20DA Logic definition DOUT3 (unitek-ds.eds:2098, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_dout3(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 528))
+        u16::from_le_bytes(od::load::<2>(&self.image, 324))
     }
 
     /// Sets 0x20DA Logic definition DOUT3.
     pub fn set_logic_definition_dout3(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 528, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 324, v.to_le_bytes());
     }
 
     /// 0x20DB Logic definition DOUT4 (unitek-ds.eds:2106, UNSIGNED16 rw, PDO-mappable)
     pub fn logic_definition_dout4(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 530))
+        u16::from_le_bytes(od::load::<2>(&self.image, 326))
     }
 
     /// Sets 0x20DB Logic definition DOUT4.
     pub fn set_logic_definition_dout4(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 530, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 326, v.to_le_bytes());
     }
 
     /// 0x20DC DAC definition (unitek-ds.eds:2114, UNSIGNED16 rw, PDO-mappable)
     pub fn dac_definition(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 532))
+        u16::from_le_bytes(od::load::<2>(&self.image, 328))
     }
 
     /// Sets 0x20DC DAC definition.
     pub fn set_dac_definition(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 532, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 328, v.to_le_bytes());
     }
 
     /// 0x20DE Digital output 3 (unitek-ds.eds:2122, UNSIGNED16 ro, PDO-mappable)
     pub fn digital_output_3(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 534))
+        u16::from_le_bytes(od::load::<2>(&self.image, 552))
     }
 
     /// Sets 0x20DE Digital output 3.
     pub fn set_digital_output_3(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 534, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 552, v.to_le_bytes());
     }
 
     /// 0x20DF Digital output 4 (unitek-ds.eds:2130, UNSIGNED16 ro, PDO-mappable)
     pub fn digital_output_4(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 536))
+        u16::from_le_bytes(od::load::<2>(&self.image, 554))
     }
 
     /// Sets 0x20DF Digital output 4.
     pub fn set_digital_output_4(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 536, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 554, v.to_le_bytes());
     }
 
     /// 0x20E0 Digital output 1 (unitek-ds.eds:2138, UNSIGNED16 ro, PDO-mappable)
     pub fn digital_output_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 538))
+        u16::from_le_bytes(od::load::<2>(&self.image, 556))
     }
 
     /// Sets 0x20E0 Digital output 1.
     pub fn set_digital_output_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 538, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 556, v.to_le_bytes());
     }
 
     /// 0x20E1 Digital output 2 (unitek-ds.eds:2146, UNSIGNED16 ro, PDO-mappable)
     pub fn digital_output_2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 540))
+        u16::from_le_bytes(od::load::<2>(&self.image, 558))
     }
 
     /// Sets 0x20E1 Digital output 2.
     pub fn set_digital_output_2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 540, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 558, v.to_le_bytes());
     }
 
     /// 0x20E2 Device ready (unitek-ds.eds:2154, UNSIGNED16 ro, PDO-mappable)
     pub fn device_ready(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 542))
+        u16::from_le_bytes(od::load::<2>(&self.image, 560))
     }
 
     /// Sets 0x20E2 Device ready.
     pub fn set_device_ready(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 542, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 560, v.to_le_bytes());
     }
 
     /// 0x20E3 Internal run (unitek-ds.eds:2162, UNSIGNED16 ro, PDO-mappable)
     pub fn internal_run(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 544))
+        u16::from_le_bytes(od::load::<2>(&self.image, 562))
     }
 
     /// Sets 0x20E3 Internal run.
     pub fn set_internal_run(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 544, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 562, v.to_le_bytes());
     }
 
     /// 0x20E4 Limit switch input 1 (unitek-ds.eds:2170, UNSIGNED16 ro, PDO-mappable)
     pub fn limit_switch_input_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 546))
+        u16::from_le_bytes(od::load::<2>(&self.image, 564))
     }
 
     /// Sets 0x20E4 Limit switch input 1.
     pub fn set_limit_switch_input_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 546, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 564, v.to_le_bytes());
     }
 
     /// 0x20E5 Limit switch input 2 (unitek-ds.eds:2178, UNSIGNED16 ro, PDO-mappable)
     pub fn limit_switch_input_2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 548))
+        u16::from_le_bytes(od::load::<2>(&self.image, 566))
     }
 
     /// Sets 0x20E5 Limit switch input 2.
     pub fn set_limit_switch_input_2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 548, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 566, v.to_le_bytes());
     }
 
     /// 0x20E6 Digital input 1 (unitek-ds.eds:2186, UNSIGNED16 ro, PDO-mappable)
     pub fn digital_input_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 550))
+        u16::from_le_bytes(od::load::<2>(&self.image, 568))
     }
 
     /// Sets 0x20E6 Digital input 1.
     pub fn set_digital_input_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 550, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 568, v.to_le_bytes());
     }
 
     /// 0x20E7 Digital input 2 (unitek-ds.eds:2194, UNSIGNED16 ro, PDO-mappable)
     pub fn digital_input_2(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 552))
+        u16::from_le_bytes(od::load::<2>(&self.image, 570))
     }
 
     /// Sets 0x20E7 Digital input 2.
     pub fn set_digital_input_2(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 552, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 570, v.to_le_bytes());
     }
 
     /// 0x20E8 Run input (unitek-ds.eds:2202, UNSIGNED16 ro, PDO-mappable)
     pub fn run_input(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 554))
+        u16::from_le_bytes(od::load::<2>(&self.image, 572))
     }
 
     /// Sets 0x20E8 Run input.
     pub fn set_run_input(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 554, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 572, v.to_le_bytes());
     }
 
     /// 0x20E9 Power stage fault (unitek-ds.eds:2210, UNSIGNED16 ro, PDO-mappable)
     pub fn power_stage_fault(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 556))
+        u16::from_le_bytes(od::load::<2>(&self.image, 574))
     }
 
     /// Sets 0x20E9 Power stage fault.
     pub fn set_power_stage_fault(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 556, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 574, v.to_le_bytes());
     }
 
     /// 0x20EA Regen circuit message (unitek-ds.eds:2218, UNSIGNED16 ro, PDO-mappable)
     pub fn regen_circuit_message(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 558))
+        u16::from_le_bytes(od::load::<2>(&self.image, 576))
     }
 
     /// Sets 0x20EA Regen circuit message.
     pub fn set_regen_circuit_message(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 558, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 576, v.to_le_bytes());
     }
 
     /// 0x20EB DC bus voltage (unitek-ds.eds:2226, UNSIGNED16 ro, PDO-mappable)
     pub fn dc_bus_voltage(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 560))
+        u16::from_le_bytes(od::load::<2>(&self.image, 578))
     }
 
     /// Sets 0x20EB DC bus voltage.
     pub fn set_dc_bus_voltage(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 560, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 578, v.to_le_bytes());
     }
 
     /// 0x20EC Resolver loss of signal (unitek-ds.eds:2234, UNSIGNED16 ro, PDO-mappable)
     pub fn resolver_loss_of_signal(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 562))
+        u16::from_le_bytes(od::load::<2>(&self.image, 580))
     }
 
     /// Sets 0x20EC Resolver loss of signal.
     pub fn set_resolver_loss_of_signal(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 562, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 580, v.to_le_bytes());
     }
 
     /// 0x20ED Deceleration ramp (unitek-ds.eds:2242, UNSIGNED32 rw, PDO-mappable)
     pub fn deceleration_ramp(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 564))
+        u32::from_le_bytes(od::load::<4>(&self.image, 330))
     }
 
     /// Sets 0x20ED Deceleration ramp.
     pub fn set_deceleration_ramp(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 564, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 330, v.to_le_bytes());
     }
 
     /// 0x20EE Current sensor calibration (unitek-ds.eds:2250, UNSIGNED16 rw, PDO-mappable)
     pub fn current_sensor_calibration(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 568))
+        u16::from_le_bytes(od::load::<2>(&self.image, 334))
     }
 
     /// Sets 0x20EE Current sensor calibration.
     pub fn set_current_sensor_calibration(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 568, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 334, v.to_le_bytes());
     }
 
     /// 0x20EF No fault output (unitek-ds.eds:2258, UNSIGNED16 ro, PDO-mappable)
     pub fn no_fault_output(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 570))
+        u16::from_le_bytes(od::load::<2>(&self.image, 582))
     }
 
     /// Sets 0x20EF No fault output.
     pub fn set_no_fault_output(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 570, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 582, v.to_le_bytes());
     }
 
     /// 0x20F0 Peak current time (unitek-ds.eds:2266, UNSIGNED16 rw, PDO-mappable)
     pub fn peak_current_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 572))
+        u16::from_le_bytes(od::load::<2>(&self.image, 336))
     }
 
     /// Sets 0x20F0 Peak current time.
     pub fn set_peak_current_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 572, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 336, v.to_le_bytes());
     }
 
     /// 0x20F1 Brake delay time (unitek-ds.eds:2274, UNSIGNED16 rw, PDO-mappable)
     pub fn brake_delay_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 574))
+        u16::from_le_bytes(od::load::<2>(&self.image, 338))
     }
 
     /// Sets 0x20F1 Brake delay time.
     pub fn set_brake_delay_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 574, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 338, v.to_le_bytes());
     }
 
     /// 0x20F2 Brake on (unitek-ds.eds:2282, UNSIGNED16 ro, PDO-mappable)
     pub fn brake_on(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 576))
+        u16::from_le_bytes(od::load::<2>(&self.image, 584))
     }
 
     /// Sets 0x20F2 Brake on.
     pub fn set_brake_on(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 576, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 584, v.to_le_bytes());
     }
 
     /// 0x20F3 Continuous current message (unitek-ds.eds:2290, UNSIGNED16 ro, PDO-mappable)
     pub fn continuous_current_message(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 578))
+        u16::from_le_bytes(od::load::<2>(&self.image, 586))
     }
 
     /// Sets 0x20F3 Continuous current message.
     pub fn set_continuous_current_message(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 578, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 586, v.to_le_bytes());
     }
 
     /// 0x20F4 Position in tolerance (unitek-ds.eds:2298, UNSIGNED16 ro, PDO-mappable)
     pub fn position_in_tolerance(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 580))
+        u16::from_le_bytes(od::load::<2>(&self.image, 588))
     }
 
     /// Sets 0x20F4 Position in tolerance.
     pub fn set_position_in_tolerance(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 580, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 588, v.to_le_bytes());
     }
 
     /// 0x20F5 Speed below 1 percent (unitek-ds.eds:2306, UNSIGNED16 ro, PDO-mappable)
     pub fn speed_below_1_percent(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 582))
+        u16::from_le_bytes(od::load::<2>(&self.image, 590))
     }
 
     /// Sets 0x20F5 Speed below 1 percent.
     pub fn set_speed_below_1_percent(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 582, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 590, v.to_le_bytes());
     }
 
     /// 0x20F6 Power (unitek-ds.eds:2314, UNSIGNED16 ro, PDO-mappable)
     pub fn power(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 584))
+        u16::from_le_bytes(od::load::<2>(&self.image, 592))
     }
 
     /// Sets 0x20F6 Power.
     pub fn set_power(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 584, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 592, v.to_le_bytes());
     }
 
     /// 0x20F7 Work (unitek-ds.eds:2322, UNSIGNED16 ro, PDO-mappable)
     pub fn work(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 586))
+        u16::from_le_bytes(od::load::<2>(&self.image, 594))
     }
 
     /// Sets 0x20F7 Work.
     pub fn set_work(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 586, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 594, v.to_le_bytes());
     }
 
     /// 0x20F8 Axis label (unitek-ds.eds:2330, UNSIGNED32 rw, PDO-mappable)
     pub fn axis_label(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 588))
+        u32::from_le_bytes(od::load::<4>(&self.image, 340))
     }
 
     /// Sets 0x20F8 Axis label.
     pub fn set_axis_label(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 588, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 340, v.to_le_bytes());
     }
 
     /// 0x20F9 Write ASCII label to EEPROM (unitek-ds.eds:2338, UNSIGNED16 wo)
     pub fn write_ascii_label_to_eeprom(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 592))
+        u16::from_le_bytes(od::load::<2>(&self.image, 344))
     }
 
     /// Sets 0x20F9 Write ASCII label to EEPROM.
     pub fn set_write_ascii_label_to_eeprom(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 592, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 344, v.to_le_bytes());
     }
 
     /// 0x20FA Read ASCII label from EEPROM (unitek-ds.eds:2346, UNSIGNED16 wo)
     pub fn read_ascii_label_from_eeprom(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 594))
+        u16::from_le_bytes(od::load::<2>(&self.image, 346))
     }
 
     /// Sets 0x20FA Read ASCII label from EEPROM.
     pub fn set_read_ascii_label_from_eeprom(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 594, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 346, v.to_le_bytes());
     }
 
     /// 0x20FB Analog input 1 calculated (unitek-ds.eds:2354, INTEGER16 ro, PDO-mappable)

@@ -5,10 +5,11 @@
 //!   binary search, so any lookup is O(log n) with no scan of the dictionary;
 //! - a ROM blob holding the values of `const` objects (flash);
 //! - one RAM image (`[u8; N]` inside the generated `Ram` struct) holding every
-//!   other value, laid out in index order so that the communication area
-//!   (0x1000–0x1FFF) is one contiguous prefix. Reset communication and reset
-//!   application are then each a single copy from the default image plus the
-//!   `$NODEID` fix-ups.
+//!   other value. The values a stored parameter set holds come first, as one
+//!   prefix ([`Dictionary::stored_len`]), so a set is that prefix alone; the
+//!   others follow. Each part is in index order, communication area
+//!   (0x1000–0x1FFF) first, so reset communication and reset application are
+//!   each two copies from the default image plus the `$NODEID` fix-ups.
 //!
 //! Nothing here panics on any input: every slice access is checked and a
 //! malformed request gets its SDO [`AbortCode`] (CiA 301 §7.2.4.3.17): the
@@ -61,8 +62,16 @@ pub struct Dictionary {
     pub rom: &'static [u8],
     /// The RAM image as the EDS defaults give it, with `$NODEID` not yet added.
     pub defaults: &'static [u8],
-    /// Length of the RAM prefix that holds the communication area 0x1000–0x1FFF.
+    /// Length of the RAM prefix that holds the stored values of the
+    /// communication area 0x1000–0x1FFF.
     pub comm_len: usize,
+    /// Length of the RAM prefix a stored parameter set holds: the values a
+    /// reset loads from it (writable, in RAM) and those a device stores
+    /// itself, communication area first, each part in index order.
+    pub stored_len: usize,
+    /// Length of the other values of the communication area, which follow
+    /// the stored prefix.
+    pub comm_rest: usize,
     /// Positions in `entries` of the entries whose default is `$NODEID`-relative.
     pub node_id_relative: &'static [u16],
     /// Device facts from `[DeviceInfo]`.
@@ -285,12 +294,14 @@ impl Dictionary {
     /// resolves `$NODEID` there. CiA 301 §7.3.2.2.2 "reset communication".
     pub fn reset_communication(&self, image: &mut [u8], node_id: u8) {
         self.restore(image, 0..self.comm_len, node_id);
+        self.restore(image, self.stored_len..self.stored_len.saturating_add(self.comm_rest), node_id);
     }
 
     /// Restores the application area (0x2000 and up) to its defaults.
     /// CiA 301 "reset application"; the node follows it with reset communication.
     pub fn reset_application(&self, image: &mut [u8], node_id: u8) {
-        self.restore(image, self.comm_len..self.defaults.len(), node_id);
+        self.restore(image, self.comm_len..self.stored_len, node_id);
+        self.restore(image, self.stored_len.saturating_add(self.comm_rest)..self.defaults.len(), node_id);
     }
 
     fn restore(&self, image: &mut [u8], range: core::ops::Range<usize>, node_id: u8) {

@@ -31,6 +31,8 @@ static DICT: Dictionary = Dictionary {
     rom: &ROM,
     defaults: &DEFAULTS,
     comm_len: 7,
+    stored_len: 14,
+    comm_rest: 0,
     node_id_relative: &[3],
     layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {

@@ -1,6 +1,8 @@
 //! Store and restore parameters: 0x1010 / 0x1011. CiA 301 v4.2 §7.5.2.13–14.
 //!
-//! A parameter set is the RAM image, written to the [`Storage`] region not
+//! A parameter set is the stored prefix of the RAM image
+//! ([`Dictionary::stored_len`]: the writable values and those a device
+//! stores itself; od-gen lays them out first), written to the [`Storage`] region not
 //! holding the newest valid set: erase, payload, then the header last. The
 //! header carries a sequence number, the dictionary layout it belongs to
 //! ([`Dictionary::layout_id`], a constant of the generated dictionary) and a
@@ -10,8 +12,8 @@
 //!
 //! Scopes follow the sub-indices of 0x1010/0x1011: 1 all, 2 communication
 //! (0x1000–0x1FFF), 3 application (0x6000–0x9FFF), 4 manufacturer
-//! (0x2000–0x5FFF). The image is in index order, so each scope is a byte
-//! range. "Restore defaults" writes a set that marks its scopes as default.
+//! (0x2000–0x5FFF); each value is taken from the scope of its index.
+//! "Restore defaults" writes a set that marks its scopes as default.
 //! Only writable entries are taken from a stored set; `$NODEID` entries are
 //! stored relative to the node-id, so they follow a node-id change.
 
@@ -81,8 +83,7 @@ impl From<StorageError> for StoreError {
     }
 }
 
-/// The scope bit (see [`Scope::mask`]) of the object at `index`: the image
-/// is in index order, so this is also the byte range the entry lies in.
+/// The scope bit (see [`Scope::mask`]) of the object at `index`.
 const fn scope_bit(index: u16) -> u16 {
     match index {
         0x0000..=0x1FFF => Scope::Communication.mask(),
@@ -151,7 +152,8 @@ fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Opti
     }
     let lss = [(version_lss >> 16) as u8, (version_lss >> 24) as u8];
     let header = Header { lss, seq, len: len_defaults as u16, defaults: (len_defaults >> 16) as u16, crc };
-    (usize::from(header.len) == dict.defaults.len()).then_some(header)
+    // A set of another prefix is refused even where the entries' offsets agree.
+    (usize::from(header.len) == dict.stored_len).then_some(header)
 }
 
 /// The CRC-32 of `range` of the payload of `region`, continued from `crc`
@@ -261,6 +263,7 @@ impl StoredSet {
                 && !e.in_rom()
                 && e.len > 0
                 && e.attr.contains(Attr::WRITE)
+                && in_set(dict, e)
                 && self.header.defaults & scope_bit(e.index) == 0
         };
         // Adjacent values are read with one call: a call per entry cost more than the copying.
@@ -324,10 +327,15 @@ pub fn save_objects(
     Job::save_objects(dict, first, last).finish(dict, image, node_id, storage)
 }
 
-/// The bytes of the image the RAM values of objects `first..=last` take
-/// (the image is in index order, so they are one run).
+/// Whether a stored set holds `entry`'s value: a RAM value in the stored prefix.
+fn in_set(dict: &Dictionary, entry: &Entry) -> bool {
+    !entry.in_rom() && entry.len > 0 && usize::from(entry.offset).saturating_add(usize::from(entry.len)) <= dict.stored_len
+}
+
+/// The bytes of the stored prefix the values of objects `first..=last`
+/// take (the prefix is in index order, so they are one run).
 fn byte_range(dict: &Dictionary, first: u16, last: u16) -> Range<usize> {
-    let mut ram = dict.entries.iter().filter(|e| (first..=last).contains(&{ e.index }) && !e.in_rom() && e.len > 0);
+    let mut ram = dict.entries.iter().filter(|e| (first..=last).contains(&{ e.index }) && in_set(dict, e));
     let Some(start) = ram.next().map(|e| e.range()) else { return 0..0 };
     let end = ram.next_back().map_or(start.end, |e| e.range().end);
     start.start..end
@@ -357,13 +365,14 @@ pub fn save_lss(
 /// its length. For a device's start-up, before power-on: one value read
 /// from the storage, no image built. A read-only entry gives what the
 /// image held when the set was saved: a value the device keeps across
-/// power cycles itself (an encoder's preset offset), which a reset does not load.
+/// power cycles itself (an encoder's preset offset), which a reset does not
+/// load. `None` for a value the set does not hold (see [`Dictionary::stored_len`]).
 // An entry's range: two u16s, and 24 more fit a usize.
 #[allow(clippy::arithmetic_side_effects)]
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;
-    if entry.in_rom() || set.header.defaults & scope_bit(entry.index) != 0 {
+    if !in_set(dict, entry) || set.header.defaults & scope_bit(entry.index) != 0 {
         return None;
     }
     let range = entry.range();

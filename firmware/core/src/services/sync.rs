@@ -269,6 +269,8 @@ mod tests {
         rom: &[],
         defaults: &DEFAULTS,
         comm_len: 13,
+        stored_len: 13,
+        comm_rest: 0,
         node_id_relative: &[],
         layout_id: crate::od::layout_id(&ENTRIES),
         device: DeviceInfo {
@@ -280,7 +282,7 @@ mod tests {
             group_messaging: false,
         },
     };
-    static EMPTY: Dictionary = Dictionary { entries: &[], defaults: &[], comm_len: 0, ..DICT };
+    static EMPTY: Dictionary = Dictionary { entries: &[], defaults: &[], comm_len: 0, stored_len: 0, ..DICT };
 
     fn ms(t: u64) -> Instant {
         Instant::from_micros(t * 1000)

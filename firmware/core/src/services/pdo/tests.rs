@@ -148,6 +148,8 @@ static DICT: Dictionary = Dictionary {
     rom: &ROM,
     defaults: &DEFAULTS,
     comm_len: 142,
+    stored_len: RAM,
+    comm_rest: 0,
     node_id_relative: &[],
     layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {

@@ -83,6 +83,8 @@ static DICT: Dictionary = Dictionary {
     rom: &ROM,
     defaults: &DEFAULTS,
     comm_len: 3,
+    stored_len: IMAGE_LEN,
+    comm_rest: 0,
     node_id_relative: &[],
     layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {

@@ -10,7 +10,7 @@
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, scope_bit};
+use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, in_set, scope_bit};
 use crate::od::{Attr, Dictionary};
 use crate::storage::Storage;
 use core::ops::Range;
@@ -176,7 +176,7 @@ impl Job {
         storage: &mut dyn Storage,
         budget: usize,
     ) -> Result<bool, StoreError> {
-        let len = dict.defaults.len();
+        let len = dict.stored_len;
         match self.phase {
             Phase::Idle => return Ok(true),
             Phase::Find => {
@@ -229,7 +229,7 @@ impl Job {
         let mut run = (Source::Defaults, start..start, 0);
         for e in dict.entries.get(usize::from(self.entry)..).unwrap_or(&[]) {
             let r = e.range();
-            if !e.in_rom() && e.len > 0 && r.end > run.1.end {
+            if in_set(dict, e) && r.end > run.1.end {
                 if run.1.end > start && r.end > start.saturating_add(budget) {
                     self.pos = run.1.end as u16;
                     self.copy(dict, image, node_id, storage, run)?;
@@ -257,7 +257,7 @@ impl Job {
             }
             self.entry += 1;
         }
-        run.1.end = dict.defaults.len();
+        run.1.end = dict.stored_len;
         self.copy(dict, image, node_id, storage, run)?;
         Ok(true)
     }
@@ -312,7 +312,7 @@ impl Job {
             u32::from(VERSION) | u32::from(lss[0]) << 16 | u32::from(lss[1]) << 24,
             dict.layout_id,
             seq,
-            dict.defaults.len() as u32 | u32::from(defaults) << 16,
+            dict.stored_len as u32 | u32::from(defaults) << 16,
             !self.crc,
         ];
         let mut h = [0u8; HEADER];

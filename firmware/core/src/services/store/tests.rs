@@ -20,6 +20,8 @@ static DICT: Dictionary = Dictionary {
     rom: &[],
     defaults: &DEFAULTS,
     comm_len: 7,
+    stored_len: 12,
+    comm_rest: 0,
     node_id_relative: &[2],
     layout_id: crate::od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -388,6 +390,7 @@ static LONG: Dictionary = Dictionary {
     entries: &LONG_ENTRIES,
     defaults: &[0; 82],
     comm_len: 2,
+    stored_len: 82,
     node_id_relative: &[],
     layout_id: crate::od::layout_id(&LONG_ENTRIES),
     ..DICT
@@ -459,4 +462,43 @@ fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
             break;
         }
     }
+}
+
+/// A set is the stored prefix alone: a dictionary whose prefix is shorter
+/// (0x1001 read-only at its end) writes a shorter set, a change of 0x1001
+/// leaves the set's bytes as they were, and a set of the other prefix length
+/// is refused, even with the same entries (and so the same layout id).
+#[test]
+fn a_set_holds_the_stored_prefix_alone() {
+    static ENTRIES_RO_LAST: [Entry; 2] = [
+        Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 2, NO_LIMITS),
+        Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 0, NO_LIMITS),
+    ];
+    static PREFIX: Dictionary = Dictionary {
+        entries: &ENTRIES_RO_LAST,
+        defaults: &[0xE8, 0x03, 0],
+        comm_len: 2,
+        stored_len: 2,
+        comm_rest: 1,
+        node_id_relative: &[],
+        layout_id: crate::od::layout_id(&ENTRIES_RO_LAST),
+        ..DICT
+    };
+    let (mut a, mut b) = (Flash::new(), Flash::new());
+    save(&PREFIX, &[0x10, 0, 1], 1, &mut a, Scope::All).unwrap();
+    save(&PREFIX, &[0x10, 0, 2], 1, &mut b, Scope::All).unwrap();
+    assert_eq!(a.regions, b.regions, "the read-only value is not in the set");
+    assert_eq!(&a.regions[0][16..18], &2u16.to_le_bytes(), "the header's length is the prefix");
+    assert_eq!(a.regions[0][HEADER + 2], 0xFF, "nothing written after the prefix");
+    assert_eq!(stored_value(&PREFIX, &mut a, 1, 0x1001, 0, &mut [0]), None);
+    assert_eq!(stored_value(&PREFIX, &mut a, 1, 0x1017, 0, &mut [0; 2]), Some(2));
+    let mut img = [0xE8, 0x03, 7];
+    assert!(load(&PREFIX, &mut img, 1, &mut a, Part::Communication));
+    assert_eq!(img, [0x10, 0, 7], "the reset takes 0x1017 from the set and leaves 0x1001");
+    // Reset communication restores both runs of the communication area.
+    PREFIX.reset_communication(&mut img, 1);
+    assert_eq!(img, [0xE8, 0x03, 0]);
+    static LONGER: Dictionary = Dictionary { defaults: &[0xE8, 0x03, 0], stored_len: 3, comm_len: 3, comm_rest: 0, ..PREFIX };
+    assert_eq!(LONGER.layout_id, PREFIX.layout_id);
+    assert_eq!(newest(&LONGER, &mut a), None, "a set of another prefix is refused");
 }
