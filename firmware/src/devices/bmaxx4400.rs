@@ -174,6 +174,9 @@ impl Application for App {
             self.drive.drive.axis.configure(AXIS);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
+        if event == NmtEvent::ResetCommunication && speed::configured(ctx, ZEROED_MAPPING) {
+            zero_default_mapping(ctx);
+        }
         if event == NmtEvent::ResetApplication {
             // The axis model starts again at 0: the homing is lost.
             self.homed = false;
@@ -242,6 +245,32 @@ impl App {
         let _ = ctx.set_value(MODES_OF_OPERATION_DISPLAY, 0, &[shows as u8]);
     }
 }
+
+/// P0830 bit 3 (§4.3.4): the default mapping has every entry 0, and 0x6007 is 3.
+const ZEROED_MAPPING: u32 = 1 << 3;
+
+/// P0830 bit 3 at reset communication (D62): 0x6007 (the guarding
+/// reaction) is 3, quick stop; unless a mapping is stored (0x1010 sub 2),
+/// the eight PDO mappings are empty (sub 0 through the PDO service, so the
+/// PDOs follow; the entries 0) and their transmission types stay.
+#[inline(never)]
+fn zero_default_mapping(ctx: &mut Ctx<'_>) {
+    let _ = ctx.set_value(ABORT_CONNECTION_OPTION, 0, &3i16.to_le_bytes());
+    if ctx.stored(0x1600, 0, &mut [0]).is_some() {
+        return;
+    }
+    for pdo in 0..8u16 {
+        // RPDO mappings 0x1600-0x1603, then TPDO mappings 0x1A00-0x1A03.
+        let index = 0x1600 + (pdo & 4) * 0x100 + (pdo & 3);
+        let _ = ctx.write_object(index, 0, &[0]);
+        for sub in 1..=8 {
+            let _ = ctx.set_value(index, sub, &[0; 4]);
+        }
+    }
+}
+
+/// 0x6007 abort connection option code.
+const ABORT_CONNECTION_OPTION: u16 = 0x6007;
 
 /// The mode the profile runs (0x6061 as it wrote it: pp and hm show
 /// themselves) and the statusword.

@@ -24,7 +24,7 @@ pub(super) const CONFIGURATION: u16 = 0x433E;
 const TENTH: u32 = 1 << 2;
 
 /// Whether P0830 has any of the bits of `mask` set.
-fn configured(ctx: &Ctx<'_>, mask: u32) -> bool {
+pub(super) fn configured(ctx: &Ctx<'_>, mask: u32) -> bool {
     ctx.read_u32(CONFIGURATION, 0).is_some_and(|c| c & mask != 0)
 }
 
