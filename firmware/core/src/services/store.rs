@@ -260,8 +260,6 @@ impl StoredSet {
         let communication = part == Part::Communication;
         let wanted = |e: &Entry| {
             (e.index < 0x2000) == communication
-                && !e.in_rom()
-                && e.len > 0
                 && e.attr.contains(Attr::WRITE)
                 && in_set(dict, e)
                 && self.header.defaults & scope_bit(e.index) == 0
@@ -327,9 +325,11 @@ pub fn save_objects(
     Job::save_objects(dict, first, last).finish(dict, image, node_id, storage)
 }
 
-/// Whether a stored set holds `entry`'s value: a RAM value in the stored prefix.
+/// Whether a stored set holds `entry`'s value: a RAM value in the stored prefix
+/// (which holds whole values: od-gen lays it out so, and a value it does not
+/// hold starts at its end or after).
 fn in_set(dict: &Dictionary, entry: &Entry) -> bool {
-    !entry.in_rom() && entry.len > 0 && usize::from(entry.offset).saturating_add(usize::from(entry.len)) <= dict.stored_len
+    !entry.in_rom() && entry.len > 0 && usize::from(entry.offset) < dict.stored_len
 }
 
 /// The bytes of the stored prefix the values of objects `first..=last`
