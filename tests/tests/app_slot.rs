@@ -32,6 +32,8 @@ struct Probe {
     /// Poll period, if the probe runs a timer.
     period_ms: Option<u64>,
     sync_count: u32,
+    /// What storing the read-only 0x1001 alone gave (beside 0x2004's store).
+    saved_read_only: Option<Result<(), AbortCode>>,
 }
 
 impl Application for Probe {
@@ -86,7 +88,10 @@ impl Application for Probe {
                 ctx.set_value(0x2000, 0, &[v ^ 0xFF]).unwrap();
             }
             // 0x2004 is stored alone as soon as it is written.
-            (0x2004, 0, _) => ctx.save_objects(0x2004, 0x2004).unwrap(),
+            (0x2004, 0, _) => {
+                ctx.save_objects(0x2004, 0x2004).unwrap();
+                self.saved_read_only = Some(ctx.save_objects(0x1001, 0x1001));
+            }
             // 0x2001 = 0xDEAD is a device error (EMCY 0xFF01), any other value clears it.
             (0x2001, 0, _) => {
                 if ctx.read_u32(0x2001, 0) == Some(0xDEAD) {
@@ -348,6 +353,8 @@ fn a_device_stores_one_object_alone() {
     b.nmt(0x81, ID);
     assert_eq!(b.sdo_upload(ID, 0x2004, 0), Ok(vec![0x07, 0, 0, 0]), "stored");
     assert_eq!(b.sdo_upload(ID, 0x2003, 0), Ok(vec![0x44, 0x44, 0x44, 0x44]), "not stored");
+    // A value no stored set holds (read-only, not kept by the build) is refused, not stored as nothing.
+    assert_eq!(b.node.app().saved_read_only, Some(Err(AbortCode::CannotStore)));
     // A later 0x1010 save of everything keeps 0x2004 and adds 0x2003.
     assert_eq!(b.sdo_write(ID, 0x2003, 0, &[1, 2, 3, 4]), ok_write(0x2003, 0));
     assert_eq!(b.sdo_write(ID, 0x1010, 1, b"save"), ok_write(0x1010, 1));

@@ -316,8 +316,15 @@ impl Ctx<'_> {
     /// other value keeps what was stored before (unsaved changes elsewhere
     /// stay unsaved). For a store the device's own command triggers (a
     /// preset stored when written, a "save bus parameters" object).
+    /// Objects no stored set holds (read-only ones the device's build did
+    /// not name as kept: od-gen's stored prefix) are refused with 0x08000020
+    /// rather than stored as nothing.
     pub fn save_objects(&mut self, first: u16, last: u16) -> Result<(), AbortCode> {
-        self.run_store(crate::services::store::Job::save_objects(self.dict, first, last))
+        let job = crate::services::store::Job::save_objects(self.dict, first, last);
+        if job == crate::services::store::Job::IDLE {
+            return Err(AbortCode::CannotStore);
+        }
+        self.run_store(job)
     }
 
     /// The stored value of (index, sub) in the newest parameter set,
