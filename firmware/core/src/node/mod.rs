@@ -313,9 +313,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // Inlined: for a hook the device leaves at its default, nothing of it remains.
     #[inline(always)]
     pub(super) fn with_app<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
-        let (value, error_class) = self.with_app_initialising(now, f);
-        if error_class != 0 {
-            self.device_error(error_class, now);
+        let (value, effects) = self.run_hook(now, f);
+        self.queue_raw();
+        self.follow_sdo(effects);
+        if effects.error_class != 0 {
+            self.device_error(effects.error_class, now);
         }
         value
     }
@@ -383,7 +385,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         (value, ctx.effects)
     }
 
-    /// [`Node::with_app_initialising`] for the reset's stages: the follow-up out of line.
+    /// [`Node::with_app`] for a node resetting (Initialising), where a
+    /// device error changes no state: the 0x1029 class the hook reported
+    /// (0: none) is returned, not followed, so that no state change is
+    /// reachable from the reset's stages (the stack estimate counts every
+    /// call the code holds, taken or not). The follow-up as in
+    /// [`Node::with_app_cold`].
     #[inline(always)]
     pub(super) fn with_app_resetting<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
         let (value, effects) = self.run_hook(now, f);
@@ -393,19 +400,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         } else {
             self.follow_hook(effects);
         }
-        (value, effects.error_class)
-    }
-
-    /// [`Node::with_app`] for a node resetting (Initialising), where a
-    /// device error changes no state: the 0x1029 class the hook reported
-    /// (0: none) is returned, not followed. The reset's stages use it, so
-    /// that no state change is reachable from them (the stack estimate
-    /// counts every call the code holds, taken or not).
-    #[inline(always)]
-    pub(super) fn with_app_initialising<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
-        let (value, effects) = self.run_hook(now, f);
-        self.queue_raw();
-        self.follow_sdo(effects);
         (value, effects.error_class)
     }
 
