@@ -320,10 +320,7 @@ impl Ctx<'_> {
     /// not name as kept: od-gen's stored prefix) are refused with 0x08000020
     /// rather than stored as nothing.
     pub fn save_objects(&mut self, first: u16, last: u16) -> Result<(), AbortCode> {
-        let job = crate::services::store::Job::save_objects(self.dict, first, last);
-        if job == crate::services::store::Job::IDLE {
-            return Err(AbortCode::CannotStore);
-        }
+        let job = crate::services::store::Job::save_objects(self.dict, first, last).map_err(super::router::store_abort)?;
         self.run_store(job)
     }
 

@@ -61,7 +61,7 @@ pub(crate) struct SdoEffects {
 pub(super) fn store_abort(e: StoreError) -> AbortCode {
     match e {
         StoreError::Storage(_) => AbortCode::Hardware,
-        StoreError::TooLarge => AbortCode::CannotStore,
+        StoreError::TooLarge | StoreError::NotStored => AbortCode::CannotStore,
         StoreError::Busy => AbortCode::DeviceState,
     }
 }

@@ -75,6 +75,10 @@ pub enum StoreError {
     TooLarge,
     /// Another store is in progress (abort 0x08000022 in the node).
     Busy,
+    /// The objects asked for have no value a stored set holds (read-only
+    /// values the device's build does not name as kept: od-gen's stored
+    /// prefix); abort 0x08000020 in the node.
+    NotStored,
 }
 
 impl From<StorageError> for StoreError {
@@ -313,7 +317,8 @@ pub fn save_except(
 }
 
 /// Stores the objects `first..=last` alone: every other value keeps what the
-/// newest set holds (or its default), so unsaved changes elsewhere stay unsaved.
+/// newest set holds (or its default), so unsaved changes elsewhere stay
+/// unsaved. Objects no set holds are [`StoreError::NotStored`], not stored as nothing.
 pub fn save_objects(
     dict: &Dictionary,
     image: &[u8],
@@ -322,7 +327,7 @@ pub fn save_objects(
     first: u16,
     last: u16,
 ) -> Result<(), StoreError> {
-    Job::save_objects(dict, first, last).finish(dict, image, node_id, storage)
+    Job::save_objects(dict, first, last)?.finish(dict, image, node_id, storage)
 }
 
 /// Whether a stored set holds `entry`'s value: a RAM value in the stored prefix

@@ -106,13 +106,13 @@ impl Job {
     }
 
     /// Stores the objects `first..=last` alone (see [`super::save_objects`]);
-    /// nothing to do if none of them is in RAM.
-    pub fn save_objects(dict: &Dictionary, first: u16, last: u16) -> Job {
+    /// [`StoreError::NotStored`] if no set holds a value of them.
+    pub fn save_objects(dict: &Dictionary, first: u16, last: u16) -> Result<Job, StoreError> {
         let range = byte_range(dict, first, last);
         if range.is_empty() {
-            return Job::IDLE;
+            return Err(StoreError::NotStored);
         }
-        Job::new(scope_bit(first) | scope_bit(last), 0, span(range), (0, 0))
+        Ok(Job::new(scope_bit(first) | scope_bit(last), 0, span(range), (0, 0)))
     }
 
     /// 0x1011 "load": the scope uses its defaults from the next reset on.

@@ -502,3 +502,11 @@ fn a_set_holds_the_stored_prefix_alone() {
     assert_eq!(LONGER.layout_id, PREFIX.layout_id);
     assert_eq!(newest(&LONGER, &mut a), None, "a set of another prefix is refused");
 }
+
+#[test]
+fn storing_objects_no_set_holds_is_an_error_not_nothing() {
+    let mut flash = Flash::new();
+    let img = boot(&mut flash, 1);
+    // No stored set holds a value of 0x1018 (this dictionary has none).
+    assert_eq!(save_objects(&DICT, &img, 1, &mut flash, 0x1018, 0x1018), Err(StoreError::NotStored));
+}
