@@ -33,7 +33,8 @@ impl SdoTx for SdoSink<'_> {
         if self.hold.is_some_and(|h| h.get().is_some()) {
             return false;
         }
-        self.txq.free() > SDO_RESERVE && CanFrame::standard(self.cob_id, &data).is_some_and(|f| self.txq.push(f))
+        // Written straight into its queue slot: no frame built and copied.
+        self.txq.free() > SDO_RESERVE && self.txq.push_data(self.cob_id, &data, 8)
     }
 }
 
