@@ -43,6 +43,11 @@ impl CanFrame {
         CanFrame { raw: cob_id as u32, data, dlc, rtr: false, extended: false }
     }
 
+    /// The 8 data bytes, for a queue slot being filled ([`crate::txq::TxQueue::reserve_data`]).
+    pub(crate) fn data_mut(&mut self) -> &mut [u8; 8] {
+        &mut self.data
+    }
+
     /// The 11-bit identifier, or `None` for an extended frame (CANopen uses 11 bits).
     pub fn cob_id(&self) -> Option<u16> {
         if self.extended { None } else { Some(self.raw as u16) }

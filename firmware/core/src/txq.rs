@@ -72,18 +72,31 @@ impl<const N: usize> TxQueue<N> {
     /// not counted) whose first `len` (at most 8) of `data` are sent,
     /// behind every queued frame of its priority; false (and one more
     /// overflow) when full. The frame is written straight into its slot:
-    /// no `CanFrame` built by slice copy and moved (the TPDOs, a SYNC's
-    /// burst above all).
-    // Out of line, with the slot reservation in line: one copy for the TPDOs.
+    /// no `CanFrame` built by slice copy and moved.
+    // Out of line: the event-driven TPDOs' paths share it.
     #[inline(never)]
     pub fn push_data(&mut self, cob_id: u16, data: &[u8; 8], len: u8) -> bool {
+        self.reserve_data(cob_id, len).map(|d| *d = *data).is_some()
+    }
+
+    /// Queues a data frame of `len` (at most 8) bytes on the 11-bit
+    /// `cob_id` (above 0x7FF: refused, not counted), behind every queued
+    /// frame of its priority, and hands out its 8 data bytes for the
+    /// caller to fill (bytes past `len` are the caller's too: zeros, as a
+    /// TPDO builds them); `None` (and one more overflow) when full. A TPDO
+    /// is built right there: no buffer on the stack, no copy (a SYNC's
+    /// burst above all).
+    // In line: the reservation is out of line, and a TPDO's SYNC path
+    // calls it directly.
+    #[inline(always)]
+    pub fn reserve_data(&mut self, cob_id: u16, len: u8) -> Option<&mut [u8; 8]> {
         if cob_id > 0x7FF || len > 8 {
-            return false;
+            return None;
         }
         // A standard data frame's priority: its identifier in the top 11 bits.
-        let Some(frame) = self.reserve(u32::from(cob_id) << 21, false) else { return false };
-        *frame = CanFrame::standard_unchecked(cob_id, *data, len);
-        true
+        let frame = self.reserve(u32::from(cob_id) << 21, false)?;
+        *frame = CanFrame::standard_unchecked(cob_id, [0; 8], len);
+        Some(frame.data_mut())
     }
 
     // Out of line: the core of push and push_front.
@@ -95,7 +108,8 @@ impl<const N: usize> TxQueue<N> {
     /// The lowest free slot, put into the order for a frame of priority
     /// `key` (behind its equals, or `ahead` of them); `None` (and one more
     /// overflow) when all N are used.
-    #[inline(always)]
+    // Out of line: one copy for every frame queued.
+    #[inline(never)]
     fn reserve(&mut self, key: u32, ahead: bool) -> Option<&mut CanFrame> {
         let slot = (!self.used).trailing_zeros() as usize;
         if slot >= N || self.len >= N {

@@ -243,16 +243,13 @@ impl Tpdo {
         self.cob_id().is_some() && matches!(self.params.transmission_type, 0..=240 | 252)
     }
 
-    /// A SYNC (received or produced).
+    /// A SYNC (received or produced), for a TPDO that
+    /// [`Tpdo::is_synchronous`] (the caller checks: `Pdos::sync_tpdos`).
     pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
-        let Some(cob_id) = self.cob_id() else { return };
+        let cob_id = self.params.can_id();
         // A frame refused at the previous SYNC is stale now.
         self.pending_sync = None;
         let send = match self.params.transmission_type {
-            0 => {
-                let (buf, len) = self.build(image);
-                (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
-            }
             n @ 1..=240 => {
                 if self.await_start {
                     match sync.counter {
@@ -262,10 +259,23 @@ impl Tpdo {
                     }
                 }
                 self.sync_count = self.sync_count.saturating_add(1);
-                (self.sync_count >= n).then(|| {
-                    self.sync_count = 0;
-                    self.build(image)
-                })
+                if self.sync_count < n {
+                    return;
+                }
+                self.sync_count = 0;
+                // Cyclic: no change detection, so nothing to remember but
+                // a refusal; built straight into the queue.
+                let Some(mapping) = self.mapping.as_ref() else { return };
+                if tx.send_mapped(cob_id, mapping, image) {
+                    self.blocked = false;
+                } else {
+                    self.refused_sync(image);
+                }
+                return;
+            }
+            0 => {
+                let (buf, len) = self.build(image);
+                (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
             }
             252 => {
                 self.sample = Some(self.build(image).0);
@@ -278,6 +288,15 @@ impl Tpdo {
         {
             self.pending_sync = Some(buf);
         }
+    }
+
+    /// The queue refused a cyclic frame: the data of this SYNC waits for
+    /// a retry inside the window.
+    #[cold]
+    #[inline(never)]
+    fn refused_sync(&mut self, image: &[u8]) {
+        self.blocked = true;
+        self.pending_sync = Some(self.build(image).0);
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
