@@ -116,12 +116,19 @@ impl<const N: usize> TxQueue<N> {
             self.overflows = self.overflows.saturating_add(1);
             return None;
         }
+        let mut at = self.head.wrapping_add(self.len) & Self::MASK;
+        // The frame that leaves last (an answer into an empty queue, a burst
+        // of one identifier or in identifier order) goes to the tail at once,
+        // with few registers to save.
+        let last = self.keys.get(at.wrapping_sub(1) & Self::MASK).is_none_or(|&k| k <= key);
+        if !ahead && (self.len == 0 || last) {
+            return self.place(at, key);
+        }
         // The new frame stays behind queued frames up to `limit`: its equals
         // too, unless it goes ahead of them.
         let limit = if ahead { key.checked_sub(1) } else { Some(key) };
         // One insertion step from the tail: queued frames that leave after
         // the new one move back by one.
-        let mut at = self.head.wrapping_add(self.len) & Self::MASK;
         for _ in 0..self.len {
             let before = at.wrapping_sub(1) & Self::MASK;
             let Some(&k) = self.keys.get(before) else { break };
@@ -142,7 +149,13 @@ impl<const N: usize> TxQueue<N> {
             }
             at = before;
         }
-        // `len` < N: checked above.
+        self.place(at, key)
+    }
+
+    /// Takes ring place `at` (free) for a frame of priority `key`.
+    #[inline(always)]
+    fn place(&mut self, at: usize, key: u32) -> Option<&mut CanFrame> {
+        // `len` < N: [`TxQueue::reserve`] checked it.
         #[allow(clippy::arithmetic_side_effects)]
         {
             self.len += 1;
