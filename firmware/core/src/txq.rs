@@ -83,8 +83,8 @@ impl<const N: usize> TxQueue<N> {
     /// Queues a data frame of `len` (at most 8) bytes on the 11-bit
     /// `cob_id` (above 0x7FF: refused, not counted), behind every queued
     /// frame of its priority, and hands out its 8 data bytes for the
-    /// caller to fill (bytes past `len` are the caller's too: zeros, as a
-    /// TPDO builds them); `None` (and one more overflow) when full. A TPDO
+    /// caller to fill, all 8 (they hold an older frame's bytes; those past
+    /// `len` are not sent, and a TPDO zeroes them); `None` (and one more overflow) when full. A TPDO
     /// is built right there: no buffer on the stack, no copy (a SYNC's
     /// burst above all).
     // In line: the reservation is out of line, and a TPDO's SYNC path
@@ -95,9 +95,7 @@ impl<const N: usize> TxQueue<N> {
             return None;
         }
         // A standard data frame's priority: its identifier in the top 11 bits.
-        let frame = self.reserve(u32::from(cob_id) << 21, false)?;
-        *frame = CanFrame::standard_unchecked(cob_id, [0; 8], len);
-        Some(frame.data_mut())
+        Some(self.reserve(u32::from(cob_id) << 21, false)?.standard_data(cob_id, len))
     }
 
     // Out of line: the core of push and push_front.

@@ -54,8 +54,11 @@ pub struct Tpdo {
     blocked: bool,
     inhibit_until: Option<Instant>,
     event_at: Option<Instant>,
-    /// SYNCs counted towards the next cyclic transmission.
-    sync_count: u8,
+    /// SYNCs still to come before the next cyclic transmission, counting
+    /// the one that sends it; 0 when the count starts over (it then waits
+    /// for the transmission type's n SYNCs), so that a SYNC is one
+    /// decrement and one compare.
+    sync_left: u8,
     /// Waiting for the SYNC whose counter equals the start value.
     await_start: bool,
     /// Type 252: the data sampled at the last SYNC.
@@ -87,7 +90,7 @@ impl Tpdo {
         blocked: false,
         inhibit_until: None,
         event_at: None,
-        sync_count: 0,
+        sync_left: 0,
         await_start: false,
         sample: None,
         pending_sync: None,
@@ -156,7 +159,7 @@ impl Tpdo {
         self.blocked = false;
         self.inhibit_until = None;
         self.event_at = now.filter(|_| timer != Duration::ZERO).map(|t| t + timer);
-        self.sync_count = 0;
+        self.sync_left = 0;
         self.await_start = self.params.sync_start != 0;
         self.sample = None;
         self.pending_sync = None;
@@ -258,11 +261,12 @@ impl Tpdo {
                         _ => self.await_start = false,
                     }
                 }
-                self.sync_count = self.sync_count.saturating_add(1);
-                if self.sync_count < n {
+                // `n` ≥ 1, and `sync_left` ≤ `n` (it starts over whenever the type changes).
+                let left = if self.sync_left == 0 { n } else { self.sync_left };
+                self.sync_left = left.wrapping_sub(1);
+                if self.sync_left != 0 {
                     return;
                 }
-                self.sync_count = 0;
                 // Cyclic: no change detection, so nothing to remember but
                 // a refusal; built straight into the queue.
                 let Some(mapping) = self.mapping.as_ref() else { return };
