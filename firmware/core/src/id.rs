@@ -72,6 +72,60 @@ impl CobId {
     }
 }
 
+/// What a download of one kind of COB-ID entry must pass (CiA 301
+/// §7.5.2.5 SYNC, §7.5.2.13 TIME, §7.5.2.15 EMCY, §7.5.2.33 SDO,
+/// §7.5.2.35/37 PDO): the rules as data, one [`CobRule::check`] for all.
+/// A pair `(mask, off)` says when bits 30/31 put the COB-ID "in use":
+/// unless `value & mask == off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CobRule {
+    /// Bits besides the CAN-ID that must be 0.
+    pub reserved: u32,
+    /// CAN-ID 0 is refused even while the COB-ID is not in use (EMCY).
+    pub no_zero: bool,
+    /// In use, the CAN-ID may not be restricted (§7.3.5).
+    pub used: (u32, u32),
+    /// While the old and the new COB-ID are both in this sense in use, the
+    /// CAN-ID may not change.
+    pub fixed: (u32, u32),
+}
+
+/// Bit 31 clear: in use (PDO, SDO, EMCY valid).
+const VALID: (u32, u32) = (CobId::BIT31, CobId::BIT31);
+/// Never in use.
+const NEVER: (u32, u32) = (0, 0);
+
+impl CobRule {
+    /// 0x1005: bit 31 "do not care", bit 30 produce; a restricted CAN-ID is
+    /// refused even for a consumer; a producer's CAN-ID is fixed.
+    pub const SYNC: CobRule = CobRule { reserved: CobId::EXTENDED, no_zero: false, used: (0, 1), fixed: (CobId::BIT30, 0) };
+    /// 0x1012: bit 31 consume, bit 30 produce; the CAN-ID may change in use.
+    pub const TIME: CobRule = CobRule { reserved: CobId::EXTENDED, no_zero: false, used: (CobId::BIT31 | CobId::BIT30, 0), fixed: NEVER };
+    /// 0x1014: bit 31 off, bit 30 reserved, never CAN-ID 0.
+    pub const EMCY: CobRule = CobRule { reserved: CobId::EXTENDED | CobId::BIT30, no_zero: true, used: VALID, fixed: VALID };
+    /// 0x1200+ sub 1/2, 0x1400+ and 0x1800+ sub 1: bit 31 not valid, bit 30
+    /// dynamic (SDO) or no RTR (PDO).
+    pub const VALID: CobRule = CobRule { reserved: CobId::EXTENDED, no_zero: false, used: VALID, fixed: VALID };
+    /// [`CobRule::VALID`] for a device whose manual lets a valid PDO move.
+    pub const MOVABLE: CobRule = CobRule { fixed: NEVER, ..CobRule::VALID };
+
+    /// Checks `new` against the entry's `old` value (`None`: none to keep),
+    /// `own` a restricted CAN-ID this entry may still use (the default SDO
+    /// server's own; else any value above 0x7FF). 0x06090030 if it fails.
+    // Out of line: one copy for the six kinds of COB-ID.
+    #[inline(never)]
+    pub fn check(&self, old: Option<u32>, new: u32, own: u16) -> Result<(), crate::abort::AbortCode> {
+        let on = |(mask, off): (u32, u32), v: u32| v & mask != off;
+        let can_id = CobId(new).can_id();
+        let restricted = is_restricted_can_id(can_id) && can_id != own;
+        let moves = old.is_some_and(|old| on(self.fixed, old) && on(self.fixed, new) && (old ^ new) & 0x7FF != 0);
+        if new & self.reserved != 0 || (self.no_zero && can_id == 0) || (on(self.used, new) && restricted) || moves {
+            return Err(crate::abort::AbortCode::InvalidValue);
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

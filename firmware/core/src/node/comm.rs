@@ -2,19 +2,15 @@
 //! communication area of the dictionary (0x1000–0x1FFF).
 
 use crate::abort::AbortCode;
-use crate::id::CobId;
 use crate::od::index;
-use crate::od::{Dictionary, u32_exact};
+use crate::od::{Dictionary, Entry, store_checked};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
-use crate::services::nmt::NmtState;
 use crate::services::pdo::Pdos;
 use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::{Emcy, EmcyCode};
-
-use super::app::ServiceOptions;
 
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
@@ -217,21 +213,32 @@ pub(crate) trait Services {
     /// The mapping RPDO `n` (0-based) uses, if it resolved.
     fn rpdo_mapping(&self, n: usize) -> Option<&Mapping>;
 
-    /// A checked write of an object a service owns (its rules and its
-    /// reconfiguration); `None` if no service owns (index, sub).
+    /// Whether 0x1016 entry `i` (0-based) set to `value` would monitor a
+    /// node another entry monitors.
+    fn consumer_conflicts(&self, i: usize, value: u32) -> bool;
+
+    /// [`Comm::clear_history`].
+    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]);
+
+    /// [`Comm::write_sync`].
+    fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode>;
+
+    /// A download into a PDO record (0x1400–0x1BFF) whose `entry` passed
+    /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may change).
     #[allow(clippy::too_many_arguments)]
-    fn write_object(
+    fn write_pdo(
         &mut self,
         index: u16,
         sub: u8,
         data: &[u8],
+        entry: &'static Entry,
         dict: &Dictionary,
         image: &mut [u8],
-        node_id: u8,
-        now: Instant,
-        options: &ServiceOptions,
-        state: NmtState,
-    ) -> Option<Result<(), AbortCode>>;
+        rewrite: bool,
+    ) -> Result<(), AbortCode>;
+
+    /// The service that owns (index, sub) takes the `value` just stored.
+    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: Instant);
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB> {
@@ -247,103 +254,48 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         self.pdos.rpdo(n).and_then(|r| r.mapping())
     }
 
-    fn write_object(
+    fn consumer_conflicts(&self, i: usize, value: u32) -> bool {
+        self.consumers.conflicts(i, value)
+    }
+
+    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
+        Comm::clear_history(self, dict, image);
+    }
+
+    fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
+        Comm::write_sync(self, index, sub, data, dict, image)
+    }
+
+    fn write_pdo(
         &mut self,
         index: u16,
         sub: u8,
         data: &[u8],
+        entry: &'static Entry,
         dict: &Dictionary,
         image: &mut [u8],
-        node_id: u8,
-        now: Instant,
-        options: &ServiceOptions,
-        state: NmtState,
-    ) -> Option<Result<(), AbortCode>> {
-        Some(match index {
-            index::PRE_DEFINED_ERROR_FIELD => {
-                // The precheck found the entry writable.
-                if sub != 0 {
-                    return Some(Err(AbortCode::ReadOnly));
-                }
-                // CiA 301 §7.5.2.4: only 0 may be written, and it clears the history.
-                match data {
-                    [0] => {
-                        self.clear_history(dict, image);
-                        Ok(())
-                    }
-                    [_] => Err(AbortCode::InvalidValue),
-                    [] => Err(AbortCode::LengthTooLow),
-                    _ => Err(AbortCode::LengthTooHigh),
-                }
-            }
-            index::COB_ID_TIME_STAMP if sub == 0 => self.write_time_cob_id(data, dict, image, node_id, now),
-            index::COB_ID_EMCY if sub == 0 => self.write_emcy_cob_id(data, dict, image),
-            index::CONSUMER_HEARTBEAT_TIME if sub > 0 => {
-                let value = match u32_exact(data) {
-                    Ok(v) => v,
-                    Err(e) => return Some(Err(e)),
-                };
-                // sub > 0: the match arm's guard.
+        rewrite: bool,
+    ) -> Result<(), AbortCode> {
+        match self.pdos.write_checked(index, sub, data, entry, dict, image, rewrite) {
+            Some(result) => result,
+            // A record of a PDO this node does not have.
+            None => store_checked(image, entry, data).map(|_| ()),
+        }
+    }
+
+    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: Instant) {
+        match (index, sub) {
+            (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
+                // sub ≥ 1: the match arm's.
                 #[allow(clippy::arithmetic_side_effects)]
-                let consumer = usize::from(sub) - 1;
-                if self.consumers.conflicts(consumer, value) {
-                    return Some(Err(AbortCode::ParameterIncompatible));
-                }
-                dict.write(image, index, sub, data).map(|()| self.consumers.configure(consumer, value))
+                self.consumers.configure(usize::from(sub) - 1, value);
             }
-            index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW => {
-                self.write_sync(index, sub, data, dict, image)
+            (index::COB_ID_EMCY, 0) => self.configure_emcy(dict, image),
+            (index::COB_ID_TIME_STAMP, 0)
+            | (index::GUARD_TIME | index::LIFE_TIME_FACTOR | index::INHIBIT_TIME_EMCY | index::PRODUCER_HEARTBEAT_TIME, _) => {
+                self.reconfigure(index, dict, image, 0, now);
             }
-            index::GUARD_TIME | index::LIFE_TIME_FACTOR | index::INHIBIT_TIME_EMCY | index::PRODUCER_HEARTBEAT_TIME => {
-                dict.write(image, index, sub, data).map(|()| self.reconfigure(index, dict, image, node_id, now))
-            }
-            index::RPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST => {
-                let operational = state == NmtState::Operational;
-                let mapping = matches!(index, index::RPDO_MAPPING_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST | index::TPDO_MAPPING_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST);
-                if options.pdo_rewrite_while_valid && operational && mapping {
-                    // The manual's order: mappings change in Pre-operational only.
-                    return Some(Err(AbortCode::DeviceState));
-                }
-                // In Operational a COB-ID follows CiA 301 (it moves only while the PDO is not valid).
-                let rewrite = options.pdo_rewrite_while_valid && !operational;
-                match self.pdos.write_object_with(index, sub, data, dict, image, rewrite) {
-                    Some(result) => result,
-                    None => dict.write(image, index, sub, data),
-                }
-            }
-            _ => return None,
-        })
-    }
-}
-
-impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
-    /// 0x1014 COB-ID EMCY (CiA 301 §7.5.2.15): bit 31 set = EMCY off. No
-    /// 29-bit CAN-ID (bits 11..30 are 0), no CAN-ID 0, no restricted CAN-ID
-    /// while valid; the CAN-ID changes only while EMCY is or becomes off.
-    fn write_emcy_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        let new = CobId(u32_exact(data)?);
-        let moves = dict
-            .read_u32(image, index::COB_ID_EMCY, 0)
-            .map(CobId)
-            .is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
-        if new.0 & !(CobId::BIT31 | 0x7FF) != 0 || new.can_id() == 0 || (new.is_valid() && new.is_restricted()) || moves {
-            return Err(AbortCode::InvalidValue);
+            _ => {}
         }
-        dict.write(image, index::COB_ID_EMCY, 0, data)?;
-        self.configure_emcy(dict, image);
-        Ok(())
-    }
-
-    /// 0x1012 COB-ID TIME (CiA 301 §7.5.2.13): bit 31 consume, bit 30
-    /// produce. No 29-bit CAN-ID, no restricted CAN-ID while consumed or produced.
-    fn write_time_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8], node_id: u8, now: Instant) -> Result<(), AbortCode> {
-        let new = CobId(u32_exact(data)?);
-        let used = new.0 & (CobId::BIT31 | CobId::BIT30) != 0;
-        if new.is_extended() || (used && new.is_restricted()) {
-            return Err(AbortCode::InvalidValue);
-        }
-        dict.write(image, index::COB_ID_TIME_STAMP, 0, data)?;
-        self.reconfigure(index::COB_ID_TIME_STAMP, dict, image, node_id, now);
-        Ok(())
     }
 }
