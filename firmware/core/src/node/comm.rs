@@ -191,14 +191,6 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             }
         }
     }
-
-    /// A SYNC parameter (0x1005–0x1007, 0x1019) written by an SDO.
-    pub fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        match self.sync.write_object(index, sub, data, dict, image) {
-            Some(result) => result,
-            None => dict.write(image, index, sub, data),
-        }
-    }
 }
 
 /// The communication services as a hook's [`super::Ctx`] reaches them,
@@ -220,8 +212,8 @@ pub(crate) trait Services {
     /// [`Comm::clear_history`].
     fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]);
 
-    /// [`Comm::write_sync`].
-    fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode>;
+    /// [`SyncService::check`].
+    fn check_sync(&self, index: u16, value: u32) -> Result<(), AbortCode>;
 
     /// A download into a PDO record (0x1400–0x1BFF) whose `entry` passed
     /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may change).
@@ -262,8 +254,8 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         Comm::clear_history(self, dict, image);
     }
 
-    fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        Comm::write_sync(self, index, sub, data, dict, image)
+    fn check_sync(&self, index: u16, value: u32) -> Result<(), AbortCode> {
+        self.sync.check(index, value)
     }
 
     fn write_pdo(
@@ -291,6 +283,9 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                 self.consumers.configure(usize::from(sub) - 1, value);
             }
             (index::COB_ID_EMCY, 0) => self.configure_emcy(dict, image),
+            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
+                self.sync.apply(index, value)
+            }
             (index::COB_ID_TIME_STAMP, 0)
             | (index::GUARD_TIME | index::LIFE_TIME_FACTOR | index::INHIBIT_TIME_EMCY | index::PRODUCER_HEARTBEAT_TIME, _) => {
                 self.reconfigure(index, dict, image, 0, now);

@@ -4,7 +4,7 @@
 //! heartbeat consumers' duplicates), stores it once into the entry the
 //! precheck found, and lets the service that owns it take the new value
 //! ([`Services::apply`]). The SYNC and PDO records keep their own services'
-//! rules ([`Services::write_sync`], [`Services::write_pdo`]).
+//! rules ([`Services::check_sync`], [`Services::write_pdo`]).
 //!
 //! Abort codes (CiA 301 §7.5.2): every broken rule is 0x06090030, but a
 //! second heartbeat consumer for one node is 0x06040043 (§7.5.2.17), a COB-ID
@@ -122,7 +122,7 @@ impl Ctx<'_> {
                     _ => Err(AbortCode::LengthTooHigh),
                 };
             }
-            Kind::Sync => return self.services.write_sync(index, sub, data, dict, self.image),
+            Kind::Sync => self.services.check_sync(index, le_u32(data))?,
             Kind::Pdo => {
                 let operational = self.state == NmtState::Operational;
                 let rewrite = self.options.pdo_rewrite_while_valid;
