@@ -3,7 +3,7 @@
 
 use crate::abort::AbortCode;
 use crate::od::index;
-use crate::od::{Dictionary, Entry, store_checked};
+use crate::od::{Dictionary, Entry, object, store_checked, sub_entry, value_u32};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::pdo::Pdos;
@@ -11,6 +11,13 @@ use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::{Emcy, EmcyCode};
+
+/// (index, sub) as an integer, `default` if the dictionary lacks it.
+// Out of line: the services read a dozen objects this way.
+#[inline(never)]
+fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, default: u32) -> u32 {
+    dict.read_u32(image, index, sub).unwrap_or(default)
+}
 
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
@@ -86,7 +93,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             // i < HB, at most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
             #[allow(clippy::arithmetic_side_effects)]
             let sub = (i + 1) as u8;
-            let value = dict.read_u32(image, index::CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
+            let value = u32_of(dict, image, index::CONSUMER_HEARTBEAT_TIME, sub, 0);
             self.consumers.configure(i, value);
         }
     }
@@ -107,32 +114,33 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// Applies 0x1014/0x1015.
     pub fn configure_emcy(&mut self, dict: &Dictionary, image: &[u8]) {
         // Without 0x1014 the pre-defined connection set applies, and 0x1015 defaults to 0.
-        let cob = dict.read_u32(image, index::COB_ID_EMCY, 0).unwrap_or(0x8000_0000);
-        let inhibit = dict.read_u32(image, index::INHIBIT_TIME_EMCY, 0).unwrap_or(0) as u16;
+        let cob = u32_of(dict, image, index::COB_ID_EMCY, 0, 0x8000_0000);
+        let inhibit = u32_of(dict, image, index::INHIBIT_TIME_EMCY, 0, 0) as u16;
         self.emcy.configure(cob, inhibit);
     }
 
-    /// Applies a communication object after an SDO wrote it.
+    /// Applies a communication object after an SDO wrote it (idempotent:
+    /// the service reads the object's current value again).
     pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         let _ = node_id;
         match index {
             index::PRODUCER_HEARTBEAT_TIME => {
-                self.heartbeat.configure(dict.read_u32(image, index::PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0) as u16, now);
+                self.heartbeat.configure(u32_of(dict, image, index::PRODUCER_HEARTBEAT_TIME, 0, 0) as u16, now);
                 if self.heartbeat.active() {
                     // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
                     self.guarding.disarm();
                 }
             }
             index::GUARD_TIME | index::LIFE_TIME_FACTOR => {
-                let guard = dict.read_u32(image, index::GUARD_TIME, 0).unwrap_or(0) as u16;
-                let factor = dict.read_u32(image, index::LIFE_TIME_FACTOR, 0).unwrap_or(0) as u8;
+                let guard = u32_of(dict, image, index::GUARD_TIME, 0, 0) as u16;
+                let factor = u32_of(dict, image, index::LIFE_TIME_FACTOR, 0, 0) as u8;
                 self.guarding.configure(guard, factor);
             }
             index::COB_ID_TIME_STAMP => {
-                let v = dict.read_u32(image, index::COB_ID_TIME_STAMP, 0).unwrap_or(0);
+                let v = u32_of(dict, image, index::COB_ID_TIME_STAMP, 0, 0);
                 self.time_cob_id = (v & 0x8000_0000 != 0).then_some((v & 0x7FF) as u16);
             }
-            index::INHIBIT_TIME_EMCY => self.configure_emcy(dict, image),
+            index::COB_ID_EMCY | index::INHIBIT_TIME_EMCY => self.configure_emcy(dict, image),
             _ => {}
         }
     }
@@ -161,34 +169,29 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         if e.code == EmcyCode::NO_ERROR {
             return;
         }
-        let Ok(count) = dict.find(index::PRE_DEFINED_ERROR_FIELD, 0) else { return };
-        let capacity = dict.entries.iter().filter(|x| x.index == index::PRE_DEFINED_ERROR_FIELD && x.sub > 0).count().min(254) as u8;
+        // The record's entries found once; its sub-indices then among them.
+        let record = object(dict, index::PRE_DEFINED_ERROR_FIELD);
+        let Some(count) = sub_entry(record, 0) else { return };
+        let capacity = record.iter().filter(|x| x.sub > 0).count().min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
-        for sub in (2..=used.saturating_add(1).min(capacity)).rev() {
-            // sub ≥ 2: the range starts there.
-            #[allow(clippy::arithmetic_side_effects)]
-            let older = sub - 1;
-            if let Ok(prev) = dict.read(image, index::PRE_DEFINED_ERROR_FIELD, older) {
-                let mut b = [0u8; 4];
-                if let Some(dst) = b.get_mut(..prev.len().min(4)) {
-                    dst.copy_from_slice(prev.get(..dst.len()).unwrap_or(&[]));
-                }
-                let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, sub, &b);
-            }
-        }
         let [i0, i1, ..] = e.info;
-        let value = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
-        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 1, &value.to_le_bytes());
-        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 0, &[used.saturating_add(1).min(capacity)]);
+        // The newest at sub 1, each older one a sub-index on (the 32-bit entries of CiA 301 §7.5.2.4).
+        let mut carry = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
+        let len = used.saturating_add(1).min(capacity);
+        for sub in 1..=len {
+            let Some(entry) = sub_entry(record, sub) else { break };
+            let older = value_u32(dict, image, entry);
+            let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
+            carry = older;
+        }
+        let _ = dict.write_unchecked_entry(image, count, &[len]);
     }
 
     /// 0x1003 sub 0 ← 0: the history is empty.
     pub fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 0, &[0]);
-        for sub in 1..=254u8 {
-            if dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, sub, &[0; 4]).is_err() {
-                break;
-            }
+        // Every entry of the record zero (an empty value is zero-filled).
+        for entry in object(dict, index::PRE_DEFINED_ERROR_FIELD) {
+            let _ = dict.write_unchecked_entry(image, entry, &[]);
         }
     }
 }
@@ -282,15 +285,11 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
                 #[allow(clippy::arithmetic_side_effects)]
                 self.consumers.configure(usize::from(sub) - 1, value);
             }
-            (index::COB_ID_EMCY, 0) => self.configure_emcy(dict, image),
             (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
                 self.sync.apply(index, value)
             }
-            (index::COB_ID_TIME_STAMP, 0)
-            | (index::GUARD_TIME | index::LIFE_TIME_FACTOR | index::INHIBIT_TIME_EMCY | index::PRODUCER_HEARTBEAT_TIME, _) => {
-                self.reconfigure(index, dict, image, 0, now);
-            }
-            _ => {}
+            // The rest read their objects again (nothing for an object no service uses).
+            _ => self.reconfigure(index, dict, image, 0, now),
         }
     }
 }

@@ -59,6 +59,12 @@ impl Kind {
     }
 }
 
+/// Whether PDO record `index` (0x1400–0x1BFF) is a mapping (0x1600–0x17FF,
+/// 0x1A00–0x1BFF): bit 9 set, where the communication records have it clear.
+const fn is_mapping(index: u16) -> bool {
+    index & 0x200 != 0
+}
+
 impl Ctx<'_> {
     /// A checked write of (index, sub), whose `entry` passed [`Ctx::precheck`]:
     /// the object's kind applies its rules, the service that owns it its value.
@@ -126,8 +132,7 @@ impl Ctx<'_> {
             Kind::Pdo => {
                 let operational = self.state == NmtState::Operational;
                 let rewrite = self.options.pdo_rewrite_while_valid;
-                let mapping = matches!(index, index::RPDO_MAPPING_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST | index::TPDO_MAPPING_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST);
-                if rewrite && operational && mapping {
+                if rewrite && operational && is_mapping(index) {
                     // The manual's order: mappings change in Pre-operational only.
                     return Err(AbortCode::DeviceState);
                 }
