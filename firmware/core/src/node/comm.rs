@@ -83,9 +83,8 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         self.emcy.reset();
-        self.configure_emcy(dict, image);
         self.guarding.reset();
-        for index in [index::GUARD_TIME, index::PRODUCER_HEARTBEAT_TIME, index::COB_ID_TIME_STAMP] {
+        for index in [index::COB_ID_EMCY, index::GUARD_TIME, index::PRODUCER_HEARTBEAT_TIME, index::COB_ID_TIME_STAMP] {
             self.reconfigure(index, dict, image, node_id, now);
         }
         self.sync.configure(dict, image);
@@ -93,7 +92,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             // i < HB, at most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
             #[allow(clippy::arithmetic_side_effects)]
             let sub = (i + 1) as u8;
-            let value = u32_of(dict, image, index::CONSUMER_HEARTBEAT_TIME, sub, 0);
+            let value = dict.read_u32(image, index::CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
             self.consumers.configure(i, value);
         }
     }
