@@ -121,20 +121,19 @@ impl CommParams {
                     return Err(AbortCode::InvalidValue);
                 }
             }
-            3 => {
-                new.inhibit_time_100us = value as u16;
-                if self.valid() && new.inhibit_time_100us != self.inhibit_time_100us {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
+            3 => new.inhibit_time_100us = value as u16,
             5 => new.event_timer_ms = value as u16,
             6 => {
                 new.sync_start = value as u8;
-                if new.sync_start > 240 || (self.valid() && new.sync_start != self.sync_start) {
+                if new.sync_start > 240 {
                     return Err(AbortCode::InvalidValue);
                 }
             }
             _ => {}
+        }
+        // The inhibit time and the SYNC start value change only while the PDO is not valid.
+        if matches!(sub, 3 | 6) && self.valid() && new != self {
+            return Err(AbortCode::InvalidValue);
         }
         Ok(new)
     }
