@@ -50,6 +50,7 @@ mod controller;
 mod dispatch;
 mod filter;
 mod lss;
+mod objects;
 mod process;
 mod reset;
 mod router;
