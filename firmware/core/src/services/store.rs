@@ -344,4 +344,4 @@ mod job;
 #[cfg(test)]
 mod tests;
 
-pub use job::{CHECK_STAGE, Job, STAGE, newest};
+pub use job::{Job, STAGE, newest};

@@ -1,10 +1,10 @@
 //! A store in stages ([`Job`]): the node runs one [`Job::step`] per
 //! `process` call, so that no call writes more than [`STAGE`] bytes or
-//! checks more than [`CHECK_STAGE`] (docs/firmware.md, "Store and restore
-//! in stages").
+//! checks more than one set (docs/firmware.md, "Store and restore in
+//! stages").
 //!
 //! The steps are those of one store, in order: find the newest valid set
-//! (its payload's CRC, a piece per step), erase the other region, write the
+//! (its payload's CRC, [`newest`]), erase the other region, write the
 //! payload (a piece per step, each ending at a value's end, so that every
 //! value is taken whole from the image of one step), then the header. A
 //! power cut at any step leaves the old set valid until the header of the
@@ -21,10 +21,6 @@ use core::ops::Range;
 /// whole into one step): at most about 11,000 instructions on thumbv7m
 /// (`cargo xtask icount`, the interop dictionary).
 pub const STAGE: usize = 128;
-/// Payload bytes a step checks at most (the CRC of the newest set, at a
-/// store and at a reset): about 7,000 instructions.
-pub const CHECK_STAGE: usize = 4 * STAGE;
-
 /// Where a [`Job`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
@@ -46,9 +42,6 @@ pub struct Job {
     /// Scopes saved from the image, and scopes marked as defaults ([`Scope`] bits).
     save: u8,
     reset: u8,
-    /// Sets found broken so far while finding the newest: the newer one's
-    /// region is checked first, then the other; 2 = none left.
-    tried: u8,
     /// A new LSS configuration (node-id, bit-rate table index), if `new_lss`.
     lss: [u8; 2],
     new_lss: bool,
@@ -60,8 +53,7 @@ pub struct Job {
     app: u16,
     /// The newest valid set found, which the new one follows.
     old: Option<StoredSet>,
-    /// Payload bytes checked (finding) or written so far, and their CRC
-    /// (see [`crc_pieces`]).
+    /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
     pos: u16,
     crc: u32,
 }
@@ -72,13 +64,22 @@ fn span(range: Range<usize>) -> (u16, u16) {
 }
 
 /// The newest valid set: only the newer header's payload is checked when
-/// it is intact (an older set cannot win over it, valid or not).
+/// it is intact (an older set cannot win over it, valid or not). One call,
+/// as a reset's first stage and a store's first step: a CRC over the stored
+/// prefix (about 15,000 thumbv7m instructions for the interop dictionary's
+/// 796 bytes; twice that only if the newer set is broken).
 pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
-    let mut job = Job::new(0, 0, (0, 0), (0, 0));
-    while job.phase == Phase::Find {
-        job.find(dict, storage, usize::MAX);
-    }
-    job.old
+    let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
+    // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
+    let first = match &headers {
+        [Some(a), Some(b)] => u8::from(b.0.seq.wrapping_sub(a.0.seq) as i32 > 0),
+        [a, _] => u8::from(a.is_none()),
+    };
+    [first, first ^ 1].into_iter().find_map(|region| {
+        let (set, crc) = headers.get(usize::from(region)).copied().flatten()?;
+        let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(region, at.saturating_add(HEADER), piece));
+        (checked == Ok(crc)).then_some(set)
+    })
 }
 
 impl Job {
@@ -87,7 +88,6 @@ impl Job {
         phase: Phase::Idle,
         save: 0,
         reset: 0,
-        tried: 0,
         lss: [0; 2],
         new_lss: false,
         from_image: (0, 0),
@@ -187,7 +187,7 @@ impl Job {
     ) -> Result<bool, StorageError> {
         let target = self.old.map_or(0, |set| set.region ^ 1);
         match self.phase {
-            Phase::Find => self.find(dict, storage, budget.saturating_mul(4)),
+            Phase::Find => (self.old, self.phase) = (newest(dict, storage), Phase::Erase),
             Phase::Erase => {
                 storage.erase(target)?;
                 (self.phase, self.app) = (Phase::Write, application_start(dict) as u16);
@@ -208,43 +208,6 @@ impl Job {
             }
         }
         Ok(false)
-    }
-
-    /// Checks at most `budget` payload bytes of the newest set in hand
-    /// (its CRC); once found valid, or none is left, the store erases. The
-    /// headers are read at every step (the storage does not change between
-    /// steps), which costs less than keeping them.
-    fn find(&mut self, dict: &Dictionary, storage: &mut dyn Storage, budget: usize) {
-        let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
-        // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
-        let first = match &headers {
-            [Some(a), Some(b)] => u8::from(b.0.seq.wrapping_sub(a.0.seq) as i32 > 0),
-            [a, _] => u8::from(a.is_none()),
-        };
-        while self.tried < 2 {
-            let region = first ^ self.tried;
-            self.tried = self.tried.wrapping_add(1);
-            if let Some((set, crc)) = headers.get(usize::from(region)).copied().flatten() {
-                let pos = usize::from(self.pos);
-                let end = dict.stored_len.min(pos.saturating_add(budget));
-                let checked = crc_pieces(pos..end, self.crc, &mut |at, piece| storage.read(region, at.saturating_add(HEADER), piece));
-                (self.pos, self.crc) = (0, 0);
-                match checked {
-                    Ok(sum) if end < dict.stored_len => {
-                        // Not yet at the end: this set again at the next step.
-                        (self.tried, self.pos, self.crc) = (self.tried.wrapping_sub(1), end as u16, sum);
-                        return;
-                    }
-                    Ok(sum) if sum == crc => {
-                        self.old = Some(set);
-                        break;
-                    }
-                    // Cut short, or the storage failed: the other set, in the next step.
-                    _ => return,
-                }
-            }
-        }
-        self.phase = Phase::Erase;
     }
 
     /// The new set's payload bytes at `at`, each from its source: the image
