@@ -92,6 +92,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if Self::LOADS_STORED { store::newest(self.od.dictionary(), &mut self.storage) } else { None }
     }
 
+    /// A part of the image from its defaults and the stored set found (a
+    /// node without storage links no store code: the defaults alone).
+    fn reset_part(&mut self, part: Part) {
+        let (dict, image) = (self.od.dictionary(), self.od.image_mut());
+        if Self::LOADS_STORED {
+            store::reset_part(dict, image, self.node_id, &mut self.storage, self.reset_stored.as_ref(), part);
+        } else if part == Part::Communication {
+            dict.reset_communication(image, self.node_id);
+        } else {
+            dict.reset_application(image, self.node_id);
+        }
+    }
+
     /// Starts reset application (and then communication): see [`Stage`].
     pub(super) fn reset_application(&mut self) {
         self.begin_reset(true);
@@ -146,13 +159,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 if let Some(lss) = self.lss_mut() {
                     self.node_id = lss.reset_communication();
                 }
-                let image = self.od.image_mut();
-                dict.reset_communication(image, self.node_id);
-                if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
-                    set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
-                }
+                self.reset_part(Part::Communication);
                 if let Some(serial) = self.serial {
-                    let _ = dict.write_unchecked(image, index::IDENTITY, 4, &serial.to_le_bytes());
+                    let _ = dict.write_unchecked(self.od.image_mut(), index::IDENTITY, 4, &serial.to_le_bytes());
                 }
             }
             Stage::Services => self.comm.configure(dict, self.od.image(), self.node_id, now),
@@ -174,12 +183,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Reset application: the application part of the image from its
     /// defaults and the stored set, then the device's hook.
     fn reset_application_part(&mut self, now: Instant) {
-        let dict = self.od.dictionary();
-        let image = self.od.image_mut();
-        dict.reset_application(image, self.node_id);
-        if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
-            set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
-        }
+        self.reset_part(Part::Application);
         self.reset_hook(now, NmtEvent::ResetApplication);
     }
 

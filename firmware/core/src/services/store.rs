@@ -194,42 +194,57 @@ impl StoredSet {
         (id != 0xFF || rate != 0xFF).then_some((id, rate))
     }
 
-    /// Overwrites the writable entries of `part` with this set (after the
-    /// reset copied the defaults). Returns whether any value was taken from
-    /// it. If the storage fails, the part gets its defaults back.
-    ///
-    /// The part's payload is one read into the image; the values the set
-    /// does not hold for a reset (read-only ones, scopes it marks as default)
-    /// then get their defaults back, and the `$NODEID` values (stored
-    /// relative, as the defaults are) the node-id.
+    /// Resets `part` of the image from this set: see [`reset_part`].
     pub fn load(&self, dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
-        let communication = part == Part::Communication;
-        let range = if communication { 0..dict.comm_len } else { dict.comm_len..dict.stored_len };
-        let start = range.start.saturating_add(HEADER);
-        if image.get_mut(range).is_none_or(|dst| storage.read(self.region, start, dst).is_err()) {
-            if communication {
-                dict.reset_communication(image, node_id)
-            } else {
-                dict.reset_application(image, node_id)
-            }
-            return false;
-        }
-        let mut used = false;
-        for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && in_set(dict, e)) {
-            let r = e.range();
-            if let (Some(value), Some(default)) = (image.get_mut(r.clone()), dict.defaults.get(r)) {
-                let loaded = e.attr.contains(Attr::WRITE) && self.defaults & scope_bit(e.index) == 0;
-                if !loaded {
-                    value.copy_from_slice(default);
-                }
-                if e.attr.contains(Attr::NODE_ID) {
-                    crate::od::add_le(value, u64::from(node_id));
-                }
-                used |= loaded;
-            }
-        }
-        used
+        reset_part(dict, image, node_id, storage, Some(self), part)
     }
+}
+
+/// Resets `part` of the image (CiA 301 reset communication or application):
+/// its defaults, then, with a set, the values the set holds for a reset,
+/// and the node-id on the `$NODEID` values (a set keeps them relative, as
+/// the defaults are). Returns whether a value was taken from the set; if
+/// the storage fails, the part keeps its defaults.
+///
+/// The part's stored payload is one read into the image; the values the
+/// set does not hold for a reset (read-only ones, scopes it marks as
+/// default) then get their defaults back, in the one walk over the part's
+/// entries that adds the node-id.
+pub fn reset_part(
+    dict: &Dictionary,
+    image: &mut [u8],
+    node_id: u8,
+    storage: &mut dyn Storage,
+    set: Option<&StoredSet>,
+    part: Part,
+) -> bool {
+    let communication = part == Part::Communication;
+    let rest = dict.stored_len.saturating_add(dict.comm_rest);
+    let [stored, others] =
+        if communication { [0..dict.comm_len, dict.stored_len..rest] } else { [dict.comm_len..dict.stored_len, rest..dict.defaults.len()] };
+    let start = stored.start.saturating_add(HEADER);
+    let set = set.filter(|set| image.get_mut(stored.clone()).is_some_and(|dst| storage.read(set.region, start, dst).is_ok()));
+    // The defaults where the set was not read.
+    for (read, range) in [(set.is_some(), stored), (false, others)] {
+        if let (false, Some(dst), Some(src)) = (read, image.get_mut(range.clone()), dict.defaults.get(range)) {
+            dst.copy_from_slice(src);
+        }
+    }
+    let mut used = false;
+    for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && !e.in_rom()) {
+        let r = e.range();
+        if let (Some(value), Some(default)) = (image.get_mut(r.clone()), dict.defaults.get(r)) {
+            let held = set.map(|set| e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0);
+            if held == Some(false) && in_set(dict, e) {
+                value.copy_from_slice(default);
+            }
+            if e.attr.contains(Attr::NODE_ID) {
+                crate::od::add_le(value, u64::from(node_id));
+            }
+            used |= held == Some(true) && in_set(dict, e);
+        }
+    }
+    used
 }
 
 /// 0x1010 "save": stores the scope's parameters.
@@ -332,10 +347,10 @@ pub enum Part {
     Application,
 }
 
-/// Overwrites the writable entries of `part` with the newest stored set
-/// (after the reset copied the defaults). Returns whether a set was used.
-/// A reset that loads both parts finds the set once with [`newest`] and
-/// calls [`StoredSet::load`] for each.
+/// Resets `part` of the image from the newest stored set ([`reset_part`]);
+/// returns whether a value was taken from one (without a set, the image is
+/// left as it is). A reset that loads both parts finds the set once with
+/// [`newest`] and calls [`StoredSet::load`] for each.
 pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
     newest(dict, storage).is_some_and(|set| set.load(dict, image, node_id, storage, part))
 }

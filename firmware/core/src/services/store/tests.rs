@@ -504,7 +504,7 @@ fn a_set_holds_the_stored_prefix_alone() {
     assert_eq!(stored_value(&PREFIX, &mut a, 1, 0x1017, 0, &mut [0; 2]), Some(2));
     let mut img = [0xE8, 0x03, 7];
     assert!(load(&PREFIX, &mut img, 1, &mut a, Part::Communication));
-    assert_eq!(img, [0x10, 0, 7], "the reset takes 0x1017 from the set and leaves 0x1001");
+    assert_eq!(img, [0x10, 0, 0], "the reset takes 0x1017 from the set and 0x1001's default");
     // Reset communication restores both runs of the communication area.
     PREFIX.reset_communication(&mut img, 1);
     assert_eq!(img, [0xE8, 0x03, 0]);
