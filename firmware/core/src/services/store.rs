@@ -134,6 +134,9 @@ fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
     crc
 }
 
+/// Payload bytes [`crc_pieces`] handles at a time: a store's step ([`STAGE`]).
+const PIECE: usize = 128;
+
 /// Fills (and writes) the payload bytes at an offset: see [`crc_pieces`].
 type Piece<'a> = dyn FnMut(usize, &mut [u8]) -> Result<(), StorageError> + 'a;
 
@@ -146,9 +149,9 @@ type Piece<'a> = dyn FnMut(usize, &mut [u8]) -> Result<(), StorageError> + 'a;
 #[allow(clippy::arithmetic_side_effects)]
 #[inline(never)]
 fn crc_pieces(range: Range<usize>, crc: u32, piece: &mut Piece<'_>) -> Result<u32, StorageError> {
-    let mut buf = [0u8; 64];
+    let mut buf = [0u8; PIECE];
     let (mut pos, mut crc) = (range.start, !crc);
-    while let Some(chunk) = buf.get_mut(..range.end.saturating_sub(pos).min(64)).filter(|c| !c.is_empty()) {
+    while let Some(chunk) = buf.get_mut(..range.end.saturating_sub(pos).min(PIECE)).filter(|c| !c.is_empty()) {
         piece(pos, chunk)?;
         crc = crc32_update(crc, chunk);
         pos += chunk.len();

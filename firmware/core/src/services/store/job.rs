@@ -20,7 +20,7 @@ use core::ops::Range;
 /// Payload bytes a step writes at most (a value longer than this goes
 /// whole into one step): at most about 11,000 instructions on thumbv7m
 /// (`cargo xtask icount`, the interop dictionary).
-pub const STAGE: usize = 128;
+pub const STAGE: usize = super::PIECE;
 /// Where a [`Job`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
@@ -244,32 +244,21 @@ impl Job {
                 *byte = b;
             }
         }
-        // `$NODEID` values from the image are stored relative to the node-id
-        // (at most 8 bytes: od-gen's integer types); a value may begin in
-        // the piece before.
+        // `$NODEID` values from the image are stored relative to the node-id.
+        // A step's payload is one piece but for a single value longer than
+        // one (not a `$NODEID` value: an integer), so each lies in one piece.
         for e in dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))) {
             let r = e.range();
-            // (A value past the stored prefix does not meet the piece.)
-            if r.end > at
-                && r.start < at.saturating_add(piece.len())
-                && r.len() <= 8
+            if let Some(value) = piece.get_mut(r.start.wrapping_sub(at)..r.end.wrapping_sub(at))
                 && core::ptr::eq(self.source(dict, image, r.start), image)
             {
-                let value = image.get(r.clone()).unwrap_or(&[]).iter().rev().fold(0u64, |v, &b| v << 8 | u64::from(b));
-                let mut relative = value.wrapping_sub(u64::from(node_id));
-                for off in r {
-                    if let Some(dst) = off.checked_sub(at).and_then(|i| piece.get_mut(i)) {
-                        *dst = relative as u8;
-                    }
-                    relative >>= 8;
-                }
+                crate::od::add_le(value, u64::from(node_id).wrapping_neg());
             }
         }
         Ok(())
     }
 
-    /// Where the payload byte at `off` comes from.
-    /// The bytes at `off` are those of the returned slice (the image, the
+    /// Where the payload byte at `off` comes from: the bytes at `off` are those of the returned slice (the image, the
     /// defaults), or none for the newest set's, already in place.
     fn source<'a>(&self, dict: &'a Dictionary, image: &'a [u8], off: usize) -> &'a [u8] {
         let bit = if off < dict.comm_len {
