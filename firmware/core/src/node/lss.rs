@@ -109,8 +109,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         match action {
             LssAction::None => {}
-            LssAction::Answer(bytes) => {
-                self.push(SLAVE_COB_ID, &bytes);
+            LssAction::Answer(answer) => {
+                self.push(SLAVE_COB_ID, &answer.bytes());
             }
             LssAction::ActivateBitTiming { delay_ms, index } => {
                 let delay = Duration::from_millis(u64::from(delay_ms));
