@@ -10,6 +10,8 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 const WAIT: Duration = Duration::from_secs(10);
+/// The longest a burst test waits for the frames it expects.
+const BURST: Duration = Duration::from_secs(30);
 /// SDO upload request 0x1000:00 to node 5, and ec5000's answer.
 const UPLOAD_1000: &str = "t60584000100000000000";
 const DEVICE_TYPE: &str = "t58584300100092014200";
@@ -124,6 +126,23 @@ impl Master {
         }
     }
 
+    /// Every line until `done` holds for them (or [`BURST`] has passed),
+    /// then every line until none came for `quiet`: a loaded machine may
+    /// stall the node longer than any quiet period, so the wait ends on
+    /// what arrived, and the quiet period only looks for extra frames.
+    fn collect_until(&self, done: impl Fn(&[String]) -> bool, quiet: Duration) -> Vec<String> {
+        let deadline = Instant::now() + BURST;
+        let mut out = Vec::new();
+        while !done(&out) {
+            match self.lines.recv_timeout(deadline.saturating_duration_since(Instant::now())) {
+                Ok(l) => out.push(l),
+                Err(_) => return out,
+            }
+        }
+        out.extend(self.collect(quiet));
+        out
+    }
+
     /// Every line that comes within `time`.
     fn during(&self, time: Duration) -> Vec<String> {
         let deadline = Instant::now() + time;
@@ -163,7 +182,7 @@ fn back_to_back_sdo_requests_are_all_answered() {
     m.collect(Duration::from_millis(100));
     const N: usize = 2000;
     m.send(&format!("{UPLOAD_1000}\r").repeat(N));
-    let lines = m.collect(Duration::from_millis(500));
+    let lines = m.collect_until(|l| count(l, DEVICE_TYPE) >= N, Duration::from_millis(300));
     assert_eq!(count(&lines, "z"), N, "every request acknowledged");
     assert_eq!(count(&lines, DEVICE_TYPE), N, "every request answered");
 }
@@ -199,7 +218,7 @@ fn every_sync_of_a_burst_gives_its_tpdo() {
     m.send("t00020105\r"); // NMT start node 5: TPDO3 (0x385) is synchronous, type 1
     m.collect(Duration::from_millis(200));
     m.send(&"t0800\r".repeat(200));
-    let lines = m.collect(Duration::from_millis(500));
+    let lines = m.collect_until(|l| count(l, "t385") >= 200, Duration::from_millis(300));
     assert_eq!(count(&lines, "t385"), 200);
     assert_eq!(count(&lines, "t085"), 0, "no EMCY (a lost frame would raise 0x8110)");
 }
