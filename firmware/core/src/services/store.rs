@@ -363,4 +363,4 @@ mod job;
 #[cfg(test)]
 mod tests;
 
-pub use job::{Job, STAGE, newest};
+pub use job::{Job, STAGE, check, newest};
