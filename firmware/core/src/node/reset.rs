@@ -96,8 +96,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The newer (or `older`) stored set checked ([`store::check`]); none
     /// on a node without storage, which then links no store code.
-    fn check_stored(&mut self, older: bool) -> Option<Result<StoredSet, ()>> {
-        if Self::LOADS_STORED { store::check(self.od.dictionary(), &mut self.storage, older) } else { None }
+    fn check_stored(&mut self, older: bool) -> Result<Option<StoredSet>, ()> {
+        if Self::LOADS_STORED { store::check(self.od.dictionary(), &mut self.storage, older) } else { Ok(None) }
     }
 
     /// A part of the image from its defaults and the stored set found (a
@@ -166,12 +166,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             | Stage::FindOlderThenApplication
             | Stage::FindOlderThenCommunication => {
                 let older = matches!(stage, Stage::FindOlderThenApplication | Stage::FindOlderThenCommunication);
-                let found = self.check_stored(older);
-                self.reset_stored = found.and_then(Result::ok);
-                // A broken newer set: the older one in a call of its own.
-                if found == Some(Err(())) && !older {
-                    let application = self.reset == Stage::Application;
-                    self.reset = if application { Stage::FindOlderThenApplication } else { Stage::FindOlderThenCommunication };
+                match self.check_stored(older) {
+                    Ok(set) => self.reset_stored = set,
+                    // A broken newer set: the older one in a call of its own.
+                    Err(()) => {
+                        let application = self.reset == Stage::Application;
+                        self.reset = if application { Stage::FindOlderThenApplication } else { Stage::FindOlderThenCommunication };
+                    }
                 }
             }
             Stage::Application => self.reset_application_part(now),

@@ -67,33 +67,32 @@ fn span(range: Range<usize>) -> (u16, u16) {
 }
 
 /// The newest valid set: only the newer header's payload is checked when
-/// it is intact (an older set cannot win over it, valid or not). One call
-/// (a power-on, the synchronous store, a device's start-up read); a store
-/// and an NMT reset check a set per step instead ([`check`]).
+/// it is intact (an older set cannot win over it, valid or not). In one
+/// call, for [`super::load`] and [`super::stored_value`] (a device's
+/// start-up read); a store, a power-on and an NMT reset check a set per
+/// step instead.
 pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
-    match check(dict, storage, false) {
-        Some(Err(())) => check(dict, storage, true),
-        found => found,
-    }
-    .and_then(Result::ok)
+    check(dict, storage, false).or_else(|()| check(dict, storage, true)).ok().flatten()
 }
 
-/// The set of the newer header (of the older one if `older`) with its
-/// payload's CRC checked: `None` if there is no such header, `Err` if its
-/// payload is broken (then the older set is the one to check). One CRC over
-/// the stored prefix per call: about 10,000 thumbv7m instructions for the
-/// interop dictionary's 796 bytes, so that a broken newer set costs a second
-/// call, not a call twice as long (`cargo xtask icount`, `*-newer-broken`).
-pub fn check(dict: &Dictionary, storage: &mut dyn Storage, older: bool) -> Option<Result<StoredSet, ()>> {
+/// The set of the newer header (of the older one if `older`) if its
+/// payload's CRC holds: `Ok(None)` if there is none, `Err` if the newer
+/// set's payload is broken (the older one is then the one to check; a
+/// broken older one is none). One CRC over the stored prefix per call:
+/// about 10,000 thumbv7m instructions for the interop dictionary's 796
+/// bytes, so that a broken newer set costs a second call, not a call twice
+/// as long (`cargo xtask icount`, `*-newer-broken`).
+pub(crate) fn check(dict: &Dictionary, storage: &mut dyn Storage, older: bool) -> Result<Option<StoredSet>, ()> {
     let (a, b) = (read_header(storage, 0, dict), read_header(storage, 1, dict));
     // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
     let b_first = match (&a, &b) {
         (Some(a), Some(b)) => b.0.seq.wrapping_sub(a.0.seq) as i32 > 0,
         (a, _) => a.is_none(),
     };
-    let (set, crc) = if b_first != older { b } else { a }?;
+    let Some((set, crc)) = (if b_first != older { b } else { a }) else { return Ok(None) };
     let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(set.region, at.saturating_add(HEADER), piece));
-    Some(if checked == Ok(crc) { Ok(set) } else { Err(()) })
+    let valid = checked == Ok(crc);
+    if valid || older { Ok(valid.then_some(set)) } else { Err(()) }
 }
 
 impl Job {
@@ -201,14 +200,10 @@ impl Job {
     ) -> Result<bool, StorageError> {
         let target = self.old.map_or(0, |set| set.region ^ 1);
         match self.phase {
-            Phase::Find | Phase::FindOlder => {
-                let older = self.phase == Phase::FindOlder;
-                let found = check(dict, storage, older);
-                (self.old, self.phase) = (found.and_then(Result::ok), Phase::Erase);
-                if found == Some(Err(())) && !older {
-                    self.phase = Phase::FindOlder;
-                }
-            }
+            Phase::Find | Phase::FindOlder => match check(dict, storage, self.phase == Phase::FindOlder) {
+                Ok(old) => (self.old, self.phase) = (old, Phase::Erase),
+                Err(()) => self.phase = Phase::FindOlder,
+            },
             Phase::Erase => {
                 storage.erase(target)?;
                 (self.phase, self.app) = (Phase::Write, application_start(dict) as u16);
