@@ -241,3 +241,43 @@ fn other_frames_are_served_between_stages_and_a_value_written_meanwhile_is_store
         assert!(v == written || v == *before, "0x2100 sub {sub}: {v:02x?}");
     }
 }
+
+/// NMT reset node, the `process` calls it takes to its boot-up.
+fn reset_node_calls(b: &mut Interop) -> usize {
+    deliver(b, 0x000, &[0x81, ID]);
+    let mut calls = 0;
+    while {
+        let (_, sent) = stage(b);
+        calls += 1;
+        assert!(calls < 64);
+        sent.is_empty()
+    } {}
+    assert!(!b.node.resetting());
+    calls
+}
+
+#[test]
+fn a_reset_over_a_broken_newer_set_checks_the_older_one_in_a_call_of_its_own() {
+    let (steps, intact) = {
+        let mut b = old_stored_new_in_ram();
+        let before = b.node.storage_mut().steps();
+        deliver(&mut b, RX, &SAVE);
+        finish(&mut b);
+        let steps = b.node.storage_mut().steps() - before;
+        set(&mut b, 0, 0x11);
+        let calls = reset_node_calls(&mut b);
+        assert_eq!(parameters(&mut b), p(700, 0x77));
+        (steps, calls)
+    };
+    // A cut in the header's last half-word: the newer header is there, its CRC is not.
+    let mut b = old_stored_new_in_ram();
+    b.node.storage_mut().cut_after(steps);
+    deliver(&mut b, RX, &SAVE);
+    finish(&mut b);
+    let mut b = boot(cycled(&mut b));
+    assert_eq!(parameters(&mut b), p(300, 0x33), "power-on loads the older set");
+    set(&mut b, 0, 0x11);
+    // One CRC per call: the newer set's, then the older one's.
+    assert_eq!(reset_node_calls(&mut b), intact + 1);
+    assert_eq!(parameters(&mut b), p(300, 0x33), "the reset loads the older set");
+}

@@ -6,6 +6,7 @@
 
 use canopen_core::frame::CanFrame;
 use canopen_core::services::store::{LOAD, SAVE};
+use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
 use canopen_core::wire::sdo_block::crc16;
 use embedded_can::Frame;
@@ -36,7 +37,7 @@ impl Case {
 }
 
 /// The cases: per-frame work that grows with a mapping or an object, then the storage and reset paths.
-pub const CASES: [Case; 12] = [
+pub const CASES: [Case; 15] = [
     Case {
         name: "rpdo-5-entries",
         what: "RPDO1 remapped to 8 bytes: 0x2000, 0x2001, 0x2100 sub 1 and 2, an 8-bit dummy",
@@ -171,6 +172,34 @@ pub const CASES: [Case; 12] = [
         },
     },
     Case {
+        name: "store-0x1010-newer-broken",
+        what: "0x1010 sub 1 \"save\" with two stored sets, the newer one's CRC broken (both sets checked)",
+        prepare: |now| {
+            let mut node = two_sets_newer_broken(now)?;
+            sdo_write(&mut node, now, 0x2003, 0, STORED_VALUE, 4)?;
+            Ok((node, sdo_download(0x1010, 1, SAVE)))
+        },
+        check: |_, _, answer| answer.expect("store over a broken set", 1, Some((SDO_TX, &[0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0]))),
+    },
+    Case {
+        name: "nmt-reset-node-newer-broken",
+        what: "NMT reset node with two stored sets, the newer one's CRC broken (both sets checked, the older one loaded)",
+        prepare: |now| Ok((two_sets_newer_broken(now)?, frame(0x000, &[0x81, NODE_ID]))),
+        check: |node, _, answer| {
+            answer.expect("reset node over a broken set: boot-up", 1, Some((HEARTBEAT, &[0x00])))?;
+            expect_values(node, "reset node: the older set's 0x2003", &[(0x2003, 0, &STORED_VALUE.to_le_bytes())])
+        },
+    },
+    Case {
+        name: "nmt-reset-communication-newer-broken",
+        what: "NMT reset communication with two stored sets, the newer one's CRC broken (both sets checked, the older one loaded)",
+        prepare: |now| Ok((two_sets_newer_broken(now)?, frame(0x000, &[0x82, NODE_ID]))),
+        check: |node, _, answer| {
+            answer.expect("reset communication over a broken set: boot-up", 1, Some((HEARTBEAT, &[0x00])))?;
+            expect_values(node, "reset communication: the older set's 0x1017", &[(0x1017, 0, &STORED_HEARTBEAT_MS.to_le_bytes()[..2])])
+        },
+    },
+    Case {
         name: "sdo-download-pdo-mapping",
         what: "expedited SDO download of 0x1600 sub 0 = 8 (validates the eight entries of `rpdo-8-entries`)",
         prepare: |now| {
@@ -208,6 +237,24 @@ fn blob() -> [u8; BLOB_LEN] {
         *byte = (i * 7 + 3) as u8;
     }
     data
+}
+
+/// A node with two stored sets whose newer one (region 1) has a broken CRC:
+/// the older one holds 0x2003 = [`STORED_VALUE`] and 0x1017 =
+/// [`STORED_HEARTBEAT_MS`], the newer other values; the image holds neither.
+fn two_sets_newer_broken(now: Instant) -> Result<Dut, Mismatch> {
+    let mut node = new_node(now)?;
+    sdo_write(&mut node, now, 0x2003, 0, STORED_VALUE, 4)?;
+    sdo_write(&mut node, now, 0x1017, 0, STORED_HEARTBEAT_MS, 2)?;
+    sdo_write(&mut node, now, 0x1010, 1, SAVE, 4)?;
+    sdo_write(&mut node, now, 0x2003, 0, 1, 4)?;
+    sdo_write(&mut node, now, 0x1017, 0, 1, 2)?;
+    sdo_write(&mut node, now, 0x1010, 1, SAVE, 4)?;
+    // The CRC word of the header (bytes 20..24); programming can only clear bits, as in flash.
+    node.storage_mut().write(1, 20, &[0; 4]).map_err(|_| Mismatch { step: "breaking the newer set", answer: Answer::default() })?;
+    sdo_write(&mut node, now, 0x2003, 0, 0, 4)?;
+    sdo_write(&mut node, now, 0x1017, 0, 0, 2)?;
+    Ok(node)
 }
 
 /// An expedited 4-byte SDO download request.

@@ -28,8 +28,14 @@ pub(super) enum Stage {
     Idle,
     /// Finds the newest stored set (a CRC over it), then resets communication.
     FindThenCommunication,
-    /// Finds the newest stored set, then resets the application.
+    /// The newer set was broken: checks the older one (a second CRC, in a
+    /// call of its own), then resets communication.
+    FindOlderThenCommunication,
+    /// Finds the newest stored set, then resets the application (the
+    /// stages from here to `Application` are a reset that includes it).
     FindThenApplication,
+    /// The same with the older set.
+    FindOlderThenApplication,
     /// The application part of the image: defaults, then the stored set.
     Application,
     /// The communication part of the image: defaults, then the stored set.
@@ -49,8 +55,8 @@ impl Stage {
     fn next(self) -> Stage {
         match self {
             Stage::Idle | Stage::Finish => Stage::Idle,
-            Stage::FindThenCommunication => Stage::Communication,
-            Stage::FindThenApplication => Stage::Application,
+            Stage::FindThenCommunication | Stage::FindOlderThenCommunication => Stage::Communication,
+            Stage::FindThenApplication | Stage::FindOlderThenApplication => Stage::Application,
             Stage::Application => Stage::Communication,
             Stage::Communication => Stage::Services,
             Stage::Services => Stage::Rpdos,
@@ -73,12 +79,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.node_id = node_id;
         // The TPDOs compare their data at their first chance, whatever the image held before.
         self.touched = ALL_TPDOS;
-        // One check of the stored sets serves the LSS configuration and both parts of the reset.
-        let stored = self.newest_stored();
-        self.load_lss_configuration(stored);
+        // The reset's check of the stored sets serves the LSS configuration
+        // too, which it loads before the reset takes the node-id.
         self.begin_reset(true);
-        self.reset_stored = stored;
+        while Self::LOADS_STORED && self.reset != Stage::Application {
+            self.reset_step(now);
+        }
         self.reset = Stage::Application;
+        self.load_lss_configuration(self.reset_stored.filter(|_| Self::LOADS_STORED));
         self.complete_reset(now);
     }
 
@@ -86,10 +94,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// (`Services::storage`) or the device's own store command (`Application::STORES`).
     const LOADS_STORED: bool = O::SERVICES.storage || A::STORES;
 
-    /// The newest valid stored set; none on a node without storage, which
-    /// then links no store code.
-    fn newest_stored(&mut self) -> Option<StoredSet> {
-        if Self::LOADS_STORED { store::newest(self.od.dictionary(), &mut self.storage) } else { None }
+    /// The newer (or `older`) stored set checked ([`store::check`]); none
+    /// on a node without storage, which then links no store code.
+    fn check_stored(&mut self, older: bool) -> Result<Option<StoredSet>, ()> {
+        if Self::LOADS_STORED { store::check(self.od.dictionary(), &mut self.storage, older) } else { Ok(None) }
     }
 
     /// A part of the image from its defaults and the stored set found (a
@@ -118,7 +126,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The node is Initialising from here on; a reset that includes the
     /// application stays one if a reset communication interrupts it.
     fn begin_reset(&mut self, application: bool) {
-        let application = application || matches!(self.reset, Stage::FindThenApplication | Stage::Application);
+        let application =
+            application || matches!(self.reset, Stage::FindThenApplication | Stage::FindOlderThenApplication | Stage::Application);
         self.reset = if application { Stage::FindThenApplication } else { Stage::FindThenCommunication };
         self.nmt = Nmt::new();
         self.boot_pending = false;
@@ -152,7 +161,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let dict = self.od.dictionary();
         match stage {
             Stage::Idle => {}
-            Stage::FindThenApplication | Stage::FindThenCommunication => self.reset_stored = self.newest_stored(),
+            Stage::FindThenApplication
+            | Stage::FindThenCommunication
+            | Stage::FindOlderThenApplication
+            | Stage::FindOlderThenCommunication => {
+                let older = matches!(stage, Stage::FindOlderThenApplication | Stage::FindOlderThenCommunication);
+                match self.check_stored(older) {
+                    Ok(set) => self.reset_stored = set,
+                    // A broken newer set: the older one in a call of its own.
+                    Err(()) => {
+                        let application = self.reset == Stage::Application;
+                        self.reset = if application { Stage::FindOlderThenApplication } else { Stage::FindOlderThenCommunication };
+                    }
+                }
+            }
             Stage::Application => self.reset_application_part(now),
             Stage::Communication => {
                 // CiA 305: a node-id configured by LSS becomes active here.

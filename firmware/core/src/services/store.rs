@@ -363,4 +363,5 @@ mod job;
 #[cfg(test)]
 mod tests;
 
+pub(crate) use job::check;
 pub use job::{Job, STAGE, newest};

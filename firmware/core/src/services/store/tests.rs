@@ -325,9 +325,42 @@ fn the_newest_set_is_checked_alone_unless_its_payload_is_broken() {
     flash.regions[1][HEADER + 1] ^= 0x01;
     let mut counting = Counting(&mut flash, 0);
     let set = newest(&DICT, &mut counting).unwrap();
-    // The headers once, then both payloads.
-    assert_eq!(counting.1, 2 * HEADER + 2 * DEFAULTS.len());
+    // Both headers and a payload for each set checked ([`check`], one a call).
+    assert_eq!(counting.1, 4 * HEADER + 2 * DEFAULTS.len());
     assert_eq!((set.region, set.seq), (0, 1));
+    assert_eq!(DICT.read(&boot(&mut flash, 1), 0x1017, 0), Ok(&111u16.to_le_bytes()[..]));
+}
+
+/// A store over a broken newer set checks the sets in two steps, one CRC
+/// each, so that no step reads more than both headers and one set's
+/// payload; it follows the older set (its sequence number, its values).
+#[test]
+fn a_store_checks_one_set_per_step() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x1017, 0, &111u16.to_le_bytes()).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    DICT.write(&mut img, 0x1017, 0, &222u16.to_le_bytes()).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    flash.regions[1][HEADER + 1] ^= 0x01;
+    // Stores 0x2000 alone: 0x1017 comes from the set the job follows.
+    DICT.write(&mut img, 0x1017, 0, &333u16.to_le_bytes()).unwrap();
+    let mut job = Job::save_objects(&DICT, 0x2000, 0x2000).unwrap();
+    let mut reads = [0; 8];
+    for (step, read) in reads.iter_mut().enumerate() {
+        let mut counting = Counting(&mut flash, 0);
+        let done = job.step(&DICT, &img, 1, &mut counting);
+        *read = counting.1;
+        assert!(counting.1 <= 2 * HEADER + DEFAULTS.len(), "step {step} read {} bytes", counting.1);
+        if let Some(result) = done {
+            assert_eq!(result, Ok(()));
+            break;
+        }
+    }
+    // The newer set's check, then the older one's, then the erase.
+    assert_eq!(reads[..3], [2 * HEADER + DEFAULTS.len(), 2 * HEADER + DEFAULTS.len(), 0]);
+    let set = newest(&DICT, &mut flash).unwrap();
+    assert_eq!((set.region, set.seq), (1, 2));
     assert_eq!(DICT.read(&boot(&mut flash, 1), 0x1017, 0), Ok(&111u16.to_le_bytes()[..]));
 }
 
