@@ -187,8 +187,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
             comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, timeouts) = (sink.received, sink.timeouts);
-            // The synchronous RPDOs' objects, and the TPDOs left to retry.
-            self.touched |= self.comm.pdos.reached_by(received);
+            // The synchronous RPDOs' objects, and the TPDOs left to retry:
+            // none unless the queue refused a frame since none was
+            // (a saturated count always looks).
+            let overflows = self.txq.overflows();
+            if received != 0 || overflows != self.retry_free_at || overflows == u32::MAX {
+                let reached = self.comm.pdos.reached_by(received);
+                if reached == 0 {
+                    self.retry_free_at = overflows;
+                }
+                self.touched |= reached;
+            }
             self.pdo_events(now, received, timeouts);
         }
     }
@@ -199,6 +208,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if received | timeouts == 0 {
             return;
         }
+        let (waits, mut wake) = (self.app_due.waits, false);
         self.with_app_cold(now, |app, ctx| {
             let mut bits = received;
             while bits != 0 {
@@ -210,7 +220,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::RpdoTimeout(bits.trailing_zeros() as u8)));
                 bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
             }
+            if A::POLL_WHEN_DUE {
+                wake = core::mem::take(&mut ctx.raw.wake);
+            }
         });
+        // The RPDO's hook alone leaves the device's timers to their deadline unless it asked for them.
+        if A::POLL_WHEN_DUE {
+            self.app_due.waits = waits && timeouts == 0 && !wake;
+        }
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
@@ -266,6 +283,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         &mut self,
         now: Instant,
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
+        // The SDO server's hooks may change what the device's timers do.
+        if A::POLL_WHEN_DUE {
+            self.app_due.waits = false;
+        }
         let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, store, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {

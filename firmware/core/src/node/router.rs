@@ -162,18 +162,21 @@ impl SdoEffects {
 }
 
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
-    /// [`ObjectAccess::read`], from `entry` when the caller already looked it up.
+    /// [`ObjectAccess::read`], from `entry` when the caller already looked
+    /// it up and checked it for an upload.
     // One call of the device's read hook for both callers (each inlined a copy).
     #[inline(never)]
     fn read_from(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8], entry: Option<&'static Entry>) -> Result<usize, AbortCode> {
         if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
             return r;
         }
-        let entry = match entry {
-            Some(entry) => entry,
-            None => self.ctx.dict.find(index, sub)?,
+        let value = match entry {
+            // `upload_small` checked it with `upload_value` and took its
+            // size from there: no second check, and its first `buf.len()`
+            // bytes end before a string's NUL.
+            Some(entry) => self.ctx.dict.value(self.ctx.image, entry),
+            None => upload_value(self.ctx.dict, self.ctx.image, self.ctx.dict.find(index, sub)?)?,
         };
-        let value = upload_value(self.ctx.dict, self.ctx.image, entry)?;
         Ok(copy_from(buf, value.get(offset..).unwrap_or(&[])))
     }
 
