@@ -171,7 +171,8 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // The record's entries found once; its sub-indices then among them.
         let record = object(dict, index::PRE_DEFINED_ERROR_FIELD);
         let Some(count) = sub_entry(record, 0) else { return };
-        let capacity = record.iter().filter(|x| x.sub > 0).count().min(254) as u8;
+        // Every entry but sub 0, which is there: the dictionary's keys are unique.
+        let capacity = record.len().saturating_sub(1).min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
         let [i0, i1, ..] = e.info;
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries of CiA 301 §7.5.2.4).
