@@ -10,6 +10,7 @@
 
 mod common;
 
+use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
 use canopen_core::time::Instant;
 use canopen_core::wire::emcy::EmcyCode;
@@ -257,4 +258,28 @@ fn cct_6_10_sync_values_saved_to_nvm() {
     assert_eq!(b.sdo_upload(ID, 0x1005, 0), Ok(vec![0x80, 0, 0, 0]));
     assert_eq!(b.sdo_upload(ID, 0x1019, 0), Ok(vec![0]));
     assert_eq!(b.run_until(ms(1000)), []);
+}
+
+#[test]
+fn a_sync_into_a_full_queue_is_counted_and_its_tpdo_retried_once_the_queue_drains() {
+    let mut b = interop();
+    b.nmt(0x01, ID);
+    let sync = CanFrame::standard(0x080, &[]).unwrap();
+    // 32 SYNCs fill the transmit queue with TPDO2 (type 1); nothing leaves meanwhile.
+    for _ in 0..32 {
+        b.node.on_frame(ms(10), &sync);
+    }
+    assert_eq!(b.node.tx_overflows(), 0);
+    // The 33rd finds it full: TPDO2 keeps this SYNC's data and retries at
+    // the next process (refused again: the queue has not drained yet).
+    b.node.on_frame(ms(10), &sync);
+    assert_eq!(b.node.tx_overflows(), 1);
+    assert_eq!(b.at(ms(10)), vec![(0x284, TPDO2.to_vec()); 32]);
+    assert_eq!(b.node.tx_overflows(), 2);
+    // Drained: one EMCY 0x8110 (2 frames refused) and its reset, then the retry.
+    assert_eq!(b.at(ms(11)), [(0x84, vec![0x10, 0x81, 0x11, 2, 0, 0, 0, 1]), (0x84, vec![0; 8])]);
+    assert_eq!(b.at(ms(12)), [(0x284, TPDO2.to_vec())]);
+    assert_eq!(b.at(ms(13)), []);
+    assert_eq!(b.rx(ms(14), 0x080, &[]), [(0x284, TPDO2.to_vec())]);
+    assert_eq!(b.node.tx_overflows(), 2);
 }

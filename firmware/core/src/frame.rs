@@ -36,11 +36,12 @@ impl CanFrame {
         embedded_can::Frame::new_remote(StandardId::new(cob_id)?, dlc)
     }
 
-    /// A standard data frame on `cob_id` (11 bits, unchecked) with all 8
-    /// data bytes given and `dlc` (at most 8, unchecked) of them sent: no
-    /// slice copy, for the transmit queue's own checked constructor.
-    pub(crate) const fn standard_unchecked(cob_id: u16, data: [u8; 8], dlc: u8) -> Self {
-        CanFrame { raw: cob_id as u32, data, dlc, rtr: false, extended: false }
+    /// Makes this a standard data frame on `cob_id` (11 bits, unchecked)
+    /// of `dlc` (at most 8) bytes and hands out its 8 data bytes, as they
+    /// were, to be filled: a queue slot ([`crate::txq::TxQueue::reserve_data`]).
+    pub(crate) fn standard_data(&mut self, cob_id: u16, dlc: u8) -> &mut [u8; 8] {
+        (self.raw, self.dlc, self.rtr, self.extended) = (u32::from(cob_id), dlc, false, false);
+        &mut self.data
     }
 
     /// The 11-bit identifier, or `None` for an extended frame (CANopen uses 11 bits).

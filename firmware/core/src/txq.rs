@@ -7,27 +7,28 @@ use crate::frame::CanFrame;
 
 /// A priority queue of at most `N` frames (a power of two, at most 32).
 ///
-/// Frames stay in their slots; `order`, a ring, keeps the occupied slots
-/// sorted, the frame that leaves next at `head`: a pop takes the head, and
-/// a push is one insertion step from the tail, with nothing to move when
-/// the new frame leaves last (a burst of one identifier, TPDOs queued in
-/// identifier order, an answer into an empty queue). The queue scanned every
-/// slot for the lowest (priority, sequence number) before. Ties need no
-/// sequence number: a frame is inserted behind every queued frame of its
-/// priority ([`TxQueue::push`]) or ahead of them ([`TxQueue::push_front`]).
+/// The frames lie in a ring in the order they leave, the next one at
+/// `head`: a pop takes the head, and a push is one insertion step from the
+/// tail, with nothing to move when the new frame leaves last (a burst of one
+/// identifier, TPDOs queued in identifier order, an answer into an empty
+/// queue). An earlier version kept the frames in fixed slots with a ring of
+/// slot indices and an occupancy bitmap beside them: every push and pop went
+/// through both (about 15 thumbv7m instructions a frame more); before that
+/// the queue scanned every slot for the lowest (priority, sequence number).
+/// Ties need no sequence number: a frame is inserted behind every queued
+/// frame of its priority ([`TxQueue::push`]) or ahead of them
+/// ([`TxQueue::push_front`]).
 ///
 /// A new queue is all zero bits ([`crate::node`]).
 #[derive(Clone, Debug)]
 pub struct TxQueue<const N: usize> {
+    /// The queued frames in the order they leave: `slots[(head + j) % N]` for `j` in `0..len`.
     slots: [CanFrame; N],
-    /// Occupied slots in the order they leave: `order[(head + j) % N]` for `j` in `0..len`.
-    order: [u8; N],
-    /// The priority of the frame in `order[i]`, beside it, so that the insertion compares words.
+    /// The priority of the frame in `slots[i]`, beside it, so that the insertion compares words.
     keys: [u32; N],
+    /// Always below N.
     head: usize,
     len: usize,
-    /// Bit `i` set: slot `i` holds a frame.
-    used: u32,
     overflows: u32,
 }
 
@@ -38,7 +39,7 @@ impl<const N: usize> Default for TxQueue<N> {
 }
 
 impl<const N: usize> TxQueue<N> {
-    /// The occupancy bitmap is one `u32`; ring positions wrap with a mask.
+    /// Ring positions wrap with a mask.
     const FITS: () = assert!(N <= 32 && N.is_power_of_two(), "a TxQueue holds a power of two frames, at most 32");
     /// Ring positions are modulo N.
     const MASK: usize = N - 1;
@@ -46,7 +47,7 @@ impl<const N: usize> TxQueue<N> {
     /// An empty queue.
     pub const fn new() -> Self {
         let () = Self::FITS;
-        TxQueue { slots: [CanFrame::EMPTY; N], order: [0; N], keys: [0; N], head: 0, len: 0, used: 0, overflows: 0 }
+        TxQueue { slots: [CanFrame::EMPTY; N], keys: [0; N], head: 0, len: 0, overflows: 0 }
     }
 
     /// Queues a frame behind every queued frame of its priority; false (and
@@ -72,18 +73,29 @@ impl<const N: usize> TxQueue<N> {
     /// not counted) whose first `len` (at most 8) of `data` are sent,
     /// behind every queued frame of its priority; false (and one more
     /// overflow) when full. The frame is written straight into its slot:
-    /// no `CanFrame` built by slice copy and moved (the TPDOs, a SYNC's
-    /// burst above all).
-    // Out of line, with the slot reservation in line: one copy for the TPDOs.
+    /// no `CanFrame` built by slice copy and moved.
+    // Out of line: the event-driven TPDOs' paths share it.
     #[inline(never)]
     pub fn push_data(&mut self, cob_id: u16, data: &[u8; 8], len: u8) -> bool {
+        self.reserve_data(cob_id, len).map(|d| *d = *data).is_some()
+    }
+
+    /// Queues a data frame of `len` (at most 8) bytes on the 11-bit
+    /// `cob_id` (above 0x7FF: refused, not counted), behind every queued
+    /// frame of its priority, and hands out its 8 data bytes for the
+    /// caller to fill, all 8 (they hold an older frame's bytes; those past
+    /// `len` are not sent, and a TPDO zeroes them); `None` (and one more overflow) when full. A TPDO
+    /// is built right there: no buffer on the stack, no copy (a SYNC's
+    /// burst above all).
+    // In line: the reservation is out of line, and a TPDO's SYNC path
+    // calls it directly.
+    #[inline(always)]
+    pub fn reserve_data(&mut self, cob_id: u16, len: u8) -> Option<&mut [u8; 8]> {
         if cob_id > 0x7FF || len > 8 {
-            return false;
+            return None;
         }
         // A standard data frame's priority: its identifier in the top 11 bits.
-        let Some(frame) = self.reserve(u32::from(cob_id) << 21, false) else { return false };
-        *frame = CanFrame::standard_unchecked(cob_id, *data, len);
-        true
+        Some(self.reserve(u32::from(cob_id) << 21, false)?.standard_data(cob_id, len))
     }
 
     // Out of line: the core of push and push_front.
@@ -92,49 +104,62 @@ impl<const N: usize> TxQueue<N> {
         self.reserve(frame.priority(), ahead).map(|slot| *slot = frame).is_some()
     }
 
-    /// The lowest free slot, put into the order for a frame of priority
-    /// `key` (behind its equals, or `ahead` of them); `None` (and one more
-    /// overflow) when all N are used.
-    #[inline(always)]
+    /// The place in the ring for a frame of priority `key` (behind its
+    /// equals, or `ahead` of them), the frames that leave after it moved
+    /// back by one; `None` (and one more overflow) when all N are used.
+    // Out of line: one copy for every frame queued.
+    #[inline(never)]
     fn reserve(&mut self, key: u32, ahead: bool) -> Option<&mut CanFrame> {
-        let slot = (!self.used).trailing_zeros() as usize;
-        if slot >= N || self.len >= N {
+        if self.len >= N {
             self.overflows = self.overflows.saturating_add(1);
             return None;
         }
-        self.used |= 1 << slot;
-        self.link(slot, key, ahead);
-        self.slots.get_mut(slot)
-    }
-
-    /// Puts the frame in `slot`, of priority `key`, into the order.
-    #[inline(always)]
-    fn link(&mut self, slot: usize, key: u32, ahead: bool) {
+        let mut at = self.head.wrapping_add(self.len) & Self::MASK;
+        // The frame that leaves last (an answer into an empty queue, a burst
+        // of one identifier or in identifier order) goes to the tail at once,
+        // with few registers to save.
+        let last = self.keys.get(at.wrapping_sub(1) & Self::MASK).is_none_or(|&k| k <= key);
+        if !ahead && (self.len == 0 || last) {
+            return self.place(at, key);
+        }
         // The new frame stays behind queued frames up to `limit`: its equals
         // too, unless it goes ahead of them.
         let limit = if ahead { key.checked_sub(1) } else { Some(key) };
         // One insertion step from the tail: queued frames that leave after
         // the new one move back by one.
-        let mut at = self.head.wrapping_add(self.len) & Self::MASK;
         for _ in 0..self.len {
             let before = at.wrapping_sub(1) & Self::MASK;
-            let (Some(&k), Some(&o)) = (self.keys.get(before), self.order.get(before)) else { break };
+            let Some(&k) = self.keys.get(before) else { break };
             if limit.is_some_and(|l| k <= l) {
                 break;
             }
-            if let (Some(kk), Some(oo)) = (self.keys.get_mut(at), self.order.get_mut(at)) {
-                (*kk, *oo) = (k, o);
+            if let Some(kk) = self.keys.get_mut(at) {
+                *kk = k;
+            }
+            // Two disjoint borrows: a copy within one array would be a
+            // `memmove` call (1.6 KB linked in).
+            let pair = match at {
+                0 => self.slots.split_at_mut_checked(Self::MASK).map(|(lo, hi)| (lo.first_mut(), hi.first())),
+                _ => self.slots.split_at_mut_checked(at).map(|(lo, hi)| (hi.first_mut(), lo.last())),
+            };
+            if let Some((Some(to), Some(from))) = pair {
+                *to = *from;
             }
             at = before;
         }
-        if let (Some(kk), Some(oo)) = (self.keys.get_mut(at), self.order.get_mut(at)) {
-            (*kk, *oo) = (key, slot as u8);
-        }
-        // A free slot was found before (`reserve`), with `len` < N.
+        self.place(at, key)
+    }
+
+    /// Takes ring place `at` (free) for a frame of priority `key`.
+    #[inline(always)]
+    fn place(&mut self, at: usize, key: u32) -> Option<&mut CanFrame> {
+        // `len` < N: [`TxQueue::reserve`] checked it.
         #[allow(clippy::arithmetic_side_effects)]
         {
             self.len += 1;
         }
+        *self.keys.get_mut(at)? = key;
+        self.slots.get_mut(at)
     }
 
     /// The frame that goes next, without removing it.
@@ -142,7 +167,7 @@ impl<const N: usize> TxQueue<N> {
         if self.len == 0 {
             return None;
         }
-        self.slots.get(usize::from(*self.order.get(self.head)?))
+        self.slots.get(self.head & Self::MASK)
     }
 
     /// Removes the frame that goes next.
@@ -152,15 +177,14 @@ impl<const N: usize> TxQueue<N> {
         if self.len == 0 {
             return None;
         }
-        let slot = *self.order.get(self.head)?;
+        let frame = self.slots.get(self.head & Self::MASK).copied();
         self.head = self.head.wrapping_add(1) & Self::MASK;
         // `len` != 0: checked above.
         #[allow(clippy::arithmetic_side_effects)]
         {
             self.len -= 1;
         }
-        self.used &= !(1 << slot);
-        self.slots.get(usize::from(slot)).copied()
+        frame
     }
 
     /// Frames queued.
@@ -187,7 +211,6 @@ impl<const N: usize> TxQueue<N> {
 
     /// Drops every queued frame (the node goes silent, e.g. for an LSS bit-rate switch).
     pub fn clear(&mut self) {
-        self.used = 0;
         self.len = 0;
     }
 }
@@ -216,7 +239,7 @@ mod tests {
 
     #[test]
     fn frames_of_one_identifier_keep_their_order_when_others_leave_between() {
-        // Frames leave from any slot, and new ones fill the first free one.
+        // Frames leave from the head while others of one identifier wait behind.
         let mut q = TxQueue::<8>::new();
         for (id, tag) in [(0x581, 1), (0x181, 9), (0x581, 2), (0x581, 3), (0x201, 8), (0x581, 4)] {
             assert!(q.push(f(id, tag)));

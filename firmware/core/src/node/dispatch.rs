@@ -187,8 +187,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
             comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, timeouts) = (sink.received, sink.timeouts);
-            // The synchronous RPDOs' objects, and the TPDOs left to retry.
-            self.touched |= self.comm.pdos.reached_by(received);
+            // The synchronous RPDOs' objects, and the TPDOs left to retry:
+            // none unless the queue refused a frame since none was
+            // (a saturated count always looks).
+            let overflows = self.txq.overflows();
+            if received != 0 || overflows != self.retry_free_at || overflows == u32::MAX {
+                let reached = self.comm.pdos.reached_by(received);
+                if reached == 0 {
+                    self.retry_free_at = overflows;
+                }
+                self.touched |= reached;
+            }
             self.pdo_events(now, received, timeouts);
         }
     }

@@ -50,6 +50,7 @@ mod controller;
 mod dispatch;
 mod filter;
 mod lss;
+mod objects;
 mod process;
 mod reset;
 mod router;
@@ -204,6 +205,11 @@ pub struct Node<
     /// [`Node::process`] returned it, made earlier by what happened since.
     next: Option<Instant>,
     reported_overflows: u32,
+    /// The transmit queue's overflow count when no TPDO was left waiting to
+    /// retry a refused frame: a TPDO waits only after the queue refused it,
+    /// which counts an overflow, so while the count is the same no TPDO
+    /// waits and a SYNC need not look ([`Node::synchronise`]).
+    retry_free_at: u32,
     /// The LSS slave, in use when `lss_active` (the dictionary says
     /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
     /// not be all zero bits (see the module docs).
@@ -276,6 +282,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             quiet: false,
             next: None,
             reported_overflows: 0,
+            retry_free_at: 0,
             lss: LssSlave::new([0; 4], 0, 0, 0),
             lss_active: false,
             serial: None,
@@ -527,6 +534,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// The next frame to send, highest priority first.
+    // In line: its one caller in an image is the `CanNode` trampoline, and
+    // a burst of TPDOs takes a call per frame (5 per SYNC of the bench).
+    #[inline(always)]
     pub fn transmit(&mut self) -> Option<CanFrame> {
         // LSS "activate bit timing": silent from the request until the second delay ends.
         if self.switch.active() || self.txq.is_empty() {

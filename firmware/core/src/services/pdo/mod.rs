@@ -122,6 +122,15 @@ pub trait PdoTx {
         self.send(cob_id, data.get(..len).unwrap_or(data))
     }
 
+    /// Queues a frame of what `mapping` maps in `image` (a TPDO's
+    /// [`Mapping::build`]), built where the sink keeps it if it can. The
+    /// default builds it and calls [`PdoTx::send_data`].
+    fn send_mapped(&mut self, cob_id: u16, mapping: &Mapping, image: &[u8]) -> bool {
+        let mut data = [0; map::MAX_LEN];
+        let len = mapping.build(image, &mut data);
+        self.send_data(cob_id, &data, len)
+    }
+
     /// Reports an event; the default ignores it.
     fn event(&mut self, event: PdoEvent) {
         let _ = event;
@@ -472,13 +481,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (n, rpdo) in self.rpdos.iter_mut().enumerate().skip(32) {
             rpdo.on_sync(n, image, tx);
         }
+        // `sync_tpdos` holds only valid synchronous TPDOs: no check each SYNC.
         let mut bits = self.sync_tpdos;
         while let Some(t) = next_bit(&mut bits) {
             if let Some(tpdo) = self.tpdos.get_mut(t) {
                 tpdo.on_sync(sync, image, tx);
             }
         }
-        for tpdo in self.tpdos.iter_mut().skip(32) {
+        for tpdo in self.tpdos.iter_mut().skip(32).filter(|t| t.is_synchronous()) {
             tpdo.on_sync(sync, image, tx);
         }
     }

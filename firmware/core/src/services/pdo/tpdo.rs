@@ -54,8 +54,11 @@ pub struct Tpdo {
     blocked: bool,
     inhibit_until: Option<Instant>,
     event_at: Option<Instant>,
-    /// SYNCs counted towards the next cyclic transmission.
-    sync_count: u8,
+    /// SYNCs still to come before the next cyclic transmission, counting
+    /// the one that sends it; 0 when the count starts over (it then waits
+    /// for the transmission type's n SYNCs), so that a SYNC is one
+    /// decrement and one compare.
+    sync_left: u8,
     /// Waiting for the SYNC whose counter equals the start value.
     await_start: bool,
     /// Type 252: the data sampled at the last SYNC.
@@ -87,7 +90,7 @@ impl Tpdo {
         blocked: false,
         inhibit_until: None,
         event_at: None,
-        sync_count: 0,
+        sync_left: 0,
         await_start: false,
         sample: None,
         pending_sync: None,
@@ -156,7 +159,7 @@ impl Tpdo {
         self.blocked = false;
         self.inhibit_until = None;
         self.event_at = now.filter(|_| timer != Duration::ZERO).map(|t| t + timer);
-        self.sync_count = 0;
+        self.sync_left = 0;
         self.await_start = self.params.sync_start != 0;
         self.sample = None;
         self.pending_sync = None;
@@ -243,16 +246,13 @@ impl Tpdo {
         self.cob_id().is_some() && matches!(self.params.transmission_type, 0..=240 | 252)
     }
 
-    /// A SYNC (received or produced).
+    /// A SYNC (received or produced), for a TPDO that
+    /// [`Tpdo::is_synchronous`] (the caller checks: `Pdos::sync_tpdos`).
     pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
-        let Some(cob_id) = self.cob_id() else { return };
+        let cob_id = self.params.can_id();
         // A frame refused at the previous SYNC is stale now.
         self.pending_sync = None;
         let send = match self.params.transmission_type {
-            0 => {
-                let (buf, len) = self.build(image);
-                (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
-            }
             n @ 1..=240 => {
                 if self.await_start {
                     match sync.counter {
@@ -261,11 +261,25 @@ impl Tpdo {
                         _ => self.await_start = false,
                     }
                 }
-                self.sync_count = self.sync_count.saturating_add(1);
-                (self.sync_count >= n).then(|| {
-                    self.sync_count = 0;
-                    self.build(image)
-                })
+                // `n` ≥ 1, and `sync_left` ≤ `n` (it starts over whenever the type changes).
+                let left = if self.sync_left == 0 { n } else { self.sync_left };
+                self.sync_left = left.wrapping_sub(1);
+                if self.sync_left != 0 {
+                    return;
+                }
+                // Cyclic: no change detection, so nothing to remember but
+                // a refusal; built straight into the queue.
+                let Some(mapping) = self.mapping.as_ref() else { return };
+                if tx.send_mapped(cob_id, mapping, image) {
+                    self.blocked = false;
+                } else {
+                    self.refused_sync(image);
+                }
+                return;
+            }
+            0 => {
+                let (buf, len) = self.build(image);
+                (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
             }
             252 => {
                 self.sample = Some(self.build(image).0);
@@ -278,6 +292,15 @@ impl Tpdo {
         {
             self.pending_sync = Some(buf);
         }
+    }
+
+    /// The queue refused a cyclic frame: the data of this SYNC waits for
+    /// a retry inside the window.
+    #[cold]
+    #[inline(never)]
+    fn refused_sync(&mut self, image: &[u8]) {
+        self.blocked = true;
+        self.pending_sync = Some(self.build(image).0);
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
