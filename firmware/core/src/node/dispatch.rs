@@ -268,7 +268,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         } else if effects.wrote.1 != 0 {
             let (offset, len) = effects.wrote;
             // A poll for any TPDO retries every TPDO waiting to ([`crate::services::pdo::Pdos::poll_changed`]).
-            let mask = self.comm.pdos.tpdos_mapping_memo(offset, len);
+            let mask = self.comm.pdos.tpdos_mapping(offset, len);
             self.touched |= if mask != 0 { mask } else { self.comm.pdos.retrying() };
         }
         self.stale |= effects.services;

@@ -182,10 +182,6 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// Bit t: TPDO t is valid and synchronous (types 0..=240 and 252: the
     /// only ones a SYNC does something for), so that a SYNC visits just those.
     sync_tpdos: u32,
-    /// The last [`Pdos::tpdos_mapping_memo`]: image offset, length (0:
-    /// none) and its TPDOs, until a parameter or a mapping changes (a
-    /// device sets its statusword with every frame).
-    last_write: (u16, u16, u32),
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -209,7 +205,6 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             tpdo_live: 0,
             sync_rpdos: 0,
             sync_tpdos: 0,
-            last_write: (0, 0, 0),
         }
     }
 }
@@ -234,7 +229,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             tpdo_live: 0,
             sync_rpdos: 0,
             sync_tpdos: 0,
-            last_write: (0, 0, 0),
         }
     }
 
@@ -376,7 +370,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     // Out of line: configure and write_object each had a copy (100 bytes more).
     #[inline(never)]
     fn refresh_rx_ids(&mut self) {
-        self.last_write = (0, 0, 0);
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
@@ -397,19 +390,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// `offset` (what a write there may change).
     pub fn tpdos_mapping(&self, offset: u16, len: u16) -> u32 {
         tpdos_mapping(&self.tpdos, self.tpdo_live, offset, len)
-    }
-
-    /// [`Pdos::tpdos_mapping`], answered from the last call if it asked
-    /// for the same bytes and no parameter or mapping changed since.
-    pub fn tpdos_mapping_memo(&mut self, offset: u16, len: u16) -> u32 {
-        match self.last_write {
-            (o, l, mask) if (o, l) == (offset, len) && l != 0 => mask,
-            _ => {
-                let mask = self.tpdos_mapping(offset, len);
-                self.last_write = (offset, len, mask);
-                mask
-            }
-        }
     }
 
     /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
