@@ -445,3 +445,63 @@ fn life_guarding_loss_reaches_the_device() {
     b.run_until(ms(400));
     assert_eq!(b.node.app().0, [NmtEvent::CommunicationError(CommError::LifeGuarding)]);
 }
+
+/// Polled when due: logs the time of each poll, runs a 10 ms timer, and asks
+/// for its timers with `Ctx::wake` from the RPDO's hook when 0x2100 sub 1 is
+/// 1, and from the poll itself while `again` lasts.
+#[derive(Default)]
+struct WhenDue {
+    polls: Vec<u64>,
+    again: u32,
+}
+
+impl Application for WhenDue {
+    const POLL_WHEN_DUE: bool = true;
+
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
+        if (index, sub) == (0x2100, 1) && ctx.read_u32(0x2100, 1) == Some(1) {
+            ctx.wake();
+        }
+    }
+
+    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        let now = ctx.now().as_micros() / 1000;
+        self.polls.push(now);
+        if self.again > 0 {
+            self.again -= 1;
+            ctx.wake();
+        }
+        Some(ms(now + 10))
+    }
+}
+
+#[test]
+fn a_device_polled_when_due_runs_at_its_deadline_after_hooks_app_mut_and_its_own_wake() {
+    let mut b: B<WhenDue> = Bench::new(Ram::new(ID), WhenDue::default(), MemStorage::new(4096), ID);
+    let polls = |b: &B<WhenDue>| b.node.app().polls.clone();
+    // The boot-up's hooks (reset, entering Pre-operational) bring polls until the node is up; then only the deadline does.
+    b.at(ms(0));
+    b.at(ms(1));
+    let booted = polls(&b).len();
+    for t in [2, 5, 10] {
+        b.at(ms(t));
+    }
+    assert_eq!((polls(&b).len(), polls(&b).last()), (booted, Some(&1)), "not before its deadline");
+    assert_eq!(b.node.process(ms(10)), Some(ms(11)), "its deadline is the node's");
+    b.at(ms(11));
+    assert_eq!(polls(&b).last(), Some(&11), "at its deadline");
+    // An NMT command's hook (entering Operational): the same process polls.
+    b.rx(ms(12), 0x000, &[0x01, ID]);
+    assert_eq!(polls(&b).last(), Some(&12), "after a hook");
+    // The RPDO's hook without a wake: not before the deadline; with one: at once.
+    b.rx(ms(13), RPDO1, &[0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    assert_eq!(polls(&b).last(), Some(&12), "an RPDO alone");
+    b.rx(ms(14), RPDO1, &[0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    assert_eq!(polls(&b).last(), Some(&14), "an RPDO whose hook asked");
+    // app_mut: the next process polls; a poll that asks runs again at the next process.
+    b.node.app_mut().again = 1;
+    b.at(ms(15));
+    b.at(ms(16));
+    b.at(ms(17));
+    assert_eq!(polls(&b).iter().rev().take(3).collect::<Vec<_>>(), [&16, &15, &14], "after app_mut, and once more as asked");
+}

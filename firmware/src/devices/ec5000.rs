@@ -15,6 +15,7 @@ use canopen_core::abort::AbortCode;
 use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, CanEmcyCodes, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia402::{Cia402, Config};
+use canopen_core::services::pdo::map::MAX_ENTRIES;
 use canopen_core::services::store::{self, Scope};
 use canopen_core::time::{Instant, earliest};
 use canopen_core::wire::emcy::EmcyCode;
@@ -155,9 +156,23 @@ impl Application for App {
             ctx.wake();
         }
 
-        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
-        // default `rpdo_written`).
+        // The CiA 402 objects, from SDO and from the RPDO-mapped objects
+        // `rpdo_written` does not take itself.
         self.drive.written(ctx, &PROFILE, index);
+    }
+
+    /// The controlword and the target velocity straight from the RPDO's
+    /// values; any other object as [`App::written`] takes it.
+    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
+        for i in 0..MAX_ENTRIES {
+            let Some((at, value, len)) = ctx.rpdo_object(n, i) else { break };
+            if !self.drive.rpdo_object(ctx, at, value, len)
+                && let Some((index, sub)) = ctx.object_id(at)
+                && index >= 0x1000
+            {
+                self.written(ctx, index, sub, Source::Rpdo(n));
+            }
+        }
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {

@@ -15,7 +15,7 @@ use crate::frame::CanFrame;
 use crate::od::index;
 use crate::od::{Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
-use crate::services::pdo::map::Mapping;
+use crate::services::pdo::map::Source as MapSource;
 use crate::services::store::Scope;
 use crate::storage::Storage;
 use crate::time::Instant;
@@ -278,14 +278,31 @@ impl Ctx<'_> {
         let _ = self.dict.write_unchecked(self.image, index::ERROR_REGISTER, 0, &[register]);
     }
 
-    /// The objects RPDO `n`'s mapping in use writes, in mapping order, as
-    /// (index, sub); (0, 0) for a dummy entry. What
-    /// [`Application::rpdo_written`] reports, without a dictionary search.
-    pub fn rpdo_objects(&self, n: u8) -> impl Iterator<Item = (u16, u8)> + use<> {
-        let none = ([EntryRef::NONE; crate::services::pdo::map::MAX_ENTRIES], 0);
-        let (objects, count) = self.services.rpdo_mapping(usize::from(n)).map_or(none, Mapping::objects);
-        let dict = self.dict;
-        objects.into_iter().take(count).map(move |at| dict.entry(at).map_or((0, 0), |e| (e.index, e.sub)))
+    /// Object `i` (in mapping order) of the mapping RPDO `n` uses: its
+    /// entry ([`EntryRef::NONE`] for a dummy entry), the value the image
+    /// holds for it (what the RPDO wrote; little-endian, zero-extended, its
+    /// first 4 bytes) and its length. What [`Application::rpdo_written`]
+    /// reports: the mapping was resolved when it was configured, so no
+    /// dictionary search and no copy of the mapping.
+    pub fn rpdo_object(&self, n: u8, i: usize) -> Option<(EntryRef, u32, u8)> {
+        let (at, slot) = self.services.rpdo_mapping(usize::from(n))?.object(i)?;
+        let bytes = match slot.source {
+            MapSource::Ram(offset) => self.image.get(usize::from(offset)..).unwrap_or(&[]),
+            _ => &[],
+        };
+        let value = match (slot.len, bytes) {
+            (1, &[a, ..]) => u32::from(a),
+            (2, &[a, b, ..]) => u32::from(u16::from_le_bytes([a, b])),
+            (3, &[a, b, c, ..]) => u32::from_le_bytes([a, b, c, 0]),
+            (_, &[a, b, c, d, ..]) => u32::from_le_bytes([a, b, c, d]),
+            _ => 0,
+        };
+        Some((at, value, slot.len))
+    }
+
+    /// The (index, sub) of an entry (`None` for [`EntryRef::NONE`]).
+    pub fn object_id(&self, at: EntryRef) -> Option<(u16, u8)> {
+        self.dict.entry(at).map(|e| (e.index, e.sub))
     }
 
     /// Asks for [`Application::poll`] at the next [`super::Node::process`],
@@ -449,14 +466,18 @@ pub trait Application {
     }
 
     /// RPDO `n` wrote its objects: by default [`Application::written`] for
-    /// each mapped object, in mapping order ([`Ctx::rpdo_objects`]: the
+    /// each mapped object, in mapping order ([`Ctx::rpdo_object`]: the
     /// mapping in use, resolved when it was configured, so no dictionary
     /// search). A device no RPDO-written object concerns overrides it with
-    /// nothing.
+    /// nothing; one that takes some objects straight from the RPDO's values
+    /// overrides it with those.
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
-        for (index, sub) in ctx.rpdo_objects(n) {
+        for i in 0..crate::services::pdo::map::MAX_ENTRIES {
+            let Some((at, _, _)) = ctx.rpdo_object(n, i) else { break };
             // Dummy entries map nothing.
-            if index >= index::COMMUNICATION_AREA {
+            if let Some((index, sub)) = ctx.object_id(at)
+                && index >= index::COMMUNICATION_AREA
+            {
                 self.written(ctx, index, sub, Source::Rpdo(n));
             }
         }

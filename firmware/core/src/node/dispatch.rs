@@ -129,9 +129,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 };
                 let (received, timeouts) = (sink.received, sink.timeouts);
                 if matched {
-                    // Only the TPDOs these RPDOs write to look for a change (an
-                    // RTR may have left its TPDO waiting to retry).
-                    self.touched |= self.comm.pdos.reached_by(received);
+                    // Only the TPDOs these RPDOs write to look for a change.
+                    self.touched |= self.comm.pdos.reaches(received);
                     // A timer started (or an RTR changed a TPDO), or an error was signalled.
                     match self.comm.pdos.settled() {
                         Some(deadline) => self.next = earliest(self.next, deadline),
@@ -139,6 +138,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     }
                     self.quiet &= !self.comm.emcy.has_queued();
                     self.pdo_events(now, received, timeouts);
+                    // A poll for any TPDO retries every TPDO waiting to (an RTR
+                    // may have left its TPDO so): only if nothing else brings one.
+                    if self.touched == 0 {
+                        self.touched = self.comm.pdos.retrying();
+                    }
                     return;
                 }
             }

@@ -38,6 +38,20 @@ const RED: u8 = 2;
 /// intervals), not at each of the profile's 1 ms ticks: it would cost more
 /// than the profile's own part of a frame.
 const PERIOD_US: u64 = 100_000;
+/// (object, sub, length) of each value the monitoring shows, in the order of `Monitor::shown`.
+const SHOWN: [(u16, u8, u8); 11] = [
+    (MONITORING, 1, 4),
+    (MONITORING, 2, 4),
+    (MONITORING, 3, 4),
+    (MONITORING, 4, 2),
+    (MONITORING, 5, 2),
+    (MONITORING, 6, 2),
+    (MONITORING, 7, 2),
+    (MONITORING, 9, 4),
+    (HEALTH, 1, 1),
+    (HEALTH, 2, 1),
+    (HEALTH, 3, 1),
+];
 /// Entries 0x1003 holds (sub 1..8): a full history is red (D50).
 const HISTORY_DEPTH: u32 = 8;
 /// The 0x2200 sub-indices kept across power-off (D55): start/stops, working
@@ -226,22 +240,22 @@ impl Monitor {
             n if n < HISTORY_DEPTH => YELLOW,
             _ => RED,
         };
-        // (object, sub, length, value) of each value shown, in the order of `shown`.
+        // In the order of `SHOWN` and `shown`.
         let values = [
-            (MONITORING, 1, 4, self.start_stops as i32),
-            (MONITORING, 2, 4, self.working.s as i32),
-            (MONITORING, 3, 4, self.uptime.s as i32),
-            (MONITORING, 4, 2, i32::from(low)),
-            (MONITORING, 5, 2, i32::from(high)),
-            (MONITORING, 6, 2, i32::from(t)),
-            (MONITORING, 7, 2, i32::from(self.quick_stops)),
-            (MONITORING, 9, 4, self.rotations as i32),
-            (HEALTH, 1, 1, i32::from(temperature)),
-            (HEALTH, 2, 1, i32::from(power)),
-            (HEALTH, 3, 1, i32::from(errors)),
+            self.start_stops as i32,
+            self.working.s as i32,
+            self.uptime.s as i32,
+            i32::from(low),
+            i32::from(high),
+            i32::from(t),
+            i32::from(self.quick_stops),
+            self.rotations as i32,
+            i32::from(temperature),
+            i32::from(power),
+            i32::from(errors),
         ];
-        for (i, (index, sub, len, value)) in values.into_iter().enumerate() {
-            self.show(ctx, i, (index, sub), len, value);
+        for (i, (&(index, sub, len), value)) in SHOWN.iter().zip(values).enumerate() {
+            self.show(ctx, i, (index, sub), usize::from(len), value);
         }
         self.shown_valid = true;
         // D55: changed counters at most every 8 h, and at once when the power fails.

@@ -13,6 +13,7 @@ use super::velocity::{Window, vl_limit};
 use super::{TICK_US, mode};
 use crate::abort::AbortCode;
 use crate::node::{CommError, Ctx, NmtEvent};
+use crate::od::EntryRef;
 use crate::services::nmt::NmtState;
 use crate::time::Instant;
 use crate::wire::emcy::EmcyCode;
@@ -199,6 +200,30 @@ impl<D: Drive> Cia402<D> {
         self.publish(ctx);
     }
 
+    /// RPDO-mapped object `at` holds `value` (zero-extended, `len` bytes:
+    /// [`Ctx::rpdo_object`]): the controlword, and pv's target velocity, are
+    /// taken at once, as [`Cia402::written`] takes them, without reading the
+    /// dictionary again. False for any other object, which the device hands
+    /// to [`Cia402::written`].
+    pub fn rpdo_object(&mut self, ctx: &mut Ctx<'_>, at: EntryRef, value: u32, len: u8) -> bool {
+        if !at.is_some() {
+            return false;
+        }
+        if at == self.s.at.at(Located::CONTROLWORD) {
+            self.control(ctx, value as u16);
+        } else if at == self.s.at.at(Located::TARGET_VELOCITY) && self.s.mode == mode::PV && len == 4 {
+            // Of the statusword, a new target changes bit 11 alone (pv clears it).
+            self.s.velocity_target = speed_q(self.s.units.velocity_to_inc(value as i32));
+            if !core::mem::replace(&mut self.s.internal_limit, false) {
+                return true;
+            }
+        } else {
+            return false;
+        }
+        self.publish(ctx);
+        true
+    }
+
     /// The drive's warning (bit 7) changed: while the profile is idle, its
     /// next poll writes 0x6041 (ticking, it writes it at each tick).
     pub fn refresh(&mut self) {
@@ -311,6 +336,11 @@ impl<D: Drive> Cia402<D> {
 
     fn controlword(&mut self, ctx: &mut Ctx<'_>) {
         let word = ctx.read_at(self.s.at.at(Located::CONTROLWORD)).map_or(0, crate::od::le_u32) as u16;
+        self.control(ctx, word);
+    }
+
+    /// A new controlword `word`: its command, and the mode's set-point bits.
+    fn control(&mut self, ctx: &mut Ctx<'_>, word: u16) {
         let previous = core::mem::replace(&mut self.s.controlword, word);
         if let Some(command) = cw::decode(word, previous) {
             self.command(ctx, command);

@@ -121,7 +121,7 @@ pub struct Mapping {
     gather: [u16; MAX_LEN],
     /// Slot i: the dictionary entry it maps ([`EntryRef::NONE`] for a
     /// dummy), so that the device hears which objects an RPDO wrote
-    /// ([`crate::node::Ctx::rpdo_objects`]) without a search per object.
+    /// ([`crate::node::Ctx::rpdo_object`]) without a search per object.
     objects: [EntryRef; MAX_ENTRIES],
     count: u8,
     len: u8,
@@ -200,10 +200,13 @@ impl Mapping {
         self.slots.get(..usize::from(self.count)).unwrap_or(&[])
     }
 
-    /// The dictionary entry each slot maps ([`EntryRef::NONE`] for a dummy
-    /// entry), and how many slots there are.
-    pub fn objects(&self) -> ([EntryRef; MAX_ENTRIES], usize) {
-        (self.objects, usize::from(self.count))
+    /// Entry `i` (in mapping order): the dictionary entry it maps
+    /// ([`EntryRef::NONE`] for a dummy entry) and its slot.
+    pub fn object(&self, i: usize) -> Option<(EntryRef, Slot)> {
+        if i >= usize::from(self.count) {
+            return None;
+        }
+        Some((*self.objects.get(i)?, *self.slots.get(i)?))
     }
 
     /// Number of mapped bytes.

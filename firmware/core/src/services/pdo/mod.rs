@@ -397,14 +397,23 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// after those RPDOs must look at.
     #[inline(never)]
     pub fn reached_by(&self, rpdos: u32) -> u32 {
+        let mask = self.reaches(rpdos);
+        // A poll for any TPDO retries every TPDO waiting to ([`Pdos::poll_changed`]).
+        if mask != 0 { mask } else { self.retrying() }
+    }
+
+    /// [`Pdos::reached_by`] without the TPDOs waiting to retry: for a
+    /// caller that adds them only if nothing else makes the next poll run.
+    // Out of line: shared with `reached_by`.
+    #[inline(never)]
+    pub fn reaches(&self, rpdos: u32) -> u32 {
         let mut mask = 0;
         let mut bits = rpdos;
         while bits != 0 {
             mask |= self.rpdo_reach.get(bits.trailing_zeros() as usize).copied().unwrap_or(ALL_TPDOS);
             bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
         }
-        // A poll for any TPDO retries every TPDO waiting to ([`Pdos::poll_changed`]).
-        if mask != 0 { mask } else { self.retrying() }
+        mask
     }
 
     /// The TPDOs waiting to retry a refused frame.
