@@ -40,8 +40,7 @@ pub struct AcceptedId {
 /// linear search is as fast as any and smaller than sorting.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct AcceptanceList {
-    ids: [AcceptedId; ACCEPTANCE_CAPACITY],
-    len: usize,
+    ids: heapless::Vec<AcceptedId, ACCEPTANCE_CAPACITY>,
     /// More identifiers than fit: the list is not complete. Not `complete`,
     /// so that a new list is all zero bits ([`crate::node`]).
     overflowed: bool,
@@ -57,13 +56,13 @@ impl Default for AcceptanceList {
 impl AcceptanceList {
     /// An empty list (complete: nothing to accept).
     pub const fn new() -> Self {
-        AcceptanceList { ids: [AcceptedId { cob_id: 0, rtr: false }; ACCEPTANCE_CAPACITY], len: 0, overflowed: false, generation: 0 }
+        AcceptanceList { ids: heapless::Vec::new(), overflowed: false, generation: 0 }
     }
 
     /// The identifiers, each once, in the order the node lists them (the
     /// same order for the same configuration).
     pub fn ids(&self) -> &[AcceptedId] {
-        self.ids.get(..self.len).unwrap_or(&[])
+        &self.ids
     }
 
     /// False when the node consumes more identifiers than the list holds:
@@ -83,21 +82,14 @@ impl AcceptanceList {
         self.overflowed || self.ids().contains(&AcceptedId { cob_id, rtr })
     }
 
+    #[inline(never)]
     pub(super) fn insert(&mut self, cob_id: u16, rtr: bool) {
         let id = AcceptedId { cob_id, rtr };
         if self.ids().contains(&id) {
             return;
         }
-        match self.ids.get_mut(self.len) {
-            Some(slot) => {
-                *slot = id;
-                // `get_mut` found the slot: `len` is below the list's length.
-                #[allow(clippy::arithmetic_side_effects)]
-                {
-                    self.len += 1;
-                }
-            }
-            None => self.overflowed = true,
+        if self.ids.push(id).is_err() {
+            self.overflowed = true;
         }
     }
 }
