@@ -72,6 +72,61 @@ impl CobId {
     }
 }
 
+/// What a download of one kind of COB-ID entry must pass (CiA 301
+/// §7.5.2.5 SYNC, §7.5.2.13 TIME, §7.5.2.15 EMCY, §7.5.2.33 SDO,
+/// §7.5.2.35/37 PDO): the rules as data, one [`CobRule::check`] for all.
+/// A pair `(mask, off)` of bits 24..31 says when bits 30/31 put the COB-ID
+/// "in use": unless `value >> 24 & mask == off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CobRule {
+    /// Bit 30 must be 0 too, besides bits 11..29 (no 29-bit CAN-IDs).
+    pub bit30_reserved: bool,
+    /// CAN-ID 0 is refused even while the COB-ID is not in use (EMCY).
+    pub no_zero: bool,
+    /// In use, the CAN-ID may not be restricted (§7.3.5).
+    pub used: (u8, u8),
+    /// While the old and the new COB-ID are both in this sense in use, the
+    /// CAN-ID may not change.
+    pub fixed: (u8, u8),
+}
+
+/// Bit 31 clear: in use (PDO, SDO, EMCY valid).
+const VALID: (u8, u8) = (0x80, 0x80);
+/// Never in use.
+const NEVER: (u8, u8) = (0, 0);
+
+impl CobRule {
+    /// 0x1005: bit 31 "do not care", bit 30 produce; a restricted CAN-ID is
+    /// refused even for a consumer; a producer's CAN-ID is fixed.
+    pub const SYNC: CobRule = CobRule { bit30_reserved: false, no_zero: false, used: (0, 1), fixed: (0x40, 0) };
+    /// 0x1012: bit 31 consume, bit 30 produce; the CAN-ID may change in use.
+    pub const TIME: CobRule = CobRule { bit30_reserved: false, no_zero: false, used: (0xC0, 0), fixed: NEVER };
+    /// 0x1014: bit 31 off, bit 30 reserved, never CAN-ID 0.
+    pub const EMCY: CobRule = CobRule { bit30_reserved: true, no_zero: true, used: VALID, fixed: VALID };
+    /// 0x1200+ sub 1/2, 0x1400+ and 0x1800+ sub 1: bit 31 not valid, bit 30
+    /// dynamic (SDO) or no RTR (PDO).
+    pub const VALID: CobRule = CobRule { bit30_reserved: false, no_zero: false, used: VALID, fixed: VALID };
+    /// [`CobRule::VALID`] for a device whose manual lets a valid PDO move.
+    pub const MOVABLE: CobRule = CobRule { fixed: NEVER, ..CobRule::VALID };
+
+    /// Checks `new` against the entry's `old` value (`None`: none to keep),
+    /// `own` a restricted CAN-ID this entry may still use (the default SDO
+    /// server's own; else any value above 0x7FF). 0x06090030 if it fails.
+    // Out of line: one copy for the six kinds of COB-ID.
+    #[inline(never)]
+    pub fn check(self, old: Option<u32>, new: u32, own: u16) -> Result<(), crate::abort::AbortCode> {
+        let on = |(mask, off): (u8, u8), v: u32| (v >> 24) as u8 & mask != off;
+        let can_id = CobId(new).can_id();
+        let restricted = is_restricted_can_id(can_id) && can_id != own;
+        let reserved = if self.bit30_reserved { CobId::EXTENDED | CobId::BIT30 } else { CobId::EXTENDED };
+        let moves = old.is_some_and(|old| on(self.fixed, old) && on(self.fixed, new) && (old ^ new) & 0x7FF != 0);
+        if new & reserved != 0 || (self.no_zero && can_id == 0) || (on(self.used, new) && restricted) || moves {
+            return Err(crate::abort::AbortCode::InvalidValue);
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -91,6 +146,34 @@ mod tests {
         let allowed = [0x080, 0x0FF, 0x100, 0x181, 0x580, 0x600, 0x680, 0x6DF, 0x700];
         assert!(restricted.iter().all(|&id| is_restricted_can_id(id)));
         assert!(allowed.iter().all(|&id| !is_restricted_can_id(id)));
+    }
+
+    #[test]
+    fn cob_rules_as_each_object_has_them() {
+        use crate::abort::AbortCode::InvalidValue;
+        let none = u16::MAX;
+        // (rule, old, new, own, refused)
+        let cases = [
+            (CobRule::EMCY, Some(0x84), 0x85, none, true),
+            (CobRule::EMCY, Some(0x8000_0084), 0x85, none, false),
+            (CobRule::EMCY, None, 0x4000_0085, none, true),
+            (CobRule::EMCY, None, 0x8000_0000, none, true),
+            (CobRule::EMCY, None, 0x8000_0701, none, false),
+            (CobRule::TIME, Some(0x8000_0100), 0xC000_0290, none, false),
+            (CobRule::TIME, None, 0x0000_0701, none, false),
+            (CobRule::TIME, None, 0x4000_0701, none, true),
+            (CobRule::SYNC, Some(0x4000_0080), 0x4000_0081, none, true),
+            (CobRule::SYNC, Some(0x4000_0080), 0x0000_0081, none, false),
+            (CobRule::SYNC, Some(0x80), 0x8000_0701, none, true),
+            (CobRule::VALID, Some(0x8000_0000), 0x604, 0x604, false),
+            (CobRule::VALID, Some(0x8000_0000), 0x604, none, true),
+            (CobRule::VALID, Some(0x4000_0201), 0x4000_0202, none, true),
+            (CobRule::MOVABLE, Some(0x4000_0201), 0x4000_0202, none, false),
+            (CobRule::VALID, None, 0x2000_0201, none, true),
+        ];
+        for (rule, old, new, own, refused) in cases {
+            assert_eq!(rule.check(old, new, own), if refused { Err(InvalidValue) } else { Ok(()) }, "{rule:?} {old:?} -> {new:#X}");
+        }
     }
 
     #[test]

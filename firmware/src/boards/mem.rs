@@ -130,3 +130,25 @@ pub unsafe extern "C" fn __aeabi_memclr8(dst: *mut u8, n: usize) {
     // SAFETY: the caller's contract is `zero`'s.
     unsafe { zero(dst, n) };
 }
+
+/// Compares `n` bytes at `a` and `b`: the first difference (`a`'s byte
+/// minus `b`'s), 0 if equal. A byte loop of a few dozen bytes in place of
+/// `compiler_builtins`' 116-byte unrolled one: the core compares a stored
+/// value (up to 8 bytes, or an SDO segment's 7) with the one written.
+/// Volatile reads, for the reason given at [`copy`].
+///
+/// # Safety
+/// `a` and `b` readable for `n` bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn memcmp(a: *const u8, b: *const u8, n: usize) -> i32 {
+    let mut i = 0;
+    while i < n {
+        // SAFETY: `i < n`, and both pointers are readable for `n` bytes (the caller's contract).
+        let (x, y) = unsafe { (read_volatile(a.add(i)), read_volatile(b.add(i))) };
+        if x != y {
+            return i32::from(x) - i32::from(y);
+        }
+        i += 1;
+    }
+    0
+}

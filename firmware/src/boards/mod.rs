@@ -23,7 +23,9 @@ pub mod qemu;
 pub mod stm32f103;
 
 // Every MCU build that links the firmware crate (the images, and
-// `bench/size`'s node images) gets the small `memcpy`.
+// `bench/size`'s node images) gets the small `memcpy` and 64-bit division.
+#[cfg(any(test, target_os = "none"))]
+mod div;
 #[cfg(target_os = "none")]
 mod mem;
 #[cfg(all(target_os = "none", any(feature = "board-qemu", feature = "board-stm32f103")))]

@@ -16,7 +16,7 @@ use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, CanEmcyCodes, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::store::{self, Scope};
-use canopen_core::time::Instant;
+use canopen_core::time::{Instant, earliest};
 use canopen_core::wire::emcy::EmcyCode;
 
 mod monitor;
@@ -90,6 +90,10 @@ impl Application for App {
         rpdo_too_long: EmcyCode::PDO_LENGTH,
     };
 
+    /// The roller's timers depend on time, its hooks and injected faults
+    /// alone: the node polls it at its deadline, not at every process (D65).
+    const POLL_WHEN_DUE: bool = true;
+
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.drive.check_write(index, data)?;
         match (index, sub, data) {
@@ -140,12 +144,15 @@ impl Application for App {
         if (index, sub) == (PROGRAM_CONTROL, 1) {
             ctx.reset_node();
         }
+        // The monitoring checks the warnings again at the next process (D65).
         if index == WARNING_LEVEL {
             self.monitor.levels(ctx);
+            ctx.wake();
         }
         // D55: restored parameters leave the roller's life counters as they are.
         if index == 0x1011 {
             self.monitor.keep(ctx);
+            ctx.wake();
         }
 
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
@@ -160,7 +167,13 @@ impl Application for App {
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
         // Before the profile's poll, so that statusword bit 7 changes with the EMCY.
         self.monitor.update(ctx, &mut self.drive, AXIS.increments_per_rev);
-        self.drive.poll(ctx, &PROFILE)
+        let drive = self.drive.poll(ctx, &PROFILE);
+        // D65: what the profile's ticks changed, the monitoring sees at the
+        // next process, as when it ran at every one; its own period is a deadline.
+        if self.monitor.pending(&self.drive) {
+            ctx.wake();
+        }
+        earliest(drive, self.monitor.next())
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {

@@ -147,12 +147,15 @@ pub struct Ctx<'a> {
 #[derive(Clone, Debug)]
 pub(super) struct RawBurst {
     pub(super) frames: [CanFrame; RAW_BURST],
-    pub(super) len: usize,
+    pub(super) len: u8,
+    /// The hook asked for the device's timers at the next process
+    /// ([`Ctx::wake`]; here, not in [`Ctx`], whose size every hook call pays).
+    pub(super) wake: bool,
 }
 
 impl RawBurst {
     /// Empty, and all zero bits.
-    pub(super) const EMPTY: RawBurst = RawBurst { frames: [CanFrame::EMPTY; RAW_BURST], len: 0 };
+    pub(super) const EMPTY: RawBurst = RawBurst { frames: [CanFrame::EMPTY; RAW_BURST], len: 0, wake: false };
 }
 
 impl Ctx<'_> {
@@ -285,6 +288,15 @@ impl Ctx<'_> {
         objects.into_iter().take(count).map(move |at| dict.entry(at).map_or((0, 0), |e| (e.index, e.sub)))
     }
 
+    /// Asks for [`Application::poll`] at the next [`super::Node::process`],
+    /// before the deadline it last returned, without moving that deadline:
+    /// for a device that polls when due ([`Application::POLL_WHEN_DUE`]),
+    /// from the RPDO's or the raw frame's hook (the others bring the poll
+    /// anyway) when it changed what its timers do, or from `poll` itself.
+    pub fn wake(&mut self) {
+        self.raw.wake = true;
+    }
+
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
         self.effects.written = true;
@@ -298,7 +310,7 @@ impl Ctx<'_> {
     /// overflow, EMCY 0x8110). False if the burst is full or the frame is not
     /// a standard one of at most 8 bytes.
     pub fn send_raw(&mut self, cob_id: u16, data: &[u8]) -> bool {
-        match (CanFrame::standard(cob_id, data), self.raw.frames.get_mut(self.raw.len)) {
+        match (CanFrame::standard(cob_id, data), self.raw.frames.get_mut(usize::from(self.raw.len))) {
             (Some(frame), Some(slot)) => {
                 *slot = frame;
                 // `get_mut` found the slot: `len` is below the burst's length.
@@ -387,6 +399,14 @@ pub trait Application {
     /// 0x1010/0x1011 (which otherwise leave the store code out, `Services::storage`).
     const STORES: bool = false;
 
+    /// [`Application::poll`] runs only when the deadline it last returned
+    /// has come (`None`: none), after a hook (the RPDO's and the raw frame's
+    /// only if they call [`Ctx::wake`]), after [`super::Node::app_mut`], or
+    /// when the last poll called [`Ctx::wake`]; not at every
+    /// [`super::Node::process`]. For a device whose timers depend only on
+    /// time and on what its hooks and `app_mut` change.
+    const POLL_WHEN_DUE: bool = false;
+
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
     fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
@@ -448,8 +468,9 @@ pub trait Application {
         let _ = ctx;
     }
 
-    /// Timers: runs at every [`super::Node::process`]; returns when the
-    /// device wants to run again (folded into the node's deadline).
+    /// Timers: runs at every [`super::Node::process`] (when due, with
+    /// [`Application::POLL_WHEN_DUE`]); returns when the device wants to run
+    /// again (folded into the node's deadline).
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
         let _ = ctx;
         None

@@ -2,19 +2,22 @@
 //! communication area of the dictionary (0x1000–0x1FFF).
 
 use crate::abort::AbortCode;
-use crate::id::CobId;
 use crate::od::index;
-use crate::od::{Dictionary, u32_exact};
+use crate::od::{Dictionary, Entry, object, store_checked, sub_entry, value_u32};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
-use crate::services::nmt::NmtState;
 use crate::services::pdo::Pdos;
 use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::{Emcy, EmcyCode};
 
-use super::app::ServiceOptions;
+/// (index, sub) as an integer, `default` if the dictionary lacks it.
+// Out of line: the services read a dozen objects this way.
+#[inline(never)]
+fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, default: u32) -> u32 {
+    dict.read_u32(image, index, sub).unwrap_or(default)
+}
 
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
@@ -80,9 +83,8 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         self.emcy.reset();
-        self.configure_emcy(dict, image);
         self.guarding.reset();
-        for index in [index::GUARD_TIME, index::PRODUCER_HEARTBEAT_TIME, index::COB_ID_TIME_STAMP] {
+        for index in [index::COB_ID_EMCY, index::GUARD_TIME, index::PRODUCER_HEARTBEAT_TIME, index::COB_ID_TIME_STAMP] {
             self.reconfigure(index, dict, image, node_id, now);
         }
         self.sync.configure(dict, image);
@@ -111,32 +113,33 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// Applies 0x1014/0x1015.
     pub fn configure_emcy(&mut self, dict: &Dictionary, image: &[u8]) {
         // Without 0x1014 the pre-defined connection set applies, and 0x1015 defaults to 0.
-        let cob = dict.read_u32(image, index::COB_ID_EMCY, 0).unwrap_or(0x8000_0000);
-        let inhibit = dict.read_u32(image, index::INHIBIT_TIME_EMCY, 0).unwrap_or(0) as u16;
+        let cob = u32_of(dict, image, index::COB_ID_EMCY, 0, 0x8000_0000);
+        let inhibit = u32_of(dict, image, index::INHIBIT_TIME_EMCY, 0, 0) as u16;
         self.emcy.configure(cob, inhibit);
     }
 
-    /// Applies a communication object after an SDO wrote it.
+    /// Applies a communication object after an SDO wrote it (idempotent:
+    /// the service reads the object's current value again).
     pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         let _ = node_id;
         match index {
             index::PRODUCER_HEARTBEAT_TIME => {
-                self.heartbeat.configure(dict.read_u32(image, index::PRODUCER_HEARTBEAT_TIME, 0).unwrap_or(0) as u16, now);
+                self.heartbeat.configure(u32_of(dict, image, index::PRODUCER_HEARTBEAT_TIME, 0, 0) as u16, now);
                 if self.heartbeat.active() {
                     // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
                     self.guarding.disarm();
                 }
             }
             index::GUARD_TIME | index::LIFE_TIME_FACTOR => {
-                let guard = dict.read_u32(image, index::GUARD_TIME, 0).unwrap_or(0) as u16;
-                let factor = dict.read_u32(image, index::LIFE_TIME_FACTOR, 0).unwrap_or(0) as u8;
+                let guard = u32_of(dict, image, index::GUARD_TIME, 0, 0) as u16;
+                let factor = u32_of(dict, image, index::LIFE_TIME_FACTOR, 0, 0) as u8;
                 self.guarding.configure(guard, factor);
             }
             index::COB_ID_TIME_STAMP => {
-                let v = dict.read_u32(image, index::COB_ID_TIME_STAMP, 0).unwrap_or(0);
+                let v = u32_of(dict, image, index::COB_ID_TIME_STAMP, 0, 0);
                 self.time_cob_id = (v & 0x8000_0000 != 0).then_some((v & 0x7FF) as u16);
             }
-            index::INHIBIT_TIME_EMCY => self.configure_emcy(dict, image),
+            index::COB_ID_EMCY | index::INHIBIT_TIME_EMCY => self.configure_emcy(dict, image),
             _ => {}
         }
     }
@@ -165,42 +168,29 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         if e.code == EmcyCode::NO_ERROR {
             return;
         }
-        let Ok(count) = dict.find(index::PRE_DEFINED_ERROR_FIELD, 0) else { return };
-        let capacity = dict.entries.iter().filter(|x| x.index == index::PRE_DEFINED_ERROR_FIELD && x.sub > 0).count().min(254) as u8;
+        // The record's entries found once; its sub-indices then among them.
+        let record = object(dict, index::PRE_DEFINED_ERROR_FIELD);
+        let Some(count) = sub_entry(record, 0) else { return };
+        let capacity = record.iter().filter(|x| x.sub > 0).count().min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
-        for sub in (2..=used.saturating_add(1).min(capacity)).rev() {
-            // sub ≥ 2: the range starts there.
-            #[allow(clippy::arithmetic_side_effects)]
-            let older = sub - 1;
-            if let Ok(prev) = dict.read(image, index::PRE_DEFINED_ERROR_FIELD, older) {
-                let mut b = [0u8; 4];
-                if let Some(dst) = b.get_mut(..prev.len().min(4)) {
-                    dst.copy_from_slice(prev.get(..dst.len()).unwrap_or(&[]));
-                }
-                let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, sub, &b);
-            }
-        }
         let [i0, i1, ..] = e.info;
-        let value = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
-        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 1, &value.to_le_bytes());
-        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 0, &[used.saturating_add(1).min(capacity)]);
+        // The newest at sub 1, each older one a sub-index on (the 32-bit entries of CiA 301 §7.5.2.4).
+        let mut carry = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
+        let len = used.saturating_add(1).min(capacity);
+        for sub in 1..=len {
+            let Some(entry) = sub_entry(record, sub) else { break };
+            let older = value_u32(dict, image, entry);
+            let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
+            carry = older;
+        }
+        let _ = dict.write_unchecked_entry(image, count, &[len]);
     }
 
     /// 0x1003 sub 0 ← 0: the history is empty.
     pub fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        let _ = dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, 0, &[0]);
-        for sub in 1..=254u8 {
-            if dict.write_unchecked(image, index::PRE_DEFINED_ERROR_FIELD, sub, &[0; 4]).is_err() {
-                break;
-            }
-        }
-    }
-
-    /// A SYNC parameter (0x1005–0x1007, 0x1019) written by an SDO.
-    pub fn write_sync(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        match self.sync.write_object(index, sub, data, dict, image) {
-            Some(result) => result,
-            None => dict.write(image, index, sub, data),
+        // Every entry of the record zero (an empty value is zero-filled).
+        for entry in object(dict, index::PRE_DEFINED_ERROR_FIELD) {
+            let _ = dict.write_unchecked_entry(image, entry, &[]);
         }
     }
 }
@@ -217,21 +207,32 @@ pub(crate) trait Services {
     /// The mapping RPDO `n` (0-based) uses, if it resolved.
     fn rpdo_mapping(&self, n: usize) -> Option<&Mapping>;
 
-    /// A checked write of an object a service owns (its rules and its
-    /// reconfiguration); `None` if no service owns (index, sub).
+    /// Whether 0x1016 entry `i` (0-based) set to `value` would monitor a
+    /// node another entry monitors.
+    fn consumer_conflicts(&self, i: usize, value: u32) -> bool;
+
+    /// [`Comm::clear_history`].
+    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]);
+
+    /// [`SyncService::check`].
+    fn check_sync(&self, index: u16, value: u32) -> Result<(), AbortCode>;
+
+    /// A download into a PDO record (0x1400–0x1BFF) whose `entry` passed
+    /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may change).
     #[allow(clippy::too_many_arguments)]
-    fn write_object(
+    fn write_pdo(
         &mut self,
         index: u16,
         sub: u8,
         data: &[u8],
+        entry: &'static Entry,
         dict: &Dictionary,
         image: &mut [u8],
-        node_id: u8,
-        now: Instant,
-        options: &ServiceOptions,
-        state: NmtState,
-    ) -> Option<Result<(), AbortCode>>;
+        rewrite: bool,
+    ) -> Result<(), AbortCode>;
+
+    /// The service that owns (index, sub) takes the `value` just stored.
+    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: Instant);
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB> {
@@ -247,103 +248,47 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         self.pdos.rpdo(n).and_then(|r| r.mapping())
     }
 
-    fn write_object(
+    fn consumer_conflicts(&self, i: usize, value: u32) -> bool {
+        self.consumers.conflicts(i, value)
+    }
+
+    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
+        Comm::clear_history(self, dict, image);
+    }
+
+    fn check_sync(&self, index: u16, value: u32) -> Result<(), AbortCode> {
+        self.sync.check(index, value)
+    }
+
+    fn write_pdo(
         &mut self,
         index: u16,
         sub: u8,
         data: &[u8],
+        entry: &'static Entry,
         dict: &Dictionary,
         image: &mut [u8],
-        node_id: u8,
-        now: Instant,
-        options: &ServiceOptions,
-        state: NmtState,
-    ) -> Option<Result<(), AbortCode>> {
-        Some(match index {
-            index::PRE_DEFINED_ERROR_FIELD => {
-                // The precheck found the entry writable.
-                if sub != 0 {
-                    return Some(Err(AbortCode::ReadOnly));
-                }
-                // CiA 301 §7.5.2.4: only 0 may be written, and it clears the history.
-                match data {
-                    [0] => {
-                        self.clear_history(dict, image);
-                        Ok(())
-                    }
-                    [_] => Err(AbortCode::InvalidValue),
-                    [] => Err(AbortCode::LengthTooLow),
-                    _ => Err(AbortCode::LengthTooHigh),
-                }
-            }
-            index::COB_ID_TIME_STAMP if sub == 0 => self.write_time_cob_id(data, dict, image, node_id, now),
-            index::COB_ID_EMCY if sub == 0 => self.write_emcy_cob_id(data, dict, image),
-            index::CONSUMER_HEARTBEAT_TIME if sub > 0 => {
-                let value = match u32_exact(data) {
-                    Ok(v) => v,
-                    Err(e) => return Some(Err(e)),
-                };
-                // sub > 0: the match arm's guard.
+        rewrite: bool,
+    ) -> Result<(), AbortCode> {
+        match self.pdos.write_checked(index, sub, data, entry, dict, image, rewrite) {
+            Some(result) => result,
+            // A record of a PDO this node does not have.
+            None => store_checked(image, entry, data).map(|_| ()),
+        }
+    }
+
+    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: Instant) {
+        match (index, sub) {
+            (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
+                // sub ≥ 1: the match arm's.
                 #[allow(clippy::arithmetic_side_effects)]
-                let consumer = usize::from(sub) - 1;
-                if self.consumers.conflicts(consumer, value) {
-                    return Some(Err(AbortCode::ParameterIncompatible));
-                }
-                dict.write(image, index, sub, data).map(|()| self.consumers.configure(consumer, value))
+                self.consumers.configure(usize::from(sub) - 1, value);
             }
-            index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW => {
-                self.write_sync(index, sub, data, dict, image)
+            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
+                self.sync.apply(index, value)
             }
-            index::GUARD_TIME | index::LIFE_TIME_FACTOR | index::INHIBIT_TIME_EMCY | index::PRODUCER_HEARTBEAT_TIME => {
-                dict.write(image, index, sub, data).map(|()| self.reconfigure(index, dict, image, node_id, now))
-            }
-            index::RPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST => {
-                let operational = state == NmtState::Operational;
-                let mapping = matches!(index, index::RPDO_MAPPING_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST | index::TPDO_MAPPING_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST);
-                if options.pdo_rewrite_while_valid && operational && mapping {
-                    // The manual's order: mappings change in Pre-operational only.
-                    return Some(Err(AbortCode::DeviceState));
-                }
-                // In Operational a COB-ID follows CiA 301 (it moves only while the PDO is not valid).
-                let rewrite = options.pdo_rewrite_while_valid && !operational;
-                match self.pdos.write_object_with(index, sub, data, dict, image, rewrite) {
-                    Some(result) => result,
-                    None => dict.write(image, index, sub, data),
-                }
-            }
-            _ => return None,
-        })
-    }
-}
-
-impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
-    /// 0x1014 COB-ID EMCY (CiA 301 §7.5.2.15): bit 31 set = EMCY off. No
-    /// 29-bit CAN-ID (bits 11..30 are 0), no CAN-ID 0, no restricted CAN-ID
-    /// while valid; the CAN-ID changes only while EMCY is or becomes off.
-    fn write_emcy_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        let new = CobId(u32_exact(data)?);
-        let moves = dict
-            .read_u32(image, index::COB_ID_EMCY, 0)
-            .map(CobId)
-            .is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
-        if new.0 & !(CobId::BIT31 | 0x7FF) != 0 || new.can_id() == 0 || (new.is_valid() && new.is_restricted()) || moves {
-            return Err(AbortCode::InvalidValue);
+            // The rest read their objects again (nothing for an object no service uses).
+            _ => self.reconfigure(index, dict, image, 0, now),
         }
-        dict.write(image, index::COB_ID_EMCY, 0, data)?;
-        self.configure_emcy(dict, image);
-        Ok(())
-    }
-
-    /// 0x1012 COB-ID TIME (CiA 301 §7.5.2.13): bit 31 consume, bit 30
-    /// produce. No 29-bit CAN-ID, no restricted CAN-ID while consumed or produced.
-    fn write_time_cob_id(&mut self, data: &[u8], dict: &Dictionary, image: &mut [u8], node_id: u8, now: Instant) -> Result<(), AbortCode> {
-        let new = CobId(u32_exact(data)?);
-        let used = new.0 & (CobId::BIT31 | CobId::BIT30) != 0;
-        if new.is_extended() || (used && new.is_restricted()) {
-            return Err(AbortCode::InvalidValue);
-        }
-        dict.write(image, index::COB_ID_TIME_STAMP, 0, data)?;
-        self.reconfigure(index::COB_ID_TIME_STAMP, dict, image, node_id, now);
-        Ok(())
     }
 }

@@ -180,18 +180,10 @@ impl ControllerErrors {
             self.raise_passive = false;
             raise(emcy, codes.error_passive, [0; 5]);
         }
-        for (clears_at, error) in [
-            (&mut self.overrun_clears_at, codes.overrun),
-            (&mut self.bus_off_clears_at, codes.bus_off_recovered),
-            (&mut self.protocol_clears_at, codes.protocol.unwrap_or(EmcyCode::NO_ERROR)),
-        ]
-        .into_iter()
-        .take(if codes.protocol.is_some() { 3 } else { 2 })
-        {
-            if clears_at.is_some_and(|t| t <= now) {
-                *clears_at = None;
-                emcy.clear(error);
-            }
+        expire(&mut self.overrun_clears_at, now, emcy, codes.overrun);
+        expire(&mut self.bus_off_clears_at, now, emcy, codes.bus_off_recovered);
+        if let Some(code) = codes.protocol {
+            expire(&mut self.protocol_clears_at, now, emcy, code);
         }
         self.update_clears_at::<A>();
         self.clears_at
@@ -206,6 +198,14 @@ impl ControllerErrors {
         self.protocol_clears_at = None;
         self.clears_at = None;
         self.raise_passive = self.passive;
+    }
+}
+
+/// Clears `code` if its hold ended by `now`.
+fn expire(clears_at: &mut Option<Instant>, now: Instant, emcy: &mut EmcyQueue, code: EmcyCode) {
+    if clears_at.is_some_and(|t| t <= now) {
+        *clears_at = None;
+        emcy.clear(code);
     }
 }
 

@@ -211,6 +211,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if received | timeouts == 0 {
             return;
         }
+        let (waits, mut wake) = (self.app_due.waits, false);
         self.with_app_cold(now, |app, ctx| {
             let mut bits = received;
             while bits != 0 {
@@ -222,7 +223,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::RpdoTimeout(bits.trailing_zeros() as u8)));
                 bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
             }
+            if A::POLL_WHEN_DUE {
+                wake = core::mem::take(&mut ctx.raw.wake);
+            }
         });
+        // The RPDO's hook alone leaves the device's timers to their deadline unless it asked for them.
+        if A::POLL_WHEN_DUE {
+            self.app_due.waits = waits && timeouts == 0 && !wake;
+        }
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
@@ -278,6 +286,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         &mut self,
         now: Instant,
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
+        // The SDO server's hooks may change what the device's timers do.
+        if A::POLL_WHEN_DUE {
+            self.app_due.waits = false;
+        }
         let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, store, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {

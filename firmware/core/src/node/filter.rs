@@ -14,7 +14,6 @@
 //! only when the list itself changed.
 
 use crate::od::ObjectDictionary;
-use crate::od::index;
 use crate::services::lss::UNCONFIGURED;
 use crate::storage::Storage;
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
@@ -129,14 +128,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     list.insert(id, true);
                 }
             }
-            // The consumer was configured from these same entries (reset
-            // communication, or the SDO download that wrote one).
-            let dict = self.od.dictionary();
-            for sub in (1..=HB).filter_map(|s| u8::try_from(s).ok()) {
-                let value = dict.read_u32(self.od.image(), index::CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
-                let (producer, time_ms) = ((value >> 16) as u8, value as u16);
+            // The consumers as 0x1016 configured them (reset communication,
+            // or the SDO download that wrote an entry).
+            for producer in self.comm.consumers.producers() {
                 // The node's own 0x700 + id is node guarding, never a heartbeat it consumes.
-                if time_ms != 0 && (1..=127).contains(&producer) && producer != self.node_id {
+                if (1..=127).contains(&producer) && producer != self.node_id {
                     list.insert(error_control_cob_id(producer), false);
                 }
             }

@@ -50,6 +50,7 @@ mod controller;
 mod dispatch;
 mod filter;
 mod lss;
+mod objects;
 mod process;
 mod reset;
 mod router;
@@ -85,6 +86,37 @@ pub const SDO_BUFFER: usize = 896;
 /// parameter object the dictionary lacks, or whose COB-IDs are not valid,
 /// stays off; each costs about 80 bytes of RAM, the download buffer is shared.
 pub const SDO_SERVERS: usize = 4;
+/// When a device that polls when due ([`Application::POLL_WHEN_DUE`]) is
+/// polled next: at the next [`Node::process`] ([`PollDue::NOW`], all zero
+/// bits: any hook but the RPDO's unless it calls [`Ctx::wake`], and
+/// [`Node::app_mut`], set it), or once the deadline its last poll returned
+/// has come. The deadline is kept as bytes: a field aligned to 1 leaves the
+/// offsets of the node's other fields as they are (an `Option<Instant>`
+/// moved them and made the sendix image, which does not poll when due, 540
+/// bytes bigger).
+#[derive(Clone, Copy, Debug)]
+struct PollDue {
+    /// False: at the next process.
+    waits: bool,
+    /// The deadline [µs, little-endian]; `u64::MAX`: none.
+    at: [u8; 8],
+}
+
+impl PollDue {
+    const NOW: PollDue = PollDue { waits: false, at: [0; 8] };
+
+    /// After a poll that returned `deadline` (and asked again with [`Ctx::wake`] if `wake`).
+    fn after(deadline: Option<Instant>, wake: bool) -> PollDue {
+        PollDue { waits: !wake, at: deadline.map_or(u64::MAX, Instant::as_micros).to_le_bytes() }
+    }
+
+    /// `Some(deadline to report)` while the poll is not due at `now`.
+    fn skip(self, now: Instant) -> Option<Option<Instant>> {
+        let at = u64::from_le_bytes(self.at);
+        (self.waits && now.as_micros() < at).then(|| (at != u64::MAX).then(|| Instant::from_micros(at)))
+    }
+}
+
 /// Queue slots a device's raw frames ([`Ctx::send_raw`]) leave free for
 /// heartbeat, EMCY and SDO answers.
 pub const RAW_RESERVE: usize = 8;
@@ -203,6 +235,9 @@ pub struct Node<
     reset_stored: Option<crate::services::store::StoredSet>,
     /// The store in progress, a stage per [`Node::process`] call (`store`).
     store: crate::services::store::Job,
+    /// For a device that polls when due ([`Application::POLL_WHEN_DUE`]):
+    /// when its next [`Application::poll`] is due.
+    app_due: PollDue,
     /// The answer that goes out when it ends, if any.
     store_answer: store::StoreAnswer,
 }
@@ -261,6 +296,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             reset_stored: None,
             store: crate::services::store::Job::IDLE,
             store_answer: store::StoreAnswer::NONE,
+            app_due: PollDue::NOW,
         }
     }
 
@@ -319,7 +355,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // Inlined: for a hook the device leaves at its default, nothing of it remains.
     #[inline(always)]
     pub(super) fn with_app<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
-        let (value, effects) = self.run_hook(now, f);
+        let mut wake = false;
+        let (value, effects) = self.run_hook(now, |app, ctx| {
+            let value = f(app, ctx);
+            if A::POLL_WHEN_DUE {
+                wake = core::mem::take(&mut ctx.raw.wake);
+            }
+            value
+        });
+        // The raw frame's hook (every frame) leaves the device's timers to their deadline unless it asked for them.
+        if A::POLL_WHEN_DUE && wake {
+            self.app_due.waits = false;
+        }
         self.queue_raw();
         self.follow_sdo(effects);
         if effects.error_class != 0 {
@@ -336,6 +383,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[inline(always)]
     pub(super) fn with_app_cold<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
         let (value, effects) = self.run_hook(now, f);
+        // The hook may have changed what the device's timers do: they run at the next process.
+        if A::POLL_WHEN_DUE {
+            (self.app_due.waits, self.raw.wake) = (false, false);
+        }
         if Self::FOLD_HOOKS {
             self.queue_raw();
             self.follow_sdo(effects);
@@ -400,6 +451,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[inline(always)]
     pub(super) fn with_app_resetting<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
         let (value, effects) = self.run_hook(now, f);
+        if A::POLL_WHEN_DUE {
+            self.app_due.waits = false;
+        }
         if Self::FOLD_HOOKS {
             self.queue_raw();
             self.follow_sdo(effects);
@@ -419,7 +473,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     fn queue_raw_frames(&mut self) {
-        let n = core::mem::take(&mut self.raw.len);
+        let n = usize::from(core::mem::take(&mut self.raw.len));
         for f in self.raw.frames.iter().take(n) {
             if self.txq.free() > RAW_RESERVE {
                 self.txq.push(*f);
@@ -434,8 +488,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         &self.app
     }
 
-    /// The device's hooks, mutably.
+    /// The device's hooks, mutably (its next [`Node::process`] polls it:
+    /// what changed here may change what its timers do).
     pub fn app_mut(&mut self) -> &mut A {
+        self.app_due.waits = false;
         &mut self.app
     }
 

@@ -48,7 +48,24 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         // The device's timers first: what they write goes out in this call's TPDOs.
-        let app_deadline = self.with_app_cold(now, |app, ctx| app.poll(ctx));
+        let app_deadline = match self.app_due.skip(now) {
+            Some(deadline) if A::POLL_WHEN_DUE => deadline,
+            _ => {
+                let mut wake = false;
+                let deadline = self.with_app_cold(now, |app, ctx| {
+                    let deadline = app.poll(ctx);
+                    if A::POLL_WHEN_DUE {
+                        wake = core::mem::take(&mut ctx.raw.wake);
+                    }
+                    deadline
+                });
+                // A poll that asks for it runs again at the next process, whenever that is.
+                if A::POLL_WHEN_DUE {
+                    self.app_due = super::PollDue::after(deadline, wake);
+                }
+                deadline
+            }
+        };
         if !self.app.canopen() {
             return app_deadline;
         }

@@ -20,20 +20,20 @@ use super::{Application, NmtEvent, Node};
 /// work a stage per [`Node::process`] call, so that no call does all of it
 /// (docs/firmware.md, "Longest step"); the node is Initialising until the
 /// call of the last stage queues the boot-up, as CiA 301 §7.3.2.2.1 asks.
+/// The stages run in the order declared ([`Stage::next`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 pub(super) enum Stage {
     /// No reset in progress (zero bits: the unpowered node's).
     Idle,
-    /// Finds the newest stored set (a CRC over it), then resets the application.
-    FindThenApplication,
-    /// Finds the newest stored set, then resets communication.
+    /// Finds the newest stored set (a CRC over it), then resets communication.
     FindThenCommunication,
+    /// Finds the newest stored set, then resets the application.
+    FindThenApplication,
     /// The application part of the image: defaults, then the stored set.
     Application,
-    /// The communication part of the image: defaults.
+    /// The communication part of the image: defaults, then the stored set.
     Communication,
-    /// The communication part of the image: the stored set.
-    CommunicationStored,
     /// The communication services but the PDOs configured from the image.
     Services,
     /// The RPDOs configured from the image.
@@ -42,6 +42,22 @@ pub(super) enum Stage {
     Tpdos,
     /// LSS, SDO servers and the acceptance list; then the boot-up is due.
     Finish,
+}
+
+impl Stage {
+    /// The stage after this one (Idle after the last).
+    fn next(self) -> Stage {
+        match self {
+            Stage::Idle | Stage::Finish => Stage::Idle,
+            Stage::FindThenCommunication => Stage::Communication,
+            Stage::FindThenApplication => Stage::Application,
+            Stage::Application => Stage::Communication,
+            Stage::Communication => Stage::Services,
+            Stage::Services => Stage::Rpdos,
+            Stage::Rpdos => Stage::Tpdos,
+            Stage::Tpdos => Stage::Finish,
+        }
+    }
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
@@ -74,6 +90,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// then links no store code.
     fn newest_stored(&mut self) -> Option<StoredSet> {
         if Self::LOADS_STORED { store::newest(self.od.dictionary(), &mut self.storage) } else { None }
+    }
+
+    /// A part of the image from its defaults and the stored set found (a
+    /// node without storage links no store code: the defaults alone).
+    fn reset_part(&mut self, part: Part) {
+        let (dict, image) = (self.od.dictionary(), self.od.image_mut());
+        if Self::LOADS_STORED {
+            store::reset_part(dict, image, self.node_id, &mut self.storage, self.reset_stored.as_ref(), part);
+        } else if part == Part::Communication {
+            dict.reset_communication(image, self.node_id);
+        } else {
+            dict.reset_application(image, self.node_id);
+        }
     }
 
     /// Starts reset application (and then communication): see [`Stage`].
@@ -118,46 +147,26 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// frame of their own, not one on top of all of `process`'s.
     #[inline(never)]
     pub(super) fn reset_step(&mut self, now: Instant) {
-        match self.reset {
+        let stage = self.reset;
+        self.reset = stage.next();
+        let dict = self.od.dictionary();
+        match stage {
             Stage::Idle => {}
-            Stage::FindThenApplication | Stage::FindThenCommunication => {
-                self.reset = if self.reset == Stage::FindThenApplication { Stage::Application } else { Stage::Communication };
-                self.reset_stored = self.newest_stored();
-            }
+            Stage::FindThenApplication | Stage::FindThenCommunication => self.reset_stored = self.newest_stored(),
             Stage::Application => self.reset_application_part(now),
             Stage::Communication => {
-                self.reset = Stage::CommunicationStored;
                 // CiA 305: a node-id configured by LSS becomes active here.
                 if let Some(lss) = self.lss_mut() {
                     self.node_id = lss.reset_communication();
                 }
-                let dict = self.od.dictionary();
-                dict.reset_communication(self.od.image_mut(), self.node_id);
-            }
-            Stage::CommunicationStored => {
-                self.reset = Stage::Services;
-                let dict = self.od.dictionary();
-                let image = self.od.image_mut();
-                if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
-                    set.load(dict, image, self.node_id, &mut self.storage, Part::Communication);
-                }
+                self.reset_part(Part::Communication);
                 if let Some(serial) = self.serial {
-                    let _ = dict.write_unchecked(image, index::IDENTITY, 4, &serial.to_le_bytes());
+                    let _ = dict.write_unchecked(self.od.image_mut(), index::IDENTITY, 4, &serial.to_le_bytes());
                 }
             }
-            Stage::Services => {
-                self.reset = Stage::Rpdos;
-                let dict = self.od.dictionary();
-                self.comm.configure(dict, self.od.image(), self.node_id, now);
-            }
-            Stage::Rpdos => {
-                self.reset = Stage::Tpdos;
-                let dict = self.od.dictionary();
-                self.comm.configure_pdos(dict, self.od.image(), false);
-            }
+            Stage::Services => self.comm.configure(dict, self.od.image(), self.node_id, now),
+            Stage::Rpdos => self.comm.configure_pdos(dict, self.od.image(), false),
             Stage::Tpdos => {
-                self.reset = Stage::Finish;
-                let dict = self.od.dictionary();
                 self.comm.configure_pdos(dict, self.od.image(), true);
                 if A::OPTIONS.tpdo_254_timer_only {
                     self.comm.pdos.set_timer_only_254(true);
@@ -174,13 +183,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Reset application: the application part of the image from its
     /// defaults and the stored set, then the device's hook.
     fn reset_application_part(&mut self, now: Instant) {
-        self.reset = Stage::Communication;
-        let dict = self.od.dictionary();
-        let image = self.od.image_mut();
-        dict.reset_application(image, self.node_id);
-        if let Some(set) = self.reset_stored.as_ref().filter(|_| Self::LOADS_STORED) {
-            set.load(dict, image, self.node_id, &mut self.storage, Part::Application);
-        }
+        self.reset_part(Part::Application);
         self.reset_hook(now, NmtEvent::ResetApplication);
     }
 
@@ -194,7 +197,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The end of reset communication: LSS, SDO servers, acceptance list,
     /// NMT; the boot-up is due and the device hears of the reset.
     fn reset_finish(&mut self, now: Instant) {
-        self.reset = Stage::Idle;
         // Every service and every TPDO looks at the new configuration at the next process.
         self.stale = true;
         self.touched = ALL_TPDOS;

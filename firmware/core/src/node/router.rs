@@ -4,7 +4,6 @@
 //! owns it (CiA 301 §7.5.2), and every object reaches the device hooks.
 
 use crate::abort::AbortCode;
-use crate::id::CobId;
 use crate::od::access::{copy_from, upload_value};
 use crate::od::index;
 use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
@@ -122,77 +121,10 @@ impl Ctx<'_> {
         }
     }
 
-    fn current_u32(&self, index: u16, sub: u8) -> Option<u32> {
-        self.dict.read_u32(self.image, index, sub)
-    }
-
     /// [`precheck`]: the checks every download passes before the object's
     /// own rules; the entry, for [`Ctx::route_write`].
     pub(super) fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
         precheck(self.dict, index, sub, data)
-    }
-
-    /// An SDO server parameter 0x1200 + i (CiA 301 §7.5.2.33). Sub 1 and 2,
-    /// the COB-IDs: bit 31 set = not valid, bit 30 (dynamic) is kept, no
-    /// 29-bit CAN-ID; a valid COB-ID may not use a restricted CAN-ID (the
-    /// default server keeps its own pre-defined ones), and its CAN-ID
-    /// changes only while it is or becomes not valid. Sub 3, the client's
-    /// node-ID: 0 (none assigned) or 1..=127.
-    fn write_sdo_server(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
-        match sub {
-            1 | 2 => {
-                let new = CobId(u32_exact(data)?);
-                // A u8 node-ID on 0x600 or 0x580 stays below 0x700.
-                #[allow(clippy::arithmetic_side_effects)]
-                let own = if sub == 1 { 0x600 } else { 0x580 } + u16::from(self.node_id);
-                let restricted = new.is_restricted() && !(index == index::SDO_SERVER_PARAMETER && new.can_id() == own);
-                let old = self.current_u32(index, sub).map(CobId);
-                let moves = old.is_some_and(|old| old.is_valid() && new.is_valid() && old.can_id() != new.can_id());
-                if new.is_extended() || (new.is_valid() && restricted) || moves {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
-            3 if matches!(data, [id] if *id > 127) => return Err(AbortCode::InvalidValue),
-            _ => {}
-        }
-        store_checked(self.image, entry, data)?;
-        self.effects.sdo_changed = true;
-        Ok(())
-    }
-
-    /// A checked write of (index, sub), whose `entry` passed [`Ctx::precheck`]:
-    /// the service that owns the object applies its rules.
-    /// Not 0x1010/0x1011: their callers choose whether the node stores
-    /// ([`Ctx::store_command`]), so that a node without storage links none of it.
-    pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
-        if index >= index::MANUFACTURER_SPECIFIC {
-            return self.write_plain(entry, data);
-        }
-        self.effects.written = true;
-        self.effects.services = true;
-        let result = match index {
-            index::ERROR_BEHAVIOUR if sub > 0 => {
-                if matches!(data, [v] if *v > 2) {
-                    return Err(AbortCode::InvalidValue);
-                }
-                store_checked(self.image, entry, data).map(|_| ())
-            }
-            index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST => self.write_sdo_server(index, sub, data, entry),
-            _ => {
-                let (dict, now, node_id, options) = (self.dict, self.now, self.node_id, self.options);
-                match self.services.write_object(index, sub, data, dict, self.image, node_id, now, options, self.state) {
-                    Some(result) => result,
-                    None => store_checked(self.image, entry, data).map(|_| ()),
-                }
-            }
-        };
-        // SYNC, TIME, heartbeat consumers, SDO servers, RPDOs and TPDOs (RTR).
-        if result.is_ok()
-            && matches!(index, index::COB_ID_SYNC | index::COB_ID_TIME_STAMP | index::CONSUMER_HEARTBEAT_TIME | index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST | index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_COMMUNICATION_PARAMETER_LAST | index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_COMMUNICATION_PARAMETER_LAST)
-        {
-            self.effects.consumed_changed = true;
-        }
-        result
     }
 }
 
@@ -200,7 +132,7 @@ impl Ctx<'_> {
     /// A write no service owns (an application or profile object): the
     /// dictionary's own, remembering which bytes changed. The precheck
     /// looked the entry up and checked the value: no second look-up.
-    fn write_plain(&mut self, entry: &'static Entry, data: &[u8]) -> Result<(), AbortCode> {
+    pub(super) fn write_plain(&mut self, entry: &'static Entry, data: &[u8]) -> Result<(), AbortCode> {
         let changed = store_checked(self.image, entry, data)?;
         if !changed {
             // The same value again: no TPDO has new data.
@@ -230,18 +162,21 @@ impl SdoEffects {
 }
 
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
-    /// [`ObjectAccess::read`], from `entry` when the caller already looked it up.
+    /// [`ObjectAccess::read`], from `entry` when the caller already looked
+    /// it up and checked it for an upload.
     // One call of the device's read hook for both callers (each inlined a copy).
     #[inline(never)]
     fn read_from(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8], entry: Option<&'static Entry>) -> Result<usize, AbortCode> {
         if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
             return r;
         }
-        let entry = match entry {
-            Some(entry) => entry,
-            None => self.ctx.dict.find(index, sub)?,
+        let value = match entry {
+            // `upload_small` checked it with `upload_value` and took its
+            // size from there: no second check, and its first `buf.len()`
+            // bytes end before a string's NUL.
+            Some(entry) => self.ctx.dict.value(self.ctx.image, entry),
+            None => upload_value(self.ctx.dict, self.ctx.image, self.ctx.dict.find(index, sub)?)?,
         };
-        let value = upload_value(self.ctx.dict, self.ctx.image, entry)?;
         Ok(copy_from(buf, value.get(offset..).unwrap_or(&[])))
     }
 

@@ -195,24 +195,16 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
     pub fn clear(&mut self, code: EmcyCode) {
         let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
-        // A plain loop: `copy_within` pulls `memmove` (1.6 KiB) into every image.
-        for i in pos..self.active_len.saturating_sub(1) {
-            // i + 1 < active_len ≤ A: the loop's bound.
-            #[allow(clippy::arithmetic_side_effects)]
-            let after = i + 1;
-            let next = self.active.get(after).copied().unwrap_or(EmcyCode::NO_ERROR);
-            if let Some(slot) = self.active.get_mut(i) {
-                *slot = next;
-            }
-            let next = self.active_bits.get(after).copied().unwrap_or(0);
-            if let Some(slot) = self.active_bits.get_mut(i) {
-                *slot = next;
-            }
-        }
+        // The set has no order (only membership and the register bits
+        // count): the last entry takes the cleared one's place.
         // `position` found the code among the first `active_len`: it is at least 1.
         #[allow(clippy::arithmetic_side_effects)]
         {
             self.active_len -= 1;
+        }
+        let last = (self.active.get(self.active_len).copied(), self.active_bits.get(self.active_len).copied());
+        if let ((Some(code), Some(bits)), Some(slot), Some(slot_bits)) = (last, self.active.get_mut(pos), self.active_bits.get_mut(pos)) {
+            (*slot, *slot_bits) = (code, bits);
         }
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;

@@ -113,6 +113,11 @@ impl<const N: usize> Consumer<N> {
         }
     }
 
+    /// The node-ids of the producers monitored (entries with a time).
+    pub fn producers(&self) -> impl Iterator<Item = u8> + '_ {
+        self.monitors.iter().map(|m| m.node_id).filter(|&id| id != 0)
+    }
+
     /// Checks a new 0x1016 entry: CiA 301 forbids two entries for one node
     /// with non-zero times (abort 0x06040043 in the node).
     pub fn conflicts(&self, i: usize, value: u32) -> bool {

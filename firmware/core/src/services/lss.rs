@@ -29,7 +29,7 @@ pub enum LssAction {
     /// Nothing (no answer is due).
     None,
     /// Send this answer on 0x7E4.
-    Answer([u8; 8]),
+    Answer(LssAnswer),
     /// Switch the bit rate to CiA 305 table index `index`: stop sending,
     /// wait `delay_ms`, switch, wait `delay_ms` again, resume.
     ActivateBitTiming {
@@ -49,6 +49,29 @@ pub enum LssAction {
     /// An unconfigured node got a node-id and left configuration: it starts
     /// with that node-id (reset communication, boot-up).
     Start(u8),
+}
+
+/// An answer on 0x7E4: the command specifier and bytes 1–4, little-endian
+/// (bytes 5–7 are 0 in every LSS answer). Five bytes instead of the frame's
+/// eight keep an [`LssAction`] in two registers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LssAnswer {
+    /// The command specifier (byte 0).
+    pub cs: u8,
+    /// Bytes 1–4: an error code and its specific byte, or an address part.
+    pub data: u32,
+}
+
+impl LssAnswer {
+    /// The eight data bytes of the frame.
+    pub fn bytes(self) -> [u8; 8] {
+        answer_u32(self.cs, self.data)
+    }
+}
+
+/// The answer `cs` with `byte1` (an error code, 0 = success, or the node-id).
+fn reply(cs: u8, byte1: u8) -> LssAction {
+    LssAction::Answer(LssAnswer { cs, data: u32::from(byte1) })
 }
 
 /// The LSS slave.
@@ -155,7 +178,7 @@ impl LssSlave {
                     if self.selective == 4 {
                         self.selective = 0;
                         self.mode = Mode::Configuration;
-                        return LssAction::Answer(answer(0x44, 0, 0));
+                        return reply(0x44, 0);
                     }
                 } else {
                     self.selective = u8::from(part == AddressPart::Vendor && self.address[0] == value);
@@ -166,18 +189,18 @@ impl LssSlave {
                 // CiA 305 §5.2.2.2: 1..=127 or 0xFF (back to unconfigured); error 1 otherwise.
                 if (1..=127).contains(&id) || id == UNCONFIGURED {
                     self.pending_node_id = id;
-                    LssAction::Answer(answer(0x11, 0, 0))
+                    reply(0x11, 0)
                 } else {
-                    LssAction::Answer(answer(0x11, 1, 0))
+                    reply(0x11, 1)
                 }
             }
             Q::ConfigureBitTiming(table, index) if configuring => {
                 let supported = table == 0 && index < 16 && self.supported_rates & (1 << index) != 0;
                 if supported {
                     self.pending_bit_rate = index;
-                    LssAction::Answer(answer(0x13, 0, 0))
+                    reply(0x13, 0)
                 } else {
-                    LssAction::Answer(answer(0x13, 1, 0))
+                    reply(0x13, 1)
                 }
             }
             Q::ActivateBitTiming(delay_ms) if configuring => LssAction::ActivateBitTiming { delay_ms, index: self.pending_bit_rate },
@@ -186,17 +209,17 @@ impl LssSlave {
                 // An address part is 0..=3: 0x5A..=0x5D.
                 #[allow(clippy::arithmetic_side_effects)]
                 let cs = 0x5A + part as u8;
-                LssAction::Answer(answer_u32(cs, self.address.get(part as usize).copied().unwrap_or(0)))
+                LssAction::Answer(LssAnswer { cs, data: self.address.get(part as usize).copied().unwrap_or(0) })
             }
-            Q::InquireNodeId if configuring => LssAction::Answer(answer(0x5E, self.active_node_id, 0)),
+            Q::InquireNodeId if configuring => reply(0x5E, self.active_node_id),
             Q::IdentifyRemote(k, value) => {
                 if let Some(slot) = self.identify.get_mut(usize::from(k)) {
                     *slot = value;
                 }
                 // The serial-number high bound comes last; then the slave answers if it is in range.
-                if k == 5 && self.in_identify_range() { LssAction::Answer(answer(0x4F, 0, 0)) } else { LssAction::None }
+                if k == 5 && self.in_identify_range() { reply(0x4F, 0) } else { LssAction::None }
             }
-            Q::IdentifyNonConfigured if self.active_node_id == UNCONFIGURED => LssAction::Answer(answer(0x50, 0, 0)),
+            Q::IdentifyNonConfigured if self.active_node_id == UNCONFIGURED => reply(0x50, 0),
             Q::Fastscan { id, bit_checked, sub, next } => self.fastscan(id, bit_checked, sub, next),
             // Configuration services in the waiting state are ignored (CiA 305 §4.3).
             _ => LssAction::None,
@@ -225,7 +248,7 @@ impl LssSlave {
         }
         if bit_checked == 0x80 {
             self.fastscan_sub = 0;
-            return LssAction::Answer(answer(0x4F, 0, 0));
+            return reply(0x4F, 0);
         }
         if bit_checked > 31 || sub > 3 || next > 3 || sub != self.fastscan_sub {
             return LssAction::None;
@@ -245,7 +268,7 @@ impl LssSlave {
                 self.fastscan_sub = next;
             }
         }
-        LssAction::Answer(answer(0x4F, 0, 0))
+        reply(0x4F, 0)
     }
 }
 

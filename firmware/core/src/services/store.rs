@@ -56,7 +56,7 @@ impl Scope {
         })
     }
 
-    const fn mask(self) -> u16 {
+    const fn mask(self) -> u8 {
         match self {
             Scope::All => 0b111,
             Scope::Communication => 0b001,
@@ -88,12 +88,18 @@ impl From<StorageError> for StoreError {
 }
 
 /// The scope bit (see [`Scope::mask`]) of the object at `index`.
-const fn scope_bit(index: u16) -> u16 {
+const fn scope_bit(index: u16) -> u8 {
     match index {
         0x0000..=0x1FFF => Scope::Communication.mask(),
         0x2000..=0x5FFF => Scope::Manufacturer.mask(),
         _ => Scope::Application.mask(),
     }
+}
+
+/// Where the application scope's payload bytes begin (after the
+/// manufacturer scope's: od-gen lays the stored prefix out in index order).
+fn application_start(dict: &Dictionary) -> usize {
+    dict.entries.iter().find(|e| e.index >= 0x6000 && in_set(dict, e)).map_or(dict.stored_len, |e| usize::from(e.offset))
 }
 
 /// CRC-32 (reflected, polynomial 0xEDB88320) of each value of a nibble.
@@ -119,8 +125,6 @@ const CRC32_NIBBLE: [u32; 16] = {
     table
 };
 
-// Out of line: save and load each had a copy of the table loop.
-#[inline(never)]
 fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
     // The index is masked to 4 bits, so the look-up is always in the table.
     let step = |crc: u32| (crc >> 4) ^ CRC32_NIBBLE.get((crc & 0xF) as usize).copied().unwrap_or(0);
@@ -130,50 +134,29 @@ fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
     crc
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Header {
-    /// LSS configuration stored with the set: node-id, bit-rate table index
-    /// (0xFF, 0xFF = none; an erased header reads that way).
-    lss: [u8; 2],
-    seq: u32,
-    len: u16,
-    defaults: u16,
-    crc: u32,
-}
+/// Payload bytes [`crc_pieces`] handles at a time: a store's step ([`STAGE`]).
+const PIECE: usize = 128;
 
-/// The header of `region` if it belongs to this dictionary; the payload is not checked yet.
-fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<Header> {
-    let mut h = [0u8; HEADER];
-    storage.read(region, 0, &mut h).ok()?;
-    // Little-endian words: magic, version and LSS, layout id, sequence number, length and default scopes, CRC.
-    let mut words = [0u32; HEADER / 4];
-    for (word, bytes) in words.iter_mut().zip(h.chunks_exact(4)) {
-        *word = u32::from_le_bytes(bytes.try_into().unwrap_or_default());
-    }
-    let [magic, version_lss, layout, seq, len_defaults, crc] = words;
-    if magic != MAGIC || version_lss as u16 != VERSION || layout != dict.layout_id {
-        return None;
-    }
-    let lss = [(version_lss >> 16) as u8, (version_lss >> 24) as u8];
-    let header = Header { lss, seq, len: len_defaults as u16, defaults: (len_defaults >> 16) as u16, crc };
-    // A set of another prefix is refused even where the entries' offsets agree.
-    (usize::from(header.len) == dict.stored_len).then_some(header)
-}
+/// Fills (and writes) the payload bytes at an offset: see [`crc_pieces`].
+type Piece<'a> = dyn FnMut(usize, &mut [u8]) -> Result<(), StorageError> + 'a;
 
-/// The CRC-32 of `range` of the payload of `region`, continued from `crc`
-/// (`None` if the storage fails).
-// `off` ≤ `range.end`, a payload offset (below 64 KiB: 24 more fit).
+/// Runs the payload bytes `range` through a buffer a piece at a time:
+/// `piece` fills each (a read of a set, or the new set's bytes, which it
+/// also writes), then its CRC-32. The CRC is kept inverted (`!running`,
+/// the CRC itself at the end; 0 before the first byte). Out of line: the
+/// check of a set and the writing of one share it.
+// `pos` ≤ `range.end`, a payload offset (below 64 KiB).
 #[allow(clippy::arithmetic_side_effects)]
-fn crc_of(storage: &mut dyn Storage, region: u8, range: Range<usize>, mut crc: u32) -> Option<u32> {
-    let mut buf = [0u8; 64];
-    let mut off = range.start;
-    while off < range.end {
-        let chunk = buf.get_mut(..(range.end - off).min(64))?;
-        storage.read(region, HEADER + off, chunk).ok()?;
+#[inline(never)]
+fn crc_pieces(range: Range<usize>, crc: u32, piece: &mut Piece<'_>) -> Result<u32, StorageError> {
+    let mut buf = [0u8; PIECE];
+    let (mut pos, mut crc) = (range.start, !crc);
+    while let Some(chunk) = buf.get_mut(..range.end.saturating_sub(pos).min(PIECE)).filter(|c| !c.is_empty()) {
+        piece(pos, chunk)?;
         crc = crc32_update(crc, chunk);
-        off += chunk.len();
+        pos += chunk.len();
     }
-    Some(crc)
+    Ok(!crc)
 }
 
 /// The newest valid parameter set in a [`Storage`]: found once by
@@ -181,121 +164,90 @@ fn crc_of(storage: &mut dyn Storage, region: u8, range: Range<usize>, mut crc: u
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StoredSet {
     region: u8,
-    header: Header,
+    /// The scopes the set marks as default ([`Scope`] bits).
+    defaults: u8,
+    /// LSS configuration stored with the set: node-id, bit-rate table index
+    /// (0xFF, 0xFF = none; an erased header reads that way).
+    lss: [u8; 2],
+    seq: u32,
 }
 
-/// [`newest`] a piece at a time: the headers, then the payload's CRC in
-/// pieces, a step each (a store's first stages, [`Job`]). All zero bits
-/// before its first step ([`Finder::NEW`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Finder {
-    /// Sets found broken so far: the region checked is the newer one's,
-    /// then the other; 2 = none left.
-    tried: u8,
-    /// Payload bytes of the set in hand checked so far, and their CRC
-    /// inverted (0 before the first byte, so that a new finder is all zero bits).
-    pos: u16,
-    crc: u32,
-}
-
-impl Finder {
-    /// Nothing checked yet.
-    const NEW: Finder = Finder { tried: 0, pos: 0, crc: 0 };
-
-    /// Checks at most `budget` payload bytes; the newest valid set (or
-    /// none) once found. Only the newer header's payload is checked when it
-    /// is intact: an older set cannot win over it, valid or not. The
-    /// headers are read at every step (the storage does not change between
-    /// steps), which costs less than keeping them.
-    fn step_with(&mut self, dict: &Dictionary, storage: &mut dyn Storage, budget: usize) -> Option<Option<StoredSet>> {
-        let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
-        // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
-        let first = match &headers {
-            [Some(a), Some(b)] => u8::from(b.seq.wrapping_sub(a.seq) as i32 > 0),
-            [a, _] => u8::from(a.is_none()),
-        };
-        while self.tried < 2 {
-            let region = first ^ self.tried;
-            if let Some(header) = headers.get(usize::from(region)).copied().flatten() {
-                let (pos, len) = (usize::from(self.pos), usize::from(header.len));
-                let end = len.min(pos.saturating_add(budget));
-                match crc_of(storage, region, pos..end, !self.crc) {
-                    Some(crc) if end < len => {
-                        (self.pos, self.crc) = (end as u16, !crc);
-                        return None;
-                    }
-                    Some(crc) if !crc == header.crc => return Some(Some(StoredSet { region, header })),
-                    // Cut short, or the storage failed: the other set, in the next step.
-                    _ => {}
-                }
-                (self.tried, self.pos, self.crc) = (self.tried.wrapping_add(1), 0, 0);
-                return None;
-            }
-            self.tried = self.tried.wrapping_add(1);
-        }
-        Some(None)
+/// The set header of `region` if it belongs to this dictionary, with the
+/// CRC its payload should have (not checked yet). Little-endian words:
+/// magic, version and LSS, layout id, sequence number, length and default
+/// scopes, CRC.
+fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<(StoredSet, u32)> {
+    let mut h = [0u8; HEADER];
+    storage.read(region, 0, &mut h).ok()?;
+    let mut words = [0u32; HEADER / 4];
+    for (word, bytes) in words.iter_mut().zip(h.chunks_exact(4)) {
+        *word = u32::from_le_bytes(bytes.try_into().unwrap_or_default());
     }
-}
-
-/// Finds the newest valid set. Only the newer header's payload is checked
-/// when it is intact: an older set cannot win over it, valid or not.
-pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
-    let mut finder = Finder::NEW;
-    loop {
-        if let Some(found) = finder.step_with(dict, storage, usize::MAX) {
-            return found;
-        }
-    }
+    let [magic, version_lss, layout, seq, len_defaults, crc] = words;
+    let [_, _, id, rate] = version_lss.to_le_bytes();
+    // A set of another prefix is refused even where the entries' offsets agree.
+    (magic == MAGIC && version_lss as u16 == VERSION && layout == dict.layout_id && len_defaults as u16 as usize == dict.stored_len)
+        .then_some((StoredSet { region, defaults: (len_defaults >> 16) as u8, lss: [id, rate], seq }, crc))
 }
 
 impl StoredSet {
     /// The LSS configuration stored with the set (node-id, bit-rate table index), if any.
     pub fn lss(&self) -> Option<(u8, u8)> {
-        let [id, rate] = self.header.lss;
+        let [id, rate] = self.lss;
         (id != 0xFF || rate != 0xFF).then_some((id, rate))
     }
 
-    /// Overwrites the writable entries of `part` with this set (after the
-    /// reset copied the defaults). Returns whether any value was taken from
-    /// it. If the storage fails, the part gets its defaults back.
-    // `run` lies in the image (a slice, below isize::MAX): 24 more fit.
-    #[allow(clippy::arithmetic_side_effects)]
+    /// Resets `part` of the image from this set: see [`reset_part`].
     pub fn load(&self, dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
-        let communication = part == Part::Communication;
-        let wanted = |e: &Entry| {
-            (e.index < 0x2000) == communication
-                && e.attr.contains(Attr::WRITE)
-                && in_set(dict, e)
-                && self.header.defaults & scope_bit(e.index) == 0
-        };
-        // Adjacent values are read with one call: a call per entry cost more than the copying.
-        let mut run = 0..0;
-        let mut used = false;
-        for r in dict.entries.iter().filter(|e| wanted(e)).map(Entry::range).chain(core::iter::once(usize::MAX..usize::MAX)) {
-            if run.end != r.start {
-                let read =
-                    image.get_mut(run.clone()).map(|dst| dst.is_empty() || storage.read(self.region, HEADER + run.start, dst).is_ok());
-                if read != Some(true) {
-                    if communication {
-                        dict.reset_communication(image, node_id)
-                    } else {
-                        dict.reset_application(image, node_id)
-                    }
-                    return false;
-                }
-                run.start = r.start;
-            }
-            run.end = r.end;
-            used = true;
+        reset_part(dict, image, node_id, storage, Some(self), part)
+    }
+}
+
+/// Resets `part` of the image (CiA 301 reset communication or application):
+/// its defaults, then, with a set, the values the set holds for a reset,
+/// and the node-id on the `$NODEID` values (a set keeps them relative, as
+/// the defaults are). Returns whether a value was taken from the set; if
+/// the storage fails, the part keeps its defaults.
+///
+/// The part's stored payload is one read into the image; the values the
+/// set does not hold for a reset (read-only ones, scopes it marks as
+/// default) then get their defaults back, in the one walk over the part's
+/// entries that adds the node-id.
+pub fn reset_part(
+    dict: &Dictionary,
+    image: &mut [u8],
+    node_id: u8,
+    storage: &mut dyn Storage,
+    set: Option<&StoredSet>,
+    part: Part,
+) -> bool {
+    let communication = part == Part::Communication;
+    let rest = dict.stored_len.saturating_add(dict.comm_rest);
+    let [stored, others] =
+        if communication { [0..dict.comm_len, dict.stored_len..rest] } else { [dict.comm_len..dict.stored_len, rest..dict.defaults.len()] };
+    let start = stored.start.saturating_add(HEADER);
+    let set = set.filter(|set| image.get_mut(stored.clone()).is_some_and(|dst| storage.read(set.region, start, dst).is_ok()));
+    // The defaults where the set was not read.
+    for (read, range) in [(set.is_some(), stored), (false, others)] {
+        if let (false, Some(dst), Some(src)) = (read, image.get_mut(range.clone()), dict.defaults.get(range)) {
+            dst.copy_from_slice(src);
         }
-        // `$NODEID` values are stored relative to the node-id.
-        for e in dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))).filter(|e| wanted(e)) {
-            if let Some(value) = image.get_mut(e.range()) {
+    }
+    let mut used = false;
+    for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && !e.in_rom()) {
+        let r = e.range();
+        if let (Some(value), Some(default)) = (image.get_mut(r.clone()), dict.defaults.get(r)) {
+            let held = set.map(|set| e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0);
+            if held == Some(false) && in_set(dict, e) {
+                value.copy_from_slice(default);
+            }
+            if e.attr.contains(Attr::NODE_ID) {
                 crate::od::add_le(value, u64::from(node_id));
             }
+            used |= held == Some(true) && in_set(dict, e);
         }
-        used
     }
+    used
 }
 
 /// 0x1010 "save": stores the scope's parameters.
@@ -377,7 +329,7 @@ pub fn save_lss(
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;
-    if !in_set(dict, entry) || set.header.defaults & scope_bit(entry.index) != 0 {
+    if !in_set(dict, entry) || set.defaults & scope_bit(entry.index) != 0 {
         return None;
     }
     let range = entry.range();
@@ -398,10 +350,10 @@ pub enum Part {
     Application,
 }
 
-/// Overwrites the writable entries of `part` with the newest stored set
-/// (after the reset copied the defaults). Returns whether a set was used.
-/// A reset that loads both parts finds the set once with [`newest`] and
-/// calls [`StoredSet::load`] for each.
+/// Resets `part` of the image from the newest stored set ([`reset_part`]);
+/// returns whether a value was taken from one (without a set, the image is
+/// left as it is). A reset that loads both parts finds the set once with
+/// [`newest`] and calls [`StoredSet::load`] for each.
 pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn Storage, part: Part) -> bool {
     newest(dict, storage).is_some_and(|set| set.load(dict, image, node_id, storage, part))
 }
@@ -410,4 +362,4 @@ mod job;
 #[cfg(test)]
 mod tests;
 
-pub use job::{CHECK_STAGE, Job, STAGE};
+pub use job::{Job, STAGE, newest};

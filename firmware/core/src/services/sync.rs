@@ -21,8 +21,8 @@
 //!   0x08000022 (the counter may only change while no SYNC is produced).
 
 use crate::abort::AbortCode;
-use crate::id::is_restricted_can_id;
-use crate::od::{Dictionary, index, le_u32, object, precheck, sub_entry, value_u32};
+use crate::id::CobRule;
+use crate::od::{Dictionary, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
 use crate::time::{Duration, Instant};
 use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
@@ -204,46 +204,50 @@ impl SyncService {
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        precheck(dict, index, sub, data)?;
+        let entry = precheck(dict, index, sub, data)?;
         let value = le_u32(data);
         // The object's own rules first, then one write for all four.
-        let cob = match index {
+        self.check(index, value)?;
+        store_checked(image, entry, data)?;
+        self.apply(index, value);
+        Ok(())
+    }
+
+    /// The rules of a download of `value` into `index` (0x1005–0x1007,
+    /// 0x1019): [`CobRule::SYNC`], and an overflow of 0 or 2..=240 set
+    /// only while no SYNC is produced (0x08000022).
+    pub fn check(&self, index: u16, value: u32) -> Result<(), AbortCode> {
+        match index {
             index::COB_ID_SYNC => {
-                let new = CobIdSync::from_u32(value).map_err(|_| AbortCode::InvalidValue)?;
-                if is_restricted_can_id(new.can_id) || (self.producer && new.producer && new.can_id != self.cob_id) {
-                    return Err(AbortCode::InvalidValue);
-                }
-                Some(new)
+                let old = CobIdSync { can_id: self.cob_id, producer: self.producer }.to_u32();
+                CobRule::SYNC.check(Some(old), value, u16::MAX)
             }
-            index::SYNCHRONOUS_COUNTER_OVERFLOW => {
-                if value == 1 || value > 240 {
-                    return Err(AbortCode::InvalidValue);
-                }
-                if self.period != Duration::ZERO {
-                    return Err(AbortCode::DeviceState);
-                }
-                None
-            }
-            _ => None,
-        };
-        dict.write(image, index, sub, data)?;
-        match (index, cob) {
-            (_, Some(new)) => {
+            index::SYNCHRONOUS_COUNTER_OVERFLOW if value == 1 || value > 240 => Err(AbortCode::InvalidValue),
+            index::SYNCHRONOUS_COUNTER_OVERFLOW if self.period != Duration::ZERO => Err(AbortCode::DeviceState),
+            _ => Ok(()),
+        }
+    }
+
+    /// Takes `value`, which passed [`SyncService::check`] and is now in `index`'s entry.
+    pub fn apply(&mut self, index: u16, value: u32) {
+        match index {
+            index::COB_ID_SYNC => {
+                // The check refused a 29-bit identifier.
+                let new = CobIdSync::from_u32(value).unwrap_or(CobIdSync { can_id: self.cob_id, producer: self.producer });
                 self.cob_id = new.can_id;
                 self.producer = new.producer;
                 self.restart_producer();
             }
-            (index::COMMUNICATION_CYCLE_PERIOD, _) => {
+            index::COMMUNICATION_CYCLE_PERIOD => {
                 self.period = Duration::from_micros(u64::from(value));
                 self.next = None;
             }
-            (index::SYNCHRONOUS_WINDOW_LENGTH, _) => self.window = Duration::from_micros(u64::from(value)),
+            index::SYNCHRONOUS_WINDOW_LENGTH => self.window = Duration::from_micros(u64::from(value)),
             _ => {
                 self.overflow = value as u8;
                 self.restart_producer();
             }
         }
-        Ok(())
     }
 
     /// The counter starts over at 1 and the first SYNC comes one period after the next poll.

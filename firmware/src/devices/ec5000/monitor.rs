@@ -10,6 +10,7 @@ use canopen_core::profiles::cia402::Cia402;
 use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::PdsState;
 use canopen_core::profiles::cia402::objects::signed;
+use canopen_core::time::Instant;
 use canopen_core::wire::emcy::EmcyCode;
 
 /// EMCY 0xFFA8 "Motor temperature close to high" (class W, §9.2).
@@ -248,6 +249,19 @@ impl Monitor {
             self.stored_s = self.uptime.s;
             self.dirty = ctx.save_objects(MONITORING, MONITORING).is_err();
         }
+    }
+
+    /// Whether the next [`Monitor::update`] has work before its period ends:
+    /// the temperature, the speed warning or the PDS state changed since it
+    /// last looked (a tick did it), or a store waits.
+    pub fn pending(&self, drive: &Cia402<Roller>) -> bool {
+        let roller = &drive.drive;
+        self.keep_pending || drive.state() != self.last_state || roller.temperature() != self.checked_c || roller.slowed() != self.slowed
+    }
+
+    /// When the monitoring runs next: one period after its last run.
+    pub fn next(&self) -> Option<Instant> {
+        Some(Instant::from_micros(self.last_us.map_or(0, |last| last.saturating_add(PERIOD_US))))
     }
 
     /// Writes `value` to (index, sub) with `len` bytes if it differs from what slot `i` shows.

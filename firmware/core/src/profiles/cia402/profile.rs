@@ -446,8 +446,10 @@ impl<D: Drive> Cia402<D> {
         }
     }
 
-    fn start_ticking(&mut self, ctx: &Ctx<'_>) {
+    fn start_ticking(&mut self, ctx: &mut Ctx<'_>) {
         if !self.s.ticking {
+            // From an RPDO's hook too: the first tick is due before the idle deadline.
+            ctx.wake();
             self.s.ticking = true;
             self.s.next_tick = ctx.now().as_micros().saturating_add(TICK_US);
         }

@@ -20,7 +20,9 @@ fn send(s: &mut LssSlave, frame: [u8; 8]) -> LssAction {
 }
 
 fn ans(bytes: [u8; 8]) -> LssAction {
-    LssAction::Answer(bytes)
+    let [cs, a, b, c, d, rest @ ..] = bytes;
+    assert_eq!(rest, [0; 3], "an LSS answer's bytes 5-7 are 0");
+    LssAction::Answer(LssAnswer { cs, data: u32::from_le_bytes([a, b, c, d]) })
 }
 
 // ---- The Sendix manual's sequence -----------------------------------------------

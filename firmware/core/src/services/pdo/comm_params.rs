@@ -5,7 +5,7 @@
 
 use super::map::Direction;
 use crate::abort::AbortCode;
-use crate::id::is_restricted_can_id;
+use crate::id::CobRule;
 use crate::od::{Dictionary, object, value_u32};
 use crate::time::Duration;
 
@@ -13,8 +13,6 @@ use crate::time::Duration;
 pub const COB_ID_INVALID: u32 = 1 << 31;
 /// COB-ID bit 30: no RTR allowed on this PDO.
 pub const COB_ID_NO_RTR: u32 = 1 << 30;
-/// COB-ID bit 29 (29-bit frame) and bits 11..28: extended identifiers, not supported.
-const COB_ID_EXTENDED: u32 = 0x3FFF_F800;
 
 /// The communication parameter record of one PDO (0x1400+n or 0x1800+n) as cached.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -107,12 +105,9 @@ impl CommParams {
         match sub {
             1 => {
                 new.cob_id = value;
-                let can_id_changes = new.can_id() != self.can_id();
-                if value & COB_ID_EXTENDED != 0
-                    || (new.valid() && is_restricted_can_id(new.can_id()))
-                    || (!rewrite && new.valid() && self.valid() && can_id_changes)
-                    || (direction == Direction::Transmit && new.valid() && !new.rtr_allowed() && matches!(new.transmission_type, 252 | 253))
-                {
+                let rule = if rewrite { CobRule::MOVABLE } else { CobRule::VALID };
+                rule.check(Some(self.cob_id), value, u16::MAX)?;
+                if direction == Direction::Transmit && new.valid() && !new.rtr_allowed() && matches!(new.transmission_type, 252 | 253) {
                     return Err(AbortCode::InvalidValue);
                 }
             }
@@ -126,20 +121,19 @@ impl CommParams {
                     return Err(AbortCode::InvalidValue);
                 }
             }
-            3 => {
-                new.inhibit_time_100us = value as u16;
-                if self.valid() && new.inhibit_time_100us != self.inhibit_time_100us {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
+            3 => new.inhibit_time_100us = value as u16,
             5 => new.event_timer_ms = value as u16,
             6 => {
                 new.sync_start = value as u8;
-                if new.sync_start > 240 || (self.valid() && new.sync_start != self.sync_start) {
+                if new.sync_start > 240 {
                     return Err(AbortCode::InvalidValue);
                 }
             }
             _ => {}
+        }
+        // The inhibit time and the SYNC start value change only while the PDO is not valid.
+        if matches!(sub, 3 | 6) && self.valid() && new != self {
+            return Err(AbortCode::InvalidValue);
         }
         Ok(new)
     }

@@ -6,7 +6,7 @@
 use super::map::{Direction, Mapping, Slot};
 use super::{CommParams, Pdos};
 use crate::abort::AbortCode;
-use crate::od::{Dictionary, index, le_u32, object, precheck, sub_entry, value_u32};
+use crate::od::{Dictionary, Entry, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
 use crate::wire::pdo_mapping::MappingEntry;
 
 impl<const R: usize, const T: usize> Pdos<R, T> {
@@ -32,16 +32,37 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         rewrite: bool,
     ) -> Option<Result<(), AbortCode>> {
         self.settled = false;
-        let result = self.write_parameter(index, sub, data, dict, image, rewrite);
+        let result = self.write_parameter(index, sub, data, None, dict, image, rewrite);
         self.refresh_rx_ids();
         result
     }
 
+    /// [`Pdos::write_object_with`] of an `entry` the caller found and
+    /// checked as [`precheck`] does (the node's SDO router): no second look-up.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn write_checked(
+        &mut self,
+        index: u16,
+        sub: u8,
+        data: &[u8],
+        entry: &'static Entry,
+        dict: &Dictionary,
+        image: &mut [u8],
+        rewrite: bool,
+    ) -> Option<Result<(), AbortCode>> {
+        self.settled = false;
+        let result = self.write_parameter(index, sub, data, Some(entry), dict, image, rewrite);
+        self.refresh_rx_ids();
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
     fn write_parameter(
         &mut self,
         index: u16,
         sub: u8,
         data: &[u8],
+        entry: Option<&'static Entry>,
         dict: &Dictionary,
         image: &mut [u8],
         rewrite: bool,
@@ -63,9 +84,16 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
             Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
         };
+        let entry = match entry {
+            Some(entry) => entry,
+            None => match precheck(dict, index, sub, data) {
+                Ok(entry) => entry,
+                Err(code) => return Some(Err(code)),
+            },
+        };
         if is_mapping {
             let locked = params.valid() && cob_id_writable && !rewrite;
-            let mapping = match write_map(locked, rewrite, direction, index, sub, data, dict, image) {
+            let mapping = match write_map(locked, rewrite, direction, entry, index, sub, data, dict, image) {
                 Ok(Some(mapping)) => mapping,
                 Ok(None) => return Some(Ok(())),
                 Err(code) => return Some(Err(code)),
@@ -76,7 +104,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             };
             return Some(Ok(()));
         }
-        let new = match write_comm(params, direction, index, sub, data, dict, image, rewrite) {
+        let new = match write_comm(params, direction, entry, sub, data, image, rewrite) {
             Ok(new) => new,
             Err(code) => return Some(Err(code)),
         };
@@ -113,16 +141,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 fn write_comm(
     params: CommParams,
     direction: Direction,
-    index: u16,
+    entry: &'static Entry,
     sub: u8,
     data: &[u8],
-    dict: &Dictionary,
     image: &mut [u8],
     rewrite: bool,
 ) -> Result<CommParams, AbortCode> {
-    precheck(dict, index, sub, data)?;
     let new = params.with(direction, sub, le_u32(data), rewrite)?;
-    dict.write(image, index, sub, data)?;
+    store_checked(image, entry, data)?;
     Ok(new)
 }
 
@@ -132,13 +158,13 @@ fn write_map(
     locked: bool,
     rewrite: bool,
     direction: Direction,
+    entry: &'static Entry,
     index: u16,
     sub: u8,
     data: &[u8],
     dict: &Dictionary,
     image: &mut [u8],
 ) -> Result<Option<Mapping>, AbortCode> {
-    let entry = precheck(dict, index, sub, data)?;
     if (locked || sub != 0) && dict.value(image, entry) == data {
         // Writing back the current value changes nothing and is allowed
         // (sub 0 of an open mapping is always resolved again).
@@ -162,6 +188,6 @@ fn write_map(
         }
         None
     };
-    dict.write(image, index, sub, data)?;
+    store_checked(image, entry, data)?;
     Ok(mapping)
 }

@@ -1,38 +1,26 @@
 //! A store in stages ([`Job`]): the node runs one [`Job::step`] per
 //! `process` call, so that no call writes more than [`STAGE`] bytes or
-//! checks more than [`CHECK_STAGE`] (docs/firmware.md, "Store and restore
-//! in stages").
+//! checks more than one set (docs/firmware.md, "Store and restore in
+//! stages").
 //!
 //! The steps are those of one store, in order: find the newest valid set
-//! (its payload's CRC, a piece per step), erase the other region, write the
+//! (its payload's CRC, [`newest`]), erase the other region, write the
 //! payload (a piece per step, each ending at a value's end, so that every
 //! value is taken whole from the image of one step), then the header. A
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{Finder, HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, byte_range, crc32_update, in_set, scope_bit};
-use crate::od::{Attr, Dictionary};
-use crate::storage::Storage;
+use super::{
+    HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, application_start, byte_range, crc_pieces, in_set, read_header, scope_bit,
+};
+use crate::od::Dictionary;
+use crate::storage::{Storage, StorageError};
 use core::ops::Range;
 
 /// Payload bytes a step writes at most (a value longer than this goes
-/// whole into one step): at most about 9,000 instructions on thumbv7m, for
-/// the communication parameters with their many `$NODEID` values, each a
-/// run of its own (`cargo xtask icount`, the interop dictionary).
-pub const STAGE: usize = 128;
-/// Payload bytes a step checks at most (the CRC of the newest set, at a
-/// store and at a reset): about 7,000 instructions.
-pub const CHECK_STAGE: usize = 4 * STAGE;
-
-/// Where a run of the payload comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Source {
-    Defaults,
-    Image,
-    /// The newest valid set.
-    Stored,
-}
-
+/// whole into one step): at most about 11,000 instructions on thumbv7m
+/// (`cargo xtask icount`, the interop dictionary).
+pub const STAGE: usize = super::PIECE;
 /// Where a [`Job`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
@@ -52,8 +40,8 @@ enum Phase {
 pub struct Job {
     phase: Phase,
     /// Scopes saved from the image, and scopes marked as defaults ([`Scope`] bits).
-    save: u16,
-    reset: u16,
+    save: u8,
+    reset: u8,
     /// A new LSS configuration (node-id, bit-rate table index), if `new_lss`.
     lss: [u8; 2],
     new_lss: bool,
@@ -61,18 +49,37 @@ pub struct Job {
     /// but for those of `keep`, which keep the newest set's.
     from_image: (u16, u16),
     keep: (u16, u16),
-    find: Finder,
+    /// Where the application scope's bytes begin (see [`application_start`]), once erased.
+    app: u16,
     /// The newest valid set found, which the new one follows.
     old: Option<StoredSet>,
-    /// Payload bytes written, the entry the next step starts from, and the CRC so far.
+    /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
     pos: u16,
-    entry: u16,
     crc: u32,
 }
 
 /// A range of the image as a [`Job`] keeps it (images are checked to be below 64 KiB).
-fn span(range: core::ops::Range<usize>) -> (u16, u16) {
+fn span(range: Range<usize>) -> (u16, u16) {
     (range.start as u16, range.end as u16)
+}
+
+/// The newest valid set: only the newer header's payload is checked when
+/// it is intact (an older set cannot win over it, valid or not). One call,
+/// as a reset's first stage and a store's first step: a CRC over the stored
+/// prefix (about 15,000 thumbv7m instructions for the interop dictionary's
+/// 796 bytes; twice that only if the newer set is broken).
+pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
+    let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
+    // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
+    let first = match &headers {
+        [Some(a), Some(b)] => u8::from(b.0.seq.wrapping_sub(a.0.seq) as i32 > 0),
+        [a, _] => u8::from(a.is_none()),
+    };
+    [first, first ^ 1].into_iter().find_map(|region| {
+        let (set, crc) = headers.get(usize::from(region)).copied().flatten()?;
+        let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(region, at.saturating_add(HEADER), piece));
+        (checked == Ok(crc)).then_some(set)
+    })
 }
 
 impl Job {
@@ -85,16 +92,13 @@ impl Job {
         new_lss: false,
         from_image: (0, 0),
         keep: (0, 0),
-        find: Finder::NEW,
+        app: 0,
         old: None,
         pos: 0,
-        entry: 0,
         crc: 0,
     };
 
-    // Out of line: a job is some 60 bytes, built in one place.
-    #[inline(never)]
-    const fn new(save: u16, reset: u16, from_image: (u16, u16), keep: (u16, u16)) -> Job {
+    const fn new(save: u8, reset: u8, from_image: (u16, u16), keep: (u16, u16)) -> Job {
         Job { phase: Phase::Find, save, reset, from_image, keep, ..Job::IDLE }
     }
 
@@ -156,7 +160,14 @@ impl Job {
         storage: &mut dyn Storage,
         budget: usize,
     ) -> Option<Result<(), StoreError>> {
-        match self.advance(dict, image, node_id, storage, budget) {
+        let result = if self.phase == Phase::Idle {
+            Ok(true)
+        } else if HEADER.saturating_add(dict.stored_len) > storage.region_size() || dict.stored_len >= usize::from(u16::MAX) {
+            Err(StoreError::TooLarge)
+        } else {
+            self.advance(dict, image, node_id, storage, budget).map_err(StoreError::Storage)
+        };
+        match result {
             Ok(false) => None,
             done => {
                 self.phase = Phase::Idle;
@@ -165,9 +176,7 @@ impl Job {
         }
     }
 
-    /// One step; true when the job is done.
-    // `len` is a slice's length (below isize::MAX: 24 more fit).
-    #[allow(clippy::arithmetic_side_effects)]
+    /// One step of a busy job; true when the job is done.
     fn advance(
         &mut self,
         dict: &Dictionary,
@@ -175,25 +184,25 @@ impl Job {
         node_id: u8,
         storage: &mut dyn Storage,
         budget: usize,
-    ) -> Result<bool, StoreError> {
-        let len = dict.stored_len;
+    ) -> Result<bool, StorageError> {
+        let target = self.old.map_or(0, |set| set.region ^ 1);
         match self.phase {
-            Phase::Idle => return Ok(true),
-            Phase::Find => {
-                if HEADER + len > storage.region_size() || len >= usize::from(u16::MAX) {
-                    return Err(StoreError::TooLarge);
-                }
-                if let Some(old) = self.find.step_with(dict, storage, budget.saturating_mul(4)) {
-                    (self.old, self.phase) = (old, Phase::Erase);
-                }
-            }
+            Phase::Find => (self.old, self.phase) = (newest(dict, storage), Phase::Erase),
             Phase::Erase => {
-                storage.erase(self.target())?;
-                (self.phase, self.crc) = (Phase::Write, !0);
+                storage.erase(target)?;
+                (self.phase, self.app) = (Phase::Write, application_start(dict) as u16);
             }
-            Phase::Write => {
-                if self.write(dict, image, node_id, storage, budget)? {
-                    self.write_header(dict, storage)?;
+            _ => {
+                let pos = usize::from(self.pos);
+                let end = value_end(dict, pos, budget);
+                let this = &*self;
+                self.crc = crc_pieces(pos..end, self.crc, &mut |at, piece| {
+                    this.compose(dict, image, node_id, storage, at, piece)?;
+                    storage.write(target, at.saturating_add(HEADER), piece)
+                })?;
+                self.pos = end as u16;
+                if end == dict.stored_len {
+                    storage.write(target, 0, &self.header(dict))?;
                     return Ok(true);
                 }
             }
@@ -201,135 +210,113 @@ impl Job {
         Ok(false)
     }
 
-    /// The region the new set goes to: the one not holding the newest.
-    fn target(&self) -> u8 {
-        self.old.map_or(0, |set| set.region ^ 1)
-    }
-
-    /// Writes the next whole values, about `budget` bytes of them (at
-    /// least one), each from its source: the image for the scopes and
-    /// objects saved, the newest set for the others (the defaults where it
-    /// marks the scope as default, or where there is none). Adjacent values
-    /// from one source go in one run. True once the whole payload is written.
-    // `entry` counts entries of a slice.
-    #[allow(clippy::arithmetic_side_effects)]
-    fn write(
-        &mut self,
+    /// The new set's payload bytes at `at`, each from its source: the image
+    /// for the scopes and objects saved, the newest set for the others (the
+    /// defaults where it marks the scope as default, or where there is none).
+    fn compose(
+        &self,
         dict: &Dictionary,
         image: &[u8],
         node_id: u8,
         storage: &mut dyn Storage,
-        budget: usize,
-    ) -> Result<bool, StoreError> {
-        let start = usize::from(self.pos);
-        let from_image = self.from_image.0..self.from_image.1;
-        let keep = self.keep.0..self.keep.1;
-        // The run in hand: its source, its bytes, and the length of the
-        // `$NODEID` value it starts with (0: none).
-        let mut run = (Source::Defaults, start..start, 0);
-        for e in dict.entries.get(usize::from(self.entry)..).unwrap_or(&[]) {
-            let r = e.range();
-            if in_set(dict, e) && r.end > run.1.end {
-                if run.1.end > start && r.end > start.saturating_add(budget) {
-                    self.pos = run.1.end as u16;
-                    self.copy(dict, image, node_id, storage, run)?;
-                    return Ok(false);
-                }
-                let bit = scope_bit(e.index);
-                let source = if self.save & bit != 0 && from_image.contains(&{ e.offset }) && !keep.contains(&{ e.offset }) {
-                    Source::Image
-                } else if self.old.is_some_and(|set| set.header.defaults & bit == 0) {
-                    Source::Stored
-                } else {
-                    // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
-                    Source::Defaults
-                };
-                // `$NODEID` values are stored relative to the node-id: each starts a run of its own.
-                let relative = if source == Source::Image && e.attr.contains(Attr::NODE_ID) { e.len } else { 0 };
-                if source == run.0 && relative == 0 && run.2 == 0 {
-                    run.1.end = r.end;
-                } else {
-                    // The bytes before the value (none in a generated image) go with the run before.
-                    run.1.end = r.start;
-                    self.copy(dict, image, node_id, storage, run)?;
-                    run = (source, r, relative);
-                }
-            }
-            self.entry += 1;
+        at: usize,
+        piece: &mut [u8],
+    ) -> Result<(), StorageError> {
+        if let Some(old) = self.old {
+            storage.read(old.region, at.saturating_add(HEADER), piece)?;
         }
-        run.1.end = dict.stored_len;
-        self.copy(dict, image, node_id, storage, run)?;
-        Ok(true)
-    }
-
-    /// Writes a run of the payload from its source, in pieces.
-    // `pos` ≤ `range.end`, a payload offset (below 64 KiB: 24 more fit).
-    #[allow(clippy::arithmetic_side_effects)]
-    fn copy(
-        &mut self,
-        dict: &Dictionary,
-        image: &[u8],
-        node_id: u8,
-        storage: &mut dyn Storage,
-        (source, range, relative): (Source, Range<usize>, u16),
-    ) -> Result<(), StoreError> {
-        let target = self.target();
-        let mut buf = [0u8; 64];
-        let mut pos = range.start;
-        while pos < range.end {
-            let n = (range.end - pos).min(buf.len());
-            let piece = buf.get_mut(..n).ok_or(StoreError::TooLarge)?;
-            match (source, self.old) {
-                (Source::Stored, Some(set)) => storage.read(set.region, HEADER + pos, piece)?,
-                // The defaults are stored relative, as the set keeps them.
-                _ => {
-                    let from = if source == Source::Image { image } else { dict.defaults };
-                    piece.copy_from_slice(from.get(pos..pos + n).ok_or(StoreError::TooLarge)?);
-                    if pos == range.start
-                        && let Some(value) = piece.get_mut(..usize::from(relative))
-                    {
-                        sub_le(value, node_id);
-                    }
-                }
+        // The source changes only at a scope's or a range's bounds: looked up there.
+        let (mut from, mut next): (&[u8], usize) = (&[], at);
+        for (off, byte) in (at..).zip(piece.iter_mut()) {
+            if off == next {
+                let bounds = [
+                    dict.comm_len,
+                    self.app.into(),
+                    self.from_image.0.into(),
+                    self.from_image.1.into(),
+                    self.keep.0.into(),
+                    self.keep.1.into(),
+                ];
+                next = bounds.into_iter().filter(|&b| b > off).fold(usize::MAX, usize::min);
+                from = self.source(dict, image, off);
             }
-            storage.write(target, HEADER + pos, piece)?;
-            self.crc = crc32_update(self.crc, piece);
-            pos += n;
+            if let Some(&b) = from.get(off) {
+                *byte = b;
+            }
+        }
+        // `$NODEID` values from the image are stored relative to the node-id.
+        // A step's payload is one piece but for a single value longer than
+        // one (not a `$NODEID` value: an integer), so each lies in one piece.
+        for e in dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))) {
+            let r = e.range();
+            if let Some(value) = piece.get_mut(r.start.wrapping_sub(at)..r.end.wrapping_sub(at))
+                && core::ptr::eq(self.source(dict, image, r.start), image)
+            {
+                crate::od::add_le(value, u64::from(node_id).wrapping_neg());
+            }
         }
         Ok(())
     }
 
-    /// The header, last: the new set is valid from here on.
-    fn write_header(&self, dict: &Dictionary, storage: &mut dyn Storage) -> Result<(), StoreError> {
+    /// Where the payload byte at `off` comes from: the bytes at `off` are those of the returned slice (the image, the
+    /// defaults), or none for the newest set's, already in place.
+    fn source<'a>(&self, dict: &'a Dictionary, image: &'a [u8], off: usize) -> &'a [u8] {
+        let bit = if off < dict.comm_len {
+            Scope::Communication.mask()
+        } else if off < usize::from(self.app) {
+            Scope::Manufacturer.mask()
+        } else {
+            Scope::Application.mask()
+        };
+        let within = |(start, end): (u16, u16)| (usize::from(start)..usize::from(end)).contains(&off);
+        if self.save & bit != 0 && within(self.from_image) && !within(self.keep) {
+            image
+        } else if self.old.is_some_and(|set| set.defaults & bit == 0) {
+            &[]
+        } else {
+            // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
+            dict.defaults
+        }
+    }
+
+    /// The header, written last: the new set is valid from here on.
+    fn header(&self, dict: &Dictionary) -> [u8; HEADER] {
         let old = self.old;
-        let defaults = (old.map_or(0b111, |set| set.header.defaults) & !self.save) | self.reset;
-        let seq = old.map_or(1, |set| set.header.seq.wrapping_add(1));
+        let defaults = (old.map_or(0b111, |set| set.defaults) & !self.save) | self.reset;
+        let seq = old.map_or(1, |set| set.seq.wrapping_add(1));
         // The LSS configuration rides along with every set: a new one or the old one.
-        let lss = if self.new_lss { self.lss } else { old.map_or([0xFF, 0xFF], |set| set.header.lss) };
+        let [id, rate] = if self.new_lss { self.lss } else { old.map_or([0xFF, 0xFF], |set| set.lss) };
         // Magic, version and LSS, layout id, sequence number, length and default scopes, CRC: little-endian words.
         let words = [
             MAGIC,
-            u32::from(VERSION) | u32::from(lss[0]) << 16 | u32::from(lss[1]) << 24,
+            u32::from_le_bytes([VERSION as u8, (VERSION >> 8) as u8, id, rate]),
             dict.layout_id,
             seq,
             dict.stored_len as u32 | u32::from(defaults) << 16,
-            !self.crc,
+            self.crc,
         ];
         let mut h = [0u8; HEADER];
         for (dst, word) in h.chunks_exact_mut(4).zip(words) {
             dst.copy_from_slice(&word.to_le_bytes());
         }
-        storage.write(self.target(), 0, &h)?;
-        Ok(())
+        h
     }
 }
 
-/// Subtracts `n` from a little-endian value (a `$NODEID` value stored relative).
-fn sub_le(bytes: &mut [u8], n: u8) {
-    let mut borrow = u16::from(n);
-    for b in bytes.iter_mut() {
-        let v = u16::from(*b).wrapping_sub(borrow);
-        *b = v as u8;
-        borrow = u16::from(v > 0xFF);
+/// The end of the payload a write step from `pos` covers: the end of the
+/// last value within `budget` bytes, or of the first value if it is longer
+/// (the stored prefix holds whole values, in offset order).
+fn value_end(dict: &Dictionary, pos: usize, budget: usize) -> usize {
+    let limit = pos.saturating_add(budget);
+    let mut end = pos;
+    for r in dict.entries.iter().filter(|e| in_set(dict, e)).map(|e| e.range()) {
+        if r.end > limit {
+            if end == pos {
+                end = r.end;
+            }
+            break;
+        }
+        end = end.max(r.end);
     }
+    if end == pos || dict.stored_len <= limit { dict.stored_len } else { end }
 }

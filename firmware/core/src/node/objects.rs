@@ -1,0 +1,147 @@
+//! Downloads into the communication area (0x1000–0x1FFF) as a table and
+//! one interpreter: [`Kind::of`] says what an object is, the interpreter
+//! checks the value by its kind's rule (a [`CobRule`], a range, the
+//! heartbeat consumers' duplicates), stores it once into the entry the
+//! precheck found, and lets the service that owns it take the new value
+//! ([`Services::apply`]). The SYNC and PDO records keep their own services'
+//! rules ([`Services::check_sync`], [`Services::write_pdo`]).
+//!
+//! Abort codes (CiA 301 §7.5.2): every broken rule is 0x06090030, but a
+//! second heartbeat consumer for one node is 0x06040043 (§7.5.2.17), a COB-ID
+//! of the wrong length 0x0607001x, and a mapping write on a device that
+//! allows it only in Pre-operational 0x08000022.
+
+use crate::abort::AbortCode;
+use crate::id::CobRule;
+use crate::od::index;
+use crate::od::{Entry, le_u32, store_checked, u32_exact};
+use crate::services::nmt::NmtState;
+
+use super::app::Ctx;
+
+/// What a download into one communication object checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// No rule of its own: stored.
+    Plain,
+    /// A one-byte value of at most this (0x1029 sub 1.., an SDO server's client node-ID).
+    AtMost(u8),
+    /// A COB-ID: its rule, and whether it is the default SDO server's
+    /// (which keeps its pre-defined, otherwise restricted, CAN-IDs).
+    CobId(CobRule, bool),
+    /// 0x1016 sub 1..: no second entry for a node (0x06040043).
+    Consumer,
+    /// 0x1003 sub 0: only 0, which clears the history.
+    History,
+    /// 0x1005–0x1007, 0x1019: the SYNC service's rules.
+    Sync,
+    /// 0x1400–0x1BFF: the PDOs' rules.
+    Pdo,
+}
+
+impl Kind {
+    /// The table: (index, sub) to its kind.
+    fn of(index: u16, sub: u8) -> Kind {
+        match (index, sub) {
+            (index::PRE_DEFINED_ERROR_FIELD, _) => Kind::History,
+            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => Kind::Sync,
+            (index::COB_ID_TIME_STAMP, 0) => Kind::CobId(CobRule::TIME, false),
+            (index::COB_ID_EMCY, 0) => Kind::CobId(CobRule::EMCY, false),
+            (index::CONSUMER_HEARTBEAT_TIME, 1..) => Kind::Consumer,
+            (index::ERROR_BEHAVIOUR, 1..) => Kind::AtMost(2),
+            (index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST, 1 | 2) => {
+                Kind::CobId(CobRule::VALID, index == index::SDO_SERVER_PARAMETER)
+            }
+            (index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST, 3) => Kind::AtMost(127),
+            (index::RPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST, _) => Kind::Pdo,
+            _ => Kind::Plain,
+        }
+    }
+}
+
+/// Whether PDO record `index` (0x1400–0x1BFF) is a mapping (0x1600–0x17FF,
+/// 0x1A00–0x1BFF): bit 9 set, where the communication records have it clear.
+const fn is_mapping(index: u16) -> bool {
+    index & 0x200 != 0
+}
+
+impl Ctx<'_> {
+    /// A checked write of (index, sub), whose `entry` passed [`Ctx::precheck`]:
+    /// the object's kind applies its rules, the service that owns it its value.
+    /// Not 0x1010/0x1011: their callers choose whether the node stores
+    /// ([`Ctx::store_command`]), so that a node without storage links none of it.
+    pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
+        if index >= index::MANUFACTURER_SPECIFIC {
+            return self.write_plain(entry, data);
+        }
+        self.effects.written = true;
+        self.effects.services = true;
+        self.write_comm(index, sub, data, entry)?;
+        // The SDO servers are read again by the node; these decide which COB-IDs it consumes.
+        let sdo = matches!(index, index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST);
+        self.effects.sdo_changed |= sdo;
+        self.effects.consumed_changed |= sdo
+            || matches!(index, index::COB_ID_SYNC | index::COB_ID_TIME_STAMP | index::CONSUMER_HEARTBEAT_TIME | index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_COMMUNICATION_PARAMETER_LAST | index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_COMMUNICATION_PARAMETER_LAST);
+        Ok(())
+    }
+
+    /// The interpreter: check by kind, store, apply.
+    fn write_comm(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
+        let (dict, now, node_id) = (self.dict, self.now, self.node_id);
+        match Kind::of(index, sub) {
+            Kind::Plain => {}
+            Kind::AtMost(max) => {
+                if matches!(data, [v] if *v > max) {
+                    return Err(AbortCode::InvalidValue);
+                }
+            }
+            Kind::CobId(rule, default_sdo) => {
+                let new = u32_exact(data)?;
+                // The pre-defined CAN-IDs of the default server: 0x600 + node-ID
+                // (sub 1) or 0x580 + node-ID, below 0x700.
+                #[allow(clippy::arithmetic_side_effects)]
+                let own = if !default_sdo { u16::MAX } else { u16::from(node_id) + if sub == 1 { 0x600 } else { 0x580 } };
+                let old = dict.read_entry(self.image, entry).ok().map(le_u32);
+                rule.check(old, new, own)?;
+            }
+            Kind::Consumer => {
+                let value = u32_exact(data)?;
+                // sub ≥ 1: the kind's.
+                #[allow(clippy::arithmetic_side_effects)]
+                if self.services.consumer_conflicts(usize::from(sub) - 1, value) {
+                    return Err(AbortCode::ParameterIncompatible);
+                }
+            }
+            Kind::History => {
+                // The precheck found the entry writable.
+                if sub != 0 {
+                    return Err(AbortCode::ReadOnly);
+                }
+                // CiA 301 §7.5.2.4: only 0 may be written, and it clears the history.
+                return match data {
+                    [0] => {
+                        self.services.clear_history(dict, self.image);
+                        Ok(())
+                    }
+                    [_] => Err(AbortCode::InvalidValue),
+                    [] => Err(AbortCode::LengthTooLow),
+                    _ => Err(AbortCode::LengthTooHigh),
+                };
+            }
+            Kind::Sync => self.services.check_sync(index, le_u32(data))?,
+            Kind::Pdo => {
+                let operational = self.state == NmtState::Operational;
+                let rewrite = self.options.pdo_rewrite_while_valid;
+                if rewrite && operational && is_mapping(index) {
+                    // The manual's order: mappings change in Pre-operational only.
+                    return Err(AbortCode::DeviceState);
+                }
+                // In Operational a COB-ID follows CiA 301 (it moves only while the PDO is not valid).
+                return self.services.write_pdo(index, sub, data, entry, dict, self.image, rewrite && !operational);
+            }
+        }
+        store_checked(self.image, entry, data)?;
+        self.services.apply(index, sub, le_u32(data), dict, self.image, now);
+        Ok(())
+    }
+}
