@@ -179,15 +179,16 @@ pub struct StoredSet {
 fn read_header(storage: &mut dyn Storage, region: u8, dict: &Dictionary) -> Option<(StoredSet, u32)> {
     let mut h = [0u8; HEADER];
     storage.read(region, 0, &mut h).ok()?;
-    let mut words = [0u32; HEADER / 4];
-    for (word, bytes) in words.iter_mut().zip(h.chunks_exact(4)) {
-        *word = u32::from_le_bytes(bytes.try_into().unwrap_or_default());
-    }
-    let [magic, version_lss, layout, seq, len_defaults, crc] = words;
-    let [_, _, id, rate] = version_lss.to_le_bytes();
+    let [m0, m1, m2, m3, v0, v1, id, rate, l0, l1, l2, l3, s0, s1, s2, s3, n0, n1, defaults, _, c0, c1, c2, c3] = h;
     // A set of another prefix is refused even where the entries' offsets agree.
-    (magic == MAGIC && version_lss as u16 == VERSION && layout == dict.layout_id && len_defaults as u16 as usize == dict.stored_len)
-        .then_some((StoredSet { region, defaults: (len_defaults >> 16) as u8, lss: [id, rate], seq }, crc))
+    (u32::from_le_bytes([m0, m1, m2, m3]) == MAGIC
+        && u16::from_le_bytes([v0, v1]) == VERSION
+        && u32::from_le_bytes([l0, l1, l2, l3]) == dict.layout_id
+        && usize::from(u16::from_le_bytes([n0, n1])) == dict.stored_len)
+        .then_some((
+            StoredSet { region, defaults, lss: [id, rate], seq: u32::from_le_bytes([s0, s1, s2, s3]) },
+            u32::from_le_bytes([c0, c1, c2, c3]),
+        ))
 }
 
 impl StoredSet {

@@ -69,15 +69,15 @@ fn span(range: Range<usize>) -> (u16, u16) {
 /// prefix (about 15,000 thumbv7m instructions for the interop dictionary's
 /// 796 bytes; twice that only if the newer set is broken).
 pub fn newest(dict: &Dictionary, storage: &mut dyn Storage) -> Option<StoredSet> {
-    let headers = [read_header(storage, 0, dict), read_header(storage, 1, dict)];
+    let (a, b) = (read_header(storage, 0, dict), read_header(storage, 1, dict));
     // Region 1 first if it is newer (sequence numbers compared with wrap-around) or region 0 holds none.
-    let first = match &headers {
-        [Some(a), Some(b)] => u8::from(b.0.seq.wrapping_sub(a.0.seq) as i32 > 0),
-        [a, _] => u8::from(a.is_none()),
+    let b_first = match (&a, &b) {
+        (Some(a), Some(b)) => b.0.seq.wrapping_sub(a.0.seq) as i32 > 0,
+        (a, _) => a.is_none(),
     };
-    [first, first ^ 1].into_iter().find_map(|region| {
-        let (set, crc) = headers.get(usize::from(region)).copied().flatten()?;
-        let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(region, at.saturating_add(HEADER), piece));
+    let order = if b_first { [b, a] } else { [a, b] };
+    order.into_iter().flatten().find_map(|(set, crc)| {
+        let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(set.region, at.saturating_add(HEADER), piece));
         (checked == Ok(crc)).then_some(set)
     })
 }
