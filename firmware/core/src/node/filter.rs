@@ -37,14 +37,30 @@ pub struct AcceptedId {
 
 /// The identifiers a node reacts to, each once. At most 32 entries, so a
 /// linear search is as fast as any and smaller than sorting.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub struct AcceptanceList {
-    ids: heapless::Vec<AcceptedId, ACCEPTANCE_CAPACITY>,
+    ids: [AcceptedId; ACCEPTANCE_CAPACITY],
+    len: usize,
     /// More identifiers than fit: the list is not complete. Not `complete`,
     /// so that a new list is all zero bits ([`crate::node`]).
     overflowed: bool,
     generation: u32,
+    /// A rebuild in place ([`Node::refresh_acceptance`]) wrote an
+    /// identifier other than the one its slot held.
+    changed: bool,
 }
+
+/// Two lists are equal when they list the same identifiers in the same
+/// order, are both complete or not, and are of the same generation (the
+/// slots past the end, which a rebuild in place leaves as they were, do
+/// not count).
+impl PartialEq for AcceptanceList {
+    fn eq(&self, other: &Self) -> bool {
+        self.ids() == other.ids() && self.overflowed == other.overflowed && self.generation == other.generation
+    }
+}
+
+impl Eq for AcceptanceList {}
 
 impl Default for AcceptanceList {
     fn default() -> Self {
@@ -55,13 +71,19 @@ impl Default for AcceptanceList {
 impl AcceptanceList {
     /// An empty list (complete: nothing to accept).
     pub const fn new() -> Self {
-        AcceptanceList { ids: heapless::Vec::new(), overflowed: false, generation: 0 }
+        AcceptanceList {
+            ids: [AcceptedId { cob_id: 0, rtr: false }; ACCEPTANCE_CAPACITY],
+            len: 0,
+            overflowed: false,
+            generation: 0,
+            changed: false,
+        }
     }
 
     /// The identifiers, each once, in the order the node lists them (the
     /// same order for the same configuration).
     pub fn ids(&self) -> &[AcceptedId] {
-        &self.ids
+        self.ids.get(..self.len).unwrap_or(&[])
     }
 
     /// False when the node consumes more identifiers than the list holds:
@@ -81,16 +103,22 @@ impl AcceptanceList {
         self.overflowed || self.ids().contains(&AcceptedId { cob_id, rtr })
     }
 
-    // Out of line: `refresh_acceptance` calls it a dozen times (140 bytes
-    // more with `push` inlined at each).
-    #[inline(never)]
     pub(super) fn insert(&mut self, cob_id: u16, rtr: bool) {
         let id = AcceptedId { cob_id, rtr };
         if self.ids().contains(&id) {
             return;
         }
-        if self.ids.push(id).is_err() {
-            self.overflowed = true;
+        match self.ids.get_mut(self.len) {
+            Some(slot) => {
+                self.changed |= *slot != id;
+                *slot = id;
+                // `get_mut` found the slot: `len` is below the list's length.
+                #[allow(clippy::arithmetic_side_effects)]
+                {
+                    self.len += 1;
+                }
+            }
+            None => self.overflowed = true,
         }
     }
 }
@@ -103,31 +131,37 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         &self.acceptance
     }
 
-    /// Rebuilds the list from the services; a new list gets the next generation.
+    /// Rebuilds the list from the services; a new list gets the next
+    /// generation. In place (no second list to build, copy and compare):
+    /// the identifiers come in the same order for the same configuration,
+    /// so the list changed if a slot got another identifier or the length
+    /// or completeness moved.
     pub(super) fn refresh_acceptance(&mut self) {
-        let mut list = AcceptanceList::default();
+        let (len, overflowed) = (self.acceptance.len, self.acceptance.overflowed);
+        let list = &mut self.acceptance;
+        (list.len, list.overflowed, list.changed) = (0, false, false);
         if self.lss_on() && self.app.canopen() {
-            list.insert(LSS_MASTER_COB_ID, false);
+            self.acceptance.insert(LSS_MASTER_COB_ID, false);
         }
         // An unconfigured node takes part in LSS only; a device that switched CANopen off, in nothing.
         if self.node_id != UNCONFIGURED && self.app.canopen() {
-            list.insert(NMT_COB_ID, false);
-            list.insert(error_control_cob_id(self.node_id), true);
-            list.insert(self.comm.sync.cob_id(), false);
+            self.acceptance.insert(NMT_COB_ID, false);
+            self.acceptance.insert(error_control_cob_id(self.node_id), true);
+            self.acceptance.insert(self.comm.sync.cob_id(), false);
             if let Some(time) = self.comm.time_cob_id {
-                list.insert(time, false);
+                self.acceptance.insert(time, false);
             }
             for (rx, _) in self.sdo_cob_ids.iter().flatten() {
-                list.insert(*rx, false);
+                self.acceptance.insert(*rx, false);
             }
             for rpdo in (0..R).filter_map(|n| self.comm.pdos.rpdo(n)) {
                 if let Some(id) = rpdo.cob_id() {
-                    list.insert(id, false);
+                    self.acceptance.insert(id, false);
                 }
             }
             for tpdo in (0..T).filter_map(|n| self.comm.pdos.tpdo(n)).filter(|t| t.params().rtr_allowed()) {
                 if let Some(id) = tpdo.cob_id() {
-                    list.insert(id, true);
+                    self.acceptance.insert(id, true);
                 }
             }
             // The consumers as 0x1016 configured them (reset communication,
@@ -135,14 +169,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             for producer in self.comm.consumers.producers() {
                 // The node's own 0x700 + id is node guarding, never a heartbeat it consumes.
                 if (1..=127).contains(&producer) && producer != self.node_id {
-                    list.insert(error_control_cob_id(producer), false);
+                    self.acceptance.insert(error_control_cob_id(producer), false);
                 }
             }
         }
-        self.app.claim_ids(self.od.dictionary(), self.od.image(), &mut super::Claims { list: &mut list });
-        if list.ids() != self.acceptance.ids() || list.overflowed != self.acceptance.overflowed {
-            list.generation = self.acceptance.generation.wrapping_add(1);
-            self.acceptance = list;
+        self.app.claim_ids(self.od.dictionary(), self.od.image(), &mut super::Claims { list: &mut self.acceptance });
+        let list = &mut self.acceptance;
+        if list.changed || list.len != len || list.overflowed != overflowed {
+            list.generation = list.generation.wrapping_add(1);
         }
     }
 }
@@ -164,6 +198,18 @@ mod tests {
         assert_eq!(ids(&list), [(0x705, false), (0x000, false), (0x705, true), (0x181, true)]);
         assert!(list.accepts(0x705, true));
         assert!(!list.accepts(0x181, false));
+    }
+
+    #[test]
+    fn lists_compare_by_their_identifiers_not_the_slots_past_the_end() {
+        let (mut a, mut b) = (AcceptanceList::default(), AcceptanceList::default());
+        a.insert(0x181, false);
+        a.insert(0x201, false);
+        a.len = 1;
+        b.insert(0x181, false);
+        assert_eq!(a, b);
+        b.insert(0x202, false);
+        assert_ne!(a, b);
     }
 
     #[test]

@@ -22,8 +22,13 @@ pub trait ObjectAccess {
     /// The size of (index, sub), and its value in `buf` when it has 1 to
     /// 4 bytes (an expedited upload): what [`ObjectAccess::upload_size`]
     /// and [`ObjectAccess::read`] say, with one dictionary look-up where
-    /// an implementation can.
-    fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
+    /// an implementation can. Called on a type, never through `dyn` (the
+    /// SDO server's expedited upload takes the node's router by type), so
+    /// that it takes no place in the vtables.
+    fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode>
+    where
+        Self: Sized,
+    {
         let size = self.upload_size(index, sub)?;
         if let Some(dst) = buf.get_mut(..size).filter(|_| size != 0) {
             self.read(index, sub, 0, dst)?;
@@ -37,6 +42,27 @@ pub trait ObjectAccess {
 
     /// Writes a complete value, with every check and side effect of the object.
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode>;
+}
+
+/// A borrowed access, so that a `&mut dyn ObjectAccess` serves where an
+/// `ObjectAccess` type is asked for (the SDO server's expedited transfers
+/// take the node's router by type, other callers pass a `dyn`).
+impl<T: ObjectAccess + ?Sized> ObjectAccess for &mut T {
+    fn upload_size(&mut self, index: u16, sub: u8) -> Result<usize, AbortCode> {
+        (**self).upload_size(index, sub)
+    }
+
+    fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        (**self).read(index, sub, offset, buf)
+    }
+
+    fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {
+        (**self).download_check(index, sub, size)
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        (**self).write(index, sub, data)
+    }
 }
 
 use super::{DataType, Dictionary, Entry};

@@ -41,8 +41,9 @@ pub const fn register_bit(code: EmcyCode) -> u8 {
 }
 
 /// The EMCY producer and the active-error set, for up to `A` active errors
-/// and `Q` queued messages.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// and `Q` queued messages. Not `PartialEq`: [`EmcyProducer::reset`] and
+/// [`EmcyProducer::clear`] leave entries past the lists' ends as they were.
+#[derive(Clone, Copy, Debug)]
 pub struct EmcyProducer<const A: usize, const Q: usize> {
     cob_id: Option<u16>,
     inhibit: Duration,
@@ -214,7 +215,9 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
-        *self = EmcyProducer { cob_id: self.cob_id, inhibit: self.inhibit, overflows: self.overflows, ..Self::default() };
+        // In place: the lists are read only up to their lengths.
+        (self.active_len, self.head, self.len, self.last_sent) = (0, 0, 0, None);
+        (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
     // Out of line: three callers each had a copy (76 bytes more).

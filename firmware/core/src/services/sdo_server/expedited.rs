@@ -12,7 +12,7 @@ const EXPEDITED_MAX: usize = 4;
 impl Channel {
     /// Initiate SDO download: writes an expedited value at once, or opens a
     /// segmented download.
-    pub(super) fn initiate_download(&mut self, data: InitiateData, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn initiate_download<O: ObjectAccess>(&mut self, data: InitiateData, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
         let (data, size) = match data {
             InitiateData::Expedited { data, size } => (data, size),
             InitiateData::Segmented { size } => return self.start_segmented_download(size, buf, od, tx),
@@ -31,7 +31,7 @@ impl Channel {
     // Left to the inliner, as `initiate_upload`: out of line, both cost the
     // b maXX 4400's STM32 image 144 bytes it does not have (sendix is 490
     // bytes bigger this way, with room for it).
-    pub(super) fn expedited_download(&mut self, data: [u8; 4], len: usize, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn expedited_download<O: ObjectAccess>(&mut self, data: [u8; 4], len: usize, od: &mut O, tx: &mut dyn SdoTx) {
         let Mux { index, sub } = self.mux;
         match od.write(index, sub, data.get(..len).unwrap_or(&data)) {
             Ok(()) => self.emit(initiate_download_response(index, sub), tx),
@@ -40,7 +40,7 @@ impl Channel {
     }
 
     /// Initiate SDO upload.
-    pub(super) fn initiate_upload(&mut self, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, od: &mut O, tx: &mut dyn SdoTx) {
         let Mux { index, sub } = self.mux;
         let mut data = [0u8; EXPEDITED_MAX];
         match od.upload_small(index, sub, &mut data) {

@@ -195,8 +195,8 @@ impl<const N: usize> SdoServer<N> {
     /// answered as if the server were idle. A frame that arrives at or after
     /// the transfer's deadline (because `poll` was late) first triggers the
     /// timeout abort; it is then served only if it initiates a new transfer.
-    pub fn on_request(&mut self, now: Instant, data: &[u8], od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        self.channel.on_request(now, data, true, Some(&mut self.buf), od, tx);
+    pub fn on_request(&mut self, now: Instant, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        self.channel.on_request(now, data, true, Some(&mut self.buf), &mut od, tx);
     }
 
     /// Sends pending block-upload segments while `tx` accepts them; aborts with 0x05040000 on timeout; returns the next deadline (None when idle).
@@ -273,16 +273,19 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     }
 
     /// A frame on the rx COB-ID of server `i`, as [`SdoServer::on_request`].
-    pub fn on_request(&mut self, i: usize, now: Instant, data: &[u8], od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        self.on_request_with(i, now, data, true, od, tx);
+    pub fn on_request(&mut self, i: usize, now: Instant, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        self.on_request_with(i, now, data, true, &mut od, tx);
     }
 
     /// As [`SdoServers::on_request`]; without `block`, a block transfer
     /// request is refused with abort 0x05040001 like any unknown command.
     /// `block` is a compile-time constant of the node (`Services::block_sdo`),
-    /// so without it the compiler leaves the block transfer code out.
+    /// so without it the compiler leaves the block transfer code out. The
+    /// expedited transfers call `od` directly (the node's router: its
+    /// plain cases in line), the others through `dyn ObjectAccess`, one
+    /// copy of their code whatever `O` is.
     #[inline(always)]
-    pub fn on_request_with(&mut self, i: usize, now: Instant, data: &[u8], block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub fn on_request_with<O: ObjectAccess>(&mut self, i: usize, now: Instant, data: &[u8], block: bool, od: &mut O, tx: &mut dyn SdoTx) {
         let lent = self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
         let Some(channel) = self.channels.get_mut(i) else { return };
         let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
@@ -309,7 +312,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
 impl Channel {
     #[inline(always)]
-    fn on_request(&mut self, now: Instant, data: &[u8], block: bool, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    fn on_request<O: ObjectAccess>(&mut self, now: Instant, data: &[u8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
         // A frame at or after the deadline comes too late for its transfer:
         // the timeout abort answers it, and only a new initiate is served.
         let expired = self.expire(now, tx);
@@ -366,7 +369,7 @@ impl Channel {
     /// A request outside the block download sub-block phase; block
     /// transfer requests only if `block`.
     #[inline(always)]
-    fn request(&mut self, request: SdoRequest, block: bool, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    fn request<O: ObjectAccess>(&mut self, request: SdoRequest, block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
         if !block && matches!(request, SdoRequest::BlockDownload(_) | SdoRequest::BlockUpload(_)) {
             // As an unknown command specifier (`on_request`).
             self.count_malformed();
