@@ -202,7 +202,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 }
                 self.touched |= reached;
             }
-            self.pdo_events(now, received, timeouts);
+            // Checked here too: most SYNCs have nothing to tell (no call).
+            if received | timeouts != 0 {
+                self.pdo_events(now, received, timeouts);
+            }
         }
     }
 
