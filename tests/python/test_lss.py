@@ -32,7 +32,10 @@ class Vnode:
         port = int(re.search(r":(\d+)\s*$", line).group(1))
         self.network = canopen.Network()
         self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=250000, sleep_after_open=0)
-        self.network.lss.RESPONSE_TIMEOUT = 0.1
+        # Fastscan reads a missing answer as a bit: the wait must outlast a
+        # loaded machine's scheduling delay (0.1 s did not, once in CI-like
+        # load), yet stay below python-canopen's 0.5 s to keep the scan short.
+        self.network.lss.RESPONSE_TIMEOUT = 0.3
 
     def close(self):
         try:
