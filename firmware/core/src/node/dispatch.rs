@@ -141,7 +141,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     // A poll for any TPDO retries every TPDO waiting to (an RTR
                     // may have left its TPDO so): only if nothing else brings one.
                     if self.touched == 0 {
-                        self.touched = self.comm.pdos.retrying();
+                        self.touched = self.retrying();
                     }
                     return;
                 }
@@ -191,17 +191,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
             comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, timeouts) = (sink.received, sink.timeouts);
-            // The synchronous RPDOs' objects, and the TPDOs left to retry:
-            // none unless the queue refused a frame since none was
-            // (a saturated count always looks).
-            let overflows = self.txq.overflows();
-            if received != 0 || overflows != self.retry_free_at || overflows == u32::MAX {
-                let reached = self.comm.pdos.reached_by(received);
-                if reached == 0 {
-                    self.retry_free_at = overflows;
-                }
-                self.touched |= reached;
-            }
+            // The synchronous RPDOs' objects, or else the TPDOs left to retry.
+            let reached = if received != 0 { self.comm.pdos.reaches(received) } else { 0 };
+            self.touched |= if reached != 0 { reached } else { self.retrying() };
             // Checked here too: most SYNCs have nothing to tell (no call).
             if received | timeouts != 0 {
                 self.pdo_events(now, received, timeouts);
@@ -260,6 +252,24 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
+    /// The TPDOs waiting to retry a refused frame. A TPDO waits only after
+    /// the queue refused it, which counts an overflow: while the count is
+    /// what it was when a walk last found none, none waits, and the PDOs are
+    /// not walked (a saturated count always walks).
+    // Out of line: three callers.
+    #[inline(never)]
+    fn retrying(&mut self) -> u32 {
+        let overflows = self.txq.overflows();
+        if overflows == self.retry_free_at && overflows != u32::MAX {
+            return 0;
+        }
+        let mask = self.comm.pdos.retrying();
+        if mask == 0 {
+            self.retry_free_at = overflows;
+        }
+        mask
+    }
+
     /// Which TPDOs look for changed data after the writes of `effects`,
     /// whether the next process runs every service, and the SDO servers
     /// and the acceptance list read again where their objects changed.
@@ -272,7 +282,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let (offset, len) = effects.wrote;
             // A poll for any TPDO retries every TPDO waiting to ([`crate::services::pdo::Pdos::poll_changed`]).
             let mask = self.comm.pdos.tpdos_mapping(offset, len);
-            self.touched |= if mask != 0 { mask } else { self.comm.pdos.retrying() };
+            self.touched |= if mask != 0 { mask } else { self.retrying() };
         }
         self.stale |= effects.services;
         if effects.sdo_changed {

@@ -208,7 +208,7 @@ pub struct Node<
     /// The transmit queue's overflow count when no TPDO was left waiting to
     /// retry a refused frame: a TPDO waits only after the queue refused it,
     /// which counts an overflow, so while the count is the same no TPDO
-    /// waits and a SYNC need not look ([`Node::synchronise`]).
+    /// waits and the PDOs need not be walked for it (`Node::retrying`).
     retry_free_at: u32,
     /// The LSS slave, in use when `lss_active` (the dictionary says
     /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
