@@ -393,18 +393,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     }
 
     /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
-    /// to, and the TPDOs waiting to retry: those a [`Pdos::poll_changed`]
-    /// after those RPDOs must look at.
-    #[inline(never)]
-    pub fn reached_by(&self, rpdos: u32) -> u32 {
-        let mask = self.reaches(rpdos);
-        // A poll for any TPDO retries every TPDO waiting to ([`Pdos::poll_changed`]).
-        if mask != 0 { mask } else { self.retrying() }
-    }
-
-    /// [`Pdos::reached_by`] without the TPDOs waiting to retry: for a
-    /// caller that adds them only if nothing else makes the next poll run.
-    // Out of line: shared with `reached_by`.
+    /// to: those a [`Pdos::poll_changed`] after those RPDOs must look at.
+    /// The TPDOs waiting to retry ([`Pdos::retrying`]) are the caller's to
+    /// add, only if nothing else makes the next poll run (a poll for any
+    /// TPDO retries every one waiting to).
+    // Out of line: the RPDO and the SYNC paths call it.
     #[inline(never)]
     pub fn reaches(&self, rpdos: u32) -> u32 {
         let mut mask = 0;

@@ -290,19 +290,19 @@ fn a_tpdo_carries_constants_and_64_bit_values() {
 fn an_rpdo_reaches_only_the_event_driven_tpdos_that_map_what_it_writes() {
     // RPDO1 writes 0x2001 and 0x2000; TPDO1 (event-driven) maps 0x2002 and 0x2000.
     let mut node = Node::operational(ms(0));
-    assert_eq!(node.pdos.reached_by(0b1), 0b1);
-    assert_eq!(node.pdos.reached_by(0), 0);
+    assert_eq!(node.pdos.reaches(0b1), 0b1);
+    assert_eq!(node.pdos.reaches(0), 0);
     // 0x2003 (offset 149, 2 bytes) is in no TPDO; 0x2002 (145, 4 bytes) in TPDO1, also its last byte.
     assert_eq!(node.pdos.tpdos_mapping(149, 2), 0);
     assert_eq!((node.pdos.tpdos_mapping(145, 4), node.pdos.tpdos_mapping(148, 1)), (0b1, 0b1));
     // TPDO1 no longer maps 0x2000: RPDO1 cannot change it.
     node.remap_tpdo(0, &[0x2002_0020], 0x181, 255);
-    assert_eq!(node.pdos.reached_by(0b1), 0);
+    assert_eq!(node.pdos.reaches(0b1), 0);
     // A synchronous TPDO does not look for changes: it reaches nothing either.
     node.remap_tpdo(0, &[0x2000_0008], 0x181, 1);
-    assert_eq!((node.pdos.reached_by(0b1), node.pdos.tpdos_mapping(142, 1)), (0, 0));
+    assert_eq!((node.pdos.reaches(0b1), node.pdos.tpdos_mapping(142, 1)), (0, 0));
     node.remap_tpdo(0, &[0x2000_0008], 0x181, 254);
-    assert_eq!(node.pdos.reached_by(0b1), 0b1);
+    assert_eq!(node.pdos.reaches(0b1), 0b1);
 }
 
 #[test]
