@@ -301,9 +301,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         now: Instant,
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
         // The SDO server's hooks may change what the device's timers do.
-        if A::POLL_WHEN_DUE {
-            self.app_due.waits = false;
-        }
+        self.poll_app_next();
         let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, store, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {

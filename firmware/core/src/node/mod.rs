@@ -364,8 +364,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             value
         });
         // The raw frame's hook (every frame) leaves the device's timers to their deadline unless it asked for them.
-        if A::POLL_WHEN_DUE && wake {
-            self.app_due.waits = false;
+        if wake {
+            self.poll_app_next();
         }
         self.queue_raw();
         self.follow_sdo(effects);
@@ -451,9 +451,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[inline(always)]
     pub(super) fn with_app_resetting<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
         let (value, effects) = self.run_hook(now, f);
-        if A::POLL_WHEN_DUE {
-            self.app_due.waits = false;
-        }
+        self.poll_app_next();
         if Self::FOLD_HOOKS {
             self.queue_raw();
             self.follow_sdo(effects);
@@ -491,8 +489,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The device's hooks, mutably (its next [`Node::process`] polls it:
     /// what changed here may change what its timers do).
     pub fn app_mut(&mut self) -> &mut A {
-        self.app_due.waits = false;
+        self.poll_app_next();
         &mut self.app
+    }
+
+    /// For a device that polls when due ([`Application::POLL_WHEN_DUE`]):
+    /// its next [`Node::process`] polls it, whatever its deadline (something
+    /// changed what its timers do).
+    #[inline(always)]
+    fn poll_app_next(&mut self) {
+        if A::POLL_WHEN_DUE {
+            self.app_due.waits = false;
+        }
     }
 
     /// The storage.
