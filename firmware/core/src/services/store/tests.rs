@@ -307,14 +307,21 @@ impl Storage for Counting<'_> {
     }
 }
 
-#[test]
-fn the_newest_set_is_checked_alone_unless_its_payload_is_broken() {
+/// Two sets of node 1: the older (region 0, sequence 1) with 0x1017 = 111,
+/// the newer (region 1, sequence 2) with 222; and the image as it stands.
+fn two_sets() -> (Flash, [u8; 12]) {
     let mut flash = Flash::new();
     let mut img = boot(&mut flash, 1);
     DICT.write(&mut img, 0x1017, 0, &111u16.to_le_bytes()).unwrap();
     save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
     DICT.write(&mut img, 0x1017, 0, &222u16.to_le_bytes()).unwrap();
     save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    (flash, img)
+}
+
+#[test]
+fn the_newest_set_is_checked_alone_unless_its_payload_is_broken() {
+    let (mut flash, _) = two_sets();
     // Both headers, then the newer payload only.
     let mut counting = Counting(&mut flash, 0);
     let set = newest(&DICT, &mut counting).unwrap();
@@ -336,12 +343,7 @@ fn the_newest_set_is_checked_alone_unless_its_payload_is_broken() {
 /// payload; it follows the older set (its sequence number, its values).
 #[test]
 fn a_store_checks_one_set_per_step() {
-    let mut flash = Flash::new();
-    let mut img = boot(&mut flash, 1);
-    DICT.write(&mut img, 0x1017, 0, &111u16.to_le_bytes()).unwrap();
-    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
-    DICT.write(&mut img, 0x1017, 0, &222u16.to_le_bytes()).unwrap();
-    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    let (mut flash, mut img) = two_sets();
     flash.regions[1][HEADER + 1] ^= 0x01;
     // Stores 0x2000 alone: 0x1017 comes from the set the job follows.
     DICT.write(&mut img, 0x1017, 0, &333u16.to_le_bytes()).unwrap();
