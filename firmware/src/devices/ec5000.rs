@@ -14,8 +14,8 @@ pub mod od {
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, CanEmcyCodes, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::od::EntryRef;
 use canopen_core::profiles::cia402::{Cia402, Config};
-use canopen_core::services::pdo::map::MAX_ENTRIES;
 use canopen_core::services::store::{self, Scope};
 use canopen_core::time::{Instant, earliest};
 use canopen_core::wire::emcy::EmcyCode;
@@ -163,16 +163,8 @@ impl Application for App {
 
     /// The controlword and the target velocity straight from the RPDO's
     /// values; any other object as [`App::written`] takes it.
-    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
-        for i in 0..MAX_ENTRIES {
-            let Some((at, value, len)) = ctx.rpdo_object(n, i) else { break };
-            if !self.drive.rpdo_object(ctx, at, value, len)
-                && let Some((index, sub)) = ctx.object_id(at)
-                && index >= 0x1000
-            {
-                self.written(ctx, index, sub, Source::Rpdo(n));
-            }
-        }
+    fn rpdo_value(&mut self, ctx: &mut Ctx<'_>, at: EntryRef, value: u32, len: u8) -> bool {
+        self.drive.rpdo_object(ctx, at, value, len)
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {

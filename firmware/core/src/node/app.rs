@@ -467,22 +467,31 @@ pub trait Application {
         let _ = (ctx, index, sub, by);
     }
 
-    /// RPDO `n` wrote its objects: by default [`Application::written`] for
-    /// each mapped object, in mapping order ([`Ctx::rpdo_object`]: the
-    /// mapping in use, resolved when it was configured, so no dictionary
-    /// search). A device no RPDO-written object concerns overrides it with
-    /// nothing; one that takes some objects straight from the RPDO's values
-    /// overrides it with those.
+    /// RPDO `n` wrote its objects: by default, for each mapped object in
+    /// mapping order ([`Ctx::rpdo_object`]: the mapping in use, resolved when
+    /// it was configured, so no dictionary search), [`Application::rpdo_value`],
+    /// and [`Application::written`] for those it did not take. A device no
+    /// RPDO-written object concerns overrides it with nothing.
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         for i in 0..crate::services::pdo::map::MAX_ENTRIES {
-            let Some((at, _, _)) = ctx.rpdo_object(n, i) else { break };
+            let Some((at, value, len)) = ctx.rpdo_object(n, i) else { break };
             // Dummy entries map nothing.
-            if let Some((index, sub)) = ctx.object_id(at)
+            if !self.rpdo_value(ctx, at, value, len)
+                && let Some((index, sub)) = ctx.object_id(at)
                 && index >= index::COMMUNICATION_AREA
             {
                 self.written(ctx, index, sub, Source::Rpdo(n));
             }
         }
+    }
+
+    /// One object an RPDO wrote, with the value it wrote (as
+    /// [`Ctx::rpdo_object`] gives them): true if the device took it here,
+    /// straight from the value, so that [`Application::written`] is not
+    /// called for it. By default it takes none.
+    fn rpdo_value(&mut self, ctx: &mut Ctx<'_>, at: EntryRef, value: u32, len: u8) -> bool {
+        let _ = (ctx, at, value, len);
+        false
     }
 
     /// Sample: a SYNC arrived or was produced; runs before the synchronous
