@@ -426,6 +426,17 @@ pub trait Application {
     /// time and on what its hooks and `app_mut` change.
     const POLL_WHEN_DUE: bool = false;
 
+    /// The device overrides an SDO hook ([`Application::upload_size`],
+    /// [`Application::read`], [`Application::download_check`],
+    /// [`Application::write`], [`Application::check_write`] or
+    /// [`Application::written`]). A device without them says `false`: the
+    /// node then serves an idle server's expedited upload, and its
+    /// expedited download of an object from 0x2000 on, straight from and
+    /// into the dictionary, without the hooks' context (about half the
+    /// instructions of such a request). Set `false` with a hook overridden,
+    /// that hook is skipped for these transfers.
+    const SDO_HOOKS: bool = true;
+
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
     fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
@@ -544,6 +555,8 @@ pub trait Application {
 pub struct NoApplication;
 
 impl Application for NoApplication {
+    const SDO_HOOKS: bool = false;
+
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         let _ = (ctx, n);
     }
