@@ -432,8 +432,9 @@ pub trait Application {
     /// [`Application::written`]). A device without them says `false`: the
     /// node then serves an idle server's expedited upload, and its
     /// expedited download of an object from 0x2000 on, straight from and
-    /// into the dictionary, without the hooks' context (about half the
-    /// instructions of such a request). Set `false` with a hook overridden,
+    /// into the dictionary, without the hooks' context (a third fewer
+    /// instructions: docs/benchmarks.md, "Issue 12: the expedited SDO path,
+    /// round 5"). Set `false` with a hook overridden,
     /// that hook is skipped for these transfers.
     const SDO_HOOKS: bool = true;
 

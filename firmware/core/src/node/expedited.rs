@@ -10,7 +10,7 @@
 //! byte changes, so every abort code, the segmented transfer and an answer
 //! kept for later are that path's alone.
 
-use crate::od::access::{copy_from, upload_value};
+use crate::od::access::small_value;
 use crate::od::{ObjectDictionary, index, precheck, store_checked};
 use crate::services::sdo_server::SdoTx;
 use crate::storage::Storage;
@@ -43,14 +43,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let mut sink = SdoSink { txq, cob_id: tx_cob, hold: None };
         match request {
             Expedited::Upload { index, sub } => {
-                let Ok(value) = dict.find(index, sub).and_then(|entry| upload_value(dict, od.image(), entry)) else { return false };
-                let size = value.len();
-                if !(1..=4).contains(&size) {
-                    return false;
+                match small_value(dict, od.image(), index, sub) {
+                    Ok((head, size @ 1..=4)) => sink.send(expedited_upload_response(index, sub, head, size)),
+                    // Empty or longer (a segmented upload), or an abort.
+                    _ => false,
                 }
-                let mut d = [0u8; 4];
-                copy_from(&mut d, value);
-                sink.send(expedited_upload_response(index, sub, d, size))
             }
             Expedited::Download { index, sub, data, len } => {
                 let data = data.get(..len).unwrap_or(&data);
