@@ -20,6 +20,20 @@ fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, default: u32) ->
     dict.read_u32(image, index, sub).unwrap_or(default)
 }
 
+/// The objects reset communication applies as a download would (sub 0 of
+/// each), with the value of one the dictionary lacks: EMCY, guarding,
+/// heartbeat and TIME read their objects again, SYNC takes the value.
+static CONFIGURED: [(u16, u32); 8] = [
+    (index::COB_ID_EMCY, 0),
+    (index::GUARD_TIME, 0),
+    (index::PRODUCER_HEARTBEAT_TIME, 0),
+    (index::COB_ID_TIME_STAMP, 0),
+    (index::COB_ID_SYNC, SYNC_COB_ID as u32),
+    (index::COMMUNICATION_CYCLE_PERIOD, 0),
+    (index::SYNCHRONOUS_WINDOW_LENGTH, 0),
+    (index::SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+];
+
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
 
@@ -89,20 +103,15 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // TIME read their objects again; SYNC and the consumers take the stored
         // value, or the default where the dictionary lacks the object).
         self.sync = SyncService::default();
-        let objects = [
-            (index::COB_ID_EMCY, 0),
-            (index::GUARD_TIME, 0),
-            (index::PRODUCER_HEARTBEAT_TIME, 0),
-            (index::COB_ID_TIME_STAMP, 0),
-            (index::COB_ID_SYNC, u32::from(SYNC_COB_ID)),
-            (index::COMMUNICATION_CYCLE_PERIOD, 0),
-            (index::SYNCHRONOUS_WINDOW_LENGTH, 0),
-            (index::SYNCHRONOUS_COUNTER_OVERFLOW, 0),
-        ];
-        let consumers = (1..=HB).map(|sub| (index::CONSUMER_HEARTBEAT_TIME, sub as u8, 0));
-        for (index, sub, default) in objects.into_iter().map(|(index, default)| (index, 0, default)).chain(consumers) {
-            let value = u32_of(dict, image, index, sub, default);
-            Services::apply(self, index, sub, value, dict, image, now);
+        for &(index, default) in CONFIGURED.iter() {
+            let value = u32_of(dict, image, index, 0, default);
+            Services::apply(self, index, 0, value, dict, image, now);
+        }
+        for sub in 1..=HB {
+            // At most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
+            let sub = sub as u8;
+            let value = u32_of(dict, image, index::CONSUMER_HEARTBEAT_TIME, sub, 0);
+            Services::apply(self, index::CONSUMER_HEARTBEAT_TIME, sub, value, dict, image, now);
         }
     }
 
