@@ -24,7 +24,9 @@ mod monitor;
 mod roller;
 use monitor::Monitor;
 pub use monitor::{COLD_WARNING, DERATING, SPEED_WARNING, TEMPERATURE_WARNING};
-pub use roller::{BLOCKED, COLD_FAULT_C, MIN_VELOCITY, OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller, SPEED_ERROR, TOO_COLD};
+pub use roller::{
+    BLOCKED, COLD_FAULT_C, LOSS_OF_PARAMETERS, MIN_VELOCITY, OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller, SPEED_ERROR, TOO_COLD,
+};
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile driving the
@@ -189,6 +191,12 @@ impl Application for App {
             self.monitor.reset(ctx);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
+        // D66: parameters saved under another dictionary layout are lost (an
+        // update): the drive runs on its defaults, in Fault with 0x6310 until
+        // a fault reset acknowledges it, at every reset until a save or restore.
+        if event == NmtEvent::ResetApplication && ctx.stored_set_refused() {
+            self.drive.drive.fault_at_start(LOSS_OF_PARAMETERS);
+        }
         // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
         if event == NmtEvent::ResetCommunication && (1..=127).contains(&ctx.node_id()) {
             let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
