@@ -1,7 +1,8 @@
 //! The EC5000's own monitoring beyond CiA 402: the warnings of its EMCY
 //! table (0xFFA8/0xFFA9 with the threshold and hysteresis of 0x4231, D48 and
 //! D53; 0xFFD4), the monitoring values 0x2200 (D49) with the counters kept
-//! across power-off (D55), and the traffic lights 0x2210/0x2211 (D50).
+//! across power-off (D55) and the hourly power average (D67), and the
+//! traffic lights 0x2210/0x2211 (D50, the lifetime light D68).
 
 use super::roller::{COLD_FAULT_C, Roller, TOO_COLD};
 use canopen_core::axis::fault;
@@ -28,8 +29,18 @@ pub const SPEED_WARNING: EmcyCode = EmcyCode(0xFFD4);
 const WARNING_LEVEL: u16 = 0x4231;
 /// 0x2200 "Monitoring Values".
 const MONITORING: u16 = 0x2200;
+/// 0x2210 "Lifetime traffic light".
+const LIFETIME: u16 = 0x2210;
 /// 0x2211 "Health traffic light": sub 1 temperature, sub 2 power, sub 3 error quantity.
 const HEALTH: u16 = 0x2211;
+/// 0x4048 "Nominal Power" [W]: the power at the rated speed (D67).
+const NOMINAL_POWER: u16 = 0x4048;
+/// The roller's nominal life [motor revolutions]: 20,000 h at the rated
+/// 3,000 min⁻¹ (D68); the lifetime light is yellow from 90 % of it.
+const NOMINAL_LIFE_REVS: u32 = 3_600_000_000;
+const LIFETIME_YELLOW_REVS: u32 = NOMINAL_LIFE_REVS / 10 * 9;
+/// The power average's window [s of uptime]: an hour (D67, "W/h").
+const HOUR_S: u32 = 3600;
 /// Traffic light colours (0x2210/0x2211: "0 = grün, 1 = gelb, 2 = rot").
 const GREEN: u8 = 0;
 const YELLOW: u8 = 1;
@@ -39,7 +50,7 @@ const RED: u8 = 2;
 /// than the profile's own part of a frame.
 const PERIOD_US: u64 = 100_000;
 /// (object, sub, length) of each value the monitoring shows, in the order of `Monitor::shown`.
-const SHOWN: [(u16, u8, u8); 11] = [
+const SHOWN: [(u16, u8, u8); 13] = [
     (MONITORING, 1, 4),
     (MONITORING, 2, 4),
     (MONITORING, 3, 4),
@@ -47,7 +58,9 @@ const SHOWN: [(u16, u8, u8); 11] = [
     (MONITORING, 5, 2),
     (MONITORING, 6, 2),
     (MONITORING, 7, 2),
+    (MONITORING, 8, 1),
     (MONITORING, 9, 4),
+    (LIFETIME, 0, 1),
     (HEALTH, 1, 1),
     (HEALTH, 2, 1),
     (HEALTH, 3, 1),
@@ -109,15 +122,24 @@ pub struct Monitor {
     extremes: Option<(i16, i16)>,
     quick_stops: u16,
     rotations: u32,
+    /// 0x4048 [W], read at reset application.
+    nominal_w: u32,
+    /// The mechanical energy of the hour of uptime running [mJ], and what
+    /// the last samples left below a millijoule [µJ]; the hours completed.
+    energy_mj: u32,
+    energy_uj: u32,
+    hours: u32,
+    /// 0x2200 sub 8: the mean mechanical power of the last full hour [W] (D67).
+    power_average: u8,
     /// 0x4231 sub 1 and sub 2, read when written and at reset application
     /// (a dictionary look-up in every tick costs more than the rest).
     threshold: i16,
     /// The temperature the warnings were last checked at [°C] (`i16::MIN`: check again).
     checked_c: i16,
     hysteresis: i16,
-    /// What 0x2200 sub 1..9 and 0x2211 sub 1..3 show, so that only a change is
-    /// written, once `shown_valid` (all written since the reset).
-    shown: [i32; 11],
+    /// What 0x2200 sub 1..9, 0x2210 and 0x2211 sub 1..3 show, so that only a
+    /// change is written, once `shown_valid` (all written since the reset).
+    shown: [i32; 13],
     shown_valid: bool,
 }
 
@@ -143,17 +165,24 @@ impl Monitor {
         extremes: None,
         quick_stops: 0,
         rotations: 0,
+        nominal_w: 0,
+        energy_mj: 0,
+        energy_uj: 0,
+        hours: 0,
+        power_average: 0,
         // Zero, as the whole node (canopen_core::node): 0x4231 is read at reset application.
         threshold: 0,
         checked_c: 0,
         hysteresis: 0,
-        shown: [0; 11],
+        shown: [0; 13],
         shown_valid: false,
     };
 
-    /// Reads 0x4231 again (after a write to it, and at reset application).
+    /// Reads 0x4231 again (after a write to it, and at reset application),
+    /// and 0x4048.
     #[inline(never)]
     pub fn levels(&mut self, ctx: &Ctx<'_>) {
+        self.nominal_w = ctx.read_u32(NOMINAL_POWER, 0).unwrap_or(0);
         self.threshold = signed(ctx, WARNING_LEVEL, 1).unwrap_or(95) as i16;
         self.hysteresis = signed(ctx, WARNING_LEVEL, 2).unwrap_or(2) as i16;
         self.checked_c = i16::MIN;
@@ -217,6 +246,7 @@ impl Monitor {
         }
         self.moving = moving;
         self.last_position = position;
+        self.average_power(axis, elapsed);
         let (low, high) = self.extremes.map_or((t, t), |(low, high)| (low.min(t), high.max(t)));
         self.extremes = Some((low, high));
 
@@ -240,6 +270,8 @@ impl Monitor {
             n if n < HISTORY_DEPTH => YELLOW,
             _ => RED,
         };
+        // D68: the lifetime light, from the motor revolutions.
+        let lifetime = if self.rotations >= LIFETIME_YELLOW_REVS { YELLOW } else { GREEN };
         // In the order of `SHOWN` and `shown`.
         let values = [
             self.start_stops as i32,
@@ -249,7 +281,9 @@ impl Monitor {
             i32::from(high),
             i32::from(t),
             i32::from(self.quick_stops),
+            i32::from(self.power_average),
             self.rotations as i32,
+            i32::from(lifetime),
             i32::from(temperature),
             i32::from(power),
             i32::from(errors),
@@ -262,6 +296,25 @@ impl Monitor {
         if self.dirty && (power == RED || self.uptime.s.wrapping_sub(self.stored_s) >= STORE_PERIOD_S) {
             self.stored_s = self.uptime.s;
             self.dirty = ctx.save_objects(MONITORING, MONITORING).is_err();
+        }
+    }
+
+    /// D67: adds the mechanical power the roller delivers now over the
+    /// `elapsed` µs since the last run to the hour's energy, and at the end of
+    /// each hour of uptime makes its mean the power average. The power is
+    /// 0x4048 at the rated torque and speed (3,000 min⁻¹, D45): 0x4048 ×
+    /// |torque| [‰] × |speed| [‰ of rated] / 10⁶, in either direction.
+    fn average_power(&mut self, axis: &Roller, elapsed: u32) {
+        let speed = axis.velocity().unsigned_abs().saturating_mul(1000) / super::AXIS.max_velocity;
+        let mw = self.nominal_w.saturating_mul(u32::from(axis.torque().unsigned_abs())).saturating_mul(speed) / 1000;
+        let uj = mw.saturating_mul(elapsed / 1000).saturating_add(self.energy_uj);
+        self.energy_mj = self.energy_mj.saturating_add(uj / 1000);
+        self.energy_uj = uj % 1000;
+        if self.uptime.s >= self.hours.saturating_add(1).saturating_mul(HOUR_S) {
+            // The energy of an hour [Wh] is its mean power [W], rounded.
+            let wh = self.energy_mj.saturating_add(HOUR_S * 500) / (HOUR_S * 1000);
+            self.power_average = wh.min(u32::from(u8::MAX)) as u8;
+            (self.energy_mj, self.energy_uj, self.hours) = (0, 0, self.hours.saturating_add(1));
         }
     }
 
