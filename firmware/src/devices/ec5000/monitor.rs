@@ -303,11 +303,16 @@ impl Monitor {
     /// is 0x4048 at the rated torque and speed (3,000 min⁻¹, D45): 0x4048 ×
     /// |torque| [‰] × |speed| [‰ of rated] / 10⁶, in either direction.
     fn average_power(&mut self, ctx: &Ctx<'_>, axis: &Roller, elapsed: u32, hour: u32) {
-        let speed = axis.velocity().unsigned_abs().saturating_mul(1000) / super::AXIS.max_velocity;
-        let nominal_w = ctx.read_u32(NOMINAL_POWER, 0).unwrap_or(0);
-        let mw = nominal_w.saturating_mul(u32::from(axis.torque().unsigned_abs())).saturating_mul(speed) / 1000;
+        // Each factor bounded, so that no product overflows (and no
+        // saturating step costs code): speed ≤ 2000 ‰, torque ≤ 3000 ‰ (the
+        // axis's limit), 0x4048 ≤ 255 W, a sample ≤ 1 s.
+        let max = super::AXIS.max_velocity;
+        let speed = axis.velocity().unsigned_abs().min(2 * max) * 1000 / max;
+        let torque = u32::from(axis.torque().unsigned_abs()).min(3000);
+        let nominal_w = ctx.read_u32(NOMINAL_POWER, 0).unwrap_or(0).min(255);
+        let mw = nominal_w * torque * speed / 1000;
         // A sample's part below a millijoule is dropped: less than 0.01 Wh an hour.
-        self.energy_mj = self.energy_mj.saturating_add(mw.saturating_mul(elapsed / 1000) / 1000);
+        self.energy_mj = self.energy_mj.saturating_add(mw * (elapsed / 1000).min(1000) / 1000);
         if self.uptime.s / HOUR_S != hour {
             // The energy of an hour [Wh] is its mean power [W], rounded.
             let wh = self.energy_mj.saturating_add(HOUR_S * 500) / (HOUR_S * 1000);
