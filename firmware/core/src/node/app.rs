@@ -362,6 +362,14 @@ impl Ctx<'_> {
         crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
     }
 
+    /// Whether the parameters last saved were refused for this dictionary's
+    /// layout (a firmware update changed it), so the node runs on its
+    /// defaults ([`crate::services::store::refused`]): for a device that
+    /// reports the loss, at reset application.
+    pub fn stored_set_refused(&mut self) -> bool {
+        crate::services::store::refused(self.dict, self.storage)
+    }
+
     /// Whether the node's store in stages is in progress (an SDO 0x1010 or
     /// 0x1011, LSS "store configuration"): until it ends, the stores above
     /// are refused (0x08000022); from the first [`Application::poll`] after
