@@ -77,7 +77,8 @@ impl Add<Duration> for Instant {
     // Out of line: the 64-bit saturating add was copied to every deadline (240 bytes more).
     #[inline(never)]
     fn add(self, rhs: Duration) -> Instant {
-        Instant(self.0.saturating_add(rhs.0).min(LAST))
+        let sum = self.0.saturating_add(rhs.0);
+        Instant(sum.wrapping_sub(u64::from(sum == NEVER)))
     }
 }
 
@@ -100,9 +101,6 @@ pub(crate) type At = u64;
 
 /// No deadline.
 pub(crate) const NEVER: At = u64::MAX;
-
-/// The latest deadline there is.
-const LAST: u64 = NEVER - 1;
 
 /// `deadline` as an [`At`].
 pub(crate) fn at(deadline: Option<Instant>) -> At {

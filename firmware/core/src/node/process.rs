@@ -118,7 +118,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
                 pdo_deadline = comm.pdos.poll_marked(now, marked, od.image(), &mut sink);
                 let (received, timeouts) = (sink.received, sink.timeouts);
-                self.pdo_events(now, received, timeouts);
+                // Most polls have nothing to tell (no call).
+                if received | timeouts != 0 {
+                    self.pdo_events(now, received, timeouts);
+                }
             }
         }
         let controller_deadline = self.controller.poll::<A>(now, booted, &mut self.comm.emcy);
