@@ -260,7 +260,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// not walked (a saturated count always walks).
     // Out of line: three callers.
     #[inline(never)]
-    fn retrying(&mut self) -> u32 {
+    pub(super) fn retrying(&mut self) -> u32 {
         let overflows = self.txq.overflows();
         if overflows == self.retry_free_at && overflows != u32::MAX {
             return 0;
