@@ -13,7 +13,7 @@
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::index;
-use crate::od::{Dictionary, EntryRef};
+use crate::od::{DataType, Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
 use crate::services::pdo::map::Source as MapSource;
 use crate::services::store::Scope;
@@ -120,6 +120,20 @@ impl ServiceOptions {
         boot_up_v3: None,
         communication_error_pre_operational: None,
     };
+}
+
+/// The image bytes of a value the device sets often ([`Ctx::output`]):
+/// all zero bits, [`Output::NONE`], until found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Output {
+    offset: u16,
+    /// 0: none.
+    len: u8,
+}
+
+impl Output {
+    /// No image bytes: [`Ctx::set_output`] does nothing.
+    pub const NONE: Output = Output { offset: 0, len: 0 };
 }
 
 /// Raw frames one [`Ctx`] holds until the node queues them.
@@ -236,6 +250,36 @@ impl Ctx<'_> {
             self.effects.wrote_bytes(entry.offset, entry.len);
         }
         Ok(())
+    }
+
+    /// The image bytes of an entry [`Ctx::locate`] found, for
+    /// [`Ctx::set_output`] on every frame ([`Output::NONE`] for an entry
+    /// the device cannot set: missing, constant or DOMAIN).
+    // Out of line: it runs at reset application only.
+    #[inline(never)]
+    pub fn output(&self, entry: EntryRef) -> Output {
+        match self.dict.entry(entry) {
+            Some(e) if !e.in_rom() && e.data_type != DataType::Domain => Output { offset: e.offset, len: e.len.min(4) as u8 },
+            _ => Output::NONE,
+        }
+    }
+
+    /// [`Ctx::set_at`] of a value the device sets with every frame (a
+    /// statusword): the low bytes of `value` straight into the image bytes
+    /// [`Ctx::output`] found (at most 4), without a look-up or a check of the entry.
+    pub fn set_output(&mut self, out: Output, value: u32) {
+        let bytes = value.to_le_bytes();
+        let start = usize::from(out.offset);
+        let Some(slot) = self.image.get_mut(start..start.wrapping_add(usize::from(out.len))) else { return };
+        let mut changed = false;
+        for (d, &s) in slot.iter_mut().zip(&bytes) {
+            changed |= *d != s;
+            *d = s;
+        }
+        // Only the TPDOs mapping its bytes look for a change, none if the value stayed the same.
+        if changed {
+            self.effects.wrote_bytes(out.offset, u16::from(out.len));
+        }
     }
 
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
