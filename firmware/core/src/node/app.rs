@@ -122,18 +122,18 @@ impl ServiceOptions {
     };
 }
 
-/// The image bytes of a value the device sets often ([`Ctx::output`]):
-/// all zero bits, [`Output::NONE`], until found.
+/// The image bytes of a value the device sets or reads with every frame
+/// ([`Ctx::image_slot`]): all zero bits, [`ImageSlot::NONE`], until found.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Output {
+pub struct ImageSlot {
     offset: u16,
     /// 0: none.
     len: u8,
 }
 
-impl Output {
-    /// No image bytes: [`Ctx::set_output`] does nothing.
-    pub const NONE: Output = Output { offset: 0, len: 0 };
+impl ImageSlot {
+    /// No image bytes: [`Ctx::set_slot`] does nothing, [`Ctx::slot_value`] is 0.
+    pub const NONE: ImageSlot = ImageSlot { offset: 0, len: 0 };
 }
 
 /// Raw frames one [`Ctx`] holds until the node queues them.
@@ -252,22 +252,38 @@ impl Ctx<'_> {
         Ok(())
     }
 
-    /// The image bytes of an entry [`Ctx::locate`] found, for
-    /// [`Ctx::set_output`] on every frame ([`Output::NONE`] for an entry
-    /// the device cannot set: missing, constant or DOMAIN).
+    /// The image bytes of an entry [`Ctx::locate`] found (its first 4 at
+    /// most), for [`Ctx::set_slot`] and [`Ctx::slot_value`] on every frame
+    /// ([`ImageSlot::NONE`] for an entry the image does not hold: missing,
+    /// constant or DOMAIN).
     // Out of line: it runs at reset application only.
     #[inline(never)]
-    pub fn output(&self, entry: EntryRef) -> Output {
+    pub fn image_slot(&self, entry: EntryRef) -> ImageSlot {
         match self.dict.entry(entry) {
-            Some(e) if !e.in_rom() && e.data_type != DataType::Domain => Output { offset: e.offset, len: e.len.min(4) as u8 },
-            _ => Output::NONE,
+            Some(e) if !e.in_rom() && e.data_type != DataType::Domain => ImageSlot { offset: e.offset, len: e.len.min(4) as u8 },
+            _ => ImageSlot::NONE,
+        }
+    }
+
+    /// The value in the image bytes of `slot` (little-endian, zero-extended),
+    /// as [`Ctx::rpdo_object`] gives it.
+    pub fn slot_value(&self, slot: ImageSlot) -> u32 {
+        let start = usize::from(slot.offset);
+        let bytes = self.image.get(start..start.wrapping_add(usize::from(slot.len))).unwrap_or(&[]);
+        // A match, as in `rpdo_object`: cheaper than a loop over the bytes.
+        match *bytes {
+            [a] => u32::from(a),
+            [a, b] => u32::from(u16::from_le_bytes([a, b])),
+            [a, b, c] => u32::from_le_bytes([a, b, c, 0]),
+            [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+            _ => 0,
         }
     }
 
     /// [`Ctx::set_at`] of a value the device sets with every frame (a
     /// statusword): the low bytes of `value` straight into the image bytes
-    /// [`Ctx::output`] found (at most 4), without a look-up or a check of the entry.
-    pub fn set_output(&mut self, out: Output, value: u32) {
+    /// [`Ctx::image_slot`] found, without a look-up or a check of the entry.
+    pub fn set_slot(&mut self, out: ImageSlot, value: u32) {
         let bytes = value.to_le_bytes();
         let start = usize::from(out.offset);
         let Some(slot) = self.image.get_mut(start..start.wrapping_add(usize::from(out.len))) else { return };

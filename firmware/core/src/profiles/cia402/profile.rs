@@ -12,7 +12,7 @@ use super::units::{self, Units};
 use super::velocity::{Window, vl_limit};
 use super::{TICK_US, mode};
 use crate::abort::AbortCode;
-use crate::node::{CommError, Ctx, NmtEvent, Output};
+use crate::node::{CommError, Ctx, ImageSlot, NmtEvent};
 use crate::od::EntryRef;
 use crate::services::nmt::NmtState;
 use crate::time::Instant;
@@ -103,7 +103,7 @@ struct Profile {
     /// The objects of every frame and tick, found at reset application.
     at: Located,
     /// 0x6041's image bytes, found with them: the statusword changes with most frames.
-    status_out: Output,
+    status_out: ImageSlot,
 }
 
 impl Profile {
@@ -137,7 +137,7 @@ impl Profile {
         operational: false,
         refresh: false,
         at: Located::NONE,
-        status_out: Output::NONE,
+        status_out: ImageSlot::NONE,
     };
 }
 
@@ -158,7 +158,7 @@ impl<D: Drive> Cia402<D> {
         self.drive.reset();
         self.s = Profile::NEW;
         self.s.at = Located::find(ctx);
-        self.s.status_out = ctx.output(self.s.at.at(Located::STATUSWORD));
+        self.s.status_out = ctx.image_slot(self.s.at.at(Located::STATUSWORD));
         self.s.units = units(ctx, config);
         self.s.supported = supported_modes(ctx);
         self.s.state = PdsState::SwitchOnDisabled;
