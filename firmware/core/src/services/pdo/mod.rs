@@ -529,6 +529,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled_deadline
     }
 
+    /// Whether an RPDO's event timer may run: only then does a received RPDO
+    /// move [`Pdos::settled`]'s deadline.
+    pub fn rpdo_timers(&self) -> bool {
+        self.rpdo_timers != 0
+    }
+
     /// [`Pdos::deadline`] when it is known without walking the PDOs.
     pub fn settled(&self) -> Option<Option<Instant>> {
         (self.settled || !self.operational).then_some(self.settled_deadline.filter(|_| self.operational))
