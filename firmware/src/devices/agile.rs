@@ -14,12 +14,15 @@ pub mod od {
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::{Axis, AxisParams};
 use canopen_core::node::{Application, CommError, Ctx, NmtEvent, Source};
+use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::nmt::NmtState;
 use canopen_core::services::store;
 use canopen_core::time::Instant;
 use canopen_core::wire::emcy::EmcyCode;
+
+mod data_sets;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile in velocity
@@ -80,24 +83,36 @@ impl Application for App {
         }
     }
 
-    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+    fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
         // D43: the write-only 0x6060 answers the manual's only "not readable" code (§8.3.3).
-        ((index, sub) == (MODES_OF_OPERATION, 0)).then_some(Err(AbortCode::UnsupportedAccess))
+        if (index, sub) == (MODES_OF_OPERATION, 0) {
+            return Some(Err(AbortCode::UnsupportedAccess));
+        }
+        let target = data_sets::target(ctx, index, sub)?;
+        Some(data_sets::read(ctx, index, target).map(<[u8]>::len))
+    }
+
+    fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        let target = data_sets::target(ctx, index, sub)?;
+        Some(data_sets::read(ctx, index, target).map(|value| {
+            let value = value.get(offset..).unwrap_or(&[]);
+            buf.iter_mut().zip(value).map(|(d, s)| *d = *s).count()
+        }))
     }
 
     fn download_check(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
-        let len = data_sets(ctx, index, sub)?;
+        let target = data_sets::target(ctx, index, sub)?;
         Some(match size {
-            Some(n) if n > len => Err(AbortCode::LengthTooHigh),
-            Some(n) if n < len => Err(AbortCode::LengthTooLow),
+            _ if !target.writable => Err(AbortCode::ReadOnly),
+            Some(n) if n > target.len => Err(AbortCode::LengthTooHigh),
+            Some(n) if n < target.len => Err(AbortCode::LengthTooLow),
             _ => Ok(()),
         })
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
-        data_sets(ctx, index, sub)?;
-        // D25, §9.3.1: data set 0 writes all four data sets.
-        Some((1..=4).try_for_each(|set| ctx.write_object(index, set, data)))
+        let target = data_sets::target(ctx, index, sub)?;
+        Some(data_sets::write(ctx, index, target, data))
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
@@ -117,10 +132,13 @@ impl Application for App {
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
         self.drive.sample(ctx);
+        self.actuals(ctx);
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
-        self.drive.poll(ctx, &PROFILE)
+        let next = self.drive.poll(ctx, &PROFILE);
+        self.actuals(ctx);
+        next
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
@@ -149,6 +167,15 @@ impl Application for App {
 }
 
 impl App {
+    /// §9.5.16/§9.5.17 (M-L2985-3015), D48: the current actual value 0x6078
+    /// (‰ of the rated current: the axis model's torque estimate, which has
+    /// no magnetising current) and the DC link voltage 0x6079 [mV]; the
+    /// profile keeps 0x6077.
+    fn actuals(&self, ctx: &mut Ctx<'_>) {
+        let _ = ctx.set_value(CURRENT_ACTUAL, 0, &self.drive.drive.torque().to_le_bytes());
+        let _ = ctx.set_value(DC_LINK_VOLTAGE, 0, &self.drive.drive.dc_link_mv().to_le_bytes());
+    }
+
     /// §1.9/§9.5.1 (M-L670-700, L2574-2597), D44: the reaction 0x6007 (p.388)
     /// asks for on a bus fault while the drive function is on. 1, −1 and −2
     /// end in Fault with 0x603F 0x1000 and the inverter's fault key (F20.nn,
@@ -177,14 +204,6 @@ impl App {
             self.drive.on_nmt(ctx, &PROFILE, event);
         }
     }
-}
-
-/// The value length of a four-data-set parameter (an ARRAY whose sub 0 is
-/// 9: data sets 1–4 and their RAM copies) when `sub` is 0, its "data set 0".
-fn data_sets(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<usize> {
-    // Sub 9 exists only in such an ARRAY (a VAR parameter has sub 0 alone, whatever its value).
-    let is_parameter = (0x2000..0x3000).contains(&index) && sub == 0 && ctx.read_u32(index, 0) == Some(9) && ctx.read(index, 9).is_ok();
-    is_parameter.then(|| ctx.read(index, 1).map_or(0, <[u8]>::len))
 }
 
 /// The node this device runs, on storage `S`.
@@ -241,6 +260,10 @@ const FAULT_NMT: u16 = 0x2025;
 const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
 /// F23.nn heartbeat of node nn.
 const FAULT_HEARTBEAT: u16 = 0x2300;
+/// 0x6078 current actual value (INTEGER16, ‰ of the rated current).
+const CURRENT_ACTUAL: u16 = 0x6078;
+/// 0x6079 DC link circuit voltage (UNSIGNED32, mV).
+const DC_LINK_VOLTAGE: u16 = 0x6079;
 /// 0x6060 modes of operation (write-only).
 const MODES_OF_OPERATION: u16 = 0x6060;
 /// 0x6040 controlword.
