@@ -88,26 +88,22 @@ pub(super) fn write(ctx: &mut Ctx<'_>, index: u16, target: Target, data: &[u8]) 
 /// values (or the factory ones) while it runs, then their RAM values again.
 fn store_one(ctx: &mut Ctx<'_>, index: u16, set: u8, len: usize) -> Result<(), AbortCode> {
     let dict = ctx.dictionary();
-    let mut active = [[0u8; 4]; 4];
-    let others = || (1..=4u8).filter(move |&s| s != set);
-    for (other, keep) in others().zip(&mut active) {
-        copy(keep, ctx.read(index, other)?);
+    // Data sets 1-4 as they are now, 4 bytes each.
+    let mut active = [0u8; 16];
+    for (other, slot) in (1..=4u8).zip(active.chunks_exact_mut(4)) {
+        slot.iter_mut().zip(ctx.read(index, other)?).for_each(|(d, s)| *d = *s);
         let mut stored = [0u8; 4];
-        if ctx.stored(index, other, &mut stored).is_none() {
-            copy(&mut stored, dict.value(dict.defaults, dict.find(index, other)?));
+        if other != set {
+            let value = match ctx.stored(index, other, &mut stored) {
+                Some(n) => stored.get(..n).unwrap_or(&[]),
+                None => dict.value(dict.defaults, dict.find(index, other)?),
+            };
+            ctx.set_value(index, other, value)?;
         }
-        ctx.set_value(index, other, stored.get(..len).ok_or(AbortCode::General)?)?;
     }
     let result = ctx.save_objects(index, index);
-    for (other, keep) in others().zip(&active) {
-        ctx.set_value(index, other, keep.get(..len).ok_or(AbortCode::General)?)?;
+    for (other, slot) in (1..=4u8).zip(active.chunks_exact(4)) {
+        ctx.set_value(index, other, slot.get(..len).unwrap_or(&[]))?;
     }
     result
-}
-
-/// Copies a value of at most 4 bytes into the front of `dst`.
-fn copy(dst: &mut [u8; 4], src: &[u8]) {
-    for (d, s) in dst.iter_mut().zip(src) {
-        *d = *s;
-    }
 }
