@@ -22,6 +22,7 @@ use canopen_core::services::store;
 use canopen_core::time::Instant;
 use canopen_core::wire::emcy::EmcyCode;
 
+mod abort_connection;
 mod data_sets;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
@@ -112,10 +113,17 @@ impl Application for App {
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
         let target = data_sets::target(ctx, index, sub)?;
-        Some(data_sets::write(ctx, index, target, data))
+        let mut result = data_sets::write(ctx, index, target, data);
+        if index == CAN_FAULT_BEHAVIOUR && result.is_ok() {
+            result = abort_connection::from_p388(ctx, target.stored());
+        }
+        Some(result)
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+        if index == ABORT_CONNECTION {
+            abort_connection::to_p388(ctx);
+        }
         // §11.3 (M-L3279-3282), D45: "enable operation" in Switch on disabled
         // runs Shutdown first (0x0000 → 0x000F), then transitions 3 and 4.
         if index == CONTROLWORD && self.drive.state() == PdsState::SwitchOnDisabled {
@@ -144,6 +152,7 @@ impl Application for App {
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         let bus_fault = match event {
             NmtEvent::ResetApplication => {
+                abort_connection::at_power_on(ctx);
                 self.drive.drive.configure(AXIS);
                 self.operational = false;
                 None
@@ -247,8 +256,7 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
     (node_id, bit_rate)
 }
 
-/// 0x6007 abort connection option code (p.388).
-const ABORT_CONNECTION: u16 = 0x6007;
+use abort_connection::{ABORT_CONNECTION, CAN_FAULT_BEHAVIOUR};
 /// 0x603F for the faults §12.5 does not map (M-L2636-2656): the bus faults.
 /// Fault keys (§7.3, M-L688-700): group F20 high byte, code low byte.
 const FAULT_BUS_OFF: u16 = 0x2021;

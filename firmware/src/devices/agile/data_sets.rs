@@ -27,6 +27,13 @@ pub(super) struct Target {
     pub(super) writable: bool,
 }
 
+impl Target {
+    /// A write to it is stored (EEPROM, sub 0-4), not RAM only.
+    pub(super) fn stored(self) -> bool {
+        !self.ram
+    }
+}
+
 /// The data sets (index, sub) addresses, if `index` is an inverter
 /// parameter of the dictionary and `sub` a data set it has; `None` leaves
 /// the access to the dictionary (other objects, or a data set the parameter
