@@ -102,9 +102,13 @@ impl Application for App {
     }
 
     fn download_check(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
-        let target = data_sets::target(ctx, index, sub)?;
+        // D51: "Parameter nicht schreibbar" is 0x06010000, the manual's one code for
+        // both directions (§8.3.3, M-L793), as the read of 0x6060 (D43).
+        let Some(target) = data_sets::target(ctx, index, sub) else {
+            return read_only(ctx, index, sub).then_some(Err(AbortCode::UnsupportedAccess));
+        };
         Some(match size {
-            _ if !target.writable => Err(AbortCode::ReadOnly),
+            _ if !target.writable => Err(AbortCode::UnsupportedAccess),
             Some(n) if n > target.len => Err(AbortCode::LengthTooHigh),
             Some(n) if n < target.len => Err(AbortCode::LengthTooLow),
             _ => Ok(()),
@@ -112,7 +116,9 @@ impl Application for App {
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
-        let target = data_sets::target(ctx, index, sub)?;
+        let Some(target) = data_sets::target(ctx, index, sub) else {
+            return read_only(ctx, index, sub).then_some(Err(AbortCode::UnsupportedAccess));
+        };
         let mut result = data_sets::write(ctx, index, target, data);
         if index == CAN_FAULT_BEHAVIOUR && result.is_ok() {
             result = abort_connection::from_p388(ctx, target.stored());
@@ -213,6 +219,11 @@ impl App {
             self.drive.on_nmt(ctx, &PROFILE, event);
         }
     }
+}
+
+/// D51: (index, sub) exists and is read-only (0x06010000 on a write, §8.3.3).
+fn read_only(ctx: &Ctx<'_>, index: u16, sub: u8) -> bool {
+    ctx.dictionary().find(index, sub).is_ok_and(|e| !e.writable())
 }
 
 /// The node this device runs, on storage `S`.

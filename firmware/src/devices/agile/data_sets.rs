@@ -73,6 +73,9 @@ pub(super) fn read<'a>(ctx: &'a Ctx<'_>, index: u16, target: Target) -> Result<&
 
 /// A write: the data set (or all four), then, unless to RAM only, stored.
 pub(super) fn write(ctx: &mut Ctx<'_>, index: u16, target: Target, data: &[u8]) -> Result<(), AbortCode> {
+    if !target.writable {
+        return Err(AbortCode::UnsupportedAccess);
+    }
     // A 0x1010 store in stages is writing the parameters: nothing may change under it.
     if !target.ram && ctx.storing() {
         return Err(AbortCode::DeviceState);
