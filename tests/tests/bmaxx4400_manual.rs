@@ -188,3 +188,32 @@ fn b14_b15_m_l3101_cross_communication_node_2_speed_actual_value_is_node_7_speed
     // Node 7 turns at it: its vl ramps are 0 (placeholders), so the drive's own limit.
     assert_eq!(speed(&mut n7, 7, 0x6044), 300, "node 7's speed actual value");
 }
+
+#[test]
+fn m_l983_the_2_31_offset_of_6062_6064_607a_607c_607d_in_the_drive_parameters() {
+    let mut b = node(4);
+    let u32_at = |b: &mut Bmaxx, index: u16| {
+        let v = b.sdo_upload(4, index, 0).expect("readable");
+        u32::from_le_bytes([v[0], v[1], v[2], v[3]])
+    };
+    // §4.4.7: "(6062, 6064, 607A, 607C, 607D Sub 1/2) − 2^31" towards CANopen.
+    assert_eq!(b.sdo_write(4, 0x607C, 0, &1000i32.to_le_bytes()), ok_write(0x607C, 0));
+    assert_eq!(b.sdo_write(4, 0x607D, 1, &(-5000i32).to_le_bytes()), ok_write(0x607D, 1));
+    assert_eq!(b.sdo_write(4, 0x607D, 2, &5000i32.to_le_bytes()), ok_write(0x607D, 2));
+    assert_eq!(b.sdo_write(4, 0x607A, 0, &(-7i32).to_le_bytes()), ok_write(0x607A, 0));
+    for (p, index, value) in [
+        ("P0463", 0x41CF, 0u32),
+        ("P0462", 0x41CE, 0),
+        ("P0600", 0x4258, (-7i32) as u32),
+        ("P1200", 0x44B0, 1000),
+        ("P1196", 0x44AC, (-5000i32) as u32),
+        ("P1197", 0x44AD, 5000),
+    ] {
+        assert_eq!(u32_at(&mut b, index), value.wrapping_add(1 << 31), "{p}");
+    }
+    // P0830 bit 5: no offset (§4.4.7, "Bit 5 -> 1: Es wird kein Offset benutzt").
+    assert_eq!(b.sdo_write(4, 0x433E, 0, &0x0020u16.to_le_bytes()), ok_write(0x433E, 0));
+    assert_eq!(u32_at(&mut b, 0x44AC), (-5000i32) as u32);
+    // P0607, the CANopen positioning mode's target (INT32), never has it.
+    assert_eq!(u32_at(&mut b, 0x425F), (-7i32) as u32);
+}
