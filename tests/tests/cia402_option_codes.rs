@@ -179,3 +179,38 @@ fn fault_reaction_option_0x605e_1_and_2_brake_on_a_guarding_loss_with_0x6007_1()
         assert_eq!(speed(&mut b), 0);
     }
 }
+
+#[test]
+fn m_l5130_bmaxx_shutdown_and_disable_operation_minus_1_quick_stop_ramp_minus_2_current_limit() {
+    // 0x605B = −1 "Rücklauf an Schnellhaltrampe": transition 8 after the quick stop ramp.
+    let mut b = turning(0x605B, -1);
+    assert_eq!(b.sdo_upload(ID, 0x605B, 0), Ok(vec![0xFF, 0xFF]), "reads back −1");
+    controlword(&mut b, 0x0006);
+    near(at(&mut b, 300), SPEED / 2, 3000);
+    assert_eq!(state(&mut b), OPERATION_ENABLED, "braking");
+    assert!(when(&mut b, 300, 0x21) <= 400 + SETTLE, "then Ready to switch on");
+    assert_eq!(b.sdo_upload(ID, 0x605B, 0), Ok(vec![0xFF, 0xFF]), "still −1");
+    // 0x605C = −2 "Rücklauf an Stromgrenze": transition 5 after a stop at the drive's limit.
+    let mut b = turning(0x605C, -2);
+    controlword(&mut b, 0x0007);
+    near(at(&mut b, 210), SPEED / 2, 30_000);
+    assert!(when(&mut b, 210, SWITCHED_ON) <= 220 + SETTLE);
+    // 0x605C = −1: the quick stop ramp.
+    let mut b = turning(0x605C, -1);
+    controlword(&mut b, 0x0007);
+    near(at(&mut b, 300), SPEED / 2, 3000);
+}
+
+#[test]
+fn m_l5040_bmaxx_option_codes_take_the_values_of_their_tables() {
+    let mut b: Bmaxx = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    for (index, refused) in [(0x605Au16, [-1i16, 9]), (0x605B, [-3, 2]), (0x605C, [-3, 2]), (0x605D, [-1, 4]), (0x605E, [-1, 4])] {
+        for value in refused {
+            assert_eq!(b.sdo_write(ID, index, 0, &value.to_le_bytes()), common::abort(index, 0, 0x0609_0030), "{index:#x} = {value}");
+        }
+    }
+    for (index, value) in [(0x605Au16, 8i16), (0x605B, -2), (0x605C, 1), (0x605D, 3), (0x605E, 0)] {
+        assert_eq!(b.sdo_write(ID, index, 0, &value.to_le_bytes()), ok_write(index, 0), "{index:#x} = {value}");
+    }
+}

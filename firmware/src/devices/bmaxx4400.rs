@@ -21,6 +21,7 @@ use canopen_core::time::Instant;
 
 mod errors;
 mod ip;
+mod option_codes;
 mod params;
 mod positioning;
 mod slots;
@@ -135,6 +136,8 @@ impl Application for App {
             (ip::TIME_PERIOD, [i]) if sub == 2 => ip::period(ctx, Some(*i as i8)).map(|_| ()).ok_or(AbortCode::InvalidValue),
             // D55: the BACI's 8 set-point and 8 actual-value slots.
             (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
+            // D63: the option codes' value tables.
+            (0x605A..=0x605E, [lo, hi]) if !option_codes::valid(index, i16::from_le_bytes([*lo, *hi])) => Err(AbortCode::InvalidValue),
             _ => self.drive.check_write(index, data),
         }
     }
@@ -205,7 +208,8 @@ impl App {
         if hold {
             let _ = ctx.set_value(CONTROLWORD, 0, &((cw & !0x10) as u16).to_le_bytes());
         }
-        self.drive.written(ctx, &PROFILE, index);
+        // D63: the manufacturer's shutdown and disable operation codes −1, −2.
+        option_codes::as_cia(ctx, |ctx| self.drive.written(ctx, &PROFILE, index));
         let _ = ctx.set_value(CONTROLWORD, 0, &(cw as u16).to_le_bytes());
         let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &[a, b, c, d]);
         self.positioning(ctx, cw);
