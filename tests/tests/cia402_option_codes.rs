@@ -205,12 +205,14 @@ fn m_l5130_bmaxx_shutdown_and_disable_operation_minus_1_quick_stop_ramp_minus_2_
 fn m_l5040_bmaxx_option_codes_take_the_values_of_their_tables() {
     let mut b: Bmaxx = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
     b.at(ms(0));
-    for (index, refused) in [(0x605Au16, [-1i16, 9]), (0x605B, [-3, 2]), (0x605C, [-3, 2]), (0x605D, [-1, 4]), (0x605E, [-1, 4])] {
+    for (index, refused) in
+        [(0x6007u16, [-1i16, 4]), (0x605A, [-1, 9]), (0x605B, [-3, 2]), (0x605C, [-3, 2]), (0x605D, [-1, 4]), (0x605E, [-1, 4])]
+    {
         for value in refused {
             assert_eq!(b.sdo_write(ID, index, 0, &value.to_le_bytes()), common::abort(index, 0, 0x0609_0030), "{index:#x} = {value}");
         }
     }
-    for (index, value) in [(0x605Au16, 8i16), (0x605B, -2), (0x605C, 1), (0x605D, 3), (0x605E, 0)] {
+    for (index, value) in [(0x6007u16, 3i16), (0x605A, 8), (0x605B, -2), (0x605C, 1), (0x605D, 3), (0x605E, 0)] {
         assert_eq!(b.sdo_write(ID, index, 0, &value.to_le_bytes()), ok_write(index, 0), "{index:#x} = {value}");
     }
 }

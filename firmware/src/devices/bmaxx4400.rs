@@ -137,7 +137,9 @@ impl Application for App {
             // D55: the BACI's 8 set-point and 8 actual-value slots.
             (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
             // D63: the option codes' value tables.
-            (0x605A..=0x605E, [lo, hi]) if !option_codes::valid(index, i16::from_le_bytes([*lo, *hi])) => Err(AbortCode::InvalidValue),
+            (0x6007 | 0x605A..=0x605E, [lo, hi]) if !option_codes::valid(index, i16::from_le_bytes([*lo, *hi])) => {
+                Err(AbortCode::InvalidValue)
+            }
             _ => self.drive.check_write(index, data),
         }
     }

@@ -1,4 +1,4 @@
-//! The option codes as App. C has them (605Ah-605Eh, M-L5040-5240; D63 in
+//! The option codes as App. C has them (6007h, 605Ah-605Eh, M-L4550-4570, M-L5040-5240; D63 in
 //! docs/devices/bmaxx4400.md): each object takes the values its table
 //! gives a meaning ("unbenutzt"/"reserved" ones abort 0x06090030), and the
 //! shutdown and disable operation codes have the manufacturer's −1 (quick
@@ -16,6 +16,8 @@ const DISABLE_OPERATION: u16 = 0x605C;
 /// true for any other object.
 pub(super) fn valid(index: u16, value: i16) -> bool {
     match index {
+        // Abort connection: 0-3 ("reserved" 4.., manufacturer-specific negative ones unused).
+        0x6007 => (0..=3).contains(&value),
         // Quick stop: 0-8 (negative and 9.. "unbenutzt").
         0x605A => (0..=8).contains(&value),
         // Shutdown, disable operation: 0, 1 and the manufacturer's −1, −2.
