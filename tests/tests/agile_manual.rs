@@ -483,3 +483,57 @@ fn m_l793_abort_codes_of_the_manual_for_read_only_write_only_and_missing_objects
     // A signature other than "save" (0x08000020, "Ungültiger Wert für die Operation").
     ex(&mut b, &[0x23, 0x10, 0x10, 0x01, 0x00, 0x00, 0x00, 0x00], &abort(0x1010, 1, 0x0800_0020));
 }
+
+// ---- §9.5.2 / §12.5: the inverter's faults (M-L2626-2662) ----------------------------
+
+/// Operation enabled at 1500 min⁻¹ by SDO (Pre-operational, no PDOs), t = 300 ms.
+fn running() -> Agile {
+    let mut b = node();
+    ex(&mut b, &[0x23, 0x48, 0x60, 0x01, 0xB8, 0x0B, 0x00, 0x00], &[0x60, 0x48, 0x60, 0x01]);
+    ex(&mut b, &[0x2B, 0x42, 0x60, 0x00, 0xDC, 0x05], &[0x60, 0x42, 0x60, 0x00]);
+    for cw in [0x06, 0x07, 0x0F] {
+        ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, cw, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    }
+    b.run_until(ms(300));
+    b
+}
+
+#[test]
+fn m_l2636_drive_faults_are_the_ds402_codes_of_the_table_with_the_fault_key_in_bytes_6_7_and_p260() {
+    use canopen_core::axis::Injected;
+    // F07 DC link voltage (under- and over-voltage alike) 3210h, F04 motor temperature 4310h,
+    // F05 output current 2340h (the power stage); the key's code within the group is 00.
+    for (fault, code, key, register) in [
+        (Injected::UnderVoltage, [0x10, 0x32], [0x00, 0x07], 0x05),
+        (Injected::OverVoltage, [0x10, 0x32], [0x00, 0x07], 0x05),
+        (Injected::OverTemperature, [0x10, 0x43], [0x00, 0x04], 0x09),
+        (Injected::PowerStage, [0x40, 0x23], [0x00, 0x05], 0x03),
+    ] {
+        let mut b = running();
+        b.node.app_mut().drive.drive.axis.inject(fault);
+        let emcy: Vec<_> = b.run_until(ms(400)).into_iter().filter(|(_, (id, _))| *id == 0x081).map(|(_, (_, d))| d).collect();
+        assert_eq!(emcy, [vec![code[0], code[1], register, 0, 0, 0, key[0], key[1]]], "{fault:?}");
+        ex(&mut b, &[0x40, 0x3F, 0x60, 0x00], &[0x4B, 0x3F, 0x60, 0x00, code[0], code[1]]);
+        ex(&mut b, &[0x40, 0x04, 0x21, 0x00], &[0x4B, 0x04, 0x21, 0x00, key[0], key[1]]);
+        // p.270 bit 7 "Warnung Motortemperatur" (§12.3) while the motor is that hot.
+        let warning = if fault == Injected::OverTemperature { 0x80 } else { 0x00 };
+        ex(&mut b, &[0x40, 0x0E, 0x21, 0x00], &[0x4B, 0x0E, 0x21, 0x00, warning]);
+        // The cause gone, a fault reset: the all-zero EMCY (M-L838), p.260 is 0 again.
+        b.node.app_mut().drive.drive.axis.remove(fault);
+        b.run_until(ms(500));
+        let out = b.rx(ms(500), 0x601, &[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00, 0, 0]);
+        assert!(out.contains(&(0x081, vec![0; 8])), "{fault:?}: {out:x?}");
+        b.run_until(ms(510));
+        ex(&mut b, &[0x40, 0x04, 0x21, 0x00], &[0x4B, 0x04, 0x21, 0x00]);
+    }
+}
+
+#[test]
+fn m_l2656_a_bus_fault_is_1000h_with_its_key_in_p260() {
+    let mut b = running();
+    b.nmt(0x01, 1);
+    // 0x6007 = 1: leaving Operational is F20.25.
+    assert_eq!(b.nmt(0x80, 1), [(0x081, vec![0x00, 0x10, 0x01, 0, 0, 0, 0x25, 0x20])]);
+    b.run_until(ms(310));
+    ex(&mut b, &[0x40, 0x04, 0x21, 0x00], &[0x4B, 0x04, 0x21, 0x00, 0x25, 0x20]);
+}

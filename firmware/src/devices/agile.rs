@@ -12,7 +12,7 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::axis::{Axis, AxisParams};
+use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, CommError, Ctx, NmtEvent, Source};
 use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
@@ -24,6 +24,9 @@ use canopen_core::wire::emcy::EmcyCode;
 
 mod abort_connection;
 mod data_sets;
+mod faults;
+
+pub use faults::AgileDrive;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile in velocity
@@ -31,14 +34,16 @@ mod data_sets;
 #[derive(Debug)]
 pub struct App {
     /// The CiA 402 profile (vl only) and the drive behind it.
-    pub drive: Cia402<Axis>,
+    pub drive: Cia402<AgileDrive>,
     /// In NMT Operational: leaving it is a bus fault.
     operational: bool,
+    /// The fault key of the last bus fault (F20.nn, F23.nn).
+    bus_fault: u16,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), operational: false };
+    pub const NEW: App = App { drive: Cia402::new(AgileDrive::NEW), operational: false, bus_fault: 0 };
 }
 
 /// The profile's constants for the Agile (decisions D42-D47 in docs/devices/agile.md).
@@ -159,7 +164,7 @@ impl Application for App {
         let bus_fault = match event {
             NmtEvent::ResetApplication => {
                 abort_connection::at_power_on(ctx);
-                self.drive.drive.configure(AXIS);
+                self.drive.drive.axis.configure(AXIS);
                 self.operational = false;
                 None
             }
@@ -186,9 +191,19 @@ impl App {
     /// (‰ of the rated current: the axis model's torque estimate, which has
     /// no magnetising current) and the DC link voltage 0x6079 [mV]; the
     /// profile keeps 0x6077.
+    /// p.260 holds the active fault's key (D52), p.270 bit 7 the motor
+    /// temperature warning (§12.3).
     fn actuals(&self, ctx: &mut Ctx<'_>) {
-        let _ = ctx.set_value(CURRENT_ACTUAL, 0, &self.drive.drive.torque().to_le_bytes());
-        let _ = ctx.set_value(DC_LINK_VOLTAGE, 0, &self.drive.drive.dc_link_mv().to_le_bytes());
+        let drive = &self.drive.drive;
+        let _ = ctx.set_value(CURRENT_ACTUAL, 0, &drive.torque().to_le_bytes());
+        let _ = ctx.set_value(DC_LINK_VOLTAGE, 0, &drive.dc_link_mv().to_le_bytes());
+        let key = match self.drive.state() {
+            PdsState::Fault | PdsState::FaultReactionActive if drive.key() != 0 => drive.key(),
+            PdsState::Fault | PdsState::FaultReactionActive => self.bus_fault,
+            _ => 0,
+        };
+        let _ = ctx.set_value(CURRENT_FAULT, 0, &key.to_le_bytes());
+        let _ = ctx.set_value(WARNINGS, 0, &(u16::from(drive.warning()) << 7).to_le_bytes());
     }
 
     /// §1.9/§9.5.1 (M-L670-700, L2574-2597), D44: the reaction 0x6007 (p.388)
@@ -197,6 +212,7 @@ impl App {
     /// F23.nn) in EMCY bytes 6-7; 2 and 3 are the profile's disable voltage
     /// and quick stop.
     fn bus_fault(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent, fault: u16) {
+        self.bus_fault = fault;
         let [lo, hi] = fault.to_le_bytes();
         let info = [0, 0, 0, lo, hi];
         let reaction = match ctx.read(ABORT_CONNECTION, 0) {
@@ -279,6 +295,10 @@ const FAULT_NMT: u16 = 0x2025;
 const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
 /// F23.nn heartbeat of node nn.
 const FAULT_HEARTBEAT: u16 = 0x2300;
+/// p.260 current error (0x2104, UNSIGNED16): the fault key.
+const CURRENT_FAULT: u16 = 0x2104;
+/// p.270 warnings (0x210E, UNSIGNED16).
+const WARNINGS: u16 = 0x210E;
 /// 0x6078 current actual value (INTEGER16, ‰ of the rated current).
 const CURRENT_ACTUAL: u16 = 0x6078;
 /// 0x6079 DC link circuit voltage (UNSIGNED32, mV).
