@@ -37,7 +37,7 @@ class Bmaxx4400(Drive402Test):
             start = time.monotonic()
             self.drive.state = state
             self.assertEqual(self.drive.state, state)
-            self.assertLess(time.monotonic() - start, 0.4, state)
+            self.assertLess(time.monotonic() - start, self.STATE_CHANGE, state)
 
     def test_speed_control_minus_3_reads_back_3_and_moves(self):
         self.mode(-3)
