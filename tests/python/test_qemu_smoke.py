@@ -322,7 +322,11 @@ class QemuSmokeTest(unittest.TestCase):
 
         # ---- store (0x1010, RAM-backed on this board) survives reset node ---
         if 0x1010 in od:
-            node.sdo.download(0x1010, 1, b"save")
+            # Sub 1 "all", or sub 2 "communication" where sub 1 reads 0 ("does not save
+            # on command": the b maXX 4400, whose store works in Pre-operational only, D10).
+            sub = 1 if u(0x1010, 1) & 1 else 2
+            node.nmt.send_command(0x80)
+            node.sdo.download(0x1010, sub, b"save")
             mark = frames.mark()
             node.nmt.send_command(0x81)
             boot = frames.wait_for(lambda m: m.arbitration_id == error_control and bytes(m.data) == b"\x00", after=mark)

@@ -217,3 +217,31 @@ fn m_l983_the_2_31_offset_of_6062_6064_607a_607c_607d_in_the_drive_parameters() 
     // P0607, the CANopen positioning mode's target (INT32), never has it.
     assert_eq!(u32_at(&mut b, 0x425F), (-7i32) as u32);
 }
+
+#[test]
+fn m_l1308_store_and_restore_only_sub_2_and_only_in_pre_operational() {
+    let mut b = node(4);
+    // Sub 1 "all" is not supported (reads 0: "does not save on command"); sub 2 reads 1.
+    assert_eq!(b.sdo_upload(4, 0x1010, 1), Ok(vec![0, 0, 0, 0]));
+    assert_eq!(b.sdo_upload(4, 0x1010, 2), Ok(vec![1, 0, 0, 0]));
+    assert_eq!(b.sdo_write(4, 0x1010, 1, b"save"), abort(0x1010, 1, 0x0800_0020));
+    assert_eq!(b.sdo_write(4, 0x1011, 1, b"load"), abort(0x1011, 1, 0x0800_0020));
+    // "save"/"load" in Pre-operational only (M-L1314, M-L1353).
+    b.nmt(0x01, 4);
+    assert_eq!(b.sdo_write(4, 0x1010, 2, b"save"), abort(0x1010, 2, 0x0800_0022));
+    assert_eq!(b.sdo_write(4, 0x1011, 2, b"load"), abort(0x1011, 2, 0x0800_0022));
+    b.nmt(0x80, 4);
+    // Sub 2 stores the communication parameters but 0x100E and 0x1014, "nicht abspeicherbar"
+    // (M-L1303, M-L1357): after a reset communication they are back at their defaults.
+    assert_eq!(b.sdo_write(4, 0x1017, 0, &100u16.to_le_bytes()), ok_write(0x1017, 0));
+    assert_eq!(b.sdo_write(4, 0x1014, 0, &0x8000_0084u32.to_le_bytes()), ok_write(0x1014, 0));
+    assert_eq!(b.sdo_write(4, 0x100E, 0, &0x0000_0715u32.to_le_bytes()), ok_write(0x100E, 0));
+    assert_eq!(b.sdo_write(4, 0x1010, 2, b"save"), ok_write(0x1010, 2));
+    b.nmt(0x82, 4);
+    assert_eq!(b.sdo_upload(4, 0x1017, 0), Ok(vec![100, 0]), "stored");
+    assert_eq!(b.sdo_upload(4, 0x1014, 0), Ok(vec![0x84, 0, 0, 0]), "not stored");
+    assert_eq!(b.sdo_upload(4, 0x100E, 0), Ok(vec![0x04, 0x07, 0, 0]), "not stored");
+    assert_eq!(b.sdo_write(4, 0x1011, 2, b"load"), ok_write(0x1011, 2));
+    b.nmt(0x82, 4);
+    assert_eq!(b.sdo_upload(4, 0x1017, 0), Ok(vec![0, 0]), "restored to its default");
+}

@@ -17,6 +17,7 @@ use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::objects::index::{CONTROLWORD, QUICK_STOP_OPTION, STATUSWORD};
 use canopen_core::profiles::cia402::{Cia402, Config, mode, statusword};
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
 
 mod errors;
@@ -111,6 +112,9 @@ impl Application for App {
         tpdo_254_timer_only: true,
         boot_up_v3: Some((speed::CONFIGURATION, 1 << 0)),
         communication_error_pre_operational: Some((speed::CONFIGURATION, 1 << 4)),
+        // D10: 0x100E and 0x1014 are "nicht abspeicherbar" (M-L1303, M-L1357); between
+        // them only 0x100F (read-only) and the store commands themselves.
+        not_saved_by_1010: Some((0x100E, 0x1014)),
         ..ServiceOptions::CIA301
     };
 
@@ -122,6 +126,10 @@ impl Application for App {
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
         match (index, sub, data) {
             (HEARTBEAT_TIME, 0, [ms]) => Some(ctx.write_object(HEARTBEAT_TIME, 0, &[*ms, 0])),
+            // D10: store and restore of sub 2 only (sub 1 "wird nicht unterstützt"), in
+            // Pre-operational only (M-L1311-1355).
+            (STORE | RESTORE, 1, _) => Some(Err(AbortCode::CannotStore)),
+            (STORE | RESTORE, 2, _) if ctx.state() != NmtState::PreOperational => Some(Err(AbortCode::DeviceState)),
             _ => None,
         }
     }
@@ -287,6 +295,11 @@ fn running(ctx: &Ctx<'_>) -> (i8, u16) {
 
 /// Statusword bits 12 and 10 in hm: homing attained.
 const HOMING_ATTAINED: u16 = statusword::BIT12 | statusword::TARGET_REACHED;
+
+/// 0x1010 store parameters.
+const STORE: u16 = 0x1010;
+/// 0x1011 restore default parameters.
+const RESTORE: u16 = 0x1011;
 
 /// 0x1017 Producer heartbeat time.
 const HEARTBEAT_TIME: u16 = 0x1017;
