@@ -245,3 +245,13 @@ fn m_l1308_store_and_restore_only_sub_2_and_only_in_pre_operational() {
     b.nmt(0x82, 4);
     assert_eq!(b.sdo_upload(4, 0x1017, 0), Ok(vec![0, 0]), "restored to its default");
 }
+
+#[test]
+fn m_l1915_either_node_guarding_or_heartbeat() {
+    let mut b = node(1);
+    assert_eq!(b.rtr(ms(20), 0x701), [(0x701, vec![0x7F])], "guarding while 0x1017 = 0");
+    // "entweder das Node Guarding oder das Heartbeat": a heartbeat time switches guarding off.
+    assert_eq!(b.sdo_write(1, 0x1017, 0, &100u16.to_le_bytes()), ok_write(0x1017, 0));
+    assert_eq!(b.rtr(ms(30), 0x701), []);
+    assert_eq!(b.run_until(ms(130)), [(ms(120), (0x701, vec![0x7F]))], "100 ms after the write at 20 ms");
+}
