@@ -255,3 +255,13 @@ fn m_l1915_either_node_guarding_or_heartbeat() {
     assert_eq!(b.rtr(ms(30), 0x701), []);
     assert_eq!(b.run_until(ms(130)), [(ms(120), (0x701, vec![0x7F]))], "100 ms after the write at 20 ms");
 }
+
+#[test]
+fn m_l1214_number_of_pdos_supported_0x1004() {
+    let mut b = node(4);
+    for sub in 0..=2 {
+        ex(&mut b, 4, [0x40, 0x04, 0x10, sub, 0, 0, 0, 0], [0x43, 0x04, 0x10, sub, 0x04, 0x00, 0x04, 0x00]);
+    }
+    ex(&mut b, 4, [0x40, 0x04, 0x10, 0x03, 0, 0, 0, 0], abort(0x1004, 3, 0x0609_0011).try_into().unwrap());
+    ex(&mut b, 4, [0x23, 0x04, 0x10, 0x00, 0, 0, 0, 0], abort(0x1004, 0, 0x0601_0002).try_into().unwrap());
+}

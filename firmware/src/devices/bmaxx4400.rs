@@ -119,12 +119,20 @@ impl Application for App {
     };
 
     fn download_check(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
+        if index == PDOS_SUPPORTED {
+            return Some(Err(pdos_supported(sub).err().unwrap_or(AbortCode::ReadOnly)));
+        }
         // D9: masters following the manual write 0x1017 with one byte (2F).
         ((index, sub, size) == (HEARTBEAT_TIME, 0, Some(1))).then_some(Ok(()))
     }
 
+    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        (index == PDOS_SUPPORTED).then(|| pdos_supported(sub).map(|v| v.len()))
+    }
+
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
         match (index, sub, data) {
+            (PDOS_SUPPORTED, ..) => Some(Err(pdos_supported(sub).err().unwrap_or(AbortCode::ReadOnly))),
             (HEARTBEAT_TIME, 0, [ms]) => Some(ctx.write_object(HEARTBEAT_TIME, 0, &[*ms, 0])),
             // D10: store and restore of sub 2 only (sub 1 "wird nicht unterstützt"), in
             // Pre-operational only (M-L1311-1355).
@@ -153,6 +161,9 @@ impl Application for App {
     }
 
     fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        if index == PDOS_SUPPORTED {
+            return Some(pdos_supported(sub).map(|v| buf.iter_mut().zip(v.iter().skip(offset)).map(|(d, s)| *d = *s).count()));
+        }
         params::read(ctx, index, sub, offset, buf)
     }
 
@@ -295,6 +306,16 @@ fn running(ctx: &Ctx<'_>) -> (i8, u16) {
 
 /// Statusword bits 12 and 10 in hm: homing attained.
 const HOMING_ATTAINED: u16 = statusword::BIT12 | statusword::TARGET_REACHED;
+
+/// 0x1004 number of PDOs supported (DS 301 V3, §5.1 M-L1214-1244, D12).
+const PDOS_SUPPORTED: u16 = 0x1004;
+
+/// D12: 0x1004 sub 0 (all), 1 (synchronous) and 2 (asynchronous) read
+/// 00040004h: four RPDOs (high word) and four TPDOs (low word), each
+/// synchronous or not; read-only.
+fn pdos_supported(sub: u8) -> Result<[u8; 4], AbortCode> {
+    if sub <= 2 { Ok(0x0004_0004u32.to_le_bytes()) } else { Err(AbortCode::NoSubIndex) }
+}
 
 /// 0x1010 store parameters.
 const STORE: u16 = 0x1010;
