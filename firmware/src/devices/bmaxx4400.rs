@@ -161,10 +161,14 @@ impl Application for App {
     }
 
     fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
-        if index == PDOS_SUPPORTED {
-            return Some(pdos_supported(sub).map(|v| buf.iter_mut().zip(v.iter().skip(offset)).map(|(d, s)| *d = *s).count()));
-        }
-        params::read(ctx, index, sub, offset, buf)
+        let value = match (index, sub) {
+            (PDOS_SUPPORTED, _) => pdos_supported(sub),
+            // D22: the low byte of the drive's status word P0301 (0x6041), bits 25/24 the
+            // card type "b maXX 4400" (1 0), M-L1140-1154.
+            (STATUS_REGISTER, 0) => Ok((0x0200_0000 | (ctx.read_u32(STATUSWORD, 0).unwrap_or(0) & 0xFF)).to_le_bytes()),
+            _ => return params::read(ctx, index, sub, offset, buf),
+        };
+        Some(value.map(|v| buf.iter_mut().zip(v.iter().skip(offset)).map(|(d, s)| *d = *s).count()))
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
@@ -306,6 +310,9 @@ fn running(ctx: &Ctx<'_>) -> (i8, u16) {
 
 /// Statusword bits 12 and 10 in hm: homing attained.
 const HOMING_ATTAINED: u16 = statusword::BIT12 | statusword::TARGET_REACHED;
+
+/// 0x1002 manufacturer status register.
+const STATUS_REGISTER: u16 = 0x1002;
 
 /// 0x1004 number of PDOs supported (DS 301 V3, §5.1 M-L1214-1244, D12).
 const PDOS_SUPPORTED: u16 = 0x1004;
