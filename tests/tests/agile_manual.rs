@@ -332,7 +332,14 @@ fn a38_m_l892_to_m_l989_boot_up_guarding_and_heartbeat() {
 #[test]
 fn a39_m_l901_nmt_commands() {
     let mut b = node();
-    let state = |b: &mut Agile| b.rtr(b.now, 0x701)[0].1[0] & 0x7F;
+    // Guarding's answer, and p.1290 "Node-State (NMT)" (0x250A, M-L870) the same (no SDO when Stopped).
+    let state = |b: &mut Agile| {
+        let guarded = b.rtr(b.now, 0x701)[0].1[0] & 0x7F;
+        if guarded != 0x04 {
+            assert_eq!(b.sdo_upload(1, 0x250A, 0), Ok(vec![guarded, 0]), "p.1290");
+        }
+        guarded
+    };
     b.rx(ms(20), 0x000, &[0x01, 0x01]);
     assert_eq!(state(&mut b), 0x05, "01 start");
     b.rx(ms(30), 0x000, &[0x02, 0x00]);

@@ -169,6 +169,8 @@ impl Application for App {
                 None
             }
             NmtEvent::Entered(state) => {
+                // p.1290 "Node-State (NMT)" (§8.7, M-L870): the state as heartbeat reports it.
+                let _ = ctx.set_value(NODE_STATE, 0, &u16::from(state.reported().code()).to_le_bytes());
                 let left = self.operational && state != NmtState::Operational;
                 self.operational = state == NmtState::Operational;
                 left.then_some(FAULT_NMT)
@@ -295,6 +297,8 @@ const FAULT_NMT: u16 = 0x2025;
 const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
 /// F23.nn heartbeat of node nn.
 const FAULT_HEARTBEAT: u16 = 0x2300;
+/// p.1290 node state (0x250A, UNSIGNED16).
+const NODE_STATE: u16 = 0x250A;
 /// p.260 current error (0x2104, UNSIGNED16): the fault key.
 const CURRENT_FAULT: u16 = 0x2104;
 /// p.270 warnings (0x210E, UNSIGNED16).
