@@ -85,6 +85,8 @@ impl Application for App {
         match (index, sub, data) {
             // D6: the communication cycle period in whole milliseconds only.
             (0x1006, 0, [a, b, c, d]) if u32::from_le_bytes([*a, *b, *c, *d]) % 1000 != 0 => Err(AbortCode::InvalidValue),
+            // D53: the inverter produces no SYNC ("wird nicht unterstützt", M-L1405).
+            (0x1005, 0, [_, _, _, d]) if d & 0x40 != 0 => Err(AbortCode::InvalidValue),
             _ => Ok(()),
         }
     }
@@ -121,6 +123,11 @@ impl Application for App {
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        // D53: TPDO inhibit times in whole milliseconds, 37 → 30, below 10 → 0 (M-L2016-2020).
+        if let (0x1800..=0x1802, 3, [lo, hi]) = (index, sub, data) {
+            let whole_ms = u16::from_le_bytes([*lo, *hi]) / 10 * 10;
+            return Some(ctx.write_object(index, 3, &whole_ms.to_le_bytes()));
+        }
         let Some(target) = data_sets::target(ctx, index, sub) else {
             return read_only(ctx, index, sub).then_some(Err(AbortCode::UnsupportedAccess));
         };
