@@ -274,3 +274,17 @@ fn m_l1140_manufacturer_status_register_0x1002_is_the_status_word_low_byte_and_t
     assert_eq!(b.sdo_write(4, 0x6040, 0, &6u16.to_le_bytes()), ok_write(0x6040, 0));
     ex(&mut b, 4, [0x40, 0x02, 0x10, 0x00, 0, 0, 0, 0], [0x43, 0x02, 0x10, 0x00, 0x31, 0x00, 0x00, 0x02]);
 }
+
+#[test]
+fn m_l1250_sync_interval_1000_2000_4000_or_8000_us() {
+    let mut b = node(1);
+    for period in [0u32, 1000, 2000, 4000, 8000] {
+        assert_eq!(b.sdo_write(1, 0x1006, 0, &period.to_le_bytes()), ok_write(0x1006, 0), "{period} µs");
+    }
+    for period in [500u32, 3000, 7999] {
+        assert_eq!(b.sdo_write(1, 0x1006, 0, &period.to_le_bytes()), abort(0x1006, 0, 0x0609_0030), "{period} µs");
+    }
+    // Above the EDS's 8000: "value too high".
+    assert_eq!(b.sdo_write(1, 0x1006, 0, &16000u32.to_le_bytes()), abort(0x1006, 0, 0x0609_0031));
+    assert_eq!(b.sdo_upload(1, 0x1006, 0), Ok(8000u32.to_le_bytes().to_vec()));
+}

@@ -152,6 +152,10 @@ impl Application for App {
             (ip::TIME_PERIOD, [i]) if sub == 2 => ip::period(ctx, Some(*i as i8)).map(|_| ()).ok_or(AbortCode::InvalidValue),
             // D55: the BACI's 8 set-point and 8 actual-value slots.
             (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
+            // D15: the SYNC interval 1000, 2000, 4000 or 8000 µs (0: not set), M-L1250-1252.
+            (COMMUNICATION_CYCLE, [a, b, c, d]) if !matches!(u32::from_le_bytes([*a, *b, *c, *d]), 0 | 1000 | 2000 | 4000 | 8000) => {
+                Err(AbortCode::InvalidValue)
+            }
             // D63: the option codes' value tables.
             (0x6007 | 0x605A..=0x605E, [lo, hi]) if !option_codes::valid(index, i16::from_le_bytes([*lo, *hi])) => {
                 Err(AbortCode::InvalidValue)
@@ -310,6 +314,9 @@ fn running(ctx: &Ctx<'_>) -> (i8, u16) {
 
 /// Statusword bits 12 and 10 in hm: homing attained.
 const HOMING_ATTAINED: u16 = statusword::BIT12 | statusword::TARGET_REACHED;
+
+/// 0x1006 communication cycle period [µs].
+const COMMUNICATION_CYCLE: u16 = 0x1006;
 
 /// 0x1002 manufacturer status register.
 const STATUS_REGISTER: u16 = 0x1002;
