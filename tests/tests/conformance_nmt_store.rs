@@ -386,3 +386,23 @@ fn an_nmt_command_during_a_reset_is_ignored_as_while_initialising() {
     assert_eq!(b.node.state(), NmtState::PreOperational);
     assert_eq!(b.at(ms(20)), [], "one reset, one boot-up");
 }
+
+/// The error history is a record of what happened since the last reset, not
+/// a parameter: a set saved while it holds errors brings none of them back
+/// (CiA 301 §7.5.2.5): od-gen lays 0x1003 out after the stored prefix, so a
+/// reset does not show "one error" with an empty entry under it. The saved
+/// parameter still comes back.
+#[test]
+fn a_saved_set_does_not_bring_back_the_error_history() {
+    let mut b = interop();
+    change_parameters(&mut b);
+    assert_eq!(b.nmt(0x01, ID), [(0x184, vec![0x99, 0x22, 0x22, 0x44, 0x44, 0x44, 0x44])]);
+    // RPDO1 too short: EMCY 0x8210, one entry in the history.
+    assert_eq!(b.rx(ms(10), 0x204, &[0x01, 0x02]), [(0x084, vec![0x10, 0x82, 0x11, 0x01, 0, 0, 0, 0])]);
+    assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![1]));
+    assert_eq!(b.sdo_download(ID, 0x1010, 1, b"save"), Ok(()));
+    assert_eq!(b.nmt(0x81, ID), [boot_up()]);
+    assert_eq!(b.sdo_read(ID, 0x1003, 0), [0x4F, 0x03, 0x10, 0x00, 0x00, 0, 0, 0], "no error after the reset");
+    assert_eq!(b.sdo_read(ID, 0x1001, 0), [0x4F, 0x01, 0x10, 0x00, 0x00, 0, 0, 0]);
+    assert!(is(parameters(&mut b), CHANGED));
+}
