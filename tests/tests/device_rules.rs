@@ -48,7 +48,7 @@ fn agile_data_set_0_writes_every_data_set_d25() {
         assert_eq!(b.sdo_upload(1, 0x2175, set), Ok(vec![0x0C, 0x00]), "data set {set}");
     }
     assert_eq!(b.sdo_write(1, 0x2175, 0, &[0x19, 0x00]), abort(0x2175, 0, 0x0609_0031), "each data set's limits");
-    assert_eq!(b.sdo_upload(1, 0x2175, 0), Ok(vec![9]), "sub 0 still reads the highest sub-index");
+    assert_eq!(b.sdo_upload(1, 0x2175, 0), Ok(vec![0x0C, 0x00]), "data set 0 reads the four while they are equal (D49)");
     assert_eq!(b.sdo_write(1, 0x2175, 0, &[0x34]), abort(0x2175, 0, 0x0607_0013), "its own length");
     // A single-value parameter whose value happens to be 9 is written as itself (0x2183 p.387, INTEGER16).
     assert_eq!(b.sdo_write(1, 0x2183, 0, &[9, 0]), ok_write(0x2183, 0));

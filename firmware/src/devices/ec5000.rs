@@ -22,11 +22,13 @@ use canopen_core::wire::emcy::EmcyCode;
 
 mod monitor;
 mod roller;
+mod rpdo;
 use monitor::Monitor;
 pub use monitor::{COLD_WARNING, DERATING, SPEED_WARNING, TEMPERATURE_WARNING};
 pub use roller::{
     BLOCKED, COLD_FAULT_C, LOSS_OF_PARAMETERS, MIN_VELOCITY, OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller, SPEED_ERROR, TOO_COLD,
 };
+use rpdo::FixedRpdos;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile driving the
@@ -37,11 +39,13 @@ pub struct App {
     pub drive: Cia402<Roller>,
     /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50, D53, D55).
     monitor: Monitor,
+    /// The RPDOs' fixed mappings, kept at each RPDO's first frame after reset communication.
+    rpdos: FixedRpdos,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(Roller::NEW), monitor: Monitor::NEW };
+    pub const NEW: App = App { drive: Cia402::new(Roller::NEW), monitor: Monitor::NEW, rpdos: FixedRpdos::NONE };
 }
 
 /// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
@@ -165,6 +169,13 @@ impl Application for App {
         self.drive.written(ctx, &PROFILE, index);
     }
 
+    /// The objects of an RPDO whose mapping is fixed (all four of the
+    /// manual's) as kept at its first frame, without asking the node for
+    /// its mapping; each to [`App::rpdo_value`].
+    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
+        rpdo::written(self, |app| &mut app.rpdos, ctx, n);
+    }
+
     /// The controlword and the target velocity straight from the RPDO's
     /// values; any other object as [`App::written`] takes it.
     fn rpdo_value(&mut self, ctx: &mut Ctx<'_>, at: EntryRef, value: u32, len: u8) -> bool {
@@ -199,9 +210,13 @@ impl Application for App {
         if event == NmtEvent::ResetApplication && ctx.stored_set_refused() {
             self.drive.drive.fault_at_start(LOSS_OF_PARAMETERS);
         }
-        // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
-        if event == NmtEvent::ResetCommunication && (1..=127).contains(&ctx.node_id()) {
-            let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
+        if event == NmtEvent::ResetCommunication {
+            // The RPDOs are configured again: their objects are found at their next frame.
+            self.rpdos = FixedRpdos::NONE;
+            // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
+            if (1..=127).contains(&ctx.node_id()) {
+                let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
+            }
         }
     }
 }
