@@ -132,8 +132,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     // Only the TPDOs these RPDOs write to look for a change.
                     self.touched |= self.comm.pdos.reaches(received);
                     // A timer started (or an RTR changed a TPDO), or an error was signalled.
+                    // Without an RPDO timer running the PDOs' deadline stayed where it was.
                     match self.comm.pdos.settled() {
-                        Some(deadline) => self.next = earliest(self.next, deadline),
+                        Some(deadline) if self.comm.pdos.rpdo_timers() => self.next = earliest(self.next, deadline),
+                        Some(_) => {}
                         None => self.quiet = false,
                     }
                     self.quiet &= !self.comm.emcy.has_queued();
@@ -260,7 +262,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// not walked (a saturated count always walks).
     // Out of line: three callers.
     #[inline(never)]
-    fn retrying(&mut self) -> u32 {
+    pub(super) fn retrying(&mut self) -> u32 {
         let overflows = self.txq.overflows();
         if overflows == self.retry_free_at && overflows != u32::MAX {
             return 0;
