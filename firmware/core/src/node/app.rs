@@ -498,12 +498,12 @@ pub trait Application {
     /// [`Application::read`], [`Application::download_check`],
     /// [`Application::write`], [`Application::check_write`] or
     /// [`Application::written`]). A device without them says `false`: the
-    /// node then serves an idle server's expedited upload, and its
-    /// expedited download of an object from 0x2000 on, straight from and
-    /// into the dictionary, without the hooks' context (a third fewer
-    /// instructions: docs/benchmarks.md, "Issue 12: the expedited SDO path,
-    /// round 5"). Set `false` with a hook overridden,
-    /// that hook is skipped for these transfers.
+    /// node then serves an idle server's expedited upload (a value of 1
+    /// to 4 bytes), and its expedited download with a size to an object
+    /// from 0x2000 on, straight from and into the dictionary, without the
+    /// hooks' context (a third fewer instructions: docs/benchmarks.md,
+    /// "Issue 12: the expedited SDO path, round 5"). Set `false` with a
+    /// hook overridden, that hook is skipped for these transfers.
     const SDO_HOOKS: bool = true;
 
     /// Serve: the size of the value an upload of (index, sub) sends, if

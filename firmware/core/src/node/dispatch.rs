@@ -155,10 +155,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if let Some((i, tx)) = server
                 && !rtr
             {
-                // The client has given up waiting for a store's answer (or aborted it).
-                if O::SERVICES.storage {
-                    self.store_answer.drop_for(i);
-                }
                 if !self.sdo_in_place(i, data, tx) {
                     self.sdo_request(i, now, data, tx);
                 }
@@ -238,6 +234,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
+        // The client has given up waiting for a store's answer (or aborted it).
+        if O::SERVICES.storage {
+            self.store_answer.drop_for(i);
+        }
         let staged = Cell::new(None);
         // Without storage no store starts: the compiler leaves the answer's holding out.
         let staged_ref = if O::SERVICES.storage { Some(&staged) } else { None };

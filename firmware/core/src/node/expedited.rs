@@ -34,6 +34,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // bytes instead of 500, core by 920 instead of 876.
     #[inline(never)]
     fn serve_in_place(&mut self, i: usize, data: &[u8], tx_cob: u16) -> bool {
+        // As the general path does first: the client has given up waiting
+        // for a store's answer (or aborted it). (Here, not once before both
+        // paths: `on_frame` and with it the images with hooks stay as they were.)
+        if O::SERVICES.storage {
+            self.store_answer.drop_for(i);
+        }
         if !self.sdo.is_idle(i) {
             return false;
         }
