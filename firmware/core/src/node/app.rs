@@ -422,6 +422,14 @@ impl Ctx<'_> {
         crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
     }
 
+    /// Whether the parameters last saved were refused for this dictionary's
+    /// layout (a firmware update changed it), so the node runs on its
+    /// defaults ([`crate::services::store::refused`]): for a device that
+    /// reports the loss, at reset application.
+    pub fn stored_set_refused(&mut self) -> bool {
+        crate::services::store::refused(self.dict, self.storage)
+    }
+
     /// Whether the node's store in stages is in progress (an SDO 0x1010 or
     /// 0x1011, LSS "store configuration"): until it ends, the stores above
     /// are refused (0x08000022); from the first [`Application::poll`] after
@@ -485,6 +493,18 @@ pub trait Application {
     /// [`super::Node::process`]. For a device whose timers depend only on
     /// time and on what its hooks and `app_mut` change.
     const POLL_WHEN_DUE: bool = false;
+
+    /// The device overrides an SDO hook ([`Application::upload_size`],
+    /// [`Application::read`], [`Application::download_check`],
+    /// [`Application::write`], [`Application::check_write`] or
+    /// [`Application::written`]). A device without them says `false`: the
+    /// node then serves an idle server's expedited upload, and its
+    /// expedited download of an object from 0x2000 on, straight from and
+    /// into the dictionary, without the hooks' context (a third fewer
+    /// instructions: docs/benchmarks.md, "Issue 12: the expedited SDO path,
+    /// round 5"). Set `false` with a hook overridden,
+    /// that hook is skipped for these transfers.
+    const SDO_HOOKS: bool = true;
 
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
@@ -604,6 +624,8 @@ pub trait Application {
 pub struct NoApplication;
 
 impl Application for NoApplication {
+    const SDO_HOOKS: bool = false;
+
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         let _ = (ctx, n);
     }

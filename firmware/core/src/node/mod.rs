@@ -48,6 +48,7 @@ mod app;
 mod comm;
 mod controller;
 mod dispatch;
+mod expedited;
 mod filter;
 mod lss;
 mod objects;

@@ -80,7 +80,7 @@ use crate::abort::AbortCode;
 use crate::od::object;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
-use crate::time::{Instant, earliest};
+use crate::time::{At, Instant, NEVER, at, deadline_of, earliest};
 use crate::wire::emcy::EmcyCode;
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
@@ -502,6 +502,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
     pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+        let marked = changed | self.retrying();
+        self.poll_marked(now, marked, image, tx)
+    }
+
+    /// [`Pdos::poll_changed`] where `marked` holds the TPDOs waiting to
+    /// retry besides those that may see changed data (the node knows from
+    /// the transmit queue's overflow count when none waits, see
+    /// [`Pdos::retrying`]).
+    // Out of line: the main loop's `process` would take its two paths in.
+    #[inline(never)]
+    pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
         if !self.operational {
             return None;
         }
@@ -515,16 +526,28 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             }
             self.rpdo_timers = timers;
         }
-        let (window_end, live) = (self.window_end, self.tpdo_live);
-        for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
-            // A TPDO that cannot send has nothing to poll.
-            let bit = bit_of(t);
-            if live & bit != 0 && (changed & bit != 0 || bit == u32::MAX || tpdo.retrying() || tpdo.deadline().is_some_and(|d| d <= now)) {
-                tpdo.poll(now, window_end, image, tx);
+        // A synchronous TPDO's refused frame is dropped once the window closed.
+        let window_closed = self.window_end.is_some_and(|end| now > end);
+        let now_at = now.as_micros();
+        if T <= 32 {
+            // Only the TPDOs that can send, each bit a TPDO.
+            let mut bits = self.tpdo_live;
+            while let Some(t) = next_bit(&mut bits) {
+                if let Some(tpdo) = self.tpdos.get_mut(t)
+                    && (marked & bit_of(t) != 0 || tpdo.due() <= now_at)
+                {
+                    tpdo.poll(now, window_closed, image, tx);
+                }
+            }
+        } else {
+            for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
+                let bit = bit_of(t);
+                if tpdo.cob_id().is_some() && (marked & bit != 0 || bit == u32::MAX || tpdo.due() <= now_at) {
+                    tpdo.poll(now, window_closed, image, tx);
+                }
             }
         }
-        self.settled = false;
-        self.settled_deadline = self.deadline();
+        self.settled_deadline = deadline_of(self.walk());
         self.settled = true;
         self.settled_deadline
     }
@@ -542,26 +565,35 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
     /// means at once). `None` while not Operational.
-    // Out of line: `process` and `poll_changed` share it.
-    #[inline(never)]
     pub fn deadline(&self) -> Option<Instant> {
         if !self.operational {
             return None;
         }
-        if self.settled {
-            return self.settled_deadline;
-        }
-        // Only the RPDOs whose timer may run and the TPDOs that can send have one.
-        let mut deadline = None;
+        if self.settled { self.settled_deadline } else { deadline_of(self.walk()) }
+    }
+
+    /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
+    /// run and the TPDOs that can send have one.
+    // Out of line: `deadline` and `poll_marked` share it.
+    #[inline(never)]
+    fn walk(&self) -> At {
+        let mut first = NEVER;
         if self.rpdo_timers != 0 {
-            deadline = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
+            first = self.rpdos.iter().fold(first, |d, r| d.min(at(r.deadline())));
         }
-        for (t, tpdo) in self.tpdos.iter().enumerate() {
-            if self.tpdo_live & bit_of(t) != 0 {
-                deadline = earliest(deadline, tpdo.deadline());
+        if T <= 32 {
+            let mut bits = self.tpdo_live;
+            while let Some(t) = next_bit(&mut bits) {
+                if let Some(tpdo) = self.tpdos.get(t) {
+                    first = first.min(tpdo.due());
+                }
+            }
+        } else {
+            for tpdo in self.tpdos.iter().filter(|t| t.cob_id().is_some()) {
+                first = first.min(tpdo.due());
             }
         }
-        deadline
+        first
     }
 }
 
