@@ -305,8 +305,13 @@ impl Ctx<'_> {
             }
         };
         // Only the TPDOs mapping its bytes look for a change, none if the value stayed the same.
+        // `SdoEffects::wrote_bytes` in line: the first write of the hook names its bytes.
         if changed {
-            self.effects.wrote_bytes(out.offset, u16::from(out.len));
+            if self.effects.wrote.1 == 0 {
+                self.effects.wrote = (out.offset, u16::from(out.len));
+            } else {
+                self.effects.written = true;
+            }
         }
     }
 
