@@ -523,3 +523,40 @@ fn after_an_rpdo_that_reaches_no_tpdo_the_node_wakes_for_its_event_timer() {
     let out = b.at(ms(60));
     assert!(out.iter().any(|f| f.0 == 0x85 && f.1.get(..2) == Some(&[0x50, 0x82][..])), "EMCY 0x8250 RPDO timeout: {out:x?}");
 }
+
+/// Sets 0x2001 (UNSIGNED16, in TPDO1) to RPDO1's first object through the
+/// image slot it found at reset application, as the CiA 402 profile sets its statusword.
+#[derive(Default)]
+struct Slotted {
+    slot: canopen_core::node::ImageSlot,
+}
+
+impl Application for Slotted {
+    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
+        if event == NmtEvent::ResetApplication {
+            self.slot = ctx.image_slot(ctx.locate(0x2001, 0));
+        }
+    }
+
+    fn rpdo_value(&mut self, ctx: &mut Ctx<'_>, at: canopen_core::od::EntryRef, value: u32, _len: u8) -> bool {
+        if ctx.object_id(at) == Some((0x2100, 1)) {
+            ctx.set_slot(self.slot, value);
+            assert_eq!(ctx.slot_value(self.slot), value & 0xFFFF, "the slot holds what was set");
+        }
+        false
+    }
+}
+
+#[test]
+fn a_value_set_through_its_image_slot_sends_its_tpdo_when_it_changes_only() {
+    let mut b: B<Slotted> = Bench::new(Ram::new(ID), Slotted::default(), MemStorage::new(4096), ID);
+    b.at(ms(0));
+    b.nmt(0x01, ID);
+    let out = b.rx(ms(10), RPDO1, &[0x34, 0x12, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00]);
+    assert_eq!(out, [(TPDO1, vec![0x11, 0x34, 0x12, 0x44, 0x44, 0x44, 0x44])]);
+    assert_eq!(b.sdo_upload(ID, 0x2001, 0), Ok(vec![0x34, 0x12]));
+    // The same value again: no byte of TPDO1 changed.
+    assert_eq!(b.rx(ms(20), RPDO1, &[0x34, 0x12, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00]), []);
+    let out = b.rx(ms(30), RPDO1, &[0x05, 0x00, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00]);
+    assert_eq!(out, [(TPDO1, vec![0x11, 0x05, 0x00, 0x44, 0x44, 0x44, 0x44])]);
+}

@@ -287,14 +287,31 @@ impl Ctx<'_> {
         let bytes = value.to_le_bytes();
         let start = usize::from(out.offset);
         let Some(slot) = self.image.get_mut(start..start.wrapping_add(usize::from(out.len))) else { return };
-        let mut changed = false;
-        for (d, &s) in slot.iter_mut().zip(&bytes) {
-            changed |= *d != s;
-            *d = s;
-        }
+        let changed = match slot {
+            // A statusword or a controlword: one compare.
+            [a, b] => {
+                let [lo, hi, ..] = bytes;
+                let changed = (*a, *b) != (lo, hi);
+                (*a, *b) = (lo, hi);
+                changed
+            }
+            _ => {
+                let mut changed = false;
+                for (d, &s) in slot.iter_mut().zip(&bytes) {
+                    changed |= *d != s;
+                    *d = s;
+                }
+                changed
+            }
+        };
         // Only the TPDOs mapping its bytes look for a change, none if the value stayed the same.
+        // `SdoEffects::wrote_bytes` in line: the first write of the hook names its bytes.
         if changed {
-            self.effects.wrote_bytes(out.offset, u16::from(out.len));
+            if self.effects.wrote.1 == 0 {
+                self.effects.wrote = (out.offset, u16::from(out.len));
+            } else {
+                self.effects.written = true;
+            }
         }
     }
 

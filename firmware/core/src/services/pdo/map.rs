@@ -240,7 +240,10 @@ impl Mapping {
     /// Writes the mapped objects from received PDO data, which the caller
     /// has checked holds at least [`Mapping::len`] bytes. Dummy slots are skipped.
     pub fn apply(&self, image: &mut [u8], data: &[u8]) {
-        for (&b, &g) in data.iter().zip(self.gather.iter().take(usize::from(self.len))) {
+        let len = usize::from(self.len);
+        // Two slices of the same length: one count for the loop, not two.
+        let (Some(gather), Some(data)) = (self.gather.get(..len), data.get(..len)) else { return };
+        for (&g, &b) in gather.iter().zip(data) {
             if let Some(d) = image.get_mut(usize::from(g).wrapping_sub(usize::from(RAM))) {
                 *d = b;
             }
