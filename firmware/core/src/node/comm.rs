@@ -136,30 +136,14 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         self.emcy.configure(cob, inhibit);
     }
 
-    /// Applies a communication object after an SDO wrote it (idempotent:
-    /// the service reads the object's current value again).
+    /// Applies a communication object's sub 0 as the image holds it
+    /// (idempotent): [`Services::apply`] with its current value.
+    // Out of line: its caller is the boot-up in `process`, whose every call
+    // otherwise paid for its frame (6 instructions on each row of icount).
+    #[inline(never)]
     pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
         let _ = node_id;
-        match index {
-            index::PRODUCER_HEARTBEAT_TIME => {
-                self.heartbeat.configure(u32_of(dict, image, index::PRODUCER_HEARTBEAT_TIME, 0, 0) as u16, now);
-                if self.heartbeat.active() {
-                    // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
-                    self.guarding.disarm();
-                }
-            }
-            index::GUARD_TIME | index::LIFE_TIME_FACTOR => {
-                let guard = u32_of(dict, image, index::GUARD_TIME, 0, 0) as u16;
-                let factor = u32_of(dict, image, index::LIFE_TIME_FACTOR, 0, 0) as u8;
-                self.guarding.configure(guard, factor);
-            }
-            index::COB_ID_TIME_STAMP => {
-                let v = u32_of(dict, image, index::COB_ID_TIME_STAMP, 0, 0);
-                self.time_cob_id = (v & 0x8000_0000 != 0).then_some((v & 0x7FF) as u16);
-            }
-            index::COB_ID_EMCY | index::INHIBIT_TIME_EMCY => self.configure_emcy(dict, image),
-            _ => {}
-        }
+        Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), dict, image, now);
     }
 
     /// What 0x1029 sub 1 says to do on a communication error.
@@ -306,8 +290,23 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
             (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
                 self.sync.apply(index, value)
             }
-            // The rest read their objects again (nothing for an object no service uses).
-            _ => self.reconfigure(index, dict, image, 0, now),
+            (index::PRODUCER_HEARTBEAT_TIME, _) => {
+                self.heartbeat.configure(value as u16, now);
+                if self.heartbeat.active() {
+                    // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
+                    self.guarding.disarm();
+                }
+            }
+            (index::COB_ID_TIME_STAMP, _) => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
+            // Two objects each: both read again.
+            (index::GUARD_TIME | index::LIFE_TIME_FACTOR, _) => {
+                let guard = u32_of(dict, image, index::GUARD_TIME, 0, 0) as u16;
+                let factor = u32_of(dict, image, index::LIFE_TIME_FACTOR, 0, 0) as u8;
+                self.guarding.configure(guard, factor);
+            }
+            (index::COB_ID_EMCY | index::INHIBIT_TIME_EMCY, _) => self.configure_emcy(dict, image),
+            // Nothing for an object no service uses.
+            _ => {}
         }
     }
 }

@@ -101,18 +101,13 @@ impl SyncService {
     pub const UNCONFIGURED: SyncService =
         SyncService { cob_id: 0, producer: false, period: Duration::ZERO, window: Duration::ZERO, overflow: 0, counter: 0, next: None };
 
-    /// Reads 0x1005, 0x1006, 0x1007 and 0x1019 (after reset communication).
-    /// Objects the dictionary lacks read as the defaults: COB-ID 0x80,
-    /// consumer only, no period, no window, no counter. The producer
+    /// Reads 0x1005, 0x1006, 0x1007 and 0x1019 as reset communication takes
+    /// them (the node hands the same values to [`SyncService::apply`] with
+    /// its other services'). Objects the dictionary lacks read as the
+    /// defaults: COB-ID 0x80, consumer only, no period, no window, no
+    /// counter; an invalid stored COB-ID keeps the default's. The producer
     /// restarts: its first SYNC comes one period after the next poll.
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8]) {
-        // A function, not a closure the optimizer copies into each of the four uses.
-        #[inline(never)]
-        fn value_of(dict: &Dictionary, image: &[u8], index: u16) -> Option<u32> {
-            sub_entry(object(dict, index), 0).map(|e| value_u32(dict, image, e))
-        }
-        // Through `apply`, as a download: from the defaults, each object's
-        // value (an invalid stored COB-ID keeps the default's).
         *self = SyncService::default();
         for (index, default) in [
             (index::COB_ID_SYNC, u32::from(SYNC_COB_ID)),
@@ -120,7 +115,8 @@ impl SyncService {
             (index::SYNCHRONOUS_WINDOW_LENGTH, 0),
             (index::SYNCHRONOUS_COUNTER_OVERFLOW, 0),
         ] {
-            self.apply(index, value_of(dict, image, index).unwrap_or(default));
+            let value = sub_entry(object(dict, index), 0).map_or(default, |e| value_u32(dict, image, e));
+            self.apply(index, value);
         }
     }
 
