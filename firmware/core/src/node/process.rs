@@ -81,7 +81,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         let mut sdo_deadline = None;
         // Idle servers have no timer and nothing to send: skip building the router for them.
-        if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
+        // Quiet since the last full call: no server is busy (a busy one has a
+        // deadline, and a state that stopped them is stale, so full).
+        if (full || !self.quiet) && self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
             let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
