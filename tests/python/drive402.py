@@ -2,8 +2,10 @@
 
 A subclass names `DEVICE`, `NODE_ID` and `EDS`; `setUp` starts vnode, attaches the drive,
 gives each TPDO of `EVENT_TIMED_TPDOS` a 100 ms event timer (BaseNode402 takes a TPDO it has
-seen twice as periodic and then waits at most 0.2 s for the next one), sets up the state
-machine and starts the node.
+seen twice as periodic and then waits at most 0.2 s for the next one), switches the TPDOs of
+`OFF_TPDOS` off (so that BaseNode402 takes the statusword from a synchronous TPDO instead), sets
+up the state machine and starts the node. `STATE_CHANGE` is the most a state change may take:
+half of BaseNode402's 0.4 s, which the drives answer well inside.
 """
 
 import time
@@ -19,6 +21,8 @@ class Drive402Test(unittest.TestCase):
     NODE_ID = None
     EDS = None
     EVENT_TIMED_TPDOS = (0x1800,)
+    OFF_TPDOS = ()
+    STATE_CHANGE = 0.2
 
     def setUp(self):
         self.v = Vnode(device=self.DEVICE, node_id=self.NODE_ID, eds=self.EDS)
@@ -31,6 +35,8 @@ class Drive402Test(unittest.TestCase):
         self.drive.nmt.state = "PRE-OPERATIONAL"
         for tpdo in self.EVENT_TIMED_TPDOS:
             self.drive.sdo[tpdo][5].raw = 100
+        for tpdo in self.OFF_TPDOS:
+            self.drive.sdo[tpdo][1].raw = self.drive.sdo[tpdo][1].raw | 0x80000000
         self.drive.setup_402_state_machine()
         self.drive.nmt.state = "OPERATIONAL"
 

@@ -211,12 +211,15 @@ class Bench:
 
         if 0x1010 in od and 0x1017 in od:
             node.sdo.download(0x1017, 0, struct.pack("<H", 150))
-            node.sdo.download(0x1010, 1, b"save")
+            # Sub 1 "all", or sub 2 "communication" where sub 1 reads 0 ("does not save on
+            # command": the b maXX 4400, D10); in Pre-operational, where every device stores.
+            sub = 1 if self.u(0x1010, 1) & 1 else 2
+            node.sdo.download(0x1010, sub, b"save")
             self.check(self.power_cycle(), "boot-up after the power cycle")
             self.check(self.u(0x1017) == 150, "0x1017 = 150 ms saved with 0x1010 came back after the power cycle")
             # Leave the board as found: defaults from the next power-on.
             node = self.node
-            node.sdo.download(0x1011, 1, b"load")
+            node.sdo.download(0x1011, sub, b"load")
         else:
             print("SKIP  save across a power cycle (no 0x1010 or 0x1017)")
 

@@ -1,7 +1,8 @@
 """CiA 402 through python-canopen's BaseNode402: the EC5000 in `vnode` as a PLC drives it.
 
 State changes, profile velocity and profile position moves measured by 0x606C and 0x6064, all
-within BaseNode402's own timeouts (0.4 s per state change, 0.8 s in all).
+well within BaseNode402's own timeouts (0.4 s per state change, 0.8 s in all): each state change
+in less than 0.2 s (10-30 ms measured).
 """
 
 import os
@@ -18,7 +19,10 @@ NODE_ID = 5
 
 class Cia402(Drive402Test):
     DEVICE, NODE_ID, EDS = "ec5000", NODE_ID, EDS
-    EVENT_TIMED_TPDOS = (0x1800, 0x1801)
+    # TPDO1 and TPDO2 (0x6041 with others) are event-driven with the manual's 100 ms inhibit
+    # time: BaseNode402 would wait for them at every step (up to 0.3 s for a state change).
+    EVENT_TIMED_TPDOS = ()
+    OFF_TPDOS = (0x1800, 0x1801)
 
     def setUp(self):
         super().setUp()
@@ -40,7 +44,7 @@ class Cia402(Drive402Test):
             start = time.monotonic()
             self.drive.state = state
             self.assertEqual(self.drive.state, state)
-            self.assertLess(time.monotonic() - start, 0.4, state)
+            self.assertLess(time.monotonic() - start, self.STATE_CHANGE, state)
 
     def test_quick_stop_while_moving(self):
         self.drive.op_mode = "PROFILED VELOCITY"

@@ -32,7 +32,7 @@ class AgileVl(Drive402Test):
             start = time.monotonic()
             self.drive.state = state
             self.assertEqual(self.drive.state, state)
-            self.assertLess(time.monotonic() - start, 0.4, state)
+            self.assertLess(time.monotonic() - start, self.STATE_CHANGE, state)
 
     def test_vl_move_on_the_ramps(self):
         # 3000 min⁻¹ per second up, down and for quick stop.

@@ -40,6 +40,25 @@ class DeviceRules(unittest.TestCase):
         for sub in range(1, 5):
             self.assertEqual(node.sdo.upload(0x2175, sub), struct.pack("<H", 12))
 
+    def test_agile_data_sets_eeprom_and_ram_d49(self):
+        # Without the EDS: python-canopen would cut the answer of sub 0 to the ARRAY's
+        # UNSIGNED8 "highest sub-index", which the manual's data set 0 is not (D49).
+        v = Vnode(device="agile", node_id=1, eds=canopen.ObjectDictionary())
+        self.addCleanup(v.close)
+        node = v.node
+        node.sdo.download(0x2175, 0, struct.pack("<H", 3))
+        self.assertEqual(node.sdo.upload(0x2175, 0), struct.pack("<H", 3), "data set 0: the four, equal")
+        node.sdo.download(0x2175, 2, struct.pack("<H", 4))
+        self.assert_abort(0x06040047, node.sdo.upload, 0x2175, 0)
+        # Data set 2 in RAM (sub 7): the value the inverter uses, read at sub 2 and sub 7.
+        node.sdo.download(0x2175, 7, struct.pack("<H", 5))
+        self.assertEqual(node.sdo.upload(0x2175, 2), struct.pack("<H", 5))
+        self.assertEqual(node.sdo.upload(0x2175, 7), struct.pack("<H", 5))
+        # A one-value parameter has data set 0 (and 5 in RAM) only.
+        node.sdo.download(0x2197, 5, struct.pack("<h", -5))
+        self.assertEqual(node.sdo.upload(0x2197, 0), struct.pack("<h", -5))
+        self.assert_abort(0x06090011, node.sdo.upload, 0x2197, 1)
+
     def test_ec5000_modes_and_polarity_d34_d35(self):
         node = self.vnode("ec5000", 5)
         self.assert_abort(0x06090030, node.sdo.download, 0x6060, 0, bytes([2]))

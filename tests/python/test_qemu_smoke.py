@@ -24,6 +24,7 @@ import unittest
 
 import can
 import canopen
+from canopen.profiles.p402 import BaseNode402
 
 # The shared UNITEK session sits next to this file, which also runs as `-m unittest <path>`.
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -241,7 +242,8 @@ class QemuSmokeTest(unittest.TestCase):
         q.network = canopen.Network(q.bus)
         q.network.listeners.append(frames)
         q.network.connect()
-        node = canopen.RemoteNode(node_id, od)
+        # The drives as a PLC drives them: python-canopen's CiA 402 node.
+        node = BaseNode402(node_id, od) if device in CIA402 else canopen.RemoteNode(node_id, od)
         q.network.add_node(node)
         node.sdo.RESPONSE_TIMEOUT = 2.0
         sdo_tx = 0x580 + node_id
@@ -311,7 +313,7 @@ class QemuSmokeTest(unittest.TestCase):
             self.check_rpdo(node, q, od)
         rejected = self.check_filter(q, node, node_id, od)
         if device in CIA402:
-            self.check_cia402(node)
+            self.check_cia402(node, q)
 
         # ---- nothing went wrong on the way ---------------------------------
         emcy = frames.since(0, 0x80 + node_id)
@@ -320,7 +322,11 @@ class QemuSmokeTest(unittest.TestCase):
 
         # ---- store (0x1010, RAM-backed on this board) survives reset node ---
         if 0x1010 in od:
-            node.sdo.download(0x1010, 1, b"save")
+            # Sub 1 "all", or sub 2 "communication" where sub 1 reads 0 ("does not save
+            # on command": the b maXX 4400, whose store works in Pre-operational only, D10).
+            sub = 1 if u(0x1010, 1) & 1 else 2
+            node.nmt.send_command(0x80)
+            node.sdo.download(0x1010, sub, b"save")
             mark = frames.mark()
             node.nmt.send_command(0x81)
             boot = frames.wait_for(lambda m: m.arbitration_id == error_control and bytes(m.data) == b"\x00", after=mark)
@@ -363,16 +369,16 @@ class QemuSmokeTest(unittest.TestCase):
             self.check_rpdo(node, q, od)
         return rejected
 
-    def check_cia402(self, node):
-        """The drive answers the CiA 402 state machine and moves: enable by
-        0x6040 (each state read back from 0x6041), a profile velocity move
-        measured by 0x606C and 0x6064, disable voltage. By SDO: the image's
-        clock (-icount) runs slower than the wall clock, too slow for
-        BaseNode402's 0.2 s TPDO waits with the EC5000's event timers
-        (tests/python/test_cia402.py runs BaseNode402 against vnode)."""
-        def statusword():
-            return int.from_bytes(node.sdo.upload(0x6041, 0), "little")
-
+    def check_cia402(self, node, q):
+        """python-canopen's BaseNode402 drives the image as tests/python/test_cia402.py
+        drives vnode: each state change within BaseNode402's own timeouts (0.4 s per
+        state, 0.8 s in all), a profile velocity move measured by 0x606C and 0x6064, quick
+        stop while moving, homing 37, a profile position move to 0x607A absolute and
+        relative measured by 0x6064. The statusword comes in
+        the synchronous TPDO3 (0x6041 + 0x606C) on the PLC's SYNC every 20 ms; TPDO1 and
+        TPDO2 are switched off: their event timers run on the image's clock (-icount),
+        which lags the wall clock up to five times, and BaseNode402 waits at most 0.2 s
+        for a TPDO it has seen twice."""
         def i32(index):
             return int.from_bytes(node.sdo.upload(index, 0), "little", signed=True)
 
@@ -382,21 +388,57 @@ class QemuSmokeTest(unittest.TestCase):
                 self.assertLess(time.monotonic(), end, what)
                 time.sleep(0.02)
 
-        node.sdo.download(0x6060, 0, bytes([3]))
-        node.sdo.download(0x60FF, 0, struct.pack("<i", 0))
-        self.assertEqual(statusword() & 0x4F, 0x40, "Switch on disabled")
-        for controlword, mask, state in [(0x06, 0x6F, 0x21), (0x07, 0x6F, 0x23), (0x0F, 0x6F, 0x27)]:
-            node.sdo.download(0x6040, 0, struct.pack("<H", controlword))
-            wait(f"controlword 0x{controlword:04X}: state 0x{state:02X}", lambda: statusword() & mask == state)
-        start = i32(0x6064)
-        node.sdo.download(0x60FF, 0, struct.pack("<i", 100))
-        wait("0x606C reaches 100 mm/s", lambda: i32(0x606C) == 100)
-        wait("target reached", lambda: statusword() & 0x0400)
-        wait("0x6064 advances", lambda: i32(0x6064) > start + 5)
-        node.sdo.download(0x60FF, 0, struct.pack("<i", 0))
-        wait("standstill", lambda: i32(0x606C) == 0)
-        node.sdo.download(0x6040, 0, struct.pack("<H", 0))
-        wait("Switch on disabled", lambda: statusword() & 0x4F == 0x40)
+        node.nmt.send_command(0x80)
+        for tpdo in (0x1800, 0x1801):
+            cob_id = int.from_bytes(node.sdo.upload(tpdo, 1), "little")
+            node.sdo.download(tpdo, 1, struct.pack("<I", cob_id | 0x80000000))
+        node.setup_402_state_machine()
+        node.nmt.send_command(0x01)
+        q.network.sync.start(0.02)
+        try:
+            self.assertEqual(node.sdo[0x6041].raw & 0x4F, 0x40, "Switch on disabled")
+            for state in ["READY TO SWITCH ON", "SWITCHED ON", "OPERATION ENABLED", "SWITCHED ON",
+                          "READY TO SWITCH ON", "SWITCH ON DISABLED", "OPERATION ENABLED", "SWITCH ON DISABLED"]:
+                start = time.monotonic()
+                node.state = state
+                self.assertEqual(node.state, state)
+                self.assertLess(time.monotonic() - start, 0.4, state)
+            # Profile velocity: 100 mm/s.
+            node.op_mode = "PROFILED VELOCITY"
+            self.assertEqual(node.op_mode, "PROFILED VELOCITY")
+            node.state = "OPERATION ENABLED"
+            start = i32(0x6064)
+            node.sdo[0x60FF].raw = 100
+            wait("0x606C reaches 100 mm/s", lambda: i32(0x606C) == 100)
+            wait("target reached", lambda: node.sdo[0x6041].raw & 0x0400)
+            wait("0x6064 advances", lambda: i32(0x6064) > start + 5)
+            # Quick stop while moving (0x605A's default 2): braking, then Switch on disabled.
+            node.state = "QUICK STOP ACTIVE"
+            wait("Switch on disabled after the quick stop", lambda: node.sdo[0x6041].raw & 0x4F == 0x40)
+            self.assertEqual(i32(0x606C), 0)
+            node.state = "OPERATION ENABLED"
+            # Homing 37: the position of the moment is home.
+            # Not through BaseNode402.homing(): it reads the statusword of the first TPDO after
+            # the start, which a SYNC can send before the start arrives, and then takes
+            # "not started" (bit 10 alone) for "interrupted".
+            self.assertNotEqual(i32(0x6064), 0)
+            node.op_mode = "HOMING"
+            node.controlword = 0x1F
+            # pv's bits 12 and 10 (speed 0, target reached) look the same: the position tells.
+            wait("homing attained at 0", lambda: node.sdo[0x6041].raw & 0x3400 == 0x1400 and i32(0x6064) == 0)
+            node.controlword = 0x0F
+            # Profile position: 50 mm, then 20 mm back relative.
+            node.op_mode = "PROFILED POSITION"
+            node.state = "OPERATION ENABLED"
+            for target, controlword, at in [(50, 0x1F, 50), (-20, 0x5F, 30)]:
+                node.sdo[0x607A].raw = target
+                node.controlword = controlword
+                wait("set-point acknowledge", lambda: node.sdo[0x6041].raw & 0x1000)
+                node.controlword = controlword & ~0x10
+                wait(f"target reached at {at} mm", lambda: node.sdo[0x6041].raw & 0x0400 and i32(0x6064) == at)
+            node.state = "SWITCH ON DISABLED"
+        finally:
+            q.network.sync.stop()
 
     def mapping(self, node, index):
         """(index, sub, bits) of each object a PDO maps, read from the node."""

@@ -256,6 +256,14 @@ fn m_l3262_dc_link_under_voltage_is_drive_error_005e_emcy_3100() {
     assert_eq!(emcy, [vec![0x00, 0x31, 0x05, 0x00, 0x5E, 0x00, 0x00, 0x00]]);
 }
 
+#[test]
+fn m_l3455_dc_link_over_voltage_is_drive_error_0052_emcy_3210() {
+    let mut b = enabled(3);
+    b.node.app_mut().drive.drive.axis.inject(canopen_core::axis::Injected::OverVoltage);
+    let emcy: Vec<_> = b.run_until(ms(600)).into_iter().filter(|(_, (id, _))| *id == 0x084).map(|(_, (_, d))| d).collect();
+    assert_eq!(emcy, [vec![0x10, 0x32, 0x05, 0x00, 0x52, 0x00, 0x00, 0x00]]);
+}
+
 /// Maps `entries` into PDO mapping `index` in Pre-operational (invalid first); the answer to sub 0.
 fn map(b: &mut Bmaxx, index: u16, entries: &[u32]) -> Vec<u8> {
     assert_eq!(b.sdo_write(ID, index, 0, &[0]), ok_write(index, 0));

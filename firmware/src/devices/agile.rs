@@ -12,8 +12,9 @@ pub mod od {
 }
 
 use canopen_core::abort::AbortCode;
-use canopen_core::axis::{Axis, AxisParams};
+use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, CommError, Ctx, NmtEvent, Source};
+use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::nmt::NmtState;
@@ -21,20 +22,28 @@ use canopen_core::services::store;
 use canopen_core::time::Instant;
 use canopen_core::wire::emcy::EmcyCode;
 
+mod abort_connection;
+mod data_sets;
+mod faults;
+
+pub use faults::AgileDrive;
+
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile in velocity
 /// mode driving the axis model (until a board drives the inverter's motor).
 #[derive(Debug)]
 pub struct App {
     /// The CiA 402 profile (vl only) and the drive behind it.
-    pub drive: Cia402<Axis>,
+    pub drive: Cia402<AgileDrive>,
     /// In NMT Operational: leaving it is a bus fault.
     operational: bool,
+    /// The fault key of the last bus fault (F20.nn, F23.nn).
+    bus_fault: u16,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(Axis::NEW), operational: false };
+    pub const NEW: App = App { drive: Cia402::new(AgileDrive::NEW), operational: false, bus_fault: 0 };
 }
 
 /// The profile's constants for the Agile (decisions D42-D47 in docs/devices/agile.md).
@@ -76,31 +85,63 @@ impl Application for App {
         match (index, sub, data) {
             // D6: the communication cycle period in whole milliseconds only.
             (0x1006, 0, [a, b, c, d]) if u32::from_le_bytes([*a, *b, *c, *d]) % 1000 != 0 => Err(AbortCode::InvalidValue),
+            // D53: the inverter produces no SYNC ("wird nicht unterstützt", M-L1405).
+            (0x1005, 0, [_, _, _, d]) if d & 0x40 != 0 => Err(AbortCode::InvalidValue),
             _ => Ok(()),
         }
     }
 
-    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+    fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
         // D43: the write-only 0x6060 answers the manual's only "not readable" code (§8.3.3).
-        ((index, sub) == (MODES_OF_OPERATION, 0)).then_some(Err(AbortCode::UnsupportedAccess))
+        if (index, sub) == (MODES_OF_OPERATION, 0) {
+            return Some(Err(AbortCode::UnsupportedAccess));
+        }
+        let target = data_sets::target(ctx, index, sub)?;
+        Some(data_sets::read(ctx, index, target).map(<[u8]>::len))
+    }
+
+    fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
+        let target = data_sets::target(ctx, index, sub)?;
+        Some(data_sets::read(ctx, index, target).map(|value| {
+            let value = value.get(offset..).unwrap_or(&[]);
+            buf.iter_mut().zip(value).map(|(d, s)| *d = *s).count()
+        }))
     }
 
     fn download_check(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
-        let len = data_sets(ctx, index, sub)?;
+        // D51: "Parameter nicht schreibbar" is 0x06010000, the manual's one code for
+        // both directions (§8.3.3, M-L793), as the read of 0x6060 (D43).
+        let Some(target) = data_sets::target(ctx, index, sub) else {
+            return read_only(ctx, index, sub).then_some(Err(AbortCode::UnsupportedAccess));
+        };
         Some(match size {
-            Some(n) if n > len => Err(AbortCode::LengthTooHigh),
-            Some(n) if n < len => Err(AbortCode::LengthTooLow),
+            _ if !target.writable => Err(AbortCode::UnsupportedAccess),
+            Some(n) if n > target.len => Err(AbortCode::LengthTooHigh),
+            Some(n) if n < target.len => Err(AbortCode::LengthTooLow),
             _ => Ok(()),
         })
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
-        data_sets(ctx, index, sub)?;
-        // D25, §9.3.1: data set 0 writes all four data sets.
-        Some((1..=4).try_for_each(|set| ctx.write_object(index, set, data)))
+        // D53: TPDO inhibit times in whole milliseconds, 37 → 30, below 10 → 0 (M-L2016-2020).
+        if let (0x1800..=0x1802, 3, [lo, hi]) = (index, sub, data) {
+            let whole_ms = u16::from_le_bytes([*lo, *hi]) / 10 * 10;
+            return Some(ctx.write_object(index, 3, &whole_ms.to_le_bytes()));
+        }
+        let Some(target) = data_sets::target(ctx, index, sub) else {
+            return read_only(ctx, index, sub).then_some(Err(AbortCode::UnsupportedAccess));
+        };
+        let mut result = data_sets::write(ctx, index, target, data);
+        if index == CAN_FAULT_BEHAVIOUR && result.is_ok() {
+            result = abort_connection::from_p388(ctx, target.stored());
+        }
+        Some(result)
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+        if index == ABORT_CONNECTION {
+            abort_connection::to_p388(ctx);
+        }
         // §11.3 (M-L3279-3282), D45: "enable operation" in Switch on disabled
         // runs Shutdown first (0x0000 → 0x000F), then transitions 3 and 4.
         if index == CONTROLWORD && self.drive.state() == PdsState::SwitchOnDisabled {
@@ -117,20 +158,26 @@ impl Application for App {
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
         self.drive.sample(ctx);
+        self.actuals(ctx);
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
-        self.drive.poll(ctx, &PROFILE)
+        let next = self.drive.poll(ctx, &PROFILE);
+        self.actuals(ctx);
+        next
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         let bus_fault = match event {
             NmtEvent::ResetApplication => {
-                self.drive.drive.configure(AXIS);
+                abort_connection::at_power_on(ctx);
+                self.drive.drive.axis.configure(AXIS);
                 self.operational = false;
                 None
             }
             NmtEvent::Entered(state) => {
+                // p.1290 "Node-State (NMT)" (§8.7, M-L870): the state as heartbeat reports it.
+                let _ = ctx.set_value(NODE_STATE, 0, &u16::from(state.reported().code()).to_le_bytes());
                 let left = self.operational && state != NmtState::Operational;
                 self.operational = state == NmtState::Operational;
                 left.then_some(FAULT_NMT)
@@ -149,12 +196,32 @@ impl Application for App {
 }
 
 impl App {
+    /// §9.5.16/§9.5.17 (M-L2985-3015), D48: the current actual value 0x6078
+    /// (‰ of the rated current: the axis model's torque estimate, which has
+    /// no magnetising current) and the DC link voltage 0x6079 [mV]; the
+    /// profile keeps 0x6077.
+    /// p.260 holds the active fault's key (D52), p.270 bit 7 the motor
+    /// temperature warning (§12.3).
+    fn actuals(&self, ctx: &mut Ctx<'_>) {
+        let drive = &self.drive.drive;
+        let _ = ctx.set_value(CURRENT_ACTUAL, 0, &drive.torque().to_le_bytes());
+        let _ = ctx.set_value(DC_LINK_VOLTAGE, 0, &drive.dc_link_mv().to_le_bytes());
+        let key = match self.drive.state() {
+            PdsState::Fault | PdsState::FaultReactionActive if drive.key() != 0 => drive.key(),
+            PdsState::Fault | PdsState::FaultReactionActive => self.bus_fault,
+            _ => 0,
+        };
+        let _ = ctx.set_value(CURRENT_FAULT, 0, &key.to_le_bytes());
+        let _ = ctx.set_value(WARNINGS, 0, &(u16::from(drive.warning()) << 7).to_le_bytes());
+    }
+
     /// §1.9/§9.5.1 (M-L670-700, L2574-2597), D44: the reaction 0x6007 (p.388)
     /// asks for on a bus fault while the drive function is on. 1, −1 and −2
     /// end in Fault with 0x603F 0x1000 and the inverter's fault key (F20.nn,
     /// F23.nn) in EMCY bytes 6-7; 2 and 3 are the profile's disable voltage
     /// and quick stop.
     fn bus_fault(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent, fault: u16) {
+        self.bus_fault = fault;
         let [lo, hi] = fault.to_le_bytes();
         let info = [0, 0, 0, lo, hi];
         let reaction = match ctx.read(ABORT_CONNECTION, 0) {
@@ -179,12 +246,9 @@ impl App {
     }
 }
 
-/// The value length of a four-data-set parameter (an ARRAY whose sub 0 is
-/// 9: data sets 1–4 and their RAM copies) when `sub` is 0, its "data set 0".
-fn data_sets(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<usize> {
-    // Sub 9 exists only in such an ARRAY (a VAR parameter has sub 0 alone, whatever its value).
-    let is_parameter = (0x2000..0x3000).contains(&index) && sub == 0 && ctx.read_u32(index, 0) == Some(9) && ctx.read(index, 9).is_ok();
-    is_parameter.then(|| ctx.read(index, 1).map_or(0, <[u8]>::len))
+/// D51: (index, sub) exists and is read-only (0x06010000 on a write, §8.3.3).
+fn read_only(ctx: &Ctx<'_>, index: u16, sub: u8) -> bool {
+    ctx.dictionary().find(index, sub).is_ok_and(|e| !e.writable())
 }
 
 /// The node this device runs, on storage `S`.
@@ -228,8 +292,7 @@ pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<
     (node_id, bit_rate)
 }
 
-/// 0x6007 abort connection option code (p.388).
-const ABORT_CONNECTION: u16 = 0x6007;
+use abort_connection::{ABORT_CONNECTION, CAN_FAULT_BEHAVIOUR};
 /// 0x603F for the faults §12.5 does not map (M-L2636-2656): the bus faults.
 /// Fault keys (§7.3, M-L688-700): group F20 high byte, code low byte.
 const FAULT_BUS_OFF: u16 = 0x2021;
@@ -241,6 +304,16 @@ const FAULT_NMT: u16 = 0x2025;
 const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
 /// F23.nn heartbeat of node nn.
 const FAULT_HEARTBEAT: u16 = 0x2300;
+/// p.1290 node state (0x250A, UNSIGNED16).
+const NODE_STATE: u16 = 0x250A;
+/// p.260 current error (0x2104, UNSIGNED16): the fault key.
+const CURRENT_FAULT: u16 = 0x2104;
+/// p.270 warnings (0x210E, UNSIGNED16).
+const WARNINGS: u16 = 0x210E;
+/// 0x6078 current actual value (INTEGER16, ‰ of the rated current).
+const CURRENT_ACTUAL: u16 = 0x6078;
+/// 0x6079 DC link circuit voltage (UNSIGNED32, mV).
+const DC_LINK_VOLTAGE: u16 = 0x6079;
 /// 0x6060 modes of operation (write-only).
 const MODES_OF_OPERATION: u16 = 0x6060;
 /// 0x6040 controlword.

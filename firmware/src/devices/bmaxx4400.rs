@@ -17,10 +17,12 @@ use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::objects::index::{CONTROLWORD, QUICK_STOP_OPTION, STATUSWORD};
 use canopen_core::profiles::cia402::{Cia402, Config, mode, statusword};
+use canopen_core::services::nmt::NmtState;
 use canopen_core::time::Instant;
 
 mod errors;
 mod ip;
+mod option_codes;
 mod params;
 mod positioning;
 mod slots;
@@ -110,17 +112,32 @@ impl Application for App {
         tpdo_254_timer_only: true,
         boot_up_v3: Some((speed::CONFIGURATION, 1 << 0)),
         communication_error_pre_operational: Some((speed::CONFIGURATION, 1 << 4)),
+        // D10: 0x100E and 0x1014 are "nicht abspeicherbar" (M-L1303, M-L1357); between
+        // them only 0x100F (read-only) and the store commands themselves.
+        not_saved_by_1010: Some((0x100E, 0x1014)),
         ..ServiceOptions::CIA301
     };
 
     fn download_check(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
+        if index == PDOS_SUPPORTED {
+            return Some(Err(pdos_supported(sub).err().unwrap_or(AbortCode::ReadOnly)));
+        }
         // D9: masters following the manual write 0x1017 with one byte (2F).
         ((index, sub, size) == (HEARTBEAT_TIME, 0, Some(1))).then_some(Ok(()))
     }
 
+    fn upload_size(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
+        (index == PDOS_SUPPORTED).then(|| pdos_supported(sub).map(|v| v.len()))
+    }
+
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
         match (index, sub, data) {
+            (PDOS_SUPPORTED, ..) => Some(Err(pdos_supported(sub).err().unwrap_or(AbortCode::ReadOnly))),
             (HEARTBEAT_TIME, 0, [ms]) => Some(ctx.write_object(HEARTBEAT_TIME, 0, &[*ms, 0])),
+            // D10: store and restore of sub 2 only (sub 1 "wird nicht unterstützt"), in
+            // Pre-operational only (M-L1311-1355).
+            (STORE | RESTORE, 1, _) => Some(Err(AbortCode::CannotStore)),
+            (STORE | RESTORE, 2, _) if ctx.state() != NmtState::PreOperational => Some(Err(AbortCode::DeviceState)),
             _ => None,
         }
     }
@@ -135,12 +152,27 @@ impl Application for App {
             (ip::TIME_PERIOD, [i]) if sub == 2 => ip::period(ctx, Some(*i as i8)).map(|_| ()).ok_or(AbortCode::InvalidValue),
             // D55: the BACI's 8 set-point and 8 actual-value slots.
             (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
+            // D15: the SYNC interval 1000, 2000, 4000 or 8000 µs (0: not set), M-L1250-1252.
+            (COMMUNICATION_CYCLE, [a, b, c, d]) if !matches!(u32::from_le_bytes([*a, *b, *c, *d]), 0 | 1000 | 2000 | 4000 | 8000) => {
+                Err(AbortCode::InvalidValue)
+            }
+            // D63: the option codes' value tables.
+            (0x6007 | 0x605A..=0x605E, [lo, hi]) if !option_codes::valid(index, i16::from_le_bytes([*lo, *hi])) => {
+                Err(AbortCode::InvalidValue)
+            }
             _ => self.drive.check_write(index, data),
         }
     }
 
     fn read(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
-        params::read(ctx, index, sub, offset, buf)
+        let value = match (index, sub) {
+            (PDOS_SUPPORTED, _) => pdos_supported(sub),
+            // D22: the low byte of the drive's status word P0301 (0x6041), bits 25/24 the
+            // card type "b maXX 4400" (1 0), M-L1140-1154.
+            (STATUS_REGISTER, 0) => Ok((0x0200_0000 | (ctx.read_u32(STATUSWORD, 0).unwrap_or(0) & 0xFF)).to_le_bytes()),
+            _ => return params::read(ctx, index, sub, offset, buf),
+        };
+        Some(value.map(|v| buf.iter_mut().zip(v.iter().skip(offset)).map(|(d, s)| *d = *s).count()))
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
@@ -205,7 +237,8 @@ impl App {
         if hold {
             let _ = ctx.set_value(CONTROLWORD, 0, &((cw & !0x10) as u16).to_le_bytes());
         }
-        self.drive.written(ctx, &PROFILE, index);
+        // D63: the manufacturer's shutdown and disable operation codes −1, −2.
+        option_codes::as_cia(ctx, |ctx| self.drive.written(ctx, &PROFILE, index));
         let _ = ctx.set_value(CONTROLWORD, 0, &(cw as u16).to_le_bytes());
         let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &[a, b, c, d]);
         self.positioning(ctx, cw);
@@ -281,6 +314,27 @@ fn running(ctx: &Ctx<'_>) -> (i8, u16) {
 
 /// Statusword bits 12 and 10 in hm: homing attained.
 const HOMING_ATTAINED: u16 = statusword::BIT12 | statusword::TARGET_REACHED;
+
+/// 0x1006 communication cycle period [µs].
+const COMMUNICATION_CYCLE: u16 = 0x1006;
+
+/// 0x1002 manufacturer status register.
+const STATUS_REGISTER: u16 = 0x1002;
+
+/// 0x1004 number of PDOs supported (DS 301 V3, §5.1 M-L1214-1244, D12).
+const PDOS_SUPPORTED: u16 = 0x1004;
+
+/// D12: 0x1004 sub 0 (all), 1 (synchronous) and 2 (asynchronous) read
+/// 00040004h: four RPDOs (high word) and four TPDOs (low word), each
+/// synchronous or not; read-only.
+fn pdos_supported(sub: u8) -> Result<[u8; 4], AbortCode> {
+    if sub <= 2 { Ok(0x0004_0004u32.to_le_bytes()) } else { Err(AbortCode::NoSubIndex) }
+}
+
+/// 0x1010 store parameters.
+const STORE: u16 = 0x1010;
+/// 0x1011 restore default parameters.
+const RESTORE: u16 = 0x1011;
 
 /// 0x1017 Producer heartbeat time.
 const HEARTBEAT_TIME: u16 = 0x1017;

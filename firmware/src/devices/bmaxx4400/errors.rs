@@ -22,12 +22,14 @@ impl BmaxxDrive {
 
 /// (drive error number, EMCY code) for an axis fault: 00C1h static
 /// following error → 8611h, 0062h motor over-temperature → 4310h, 005Eh
-/// DC-link under-voltage → 3100h, 0053h power-unit over-current → 2310h.
+/// DC-link under-voltage → 3100h, 0052h DC-link over-voltage → 3210h,
+/// 0053h power-unit over-current → 2310h.
 const fn drive_error(code: EmcyCode) -> Option<(u16, EmcyCode)> {
     Some(match code {
         fault::FOLLOWING_ERROR => (0x00C1, EmcyCode(0x8611)),
         fault::OVER_TEMPERATURE => (0x0062, EmcyCode(0x4310)),
         fault::UNDER_VOLTAGE => (0x005E, EmcyCode(0x3100)),
+        fault::OVER_VOLTAGE => (0x0052, EmcyCode(0x3210)),
         fault::POWER_STAGE => (0x0053, EmcyCode(0x2310)),
         _ => return None,
     })

@@ -11,7 +11,9 @@ use canopen_core::node::Ctx;
 enum Conversion {
     /// y = x (P0300 ↔ 0x6040, P0301 ← 0x6041, P0607 ↔ 0x607A).
     Same,
-    /// y = x + 2^31: the drive's unsigned positions (P0462 ← 0x6064, P0600 ↔ 0x607A; M-L983-997).
+    /// y = x + 2^31: the drive's unsigned positions, the objects §4.4.7 lists
+    /// (P0463 ← 0x6062, P0462 ← 0x6064, P0600 ↔ 0x607A, P1200 ↔ 0x607C,
+    /// P1196/P1197 ↔ 0x607D sub 1/2; M-L983-997).
     Offset,
     /// The drive's operation mode for a 0x6060/0x6061 value (P1000 ← 0x6060, P0304 ← 0x6061; M-L5241-5410).
     DriveMode,
@@ -22,15 +24,19 @@ const CONFIGURATION: u16 = 0x433E;
 /// P0830 bit 5: positions without the 2^31 offset.
 const NO_OFFSET: u32 = 1 << 5;
 
-/// The parameter table: (P, CiA object, conversion).
-const TABLE: [(u16, u16, Conversion); 7] = [
-    (300, 0x6040, Conversion::Same),
-    (301, 0x6041, Conversion::Same),
-    (304, 0x6061, Conversion::DriveMode),
-    (462, 0x6064, Conversion::Offset),
-    (600, 0x607A, Conversion::Offset),
-    (607, 0x607A, Conversion::Same),
-    (1000, 0x6060, Conversion::DriveMode),
+/// The parameter table: (P, CiA object, its sub-index, conversion).
+const TABLE: [(u16, u16, u8, Conversion); 11] = [
+    (300, 0x6040, 0, Conversion::Same),
+    (301, 0x6041, 0, Conversion::Same),
+    (304, 0x6061, 0, Conversion::DriveMode),
+    (462, 0x6064, 0, Conversion::Offset),
+    (463, 0x6062, 0, Conversion::Offset),
+    (600, 0x607A, 0, Conversion::Offset),
+    (607, 0x607A, 0, Conversion::Same),
+    (1000, 0x6060, 0, Conversion::DriveMode),
+    (1196, 0x607D, 1, Conversion::Offset),
+    (1197, 0x607D, 2, Conversion::Offset),
+    (1200, 0x607C, 0, Conversion::Offset),
 ];
 
 /// The drive's P1000/P0304 value for a CANopen mode: pv (3) is the drive's
@@ -50,12 +56,12 @@ const fn drive_mode(canopen: i8) -> i8 {
 /// of the dictionary's entry for it.
 pub(super) fn read(ctx: &Ctx<'_>, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Option<Result<usize, AbortCode>> {
     let p = index.checked_sub(0x4000)?;
-    let &(_, object, conversion) = TABLE.iter().find(|(n, _, _)| *n == p)?;
+    let &(_, object, object_sub, conversion) = TABLE.iter().find(|(n, ..)| *n == p)?;
     if sub != 0 || offset != 0 {
         return None;
     }
     let len = ctx.read(index, 0).ok()?.len();
-    let value = ctx.read(object, 0).ok()?;
+    let value = ctx.read(object, object_sub).ok()?;
     let x = match *value {
         [a] => i32::from(a as i8),
         [a, b] => i32::from(u16::from_le_bytes([a, b])),

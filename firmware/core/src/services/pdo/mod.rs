@@ -182,6 +182,10 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// Bit t: TPDO t is valid and synchronous (types 0..=240 and 252: the
     /// only ones a SYNC does something for), so that a SYNC visits just those.
     sync_tpdos: u32,
+    /// The last [`Pdos::tpdos_mapping`]: image offset and length
+    /// (`offset << 16 | len`, 0: none) and its TPDOs, until a parameter or
+    /// a mapping changes (a device sets its statusword with most frames).
+    last_write: (u32, u32),
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -205,6 +209,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             tpdo_live: 0,
             sync_rpdos: 0,
             sync_tpdos: 0,
+            last_write: (0, 0),
         }
     }
 }
@@ -229,6 +234,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             tpdo_live: 0,
             sync_rpdos: 0,
             sync_tpdos: 0,
+            last_write: (0, 0),
         }
     }
 
@@ -370,6 +376,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     // Out of line: configure and write_object each had a copy (100 bytes more).
     #[inline(never)]
     fn refresh_rx_ids(&mut self) {
+        self.last_write = (0, 0);
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
@@ -388,8 +395,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// The event-driven TPDOs that map any byte of `len` image bytes at
     /// `offset` (what a write there may change).
-    pub fn tpdos_mapping(&self, offset: u16, len: u16) -> u32 {
-        tpdos_mapping(&self.tpdos, self.tpdo_live, offset, len)
+    /// Answered from the last call if it asked for the same bytes and no
+    /// parameter or mapping changed since.
+    // Out of line: the node's follow-up of every write calls it.
+    #[inline(never)]
+    pub fn tpdos_mapping(&mut self, offset: u16, len: u16) -> u32 {
+        // One compare: offset and length in one word (0: none; no write is of 0 bytes).
+        let key = u32::from(offset) << 16 | u32::from(len);
+        if self.last_write.0 != key {
+            self.last_write = (key, tpdos_mapping(&self.tpdos, self.tpdo_live, offset, len));
+        }
+        self.last_write.1
     }
 
     /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
@@ -534,6 +550,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled_deadline = deadline_of(self.walk());
         self.settled = true;
         self.settled_deadline
+    }
+
+    /// Whether an RPDO's event timer may run: only then does a received RPDO
+    /// move [`Pdos::settled`]'s deadline.
+    pub fn rpdo_timers(&self) -> bool {
+        self.rpdo_timers != 0
     }
 
     /// [`Pdos::deadline`] when it is known without walking the PDOs.
