@@ -81,7 +81,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         let mut sdo_deadline = None;
         // Idle servers have no timer and nothing to send: skip building the router for them.
-        if self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
+        // Quiet since the last full call: no server is busy (a busy one has a
+        // deadline, and a state that stopped them is stale, so full).
+        if (full || !self.quiet) && self.nmt.state().sdo_allowed() && !self.sdo.all_idle() {
             let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
             let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
@@ -110,8 +112,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // Building a TPDO to detect changes costs more than anything
             // else here: only the TPDOs a write may have changed, and those
             // whose timers are due, not for every heartbeat of another node.
-            pdo_deadline = self.comm.pdos.deadline();
-            if self.touched != 0 || pdo_deadline.is_some_and(|d| d <= now) {
+            // A TPDO a write may have changed makes the poll due: no deadline to ask for.
+            let due = self.touched != 0 || {
+                pdo_deadline = self.comm.pdos.deadline();
+                pdo_deadline.is_some_and(|d| d <= now)
+            };
+            if due {
                 // A poll for any TPDO retries every TPDO waiting to.
                 let marked = core::mem::take(&mut self.touched) | self.retrying();
                 let Node { od, comm, txq, .. } = self;

@@ -526,8 +526,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             }
             self.rpdo_timers = timers;
         }
-        // A synchronous TPDO's refused frame is dropped once the window closed.
-        let window_closed = self.window_end.is_some_and(|end| now > end);
         let now_at = now.as_micros();
         if T <= 32 {
             // Only the TPDOs that can send, each bit a TPDO.
@@ -536,14 +534,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 if let Some(tpdo) = self.tpdos.get_mut(t)
                     && (marked & bit_of(t) != 0 || tpdo.due() <= now_at)
                 {
-                    tpdo.poll(now, window_closed, image, tx);
+                    tpdo.poll(now, &self.window_end, image, tx);
                 }
             }
         } else {
             for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
                 let bit = bit_of(t);
                 if tpdo.cob_id().is_some() && (marked & bit != 0 || bit == u32::MAX || tpdo.due() <= now_at) {
-                    tpdo.poll(now, window_closed, image, tx);
+                    tpdo.poll(now, &self.window_end, image, tx);
                 }
             }
         }
