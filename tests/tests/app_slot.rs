@@ -505,3 +505,21 @@ fn a_device_polled_when_due_runs_at_its_deadline_after_hooks_app_mut_and_its_own
     b.at(ms(17));
     assert_eq!(polls(&b).iter().rev().take(3).collect::<Vec<_>>(), [&16, &15, &14], "after app_mut, and once more as asked");
 }
+
+#[test]
+fn after_an_rpdo_that_reaches_no_tpdo_the_node_wakes_for_its_event_timer() {
+    // RPDO1 (0x2100 sub 1..4) is in no TPDO: the next process has nothing
+    // to look at, only the event timer the frame started (50 ms) to wait for.
+    let mut b: B<NoApplication> = Bench::new(Ram::new(ID), NoApplication, MemStorage::new(4096), ID);
+    b.at(ms(0));
+    assert_eq!(b.sdo_write(ID, 0x1400, 5, &[50, 0]), ok_write(0x1400, 5));
+    b.nmt(0x01, ID);
+    b.at(ms(1));
+    assert_eq!(b.node.process(ms(2)), None, "no timer runs");
+    let frame = canopen_core::frame::CanFrame::standard(RPDO1, &[1, 0, 2, 0, 3, 0, 4, 0]).expect("valid frame");
+    b.node.on_frame(ms(10), &frame);
+    assert_eq!(b.node.process(ms(10)), Some(ms(60)), "the RPDO's event timer");
+    assert_eq!(b.node.process(ms(59)), Some(ms(60)));
+    let out = b.at(ms(60));
+    assert!(out.iter().any(|f| f.0 == 0x85 && f.1.get(..2) == Some(&[0x50, 0x82][..])), "EMCY 0x8250 RPDO timeout: {out:x?}");
+}

@@ -22,6 +22,7 @@
 
 mod common;
 
+use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
 use common::{Bench, F, ms};
 use firmware::devices::agile;
@@ -145,6 +146,33 @@ fn cct_3_4_event_driven_tpdo() {
     assert_eq!(change_0x2000(&mut b, 40, 0x13), [tpdo1(0x13)]);
     assert_eq!(change_0x2000(&mut b, 45, 0x13), [], "the same value is no change");
     assert_eq!(b.run_until(ms(1000)), []);
+}
+
+/// An expedited download while the transmit queue has no room for the
+/// answer (4 slots are kept for heartbeat and EMCY): the value is written
+/// once, so the event-driven TPDO mapping it sees the change, and the
+/// answer follows once the queue drains. (The node's in-place path for a
+/// device without SDO hooks hands such a request to the general path
+/// before it writes anything: written twice, the value would have changed
+/// nothing for the TPDO.)
+#[test]
+fn an_expedited_download_into_a_full_queue_reaches_its_tpdo_and_answers_later() {
+    let mut b = interop();
+    configure_tpdo(&mut b, 0, 254, 0, 0, false);
+    b.at(ms(10));
+    assert_eq!(start(&mut b), [(0x184, TPDO1.to_vec())]);
+    // 28 SYNCs queue 28 TPDO2s (type 1): 4 slots left, none for an SDO answer.
+    let sync = CanFrame::standard(0x080, &[]).unwrap();
+    for _ in 0..28 {
+        b.node.on_frame(ms(20), &sync);
+    }
+    b.node.on_frame(ms(20), &CanFrame::standard(0x604, &[0x2F, 0x00, 0x20, 0x00, 0x12, 0, 0, 0]).unwrap());
+    let mut expected = vec![tpdo1(0x12)];
+    expected.extend(vec![(0x284, TPDO2.to_vec()); 28]);
+    assert_eq!(b.at(ms(20)), expected);
+    assert_eq!(b.at(ms(21)), [(0x584, vec![0x60, 0x00, 0x20, 0x00, 0, 0, 0, 0])]);
+    assert_eq!(b.sdo_upload(ID, 0x2000, 0), Ok(vec![0x12]));
+    assert_eq!(b.node.tx_overflows(), 0);
 }
 
 #[test]

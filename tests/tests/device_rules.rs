@@ -111,12 +111,33 @@ fn ec5000_static_node_id_is_read_at_boot_d31() {
     let mut b = ec5000_node(127, MemStorage::new(4096));
     assert_eq!(ec5000::startup(b.node.storage_mut()), (127, None));
     assert_eq!(b.sdo_write(127, 0x4650, 1, &[0x0C]), ok_write(0x4650, 1));
-    assert_eq!(ec5000::startup(b.node.storage_mut()), (12, None), "stored when written");
+    // With it the set holds 0x4651 sub 1's default: 250 kbit/s (D69).
+    assert_eq!(ec5000::startup(b.node.storage_mut()), (12, Some(3)), "stored when written");
     // 0x1010 sub 1 stores "all parameters except node-ID" (L744).
     assert_eq!(b.sdo_write(127, 0x4650, 1, &[0x0D]), ok_write(0x4650, 1));
     assert_eq!(b.sdo_write(127, 0x4650, 1, &[0x0C]), ok_write(0x4650, 1));
     assert_eq!(b.sdo_write(127, 0x1010, 1, b"save"), ok_write(0x1010, 1));
-    assert_eq!(ec5000::startup(b.node.storage_mut()), (12, None));
+    assert_eq!(ec5000::startup(b.node.storage_mut()), (12, Some(3)));
+}
+
+#[test]
+fn ec5000_can_bit_rate_0x4651_sub1_takes_effect_at_the_next_start_l1390_d69() {
+    let mut b = ec5000_node(5, MemStorage::new(4096));
+    assert_eq!(ec5000::startup(b.node.storage_mut()), (127, None), "nothing stored: the image's bit rate");
+    // 125 and 250 kbit/s only (the EDS's bit rates); outside 125..250 the limits answer first.
+    assert_eq!(b.sdo_write(5, 0x4651, 1, &200u16.to_le_bytes()), abort(0x4651, 1, 0x0609_0030));
+    assert_eq!(b.sdo_write(5, 0x4651, 1, &100u16.to_le_bytes()), abort(0x4651, 1, 0x0609_0032));
+    assert_eq!(b.sdo_write(5, 0x4651, 1, &500u16.to_le_bytes()), abort(0x4651, 1, 0x0609_0031));
+    assert_eq!(b.sdo_write(5, 0x4651, 1, &[0x7D, 0x00]), ok_write(0x4651, 1));
+    assert_eq!(ec5000::startup(b.node.storage_mut()), (127, None), "not stored yet");
+    assert_eq!(b.sdo_write(5, 0x1010, 1, b"save"), ok_write(0x1010, 1));
+    assert_eq!(ec5000::startup(b.node.storage_mut()), (127, Some(4)), "125 kbit/s (CiA 305 index 4) from the next start");
+    // 0x4651 shows the rate configured, the bus keeps its own until the
+    // next start; back to 250 by a save of the manufacturer scope.
+    assert_eq!(b.sdo_upload(5, 0x4651, 1), Ok(vec![0x7D, 0x00]));
+    assert_eq!(b.sdo_write(5, 0x4651, 1, &[0xFA, 0x00]), ok_write(0x4651, 1));
+    assert_eq!(b.sdo_write(5, 0x1010, 4, b"save"), ok_write(0x1010, 4));
+    assert_eq!(ec5000::startup(b.node.storage_mut()), (127, Some(3)));
 }
 
 #[test]

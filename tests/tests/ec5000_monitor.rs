@@ -1,11 +1,14 @@
-//! The EC5000's monitoring values 0x2200 (D49) and traffic lights
-//! 0x2210/0x2211 (D50), read by SDO while the roller runs in virtual time.
+//! The EC5000's monitoring values 0x2200 (D49, D67) and traffic lights
+//! 0x2210/0x2211 (D50, D68), read by SDO while the roller runs in virtual time.
 
 mod common;
 
 use canopen_core::axis::Injected;
+use canopen_core::services::store;
 use common::ec5000::*;
 use common::ms;
+use firmware::devices::ec5000;
+use hal_host::storage::MemStorage;
 
 fn u32_of(b: &mut Ec5000, index: u16, sub: u8) -> u32 {
     let v = b.sdo_upload(ID, index, sub).expect("upload");
@@ -184,4 +187,64 @@ fn restoring_the_parameters_keeps_the_counters() {
     let mut b = power_cycled(&mut b);
     assert_eq!(b.sdo_upload(ID, 0x4231, 1), Ok(95i16.to_le_bytes().to_vec()), "the default threshold");
     assert_eq!(counters(&mut b), [1, 2, 25, 40, 1, 25]);
+}
+
+#[test]
+fn l653_the_power_average_is_the_mean_mechanical_power_of_each_hour_d67() {
+    let mut b = enabled();
+    // 436 mm/s (the rated 3,000 min⁻¹) against a load of 900 ‰: 950 ‰ of
+    // the rated torque with the friction, 19 W of 0x4048's 20 W.
+    roller(&mut b).axis.set_load(-900);
+    b.rx(ms(1000), RPDO3, &[0x0F, 0, 0xB4, 0x01, 0, 0]);
+    b.run_until(ms(2000));
+    assert_eq!([value(&mut b, 0x606C, 0), value(&mut b, 0x6077, 0)], [436, 950]);
+    assert_eq!(b.sdo_upload(ID, 0x4048, 0), Ok(vec![20]));
+    // For 3 minutes, then at rest and switched off: 0.95 Wh in the first
+    // hour of uptime (the ramps add less than 1 J).
+    b.run_until(ms(1000 + 180_000));
+    roller(&mut b).axis.set_load(0);
+    b.rx(ms(1000 + 180_000), RPDO3, &[0x0F, 0, 0, 0, 0, 0]);
+    b.run_until(ms(1000 + 180_500));
+    b.rx(ms(1000 + 180_500), RPDO3, &[0x06, 0, 0, 0, 0, 0]);
+    b.run_until(ms(3_599_900));
+    assert_eq!(b.sdo_upload(ID, 0x2200, 8), Ok(vec![0]), "not before the first hour is over");
+    b.run_until(ms(3_600_000));
+    assert_eq!(b.sdo_upload(ID, 0x2200, 8), Ok(vec![1]), "0.95 W on average, rounded");
+    b.run_until(ms(7_200_000));
+    assert_eq!(b.sdo_upload(ID, 0x2200, 8), Ok(vec![0]), "an hour at rest");
+}
+
+/// A roller whose stored counters (D55) say it turned `revolutions` motor
+/// revolutions in its life, powered on and Operation enabled by 700 ms.
+fn aged(revolutions: u32) -> Ec5000 {
+    let dict = &ec5000::od::DICTIONARY;
+    let mut image = dict.defaults.to_vec();
+    dict.reset_application(&mut image, ID);
+    dict.reset_communication(&mut image, ID);
+    dict.write_unchecked(&mut image, 0x2200, 9, &revolutions.to_le_bytes()).expect("0x2200 sub 9");
+    let mut storage = MemStorage::new(4096);
+    store::save_objects(dict, &image, ID, &mut storage, 0x2200, 0x2200).expect("the counters");
+    enabled_on(storage)
+}
+
+#[test]
+fn the_lifetime_light_turns_yellow_at_90_percent_of_3_6e9_motor_revolutions_d68() {
+    // 25 revolutions short of 3.24e9: green, until two seconds at 100 mm/s
+    // (25.2 revolutions, as above) make the roller's life 90 % used.
+    let mut b = aged(3_240_000_000 - 25);
+    assert_eq!(b.sdo_upload(ID, 0x2210, 0), Ok(vec![0]), "green");
+    b.rx(ms(1000), RPDO3, &[0x0F, 0, 100, 0, 0, 0]);
+    b.run_until(ms(2900));
+    assert_eq!(u32_of(&mut b, 0x2200, 9), 3_239_999_998);
+    assert_eq!(b.sdo_upload(ID, 0x2210, 0), Ok(vec![0]), "still green");
+    b.run_until(ms(3000));
+    b.rx(ms(3000), RPDO3, &[0x0F, 0, 0, 0, 0, 0]);
+    b.run_until(ms(3500));
+    assert_eq!(u32_of(&mut b, 0x2200, 9), 3_240_000_000);
+    assert_eq!(b.sdo_upload(ID, 0x2210, 0), Ok(vec![1]), "yellow");
+    // Yellow from the start on a roller that old; never red (the manual's
+    // legend for 0x2210 is "0=grün; 1=gelb").
+    let mut b = aged(u32::MAX);
+    assert_eq!(b.sdo_upload(ID, 0x2210, 0), Ok(vec![1]));
+    assert_eq!(b.sdo_upload(ID, 0x2211, 1), Ok(vec![0]), "the health lights are not the lifetime's");
 }

@@ -70,12 +70,15 @@ impl Instant {
     }
 }
 
+/// A sum saturates at the last microsecond but one, so that a deadline
+/// at the end of time is still a deadline as an [`At`] (earlier is harmless).
 impl Add<Duration> for Instant {
     type Output = Instant;
     // Out of line: the 64-bit saturating add was copied to every deadline (240 bytes more).
     #[inline(never)]
     fn add(self, rhs: Duration) -> Instant {
-        Instant(self.0.saturating_add(rhs.0))
+        let sum = self.0.saturating_add(rhs.0);
+        Instant(sum.wrapping_sub(u64::from(sum == NEVER)))
     }
 }
 
@@ -87,6 +90,26 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
         Some(t) if a.is_none_or(|s| t < s) => b,
         _ => a,
     }
+}
+
+/// A deadline as the hot paths keep it: microseconds since the start,
+/// [`NEVER`] for none. On a 32-bit core an `Option<Instant>` is 16 bytes
+/// returned through memory and compared in two steps; this is one register
+/// pair and one compare. A deadline is never [`NEVER`]: adding to an
+/// [`Instant`] saturates a microsecond before it.
+pub(crate) type At = u64;
+
+/// No deadline.
+pub(crate) const NEVER: At = u64::MAX;
+
+/// `deadline` as an [`At`].
+pub(crate) fn at(deadline: Option<Instant>) -> At {
+    deadline.map_or(NEVER, Instant::as_micros)
+}
+
+/// `at` as a deadline.
+pub(crate) fn deadline_of(at: At) -> Option<Instant> {
+    (at != NEVER).then_some(Instant(at))
 }
 
 impl AddAssign<Duration> for Instant {
@@ -102,7 +125,7 @@ mod tests {
     #[test]
     fn arithmetic_saturates_instead_of_panicking() {
         let t = Instant::from_micros(u64::MAX - 1) + Duration::from_secs(1);
-        assert_eq!(t.as_micros(), u64::MAX);
+        assert_eq!(t.as_micros(), u64::MAX - 1, "a microsecond before the end: an `At` deadline, not `NEVER`");
         assert_eq!(Instant::from_micros(5).saturating_duration_since(Instant::from_micros(9)), Duration::ZERO);
         assert_eq!(Duration::from_millis(u64::MAX).as_micros(), u64::MAX);
         assert_eq!(Duration::from_millis(3) + Duration::from_micros(500), Duration::from_micros(3_500));

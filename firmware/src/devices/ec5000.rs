@@ -22,9 +22,13 @@ use canopen_core::wire::emcy::EmcyCode;
 
 mod monitor;
 mod roller;
+mod rpdo;
 use monitor::Monitor;
 pub use monitor::{COLD_WARNING, DERATING, SPEED_WARNING, TEMPERATURE_WARNING};
-pub use roller::{BLOCKED, COLD_FAULT_C, MIN_VELOCITY, OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller, SPEED_ERROR, TOO_COLD};
+pub use roller::{
+    BLOCKED, COLD_FAULT_C, LOSS_OF_PARAMETERS, MIN_VELOCITY, OVER_CURRENT_OUTPUT, POSITION_REGULATOR, Roller, SPEED_ERROR, TOO_COLD,
+};
+use rpdo::FixedRpdos;
 
 /// The device's own rules (its hooks in the node): what its manual asks of
 /// the firmware beyond the dictionary, and the CiA 402 profile driving the
@@ -35,11 +39,13 @@ pub struct App {
     pub drive: Cia402<Roller>,
     /// The EMCY table's warnings, 0x2200 and the traffic lights (D48-D50, D53, D55).
     monitor: Monitor,
+    /// The RPDOs' fixed mappings, kept at each RPDO's first frame after reset communication.
+    rpdos: FixedRpdos,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(Roller::NEW), monitor: Monitor::NEW };
+    pub const NEW: App = App { drive: Cia402::new(Roller::NEW), monitor: Monitor::NEW, rpdos: FixedRpdos::NONE };
 }
 
 /// The profile's constants for the EC5000 (decisions D41-D44 in docs/devices/ec5000.md).
@@ -102,6 +108,8 @@ impl Application for App {
             (0x6060, 0, [mode]) if !matches!(mode, 0 | 1 | 3 | 6) => Err(AbortCode::InvalidValue),
             // D35: polarity bits 7 and 6 only.
             (0x607E, 0, [p]) if p & 0x3F != 0 => Err(AbortCode::InvalidValue),
+            // D69: the two bit rates of the manual's DeviceInfo [kbit/s].
+            (BAUD_RATE, 1, [lo, hi]) if !matches!(u16::from_le_bytes([*lo, *hi]), 125 | 250) => Err(AbortCode::InvalidValue),
             // D51: program control 1 "restart" is the only value the manual describes.
             (PROGRAM_CONTROL, 1, [v]) if *v != 1 => Err(AbortCode::InvalidValue),
             _ => Ok(()),
@@ -161,6 +169,13 @@ impl Application for App {
         self.drive.written(ctx, &PROFILE, index);
     }
 
+    /// The objects of an RPDO whose mapping is fixed (all four of the
+    /// manual's) as kept at its first frame, without asking the node for
+    /// its mapping; each to [`App::rpdo_value`].
+    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
+        rpdo::written(self, |app| &mut app.rpdos, ctx, n);
+    }
+
     /// The controlword and the target velocity straight from the RPDO's
     /// values; any other object as [`App::written`] takes it.
     fn rpdo_value(&mut self, ctx: &mut Ctx<'_>, at: EntryRef, value: u32, len: u8) -> bool {
@@ -189,15 +204,27 @@ impl Application for App {
             self.monitor.reset(ctx);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
-        // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
-        if event == NmtEvent::ResetCommunication && (1..=127).contains(&ctx.node_id()) {
-            let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
+        // D66: parameters saved under another dictionary layout are lost (an
+        // update): the drive runs on its defaults, in Fault with 0x6310 until
+        // a fault reset acknowledges it, at every reset until a save or restore.
+        if event == NmtEvent::ResetApplication && ctx.stored_set_refused() {
+            self.drive.drive.fault_at_start(LOSS_OF_PARAMETERS);
+        }
+        if event == NmtEvent::ResetCommunication {
+            // The RPDOs are configured again: their objects are found at their next frame.
+            self.rpdos = FixedRpdos::NONE;
+            // D31: 0x4650 sub 2 is the node-ID in use, after every boot and LSS change.
+            if (1..=127).contains(&ctx.node_id()) {
+                let _ = ctx.set_value(NODE_ID, 2, &[ctx.node_id()]);
+            }
         }
     }
 }
 
 /// 0x4650 "Bus Address": sub 1 static (stored) node-ID, sub 2 the active one.
 const NODE_ID: u16 = 0x4650;
+/// 0x4651 "Baud Rate": sub 1 the CAN bit rate [kbit/s] from the next start (D69).
+const BAUD_RATE: u16 = 0x4651;
 /// 0x4231 "High Temperature Warning Level" (D48).
 const WARNING_LEVEL: u16 = 0x4231;
 /// 0x1F51 "Switch Bootloader Mode" (program control): sub 1 = 1 restarts the drive.
@@ -205,15 +232,23 @@ const PROGRAM_CONTROL: u16 = 0x1F51;
 /// 0x1010/0x1011 sub 5: manufacturer parameters "SSW" (Man2).
 const SSW: u8 = 5;
 
-/// The node-ID the drive starts with when LSS stored none: 0x4650 sub 1
-/// from the stored parameters (D31), else 127. The bit rate is the image's.
+/// The node-ID and bit rate (CiA 305 table index) the drive starts with
+/// when LSS stored none: 0x4650 sub 1 (D31) and 0x4651 sub 1 (D69) from the
+/// stored parameters, else 127 and the image's bit rate.
 pub fn startup(storage: &mut dyn canopen_core::storage::Storage) -> (u8, Option<u8>) {
     let mut id = [0];
     let node_id = match store::stored_value(&od::DICTIONARY, storage, FACTORY_NODE_ID, NODE_ID, 1, &mut id) {
         Some(1) if (1..=127).contains(&id[0]) => id[0],
         _ => FACTORY_NODE_ID,
     };
-    (node_id, None)
+    let mut kbps = [0; 2];
+    let bit_rate =
+        match store::stored_value(&od::DICTIONARY, storage, FACTORY_NODE_ID, BAUD_RATE, 1, &mut kbps).map(|_| u16::from_le_bytes(kbps)) {
+            Some(250) => Some(3),
+            Some(125) => Some(4),
+            _ => None,
+        };
+    (node_id, bit_rate)
 }
 
 /// EMCY 0x6010 "Restart (powerfail, watchdog)" (M §9.1): the board reports

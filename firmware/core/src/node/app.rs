@@ -13,7 +13,7 @@
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::index;
-use crate::od::{Dictionary, EntryRef};
+use crate::od::{DataType, Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
 use crate::services::pdo::map::Source as MapSource;
 use crate::services::store::Scope;
@@ -120,6 +120,20 @@ impl ServiceOptions {
         boot_up_v3: None,
         communication_error_pre_operational: None,
     };
+}
+
+/// The image bytes of a value the device sets or reads with every frame
+/// ([`Ctx::image_slot`]): all zero bits, [`ImageSlot::NONE`], until found.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ImageSlot {
+    offset: u16,
+    /// 0: none.
+    len: u8,
+}
+
+impl ImageSlot {
+    /// No image bytes: [`Ctx::set_slot`] does nothing, [`Ctx::slot_value`] is 0.
+    pub const NONE: ImageSlot = ImageSlot { offset: 0, len: 0 };
 }
 
 /// Raw frames one [`Ctx`] holds until the node queues them.
@@ -236,6 +250,52 @@ impl Ctx<'_> {
             self.effects.wrote_bytes(entry.offset, entry.len);
         }
         Ok(())
+    }
+
+    /// The image bytes of an entry [`Ctx::locate`] found (its first 4 at
+    /// most), for [`Ctx::set_slot`] and [`Ctx::slot_value`] on every frame
+    /// ([`ImageSlot::NONE`] for an entry the image does not hold: missing,
+    /// constant or DOMAIN).
+    // Out of line: it runs at reset application only.
+    #[inline(never)]
+    pub fn image_slot(&self, entry: EntryRef) -> ImageSlot {
+        match self.dict.entry(entry) {
+            Some(e) if !e.in_rom() && e.data_type != DataType::Domain => ImageSlot { offset: e.offset, len: e.len.min(4) as u8 },
+            _ => ImageSlot::NONE,
+        }
+    }
+
+    /// The value in the image bytes of `slot` (little-endian, zero-extended),
+    /// as [`Ctx::rpdo_object`] gives it.
+    pub fn slot_value(&self, slot: ImageSlot) -> u32 {
+        let start = usize::from(slot.offset);
+        let bytes = self.image.get(start..start.wrapping_add(usize::from(slot.len))).unwrap_or(&[]);
+        // A match, as in `rpdo_object`: cheaper than a loop over the bytes.
+        match *bytes {
+            [a] => u32::from(a),
+            [a, b] => u32::from(u16::from_le_bytes([a, b])),
+            [a, b, c] => u32::from_le_bytes([a, b, c, 0]),
+            [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+            _ => 0,
+        }
+    }
+
+    /// [`Ctx::set_at`] of a value the device sets with every frame (a
+    /// statusword): the low bytes of `value` straight into the image bytes
+    /// [`Ctx::image_slot`] found, without a look-up or a check of the entry.
+    pub fn set_slot(&mut self, out: ImageSlot, value: u32) {
+        let bytes = value.to_le_bytes();
+        let start = usize::from(out.offset);
+        let Some(slot) = self.image.get_mut(start..start.wrapping_add(usize::from(out.len))) else { return };
+        let mut changed = false;
+        for (d, &s) in slot.iter_mut().zip(&bytes) {
+            changed |= *d != s;
+            *d = s;
+        }
+        // Only the TPDOs mapping its bytes look for a change, none if the value stayed the same.
+        if changed {
+            self.effects.wrote_bytes(out.offset, u16::from(out.len));
+        }
     }
 
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
@@ -362,6 +422,14 @@ impl Ctx<'_> {
         crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
     }
 
+    /// Whether the parameters last saved were refused for this dictionary's
+    /// layout (a firmware update changed it), so the node runs on its
+    /// defaults ([`crate::services::store::refused`]): for a device that
+    /// reports the loss, at reset application.
+    pub fn stored_set_refused(&mut self) -> bool {
+        crate::services::store::refused(self.dict, self.storage)
+    }
+
     /// Whether the node's store in stages is in progress (an SDO 0x1010 or
     /// 0x1011, LSS "store configuration"): until it ends, the stores above
     /// are refused (0x08000022); from the first [`Application::poll`] after
@@ -425,6 +493,18 @@ pub trait Application {
     /// [`super::Node::process`]. For a device whose timers depend only on
     /// time and on what its hooks and `app_mut` change.
     const POLL_WHEN_DUE: bool = false;
+
+    /// The device overrides an SDO hook ([`Application::upload_size`],
+    /// [`Application::read`], [`Application::download_check`],
+    /// [`Application::write`], [`Application::check_write`] or
+    /// [`Application::written`]). A device without them says `false`: the
+    /// node then serves an idle server's expedited upload, and its
+    /// expedited download of an object from 0x2000 on, straight from and
+    /// into the dictionary, without the hooks' context (a third fewer
+    /// instructions: docs/benchmarks.md, "Issue 12: the expedited SDO path,
+    /// round 5"). Set `false` with a hook overridden,
+    /// that hook is skipped for these transfers.
+    const SDO_HOOKS: bool = true;
 
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
@@ -544,6 +624,8 @@ pub trait Application {
 pub struct NoApplication;
 
 impl Application for NoApplication {
+    const SDO_HOOKS: bool = false;
+
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         let _ = (ctx, n);
     }

@@ -11,6 +11,7 @@ use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::Instant;
 use crate::wire::emcy::{Emcy, EmcyCode};
+use crate::wire::sync::SYNC_COB_ID;
 
 /// (index, sub) as an integer, `default` if the dictionary lacks it.
 // Out of line: the services read a dozen objects this way.
@@ -18,6 +19,20 @@ use crate::wire::emcy::{Emcy, EmcyCode};
 fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, default: u32) -> u32 {
     dict.read_u32(image, index, sub).unwrap_or(default)
 }
+
+/// The objects reset communication applies as a download would (sub 0 of
+/// each), with the value of one the dictionary lacks: EMCY, guarding,
+/// heartbeat and TIME read their objects again, SYNC takes the value.
+static CONFIGURED: [(u16, u32); 8] = [
+    (index::COB_ID_EMCY, 0),
+    (index::GUARD_TIME, 0),
+    (index::PRODUCER_HEARTBEAT_TIME, 0),
+    (index::COB_ID_TIME_STAMP, 0),
+    (index::COB_ID_SYNC, SYNC_COB_ID as u32),
+    (index::COMMUNICATION_CYCLE_PERIOD, 0),
+    (index::SYNCHRONOUS_WINDOW_LENGTH, 0),
+    (index::SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+];
 
 /// Active errors and queued EMCY messages a node keeps.
 pub const EMCY_SLOTS: usize = 8;
@@ -81,19 +96,22 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
 
     /// Reads every communication parameter but the PDOs' again (after reset
     /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
-    pub fn configure(&mut self, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
+    pub fn configure(&mut self, dict: &Dictionary, image: &[u8], now: Instant) {
         self.emcy.reset();
         self.guarding.reset();
-        for index in [index::COB_ID_EMCY, index::GUARD_TIME, index::PRODUCER_HEARTBEAT_TIME, index::COB_ID_TIME_STAMP] {
-            self.reconfigure(index, dict, image, node_id, now);
+        // Each object as a download applies it (EMCY, guarding, heartbeat and
+        // TIME read their objects again; SYNC and the consumers take the stored
+        // value, or the default where the dictionary lacks the object).
+        self.sync = SyncService::default();
+        for &(index, default) in CONFIGURED.iter() {
+            let value = u32_of(dict, image, index, 0, default);
+            Services::apply(self, index, 0, value, dict, image, now);
         }
-        self.sync.configure(dict, image);
-        for i in 0..HB {
-            // i < HB, at most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
-            #[allow(clippy::arithmetic_side_effects)]
-            let sub = (i + 1) as u8;
-            let value = dict.read_u32(image, index::CONSUMER_HEARTBEAT_TIME, sub).unwrap_or(0);
-            self.consumers.configure(i, value);
+        for sub in 1..=HB {
+            // At most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
+            let sub = sub as u8;
+            let value = u32_of(dict, image, index::CONSUMER_HEARTBEAT_TIME, sub, 0);
+            Services::apply(self, index::CONSUMER_HEARTBEAT_TIME, sub, value, dict, image, now);
         }
     }
 

@@ -132,8 +132,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     // Only the TPDOs these RPDOs write to look for a change.
                     self.touched |= self.comm.pdos.reaches(received);
                     // A timer started (or an RTR changed a TPDO), or an error was signalled.
+                    // Without an RPDO timer running the PDOs' deadline stayed where it was.
                     match self.comm.pdos.settled() {
-                        Some(deadline) => self.next = earliest(self.next, deadline),
+                        Some(deadline) if self.comm.pdos.rpdo_timers() => self.next = earliest(self.next, deadline),
+                        Some(_) => {}
                         None => self.quiet = false,
                     }
                     self.quiet &= !self.comm.emcy.has_queued();
@@ -153,7 +155,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if let Some((i, tx)) = server
                 && !rtr
             {
-                self.sdo_request(i, now, data, tx);
+                // The client has given up waiting for a store's answer (or aborted it).
+                if O::SERVICES.storage {
+                    self.store_answer.drop_for(i);
+                }
+                if !self.sdo_in_place(i, data, tx) {
+                    self.sdo_request(i, now, data, tx);
+                }
                 // A transfer goes on, or an answer waits for room in the queue.
                 self.quiet &= self.sdo.is_idle(i);
                 return;
@@ -230,10 +238,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
-        // The client has given up waiting for a store's answer (or aborted it).
-        if O::SERVICES.storage {
-            self.store_answer.drop_for(i);
-        }
         let staged = Cell::new(None);
         // Without storage no store starts: the compiler leaves the answer's holding out.
         let staged_ref = if O::SERVICES.storage { Some(&staged) } else { None };
@@ -258,7 +262,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// not walked (a saturated count always walks).
     // Out of line: three callers.
     #[inline(never)]
-    fn retrying(&mut self) -> u32 {
+    pub(super) fn retrying(&mut self) -> u32 {
         let overflows = self.txq.overflows();
         if overflows == self.retry_free_at && overflows != u32::MAX {
             return 0;

@@ -48,6 +48,7 @@ mod app;
 mod comm;
 mod controller;
 mod dispatch;
+mod expedited;
 mod filter;
 mod lss;
 mod objects;
@@ -58,7 +59,7 @@ mod sinks;
 mod state;
 mod store;
 
-pub use app::{Application, Claims, CommError, Ctx, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source};
+pub use app::{Application, Claims, CommError, Ctx, ImageSlot, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
 pub use controller::{CanEmcyCodes, ControllerEvent, TRANSIENT_ERROR_HOLD};
 pub use filter::{ACCEPTANCE_CAPACITY, AcceptanceList, AcceptedId};

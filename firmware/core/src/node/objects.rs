@@ -77,11 +77,11 @@ impl Ctx<'_> {
         self.effects.written = true;
         self.effects.services = true;
         self.write_comm(index, sub, data, entry)?;
-        // The SDO servers are read again by the node; these decide which COB-IDs it consumes.
-        let sdo = matches!(index, index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST);
-        self.effects.sdo_changed |= sdo;
-        self.effects.consumed_changed |= sdo
-            || matches!(index, index::COB_ID_SYNC | index::COB_ID_TIME_STAMP | index::CONSUMER_HEARTBEAT_TIME | index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_COMMUNICATION_PARAMETER_LAST | index::TPDO_COMMUNICATION_PARAMETER..=index::TPDO_COMMUNICATION_PARAMETER_LAST);
+        // The node reads the SDO servers and rebuilds its acceptance list
+        // after any communication object: both only act on what changed
+        // (a server whose COB-IDs moved, a list whose identifiers did).
+        self.effects.sdo_changed = true;
+        self.effects.consumed_changed = true;
         Ok(())
     }
 

@@ -112,12 +112,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // whose timers are due, not for every heartbeat of another node.
             pdo_deadline = self.comm.pdos.deadline();
             if self.touched != 0 || pdo_deadline.is_some_and(|d| d <= now) {
-                let changed = core::mem::take(&mut self.touched);
+                // A poll for any TPDO retries every TPDO waiting to.
+                let marked = core::mem::take(&mut self.touched) | self.retrying();
                 let Node { od, comm, txq, .. } = self;
                 let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
-                pdo_deadline = comm.pdos.poll_changed(now, changed, od.image(), &mut sink);
+                pdo_deadline = comm.pdos.poll_marked(now, marked, od.image(), &mut sink);
                 let (received, timeouts) = (sink.received, sink.timeouts);
-                self.pdo_events(now, received, timeouts);
+                // Most polls have nothing to tell (no call).
+                if received | timeouts != 0 {
+                    self.pdo_events(now, received, timeouts);
+                }
             }
         }
         let controller_deadline = self.controller.poll::<A>(now, booted, &mut self.comm.emcy);

@@ -186,7 +186,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     let _ = dict.write_unchecked(self.od.image_mut(), index::IDENTITY, 4, &serial.to_le_bytes());
                 }
             }
-            Stage::Services => self.comm.configure(dict, self.od.image(), self.node_id, now),
+            Stage::Services => self.comm.configure(dict, self.od.image(), now),
             Stage::Rpdos => self.comm.configure_pdos(dict, self.od.image(), false),
             Stage::Tpdos => {
                 self.comm.configure_pdos(dict, self.od.image(), true);

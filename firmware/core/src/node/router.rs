@@ -4,7 +4,7 @@
 //! owns it (CiA 301 §7.5.2), and every object reaches the device hooks.
 
 use crate::abort::AbortCode;
-use crate::od::access::{copy_from, upload_value};
+use crate::od::access::{copy_from, small_value, upload_value};
 use crate::od::index;
 use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
 use crate::services::store::{Job, LOAD, SAVE, Scope, StoreError};
@@ -216,6 +216,12 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
     }
 
     fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode> {
+        if !A::SDO_HOOKS {
+            // No hook to ask: the plain tables alone, as the in-place path reads them.
+            let (head, size) = small_value(self.ctx.dict, self.ctx.image, index, sub)?;
+            *buf = head;
+            return Ok(size);
+        }
         // The hooks in the order upload_size, read would call them; the
         // plain tables looked up once for both.
         let (size, entry) = match self.app.upload_size(self.ctx, index, sub) {

@@ -34,10 +34,18 @@ impl SdoTx for SdoSink<'_> {
             return false;
         }
         // Written straight into its queue slot: no frame built and copied.
-        // The 11-bit check here, ahead of `push_data`'s own: the compiler
-        // then knows every caller's identifier fits and drops that one from
-        // the TPDOs' path (4 instructions a TPDO).
-        self.cob_id <= 0x7FF && self.txq.free() > SDO_RESERVE && self.txq.push_data(self.cob_id, &data, 8)
+        self.room() && self.txq.push_data(self.cob_id, &data, 8)
+    }
+}
+
+impl SdoSink<'_> {
+    /// Whether an answer would be queued now (`send` refuses it otherwise).
+    /// The 11-bit check here, ahead of `push_data`'s own: the compiler then
+    /// knows every caller's identifier fits and drops that one from the
+    /// TPDOs' path (4 instructions a TPDO).
+    #[inline(always)]
+    pub(super) fn room(&self) -> bool {
+        self.cob_id <= 0x7FF && self.txq.free() > SDO_RESERVE
     }
 }
 

@@ -112,6 +112,25 @@ pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: 
     Ok(if entry.data_type == DataType::VisibleString { super::until_nul(value) } else { value })
 }
 
+/// What an SDO upload of (index, sub) reads from the plain tables, for an
+/// expedited answer: the value's size, and its first bytes (up to 4, the
+/// rest 0) gathered without a copy loop (which becomes a `memcpy` call).
+/// The router's expedited upload for a device without SDO hooks and the
+/// node's in-place upload share it.
+// Out of line: those two callers.
+#[inline(never)]
+pub(crate) fn small_value(dictionary: &Dictionary, image: &[u8], index: u16, sub: u8) -> Result<([u8; 4], usize), AbortCode> {
+    let value = upload_value(dictionary, image, dictionary.find(index, sub)?)?;
+    let head = match *value {
+        [a] => [a, 0, 0, 0],
+        [a, b] => [a, b, 0, 0],
+        [a, b, c] => [a, b, c, 0],
+        [a, b, c, d, ..] => [a, b, c, d],
+        [] => [0; 4],
+    };
+    Ok((head, value.len()))
+}
+
 impl ObjectAccess for DictionaryAccess<'_> {
     fn upload_size(&mut self, index: u16, sub: u8) -> Result<usize, AbortCode> {
         self.value(index, sub).map(<[u8]>::len)

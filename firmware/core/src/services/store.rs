@@ -360,8 +360,10 @@ pub fn load(dict: &Dictionary, image: &mut [u8], node_id: u8, storage: &mut dyn 
 }
 
 mod job;
+mod refused;
 #[cfg(test)]
 mod tests;
 
 pub(crate) use job::check;
 pub use job::{Job, STAGE, newest};
+pub use refused::refused;

@@ -111,17 +111,17 @@ impl SyncService {
         fn value_of(dict: &Dictionary, image: &[u8], index: u16) -> Option<u32> {
             sub_entry(object(dict, index), 0).map(|e| value_u32(dict, image, e))
         }
-        let value = |index: u16| value_of(dict, image, index);
-        let cob = value(index::COB_ID_SYNC).and_then(|v| CobIdSync::from_u32(v).ok());
-        *self = SyncService {
-            cob_id: cob.map_or(SYNC_COB_ID, |c| c.can_id),
-            producer: cob.is_some_and(|c| c.producer),
-            period: Duration::from_micros(u64::from(value(index::COMMUNICATION_CYCLE_PERIOD).unwrap_or(0))),
-            window: Duration::from_micros(u64::from(value(index::SYNCHRONOUS_WINDOW_LENGTH).unwrap_or(0))),
-            overflow: clamp_overflow(value(index::SYNCHRONOUS_COUNTER_OVERFLOW).unwrap_or(0) as u8),
-            counter: 0,
-            next: None,
-        };
+        // Through `apply`, as a download: from the defaults, each object's
+        // value (an invalid stored COB-ID keeps the default's).
+        *self = SyncService::default();
+        for (index, default) in [
+            (index::COB_ID_SYNC, u32::from(SYNC_COB_ID)),
+            (index::COMMUNICATION_CYCLE_PERIOD, 0),
+            (index::SYNCHRONOUS_WINDOW_LENGTH, 0),
+            (index::SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+        ] {
+            self.apply(index, value_of(dict, image, index).unwrap_or(default));
+        }
     }
 
     /// The CAN-ID of the SYNC, consumed and, when producing, sent.
@@ -244,7 +244,8 @@ impl SyncService {
             }
             index::SYNCHRONOUS_WINDOW_LENGTH => self.window = Duration::from_micros(u64::from(value)),
             _ => {
-                self.overflow = value as u8;
+                // A stored value can be invalid (downloads are checked).
+                self.overflow = clamp_overflow(value as u8);
                 self.restart_producer();
             }
         }

@@ -1,7 +1,8 @@
 //! The EC5000's own monitoring beyond CiA 402: the warnings of its EMCY
 //! table (0xFFA8/0xFFA9 with the threshold and hysteresis of 0x4231, D48 and
 //! D53; 0xFFD4), the monitoring values 0x2200 (D49) with the counters kept
-//! across power-off (D55), and the traffic lights 0x2210/0x2211 (D50).
+//! across power-off (D55) and the hourly power average (D67), and the
+//! traffic lights 0x2210/0x2211 (D50, the lifetime light D68).
 
 use super::roller::{COLD_FAULT_C, Roller, TOO_COLD};
 use canopen_core::axis::fault;
@@ -28,8 +29,18 @@ pub const SPEED_WARNING: EmcyCode = EmcyCode(0xFFD4);
 const WARNING_LEVEL: u16 = 0x4231;
 /// 0x2200 "Monitoring Values".
 const MONITORING: u16 = 0x2200;
+/// 0x2210 "Lifetime traffic light".
+const LIFETIME: u16 = 0x2210;
 /// 0x2211 "Health traffic light": sub 1 temperature, sub 2 power, sub 3 error quantity.
 const HEALTH: u16 = 0x2211;
+/// 0x4048 "Nominal Power" [W]: the power at the rated speed (D67).
+const NOMINAL_POWER: u16 = 0x4048;
+/// The roller's nominal life [motor revolutions]: 20,000 h at the rated
+/// 3,000 min⁻¹ (D68); the lifetime light is yellow from 90 % of it.
+const NOMINAL_LIFE_REVS: u32 = 3_600_000_000;
+const LIFETIME_YELLOW_REVS: u32 = NOMINAL_LIFE_REVS / 10 * 9;
+/// The power average's window [s of uptime]: an hour (D67, "W/h").
+const HOUR_S: u32 = 3600;
 /// Traffic light colours (0x2210/0x2211: "0 = grün, 1 = gelb, 2 = rot").
 const GREEN: u8 = 0;
 const YELLOW: u8 = 1;
@@ -39,7 +50,7 @@ const RED: u8 = 2;
 /// than the profile's own part of a frame.
 const PERIOD_US: u64 = 100_000;
 /// (object, sub, length) of each value the monitoring shows, in the order of `Monitor::shown`.
-const SHOWN: [(u16, u8, u8); 11] = [
+const SHOWN: [(u16, u8, u8); 13] = [
     (MONITORING, 1, 4),
     (MONITORING, 2, 4),
     (MONITORING, 3, 4),
@@ -47,7 +58,9 @@ const SHOWN: [(u16, u8, u8); 11] = [
     (MONITORING, 5, 2),
     (MONITORING, 6, 2),
     (MONITORING, 7, 2),
+    (MONITORING, 8, 1),
     (MONITORING, 9, 4),
+    (LIFETIME, 0, 1),
     (HEALTH, 1, 1),
     (HEALTH, 2, 1),
     (HEALTH, 3, 1),
@@ -95,8 +108,12 @@ pub struct Monitor {
     /// (an SDO 0x1011 restore) is done (D55).
     keep_pending: bool,
     stored_s: u32,
-    /// The time of the last poll [µs], `None` before the first one.
-    last_us: Option<u64>,
+    /// The time of the last run [µs], once `ran`. Not `Option`s, here and in
+    /// `extremes`: measured (`cargo xtask size`), the two made the ec5000
+    /// image 524 B larger, in the poll's deadline and in the node's code,
+    /// whose fields behind the device's moved by the 8 bytes they take.
+    last_us: u64,
+    ran: bool,
     /// The position then [inc], and increments turned towards the next motor revolution.
     last_position: i64,
     travel: u32,
@@ -105,19 +122,24 @@ pub struct Monitor {
     start_stops: u32,
     working: Seconds,
     uptime: Seconds,
-    /// Lowest and highest temperature seen [°C].
-    extremes: Option<(i16, i16)>,
+    /// Lowest and highest temperature seen [°C]; from power-on
+    /// (`i16::MAX`, `i16::MIN`) until a reading or the stored ones.
+    extremes: (i16, i16),
     quick_stops: u16,
     rotations: u32,
+    /// The mechanical energy of the hour of uptime running [mJ].
+    energy_mj: u32,
+    /// 0x2200 sub 8: the mean mechanical power of the last full hour [W] (D67).
+    power_average: u8,
     /// 0x4231 sub 1 and sub 2, read when written and at reset application
     /// (a dictionary look-up in every tick costs more than the rest).
     threshold: i16,
     /// The temperature the warnings were last checked at [°C] (`i16::MIN`: check again).
     checked_c: i16,
     hysteresis: i16,
-    /// What 0x2200 sub 1..9 and 0x2211 sub 1..3 show, so that only a change is
-    /// written, once `shown_valid` (all written since the reset).
-    shown: [i32; 11],
+    /// What 0x2200 sub 1..9, 0x2210 and 0x2211 sub 1..3 show, so that only a
+    /// change is written, once `shown_valid` (all written since the reset).
+    shown: [i32; 13],
     shown_valid: bool,
 }
 
@@ -132,7 +154,8 @@ impl Monitor {
         dirty: false,
         keep_pending: false,
         stored_s: 0,
-        last_us: None,
+        last_us: 0,
+        ran: false,
         last_position: 0,
         travel: 0,
         last_state: PdsState::NotReadyToSwitchOn,
@@ -140,14 +163,16 @@ impl Monitor {
         start_stops: 0,
         working: Seconds::ZERO,
         uptime: Seconds::ZERO,
-        extremes: None,
+        extremes: (0, 0),
         quick_stops: 0,
         rotations: 0,
+        energy_mj: 0,
+        power_average: 0,
         // Zero, as the whole node (canopen_core::node): 0x4231 is read at reset application.
         threshold: 0,
         checked_c: 0,
         hysteresis: 0,
-        shown: [0; 11],
+        shown: [0; 13],
         shown_valid: false,
     };
 
@@ -194,11 +219,13 @@ impl Monitor {
         }
         let axis = &drive.drive;
         let now = ctx.now().as_micros();
-        if self.last_us.is_some_and(|last| now.saturating_sub(last) < PERIOD_US) {
+        let since = now.saturating_sub(self.last_us);
+        if self.ran && since < PERIOD_US {
             return;
         }
-        let elapsed = self.last_us.map_or(0, |last| now.saturating_sub(last).min(u64::from(u32::MAX)) as u32);
-        self.last_us = Some(now);
+        let elapsed = if self.ran { since.min(u64::from(u32::MAX)) as u32 } else { 0 };
+        (self.last_us, self.ran) = (now, true);
+        let hour = self.uptime.s / HOUR_S;
         self.uptime.add(elapsed);
         // D49: a start is the roller leaving standstill; a position change at
         // standstill is a new reference (homing), not a turn.
@@ -217,8 +244,9 @@ impl Monitor {
         }
         self.moving = moving;
         self.last_position = position;
-        let (low, high) = self.extremes.map_or((t, t), |(low, high)| (low.min(t), high.max(t)));
-        self.extremes = Some((low, high));
+        self.average_power(ctx, axis, elapsed, hour);
+        let (low, high) = (self.extremes.0.min(t), self.extremes.1.max(t));
+        self.extremes = (low, high);
 
         // D50: the health traffic lights.
         let temperature = if matches!(axis.fault(), fault::OVER_TEMPERATURE | TOO_COLD) {
@@ -240,6 +268,8 @@ impl Monitor {
             n if n < HISTORY_DEPTH => YELLOW,
             _ => RED,
         };
+        // D68: the lifetime light, from the motor revolutions.
+        let lifetime = if self.rotations >= LIFETIME_YELLOW_REVS { YELLOW } else { GREEN };
         // In the order of `SHOWN` and `shown`.
         let values = [
             self.start_stops as i32,
@@ -249,7 +279,9 @@ impl Monitor {
             i32::from(high),
             i32::from(t),
             i32::from(self.quick_stops),
+            i32::from(self.power_average),
             self.rotations as i32,
+            i32::from(lifetime),
             i32::from(temperature),
             i32::from(power),
             i32::from(errors),
@@ -265,6 +297,30 @@ impl Monitor {
         }
     }
 
+    /// D67: adds the mechanical power the roller delivers now over the
+    /// `elapsed` µs since the last run to the hour's energy, and when the
+    /// uptime leaves hour `hour` makes its mean the power average. The power
+    /// is 0x4048 at the rated torque and speed (3,000 min⁻¹, D45): 0x4048 ×
+    /// |torque| [‰] × |speed| [‰ of rated] / 10⁶, in either direction.
+    fn average_power(&mut self, ctx: &Ctx<'_>, axis: &Roller, elapsed: u32, hour: u32) {
+        // Each factor bounded, so that no product overflows (and no
+        // saturating step costs code): speed ≤ 2000 ‰, torque ≤ 3000 ‰ (the
+        // axis's limit), 0x4048 ≤ 255 W, a sample ≤ 1 s.
+        let max = super::AXIS.max_velocity;
+        let speed = axis.velocity().unsigned_abs().min(2 * max) * 1000 / max;
+        let torque = u32::from(axis.torque().unsigned_abs()).min(3000);
+        let nominal_w = ctx.read_u32(NOMINAL_POWER, 0).unwrap_or(0).min(255);
+        let mw = nominal_w * torque * speed / 1000;
+        // A sample's part below a millijoule is dropped: less than 0.01 Wh an hour.
+        self.energy_mj = self.energy_mj.saturating_add(mw * (elapsed / 1000).min(1000) / 1000);
+        if self.uptime.s / HOUR_S != hour {
+            // The energy of an hour [Wh] is its mean power [W], rounded.
+            let wh = self.energy_mj.saturating_add(HOUR_S * 500) / (HOUR_S * 1000);
+            self.power_average = wh.min(u32::from(u8::MAX)) as u8;
+            self.energy_mj = 0;
+        }
+    }
+
     /// Whether the next [`Monitor::update`] has work before its period ends:
     /// the temperature, the speed warning or the PDS state changed since it
     /// last looked (a tick did it), or a store waits.
@@ -275,7 +331,7 @@ impl Monitor {
 
     /// When the monitoring runs next: one period after its last run.
     pub fn next(&self) -> Option<Instant> {
-        Some(Instant::from_micros(self.last_us.map_or(0, |last| last.saturating_add(PERIOD_US))))
+        Some(Instant::from_micros(if self.ran { self.last_us.saturating_add(PERIOD_US) } else { 0 }))
     }
 
     /// Writes `value` to (index, sub) with `len` bytes if it differs from what slot `i` shows.
@@ -311,6 +367,7 @@ impl Monitor {
         if core::mem::replace(&mut self.restored, true) {
             return;
         }
+        self.extremes = (i16::MAX, i16::MIN);
         for sub in REMANENT {
             let mut v = [0; 4];
             if ctx.stored(MONITORING, sub, &mut v).is_none() {
@@ -320,8 +377,8 @@ impl Monitor {
             match sub {
                 1 => self.start_stops = w,
                 2 => self.working.s = w,
-                4 => self.extremes = Some((n as i16, n as i16)),
-                5 => self.extremes = self.extremes.map(|(low, _)| (low, n as i16)),
+                4 => self.extremes.0 = n as i16,
+                5 => self.extremes.1 = n as i16,
                 7 => self.quick_stops = n as u16,
                 _ => self.rotations = w,
             }

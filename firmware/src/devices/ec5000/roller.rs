@@ -18,6 +18,8 @@ pub const POSITION_REGULATOR: EmcyCode = EmcyCode(0x8600);
 pub const OVER_CURRENT_OUTPUT: EmcyCode = EmcyCode(0xFF15);
 /// 0xFF50 "Motor speed error (heavy load)" (F).
 pub const SPEED_ERROR: EmcyCode = EmcyCode(0xFF50);
+/// 0x6310 "Loss of parameters" (F): the stored set was refused for its layout (D66).
+pub const LOSS_OF_PARAMETERS: EmcyCode = EmcyCode(0x6310);
 
 /// The lowest motor speed [inc/s]: 100 min⁻¹ at 4096 inc/rev (D52).
 pub const MIN_VELOCITY: u32 = 6_827;
@@ -52,6 +54,12 @@ impl Roller {
     /// At power-on: all zero bits.
     pub const NEW: Roller =
         Roller { axis: Axis::NEW, warned: false, derated: false, fault: EmcyCode::NO_ERROR, demand: 0, standing_ms: 0, lagging_ms: 0 };
+
+    /// The drive starts in Fault with `code`, a fault of the start-up
+    /// rather than of the roller (0x6310, D66), until a fault reset.
+    pub fn fault_at_start(&mut self, code: EmcyCode) {
+        self.fault = code;
+    }
 
     /// The speed warning 0xFFD4: the roller turns slower than half its demand (heavy load).
     pub fn slowed(&self) -> bool {

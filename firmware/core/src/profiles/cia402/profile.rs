@@ -12,7 +12,7 @@ use super::units::{self, Units};
 use super::velocity::{Window, vl_limit};
 use super::{TICK_US, mode};
 use crate::abort::AbortCode;
-use crate::node::{CommError, Ctx, NmtEvent};
+use crate::node::{CommError, Ctx, ImageSlot, NmtEvent};
 use crate::od::EntryRef;
 use crate::services::nmt::NmtState;
 use crate::time::Instant;
@@ -102,6 +102,8 @@ struct Profile {
     refresh: bool,
     /// The objects of every frame and tick, found at reset application.
     at: Located,
+    /// 0x6041's image bytes, found with them: the statusword changes with most frames.
+    status_out: ImageSlot,
 }
 
 impl Profile {
@@ -135,6 +137,7 @@ impl Profile {
         operational: false,
         refresh: false,
         at: Located::NONE,
+        status_out: ImageSlot::NONE,
     };
 }
 
@@ -155,6 +158,7 @@ impl<D: Drive> Cia402<D> {
         self.drive.reset();
         self.s = Profile::NEW;
         self.s.at = Located::find(ctx);
+        self.s.status_out = ctx.image_slot(self.s.at.at(Located::STATUSWORD));
         self.s.units = units(ctx, config);
         self.s.supported = supported_modes(ctx);
         self.s.state = PdsState::SwitchOnDisabled;

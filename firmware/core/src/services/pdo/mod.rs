@@ -80,7 +80,7 @@ use crate::abort::AbortCode;
 use crate::od::object;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
-use crate::time::{Instant, earliest};
+use crate::time::{At, Instant, NEVER, at, deadline_of, earliest};
 use crate::wire::emcy::EmcyCode;
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
@@ -182,6 +182,10 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// Bit t: TPDO t is valid and synchronous (types 0..=240 and 252: the
     /// only ones a SYNC does something for), so that a SYNC visits just those.
     sync_tpdos: u32,
+    /// The last [`Pdos::tpdos_mapping`]: image offset and length
+    /// (`offset << 16 | len`, 0: none) and its TPDOs, until a parameter or
+    /// a mapping changes (a device sets its statusword with most frames).
+    last_write: (u32, u32),
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -205,6 +209,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             tpdo_live: 0,
             sync_rpdos: 0,
             sync_tpdos: 0,
+            last_write: (0, 0),
         }
     }
 }
@@ -229,6 +234,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             tpdo_live: 0,
             sync_rpdos: 0,
             sync_tpdos: 0,
+            last_write: (0, 0),
         }
     }
 
@@ -370,6 +376,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     // Out of line: configure and write_object each had a copy (100 bytes more).
     #[inline(never)]
     fn refresh_rx_ids(&mut self) {
+        self.last_write = (0, 0);
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
         }
@@ -388,8 +395,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// The event-driven TPDOs that map any byte of `len` image bytes at
     /// `offset` (what a write there may change).
-    pub fn tpdos_mapping(&self, offset: u16, len: u16) -> u32 {
-        tpdos_mapping(&self.tpdos, self.tpdo_live, offset, len)
+    /// Answered from the last call if it asked for the same bytes and no
+    /// parameter or mapping changed since.
+    // Out of line: the node's follow-up of every write calls it.
+    #[inline(never)]
+    pub fn tpdos_mapping(&mut self, offset: u16, len: u16) -> u32 {
+        // One compare: offset and length in one word (0: none; no write is of 0 bytes).
+        let key = u32::from(offset) << 16 | u32::from(len);
+        if self.last_write.0 != key {
+            self.last_write = (key, tpdos_mapping(&self.tpdos, self.tpdo_live, offset, len));
+        }
+        self.last_write.1
     }
 
     /// The event-driven TPDOs the RPDOs of `rpdos` (bit n: RPDO n) write
@@ -486,6 +502,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
     pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+        let marked = changed | self.retrying();
+        self.poll_marked(now, marked, image, tx)
+    }
+
+    /// [`Pdos::poll_changed`] where `marked` holds the TPDOs waiting to
+    /// retry besides those that may see changed data (the node knows from
+    /// the transmit queue's overflow count when none waits, see
+    /// [`Pdos::retrying`]).
+    // Out of line: the main loop's `process` would take its two paths in.
+    #[inline(never)]
+    pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
         if !self.operational {
             return None;
         }
@@ -499,18 +526,36 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             }
             self.rpdo_timers = timers;
         }
-        let (window_end, live) = (self.window_end, self.tpdo_live);
-        for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
-            // A TPDO that cannot send has nothing to poll.
-            let bit = bit_of(t);
-            if live & bit != 0 && (changed & bit != 0 || bit == u32::MAX || tpdo.retrying() || tpdo.deadline().is_some_and(|d| d <= now)) {
-                tpdo.poll(now, window_end, image, tx);
+        // A synchronous TPDO's refused frame is dropped once the window closed.
+        let window_closed = self.window_end.is_some_and(|end| now > end);
+        let now_at = now.as_micros();
+        if T <= 32 {
+            // Only the TPDOs that can send, each bit a TPDO.
+            let mut bits = self.tpdo_live;
+            while let Some(t) = next_bit(&mut bits) {
+                if let Some(tpdo) = self.tpdos.get_mut(t)
+                    && (marked & bit_of(t) != 0 || tpdo.due() <= now_at)
+                {
+                    tpdo.poll(now, window_closed, image, tx);
+                }
+            }
+        } else {
+            for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
+                let bit = bit_of(t);
+                if tpdo.cob_id().is_some() && (marked & bit != 0 || bit == u32::MAX || tpdo.due() <= now_at) {
+                    tpdo.poll(now, window_closed, image, tx);
+                }
             }
         }
-        self.settled = false;
-        self.settled_deadline = self.deadline();
+        self.settled_deadline = deadline_of(self.walk());
         self.settled = true;
         self.settled_deadline
+    }
+
+    /// Whether an RPDO's event timer may run: only then does a received RPDO
+    /// move [`Pdos::settled`]'s deadline.
+    pub fn rpdo_timers(&self) -> bool {
+        self.rpdo_timers != 0
     }
 
     /// [`Pdos::deadline`] when it is known without walking the PDOs.
@@ -520,26 +565,35 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
     /// means at once). `None` while not Operational.
-    // Out of line: `process` and `poll_changed` share it.
-    #[inline(never)]
     pub fn deadline(&self) -> Option<Instant> {
         if !self.operational {
             return None;
         }
-        if self.settled {
-            return self.settled_deadline;
-        }
-        // Only the RPDOs whose timer may run and the TPDOs that can send have one.
-        let mut deadline = None;
+        if self.settled { self.settled_deadline } else { deadline_of(self.walk()) }
+    }
+
+    /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
+    /// run and the TPDOs that can send have one.
+    // Out of line: `deadline` and `poll_marked` share it.
+    #[inline(never)]
+    fn walk(&self) -> At {
+        let mut first = NEVER;
         if self.rpdo_timers != 0 {
-            deadline = self.rpdos.iter().fold(None, |d, r| earliest(d, r.deadline()));
+            first = self.rpdos.iter().fold(first, |d, r| d.min(at(r.deadline())));
         }
-        for (t, tpdo) in self.tpdos.iter().enumerate() {
-            if self.tpdo_live & bit_of(t) != 0 {
-                deadline = earliest(deadline, tpdo.deadline());
+        if T <= 32 {
+            let mut bits = self.tpdo_live;
+            while let Some(t) = next_bit(&mut bits) {
+                if let Some(tpdo) = self.tpdos.get(t) {
+                    first = first.min(tpdo.due());
+                }
+            }
+        } else {
+            for tpdo in self.tpdos.iter().filter(|t| t.cob_id().is_some()) {
+                first = first.min(tpdo.due());
             }
         }
-        deadline
+        first
     }
 }
 

@@ -25,7 +25,7 @@
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
-use crate::time::{Duration, Instant};
+use crate::time::{At, Duration, Instant, NEVER};
 
 /// The state of one TPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -227,14 +227,14 @@ impl Tpdo {
         }
     }
 
-    /// Timers and retries.
-    pub(super) fn poll(&mut self, now: Instant, window_end: Option<Instant>, image: &[u8], tx: &mut impl PdoTx) {
+    /// Timers and retries; `window_closed`: the synchronous window (0x1007) of the last SYNC has ended.
+    pub(super) fn poll(&mut self, now: Instant, window_closed: bool, image: &[u8], tx: &mut impl PdoTx) {
         let Some(cob_id) = self.cob_id() else { return };
         if self.is_event_driven() {
             self.service_event(now, cob_id, image, tx);
         } else if let Some(buf) = self.pending_sync {
             let len = self.mapping.as_ref().map_or(0, Mapping::len);
-            if window_end.is_some_and(|end| now > end) || self.transmit(cob_id, buf, len, tx) {
+            if window_closed || self.transmit(cob_id, buf, len, tx) {
                 self.pending_sync = None;
             }
         }
@@ -330,8 +330,6 @@ impl Tpdo {
         }
     }
 
-    /// The next time [`Tpdo::poll`] has work: the event timer, or the end of
-    /// the inhibit time of a pending event. `Instant::ZERO` means "now".
     /// Whether a frame the queue refused waits to be retried.
     pub(super) fn retrying(&self) -> bool {
         self.blocked || self.pending_sync.is_some()
@@ -349,16 +347,18 @@ impl Tpdo {
         })
     }
 
-    pub(super) fn deadline(&self) -> Option<Instant> {
-        self.cob_id()?;
+    /// The next time [`Tpdo::poll`] has work, for a TPDO that can send
+    /// (`Pdos::tpdo_live`): the event timer, or the end of the inhibit time
+    /// of a pending event; 0 means "now".
+    pub(super) fn due(&self) -> At {
         if !self.is_event_driven() {
-            return None;
+            return NEVER;
         }
         if self.event || self.change_pending {
             // The event timer has nothing to add to a pending event; a
             // refused frame waits for the next poll instead of spinning.
-            return (!self.blocked).then(|| self.inhibit_until.unwrap_or(Instant::ZERO));
+            return if self.blocked { NEVER } else { self.inhibit_until.map_or(0, Instant::as_micros) };
         }
-        (self.params.event_timer() != Duration::ZERO).then(|| self.event_at.unwrap_or(Instant::ZERO))
+        if self.params.event_timer_ms == 0 { NEVER } else { self.event_at.map_or(0, Instant::as_micros) }
     }
 }

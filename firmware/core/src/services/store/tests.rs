@@ -555,3 +555,41 @@ fn storing_objects_no_set_holds_is_an_error_not_nothing() {
     // No stored set holds a value of 0x1018 (this dictionary has none).
     assert_eq!(save_objects(&DICT, &img, 1, &mut flash, 0x1018, 0x1018), Err(StoreError::NotStored));
 }
+
+/// A set of another layout (the firmware before an update) is reported as
+/// refused until a set of this layout is written; a header a power cut left
+/// half written is not a set, and a set of this layout in the other region
+/// is what the node loads, so nothing is lost then.
+#[test]
+fn a_complete_set_of_another_layout_alone_is_reported_as_refused() {
+    static OLD: Dictionary = Dictionary { layout_id: DICT.layout_id ^ 1, ..DICT };
+    let mut flash = Flash::new();
+    assert!(!refused(&DICT, &mut flash), "nothing stored");
+    let img = boot(&mut flash, 1);
+    save(&OLD, &img, 1, &mut flash, Scope::All).unwrap();
+    assert!(newest(&DICT, &mut flash).is_none());
+    assert!(refused(&DICT, &mut flash));
+    assert!(!refused(&OLD, &mut flash), "its own layout");
+    // The payload broken: not a complete set.
+    let mut broken = Flash { regions: flash.regions, budget: None };
+    broken.regions[0][HEADER] ^= 1;
+    assert!(!refused(&DICT, &mut broken));
+    // A store of the old layout cut at any step leaves a set of it or none.
+    for cut in 1..8 {
+        let mut f = Flash { regions: [[0xFF; REGION]; 2], budget: Some(cut) };
+        let done = save(&OLD, &img, 1, &mut f, Scope::All).is_ok();
+        f.budget = None;
+        assert_eq!(refused(&DICT, &mut f), done, "cut {cut}");
+    }
+    // A save of this layout ends it, though an old set is still in the other region.
+    save(&OLD, &img, 1, &mut flash, Scope::All).unwrap();
+    assert!(refused(&DICT, &mut flash), "two old sets");
+    save(&DICT, &img, 1, &mut flash, Scope::Communication).unwrap();
+    assert!(flash.regions.iter().any(|r| r[8..12] == OLD.layout_id.to_le_bytes()));
+    assert!(!refused(&DICT, &mut flash));
+    // So does a restore of the defaults.
+    let mut flash = Flash::new();
+    save(&OLD, &img, 1, &mut flash, Scope::All).unwrap();
+    restore_defaults(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    assert!(!refused(&DICT, &mut flash));
+}

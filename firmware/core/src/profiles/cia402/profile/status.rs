@@ -61,7 +61,7 @@ impl<D: Drive> Cia402<D> {
         let word = self.statusword();
         if word != self.s.statusword {
             self.s.statusword = word;
-            objects::set_at(ctx, self.s.at.at(Located::STATUSWORD), 2, i32::from(word));
+            ctx.set_slot(self.s.status_out, u32::from(word));
         }
     }
 

@@ -306,6 +306,19 @@ fn an_rpdo_reaches_only_the_event_driven_tpdos_that_map_what_it_writes() {
 }
 
 #[test]
+fn the_tpdos_a_write_reaches_follow_a_new_mapping() {
+    // 0x2002 (offset 145, 4 bytes) is in TPDO1; asked again, the answer is remembered.
+    let mut node = Node::operational(ms(0));
+    assert_eq!(node.pdos.tpdos_mapping(145, 4), 0b1);
+    assert_eq!(node.pdos.tpdos_mapping(145, 4), 0b1);
+    // A new mapping: the same bytes reach what maps them now.
+    node.remap_tpdo(0, &[0x2000_0008], 0x181, 255);
+    assert_eq!(node.pdos.tpdos_mapping(145, 4), 0);
+    node.remap_tpdo(1, &[0x2002_0020], 0x281, 255);
+    assert_eq!(node.pdos.tpdos_mapping(145, 4), 0b10);
+}
+
+#[test]
 fn a_poll_for_other_tpdos_leaves_a_changed_one_for_its_own_turn() {
     let mut node = Node::operational(ms(0));
     assert_eq!(node.poll(ms(0)), None);
