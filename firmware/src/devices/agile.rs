@@ -25,6 +25,7 @@ use canopen_core::wire::emcy::EmcyCode;
 mod abort_connection;
 mod data_sets;
 mod faults;
+mod ramps;
 
 pub use faults::AgileDrive;
 
@@ -138,10 +139,12 @@ impl Application for App {
         Some(result)
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
         if index == ABORT_CONNECTION {
             abort_connection::to_p388(ctx);
         }
+        // D54: the vl limits and ramps into p.418-p.425.
+        ramps::written(ctx, index, sub);
         // §11.3 (M-L3279-3282), D45: "enable operation" in Switch on disabled
         // runs Shutdown first (0x0000 → 0x000F), then transitions 3 and 4.
         if index == CONTROLWORD && self.drive.state() == PdsState::SwitchOnDisabled {
@@ -171,6 +174,7 @@ impl Application for App {
         let bus_fault = match event {
             NmtEvent::ResetApplication => {
                 abort_connection::at_power_on(ctx);
+                ramps::at_power_on(ctx);
                 self.drive.drive.axis.configure(AXIS);
                 self.operational = false;
                 None
