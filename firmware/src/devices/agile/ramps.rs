@@ -27,11 +27,12 @@ fn targets(index: u16, sub: u8) -> Option<([u16; 2], bool)> {
 /// (index, sub) was written: the parameters it drives take its value in RAM.
 pub(super) fn written(ctx: &mut Ctx<'_>, index: u16, sub: u8) {
     let Some((parameters, ramp)) = targets(index, sub) else { return };
-    let pole_pairs = i64::from(ctx.read_u32(POLE_PAIRS, 1).unwrap_or(2));
-    let speed = i64::from(ctx.read_u32(index, if ramp { 1 } else { sub }).unwrap_or(0));
-    let per_second = if ramp { i64::from(ctx.read_u32(index, 2).unwrap_or(1).max(1)) } else { 1 };
-    // min⁻¹ (per s) to 0.01 Hz (per s): · p · 100 / 60; at most 32767 · 24 · 100 / 60.
-    let hundredths = (speed * pole_pairs * 100 / 60 / per_second) as i32;
+    let pole_pairs = ctx.read_u32(POLE_PAIRS, 1).unwrap_or(2);
+    let speed = ctx.read_u32(index, if ramp { 1 } else { sub }).unwrap_or(0);
+    let per_second = if ramp { ctx.read_u32(index, 2).unwrap_or(1).max(1) } else { 1 };
+    // min⁻¹ (per s) to 0.01 Hz (per s): · p · 100 / 60, in 32 bits (no 64-bit division
+    // on the MCU): 32767 · 24 · 100 fits; larger values saturate.
+    let hundredths = (speed.saturating_mul(pole_pairs).saturating_mul(100) / 60 / per_second).min(i32::MAX as u32) as i32;
     for parameter in parameters {
         for set in 1..=4 {
             let _ = ctx.set_value(parameter, set, &hundredths.to_le_bytes());
