@@ -599,3 +599,30 @@ fn m_l2780_vl_limits_and_ramps_go_into_parameters_418_to_425_in_ram() {
     // 300 min⁻¹/s with the 4 pole pairs stored in data set 1 (written at sub 1: EEPROM) = 20.00 Hz/s.
     ex(&mut b, &[0x40, 0xA4, 0x21, 0x01], &[0x43, 0xA4, 0x21, 0x01, 0xD0, 0x07]);
 }
+
+// ---- §9.2.4: SYNC monitoring (M-L1440-1448) ------------------------------------------
+
+#[test]
+fn m_l1444_a_sync_more_than_50_percent_late_is_f20_24_with_the_0x6007_reaction() {
+    let mut b = running();
+    // A4: 0x1006 = 10 ms.
+    ex(&mut b, &[0x23, 0x06, 0x10, 0x00, 0x10, 0x27, 0x00, 0x00], &[0x60, 0x06, 0x10, 0x00]);
+    b.nmt(0x01, 1);
+    // SYNCs 10 and 14 ms apart (within 15 ms): nothing.
+    for t in [310u64, 320, 334, 344] {
+        let out = b.rx(ms(t), 0x080, &[]);
+        assert!(!out.iter().any(|(id, _)| *id == 0x081), "{t} ms: {out:x?}");
+    }
+    assert!(!b.run_until(ms(359)).iter().any(|(_, (id, _))| *id == 0x081), "15 ms after the last SYNC: still in time");
+    // Then none: more than 15 ms after the last one (344 ms), F20.24 and Fault (0x6007 = 1).
+    let out = b.run_until(ms(362));
+    let emcy: Vec<_> = out.iter().filter(|(_, (id, _))| *id == 0x081).map(|(t, (_, d))| (t.as_micros() / 1000, d.clone())).collect();
+    assert_eq!(emcy, [(359, vec![0x00, 0x10, 0x01, 0, 0, 0, 0x24, 0x20])]);
+    let statusword = b.sdo_upload(1, 0x6041, 0).expect("0x6041");
+    assert_eq!(statusword[0] & 0x4F, 0x08, "Fault");
+    // 0x1006 = 0: no monitoring (M-L1446).
+    let mut b = running();
+    b.nmt(0x01, 1);
+    b.rx(ms(310), 0x080, &[]);
+    assert!(!b.run_until(ms(500)).iter().any(|(_, (id, _))| *id == 0x081));
+}
