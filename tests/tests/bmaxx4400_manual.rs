@@ -232,15 +232,14 @@ fn m_l1308_store_and_restore_only_sub_2_and_only_in_pre_operational() {
     assert_eq!(b.sdo_write(4, 0x1011, 2, b"load"), abort(0x1011, 2, 0x0800_0022));
     b.nmt(0x80, 4);
     // Sub 2 stores the communication parameters but 0x100E and 0x1014, "nicht abspeicherbar"
-    // (M-L1303, M-L1357): after a reset communication they are back at their defaults.
+    // (M-L1303, M-L1357): after a reset communication 0x1014 is back at its default (0x100E
+    // takes only its default, M-L1264).
     assert_eq!(b.sdo_write(4, 0x1017, 0, &100u16.to_le_bytes()), ok_write(0x1017, 0));
     assert_eq!(b.sdo_write(4, 0x1014, 0, &0x8000_0084u32.to_le_bytes()), ok_write(0x1014, 0));
-    assert_eq!(b.sdo_write(4, 0x100E, 0, &0x0000_0715u32.to_le_bytes()), ok_write(0x100E, 0));
     assert_eq!(b.sdo_write(4, 0x1010, 2, b"save"), ok_write(0x1010, 2));
     b.nmt(0x82, 4);
     assert_eq!(b.sdo_upload(4, 0x1017, 0), Ok(vec![100, 0]), "stored");
     assert_eq!(b.sdo_upload(4, 0x1014, 0), Ok(vec![0x84, 0, 0, 0]), "not stored");
-    assert_eq!(b.sdo_upload(4, 0x100E, 0), Ok(vec![0x04, 0x07, 0, 0]), "not stored");
     assert_eq!(b.sdo_write(4, 0x1011, 2, b"load"), ok_write(0x1011, 2));
     b.nmt(0x82, 4);
     assert_eq!(b.sdo_upload(4, 0x1017, 0), Ok(vec![0, 0]), "restored to its default");
@@ -287,4 +286,13 @@ fn m_l1250_sync_interval_1000_2000_4000_or_8000_us() {
     // Above the EDS's 8000: "value too high".
     assert_eq!(b.sdo_write(1, 0x1006, 0, &16000u32.to_le_bytes()), abort(0x1006, 0, 0x0609_0031));
     assert_eq!(b.sdo_upload(1, 0x1006, 0), Ok(8000u32.to_le_bytes().to_vec()));
+}
+
+#[test]
+fn m_l1264_guarding_cob_id_0x100e_is_700h_plus_the_node_id() {
+    let mut b = node(1);
+    assert_eq!(b.sdo_upload(1, 0x100E, 0), Ok(vec![0x01, 0x07, 0, 0]));
+    assert_eq!(b.sdo_write(1, 0x100E, 0, &0x715u32.to_le_bytes()), abort(0x100E, 0, 0x0609_0030));
+    assert_eq!(b.sdo_write(1, 0x100E, 0, &0x701u32.to_le_bytes()), ok_write(0x100E, 0));
+    assert_eq!(b.rtr(ms(20), 0x701), [(0x701, vec![0x7F])]);
 }

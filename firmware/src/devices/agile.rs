@@ -19,12 +19,14 @@ use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::{Cia402, Config};
 use canopen_core::services::nmt::NmtState;
 use canopen_core::services::store;
-use canopen_core::time::Instant;
+use canopen_core::time::{Instant, earliest};
 use canopen_core::wire::emcy::EmcyCode;
 
 mod abort_connection;
 mod data_sets;
 mod faults;
+mod ramps;
+mod sync_watch;
 
 pub use faults::AgileDrive;
 
@@ -39,11 +41,13 @@ pub struct App {
     operational: bool,
     /// The fault key of the last bus fault (F20.nn, F23.nn).
     bus_fault: u16,
+    /// The SYNC monitoring (D55).
+    sync: sync_watch::SyncWatch,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(AgileDrive::NEW), operational: false, bus_fault: 0 };
+    pub const NEW: App = App { drive: Cia402::new(AgileDrive::NEW), operational: false, bus_fault: 0, sync: sync_watch::SyncWatch::NEW };
 }
 
 /// The profile's constants for the Agile (decisions D42-D47 in docs/devices/agile.md).
@@ -138,10 +142,12 @@ impl Application for App {
         Some(result)
     }
 
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, _by: Source) {
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
         if index == ABORT_CONNECTION {
             abort_connection::to_p388(ctx);
         }
+        // D54: the vl limits and ramps into p.418-p.425.
+        ramps::written(ctx, index, sub);
         // §11.3 (M-L3279-3282), D45: "enable operation" in Switch on disabled
         // runs Shutdown first (0x0000 → 0x000F), then transitions 3 and 4.
         if index == CONTROLWORD && self.drive.state() == PdsState::SwitchOnDisabled {
@@ -157,20 +163,29 @@ impl Application for App {
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        if self.operational {
+            self.sync.seen(ctx.now());
+        }
         self.drive.sample(ctx);
         self.actuals(ctx);
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        // D55: a SYNC overdue is F20.24, reacting as 0x6007 says while the drive function is on.
+        let (lost, deadline) = self.sync.check(ctx);
+        if lost && self.drive.state().drive_function() {
+            self.bus_fault(ctx, NmtEvent::CommunicationError(CommError::BusOff), FAULT_SYNC);
+        }
         let next = self.drive.poll(ctx, &PROFILE);
         self.actuals(ctx);
-        next
+        earliest(next, deadline)
     }
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         let bus_fault = match event {
             NmtEvent::ResetApplication => {
                 abort_connection::at_power_on(ctx);
+                ramps::at_power_on(ctx);
                 self.drive.drive.axis.configure(AXIS);
                 self.operational = false;
                 None
@@ -180,6 +195,9 @@ impl Application for App {
                 let _ = ctx.set_value(NODE_STATE, 0, &u16::from(state.reported().code()).to_le_bytes());
                 let left = self.operational && state != NmtState::Operational;
                 self.operational = state == NmtState::Operational;
+                if !self.operational {
+                    self.sync.stop();
+                }
                 left.then_some(FAULT_NMT)
             }
             NmtEvent::CommunicationError(CommError::BusOff) => Some(FAULT_BUS_OFF),
@@ -298,6 +316,8 @@ use abort_connection::{ABORT_CONNECTION, CAN_FAULT_BEHAVIOUR};
 const FAULT_BUS_OFF: u16 = 0x2021;
 /// F20.22 guarding failure.
 const FAULT_GUARDING: u16 = 0x2022;
+/// F20.24 SYNC error (SYNC timing).
+const FAULT_SYNC: u16 = 0x2024;
 /// F20.25 NMT state change (Operational → other).
 const FAULT_NMT: u16 = 0x2025;
 /// F20.2A-2C RPDO1-3 event-time timeout (§9.2.19).

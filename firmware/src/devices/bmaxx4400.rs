@@ -152,6 +152,10 @@ impl Application for App {
             (ip::TIME_PERIOD, [i]) if sub == 2 => ip::period(ctx, Some(*i as i8)).map(|_| ()).ok_or(AbortCode::InvalidValue),
             // D55: the BACI's 8 set-point and 8 actual-value slots.
             (0x1600..=0x1603 | 0x1A00..=0x1A03, [n]) if sub == 0 && slots::exceeded(ctx, index, *n) => Err(AbortCode::PdoTooLong),
+            // D13: guarding answers on 700h + node-ID (CiA 301 v4); 0x100E shows it and takes no other.
+            (GUARDING_COB_ID, [a, b, c, d]) if u32::from_le_bytes([*a, *b, *c, *d]) != 0x700 + u32::from(ctx.node_id()) => {
+                Err(AbortCode::InvalidValue)
+            }
             // D15: the SYNC interval 1000, 2000, 4000 or 8000 µs (0: not set), M-L1250-1252.
             (COMMUNICATION_CYCLE, [a, b, c, d]) if !matches!(u32::from_le_bytes([*a, *b, *c, *d]), 0 | 1000 | 2000 | 4000 | 8000) => {
                 Err(AbortCode::InvalidValue)
@@ -314,6 +318,9 @@ fn running(ctx: &Ctx<'_>) -> (i8, u16) {
 
 /// Statusword bits 12 and 10 in hm: homing attained.
 const HOMING_ATTAINED: u16 = statusword::BIT12 | statusword::TARGET_REACHED;
+
+/// 0x100E COB-ID node guarding (DS 301 V3).
+const GUARDING_COB_ID: u16 = 0x100E;
 
 /// 0x1006 communication cycle period [µs].
 const COMMUNICATION_CYCLE: u16 = 0x1006;

@@ -47,7 +47,8 @@ pub(super) fn target(ctx: &Ctx<'_>, index: u16, sub: u8) -> Option<Target> {
     let set = sub.checked_sub(if ram { 5 } else { 0 })?;
     // Four data sets: an ARRAY whose sub 0 is the highest sub-index, 9.
     let four = dict.find(index, 9).is_ok();
-    if !four && set != 0 {
+    // Data sets 0-4 (sub 0-9); a one-value parameter has data set 0 alone.
+    if set > 4 || !four && set != 0 {
         return None;
     }
     let entry = dict.find(index, if four { set.max(1) } else { 0 }).ok()?;
