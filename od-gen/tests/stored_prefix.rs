@@ -1,9 +1,10 @@
 //! The RAM layout rule: the values a stored parameter set holds (writable
-//! values in RAM, and the read-only objects a device keeps, `Eds::kept`)
-//! come first, as one prefix of `stored_len` bytes; the rest follow. Checked
+//! values in RAM but the commands and the error history, and the read-only
+//! objects a device keeps, `Eds::kept`) come first, as one prefix of `stored_len` bytes; the rest follow. Checked
 //! on the firmware's device files with the objects their build keeps.
 
 use canopen_core::od::{Attr, Entry};
+use od_gen::codegen::NEVER_STORED;
 use od_gen::runtime::Tables;
 use od_gen::{Options, load};
 use std::path::Path;
@@ -18,7 +19,7 @@ fn check(device: &str, kept: &[u16]) -> usize {
     eds.kept = kept.to_vec();
     let t = Tables::new(&eds).unwrap_or_else(|e| panic!("{device}: {}", e.0));
     let ram: Vec<&Entry> = t.entries.iter().filter(|e| !e.attr.contains(Attr::IN_ROM) && e.len > 0).collect();
-    let is_stored = |e: &Entry| e.attr.contains(Attr::WRITE) || kept.contains(&{ e.index });
+    let is_stored = |e: &Entry| !NEVER_STORED.contains(&{ e.index }) && (e.attr.contains(Attr::WRITE) || kept.contains(&{ e.index }));
     let end = |e: &Entry| usize::from(e.offset) + usize::from(e.len);
     for e in &ram {
         let inside = end(e) <= t.stored_len;

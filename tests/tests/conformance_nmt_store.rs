@@ -389,9 +389,9 @@ fn an_nmt_command_during_a_reset_is_ignored_as_while_initialising() {
 
 /// The error history is a record of what happened since the last reset, not
 /// a parameter: a set saved while it holds errors brings none of them back
-/// (CiA 301 §7.5.2.5): od-gen lays 0x1003 out after the stored prefix, so a
-/// reset does not show "one error" with an empty entry under it. The saved
-/// parameter still comes back.
+/// (CiA 301 §7.5.2.5). Before, od-gen stored 0x1003 sub 0 as any writable
+/// value, and a reset showed "one error" with an empty entry under it. The
+/// saved parameter still comes back.
 #[test]
 fn a_saved_set_does_not_bring_back_the_error_history() {
     let mut b = interop();

@@ -17,12 +17,13 @@ use canopen_core::services::store::{self, Part, Scope};
 use common::{Bench, ms};
 use firmware::boards::region_size;
 use hal_host::storage::{Layout, MemStorage};
+use od_gen::codegen::NEVER_STORED;
 
 const ID: u8 = 5;
 
 /// Whether the store keeps `e` (a writable value in RAM).
 fn stored(e: &Entry) -> bool {
-    e.attr.contains(Attr::WRITE) && !e.in_rom() && e.len > 0
+    e.attr.contains(Attr::WRITE) && !e.in_rom() && e.len > 0 && !NEVER_STORED.contains(&{ e.index })
 }
 
 fn scope_of(index: u16) -> Scope {

@@ -39,8 +39,15 @@ pub(crate) struct Layout<'a> {
 /// ([`Eds::kept`]). A `$NODEID` value is in RAM even when `const`, but is
 /// stored only if writable.
 fn stored(eds: &Eds, index: u16, attr: Attr, len: usize) -> bool {
-    !attr.contains(Attr::IN_ROM) && len > 0 && (attr.contains(Attr::WRITE) || eds.kept.contains(&index))
+    !attr.contains(Attr::IN_ROM) && len > 0 && !NEVER_STORED.contains(&index) && (attr.contains(Attr::WRITE) || eds.kept.contains(&index))
 }
+
+/// Writable objects that are commands or a record of events, not parameters:
+/// a stored set never carries them. 0x1003 sub 0 is written only to clear
+/// the history, whose entries are read-only and not stored either (a stored
+/// count would show errors after a reset that has none, CiA 301 §7.5.2.5);
+/// 0x1010/0x1011 are the store and restore commands, 0x1F51 program control.
+pub const NEVER_STORED: [u16; 4] = [0x1003, 0x1010, 0x1011, 0x1F51];
 
 pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
     let mut l = Layout {

@@ -13,6 +13,7 @@
 mod accessors;
 mod emit;
 mod layout;
+pub use layout::NEVER_STORED;
 mod names;
 mod tables;
 

@@ -209,7 +209,7 @@ pub const ENTRY_COUNT: usize = 338;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 932;
 /// Bytes at the front of the RAM image a stored parameter set holds.
-pub const STORED_SIZE: usize = 830;
+pub const STORED_SIZE: usize = 806;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 41;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -244,7 +244,7 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 830, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 806, NO_LIMITS), // 0x1001:00 Error register
     Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
     Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4, 0), // 0x1006:00 Communication cycle period
     Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1007:00 Synchronous window length
@@ -253,114 +253,114 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 24, NO_LIMITS), // 0x100A:00 Manufacturer software version
     Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 12, NO_LIMITS), // 0x100C:00 Guard time
     Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 14, NO_LIMITS), // 0x100D:00 Life time factor
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 831, NO_LIMITS), // 0x1010:00 Store parameters / Highest sub-index supported
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 15, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 19, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 23, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 832, NO_LIMITS), // 0x1011:00 Restore default parameters / Highest sub-index supported
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 27, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 31, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 35, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 39, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 807, NO_LIMITS), // 0x1010:00 Store parameters / Highest sub-index supported
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 808, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 812, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 816, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 820, NO_LIMITS), // 0x1011:00 Restore default parameters / Highest sub-index supported
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 821, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 825, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 829, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 15, NO_LIMITS), // 0x1014:00 COB-ID EMCY
     Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 833, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 43, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
-    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 47, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
-    Entry::new(0x1016, 0x03, DataType::Unsigned32, RW, 4, 51, NO_LIMITS), // 0x1016:03 Consumer heartbeat time / Consumer heartbeat time 3
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 55, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 19, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 23, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
+    Entry::new(0x1016, 0x03, DataType::Unsigned32, RW, 4, 27, NO_LIMITS), // 0x1016:03 Consumer heartbeat time / Consumer heartbeat time 3
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 31, NO_LIMITS), // 0x1017:00 Producer heartbeat time
     Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 834, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
     Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 29, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
     Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 33, NO_LIMITS), // 0x1018:02 Identity object / Product code
     Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 37, NO_LIMITS), // 0x1018:03 Identity object / Revision number
     Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 835, NO_LIMITS), // 0x1018:04 Identity object / Serial number
     Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 839, NO_LIMITS), // 0x1029:00 Error behavior / Highest sub-index supported
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 57, 1), // 0x1029:01 Error behavior / Communication error
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 33, 1), // 0x1029:01 Error behavior / Communication error
     Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 840, NO_LIMITS), // 0x1200:00 SDO server parameter / Highest sub-index supported
     Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 841, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
     Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 845, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
     Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 849, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / Highest sub-index supported
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 58, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 62, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / Transmission type
-    Entry::new(0x1400, 0x03, DataType::Unsigned16, RW, 2, 63, NO_LIMITS), // 0x1400:03 RPDO1 communication parameter / Inhibit time
-    Entry::new(0x1400, 0x05, DataType::Unsigned16, RW, 2, 65, NO_LIMITS), // 0x1400:05 RPDO1 communication parameter / Event timer
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 34, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 38, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / Transmission type
+    Entry::new(0x1400, 0x03, DataType::Unsigned16, RW, 2, 39, NO_LIMITS), // 0x1400:03 RPDO1 communication parameter / Inhibit time
+    Entry::new(0x1400, 0x05, DataType::Unsigned16, RW, 2, 41, NO_LIMITS), // 0x1400:05 RPDO1 communication parameter / Event timer
     Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 850, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / Highest sub-index supported
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 67, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 71, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / Transmission type
-    Entry::new(0x1401, 0x03, DataType::Unsigned16, RW, 2, 72, NO_LIMITS), // 0x1401:03 RPDO2 communication parameter / Inhibit time
-    Entry::new(0x1401, 0x05, DataType::Unsigned16, RW, 2, 74, NO_LIMITS), // 0x1401:05 RPDO2 communication parameter / Event timer
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 43, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 47, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / Transmission type
+    Entry::new(0x1401, 0x03, DataType::Unsigned16, RW, 2, 48, NO_LIMITS), // 0x1401:03 RPDO2 communication parameter / Inhibit time
+    Entry::new(0x1401, 0x05, DataType::Unsigned16, RW, 2, 50, NO_LIMITS), // 0x1401:05 RPDO2 communication parameter / Event timer
     Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 851, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / Highest sub-index supported
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 76, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 80, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / Transmission type
-    Entry::new(0x1402, 0x03, DataType::Unsigned16, RW, 2, 81, NO_LIMITS), // 0x1402:03 RPDO3 communication parameter / Inhibit time
-    Entry::new(0x1402, 0x05, DataType::Unsigned16, RW, 2, 83, NO_LIMITS), // 0x1402:05 RPDO3 communication parameter / Event timer
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 85, 2), // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 86, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / Mapped object 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 90, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / Mapped object 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 94, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / Mapped object 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 98, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / Mapped object 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 102, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / Mapped object 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 106, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / Mapped object 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 110, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / Mapped object 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 114, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / Mapped object 8
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 118, 2), // 0x1601:00 RPDO2 mapping parameter / Number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 119, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / Mapped object 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 123, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / Mapped object 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 127, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / Mapped object 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 131, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / Mapped object 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 135, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / Mapped object 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 139, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / Mapped object 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 143, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / Mapped object 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 147, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / Mapped object 8
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 151, 2), // 0x1602:00 RPDO3 mapping parameter / Number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 152, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / Mapped object 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 156, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / Mapped object 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 160, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / Mapped object 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 164, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / Mapped object 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 168, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / Mapped object 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 172, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / Mapped object 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 176, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / Mapped object 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 180, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / Mapped object 8
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 52, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 56, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / Transmission type
+    Entry::new(0x1402, 0x03, DataType::Unsigned16, RW, 2, 57, NO_LIMITS), // 0x1402:03 RPDO3 communication parameter / Inhibit time
+    Entry::new(0x1402, 0x05, DataType::Unsigned16, RW, 2, 59, NO_LIMITS), // 0x1402:05 RPDO3 communication parameter / Event timer
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 61, 2), // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 62, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / Mapped object 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 66, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / Mapped object 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 70, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / Mapped object 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 74, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / Mapped object 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 78, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / Mapped object 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 82, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / Mapped object 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 86, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / Mapped object 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 90, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / Mapped object 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 94, 2), // 0x1601:00 RPDO2 mapping parameter / Number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 95, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / Mapped object 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 99, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / Mapped object 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 103, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / Mapped object 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 107, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / Mapped object 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 111, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / Mapped object 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 115, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / Mapped object 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 119, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / Mapped object 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 123, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / Mapped object 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 127, 2), // 0x1602:00 RPDO3 mapping parameter / Number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 128, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / Mapped object 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 132, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / Mapped object 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 136, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / Mapped object 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 140, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / Mapped object 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 144, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / Mapped object 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 148, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / Mapped object 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 152, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / Mapped object 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 156, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / Mapped object 8
     Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 852, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / Highest sub-index supported
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 184, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 188, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / Transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 189, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / Inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 191, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / Event timer
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 160, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 164, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / Transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 165, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / Inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 167, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / Event timer
     Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 853, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / Highest sub-index supported
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 193, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 197, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / Transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 198, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / Inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 200, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / Event timer
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 169, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 173, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / Transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 174, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / Inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 176, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / Event timer
     Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 854, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / Highest sub-index supported
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 202, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 206, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / Transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 207, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / Inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 209, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / Event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 211, 2), // 0x1A00:00 TPDO1 mapping parameter / Number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 212, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / Mapped object 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 216, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / Mapped object 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 220, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / Mapped object 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 224, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / Mapped object 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 228, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / Mapped object 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 232, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / Mapped object 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 236, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / Mapped object 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 240, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / Mapped object 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 244, 2), // 0x1A01:00 TPDO2 mapping parameter / Number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / Mapped object 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / Mapped object 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 253, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / Mapped object 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 257, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / Mapped object 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 261, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / Mapped object 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 265, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / Mapped object 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 269, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / Mapped object 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 273, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / Mapped object 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 277, 2), // 0x1A02:00 TPDO3 mapping parameter / Number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / Mapped object 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / Mapped object 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 286, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / Mapped object 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 290, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / Mapped object 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 294, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / Mapped object 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 298, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / Mapped object 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 302, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / Mapped object 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 306, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / Mapped object 8
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 178, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 182, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / Transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 183, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / Inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 185, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / Event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 187, 2), // 0x1A00:00 TPDO1 mapping parameter / Number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / Mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 192, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / Mapped object 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 196, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / Mapped object 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 200, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / Mapped object 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 204, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / Mapped object 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 208, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / Mapped object 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 212, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / Mapped object 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 216, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / Mapped object 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 220, 2), // 0x1A01:00 TPDO2 mapping parameter / Number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 221, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / Mapped object 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 225, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / Mapped object 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 229, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / Mapped object 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 233, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / Mapped object 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 237, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / Mapped object 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 241, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / Mapped object 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / Mapped object 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / Mapped object 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 253, 2), // 0x1A02:00 TPDO3 mapping parameter / Number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 254, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / Mapped object 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 258, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / Mapped object 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 262, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / Mapped object 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 266, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / Mapped object 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 270, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / Mapped object 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 274, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / Mapped object 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / Mapped object 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / Mapped object 8
     Entry::new(0x20E4, 0x00, DataType::Integer32, RO, 4, 855, 3), // 0x20E4:00 Internal reference frequency
     Entry::new(0x20F9, 0x00, DataType::Unsigned16, RO, 2, 859, 4), // 0x20F9:00 Active data set
     Entry::new(0x20FA, 0x00, DataType::Unsigned16, RO, 2, 861, NO_LIMITS), // 0x20FA:00 Digital inputs
@@ -368,216 +368,216 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x2104, 0x00, DataType::Unsigned16, RO, 2, 865, NO_LIMITS), // 0x2104:00 Current error
     Entry::new(0x210E, 0x00, DataType::Unsigned16, RO, 2, 867, NO_LIMITS), // 0x210E:00 Warnings
     Entry::new(0x2112, 0x00, DataType::Unsigned16, RO, 2, 869, NO_LIMITS), // 0x2112:00 Application warnings
-    Entry::new(0x2114, 0x00, DataType::Unsigned16, RW, 2, 310, 5), // 0x2114:00 CAN interface
+    Entry::new(0x2114, 0x00, DataType::Unsigned16, RW, 2, 286, 5), // 0x2114:00 CAN interface
     Entry::new(0x211A, 0x00, DataType::Integer32, RO, 4, 871, 3), // 0x211A:00 Bus reference frequency
     Entry::new(0x211B, 0x00, DataType::Integer32, RO, 4, 875, 3), // 0x211B:00 Ramp reference frequency
     Entry::new(0x2174, 0x00, DataType::Unsigned8, RO, 1, 879, NO_LIMITS), // 0x2174:00 Rated speed / Highest sub-index supported
-    Entry::new(0x2174, 0x01, DataType::Unsigned16, RW, 2, 312, NO_LIMITS), // 0x2174:01 Rated speed / Data set 1
-    Entry::new(0x2174, 0x02, DataType::Unsigned16, RW, 2, 314, NO_LIMITS), // 0x2174:02 Rated speed / Data set 2
-    Entry::new(0x2174, 0x03, DataType::Unsigned16, RW, 2, 316, NO_LIMITS), // 0x2174:03 Rated speed / Data set 3
-    Entry::new(0x2174, 0x04, DataType::Unsigned16, RW, 2, 318, NO_LIMITS), // 0x2174:04 Rated speed / Data set 4
-    Entry::new(0x2174, 0x05, DataType::Unsigned16, RW, 2, 320, NO_LIMITS), // 0x2174:05 Rated speed / All data sets RAM
-    Entry::new(0x2174, 0x06, DataType::Unsigned16, RW, 2, 322, NO_LIMITS), // 0x2174:06 Rated speed / Data set 1 RAM
-    Entry::new(0x2174, 0x07, DataType::Unsigned16, RW, 2, 324, NO_LIMITS), // 0x2174:07 Rated speed / Data set 2 RAM
-    Entry::new(0x2174, 0x08, DataType::Unsigned16, RW, 2, 326, NO_LIMITS), // 0x2174:08 Rated speed / Data set 3 RAM
-    Entry::new(0x2174, 0x09, DataType::Unsigned16, RW, 2, 328, NO_LIMITS), // 0x2174:09 Rated speed / Data set 4 RAM
+    Entry::new(0x2174, 0x01, DataType::Unsigned16, RW, 2, 288, NO_LIMITS), // 0x2174:01 Rated speed / Data set 1
+    Entry::new(0x2174, 0x02, DataType::Unsigned16, RW, 2, 290, NO_LIMITS), // 0x2174:02 Rated speed / Data set 2
+    Entry::new(0x2174, 0x03, DataType::Unsigned16, RW, 2, 292, NO_LIMITS), // 0x2174:03 Rated speed / Data set 3
+    Entry::new(0x2174, 0x04, DataType::Unsigned16, RW, 2, 294, NO_LIMITS), // 0x2174:04 Rated speed / Data set 4
+    Entry::new(0x2174, 0x05, DataType::Unsigned16, RW, 2, 296, NO_LIMITS), // 0x2174:05 Rated speed / All data sets RAM
+    Entry::new(0x2174, 0x06, DataType::Unsigned16, RW, 2, 298, NO_LIMITS), // 0x2174:06 Rated speed / Data set 1 RAM
+    Entry::new(0x2174, 0x07, DataType::Unsigned16, RW, 2, 300, NO_LIMITS), // 0x2174:07 Rated speed / Data set 2 RAM
+    Entry::new(0x2174, 0x08, DataType::Unsigned16, RW, 2, 302, NO_LIMITS), // 0x2174:08 Rated speed / Data set 3 RAM
+    Entry::new(0x2174, 0x09, DataType::Unsigned16, RW, 2, 304, NO_LIMITS), // 0x2174:09 Rated speed / Data set 4 RAM
     Entry::new(0x2175, 0x00, DataType::Unsigned8, RO, 1, 880, NO_LIMITS), // 0x2175:00 Number of pole pairs / Highest sub-index supported
-    Entry::new(0x2175, 0x01, DataType::Unsigned16, RW, 2, 330, 6), // 0x2175:01 Number of pole pairs / Data set 1
-    Entry::new(0x2175, 0x02, DataType::Unsigned16, RW, 2, 332, 6), // 0x2175:02 Number of pole pairs / Data set 2
-    Entry::new(0x2175, 0x03, DataType::Unsigned16, RW, 2, 334, 6), // 0x2175:03 Number of pole pairs / Data set 3
-    Entry::new(0x2175, 0x04, DataType::Unsigned16, RW, 2, 336, 6), // 0x2175:04 Number of pole pairs / Data set 4
-    Entry::new(0x2175, 0x05, DataType::Unsigned16, RW, 2, 338, 6), // 0x2175:05 Number of pole pairs / All data sets RAM
-    Entry::new(0x2175, 0x06, DataType::Unsigned16, RW, 2, 340, 6), // 0x2175:06 Number of pole pairs / Data set 1 RAM
-    Entry::new(0x2175, 0x07, DataType::Unsigned16, RW, 2, 342, 6), // 0x2175:07 Number of pole pairs / Data set 2 RAM
-    Entry::new(0x2175, 0x08, DataType::Unsigned16, RW, 2, 344, 6), // 0x2175:08 Number of pole pairs / Data set 3 RAM
-    Entry::new(0x2175, 0x09, DataType::Unsigned16, RW, 2, 346, 6), // 0x2175:09 Number of pole pairs / Data set 4 RAM
-    Entry::new(0x2181, 0x00, DataType::Unsigned16, RW, 2, 348, 7), // 0x2181:00 CAN baud rate
-    Entry::new(0x2183, 0x00, DataType::Integer16, RW, 2, 350, 8), // 0x2183:00 CAN node number
-    Entry::new(0x2184, 0x00, DataType::Unsigned16, RW, 2, 352, 9), // 0x2184:00 CAN fault behaviour
+    Entry::new(0x2175, 0x01, DataType::Unsigned16, RW, 2, 306, 6), // 0x2175:01 Number of pole pairs / Data set 1
+    Entry::new(0x2175, 0x02, DataType::Unsigned16, RW, 2, 308, 6), // 0x2175:02 Number of pole pairs / Data set 2
+    Entry::new(0x2175, 0x03, DataType::Unsigned16, RW, 2, 310, 6), // 0x2175:03 Number of pole pairs / Data set 3
+    Entry::new(0x2175, 0x04, DataType::Unsigned16, RW, 2, 312, 6), // 0x2175:04 Number of pole pairs / Data set 4
+    Entry::new(0x2175, 0x05, DataType::Unsigned16, RW, 2, 314, 6), // 0x2175:05 Number of pole pairs / All data sets RAM
+    Entry::new(0x2175, 0x06, DataType::Unsigned16, RW, 2, 316, 6), // 0x2175:06 Number of pole pairs / Data set 1 RAM
+    Entry::new(0x2175, 0x07, DataType::Unsigned16, RW, 2, 318, 6), // 0x2175:07 Number of pole pairs / Data set 2 RAM
+    Entry::new(0x2175, 0x08, DataType::Unsigned16, RW, 2, 320, 6), // 0x2175:08 Number of pole pairs / Data set 3 RAM
+    Entry::new(0x2175, 0x09, DataType::Unsigned16, RW, 2, 322, 6), // 0x2175:09 Number of pole pairs / Data set 4 RAM
+    Entry::new(0x2181, 0x00, DataType::Unsigned16, RW, 2, 324, 7), // 0x2181:00 CAN baud rate
+    Entry::new(0x2183, 0x00, DataType::Integer16, RW, 2, 326, 8), // 0x2183:00 CAN node number
+    Entry::new(0x2184, 0x00, DataType::Unsigned16, RW, 2, 328, 9), // 0x2184:00 CAN fault behaviour
     Entry::new(0x2188, 0x00, DataType::Unsigned8, RO, 1, 881, NO_LIMITS), // 0x2188:00 State machine transition 5 / Highest sub-index supported
-    Entry::new(0x2188, 0x01, DataType::Unsigned16, RW, 2, 354, 1), // 0x2188:01 State machine transition 5 / Data set 1
-    Entry::new(0x2188, 0x02, DataType::Unsigned16, RW, 2, 356, 1), // 0x2188:02 State machine transition 5 / Data set 2
-    Entry::new(0x2188, 0x03, DataType::Unsigned16, RW, 2, 358, 1), // 0x2188:03 State machine transition 5 / Data set 3
-    Entry::new(0x2188, 0x04, DataType::Unsigned16, RW, 2, 360, 1), // 0x2188:04 State machine transition 5 / Data set 4
-    Entry::new(0x2188, 0x05, DataType::Unsigned16, RW, 2, 362, 1), // 0x2188:05 State machine transition 5 / All data sets RAM
-    Entry::new(0x2188, 0x06, DataType::Unsigned16, RW, 2, 364, 1), // 0x2188:06 State machine transition 5 / Data set 1 RAM
-    Entry::new(0x2188, 0x07, DataType::Unsigned16, RW, 2, 366, 1), // 0x2188:07 State machine transition 5 / Data set 2 RAM
-    Entry::new(0x2188, 0x08, DataType::Unsigned16, RW, 2, 368, 1), // 0x2188:08 State machine transition 5 / Data set 3 RAM
-    Entry::new(0x2188, 0x09, DataType::Unsigned16, RW, 2, 370, 1), // 0x2188:09 State machine transition 5 / Data set 4 RAM
-    Entry::new(0x2197, 0x00, DataType::Integer16, RW, 2, 372, NO_LIMITS), // 0x2197:00 Heat sink warning limit
-    Entry::new(0x219A, 0x00, DataType::Unsigned16, RW, 2, 374, NO_LIMITS), // 0x219A:00 Control word parameter
+    Entry::new(0x2188, 0x01, DataType::Unsigned16, RW, 2, 330, 1), // 0x2188:01 State machine transition 5 / Data set 1
+    Entry::new(0x2188, 0x02, DataType::Unsigned16, RW, 2, 332, 1), // 0x2188:02 State machine transition 5 / Data set 2
+    Entry::new(0x2188, 0x03, DataType::Unsigned16, RW, 2, 334, 1), // 0x2188:03 State machine transition 5 / Data set 3
+    Entry::new(0x2188, 0x04, DataType::Unsigned16, RW, 2, 336, 1), // 0x2188:04 State machine transition 5 / Data set 4
+    Entry::new(0x2188, 0x05, DataType::Unsigned16, RW, 2, 338, 1), // 0x2188:05 State machine transition 5 / All data sets RAM
+    Entry::new(0x2188, 0x06, DataType::Unsigned16, RW, 2, 340, 1), // 0x2188:06 State machine transition 5 / Data set 1 RAM
+    Entry::new(0x2188, 0x07, DataType::Unsigned16, RW, 2, 342, 1), // 0x2188:07 State machine transition 5 / Data set 2 RAM
+    Entry::new(0x2188, 0x08, DataType::Unsigned16, RW, 2, 344, 1), // 0x2188:08 State machine transition 5 / Data set 3 RAM
+    Entry::new(0x2188, 0x09, DataType::Unsigned16, RW, 2, 346, 1), // 0x2188:09 State machine transition 5 / Data set 4 RAM
+    Entry::new(0x2197, 0x00, DataType::Integer16, RW, 2, 348, NO_LIMITS), // 0x2197:00 Heat sink warning limit
+    Entry::new(0x219A, 0x00, DataType::Unsigned16, RW, 2, 350, NO_LIMITS), // 0x219A:00 Control word parameter
     Entry::new(0x219B, 0x00, DataType::Unsigned16, RO, 2, 882, NO_LIMITS), // 0x219B:00 Status word parameter
     Entry::new(0x219C, 0x00, DataType::Unsigned8, RO, 1, 884, NO_LIMITS), // 0x219C:00 Local remote / Highest sub-index supported
-    Entry::new(0x219C, 0x01, DataType::Unsigned16, RW, 2, 376, 10), // 0x219C:01 Local remote / Data set 1
-    Entry::new(0x219C, 0x02, DataType::Unsigned16, RW, 2, 378, 10), // 0x219C:02 Local remote / Data set 2
-    Entry::new(0x219C, 0x03, DataType::Unsigned16, RW, 2, 380, 10), // 0x219C:03 Local remote / Data set 3
-    Entry::new(0x219C, 0x04, DataType::Unsigned16, RW, 2, 382, 10), // 0x219C:04 Local remote / Data set 4
-    Entry::new(0x219C, 0x05, DataType::Unsigned16, RW, 2, 384, 10), // 0x219C:05 Local remote / All data sets RAM
-    Entry::new(0x219C, 0x06, DataType::Unsigned16, RW, 2, 386, 10), // 0x219C:06 Local remote / Data set 1 RAM
-    Entry::new(0x219C, 0x07, DataType::Unsigned16, RW, 2, 388, 10), // 0x219C:07 Local remote / Data set 2 RAM
-    Entry::new(0x219C, 0x08, DataType::Unsigned16, RW, 2, 390, 10), // 0x219C:08 Local remote / Data set 3 RAM
-    Entry::new(0x219C, 0x09, DataType::Unsigned16, RW, 2, 392, 10), // 0x219C:09 Local remote / Data set 4 RAM
-    Entry::new(0x219E, 0x00, DataType::Unsigned16, RW, 2, 394, 9), // 0x219E:00 Data set selection
+    Entry::new(0x219C, 0x01, DataType::Unsigned16, RW, 2, 352, 10), // 0x219C:01 Local remote / Data set 1
+    Entry::new(0x219C, 0x02, DataType::Unsigned16, RW, 2, 354, 10), // 0x219C:02 Local remote / Data set 2
+    Entry::new(0x219C, 0x03, DataType::Unsigned16, RW, 2, 356, 10), // 0x219C:03 Local remote / Data set 3
+    Entry::new(0x219C, 0x04, DataType::Unsigned16, RW, 2, 358, 10), // 0x219C:04 Local remote / Data set 4
+    Entry::new(0x219C, 0x05, DataType::Unsigned16, RW, 2, 360, 10), // 0x219C:05 Local remote / All data sets RAM
+    Entry::new(0x219C, 0x06, DataType::Unsigned16, RW, 2, 362, 10), // 0x219C:06 Local remote / Data set 1 RAM
+    Entry::new(0x219C, 0x07, DataType::Unsigned16, RW, 2, 364, 10), // 0x219C:07 Local remote / Data set 2 RAM
+    Entry::new(0x219C, 0x08, DataType::Unsigned16, RW, 2, 366, 10), // 0x219C:08 Local remote / Data set 3 RAM
+    Entry::new(0x219C, 0x09, DataType::Unsigned16, RW, 2, 368, 10), // 0x219C:09 Local remote / Data set 4 RAM
+    Entry::new(0x219E, 0x00, DataType::Unsigned16, RW, 2, 370, 9), // 0x219E:00 Data set selection
     Entry::new(0x21A2, 0x00, DataType::Unsigned8, RO, 1, 885, NO_LIMITS), // 0x21A2:00 Minimum frequency / Highest sub-index supported
-    Entry::new(0x21A2, 0x01, DataType::Integer32, RW, 4, 396, NO_LIMITS), // 0x21A2:01 Minimum frequency / Data set 1
-    Entry::new(0x21A2, 0x02, DataType::Integer32, RW, 4, 400, NO_LIMITS), // 0x21A2:02 Minimum frequency / Data set 2
-    Entry::new(0x21A2, 0x03, DataType::Integer32, RW, 4, 404, NO_LIMITS), // 0x21A2:03 Minimum frequency / Data set 3
-    Entry::new(0x21A2, 0x04, DataType::Integer32, RW, 4, 408, NO_LIMITS), // 0x21A2:04 Minimum frequency / Data set 4
-    Entry::new(0x21A2, 0x05, DataType::Integer32, RW, 4, 412, NO_LIMITS), // 0x21A2:05 Minimum frequency / All data sets RAM
-    Entry::new(0x21A2, 0x06, DataType::Integer32, RW, 4, 416, NO_LIMITS), // 0x21A2:06 Minimum frequency / Data set 1 RAM
-    Entry::new(0x21A2, 0x07, DataType::Integer32, RW, 4, 420, NO_LIMITS), // 0x21A2:07 Minimum frequency / Data set 2 RAM
-    Entry::new(0x21A2, 0x08, DataType::Integer32, RW, 4, 424, NO_LIMITS), // 0x21A2:08 Minimum frequency / Data set 3 RAM
-    Entry::new(0x21A2, 0x09, DataType::Integer32, RW, 4, 428, NO_LIMITS), // 0x21A2:09 Minimum frequency / Data set 4 RAM
+    Entry::new(0x21A2, 0x01, DataType::Integer32, RW, 4, 372, NO_LIMITS), // 0x21A2:01 Minimum frequency / Data set 1
+    Entry::new(0x21A2, 0x02, DataType::Integer32, RW, 4, 376, NO_LIMITS), // 0x21A2:02 Minimum frequency / Data set 2
+    Entry::new(0x21A2, 0x03, DataType::Integer32, RW, 4, 380, NO_LIMITS), // 0x21A2:03 Minimum frequency / Data set 3
+    Entry::new(0x21A2, 0x04, DataType::Integer32, RW, 4, 384, NO_LIMITS), // 0x21A2:04 Minimum frequency / Data set 4
+    Entry::new(0x21A2, 0x05, DataType::Integer32, RW, 4, 388, NO_LIMITS), // 0x21A2:05 Minimum frequency / All data sets RAM
+    Entry::new(0x21A2, 0x06, DataType::Integer32, RW, 4, 392, NO_LIMITS), // 0x21A2:06 Minimum frequency / Data set 1 RAM
+    Entry::new(0x21A2, 0x07, DataType::Integer32, RW, 4, 396, NO_LIMITS), // 0x21A2:07 Minimum frequency / Data set 2 RAM
+    Entry::new(0x21A2, 0x08, DataType::Integer32, RW, 4, 400, NO_LIMITS), // 0x21A2:08 Minimum frequency / Data set 3 RAM
+    Entry::new(0x21A2, 0x09, DataType::Integer32, RW, 4, 404, NO_LIMITS), // 0x21A2:09 Minimum frequency / Data set 4 RAM
     Entry::new(0x21A3, 0x00, DataType::Unsigned8, RO, 1, 886, NO_LIMITS), // 0x21A3:00 Maximum frequency / Highest sub-index supported
-    Entry::new(0x21A3, 0x01, DataType::Integer32, RW, 4, 432, NO_LIMITS), // 0x21A3:01 Maximum frequency / Data set 1
-    Entry::new(0x21A3, 0x02, DataType::Integer32, RW, 4, 436, NO_LIMITS), // 0x21A3:02 Maximum frequency / Data set 2
-    Entry::new(0x21A3, 0x03, DataType::Integer32, RW, 4, 440, NO_LIMITS), // 0x21A3:03 Maximum frequency / Data set 3
-    Entry::new(0x21A3, 0x04, DataType::Integer32, RW, 4, 444, NO_LIMITS), // 0x21A3:04 Maximum frequency / Data set 4
-    Entry::new(0x21A3, 0x05, DataType::Integer32, RW, 4, 448, NO_LIMITS), // 0x21A3:05 Maximum frequency / All data sets RAM
-    Entry::new(0x21A3, 0x06, DataType::Integer32, RW, 4, 452, NO_LIMITS), // 0x21A3:06 Maximum frequency / Data set 1 RAM
-    Entry::new(0x21A3, 0x07, DataType::Integer32, RW, 4, 456, NO_LIMITS), // 0x21A3:07 Maximum frequency / Data set 2 RAM
-    Entry::new(0x21A3, 0x08, DataType::Integer32, RW, 4, 460, NO_LIMITS), // 0x21A3:08 Maximum frequency / Data set 3 RAM
-    Entry::new(0x21A3, 0x09, DataType::Integer32, RW, 4, 464, NO_LIMITS), // 0x21A3:09 Maximum frequency / Data set 4 RAM
+    Entry::new(0x21A3, 0x01, DataType::Integer32, RW, 4, 408, NO_LIMITS), // 0x21A3:01 Maximum frequency / Data set 1
+    Entry::new(0x21A3, 0x02, DataType::Integer32, RW, 4, 412, NO_LIMITS), // 0x21A3:02 Maximum frequency / Data set 2
+    Entry::new(0x21A3, 0x03, DataType::Integer32, RW, 4, 416, NO_LIMITS), // 0x21A3:03 Maximum frequency / Data set 3
+    Entry::new(0x21A3, 0x04, DataType::Integer32, RW, 4, 420, NO_LIMITS), // 0x21A3:04 Maximum frequency / Data set 4
+    Entry::new(0x21A3, 0x05, DataType::Integer32, RW, 4, 424, NO_LIMITS), // 0x21A3:05 Maximum frequency / All data sets RAM
+    Entry::new(0x21A3, 0x06, DataType::Integer32, RW, 4, 428, NO_LIMITS), // 0x21A3:06 Maximum frequency / Data set 1 RAM
+    Entry::new(0x21A3, 0x07, DataType::Integer32, RW, 4, 432, NO_LIMITS), // 0x21A3:07 Maximum frequency / Data set 2 RAM
+    Entry::new(0x21A3, 0x08, DataType::Integer32, RW, 4, 436, NO_LIMITS), // 0x21A3:08 Maximum frequency / Data set 3 RAM
+    Entry::new(0x21A3, 0x09, DataType::Integer32, RW, 4, 440, NO_LIMITS), // 0x21A3:09 Maximum frequency / Data set 4 RAM
     Entry::new(0x21A4, 0x00, DataType::Unsigned8, RO, 1, 887, NO_LIMITS), // 0x21A4:00 Acceleration clockwise / Highest sub-index supported
-    Entry::new(0x21A4, 0x01, DataType::Integer32, RW, 4, 468, 11), // 0x21A4:01 Acceleration clockwise / Data set 1
-    Entry::new(0x21A4, 0x02, DataType::Integer32, RW, 4, 472, 11), // 0x21A4:02 Acceleration clockwise / Data set 2
-    Entry::new(0x21A4, 0x03, DataType::Integer32, RW, 4, 476, 11), // 0x21A4:03 Acceleration clockwise / Data set 3
-    Entry::new(0x21A4, 0x04, DataType::Integer32, RW, 4, 480, 11), // 0x21A4:04 Acceleration clockwise / Data set 4
-    Entry::new(0x21A4, 0x05, DataType::Integer32, RW, 4, 484, 11), // 0x21A4:05 Acceleration clockwise / All data sets RAM
-    Entry::new(0x21A4, 0x06, DataType::Integer32, RW, 4, 488, 11), // 0x21A4:06 Acceleration clockwise / Data set 1 RAM
-    Entry::new(0x21A4, 0x07, DataType::Integer32, RW, 4, 492, 11), // 0x21A4:07 Acceleration clockwise / Data set 2 RAM
-    Entry::new(0x21A4, 0x08, DataType::Integer32, RW, 4, 496, 11), // 0x21A4:08 Acceleration clockwise / Data set 3 RAM
-    Entry::new(0x21A4, 0x09, DataType::Integer32, RW, 4, 500, 11), // 0x21A4:09 Acceleration clockwise / Data set 4 RAM
+    Entry::new(0x21A4, 0x01, DataType::Integer32, RW, 4, 444, 11), // 0x21A4:01 Acceleration clockwise / Data set 1
+    Entry::new(0x21A4, 0x02, DataType::Integer32, RW, 4, 448, 11), // 0x21A4:02 Acceleration clockwise / Data set 2
+    Entry::new(0x21A4, 0x03, DataType::Integer32, RW, 4, 452, 11), // 0x21A4:03 Acceleration clockwise / Data set 3
+    Entry::new(0x21A4, 0x04, DataType::Integer32, RW, 4, 456, 11), // 0x21A4:04 Acceleration clockwise / Data set 4
+    Entry::new(0x21A4, 0x05, DataType::Integer32, RW, 4, 460, 11), // 0x21A4:05 Acceleration clockwise / All data sets RAM
+    Entry::new(0x21A4, 0x06, DataType::Integer32, RW, 4, 464, 11), // 0x21A4:06 Acceleration clockwise / Data set 1 RAM
+    Entry::new(0x21A4, 0x07, DataType::Integer32, RW, 4, 468, 11), // 0x21A4:07 Acceleration clockwise / Data set 2 RAM
+    Entry::new(0x21A4, 0x08, DataType::Integer32, RW, 4, 472, 11), // 0x21A4:08 Acceleration clockwise / Data set 3 RAM
+    Entry::new(0x21A4, 0x09, DataType::Integer32, RW, 4, 476, 11), // 0x21A4:09 Acceleration clockwise / Data set 4 RAM
     Entry::new(0x21A5, 0x00, DataType::Unsigned8, RO, 1, 888, NO_LIMITS), // 0x21A5:00 Deceleration clockwise / Highest sub-index supported
-    Entry::new(0x21A5, 0x01, DataType::Integer32, RW, 4, 504, 12), // 0x21A5:01 Deceleration clockwise / Data set 1
-    Entry::new(0x21A5, 0x02, DataType::Integer32, RW, 4, 508, 12), // 0x21A5:02 Deceleration clockwise / Data set 2
-    Entry::new(0x21A5, 0x03, DataType::Integer32, RW, 4, 512, 12), // 0x21A5:03 Deceleration clockwise / Data set 3
-    Entry::new(0x21A5, 0x04, DataType::Integer32, RW, 4, 516, 12), // 0x21A5:04 Deceleration clockwise / Data set 4
-    Entry::new(0x21A5, 0x05, DataType::Integer32, RW, 4, 520, 12), // 0x21A5:05 Deceleration clockwise / All data sets RAM
-    Entry::new(0x21A5, 0x06, DataType::Integer32, RW, 4, 524, 12), // 0x21A5:06 Deceleration clockwise / Data set 1 RAM
-    Entry::new(0x21A5, 0x07, DataType::Integer32, RW, 4, 528, 12), // 0x21A5:07 Deceleration clockwise / Data set 2 RAM
-    Entry::new(0x21A5, 0x08, DataType::Integer32, RW, 4, 532, 12), // 0x21A5:08 Deceleration clockwise / Data set 3 RAM
-    Entry::new(0x21A5, 0x09, DataType::Integer32, RW, 4, 536, 12), // 0x21A5:09 Deceleration clockwise / Data set 4 RAM
+    Entry::new(0x21A5, 0x01, DataType::Integer32, RW, 4, 480, 12), // 0x21A5:01 Deceleration clockwise / Data set 1
+    Entry::new(0x21A5, 0x02, DataType::Integer32, RW, 4, 484, 12), // 0x21A5:02 Deceleration clockwise / Data set 2
+    Entry::new(0x21A5, 0x03, DataType::Integer32, RW, 4, 488, 12), // 0x21A5:03 Deceleration clockwise / Data set 3
+    Entry::new(0x21A5, 0x04, DataType::Integer32, RW, 4, 492, 12), // 0x21A5:04 Deceleration clockwise / Data set 4
+    Entry::new(0x21A5, 0x05, DataType::Integer32, RW, 4, 496, 12), // 0x21A5:05 Deceleration clockwise / All data sets RAM
+    Entry::new(0x21A5, 0x06, DataType::Integer32, RW, 4, 500, 12), // 0x21A5:06 Deceleration clockwise / Data set 1 RAM
+    Entry::new(0x21A5, 0x07, DataType::Integer32, RW, 4, 504, 12), // 0x21A5:07 Deceleration clockwise / Data set 2 RAM
+    Entry::new(0x21A5, 0x08, DataType::Integer32, RW, 4, 508, 12), // 0x21A5:08 Deceleration clockwise / Data set 3 RAM
+    Entry::new(0x21A5, 0x09, DataType::Integer32, RW, 4, 512, 12), // 0x21A5:09 Deceleration clockwise / Data set 4 RAM
     Entry::new(0x21A6, 0x00, DataType::Unsigned8, RO, 1, 889, NO_LIMITS), // 0x21A6:00 Acceleration anticlockwise / Highest sub-index supported
-    Entry::new(0x21A6, 0x01, DataType::Integer32, RW, 4, 540, 13), // 0x21A6:01 Acceleration anticlockwise / Data set 1
-    Entry::new(0x21A6, 0x02, DataType::Integer32, RW, 4, 544, 13), // 0x21A6:02 Acceleration anticlockwise / Data set 2
-    Entry::new(0x21A6, 0x03, DataType::Integer32, RW, 4, 548, 13), // 0x21A6:03 Acceleration anticlockwise / Data set 3
-    Entry::new(0x21A6, 0x04, DataType::Integer32, RW, 4, 552, 13), // 0x21A6:04 Acceleration anticlockwise / Data set 4
-    Entry::new(0x21A6, 0x05, DataType::Integer32, RW, 4, 556, 13), // 0x21A6:05 Acceleration anticlockwise / All data sets RAM
-    Entry::new(0x21A6, 0x06, DataType::Integer32, RW, 4, 560, 13), // 0x21A6:06 Acceleration anticlockwise / Data set 1 RAM
-    Entry::new(0x21A6, 0x07, DataType::Integer32, RW, 4, 564, 13), // 0x21A6:07 Acceleration anticlockwise / Data set 2 RAM
-    Entry::new(0x21A6, 0x08, DataType::Integer32, RW, 4, 568, 13), // 0x21A6:08 Acceleration anticlockwise / Data set 3 RAM
-    Entry::new(0x21A6, 0x09, DataType::Integer32, RW, 4, 572, 13), // 0x21A6:09 Acceleration anticlockwise / Data set 4 RAM
+    Entry::new(0x21A6, 0x01, DataType::Integer32, RW, 4, 516, 13), // 0x21A6:01 Acceleration anticlockwise / Data set 1
+    Entry::new(0x21A6, 0x02, DataType::Integer32, RW, 4, 520, 13), // 0x21A6:02 Acceleration anticlockwise / Data set 2
+    Entry::new(0x21A6, 0x03, DataType::Integer32, RW, 4, 524, 13), // 0x21A6:03 Acceleration anticlockwise / Data set 3
+    Entry::new(0x21A6, 0x04, DataType::Integer32, RW, 4, 528, 13), // 0x21A6:04 Acceleration anticlockwise / Data set 4
+    Entry::new(0x21A6, 0x05, DataType::Integer32, RW, 4, 532, 13), // 0x21A6:05 Acceleration anticlockwise / All data sets RAM
+    Entry::new(0x21A6, 0x06, DataType::Integer32, RW, 4, 536, 13), // 0x21A6:06 Acceleration anticlockwise / Data set 1 RAM
+    Entry::new(0x21A6, 0x07, DataType::Integer32, RW, 4, 540, 13), // 0x21A6:07 Acceleration anticlockwise / Data set 2 RAM
+    Entry::new(0x21A6, 0x08, DataType::Integer32, RW, 4, 544, 13), // 0x21A6:08 Acceleration anticlockwise / Data set 3 RAM
+    Entry::new(0x21A6, 0x09, DataType::Integer32, RW, 4, 548, 13), // 0x21A6:09 Acceleration anticlockwise / Data set 4 RAM
     Entry::new(0x21A7, 0x00, DataType::Unsigned8, RO, 1, 890, NO_LIMITS), // 0x21A7:00 Deceleration anticlockwise / Highest sub-index supported
-    Entry::new(0x21A7, 0x01, DataType::Integer32, RW, 4, 576, 13), // 0x21A7:01 Deceleration anticlockwise / Data set 1
-    Entry::new(0x21A7, 0x02, DataType::Integer32, RW, 4, 580, 13), // 0x21A7:02 Deceleration anticlockwise / Data set 2
-    Entry::new(0x21A7, 0x03, DataType::Integer32, RW, 4, 584, 13), // 0x21A7:03 Deceleration anticlockwise / Data set 3
-    Entry::new(0x21A7, 0x04, DataType::Integer32, RW, 4, 588, 13), // 0x21A7:04 Deceleration anticlockwise / Data set 4
-    Entry::new(0x21A7, 0x05, DataType::Integer32, RW, 4, 592, 13), // 0x21A7:05 Deceleration anticlockwise / All data sets RAM
-    Entry::new(0x21A7, 0x06, DataType::Integer32, RW, 4, 596, 13), // 0x21A7:06 Deceleration anticlockwise / Data set 1 RAM
-    Entry::new(0x21A7, 0x07, DataType::Integer32, RW, 4, 600, 13), // 0x21A7:07 Deceleration anticlockwise / Data set 2 RAM
-    Entry::new(0x21A7, 0x08, DataType::Integer32, RW, 4, 604, 13), // 0x21A7:08 Deceleration anticlockwise / Data set 3 RAM
-    Entry::new(0x21A7, 0x09, DataType::Integer32, RW, 4, 608, 13), // 0x21A7:09 Deceleration anticlockwise / Data set 4 RAM
+    Entry::new(0x21A7, 0x01, DataType::Integer32, RW, 4, 552, 13), // 0x21A7:01 Deceleration anticlockwise / Data set 1
+    Entry::new(0x21A7, 0x02, DataType::Integer32, RW, 4, 556, 13), // 0x21A7:02 Deceleration anticlockwise / Data set 2
+    Entry::new(0x21A7, 0x03, DataType::Integer32, RW, 4, 560, 13), // 0x21A7:03 Deceleration anticlockwise / Data set 3
+    Entry::new(0x21A7, 0x04, DataType::Integer32, RW, 4, 564, 13), // 0x21A7:04 Deceleration anticlockwise / Data set 4
+    Entry::new(0x21A7, 0x05, DataType::Integer32, RW, 4, 568, 13), // 0x21A7:05 Deceleration anticlockwise / All data sets RAM
+    Entry::new(0x21A7, 0x06, DataType::Integer32, RW, 4, 572, 13), // 0x21A7:06 Deceleration anticlockwise / Data set 1 RAM
+    Entry::new(0x21A7, 0x07, DataType::Integer32, RW, 4, 576, 13), // 0x21A7:07 Deceleration anticlockwise / Data set 2 RAM
+    Entry::new(0x21A7, 0x08, DataType::Integer32, RW, 4, 580, 13), // 0x21A7:08 Deceleration anticlockwise / Data set 3 RAM
+    Entry::new(0x21A7, 0x09, DataType::Integer32, RW, 4, 584, 13), // 0x21A7:09 Deceleration anticlockwise / Data set 4 RAM
     Entry::new(0x21A8, 0x00, DataType::Unsigned8, RO, 1, 891, NO_LIMITS), // 0x21A8:00 Emergency stop clockwise / Highest sub-index supported
-    Entry::new(0x21A8, 0x01, DataType::Integer32, RW, 4, 612, 12), // 0x21A8:01 Emergency stop clockwise / Data set 1
-    Entry::new(0x21A8, 0x02, DataType::Integer32, RW, 4, 616, 12), // 0x21A8:02 Emergency stop clockwise / Data set 2
-    Entry::new(0x21A8, 0x03, DataType::Integer32, RW, 4, 620, 12), // 0x21A8:03 Emergency stop clockwise / Data set 3
-    Entry::new(0x21A8, 0x04, DataType::Integer32, RW, 4, 624, 12), // 0x21A8:04 Emergency stop clockwise / Data set 4
-    Entry::new(0x21A8, 0x05, DataType::Integer32, RW, 4, 628, 12), // 0x21A8:05 Emergency stop clockwise / All data sets RAM
-    Entry::new(0x21A8, 0x06, DataType::Integer32, RW, 4, 632, 12), // 0x21A8:06 Emergency stop clockwise / Data set 1 RAM
-    Entry::new(0x21A8, 0x07, DataType::Integer32, RW, 4, 636, 12), // 0x21A8:07 Emergency stop clockwise / Data set 2 RAM
-    Entry::new(0x21A8, 0x08, DataType::Integer32, RW, 4, 640, 12), // 0x21A8:08 Emergency stop clockwise / Data set 3 RAM
-    Entry::new(0x21A8, 0x09, DataType::Integer32, RW, 4, 644, 12), // 0x21A8:09 Emergency stop clockwise / Data set 4 RAM
+    Entry::new(0x21A8, 0x01, DataType::Integer32, RW, 4, 588, 12), // 0x21A8:01 Emergency stop clockwise / Data set 1
+    Entry::new(0x21A8, 0x02, DataType::Integer32, RW, 4, 592, 12), // 0x21A8:02 Emergency stop clockwise / Data set 2
+    Entry::new(0x21A8, 0x03, DataType::Integer32, RW, 4, 596, 12), // 0x21A8:03 Emergency stop clockwise / Data set 3
+    Entry::new(0x21A8, 0x04, DataType::Integer32, RW, 4, 600, 12), // 0x21A8:04 Emergency stop clockwise / Data set 4
+    Entry::new(0x21A8, 0x05, DataType::Integer32, RW, 4, 604, 12), // 0x21A8:05 Emergency stop clockwise / All data sets RAM
+    Entry::new(0x21A8, 0x06, DataType::Integer32, RW, 4, 608, 12), // 0x21A8:06 Emergency stop clockwise / Data set 1 RAM
+    Entry::new(0x21A8, 0x07, DataType::Integer32, RW, 4, 612, 12), // 0x21A8:07 Emergency stop clockwise / Data set 2 RAM
+    Entry::new(0x21A8, 0x08, DataType::Integer32, RW, 4, 616, 12), // 0x21A8:08 Emergency stop clockwise / Data set 3 RAM
+    Entry::new(0x21A8, 0x09, DataType::Integer32, RW, 4, 620, 12), // 0x21A8:09 Emergency stop clockwise / Data set 4 RAM
     Entry::new(0x21A9, 0x00, DataType::Unsigned8, RO, 1, 892, NO_LIMITS), // 0x21A9:00 Emergency stop anticlockwise / Highest sub-index supported
-    Entry::new(0x21A9, 0x01, DataType::Integer32, RW, 4, 648, 12), // 0x21A9:01 Emergency stop anticlockwise / Data set 1
-    Entry::new(0x21A9, 0x02, DataType::Integer32, RW, 4, 652, 12), // 0x21A9:02 Emergency stop anticlockwise / Data set 2
-    Entry::new(0x21A9, 0x03, DataType::Integer32, RW, 4, 656, 12), // 0x21A9:03 Emergency stop anticlockwise / Data set 3
-    Entry::new(0x21A9, 0x04, DataType::Integer32, RW, 4, 660, 12), // 0x21A9:04 Emergency stop anticlockwise / Data set 4
-    Entry::new(0x21A9, 0x05, DataType::Integer32, RW, 4, 664, 12), // 0x21A9:05 Emergency stop anticlockwise / All data sets RAM
-    Entry::new(0x21A9, 0x06, DataType::Integer32, RW, 4, 668, 12), // 0x21A9:06 Emergency stop anticlockwise / Data set 1 RAM
-    Entry::new(0x21A9, 0x07, DataType::Integer32, RW, 4, 672, 12), // 0x21A9:07 Emergency stop anticlockwise / Data set 2 RAM
-    Entry::new(0x21A9, 0x08, DataType::Integer32, RW, 4, 676, 12), // 0x21A9:08 Emergency stop anticlockwise / Data set 3 RAM
-    Entry::new(0x21A9, 0x09, DataType::Integer32, RW, 4, 680, 12), // 0x21A9:09 Emergency stop anticlockwise / Data set 4 RAM
+    Entry::new(0x21A9, 0x01, DataType::Integer32, RW, 4, 624, 12), // 0x21A9:01 Emergency stop anticlockwise / Data set 1
+    Entry::new(0x21A9, 0x02, DataType::Integer32, RW, 4, 628, 12), // 0x21A9:02 Emergency stop anticlockwise / Data set 2
+    Entry::new(0x21A9, 0x03, DataType::Integer32, RW, 4, 632, 12), // 0x21A9:03 Emergency stop anticlockwise / Data set 3
+    Entry::new(0x21A9, 0x04, DataType::Integer32, RW, 4, 636, 12), // 0x21A9:04 Emergency stop anticlockwise / Data set 4
+    Entry::new(0x21A9, 0x05, DataType::Integer32, RW, 4, 640, 12), // 0x21A9:05 Emergency stop anticlockwise / All data sets RAM
+    Entry::new(0x21A9, 0x06, DataType::Integer32, RW, 4, 644, 12), // 0x21A9:06 Emergency stop anticlockwise / Data set 1 RAM
+    Entry::new(0x21A9, 0x07, DataType::Integer32, RW, 4, 648, 12), // 0x21A9:07 Emergency stop anticlockwise / Data set 2 RAM
+    Entry::new(0x21A9, 0x08, DataType::Integer32, RW, 4, 652, 12), // 0x21A9:08 Emergency stop anticlockwise / Data set 3 RAM
+    Entry::new(0x21A9, 0x09, DataType::Integer32, RW, 4, 656, 12), // 0x21A9:09 Emergency stop anticlockwise / Data set 4 RAM
     Entry::new(0x21E0, 0x00, DataType::Unsigned8, RO, 1, 893, NO_LIMITS), // 0x21E0:00 Fixed frequency 1 / Highest sub-index supported
-    Entry::new(0x21E0, 0x01, DataType::Integer32, RW, 4, 684, NO_LIMITS), // 0x21E0:01 Fixed frequency 1 / Data set 1
-    Entry::new(0x21E0, 0x02, DataType::Integer32, RW, 4, 688, NO_LIMITS), // 0x21E0:02 Fixed frequency 1 / Data set 2
-    Entry::new(0x21E0, 0x03, DataType::Integer32, RW, 4, 692, NO_LIMITS), // 0x21E0:03 Fixed frequency 1 / Data set 3
-    Entry::new(0x21E0, 0x04, DataType::Integer32, RW, 4, 696, NO_LIMITS), // 0x21E0:04 Fixed frequency 1 / Data set 4
-    Entry::new(0x21E0, 0x05, DataType::Integer32, RW, 4, 700, NO_LIMITS), // 0x21E0:05 Fixed frequency 1 / All data sets RAM
-    Entry::new(0x21E0, 0x06, DataType::Integer32, RW, 4, 704, NO_LIMITS), // 0x21E0:06 Fixed frequency 1 / Data set 1 RAM
-    Entry::new(0x21E0, 0x07, DataType::Integer32, RW, 4, 708, NO_LIMITS), // 0x21E0:07 Fixed frequency 1 / Data set 2 RAM
-    Entry::new(0x21E0, 0x08, DataType::Integer32, RW, 4, 712, NO_LIMITS), // 0x21E0:08 Fixed frequency 1 / Data set 3 RAM
-    Entry::new(0x21E0, 0x09, DataType::Integer32, RW, 4, 716, NO_LIMITS), // 0x21E0:09 Fixed frequency 1 / Data set 4 RAM
+    Entry::new(0x21E0, 0x01, DataType::Integer32, RW, 4, 660, NO_LIMITS), // 0x21E0:01 Fixed frequency 1 / Data set 1
+    Entry::new(0x21E0, 0x02, DataType::Integer32, RW, 4, 664, NO_LIMITS), // 0x21E0:02 Fixed frequency 1 / Data set 2
+    Entry::new(0x21E0, 0x03, DataType::Integer32, RW, 4, 668, NO_LIMITS), // 0x21E0:03 Fixed frequency 1 / Data set 3
+    Entry::new(0x21E0, 0x04, DataType::Integer32, RW, 4, 672, NO_LIMITS), // 0x21E0:04 Fixed frequency 1 / Data set 4
+    Entry::new(0x21E0, 0x05, DataType::Integer32, RW, 4, 676, NO_LIMITS), // 0x21E0:05 Fixed frequency 1 / All data sets RAM
+    Entry::new(0x21E0, 0x06, DataType::Integer32, RW, 4, 680, NO_LIMITS), // 0x21E0:06 Fixed frequency 1 / Data set 1 RAM
+    Entry::new(0x21E0, 0x07, DataType::Integer32, RW, 4, 684, NO_LIMITS), // 0x21E0:07 Fixed frequency 1 / Data set 2 RAM
+    Entry::new(0x21E0, 0x08, DataType::Integer32, RW, 4, 688, NO_LIMITS), // 0x21E0:08 Fixed frequency 1 / Data set 3 RAM
+    Entry::new(0x21E0, 0x09, DataType::Integer32, RW, 4, 692, NO_LIMITS), // 0x21E0:09 Fixed frequency 1 / Data set 4 RAM
     Entry::new(0x2225, 0x00, DataType::Unsigned8, RO, 1, 894, NO_LIMITS), // 0x2225:00 Max control deviation / Highest sub-index supported
-    Entry::new(0x2225, 0x01, DataType::Unsigned16, RW, 2, 720, 14), // 0x2225:01 Max control deviation / Data set 1
-    Entry::new(0x2225, 0x02, DataType::Unsigned16, RW, 2, 722, 14), // 0x2225:02 Max control deviation / Data set 2
-    Entry::new(0x2225, 0x03, DataType::Unsigned16, RW, 2, 724, 14), // 0x2225:03 Max control deviation / Data set 3
-    Entry::new(0x2225, 0x04, DataType::Unsigned16, RW, 2, 726, 14), // 0x2225:04 Max control deviation / Data set 4
-    Entry::new(0x2225, 0x05, DataType::Unsigned16, RW, 2, 728, 14), // 0x2225:05 Max control deviation / All data sets RAM
-    Entry::new(0x2225, 0x06, DataType::Unsigned16, RW, 2, 730, 14), // 0x2225:06 Max control deviation / Data set 1 RAM
-    Entry::new(0x2225, 0x07, DataType::Unsigned16, RW, 2, 732, 14), // 0x2225:07 Max control deviation / Data set 2 RAM
-    Entry::new(0x2225, 0x08, DataType::Unsigned16, RW, 2, 734, 14), // 0x2225:08 Max control deviation / Data set 3 RAM
-    Entry::new(0x2225, 0x09, DataType::Unsigned16, RW, 2, 736, 14), // 0x2225:09 Max control deviation / Data set 4 RAM
+    Entry::new(0x2225, 0x01, DataType::Unsigned16, RW, 2, 696, 14), // 0x2225:01 Max control deviation / Data set 1
+    Entry::new(0x2225, 0x02, DataType::Unsigned16, RW, 2, 698, 14), // 0x2225:02 Max control deviation / Data set 2
+    Entry::new(0x2225, 0x03, DataType::Unsigned16, RW, 2, 700, 14), // 0x2225:03 Max control deviation / Data set 3
+    Entry::new(0x2225, 0x04, DataType::Unsigned16, RW, 2, 702, 14), // 0x2225:04 Max control deviation / Data set 4
+    Entry::new(0x2225, 0x05, DataType::Unsigned16, RW, 2, 704, 14), // 0x2225:05 Max control deviation / All data sets RAM
+    Entry::new(0x2225, 0x06, DataType::Unsigned16, RW, 2, 706, 14), // 0x2225:06 Max control deviation / Data set 1 RAM
+    Entry::new(0x2225, 0x07, DataType::Unsigned16, RW, 2, 708, 14), // 0x2225:07 Max control deviation / Data set 2 RAM
+    Entry::new(0x2225, 0x08, DataType::Unsigned16, RW, 2, 710, 14), // 0x2225:08 Max control deviation / Data set 3 RAM
+    Entry::new(0x2225, 0x09, DataType::Unsigned16, RW, 2, 712, 14), // 0x2225:09 Max control deviation / Data set 4 RAM
     Entry::new(0x227D, 0x00, DataType::Unsigned8, RO, 1, 895, NO_LIMITS), // 0x227D:00 Stop function switch-off threshold / Highest sub-index supported
-    Entry::new(0x227D, 0x01, DataType::Unsigned16, RW, 2, 738, 15), // 0x227D:01 Stop function switch-off threshold / Data set 1
-    Entry::new(0x227D, 0x02, DataType::Unsigned16, RW, 2, 740, 15), // 0x227D:02 Stop function switch-off threshold / Data set 2
-    Entry::new(0x227D, 0x03, DataType::Unsigned16, RW, 2, 742, 15), // 0x227D:03 Stop function switch-off threshold / Data set 3
-    Entry::new(0x227D, 0x04, DataType::Unsigned16, RW, 2, 744, 15), // 0x227D:04 Stop function switch-off threshold / Data set 4
-    Entry::new(0x227D, 0x05, DataType::Unsigned16, RW, 2, 746, 15), // 0x227D:05 Stop function switch-off threshold / All data sets RAM
-    Entry::new(0x227D, 0x06, DataType::Unsigned16, RW, 2, 748, 15), // 0x227D:06 Stop function switch-off threshold / Data set 1 RAM
-    Entry::new(0x227D, 0x07, DataType::Unsigned16, RW, 2, 750, 15), // 0x227D:07 Stop function switch-off threshold / Data set 2 RAM
-    Entry::new(0x227D, 0x08, DataType::Unsigned16, RW, 2, 752, 15), // 0x227D:08 Stop function switch-off threshold / Data set 3 RAM
-    Entry::new(0x227D, 0x09, DataType::Unsigned16, RW, 2, 754, 15), // 0x227D:09 Stop function switch-off threshold / Data set 4 RAM
+    Entry::new(0x227D, 0x01, DataType::Unsigned16, RW, 2, 714, 15), // 0x227D:01 Stop function switch-off threshold / Data set 1
+    Entry::new(0x227D, 0x02, DataType::Unsigned16, RW, 2, 716, 15), // 0x227D:02 Stop function switch-off threshold / Data set 2
+    Entry::new(0x227D, 0x03, DataType::Unsigned16, RW, 2, 718, 15), // 0x227D:03 Stop function switch-off threshold / Data set 3
+    Entry::new(0x227D, 0x04, DataType::Unsigned16, RW, 2, 720, 15), // 0x227D:04 Stop function switch-off threshold / Data set 4
+    Entry::new(0x227D, 0x05, DataType::Unsigned16, RW, 2, 722, 15), // 0x227D:05 Stop function switch-off threshold / All data sets RAM
+    Entry::new(0x227D, 0x06, DataType::Unsigned16, RW, 2, 724, 15), // 0x227D:06 Stop function switch-off threshold / Data set 1 RAM
+    Entry::new(0x227D, 0x07, DataType::Unsigned16, RW, 2, 726, 15), // 0x227D:07 Stop function switch-off threshold / Data set 2 RAM
+    Entry::new(0x227D, 0x08, DataType::Unsigned16, RW, 2, 728, 15), // 0x227D:08 Stop function switch-off threshold / Data set 3 RAM
+    Entry::new(0x227D, 0x09, DataType::Unsigned16, RW, 2, 730, 15), // 0x227D:09 Stop function switch-off threshold / Data set 4 RAM
     Entry::new(0x227E, 0x00, DataType::Unsigned8, RO, 1, 896, NO_LIMITS), // 0x227E:00 Stop function holding time / Highest sub-index supported
-    Entry::new(0x227E, 0x01, DataType::Unsigned16, RW, 2, 756, 16), // 0x227E:01 Stop function holding time / Data set 1
-    Entry::new(0x227E, 0x02, DataType::Unsigned16, RW, 2, 758, 16), // 0x227E:02 Stop function holding time / Data set 2
-    Entry::new(0x227E, 0x03, DataType::Unsigned16, RW, 2, 760, 16), // 0x227E:03 Stop function holding time / Data set 3
-    Entry::new(0x227E, 0x04, DataType::Unsigned16, RW, 2, 762, 16), // 0x227E:04 Stop function holding time / Data set 4
-    Entry::new(0x227E, 0x05, DataType::Unsigned16, RW, 2, 764, 16), // 0x227E:05 Stop function holding time / All data sets RAM
-    Entry::new(0x227E, 0x06, DataType::Unsigned16, RW, 2, 766, 16), // 0x227E:06 Stop function holding time / Data set 1 RAM
-    Entry::new(0x227E, 0x07, DataType::Unsigned16, RW, 2, 768, 16), // 0x227E:07 Stop function holding time / Data set 2 RAM
-    Entry::new(0x227E, 0x08, DataType::Unsigned16, RW, 2, 770, 16), // 0x227E:08 Stop function holding time / Data set 3 RAM
-    Entry::new(0x227E, 0x09, DataType::Unsigned16, RW, 2, 772, 16), // 0x227E:09 Stop function holding time / Data set 4 RAM
-    Entry::new(0x249C, 0x00, DataType::Unsigned16, RW, 2, 774, 17), // 0x249C:00 Systembus sync mode
+    Entry::new(0x227E, 0x01, DataType::Unsigned16, RW, 2, 732, 16), // 0x227E:01 Stop function holding time / Data set 1
+    Entry::new(0x227E, 0x02, DataType::Unsigned16, RW, 2, 734, 16), // 0x227E:02 Stop function holding time / Data set 2
+    Entry::new(0x227E, 0x03, DataType::Unsigned16, RW, 2, 736, 16), // 0x227E:03 Stop function holding time / Data set 3
+    Entry::new(0x227E, 0x04, DataType::Unsigned16, RW, 2, 738, 16), // 0x227E:04 Stop function holding time / Data set 4
+    Entry::new(0x227E, 0x05, DataType::Unsigned16, RW, 2, 740, 16), // 0x227E:05 Stop function holding time / All data sets RAM
+    Entry::new(0x227E, 0x06, DataType::Unsigned16, RW, 2, 742, 16), // 0x227E:06 Stop function holding time / Data set 1 RAM
+    Entry::new(0x227E, 0x07, DataType::Unsigned16, RW, 2, 744, 16), // 0x227E:07 Stop function holding time / Data set 2 RAM
+    Entry::new(0x227E, 0x08, DataType::Unsigned16, RW, 2, 746, 16), // 0x227E:08 Stop function holding time / Data set 3 RAM
+    Entry::new(0x227E, 0x09, DataType::Unsigned16, RW, 2, 748, 16), // 0x227E:09 Stop function holding time / Data set 4 RAM
+    Entry::new(0x249C, 0x00, DataType::Unsigned16, RW, 2, 750, 17), // 0x249C:00 Systembus sync mode
     Entry::new(0x250A, 0x00, DataType::Unsigned16, RO, 2, 897, 18), // 0x250A:00 NMT node state
     Entry::new(0x250B, 0x00, DataType::Unsigned16, RO, 2, 899, 19), // 0x250B:00 CAN controller state
-    Entry::new(0x258C, 0x00, DataType::Unsigned16, RW, 2, 776, 20), // 0x258C:00 CANopen mux input index write
-    Entry::new(0x258D, 0x00, DataType::Unsigned16, RW, 2, 778, 20), // 0x258D:00 CANopen mux input index read
-    Entry::new(0x258E, 0x00, DataType::Unsigned16, RW, 2, 780, NO_LIMITS), // 0x258E:00 CANopen mux inputs
-    Entry::new(0x258F, 0x00, DataType::Unsigned16, RW, 2, 782, NO_LIMITS), // 0x258F:00 CANopen percentage actual value source
-    Entry::new(0x25AB, 0x00, DataType::Unsigned16, RW, 2, 784, 21), // 0x25AB:00 OS sync time
-    Entry::new(0x25AC, 0x00, DataType::Unsigned16, RW, 2, 786, 22), // 0x25AC:00 OS sync source
+    Entry::new(0x258C, 0x00, DataType::Unsigned16, RW, 2, 752, 20), // 0x258C:00 CANopen mux input index write
+    Entry::new(0x258D, 0x00, DataType::Unsigned16, RW, 2, 754, 20), // 0x258D:00 CANopen mux input index read
+    Entry::new(0x258E, 0x00, DataType::Unsigned16, RW, 2, 756, NO_LIMITS), // 0x258E:00 CANopen mux inputs
+    Entry::new(0x258F, 0x00, DataType::Unsigned16, RW, 2, 758, NO_LIMITS), // 0x258F:00 CANopen percentage actual value source
+    Entry::new(0x25AB, 0x00, DataType::Unsigned16, RW, 2, 760, 21), // 0x25AB:00 OS sync time
+    Entry::new(0x25AC, 0x00, DataType::Unsigned16, RW, 2, 762, 22), // 0x25AC:00 OS sync source
     Entry::new(0x25AD, 0x00, DataType::Unsigned16, RO, 2, 901, NO_LIMITS), // 0x25AD:00 OS sync source actual
-    Entry::new(0x3000, 0x00, DataType::Unsigned16, RW, 2, 788, 23), // 0x3000:00 SYNC jitter
+    Entry::new(0x3000, 0x00, DataType::Unsigned16, RW, 2, 764, 23), // 0x3000:00 SYNC jitter
     Entry::new(0x3001, 0x00, DataType::Unsigned16, RO_TPDO, 2, 903, NO_LIMITS), // 0x3001:00 Digital in actual value
     Entry::new(0x3002, 0x00, DataType::Unsigned16, RO_TPDO, 2, 905, NO_LIMITS), // 0x3002:00 Digital out actual value
-    Entry::new(0x3003, 0x00, DataType::Unsigned8, RW_RPDO, 1, 790, NO_LIMITS), // 0x3003:00 Digital out set values
+    Entry::new(0x3003, 0x00, DataType::Unsigned8, RW_RPDO, 1, 766, NO_LIMITS), // 0x3003:00 Digital out set values
     Entry::new(0x3004, 0x00, DataType::Unsigned16, RO_TPDO, 2, 907, NO_LIMITS), // 0x3004:00 Boolean mux
-    Entry::new(0x3005, 0x00, DataType::Unsigned16, RW_RPDO, 2, 791, NO_LIMITS), // 0x3005:00 Boolean demux
-    Entry::new(0x3006, 0x00, DataType::Unsigned16, RW_RPDO, 2, 793, NO_LIMITS), // 0x3006:00 Percentage set value
+    Entry::new(0x3005, 0x00, DataType::Unsigned16, RW_RPDO, 2, 767, NO_LIMITS), // 0x3005:00 Boolean demux
+    Entry::new(0x3006, 0x00, DataType::Unsigned16, RW_RPDO, 2, 769, NO_LIMITS), // 0x3006:00 Percentage set value
     Entry::new(0x3007, 0x00, DataType::Unsigned16, RO_TPDO, 2, 909, NO_LIMITS), // 0x3007:00 Percentage actual value
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 795, 24), // 0x6007:00 Abort connection option code
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 771, 24), // 0x6007:00 Abort connection option code
     Entry::new(0x603F, 0x00, DataType::Unsigned16, RO, 2, 911, NO_LIMITS), // 0x603F:00 Error code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 797, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 773, NO_LIMITS), // 0x6040:00 Controlword
     Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 913, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6042, 0x00, DataType::Integer16, RW_RPDO, 2, 799, 25), // 0x6042:00 vl target velocity
+    Entry::new(0x6042, 0x00, DataType::Integer16, RW_RPDO, 2, 775, 25), // 0x6042:00 vl target velocity
     Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 915, NO_LIMITS), // 0x6043:00 vl velocity demand
     Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 917, NO_LIMITS), // 0x6044:00 vl control effort
     Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 919, NO_LIMITS), // 0x6046:00 vl velocity min max amount / Highest sub-index supported
-    Entry::new(0x6046, 0x01, DataType::Unsigned32, RW, 4, 801, 26), // 0x6046:01 vl velocity min max amount / vl velocity min amount
-    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW, 4, 805, 26), // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    Entry::new(0x6046, 0x01, DataType::Unsigned32, RW, 4, 777, 26), // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW, 4, 781, 26), // 0x6046:02 vl velocity min max amount / vl velocity max amount
     Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 920, NO_LIMITS), // 0x6048:00 vl velocity acceleration / Highest sub-index supported
-    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW, 4, 809, 27), // 0x6048:01 vl velocity acceleration / Delta speed
-    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW, 2, 813, 28), // 0x6048:02 vl velocity acceleration / Delta time
+    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW, 4, 785, 27), // 0x6048:01 vl velocity acceleration / Delta speed
+    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW, 2, 789, 28), // 0x6048:02 vl velocity acceleration / Delta time
     Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 921, NO_LIMITS), // 0x6049:00 vl velocity deceleration / Highest sub-index supported
-    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW, 4, 815, 27), // 0x6049:01 vl velocity deceleration / Delta speed
-    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW, 2, 819, 28), // 0x6049:02 vl velocity deceleration / Delta time
+    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW, 4, 791, 27), // 0x6049:01 vl velocity deceleration / Delta speed
+    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW, 2, 795, 28), // 0x6049:02 vl velocity deceleration / Delta time
     Entry::new(0x604A, 0x00, DataType::Unsigned8, RO, 1, 922, NO_LIMITS), // 0x604A:00 vl velocity quick stop / Highest sub-index supported
-    Entry::new(0x604A, 0x01, DataType::Unsigned32, RW, 4, 821, 27), // 0x604A:01 vl velocity quick stop / Delta speed
-    Entry::new(0x604A, 0x02, DataType::Unsigned16, RW, 2, 825, 28), // 0x604A:02 vl velocity quick stop / Delta time
-    Entry::new(0x6060, 0x00, DataType::Integer8, WO_RPDO, 1, 827, 29), // 0x6060:00 Modes of operation
+    Entry::new(0x604A, 0x01, DataType::Unsigned32, RW, 4, 797, 27), // 0x604A:01 vl velocity quick stop / Delta speed
+    Entry::new(0x604A, 0x02, DataType::Unsigned16, RW, 2, 801, 28), // 0x604A:02 vl velocity quick stop / Delta time
+    Entry::new(0x6060, 0x00, DataType::Integer8, WO_RPDO, 1, 803, 29), // 0x6060:00 Modes of operation
     Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 923, NO_LIMITS), // 0x6061:00 Modes of operation display
-    Entry::new(0x6071, 0x00, DataType::Integer16, RW_RPDO, 2, 828, NO_LIMITS), // 0x6071:00 Target torque
+    Entry::new(0x6071, 0x00, DataType::Integer16, RW_RPDO, 2, 804, NO_LIMITS), // 0x6071:00 Target torque
     Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 924, NO_LIMITS), // 0x6077:00 Torque actual value
     Entry::new(0x6078, 0x00, DataType::Integer16, RO_TPDO, 2, 926, NO_LIMITS), // 0x6078:00 Current actual value
     Entry::new(0x6079, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928, NO_LIMITS), // 0x6079:00 DC link circuit voltage
@@ -635,12 +635,6 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
     0x00, 0x00, // 0x100C:00 Guard time
     0x00, // 0x100D:00 Life time factor
-    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
     0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
     0x00, 0x00, 0x00, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
     0x00, 0x00, 0x00, 0x00, // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
@@ -902,7 +896,13 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, // 0x6071:00 Target torque
     0x00, // 0x1001:00 Error register
     0x03, // 0x1010:00 Store parameters / Highest sub-index supported
+    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
     0x03, // 0x1011:00 Restore default parameters / Highest sub-index supported
+    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
     0x03, // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
     0x04, // 0x1018:00 Identity object / Highest sub-index supported
     0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
@@ -1325,9 +1325,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 310,
+    comm_len: 286,
     stored_len: STORED_SIZE,
-    comm_rest: 25,
+    comm_rest: 49,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -1391,12 +1391,12 @@ impl Ram {
 
     /// 0x1001 Error register (agile.eds:172, UNSIGNED8 ro)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 830))
+        u8::from_le_bytes(od::load::<1>(&self.image, 806))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 830, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 806, v.to_le_bytes());
     }
 
     /// 0x1005 COB-ID SYNC message (agile.eds:180, UNSIGNED32 rw)
@@ -1466,12 +1466,12 @@ impl Ram {
 
     /// 0x1010 sub 0 Store parameters / Highest sub-index supported (agile.eds:251, UNSIGNED8 ro)
     pub fn store_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 831))
+        u8::from_le_bytes(od::load::<1>(&self.image, 807))
     }
 
     /// Sets 0x1010 sub 0 Store parameters / Highest sub-index supported.
     pub fn set_store_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 831, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 807, v.to_le_bytes());
     }
 
     /// 0x1010 Store parameters sub-index `i` (1..=3) (agile.eds:246)
@@ -1479,7 +1479,7 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return None;
         }
-        let off = 11 + usize::from(i) * 4;
+        let off = 804 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1488,19 +1488,19 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return false;
         }
-        let off = 11 + usize::from(i) * 4;
+        let off = 804 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1011 sub 0 Restore default parameters / Highest sub-index supported (agile.eds:288, UNSIGNED8 ro)
     pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 832))
+        u8::from_le_bytes(od::load::<1>(&self.image, 820))
     }
 
     /// Sets 0x1011 sub 0 Restore default parameters / Highest sub-index supported.
     pub fn set_restore_default_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 832, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 820, v.to_le_bytes());
     }
 
     /// 0x1011 Restore default parameters sub-index `i` (1..=3) (agile.eds:283)
@@ -1508,7 +1508,7 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return None;
         }
-        let off = 23 + usize::from(i) * 4;
+        let off = 817 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1517,19 +1517,19 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return false;
         }
-        let off = 23 + usize::from(i) * 4;
+        let off = 817 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1014 COB-ID EMCY (agile.eds:320, UNSIGNED32 rw, $NODEID-relative)
     pub fn cob_id_emcy(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 39))
+        u32::from_le_bytes(od::load::<4>(&self.image, 15))
     }
 
     /// Sets 0x1014 COB-ID EMCY.
     pub fn set_cob_id_emcy(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 39, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 15, v.to_le_bytes());
     }
 
     /// 0x1016 sub 0 Consumer heartbeat time / Highest sub-index supported (agile.eds:333, UNSIGNED8 ro)
@@ -1547,7 +1547,7 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return None;
         }
-        let off = 39 + usize::from(i) * 4;
+        let off = 15 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1556,19 +1556,19 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return false;
         }
-        let off = 39 + usize::from(i) * 4;
+        let off = 15 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1017 Producer heartbeat time (agile.eds:365, UNSIGNED16 rw)
     pub fn producer_heartbeat_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 55))
+        u16::from_le_bytes(od::load::<2>(&self.image, 31))
     }
 
     /// Sets 0x1017 Producer heartbeat time.
     pub fn set_producer_heartbeat_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 55, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 31, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Highest sub-index supported (agile.eds:378, UNSIGNED8 ro)
@@ -1618,12 +1618,12 @@ impl Ram {
 
     /// 0x1029 sub 1 Error behavior / Communication error (agile.eds:431, UNSIGNED8 rw)
     pub fn error_behavior_communication_error(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 57))
+        u8::from_le_bytes(od::load::<1>(&self.image, 33))
     }
 
     /// Sets 0x1029 sub 1 Error behavior / Communication error.
     pub fn set_error_behavior_communication_error(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 57, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 33, v.to_le_bytes());
     }
 
     /// 0x1200 sub 0 SDO server parameter / Highest sub-index supported (agile.eds:446, UNSIGNED8 ro)
@@ -1668,42 +1668,42 @@ impl Ram {
 
     /// 0x1400 sub 1 RPDO1 communication parameter / COB-ID used by RPDO (agile.eds:483, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo1_communication_parameter_cob_id_used_by_rpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 58))
+        u32::from_le_bytes(od::load::<4>(&self.image, 34))
     }
 
     /// Sets 0x1400 sub 1 RPDO1 communication parameter / COB-ID used by RPDO.
     pub fn set_rpdo1_communication_parameter_cob_id_used_by_rpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 58, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 34, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO1 communication parameter / Transmission type (agile.eds:491, UNSIGNED8 rw)
     pub fn rpdo1_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 62))
+        u8::from_le_bytes(od::load::<1>(&self.image, 38))
     }
 
     /// Sets 0x1400 sub 2 RPDO1 communication parameter / Transmission type.
     pub fn set_rpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 62, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 38, v.to_le_bytes());
     }
 
     /// 0x1400 sub 3 RPDO1 communication parameter / Inhibit time (agile.eds:499, UNSIGNED16 rw)
     pub fn rpdo1_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 63))
+        u16::from_le_bytes(od::load::<2>(&self.image, 39))
     }
 
     /// Sets 0x1400 sub 3 RPDO1 communication parameter / Inhibit time.
     pub fn set_rpdo1_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 63, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 39, v.to_le_bytes());
     }
 
     /// 0x1400 sub 5 RPDO1 communication parameter / Event timer (agile.eds:507, UNSIGNED16 rw)
     pub fn rpdo1_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 65))
+        u16::from_le_bytes(od::load::<2>(&self.image, 41))
     }
 
     /// Sets 0x1400 sub 5 RPDO1 communication parameter / Event timer.
     pub fn set_rpdo1_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 65, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 41, v.to_le_bytes());
     }
 
     /// 0x1401 sub 0 RPDO2 communication parameter / Highest sub-index supported (agile.eds:520, UNSIGNED8 ro)
@@ -1718,42 +1718,42 @@ impl Ram {
 
     /// 0x1401 sub 1 RPDO2 communication parameter / COB-ID used by RPDO (agile.eds:528, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo2_communication_parameter_cob_id_used_by_rpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 67))
+        u32::from_le_bytes(od::load::<4>(&self.image, 43))
     }
 
     /// Sets 0x1401 sub 1 RPDO2 communication parameter / COB-ID used by RPDO.
     pub fn set_rpdo2_communication_parameter_cob_id_used_by_rpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 67, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 43, v.to_le_bytes());
     }
 
     /// 0x1401 sub 2 RPDO2 communication parameter / Transmission type (agile.eds:536, UNSIGNED8 rw)
     pub fn rpdo2_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 71))
+        u8::from_le_bytes(od::load::<1>(&self.image, 47))
     }
 
     /// Sets 0x1401 sub 2 RPDO2 communication parameter / Transmission type.
     pub fn set_rpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 71, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 47, v.to_le_bytes());
     }
 
     /// 0x1401 sub 3 RPDO2 communication parameter / Inhibit time (agile.eds:544, UNSIGNED16 rw)
     pub fn rpdo2_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 72))
+        u16::from_le_bytes(od::load::<2>(&self.image, 48))
     }
 
     /// Sets 0x1401 sub 3 RPDO2 communication parameter / Inhibit time.
     pub fn set_rpdo2_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 72, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 48, v.to_le_bytes());
     }
 
     /// 0x1401 sub 5 RPDO2 communication parameter / Event timer (agile.eds:552, UNSIGNED16 rw)
     pub fn rpdo2_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 74))
+        u16::from_le_bytes(od::load::<2>(&self.image, 50))
     }
 
     /// Sets 0x1401 sub 5 RPDO2 communication parameter / Event timer.
     pub fn set_rpdo2_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 74, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 50, v.to_le_bytes());
     }
 
     /// 0x1402 sub 0 RPDO3 communication parameter / Highest sub-index supported (agile.eds:565, UNSIGNED8 ro)
@@ -1768,312 +1768,312 @@ impl Ram {
 
     /// 0x1402 sub 1 RPDO3 communication parameter / COB-ID used by RPDO (agile.eds:573, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo3_communication_parameter_cob_id_used_by_rpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 76))
+        u32::from_le_bytes(od::load::<4>(&self.image, 52))
     }
 
     /// Sets 0x1402 sub 1 RPDO3 communication parameter / COB-ID used by RPDO.
     pub fn set_rpdo3_communication_parameter_cob_id_used_by_rpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 76, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 52, v.to_le_bytes());
     }
 
     /// 0x1402 sub 2 RPDO3 communication parameter / Transmission type (agile.eds:581, UNSIGNED8 rw)
     pub fn rpdo3_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 80))
+        u8::from_le_bytes(od::load::<1>(&self.image, 56))
     }
 
     /// Sets 0x1402 sub 2 RPDO3 communication parameter / Transmission type.
     pub fn set_rpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 80, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 56, v.to_le_bytes());
     }
 
     /// 0x1402 sub 3 RPDO3 communication parameter / Inhibit time (agile.eds:589, UNSIGNED16 rw)
     pub fn rpdo3_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 81))
+        u16::from_le_bytes(od::load::<2>(&self.image, 57))
     }
 
     /// Sets 0x1402 sub 3 RPDO3 communication parameter / Inhibit time.
     pub fn set_rpdo3_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 81, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 57, v.to_le_bytes());
     }
 
     /// 0x1402 sub 5 RPDO3 communication parameter / Event timer (agile.eds:597, UNSIGNED16 rw)
     pub fn rpdo3_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 83))
+        u16::from_le_bytes(od::load::<2>(&self.image, 59))
     }
 
     /// Sets 0x1402 sub 5 RPDO3 communication parameter / Event timer.
     pub fn set_rpdo3_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 83, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 59, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO1 mapping parameter / Number of mapped objects (agile.eds:610, UNSIGNED8 rw)
     pub fn rpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 85))
+        u8::from_le_bytes(od::load::<1>(&self.image, 61))
     }
 
     /// Sets 0x1600 sub 0 RPDO1 mapping parameter / Number of mapped objects.
     pub fn set_rpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 85, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 61, v.to_le_bytes());
     }
 
     /// 0x1600 sub 1 RPDO1 mapping parameter / Mapped object 1 (agile.eds:620, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 86))
+        u32::from_le_bytes(od::load::<4>(&self.image, 62))
     }
 
     /// Sets 0x1600 sub 1 RPDO1 mapping parameter / Mapped object 1.
     pub fn set_rpdo1_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 86, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 62, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO1 mapping parameter / Mapped object 2 (agile.eds:628, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 90))
+        u32::from_le_bytes(od::load::<4>(&self.image, 66))
     }
 
     /// Sets 0x1600 sub 2 RPDO1 mapping parameter / Mapped object 2.
     pub fn set_rpdo1_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 90, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 66, v.to_le_bytes());
     }
 
     /// 0x1600 sub 3 RPDO1 mapping parameter / Mapped object 3 (agile.eds:636, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 94))
+        u32::from_le_bytes(od::load::<4>(&self.image, 70))
     }
 
     /// Sets 0x1600 sub 3 RPDO1 mapping parameter / Mapped object 3.
     pub fn set_rpdo1_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 94, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 70, v.to_le_bytes());
     }
 
     /// 0x1600 sub 4 RPDO1 mapping parameter / Mapped object 4 (agile.eds:644, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 98))
+        u32::from_le_bytes(od::load::<4>(&self.image, 74))
     }
 
     /// Sets 0x1600 sub 4 RPDO1 mapping parameter / Mapped object 4.
     pub fn set_rpdo1_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 98, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 74, v.to_le_bytes());
     }
 
     /// 0x1600 sub 5 RPDO1 mapping parameter / Mapped object 5 (agile.eds:652, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 102))
+        u32::from_le_bytes(od::load::<4>(&self.image, 78))
     }
 
     /// Sets 0x1600 sub 5 RPDO1 mapping parameter / Mapped object 5.
     pub fn set_rpdo1_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 102, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 78, v.to_le_bytes());
     }
 
     /// 0x1600 sub 6 RPDO1 mapping parameter / Mapped object 6 (agile.eds:660, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 106))
+        u32::from_le_bytes(od::load::<4>(&self.image, 82))
     }
 
     /// Sets 0x1600 sub 6 RPDO1 mapping parameter / Mapped object 6.
     pub fn set_rpdo1_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 106, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 82, v.to_le_bytes());
     }
 
     /// 0x1600 sub 7 RPDO1 mapping parameter / Mapped object 7 (agile.eds:668, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 110))
+        u32::from_le_bytes(od::load::<4>(&self.image, 86))
     }
 
     /// Sets 0x1600 sub 7 RPDO1 mapping parameter / Mapped object 7.
     pub fn set_rpdo1_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 110, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 86, v.to_le_bytes());
     }
 
     /// 0x1600 sub 8 RPDO1 mapping parameter / Mapped object 8 (agile.eds:676, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 114))
+        u32::from_le_bytes(od::load::<4>(&self.image, 90))
     }
 
     /// Sets 0x1600 sub 8 RPDO1 mapping parameter / Mapped object 8.
     pub fn set_rpdo1_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 114, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 90, v.to_le_bytes());
     }
 
     /// 0x1601 sub 0 RPDO2 mapping parameter / Number of mapped objects (agile.eds:689, UNSIGNED8 rw)
     pub fn rpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 118))
+        u8::from_le_bytes(od::load::<1>(&self.image, 94))
     }
 
     /// Sets 0x1601 sub 0 RPDO2 mapping parameter / Number of mapped objects.
     pub fn set_rpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 118, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 94, v.to_le_bytes());
     }
 
     /// 0x1601 sub 1 RPDO2 mapping parameter / Mapped object 1 (agile.eds:699, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 119))
+        u32::from_le_bytes(od::load::<4>(&self.image, 95))
     }
 
     /// Sets 0x1601 sub 1 RPDO2 mapping parameter / Mapped object 1.
     pub fn set_rpdo2_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 119, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 95, v.to_le_bytes());
     }
 
     /// 0x1601 sub 2 RPDO2 mapping parameter / Mapped object 2 (agile.eds:707, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 123))
+        u32::from_le_bytes(od::load::<4>(&self.image, 99))
     }
 
     /// Sets 0x1601 sub 2 RPDO2 mapping parameter / Mapped object 2.
     pub fn set_rpdo2_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 123, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 99, v.to_le_bytes());
     }
 
     /// 0x1601 sub 3 RPDO2 mapping parameter / Mapped object 3 (agile.eds:715, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 127))
+        u32::from_le_bytes(od::load::<4>(&self.image, 103))
     }
 
     /// Sets 0x1601 sub 3 RPDO2 mapping parameter / Mapped object 3.
     pub fn set_rpdo2_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 127, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 103, v.to_le_bytes());
     }
 
     /// 0x1601 sub 4 RPDO2 mapping parameter / Mapped object 4 (agile.eds:723, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 131))
+        u32::from_le_bytes(od::load::<4>(&self.image, 107))
     }
 
     /// Sets 0x1601 sub 4 RPDO2 mapping parameter / Mapped object 4.
     pub fn set_rpdo2_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 131, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 107, v.to_le_bytes());
     }
 
     /// 0x1601 sub 5 RPDO2 mapping parameter / Mapped object 5 (agile.eds:731, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 135))
+        u32::from_le_bytes(od::load::<4>(&self.image, 111))
     }
 
     /// Sets 0x1601 sub 5 RPDO2 mapping parameter / Mapped object 5.
     pub fn set_rpdo2_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 135, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 111, v.to_le_bytes());
     }
 
     /// 0x1601 sub 6 RPDO2 mapping parameter / Mapped object 6 (agile.eds:739, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 139))
+        u32::from_le_bytes(od::load::<4>(&self.image, 115))
     }
 
     /// Sets 0x1601 sub 6 RPDO2 mapping parameter / Mapped object 6.
     pub fn set_rpdo2_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 139, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 115, v.to_le_bytes());
     }
 
     /// 0x1601 sub 7 RPDO2 mapping parameter / Mapped object 7 (agile.eds:747, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 143))
+        u32::from_le_bytes(od::load::<4>(&self.image, 119))
     }
 
     /// Sets 0x1601 sub 7 RPDO2 mapping parameter / Mapped object 7.
     pub fn set_rpdo2_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 143, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 119, v.to_le_bytes());
     }
 
     /// 0x1601 sub 8 RPDO2 mapping parameter / Mapped object 8 (agile.eds:755, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 147))
+        u32::from_le_bytes(od::load::<4>(&self.image, 123))
     }
 
     /// Sets 0x1601 sub 8 RPDO2 mapping parameter / Mapped object 8.
     pub fn set_rpdo2_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 147, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 123, v.to_le_bytes());
     }
 
     /// 0x1602 sub 0 RPDO3 mapping parameter / Number of mapped objects (agile.eds:768, UNSIGNED8 rw)
     pub fn rpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 151))
+        u8::from_le_bytes(od::load::<1>(&self.image, 127))
     }
 
     /// Sets 0x1602 sub 0 RPDO3 mapping parameter / Number of mapped objects.
     pub fn set_rpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 151, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 127, v.to_le_bytes());
     }
 
     /// 0x1602 sub 1 RPDO3 mapping parameter / Mapped object 1 (agile.eds:778, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 152))
+        u32::from_le_bytes(od::load::<4>(&self.image, 128))
     }
 
     /// Sets 0x1602 sub 1 RPDO3 mapping parameter / Mapped object 1.
     pub fn set_rpdo3_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 152, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 128, v.to_le_bytes());
     }
 
     /// 0x1602 sub 2 RPDO3 mapping parameter / Mapped object 2 (agile.eds:786, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 156))
+        u32::from_le_bytes(od::load::<4>(&self.image, 132))
     }
 
     /// Sets 0x1602 sub 2 RPDO3 mapping parameter / Mapped object 2.
     pub fn set_rpdo3_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 156, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 132, v.to_le_bytes());
     }
 
     /// 0x1602 sub 3 RPDO3 mapping parameter / Mapped object 3 (agile.eds:794, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 160))
+        u32::from_le_bytes(od::load::<4>(&self.image, 136))
     }
 
     /// Sets 0x1602 sub 3 RPDO3 mapping parameter / Mapped object 3.
     pub fn set_rpdo3_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 160, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 136, v.to_le_bytes());
     }
 
     /// 0x1602 sub 4 RPDO3 mapping parameter / Mapped object 4 (agile.eds:802, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 164))
+        u32::from_le_bytes(od::load::<4>(&self.image, 140))
     }
 
     /// Sets 0x1602 sub 4 RPDO3 mapping parameter / Mapped object 4.
     pub fn set_rpdo3_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 164, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 140, v.to_le_bytes());
     }
 
     /// 0x1602 sub 5 RPDO3 mapping parameter / Mapped object 5 (agile.eds:810, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 168))
+        u32::from_le_bytes(od::load::<4>(&self.image, 144))
     }
 
     /// Sets 0x1602 sub 5 RPDO3 mapping parameter / Mapped object 5.
     pub fn set_rpdo3_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 168, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 144, v.to_le_bytes());
     }
 
     /// 0x1602 sub 6 RPDO3 mapping parameter / Mapped object 6 (agile.eds:818, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 172))
+        u32::from_le_bytes(od::load::<4>(&self.image, 148))
     }
 
     /// Sets 0x1602 sub 6 RPDO3 mapping parameter / Mapped object 6.
     pub fn set_rpdo3_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 172, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 148, v.to_le_bytes());
     }
 
     /// 0x1602 sub 7 RPDO3 mapping parameter / Mapped object 7 (agile.eds:826, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 176))
+        u32::from_le_bytes(od::load::<4>(&self.image, 152))
     }
 
     /// Sets 0x1602 sub 7 RPDO3 mapping parameter / Mapped object 7.
     pub fn set_rpdo3_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 176, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 152, v.to_le_bytes());
     }
 
     /// 0x1602 sub 8 RPDO3 mapping parameter / Mapped object 8 (agile.eds:834, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 180))
+        u32::from_le_bytes(od::load::<4>(&self.image, 156))
     }
 
     /// Sets 0x1602 sub 8 RPDO3 mapping parameter / Mapped object 8.
     pub fn set_rpdo3_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 180, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 156, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO1 communication parameter / Highest sub-index supported (agile.eds:847, UNSIGNED8 ro)
@@ -2088,42 +2088,42 @@ impl Ram {
 
     /// 0x1800 sub 1 TPDO1 communication parameter / COB-ID used by TPDO (agile.eds:855, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo1_communication_parameter_cob_id_used_by_tpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 184))
+        u32::from_le_bytes(od::load::<4>(&self.image, 160))
     }
 
     /// Sets 0x1800 sub 1 TPDO1 communication parameter / COB-ID used by TPDO.
     pub fn set_tpdo1_communication_parameter_cob_id_used_by_tpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 184, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 160, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO1 communication parameter / Transmission type (agile.eds:863, UNSIGNED8 rw)
     pub fn tpdo1_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 188))
+        u8::from_le_bytes(od::load::<1>(&self.image, 164))
     }
 
     /// Sets 0x1800 sub 2 TPDO1 communication parameter / Transmission type.
     pub fn set_tpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 188, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 164, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO1 communication parameter / Inhibit time (agile.eds:871, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 189))
+        u16::from_le_bytes(od::load::<2>(&self.image, 165))
     }
 
     /// Sets 0x1800 sub 3 TPDO1 communication parameter / Inhibit time.
     pub fn set_tpdo1_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 189, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 165, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO1 communication parameter / Event timer (agile.eds:879, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 191))
+        u16::from_le_bytes(od::load::<2>(&self.image, 167))
     }
 
     /// Sets 0x1800 sub 5 TPDO1 communication parameter / Event timer.
     pub fn set_tpdo1_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 191, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 167, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO2 communication parameter / Highest sub-index supported (agile.eds:892, UNSIGNED8 ro)
@@ -2138,42 +2138,42 @@ impl Ram {
 
     /// 0x1801 sub 1 TPDO2 communication parameter / COB-ID used by TPDO (agile.eds:900, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo2_communication_parameter_cob_id_used_by_tpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 193))
+        u32::from_le_bytes(od::load::<4>(&self.image, 169))
     }
 
     /// Sets 0x1801 sub 1 TPDO2 communication parameter / COB-ID used by TPDO.
     pub fn set_tpdo2_communication_parameter_cob_id_used_by_tpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 193, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 169, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO2 communication parameter / Transmission type (agile.eds:908, UNSIGNED8 rw)
     pub fn tpdo2_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 197))
+        u8::from_le_bytes(od::load::<1>(&self.image, 173))
     }
 
     /// Sets 0x1801 sub 2 TPDO2 communication parameter / Transmission type.
     pub fn set_tpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 197, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 173, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO2 communication parameter / Inhibit time (agile.eds:916, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 198))
+        u16::from_le_bytes(od::load::<2>(&self.image, 174))
     }
 
     /// Sets 0x1801 sub 3 TPDO2 communication parameter / Inhibit time.
     pub fn set_tpdo2_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 198, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 174, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO2 communication parameter / Event timer (agile.eds:924, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 200))
+        u16::from_le_bytes(od::load::<2>(&self.image, 176))
     }
 
     /// Sets 0x1801 sub 5 TPDO2 communication parameter / Event timer.
     pub fn set_tpdo2_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 200, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 176, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO3 communication parameter / Highest sub-index supported (agile.eds:937, UNSIGNED8 ro)
@@ -2188,312 +2188,312 @@ impl Ram {
 
     /// 0x1802 sub 1 TPDO3 communication parameter / COB-ID used by TPDO (agile.eds:945, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo3_communication_parameter_cob_id_used_by_tpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 202))
+        u32::from_le_bytes(od::load::<4>(&self.image, 178))
     }
 
     /// Sets 0x1802 sub 1 TPDO3 communication parameter / COB-ID used by TPDO.
     pub fn set_tpdo3_communication_parameter_cob_id_used_by_tpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 202, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 178, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO3 communication parameter / Transmission type (agile.eds:953, UNSIGNED8 rw)
     pub fn tpdo3_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 206))
+        u8::from_le_bytes(od::load::<1>(&self.image, 182))
     }
 
     /// Sets 0x1802 sub 2 TPDO3 communication parameter / Transmission type.
     pub fn set_tpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 206, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 182, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO3 communication parameter / Inhibit time (agile.eds:961, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 207))
+        u16::from_le_bytes(od::load::<2>(&self.image, 183))
     }
 
     /// Sets 0x1802 sub 3 TPDO3 communication parameter / Inhibit time.
     pub fn set_tpdo3_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 207, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 183, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO3 communication parameter / Event timer (agile.eds:969, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 209))
+        u16::from_le_bytes(od::load::<2>(&self.image, 185))
     }
 
     /// Sets 0x1802 sub 5 TPDO3 communication parameter / Event timer.
     pub fn set_tpdo3_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 209, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 185, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO1 mapping parameter / Number of mapped objects (agile.eds:982, UNSIGNED8 rw)
     pub fn tpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 211))
+        u8::from_le_bytes(od::load::<1>(&self.image, 187))
     }
 
     /// Sets 0x1A00 sub 0 TPDO1 mapping parameter / Number of mapped objects.
     pub fn set_tpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 211, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 187, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 1 TPDO1 mapping parameter / Mapped object 1 (agile.eds:992, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 212))
+        u32::from_le_bytes(od::load::<4>(&self.image, 188))
     }
 
     /// Sets 0x1A00 sub 1 TPDO1 mapping parameter / Mapped object 1.
     pub fn set_tpdo1_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 212, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 188, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO1 mapping parameter / Mapped object 2 (agile.eds:1000, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 216))
+        u32::from_le_bytes(od::load::<4>(&self.image, 192))
     }
 
     /// Sets 0x1A00 sub 2 TPDO1 mapping parameter / Mapped object 2.
     pub fn set_tpdo1_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 216, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 192, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO1 mapping parameter / Mapped object 3 (agile.eds:1008, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 220))
+        u32::from_le_bytes(od::load::<4>(&self.image, 196))
     }
 
     /// Sets 0x1A00 sub 3 TPDO1 mapping parameter / Mapped object 3.
     pub fn set_tpdo1_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 220, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 196, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO1 mapping parameter / Mapped object 4 (agile.eds:1016, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 224))
+        u32::from_le_bytes(od::load::<4>(&self.image, 200))
     }
 
     /// Sets 0x1A00 sub 4 TPDO1 mapping parameter / Mapped object 4.
     pub fn set_tpdo1_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 224, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 200, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO1 mapping parameter / Mapped object 5 (agile.eds:1024, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 228))
+        u32::from_le_bytes(od::load::<4>(&self.image, 204))
     }
 
     /// Sets 0x1A00 sub 5 TPDO1 mapping parameter / Mapped object 5.
     pub fn set_tpdo1_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 228, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 204, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO1 mapping parameter / Mapped object 6 (agile.eds:1032, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 232))
+        u32::from_le_bytes(od::load::<4>(&self.image, 208))
     }
 
     /// Sets 0x1A00 sub 6 TPDO1 mapping parameter / Mapped object 6.
     pub fn set_tpdo1_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 232, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 208, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO1 mapping parameter / Mapped object 7 (agile.eds:1040, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 236))
+        u32::from_le_bytes(od::load::<4>(&self.image, 212))
     }
 
     /// Sets 0x1A00 sub 7 TPDO1 mapping parameter / Mapped object 7.
     pub fn set_tpdo1_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 236, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 212, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO1 mapping parameter / Mapped object 8 (agile.eds:1048, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 240))
+        u32::from_le_bytes(od::load::<4>(&self.image, 216))
     }
 
     /// Sets 0x1A00 sub 8 TPDO1 mapping parameter / Mapped object 8.
     pub fn set_tpdo1_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 240, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 216, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO2 mapping parameter / Number of mapped objects (agile.eds:1061, UNSIGNED8 rw)
     pub fn tpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 244))
+        u8::from_le_bytes(od::load::<1>(&self.image, 220))
     }
 
     /// Sets 0x1A01 sub 0 TPDO2 mapping parameter / Number of mapped objects.
     pub fn set_tpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 244, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 220, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 1 TPDO2 mapping parameter / Mapped object 1 (agile.eds:1071, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 245))
+        u32::from_le_bytes(od::load::<4>(&self.image, 221))
     }
 
     /// Sets 0x1A01 sub 1 TPDO2 mapping parameter / Mapped object 1.
     pub fn set_tpdo2_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 245, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 221, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO2 mapping parameter / Mapped object 2 (agile.eds:1079, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 249))
+        u32::from_le_bytes(od::load::<4>(&self.image, 225))
     }
 
     /// Sets 0x1A01 sub 2 TPDO2 mapping parameter / Mapped object 2.
     pub fn set_tpdo2_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 249, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 225, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO2 mapping parameter / Mapped object 3 (agile.eds:1087, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 253))
+        u32::from_le_bytes(od::load::<4>(&self.image, 229))
     }
 
     /// Sets 0x1A01 sub 3 TPDO2 mapping parameter / Mapped object 3.
     pub fn set_tpdo2_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 253, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 229, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO2 mapping parameter / Mapped object 4 (agile.eds:1095, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 257))
+        u32::from_le_bytes(od::load::<4>(&self.image, 233))
     }
 
     /// Sets 0x1A01 sub 4 TPDO2 mapping parameter / Mapped object 4.
     pub fn set_tpdo2_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 257, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 233, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO2 mapping parameter / Mapped object 5 (agile.eds:1103, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 261))
+        u32::from_le_bytes(od::load::<4>(&self.image, 237))
     }
 
     /// Sets 0x1A01 sub 5 TPDO2 mapping parameter / Mapped object 5.
     pub fn set_tpdo2_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 261, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 237, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO2 mapping parameter / Mapped object 6 (agile.eds:1111, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 265))
+        u32::from_le_bytes(od::load::<4>(&self.image, 241))
     }
 
     /// Sets 0x1A01 sub 6 TPDO2 mapping parameter / Mapped object 6.
     pub fn set_tpdo2_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 265, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 241, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO2 mapping parameter / Mapped object 7 (agile.eds:1119, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 269))
+        u32::from_le_bytes(od::load::<4>(&self.image, 245))
     }
 
     /// Sets 0x1A01 sub 7 TPDO2 mapping parameter / Mapped object 7.
     pub fn set_tpdo2_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 269, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 245, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO2 mapping parameter / Mapped object 8 (agile.eds:1127, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 273))
+        u32::from_le_bytes(od::load::<4>(&self.image, 249))
     }
 
     /// Sets 0x1A01 sub 8 TPDO2 mapping parameter / Mapped object 8.
     pub fn set_tpdo2_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 273, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 249, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO3 mapping parameter / Number of mapped objects (agile.eds:1140, UNSIGNED8 rw)
     pub fn tpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 277))
+        u8::from_le_bytes(od::load::<1>(&self.image, 253))
     }
 
     /// Sets 0x1A02 sub 0 TPDO3 mapping parameter / Number of mapped objects.
     pub fn set_tpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 277, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 253, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 1 TPDO3 mapping parameter / Mapped object 1 (agile.eds:1150, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 278))
+        u32::from_le_bytes(od::load::<4>(&self.image, 254))
     }
 
     /// Sets 0x1A02 sub 1 TPDO3 mapping parameter / Mapped object 1.
     pub fn set_tpdo3_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 278, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 254, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO3 mapping parameter / Mapped object 2 (agile.eds:1158, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 282))
+        u32::from_le_bytes(od::load::<4>(&self.image, 258))
     }
 
     /// Sets 0x1A02 sub 2 TPDO3 mapping parameter / Mapped object 2.
     pub fn set_tpdo3_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 282, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 258, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO3 mapping parameter / Mapped object 3 (agile.eds:1166, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 286))
+        u32::from_le_bytes(od::load::<4>(&self.image, 262))
     }
 
     /// Sets 0x1A02 sub 3 TPDO3 mapping parameter / Mapped object 3.
     pub fn set_tpdo3_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 286, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 262, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO3 mapping parameter / Mapped object 4 (agile.eds:1174, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 290))
+        u32::from_le_bytes(od::load::<4>(&self.image, 266))
     }
 
     /// Sets 0x1A02 sub 4 TPDO3 mapping parameter / Mapped object 4.
     pub fn set_tpdo3_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 290, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 266, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO3 mapping parameter / Mapped object 5 (agile.eds:1182, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 294))
+        u32::from_le_bytes(od::load::<4>(&self.image, 270))
     }
 
     /// Sets 0x1A02 sub 5 TPDO3 mapping parameter / Mapped object 5.
     pub fn set_tpdo3_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 294, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 270, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO3 mapping parameter / Mapped object 6 (agile.eds:1190, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 298))
+        u32::from_le_bytes(od::load::<4>(&self.image, 274))
     }
 
     /// Sets 0x1A02 sub 6 TPDO3 mapping parameter / Mapped object 6.
     pub fn set_tpdo3_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 298, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 274, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO3 mapping parameter / Mapped object 7 (agile.eds:1198, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 302))
+        u32::from_le_bytes(od::load::<4>(&self.image, 278))
     }
 
     /// Sets 0x1A02 sub 7 TPDO3 mapping parameter / Mapped object 7.
     pub fn set_tpdo3_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 302, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 278, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO3 mapping parameter / Mapped object 8 (agile.eds:1206, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 306))
+        u32::from_le_bytes(od::load::<4>(&self.image, 282))
     }
 
     /// Sets 0x1A02 sub 8 TPDO3 mapping parameter / Mapped object 8.
     pub fn set_tpdo3_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 306, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 282, v.to_le_bytes());
     }
 
     /// 0x20E4 Internal reference frequency (agile.eds:1214, INTEGER32 ro)
@@ -2568,12 +2568,12 @@ impl Ram {
 
     /// 0x2114 CAN interface (agile.eds:1274, UNSIGNED16 rw)
     pub fn can_interface(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 310))
+        u16::from_le_bytes(od::load::<2>(&self.image, 286))
     }
 
     /// Sets 0x2114 CAN interface.
     pub fn set_can_interface(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 310, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 286, v.to_le_bytes());
     }
 
     /// 0x211A Bus reference frequency (agile.eds:1284, INTEGER32 ro)
@@ -2611,7 +2611,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 310 + usize::from(i) * 2;
+        let off = 286 + usize::from(i) * 2;
         Some(u16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -2620,7 +2620,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 310 + usize::from(i) * 2;
+        let off = 286 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2640,7 +2640,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 328 + usize::from(i) * 2;
+        let off = 304 + usize::from(i) * 2;
         Some(u16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -2649,39 +2649,39 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 328 + usize::from(i) * 2;
+        let off = 304 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x2181 CAN baud rate (agile.eds:1492, UNSIGNED16 rw)
     pub fn can_baud_rate(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 348))
+        u16::from_le_bytes(od::load::<2>(&self.image, 324))
     }
 
     /// Sets 0x2181 CAN baud rate.
     pub fn set_can_baud_rate(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 348, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 324, v.to_le_bytes());
     }
 
     /// 0x2183 CAN node number (agile.eds:1502, INTEGER16 rw)
     pub fn can_node_number(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 350))
+        i16::from_le_bytes(od::load::<2>(&self.image, 326))
     }
 
     /// Sets 0x2183 CAN node number.
     pub fn set_can_node_number(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 350, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 326, v.to_le_bytes());
     }
 
     /// 0x2184 CAN fault behaviour (agile.eds:1512, UNSIGNED16 rw)
     pub fn can_fault_behaviour(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 352))
+        u16::from_le_bytes(od::load::<2>(&self.image, 328))
     }
 
     /// Sets 0x2184 CAN fault behaviour.
     pub fn set_can_fault_behaviour(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 352, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 328, v.to_le_bytes());
     }
 
     /// 0x2188 sub 0 State machine transition 5 / Highest sub-index supported (agile.eds:1527, UNSIGNED8 ro)
@@ -2699,7 +2699,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 352 + usize::from(i) * 2;
+        let off = 328 + usize::from(i) * 2;
         Some(u16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -2708,29 +2708,29 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 352 + usize::from(i) * 2;
+        let off = 328 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x2197 Heat sink warning limit (agile.eds:1625, INTEGER16 rw)
     pub fn heat_sink_warning_limit(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 372))
+        i16::from_le_bytes(od::load::<2>(&self.image, 348))
     }
 
     /// Sets 0x2197 Heat sink warning limit.
     pub fn set_heat_sink_warning_limit(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 372, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 348, v.to_le_bytes());
     }
 
     /// 0x219A Control word parameter (agile.eds:1633, UNSIGNED16 rw)
     pub fn control_word_parameter(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 374))
+        u16::from_le_bytes(od::load::<2>(&self.image, 350))
     }
 
     /// Sets 0x219A Control word parameter.
     pub fn set_control_word_parameter(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 374, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 350, v.to_le_bytes());
     }
 
     /// 0x219B Status word parameter (agile.eds:1641, UNSIGNED16 ro)
@@ -2758,7 +2758,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 374 + usize::from(i) * 2;
+        let off = 350 + usize::from(i) * 2;
         Some(u16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -2767,19 +2767,19 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 374 + usize::from(i) * 2;
+        let off = 350 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x219E Data set selection (agile.eds:1752, UNSIGNED16 rw)
     pub fn data_set_selection(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 394))
+        u16::from_le_bytes(od::load::<2>(&self.image, 370))
     }
 
     /// Sets 0x219E Data set selection.
     pub fn set_data_set_selection(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 394, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 370, v.to_le_bytes());
     }
 
     /// 0x21A2 sub 0 Minimum frequency / Highest sub-index supported (agile.eds:1767, UNSIGNED8 ro)
@@ -2797,7 +2797,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 392 + usize::from(i) * 4;
+        let off = 368 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2806,7 +2806,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 392 + usize::from(i) * 4;
+        let off = 368 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2826,7 +2826,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 428 + usize::from(i) * 4;
+        let off = 404 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2835,7 +2835,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 428 + usize::from(i) * 4;
+        let off = 404 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2855,7 +2855,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 464 + usize::from(i) * 4;
+        let off = 440 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2864,7 +2864,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 464 + usize::from(i) * 4;
+        let off = 440 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2884,7 +2884,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 500 + usize::from(i) * 4;
+        let off = 476 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2893,7 +2893,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 500 + usize::from(i) * 4;
+        let off = 476 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2913,7 +2913,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 536 + usize::from(i) * 4;
+        let off = 512 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2922,7 +2922,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 536 + usize::from(i) * 4;
+        let off = 512 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2942,7 +2942,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 572 + usize::from(i) * 4;
+        let off = 548 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2951,7 +2951,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 572 + usize::from(i) * 4;
+        let off = 548 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2971,7 +2971,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 608 + usize::from(i) * 4;
+        let off = 584 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2980,7 +2980,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 608 + usize::from(i) * 4;
+        let off = 584 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -3000,7 +3000,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 644 + usize::from(i) * 4;
+        let off = 620 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -3009,7 +3009,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 644 + usize::from(i) * 4;
+        let off = 620 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -3029,7 +3029,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 680 + usize::from(i) * 4;
+        let off = 656 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -3038,7 +3038,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 680 + usize::from(i) * 4;
+        let off = 656 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -3058,7 +3058,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 718 + usize::from(i) * 2;
+        let off = 694 + usize::from(i) * 2;
         Some(u16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -3067,7 +3067,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 718 + usize::from(i) * 2;
+        let off = 694 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -3087,7 +3087,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 736 + usize::from(i) * 2;
+        let off = 712 + usize::from(i) * 2;
         Some(u16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -3096,7 +3096,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 736 + usize::from(i) * 2;
+        let off = 712 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -3116,7 +3116,7 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return None;
         }
-        let off = 754 + usize::from(i) * 2;
+        let off = 730 + usize::from(i) * 2;
         Some(u16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -3125,19 +3125,19 @@ impl Ram {
         if !(1..=9).contains(&i) {
             return false;
         }
-        let off = 754 + usize::from(i) * 2;
+        let off = 730 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x249C Systembus sync mode (agile.eds:2944, UNSIGNED16 rw)
     pub fn systembus_sync_mode(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 774))
+        u16::from_le_bytes(od::load::<2>(&self.image, 750))
     }
 
     /// Sets 0x249C Systembus sync mode.
     pub fn set_systembus_sync_mode(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 774, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 750, v.to_le_bytes());
     }
 
     /// 0x250A NMT node state (agile.eds:2954, UNSIGNED16 ro)
@@ -3162,62 +3162,62 @@ impl Ram {
 
     /// 0x258C CANopen mux input index write (agile.eds:2974, UNSIGNED16 rw)
     pub fn canopen_mux_input_index_write(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 776))
+        u16::from_le_bytes(od::load::<2>(&self.image, 752))
     }
 
     /// Sets 0x258C CANopen mux input index write.
     pub fn set_canopen_mux_input_index_write(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 776, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 752, v.to_le_bytes());
     }
 
     /// 0x258D CANopen mux input index read (agile.eds:2984, UNSIGNED16 rw)
     pub fn canopen_mux_input_index_read(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 778))
+        u16::from_le_bytes(od::load::<2>(&self.image, 754))
     }
 
     /// Sets 0x258D CANopen mux input index read.
     pub fn set_canopen_mux_input_index_read(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 778, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 754, v.to_le_bytes());
     }
 
     /// 0x258E CANopen mux inputs (agile.eds:2994, UNSIGNED16 rw)
     pub fn canopen_mux_inputs(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 780))
+        u16::from_le_bytes(od::load::<2>(&self.image, 756))
     }
 
     /// Sets 0x258E CANopen mux inputs.
     pub fn set_canopen_mux_inputs(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 780, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 756, v.to_le_bytes());
     }
 
     /// 0x258F CANopen percentage actual value source (agile.eds:3002, UNSIGNED16 rw)
     pub fn canopen_percentage_actual_value_source(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 782))
+        u16::from_le_bytes(od::load::<2>(&self.image, 758))
     }
 
     /// Sets 0x258F CANopen percentage actual value source.
     pub fn set_canopen_percentage_actual_value_source(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 782, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 758, v.to_le_bytes());
     }
 
     /// 0x25AB OS sync time (agile.eds:3010, UNSIGNED16 rw)
     pub fn os_sync_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 784))
+        u16::from_le_bytes(od::load::<2>(&self.image, 760))
     }
 
     /// Sets 0x25AB OS sync time.
     pub fn set_os_sync_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 784, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 760, v.to_le_bytes());
     }
 
     /// 0x25AC OS sync source (agile.eds:3020, UNSIGNED16 rw)
     pub fn os_sync_source(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 786))
+        u16::from_le_bytes(od::load::<2>(&self.image, 762))
     }
 
     /// Sets 0x25AC OS sync source.
     pub fn set_os_sync_source(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 786, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 762, v.to_le_bytes());
     }
 
     /// 0x25AD OS sync source actual (agile.eds:3030, UNSIGNED16 ro)
@@ -3232,12 +3232,12 @@ impl Ram {
 
     /// 0x3000 SYNC jitter (agile.eds:3038, UNSIGNED16 rw)
     pub fn sync_jitter(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 788))
+        u16::from_le_bytes(od::load::<2>(&self.image, 764))
     }
 
     /// Sets 0x3000 SYNC jitter.
     pub fn set_sync_jitter(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 788, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 764, v.to_le_bytes());
     }
 
     /// 0x3001 Digital in actual value (agile.eds:3048, UNSIGNED16 ro, PDO-mappable)
@@ -3262,12 +3262,12 @@ impl Ram {
 
     /// 0x3003 Digital out set values (agile.eds:3064, UNSIGNED8 rww, PDO-mappable)
     pub fn digital_out_set_values(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 790))
+        u8::from_le_bytes(od::load::<1>(&self.image, 766))
     }
 
     /// Sets 0x3003 Digital out set values.
     pub fn set_digital_out_set_values(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 790, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 766, v.to_le_bytes());
     }
 
     /// 0x3004 Boolean mux (agile.eds:3072, UNSIGNED16 ro, PDO-mappable)
@@ -3282,22 +3282,22 @@ impl Ram {
 
     /// 0x3005 Boolean demux (agile.eds:3080, UNSIGNED16 rww, PDO-mappable)
     pub fn boolean_demux(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 791))
+        u16::from_le_bytes(od::load::<2>(&self.image, 767))
     }
 
     /// Sets 0x3005 Boolean demux.
     pub fn set_boolean_demux(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 791, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 767, v.to_le_bytes());
     }
 
     /// 0x3006 Percentage set value (agile.eds:3088, UNSIGNED16 rww, PDO-mappable)
     pub fn percentage_set_value(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 793))
+        u16::from_le_bytes(od::load::<2>(&self.image, 769))
     }
 
     /// Sets 0x3006 Percentage set value.
     pub fn set_percentage_set_value(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 793, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 769, v.to_le_bytes());
     }
 
     /// 0x3007 Percentage actual value (agile.eds:3096, UNSIGNED16 ro, PDO-mappable)
@@ -3312,12 +3312,12 @@ impl Ram {
 
     /// 0x6007 Abort connection option code (agile.eds:3104, INTEGER16 rw)
     pub fn abort_connection_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 795))
+        i16::from_le_bytes(od::load::<2>(&self.image, 771))
     }
 
     /// Sets 0x6007 Abort connection option code.
     pub fn set_abort_connection_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 795, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 771, v.to_le_bytes());
     }
 
     /// 0x603F Error code (agile.eds:3114, UNSIGNED16 ro)
@@ -3332,12 +3332,12 @@ impl Ram {
 
     /// 0x6040 Controlword (agile.eds:3122, UNSIGNED16 rww, PDO-mappable)
     pub fn controlword(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 797))
+        u16::from_le_bytes(od::load::<2>(&self.image, 773))
     }
 
     /// Sets 0x6040 Controlword.
     pub fn set_controlword(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 797, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 773, v.to_le_bytes());
     }
 
     /// 0x6041 Statusword (agile.eds:3130, UNSIGNED16 ro, PDO-mappable)
@@ -3352,12 +3352,12 @@ impl Ram {
 
     /// 0x6042 vl target velocity (agile.eds:3138, INTEGER16 rww, PDO-mappable)
     pub fn vl_target_velocity(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 799))
+        i16::from_le_bytes(od::load::<2>(&self.image, 775))
     }
 
     /// Sets 0x6042 vl target velocity.
     pub fn set_vl_target_velocity(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 799, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 775, v.to_le_bytes());
     }
 
     /// 0x6043 vl velocity demand (agile.eds:3148, INTEGER16 ro, PDO-mappable)
@@ -3395,7 +3395,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 797 + usize::from(i) * 4;
+        let off = 773 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -3404,7 +3404,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 797 + usize::from(i) * 4;
+        let off = 773 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -3421,22 +3421,22 @@ impl Ram {
 
     /// 0x6048 sub 1 vl velocity acceleration / Delta speed (agile.eds:3210, UNSIGNED32 rw)
     pub fn vl_velocity_acceleration_delta_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 809))
+        u32::from_le_bytes(od::load::<4>(&self.image, 785))
     }
 
     /// Sets 0x6048 sub 1 vl velocity acceleration / Delta speed.
     pub fn set_vl_velocity_acceleration_delta_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 809, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 785, v.to_le_bytes());
     }
 
     /// 0x6048 sub 2 vl velocity acceleration / Delta time (agile.eds:3220, UNSIGNED16 rw)
     pub fn vl_velocity_acceleration_delta_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 813))
+        u16::from_le_bytes(od::load::<2>(&self.image, 789))
     }
 
     /// Sets 0x6048 sub 2 vl velocity acceleration / Delta time.
     pub fn set_vl_velocity_acceleration_delta_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 813, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 789, v.to_le_bytes());
     }
 
     /// 0x6049 sub 0 vl velocity deceleration / Highest sub-index supported (agile.eds:3235, UNSIGNED8 ro)
@@ -3451,22 +3451,22 @@ impl Ram {
 
     /// 0x6049 sub 1 vl velocity deceleration / Delta speed (agile.eds:3243, UNSIGNED32 rw)
     pub fn vl_velocity_deceleration_delta_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 815))
+        u32::from_le_bytes(od::load::<4>(&self.image, 791))
     }
 
     /// Sets 0x6049 sub 1 vl velocity deceleration / Delta speed.
     pub fn set_vl_velocity_deceleration_delta_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 815, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 791, v.to_le_bytes());
     }
 
     /// 0x6049 sub 2 vl velocity deceleration / Delta time (agile.eds:3253, UNSIGNED16 rw)
     pub fn vl_velocity_deceleration_delta_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 819))
+        u16::from_le_bytes(od::load::<2>(&self.image, 795))
     }
 
     /// Sets 0x6049 sub 2 vl velocity deceleration / Delta time.
     pub fn set_vl_velocity_deceleration_delta_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 819, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 795, v.to_le_bytes());
     }
 
     /// 0x604A sub 0 vl velocity quick stop / Highest sub-index supported (agile.eds:3268, UNSIGNED8 ro)
@@ -3481,32 +3481,32 @@ impl Ram {
 
     /// 0x604A sub 1 vl velocity quick stop / Delta speed (agile.eds:3276, UNSIGNED32 rw)
     pub fn vl_velocity_quick_stop_delta_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 821))
+        u32::from_le_bytes(od::load::<4>(&self.image, 797))
     }
 
     /// Sets 0x604A sub 1 vl velocity quick stop / Delta speed.
     pub fn set_vl_velocity_quick_stop_delta_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 821, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 797, v.to_le_bytes());
     }
 
     /// 0x604A sub 2 vl velocity quick stop / Delta time (agile.eds:3286, UNSIGNED16 rw)
     pub fn vl_velocity_quick_stop_delta_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 825))
+        u16::from_le_bytes(od::load::<2>(&self.image, 801))
     }
 
     /// Sets 0x604A sub 2 vl velocity quick stop / Delta time.
     pub fn set_vl_velocity_quick_stop_delta_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 825, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 801, v.to_le_bytes());
     }
 
     /// 0x6060 Modes of operation (agile.eds:3296, INTEGER8 wo, PDO-mappable)
     pub fn modes_of_operation(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 827))
+        i8::from_le_bytes(od::load::<1>(&self.image, 803))
     }
 
     /// Sets 0x6060 Modes of operation.
     pub fn set_modes_of_operation(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 827, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 803, v.to_le_bytes());
     }
 
     /// 0x6061 Modes of operation display (agile.eds:3306, INTEGER8 ro, PDO-mappable)
@@ -3521,12 +3521,12 @@ impl Ram {
 
     /// 0x6071 Target torque (agile.eds:3314, INTEGER16 rww, PDO-mappable)
     pub fn target_torque(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 828))
+        i16::from_le_bytes(od::load::<2>(&self.image, 804))
     }
 
     /// Sets 0x6071 Target torque.
     pub fn set_target_torque(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 828, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 804, v.to_le_bytes());
     }
 
     /// 0x6077 Torque actual value (agile.eds:3322, INTEGER16 ro, PDO-mappable)

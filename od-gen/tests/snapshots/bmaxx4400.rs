@@ -425,7 +425,7 @@ pub const ENTRY_COUNT: usize = 379;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 1090;
 /// Bytes at the front of the RAM image a stored parameter set holds.
-pub const STORED_SIZE: usize = 714;
+pub const STORED_SIZE: usize = 697;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 0;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -460,45 +460,45 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 714, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 718, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 719, NO_LIMITS), // 0x1002:00 Manufacturer status register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 0, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 723, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 727, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 731, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 735, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 739, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 743, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 747, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 751, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 755, NO_LIMITS), // 0x1003:09 Pre-defined error field / Standard error field 9
-    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 759, NO_LIMITS), // 0x1003:0A Pre-defined error field / Standard error field 10
-    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 763, NO_LIMITS), // 0x1003:0B Pre-defined error field / Standard error field 11
-    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 767, NO_LIMITS), // 0x1003:0C Pre-defined error field / Standard error field 12
-    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 771, NO_LIMITS), // 0x1003:0D Pre-defined error field / Standard error field 13
-    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 775, NO_LIMITS), // 0x1003:0E Pre-defined error field / Standard error field 14
-    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 779, NO_LIMITS), // 0x1003:0F Pre-defined error field / Standard error field 15
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 783, NO_LIMITS), // 0x1005:00 COB-ID SYNC
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 1, 0), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 5, NO_LIMITS), // 0x1007:00 Synchronous window length
-    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 787, NO_LIMITS), // 0x1008:00 Manufacturer device name
-    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 798, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
-    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 805, NO_LIMITS), // 0x100A:00 Manufacturer software version
-    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 812, NO_LIMITS), // 0x100B:00 Node-ID
-    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 9, NO_LIMITS), // 0x100C:00 Guard time
-    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 11, NO_LIMITS), // 0x100D:00 Life time factor
-    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 12, NO_LIMITS), // 0x100E:00 COB-ID guarding protocol
-    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 816, NO_LIMITS), // 0x100F:00 Number of SDOs supported
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 820, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 16, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 20, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 821, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 24, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 28, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 32, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 36, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 38, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 697, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 701, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 702, NO_LIMITS), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 706, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 707, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 711, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 715, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 719, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 723, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 727, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 731, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 735, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 739, NO_LIMITS), // 0x1003:09 Pre-defined error field / Standard error field 9
+    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 743, NO_LIMITS), // 0x1003:0A Pre-defined error field / Standard error field 10
+    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 747, NO_LIMITS), // 0x1003:0B Pre-defined error field / Standard error field 11
+    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 751, NO_LIMITS), // 0x1003:0C Pre-defined error field / Standard error field 12
+    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 755, NO_LIMITS), // 0x1003:0D Pre-defined error field / Standard error field 13
+    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 759, NO_LIMITS), // 0x1003:0E Pre-defined error field / Standard error field 14
+    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 763, NO_LIMITS), // 0x1003:0F Pre-defined error field / Standard error field 15
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 767, NO_LIMITS), // 0x1005:00 COB-ID SYNC
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 0, 0), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 771, NO_LIMITS), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 782, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 789, NO_LIMITS), // 0x100A:00 Manufacturer software version
+    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 796, NO_LIMITS), // 0x100B:00 Node-ID
+    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 8, NO_LIMITS), // 0x100C:00 Guard time
+    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 10, NO_LIMITS), // 0x100D:00 Life time factor
+    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 11, NO_LIMITS), // 0x100E:00 COB-ID guarding protocol
+    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 800, NO_LIMITS), // 0x100F:00 Number of SDOs supported
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 804, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 805, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 809, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 813, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 814, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 818, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 15, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 19, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 21, NO_LIMITS), // 0x1017:00 Producer heartbeat time
     Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 822, NO_LIMITS), // 0x1018:00 Identity object / Identity object highest sub-index
     Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 823, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
     Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 827, NO_LIMITS), // 0x1018:02 Identity object / Product code
@@ -508,111 +508,111 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 840, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
     Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 844, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
     Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 848, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 40, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 44, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 23, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 27, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
     Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 849, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 45, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 49, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 32, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
     Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 850, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 50, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 54, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 33, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 37, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
     Entry::new(0x1403, 0x00, DataType::Unsigned8, RO, 1, 851, NO_LIMITS), // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 55, NO_LIMITS), // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 59, NO_LIMITS), // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 60, 1), // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 61, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 65, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 69, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 73, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 77, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 81, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 85, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 89, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 93, 1), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 94, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 98, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 102, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 106, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 110, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 114, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 118, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 122, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 126, 1), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 127, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 131, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 135, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 139, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 143, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 147, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 151, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 155, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 159, 1), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 160, NO_LIMITS), // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 164, NO_LIMITS), // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 168, NO_LIMITS), // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 172, NO_LIMITS), // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 176, NO_LIMITS), // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 180, NO_LIMITS), // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 184, NO_LIMITS), // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 38, NO_LIMITS), // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 42, NO_LIMITS), // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 43, 1), // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 44, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 48, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 52, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 56, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 60, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 64, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 68, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 72, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 76, 1), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 77, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 81, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 85, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 89, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 93, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 97, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 101, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 105, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 109, 1), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 110, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 114, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 118, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 122, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 126, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 130, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 134, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 138, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 142, 1), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 143, NO_LIMITS), // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 147, NO_LIMITS), // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 151, NO_LIMITS), // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 155, NO_LIMITS), // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 159, NO_LIMITS), // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 163, NO_LIMITS), // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 167, NO_LIMITS), // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 171, NO_LIMITS), // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
     Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 852, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 192, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 196, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 197, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 199, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 175, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 179, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 180, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 182, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
     Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 853, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 201, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 205, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 206, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 208, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 184, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 188, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 189, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 191, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
     Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 854, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 210, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 214, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 215, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 217, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 193, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 197, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 198, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 200, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
     Entry::new(0x1803, 0x00, DataType::Unsigned8, RO, 1, 855, NO_LIMITS), // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 219, NO_LIMITS), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 223, NO_LIMITS), // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 224, NO_LIMITS), // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 226, NO_LIMITS), // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 228, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 229, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 233, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 237, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 241, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 253, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 257, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 261, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 262, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 266, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 270, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 274, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 286, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 290, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 294, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 295, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 299, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 303, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 307, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 311, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 315, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 319, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 323, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 327, 1), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 328, NO_LIMITS), // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 332, NO_LIMITS), // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 336, NO_LIMITS), // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 340, NO_LIMITS), // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 344, NO_LIMITS), // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 348, NO_LIMITS), // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 352, NO_LIMITS), // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 356, NO_LIMITS), // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
-    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 360, 2), // 0x4039:00 P0057 Motor nominal speed
-    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 362, 3), // 0x4041:00 P0065 Motor pole pair number
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 202, NO_LIMITS), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 206, NO_LIMITS), // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 207, NO_LIMITS), // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 209, NO_LIMITS), // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 211, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 212, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 216, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 220, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 224, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 228, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 232, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 236, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 240, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 244, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 253, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 257, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 261, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 265, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 269, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 273, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 277, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 286, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 290, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 294, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 298, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 302, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 306, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 310, 1), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 311, NO_LIMITS), // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 315, NO_LIMITS), // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 319, NO_LIMITS), // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 323, NO_LIMITS), // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 327, NO_LIMITS), // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 331, NO_LIMITS), // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 335, NO_LIMITS), // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 339, NO_LIMITS), // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
+    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 343, 2), // 0x4039:00 P0057 Motor nominal speed
+    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 345, 3), // 0x4041:00 P0065 Motor pole pair number
     Entry::new(0x40E9, 0x00, DataType::Unsigned16, RO, 2, 856, NO_LIMITS), // 0x40E9:00 P0233 Amplifier Hiperface error detail
     Entry::new(0x40EA, 0x00, DataType::Unsigned16, RO, 2, 858, NO_LIMITS), // 0x40EA:00 P0234 Encoder 1 error detail
     Entry::new(0x40EB, 0x00, DataType::Unsigned16, RO, 2, 860, NO_LIMITS), // 0x40EB:00 P0235 Encoder 2 error detail
@@ -629,22 +629,22 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x40FA, 0x00, DataType::Unsigned16, RO, 2, 882, NO_LIMITS), // 0x40FA:00 P0250 Big module M error detail
     Entry::new(0x4106, 0x00, DataType::Unsigned16, RO_TPDO, 2, 884, NO_LIMITS), // 0x4106:00 P0262 Amplifier warnings
     Entry::new(0x4107, 0x00, DataType::Unsigned16, RO_TPDO, 2, 886, NO_LIMITS), // 0x4107:00 P0263 Motor warnings
-    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 364, NO_LIMITS), // 0x412C:00 P0300 Drive control word
+    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 347, NO_LIMITS), // 0x412C:00 P0300 Drive control word
     Entry::new(0x412D, 0x00, DataType::Unsigned16, RO_TPDO, 2, 888, NO_LIMITS), // 0x412D:00 P0301 Drive status word
     Entry::new(0x4130, 0x00, DataType::Integer16, RO_TPDO, 2, 890, NO_LIMITS), // 0x4130:00 P0304 Operation mode actual
     Entry::new(0x4158, 0x00, DataType::Integer16, RO_TPDO, 2, 892, NO_LIMITS), // 0x4158:00 P0344 Torque actual value raw
     Entry::new(0x415F, 0x00, DataType::Integer16, RO_TPDO, 2, 894, NO_LIMITS), // 0x415F:00 P0351 Ramp function generator output
     Entry::new(0x4160, 0x00, DataType::Integer16, RO_TPDO, 2, 896, NO_LIMITS), // 0x4160:00 P0352 Speed set value total
     Entry::new(0x4161, 0x00, DataType::Integer32, RO_TPDO, 4, 898, NO_LIMITS), // 0x4161:00 P0353 Speed actual value raw
-    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 366, NO_LIMITS), // 0x4165:00 P0357 Torque limit direct
+    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 349, NO_LIMITS), // 0x4165:00 P0357 Torque limit direct
     Entry::new(0x4168, 0x00, DataType::Unsigned16, RO_TPDO, 2, 902, NO_LIMITS), // 0x4168:00 P0360 Position controller status raw
-    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 368, NO_LIMITS), // 0x416A:00 P0362 Position actual value raw
-    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 372, NO_LIMITS), // 0x416B:00 P0363 Position set angle raw
-    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 374, NO_LIMITS), // 0x416C:00 P0364 Position set revolutions raw
+    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 351, NO_LIMITS), // 0x416A:00 P0362 Position actual value raw
+    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 355, NO_LIMITS), // 0x416B:00 P0363 Position set angle raw
+    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 357, NO_LIMITS), // 0x416C:00 P0364 Position set revolutions raw
     Entry::new(0x416D, 0x00, DataType::Integer32, RO_TPDO, 4, 904, NO_LIMITS), // 0x416D:00 P0365 Speed feed forward raw
     Entry::new(0x416F, 0x00, DataType::Integer32, RO_TPDO, 4, 908, NO_LIMITS), // 0x416F:00 P0367 Position control deviation raw
-    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 376, NO_LIMITS), // 0x4171:00 P0369 Position set value
-    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 380, NO_LIMITS), // 0x4172:00 P0370 Position IP set angle
+    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 359, NO_LIMITS), // 0x4171:00 P0369 Position set value
+    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 363, NO_LIMITS), // 0x4172:00 P0370 Position IP set angle
     Entry::new(0x4187, 0x00, DataType::Unsigned32, RO_TPDO, 4, 912, NO_LIMITS), // 0x4187:00 P0391 Encoder 1 actual angle raw
     Entry::new(0x4188, 0x00, DataType::Unsigned32, RO_TPDO, 4, 916, NO_LIMITS), // 0x4188:00 P0392 Encoder 1 actual revolutions raw
     Entry::new(0x41CC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 920, NO_LIMITS), // 0x41CC:00 P0460 Positioning status raw
@@ -652,16 +652,16 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x41CE, 0x00, DataType::Unsigned32, RO_TPDO, 4, 924, NO_LIMITS), // 0x41CE:00 P0462 Positioning actual value
     Entry::new(0x41CF, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928, NO_LIMITS), // 0x41CF:00 P0463 Positioning set value
     Entry::new(0x41D0, 0x00, DataType::Integer16, RO_TPDO, 2, 932, NO_LIMITS), // 0x41D0:00 P0464 Positioning speed set value raw
-    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 384, NO_LIMITS), // 0x4214:00 P0532 Sync interval
-    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 386, NO_LIMITS), // 0x4258:00 P0600 Positioning target unsigned
-    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 390, NO_LIMITS), // 0x4259:00 P0601 Positioning mode
-    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 392, 4), // 0x425A:00 P0602 Positioning speed 1
-    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 394, 5), // 0x425B:00 P0603 Positioning acceleration 1
-    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 396, 5), // 0x425C:00 P0604 Positioning deceleration 1
-    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 398, 6), // 0x425D:00 P0605 Positioning bend 0 raw
-    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 400, NO_LIMITS), // 0x425F:00 P0607 Positioning target 1
-    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 404, NO_LIMITS), // 0x4260:00 P0608 Positioning target input 1
-    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 406, NO_LIMITS), // 0x4320:00 P0800 BACI cycle time factor
+    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 367, NO_LIMITS), // 0x4214:00 P0532 Sync interval
+    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 369, NO_LIMITS), // 0x4258:00 P0600 Positioning target unsigned
+    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 373, NO_LIMITS), // 0x4259:00 P0601 Positioning mode
+    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 375, 4), // 0x425A:00 P0602 Positioning speed 1
+    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 377, 5), // 0x425B:00 P0603 Positioning acceleration 1
+    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 379, 5), // 0x425C:00 P0604 Positioning deceleration 1
+    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 381, 6), // 0x425D:00 P0605 Positioning bend 0 raw
+    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 383, NO_LIMITS), // 0x425F:00 P0607 Positioning target 1
+    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 387, NO_LIMITS), // 0x4260:00 P0608 Positioning target input 1
+    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 389, NO_LIMITS), // 0x4320:00 P0800 BACI cycle time factor
     Entry::new(0x4321, 0x00, DataType::Unsigned16, RO, 2, 934, NO_LIMITS), // 0x4321:00 P0801 BACI process data parameter number 1
     Entry::new(0x4322, 0x00, DataType::Unsigned16, RO, 2, 936, NO_LIMITS), // 0x4322:00 P0802 BACI process data parameter number 2
     Entry::new(0x4323, 0x00, DataType::Unsigned16, RO, 2, 938, NO_LIMITS), // 0x4323:00 P0803 BACI process data parameter number 3
@@ -678,158 +678,158 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x432E, 0x00, DataType::Unsigned16, RO, 2, 960, NO_LIMITS), // 0x432E:00 P0814 BACI process data parameter number 14
     Entry::new(0x432F, 0x00, DataType::Unsigned16, RO, 2, 962, NO_LIMITS), // 0x432F:00 P0815 BACI process data parameter number 15
     Entry::new(0x4330, 0x00, DataType::Unsigned16, RO, 2, 964, NO_LIMITS), // 0x4330:00 P0816 BACI process data parameter number 16
-    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 408, NO_LIMITS), // 0x4332:00 P0818 BACI cycle offset set values
-    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 410, NO_LIMITS), // 0x4333:00 P0819 BACI cycle offset actual values
-    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 412, NO_LIMITS), // 0x433E:00 P0830 Option module G configuration 1
-    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 414, NO_LIMITS), // 0x4348:00 P0840 Option module H configuration 1
-    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 416, 7), // 0x43E8:00 P1000 Operation mode set
-    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 418, NO_LIMITS), // 0x43E9:00 P1001 Drive parameter 1001
-    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 420, 8), // 0x43EB:00 P1003 Stop option code raw
-    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 422, NO_LIMITS), // 0x43EC:00 P1004 Quick stop code raw
-    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 424, 8), // 0x43ED:00 P1005 Shutdown code raw
-    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 426, 8), // 0x43EE:00 P1006 Disable operation code raw
-    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 428, 8), // 0x43EF:00 P1007 Error reaction code raw
-    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 430, 9), // 0x4407:00 P1031 Maximum speed
-    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 432, 10), // 0x4411:00 P1041 Speed set value upper limit
-    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 436, 11), // 0x4412:00 P1042 Speed set value lower limit
-    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 440, NO_LIMITS), // 0x441A:00 P1050 Position controller mode raw
-    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 442, 12), // 0x441B:00 P1051 Position controller Kv factor raw
-    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 444, 13), // 0x441D:00 P1053 Speed feed forward factor raw
-    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 446, 14), // 0x4420:00 P1056 Following error time
-    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 448, 15), // 0x4431:00 P1073 Encoder 1 monitoring lower limit
-    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 450, NO_LIMITS), // 0x4493:00 P1171 Ramp function generator input
-    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 454, 14), // 0x4494:00 P1172 Ramp function generator ramp up time
-    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 456, 14), // 0x4495:00 P1173 Ramp function generator ramp down time
-    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 458, 14), // 0x4496:00 P1174 Ramp function generator stop time
-    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 460, NO_LIMITS), // 0x44A6:00 P1190 Positioning mode word
-    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 462, NO_LIMITS), // 0x44A7:00 P1191 Positioning actual record number
-    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 464, NO_LIMITS), // 0x44AA:00 P1194 Positioning window
-    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 468, 16), // 0x44AB:00 P1195 Positioning window time
-    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 470, NO_LIMITS), // 0x44AC:00 P1196 Software limit switch 1
-    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 474, NO_LIMITS), // 0x44AD:00 P1197 Software limit switch 2
-    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 478, NO_LIMITS), // 0x44AE:00 P1198 Positioning clip environment 1
-    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 482, NO_LIMITS), // 0x44AF:00 P1199 Positioning clip environment 2
-    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 486, NO_LIMITS), // 0x44B0:00 P1200 Positioning home position
-    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 490, 4), // 0x44B1:00 P1201 Homing speed
-    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 492, 17), // 0x44B2:00 P1202 Homing final speed
-    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 494, 5), // 0x44B3:00 P1203 Homing acceleration raw
-    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 496, NO_LIMITS), // 0x44B4:00 P1204 Homing deceleration raw
-    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 498, NO_LIMITS), // 0x44B5:00 P1205 Homing mode
-    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 500, NO_LIMITS), // 0x44B8:00 P1208 Positioning switch mode raw
-    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 502, NO_LIMITS), // 0x44B9:00 P1209 Positioning encoder offset raw
-    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 504, 5), // 0x44BD:00 P1213 Positioning stop deceleration
-    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 506, 18), // 0x4BEA:00 P3050 Position scaling user unit
-    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 510, 18), // 0x4BEB:00 P3051 Position scaling revolutions
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 514, NO_LIMITS), // 0x6007:00 Abort connection option code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 516, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 391, NO_LIMITS), // 0x4332:00 P0818 BACI cycle offset set values
+    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 393, NO_LIMITS), // 0x4333:00 P0819 BACI cycle offset actual values
+    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 395, NO_LIMITS), // 0x433E:00 P0830 Option module G configuration 1
+    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 397, NO_LIMITS), // 0x4348:00 P0840 Option module H configuration 1
+    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 399, 7), // 0x43E8:00 P1000 Operation mode set
+    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 401, NO_LIMITS), // 0x43E9:00 P1001 Drive parameter 1001
+    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 403, 8), // 0x43EB:00 P1003 Stop option code raw
+    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 405, NO_LIMITS), // 0x43EC:00 P1004 Quick stop code raw
+    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 407, 8), // 0x43ED:00 P1005 Shutdown code raw
+    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 409, 8), // 0x43EE:00 P1006 Disable operation code raw
+    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 411, 8), // 0x43EF:00 P1007 Error reaction code raw
+    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 413, 9), // 0x4407:00 P1031 Maximum speed
+    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 415, 10), // 0x4411:00 P1041 Speed set value upper limit
+    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 419, 11), // 0x4412:00 P1042 Speed set value lower limit
+    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 423, NO_LIMITS), // 0x441A:00 P1050 Position controller mode raw
+    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 425, 12), // 0x441B:00 P1051 Position controller Kv factor raw
+    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 427, 13), // 0x441D:00 P1053 Speed feed forward factor raw
+    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 429, 14), // 0x4420:00 P1056 Following error time
+    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 431, 15), // 0x4431:00 P1073 Encoder 1 monitoring lower limit
+    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 433, NO_LIMITS), // 0x4493:00 P1171 Ramp function generator input
+    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 437, 14), // 0x4494:00 P1172 Ramp function generator ramp up time
+    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 439, 14), // 0x4495:00 P1173 Ramp function generator ramp down time
+    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 441, 14), // 0x4496:00 P1174 Ramp function generator stop time
+    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 443, NO_LIMITS), // 0x44A6:00 P1190 Positioning mode word
+    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 445, NO_LIMITS), // 0x44A7:00 P1191 Positioning actual record number
+    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 447, NO_LIMITS), // 0x44AA:00 P1194 Positioning window
+    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 451, 16), // 0x44AB:00 P1195 Positioning window time
+    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 453, NO_LIMITS), // 0x44AC:00 P1196 Software limit switch 1
+    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 457, NO_LIMITS), // 0x44AD:00 P1197 Software limit switch 2
+    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 461, NO_LIMITS), // 0x44AE:00 P1198 Positioning clip environment 1
+    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 465, NO_LIMITS), // 0x44AF:00 P1199 Positioning clip environment 2
+    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 469, NO_LIMITS), // 0x44B0:00 P1200 Positioning home position
+    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 473, 4), // 0x44B1:00 P1201 Homing speed
+    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 475, 17), // 0x44B2:00 P1202 Homing final speed
+    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 477, 5), // 0x44B3:00 P1203 Homing acceleration raw
+    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 479, NO_LIMITS), // 0x44B4:00 P1204 Homing deceleration raw
+    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 481, NO_LIMITS), // 0x44B5:00 P1205 Homing mode
+    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 483, NO_LIMITS), // 0x44B8:00 P1208 Positioning switch mode raw
+    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 485, NO_LIMITS), // 0x44B9:00 P1209 Positioning encoder offset raw
+    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 487, 5), // 0x44BD:00 P1213 Positioning stop deceleration
+    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 489, 18), // 0x4BEA:00 P3050 Position scaling user unit
+    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 493, 18), // 0x4BEB:00 P3051 Position scaling revolutions
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 497, NO_LIMITS), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 499, NO_LIMITS), // 0x6040:00 Controlword
     Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 966, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 518, NO_LIMITS), // 0x6042:00 vl target velocity
+    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 501, NO_LIMITS), // 0x6042:00 vl target velocity
     Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 968, NO_LIMITS), // 0x6043:00 vl velocity demand
     Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 970, NO_LIMITS), // 0x6044:00 vl control effort
     Entry::new(0x6045, 0x00, DataType::Integer16, RO, 2, 972, NO_LIMITS), // 0x6045:00 vl manipulated velocity
     Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 974, NO_LIMITS), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
     Entry::new(0x6046, 0x01, DataType::Unsigned32, RO_TPDO, 4, 975, NO_LIMITS), // 0x6046:01 vl velocity min max amount / vl velocity min amount
-    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 520, NO_LIMITS), // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 503, NO_LIMITS), // 0x6046:02 vl velocity min max amount / vl velocity max amount
     Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 979, NO_LIMITS), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
-    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 524, NO_LIMITS), // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
-    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 528, NO_LIMITS), // 0x6048:02 vl velocity acceleration / vl acceleration delta time
+    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 507, NO_LIMITS), // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
+    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 511, NO_LIMITS), // 0x6048:02 vl velocity acceleration / vl acceleration delta time
     Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 980, NO_LIMITS), // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
-    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 530, NO_LIMITS), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
-    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 534, NO_LIMITS), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
+    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 513, NO_LIMITS), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
+    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 517, NO_LIMITS), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
     Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 981, NO_LIMITS), // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
-    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 536, 19), // 0x604C:01 vl dimension factor / vl dimension factor numerator
-    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 540, 19), // 0x604C:02 vl dimension factor / vl dimension factor denominator
-    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 544, NO_LIMITS), // 0x604D:00 vl pole number
-    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 545, NO_LIMITS), // 0x604F:00 vl ramp function time
-    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 549, NO_LIMITS), // 0x6050:00 vl slow down time
-    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 553, NO_LIMITS), // 0x6051:00 vl quick stop time
-    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 557, NO_LIMITS), // 0x605A:00 Quick stop option code
-    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 559, NO_LIMITS), // 0x605B:00 Shutdown option code
-    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 561, NO_LIMITS), // 0x605C:00 Disable operation option code
-    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 563, NO_LIMITS), // 0x605D:00 Halt option code
-    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 565, NO_LIMITS), // 0x605E:00 Fault reaction option code
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 567, NO_LIMITS), // 0x6060:00 Modes of operation
+    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 519, 19), // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 523, 19), // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 527, NO_LIMITS), // 0x604D:00 vl pole number
+    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 528, NO_LIMITS), // 0x604F:00 vl ramp function time
+    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 532, NO_LIMITS), // 0x6050:00 vl slow down time
+    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 536, NO_LIMITS), // 0x6051:00 vl quick stop time
+    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 540, NO_LIMITS), // 0x605A:00 Quick stop option code
+    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 542, NO_LIMITS), // 0x605B:00 Shutdown option code
+    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 544, NO_LIMITS), // 0x605C:00 Disable operation option code
+    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 546, NO_LIMITS), // 0x605D:00 Halt option code
+    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 548, NO_LIMITS), // 0x605E:00 Fault reaction option code
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 550, NO_LIMITS), // 0x6060:00 Modes of operation
     Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 982, NO_LIMITS), // 0x6061:00 Modes of operation display
     Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 983, NO_LIMITS), // 0x6062:00 Position demand value
     Entry::new(0x6063, 0x00, DataType::Integer32, RO_TPDO, 4, 987, NO_LIMITS), // 0x6063:00 Position actual internal value
     Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 991, NO_LIMITS), // 0x6064:00 Position actual value
-    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 568, 14), // 0x6066:00 Following error time out
-    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 570, NO_LIMITS), // 0x6067:00 Position window
-    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 574, NO_LIMITS), // 0x6068:00 Position window time
+    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 551, 14), // 0x6066:00 Following error time out
+    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 553, NO_LIMITS), // 0x6067:00 Position window
+    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 557, NO_LIMITS), // 0x6068:00 Position window time
     Entry::new(0x6069, 0x00, DataType::Integer32, RO_TPDO, 4, 995, NO_LIMITS), // 0x6069:00 Velocity sensor actual value
     Entry::new(0x606A, 0x00, DataType::Integer16, RO, 2, 999, NO_LIMITS), // 0x606A:00 Sensor selection code
     Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 1001, NO_LIMITS), // 0x606B:00 Velocity demand value
     Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 1005, NO_LIMITS), // 0x606C:00 Velocity actual value
-    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 576, NO_LIMITS), // 0x606F:00 Velocity threshold
-    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 578, NO_LIMITS), // 0x6072:00 Max torque
+    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 559, NO_LIMITS), // 0x606F:00 Velocity threshold
+    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 561, NO_LIMITS), // 0x6072:00 Max torque
     Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 1009, NO_LIMITS), // 0x6077:00 Torque actual value
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 580, NO_LIMITS), // 0x607A:00 Target position
-    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 584, NO_LIMITS), // 0x607C:00 Home offset
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 563, NO_LIMITS), // 0x607A:00 Target position
+    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 567, NO_LIMITS), // 0x607C:00 Home offset
     Entry::new(0x607D, 0x00, DataType::Unsigned8, RO, 1, 1011, NO_LIMITS), // 0x607D:00 Software position limit / Software position limit highest sub-index
-    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 588, NO_LIMITS), // 0x607D:01 Software position limit / Min position limit
-    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 592, NO_LIMITS), // 0x607D:02 Software position limit / Max position limit
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 596, NO_LIMITS), // 0x607F:00 Max profile velocity
-    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 600, 20), // 0x6080:00 Max motor speed
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 604, NO_LIMITS), // 0x6081:00 Profile velocity
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 608, NO_LIMITS), // 0x6083:00 Profile acceleration
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 612, NO_LIMITS), // 0x6084:00 Profile deceleration
-    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 616, NO_LIMITS), // 0x6085:00 Quick stop deceleration
-    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 620, NO_LIMITS), // 0x6086:00 Motion profile type
+    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 571, NO_LIMITS), // 0x607D:01 Software position limit / Min position limit
+    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 575, NO_LIMITS), // 0x607D:02 Software position limit / Max position limit
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 579, NO_LIMITS), // 0x607F:00 Max profile velocity
+    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 583, 20), // 0x6080:00 Max motor speed
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 587, NO_LIMITS), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 591, NO_LIMITS), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 595, NO_LIMITS), // 0x6084:00 Profile deceleration
+    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 599, NO_LIMITS), // 0x6085:00 Quick stop deceleration
+    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 603, NO_LIMITS), // 0x6086:00 Motion profile type
     Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 1012, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 622, 21), // 0x6092:01 Feed constant / Feed
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 626, 22), // 0x6092:02 Feed constant / Shaft revolutions
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 630, NO_LIMITS), // 0x6098:00 Homing method
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 605, 21), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 609, 22), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 613, NO_LIMITS), // 0x6098:00 Homing method
     Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 1013, NO_LIMITS), // 0x6099:00 Homing speeds / Homing speeds highest sub-index
-    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 631, NO_LIMITS), // 0x6099:01 Homing speeds / Speed during search for switch
-    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 635, NO_LIMITS), // 0x6099:02 Homing speeds / Speed during search for zero
-    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 639, NO_LIMITS), // 0x609A:00 Homing acceleration
+    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 614, NO_LIMITS), // 0x6099:01 Homing speeds / Speed during search for switch
+    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 618, NO_LIMITS), // 0x6099:02 Homing speeds / Speed during search for zero
+    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 622, NO_LIMITS), // 0x609A:00 Homing acceleration
     Entry::new(0x60C0, 0x00, DataType::Integer16, RO, 2, 1014, NO_LIMITS), // 0x60C0:00 Interpolation sub mode select
     Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 1016, NO_LIMITS), // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
-    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 643, NO_LIMITS), // 0x60C1:01 Interpolation data record / Interpolation data record position
+    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 626, NO_LIMITS), // 0x60C1:01 Interpolation data record / Interpolation data record position
     Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 1017, NO_LIMITS), // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
-    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 647, 22), // 0x60C2:01 Interpolation time period / ip time units
-    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 648, 23), // 0x60C2:02 Interpolation time period / ip time index
+    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 630, 22), // 0x60C2:01 Interpolation time period / ip time units
+    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 631, 23), // 0x60C2:02 Interpolation time period / ip time index
     Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 1018, NO_LIMITS), // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
-    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 649, NO_LIMITS), // 0x60C3:01 Interpolation sync definition / Synchronize on group
-    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 650, NO_LIMITS), // 0x60C3:02 Interpolation sync definition / ip sync every n event
+    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 632, NO_LIMITS), // 0x60C3:01 Interpolation sync definition / Synchronize on group
+    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 633, NO_LIMITS), // 0x60C3:02 Interpolation sync definition / ip sync every n event
     Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 1019, NO_LIMITS), // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
     Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1020, NO_LIMITS), // 0x60C4:01 Interpolation data configuration / Maximum buffer size
-    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 651, NO_LIMITS), // 0x60C4:02 Interpolation data configuration / Actual buffer size
-    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 655, 24), // 0x60C4:03 Interpolation data configuration / Buffer organisation
-    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 656, NO_LIMITS), // 0x60C4:04 Interpolation data configuration / Buffer position
-    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 658, NO_LIMITS), // 0x60C4:05 Interpolation data configuration / Size of data record
-    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 659, 24), // 0x60C4:06 Interpolation data configuration / Buffer clear
-    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 660, NO_LIMITS), // 0x60F8:00 Max slippage
+    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 634, NO_LIMITS), // 0x60C4:02 Interpolation data configuration / Actual buffer size
+    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 638, 24), // 0x60C4:03 Interpolation data configuration / Buffer organisation
+    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 639, NO_LIMITS), // 0x60C4:04 Interpolation data configuration / Buffer position
+    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 641, NO_LIMITS), // 0x60C4:05 Interpolation data configuration / Size of data record
+    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 642, 24), // 0x60C4:06 Interpolation data configuration / Buffer clear
+    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 643, NO_LIMITS), // 0x60F8:00 Max slippage
     Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 1024, NO_LIMITS), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
     Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 1025, NO_LIMITS), // 0x60FB:01 Position control parameter set / Position controller status
-    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 664, NO_LIMITS), // 0x60FB:02 Position control parameter set / Position controller mode
-    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 666, 12), // 0x60FB:03 Position control parameter set / Position controller Kv factor
-    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 668, NO_LIMITS), // 0x60FB:04 Position control parameter set / Position set revolutions
-    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 670, NO_LIMITS), // 0x60FB:05 Position control parameter set / Position set angle
-    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 672, NO_LIMITS), // 0x60FB:06 Position control parameter set / Speed feed forward factor
+    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 647, NO_LIMITS), // 0x60FB:02 Position control parameter set / Position controller mode
+    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 649, 12), // 0x60FB:03 Position control parameter set / Position controller Kv factor
+    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 651, NO_LIMITS), // 0x60FB:04 Position control parameter set / Position set revolutions
+    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 653, NO_LIMITS), // 0x60FB:05 Position control parameter set / Position set angle
+    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 655, NO_LIMITS), // 0x60FB:06 Position control parameter set / Speed feed forward factor
     Entry::new(0x60FB, 0x07, DataType::Integer32, RO_TPDO, 4, 1027, NO_LIMITS), // 0x60FB:07 Position control parameter set / Position control deviation
-    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 674, NO_LIMITS), // 0x60FB:08 Position control parameter set / Position controller actual value
+    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 657, NO_LIMITS), // 0x60FB:08 Position control parameter set / Position controller actual value
     Entry::new(0x60FB, 0x09, DataType::Unsigned32, RO_TPDO, 4, 1031, NO_LIMITS), // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
     Entry::new(0x60FB, 0x0A, DataType::Unsigned32, RO_TPDO, 4, 1035, NO_LIMITS), // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
     Entry::new(0x60FB, 0x0B, DataType::Integer32, RO_TPDO, 4, 1039, NO_LIMITS), // 0x60FB:0B Position control parameter set / Speed feed forward
     Entry::new(0x60FB, 0x0C, DataType::Unsigned16, RO_TPDO, 2, 1043, NO_LIMITS), // 0x60FB:0C Position control parameter set / Positioning status
-    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 678, NO_LIMITS), // 0x60FB:0D Position control parameter set / Actual positioning record number
-    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 680, NO_LIMITS), // 0x60FB:0E Position control parameter set / Positioning mode bits
-    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 682, NO_LIMITS), // 0x60FB:0F Position control parameter set / Home position
-    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 686, NO_LIMITS), // 0x60FB:10 Position control parameter set / Positioning switch mode
+    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 661, NO_LIMITS), // 0x60FB:0D Position control parameter set / Actual positioning record number
+    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 663, NO_LIMITS), // 0x60FB:0E Position control parameter set / Positioning mode bits
+    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 665, NO_LIMITS), // 0x60FB:0F Position control parameter set / Home position
+    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 669, NO_LIMITS), // 0x60FB:10 Position control parameter set / Positioning switch mode
     Entry::new(0x60FB, 0x11, DataType::Integer16, RO_TPDO, 2, 1045, NO_LIMITS), // 0x60FB:11 Position control parameter set / Positioning speed set value
-    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 688, NO_LIMITS), // 0x60FB:12 Position control parameter set / Positioning bend 0
-    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 690, NO_LIMITS), // 0x60FB:13 Position control parameter set / Clip environment 1
-    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 694, NO_LIMITS), // 0x60FB:14 Position control parameter set / Clip environment 2
-    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 698, NO_LIMITS), // 0x60FB:15 Position control parameter set / Target input 0
-    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 700, NO_LIMITS), // 0x60FB:16 Position control parameter set / Target input 1
-    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 702, NO_LIMITS), // 0x60FB:17 Position control parameter set / IP set angle
-    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 706, NO_LIMITS), // 0x60FB:18 Position control parameter set / Positioning encoder offset
-    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 708, NO_LIMITS), // 0x60FB:19 Position control parameter set / Homing deceleration
+    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 671, NO_LIMITS), // 0x60FB:12 Position control parameter set / Positioning bend 0
+    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 673, NO_LIMITS), // 0x60FB:13 Position control parameter set / Clip environment 1
+    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 677, NO_LIMITS), // 0x60FB:14 Position control parameter set / Clip environment 2
+    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 681, NO_LIMITS), // 0x60FB:15 Position control parameter set / Target input 0
+    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 683, NO_LIMITS), // 0x60FB:16 Position control parameter set / Target input 1
+    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 685, NO_LIMITS), // 0x60FB:17 Position control parameter set / IP set angle
+    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 689, NO_LIMITS), // 0x60FB:18 Position control parameter set / Positioning encoder offset
+    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 691, NO_LIMITS), // 0x60FB:19 Position control parameter set / Homing deceleration
     Entry::new(0x60FB, 0x1A, DataType::Integer32, RO_TPDO, 4, 1047, NO_LIMITS), // 0x60FB:1A Position control parameter set / Actual speed normalised
     Entry::new(0x60FB, 0x1B, DataType::Unsigned16, RO_TPDO, 2, 1051, NO_LIMITS), // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
     Entry::new(0x60FD, 0x00, DataType::Unsigned32, RO_TPDO, 4, 1053, NO_LIMITS), // 0x60FD:00 Digital inputs
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 710, NO_LIMITS), // 0x60FF:00 Target velocity
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 693, NO_LIMITS), // 0x60FF:00 Target velocity
     Entry::new(0x6510, 0x00, DataType::Unsigned8, RO, 1, 1057, NO_LIMITS), // 0x6510:00 Drive data / Drive data highest sub-index
     Entry::new(0x6510, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1058, NO_LIMITS), // 0x6510:01 Drive data / Controller type
     Entry::new(0x6510, 0x02, DataType::Unsigned32, RO_TPDO, 4, 1062, NO_LIMITS), // 0x6510:02 Drive data / Software type
@@ -874,16 +874,11 @@ static ROM: [u8; ROM_SIZE] = [];
 
 #[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, // 0x1003:00 Pre-defined error field / Number of errors
     0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
     0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
     0x00, 0x00, // 0x100C:00 Guard time
     0x00, // 0x100D:00 Life time factor
     0x00, 0x07, 0x00, 0x00, // 0x100E:00 COB-ID guarding protocol
-    0x00, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x00, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
     0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
     0x00, 0x00, // 0x1015:00 Inhibit time EMCY
     0x00, 0x00, // 0x1017:00 Producer heartbeat time
@@ -1119,6 +1114,7 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x92, 0x01, 0x02, 0x02, // 0x1000:00 Device type
     0x00, // 0x1001:00 Error register
     0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
+    0x00, // 0x1003:00 Pre-defined error field / Number of errors
     0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
     0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
     0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
@@ -1141,7 +1137,11 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x100B:00 Node-ID
     0x01, 0x00, 0x00, 0x00, // 0x100F:00 Number of SDOs supported
     0x02, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
     0x02, // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    0x00, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
     0x04, // 0x1018:00 Identity object / Identity object highest sub-index
     0x15, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
     0xEA, 0x58, 0x05, 0x00, // 0x1018:02 Identity object / Product code
@@ -1662,9 +1662,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 360,
+    comm_len: 343,
     stored_len: STORED_SIZE,
-    comm_rest: 142,
+    comm_rest: 159,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -1723,42 +1723,42 @@ impl Ram {
 
     /// 0x1000 Device type (bmaxx4400.eds:273, UNSIGNED32 ro)
     pub fn device_type(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 714))
+        u32::from_le_bytes(od::load::<4>(&self.image, 697))
     }
 
     /// Sets 0x1000 Device type.
     pub fn set_device_type(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 714, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 697, v.to_le_bytes());
     }
 
     /// 0x1001 Error register (bmaxx4400.eds:281, UNSIGNED8 ro)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 718))
+        u8::from_le_bytes(od::load::<1>(&self.image, 701))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 718, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 701, v.to_le_bytes());
     }
 
     /// 0x1002 Manufacturer status register (bmaxx4400.eds:334, UNSIGNED32 ro)
     pub fn manufacturer_status_register(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 719))
+        u32::from_le_bytes(od::load::<4>(&self.image, 702))
     }
 
     /// Sets 0x1002 Manufacturer status register.
     pub fn set_manufacturer_status_register(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 719, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 702, v.to_le_bytes());
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (bmaxx4400.eds:347, UNSIGNED8 rw)
     pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 0))
+        u8::from_le_bytes(od::load::<1>(&self.image, 706))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
     pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 0, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 706, v.to_le_bytes());
     }
 
     /// 0x1003 Pre-defined error field sub-index `i` (1..=15) (bmaxx4400.eds:342)
@@ -1766,7 +1766,7 @@ impl Ram {
         if !(1..=15).contains(&i) {
             return None;
         }
-        let off = 719 + usize::from(i) * 4;
+        let off = 703 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1775,129 +1775,129 @@ impl Ram {
         if !(1..=15).contains(&i) {
             return false;
         }
-        let off = 719 + usize::from(i) * 4;
+        let off = 703 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1005 COB-ID SYNC (bmaxx4400.eds:475, UNSIGNED32 ro)
     pub fn cob_id_sync(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 783))
+        u32::from_le_bytes(od::load::<4>(&self.image, 767))
     }
 
     /// Sets 0x1005 COB-ID SYNC.
     pub fn set_cob_id_sync(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 783, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 767, v.to_le_bytes());
     }
 
     /// 0x1006 Communication cycle period (bmaxx4400.eds:483, UNSIGNED32 rw)
     pub fn communication_cycle_period(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1))
+        u32::from_le_bytes(od::load::<4>(&self.image, 0))
     }
 
     /// Sets 0x1006 Communication cycle period.
     pub fn set_communication_cycle_period(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 0, v.to_le_bytes());
     }
 
     /// 0x1007 Synchronous window length (bmaxx4400.eds:493, UNSIGNED32 rw)
     pub fn synchronous_window_length(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 5))
+        u32::from_le_bytes(od::load::<4>(&self.image, 4))
     }
 
     /// Sets 0x1007 Synchronous window length.
     pub fn set_synchronous_window_length(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 5, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 4, v.to_le_bytes());
     }
 
     /// 0x1008 Manufacturer device name (bmaxx4400.eds:501, VISIBLE_STRING ro)
     pub fn manufacturer_device_name(&self) -> &[u8] {
-        od::load_str(&self.image, 787, 11)
+        od::load_str(&self.image, 771, 11)
     }
 
     /// Sets 0x1008 Manufacturer device name. Cut to 11 bytes; returns the number stored.
     pub fn set_manufacturer_device_name(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 787, 11, v)
+        od::store_str(&mut self.image, 771, 11, v)
     }
 
     /// 0x1009 Manufacturer hardware version (bmaxx4400.eds:509, VISIBLE_STRING ro)
     pub fn manufacturer_hardware_version(&self) -> &[u8] {
-        od::load_str(&self.image, 798, 7)
+        od::load_str(&self.image, 782, 7)
     }
 
     /// Sets 0x1009 Manufacturer hardware version. Cut to 7 bytes; returns the number stored.
     pub fn set_manufacturer_hardware_version(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 798, 7, v)
+        od::store_str(&mut self.image, 782, 7, v)
     }
 
     /// 0x100A Manufacturer software version (bmaxx4400.eds:517, VISIBLE_STRING ro)
     pub fn manufacturer_software_version(&self) -> &[u8] {
-        od::load_str(&self.image, 805, 7)
+        od::load_str(&self.image, 789, 7)
     }
 
     /// Sets 0x100A Manufacturer software version. Cut to 7 bytes; returns the number stored.
     pub fn set_manufacturer_software_version(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 805, 7, v)
+        od::store_str(&mut self.image, 789, 7, v)
     }
 
     /// 0x100B Node-ID (bmaxx4400.eds:525, UNSIGNED32 ro, $NODEID-relative)
     pub fn node_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 812))
+        u32::from_le_bytes(od::load::<4>(&self.image, 796))
     }
 
     /// Sets 0x100B Node-ID.
     pub fn set_node_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 812, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 796, v.to_le_bytes());
     }
 
     /// 0x100C Guard time (bmaxx4400.eds:533, UNSIGNED16 rw)
     pub fn guard_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 9))
+        u16::from_le_bytes(od::load::<2>(&self.image, 8))
     }
 
     /// Sets 0x100C Guard time.
     pub fn set_guard_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 9, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 8, v.to_le_bytes());
     }
 
     /// 0x100D Life time factor (bmaxx4400.eds:541, UNSIGNED8 rw)
     pub fn life_time_factor(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 11))
+        u8::from_le_bytes(od::load::<1>(&self.image, 10))
     }
 
     /// Sets 0x100D Life time factor.
     pub fn set_life_time_factor(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 11, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 10, v.to_le_bytes());
     }
 
     /// 0x100E COB-ID guarding protocol (bmaxx4400.eds:549, UNSIGNED32 rw, $NODEID-relative)
     pub fn cob_id_guarding_protocol(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 12))
+        u32::from_le_bytes(od::load::<4>(&self.image, 11))
     }
 
     /// Sets 0x100E COB-ID guarding protocol.
     pub fn set_cob_id_guarding_protocol(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 12, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 11, v.to_le_bytes());
     }
 
     /// 0x100F Number of SDOs supported (bmaxx4400.eds:557, UNSIGNED32 ro)
     pub fn number_of_sdos_supported(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 816))
+        u32::from_le_bytes(od::load::<4>(&self.image, 800))
     }
 
     /// Sets 0x100F Number of SDOs supported.
     pub fn set_number_of_sdos_supported(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 816, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 800, v.to_le_bytes());
     }
 
     /// 0x1010 sub 0 Store parameters / Store parameters highest sub-index (bmaxx4400.eds:570, UNSIGNED8 ro)
     pub fn store_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 820))
+        u8::from_le_bytes(od::load::<1>(&self.image, 804))
     }
 
     /// Sets 0x1010 sub 0 Store parameters / Store parameters highest sub-index.
     pub fn set_store_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 820, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 804, v.to_le_bytes());
     }
 
     /// 0x1010 Store parameters sub-index `i` (1..=2) (bmaxx4400.eds:565)
@@ -1905,7 +1905,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 12 + usize::from(i) * 4;
+        let off = 801 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1914,19 +1914,19 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 12 + usize::from(i) * 4;
+        let off = 801 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1011 sub 0 Restore default parameters / Restore default parameters highest sub-index (bmaxx4400.eds:599, UNSIGNED8 ro)
     pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 821))
+        u8::from_le_bytes(od::load::<1>(&self.image, 813))
     }
 
     /// Sets 0x1011 sub 0 Restore default parameters / Restore default parameters highest sub-index.
     pub fn set_restore_default_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 821, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 813, v.to_le_bytes());
     }
 
     /// 0x1011 Restore default parameters sub-index `i` (1..=2) (bmaxx4400.eds:594)
@@ -1934,7 +1934,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 20 + usize::from(i) * 4;
+        let off = 810 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1943,39 +1943,39 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 20 + usize::from(i) * 4;
+        let off = 810 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1014 COB-ID EMCY (bmaxx4400.eds:623, UNSIGNED32 rw, $NODEID-relative)
     pub fn cob_id_emcy(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 32))
+        u32::from_le_bytes(od::load::<4>(&self.image, 15))
     }
 
     /// Sets 0x1014 COB-ID EMCY.
     pub fn set_cob_id_emcy(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 32, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 15, v.to_le_bytes());
     }
 
     /// 0x1015 Inhibit time EMCY (bmaxx4400.eds:631, UNSIGNED16 rw)
     pub fn inhibit_time_emcy(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 36))
+        u16::from_le_bytes(od::load::<2>(&self.image, 19))
     }
 
     /// Sets 0x1015 Inhibit time EMCY.
     pub fn set_inhibit_time_emcy(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 36, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 19, v.to_le_bytes());
     }
 
     /// 0x1017 Producer heartbeat time (bmaxx4400.eds:639, UNSIGNED16 rw)
     pub fn producer_heartbeat_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 38))
+        u16::from_le_bytes(od::load::<2>(&self.image, 21))
     }
 
     /// Sets 0x1017 Producer heartbeat time.
     pub fn set_producer_heartbeat_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 38, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 21, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Identity object highest sub-index (bmaxx4400.eds:294, UNSIGNED8 ro)
@@ -2070,22 +2070,22 @@ impl Ram {
 
     /// 0x1400 sub 1 RPDO1 communication parameter / RPDO1 COB-ID (bmaxx4400.eds:689, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo1_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 40))
+        u32::from_le_bytes(od::load::<4>(&self.image, 23))
     }
 
     /// Sets 0x1400 sub 1 RPDO1 communication parameter / RPDO1 COB-ID.
     pub fn set_rpdo1_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 40, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 23, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO1 communication parameter / RPDO1 transmission type (bmaxx4400.eds:697, UNSIGNED8 rw)
     pub fn rpdo1_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 44))
+        u8::from_le_bytes(od::load::<1>(&self.image, 27))
     }
 
     /// Sets 0x1400 sub 2 RPDO1 communication parameter / RPDO1 transmission type.
     pub fn set_rpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 44, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 27, v.to_le_bytes());
     }
 
     /// 0x1401 sub 0 RPDO2 communication parameter / RPDO2 communication highest sub-index (bmaxx4400.eds:710, UNSIGNED8 ro)
@@ -2100,22 +2100,22 @@ impl Ram {
 
     /// 0x1401 sub 1 RPDO2 communication parameter / RPDO2 COB-ID (bmaxx4400.eds:718, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo2_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 45))
+        u32::from_le_bytes(od::load::<4>(&self.image, 28))
     }
 
     /// Sets 0x1401 sub 1 RPDO2 communication parameter / RPDO2 COB-ID.
     pub fn set_rpdo2_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 45, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 28, v.to_le_bytes());
     }
 
     /// 0x1401 sub 2 RPDO2 communication parameter / RPDO2 transmission type (bmaxx4400.eds:726, UNSIGNED8 rw)
     pub fn rpdo2_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 49))
+        u8::from_le_bytes(od::load::<1>(&self.image, 32))
     }
 
     /// Sets 0x1401 sub 2 RPDO2 communication parameter / RPDO2 transmission type.
     pub fn set_rpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 49, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 32, v.to_le_bytes());
     }
 
     /// 0x1402 sub 0 RPDO3 communication parameter / RPDO3 communication highest sub-index (bmaxx4400.eds:739, UNSIGNED8 ro)
@@ -2130,22 +2130,22 @@ impl Ram {
 
     /// 0x1402 sub 1 RPDO3 communication parameter / RPDO3 COB-ID (bmaxx4400.eds:747, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo3_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 50))
+        u32::from_le_bytes(od::load::<4>(&self.image, 33))
     }
 
     /// Sets 0x1402 sub 1 RPDO3 communication parameter / RPDO3 COB-ID.
     pub fn set_rpdo3_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 50, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 33, v.to_le_bytes());
     }
 
     /// 0x1402 sub 2 RPDO3 communication parameter / RPDO3 transmission type (bmaxx4400.eds:755, UNSIGNED8 rw)
     pub fn rpdo3_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 54))
+        u8::from_le_bytes(od::load::<1>(&self.image, 37))
     }
 
     /// Sets 0x1402 sub 2 RPDO3 communication parameter / RPDO3 transmission type.
     pub fn set_rpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 54, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 37, v.to_le_bytes());
     }
 
     /// 0x1403 sub 0 RPDO4 communication parameter / RPDO4 communication highest sub-index (bmaxx4400.eds:768, UNSIGNED8 ro)
@@ -2160,382 +2160,382 @@ impl Ram {
 
     /// 0x1403 sub 1 RPDO4 communication parameter / RPDO4 COB-ID (bmaxx4400.eds:776, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo4_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 55))
+        u32::from_le_bytes(od::load::<4>(&self.image, 38))
     }
 
     /// Sets 0x1403 sub 1 RPDO4 communication parameter / RPDO4 COB-ID.
     pub fn set_rpdo4_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 55, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 38, v.to_le_bytes());
     }
 
     /// 0x1403 sub 2 RPDO4 communication parameter / RPDO4 transmission type (bmaxx4400.eds:784, UNSIGNED8 rw)
     pub fn rpdo4_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 59))
+        u8::from_le_bytes(od::load::<1>(&self.image, 42))
     }
 
     /// Sets 0x1403 sub 2 RPDO4 communication parameter / RPDO4 transmission type.
     pub fn set_rpdo4_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 59, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 42, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO1 mapping parameter / RPDO1 number of mapped objects (bmaxx4400.eds:797, UNSIGNED8 rw)
     pub fn rpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 60))
+        u8::from_le_bytes(od::load::<1>(&self.image, 43))
     }
 
     /// Sets 0x1600 sub 0 RPDO1 mapping parameter / RPDO1 number of mapped objects.
     pub fn set_rpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 60, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 43, v.to_le_bytes());
     }
 
     /// 0x1600 sub 1 RPDO1 mapping parameter / RPDO1 mapping entry 1 (bmaxx4400.eds:807, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 61))
+        u32::from_le_bytes(od::load::<4>(&self.image, 44))
     }
 
     /// Sets 0x1600 sub 1 RPDO1 mapping parameter / RPDO1 mapping entry 1.
     pub fn set_rpdo1_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 61, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 44, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO1 mapping parameter / RPDO1 mapping entry 2 (bmaxx4400.eds:815, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 65))
+        u32::from_le_bytes(od::load::<4>(&self.image, 48))
     }
 
     /// Sets 0x1600 sub 2 RPDO1 mapping parameter / RPDO1 mapping entry 2.
     pub fn set_rpdo1_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 65, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 48, v.to_le_bytes());
     }
 
     /// 0x1600 sub 3 RPDO1 mapping parameter / RPDO1 mapping entry 3 (bmaxx4400.eds:823, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 69))
+        u32::from_le_bytes(od::load::<4>(&self.image, 52))
     }
 
     /// Sets 0x1600 sub 3 RPDO1 mapping parameter / RPDO1 mapping entry 3.
     pub fn set_rpdo1_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 69, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 52, v.to_le_bytes());
     }
 
     /// 0x1600 sub 4 RPDO1 mapping parameter / RPDO1 mapping entry 4 (bmaxx4400.eds:831, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 73))
+        u32::from_le_bytes(od::load::<4>(&self.image, 56))
     }
 
     /// Sets 0x1600 sub 4 RPDO1 mapping parameter / RPDO1 mapping entry 4.
     pub fn set_rpdo1_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 73, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 56, v.to_le_bytes());
     }
 
     /// 0x1600 sub 5 RPDO1 mapping parameter / RPDO1 mapping entry 5 (bmaxx4400.eds:839, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 77))
+        u32::from_le_bytes(od::load::<4>(&self.image, 60))
     }
 
     /// Sets 0x1600 sub 5 RPDO1 mapping parameter / RPDO1 mapping entry 5.
     pub fn set_rpdo1_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 77, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 60, v.to_le_bytes());
     }
 
     /// 0x1600 sub 6 RPDO1 mapping parameter / RPDO1 mapping entry 6 (bmaxx4400.eds:847, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 81))
+        u32::from_le_bytes(od::load::<4>(&self.image, 64))
     }
 
     /// Sets 0x1600 sub 6 RPDO1 mapping parameter / RPDO1 mapping entry 6.
     pub fn set_rpdo1_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 81, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 64, v.to_le_bytes());
     }
 
     /// 0x1600 sub 7 RPDO1 mapping parameter / RPDO1 mapping entry 7 (bmaxx4400.eds:855, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 85))
+        u32::from_le_bytes(od::load::<4>(&self.image, 68))
     }
 
     /// Sets 0x1600 sub 7 RPDO1 mapping parameter / RPDO1 mapping entry 7.
     pub fn set_rpdo1_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 85, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 68, v.to_le_bytes());
     }
 
     /// 0x1600 sub 8 RPDO1 mapping parameter / RPDO1 mapping entry 8 (bmaxx4400.eds:863, UNSIGNED32 rw)
     pub fn rpdo1_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 89))
+        u32::from_le_bytes(od::load::<4>(&self.image, 72))
     }
 
     /// Sets 0x1600 sub 8 RPDO1 mapping parameter / RPDO1 mapping entry 8.
     pub fn set_rpdo1_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 89, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 72, v.to_le_bytes());
     }
 
     /// 0x1601 sub 0 RPDO2 mapping parameter / RPDO2 number of mapped objects (bmaxx4400.eds:876, UNSIGNED8 rw)
     pub fn rpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 93))
+        u8::from_le_bytes(od::load::<1>(&self.image, 76))
     }
 
     /// Sets 0x1601 sub 0 RPDO2 mapping parameter / RPDO2 number of mapped objects.
     pub fn set_rpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 93, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 76, v.to_le_bytes());
     }
 
     /// 0x1601 sub 1 RPDO2 mapping parameter / RPDO2 mapping entry 1 (bmaxx4400.eds:886, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 94))
+        u32::from_le_bytes(od::load::<4>(&self.image, 77))
     }
 
     /// Sets 0x1601 sub 1 RPDO2 mapping parameter / RPDO2 mapping entry 1.
     pub fn set_rpdo2_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 94, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 77, v.to_le_bytes());
     }
 
     /// 0x1601 sub 2 RPDO2 mapping parameter / RPDO2 mapping entry 2 (bmaxx4400.eds:894, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 98))
+        u32::from_le_bytes(od::load::<4>(&self.image, 81))
     }
 
     /// Sets 0x1601 sub 2 RPDO2 mapping parameter / RPDO2 mapping entry 2.
     pub fn set_rpdo2_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 98, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 81, v.to_le_bytes());
     }
 
     /// 0x1601 sub 3 RPDO2 mapping parameter / RPDO2 mapping entry 3 (bmaxx4400.eds:902, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 102))
+        u32::from_le_bytes(od::load::<4>(&self.image, 85))
     }
 
     /// Sets 0x1601 sub 3 RPDO2 mapping parameter / RPDO2 mapping entry 3.
     pub fn set_rpdo2_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 102, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 85, v.to_le_bytes());
     }
 
     /// 0x1601 sub 4 RPDO2 mapping parameter / RPDO2 mapping entry 4 (bmaxx4400.eds:910, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 106))
+        u32::from_le_bytes(od::load::<4>(&self.image, 89))
     }
 
     /// Sets 0x1601 sub 4 RPDO2 mapping parameter / RPDO2 mapping entry 4.
     pub fn set_rpdo2_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 106, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 89, v.to_le_bytes());
     }
 
     /// 0x1601 sub 5 RPDO2 mapping parameter / RPDO2 mapping entry 5 (bmaxx4400.eds:918, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 110))
+        u32::from_le_bytes(od::load::<4>(&self.image, 93))
     }
 
     /// Sets 0x1601 sub 5 RPDO2 mapping parameter / RPDO2 mapping entry 5.
     pub fn set_rpdo2_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 110, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 93, v.to_le_bytes());
     }
 
     /// 0x1601 sub 6 RPDO2 mapping parameter / RPDO2 mapping entry 6 (bmaxx4400.eds:926, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 114))
+        u32::from_le_bytes(od::load::<4>(&self.image, 97))
     }
 
     /// Sets 0x1601 sub 6 RPDO2 mapping parameter / RPDO2 mapping entry 6.
     pub fn set_rpdo2_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 114, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 97, v.to_le_bytes());
     }
 
     /// 0x1601 sub 7 RPDO2 mapping parameter / RPDO2 mapping entry 7 (bmaxx4400.eds:934, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 118))
+        u32::from_le_bytes(od::load::<4>(&self.image, 101))
     }
 
     /// Sets 0x1601 sub 7 RPDO2 mapping parameter / RPDO2 mapping entry 7.
     pub fn set_rpdo2_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 118, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 101, v.to_le_bytes());
     }
 
     /// 0x1601 sub 8 RPDO2 mapping parameter / RPDO2 mapping entry 8 (bmaxx4400.eds:942, UNSIGNED32 rw)
     pub fn rpdo2_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 122))
+        u32::from_le_bytes(od::load::<4>(&self.image, 105))
     }
 
     /// Sets 0x1601 sub 8 RPDO2 mapping parameter / RPDO2 mapping entry 8.
     pub fn set_rpdo2_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 122, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 105, v.to_le_bytes());
     }
 
     /// 0x1602 sub 0 RPDO3 mapping parameter / RPDO3 number of mapped objects (bmaxx4400.eds:955, UNSIGNED8 rw)
     pub fn rpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 126))
+        u8::from_le_bytes(od::load::<1>(&self.image, 109))
     }
 
     /// Sets 0x1602 sub 0 RPDO3 mapping parameter / RPDO3 number of mapped objects.
     pub fn set_rpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 126, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 109, v.to_le_bytes());
     }
 
     /// 0x1602 sub 1 RPDO3 mapping parameter / RPDO3 mapping entry 1 (bmaxx4400.eds:965, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 127))
+        u32::from_le_bytes(od::load::<4>(&self.image, 110))
     }
 
     /// Sets 0x1602 sub 1 RPDO3 mapping parameter / RPDO3 mapping entry 1.
     pub fn set_rpdo3_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 127, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 110, v.to_le_bytes());
     }
 
     /// 0x1602 sub 2 RPDO3 mapping parameter / RPDO3 mapping entry 2 (bmaxx4400.eds:973, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 131))
+        u32::from_le_bytes(od::load::<4>(&self.image, 114))
     }
 
     /// Sets 0x1602 sub 2 RPDO3 mapping parameter / RPDO3 mapping entry 2.
     pub fn set_rpdo3_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 131, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 114, v.to_le_bytes());
     }
 
     /// 0x1602 sub 3 RPDO3 mapping parameter / RPDO3 mapping entry 3 (bmaxx4400.eds:981, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 135))
+        u32::from_le_bytes(od::load::<4>(&self.image, 118))
     }
 
     /// Sets 0x1602 sub 3 RPDO3 mapping parameter / RPDO3 mapping entry 3.
     pub fn set_rpdo3_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 135, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 118, v.to_le_bytes());
     }
 
     /// 0x1602 sub 4 RPDO3 mapping parameter / RPDO3 mapping entry 4 (bmaxx4400.eds:989, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 139))
+        u32::from_le_bytes(od::load::<4>(&self.image, 122))
     }
 
     /// Sets 0x1602 sub 4 RPDO3 mapping parameter / RPDO3 mapping entry 4.
     pub fn set_rpdo3_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 139, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 122, v.to_le_bytes());
     }
 
     /// 0x1602 sub 5 RPDO3 mapping parameter / RPDO3 mapping entry 5 (bmaxx4400.eds:997, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 143))
+        u32::from_le_bytes(od::load::<4>(&self.image, 126))
     }
 
     /// Sets 0x1602 sub 5 RPDO3 mapping parameter / RPDO3 mapping entry 5.
     pub fn set_rpdo3_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 143, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 126, v.to_le_bytes());
     }
 
     /// 0x1602 sub 6 RPDO3 mapping parameter / RPDO3 mapping entry 6 (bmaxx4400.eds:1005, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 147))
+        u32::from_le_bytes(od::load::<4>(&self.image, 130))
     }
 
     /// Sets 0x1602 sub 6 RPDO3 mapping parameter / RPDO3 mapping entry 6.
     pub fn set_rpdo3_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 147, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 130, v.to_le_bytes());
     }
 
     /// 0x1602 sub 7 RPDO3 mapping parameter / RPDO3 mapping entry 7 (bmaxx4400.eds:1013, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 151))
+        u32::from_le_bytes(od::load::<4>(&self.image, 134))
     }
 
     /// Sets 0x1602 sub 7 RPDO3 mapping parameter / RPDO3 mapping entry 7.
     pub fn set_rpdo3_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 151, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 134, v.to_le_bytes());
     }
 
     /// 0x1602 sub 8 RPDO3 mapping parameter / RPDO3 mapping entry 8 (bmaxx4400.eds:1021, UNSIGNED32 rw)
     pub fn rpdo3_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 155))
+        u32::from_le_bytes(od::load::<4>(&self.image, 138))
     }
 
     /// Sets 0x1602 sub 8 RPDO3 mapping parameter / RPDO3 mapping entry 8.
     pub fn set_rpdo3_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 155, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 138, v.to_le_bytes());
     }
 
     /// 0x1603 sub 0 RPDO4 mapping parameter / RPDO4 number of mapped objects (bmaxx4400.eds:1034, UNSIGNED8 rw)
     pub fn rpdo4_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 159))
+        u8::from_le_bytes(od::load::<1>(&self.image, 142))
     }
 
     /// Sets 0x1603 sub 0 RPDO4 mapping parameter / RPDO4 number of mapped objects.
     pub fn set_rpdo4_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 159, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 142, v.to_le_bytes());
     }
 
     /// 0x1603 sub 1 RPDO4 mapping parameter / RPDO4 mapping entry 1 (bmaxx4400.eds:1044, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 160))
+        u32::from_le_bytes(od::load::<4>(&self.image, 143))
     }
 
     /// Sets 0x1603 sub 1 RPDO4 mapping parameter / RPDO4 mapping entry 1.
     pub fn set_rpdo4_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 160, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 143, v.to_le_bytes());
     }
 
     /// 0x1603 sub 2 RPDO4 mapping parameter / RPDO4 mapping entry 2 (bmaxx4400.eds:1052, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 164))
+        u32::from_le_bytes(od::load::<4>(&self.image, 147))
     }
 
     /// Sets 0x1603 sub 2 RPDO4 mapping parameter / RPDO4 mapping entry 2.
     pub fn set_rpdo4_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 164, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 147, v.to_le_bytes());
     }
 
     /// 0x1603 sub 3 RPDO4 mapping parameter / RPDO4 mapping entry 3 (bmaxx4400.eds:1060, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 168))
+        u32::from_le_bytes(od::load::<4>(&self.image, 151))
     }
 
     /// Sets 0x1603 sub 3 RPDO4 mapping parameter / RPDO4 mapping entry 3.
     pub fn set_rpdo4_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 168, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 151, v.to_le_bytes());
     }
 
     /// 0x1603 sub 4 RPDO4 mapping parameter / RPDO4 mapping entry 4 (bmaxx4400.eds:1068, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 172))
+        u32::from_le_bytes(od::load::<4>(&self.image, 155))
     }
 
     /// Sets 0x1603 sub 4 RPDO4 mapping parameter / RPDO4 mapping entry 4.
     pub fn set_rpdo4_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 172, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 155, v.to_le_bytes());
     }
 
     /// 0x1603 sub 5 RPDO4 mapping parameter / RPDO4 mapping entry 5 (bmaxx4400.eds:1076, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 176))
+        u32::from_le_bytes(od::load::<4>(&self.image, 159))
     }
 
     /// Sets 0x1603 sub 5 RPDO4 mapping parameter / RPDO4 mapping entry 5.
     pub fn set_rpdo4_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 176, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 159, v.to_le_bytes());
     }
 
     /// 0x1603 sub 6 RPDO4 mapping parameter / RPDO4 mapping entry 6 (bmaxx4400.eds:1084, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 180))
+        u32::from_le_bytes(od::load::<4>(&self.image, 163))
     }
 
     /// Sets 0x1603 sub 6 RPDO4 mapping parameter / RPDO4 mapping entry 6.
     pub fn set_rpdo4_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 180, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 163, v.to_le_bytes());
     }
 
     /// 0x1603 sub 7 RPDO4 mapping parameter / RPDO4 mapping entry 7 (bmaxx4400.eds:1092, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 184))
+        u32::from_le_bytes(od::load::<4>(&self.image, 167))
     }
 
     /// Sets 0x1603 sub 7 RPDO4 mapping parameter / RPDO4 mapping entry 7.
     pub fn set_rpdo4_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 184, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 167, v.to_le_bytes());
     }
 
     /// 0x1603 sub 8 RPDO4 mapping parameter / RPDO4 mapping entry 8 (bmaxx4400.eds:1100, UNSIGNED32 rw)
     pub fn rpdo4_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 188))
+        u32::from_le_bytes(od::load::<4>(&self.image, 171))
     }
 
     /// Sets 0x1603 sub 8 RPDO4 mapping parameter / RPDO4 mapping entry 8.
     pub fn set_rpdo4_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 188, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 171, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index (bmaxx4400.eds:1113, UNSIGNED8 ro)
@@ -2550,42 +2550,42 @@ impl Ram {
 
     /// 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID (bmaxx4400.eds:1121, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo1_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 192))
+        u32::from_le_bytes(od::load::<4>(&self.image, 175))
     }
 
     /// Sets 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID.
     pub fn set_tpdo1_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 192, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 175, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type (bmaxx4400.eds:1129, UNSIGNED8 rw)
     pub fn tpdo1_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 196))
+        u8::from_le_bytes(od::load::<1>(&self.image, 179))
     }
 
     /// Sets 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type.
     pub fn set_tpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 196, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 179, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time (bmaxx4400.eds:1137, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 197))
+        u16::from_le_bytes(od::load::<2>(&self.image, 180))
     }
 
     /// Sets 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time.
     pub fn set_tpdo1_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 197, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 180, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer (bmaxx4400.eds:1145, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 199))
+        u16::from_le_bytes(od::load::<2>(&self.image, 182))
     }
 
     /// Sets 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer.
     pub fn set_tpdo1_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 199, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 182, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index (bmaxx4400.eds:1158, UNSIGNED8 ro)
@@ -2600,42 +2600,42 @@ impl Ram {
 
     /// 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID (bmaxx4400.eds:1166, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo2_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 201))
+        u32::from_le_bytes(od::load::<4>(&self.image, 184))
     }
 
     /// Sets 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID.
     pub fn set_tpdo2_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 201, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 184, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type (bmaxx4400.eds:1174, UNSIGNED8 rw)
     pub fn tpdo2_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 205))
+        u8::from_le_bytes(od::load::<1>(&self.image, 188))
     }
 
     /// Sets 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type.
     pub fn set_tpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 205, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 188, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time (bmaxx4400.eds:1182, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 206))
+        u16::from_le_bytes(od::load::<2>(&self.image, 189))
     }
 
     /// Sets 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time.
     pub fn set_tpdo2_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 206, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 189, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer (bmaxx4400.eds:1190, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 208))
+        u16::from_le_bytes(od::load::<2>(&self.image, 191))
     }
 
     /// Sets 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer.
     pub fn set_tpdo2_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 208, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 191, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index (bmaxx4400.eds:1203, UNSIGNED8 ro)
@@ -2650,42 +2650,42 @@ impl Ram {
 
     /// 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID (bmaxx4400.eds:1211, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo3_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 210))
+        u32::from_le_bytes(od::load::<4>(&self.image, 193))
     }
 
     /// Sets 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID.
     pub fn set_tpdo3_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 210, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 193, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type (bmaxx4400.eds:1219, UNSIGNED8 rw)
     pub fn tpdo3_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 214))
+        u8::from_le_bytes(od::load::<1>(&self.image, 197))
     }
 
     /// Sets 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type.
     pub fn set_tpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 214, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 197, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time (bmaxx4400.eds:1227, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 215))
+        u16::from_le_bytes(od::load::<2>(&self.image, 198))
     }
 
     /// Sets 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time.
     pub fn set_tpdo3_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 215, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 198, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer (bmaxx4400.eds:1235, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 217))
+        u16::from_le_bytes(od::load::<2>(&self.image, 200))
     }
 
     /// Sets 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer.
     pub fn set_tpdo3_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 217, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 200, v.to_le_bytes());
     }
 
     /// 0x1803 sub 0 TPDO4 communication parameter / TPDO4 communication highest sub-index (bmaxx4400.eds:1248, UNSIGNED8 ro)
@@ -2700,422 +2700,422 @@ impl Ram {
 
     /// 0x1803 sub 1 TPDO4 communication parameter / TPDO4 COB-ID (bmaxx4400.eds:1256, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo4_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 219))
+        u32::from_le_bytes(od::load::<4>(&self.image, 202))
     }
 
     /// Sets 0x1803 sub 1 TPDO4 communication parameter / TPDO4 COB-ID.
     pub fn set_tpdo4_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 219, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 202, v.to_le_bytes());
     }
 
     /// 0x1803 sub 2 TPDO4 communication parameter / TPDO4 transmission type (bmaxx4400.eds:1264, UNSIGNED8 rw)
     pub fn tpdo4_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 223))
+        u8::from_le_bytes(od::load::<1>(&self.image, 206))
     }
 
     /// Sets 0x1803 sub 2 TPDO4 communication parameter / TPDO4 transmission type.
     pub fn set_tpdo4_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 223, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 206, v.to_le_bytes());
     }
 
     /// 0x1803 sub 3 TPDO4 communication parameter / TPDO4 inhibit time (bmaxx4400.eds:1272, UNSIGNED16 rw)
     pub fn tpdo4_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 224))
+        u16::from_le_bytes(od::load::<2>(&self.image, 207))
     }
 
     /// Sets 0x1803 sub 3 TPDO4 communication parameter / TPDO4 inhibit time.
     pub fn set_tpdo4_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 224, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 207, v.to_le_bytes());
     }
 
     /// 0x1803 sub 5 TPDO4 communication parameter / TPDO4 event timer (bmaxx4400.eds:1280, UNSIGNED16 rw)
     pub fn tpdo4_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 226))
+        u16::from_le_bytes(od::load::<2>(&self.image, 209))
     }
 
     /// Sets 0x1803 sub 5 TPDO4 communication parameter / TPDO4 event timer.
     pub fn set_tpdo4_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 226, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 209, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects (bmaxx4400.eds:1293, UNSIGNED8 rw)
     pub fn tpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 228))
+        u8::from_le_bytes(od::load::<1>(&self.image, 211))
     }
 
     /// Sets 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects.
     pub fn set_tpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 228, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 211, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapping entry 1 (bmaxx4400.eds:1303, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 229))
+        u32::from_le_bytes(od::load::<4>(&self.image, 212))
     }
 
     /// Sets 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapping entry 1.
     pub fn set_tpdo1_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 229, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 212, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapping entry 2 (bmaxx4400.eds:1311, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 233))
+        u32::from_le_bytes(od::load::<4>(&self.image, 216))
     }
 
     /// Sets 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapping entry 2.
     pub fn set_tpdo1_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 233, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 216, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapping entry 3 (bmaxx4400.eds:1319, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 237))
+        u32::from_le_bytes(od::load::<4>(&self.image, 220))
     }
 
     /// Sets 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapping entry 3.
     pub fn set_tpdo1_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 237, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 220, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapping entry 4 (bmaxx4400.eds:1327, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 241))
+        u32::from_le_bytes(od::load::<4>(&self.image, 224))
     }
 
     /// Sets 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapping entry 4.
     pub fn set_tpdo1_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 241, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 224, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapping entry 5 (bmaxx4400.eds:1335, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 245))
+        u32::from_le_bytes(od::load::<4>(&self.image, 228))
     }
 
     /// Sets 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapping entry 5.
     pub fn set_tpdo1_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 245, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 228, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapping entry 6 (bmaxx4400.eds:1343, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 249))
+        u32::from_le_bytes(od::load::<4>(&self.image, 232))
     }
 
     /// Sets 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapping entry 6.
     pub fn set_tpdo1_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 249, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 232, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapping entry 7 (bmaxx4400.eds:1351, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 253))
+        u32::from_le_bytes(od::load::<4>(&self.image, 236))
     }
 
     /// Sets 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapping entry 7.
     pub fn set_tpdo1_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 253, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 236, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapping entry 8 (bmaxx4400.eds:1359, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 257))
+        u32::from_le_bytes(od::load::<4>(&self.image, 240))
     }
 
     /// Sets 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapping entry 8.
     pub fn set_tpdo1_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 257, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 240, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects (bmaxx4400.eds:1372, UNSIGNED8 rw)
     pub fn tpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 261))
+        u8::from_le_bytes(od::load::<1>(&self.image, 244))
     }
 
     /// Sets 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects.
     pub fn set_tpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 261, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 244, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapping entry 1 (bmaxx4400.eds:1382, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 262))
+        u32::from_le_bytes(od::load::<4>(&self.image, 245))
     }
 
     /// Sets 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapping entry 1.
     pub fn set_tpdo2_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 262, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 245, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapping entry 2 (bmaxx4400.eds:1390, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 266))
+        u32::from_le_bytes(od::load::<4>(&self.image, 249))
     }
 
     /// Sets 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapping entry 2.
     pub fn set_tpdo2_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 266, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 249, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapping entry 3 (bmaxx4400.eds:1398, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 270))
+        u32::from_le_bytes(od::load::<4>(&self.image, 253))
     }
 
     /// Sets 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapping entry 3.
     pub fn set_tpdo2_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 270, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 253, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapping entry 4 (bmaxx4400.eds:1406, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 274))
+        u32::from_le_bytes(od::load::<4>(&self.image, 257))
     }
 
     /// Sets 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapping entry 4.
     pub fn set_tpdo2_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 274, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 257, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapping entry 5 (bmaxx4400.eds:1414, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 278))
+        u32::from_le_bytes(od::load::<4>(&self.image, 261))
     }
 
     /// Sets 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapping entry 5.
     pub fn set_tpdo2_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 278, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 261, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapping entry 6 (bmaxx4400.eds:1422, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 282))
+        u32::from_le_bytes(od::load::<4>(&self.image, 265))
     }
 
     /// Sets 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapping entry 6.
     pub fn set_tpdo2_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 282, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 265, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapping entry 7 (bmaxx4400.eds:1430, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 286))
+        u32::from_le_bytes(od::load::<4>(&self.image, 269))
     }
 
     /// Sets 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapping entry 7.
     pub fn set_tpdo2_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 286, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 269, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapping entry 8 (bmaxx4400.eds:1438, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 290))
+        u32::from_le_bytes(od::load::<4>(&self.image, 273))
     }
 
     /// Sets 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapping entry 8.
     pub fn set_tpdo2_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 290, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 273, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects (bmaxx4400.eds:1451, UNSIGNED8 rw)
     pub fn tpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 294))
+        u8::from_le_bytes(od::load::<1>(&self.image, 277))
     }
 
     /// Sets 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects.
     pub fn set_tpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 294, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 277, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapping entry 1 (bmaxx4400.eds:1461, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 295))
+        u32::from_le_bytes(od::load::<4>(&self.image, 278))
     }
 
     /// Sets 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapping entry 1.
     pub fn set_tpdo3_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 295, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 278, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapping entry 2 (bmaxx4400.eds:1469, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 299))
+        u32::from_le_bytes(od::load::<4>(&self.image, 282))
     }
 
     /// Sets 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapping entry 2.
     pub fn set_tpdo3_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 299, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 282, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapping entry 3 (bmaxx4400.eds:1477, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 303))
+        u32::from_le_bytes(od::load::<4>(&self.image, 286))
     }
 
     /// Sets 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapping entry 3.
     pub fn set_tpdo3_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 303, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 286, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapping entry 4 (bmaxx4400.eds:1485, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 307))
+        u32::from_le_bytes(od::load::<4>(&self.image, 290))
     }
 
     /// Sets 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapping entry 4.
     pub fn set_tpdo3_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 307, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 290, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapping entry 5 (bmaxx4400.eds:1493, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 311))
+        u32::from_le_bytes(od::load::<4>(&self.image, 294))
     }
 
     /// Sets 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapping entry 5.
     pub fn set_tpdo3_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 311, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 294, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapping entry 6 (bmaxx4400.eds:1501, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 315))
+        u32::from_le_bytes(od::load::<4>(&self.image, 298))
     }
 
     /// Sets 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapping entry 6.
     pub fn set_tpdo3_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 315, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 298, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapping entry 7 (bmaxx4400.eds:1509, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 319))
+        u32::from_le_bytes(od::load::<4>(&self.image, 302))
     }
 
     /// Sets 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapping entry 7.
     pub fn set_tpdo3_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 319, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 302, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapping entry 8 (bmaxx4400.eds:1517, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 323))
+        u32::from_le_bytes(od::load::<4>(&self.image, 306))
     }
 
     /// Sets 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapping entry 8.
     pub fn set_tpdo3_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 323, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 306, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 0 TPDO4 mapping parameter / TPDO4 number of mapped objects (bmaxx4400.eds:1530, UNSIGNED8 rw)
     pub fn tpdo4_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 327))
+        u8::from_le_bytes(od::load::<1>(&self.image, 310))
     }
 
     /// Sets 0x1A03 sub 0 TPDO4 mapping parameter / TPDO4 number of mapped objects.
     pub fn set_tpdo4_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 327, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 310, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 1 TPDO4 mapping parameter / TPDO4 mapping entry 1 (bmaxx4400.eds:1540, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 328))
+        u32::from_le_bytes(od::load::<4>(&self.image, 311))
     }
 
     /// Sets 0x1A03 sub 1 TPDO4 mapping parameter / TPDO4 mapping entry 1.
     pub fn set_tpdo4_mapping_parameter_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 328, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 311, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 2 TPDO4 mapping parameter / TPDO4 mapping entry 2 (bmaxx4400.eds:1548, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 332))
+        u32::from_le_bytes(od::load::<4>(&self.image, 315))
     }
 
     /// Sets 0x1A03 sub 2 TPDO4 mapping parameter / TPDO4 mapping entry 2.
     pub fn set_tpdo4_mapping_parameter_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 332, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 315, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 3 TPDO4 mapping parameter / TPDO4 mapping entry 3 (bmaxx4400.eds:1556, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 336))
+        u32::from_le_bytes(od::load::<4>(&self.image, 319))
     }
 
     /// Sets 0x1A03 sub 3 TPDO4 mapping parameter / TPDO4 mapping entry 3.
     pub fn set_tpdo4_mapping_parameter_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 336, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 319, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 4 TPDO4 mapping parameter / TPDO4 mapping entry 4 (bmaxx4400.eds:1564, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 340))
+        u32::from_le_bytes(od::load::<4>(&self.image, 323))
     }
 
     /// Sets 0x1A03 sub 4 TPDO4 mapping parameter / TPDO4 mapping entry 4.
     pub fn set_tpdo4_mapping_parameter_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 340, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 323, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 5 TPDO4 mapping parameter / TPDO4 mapping entry 5 (bmaxx4400.eds:1572, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 344))
+        u32::from_le_bytes(od::load::<4>(&self.image, 327))
     }
 
     /// Sets 0x1A03 sub 5 TPDO4 mapping parameter / TPDO4 mapping entry 5.
     pub fn set_tpdo4_mapping_parameter_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 344, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 327, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 6 TPDO4 mapping parameter / TPDO4 mapping entry 6 (bmaxx4400.eds:1580, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 348))
+        u32::from_le_bytes(od::load::<4>(&self.image, 331))
     }
 
     /// Sets 0x1A03 sub 6 TPDO4 mapping parameter / TPDO4 mapping entry 6.
     pub fn set_tpdo4_mapping_parameter_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 348, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 331, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 7 TPDO4 mapping parameter / TPDO4 mapping entry 7 (bmaxx4400.eds:1588, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 352))
+        u32::from_le_bytes(od::load::<4>(&self.image, 335))
     }
 
     /// Sets 0x1A03 sub 7 TPDO4 mapping parameter / TPDO4 mapping entry 7.
     pub fn set_tpdo4_mapping_parameter_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 352, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 335, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 8 TPDO4 mapping parameter / TPDO4 mapping entry 8 (bmaxx4400.eds:1596, UNSIGNED32 rw)
     pub fn tpdo4_mapping_parameter_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 356))
+        u32::from_le_bytes(od::load::<4>(&self.image, 339))
     }
 
     /// Sets 0x1A03 sub 8 TPDO4 mapping parameter / TPDO4 mapping entry 8.
     pub fn set_tpdo4_mapping_parameter_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 356, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 339, v.to_le_bytes());
     }
 
     /// 0x4039 P0057 Motor nominal speed (bmaxx4400.eds:2643, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0057_motor_nominal_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 360))
+        u16::from_le_bytes(od::load::<2>(&self.image, 343))
     }
 
     /// Sets 0x4039 P0057 Motor nominal speed.
     pub fn set_p0057_motor_nominal_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 360, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 343, v.to_le_bytes());
     }
 
     /// 0x4041 P0065 Motor pole pair number (bmaxx4400.eds:2653, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0065_motor_pole_pair_number(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 362))
+        u16::from_le_bytes(od::load::<2>(&self.image, 345))
     }
 
     /// Sets 0x4041 P0065 Motor pole pair number.
     pub fn set_p0065_motor_pole_pair_number(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 362, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 345, v.to_le_bytes());
     }
 
     /// 0x40E9 P0233 Amplifier Hiperface error detail (bmaxx4400.eds:2663, UNSIGNED16 ro)
@@ -3280,12 +3280,12 @@ impl Ram {
 
     /// 0x412C P0300 Drive control word (bmaxx4400.eds:2791, UNSIGNED16 rw, PDO-mappable)
     pub fn p0300_drive_control_word(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 364))
+        u16::from_le_bytes(od::load::<2>(&self.image, 347))
     }
 
     /// Sets 0x412C P0300 Drive control word.
     pub fn set_p0300_drive_control_word(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 364, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 347, v.to_le_bytes());
     }
 
     /// 0x412D P0301 Drive status word (bmaxx4400.eds:2799, UNSIGNED16 ro, PDO-mappable)
@@ -3350,12 +3350,12 @@ impl Ram {
 
     /// 0x4165 P0357 Torque limit direct (bmaxx4400.eds:2847, UNSIGNED16 rw, PDO-mappable)
     pub fn p0357_torque_limit_direct(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 366))
+        u16::from_le_bytes(od::load::<2>(&self.image, 349))
     }
 
     /// Sets 0x4165 P0357 Torque limit direct.
     pub fn set_p0357_torque_limit_direct(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 366, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 349, v.to_le_bytes());
     }
 
     /// 0x4168 P0360 Position controller status raw (bmaxx4400.eds:2855, UNSIGNED16 ro, PDO-mappable)
@@ -3370,32 +3370,32 @@ impl Ram {
 
     /// 0x416A P0362 Position actual value raw (bmaxx4400.eds:2863, UNSIGNED32 rw, PDO-mappable)
     pub fn p0362_position_actual_value_raw(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 368))
+        u32::from_le_bytes(od::load::<4>(&self.image, 351))
     }
 
     /// Sets 0x416A P0362 Position actual value raw.
     pub fn set_p0362_position_actual_value_raw(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 368, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 351, v.to_le_bytes());
     }
 
     /// 0x416B P0363 Position set angle raw (bmaxx4400.eds:2871, UNSIGNED16 rw, PDO-mappable)
     pub fn p0363_position_set_angle_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 372))
+        u16::from_le_bytes(od::load::<2>(&self.image, 355))
     }
 
     /// Sets 0x416B P0363 Position set angle raw.
     pub fn set_p0363_position_set_angle_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 372, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 355, v.to_le_bytes());
     }
 
     /// 0x416C P0364 Position set revolutions raw (bmaxx4400.eds:2879, UNSIGNED16 rw, PDO-mappable)
     pub fn p0364_position_set_revolutions_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 374))
+        u16::from_le_bytes(od::load::<2>(&self.image, 357))
     }
 
     /// Sets 0x416C P0364 Position set revolutions raw.
     pub fn set_p0364_position_set_revolutions_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 374, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 357, v.to_le_bytes());
     }
 
     /// 0x416D P0365 Speed feed forward raw (bmaxx4400.eds:2887, INTEGER32 ro, PDO-mappable)
@@ -3420,22 +3420,22 @@ impl Ram {
 
     /// 0x4171 P0369 Position set value (bmaxx4400.eds:2903, UNSIGNED32 rw, PDO-mappable)
     pub fn p0369_position_set_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 376))
+        u32::from_le_bytes(od::load::<4>(&self.image, 359))
     }
 
     /// Sets 0x4171 P0369 Position set value.
     pub fn set_p0369_position_set_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 376, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 359, v.to_le_bytes());
     }
 
     /// 0x4172 P0370 Position IP set angle (bmaxx4400.eds:2911, UNSIGNED32 rw, PDO-mappable)
     pub fn p0370_position_ip_set_angle(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 380))
+        u32::from_le_bytes(od::load::<4>(&self.image, 363))
     }
 
     /// Sets 0x4172 P0370 Position IP set angle.
     pub fn set_p0370_position_ip_set_angle(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 380, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 363, v.to_le_bytes());
     }
 
     /// 0x4187 P0391 Encoder 1 actual angle raw (bmaxx4400.eds:2919, UNSIGNED32 ro, PDO-mappable)
@@ -3510,102 +3510,102 @@ impl Ram {
 
     /// 0x4214 P0532 Sync interval (bmaxx4400.eds:2975, UNSIGNED16 rw, PDO-mappable)
     pub fn p0532_sync_interval(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 384))
+        u16::from_le_bytes(od::load::<2>(&self.image, 367))
     }
 
     /// Sets 0x4214 P0532 Sync interval.
     pub fn set_p0532_sync_interval(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 384, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 367, v.to_le_bytes());
     }
 
     /// 0x4258 P0600 Positioning target unsigned (bmaxx4400.eds:2983, UNSIGNED32 rw, PDO-mappable)
     pub fn p0600_positioning_target_unsigned(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 386))
+        u32::from_le_bytes(od::load::<4>(&self.image, 369))
     }
 
     /// Sets 0x4258 P0600 Positioning target unsigned.
     pub fn set_p0600_positioning_target_unsigned(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 386, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 369, v.to_le_bytes());
     }
 
     /// 0x4259 P0601 Positioning mode (bmaxx4400.eds:2991, INTEGER16 rw, PDO-mappable)
     pub fn p0601_positioning_mode(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 390))
+        i16::from_le_bytes(od::load::<2>(&self.image, 373))
     }
 
     /// Sets 0x4259 P0601 Positioning mode.
     pub fn set_p0601_positioning_mode(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 390, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 373, v.to_le_bytes());
     }
 
     /// 0x425A P0602 Positioning speed 1 (bmaxx4400.eds:2999, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0602_positioning_speed_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 392))
+        u16::from_le_bytes(od::load::<2>(&self.image, 375))
     }
 
     /// Sets 0x425A P0602 Positioning speed 1.
     pub fn set_p0602_positioning_speed_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 392, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 375, v.to_le_bytes());
     }
 
     /// 0x425B P0603 Positioning acceleration 1 (bmaxx4400.eds:3009, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0603_positioning_acceleration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 394))
+        u16::from_le_bytes(od::load::<2>(&self.image, 377))
     }
 
     /// Sets 0x425B P0603 Positioning acceleration 1.
     pub fn set_p0603_positioning_acceleration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 394, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 377, v.to_le_bytes());
     }
 
     /// 0x425C P0604 Positioning deceleration 1 (bmaxx4400.eds:3019, UNSIGNED16 rwr, PDO-mappable)
     pub fn p0604_positioning_deceleration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 396))
+        u16::from_le_bytes(od::load::<2>(&self.image, 379))
     }
 
     /// Sets 0x425C P0604 Positioning deceleration 1.
     pub fn set_p0604_positioning_deceleration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 396, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 379, v.to_le_bytes());
     }
 
     /// 0x425D P0605 Positioning bend 0 raw (bmaxx4400.eds:3029, UNSIGNED16 rw, PDO-mappable)
     pub fn p0605_positioning_bend_0_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 398))
+        u16::from_le_bytes(od::load::<2>(&self.image, 381))
     }
 
     /// Sets 0x425D P0605 Positioning bend 0 raw.
     pub fn set_p0605_positioning_bend_0_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 398, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 381, v.to_le_bytes());
     }
 
     /// 0x425F P0607 Positioning target 1 (bmaxx4400.eds:3039, INTEGER32 rw, PDO-mappable)
     pub fn p0607_positioning_target_1(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 400))
+        i32::from_le_bytes(od::load::<4>(&self.image, 383))
     }
 
     /// Sets 0x425F P0607 Positioning target 1.
     pub fn set_p0607_positioning_target_1(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 400, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 383, v.to_le_bytes());
     }
 
     /// 0x4260 P0608 Positioning target input 1 (bmaxx4400.eds:3047, INTEGER16 rw, PDO-mappable)
     pub fn p0608_positioning_target_input_1(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 404))
+        i16::from_le_bytes(od::load::<2>(&self.image, 387))
     }
 
     /// Sets 0x4260 P0608 Positioning target input 1.
     pub fn set_p0608_positioning_target_input_1(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 404, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 387, v.to_le_bytes());
     }
 
     /// 0x4320 P0800 BACI cycle time factor (bmaxx4400.eds:3055, UNSIGNED16 rw)
     pub fn p0800_baci_cycle_time_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 406))
+        u16::from_le_bytes(od::load::<2>(&self.image, 389))
     }
 
     /// Sets 0x4320 P0800 BACI cycle time factor.
     pub fn set_p0800_baci_cycle_time_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 406, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 389, v.to_le_bytes());
     }
 
     /// 0x4321 P0801 BACI process data parameter number 1 (bmaxx4400.eds:3063, UNSIGNED16 ro)
@@ -3770,442 +3770,442 @@ impl Ram {
 
     /// 0x4332 P0818 BACI cycle offset set values (bmaxx4400.eds:3191, UNSIGNED16 rw)
     pub fn p0818_baci_cycle_offset_set_values(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 408))
+        u16::from_le_bytes(od::load::<2>(&self.image, 391))
     }
 
     /// Sets 0x4332 P0818 BACI cycle offset set values.
     pub fn set_p0818_baci_cycle_offset_set_values(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 408, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 391, v.to_le_bytes());
     }
 
     /// 0x4333 P0819 BACI cycle offset actual values (bmaxx4400.eds:3199, UNSIGNED16 rw)
     pub fn p0819_baci_cycle_offset_actual_values(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 410))
+        u16::from_le_bytes(od::load::<2>(&self.image, 393))
     }
 
     /// Sets 0x4333 P0819 BACI cycle offset actual values.
     pub fn set_p0819_baci_cycle_offset_actual_values(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 410, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 393, v.to_le_bytes());
     }
 
     /// 0x433E P0830 Option module G configuration 1 (bmaxx4400.eds:3207, UNSIGNED16 rw)
     pub fn p0830_option_module_g_configuration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 412))
+        u16::from_le_bytes(od::load::<2>(&self.image, 395))
     }
 
     /// Sets 0x433E P0830 Option module G configuration 1.
     pub fn set_p0830_option_module_g_configuration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 412, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 395, v.to_le_bytes());
     }
 
     /// 0x4348 P0840 Option module H configuration 1 (bmaxx4400.eds:3215, UNSIGNED16 rw)
     pub fn p0840_option_module_h_configuration_1(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 414))
+        u16::from_le_bytes(od::load::<2>(&self.image, 397))
     }
 
     /// Sets 0x4348 P0840 Option module H configuration 1.
     pub fn set_p0840_option_module_h_configuration_1(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 414, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 397, v.to_le_bytes());
     }
 
     /// 0x43E8 P1000 Operation mode set (bmaxx4400.eds:3223, INTEGER16 rww, PDO-mappable)
     pub fn p1000_operation_mode_set(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 416))
+        i16::from_le_bytes(od::load::<2>(&self.image, 399))
     }
 
     /// Sets 0x43E8 P1000 Operation mode set.
     pub fn set_p1000_operation_mode_set(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 416, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 399, v.to_le_bytes());
     }
 
     /// 0x43E9 P1001 Drive parameter 1001 (bmaxx4400.eds:3233, UNSIGNED16 rw)
     pub fn p1001_drive_parameter_1001(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 418))
+        u16::from_le_bytes(od::load::<2>(&self.image, 401))
     }
 
     /// Sets 0x43E9 P1001 Drive parameter 1001.
     pub fn set_p1001_drive_parameter_1001(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 418, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 401, v.to_le_bytes());
     }
 
     /// 0x43EB P1003 Stop option code raw (bmaxx4400.eds:3241, INTEGER16 rwr, PDO-mappable)
     pub fn p1003_stop_option_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 420))
+        i16::from_le_bytes(od::load::<2>(&self.image, 403))
     }
 
     /// Sets 0x43EB P1003 Stop option code raw.
     pub fn set_p1003_stop_option_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 420, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 403, v.to_le_bytes());
     }
 
     /// 0x43EC P1004 Quick stop code raw (bmaxx4400.eds:3251, INTEGER16 rwr, PDO-mappable)
     pub fn p1004_quick_stop_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 422))
+        i16::from_le_bytes(od::load::<2>(&self.image, 405))
     }
 
     /// Sets 0x43EC P1004 Quick stop code raw.
     pub fn set_p1004_quick_stop_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 422, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 405, v.to_le_bytes());
     }
 
     /// 0x43ED P1005 Shutdown code raw (bmaxx4400.eds:3259, INTEGER16 rwr, PDO-mappable)
     pub fn p1005_shutdown_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 424))
+        i16::from_le_bytes(od::load::<2>(&self.image, 407))
     }
 
     /// Sets 0x43ED P1005 Shutdown code raw.
     pub fn set_p1005_shutdown_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 424, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 407, v.to_le_bytes());
     }
 
     /// 0x43EE P1006 Disable operation code raw (bmaxx4400.eds:3269, INTEGER16 rwr, PDO-mappable)
     pub fn p1006_disable_operation_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 426))
+        i16::from_le_bytes(od::load::<2>(&self.image, 409))
     }
 
     /// Sets 0x43EE P1006 Disable operation code raw.
     pub fn set_p1006_disable_operation_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 426, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 409, v.to_le_bytes());
     }
 
     /// 0x43EF P1007 Error reaction code raw (bmaxx4400.eds:3279, INTEGER16 rwr, PDO-mappable)
     pub fn p1007_error_reaction_code_raw(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 428))
+        i16::from_le_bytes(od::load::<2>(&self.image, 411))
     }
 
     /// Sets 0x43EF P1007 Error reaction code raw.
     pub fn set_p1007_error_reaction_code_raw(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 428, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 411, v.to_le_bytes());
     }
 
     /// 0x4407 P1031 Maximum speed (bmaxx4400.eds:3289, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1031_maximum_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 430))
+        u16::from_le_bytes(od::load::<2>(&self.image, 413))
     }
 
     /// Sets 0x4407 P1031 Maximum speed.
     pub fn set_p1031_maximum_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 430, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 413, v.to_le_bytes());
     }
 
     /// 0x4411 P1041 Speed set value upper limit (bmaxx4400.eds:3299, INTEGER32 rw, PDO-mappable)
     pub fn p1041_speed_set_value_upper_limit(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 432))
+        i32::from_le_bytes(od::load::<4>(&self.image, 415))
     }
 
     /// Sets 0x4411 P1041 Speed set value upper limit.
     pub fn set_p1041_speed_set_value_upper_limit(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 432, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 415, v.to_le_bytes());
     }
 
     /// 0x4412 P1042 Speed set value lower limit (bmaxx4400.eds:3309, INTEGER32 rw, PDO-mappable)
     pub fn p1042_speed_set_value_lower_limit(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 436))
+        i32::from_le_bytes(od::load::<4>(&self.image, 419))
     }
 
     /// Sets 0x4412 P1042 Speed set value lower limit.
     pub fn set_p1042_speed_set_value_lower_limit(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 436, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 419, v.to_le_bytes());
     }
 
     /// 0x441A P1050 Position controller mode raw (bmaxx4400.eds:3319, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1050_position_controller_mode_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 440))
+        u16::from_le_bytes(od::load::<2>(&self.image, 423))
     }
 
     /// Sets 0x441A P1050 Position controller mode raw.
     pub fn set_p1050_position_controller_mode_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 440, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 423, v.to_le_bytes());
     }
 
     /// 0x441B P1051 Position controller Kv factor raw (bmaxx4400.eds:3327, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1051_position_controller_kv_factor_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 442))
+        u16::from_le_bytes(od::load::<2>(&self.image, 425))
     }
 
     /// Sets 0x441B P1051 Position controller Kv factor raw.
     pub fn set_p1051_position_controller_kv_factor_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 442, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 425, v.to_le_bytes());
     }
 
     /// 0x441D P1053 Speed feed forward factor raw (bmaxx4400.eds:3337, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1053_speed_feed_forward_factor_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 444))
+        u16::from_le_bytes(od::load::<2>(&self.image, 427))
     }
 
     /// Sets 0x441D P1053 Speed feed forward factor raw.
     pub fn set_p1053_speed_feed_forward_factor_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 444, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 427, v.to_le_bytes());
     }
 
     /// 0x4420 P1056 Following error time (bmaxx4400.eds:3347, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1056_following_error_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 446))
+        u16::from_le_bytes(od::load::<2>(&self.image, 429))
     }
 
     /// Sets 0x4420 P1056 Following error time.
     pub fn set_p1056_following_error_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 446, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 429, v.to_le_bytes());
     }
 
     /// 0x4431 P1073 Encoder 1 monitoring lower limit (bmaxx4400.eds:3357, UNSIGNED16 rw, PDO-mappable)
     pub fn p1073_encoder_1_monitoring_lower_limit(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 448))
+        u16::from_le_bytes(od::load::<2>(&self.image, 431))
     }
 
     /// Sets 0x4431 P1073 Encoder 1 monitoring lower limit.
     pub fn set_p1073_encoder_1_monitoring_lower_limit(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 448, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 431, v.to_le_bytes());
     }
 
     /// 0x4493 P1171 Ramp function generator input (bmaxx4400.eds:3367, INTEGER32 rw, PDO-mappable)
     pub fn p1171_ramp_function_generator_input(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 450))
+        i32::from_le_bytes(od::load::<4>(&self.image, 433))
     }
 
     /// Sets 0x4493 P1171 Ramp function generator input.
     pub fn set_p1171_ramp_function_generator_input(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 450, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 433, v.to_le_bytes());
     }
 
     /// 0x4494 P1172 Ramp function generator ramp up time (bmaxx4400.eds:3375, UNSIGNED16 rw, PDO-mappable)
     pub fn p1172_ramp_function_generator_ramp_up_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 454))
+        u16::from_le_bytes(od::load::<2>(&self.image, 437))
     }
 
     /// Sets 0x4494 P1172 Ramp function generator ramp up time.
     pub fn set_p1172_ramp_function_generator_ramp_up_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 454, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 437, v.to_le_bytes());
     }
 
     /// 0x4495 P1173 Ramp function generator ramp down time (bmaxx4400.eds:3385, UNSIGNED16 rw, PDO-mappable)
     pub fn p1173_ramp_function_generator_ramp_down_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 456))
+        u16::from_le_bytes(od::load::<2>(&self.image, 439))
     }
 
     /// Sets 0x4495 P1173 Ramp function generator ramp down time.
     pub fn set_p1173_ramp_function_generator_ramp_down_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 456, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 439, v.to_le_bytes());
     }
 
     /// 0x4496 P1174 Ramp function generator stop time (bmaxx4400.eds:3395, UNSIGNED16 rw, PDO-mappable)
     pub fn p1174_ramp_function_generator_stop_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 458))
+        u16::from_le_bytes(od::load::<2>(&self.image, 441))
     }
 
     /// Sets 0x4496 P1174 Ramp function generator stop time.
     pub fn set_p1174_ramp_function_generator_stop_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 458, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 441, v.to_le_bytes());
     }
 
     /// 0x44A6 P1190 Positioning mode word (bmaxx4400.eds:3405, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1190_positioning_mode_word(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 460))
+        u16::from_le_bytes(od::load::<2>(&self.image, 443))
     }
 
     /// Sets 0x44A6 P1190 Positioning mode word.
     pub fn set_p1190_positioning_mode_word(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 460, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 443, v.to_le_bytes());
     }
 
     /// 0x44A7 P1191 Positioning actual record number (bmaxx4400.eds:3413, UNSIGNED16 rw, PDO-mappable)
     pub fn p1191_positioning_actual_record_number(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 462))
+        u16::from_le_bytes(od::load::<2>(&self.image, 445))
     }
 
     /// Sets 0x44A7 P1191 Positioning actual record number.
     pub fn set_p1191_positioning_actual_record_number(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 462, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 445, v.to_le_bytes());
     }
 
     /// 0x44AA P1194 Positioning window (bmaxx4400.eds:3421, UNSIGNED32 rw, PDO-mappable)
     pub fn p1194_positioning_window(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 464))
+        u32::from_le_bytes(od::load::<4>(&self.image, 447))
     }
 
     /// Sets 0x44AA P1194 Positioning window.
     pub fn set_p1194_positioning_window(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 464, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 447, v.to_le_bytes());
     }
 
     /// 0x44AB P1195 Positioning window time (bmaxx4400.eds:3429, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1195_positioning_window_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 468))
+        u16::from_le_bytes(od::load::<2>(&self.image, 451))
     }
 
     /// Sets 0x44AB P1195 Positioning window time.
     pub fn set_p1195_positioning_window_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 468, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 451, v.to_le_bytes());
     }
 
     /// 0x44AC P1196 Software limit switch 1 (bmaxx4400.eds:3439, UNSIGNED32 rwr, PDO-mappable)
     pub fn p1196_software_limit_switch_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 470))
+        u32::from_le_bytes(od::load::<4>(&self.image, 453))
     }
 
     /// Sets 0x44AC P1196 Software limit switch 1.
     pub fn set_p1196_software_limit_switch_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 470, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 453, v.to_le_bytes());
     }
 
     /// 0x44AD P1197 Software limit switch 2 (bmaxx4400.eds:3447, UNSIGNED32 rwr, PDO-mappable)
     pub fn p1197_software_limit_switch_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 474))
+        u32::from_le_bytes(od::load::<4>(&self.image, 457))
     }
 
     /// Sets 0x44AD P1197 Software limit switch 2.
     pub fn set_p1197_software_limit_switch_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 474, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 457, v.to_le_bytes());
     }
 
     /// 0x44AE P1198 Positioning clip environment 1 (bmaxx4400.eds:3455, UNSIGNED32 rw, PDO-mappable)
     pub fn p1198_positioning_clip_environment_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 478))
+        u32::from_le_bytes(od::load::<4>(&self.image, 461))
     }
 
     /// Sets 0x44AE P1198 Positioning clip environment 1.
     pub fn set_p1198_positioning_clip_environment_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 478, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 461, v.to_le_bytes());
     }
 
     /// 0x44AF P1199 Positioning clip environment 2 (bmaxx4400.eds:3463, UNSIGNED32 rw, PDO-mappable)
     pub fn p1199_positioning_clip_environment_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 482))
+        u32::from_le_bytes(od::load::<4>(&self.image, 465))
     }
 
     /// Sets 0x44AF P1199 Positioning clip environment 2.
     pub fn set_p1199_positioning_clip_environment_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 482, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 465, v.to_le_bytes());
     }
 
     /// 0x44B0 P1200 Positioning home position (bmaxx4400.eds:3471, UNSIGNED32 rw, PDO-mappable)
     pub fn p1200_positioning_home_position(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 486))
+        u32::from_le_bytes(od::load::<4>(&self.image, 469))
     }
 
     /// Sets 0x44B0 P1200 Positioning home position.
     pub fn set_p1200_positioning_home_position(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 486, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 469, v.to_le_bytes());
     }
 
     /// 0x44B1 P1201 Homing speed (bmaxx4400.eds:3479, UNSIGNED16 rw, PDO-mappable)
     pub fn p1201_homing_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 490))
+        u16::from_le_bytes(od::load::<2>(&self.image, 473))
     }
 
     /// Sets 0x44B1 P1201 Homing speed.
     pub fn set_p1201_homing_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 490, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 473, v.to_le_bytes());
     }
 
     /// 0x44B2 P1202 Homing final speed (bmaxx4400.eds:3489, UNSIGNED16 rw, PDO-mappable)
     pub fn p1202_homing_final_speed(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 492))
+        u16::from_le_bytes(od::load::<2>(&self.image, 475))
     }
 
     /// Sets 0x44B2 P1202 Homing final speed.
     pub fn set_p1202_homing_final_speed(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 492, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 475, v.to_le_bytes());
     }
 
     /// 0x44B3 P1203 Homing acceleration raw (bmaxx4400.eds:3499, UNSIGNED16 rw, PDO-mappable)
     pub fn p1203_homing_acceleration_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 494))
+        u16::from_le_bytes(od::load::<2>(&self.image, 477))
     }
 
     /// Sets 0x44B3 P1203 Homing acceleration raw.
     pub fn set_p1203_homing_acceleration_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 494, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 477, v.to_le_bytes());
     }
 
     /// 0x44B4 P1204 Homing deceleration raw (bmaxx4400.eds:3509, UNSIGNED16 rw, PDO-mappable)
     pub fn p1204_homing_deceleration_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 496))
+        u16::from_le_bytes(od::load::<2>(&self.image, 479))
     }
 
     /// Sets 0x44B4 P1204 Homing deceleration raw.
     pub fn set_p1204_homing_deceleration_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 496, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 479, v.to_le_bytes());
     }
 
     /// 0x44B5 P1205 Homing mode (bmaxx4400.eds:3517, INTEGER16 rwr, PDO-mappable)
     pub fn p1205_homing_mode(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 498))
+        i16::from_le_bytes(od::load::<2>(&self.image, 481))
     }
 
     /// Sets 0x44B5 P1205 Homing mode.
     pub fn set_p1205_homing_mode(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 498, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 481, v.to_le_bytes());
     }
 
     /// 0x44B8 P1208 Positioning switch mode raw (bmaxx4400.eds:3525, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1208_positioning_switch_mode_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 500))
+        u16::from_le_bytes(od::load::<2>(&self.image, 483))
     }
 
     /// Sets 0x44B8 P1208 Positioning switch mode raw.
     pub fn set_p1208_positioning_switch_mode_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 500, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 483, v.to_le_bytes());
     }
 
     /// 0x44B9 P1209 Positioning encoder offset raw (bmaxx4400.eds:3533, UNSIGNED16 rw, PDO-mappable)
     pub fn p1209_positioning_encoder_offset_raw(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 502))
+        u16::from_le_bytes(od::load::<2>(&self.image, 485))
     }
 
     /// Sets 0x44B9 P1209 Positioning encoder offset raw.
     pub fn set_p1209_positioning_encoder_offset_raw(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 502, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 485, v.to_le_bytes());
     }
 
     /// 0x44BD P1213 Positioning stop deceleration (bmaxx4400.eds:3541, UNSIGNED16 rwr, PDO-mappable)
     pub fn p1213_positioning_stop_deceleration(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 504))
+        u16::from_le_bytes(od::load::<2>(&self.image, 487))
     }
 
     /// Sets 0x44BD P1213 Positioning stop deceleration.
     pub fn set_p1213_positioning_stop_deceleration(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 504, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 487, v.to_le_bytes());
     }
 
     /// 0x4BEA P3050 Position scaling user unit (bmaxx4400.eds:3551, UNSIGNED32 rwr, PDO-mappable)
     pub fn p3050_position_scaling_user_unit(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 506))
+        u32::from_le_bytes(od::load::<4>(&self.image, 489))
     }
 
     /// Sets 0x4BEA P3050 Position scaling user unit.
     pub fn set_p3050_position_scaling_user_unit(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 506, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 489, v.to_le_bytes());
     }
 
     /// 0x4BEB P3051 Position scaling revolutions (bmaxx4400.eds:3561, UNSIGNED32 rwr, PDO-mappable)
     pub fn p3051_position_scaling_revolutions(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 510))
+        u32::from_le_bytes(od::load::<4>(&self.image, 493))
     }
 
     /// Sets 0x4BEB P3051 Position scaling revolutions.
     pub fn set_p3051_position_scaling_revolutions(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 510, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 493, v.to_le_bytes());
     }
 
     /// 0x6007 Abort connection option code (bmaxx4400.eds:1604, INTEGER16 rw, PDO-mappable)
     pub fn abort_connection_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 514))
+        i16::from_le_bytes(od::load::<2>(&self.image, 497))
     }
 
     /// Sets 0x6007 Abort connection option code.
     pub fn set_abort_connection_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 514, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 497, v.to_le_bytes());
     }
 
     /// 0x6040 Controlword (bmaxx4400.eds:1612, UNSIGNED16 rw, PDO-mappable)
     pub fn controlword(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 516))
+        u16::from_le_bytes(od::load::<2>(&self.image, 499))
     }
 
     /// Sets 0x6040 Controlword.
     pub fn set_controlword(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 516, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 499, v.to_le_bytes());
     }
 
     /// 0x6041 Statusword (bmaxx4400.eds:1620, UNSIGNED16 ro, PDO-mappable)
@@ -4220,12 +4220,12 @@ impl Ram {
 
     /// 0x6042 vl target velocity (bmaxx4400.eds:1628, INTEGER16 rw, PDO-mappable)
     pub fn vl_target_velocity(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 518))
+        i16::from_le_bytes(od::load::<2>(&self.image, 501))
     }
 
     /// Sets 0x6042 vl target velocity.
     pub fn set_vl_target_velocity(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 518, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 501, v.to_le_bytes());
     }
 
     /// 0x6043 vl velocity demand (bmaxx4400.eds:1636, INTEGER16 ro, PDO-mappable)
@@ -4280,12 +4280,12 @@ impl Ram {
 
     /// 0x6046 sub 2 vl velocity min max amount / vl velocity max amount (bmaxx4400.eds:1681, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_velocity_min_max_amount_max_amount(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 520))
+        u32::from_le_bytes(od::load::<4>(&self.image, 503))
     }
 
     /// Sets 0x6046 sub 2 vl velocity min max amount / vl velocity max amount.
     pub fn set_vl_velocity_min_max_amount_max_amount(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 520, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 503, v.to_le_bytes());
     }
 
     /// 0x6048 sub 0 vl velocity acceleration / vl velocity acceleration highest sub-index (bmaxx4400.eds:1694, UNSIGNED8 ro)
@@ -4300,22 +4300,22 @@ impl Ram {
 
     /// 0x6048 sub 1 vl velocity acceleration / vl acceleration delta speed (bmaxx4400.eds:1702, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_velocity_acceleration_acceleration_delta_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 524))
+        u32::from_le_bytes(od::load::<4>(&self.image, 507))
     }
 
     /// Sets 0x6048 sub 1 vl velocity acceleration / vl acceleration delta speed.
     pub fn set_vl_velocity_acceleration_acceleration_delta_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 524, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 507, v.to_le_bytes());
     }
 
     /// 0x6048 sub 2 vl velocity acceleration / vl acceleration delta time (bmaxx4400.eds:1710, UNSIGNED16 rw, PDO-mappable)
     pub fn vl_velocity_acceleration_acceleration_delta_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 528))
+        u16::from_le_bytes(od::load::<2>(&self.image, 511))
     }
 
     /// Sets 0x6048 sub 2 vl velocity acceleration / vl acceleration delta time.
     pub fn set_vl_velocity_acceleration_acceleration_delta_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 528, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 511, v.to_le_bytes());
     }
 
     /// 0x6049 sub 0 vl velocity deceleration / vl velocity deceleration highest sub-index (bmaxx4400.eds:1723, UNSIGNED8 ro)
@@ -4330,22 +4330,22 @@ impl Ram {
 
     /// 0x6049 sub 1 vl velocity deceleration / vl deceleration delta speed (bmaxx4400.eds:1731, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_velocity_deceleration_deceleration_delta_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 530))
+        u32::from_le_bytes(od::load::<4>(&self.image, 513))
     }
 
     /// Sets 0x6049 sub 1 vl velocity deceleration / vl deceleration delta speed.
     pub fn set_vl_velocity_deceleration_deceleration_delta_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 530, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 513, v.to_le_bytes());
     }
 
     /// 0x6049 sub 2 vl velocity deceleration / vl deceleration delta time (bmaxx4400.eds:1739, UNSIGNED16 rw, PDO-mappable)
     pub fn vl_velocity_deceleration_deceleration_delta_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 534))
+        u16::from_le_bytes(od::load::<2>(&self.image, 517))
     }
 
     /// Sets 0x6049 sub 2 vl velocity deceleration / vl deceleration delta time.
     pub fn set_vl_velocity_deceleration_deceleration_delta_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 534, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 517, v.to_le_bytes());
     }
 
     /// 0x604C sub 0 vl dimension factor / vl dimension factor highest sub-index (bmaxx4400.eds:1752, UNSIGNED8 ro)
@@ -4363,7 +4363,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 532 + usize::from(i) * 4;
+        let off = 515 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4372,109 +4372,109 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 532 + usize::from(i) * 4;
+        let off = 515 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x604D vl pole number (bmaxx4400.eds:1780, UNSIGNED8 rwr, PDO-mappable)
     pub fn vl_pole_number(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 544))
+        u8::from_le_bytes(od::load::<1>(&self.image, 527))
     }
 
     /// Sets 0x604D vl pole number.
     pub fn set_vl_pole_number(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 544, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 527, v.to_le_bytes());
     }
 
     /// 0x604F vl ramp function time (bmaxx4400.eds:1788, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_ramp_function_time(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 545))
+        u32::from_le_bytes(od::load::<4>(&self.image, 528))
     }
 
     /// Sets 0x604F vl ramp function time.
     pub fn set_vl_ramp_function_time(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 545, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 528, v.to_le_bytes());
     }
 
     /// 0x6050 vl slow down time (bmaxx4400.eds:1796, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_slow_down_time(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 549))
+        u32::from_le_bytes(od::load::<4>(&self.image, 532))
     }
 
     /// Sets 0x6050 vl slow down time.
     pub fn set_vl_slow_down_time(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 549, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 532, v.to_le_bytes());
     }
 
     /// 0x6051 vl quick stop time (bmaxx4400.eds:1804, UNSIGNED32 rw, PDO-mappable)
     pub fn vl_quick_stop_time(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 553))
+        u32::from_le_bytes(od::load::<4>(&self.image, 536))
     }
 
     /// Sets 0x6051 vl quick stop time.
     pub fn set_vl_quick_stop_time(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 553, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 536, v.to_le_bytes());
     }
 
     /// 0x605A Quick stop option code (bmaxx4400.eds:1812, INTEGER16 rwr, PDO-mappable)
     pub fn quick_stop_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 557))
+        i16::from_le_bytes(od::load::<2>(&self.image, 540))
     }
 
     /// Sets 0x605A Quick stop option code.
     pub fn set_quick_stop_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 557, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 540, v.to_le_bytes());
     }
 
     /// 0x605B Shutdown option code (bmaxx4400.eds:1820, INTEGER16 rwr, PDO-mappable)
     pub fn shutdown_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 559))
+        i16::from_le_bytes(od::load::<2>(&self.image, 542))
     }
 
     /// Sets 0x605B Shutdown option code.
     pub fn set_shutdown_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 559, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 542, v.to_le_bytes());
     }
 
     /// 0x605C Disable operation option code (bmaxx4400.eds:1828, INTEGER16 rwr, PDO-mappable)
     pub fn disable_operation_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 561))
+        i16::from_le_bytes(od::load::<2>(&self.image, 544))
     }
 
     /// Sets 0x605C Disable operation option code.
     pub fn set_disable_operation_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 561, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 544, v.to_le_bytes());
     }
 
     /// 0x605D Halt option code (bmaxx4400.eds:1836, INTEGER16 rwr, PDO-mappable)
     pub fn halt_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 563))
+        i16::from_le_bytes(od::load::<2>(&self.image, 546))
     }
 
     /// Sets 0x605D Halt option code.
     pub fn set_halt_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 563, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 546, v.to_le_bytes());
     }
 
     /// 0x605E Fault reaction option code (bmaxx4400.eds:1844, INTEGER16 rwr, PDO-mappable)
     pub fn fault_reaction_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 565))
+        i16::from_le_bytes(od::load::<2>(&self.image, 548))
     }
 
     /// Sets 0x605E Fault reaction option code.
     pub fn set_fault_reaction_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 565, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 548, v.to_le_bytes());
     }
 
     /// 0x6060 Modes of operation (bmaxx4400.eds:1852, INTEGER8 rww, PDO-mappable)
     pub fn modes_of_operation(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 567))
+        i8::from_le_bytes(od::load::<1>(&self.image, 550))
     }
 
     /// Sets 0x6060 Modes of operation.
     pub fn set_modes_of_operation(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 567, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 550, v.to_le_bytes());
     }
 
     /// 0x6061 Modes of operation display (bmaxx4400.eds:1860, INTEGER8 ro, PDO-mappable)
@@ -4519,32 +4519,32 @@ impl Ram {
 
     /// 0x6066 Following error time out (bmaxx4400.eds:1892, UNSIGNED16 rwr, PDO-mappable)
     pub fn following_error_time_out(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 568))
+        u16::from_le_bytes(od::load::<2>(&self.image, 551))
     }
 
     /// Sets 0x6066 Following error time out.
     pub fn set_following_error_time_out(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 568, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 551, v.to_le_bytes());
     }
 
     /// 0x6067 Position window (bmaxx4400.eds:1902, UNSIGNED32 rw, PDO-mappable)
     pub fn position_window(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 570))
+        u32::from_le_bytes(od::load::<4>(&self.image, 553))
     }
 
     /// Sets 0x6067 Position window.
     pub fn set_position_window(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 570, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 553, v.to_le_bytes());
     }
 
     /// 0x6068 Position window time (bmaxx4400.eds:1910, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_window_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 574))
+        u16::from_le_bytes(od::load::<2>(&self.image, 557))
     }
 
     /// Sets 0x6068 Position window time.
     pub fn set_position_window_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 574, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 557, v.to_le_bytes());
     }
 
     /// 0x6069 Velocity sensor actual value (bmaxx4400.eds:1918, INTEGER32 ro, PDO-mappable)
@@ -4589,22 +4589,22 @@ impl Ram {
 
     /// 0x606F Velocity threshold (bmaxx4400.eds:1950, UNSIGNED16 rw, PDO-mappable)
     pub fn velocity_threshold(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 576))
+        u16::from_le_bytes(od::load::<2>(&self.image, 559))
     }
 
     /// Sets 0x606F Velocity threshold.
     pub fn set_velocity_threshold(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 576, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 559, v.to_le_bytes());
     }
 
     /// 0x6072 Max torque (bmaxx4400.eds:1958, UNSIGNED16 rw, PDO-mappable)
     pub fn max_torque(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 578))
+        u16::from_le_bytes(od::load::<2>(&self.image, 561))
     }
 
     /// Sets 0x6072 Max torque.
     pub fn set_max_torque(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 578, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 561, v.to_le_bytes());
     }
 
     /// 0x6077 Torque actual value (bmaxx4400.eds:1966, INTEGER16 ro, PDO-mappable)
@@ -4619,22 +4619,22 @@ impl Ram {
 
     /// 0x607A Target position (bmaxx4400.eds:1974, INTEGER32 rw, PDO-mappable)
     pub fn target_position(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 580))
+        i32::from_le_bytes(od::load::<4>(&self.image, 563))
     }
 
     /// Sets 0x607A Target position.
     pub fn set_target_position(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 580, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 563, v.to_le_bytes());
     }
 
     /// 0x607C Home offset (bmaxx4400.eds:1982, INTEGER32 rw, PDO-mappable)
     pub fn home_offset(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 584))
+        i32::from_le_bytes(od::load::<4>(&self.image, 567))
     }
 
     /// Sets 0x607C Home offset.
     pub fn set_home_offset(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 584, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 567, v.to_le_bytes());
     }
 
     /// 0x607D sub 0 Software position limit / Software position limit highest sub-index (bmaxx4400.eds:1995, UNSIGNED8 ro)
@@ -4652,7 +4652,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 584 + usize::from(i) * 4;
+        let off = 567 + usize::from(i) * 4;
         Some(i32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4661,79 +4661,79 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 584 + usize::from(i) * 4;
+        let off = 567 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x607F Max profile velocity (bmaxx4400.eds:2019, UNSIGNED32 rwr, PDO-mappable)
     pub fn max_profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 596))
+        u32::from_le_bytes(od::load::<4>(&self.image, 579))
     }
 
     /// Sets 0x607F Max profile velocity.
     pub fn set_max_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 596, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 579, v.to_le_bytes());
     }
 
     /// 0x6080 Max motor speed (bmaxx4400.eds:2027, UNSIGNED32 rwr, PDO-mappable)
     pub fn max_motor_speed(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 600))
+        u32::from_le_bytes(od::load::<4>(&self.image, 583))
     }
 
     /// Sets 0x6080 Max motor speed.
     pub fn set_max_motor_speed(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 600, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 583, v.to_le_bytes());
     }
 
     /// 0x6081 Profile velocity (bmaxx4400.eds:2037, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 604))
+        u32::from_le_bytes(od::load::<4>(&self.image, 587))
     }
 
     /// Sets 0x6081 Profile velocity.
     pub fn set_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 604, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 587, v.to_le_bytes());
     }
 
     /// 0x6083 Profile acceleration (bmaxx4400.eds:2045, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 608))
+        u32::from_le_bytes(od::load::<4>(&self.image, 591))
     }
 
     /// Sets 0x6083 Profile acceleration.
     pub fn set_profile_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 608, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 591, v.to_le_bytes());
     }
 
     /// 0x6084 Profile deceleration (bmaxx4400.eds:2053, UNSIGNED32 rwr, PDO-mappable)
     pub fn profile_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 612))
+        u32::from_le_bytes(od::load::<4>(&self.image, 595))
     }
 
     /// Sets 0x6084 Profile deceleration.
     pub fn set_profile_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 612, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 595, v.to_le_bytes());
     }
 
     /// 0x6085 Quick stop deceleration (bmaxx4400.eds:2061, UNSIGNED32 rwr, PDO-mappable)
     pub fn quick_stop_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 616))
+        u32::from_le_bytes(od::load::<4>(&self.image, 599))
     }
 
     /// Sets 0x6085 Quick stop deceleration.
     pub fn set_quick_stop_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 616, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 599, v.to_le_bytes());
     }
 
     /// 0x6086 Motion profile type (bmaxx4400.eds:2069, INTEGER16 rwr, PDO-mappable)
     pub fn motion_profile_type(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 620))
+        i16::from_le_bytes(od::load::<2>(&self.image, 603))
     }
 
     /// Sets 0x6086 Motion profile type.
     pub fn set_motion_profile_type(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 620, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 603, v.to_le_bytes());
     }
 
     /// 0x6092 sub 0 Feed constant / Feed constant highest sub-index (bmaxx4400.eds:2082, UNSIGNED8 ro)
@@ -4751,7 +4751,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 618 + usize::from(i) * 4;
+        let off = 601 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4760,19 +4760,19 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 618 + usize::from(i) * 4;
+        let off = 601 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x6098 Homing method (bmaxx4400.eds:2110, INTEGER8 rwr, PDO-mappable)
     pub fn homing_method(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 630))
+        i8::from_le_bytes(od::load::<1>(&self.image, 613))
     }
 
     /// Sets 0x6098 Homing method.
     pub fn set_homing_method(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 630, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 613, v.to_le_bytes());
     }
 
     /// 0x6099 sub 0 Homing speeds / Homing speeds highest sub-index (bmaxx4400.eds:2123, UNSIGNED8 ro)
@@ -4790,7 +4790,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 627 + usize::from(i) * 4;
+        let off = 610 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -4799,19 +4799,19 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 627 + usize::from(i) * 4;
+        let off = 610 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x609A Homing acceleration (bmaxx4400.eds:2147, UNSIGNED32 rw, PDO-mappable)
     pub fn homing_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 639))
+        u32::from_le_bytes(od::load::<4>(&self.image, 622))
     }
 
     /// Sets 0x609A Homing acceleration.
     pub fn set_homing_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 639, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 622, v.to_le_bytes());
     }
 
     /// 0x60C0 Interpolation sub mode select (bmaxx4400.eds:2155, INTEGER16 ro)
@@ -4836,12 +4836,12 @@ impl Ram {
 
     /// 0x60C1 sub 1 Interpolation data record / Interpolation data record position (bmaxx4400.eds:2176, INTEGER32 rw, PDO-mappable)
     pub fn interpolation_data_record_position(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 643))
+        i32::from_le_bytes(od::load::<4>(&self.image, 626))
     }
 
     /// Sets 0x60C1 sub 1 Interpolation data record / Interpolation data record position.
     pub fn set_interpolation_data_record_position(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 643, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 626, v.to_le_bytes());
     }
 
     /// 0x60C2 sub 0 Interpolation time period / Interpolation time period highest sub-index (bmaxx4400.eds:2189, UNSIGNED8 ro)
@@ -4856,22 +4856,22 @@ impl Ram {
 
     /// 0x60C2 sub 1 Interpolation time period / ip time units (bmaxx4400.eds:2197, UNSIGNED8 rw)
     pub fn interpolation_time_period_ip_time_units(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 647))
+        u8::from_le_bytes(od::load::<1>(&self.image, 630))
     }
 
     /// Sets 0x60C2 sub 1 Interpolation time period / ip time units.
     pub fn set_interpolation_time_period_ip_time_units(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 647, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 630, v.to_le_bytes());
     }
 
     /// 0x60C2 sub 2 Interpolation time period / ip time index (bmaxx4400.eds:2207, INTEGER8 rw, PDO-mappable)
     pub fn interpolation_time_period_ip_time_index(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 648))
+        i8::from_le_bytes(od::load::<1>(&self.image, 631))
     }
 
     /// Sets 0x60C2 sub 2 Interpolation time period / ip time index.
     pub fn set_interpolation_time_period_ip_time_index(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 648, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 631, v.to_le_bytes());
     }
 
     /// 0x60C3 sub 0 Interpolation sync definition / Interpolation sync definition highest sub-index (bmaxx4400.eds:2222, UNSIGNED8 ro)
@@ -4886,22 +4886,22 @@ impl Ram {
 
     /// 0x60C3 sub 1 Interpolation sync definition / Synchronize on group (bmaxx4400.eds:2230, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_sync_definition_synchronize_on_group(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 649))
+        u8::from_le_bytes(od::load::<1>(&self.image, 632))
     }
 
     /// Sets 0x60C3 sub 1 Interpolation sync definition / Synchronize on group.
     pub fn set_interpolation_sync_definition_synchronize_on_group(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 649, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 632, v.to_le_bytes());
     }
 
     /// 0x60C3 sub 2 Interpolation sync definition / ip sync every n event (bmaxx4400.eds:2238, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_sync_definition_ip_sync_every_n_event(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 650))
+        u8::from_le_bytes(od::load::<1>(&self.image, 633))
     }
 
     /// Sets 0x60C3 sub 2 Interpolation sync definition / ip sync every n event.
     pub fn set_interpolation_sync_definition_ip_sync_every_n_event(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 650, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 633, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 0 Interpolation data configuration / Interpolation data configuration highest sub-index (bmaxx4400.eds:2251, UNSIGNED8 ro)
@@ -4926,62 +4926,62 @@ impl Ram {
 
     /// 0x60C4 sub 2 Interpolation data configuration / Actual buffer size (bmaxx4400.eds:2267, UNSIGNED32 rw, PDO-mappable)
     pub fn interpolation_data_configuration_actual_buffer_size(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 651))
+        u32::from_le_bytes(od::load::<4>(&self.image, 634))
     }
 
     /// Sets 0x60C4 sub 2 Interpolation data configuration / Actual buffer size.
     pub fn set_interpolation_data_configuration_actual_buffer_size(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 651, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 634, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 3 Interpolation data configuration / Buffer organisation (bmaxx4400.eds:2275, UNSIGNED8 rw, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_organisation(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 655))
+        u8::from_le_bytes(od::load::<1>(&self.image, 638))
     }
 
     /// Sets 0x60C4 sub 3 Interpolation data configuration / Buffer organisation.
     pub fn set_interpolation_data_configuration_buffer_organisation(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 655, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 638, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 4 Interpolation data configuration / Buffer position (bmaxx4400.eds:2285, UNSIGNED16 rw, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_position(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 656))
+        u16::from_le_bytes(od::load::<2>(&self.image, 639))
     }
 
     /// Sets 0x60C4 sub 4 Interpolation data configuration / Buffer position.
     pub fn set_interpolation_data_configuration_buffer_position(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 656, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 639, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 5 Interpolation data configuration / Size of data record (bmaxx4400.eds:2293, UNSIGNED8 wo, PDO-mappable)
     pub fn interpolation_data_configuration_size_of_data_record(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 658))
+        u8::from_le_bytes(od::load::<1>(&self.image, 641))
     }
 
     /// Sets 0x60C4 sub 5 Interpolation data configuration / Size of data record.
     pub fn set_interpolation_data_configuration_size_of_data_record(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 658, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 641, v.to_le_bytes());
     }
 
     /// 0x60C4 sub 6 Interpolation data configuration / Buffer clear (bmaxx4400.eds:2301, UNSIGNED8 wo, PDO-mappable)
     pub fn interpolation_data_configuration_buffer_clear(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 659))
+        u8::from_le_bytes(od::load::<1>(&self.image, 642))
     }
 
     /// Sets 0x60C4 sub 6 Interpolation data configuration / Buffer clear.
     pub fn set_interpolation_data_configuration_buffer_clear(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 659, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 642, v.to_le_bytes());
     }
 
     /// 0x60F8 Max slippage (bmaxx4400.eds:2311, INTEGER32 rw, PDO-mappable)
     pub fn max_slippage(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 660))
+        i32::from_le_bytes(od::load::<4>(&self.image, 643))
     }
 
     /// Sets 0x60F8 Max slippage.
     pub fn set_max_slippage(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 660, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 643, v.to_le_bytes());
     }
 
     /// 0x60FB sub 0 Position control parameter set / Position control parameter set highest sub-index (bmaxx4400.eds:2324, UNSIGNED8 ro)
@@ -5006,52 +5006,52 @@ impl Ram {
 
     /// 0x60FB sub 2 Position control parameter set / Position controller mode (bmaxx4400.eds:2340, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_controller_mode(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 664))
+        u16::from_le_bytes(od::load::<2>(&self.image, 647))
     }
 
     /// Sets 0x60FB sub 2 Position control parameter set / Position controller mode.
     pub fn set_position_control_parameter_set_controller_mode(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 664, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 647, v.to_le_bytes());
     }
 
     /// 0x60FB sub 3 Position control parameter set / Position controller Kv factor (bmaxx4400.eds:2348, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_controller_kv_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 666))
+        u16::from_le_bytes(od::load::<2>(&self.image, 649))
     }
 
     /// Sets 0x60FB sub 3 Position control parameter set / Position controller Kv factor.
     pub fn set_position_control_parameter_set_controller_kv_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 666, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 649, v.to_le_bytes());
     }
 
     /// 0x60FB sub 4 Position control parameter set / Position set revolutions (bmaxx4400.eds:2358, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_set_revolutions(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 668))
+        u16::from_le_bytes(od::load::<2>(&self.image, 651))
     }
 
     /// Sets 0x60FB sub 4 Position control parameter set / Position set revolutions.
     pub fn set_position_control_parameter_set_set_revolutions(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 668, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 651, v.to_le_bytes());
     }
 
     /// 0x60FB sub 5 Position control parameter set / Position set angle (bmaxx4400.eds:2366, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_set_angle(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 670))
+        u16::from_le_bytes(od::load::<2>(&self.image, 653))
     }
 
     /// Sets 0x60FB sub 5 Position control parameter set / Position set angle.
     pub fn set_position_control_parameter_set_set_angle(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 670, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 653, v.to_le_bytes());
     }
 
     /// 0x60FB sub 6 Position control parameter set / Speed feed forward factor (bmaxx4400.eds:2374, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_speed_feed_forward_factor(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 672))
+        u16::from_le_bytes(od::load::<2>(&self.image, 655))
     }
 
     /// Sets 0x60FB sub 6 Position control parameter set / Speed feed forward factor.
     pub fn set_position_control_parameter_set_speed_feed_forward_factor(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 672, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 655, v.to_le_bytes());
     }
 
     /// 0x60FB sub 7 Position control parameter set / Position control deviation (bmaxx4400.eds:2382, INTEGER32 ro, PDO-mappable)
@@ -5066,12 +5066,12 @@ impl Ram {
 
     /// 0x60FB sub 8 Position control parameter set / Position controller actual value (bmaxx4400.eds:2390, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_controller_actual_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 674))
+        u32::from_le_bytes(od::load::<4>(&self.image, 657))
     }
 
     /// Sets 0x60FB sub 8 Position control parameter set / Position controller actual value.
     pub fn set_position_control_parameter_set_controller_actual_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 674, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 657, v.to_le_bytes());
     }
 
     /// 0x60FB sub 9 Position control parameter set / Encoder 1 actual revolutions (bmaxx4400.eds:2398, UNSIGNED32 ro, PDO-mappable)
@@ -5116,42 +5116,42 @@ impl Ram {
 
     /// 0x60FB sub 13 Position control parameter set / Actual positioning record number (bmaxx4400.eds:2430, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_actual_positioning_record_number(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 678))
+        u16::from_le_bytes(od::load::<2>(&self.image, 661))
     }
 
     /// Sets 0x60FB sub 13 Position control parameter set / Actual positioning record number.
     pub fn set_position_control_parameter_set_actual_positioning_record_number(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 678, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 661, v.to_le_bytes());
     }
 
     /// 0x60FB sub 14 Position control parameter set / Positioning mode bits (bmaxx4400.eds:2438, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_positioning_mode_bits(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 680))
+        u16::from_le_bytes(od::load::<2>(&self.image, 663))
     }
 
     /// Sets 0x60FB sub 14 Position control parameter set / Positioning mode bits.
     pub fn set_position_control_parameter_set_positioning_mode_bits(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 680, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 663, v.to_le_bytes());
     }
 
     /// 0x60FB sub 15 Position control parameter set / Home position (bmaxx4400.eds:2446, UNSIGNED32 rwr, PDO-mappable)
     pub fn position_control_parameter_set_home_position(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 682))
+        u32::from_le_bytes(od::load::<4>(&self.image, 665))
     }
 
     /// Sets 0x60FB sub 15 Position control parameter set / Home position.
     pub fn set_position_control_parameter_set_home_position(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 682, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 665, v.to_le_bytes());
     }
 
     /// 0x60FB sub 16 Position control parameter set / Positioning switch mode (bmaxx4400.eds:2454, UNSIGNED16 rwr, PDO-mappable)
     pub fn position_control_parameter_set_positioning_switch_mode(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 686))
+        u16::from_le_bytes(od::load::<2>(&self.image, 669))
     }
 
     /// Sets 0x60FB sub 16 Position control parameter set / Positioning switch mode.
     pub fn set_position_control_parameter_set_positioning_switch_mode(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 686, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 669, v.to_le_bytes());
     }
 
     /// 0x60FB sub 17 Position control parameter set / Positioning speed set value (bmaxx4400.eds:2462, INTEGER16 ro, PDO-mappable)
@@ -5166,82 +5166,82 @@ impl Ram {
 
     /// 0x60FB sub 18 Position control parameter set / Positioning bend 0 (bmaxx4400.eds:2470, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_positioning_bend_0(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 688))
+        u16::from_le_bytes(od::load::<2>(&self.image, 671))
     }
 
     /// Sets 0x60FB sub 18 Position control parameter set / Positioning bend 0.
     pub fn set_position_control_parameter_set_positioning_bend_0(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 688, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 671, v.to_le_bytes());
     }
 
     /// 0x60FB sub 19 Position control parameter set / Clip environment 1 (bmaxx4400.eds:2478, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_clip_environment_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 690))
+        u32::from_le_bytes(od::load::<4>(&self.image, 673))
     }
 
     /// Sets 0x60FB sub 19 Position control parameter set / Clip environment 1.
     pub fn set_position_control_parameter_set_clip_environment_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 690, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 673, v.to_le_bytes());
     }
 
     /// 0x60FB sub 20 Position control parameter set / Clip environment 2 (bmaxx4400.eds:2486, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_clip_environment_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 694))
+        u32::from_le_bytes(od::load::<4>(&self.image, 677))
     }
 
     /// Sets 0x60FB sub 20 Position control parameter set / Clip environment 2.
     pub fn set_position_control_parameter_set_clip_environment_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 694, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 677, v.to_le_bytes());
     }
 
     /// 0x60FB sub 21 Position control parameter set / Target input 0 (bmaxx4400.eds:2494, INTEGER16 rw, PDO-mappable)
     pub fn position_control_parameter_set_target_input_0(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 698))
+        i16::from_le_bytes(od::load::<2>(&self.image, 681))
     }
 
     /// Sets 0x60FB sub 21 Position control parameter set / Target input 0.
     pub fn set_position_control_parameter_set_target_input_0(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 698, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 681, v.to_le_bytes());
     }
 
     /// 0x60FB sub 22 Position control parameter set / Target input 1 (bmaxx4400.eds:2502, INTEGER16 rw, PDO-mappable)
     pub fn position_control_parameter_set_target_input_1(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 700))
+        i16::from_le_bytes(od::load::<2>(&self.image, 683))
     }
 
     /// Sets 0x60FB sub 22 Position control parameter set / Target input 1.
     pub fn set_position_control_parameter_set_target_input_1(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 700, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 683, v.to_le_bytes());
     }
 
     /// 0x60FB sub 23 Position control parameter set / IP set angle (bmaxx4400.eds:2510, UNSIGNED32 rw, PDO-mappable)
     pub fn position_control_parameter_set_ip_set_angle(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 702))
+        u32::from_le_bytes(od::load::<4>(&self.image, 685))
     }
 
     /// Sets 0x60FB sub 23 Position control parameter set / IP set angle.
     pub fn set_position_control_parameter_set_ip_set_angle(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 702, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 685, v.to_le_bytes());
     }
 
     /// 0x60FB sub 24 Position control parameter set / Positioning encoder offset (bmaxx4400.eds:2518, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_positioning_encoder_offset(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 706))
+        u16::from_le_bytes(od::load::<2>(&self.image, 689))
     }
 
     /// Sets 0x60FB sub 24 Position control parameter set / Positioning encoder offset.
     pub fn set_position_control_parameter_set_positioning_encoder_offset(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 706, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 689, v.to_le_bytes());
     }
 
     /// 0x60FB sub 25 Position control parameter set / Homing deceleration (bmaxx4400.eds:2526, UNSIGNED16 rw, PDO-mappable)
     pub fn position_control_parameter_set_homing_deceleration(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 708))
+        u16::from_le_bytes(od::load::<2>(&self.image, 691))
     }
 
     /// Sets 0x60FB sub 25 Position control parameter set / Homing deceleration.
     pub fn set_position_control_parameter_set_homing_deceleration(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 708, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 691, v.to_le_bytes());
     }
 
     /// 0x60FB sub 26 Position control parameter set / Actual speed normalised (bmaxx4400.eds:2534, INTEGER32 ro, PDO-mappable)
@@ -5276,12 +5276,12 @@ impl Ram {
 
     /// 0x60FF Target velocity (bmaxx4400.eds:2558, INTEGER32 rw, PDO-mappable)
     pub fn target_velocity(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 710))
+        i32::from_le_bytes(od::load::<4>(&self.image, 693))
     }
 
     /// Sets 0x60FF Target velocity.
     pub fn set_target_velocity(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 710, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 693, v.to_le_bytes());
     }
 
     /// 0x6510 sub 0 Drive data / Drive data highest sub-index (bmaxx4400.eds:2571, UNSIGNED8 ro)

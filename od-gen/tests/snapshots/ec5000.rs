@@ -181,7 +181,7 @@ pub const ENTRY_COUNT: usize = 228;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 631;
 /// Bytes at the front of the RAM image a stored parameter set holds.
-pub const STORED_SIZE: usize = 289;
+pub const STORED_SIZE: usize = 247;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 52;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -216,164 +216,164 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 289, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 293, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 294, NO_LIMITS), // 0x1002:00 Manufacturer status register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 0, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 298, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 302, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 306, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 310, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 314, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 318, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 322, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 326, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 1, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 5, NO_LIMITS), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 9, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 247, NO_LIMITS), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 251, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 252, NO_LIMITS), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 256, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 257, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 261, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 265, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 269, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 273, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 277, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 281, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 285, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1007:00 Synchronous window length
     Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 6, 0, NO_LIMITS), // 0x1008:00 Manufacturer device name
     Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 4, 6, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
     Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 4, 10, NO_LIMITS), // 0x100A:00 Manufacturer software version
     Entry::new(0x1010, 0x00, DataType::Unsigned8, CONST, 1, 14, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 13, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters except node-ID
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 17, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 21, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
-    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 25, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
-    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 29, NO_LIMITS), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 289, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters except node-ID
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 293, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 297, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 301, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 305, NO_LIMITS), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
     Entry::new(0x1011, 0x00, DataType::Unsigned8, CONST, 1, 15, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 33, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 37, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 41, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
-    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 45, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
-    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 49, NO_LIMITS), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 53, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 57, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 309, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 313, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 317, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 321, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 325, NO_LIMITS), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 12, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 16, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
     Entry::new(0x1016, 0x00, DataType::Unsigned8, CONST, 1, 16, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Consumer heartbeat time highest sub-index
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 59, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 63, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 18, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 22, NO_LIMITS), // 0x1017:00 Producer heartbeat time
     Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 330, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 334, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 338, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 342, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 65, NO_LIMITS), // 0x1019:00 Synchronous counter overflow value
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 329, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 333, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 337, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 341, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 24, NO_LIMITS), // 0x1019:00 Synchronous counter overflow value
     Entry::new(0x1029, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS), // 0x1029:00 Error behaviour / Error behaviour highest sub-index
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 66, NO_LIMITS), // 0x1029:01 Error behaviour / Communication error
-    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 67, NO_LIMITS), // 0x1029:02 Error behaviour / Specific error class
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 25, NO_LIMITS), // 0x1029:01 Error behaviour / Communication error
+    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 26, NO_LIMITS), // 0x1029:02 Error behaviour / Specific error class
     Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 346, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 350, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 345, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 349, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
     Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 20, NO_LIMITS), // 0x1400:00 RPDO communication parameter 1 / RPDO1 communication highest sub-index
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 354, 0), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 68, NO_LIMITS), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 353, 0), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 27, NO_LIMITS), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
     Entry::new(0x1401, 0x00, DataType::Unsigned8, CONST, 1, 21, NO_LIMITS), // 0x1401:00 RPDO communication parameter 2 / RPDO2 communication highest sub-index
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 358, 0), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 69, NO_LIMITS), // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 357, 0), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 28, NO_LIMITS), // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
     Entry::new(0x1402, 0x00, DataType::Unsigned8, CONST, 1, 22, NO_LIMITS), // 0x1402:00 RPDO communication parameter 3 / RPDO3 communication highest sub-index
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 362, 0), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 70, NO_LIMITS), // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 361, 0), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 29, NO_LIMITS), // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
     Entry::new(0x1403, 0x00, DataType::Unsigned8, CONST, 1, 23, NO_LIMITS), // 0x1403:00 RPDO communication parameter 4 / RPDO4 communication highest sub-index
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 366, 0), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 71, NO_LIMITS), // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 365, 0), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 30, NO_LIMITS), // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
     Entry::new(0x1600, 0x00, DataType::Unsigned8, CONST, 1, 24, NO_LIMITS), // 0x1600:00 RPDO mapping parameter 1 / RPDO1 number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 370, NO_LIMITS), // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 374, NO_LIMITS), // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 378, NO_LIMITS), // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 382, NO_LIMITS), // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 386, NO_LIMITS), // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 390, NO_LIMITS), // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 394, NO_LIMITS), // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 398, NO_LIMITS), // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 369, NO_LIMITS), // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 373, NO_LIMITS), // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 377, NO_LIMITS), // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 381, NO_LIMITS), // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 385, NO_LIMITS), // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 389, NO_LIMITS), // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 393, NO_LIMITS), // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 397, NO_LIMITS), // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
     Entry::new(0x1601, 0x00, DataType::Unsigned8, CONST, 1, 25, NO_LIMITS), // 0x1601:00 RPDO mapping parameter 2 / RPDO2 number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 402, NO_LIMITS), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 406, NO_LIMITS), // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 410, NO_LIMITS), // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 414, NO_LIMITS), // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 418, NO_LIMITS), // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 422, NO_LIMITS), // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 426, NO_LIMITS), // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 430, NO_LIMITS), // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 401, NO_LIMITS), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 405, NO_LIMITS), // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 409, NO_LIMITS), // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 413, NO_LIMITS), // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 417, NO_LIMITS), // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 421, NO_LIMITS), // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 425, NO_LIMITS), // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 429, NO_LIMITS), // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
     Entry::new(0x1602, 0x00, DataType::Unsigned8, CONST, 1, 26, NO_LIMITS), // 0x1602:00 RPDO mapping parameter 3 / RPDO3 number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 434, NO_LIMITS), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 438, NO_LIMITS), // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 442, NO_LIMITS), // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 446, NO_LIMITS), // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 450, NO_LIMITS), // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 454, NO_LIMITS), // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 458, NO_LIMITS), // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 462, NO_LIMITS), // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 72, 1), // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 73, NO_LIMITS), // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 77, NO_LIMITS), // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 81, NO_LIMITS), // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 85, NO_LIMITS), // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 89, NO_LIMITS), // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 93, NO_LIMITS), // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 97, NO_LIMITS), // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 101, NO_LIMITS), // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 433, NO_LIMITS), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 437, NO_LIMITS), // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 441, NO_LIMITS), // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 445, NO_LIMITS), // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 449, NO_LIMITS), // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 453, NO_LIMITS), // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 457, NO_LIMITS), // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 461, NO_LIMITS), // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 31, 1), // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 32, NO_LIMITS), // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 36, NO_LIMITS), // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 40, NO_LIMITS), // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 44, NO_LIMITS), // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 48, NO_LIMITS), // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 52, NO_LIMITS), // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 56, NO_LIMITS), // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 60, NO_LIMITS), // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
     Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 27, NO_LIMITS), // 0x1800:00 TPDO communication parameter 1 / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 105, NO_LIMITS), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 109, NO_LIMITS), // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 110, NO_LIMITS), // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 112, NO_LIMITS), // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
-    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 114, NO_LIMITS), // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 64, NO_LIMITS), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 68, NO_LIMITS), // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 69, NO_LIMITS), // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 71, NO_LIMITS), // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
+    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 73, NO_LIMITS), // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
     Entry::new(0x1801, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS), // 0x1801:00 TPDO communication parameter 2 / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 115, NO_LIMITS), // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 119, NO_LIMITS), // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 120, NO_LIMITS), // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 122, NO_LIMITS), // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
-    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 124, NO_LIMITS), // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 74, NO_LIMITS), // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 78, NO_LIMITS), // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 79, NO_LIMITS), // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 81, NO_LIMITS), // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
+    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 83, NO_LIMITS), // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
     Entry::new(0x1802, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS), // 0x1802:00 TPDO communication parameter 3 / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 125, NO_LIMITS), // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 129, NO_LIMITS), // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 130, NO_LIMITS), // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 132, NO_LIMITS), // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
-    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 134, NO_LIMITS), // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 84, NO_LIMITS), // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 88, NO_LIMITS), // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 89, NO_LIMITS), // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 91, NO_LIMITS), // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
+    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 93, NO_LIMITS), // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
     Entry::new(0x1803, 0x00, DataType::Unsigned8, CONST, 1, 30, NO_LIMITS), // 0x1803:00 TPDO communication parameter 4 / TPDO4 communication highest sub-index
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 135, NO_LIMITS), // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 139, NO_LIMITS), // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 140, NO_LIMITS), // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 142, NO_LIMITS), // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
-    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 144, NO_LIMITS), // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 94, NO_LIMITS), // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 98, NO_LIMITS), // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 99, NO_LIMITS), // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 101, NO_LIMITS), // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
+    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 103, NO_LIMITS), // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
     Entry::new(0x1A00, 0x00, DataType::Unsigned8, CONST, 1, 31, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter 1 / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 466, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 470, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 474, NO_LIMITS), // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 478, NO_LIMITS), // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 482, NO_LIMITS), // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 486, NO_LIMITS), // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 490, NO_LIMITS), // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 494, NO_LIMITS), // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 465, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 469, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 473, NO_LIMITS), // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 477, NO_LIMITS), // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 481, NO_LIMITS), // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 485, NO_LIMITS), // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 489, NO_LIMITS), // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 493, NO_LIMITS), // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
     Entry::new(0x1A01, 0x00, DataType::Unsigned8, CONST, 1, 32, NO_LIMITS), // 0x1A01:00 TPDO mapping parameter 2 / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 498, NO_LIMITS), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 502, NO_LIMITS), // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 506, NO_LIMITS), // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 510, NO_LIMITS), // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 514, NO_LIMITS), // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 518, NO_LIMITS), // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 522, NO_LIMITS), // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 526, NO_LIMITS), // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 497, NO_LIMITS), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 501, NO_LIMITS), // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 505, NO_LIMITS), // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 509, NO_LIMITS), // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 513, NO_LIMITS), // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 517, NO_LIMITS), // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 521, NO_LIMITS), // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 525, NO_LIMITS), // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
     Entry::new(0x1A02, 0x00, DataType::Unsigned8, CONST, 1, 33, NO_LIMITS), // 0x1A02:00 TPDO mapping parameter 3 / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 530, NO_LIMITS), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 534, NO_LIMITS), // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 538, NO_LIMITS), // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 542, NO_LIMITS), // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 546, NO_LIMITS), // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 550, NO_LIMITS), // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 554, NO_LIMITS), // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 558, NO_LIMITS), // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 145, 1), // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 146, NO_LIMITS), // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 150, NO_LIMITS), // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 154, NO_LIMITS), // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 158, NO_LIMITS), // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 162, NO_LIMITS), // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 166, NO_LIMITS), // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 170, NO_LIMITS), // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 174, NO_LIMITS), // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 529, NO_LIMITS), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 533, NO_LIMITS), // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 537, NO_LIMITS), // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 541, NO_LIMITS), // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 545, NO_LIMITS), // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 549, NO_LIMITS), // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 553, NO_LIMITS), // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 557, NO_LIMITS), // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 104, 1), // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 105, NO_LIMITS), // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 109, NO_LIMITS), // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 113, NO_LIMITS), // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 117, NO_LIMITS), // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 121, NO_LIMITS), // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 125, NO_LIMITS), // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 129, NO_LIMITS), // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 133, NO_LIMITS), // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
     Entry::new(0x1F51, 0x00, DataType::Unsigned8, CONST, 1, 34, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
-    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 178, 2), // 0x1F51:01 Program control / Program control 1
-    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 179, NO_LIMITS), // 0x1F80:00 NMT startup
+    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 561, 2), // 0x1F51:01 Program control / Program control 1
+    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 137, NO_LIMITS), // 0x1F80:00 NMT startup
     Entry::new(0x2200, 0x00, DataType::Unsigned8, RO, 1, 562, NO_LIMITS), // 0x2200:00 Monitoring values / Monitoring values highest sub-index
     Entry::new(0x2200, 0x01, DataType::Unsigned32, RO_TPDO, 4, 563, NO_LIMITS), // 0x2200:01 Monitoring values / Number of start stops
     Entry::new(0x2200, 0x02, DataType::Unsigned32, RO_TPDO, 4, 567, NO_LIMITS), // 0x2200:02 Monitoring values / Working hours
@@ -393,54 +393,54 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x2220, 0x01, DataType::Integer16, RO_TPDO, 2, 594, NO_LIMITS), // 0x2220:01 Analog value output / Analog voltage
     Entry::new(0x4048, 0x00, DataType::Unsigned8, CONST, 1, 35, NO_LIMITS), // 0x4048:00 Nominal power
     Entry::new(0x4231, 0x00, DataType::Unsigned8, CONST, 1, 36, NO_LIMITS), // 0x4231:00 High temperature warning level / High temperature warning level highest sub-index
-    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 183, 3), // 0x4231:01 High temperature warning level / High temperature warning threshold
-    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 185, 4), // 0x4231:02 High temperature warning level / High temperature warning hysteresis
-    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 187, 5), // 0x4645:00 Positioning deceleration ramp
+    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 141, 3), // 0x4231:01 High temperature warning level / High temperature warning threshold
+    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 143, 4), // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 145, 5), // 0x4645:00 Positioning deceleration ramp
     Entry::new(0x4650, 0x00, DataType::Unsigned8, CONST, 1, 37, NO_LIMITS), // 0x4650:00 Bus address / Bus address highest sub-index
-    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 189, 6), // 0x4650:01 Bus address / Node-ID static
+    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 147, 6), // 0x4650:01 Bus address / Node-ID static
     Entry::new(0x4650, 0x02, DataType::Unsigned8, RO, 1, 596, 6), // 0x4650:02 Bus address / Node-ID actual
     Entry::new(0x4651, 0x00, DataType::Unsigned8, CONST, 1, 38, NO_LIMITS), // 0x4651:00 Baud rate / Baud rate highest sub-index
-    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 190, 7), // 0x4651:01 Baud rate / CAN bit rate
-    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 192, 8), // 0x4651:02 Baud rate / UART baud rate
+    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 148, 7), // 0x4651:01 Baud rate / CAN bit rate
+    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 150, 8), // 0x4651:02 Baud rate / UART baud rate
     Entry::new(0x4FFE, 0x00, DataType::Unsigned8, RO, 1, 597, NO_LIMITS), // 0x4FFE:00 Actual SDO server user
-    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 194, NO_LIMITS), // 0x4FFF:00 User login
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 198, 9), // 0x6007:00 Abort connection option code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 200, NO_LIMITS), // 0x6040:00 Controlword
+    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 152, NO_LIMITS), // 0x4FFF:00 User login
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 156, 9), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 158, NO_LIMITS), // 0x6040:00 Controlword
     Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 598, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 202, 10), // 0x6060:00 Modes of operation
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 160, 10), // 0x6060:00 Modes of operation
     Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 600, NO_LIMITS), // 0x6061:00 Modes of operation display
     Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 601, NO_LIMITS), // 0x6062:00 Position demand value
     Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 605, NO_LIMITS), // 0x6064:00 Position actual value
     Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 609, NO_LIMITS), // 0x606B:00 Velocity demand value
     Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 613, NO_LIMITS), // 0x606C:00 Velocity actual value
-    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 203, 11), // 0x6073:00 Max current
+    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 161, 11), // 0x6073:00 Max current
     Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 617, NO_LIMITS), // 0x6077:00 Torque actual value
     Entry::new(0x6079, 0x00, DataType::Unsigned16, RO_TPDO, 2, 619, NO_LIMITS), // 0x6079:00 DC link circuit voltage
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 205, NO_LIMITS), // 0x607A:00 Target position
-    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 209, 12), // 0x607E:00 Polarity
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 210, 13), // 0x607F:00 Max profile velocity
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 214, 13), // 0x6081:00 Profile velocity
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 218, NO_LIMITS), // 0x6083:00 Profile acceleration
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 222, NO_LIMITS), // 0x6084:00 Profile deceleration
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 163, NO_LIMITS), // 0x607A:00 Target position
+    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 167, 12), // 0x607E:00 Polarity
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 168, 13), // 0x607F:00 Max profile velocity
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 172, 13), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 176, NO_LIMITS), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 180, NO_LIMITS), // 0x6084:00 Profile deceleration
     Entry::new(0x6091, 0x00, DataType::Unsigned8, CONST, 1, 39, NO_LIMITS), // 0x6091:00 Gear ratio / Gear ratio highest sub-index
-    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 226, 14), // 0x6091:01 Gear ratio / Motor shaft revolutions
-    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 230, NO_LIMITS), // 0x6091:02 Gear ratio / Driving shaft revolutions
+    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 184, 14), // 0x6091:01 Gear ratio / Motor shaft revolutions
+    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x6091:02 Gear ratio / Driving shaft revolutions
     Entry::new(0x6092, 0x00, DataType::Unsigned8, CONST, 1, 40, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 234, NO_LIMITS), // 0x6092:01 Feed constant / Feed
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 238, NO_LIMITS), // 0x6092:02 Feed constant / Shaft revolutions
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 242, 15), // 0x6098:00 Homing method
-    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 243, 16), // 0x6099:00 Homing speeds
-    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 247, 17), // 0x60A8:00 SI unit position
-    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 251, 18), // 0x60A9:00 SI unit velocity
-    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 255, 19), // 0x60AA:00 SI unit acceleration
-    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 259, NO_LIMITS), // 0x60C5:00 Max acceleration
-    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 263, NO_LIMITS), // 0x60C6:00 Max deceleration
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 192, NO_LIMITS), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 196, NO_LIMITS), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 200, 15), // 0x6098:00 Homing method
+    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 201, 16), // 0x6099:00 Homing speeds
+    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 205, 17), // 0x60A8:00 SI unit position
+    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 209, 18), // 0x60A9:00 SI unit velocity
+    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 213, 19), // 0x60AA:00 SI unit acceleration
+    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 217, NO_LIMITS), // 0x60C5:00 Max acceleration
+    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 221, NO_LIMITS), // 0x60C6:00 Max deceleration
     Entry::new(0x60E3, 0x00, DataType::Unsigned8, CONST, 1, 41, NO_LIMITS), // 0x60E3:00 Supported homing methods / Number of supported homing methods
     Entry::new(0x60E3, 0x01, DataType::Integer8, CONST, 1, 42, NO_LIMITS), // 0x60E3:01 Supported homing methods / Supported homing method 1
-    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 267, NO_LIMITS), // 0x60F2:00 Positioning option code
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 269, 20), // 0x60FF:00 Target velocity
+    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 225, NO_LIMITS), // 0x60F2:00 Positioning option code
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 227, 20), // 0x60FF:00 Target velocity
     Entry::new(0x6402, 0x00, DataType::Unsigned16, RO, 2, 621, NO_LIMITS), // 0x6402:00 Motor type
-    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 273, NO_LIMITS), // 0x6403:00 Motor catalogue number
+    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 231, NO_LIMITS), // 0x6403:00 Motor catalogue number
     Entry::new(0x6404, 0x00, DataType::VisibleString, CONST, 9, 43, NO_LIMITS), // 0x6404:00 Motor manufacturer
     Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 623, NO_LIMITS), // 0x6502:00 Supported drive modes
     Entry::new(0x67FE, 0x00, DataType::Unsigned32, RO, 4, 627, NO_LIMITS), // 0x67FE:00 Version number
@@ -510,20 +510,9 @@ static ROM: [u8; ROM_SIZE] = [
 
 #[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, // 0x1003:00 Pre-defined error field / Number of errors
     0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
     0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
     0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
-    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters except node-ID
-    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters ASW
-    0x01, 0x00, 0x00, 0x00, // 0x1010:05 Store parameters / Save manufacturer parameters SSW
-    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
-    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
-    0x01, 0x00, 0x00, 0x00, // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
     0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
     0x00, 0x00, // 0x1015:00 Inhibit time EMCY
     0x00, 0x00, 0x00, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
@@ -573,7 +562,6 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
     0x00, 0x00, 0x00, 0x00, // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
     0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
-    0x00, // 0x1F51:01 Program control / Program control 1
     0x00, 0x00, 0x00, 0x00, // 0x1F80:00 NMT startup
     0x5F, 0x00, // 0x4231:01 High temperature warning level / High temperature warning threshold
     0x02, 0x00, // 0x4231:02 High temperature warning level / High temperature warning hysteresis
@@ -609,6 +597,7 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x92, 0x01, 0x42, 0x00, // 0x1000:00 Device type
     0x00, // 0x1001:00 Error register
     0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
+    0x00, // 0x1003:00 Pre-defined error field / Number of errors
     0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
     0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
     0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
@@ -617,6 +606,16 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
     0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
     0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
+    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters except node-ID
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    0x01, 0x00, 0x00, 0x00, // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    0x01, 0x00, 0x00, 0x00, // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
     0xFB, 0x03, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
     0x01, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
     0x01, 0x00, 0x01, 0x00, // 0x1018:03 Identity object / Revision number
@@ -675,6 +674,7 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
     0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
     0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
+    0x00, // 0x1F51:01 Program control / Program control 1
     0x09, // 0x2200:00 Monitoring values / Monitoring values highest sub-index
     0x00, 0x00, 0x00, 0x00, // 0x2200:01 Monitoring values / Number of start stops
     0x00, 0x00, 0x00, 0x00, // 0x2200:02 Monitoring values / Working hours
@@ -961,9 +961,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 183,
+    comm_len: 141,
     stored_len: STORED_SIZE,
-    comm_rest: 273,
+    comm_rest: 315,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -1022,42 +1022,42 @@ impl Ram {
 
     /// 0x1000 Device type (ec5000.eds:152, UNSIGNED32 ro)
     pub fn device_type(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 289))
+        u32::from_le_bytes(od::load::<4>(&self.image, 247))
     }
 
     /// Sets 0x1000 Device type.
     pub fn set_device_type(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 289, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 247, v.to_le_bytes());
     }
 
     /// 0x1001 Error register (ec5000.eds:160, UNSIGNED8 ro, PDO-mappable)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 293))
+        u8::from_le_bytes(od::load::<1>(&self.image, 251))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 293, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 251, v.to_le_bytes());
     }
 
     /// 0x1002 Manufacturer status register (ec5000.eds:168, UNSIGNED32 ro, PDO-mappable)
     pub fn manufacturer_status_register(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 294))
+        u32::from_le_bytes(od::load::<4>(&self.image, 252))
     }
 
     /// Sets 0x1002 Manufacturer status register.
     pub fn set_manufacturer_status_register(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 294, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 252, v.to_le_bytes());
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (ec5000.eds:181, UNSIGNED8 rw)
     pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 0))
+        u8::from_le_bytes(od::load::<1>(&self.image, 256))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
     pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 0, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 256, v.to_le_bytes());
     }
 
     /// 0x1003 Pre-defined error field sub-index `i` (1..=8) (ec5000.eds:176)
@@ -1065,7 +1065,7 @@ impl Ram {
         if !(1..=8).contains(&i) {
             return None;
         }
-        let off = 294 + usize::from(i) * 4;
+        let off = 253 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1074,39 +1074,39 @@ impl Ram {
         if !(1..=8).contains(&i) {
             return false;
         }
-        let off = 294 + usize::from(i) * 4;
+        let off = 253 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1005 COB-ID SYNC message (ec5000.eds:253, UNSIGNED32 rw)
     pub fn cob_id_sync_message(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1))
+        u32::from_le_bytes(od::load::<4>(&self.image, 0))
     }
 
     /// Sets 0x1005 COB-ID SYNC message.
     pub fn set_cob_id_sync_message(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 0, v.to_le_bytes());
     }
 
     /// 0x1006 Communication cycle period (ec5000.eds:261, UNSIGNED32 rw)
     pub fn communication_cycle_period(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 5))
+        u32::from_le_bytes(od::load::<4>(&self.image, 4))
     }
 
     /// Sets 0x1006 Communication cycle period.
     pub fn set_communication_cycle_period(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 5, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 4, v.to_le_bytes());
     }
 
     /// 0x1007 Synchronous window length (ec5000.eds:269, UNSIGNED32 rw)
     pub fn synchronous_window_length(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 9))
+        u32::from_le_bytes(od::load::<4>(&self.image, 8))
     }
 
     /// Sets 0x1007 Synchronous window length.
     pub fn set_synchronous_window_length(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 9, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 8, v.to_le_bytes());
     }
 
     /// 0x1008 Manufacturer device name (ec5000.eds:277, VISIBLE_STRING const, in flash)
@@ -1134,7 +1134,7 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return None;
         }
-        let off = 9 + usize::from(i) * 4;
+        let off = 285 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1143,7 +1143,7 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return false;
         }
-        let off = 9 + usize::from(i) * 4;
+        let off = 285 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -1158,7 +1158,7 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return None;
         }
-        let off = 29 + usize::from(i) * 4;
+        let off = 305 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1167,29 +1167,29 @@ impl Ram {
         if !(1..=5).contains(&i) {
             return false;
         }
-        let off = 29 + usize::from(i) * 4;
+        let off = 305 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1014 COB-ID EMCY (ec5000.eds:407, UNSIGNED32 rw, $NODEID-relative)
     pub fn cob_id_emcy(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 53))
+        u32::from_le_bytes(od::load::<4>(&self.image, 12))
     }
 
     /// Sets 0x1014 COB-ID EMCY.
     pub fn set_cob_id_emcy(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 53, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 12, v.to_le_bytes());
     }
 
     /// 0x1015 Inhibit time EMCY (ec5000.eds:415, UNSIGNED16 rw)
     pub fn inhibit_time_emcy(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 57))
+        u16::from_le_bytes(od::load::<2>(&self.image, 16))
     }
 
     /// Sets 0x1015 Inhibit time EMCY.
     pub fn set_inhibit_time_emcy(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 57, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 16, v.to_le_bytes());
     }
 
     /// 0x1016 sub 0 Consumer heartbeat time / Consumer heartbeat time highest sub-index (ec5000.eds:428, UNSIGNED8 const, in flash)
@@ -1199,22 +1199,22 @@ impl Ram {
 
     /// 0x1016 sub 1 Consumer heartbeat time / Consumer heartbeat time 1 (ec5000.eds:436, UNSIGNED32 rw)
     pub fn consumer_heartbeat_time_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 59))
+        u32::from_le_bytes(od::load::<4>(&self.image, 18))
     }
 
     /// Sets 0x1016 sub 1 Consumer heartbeat time / Consumer heartbeat time 1.
     pub fn set_consumer_heartbeat_time_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 59, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 18, v.to_le_bytes());
     }
 
     /// 0x1017 Producer heartbeat time (ec5000.eds:444, UNSIGNED16 rw)
     pub fn producer_heartbeat_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 63))
+        u16::from_le_bytes(od::load::<2>(&self.image, 22))
     }
 
     /// Sets 0x1017 Producer heartbeat time.
     pub fn set_producer_heartbeat_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 63, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 22, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Identity highest sub-index (ec5000.eds:457, UNSIGNED8 const, in flash)
@@ -1224,52 +1224,52 @@ impl Ram {
 
     /// 0x1018 sub 1 Identity object / Vendor-ID (ec5000.eds:465, UNSIGNED32 ro)
     pub fn identity_object_vendor_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 330))
+        u32::from_le_bytes(od::load::<4>(&self.image, 329))
     }
 
     /// Sets 0x1018 sub 1 Identity object / Vendor-ID.
     pub fn set_identity_object_vendor_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 330, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 329, v.to_le_bytes());
     }
 
     /// 0x1018 sub 2 Identity object / Product code (ec5000.eds:473, UNSIGNED32 ro)
     pub fn identity_object_product_code(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 334))
+        u32::from_le_bytes(od::load::<4>(&self.image, 333))
     }
 
     /// Sets 0x1018 sub 2 Identity object / Product code.
     pub fn set_identity_object_product_code(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 334, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 333, v.to_le_bytes());
     }
 
     /// 0x1018 sub 3 Identity object / Revision number (ec5000.eds:481, UNSIGNED32 ro)
     pub fn identity_object_revision_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 338))
+        u32::from_le_bytes(od::load::<4>(&self.image, 337))
     }
 
     /// Sets 0x1018 sub 3 Identity object / Revision number.
     pub fn set_identity_object_revision_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 338, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 337, v.to_le_bytes());
     }
 
     /// 0x1018 sub 4 Identity object / Serial number (ec5000.eds:489, UNSIGNED32 ro)
     pub fn identity_object_serial_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 342))
+        u32::from_le_bytes(od::load::<4>(&self.image, 341))
     }
 
     /// Sets 0x1018 sub 4 Identity object / Serial number.
     pub fn set_identity_object_serial_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 342, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 341, v.to_le_bytes());
     }
 
     /// 0x1019 Synchronous counter overflow value (ec5000.eds:497, UNSIGNED8 rw)
     pub fn synchronous_counter_overflow_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 65))
+        u8::from_le_bytes(od::load::<1>(&self.image, 24))
     }
 
     /// Sets 0x1019 Synchronous counter overflow value.
     pub fn set_synchronous_counter_overflow_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 65, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 24, v.to_le_bytes());
     }
 
     /// 0x1029 sub 0 Error behaviour / Error behaviour highest sub-index (ec5000.eds:510, UNSIGNED8 const, in flash)
@@ -1282,7 +1282,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 65 + usize::from(i);
+        let off = 24 + usize::from(i);
         Some(u8::from_le_bytes(od::load::<1>(&self.image, off)))
     }
 
@@ -1291,7 +1291,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 65 + usize::from(i);
+        let off = 24 + usize::from(i);
         od::store::<1>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -1303,22 +1303,22 @@ impl Ram {
 
     /// 0x1200 sub 1 SDO server parameter / COB-ID client to server (ec5000.eds:547, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_client_to_server(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 346))
+        u32::from_le_bytes(od::load::<4>(&self.image, 345))
     }
 
     /// Sets 0x1200 sub 1 SDO server parameter / COB-ID client to server.
     pub fn set_sdo_server_parameter_cob_id_client_to_server(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 346, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 345, v.to_le_bytes());
     }
 
     /// 0x1200 sub 2 SDO server parameter / COB-ID server to client (ec5000.eds:555, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_server_to_client(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 350))
+        u32::from_le_bytes(od::load::<4>(&self.image, 349))
     }
 
     /// Sets 0x1200 sub 2 SDO server parameter / COB-ID server to client.
     pub fn set_sdo_server_parameter_cob_id_server_to_client(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 350, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 349, v.to_le_bytes());
     }
 
     /// 0x1400 sub 0 RPDO communication parameter 1 / RPDO1 communication highest sub-index (ec5000.eds:568, UNSIGNED8 const, in flash)
@@ -1328,22 +1328,22 @@ impl Ram {
 
     /// 0x1400 sub 1 RPDO communication parameter 1 / RPDO1 COB-ID (ec5000.eds:576, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_1_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 354))
+        u32::from_le_bytes(od::load::<4>(&self.image, 353))
     }
 
     /// Sets 0x1400 sub 1 RPDO communication parameter 1 / RPDO1 COB-ID.
     pub fn set_rpdo_communication_parameter_1_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 354, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 353, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO communication parameter 1 / RPDO1 transmission type (ec5000.eds:586, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_1_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 68))
+        u8::from_le_bytes(od::load::<1>(&self.image, 27))
     }
 
     /// Sets 0x1400 sub 2 RPDO communication parameter 1 / RPDO1 transmission type.
     pub fn set_rpdo_communication_parameter_1_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 68, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 27, v.to_le_bytes());
     }
 
     /// 0x1401 sub 0 RPDO communication parameter 2 / RPDO2 communication highest sub-index (ec5000.eds:599, UNSIGNED8 const, in flash)
@@ -1353,22 +1353,22 @@ impl Ram {
 
     /// 0x1401 sub 1 RPDO communication parameter 2 / RPDO2 COB-ID (ec5000.eds:607, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_2_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 358))
+        u32::from_le_bytes(od::load::<4>(&self.image, 357))
     }
 
     /// Sets 0x1401 sub 1 RPDO communication parameter 2 / RPDO2 COB-ID.
     pub fn set_rpdo_communication_parameter_2_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 358, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 357, v.to_le_bytes());
     }
 
     /// 0x1401 sub 2 RPDO communication parameter 2 / RPDO2 transmission type (ec5000.eds:617, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_2_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 69))
+        u8::from_le_bytes(od::load::<1>(&self.image, 28))
     }
 
     /// Sets 0x1401 sub 2 RPDO communication parameter 2 / RPDO2 transmission type.
     pub fn set_rpdo_communication_parameter_2_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 69, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 28, v.to_le_bytes());
     }
 
     /// 0x1402 sub 0 RPDO communication parameter 3 / RPDO3 communication highest sub-index (ec5000.eds:630, UNSIGNED8 const, in flash)
@@ -1378,22 +1378,22 @@ impl Ram {
 
     /// 0x1402 sub 1 RPDO communication parameter 3 / RPDO3 COB-ID (ec5000.eds:638, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_3_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 362))
+        u32::from_le_bytes(od::load::<4>(&self.image, 361))
     }
 
     /// Sets 0x1402 sub 1 RPDO communication parameter 3 / RPDO3 COB-ID.
     pub fn set_rpdo_communication_parameter_3_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 362, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 361, v.to_le_bytes());
     }
 
     /// 0x1402 sub 2 RPDO communication parameter 3 / RPDO3 transmission type (ec5000.eds:648, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_3_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 70))
+        u8::from_le_bytes(od::load::<1>(&self.image, 29))
     }
 
     /// Sets 0x1402 sub 2 RPDO communication parameter 3 / RPDO3 transmission type.
     pub fn set_rpdo_communication_parameter_3_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 70, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 29, v.to_le_bytes());
     }
 
     /// 0x1403 sub 0 RPDO communication parameter 4 / RPDO4 communication highest sub-index (ec5000.eds:661, UNSIGNED8 const, in flash)
@@ -1403,22 +1403,22 @@ impl Ram {
 
     /// 0x1403 sub 1 RPDO communication parameter 4 / RPDO4 COB-ID (ec5000.eds:669, UNSIGNED32 ro, $NODEID-relative)
     pub fn rpdo_communication_parameter_4_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 366))
+        u32::from_le_bytes(od::load::<4>(&self.image, 365))
     }
 
     /// Sets 0x1403 sub 1 RPDO communication parameter 4 / RPDO4 COB-ID.
     pub fn set_rpdo_communication_parameter_4_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 366, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 365, v.to_le_bytes());
     }
 
     /// 0x1403 sub 2 RPDO communication parameter 4 / RPDO4 transmission type (ec5000.eds:679, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_4_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 71))
+        u8::from_le_bytes(od::load::<1>(&self.image, 30))
     }
 
     /// Sets 0x1403 sub 2 RPDO communication parameter 4 / RPDO4 transmission type.
     pub fn set_rpdo_communication_parameter_4_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 71, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 30, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO mapping parameter 1 / RPDO1 number of mapped objects (ec5000.eds:692, UNSIGNED8 const, in flash)
@@ -1428,82 +1428,82 @@ impl Ram {
 
     /// 0x1600 sub 1 RPDO mapping parameter 1 / RPDO1 mapping entry 1 (ec5000.eds:700, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 370))
+        u32::from_le_bytes(od::load::<4>(&self.image, 369))
     }
 
     /// Sets 0x1600 sub 1 RPDO mapping parameter 1 / RPDO1 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_1_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 370, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 369, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO mapping parameter 1 / RPDO1 mapping entry 2 (ec5000.eds:708, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 374))
+        u32::from_le_bytes(od::load::<4>(&self.image, 373))
     }
 
     /// Sets 0x1600 sub 2 RPDO mapping parameter 1 / RPDO1 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_1_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 374, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 373, v.to_le_bytes());
     }
 
     /// 0x1600 sub 3 RPDO mapping parameter 1 / RPDO1 mapping entry 3 (ec5000.eds:716, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 378))
+        u32::from_le_bytes(od::load::<4>(&self.image, 377))
     }
 
     /// Sets 0x1600 sub 3 RPDO mapping parameter 1 / RPDO1 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_1_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 378, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 377, v.to_le_bytes());
     }
 
     /// 0x1600 sub 4 RPDO mapping parameter 1 / RPDO1 mapping entry 4 (ec5000.eds:724, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 382))
+        u32::from_le_bytes(od::load::<4>(&self.image, 381))
     }
 
     /// Sets 0x1600 sub 4 RPDO mapping parameter 1 / RPDO1 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_1_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 382, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 381, v.to_le_bytes());
     }
 
     /// 0x1600 sub 5 RPDO mapping parameter 1 / RPDO1 mapping entry 5 (ec5000.eds:732, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 386))
+        u32::from_le_bytes(od::load::<4>(&self.image, 385))
     }
 
     /// Sets 0x1600 sub 5 RPDO mapping parameter 1 / RPDO1 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_1_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 386, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 385, v.to_le_bytes());
     }
 
     /// 0x1600 sub 6 RPDO mapping parameter 1 / RPDO1 mapping entry 6 (ec5000.eds:740, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 390))
+        u32::from_le_bytes(od::load::<4>(&self.image, 389))
     }
 
     /// Sets 0x1600 sub 6 RPDO mapping parameter 1 / RPDO1 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_1_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 390, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 389, v.to_le_bytes());
     }
 
     /// 0x1600 sub 7 RPDO mapping parameter 1 / RPDO1 mapping entry 7 (ec5000.eds:748, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 394))
+        u32::from_le_bytes(od::load::<4>(&self.image, 393))
     }
 
     /// Sets 0x1600 sub 7 RPDO mapping parameter 1 / RPDO1 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_1_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 394, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 393, v.to_le_bytes());
     }
 
     /// 0x1600 sub 8 RPDO mapping parameter 1 / RPDO1 mapping entry 8 (ec5000.eds:756, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_1_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 398))
+        u32::from_le_bytes(od::load::<4>(&self.image, 397))
     }
 
     /// Sets 0x1600 sub 8 RPDO mapping parameter 1 / RPDO1 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_1_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 398, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 397, v.to_le_bytes());
     }
 
     /// 0x1601 sub 0 RPDO mapping parameter 2 / RPDO2 number of mapped objects (ec5000.eds:769, UNSIGNED8 const, in flash)
@@ -1513,82 +1513,82 @@ impl Ram {
 
     /// 0x1601 sub 1 RPDO mapping parameter 2 / RPDO2 mapping entry 1 (ec5000.eds:777, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 402))
+        u32::from_le_bytes(od::load::<4>(&self.image, 401))
     }
 
     /// Sets 0x1601 sub 1 RPDO mapping parameter 2 / RPDO2 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_2_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 402, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 401, v.to_le_bytes());
     }
 
     /// 0x1601 sub 2 RPDO mapping parameter 2 / RPDO2 mapping entry 2 (ec5000.eds:785, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 406))
+        u32::from_le_bytes(od::load::<4>(&self.image, 405))
     }
 
     /// Sets 0x1601 sub 2 RPDO mapping parameter 2 / RPDO2 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_2_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 406, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 405, v.to_le_bytes());
     }
 
     /// 0x1601 sub 3 RPDO mapping parameter 2 / RPDO2 mapping entry 3 (ec5000.eds:793, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 410))
+        u32::from_le_bytes(od::load::<4>(&self.image, 409))
     }
 
     /// Sets 0x1601 sub 3 RPDO mapping parameter 2 / RPDO2 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_2_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 410, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 409, v.to_le_bytes());
     }
 
     /// 0x1601 sub 4 RPDO mapping parameter 2 / RPDO2 mapping entry 4 (ec5000.eds:801, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 414))
+        u32::from_le_bytes(od::load::<4>(&self.image, 413))
     }
 
     /// Sets 0x1601 sub 4 RPDO mapping parameter 2 / RPDO2 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_2_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 414, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 413, v.to_le_bytes());
     }
 
     /// 0x1601 sub 5 RPDO mapping parameter 2 / RPDO2 mapping entry 5 (ec5000.eds:809, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 418))
+        u32::from_le_bytes(od::load::<4>(&self.image, 417))
     }
 
     /// Sets 0x1601 sub 5 RPDO mapping parameter 2 / RPDO2 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_2_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 418, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 417, v.to_le_bytes());
     }
 
     /// 0x1601 sub 6 RPDO mapping parameter 2 / RPDO2 mapping entry 6 (ec5000.eds:817, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 422))
+        u32::from_le_bytes(od::load::<4>(&self.image, 421))
     }
 
     /// Sets 0x1601 sub 6 RPDO mapping parameter 2 / RPDO2 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_2_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 422, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 421, v.to_le_bytes());
     }
 
     /// 0x1601 sub 7 RPDO mapping parameter 2 / RPDO2 mapping entry 7 (ec5000.eds:825, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 426))
+        u32::from_le_bytes(od::load::<4>(&self.image, 425))
     }
 
     /// Sets 0x1601 sub 7 RPDO mapping parameter 2 / RPDO2 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_2_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 426, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 425, v.to_le_bytes());
     }
 
     /// 0x1601 sub 8 RPDO mapping parameter 2 / RPDO2 mapping entry 8 (ec5000.eds:833, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_2_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 430))
+        u32::from_le_bytes(od::load::<4>(&self.image, 429))
     }
 
     /// Sets 0x1601 sub 8 RPDO mapping parameter 2 / RPDO2 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_2_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 430, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 429, v.to_le_bytes());
     }
 
     /// 0x1602 sub 0 RPDO mapping parameter 3 / RPDO3 number of mapped objects (ec5000.eds:846, UNSIGNED8 const, in flash)
@@ -1598,172 +1598,172 @@ impl Ram {
 
     /// 0x1602 sub 1 RPDO mapping parameter 3 / RPDO3 mapping entry 1 (ec5000.eds:854, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 434))
+        u32::from_le_bytes(od::load::<4>(&self.image, 433))
     }
 
     /// Sets 0x1602 sub 1 RPDO mapping parameter 3 / RPDO3 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_3_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 434, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 433, v.to_le_bytes());
     }
 
     /// 0x1602 sub 2 RPDO mapping parameter 3 / RPDO3 mapping entry 2 (ec5000.eds:862, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 438))
+        u32::from_le_bytes(od::load::<4>(&self.image, 437))
     }
 
     /// Sets 0x1602 sub 2 RPDO mapping parameter 3 / RPDO3 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_3_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 438, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 437, v.to_le_bytes());
     }
 
     /// 0x1602 sub 3 RPDO mapping parameter 3 / RPDO3 mapping entry 3 (ec5000.eds:870, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 442))
+        u32::from_le_bytes(od::load::<4>(&self.image, 441))
     }
 
     /// Sets 0x1602 sub 3 RPDO mapping parameter 3 / RPDO3 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_3_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 442, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 441, v.to_le_bytes());
     }
 
     /// 0x1602 sub 4 RPDO mapping parameter 3 / RPDO3 mapping entry 4 (ec5000.eds:878, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 446))
+        u32::from_le_bytes(od::load::<4>(&self.image, 445))
     }
 
     /// Sets 0x1602 sub 4 RPDO mapping parameter 3 / RPDO3 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_3_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 446, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 445, v.to_le_bytes());
     }
 
     /// 0x1602 sub 5 RPDO mapping parameter 3 / RPDO3 mapping entry 5 (ec5000.eds:886, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 450))
+        u32::from_le_bytes(od::load::<4>(&self.image, 449))
     }
 
     /// Sets 0x1602 sub 5 RPDO mapping parameter 3 / RPDO3 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_3_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 450, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 449, v.to_le_bytes());
     }
 
     /// 0x1602 sub 6 RPDO mapping parameter 3 / RPDO3 mapping entry 6 (ec5000.eds:894, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 454))
+        u32::from_le_bytes(od::load::<4>(&self.image, 453))
     }
 
     /// Sets 0x1602 sub 6 RPDO mapping parameter 3 / RPDO3 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_3_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 454, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 453, v.to_le_bytes());
     }
 
     /// 0x1602 sub 7 RPDO mapping parameter 3 / RPDO3 mapping entry 7 (ec5000.eds:902, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 458))
+        u32::from_le_bytes(od::load::<4>(&self.image, 457))
     }
 
     /// Sets 0x1602 sub 7 RPDO mapping parameter 3 / RPDO3 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_3_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 458, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 457, v.to_le_bytes());
     }
 
     /// 0x1602 sub 8 RPDO mapping parameter 3 / RPDO3 mapping entry 8 (ec5000.eds:910, UNSIGNED32 ro)
     pub fn rpdo_mapping_parameter_3_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 462))
+        u32::from_le_bytes(od::load::<4>(&self.image, 461))
     }
 
     /// Sets 0x1602 sub 8 RPDO mapping parameter 3 / RPDO3 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_3_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 462, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 461, v.to_le_bytes());
     }
 
     /// 0x1603 sub 0 RPDO mapping parameter 4 / RPDO4 number of mapped objects (ec5000.eds:923, UNSIGNED8 rw)
     pub fn rpdo_mapping_parameter_4_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 72))
+        u8::from_le_bytes(od::load::<1>(&self.image, 31))
     }
 
     /// Sets 0x1603 sub 0 RPDO mapping parameter 4 / RPDO4 number of mapped objects.
     pub fn set_rpdo_mapping_parameter_4_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 72, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 31, v.to_le_bytes());
     }
 
     /// 0x1603 sub 1 RPDO mapping parameter 4 / RPDO4 mapping entry 1 (ec5000.eds:933, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 73))
+        u32::from_le_bytes(od::load::<4>(&self.image, 32))
     }
 
     /// Sets 0x1603 sub 1 RPDO mapping parameter 4 / RPDO4 mapping entry 1.
     pub fn set_rpdo_mapping_parameter_4_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 73, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 32, v.to_le_bytes());
     }
 
     /// 0x1603 sub 2 RPDO mapping parameter 4 / RPDO4 mapping entry 2 (ec5000.eds:941, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 77))
+        u32::from_le_bytes(od::load::<4>(&self.image, 36))
     }
 
     /// Sets 0x1603 sub 2 RPDO mapping parameter 4 / RPDO4 mapping entry 2.
     pub fn set_rpdo_mapping_parameter_4_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 77, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 36, v.to_le_bytes());
     }
 
     /// 0x1603 sub 3 RPDO mapping parameter 4 / RPDO4 mapping entry 3 (ec5000.eds:949, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 81))
+        u32::from_le_bytes(od::load::<4>(&self.image, 40))
     }
 
     /// Sets 0x1603 sub 3 RPDO mapping parameter 4 / RPDO4 mapping entry 3.
     pub fn set_rpdo_mapping_parameter_4_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 81, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 40, v.to_le_bytes());
     }
 
     /// 0x1603 sub 4 RPDO mapping parameter 4 / RPDO4 mapping entry 4 (ec5000.eds:957, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 85))
+        u32::from_le_bytes(od::load::<4>(&self.image, 44))
     }
 
     /// Sets 0x1603 sub 4 RPDO mapping parameter 4 / RPDO4 mapping entry 4.
     pub fn set_rpdo_mapping_parameter_4_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 85, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 44, v.to_le_bytes());
     }
 
     /// 0x1603 sub 5 RPDO mapping parameter 4 / RPDO4 mapping entry 5 (ec5000.eds:965, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 89))
+        u32::from_le_bytes(od::load::<4>(&self.image, 48))
     }
 
     /// Sets 0x1603 sub 5 RPDO mapping parameter 4 / RPDO4 mapping entry 5.
     pub fn set_rpdo_mapping_parameter_4_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 89, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 48, v.to_le_bytes());
     }
 
     /// 0x1603 sub 6 RPDO mapping parameter 4 / RPDO4 mapping entry 6 (ec5000.eds:973, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 93))
+        u32::from_le_bytes(od::load::<4>(&self.image, 52))
     }
 
     /// Sets 0x1603 sub 6 RPDO mapping parameter 4 / RPDO4 mapping entry 6.
     pub fn set_rpdo_mapping_parameter_4_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 93, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 52, v.to_le_bytes());
     }
 
     /// 0x1603 sub 7 RPDO mapping parameter 4 / RPDO4 mapping entry 7 (ec5000.eds:981, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 97))
+        u32::from_le_bytes(od::load::<4>(&self.image, 56))
     }
 
     /// Sets 0x1603 sub 7 RPDO mapping parameter 4 / RPDO4 mapping entry 7.
     pub fn set_rpdo_mapping_parameter_4_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 97, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 56, v.to_le_bytes());
     }
 
     /// 0x1603 sub 8 RPDO mapping parameter 4 / RPDO4 mapping entry 8 (ec5000.eds:989, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_4_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 101))
+        u32::from_le_bytes(od::load::<4>(&self.image, 60))
     }
 
     /// Sets 0x1603 sub 8 RPDO mapping parameter 4 / RPDO4 mapping entry 8.
     pub fn set_rpdo_mapping_parameter_4_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 101, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 60, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO communication parameter 1 / TPDO1 communication highest sub-index (ec5000.eds:1002, UNSIGNED8 const, in flash)
@@ -1773,52 +1773,52 @@ impl Ram {
 
     /// 0x1800 sub 1 TPDO communication parameter 1 / TPDO1 COB-ID (ec5000.eds:1010, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_1_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 105))
+        u32::from_le_bytes(od::load::<4>(&self.image, 64))
     }
 
     /// Sets 0x1800 sub 1 TPDO communication parameter 1 / TPDO1 COB-ID.
     pub fn set_tpdo_communication_parameter_1_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 105, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 64, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO communication parameter 1 / TPDO1 transmission type (ec5000.eds:1018, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_1_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 109))
+        u8::from_le_bytes(od::load::<1>(&self.image, 68))
     }
 
     /// Sets 0x1800 sub 2 TPDO communication parameter 1 / TPDO1 transmission type.
     pub fn set_tpdo_communication_parameter_1_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 109, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 68, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO communication parameter 1 / TPDO1 inhibit time (ec5000.eds:1026, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_1_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 110))
+        u16::from_le_bytes(od::load::<2>(&self.image, 69))
     }
 
     /// Sets 0x1800 sub 3 TPDO communication parameter 1 / TPDO1 inhibit time.
     pub fn set_tpdo_communication_parameter_1_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 110, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 69, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO communication parameter 1 / TPDO1 event timer (ec5000.eds:1034, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_1_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 112))
+        u16::from_le_bytes(od::load::<2>(&self.image, 71))
     }
 
     /// Sets 0x1800 sub 5 TPDO communication parameter 1 / TPDO1 event timer.
     pub fn set_tpdo_communication_parameter_1_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 112, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 71, v.to_le_bytes());
     }
 
     /// 0x1800 sub 6 TPDO communication parameter 1 / TPDO1 SYNC start value (ec5000.eds:1042, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_1_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 114))
+        u8::from_le_bytes(od::load::<1>(&self.image, 73))
     }
 
     /// Sets 0x1800 sub 6 TPDO communication parameter 1 / TPDO1 SYNC start value.
     pub fn set_tpdo_communication_parameter_1_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 114, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 73, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO communication parameter 2 / TPDO2 communication highest sub-index (ec5000.eds:1055, UNSIGNED8 const, in flash)
@@ -1828,52 +1828,52 @@ impl Ram {
 
     /// 0x1801 sub 1 TPDO communication parameter 2 / TPDO2 COB-ID (ec5000.eds:1063, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_2_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 115))
+        u32::from_le_bytes(od::load::<4>(&self.image, 74))
     }
 
     /// Sets 0x1801 sub 1 TPDO communication parameter 2 / TPDO2 COB-ID.
     pub fn set_tpdo_communication_parameter_2_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 115, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 74, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO communication parameter 2 / TPDO2 transmission type (ec5000.eds:1071, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_2_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 119))
+        u8::from_le_bytes(od::load::<1>(&self.image, 78))
     }
 
     /// Sets 0x1801 sub 2 TPDO communication parameter 2 / TPDO2 transmission type.
     pub fn set_tpdo_communication_parameter_2_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 119, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 78, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO communication parameter 2 / TPDO2 inhibit time (ec5000.eds:1079, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_2_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 120))
+        u16::from_le_bytes(od::load::<2>(&self.image, 79))
     }
 
     /// Sets 0x1801 sub 3 TPDO communication parameter 2 / TPDO2 inhibit time.
     pub fn set_tpdo_communication_parameter_2_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 120, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 79, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO communication parameter 2 / TPDO2 event timer (ec5000.eds:1087, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_2_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 122))
+        u16::from_le_bytes(od::load::<2>(&self.image, 81))
     }
 
     /// Sets 0x1801 sub 5 TPDO communication parameter 2 / TPDO2 event timer.
     pub fn set_tpdo_communication_parameter_2_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 122, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 81, v.to_le_bytes());
     }
 
     /// 0x1801 sub 6 TPDO communication parameter 2 / TPDO2 SYNC start value (ec5000.eds:1095, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_2_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 124))
+        u8::from_le_bytes(od::load::<1>(&self.image, 83))
     }
 
     /// Sets 0x1801 sub 6 TPDO communication parameter 2 / TPDO2 SYNC start value.
     pub fn set_tpdo_communication_parameter_2_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 124, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 83, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO communication parameter 3 / TPDO3 communication highest sub-index (ec5000.eds:1108, UNSIGNED8 const, in flash)
@@ -1883,52 +1883,52 @@ impl Ram {
 
     /// 0x1802 sub 1 TPDO communication parameter 3 / TPDO3 COB-ID (ec5000.eds:1116, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_3_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 125))
+        u32::from_le_bytes(od::load::<4>(&self.image, 84))
     }
 
     /// Sets 0x1802 sub 1 TPDO communication parameter 3 / TPDO3 COB-ID.
     pub fn set_tpdo_communication_parameter_3_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 125, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 84, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO communication parameter 3 / TPDO3 transmission type (ec5000.eds:1124, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_3_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 129))
+        u8::from_le_bytes(od::load::<1>(&self.image, 88))
     }
 
     /// Sets 0x1802 sub 2 TPDO communication parameter 3 / TPDO3 transmission type.
     pub fn set_tpdo_communication_parameter_3_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 129, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 88, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO communication parameter 3 / TPDO3 inhibit time (ec5000.eds:1132, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_3_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 130))
+        u16::from_le_bytes(od::load::<2>(&self.image, 89))
     }
 
     /// Sets 0x1802 sub 3 TPDO communication parameter 3 / TPDO3 inhibit time.
     pub fn set_tpdo_communication_parameter_3_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 130, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 89, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO communication parameter 3 / TPDO3 event timer (ec5000.eds:1140, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_3_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 132))
+        u16::from_le_bytes(od::load::<2>(&self.image, 91))
     }
 
     /// Sets 0x1802 sub 5 TPDO communication parameter 3 / TPDO3 event timer.
     pub fn set_tpdo_communication_parameter_3_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 132, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 91, v.to_le_bytes());
     }
 
     /// 0x1802 sub 6 TPDO communication parameter 3 / TPDO3 SYNC start value (ec5000.eds:1148, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_3_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 134))
+        u8::from_le_bytes(od::load::<1>(&self.image, 93))
     }
 
     /// Sets 0x1802 sub 6 TPDO communication parameter 3 / TPDO3 SYNC start value.
     pub fn set_tpdo_communication_parameter_3_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 134, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 93, v.to_le_bytes());
     }
 
     /// 0x1803 sub 0 TPDO communication parameter 4 / TPDO4 communication highest sub-index (ec5000.eds:1161, UNSIGNED8 const, in flash)
@@ -1938,52 +1938,52 @@ impl Ram {
 
     /// 0x1803 sub 1 TPDO communication parameter 4 / TPDO4 COB-ID (ec5000.eds:1169, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_4_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 135))
+        u32::from_le_bytes(od::load::<4>(&self.image, 94))
     }
 
     /// Sets 0x1803 sub 1 TPDO communication parameter 4 / TPDO4 COB-ID.
     pub fn set_tpdo_communication_parameter_4_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 135, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 94, v.to_le_bytes());
     }
 
     /// 0x1803 sub 2 TPDO communication parameter 4 / TPDO4 transmission type (ec5000.eds:1177, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_4_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 139))
+        u8::from_le_bytes(od::load::<1>(&self.image, 98))
     }
 
     /// Sets 0x1803 sub 2 TPDO communication parameter 4 / TPDO4 transmission type.
     pub fn set_tpdo_communication_parameter_4_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 139, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 98, v.to_le_bytes());
     }
 
     /// 0x1803 sub 3 TPDO communication parameter 4 / TPDO4 inhibit time (ec5000.eds:1185, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_4_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 140))
+        u16::from_le_bytes(od::load::<2>(&self.image, 99))
     }
 
     /// Sets 0x1803 sub 3 TPDO communication parameter 4 / TPDO4 inhibit time.
     pub fn set_tpdo_communication_parameter_4_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 140, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 99, v.to_le_bytes());
     }
 
     /// 0x1803 sub 5 TPDO communication parameter 4 / TPDO4 event timer (ec5000.eds:1193, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_4_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 142))
+        u16::from_le_bytes(od::load::<2>(&self.image, 101))
     }
 
     /// Sets 0x1803 sub 5 TPDO communication parameter 4 / TPDO4 event timer.
     pub fn set_tpdo_communication_parameter_4_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 142, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 101, v.to_le_bytes());
     }
 
     /// 0x1803 sub 6 TPDO communication parameter 4 / TPDO4 SYNC start value (ec5000.eds:1201, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_4_sync_start_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 144))
+        u8::from_le_bytes(od::load::<1>(&self.image, 103))
     }
 
     /// Sets 0x1803 sub 6 TPDO communication parameter 4 / TPDO4 SYNC start value.
     pub fn set_tpdo_communication_parameter_4_sync_start_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 144, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 103, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO mapping parameter 1 / TPDO1 number of mapped objects (ec5000.eds:1214, UNSIGNED8 const, in flash)
@@ -1993,82 +1993,82 @@ impl Ram {
 
     /// 0x1A00 sub 1 TPDO mapping parameter 1 / TPDO1 mapping entry 1 (ec5000.eds:1222, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 466))
+        u32::from_le_bytes(od::load::<4>(&self.image, 465))
     }
 
     /// Sets 0x1A00 sub 1 TPDO mapping parameter 1 / TPDO1 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_1_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 466, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 465, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO mapping parameter 1 / TPDO1 mapping entry 2 (ec5000.eds:1230, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 470))
+        u32::from_le_bytes(od::load::<4>(&self.image, 469))
     }
 
     /// Sets 0x1A00 sub 2 TPDO mapping parameter 1 / TPDO1 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_1_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 470, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 469, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO mapping parameter 1 / TPDO1 mapping entry 3 (ec5000.eds:1238, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 474))
+        u32::from_le_bytes(od::load::<4>(&self.image, 473))
     }
 
     /// Sets 0x1A00 sub 3 TPDO mapping parameter 1 / TPDO1 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_1_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 474, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 473, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO mapping parameter 1 / TPDO1 mapping entry 4 (ec5000.eds:1246, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 478))
+        u32::from_le_bytes(od::load::<4>(&self.image, 477))
     }
 
     /// Sets 0x1A00 sub 4 TPDO mapping parameter 1 / TPDO1 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_1_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 478, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 477, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO mapping parameter 1 / TPDO1 mapping entry 5 (ec5000.eds:1254, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 482))
+        u32::from_le_bytes(od::load::<4>(&self.image, 481))
     }
 
     /// Sets 0x1A00 sub 5 TPDO mapping parameter 1 / TPDO1 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_1_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 482, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 481, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO mapping parameter 1 / TPDO1 mapping entry 6 (ec5000.eds:1262, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 486))
+        u32::from_le_bytes(od::load::<4>(&self.image, 485))
     }
 
     /// Sets 0x1A00 sub 6 TPDO mapping parameter 1 / TPDO1 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_1_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 486, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 485, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO mapping parameter 1 / TPDO1 mapping entry 7 (ec5000.eds:1270, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 490))
+        u32::from_le_bytes(od::load::<4>(&self.image, 489))
     }
 
     /// Sets 0x1A00 sub 7 TPDO mapping parameter 1 / TPDO1 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_1_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 490, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 489, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO mapping parameter 1 / TPDO1 mapping entry 8 (ec5000.eds:1278, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_1_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 494))
+        u32::from_le_bytes(od::load::<4>(&self.image, 493))
     }
 
     /// Sets 0x1A00 sub 8 TPDO mapping parameter 1 / TPDO1 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_1_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 494, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 493, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO mapping parameter 2 / TPDO2 number of mapped objects (ec5000.eds:1291, UNSIGNED8 const, in flash)
@@ -2078,82 +2078,82 @@ impl Ram {
 
     /// 0x1A01 sub 1 TPDO mapping parameter 2 / TPDO2 mapping entry 1 (ec5000.eds:1299, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 498))
+        u32::from_le_bytes(od::load::<4>(&self.image, 497))
     }
 
     /// Sets 0x1A01 sub 1 TPDO mapping parameter 2 / TPDO2 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_2_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 498, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 497, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO mapping parameter 2 / TPDO2 mapping entry 2 (ec5000.eds:1307, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 502))
+        u32::from_le_bytes(od::load::<4>(&self.image, 501))
     }
 
     /// Sets 0x1A01 sub 2 TPDO mapping parameter 2 / TPDO2 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_2_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 502, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 501, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO mapping parameter 2 / TPDO2 mapping entry 3 (ec5000.eds:1315, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 506))
+        u32::from_le_bytes(od::load::<4>(&self.image, 505))
     }
 
     /// Sets 0x1A01 sub 3 TPDO mapping parameter 2 / TPDO2 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_2_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 506, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 505, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO mapping parameter 2 / TPDO2 mapping entry 4 (ec5000.eds:1323, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 510))
+        u32::from_le_bytes(od::load::<4>(&self.image, 509))
     }
 
     /// Sets 0x1A01 sub 4 TPDO mapping parameter 2 / TPDO2 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_2_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 510, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 509, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO mapping parameter 2 / TPDO2 mapping entry 5 (ec5000.eds:1331, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 514))
+        u32::from_le_bytes(od::load::<4>(&self.image, 513))
     }
 
     /// Sets 0x1A01 sub 5 TPDO mapping parameter 2 / TPDO2 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_2_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 514, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 513, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO mapping parameter 2 / TPDO2 mapping entry 6 (ec5000.eds:1339, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 518))
+        u32::from_le_bytes(od::load::<4>(&self.image, 517))
     }
 
     /// Sets 0x1A01 sub 6 TPDO mapping parameter 2 / TPDO2 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_2_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 518, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 517, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO mapping parameter 2 / TPDO2 mapping entry 7 (ec5000.eds:1347, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 522))
+        u32::from_le_bytes(od::load::<4>(&self.image, 521))
     }
 
     /// Sets 0x1A01 sub 7 TPDO mapping parameter 2 / TPDO2 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_2_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 522, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 521, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO mapping parameter 2 / TPDO2 mapping entry 8 (ec5000.eds:1355, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_2_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 526))
+        u32::from_le_bytes(od::load::<4>(&self.image, 525))
     }
 
     /// Sets 0x1A01 sub 8 TPDO mapping parameter 2 / TPDO2 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_2_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 526, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 525, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO mapping parameter 3 / TPDO3 number of mapped objects (ec5000.eds:1368, UNSIGNED8 const, in flash)
@@ -2163,172 +2163,172 @@ impl Ram {
 
     /// 0x1A02 sub 1 TPDO mapping parameter 3 / TPDO3 mapping entry 1 (ec5000.eds:1376, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 530))
+        u32::from_le_bytes(od::load::<4>(&self.image, 529))
     }
 
     /// Sets 0x1A02 sub 1 TPDO mapping parameter 3 / TPDO3 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_3_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 530, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 529, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO mapping parameter 3 / TPDO3 mapping entry 2 (ec5000.eds:1384, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 534))
+        u32::from_le_bytes(od::load::<4>(&self.image, 533))
     }
 
     /// Sets 0x1A02 sub 2 TPDO mapping parameter 3 / TPDO3 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_3_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 534, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 533, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO mapping parameter 3 / TPDO3 mapping entry 3 (ec5000.eds:1392, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 538))
+        u32::from_le_bytes(od::load::<4>(&self.image, 537))
     }
 
     /// Sets 0x1A02 sub 3 TPDO mapping parameter 3 / TPDO3 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_3_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 538, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 537, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO mapping parameter 3 / TPDO3 mapping entry 4 (ec5000.eds:1400, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 542))
+        u32::from_le_bytes(od::load::<4>(&self.image, 541))
     }
 
     /// Sets 0x1A02 sub 4 TPDO mapping parameter 3 / TPDO3 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_3_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 542, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 541, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO mapping parameter 3 / TPDO3 mapping entry 5 (ec5000.eds:1408, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 546))
+        u32::from_le_bytes(od::load::<4>(&self.image, 545))
     }
 
     /// Sets 0x1A02 sub 5 TPDO mapping parameter 3 / TPDO3 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_3_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 546, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 545, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO mapping parameter 3 / TPDO3 mapping entry 6 (ec5000.eds:1416, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 550))
+        u32::from_le_bytes(od::load::<4>(&self.image, 549))
     }
 
     /// Sets 0x1A02 sub 6 TPDO mapping parameter 3 / TPDO3 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_3_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 550, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 549, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO mapping parameter 3 / TPDO3 mapping entry 7 (ec5000.eds:1424, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 554))
+        u32::from_le_bytes(od::load::<4>(&self.image, 553))
     }
 
     /// Sets 0x1A02 sub 7 TPDO mapping parameter 3 / TPDO3 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_3_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 554, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 553, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO mapping parameter 3 / TPDO3 mapping entry 8 (ec5000.eds:1432, UNSIGNED32 ro)
     pub fn tpdo_mapping_parameter_3_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 558))
+        u32::from_le_bytes(od::load::<4>(&self.image, 557))
     }
 
     /// Sets 0x1A02 sub 8 TPDO mapping parameter 3 / TPDO3 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_3_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 558, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 557, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 0 TPDO mapping parameter 4 / TPDO4 number of mapped objects (ec5000.eds:1445, UNSIGNED8 rw)
     pub fn tpdo_mapping_parameter_4_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 145))
+        u8::from_le_bytes(od::load::<1>(&self.image, 104))
     }
 
     /// Sets 0x1A03 sub 0 TPDO mapping parameter 4 / TPDO4 number of mapped objects.
     pub fn set_tpdo_mapping_parameter_4_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 145, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 104, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 1 TPDO mapping parameter 4 / TPDO4 mapping entry 1 (ec5000.eds:1455, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 146))
+        u32::from_le_bytes(od::load::<4>(&self.image, 105))
     }
 
     /// Sets 0x1A03 sub 1 TPDO mapping parameter 4 / TPDO4 mapping entry 1.
     pub fn set_tpdo_mapping_parameter_4_entry_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 146, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 105, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 2 TPDO mapping parameter 4 / TPDO4 mapping entry 2 (ec5000.eds:1463, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 150))
+        u32::from_le_bytes(od::load::<4>(&self.image, 109))
     }
 
     /// Sets 0x1A03 sub 2 TPDO mapping parameter 4 / TPDO4 mapping entry 2.
     pub fn set_tpdo_mapping_parameter_4_entry_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 150, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 109, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 3 TPDO mapping parameter 4 / TPDO4 mapping entry 3 (ec5000.eds:1471, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 154))
+        u32::from_le_bytes(od::load::<4>(&self.image, 113))
     }
 
     /// Sets 0x1A03 sub 3 TPDO mapping parameter 4 / TPDO4 mapping entry 3.
     pub fn set_tpdo_mapping_parameter_4_entry_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 154, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 113, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 4 TPDO mapping parameter 4 / TPDO4 mapping entry 4 (ec5000.eds:1479, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 158))
+        u32::from_le_bytes(od::load::<4>(&self.image, 117))
     }
 
     /// Sets 0x1A03 sub 4 TPDO mapping parameter 4 / TPDO4 mapping entry 4.
     pub fn set_tpdo_mapping_parameter_4_entry_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 158, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 117, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 5 TPDO mapping parameter 4 / TPDO4 mapping entry 5 (ec5000.eds:1487, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 162))
+        u32::from_le_bytes(od::load::<4>(&self.image, 121))
     }
 
     /// Sets 0x1A03 sub 5 TPDO mapping parameter 4 / TPDO4 mapping entry 5.
     pub fn set_tpdo_mapping_parameter_4_entry_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 162, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 121, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 6 TPDO mapping parameter 4 / TPDO4 mapping entry 6 (ec5000.eds:1495, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 166))
+        u32::from_le_bytes(od::load::<4>(&self.image, 125))
     }
 
     /// Sets 0x1A03 sub 6 TPDO mapping parameter 4 / TPDO4 mapping entry 6.
     pub fn set_tpdo_mapping_parameter_4_entry_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 166, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 125, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 7 TPDO mapping parameter 4 / TPDO4 mapping entry 7 (ec5000.eds:1503, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 170))
+        u32::from_le_bytes(od::load::<4>(&self.image, 129))
     }
 
     /// Sets 0x1A03 sub 7 TPDO mapping parameter 4 / TPDO4 mapping entry 7.
     pub fn set_tpdo_mapping_parameter_4_entry_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 170, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 129, v.to_le_bytes());
     }
 
     /// 0x1A03 sub 8 TPDO mapping parameter 4 / TPDO4 mapping entry 8 (ec5000.eds:1511, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_4_entry_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 174))
+        u32::from_le_bytes(od::load::<4>(&self.image, 133))
     }
 
     /// Sets 0x1A03 sub 8 TPDO mapping parameter 4 / TPDO4 mapping entry 8.
     pub fn set_tpdo_mapping_parameter_4_entry_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 174, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 133, v.to_le_bytes());
     }
 
     /// 0x1F51 sub 0 Program control / Program control highest sub-index (ec5000.eds:1524, UNSIGNED8 const, in flash)
@@ -2338,22 +2338,22 @@ impl Ram {
 
     /// 0x1F51 sub 1 Program control / Program control 1 (ec5000.eds:1532, UNSIGNED8 rw)
     pub fn program_control_1(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 178))
+        u8::from_le_bytes(od::load::<1>(&self.image, 561))
     }
 
     /// Sets 0x1F51 sub 1 Program control / Program control 1.
     pub fn set_program_control_1(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 178, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 561, v.to_le_bytes());
     }
 
     /// 0x1F80 NMT startup (ec5000.eds:1542, UNSIGNED32 rw)
     pub fn nmt_startup(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 179))
+        u32::from_le_bytes(od::load::<4>(&self.image, 137))
     }
 
     /// Sets 0x1F80 NMT startup.
     pub fn set_nmt_startup(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 179, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 137, v.to_le_bytes());
     }
 
     /// 0x2200 sub 0 Monitoring values / Monitoring values highest sub-index (ec5000.eds:1555, UNSIGNED8 ro)
@@ -2538,32 +2538,32 @@ impl Ram {
 
     /// 0x4231 sub 1 High temperature warning level / High temperature warning threshold (ec5000.eds:1722, INTEGER16 rw)
     pub fn high_temperature_warning_level_threshold(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 183))
+        i16::from_le_bytes(od::load::<2>(&self.image, 141))
     }
 
     /// Sets 0x4231 sub 1 High temperature warning level / High temperature warning threshold.
     pub fn set_high_temperature_warning_level_threshold(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 183, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 141, v.to_le_bytes());
     }
 
     /// 0x4231 sub 2 High temperature warning level / High temperature warning hysteresis (ec5000.eds:1732, INTEGER16 rw)
     pub fn high_temperature_warning_level_hysteresis(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 185))
+        i16::from_le_bytes(od::load::<2>(&self.image, 143))
     }
 
     /// Sets 0x4231 sub 2 High temperature warning level / High temperature warning hysteresis.
     pub fn set_high_temperature_warning_level_hysteresis(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 185, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 143, v.to_le_bytes());
     }
 
     /// 0x4645 Positioning deceleration ramp (ec5000.eds:1742, UNSIGNED16 rw)
     pub fn positioning_deceleration_ramp(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 187))
+        u16::from_le_bytes(od::load::<2>(&self.image, 145))
     }
 
     /// Sets 0x4645 Positioning deceleration ramp.
     pub fn set_positioning_deceleration_ramp(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 187, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 145, v.to_le_bytes());
     }
 
     /// 0x4650 sub 0 Bus address / Bus address highest sub-index (ec5000.eds:1757, UNSIGNED8 const, in flash)
@@ -2573,12 +2573,12 @@ impl Ram {
 
     /// 0x4650 sub 1 Bus address / Node-ID static (ec5000.eds:1765, UNSIGNED8 rw)
     pub fn bus_address_node_id_static(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 189))
+        u8::from_le_bytes(od::load::<1>(&self.image, 147))
     }
 
     /// Sets 0x4650 sub 1 Bus address / Node-ID static.
     pub fn set_bus_address_node_id_static(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 189, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 147, v.to_le_bytes());
     }
 
     /// 0x4650 sub 2 Bus address / Node-ID actual (ec5000.eds:1775, UNSIGNED8 ro)
@@ -2598,22 +2598,22 @@ impl Ram {
 
     /// 0x4651 sub 1 Baud rate / CAN bit rate (ec5000.eds:1798, UNSIGNED16 rw)
     pub fn baud_rate_can_bit_rate(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 190))
+        u16::from_le_bytes(od::load::<2>(&self.image, 148))
     }
 
     /// Sets 0x4651 sub 1 Baud rate / CAN bit rate.
     pub fn set_baud_rate_can_bit_rate(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 190, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 148, v.to_le_bytes());
     }
 
     /// 0x4651 sub 2 Baud rate / UART baud rate (ec5000.eds:1808, UNSIGNED16 rw)
     pub fn baud_rate_uart_baud_rate(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 192))
+        u16::from_le_bytes(od::load::<2>(&self.image, 150))
     }
 
     /// Sets 0x4651 sub 2 Baud rate / UART baud rate.
     pub fn set_baud_rate_uart_baud_rate(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 192, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 150, v.to_le_bytes());
     }
 
     /// 0x4FFE Actual SDO server user (ec5000.eds:1818, UNSIGNED8 ro)
@@ -2628,32 +2628,32 @@ impl Ram {
 
     /// 0x4FFF User login (ec5000.eds:1826, UNSIGNED32 wo)
     pub fn user_login(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 194))
+        u32::from_le_bytes(od::load::<4>(&self.image, 152))
     }
 
     /// Sets 0x4FFF User login.
     pub fn set_user_login(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 194, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 152, v.to_le_bytes());
     }
 
     /// 0x6007 Abort connection option code (ec5000.eds:1834, INTEGER16 rw)
     pub fn abort_connection_option_code(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 198))
+        i16::from_le_bytes(od::load::<2>(&self.image, 156))
     }
 
     /// Sets 0x6007 Abort connection option code.
     pub fn set_abort_connection_option_code(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 198, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 156, v.to_le_bytes());
     }
 
     /// 0x6040 Controlword (ec5000.eds:1844, UNSIGNED16 rww, PDO-mappable)
     pub fn controlword(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 200))
+        u16::from_le_bytes(od::load::<2>(&self.image, 158))
     }
 
     /// Sets 0x6040 Controlword.
     pub fn set_controlword(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 200, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 158, v.to_le_bytes());
     }
 
     /// 0x6041 Statusword (ec5000.eds:1852, UNSIGNED16 ro, PDO-mappable)
@@ -2668,12 +2668,12 @@ impl Ram {
 
     /// 0x6060 Modes of operation (ec5000.eds:1860, INTEGER8 rww, PDO-mappable)
     pub fn modes_of_operation(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 202))
+        i8::from_le_bytes(od::load::<1>(&self.image, 160))
     }
 
     /// Sets 0x6060 Modes of operation.
     pub fn set_modes_of_operation(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 202, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 160, v.to_le_bytes());
     }
 
     /// 0x6061 Modes of operation display (ec5000.eds:1870, INTEGER8 ro, PDO-mappable)
@@ -2728,12 +2728,12 @@ impl Ram {
 
     /// 0x6073 Max current (ec5000.eds:1910, UNSIGNED16 rwr, PDO-mappable)
     pub fn max_current(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 203))
+        u16::from_le_bytes(od::load::<2>(&self.image, 161))
     }
 
     /// Sets 0x6073 Max current.
     pub fn set_max_current(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 203, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 161, v.to_le_bytes());
     }
 
     /// 0x6077 Torque actual value (ec5000.eds:1920, INTEGER16 ro, PDO-mappable)
@@ -2758,62 +2758,62 @@ impl Ram {
 
     /// 0x607A Target position (ec5000.eds:1936, INTEGER32 rww, PDO-mappable)
     pub fn target_position(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 205))
+        i32::from_le_bytes(od::load::<4>(&self.image, 163))
     }
 
     /// Sets 0x607A Target position.
     pub fn set_target_position(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 205, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 163, v.to_le_bytes());
     }
 
     /// 0x607E Polarity (ec5000.eds:1944, UNSIGNED8 rw)
     pub fn polarity(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 209))
+        u8::from_le_bytes(od::load::<1>(&self.image, 167))
     }
 
     /// Sets 0x607E Polarity.
     pub fn set_polarity(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 209, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 167, v.to_le_bytes());
     }
 
     /// 0x607F Max profile velocity (ec5000.eds:1954, UNSIGNED32 rww, PDO-mappable)
     pub fn max_profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 210))
+        u32::from_le_bytes(od::load::<4>(&self.image, 168))
     }
 
     /// Sets 0x607F Max profile velocity.
     pub fn set_max_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 210, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 168, v.to_le_bytes());
     }
 
     /// 0x6081 Profile velocity (ec5000.eds:1964, UNSIGNED32 rww, PDO-mappable)
     pub fn profile_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 214))
+        u32::from_le_bytes(od::load::<4>(&self.image, 172))
     }
 
     /// Sets 0x6081 Profile velocity.
     pub fn set_profile_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 214, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 172, v.to_le_bytes());
     }
 
     /// 0x6083 Profile acceleration (ec5000.eds:1974, UNSIGNED32 rww, PDO-mappable)
     pub fn profile_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 218))
+        u32::from_le_bytes(od::load::<4>(&self.image, 176))
     }
 
     /// Sets 0x6083 Profile acceleration.
     pub fn set_profile_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 218, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 176, v.to_le_bytes());
     }
 
     /// 0x6084 Profile deceleration (ec5000.eds:1982, UNSIGNED32 rww, PDO-mappable)
     pub fn profile_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 222))
+        u32::from_le_bytes(od::load::<4>(&self.image, 180))
     }
 
     /// Sets 0x6084 Profile deceleration.
     pub fn set_profile_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 222, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 180, v.to_le_bytes());
     }
 
     /// 0x6091 sub 0 Gear ratio / Gear ratio highest sub-index (ec5000.eds:1995, UNSIGNED8 const, in flash)
@@ -2826,7 +2826,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 222 + usize::from(i) * 4;
+        let off = 180 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2835,7 +2835,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 222 + usize::from(i) * 4;
+        let off = 180 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -2850,7 +2850,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 230 + usize::from(i) * 4;
+        let off = 188 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -2859,79 +2859,79 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 230 + usize::from(i) * 4;
+        let off = 188 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x6098 Homing method (ec5000.eds:2050, INTEGER8 rww, PDO-mappable)
     pub fn homing_method(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 242))
+        i8::from_le_bytes(od::load::<1>(&self.image, 200))
     }
 
     /// Sets 0x6098 Homing method.
     pub fn set_homing_method(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 242, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 200, v.to_le_bytes());
     }
 
     /// 0x6099 Homing speeds (ec5000.eds:2060, UNSIGNED32 rw)
     pub fn homing_speeds(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 243))
+        u32::from_le_bytes(od::load::<4>(&self.image, 201))
     }
 
     /// Sets 0x6099 Homing speeds.
     pub fn set_homing_speeds(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 243, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 201, v.to_le_bytes());
     }
 
     /// 0x60A8 SI unit position (ec5000.eds:2070, UNSIGNED32 rw)
     pub fn si_unit_position(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 247))
+        u32::from_le_bytes(od::load::<4>(&self.image, 205))
     }
 
     /// Sets 0x60A8 SI unit position.
     pub fn set_si_unit_position(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 247, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 205, v.to_le_bytes());
     }
 
     /// 0x60A9 SI unit velocity (ec5000.eds:2080, UNSIGNED32 rw)
     pub fn si_unit_velocity(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 251))
+        u32::from_le_bytes(od::load::<4>(&self.image, 209))
     }
 
     /// Sets 0x60A9 SI unit velocity.
     pub fn set_si_unit_velocity(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 251, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 209, v.to_le_bytes());
     }
 
     /// 0x60AA SI unit acceleration (ec5000.eds:2090, UNSIGNED32 rw)
     pub fn si_unit_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 255))
+        u32::from_le_bytes(od::load::<4>(&self.image, 213))
     }
 
     /// Sets 0x60AA SI unit acceleration.
     pub fn set_si_unit_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 255, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 213, v.to_le_bytes());
     }
 
     /// 0x60C5 Max acceleration (ec5000.eds:2100, UNSIGNED32 rw)
     pub fn max_acceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 259))
+        u32::from_le_bytes(od::load::<4>(&self.image, 217))
     }
 
     /// Sets 0x60C5 Max acceleration.
     pub fn set_max_acceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 259, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 217, v.to_le_bytes());
     }
 
     /// 0x60C6 Max deceleration (ec5000.eds:2108, UNSIGNED32 rw)
     pub fn max_deceleration(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 263))
+        u32::from_le_bytes(od::load::<4>(&self.image, 221))
     }
 
     /// Sets 0x60C6 Max deceleration.
     pub fn set_max_deceleration(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 263, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 221, v.to_le_bytes());
     }
 
     /// 0x60E3 sub 0 Supported homing methods / Number of supported homing methods (ec5000.eds:2121, UNSIGNED8 const, in flash)
@@ -2946,22 +2946,22 @@ impl Ram {
 
     /// 0x60F2 Positioning option code (ec5000.eds:2137, UNSIGNED16 rww, PDO-mappable)
     pub fn positioning_option_code(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 267))
+        u16::from_le_bytes(od::load::<2>(&self.image, 225))
     }
 
     /// Sets 0x60F2 Positioning option code.
     pub fn set_positioning_option_code(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 267, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 225, v.to_le_bytes());
     }
 
     /// 0x60FF Target velocity (ec5000.eds:2145, INTEGER32 rww, PDO-mappable)
     pub fn target_velocity(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 269))
+        i32::from_le_bytes(od::load::<4>(&self.image, 227))
     }
 
     /// Sets 0x60FF Target velocity.
     pub fn set_target_velocity(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 269, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 227, v.to_le_bytes());
     }
 
     /// 0x6402 Motor type (ec5000.eds:2155, UNSIGNED16 ro)
@@ -2976,12 +2976,12 @@ impl Ram {
 
     /// 0x6403 Motor catalogue number (ec5000.eds:2163, VISIBLE_STRING rw)
     pub fn motor_catalogue_number(&self) -> &[u8] {
-        od::load_str(&self.image, 273, 16)
+        od::load_str(&self.image, 231, 16)
     }
 
     /// Sets 0x6403 Motor catalogue number. Cut to 16 bytes; returns the number stored.
     pub fn set_motor_catalogue_number(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 273, 16, v)
+        od::store_str(&mut self.image, 231, 16, v)
     }
 
     /// 0x6404 Motor manufacturer (ec5000.eds:2171, VISIBLE_STRING const, in flash)

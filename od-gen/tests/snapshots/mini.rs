@@ -93,7 +93,7 @@ pub const ENTRY_COUNT: usize = 68;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 244;
 /// Bytes at the front of the RAM image a stored parameter set holds.
-pub const STORED_SIZE: usize = 197;
+pub const STORED_SIZE: usize = 196;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 30;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -129,18 +129,18 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 197, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 0, NO_LIMITS), // 0x1003:00 Pre-defined error field / Highest sub-index supported
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 196, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 197, NO_LIMITS), // 0x1003:00 Pre-defined error field / Highest sub-index supported
     Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 198, NO_LIMITS), // 0x1003:01 Pre-defined error field / Pre-defined error field1
     Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 202, NO_LIMITS), // 0x1003:02 Pre-defined error field / Pre-defined error field2
     Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 206, NO_LIMITS), // 0x1003:03 Pre-defined error field / Pre-defined error field3
     Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 210, NO_LIMITS), // 0x1003:04 Pre-defined error field / Pre-defined error field4
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 1, NO_LIMITS), // 0x1005:00 COB-ID SYNC
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC
     Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 214, NO_LIMITS), // 0x1014:00 COB-ID EMCY
     Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 218, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 5, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
-    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 9, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 13, 0), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
+    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 12, 0), // 0x1017:00 Producer heartbeat time
     Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 4, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
     Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 5, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
     Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 9, NO_LIMITS), // 0x1018:02 Identity object / Product code
@@ -150,52 +150,52 @@ static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 223, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
     Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 227, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
     Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS), // 0x1400:00 RPDO communication parameter / Highest sub-index supported
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 15, NO_LIMITS), // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 19, NO_LIMITS), // 0x1400:02 RPDO communication parameter / Transmission type
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 20, NO_LIMITS), // 0x1600:00 RPDO mapping parameter / Number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 21, NO_LIMITS), // 0x1600:01 RPDO mapping parameter / Mapped object 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 25, NO_LIMITS), // 0x1600:02 RPDO mapping parameter / Mapped object 2
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 14, NO_LIMITS), // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 18, NO_LIMITS), // 0x1400:02 RPDO communication parameter / Transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 19, NO_LIMITS), // 0x1600:00 RPDO mapping parameter / Number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 20, NO_LIMITS), // 0x1600:01 RPDO mapping parameter / Mapped object 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 24, NO_LIMITS), // 0x1600:02 RPDO mapping parameter / Mapped object 2
     Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS), // 0x1800:00 TPDO communication parameter / Highest sub-index supported
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 29, NO_LIMITS), // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 33, NO_LIMITS), // 0x1800:02 TPDO communication parameter / Transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 34, NO_LIMITS), // 0x1800:03 TPDO communication parameter / Inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 36, NO_LIMITS), // 0x1800:05 TPDO communication parameter / Event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 38, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter / Number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 39, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter / Mapped object 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 43, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter / Mapped object 2
-    Entry::new(0x2001, 0x00, DataType::Boolean, RW_TPDO_RPDO, 1, 47, NO_LIMITS), // 0x2001:00 Boolean value
-    Entry::new(0x2002, 0x00, DataType::Integer8, RW_TPDO_RPDO, 1, 48, NO_LIMITS), // 0x2002:00 Integer8 value
-    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO, 2, 49, 1), // 0x2003:00 Integer16 value
-    Entry::new(0x2004, 0x00, DataType::Integer32, RW, 4, 51, NO_LIMITS), // 0x2004:00 Integer32 value
-    Entry::new(0x2005, 0x00, DataType::Unsigned8, RW, 1, 55, NO_LIMITS), // 0x2005:00 Unsigned8 value
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28, NO_LIMITS), // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 32, NO_LIMITS), // 0x1800:02 TPDO communication parameter / Transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 33, NO_LIMITS), // 0x1800:03 TPDO communication parameter / Inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 35, NO_LIMITS), // 0x1800:05 TPDO communication parameter / Event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 37, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter / Number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 38, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter / Mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 42, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter / Mapped object 2
+    Entry::new(0x2001, 0x00, DataType::Boolean, RW_TPDO_RPDO, 1, 46, NO_LIMITS), // 0x2001:00 Boolean value
+    Entry::new(0x2002, 0x00, DataType::Integer8, RW_TPDO_RPDO, 1, 47, NO_LIMITS), // 0x2002:00 Integer8 value
+    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO, 2, 48, 1), // 0x2003:00 Integer16 value
+    Entry::new(0x2004, 0x00, DataType::Integer32, RW, 4, 50, NO_LIMITS), // 0x2004:00 Integer32 value
+    Entry::new(0x2005, 0x00, DataType::Unsigned8, RW, 1, 54, NO_LIMITS), // 0x2005:00 Unsigned8 value
     Entry::new(0x2006, 0x00, DataType::Unsigned16, RO_TPDO, 2, 231, NO_LIMITS), // 0x2006:00 Unsigned16 value
-    Entry::new(0x2007, 0x00, DataType::Unsigned32, RW_RPDO, 4, 56, 2), // 0x2007:00 Unsigned32 value
-    Entry::new(0x2008, 0x00, DataType::Real32, RW, 4, 60, 3), // 0x2008:00 Real32 value
+    Entry::new(0x2007, 0x00, DataType::Unsigned32, RW_RPDO, 4, 55, 2), // 0x2007:00 Unsigned32 value
+    Entry::new(0x2008, 0x00, DataType::Real32, RW, 4, 59, 3), // 0x2008:00 Real32 value
     Entry::new(0x2009, 0x00, DataType::VisibleString, RO, 11, 233, NO_LIMITS), // 0x2009:00 Visible string value
-    Entry::new(0x200A, 0x00, DataType::OctetString, RW, 16, 64, NO_LIMITS), // 0x200A:00 Octet string value
-    Entry::new(0x200B, 0x00, DataType::UnicodeString, RW, 16, 80, NO_LIMITS), // 0x200B:00 Unicode string value
-    Entry::new(0x200C, 0x00, DataType::TimeOfDay, RW, 6, 96, NO_LIMITS), // 0x200C:00 Time of day value
-    Entry::new(0x200D, 0x00, DataType::TimeDifference, RW, 6, 102, NO_LIMITS), // 0x200D:00 Time difference value
+    Entry::new(0x200A, 0x00, DataType::OctetString, RW, 16, 63, NO_LIMITS), // 0x200A:00 Octet string value
+    Entry::new(0x200B, 0x00, DataType::UnicodeString, RW, 16, 79, NO_LIMITS), // 0x200B:00 Unicode string value
+    Entry::new(0x200C, 0x00, DataType::TimeOfDay, RW, 6, 95, NO_LIMITS), // 0x200C:00 Time of day value
+    Entry::new(0x200D, 0x00, DataType::TimeDifference, RW, 6, 101, NO_LIMITS), // 0x200D:00 Time difference value
     Entry::new(0x200F, 0x00, DataType::Domain, RW, 0, 0, NO_LIMITS), // 0x200F:00 Domain value
-    Entry::new(0x2010, 0x00, DataType::Integer24, RW, 3, 108, NO_LIMITS), // 0x2010:00 Integer24 value
-    Entry::new(0x2011, 0x00, DataType::Real64, RW, 8, 111, NO_LIMITS), // 0x2011:00 Real64 value
-    Entry::new(0x2012, 0x00, DataType::Integer40, RW, 5, 119, NO_LIMITS), // 0x2012:00 Integer40 value
-    Entry::new(0x2013, 0x00, DataType::Integer48, RW, 6, 124, NO_LIMITS), // 0x2013:00 Integer48 value
-    Entry::new(0x2014, 0x00, DataType::Integer56, RW, 7, 130, NO_LIMITS), // 0x2014:00 Integer56 value
-    Entry::new(0x2015, 0x00, DataType::Integer64, RW, 8, 137, NO_LIMITS), // 0x2015:00 Integer64 value
-    Entry::new(0x2016, 0x00, DataType::Unsigned24, RW, 3, 145, 4), // 0x2016:00 Unsigned24 value
-    Entry::new(0x2018, 0x00, DataType::Unsigned40, RW, 5, 148, NO_LIMITS), // 0x2018:00 Unsigned40 value
-    Entry::new(0x2019, 0x00, DataType::Unsigned48, RW, 6, 153, NO_LIMITS), // 0x2019:00 Unsigned48 value
-    Entry::new(0x201A, 0x00, DataType::Unsigned56, RW, 7, 159, NO_LIMITS), // 0x201A:00 Unsigned56 value
+    Entry::new(0x2010, 0x00, DataType::Integer24, RW, 3, 107, NO_LIMITS), // 0x2010:00 Integer24 value
+    Entry::new(0x2011, 0x00, DataType::Real64, RW, 8, 110, NO_LIMITS), // 0x2011:00 Real64 value
+    Entry::new(0x2012, 0x00, DataType::Integer40, RW, 5, 118, NO_LIMITS), // 0x2012:00 Integer40 value
+    Entry::new(0x2013, 0x00, DataType::Integer48, RW, 6, 123, NO_LIMITS), // 0x2013:00 Integer48 value
+    Entry::new(0x2014, 0x00, DataType::Integer56, RW, 7, 129, NO_LIMITS), // 0x2014:00 Integer56 value
+    Entry::new(0x2015, 0x00, DataType::Integer64, RW, 8, 136, NO_LIMITS), // 0x2015:00 Integer64 value
+    Entry::new(0x2016, 0x00, DataType::Unsigned24, RW, 3, 144, 4), // 0x2016:00 Unsigned24 value
+    Entry::new(0x2018, 0x00, DataType::Unsigned40, RW, 5, 147, NO_LIMITS), // 0x2018:00 Unsigned40 value
+    Entry::new(0x2019, 0x00, DataType::Unsigned48, RW, 6, 152, NO_LIMITS), // 0x2019:00 Unsigned48 value
+    Entry::new(0x201A, 0x00, DataType::Unsigned56, RW, 7, 158, NO_LIMITS), // 0x201A:00 Unsigned56 value
     Entry::new(0x201B, 0x00, DataType::Unsigned64, CONST, 8, 20, NO_LIMITS), // 0x201B:00 Unsigned64 value
     Entry::new(0x2100, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS), // 0x2100:00 Setpoints / Highest sub-index supported
-    Entry::new(0x2100, 0x01, DataType::Integer16, RW_RPDO, 2, 166, 5), // 0x2100:01 Setpoints / Setpoint 1
-    Entry::new(0x2100, 0x02, DataType::Integer16, RW_RPDO, 2, 168, 5), // 0x2100:02 Setpoints / Setpoint 2
-    Entry::new(0x2100, 0x03, DataType::Integer16, RW_RPDO, 2, 170, 5), // 0x2100:03 Setpoints / Setpoint 3
+    Entry::new(0x2100, 0x01, DataType::Integer16, RW_RPDO, 2, 165, 5), // 0x2100:01 Setpoints / Setpoint 1
+    Entry::new(0x2100, 0x02, DataType::Integer16, RW_RPDO, 2, 167, 5), // 0x2100:02 Setpoints / Setpoint 2
+    Entry::new(0x2100, 0x03, DataType::Integer16, RW_RPDO, 2, 169, 5), // 0x2100:03 Setpoints / Setpoint 3
     Entry::new(0x2200, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS), // 0x2200:00 Motor / Highest sub-index supported
-    Entry::new(0x2200, 0x01, DataType::Unsigned8, RW, 1, 172, 6), // 0x2200:01 Motor / Pole pairs
-    Entry::new(0x2200, 0x02, DataType::Real64, RW_TPDO, 8, 173, NO_LIMITS), // 0x2200:02 Motor / Speed
-    Entry::new(0x2200, 0x03, DataType::VisibleString, RW, 16, 181, NO_LIMITS), // 0x2200:03 Motor / Label
+    Entry::new(0x2200, 0x01, DataType::Unsigned8, RW, 1, 171, 6), // 0x2200:01 Motor / Pole pairs
+    Entry::new(0x2200, 0x02, DataType::Real64, RW_TPDO, 8, 172, NO_LIMITS), // 0x2200:02 Motor / Speed
+    Entry::new(0x2200, 0x03, DataType::VisibleString, RW, 16, 180, NO_LIMITS), // 0x2200:03 Motor / Label
 ];
 
 #[rustfmt::skip]
@@ -226,7 +226,6 @@ static ROM: [u8; ROM_SIZE] = [
 
 #[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, // 0x1003:00 Pre-defined error field / Highest sub-index supported
     0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC
     0xF4, 0x01, 0x05, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
     0x00, 0x00, 0x00, 0x00, // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
@@ -271,6 +270,7 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x2200:02 Motor / Speed
     0x4D, 0x31, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x2200:03 Motor / Label
     0x00, // 0x1001:00 Error register
+    0x00, // 0x1003:00 Pre-defined error field / Highest sub-index supported
     0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Pre-defined error field1
     0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Pre-defined error field2
     0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Pre-defined error field3
@@ -372,9 +372,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 47,
+    comm_len: 46,
     stored_len: STORED_SIZE,
-    comm_rest: 34,
+    comm_rest: 35,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -438,22 +438,22 @@ impl Ram {
 
     /// 0x1001 Error register (mini.eds:109, UNSIGNED8 ro, PDO-mappable)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 197))
+        u8::from_le_bytes(od::load::<1>(&self.image, 196))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 197, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 196, v.to_le_bytes());
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Highest sub-index supported (mini.eds:117, UNSIGNED8 rw)
     pub fn pre_defined_error_field_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 0))
+        u8::from_le_bytes(od::load::<1>(&self.image, 197))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Highest sub-index supported.
     pub fn set_pre_defined_error_field_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 0, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 197, v.to_le_bytes());
     }
 
     /// 0x1003 Pre-defined error field sub-index `i` (1..=4) (mini.eds:117)
@@ -477,12 +477,12 @@ impl Ram {
 
     /// 0x1005 COB-ID SYNC (mini.eds:125, UNSIGNED32 rw)
     pub fn cob_id_sync(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1))
+        u32::from_le_bytes(od::load::<4>(&self.image, 0))
     }
 
     /// Sets 0x1005 COB-ID SYNC.
     pub fn set_cob_id_sync(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 0, v.to_le_bytes());
     }
 
     /// 0x1014 COB-ID EMCY (mini.eds:133, UNSIGNED32 ro, $NODEID-relative)
@@ -510,7 +510,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 1 + usize::from(i) * 4;
+        let off = usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -519,19 +519,19 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 1 + usize::from(i) * 4;
+        let off = usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1017 Producer heartbeat time (mini.eds:157, UNSIGNED16 rw)
     pub fn producer_heartbeat_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 13))
+        u16::from_le_bytes(od::load::<2>(&self.image, 12))
     }
 
     /// Sets 0x1017 Producer heartbeat time.
     pub fn set_producer_heartbeat_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 13, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 12, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Highest sub-index supported (mini.eds:172, UNSIGNED8 const, in flash)
@@ -596,52 +596,52 @@ impl Ram {
 
     /// 0x1400 sub 1 RPDO communication parameter / COB-ID used by RPDO (mini.eds:254, UNSIGNED32 rw, $NODEID-relative)
     pub fn rpdo_communication_parameter_cob_id_used_by_rpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 15))
+        u32::from_le_bytes(od::load::<4>(&self.image, 14))
     }
 
     /// Sets 0x1400 sub 1 RPDO communication parameter / COB-ID used by RPDO.
     pub fn set_rpdo_communication_parameter_cob_id_used_by_rpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 15, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 14, v.to_le_bytes());
     }
 
     /// 0x1400 sub 2 RPDO communication parameter / Transmission type (mini.eds:262, UNSIGNED8 rw)
     pub fn rpdo_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 19))
+        u8::from_le_bytes(od::load::<1>(&self.image, 18))
     }
 
     /// Sets 0x1400 sub 2 RPDO communication parameter / Transmission type.
     pub fn set_rpdo_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 19, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 18, v.to_le_bytes());
     }
 
     /// 0x1600 sub 0 RPDO mapping parameter / Number of mapped objects (mini.eds:275, UNSIGNED8 rw)
     pub fn rpdo_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 20))
+        u8::from_le_bytes(od::load::<1>(&self.image, 19))
     }
 
     /// Sets 0x1600 sub 0 RPDO mapping parameter / Number of mapped objects.
     pub fn set_rpdo_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 20, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 19, v.to_le_bytes());
     }
 
     /// 0x1600 sub 1 RPDO mapping parameter / Mapped object 1 (mini.eds:283, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 21))
+        u32::from_le_bytes(od::load::<4>(&self.image, 20))
     }
 
     /// Sets 0x1600 sub 1 RPDO mapping parameter / Mapped object 1.
     pub fn set_rpdo_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 21, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 20, v.to_le_bytes());
     }
 
     /// 0x1600 sub 2 RPDO mapping parameter / Mapped object 2 (mini.eds:291, UNSIGNED32 rw)
     pub fn rpdo_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 25))
+        u32::from_le_bytes(od::load::<4>(&self.image, 24))
     }
 
     /// Sets 0x1600 sub 2 RPDO mapping parameter / Mapped object 2.
     pub fn set_rpdo_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 25, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 24, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO communication parameter / Highest sub-index supported (mini.eds:304, UNSIGNED8 const, in flash)
@@ -651,122 +651,122 @@ impl Ram {
 
     /// 0x1800 sub 1 TPDO communication parameter / COB-ID used by TPDO (mini.eds:312, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo_communication_parameter_cob_id_used_by_tpdo(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 29))
+        u32::from_le_bytes(od::load::<4>(&self.image, 28))
     }
 
     /// Sets 0x1800 sub 1 TPDO communication parameter / COB-ID used by TPDO.
     pub fn set_tpdo_communication_parameter_cob_id_used_by_tpdo(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 29, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 28, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO communication parameter / Transmission type (mini.eds:320, UNSIGNED8 rw)
     pub fn tpdo_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 33))
+        u8::from_le_bytes(od::load::<1>(&self.image, 32))
     }
 
     /// Sets 0x1800 sub 2 TPDO communication parameter / Transmission type.
     pub fn set_tpdo_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 33, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 32, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO communication parameter / Inhibit time (mini.eds:328, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 34))
+        u16::from_le_bytes(od::load::<2>(&self.image, 33))
     }
 
     /// Sets 0x1800 sub 3 TPDO communication parameter / Inhibit time.
     pub fn set_tpdo_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 34, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 33, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO communication parameter / Event timer (mini.eds:336, UNSIGNED16 rw)
     pub fn tpdo_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 36))
+        u16::from_le_bytes(od::load::<2>(&self.image, 35))
     }
 
     /// Sets 0x1800 sub 5 TPDO communication parameter / Event timer.
     pub fn set_tpdo_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 36, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 35, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO mapping parameter / Number of mapped objects (mini.eds:349, UNSIGNED8 rw)
     pub fn tpdo_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 38))
+        u8::from_le_bytes(od::load::<1>(&self.image, 37))
     }
 
     /// Sets 0x1A00 sub 0 TPDO mapping parameter / Number of mapped objects.
     pub fn set_tpdo_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 38, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 37, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 1 TPDO mapping parameter / Mapped object 1 (mini.eds:357, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 39))
+        u32::from_le_bytes(od::load::<4>(&self.image, 38))
     }
 
     /// Sets 0x1A00 sub 1 TPDO mapping parameter / Mapped object 1.
     pub fn set_tpdo_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 39, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 38, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO mapping parameter / Mapped object 2 (mini.eds:365, UNSIGNED32 rw)
     pub fn tpdo_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 43))
+        u32::from_le_bytes(od::load::<4>(&self.image, 42))
     }
 
     /// Sets 0x1A00 sub 2 TPDO mapping parameter / Mapped object 2.
     pub fn set_tpdo_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 43, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 42, v.to_le_bytes());
     }
 
     /// 0x2001 Boolean value (mini.eds:373, BOOLEAN rw, PDO-mappable)
     pub fn boolean_value(&self) -> bool {
-        od::load::<1>(&self.image, 47)[0] != 0
+        od::load::<1>(&self.image, 46)[0] != 0
     }
 
     /// Sets 0x2001 Boolean value.
     pub fn set_boolean_value(&mut self, v: bool) {
-        od::store::<1>(&mut self.image, 47, [u8::from(v)]);
+        od::store::<1>(&mut self.image, 46, [u8::from(v)]);
     }
 
     /// 0x2002 Integer8 value (mini.eds:381, INTEGER8 rw, PDO-mappable)
     pub fn integer8_value(&self) -> i8 {
-        i8::from_le_bytes(od::load::<1>(&self.image, 48))
+        i8::from_le_bytes(od::load::<1>(&self.image, 47))
     }
 
     /// Sets 0x2002 Integer8 value.
     pub fn set_integer8_value(&mut self, v: i8) {
-        od::store::<1>(&mut self.image, 48, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 47, v.to_le_bytes());
     }
 
     /// 0x2003 Integer16 value (mini.eds:389, INTEGER16 rwr, PDO-mappable)
     pub fn integer16_value(&self) -> i16 {
-        i16::from_le_bytes(od::load::<2>(&self.image, 49))
+        i16::from_le_bytes(od::load::<2>(&self.image, 48))
     }
 
     /// Sets 0x2003 Integer16 value.
     pub fn set_integer16_value(&mut self, v: i16) {
-        od::store::<2>(&mut self.image, 49, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 48, v.to_le_bytes());
     }
 
     /// 0x2004 Integer32 value (mini.eds:399, INTEGER32 rw)
     pub fn integer32_value(&self) -> i32 {
-        i32::from_le_bytes(od::load::<4>(&self.image, 51))
+        i32::from_le_bytes(od::load::<4>(&self.image, 50))
     }
 
     /// Sets 0x2004 Integer32 value.
     pub fn set_integer32_value(&mut self, v: i32) {
-        od::store::<4>(&mut self.image, 51, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 50, v.to_le_bytes());
     }
 
     /// 0x2005 Unsigned8 value (mini.eds:407, UNSIGNED8 rw)
     pub fn unsigned8_value(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 55))
+        u8::from_le_bytes(od::load::<1>(&self.image, 54))
     }
 
     /// Sets 0x2005 Unsigned8 value.
     pub fn set_unsigned8_value(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 55, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 54, v.to_le_bytes());
     }
 
     /// 0x2006 Unsigned16 value (mini.eds:415, UNSIGNED16 ro, PDO-mappable)
@@ -781,22 +781,22 @@ impl Ram {
 
     /// 0x2007 Unsigned32 value (mini.eds:423, UNSIGNED32 rww, PDO-mappable)
     pub fn unsigned32_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 56))
+        u32::from_le_bytes(od::load::<4>(&self.image, 55))
     }
 
     /// Sets 0x2007 Unsigned32 value.
     pub fn set_unsigned32_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 56, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 55, v.to_le_bytes());
     }
 
     /// 0x2008 Real32 value (mini.eds:433, REAL32 rw)
     pub fn real32_value(&self) -> f32 {
-        f32::from_le_bytes(od::load::<4>(&self.image, 60))
+        f32::from_le_bytes(od::load::<4>(&self.image, 59))
     }
 
     /// Sets 0x2008 Real32 value.
     pub fn set_real32_value(&mut self, v: f32) {
-        od::store::<4>(&mut self.image, 60, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 59, v.to_le_bytes());
     }
 
     /// 0x2009 Visible string value (mini.eds:443, VISIBLE_STRING ro)
@@ -811,142 +811,142 @@ impl Ram {
 
     /// 0x200A Octet string value (mini.eds:451, OCTET_STRING rw)
     pub fn octet_string_value(&self) -> &[u8] {
-        od::load_bytes(&self.image, 64, 16)
+        od::load_bytes(&self.image, 63, 16)
     }
 
     /// Sets 0x200A Octet string value. Cut to 16 bytes; returns the number stored.
     pub fn set_octet_string_value(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 64, 16, v)
+        od::store_str(&mut self.image, 63, 16, v)
     }
 
     /// 0x200B Unicode string value (mini.eds:459, UNICODE_STRING rw)
     pub fn unicode_string_value(&self) -> &[u8] {
-        od::load_bytes(&self.image, 80, 16)
+        od::load_bytes(&self.image, 79, 16)
     }
 
     /// Sets 0x200B Unicode string value. Cut to 16 bytes; returns the number stored.
     pub fn set_unicode_string_value(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 80, 16, v)
+        od::store_str(&mut self.image, 79, 16, v)
     }
 
     /// 0x200C Time of day value (mini.eds:467, TIME_OF_DAY rw)
     pub fn time_of_day_value(&self) -> [u8; 6] {
-        od::load::<6>(&self.image, 96)
+        od::load::<6>(&self.image, 95)
     }
 
     /// Sets 0x200C Time of day value.
     pub fn set_time_of_day_value(&mut self, v: [u8; 6]) {
-        od::store::<6>(&mut self.image, 96, v);
+        od::store::<6>(&mut self.image, 95, v);
     }
 
     /// 0x200D Time difference value (mini.eds:475, TIME_DIFFERENCE rw)
     pub fn time_difference_value(&self) -> [u8; 6] {
-        od::load::<6>(&self.image, 102)
+        od::load::<6>(&self.image, 101)
     }
 
     /// Sets 0x200D Time difference value.
     pub fn set_time_difference_value(&mut self, v: [u8; 6]) {
-        od::store::<6>(&mut self.image, 102, v);
+        od::store::<6>(&mut self.image, 101, v);
     }
 
     /// 0x2010 Integer24 value (mini.eds:490, INTEGER24 rw)
     pub fn integer24_value(&self) -> i32 {
-        od::load_int::<3>(&self.image, 108) as i32
+        od::load_int::<3>(&self.image, 107) as i32
     }
 
     /// Sets 0x2010 Integer24 value. Only the low 24 bits are kept.
     pub fn set_integer24_value(&mut self, v: i32) {
-        od::store_uint::<3>(&mut self.image, 108, v as u64);
+        od::store_uint::<3>(&mut self.image, 107, v as u64);
     }
 
     /// 0x2011 Real64 value (mini.eds:498, REAL64 rw)
     pub fn real64_value(&self) -> f64 {
-        f64::from_le_bytes(od::load::<8>(&self.image, 111))
+        f64::from_le_bytes(od::load::<8>(&self.image, 110))
     }
 
     /// Sets 0x2011 Real64 value.
     pub fn set_real64_value(&mut self, v: f64) {
-        od::store::<8>(&mut self.image, 111, v.to_le_bytes());
+        od::store::<8>(&mut self.image, 110, v.to_le_bytes());
     }
 
     /// 0x2012 Integer40 value (mini.eds:506, INTEGER40 rw)
     pub fn integer40_value(&self) -> i64 {
-        od::load_int::<5>(&self.image, 119) as i64
+        od::load_int::<5>(&self.image, 118) as i64
     }
 
     /// Sets 0x2012 Integer40 value. Only the low 40 bits are kept.
     pub fn set_integer40_value(&mut self, v: i64) {
-        od::store_uint::<5>(&mut self.image, 119, v as u64);
+        od::store_uint::<5>(&mut self.image, 118, v as u64);
     }
 
     /// 0x2013 Integer48 value (mini.eds:514, INTEGER48 rw)
     pub fn integer48_value(&self) -> i64 {
-        od::load_int::<6>(&self.image, 124) as i64
+        od::load_int::<6>(&self.image, 123) as i64
     }
 
     /// Sets 0x2013 Integer48 value. Only the low 48 bits are kept.
     pub fn set_integer48_value(&mut self, v: i64) {
-        od::store_uint::<6>(&mut self.image, 124, v as u64);
+        od::store_uint::<6>(&mut self.image, 123, v as u64);
     }
 
     /// 0x2014 Integer56 value (mini.eds:522, INTEGER56 rw)
     pub fn integer56_value(&self) -> i64 {
-        od::load_int::<7>(&self.image, 130) as i64
+        od::load_int::<7>(&self.image, 129) as i64
     }
 
     /// Sets 0x2014 Integer56 value. Only the low 56 bits are kept.
     pub fn set_integer56_value(&mut self, v: i64) {
-        od::store_uint::<7>(&mut self.image, 130, v as u64);
+        od::store_uint::<7>(&mut self.image, 129, v as u64);
     }
 
     /// 0x2015 Integer64 value (mini.eds:530, INTEGER64 rw)
     pub fn integer64_value(&self) -> i64 {
-        i64::from_le_bytes(od::load::<8>(&self.image, 137))
+        i64::from_le_bytes(od::load::<8>(&self.image, 136))
     }
 
     /// Sets 0x2015 Integer64 value.
     pub fn set_integer64_value(&mut self, v: i64) {
-        od::store::<8>(&mut self.image, 137, v.to_le_bytes());
+        od::store::<8>(&mut self.image, 136, v.to_le_bytes());
     }
 
     /// 0x2016 Unsigned24 value (mini.eds:538, UNSIGNED24 rw)
     pub fn unsigned24_value(&self) -> u32 {
-        od::load_uint::<3>(&self.image, 145) as u32
+        od::load_uint::<3>(&self.image, 144) as u32
     }
 
     /// Sets 0x2016 Unsigned24 value. Only the low 24 bits are kept.
     pub fn set_unsigned24_value(&mut self, v: u32) {
-        od::store_uint::<3>(&mut self.image, 145, u64::from(v));
+        od::store_uint::<3>(&mut self.image, 144, u64::from(v));
     }
 
     /// 0x2018 Unsigned40 value (mini.eds:547, UNSIGNED40 rw)
     pub fn unsigned40_value(&self) -> u64 {
-        od::load_uint::<5>(&self.image, 148)
+        od::load_uint::<5>(&self.image, 147)
     }
 
     /// Sets 0x2018 Unsigned40 value. Only the low 40 bits are kept.
     pub fn set_unsigned40_value(&mut self, v: u64) {
-        od::store_uint::<5>(&mut self.image, 148, v);
+        od::store_uint::<5>(&mut self.image, 147, v);
     }
 
     /// 0x2019 Unsigned48 value (mini.eds:555, UNSIGNED48 rw)
     pub fn unsigned48_value(&self) -> u64 {
-        od::load_uint::<6>(&self.image, 153)
+        od::load_uint::<6>(&self.image, 152)
     }
 
     /// Sets 0x2019 Unsigned48 value. Only the low 48 bits are kept.
     pub fn set_unsigned48_value(&mut self, v: u64) {
-        od::store_uint::<6>(&mut self.image, 153, v);
+        od::store_uint::<6>(&mut self.image, 152, v);
     }
 
     /// 0x201A Unsigned56 value (mini.eds:563, UNSIGNED56 rw)
     pub fn unsigned56_value(&self) -> u64 {
-        od::load_uint::<7>(&self.image, 159)
+        od::load_uint::<7>(&self.image, 158)
     }
 
     /// Sets 0x201A Unsigned56 value. Only the low 56 bits are kept.
     pub fn set_unsigned56_value(&mut self, v: u64) {
-        od::store_uint::<7>(&mut self.image, 159, v);
+        od::store_uint::<7>(&mut self.image, 158, v);
     }
 
     /// 0x201B Unsigned64 value (mini.eds:571, UNSIGNED64 const, in flash)
@@ -964,7 +964,7 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return None;
         }
-        let off = 164 + usize::from(i) * 2;
+        let off = 163 + usize::from(i) * 2;
         Some(i16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -973,7 +973,7 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return false;
         }
-        let off = 164 + usize::from(i) * 2;
+        let off = 163 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -985,31 +985,31 @@ impl Ram {
 
     /// 0x2200 sub 1 Motor / Pole pairs (mini.eds:635, UNSIGNED8 rw)
     pub fn motor_pole_pairs(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 172))
+        u8::from_le_bytes(od::load::<1>(&self.image, 171))
     }
 
     /// Sets 0x2200 sub 1 Motor / Pole pairs.
     pub fn set_motor_pole_pairs(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 172, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 171, v.to_le_bytes());
     }
 
     /// 0x2200 sub 2 Motor / Speed (mini.eds:645, REAL64 rwr, PDO-mappable)
     pub fn motor_speed(&self) -> f64 {
-        f64::from_le_bytes(od::load::<8>(&self.image, 173))
+        f64::from_le_bytes(od::load::<8>(&self.image, 172))
     }
 
     /// Sets 0x2200 sub 2 Motor / Speed.
     pub fn set_motor_speed(&mut self, v: f64) {
-        od::store::<8>(&mut self.image, 173, v.to_le_bytes());
+        od::store::<8>(&mut self.image, 172, v.to_le_bytes());
     }
 
     /// 0x2200 sub 3 Motor / Label (mini.eds:653, VISIBLE_STRING rw)
     pub fn motor_label(&self) -> &[u8] {
-        od::load_str(&self.image, 181, 16)
+        od::load_str(&self.image, 180, 16)
     }
 
     /// Sets 0x2200 sub 3 Motor / Label. Cut to 16 bytes; returns the number stored.
     pub fn set_motor_label(&mut self, v: &[u8]) -> usize {
-        od::store_str(&mut self.image, 181, 16, v)
+        od::store_str(&mut self.image, 180, 16, v)
     }
 }

@@ -133,7 +133,7 @@ pub const ENTRY_COUNT: usize = 141;
 /// Size of the RAM image in bytes.
 pub const RAM_SIZE: usize = 395;
 /// Bytes at the front of the RAM image a stored parameter set holds.
-pub const STORED_SIZE: usize = 234;
+pub const STORED_SIZE: usize = 200;
 /// Size of the constant values in flash, in bytes.
 pub const ROM_SIZE: usize = 34;
 /// RPDOs (communication objects 0x1400–0x15FF).
@@ -166,129 +166,129 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
     Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 234, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 0, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 235, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 239, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 243, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 247, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 251, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 255, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 259, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 263, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 1, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 5, NO_LIMITS), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 9, NO_LIMITS), // 0x1007:00 Synchronous window length
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 200, NO_LIMITS), // 0x1001:00 Error register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 201, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 202, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 206, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 210, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 214, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 218, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 222, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 226, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 230, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1007:00 Synchronous window length
     Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 22, 4, NO_LIMITS), // 0x1008:00 Manufacturer device name
     Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 3, 26, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
     Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 29, NO_LIMITS), // 0x100A:00 Manufacturer software version
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 267, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 13, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 17, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 21, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
-    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 25, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 268, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 29, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 33, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 37, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
-    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 41, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 269, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 45, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 47, NO_LIMITS), // 0x1017:00 Producer heartbeat time
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 273, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 274, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 278, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 282, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 286, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 290, NO_LIMITS), // 0x1029:00 Error behavior / Error behavior highest sub-index
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 49, 0), // 0x1029:01 Error behavior / Communication error
-    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 50, 0), // 0x1029:02 Error behavior / Device profile specific error
-    Entry::new(0x1029, 0x03, DataType::Unsigned8, RW, 1, 51, 0), // 0x1029:03 Error behavior / Manufacturer specific error
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 291, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 292, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 296, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 300, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 52, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 56, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 57, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 59, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 301, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 61, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 65, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 66, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 68, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 302, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 70, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 74, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 75, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 77, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 79, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 80, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 84, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 88, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 92, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 96, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 100, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 104, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 108, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 112, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 113, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 117, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 121, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 125, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 129, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 133, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 137, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 141, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 145, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 146, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 150, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 154, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 158, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 162, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 166, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 170, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 174, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
-    Entry::new(0x1F51, 0x00, DataType::Unsigned8, RO, 1, 303, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
-    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 178, 2), // 0x1F51:01 Program control / Program 1 control
-    Entry::new(0x2100, 0x00, DataType::Unsigned8, RW, 1, 179, NO_LIMITS), // 0x2100:00 Baud rate
-    Entry::new(0x2101, 0x00, DataType::Unsigned8, RW, 1, 180, 3), // 0x2101:00 Node address
-    Entry::new(0x2102, 0x00, DataType::Unsigned8, RW, 1, 181, 4), // 0x2102:00 CAN bus termination
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 234, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 235, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 239, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 243, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 247, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 251, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 252, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 256, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 260, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 264, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 268, NO_LIMITS), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 12, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 14, NO_LIMITS), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 272, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 273, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 277, NO_LIMITS), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 281, NO_LIMITS), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 285, NO_LIMITS), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 289, NO_LIMITS), // 0x1029:00 Error behavior / Error behavior highest sub-index
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 16, 0), // 0x1029:01 Error behavior / Communication error
+    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 17, 0), // 0x1029:02 Error behavior / Device profile specific error
+    Entry::new(0x1029, 0x03, DataType::Unsigned8, RW, 1, 18, 0), // 0x1029:03 Error behavior / Manufacturer specific error
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 290, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 291, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 295, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 299, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 19, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 23, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 24, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 26, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 300, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 32, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 33, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 35, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 301, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 37, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 41, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 42, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 44, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 46, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 47, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 51, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 55, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 59, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 63, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 67, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 71, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 75, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 79, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 80, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 84, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 88, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 92, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 96, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 100, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 104, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 108, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 112, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 113, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 117, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 121, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 125, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 129, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 133, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 137, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 141, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
+    Entry::new(0x1F51, 0x00, DataType::Unsigned8, RO, 1, 302, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
+    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 303, 2), // 0x1F51:01 Program control / Program 1 control
+    Entry::new(0x2100, 0x00, DataType::Unsigned8, RW, 1, 145, NO_LIMITS), // 0x2100:00 Baud rate
+    Entry::new(0x2101, 0x00, DataType::Unsigned8, RW, 1, 146, 3), // 0x2101:00 Node address
+    Entry::new(0x2102, 0x00, DataType::Unsigned8, RW, 1, 147, 4), // 0x2102:00 CAN bus termination
     Entry::new(0x2103, 0x00, DataType::Unsigned16, RO, 2, 304, NO_LIMITS), // 0x2103:00 Firmware flash version
-    Entry::new(0x2105, 0x00, DataType::Unsigned32, RW, 4, 182, NO_LIMITS), // 0x2105:00 Save all bus parameters
+    Entry::new(0x2105, 0x00, DataType::Unsigned32, RW, 4, 148, NO_LIMITS), // 0x2105:00 Save all bus parameters
     Entry::new(0x2150, 0x00, DataType::Integer16, RO_TPDO, 2, 306, NO_LIMITS), // 0x2150:00 Actual position sensor temperature
     Entry::new(0x2162, 0x00, DataType::Unsigned16, RO_TPDO, 2, 308, NO_LIMITS), // 0x2162:00 Raw position CRC value
-    Entry::new(0x6000, 0x00, DataType::Unsigned16, RW, 2, 186, NO_LIMITS), // 0x6000:00 Operating parameters
-    Entry::new(0x6001, 0x00, DataType::Unsigned32, RW, 4, 188, 5), // 0x6001:00 Measuring units per revolution
-    Entry::new(0x6002, 0x00, DataType::Unsigned32, RW, 4, 192, NO_LIMITS), // 0x6002:00 Total measuring range in measuring units
-    Entry::new(0x6003, 0x00, DataType::Unsigned32, RW, 4, 196, NO_LIMITS), // 0x6003:00 Preset value
+    Entry::new(0x6000, 0x00, DataType::Unsigned16, RW, 2, 152, NO_LIMITS), // 0x6000:00 Operating parameters
+    Entry::new(0x6001, 0x00, DataType::Unsigned32, RW, 4, 154, 5), // 0x6001:00 Measuring units per revolution
+    Entry::new(0x6002, 0x00, DataType::Unsigned32, RW, 4, 158, NO_LIMITS), // 0x6002:00 Total measuring range in measuring units
+    Entry::new(0x6003, 0x00, DataType::Unsigned32, RW, 4, 162, NO_LIMITS), // 0x6003:00 Preset value
     Entry::new(0x6004, 0x00, DataType::Unsigned32, RO_TPDO, 4, 310, NO_LIMITS), // 0x6004:00 Position value
     Entry::new(0x600B, 0x00, DataType::Unsigned64, RO_TPDO, 8, 314, NO_LIMITS), // 0x600B:00 Position high resolution raw value
     Entry::new(0x600C, 0x00, DataType::Unsigned32, RO_TPDO, 4, 322, NO_LIMITS), // 0x600C:00 Position raw value
     Entry::new(0x6030, 0x00, DataType::Unsigned8, RO, 1, 326, NO_LIMITS), // 0x6030:00 Speed value / Speed value number of channels
     Entry::new(0x6030, 0x01, DataType::Integer32, RO_TPDO, 4, 327, NO_LIMITS), // 0x6030:01 Speed value / Speed value channel 1
     Entry::new(0x6031, 0x00, DataType::Unsigned8, RO, 1, 331, NO_LIMITS), // 0x6031:00 Speed parameters / Speed parameters number of entries
-    Entry::new(0x6031, 0x01, DataType::Integer16, RW, 2, 200, 6), // 0x6031:01 Speed parameters / Speed source selector
-    Entry::new(0x6031, 0x02, DataType::Integer16, RW, 2, 202, 7), // 0x6031:02 Speed parameters / Speed integration time
-    Entry::new(0x6031, 0x03, DataType::Integer16, RW, 2, 204, 8), // 0x6031:03 Speed parameters / Speed calculation multiplier
-    Entry::new(0x6031, 0x04, DataType::Integer16, RW, 2, 206, 8), // 0x6031:04 Speed parameters / Speed calculation divisor
+    Entry::new(0x6031, 0x01, DataType::Integer16, RW, 2, 166, 6), // 0x6031:01 Speed parameters / Speed source selector
+    Entry::new(0x6031, 0x02, DataType::Integer16, RW, 2, 168, 7), // 0x6031:02 Speed parameters / Speed integration time
+    Entry::new(0x6031, 0x03, DataType::Integer16, RW, 2, 170, 8), // 0x6031:03 Speed parameters / Speed calculation multiplier
+    Entry::new(0x6031, 0x04, DataType::Integer16, RW, 2, 172, 8), // 0x6031:04 Speed parameters / Speed calculation divisor
     Entry::new(0x6040, 0x00, DataType::Unsigned8, RO, 1, 332, NO_LIMITS), // 0x6040:00 Acceleration value / Acceleration value number of channels
     Entry::new(0x6040, 0x01, DataType::Integer32, RO_TPDO, 4, 333, NO_LIMITS), // 0x6040:01 Acceleration value / Acceleration value channel 1
     Entry::new(0x6041, 0x00, DataType::Unsigned8, RO, 1, 337, NO_LIMITS), // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries
-    Entry::new(0x6041, 0x01, DataType::Integer16, RW, 2, 208, 6), // 0x6041:01 Acceleration parameters / Acceleration source selector
-    Entry::new(0x6041, 0x02, DataType::Integer16, RW, 2, 210, 7), // 0x6041:02 Acceleration parameters / Acceleration integration time
-    Entry::new(0x6041, 0x03, DataType::Integer16, RW, 2, 212, 8), // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
-    Entry::new(0x6041, 0x04, DataType::Integer16, RW, 2, 214, 8), // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
-    Entry::new(0x6200, 0x00, DataType::Unsigned16, RW, 2, 216, NO_LIMITS), // 0x6200:00 Cyclic timer
+    Entry::new(0x6041, 0x01, DataType::Integer16, RW, 2, 174, 6), // 0x6041:01 Acceleration parameters / Acceleration source selector
+    Entry::new(0x6041, 0x02, DataType::Integer16, RW, 2, 176, 7), // 0x6041:02 Acceleration parameters / Acceleration integration time
+    Entry::new(0x6041, 0x03, DataType::Integer16, RW, 2, 178, 8), // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
+    Entry::new(0x6041, 0x04, DataType::Integer16, RW, 2, 180, 8), // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
+    Entry::new(0x6200, 0x00, DataType::Unsigned16, RW, 2, 182, NO_LIMITS), // 0x6200:00 Cyclic timer
     Entry::new(0x6400, 0x00, DataType::Unsigned8, RO, 1, 338, NO_LIMITS), // 0x6400:00 Work area state / Work area state number of work areas
     Entry::new(0x6400, 0x01, DataType::Unsigned8, RO_TPDO, 1, 339, NO_LIMITS), // 0x6400:01 Work area state / Work area state channel 1
     Entry::new(0x6400, 0x02, DataType::Unsigned8, RO_TPDO, 1, 340, NO_LIMITS), // 0x6400:02 Work area state / Work area state channel 2
     Entry::new(0x6401, 0x00, DataType::Unsigned8, RO, 1, 341, NO_LIMITS), // 0x6401:00 Work area low limit / Work area low limit number of work areas
-    Entry::new(0x6401, 0x01, DataType::Unsigned32, RW, 4, 218, NO_LIMITS), // 0x6401:01 Work area low limit / Work area low limit channel 1
-    Entry::new(0x6401, 0x02, DataType::Unsigned32, RW, 4, 222, NO_LIMITS), // 0x6401:02 Work area low limit / Work area low limit channel 2
+    Entry::new(0x6401, 0x01, DataType::Unsigned32, RW, 4, 184, NO_LIMITS), // 0x6401:01 Work area low limit / Work area low limit channel 1
+    Entry::new(0x6401, 0x02, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x6401:02 Work area low limit / Work area low limit channel 2
     Entry::new(0x6402, 0x00, DataType::Unsigned8, RO, 1, 342, NO_LIMITS), // 0x6402:00 Work area high limit / Work area high limit number of work areas
-    Entry::new(0x6402, 0x01, DataType::Unsigned32, RW, 4, 226, NO_LIMITS), // 0x6402:01 Work area high limit / Work area high limit channel 1
-    Entry::new(0x6402, 0x02, DataType::Unsigned32, RW, 4, 230, NO_LIMITS), // 0x6402:02 Work area high limit / Work area high limit channel 2
+    Entry::new(0x6402, 0x01, DataType::Unsigned32, RW, 4, 192, NO_LIMITS), // 0x6402:01 Work area high limit / Work area high limit channel 1
+    Entry::new(0x6402, 0x02, DataType::Unsigned32, RW, 4, 196, NO_LIMITS), // 0x6402:02 Work area high limit / Work area high limit channel 2
     Entry::new(0x6500, 0x00, DataType::Unsigned16, RO, 2, 343, NO_LIMITS), // 0x6500:00 Operating status
     Entry::new(0x6501, 0x00, DataType::Unsigned32, RO, 4, 345, NO_LIMITS), // 0x6501:00 Single-turn resolution
     Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 349, NO_LIMITS), // 0x6502:00 Number of distinguishable revolutions
@@ -332,18 +332,9 @@ static ROM: [u8; ROM_SIZE] = [
 
 #[rustfmt::skip]
 static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, // 0x1003:00 Pre-defined error field / Number of errors
     0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
     0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
     0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
-    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
     0x00, 0x00, // 0x1015:00 Inhibit time EMCY
     0x00, 0x00, // 0x1017:00 Producer heartbeat time
     0x00, // 0x1029:01 Error behavior / Communication error
@@ -388,7 +379,6 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
     0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
     0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
-    0x01, // 0x1F51:01 Program control / Program 1 control
     0xFF, // 0x2100:00 Baud rate
     0xFF, // 0x2101:00 Node address
     0x01, // 0x2102:00 CAN bus termination
@@ -411,6 +401,7 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x10, // 0x6402:01 Work area high limit / Work area high limit channel 1
     0x00, 0x00, 0x00, 0x10, // 0x6402:02 Work area high limit / Work area high limit channel 2
     0x00, // 0x1001:00 Error register
+    0x00, // 0x1003:00 Pre-defined error field / Number of errors
     0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
     0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
     0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
@@ -420,7 +411,15 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
     0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
     0x04, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters
     0x04, // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
+    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
     0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
     0x04, // 0x1018:00 Identity object / Identity highest sub-index
     0x13, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
@@ -435,6 +434,7 @@ static DEFAULTS: [u8; RAM_SIZE] = [
     0x05, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
     0x05, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
     0x01, // 0x1F51:00 Program control / Program control highest sub-index
+    0x01, // 0x1F51:01 Program control / Program 1 control
     0x00, 0x01, // 0x2103:00 Firmware flash version
     0x00, 0x00, // 0x2150:00 Actual position sensor temperature
     0x00, 0x00, // 0x2162:00 Raw position CRC value
@@ -633,9 +633,9 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     limits: &LIMITS,
     rom: &ROM,
     defaults: &DEFAULTS,
-    comm_len: 179,
+    comm_len: 145,
     stored_len: STORED_SIZE,
-    comm_rest: 70,
+    comm_rest: 104,
     node_id_relative: &NODE_ID_RELATIVE,
     layout_id: od::layout_id(&ENTRIES),
     device: DeviceInfo {
@@ -699,22 +699,22 @@ impl Ram {
 
     /// 0x1001 Error register (sendix.eds:73, UNSIGNED8 ro)
     pub fn error_register(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 234))
+        u8::from_le_bytes(od::load::<1>(&self.image, 200))
     }
 
     /// Sets 0x1001 Error register.
     pub fn set_error_register(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 234, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 200, v.to_le_bytes());
     }
 
     /// 0x1003 sub 0 Pre-defined error field / Number of errors (sendix.eds:184, UNSIGNED8 rw)
     pub fn pre_defined_error_field_number_of_errors(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 0))
+        u8::from_le_bytes(od::load::<1>(&self.image, 201))
     }
 
     /// Sets 0x1003 sub 0 Pre-defined error field / Number of errors.
     pub fn set_pre_defined_error_field_number_of_errors(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 0, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 201, v.to_le_bytes());
     }
 
     /// 0x1003 Pre-defined error field sub-index `i` (1..=8) (sendix.eds:179)
@@ -722,7 +722,7 @@ impl Ram {
         if !(1..=8).contains(&i) {
             return None;
         }
-        let off = 231 + usize::from(i) * 4;
+        let off = 198 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -731,39 +731,39 @@ impl Ram {
         if !(1..=8).contains(&i) {
             return false;
         }
-        let off = 231 + usize::from(i) * 4;
+        let off = 198 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1005 COB-ID SYNC message (sendix.eds:256, UNSIGNED32 rw)
     pub fn cob_id_sync_message(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 1))
+        u32::from_le_bytes(od::load::<4>(&self.image, 0))
     }
 
     /// Sets 0x1005 COB-ID SYNC message.
     pub fn set_cob_id_sync_message(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 1, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 0, v.to_le_bytes());
     }
 
     /// 0x1006 Communication cycle period (sendix.eds:264, UNSIGNED32 rw)
     pub fn communication_cycle_period(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 5))
+        u32::from_le_bytes(od::load::<4>(&self.image, 4))
     }
 
     /// Sets 0x1006 Communication cycle period.
     pub fn set_communication_cycle_period(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 5, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 4, v.to_le_bytes());
     }
 
     /// 0x1007 Synchronous window length (sendix.eds:272, UNSIGNED32 rw)
     pub fn synchronous_window_length(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 9))
+        u32::from_le_bytes(od::load::<4>(&self.image, 8))
     }
 
     /// Sets 0x1007 Synchronous window length.
     pub fn set_synchronous_window_length(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 9, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 8, v.to_le_bytes());
     }
 
     /// 0x1008 Manufacturer device name (sendix.eds:280, VISIBLE_STRING const, in flash)
@@ -783,12 +783,12 @@ impl Ram {
 
     /// 0x1010 sub 0 Store parameters / Store parameters highest sub-index (sendix.eds:309, UNSIGNED8 ro)
     pub fn store_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 267))
+        u8::from_le_bytes(od::load::<1>(&self.image, 234))
     }
 
     /// Sets 0x1010 sub 0 Store parameters / Store parameters highest sub-index.
     pub fn set_store_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 267, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 234, v.to_le_bytes());
     }
 
     /// 0x1010 Store parameters sub-index `i` (1..=4) (sendix.eds:304)
@@ -796,7 +796,7 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return None;
         }
-        let off = 9 + usize::from(i) * 4;
+        let off = 231 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -805,19 +805,19 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return false;
         }
-        let off = 9 + usize::from(i) * 4;
+        let off = 231 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1011 sub 0 Restore default parameters / Restore parameters highest sub-index (sendix.eds:354, UNSIGNED8 ro)
     pub fn restore_default_parameters_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 268))
+        u8::from_le_bytes(od::load::<1>(&self.image, 251))
     }
 
     /// Sets 0x1011 sub 0 Restore default parameters / Restore parameters highest sub-index.
     pub fn set_restore_default_parameters_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 268, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 251, v.to_le_bytes());
     }
 
     /// 0x1011 Restore default parameters sub-index `i` (1..=4) (sendix.eds:349)
@@ -825,7 +825,7 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return None;
         }
-        let off = 25 + usize::from(i) * 4;
+        let off = 248 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -834,99 +834,99 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return false;
         }
-        let off = 25 + usize::from(i) * 4;
+        let off = 248 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1014 COB-ID EMCY (sendix.eds:394, UNSIGNED32 ro, $NODEID-relative)
     pub fn cob_id_emcy(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 269))
+        u32::from_le_bytes(od::load::<4>(&self.image, 268))
     }
 
     /// Sets 0x1014 COB-ID EMCY.
     pub fn set_cob_id_emcy(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 269, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 268, v.to_le_bytes());
     }
 
     /// 0x1015 Inhibit time EMCY (sendix.eds:402, UNSIGNED16 rw)
     pub fn inhibit_time_emcy(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 45))
+        u16::from_le_bytes(od::load::<2>(&self.image, 12))
     }
 
     /// Sets 0x1015 Inhibit time EMCY.
     pub fn set_inhibit_time_emcy(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 45, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 12, v.to_le_bytes());
     }
 
     /// 0x1017 Producer heartbeat time (sendix.eds:410, UNSIGNED16 rw)
     pub fn producer_heartbeat_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 47))
+        u16::from_le_bytes(od::load::<2>(&self.image, 14))
     }
 
     /// Sets 0x1017 Producer heartbeat time.
     pub fn set_producer_heartbeat_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 47, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 14, v.to_le_bytes());
     }
 
     /// 0x1018 sub 0 Identity object / Identity highest sub-index (sendix.eds:86, UNSIGNED8 ro)
     pub fn identity_object_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 273))
+        u8::from_le_bytes(od::load::<1>(&self.image, 272))
     }
 
     /// Sets 0x1018 sub 0 Identity object / Identity highest sub-index.
     pub fn set_identity_object_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 273, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 272, v.to_le_bytes());
     }
 
     /// 0x1018 sub 1 Identity object / Vendor-ID (sendix.eds:94, UNSIGNED32 ro)
     pub fn identity_object_vendor_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 274))
+        u32::from_le_bytes(od::load::<4>(&self.image, 273))
     }
 
     /// Sets 0x1018 sub 1 Identity object / Vendor-ID.
     pub fn set_identity_object_vendor_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 274, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 273, v.to_le_bytes());
     }
 
     /// 0x1018 sub 2 Identity object / Product code (sendix.eds:102, UNSIGNED32 ro)
     pub fn identity_object_product_code(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 278))
+        u32::from_le_bytes(od::load::<4>(&self.image, 277))
     }
 
     /// Sets 0x1018 sub 2 Identity object / Product code.
     pub fn set_identity_object_product_code(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 278, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 277, v.to_le_bytes());
     }
 
     /// 0x1018 sub 3 Identity object / Revision number (sendix.eds:110, UNSIGNED32 ro)
     pub fn identity_object_revision_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 282))
+        u32::from_le_bytes(od::load::<4>(&self.image, 281))
     }
 
     /// Sets 0x1018 sub 3 Identity object / Revision number.
     pub fn set_identity_object_revision_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 282, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 281, v.to_le_bytes());
     }
 
     /// 0x1018 sub 4 Identity object / Serial number (sendix.eds:118, UNSIGNED32 ro)
     pub fn identity_object_serial_number(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 286))
+        u32::from_le_bytes(od::load::<4>(&self.image, 285))
     }
 
     /// Sets 0x1018 sub 4 Identity object / Serial number.
     pub fn set_identity_object_serial_number(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 286, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 285, v.to_le_bytes());
     }
 
     /// 0x1029 sub 0 Error behavior / Error behavior highest sub-index (sendix.eds:423, UNSIGNED8 ro)
     pub fn error_behavior_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 290))
+        u8::from_le_bytes(od::load::<1>(&self.image, 289))
     }
 
     /// Sets 0x1029 sub 0 Error behavior / Error behavior highest sub-index.
     pub fn set_error_behavior_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 290, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 289, v.to_le_bytes());
     }
 
     /// 0x1029 Error behavior sub-index `i` (1..=3) (sendix.eds:418)
@@ -934,7 +934,7 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return None;
         }
-        let off = 48 + usize::from(i);
+        let off = 15 + usize::from(i);
         Some(u8::from_le_bytes(od::load::<1>(&self.image, off)))
     }
 
@@ -943,509 +943,509 @@ impl Ram {
         if !(1..=3).contains(&i) {
             return false;
         }
-        let off = 48 + usize::from(i);
+        let off = 15 + usize::from(i);
         od::store::<1>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x1200 sub 0 SDO server parameter / SDO server highest sub-index (sendix.eds:466, UNSIGNED8 ro)
     pub fn sdo_server_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 291))
+        u8::from_le_bytes(od::load::<1>(&self.image, 290))
     }
 
     /// Sets 0x1200 sub 0 SDO server parameter / SDO server highest sub-index.
     pub fn set_sdo_server_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 291, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 290, v.to_le_bytes());
     }
 
     /// 0x1200 sub 1 SDO server parameter / COB-ID client to server (sendix.eds:474, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_client_to_server(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 292))
+        u32::from_le_bytes(od::load::<4>(&self.image, 291))
     }
 
     /// Sets 0x1200 sub 1 SDO server parameter / COB-ID client to server.
     pub fn set_sdo_server_parameter_cob_id_client_to_server(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 292, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 291, v.to_le_bytes());
     }
 
     /// 0x1200 sub 2 SDO server parameter / COB-ID server to client (sendix.eds:482, UNSIGNED32 ro, $NODEID-relative)
     pub fn sdo_server_parameter_cob_id_server_to_client(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 296))
+        u32::from_le_bytes(od::load::<4>(&self.image, 295))
     }
 
     /// Sets 0x1200 sub 2 SDO server parameter / COB-ID server to client.
     pub fn set_sdo_server_parameter_cob_id_server_to_client(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 296, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 295, v.to_le_bytes());
     }
 
     /// 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index (sendix.eds:495, UNSIGNED8 ro)
     pub fn tpdo1_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 300))
+        u8::from_le_bytes(od::load::<1>(&self.image, 299))
     }
 
     /// Sets 0x1800 sub 0 TPDO1 communication parameter / TPDO1 communication highest sub-index.
     pub fn set_tpdo1_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 300, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 299, v.to_le_bytes());
     }
 
     /// 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID (sendix.eds:503, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo1_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 52))
+        u32::from_le_bytes(od::load::<4>(&self.image, 19))
     }
 
     /// Sets 0x1800 sub 1 TPDO1 communication parameter / TPDO1 COB-ID.
     pub fn set_tpdo1_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 52, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 19, v.to_le_bytes());
     }
 
     /// 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type (sendix.eds:511, UNSIGNED8 rw)
     pub fn tpdo1_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 56))
+        u8::from_le_bytes(od::load::<1>(&self.image, 23))
     }
 
     /// Sets 0x1800 sub 2 TPDO1 communication parameter / TPDO1 transmission type.
     pub fn set_tpdo1_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 56, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 23, v.to_le_bytes());
     }
 
     /// 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time (sendix.eds:519, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 57))
+        u16::from_le_bytes(od::load::<2>(&self.image, 24))
     }
 
     /// Sets 0x1800 sub 3 TPDO1 communication parameter / TPDO1 inhibit time.
     pub fn set_tpdo1_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 57, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 24, v.to_le_bytes());
     }
 
     /// 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer (sendix.eds:527, UNSIGNED16 rw)
     pub fn tpdo1_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 59))
+        u16::from_le_bytes(od::load::<2>(&self.image, 26))
     }
 
     /// Sets 0x1800 sub 5 TPDO1 communication parameter / TPDO1 event timer.
     pub fn set_tpdo1_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 59, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 26, v.to_le_bytes());
     }
 
     /// 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index (sendix.eds:540, UNSIGNED8 ro)
     pub fn tpdo2_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 301))
+        u8::from_le_bytes(od::load::<1>(&self.image, 300))
     }
 
     /// Sets 0x1801 sub 0 TPDO2 communication parameter / TPDO2 communication highest sub-index.
     pub fn set_tpdo2_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 301, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 300, v.to_le_bytes());
     }
 
     /// 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID (sendix.eds:548, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo2_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 61))
+        u32::from_le_bytes(od::load::<4>(&self.image, 28))
     }
 
     /// Sets 0x1801 sub 1 TPDO2 communication parameter / TPDO2 COB-ID.
     pub fn set_tpdo2_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 61, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 28, v.to_le_bytes());
     }
 
     /// 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type (sendix.eds:556, UNSIGNED8 rw)
     pub fn tpdo2_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 65))
+        u8::from_le_bytes(od::load::<1>(&self.image, 32))
     }
 
     /// Sets 0x1801 sub 2 TPDO2 communication parameter / TPDO2 transmission type.
     pub fn set_tpdo2_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 65, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 32, v.to_le_bytes());
     }
 
     /// 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time (sendix.eds:564, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 66))
+        u16::from_le_bytes(od::load::<2>(&self.image, 33))
     }
 
     /// Sets 0x1801 sub 3 TPDO2 communication parameter / TPDO2 inhibit time.
     pub fn set_tpdo2_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 66, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 33, v.to_le_bytes());
     }
 
     /// 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer (sendix.eds:572, UNSIGNED16 rw)
     pub fn tpdo2_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 68))
+        u16::from_le_bytes(od::load::<2>(&self.image, 35))
     }
 
     /// Sets 0x1801 sub 5 TPDO2 communication parameter / TPDO2 event timer.
     pub fn set_tpdo2_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 68, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 35, v.to_le_bytes());
     }
 
     /// 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index (sendix.eds:585, UNSIGNED8 ro)
     pub fn tpdo3_communication_parameter_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 302))
+        u8::from_le_bytes(od::load::<1>(&self.image, 301))
     }
 
     /// Sets 0x1802 sub 0 TPDO3 communication parameter / TPDO3 communication highest sub-index.
     pub fn set_tpdo3_communication_parameter_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 302, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 301, v.to_le_bytes());
     }
 
     /// 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID (sendix.eds:593, UNSIGNED32 rw, $NODEID-relative)
     pub fn tpdo3_communication_parameter_cob_id(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 70))
+        u32::from_le_bytes(od::load::<4>(&self.image, 37))
     }
 
     /// Sets 0x1802 sub 1 TPDO3 communication parameter / TPDO3 COB-ID.
     pub fn set_tpdo3_communication_parameter_cob_id(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 70, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 37, v.to_le_bytes());
     }
 
     /// 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type (sendix.eds:601, UNSIGNED8 rw)
     pub fn tpdo3_communication_parameter_transmission_type(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 74))
+        u8::from_le_bytes(od::load::<1>(&self.image, 41))
     }
 
     /// Sets 0x1802 sub 2 TPDO3 communication parameter / TPDO3 transmission type.
     pub fn set_tpdo3_communication_parameter_transmission_type(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 74, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 41, v.to_le_bytes());
     }
 
     /// 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time (sendix.eds:609, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_inhibit_time(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 75))
+        u16::from_le_bytes(od::load::<2>(&self.image, 42))
     }
 
     /// Sets 0x1802 sub 3 TPDO3 communication parameter / TPDO3 inhibit time.
     pub fn set_tpdo3_communication_parameter_inhibit_time(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 75, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 42, v.to_le_bytes());
     }
 
     /// 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer (sendix.eds:617, UNSIGNED16 rw)
     pub fn tpdo3_communication_parameter_event_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 77))
+        u16::from_le_bytes(od::load::<2>(&self.image, 44))
     }
 
     /// Sets 0x1802 sub 5 TPDO3 communication parameter / TPDO3 event timer.
     pub fn set_tpdo3_communication_parameter_event_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 77, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 44, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects (sendix.eds:630, UNSIGNED8 rw)
     pub fn tpdo1_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 79))
+        u8::from_le_bytes(od::load::<1>(&self.image, 46))
     }
 
     /// Sets 0x1A00 sub 0 TPDO1 mapping parameter / TPDO1 number of mapped objects.
     pub fn set_tpdo1_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 79, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 46, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapped object 1 (sendix.eds:640, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 80))
+        u32::from_le_bytes(od::load::<4>(&self.image, 47))
     }
 
     /// Sets 0x1A00 sub 1 TPDO1 mapping parameter / TPDO1 mapped object 1.
     pub fn set_tpdo1_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 80, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 47, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapped object 2 (sendix.eds:648, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 84))
+        u32::from_le_bytes(od::load::<4>(&self.image, 51))
     }
 
     /// Sets 0x1A00 sub 2 TPDO1 mapping parameter / TPDO1 mapped object 2.
     pub fn set_tpdo1_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 84, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 51, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapped object 3 (sendix.eds:656, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 88))
+        u32::from_le_bytes(od::load::<4>(&self.image, 55))
     }
 
     /// Sets 0x1A00 sub 3 TPDO1 mapping parameter / TPDO1 mapped object 3.
     pub fn set_tpdo1_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 88, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 55, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapped object 4 (sendix.eds:664, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 92))
+        u32::from_le_bytes(od::load::<4>(&self.image, 59))
     }
 
     /// Sets 0x1A00 sub 4 TPDO1 mapping parameter / TPDO1 mapped object 4.
     pub fn set_tpdo1_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 92, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 59, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapped object 5 (sendix.eds:672, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 96))
+        u32::from_le_bytes(od::load::<4>(&self.image, 63))
     }
 
     /// Sets 0x1A00 sub 5 TPDO1 mapping parameter / TPDO1 mapped object 5.
     pub fn set_tpdo1_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 96, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 63, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapped object 6 (sendix.eds:680, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 100))
+        u32::from_le_bytes(od::load::<4>(&self.image, 67))
     }
 
     /// Sets 0x1A00 sub 6 TPDO1 mapping parameter / TPDO1 mapped object 6.
     pub fn set_tpdo1_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 100, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 67, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapped object 7 (sendix.eds:688, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 104))
+        u32::from_le_bytes(od::load::<4>(&self.image, 71))
     }
 
     /// Sets 0x1A00 sub 7 TPDO1 mapping parameter / TPDO1 mapped object 7.
     pub fn set_tpdo1_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 104, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 71, v.to_le_bytes());
     }
 
     /// 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapped object 8 (sendix.eds:696, UNSIGNED32 rw)
     pub fn tpdo1_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 108))
+        u32::from_le_bytes(od::load::<4>(&self.image, 75))
     }
 
     /// Sets 0x1A00 sub 8 TPDO1 mapping parameter / TPDO1 mapped object 8.
     pub fn set_tpdo1_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 108, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 75, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects (sendix.eds:709, UNSIGNED8 rw)
     pub fn tpdo2_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 112))
+        u8::from_le_bytes(od::load::<1>(&self.image, 79))
     }
 
     /// Sets 0x1A01 sub 0 TPDO2 mapping parameter / TPDO2 number of mapped objects.
     pub fn set_tpdo2_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 112, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 79, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapped object 1 (sendix.eds:719, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 113))
+        u32::from_le_bytes(od::load::<4>(&self.image, 80))
     }
 
     /// Sets 0x1A01 sub 1 TPDO2 mapping parameter / TPDO2 mapped object 1.
     pub fn set_tpdo2_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 113, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 80, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapped object 2 (sendix.eds:727, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 117))
+        u32::from_le_bytes(od::load::<4>(&self.image, 84))
     }
 
     /// Sets 0x1A01 sub 2 TPDO2 mapping parameter / TPDO2 mapped object 2.
     pub fn set_tpdo2_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 117, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 84, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapped object 3 (sendix.eds:735, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 121))
+        u32::from_le_bytes(od::load::<4>(&self.image, 88))
     }
 
     /// Sets 0x1A01 sub 3 TPDO2 mapping parameter / TPDO2 mapped object 3.
     pub fn set_tpdo2_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 121, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 88, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapped object 4 (sendix.eds:743, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 125))
+        u32::from_le_bytes(od::load::<4>(&self.image, 92))
     }
 
     /// Sets 0x1A01 sub 4 TPDO2 mapping parameter / TPDO2 mapped object 4.
     pub fn set_tpdo2_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 125, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 92, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapped object 5 (sendix.eds:751, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 129))
+        u32::from_le_bytes(od::load::<4>(&self.image, 96))
     }
 
     /// Sets 0x1A01 sub 5 TPDO2 mapping parameter / TPDO2 mapped object 5.
     pub fn set_tpdo2_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 129, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 96, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapped object 6 (sendix.eds:759, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 133))
+        u32::from_le_bytes(od::load::<4>(&self.image, 100))
     }
 
     /// Sets 0x1A01 sub 6 TPDO2 mapping parameter / TPDO2 mapped object 6.
     pub fn set_tpdo2_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 133, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 100, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapped object 7 (sendix.eds:767, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 137))
+        u32::from_le_bytes(od::load::<4>(&self.image, 104))
     }
 
     /// Sets 0x1A01 sub 7 TPDO2 mapping parameter / TPDO2 mapped object 7.
     pub fn set_tpdo2_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 137, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 104, v.to_le_bytes());
     }
 
     /// 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapped object 8 (sendix.eds:775, UNSIGNED32 rw)
     pub fn tpdo2_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 141))
+        u32::from_le_bytes(od::load::<4>(&self.image, 108))
     }
 
     /// Sets 0x1A01 sub 8 TPDO2 mapping parameter / TPDO2 mapped object 8.
     pub fn set_tpdo2_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 141, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 108, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects (sendix.eds:788, UNSIGNED8 rw)
     pub fn tpdo3_mapping_parameter_number_of_mapped_objects(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 145))
+        u8::from_le_bytes(od::load::<1>(&self.image, 112))
     }
 
     /// Sets 0x1A02 sub 0 TPDO3 mapping parameter / TPDO3 number of mapped objects.
     pub fn set_tpdo3_mapping_parameter_number_of_mapped_objects(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 145, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 112, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapped object 1 (sendix.eds:798, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_1(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 146))
+        u32::from_le_bytes(od::load::<4>(&self.image, 113))
     }
 
     /// Sets 0x1A02 sub 1 TPDO3 mapping parameter / TPDO3 mapped object 1.
     pub fn set_tpdo3_mapping_parameter_mapped_object_1(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 146, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 113, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapped object 2 (sendix.eds:806, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_2(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 150))
+        u32::from_le_bytes(od::load::<4>(&self.image, 117))
     }
 
     /// Sets 0x1A02 sub 2 TPDO3 mapping parameter / TPDO3 mapped object 2.
     pub fn set_tpdo3_mapping_parameter_mapped_object_2(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 150, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 117, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapped object 3 (sendix.eds:814, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_3(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 154))
+        u32::from_le_bytes(od::load::<4>(&self.image, 121))
     }
 
     /// Sets 0x1A02 sub 3 TPDO3 mapping parameter / TPDO3 mapped object 3.
     pub fn set_tpdo3_mapping_parameter_mapped_object_3(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 154, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 121, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapped object 4 (sendix.eds:822, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_4(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 158))
+        u32::from_le_bytes(od::load::<4>(&self.image, 125))
     }
 
     /// Sets 0x1A02 sub 4 TPDO3 mapping parameter / TPDO3 mapped object 4.
     pub fn set_tpdo3_mapping_parameter_mapped_object_4(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 158, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 125, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapped object 5 (sendix.eds:830, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_5(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 162))
+        u32::from_le_bytes(od::load::<4>(&self.image, 129))
     }
 
     /// Sets 0x1A02 sub 5 TPDO3 mapping parameter / TPDO3 mapped object 5.
     pub fn set_tpdo3_mapping_parameter_mapped_object_5(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 162, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 129, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapped object 6 (sendix.eds:838, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_6(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 166))
+        u32::from_le_bytes(od::load::<4>(&self.image, 133))
     }
 
     /// Sets 0x1A02 sub 6 TPDO3 mapping parameter / TPDO3 mapped object 6.
     pub fn set_tpdo3_mapping_parameter_mapped_object_6(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 166, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 133, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapped object 7 (sendix.eds:846, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_7(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 170))
+        u32::from_le_bytes(od::load::<4>(&self.image, 137))
     }
 
     /// Sets 0x1A02 sub 7 TPDO3 mapping parameter / TPDO3 mapped object 7.
     pub fn set_tpdo3_mapping_parameter_mapped_object_7(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 170, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 137, v.to_le_bytes());
     }
 
     /// 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapped object 8 (sendix.eds:854, UNSIGNED32 rw)
     pub fn tpdo3_mapping_parameter_mapped_object_8(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 174))
+        u32::from_le_bytes(od::load::<4>(&self.image, 141))
     }
 
     /// Sets 0x1A02 sub 8 TPDO3 mapping parameter / TPDO3 mapped object 8.
     pub fn set_tpdo3_mapping_parameter_mapped_object_8(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 174, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 141, v.to_le_bytes());
     }
 
     /// 0x1F51 sub 0 Program control / Program control highest sub-index (sendix.eds:867, UNSIGNED8 ro)
     pub fn program_control_highest_sub_index(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 303))
+        u8::from_le_bytes(od::load::<1>(&self.image, 302))
     }
 
     /// Sets 0x1F51 sub 0 Program control / Program control highest sub-index.
     pub fn set_program_control_highest_sub_index(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 303, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 302, v.to_le_bytes());
     }
 
     /// 0x1F51 sub 1 Program control / Program 1 control (sendix.eds:875, UNSIGNED8 rw)
     pub fn program_control_1_control(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 178))
+        u8::from_le_bytes(od::load::<1>(&self.image, 303))
     }
 
     /// Sets 0x1F51 sub 1 Program control / Program 1 control.
     pub fn set_program_control_1_control(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 178, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 303, v.to_le_bytes());
     }
 
     /// 0x2100 Baud rate (sendix.eds:1337, UNSIGNED8 rw)
     pub fn baud_rate(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 179))
+        u8::from_le_bytes(od::load::<1>(&self.image, 145))
     }
 
     /// Sets 0x2100 Baud rate.
     pub fn set_baud_rate(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 179, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 145, v.to_le_bytes());
     }
 
     /// 0x2101 Node address (sendix.eds:1345, UNSIGNED8 rw)
     pub fn node_address(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 180))
+        u8::from_le_bytes(od::load::<1>(&self.image, 146))
     }
 
     /// Sets 0x2101 Node address.
     pub fn set_node_address(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 180, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 146, v.to_le_bytes());
     }
 
     /// 0x2102 CAN bus termination (sendix.eds:1355, UNSIGNED8 rw)
     pub fn can_bus_termination(&self) -> u8 {
-        u8::from_le_bytes(od::load::<1>(&self.image, 181))
+        u8::from_le_bytes(od::load::<1>(&self.image, 147))
     }
 
     /// Sets 0x2102 CAN bus termination.
     pub fn set_can_bus_termination(&mut self, v: u8) {
-        od::store::<1>(&mut self.image, 181, v.to_le_bytes());
+        od::store::<1>(&mut self.image, 147, v.to_le_bytes());
     }
 
     /// 0x2103 Firmware flash version (sendix.eds:1365, UNSIGNED16 ro)
@@ -1460,12 +1460,12 @@ impl Ram {
 
     /// 0x2105 Save all bus parameters (sendix.eds:1373, UNSIGNED32 rw)
     pub fn save_all_bus_parameters(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 182))
+        u32::from_le_bytes(od::load::<4>(&self.image, 148))
     }
 
     /// Sets 0x2105 Save all bus parameters.
     pub fn set_save_all_bus_parameters(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 182, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 148, v.to_le_bytes());
     }
 
     /// 0x2150 Actual position sensor temperature (sendix.eds:1381, INTEGER16 ro, PDO-mappable)
@@ -1490,42 +1490,42 @@ impl Ram {
 
     /// 0x6000 Operating parameters (sendix.eds:885, UNSIGNED16 rw)
     pub fn operating_parameters(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 186))
+        u16::from_le_bytes(od::load::<2>(&self.image, 152))
     }
 
     /// Sets 0x6000 Operating parameters.
     pub fn set_operating_parameters(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 186, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 152, v.to_le_bytes());
     }
 
     /// 0x6001 Measuring units per revolution (sendix.eds:893, UNSIGNED32 rw)
     pub fn measuring_units_per_revolution(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 188))
+        u32::from_le_bytes(od::load::<4>(&self.image, 154))
     }
 
     /// Sets 0x6001 Measuring units per revolution.
     pub fn set_measuring_units_per_revolution(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 188, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 154, v.to_le_bytes());
     }
 
     /// 0x6002 Total measuring range in measuring units (sendix.eds:903, UNSIGNED32 rw)
     pub fn total_measuring_range_in_measuring_units(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 192))
+        u32::from_le_bytes(od::load::<4>(&self.image, 158))
     }
 
     /// Sets 0x6002 Total measuring range in measuring units.
     pub fn set_total_measuring_range_in_measuring_units(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 192, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 158, v.to_le_bytes());
     }
 
     /// 0x6003 Preset value (sendix.eds:911, UNSIGNED32 rw)
     pub fn preset_value(&self) -> u32 {
-        u32::from_le_bytes(od::load::<4>(&self.image, 196))
+        u32::from_le_bytes(od::load::<4>(&self.image, 162))
     }
 
     /// Sets 0x6003 Preset value.
     pub fn set_preset_value(&mut self, v: u32) {
-        od::store::<4>(&mut self.image, 196, v.to_le_bytes());
+        od::store::<4>(&mut self.image, 162, v.to_le_bytes());
     }
 
     /// 0x6004 Position value (sendix.eds:919, UNSIGNED32 ro, PDO-mappable)
@@ -1593,7 +1593,7 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return None;
         }
-        let off = 198 + usize::from(i) * 2;
+        let off = 164 + usize::from(i) * 2;
         Some(i16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -1602,7 +1602,7 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return false;
         }
-        let off = 198 + usize::from(i) * 2;
+        let off = 164 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -1642,7 +1642,7 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return None;
         }
-        let off = 206 + usize::from(i) * 2;
+        let off = 172 + usize::from(i) * 2;
         Some(i16::from_le_bytes(od::load::<2>(&self.image, off)))
     }
 
@@ -1651,19 +1651,19 @@ impl Ram {
         if !(1..=4).contains(&i) {
             return false;
         }
-        let off = 206 + usize::from(i) * 2;
+        let off = 172 + usize::from(i) * 2;
         od::store::<2>(&mut self.image, off, v.to_le_bytes());
         true
     }
 
     /// 0x6200 Cyclic timer (sendix.eds:1091, UNSIGNED16 rw)
     pub fn cyclic_timer(&self) -> u16 {
-        u16::from_le_bytes(od::load::<2>(&self.image, 216))
+        u16::from_le_bytes(od::load::<2>(&self.image, 182))
     }
 
     /// Sets 0x6200 Cyclic timer.
     pub fn set_cyclic_timer(&mut self, v: u16) {
-        od::store::<2>(&mut self.image, 216, v.to_le_bytes());
+        od::store::<2>(&mut self.image, 182, v.to_le_bytes());
     }
 
     /// 0x6400 sub 0 Work area state / Work area state number of work areas (sendix.eds:1104, UNSIGNED8 ro)
@@ -1710,7 +1710,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 214 + usize::from(i) * 4;
+        let off = 180 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1719,7 +1719,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 214 + usize::from(i) * 4;
+        let off = 180 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
@@ -1739,7 +1739,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return None;
         }
-        let off = 222 + usize::from(i) * 4;
+        let off = 188 + usize::from(i) * 4;
         Some(u32::from_le_bytes(od::load::<4>(&self.image, off)))
     }
 
@@ -1748,7 +1748,7 @@ impl Ram {
         if !(1..=2).contains(&i) {
             return false;
         }
-        let off = 222 + usize::from(i) * 4;
+        let off = 188 + usize::from(i) * 4;
         od::store::<4>(&mut self.image, off, v.to_le_bytes());
         true
     }
