@@ -48,6 +48,18 @@ impl Outbox {
         true
     }
 
+    /// Queues the answer to a command at once; `false` when the client is
+    /// too far behind (then [`Outbox::push_reply`] waits) or gone.
+    pub(super) fn try_push_reply(&self, reply: &[u8]) -> bool {
+        let mut s = self.lock();
+        if s.closed || s.pending.len() >= self.limit {
+            return false;
+        }
+        s.pending.extend_from_slice(reply);
+        self.changed.notify_all();
+        true
+    }
+
     /// Queues the answer to a command, waiting while the client is too far
     /// behind; `false` once the outbox is closed.
     pub(super) fn push_reply(&self, reply: &[u8]) -> bool {

@@ -389,8 +389,14 @@ fn read_client(client: &Arc<Client>, mut reader: TcpStream, events: &Sender<Wire
             Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
             Err(_) => return,
         };
-        lock(&client.adapter).receive(buf.get(..n).unwrap_or(&[]), &mut reply, &mut frames);
-        if !reply.is_empty() && !client.outbox.push_reply(&reply) {
+        let mut adapter = lock(&client.adapter);
+        adapter.receive(buf.get(..n).unwrap_or(&[]), &mut reply, &mut frames);
+        // Queued before the adapter is let go: a frame broadcast meanwhile
+        // must not overtake the answer to the "O" that opened the channel
+        // for it. Only a client far behind waits, without the lock.
+        let queued = reply.is_empty() || client.outbox.try_push_reply(&reply);
+        drop(adapter);
+        if !queued && !client.outbox.push_reply(&reply) {
             return;
         }
         reply.clear();
