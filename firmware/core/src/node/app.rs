@@ -485,6 +485,22 @@ impl Claims<'_> {
     }
 }
 
+/// One object RPDO `n` wrote, with its value and mapped length (as
+/// [`Ctx::rpdo_object`] gives them), offered to the device as the default
+/// [`Application::rpdo_written`] does: [`Application::rpdo_value`] first,
+/// then [`Application::written`] if it did not take it (dummy entries map
+/// nothing). For a device that overrides `rpdo_written` to find the
+/// objects its own way.
+#[inline(always)]
+pub fn rpdo_object_written<A: Application + ?Sized>(app: &mut A, ctx: &mut Ctx<'_>, n: u8, at: EntryRef, value: u32, len: u8) {
+    if !app.rpdo_value(ctx, at, value, len)
+        && let Some((index, sub)) = ctx.object_id(at)
+        && index >= index::COMMUNICATION_AREA
+    {
+        app.written(ctx, index, sub, Source::Rpdo(n));
+    }
+}
+
 /// Hooks a device implements; every method has a default, so a device
 /// module overrides only what its manual asks for. The value lives in the
 /// node, so a device type must be `const`-constructible and all zero bits
@@ -572,13 +588,7 @@ pub trait Application {
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         for i in 0..crate::services::pdo::map::MAX_ENTRIES {
             let Some((at, value, len)) = ctx.rpdo_object(n, i) else { break };
-            // Dummy entries map nothing.
-            if !self.rpdo_value(ctx, at, value, len)
-                && let Some((index, sub)) = ctx.object_id(at)
-                && index >= index::COMMUNICATION_AREA
-            {
-                self.written(ctx, index, sub, Source::Rpdo(n));
-            }
+            rpdo_object_written(self, ctx, n, at, value, len);
         }
     }
 

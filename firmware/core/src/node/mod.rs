@@ -59,7 +59,9 @@ mod sinks;
 mod state;
 mod store;
 
-pub use app::{Application, Claims, CommError, Ctx, ImageSlot, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source};
+pub use app::{
+    Application, Claims, CommError, Ctx, ImageSlot, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source, rpdo_object_written,
+};
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
 pub use controller::{CanEmcyCodes, ControllerEvent, TRANSIENT_ERROR_HOLD};
 pub use filter::{ACCEPTANCE_CAPACITY, AcceptanceList, AcceptedId};

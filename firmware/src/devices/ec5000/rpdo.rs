@@ -9,9 +9,8 @@
 //! objects than kept here, is read from the node's mapping object by object
 //! ([`Ctx::rpdo_object`]), as on any device.
 
-use canopen_core::node::{Application, Ctx, ImageSlot, Source};
+use canopen_core::node::{Application, Ctx, ImageSlot, rpdo_object_written};
 use canopen_core::od::EntryRef;
-use canopen_core::od::index::COMMUNICATION_AREA;
 use canopen_core::services::pdo::map::MAX_ENTRIES;
 
 /// The RPDOs looked at (0x1600-0x1603).
@@ -116,9 +115,8 @@ impl FixedRpdos {
 
 /// RPDO `n` wrote its objects: for each, in mapping order, as kept at its
 /// first frame if its mapping is fixed (else as the node has it,
-/// [`Ctx::rpdo_object`]), [`Application::rpdo_value`], and
-/// [`Application::written`] for those it did not take (as the default
-/// [`Application::rpdo_written`] does).
+/// [`Ctx::rpdo_object`]), offered to the device by [`rpdo_object_written`]
+/// (as the default [`Application::rpdo_written`] does).
 pub(super) fn written<A: Application>(app: &mut A, rpdos: impl Fn(&mut A) -> &mut FixedRpdos, ctx: &mut Ctx<'_>, n: u8) {
     let mut plan = rpdos(app).plan(n);
     if plan == Plan::Unknown {
@@ -130,13 +128,7 @@ pub(super) fn written<A: Application>(app: &mut A, rpdos: impl Fn(&mut A) -> &mu
         if plan == Plan::Unknown {
             rpdos(app).keep(ctx, n, at, len);
         }
-        // Dummy entries map nothing.
-        if !app.rpdo_value(ctx, at, value, len)
-            && let Some((index, sub)) = ctx.object_id(at)
-            && index >= COMMUNICATION_AREA
-        {
-            app.written(ctx, index, sub, Source::Rpdo(n));
-        }
+        rpdo_object_written(app, ctx, n, at, value, len);
     }
     if plan == Plan::Unknown {
         rpdos(app).kept(n);
