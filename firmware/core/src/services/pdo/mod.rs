@@ -261,7 +261,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         self.window_end = None;
         self.operational = false;
-        self.refresh_rx_ids();
+        self.parameters_changed();
         first_error.map_or(Ok(()), Err)
     }
 
@@ -280,7 +280,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             tpdo.cob_id_writable = cob_id_writable(dict, nth(index::TPDO_COMMUNICATION_PARAMETER, n));
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
-        self.refresh_rx_ids();
+        self.parameters_changed();
         first_error.map_or(Ok(()), Err)
     }
 
@@ -320,7 +320,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 tpdo.set(tpdo.params, Some(mapping));
             }
         }
-        self.refresh_rx_ids();
+        self.parameters_changed();
     }
 
     /// NMT entered Operational: the PDOs start (see the module notes).
@@ -372,10 +372,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// Works out again what the PDOs' parameters and mappings imply: the
     /// CAN-IDs the RPDOs listen to, the TPDOs each RPDO reaches, and which
-    /// PDOs a SYNC has work for. Every change of a parameter or a mapping ends here.
+    /// PDOs a SYNC has work for; the last [`Pdos::tpdos_mapping`] is
+    /// forgotten. Every change of a parameter or a mapping ends here.
     // Out of line: configure and write_object each had a copy (100 bytes more).
     #[inline(never)]
-    fn refresh_rx_ids(&mut self) {
+    fn parameters_changed(&mut self) {
         self.last_write = (0, 0);
         for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);

@@ -33,7 +33,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     ) -> Option<Result<(), AbortCode>> {
         self.settled = false;
         let result = self.write_parameter(index, sub, data, None, dict, image, rewrite);
-        self.refresh_rx_ids();
+        self.parameters_changed();
         result
     }
 
@@ -52,7 +52,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     ) -> Option<Result<(), AbortCode>> {
         self.settled = false;
         let result = self.write_parameter(index, sub, data, Some(entry), dict, image, rewrite);
-        self.refresh_rx_ids();
+        self.parameters_changed();
         result
     }
 
