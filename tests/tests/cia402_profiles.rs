@@ -44,8 +44,14 @@ impl Application for Profile {
     }
 }
 
-const CONFIG: Config =
-    Config { increments_per_rev: 4096, leaving_operational_aborts: false, position_window: 10, velocity_window: 10, homing_speeds: (0, 0) };
+const CONFIG: Config = Config {
+    increments_per_rev: 4096,
+    leaving_operational_aborts: false,
+    position_window: 10,
+    velocity_window: 10,
+    homing_speeds: (0, 0),
+    velocity_unit: None,
+};
 
 const AXIS: AxisParams = AxisParams {
     increments_per_rev: 4096,

@@ -122,9 +122,11 @@ fn l267_below_the_minimum_speed_the_position_of_that_moment_is_held() {
             (2750, 0x0237, 25),
             (2800, 0x0237, 20),
             (2850, 0x0237, 15),
-            (2900, 0x0637, 0),
-            (2950, 0x0637, 0),
-            (3000, 0x0637, 0)
+            // Standing: target reached (0 mm/s) and speed = 0 (bit 12: 0x606C reads
+            // within the threshold 0, docs/devices/ec5000.md D42).
+            (2900, 0x1637, 0),
+            (2950, 0x1637, 0),
+            (3000, 0x1637, 0)
         ]
     );
     let held = value(&mut b, 0x6064, 0);

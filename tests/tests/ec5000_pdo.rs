@@ -139,13 +139,15 @@ fn l623_0x6007_2_disable_voltage() {
 #[test]
 fn l624_0x6007_3_quick_stop() {
     // Quick stop active on the quick stop ramp (2.3 mm from 100 mm/s), then Switch on disabled.
+    // Bit 10 is clear while the roller brakes (CiA 402: "axis decelerates", docs/firmware.md
+    // "Standstill"; it showed the pv target reached before).
     let (_, out) = heartbeat_lost(3);
     assert_eq!(
         out,
         [
             heartbeat_emcy(),
-            (100, TPDO1, vec![0x17, 0x06, 3, 0, 25, 0, 0x34, 0]),
-            (100, TPDO2, tpdo2(0x0617, 28)),
+            (100, TPDO1, vec![0x17, 0x02, 3, 0, 25, 0, 0x34, 0]),
+            (100, TPDO2, tpdo2(0x0217, 28)),
             (200, TPDO1, vec![0x50, 0x02, 3, 0x11, 25, 0, 0, 0]),
             (200, TPDO2, tpdo2(0x0250, 30)),
         ]

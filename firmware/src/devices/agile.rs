@@ -60,6 +60,7 @@ pub const PROFILE: Config = Config {
     position_window: 0,
     velocity_window: 0,
     homing_speeds: (0, 0),
+    velocity_unit: None,
 };
 
 /// The inverter's motor as the axis model simulates it: a 4-pole machine up

@@ -61,6 +61,8 @@ pub const PROFILE: Config = Config {
     position_window: 0,
     velocity_window: 6554,
     homing_speeds: (0, 0),
+    // D64: 0x606F and 0x606C are min⁻¹ (D57).
+    velocity_unit: Some(speed::unit),
 };
 
 /// The motor as the axis model simulates it: 65536 increments per

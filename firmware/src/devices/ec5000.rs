@@ -59,6 +59,7 @@ pub const PROFILE: Config = Config {
     velocity_window: 5,
     // 0x6099 is a single 0..0 VAR: homing 37 does not move (D43).
     homing_speeds: (0, 0),
+    velocity_unit: None,
 };
 
 /// The roller as the axis model simulates it: 4096 inc/rev, 3000 min⁻¹ at

@@ -48,6 +48,7 @@ pub const PROFILE: Config = Config {
     velocity_window: 100,
     // Homing speeds (0x6099) when the EDS has none: homing does not move.
     homing_speeds: (0, 0),
+    velocity_unit: None,
 };
 
 /// The motor the axis model simulates: 4096 increments per revolution, up

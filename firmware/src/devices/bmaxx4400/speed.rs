@@ -51,6 +51,13 @@ fn clamp(value: i64) -> i32 {
     value.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32
 }
 
+/// The speed unit (of 0x606C and 0x606F) in BE/s, for the profile's
+/// standstill window (docs/devices/bmaxx4400.md D64).
+pub(super) fn unit(ctx: &Ctx<'_>) -> Factor {
+    let (num, den, _) = scales(ctx);
+    Factor::ratio(num, den)
+}
+
 /// 0x60FF in user units per second for the profile.
 pub(super) fn target_for_profile(ctx: &Ctx<'_>) -> Option<i32> {
     let (num, den, negative) = scales(ctx);

@@ -31,6 +31,14 @@ pub mod index {
     pub const VL_DECELERATION: u16 = 0x6049;
     /// 0x604A vl velocity quick stop.
     pub const VL_QUICK_STOP: u16 = 0x604A;
+    /// 0x604E vl velocity reference (UNSIGNED32, vl units): the speed the ramp times refer to.
+    pub const VL_VELOCITY_REFERENCE: u16 = 0x604E;
+    /// 0x604F vl ramp function time [ms] (UNSIGNED32): from 0 to the reference speed.
+    pub const VL_RAMP_FUNCTION_TIME: u16 = 0x604F;
+    /// 0x6050 vl slow down time [ms] (UNSIGNED32): from the reference speed to 0.
+    pub const VL_SLOW_DOWN_TIME: u16 = 0x6050;
+    /// 0x6051 vl quick stop time [ms] (UNSIGNED32): from the reference speed to 0.
+    pub const VL_QUICK_STOP_TIME: u16 = 0x6051;
     /// 0x604C vl dimension factor: numerator (sub 1), denominator (sub 2), INTEGER32.
     pub const VL_DIMENSION_FACTOR: u16 = 0x604C;
     /// 0x605A quick stop option code (INTEGER16).
@@ -83,6 +91,8 @@ pub mod index {
     pub const POLARITY: u16 = 0x607E;
     /// 0x607F max profile velocity (UNSIGNED32).
     pub const MAX_PROFILE_VELOCITY: u16 = 0x607F;
+    /// 0x6080 max motor speed [min⁻¹] (UNSIGNED32).
+    pub const MAX_MOTOR_SPEED: u16 = 0x6080;
     /// 0x6081 profile velocity (UNSIGNED32).
     pub const PROFILE_VELOCITY: u16 = 0x6081;
     /// 0x6083 profile acceleration (UNSIGNED32).

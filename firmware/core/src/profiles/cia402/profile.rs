@@ -8,7 +8,7 @@ use super::ip::Ip;
 use super::motion::{Demand, speed_q};
 use super::objects::{self, Located, index, signed, signed_at, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
-use super::units::{self, Units};
+use super::units::{self, Factor, Units};
 use super::velocity::{Window, vl_limit};
 use super::{TICK_US, mode};
 use crate::abort::AbortCode;
@@ -21,7 +21,7 @@ use crate::wire::emcy::EmcyCode;
 mod status;
 mod trajectory;
 
-use status::{supported_modes, units};
+use status::{supported_modes, units, vl_ramp_times};
 
 /// A device's constants for the profile (what its manual fixes and no object holds).
 #[derive(Clone, Copy, Debug)]
@@ -36,6 +36,11 @@ pub struct Config {
     pub velocity_window: u32,
     /// Homing speeds [user units/s] (switch, zero) when 0x6099 is missing.
     pub homing_speeds: (u32, u32),
+    /// The device's own velocity unit, if 0x606C and 0x606F are not user
+    /// units per second (the b maXX 4400's min⁻¹): the factor from that
+    /// unit to user units per second. The standstill window (0x606F) is
+    /// compared in it.
+    pub velocity_unit: Option<fn(&Ctx<'_>) -> Factor>,
 }
 
 /// While idle (drive function off, axis at rest) the profile looks for
@@ -87,8 +92,16 @@ struct Profile {
     ip: Ip,
     /// pv or vl target [Q16 inc/tick].
     velocity_target: i64,
+    /// The vl ramps given as times, one bit each (1 acceleration, 2
+    /// deceleration, 4 quick stop): the time object (0x604F-0x6051) was
+    /// written after the delta object (0x6048-0x604A), or holds a time at
+    /// reset application. Either way, the one written last rules.
+    vl_ramp_times: u8,
     internal_limit: bool,
     reached: bool,
+    /// The axis stands: the velocity actual value within the standstill
+    /// window (0x606F) for 0x6070 ms (pv statusword bit 12, and the end of
+    /// every stop).
     speed_zero: bool,
     following: bool,
     reached_window: Window,
@@ -124,6 +137,7 @@ impl Profile {
         hm_started: false,
         ip: Ip::NEW,
         velocity_target: 0,
+        vl_ramp_times: 0,
         internal_limit: false,
         reached: false,
         speed_zero: false,
@@ -161,6 +175,7 @@ impl<D: Drive> Cia402<D> {
         self.s.status_out = ctx.image_slot(self.s.at.at(Located::STATUSWORD));
         self.s.units = units(ctx, config);
         self.s.supported = supported_modes(ctx);
+        self.s.vl_ramp_times = vl_ramp_times(ctx);
         self.s.state = PdsState::SwitchOnDisabled;
         self.s.operational = ctx.state() == NmtState::Operational;
         objects::set(ctx, index::ERROR_CODE, 2, 0);
@@ -194,6 +209,18 @@ impl<D: Drive> Cia402<D> {
                 if self.s.internal_limit == limited {
                     return;
                 }
+            }
+            // A vl ramp set as a time, or as delta speed and time: the last written rules.
+            // Both in 0x6048..=0x604A and 0x604F..=0x6051: the shifts are 0-2.
+            #[allow(clippy::arithmetic_side_effects)]
+            index::VL_RAMP_FUNCTION_TIME..=index::VL_QUICK_STOP_TIME => {
+                self.s.vl_ramp_times |= 1 << (index - index::VL_RAMP_FUNCTION_TIME);
+                return;
+            }
+            #[allow(clippy::arithmetic_side_effects)]
+            index::VL_ACCELERATION..=index::VL_QUICK_STOP => {
+                self.s.vl_ramp_times &= !(1 << (index - index::VL_ACCELERATION));
+                return;
             }
             index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY | index::VL_DIMENSION_FACTOR => {
                 self.s.units = units(ctx, config);

@@ -31,6 +31,21 @@ pub const fn vl_ramp(delta_speed: u32, delta_time: u32) -> u32 {
     delta_speed / if delta_time == 0 { 1 } else { delta_time }
 }
 
+/// A vl ramp given as a time (0x604F-0x6051): `reference` [inc/s] reached
+/// from 0 in `ms` milliseconds, as increments per second squared; 0 for a
+/// time of 0 (no ramp: the drive's limit). 32-bit divisions only (one
+/// instruction on a Cortex-M3); times beyond 4,000 s count as 4,000 s.
+// `ms` ≥ 1 and ≤ 4·10^6: `rest` < `ms`, so `rest · 1000` fits a u32.
+#[allow(clippy::arithmetic_side_effects)]
+pub const fn vl_ramp_time(reference: u32, ms: u32) -> u32 {
+    if ms == 0 {
+        return 0;
+    }
+    let ms = if ms > 4_000_000 { 4_000_000 } else { ms };
+    let (whole, rest) = (reference / ms, reference % ms);
+    whole.saturating_mul(1000).saturating_add(rest * 1000 / ms)
+}
+
 /// A monitoring window: how many ticks a condition has held.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Window(u32);
@@ -58,5 +73,11 @@ mod tests {
         assert_eq!(vl_limit(-700, 100, 1500), (-700, false));
         assert_eq!(vl_ramp(150, 1), 150);
         assert_eq!(vl_ramp(1500, 10), 150);
+        // 3000 min⁻¹ at 65,536 inc/rev (3,276,800 inc/s) in 500 ms: 6,553,600 inc/s².
+        assert_eq!(vl_ramp_time(3_276_800, 500), 6_553_600);
+        assert_eq!(vl_ramp_time(1000, 3), 333_333);
+        assert_eq!(vl_ramp_time(u32::MAX, 1), u32::MAX);
+        assert_eq!(vl_ramp_time(4_000_000, u32::MAX), 1000);
+        assert_eq!(vl_ramp_time(3_276_800, 0), 0);
     }
 }

@@ -29,6 +29,8 @@ impl<D: Drive> Cia402<D> {
         if matches!(s.state, PdsState::OperationEnabled | PdsState::QuickStopActive) {
             let halted = s.controlword & cw::HALT != 0 || s.state == PdsState::QuickStopActive;
             let standing = s.demand.velocity_q == 0;
+            // Halt and quick stop: target reached once the axis stands (CiA 402-2: "velocity 0").
+            let stopped = standing && s.speed_zero;
             let (reached, bit12, bit13) = match s.mode {
                 mode::PP => (s.reached, s.pp.acknowledge, s.following),
                 mode::PV => (s.reached, s.speed_zero, false),
@@ -43,7 +45,11 @@ impl<D: Drive> Cia402<D> {
                 ),
                 _ => (false, false, false),
             };
-            if reached || (halted && standing) {
+            // Halted (halt, quick stop): bit 10 tells the axis stands, not that the mode's
+            // target is reached (CiA 402-2: "axis decelerates" / "axis has velocity 0");
+            // homing has its own coding of bits 13, 12, 10.
+            let target_reached = if halted && s.mode != mode::HM { stopped } else { reached || (halted && stopped) };
+            if target_reached {
                 word |= sw::TARGET_REACHED;
             }
             if bit12 {
@@ -125,4 +131,17 @@ pub(super) fn supported_modes(ctx: &Ctx<'_>) -> u32 {
         Some(declared) => modes & declared,
         None => modes,
     }
+}
+
+/// The vl ramps whose time object (0x604F-0x6051) holds a time at reset
+/// application (bits as `Profile::vl_ramp_times`): a stored time rules, as
+/// a drive keeps its ramp times and not the delta pair they came from.
+pub(super) fn vl_ramp_times(ctx: &Ctx<'_>) -> u8 {
+    let mut times = 0;
+    for (bit, index) in [(1, index::VL_RAMP_FUNCTION_TIME), (2, index::VL_SLOW_DOWN_TIME), (4, index::VL_QUICK_STOP_TIME)] {
+        if unsigned_or(ctx, index, 0, 0) != 0 {
+            times |= bit;
+        }
+    }
+    times
 }

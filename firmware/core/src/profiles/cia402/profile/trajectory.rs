@@ -11,7 +11,7 @@ use crate::profiles::cia402::mode;
 use crate::profiles::cia402::motion::{Demand, FRACTION, acceleration_q, speed_per_s, speed_q};
 use crate::profiles::cia402::objects::{index, signed, unsigned, unsigned_or};
 use crate::profiles::cia402::units::Units;
-use crate::profiles::cia402::velocity::vl_ramp;
+use crate::profiles::cia402::velocity::{vl_ramp, vl_ramp_time};
 
 /// Parameters read once per poll: windows in increments, speeds and ramps
 /// in [`crate::profiles::cia402::motion`]'s Q24 per-tick units, times in ticks.
@@ -28,7 +28,8 @@ pub(super) struct Params {
     following_ticks: u32,
     velocity_window: i64,
     velocity_window_ticks: u32,
-    threshold: i64,
+    /// The standstill window [inc/s] and how long the axis stays in it.
+    standstill: i64,
     threshold_ticks: u32,
     homing: (i64, i64),
     homing_acceleration: i64,
@@ -38,6 +39,46 @@ pub(super) struct Params {
 /// Milliseconds as ticks (one tick is a millisecond, see `motion`).
 fn ticks(ms: u32) -> u32 {
     ms
+}
+
+/// The standstill window [inc/s]: the largest speed at which the velocity
+/// actual value, as its object shows it, reads within the velocity
+/// threshold 0x606F (0 or missing: reads 0). That is 0x606C's unit (user
+/// units per second, or the device's [`Config::velocity_unit`]), and in vl
+/// 0x6044's (min⁻¹ times the vl dimension factor), where 0x606F does not
+/// apply. The threshold plus half a unit, the value's rounding, doubled so
+/// that it stays an integer.
+// `doubled` ≤ 2^33: the Q32 factors keep it within an i64.
+#[allow(clippy::arithmetic_side_effects)]
+fn standstill(ctx: &Ctx<'_>, config: &Config, u: &Units, vl: bool) -> i64 {
+    if vl {
+        return u.vl_to_inc.apply(1).abs() >> 1;
+    }
+    let doubled = i64::from(unsigned_or(ctx, index::VELOCITY_THRESHOLD, 0, 0)) * 2 + 1;
+    let user = match config.velocity_unit {
+        Some(unit) => unit(ctx).apply(doubled),
+        None => doubled,
+    };
+    u.to_inc.apply(user).abs() >> 1
+}
+
+/// The speed the vl ramp times refer to [inc/s]: the vl velocity
+/// reference 0x604E (vl units), else the max motor speed 0x6080 (min⁻¹),
+/// else the drive's maximum (the b maXX 4400's "MotorMaxSpeed").
+// `rpm % 60 · inc/rev` saturates; the other terms are quotients.
+#[allow(clippy::arithmetic_side_effects)]
+fn vl_reference(ctx: &Ctx<'_>, config: &Config, u: &Units, max: u32) -> u32 {
+    if let Some(r) = unsigned(ctx, index::VL_VELOCITY_REFERENCE, 0).filter(|r| *r != 0) {
+        return u.vl_to_inc.apply(i64::from(r)).unsigned_abs().min(u64::from(u32::MAX)) as u32;
+    }
+    match unsigned(ctx, index::MAX_MOTOR_SPEED, 0) {
+        // 32-bit divisions by 60 (a 64-bit one is a library call).
+        Some(rpm) if rpm != 0 => {
+            let ipr = config.increments_per_rev;
+            (rpm / 60).saturating_mul(ipr).saturating_add((rpm % 60).saturating_mul(ipr) / 60)
+        }
+        _ => max,
+    }
 }
 
 /// An acceleration in increments, 0 or missing → `fallback`.
@@ -58,16 +99,26 @@ impl<D: Drive> Cia402<D> {
             _ => self.drive.max_acceleration(),
         };
         let vl = self.s.mode == mode::VL;
-        let vl_ramp_of = |index| {
-            let rpm_per_s = vl_ramp(unsigned_or(ctx, index, 1, 0), unsigned_or(ctx, index, 2, 1));
-            // A magnitude: a negative vl dimension factor turns the motor, not the ramp.
-            match u.vl_to_inc.apply(i64::from(rpm_per_s)).abs() {
+        let times = self.s.vl_ramp_times;
+        let reference = if vl && times != 0 { vl_reference(ctx, config, u, self.drive.max_velocity()) } else { 0 };
+        // Ramp `i`: 0 acceleration, 1 deceleration, 2 quick stop.
+        #[allow(clippy::arithmetic_side_effects)]
+        let vl_ramp_of = |i: u16| {
+            let per_s2 = if times & (1 << i) != 0 {
+                i64::from(vl_ramp_time(reference, unsigned_or(ctx, index::VL_RAMP_FUNCTION_TIME + i, 0, 0)))
+            } else {
+                let delta = index::VL_ACCELERATION + i;
+                let rpm_per_s = vl_ramp(unsigned_or(ctx, delta, 1, 0), unsigned_or(ctx, delta, 2, 1));
+                // A magnitude: a negative vl dimension factor turns the motor, not the ramp.
+                u.vl_to_inc.apply(i64::from(rpm_per_s)).abs()
+            };
+            match per_s2 {
                 0 => limit,
                 a => a.clamp(1, i64::from(u32::MAX)) as u32,
             }
         };
         let (acceleration, deceleration, quick_stop) = if vl {
-            (vl_ramp_of(index::VL_ACCELERATION), vl_ramp_of(index::VL_DECELERATION), vl_ramp_of(index::VL_QUICK_STOP))
+            (vl_ramp_of(0), vl_ramp_of(1), vl_ramp_of(2))
         } else {
             (
                 ramp(u, unsigned(ctx, index::PROFILE_ACCELERATION, 0), limit),
@@ -101,7 +152,7 @@ impl<D: Drive> Cia402<D> {
             following_ticks: ticks(unsigned_or(ctx, index::FOLLOWING_ERROR_TIMEOUT, 0, 0)),
             velocity_window: window(index::VELOCITY_WINDOW, config.velocity_window),
             velocity_window_ticks: ticks(unsigned_or(ctx, index::VELOCITY_WINDOW_TIME, 0, 0)),
-            threshold: window(index::VELOCITY_THRESHOLD, 0),
+            standstill: standstill(ctx, config, u, vl),
             threshold_ticks: ticks(unsigned_or(ctx, index::VELOCITY_THRESHOLD_TIME, 0, 0)),
             homing: (homing_speed(1, config.homing_speeds.0), homing_speed(2, config.homing_speeds.1)),
             homing_acceleration: acceleration_q(ramp(u, unsigned(ctx, index::HOMING_ACCELERATION, 0), acceleration)),
@@ -178,8 +229,11 @@ impl<D: Drive> Cia402<D> {
         self.drive.command(set_point);
         self.drive.tick();
         // A stop completes when the demand is at rest and the axis has followed
-        // it (0x606C reads 0): disabling earlier would let the motor coast on.
-        if d.velocity_q == 0 && s.units.velocity_to_user(i64::from(self.drive.velocity())) == 0 {
+        // it into the standstill window (disabling earlier would let the
+        // motor coast on): at the tick 0x606C reads within 0x606F, not
+        // when the position loop has settled the last increment.
+        s.speed_zero = s.zero_window.tick(i64::from(self.drive.velocity()).abs() <= p.standstill, p.threshold_ticks);
+        if d.velocity_q == 0 && s.speed_zero {
             self.stopped();
         }
     }
@@ -201,7 +255,7 @@ impl<D: Drive> Cia402<D> {
         }
     }
 
-    /// Target reached, speed zero and following error, one tick.
+    /// Target reached and following error, one tick.
     pub(super) fn monitor(&mut self, p: &Params) {
         let s = &mut self.s;
         let position = self.drive.position();
@@ -222,7 +276,6 @@ impl<D: Drive> Cia402<D> {
                 #[allow(clippy::arithmetic_side_effects)]
                 let near = (speed_per_s(s.velocity_target) - velocity).abs() <= p.velocity_window;
                 s.reached = s.reached_window.tick(near, p.velocity_window_ticks);
-                s.speed_zero = s.zero_window.tick(velocity.abs() <= p.threshold, p.threshold_ticks);
             }
             _ => {}
         }
