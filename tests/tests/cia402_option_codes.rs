@@ -90,11 +90,11 @@ fn when(b: &mut Bmaxx, from: u64, wanted: u16) -> u64 {
 }
 
 // The transitions that wait for the stop (5 with 0x605C 1, 12 after a quick stop, 14
-// after the fault reaction) complete when the axis has followed the demand to rest in
-// the profile's own units (increments per second, docs/firmware.md): after a small
-// overshoot the position loop settles for about 0.2 s after 0x606C (min⁻¹) reads 0.
+// after the fault reaction) complete when the demand stands and 0x606C reads 0 min⁻¹
+// (docs/firmware.md "Standstill"): after a small overshoot the position loop brings the
+// axis back at 1-3 min⁻¹ for up to 45 ms (the exact frames are in cia402_standstill.rs).
 // `SETTLE` allows that.
-const SETTLE: u64 = 300;
+const SETTLE: u64 = 50;
 
 #[test]
 fn halt_option_0x605d_1_slow_down_ramp_2_quick_stop_ramp_3_current_limit() {
