@@ -173,6 +173,7 @@ fn the_ramp_written_last_rules_0x6048_after_0x604f_and_0x604f_after_0x6048() {
     // 0x6048: 600 min⁻¹ per 2 s, 0.3 min⁻¹ per ms.
     write_sub(&mut b, 0x6048, 1, &600u32.to_le_bytes());
     write_sub(&mut b, 0x6048, 2, &2u16.to_le_bytes());
+    assert_eq!(b.sdo_upload(ID, 0x604F, 0), Ok(vec![0; 4]), "the time gave way to the pair");
     target(&mut b, 200, 600);
     let frames = trace(&mut b, 300);
     assert_eq!(at(&frames, 300).3, 30, "0x6048: 0.3 min⁻¹ per ms, 29.7 after 99 ms");

@@ -31,8 +31,6 @@ pub mod index {
     pub const VL_DECELERATION: u16 = 0x6049;
     /// 0x604A vl velocity quick stop.
     pub const VL_QUICK_STOP: u16 = 0x604A;
-    /// 0x604E vl velocity reference (UNSIGNED32, vl units): the speed the ramp times refer to.
-    pub const VL_VELOCITY_REFERENCE: u16 = 0x604E;
     /// 0x604F vl ramp function time [ms] (UNSIGNED32): from 0 to the reference speed.
     pub const VL_RAMP_FUNCTION_TIME: u16 = 0x604F;
     /// 0x6050 vl slow down time [ms] (UNSIGNED32): from the reference speed to 0.

@@ -21,7 +21,7 @@ use crate::wire::emcy::EmcyCode;
 mod status;
 mod trajectory;
 
-use status::{supported_modes, units, vl_ramp_times};
+use status::{supported_modes, units};
 
 /// A device's constants for the profile (what its manual fixes and no object holds).
 #[derive(Clone, Copy, Debug)]
@@ -92,11 +92,6 @@ struct Profile {
     ip: Ip,
     /// pv or vl target [Q16 inc/tick].
     velocity_target: i64,
-    /// The vl ramps given as times, one bit each (1 acceleration, 2
-    /// deceleration, 4 quick stop): the time object (0x604F-0x6051) was
-    /// written after the delta object (0x6048-0x604A), or holds a time at
-    /// reset application. Either way, the one written last rules.
-    vl_ramp_times: u8,
     internal_limit: bool,
     reached: bool,
     /// The axis stands: the velocity actual value within the standstill
@@ -137,7 +132,6 @@ impl Profile {
         hm_started: false,
         ip: Ip::NEW,
         velocity_target: 0,
-        vl_ramp_times: 0,
         internal_limit: false,
         reached: false,
         speed_zero: false,
@@ -175,7 +169,6 @@ impl<D: Drive> Cia402<D> {
         self.s.status_out = ctx.image_slot(self.s.at.at(Located::STATUSWORD));
         self.s.units = units(ctx, config);
         self.s.supported = supported_modes(ctx);
-        self.s.vl_ramp_times = vl_ramp_times(ctx);
         self.s.state = PdsState::SwitchOnDisabled;
         self.s.operational = ctx.state() == NmtState::Operational;
         objects::set(ctx, index::ERROR_CODE, 2, 0);
@@ -210,16 +203,12 @@ impl<D: Drive> Cia402<D> {
                     return;
                 }
             }
-            // A vl ramp set as a time, or as delta speed and time: the last written rules.
-            // Both in 0x6048..=0x604A and 0x604F..=0x6051: the shifts are 0-2.
-            #[allow(clippy::arithmetic_side_effects)]
-            index::VL_RAMP_FUNCTION_TIME..=index::VL_QUICK_STOP_TIME => {
-                self.s.vl_ramp_times |= 1 << (index - index::VL_RAMP_FUNCTION_TIME);
-                return;
-            }
+            // A vl ramp set as delta speed and time after its time (0x604F-0x6051, which
+            // rules while it is not 0): the one written last rules, so the time goes.
+            // 0x6048..=0x604A: the time is 7 indices on.
             #[allow(clippy::arithmetic_side_effects)]
             index::VL_ACCELERATION..=index::VL_QUICK_STOP => {
-                self.s.vl_ramp_times &= !(1 << (index - index::VL_ACCELERATION));
+                let _ = ctx.set_value(index + 7, 0, &[0; 4]);
                 return;
             }
             index::GEAR_RATIO | index::FEED_CONSTANT | index::POLARITY | index::VL_DIMENSION_FACTOR => {

@@ -132,16 +132,3 @@ pub(super) fn supported_modes(ctx: &Ctx<'_>) -> u32 {
         None => modes,
     }
 }
-
-/// The vl ramps whose time object (0x604F-0x6051) holds a time at reset
-/// application (bits as `Profile::vl_ramp_times`): a stored time rules, as
-/// a drive keeps its ramp times and not the delta pair they came from.
-pub(super) fn vl_ramp_times(ctx: &Ctx<'_>) -> u8 {
-    let mut times = 0;
-    for (bit, index) in [(1, index::VL_RAMP_FUNCTION_TIME), (2, index::VL_SLOW_DOWN_TIME), (4, index::VL_QUICK_STOP_TIME)] {
-        if unsigned_or(ctx, index, 0, 0) != 0 {
-            times |= bit;
-        }
-    }
-    times
-}
