@@ -48,6 +48,7 @@ pub const PROFILE: Config = Config {
     velocity_window: 100,
     // Homing speeds (0x6099) when the EDS has none: homing does not move.
     homing_speeds: (0, 0),
+    // 0x606C and 0x606F are user units per second (the factor group's).
     velocity_unit: None,
 };
 
