@@ -125,7 +125,7 @@ fn m_l6237_a_halt_suspends_the_interpolation_and_brakes() {
     // 500,000 inc/s braked at 65,536,000 inc/s²: about 1,900 inc beyond where the halt came.
     assert!((at_halt + 1_500..=at_halt + 2_500).contains(&demand), "{at_halt} → {demand}");
     // 1000 rev/s² is twice what the motor can (500): the axis overshoots the demand and
-    // the position loop brings it back; bit 10 waits until it stands (0x606C reads 0, D64).
+    // the position loop brings it back; bit 10 waits until it stands (0x606C reads 0, D68).
     assert_eq!(status & 0x1400, 0x1000, "ip still enabled (bit 12), the axis still moving");
     assert!(i32_at(&mut b, 0x606C) < 0, "returning");
     let (status, _) = record_and_sync(&mut b, 600, 0x011F, 61_000);

@@ -4,7 +4,7 @@
 //! the velocity actual value reads within the velocity threshold 0x606F (0:
 //! reads 0) for 0x6070 ms, CiA 402's "speed = 0" of pv, in the unit the
 //! object uses (docs/firmware.md "Standstill", docs/devices/bmaxx4400.md
-//! D64). Measured on the b maXX 4400 (every option code in its dictionary;
+//! D68). Measured on the b maXX 4400 (every option code in its dictionary;
 //! 0x606C in min⁻¹): TPDO3 carries the statusword and 0x606C at a SYNC
 //! every millisecond, and the statusword changes in the frame in which
 //! 0x606C first reads standstill, not when the position loop has settled

@@ -1,5 +1,5 @@
 //! vl ramps given as times (docs/firmware.md "vl ramp times",
-//! docs/devices/bmaxx4400.md D65): 0x604F ramp function time (acceleration),
+//! docs/devices/bmaxx4400.md D69): 0x604F ramp function time (acceleration),
 //! 0x6050 slow down time (deceleration) and 0x6051 quick stop time, each in
 //! ms from 0 to the reference speed, on the b maXX 4400 (App. C: P1172-P1174,
 //! "Hochlaufgeber" times to MotorMaxSpeed; its vl quick stop "über P1174 HLG

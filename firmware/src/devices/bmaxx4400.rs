@@ -61,7 +61,7 @@ pub const PROFILE: Config = Config {
     position_window: 0,
     velocity_window: 6554,
     homing_speeds: (0, 0),
-    // D64: 0x606F and 0x606C are min⁻¹ (D57).
+    // D68: 0x606F and 0x606C are min⁻¹ (D57).
     velocity_unit: Some(speed::unit),
 };
 

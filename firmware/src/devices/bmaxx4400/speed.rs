@@ -52,7 +52,7 @@ fn clamp(value: i64) -> i32 {
 }
 
 /// The speed unit (of 0x606C and 0x606F) in BE/s, for the profile's
-/// standstill window (docs/devices/bmaxx4400.md D64).
+/// standstill window (docs/devices/bmaxx4400.md D68).
 pub(super) fn unit(ctx: &Ctx<'_>) -> Factor {
     let (num, den, _) = scales(ctx);
     Factor::ratio(num, den)
