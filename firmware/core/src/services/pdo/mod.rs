@@ -517,6 +517,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return None;
         }
+        // The earliest deadline, folded as the PDOs are visited: a TPDO
+        // polled is asked again, one that was not keeps the deadline it
+        // was checked against (no PDO's poll moves another's).
+        let mut first = NEVER;
         if self.rpdo_timers != 0 {
             let mut timers = 0;
             for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
@@ -524,6 +528,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 if rpdo.timeout_at().is_some() {
                     timers |= bit_of(n);
                 }
+                first = first.min(at(rpdo.timeout_at()));
             }
             self.rpdo_timers = timers;
         }
@@ -532,21 +537,30 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             // Only the TPDOs that can send, each bit a TPDO.
             let mut bits = self.tpdo_live;
             while let Some(t) = next_bit(&mut bits) {
-                if let Some(tpdo) = self.tpdos.get_mut(t)
-                    && (marked & bit_of(t) != 0 || tpdo.due() <= now_at)
-                {
-                    tpdo.poll(now, &self.window_end, image, tx);
+                if let Some(tpdo) = self.tpdos.get_mut(t) {
+                    // A marked TPDO counts as due now (0).
+                    let mut due = if marked & bit_of(t) != 0 { 0 } else { tpdo.due() };
+                    if due <= now_at {
+                        tpdo.poll(now, &self.window_end, image, tx);
+                        due = tpdo.due();
+                    }
+                    first = first.min(due);
                 }
             }
         } else {
             for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
                 let bit = bit_of(t);
-                if tpdo.cob_id().is_some() && (marked & bit != 0 || bit == u32::MAX || tpdo.due() <= now_at) {
-                    tpdo.poll(now, &self.window_end, image, tx);
+                if tpdo.cob_id().is_some() {
+                    let mut due = if marked & bit != 0 || bit == u32::MAX { 0 } else { tpdo.due() };
+                    if due <= now_at {
+                        tpdo.poll(now, &self.window_end, image, tx);
+                        due = tpdo.due();
+                    }
+                    first = first.min(due);
                 }
             }
         }
-        self.settled_deadline = deadline_of(self.walk());
+        self.settled_deadline = deadline_of(first);
         self.settled = true;
         self.settled_deadline
     }
@@ -573,7 +587,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
     /// run and the TPDOs that can send have one.
-    // Out of line: `deadline` and `poll_marked` share it.
+    // Out of line: `deadline` alone calls it (`poll_marked` folds as it polls).
     #[inline(never)]
     fn walk(&self) -> At {
         let mut first = NEVER;
