@@ -503,14 +503,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
     pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
-        let marked = changed | self.retrying();
-        self.poll_marked(now, marked, image, tx)
+        self.poll_marked(now, changed, image, tx)
     }
 
-    /// [`Pdos::poll_changed`] where `marked` holds the TPDOs waiting to
-    /// retry besides those that may see changed data (the node knows from
-    /// the transmit queue's overflow count when none waits, see
-    /// [`Pdos::retrying`]).
+    /// [`Pdos::poll_changed`]: `marked` holds the TPDOs that may see
+    /// changed data; a TPDO waiting to retry a refused frame is polled
+    /// whether marked or not (a field it holds: no walk for them first).
     // Out of line: the main loop's `process` would take its two paths in.
     #[inline(never)]
     pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
@@ -538,8 +536,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             let mut bits = self.tpdo_live;
             while let Some(t) = next_bit(&mut bits) {
                 if let Some(tpdo) = self.tpdos.get_mut(t) {
-                    // A marked TPDO counts as due now (0).
-                    let mut due = if marked & bit_of(t) != 0 { 0 } else { tpdo.due() };
+                    // A marked TPDO, or one waiting to retry, counts as due now (0).
+                    let mut due = if marked & bit_of(t) != 0 || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now_at {
                         tpdo.poll(now, &self.window_end, image, tx);
                         due = tpdo.due();
@@ -551,7 +549,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
                 let bit = bit_of(t);
                 if tpdo.cob_id().is_some() {
-                    let mut due = if marked & bit != 0 || bit == u32::MAX { 0 } else { tpdo.due() };
+                    let mut due = if marked & bit != 0 || bit == u32::MAX || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now_at {
                         tpdo.poll(now, &self.window_end, image, tx);
                         due = tpdo.due();

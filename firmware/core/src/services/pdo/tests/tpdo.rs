@@ -113,6 +113,20 @@ fn a_refused_frame_is_retried_at_the_next_poll() {
 }
 
 #[test]
+fn a_refused_frame_is_retried_by_a_poll_that_marks_other_tpdos_only() {
+    // The poll itself looks for TPDOs waiting to retry: the node marks only
+    // the TPDOs a write reached.
+    let mut node = Node::operational(ms(0));
+    node.bus.refuse = true;
+    assert_eq!(node.pdos.poll_changed(ms(0), 0, &node.image, &mut node.bus), None);
+    node.bus.refuse = false;
+    node.pdos.poll_changed(ms(1), 0b10, &node.image, &mut node.bus);
+    tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
+    node.pdos.poll_changed(ms(2), 0b10, &node.image, &mut node.bus);
+    tx!(node, []);
+}
+
+#[test]
 fn rtr_on_an_event_driven_tpdo_sends_the_current_data() {
     // CiA 310 case 3.3.
     let mut node = Node::operational(ms(0));
