@@ -131,6 +131,12 @@ pub trait PdoTx {
         self.send_data(cob_id, &data, len)
     }
 
+    /// RPDO `n` (0-based) wrote its data ([`PdoEvent::Received`]); the
+    /// default reports it through [`PdoTx::event`].
+    fn received(&mut self, n: usize) {
+        self.event(PdoEvent::Received(n));
+    }
+
     /// Reports an event; the default ignores it.
     fn event(&mut self, event: PdoEvent) {
         let _ = event;

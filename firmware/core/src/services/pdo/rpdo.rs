@@ -135,7 +135,7 @@ impl Rpdo {
             if let Some(mapping) = &self.mapping {
                 mapping.apply(image, data);
             }
-            out.event(PdoEvent::Received(n));
+            out.received(n);
         }
     }
 
@@ -143,7 +143,7 @@ impl Rpdo {
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
         if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping.as_ref()) {
             mapping.apply(image, &data);
-            out.event(PdoEvent::Received(n));
+            out.received(n);
         }
     }
 
