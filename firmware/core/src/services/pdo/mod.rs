@@ -440,20 +440,36 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// A data frame on `cob_id`: true if it belongs to a valid RPDO (then it
     /// is processed, or buffered for the SYNC). Ignored unless Operational.
     pub fn on_frame(&mut self, now: Instant, cob_id: u16, data: &[u8], image: &mut [u8], out: &mut impl PdoTx) -> bool {
+        self.on_frame_reaching(now, cob_id, data, image, out).is_some()
+    }
+
+    /// [`Pdos::on_frame`], with the event-driven TPDOs whose mapped data
+    /// the frame wrote (its RPDO's [`Pdos::reaches`]; 0 when it wrote
+    /// nothing now: a length error, or data that waits for the SYNC);
+    /// `None` when no RPDO took it. The node marks those TPDOs without
+    /// asking again.
+    pub(crate) fn on_frame_reaching(
+        &mut self,
+        now: Instant,
+        cob_id: u16,
+        data: &[u8],
+        image: &mut [u8],
+        out: &mut impl PdoTx,
+    ) -> Option<u32> {
         if !self.operational {
-            return false;
+            return None;
         }
         let window_open = self.window_end.is_none_or(|end| now <= end);
-        let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
-        let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
-        rpdo.on_frame(n, now, data, window_open, image, out);
+        let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
+        let rpdo = self.rpdos.get_mut(n)?;
+        let written = rpdo.on_frame(n, now, data, window_open, image, out);
         if let Some(timeout) = rpdo.timeout_at() {
             self.rpdo_timers |= bit_of(n);
             // Only this RPDO's timeout moved, and only later (or it started):
             // the settled deadline stays good, or early, which is harmless.
             self.settled_deadline = earliest(self.settled_deadline, Some(timeout));
         }
-        true
+        Some(if written { self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS) } else { 0 })
     }
 
     /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once
