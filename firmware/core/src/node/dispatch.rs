@@ -213,7 +213,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         let (waits, mut wake) = (self.app_due.waits, false);
-        self.with_app_cold(now, |app, ctx| {
+        self.with_app_follow(now, |app, ctx| {
             let mut bits = received;
             while bits != 0 {
                 app.rpdo_written(ctx, bits.trailing_zeros() as u8);
