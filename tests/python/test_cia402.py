@@ -172,8 +172,13 @@ class Cia402(Drive402Test):
         self.drive.tpdo.read()
         self.assertEqual([(o.index, o.length) for o in self.drive.tpdo[4]], [(0x6041, 16), (0x6064, 32)])
         self.drive.nmt.state = "OPERATIONAL"
+        # RPDO1 carries 0x6081 with the controlword and the mode: every state change and
+        # op_mode of BaseNode402 sends it, so the PLC sets its profile velocity there (an SDO
+        # write of 0x6081 would be overwritten by the next RPDO1; 0 is the drive's maximum).
+        self.drive.rpdo[1]["Profile velocity"].raw = 200
         self.drive.op_mode = "PROFILED POSITION"
         self.drive.state = "OPERATION ENABLED"
+        self.assertEqual(self.drive.sdo[0x6081].raw, 200)
         tpdo = self.drive.tpdo[4]
         rpdo = self.drive.rpdo[2]
         names = ("Statusword", "Position actual value")
@@ -183,9 +188,12 @@ class Cia402(Drive402Test):
             rpdo["Controlword"].raw = cw  # new set-point (bit 4), relative for bit 6
             rpdo.transmit()
             self.samples(tpdo, names, lambda s: s[0] & 0x1000)  # set-point acknowledge
+            began = time.monotonic()
             rpdo["Controlword"].raw = cw & ~0x10
             rpdo.transmit()
             moves = self.samples(tpdo, names, lambda s: s[0] & 0x1400 == 0x0400)
+            # At 200 mm/s (not the drive's 436 mm/s) with 2000 mm/s² ramps.
+            self.assertGreater(time.monotonic() - began, abs(target) / 200, "at the profile velocity")
             self.assertTrue(any(p not in (start, absolute) for _, p in moves), f"moving: {moves}")
             # Target reached inside the 1 mm position window (D42), then on the target.
             self.assertLessEqual(abs(moves[-1][1] - absolute), 1, moves[-1])
