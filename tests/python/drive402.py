@@ -83,7 +83,16 @@ class Drive402Test(unittest.TestCase):
         self.drive.emcy.reset()
         # One heartbeat (Operational) arms the consumer; none follows.
         self.v.network.send_message(0x700 + PLC, bytes([0x05]))
-        emcy = self.drive.emcy.wait(code, timeout=1.0)
+        return self.emcy(code)
+
+    def emcy(self, code, timeout=1.0):
+        """The EMCY with `code`: from python-canopen's log if it came already, else by its
+        `emcy.wait`, and from the log again: each time `wait` wakes it looks at the newest EMCY
+        only, so of two that arrive together (the Agile's 0x8130 and 0x1000) it misses the first."""
+        def logged():
+            return next((e for e in self.drive.emcy.log if e.code == code), None)
+
+        emcy = logged() or self.drive.emcy.wait(code, timeout) or logged()
         self.assertIsNotNone(emcy, f"EMCY {code:#06x} {self.drive.emcy.log}")
         return emcy
 

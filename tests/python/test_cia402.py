@@ -141,10 +141,11 @@ class Cia402(Drive402Test):
         rpdo.transmit()
         names = ("Statusword", "Velocity actual value")
         up = self.samples(tpdo, names, lambda s: s[1] == 200)
-        self.assertTrue(any(0 < v < 200 for _, v in up), f"a ramp, not a step: {up}")
+        self.assertGreaterEqual(sum(0 < v < 190 for _, v in up), 3, f"a ramp of 0.1 s, not a step: {up}")
         # Rising (the speed loop may overshoot by a few mm/s as it settles).
         self.assertTrue(all(b >= a - 3 for (_, a), (_, b) in zip(up, up[1:])) and max(v for _, v in up) <= 205, up)
-        self.assertEqual(self.samples(tpdo, names, lambda s: s[0] & 0x0400)[-1][1], 200, "target reached at 200 mm/s")
+        # Target reached within the velocity window, 5 mm/s (D42), as the loop settles.
+        self.assertLessEqual(abs(self.samples(tpdo, names, lambda s: s[0] & 0x0400)[-1][1] - 200), 5)
         # Quick stop (bit 2 = 0): the quick stop ramp (the drive's limit, 2180 mm/s²: about
         # 0.1 s), then Switch on disabled (quick stop option code 2, docs/devices/ec5000.md D42).
         start = time.monotonic()
@@ -153,7 +154,7 @@ class Cia402(Drive402Test):
         down = self.samples(tpdo, names, lambda s: s[0] & 0x4F == 0x40)
         self.assertLess(time.monotonic() - start, 0.5)
         speeds = [v for _, v in down]
-        self.assertTrue(any(0 < v < 200 for v in speeds), f"braked on a ramp: {down}")
+        self.assertGreaterEqual(sum(0 < v < 190 for v in speeds), 3, f"braked on a ramp: {down}")
         self.assertTrue(all(b <= a + 3 for a, b in zip(speeds, speeds[1:])), f"falling: {speeds}")
         self.assertEqual(speeds[-1], 0)
         self.assertEqual(self.drive.state, "SWITCH ON DISABLED")
@@ -215,10 +216,10 @@ class Cia402(Drive402Test):
         self.drive.nmt.state = "OPERATIONAL"
         self.wait_for("FAULT from the TPDO", lambda: self.drive.state == "FAULT", 1.0)
         self.assertEqual(self.drive.sdo[0x6041].raw & 0x4F, 0x08)
+        self.drive.emcy.reset()
         self.drive.reset_from_fault()
         self.assertEqual(self.drive.state, "OPERATION ENABLED")
-        self.assertIsNotNone(self.drive.emcy.wait(0x0000, 0.5) or
-                             next((e for e in self.drive.emcy.log if e.code == 0), None), "error reset")
+        self.assertEqual(self.emcy(0x0000, 0.5).data, bytes(5), "error reset")
         self.assertEqual(self.drive.emcy.active, [])
 
     def test_heartbeat_store_and_restore_across_power_cycles(self):

@@ -152,6 +152,9 @@ class Bmaxx4400(Drive402Test):
         self.addCleanup(self.v.network.sync.stop)
         self.mode(3)
         self.drive.sdo[0x605A].raw = 6  # quick stop ramp, stay in QUICK STOP ACTIVE
+        # 100 revolutions per s² (6000 min⁻¹ per s) up and for the quick stop: 0.1 s each way.
+        self.drive.sdo[0x6083].raw = 6553600
+        self.drive.sdo[0x6085].raw = 6553600
         self.drive.state = "OPERATION ENABLED"
         rpdo, tpdo = self.drive.rpdo[4], self.drive.tpdo[4]
         names = ("Statusword", "Velocity actual value")
@@ -159,14 +162,15 @@ class Bmaxx4400(Drive402Test):
         rpdo["Target velocity"].raw = 600  # min⁻¹
         rpdo.transmit()
         up = self.samples(tpdo, names, lambda s: abs(s[1] - 600) <= 6 and s[0] & 0x0400)
-        self.assertTrue(any(0 < v < 550 for _, v in up), f"accelerating: {up}")
+        self.assertTrue(any(0 < v < 550 for _, v in up), f"accelerating on 0x6083: {up}")
+        self.assertGreaterEqual(sum(0 < v < 550 for _, v in up), 3, f"a ramp of 0.1 s, not a step: {up}")
         moved = self.i32(0x6064)
         time.sleep(0.2)
         self.assertGreater(self.i32(0x6064) - moved, 65536, "600 min⁻¹ for 0.2 s: two revolutions")
         rpdo["Controlword"].raw = 0x0B
         rpdo.transmit()
         down = self.samples(tpdo, names, lambda s: s[1] == 0 and s[0] & 0x6F == 0x07, 1.0)
-        self.assertTrue(any(0 < v < 500 for _, v in down), f"braking on the quick stop ramp: {down}")
+        self.assertGreaterEqual(sum(0 < v < 550 for _, v in down), 3, f"braking on the quick stop ramp 0x6085: {down}")
         self.assertEqual(self.drive.state, "QUICK STOP ACTIVE")
         held = self.i32(0x6064)
         time.sleep(0.1)
@@ -183,8 +187,7 @@ class Bmaxx4400(Drive402Test):
         self.drive.nmt.start_node_guarding(0.05)
         time.sleep(0.2)
         self.drive.nmt.stop_node_guarding()
-        emcy = self.drive.emcy.wait(0x8130, 1.0)
-        self.assertIsNotNone(emcy, f"EMCY 0x8130 (life guarding) {self.drive.emcy.log}")
+        self.emcy(0x8130)  # life guarding
         self.wait_for("FAULT from TPDO1", lambda: self.drive.state == "FAULT", 1.0)
         self.assertEqual(self.drive.nmt.state, "OPERATIONAL", "answers of the guarding")
         self.drive.reset_from_fault()
