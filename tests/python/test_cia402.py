@@ -227,5 +227,38 @@ class Cia402(Drive402Test):
         self.power_cycle_keeps_what_was_stored({(0x6083, None): (1500, 0), (0x6084, None): (1200, 0)})
 
 
+
+class Cia402Tpdo1(Drive402Test):
+    """A PLC that keeps the manual's TPDO1 (0x6041, 0x6061, ...) and TPDO2 (0x6041, 0x6064) gives
+    them a 100 ms event timer (D47) with python-canopen's PDO configuration: `save()` on a fixed
+    mapping, whose mapping writes the EC5000 refuses with 0x06010002 (read-only), the code
+    python-canopen's workaround for fixed mappings expects."""
+
+    DEVICE, NODE_ID, EDS = "ec5000", NODE_ID, EDS
+
+    def setUp(self):
+        self.v, self.drive = self.attach()
+        self.drive.nmt.state = "PRE-OPERATIONAL"
+        self.drive.tpdo.read()
+        for n in (1, 2):
+            self.drive.tpdo[n].event_timer = 100
+            self.drive.tpdo[n].save()
+        self.drive.setup_402_state_machine()
+        self.drive.nmt.state = "OPERATIONAL"
+
+    def test_tpdo1_carries_the_state_and_the_mode(self):
+        self.assertEqual((self.drive.sdo[0x1800][5].raw, self.drive.sdo[0x1801][5].raw), (100, 100))
+        self.assertEqual(self.drive.tpdo_pointers[0x6041].pdo_parent, self.drive.tpdo[1])
+        self.assertEqual(self.drive.tpdo_pointers[0x6061].pdo_parent, self.drive.tpdo[1])
+        for mode, code in [("PROFILED POSITION", 1), ("HOMING", 6), ("PROFILED VELOCITY", 3)]:
+            self.drive.op_mode = mode
+            self.assertEqual((self.drive.op_mode, self.drive.tpdo_values[0x6061]), (mode, code))
+        for state in ["READY TO SWITCH ON", "SWITCHED ON", "OPERATION ENABLED", "SWITCH ON DISABLED"]:
+            start = time.monotonic()
+            self.drive.state = state
+            # TPDO1's 100 ms inhibit time paces it: within BaseNode402's 0.4 s.
+            self.assertLess(time.monotonic() - start, 0.4, state)
+
+
 if __name__ == "__main__":
     unittest.main()
