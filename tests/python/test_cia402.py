@@ -260,5 +260,21 @@ class Cia402Tpdo1(Drive402Test):
             self.assertLess(time.monotonic() - start, 0.4, state)
 
 
+    def test_homing_with_the_status_from_tpdo1(self):
+        # homing() sets op_mode HOMING (RPDO1), enables, starts with bit 4 and reads the
+        # homing status (bits 10, 12, 13) from TPDO1: method 37 makes here the home (D43).
+        self.drive.rpdo[3]["Controlword"].raw = 0x0F
+        self.drive.rpdo[3]["Target velocity"].raw = 50
+        self.drive.state = "OPERATION ENABLED"
+        self.drive.rpdo[3].transmit()
+        time.sleep(0.2)
+        self.drive.rpdo[3]["Target velocity"].raw = 0
+        self.drive.rpdo[3].transmit()
+        self.wait_for("away from 0", lambda: self.drive.sdo[0x6064].raw != 0 and self.drive.sdo[0x606C].raw == 0)
+        self.assertTrue(self.drive.homing(timeout=2))
+        self.assertEqual((self.drive.op_mode, self.drive.sdo[0x6064].raw), ("HOMING", 0))
+        self.assertTrue(self.drive.is_homed())
+
+
 if __name__ == "__main__":
     unittest.main()
