@@ -180,6 +180,10 @@ impl Application for App {
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
+        if index == speed::CONFIGURATION {
+            // D64: P0830 bit 9 applies to the next drive error, like bits 2 and 5 at once (D56).
+            self.drive.drive.ff00_only = speed::configured(ctx, EMCY_FF00_ONLY);
+        }
         if index == MODES_OF_OPERATION {
             self.set_mode(ctx);
         } else if (index, sub) == (ip::TIME_PERIOD, 2) {
@@ -214,8 +218,9 @@ impl Application for App {
             zero_default_mapping(ctx);
         }
         if event == NmtEvent::ResetApplication {
-            // The axis model starts again at 0: the homing is lost.
+            // The axis model starts again at 0: the homing is lost. P0830 is back at its default.
             self.homed = false;
+            self.drive.drive.ff00_only = speed::configured(ctx, EMCY_FF00_ONLY);
             self.set_mode(ctx);
             self.ip_period = ip::period(ctx, None).unwrap_or(1);
         }
@@ -282,6 +287,9 @@ impl App {
         let _ = ctx.set_value(MODES_OF_OPERATION_DISPLAY, 0, &[shows as u8]);
     }
 }
+
+/// P0830 bit 9 (§4.3.9): drive errors without a DSP 402 code are EMCY FF00h, not FF00h + number.
+const EMCY_FF00_ONLY: u32 = 1 << 9;
 
 /// P0830 bit 3 (§4.3.4): the default mapping has every entry 0, and 0x6007 is 3.
 const ZEROED_MAPPING: u32 = 1 << 3;
