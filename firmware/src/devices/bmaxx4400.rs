@@ -14,6 +14,7 @@ pub mod od {
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::objects::index::{CONTROLWORD, QUICK_STOP_OPTION, STATUSWORD};
 use canopen_core::profiles::cia402::{Cia402, Config, mode, statusword};
@@ -43,11 +44,13 @@ pub struct App {
     ip_period: u8,
     /// A homing completed since power-on (reset application) (D61).
     homed: bool,
+    /// The hardware limit switches as last seen: bit 0 negative, bit 1 positive (D65).
+    switches: u8,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false };
+    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false, switches: 0 };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -65,7 +68,9 @@ pub const PROFILE: Config = Config {
 
 /// The motor as the axis model simulates it: 65536 increments per
 /// revolution, up to 3000 min⁻¹ (3,276,800 inc/s), 0.1 s from standstill to
-/// full speed, following-error fault at one revolution, a 560 V DC link.
+/// full speed, following-error fault at one revolution, a 560 V DC link,
+/// hardware limit switches 100 revolutions either side of the power-on
+/// position (homing methods 17/18, drive errors 198/199, D65).
 pub const AXIS: AxisParams = AxisParams {
     increments_per_rev: 65536,
     max_acceleration: 32_768_000,
@@ -79,9 +84,12 @@ pub const AXIS: AxisParams = AxisParams {
     fault_c: 105,
     dc_link_mv: 560_000,
     following_limit: 65_536,
-    limits: (0, 0),
+    limits: (-LIMIT_SWITCH, LIMIT_SWITCH),
     home_switch: None,
 };
+
+/// Where the hardware limit switches are [inc]: 100 revolutions.
+const LIMIT_SWITCH: i64 = 100 * 65536;
 
 /// A 0x6060 value the manual accepts (App. C, M-L5241-5410), with the mode
 /// the profile runs for it and what 0x6061 shows (D51): −3 (drive speed
@@ -205,6 +213,7 @@ impl Application for App {
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
         let next = self.drive.poll(ctx, &PROFILE);
+        self.limit_switches(ctx);
         speed::actuals(ctx, &mut self.speeds);
         next
     }
@@ -219,7 +228,7 @@ impl Application for App {
         }
         if event == NmtEvent::ResetApplication {
             // The axis model starts again at 0: the homing is lost. P0830 is back at its default.
-            self.homed = false;
+            (self.homed, self.switches) = (false, 0);
             self.drive.drive.ff00_only = speed::configured(ctx, EMCY_FF00_ONLY);
             self.set_mode(ctx);
             self.ip_period = ip::period(ctx, None).unwrap_or(1);
@@ -270,9 +279,27 @@ impl App {
         } else if cw & 0x10 != 0 && status & statusword::INTERNAL_LIMIT != 0 {
             // A new set-point (bit 4) the software limits cut: the fault follows at
             // once, so no later write finds bit 11 still set while enabled.
-            let reaction = Reaction::of(ctx.read_u32(QUICK_STOP_OPTION, 0).map_or(-1, |v| v as i16 as i32), Reaction::QuickStopRamp);
-            self.drive.raise_fault(ctx, positioning::CODE, positioning::limit(ctx, cw), reaction);
+            self.limit_fault(ctx, positioning::limit(ctx, cw));
         }
+    }
+
+    /// §4.4.4 (D65): the axis running onto a hardware limit switch, outside
+    /// homing (where methods 17/18 look for it) and with the drive function
+    /// on, is drive error 198 (negative) or 199 (positive).
+    fn limit_switches(&mut self, ctx: &mut Ctx<'_>) {
+        let on = self.drive.drive.axis.switches();
+        let on = u8::from(on.negative_limit) | u8::from(on.positive_limit) << 1;
+        let reached = on & !core::mem::replace(&mut self.switches, on);
+        if reached != 0 && self.drive.state() == PdsState::OperationEnabled && running(ctx).0 != mode::HM {
+            self.limit_fault(ctx, positioning::hardware_limit(reached & 1 == 0));
+        }
+    }
+
+    /// A limit's positioning error: EMCY 8600h with drive error `info`, the
+    /// drive reacting as 0x605A says (§4.4.3: "Verhalten des Antriebs über 605Ahex einstellbar").
+    fn limit_fault(&mut self, ctx: &mut Ctx<'_>, info: [u8; 5]) {
+        let reaction = Reaction::of(ctx.read_u32(QUICK_STOP_OPTION, 0).map_or(-1, |v| v as i16 as i32), Reaction::QuickStopRamp);
+        self.drive.raise_fault(ctx, positioning::CODE, info, reaction);
     }
 
     /// 0x6060 changed: the profile runs the mode [`mode_of`] gives, and

@@ -4,6 +4,9 @@
 //! - a new pp target outside the software limits 0x607D: no motion, drive
 //!   error 00C4h (below limit 1, sub 1) or 00C5h (beyond limit 2, sub 2),
 //!   the drive reacts as 0x605A says and a fault reset acknowledges it;
+//! - running onto a hardware limit switch (§4.4.4 M-L876-880) outside
+//!   homing: drive error 00C6h (negative) or 00C7h (positive), the drive
+//!   reacting as for the software limits (D65);
 //! - positioning without homing: while P0601 is 9 (the CANopen mode, which
 //!   requires homing, M-L1020), pp enabled before a homing since power-on
 //!   raises drive error 00C8h; the drive holds its position and takes no
@@ -18,6 +21,8 @@ pub(super) const CODE: EmcyCode = EmcyCode(0x8600);
 const LIMIT_1: u8 = 0xC4;
 /// Drive error 00C5h software limit switch 2 (197).
 const LIMIT_2: u8 = 0xC5;
+/// Drive error 00C6h negative hardware limit switch (198); 00C7h the positive one.
+const HARDWARE_LIMIT_1: u8 = 0xC6;
 /// Drive error 00C8h positioning started without homing (200).
 const NOT_HOMED: u8 = 0xC8;
 /// P0601 (0x4259) positioning mode: 9 is the CANopen mode.
@@ -36,6 +41,11 @@ pub(super) fn homing_required(ctx: &Ctx<'_>) -> bool {
 /// The error of positioning before homing.
 pub(super) const fn not_homed() -> [u8; 5] {
     info(NOT_HOMED)
+}
+
+/// The error of running onto a hardware limit switch, the positive one if `positive`.
+pub(super) const fn hardware_limit(positive: bool) -> [u8; 5] {
+    info(HARDWARE_LIMIT_1 + positive as u8)
 }
 
 /// The error of a target the profile limited (statusword bit 11) with
