@@ -28,6 +28,7 @@ mod params;
 mod positioning;
 mod slots;
 mod speed;
+mod sync;
 
 pub use errors::BmaxxDrive;
 
@@ -46,11 +47,14 @@ pub struct App {
     homed: bool,
     /// The hardware limit switches as last seen: bit 0 negative, bit 1 positive (D65).
     switches: u8,
+    /// When the SYNCs came (D66).
+    sync: sync::Monitor,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false, switches: 0 };
+    pub const NEW: App =
+        App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false, switches: 0, sync: sync::Monitor::NEW };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -205,6 +209,13 @@ impl Application for App {
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        // D66: a SYNC off its interval; the PLL in step again lets a fault reset acknowledge it.
+        if self.sync.on_sync(ctx) {
+            self.not_synchronous(ctx);
+        }
+        if self.sync.in_step(ctx) {
+            self.drive.drive.out_of_step = false;
+        }
         self.drive.sample(ctx);
         // D58: every SYNC takes the interpolation data record.
         self.drive.interpolate(ip::set_point(ctx), self.ip_period);
@@ -214,6 +225,9 @@ impl Application for App {
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
         let next = self.drive.poll(ctx, &PROFILE);
         self.limit_switches(ctx);
+        if self.sync.missing(ctx) {
+            self.not_synchronous(ctx);
+        }
         speed::actuals(ctx, &mut self.speeds);
         next
     }
@@ -223,8 +237,12 @@ impl Application for App {
             self.drive.drive.axis.configure(AXIS);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
-        if event == NmtEvent::ResetCommunication && speed::configured(ctx, ZEROED_MAPPING) {
-            zero_default_mapping(ctx);
+        if event == NmtEvent::ResetCommunication {
+            // The card starts again: no SYNC seen, the synchronisation anew (D66).
+            (self.sync, self.drive.drive.out_of_step) = (sync::Monitor::NEW, false);
+            if speed::configured(ctx, ZEROED_MAPPING) {
+                zero_default_mapping(ctx);
+            }
         }
         if event == NmtEvent::ResetApplication {
             // The axis model starts again at 0: the homing is lost. P0830 is back at its default.
@@ -292,6 +310,16 @@ impl App {
         let reached = on & !core::mem::replace(&mut self.switches, on);
         if reached != 0 && self.drive.state() == PdsState::OperationEnabled && running(ctx).0 != mode::HM {
             self.limit_fault(ctx, positioning::hardware_limit(reached & 1 == 0));
+        }
+    }
+
+    /// D66: the SYNC off its interval or missing while the drive follows it
+    /// (Operation enabled in −4 or ip): drive error 00A5h, which a fault
+    /// reset acknowledges once the PLL runs in step again.
+    fn not_synchronous(&mut self, ctx: &mut Ctx<'_>) {
+        if self.drive.state() == PdsState::OperationEnabled && matches!(running(ctx).0, mode::IP | -4) {
+            self.drive.drive.report(sync::NOT_SYNCHRONOUS);
+            self.drive.drive.out_of_step = true;
         }
     }
 

@@ -20,11 +20,13 @@ pub struct BmaxxDrive {
     reported: u8,
     /// P0830 bit 9: drive errors without a DSP 402 code are FF00h alone.
     pub(super) ff00_only: bool,
+    /// The drive is not synchronous to the SYNC yet: a fault reset leaves the reported error (D66).
+    pub(super) out_of_step: bool,
 }
 
 impl BmaxxDrive {
     /// The drive at power-on (all zero bits).
-    pub const NEW: BmaxxDrive = BmaxxDrive { axis: Axis::NEW, reported: 0, ff00_only: false };
+    pub const NEW: BmaxxDrive = BmaxxDrive { axis: Axis::NEW, reported: 0, ff00_only: false, out_of_step: false };
 
     /// The drive reports drive error `number` (§5.6.2, e.g. 0073h "Leitungsbruch
     /// Geber 1" or 00A7h "Bremse öffnet nicht"): the drive faults, and a fault
@@ -159,9 +161,11 @@ impl AxisDrive for BmaxxDrive {
         [0, self.number().unwrap_or(0), 0, 0, 0]
     }
     fn reset_fault(&mut self) -> bool {
-        // "Quittieren": a reported error is an event, acknowledged by the reset.
-        self.reported = 0;
-        self.axis.reset_fault()
+        // "Quittieren": a reported error is acknowledged by the reset once its cause is gone.
+        if !self.out_of_step {
+            self.reported = 0;
+        }
+        self.axis.reset_fault() && self.reported == 0
     }
     fn at_rest(&self) -> bool {
         // `Drive`'s default, standing still, as the b maXX has always had
