@@ -42,16 +42,21 @@ impl BmaxxDrive {
         if self.reported != 0 {
             return Some(self.reported);
         }
-        Some(match self.axis.fault() {
-            fault::FOLLOWING_ERROR => 0xC1,
-            fault::OVER_TEMPERATURE => 0x62,
-            fault::UNDER_VOLTAGE => 0x5E,
-            fault::OVER_VOLTAGE => 0x52,
-            fault::POWER_STAGE => 0x53,
-            _ => return None,
-        })
+        let fault = self.axis.fault();
+        AXIS_FAULTS.iter().find(|(code, _)| *code == fault.0).map(|(_, number)| *number)
     }
 }
+
+/// The axis model's faults as drive errors: 00C1h static following error,
+/// 0062h motor over-temperature, 005Eh DC-link under-voltage, 0052h DC-link
+/// over-voltage, 0053h power-unit over-current.
+const AXIS_FAULTS: [(u16, u8); 5] = [
+    (fault::FOLLOWING_ERROR.0, 0xC1),
+    (fault::OVER_TEMPERATURE.0, 0x62),
+    (fault::UNDER_VOLTAGE.0, 0x5E),
+    (fault::OVER_VOLTAGE.0, 0x52),
+    (fault::POWER_STAGE.0, 0x53),
+];
 
 /// §5.6.2 in runs: the first drive error number of each run and the EMCY
 /// code of its numbers up to the next run. 0: no DSP 402 code (empty in the
