@@ -431,3 +431,42 @@ fn m_l1002_homing_methods_17_and_18_find_the_hardware_limit_switches() {
     b.run_until(ms(20_000));
     assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "one revolution from home");
 }
+
+#[test]
+fn m_l1081_p0601_4_takes_every_target_as_relative_whatever_controlword_bit_6() {
+    // "Relativ, positive und negativ (Wert 4): … keine Umschaltung 'absolut/relativ' über das
+    // Steuerwort": two set-points of one revolution with bit 6 clear move two revolutions.
+    // (P0601 ≠ 9: no homing required, D61.)
+    let mut b = enabled_in(1);
+    assert_eq!(b.sdo_write(ID, 0x4259, 0, &4i16.to_le_bytes()), ok_write(0x4259, 0));
+    let t = 65_536i32.to_le_bytes();
+    for (start, expected) in [(400u64, 65_536i32), (2500, 131_072)] {
+        assert_eq!(emcys(&b.rx(ms(start), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]])), Vec::<Vec<u8>>::new());
+        b.rx(ms(start + 10), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+        b.run_until(ms(start + 2000));
+        let at = i32_at(&mut b, 0x6064);
+        assert!((expected - 16..=expected + 16).contains(&at), "{at} after the set-point at {start} ms");
+    }
+    // P0601 = 10 ("Absolut relativ"): bit 6 clear is absolute again, the axis goes back to one revolution.
+    assert_eq!(b.sdo_write(ID, 0x4259, 0, &10i16.to_le_bytes()), ok_write(0x4259, 0));
+    b.rx(ms(4600), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.rx(ms(4610), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.run_until(ms(6600));
+    assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "absolute with P0601 = 10");
+}
+
+#[test]
+fn m_l1060_the_cards_start_sets_p0601_to_9_unless_p1190_bit_9() {
+    // "In P1190 mit Bit 9 ist es möglich das automatische Einstellen des Modus 'Absolut /
+    // Relativ CANopen' während der Init Phase der CANopen Optionskarte zu deaktivieren".
+    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    b.now = ms(10);
+    let p0601 = |b: &mut Bmaxx| b.sdo_upload(ID, 0x4259, 0).expect("P0601");
+    for (p1190, after_reset) in [(0x0000u16, 9i16), (0x0200, 4)] {
+        assert_eq!(b.sdo_write(ID, 0x44A6, 0, &p1190.to_le_bytes()), ok_write(0x44A6, 0));
+        assert_eq!(b.sdo_write(ID, 0x4259, 0, &4i16.to_le_bytes()), ok_write(0x4259, 0));
+        assert_eq!(b.nmt(0x82, ID), [(0x704, vec![0x00])]);
+        assert_eq!(p0601(&mut b), after_reset.to_le_bytes().to_vec(), "P1190 = {p1190:04X}h");
+    }
+}

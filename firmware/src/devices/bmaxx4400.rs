@@ -238,8 +238,10 @@ impl Application for App {
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
         if event == NmtEvent::ResetCommunication {
-            // The card starts again: no SYNC seen, the synchronisation anew (D66).
+            // The card starts again: no SYNC seen, the synchronisation anew (D66);
+            // P0601 "Absolut/Relativ CANopen" unless P1190 bit 9 keeps it (D67).
             (self.sync, self.drive.drive.out_of_step) = (sync::Monitor::NEW, false);
+            positioning::init_mode(ctx);
             if speed::configured(ctx, ZEROED_MAPPING) {
                 zero_default_mapping(ctx);
             }
@@ -269,15 +271,25 @@ impl App {
         if running == mode::HM && status & HOMING_ATTAINED == HOMING_ATTAINED {
             self.homed = true;
         }
-        let hold = index == CONTROLWORD && running == mode::PP && !self.homed && positioning::homing_required(ctx);
-        if hold {
-            let _ = ctx.set_value(CONTROLWORD, 0, &((cw & !0x10) as u16).to_le_bytes());
+        // The controlword as the drive takes it in pp: no new set-point before a
+        // homing (D61), every target relative with P0601 = 4 (D67).
+        let mut seen = cw;
+        if index == CONTROLWORD && running == mode::PP {
+            if !self.homed && positioning::homing_required(ctx) {
+                seen &= !0x10;
+            }
+            if positioning::always_relative(ctx) {
+                seen |= 0x40;
+            }
+        }
+        if seen != cw {
+            let _ = ctx.set_value(CONTROLWORD, 0, &(seen as u16).to_le_bytes());
         }
         // D63: the manufacturer's shutdown and disable operation codes −1, −2.
         option_codes::as_cia(ctx, |ctx| self.drive.written(ctx, &PROFILE, index));
         let _ = ctx.set_value(CONTROLWORD, 0, &(cw as u16).to_le_bytes());
         let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &[a, b, c, d]);
-        self.positioning(ctx, cw);
+        self.positioning(ctx, seen);
     }
 
     /// The positioning errors after the profile ran (D61): pp enabled

@@ -1,4 +1,4 @@
-//! The option module's positioning errors (§4.4.3 M-L856-875, §4.4.8
+//! The option module's positioning rules and errors (§4.4.3 M-L856-875, §4.4.8
 //! M-L1002-1016; EMCY 8600h "Positioning Controller" with the drive error
 //! number, §5.6.2 M-L3699-3707), D61:
 //! - a new pp target outside the software limits 0x607D: no motion, drive
@@ -7,6 +7,8 @@
 //! - running onto a hardware limit switch (§4.4.4 M-L876-880) outside
 //!   homing: drive error 00C6h (negative) or 00C7h (positive), the drive
 //!   reacting as for the software limits (D65);
+//! - P0601 = 4 takes every target as relative; the card's start sets P0601
+//!   to 9 unless P1190 bit 9 says otherwise (§4.4.9, D67);
 //! - positioning without homing: while P0601 is 9 (the CANopen mode, which
 //!   requires homing, M-L1020), pp enabled before a homing since power-on
 //!   raises drive error 00C8h; the drive holds its position and takes no
@@ -27,6 +29,8 @@ const HARDWARE_LIMIT_1: u8 = 0xC6;
 const NOT_HOMED: u8 = 0xC8;
 /// P0601 (0x4259) positioning mode: 9 is the CANopen mode.
 const POSITIONING_MODE: u16 = 0x4259;
+/// P1190 (0x44A6) positioning mode word.
+const POSITIONING_MODE_WORD: u16 = 0x44A6;
 
 /// EMCY bytes 3-7 for drive error `number` (most significant byte first, D54).
 const fn info(number: u8) -> [u8; 5] {
@@ -36,6 +40,20 @@ const fn info(number: u8) -> [u8; 5] {
 /// Positioning waits for a homing (P0601 = 9).
 pub(super) fn homing_required(ctx: &Ctx<'_>) -> bool {
     ctx.read_u32(POSITIONING_MODE, 0) == Some(9)
+}
+
+/// P0601 = 4 "Relativ, positiv und negativ": every target is relative,
+/// whatever controlword bit 6 says (§4.4.9 M-L1081-1085, D67).
+pub(super) fn always_relative(ctx: &Ctx<'_>) -> bool {
+    ctx.read_u32(POSITIONING_MODE, 0) == Some(4)
+}
+
+/// The card's start (reset communication): P0601 becomes 9, "Absolut/Relativ
+/// CANopen", unless P1190 (0x44A6) bit 9 switches that off (§4.4.9 M-L1060-1065, D67).
+pub(super) fn init_mode(ctx: &mut Ctx<'_>) {
+    if ctx.read_u32(POSITIONING_MODE_WORD, 0).is_some_and(|word| word & 1 << 9 == 0) {
+        let _ = ctx.set_value(POSITIONING_MODE, 0, &9i16.to_le_bytes());
+    }
 }
 
 /// The error of positioning before homing.
