@@ -362,3 +362,117 @@ fn m_l1074_other_positioning_modes_than_p0601_9_need_no_homing() {
     assert_eq!(emcy, Vec::<Vec<u8>>::new());
     assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "one revolution");
 }
+
+/// Operation enabled in `mode` (RPDO2) at 100-300 ms, without a homing.
+fn enabled_in(mode: u8) -> Bmaxx {
+    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    b.now = ms(10);
+    b.nmt(0x01, ID);
+    for (t, cw) in [(100, 0x06u8), (200, 0x07), (300, 0x0F)] {
+        b.rx(ms(t), RPDO2, &[cw, 0, mode]);
+    }
+    b
+}
+
+/// The EMCY frames with their time [ms] up to `until`.
+fn emcys_until(b: &mut Bmaxx, until: u64) -> Vec<(u64, Vec<u8>)> {
+    b.run_until(ms(until)).into_iter().filter(|(_, (id, _))| *id == EMCY).map(|(t, (_, d))| (t.as_micros() / 1000, d)).collect()
+}
+
+#[test]
+fn m_l876_running_onto_a_hardware_limit_switch_is_emcy_8600_drive_error_198_or_199() {
+    // pv (−3, speed control) at 3000 min⁻¹ from 300 ms: the positive switch sits 100
+    // revolutions out (D65), reached 2.05 s later (0.1 s ramp, then 50 revolutions a second).
+    let mut b = enabled_in(0xFD);
+    // 0x605A = 2: the drive brakes on the quick stop ramp, as for the software limits.
+    assert_eq!(b.sdo_write(ID, 0x605A, 0, &2i16.to_le_bytes()), ok_write(0x605A, 0));
+    assert_eq!(b.sdo_write(ID, 0x60FF, 0, &3000i32.to_le_bytes()), ok_write(0x60FF, 0));
+    b.run_until(ms(2000));
+    // "Fehlerauslösung bei Fahrt in Hardware-Endschalter": EMCY 8600h, drive error 199 (00C7h).
+    assert_eq!(emcys_until(&mut b, 3000), [(2350, vec![0x00, 0x86, 0x11, 0x00, 0xC7, 0, 0, 0])]);
+    assert_eq!(b.sdo_upload(ID, 0x6041, 0).map(|v| v[0] & 0x4F), Ok(0x08), "Fault");
+    assert!(i32_at(&mut b, 0x6064) >= 100 * 65536, "on the switch");
+    assert_eq!(i32_at(&mut b, 0x606C), 0, "stopped on the quick stop ramp");
+    // Fault reset, enabled again, out of the switch at −600 min⁻¹: no new error.
+    b.rx(ms(6000), RPDO2, &[0x80, 0, 0xFD]);
+    assert_eq!(b.sdo_write(ID, 0x60FF, 0, &(-600i32).to_le_bytes()), ok_write(0x60FF, 0));
+    for (t, cw) in [(6010, 0x06u8), (6020, 0x07), (6030, 0x0F)] {
+        b.rx(ms(t), RPDO2, &[cw, 0, 0xFD]);
+    }
+    assert_eq!(emcys_until(&mut b, 8000), []);
+    assert!(i32_at(&mut b, 0x6064) < 100 * 65536, "off the switch");
+    // The other way, the negative switch: drive error 198 (00C6h).
+    assert_eq!(b.sdo_write(ID, 0x60FF, 0, &(-3000i32).to_le_bytes()), ok_write(0x60FF, 0));
+    let emcy = emcys_until(&mut b, 13_000);
+    assert_eq!(emcy.iter().map(|(_, d)| d.clone()).collect::<Vec<_>>(), [vec![0x00, 0x86, 0x11, 0x00, 0xC6, 0, 0, 0]]);
+}
+
+#[test]
+fn m_l1002_homing_methods_17_and_18_find_the_hardware_limit_switches() {
+    // hm, method 17 (negative limit switch) at 3,276,800 BE/s (50 revolutions a second),
+    // leaving it at 65,536 BE/s; its edge is home, 0x607C = 1000. No EMCY: the switch is
+    // the homing's target.
+    let mut b = enabled_in(6);
+    assert_eq!(b.sdo_write(ID, 0x6098, 0, &[17]), ok_write(0x6098, 0));
+    assert_eq!(b.sdo_write(ID, 0x6099, 1, &3_276_800u32.to_le_bytes()), ok_write(0x6099, 1));
+    assert_eq!(b.sdo_write(ID, 0x6099, 2, &65_536u32.to_le_bytes()), ok_write(0x6099, 2));
+    assert_eq!(b.sdo_write(ID, 0x607C, 0, &1000i32.to_le_bytes()), ok_write(0x607C, 0));
+    b.rx(ms(400), RPDO2, &[0x1F, 0, 6]);
+    assert_eq!(emcys_until(&mut b, 5000), []);
+    assert_eq!(b.sdo_upload(ID, 0x6041, 0), Ok(vec![0x37, 0x16]), "homing attained (bits 12, 10)");
+    // Home is the edge; the axis stops from the zero speed 4 increments past it.
+    assert_eq!(i32_at(&mut b, 0x6064), 1004, "home");
+    // Method 18 (positive switch), then pp takes set-points: the CANopen positioning mode's homing.
+    assert_eq!(b.sdo_write(ID, 0x6098, 0, &[18]), ok_write(0x6098, 0));
+    b.rx(ms(5000), RPDO2, &[0x0F, 0, 6]);
+    b.rx(ms(5010), RPDO2, &[0x1F, 0, 6]);
+    assert_eq!(emcys_until(&mut b, 12_000), []);
+    assert_eq!(b.sdo_upload(ID, 0x6041, 0), Ok(vec![0x37, 0x16]), "homing attained");
+    assert_eq!(i32_at(&mut b, 0x6064), 999, "home; the axis stops from the zero speed one increment short");
+    b.rx(ms(12_000), RPDO2, &[0x0F, 0, 1]);
+    let t = 65_536i32.to_le_bytes();
+    assert_eq!(emcys(&b.rx(ms(12_010), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]])), Vec::<Vec<u8>>::new());
+    b.rx(ms(12_020), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.run_until(ms(20_000));
+    assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "one revolution from home");
+}
+
+#[test]
+fn m_l1081_p0601_4_takes_every_target_as_relative_whatever_controlword_bit_6() {
+    // "Relativ, positive und negativ (Wert 4): … keine Umschaltung 'absolut/relativ' über das
+    // Steuerwort": two set-points of one revolution with bit 6 clear move two revolutions.
+    // (P0601 ≠ 9: no homing required, D61.)
+    let mut b = enabled_in(1);
+    assert_eq!(b.sdo_write(ID, 0x4259, 0, &4i16.to_le_bytes()), ok_write(0x4259, 0));
+    let t = 65_536i32.to_le_bytes();
+    for (start, expected) in [(400u64, 65_536i32), (2500, 131_072)] {
+        assert_eq!(emcys(&b.rx(ms(start), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]])), Vec::<Vec<u8>>::new());
+        b.rx(ms(start + 10), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+        b.run_until(ms(start + 2000));
+        let at = i32_at(&mut b, 0x6064);
+        assert!((expected - 16..=expected + 16).contains(&at), "{at} after the set-point at {start} ms");
+    }
+    // P0601 = 10 ("Absolut relativ"): bit 6 clear is absolute again, the axis goes back to one revolution.
+    assert_eq!(b.sdo_write(ID, 0x4259, 0, &10i16.to_le_bytes()), ok_write(0x4259, 0));
+    b.rx(ms(4600), RPDO3, &[0x1F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.rx(ms(4610), RPDO3, &[0x0F, 0x00, t[0], t[1], t[2], t[3]]);
+    b.run_until(ms(6600));
+    assert!((65_520..=65_552).contains(&i32_at(&mut b, 0x6064)), "absolute with P0601 = 10");
+}
+
+#[test]
+fn m_l1060_the_cards_start_sets_p0601_to_9_unless_p1190_bit_9() {
+    // "In P1190 mit Bit 9 ist es möglich das automatische Einstellen des Modus 'Absolut /
+    // Relativ CANopen' während der Init Phase der CANopen Optionskarte zu deaktivieren".
+    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
+    b.at(ms(0));
+    b.now = ms(10);
+    let p0601 = |b: &mut Bmaxx| b.sdo_upload(ID, 0x4259, 0).expect("P0601");
+    for (p1190, after_reset) in [(0x0000u16, 9i16), (0x0200, 4)] {
+        assert_eq!(b.sdo_write(ID, 0x44A6, 0, &p1190.to_le_bytes()), ok_write(0x44A6, 0));
+        assert_eq!(b.sdo_write(ID, 0x4259, 0, &4i16.to_le_bytes()), ok_write(0x4259, 0));
+        assert_eq!(b.nmt(0x82, ID), [(0x704, vec![0x00])]);
+        assert_eq!(p0601(&mut b), after_reset.to_le_bytes().to_vec(), "P1190 = {p1190:04X}h");
+    }
+}

@@ -14,6 +14,7 @@ pub mod od {
 use canopen_core::abort::AbortCode;
 use canopen_core::axis::AxisParams;
 use canopen_core::node::{Application, Ctx, NmtEvent, ServiceOptions, Source};
+use canopen_core::profiles::cia402::drive::Drive;
 use canopen_core::profiles::cia402::fsa::{PdsState, Reaction};
 use canopen_core::profiles::cia402::objects::index::{CONTROLWORD, QUICK_STOP_OPTION, STATUSWORD};
 use canopen_core::profiles::cia402::{Cia402, Config, mode, statusword};
@@ -27,6 +28,7 @@ mod params;
 mod positioning;
 mod slots;
 mod speed;
+mod sync;
 
 pub use errors::BmaxxDrive;
 
@@ -43,11 +45,16 @@ pub struct App {
     ip_period: u8,
     /// A homing completed since power-on (reset application) (D61).
     homed: bool,
+    /// The hardware limit switches as last seen: bit 0 negative, bit 1 positive (D65).
+    switches: u8,
+    /// When the SYNCs came (D66).
+    sync: sync::Monitor,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false };
+    pub const NEW: App =
+        App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false, switches: 0, sync: sync::Monitor::NEW };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -67,7 +74,9 @@ pub const PROFILE: Config = Config {
 
 /// The motor as the axis model simulates it: 65536 increments per
 /// revolution, up to 3000 min⁻¹ (3,276,800 inc/s), 0.1 s from standstill to
-/// full speed, following-error fault at one revolution, a 560 V DC link.
+/// full speed, following-error fault at one revolution, a 560 V DC link,
+/// hardware limit switches 100 revolutions either side of the power-on
+/// position (homing methods 17/18, drive errors 198/199, D65).
 pub const AXIS: AxisParams = AxisParams {
     increments_per_rev: 65536,
     max_acceleration: 32_768_000,
@@ -81,9 +90,12 @@ pub const AXIS: AxisParams = AxisParams {
     fault_c: 105,
     dc_link_mv: 560_000,
     following_limit: 65_536,
-    limits: (0, 0),
+    limits: (-LIMIT_SWITCH, LIMIT_SWITCH),
     home_switch: None,
 };
+
+/// Where the hardware limit switches are [inc]: 100 revolutions.
+const LIMIT_SWITCH: i64 = 100 * 65536;
 
 /// A 0x6060 value the manual accepts (App. C, M-L5241-5410), with the mode
 /// the profile runs for it and what 0x6061 shows (D51): −3 (drive speed
@@ -182,6 +194,10 @@ impl Application for App {
     }
 
     fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, _by: Source) {
+        if index == speed::CONFIGURATION {
+            // D64: P0830 bit 9 applies to the next drive error, like bits 2 and 5 at once (D56).
+            self.drive.drive.ff00_only = speed::configured(ctx, EMCY_FF00_ONLY);
+        }
         if index == MODES_OF_OPERATION {
             self.set_mode(ctx);
         } else if (index, sub) == (ip::TIME_PERIOD, 2) {
@@ -195,6 +211,13 @@ impl Application for App {
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
+        // D66: a SYNC off its interval; the PLL in step again lets a fault reset acknowledge it.
+        if self.sync.on_sync(ctx) {
+            self.not_synchronous(ctx);
+        }
+        if self.sync.in_step(ctx) {
+            self.drive.drive.out_of_step = false;
+        }
         self.drive.sample(ctx);
         // D58: every SYNC takes the interpolation data record.
         self.drive.interpolate(ip::set_point(ctx), self.ip_period);
@@ -203,6 +226,10 @@ impl Application for App {
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
         let next = self.drive.poll(ctx, &PROFILE);
+        self.limit_switches(ctx);
+        if self.sync.missing(ctx) {
+            self.not_synchronous(ctx);
+        }
         speed::actuals(ctx, &mut self.speeds);
         next
     }
@@ -212,12 +239,19 @@ impl Application for App {
             self.drive.drive.axis.configure(AXIS);
         }
         self.drive.on_nmt(ctx, &PROFILE, event);
-        if event == NmtEvent::ResetCommunication && speed::configured(ctx, ZEROED_MAPPING) {
-            zero_default_mapping(ctx);
+        if event == NmtEvent::ResetCommunication {
+            // The card starts again: no SYNC seen, the synchronisation anew (D66);
+            // P0601 "Absolut/Relativ CANopen" unless P1190 bit 9 keeps it (D67).
+            (self.sync, self.drive.drive.out_of_step) = (sync::Monitor::NEW, false);
+            positioning::init_mode(ctx);
+            if speed::configured(ctx, ZEROED_MAPPING) {
+                zero_default_mapping(ctx);
+            }
         }
         if event == NmtEvent::ResetApplication {
-            // The axis model starts again at 0: the homing is lost.
-            self.homed = false;
+            // The axis model starts again at 0: the homing is lost. P0830 is back at its default.
+            (self.homed, self.switches) = (false, 0);
+            self.drive.drive.ff00_only = speed::configured(ctx, EMCY_FF00_ONLY);
             self.set_mode(ctx);
             self.ip_period = ip::period(ctx, None).unwrap_or(1);
         }
@@ -239,15 +273,25 @@ impl App {
         if running == mode::HM && status & HOMING_ATTAINED == HOMING_ATTAINED {
             self.homed = true;
         }
-        let hold = index == CONTROLWORD && running == mode::PP && !self.homed && positioning::homing_required(ctx);
-        if hold {
-            let _ = ctx.set_value(CONTROLWORD, 0, &((cw & !0x10) as u16).to_le_bytes());
+        // The controlword as the drive takes it in pp: no new set-point before a
+        // homing (D61), every target relative with P0601 = 4 (D67).
+        let mut seen = cw;
+        if index == CONTROLWORD && running == mode::PP {
+            if !self.homed && positioning::homing_required(ctx) {
+                seen &= !0x10;
+            }
+            if positioning::always_relative(ctx) {
+                seen |= 0x40;
+            }
+        }
+        if seen != cw {
+            let _ = ctx.set_value(CONTROLWORD, 0, &(seen as u16).to_le_bytes());
         }
         // D63: the manufacturer's shutdown and disable operation codes −1, −2.
         option_codes::as_cia(ctx, |ctx| self.drive.written(ctx, &PROFILE, index));
         let _ = ctx.set_value(CONTROLWORD, 0, &(cw as u16).to_le_bytes());
         let _ = ctx.set_value(speed::TARGET_VELOCITY, 0, &[a, b, c, d]);
-        self.positioning(ctx, cw);
+        self.positioning(ctx, seen);
     }
 
     /// The positioning errors after the profile ran (D61): pp enabled
@@ -267,9 +311,37 @@ impl App {
         } else if cw & 0x10 != 0 && status & statusword::INTERNAL_LIMIT != 0 {
             // A new set-point (bit 4) the software limits cut: the fault follows at
             // once, so no later write finds bit 11 still set while enabled.
-            let reaction = Reaction::of(ctx.read_u32(QUICK_STOP_OPTION, 0).map_or(-1, |v| v as i16 as i32), Reaction::QuickStopRamp);
-            self.drive.raise_fault(ctx, positioning::CODE, positioning::limit(ctx, cw), reaction);
+            self.limit_fault(ctx, positioning::limit(ctx, cw));
         }
+    }
+
+    /// §4.4.4 (D65): the axis running onto a hardware limit switch, outside
+    /// homing (where methods 17/18 look for it) and with the drive function
+    /// on, is drive error 198 (negative) or 199 (positive).
+    fn limit_switches(&mut self, ctx: &mut Ctx<'_>) {
+        let on = self.drive.drive.axis.switches();
+        let on = u8::from(on.negative_limit) | u8::from(on.positive_limit) << 1;
+        let reached = on & !core::mem::replace(&mut self.switches, on);
+        if reached != 0 && self.drive.state() == PdsState::OperationEnabled && running(ctx).0 != mode::HM {
+            self.limit_fault(ctx, positioning::hardware_limit(reached & 1 == 0));
+        }
+    }
+
+    /// D66: the SYNC off its interval or missing while the drive follows it
+    /// (Operation enabled in −4 or ip): drive error 00A5h, which a fault
+    /// reset acknowledges once the PLL runs in step again.
+    fn not_synchronous(&mut self, ctx: &mut Ctx<'_>) {
+        if self.drive.state() == PdsState::OperationEnabled && matches!(running(ctx).0, mode::IP | -4) {
+            self.drive.drive.report(sync::NOT_SYNCHRONOUS);
+            self.drive.drive.out_of_step = true;
+        }
+    }
+
+    /// A limit's positioning error: EMCY 8600h with drive error `info`, the
+    /// drive reacting as 0x605A says (§4.4.3: "Verhalten des Antriebs über 605Ahex einstellbar").
+    fn limit_fault(&mut self, ctx: &mut Ctx<'_>, info: [u8; 5]) {
+        let reaction = Reaction::of(ctx.read_u32(QUICK_STOP_OPTION, 0).map_or(-1, |v| v as i16 as i32), Reaction::QuickStopRamp);
+        self.drive.raise_fault(ctx, positioning::CODE, info, reaction);
     }
 
     /// 0x6060 changed: the profile runs the mode [`mode_of`] gives, and
@@ -284,6 +356,9 @@ impl App {
         let _ = ctx.set_value(MODES_OF_OPERATION_DISPLAY, 0, &[shows as u8]);
     }
 }
+
+/// P0830 bit 9 (§4.3.9): drive errors without a DSP 402 code are EMCY FF00h, not FF00h + number.
+const EMCY_FF00_ONLY: u32 = 1 << 9;
 
 /// P0830 bit 3 (§4.3.4): the default mapping has every entry 0, and 0x6007 is 3.
 const ZEROED_MAPPING: u32 = 1 << 3;
