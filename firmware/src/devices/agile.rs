@@ -204,6 +204,7 @@ impl Application for App {
             NmtEvent::CommunicationError(CommError::LifeGuarding) => Some(FAULT_GUARDING),
             NmtEvent::CommunicationError(CommError::Heartbeat(node)) => Some(FAULT_HEARTBEAT | u16::from(node)),
             NmtEvent::CommunicationError(CommError::RpdoTimeout(n)) => Some(FAULT_RPDO_TIMEOUT + u16::from(n)),
+            NmtEvent::CommunicationError(CommError::RpdoLength(n)) => Some(FAULT_RPDO_LENGTH + u16::from(n)),
             _ => None,
         };
         match bus_fault {
@@ -320,6 +321,8 @@ const FAULT_GUARDING: u16 = 0x2022;
 const FAULT_SYNC: u16 = 0x2024;
 /// F20.25 NMT state change (Operational → other).
 const FAULT_NMT: u16 = 0x2025;
+/// F20.26-28 RPDO1-3 length error ("Anzahl der empfangenen Bytes … abweichend vom Mapping", M-L697-699).
+const FAULT_RPDO_LENGTH: u16 = 0x2026;
 /// F20.2A-2C RPDO1-3 event-time timeout (§9.2.19).
 const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
 /// F23.nn heartbeat of node nn.

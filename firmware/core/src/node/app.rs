@@ -48,6 +48,12 @@ pub enum CommError {
     BusOff,
     /// RPDO `n` (0-based) missed its event timer (0x1400 + n sub 5).
     RpdoTimeout(u8),
+    /// A frame of RPDO `n` (0-based) had a length other than its mapping's
+    /// (each such frame; CiA 301's EMCY 0x8210 or 0x8220 is sent once): too
+    /// short, it was not processed; too long, its mapped bytes were. A
+    /// device with its own fault for it (a drive's "RPDO length error")
+    /// reacts here; the others ignore it, as CiA 301 asks nothing more.
+    RpdoLength(u8),
 }
 
 /// What the NMT state machine and error control tell the device.

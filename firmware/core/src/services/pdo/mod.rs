@@ -107,6 +107,10 @@ pub enum PdoEvent {
         /// The EMCY error code.
         code: EmcyCode,
     },
+    /// RPDO `n` (0-based) received a frame whose length differs from its
+    /// mapping's, told for each such frame (the EMCY of [`PdoEvent::Error`]
+    /// only once): the device hears it as a communication error.
+    LengthError(usize),
 }
 
 /// Where the PDOs put what they produce.
