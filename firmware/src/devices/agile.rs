@@ -23,6 +23,7 @@ use canopen_core::time::{Instant, earliest};
 use canopen_core::wire::emcy::EmcyCode;
 
 mod abort_connection;
+mod control;
 mod data_sets;
 mod faults;
 mod ramps;
@@ -135,9 +136,15 @@ impl Application for App {
         let Some(target) = data_sets::target(ctx, index, sub) else {
             return read_only(ctx, index, sub).then_some(Err(AbortCode::UnsupportedAccess));
         };
+        if control::refused(index, data) {
+            return Some(Err(AbortCode::InvalidValue));
+        }
         let mut result = data_sets::write(ctx, index, target, data);
         if index == CAN_FAULT_BEHAVIOUR && result.is_ok() {
             result = abort_connection::from_p388(ctx, target.stored());
+        }
+        if index == control::LOCAL_REMOTE || index == control::DATA_SET_SELECTION {
+            self.control_source(ctx);
         }
         Some(result)
     }
@@ -148,18 +155,12 @@ impl Application for App {
         }
         // D54: the vl limits and ramps into p.418-p.425.
         ramps::written(ctx, index, sub);
-        // §11.3 (M-L3279-3282), D45: "enable operation" in Switch on disabled
-        // runs Shutdown first (0x0000 → 0x000F), then transitions 3 and 4.
-        if index == CONTROLWORD && self.drive.state() == PdsState::SwitchOnDisabled {
-            let word = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0) as u16;
-            if word & 0x8F == 0x0F {
-                let _ = ctx.set_value(CONTROLWORD, 0, &(word & !0x0001).to_le_bytes());
-                self.drive.written(ctx, &PROFILE, index);
-                let _ = ctx.set_value(CONTROLWORD, 0, &word.to_le_bytes());
-            }
-        }
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
-        self.drive.written(ctx, &PROFILE, index);
+        if index == CONTROLWORD {
+            self.controlword(ctx);
+        } else {
+            self.drive.written(ctx, &PROFILE, index);
+        }
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
@@ -187,6 +188,7 @@ impl Application for App {
                 abort_connection::at_power_on(ctx);
                 ramps::at_power_on(ctx);
                 self.drive.drive.axis.configure(AXIS);
+                self.control_source(ctx);
                 self.operational = false;
                 None
             }
@@ -215,6 +217,41 @@ impl Application for App {
 }
 
 impl App {
+    /// The controlword as the inverter takes it (§10.2, M-L3120-3160): only
+    /// under the state machine's control (p.412, D56); after a bus fault its
+    /// fault reset only in NMT Operational (M-L2605-2607, D58: bit 7 is not
+    /// seen before, so that its next rising edge resets); "enable operation"
+    /// in Switch on disabled runs Shutdown first (0x0000 → 0x000F,
+    /// M-L3279-3282, D45); "disable operation" with p.392 = 0 switches off
+    /// at once (D57: Switch on disabled, then transitions 2 and 3, no ramp).
+    fn controlword(&mut self, ctx: &mut Ctx<'_>) {
+        if self.drive.drive.local {
+            return;
+        }
+        let word = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0) as u16;
+        let state = self.drive.state();
+        let bus_fault = state == PdsState::Fault && Drive::fault(&self.drive.drive) == EmcyCode::NO_ERROR;
+        let seen = if bus_fault && ctx.state() != NmtState::Operational { word & !0x0080 } else { word };
+        let (steps, n) = match state {
+            PdsState::SwitchOnDisabled if seen & 0x8F == 0x0F => ([seen & !0x0001, seen, 0], 2),
+            PdsState::OperationEnabled if seen & 0x8F == 0x07 && control::transition_5_coasts(ctx) => ([0x0000, 0x0006, seen], 3),
+            _ => ([seen; 3], 1),
+        };
+        for step in steps.iter().take(n) {
+            let _ = ctx.set_value(CONTROLWORD, 0, &step.to_le_bytes());
+            self.drive.written(ctx, &PROFILE, CONTROLWORD);
+        }
+        if (n, seen) != (1, word) {
+            let _ = ctx.set_value(CONTROLWORD, 0, &word.to_le_bytes());
+        }
+    }
+
+    /// p.412 or p.414 changed (or power-on): the control source, shown in statusword bit 9.
+    fn control_source(&mut self, ctx: &mut Ctx<'_>) {
+        self.drive.drive.local = control::local(ctx);
+        self.drive.refresh();
+    }
+
     /// §9.5.16/§9.5.17 (M-L2985-3015), D48: the current actual value 0x6078
     /// (‰ of the rated current: the axis model's torque estimate, which has
     /// no magnetising current) and the DC link voltage 0x6079 [mV]; the
@@ -244,6 +281,8 @@ impl App {
         let [lo, hi] = fault.to_le_bytes();
         let info = [0, 0, 0, lo, hi];
         let reaction = match ctx.read(ABORT_CONNECTION, 0) {
+            // Under contacts (p.412 not 1) any setting but 0 is an immediate Fault (M-L2600-2603).
+            Ok(v) if self.drive.drive.local && v != [0, 0] => Reaction::Coast,
             Ok([1, 0]) => Reaction::Coast,
             Ok([0xFF, 0xFF]) => Reaction::SlowDownRamp,
             Ok([0xFE, 0xFF]) => Reaction::QuickStopRamp,

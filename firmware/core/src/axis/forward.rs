@@ -71,6 +71,10 @@ pub trait AxisDrive {
     fn warning(&self) -> bool {
         self.axis().warning()
     }
+    /// [`Drive::status_bits`].
+    fn status_bits(&self) -> u16 {
+        self.axis().status_bits()
+    }
     /// [`Drive::reset_fault`].
     fn reset_fault(&mut self) -> bool {
         self.axis_mut().reset_fault()
@@ -136,6 +140,9 @@ impl<T: AxisDrive> Drive for T {
     }
     fn warning(&self) -> bool {
         AxisDrive::warning(self)
+    }
+    fn status_bits(&self) -> u16 {
+        AxisDrive::status_bits(self)
     }
     fn reset_fault(&mut self) -> bool {
         AxisDrive::reset_fault(self)

@@ -16,7 +16,7 @@ impl<D: Drive> Cia402<D> {
 
     pub(super) fn statusword(&self) -> u16 {
         let s = &self.s;
-        let mut word = s.state.statusword() | sw::REMOTE;
+        let mut word = s.state.statusword() | self.drive.status_bits();
         if s.state != PdsState::NotReadyToSwitchOn && self.drive.dc_link_mv() > 0 {
             word |= sw::VOLTAGE_ENABLED;
         }
