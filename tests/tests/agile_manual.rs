@@ -646,7 +646,7 @@ fn m_l697_an_rpdo_of_a_wrong_length_is_f20_26_with_the_0x6007_reaction() {
         ]
     );
     ex(&mut b, &[0x40, 0x04, 0x21, 0x00], &[0x4B, 0x04, 0x21, 0x00, 0x26, 0x20]);
-    // "muss ein RxPDO Telegramm mit der richtigen Anzahl von Bytes empfangen werden" (M-L2607):
+    // "muss ein RxPDO Telegramm mit der richtigen Anzahl von Bytes empfangen werden" (M-L2609):
     // the next one of 4 bytes is processed, its fault reset ends 0x8210 and the fault.
     let out = b.rx(ms(320), 0x201, &[0x80, 0x00, 0x00, 0x00]);
     assert_eq!(out, [(0x081, vec![0; 8]), (0x181, vec![0x50, 0x02, 0x1B, 0x03])]);
@@ -717,7 +717,7 @@ fn m_l3234_transition_5_ramps_with_p392_2_and_coasts_with_p392_0() {
     // "Enable operation" again: transition 4.
     let out = b.rx(ms(400), 0x201, &[0x0F, 0x00, 0xDC, 0x05]);
     assert_eq!(out[0].1[..2], [0x37, 0x02]);
-    // 1 "Gleichstrombremse" cannot be set: the axis model is speed-controlled (M-L3244).
+    // 1 "Gleichstrombremse" cannot be set: the axis model is speed-controlled (M-L3240).
     ex(&mut b, &[0x2B, 0x88, 0x21, 0x01, 0x01, 0x00], &abort(0x2188, 1, 0x0609_0030));
     ex(&mut b, &[0x40, 0x88, 0x21, 0x01], &[0x4B, 0x88, 0x21, 0x01, 0x00, 0x00]);
 }
@@ -748,7 +748,7 @@ fn m_l3030_p412_contacts_ignore_the_controlword_and_clear_bit_9() {
 }
 
 #[test]
-fn m_l2600_under_contacts_any_0x6007_but_0_is_an_immediate_fault() {
+fn m_l2603_under_contacts_any_0x6007_but_0_is_an_immediate_fault() {
     let mut b = running_operational();
     // 0x6007 = −2 (quick stop, then Fault) and node 3's heartbeat consumed (A11), then contacts take over.
     ex(&mut b, &[0x2B, 0x07, 0x60, 0x00, 0xFE, 0xFF], &[0x60, 0x07, 0x60, 0x00]);

@@ -217,9 +217,9 @@ impl Application for App {
 }
 
 impl App {
-    /// The controlword as the inverter takes it (§10.2, M-L3120-3160): only
+    /// The controlword as the inverter takes it (§10.2, M-L3109-3160): only
     /// under the state machine's control (p.412, D56); after a bus fault its
-    /// fault reset only in NMT Operational (M-L2605-2607, D58: bit 7 is not
+    /// fault reset only in NMT Operational (M-L2605-2609, D58: bit 7 is not
     /// seen before, so that its next rising edge resets); "enable operation"
     /// in Switch on disabled runs Shutdown first (0x0000 → 0x000F,
     /// M-L3279-3282, D45); "disable operation" with p.392 = 0 switches off
@@ -281,7 +281,7 @@ impl App {
         let [lo, hi] = fault.to_le_bytes();
         let info = [0, 0, 0, lo, hi];
         let reaction = match ctx.read(ABORT_CONNECTION, 0) {
-            // Under contacts (p.412 not 1) any setting but 0 is an immediate Fault (M-L2600-2603).
+            // Under contacts (p.412 not 1) any setting but 0 is an immediate Fault (M-L2602-2603).
             Ok(v) if self.drive.drive.local && v != [0, 0] => Reaction::Coast,
             Ok([1, 0]) => Reaction::Coast,
             Ok([0xFF, 0xFF]) => Reaction::SlowDownRamp,

@@ -26,7 +26,7 @@ fn active_set(ctx: &mut Ctx<'_>) -> u8 {
 }
 
 /// p.412 selects contacts (0) or remote contacts (2): the controlword does
-/// not drive the state machine ("anwendbar, wenn … 412 auf 1", M-L3124) and
+/// not drive the state machine ("anwendbar, wenn … 412 auf 1", M-L3109) and
 /// statusword bit 9 is clear. The keypad's settings (3-44, factory 44)
 /// concern a keypad the simulated inverter lacks: the bus controls it (D46).
 pub(super) fn local(ctx: &mut Ctx<'_>) -> bool {
@@ -45,7 +45,7 @@ pub(super) fn transition_5_coasts(ctx: &mut Ctx<'_>) -> bool {
 /// p.392 = 1 "Gleichstrombremse" works with V/f control only; "bei einer
 /// Konfiguration, welche die Betriebsart Gleichstrombremse nicht unterstützt
 /// (z. B. feldorientierte Regelung), kann der Wert 1 nicht eingestellt
-/// werden" (M-L3244): the axis model is a speed-controlled drive (0x06090030).
+/// werden" (M-L3240): the axis model is a speed-controlled drive (0x06090030).
 pub(super) fn refused(index: u16, data: &[u8]) -> bool {
     index == TRANSITION_5 && data == [1, 0]
 }
