@@ -57,9 +57,8 @@ pub(super) struct PdoSink<'a> {
     pub(super) emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
     /// Bit n: RPDO n wrote its objects.
     pub(super) received: u32,
-    /// The RPDO errors the device hears as communication errors
-    /// ([`error_bit`]): bit n RPDO n timed out, bit 16 + n a frame of RPDO n
-    /// had a wrong length. One word, so that an RPDO without errors costs
+    /// The RPDO errors the device hears as communication errors: bit n
+    /// RPDO n timed out, bit 16 + n a frame of RPDO n had a wrong length. One word, so that an RPDO without errors costs
     /// nothing more to collect them.
     pub(super) errors: u32,
     /// The device's code for an RPDO longer than its mapping (`CanEmcyCodes::rpdo_too_long`).
@@ -82,13 +81,7 @@ fn bit(n: usize) -> u32 {
     1u32.checked_shl(n as u32).unwrap_or(0)
 }
 
-/// RPDO n's bit in [`PdoSink::errors`]: n for a timeout, 16 + n for a
-/// wrong length (the first 16 RPDOs are told apart).
-pub(super) fn error_bit(n: usize, wrong_length: bool) -> u32 {
-    if n < LENGTH_ERRORS { bit(if wrong_length { n | LENGTH_ERRORS } else { n }) } else { 0 }
-}
-
-/// The first bit of the length errors in [`PdoSink::errors`].
+/// The first bit of the length errors in [`PdoSink::errors`] (the first 16 RPDOs are told apart).
 pub(super) const LENGTH_ERRORS: usize = 16;
 
 impl PdoTx for PdoSink<'_> {
@@ -111,14 +104,11 @@ impl PdoTx for PdoSink<'_> {
         match event {
             PdoEvent::Received(n) => self.received |= bit(n),
             PdoEvent::Error { rpdo, code } => {
-                if code == EmcyCode::RPDO_TIMEOUT {
-                    self.errors |= error_bit(rpdo, false);
-                }
+                self.errors |= if code == EmcyCode::RPDO_TIMEOUT { bit(rpdo) & 0xFFFF } else { bit(rpdo) << LENGTH_ERRORS };
                 // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
                 self.emcy.raise(self.device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
             }
             PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(self.device_code(code)),
-            PdoEvent::LengthError(n) => self.errors |= error_bit(n, true),
         }
     }
 }

@@ -101,9 +101,23 @@ impl Rpdo {
     pub(super) fn on_frame(&mut self, n: usize, now: Instant, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) {
         // By reference: copying the mapping out costs more than the frame's own work.
         let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return };
-        // The right length with no error to end (the common frame): two compares.
-        if (data.len() != len || self.length_error.is_some()) && self.wrong_length(n, data.len(), len, out) {
-            return;
+        let error = match data.len().cmp(&len) {
+            core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
+            core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
+            core::cmp::Ordering::Equal => None,
+        };
+        if error != self.length_error {
+            if let Some(old) = self.length_error {
+                out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+            }
+            self.length_error = error;
+        }
+        // Each frame of a wrong length (its EMCY is sent once); a short one is not processed.
+        if let Some(code) = error {
+            out.event(PdoEvent::Error { rpdo: n, code });
+            if data.len() < len {
+                return;
+            }
         }
         if self.timed_out {
             self.timed_out = false;
@@ -125,33 +139,6 @@ impl Rpdo {
             }
             out.event(PdoEvent::Received(n));
         }
-    }
-
-    /// A frame of `received` bytes for a mapping of `len`, or the first of
-    /// the right length after one that was not: the EMCY begins or ends, and
-    /// each frame of a wrong length is told ([`PdoEvent::LengthError`]).
-    /// True if the frame is too short to be processed.
-    #[cold]
-    #[inline(never)]
-    fn wrong_length(&mut self, n: usize, received: usize, len: usize, out: &mut impl PdoTx) -> bool {
-        let error = match received.cmp(&len) {
-            core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
-            core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
-            core::cmp::Ordering::Equal => None,
-        };
-        if error != self.length_error {
-            if let Some(old) = self.length_error {
-                out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
-            }
-            if let Some(new) = error {
-                out.event(PdoEvent::Error { rpdo: n, code: new });
-            }
-            self.length_error = error;
-        }
-        if error.is_some() {
-            out.event(PdoEvent::LengthError(n));
-        }
-        received < len
     }
 
     /// A SYNC: buffered synchronous data goes into the dictionary.

@@ -20,13 +20,13 @@ fn event_driven_rpdo_writes_at_once() {
 #[test]
 fn rpdo_length_errors() {
     let mut node = Node::operational(ms(0));
-    // Shorter than mapped: not processed, EMCY 0x8210 once; each frame is a length error.
+    // Shorter than mapped: not processed; each frame is an error (the node sends its EMCY 0x8210 once).
     assert!(node.rx(ms(1), 0x201, &[1, 2]));
     assert!(node.rx(ms(2), 0x201, &[]));
     assert_eq!(node.get(0x2001, 0), [0, 0]);
     assert_eq!(
         node.events(),
-        [PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH }, PdoEvent::LengthError(0), PdoEvent::LengthError(0)]
+        [PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH }, PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH }]
     );
     // The right length ends it.
     assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
@@ -42,13 +42,11 @@ fn rpdo_length_errors() {
         node.events(),
         [
             PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH_EXCEEDED },
-            PdoEvent::LengthError(0),
             PdoEvent::Received(0),
-            PdoEvent::LengthError(0),
+            PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH_EXCEEDED },
             PdoEvent::Received(0),
             PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8220) },
             PdoEvent::Error { rpdo: 0, code: EmcyCode(0x8210) },
-            PdoEvent::LengthError(0),
             PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8210) },
             PdoEvent::Received(0),
         ]
@@ -75,7 +73,7 @@ fn configure_forgets_raised_errors_but_keeps_change_detection() {
     let mut node = Node::operational(ms(0));
     node.pdos.set_change_detection(0, false);
     assert!(node.rx(ms(1), 0x201, &[1]));
-    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: EmcyCode(0x8210) }, PdoEvent::LengthError(0)]);
+    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: EmcyCode(0x8210) }]);
     assert_eq!(node.pdos.configure(&DICT, &node.image), Ok(()));
     node.pdos.enter_operational(ms(2));
     assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
