@@ -101,22 +101,25 @@ impl Rpdo {
     pub(super) fn on_frame(&mut self, n: usize, now: Instant, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) {
         // By reference: copying the mapping out costs more than the frame's own work.
         let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return };
-        let error = match data.len().cmp(&len) {
-            core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
-            core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
-            core::cmp::Ordering::Equal => None,
-        };
-        if error != self.length_error {
-            if let Some(old) = self.length_error {
-                out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+        // The right length with no error to end (the common frame): two compares.
+        if data.len() != len || self.length_error.is_some() {
+            let error = match data.len().cmp(&len) {
+                core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
+                core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
+                core::cmp::Ordering::Equal => None,
+            };
+            if error != self.length_error {
+                if let Some(old) = self.length_error {
+                    out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+                }
+                self.length_error = error;
             }
-            self.length_error = error;
-        }
-        // Each frame of a wrong length (its EMCY is sent once); a short one is not processed.
-        if let Some(code) = error {
-            out.event(PdoEvent::Error { rpdo: n, code });
-            if data.len() < len {
-                return;
+            // Each frame of a wrong length (its EMCY is sent once); a short one is not processed.
+            if let Some(code) = error {
+                out.event(PdoEvent::Error { rpdo: n, code });
+                if data.len() < len {
+                    return;
+                }
             }
         }
         if self.timed_out {
