@@ -128,6 +128,10 @@ impl Application for App {
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        // D61: "save" in 0x1010/3 stores the application objects, 0x3000 among them (M-L2391).
+        if (index, sub, data) == (0x1010, 3, b"save".as_slice()) {
+            return Some(ctx.save_objects(0x3000, 0x9FFF));
+        }
         // D53: TPDO inhibit times in whole milliseconds, 37 → 30, below 10 → 0 (M-L2016-2020).
         if let (0x1800..=0x1802, 3, [lo, hi]) = (index, sub, data) {
             let whole_ms = u16::from_le_bytes([*lo, *hi]) / 10 * 10;
