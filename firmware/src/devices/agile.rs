@@ -159,11 +159,21 @@ impl Application for App {
         }
         // D54: the vl limits and ramps into p.418-p.425.
         ramps::written(ctx, index, sub);
-        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
-        if index == CONTROLWORD {
-            self.controlword(ctx);
-        } else {
+        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
+        // default `rpdo_written`); the controlword as the inverter takes it,
+        // in steps the profile runs one after the other (one call site: the
+        // profile's `written` is inlined here).
+        let (steps, n, word) = if index == CONTROLWORD { self.controlword(ctx) } else { ([0; 3], 1, 0) };
+        let mut stored = word;
+        for &step in steps.iter().take(n) {
+            if step != stored {
+                let _ = ctx.set_value(CONTROLWORD, 0, &step.to_le_bytes());
+                stored = step;
+            }
             self.drive.written(ctx, &PROFILE, index);
+        }
+        if stored != word {
+            let _ = ctx.set_value(CONTROLWORD, 0, &word.to_le_bytes());
         }
     }
 
@@ -221,33 +231,26 @@ impl Application for App {
 }
 
 impl App {
-    /// The controlword as the inverter takes it (§10.2, M-L3109-3160): only
-    /// under the state machine's control (p.412, D56); after a bus fault its
-    /// fault reset only in NMT Operational (M-L2605-2609, D58: bit 7 is not
-    /// seen before, so that its next rising edge resets); "enable operation"
-    /// in Switch on disabled runs Shutdown first (0x0000 → 0x000F,
-    /// M-L3279-3282, D45); "disable operation" with p.392 = 0 switches off
-    /// at once (D57: Switch on disabled, then transitions 2 and 3, no ramp).
-    fn controlword(&mut self, ctx: &mut Ctx<'_>) {
-        if self.drive.drive.local {
-            return;
-        }
+    /// The controlword as the inverter takes it (§10.2, M-L3109-3160), as
+    /// the controlwords the profile runs (`n` of them) and the one written:
+    /// none unless the state machine controls (p.412, D56); after a bus
+    /// fault, bit 7 not seen outside NMT Operational (M-L2605-2609, D58), so
+    /// that its next rising edge there resets; "enable operation" in Switch
+    /// on disabled with Shutdown first (0x0000 → 0x000F, M-L3279-3282, D45);
+    /// "disable operation" with p.392 = 0 as disable voltage, shutdown and
+    /// switch on (D57: Switched on at once, the motor coasting).
+    fn controlword(&mut self, ctx: &mut Ctx<'_>) -> ([u16; 3], usize, u16) {
         let word = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0) as u16;
         let state = self.drive.state();
         let bus_fault = state == PdsState::Fault && Drive::fault(&self.drive.drive) == EmcyCode::NO_ERROR;
         let seen = if bus_fault && ctx.state() != NmtState::Operational { word & !0x0080 } else { word };
         let (steps, n) = match state {
+            _ if self.drive.drive.local => ([word; 3], 0),
             PdsState::SwitchOnDisabled if seen & 0x8F == 0x0F => ([seen & !0x0001, seen, 0], 2),
             PdsState::OperationEnabled if seen & 0x8F == 0x07 && control::transition_5_coasts(ctx) => ([0x0000, 0x0006, seen], 3),
             _ => ([seen; 3], 1),
         };
-        for step in steps.iter().take(n) {
-            let _ = ctx.set_value(CONTROLWORD, 0, &step.to_le_bytes());
-            self.drive.written(ctx, &PROFILE, CONTROLWORD);
-        }
-        if (n, seen) != (1, word) {
-            let _ = ctx.set_value(CONTROLWORD, 0, &word.to_le_bytes());
-        }
+        (steps, n, word)
     }
 
     /// p.412 or p.414 changed (or power-on): the control source, shown in statusword bit 9.

@@ -72,8 +72,8 @@ pub trait AxisDrive {
         self.axis().warning()
     }
     /// [`Drive::status_bits`].
-    fn status_bits(&self) -> u16 {
-        self.axis().status_bits()
+    fn status_bits(&self, word: u16) -> u16 {
+        self.axis().status_bits(word)
     }
     /// [`Drive::reset_fault`].
     fn reset_fault(&mut self) -> bool {
@@ -141,8 +141,8 @@ impl<T: AxisDrive> Drive for T {
     fn warning(&self) -> bool {
         AxisDrive::warning(self)
     }
-    fn status_bits(&self) -> u16 {
-        AxisDrive::status_bits(self)
+    fn status_bits(&self, word: u16) -> u16 {
+        AxisDrive::status_bits(self, word)
     }
     fn reset_fault(&mut self) -> bool {
         AxisDrive::reset_fault(self)

@@ -58,11 +58,11 @@ impl AxisDrive for AgileDrive {
     /// while a delayed warning of the motor temperature is on ("kritischer
     /// Betriebszustand, der innerhalb kurzer Zeit zu einer
     /// Störungsabschaltung … führt", M-L3193): the axis model's temperature
-    /// warning, which bit 7 shows as well (D59).
-    fn status_bits(&self) -> u16 {
+    /// warning, which bit 7 shows as well (D59), so bit 7 of `word`.
+    fn status_bits(&self, word: u16) -> u16 {
         let remote = if self.local { 0 } else { statusword::REMOTE };
-        let warning_2 = if self.axis.warning() { WARNING_2 } else { 0 };
-        remote | warning_2
+        let warning_2 = if word & statusword::WARNING != 0 { WARNING_2 } else { 0 };
+        word | remote | warning_2
     }
     fn fault_info(&self) -> [u8; 5] {
         let [lo, hi] = self.key().to_le_bytes();

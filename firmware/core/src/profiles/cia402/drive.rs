@@ -73,11 +73,11 @@ pub trait Drive {
     }
     /// A warning condition (statusword bit 7), such as a temperature near its limit.
     fn warning(&self) -> bool;
-    /// The statusword bits the drive decides: bit 9 remote (the
-    /// controlword is processed, by default always) and the
+    /// The statusword `word` with the bits the drive decides: bit 9
+    /// remote (the controlword is processed, by default always) and the
     /// manufacturer-specific bits 8, 14 and 15.
-    fn status_bits(&self) -> u16 {
-        super::statusword::REMOTE
+    fn status_bits(&self, word: u16) -> u16 {
+        word | super::statusword::REMOTE
     }
     /// Clears the fault if its cause is gone; false if it persists.
     fn reset_fault(&mut self) -> bool;
