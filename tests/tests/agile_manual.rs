@@ -813,3 +813,26 @@ fn m_l2391_save_application_objects_stores_0x3000_sync_jitter_and_the_0x6nnn_obj
     // Anything but "save" is refused, nothing stored (M-L1570).
     ex(&mut b, &[0x23, 0x10, 0x10, 0x03, 0x73, 0x61, 0x76, 0x00], &abort(0x1010, 3, 0x0800_0020));
 }
+
+#[test]
+fn m_l2608_after_a_guarding_loss_the_fault_reset_needs_guarding_restarted() {
+    let mut b = running_operational();
+    // Guard time 100 ms, life time factor 3 (A6, A7): the master guards once at 310 ms, then stops.
+    ex(&mut b, &[0x2B, 0x0C, 0x10, 0x00, 0x64, 0x00], &[0x60, 0x0C, 0x10, 0x00]);
+    ex(&mut b, &[0x2F, 0x0D, 0x10, 0x00, 0x03], &[0x60, 0x0D, 0x10, 0x00]);
+    assert!(b.rtr(ms(310), 0x701).contains(&(0x701, vec![0x05])));
+    // 300 ms later: the guarding loss (0x8130), F20.22 and Fault; 0x1029 = 0: Pre-operational.
+    let out = b.run_until(ms(620));
+    let emcy: Vec<_> = out.iter().filter(|(_, (id, _))| *id == 0x081).map(|(t, (_, d))| (t.as_micros() / 1000, d.clone())).collect();
+    assert_eq!(emcy, [(610, vec![0x30, 0x81, 0x11, 0, 0, 0, 0, 0]), (610, vec![0x00, 0x10, 0x11, 0, 0, 0, 0x22, 0x20])]);
+    // Operational again, but guarding not restarted: the reset is not accepted (M-L2608).
+    b.nmt(0x01, 1);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    assert_eq!(statusword_of(&mut b), 0x0218);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x00, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    // The master guards again (the toggle bit runs on): 0x8130 ends, and the reset works.
+    assert!(b.rtr(ms(700), 0x701).contains(&(0x701, vec![0x85])));
+    let out = b.rx(ms(710), 0x601, &pad(&[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00]));
+    assert_eq!(out[0], (0x081, vec![0; 8]), "{out:x?}");
+    assert_eq!(statusword_of(&mut b), 0x0250);
+}

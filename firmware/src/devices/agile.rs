@@ -234,8 +234,9 @@ impl App {
     /// The controlword as the inverter takes it (§10.2, M-L3109-3160), as
     /// the controlwords the profile runs (`n` of them) and the one written:
     /// none unless the state machine controls (p.412, D56); after a bus
-    /// fault, bit 7 not seen outside NMT Operational (M-L2605-2609, D58), so
-    /// that its next rising edge there resets; "enable operation" in Switch
+    /// fault, bit 7 not seen outside NMT Operational or while a guarding or
+    /// heartbeat loss lasts (M-L2605-2609, D58), so that its next rising
+    /// edge once both are over resets; "enable operation" in Switch
     /// on disabled with Shutdown first (0x0000 → 0x000F, M-L3279-3282, D45);
     /// "disable operation" with p.392 = 0 as disable voltage, shutdown and
     /// switch on (D57: Switched on at once, the motor coasting).
@@ -243,7 +244,9 @@ impl App {
         let word = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0) as u16;
         let state = self.drive.state();
         let bus_fault = state == PdsState::Fault && Drive::fault(&self.drive.drive) == EmcyCode::NO_ERROR;
-        let seen = if bus_fault && ctx.state() != NmtState::Operational { word & !0x0080 } else { word };
+        // The cause gone too: a guarding or heartbeat loss (0x8130) ends when it is back.
+        let blocked = ctx.state() != NmtState::Operational || ctx.error_active(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
+        let seen = if bus_fault && blocked { word & !0x0080 } else { word };
         let (steps, n) = match state {
             _ if self.drive.drive.local => ([word; 3], 0),
             PdsState::SwitchOnDisabled if seen & 0x8F == 0x0F => ([seen & !0x0001, seen, 0], 2),

@@ -351,6 +351,13 @@ impl Ctx<'_> {
         self.effects.error_class = class;
     }
 
+    /// Whether the error `code` is active (raised and not cleared): for a
+    /// device that asks a fault's cause to be gone before its reset (a
+    /// heartbeat or guarding loss, 0x8130, ends when it is back).
+    pub fn error_active(&mut self, code: EmcyCode) -> bool {
+        self.services.emcy().is_active(code)
+    }
+
     /// Clears an error; the last one cleared sends "error reset".
     pub fn clear_error(&mut self, code: EmcyCode) {
         self.effects.services = true;
