@@ -58,7 +58,8 @@ pub(super) struct PdoSink<'a> {
     /// Bit n: RPDO n wrote its objects.
     pub(super) received: u32,
     /// The RPDO errors the device hears as communication errors: bit n
-    /// RPDO n timed out, bit 16 + n a frame of RPDO n had a wrong length. One word, so that an RPDO without errors costs
+    /// RPDO n timed out, bit 16 + n a frame of RPDO n had a wrong length
+    /// ([`LENGTH_ERRORS`]). One word, so that an RPDO without errors costs
     /// nothing more to collect them.
     pub(super) errors: u32,
     /// The device's code for an RPDO longer than its mapping (`CanEmcyCodes::rpdo_too_long`).
