@@ -836,3 +836,22 @@ fn m_l2608_after_a_guarding_loss_the_fault_reset_needs_guarding_restarted() {
     assert_eq!(out[0], (0x081, vec![0; 8]), "{out:x?}");
     assert_eq!(statusword_of(&mut b), 0x0250);
 }
+
+#[test]
+fn m_l2608_a_heartbeat_loss_in_pre_operational_resets_there_once_the_heartbeat_is_back() {
+    // Running by SDO in Pre-operational; node 3's heartbeat consumed (A11, 32 ms), 0x6007 = 1.
+    let mut b = running();
+    ex(&mut b, &[0x23, 0x16, 0x10, 0x01, 0x20, 0x00, 0x03, 0x00], &[0x60, 0x16, 0x10, 0x01]);
+    b.rx(ms(300), 0x703, &[0x05]);
+    let out = b.run_until(ms(340));
+    assert!(out.iter().any(|(_, (id, d))| *id == 0x081 && d[..] == [0x00, 0x10, 0x11, 0, 0, 0, 0x03, 0x23]), "F23.03: {out:x?}");
+    assert_eq!(statusword_of(&mut b), 0x0218);
+    // While node 3 stays away the reset is not accepted; no NMT state changed, so Pre-operational does.
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    assert_eq!(statusword_of(&mut b), 0x0218);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x00, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    b.rx(ms(350), 0x703, &[0x05]);
+    let out = b.rx(ms(351), 0x601, &pad(&[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00]));
+    assert_eq!(out[0], (0x081, vec![0; 8]), "{out:x?}");
+    assert_eq!(statusword_of(&mut b), 0x0250);
+}

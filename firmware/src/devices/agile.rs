@@ -42,13 +42,21 @@ pub struct App {
     operational: bool,
     /// The fault key of the last bus fault (F20.nn, F23.nn).
     bus_fault: u16,
+    /// The last bus fault came in NMT Operational: its reset needs Operational again (D58).
+    reset_in_operational: bool,
     /// The SYNC monitoring (D55).
     sync: sync_watch::SyncWatch,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(AgileDrive::NEW), operational: false, bus_fault: 0, sync: sync_watch::SyncWatch::NEW };
+    pub const NEW: App = App {
+        drive: Cia402::new(AgileDrive::NEW),
+        operational: false,
+        bus_fault: 0,
+        reset_in_operational: false,
+        sync: sync_watch::SyncWatch::NEW,
+    };
 }
 
 /// The profile's constants for the Agile (decisions D42-D47 in docs/devices/agile.md).
@@ -234,9 +242,9 @@ impl App {
     /// The controlword as the inverter takes it (§10.2, M-L3109-3160), as
     /// the controlwords the profile runs (`n` of them) and the one written:
     /// none unless the state machine controls (p.412, D56); after a bus
-    /// fault, bit 7 not seen outside NMT Operational or while a guarding or
-    /// heartbeat loss lasts (M-L2605-2609, D58), so that its next rising
-    /// edge once both are over resets; "enable operation" in Switch
+    /// fault in NMT Operational, bit 7 not seen outside it, nor while a
+    /// guarding or heartbeat loss lasts (M-L2605-2609, D58), so that its
+    /// next rising edge once both are over resets; "enable operation" in Switch
     /// on disabled with Shutdown first (0x0000 → 0x000F, M-L3279-3282, D45);
     /// "disable operation" with p.392 = 0 as disable voltage, shutdown and
     /// switch on (D57: Switched on at once, the motor coasting).
@@ -245,7 +253,8 @@ impl App {
         let state = self.drive.state();
         let bus_fault = state == PdsState::Fault && Drive::fault(&self.drive.drive) == EmcyCode::NO_ERROR;
         // The cause gone too: a guarding or heartbeat loss (0x8130) ends when it is back.
-        let blocked = ctx.state() != NmtState::Operational || ctx.error_active(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
+        let left = self.reset_in_operational && ctx.state() != NmtState::Operational;
+        let blocked = left || ctx.error_active(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         let seen = if bus_fault && blocked { word & !0x0080 } else { word };
         let (steps, n) = match state {
             _ if self.drive.drive.local => ([word; 3], 0),
@@ -288,6 +297,7 @@ impl App {
     /// and quick stop.
     fn bus_fault(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent, fault: u16) {
         self.bus_fault = fault;
+        self.reset_in_operational = self.operational || matches!(event, NmtEvent::Entered(_));
         let [lo, hi] = fault.to_le_bytes();
         let info = [0, 0, 0, lo, hi];
         let reaction = match ctx.read(ABORT_CONNECTION, 0) {
