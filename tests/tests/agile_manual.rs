@@ -855,3 +855,30 @@ fn m_l2608_a_heartbeat_loss_in_pre_operational_resets_there_once_the_heartbeat_i
     assert_eq!(out[0], (0x081, vec![0; 8]), "{out:x?}");
     assert_eq!(statusword_of(&mut b), 0x0250);
 }
+
+// ---- §10.2: statusword bit 10 with p.549's hysteresis (M-L3189) ------------------------
+
+#[test]
+fn m_l3189_target_reached_within_p549_of_the_frequency_range() {
+    for (p549, reached_at_1400) in [(500u16, true), (100, false)] {
+        let mut b = node();
+        // 0x6046/2 = 3000 min⁻¹: p.419 = 100.00 Hz, p.418 = 0 (D54); p.549 in RAM, all data sets.
+        ex(&mut b, &[0x23, 0x46, 0x60, 0x02, 0xB8, 0x0B, 0x00, 0x00], &[0x60, 0x46, 0x60, 0x02]);
+        let [lo, hi] = p549.to_le_bytes();
+        ex(&mut b, &[0x2B, 0x25, 0x22, 0x05, lo, hi], &[0x60, 0x25, 0x22, 0x05]);
+        ex(&mut b, &[0x23, 0x48, 0x60, 0x01, 0xB8, 0x0B, 0x00, 0x00], &[0x60, 0x48, 0x60, 0x01]);
+        ex(&mut b, &[0x2B, 0x42, 0x60, 0x00, 0xDC, 0x05], &[0x60, 0x42, 0x60, 0x00]);
+        for cw in [0x06, 0x07, 0x0F] {
+            ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, cw, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+        }
+        // 3000 min⁻¹/s from 10 ms: about 1400 min⁻¹ at 480 ms.
+        b.run_until(ms(480));
+        let speed = b.sdo_upload(1, 0x6044, 0).expect("0x6044");
+        let speed = i16::from_le_bytes([speed[0], speed[1]]);
+        assert!((1360..1440).contains(&speed), "{speed}");
+        // 5 % of 100 Hz is 5 Hz, 150 min⁻¹ with 2 pole pairs: reached; 1 % is 30 min⁻¹: not yet.
+        assert_eq!(statusword_of(&mut b) & 0x0400 != 0, reached_at_1400, "p.549 = {p549}, {speed} min⁻¹");
+        b.run_until(ms(700));
+        assert_ne!(statusword_of(&mut b) & 0x0400, 0, "at 1500 min⁻¹ either way");
+    }
+}

@@ -155,8 +155,16 @@ impl Application for App {
         if index == CAN_FAULT_BEHAVIOUR && result.is_ok() {
             result = abort_connection::from_p388(ctx, target.stored());
         }
-        if index == control::LOCAL_REMOTE || index == control::DATA_SET_SELECTION {
-            self.control_source(ctx);
+        if matches!(
+            index,
+            control::LOCAL_REMOTE
+                | control::DATA_SET_SELECTION
+                | ramps::MAX_CONTROL_DEVIATION
+                | ramps::MINIMUM_FREQUENCY
+                | ramps::MAXIMUM_FREQUENCY
+                | ramps::POLE_PAIRS
+        ) {
+            self.settings(ctx);
         }
         Some(result)
     }
@@ -165,8 +173,11 @@ impl Application for App {
         if index == ABORT_CONNECTION {
             abort_connection::to_p388(ctx);
         }
-        // D54: the vl limits and ramps into p.418-p.425.
+        // D54: the vl limits and ramps into p.418-p.425 (p.418/p.419 set bit 10's hysteresis, D62).
         ramps::written(ctx, index, sub);
+        if index == VL_MIN_MAX {
+            self.settings(ctx);
+        }
         // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
         // default `rpdo_written`); the controlword as the inverter takes it,
         // in steps the profile runs one after the other (one call site: the
@@ -210,7 +221,7 @@ impl Application for App {
                 abort_connection::at_power_on(ctx);
                 ramps::at_power_on(ctx);
                 self.drive.drive.axis.configure(AXIS);
-                self.control_source(ctx);
+                self.settings(ctx);
                 self.operational = false;
                 None
             }
@@ -265,9 +276,13 @@ impl App {
         (steps, n, word)
     }
 
-    /// p.412 or p.414 changed (or power-on): the control source, shown in statusword bit 9.
-    fn control_source(&mut self, ctx: &mut Ctx<'_>) {
-        self.drive.drive.local = control::local(ctx);
+    /// p.412, p.414, p.549, p.418/p.419 (0x6046) or p.373 changed, or
+    /// power-on: the control source (statusword bit 9, D56) and the
+    /// hysteresis of bit 10 (D62) in the active data set.
+    fn settings(&mut self, ctx: &mut Ctx<'_>) {
+        let set = control::active_set(ctx);
+        self.drive.drive.local = control::local(ctx, set);
+        self.drive.drive.window = ramps::target_window(ctx, set);
         self.drive.refresh();
     }
 
@@ -396,6 +411,8 @@ const WARNINGS: u16 = 0x210E;
 const CURRENT_ACTUAL: u16 = 0x6078;
 /// 0x6079 DC link circuit voltage (UNSIGNED32, mV).
 const DC_LINK_VOLTAGE: u16 = 0x6079;
+/// 0x6046 vl velocity min max amount.
+const VL_MIN_MAX: u16 = 0x6046;
 /// 0x6060 modes of operation (write-only).
 const MODES_OF_OPERATION: u16 = 0x6060;
 /// 0x6040 controlword.

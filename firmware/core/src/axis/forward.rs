@@ -71,6 +71,10 @@ pub trait AxisDrive {
     fn warning(&self) -> bool {
         self.axis().warning()
     }
+    /// [`Drive::velocity_window`].
+    fn velocity_window(&self) -> Option<u32> {
+        self.axis().velocity_window()
+    }
     /// [`Drive::status_bits`].
     fn status_bits(&self, word: u16) -> u16 {
         self.axis().status_bits(word)
@@ -140,6 +144,9 @@ impl<T: AxisDrive> Drive for T {
     }
     fn warning(&self) -> bool {
         AxisDrive::warning(self)
+    }
+    fn velocity_window(&self) -> Option<u32> {
+        AxisDrive::velocity_window(self)
     }
     fn status_bits(&self, word: u16) -> u16 {
         AxisDrive::status_bits(self, word)

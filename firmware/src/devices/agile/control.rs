@@ -16,7 +16,7 @@ pub(super) const DATA_SET_SELECTION: u16 = 0x219E;
 const ACTIVE_DATA_SET: u16 = 0x20F9;
 
 /// The active data set (p.249 shows it).
-fn active_set(ctx: &mut Ctx<'_>) -> u8 {
+pub(super) fn active_set(ctx: &mut Ctx<'_>) -> u8 {
     let set = match ctx.read_u32(DATA_SET_SELECTION, 0) {
         Some(set @ 1..=4) => set as u8,
         _ => 1,
@@ -25,12 +25,11 @@ fn active_set(ctx: &mut Ctx<'_>) -> u8 {
     set
 }
 
-/// p.412 selects contacts (0) or remote contacts (2): the controlword does
+/// p.412 of data set `set` selects contacts (0) or remote contacts (2): the controlword does
 /// not drive the state machine ("anwendbar, wenn … 412 auf 1", M-L3109) and
 /// statusword bit 9 is clear. The keypad's settings (3-44, factory 44)
 /// concern a keypad the simulated inverter lacks: the bus controls it (D46).
-pub(super) fn local(ctx: &mut Ctx<'_>) -> bool {
-    let set = active_set(ctx);
+pub(super) fn local(ctx: &Ctx<'_>, set: u8) -> bool {
     matches!(ctx.read_u32(LOCAL_REMOTE, set), Some(0 | 2))
 }
 

@@ -17,11 +17,13 @@ pub struct AgileDrive {
     /// Controlled by contacts (p.412 0 or 2), not by the state machine:
     /// statusword bit 9 "Remote" clear (M-L3187).
     pub local: bool,
+    /// The hysteresis of statusword bit 10 [inc/s] (p.549, D62).
+    pub window: u32,
 }
 
 impl AgileDrive {
     /// The drive at power-on (all zero bits).
-    pub const NEW: AgileDrive = AgileDrive { axis: Axis::NEW, local: false };
+    pub const NEW: AgileDrive = AgileDrive { axis: Axis::NEW, local: false, window: 0 };
 
     /// The fault key of the active axis fault, 0 for none.
     pub fn key(&self) -> u16 {
@@ -59,6 +61,9 @@ impl AxisDrive for AgileDrive {
     /// Betriebszustand, der innerhalb kurzer Zeit zu einer
     /// Störungsabschaltung … führt", M-L3193): the axis model's temperature
     /// warning, which bit 7 shows as well (D59), so bit 7 of `word`.
+    fn velocity_window(&self) -> Option<u32> {
+        Some(self.window)
+    }
     fn status_bits(&self, word: u16) -> u16 {
         let remote = if self.local { 0 } else { statusword::REMOTE };
         let warning_2 = if word & statusword::WARNING != 0 { WARNING_2 } else { 0 };
