@@ -65,8 +65,10 @@ pub(super) const MAXIMUM_FREQUENCY: u16 = 0x21A3;
 /// series), in min⁻¹ with the pole pairs: n = f · 60 / p.
 pub(super) fn target_window(ctx: &Ctx<'_>, set: u8) -> u32 {
     let read = |index| ctx.read_u32(index, set).unwrap_or(0);
-    let range = (read(MAXIMUM_FREQUENCY) as i32).saturating_sub(read(MINIMUM_FREQUENCY) as i32).max(0) as u32;
-    // 0.01 % of 0.01 Hz (at most 2000 · 999999: saturates), then 0.01 Hz → inc/s (n · 4096 / 60, n = f · 60 / p).
-    let hundredths_hz = read(MAX_CONTROL_DEVIATION).saturating_mul(range) / 10_000;
-    hundredths_hz.saturating_mul(4096) / (100 * read(POLE_PAIRS).max(1))
+    // In 0.01 Hz, at most the inverter's 999.99 Hz; p.549 at most 20.00 % and p.373 24
+    // (their limits): 32 bits hold each step.
+    let range = (read(MAXIMUM_FREQUENCY) as i32).saturating_sub(read(MINIMUM_FREQUENCY) as i32).clamp(0, 99_999) as u32;
+    let hundredths_hz = read(MAX_CONTROL_DEVIATION).min(2000) * range / 10_000;
+    // 0.01 Hz → inc/s: n · 4096 / 60 with n = f · 60 / p.
+    hundredths_hz * 4096 / (100 * read(POLE_PAIRS).clamp(1, 24))
 }
