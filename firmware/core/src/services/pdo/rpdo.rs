@@ -97,10 +97,19 @@ impl Rpdo {
         self.timeout_at = None;
     }
 
-    /// An RPDO frame. `window_open`: the synchronous window since the last SYNC is still open.
-    pub(super) fn on_frame(&mut self, n: usize, now: Instant, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) {
+    /// An RPDO frame. `window_open`: the synchronous window since the last
+    /// SYNC is still open. True if it wrote its data into the dictionary now.
+    pub(super) fn on_frame(
+        &mut self,
+        n: usize,
+        now: Instant,
+        data: &[u8],
+        window_open: bool,
+        image: &mut [u8],
+        out: &mut impl PdoTx,
+    ) -> bool {
         // By reference: copying the mapping out costs more than the frame's own work.
-        let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return };
+        let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return false };
         // The right length with no error to end (the common frame): two compares.
         if data.len() != len || self.length_error.is_some() {
             let error = match data.len().cmp(&len) {
@@ -118,7 +127,7 @@ impl Rpdo {
             if let Some(code) = error {
                 out.event(PdoEvent::Error { rpdo: n, code });
                 if data.len() < len {
-                    return;
+                    return false;
                 }
             }
         }
@@ -136,11 +145,13 @@ impl Rpdo {
                 }
                 self.buffered = Some(buf);
             }
+            false
         } else {
             if let Some(mapping) = &self.mapping {
                 mapping.apply(image, data);
             }
-            out.event(PdoEvent::Received(n));
+            out.received(n);
+            true
         }
     }
 
@@ -148,7 +159,7 @@ impl Rpdo {
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
         if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping.as_ref()) {
             mapping.apply(image, &data);
-            out.event(PdoEvent::Received(n));
+            out.received(n);
         }
     }
 
