@@ -626,3 +626,259 @@ fn m_l1444_a_sync_more_than_50_percent_late_is_f20_24_with_the_0x6007_reaction()
     b.rx(ms(310), 0x080, &[]);
     assert!(!b.run_until(ms(500)).iter().any(|(_, (id, _))| *id == 0x081));
 }
+
+// ---- §7.3: the RPDO length error F20.26-28 (M-L670-700) -------------------------------
+
+#[test]
+fn m_l697_an_rpdo_of_a_wrong_length_is_f20_26_with_the_0x6007_reaction() {
+    let mut b = running();
+    b.nmt(0x01, 1);
+    // RPDO1 maps 0x6040 + 0x6042 (4 bytes): 3 bytes are not processed (CiA 301's 0x8210,
+    // byte 3 the RPDO) and are F20.26 with 0x6007 = 1: Fault at once, the key in bytes 6-7.
+    let out = b.rx(ms(310), 0x201, &[0x0F, 0x00, 0xDC]);
+    // TPDO1: Fault (0x0218), the motor coasting from 1500 min⁻¹.
+    assert_eq!(
+        out,
+        [
+            (0x081, vec![0x10, 0x82, 0x11, 0x01, 0, 0, 0, 0]),
+            (0x081, vec![0x00, 0x10, 0x11, 0, 0, 0, 0x26, 0x20]),
+            (0x181, vec![0x18, 0x02, 0x41, 0x03])
+        ]
+    );
+    ex(&mut b, &[0x40, 0x04, 0x21, 0x00], &[0x4B, 0x04, 0x21, 0x00, 0x26, 0x20]);
+    // "muss ein RxPDO Telegramm mit der richtigen Anzahl von Bytes empfangen werden" (M-L2609):
+    // the next one of 4 bytes is processed, its fault reset ends 0x8210 and the fault.
+    let out = b.rx(ms(320), 0x201, &[0x80, 0x00, 0x00, 0x00]);
+    assert_eq!(out, [(0x081, vec![0; 8]), (0x181, vec![0x50, 0x02, 0x1B, 0x03])]);
+}
+
+#[test]
+fn m_l698_a_too_long_rpdo2_is_f20_27_and_0x6007_minus_2_quick_stops_then_faults() {
+    let mut b = running();
+    // RPDO2 (0x301) maps 0x6042 alone (2 bytes); 0x6007 = −2 (A29); the quick stop ramp 0x604A 3000 min⁻¹/s.
+    ex(&mut b, &[0x2F, 0x01, 0x16, 0x00, 0x00], &[0x60, 0x01, 0x16, 0x00]);
+    ex(&mut b, &[0x23, 0x01, 0x16, 0x01, 0x10, 0x00, 0x42, 0x60], &[0x60, 0x01, 0x16, 0x01]);
+    ex(&mut b, &[0x2F, 0x01, 0x16, 0x00, 0x01], &[0x60, 0x01, 0x16, 0x00]);
+    ex(&mut b, &[0x23, 0x01, 0x14, 0x01, 0x01, 0x03, 0x00, 0x00], &[0x60, 0x01, 0x14, 0x01]);
+    ex(&mut b, &[0x2B, 0x07, 0x60, 0x00, 0xFE, 0xFF], &[0x60, 0x07, 0x60, 0x00]);
+    ex(&mut b, &[0x23, 0x4A, 0x60, 0x01, 0xB8, 0x0B, 0x00, 0x00], &[0x60, 0x4A, 0x60, 0x01]);
+    b.nmt(0x01, 1);
+    // Three bytes: the mapped two are processed (CiA 301's 0x8220, byte 3 RPDO 2), and F20.27.
+    let out = b.rx(ms(310), 0x301, &[0xDC, 0x05, 0x00]);
+    // TPDO1: Fault reaction active (0x021F) at 840 min⁻¹ and braking.
+    assert_eq!(
+        out,
+        [
+            (0x081, vec![0x20, 0x82, 0x11, 0x02, 0, 0, 0, 0]),
+            (0x081, vec![0x00, 0x10, 0x11, 0, 0, 0, 0x27, 0x20]),
+            (0x181, vec![0x1F, 0x02, 0x48, 0x03])
+        ]
+    );
+    let statusword = |b: &mut Agile| u16::from_le_bytes(b.sdo_upload(1, 0x6041, 0).expect("0x6041")[..2].try_into().unwrap());
+    assert_eq!(statusword(&mut b), 0x021F, "Fault reaction active: braking on 0x604A");
+    b.run_until(ms(1000));
+    assert_eq!(statusword(&mut b), 0x0218, "Fault once the motor stands");
+    ex(&mut b, &[0x40, 0x04, 0x21, 0x00], &[0x4B, 0x04, 0x21, 0x00, 0x27, 0x20]);
+}
+
+// ---- §10.3.2: transition 5 as p.392 says (M-L3226-3254) -------------------------------
+
+/// Operational, on the way to 1500 min⁻¹ (870 at 300 ms), the deceleration 0x6049 3000 min⁻¹ per second.
+fn running_operational() -> Agile {
+    let mut b = running();
+    ex(&mut b, &[0x23, 0x49, 0x60, 0x01, 0xB8, 0x0B, 0x00, 0x00], &[0x60, 0x49, 0x60, 0x01]);
+    b.nmt(0x01, 1);
+    b
+}
+
+fn statusword_of(b: &mut Agile) -> u16 {
+    let v = b.sdo_upload(1, 0x6041, 0).expect("0x6041");
+    u16::from_le_bytes([v[0], v[1]])
+}
+
+#[test]
+fn m_l3234_transition_5_ramps_with_p392_2_and_coasts_with_p392_0() {
+    // Factory 2 "Rampe": "disable operation" brakes on 0x6049 in Operation enabled, then Switched on.
+    let mut b = running_operational();
+    let out = b.rx(ms(310), 0x201, &[0x07, 0x00, 0xDC, 0x05]);
+    assert!(!out.iter().any(|(id, d)| *id == 0x181 && d[..2] == [0x33, 0x02]), "still braking: {out:x?}");
+    assert_eq!(statusword_of(&mut b) & 0x6F, 0x27, "Operation enabled while it brakes");
+    b.run_until(ms(900));
+    assert_eq!(statusword_of(&mut b), 0x0233, "Switched on once it stands");
+    // 0 "Freier Auslauf" (RAM, all data sets): Switched on at once, the motor coasts on.
+    let mut b = running_operational();
+    ex(&mut b, &[0x2B, 0x88, 0x21, 0x05, 0x00, 0x00], &[0x60, 0x88, 0x21, 0x05]);
+    let out = b.rx(ms(310), 0x201, &[0x07, 0x00, 0xDC, 0x05]);
+    assert_eq!(out, [(0x181, vec![0x33, 0x02, 0x66, 0x03])], "Switched on, still at 870 min⁻¹");
+    b.run_until(ms(400));
+    assert_eq!(statusword_of(&mut b), 0x0233);
+    let speed = b.sdo_upload(1, 0x6044, 0).expect("0x6044");
+    assert!(i16::from_le_bytes([speed[0], speed[1]]) > 0, "the motor still turns, off: it coasts");
+    // "Enable operation" again: transition 4.
+    let out = b.rx(ms(400), 0x201, &[0x0F, 0x00, 0xDC, 0x05]);
+    assert_eq!(out[0].1[..2], [0x37, 0x02]);
+    // 1 "Gleichstrombremse" cannot be set: the axis model is speed-controlled (M-L3240).
+    ex(&mut b, &[0x2B, 0x88, 0x21, 0x01, 0x01, 0x00], &abort(0x2188, 1, 0x0609_0030));
+    ex(&mut b, &[0x40, 0x88, 0x21, 0x01], &[0x4B, 0x88, 0x21, 0x01, 0x00, 0x00]);
+}
+
+// ---- §10: the control source p.412 and the data set p.414 (M-L3021-3054) ---------------
+
+#[test]
+fn m_l3030_p412_contacts_ignore_the_controlword_and_clear_bit_9() {
+    let mut b = node();
+    ex(&mut b, &[0x40, 0x41, 0x60, 0x00], &[0x4B, 0x41, 0x60, 0x00, 0x50, 0x02]);
+    // p.412 = 0 "Steuerung über Kontakte" in data set 1 (the active one: p.414 = 0, no contacts).
+    ex(&mut b, &[0x2B, 0x9C, 0x21, 0x01, 0x00, 0x00], &[0x60, 0x9C, 0x21, 0x01]);
+    ex(&mut b, &[0x40, 0x41, 0x60, 0x00], &[0x4B, 0x41, 0x60, 0x00, 0x50, 0x00]);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x06, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    ex(&mut b, &[0x40, 0x41, 0x60, 0x00], &[0x4B, 0x41, 0x60, 0x00, 0x50, 0x00]);
+    // 2 "Remote-Kontakte" too.
+    ex(&mut b, &[0x2B, 0x9C, 0x21, 0x01, 0x02, 0x00], &[0x60, 0x9C, 0x21, 0x01]);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x06, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    ex(&mut b, &[0x40, 0x41, 0x60, 0x00], &[0x4B, 0x41, 0x60, 0x00, 0x50, 0x00]);
+    // p.414 = 2 selects data set 2 (p.249 shows it), whose p.412 is the factory 44: the bus controls.
+    ex(&mut b, &[0x2B, 0x9E, 0x21, 0x00, 0x02, 0x00], &[0x60, 0x9E, 0x21, 0x00]);
+    ex(&mut b, &[0x40, 0xF9, 0x20, 0x00], &[0x4B, 0xF9, 0x20, 0x00, 0x02, 0x00]);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x06, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    ex(&mut b, &[0x40, 0x41, 0x60, 0x00], &[0x4B, 0x41, 0x60, 0x00, 0x31, 0x02]);
+    // p.412 = 1 "Steuerung über State machine" in data set 2 keeps it.
+    ex(&mut b, &[0x2B, 0x9C, 0x21, 0x02, 0x01, 0x00], &[0x60, 0x9C, 0x21, 0x02]);
+    ex(&mut b, &[0x40, 0x41, 0x60, 0x00], &[0x4B, 0x41, 0x60, 0x00, 0x31, 0x02]);
+}
+
+#[test]
+fn m_l2603_under_contacts_any_0x6007_but_0_is_an_immediate_fault() {
+    let mut b = running_operational();
+    // 0x6007 = −2 (quick stop, then Fault) and node 3's heartbeat consumed (A11), then contacts take over.
+    ex(&mut b, &[0x2B, 0x07, 0x60, 0x00, 0xFE, 0xFF], &[0x60, 0x07, 0x60, 0x00]);
+    ex(&mut b, &[0x23, 0x16, 0x10, 0x01, 0x20, 0x00, 0x03, 0x00], &[0x60, 0x16, 0x10, 0x01]);
+    ex(&mut b, &[0x2B, 0x9C, 0x21, 0x05, 0x00, 0x00], &[0x60, 0x9C, 0x21, 0x05]);
+    b.rx(ms(310), 0x703, &[0x05]);
+    let out = b.run_until(ms(400));
+    let emcy: Vec<_> = out.iter().filter(|(_, (id, _))| *id == 0x081).map(|(t, (_, d))| (t.as_micros() / 1000, d.clone())).collect();
+    assert_eq!(
+        emcy,
+        [(342, vec![0x30, 0x81, 0x11, 0x03, 0, 0, 0, 0]), (342, vec![0x00, 0x10, 0x11, 0, 0, 0, 0x03, 0x23])],
+        "heartbeat of node 3 (F23.03) 32 ms after the last one"
+    );
+    assert_eq!(statusword_of(&mut b), 0x0018, "Fault at once, no quick stop; bit 9 clear under contacts");
+}
+
+// ---- §9.5.1: a bus fault resets only in Operational (M-L2605-2609) ---------------------
+
+#[test]
+fn m_l2605_after_a_bus_fault_the_fault_reset_needs_nmt_operational() {
+    let mut b = running_operational();
+    // 0x6007 = 1, 0x1029 = 0: leaving Operational (to Pre-operational) is F20.25, Fault.
+    assert_eq!(b.nmt(0x80, 1), [(0x081, vec![0x00, 0x10, 0x01, 0, 0, 0, 0x25, 0x20])]);
+    // A fault reset by SDO in Pre-operational is not accepted.
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    assert_eq!(statusword_of(&mut b), 0x0218);
+    // "muss der NMT-Status wieder auf Betrieb gestellt werden": then the reset works, the all-zero EMCY.
+    b.nmt(0x01, 1);
+    let out = b.rx(ms(320), 0x601, &pad(&[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00]));
+    assert_eq!(out, [(0x081, vec![0; 8]), (0x181, vec![0x50, 0x02, 0x1B, 0x03]), (0x581, pad(&[0x60, 0x40, 0x60, 0x00]).to_vec())]);
+}
+
+// ---- §10.2: statusword bit 15 "Warnung 2" (M-L3193) ------------------------------------
+
+#[test]
+fn m_l3193_statusword_bit_15_with_the_motor_temperature_warning() {
+    let mut b = running_operational();
+    // A warm hall: the motor passes its warning temperature (80 °C), below the fault (95 °C).
+    b.node.app_mut().drive.drive.axis.set_ambient(85);
+    b.run_until(ms(400));
+    assert_eq!(statusword_of(&mut b) & 0x8080, 0x8080, "bits 7 and 15");
+    ex(&mut b, &[0x40, 0x0E, 0x21, 0x00], &[0x4B, 0x0E, 0x21, 0x00, 0x80, 0x00]);
+    b.node.app_mut().drive.drive.axis.set_ambient(25);
+    b.run_until(ms(500));
+    assert_eq!(statusword_of(&mut b) & 0x8080, 0x0000);
+}
+
+// ---- §9.2.10 / §9.4.1: 0x1010/3 saves the application objects, 0x3000 too (M-L1564, M-L2391) ----
+
+#[test]
+fn m_l2391_save_application_objects_stores_0x3000_sync_jitter_and_the_0x6nnn_objects() {
+    let mut b = node();
+    // A27's 16 µs, 0x6007 = −1, the guard time 2000 ms (a communication object).
+    ex(&mut b, &[0x2B, 0x00, 0x30, 0x00, 0x10, 0x00], &[0x60, 0x00, 0x30, 0x00]);
+    ex(&mut b, &[0x2B, 0x07, 0x60, 0x00, 0xFF, 0xFF], &[0x60, 0x07, 0x60, 0x00]);
+    ex(&mut b, &[0x2B, 0x0C, 0x10, 0x00, 0xD0, 0x07], &[0x60, 0x0C, 0x10, 0x00]);
+    ex(&mut b, &[0x23, 0x10, 0x10, 0x03, 0x73, 0x61, 0x76, 0x65], &[0x60, 0x10, 0x10, 0x03]);
+    let mut b = power_cycle(&mut b);
+    ex(&mut b, &[0x40, 0x00, 0x30, 0x00], &[0x4B, 0x00, 0x30, 0x00, 0x10, 0x00]);
+    ex(&mut b, &[0x40, 0x07, 0x60, 0x00], &[0x4B, 0x07, 0x60, 0x00, 0xFF, 0xFF]);
+    ex(&mut b, &[0x40, 0x0C, 0x10, 0x00], &[0x4B, 0x0C, 0x10, 0x00, 0x00, 0x00]);
+    // Anything but "save" is refused, nothing stored (M-L1570).
+    ex(&mut b, &[0x23, 0x10, 0x10, 0x03, 0x73, 0x61, 0x76, 0x00], &abort(0x1010, 3, 0x0800_0020));
+}
+
+#[test]
+fn m_l2608_after_a_guarding_loss_the_fault_reset_needs_guarding_restarted() {
+    let mut b = running_operational();
+    // Guard time 100 ms, life time factor 3 (A6, A7): the master guards once at 310 ms, then stops.
+    ex(&mut b, &[0x2B, 0x0C, 0x10, 0x00, 0x64, 0x00], &[0x60, 0x0C, 0x10, 0x00]);
+    ex(&mut b, &[0x2F, 0x0D, 0x10, 0x00, 0x03], &[0x60, 0x0D, 0x10, 0x00]);
+    assert!(b.rtr(ms(310), 0x701).contains(&(0x701, vec![0x05])));
+    // 300 ms later: the guarding loss (0x8130), F20.22 and Fault; 0x1029 = 0: Pre-operational.
+    let out = b.run_until(ms(620));
+    let emcy: Vec<_> = out.iter().filter(|(_, (id, _))| *id == 0x081).map(|(t, (_, d))| (t.as_micros() / 1000, d.clone())).collect();
+    assert_eq!(emcy, [(610, vec![0x30, 0x81, 0x11, 0, 0, 0, 0, 0]), (610, vec![0x00, 0x10, 0x11, 0, 0, 0, 0x22, 0x20])]);
+    // Operational again, but guarding not restarted: the reset is not accepted (M-L2608).
+    b.nmt(0x01, 1);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    assert_eq!(statusword_of(&mut b), 0x0218);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x00, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    // The master guards again (the toggle bit runs on): 0x8130 ends, and the reset works.
+    assert!(b.rtr(ms(700), 0x701).contains(&(0x701, vec![0x85])));
+    let out = b.rx(ms(710), 0x601, &pad(&[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00]));
+    assert_eq!(out[0], (0x081, vec![0; 8]), "{out:x?}");
+    assert_eq!(statusword_of(&mut b), 0x0250);
+}
+
+#[test]
+fn m_l2608_a_heartbeat_loss_in_pre_operational_resets_there_once_the_heartbeat_is_back() {
+    // Running by SDO in Pre-operational; node 3's heartbeat consumed (A11, 32 ms), 0x6007 = 1.
+    let mut b = running();
+    ex(&mut b, &[0x23, 0x16, 0x10, 0x01, 0x20, 0x00, 0x03, 0x00], &[0x60, 0x16, 0x10, 0x01]);
+    b.rx(ms(300), 0x703, &[0x05]);
+    let out = b.run_until(ms(340));
+    assert!(out.iter().any(|(_, (id, d))| *id == 0x081 && d[..] == [0x00, 0x10, 0x11, 0, 0, 0, 0x03, 0x23]), "F23.03: {out:x?}");
+    assert_eq!(statusword_of(&mut b), 0x0218);
+    // While node 3 stays away the reset is not accepted; no NMT state changed, so Pre-operational does.
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    assert_eq!(statusword_of(&mut b), 0x0218);
+    ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, 0x00, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+    b.rx(ms(350), 0x703, &[0x05]);
+    let out = b.rx(ms(351), 0x601, &pad(&[0x2B, 0x40, 0x60, 0x00, 0x80, 0x00]));
+    assert_eq!(out[0], (0x081, vec![0; 8]), "{out:x?}");
+    assert_eq!(statusword_of(&mut b), 0x0250);
+}
+
+// ---- §10.2: statusword bit 10 with p.549's hysteresis (M-L3189) ------------------------
+
+#[test]
+fn m_l3189_target_reached_within_p549_of_the_frequency_range() {
+    for (p549, reached_at_1400) in [(500u16, true), (100, false)] {
+        let mut b = node();
+        // 0x6046/2 = 3000 min⁻¹: p.419 = 100.00 Hz, p.418 = 0 (D54); p.549 in RAM, all data sets.
+        ex(&mut b, &[0x23, 0x46, 0x60, 0x02, 0xB8, 0x0B, 0x00, 0x00], &[0x60, 0x46, 0x60, 0x02]);
+        let [lo, hi] = p549.to_le_bytes();
+        ex(&mut b, &[0x2B, 0x25, 0x22, 0x05, lo, hi], &[0x60, 0x25, 0x22, 0x05]);
+        ex(&mut b, &[0x23, 0x48, 0x60, 0x01, 0xB8, 0x0B, 0x00, 0x00], &[0x60, 0x48, 0x60, 0x01]);
+        ex(&mut b, &[0x2B, 0x42, 0x60, 0x00, 0xDC, 0x05], &[0x60, 0x42, 0x60, 0x00]);
+        for cw in [0x06, 0x07, 0x0F] {
+            ex(&mut b, &[0x2B, 0x40, 0x60, 0x00, cw, 0x00], &[0x60, 0x40, 0x60, 0x00]);
+        }
+        // 3000 min⁻¹/s from 10 ms: about 1400 min⁻¹ at 480 ms.
+        b.run_until(ms(480));
+        let speed = b.sdo_upload(1, 0x6044, 0).expect("0x6044");
+        let speed = i16::from_le_bytes([speed[0], speed[1]]);
+        assert!((1360..1440).contains(&speed), "{speed}");
+        // 5 % of 100 Hz is 5 Hz, 150 min⁻¹ with 2 pole pairs: reached; 1 % is 30 min⁻¹: not yet.
+        assert_eq!(statusword_of(&mut b) & 0x0400 != 0, reached_at_1400, "p.549 = {p549}, {speed} min⁻¹");
+        b.run_until(ms(700));
+        assert_ne!(statusword_of(&mut b) & 0x0400, 0, "at 1500 min⁻¹ either way");
+    }
+}

@@ -300,6 +300,10 @@ fn nmt_and_communication_events_arrive_each_one_whatever_0x1029_says() {
     assert_eq!(b.sdo_write(ID, 0x1400, 5, &[50, 0]), ok_write(0x1400, 5));
     b.rx(ms(210), RPDO1, &[1, 0, 2, 0, 3, 0, 4, 0]);
     b.run_until(ms(300));
+    // Two frames of RPDO1 shorter than its 8 mapped bytes, one of the right length between: each short one.
+    b.rx(ms(300), RPDO1, &[1, 0]);
+    b.rx(ms(300), RPDO1, &[1, 0, 2, 0, 3, 0, 4, 0]);
+    b.rx(ms(300), RPDO1, &[1, 0, 2, 0, 3, 0, 4]);
     // The board reports the recovery from a bus-off (bxCAN's TX-empty interrupt with BOFF clear).
     b.node.controller_event(ControllerEvent::BusOffRecovered, ms(300));
     b.at(ms(300));
@@ -309,6 +313,8 @@ fn nmt_and_communication_events_arrive_each_one_whatever_0x1029_says() {
         [
             "nmt CommunicationError(Heartbeat(9)) in Operational",
             "nmt CommunicationError(RpdoTimeout(0)) in Operational",
+            "nmt CommunicationError(RpdoLength(0)) in Operational",
+            "nmt CommunicationError(RpdoLength(0)) in Operational",
             "nmt CommunicationError(BusOff) in Operational"
         ]
     );

@@ -23,6 +23,7 @@ use canopen_core::time::{Instant, earliest};
 use canopen_core::wire::emcy::EmcyCode;
 
 mod abort_connection;
+mod control;
 mod data_sets;
 mod faults;
 mod ramps;
@@ -41,13 +42,21 @@ pub struct App {
     operational: bool,
     /// The fault key of the last bus fault (F20.nn, F23.nn).
     bus_fault: u16,
+    /// The last bus fault came in NMT Operational: its reset needs Operational again (D58).
+    reset_in_operational: bool,
     /// The SYNC monitoring (D55).
     sync: sync_watch::SyncWatch,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App { drive: Cia402::new(AgileDrive::NEW), operational: false, bus_fault: 0, sync: sync_watch::SyncWatch::NEW };
+    pub const NEW: App = App {
+        drive: Cia402::new(AgileDrive::NEW),
+        operational: false,
+        bus_fault: 0,
+        reset_in_operational: false,
+        sync: sync_watch::SyncWatch::NEW,
+    };
 }
 
 /// The profile's constants for the Agile (decisions D42-D47 in docs/devices/agile.md).
@@ -128,6 +137,10 @@ impl Application for App {
     }
 
     fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), AbortCode>> {
+        // D61: "save" in 0x1010/3 stores the application objects, 0x3000 among them (M-L2391).
+        if (index, sub, data) == (0x1010, 3, b"save".as_slice()) {
+            return Some(ctx.save_objects(0x3000, 0x9FFF));
+        }
         // D53: TPDO inhibit times in whole milliseconds, 37 → 30, below 10 → 0 (M-L2016-2020).
         if let (0x1800..=0x1802, 3, [lo, hi]) = (index, sub, data) {
             let whole_ms = u16::from_le_bytes([*lo, *hi]) / 10 * 10;
@@ -136,9 +149,23 @@ impl Application for App {
         let Some(target) = data_sets::target(ctx, index, sub) else {
             return read_only(ctx, index, sub).then_some(Err(AbortCode::UnsupportedAccess));
         };
+        if control::refused(index, data) {
+            return Some(Err(AbortCode::InvalidValue));
+        }
         let mut result = data_sets::write(ctx, index, target, data);
         if index == CAN_FAULT_BEHAVIOUR && result.is_ok() {
             result = abort_connection::from_p388(ctx, target.stored());
+        }
+        if matches!(
+            index,
+            control::LOCAL_REMOTE
+                | control::DATA_SET_SELECTION
+                | ramps::MAX_CONTROL_DEVIATION
+                | ramps::MINIMUM_FREQUENCY
+                | ramps::MAXIMUM_FREQUENCY
+                | ramps::POLE_PAIRS
+        ) {
+            self.settings(ctx);
         }
         Some(result)
     }
@@ -147,20 +174,27 @@ impl Application for App {
         if index == ABORT_CONNECTION {
             abort_connection::to_p388(ctx);
         }
-        // D54: the vl limits and ramps into p.418-p.425.
+        // D54: the vl limits and ramps into p.418-p.425 (p.418/p.419 set bit 10's hysteresis, D62).
         ramps::written(ctx, index, sub);
-        // §11.3 (M-L3279-3282), D45: "enable operation" in Switch on disabled
-        // runs Shutdown first (0x0000 → 0x000F), then transitions 3 and 4.
-        if index == CONTROLWORD && self.drive.state() == PdsState::SwitchOnDisabled {
-            let word = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0) as u16;
-            if word & 0x8F == 0x0F {
-                let _ = ctx.set_value(CONTROLWORD, 0, &(word & !0x0001).to_le_bytes());
-                self.drive.written(ctx, &PROFILE, index);
-                let _ = ctx.set_value(CONTROLWORD, 0, &word.to_le_bytes());
-            }
+        if index == VL_MIN_MAX {
+            self.settings(ctx);
         }
-        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the default `rpdo_written`).
-        self.drive.written(ctx, &PROFILE, index);
+        // The CiA 402 objects, from SDO and from each RPDO-mapped object (the
+        // default `rpdo_written`); the controlword as the inverter takes it,
+        // in steps the profile runs one after the other (one call site: the
+        // profile's `written` is inlined here).
+        let (steps, n, word) = if index == CONTROLWORD { self.controlword(ctx) } else { ([0; 3], 1, 0) };
+        let mut stored = word;
+        for &step in steps.iter().take(n) {
+            if step != stored {
+                let _ = ctx.set_value(CONTROLWORD, 0, &step.to_le_bytes());
+                stored = step;
+            }
+            self.drive.written(ctx, &PROFILE, index);
+        }
+        if stored != word {
+            let _ = ctx.set_value(CONTROLWORD, 0, &word.to_le_bytes());
+        }
     }
 
     fn sample(&mut self, ctx: &mut Ctx<'_>) {
@@ -188,6 +222,7 @@ impl Application for App {
                 abort_connection::at_power_on(ctx);
                 ramps::at_power_on(ctx);
                 self.drive.drive.axis.configure(AXIS);
+                self.settings(ctx);
                 self.operational = false;
                 None
             }
@@ -205,6 +240,7 @@ impl Application for App {
             NmtEvent::CommunicationError(CommError::LifeGuarding) => Some(FAULT_GUARDING),
             NmtEvent::CommunicationError(CommError::Heartbeat(node)) => Some(FAULT_HEARTBEAT | u16::from(node)),
             NmtEvent::CommunicationError(CommError::RpdoTimeout(n)) => Some(FAULT_RPDO_TIMEOUT + u16::from(n)),
+            NmtEvent::CommunicationError(CommError::RpdoLength(n)) => Some(FAULT_RPDO_LENGTH + u16::from(n)),
             _ => None,
         };
         match bus_fault {
@@ -215,6 +251,42 @@ impl Application for App {
 }
 
 impl App {
+    /// The controlword as the inverter takes it (§10.2, M-L3109-3160), as
+    /// the controlwords the profile runs (`n` of them) and the one written:
+    /// none unless the state machine controls (p.412, D56); after a bus
+    /// fault in NMT Operational, bit 7 not seen outside it, nor while a
+    /// guarding or heartbeat loss lasts (M-L2605-2609, D58), so that its
+    /// next rising edge once both are over resets; "enable operation" in Switch
+    /// on disabled with Shutdown first (0x0000 → 0x000F, M-L3279-3282, D45);
+    /// "disable operation" with p.392 = 0 as disable voltage, shutdown and
+    /// switch on (D57: Switched on at once, the motor coasting).
+    fn controlword(&mut self, ctx: &mut Ctx<'_>) -> ([u16; 3], usize, u16) {
+        let word = ctx.read_u32(CONTROLWORD, 0).unwrap_or(0) as u16;
+        let state = self.drive.state();
+        let bus_fault = state == PdsState::Fault && Drive::fault(&self.drive.drive) == EmcyCode::NO_ERROR;
+        // The cause gone too: a guarding or heartbeat loss (0x8130) ends when it is back.
+        let left = self.reset_in_operational && ctx.state() != NmtState::Operational;
+        let blocked = left || ctx.error_active(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
+        let seen = if bus_fault && blocked { word & !0x0080 } else { word };
+        let (steps, n) = match state {
+            _ if self.drive.drive.local => ([word; 3], 0),
+            PdsState::SwitchOnDisabled if seen & 0x8F == 0x0F => ([seen & !0x0001, seen, 0], 2),
+            PdsState::OperationEnabled if seen & 0x8F == 0x07 && control::transition_5_coasts(ctx) => ([0x0000, 0x0006, seen], 3),
+            _ => ([seen; 3], 1),
+        };
+        (steps, n, word)
+    }
+
+    /// p.412, p.414, p.549, p.418/p.419 (0x6046) or p.373 changed, or
+    /// power-on: the control source (statusword bit 9, D56) and the
+    /// hysteresis of bit 10 (D62) in the active data set.
+    fn settings(&mut self, ctx: &mut Ctx<'_>) {
+        let set = control::active_set(ctx);
+        self.drive.drive.local = control::local(ctx, set);
+        self.drive.drive.window = ramps::target_window(ctx, set);
+        self.drive.refresh();
+    }
+
     /// §9.5.16/§9.5.17 (M-L2985-3015), D48: the current actual value 0x6078
     /// (‰ of the rated current: the axis model's torque estimate, which has
     /// no magnetising current) and the DC link voltage 0x6079 [mV]; the
@@ -241,9 +313,12 @@ impl App {
     /// and quick stop.
     fn bus_fault(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent, fault: u16) {
         self.bus_fault = fault;
+        self.reset_in_operational = self.operational || matches!(event, NmtEvent::Entered(_));
         let [lo, hi] = fault.to_le_bytes();
         let info = [0, 0, 0, lo, hi];
         let reaction = match ctx.read(ABORT_CONNECTION, 0) {
+            // Under contacts (p.412 not 1) any setting but 0 is an immediate Fault (M-L2602-2603).
+            Ok(v) if self.drive.drive.local && v != [0, 0] => Reaction::Coast,
             Ok([1, 0]) => Reaction::Coast,
             Ok([0xFF, 0xFF]) => Reaction::SlowDownRamp,
             Ok([0xFE, 0xFF]) => Reaction::QuickStopRamp,
@@ -321,6 +396,8 @@ const FAULT_GUARDING: u16 = 0x2022;
 const FAULT_SYNC: u16 = 0x2024;
 /// F20.25 NMT state change (Operational → other).
 const FAULT_NMT: u16 = 0x2025;
+/// F20.26-28 RPDO1-3 length error ("Anzahl der empfangenen Bytes … abweichend vom Mapping", M-L697-699).
+const FAULT_RPDO_LENGTH: u16 = 0x2026;
 /// F20.2A-2C RPDO1-3 event-time timeout (§9.2.19).
 const FAULT_RPDO_TIMEOUT: u16 = 0x202A;
 /// F23.nn heartbeat of node nn.
@@ -335,6 +412,8 @@ const WARNINGS: u16 = 0x210E;
 const CURRENT_ACTUAL: u16 = 0x6078;
 /// 0x6079 DC link circuit voltage (UNSIGNED32, mV).
 const DC_LINK_VOLTAGE: u16 = 0x6079;
+/// 0x6046 vl velocity min max amount.
+const VL_MIN_MAX: u16 = 0x6046;
 /// 0x6060 modes of operation (write-only).
 const MODES_OF_OPERATION: u16 = 0x6060;
 /// 0x6040 controlword.

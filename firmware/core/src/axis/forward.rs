@@ -71,6 +71,14 @@ pub trait AxisDrive {
     fn warning(&self) -> bool {
         self.axis().warning()
     }
+    /// [`Drive::velocity_window`].
+    fn velocity_window(&self) -> Option<u32> {
+        self.axis().velocity_window()
+    }
+    /// [`Drive::status_bits`].
+    fn status_bits(&self, word: u16) -> u16 {
+        self.axis().status_bits(word)
+    }
     /// [`Drive::reset_fault`].
     fn reset_fault(&mut self) -> bool {
         self.axis_mut().reset_fault()
@@ -136,6 +144,12 @@ impl<T: AxisDrive> Drive for T {
     }
     fn warning(&self) -> bool {
         AxisDrive::warning(self)
+    }
+    fn velocity_window(&self) -> Option<u32> {
+        AxisDrive::velocity_window(self)
+    }
+    fn status_bits(&self, word: u16) -> u16 {
+        AxisDrive::status_bits(self, word)
     }
     fn reset_fault(&mut self) -> bool {
         AxisDrive::reset_fault(self)

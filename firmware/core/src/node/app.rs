@@ -48,6 +48,12 @@ pub enum CommError {
     BusOff,
     /// RPDO `n` (0-based) missed its event timer (0x1400 + n sub 5).
     RpdoTimeout(u8),
+    /// A frame of RPDO `n` (0-based) had a length other than its mapping's
+    /// (each such frame; CiA 301's EMCY 0x8210 or 0x8220 is sent once): too
+    /// short, it was not processed; too long, its mapped bytes were. A
+    /// device with its own fault for it (a drive's "RPDO length error")
+    /// reacts here; the others ignore it, as CiA 301 asks nothing more.
+    RpdoLength(u8),
 }
 
 /// What the NMT state machine and error control tell the device.
@@ -343,6 +349,13 @@ impl Ctx<'_> {
     /// if Operational, 1 no change, 2 Stopped), as it does for class 1 itself.
     pub fn error_behaviour(&mut self, class: u8) {
         self.effects.error_class = class;
+    }
+
+    /// Whether the error `code` is active (raised and not cleared): for a
+    /// device that asks a fault's cause to be gone before its reset (a
+    /// heartbeat or guarding loss, 0x8130, ends when it is back).
+    pub fn error_active(&mut self, code: EmcyCode) -> bool {
+        self.services.emcy().is_active(code)
     }
 
     /// Clears an error; the last one cleared sends "error reset".

@@ -16,7 +16,7 @@ use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode,
 use crate::wire::time_stamp::TimeOfDay;
 
 use super::router::{Router, SdoEffects};
-use super::sinks::{PdoSink, SdoSink};
+use super::sinks::{LENGTH_ERRORS, PdoSink, SdoSink};
 use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE, store};
 use crate::services::sdo_server::SdoServers;
 use crate::txq::TxQueue;
@@ -128,7 +128,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 } else {
                     comm.pdos.on_frame_reaching(now, cob_id, data, od.image_mut(), &mut sink)
                 };
-                let (received, timeouts) = (sink.received, sink.timeouts);
+                let (received, errors) = (sink.received, sink.errors);
                 if let Some(reached) = reached {
                     // Only the TPDOs this RPDO writes to look for a change.
                     self.touched |= reached;
@@ -140,7 +140,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                         None => self.quiet = false,
                     }
                     self.quiet &= !self.comm.emcy.has_queued();
-                    self.pdo_events(now, received, timeouts);
+                    self.pdo_events(now, received, errors);
                     // A poll for any TPDO retries every TPDO waiting to (an RTR
                     // may have left its TPDO so): only if nothing else brings one.
                     if self.touched == 0 {
@@ -195,21 +195,22 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let Node { od, comm, txq, .. } = self;
             let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
             comm.pdos.on_sync(event, od.image_mut(), &mut sink);
-            let (received, timeouts) = (sink.received, sink.timeouts);
+            let (received, errors) = (sink.received, sink.errors);
             // The synchronous RPDOs' objects, or else the TPDOs left to retry.
             let reached = if received != 0 { self.comm.pdos.reaches(received) } else { 0 };
             self.touched |= if reached != 0 { reached } else { self.retrying() };
             // Checked here too: most SYNCs have nothing to tell (no call).
-            if received | timeouts != 0 {
-                self.pdo_events(now, received, timeouts);
+            if received | errors != 0 {
+                self.pdo_events(now, received, errors);
             }
         }
     }
 
     /// Tells the device which RPDOs wrote their objects (bit n: RPDO n) and
-    /// which timed out.
-    pub(super) fn pdo_events(&mut self, now: Instant, received: u32, timeouts: u32) {
-        if received | timeouts == 0 {
+    /// which timed out or had a frame of a wrong length (`errors`, as
+    /// [`PdoSink`] collects them).
+    pub(super) fn pdo_events(&mut self, now: Instant, received: u32, errors: u32) {
+        if received | errors == 0 {
             return;
         }
         let (waits, mut wake) = (self.app_due.waits, false);
@@ -219,9 +220,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 app.rpdo_written(ctx, bits.trailing_zeros() as u8);
                 bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
             }
-            let mut bits = timeouts;
+            let mut bits = errors;
             while bits != 0 {
-                app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::RpdoTimeout(bits.trailing_zeros() as u8)));
+                let n = bits.trailing_zeros() as u8;
+                let error = match n.checked_sub(LENGTH_ERRORS as u8) {
+                    Some(n) => CommError::RpdoLength(n),
+                    None => CommError::RpdoTimeout(n),
+                };
+                app.on_nmt(ctx, NmtEvent::CommunicationError(error));
                 bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
             }
             if A::POLL_WHEN_DUE {
@@ -230,7 +236,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         });
         // The RPDO's hook alone leaves the device's timers to their deadline unless it asked for them.
         if A::POLL_WHEN_DUE {
-            self.app_due.waits = waits && timeouts == 0 && !wake;
+            self.app_due.waits = waits && errors == 0 && !wake;
         }
     }
 

@@ -123,10 +123,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let Node { od, comm, txq, .. } = self;
                 let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
                 pdo_deadline = comm.pdos.poll_marked(now, marked, od.image(), &mut sink);
-                let (received, timeouts) = (sink.received, sink.timeouts);
+                let (received, errors) = (sink.received, sink.errors);
                 // Most polls have nothing to tell (no call).
-                if received | timeouts != 0 {
-                    self.pdo_events(now, received, timeouts);
+                if received | errors != 0 {
+                    self.pdo_events(now, received, errors);
                 }
             }
         }

@@ -57,15 +57,18 @@ pub(super) struct PdoSink<'a> {
     pub(super) emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
     /// Bit n: RPDO n wrote its objects.
     pub(super) received: u32,
-    /// Bit n: RPDO n timed out.
-    pub(super) timeouts: u32,
+    /// The RPDO errors the device hears as communication errors: bit n
+    /// RPDO n timed out, bit 16 + n a frame of RPDO n had a wrong length
+    /// ([`LENGTH_ERRORS`]). One word, so that an RPDO without errors costs
+    /// nothing more to collect them.
+    pub(super) errors: u32,
     /// The device's code for an RPDO longer than its mapping (`CanEmcyCodes::rpdo_too_long`).
     too_long: EmcyCode,
 }
 
 impl<'a> PdoSink<'a> {
     pub(super) fn new(txq: &'a mut TxQueue<TX_QUEUE>, emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>, too_long: EmcyCode) -> Self {
-        PdoSink { txq, emcy, received: 0, timeouts: 0, too_long }
+        PdoSink { txq, emcy, received: 0, errors: 0, too_long }
     }
 
     /// `code` as the device reports it.
@@ -78,6 +81,9 @@ impl<'a> PdoSink<'a> {
 fn bit(n: usize) -> u32 {
     1u32.checked_shl(n as u32).unwrap_or(0)
 }
+
+/// The first bit of the length errors in [`PdoSink::errors`] (the first 16 RPDOs are told apart).
+pub(super) const LENGTH_ERRORS: usize = 16;
 
 impl PdoTx for PdoSink<'_> {
     fn send(&mut self, cob_id: u16, data: &[u8]) -> bool {
@@ -105,9 +111,7 @@ impl PdoTx for PdoSink<'_> {
         match event {
             PdoEvent::Received(n) => self.received |= bit(n),
             PdoEvent::Error { rpdo, code } => {
-                if code == EmcyCode::RPDO_TIMEOUT {
-                    self.timeouts |= bit(rpdo);
-                }
+                self.errors |= if code == EmcyCode::RPDO_TIMEOUT { bit(rpdo) & 0xFFFF } else { bit(rpdo) << LENGTH_ERRORS };
                 // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
                 self.emcy.raise(self.device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
             }
@@ -128,11 +132,11 @@ mod tests {
             let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
             let mut fast = PdoSink::new(&mut txq, &mut emcy, EmcyCode::PDO_LENGTH_EXCEEDED);
             fast.received(n);
-            let fast = (fast.received, fast.timeouts);
+            let fast = (fast.received, fast.errors);
             let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
             let mut general = PdoSink::new(&mut txq, &mut emcy, EmcyCode::PDO_LENGTH_EXCEEDED);
             general.event(PdoEvent::Received(n));
-            assert_eq!(fast, (general.received, general.timeouts), "RPDO {n}");
+            assert_eq!(fast, (general.received, general.errors), "RPDO {n}");
             assert_eq!(fast.0, if n < 32 { 1 << n } else { 0 }, "RPDO {n}");
         }
     }

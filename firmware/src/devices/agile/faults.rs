@@ -6,6 +6,7 @@
 
 use canopen_core::axis::{Axis, AxisDrive, fault};
 use canopen_core::profiles::cia402::drive::Drive;
+use canopen_core::profiles::cia402::statusword;
 use canopen_core::wire::emcy::EmcyCode;
 
 /// The axis model as the inverter's power section and motor.
@@ -13,11 +14,16 @@ use canopen_core::wire::emcy::EmcyCode;
 pub struct AgileDrive {
     /// The simulated motor and load.
     pub axis: Axis,
+    /// Controlled by contacts (p.412 0 or 2), not by the state machine:
+    /// statusword bit 9 "Remote" clear (M-L3187).
+    pub local: bool,
+    /// The hysteresis of statusword bit 10 [inc/s] (p.549, D62).
+    pub window: u32,
 }
 
 impl AgileDrive {
     /// The drive at power-on (all zero bits).
-    pub const NEW: AgileDrive = AgileDrive { axis: Axis::NEW };
+    pub const NEW: AgileDrive = AgileDrive { axis: Axis::NEW, local: false, window: 0 };
 
     /// The fault key of the active axis fault, 0 for none.
     pub fn key(&self) -> u16 {
@@ -50,8 +56,24 @@ impl AxisDrive for AgileDrive {
     fn fault(&self) -> EmcyCode {
         fault_of(self.axis.fault()).map_or(EmcyCode::NO_ERROR, |(_, code)| code)
     }
+    /// Bit 9 "Remote" under the state machine's control; bit 15 "Warnung 2"
+    /// while a delayed warning of the motor temperature is on ("kritischer
+    /// Betriebszustand, der innerhalb kurzer Zeit zu einer
+    /// Störungsabschaltung … führt", M-L3193): the axis model's temperature
+    /// warning, which bit 7 shows as well (D59), so bit 7 of `word`.
+    fn velocity_window(&self) -> Option<u32> {
+        Some(self.window)
+    }
+    fn status_bits(&self, word: u16) -> u16 {
+        let remote = if self.local { 0 } else { statusword::REMOTE };
+        let warning_2 = if word & statusword::WARNING != 0 { WARNING_2 } else { 0 };
+        word | remote | warning_2
+    }
     fn fault_info(&self) -> [u8; 5] {
         let [lo, hi] = self.key().to_le_bytes();
         [0, 0, 0, lo, hi]
     }
 }
+
+/// Statusword bit 15 "Warnung 2" (§10.1.1, M-L3101, M-L3193).
+const WARNING_2: u16 = 1 << 15;

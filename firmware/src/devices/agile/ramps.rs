@@ -9,7 +9,7 @@
 use canopen_core::node::Ctx;
 
 /// p.373 pole pairs (0x2175, data set 1 at sub 1).
-const POLE_PAIRS: u16 = 0x2175;
+pub(super) const POLE_PAIRS: u16 = 0x2175;
 
 /// The parameters (0x2000 + number) an object's write sets, and whether the
 /// object is a ramp (delta speed sub 1 over delta time sub 2) rather than a speed.
@@ -49,4 +49,26 @@ pub(super) fn at_power_on(ctx: &mut Ctx<'_>) {
             written(ctx, index, sub);
         }
     }
+}
+
+/// p.549 "max. Regelabweichung", "Sollwert erreicht: Schalthysterese"
+/// (0x2225, 0.01 %).
+pub(super) const MAX_CONTROL_DEVIATION: u16 = 0x2225;
+/// p.418 minimum frequency (0x21A2, 0.01 Hz).
+pub(super) const MINIMUM_FREQUENCY: u16 = 0x21A2;
+/// p.419 maximum frequency (0x21A3, 0.01 Hz).
+pub(super) const MAXIMUM_FREQUENCY: u16 = 0x21A3;
+
+/// The hysteresis of statusword bit 10 [inc/s at 4096 per revolution] in
+/// data set `set` (D62): p.549 of the range p.419 − p.418 ("a percentage
+/// of the adjustable range (Max − Min)", the operating instructions of the
+/// series), in min⁻¹ with the pole pairs: n = f · 60 / p.
+pub(super) fn target_window(ctx: &Ctx<'_>, set: u8) -> u32 {
+    let read = |index| ctx.read_u32(index, set).unwrap_or(0);
+    // In 0.01 Hz, at most the inverter's 999.99 Hz; p.549 at most 20.00 % and p.373 24
+    // (their limits): 32 bits hold each step.
+    let range = (read(MAXIMUM_FREQUENCY) as i32).saturating_sub(read(MINIMUM_FREQUENCY) as i32).clamp(0, 99_999) as u32;
+    let hundredths_hz = read(MAX_CONTROL_DEVIATION).min(2000) * range / 10_000;
+    // 0.01 Hz → inc/s: n · 4096 / 60 with n = f · 60 / p.
+    hundredths_hz * 4096 / (100 * read(POLE_PAIRS).clamp(1, 24))
 }

@@ -73,6 +73,18 @@ pub trait Drive {
     }
     /// A warning condition (statusword bit 7), such as a temperature near its limit.
     fn warning(&self) -> bool;
+    /// The velocity window [inc/s] within which a pv or vl velocity counts
+    /// as reached (statusword bit 10), where the drive sets it (a frequency
+    /// converter's hysteresis); `None`: 0x606D's.
+    fn velocity_window(&self) -> Option<u32> {
+        None
+    }
+    /// The statusword `word` with the bits the drive decides: bit 9
+    /// remote (the controlword is processed, by default always) and the
+    /// manufacturer-specific bits 8, 14 and 15.
+    fn status_bits(&self, word: u16) -> u16 {
+        word | super::statusword::REMOTE
+    }
     /// Clears the fault if its cause is gone; false if it persists.
     fn reset_fault(&mut self) -> bool;
     /// The switch inputs.

@@ -92,8 +92,10 @@ pub enum PdoEvent {
     /// RPDO `n` (0-based) wrote its data into the dictionary: event-driven
     /// at once, synchronous at the SYNC.
     Received(usize),
-    /// An error condition of RPDO `rpdo` began: the node raises EMCY `code`
-    /// (0x8210 too short, 0x8220 too long, 0x8250 timeout).
+    /// An error condition of RPDO `rpdo` began (a timeout), or a frame of
+    /// a wrong length arrived (each one): the node raises EMCY `code` (sent
+    /// once while it lasts: 0x8210 too short, 0x8220 too long, 0x8250
+    /// timeout) and tells the device.
     Error {
         /// The RPDO (0-based).
         rpdo: usize,

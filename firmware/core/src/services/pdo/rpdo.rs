@@ -8,7 +8,8 @@
 //! - Length (§7.2.2.2): fewer bytes than mapped → not processed, EMCY 0x8210;
 //!   more bytes → the mapped bytes are processed and EMCY 0x8220 raised, as
 //!   CANopenNode and Lely do. Either error ends with the next RPDO of the
-//!   right length.
+//!   right length. Each frame of a wrong length is also told to the device
+//!   (a drive's own fault on it).
 //! - Event timer (sub 5, ms): deadline monitoring, armed by the first RPDO
 //!   received; expiry raises EMCY 0x8250, the next RPDO ends it.
 
@@ -109,22 +110,26 @@ impl Rpdo {
     ) -> bool {
         // By reference: copying the mapping out costs more than the frame's own work.
         let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return false };
-        let error = match data.len().cmp(&len) {
-            core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
-            core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
-            core::cmp::Ordering::Equal => None,
-        };
-        if error != self.length_error {
-            if let Some(old) = self.length_error {
-                out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+        // The right length with no error to end (the common frame): two compares.
+        if data.len() != len || self.length_error.is_some() {
+            let error = match data.len().cmp(&len) {
+                core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
+                core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
+                core::cmp::Ordering::Equal => None,
+            };
+            if error != self.length_error {
+                if let Some(old) = self.length_error {
+                    out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+                }
+                self.length_error = error;
             }
-            if let Some(new) = error {
-                out.event(PdoEvent::Error { rpdo: n, code: new });
+            // Each frame of a wrong length (its EMCY is sent once); a short one is not processed.
+            if let Some(code) = error {
+                out.event(PdoEvent::Error { rpdo: n, code });
+                if data.len() < len {
+                    return false;
+                }
             }
-            self.length_error = error;
-        }
-        if data.len() < len {
-            return false;
         }
         if self.timed_out {
             self.timed_out = false;

@@ -16,7 +16,7 @@ impl<D: Drive> Cia402<D> {
 
     pub(super) fn statusword(&self) -> u16 {
         let s = &self.s;
-        let mut word = s.state.statusword() | sw::REMOTE;
+        let mut word = s.state.statusword();
         if s.state != PdsState::NotReadyToSwitchOn && self.drive.dc_link_mv() > 0 {
             word |= sw::VOLTAGE_ENABLED;
         }
@@ -59,7 +59,7 @@ impl<D: Drive> Cia402<D> {
                 word |= sw::BIT13;
             }
         }
-        word
+        self.drive.status_bits(word)
     }
 
     /// Writes 0x6041 if it changed (the node then checks the TPDOs that map it).

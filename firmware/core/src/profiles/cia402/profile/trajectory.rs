@@ -150,7 +150,7 @@ impl<D: Drive> Cia402<D> {
             position_window_ticks: ticks(unsigned_or(ctx, index::POSITION_WINDOW_TIME, 0, 0)),
             following_window: following.map(|w| u.magnitude_to_inc(w)),
             following_ticks: ticks(unsigned_or(ctx, index::FOLLOWING_ERROR_TIMEOUT, 0, 0)),
-            velocity_window: window(index::VELOCITY_WINDOW, config.velocity_window),
+            velocity_window: self.drive.velocity_window().map_or_else(|| window(index::VELOCITY_WINDOW, config.velocity_window), i64::from),
             velocity_window_ticks: ticks(unsigned_or(ctx, index::VELOCITY_WINDOW_TIME, 0, 0)),
             standstill: standstill(ctx, config, u, vl),
             threshold_ticks: ticks(unsigned_or(ctx, index::VELOCITY_THRESHOLD_TIME, 0, 0)),

@@ -51,11 +51,14 @@ fn a_received_rpdo_names_the_tpdos_its_data_reaches_as_the_general_path_does() {
 #[test]
 fn rpdo_length_errors() {
     let mut node = Node::operational(ms(0));
-    // Shorter than mapped: not processed, EMCY 0x8210 once.
+    // Shorter than mapped: not processed; each frame is an error (the node sends its EMCY 0x8210 once).
     assert!(node.rx(ms(1), 0x201, &[1, 2]));
     assert!(node.rx(ms(2), 0x201, &[]));
     assert_eq!(node.get(0x2001, 0), [0, 0]);
-    assert_eq!(node.events(), [PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH }]);
+    assert_eq!(
+        node.events(),
+        [PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH }, PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH }]
+    );
     // The right length ends it.
     assert!(node.rx(ms(3), 0x201, &[1, 2, 3]));
     assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8210) }, PdoEvent::Received(0)]);
@@ -71,6 +74,7 @@ fn rpdo_length_errors() {
         [
             PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH_EXCEEDED },
             PdoEvent::Received(0),
+            PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH_EXCEEDED },
             PdoEvent::Received(0),
             PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode(0x8220) },
             PdoEvent::Error { rpdo: 0, code: EmcyCode(0x8210) },
