@@ -45,7 +45,9 @@ fn widen_f32(b: u32) -> u64 {
 /// NaN (`None`) compares with nothing; so does a non-numeric kind. One
 /// integer compare then decides a limit, whatever the type.
 // The magnitude is at most infinity's bits (below 2^63): 2^63 ± it fits.
+// Out of line: the value and both limits each had a copy.
 #[allow(clippy::arithmetic_side_effects)]
+#[inline(never)]
 fn order_key(kind: Kind, raw: u64) -> Option<u64> {
     const MIDDLE: u64 = 1 << 63;
     match kind {

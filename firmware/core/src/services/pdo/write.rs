@@ -165,7 +165,7 @@ fn write_map(
     dict: &Dictionary,
     image: &mut [u8],
 ) -> Result<Option<Mapping>, AbortCode> {
-    if (locked || sub != 0) && dict.value(image, entry).iter().eq(data) {
+    if (locked || sub != 0) && dict.value(image, entry) == data {
         // Writing back the current value changes nothing and is allowed
         // (sub 0 of an open mapping is always resolved again).
         return Ok(None);
