@@ -253,8 +253,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled = false;
         let mut first_error = None;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            // Reset communication also resets the node's errors: nothing is raised any more.
-            *rpdo = Rpdo::default();
+            // Reset communication also resets the node's errors: nothing is
+            // raised any more. From the all-zero state (a clear, where the
+            // default's `None` mapping was a copy from a constant), then `set`.
+            *rpdo = Rpdo::UNCONFIGURED;
             let mapping = configured_mapping(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive, &mut first_error);
             rpdo.set(CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n)), mapping);
             rpdo.cob_id_writable = cob_id_writable(dict, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
@@ -272,7 +274,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
             // Change detection is the application's choice and survives.
             let (change_detection, timer_only) = (tpdo.change_detection(), tpdo.timer_only_254);
-            *tpdo = Tpdo::default();
+            // From the all-zero state, as the RPDOs: `set` gives parameters and mapping.
+            *tpdo = Tpdo::UNCONFIGURED;
             tpdo.set_change_detection(change_detection);
             tpdo.timer_only_254 = timer_only;
             let mapping = configured_mapping(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit, &mut first_error);
