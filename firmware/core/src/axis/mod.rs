@@ -205,7 +205,11 @@ impl Axis {
 
 impl Drive for Axis {
     fn reset(&mut self) {
-        *self = Axis { params: self.params, ..Axis::NEW };
+        // All zero bits but the parameters: a clear and the parameters put
+        // back (the struct update copied the rest from a 120-byte constant).
+        let params = self.params;
+        *self = Axis::NEW;
+        self.params = params;
     }
 
     fn enable(&mut self, on: bool) {
