@@ -370,3 +370,44 @@ fn command_line_behaves_like_a_rust_tool() {
     let o = vnode(&["--device", "ec5000", "--node-id", "5", "--listen", "localhost"]);
     assert_eq!(o.status.code(), Some(1), "a bad address is no usage error");
 }
+
+/// A device without LSS cannot start unconfigured: nothing could ever give
+/// it a node-id, so vnode says so instead of serving a node that never answers.
+#[test]
+fn an_unconfigured_node_needs_lss() {
+    for device in ["agile", "bmaxx4400"] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vnode"))
+            .args(["--device", device, "--node-id", "255", "--listen", "127.0.0.1:0"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("vnode runs");
+        let end = Instant::now() + Duration::from_secs(5);
+        let status = loop {
+            match child.try_wait().expect("try_wait") {
+                Some(status) => break status,
+                None if Instant::now() > end => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    panic!("{device}: vnode served an unconfigured node without LSS");
+                }
+                None => std::thread::sleep(Duration::from_millis(10)),
+            }
+        };
+        let mut err = String::new();
+        child.stderr.take().expect("stderr").read_to_string(&mut err).expect("stderr");
+        assert_eq!(status.code(), Some(1), "{device}: {err}");
+        assert!(err.contains("has no LSS") && err.contains("1..=127"), "{device}: {err}");
+    }
+    // The EC5000 has LSS: it starts unconfigured and waits for LSS (tests/python/test_lss.py).
+    let mut ec5000 = Command::new(env!("CARGO_BIN_EXE_vnode"))
+        .args(["--device", "ec5000", "--node-id", "255", "--listen", "127.0.0.1:0"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("vnode runs");
+    let mut line = String::new();
+    BufReader::new(ec5000.stdout.take().expect("stdout")).read_line(&mut line).expect("the port line");
+    assert!(line.starts_with("vnode ec5000 node 255 listening on 127.0.0.1:"), "{line}");
+    ec5000.kill().expect("kill");
+    ec5000.wait().expect("wait");
+}

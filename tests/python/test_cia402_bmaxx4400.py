@@ -22,7 +22,9 @@ NODE_ID = 4
 
 class Bmaxx4400(Drive402Test):
     DEVICE, NODE_ID, EDS = "bmaxx4400", NODE_ID, EDS
-    EVENT_TIMED_TPDOS = (0x1800,)
+    # TPDO1 (0x6041) and TPDO2 (0x6041, 0x6061) are sent on change only: BaseNode402 takes a
+    # TPDO seen twice as periodic and waits 0.2 s for it (state, op_mode), so both get 100 ms.
+    EVENT_TIMED_TPDOS = (0x1800, 0x1801)
 
     def i32(self, index):
         return struct.unpack("<i", self.drive.sdo.upload(index, 0))[0]
@@ -117,6 +119,89 @@ class Bmaxx4400(Drive402Test):
         for value, shown in [(-106, -106), (-6, -6), (7, 7), (-4, -4), (2, 2)]:
             self.mode(value)
             self.assertEqual(struct.unpack("<b", self.drive.sdo.upload(0x6061, 0))[0], shown)
+
+
+    # ---- as a PLC programmer uses python-canopen beyond BaseNode402's state machine ----
+
+    def test_modes_by_rpdo2_shown_by_tpdo2_and_op_mode_without_0x6502(self):
+        # python-canopen's op_mode setter asks 0x6502 first (is_op_mode_supported); the manual
+        # lists no 0x6502 (D37), so it raises KeyError before it writes anything. The PLC writes
+        # the mode by RPDO2 (0x6040 + 0x6060) with the controlword it is sending, since RPDO2
+        # carries both (python-canopen's own op_mode would send RPDO2's controlword copy, 0:
+        # disable voltage); BaseNode402's op_mode getter reads it from TPDO2 (0x6041 + 0x6061).
+        with self.assertRaises(KeyError):
+            self.drive.op_mode = "PROFILED VELOCITY"
+        self.drive.state = "OPERATION ENABLED"
+        rpdo = self.drive.rpdo[2]
+        for value, name in [(3, "PROFILED VELOCITY"), (1, "PROFILED POSITION"), (6, "HOMING"), (2, "VELOCITY"),
+                            (7, "INTERPOLATED POSITION")]:
+            rpdo["Controlword"].raw = 0x0F
+            rpdo["Modes of operation"].raw = value
+            rpdo.transmit()
+            self.wait_for(name, lambda: self.drive.op_mode == name, 1.0)
+            self.assertEqual(self.drive.state, "OPERATION ENABLED")
+
+    def test_pv_by_rpdo4_measured_by_a_synchronous_tpdo4_and_quick_stop_6(self):
+        # TPDO4 (0x6041, 0x606C) is timer-only (type 254, no timer: D26); the PLC makes it
+        # synchronous through python-canopen's PDO configuration and runs SYNC every 10 ms.
+        self.drive.nmt.state = "PRE-OPERATIONAL"
+        self.drive.tpdo[4].trans_type = 1
+        self.drive.tpdo[4].save()
+        self.drive.nmt.state = "OPERATIONAL"
+        self.v.network.sync.start(0.01)
+        self.addCleanup(self.v.network.sync.stop)
+        self.mode(3)
+        self.drive.sdo[0x605A].raw = 6  # quick stop ramp, stay in QUICK STOP ACTIVE
+        # 100 revolutions per s² (6000 min⁻¹ per s) up and for the quick stop: 0.1 s each way.
+        self.drive.sdo[0x6083].raw = 6553600
+        self.drive.sdo[0x6085].raw = 6553600
+        self.drive.state = "OPERATION ENABLED"
+        rpdo, tpdo = self.drive.rpdo[4], self.drive.tpdo[4]
+        names = ("Statusword", "Velocity actual value")
+        rpdo["Controlword"].raw = 0x0F
+        rpdo["Target velocity"].raw = 600  # min⁻¹
+        rpdo.transmit()
+        up = self.samples(tpdo, names, lambda s: abs(s[1] - 600) <= 6 and s[0] & 0x0400)
+        self.assertTrue(any(0 < v < 550 for _, v in up), f"accelerating on 0x6083: {up}")
+        self.assertGreaterEqual(sum(0 < v < 550 for _, v in up), 3, f"a ramp of 0.1 s, not a step: {up}")
+        moved = self.i32(0x6064)
+        time.sleep(0.2)
+        self.assertGreater(self.i32(0x6064) - moved, 65536, "600 min⁻¹ for 0.2 s: two revolutions")
+        rpdo["Controlword"].raw = 0x0B
+        rpdo.transmit()
+        down = self.samples(tpdo, names, lambda s: s[1] == 0 and s[0] & 0x6F == 0x07, 1.0)
+        self.assertGreaterEqual(sum(0 < v < 550 for _, v in down), 3, f"braking on the quick stop ramp 0x6085: {down}")
+        self.assertEqual(self.drive.state, "QUICK STOP ACTIVE")
+        held = self.i32(0x6064)
+        time.sleep(0.1)
+        self.assertLessEqual(abs(self.i32(0x6064) - held), 16, "stands")
+
+    def test_guarding_loss_faults_the_drive_and_reset_from_fault(self):
+        # 0x6007 = 1 on a guarding loss (D53; the b maXX has no heartbeat consumer): guard
+        # time 50 ms x life time factor 2. python-canopen guards the node, then stops.
+        self.drive.sdo[0x6007].raw = 1
+        self.drive.sdo[0x100C].raw = 50
+        self.drive.sdo[0x100D].raw = 2
+        self.drive.state = "OPERATION ENABLED"
+        self.drive.emcy.reset()
+        self.drive.nmt.start_node_guarding(0.05)
+        time.sleep(0.2)
+        self.drive.nmt.stop_node_guarding()
+        self.emcy(0x8130)  # life guarding
+        self.wait_for("FAULT from TPDO1", lambda: self.drive.state == "FAULT", 1.0)
+        self.assertEqual(self.drive.nmt.state, "OPERATIONAL", "answers of the guarding")
+        self.drive.reset_from_fault()
+        self.assertEqual(self.drive.state, "OPERATION ENABLED")
+        self.assertEqual((self.drive.emcy.log[-1].code, self.drive.emcy.active), (0, []), "all acknowledged (B17)")
+
+    def test_store_sub_2_and_restore_across_power_cycles(self):
+        # 0x1010/0x1011 sub 1 is "not supported" (M-L1311, D10): python-canopen's default
+        # store() is refused; sub 2 keeps the communication parameters, in Pre-operational.
+        from canopen.sdo.exceptions import SdoAbortedError
+        with self.assertRaises(SdoAbortedError) as e:
+            self.drive.store()
+        self.assertEqual(e.exception.code, 0x08000020)
+        self.power_cycle_keeps_what_was_stored({(0x1803, 2): (1, 254), (0x1801, 5): (250, 0)}, store_sub=2)
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ class Vnode:
         )
         line = self.proc.stdout.readline()
         port = int(re.search(r":(\d+)\s*$", line).group(1))
+        self.port = port
         self.network = canopen.Network()
         self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=500000, sleep_after_open=0)
         self.node = self.network.add_node(node_id, eds)

@@ -87,6 +87,8 @@ impl Application for Probe {
                 let v = ctx.read(0x2100, 1).map(|b| b[0]).unwrap_or(0);
                 ctx.set_value(0x2000, 0, &[v ^ 0xFF]).unwrap();
             }
+            // 0x2100:2 = 0xEEEE from an RPDO is a serious device error of class 1 (0x1029:1).
+            (0x2100, 2, Source::Rpdo(0)) if ctx.read_u32(0x2100, 2) == Some(0xEEEE) => ctx.error_behaviour(1),
             // 0x2004 is stored alone as soon as it is written.
             (0x2004, 0, _) => {
                 ctx.save_objects(0x2004, 0x2004).unwrap();
@@ -169,6 +171,25 @@ fn an_rpdo_object_reacts_and_the_change_of_state_tpdo_leaves_in_the_same_process
     let out = b.rx(ms(10), RPDO1, &[0x0F, 0x00, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00]);
     assert_eq!(out, [(TPDO1, vec![0xF0, 0x22, 0x22, 0x44, 0x44, 0x44, 0x44])]);
     assert_eq!(log(&mut b), ["written 2100:1 Rpdo(0)", "written 2100:2 Rpdo(0)", "written 2100:3 Rpdo(0)", "written 2100:4 Rpdo(0)"]);
+}
+
+#[test]
+fn an_rpdo_hook_that_reports_a_device_error_changes_the_state_as_0x1029_says() {
+    // The RPDO's hook has a follow-up of its own (`Node::with_app_follow`):
+    // the error class it reports is acted on there too.
+    let mut b = bench(Probe::default());
+    b.nmt(0x01, ID);
+    b.rx(ms(10), RPDO1, &[0x0F, 0x00, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00]);
+    assert_eq!(b.node.state(), NmtState::Operational);
+    // 0x1029:1 = 1: no change.
+    assert_eq!(b.sdo_write(ID, 0x1029, 1, &[1]), ok_write(0x1029, 1));
+    b.rx(ms(20), RPDO1, &[0x0F, 0x00, 0xEE, 0xEE, 0x03, 0x00, 0x04, 0x00]);
+    assert_eq!(b.node.state(), NmtState::Operational, "0x1029:1 = 1");
+    // 0x1029:1 = 0: Pre-operational.
+    assert_eq!(b.sdo_write(ID, 0x1029, 1, &[0]), ok_write(0x1029, 1));
+    b.rx(ms(30), RPDO1, &[0x0F, 0x00, 0xEE, 0xEE, 0x03, 0x00, 0x04, 0x00]);
+    assert_eq!(b.node.state(), NmtState::PreOperational, "0x1029:1 = 0");
+    log(&mut b);
 }
 
 #[test]

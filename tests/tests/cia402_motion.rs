@@ -275,6 +275,27 @@ fn unsupported_modes_are_refused_and_the_display_follows_the_mode() {
     assert_eq!(d.b.sdo_upload(ID, 0x6061, 0), Ok(vec![1]));
 }
 
+/// D71: 0 in 0x6060 is CiA 402's "no mode change". RPDO1 carries 0x6060
+/// with the controlword, so a master that only switches states (python-canopen's
+/// BaseNode402 sends its RPDO1 copy, mode 0 until a mode is set) keeps the mode.
+#[test]
+fn rpdo1_with_mode_0_switches_states_and_keeps_the_mode_d71() {
+    let mut d = Drive::enabled(3);
+    for (t, cw) in [(1000, 0x06u8), (1010, 0x07), (1020, 0x0F)] {
+        d.b.rx(ms(t), RPDO1, &[cw, 0, 0, 0, 0, 0, 0]);
+    }
+    d.at(1030);
+    assert_eq!(d.statusword() & 0x6F, 0x27, "Operation enabled");
+    assert_eq!((d.b.sdo_upload(ID, 0x6061, 0), d.b.sdo_upload(ID, 0x6060, 0)), (Ok(vec![3]), Ok(vec![3])), "still pv");
+    d.velocity_command(1030, 0x0F, 100);
+    d.at(1500);
+    assert_eq!(d.velocity(), 100, "pv runs");
+    // By SDO the same: 0 leaves pp as it is.
+    assert_eq!(d.b.sdo_write(ID, 0x6060, 0, &[1]), ok_write(0x6060, 0));
+    assert_eq!(d.b.sdo_write(ID, 0x6060, 0, &[0]), ok_write(0x6060, 0));
+    assert_eq!(d.b.sdo_upload(ID, 0x6061, 0), Ok(vec![1]));
+}
+
 #[test]
 fn pp_profile_velocity_above_the_motor_limit_is_capped_and_lands_without_overshoot() {
     let mut d = Drive::enabled(1);

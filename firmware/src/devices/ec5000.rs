@@ -104,8 +104,8 @@ impl Application for App {
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.drive.check_write(index, data)?;
         match (index, sub, data) {
-            // D34: profile position, profile velocity, homing (as int8 bytes 1, 3, 6) and none.
-            (0x6060, 0, [mode]) if !matches!(mode, 0 | 1 | 3 | 6) => Err(AbortCode::InvalidValue),
+            // D34: profile position, profile velocity, homing (as int8 bytes 1, 3, 6) and no mode change (D71).
+            (MODES_OF_OPERATION, 0, [mode]) if !matches!(mode, 0 | 1 | 3 | 6) => Err(AbortCode::InvalidValue),
             // D35: polarity bits 7 and 6 only.
             (0x607E, 0, [p]) if p & 0x3F != 0 => Err(AbortCode::InvalidValue),
             // D69: the two bit rates of the manual's DeviceInfo [kbit/s].
@@ -162,6 +162,13 @@ impl Application for App {
         if index == 0x1011 {
             self.monitor.keep(ctx);
             ctx.wake();
+        }
+
+        // D71: 0 is CiA 402's "no mode change": RPDO1 carries 0x6060 with the
+        // controlword, and a master that only switches states sends 0 there.
+        if index == MODES_OF_OPERATION && ctx.read_u32(MODES_OF_OPERATION, 0) == Some(0) {
+            let running = ctx.read_u32(MODES_OF_OPERATION_DISPLAY, 0).unwrap_or(0);
+            let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[running as u8]);
         }
 
         // The CiA 402 objects, from SDO and from the RPDO-mapped objects
@@ -227,6 +234,10 @@ const NODE_ID: u16 = 0x4650;
 const BAUD_RATE: u16 = 0x4651;
 /// 0x4231 "High Temperature Warning Level" (D48).
 const WARNING_LEVEL: u16 = 0x4231;
+/// 0x6060 "Modes of operation" (D34, D71).
+const MODES_OF_OPERATION: u16 = 0x6060;
+/// 0x6061 "Modes of operation display": the mode the profile runs.
+const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 /// 0x1F51 "Switch Bootloader Mode" (program control): sub 1 = 1 restarts the drive.
 const PROGRAM_CONTROL: u16 = 0x1F51;
 /// 0x1010/0x1011 sub 5: manufacturer parameters "SSW" (Man2).

@@ -48,6 +48,8 @@ const TRACE_QUEUE: usize = 4096;
 const REPORT_EVERY: StdDuration = StdDuration::from_secs(1);
 /// The interface name in trace lines.
 const TRACE_IFACE: &str = "can0";
+/// The node-id of a node that LSS has yet to configure (CiA 305).
+const UNCONFIGURED: u8 = 255;
 /// The device names `--device` takes: the firmware's devices and the interop test fixture.
 const DEVICES: [&str; 6] = ["ec5000", "unitek-ds", "sendix", "bmaxx4400", "agile", "interop"];
 
@@ -296,6 +298,13 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
     storage: Box<dyn Storage>,
     cli: &Cli,
 ) -> Result<(), String> {
+    // Without LSS nothing could give an unconfigured node its id: it would
+    // never answer (CiA 305; the node-id 255 is LSS's "unconfigured").
+    if cli.node_id == Some(UNCONFIGURED) && !(O::SERVICES.lss && od.dictionary().device.lss_supported) {
+        return Err(format!(
+            "--node-id {UNCONFIGURED} is an LSS-unconfigured node, and this device has no LSS (LSS_Supported=0): it would never answer; give 1..=127"
+        ));
+    }
     let start = std::time::Instant::now();
     let clock = || Instant::from_micros(start.elapsed().as_micros() as u64);
     let mut node: Node<O, A, Boxed, R, T, HB, SDO> = new_node(od, app, storage, cli, clock());

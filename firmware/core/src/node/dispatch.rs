@@ -122,15 +122,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if state.pdo_allowed() {
                 let Node { od, comm, txq, .. } = self;
                 let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
-                let matched = if rtr {
-                    comm.pdos.on_rtr(now, cob_id, od.image(), &mut sink)
+                // Some(the TPDOs whose mapped data the frame wrote) if a PDO took it.
+                let reached = if rtr {
+                    comm.pdos.on_rtr(now, cob_id, od.image(), &mut sink).then_some(0)
                 } else {
-                    comm.pdos.on_frame(now, cob_id, data, od.image_mut(), &mut sink)
+                    comm.pdos.on_frame_reaching(now, cob_id, data, od.image_mut(), &mut sink)
                 };
                 let (received, timeouts) = (sink.received, sink.timeouts);
-                if matched {
-                    // Only the TPDOs these RPDOs write to look for a change.
-                    self.touched |= self.comm.pdos.reaches(received);
+                if let Some(reached) = reached {
+                    // Only the TPDOs this RPDO writes to look for a change.
+                    self.touched |= reached;
                     // A timer started (or an RTR changed a TPDO), or an error was signalled.
                     // Without an RPDO timer running the PDOs' deadline stayed where it was.
                     match self.comm.pdos.settled() {
@@ -212,7 +213,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         let (waits, mut wake) = (self.app_due.waits, false);
-        self.with_app_cold(now, |app, ctx| {
+        self.with_app_follow(now, |app, ctx| {
             let mut bits = received;
             while bits != 0 {
                 app.rpdo_written(ctx, bits.trailing_zeros() as u8);

@@ -118,8 +118,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 pdo_deadline.is_some_and(|d| d <= now)
             };
             if due {
-                // A poll for any TPDO retries every TPDO waiting to.
-                let marked = core::mem::take(&mut self.touched) | self.retrying();
+                // A poll for any TPDO retries every TPDO waiting to (the poll sees which).
+                let marked = core::mem::take(&mut self.touched);
                 let Node { od, comm, txq, .. } = self;
                 let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
                 pdo_deadline = comm.pdos.poll_marked(now, marked, od.image(), &mut sink);

@@ -95,6 +95,12 @@ impl PdoTx for PdoSink<'_> {
         true
     }
 
+    // In line: every RPDO frame ends here.
+    #[inline(always)]
+    fn received(&mut self, n: usize) {
+        self.received |= bit(n);
+    }
+
     fn event(&mut self, event: PdoEvent) {
         match event {
             PdoEvent::Received(n) => self.received |= bit(n),
@@ -106,6 +112,28 @@ impl PdoTx for PdoSink<'_> {
                 self.emcy.raise(self.device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
             }
             PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(self.device_code(code)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The RPDO path's `received` marks the RPDO as the general
+    /// [`PdoEvent::Received`] does, RPDOs past 31 included (no bit).
+    #[test]
+    fn a_received_rpdo_is_marked_as_its_event_marks_it() {
+        for n in [0, 1, 5, 31, 32, 511] {
+            let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
+            let mut fast = PdoSink::new(&mut txq, &mut emcy, EmcyCode::PDO_LENGTH_EXCEEDED);
+            fast.received(n);
+            let fast = (fast.received, fast.timeouts);
+            let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
+            let mut general = PdoSink::new(&mut txq, &mut emcy, EmcyCode::PDO_LENGTH_EXCEEDED);
+            general.event(PdoEvent::Received(n));
+            assert_eq!(fast, (general.received, general.timeouts), "RPDO {n}");
+            assert_eq!(fast.0, if n < 32 { 1 << n } else { 0 }, "RPDO {n}");
         }
     }
 }

@@ -134,6 +134,12 @@ pub trait PdoTx {
         self.send_data(cob_id, &data, len)
     }
 
+    /// RPDO `n` (0-based) wrote its data ([`PdoEvent::Received`]); the
+    /// default reports it through [`PdoTx::event`].
+    fn received(&mut self, n: usize) {
+        self.event(PdoEvent::Received(n));
+    }
+
     /// Reports an event; the default ignores it.
     fn event(&mut self, event: PdoEvent) {
         let _ = event;
@@ -410,8 +416,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// `offset` (what a write there may change).
     /// Answered from the last call if it asked for the same bytes and no
     /// parameter or mapping changed since.
-    // Out of line: the node's follow-up of every write calls it.
-    #[inline(never)]
+    // In line, the remembered answer (a device sets its statusword with
+    // most frames): one compare; the walk is out of line.
+    #[inline(always)]
     pub fn tpdos_mapping(&mut self, offset: u16, len: u16) -> u32 {
         // One compare: offset and length in one word (0: none; no write is of 0 bytes).
         let key = u32::from(offset) << 16 | u32::from(len);
@@ -446,20 +453,36 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// A data frame on `cob_id`: true if it belongs to a valid RPDO (then it
     /// is processed, or buffered for the SYNC). Ignored unless Operational.
     pub fn on_frame(&mut self, now: Instant, cob_id: u16, data: &[u8], image: &mut [u8], out: &mut impl PdoTx) -> bool {
+        self.on_frame_reaching(now, cob_id, data, image, out).is_some()
+    }
+
+    /// [`Pdos::on_frame`], with the event-driven TPDOs whose mapped data
+    /// the frame wrote (its RPDO's [`Pdos::reaches`]; 0 when it wrote
+    /// nothing now: a length error, or data that waits for the SYNC);
+    /// `None` when no RPDO took it. The node marks those TPDOs without
+    /// asking again.
+    pub(crate) fn on_frame_reaching(
+        &mut self,
+        now: Instant,
+        cob_id: u16,
+        data: &[u8],
+        image: &mut [u8],
+        out: &mut impl PdoTx,
+    ) -> Option<u32> {
         if !self.operational {
-            return false;
+            return None;
         }
         let window_open = self.window_end.is_none_or(|end| now <= end);
-        let Some(n) = self.rx_ids.iter().position(|&id| id == cob_id) else { return false };
-        let Some(rpdo) = self.rpdos.get_mut(n) else { return false };
-        rpdo.on_frame(n, now, data, window_open, image, out);
+        let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
+        let rpdo = self.rpdos.get_mut(n)?;
+        let written = rpdo.on_frame(n, now, data, window_open, image, out);
         if let Some(timeout) = rpdo.timeout_at() {
             self.rpdo_timers |= bit_of(n);
             // Only this RPDO's timeout moved, and only later (or it started):
             // the settled deadline stays good, or early, which is harmless.
             self.settled_deadline = earliest(self.settled_deadline, Some(timeout));
         }
-        true
+        Some(if written { self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS) } else { 0 })
     }
 
     /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once
@@ -515,20 +538,22 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
     pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
-        let marked = changed | self.retrying();
-        self.poll_marked(now, marked, image, tx)
+        self.poll_marked(now, changed, image, tx)
     }
 
-    /// [`Pdos::poll_changed`] where `marked` holds the TPDOs waiting to
-    /// retry besides those that may see changed data (the node knows from
-    /// the transmit queue's overflow count when none waits, see
-    /// [`Pdos::retrying`]).
+    /// [`Pdos::poll_changed`]: `marked` holds the TPDOs that may see
+    /// changed data; a TPDO waiting to retry a refused frame is polled
+    /// whether marked or not (a field it holds: no walk for them first).
     // Out of line: the main loop's `process` would take its two paths in.
     #[inline(never)]
     pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
         if !self.operational {
             return None;
         }
+        // The earliest deadline, folded as the PDOs are visited: a TPDO
+        // polled is asked again, one that was not keeps the deadline it
+        // was checked against (no PDO's poll moves another's).
+        let mut first = NEVER;
         if self.rpdo_timers != 0 {
             let mut timers = 0;
             for (n, rpdo) in self.rpdos.iter_mut().enumerate() {
@@ -536,6 +561,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 if rpdo.timeout_at().is_some() {
                     timers |= bit_of(n);
                 }
+                first = first.min(at(rpdo.timeout_at()));
             }
             self.rpdo_timers = timers;
         }
@@ -544,21 +570,30 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             // Only the TPDOs that can send, each bit a TPDO.
             let mut bits = self.tpdo_live;
             while let Some(t) = next_bit(&mut bits) {
-                if let Some(tpdo) = self.tpdos.get_mut(t)
-                    && (marked & bit_of(t) != 0 || tpdo.due() <= now_at)
-                {
-                    tpdo.poll(now, &self.window_end, image, tx);
+                if let Some(tpdo) = self.tpdos.get_mut(t) {
+                    // A marked TPDO, or one waiting to retry, counts as due now (0).
+                    let mut due = if marked & bit_of(t) != 0 || tpdo.retrying() { 0 } else { tpdo.due() };
+                    if due <= now_at {
+                        tpdo.poll(now, &self.window_end, image, tx);
+                        due = tpdo.due();
+                    }
+                    first = first.min(due);
                 }
             }
         } else {
             for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
                 let bit = bit_of(t);
-                if tpdo.cob_id().is_some() && (marked & bit != 0 || bit == u32::MAX || tpdo.due() <= now_at) {
-                    tpdo.poll(now, &self.window_end, image, tx);
+                if tpdo.cob_id().is_some() {
+                    let mut due = if marked & bit != 0 || bit == u32::MAX || tpdo.retrying() { 0 } else { tpdo.due() };
+                    if due <= now_at {
+                        tpdo.poll(now, &self.window_end, image, tx);
+                        due = tpdo.due();
+                    }
+                    first = first.min(due);
                 }
             }
         }
-        self.settled_deadline = deadline_of(self.walk());
+        self.settled_deadline = deadline_of(first);
         self.settled = true;
         self.settled_deadline
     }
@@ -585,7 +620,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
     /// run and the TPDOs that can send have one.
-    // Out of line: `deadline` and `poll_marked` share it.
+    // Out of line: `deadline` alone calls it (`poll_marked` folds as it polls).
     #[inline(never)]
     fn walk(&self) -> At {
         let mut first = NEVER;

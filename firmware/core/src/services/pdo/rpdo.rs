@@ -96,10 +96,19 @@ impl Rpdo {
         self.timeout_at = None;
     }
 
-    /// An RPDO frame. `window_open`: the synchronous window since the last SYNC is still open.
-    pub(super) fn on_frame(&mut self, n: usize, now: Instant, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) {
+    /// An RPDO frame. `window_open`: the synchronous window since the last
+    /// SYNC is still open. True if it wrote its data into the dictionary now.
+    pub(super) fn on_frame(
+        &mut self,
+        n: usize,
+        now: Instant,
+        data: &[u8],
+        window_open: bool,
+        image: &mut [u8],
+        out: &mut impl PdoTx,
+    ) -> bool {
         // By reference: copying the mapping out costs more than the frame's own work.
-        let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return };
+        let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return false };
         let error = match data.len().cmp(&len) {
             core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
             core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
@@ -115,7 +124,7 @@ impl Rpdo {
             self.length_error = error;
         }
         if data.len() < len {
-            return;
+            return false;
         }
         if self.timed_out {
             self.timed_out = false;
@@ -131,11 +140,13 @@ impl Rpdo {
                 }
                 self.buffered = Some(buf);
             }
+            false
         } else {
             if let Some(mapping) = &self.mapping {
                 mapping.apply(image, data);
             }
-            out.event(PdoEvent::Received(n));
+            out.received(n);
+            true
         }
     }
 
@@ -143,7 +154,7 @@ impl Rpdo {
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
         if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping.as_ref()) {
             mapping.apply(image, &data);
-            out.event(PdoEvent::Received(n));
+            out.received(n);
         }
     }
 

@@ -18,6 +18,37 @@ fn event_driven_rpdo_writes_at_once() {
 }
 
 #[test]
+fn a_received_rpdo_names_the_tpdos_its_data_reaches_as_the_general_path_does() {
+    // The node marks what `on_frame_reaching` returns; the general path
+    // asked `reaches` for the RPDOs the frame reported as received.
+    let mut node = Node::new();
+    assert_eq!(node.pdos.on_frame_reaching(ms(0), 0x201, &[1, 2, 3], &mut node.image, &mut node.bus), None, "not Operational");
+    node.pdos.enter_operational(ms(0));
+    let check = |node: &mut Node, cob_id: u16, data: &[u8], want: Option<u32>| {
+        let got = node.pdos.on_frame_reaching(ms(1), cob_id, data, &mut node.image, &mut node.bus);
+        let received = node.events().iter().fold(0, |m, e| if let PdoEvent::Received(n) = e { m | 1 << n } else { m });
+        assert_eq!(got, want, "{cob_id:#X} {data:?}");
+        if got.is_some() {
+            assert_eq!(got, Some(node.pdos.reaches(received)), "{cob_id:#X} {data:?}: as `reaches` of the received RPDOs");
+        }
+    };
+    // RPDO1 writes 0x2000, which the event-driven TPDO1 maps.
+    check(&mut node, 0x201, &[1, 2, 3], Some(0b1));
+    // Too short: nothing written, nothing reached.
+    check(&mut node, 0x201, &[1, 2], Some(0));
+    check(&mut node, 0x202, &[1, 2, 3], None);
+    // TPDO1 synchronous: no change detection, so RPDO1 reaches no TPDO.
+    assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()));
+    assert_eq!(node.sdo(0x1800, 2, &[1]), Ok(()));
+    assert_eq!(node.sdo32(0x1800, 1, 0x181), Ok(()));
+    check(&mut node, 0x201, &[1, 2, 3], Some(0));
+    // RPDO1 synchronous: its data waits for the SYNC.
+    node.pdos.on_sync(&sync_at(ms(2), None), &mut node.image, &mut node.bus);
+    assert_eq!(node.sdo(0x1400, 2, &[1]), Ok(()));
+    check(&mut node, 0x201, &[4, 5, 6], Some(0));
+}
+
+#[test]
 fn rpdo_length_errors() {
     let mut node = Node::operational(ms(0));
     // Shorter than mapped: not processed, EMCY 0x8210 once.

@@ -113,6 +113,20 @@ fn a_refused_frame_is_retried_at_the_next_poll() {
 }
 
 #[test]
+fn a_refused_frame_is_retried_by_a_poll_that_marks_other_tpdos_only() {
+    // The poll itself looks for TPDOs waiting to retry: the node marks only
+    // the TPDOs a write reached.
+    let mut node = Node::operational(ms(0));
+    node.bus.refuse = true;
+    assert_eq!(node.pdos.poll_changed(ms(0), 0, &node.image, &mut node.bus), None);
+    node.bus.refuse = false;
+    node.pdos.poll_changed(ms(1), 0b10, &node.image, &mut node.bus);
+    tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
+    node.pdos.poll_changed(ms(2), 0b10, &node.image, &mut node.bus);
+    tx!(node, []);
+}
+
+#[test]
 fn rtr_on_an_event_driven_tpdo_sends_the_current_data() {
     // CiA 310 case 3.3.
     let mut node = Node::operational(ms(0));
@@ -329,4 +343,45 @@ fn a_poll_for_other_tpdos_leaves_a_changed_one_for_its_own_turn() {
     tx!(node, []);
     node.pdos.poll_changed(ms(2), 0b1, &node.image, &mut node.bus);
     tx!(node, [(0x181, [1, 2, 3, 4, 0])]);
+}
+
+#[test]
+fn the_deadline_a_poll_returns_is_the_one_a_walk_over_every_pdo_finds() {
+    // The poll folds each PDO's deadline as it visits it (a TPDO it polls
+    // is asked again after its poll); a walk after the poll, as
+    // `Pdos::deadline` does when not settled, must find the same. Two
+    // event-driven TPDOs with event timers (TPDO1 also with an inhibit
+    // time) and an RPDO with an event timer, driven at random.
+    let mut node = Node::new();
+    assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()));
+    assert_eq!(node.sdo(0x1800, 3, &20u16.to_le_bytes()), Ok(()), "2 ms");
+    assert_eq!(node.sdo(0x1800, 5, &7u16.to_le_bytes()), Ok(()), "7 ms");
+    assert_eq!(node.sdo32(0x1800, 1, 0x181), Ok(()));
+    node.remap_tpdo(1, &[0x2000_0008], 0x281, 255);
+    assert_eq!(node.sdo(0x1801, 5, &3u16.to_le_bytes()), Ok(()), "3 ms");
+    assert_eq!(node.sdo(0x1400, 5, &10u16.to_le_bytes()), Ok(()), "RPDO1: 10 ms");
+    node.pdos.enter_operational(ms(0));
+    let (mut t, mut seed, mut polls, mut sent) = (0u64, 0x2545_F491u32, 0, 0);
+    for _ in 0..3000 {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        t += u64::from(seed % 1500);
+        match (seed >> 12) % 6 {
+            0 => node.set(0x2000, 0, &[(seed >> 20) as u8 & 3]),
+            1 => node.set(0x2002, 0, &(seed >> 20 & 1).to_le_bytes()),
+            2 => assert!(node.rx(us(t), 0x201, &[1, 2, 3])),
+            3 => node.bus.refuse = (seed >> 20) % 4 == 0,
+            _ => {
+                let marked = (seed >> 20) & 0b11;
+                let returned = node.pdos.poll_changed(us(t), marked, &node.image, &mut node.bus);
+                assert_eq!(returned, deadline_of(node.pdos.walk()), "poll at {t} µs, TPDOs {marked:#b} marked");
+                assert_eq!(node.pdos.deadline(), returned);
+                polls += 1;
+            }
+        }
+        sent += node.frames().len();
+        node.events();
+    }
+    assert!(polls > 800 && sent > 300, "{polls} polls, {sent} frames");
 }
