@@ -205,7 +205,11 @@ impl Axis {
 
 impl Drive for Axis {
     fn reset(&mut self) {
-        *self = Axis { params: self.params, ..Axis::NEW };
+        // All zero bits but the parameters: a clear and the parameters put
+        // back (the struct update copied the rest from a 120-byte constant).
+        let params = self.params;
+        *self = Axis::NEW;
+        self.params = params;
     }
 
     fn enable(&mut self, on: bool) {
@@ -307,6 +311,9 @@ impl Drive for Axis {
         self.torque
     }
 
+    // Out of line: the fault checks, the warning and the device's reads
+    // each had a copy of the division by 10^6 (six in a drive image).
+    #[inline(never)]
     fn temperature(&self) -> i16 {
         let p = &self.params;
         let extra = if self.injected(Injected::OverTemperature) { p.fault_c.saturating_sub(p.ambient_c).saturating_add(30) } else { 0 };

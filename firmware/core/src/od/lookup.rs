@@ -6,15 +6,14 @@
 use super::{DataType, Dictionary, Entry};
 use crate::abort::AbortCode;
 
-/// The entries of object `index`: two binary searches over the sorted
-/// table, never a scan of the dictionary.
+/// The entries of object `index`: a binary search for the first, then the
+/// object's few entries in a row (one search and a short walk are less
+/// code than a second search for the end).
 pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
     let entries: &'static [Entry] = dict.entries;
-    let first = u32::from(index) << 8;
-    let start = entries.partition_point(|e| e.key() < first);
-    // The object's last key: sub-index 0xFF.
-    let end = entries.partition_point(|e| e.key() <= first | 0xFF);
-    entries.get(start..end).unwrap_or(&[])
+    let rest = entries.get(entries.partition_point(|e| e.index < index)..).unwrap_or(&[]);
+    let len = rest.iter().take_while(|e| e.index == index).count();
+    rest.get(..len).unwrap_or(&[])
 }
 
 /// Sub-index `sub` within the entries of one object (at most 255 of them).

@@ -38,17 +38,30 @@ fn widen_f32(b: u32) -> u64 {
     }
 }
 
-/// A key that orders f64 bit patterns as `<` orders the numbers, in
-/// integer arithmetic: -0 and +0 are equal, and NaN (`None`) compares with nothing.
-// The magnitude is at most infinity's bits (below 2^63): its negation fits.
+/// A key whose `u64` order is the order of the numbers of `kind` whose
+/// raw 64-bit patterns (as [`Number::to_limit`] makes them) are `raw`: an
+/// unsigned value as it is, a signed one with its sign bit flipped, an f64
+/// by its magnitude up or down from the middle, so -0 and +0 are equal.
+/// NaN (`None`) compares with nothing; so does a non-numeric kind. One
+/// integer compare then decides a limit, whatever the type.
+// The magnitude is at most infinity's bits (below 2^63): 2^63 ± it fits.
+// Out of line: the value and both limits each had a copy.
 #[allow(clippy::arithmetic_side_effects)]
-fn order_key(bits: u64) -> Option<i64> {
-    let magnitude = bits & !(1 << 63);
-    if magnitude > f64::INFINITY.to_bits() {
-        return None;
+#[inline(never)]
+fn order_key(kind: Kind, raw: u64) -> Option<u64> {
+    const MIDDLE: u64 = 1 << 63;
+    match kind {
+        Kind::Unsigned => Some(raw),
+        Kind::Signed => Some(raw ^ MIDDLE),
+        Kind::Real => {
+            let magnitude = raw & !MIDDLE;
+            if magnitude > f64::INFINITY.to_bits() {
+                return None;
+            }
+            Some(if raw & MIDDLE == 0 { MIDDLE + magnitude } else { MIDDLE - magnitude })
+        }
+        Kind::Bytes => None,
     }
-    let magnitude = magnitude as i64;
-    Some(if bits >> 63 == 0 { magnitude } else { -magnitude })
 }
 
 impl Number {
@@ -94,18 +107,6 @@ impl Number {
             Number::Real(v) => v.to_bits(),
         }
     }
-
-    fn less_than(self, other: Number) -> bool {
-        match (self, other) {
-            (Number::Signed(a), Number::Signed(b)) => a < b,
-            (Number::Unsigned(a), Number::Unsigned(b)) => a < b,
-            (Number::Real(a), Number::Real(b)) => match (order_key(a.to_bits()), order_key(b.to_bits())) {
-                (Some(a), Some(b)) => a < b,
-                _ => false,
-            },
-            _ => false,
-        }
-    }
 }
 
 impl Limits {
@@ -114,14 +115,29 @@ impl Limits {
     /// Values of non-numeric types always pass.
     pub fn check(&self, data_type: DataType, bytes: &[u8]) -> Result<(), AbortCode> {
         let kind = data_type.kind();
-        let (Some(value), Some(low), Some(high)) =
-            (Number::decode(data_type, bytes), Number::from_limit(kind, self.low), Number::from_limit(kind, self.high))
-        else {
+        if data_type.size() != Some(bytes.len()) {
             return Ok(());
-        };
-        if value.less_than(low) {
+        }
+        // The value as the limits store theirs: sign-extended, a REAL32 widened.
+        let mut raw = [0u8; 8];
+        for (dst, src) in raw.iter_mut().zip(bytes) {
+            *dst = *src;
+        }
+        let mut value = u64::from_le_bytes(raw);
+        match kind {
+            // 1 ≤ size ≤ 8 (a numeric type's).
+            #[allow(clippy::arithmetic_side_effects)]
+            Kind::Signed => {
+                let shift = 64 - 8 * bytes.len() as u32;
+                value = (((value << shift) as i64) >> shift) as u64;
+            }
+            Kind::Real if bytes.len() == 4 => value = widen_f32(value as u32),
+            _ => {}
+        }
+        let Some(value) = order_key(kind, value) else { return Ok(()) };
+        if order_key(kind, self.low).is_some_and(|low| value < low) {
             Err(AbortCode::ValueTooLow)
-        } else if high.less_than(value) {
+        } else if order_key(kind, self.high).is_some_and(|high| high < value) {
             Err(AbortCode::ValueTooHigh)
         } else {
             Ok(())
@@ -154,6 +170,39 @@ mod tests {
         let u = Limits { low: 1, high: 0xFFFF_FFFF };
         assert_eq!(u.check(DataType::Unsigned32, &0u32.to_le_bytes()), Err(AbortCode::ValueTooLow));
         assert_eq!(u.check(DataType::Unsigned32, &u32::MAX.to_le_bytes()), Ok(()));
+    }
+
+    #[test]
+    fn limits_order_as_the_numbers_do() {
+        // Each pair (a, b) with a < b as numbers: `a` is below a low limit of
+        // `b`, `b` above a high limit of `a`, and each is within limits of itself.
+        let cases: [(DataType, Number, Number); 7] = [
+            (DataType::Integer64, Number::Signed(i64::MIN), Number::Signed(-1)),
+            (DataType::Integer64, Number::Signed(-1), Number::Signed(i64::MAX)),
+            (DataType::Unsigned64, Number::Unsigned(0x7FFF_FFFF_FFFF_FFFF), Number::Unsigned(u64::MAX)),
+            (DataType::Real64, Number::Real(f64::NEG_INFINITY), Number::Real(-1.0e300)),
+            (DataType::Real64, Number::Real(-5e-324), Number::Real(5e-324)),
+            (DataType::Real64, Number::Real(1.0), Number::Real(f64::INFINITY)),
+            (DataType::Integer8, Number::Signed(-128), Number::Signed(127)),
+        ];
+        for (t, a, b) in cases {
+            let bytes = |n: Number| {
+                let size = t.size().unwrap_or(0);
+                n.to_limit().to_le_bytes()[..size].to_vec()
+            };
+            let (la, lb) = (a.to_limit(), b.to_limit());
+            assert_eq!(Limits { low: lb, high: lb }.check(t, &bytes(a)), Err(AbortCode::ValueTooLow), "{a:?} < {b:?}");
+            assert_eq!(Limits { low: la, high: la }.check(t, &bytes(b)), Err(AbortCode::ValueTooHigh), "{b:?} > {a:?}");
+            assert_eq!(Limits { low: la, high: la }.check(t, &bytes(a)), Ok(()));
+            assert_eq!(Limits { low: lb, high: lb }.check(t, &bytes(b)), Ok(()));
+        }
+        // A NaN limit bounds nothing; the other limit still holds.
+        let nan = f64::NAN.to_bits();
+        assert_eq!(
+            Limits { low: nan, high: 0.0f64.to_bits() }.check(DataType::Real64, &1.0f64.to_le_bytes()),
+            Err(AbortCode::ValueTooHigh)
+        );
+        assert_eq!(Limits { low: nan, high: nan }.check(DataType::Real64, &1.0f64.to_le_bytes()), Ok(()));
     }
 
     #[test]

@@ -291,12 +291,19 @@ fn in_set(dict: &Dictionary, entry: &Entry) -> bool {
 }
 
 /// The bytes of the stored prefix the values of objects `first..=last`
-/// take (the prefix is in index order, so they are one run).
-fn byte_range(dict: &Dictionary, first: u16, last: u16) -> Range<usize> {
-    let mut ram = dict.entries.iter().filter(|e| (first..=last).contains(&{ e.index }) && in_set(dict, e));
-    let Some(start) = ram.next().map(|e| e.range()) else { return 0..0 };
-    let end = ram.next_back().map_or(start.end, |e| e.range().end);
-    start.start..end
+/// take, as (start, end): the prefix is in index order, so they are one
+/// run, from the first such value's start to the last one's end; (0, 0)
+/// for none.
+fn byte_range(dict: &Dictionary, first: u16, last: u16) -> (u16, u16) {
+    let (mut start, mut end) = (0, 0);
+    // One pass (a value in the set has a length: `end` is 0 until the first).
+    for e in dict.entries.iter().filter(|e| (first..=last).contains(&{ e.index }) && in_set(dict, e)) {
+        if end == 0 {
+            start = e.offset;
+        }
+        end = e.offset.wrapping_add(e.len);
+    }
+    (start, end)
 }
 
 /// 0x1011 "load": the scope uses its defaults from the next reset on.

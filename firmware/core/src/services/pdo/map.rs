@@ -137,28 +137,31 @@ impl Mapping {
         len: 0,
     };
 
-    /// Reads and resolves the mapping record `index` (0x1600+n or 0x1A00+n)
-    /// as the image holds it.
-    pub fn read(dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<Mapping, AbortCode> {
+    /// Becomes the mapping record `index` (0x1600+n or 0x1A00+n) read and
+    /// resolved as the image holds it (in place, as [`Mapping::resolve`]).
+    pub fn read(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
         let record = object(dict, index);
         let count = sub_entry(record, 0).ok_or(AbortCode::NoObject)?;
-        Mapping::from_record(dict, image, record, value_u32(dict, image, count), direction)
+        self.resolve(dict, image, record, value_u32(dict, image, count), direction)
     }
 
-    /// Resolves the first `count` entries (sub 1..=count) of a mapping
-    /// record as the image holds them: the configured mapping, or the one
-    /// an SDO download of sub 0 = `count` asks for. At most one binary
-    /// search per entry.
+    /// Becomes the first `count` entries (sub 1..=count) of a mapping
+    /// record resolved as the image holds them: the configured mapping, or
+    /// the one an SDO download of sub 0 = `count` asks for. At most one
+    /// binary search per entry. Built in place (a caller's mapping, not a
+    /// value returned and copied: 82 bytes each time); after an error it
+    /// holds nothing anyone should use.
     // `total` is at most MAX_ENTRIES × 255; od-gen lays out each value
     // inside its u16-addressed table, so `offset + i` fits a u16.
     #[allow(clippy::arithmetic_side_effects)]
-    pub(super) fn from_record(
+    pub(super) fn resolve(
+        &mut self,
         dict: &Dictionary,
         image: &[u8],
         record: &'static [Entry],
         count: u32,
         direction: Direction,
-    ) -> Result<Mapping, AbortCode> {
+    ) -> Result<(), AbortCode> {
         let count = usize::try_from(count).unwrap_or(usize::MAX);
         if count > MAX_ENTRIES {
             return Err(AbortCode::PdoTooLong);
@@ -169,7 +172,8 @@ impl Mapping {
             let entry = sub_entry(record, sub).ok_or(AbortCode::PdoTooLong)?;
             *value = value_u32(dict, image, entry);
         }
-        let mut mapping = Mapping::EMPTY;
+        *self = Mapping::EMPTY;
+        let mapping = self;
         let mut total = 0usize;
         for ((slot, object), &raw) in mapping.slots.iter_mut().zip(&mut mapping.objects).zip(raw.iter().take(count)) {
             let (resolved, at) = Slot::resolve_ref(dict, MappingEntry::from_u32(raw), direction)?;
@@ -192,7 +196,7 @@ impl Mapping {
                 };
             }
         }
-        Ok(mapping)
+        Ok(())
     }
 
     /// The resolved entries.

@@ -53,22 +53,25 @@ mod write;
 
 pub use comm_params::{COB_ID_INVALID, COB_ID_NO_RTR, CommParams};
 
-/// The mapping of PDO mapping record `index` as configured: `None` for a
-/// record the dictionary lacks (no PDO to speak of) or one that does not
-/// resolve, whose error is kept in `first_error` if it is the first.
-fn configured_mapping(
+/// Resolves PDO mapping record `index` as configured into `mapping` (a
+/// PDO's, [`Mapping::EMPTY`] before): `None` for a record the dictionary
+/// lacks (no PDO to speak of) or one that does not resolve, whose error is
+/// kept in `first_error` if it is the first. In place: a mapping returned
+/// by value was copied twice on its way into the PDO.
+fn configure_mapping(
     dict: &Dictionary,
     image: &[u8],
     index: u16,
     direction: Direction,
+    mapping: &mut Option<Mapping>,
     first_error: &mut Option<MappingError>,
-) -> Option<Mapping> {
-    match Mapping::read(dict, image, index, direction) {
-        Ok(m) => Some(m),
-        Err(AbortCode::NoObject) if object(dict, index).is_empty() => None,
-        Err(code) => {
+) {
+    let result = mapping.as_mut().map_or(Err(AbortCode::NoObject), |m| m.read(dict, image, index, direction));
+    if let Err(code) = result {
+        *mapping = None;
+        // A record the dictionary lacks is no error.
+        if !object(dict, index).is_empty() {
             first_error.get_or_insert(MappingError { index, code });
-            None
         }
     }
 }
@@ -261,10 +264,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled = false;
         let mut first_error = None;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            // Reset communication also resets the node's errors: nothing is raised any more.
-            *rpdo = Rpdo::default();
-            let mapping = configured_mapping(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive, &mut first_error);
-            rpdo.set(CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n)), mapping);
+            // Reset communication also resets the node's errors: nothing is
+            // raised any more. From the all-zero state (a clear, where the
+            // default's `None` mapping was a copy from a constant), which is
+            // a restarted RPDO's; its mapping resolved in place.
+            *rpdo = Rpdo::UNCONFIGURED;
+            let mapping_index = nth(index::RPDO_MAPPING_PARAMETER, n);
+            configure_mapping(dict, image, mapping_index, Direction::Receive, &mut rpdo.mapping, &mut first_error);
+            rpdo.params = CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
             rpdo.cob_id_writable = cob_id_writable(dict, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
         }
         self.window_end = None;
@@ -280,11 +287,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
             // Change detection is the application's choice and survives.
             let (change_detection, timer_only) = (tpdo.change_detection(), tpdo.timer_only_254);
-            *tpdo = Tpdo::default();
+            // From the all-zero state, as the RPDOs; restarted once it has its parameters.
+            *tpdo = Tpdo::UNCONFIGURED;
             tpdo.set_change_detection(change_detection);
             tpdo.timer_only_254 = timer_only;
-            let mapping = configured_mapping(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit, &mut first_error);
-            tpdo.set(CommParams::read(dict, image, nth(index::TPDO_COMMUNICATION_PARAMETER, n)), mapping);
+            let mapping_index = nth(index::TPDO_MAPPING_PARAMETER, n);
+            configure_mapping(dict, image, mapping_index, Direction::Transmit, &mut tpdo.mapping, &mut first_error);
+            tpdo.params = CommParams::read(dict, image, nth(index::TPDO_COMMUNICATION_PARAMETER, n));
+            tpdo.restart(None);
             tpdo.cob_id_writable = cob_id_writable(dict, nth(index::TPDO_COMMUNICATION_PARAMETER, n));
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
@@ -318,13 +328,15 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// Operational).
     pub fn reload_mappings(&mut self, dict: &Dictionary, image: &[u8]) {
         self.settled = false;
+        // A mapping that does not resolve leaves the PDO's as it was.
+        let mut mapping = Mapping::EMPTY;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive) {
+            if mapping.read(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
                 rpdo.set(rpdo.params, Some(mapping));
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            if let Ok(mapping) = Mapping::read(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit) {
+            if mapping.read(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
                 tpdo.set(tpdo.params, Some(mapping));
             }
         }

@@ -93,11 +93,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         };
         if is_mapping {
             let locked = params.valid() && cob_id_writable && !rewrite;
-            let mapping = match write_map(locked, rewrite, direction, entry, index, sub, data, dict, image) {
-                Ok(Some(mapping)) => mapping,
-                Ok(None) => return Some(Ok(())),
+            let mut mapping = Mapping::EMPTY;
+            match write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut mapping) {
+                Ok(true) => {}
+                Ok(false) => return Some(Ok(())),
                 Err(code) => return Some(Err(code)),
-            };
+            }
             match direction {
                 Direction::Receive => self.rpdos.get_mut(n).map(|r| r.set(params, Some(mapping))),
                 Direction::Transmit => self.tpdos.get_mut(n).map(|t| t.set(params, Some(mapping))),
@@ -152,7 +153,8 @@ fn write_comm(
     Ok(new)
 }
 
-/// An SDO download into a mapping record; returns the new mapping when sub 0 was written.
+/// An SDO download into a mapping record; `true` when sub 0 was written
+/// and `new` holds the mapping it resolved.
 #[allow(clippy::too_many_arguments)]
 fn write_map(
     locked: bool,
@@ -164,19 +166,21 @@ fn write_map(
     data: &[u8],
     dict: &Dictionary,
     image: &mut [u8],
-) -> Result<Option<Mapping>, AbortCode> {
-    if (locked || sub != 0) && dict.value(image, entry).iter().eq(data) {
+    new: &mut Mapping,
+) -> Result<bool, AbortCode> {
+    if (locked || sub != 0) && dict.value(image, entry) == data {
         // Writing back the current value changes nothing and is allowed
         // (sub 0 of an open mapping is always resolved again).
-        return Ok(None);
+        return Ok(false);
     }
     if locked {
         return Err(AbortCode::UnsupportedAccess);
     }
     let record = object(dict, index);
-    let mapping = if sub == 0 {
+    let resolved = if sub == 0 {
         let count = data.first().copied().unwrap_or(0);
-        Some(Mapping::from_record(dict, image, record, u32::from(count), direction)?)
+        new.resolve(dict, image, record, u32::from(count), direction)?;
+        true
     } else {
         let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
         if count != 0 && !rewrite {
@@ -186,8 +190,8 @@ fn write_map(
         if value != 0 {
             Slot::resolve(dict, MappingEntry::from_u32(value), direction)?;
         }
-        None
+        false
     };
     store_checked(image, entry, data)?;
-    Ok(mapping)
+    Ok(resolved)
 }

@@ -16,7 +16,6 @@ use super::{
 };
 use crate::od::Dictionary;
 use crate::storage::{Storage, StorageError};
-use core::ops::Range;
 
 /// Payload bytes a step writes at most (a value longer than this goes
 /// whole into one step): at most about 11,000 instructions on thumbv7m
@@ -59,11 +58,6 @@ pub struct Job {
     /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
     pos: u16,
     crc: u32,
-}
-
-/// A range of the image as a [`Job`] keeps it (images are checked to be below 64 KiB).
-fn span(range: Range<usize>) -> (u16, u16) {
-    (range.start as u16, range.end as u16)
 }
 
 /// The newest valid set: only the newer header's payload is checked when
@@ -118,7 +112,7 @@ impl Job {
     /// 0x1010 "save" of `scope`; the objects `keep` (an inclusive index
     /// range), if any, keep their stored values.
     pub fn save(dict: &Dictionary, scope: Scope, keep: Option<(u16, u16)>) -> Job {
-        let keep = keep.map_or((0, 0), |(first, last)| span(byte_range(dict, first, last)));
+        let keep = keep.map_or((0, 0), |(first, last)| byte_range(dict, first, last));
         Job::new(scope.mask(), 0, (0, u16::MAX), keep)
     }
 
@@ -126,10 +120,10 @@ impl Job {
     /// [`StoreError::NotStored`] if no set holds a value of them.
     pub fn save_objects(dict: &Dictionary, first: u16, last: u16) -> Result<Job, StoreError> {
         let range = byte_range(dict, first, last);
-        if range.is_empty() {
+        if range.0 >= range.1 {
             return Err(StoreError::NotStored);
         }
-        Ok(Job::new(scope_bit(first) | scope_bit(last), 0, span(range), (0, 0)))
+        Ok(Job::new(scope_bit(first) | scope_bit(last), 0, range, (0, 0)))
     }
 
     /// 0x1011 "load": the scope uses its defaults from the next reset on.
