@@ -476,3 +476,26 @@ fn m_l1060_the_cards_start_sets_p0601_to_9_unless_p1190_bit_9() {
         assert_eq!(p0601(&mut b), after_reset.to_le_bytes().to_vec(), "P1190 = {p1190:04X}h");
     }
 }
+
+/// D51: an unused 0x6060 value (0, 5) that an RPDO carries keeps the mode, as the SDO write's
+/// refusal 0x06090030 does: the drive keeps running pv and 0x6060/0x6061 read 3.
+#[test]
+fn m_l5241_an_unused_mode_by_rpdo2_keeps_the_mode_as_the_sdo_refusal_does() {
+    let mut b = enabled_in(3);
+    b.run_until(ms(400));
+    assert_eq!(b.sdo_write(ID, 0x6060, 0, &[0]), abort(0x6060, 0, 0x0609_0030));
+    for (t, unused) in [(500, 0u8), (600, 5)] {
+        b.rx(ms(t), RPDO2, &[0x0F, 0, unused]);
+        b.run_until(ms(t + 50));
+        assert_eq!(b.sdo_upload(ID, 0x6060, 0), Ok(vec![3]), "0x6060 after {unused} by RPDO2");
+        assert_eq!(b.sdo_upload(ID, 0x6061, 0), Ok(vec![3]), "0x6061 after {unused} by RPDO2");
+    }
+    // A used value by RPDO2 still switches: −3 runs pv and shows 3, 0x6060 reads −3.
+    b.rx(ms(700), RPDO2, &[0x0F, 0, 0xFD]);
+    b.run_until(ms(750));
+    assert_eq!(b.sdo_upload(ID, 0x6060, 0), Ok(vec![0xFD]));
+    b.rx(ms(800), RPDO2, &[0x0F, 0, 0]);
+    b.run_until(ms(850));
+    assert_eq!(b.sdo_upload(ID, 0x6060, 0), Ok(vec![0xFD]), "−3 kept");
+    assert_eq!(b.sdo_upload(ID, 0x6061, 0), Ok(vec![3]));
+}

@@ -49,12 +49,21 @@ pub struct App {
     switches: u8,
     /// When the SYNCs came (D66).
     sync: sync::Monitor,
+    /// The 0x6060 value last taken (D51): what an unused value an RPDO wrote falls back to.
+    mode: i8,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App =
-        App { drive: Cia402::new(BmaxxDrive::NEW), speeds: [0; 2], ip_period: 0, homed: false, switches: 0, sync: sync::Monitor::NEW };
+    pub const NEW: App = App {
+        drive: Cia402::new(BmaxxDrive::NEW),
+        speeds: [0; 2],
+        ip_period: 0,
+        homed: false,
+        switches: 0,
+        sync: sync::Monitor::NEW,
+        mode: 0,
+    };
 }
 
 /// The profile's constants for the b maXX 4400 (decisions D50-D53 in docs/devices/bmaxx4400.md).
@@ -250,7 +259,7 @@ impl Application for App {
         }
         if event == NmtEvent::ResetApplication {
             // The axis model starts again at 0: the homing is lost. P0830 is back at its default.
-            (self.homed, self.switches) = (false, 0);
+            (self.homed, self.switches, self.mode) = (false, 0, 0);
             self.drive.drive.ff00_only = speed::configured(ctx, EMCY_FF00_ONLY);
             self.set_mode(ctx);
             self.ip_period = ip::period(ctx, None).unwrap_or(1);
@@ -347,7 +356,11 @@ impl App {
     /// 0x6060 changed: the profile runs the mode [`mode_of`] gives, and
     /// 0x6061 shows the manual's read-back value.
     fn set_mode(&mut self, ctx: &mut Ctx<'_>) {
-        let requested = ctx.read(MODES_OF_OPERATION, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0);
+        let written = ctx.read(MODES_OF_OPERATION, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0);
+        // An SDO write of an unused value is refused (0x06090030) before it lands; an RPDO's
+        // is not checked, so it keeps the mode as the refusal does (D51).
+        let requested = if mode_of(written as i8).is_some() { written } else { self.mode as u8 };
+        self.mode = requested as i8;
         let (runs, shows) = mode_of(requested as i8).unwrap_or((0, 0));
         // The profile reads its mode from 0x6060: it sees the mode it runs for the call.
         let _ = ctx.set_value(MODES_OF_OPERATION, 0, &[runs as u8]);
