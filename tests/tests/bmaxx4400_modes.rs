@@ -27,24 +27,14 @@ fn i32_at(b: &mut Bmaxx, index: u16) -> i32 {
     i32::from_le_bytes([v[0], v[1], v[2], v[3]])
 }
 
-/// Maps `entries` into PDO mapping `index` (Pre-operational, sub 0 = 0 first).
-fn map(b: &mut Bmaxx, index: u16, entries: &[u32]) {
-    assert_eq!(b.sdo_write(ID, index, 0, &[0]), ok_write(index, 0));
-    for (i, e) in entries.iter().enumerate() {
-        let sub = i as u8 + 1;
-        assert_eq!(b.sdo_write(ID, index, sub, &e.to_le_bytes()), ok_write(index, sub));
-    }
-    assert_eq!(b.sdo_write(ID, index, 0, &[entries.len() as u8]), ok_write(index, 0));
-}
-
 /// The ip set-up a PLC makes: RPDO3 = controlword + 0x60C1 sub 1, TPDO3 =
 /// statusword + position demand 0x6062 on every SYNC (type 1); then
 /// Operational and Operation enabled in `mode` (RPDO2) at 100-300 ms.
 fn ip_ready(mode: i8) -> Bmaxx {
     let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
     b.at(ms(0));
-    map(&mut b, 0x1602, &[0x6040_0010, 0x60C1_0120]);
-    map(&mut b, 0x1A02, &[0x6041_0010, 0x6062_0020]);
+    b.map_pdo(ID, 0x1602, &[0x6040_0010, 0x60C1_0120]);
+    b.map_pdo(ID, 0x1A02, &[0x6041_0010, 0x6062_0020]);
     assert_eq!(b.sdo_write(ID, 0x1802, 2, &[1]), ok_write(0x1802, 2));
     assert_eq!(b.sdo_write(ID, 0x6067, 0, &16u32.to_le_bytes()), ok_write(0x6067, 0), "position window");
     b.now = ms(10);

@@ -36,16 +36,6 @@ const FAULT: u16 = 0x0218;
 /// Statusword bit 10, target reached.
 const TARGET_REACHED: u16 = 0x0400;
 
-/// Maps `entries` into PDO mapping `index` (sub 0 = 0 first).
-fn map(b: &mut Bmaxx, index: u16, entries: &[u32]) {
-    assert_eq!(b.sdo_write(ID, index, 0, &[0]), ok_write(index, 0));
-    for (i, e) in entries.iter().enumerate() {
-        let sub = i as u8 + 1;
-        assert_eq!(b.sdo_write(ID, index, sub, &e.to_le_bytes()), ok_write(index, sub));
-    }
-    assert_eq!(b.sdo_write(ID, index, 0, &[entries.len() as u8]), ok_write(index, 0));
-}
-
 /// Node 2 in pv at 600 min⁻¹, 0x6084 slow down ramp 10 revolutions/s²
 /// (600 min⁻¹ to 0 in 1 s), 0x6085 quick stop 50 revolutions/s² (0.2 s),
 /// `settings` written first; on every SYNC TPDO3 = statusword + 0x606C,
@@ -54,8 +44,8 @@ fn turning(settings: &[(u16, u8, &[u8])]) -> Bmaxx {
     let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
     b.at(ms(0));
     b.now = ms(10);
-    map(&mut b, 0x1A02, &[0x6041_0010, 0x606C_0020]);
-    map(&mut b, 0x1A03, &[0x606B_0020]);
+    b.map_pdo(ID, 0x1A02, &[0x6041_0010, 0x606C_0020]);
+    b.map_pdo(ID, 0x1A03, &[0x606B_0020]);
     for pdo in [0x1802, 0x1803] {
         assert_eq!(b.sdo_write(ID, pdo, 2, &[1]), ok_write(pdo, 2));
     }

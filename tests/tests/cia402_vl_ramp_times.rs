@@ -26,23 +26,13 @@ const OPERATION_ENABLED: u16 = 0x0237;
 const QUICK_STOP_ACTIVE: u16 = 0x0217;
 const SWITCH_ON_DISABLED: u16 = 0x0250;
 
-/// Maps `entries` into PDO mapping `index` (sub 0 = 0 first).
-fn map(b: &mut Bmaxx, index: u16, entries: &[u32]) {
-    assert_eq!(b.sdo_write(ID, index, 0, &[0]), ok_write(index, 0));
-    for (i, e) in entries.iter().enumerate() {
-        let sub = i as u8 + 1;
-        assert_eq!(b.sdo_write(ID, index, sub, &e.to_le_bytes()), ok_write(index, sub));
-    }
-    assert_eq!(b.sdo_write(ID, index, 0, &[entries.len() as u8]), ok_write(index, 0));
-}
-
 /// Node 2 in vl, Operation enabled with 0x6042 = 0 at 10 ms, `settings`
 /// written first; TPDO3 on every SYNC. The clock at 100 ms.
 fn enabled(settings: &[(u16, u8, &[u8])]) -> Bmaxx {
     let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
     b.at(ms(0));
     b.now = ms(10);
-    map(&mut b, 0x1A02, &[0x6041_0010, 0x6044_0010, 0x6043_0010]);
+    b.map_pdo(ID, 0x1A02, &[0x6041_0010, 0x6044_0010, 0x6043_0010]);
     assert_eq!(b.sdo_write(ID, 0x1802, 2, &[1]), ok_write(0x1802, 2));
     for &(index, sub, value) in settings {
         assert_eq!(b.sdo_write(ID, index, sub, value), ok_write(index, sub), "{index:#x}");

@@ -87,6 +87,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         out
     }
 
+    /// Maps `entries` into PDO mapping `index` of node `id` by SDO, as a PLC
+    /// does: sub 0 = 0, the entries, then sub 0 = their number; each accepted.
+    pub fn map_pdo(&mut self, id: u8, index: u16, entries: &[u32]) {
+        assert_eq!(self.sdo_write(id, index, 0, &[0]), ok_write(index, 0));
+        for (sub, e) in (1..).zip(entries) {
+            assert_eq!(self.sdo_write(id, index, sub, &e.to_le_bytes()), ok_write(index, sub));
+        }
+        assert_eq!(self.sdo_write(id, index, 0, &[entries.len() as u8]), ok_write(index, 0));
+    }
+
     /// An expedited SDO download of `data` to (index, sub) on node `id`; returns the answer.
     pub fn sdo_write(&mut self, id: u8, index: u16, sub: u8, data: &[u8]) -> Vec<u8> {
         let n = data.len();
