@@ -97,12 +97,30 @@ fn vl_reference(ctx: &Ctx<'_>, config: &Config, max: u32) -> u32 {
     }
 }
 
-/// An acceleration in increments, 0 or missing → `fallback`.
+/// An acceleration in increments, 0 or missing → `fallback`. Out of line,
+/// as are [`window`] and [`homing_speed`]: `params` runs once a poll, not
+/// per frame, and inlined at their calls they cost each drive image some
+/// hundreds of bytes.
+#[inline(never)]
 fn ramp(units: &Units, user: Option<u32>, fallback: u32) -> u32 {
     match user {
         Some(a) if a != 0 => units.magnitude_to_inc(a).clamp(1, i64::from(u32::MAX)) as u32,
         _ => fallback,
     }
+}
+
+/// A window object (0x6067, 0x606D) in increments, missing → `default`.
+#[inline(never)]
+fn window(ctx: &Ctx<'_>, u: &Units, index: u16, default: u32) -> i64 {
+    u.magnitude_to_inc(unsigned(ctx, index, 0).unwrap_or(default))
+}
+
+/// Homing speed 0x6099 `sub` (1 fast, 2 slow) in Q24 per tick, 0 or
+/// missing → `default`, at most the drive's maximum speed `max`.
+#[inline(never)]
+fn homing_speed(ctx: &Ctx<'_>, u: &Units, sub: u8, default: u32, max: u32) -> i64 {
+    let v = unsigned(ctx, index::HOMING_SPEEDS, sub).filter(|v| *v != 0).unwrap_or(default);
+    speed_q(u.magnitude_to_inc(v).min(i64::from(max)))
 }
 
 impl<D: Drive> Cia402<D> {
@@ -133,28 +151,27 @@ impl<D: Drive> Cia402<D> {
             (_, Some(m)) if m != 0 => m,
             _ => u32::MAX / 2,
         };
-        let window = |index, default: u32| u.magnitude_to_inc(unsigned(ctx, index, 0).unwrap_or(default));
-        let homing_speed = |sub, default: u32| {
-            let v = unsigned(ctx, index::HOMING_SPEEDS, sub).filter(|v| *v != 0).unwrap_or(default);
-            speed_q(u.magnitude_to_inc(v).min(i64::from(self.drive.max_velocity())))
-        };
+        let max = self.drive.max_velocity();
         let following = unsigned(ctx, index::FOLLOWING_ERROR_WINDOW, 0).filter(|w| *w != u32::MAX);
         Params {
             acceleration: acceleration_q(acceleration),
             deceleration: acceleration_q(deceleration),
             quick_stop: acceleration_q(quick_stop),
             limit: acceleration_q(limit),
-            speed: speed_q(u.magnitude_to_inc(speed).min(i64::from(self.drive.max_velocity()))),
+            speed: speed_q(u.magnitude_to_inc(speed).min(i64::from(max))),
             halt: Reaction::of(signed(ctx, index::HALT_OPTION, 0).map_or(-1, |v| v), Reaction::SlowDownRamp),
-            position_window: window(index::POSITION_WINDOW, config.position_window),
+            position_window: window(ctx, u, index::POSITION_WINDOW, config.position_window),
             position_window_ticks: ticks(unsigned_or(ctx, index::POSITION_WINDOW_TIME, 0, 0)),
             following_window: following.map(|w| u.magnitude_to_inc(w)),
             following_ticks: ticks(unsigned_or(ctx, index::FOLLOWING_ERROR_TIMEOUT, 0, 0)),
-            velocity_window: self.drive.velocity_window().map_or_else(|| window(index::VELOCITY_WINDOW, config.velocity_window), i64::from),
+            velocity_window: self
+                .drive
+                .velocity_window()
+                .map_or_else(|| window(ctx, u, index::VELOCITY_WINDOW, config.velocity_window), i64::from),
             velocity_window_ticks: ticks(unsigned_or(ctx, index::VELOCITY_WINDOW_TIME, 0, 0)),
             standstill: standstill(ctx, config, u, vl),
             threshold_ticks: ticks(unsigned_or(ctx, index::VELOCITY_THRESHOLD_TIME, 0, 0)),
-            homing: (homing_speed(1, config.homing_speeds.0), homing_speed(2, config.homing_speeds.1)),
+            homing: (homing_speed(ctx, u, 1, config.homing_speeds.0, max), homing_speed(ctx, u, 2, config.homing_speeds.1, max)),
             homing_acceleration: acceleration_q(ramp(u, unsigned(ctx, index::HOMING_ACCELERATION, 0), acceleration)),
             home: u.position_to_inc(signed(ctx, index::HOME_OFFSET, 0).unwrap_or(0)),
         }
