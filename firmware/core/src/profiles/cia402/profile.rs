@@ -459,6 +459,9 @@ impl<D: Drive> Cia402<D> {
     }
 
     /// The drive function goes off at once (the motor coasts) in `state`.
+    /// Out of line: its seven callers are state transitions, not the
+    /// per-frame path, and inlined at each it cost 150-170 B per drive.
+    #[inline(never)]
     fn stop_now(&mut self, state: PdsState) {
         if self.s.state.drive_function() {
             self.drive.enable(false);
