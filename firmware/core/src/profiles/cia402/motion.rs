@@ -32,6 +32,17 @@ pub const fn speed_q(per_s: i64) -> i64 {
     (per_s * 1_099_511_628) >> 16
 }
 
+/// [`speed_q`] out of line, for the profile's callers off the per-frame
+/// path (parameters, mode changes, a stopped axis's demand): inlined at
+/// each the 64-bit clamp and multiply cost the drive images some hundred
+/// bytes. `speed_q` itself stays inline for the RPDO's 0x60FF, the tick's
+/// limits (a drive's constant minimum and maximum fold) and the simulated
+/// axes, where a call made the images larger.
+#[inline(never)]
+pub fn speed_q_call(per_s: i64) -> i64 {
+    speed_q(per_s)
+}
+
 /// Q24 increments per tick → increments/s, rounded. Out of line: inlined
 /// at each of its callers the 64-bit clamp and multiply cost each drive
 /// image about 800 B of flash, the call one instruction a frame.
@@ -76,7 +87,7 @@ impl Demand {
 
     /// Starts from where the axis is: `position` [inc], `velocity` [inc/s].
     pub fn at(position: i64, velocity: i32) -> Demand {
-        Demand { position_q: position << FRACTION, velocity_q: speed_q(i64::from(velocity)) }
+        Demand { position_q: position << FRACTION, velocity_q: speed_q_call(i64::from(velocity)) }
     }
 
     /// Position demand [inc].

@@ -5,7 +5,7 @@ use super::drive::Drive;
 use super::fsa::{self, PdsState, Reaction, Transition};
 use super::hm::Hm;
 use super::ip::Ip;
-use super::motion::{Demand, speed_q};
+use super::motion::{Demand, speed_q, speed_q_call};
 use super::objects::{self, Located, index, signed, signed_at, unsigned_or};
 use super::pp::{Pp, SetPointRequest};
 use super::units::{self, Factor, Units};
@@ -537,7 +537,7 @@ impl<D: Drive> Cia402<D> {
             mode::PV => {
                 let target = signed_at(ctx, self.s.at.at(Located::TARGET_VELOCITY)).unwrap_or(0);
                 self.s.internal_limit = false;
-                speed_q(u.velocity_to_inc(target))
+                speed_q_call(u.velocity_to_inc(target))
             }
             mode::VL => {
                 let target = signed_at(ctx, self.s.at.at(Located::VL_TARGET_VELOCITY)).unwrap_or(0);
@@ -546,7 +546,7 @@ impl<D: Drive> Cia402<D> {
                 let (limited, clipped) = vl_limit(target, min, max);
                 self.s.internal_limit = clipped;
                 let inc = u.vl_to_inc.apply(i64::from(limited));
-                speed_q(units::negate(inc, u.velocity_negative))
+                speed_q_call(units::negate(inc, u.velocity_negative))
             }
             _ => return,
         };

@@ -8,7 +8,7 @@ use crate::profiles::cia402::drive::{Drive, SetPoint};
 use crate::profiles::cia402::fsa::{PdsState, Reaction};
 use crate::profiles::cia402::hm::Step;
 use crate::profiles::cia402::mode;
-use crate::profiles::cia402::motion::{Demand, FRACTION, acceleration_q, speed_per_s, speed_q};
+use crate::profiles::cia402::motion::{Demand, FRACTION, acceleration_q, speed_per_s, speed_q, speed_q_call};
 use crate::profiles::cia402::objects::{index, signed, unsigned, unsigned_or};
 use crate::profiles::cia402::units::Units;
 use crate::profiles::cia402::velocity::{vl_ramp, vl_ramp_time};
@@ -120,7 +120,7 @@ fn window(ctx: &Ctx<'_>, u: &Units, index: u16, default: u32) -> i64 {
 #[inline(never)]
 fn homing_speed(ctx: &Ctx<'_>, u: &Units, sub: u8, default: u32, max: u32) -> i64 {
     let v = unsigned(ctx, index::HOMING_SPEEDS, sub).filter(|v| *v != 0).unwrap_or(default);
-    speed_q(u.magnitude_to_inc(v).min(i64::from(max)))
+    speed_q_call(u.magnitude_to_inc(v).min(i64::from(max)))
 }
 
 impl<D: Drive> Cia402<D> {
@@ -158,7 +158,7 @@ impl<D: Drive> Cia402<D> {
             deceleration: acceleration_q(deceleration),
             quick_stop: acceleration_q(quick_stop),
             limit: acceleration_q(limit),
-            speed: speed_q(u.magnitude_to_inc(speed).min(i64::from(max))),
+            speed: speed_q_call(u.magnitude_to_inc(speed).min(i64::from(max))),
             halt: Reaction::of(signed(ctx, index::HALT_OPTION, 0).map_or(-1, |v| v), Reaction::SlowDownRamp),
             position_window: window(ctx, u, index::POSITION_WINDOW, config.position_window),
             position_window_ticks: ticks(unsigned_or(ctx, index::POSITION_WINDOW_TIME, 0, 0)),
