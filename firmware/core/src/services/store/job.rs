@@ -262,7 +262,8 @@ impl Job {
             if let Some(dst) = piece.get_mut(off.wrapping_sub(at)..next.wrapping_sub(at)) {
                 match self.source(dict, off) {
                     Source::Image => {
-                        if let Some(src) = image.get(off..next) {
+                        // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
+                        if let Some(src) = image.get(off..next).filter(|src| src.len() == dst.len()) {
                             dst.copy_from_slice(src);
                         }
                     }
