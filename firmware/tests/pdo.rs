@@ -39,7 +39,7 @@ fn ms(t: u64) -> Instant {
 }
 
 fn image(d: &Dictionary, node_id: u8) -> Vec<u8> {
-    let mut img = vec![0u8; d.defaults.len()];
+    let mut img = vec![0u8; d.defaults.len];
     d.reset_application(&mut img, node_id);
     d.reset_communication(&mut img, node_id);
     img

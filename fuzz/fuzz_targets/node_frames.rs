@@ -153,7 +153,7 @@ fn run<O: ObjectDictionary, A: Application, const R: usize, const T: usize, cons
     device_type: u32,
     mut ops: Ops,
 ) {
-    let region = od.dictionary().defaults.len() + 64;
+    let region = od.dictionary().defaults.len + 64;
     let mut now = Instant::ZERO;
     let mut node: Dut<O, A, R, T, HB> = Node::new(od, app, MemStorage::new(region), node_id, now);
     let mut deadline = None;

@@ -71,7 +71,13 @@ impl Tables {
             entries,
             limits: self.limits.leak(),
             rom: self.rom.leak(),
-            defaults: self.defaults.leak(),
+            defaults: {
+                // As the generated module holds them: the runs that are not zero.
+                let runs = crate::codegen::default_runs(&self.defaults);
+                let bytes: Vec<u8> =
+                    runs.iter().flat_map(|&(off, len)| self.defaults.get(off..off + len).unwrap_or_default().iter().copied()).collect();
+                od::Defaults { len: self.defaults.len(), runs: crate::codegen::run_pairs(&runs).leak(), bytes: bytes.leak() }
+            },
             comm_len: self.comm_len,
             stored_len: self.stored_len,
             comm_rest: self.comm_rest,
@@ -93,7 +99,7 @@ pub struct RuntimeRam {
 impl RuntimeRam {
     /// The power-on values, with `$NODEID` defaults resolved for `node_id`.
     pub fn new(dictionary: &'static Dictionary, node_id: u8) -> RuntimeRam {
-        let mut image = vec![0; dictionary.defaults.len()];
+        let mut image = vec![0; dictionary.defaults.len];
         dictionary.reset_application(&mut image, node_id);
         dictionary.reset_communication(&mut image, node_id);
         RuntimeRam { dictionary, image }

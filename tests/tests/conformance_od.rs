@@ -85,8 +85,12 @@ macro_rules! on_every_dictionary {
 
 /// The EDS default of an entry as an SDO upload returns it.
 fn default_value(dict: &Dictionary, e: &Entry) -> Vec<u8> {
-    let src = if e.in_rom() { dict.rom } else { dict.defaults };
-    let mut v = src[e.range()].to_vec();
+    let mut v = vec![0; e.range().len()];
+    if e.in_rom() {
+        v.copy_from_slice(&dict.rom[e.range()]);
+    } else {
+        dict.defaults.read(e.range().start, &mut v);
+    }
     if e.attr.contains(Attr::NODE_ID) {
         // `$NODEID + x`: x is stored, the node-ID added at reset.
         let mut carry = u64::from(ID);

@@ -218,7 +218,8 @@ fn l653_the_power_average_is_the_mean_mechanical_power_of_each_hour_d67() {
 /// revolutions in its life, powered on and Operation enabled by 700 ms.
 fn aged(revolutions: u32) -> Ec5000 {
     let dict = &ec5000::od::DICTIONARY;
-    let mut image = dict.defaults.to_vec();
+    let mut image = vec![0; dict.defaults.len];
+    dict.defaults.read(0, &mut image);
     dict.reset_application(&mut image, ID);
     dict.reset_communication(&mut image, ID);
     dict.write_unchecked(&mut image, 0x2200, 9, &revolutions.to_le_bytes()).expect("0x2200 sub 9");

@@ -18,7 +18,8 @@ use hal_host::storage::MemStorage;
 fn saved_by_the_old_firmware() -> MemStorage {
     let dict = &ec5000::od::DICTIONARY;
     let old = Dictionary { layout_id: dict.layout_id ^ 1, ..*dict };
-    let mut image = dict.defaults.to_vec();
+    let mut image = vec![0; dict.defaults.len];
+    dict.defaults.read(0, &mut image);
     dict.reset_application(&mut image, ID);
     dict.reset_communication(&mut image, ID);
     old.write(&mut image, 0x4231, 1, &100i16.to_le_bytes()).expect("0x4231");

@@ -278,7 +278,7 @@ mod core_store_scenarios {
         entries: &ENTRIES,
         limits: &[],
         rom: &[],
-        defaults: &DEFAULTS,
+        defaults: canopen_core::od::Defaults::dense(&DEFAULTS),
         comm_len: 7,
         stored_len: 12,
         comm_rest: 0,

@@ -163,7 +163,7 @@ const DICT: &Dictionary = &ec5000::od::DICTIONARY;
 
 impl Run {
     fn start(addr: &str, node: u8, qemu: bool) -> Result<Run, String> {
-        let mut image = vec![0u8; DICT.defaults.len()];
+        let mut image = vec![0u8; DICT.defaults.len];
         DICT.reset_application(&mut image, node);
         DICT.reset_communication(&mut image, node);
         let mut decoder = Decoder::new(Some(ObjectNames::new(DICT, &ec5000::od::NAMES)));

@@ -84,7 +84,7 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w, "    entries: &ENTRIES,");
     let _ = writeln!(w, "    limits: &LIMITS,");
     let _ = writeln!(w, "    rom: &ROM,");
-    let _ = writeln!(w, "    defaults: &DEFAULTS,");
+    let _ = writeln!(w, "    defaults: od::Defaults {{ len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS }},");
     let _ = writeln!(w, "    comm_len: {},", l.comm_len);
     let _ = writeln!(w, "    stored_len: STORED_SIZE,");
     let _ = writeln!(w, "    comm_rest: {},", l.comm_rest);

@@ -16,6 +16,7 @@ mod layout;
 pub use layout::NEVER_STORED;
 mod names;
 mod tables;
+pub(crate) use tables::{default_runs, run_pairs};
 
 use canopen_core::od::{DataType, Number, Services};
 

@@ -22,6 +22,47 @@ fn label(e: &Placed<'_>) -> String {
     format!("0x{:04X}:{:02X} {}", e.obj.index, e.sub.sub, name.replace(['\t', '\r', '\n'], " "))
 }
 
+/// A new run costs its (zeros before, length) pair, 2 bytes: a gap of zeros
+/// splits runs only when it is longer.
+const RUN_COST: usize = 2;
+
+/// The runs of `image` that the defaults keep, as (offset, length): the
+/// bytes that are not zero, a gap of at most [`RUN_COST`] zeros bridged.
+pub(crate) fn default_runs(image: &[u8]) -> Vec<(usize, usize)> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (at, _) in image.iter().enumerate().filter(|(_, b)| **b != 0) {
+        match runs.last_mut() {
+            Some((off, len)) if at - (*off + *len) <= RUN_COST => *len = at + 1 - *off,
+            _ => runs.push((at, 1)),
+        }
+    }
+    runs
+}
+
+/// `runs` as the core's `Defaults::runs`: (zeros before, length) pairs of
+/// bytes, a longer gap as runs of no bytes, a longer run as runs with no
+/// gap.
+pub(crate) fn run_pairs(runs: &[(usize, usize)]) -> Vec<(u8, u8)> {
+    let mut pairs = Vec::new();
+    let mut end = 0;
+    for &(off, len) in runs {
+        let mut gap = off - end;
+        while gap > 255 {
+            pairs.push((255, 0));
+            gap -= 255;
+        }
+        let mut left = len;
+        let mut first = gap as u8;
+        while left > 0 {
+            let n = left.min(255);
+            pairs.push((first, n as u8));
+            (first, left) = (0, left - n);
+        }
+        end = off + len;
+    }
+    pairs
+}
+
 /// `decl = [rows];`, one row per line with its comment; `[]` without rows.
 fn table(w: &mut String, doc: Option<&str>, decl: &str, rows: &[(String, String)]) {
     if let Some(doc) = doc {
@@ -99,7 +140,28 @@ pub(super) fn tables(w: &mut String, l: &Layout<'_>) {
     // The RAM image is not in index order (the stored values come first): its rows go by offset.
     let mut ram: Vec<&Placed<'_>> = l.entries.iter().filter(in_ram).collect();
     ram.sort_by_key(|e| e.offset);
-    table(w, None, "static DEFAULTS: [u8; RAM_SIZE]", &value_rows(ram.into_iter(), &l.ram));
+    // The defaults keep only the runs that are not zero; each row says which objects its run begins and ends in.
+    let runs = default_runs(&l.ram);
+    let object_at = |at: usize| ram.iter().find(|e| (e.offset..e.offset + e.len).contains(&at)).map(|e| label(e)).unwrap_or_default();
+    let mut end = 0;
+    let run_rows: Vec<(String, String)> = run_pairs(&runs)
+        .iter()
+        .map(|&(zeros, len)| {
+            let off = end + usize::from(zeros);
+            end = off + usize::from(len);
+            let comment = match (object_at(off), object_at(end.max(1) - 1)) {
+                _ if len == 0 => "zeros".to_owned(),
+                (first, last) if first == last => first,
+                (first, last) => format!("{first} .. {last}"),
+            };
+            (format!("({zeros}, {len}),"), comment)
+        })
+        .collect();
+    table(w, None, &format!("static DEFAULT_RUNS: [(u8, u8); {}]", run_rows.len()), &run_rows);
+    let byte_rows: Vec<(String, String)> =
+        runs.iter().map(|&(off, len)| (byte_items(l.ram.get(off..off + len).unwrap_or_default()), format!("run at {off}"))).collect();
+    let total: usize = runs.iter().map(|r| r.1).sum();
+    table(w, None, &format!("static DEFAULTS: [u8; {total}]"), &byte_rows);
 
     let relative: Vec<(String, String)> =
         l.node_id_relative.iter().map(|&i| (format!("{i},"), l.entries.get(i).map(label).unwrap_or_default())).collect();

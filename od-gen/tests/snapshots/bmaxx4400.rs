@@ -873,386 +873,102 @@ static LIMITS: [Limits; 25] = [
 static ROM: [u8; ROM_SIZE] = [];
 
 #[rustfmt::skip]
-static DEFAULTS: [u8; RAM_SIZE] = [
-    0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
-    0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
-    0x00, 0x00, // 0x100C:00 Guard time
-    0x00, // 0x100D:00 Life time factor
-    0x00, 0x07, 0x00, 0x00, // 0x100E:00 COB-ID guarding protocol
-    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
-    0x00, 0x00, // 0x1015:00 Inhibit time EMCY
-    0x00, 0x00, // 0x1017:00 Producer heartbeat time
-    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
-    0xFF, // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
-    0x00, 0x03, 0x00, 0x00, // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
-    0xFF, // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
-    0x00, 0x04, 0x00, 0x00, // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
-    0xFF, // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
-    0x00, 0x05, 0x00, 0x00, // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
-    0xFF, // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
-    0x01, // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
-    0x10, 0x00, 0x40, 0x60, // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
-    0x00, 0x00, 0x00, 0x00, // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
-    0x02, // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
-    0x10, 0x00, 0x40, 0x60, // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
-    0x08, 0x00, 0x60, 0x60, // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
-    0x02, // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
-    0x10, 0x00, 0x40, 0x60, // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
-    0x20, 0x00, 0x7A, 0x60, // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
-    0x02, // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
-    0x10, 0x00, 0x40, 0x60, // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
-    0x20, 0x00, 0xFF, 0x60, // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
-    0x80, 0x01, 0x00, 0x00, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
-    0xFF, // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
-    0x00, 0x00, // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
-    0x00, 0x00, // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
-    0x80, 0x02, 0x00, 0x00, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
-    0xFF, // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
-    0x00, 0x00, // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
-    0x00, 0x00, // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
-    0x80, 0x03, 0x00, 0x00, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
-    0xFE, // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
-    0x00, 0x00, // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
-    0x00, 0x00, // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
-    0x80, 0x04, 0x00, 0x00, // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
-    0xFE, // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
-    0x00, 0x00, // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
-    0x00, 0x00, // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
-    0x01, // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
-    0x10, 0x00, 0x41, 0x60, // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
-    0x02, // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
-    0x10, 0x00, 0x41, 0x60, // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
-    0x08, 0x00, 0x61, 0x60, // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
-    0x02, // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
-    0x10, 0x00, 0x41, 0x60, // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
-    0x20, 0x00, 0x64, 0x60, // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
-    0x02, // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
-    0x10, 0x00, 0x41, 0x60, // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
-    0x20, 0x00, 0x6C, 0x60, // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
-    0x01, 0x00, // 0x4039:00 P0057 Motor nominal speed
-    0x01, 0x00, // 0x4041:00 P0065 Motor pole pair number
-    0x00, 0x00, // 0x412C:00 P0300 Drive control word
-    0x00, 0x00, // 0x4165:00 P0357 Torque limit direct
-    0x00, 0x00, 0x00, 0x00, // 0x416A:00 P0362 Position actual value raw
-    0x00, 0x00, // 0x416B:00 P0363 Position set angle raw
-    0x00, 0x00, // 0x416C:00 P0364 Position set revolutions raw
-    0x00, 0x00, 0x00, 0x00, // 0x4171:00 P0369 Position set value
-    0x00, 0x00, 0x00, 0x00, // 0x4172:00 P0370 Position IP set angle
-    0x00, 0x00, // 0x4214:00 P0532 Sync interval
-    0x00, 0x00, 0x00, 0x00, // 0x4258:00 P0600 Positioning target unsigned
-    0x09, 0x00, // 0x4259:00 P0601 Positioning mode
-    0x01, 0x00, // 0x425A:00 P0602 Positioning speed 1
-    0x19, 0x00, // 0x425B:00 P0603 Positioning acceleration 1
-    0x19, 0x00, // 0x425C:00 P0604 Positioning deceleration 1
-    0x00, 0x00, // 0x425D:00 P0605 Positioning bend 0 raw
-    0x00, 0x00, 0x00, 0x00, // 0x425F:00 P0607 Positioning target 1
-    0x00, 0x00, // 0x4260:00 P0608 Positioning target input 1
-    0x08, 0x00, // 0x4320:00 P0800 BACI cycle time factor
-    0x07, 0x00, // 0x4332:00 P0818 BACI cycle offset set values
-    0x00, 0x00, // 0x4333:00 P0819 BACI cycle offset actual values
-    0x00, 0x00, // 0x433E:00 P0830 Option module G configuration 1
-    0x00, 0x00, // 0x4348:00 P0840 Option module H configuration 1
-    0x00, 0x00, // 0x43E8:00 P1000 Operation mode set
-    0x00, 0x00, // 0x43E9:00 P1001 Drive parameter 1001
-    0x00, 0x00, // 0x43EB:00 P1003 Stop option code raw
-    0x00, 0x00, // 0x43EC:00 P1004 Quick stop code raw
-    0x00, 0x00, // 0x43ED:00 P1005 Shutdown code raw
-    0x00, 0x00, // 0x43EE:00 P1006 Disable operation code raw
-    0x00, 0x00, // 0x43EF:00 P1007 Error reaction code raw
-    0x14, 0x00, // 0x4407:00 P1031 Maximum speed
-    0x00, 0x00, 0x00, 0x00, // 0x4411:00 P1041 Speed set value upper limit
-    0x00, 0x00, 0x00, 0x00, // 0x4412:00 P1042 Speed set value lower limit
-    0x00, 0x00, // 0x441A:00 P1050 Position controller mode raw
-    0x00, 0x00, // 0x441B:00 P1051 Position controller Kv factor raw
-    0x00, 0x40, // 0x441D:00 P1053 Speed feed forward factor raw
-    0x00, 0x00, // 0x4420:00 P1056 Following error time
-    0x00, 0x00, // 0x4431:00 P1073 Encoder 1 monitoring lower limit
-    0x00, 0x00, 0x00, 0x00, // 0x4493:00 P1171 Ramp function generator input
-    0x00, 0x00, // 0x4494:00 P1172 Ramp function generator ramp up time
-    0x00, 0x00, // 0x4495:00 P1173 Ramp function generator ramp down time
-    0x00, 0x00, // 0x4496:00 P1174 Ramp function generator stop time
-    0x00, 0x00, // 0x44A6:00 P1190 Positioning mode word
-    0x00, 0x00, // 0x44A7:00 P1191 Positioning actual record number
-    0x00, 0x00, 0x00, 0x00, // 0x44AA:00 P1194 Positioning window
-    0x01, 0x00, // 0x44AB:00 P1195 Positioning window time
-    0x00, 0x00, 0x00, 0x00, // 0x44AC:00 P1196 Software limit switch 1
-    0x00, 0x00, 0x00, 0x00, // 0x44AD:00 P1197 Software limit switch 2
-    0x00, 0x00, 0x00, 0x00, // 0x44AE:00 P1198 Positioning clip environment 1
-    0x00, 0x00, 0x00, 0x00, // 0x44AF:00 P1199 Positioning clip environment 2
-    0x00, 0x00, 0x00, 0x00, // 0x44B0:00 P1200 Positioning home position
-    0x01, 0x00, // 0x44B1:00 P1201 Homing speed
-    0x01, 0x00, // 0x44B2:00 P1202 Homing final speed
-    0x19, 0x00, // 0x44B3:00 P1203 Homing acceleration raw
-    0x00, 0x00, // 0x44B4:00 P1204 Homing deceleration raw
-    0x00, 0x00, // 0x44B5:00 P1205 Homing mode
-    0x00, 0x00, // 0x44B8:00 P1208 Positioning switch mode raw
-    0x00, 0x00, // 0x44B9:00 P1209 Positioning encoder offset raw
-    0x19, 0x00, // 0x44BD:00 P1213 Positioning stop deceleration
-    0x00, 0x00, 0x01, 0x00, // 0x4BEA:00 P3050 Position scaling user unit
-    0x01, 0x00, 0x00, 0x00, // 0x4BEB:00 P3051 Position scaling revolutions
-    0x00, 0x00, // 0x6007:00 Abort connection option code
-    0x00, 0x00, // 0x6040:00 Controlword
-    0x00, 0x00, // 0x6042:00 vl target velocity
-    0x00, 0x00, 0x00, 0x00, // 0x6046:02 vl velocity min max amount / vl velocity max amount
-    0x00, 0x00, 0x00, 0x00, // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
-    0x00, 0x00, // 0x6048:02 vl velocity acceleration / vl acceleration delta time
-    0x00, 0x00, 0x00, 0x00, // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
-    0x00, 0x00, // 0x6049:02 vl velocity deceleration / vl deceleration delta time
-    0x01, 0x00, 0x00, 0x00, // 0x604C:01 vl dimension factor / vl dimension factor numerator
-    0x01, 0x00, 0x00, 0x00, // 0x604C:02 vl dimension factor / vl dimension factor denominator
-    0x00, // 0x604D:00 vl pole number
-    0x00, 0x00, 0x00, 0x00, // 0x604F:00 vl ramp function time
-    0x00, 0x00, 0x00, 0x00, // 0x6050:00 vl slow down time
-    0x00, 0x00, 0x00, 0x00, // 0x6051:00 vl quick stop time
-    0x00, 0x00, // 0x605A:00 Quick stop option code
-    0x00, 0x00, // 0x605B:00 Shutdown option code
-    0x00, 0x00, // 0x605C:00 Disable operation option code
-    0x00, 0x00, // 0x605D:00 Halt option code
-    0x00, 0x00, // 0x605E:00 Fault reaction option code
-    0x00, // 0x6060:00 Modes of operation
-    0x00, 0x00, // 0x6066:00 Following error time out
-    0x00, 0x00, 0x00, 0x00, // 0x6067:00 Position window
-    0x00, 0x00, // 0x6068:00 Position window time
-    0x00, 0x00, // 0x606F:00 Velocity threshold
-    0x00, 0x00, // 0x6072:00 Max torque
-    0x00, 0x00, 0x00, 0x00, // 0x607A:00 Target position
-    0x00, 0x00, 0x00, 0x00, // 0x607C:00 Home offset
-    0x00, 0x00, 0x00, 0x00, // 0x607D:01 Software position limit / Min position limit
-    0x00, 0x00, 0x00, 0x00, // 0x607D:02 Software position limit / Max position limit
-    0x00, 0x00, 0x00, 0x00, // 0x607F:00 Max profile velocity
-    0x00, 0x00, 0x00, 0x00, // 0x6080:00 Max motor speed
-    0x00, 0x00, 0x00, 0x00, // 0x6081:00 Profile velocity
-    0x00, 0x00, 0x00, 0x00, // 0x6083:00 Profile acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x6084:00 Profile deceleration
-    0x00, 0x00, 0x00, 0x00, // 0x6085:00 Quick stop deceleration
-    0x00, 0x00, // 0x6086:00 Motion profile type
-    0x00, 0x00, 0x01, 0x00, // 0x6092:01 Feed constant / Feed
-    0x01, 0x00, 0x00, 0x00, // 0x6092:02 Feed constant / Shaft revolutions
-    0x00, // 0x6098:00 Homing method
-    0x00, 0x00, 0x00, 0x00, // 0x6099:01 Homing speeds / Speed during search for switch
-    0x00, 0x00, 0x00, 0x00, // 0x6099:02 Homing speeds / Speed during search for zero
-    0x00, 0x00, 0x00, 0x00, // 0x609A:00 Homing acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x60C1:01 Interpolation data record / Interpolation data record position
-    0x02, // 0x60C2:01 Interpolation time period / ip time units
-    0xFD, // 0x60C2:02 Interpolation time period / ip time index
-    0x00, // 0x60C3:01 Interpolation sync definition / Synchronize on group
-    0x00, // 0x60C3:02 Interpolation sync definition / ip sync every n event
-    0x01, 0x00, 0x00, 0x00, // 0x60C4:02 Interpolation data configuration / Actual buffer size
-    0x00, // 0x60C4:03 Interpolation data configuration / Buffer organisation
-    0x01, 0x00, // 0x60C4:04 Interpolation data configuration / Buffer position
-    0x01, // 0x60C4:05 Interpolation data configuration / Size of data record
-    0x00, // 0x60C4:06 Interpolation data configuration / Buffer clear
-    0x00, 0x00, 0x00, 0x00, // 0x60F8:00 Max slippage
-    0x00, 0x00, // 0x60FB:02 Position control parameter set / Position controller mode
-    0x00, 0x00, // 0x60FB:03 Position control parameter set / Position controller Kv factor
-    0x00, 0x00, // 0x60FB:04 Position control parameter set / Position set revolutions
-    0x00, 0x00, // 0x60FB:05 Position control parameter set / Position set angle
-    0x00, 0x40, // 0x60FB:06 Position control parameter set / Speed feed forward factor
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:08 Position control parameter set / Position controller actual value
-    0x00, 0x00, // 0x60FB:0D Position control parameter set / Actual positioning record number
-    0x00, 0x00, // 0x60FB:0E Position control parameter set / Positioning mode bits
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:0F Position control parameter set / Home position
-    0x00, 0x00, // 0x60FB:10 Position control parameter set / Positioning switch mode
-    0x00, 0x00, // 0x60FB:12 Position control parameter set / Positioning bend 0
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:13 Position control parameter set / Clip environment 1
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:14 Position control parameter set / Clip environment 2
-    0x00, 0x00, // 0x60FB:15 Position control parameter set / Target input 0
-    0x00, 0x00, // 0x60FB:16 Position control parameter set / Target input 1
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:17 Position control parameter set / IP set angle
-    0x00, 0x00, // 0x60FB:18 Position control parameter set / Positioning encoder offset
-    0x00, 0x00, // 0x60FB:19 Position control parameter set / Homing deceleration
-    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
-    0x92, 0x01, 0x02, 0x02, // 0x1000:00 Device type
-    0x00, // 0x1001:00 Error register
-    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
-    0x00, // 0x1003:00 Pre-defined error field / Number of errors
-    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
-    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
-    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
-    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
-    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
-    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
-    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
-    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
-    0x00, 0x00, 0x00, 0x00, // 0x1003:09 Pre-defined error field / Standard error field 9
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0A Pre-defined error field / Standard error field 10
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0B Pre-defined error field / Standard error field 11
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0C Pre-defined error field / Standard error field 12
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0D Pre-defined error field / Standard error field 13
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0E Pre-defined error field / Standard error field 14
-    0x00, 0x00, 0x00, 0x00, // 0x1003:0F Pre-defined error field / Standard error field 15
-    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC
-    0x62, 0x20, 0x6D, 0x61, 0x58, 0x58, 0x20, 0x34, 0x34, 0x30, 0x30, // 0x1008:00 Manufacturer device name
-    0x48, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x1009:00 Manufacturer hardware version
-    0x53, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // 0x100A:00 Manufacturer software version
-    0x00, 0x00, 0x00, 0x00, // 0x100B:00 Node-ID
-    0x01, 0x00, 0x00, 0x00, // 0x100F:00 Number of SDOs supported
-    0x02, // 0x1010:00 Store parameters / Store parameters highest sub-index
-    0x00, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x02, // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
-    0x00, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
-    0x04, // 0x1018:00 Identity object / Identity object highest sub-index
-    0x15, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
-    0xEA, 0x58, 0x05, 0x00, // 0x1018:02 Identity object / Product code
-    0x02, 0x00, 0x03, 0x00, // 0x1018:03 Identity object / Revision number
-    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
-    0x02, // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
-    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
-    0x02, // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
-    0x02, // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
-    0x02, // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
-    0x02, // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
-    0x05, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
-    0x05, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
-    0x05, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
-    0x05, // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
-    0x00, 0x00, // 0x40E9:00 P0233 Amplifier Hiperface error detail
-    0x00, 0x00, // 0x40EA:00 P0234 Encoder 1 error detail
-    0x00, 0x00, // 0x40EB:00 P0235 Encoder 2 error detail
-    0x00, 0x00, // 0x40F0:00 P0240 Small module A error detail
-    0x00, 0x00, // 0x40F1:00 P0241 Small module B error detail
-    0x00, 0x00, // 0x40F2:00 P0242 Small module C error detail
-    0x00, 0x00, // 0x40F3:00 P0243 Small module D error detail
-    0x00, 0x00, // 0x40F4:00 P0244 Small module F error detail
-    0x00, 0x00, // 0x40F5:00 P0245 Big module G error detail
-    0x00, 0x00, // 0x40F6:00 P0246 Big module H error detail
-    0x00, 0x00, // 0x40F7:00 P0247 Big module J error detail
-    0x00, 0x00, // 0x40F8:00 P0248 Big module K error detail
-    0x00, 0x00, // 0x40F9:00 P0249 Big module L error detail
-    0x00, 0x00, // 0x40FA:00 P0250 Big module M error detail
-    0x00, 0x00, // 0x4106:00 P0262 Amplifier warnings
-    0x00, 0x00, // 0x4107:00 P0263 Motor warnings
-    0x00, 0x00, // 0x412D:00 P0301 Drive status word
-    0x00, 0x00, // 0x4130:00 P0304 Operation mode actual
-    0x00, 0x00, // 0x4158:00 P0344 Torque actual value raw
-    0x00, 0x00, // 0x415F:00 P0351 Ramp function generator output
-    0x00, 0x00, // 0x4160:00 P0352 Speed set value total
-    0x00, 0x00, 0x00, 0x00, // 0x4161:00 P0353 Speed actual value raw
-    0x00, 0x00, // 0x4168:00 P0360 Position controller status raw
-    0x00, 0x00, 0x00, 0x00, // 0x416D:00 P0365 Speed feed forward raw
-    0x00, 0x00, 0x00, 0x00, // 0x416F:00 P0367 Position control deviation raw
-    0x00, 0x00, 0x00, 0x00, // 0x4187:00 P0391 Encoder 1 actual angle raw
-    0x00, 0x00, 0x00, 0x00, // 0x4188:00 P0392 Encoder 1 actual revolutions raw
-    0x00, 0x00, // 0x41CC:00 P0460 Positioning status raw
-    0x00, 0x00, // 0x41CD:00 P0461 Digital input output status
-    0x00, 0x00, 0x00, 0x00, // 0x41CE:00 P0462 Positioning actual value
-    0x00, 0x00, 0x00, 0x00, // 0x41CF:00 P0463 Positioning set value
-    0x00, 0x00, // 0x41D0:00 P0464 Positioning speed set value raw
-    0x00, 0x00, // 0x4321:00 P0801 BACI process data parameter number 1
-    0x00, 0x00, // 0x4322:00 P0802 BACI process data parameter number 2
-    0x00, 0x00, // 0x4323:00 P0803 BACI process data parameter number 3
-    0x00, 0x00, // 0x4324:00 P0804 BACI process data parameter number 4
-    0x00, 0x00, // 0x4325:00 P0805 BACI process data parameter number 5
-    0x00, 0x00, // 0x4326:00 P0806 BACI process data parameter number 6
-    0x00, 0x00, // 0x4327:00 P0807 BACI process data parameter number 7
-    0x00, 0x00, // 0x4328:00 P0808 BACI process data parameter number 8
-    0x00, 0x00, // 0x4329:00 P0809 BACI process data parameter number 9
-    0x00, 0x00, // 0x432A:00 P0810 BACI process data parameter number 10
-    0x00, 0x00, // 0x432B:00 P0811 BACI process data parameter number 11
-    0x00, 0x00, // 0x432C:00 P0812 BACI process data parameter number 12
-    0x00, 0x00, // 0x432D:00 P0813 BACI process data parameter number 13
-    0x00, 0x00, // 0x432E:00 P0814 BACI process data parameter number 14
-    0x00, 0x00, // 0x432F:00 P0815 BACI process data parameter number 15
-    0x00, 0x00, // 0x4330:00 P0816 BACI process data parameter number 16
-    0x00, 0x00, // 0x6041:00 Statusword
-    0x00, 0x00, // 0x6043:00 vl velocity demand
-    0x00, 0x00, // 0x6044:00 vl control effort
-    0x00, 0x00, // 0x6045:00 vl manipulated velocity
-    0x02, // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
-    0x00, 0x00, 0x00, 0x00, // 0x6046:01 vl velocity min max amount / vl velocity min amount
-    0x02, // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
-    0x02, // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
-    0x02, // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
-    0x00, // 0x6061:00 Modes of operation display
-    0x00, 0x00, 0x00, 0x00, // 0x6062:00 Position demand value
-    0x00, 0x00, 0x00, 0x00, // 0x6063:00 Position actual internal value
-    0x00, 0x00, 0x00, 0x00, // 0x6064:00 Position actual value
-    0x00, 0x00, 0x00, 0x00, // 0x6069:00 Velocity sensor actual value
-    0x00, 0x00, // 0x606A:00 Sensor selection code
-    0x00, 0x00, 0x00, 0x00, // 0x606B:00 Velocity demand value
-    0x00, 0x00, 0x00, 0x00, // 0x606C:00 Velocity actual value
-    0x00, 0x00, // 0x6077:00 Torque actual value
-    0x02, // 0x607D:00 Software position limit / Software position limit highest sub-index
-    0x02, // 0x6092:00 Feed constant / Feed constant highest sub-index
-    0x02, // 0x6099:00 Homing speeds / Homing speeds highest sub-index
-    0x00, 0x00, // 0x60C0:00 Interpolation sub mode select
-    0x01, // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
-    0x02, // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
-    0x02, // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
-    0x06, // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
-    0x01, 0x00, 0x00, 0x00, // 0x60C4:01 Interpolation data configuration / Maximum buffer size
-    0x1B, // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
-    0x00, 0x00, // 0x60FB:01 Position control parameter set / Position controller status
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:07 Position control parameter set / Position control deviation
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:0B Position control parameter set / Speed feed forward
-    0x00, 0x00, // 0x60FB:0C Position control parameter set / Positioning status
-    0x00, 0x00, // 0x60FB:11 Position control parameter set / Positioning speed set value
-    0x00, 0x00, 0x00, 0x00, // 0x60FB:1A Position control parameter set / Actual speed normalised
-    0x00, 0x00, // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
-    0x00, 0x00, 0x00, 0x00, // 0x60FD:00 Digital inputs
-    0x08, // 0x6510:00 Drive data / Drive data highest sub-index
-    0x00, 0x00, 0x00, 0x00, // 0x6510:01 Drive data / Controller type
-    0x00, 0x00, 0x00, 0x00, // 0x6510:02 Drive data / Software type
-    0x00, 0x00, 0x00, 0x00, // 0x6510:03 Drive data / Software ID
-    0x00, 0x00, 0x00, 0x00, // 0x6510:04 Drive data / Software version
-    0x00, 0x00, 0x00, 0x00, // 0x6510:05 Drive data / Parameter table version
-    0x00, 0x00, 0x00, 0x00, // 0x6510:06 Drive data / Amplifier software version
-    0x00, 0x00, 0x00, 0x00, // 0x6510:07 Drive data / FPGA version
-    0x00, 0x00, 0x00, 0x00, // 0x6510:08 Drive data / Bootloader version
+static DEFAULT_RUNS: [(u8, u8); 44] = [
+    (12, 4), // 0x100E:00 COB-ID guarding protocol .. 0x1014:00 COB-ID EMCY
+    (8, 24), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID .. 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
+    (28, 9), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects .. 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
+    (24, 9), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects .. 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
+    (24, 9), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects .. 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
+    (24, 5), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID .. 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    (4, 5), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID .. 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    (4, 5), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID .. 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    (4, 5), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID .. 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
+    (4, 5), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects .. 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
+    (28, 9), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects .. 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
+    (24, 9), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects .. 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
+    (24, 9), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects .. 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
+    (24, 3), // 0x4039:00 P0057 Motor nominal speed .. 0x4041:00 P0065 Motor pole pair number
+    (27, 7), // 0x4259:00 P0601 Positioning mode .. 0x425C:00 P0604 Positioning deceleration 1
+    (9, 3), // 0x4320:00 P0800 BACI cycle time factor .. 0x4332:00 P0818 BACI cycle offset set values
+    (21, 1), // 0x4407:00 P1031 Maximum speed
+    (14, 1), // 0x441D:00 P1053 Speed feed forward factor raw
+    (22, 1), // 0x44AB:00 P1195 Positioning window time
+    (21, 5), // 0x44B1:00 P1201 Homing speed .. 0x44B3:00 P1203 Homing acceleration raw
+    (9, 1), // 0x44BD:00 P1213 Positioning stop deceleration
+    (3, 3), // 0x4BEA:00 P3050 Position scaling user unit .. 0x4BEB:00 P3051 Position scaling revolutions
+    (25, 1), // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    (3, 1), // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    (83, 3), // 0x6092:01 Feed constant / Feed .. 0x6092:02 Feed constant / Shaft revolutions
+    (20, 5), // 0x60C2:01 Interpolation time period / ip time units .. 0x60C4:02 Interpolation data configuration / Actual buffer size
+    (4, 3), // 0x60C4:04 Interpolation data configuration / Buffer position .. 0x60C4:05 Interpolation data configuration / Size of data record
+    (14, 1), // 0x60FB:06 Position control parameter set / Speed feed forward factor
+    (40, 4), // 0x1000:00 Device type
+    (66, 1), // 0x1005:00 COB-ID SYNC
+    (3, 25), // 0x1008:00 Manufacturer device name .. 0x100A:00 Manufacturer software version
+    (4, 1), // 0x100F:00 Number of SDOs supported
+    (3, 1), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    (4, 1), // 0x1010:02 Store parameters / Save communication parameters
+    (3, 1), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    (4, 1), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    (3, 2), // 0x1018:00 Identity object / Identity object highest sub-index .. 0x1018:01 Identity object / Vendor-ID
+    (3, 7), // 0x1018:02 Identity object / Product code .. 0x1018:03 Identity object / Revision number
+    (5, 17), // 0x1200:00 SDO server parameter / SDO server highest sub-index .. 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
+    (118, 1), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    (4, 3), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index .. 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
+    (29, 10), // 0x607D:00 Software position limit / Software position limit highest sub-index .. 0x60C4:01 Interpolation data configuration / Maximum buffer size
+    (3, 1), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
+    (32, 1), // 0x6510:00 Drive data / Drive data highest sub-index
+];
+
+#[rustfmt::skip]
+static DEFAULTS: [u8; 223] = [
+    0x07, 0x00, 0x00, 0x80, // run at 12
+    0x02, 0x00, 0x00, 0xFF, 0x00, 0x03, 0x00, 0x00, 0xFF, 0x00, 0x04, 0x00, 0x00, 0xFF, 0x00, 0x05,
+    0x00, 0x00, 0xFF, 0x01, 0x10, 0x00, 0x40, 0x60, // run at 24
+    0x02, 0x10, 0x00, 0x40, 0x60, 0x08, 0x00, 0x60, 0x60, // run at 76
+    0x02, 0x10, 0x00, 0x40, 0x60, 0x20, 0x00, 0x7A, 0x60, // run at 109
+    0x02, 0x10, 0x00, 0x40, 0x60, 0x20, 0x00, 0xFF, 0x60, // run at 142
+    0x80, 0x01, 0x00, 0x00, 0xFF, // run at 175
+    0x80, 0x02, 0x00, 0x00, 0xFF, // run at 184
+    0x80, 0x03, 0x00, 0x00, 0xFE, // run at 193
+    0x80, 0x04, 0x00, 0x00, 0xFE, // run at 202
+    0x01, 0x10, 0x00, 0x41, 0x60, // run at 211
+    0x02, 0x10, 0x00, 0x41, 0x60, 0x08, 0x00, 0x61, 0x60, // run at 244
+    0x02, 0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x64, 0x60, // run at 277
+    0x02, 0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x6C, 0x60, // run at 310
+    0x01, 0x00, 0x01, // run at 343
+    0x09, 0x00, 0x01, 0x00, 0x19, 0x00, 0x19, // run at 373
+    0x08, 0x00, 0x07, // run at 389
+    0x14, // run at 413
+    0x40, // run at 428
+    0x01, // run at 451
+    0x01, 0x00, 0x01, 0x00, 0x19, // run at 473
+    0x19, // run at 487
+    0x01, 0x00, 0x01, // run at 491
+    0x01, // run at 519
+    0x01, // run at 523
+    0x01, 0x00, 0x01, // run at 607
+    0x02, 0xFD, 0x00, 0x00, 0x01, // run at 630
+    0x01, 0x00, 0x01, // run at 639
+    0x40, // run at 656
+    0x92, 0x01, 0x02, 0x02, // run at 697
+    0x80, // run at 767
+    0x62, 0x20, 0x6D, 0x61, 0x58, 0x58, 0x20, 0x34, 0x34, 0x30, 0x30, 0x48, 0x56, 0x30, 0x31, 0x2E,
+    0x30, 0x30, 0x53, 0x56, 0x30, 0x31, 0x2E, 0x30, 0x30, // run at 771
+    0x01, // run at 800
+    0x02, // run at 804
+    0x01, // run at 809
+    0x02, // run at 813
+    0x01, // run at 818
+    0x04, 0x15, // run at 822
+    0xEA, 0x58, 0x05, 0x00, 0x02, 0x00, 0x03, // run at 827
+    0x02, 0x00, 0x06, 0x00, 0x00, 0x80, 0x05, 0x00, 0x00, 0x02, 0x02, 0x02, 0x02, 0x05, 0x05, 0x05,
+    0x05, // run at 839
+    0x02, // run at 974
+    0x02, 0x02, 0x02, // run at 979
+    0x02, 0x02, 0x02, 0x00, 0x00, 0x01, 0x02, 0x02, 0x06, 0x01, // run at 1011
+    0x1B, // run at 1024
+    0x08, // run at 1057
 ];
 
 #[rustfmt::skip]
@@ -1661,7 +1377,7 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
     rom: &ROM,
-    defaults: &DEFAULTS,
+    defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 343,
     stored_len: STORED_SIZE,
     comm_rest: 159,

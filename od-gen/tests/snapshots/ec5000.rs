@@ -509,202 +509,98 @@ static ROM: [u8; ROM_SIZE] = [
 ];
 
 #[rustfmt::skip]
-static DEFAULTS: [u8; RAM_SIZE] = [
-    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
-    0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
-    0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
-    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
-    0x00, 0x00, // 0x1015:00 Inhibit time EMCY
-    0x00, 0x00, 0x00, 0x00, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
-    0x00, 0x00, // 0x1017:00 Producer heartbeat time
-    0x00, // 0x1019:00 Synchronous counter overflow value
-    0x00, // 0x1029:01 Error behaviour / Communication error
-    0x00, // 0x1029:02 Error behaviour / Specific error class
-    0xFF, // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
-    0xFF, // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
-    0xFF, // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
-    0xFF, // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
-    0x00, // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
-    0x00, 0x00, 0x00, 0x00, // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
-    0x00, 0x00, 0x00, 0x00, // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
-    0x80, 0x01, 0x00, 0x00, // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
-    0xFF, // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
-    0xE8, 0x03, // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
-    0xD0, 0x07, // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
-    0x00, // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
-    0x80, 0x02, 0x00, 0x00, // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
-    0xFF, // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
-    0xE8, 0x03, // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
-    0xD0, 0x07, // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
-    0x00, // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
-    0x80, 0x03, 0x00, 0x00, // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
-    0x01, // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
-    0xE8, 0x03, // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
-    0xD0, 0x07, // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
-    0x00, // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
-    0x80, 0x04, 0x00, 0x00, // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
-    0xFF, // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
-    0xE8, 0x03, // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
-    0xD0, 0x07, // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
-    0x00, // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
-    0x00, // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
-    0x00, 0x00, 0x00, 0x00, // 0x1F80:00 NMT startup
-    0x5F, 0x00, // 0x4231:01 High temperature warning level / High temperature warning threshold
-    0x02, 0x00, // 0x4231:02 High temperature warning level / High temperature warning hysteresis
-    0x64, 0x00, // 0x4645:00 Positioning deceleration ramp
-    0x7F, // 0x4650:01 Bus address / Node-ID static
-    0xFA, 0x00, // 0x4651:01 Baud rate / CAN bit rate
-    0x00, 0x4B, // 0x4651:02 Baud rate / UART baud rate
-    0x00, 0x00, 0x00, 0x00, // 0x4FFF:00 User login
-    0x00, 0x00, // 0x6007:00 Abort connection option code
-    0x00, 0x00, // 0x6040:00 Controlword
-    0x03, // 0x6060:00 Modes of operation
-    0xE8, 0x03, // 0x6073:00 Max current
-    0x00, 0x00, 0x00, 0x00, // 0x607A:00 Target position
-    0x00, // 0x607E:00 Polarity
-    0xD0, 0x07, 0x00, 0x00, // 0x607F:00 Max profile velocity
-    0x00, 0x00, 0x00, 0x00, // 0x6081:00 Profile velocity
-    0x00, 0x00, 0x00, 0x00, // 0x6083:00 Profile acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x6084:00 Profile deceleration
-    0x12, 0x00, 0x00, 0x00, // 0x6091:01 Gear ratio / Motor shaft revolutions
-    0x01, 0x00, 0x00, 0x00, // 0x6091:02 Gear ratio / Driving shaft revolutions
-    0x9D, 0x00, 0x00, 0x00, // 0x6092:01 Feed constant / Feed
-    0x01, 0x00, 0x00, 0x00, // 0x6092:02 Feed constant / Shaft revolutions
-    0x25, // 0x6098:00 Homing method
-    0x00, 0x00, 0x00, 0x00, // 0x6099:00 Homing speeds
-    0x00, 0x00, 0x01, 0xFD, // 0x60A8:00 SI unit position
-    0x00, 0x03, 0x01, 0xFD, // 0x60A9:00 SI unit velocity
-    0x00, 0x57, 0x01, 0xFD, // 0x60AA:00 SI unit acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x60C5:00 Max acceleration
-    0x00, 0x00, 0x00, 0x00, // 0x60C6:00 Max deceleration
-    0x00, 0x00, // 0x60F2:00 Positioning option code
-    0x00, 0x00, 0x00, 0x00, // 0x60FF:00 Target velocity
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x6403:00 Motor catalogue number
-    0x92, 0x01, 0x42, 0x00, // 0x1000:00 Device type
-    0x00, // 0x1001:00 Error register
-    0x00, 0x00, 0x00, 0x00, // 0x1002:00 Manufacturer status register
-    0x00, // 0x1003:00 Pre-defined error field / Number of errors
-    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
-    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
-    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
-    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
-    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
-    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
-    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
-    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
-    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters except node-ID
-    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters ASW
-    0x01, 0x00, 0x00, 0x00, // 0x1010:05 Store parameters / Save manufacturer parameters SSW
-    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
-    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
-    0x01, 0x00, 0x00, 0x00, // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
-    0xFB, 0x03, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
-    0x01, 0x00, 0x00, 0x00, // 0x1018:02 Identity object / Product code
-    0x01, 0x00, 0x01, 0x00, // 0x1018:03 Identity object / Revision number
-    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
-    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
-    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
-    0x00, 0x02, 0x00, 0x00, // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
-    0x00, 0x03, 0x00, 0x00, // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
-    0x00, 0x04, 0x00, 0x00, // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
-    0x00, 0x05, 0x00, 0x00, // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
-    0x10, 0x00, 0x40, 0x60, // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
-    0x08, 0x00, 0x60, 0x60, // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
-    0x20, 0x00, 0x81, 0x60, // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
-    0x10, 0x00, 0x40, 0x60, // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
-    0x20, 0x00, 0x7A, 0x60, // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
-    0x10, 0x00, 0x40, 0x60, // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
-    0x20, 0x00, 0xFF, 0x60, // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
-    0x10, 0x00, 0x41, 0x60, // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
-    0x08, 0x00, 0x61, 0x60, // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
-    0x08, 0x00, 0x01, 0x10, // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
-    0x10, 0x06, 0x00, 0x22, // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
-    0x10, 0x00, 0x77, 0x60, // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
-    0x10, 0x00, 0x41, 0x60, // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
-    0x20, 0x00, 0x64, 0x60, // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
-    0x10, 0x00, 0x41, 0x60, // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
-    0x20, 0x00, 0x6C, 0x60, // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
-    0x00, // 0x1F51:01 Program control / Program control 1
-    0x09, // 0x2200:00 Monitoring values / Monitoring values highest sub-index
-    0x00, 0x00, 0x00, 0x00, // 0x2200:01 Monitoring values / Number of start stops
-    0x00, 0x00, 0x00, 0x00, // 0x2200:02 Monitoring values / Working hours
-    0x00, 0x00, 0x00, 0x00, // 0x2200:03 Monitoring values / Uptime
-    0x00, 0x00, // 0x2200:04 Monitoring values / Absolute minimum temperature
-    0x00, 0x00, // 0x2200:05 Monitoring values / Absolute maximum temperature
-    0x00, 0x00, // 0x2200:06 Monitoring values / Actual temperature
-    0x00, 0x00, // 0x2200:07 Monitoring values / Number of quick stops
-    0x00, // 0x2200:08 Monitoring values / Mechanical power average
-    0x00, 0x00, 0x00, 0x00, // 0x2200:09 Monitoring values / Number of rotations
-    0x00, // 0x2210:00 Lifetime traffic light
-    0x03, // 0x2211:00 Health traffic light / Health traffic light highest sub-index
-    0x00, // 0x2211:01 Health traffic light / Temperature traffic light
-    0x00, // 0x2211:02 Health traffic light / Power traffic light
-    0x00, // 0x2211:03 Health traffic light / Error quantity traffic light
-    0x01, // 0x2220:00 Analog value output / Analog value output highest sub-index
-    0x00, 0x00, // 0x2220:01 Analog value output / Analog voltage
-    0x7F, // 0x4650:02 Bus address / Node-ID actual
-    0x00, // 0x4FFE:00 Actual SDO server user
-    0x00, 0x00, // 0x6041:00 Statusword
-    0x03, // 0x6061:00 Modes of operation display
-    0x00, 0x00, 0x00, 0x00, // 0x6062:00 Position demand value
-    0x00, 0x00, 0x00, 0x00, // 0x6064:00 Position actual value
-    0x00, 0x00, 0x00, 0x00, // 0x606B:00 Velocity demand value
-    0x00, 0x00, 0x00, 0x00, // 0x606C:00 Velocity actual value
-    0x00, 0x00, // 0x6077:00 Torque actual value
-    0x00, 0x00, // 0x6079:00 DC link circuit voltage
-    0x03, 0x00, // 0x6402:00 Motor type
-    0x25, 0x00, 0x00, 0x00, // 0x6502:00 Supported drive modes
-    0x00, 0x01, 0x03, 0x00, // 0x67FE:00 Version number
+static DEFAULT_RUNS: [(u8, u8); 42] = [
+    (0, 1), // 0x1005:00 COB-ID SYNC message
+    (11, 1), // 0x1014:00 COB-ID EMCY
+    (14, 4), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type .. 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
+    (33, 39), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID .. 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
+    (38, 11), // 0x4231:01 High temperature warning level / High temperature warning threshold .. 0x4651:02 Baud rate / UART baud rate
+    (8, 3), // 0x6060:00 Modes of operation .. 0x6073:00 Max current
+    (5, 2), // 0x607F:00 Max profile velocity
+    (14, 1), // 0x6091:01 Gear ratio / Motor shaft revolutions
+    (3, 1), // 0x6091:02 Gear ratio / Driving shaft revolutions
+    (3, 1), // 0x6092:01 Feed constant / Feed
+    (3, 1), // 0x6092:02 Feed constant / Shaft revolutions
+    (3, 1), // 0x6098:00 Homing method
+    (6, 10), // 0x60A8:00 SI unit position .. 0x60AA:00 SI unit acceleration
+    (30, 3), // 0x1000:00 Device type
+    (39, 1), // 0x1010:01 Store parameters / Save all parameters except node-ID
+    (3, 1), // 0x1010:02 Store parameters / Save communication parameters
+    (3, 1), // 0x1010:03 Store parameters / Save application parameters
+    (3, 1), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    (3, 1), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    (3, 1), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    (3, 1), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    (3, 1), // 0x1011:03 Restore default parameters / Restore application default parameters
+    (3, 1), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    (3, 1), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
+    (3, 5), // 0x1018:01 Identity object / Vendor-ID .. 0x1018:02 Identity object / Product code
+    (3, 3), // 0x1018:03 Identity object / Revision number
+    (6, 5), // 0x1200:01 SDO server parameter / COB-ID client to server .. 0x1200:02 SDO server parameter / COB-ID server to client
+    (3, 1), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    (3, 1), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    (3, 1), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    (3, 15), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID .. 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    (20, 8), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1 .. 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    (24, 8), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1 .. 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    (24, 20), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1 .. 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
+    (12, 8), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1 .. 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
+    (24, 8), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1 .. 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
+    (25, 1), // 0x2200:00 Monitoring values / Monitoring values highest sub-index
+    (26, 1), // 0x2211:00 Health traffic light / Health traffic light highest sub-index
+    (3, 4), // 0x2220:00 Analog value output / Analog value output highest sub-index .. 0x4650:02 Bus address / Node-ID actual
+    (3, 1), // 0x6061:00 Modes of operation display
+    (20, 3), // 0x6402:00 Motor type .. 0x6502:00 Supported drive modes
+    (4, 2), // 0x67FE:00 Version number
+];
+
+#[rustfmt::skip]
+static DEFAULTS: [u8; 184] = [
+    0x80, // run at 0
+    0x80, // run at 12
+    0xFF, 0xFF, 0xFF, 0xFF, // run at 27
+    0x80, 0x01, 0x00, 0x00, 0xFF, 0xE8, 0x03, 0xD0, 0x07, 0x00, 0x80, 0x02, 0x00, 0x00, 0xFF, 0xE8,
+    0x03, 0xD0, 0x07, 0x00, 0x80, 0x03, 0x00, 0x00, 0x01, 0xE8, 0x03, 0xD0, 0x07, 0x00, 0x80, 0x04,
+    0x00, 0x00, 0xFF, 0xE8, 0x03, 0xD0, 0x07, // run at 64
+    0x5F, 0x00, 0x02, 0x00, 0x64, 0x00, 0x7F, 0xFA, 0x00, 0x00, 0x4B, // run at 141
+    0x03, 0xE8, 0x03, // run at 160
+    0xD0, 0x07, // run at 168
+    0x12, // run at 184
+    0x01, // run at 188
+    0x9D, // run at 192
+    0x01, // run at 196
+    0x25, // run at 200
+    0x01, 0xFD, 0x00, 0x03, 0x01, 0xFD, 0x00, 0x57, 0x01, 0xFD, // run at 207
+    0x92, 0x01, 0x42, // run at 247
+    0x01, // run at 289
+    0x01, // run at 293
+    0x01, // run at 297
+    0x01, // run at 301
+    0x01, // run at 305
+    0x01, // run at 309
+    0x01, // run at 313
+    0x01, // run at 317
+    0x01, // run at 321
+    0x01, // run at 325
+    0xFB, 0x03, 0x00, 0x00, 0x01, // run at 329
+    0x01, 0x00, 0x01, // run at 337
+    0x06, 0x00, 0x00, 0x80, 0x05, // run at 346
+    0x02, // run at 354
+    0x03, // run at 358
+    0x04, // run at 362
+    0x05, 0x00, 0x00, 0x10, 0x00, 0x40, 0x60, 0x08, 0x00, 0x60, 0x60, 0x20, 0x00, 0x81, 0x60, // run at 366
+    0x10, 0x00, 0x40, 0x60, 0x20, 0x00, 0x7A, 0x60, // run at 401
+    0x10, 0x00, 0x40, 0x60, 0x20, 0x00, 0xFF, 0x60, // run at 433
+    0x10, 0x00, 0x41, 0x60, 0x08, 0x00, 0x61, 0x60, 0x08, 0x00, 0x01, 0x10, 0x10, 0x06, 0x00, 0x22,
+    0x10, 0x00, 0x77, 0x60, // run at 465
+    0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x64, 0x60, // run at 497
+    0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x6C, 0x60, // run at 529
+    0x09, // run at 562
+    0x03, // run at 589
+    0x01, 0x00, 0x00, 0x7F, // run at 593
+    0x03, // run at 600
+    0x03, 0x00, 0x25, // run at 621
+    0x01, 0x03, // run at 628
 ];
 
 #[rustfmt::skip]
@@ -960,7 +856,7 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
     rom: &ROM,
-    defaults: &DEFAULTS,
+    defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 141,
     stored_len: STORED_SIZE,
     comm_rest: 315,

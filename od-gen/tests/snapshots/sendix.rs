@@ -331,144 +331,78 @@ static ROM: [u8; ROM_SIZE] = [
 ];
 
 #[rustfmt::skip]
-static DEFAULTS: [u8; RAM_SIZE] = [
-    0x80, 0x00, 0x00, 0x00, // 0x1005:00 COB-ID SYNC message
-    0x00, 0x00, 0x00, 0x00, // 0x1006:00 Communication cycle period
-    0x00, 0x00, 0x00, 0x00, // 0x1007:00 Synchronous window length
-    0x00, 0x00, // 0x1015:00 Inhibit time EMCY
-    0x00, 0x00, // 0x1017:00 Producer heartbeat time
-    0x00, // 0x1029:01 Error behavior / Communication error
-    0x01, // 0x1029:02 Error behavior / Device profile specific error
-    0x01, // 0x1029:03 Error behavior / Manufacturer specific error
-    0x80, 0x01, 0x00, 0x40, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
-    0xFF, // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
-    0x00, 0x00, // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
-    0x00, 0x00, // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
-    0x80, 0x02, 0x00, 0x40, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
-    0x01, // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
-    0x00, 0x00, // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
-    0x00, 0x00, // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
-    0x80, 0x03, 0x00, 0x40, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
-    0xFF, // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
-    0x00, 0x00, // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
-    0x00, 0x00, // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
-    0x01, // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
-    0x20, 0x00, 0x04, 0x60, // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
-    0x01, // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
-    0x20, 0x00, 0x04, 0x60, // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
-    0x01, // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
-    0x20, 0x01, 0x30, 0x60, // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
-    0x00, 0x00, 0x00, 0x00, // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
-    0xFF, // 0x2100:00 Baud rate
-    0xFF, // 0x2101:00 Node address
-    0x01, // 0x2102:00 CAN bus termination
-    0x73, 0x61, 0x76, 0x65, // 0x2105:00 Save all bus parameters
-    0x00, 0x00, // 0x6000:00 Operating parameters
-    0x00, 0x40, 0x00, 0x00, // 0x6001:00 Measuring units per revolution
-    0x00, 0x00, 0x00, 0x10, // 0x6002:00 Total measuring range in measuring units
-    0x00, 0x00, 0x00, 0x00, // 0x6003:00 Preset value
-    0x02, 0x00, // 0x6031:01 Speed parameters / Speed source selector
-    0x64, 0x00, // 0x6031:02 Speed parameters / Speed integration time
-    0x01, 0x00, // 0x6031:03 Speed parameters / Speed calculation multiplier
-    0x01, 0x00, // 0x6031:04 Speed parameters / Speed calculation divisor
-    0x02, 0x00, // 0x6041:01 Acceleration parameters / Acceleration source selector
-    0x64, 0x00, // 0x6041:02 Acceleration parameters / Acceleration integration time
-    0x01, 0x00, // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
-    0x01, 0x00, // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
-    0x00, 0x00, // 0x6200:00 Cyclic timer
-    0x00, 0x00, 0x00, 0x00, // 0x6401:01 Work area low limit / Work area low limit channel 1
-    0x00, 0x00, 0x00, 0x00, // 0x6401:02 Work area low limit / Work area low limit channel 2
-    0x00, 0x00, 0x00, 0x10, // 0x6402:01 Work area high limit / Work area high limit channel 1
-    0x00, 0x00, 0x00, 0x10, // 0x6402:02 Work area high limit / Work area high limit channel 2
-    0x00, // 0x1001:00 Error register
-    0x00, // 0x1003:00 Pre-defined error field / Number of errors
-    0x00, 0x00, 0x00, 0x00, // 0x1003:01 Pre-defined error field / Standard error field 1
-    0x00, 0x00, 0x00, 0x00, // 0x1003:02 Pre-defined error field / Standard error field 2
-    0x00, 0x00, 0x00, 0x00, // 0x1003:03 Pre-defined error field / Standard error field 3
-    0x00, 0x00, 0x00, 0x00, // 0x1003:04 Pre-defined error field / Standard error field 4
-    0x00, 0x00, 0x00, 0x00, // 0x1003:05 Pre-defined error field / Standard error field 5
-    0x00, 0x00, 0x00, 0x00, // 0x1003:06 Pre-defined error field / Standard error field 6
-    0x00, 0x00, 0x00, 0x00, // 0x1003:07 Pre-defined error field / Standard error field 7
-    0x00, 0x00, 0x00, 0x00, // 0x1003:08 Pre-defined error field / Standard error field 8
-    0x04, // 0x1010:00 Store parameters / Store parameters highest sub-index
-    0x01, 0x00, 0x00, 0x00, // 0x1010:01 Store parameters / Save all parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:02 Store parameters / Save communication parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:03 Store parameters / Save application parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1010:04 Store parameters / Save manufacturer parameters
-    0x04, // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
-    0x01, 0x00, 0x00, 0x00, // 0x1011:01 Restore default parameters / Restore all default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:02 Restore default parameters / Restore communication default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:03 Restore default parameters / Restore application default parameters
-    0x01, 0x00, 0x00, 0x00, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
-    0x80, 0x00, 0x00, 0x00, // 0x1014:00 COB-ID EMCY
-    0x04, // 0x1018:00 Identity object / Identity highest sub-index
-    0x13, 0x00, 0x00, 0x00, // 0x1018:01 Identity object / Vendor-ID
-    0x01, 0x20, 0x68, 0x58, // 0x1018:02 Identity object / Product code
-    0x66, 0x00, 0x00, 0x00, // 0x1018:03 Identity object / Revision number
-    0x00, 0x00, 0x00, 0x00, // 0x1018:04 Identity object / Serial number
-    0x03, // 0x1029:00 Error behavior / Error behavior highest sub-index
-    0x02, // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    0x00, 0x06, 0x00, 0x00, // 0x1200:01 SDO server parameter / COB-ID client to server
-    0x80, 0x05, 0x00, 0x00, // 0x1200:02 SDO server parameter / COB-ID server to client
-    0x05, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
-    0x05, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
-    0x05, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
-    0x01, // 0x1F51:00 Program control / Program control highest sub-index
-    0x01, // 0x1F51:01 Program control / Program 1 control
-    0x00, 0x01, // 0x2103:00 Firmware flash version
-    0x00, 0x00, // 0x2150:00 Actual position sensor temperature
-    0x00, 0x00, // 0x2162:00 Raw position CRC value
-    0x00, 0x00, 0x00, 0x00, // 0x6004:00 Position value
-    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, // 0x600B:00 Position high resolution raw value
-    0x00, 0x00, 0x00, 0x00, // 0x600C:00 Position raw value
-    0x01, // 0x6030:00 Speed value / Speed value number of channels
-    0x00, 0x00, 0x00, 0x00, // 0x6030:01 Speed value / Speed value channel 1
-    0x04, // 0x6031:00 Speed parameters / Speed parameters number of entries
-    0x01, // 0x6040:00 Acceleration value / Acceleration value number of channels
-    0x00, 0x00, 0x00, 0x00, // 0x6040:01 Acceleration value / Acceleration value channel 1
-    0x04, // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries
-    0x02, // 0x6400:00 Work area state / Work area state number of work areas
-    0x00, // 0x6400:01 Work area state / Work area state channel 1
-    0x00, // 0x6400:02 Work area state / Work area state channel 2
-    0x02, // 0x6401:00 Work area low limit / Work area low limit number of work areas
-    0x02, // 0x6402:00 Work area high limit / Work area high limit number of work areas
-    0x00, 0x00, // 0x6500:00 Operating status
-    0x00, 0x40, 0x00, 0x00, // 0x6501:00 Single-turn resolution
-    0x00, 0x00, 0x00, 0x20, // 0x6502:00 Number of distinguishable revolutions
-    0x00, 0x00, // 0x6503:00 Alarms
-    0x01, 0x80, // 0x6504:00 Supported alarms
-    0x00, 0x00, // 0x6505:00 Warnings
-    0x05, 0xC0, // 0x6506:00 Supported warnings
-    0x00, 0x04, 0x06, 0x01, // 0x6507:00 Profile and software version
-    0x00, 0x00, 0x00, 0x00, // 0x6508:00 Operating time
-    0x00, 0x00, 0x00, 0x00, // 0x6509:00 Offset value
-    0x03, // 0x650A:00 Module identification / Module identification highest sub-index
-    0x00, 0x00, 0x00, 0x00, // 0x650A:01 Module identification / Manufacturer offset value
-    0x00, 0x00, 0x00, 0x00, // 0x650A:02 Module identification / Manufacturer minimum position value
-    0xFF, 0xFF, 0xFF, 0x7F, // 0x650A:03 Module identification / Manufacturer maximum position value
-    0x00, 0x00, 0x00, 0x00, // 0x650B:00 Encoder serial number
-    0x0A, // 0x650D:00 Absolute accuracy
-    0x02, 0x00, 0x00, 0x00, // 0x650E:00 Device capability
+static DEFAULT_RUNS: [(u8, u8); 33] = [
+    (0, 1), // 0x1005:00 COB-ID SYNC message
+    (16, 7), // 0x1029:02 Error behavior / Device profile specific error .. 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    (4, 5), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID .. 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    (4, 5), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID .. 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    (4, 5), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects .. 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
+    (28, 5), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects .. 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
+    (28, 5), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects .. 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
+    (28, 7), // 0x2100:00 Baud rate .. 0x2105:00 Save all bus parameters
+    (3, 1), // 0x6001:00 Measuring units per revolution
+    (5, 1), // 0x6002:00 Total measuring range in measuring units
+    (4, 15), // 0x6031:01 Speed parameters / Speed source selector .. 0x6041:04 Acceleration parameters / Acceleration calculation divisor
+    (14, 1), // 0x6402:01 Work area high limit / Work area high limit channel 1
+    (3, 1), // 0x6402:02 Work area high limit / Work area high limit channel 2
+    (34, 2), // 0x1010:00 Store parameters / Store parameters highest sub-index .. 0x1010:01 Store parameters / Save all parameters
+    (3, 1), // 0x1010:02 Store parameters / Save communication parameters
+    (3, 1), // 0x1010:03 Store parameters / Save application parameters
+    (3, 1), // 0x1010:04 Store parameters / Save manufacturer parameters
+    (3, 2), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index .. 0x1011:01 Restore default parameters / Restore all default parameters
+    (3, 1), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    (3, 1), // 0x1011:03 Restore default parameters / Restore application default parameters
+    (3, 1), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
+    (3, 1), // 0x1014:00 COB-ID EMCY
+    (3, 2), // 0x1018:00 Identity object / Identity highest sub-index .. 0x1018:01 Identity object / Vendor-ID
+    (3, 5), // 0x1018:02 Identity object / Product code .. 0x1018:03 Identity object / Revision number
+    (7, 17), // 0x1029:00 Error behavior / Error behavior highest sub-index .. 0x2103:00 Firmware flash version
+    (20, 1), // 0x6030:00 Speed value / Speed value number of channels
+    (4, 2), // 0x6031:00 Speed parameters / Speed parameters number of entries .. 0x6040:00 Acceleration value / Acceleration value number of channels
+    (4, 6), // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries .. 0x6402:00 Work area high limit / Work area high limit number of work areas
+    (3, 1), // 0x6501:00 Single-turn resolution
+    (5, 13), // 0x6502:00 Number of distinguishable revolutions .. 0x6507:00 Profile and software version
+    (8, 1), // 0x650A:00 Module identification / Module identification highest sub-index
+    (8, 4), // 0x650A:03 Module identification / Manufacturer maximum position value
+    (4, 2), // 0x650D:00 Absolute accuracy .. 0x650E:00 Device capability
+];
+
+#[rustfmt::skip]
+static DEFAULTS: [u8; 124] = [
+    0x80, // run at 0
+    0x01, 0x01, 0x80, 0x01, 0x00, 0x40, 0xFF, // run at 17
+    0x80, 0x02, 0x00, 0x40, 0x01, // run at 28
+    0x80, 0x03, 0x00, 0x40, 0xFF, // run at 37
+    0x01, 0x20, 0x00, 0x04, 0x60, // run at 46
+    0x01, 0x20, 0x00, 0x04, 0x60, // run at 79
+    0x01, 0x20, 0x01, 0x30, 0x60, // run at 112
+    0xFF, 0xFF, 0x01, 0x73, 0x61, 0x76, 0x65, // run at 145
+    0x40, // run at 155
+    0x10, // run at 161
+    0x02, 0x00, 0x64, 0x00, 0x01, 0x00, 0x01, 0x00, 0x02, 0x00, 0x64, 0x00, 0x01, 0x00, 0x01, // run at 166
+    0x10, // run at 195
+    0x10, // run at 199
+    0x04, 0x01, // run at 234
+    0x01, // run at 239
+    0x01, // run at 243
+    0x01, // run at 247
+    0x04, 0x01, // run at 251
+    0x01, // run at 256
+    0x01, // run at 260
+    0x01, // run at 264
+    0x80, // run at 268
+    0x04, 0x13, // run at 272
+    0x01, 0x20, 0x68, 0x58, 0x66, // run at 277
+    0x03, 0x02, 0x00, 0x06, 0x00, 0x00, 0x80, 0x05, 0x00, 0x00, 0x05, 0x05, 0x05, 0x01, 0x01, 0x00,
+    0x01, // run at 289
+    0x01, // run at 326
+    0x04, 0x01, // run at 331
+    0x04, 0x02, 0x00, 0x00, 0x02, 0x02, // run at 337
+    0x40, // run at 346
+    0x20, 0x00, 0x00, 0x01, 0x80, 0x00, 0x00, 0x05, 0xC0, 0x00, 0x04, 0x06, 0x01, // run at 352
+    0x03, // run at 373
+    0xFF, 0xFF, 0xFF, 0x7F, // run at 382
+    0x0A, 0x02, // run at 390
 ];
 
 #[rustfmt::skip]
@@ -632,7 +566,7 @@ pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
     rom: &ROM,
-    defaults: &DEFAULTS,
+    defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 145,
     stored_len: STORED_SIZE,
     comm_rest: 104,

@@ -78,7 +78,7 @@ fn le_u32(v: &[u8]) -> u32 {
 
 impl Run {
     fn start(addr: &str, qemu: bool) -> Result<Run, String> {
-        let mut image = vec![0u8; DICT.defaults.len()];
+        let mut image = vec![0u8; DICT.defaults.len];
         DICT.reset_application(&mut image, NODE);
         DICT.reset_communication(&mut image, NODE);
         let mut decoder = Decoder::new(Some(ObjectNames::new(DICT, &sendix::od::NAMES)));

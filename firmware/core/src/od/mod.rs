@@ -16,6 +16,7 @@
 //! dictionary speaks the abort table, so no layer above translates errors.
 
 pub(crate) mod access;
+mod defaults;
 mod entry;
 pub mod index;
 mod lookup;
@@ -28,6 +29,7 @@ pub(crate) use lookup::{object, precheck, sub_entry, u32_exact, value_u32};
 
 use crate::abort::AbortCode;
 
+pub use defaults::Defaults;
 pub use entry::{Attr, Entry, EntryRef, Limits, NO_LIMITS};
 pub use types::{DataType, Kind};
 pub use value::Number;
@@ -61,7 +63,7 @@ pub struct Dictionary {
     /// Values of `const` entries.
     pub rom: &'static [u8],
     /// The RAM image as the EDS defaults give it, with `$NODEID` not yet added.
-    pub defaults: &'static [u8],
+    pub defaults: Defaults,
     /// Length of the RAM prefix that holds the stored values of the
     /// communication area 0x1000–0x1FFF.
     pub comm_len: usize,
@@ -301,12 +303,14 @@ impl Dictionary {
     /// CiA 301 "reset application"; the node follows it with reset communication.
     pub fn reset_application(&self, image: &mut [u8], node_id: u8) {
         self.restore(image, self.comm_len..self.stored_len, node_id);
-        self.restore(image, self.stored_len.saturating_add(self.comm_rest)..self.defaults.len(), node_id);
+        self.restore(image, self.stored_len.saturating_add(self.comm_rest)..self.defaults.len, node_id);
     }
 
     fn restore(&self, image: &mut [u8], range: core::ops::Range<usize>, node_id: u8) {
-        if let (Some(dst), Some(src)) = (image.get_mut(range.clone()), self.defaults.get(range.clone())) {
-            dst.copy_from_slice(src);
+        if range.end <= self.defaults.len
+            && let Some(dst) = image.get_mut(range.clone())
+        {
+            self.defaults.read(range.start, dst);
         }
         for &pos in self.node_id_relative {
             let Some(entry) = self.entries.get(usize::from(pos)) else { continue };

@@ -29,7 +29,7 @@ static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
     rom: &ROM,
-    defaults: &DEFAULTS,
+    defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 7,
     stored_len: 14,
     comm_rest: 0,

@@ -225,22 +225,22 @@ pub fn reset_part(
     let communication = part == Part::Communication;
     let rest = dict.stored_len.saturating_add(dict.comm_rest);
     let [stored, others] =
-        if communication { [0..dict.comm_len, dict.stored_len..rest] } else { [dict.comm_len..dict.stored_len, rest..dict.defaults.len()] };
+        if communication { [0..dict.comm_len, dict.stored_len..rest] } else { [dict.comm_len..dict.stored_len, rest..dict.defaults.len] };
     let start = stored.start.saturating_add(HEADER);
     let set = set.filter(|set| image.get_mut(stored.clone()).is_some_and(|dst| storage.read(set.region, start, dst).is_ok()));
     // The defaults where the set was not read.
     for (read, range) in [(set.is_some(), stored), (false, others)] {
-        if let (false, Some(dst), Some(src)) = (read, image.get_mut(range.clone()), dict.defaults.get(range)) {
-            dst.copy_from_slice(src);
+        if let (false, Some(dst)) = (read, image.get_mut(range.clone()).filter(|_| range.end <= dict.defaults.len)) {
+            dict.defaults.read(range.start, dst);
         }
     }
     let mut used = false;
     for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && !e.in_rom()) {
         let r = e.range();
-        if let (Some(value), Some(default)) = (image.get_mut(r.clone()), dict.defaults.get(r)) {
+        if let Some(value) = image.get_mut(r.clone()).filter(|_| r.end <= dict.defaults.len) {
             let held = set.map(|set| e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0);
             if held == Some(false) && in_set(dict, e) {
-                value.copy_from_slice(default);
+                dict.defaults.read(r.start, value);
             }
             if e.attr.contains(Attr::NODE_ID) {
                 crate::od::add_le(value, u64::from(node_id));

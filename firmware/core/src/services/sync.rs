@@ -271,7 +271,7 @@ mod tests {
         entries: &ENTRIES,
         limits: &[],
         rom: &[],
-        defaults: &DEFAULTS,
+        defaults: crate::od::Defaults::dense(&DEFAULTS),
         comm_len: 13,
         stored_len: 13,
         comm_rest: 0,
@@ -286,7 +286,7 @@ mod tests {
             group_messaging: false,
         },
     };
-    static EMPTY: Dictionary = Dictionary { entries: &[], defaults: &[], comm_len: 0, stored_len: 0, ..DICT };
+    static EMPTY: Dictionary = Dictionary { entries: &[], defaults: crate::od::Defaults::dense(&[]), comm_len: 0, stored_len: 0, ..DICT };
 
     fn ms(t: u64) -> Instant {
         Instant::from_micros(t * 1000)

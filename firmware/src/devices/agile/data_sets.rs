@@ -107,7 +107,12 @@ fn store_one(ctx: &mut Ctx<'_>, index: u16, set: u8, len: usize) -> Result<(), A
         if other != set {
             let value = match ctx.stored(index, other, &mut stored) {
                 Some(n) => stored.get(..n).unwrap_or(&[]),
-                None => dict.value(dict.defaults, dict.find(index, other)?),
+                None => {
+                    let e = dict.find(index, other)?;
+                    let value = stored.get_mut(..e.range().len()).unwrap_or(&mut []);
+                    dict.defaults.read(e.range().start, value);
+                    value
+                }
             };
             ctx.set_value(index, other, value)?;
         }

@@ -146,7 +146,7 @@ static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
     rom: &ROM,
-    defaults: &DEFAULTS,
+    defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 142,
     stored_len: RAM,
     comm_rest: 0,

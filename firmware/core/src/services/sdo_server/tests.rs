@@ -81,7 +81,7 @@ static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
     rom: &ROM,
-    defaults: &DEFAULTS,
+    defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 3,
     stored_len: IMAGE_LEN,
     comm_rest: 0,

@@ -22,6 +22,17 @@ use crate::storage::{Storage, StorageError};
 /// (`cargo xtask icount`, the interop dictionary).
 pub const STAGE: usize = super::PIECE;
 /// Where a [`Job`] is.
+/// Where a byte of a new set comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Source {
+    /// The image, as the node holds it now.
+    Image,
+    /// The dictionary's defaults.
+    Defaults,
+    /// The newest set's, already in place.
+    Old,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
     /// Nothing to do (zero bits: a node's job before any store).
@@ -235,24 +246,32 @@ impl Job {
         if let Some(old) = self.old {
             storage.read(old.region, at.saturating_add(HEADER), piece)?;
         }
-        // The source changes only at a scope's or a range's bounds: looked up there.
-        let (mut from, mut next): (&[u8], usize) = (&[], at);
-        for (off, byte) in (at..).zip(piece.iter_mut()) {
-            if off == next {
-                let bounds = [
-                    dict.comm_len,
-                    self.app.into(),
-                    self.from_image.0.into(),
-                    self.from_image.1.into(),
-                    self.keep.0.into(),
-                    self.keep.1.into(),
-                ];
-                next = bounds.into_iter().filter(|&b| b > off).fold(usize::MAX, usize::min);
-                from = self.source(dict, image, off);
+        // The source changes only at a scope's or a range's bounds: the piece goes span by span.
+        let end = at.saturating_add(piece.len());
+        let mut off = at;
+        while off < end {
+            let bounds = [
+                dict.comm_len,
+                self.app.into(),
+                self.from_image.0.into(),
+                self.from_image.1.into(),
+                self.keep.0.into(),
+                self.keep.1.into(),
+            ];
+            let next = bounds.into_iter().filter(|&b| b > off).fold(end, usize::min);
+            if let Some(dst) = piece.get_mut(off.wrapping_sub(at)..next.wrapping_sub(at)) {
+                match self.source(dict, off) {
+                    Source::Image => {
+                        // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
+                        if let Some(src) = image.get(off..next).filter(|src| src.len() == dst.len()) {
+                            dst.copy_from_slice(src);
+                        }
+                    }
+                    Source::Defaults => dict.defaults.read(off, dst),
+                    Source::Old => {}
+                }
             }
-            if let Some(&b) = from.get(off) {
-                *byte = b;
-            }
+            off = next;
         }
         // `$NODEID` values from the image are stored relative to the node-id.
         // A step's payload is one piece but for a single value longer than
@@ -260,7 +279,7 @@ impl Job {
         for e in dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))) {
             let r = e.range();
             if let Some(value) = piece.get_mut(r.start.wrapping_sub(at)..r.end.wrapping_sub(at))
-                && core::ptr::eq(self.source(dict, image, r.start), image)
+                && self.source(dict, r.start) == Source::Image
             {
                 crate::od::add_le(value, u64::from(node_id).wrapping_neg());
             }
@@ -268,9 +287,8 @@ impl Job {
         Ok(())
     }
 
-    /// Where the payload byte at `off` comes from: the bytes at `off` are those of the returned slice (the image, the
-    /// defaults), or none for the newest set's, already in place.
-    fn source<'a>(&self, dict: &'a Dictionary, image: &'a [u8], off: usize) -> &'a [u8] {
+    /// Where the payload byte at `off` comes from.
+    fn source(&self, dict: &Dictionary, off: usize) -> Source {
         let bit = if off < dict.comm_len {
             Scope::Communication.mask()
         } else if off < usize::from(self.app) {
@@ -280,12 +298,12 @@ impl Job {
         };
         let within = |(start, end): (u16, u16)| (usize::from(start)..usize::from(end)).contains(&off);
         if self.save & bit != 0 && within(self.from_image) && !within(self.keep) {
-            image
+            Source::Image
         } else if self.old.is_some_and(|set| set.defaults & bit == 0) {
-            &[]
+            Source::Old
         } else {
             // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
-            dict.defaults
+            Source::Defaults
         }
     }
 

@@ -18,7 +18,7 @@ static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &[],
     rom: &[],
-    defaults: &DEFAULTS,
+    defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 7,
     stored_len: 12,
     comm_rest: 0,
@@ -433,7 +433,7 @@ const LONG_ENTRIES: [Entry; 2] =
 /// A dictionary with a value longer than the chunks the store copies in.
 static LONG: Dictionary = Dictionary {
     entries: &LONG_ENTRIES,
-    defaults: &[0; 82],
+    defaults: crate::od::Defaults::dense(&[0; 82]),
     comm_len: 2,
     stored_len: 82,
     node_id_relative: &[],
@@ -521,7 +521,7 @@ fn a_set_holds_the_stored_prefix_alone() {
     ];
     static PREFIX: Dictionary = Dictionary {
         entries: &ENTRIES_RO_LAST,
-        defaults: &[0xE8, 0x03, 0],
+        defaults: crate::od::Defaults::dense(&[0xE8, 0x03, 0]),
         comm_len: 2,
         stored_len: 2,
         comm_rest: 1,
@@ -543,7 +543,8 @@ fn a_set_holds_the_stored_prefix_alone() {
     // Reset communication restores both runs of the communication area.
     PREFIX.reset_communication(&mut img, 1);
     assert_eq!(img, [0xE8, 0x03, 0]);
-    static LONGER: Dictionary = Dictionary { defaults: &[0xE8, 0x03, 0], stored_len: 3, comm_len: 3, comm_rest: 0, ..PREFIX };
+    static LONGER: Dictionary =
+        Dictionary { defaults: crate::od::Defaults::dense(&[0xE8, 0x03, 0]), stored_len: 3, comm_len: 3, comm_rest: 0, ..PREFIX };
     assert_eq!(LONGER.layout_id, PREFIX.layout_id);
     assert_eq!(newest(&LONGER, &mut a), None, "a set of another prefix is refused");
 }
