@@ -873,7 +873,7 @@ static LIMITS: [Limits; 25] = [
 static ROM: [u8; ROM_SIZE] = [];
 
 #[rustfmt::skip]
-static DEFAULT_RUNS: [(u8, u8); 44] = [
+static DEFAULT_RUNS: [(u8, u8); 48] = [
     (12, 4), // 0x100E:00 COB-ID guarding protocol .. 0x1014:00 COB-ID EMCY
     (8, 24), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID .. 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
     (28, 9), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects .. 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
@@ -888,12 +888,14 @@ static DEFAULT_RUNS: [(u8, u8); 44] = [
     (24, 9), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects .. 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
     (24, 9), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects .. 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
     (24, 3), // 0x4039:00 P0057 Motor nominal speed .. 0x4041:00 P0065 Motor pole pair number
-    (27, 7), // 0x4259:00 P0601 Positioning mode .. 0x425C:00 P0604 Positioning deceleration 1
+    (26, 8), // 0x4258:00 P0600 Positioning target unsigned .. 0x425C:00 P0604 Positioning deceleration 1
     (9, 3), // 0x4320:00 P0800 BACI cycle time factor .. 0x4332:00 P0818 BACI cycle offset set values
     (21, 1), // 0x4407:00 P1031 Maximum speed
     (14, 1), // 0x441D:00 P1053 Speed feed forward factor raw
     (22, 1), // 0x44AB:00 P1195 Positioning window time
-    (21, 5), // 0x44B1:00 P1201 Homing speed .. 0x44B3:00 P1203 Homing acceleration raw
+    (4, 1), // 0x44AC:00 P1196 Software limit switch 1
+    (3, 1), // 0x44AD:00 P1197 Software limit switch 2
+    (11, 6), // 0x44B0:00 P1200 Positioning home position .. 0x44B3:00 P1203 Homing acceleration raw
     (9, 1), // 0x44BD:00 P1213 Positioning stop deceleration
     (3, 3), // 0x4BEA:00 P3050 Position scaling user unit .. 0x4BEB:00 P3051 Position scaling revolutions
     (25, 1), // 0x604C:01 vl dimension factor / vl dimension factor numerator
@@ -913,7 +915,9 @@ static DEFAULT_RUNS: [(u8, u8); 44] = [
     (3, 2), // 0x1018:00 Identity object / Identity object highest sub-index .. 0x1018:01 Identity object / Vendor-ID
     (3, 7), // 0x1018:02 Identity object / Product code .. 0x1018:03 Identity object / Revision number
     (5, 17), // 0x1200:00 SDO server parameter / SDO server highest sub-index .. 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
-    (118, 1), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    (71, 1), // 0x41CE:00 P0462 Positioning actual value
+    (3, 1), // 0x41CF:00 P0463 Positioning set value
+    (42, 1), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
     (4, 3), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index .. 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
     (29, 10), // 0x607D:00 Software position limit / Software position limit highest sub-index .. 0x60C4:01 Interpolation data configuration / Maximum buffer size
     (3, 1), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
@@ -921,7 +925,7 @@ static DEFAULT_RUNS: [(u8, u8); 44] = [
 ];
 
 #[rustfmt::skip]
-static DEFAULTS: [u8; 223] = [
+static DEFAULTS: [u8; 229] = [
     0x07, 0x00, 0x00, 0x80, // run at 12
     0x02, 0x00, 0x00, 0xFF, 0x00, 0x03, 0x00, 0x00, 0xFF, 0x00, 0x04, 0x00, 0x00, 0xFF, 0x00, 0x05,
     0x00, 0x00, 0xFF, 0x01, 0x10, 0x00, 0x40, 0x60, // run at 24
@@ -937,12 +941,14 @@ static DEFAULTS: [u8; 223] = [
     0x02, 0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x64, 0x60, // run at 277
     0x02, 0x10, 0x00, 0x41, 0x60, 0x20, 0x00, 0x6C, 0x60, // run at 310
     0x01, 0x00, 0x01, // run at 343
-    0x09, 0x00, 0x01, 0x00, 0x19, 0x00, 0x19, // run at 373
+    0x80, 0x09, 0x00, 0x01, 0x00, 0x19, 0x00, 0x19, // run at 372
     0x08, 0x00, 0x07, // run at 389
     0x14, // run at 413
     0x40, // run at 428
     0x01, // run at 451
-    0x01, 0x00, 0x01, 0x00, 0x19, // run at 473
+    0x80, // run at 456
+    0x80, // run at 460
+    0x80, 0x01, 0x00, 0x01, 0x00, 0x19, // run at 472
     0x19, // run at 487
     0x01, 0x00, 0x01, // run at 491
     0x01, // run at 519
@@ -964,6 +970,8 @@ static DEFAULTS: [u8; 223] = [
     0xEA, 0x58, 0x05, 0x00, 0x02, 0x00, 0x03, // run at 827
     0x02, 0x00, 0x06, 0x00, 0x00, 0x80, 0x05, 0x00, 0x00, 0x02, 0x02, 0x02, 0x02, 0x05, 0x05, 0x05,
     0x05, // run at 839
+    0x80, // run at 927
+    0x80, // run at 931
     0x02, // run at 974
     0x02, 0x02, 0x02, // run at 979
     0x02, 0x02, 0x02, 0x00, 0x00, 0x01, 0x02, 0x02, 0x06, 0x01, // run at 1011
