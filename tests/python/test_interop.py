@@ -33,6 +33,9 @@ class Vnode:
         port = int(re.search(r":(\d+)\s*$", line).group(1))
         self.port = port
         self.network = canopen.Network()
+        # The notifier's receive timeout bounds disconnect(): python-canopen's 1 s default
+        # added a second to every test's teardown.
+        self.network.NOTIFIER_CYCLE = 0.05
         self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=500000, sleep_after_open=0)
         self.node = self.network.add_node(node_id, eds)
         self.node.sdo.RESPONSE_TIMEOUT = 2.0

@@ -34,6 +34,7 @@ class VnodeEdsTest(unittest.TestCase):
         line = self.proc.stdout.readline()
         port = int(re.search(r":(\d+)\s*$", line).group(1))
         self.network = canopen.Network()
+        self.network.NOTIFIER_CYCLE = 0.05  # a fast disconnect (test_interop.Vnode)
         self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=500000, sleep_after_open=0)
         self.addCleanup(self.network.disconnect)
         self.node = self.network.add_node(NODE_ID, canopen.ObjectDictionary())
