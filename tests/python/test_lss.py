@@ -89,6 +89,26 @@ class LssTest(unittest.TestCase):
         finally:
             v.close()
 
+    def test_at_the_factory_node_id_127_the_new_node_id_is_active_on_leaving_configuration(self):
+        # docs/devices/ec5000.md: "temporär aktiv" (manual L219/L234), no NMT reset needed; not stored.
+        v = Vnode(self.storage, node_id=127)
+        try:
+            lss = v.network.lss
+            lss.send_switch_state_global(lss.CONFIGURATION_STATE)
+            lss.configure_node_id(12)
+            node = v.network.add_node(12, EC5000_EDS)
+            node.sdo.RESPONSE_TIMEOUT = 1.0
+            lss.send_switch_state_global(lss.WAITING_STATE)
+            self.assertEqual(node.sdo[0x4650][2].raw, 12, "NodeID Actual")
+        finally:
+            v.close()
+        v = Vnode(self.storage, node_id=127)
+        try:
+            node = v.network.add_node(127, EC5000_EDS)
+            self.assertEqual(node.sdo[0x4650][2].raw, 127, "not stored: back to 127 after a restart")
+        finally:
+            v.close()
+
     def test_configuration_errors(self):
         v = Vnode(self.storage, node_id=5)
         try:

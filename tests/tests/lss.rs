@@ -18,6 +18,8 @@ use hal_host::storage::MemStorage;
 
 type Sendix = Bench<sendix::od::Ram, NoApplication, MemStorage, 0, 3, 0>;
 type Ec5000 = Bench<ec5000::od::Ram, NoApplication, MemStorage, 4, 4, 1>;
+/// With the drive's own rules (its LSS at node-ID 127).
+type Ec5000App = Bench<ec5000::od::Ram, ec5000::App, MemStorage, 4, 4, 1>;
 
 fn sendix_bench(storage: MemStorage) -> Sendix {
     Bench::new(sendix::od::Ram::new(0x3F), NoApplication, storage, 0x3F)
@@ -118,15 +120,28 @@ fn an_unconfigured_node_speaks_only_lss_until_it_gets_a_node_id() {
 
 #[test]
 fn without_a_stored_configuration_the_ec5000_starts_as_node_127() {
-    let mut b: Ec5000 = Bench::new(ec5000::od::Ram::new(127), NoApplication, MemStorage::new(2048), 127);
+    let mut b: Ec5000App = Bench::new(ec5000::od::Ram::new(127), ec5000::App::NEW, MemStorage::new(2048), 127);
     assert_eq!(b.at(ms(0)), [(0x77F, vec![0x00])]);
     b.rx(ms(1), LSS, &[0x04, 0x01, 0, 0, 0, 0, 0, 0]);
     b.rx(ms(2), LSS, &[0x11, 0x05, 0, 0, 0, 0, 0, 0]);
-    b.rx(ms(3), LSS, &[0x04, 0x00, 0, 0, 0, 0, 0, 0]);
+    // At 127 the new node-ID is "temporär aktiv" on leaving configuration (L219/L234):
+    // boot-up as node 5 and its SDO server, no NMT reset needed.
+    assert_eq!(b.rx(ms(3), LSS, &[0x04, 0x00, 0, 0, 0, 0, 0, 0]), [(0x705, vec![0x00])]);
+    assert_eq!(b.sdo_read(5, 0x4650, 2), [0x4F, 0x50, 0x46, 0x02, 5, 0, 0, 0], "0x4650 sub 2 NodeID Actual");
     // Not stored: a power cycle brings node 127 back.
     let storage = b.node.storage_mut().clone();
-    let mut again: Ec5000 = Bench::new(ec5000::od::Ram::new(127), NoApplication, storage, 127);
+    let mut again: Ec5000App = Bench::new(ec5000::od::Ram::new(127), ec5000::App::NEW, storage, 127);
     assert_eq!(again.at(ms(0)), [(0x77F, vec![0x00])]);
+}
+
+#[test]
+fn from_a_node_id_other_than_127_the_ec5000_takes_the_new_one_at_reset_communication() {
+    let mut b: Ec5000App = Bench::new(ec5000::od::Ram::new(9), ec5000::App::NEW, MemStorage::new(2048), 9);
+    assert_eq!(b.at(ms(0)), [(0x709, vec![0x00])]);
+    b.rx(ms(1), LSS, &[0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+    b.rx(ms(2), LSS, &[0x11, 0x05, 0, 0, 0, 0, 0, 0]);
+    assert_eq!(b.rx(ms(3), LSS, &[0x04, 0x00, 0, 0, 0, 0, 0, 0]), [], "still node 9 (CiA 305 §5.2.2)");
+    assert_eq!(b.rx(ms(4), 0x000, &[0x82, 9]), [(0x705, vec![0x00])]);
 }
 
 // ---- Fastscan on the bus -----------------------------------------------------------

@@ -84,8 +84,14 @@ pub const AXIS: AxisParams = AxisParams {
 
 impl Application for App {
     /// 0x1010 sub 1 stores "all parameters except node-ID" (L744): only a
-    /// write to 0x4650 sub 1 (or LSS) makes a node-ID permanent.
-    const OPTIONS: ServiceOptions = ServiceOptions { not_saved_by_1010: Some((NODE_ID, NODE_ID)), ..ServiceOptions::CIA301 };
+    /// write to 0x4650 sub 1 (or LSS) makes a node-ID permanent. At the
+    /// factory node-ID 127 a node-ID configured by LSS becomes active on
+    /// leaving configuration ("temporär aktiv", L219/L234).
+    const OPTIONS: ServiceOptions = ServiceOptions {
+        not_saved_by_1010: Some((NODE_ID, NODE_ID)),
+        lss_unconfigured_node_id: Some(FACTORY_NODE_ID),
+        ..ServiceOptions::CIA301
+    };
 
     /// The manual's CAN warnings (M §9.2 L1737-1743, D63) in place of CiA 301's
     /// 0x8140, 0x8110 and 0x8120; 0xFFD3 for a broken NMT or heartbeat frame;

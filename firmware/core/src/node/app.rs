@@ -102,6 +102,12 @@ pub struct ServiceOptions {
     /// where CiA 305 waits for an NMT reset (and starts only an unconfigured
     /// node, with reset communication).
     pub lss_start_resets_node: bool,
+    /// A node-id that stands for "not configured" as CiA 305's 0xFF does
+    /// (the EC5000's factory 127, L219): a node-id configured while it is
+    /// active becomes active on leaving configuration, with reset
+    /// communication, as CiA 305 starts an unconfigured node; from any
+    /// other node-id it waits for an NMT reset.
+    pub lss_unconfigured_node_id: Option<u8>,
     /// An object (sub 0) and a mask: when any of its bits is set at
     /// boot-up, the boot-up message is DS 301 V3's, an empty frame on
     /// 0x80 + node-ID and then eight zero bytes on it ("reset of the error
@@ -123,6 +129,7 @@ impl ServiceOptions {
         not_saved_by_1010: None,
         start_operational: None,
         lss_start_resets_node: false,
+        lss_unconfigured_node_id: None,
         boot_up_v3: None,
         communication_error_pre_operational: None,
     };

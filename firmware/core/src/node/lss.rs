@@ -102,9 +102,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             && request == LssRequest::SwitchGlobal(false)
             && lss.mode() == Mode::Configuration
             && lss.pending_node_id() != lss.active_node_id();
+        // A device whose own "unconfigured" node-id is active (the EC5000's 127) starts the new one so.
+        let leave_starts = A::OPTIONS.lss_unconfigured_node_id.is_some_and(|id| id == lss.active_node_id())
+            && request == LssRequest::SwitchGlobal(false)
+            && lss.mode() == Mode::Configuration
+            && lss.pending_node_id() != lss.active_node_id();
         let action = lss.on_request(request);
         if leave_resets && action == LssAction::None {
             self.reset_application();
+            return;
+        }
+        if leave_starts && action == LssAction::None {
+            self.reset_communication();
             return;
         }
         match action {
