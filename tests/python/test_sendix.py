@@ -93,10 +93,12 @@ class SendixTest(unittest.TestCase):
         got = frames.wait(3)
         self.assertEqual(len(got), 3, "one TPDO2 per SYNC (TT 1)")
         positions = [u32(data) for _, data in got]
-        steps = [(b - a) % RANGE for a, b in zip(positions, positions[1:])]
-        for s in steps:
-            # 0.1 s apart: about 819 steps.
-            self.assertTrue(400 < s < 2000, (positions, steps))
+        for (ta, a), (tb, b) in zip(got, got[1:]):
+            # The shaft turns 0x2000 steps/s: the step between two SYNC TPDOs follows the time between them
+            # (about 819 steps for the 0.1 s sleep; a loaded machine sleeps longer). The arrival times carry
+            # the SLCAN and scheduling latency of both frames, hence the margin.
+            steps, expected = (u32(b) - u32(a)) % RANGE, STEPS_PER_S * (tb - ta)
+            self.assertTrue(0.5 * expected - 200 < steps < 1.5 * expected + 200, (positions, steps, tb - ta))
         # python-canopen decodes it as 0x6004 from the mapping it read.
         self.assertEqual(node.tpdo[2]["Position value"].raw, positions[-1])
 
