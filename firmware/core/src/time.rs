@@ -92,15 +92,18 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     }
 }
 
-/// A deadline as the hot paths keep it: microseconds since the start,
-/// [`NEVER`] for none. On a 32-bit core an `Option<Instant>` is 16 bytes
-/// returned through memory and compared in two steps; this is one register
-/// pair and one compare. A deadline is never [`NEVER`]: adding to an
-/// [`Instant`] saturates a microsecond before it.
-pub(crate) type At = u64;
+/// A deadline as the core keeps and folds it: microseconds since the
+/// start, [`NEVER`] for none, so that the earlier of two is a plain `min`.
+/// On a 32-bit core an `Option<Instant>` is 16 bytes returned through
+/// memory and compared in two steps; this is one register pair and one
+/// compare. A deadline is never [`NEVER`]: adding to an [`Instant`]
+/// saturates a microsecond before it. The services answer their deadlines
+/// as `At`; [`crate::node::Node::process`] hands the drivers an
+/// `Option<Instant>`.
+pub type At = u64;
 
 /// No deadline.
-pub(crate) const NEVER: At = u64::MAX;
+pub const NEVER: At = u64::MAX;
 
 /// `deadline` as an [`At`].
 pub(crate) fn at(deadline: Option<Instant>) -> At {

@@ -83,7 +83,7 @@ use crate::abort::AbortCode;
 use crate::od::object;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
-use crate::time::{At, Instant, NEVER, at, deadline_of, earliest};
+use crate::time::{At, Instant, NEVER, at, deadline_of};
 use crate::wire::emcy::EmcyCode;
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
@@ -170,10 +170,11 @@ pub struct Pdos<const R: usize, const T: usize> {
     window_end: Option<Instant>,
     operational: bool,
     /// What [`Pdos::poll`] last returned, while `settled`: no PDO changed
-    /// since, so [`Pdos::deadline`] answers without walking them (after
-    /// every frame that is not for the PDOs). Every other `&mut self`
-    /// method that may change a PDO clears `settled`.
-    settled_deadline: Option<Instant>,
+    /// since, so [`Pdos::due`] answers without walking them (after every
+    /// frame that is not for the PDOs). Every other `&mut self` method
+    /// that may change a PDO clears `settled`. Read only while `settled`
+    /// (0 before the first poll: all zero bits).
+    settled_deadline: At,
     settled: bool,
     /// Bit t of entry n: RPDO n writes an object event-driven TPDO t maps,
     /// worked out whenever a mapping or a type changes, so that an RPDO
@@ -213,7 +214,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             tpdos: [Tpdo::default(); T],
             window_end: None,
             operational: false,
-            settled_deadline: None,
+            settled_deadline: 0,
             settled: false,
             rpdo_reach: [ALL_TPDOS; R],
             rpdo_timers: 0,
@@ -238,7 +239,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             tpdos: [Tpdo::UNCONFIGURED; T],
             window_end: None,
             operational: false,
-            settled_deadline: None,
+            settled_deadline: 0,
             settled: false,
             rpdo_reach: [0; R],
             rpdo_timers: 0,
@@ -482,7 +483,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             self.rpdo_timers |= bit_of(n);
             // Only this RPDO's timeout moved, and only later (or it started):
             // the settled deadline stays good, or early, which is harmless.
-            self.settled_deadline = earliest(self.settled_deadline, Some(timeout));
+            self.settled_deadline = self.settled_deadline.min(timeout.as_micros());
         }
         Some(if written { self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS) } else { 0 })
     }
@@ -540,17 +541,18 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
     pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
-        self.poll_marked(now, changed, image, tx)
+        deadline_of(self.poll_marked(now, changed, image, tx))
     }
 
     /// [`Pdos::poll_changed`]: `marked` holds the TPDOs that may see
     /// changed data; a TPDO waiting to retry a refused frame is polled
     /// whether marked or not (a field it holds: no walk for them first).
+    /// The deadline as an [`At`].
     // Out of line: the main loop's `process` would take its two paths in.
     #[inline(never)]
-    pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+    pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> At {
         if !self.operational {
-            return None;
+            return NEVER;
         }
         // The earliest deadline, folded as the PDOs are visited: a TPDO
         // polled is asked again, one that was not keeps the deadline it
@@ -595,9 +597,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 }
             }
         }
-        self.settled_deadline = deadline_of(first);
+        self.settled_deadline = first;
         self.settled = true;
-        self.settled_deadline
+        first
     }
 
     /// Whether an RPDO's event timer may run: only then does a received RPDO
@@ -606,23 +608,28 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.rpdo_timers != 0
     }
 
-    /// [`Pdos::deadline`] when it is known without walking the PDOs.
-    pub fn settled(&self) -> Option<Option<Instant>> {
-        (self.settled || !self.operational).then_some(self.settled_deadline.filter(|_| self.operational))
+    /// [`Pdos::due`] when it is known without walking the PDOs.
+    pub fn settled(&self) -> Option<At> {
+        (self.settled || !self.operational).then_some(if self.operational { self.settled_deadline } else { NEVER })
     }
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
     /// means at once). `None` while not Operational.
     pub fn deadline(&self) -> Option<Instant> {
+        deadline_of(self.due())
+    }
+
+    /// [`Pdos::deadline`] as an [`At`].
+    pub fn due(&self) -> At {
         if !self.operational {
-            return None;
+            return NEVER;
         }
-        if self.settled { self.settled_deadline } else { deadline_of(self.walk()) }
+        if self.settled { self.settled_deadline } else { self.walk() }
     }
 
     /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
     /// run and the TPDOs that can send have one.
-    // Out of line: `deadline` alone calls it (`poll_marked` folds as it polls).
+    // Out of line: `due` alone calls it (`poll_marked` folds as it polls).
     #[inline(never)]
     fn walk(&self) -> At {
         let mut first = NEVER;
