@@ -34,8 +34,8 @@ pub struct SyncEvent {
     pub at: Instant,
     /// The SYNC counter, when 0x1019 > 0.
     pub counter: Option<u8>,
-    /// When the synchronous window closes (`None`: 0x1007 = 0, no window).
-    pub window_end: Option<Instant>,
+    /// When the synchronous window closes ([`NEVER`]: 0x1007 = 0, no window).
+    pub window_end: At,
 }
 
 impl SyncEvent {
@@ -46,7 +46,7 @@ impl SyncEvent {
 
     /// Whether synchronous PDOs may still be sent or accepted at `now`.
     pub fn window_open(&self, now: Instant) -> bool {
-        self.window_end.is_none_or(|end| now <= end)
+        now.as_micros() <= self.window_end
     }
 }
 
@@ -136,7 +136,8 @@ impl SyncService {
     }
 
     fn event(&self, at: Instant, counter: Option<u8>) -> SyncEvent {
-        SyncEvent { at, counter, window_end: (self.window != Duration::ZERO).then(|| at + self.window) }
+        let window_end = if self.window != Duration::ZERO { (at + self.window).as_micros() } else { NEVER };
+        SyncEvent { at, counter, window_end }
     }
 
     /// A frame on the SYNC COB-ID.
@@ -311,7 +312,7 @@ mod tests {
         let (mut sync, _) = setup();
         assert_eq!((sync.cob_id(), sync.is_producing(), deadline_of(sync.deadline())), (0x80, false, None));
         let e = sync.on_frame(ms(5), &[]).unwrap();
-        assert_eq!(e, SyncEvent { at: ms(5), counter: None, window_end: None });
+        assert_eq!(e, SyncEvent { at: ms(5), counter: None, window_end: NEVER });
         assert_eq!(sync.on_frame(ms(6), &[7]).map(|e| e.counter), Ok(None), "0x1019 = 0: data ignored");
         assert_eq!(sync.poll(ms(100)), None, "a consumer produces nothing");
     }
@@ -333,7 +334,7 @@ mod tests {
         let (mut sync, mut image) = setup();
         assert_eq!(sdo(&mut sync, &mut image, 0x1007, &2_500u32.to_le_bytes()), Ok(()));
         let e = sync.on_frame(ms(10), &[]).unwrap();
-        assert_eq!(e.window_end, Some(Instant::from_micros(12_500)));
+        assert_eq!(e.window_end, 12_500);
         assert!(e.window_open(Instant::from_micros(12_500)));
         assert!(!e.window_open(Instant::from_micros(12_501)));
     }

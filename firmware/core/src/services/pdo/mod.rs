@@ -166,8 +166,10 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// RPDOs so that matching a received frame is one compare per RPDO.
     rx_ids: [u16; R],
     tpdos: [Tpdo; T],
-    /// End of the synchronous window opened by the last SYNC.
-    window_end: Option<Instant>,
+    /// End of the synchronous window opened by the last SYNC; [`NEVER`]:
+    /// no window. Read only while Operational ([`Pdos::enter_operational`]
+    /// sets it; 0 before is all zero bits).
+    window_end: At,
     operational: bool,
     /// What [`Pdos::poll`] last returned, while `settled`: no PDO changed
     /// since, so [`Pdos::due`] answers without walking them (after every
@@ -212,7 +214,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             rpdos: [Rpdo::default(); R],
             rx_ids: [NO_ID; R],
             tpdos: [Tpdo::default(); T],
-            window_end: None,
+            window_end: NEVER,
             operational: false,
             settled_deadline: 0,
             settled: false,
@@ -237,7 +239,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdos: [Rpdo::UNCONFIGURED; R],
             rx_ids: [0; R],
             tpdos: [Tpdo::UNCONFIGURED; T],
-            window_end: None,
+            window_end: 0,
             operational: false,
             settled_deadline: 0,
             settled: false,
@@ -275,7 +277,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdo.params = CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
             rpdo.cob_id_writable = cob_id_writable(dict, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
         }
-        self.window_end = None;
+        self.window_end = NEVER;
         self.operational = false;
         self.parameters_changed();
         first_error.map_or(Ok(()), Err)
@@ -348,7 +350,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn enter_operational(&mut self, now: Instant) {
         self.settled = false;
         self.operational = true;
-        self.window_end = None;
+        self.window_end = NEVER;
         self.rpdos.iter_mut().for_each(Rpdo::restart);
         self.tpdos.iter_mut().for_each(|t| t.restart(Some(now)));
     }
@@ -475,7 +477,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return None;
         }
-        let window_open = self.window_end.is_none_or(|end| now <= end);
+        let window_open = now.as_micros() <= self.window_end;
         let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
         let rpdo = self.rpdos.get_mut(n)?;
         let written = rpdo.on_frame(n, now, data, window_open, image, out);
@@ -578,7 +580,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                     // A marked TPDO, or one waiting to retry, counts as due now (0).
                     let mut due = if marked & bit_of(t) != 0 || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now_at {
-                        tpdo.poll(now, &self.window_end, image, tx);
+                        tpdo.poll(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);
@@ -590,7 +592,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 if tpdo.cob_id().is_some() {
                     let mut due = if marked & bit != 0 || bit == u32::MAX || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now_at {
-                        tpdo.poll(now, &self.window_end, image, tx);
+                        tpdo.poll(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);
