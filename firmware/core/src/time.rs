@@ -82,9 +82,10 @@ impl Add<Duration> for Instant {
     }
 }
 
-/// The earlier of two deadlines, where `None` is no deadline. The services
-/// fold their deadlines with it: `Iterator::min` over `Option<Instant>`
-/// chains took 250 bytes more flash.
+/// The earlier of two deadlines, where `None` is no deadline: for the
+/// devices' [`crate::node::Application::poll`] deadlines (`Iterator::min`
+/// over `Option<Instant>` chains took 250 bytes more flash). The core's
+/// own fold as [`At`]s.
 pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     match b {
         Some(t) if a.is_none_or(|s| t < s) => b,
