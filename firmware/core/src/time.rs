@@ -82,9 +82,10 @@ impl Add<Duration> for Instant {
     }
 }
 
-/// The earlier of two deadlines, where `None` is no deadline. The services
-/// fold their deadlines with it: `Iterator::min` over `Option<Instant>`
-/// chains took 250 bytes more flash.
+/// The earlier of two deadlines, where `None` is no deadline: for the
+/// devices' [`crate::node::Application::poll`] deadlines (`Iterator::min`
+/// over `Option<Instant>` chains took 250 bytes more flash). The core's
+/// own fold as [`At`]s.
 pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     match b {
         Some(t) if a.is_none_or(|s| t < s) => b,
@@ -92,15 +93,18 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
     }
 }
 
-/// A deadline as the hot paths keep it: microseconds since the start,
-/// [`NEVER`] for none. On a 32-bit core an `Option<Instant>` is 16 bytes
-/// returned through memory and compared in two steps; this is one register
-/// pair and one compare. A deadline is never [`NEVER`]: adding to an
-/// [`Instant`] saturates a microsecond before it.
-pub(crate) type At = u64;
+/// A deadline as the core keeps and folds it: microseconds since the
+/// start, [`NEVER`] for none, so that the earlier of two is a plain `min`.
+/// On a 32-bit core an `Option<Instant>` is 16 bytes returned through
+/// memory and compared in two steps; this is one register pair and one
+/// compare. A deadline is never [`NEVER`]: adding to an [`Instant`]
+/// saturates a microsecond before it. The services answer their deadlines
+/// as `At`; [`crate::node::Node::process`] hands the drivers an
+/// `Option<Instant>`.
+pub type At = u64;
 
 /// No deadline.
-pub(crate) const NEVER: At = u64::MAX;
+pub const NEVER: At = u64::MAX;
 
 /// `deadline` as an [`At`].
 pub(crate) fn at(deadline: Option<Instant>) -> At {

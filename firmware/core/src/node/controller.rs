@@ -18,7 +18,7 @@
 
 use crate::od::ObjectDictionary;
 use crate::storage::Storage;
-use crate::time::{Duration, Instant, earliest};
+use crate::time::{At, Duration, Instant, at, earliest};
 use crate::wire::emcy::EmcyCode;
 
 use crate::services::emcy::{EmcyProducer, register};
@@ -166,16 +166,20 @@ impl ControllerErrors {
     /// sends by identifier, and nothing may precede the boot-up). Every
     /// `Node::process` asks, so the common answer takes one compare.
     #[inline(always)]
-    pub(super) fn poll<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
-        if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) { self.poll_due::<A>(now, booted, emcy) } else { self.clears_at }
+    pub(super) fn poll<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> At {
+        if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) {
+            self.poll_due::<A>(now, booted, emcy)
+        } else {
+            at(self.clears_at)
+        }
     }
 
     #[inline(never)]
-    fn poll_due<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> Option<Instant> {
+    fn poll_due<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> At {
         let codes = A::CAN_EMCY;
         if self.raise_passive {
             if !booted {
-                return Some(now);
+                return now.as_micros();
             }
             self.raise_passive = false;
             raise(emcy, codes.error_passive, [0; 5]);
@@ -186,7 +190,7 @@ impl ControllerErrors {
             expire(&mut self.protocol_clears_at, now, emcy, code);
         }
         self.update_clears_at::<A>();
-        self.clears_at
+        at(self.clears_at)
     }
 
     /// Reset communication forgot every active error: a controller still

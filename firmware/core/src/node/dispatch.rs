@@ -10,7 +10,7 @@ use crate::services::nmt::NmtState;
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
-use crate::time::{Instant, earliest};
+use crate::time::Instant;
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode, error_control_cob_id};
 use crate::wire::time_stamp::TimeOfDay;
@@ -135,7 +135,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     // A timer started (or an RTR changed a TPDO), or an error was signalled.
                     // Without an RPDO timer running the PDOs' deadline stayed where it was.
                     match self.comm.pdos.settled() {
-                        Some(deadline) if self.comm.pdos.rpdo_timers() => self.next = earliest(self.next, deadline),
+                        Some(deadline) if self.comm.pdos.rpdo_timers() => self.next = self.next.min(deadline),
                         Some(_) => {}
                         None => self.quiet = false,
                     }

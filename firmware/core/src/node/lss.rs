@@ -5,7 +5,7 @@
 use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
 use crate::services::store::StoredSet;
 use crate::storage::Storage;
-use crate::time::{Duration, Instant};
+use crate::time::{At, Duration, Instant, NEVER};
 use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
 
 use super::{Application, Node};
@@ -141,17 +141,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// Runs the bit-rate switch; returns its next deadline.
-    pub(super) fn process_switch(&mut self, now: Instant) -> Option<Instant> {
+    pub(super) fn process_switch(&mut self, now: Instant) -> At {
         if !O::SERVICES.lss {
-            return None;
+            return NEVER;
         }
         let sw = &mut self.switch;
         match sw.phase {
-            Phase::Off => return None,
-            _ if now < sw.at => return Some(sw.at),
+            Phase::Off => return NEVER,
+            _ if now < sw.at => return sw.at.as_micros(),
             Phase::Switched => {
                 sw.phase = Phase::Off;
-                return None;
+                return NEVER;
             }
             Phase::Silent => {}
         }
@@ -163,7 +163,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if let Some(lss) = self.lss_mut() {
             lss.bit_rate_switched();
         }
-        Some(at)
+        at.as_micros()
     }
 
     /// The LSS slave, once power-on found the dictionary says `LSS_Supported`.

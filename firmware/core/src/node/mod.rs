@@ -75,7 +75,7 @@ use crate::services::nmt::{Nmt, NmtState};
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::sdo_server::SdoServers;
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::{At, Instant};
 use crate::txq::TxQueue;
 use crate::wire::emcy::EmcyCode;
 
@@ -109,14 +109,14 @@ impl PollDue {
     const NOW: PollDue = PollDue { waits: false, at: [0; 8] };
 
     /// After a poll that returned `deadline` (and asked again with [`Ctx::wake`] if `wake`).
-    fn after(deadline: Option<Instant>, wake: bool) -> PollDue {
-        PollDue { waits: !wake, at: deadline.map_or(u64::MAX, Instant::as_micros).to_le_bytes() }
+    fn after(deadline: At, wake: bool) -> PollDue {
+        PollDue { waits: !wake, at: deadline.to_le_bytes() }
     }
 
     /// `Some(deadline to report)` while the poll is not due at `now`.
-    fn skip(self, now: Instant) -> Option<Option<Instant>> {
+    fn skip(self, now: Instant) -> Option<At> {
         let at = u64::from_le_bytes(self.at);
-        (self.waits && now.as_micros() < at).then(|| (at != u64::MAX).then(|| Instant::from_micros(at)))
+        (self.waits && now.as_micros() < at).then_some(at)
     }
 }
 
@@ -198,15 +198,17 @@ pub struct Node<
     /// `core_deadline`.
     stale: bool,
     /// The earliest deadline of every service but the SDO servers and the
-    /// PDOs, as the last full [`Node::process`] found it.
-    core_deadline: Option<Instant>,
+    /// PDOs, as the last full [`Node::process`] found it (0 before the
+    /// first: due, and all zero bits).
+    core_deadline: At,
     /// The last [`Node::process`] left nothing to do before `next` (no SDO
     /// transfer, no EMCY waiting): until then, and unless `stale` or
     /// `touched` say otherwise, the next one only runs the device's timers.
     quiet: bool,
     /// The node's own deadline (without the device's) as the last
-    /// [`Node::process`] returned it, made earlier by what happened since.
-    next: Option<Instant>,
+    /// [`Node::process`] returned it, made earlier by what happened since
+    /// (read only while `quiet`, which the first `process` sets).
+    next: At,
     reported_overflows: u32,
     /// The transmit queue's overflow count when no TPDO was left waiting to
     /// retry a refused frame: a TPDO waits only after the queue refused it,
@@ -281,9 +283,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             start_pending: false,
             touched: 0,
             stale: false,
-            core_deadline: None,
+            core_deadline: 0,
             quiet: false,
-            next: None,
+            next: 0,
             reported_overflows: 0,
             retry_free_at: 0,
             lss: LssSlave::new([0; 4], 0, 0, 0),

@@ -8,7 +8,7 @@ use crate::services::heartbeat::ConsumerEvent;
 use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
-use crate::time::{Instant, earliest};
+use crate::time::{At, Instant, NEVER, at, deadline_of};
 use crate::wire::nmt::{NmtStateCode, error_control_cob_id};
 
 use super::router::Router;
@@ -29,13 +29,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
+        deadline_of(self.process_at(now))
+    }
+
+    /// [`Node::process`]: its deadlines folded as [`At`]s, one compare each.
+    #[inline(always)]
+    fn process_at(&mut self, now: Instant) -> At {
+        let now_at = now.as_micros();
         // A store goes on a stage per call, alone in its call but for the
         // last, whose SDO poll below sends the answer; a reset that came
         // meanwhile waits for it, so it loads what was stored.
         if O::SERVICES.storage && self.store.busy() {
             self.store_step();
             if self.store.busy() || self.resetting() {
-                return Some(now);
+                return now_at;
             }
         }
         // A reset in progress goes on a stage per call; the call of its last
@@ -44,7 +51,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if self.app.canopen() && self.resetting() {
             self.reset_step(now);
             if self.resetting() {
-                return Some(now);
+                return now_at;
             }
         }
         // The device's timers first: what they write goes out in this call's TPDOs.
@@ -53,7 +60,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             _ => {
                 let mut wake = false;
                 let deadline = self.with_app_cold(now, |app, ctx| {
-                    let deadline = app.poll(ctx);
+                    let deadline = at(app.poll(ctx));
                     if A::POLL_WHEN_DUE {
                         wake = core::mem::take(&mut ctx.raw.wake);
                     }
@@ -69,17 +76,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if !self.app.canopen() {
             return app_deadline;
         }
-        if self.quiet && !self.stale && self.touched == 0 && self.next.is_none_or(|d| now < d) {
-            return earliest(self.next, app_deadline);
+        if self.quiet && !self.stale && self.touched == 0 && now_at < self.next {
+            return self.next.min(app_deadline);
         }
         // Before the boot-up is queued below: nothing may precede it in the queue.
         let booted = !self.boot_pending;
-        let full = self.stale || self.core_deadline.is_some_and(|d| d <= now);
+        let full = self.stale || self.core_deadline <= now_at;
         if full {
             self.stale = false;
             self.process_core(now);
         }
-        let mut sdo_deadline = None;
+        let mut sdo_deadline = NEVER;
         // Idle servers have no timer and nothing to send: skip building the router for them.
         // Quiet since the last full call: no server is busy (a busy one has a
         // deadline, and a state that stopped them is stale, so full).
@@ -89,7 +96,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             for (i, ids) in sdo_cob_ids.iter().enumerate() {
                 if let Some((_, tx)) = *ids {
                     let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx, hold: None });
-                    sdo_deadline = earliest(sdo_deadline, deadline);
+                    sdo_deadline = sdo_deadline.min(deadline);
                 }
             }
             let effects = ctx.effects;
@@ -107,15 +114,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 }
             }
         }
-        let mut pdo_deadline = None;
+        let mut pdo_deadline = NEVER;
         if self.nmt.state().pdo_allowed() {
             // Building a TPDO to detect changes costs more than anything
             // else here: only the TPDOs a write may have changed, and those
             // whose timers are due, not for every heartbeat of another node.
             // A TPDO a write may have changed makes the poll due: no deadline to ask for.
             let due = self.touched != 0 || {
-                pdo_deadline = self.comm.pdos.deadline();
-                pdo_deadline.is_some_and(|d| d <= now)
+                pdo_deadline = self.comm.pdos.due();
+                pdo_deadline <= now_at
             };
             if due {
                 // A poll for any TPDO retries every TPDO waiting to (the poll sees which).
@@ -139,16 +146,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let overflow = self.txq.overflows() != self.reported_overflows || (self.txq.is_empty() && self.comm.emcy.tx_overflow_active());
         if full || overflow || self.comm.emcy.has_queued() {
             self.process_emcy(now, booted);
-            self.core_deadline = earliest(self.core_deadline, self.emcy_deadline());
+            self.core_deadline = self.core_deadline.min(self.emcy_deadline());
         }
-        let mut deadline = earliest(earliest(self.core_deadline, sdo_deadline), pdo_deadline);
-        if controller_deadline.is_some() {
-            deadline = earliest(deadline, controller_deadline);
-        }
+        let deadline = self.core_deadline.min(sdo_deadline).min(pdo_deadline).min(controller_deadline);
         self.next = deadline;
         // No SDO deadline: every server is idle (or the state stopped them all).
-        self.quiet = sdo_deadline.is_none() && !self.comm.emcy.has_queued();
-        earliest(deadline, app_deadline)
+        self.quiet = sdo_deadline == NEVER && !self.comm.emcy.has_queued();
+        deadline.min(app_deadline)
     }
 
     /// Whether a [`super::ServiceOptions`] switch (object sub 0, mask) is on.
@@ -200,15 +204,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.communication_error(0, now);
         }
         let deadlines = [
-            (self.boot_pending || self.start_pending).then_some(now),
+            if self.boot_pending || self.start_pending { now.as_micros() } else { NEVER },
             self.comm.heartbeat.deadline(),
             self.comm.consumers.deadline(),
-            if O::SERVICES.guarding { self.comm.guarding.deadline() } else { None },
-            if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { None },
+            if O::SERVICES.guarding { self.comm.guarding.deadline() } else { NEVER },
+            if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { NEVER },
             switch_deadline,
         ];
         // The EMCY deadline joins after this call's EMCY work.
-        self.core_deadline = deadlines.into_iter().fold(None, earliest);
+        self.core_deadline = deadlines.into_iter().fold(NEVER, At::min);
         // What ran here may have changed a service again (a state entered):
         // the SYNC producer and EMCY of this call see it, the next call need not.
         self.stale = false;
@@ -244,7 +248,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// When EMCY next has work (only outside Initialising and Stopped).
-    fn emcy_deadline(&self) -> Option<Instant> {
-        if self.nmt.state().sdo_allowed() { self.comm.emcy.deadline() } else { None }
+    fn emcy_deadline(&self) -> At {
+        if self.nmt.state().sdo_allowed() { self.comm.emcy.deadline() } else { NEVER }
     }
 }

@@ -6,7 +6,7 @@
 //! units). A full queue drops the new message, counts it, and sets the
 //! generic bit of the error register, so the loss is visible.
 
-use crate::time::{Duration, Instant};
+use crate::time::{At, Duration, Instant, NEVER};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -284,12 +284,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// When the next queued message may go out.
-    pub fn deadline(&self) -> Option<Instant> {
-        self.cob_id?;
-        if self.len == 0 {
-            return None;
+    pub fn deadline(&self) -> At {
+        if self.cob_id.is_none() || self.len == 0 {
+            return NEVER;
         }
-        Some(self.last_sent.map_or(Instant::ZERO, |t| t + self.inhibit))
+        self.last_sent.map_or(0, |t| (t + self.inhibit).as_micros())
     }
 
     /// Messages lost to a full queue.
@@ -301,6 +300,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::time::deadline_of;
 
     fn us(n: u64) -> Instant {
         Instant::from_micros(n)
@@ -341,7 +341,7 @@ mod tests {
         e.signal(EmcyCode::PDO_LENGTH, [0; 5]);
         e.signal(EmcyCode::PDO_LENGTH_EXCEEDED, [0; 5]);
         assert!(e.poll(us(100)).is_some());
-        assert_eq!(e.deadline(), Some(us(1100)));
+        assert_eq!(deadline_of(e.deadline()), Some(us(1100)));
         assert_eq!(e.poll(us(1099)), None);
         assert_eq!(e.poll(us(1100)).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
     }

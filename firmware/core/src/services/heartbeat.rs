@@ -4,7 +4,7 @@
 //! Heartbeat and guarding exclude each other: with a producer heartbeat
 //! time other than 0 the node does not answer guarding requests.
 
-use crate::time::{Duration, Instant, earliest};
+use crate::time::{At, Duration, Instant, NEVER, at};
 use crate::wire::nmt::NmtStateCode;
 
 /// The heartbeat producer.
@@ -48,8 +48,8 @@ impl Producer {
     }
 
     /// When the next heartbeat is due.
-    pub fn deadline(&self) -> Option<Instant> {
-        self.next
+    pub fn deadline(&self) -> At {
+        at(self.next)
     }
 }
 
@@ -155,8 +155,8 @@ impl<const N: usize> Consumer<N> {
     }
 
     /// The earliest heartbeat deadline.
-    pub fn deadline(&self) -> Option<Instant> {
-        self.monitors.iter().fold(None, |d, m| earliest(d, m.deadline))
+    pub fn deadline(&self) -> At {
+        self.monitors.iter().fold(NEVER, |d, m| d.min(at(m.deadline)))
     }
 
     /// The last state `node_id` reported.
@@ -229,14 +229,15 @@ impl Guarding {
     }
 
     /// When life guarding expires.
-    pub fn deadline(&self) -> Option<Instant> {
-        self.deadline
+    pub fn deadline(&self) -> At {
+        at(self.deadline)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::time::deadline_of;
 
     fn ms(n: u64) -> Instant {
         Instant::from_micros(n * 1000)
@@ -250,7 +251,7 @@ mod tests {
         assert!(p.poll(ms(100)));
         assert!(!p.poll(ms(150)));
         assert!(p.poll(ms(205)));
-        assert_eq!(p.deadline(), Some(ms(300)));
+        assert_eq!(deadline_of(p.deadline()), Some(ms(300)));
         p.configure(0, ms(300));
         assert!(!p.active() && !p.poll(ms(1000)));
     }
@@ -269,7 +270,7 @@ mod tests {
         assert!(c.on_heartbeat(3, NmtStateCode::Operational, ms(5500)), "back");
         assert!(!c.any_timed_out());
         c.on_heartbeat(3, NmtStateCode::BootUp, ms(6000));
-        assert_eq!(c.deadline(), None);
+        assert_eq!(deadline_of(c.deadline()), None);
         assert_eq!(c.state_of(3), Some(NmtStateCode::BootUp));
         assert!(c.conflicts(1, 0x0003_0010));
         assert!(!c.conflicts(1, 0x0003_0000));

@@ -23,7 +23,7 @@
 use crate::abort::AbortCode;
 use crate::id::CobRule;
 use crate::od::{Dictionary, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
-use crate::time::{Duration, Instant};
+use crate::time::{At, Duration, Instant, NEVER};
 use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
 
@@ -34,8 +34,8 @@ pub struct SyncEvent {
     pub at: Instant,
     /// The SYNC counter, when 0x1019 > 0.
     pub counter: Option<u8>,
-    /// When the synchronous window closes (`None`: 0x1007 = 0, no window).
-    pub window_end: Option<Instant>,
+    /// When the synchronous window closes ([`NEVER`]: 0x1007 = 0, no window).
+    pub window_end: At,
 }
 
 impl SyncEvent {
@@ -46,7 +46,7 @@ impl SyncEvent {
 
     /// Whether synchronous PDOs may still be sent or accepted at `now`.
     pub fn window_open(&self, now: Instant) -> bool {
-        self.window_end.is_none_or(|end| now <= end)
+        now.as_micros() <= self.window_end
     }
 }
 
@@ -136,7 +136,8 @@ impl SyncService {
     }
 
     fn event(&self, at: Instant, counter: Option<u8>) -> SyncEvent {
-        SyncEvent { at, counter, window_end: (self.window != Duration::ZERO).then(|| at + self.window) }
+        let window_end = if self.window != Duration::ZERO { (at + self.window).as_micros() } else { NEVER };
+        SyncEvent { at, counter, window_end }
     }
 
     /// A frame on the SYNC COB-ID.
@@ -182,8 +183,8 @@ impl SyncService {
     }
 
     /// When the next SYNC is due (`Instant::ZERO`: poll at once to start the producer).
-    pub fn deadline(&self) -> Option<Instant> {
-        self.is_producing().then(|| self.next.unwrap_or(Instant::ZERO))
+    pub fn deadline(&self) -> At {
+        if self.is_producing() { self.next.map_or(0, Instant::as_micros) } else { NEVER }
     }
 
     /// An SDO download of (index, sub): `None` unless it is 0x1005, 0x1006,
@@ -258,6 +259,7 @@ impl SyncService {
 mod tests {
     use super::*;
     use crate::od::{Attr, DataType, DeviceInfo, Entry, NO_LIMITS};
+    use crate::time::deadline_of;
 
     const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
     static ENTRIES: [Entry; 4] = [
@@ -308,9 +310,9 @@ mod tests {
     #[test]
     fn consumer_without_counter_accepts_any_data() {
         let (mut sync, _) = setup();
-        assert_eq!((sync.cob_id(), sync.is_producing(), sync.deadline()), (0x80, false, None));
+        assert_eq!((sync.cob_id(), sync.is_producing(), deadline_of(sync.deadline())), (0x80, false, None));
         let e = sync.on_frame(ms(5), &[]).unwrap();
-        assert_eq!(e, SyncEvent { at: ms(5), counter: None, window_end: None });
+        assert_eq!(e, SyncEvent { at: ms(5), counter: None, window_end: NEVER });
         assert_eq!(sync.on_frame(ms(6), &[7]).map(|e| e.counter), Ok(None), "0x1019 = 0: data ignored");
         assert_eq!(sync.poll(ms(100)), None, "a consumer produces nothing");
     }
@@ -332,7 +334,7 @@ mod tests {
         let (mut sync, mut image) = setup();
         assert_eq!(sdo(&mut sync, &mut image, 0x1007, &2_500u32.to_le_bytes()), Ok(()));
         let e = sync.on_frame(ms(10), &[]).unwrap();
-        assert_eq!(e.window_end, Some(Instant::from_micros(12_500)));
+        assert_eq!(e.window_end, 12_500);
         assert!(e.window_open(Instant::from_micros(12_500)));
         assert!(!e.window_open(Instant::from_micros(12_501)));
     }
@@ -346,9 +348,9 @@ mod tests {
         assert_eq!(sdo(&mut sync, &mut image, 0x1006, &10_000u32.to_le_bytes()), Ok(()));
         assert_eq!(sdo(&mut sync, &mut image, 0x1005, &0x4000_0080u32.to_le_bytes()), Ok(()));
         assert!(sync.is_producing());
-        assert_eq!(sync.deadline(), Some(Instant::ZERO), "poll at once to arm");
+        assert_eq!(deadline_of(sync.deadline()), Some(Instant::ZERO), "poll at once to arm");
         assert_eq!(sync.poll(ms(0)), None);
-        assert_eq!(sync.deadline(), Some(ms(10)));
+        assert_eq!(deadline_of(sync.deadline()), Some(ms(10)));
         assert_eq!(sync.poll(ms(9)), None);
         let mut got = [0u8; 5];
         for (i, c) in got.iter_mut().enumerate() {
@@ -360,7 +362,7 @@ mod tests {
         assert_eq!(got, [1, 2, 3, 1, 2]);
         // A late poll sends once and keeps the grid.
         let e = sync.poll(ms(67)).unwrap();
-        assert_eq!((e.counter, sync.deadline()), (Some(3), Some(ms(70))));
+        assert_eq!((e.counter, deadline_of(sync.deadline())), (Some(3), Some(ms(70))));
         let mut buf = [0u8; 1];
         assert_eq!(e.message().emit(&mut buf), &[3]);
     }
@@ -375,7 +377,7 @@ mod tests {
         assert_eq!(e.counter, None);
         // CiA 310 case 6.4: 0x1006 = 0 stops the producer.
         assert_eq!(sdo(&mut sync, &mut image, 0x1006, &[0; 4]), Ok(()));
-        assert_eq!((sync.poll(ms(5)), sync.deadline()), (None, None));
+        assert_eq!((sync.poll(ms(5)), deadline_of(sync.deadline())), (None, None));
     }
 
     #[test]

@@ -83,7 +83,7 @@ use crate::abort::AbortCode;
 use crate::od::object;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
-use crate::time::{At, Instant, NEVER, at, deadline_of, earliest};
+use crate::time::{At, Instant, NEVER, at, deadline_of};
 use crate::wire::emcy::EmcyCode;
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
@@ -166,14 +166,17 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// RPDOs so that matching a received frame is one compare per RPDO.
     rx_ids: [u16; R],
     tpdos: [Tpdo; T],
-    /// End of the synchronous window opened by the last SYNC.
-    window_end: Option<Instant>,
+    /// End of the synchronous window opened by the last SYNC; [`NEVER`]:
+    /// no window. Read only while Operational ([`Pdos::enter_operational`]
+    /// sets it; 0 before is all zero bits).
+    window_end: At,
     operational: bool,
     /// What [`Pdos::poll`] last returned, while `settled`: no PDO changed
-    /// since, so [`Pdos::deadline`] answers without walking them (after
-    /// every frame that is not for the PDOs). Every other `&mut self`
-    /// method that may change a PDO clears `settled`.
-    settled_deadline: Option<Instant>,
+    /// since, so [`Pdos::due`] answers without walking them (after every
+    /// frame that is not for the PDOs). Every other `&mut self` method
+    /// that may change a PDO clears `settled`. Read only while `settled`
+    /// (0 before the first poll: all zero bits).
+    settled_deadline: At,
     settled: bool,
     /// Bit t of entry n: RPDO n writes an object event-driven TPDO t maps,
     /// worked out whenever a mapping or a type changes, so that an RPDO
@@ -211,9 +214,9 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             rpdos: [Rpdo::default(); R],
             rx_ids: [NO_ID; R],
             tpdos: [Tpdo::default(); T],
-            window_end: None,
+            window_end: NEVER,
             operational: false,
-            settled_deadline: None,
+            settled_deadline: 0,
             settled: false,
             rpdo_reach: [ALL_TPDOS; R],
             rpdo_timers: 0,
@@ -236,9 +239,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdos: [Rpdo::UNCONFIGURED; R],
             rx_ids: [0; R],
             tpdos: [Tpdo::UNCONFIGURED; T],
-            window_end: None,
+            window_end: 0,
             operational: false,
-            settled_deadline: None,
+            settled_deadline: 0,
             settled: false,
             rpdo_reach: [0; R],
             rpdo_timers: 0,
@@ -274,7 +277,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdo.params = CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
             rpdo.cob_id_writable = cob_id_writable(dict, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
         }
-        self.window_end = None;
+        self.window_end = NEVER;
         self.operational = false;
         self.parameters_changed();
         first_error.map_or(Ok(()), Err)
@@ -347,7 +350,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn enter_operational(&mut self, now: Instant) {
         self.settled = false;
         self.operational = true;
-        self.window_end = None;
+        self.window_end = NEVER;
         self.rpdos.iter_mut().for_each(Rpdo::restart);
         self.tpdos.iter_mut().for_each(|t| t.restart(Some(now)));
     }
@@ -474,7 +477,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return None;
         }
-        let window_open = self.window_end.is_none_or(|end| now <= end);
+        let window_open = now.as_micros() <= self.window_end;
         let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
         let rpdo = self.rpdos.get_mut(n)?;
         let written = rpdo.on_frame(n, now, data, window_open, image, out);
@@ -482,7 +485,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             self.rpdo_timers |= bit_of(n);
             // Only this RPDO's timeout moved, and only later (or it started):
             // the settled deadline stays good, or early, which is harmless.
-            self.settled_deadline = earliest(self.settled_deadline, Some(timeout));
+            self.settled_deadline = self.settled_deadline.min(timeout.as_micros());
         }
         Some(if written { self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS) } else { 0 })
     }
@@ -540,17 +543,18 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
     pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
-        self.poll_marked(now, changed, image, tx)
+        deadline_of(self.poll_marked(now, changed, image, tx))
     }
 
     /// [`Pdos::poll_changed`]: `marked` holds the TPDOs that may see
     /// changed data; a TPDO waiting to retry a refused frame is polled
     /// whether marked or not (a field it holds: no walk for them first).
+    /// The deadline as an [`At`].
     // Out of line: the main loop's `process` would take its two paths in.
     #[inline(never)]
-    pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+    pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> At {
         if !self.operational {
-            return None;
+            return NEVER;
         }
         // The earliest deadline, folded as the PDOs are visited: a TPDO
         // polled is asked again, one that was not keeps the deadline it
@@ -576,7 +580,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                     // A marked TPDO, or one waiting to retry, counts as due now (0).
                     let mut due = if marked & bit_of(t) != 0 || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now_at {
-                        tpdo.poll(now, &self.window_end, image, tx);
+                        tpdo.poll(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);
@@ -588,16 +592,16 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 if tpdo.cob_id().is_some() {
                     let mut due = if marked & bit != 0 || bit == u32::MAX || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now_at {
-                        tpdo.poll(now, &self.window_end, image, tx);
+                        tpdo.poll(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);
                 }
             }
         }
-        self.settled_deadline = deadline_of(first);
+        self.settled_deadline = first;
         self.settled = true;
-        self.settled_deadline
+        first
     }
 
     /// Whether an RPDO's event timer may run: only then does a received RPDO
@@ -606,23 +610,28 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.rpdo_timers != 0
     }
 
-    /// [`Pdos::deadline`] when it is known without walking the PDOs.
-    pub fn settled(&self) -> Option<Option<Instant>> {
-        (self.settled || !self.operational).then_some(self.settled_deadline.filter(|_| self.operational))
+    /// [`Pdos::due`] when it is known without walking the PDOs.
+    pub fn settled(&self) -> Option<At> {
+        (self.settled || !self.operational).then_some(if self.operational { self.settled_deadline } else { NEVER })
     }
 
     /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
     /// means at once). `None` while not Operational.
     pub fn deadline(&self) -> Option<Instant> {
+        deadline_of(self.due())
+    }
+
+    /// [`Pdos::deadline`] as an [`At`].
+    pub fn due(&self) -> At {
         if !self.operational {
-            return None;
+            return NEVER;
         }
-        if self.settled { self.settled_deadline } else { deadline_of(self.walk()) }
+        if self.settled { self.settled_deadline } else { self.walk() }
     }
 
     /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
     /// run and the TPDOs that can send have one.
-    // Out of line: `deadline` alone calls it (`poll_marked` folds as it polls).
+    // Out of line: `due` alone calls it (`poll_marked` folds as it polls).
     #[inline(never)]
     fn walk(&self) -> At {
         let mut first = NEVER;

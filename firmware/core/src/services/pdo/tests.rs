@@ -199,7 +199,7 @@ fn us(t: u64) -> Instant {
 }
 
 fn sync_at(at: Instant, counter: Option<u8>) -> SyncEvent {
-    SyncEvent { at, counter, window_end: None }
+    SyncEvent { at, counter, window_end: NEVER }
 }
 
 impl Node {

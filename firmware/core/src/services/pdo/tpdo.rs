@@ -229,13 +229,14 @@ impl Tpdo {
 
     /// Timers and retries, for a TPDO that can send (the caller checks:
     /// `Pdos::tpdo_live`); `window_end`: of the last SYNC's synchronous window (0x1007).
-    pub(super) fn poll(&mut self, now: Instant, window_end: &Option<Instant>, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn poll(&mut self, now: Instant, window_end: At, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.params.can_id();
         if self.is_event_driven() {
             self.service_event(now, cob_id, image, tx);
         } else if let Some(buf) = self.pending_sync {
             let len = self.mapping.as_ref().map_or(0, Mapping::len);
-            if window_end.is_some_and(|end| now > end) || self.transmit(cob_id, buf, len, tx) {
+            // No window ([`NEVER`]) never closes.
+            if now.as_micros() > window_end || self.transmit(cob_id, buf, len, tx) {
                 self.pending_sync = None;
             }
         }

@@ -41,7 +41,7 @@ use core::num::NonZeroU64;
 
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::time::{Duration, Instant};
+use crate::time::{At, Duration, Instant, NEVER, deadline_of};
 use crate::wire::sdo::{SdoParseError, SdoRequest, SdoResponse};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
@@ -205,7 +205,7 @@ impl<const N: usize> SdoServer<N> {
     /// when the TX queue drains), else the timeout of the transfer in
     /// progress. Calling early is harmless.
     pub fn poll(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
-        self.channel.poll(now, true, od, tx)
+        deadline_of(self.channel.poll(now, true, od, tx))
     }
 
     /// Frames ignored because their length was not 8, plus requests with an
@@ -294,14 +294,14 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
     /// Timers and pending frames of server `i`, as [`SdoServer::poll`].
     pub fn poll(&mut self, i: usize, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
-        self.poll_with(i, now, true, od, tx)
+        deadline_of(self.poll_with(i, now, true, od, tx))
     }
 
     /// As [`SdoServers::poll`], with block transfer served only if `block`
-    /// (see [`SdoServers::on_request_with`]).
+    /// (see [`SdoServers::on_request_with`]); the deadline as an [`At`].
     #[inline(always)]
-    pub fn poll_with(&mut self, i: usize, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
-        self.channels.get_mut(i).and_then(|c| c.poll(now, block, od, tx))
+    pub fn poll_with(&mut self, i: usize, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
+        self.channels.get_mut(i).map_or(NEVER, |c| c.poll(now, block, od, tx))
     }
 
     /// Malformed frames server `i` counted, as [`SdoServer::malformed`].
@@ -342,17 +342,17 @@ impl Channel {
     }
 
     #[inline(always)]
-    fn poll(&mut self, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+    fn poll(&mut self, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
         self.expire(now, tx);
         if self.flush(tx) && block {
             self.send_block_segments(now, od, tx);
         }
         if self.pending.is_some() || (block && self.segments_waiting()) {
-            Some(now)
+            now.as_micros()
         } else if matches!(self.state, State::Idle) {
-            None
+            NEVER
         } else {
-            Some(self.deadline)
+            self.deadline.as_micros()
         }
     }
 

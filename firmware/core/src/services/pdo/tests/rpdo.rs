@@ -157,7 +157,7 @@ fn dummy_entries_skip_bytes_of_an_rpdo() {
 fn synchronous_rpdos_after_the_window_are_discarded() {
     let mut node = Node::operational(ms(0));
     assert_eq!(node.sdo(0x1400, 2, &[0]), Ok(()));
-    let window = |at| SyncEvent { at, counter: None, window_end: Some(at + Duration::from_millis(2)) };
+    let window = |at| SyncEvent { at, counter: None, window_end: (at + Duration::from_millis(2)).as_micros() };
     node.sync(window(ms(10)));
     assert!(node.rx(ms(12), 0x201, &[1, 0, 1]), "inside the window");
     node.sync(window(ms(20)));
@@ -174,7 +174,7 @@ fn a_refused_synchronous_tpdo_is_retried_only_inside_the_window() {
     node.remap_tpdo(1, &[0x2000_0008], 0x281, 1);
     node.poll(ms(0));
     node.frames();
-    let window = |at| SyncEvent { at, counter: None, window_end: Some(at + Duration::from_millis(2)) };
+    let window = |at| SyncEvent { at, counter: None, window_end: (at + Duration::from_millis(2)).as_micros() };
     node.bus.refuse = true;
     node.sync(window(ms(10)));
     node.bus.refuse = false;
