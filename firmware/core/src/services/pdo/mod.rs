@@ -495,23 +495,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if !self.operational {
             return None;
         }
-        // The usual frame: of its RPDO's length, for an event-driven RPDO
-        // without an event timer or a raised error. All that
-        // `Rpdo::on_frame` would do is write the data and tell.
-        let key = frame_key(cob_id, data.len());
-        if let Some(n) = self.rx_plain.iter().position(|&k| k == key) {
-            let rpdo = self.rpdos.get(n)?;
-            if let Some(mapping) = &rpdo.mapping {
-                mapping.apply_in_line(image, data);
-            }
-            out.received(n);
-            return Some(self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS));
-        }
-        self.on_frame_general(now, cob_id, data, image, out)
-    }
-
-    /// [`Pdos::on_frame_reaching`] for any frame: the RPDO's every rule.
-    fn on_frame_general(&mut self, now: Instant, cob_id: u16, data: &[u8], image: &mut [u8], out: &mut impl PdoTx) -> Option<u32> {
         let window_open = self.window_end.is_none_or(|end| now <= end);
         let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
         let rpdo = self.rpdos.get_mut(n)?;
@@ -527,6 +510,26 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             self.settled_deadline = earliest(self.settled_deadline, Some(timeout));
         }
         Some(if written { self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS) } else { 0 })
+    }
+
+    /// The usual RPDO frame, for the node's short path: of its RPDO's
+    /// mapped length, for an event-driven RPDO without an event timer and
+    /// with no length or timeout error raised ([`Rpdo::plain_key`]). For it
+    /// [`Pdos::on_frame_reaching`] would only write the data and report
+    /// the RPDO received; this writes it and returns the RPDO and its reach
+    /// (for the caller to report), or `None` for every other frame (which
+    /// then takes [`Pdos::on_frame_reaching`]). Not Operational: `None`.
+    #[inline(always)]
+    pub(crate) fn on_plain_frame(&self, cob_id: u16, data: &[u8], image: &mut [u8]) -> Option<(usize, u32)> {
+        if !self.operational {
+            return None;
+        }
+        let key = frame_key(cob_id, data.len());
+        let n = self.rx_plain.iter().position(|&k| k == key)?;
+        if let Some(mapping) = &self.rpdos.get(n)?.mapping {
+            mapping.apply_in_line(image, data);
+        }
+        Some((n, self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS)))
     }
 
     /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once

@@ -190,10 +190,19 @@ fn a_refused_synchronous_tpdo_is_retried_only_inside_the_window() {
 
 // ---- The plain frame's path --------------------------------------------------------------
 
+/// A frame as the node takes it: the plain path if it is the plain frame, the general one otherwise.
+fn rx_plain_first(node: &mut Node, now: Instant, cob_id: u16, data: &[u8]) -> Option<u32> {
+    if let Some((n, reached)) = node.pdos.on_plain_frame(cob_id, data, &mut node.image) {
+        node.bus.received(n);
+        return Some(reached);
+    }
+    node.pdos.on_frame_reaching(now, cob_id, data, &mut node.image, &mut node.bus)
+}
+
 #[test]
 fn the_plain_path_follows_the_cob_id_the_type_the_timer_the_mapping_and_the_errors() {
     let mut node = Node::operational(ms(0));
-    let rx = |node: &mut Node, cob_id: u16, data: &[u8]| node.pdos.on_frame_reaching(ms(1), cob_id, data, &mut node.image, &mut node.bus);
+    let rx = |node: &mut Node, cob_id: u16, data: &[u8]| rx_plain_first(node, ms(1), cob_id, data);
     assert_eq!(rx(&mut node, 0x201, &[1, 2, 3]), Some(0b1));
     assert_eq!((node.get(0x2001, 0), node.get(0x2000, 0), node.events()), (vec![1, 2], vec![3], vec![PdoEvent::Received(0)]));
     // Invalid (bit 31): no RPDO takes the frame.
@@ -256,8 +265,8 @@ fn the_plain_path_answers_as_the_general_path_does() {
     // Two nodes driven alike at random (frames of every length on the
     // RPDOs' and other COB-IDs, the RPDO's COB-ID, type, event timer and
     // mapping rewritten, SYNCs with a window, polls that time out): every
-    // frame of one goes through `on_frame_reaching` (the plain path where
-    // it applies), of the other through the general path alone. The
+    // frame of one goes through `on_plain_frame` where it is the plain one
+    // (as the node takes it), of the other through the general path alone. The
     // answers, the events, the images and the PDOs' state must stay equal.
     let (mut a, mut b) = (Node::operational(ms(0)), Node::operational(ms(0)));
     let (mut t, mut seed, mut plain) = (0u64, 0x9E37_79B9u32, 0);
@@ -310,8 +319,8 @@ fn the_plain_path_answers_as_the_general_path_does() {
             let data: Vec<u8> = (0..len.min(8)).map(|i| (arg >> i) as u8 ^ step as u8).collect();
             let data = if len == 9 { vec![0u8; 12] } else { data };
             plain += usize::from(a.pdos.rx_plain.contains(&frame_key(cob_id, data.len())));
-            let got_a = a.pdos.on_frame_reaching(now, cob_id, &data, &mut a.image, &mut a.bus);
-            let got_b = if b.pdos.is_operational() { b.pdos.on_frame_general(now, cob_id, &data, &mut b.image, &mut b.bus) } else { None };
+            let got_a = rx_plain_first(&mut a, now, cob_id, &data);
+            let got_b = b.pdos.on_frame_reaching(now, cob_id, &data, &mut b.image, &mut b.bus);
             assert_eq!(got_a, got_b, "step {step}: {cob_id:#X} {data:?}");
         }
         assert_eq!(a.events(), b.events(), "step {step}");
