@@ -27,6 +27,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Handles one received frame. Bounded work, but an NMT reset or a
     /// stored set takes long (docs/firmware.md, "Longest step"): call it
     /// from a task that owns the node, not from the CAN RX interrupt.
+    // In line: each board and image calls it at one place (the firmware's
+    // `CanNode` trampoline, the size images' loop), which then is the
+    // dispatch itself instead of a tail call through a stack argument.
+    #[inline(always)]
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
         use embedded_can::Frame;
         self.counters.count_rx();
