@@ -587,3 +587,37 @@ fn a_value_set_through_its_image_slot_sends_its_tpdo_when_it_changes_only() {
     let out = b.rx(ms(30), RPDO1, &[0x05, 0x00, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00]);
     assert_eq!(out, [(TPDO1, vec![0x11, 0x05, 0x00, 0x44, 0x44, 0x44, 0x44])]);
 }
+
+#[test]
+fn an_rpdo_frame_reaches_its_rpdo_only_where_every_check_of_the_dispatch_lets_it() {
+    // The node takes the usual RPDO frame on a short path (the raw frame's
+    // hook first, then in Operational straight to the RPDO): it must
+    // answer as the full dispatch does.
+    let mut b = bench(Probe::default());
+    let frame = [0x0F, 0x00, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00];
+    let written = ["written 2100:1 Rpdo(0)", "written 2100:2 Rpdo(0)", "written 2100:3 Rpdo(0)", "written 2100:4 Rpdo(0)"];
+    log(&mut b);
+    assert_eq!(b.rx(ms(5), RPDO1, &frame), [], "Pre-operational: no PDO");
+    assert_eq!(log(&mut b), Vec::<String>::new());
+    b.nmt(0x01, ID);
+    b.at(ms(6));
+    log(&mut b);
+    // SYNC moved onto RPDO1's COB-ID: the frame is a SYNC (without a
+    // counter any length is one), not the RPDO.
+    assert_eq!(b.sdo_write(ID, 0x1005, 0, &u32::from(RPDO1).to_le_bytes()), ok_write(0x1005, 0));
+    log(&mut b);
+    let out = b.rx(ms(10), RPDO1, &frame);
+    // The synchronous TPDO2 goes out; TPDO1 carries 0x2000 as it was.
+    assert_eq!(out, [(TPDO1, vec![0x11, 0x22, 0x22, 0x01, 0, 0, 0]), (0x285, vec![0xFB, 0xFF, 0xFF, 0xFF, 0, 0, 0xC0, 0x3F])]);
+    assert_eq!(log(&mut b), ["sample"]);
+    // SYNC back on 0x80: the RPDO.
+    assert_eq!(b.sdo_write(ID, 0x1005, 0, &0x80u32.to_le_bytes()), ok_write(0x1005, 0));
+    log(&mut b);
+    b.rx(ms(20), RPDO1, &frame);
+    assert_eq!(log(&mut b), written);
+    // Stopped: no PDO.
+    b.nmt(0x02, ID);
+    log(&mut b);
+    assert_eq!(b.rx(ms(30), RPDO1, &frame), []);
+    assert_eq!(log(&mut b), Vec::<String>::new());
+}

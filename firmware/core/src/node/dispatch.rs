@@ -27,6 +27,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Handles one received frame. Bounded work, but an NMT reset or a
     /// stored set takes long (docs/firmware.md, "Longest step"): call it
     /// from a task that owns the node, not from the CAN RX interrupt.
+    // In line: each board and image calls it at one place (the firmware's
+    // `CanNode` trampoline, the size images' loop), which then is the
+    // dispatch itself instead of a tail call through a stack argument.
+    #[inline(always)]
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
         use embedded_can::Frame;
         self.counters.count_rx();
@@ -43,6 +47,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if !self.app.canopen() {
             self.counters.count_ignored();
+            return;
+        }
+        if !rtr && self.plain_rpdo(now, cob_id, data) {
             return;
         }
         if cob_id == LSS_MASTER_COB_ID && self.lss_on() && !rtr {
@@ -130,22 +137,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 };
                 let (received, errors) = (sink.received, sink.errors);
                 if let Some(reached) = reached {
-                    // Only the TPDOs this RPDO writes to look for a change.
-                    self.touched |= reached;
-                    // A timer started (or an RTR changed a TPDO), or an error was signalled.
-                    // Without an RPDO timer running the PDOs' deadline stayed where it was.
-                    match self.comm.pdos.settled() {
-                        Some(deadline) if self.comm.pdos.rpdo_timers() => self.next = self.next.min(deadline),
-                        Some(_) => {}
-                        None => self.quiet = false,
-                    }
-                    self.quiet &= !self.comm.emcy.has_queued();
-                    self.pdo_events(now, received, errors);
-                    // A poll for any TPDO retries every TPDO waiting to (an RTR
-                    // may have left its TPDO so): only if nothing else brings one.
-                    if self.touched == 0 {
-                        self.touched = self.retrying();
-                    }
+                    self.after_pdo(now, reached, received, errors);
                     return;
                 }
             }
@@ -173,6 +165,50 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         self.counters.count_ignored();
+    }
+
+    /// The usual RPDO frame ([`crate::services::pdo::Pdos::on_plain_frame`])
+    /// on its short path: true if it was one, and then handled as the path
+    /// through every check would. Only a data frame in CiA 301's
+    /// pre-defined PDO range 0x181..=0x57F (in Operational, with a node-ID):
+    /// of the services the full path looks at before the PDOs, only SYNC
+    /// can live there (0x1005 is writable), and it goes first.
+    #[inline(always)]
+    fn plain_rpdo(&mut self, now: Instant, cob_id: u16, data: &[u8]) -> bool {
+        if !(0x181..=0x57F).contains(&cob_id)
+            || !self.nmt.state().pdo_allowed()
+            || self.node_id == UNCONFIGURED
+            || cob_id == self.comm.sync.cob_id()
+        {
+            return false;
+        }
+        let Some((n, reached)) = self.comm.pdos.on_plain_frame(cob_id, data, self.od.image_mut()) else { return false };
+        self.after_pdo(now, reached, super::sinks::bit(n), 0);
+        true
+    }
+
+    /// What follows a frame a PDO took: `reached` the TPDOs its data
+    /// reaches, `received` and `errors` as [`PdoSink`] collects them.
+    // Out of line: the short path and the full one share it (in line at
+    // both, the device's RPDO hook was in the main loop twice).
+    #[inline(never)]
+    fn after_pdo(&mut self, now: Instant, reached: u32, received: u32, errors: u32) {
+        // Only the TPDOs this RPDO writes to look for a change.
+        self.touched |= reached;
+        // A timer started (or an RTR changed a TPDO), or an error was signalled.
+        // Without an RPDO timer running the PDOs' deadline stayed where it was.
+        match self.comm.pdos.settled() {
+            Some(deadline) if self.comm.pdos.rpdo_timers() => self.next = self.next.min(deadline),
+            Some(_) => {}
+            None => self.quiet = false,
+        }
+        self.quiet &= !self.comm.emcy.has_queued();
+        self.pdo_events(now, received, errors);
+        // A poll for any TPDO retries every TPDO waiting to (an RTR
+        // may have left its TPDO so): only if nothing else brings one.
+        if self.touched == 0 {
+            self.touched = self.retrying();
+        }
     }
 
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).

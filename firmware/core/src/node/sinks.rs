@@ -78,7 +78,7 @@ impl<'a> PdoSink<'a> {
 }
 
 /// One bit per RPDO (at most 32 are told apart; CiA 301 allows 512).
-fn bit(n: usize) -> u32 {
+pub(super) fn bit(n: usize) -> u32 {
     1u32.checked_shl(n as u32).unwrap_or(0)
 }
 

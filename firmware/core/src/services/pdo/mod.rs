@@ -165,6 +165,12 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// The CAN-ID each RPDO listens to (`NO_ID` when off), kept beside the
     /// RPDOs so that matching a received frame is one compare per RPDO.
     rx_ids: [u16; R],
+    /// Per RPDO, the frame it takes the plain way ([`Rpdo::plain_key`]: its
+    /// CAN-ID and length, `NO_KEY` when there is none), so that the usual
+    /// frame costs one compare per RPDO and a copy: kept with `rx_ids`, and
+    /// after each frame the general path handled (which may raise or end a
+    /// length error).
+    rx_plain: [u32; R],
     tpdos: [Tpdo; T],
     /// End of the synchronous window opened by the last SYNC; [`NEVER`]:
     /// no window. Read only while Operational ([`Pdos::enter_operational`]
@@ -208,11 +214,22 @@ pub const ALL_TPDOS: u32 = u32::MAX;
 /// `rx_ids` entry of an RPDO that listens to nothing (not a valid 11-bit id).
 const NO_ID: u16 = u16::MAX;
 
+/// `rx_plain` entry of an RPDO that takes no frame the plain way: no frame's
+/// key ([`frame_key`] is below 2^24).
+const NO_KEY: u32 = u32::MAX;
+
+/// A data frame's key for `rx_plain`: its COB-ID and, from bit 16, its
+/// length (capped: a frame longer than 255 bytes matches no RPDO's).
+fn frame_key(cob_id: u16, len: usize) -> u32 {
+    u32::from(cob_id) | (len.min(0xFF) as u32) << 16
+}
+
 impl<const R: usize, const T: usize> Default for Pdos<R, T> {
     fn default() -> Self {
         Pdos {
             rpdos: [Rpdo::default(); R],
             rx_ids: [NO_ID; R],
+            rx_plain: [NO_KEY; R],
             tpdos: [Tpdo::default(); T],
             window_end: NEVER,
             operational: false,
@@ -238,6 +255,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         Pdos {
             rpdos: [Rpdo::UNCONFIGURED; R],
             rx_ids: [0; R],
+            // Not `NO_KEY`: all zero bits. Key 0 is an empty frame on COB-ID 0
+            // (NMT), which never reaches the PDOs, and they are not Operational before `configure`.
+            rx_plain: [0; R],
             tpdos: [Tpdo::UNCONFIGURED; T],
             window_end: 0,
             operational: false,
@@ -401,8 +421,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     #[inline(never)]
     fn parameters_changed(&mut self) {
         self.last_write = (0, 0);
-        for (id, rpdo) in self.rx_ids.iter_mut().zip(&self.rpdos) {
+        for ((id, key), rpdo) in self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(&self.rpdos) {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
+            *key = rpdo.plain_key();
         }
         self.tpdo_live =
             self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| if tpdo.cob_id().is_some() { live | bit_of(t) } else { live });
@@ -481,6 +502,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
         let rpdo = self.rpdos.get_mut(n)?;
         let written = rpdo.on_frame(n, now, data, window_open, image, out);
+        // A length error raised or ended changes whether the next frame is plain.
+        if let Some(key) = self.rx_plain.get_mut(n) {
+            *key = rpdo.plain_key();
+        }
         if let Some(timeout) = rpdo.timeout_at() {
             self.rpdo_timers |= bit_of(n);
             // Only this RPDO's timeout moved, and only later (or it started):
@@ -488,6 +513,26 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             self.settled_deadline = self.settled_deadline.min(timeout.as_micros());
         }
         Some(if written { self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS) } else { 0 })
+    }
+
+    /// The usual RPDO frame, for the node's short path: of its RPDO's
+    /// mapped length, for an event-driven RPDO without an event timer and
+    /// with no length or timeout error raised ([`Rpdo::plain_key`]). For it
+    /// [`Pdos::on_frame_reaching`] would only write the data and report
+    /// the RPDO received; this writes it and returns the RPDO and its reach
+    /// (for the caller to report), or `None` for every other frame (which
+    /// then takes [`Pdos::on_frame_reaching`]). Not Operational: `None`.
+    #[inline(always)]
+    pub(crate) fn on_plain_frame(&self, cob_id: u16, data: &[u8], image: &mut [u8]) -> Option<(usize, u32)> {
+        if !self.operational {
+            return None;
+        }
+        let key = frame_key(cob_id, data.len());
+        let n = self.rx_plain.iter().position(|&k| k == key)?;
+        if let Some(mapping) = &self.rpdos.get(n)?.mapping {
+            mapping.apply_in_line(image, data);
+        }
+        Some((n, self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS)))
     }
 
     /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once

@@ -72,6 +72,26 @@ impl Rpdo {
         (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
     }
 
+    /// The key ([`super::frame_key`]) of the frame this RPDO takes the
+    /// plain way, or `super::NO_KEY`: a frame of its mapping's length,
+    /// while it is event-driven, has no event timer and no length or
+    /// timeout error is raised. For such a frame [`Rpdo::on_frame`] writes
+    /// the data and tells, and changes nothing else (its event timer is off:
+    /// `timeout_at` is `None` already).
+    pub(super) fn plain_key(&self) -> u32 {
+        match (self.mapping.as_ref(), self.cob_id()) {
+            (Some(mapping), Some(id))
+                if !self.params.is_synchronous()
+                    && self.params.event_timer() == Duration::ZERO
+                    && self.length_error.is_none()
+                    && !self.timed_out =>
+            {
+                super::frame_key(id, mapping.len())
+            }
+            _ => super::NO_KEY,
+        }
+    }
+
     /// Whether synchronous data waits for the next SYNC.
     pub fn has_buffered(&self) -> bool {
         self.buffered.is_some()

@@ -187,3 +187,149 @@ fn a_refused_synchronous_tpdo_is_retried_only_inside_the_window() {
     node.poll(ms(25));
     tx!(node, []);
 }
+
+// ---- The plain frame's path --------------------------------------------------------------
+
+/// A frame as the node takes it: the plain path if it is the plain frame, the general one otherwise.
+fn rx_plain_first(node: &mut Node, now: Instant, cob_id: u16, data: &[u8]) -> Option<u32> {
+    if let Some((n, reached)) = node.pdos.on_plain_frame(cob_id, data, &mut node.image) {
+        node.bus.received(n);
+        return Some(reached);
+    }
+    node.pdos.on_frame_reaching(now, cob_id, data, &mut node.image, &mut node.bus)
+}
+
+#[test]
+fn the_plain_path_follows_the_cob_id_the_type_the_timer_the_mapping_and_the_errors() {
+    let mut node = Node::operational(ms(0));
+    let rx = |node: &mut Node, cob_id: u16, data: &[u8]| rx_plain_first(node, ms(1), cob_id, data);
+    assert_eq!(rx(&mut node, 0x201, &[1, 2, 3]), Some(0b1));
+    assert_eq!((node.get(0x2001, 0), node.get(0x2000, 0), node.events()), (vec![1, 2], vec![3], vec![PdoEvent::Received(0)]));
+    // Invalid (bit 31): no RPDO takes the frame.
+    assert_eq!(node.sdo32(0x1400, 1, 0x8000_0201), Ok(()));
+    assert_eq!(rx(&mut node, 0x201, &[4, 5, 6]), None);
+    // Valid on another CAN-ID: only that one.
+    assert_eq!(node.sdo32(0x1400, 1, 0x202), Ok(()));
+    assert_eq!(rx(&mut node, 0x201, &[4, 5, 6]), None);
+    assert_eq!(rx(&mut node, 0x202, &[4, 5, 6]), Some(0b1));
+    assert_eq!((node.get(0x2001, 0), node.events()), (vec![4, 5], vec![PdoEvent::Received(0)]));
+    // Too short: nothing written, EMCY 0x8210 with each frame, until a frame of the right length.
+    assert_eq!(rx(&mut node, 0x202, &[7, 8]), Some(0));
+    assert_eq!(rx(&mut node, 0x202, &[7, 8]), Some(0));
+    assert_eq!(node.get(0x2001, 0), [4, 5]);
+    let short = PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH };
+    assert_eq!(node.events(), [short, short]);
+    assert_eq!(rx(&mut node, 0x202, &[7, 8, 9]), Some(0b1));
+    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode::PDO_LENGTH }, PdoEvent::Received(0)]);
+    assert_eq!(rx(&mut node, 0x202, &[7, 8, 9]), Some(0b1));
+    assert_eq!(node.events(), [PdoEvent::Received(0)]);
+    // A new mapping (0x2000 alone): a 1-byte frame is the right one, 3 bytes are too many.
+    assert_eq!(node.sdo32(0x1400, 1, 0x8000_0202), Ok(()));
+    assert_eq!(node.sdo(0x1600, 0, &[0]), Ok(()));
+    assert_eq!(node.sdo32(0x1600, 1, 0x2000_0008), Ok(()));
+    assert_eq!(node.sdo(0x1600, 0, &[1]), Ok(()));
+    assert_eq!(node.sdo32(0x1400, 1, 0x202), Ok(()));
+    assert_eq!(rx(&mut node, 0x202, &[0x11]), Some(0b1));
+    assert_eq!((node.get(0x2000, 0), node.events()), (vec![0x11], vec![PdoEvent::Received(0)]));
+    assert_eq!(rx(&mut node, 0x202, &[0x22, 0, 0]), Some(0b1));
+    let long = PdoEvent::Error { rpdo: 0, code: EmcyCode::PDO_LENGTH_EXCEEDED };
+    assert_eq!((node.get(0x2000, 0), node.events()), (vec![0x22], vec![long, PdoEvent::Received(0)]));
+    assert_eq!(rx(&mut node, 0x202, &[0x33]), Some(0b1));
+    assert_eq!(node.events(), [PdoEvent::ErrorCleared { rpdo: 0, code: EmcyCode::PDO_LENGTH_EXCEEDED }, PdoEvent::Received(0)]);
+    // Mapping count 0 disables the RPDO while its frame arrives.
+    assert_eq!(node.sdo32(0x1400, 1, 0x8000_0202), Ok(()));
+    assert_eq!(node.sdo(0x1600, 0, &[0]), Ok(()));
+    assert_eq!(node.sdo32(0x1400, 1, 0x202), Ok(()));
+    assert_eq!(rx(&mut node, 0x202, &[0x44]), None);
+    assert_eq!((node.get(0x2000, 0), node.events()), (vec![0x33], vec![]));
+    // Back to one entry; an event timer: the frame starts it (the general path).
+    assert_eq!(node.sdo(0x1600, 0, &[1]), Err(AbortCode::UnsupportedAccess), "only while invalid");
+    assert_eq!(node.sdo32(0x1400, 1, 0x8000_0202), Ok(()));
+    assert_eq!(node.sdo(0x1600, 0, &[1]), Ok(()));
+    assert_eq!(node.sdo32(0x1400, 1, 0x202), Ok(()));
+    assert_eq!(node.sdo(0x1400, 5, &10u16.to_le_bytes()), Ok(()));
+    assert_eq!(rx(&mut node, 0x202, &[0x55]), Some(0b1));
+    assert_eq!(node.pdos.rpdos[0].timeout_at(), Some(ms(11)));
+    // Synchronous: the data waits for the SYNC.
+    assert_eq!(node.sdo(0x1400, 5, &0u16.to_le_bytes()), Ok(()));
+    assert_eq!(node.sdo(0x1400, 2, &[1]), Ok(()));
+    node.events();
+    assert_eq!(rx(&mut node, 0x202, &[0x66]), Some(0));
+    assert_eq!((node.get(0x2000, 0), node.events()), (vec![0x55], vec![]));
+    node.sync(sync_at(ms(2), None));
+    assert_eq!((node.get(0x2000, 0), node.events()), (vec![0x66], vec![PdoEvent::Received(0)]));
+}
+
+#[test]
+fn the_plain_path_answers_as_the_general_path_does() {
+    // Two nodes driven alike at random (frames of every length on the
+    // RPDOs' and other COB-IDs, the RPDO's COB-ID, type, event timer and
+    // mapping rewritten, SYNCs with a window, polls that time out): every
+    // frame of one goes through `on_plain_frame` where it is the plain one
+    // (as the node takes it), of the other through the general path alone. The
+    // answers, the events, the images and the PDOs' state must stay equal.
+    let (mut a, mut b) = (Node::operational(ms(0)), Node::operational(ms(0)));
+    let (mut t, mut seed, mut plain) = (0u64, 0x9E37_79B9u32, 0);
+    let mappings: [&[u32]; 4] = [&[0x2001_0010, 0x2000_0008], &[0x2000_0008], &[0x2004_0040], &[0x2000_0008, 0x0005_0008, 0x2008_0220]];
+    for step in 0..20_000 {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        t += u64::from(seed % 4000);
+        let now = us(t);
+        let arg = seed >> 8;
+        for node in [&mut a, &mut b] {
+            match seed % 64 {
+                0 => {
+                    let cob = if arg & 3 == 0 { 0x8000_0201 } else { 0x201 + (arg >> 2 & 1) };
+                    let _ = node.sdo32(0x1400, 1, cob);
+                }
+                1 => {
+                    let _ = node.sdo(0x1400, 2, &[[255, 254, 255, 1][(arg & 3) as usize]]);
+                }
+                2 => {
+                    let _ = node.sdo(0x1400, 5, &[0u16, 0, 0, 20][(arg & 3) as usize].to_le_bytes());
+                }
+                3 => {
+                    let entries = mappings[(arg & 3) as usize];
+                    let cob = u32::from_le_bytes(node.get(0x1400, 1).try_into().unwrap());
+                    let _ = node.sdo32(0x1400, 1, cob | COB_ID_INVALID);
+                    let _ = node.sdo(0x1600, 0, &[0]);
+                    for (sub, &entry) in (1u8..).zip(entries) {
+                        let _ = node.sdo32(0x1600, sub, entry);
+                    }
+                    let _ = node.sdo(0x1600, 0, &[if arg & 4 == 0 { entries.len() as u8 } else { 0 }]);
+                    let _ = node.sdo32(0x1400, 1, cob);
+                }
+                4 => {
+                    let window_end = if arg & 1 == 0 {
+                        (now + crate::time::Duration::from_micros(u64::from(arg >> 1 & 0xFFF))).as_micros()
+                    } else {
+                        crate::time::NEVER
+                    };
+                    node.sync(SyncEvent { at: now, counter: None, window_end });
+                }
+                5 => {
+                    node.poll(now);
+                }
+                _ => {}
+            }
+        }
+        if seed % 64 >= 6 {
+            let cob_id = [0x201, 0x202, 0x201, 0x301, 0x202, 0x181, 0x201, 0x202][(arg & 7) as usize];
+            // Mostly the length RPDO1 maps.
+            let mapped = a.pdos.rpdo(0).and_then(Rpdo::mapping).map_or(0, Mapping::len);
+            let len = if arg & 0x30 != 0 { mapped } else { (arg >> 6) as usize % 10 };
+            let data: Vec<u8> = (0..len.min(8)).map(|i| (arg >> i) as u8 ^ step as u8).collect();
+            let data = if len == 9 { vec![0u8; 12] } else { data };
+            plain += usize::from(a.pdos.rx_plain.contains(&frame_key(cob_id, data.len())));
+            let got_a = rx_plain_first(&mut a, now, cob_id, &data);
+            let got_b = b.pdos.on_frame_reaching(now, cob_id, &data, &mut b.image, &mut b.bus);
+            assert_eq!(got_a, got_b, "step {step}: {cob_id:#X} {data:?}");
+        }
+        assert_eq!(a.events(), b.events(), "step {step}");
+        assert_eq!(a.image, b.image, "step {step}");
+        assert_eq!(format!("{:?}", a.pdos), format!("{:?}", b.pdos), "step {step}");
+    }
+    assert!(plain > 500, "the plain path was taken {plain} times");
+}
