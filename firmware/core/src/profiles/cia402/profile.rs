@@ -230,7 +230,8 @@ impl<D: Drive> Cia402<D> {
             return false;
         }
         if at == self.s.at.at(Located::CONTROLWORD) {
-            self.control(ctx, value as u16);
+            self.rpdo_controlword(ctx, value as u16);
+            return true;
         } else if at == self.s.at.at(Located::TARGET_VELOCITY) && self.s.mode == mode::PV && len == 4 {
             // Of the statusword, a new target changes bit 11 alone (pv clears it).
             self.s.velocity_target = speed_q(self.s.units.velocity_to_inc(value as i32));
@@ -242,6 +243,20 @@ impl<D: Drive> Cia402<D> {
         }
         self.publish(ctx);
         true
+    }
+
+    /// Whether `at` is the controlword (0x6040), which [`Cia402::rpdo_controlword`]
+    /// takes as [`Cia402::rpdo_object`] does: for a device that keeps its
+    /// RPDOs' objects and hands the controlword over without the compares.
+    pub fn is_controlword(&self, at: EntryRef) -> bool {
+        at.is_some() && at == self.s.at.at(Located::CONTROLWORD)
+    }
+
+    /// The controlword `word` from an RPDO, as [`Cia402::rpdo_object`]
+    /// takes it: the command, the mode's set-point bits, then 0x6041.
+    pub fn rpdo_controlword(&mut self, ctx: &mut Ctx<'_>, word: u16) {
+        self.control(ctx, word);
+        self.publish(ctx);
     }
 
     /// The drive's warning (bit 7) changed: while the profile is idle, its
