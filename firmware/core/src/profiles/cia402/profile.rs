@@ -380,8 +380,19 @@ impl<D: Drive> Cia402<D> {
         if let Some(command) = cw::decode(word, previous) {
             self.command(ctx, command);
         }
-        let rose = word & cw::NEW_SET_POINT != 0 && previous & cw::NEW_SET_POINT == 0;
-        let fell = word & cw::NEW_SET_POINT == 0 && previous & cw::NEW_SET_POINT != 0;
+        // Only a change of bit 4 does anything in the modes that use it.
+        if (word ^ previous) & cw::NEW_SET_POINT != 0 {
+            self.set_point_bit(ctx, word);
+        }
+    }
+
+    /// Controlword bit 4 changed to `word`'s: pp's new set-point, homing's
+    /// start, ip's enable. Out of line: the per-frame path (a command, bit
+    /// 4 as it was) stays a small function.
+    #[inline(never)]
+    fn set_point_bit(&mut self, ctx: &mut Ctx<'_>, word: u16) {
+        let rose = word & cw::NEW_SET_POINT != 0;
+        let fell = !rose;
         let running = self.s.state == PdsState::OperationEnabled && !self.s.braking;
         match self.s.mode {
             mode::PP if rose && running => self.new_set_point(ctx, word),
@@ -392,7 +403,7 @@ impl<D: Drive> Cia402<D> {
             }
             mode::HM if fell => self.s.hm.interrupt(),
             // Enabling or disabling the interpolation starts from where the demand is.
-            mode::IP if rose || fell => self.s.ip = Ip::NEW,
+            mode::IP => self.s.ip = Ip::NEW,
             _ => {}
         }
     }
