@@ -229,15 +229,20 @@ impl<D: Drive> Cia402<D> {
         if !at.is_some() {
             return false;
         }
-        if at == self.s.at.at(Located::CONTROLWORD) {
-            self.rpdo_controlword(ctx, value as u16);
-            return true;
-        } else if at == self.s.at.at(Located::TARGET_VELOCITY) && self.s.mode == mode::PV && len == 4 {
+        // The target velocity first: a device that keeps its RPDOs' objects
+        // hands the controlword over apart ([`Cia402::rpdo_controlword`]).
+        if at == self.s.at.at(Located::TARGET_VELOCITY) {
+            if self.s.mode != mode::PV || len != 4 {
+                return false;
+            }
             // Of the statusword, a new target changes bit 11 alone (pv clears it).
             self.s.velocity_target = speed_q(self.s.units.velocity_to_inc(value as i32));
             if !core::mem::replace(&mut self.s.internal_limit, false) {
                 return true;
             }
+        } else if at == self.s.at.at(Located::CONTROLWORD) {
+            self.rpdo_controlword(ctx, value as u16);
+            return true;
         } else {
             return false;
         }
