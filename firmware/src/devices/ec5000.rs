@@ -185,9 +185,10 @@ impl Application for App {
 
     /// The objects of an RPDO whose mapping is fixed (all four of the
     /// manual's) as kept at its first frame, without asking the node for
-    /// its mapping; each to [`App::rpdo_value`].
+    /// its mapping: the controlword straight to the profile, the others
+    /// each to [`App::rpdo_value`].
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
-        rpdo::written(self, |app| &mut app.rpdos, ctx, n);
+        rpdo::written(self, ctx, n);
     }
 
     /// The controlword and the target velocity straight from the RPDO's

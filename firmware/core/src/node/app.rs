@@ -284,6 +284,8 @@ impl Ctx<'_> {
 
     /// The value in the image bytes of `slot` (little-endian, zero-extended),
     /// as [`Ctx::rpdo_object`] gives it.
+    // In line: a device reads its RPDOs' values through it with every frame.
+    #[inline]
     pub fn slot_value(&self, slot: ImageSlot) -> u32 {
         let start = usize::from(slot.offset);
         let bytes = self.image.get(start..start.wrapping_add(usize::from(slot.len))).unwrap_or(&[]);

@@ -406,16 +406,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// [`Node::with_app_cold`] for the RPDO's hook (every received RPDO):
     /// the follow-up called directly, the device error checked here, one
-    /// call less than `after_cold_hook` on the path of every frame.
+    /// call less than `after_cold_hook` on the path of every frame. The
+    /// device's timers are left to the caller, which takes the hook's
+    /// [`Ctx::wake`] and decides whether they wait.
     #[inline(always)]
     pub(super) fn with_app_follow<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
         if Self::FOLD_HOOKS {
             return self.with_app_cold(now, f);
         }
         let (value, effects) = self.run_hook(now, f);
-        if A::POLL_WHEN_DUE {
-            (self.app_due.waits, self.raw.wake) = (false, false);
-        }
         self.follow_hook(effects);
         if effects.error_class != 0 {
             self.device_error(effects.error_class, now);

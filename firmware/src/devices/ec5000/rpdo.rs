@@ -4,19 +4,26 @@
 //! node for its mapping object by object (the CiA 402 row of `cargo xtask icount`).
 //!
 //! The manual fixes the RPDO mappings (`eds/ec5000.eds`: 0x1600-0x1603 sub 0
-//! const, the entries read-only). Only an RPDO whose mapping count (sub 0)
-//! cannot be written is taken as fixed; any other RPDO, or one with more
-//! objects than kept here, is read from the node's mapping object by object
-//! ([`Ctx::rpdo_object`]), as on any device.
+//! const, the entries read-only), each with the controlword first: the
+//! profile takes it straight from its image bytes, the objects after it
+//! (a set-point, the mode) go to the device one by one. Only an RPDO whose
+//! mapping count (sub 0) cannot be written is taken as fixed; any other
+//! RPDO, or one with more objects than kept here, is read from the node's
+//! mapping object by object ([`Ctx::rpdo_object`]), as on any device.
 
-use canopen_core::node::{Application, Ctx, ImageSlot, rpdo_object_written};
+use canopen_core::node::{Ctx, ImageSlot, rpdo_object_written};
 use canopen_core::od::EntryRef;
 use canopen_core::services::pdo::map::MAX_ENTRIES;
 
-/// The RPDOs looked at (0x1600-0x1603).
-const RPDOS: usize = 4;
-/// Objects kept per RPDO: the controlword and a set-point (RPDO2, RPDO3);
-/// RPDO1's three objects are asked for at every frame.
+use super::App;
+
+/// The RPDOs looked at (0x1600-0x1602): RPDO4's mapping (0x1603) can be
+/// written, so it is asked for at every frame anyway. (Three, not four:
+/// the node's fields after the device stay within the short offsets of
+/// their loads, 80 B of the drive's flash.)
+const RPDOS: usize = 3;
+/// Objects kept per RPDO after its controlword: a set-point (RPDO2,
+/// RPDO3), the mode and the profile velocity (RPDO1).
 const OBJECTS: usize = 2;
 /// The RPDO mapping records' first index.
 const RPDO_MAPPING: u16 = 0x1600;
@@ -45,6 +52,10 @@ enum Plan {
 /// RPDO n's objects, when its mapping is fixed.
 #[derive(Clone, Copy, Debug)]
 struct Fixed {
+    /// The controlword's image bytes if it is the first object
+    /// ([`ImageSlot::NONE`] if not): the profile takes it without a compare.
+    controlword: ImageSlot,
+    /// The objects after it (all of them without it), in mapping order.
     objects: [Object; OBJECTS],
     count: u8,
     plan: Plan,
@@ -58,30 +69,28 @@ pub(super) struct FixedRpdos([Fixed; RPDOS]);
 impl FixedRpdos {
     /// Nothing known yet (and after reset communication, which configures the RPDOs again).
     pub(super) const NONE: FixedRpdos = FixedRpdos(
-        [Fixed { objects: [Object { at: EntryRef::NONE, slot: ImageSlot::NONE, len: 0 }; OBJECTS], count: 0, plan: Plan::Unknown }; RPDOS],
+        [Fixed {
+            controlword: ImageSlot::NONE,
+            objects: [Object { at: EntryRef::NONE, slot: ImageSlot::NONE, len: 0 }; OBJECTS],
+            count: 0,
+            plan: Plan::Unknown,
+        }; RPDOS],
     );
 
-    fn plan(&self, n: u8) -> Plan {
-        self.0.get(usize::from(n)).map_or(Plan::Asked, |r| r.plan)
-    }
-
-    /// Object `i` of fixed RPDO `n`: its entry, the value the image holds
-    /// for it (as [`Ctx::rpdo_object`] gives it) and its mapped length.
-    fn object(&self, ctx: &Ctx<'_>, n: u8, i: usize) -> Option<(EntryRef, u32, u8)> {
-        let rpdo = self.0.get(usize::from(n))?;
-        let object = rpdo.objects.get(..usize::from(rpdo.count))?.get(i)?;
-        Some((object.at, ctx.slot_value(object.slot), object.len))
-    }
-
-    /// Keeps the next object of RPDO `n` (a dummy entry maps nothing: not kept).
-    fn keep(&mut self, ctx: &Ctx<'_>, n: u8, at: EntryRef, len: u8) {
+    /// Keeps the next object of RPDO `n`: the first as the controlword if
+    /// `object.slot` holds its image bytes (a dummy entry maps nothing: not kept).
+    fn keep(&mut self, ctx: &Ctx<'_>, n: u8, object: Object) {
         let Some(rpdo) = self.0.get_mut(usize::from(n)) else { return };
-        if !at.is_some() {
+        if object.slot != ImageSlot::NONE {
+            rpdo.controlword = object.slot;
+            return;
+        }
+        if !object.at.is_some() {
             return;
         }
         match rpdo.objects.get_mut(usize::from(rpdo.count)) {
-            Some(object) => {
-                *object = Object { at, slot: ctx.image_slot(at), len };
+            Some(kept) => {
+                *kept = Object { slot: ctx.image_slot(object.at), ..object };
                 rpdo.count = rpdo.count.saturating_add(1);
             }
             None => rpdo.plan = Plan::Asked,
@@ -96,7 +105,7 @@ impl FixedRpdos {
         // the RPDO is valid, `pdo_rewrite_while_valid`).
         let index = RPDO_MAPPING.wrapping_add(u16::from(n));
         let Some(rpdo) = self.0.get_mut(usize::from(n)) else { return Plan::Asked };
-        rpdo.count = 0;
+        (rpdo.controlword, rpdo.count) = (ImageSlot::NONE, 0);
         if ctx.dictionary().find(index, 0).is_ok_and(|e| e.writable()) {
             rpdo.plan = Plan::Asked;
         }
@@ -113,24 +122,36 @@ impl FixedRpdos {
     }
 }
 
-/// RPDO `n` wrote its objects: for each, in mapping order, as kept at its
-/// first frame if its mapping is fixed (else as the node has it,
-/// [`Ctx::rpdo_object`]), offered to the device by [`rpdo_object_written`]
-/// (as the default [`Application::rpdo_written`] does).
-pub(super) fn written<A: Application>(app: &mut A, rpdos: impl Fn(&mut A) -> &mut FixedRpdos, ctx: &mut Ctx<'_>, n: u8) {
-    let mut plan = rpdos(app).plan(n);
-    if plan == Plan::Unknown {
-        plan = rpdos(app).first(ctx, n);
+/// RPDO `n` wrote its objects: if its mapping is fixed, the controlword
+/// to the profile and the objects after it, in mapping order, as kept at
+/// its first frame (else each as the node has it, [`Ctx::rpdo_object`]);
+/// each object offered to the device by [`rpdo_object_written`] (as the
+/// default [`canopen_core::node::Application::rpdo_written`] does).
+pub(super) fn written(app: &mut App, ctx: &mut Ctx<'_>, n: u8) {
+    let mut plan = Plan::Asked;
+    if let Some(&Fixed { plan: rpdo, controlword, count, .. }) = app.rpdos.0.get(usize::from(n)) {
+        if rpdo == Plan::Fixed {
+            if controlword != ImageSlot::NONE {
+                app.drive.rpdo_controlword(ctx, ctx.slot_value(controlword) as u16);
+            }
+            for i in 0..usize::from(count) {
+                let Some(&Object { at, slot, len }) = app.rpdos.0.get(usize::from(n)).and_then(|r| r.objects.get(i)) else { break };
+                rpdo_object_written(app, ctx, n, at, ctx.slot_value(slot), len);
+            }
+            return;
+        }
+        plan = if rpdo == Plan::Unknown { app.rpdos.first(ctx, n) } else { rpdo };
     }
     for i in 0..MAX_ENTRIES {
-        let object = if plan == Plan::Fixed { rpdos(app).object(ctx, n, i) } else { ctx.rpdo_object(n, i) };
-        let Some((at, value, len)) = object else { break };
+        let Some((at, value, len)) = ctx.rpdo_object(n, i) else { break };
         if plan == Plan::Unknown {
-            rpdos(app).keep(ctx, n, at, len);
+            // A controlword without image bytes (none can be mapped) is an object as any other.
+            let slot = if i == 0 && app.drive.is_controlword(at) { ctx.image_slot(at) } else { ImageSlot::NONE };
+            app.rpdos.keep(ctx, n, Object { at, slot, len });
         }
         rpdo_object_written(app, ctx, n, at, value, len);
     }
     if plan == Plan::Unknown {
-        rpdos(app).kept(n);
+        app.rpdos.kept(n);
     }
 }

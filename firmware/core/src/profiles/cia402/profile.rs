@@ -229,19 +229,39 @@ impl<D: Drive> Cia402<D> {
         if !at.is_some() {
             return false;
         }
-        if at == self.s.at.at(Located::CONTROLWORD) {
-            self.control(ctx, value as u16);
-        } else if at == self.s.at.at(Located::TARGET_VELOCITY) && self.s.mode == mode::PV && len == 4 {
+        // The target velocity first: a device that keeps its RPDOs' objects
+        // hands the controlword over apart ([`Cia402::rpdo_controlword`]).
+        if at == self.s.at.at(Located::TARGET_VELOCITY) {
+            if self.s.mode != mode::PV || len != 4 {
+                return false;
+            }
             // Of the statusword, a new target changes bit 11 alone (pv clears it).
             self.s.velocity_target = speed_q(self.s.units.velocity_to_inc(value as i32));
             if !core::mem::replace(&mut self.s.internal_limit, false) {
                 return true;
             }
+        } else if at == self.s.at.at(Located::CONTROLWORD) {
+            self.rpdo_controlword(ctx, value as u16);
+            return true;
         } else {
             return false;
         }
         self.publish(ctx);
         true
+    }
+
+    /// Whether `at` is the controlword (0x6040), which [`Cia402::rpdo_controlword`]
+    /// takes as [`Cia402::rpdo_object`] does: for a device that keeps its
+    /// RPDOs' objects and hands the controlword over without the compares.
+    pub fn is_controlword(&self, at: EntryRef) -> bool {
+        at.is_some() && at == self.s.at.at(Located::CONTROLWORD)
+    }
+
+    /// The controlword `word` from an RPDO, as [`Cia402::rpdo_object`]
+    /// takes it: the command, the mode's set-point bits, then 0x6041.
+    pub fn rpdo_controlword(&mut self, ctx: &mut Ctx<'_>, word: u16) {
+        self.control(ctx, word);
+        self.publish(ctx);
     }
 
     /// The drive's warning (bit 7) changed: while the profile is idle, its
@@ -365,8 +385,19 @@ impl<D: Drive> Cia402<D> {
         if let Some(command) = cw::decode(word, previous) {
             self.command(ctx, command);
         }
-        let rose = word & cw::NEW_SET_POINT != 0 && previous & cw::NEW_SET_POINT == 0;
-        let fell = word & cw::NEW_SET_POINT == 0 && previous & cw::NEW_SET_POINT != 0;
+        // Only a change of bit 4 does anything in the modes that use it.
+        if (word ^ previous) & cw::NEW_SET_POINT != 0 {
+            self.set_point_bit(ctx, word);
+        }
+    }
+
+    /// Controlword bit 4 changed to `word`'s: pp's new set-point, homing's
+    /// start, ip's enable. Out of line: the per-frame path (a command, bit
+    /// 4 as it was) stays a small function.
+    #[inline(never)]
+    fn set_point_bit(&mut self, ctx: &mut Ctx<'_>, word: u16) {
+        let rose = word & cw::NEW_SET_POINT != 0;
+        let fell = !rose;
         let running = self.s.state == PdsState::OperationEnabled && !self.s.braking;
         match self.s.mode {
             mode::PP if rose && running => self.new_set_point(ctx, word),
@@ -377,7 +408,7 @@ impl<D: Drive> Cia402<D> {
             }
             mode::HM if fell => self.s.hm.interrupt(),
             // Enabling or disabling the interpolation starts from where the demand is.
-            mode::IP if rose || fell => self.s.ip = Ip::NEW,
+            mode::IP => self.s.ip = Ip::NEW,
             _ => {}
         }
     }
