@@ -260,6 +260,7 @@ fn initiate_data(b0: u8, f: &[u8; 8]) -> InitiateData {
 /// outside 1..=4 is sent as the nearest valid one.
 // `k` is clamped to 1..=4 first.
 #[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
 fn emit_initiate_data(data: &InitiateData) -> (u8, [u8; 4]) {
     match *data {
         InitiateData::Expedited { data, size: Some(k) } => (((4 - k.clamp(1, 4)) << 2) | 0x03, data),
@@ -355,6 +356,9 @@ impl SdoResponse {
     }
 
     /// The 8 data bytes of this response.
+    // In line: the SDO server builds each response where it knows the
+    // variant, so that only that variant's bytes are made there.
+    #[inline(always)]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
             SdoResponse::InitiateDownload { index, sub } => initiate_download_response(index, sub),

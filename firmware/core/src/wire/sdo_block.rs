@@ -267,6 +267,7 @@ impl BlockDownloadResponse {
     }
 
     /// The 8 data bytes.
+    #[inline(always)]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
             BlockDownloadResponse::Initiate { index, sub, crc, blksize } => {
@@ -325,6 +326,7 @@ impl BlockUploadResponse {
     }
 
     /// The 8 data bytes.
+    #[inline(always)]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
             BlockUploadResponse::Initiate { index, sub, crc, size } => {

@@ -441,12 +441,17 @@ impl Channel {
         self.send(SdoResponse::Abort { index: self.mux.index, sub: self.mux.sub, code: code.code() }, tx);
     }
 
+    // In line, with `SdoResponse::emit`: each site knows its response, so
+    // the frame is built there and no general encoder is linked.
+    #[inline(always)]
     fn send(&mut self, response: SdoResponse, tx: &mut dyn SdoTx) {
         self.emit(response.emit(), tx);
     }
 
     /// Sends a frame, or keeps it for the next poll. A newer response
     /// replaces an unsent older one: the client has moved on.
+    // Out of line: every response of the server ends here (ten sites).
+    #[inline(never)]
     fn emit(&mut self, frame: [u8; 8], tx: &mut dyn SdoTx) {
         self.pending = None;
         if !tx.send(frame) {
