@@ -399,15 +399,34 @@ impl Channel {
                 self.start(index, sub);
                 self.start_block_upload(crc, blksize, pst, od, tx);
             }
-            _ => match self.state {
-                State::Idle => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
-                State::SegmentedDownload(d) => self.segmented_download(d, request, buf, od, tx),
-                State::SegmentedUpload(u) => self.segmented_upload(u, request, od, tx),
-                State::BlockDownload(d) if block => self.block_download_end(d, request, buf, od, tx),
+            // Each other request belongs to one kind of transfer: served
+            // by its handler if that transfer is in progress, refused if not.
+            SdoRequest::DownloadSegment { toggle, data, len, last } => match self.state {
+                State::SegmentedDownload(d) => {
+                    let data = data.get(..usize::from(len)).unwrap_or(&data);
+                    self.segmented_download(d, segmented::Segment { toggle, data, last }, buf, od, tx)
+                }
+                _ => self.unexpected(tx),
+            },
+            SdoRequest::UploadSegment { toggle } => match self.state {
+                State::SegmentedUpload(u) => self.segmented_upload(u, toggle, od, tx),
+                _ => self.unexpected(tx),
+            },
+            SdoRequest::BlockDownload(BlockDownloadRequest::End { unused, crc }) => match self.state {
+                State::BlockDownload(d) if block => self.block_download_end(d, unused, crc, buf, od, tx),
+                _ => self.unexpected(tx),
+            },
+            SdoRequest::BlockUpload(request) => match self.state {
                 State::BlockUpload(u) if block => self.block_upload(u, request, tx),
-                State::BlockDownload(_) | State::BlockUpload(_) => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
+                _ => self.unexpected(tx),
             },
         }
+    }
+
+    /// A request that belongs to no transfer in progress: abort 0x05040001
+    /// for the transfer in progress, or for no object when idle.
+    fn unexpected(&mut self, tx: &mut dyn SdoTx) {
+        self.fail(self.transfer().unwrap_or(Mux::NONE), AbortCode::InvalidCommand, tx);
     }
 
     /// An initiate request for (index, sub): whatever was in progress ends.
