@@ -223,7 +223,7 @@ impl Ctx<'_> {
             self.effects.written = true;
             return self.store_command(index, sub, data, None);
         }
-        let entry = self.precheck(index, sub, data)?;
+        let entry = self.precheck(index, sub, data, true)?;
         self.route_write(index, sub, data, entry)
     }
 

@@ -60,7 +60,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 if index < index::MANUFACTURER_SPECIFIC {
                     return false;
                 }
-                let Ok(entry) = precheck(dict, index, sub, data) else { return false };
+                let Ok(entry) = precheck(dict, index, sub, data, O::HAS_LIMITS) else { return false };
                 // Room for the answer before the write: written again by the
                 // general path, the value would have changed nothing.
                 if !sink.room() {

@@ -135,6 +135,10 @@ impl Services {
 pub trait ObjectDictionary {
     /// The optional services a node on this dictionary links.
     const SERVICES: Services = Services::ALL;
+    /// Whether any entry has a LowLimit/HighLimit (od-gen: a limits table
+    /// that is not empty). Without, the downloads' check of the value
+    /// against its limits ([`Limits::check`]) is left out of the image.
+    const HAS_LIMITS: bool = true;
     /// The flash tables of this dictionary.
     fn dictionary(&self) -> &'static Dictionary;
     /// The RAM image.
@@ -235,14 +239,14 @@ impl Dictionary {
     /// byte of the image changed (a TPDO mapping it cannot have new data otherwise).
     pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(&'static Entry, bool), AbortCode> {
         let entry = self.find(index, sub)?;
-        self.check_write(entry, data)?;
+        self.check_write(entry, data, true)?;
         Ok((entry, store_checked(image, entry, data)?))
     }
 
     /// The checks of [`Dictionary::write`] before any byte changes: access,
     /// length and limits. The node's SDO router runs them first on every
     /// communication object.
-    pub(crate) fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+    pub(crate) fn check_write(&self, entry: &Entry, data: &[u8], limits: bool) -> Result<(), AbortCode> {
         if !entry.writable() {
             return Err(AbortCode::ReadOnly);
         }
@@ -257,7 +261,7 @@ impl Dictionary {
         if data.len() < len && !entry.data_type.is_variable_length() {
             return Err(AbortCode::LengthTooLow);
         }
-        if let Some(limits) = self.limits_of(entry) {
+        if limits && let Some(limits) = self.limits_of(entry) {
             limits.check(entry.data_type, data)?;
         }
         Ok(())
