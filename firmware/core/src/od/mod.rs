@@ -239,14 +239,23 @@ impl Dictionary {
     /// byte of the image changed (a TPDO mapping it cannot have new data otherwise).
     pub fn write_entry(&self, image: &mut [u8], index: u16, sub: u8, data: &[u8]) -> Result<(&'static Entry, bool), AbortCode> {
         let entry = self.find(index, sub)?;
-        self.check_write(entry, data, true)?;
+        self.check_write(entry, data)?;
         Ok((entry, store_checked(image, entry, data)?))
     }
 
     /// The checks of [`Dictionary::write`] before any byte changes: access,
     /// length and limits. The node's SDO router runs them first on every
     /// communication object.
-    pub(crate) fn check_write(&self, entry: &Entry, data: &[u8], limits: bool) -> Result<(), AbortCode> {
+    pub(crate) fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        self.check_size(entry, data)?;
+        if let Some(limits) = self.limits_of(entry) {
+            limits.check(entry.data_type, data)?;
+        }
+        Ok(())
+    }
+
+    /// [`Dictionary::check_write`] but the limits: access and length.
+    pub(crate) fn check_size(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
         if !entry.writable() {
             return Err(AbortCode::ReadOnly);
         }
@@ -260,9 +269,6 @@ impl Dictionary {
         // A string or domain may be shorter than its capacity.
         if data.len() < len && !entry.data_type.is_variable_length() {
             return Err(AbortCode::LengthTooLow);
-        }
-        if limits && let Some(limits) = self.limits_of(entry) {
-            limits.check(entry.data_type, data)?;
         }
         Ok(())
     }
