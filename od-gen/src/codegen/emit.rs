@@ -113,6 +113,7 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
         "    const SERVICES: od::Services = od::Services {{ lss: {}, block_sdo: {}, guarding: {}, time: {}, storage: {} }};",
         services.lss, services.block_sdo, services.guarding, services.time, services.storage
     );
+    let _ = writeln!(w, "    const HAS_LIMITS: bool = {};", !l.limits.is_empty());
     let _ = writeln!(w, "    fn dictionary(&self) -> &'static od::Dictionary {{\n        &DICTIONARY\n    }}");
     let _ = writeln!(w, "    fn image(&self) -> &[u8] {{\n        &self.image\n    }}");
     let _ = writeln!(w, "    fn image_mut(&mut self) -> &mut [u8] {{\n        &mut self.image\n    }}");

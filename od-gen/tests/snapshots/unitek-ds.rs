@@ -1178,6 +1178,7 @@ pub struct Ram {
 
 impl od::ObjectDictionary for Ram {
     const SERVICES: od::Services = od::Services { lss: false, block_sdo: false, guarding: true, time: false, storage: false };
+    const HAS_LIMITS: bool = true;
     fn dictionary(&self) -> &'static od::Dictionary {
         &DICTIONARY
     }

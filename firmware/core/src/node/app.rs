@@ -230,7 +230,7 @@ impl Ctx<'_> {
             self.effects.written = true;
             return self.store_command(index, sub, data, None);
         }
-        let entry = self.precheck(index, sub, data)?;
+        let entry = self.precheck::<true>(index, sub, data)?;
         self.route_write(index, sub, data, entry)
     }
 

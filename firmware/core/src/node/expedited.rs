@@ -60,7 +60,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 if index < index::MANUFACTURER_SPECIFIC {
                     return false;
                 }
-                let Ok(entry) = precheck(dict, index, sub, data) else { return false };
+                // A constant: one of the two is linked.
+                let checked =
+                    if O::HAS_LIMITS { precheck::<true>(dict, index, sub, data) } else { precheck::<false>(dict, index, sub, data) };
+                let Ok(entry) = checked else { return false };
                 // Room for the answer before the write: written again by the
                 // general path, the value would have changed nothing.
                 if !sink.room() {

@@ -6,7 +6,7 @@ use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
 use crate::services::store::StoredSet;
 use crate::storage::Storage;
 use crate::time::{At, Duration, Instant, NEVER};
-use crate::wire::lss::{LssRequest, SLAVE_COB_ID};
+use crate::wire::lss::{SLAVE_COB_ID, request_frame};
 
 use super::{Application, Node};
 use crate::od::ObjectDictionary;
@@ -92,29 +92,27 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the interop image +228, where the budget went to other code).
     #[cold]
     pub(super) fn lss_request(&mut self, now: Instant, data: &[u8]) {
-        let Ok(request) = LssRequest::parse(data) else {
+        let Ok(request) = request_frame(data) else {
             self.counters.count_malformed();
             return;
         };
         let Some(lss) = self.lss_mut() else { return };
+        // Configuration with a new node-id pending: "switch state global" to waiting leaves it.
+        let new_id = lss.mode() == Mode::Configuration && lss.pending_node_id() != lss.active_node_id();
         // A device that resets itself on leaving configuration with a new node-id (the Sendix, L3567).
-        let leave_resets = A::OPTIONS.lss_start_resets_node
-            && request == LssRequest::SwitchGlobal(false)
-            && lss.mode() == Mode::Configuration
-            && lss.pending_node_id() != lss.active_node_id();
+        let leave_resets = A::OPTIONS.lss_start_resets_node && new_id;
         // A device whose own "unconfigured" node-id is active (the EC5000's 127) starts the new one so.
-        let leave_starts = A::OPTIONS.lss_unconfigured_node_id.is_some_and(|id| id == lss.active_node_id())
-            && request == LssRequest::SwitchGlobal(false)
-            && lss.mode() == Mode::Configuration
-            && lss.pending_node_id() != lss.active_node_id();
+        let leave_starts = new_id && A::OPTIONS.lss_unconfigured_node_id.is_some_and(|id| id == lss.active_node_id());
         let action = lss.on_request(request);
-        if leave_resets && action == LssAction::None {
-            self.reset_application();
-            return;
-        }
-        if leave_starts && action == LssAction::None {
-            self.reset_communication();
-            return;
+        if action == LssAction::None && lss.mode() == Mode::Waiting {
+            if leave_resets {
+                self.reset_application();
+                return;
+            }
+            if leave_starts {
+                self.reset_communication();
+                return;
+            }
         }
         match action {
             LssAction::None => {}

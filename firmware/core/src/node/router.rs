@@ -122,9 +122,9 @@ impl Ctx<'_> {
     }
 
     /// [`precheck`]: the checks every download passes before the object's
-    /// own rules; the entry, for [`Ctx::route_write`].
-    pub(super) fn precheck(&self, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
-        precheck(self.dict, index, sub, data)
+    /// own rules, `LIMITS` as there; the entry, for [`Ctx::route_write`].
+    pub(super) fn precheck<const LIMITS: bool>(&self, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
+        precheck::<LIMITS>(self.dict, index, sub, data)
     }
 }
 
@@ -189,7 +189,12 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
         }
         // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
         let store = index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS;
-        let entry = if store { None } else { Some(self.ctx.precheck(index, sub, data)?) };
+        // `HAS_LIMITS` is a constant: one of the two is linked.
+        let entry = match (store, O::HAS_LIMITS) {
+            (true, _) => None,
+            (false, true) => Some(self.ctx.precheck::<true>(index, sub, data)?),
+            (false, false) => Some(self.ctx.precheck::<false>(index, sub, data)?),
+        };
         self.app.check_write(self.ctx, index, sub, data)?;
         match entry {
             Some(entry) => self.ctx.route_write(index, sub, data, entry)?,

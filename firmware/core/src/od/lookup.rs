@@ -57,12 +57,18 @@ pub(crate) fn u32_exact(data: &[u8]) -> Result<u32, AbortCode> {
 /// the EDS limits; a writable DOMAIN has no length or limits to check here.
 /// So an access or range error gets its own abort code (0x06010002,
 /// 0x0607001x, 0x06090031/32) whatever the object's owner would say about
-/// the value.
-pub(crate) fn precheck(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
+/// the value. `LIMITS`: whether the dictionary has any
+/// ([`super::ObjectDictionary::HAS_LIMITS`]): a dictionary without links no
+/// limit check.
+pub(crate) fn precheck<const LIMITS: bool>(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
     let entry = dict.find(index, sub)?;
     if entry.data_type == DataType::Domain && entry.writable() {
         return Ok(entry);
     }
-    dict.check_write(entry, data)?;
+    if LIMITS {
+        dict.check_write(entry, data)?;
+    } else {
+        dict.check_size(entry, data)?;
+    }
     Ok(entry)
 }

@@ -135,6 +135,10 @@ impl Services {
 pub trait ObjectDictionary {
     /// The optional services a node on this dictionary links.
     const SERVICES: Services = Services::ALL;
+    /// Whether any entry has a LowLimit/HighLimit (od-gen: a limits table
+    /// that is not empty). Without, the downloads' check of the value
+    /// against its limits ([`Limits::check`]) is left out of the image.
+    const HAS_LIMITS: bool = true;
     /// The flash tables of this dictionary.
     fn dictionary(&self) -> &'static Dictionary;
     /// The RAM image.
@@ -243,6 +247,15 @@ impl Dictionary {
     /// length and limits. The node's SDO router runs them first on every
     /// communication object.
     pub(crate) fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+        self.check_size(entry, data)?;
+        if let Some(limits) = self.limits_of(entry) {
+            limits.check(entry.data_type, data)?;
+        }
+        Ok(())
+    }
+
+    /// [`Dictionary::check_write`] but the limits: access and length.
+    pub(crate) fn check_size(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
         if !entry.writable() {
             return Err(AbortCode::ReadOnly);
         }
@@ -256,9 +269,6 @@ impl Dictionary {
         // A string or domain may be shorter than its capacity.
         if data.len() < len && !entry.data_type.is_variable_length() {
             return Err(AbortCode::LengthTooLow);
-        }
-        if let Some(limits) = self.limits_of(entry) {
-            limits.check(entry.data_type, data)?;
         }
         Ok(())
     }

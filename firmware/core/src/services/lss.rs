@@ -9,7 +9,7 @@
 //! master switches it back to waiting). The same holds for the bit rate,
 //! which only changes with "activate bit timing".
 
-use crate::wire::lss::{AddressPart, LssRequest, answer, answer_u32};
+use crate::wire::lss::{answer, answer_u32, u32_at};
 
 /// Node-id of an unconfigured node.
 pub const UNCONFIGURED: u8 = 0xFF;
@@ -153,74 +153,77 @@ impl LssSlave {
         answer(0x17, if ok { 0 } else { 2 }, 0)
     }
 
-    /// Handles one request from the master.
-    pub fn on_request(&mut self, request: LssRequest) -> LssAction {
-        use LssRequest as Q;
-        if !matches!(request, Q::SwitchSelective(..)) {
+    /// Handles one request from the master: a frame [`request_frame`] accepted.
+    // Offsets from a range's first command specifier: 0..=3 (address parts), 0..=5 (identify bounds).
+    #[allow(clippy::arithmetic_side_effects)]
+    pub fn on_request(&mut self, d: &[u8; 8]) -> LssAction {
+        let [cs, b1, b2, _, _, b5, b6, b7] = *d;
+        let value = u32_at(d);
+        if !(0x40..=0x43).contains(&cs) {
             self.selective = 0;
         }
         let configuring = self.mode == Mode::Configuration;
-        match request {
-            Q::SwitchGlobal(true) => {
+        match cs {
+            // Switch state global: 1 configuration, 0 waiting.
+            0x04 if b1 == 1 => {
                 self.mode = Mode::Configuration;
                 LssAction::None
             }
-            Q::SwitchGlobal(false) => self.enter_waiting(),
-            Q::SwitchSelective(part, value) => {
-                let expected = part as u8;
+            0x04 => self.enter_waiting(),
+            // Switch state selective: vendor, product, revision, serial number.
+            0x40..=0x43 => {
+                let expected = cs - 0x40;
                 // The four parts come in order; anything else starts over.
                 if self.selective == expected && self.address.get(usize::from(expected)) == Some(&value) {
-                    // `expected` is an address part, 0..=3.
-                    #[allow(clippy::arithmetic_side_effects)]
-                    {
-                        self.selective += 1;
-                    }
+                    self.selective += 1;
                     if self.selective == 4 {
                         self.selective = 0;
                         self.mode = Mode::Configuration;
                         return reply(0x44, 0);
                     }
                 } else {
-                    self.selective = u8::from(part == AddressPart::Vendor && self.address[0] == value);
+                    self.selective = u8::from(expected == 0 && self.address[0] == value);
                 }
                 LssAction::None
             }
-            Q::ConfigureNodeId(id) if configuring => {
+            // Configure node-id.
+            0x11 if configuring => {
                 // CiA 305 §5.2.2.2: 1..=127 or 0xFF (back to unconfigured); error 1 otherwise.
-                if (1..=127).contains(&id) || id == UNCONFIGURED {
-                    self.pending_node_id = id;
+                if (1..=127).contains(&b1) || b1 == UNCONFIGURED {
+                    self.pending_node_id = b1;
                     reply(0x11, 0)
                 } else {
                     reply(0x11, 1)
                 }
             }
-            Q::ConfigureBitTiming(table, index) if configuring => {
-                let supported = table == 0 && index < 16 && self.supported_rates & (1 << index) != 0;
+            // Configure bit timing: table selector, table index.
+            0x13 if configuring => {
+                let supported = b1 == 0 && b2 < 16 && self.supported_rates & (1 << b2) != 0;
                 if supported {
-                    self.pending_bit_rate = index;
+                    self.pending_bit_rate = b2;
                     reply(0x13, 0)
                 } else {
                     reply(0x13, 1)
                 }
             }
-            Q::ActivateBitTiming(delay_ms) if configuring => LssAction::ActivateBitTiming { delay_ms, index: self.pending_bit_rate },
-            Q::StoreConfiguration if configuring => LssAction::Store { node_id: self.pending_node_id, bit_rate: self.pending_bit_rate },
-            Q::Inquire(part) if configuring => {
-                // An address part is 0..=3: 0x5A..=0x5D.
-                #[allow(clippy::arithmetic_side_effects)]
-                let cs = 0x5A + part as u8;
-                LssAction::Answer(LssAnswer { cs, data: self.address.get(part as usize).copied().unwrap_or(0) })
+            0x15 if configuring => LssAction::ActivateBitTiming { delay_ms: u16::from_le_bytes([b1, b2]), index: self.pending_bit_rate },
+            0x17 if configuring => LssAction::Store { node_id: self.pending_node_id, bit_rate: self.pending_bit_rate },
+            // Inquire vendor, product, revision, serial number: answered with the same specifier.
+            0x5A..=0x5D if configuring => {
+                LssAction::Answer(LssAnswer { cs, data: self.address.get(usize::from(cs - 0x5A)).copied().unwrap_or(0) })
             }
-            Q::InquireNodeId if configuring => reply(0x5E, self.active_node_id),
-            Q::IdentifyRemote(k, value) => {
+            0x5E if configuring => reply(0x5E, self.active_node_id),
+            // Identify remote slave: vendor, product, revision low/high, serial low/high.
+            0x46..=0x4B => {
+                let k = cs - 0x46;
                 if let Some(slot) = self.identify.get_mut(usize::from(k)) {
                     *slot = value;
                 }
                 // The serial-number high bound comes last; then the slave answers if it is in range.
                 if k == 5 && self.in_identify_range() { reply(0x4F, 0) } else { LssAction::None }
             }
-            Q::IdentifyNonConfigured if self.active_node_id == UNCONFIGURED => reply(0x50, 0),
-            Q::Fastscan { id, bit_checked, sub, next } => self.fastscan(id, bit_checked, sub, next),
+            0x4C if self.active_node_id == UNCONFIGURED => reply(0x50, 0),
+            0x51 => self.fastscan(value, b5, b6, b7),
             // Configuration services in the waiting state are ignored (CiA 305 §4.3).
             _ => LssAction::None,
         }

@@ -201,7 +201,7 @@ impl SyncService {
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Result<(), AbortCode> {
-        let entry = precheck(dict, index, sub, data)?;
+        let entry = precheck::<true>(dict, index, sub, data)?;
         let value = le_u32(data);
         // The object's own rules first, then one write for all four.
         self.check(index, value)?;

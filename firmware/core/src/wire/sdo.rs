@@ -185,7 +185,7 @@ fn tail(f: &[u8; 8]) -> [u8; 4] {
 }
 
 /// Bytes 1–7.
-fn segment_data(f: &[u8; 8]) -> [u8; 7] {
+pub(crate) fn segment_data(f: &[u8; 8]) -> [u8; 7] {
     let [_, d @ ..] = *f;
     d
 }
@@ -245,7 +245,7 @@ pub(crate) fn expedited_request(data: &[u8]) -> Option<Expedited> {
 /// Decodes the `nnes` bits (bits 3–0) of an initiate frame with bytes 4–7.
 // `n` is two bits: 4 − n is 1..=4.
 #[allow(clippy::arithmetic_side_effects)]
-fn initiate_data(b0: u8, f: &[u8; 8]) -> InitiateData {
+pub(crate) fn initiate_data(b0: u8, f: &[u8; 8]) -> InitiateData {
     let expedited = b0 & 0x02 != 0;
     let size_indicated = b0 & 0x01 != 0;
     if expedited {
@@ -260,6 +260,7 @@ fn initiate_data(b0: u8, f: &[u8; 8]) -> InitiateData {
 /// outside 1..=4 is sent as the nearest valid one.
 // `k` is clamped to 1..=4 first.
 #[allow(clippy::arithmetic_side_effects)]
+#[inline(always)]
 fn emit_initiate_data(data: &InitiateData) -> (u8, [u8; 4]) {
     match *data {
         InitiateData::Expedited { data, size: Some(k) } => (((4 - k.clamp(1, 4)) << 2) | 0x03, data),
@@ -279,7 +280,7 @@ fn segment_byte0(cs: u8, toggle: bool, len: u8, last: bool) -> u8 {
 /// The `len` and `last` fields of a segment's byte 0.
 // Three bits: 7 − n is 0..=7.
 #[allow(clippy::arithmetic_side_effects)]
-fn segment_fields(b0: u8) -> (bool, u8, bool) {
+pub(crate) fn segment_fields(b0: u8) -> (bool, u8, bool) {
     (b0 & TOGGLE != 0, 7 - ((b0 >> 1) & 0x07), b0 & 0x01 != 0)
 }
 
@@ -287,6 +288,65 @@ fn unknown(f: &[u8; 8]) -> SdoParseError {
     let (index, sub) = multiplexer(f);
     let [command, ..] = *f;
     SdoParseError::UnknownCommand { command, index, sub }
+}
+
+/// What a client frame asks for, from byte 0 alone: the SDO server's
+/// dispatch, which then decodes only the fields of that request
+/// ([`initiate_data`], [`segment_fields`], [`segment_data`], the block
+/// requests' `decode`). [`SdoRequest::parse`] says the same of every frame
+/// (tested for every byte 0); the server does not build an `SdoRequest`, so
+/// that each request's fields stay in registers on the way to its handler.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum RequestKind {
+    /// ccs = 0.
+    DownloadSegment,
+    /// ccs = 1.
+    InitiateDownload,
+    /// ccs = 2.
+    InitiateUpload,
+    /// ccs = 3.
+    UploadSegment,
+    /// ccs = 4.
+    Abort,
+    /// ccs = 5, cs = 0: initiate block upload.
+    BlockUploadInitiate,
+    /// ccs = 5, the other client subcommands (start, ack, end).
+    BlockUpload,
+    /// ccs = 6, cs = 0: initiate block download.
+    BlockDownloadInitiate,
+    /// ccs = 6, cs = 1: end block download.
+    BlockDownloadEnd,
+    /// ccs = 7: none CiA 301 defines.
+    Unknown,
+}
+
+impl RequestKind {
+    /// The kind of a client frame with byte 0 `b0`.
+    pub(crate) fn of(b0: u8) -> RequestKind {
+        match b0 >> 5 {
+            0 => RequestKind::DownloadSegment,
+            1 => RequestKind::InitiateDownload,
+            2 => RequestKind::InitiateUpload,
+            3 => RequestKind::UploadSegment,
+            4 => RequestKind::Abort,
+            5 if b0 & 0x03 == 0 => RequestKind::BlockUploadInitiate,
+            5 => RequestKind::BlockUpload,
+            6 if b0 & 0x01 == 0 => RequestKind::BlockDownloadInitiate,
+            6 => RequestKind::BlockDownloadEnd,
+            _ => RequestKind::Unknown,
+        }
+    }
+
+    /// Whether the request opens a new transfer (whatever the server is doing).
+    pub(crate) fn starts_transfer(self) -> bool {
+        matches!(
+            self,
+            RequestKind::InitiateDownload
+                | RequestKind::InitiateUpload
+                | RequestKind::BlockUploadInitiate
+                | RequestKind::BlockDownloadInitiate
+        )
+    }
 }
 
 impl SdoRequest {
@@ -355,6 +415,9 @@ impl SdoResponse {
     }
 
     /// The 8 data bytes of this response.
+    // In line: the SDO server builds each response where it knows the
+    // variant, so that only that variant's bytes are made there.
+    #[inline(always)]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
             SdoResponse::InitiateDownload { index, sub } => initiate_download_response(index, sub),
@@ -394,6 +457,37 @@ mod tests {
         }
         // 32 upload command bytes, 8 expedited downloads with a size (x and n free).
         assert_eq!(served, 40);
+    }
+
+    #[test]
+    fn request_kind_and_its_fields_say_what_parse_says() {
+        for b0 in 0..=255u8 {
+            let f = [b0, 0x18, 0x10, 0x02, 0xA1, 0xB2, 0xC3, 0xD4];
+            let (index, sub) = multiplexer(&f);
+            let (toggle, len, last) = segment_fields(b0);
+            let decoded = match RequestKind::of(b0) {
+                RequestKind::DownloadSegment => Ok(SdoRequest::DownloadSegment { toggle, data: segment_data(&f), len, last }),
+                RequestKind::InitiateDownload => Ok(SdoRequest::InitiateDownload { index, sub, data: initiate_data(b0, &f) }),
+                RequestKind::InitiateUpload => Ok(SdoRequest::InitiateUpload { index, sub }),
+                RequestKind::UploadSegment => Ok(SdoRequest::UploadSegment { toggle }),
+                RequestKind::Abort => Ok(SdoRequest::Abort { index, sub, code: tail_u32(&f) }),
+                RequestKind::BlockUploadInitiate | RequestKind::BlockUpload => Ok(SdoRequest::BlockUpload(BlockUploadRequest::decode(&f))),
+                RequestKind::BlockDownloadInitiate | RequestKind::BlockDownloadEnd => {
+                    Ok(SdoRequest::BlockDownload(BlockDownloadRequest::decode(&f)))
+                }
+                RequestKind::Unknown => Err(SdoParseError::UnknownCommand { command: b0, index, sub }),
+            };
+            let parsed = SdoRequest::parse(&f);
+            assert_eq!(decoded, parsed, "byte 0 {b0:#04x}");
+            let starts = matches!(
+                parsed,
+                Ok(SdoRequest::InitiateDownload { .. }
+                    | SdoRequest::InitiateUpload { .. }
+                    | SdoRequest::BlockDownload(BlockDownloadRequest::Initiate { .. })
+                    | SdoRequest::BlockUpload(BlockUploadRequest::Initiate { .. }))
+            );
+            assert_eq!(RequestKind::of(b0).starts_transfer(), starts, "byte 0 {b0:#04x}");
+        }
     }
 
     #[test]

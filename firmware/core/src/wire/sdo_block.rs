@@ -227,12 +227,18 @@ impl BlockDownloadRequest {
         if b0 >> 5 != 6 {
             return Err(command_error(&f));
         }
-        let (index, sub) = multiplexer(&f);
-        Ok(if b0 & 0x01 == 0 {
-            BlockDownloadRequest::Initiate { index, sub, crc: b0 & CRC_FLAG != 0, size: (b0 & SIZE_FLAG != 0).then(|| size_of(&f)) }
+        Ok(Self::decode(&f))
+    }
+
+    /// Decodes a frame whose ccs is 6 (not checked).
+    pub(crate) fn decode(f: &[u8; 8]) -> Self {
+        let [b0, ..] = *f;
+        let (index, sub) = multiplexer(f);
+        if b0 & 0x01 == 0 {
+            BlockDownloadRequest::Initiate { index, sub, crc: b0 & CRC_FLAG != 0, size: (b0 & SIZE_FLAG != 0).then(|| size_of(f)) }
         } else {
-            BlockDownloadRequest::End { unused: (b0 >> 2) & 0x07, crc: crc_of(&f) }
-        })
+            BlockDownloadRequest::End { unused: (b0 >> 2) & 0x07, crc: crc_of(f) }
+        }
     }
 
     /// The 8 data bytes.
@@ -267,6 +273,7 @@ impl BlockDownloadResponse {
     }
 
     /// The 8 data bytes.
+    #[inline(always)]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
             BlockDownloadResponse::Initiate { index, sub, crc, blksize } => {
@@ -282,17 +289,23 @@ impl BlockUploadRequest {
     /// Decodes a client frame with ccs = 5.
     pub fn parse(data: &[u8]) -> Result<Self, SdoParseError> {
         let f = frame(data)?;
-        let [b0, b1, b2, _, b4, b5, ..] = f;
+        let [b0, ..] = f;
         if b0 >> 5 != 5 {
             return Err(command_error(&f));
         }
-        let (index, sub) = multiplexer(&f);
-        Ok(match b0 & 0x03 {
+        Ok(Self::decode(&f))
+    }
+
+    /// Decodes a frame whose ccs is 5 (not checked).
+    pub(crate) fn decode(f: &[u8; 8]) -> Self {
+        let [b0, b1, b2, _, b4, b5, ..] = *f;
+        let (index, sub) = multiplexer(f);
+        match b0 & 0x03 {
             0 => BlockUploadRequest::Initiate { index, sub, crc: b0 & CRC_FLAG != 0, blksize: b4, pst: b5 },
             1 => BlockUploadRequest::End,
             2 => BlockUploadRequest::Ack { ackseq: b1, blksize: b2 },
             _ => BlockUploadRequest::Start,
-        })
+        }
     }
 
     /// The 8 data bytes.
@@ -325,6 +338,7 @@ impl BlockUploadResponse {
     }
 
     /// The 8 data bytes.
+    #[inline(always)]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
             BlockUploadResponse::Initiate { index, sub, crc, size } => {

@@ -3,6 +3,7 @@
 //! unconfigured slaves on one bus.
 
 use super::*;
+use crate::wire::lss::{AddressPart, LssRequest, request_frame};
 
 const ADDR: [u32; 4] = [0x13, 0x5868_2001, 0x66, 0x0001_E240];
 /// Bits of the CiA 305 table the slave supports: 1M, 500k, 250k, 125k, 50k, 20k, 10k.
@@ -13,8 +14,8 @@ fn req(r: LssRequest) -> [u8; 8] {
 }
 
 fn send(s: &mut LssSlave, frame: [u8; 8]) -> LssAction {
-    match LssRequest::parse(&frame) {
-        Ok(r) => s.on_request(r),
+    match request_frame(&frame) {
+        Ok(d) => s.on_request(d),
         Err(_) => LssAction::None,
     }
 }
@@ -106,15 +107,15 @@ fn switch_state_selective_needs_the_whole_address_in_order() {
     let parts = [AddressPart::Vendor, AddressPart::Product, AddressPart::Revision, AddressPart::Serial];
     // Wrong serial: no answer, still waiting.
     for (p, v) in parts.iter().zip([ADDR[0], ADDR[1], ADDR[2], 7]) {
-        assert_eq!(s.on_request(LssRequest::SwitchSelective(*p, v)), LssAction::None);
+        assert_eq!(s.on_request(&LssRequest::SwitchSelective(*p, v).emit()), LssAction::None);
     }
     assert_eq!(s.mode(), Mode::Waiting);
     // Out of order: starts over.
-    s.on_request(LssRequest::SwitchSelective(AddressPart::Product, ADDR[1]));
+    s.on_request(&LssRequest::SwitchSelective(AddressPart::Product, ADDR[1]).emit());
     assert_eq!(s.mode(), Mode::Waiting);
     let mut last = LssAction::None;
     for (p, v) in parts.iter().zip(ADDR) {
-        last = s.on_request(LssRequest::SwitchSelective(*p, v));
+        last = s.on_request(&LssRequest::SwitchSelective(*p, v).emit());
     }
     assert_eq!(last, ans([0x44, 0, 0, 0, 0, 0, 0, 0]));
     assert_eq!(s.mode(), Mode::Configuration);
@@ -127,26 +128,26 @@ fn identify_remote_slave_answers_inside_the_range() {
     let mut s = LssSlave::new(ADDR, 0x3F, 3, RATES);
     let bounds = |rev: (u32, u32), ser: (u32, u32)| [ADDR[0], ADDR[1], rev.0, rev.1, ser.0, ser.1];
     for (k, v) in bounds((0, 0x100), (0x1_0000, 0x2_0000)).into_iter().enumerate() {
-        let a = s.on_request(LssRequest::IdentifyRemote(k as u8, v));
+        let a = s.on_request(&LssRequest::IdentifyRemote(k as u8, v).emit());
         assert_eq!(a, if k == 5 { ans([0x4F, 0, 0, 0, 0, 0, 0, 0]) } else { LssAction::None });
     }
     for (k, v) in bounds((0x67, 0x100), (0, u32::MAX)).into_iter().enumerate() {
-        assert_eq!(s.on_request(LssRequest::IdentifyRemote(k as u8, v)), LssAction::None, "revision below the range");
+        assert_eq!(s.on_request(&LssRequest::IdentifyRemote(k as u8, v).emit()), LssAction::None, "revision below the range");
     }
 }
 
 #[test]
 fn identify_non_configured_and_starting_an_unconfigured_node() {
     let mut configured = LssSlave::new(ADDR, 0x3F, 3, RATES);
-    assert_eq!(configured.on_request(LssRequest::IdentifyNonConfigured), LssAction::None);
+    assert_eq!(configured.on_request(&LssRequest::IdentifyNonConfigured.emit()), LssAction::None);
     let mut s = LssSlave::new(ADDR, UNCONFIGURED, 3, RATES);
-    assert_eq!(s.on_request(LssRequest::IdentifyNonConfigured), ans([0x50, 0, 0, 0, 0, 0, 0, 0]));
-    s.on_request(LssRequest::SwitchGlobal(true));
-    assert_eq!(s.on_request(LssRequest::InquireNodeId), ans([0x5E, 0xFF, 0, 0, 0, 0, 0, 0]));
-    s.on_request(LssRequest::ConfigureNodeId(0x20));
-    assert_eq!(s.on_request(LssRequest::SwitchGlobal(false)), LssAction::Start(0x20));
+    assert_eq!(s.on_request(&LssRequest::IdentifyNonConfigured.emit()), ans([0x50, 0, 0, 0, 0, 0, 0, 0]));
+    s.on_request(&LssRequest::SwitchGlobal(true).emit());
+    assert_eq!(s.on_request(&LssRequest::InquireNodeId.emit()), ans([0x5E, 0xFF, 0, 0, 0, 0, 0, 0]));
+    s.on_request(&LssRequest::ConfigureNodeId(0x20).emit());
+    assert_eq!(s.on_request(&LssRequest::SwitchGlobal(false).emit()), LssAction::Start(0x20));
     assert_eq!(s.active_node_id(), 0x20);
-    assert_eq!(s.on_request(LssRequest::IdentifyNonConfigured), LssAction::None);
+    assert_eq!(s.on_request(&LssRequest::IdentifyNonConfigured.emit()), LssAction::None);
 }
 
 // ---- Fastscan ----------------------------------------------------------------------
@@ -156,7 +157,7 @@ fn identify_non_configured_and_starting_an_unconfigured_node() {
 fn fastscan(slaves: &mut [LssSlave]) -> Option<[u32; 4]> {
     let mut ask = |id: u32, bit: u8, sub: u8, next: u8| {
         let r = LssRequest::Fastscan { id, bit_checked: bit, sub, next };
-        slaves.iter_mut().map(|s| s.on_request(r)).filter(|a| *a != LssAction::None).count() > 0
+        slaves.iter_mut().map(|s| s.on_request(&r.emit())).filter(|a| *a != LssAction::None).count() > 0
     };
     if !ask(0, 0x80, 0, 0) {
         return None;
@@ -185,8 +186,8 @@ fn fastscan_finds_three_unconfigured_slaves_one_by_one() {
         let found = fastscan(&mut slaves).expect("an unconfigured slave answers");
         let s = slaves.iter_mut().find(|s| s.mode() == Mode::Configuration).expect("the found slave is configuring");
         assert_eq!(s.address, found);
-        assert_eq!(s.on_request(LssRequest::ConfigureNodeId(node_id)), ans([0x11, 0, 0, 0, 0, 0, 0, 0]));
-        assert_eq!(s.on_request(LssRequest::SwitchGlobal(false)), LssAction::Start(node_id));
+        assert_eq!(s.on_request(&LssRequest::ConfigureNodeId(node_id).emit()), ans([0x11, 0, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(s.on_request(&LssRequest::SwitchGlobal(false).emit()), LssAction::Start(node_id));
         assigned.push((found[3], node_id));
     }
     assert_eq!(fastscan(&mut slaves), None, "no unconfigured slave is left");
@@ -199,8 +200,8 @@ fn fastscan_finds_three_unconfigured_slaves_one_by_one() {
 fn fastscan_ignores_bad_parameters_and_configured_slaves() {
     let mut s = LssSlave::new(ADDR, UNCONFIGURED, 3, RATES);
     for (bit, sub, next) in [(32, 0, 0), (0, 4, 0), (0, 0, 4), (31, 1, 1)] {
-        assert_eq!(s.on_request(LssRequest::Fastscan { id: 0, bit_checked: bit, sub, next }), LssAction::None);
+        assert_eq!(s.on_request(&LssRequest::Fastscan { id: 0, bit_checked: bit, sub, next }.emit()), LssAction::None);
     }
     let mut c = LssSlave::new(ADDR, 5, 3, RATES);
-    assert_eq!(c.on_request(LssRequest::Fastscan { id: 0, bit_checked: 0x80, sub: 0, next: 0 }), LssAction::None);
+    assert_eq!(c.on_request(&LssRequest::Fastscan { id: 0, bit_checked: 0x80, sub: 0, next: 0 }.emit()), LssAction::None);
 }

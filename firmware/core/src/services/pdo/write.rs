@@ -86,7 +86,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         };
         let entry = match entry {
             Some(entry) => entry,
-            None => match precheck(dict, index, sub, data) {
+            None => match precheck::<true>(dict, index, sub, data) {
                 Ok(entry) => entry,
                 Err(code) => return Some(Err(code)),
             },

@@ -17,10 +17,9 @@ use super::{Buffer, Channel, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::Instant;
-use crate::wire::sdo::{SdoRequest, SdoResponse};
+use crate::wire::sdo::SdoResponse;
 use crate::wire::sdo_block::{
-    BlockDownloadRequest, BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA,
-    crc16_update,
+    BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update,
 };
 
 /// A block download in progress.
@@ -187,14 +186,12 @@ impl Channel {
     pub(super) fn block_download_end(
         &mut self,
         d: Download,
-        request: SdoRequest,
+        unused: u8,
+        crc: u16,
         buf: Buffer<'_>,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
     ) {
-        let SdoRequest::BlockDownload(BlockDownloadRequest::End { unused, crc }) = request else {
-            return self.abort(AbortCode::InvalidCommand, tx);
-        };
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let len = d.total.saturating_sub(usize::from(unused));
         if len > buf.len() {
@@ -247,10 +244,7 @@ impl Channel {
     }
 
     /// A request while a block upload is in progress.
-    pub(super) fn block_upload(&mut self, mut u: Upload, request: SdoRequest, tx: &mut dyn SdoTx) {
-        let SdoRequest::BlockUpload(request) = request else {
-            return self.abort(AbortCode::InvalidCommand, tx);
-        };
+    pub(super) fn block_upload(&mut self, mut u: Upload, request: BlockUploadRequest, tx: &mut dyn SdoTx) {
         match (u.phase, request) {
             (UploadPhase::Initiated, BlockUploadRequest::Start) => {
                 // The segments go out from poll().

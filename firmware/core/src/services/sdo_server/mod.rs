@@ -42,7 +42,7 @@ use core::num::NonZeroU64;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, Instant, NEVER, deadline_of};
-use crate::wire::sdo::{SdoParseError, SdoRequest, SdoResponse};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_data, segment_fields};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -75,17 +75,6 @@ enum State {
     SegmentedUpload(segmented::Upload),
     BlockDownload(block::Download),
     BlockUpload(block::Upload),
-}
-
-/// Whether a request opens a new transfer (whatever the server is doing).
-fn starts_transfer(request: &SdoRequest) -> bool {
-    matches!(
-        request,
-        SdoRequest::InitiateDownload { .. }
-            | SdoRequest::InitiateUpload { .. }
-            | SdoRequest::BlockDownload(BlockDownloadRequest::Initiate { .. })
-            | SdoRequest::BlockUpload(BlockUploadRequest::Initiate { .. })
-    )
 }
 
 /// The download buffer as one server sees it: `Some` when it may use the
@@ -323,18 +312,18 @@ impl Channel {
                 Ok(segment) => self.block_download_segment(d, segment, buf, tx),
                 Err(_) => return self.count_malformed(),
             },
-            _ => match SdoRequest::parse(data) {
-                Ok(request) if expired && !starts_transfer(&request) => {}
-                Ok(request) => self.request(request, block, buf, od, tx),
-                Err(SdoParseError::Length(_)) => return self.count_malformed(),
-                Err(SdoParseError::UnknownCommand { index, sub, .. }) => {
-                    self.count_malformed();
-                    if !expired {
-                        let mux = self.transfer().unwrap_or(Mux { index, sub });
-                        self.fail(mux, AbortCode::InvalidCommand, tx);
+            _ => {
+                let Ok(f) = frame(data) else { return self.count_malformed() };
+                let kind = RequestKind::of(f[0]);
+                if expired && !kind.starts_transfer() {
+                    // Too late for its transfer; an unknown command is still counted.
+                    if kind == RequestKind::Unknown {
+                        self.count_malformed();
                     }
+                } else {
+                    self.request(kind, f, block, buf, od, tx);
                 }
-            },
+            }
         }
         if !matches!(self.state, State::Idle) {
             self.restart_timer(now);
@@ -366,48 +355,71 @@ impl Channel {
         self.malformed = self.malformed.saturating_add(1);
     }
 
-    /// A request outside the block download sub-block phase; block
-    /// transfer requests only if `block`.
+    /// A request outside the block download sub-block phase, of `kind`;
+    /// block transfer requests only if `block`.
     #[inline(always)]
-    fn request<O: ObjectAccess>(&mut self, request: SdoRequest, block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
-        if !block && matches!(request, SdoRequest::BlockDownload(_) | SdoRequest::BlockUpload(_)) {
-            // As an unknown command specifier (`on_request`).
-            self.count_malformed();
-            let mux = match request {
-                SdoRequest::BlockDownload(BlockDownloadRequest::Initiate { index, sub, .. })
-                | SdoRequest::BlockUpload(BlockUploadRequest::Initiate { index, sub, .. }) => Mux { index, sub },
-                _ => Mux::NONE,
-            };
-            return self.fail(self.transfer().unwrap_or(mux), AbortCode::InvalidCommand, tx);
-        }
-        // An abort or a new initiate ends whatever was in progress.
-        match request {
-            SdoRequest::Abort { .. } => self.reset(),
-            SdoRequest::InitiateDownload { index, sub, data } => {
+    fn request<O: ObjectAccess>(&mut self, kind: RequestKind, f: [u8; 8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
+        let (index, sub) = multiplexer(&f);
+        let [b0, ..] = f;
+        // An abort or a new initiate ends whatever was in progress. Each
+        // other request belongs to one kind of transfer: served by its
+        // handler if that transfer is in progress, refused if not.
+        match (kind, block) {
+            (RequestKind::Abort, _) => self.reset(),
+            (RequestKind::InitiateDownload, _) => {
                 self.start(index, sub);
-                self.initiate_download(data, buf, od, tx);
+                self.initiate_download(initiate_data(b0, &f), buf, od, tx);
             }
-            SdoRequest::InitiateUpload { index, sub } => {
+            (RequestKind::InitiateUpload, _) => {
                 self.start(index, sub);
                 self.initiate_upload(od, tx);
             }
-            SdoRequest::BlockDownload(BlockDownloadRequest::Initiate { index, sub, crc, size }) => {
-                self.start(index, sub);
-                self.start_block_download(crc, size, buf, od, tx);
-            }
-            SdoRequest::BlockUpload(BlockUploadRequest::Initiate { index, sub, crc, blksize, pst }) => {
-                self.start(index, sub);
-                self.start_block_upload(crc, blksize, pst, od, tx);
-            }
-            _ => match self.state {
-                State::Idle => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
-                State::SegmentedDownload(d) => self.segmented_download(d, request, buf, od, tx),
-                State::SegmentedUpload(u) => self.segmented_upload(u, request, od, tx),
-                State::BlockDownload(d) if block => self.block_download_end(d, request, buf, od, tx),
-                State::BlockUpload(u) if block => self.block_upload(u, request, tx),
-                State::BlockDownload(_) | State::BlockUpload(_) => self.fail(Mux::NONE, AbortCode::InvalidCommand, tx),
+            (RequestKind::DownloadSegment, _) => match self.state {
+                State::SegmentedDownload(d) => {
+                    let (toggle, len, last) = segment_fields(b0);
+                    let data = segment_data(&f);
+                    let data = data.get(..usize::from(len)).unwrap_or(&data);
+                    self.segmented_download(d, segmented::Segment { toggle, data, last }, buf, od, tx)
+                }
+                _ => self.unexpected(tx),
             },
+            (RequestKind::UploadSegment, _) => match self.state {
+                State::SegmentedUpload(u) => self.segmented_upload(u, segment_fields(b0).0, od, tx),
+                _ => self.unexpected(tx),
+            },
+            (RequestKind::BlockDownloadInitiate | RequestKind::BlockDownloadEnd, true) => match BlockDownloadRequest::decode(&f) {
+                BlockDownloadRequest::Initiate { index, sub, crc, size } => {
+                    self.start(index, sub);
+                    self.start_block_download(crc, size, buf, od, tx);
+                }
+                BlockDownloadRequest::End { unused, crc } => match self.state {
+                    State::BlockDownload(d) => self.block_download_end(d, unused, crc, buf, od, tx),
+                    _ => self.unexpected(tx),
+                },
+            },
+            (RequestKind::BlockUploadInitiate | RequestKind::BlockUpload, true) => match BlockUploadRequest::decode(&f) {
+                BlockUploadRequest::Initiate { index, sub, crc, blksize, pst } => {
+                    self.start(index, sub);
+                    self.start_block_upload(crc, blksize, pst, od, tx);
+                }
+                request => match self.state {
+                    State::BlockUpload(u) => self.block_upload(u, request, tx),
+                    _ => self.unexpected(tx),
+                },
+            },
+            // An unknown command specifier, or a block transfer request without block transfer.
+            _ => {
+                self.count_malformed();
+                let mux = if kind == RequestKind::Unknown || kind.starts_transfer() { Mux { index, sub } } else { Mux::NONE };
+                self.fail(self.transfer().unwrap_or(mux), AbortCode::InvalidCommand, tx);
+            }
         }
+    }
+
+    /// A request that belongs to no transfer in progress: abort 0x05040001
+    /// for the transfer in progress, or for no object when idle.
+    fn unexpected(&mut self, tx: &mut dyn SdoTx) {
+        self.fail(self.transfer().unwrap_or(Mux::NONE), AbortCode::InvalidCommand, tx);
     }
 
     /// An initiate request for (index, sub): whatever was in progress ends.
@@ -441,12 +453,17 @@ impl Channel {
         self.send(SdoResponse::Abort { index: self.mux.index, sub: self.mux.sub, code: code.code() }, tx);
     }
 
+    // In line, with `SdoResponse::emit`: each site knows its response, so
+    // the frame is built there and no general encoder is linked.
+    #[inline(always)]
     fn send(&mut self, response: SdoResponse, tx: &mut dyn SdoTx) {
         self.emit(response.emit(), tx);
     }
 
     /// Sends a frame, or keeps it for the next poll. A newer response
     /// replaces an unsent older one: the client has moved on.
+    // Out of line: every response of the server ends here (ten sites).
+    #[inline(never)]
     fn emit(&mut self, frame: [u8; 8], tx: &mut dyn SdoTx) {
         self.pending = None;
         if !tx.send(frame) {

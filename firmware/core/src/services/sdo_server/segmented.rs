@@ -5,7 +5,7 @@
 use super::{Buffer, Channel, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::wire::sdo::{SdoRequest, SdoResponse};
+use crate::wire::sdo::SdoResponse;
 
 /// Data bytes in one segment.
 const SEGMENT: usize = 7;
@@ -30,6 +30,14 @@ pub(super) struct Upload {
     offset: usize,
     /// Size announced in the initiate response.
     size: usize,
+}
+
+/// A download segment request's fields (`SdoRequest::DownloadSegment`),
+/// its data cut to the bytes it carries.
+pub(super) struct Segment<'a> {
+    pub(super) toggle: bool,
+    pub(super) data: &'a [u8],
+    pub(super) last: bool,
 }
 
 impl Upload {
@@ -61,18 +69,14 @@ impl Channel {
     pub(super) fn segmented_download(
         &mut self,
         mut d: Download,
-        request: SdoRequest,
+        Segment { toggle, data: chunk, last }: Segment<'_>,
         buf: Buffer<'_>,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
     ) {
-        let SdoRequest::DownloadSegment { toggle, data, len, last } = request else {
-            return self.abort(AbortCode::InvalidCommand, tx);
-        };
         if toggle != d.toggle {
             return self.abort(AbortCode::ToggleBit, tx);
         }
-        let chunk = data.get(..usize::from(len)).unwrap_or(&data);
         let end = d.len.saturating_add(chunk.len());
         if d.size.is_some_and(|size| end > size) {
             return self.abort(AbortCode::LengthTooHigh, tx);
@@ -101,10 +105,7 @@ impl Channel {
     }
 
     /// A request while a segmented upload is in progress.
-    pub(super) fn segmented_upload(&mut self, mut u: Upload, request: SdoRequest, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let SdoRequest::UploadSegment { toggle } = request else {
-            return self.abort(AbortCode::InvalidCommand, tx);
-        };
+    pub(super) fn segmented_upload(&mut self, mut u: Upload, toggle: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         if toggle != u.toggle {
             return self.abort(AbortCode::ToggleBit, tx);
         }

@@ -23,6 +23,49 @@ fn unknown_command_specifier_is_aborted_and_counted() {
 }
 
 #[test]
+fn a_request_of_another_transfer_is_refused_for_the_one_in_progress() {
+    // Each request outside an initiate belongs to one kind of transfer:
+    // during another kind it ends that transfer with 0x05040001 for its
+    // object, while idle it is refused for no object.
+    let others = [
+        (
+            "40 10 20 00 00 00 00 00",
+            "41 10 20 00 78 00 00 00",
+            ["00 41 42 43 44 45 46 47", "C1 00 00 00 00 00 00 00", "A3 00 00 00 00 00 00 00"],
+        ),
+        (
+            "21 10 20 00 78 00 00 00",
+            "60 10 20 00 00 00 00 00",
+            ["60 00 00 00 00 00 00 00", "C1 00 00 00 00 00 00 00", "A2 01 05 00 00 00 00 00"],
+        ),
+        (
+            "A4 10 20 00 7F 00 00 00",
+            "C6 10 20 00 78 00 00 00",
+            ["00 41 42 43 44 45 46 47", "60 00 00 00 00 00 00 00", "C1 00 00 00 00 00 00 00"],
+        ),
+    ];
+    for (initiate, answer, requests) in others {
+        for request in requests {
+            let mut t = Sdo::new();
+            t.x(ms(0), initiate, answer);
+            t.x(ms(1), request, "80 10 20 00 01 00 04 05");
+            t.done(ms(1));
+            t.x(ms(2), request, "80 00 00 00 01 00 04 05");
+            t.done(ms(2));
+            assert_eq!(t.server.malformed(), 0, "{request}");
+        }
+    }
+    // A block download waiting for its end request takes nothing else.
+    for request in ["00 41 42 43 44 45 46 47", "60 00 00 00 00 00 00 00", "A1 00 00 00 00 00 00 00"] {
+        let mut t = Sdo::new();
+        t.x(ms(0), "C6 10 20 00 02 00 00 00", "A4 10 20 00 13 00 00 00");
+        t.x(ms(1), "81 61 62 00 00 00 00 00", "A2 01 12 00 00 00 00 00");
+        t.x(ms(2), request, "80 10 20 00 01 00 04 05");
+        t.done(ms(2));
+    }
+}
+
+#[test]
 fn abort_from_the_client_ends_the_transfer_silently() {
     let mut t = Sdo::new();
     t.x(ms(0), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
