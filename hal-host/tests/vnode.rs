@@ -361,14 +361,39 @@ fn command_line_behaves_like_a_rust_tool() {
         (&["--device", "ec5001", "--node-id", "5"], "invalid value 'ec5001' for '--device <NAME>'"),
         (&["--device", "ec5000", "--node-id", "5", "--bogus"], "unexpected argument '--bogus'"),
         (&["--list", "--device", "ec5000"], "cannot be used with"),
+        (
+            &["--device", "ec5000", "--node-id", "5", "--listen", "localhost"],
+            "invalid value 'localhost' for '--listen <ADDR>': not HOST:PORT",
+        ),
+        (&["--device", "ec5000", "--node-id", "5", "--listen", "4557"], "invalid value '4557' for '--listen <ADDR>'"),
     ] {
         let o = vnode(args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.starts_with("error: ") && err.contains(says), "{args:?}: {err}");
     }
-    let o = vnode(&["--device", "ec5000", "--node-id", "5", "--listen", "localhost"]);
-    assert_eq!(o.status.code(), Some(1), "a bad address is no usage error");
+    // An address this machine does not have is no usage error.
+    let o = vnode(&["--device", "ec5000", "--node-id", "5", "--listen", "192.0.2.1:0"]);
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
+    // An EDS that cannot be read is a wrong `--eds`, as od-gen has it.
+    let o = vnode(&["--eds", "no-such-file.eds", "--node-id", "5"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.starts_with("no-such-file.eds: error: "), "{err}");
+}
+
+/// A trace file vnode cannot create stops it before it names a port: a
+/// harness that reads the port line must not connect to a node that is gone.
+#[test]
+fn an_unwritable_trace_file_fails_before_the_port_line() {
+    let o = Command::new(env!("CARGO_BIN_EXE_vnode"))
+        .args(["--device", "ec5000", "--node-id", "5", "--trace", "/nonexistent-dir/trace.log"])
+        .output()
+        .expect("vnode runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(String::from_utf8_lossy(&o.stdout), "", "no port line");
+    assert!(err.contains("/nonexistent-dir/trace.log: "), "{err}");
 }
 
 /// A device without LSS cannot start unconfigured: nothing could ever give
