@@ -26,6 +26,7 @@ pub fn validate(eds: &mut Eds, d: &mut Diagnostics, opts: Options) {
     objects(eds, d);
     pdo_mappings(eds, d);
     pdo_counts(eds, d);
+    default_sdo_server(eds, d);
     cob_ids(eds, d);
     if opts.strict {
         for item in &mut d.items {
@@ -319,6 +320,35 @@ fn pdo_counts(eds: &Eds, d: &mut Diagnostics) {
         if have != usize::from(given) {
             let line = info.get(key).map_or(info.line, |p| p.line);
             d.warn(line, format!("{key}={given} but the file has {have} mapping objects"));
+        }
+    }
+}
+
+/// The default SDO server's COB-IDs are 0x600 + node-ID and 0x580 + node-ID
+/// whatever the node-id (CiA 301 §7.3.5, the pre-defined connection set;
+/// 0x1200 only shows them). Tools such as CanFestival's objdictgen write
+/// them for the node-id they had, `1600` for node 64: a node built from
+/// that file with any other node-id would answer no SDO. Such a value is
+/// read as `0x600+$NODEID` (`0x580+$NODEID`), with a warning unless the
+/// DCF configures that node-id.
+fn default_sdo_server(eds: &mut Eds, d: &mut Diagnostics) {
+    let configured = eds.node_id;
+    let Some(server) = eds.objects.get_mut(&0x1200) else { return };
+    for (sub, base, direction) in [(1u8, 0x600u64, "client -> server"), (2, 0x580, "server -> client")] {
+        let Some(s) = server.subs.get_mut(&sub).filter(|s| !s.node_id) else { continue };
+        let Some(node) = s.unsigned().and_then(|v| v.checked_sub(base)).filter(|n| (1..=127).contains(n)) else { continue };
+        let len = s.value.len().min(8);
+        s.value = base.to_le_bytes()[..len].to_vec();
+        s.node_id = true;
+        if configured != Some(node as u8) {
+            let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
+            d.warn(
+                line,
+                format!(
+                    "0x1200:{sub:02X} ({direction}) is 0x{:03X}, the COB-ID of node {node}; the default SDO server's follows the node-id: read as 0x{base:03X}+$NODEID",
+                    base + node
+                ),
+            );
         }
     }
 }
