@@ -180,7 +180,11 @@ class Bench:
         od, node = self.od, None
         self.connect()
         node = self.node
-        self.check(self.wait_boot_up(timeout=WAIT if self.qemu else 3.0), f"boot-up 0x{self.error_control():03X} [00]")
+        if not self.check(self.wait_boot_up(timeout=WAIT if self.qemu else 3.0), f"boot-up 0x{self.error_control():03X} [00]"):
+            # Not even after NMT reset node: every other check would only time out.
+            print(f"stopped: node {self.args.node_id} sent no boot-up, not even after NMT reset node "
+                  "(check the node-id, the bit rate, the wiring and the termination)")
+            return 1
         self.check(self.u(0x1000) == od[0x1000].default, f"0x1000 device type = 0x{od[0x1000].default:08X}")
         identity = od[0x1018]
         for sub in range(1, identity[0].default + 1):
@@ -296,6 +300,11 @@ def main():
     bench = Bench(args)
     try:
         return bench.run()
+    except (canopen.SdoCommunicationError, can.CanError) as e:
+        # The node stopped answering halfway (power, cable, a reset): a finding, not a crash.
+        print(f"FAIL  the node stopped answering: {e}")
+        print(f"{bench.failed + 1} check(s) failed")
+        return 1
     finally:
         bench.disconnect()
         if bench.qemu:
