@@ -54,7 +54,7 @@ const TARGET_VELOCITY: u64 = 300;
 #[derive(clap::Args, Default)]
 pub struct DemoArgs {
     /// Drive a running `vnode --device ec5000` at HOST:PORT instead of booting QEMU.
-    #[arg(long, value_name = "HOST:PORT")]
+    #[arg(long, value_name = "HOST:PORT", value_parser = crate::host_port)]
     pub connect: Option<String>,
     /// The node-id of the node behind `--connect` (default: the EC5000's 127, the QEMU image's).
     #[arg(long, value_name = "N", requires = "connect", value_parser = clap::value_parser!(u8).range(1..=127))]
