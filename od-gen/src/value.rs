@@ -43,7 +43,7 @@ pub fn parse_int(text: &str) -> Result<IntExpr, String> {
         rest = &rest[end..];
         if term.eq_ignore_ascii_case("$NODEID") {
             if negative || node_id {
-                return Err(format!("`{text}`: $NODEID may only be added once"));
+                return Err(format!("`{text}`: $NODEID may only be added, and only once"));
             }
             node_id = true;
             continue;

@@ -1,0 +1,48 @@
+//! INI forms real files use around CiA 306's: each one read as other INI
+//! readers (python-canopen's configparser) read it, or refused with a
+//! message that says what is wrong on which line.
+
+use od_gen::{Options, Severity, load};
+
+/// A device with 0x2000 written as `object`.
+fn file(object: &str) -> String {
+    format!(
+        "[DeviceInfo]\nVendorName=V\nVendorNumber=1\nProductName=P\nProductNumber=1\nRevisionNumber=1\nOrderCode=O\nBaudRate_250=1\n\
+         NrOfRXPDO=0\nNrOfTXPDO=0\n\n[MandatoryObjects]\nSupportedObjects=2\n1=0x1000\n2=0x1001\n\n\
+         [ManufacturerObjects]\nSupportedObjects=1\n1=0x2000\n\n\
+         [1000]\nParameterName=Device Type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n\n\
+         [1001]\nParameterName=Error Register\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=0\n\n{object}"
+    )
+}
+
+fn line_of(text: &str, wanted: &str) -> usize {
+    text.lines().position(|l| l == wanted).expect("line") + 1
+}
+
+#[test]
+fn a_comment_after_a_section_header_is_a_warning() {
+    let text = file("[2000] ; the set-point\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=7\n");
+    let (eds, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(!d.has_errors(), "{d}");
+    let line = line_of(&text, "[2000] ; the set-point");
+    assert!(d.mentions(Severity::Warning, line, "comment `; the set-point` after a section header"), "{d}");
+    assert_eq!(eds.sub(0x2000, 0).map(|s| s.value.clone()), Some(vec![7, 0, 0, 0]));
+}
+
+#[test]
+fn other_text_after_a_section_header_is_an_error_that_says_so() {
+    let text = file("[2000] x\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\n");
+    let (_, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(d.mentions(Severity::Error, line_of(&text, "[2000] x"), "text `x` after the section header `[2000]`"), "{d}");
+    // A header without its `]` says that.
+    let text = file("[2000\nParameterName=X\n");
+    let (_, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(d.mentions(Severity::Error, line_of(&text, "[2000"), "has no closing `]`"), "{d}");
+}
+
+#[test]
+fn node_id_subtracted_is_an_error_that_says_so() {
+    let text = file("[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x600-$NODEID\n");
+    let (_, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(d.mentions(Severity::Error, line_of(&text, "DefaultValue=0x600-$NODEID"), "$NODEID may only be added, and only once"), "{d}");
+}
