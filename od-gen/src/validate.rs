@@ -215,11 +215,21 @@ fn entry(index: u16, s: &SubObject, opaque: bool, d: &mut Diagnostics) {
             if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && given)
                 && (less(v, l) || less(h, v))
             {
-                let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
+                let value = s.parameter_value.as_ref().or(s.default.as_ref());
+                let line = value.map_or(s.line, |t| t.line);
+                // A single limit is enforced with the type's own range as the other bound.
+                let bound =
+                    |t: &Option<crate::model::Text>, key: &str| t.as_ref().map_or(format!("no {key}"), |t| format!("{key} {}", t.text));
                 d.push(
                     sev,
                     line,
-                    format!("value is outside LowLimit {}..HighLimit {} (0x{index:04X} sub {})", text(&s.low), text(&s.high), s.sub),
+                    format!(
+                        "value `{}` is outside {}..{} (0x{index:04X} sub {})",
+                        text(&value.cloned()),
+                        bound(&s.low, "LowLimit"),
+                        bound(&s.high, "HighLimit"),
+                        s.sub
+                    ),
                 );
             }
         }

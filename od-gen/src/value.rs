@@ -48,7 +48,15 @@ pub fn parse_int(text: &str) -> Result<IntExpr, String> {
             node_id = true;
             continue;
         }
-        let (n, is_hex) = parse_unsigned(term).ok_or_else(|| format!("`{text}` is not a number"))?;
+        let (n, is_hex) = parse_unsigned(term).ok_or_else(|| {
+            // `08`, `0900`: decimal digits, but CiA 306 reads a leading 0 as octal.
+            let octal = term.len() > 1 && term.starts_with('0') && term.chars().all(|c| c.is_ascii_digit());
+            if octal {
+                format!("`{text}` is not a number: a leading 0 makes it octal (CiA 306)")
+            } else {
+                format!("`{text}` is not a number")
+            }
+        })?;
         hex |= is_hex;
         let n = if negative { -n } else { n };
         value = value.checked_add(n).ok_or_else(|| format!("`{text}` is out of range"))?;

@@ -1,4 +1,4 @@
-//! INI forms real files use around CiA 306's: each one read as other INI
+//! Forms real files use around CiA 306's: each one read as other INI
 //! readers (python-canopen's configparser) read it, or refused with a
 //! message that says what is wrong on which line.
 
@@ -45,4 +45,24 @@ fn node_id_subtracted_is_an_error_that_says_so() {
     let text = file("[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x600-$NODEID\n");
     let (_, d) = load("c.eds", text.as_bytes(), Options::default());
     assert!(d.mentions(Severity::Error, line_of(&text, "DefaultValue=0x600-$NODEID"), "$NODEID may only be added, and only once"), "{d}");
+}
+
+#[test]
+fn a_default_outside_a_single_limit_names_the_value_and_the_missing_limit() {
+    let text = file("[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=5\nLowLimit=10\n");
+    let (_, d) = load("c.eds", text.as_bytes(), Options::default());
+    let line = line_of(&text, "DefaultValue=5");
+    assert!(d.mentions(Severity::Error, line, "value `5` is outside LowLimit 10..no HighLimit (0x2000 sub 0)"), "{d}");
+}
+
+#[test]
+fn a_leading_zero_decimal_is_octal_and_the_message_says_so() {
+    let text = file("[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=0800\n");
+    let (_, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(d.mentions(Severity::Error, line_of(&text, "DefaultValue=0800"), "a leading 0 makes it octal"), "{d}");
+    // 017 is octal 15, as CiA 306 has it.
+    let text = file("[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=017\n");
+    let (eds, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(!d.has_errors(), "{d}");
+    assert_eq!(eds.sub(0x2000, 0).map(|s| s.value.clone()), Some(vec![15, 0, 0, 0]));
 }
