@@ -80,6 +80,12 @@ fn file_info(eds: &Eds, d: &mut Diagnostics) {
 }
 
 fn mandatory(eds: &Eds, d: &mut Diagnostics) {
+    // An empty file, or one that is not an EDS (a README, a binary), has no
+    // dictionary to build: "valid" would let gen write an empty one.
+    if eds.objects.is_empty() && !d.has_errors() {
+        d.error(0, "no object sections ([1000], [1018], ...): not an EDS or DCF with a dictionary");
+        return;
+    }
     for index in [0x1000u16, 0x1001, 0x1018] {
         if !eds.objects.contains_key(&index) {
             d.warn(0, format!("mandatory object 0x{index:04X} is missing (CiA 301 §7.5.1)"));

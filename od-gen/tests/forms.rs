@@ -66,3 +66,11 @@ fn a_leading_zero_decimal_is_octal_and_the_message_says_so() {
     assert!(!d.has_errors(), "{d}");
     assert_eq!(eds.sub(0x2000, 0).map(|s| s.value.clone()), Some(vec![15, 0, 0, 0]));
 }
+
+#[test]
+fn a_file_without_objects_is_an_error() {
+    for text in ["", "# Corpus\n\n| file | origin |\n", "[FileInfo]\nFileName=x.eds\n\n[DeviceInfo]\nVendorName=V\n"] {
+        let (_, d) = load("x.eds", text.as_bytes(), Options::default());
+        assert!(d.mentions(Severity::Error, 0, "no object sections"), "{text:?}: {d}");
+    }
+}
