@@ -436,3 +436,37 @@ fn an_unconfigured_node_needs_lss() {
     ec5000.kill().expect("kill");
     ec5000.wait().expect("wait");
 }
+
+/// An EDS with SDO servers past the four vnode runs says so on stderr and
+/// still serves the others.
+#[test]
+fn sdo_servers_past_the_fourth_are_reported() {
+    let dir = std::env::temp_dir().join(format!("vnode-sdo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let eds = dir.join("sdo.eds");
+    let mut text = String::from(
+        "[DeviceInfo]\nVendorName=V\nNrOfRXPDO=0\nNrOfTXPDO=0\n[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n",
+    );
+    for (index, rx, tx) in [(0x1200, "$NODEID+0x600", "$NODEID+0x580"), (0x1205, "0x650", "0x5D0")] {
+        text += &format!("[{index:04X}]\nParameterName=SDO server\nObjectType=0x9\nSubNumber=3\n");
+        text += &format!("[{index:04X}sub0]\nParameterName=Highest\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=2\n");
+        text += &format!("[{index:04X}sub1]\nParameterName=Rx\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue={rx}\n");
+        text += &format!("[{index:04X}sub2]\nParameterName=Tx\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue={tx}\n");
+    }
+    std::fs::write(&eds, text).expect("write the EDS");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vnode"))
+        .args(["--eds", eds.to_str().expect("UTF-8"), "--node-id", "5"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("vnode runs");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("the port line");
+    let _ = child.kill();
+    let _ = child.wait();
+    let mut err = String::new();
+    child.stderr.take().expect("stderr").read_to_string(&mut err).expect("stderr");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(line.contains("listening on"), "{line}{err}");
+    assert!(err.contains("vnode serves the SDO servers 0x1200–0x1203; those above stay off"), "{err}");
+}

@@ -246,6 +246,14 @@ fn serve_eds(dictionary: &'static Dictionary, id: u8, storage: Box<dyn Storage>,
             .unwrap_or(0)
     };
     let pdos = extent(0x1400, 0x15FF).max(extent(0x1800, 0x19FF));
+    // The SDO server count is no parameter here: servers past it stay off.
+    if extent(0x1200, 0x127F) > SDO_SERVERS {
+        note(format_args!(
+            "{}: vnode serves the SDO servers 0x1200–0x{:04X}; those above stay off",
+            cli.eds.as_deref().unwrap_or(std::path::Path::new("")).display(),
+            0x11FF + SDO_SERVERS
+        ));
+    }
     let od = RuntimeRam::new(dictionary, id);
     match pdos {
         0..=4 => serve::<_, _, 4, 4, 127, SDO_SERVERS>(od, NoApplication, storage, cli),
