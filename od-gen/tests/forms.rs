@@ -74,3 +74,18 @@ fn a_file_without_objects_is_an_error() {
         assert!(d.mentions(Severity::Error, 0, "no object sections"), "{text:?}: {d}");
     }
 }
+
+#[test]
+fn spaces_within_a_number_are_dropped_with_a_warning() {
+    let text = file("[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x1 0\n");
+    let (eds, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(
+        d.mentions(Severity::Warning, line_of(&text, "DefaultValue=0x1 0"), "the spaces within `0x1 0` are dropped: read as 16"),
+        "{d}"
+    );
+    assert_eq!(eds.sub(0x2000, 0).map(|s| s.value.clone()), Some(vec![0x10, 0, 0, 0]));
+    // Around `+` they are how `$NODEID + 0x600` is written: nothing to say.
+    let text = file("[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID + 0x600\n");
+    let (_, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(!d.items.iter().any(|i| i.message.contains("spaces")), "{d}");
+}
