@@ -218,14 +218,28 @@ fn entry(index: u16, s: &SubObject, opaque: bool, d: &mut Diagnostics) {
         }
         Some((l, h)) => {
             let given = s.parameter_value.as_ref().or(s.default.as_ref()).is_some_and(|v| !v.text.is_empty());
+            let bound = |t: &Option<crate::model::Text>, key: &str| t.as_ref().map_or(format!("no {key}"), |t| format!("{key} {}", t.text));
+            if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && !given)
+                && (less(v, l) || less(h, v))
+            {
+                // Vendor files leave measured values without a default (python-canopen's
+                // e35.eds: a frequency 1000..80000); the node starts them at zero.
+                d.warn(
+                    s.line,
+                    format!(
+                        "0x{index:04X} sub {} has no default and starts at 0, outside {}..{}",
+                        s.sub,
+                        bound(&s.low, "LowLimit"),
+                        bound(&s.high, "HighLimit")
+                    ),
+                );
+            }
             if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && given)
                 && (less(v, l) || less(h, v))
             {
                 let value = s.parameter_value.as_ref().or(s.default.as_ref());
                 let line = value.map_or(s.line, |t| t.line);
                 // A single limit is enforced with the type's own range as the other bound.
-                let bound =
-                    |t: &Option<crate::model::Text>, key: &str| t.as_ref().map_or(format!("no {key}"), |t| format!("{key} {}", t.text));
                 d.push(
                     sev,
                     line,

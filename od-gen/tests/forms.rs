@@ -89,3 +89,19 @@ fn spaces_within_a_number_are_dropped_with_a_warning() {
     let (_, d) = load("c.eds", text.as_bytes(), Options::default());
     assert!(!d.items.iter().any(|i| i.message.contains("spaces")), "{d}");
 }
+
+/// As python-canopen's `examples/eds/e35.eds` (MIT) has its 0x2103 sub 4
+/// "Frequency": measured, read-only, limits and no default.
+#[test]
+fn no_default_outside_the_limits_is_a_warning() {
+    let text = file(
+        "[2000]\nParameterName=Frequency\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nPDOMapping=0x0\nLowLimit=0x3E8\nHighLimit=0x13880\n",
+    );
+    let (_, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(!d.has_errors(), "{d}");
+    let line = line_of(&text, "[2000]");
+    assert!(
+        d.mentions(Severity::Warning, line, "0x2000 sub 0 has no default and starts at 0, outside LowLimit 0x3E8..HighLimit 0x13880"),
+        "{d}"
+    );
+}
