@@ -105,3 +105,11 @@ fn no_default_outside_the_limits_is_a_warning() {
         "{d}"
     );
 }
+
+#[test]
+fn index_zero_is_left_out_with_a_warning() {
+    let text = file("[0000]\nParameterName=Zero\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=1\n");
+    let (eds, d) = load("c.eds", text.as_bytes(), Options::default());
+    assert!(d.mentions(Severity::Warning, line_of(&text, "[0000]"), "index 0x0000 is not used (CiA 301); left out"), "{d}");
+    assert!(!eds.objects.contains_key(&0), "left out");
+}
