@@ -160,7 +160,8 @@ class Bench:
         return frame is not None
 
     def power_cycle(self):
-        """Cuts and restores the node's power; whether its boot-up followed."""
+        """Cuts and restores the node's power; whether its boot-up followed
+        (None: no one cycled it)."""
         if self.qemu:
             # The TCP link goes with QEMU; the new QEMU waits for it before it runs.
             self.disconnect()
@@ -172,7 +173,12 @@ class Bench:
         if self.args.power_cycle_command:
             subprocess.run(self.args.power_cycle_command, shell=True, check=True)
         else:
-            input("Cycle the board's power now (off, wait a second, on), then press Enter... ")
+            try:
+                input("Cycle the board's power now (off, wait a second, on), then press Enter... ")
+            except EOFError:
+                # No one to press Enter (stdin closed, a CI job): say how to automate it.
+                print("\n      no input to wait for: give --power-cycle-command to cycle the power")
+                return None
         return self.boot_up_seen(mark, 10.0)
 
     # ---- the checks ------------------------------------------------------------
@@ -219,8 +225,12 @@ class Bench:
             # command": the b maXX 4400, D10); in Pre-operational, where every device stores.
             sub = 1 if self.u(0x1010, 1) & 1 else 2
             node.sdo.download(0x1010, sub, b"save")
-            self.check(self.power_cycle(), "boot-up after the power cycle")
-            self.check(self.u(0x1017) == 150, "0x1017 = 150 ms saved with 0x1010 came back after the power cycle")
+            cycled = self.power_cycle()
+            self.check(bool(cycled), "boot-up after the power cycle")
+            if cycled is None:
+                print("SKIP  0x1017 after the power cycle (there was none)")
+            else:
+                self.check(self.u(0x1017) == 150, "0x1017 = 150 ms saved with 0x1010 came back after the power cycle")
             # Leave the board as found: defaults from the next power-on.
             node = self.node
             node.sdo.download(0x1011, sub, b"load")

@@ -1,7 +1,8 @@
 """`tests/python/hil.py` (`cargo xtask hil`) against vnode: a node-id that
 answers nothing is reported as a failed boot-up and the check stops with a
 hint, exit status 1, instead of a python traceback after minutes of SDO
-timeouts. Runs with the venv `cargo xtask test` creates:
+timeouts; without a power cycle (stdin closed, no --power-cycle-command)
+the check says how to give one and skips what needs it. Runs with the venv `cargo xtask test` creates:
     .venv/bin/python -m unittest tests/python/test_hil.py -v
 """
 
@@ -34,6 +35,26 @@ class HilTest(unittest.TestCase):
         self.assertNotIn("Traceback", out.stderr)
         # Boot-up wait, NMT reset node and its wait: no SDO timeouts after them.
         self.assertLess(time.monotonic() - start, 15)
+
+
+    def test_no_one_to_cycle_the_power_is_a_failed_check_not_a_traceback(self):
+        # The whole check against vnode, stdin closed: the power cycle cannot
+        # happen, and what depends on it is skipped, not passed.
+        vnode = subprocess.Popen([VNODE, "--device", "sendix", "--node-id", "63", "--listen", "127.0.0.1:0"],
+                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        self.addCleanup(vnode.wait, 5)
+        self.addCleanup(vnode.terminate)
+        port = int(re.search(r":(\d+)\s*$", vnode.stdout.readline()).group(1))
+        out = subprocess.run([sys.executable, HIL, "--interface", "slcan", "--channel", f"socket://127.0.0.1:{port}",
+                              "--bitrate", "1000000", "--device", "sendix", "--node-id", "63"],
+                             stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
+        self.assertEqual(out.returncode, 1, out.stdout + out.stderr)
+        self.assertIn("PASS  TPDO1 0x1BF carries its mapped objects", out.stdout)
+        self.assertIn("give --power-cycle-command", out.stdout)
+        self.assertIn("FAIL  boot-up after the power cycle", out.stdout)
+        self.assertIn("SKIP  0x1017 after the power cycle (there was none)", out.stdout)
+        self.assertIn("1 check(s) failed", out.stdout)
+        self.assertNotIn("Traceback", out.stderr)
 
 
 if __name__ == "__main__":
