@@ -274,6 +274,9 @@ mod cli_tests {
             &["icount", "x"],
             &["new-device", "pump"],
             &["new-device", "Pump", "--eds", "pump.eds"],
+            &["new-device", "fn", "--eds", "pump.eds"],
+            &["new-device", "build", "--eds", "pump.eds"],
+            &["new-device", "core", "--eds", "pump.eds"],
             &["new-device", "pump", "--eds", "pump.eds", "--profile", "cia999"],
             &["new-device", "pump", "--eds", "pump.eds", "--node-id", "128"],
         ] {

@@ -74,9 +74,30 @@ pub struct NewDeviceArgs {
     pub out: Option<PathBuf>,
 }
 
+/// Rust's keywords, strict and reserved (2024 edition): a crate's name
+/// (`-` as `_`) is its binary's, which must be an identifier.
+const KEYWORDS: [&str; 52] = [
+    "as", "break", "const", "continue", "crate", "else", "enum", "extern", "false", "fn", "for", "if", "impl", "in", "let", "loop",
+    "match", "mod", "move", "mut", "pub", "ref", "return", "self", "static", "struct", "super", "trait", "true", "type", "unsafe", "use",
+    "where", "while", "async", "await", "dyn", "abstract", "become", "box", "do", "final", "macro", "override", "priv", "typeof",
+    "unsized", "virtual", "yield", "try", "gen", "union",
+];
+/// Names cargo or the build refuse for a binary crate: cargo's folders in
+/// `target/`, and the built-in crates the device's code names (`core`).
+const RESERVED: [&str; 9] = ["build", "deps", "examples", "incremental", "test", "core", "std", "alloc", "proc-macro"];
+
 fn crate_name(s: &str) -> Result<String, String> {
     let ok = s.starts_with(|c: char| c.is_ascii_lowercase()) && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-');
-    if ok { Ok(s.to_owned()) } else { Err("a crate name: a lower-case letter, then lower-case letters, digits and `-`".into()) }
+    if !ok {
+        return Err("a crate name: a lower-case letter, then lower-case letters, digits and `-`".into());
+    }
+    if KEYWORDS.contains(&s.replace('-', "_").as_str()) {
+        return Err(format!("`{s}` is a Rust keyword, which cannot name the device's binary"));
+    }
+    if RESERVED.contains(&s) {
+        return Err(format!("`{s}` is a name cargo or the build reserves (a target folder or a built-in crate)"));
+    }
+    Ok(s.to_owned())
 }
 
 /// Creates the crate; returns its folder.
