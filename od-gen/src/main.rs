@@ -114,7 +114,14 @@ fn run(task: Task) -> Result<ExitCode, String> {
     if d.has_errors() {
         return Ok(ExitCode::FAILURE);
     }
-    let text = make(&eds, &d.file)?;
+    // A dictionary the tables cannot hold is the file's error (1), not a usage error.
+    let text = match make(&eds, &d.file) {
+        Ok(text) => text,
+        Err(msg) => {
+            let _ = writeln!(std::io::stderr(), "{msg}");
+            return Ok(ExitCode::FAILURE);
+        }
+    };
     match one.output {
         Some(path) => std::fs::write(&path, text).map_err(|e| format!("{}: error: {e}", path.display()))?,
         None => {

@@ -28,6 +28,13 @@ pub fn validate(eds: &mut Eds, d: &mut Diagnostics, opts: Options) {
     pdo_counts(eds, d);
     default_sdo_server(eds, d);
     cob_ids(eds, d);
+    // What the generated tables can address (offsets and sizes are u16): a
+    // file check passes must also generate.
+    if !d.has_errors()
+        && let Err(e) = crate::codegen::ram_size(eds)
+    {
+        d.error(0, e.0);
+    }
     if opts.strict {
         for item in &mut d.items {
             item.severity = Severity::Error;
