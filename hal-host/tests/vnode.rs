@@ -470,3 +470,29 @@ fn sdo_servers_past_the_fourth_are_reported() {
     assert!(line.contains("listening on"), "{line}{err}");
     assert!(err.contains("vnode serves the SDO servers 0x1200–0x1203; those above stay off"), "{err}");
 }
+
+/// `--node-id` takes hex as `--serial` does, `0x` or `0X` (a CANopen user
+/// writes node-ids in hex as often as not); both still refuse what does not fit.
+#[test]
+fn node_id_and_serial_take_hex() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vnode"))
+        .args(["--device", "ec5000", "--node-id", "0x7F", "--serial", "0XABCD"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("vnode runs");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("the port line");
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(line.starts_with("vnode ec5000 node 127 listening on "), "{line}");
+    for (args, says) in [
+        (&["--device", "ec5000", "--node-id", "0x80"][..], "invalid value '0x80' for '--node-id <N>'"),
+        (&["--device", "ec5000", "--node-id", "5", "--serial", "0x100000000"], "not a 32-bit number"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_vnode")).args(args).output().expect("vnode runs");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+}

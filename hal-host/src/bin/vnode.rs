@@ -67,7 +67,7 @@ struct Cli {
     /// Run the dictionary of this EDS or DCF, without device hooks, instead of a device.
     #[arg(long, value_name = "FILE", conflicts_with = "device")]
     eds: Option<PathBuf>,
-    /// The node-id: 1..=127, or 255 for an LSS-unconfigured node.
+    /// The node-id: 1..=127, or 255 for an LSS-unconfigured node (decimal or 0x-hex).
     #[arg(long, value_name = "N", required_unless_present = "list", value_parser = node_id)]
     node_id: Option<u8>,
     /// Where to serve SLCAN over TCP (port 0: a free port).
@@ -90,9 +90,17 @@ struct Cli {
     list: bool,
 }
 
+/// A number in decimal or `0x`/`0X` hex, as `--serial` and `--node-id` take it.
+fn number(s: &str) -> Result<u64, std::num::ParseIntError> {
+    match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(hex) => u64::from_str_radix(hex, 16),
+        None => s.parse(),
+    }
+}
+
 fn node_id(s: &str) -> Result<u8, String> {
-    match s.parse::<u8>() {
-        Ok(id @ (1..=127 | 255)) => Ok(id),
+    match number(s).map(u8::try_from) {
+        Ok(Ok(id @ (1..=127 | 255))) => Ok(id),
         _ => Err("must be 1..=127, or 255 for an unconfigured node".into()),
     }
 }
@@ -109,11 +117,8 @@ fn listen_addr(s: &str) -> Result<String, String> {
 }
 
 fn serial(s: &str) -> Result<u32, String> {
-    let parsed = match s.strip_prefix("0x") {
-        Some(hex) => u32::from_str_radix(hex, 16),
-        None => s.parse(),
-    };
-    parsed.map_err(|e| format!("not a 32-bit number ({e})"))
+    let too_big = |_| "not a 32-bit number (over 0xFFFFFFFF)".to_owned();
+    number(s).map_err(|e| format!("not a 32-bit number ({e})")).and_then(|v| u32::try_from(v).map_err(too_big))
 }
 
 fn bitrate_kbit(s: &str) -> Result<u32, String> {
