@@ -89,7 +89,8 @@ fn read(path: &Path, args: &ReadArgs) -> Result<(Eds, Diagnostics), String> {
     // A closed stderr loses the findings, not the exit code that sums them up.
     let _ = match args.format {
         Format::Short => write!(std::io::stderr(), "{d}"),
-        Format::Human => write!(std::io::stderr(), "{}", d.render_human(&String::from_utf8_lossy(&bytes))),
+        // The lines as the reader decoded them (a Latin-1 file too), so the quoted text is found for the caret.
+        Format::Human => write!(std::io::stderr(), "{}", d.render_human(&od_gen::lexer::decode(&bytes).0)),
     };
     Ok((eds, d))
 }

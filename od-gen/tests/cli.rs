@@ -211,3 +211,17 @@ fn a_dictionary_too_big_for_the_tables_fails_check_and_gen_alike() {
         assert!(stderr(&o).contains("big.eds: error: RAM image 70004 B / ROM 0 B exceed 65535 B"), "{}", stderr(&o));
     }
 }
+
+/// `--format human` shows a Latin-1 file's line as the reader read it, with
+/// the caret under the quoted value (it showed `�` and underlined the line).
+#[test]
+fn human_format_shows_latin1_lines_as_read() {
+    let dir = scratch("latin1");
+    let eds = dir.join("l1.eds");
+    std::fs::write(&eds, b"[1000]\nParameterName=Ger\xe4t\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=\xe412\n")
+        .expect("scratch is writable");
+    let o = od_gen(&["check", "--format", "human", &eds.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("6 | DefaultValue=ä12\n  |              ^^^\n"), "{err}");
+}
