@@ -89,8 +89,12 @@ fn read(path: &Path, args: &ReadArgs) -> Result<(Eds, Diagnostics), String> {
     // A closed stderr loses the findings, not the exit code that sums them up.
     let _ = match args.format {
         Format::Short => write!(std::io::stderr(), "{d}"),
-        // The lines as the reader decoded them (a Latin-1 file too), so the quoted text is found for the caret.
-        Format::Human => write!(std::io::stderr(), "{}", d.render_human(&od_gen::lexer::decode(&bytes).0)),
+        // The lines as the reader decoded and counted them (a Latin-1 file, a
+        // lone CR as a line end), so each finding finds its line and quoted text.
+        Format::Human => {
+            let text = od_gen::lexer::decode(&bytes).0.replace("\r\n", "\n").replace('\r', "\n");
+            write!(std::io::stderr(), "{}", d.render_human(&text))
+        }
     };
     Ok((eds, d))
 }

@@ -225,3 +225,16 @@ fn human_format_shows_latin1_lines_as_read() {
     let err = stderr(&o);
     assert!(err.contains("6 | DefaultValue=ä12\n  |              ^^^\n"), "{err}");
 }
+
+/// Lines ended by a lone CR (classic Mac files) are lines for `--format
+/// human` as for the reader: the finding shows its line (it had none).
+#[test]
+fn human_format_counts_lone_cr_line_ends() {
+    let dir = scratch("cr");
+    let eds = dir.join("cr.eds");
+    std::fs::write(&eds, "[1000]\rParameterName=X\rObjectType=0x7\rDataType=0x0007\rAccessType=ro\rDefaultValue=zz\r")
+        .expect("scratch is writable");
+    let o = od_gen(&["check", "--format", "human", &eds.to_string_lossy()]);
+    let err = stderr(&o);
+    assert!(err.contains("--> cr.eds:6:14\n  |\n6 | DefaultValue=zz\n  |              ^^\n"), "{err}");
+}
