@@ -22,6 +22,7 @@ class HilTest(unittest.TestCase):
     def test_a_node_id_that_answers_nothing_stops_with_a_hint(self):
         vnode = subprocess.Popen([VNODE, "--device", "sendix", "--node-id", "63", "--listen", "127.0.0.1:0"],
                                  stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        self.addCleanup(vnode.stdout.close)
         self.addCleanup(vnode.wait, 5)
         self.addCleanup(vnode.terminate)
         port = int(re.search(r":(\d+)\s*$", vnode.stdout.readline()).group(1))
@@ -42,6 +43,7 @@ class HilTest(unittest.TestCase):
         # happen, and what depends on it is skipped, not passed.
         vnode = subprocess.Popen([VNODE, "--device", "sendix", "--node-id", "63", "--listen", "127.0.0.1:0"],
                                  stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        self.addCleanup(vnode.stdout.close)
         self.addCleanup(vnode.wait, 5)
         self.addCleanup(vnode.terminate)
         port = int(re.search(r":(\d+)\s*$", vnode.stdout.readline()).group(1))
