@@ -21,6 +21,7 @@ defaults for the next power-on, so the board is left as found.
 import argparse
 import os
 import shlex
+import shutil
 import struct
 import subprocess
 import sys
@@ -66,9 +67,18 @@ class Qemu:
                 if "waiting for connection" in line:
                     listening.set()
         threading.Thread(target=read, daemon=True).start()
-        if not listening.wait(WAIT):
-            raise RuntimeError("QEMU did not open its serial port")
+        end = time.monotonic() + WAIT
+        while not listening.wait(0.05):
+            # A QEMU that ends at once (no such image, a bad one) says why on stderr.
+            if self.proc.poll() is not None or time.monotonic() > end:
+                time.sleep(0.1)
+                why = "".join(self.stderr).strip() or f"exit status {self.proc.poll()}"
+                raise RuntimeError(f"QEMU did not open its serial port: {why}")
         return f"socket://127.0.0.1:{self.port}"
+
+    def remove(self):
+        """Deletes the directory with the storage file and the defmt log."""
+        shutil.rmtree(self.dir, ignore_errors=True)
 
     def power_cut(self):
         if self.proc and self.proc.poll() is None:
@@ -315,10 +325,14 @@ def main():
         print(f"FAIL  the node stopped answering: {e}")
         print(f"{bench.failed + 1} check(s) failed")
         return 1
+    except RuntimeError as e:
+        print(f"FAIL  {e}")
+        return 1
     finally:
         bench.disconnect()
         if bench.qemu:
             bench.qemu.power_cut()
+            bench.qemu.remove()
 
 
 if __name__ == "__main__":

@@ -8,8 +8,10 @@ the check says how to give one and skips what needs it. Runs with the venv `carg
 
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 import unittest
 
@@ -57,6 +59,20 @@ class HilTest(unittest.TestCase):
         self.assertIn("SKIP  0x1017 after the power cycle (there was none)", out.stdout)
         self.assertIn("1 check(s) failed", out.stdout)
         self.assertNotIn("Traceback", out.stderr)
+
+
+    @unittest.skipUnless(shutil.which("qemu-system-arm"), "qemu-system-arm is not installed")
+    def test_an_image_qemu_cannot_run_is_a_failed_check_and_leaves_no_folder(self):
+        # The folder of the storage file and the defmt log goes with the run
+        # (each `cargo xtask test` left four in /tmp), also when QEMU fails:
+        # here it opens its serial port and then finds no kernel to load.
+        tmp = tempfile.mkdtemp(prefix="test-hil-")
+        self.addCleanup(shutil.rmtree, tmp, True)
+        out = subprocess.run([sys.executable, HIL, "--qemu", os.path.join(tmp, "no-such-image.elf"), "--device", "sendix",
+                              "--node-id", "63"], capture_output=True, text=True, timeout=60, env={**os.environ, "TMPDIR": tmp})
+        self.assertEqual(out.returncode, 1, out.stdout + out.stderr)
+        self.assertIn("FAIL  ", out.stdout)
+        self.assertEqual(os.listdir(tmp), [])
 
 
 if __name__ == "__main__":
