@@ -361,14 +361,39 @@ fn command_line_behaves_like_a_rust_tool() {
         (&["--device", "ec5001", "--node-id", "5"], "invalid value 'ec5001' for '--device <NAME>'"),
         (&["--device", "ec5000", "--node-id", "5", "--bogus"], "unexpected argument '--bogus'"),
         (&["--list", "--device", "ec5000"], "cannot be used with"),
+        (
+            &["--device", "ec5000", "--node-id", "5", "--listen", "localhost"],
+            "invalid value 'localhost' for '--listen <ADDR>': not HOST:PORT",
+        ),
+        (&["--device", "ec5000", "--node-id", "5", "--listen", "4557"], "invalid value '4557' for '--listen <ADDR>'"),
     ] {
         let o = vnode(args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.starts_with("error: ") && err.contains(says), "{args:?}: {err}");
     }
-    let o = vnode(&["--device", "ec5000", "--node-id", "5", "--listen", "localhost"]);
-    assert_eq!(o.status.code(), Some(1), "a bad address is no usage error");
+    // An address this machine does not have is no usage error.
+    let o = vnode(&["--device", "ec5000", "--node-id", "5", "--listen", "192.0.2.1:0"]);
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
+    // An EDS that cannot be read is a wrong `--eds`, as od-gen has it.
+    let o = vnode(&["--eds", "no-such-file.eds", "--node-id", "5"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.starts_with("no-such-file.eds: error: "), "{err}");
+}
+
+/// A trace file vnode cannot create stops it before it names a port: a
+/// harness that reads the port line must not connect to a node that is gone.
+#[test]
+fn an_unwritable_trace_file_fails_before_the_port_line() {
+    let o = Command::new(env!("CARGO_BIN_EXE_vnode"))
+        .args(["--device", "ec5000", "--node-id", "5", "--trace", "/nonexistent-dir/trace.log"])
+        .output()
+        .expect("vnode runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(String::from_utf8_lossy(&o.stdout), "", "no port line");
+    assert!(err.contains("/nonexistent-dir/trace.log: "), "{err}");
 }
 
 /// A device without LSS cannot start unconfigured: nothing could ever give
@@ -410,4 +435,64 @@ fn an_unconfigured_node_needs_lss() {
     assert!(line.starts_with("vnode ec5000 node 255 listening on 127.0.0.1:"), "{line}");
     ec5000.kill().expect("kill");
     ec5000.wait().expect("wait");
+}
+
+/// An EDS with SDO servers past the four vnode runs says so on stderr and
+/// still serves the others.
+#[test]
+fn sdo_servers_past_the_fourth_are_reported() {
+    let dir = std::env::temp_dir().join(format!("vnode-sdo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let eds = dir.join("sdo.eds");
+    let mut text = String::from(
+        "[DeviceInfo]\nVendorName=V\nNrOfRXPDO=0\nNrOfTXPDO=0\n[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n",
+    );
+    for (index, rx, tx) in [(0x1200, "$NODEID+0x600", "$NODEID+0x580"), (0x1205, "0x650", "0x5D0")] {
+        text += &format!("[{index:04X}]\nParameterName=SDO server\nObjectType=0x9\nSubNumber=3\n");
+        text += &format!("[{index:04X}sub0]\nParameterName=Highest\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=2\n");
+        text += &format!("[{index:04X}sub1]\nParameterName=Rx\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue={rx}\n");
+        text += &format!("[{index:04X}sub2]\nParameterName=Tx\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue={tx}\n");
+    }
+    std::fs::write(&eds, text).expect("write the EDS");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vnode"))
+        .args(["--eds", eds.to_str().expect("UTF-8"), "--node-id", "5"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("vnode runs");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("the port line");
+    let _ = child.kill();
+    let _ = child.wait();
+    let mut err = String::new();
+    child.stderr.take().expect("stderr").read_to_string(&mut err).expect("stderr");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(line.contains("listening on"), "{line}{err}");
+    assert!(err.contains("vnode serves the SDO servers 0x1200–0x1203; those above stay off"), "{err}");
+}
+
+/// `--node-id` takes hex as `--serial` does, `0x` or `0X` (a CANopen user
+/// writes node-ids in hex as often as not); both still refuse what does not fit.
+#[test]
+fn node_id_and_serial_take_hex() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vnode"))
+        .args(["--device", "ec5000", "--node-id", "0x7F", "--serial", "0XABCD"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("vnode runs");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("the port line");
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(line.starts_with("vnode ec5000 node 127 listening on "), "{line}");
+    for (args, says) in [
+        (&["--device", "ec5000", "--node-id", "0x80"][..], "invalid value '0x80' for '--node-id <N>'"),
+        (&["--device", "ec5000", "--node-id", "5", "--serial", "0x100000000"], "not a 32-bit number"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_vnode")).args(args).output().expect("vnode runs");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
 }

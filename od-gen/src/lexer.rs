@@ -56,11 +56,21 @@ pub fn sections(text: &str, diags: &mut Diagnostics) -> Vec<Section> {
             continue;
         }
         if let Some(rest) = text.strip_prefix('[') {
-            let Some(name) = rest.strip_suffix(']') else {
+            let Some((name, after)) = rest.split_once(']') else {
                 diags.error(line, format!("section header `{text}` has no closing `]`"));
                 skipping = true;
                 continue;
             };
+            // `[1000] ; comment`: INI readers (python's configparser among
+            // them) take the header and drop the comment.
+            let after = after.trim();
+            if after.starts_with(';') {
+                diags.warn(line, format!("comment `{}` after a section header; CiA 306 comments are lines of their own", clip(after)));
+            } else if !after.is_empty() {
+                diags.error(line, format!("text `{}` after the section header `[{name}]`", clip(after)));
+                skipping = true;
+                continue;
+            }
             let name = name.trim().to_owned();
             let key = name.to_ascii_lowercase();
             if let Some(first) = seen.get(&key) {

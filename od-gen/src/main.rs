@@ -89,7 +89,12 @@ fn read(path: &Path, args: &ReadArgs) -> Result<(Eds, Diagnostics), String> {
     // A closed stderr loses the findings, not the exit code that sums them up.
     let _ = match args.format {
         Format::Short => write!(std::io::stderr(), "{d}"),
-        Format::Human => write!(std::io::stderr(), "{}", d.render_human(&String::from_utf8_lossy(&bytes))),
+        // The lines as the reader decoded and counted them (a Latin-1 file, a
+        // lone CR as a line end), so each finding finds its line and quoted text.
+        Format::Human => {
+            let text = od_gen::lexer::decode(&bytes).0.replace("\r\n", "\n").replace('\r', "\n");
+            write!(std::io::stderr(), "{}", d.render_human(&text))
+        }
     };
     Ok((eds, d))
 }
@@ -114,7 +119,14 @@ fn run(task: Task) -> Result<ExitCode, String> {
     if d.has_errors() {
         return Ok(ExitCode::FAILURE);
     }
-    let text = make(&eds, &d.file)?;
+    // A dictionary the tables cannot hold is the file's error (1), not a usage error.
+    let text = match make(&eds, &d.file) {
+        Ok(text) => text,
+        Err(msg) => {
+            let _ = writeln!(std::io::stderr(), "{msg}");
+            return Ok(ExitCode::FAILURE);
+        }
+    };
     match one.output {
         Some(path) => std::fs::write(&path, text).map_err(|e| format!("{}: error: {e}", path.display()))?,
         None => {

@@ -26,7 +26,15 @@ pub fn validate(eds: &mut Eds, d: &mut Diagnostics, opts: Options) {
     objects(eds, d);
     pdo_mappings(eds, d);
     pdo_counts(eds, d);
+    default_sdo_server(eds, d);
     cob_ids(eds, d);
+    // What the generated tables can address (offsets and sizes are u16): a
+    // file check passes must also generate.
+    if !d.has_errors()
+        && let Err(e) = crate::codegen::ram_size(eds)
+    {
+        d.error(0, e.0);
+    }
     if opts.strict {
         for item in &mut d.items {
             item.severity = Severity::Error;
@@ -79,6 +87,12 @@ fn file_info(eds: &Eds, d: &mut Diagnostics) {
 }
 
 fn mandatory(eds: &Eds, d: &mut Diagnostics) {
+    // An empty file, or one that is not an EDS (a README, a binary), has no
+    // dictionary to build: "valid" would let gen write an empty one.
+    if eds.objects.is_empty() && !d.has_errors() {
+        d.error(0, "no object sections ([1000], [1018], ...): not an EDS or DCF with a dictionary");
+        return;
+    }
     for index in [0x1000u16, 0x1001, 0x1018] {
         if !eds.objects.contains_key(&index) {
             d.warn(0, format!("mandatory object 0x{index:04X} is missing (CiA 301 §7.5.1)"));
@@ -211,14 +225,38 @@ fn entry(index: u16, s: &SubObject, opaque: bool, d: &mut Diagnostics) {
         }
         Some((l, h)) => {
             let given = s.parameter_value.as_ref().or(s.default.as_ref()).is_some_and(|v| !v.text.is_empty());
+            let bound = |t: &Option<crate::model::Text>, key: &str| t.as_ref().map_or(format!("no {key}"), |t| format!("{key} {}", t.text));
+            if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && !given)
+                && (less(v, l) || less(h, v))
+            {
+                // Vendor files leave measured values without a default (python-canopen's
+                // e35.eds: a frequency 1000..80000); the node starts them at zero.
+                d.warn(
+                    s.line,
+                    format!(
+                        "0x{index:04X} sub {} has no default and starts at 0, outside {}..{}",
+                        s.sub,
+                        bound(&s.low, "LowLimit"),
+                        bound(&s.high, "HighLimit")
+                    ),
+                );
+            }
             if let Some(v) = s.data_type.and_then(|t| Number::decode(t, &s.value)).filter(|_| !s.node_id && given)
                 && (less(v, l) || less(h, v))
             {
-                let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
+                let value = s.parameter_value.as_ref().or(s.default.as_ref());
+                let line = value.map_or(s.line, |t| t.line);
+                // A single limit is enforced with the type's own range as the other bound.
                 d.push(
                     sev,
                     line,
-                    format!("value is outside LowLimit {}..HighLimit {} (0x{index:04X} sub {})", text(&s.low), text(&s.high), s.sub),
+                    format!(
+                        "value `{}` is outside {}..{} (0x{index:04X} sub {})",
+                        text(&value.cloned()),
+                        bound(&s.low, "LowLimit"),
+                        bound(&s.high, "HighLimit"),
+                        s.sub
+                    ),
                 );
             }
         }
@@ -319,6 +357,35 @@ fn pdo_counts(eds: &Eds, d: &mut Diagnostics) {
         if have != usize::from(given) {
             let line = info.get(key).map_or(info.line, |p| p.line);
             d.warn(line, format!("{key}={given} but the file has {have} mapping objects"));
+        }
+    }
+}
+
+/// The default SDO server's COB-IDs are 0x600 + node-ID and 0x580 + node-ID
+/// whatever the node-id (CiA 301 §7.3.5, the pre-defined connection set;
+/// 0x1200 only shows them). Tools such as CanFestival's objdictgen write
+/// them for the node-id they had, `1600` for node 64: a node built from
+/// that file with any other node-id would answer no SDO. Such a value is
+/// read as `0x600+$NODEID` (`0x580+$NODEID`), with a warning unless the
+/// DCF configures that node-id.
+fn default_sdo_server(eds: &mut Eds, d: &mut Diagnostics) {
+    let configured = eds.node_id;
+    let Some(server) = eds.objects.get_mut(&0x1200) else { return };
+    for (sub, base, direction) in [(1u8, 0x600u64, "client -> server"), (2, 0x580, "server -> client")] {
+        let Some(s) = server.subs.get_mut(&sub).filter(|s| !s.node_id) else { continue };
+        let Some(node) = s.unsigned().and_then(|v| v.checked_sub(base)).filter(|n| (1..=127).contains(n)) else { continue };
+        let len = s.value.len().min(8);
+        s.value = base.to_le_bytes()[..len].to_vec();
+        s.node_id = true;
+        if configured != Some(node as u8) {
+            let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
+            d.warn(
+                line,
+                format!(
+                    "0x1200:{sub:02X} ({direction}) is 0x{:03X}, the COB-ID of node {node}; the default SDO server's follows the node-id: read as 0x{base:03X}+$NODEID",
+                    base + node
+                ),
+            );
         }
     }
 }

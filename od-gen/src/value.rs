@@ -43,17 +43,36 @@ pub fn parse_int(text: &str) -> Result<IntExpr, String> {
         rest = &rest[end..];
         if term.eq_ignore_ascii_case("$NODEID") {
             if negative || node_id {
-                return Err(format!("`{text}`: $NODEID may only be added once"));
+                return Err(format!("`{text}`: $NODEID may only be added, and only once"));
             }
             node_id = true;
             continue;
         }
-        let (n, is_hex) = parse_unsigned(term).ok_or_else(|| format!("`{text}` is not a number"))?;
+        let (n, is_hex) = parse_unsigned(term).ok_or_else(|| {
+            // `08`, `0900`: decimal digits, but CiA 306 reads a leading 0 as octal.
+            let octal = term.len() > 1 && term.starts_with('0') && term.chars().all(|c| c.is_ascii_digit());
+            if octal {
+                format!("`{text}` is not a number: a leading 0 makes it octal (CiA 306)")
+            } else {
+                format!("`{text}` is not a number")
+            }
+        })?;
         hex |= is_hex;
         let n = if negative { -n } else { n };
         value = value.checked_add(n).ok_or_else(|| format!("`{text}` is out of range"))?;
     }
     Ok(IntExpr { value, node_id, hex })
+}
+
+/// Whether whitespace separates two characters of one term (`1 2`), not a
+/// term from a `+`/`-` (`$NODEID + 0x600`).
+fn space_within_number(text: &str) -> bool {
+    let chars: Vec<char> = text.trim().chars().collect();
+    chars.iter().enumerate().any(|(i, c)| {
+        c.is_whitespace()
+            && chars[..i].iter().rev().find(|c| !c.is_whitespace()).is_some_and(|c| !matches!(c, '+' | '-'))
+            && chars[i..].iter().find(|c| !c.is_whitespace()).is_some_and(|c| !matches!(c, '+' | '-'))
+    })
 }
 
 fn parse_unsigned(term: &str) -> Option<(i128, bool)> {
@@ -134,6 +153,9 @@ pub fn parse_number(t: DataType, text: &str) -> Result<(Number, bool, Option<Str
                 return Err(format!("`{text}` does not fit {} ({min}..={max})", t.name()));
             }
             let n = if t.kind() == Kind::Signed { Number::Signed(v as i64) } else { Number::Unsigned(v as u64) };
+            // Spaces around `+`/`-` are how `$NODEID + 0x600` is written;
+            // within a number they are dropped, which a reader should see.
+            let note = note.or_else(|| space_within_number(text).then(|| format!("the spaces within `{text}` are dropped: read as {v}")));
             Ok((n, e.node_id, note))
         }
         Kind::Bytes => Err(format!("{} has no numeric value", t.name())),
@@ -253,7 +275,7 @@ mod tests {
         assert!(parse_int("0x").is_err());
         assert!(parse_int("12a").is_err());
         assert!(parse_int("").is_err());
-        assert!(parse_int("1 2").is_ok()); // whitespace is dropped: "12"
+        assert!(parse_int("1 2").is_ok()); // whitespace is dropped: "12" (parse_number notes it)
     }
 
     #[test]

@@ -190,3 +190,51 @@ fn a_closed_stdout_is_an_error_not_a_panic() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).starts_with("od-gen: stdout: Broken pipe"), "{}", stderr(&o));
 }
+
+/// A dictionary bigger than the tables address (RAM or ROM over 65,535
+/// bytes): check said valid and gen failed with exit 2, a usage error's.
+/// Now check finds it and every command exits 1.
+#[test]
+fn a_dictionary_too_big_for_the_tables_fails_check_and_gen_alike() {
+    let dir = scratch("too-big");
+    let eds = dir.join("big.eds");
+    let text = format!(
+        "[DeviceInfo]\nVendorName=V\n[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n\
+         [2000]\nParameterName=Blob\nObjectType=0x7\nDataType=0x000A\nAccessType=rw\nDefaultValue={}\n",
+        "ab".repeat(70_000)
+    );
+    std::fs::write(&eds, text).expect("scratch is writable");
+    let eds = eds.to_string_lossy().into_owned();
+    for args in [&["check", &eds][..], &["gen", &eds, "-o", &dir.join("big.rs").to_string_lossy()]] {
+        let o = od_gen(args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("big.eds: error: RAM image 70004 B / ROM 0 B exceed 65535 B"), "{}", stderr(&o));
+    }
+}
+
+/// `--format human` shows a Latin-1 file's line as the reader read it, with
+/// the caret under the quoted value (it showed `�` and underlined the line).
+#[test]
+fn human_format_shows_latin1_lines_as_read() {
+    let dir = scratch("latin1");
+    let eds = dir.join("l1.eds");
+    std::fs::write(&eds, b"[1000]\nParameterName=Ger\xe4t\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=\xe412\n")
+        .expect("scratch is writable");
+    let o = od_gen(&["check", "--format", "human", &eds.to_string_lossy()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("6 | DefaultValue=ä12\n  |              ^^^\n"), "{err}");
+}
+
+/// Lines ended by a lone CR (classic Mac files) are lines for `--format
+/// human` as for the reader: the finding shows its line (it had none).
+#[test]
+fn human_format_counts_lone_cr_line_ends() {
+    let dir = scratch("cr");
+    let eds = dir.join("cr.eds");
+    std::fs::write(&eds, "[1000]\rParameterName=X\rObjectType=0x7\rDataType=0x0007\rAccessType=ro\rDefaultValue=zz\r")
+        .expect("scratch is writable");
+    let o = od_gen(&["check", "--format", "human", &eds.to_string_lossy()]);
+    let err = stderr(&o);
+    assert!(err.contains("--> cr.eds:6:14\n  |\n6 | DefaultValue=zz\n  |              ^^\n"), "{err}");
+}

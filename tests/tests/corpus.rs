@@ -285,7 +285,23 @@ fn mixed_type_arrays_are_all_reported() {
         assert!(d.warnings().any(|w| w.message.contains(&text)), "{text}\n{d}");
     }
     // 1200 is an ARRAY of one element type.
-    assert!(!d.warnings().any(|w| w.message.contains("0x1200")), "{d}");
+    assert!(!d.warnings().any(|w| w.message.contains("ARRAY 0x1200")), "{d}");
+}
+
+/// CanFestival writes the default SDO server's COB-IDs for its node 64
+/// (`1600`, `1472`, lines 341 and 349); they follow the node-id, or a node
+/// with any other id would answer no SDO.
+#[test]
+fn canfestival_absolute_default_sdo_cob_ids_follow_the_node_id() {
+    use corpus::canfestival_ds401_slave_gui::{DICTIONARY, Ram};
+    let (_, d) = load("canfestival__DS401_Slave_Gui.eds");
+    assert!(d.mentions(Severity::Warning, 341, "0x1200:01 (client -> server) is 0x640, the COB-ID of node 64"), "{d}");
+    assert!(d.mentions(Severity::Warning, 349, "0x1200:02 (server -> client) is 0x5C0"), "{d}");
+    for node in [5u32, 64, 127] {
+        let ram = Ram::new(node as u8);
+        assert_eq!(DICTIONARY.read(ram.image(), 0x1200, 1), Ok(&(0x600 + node).to_le_bytes()[..]));
+        assert_eq!(DICTIONARY.read(ram.image(), 0x1200, 2), Ok(&(0x580 + node).to_le_bytes()[..]));
+    }
 }
 
 /// Every generated corpus module, as (name, dictionary, power-on image for a node-id).

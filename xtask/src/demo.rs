@@ -39,6 +39,9 @@ use self::qemu::{in_qemu, send_exit};
 /// slower than the wall clock on a loaded machine (a CI run saw a 200 ms
 /// event timer every 1.05 s of wall time), so this is wall time with room.
 const WAIT: Duration = Duration::from_secs(15);
+/// How long a running node (`--connect`) has for its boot-up after NMT
+/// reset node: vnode answers in milliseconds, a board in well under a second.
+const BOOT_WAIT_CONNECTED: Duration = Duration::from_secs(3);
 /// Producer heartbeat time the demo configures (0x1017), in ms.
 const HEARTBEAT_MS: u16 = 100;
 /// TPDO1 event timer the demo configures (0x1800 sub 5), in ms.
@@ -54,7 +57,7 @@ const TARGET_VELOCITY: u64 = 300;
 #[derive(clap::Args, Default)]
 pub struct DemoArgs {
     /// Drive a running `vnode --device ec5000` at HOST:PORT instead of booting QEMU.
-    #[arg(long, value_name = "HOST:PORT")]
+    #[arg(long, value_name = "HOST:PORT", value_parser = crate::host_port)]
     pub connect: Option<String>,
     /// The node-id of the node behind `--connect` (default: the EC5000's 127, the QEMU image's).
     #[arg(long, value_name = "N", requires = "connect", value_parser = clap::value_parser!(u8).range(1..=127))]
@@ -65,8 +68,33 @@ pub struct DemoArgs {
     pub device: Option<String>,
 }
 
+impl DemoArgs {
+    /// What clap cannot see: only the EC5000 script takes another node-id
+    /// (the Sendix's talks to its quick-start 63, the UNITEK DS has none).
+    fn check(&self) -> Result<(), clap::Error> {
+        match (&self.device, self.node_id) {
+            (Some(device), Some(n)) if device != "ec5000" => Err(clap::Error::raw(
+                clap::error::ErrorKind::ArgumentConflict,
+                format!("`--node-id {n}` is for the EC5000 demo; the {device} demo talks to the node-id of its image\n"),
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The script's first step: a node that sent no boot-up (after NMT reset
+/// node, on `--connect`) answers nothing else either; the demo stops there
+/// instead of waiting out every step.
+fn no_boot_up(node: u8, connected: bool) -> String {
+    let why = if connected { "is it running, with that node-id, behind that address?" } else { "the image did not start" };
+    format!("node {node} sent no boot-up: {why}")
+}
+
 /// `cargo xtask demo`.
 pub fn demo(args: &DemoArgs) -> Result<(), String> {
+    if let Err(e) = args.check() {
+        e.exit();
+    }
     let node_id = args.node_id.unwrap_or(ec5000::DEVICE.default_node_id);
     let wall = Instant::now();
     if args.device.as_deref() == Some("sendix") {
@@ -287,8 +315,11 @@ impl Run {
             // A running node booted long ago: make it boot again.
             self.nmt(0x82)?;
         }
-        let boot = Self::io(self.m.wait_for(0, WAIT, |f| f.cob_id() == Some(hb)))?;
+        let boot = Self::io(self.m.wait_for(0, if self.qemu { WAIT } else { BOOT_WAIT_CONNECTED }, |f| f.cob_id() == Some(hb)))?;
         self.check(boot.is_some_and(|f| f.data() == [0x00]), &format!("node {node} announces its boot-up (0x{hb:03X} [00])"));
+        if boot.is_none() {
+            return Err(no_boot_up(node, !self.qemu));
+        }
 
         self.step("2. Identity (SDO uploads; 0x1008 is segmented)");
         for (index, sub) in

@@ -33,7 +33,7 @@ pub struct HilArgs {
     #[arg(long, required_unless_present = "qemu")]
     channel: Option<String>,
     /// The bus bit rate in bit/s.
-    #[arg(long, default_value_t = 250_000)]
+    #[arg(long, default_value_t = 250_000, conflicts_with = "qemu")]
     bitrate: u32,
     /// The device the board runs.
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(firmware::devices::ALL.iter().map(|d| d.name)))]
@@ -45,15 +45,33 @@ pub struct HilArgs {
     #[arg(long, value_name = "CMD", conflicts_with = "qemu")]
     power_cycle_command: Option<String>,
     /// The device's EDS (default: firmware/eds/DEVICE.eds).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "qemu")]
     eds: Option<String>,
     /// Check the device's QEMU image instead of a board (what CI runs).
     #[arg(long, conflicts_with_all = ["interface", "channel"])]
     qemu: bool,
 }
 
+impl HilArgs {
+    /// What clap cannot see: the QEMU image runs its device's own node-id
+    /// (docs/firmware.md), so another `--node-id` would reach nothing.
+    fn check(&self) -> Result<(), clap::Error> {
+        let image = firmware::devices::by_name(&self.device).map(|d| d.default_node_id);
+        match (self.qemu, self.node_id, image) {
+            (true, Some(asked), Some(own)) if asked != own => Err(clap::Error::raw(
+                clap::error::ErrorKind::ArgumentConflict,
+                format!("the {} QEMU image runs node-id {own}: `--node-id {asked}` would reach nothing (leave it out)\n", self.device),
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// `cargo xtask hil ...`.
 pub fn hil(args: &HilArgs) -> Result<(), String> {
+    if let Err(e) = args.check() {
+        e.exit();
+    }
     let device = args.device.as_str();
     let known = firmware::devices::by_name(device).ok_or_else(|| format!("unknown device {device}"))?;
     if NOT_CANOPEN.contains(&device) {
@@ -126,5 +144,41 @@ fn run_script(args: &[String], timeout: Option<Duration>) -> Result<(), String> 
             return Err(format!("hil killed after {} s", timeout.map_or(0, |t| t.as_secs())));
         }
         std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::HilArgs;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        hil: HilArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<HilArgs, clap::Error> {
+        let cli = Cli::try_parse_from(std::iter::once("hil").chain(args.iter().copied()))?;
+        cli.hil.check().map(|()| cli.hil)
+    }
+
+    #[test]
+    fn qemu_takes_only_what_the_image_has() {
+        assert!(parse(&["--qemu", "--device", "sendix"]).is_ok());
+        assert!(parse(&["--qemu", "--device", "sendix", "--node-id", "63"]).is_ok());
+        assert!(parse(&["--interface", "slcan", "--channel", "x", "--device", "sendix", "--node-id", "5"]).is_ok());
+        for args in [
+            &["--qemu", "--device", "sendix", "--node-id", "5"][..],
+            &["--qemu", "--device", "ec5000", "--bitrate", "500000"],
+            &["--qemu", "--device", "ec5000", "--eds", "my.eds"],
+            &["--qemu", "--device", "ec5000", "--channel", "can0"],
+        ] {
+            let e = parse(args).err().unwrap_or_else(|| panic!("{args:?} parsed"));
+            assert_eq!(e.exit_code(), 2, "{args:?}: {e}");
+        }
+        let e = parse(&["--qemu", "--device", "sendix", "--node-id", "5"]).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("runs node-id 63"), "{e}");
     }
 }

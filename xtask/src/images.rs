@@ -299,7 +299,7 @@ pub struct QemuArgs {
     #[arg(value_parser = clap::builder::PossibleValuesParser::new(firmware::devices::ALL.iter().map(|d| d.name)))]
     device: String,
     /// Where the image's SLCAN UART listens.
-    #[arg(long, value_name = "HOST:PORT", default_value = DEFAULT_LISTEN)]
+    #[arg(long, value_name = "HOST:PORT", default_value = DEFAULT_LISTEN, value_parser = crate::host_port)]
     listen: String,
 }
 

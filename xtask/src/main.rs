@@ -106,6 +106,17 @@ fn main() -> ExitCode {
     }
 }
 
+/// A `HOST:PORT` that names an address (`--connect`, `--listen`): anything
+/// else is a usage error, not a failure of the command.
+fn host_port(s: &str) -> Result<String, String> {
+    use std::net::ToSocketAddrs;
+    match s.to_socket_addrs().map(|mut addrs| addrs.next()) {
+        Ok(Some(_)) => Ok(s.to_owned()),
+        Ok(None) => Err("names no address".into()),
+        Err(e) => Err(format!("not HOST:PORT, e.g. 127.0.0.1:4557 ({e})")),
+    }
+}
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
@@ -234,7 +245,7 @@ mod cli_tests {
     fn every_command_has_help_and_version() {
         Cli::command().debug_assert();
         assert_eq!(parse(&["--version"]).err().map(|e| e.kind()), Some(ErrorKind::DisplayVersion));
-        for command in ["test", "demo", "fuzz", "bench", "build", "qemu", "smoke", "size", "icount", "new-device"] {
+        for command in ["test", "demo", "fuzz", "bench", "build", "qemu", "smoke", "hil", "size", "icount", "new-device"] {
             assert_eq!(parse(&[command, "--help"]).err().map(|e| e.kind()), Some(ErrorKind::DisplayHelp), "{command}");
         }
     }
@@ -256,11 +267,16 @@ mod cli_tests {
             &[][..],
             &["bogus"],
             &["demo", "--node-id", "5"],
-            &["demo", "--node-id", "0", "--connect", "x:1"],
+            &["demo", "--node-id", "0", "--connect", "127.0.0.1:1"],
+            &["demo", "--connect", "nothost"],
+            &["qemu", "sendix", "--listen", "4600"],
             &["qemu", "nosuch"],
             &["icount", "x"],
             &["new-device", "pump"],
             &["new-device", "Pump", "--eds", "pump.eds"],
+            &["new-device", "fn", "--eds", "pump.eds"],
+            &["new-device", "build", "--eds", "pump.eds"],
+            &["new-device", "core", "--eds", "pump.eds"],
             &["new-device", "pump", "--eds", "pump.eds", "--profile", "cia999"],
             &["new-device", "pump", "--eds", "pump.eds", "--node-id", "128"],
         ] {

@@ -74,9 +74,30 @@ pub struct NewDeviceArgs {
     pub out: Option<PathBuf>,
 }
 
+/// Rust's keywords, strict and reserved (2024 edition): a crate's name
+/// (`-` as `_`) is its binary's, which must be an identifier.
+const KEYWORDS: [&str; 52] = [
+    "as", "break", "const", "continue", "crate", "else", "enum", "extern", "false", "fn", "for", "if", "impl", "in", "let", "loop",
+    "match", "mod", "move", "mut", "pub", "ref", "return", "self", "static", "struct", "super", "trait", "true", "type", "unsafe", "use",
+    "where", "while", "async", "await", "dyn", "abstract", "become", "box", "do", "final", "macro", "override", "priv", "typeof",
+    "unsized", "virtual", "yield", "try", "gen", "union",
+];
+/// Names cargo or the build refuse for a binary crate: cargo's folders in
+/// `target/`, and the built-in crates the device's code names (`core`).
+const RESERVED: [&str; 9] = ["build", "deps", "examples", "incremental", "test", "core", "std", "alloc", "proc-macro"];
+
 fn crate_name(s: &str) -> Result<String, String> {
     let ok = s.starts_with(|c: char| c.is_ascii_lowercase()) && s.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-');
-    if ok { Ok(s.to_owned()) } else { Err("a crate name: a lower-case letter, then lower-case letters, digits and `-`".into()) }
+    if !ok {
+        return Err("a crate name: a lower-case letter, then lower-case letters, digits and `-`".into());
+    }
+    if KEYWORDS.contains(&s.replace('-', "_").as_str()) {
+        return Err(format!("`{s}` is a Rust keyword, which cannot name the device's binary"));
+    }
+    if RESERVED.contains(&s) {
+        return Err(format!("`{s}` is a name cargo or the build reserves (a target folder or a built-in crate)"));
+    }
+    Ok(s.to_owned())
 }
 
 /// Creates the crate; returns its folder.
@@ -89,6 +110,10 @@ pub fn new_device(args: &NewDeviceArgs) -> Result<PathBuf, String> {
     }
     let template = root().join("firmware/template");
     let firmware = root().join("firmware");
+    // A DCF stays a DCF: od-gen reads `ParameterValue` as a DCF's own, and
+    // warns of it in an EDS.
+    let dcf = args.eds.extension().is_some_and(|e| e.eq_ignore_ascii_case("dcf"));
+    let eds_file = if dcf { "device.dcf" } else { "device.eds" };
     let path = |p: &Path| p.display().to_string();
     for file in FILES.into_iter().chain(["src/device.rs"]) {
         let source = if file == "src/device.rs" { device_template(args.profile) } else { file };
@@ -109,13 +134,14 @@ pub fn new_device(args: &NewDeviceArgs) -> Result<PathBuf, String> {
             }
             _ => text,
         };
+        let text = text.replace("device.eds", eds_file);
         let dst = out.join(file);
         if let Some(dir) = dst.parent() {
             std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         }
         std::fs::write(&dst, text).map_err(|e| format!("{}: {e}", dst.display()))?;
     }
-    std::fs::copy(&args.eds, out.join("device.eds")).map_err(|e| format!("{}: {e}", args.eds.display()))?;
+    std::fs::copy(&args.eds, out.join(eds_file)).map_err(|e| format!("{}: {e}", args.eds.display()))?;
     eprintln!(
         "created {} ({} on {}, node-id {}): `cargo run --release` there flashes an STM32F103C8 through probe-rs",
         out.display(),
@@ -223,4 +249,36 @@ pub fn new_device_ci(python: &str) -> Result<(), String> {
     })();
     let _ = std::fs::remove_dir_all(&out);
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{NewDeviceArgs, Profile, new_device};
+    use crate::root;
+
+    /// A DCF becomes `device.dcf`, which `build.rs` reads: as `device.eds`
+    /// its `ParameterValue`s were warnings ("belongs in a DCF") in every build.
+    #[test]
+    fn a_dcf_stays_a_dcf() {
+        let out = std::env::temp_dir().join(format!("xtask-new-device-dcf-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        let args = NewDeviceArgs {
+            name: "ctl".into(),
+            eds: root().join("tests/eds-corpus/lely__coctl.dcf"),
+            profile: Profile::None,
+            node_id: 5,
+            out: Some(out.clone()),
+        };
+        let made = new_device(&args).map(|dir| {
+            let build = std::fs::read_to_string(dir.join("build.rs")).unwrap_or_default();
+            let loaded = od_gen::load_path(&dir.join("device.dcf"), od_gen::Options::default());
+            (build, dir.join("device.eds").exists(), loaded)
+        });
+        let _ = std::fs::remove_dir_all(&out);
+        let (build, eds_too, loaded) = made.expect("the crate is made");
+        assert!(build.contains("generate(\"device.dcf\".as_ref(), \"od\")"), "{build}");
+        assert!(!eds_too, "only device.dcf");
+        let (_, d) = loaded.expect("device.dcf reads");
+        assert!(!d.items.iter().any(|i| i.message.contains("belongs in a DCF")), "{d}");
+    }
 }

@@ -67,11 +67,11 @@ struct Cli {
     /// Run the dictionary of this EDS or DCF, without device hooks, instead of a device.
     #[arg(long, value_name = "FILE", conflicts_with = "device")]
     eds: Option<PathBuf>,
-    /// The node-id: 1..=127, or 255 for an LSS-unconfigured node.
+    /// The node-id: 1..=127, or 255 for an LSS-unconfigured node (decimal or 0x-hex).
     #[arg(long, value_name = "N", required_unless_present = "list", value_parser = node_id)]
     node_id: Option<u8>,
     /// Where to serve SLCAN over TCP (port 0: a free port).
-    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:0")]
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:0", value_parser = listen_addr)]
     listen: String,
     /// The identity serial number (0x1018:4, LSS), decimal or 0x-hex.
     #[arg(long, value_name = "N", value_parser = serial)]
@@ -90,19 +90,35 @@ struct Cli {
     list: bool,
 }
 
+/// A number in decimal or `0x`/`0X` hex, as `--serial` and `--node-id` take it.
+fn number(s: &str) -> Result<u64, std::num::ParseIntError> {
+    match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(hex) => u64::from_str_radix(hex, 16),
+        None => s.parse(),
+    }
+}
+
 fn node_id(s: &str) -> Result<u8, String> {
-    match s.parse::<u8>() {
-        Ok(id @ (1..=127 | 255)) => Ok(id),
+    match number(s).map(u8::try_from) {
+        Ok(Ok(id @ (1..=127 | 255))) => Ok(id),
         _ => Err("must be 1..=127, or 255 for an unconfigured node".into()),
     }
 }
 
+/// A `HOST:PORT` that names an address: one that does not is a usage
+/// error (exit 2), one that names an address vnode cannot bind is not (1).
+fn listen_addr(s: &str) -> Result<String, String> {
+    use std::net::ToSocketAddrs;
+    match s.to_socket_addrs().map(|mut addrs| addrs.next()) {
+        Ok(Some(_)) => Ok(s.to_owned()),
+        Ok(None) => Err("names no address".into()),
+        Err(e) => Err(format!("not HOST:PORT, e.g. 127.0.0.1:4557 ({e})")),
+    }
+}
+
 fn serial(s: &str) -> Result<u32, String> {
-    let parsed = match s.strip_prefix("0x") {
-        Some(hex) => u32::from_str_radix(hex, 16),
-        None => s.parse(),
-    };
-    parsed.map_err(|e| format!("not a 32-bit number ({e})"))
+    let too_big = |_| "not a 32-bit number (over 0xFFFFFFFF)".to_owned();
+    number(s).map_err(|e| format!("not a 32-bit number ({e})")).and_then(|v| u32::try_from(v).map_err(too_big))
 }
 
 fn bitrate_kbit(s: &str) -> Result<u32, String> {
@@ -138,9 +154,9 @@ fn main() -> ExitCode {
     let result = match device.as_str() {
         "" => match cli.eds.as_deref().map(load_eds) {
             Some(Ok(dictionary)) => serve_eds(dictionary, id, storage, &cli),
-            Some(Err(diagnostics)) => {
+            Some(Err((diagnostics, status))) => {
                 let _ = write!(std::io::stderr().lock(), "{diagnostics}");
-                return ExitCode::FAILURE;
+                return status;
             }
             None => Err("no device".into()),
         },
@@ -205,16 +221,18 @@ fn main() -> ExitCode {
 
 /// Reads and checks an EDS as od-gen does (tolerant: warnings are shown,
 /// errors stop vnode) and builds the core's dictionary from it. `Err` holds
-/// the diagnostics, one `file:line: severity: message` per line.
-fn load_eds(path: &std::path::Path) -> Result<&'static Dictionary, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: error: {e}\n", path.display()))?;
+/// the diagnostics, one `file:line: severity: message` per line, and the
+/// exit status: 1 for a file with errors, 2 for one that cannot be read
+/// (a wrong `--eds`, as od-gen has it).
+fn load_eds(path: &std::path::Path) -> Result<&'static Dictionary, (String, ExitCode)> {
+    let bytes = std::fs::read(path).map_err(|e| (format!("{}: error: {e}\n", path.display()), ExitCode::from(2)))?;
     let file = path.display().to_string();
     let (eds, diagnostics) = od_gen::load(&file, &bytes, od_gen::Options::default());
     if diagnostics.has_errors() {
-        return Err(diagnostics.to_string());
+        return Err((diagnostics.to_string(), ExitCode::FAILURE));
     }
     let _ = write!(std::io::stderr().lock(), "{diagnostics}");
-    let tables = od_gen::runtime::Tables::new(&eds).map_err(|e| format!("{file}: error: {}\n", e.0))?;
+    let tables = od_gen::runtime::Tables::new(&eds).map_err(|e| (format!("{file}: error: {}\n", e.0), ExitCode::FAILURE))?;
     Ok(tables.leak())
 }
 
@@ -233,6 +251,14 @@ fn serve_eds(dictionary: &'static Dictionary, id: u8, storage: Box<dyn Storage>,
             .unwrap_or(0)
     };
     let pdos = extent(0x1400, 0x15FF).max(extent(0x1800, 0x19FF));
+    // The SDO server count is no parameter here: servers past it stay off.
+    if extent(0x1200, 0x127F) > SDO_SERVERS {
+        note(format_args!(
+            "{}: vnode serves the SDO servers 0x1200–0x{:04X}; those above stay off",
+            cli.eds.as_deref().unwrap_or(std::path::Path::new("")).display(),
+            0x11FF + SDO_SERVERS
+        ));
+    }
     let od = RuntimeRam::new(dictionary, id);
     match pdos {
         0..=4 => serve::<_, _, 4, 4, 127, SDO_SERVERS>(od, NoApplication, storage, cli),
@@ -312,6 +338,8 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
     let stored = node.bit_rate().and_then(BitRate::from_cia_index);
     let bit_rate = stored.or(BitRate::new(cli.bitrate * 1000)).unwrap_or(BitRate::MBIT_1);
     let options = ServerOptions { bit_rate, ..ServerOptions::default() };
+    // The trace file first: a port line promises a node that runs.
+    let mut trace = cli.trace.as_deref().map(open_trace).transpose()?;
     let (server, channels) = SlcanServer::bind_with(cli.listen.as_str(), options).map_err(|e| format!("{}: {e}", cli.listen))?;
     {
         // Test harnesses read this line to learn the port; they may close stdout afterwards.
@@ -324,7 +352,6 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
         let _ = writeln!(out, "vnode {device} node {} listening on {}", cli.node_id.unwrap_or(255), server.local_addr());
         let _ = out.flush();
     }
-    let mut trace = cli.trace.as_deref().map(open_trace).transpose()?;
     let mut report = Reporter::default();
     // A frame the node sent that the wire had no room for yet.
     let mut held = None;

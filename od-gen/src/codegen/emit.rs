@@ -40,17 +40,27 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w);
 
     let count = |r: std::ops::RangeInclusive<u16>| eds.objects.range(r).filter(|(_, o)| !o.opaque).count();
+    // The node keeps PDO n, SDO server n and heartbeat consumer n in slot
+    // n - 1 (0x1400 + n - 1, 0x1016 sub n): it needs slots up to the highest
+    // one the file has, and a missing one below it is an invalid PDO or an
+    // unused slot, as in vnode. A count would drop the highest of a sparse
+    // set (0x1800 and 0x1802: TPDO3 never sent).
+    let extent = |r: std::ops::RangeInclusive<u16>| {
+        let first = *r.start();
+        eds.objects.range(r).filter(|(_, o)| !o.opaque).map(|(&i, _)| usize::from(i - first) + 1).max().unwrap_or(0)
+    };
     let subs_of = |i: u16| eds.objects.get(&i).filter(|o| !o.opaque).map_or(0, |o| o.subs.keys().filter(|&&k| k > 0).count());
+    let highest_sub = |i: u16| eds.objects.get(&i).filter(|o| !o.opaque).and_then(|o| o.subs.keys().max()).map_or(0, |&k| usize::from(k));
     for (name, doc, v) in [
         ("ENTRY_COUNT", "Number of entries in the dictionary.", l.entries.len()),
         ("RAM_SIZE", "Size of the RAM image in bytes.", l.ram.len()),
         ("STORED_SIZE", "Bytes at the front of the RAM image a stored parameter set holds.", l.stored_len),
         ("ROM_SIZE", "Size of the constant values in flash, in bytes.", l.rom.len()),
-        ("RPDO_COUNT", "RPDOs (communication objects 0x1400–0x15FF).", count(0x1400..=0x15FF)),
-        ("TPDO_COUNT", "TPDOs (communication objects 0x1800–0x19FF).", count(0x1800..=0x19FF)),
+        ("RPDO_COUNT", "RPDOs (communication objects 0x1400–0x15FF).", extent(0x1400..=0x15FF)),
+        ("TPDO_COUNT", "TPDOs (communication objects 0x1800–0x19FF).", extent(0x1800..=0x19FF)),
         ("SDO_SERVER_COUNT", "SDO servers (0x1200–0x127F).", count(0x1200..=0x127F)),
         ("SDO_CLIENT_COUNT", "SDO clients (0x1280–0x12FF).", count(0x1280..=0x12FF)),
-        ("HB_CONSUMER_COUNT", "Heartbeat consumers (entries of 0x1016).", subs_of(0x1016)),
+        ("HB_CONSUMER_COUNT", "Heartbeat consumers (entries of 0x1016).", highest_sub(0x1016)),
         ("ERROR_HISTORY_LEN", "Entries of the pre-defined error field 0x1003.", subs_of(0x1003)),
     ] {
         let _ = writeln!(w, "/// {doc}");
@@ -58,7 +68,7 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     }
     let _ = writeln!(w);
     let _ = writeln!(w, "/// SDO servers a node on this dictionary runs: the default one even without 0x1200.");
-    let _ = writeln!(w, "pub const SDO_SERVERS: usize = {};", count(0x1200..=0x127F).max(1));
+    let _ = writeln!(w, "pub const SDO_SERVERS: usize = {};", extent(0x1200..=0x127F).max(1));
     let _ = writeln!(w);
     let _ = writeln!(w, "/// A node on this dictionary, with the device's hooks `A` and storage `S`.");
     let _ =

@@ -65,6 +65,8 @@ impl Reader<'_> {
                     eds.node_id = self.commissioning_node_id(&s);
                     eds.commissioning = Some(s);
                 }
+                // CiA 301 leaves index 0x0000 unused: no SDO can name it.
+                Kind::Object(0) => self.d.warn(s.line, format!("[{}]: index 0x0000 is not used (CiA 301); left out", s.name)),
                 Kind::Object(i) => {
                     object_sections.insert(i, s);
                 }

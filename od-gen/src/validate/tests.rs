@@ -78,7 +78,7 @@ fn sub_number_and_sub0_are_checked() {
 #[test]
 fn defaults_outside_limits_and_inverted_limits_are_errors() {
     let (text, line) = with("DefaultValue=5\n", "DefaultValue=101\n");
-    assert!(check(&text, false).mentions(Severity::Error, line, "outside LowLimit -100..HighLimit 100"));
+    assert!(check(&text, false).mentions(Severity::Error, line, "is outside LowLimit -100..HighLimit 100"));
     let (text, line) = with("HighLimit=100\n", "HighLimit=-101\n");
     assert!(check(&text, false).mentions(Severity::Error, line, "HighLimit -101 is below LowLimit -100"));
     let (text, line) = with("LowLimit=-100\n", "LowLimit=-40000\n");

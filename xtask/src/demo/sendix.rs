@@ -23,7 +23,7 @@ use hal_host::live::{Direction, LiveMaster, LoggedFrame};
 use hal_host::master::SdoClientError;
 use hal_host::slcan_client::SlcanClient;
 
-use super::{Style, WAIT, describe, trace_line};
+use super::{BOOT_WAIT_CONNECTED, Style, WAIT, describe, no_boot_up, trace_line};
 
 const DICT: &Dictionary = &sendix::od::DICTIONARY;
 /// The encoder's node-id when nothing is configured (manual quick start).
@@ -161,8 +161,12 @@ impl Run {
         if !self.qemu {
             Self::io(self.m.send_std(0x000, &[0x82, NODE]))?;
         }
-        let boot = Self::io(self.m.wait_for(0, WAIT, |f| f.cob_id() == Some(boot_id)))?;
+        let wait = if self.qemu { WAIT } else { BOOT_WAIT_CONNECTED };
+        let boot = Self::io(self.m.wait_for(0, wait, |f| f.cob_id() == Some(boot_id)))?;
         self.check(boot.is_some_and(|f| f.data() == [0x00]), &format!("node {NODE} announces its boot-up (0x{boot_id:03X} [00])"));
+        if boot.is_none() {
+            return Err(no_boot_up(NODE, !self.qemu));
+        }
 
         self.step("2. Identity: device type of the M5868 column, the encoder's name (segmented upload)");
         let device_type = self.read_u32(0x1000, 0)?;

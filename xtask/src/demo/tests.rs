@@ -67,3 +67,33 @@ fn statusword_state_names_follow_cia_402_state_coding() {
     assert_eq!(pds_state(0x0218), "Fault");
     assert_eq!(pds_state(0x0000), "Not ready to switch on");
 }
+
+#[test]
+fn node_id_is_for_the_ec5000_demo_only() {
+    let args = |device: &str, node_id| DemoArgs { connect: Some("127.0.0.1:1".into()), node_id, device: Some(device.into()) };
+    assert!(args("ec5000", Some(5)).check().is_ok());
+    assert!(args("sendix", None).check().is_ok());
+    for device in ["sendix", "unitek-ds"] {
+        let e = args(device, Some(5)).check().err().map(|e| (e.exit_code(), e.to_string()));
+        assert!(e.as_ref().is_some_and(|(code, text)| *code == 2 && text.contains("is for the EC5000 demo")), "{device}: {e:?}");
+    }
+}
+
+/// A bus where no node answers (a wrong node-id or address): the demo stops
+/// after the boot-up it waited for, not after every step's waits (minutes).
+#[test]
+fn a_node_that_sends_no_boot_up_stops_the_demo() {
+    let (server, _channels) = hal_host::slcan::SlcanServer::bind("127.0.0.1:0").expect("bind");
+    let ec5000 = DemoArgs { connect: Some(server.local_addr().to_string()), node_id: Some(5), device: None };
+    let sendix = DemoArgs { device: Some("sendix".into()), node_id: None, connect: ec5000.connect.clone() };
+    let start = Instant::now();
+    // Both at once on the one bus, each an adapter of its own: neither node is there.
+    let (a, b) = std::thread::scope(|s| {
+        let a = s.spawn(|| demo(&ec5000));
+        let b = s.spawn(|| demo(&sendix));
+        (a.join().expect("ec5000 demo"), b.join().expect("sendix demo"))
+    });
+    assert!(a.as_ref().is_err_and(|e| e.contains("node 5 sent no boot-up")), "{a:?}");
+    assert!(b.as_ref().is_err_and(|e| e.contains("node 63 sent no boot-up")), "{b:?}");
+    assert!(start.elapsed() < BOOT_WAIT_CONNECTED + Duration::from_secs(3), "{:?}", start.elapsed());
+}
