@@ -26,9 +26,14 @@ impl SyncWatch {
         ctx.read_u32(CYCLE_PERIOD, 0).filter(|p| *p != 0).map(u64::from)
     }
 
+    /// The time from the last SYNC to `now` [µs], if watched.
+    pub(crate) fn since(&self, now: Instant) -> Option<u64> {
+        self.armed.then(|| now.saturating_duration_since(self.last).as_micros())
+    }
+
     /// A SYNC came at `now`: the time since the one before [µs], if watched.
     pub(crate) fn seen(&mut self, now: Instant) -> Option<u64> {
-        let since = self.armed.then(|| now.saturating_duration_since(self.last).as_micros());
+        let since = self.since(now);
         (self.last, self.armed) = (now, true);
         since
     }

@@ -61,7 +61,7 @@ impl Monitor {
 
     /// True if the SYNC is overdue (none within the window since the last).
     pub(super) fn missing(&self, ctx: &Ctx<'_>) -> bool {
-        Self::window(ctx).and_then(|(period, tolerance)| self.watch.deadline(period + tolerance)).is_some_and(|at| ctx.now() >= at)
+        self.watch.since(ctx.now()).is_some_and(|since| Self::window(ctx).is_some_and(|(period, tolerance)| since > period + tolerance))
     }
 
     /// True once the PLL runs in step again: at once with bit 6 or without
