@@ -1,6 +1,6 @@
-//! The b maXX 4400 (node 2) on the bench turning in profile velocity, set
-//! up by SDO as a PLC does: what the CiA 402 stop tests start from (the
-//! drive whose dictionary has every option code 0x605A-0x605E). Its speeds
+//! The b maXX 4400 (node 2) on the bench, set up by SDO as a PLC does: what
+//! the CiA 402 stop and ramp tests start from (the drive whose dictionary
+//! has every option code 0x605A-0x605E), [`turn`] in profile velocity. Its speeds
 //! are min⁻¹ (docs/devices/bmaxx4400.md D57), its accelerations increments
 //! per second squared (1 BE = 1 increment, D50).
 
