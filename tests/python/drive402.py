@@ -7,7 +7,8 @@ seen twice as periodic and then waits at most 0.2 s for the next one), switches 
 up the state machine and starts the node. `STATE_CHANGE` is the most a state change may take:
 half of BaseNode402's 0.4 s, which the drives answer well inside.
 
-The helpers play what a PLC programmer does with python-canopen beyond the state machine:
+`walk_the_state_machine` takes the drive through every state change BaseNode402 makes, each
+within `STATE_CHANGE`. The helpers play what a PLC programmer does with python-canopen beyond the state machine:
 `samples` reads a TPDO as it arrives, `fault_by_heartbeat_loss` lets the PLC's heartbeat
 stop (the drive's consumer 0x1016 times out) and waits for the EMCY with python-canopen's
 EMCY consumer, `power_cycle_keeps_what_was_stored` stores with `node.store()`, restarts vnode on
@@ -16,6 +17,7 @@ the same storage file and restores with `node.restore()`.
 
 import os
 import shutil
+import struct
 import tempfile
 import time
 import unittest
@@ -56,6 +58,21 @@ class Drive402Test(unittest.TestCase):
         drive.sdo.RESPONSE_TIMEOUT = 2.0
         drive.sdo.upload(0x1000, 0)
         return v, drive
+
+    def walk_the_state_machine(self):
+        """From SWITCH ON DISABLED (0x6041 & 0x4F = 0x40) through every state change BaseNode402
+        makes by 0x6040, each read back from 0x6041 within `STATE_CHANGE`."""
+        self.assertEqual(self.drive.sdo[0x6041].raw & 0x4F, 0x40)
+        for state in ["READY TO SWITCH ON", "SWITCHED ON", "OPERATION ENABLED", "SWITCHED ON",
+                      "READY TO SWITCH ON", "SWITCH ON DISABLED", "OPERATION ENABLED"]:
+            start = time.monotonic()
+            self.drive.state = state
+            self.assertEqual(self.drive.state, state)
+            self.assertLess(time.monotonic() - start, self.STATE_CHANGE, state)
+
+    def i32(self, index):
+        """An INTEGER32 object's value (sub 0), uploaded by SDO."""
+        return struct.unpack("<i", self.drive.sdo.upload(index, 0))[0]
 
     def wait_for(self, what, condition, timeout=3.0):
         end = time.monotonic() + timeout

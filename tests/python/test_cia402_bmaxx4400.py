@@ -26,20 +26,11 @@ class Bmaxx4400(Drive402Test):
     # TPDO seen twice as periodic and waits 0.2 s for it (state, op_mode), so both get 100 ms.
     EVENT_TIMED_TPDOS = (0x1800, 0x1801)
 
-    def i32(self, index):
-        return struct.unpack("<i", self.drive.sdo.upload(index, 0))[0]
-
     def mode(self, value):
         self.drive.sdo.download(0x6060, 0, struct.pack("<b", value))
 
     def test_state_changes_through_the_state_machine(self):
-        self.assertEqual(self.drive.sdo[0x6041].raw & 0x4F, 0x40)
-        for state in ["READY TO SWITCH ON", "SWITCHED ON", "OPERATION ENABLED", "SWITCHED ON",
-                      "READY TO SWITCH ON", "SWITCH ON DISABLED", "OPERATION ENABLED"]:
-            start = time.monotonic()
-            self.drive.state = state
-            self.assertEqual(self.drive.state, state)
-            self.assertLess(time.monotonic() - start, self.STATE_CHANGE, state)
+        self.walk_the_state_machine()
 
     def test_speed_control_minus_3_reads_back_3_and_moves(self):
         self.mode(-3)

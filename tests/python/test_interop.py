@@ -21,9 +21,10 @@ NODE_ID = 5
 
 
 class Vnode:
-    """One vnode process and a python-canopen network connected to it."""
+    """One vnode process and a python-canopen network connected to it at `bitrate`; the node
+    `node_id` with `eds` added to it unless `eds` is None."""
 
-    def __init__(self, device="interop", node_id=NODE_ID, eds=EDS, extra=()):
+    def __init__(self, device="interop", node_id=NODE_ID, eds=EDS, extra=(), bitrate=500000):
         self.proc = subprocess.Popen(
             [VNODE, "--device", device, "--node-id", str(node_id), "--listen", "127.0.0.1:0", *extra],
             stdout=subprocess.PIPE,
@@ -36,9 +37,10 @@ class Vnode:
         # The notifier's receive timeout bounds disconnect(): python-canopen's 1 s default
         # added a second to every test's teardown.
         self.network.NOTIFIER_CYCLE = 0.05
-        self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=500000, sleep_after_open=0)
-        self.node = self.network.add_node(node_id, eds)
-        self.node.sdo.RESPONSE_TIMEOUT = 2.0
+        self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=bitrate, sleep_after_open=0)
+        if eds is not None:
+            self.node = self.network.add_node(node_id, eds)
+            self.node.sdo.RESPONSE_TIMEOUT = 2.0
 
     def close(self):
         try:

@@ -6,45 +6,29 @@ node-id at the next start (`--storage FILE`).
 """
 
 import os
-import re
-import subprocess
 import tempfile
 import unittest
 
 import canopen
 from canopen.lss import CS_INQUIRE_SERIAL_NUMBER, CS_INQUIRE_VENDOR_ID
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-VNODE = os.environ.get("VNODE", os.path.join(ROOT, "target", "debug", "vnode"))
+import test_interop
+from test_interop import ROOT
+
 EC5000_EDS = os.path.join(ROOT, "firmware", "eds", "ec5000.eds")
 SERIAL = 0x00C0FFEE
 
 
-class Vnode:
+class Vnode(test_interop.Vnode):
+    """An EC5000 with a serial number on `storage`, at 250 kbit/s; no node added (LSS finds it)."""
+
     def __init__(self, storage, node_id=255):
-        self.proc = subprocess.Popen(
-            [VNODE, "--device", "ec5000", "--node-id", str(node_id), "--serial", str(SERIAL), "--storage", storage,
-             "--listen", "127.0.0.1:0"],
-            stdout=subprocess.PIPE,
-            text=True,
-        )
-        line = self.proc.stdout.readline()
-        port = int(re.search(r":(\d+)\s*$", line).group(1))
-        self.network = canopen.Network()
-        self.network.NOTIFIER_CYCLE = 0.05  # a fast disconnect (test_interop.Vnode)
-        self.network.connect(interface="slcan", channel=f"socket://127.0.0.1:{port}", bitrate=250000, sleep_after_open=0)
+        super().__init__(device="ec5000", node_id=node_id, eds=None, bitrate=250000,
+                         extra=("--serial", str(SERIAL), "--storage", storage))
         # Fastscan reads a missing answer as a bit: the wait must outlast a
         # loaded machine's scheduling delay (0.1 s did not, once in CI-like
         # load), yet stay below python-canopen's 0.5 s to keep the scan short.
         self.network.lss.RESPONSE_TIMEOUT = 0.3
-
-    def close(self):
-        try:
-            self.network.disconnect()
-        finally:
-            self.proc.terminate()
-            self.proc.wait(timeout=5)
-            self.proc.stdout.close()
 
 
 class LssTest(unittest.TestCase):

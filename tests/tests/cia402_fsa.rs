@@ -73,6 +73,10 @@ fn walk(b: &mut Ec5000, start: u64, steps: &[(u16, Option<u16>, Option<u16>)]) -
 /// Enabled in pv at rest: bit 10 target reached and bit 12 speed = 0 after the first tick.
 const ENABLED_AT_REST: u16 = 0x1637;
 
+/// Transitions 2, 3 and 4, from Switch on disabled to Operation enabled.
+const ON: [(u16, Option<u16>, Option<u16>); 3] =
+    [(0x0006, Some(READY_TO_SWITCH_ON), None), (0x0007, Some(SWITCHED_ON), None), (0x000F, Some(OPERATION_ENABLED), Some(ENABLED_AT_REST))];
+
 #[test]
 fn power_on_reaches_switch_on_disabled_transitions_0_and_1() {
     let mut b = operational();
@@ -102,20 +106,15 @@ fn enable_and_disable_transitions_2_3_4_5_6_7() {
 #[test]
 fn transitions_8_9_10_11_12_16() {
     let mut b = operational();
-    let on = [
-        (0x0006, Some(READY_TO_SWITCH_ON), None),
-        (0x0007, Some(SWITCHED_ON), None),
-        (0x000F, Some(OPERATION_ENABLED), Some(ENABLED_AT_REST)),
-    ];
-    let mut t = walk(&mut b, 0, &on);
+    let mut t = walk(&mut b, 0, &ON);
     t = walk(&mut b, t, &[(0x0006, Some(READY_TO_SWITCH_ON), None)]); // 8
-    t = walk(&mut b, t, &on[1..]);
+    t = walk(&mut b, t, &ON[1..]);
     t = walk(&mut b, t, &[(0x0000, Some(SWITCH_ON_DISABLED), None)]); // 9
-    t = walk(&mut b, t, &on[..2]);
+    t = walk(&mut b, t, &ON[..2]);
     t = walk(&mut b, t, &[(0x0000, Some(SWITCH_ON_DISABLED), None)]); // 10 (disable voltage)
-    t = walk(&mut b, t, &on[..2]);
+    t = walk(&mut b, t, &ON[..2]);
     t = walk(&mut b, t, &[(0x000B, Some(SWITCH_ON_DISABLED), None)]); // 10 (quick stop)
-    t = walk(&mut b, t, &on);
+    t = walk(&mut b, t, &ON);
     // 11, and at rest the quick stop (0x605A missing: option 2) ends in 12 at once.
     let out = command(&mut b, t + 200, 0x000B);
     assert_eq!(out, [QUICK_STOP_ACTIVE | 0x1000], "11 (pv bit 12: speed = 0)");
@@ -138,15 +137,7 @@ fn commands_that_are_no_transition_change_nothing() {
 #[test]
 fn fault_reaction_fault_and_reset_transitions_13_14_15() {
     let mut b = operational();
-    let t = walk(
-        &mut b,
-        0,
-        &[
-            (0x0006, Some(READY_TO_SWITCH_ON), None),
-            (0x0007, Some(SWITCHED_ON), None),
-            (0x000F, Some(OPERATION_ENABLED), Some(ENABLED_AT_REST)),
-        ],
-    );
+    let t = walk(&mut b, 0, &ON);
     b.node.app_mut().drive.drive.axis.inject(canopen_core::axis::Injected::UnderVoltage);
     let out = b.run_until(ms(t + 300));
     // 13 and 14: the drive lost its power stage, so no ramp: Fault at once,
@@ -178,15 +169,7 @@ fn change_of_state_tpdo_leaves_in_the_same_process_as_the_rpdo() {
 #[test]
 fn pv_target_reached_one_tick_after_enable() {
     let mut b = operational();
-    let t = walk(
-        &mut b,
-        0,
-        &[
-            (0x0006, Some(READY_TO_SWITCH_ON), None),
-            (0x0007, Some(SWITCHED_ON), None),
-            (0x000F, Some(OPERATION_ENABLED), Some(ENABLED_AT_REST)),
-        ],
-    );
+    let t = walk(&mut b, 0, &ON);
     // walk ran 100 ms further: the window (0x606E missing: one tick) has held.
     assert_eq!(b.run_until(ms(t + 150)), []);
     assert_eq!(statusword(&mut b), 0x1637);

@@ -8,46 +8,16 @@
 
 mod common;
 
-use common::{Bench, ms, ok_write};
-use firmware::devices::bmaxx4400;
-use hal_host::storage::MemStorage;
-
-type Bmaxx = Bench<bmaxx4400::od::Ram, bmaxx4400::App, MemStorage, 4, 4, 0>;
-
-const ID: u8 = 2;
-/// 600 min⁻¹: 10 revolutions a second, 655,360 increments a second.
-const SPEED: i32 = 600;
-/// 0x6084 profile deceleration: 10 revolutions/s², from 600 min⁻¹ to 0 in 1 s.
-const SLOW_DOWN: u32 = 655_360;
-/// 0x6085 quick stop deceleration: 50 revolutions/s², from 600 min⁻¹ to 0 in 0.2 s.
-const QUICK_STOP: u32 = 3_276_800;
+use common::bmaxx4400::{Bmaxx, ID, SPEED, controlword, powered, turn};
+use common::{ms, ok_write};
 
 /// Node 2 in pv at 600 min⁻¹ from 0 to 200 ms (acceleration 100 revolutions/s²: 0.1 s),
 /// with `option` = `code`. The clock stands at 200 ms.
 fn turning(option: u16, code: i16) -> Bmaxx {
-    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
-    b.at(ms(0));
-    b.now = ms(10);
-    for (index, value) in [(0x6083u16, 6_553_600u32), (0x6084, SLOW_DOWN), (0x6085, QUICK_STOP)] {
-        assert_eq!(b.sdo_write(ID, index, 0, &value.to_le_bytes()), ok_write(index, 0));
-    }
-    assert_eq!(b.sdo_write(ID, option, 0, &code.to_le_bytes()), ok_write(option, 0));
-    assert_eq!(b.sdo_write(ID, 0x6060, 0, &[3]), ok_write(0x6060, 0));
-    assert_eq!(b.sdo_write(ID, 0x60FF, 0, &SPEED.to_le_bytes()), ok_write(0x60FF, 0));
-    b.nmt(0x01, ID);
-    for cw in [0x06u16, 0x07, 0x0F] {
-        controlword(&mut b, cw);
-    }
-    b.run_until(ms(200));
+    let mut b = powered();
+    turn(&mut b, &[(option, 0, &code.to_le_bytes())]);
     assert_eq!(speed(&mut b), SPEED);
     b
-}
-
-/// The controlword by SDO (answers and TPDOs ignored).
-fn controlword(b: &mut Bmaxx, cw: u16) {
-    let [lo, hi] = cw.to_le_bytes();
-    let out = b.rx(b.now, 0x602, &[0x2B, 0x40, 0x60, 0x00, lo, hi, 0, 0]);
-    assert!(out.contains(&(0x582, ok_write(0x6040, 0))), "{out:x?}");
 }
 
 fn speed(b: &mut Bmaxx) -> i32 {
@@ -203,8 +173,7 @@ fn m_l5130_bmaxx_shutdown_and_disable_operation_minus_1_quick_stop_ramp_minus_2_
 
 #[test]
 fn m_l5040_bmaxx_option_codes_take_the_values_of_their_tables() {
-    let mut b: Bmaxx = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
-    b.at(ms(0));
+    let mut b = powered();
     for (index, refused) in
         [(0x6007u16, [-1i16, 4]), (0x605A, [-1, 9]), (0x605B, [-3, 2]), (0x605C, [-3, 2]), (0x605D, [-1, 4]), (0x605E, [-1, 4])]
     {

@@ -13,18 +13,12 @@
 
 mod common;
 
-use common::{Bench, ms, ok_write};
-use firmware::devices::bmaxx4400;
-use hal_host::storage::MemStorage;
+use common::bmaxx4400::{Bmaxx, ID, controlword, powered, turn};
+use common::{ms, ok_write};
 
-type Bmaxx = Bench<bmaxx4400::od::Ram, bmaxx4400::App, MemStorage, 4, 4, 0>;
-
-const ID: u8 = 2;
 const SYNC: u16 = 0x080;
 const TPDO3: u16 = 0x382;
 const TPDO4: u16 = 0x482;
-/// 600 min⁻¹.
-const SPEED: i32 = 600;
 
 const OPERATION_ENABLED: u16 = 0x0237;
 const SWITCHED_ON: u16 = 0x0233;
@@ -41,35 +35,14 @@ const TARGET_REACHED: u16 = 0x0400;
 /// `settings` written first; on every SYNC TPDO3 = statusword + 0x606C,
 /// TPDO4 = 0x606B. Operation enabled at 10 ms; the clock at 200 ms.
 fn turning(settings: &[(u16, u8, &[u8])]) -> Bmaxx {
-    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
-    b.at(ms(0));
-    b.now = ms(10);
+    let mut b = powered();
     b.map_pdo(ID, 0x1A02, &[0x6041_0010, 0x606C_0020]);
     b.map_pdo(ID, 0x1A03, &[0x606B_0020]);
     for pdo in [0x1802, 0x1803] {
         assert_eq!(b.sdo_write(ID, pdo, 2, &[1]), ok_write(pdo, 2));
     }
-    for (index, value) in [(0x6083u16, 6_553_600u32), (0x6084, 655_360), (0x6085, 3_276_800)] {
-        assert_eq!(b.sdo_write(ID, index, 0, &value.to_le_bytes()), ok_write(index, 0));
-    }
-    for &(index, sub, value) in settings {
-        assert_eq!(b.sdo_write(ID, index, sub, value), ok_write(index, sub), "{index:#x}");
-    }
-    assert_eq!(b.sdo_write(ID, 0x6060, 0, &[3]), ok_write(0x6060, 0));
-    assert_eq!(b.sdo_write(ID, 0x60FF, 0, &SPEED.to_le_bytes()), ok_write(0x60FF, 0));
-    b.nmt(0x01, ID);
-    for cw in [0x06u16, 0x07, 0x0F] {
-        controlword(&mut b, cw);
-    }
-    b.run_until(ms(200));
+    turn(&mut b, settings);
     b
-}
-
-/// The controlword by SDO (answers and TPDOs ignored).
-fn controlword(b: &mut Bmaxx, cw: u16) {
-    let [lo, hi] = cw.to_le_bytes();
-    let out = b.rx(b.now, 0x600 + u16::from(ID), &[0x2B, 0x40, 0x60, 0x00, lo, hi, 0, 0]);
-    assert!(out.contains(&(0x580 + u16::from(ID), ok_write(0x6040, 0))), "{out:x?}");
 }
 
 /// One SYNC's frames: (ms, statusword, 0x606C, 0x606B).

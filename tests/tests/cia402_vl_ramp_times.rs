@@ -12,13 +12,9 @@
 
 mod common;
 
-use common::{Bench, ms, ok_write};
-use firmware::devices::bmaxx4400;
-use hal_host::storage::MemStorage;
+use common::bmaxx4400::{Bmaxx, ID, controlword, powered};
+use common::{ms, ok_write};
 
-type Bmaxx = Bench<bmaxx4400::od::Ram, bmaxx4400::App, MemStorage, 4, 4, 0>;
-
-const ID: u8 = 2;
 const SYNC: u16 = 0x080;
 const TPDO3: u16 = 0x382;
 
@@ -29,9 +25,7 @@ const SWITCH_ON_DISABLED: u16 = 0x0250;
 /// Node 2 in vl, Operation enabled with 0x6042 = 0 at 10 ms, `settings`
 /// written first; TPDO3 on every SYNC. The clock at 100 ms.
 fn enabled(settings: &[(u16, u8, &[u8])]) -> Bmaxx {
-    let mut b = Bench::new(bmaxx4400::od::Ram::new(ID), bmaxx4400::App::NEW, MemStorage::new(8192), ID);
-    b.at(ms(0));
-    b.now = ms(10);
+    let mut b = powered();
     b.map_pdo(ID, 0x1A02, &[0x6041_0010, 0x6044_0010, 0x6043_0010]);
     assert_eq!(b.sdo_write(ID, 0x1802, 2, &[1]), ok_write(0x1802, 2));
     for &(index, sub, value) in settings {
@@ -40,7 +34,7 @@ fn enabled(settings: &[(u16, u8, &[u8])]) -> Bmaxx {
     assert_eq!(b.sdo_write(ID, 0x6060, 0, &[2]), ok_write(0x6060, 0));
     b.nmt(0x01, ID);
     for cw in [0x06u16, 0x07, 0x0F] {
-        write(&mut b, 0x6040, &cw.to_le_bytes());
+        controlword(&mut b, cw);
     }
     b.run_until(ms(100));
     b

@@ -22,12 +22,13 @@ use canopen_core::services::store;
 use canopen_core::time::{Instant, earliest};
 use canopen_core::wire::emcy::EmcyCode;
 
+use super::sync_watch::SyncWatch;
+
 mod abort_connection;
 mod control;
 mod data_sets;
 mod faults;
 mod ramps;
-mod sync_watch;
 
 pub use faults::AgileDrive;
 
@@ -44,19 +45,15 @@ pub struct App {
     bus_fault: u16,
     /// The last bus fault came in NMT Operational: its reset needs Operational again (D58).
     reset_in_operational: bool,
-    /// The SYNC monitoring (D55).
-    sync: sync_watch::SyncWatch,
+    /// The SYNC monitoring (D55): it starts with the first SYNC in
+    /// Operational and stops on leaving it.
+    sync: SyncWatch,
 }
 
 impl App {
     /// The state at power-on: `const` and all zero bits ([`canopen_core::node`]).
-    pub const NEW: App = App {
-        drive: Cia402::new(AgileDrive::NEW),
-        operational: false,
-        bus_fault: 0,
-        reset_in_operational: false,
-        sync: sync_watch::SyncWatch::NEW,
-    };
+    pub const NEW: App =
+        App { drive: Cia402::new(AgileDrive::NEW), operational: false, bus_fault: 0, reset_in_operational: false, sync: SyncWatch::NEW };
 }
 
 /// The profile's constants for the Agile (decisions D42-D47 in docs/devices/agile.md).
@@ -206,10 +203,16 @@ impl Application for App {
     }
 
     fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
-        // D55: a SYNC overdue is F20.24, reacting as 0x6007 says while the drive function is on.
-        let (lost, deadline) = self.sync.check(ctx);
-        if lost && self.drive.state().drive_function() {
-            self.bus_fault(ctx, NmtEvent::CommunicationError(CommError::BusOff), FAULT_SYNC);
+        // D55 (§9.2.4, M-L1440-1448): a SYNC "um mehr als 50 %" later than 0x1006
+        // after the one before is F20.24, reacting as 0x6007 says while the drive
+        // function is on; the watch then stops until the next SYNC.
+        let mut deadline = SyncWatch::period(ctx).and_then(|period| self.sync.deadline(period + period / 2));
+        if deadline.is_some_and(|at| ctx.now() >= at) {
+            self.sync.stop();
+            deadline = None;
+            if self.drive.state().drive_function() {
+                self.bus_fault(ctx, NmtEvent::CommunicationError(CommError::BusOff), FAULT_SYNC);
+            }
         }
         let next = self.drive.poll(ctx, &PROFILE);
         self.actuals(ctx);

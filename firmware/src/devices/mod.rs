@@ -4,6 +4,7 @@ pub mod agile;
 pub mod bmaxx4400;
 pub mod ec5000;
 pub mod sendix;
+mod sync_watch;
 pub mod unitek_ds;
 
 use canopen_core::od::Dictionary;

@@ -2,6 +2,7 @@
 //! exact frames out, then nothing else.
 #![allow(dead_code)]
 
+pub mod bmaxx4400;
 pub mod ec5000;
 pub mod net;
 pub mod sendix;

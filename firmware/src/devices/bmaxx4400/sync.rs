@@ -15,11 +15,10 @@
 use canopen_core::node::Ctx;
 
 use super::speed::configured;
+use crate::devices::sync_watch::SyncWatch;
 
 /// Drive error 00A5h, the drive not synchronous to the SYNC.
 pub(super) const NOT_SYNCHRONOUS: u8 = 0xA5;
-/// 0x1006 communication cycle period [µs]: the SYNC interval.
-const PERIOD: u16 = 0x1006;
 /// P0830 bit 6: the synchronisation is reset after a SYNC loss.
 const RESET_AFTER_LOSS: u32 = 1 << 6;
 /// P0830 bit 8: the PLL is off.
@@ -32,39 +31,37 @@ const RELOCK_US: u64 = 30_000_000;
 /// When the SYNCs came: all zero bits before the first.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Monitor {
-    /// The last SYNC [µs]; 0: none since reset communication.
-    last: u64,
+    /// The last SYNC, since reset communication.
+    watch: SyncWatch,
     /// The first SYNC of the run without a gap [µs].
     run: u64,
 }
 
 impl Monitor {
     /// No SYNC yet.
-    pub(super) const NEW: Monitor = Monitor { last: 0, run: 0 };
+    pub(super) const NEW: Monitor = Monitor { watch: SyncWatch::NEW, run: 0 };
 
     /// The SYNC interval and how far a SYNC may be off it [µs], if the drive is synchronised to the SYNC.
     fn window(ctx: &Ctx<'_>) -> Option<(u64, u64)> {
-        let period = u64::from(ctx.read_u32(PERIOD, 0).filter(|p| *p != 0)?);
+        let period = SyncWatch::period(ctx)?;
         // The PLL evens out a SYNC up to half a period off; a later one is a lost one.
         Some((period, if configured(ctx, PLL_OFF) { TOLERANCE_US } else { period / 2 }))
     }
 
     /// A SYNC arrived: true if it came outside the window (the drive is not synchronous).
     pub(super) fn on_sync(&mut self, ctx: &Ctx<'_>) -> bool {
-        let now = ctx.now().as_micros();
-        let off = self.last != 0
-            && Self::window(ctx).is_some_and(|(period, tolerance)| now.saturating_sub(self.last).abs_diff(period) > tolerance);
-        if self.last == 0 || off {
-            self.run = now;
+        let now = ctx.now();
+        let since = self.watch.seen(now);
+        let off = since.is_some_and(|since| Self::window(ctx).is_some_and(|(period, tolerance)| since.abs_diff(period) > tolerance));
+        if since.is_none() || off {
+            self.run = now.as_micros();
         }
-        self.last = now;
         off
     }
 
     /// True if the SYNC is overdue (none within the window since the last).
     pub(super) fn missing(&self, ctx: &Ctx<'_>) -> bool {
-        self.last != 0
-            && Self::window(ctx).is_some_and(|(period, tolerance)| ctx.now().as_micros().saturating_sub(self.last) > period + tolerance)
+        self.watch.since(ctx.now()).is_some_and(|since| Self::window(ctx).is_some_and(|(period, tolerance)| since > period + tolerance))
     }
 
     /// True once the PLL runs in step again: at once with bit 6 or without
