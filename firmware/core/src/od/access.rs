@@ -101,12 +101,12 @@ pub(crate) fn copy_from(buf: &mut [u8], src: &[u8]) -> usize {
 
 /// What an SDO upload of `entry` reads from the plain tables.
 pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
-    if entry.data_type == DataType::Domain {
-        // A DOMAIN's bytes belong to the application; the plain tables have none.
-        return if entry.readable() { Err(AbortCode::NoData) } else { Err(AbortCode::WriteOnly) };
-    }
     if !entry.readable() {
         return Err(AbortCode::WriteOnly);
+    }
+    if entry.data_type == DataType::Domain {
+        // A DOMAIN's bytes belong to the application; the plain tables have none.
+        return Err(AbortCode::NoData);
     }
     let value = dictionary.value(image, entry);
     Ok(if entry.data_type == DataType::VisibleString { super::until_nul(value) } else { value })

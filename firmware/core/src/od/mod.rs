@@ -212,15 +212,14 @@ impl Dictionary {
     }
 
     /// [`Dictionary::read`] of an entry already found.
+    // In line: a wrapper of `upload_value`, so that a device's read of a
+    // located entry on every frame (`Ctx::read_at`) is one call deep.
+    #[inline(always)]
     pub fn read_entry<'a>(&self, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
-        if !entry.readable() {
-            return Err(AbortCode::WriteOnly);
-        }
-        if entry.data_type == DataType::Domain {
-            return Err(AbortCode::CannotStore);
-        }
-        let value = self.value(image, entry);
-        Ok(if entry.data_type == DataType::VisibleString { until_nul(value) } else { value })
+        // An SDO upload's reading (one copy of it in an image), but for a
+        // readable DOMAIN, which has no bytes here to read (0x08000020
+        // where an upload answers "no data", 0x08000024).
+        access::upload_value(self, image, entry).map_err(|code| if code == AbortCode::NoData { AbortCode::CannotStore } else { code })
     }
 
     /// Reads an integer entry of at most 32 bits as a `u32` (the

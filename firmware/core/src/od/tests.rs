@@ -189,3 +189,48 @@ fn an_entry_is_ten_bytes_in_flash() {
     // not fit the b maXX 4400 image (Entry's docs).
     assert_eq!(core::mem::size_of::<Entry>(), 10);
 }
+
+/// `read_entry` as it was before it shared the SDO upload's reading
+/// (`access::upload_value`), and that reading as it was before its checks
+/// were reordered: every data type, every access, in RAM and in flash,
+/// must read the same bytes or fail with the same abort code.
+#[test]
+fn read_entry_and_the_upload_reading_read_what_they_read_before() {
+    fn before<'a>(dict: &Dictionary, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
+        if !entry.readable() {
+            return Err(AbortCode::WriteOnly);
+        }
+        if entry.data_type == DataType::Domain {
+            return Err(AbortCode::CannotStore);
+        }
+        let value = dict.value(image, entry);
+        Ok(if entry.data_type == DataType::VisibleString { until_nul(value) } else { value })
+    }
+    // `access::upload_value` before its checks were put in read order.
+    fn upload_before<'a>(dict: &Dictionary, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
+        if entry.data_type == DataType::Domain {
+            return if entry.readable() { Err(AbortCode::NoData) } else { Err(AbortCode::WriteOnly) };
+        }
+        if !entry.readable() {
+            return Err(AbortCode::WriteOnly);
+        }
+        let value = dict.value(image, entry);
+        Ok(if entry.data_type == DataType::VisibleString { until_nul(value) } else { value })
+    }
+    // A string ending early (NUL at 2) in both the image and flash.
+    let image = [b'a', b'b', 0, b'd', 5, 6];
+    let mut checked = 0;
+    for data_type in DataType::ALL {
+        for attr in [0, Attr::READ.0, Attr::WRITE.0, Attr::READ.0 | Attr::WRITE.0] {
+            for rom in [0, Attr::IN_ROM.0] {
+                for (len, offset) in [(4, 0), (1, 4), (0, 6), (3, 5)] {
+                    let entry = e(0x2000, 0, data_type, Attr(attr | rom), len, offset, NO_LIMITS);
+                    assert_eq!(DICT.read_entry(&image, &entry), before(&DICT, &image, &entry), "{entry:?}");
+                    assert_eq!(access::upload_value(&DICT, &image, &entry), upload_before(&DICT, &image, &entry), "{entry:?}");
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(checked, 25 * 4 * 2 * 4);
+}

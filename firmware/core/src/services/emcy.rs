@@ -118,6 +118,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Whether `code` is active.
+    // Out of line: raising an error and recording a sent EMCY each had a copy.
+    #[inline(never)]
     pub fn is_active(&self, code: EmcyCode) -> bool {
         self.active.iter().take(self.active_len).any(|&c| c == code)
     }

@@ -279,11 +279,14 @@ impl Channel {
         }
     }
 
-    /// Sends the unsent segments of the current upload block while `tx` takes them.
-    pub(super) fn send_block_segments(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let State::BlockUpload(mut u) = self.state else { return };
+    /// Sends the unsent segments of the current upload block while `tx`
+    /// takes them; whether segments of the block are left to send (`tx`
+    /// was full). The count of the block's segments is worked out once,
+    /// here: the poll asks this instead of a second computation.
+    pub(super) fn send_block_segments(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
+        let State::BlockUpload(mut u) = self.state else { return false };
         if u.phase != UploadPhase::Sending {
-            return;
+            return false;
         }
         let block_len = u.block_len();
         while u.sent < block_len {
@@ -293,7 +296,8 @@ impl Channel {
             if let Some(buf) = data.get_mut(..len)
                 && let Err(code) = od.read(self.mux.index, self.mux.sub, offset, buf)
             {
-                return self.abort(code, tx);
+                self.abort(code, tx);
+                return false;
             }
             let seqno = u.sent.saturating_add(1);
             let last = offset.saturating_add(SEGMENT_DATA) >= u.size;
@@ -309,10 +313,6 @@ impl Channel {
             self.restart_timer(now);
         }
         self.state = State::BlockUpload(u);
-    }
-
-    /// Whether block upload segments wait for room in `tx`.
-    pub(super) fn segments_waiting(&self) -> bool {
-        matches!(self.state, State::BlockUpload(u) if u.phase == UploadPhase::Sending && u.sent < u.block_len())
+        u.sent < block_len
     }
 }

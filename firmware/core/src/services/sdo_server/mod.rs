@@ -333,10 +333,9 @@ impl Channel {
     #[inline(always)]
     fn poll(&mut self, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
         self.expire(now, tx);
-        if self.flush(tx) && block {
-            self.send_block_segments(now, od, tx);
-        }
-        if self.pending.is_some() || (block && self.segments_waiting()) {
+        // A frame still pending (`flush` false) brings the next poll anyway.
+        let waiting = self.flush(tx) && block && self.send_block_segments(now, od, tx);
+        if self.pending.is_some() || waiting {
             now.as_micros()
         } else if matches!(self.state, State::Idle) {
             NEVER
