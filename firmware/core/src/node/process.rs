@@ -67,21 +67,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // The device's timers first: what they write goes out in this call's TPDOs.
         let app_deadline = match self.app_due.skip(now) {
             Some(deadline) if A::POLL_WHEN_DUE => deadline,
-            _ => {
-                let mut wake = false;
-                let deadline = self.with_app_cold(now, |app, ctx| {
-                    let deadline = at(app.poll(ctx));
-                    if A::POLL_WHEN_DUE {
-                        wake = core::mem::take(&mut ctx.raw.wake);
-                    }
-                    deadline
-                });
-                // A poll that asks for it runs again at the next process, whenever that is.
-                if A::POLL_WHEN_DUE {
-                    self.app_due = super::PollDue::after(deadline, wake);
-                }
-                deadline
-            }
+            // Out of line: a device that polls when due does so on few calls.
+            _ if A::POLL_WHEN_DUE => self.poll_app_due(now),
+            _ => self.with_app_cold(now, |app, ctx| at(app.poll(ctx))),
         };
         if !self.app.canopen() {
             return app_deadline;
@@ -96,6 +84,21 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         self.process_full(now).min(app_deadline)
+    }
+
+    /// The device's poll, for a device that polls when due
+    /// ([`Application::POLL_WHEN_DUE`]); its deadline.
+    #[inline(never)]
+    fn poll_app_due(&mut self, now: Instant) -> At {
+        let mut wake = false;
+        let deadline = self.with_app_cold(now, |app, ctx| {
+            let deadline = at(app.poll(ctx));
+            wake = core::mem::take(&mut ctx.raw.wake);
+            deadline
+        });
+        // A poll that asks for it runs again at the next process, whenever that is.
+        self.app_due = super::PollDue::after(deadline, wake);
+        deadline
     }
 
     /// The PDOs' part of [`Node::process`] alone, for a quiet node (no SDO
