@@ -27,6 +27,14 @@ use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Duration, Instant, NEVER};
 
+/// `now + by` as [`Instant`]'s `Add` makes it (saturating at the last
+/// microsecond but one), in line.
+#[inline(always)]
+fn later(now: Instant, by: Duration) -> Instant {
+    let sum = now.as_micros().saturating_add(by.as_micros());
+    Instant::from_micros(sum.wrapping_sub(u64::from(sum == NEVER)))
+}
+
 /// The state of one TPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tpdo {
@@ -223,7 +231,8 @@ impl Tpdo {
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.params.inhibit_time();
             self.inhibit_until = (inhibit != Duration::ZERO).then(|| now + inhibit);
-            self.event_at = (timer != Duration::ZERO).then(|| now + timer);
+            // In line: the add every event-driven frame with an event timer pays.
+            self.event_at = (timer != Duration::ZERO).then(|| later(now, timer));
         }
     }
 
