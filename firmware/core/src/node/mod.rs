@@ -209,6 +209,12 @@ pub struct Node<
     /// [`Node::process`] returned it, made earlier by what happened since
     /// (read only while `quiet`, which the first `process` sets).
     next: At,
+    /// The earliest deadline of every service but the PDOs and the SDO
+    /// servers (the core services, EMCY, the CAN controller) as the last
+    /// [`Node::process`] left it; 0 (never before it) in a state without
+    /// PDOs and before the first call. While `quiet` and not `stale`, a
+    /// call before it has only PDO work (`Node::process_pdos`).
+    others_next: At,
     reported_overflows: u32,
     /// The transmit queue's overflow count when no TPDO was left waiting to
     /// retry a refused frame: a TPDO waits only after the queue refused it,
@@ -286,6 +292,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             core_deadline: 0,
             quiet: false,
             next: 0,
+            others_next: 0,
             reported_overflows: 0,
             retry_free_at: 0,
             lss: LssSlave::new([0; 4], 0, 0, 0),

@@ -29,12 +29,22 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
-        deadline_of(self.process_at(now))
+        deadline_of(self.process_at::<true>(now))
+    }
+
+    /// [`Node::process`] without its short path for a node that has only
+    /// PDO work ([`Node::process_pdos`]): every call that is not idle
+    /// takes the full path. What it sends and answers is what
+    /// [`Node::process`] sends and answers; tests hold the short path to it.
+    #[doc(hidden)]
+    pub fn process_without_short_path(&mut self, now: Instant) -> Option<Instant> {
+        deadline_of(self.process_at::<false>(now))
     }
 
     /// [`Node::process`]: its deadlines folded as [`At`]s, one compare each.
+    /// `SHORT`: a node with only PDO work takes [`Node::process_pdos`].
     #[inline(always)]
-    fn process_at(&mut self, now: Instant) -> At {
+    fn process_at<const SHORT: bool>(&mut self, now: Instant) -> At {
         let now_at = now.as_micros();
         // A store goes on a stage per call, alone in its call but for the
         // last, whose SDO poll below sends the answer; a reset that came
@@ -57,28 +67,92 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // The device's timers first: what they write goes out in this call's TPDOs.
         let app_deadline = match self.app_due.skip(now) {
             Some(deadline) if A::POLL_WHEN_DUE => deadline,
-            _ => {
-                let mut wake = false;
-                let deadline = self.with_app_cold(now, |app, ctx| {
-                    let deadline = at(app.poll(ctx));
-                    if A::POLL_WHEN_DUE {
-                        wake = core::mem::take(&mut ctx.raw.wake);
-                    }
-                    deadline
-                });
-                // A poll that asks for it runs again at the next process, whenever that is.
-                if A::POLL_WHEN_DUE {
-                    self.app_due = super::PollDue::after(deadline, wake);
-                }
-                deadline
-            }
+            // Out of line: a device that polls when due does so on few calls.
+            _ if A::POLL_WHEN_DUE => self.poll_app_due(now),
+            _ => self.with_app_cold(now, |app, ctx| at(app.poll(ctx))),
         };
         if !self.app.canopen() {
             return app_deadline;
         }
-        if self.quiet && !self.stale && self.touched == 0 && now_at < self.next {
-            return self.next.min(app_deadline);
+        if self.quiet && !self.stale {
+            if self.touched == 0 && now_at < self.next {
+                return self.next.min(app_deadline);
+            }
+            // Nothing but the PDOs can have work before `others_next`.
+            if SHORT && now_at < self.others_next {
+                return self.process_pdos(now).min(app_deadline);
+            }
         }
+        self.process_full(now).min(app_deadline)
+    }
+
+    /// The device's poll, for a device that polls when due
+    /// ([`Application::POLL_WHEN_DUE`]); its deadline.
+    #[inline(never)]
+    fn poll_app_due(&mut self, now: Instant) -> At {
+        let mut wake = false;
+        let deadline = self.with_app_cold(now, |app, ctx| {
+            let deadline = at(app.poll(ctx));
+            wake = core::mem::take(&mut ctx.raw.wake);
+            deadline
+        });
+        // A poll that asks for it runs again at the next process, whenever that is.
+        self.app_due = super::PollDue::after(deadline, wake);
+        deadline
+    }
+
+    /// The PDOs' part of [`Node::process`] alone, for a quiet node (no SDO
+    /// transfer, no EMCY waiting) with nothing stale whose other services
+    /// have nothing due before `others_next`: what the full call does for
+    /// it (its checks of the core services, the SDO servers, the SYNC
+    /// producer and the CAN controller would find nothing), without them.
+    #[inline(always)]
+    fn process_pdos(&mut self, now: Instant) -> At {
+        let now_at = now.as_micros();
+        let mut pdo_deadline = NEVER;
+        // As in the full call (`others_next` is 0 in a state without PDOs).
+        let due = self.touched != 0 || {
+            pdo_deadline = self.comm.pdos.due();
+            pdo_deadline <= now_at
+        };
+        if due {
+            let marked = core::mem::take(&mut self.touched);
+            let Node { od, comm, txq, .. } = self;
+            let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
+            pdo_deadline = comm.pdos.poll_marked(now, marked, od.image(), &mut sink);
+            let (received, errors) = (sink.received, sink.errors);
+            if received | errors != 0 {
+                self.pdo_events(now, received, errors);
+            }
+        }
+        // A refused TPDO counted an overflow; an RPDO's hook may have raised an EMCY.
+        if self.emcy_due() {
+            self.process_emcy(now, true);
+            let emcy = self.emcy_deadline();
+            self.core_deadline = self.core_deadline.min(emcy);
+            self.others_next = self.others_next.min(emcy);
+        }
+        let deadline = self.others_next.min(pdo_deadline);
+        self.next = deadline;
+        self.quiet = !self.comm.emcy.has_queued();
+        deadline
+    }
+
+    /// Whether EMCY has work in a call that is not full: the transmit
+    /// queue's overflow to report or to clear, or a message queued.
+    #[inline(always)]
+    fn emcy_due(&self) -> bool {
+        self.txq.overflows() != self.reported_overflows
+            || (self.txq.is_empty() && self.comm.emcy.tx_overflow_active())
+            || self.comm.emcy.has_queued()
+    }
+
+    /// Every service that may have work: [`Node::process`] past the store,
+    /// the reset and the device's timers, for a call that is not idle.
+    // Out of line: the idle call and the PDOs' short path do without its frame.
+    #[inline(never)]
+    fn process_full(&mut self, now: Instant) -> At {
+        let now_at = now.as_micros();
         // Before the boot-up is queued below: nothing may precede it in the queue.
         let booted = !self.boot_pending;
         let full = self.stale || self.core_deadline <= now_at;
@@ -115,7 +189,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         let mut pdo_deadline = NEVER;
-        if self.nmt.state().pdo_allowed() {
+        let pdo_allowed = self.nmt.state().pdo_allowed();
+        if pdo_allowed {
             // Building a TPDO to detect changes costs more than anything
             // else here: only the TPDOs a write may have changed, and those
             // whose timers are due, not for every heartbeat of another node.
@@ -143,16 +218,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         // EMCY: what the PDOs, the SDO servers or the hooks raised in this
         // call goes out in it, as does the queue overflow's.
-        let overflow = self.txq.overflows() != self.reported_overflows || (self.txq.is_empty() && self.comm.emcy.tx_overflow_active());
-        if full || overflow || self.comm.emcy.has_queued() {
+        if full || self.emcy_due() {
             self.process_emcy(now, booted);
             self.core_deadline = self.core_deadline.min(self.emcy_deadline());
         }
-        let deadline = self.core_deadline.min(sdo_deadline).min(pdo_deadline).min(controller_deadline);
+        let others = self.core_deadline.min(controller_deadline);
+        // The controller's deadline holds until a controller event (which
+        // makes the node stale); the core services' until their deadline
+        // or a change (stale too). Without PDOs there is no short path.
+        self.others_next = if pdo_allowed { others } else { 0 };
+        let deadline = others.min(sdo_deadline).min(pdo_deadline);
         self.next = deadline;
         // No SDO deadline: every server is idle (or the state stopped them all).
         self.quiet = sdo_deadline == NEVER && !self.comm.emcy.has_queued();
-        deadline.min(app_deadline)
+        deadline
     }
 
     /// Whether a [`super::ServiceOptions`] switch (object sub 0, mask) is on.

@@ -333,6 +333,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled = false;
         for tpdo in &mut self.tpdos {
             tpdo.timer_only_254 = on;
+            tpdo.refresh_change_events();
         }
     }
 
@@ -343,6 +344,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled = false;
         for tpdo in &mut self.tpdos {
             tpdo.timer_only_255_with_timer = on;
+            tpdo.refresh_change_events();
         }
     }
 

@@ -27,6 +27,14 @@ use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Duration, Instant, NEVER};
 
+/// `now + by` as [`Instant`]'s `Add` makes it (saturating at the last
+/// microsecond but one), in line.
+#[inline(always)]
+fn later(now: Instant, by: Duration) -> Instant {
+    let sum = now.as_micros().saturating_add(by.as_micros());
+    Instant::from_micros(sum.wrapping_sub(u64::from(sum == NEVER)))
+}
+
 /// The state of one TPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tpdo {
@@ -42,6 +50,10 @@ pub struct Tpdo {
     pub(super) timer_only_254: bool,
     /// Type 255 with an event timer is timer-only (see [`super::Pdos::set_timer_only_255_with_timer`]).
     pub(super) timer_only_255_with_timer: bool,
+    /// A change of the mapped data is no event here: change detection off,
+    /// or [`Tpdo::timer_only`]. Worked out again wherever either may change
+    /// (`refresh_change_events`), so that each poll reads one flag.
+    no_change_events: bool,
     /// The last data sent, for change detection.
     last: [u8; MAX_LEN],
     sent: bool,
@@ -83,6 +95,7 @@ impl Tpdo {
         no_change_detection: false,
         timer_only_254: false,
         timer_only_255_with_timer: false,
+        no_change_events: false,
         last: [0; MAX_LEN],
         sent: false,
         event: false,
@@ -143,6 +156,15 @@ impl Tpdo {
 
     pub(super) fn set_change_detection(&mut self, on: bool) {
         self.no_change_detection = !on;
+        self.refresh_change_events();
+    }
+
+    /// Whether a change of the mapped data is an event, from the flags and
+    /// parameters it depends on: after each change of them.
+    // Out of line: six callers.
+    #[inline(never)]
+    pub(super) fn refresh_change_events(&mut self) {
+        self.no_change_events = self.no_change_detection || self.timer_only();
     }
 
     /// Starts over, as on entering Operational: nothing counts as sent, so
@@ -163,11 +185,14 @@ impl Tpdo {
         self.await_start = self.params.sync_start != 0;
         self.sample = None;
         self.pending_sync = None;
+        self.refresh_change_events();
     }
 
-    /// The event timer was rewritten: it restarts at the next poll.
+    /// The event timer was rewritten: it restarts at the next poll (and
+    /// type 255 may have become timer-only or ceased to be).
     pub(super) fn rearm_timer(&mut self) {
         self.event_at = None;
+        self.refresh_change_events();
     }
 
     /// The application signals an event (types 0, 254, 255).
@@ -218,12 +243,13 @@ impl Tpdo {
             }
         }
         let (buf, len) = self.build(image);
-        self.change_pending = !self.no_change_detection && !self.timer_only() && self.changed(&buf);
+        self.change_pending = !self.no_change_events && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.params.inhibit_time();
             self.inhibit_until = (inhibit != Duration::ZERO).then(|| now + inhibit);
-            self.event_at = (timer != Duration::ZERO).then(|| now + timer);
+            // In line: the add every event-driven frame with an event timer pays.
+            self.event_at = (timer != Duration::ZERO).then(|| later(now, timer));
         }
     }
 

@@ -103,6 +103,30 @@ fn without_change_detection_only_the_timer_and_the_application_send() {
 }
 
 #[test]
+fn an_event_timer_written_while_valid_makes_type_255_timer_only_where_the_device_says_so() {
+    let mut node = Node::operational(ms(0));
+    node.pdos.set_timer_only_255_with_timer(true);
+    node.poll(ms(0));
+    tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
+    // Without an event timer a change sends.
+    node.set(0x2000, 0, &[1]);
+    node.poll(ms(1));
+    tx!(node, [(0x181, [0, 0, 0, 0, 1])]);
+    // 100 ms, written while the TPDO is valid (no restart): timer-only from now on.
+    assert_eq!(node.sdo(0x1800, 5, &100u16.to_le_bytes()), Ok(()));
+    node.set(0x2000, 0, &[2]);
+    node.poll(ms(2));
+    tx!(node, []);
+    node.poll(ms(102));
+    tx!(node, [(0x181, [0, 0, 0, 0, 2])]);
+    // Back to 0: a change sends again.
+    assert_eq!(node.sdo(0x1800, 5, &0u16.to_le_bytes()), Ok(()));
+    node.set(0x2000, 0, &[3]);
+    node.poll(ms(103));
+    tx!(node, [(0x181, [0, 0, 0, 0, 3])]);
+}
+
+#[test]
 fn a_refused_frame_is_retried_at_the_next_poll() {
     let mut node = Node::operational(ms(0));
     node.bus.refuse = true;
