@@ -163,26 +163,29 @@ pub struct Ctx<'a> {
     pub(super) now: Instant,
     pub(super) options: &'static ServiceOptions,
     pub(super) effects: SdoEffects,
-    /// Raw frames sent by the hook, queued by the node when the hook returns
-    /// (an SDO transfer holds the transmit queue while its hooks run).
-    pub(super) raw: &'a mut RawBurst,
-    /// The node's store in stages (an SDO 0x1010/0x1011 in progress, or idle).
-    pub(super) store: &'a mut crate::services::store::Job,
+    /// The node's side of the hook, borrowed whole (one pointer to build).
+    pub(super) hook: &'a mut HookSide,
 }
 
-/// Raw frames a hook sent, until the node queues them.
+/// What a hook leaves for the node (raw frames, the wake) and the store
+/// it may start: kept together in the node so that [`Ctx`] borrows them as one.
 #[derive(Clone, Debug)]
-pub(super) struct RawBurst {
+pub(super) struct HookSide {
+    /// Raw frames sent by the hook, queued by the node when the hook returns
+    /// (an SDO transfer holds the transmit queue while its hooks run).
     pub(super) frames: [CanFrame; RAW_BURST],
     pub(super) len: u8,
     /// The hook asked for the device's timers at the next process
     /// ([`Ctx::wake`]; here, not in [`Ctx`], whose size every hook call pays).
     pub(super) wake: bool,
+    /// The node's store in stages (an SDO 0x1010/0x1011 in progress, or idle).
+    pub(super) store: crate::services::store::Job,
 }
 
-impl RawBurst {
-    /// Empty, and all zero bits.
-    pub(super) const EMPTY: RawBurst = RawBurst { frames: [CanFrame::EMPTY; RAW_BURST], len: 0, wake: false };
+impl HookSide {
+    /// Nothing left, no store; all zero bits.
+    pub(super) const EMPTY: HookSide =
+        HookSide { frames: [CanFrame::EMPTY; RAW_BURST], len: 0, wake: false, store: crate::services::store::Job::IDLE };
 }
 
 impl Ctx<'_> {
@@ -416,7 +419,7 @@ impl Ctx<'_> {
     /// from the RPDO's or the raw frame's hook (the others bring the poll
     /// anyway) when it changed what its timers do, or from `poll` itself.
     pub fn wake(&mut self) {
-        self.raw.wake = true;
+        self.hook.wake = true;
     }
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
@@ -432,13 +435,13 @@ impl Ctx<'_> {
     /// overflow, EMCY 0x8110). False if the burst is full or the frame is not
     /// a standard one of at most 8 bytes.
     pub fn send_raw(&mut self, cob_id: u16, data: &[u8]) -> bool {
-        match (CanFrame::standard(cob_id, data), self.raw.frames.get_mut(usize::from(self.raw.len))) {
+        match (CanFrame::standard(cob_id, data), self.hook.frames.get_mut(usize::from(self.hook.len))) {
             (Some(frame), Some(slot)) => {
                 *slot = frame;
                 // `get_mut` found the slot: `len` is below the burst's length.
                 #[allow(clippy::arithmetic_side_effects)]
                 {
-                    self.raw.len += 1;
+                    self.hook.len += 1;
                 }
                 true
             }
@@ -478,7 +481,7 @@ impl Ctx<'_> {
     /// are refused (0x08000022); from the first [`Application::poll`] after
     /// it, they work again. The hooks of its 0x1010/0x1011 write run while it does.
     pub fn storing(&self) -> bool {
-        self.store.busy()
+        self.hook.store.busy()
     }
 
     /// Stores a scope as 0x1010 would (the device's

@@ -267,7 +267,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
             }
             if A::POLL_WHEN_DUE {
-                wake = core::mem::take(&mut ctx.raw.wake);
+                wake = core::mem::take(&mut ctx.hook.wake);
             }
         });
         // The RPDO's hook alone leaves the device's timers to their deadline unless it asked for them.
@@ -349,7 +349,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
         // The SDO server's hooks may change what the device's timers do.
         self.poll_app_next();
-        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, raw, sdo_cob_ids, store, .. } = self;
+        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, hook, sdo_cob_ids, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {
             dict,
@@ -361,8 +361,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             now,
             options: &A::OPTIONS,
             effects: SdoEffects::default(),
-            raw,
-            store,
+            hook,
         };
         (ctx, app, sdo, txq, sdo_cob_ids)
     }

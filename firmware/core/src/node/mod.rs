@@ -236,16 +236,16 @@ pub struct Node<
     bit_rate_request: Option<u8>,
     /// The identifiers the node consumes, for the board's acceptance filter.
     acceptance: filter::AcceptanceList,
-    /// Raw frames a device hook sent, until they are queued.
-    raw: app::RawBurst,
+    /// What a device hook left (raw frames, the wake) and the store in
+    /// progress, a stage per [`Node::process`] call (`store`): borrowed
+    /// whole by every hook's [`Ctx`].
+    hook: app::HookSide,
     /// The CAN controller's errors (`controller`).
     controller: controller::ControllerErrors,
     /// The reset in progress, if any (`reset`).
     reset: reset::Stage,
     /// The newest stored set the reset in progress found.
     reset_stored: Option<crate::services::store::StoredSet>,
-    /// The store in progress, a stage per [`Node::process`] call (`store`).
-    store: crate::services::store::Job,
     /// For a device that polls when due ([`Application::POLL_WHEN_DUE`]):
     /// when its next [`Application::poll`] is due.
     app_due: PollDue,
@@ -302,11 +302,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             switch: lss::Switch::OFF,
             bit_rate_request: None,
             acceptance: filter::AcceptanceList::new(),
-            raw: app::RawBurst::EMPTY,
+            hook: app::HookSide::EMPTY,
             controller: controller::ControllerErrors::new(),
             reset: reset::Stage::Idle,
             reset_stored: None,
-            store: crate::services::store::Job::IDLE,
             store_answer: store::StoreAnswer::NONE,
             app_due: PollDue::NOW,
         }
@@ -371,7 +370,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let (value, effects) = self.run_hook(now, |app, ctx| {
             let value = f(app, ctx);
             if A::POLL_WHEN_DUE {
-                wake = core::mem::take(&mut ctx.raw.wake);
+                wake = core::mem::take(&mut ctx.hook.wake);
             }
             value
         });
@@ -397,7 +396,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let (value, effects) = self.run_hook(now, f);
         // The hook may have changed what the device's timers do: they run at the next process.
         if A::POLL_WHEN_DUE {
-            (self.app_due.waits, self.raw.wake) = (false, false);
+            (self.app_due.waits, self.hook.wake) = (false, false);
         }
         if Self::FOLD_HOOKS {
             self.queue_raw();
@@ -453,7 +452,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The hook `f` with its context; what it changed beyond its writes.
     #[inline(always)]
     fn run_hook<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, router::SdoEffects) {
-        let Node { od, app, storage, comm, node_id, nmt, raw, store, .. } = self;
+        let Node { od, app, storage, comm, node_id, nmt, hook, .. } = self;
         let dict = od.dictionary();
         let mut ctx = Ctx {
             dict,
@@ -465,8 +464,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             now,
             options: &A::OPTIONS,
             effects: router::SdoEffects::default(),
-            raw,
-            store,
+            hook,
         };
         let value = f(app, &mut ctx);
         (value, ctx.effects)
@@ -495,14 +493,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// frame that does not fit counts as an overflow (EMCY 0x8110).
     #[inline(always)]
     pub(super) fn queue_raw(&mut self) {
-        if self.raw.len != 0 {
+        if self.hook.len != 0 {
             self.queue_raw_frames();
         }
     }
 
     fn queue_raw_frames(&mut self) {
-        let n = usize::from(core::mem::take(&mut self.raw.len));
-        for f in self.raw.frames.iter().take(n) {
+        let n = usize::from(core::mem::take(&mut self.hook.len));
+        for f in self.hook.frames.iter().take(n) {
             if self.txq.free() > RAW_RESERVE {
                 self.txq.push(*f);
             } else {

@@ -49,9 +49,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // A store goes on a stage per call, alone in its call but for the
         // last, whose SDO poll below sends the answer; a reset that came
         // meanwhile waits for it, so it loads what was stored.
-        if O::SERVICES.storage && self.store.busy() {
+        if O::SERVICES.storage && self.hook.store.busy() {
             self.store_step();
-            if self.store.busy() || self.resetting() {
+            if self.hook.store.busy() || self.resetting() {
                 return now_at;
             }
         }
@@ -93,7 +93,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let mut wake = false;
         let deadline = self.with_app_cold(now, |app, ctx| {
             let deadline = at(app.poll(ctx));
-            wake = core::mem::take(&mut ctx.raw.wake);
+            wake = core::mem::take(&mut ctx.hook.wake);
             deadline
         });
         // A poll that asks for it runs again at the next process, whenever that is.

@@ -87,7 +87,7 @@ impl Ctx<'_> {
     /// store in stages is in progress: both would write the same region
     /// ([`Ctx::storing`] tells a device's hook to wait for its end).
     pub(super) fn run_store(&mut self, job: Job) -> Result<(), AbortCode> {
-        if self.store.busy() {
+        if self.hook.store.busy() {
             return Err(store_abort(StoreError::Busy));
         }
         job.finish(self.dict, self.image, self.node_id, self.storage).map_err(store_abort)
@@ -111,8 +111,8 @@ impl Ctx<'_> {
         }
         let job = if is_save { self.save_job(scope) } else { Job::restore(scope) };
         match staged {
-            Some(answer) if !self.store.busy() => {
-                *self.store = job;
+            Some(answer) if !self.hook.store.busy() => {
+                self.hook.store = job;
                 answer.set(Some((index, sub)));
                 Ok(())
             }

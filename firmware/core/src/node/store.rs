@@ -60,18 +60,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Whether a store is in progress: [`Node::process`] goes on with it a
     /// stage per call and returns `now` as its deadline until it is done.
     pub fn storing(&self) -> bool {
-        self.store.busy()
+        self.hook.store.busy()
     }
 
     /// LSS "store configuration": a store in stages, answered at its end;
     /// refused at once ("storage failed") while another store runs, or
     /// without storage.
     pub(super) fn store_lss(&mut self, node_id: u8, bit_rate: u8) {
-        if !O::SERVICES.storage || self.store.busy() {
+        if !O::SERVICES.storage || self.hook.store.busy() {
             self.push(SLAVE_COB_ID, &LssSlave::store_result(false));
             return;
         }
-        self.store = crate::services::store::Job::lss(node_id, bit_rate);
+        self.hook.store = crate::services::store::Job::lss(node_id, bit_rate);
         self.store_answer = StoreAnswer { server: 0, cob_id: SLAVE_COB_ID, index: 0, sub: 0 };
     }
 
@@ -82,8 +82,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     ///
     /// [`SdoSink`]: super::sinks::SdoSink
     pub(super) fn store_step(&mut self) {
-        let Node { od, storage, store, node_id, .. } = self;
-        let Some(result) = store.step(od.dictionary(), od.image(), *node_id, storage) else { return };
+        let Node { od, storage, hook, node_id, .. } = self;
+        let Some(result) = hook.store.step(od.dictionary(), od.image(), *node_id, storage) else { return };
         let answer = core::mem::replace(&mut self.store_answer, StoreAnswer::NONE);
         let frame = match (answer.server, result) {
             (_, _) if answer.cob_id == 0 => return,

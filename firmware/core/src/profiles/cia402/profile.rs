@@ -485,6 +485,10 @@ impl<D: Drive> Cia402<D> {
                     self.s.state = PdsState::QuickStopActive;
                 }
             }
+            // From a state without the drive function (2, 3, 6, 7, 10)
+            // `stop_now` has nothing to switch off: in line, no call for
+            // the steps a master goes through most.
+            _ if !self.s.state.drive_function() => (self.s.braking, self.s.state) = (false, t.to),
             _ => self.stop_now(t.to),
         }
     }
