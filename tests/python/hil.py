@@ -19,6 +19,7 @@ defaults for the next power-on, so the board is left as found.
 """
 
 import argparse
+import logging
 import os
 import shlex
 import shutil
@@ -39,6 +40,32 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 STORAGE_FILE = "canopen-qemu-storage.bin"  # firmware/src/boards/qemu/host_file.rs
 STOPPED, PRE_OPERATIONAL = 0x04, 0x7F
 WAIT = 5.0
+
+
+class BusLog(FrameLog):
+    """The frame log, and the end of python-can's receive thread when the link
+    drops (QEMU exited, an adapter unplugged) as one line on stderr instead of
+    the thread's traceback: the checks that follow fail as FAIL lines."""
+
+    def __init__(self):
+        super().__init__()
+        self.ended = None
+
+    def on_error(self, exc):
+        if self.ended is None:
+            self.ended = exc
+            cause = f" ({exc.__cause__})" if exc.__cause__ else ""
+            print(f"hil.py: the connection to the bus ended: {exc}{cause}", file=sys.stderr, flush=True)
+
+
+class SameEndOnce(logging.Filter):
+    """python-canopen logs the receive thread's end again at each send: BusLog said it."""
+
+    def filter(self, record):
+        return record.getMessage() != "An error has caused receiving of messages to stop"
+
+
+logging.getLogger("canopen.network").addFilter(SameEndOnce())
 
 
 class Qemu:
@@ -116,7 +143,7 @@ class Bench:
         # A serial SLCAN adapter may need its default pause after opening; a TCP one does not.
         kwargs = {"sleep_after_open": 0} if interface == "slcan" and str(channel).startswith("socket://") else {}
         bus = can.Bus(interface=interface, channel=channel, bitrate=self.args.bitrate, **kwargs)
-        self.frames = FrameLog()
+        self.frames = BusLog()
         self.network = canopen.Network(bus)
         self.network.listeners.append(self.frames)
         self.network.connect()

@@ -61,6 +61,27 @@ class HilTest(unittest.TestCase):
         self.assertNotIn("Traceback", out.stderr)
 
 
+    def test_a_connection_that_drops_is_one_line_not_a_traceback(self):
+        # The power cycle ends vnode, as a QEMU that dies ends the link:
+        # python-can's receive thread meets the closed connection. That is
+        # one line on stderr, and the checks that follow fail as FAIL lines.
+        vnode = subprocess.Popen([VNODE, "--device", "sendix", "--node-id", "63", "--listen", "127.0.0.1:0"],
+                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        self.addCleanup(vnode.stdout.close)
+        self.addCleanup(vnode.wait, 5)
+        self.addCleanup(vnode.kill)
+        port = int(re.search(r":(\d+)\s*$", vnode.stdout.readline()).group(1))
+        out = subprocess.run([sys.executable, HIL, "--interface", "slcan", "--channel", f"socket://127.0.0.1:{port}",
+                              "--bitrate", "1000000", "--device", "sendix", "--node-id", "63",
+                              "--power-cycle-command", f"kill {vnode.pid}"],
+                             stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=90)
+        self.assertEqual(out.returncode, 1, out.stdout + out.stderr)
+        self.assertIn("FAIL  boot-up after the power cycle", out.stdout)
+        self.assertNotIn("Traceback", out.stderr)
+        lines = out.stderr.splitlines()
+        self.assertEqual(len(lines), 1, out.stderr)
+        self.assertTrue(lines[0].startswith("hil.py: the connection to the bus ended: "), out.stderr)
+
     @unittest.skipUnless(shutil.which("qemu-system-arm"), "qemu-system-arm is not installed")
     def test_an_image_qemu_cannot_run_is_a_failed_check_and_leaves_no_folder(self):
         # The folder of the storage file and the defmt log goes with the run

@@ -168,6 +168,13 @@ class InteropTest(unittest.TestCase):
         self.assertEqual(emcy.register & 0x11, 0x11)
         self.assertEqual(emcy.data[0], 0x10)
         self.assertEqual(self.node.sdo[0x1001].raw & 0x10, 0x10)
+        # 0x1003 holds it, newest at sub 1; a sub-index above the count holds no error:
+        # "no data available" (CiA 301 §7.5.2.4, as CANopenNode answers), not a 0.
+        self.assertEqual(self.node.sdo[0x1003][0].raw, 1)
+        self.assertEqual(self.node.sdo[0x1003][1].raw & 0xFFFF, 0x8130)
+        with self.assertRaises(canopen.SdoAbortedError) as e:
+            self.node.sdo[0x1003][2].raw
+        self.assertEqual(e.exception.code, 0x08000024)
 
     # ---- PDO ---------------------------------------------------------------
 

@@ -137,6 +137,39 @@ fn a_preset_without_scaling_counts_on_from_the_preset_s13() {
     assert_eq!(read_u32(&mut b, 0x6004, 0), u32::MAX - 99, "below 0 wraps at 2^32");
 }
 
+/// D40: a preset below the position (a negative offset) with scaling off,
+/// then MUR 3600 / TMR 36000: the preset point keeps the preset's value,
+/// and the position is the preset plus the movement since, in the new
+/// units (it showed 18015-like jumps when the offset kept its number,
+/// wrapped from 2^32 into 36000).
+#[test]
+fn a_scaling_change_after_a_preset_keeps_the_preset_point() {
+    let mut b = encoder(MemStorage::new(4096), 0, 20000);
+    assert_eq!(b.sdo_write(0x3F, 0x6003, 0, &1000u32.to_le_bytes()), ok_write(0x6003, 0));
+    assert_eq!(read_u32(&mut b, 0x6509, 0), (-19000i32) as u32, "offset -19000");
+    // A quarter turn on: 1000 + 4096 steps.
+    turn(&mut b, (STEPS / 4) as i64);
+    assert_eq!(read_u32(&mut b, 0x6004, 0), 5096);
+    assert_eq!(b.sdo_write(0x3F, 0x6002, 0, &36000u32.to_le_bytes()), ok_write(0x6002, 0));
+    assert_eq!(b.sdo_write(0x3F, 0x6001, 0, &3600u32.to_le_bytes()), ok_write(0x6001, 0));
+    assert_eq!(read_u32(&mut b, 0x6004, 0), 5096, "scaling still off: nothing moved");
+    assert_eq!(b.sdo_write(0x3F, 0x6000, 0, &SCALING), ok_write(0x6000, 0));
+    // The quarter turn since the preset is 900 units now.
+    assert_eq!(read_u32(&mut b, 0x6004, 0), 1900);
+    turn(&mut b, -((STEPS / 4) as i64));
+    assert_eq!(read_u32(&mut b, 0x6004, 0), 1000, "back at the preset point: the preset");
+    turn(&mut b, -(STEPS as i64));
+    assert_eq!(read_u32(&mut b, 0x6004, 0), 36000 - 2600, "a turn below it wraps at TMR");
+    // Saved with the scaling: the same after a power cycle.
+    assert_eq!(b.sdo_write(0x3F, 0x1010, 1, b"save"), ok_write(0x1010, 1));
+    let storage = b.node.storage_mut().clone();
+    let mut again = encoder(storage, 0, 20000 - STEPS);
+    assert_eq!(read_u32(&mut again, 0x6004, 0), 36000 - 2600);
+    // Scaling off again: the preset point shows 1000 once more, in steps.
+    assert_eq!(again.sdo_write(0x3F, 0x6000, 0, &[0, 0]), ok_write(0x6000, 0));
+    assert_eq!(read_u32(&mut again, 0x6004, 0), 1000u32.wrapping_sub(STEPS as u32));
+}
+
 #[test]
 fn the_offset_follows_a_physical_wrap_over_a_power_cycle() {
     let range = 7 * STEPS;

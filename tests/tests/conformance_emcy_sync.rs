@@ -56,7 +56,9 @@ fn cct_5_2_error_register_is_clear() {
 fn cct_5_3_error_history_is_empty() {
     let mut b = interop();
     assert_eq!(b.sdo_read(ID, 0x1003, 0), [0x4F, 0x03, 0x10, 0x00, 0x00, 0, 0, 0]);
-    assert_eq!(b.sdo_read(ID, 0x1003, 1), [0x43, 0x03, 0x10, 0x01, 0, 0, 0, 0]);
+    // Sub-indices above sub 0's count hold no error: "no data available"
+    // (CiA 301 §7.5.2.4; as CANopenNode answers), in the expedited frame.
+    assert_eq!(b.sdo_read(ID, 0x1003, 1), [0x80, 0x03, 0x10, 0x01, 0x24, 0x00, 0x00, 0x08]);
 }
 
 /// Operational, then RPDO1 (8 mapped bytes) with 2 bytes: EMCY 0x8210, info = RPDO number.
@@ -102,6 +104,7 @@ fn cct_5_6_error_history_matches_the_emcy() {
     assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![2]));
     assert_eq!(u32_le(b.sdo_upload(ID, 0x1003, 1).unwrap()), 0x0002_8220);
     assert_eq!(u32_le(b.sdo_upload(ID, 0x1003, 2).unwrap()), 0x0001_8210);
+    assert_eq!(b.sdo_upload(ID, 0x1003, 3), Err(0x0800_0024), "above the count: no error there");
 }
 
 #[test]
@@ -120,8 +123,9 @@ fn a_full_error_history_drops_the_oldest_and_writing_0_clears_it() {
     // CiA 301 §7.5.2.4: writing 0 to sub 0 empties it, every field too.
     assert_eq!(b.sdo_download(ID, 0x1003, 0, &[0]), Ok(()));
     assert_eq!(b.sdo_upload(ID, 0x1003, 0), Ok(vec![0]));
-    assert_eq!(b.sdo_upload(ID, 0x1003, 1), Ok(vec![0, 0, 0, 0]));
-    assert_eq!(b.sdo_upload(ID, 0x1003, 8), Ok(vec![0, 0, 0, 0]));
+    assert_eq!(b.sdo_upload(ID, 0x1003, 1), Err(0x0800_0024));
+    assert_eq!(b.sdo_upload(ID, 0x1003, 8), Err(0x0800_0024));
+    assert_eq!(b.sdo_upload(ID, 0x1003, 9), Err(0x0609_0011), "no sub 9 at all");
 }
 
 // ---- SYNC -----------------------------------------------------------------------

@@ -394,6 +394,18 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
         // keep coming, and 1 ms while a frame waits for room on the wire.
         let longest = if held.is_some() { StdDuration::from_millis(1) } else { StdDuration::from_millis(50) };
         let wait = deadline.map_or(longest, |d| StdDuration::from_micros(d.as_micros().saturating_sub(clock().as_micros())).min(longest));
+        // No frame is taken while one of the node's waits for the wire: on
+        // a bus its answers go out between the requests (0x585 wins over
+        // 0x605), so a node the OS ran late must not meet a backlog of
+        // requests that no wire could have carried without its answers.
+        // Taking them would fill its transmit queue, and an SDO server
+        // replaces an unsent answer by the next one (its client has moved
+        // on): answers lost without trace. The requests wait on the wire's
+        // side instead, and TCP holds the clients back.
+        if held.is_some() {
+            std::thread::sleep(wait);
+            continue;
+        }
         match channels.from_client.recv_timeout(wait) {
             Ok(frame) => {
                 if let Some(t) = trace.as_mut() {

@@ -223,3 +223,31 @@ fn connections_past_the_limit_are_closed_and_counted() {
     assert_eq!(server.refused(), 1);
     server.shutdown();
 }
+
+#[test]
+fn the_application_sends_while_it_is_behind_with_receiving() {
+    // Small queues: the wire soon waits for the application to take a
+    // client's frame, while the application waits for room on the wire
+    // before it takes another (as vnode does). The wire carries the
+    // application's frames meanwhile, so neither waits for ever.
+    let options = ServerOptions { app_queue_frames: 2, app_tx_frames: 2, ..ServerOptions::default() };
+    let (server, ch) = SlcanServer::bind_with("127.0.0.1:0", options).unwrap();
+    let mut c = open_client(&server);
+    c.write_all(&b"t0800\r".repeat(8)).unwrap();
+    assert_eq!(read_n(&mut c, 16), "z\r".repeat(8));
+    // The wire holds the third frame: the application's queue is full.
+    std::thread::sleep(Duration::from_millis(50));
+    let (done, sent) = mpsc::channel();
+    let to_client = ch.to_client.clone();
+    std::thread::spawn(move || {
+        let ok = (0..6u8).all(|i| to_client.send(std(0x185, &[i])).is_ok());
+        let _ = done.send(ok);
+    });
+    assert_eq!(sent.recv_timeout(TIMEOUT), Ok(true), "the application's frames went out");
+    assert_eq!(read_n(&mut c, 6 * 8), (0..6).map(|i| format!("t18510{i}\r")).collect::<String>());
+    // The client's frames follow, all of them, in order.
+    for _ in 0..8 {
+        assert_eq!(ch.from_client.recv_timeout(TIMEOUT), Ok(std(0x080, &[])));
+    }
+    drop(server);
+}

@@ -10,6 +10,7 @@
 use super::server::{Client, Hub};
 use crate::bus::{BitRate, frame_time_ns};
 use canopen_core::frame::CanFrame;
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 use std::time::{Duration, Instant};
@@ -60,42 +61,80 @@ const APP_POLL: Duration = Duration::from_millis(1);
 /// Runs the wire until [`WireEvent::Stop`]. Frames from clients go to the
 /// application on `to_app` (the wire waits while the application is
 /// behind) and to every other client; the node's frames go to every client.
+///
+/// While the wire waits for the application, the application's own frames
+/// still go out (its transmit buffers do not wait for its receive queue):
+/// an application that takes no frame while one of its own waits for the
+/// wire then never waits for a wire that waits for it. Clients' frames
+/// offered meanwhile keep their order behind the one being handed over.
 pub(super) fn run(hub: &Hub, events: &Receiver<WireEvent>, to_app: &SyncSender<CanFrame>) {
-    let mut pacer = Pacer::new(Instant::now());
-    let mut put_on_wire = |frame: &CanFrame| {
-        let rate = BitRate::new(hub.bit_rate()).unwrap_or(BitRate::MBIT_1);
-        if let Some(wait) = pacer.occupy(Instant::now(), frame_time_ns(frame, rate)) {
-            std::thread::sleep(wait);
-        }
-    };
-    while let Ok(event) = events.recv() {
+    let mut wire = Wire { hub, pacer: Pacer::new(Instant::now()), later: VecDeque::new() };
+    loop {
+        let event = match wire.later.pop_front() {
+            Some(event) => event,
+            None => match events.recv() {
+                Ok(event) => event,
+                Err(_) => return,
+            },
+        };
         match event {
             WireEvent::Client(sender, frame) => {
                 sender.credit_returned();
-                put_on_wire(&frame);
-                hub.broadcast(&frame, Some(sender.id()));
-                hand_to_app(hub, to_app, frame);
+                wire.carry(&frame, Some(sender.id()));
+                if !wire.hand_to_app(events, to_app, frame) {
+                    return;
+                }
             }
-            WireEvent::Node(frame) => {
-                hub.app_credit_returned();
-                put_on_wire(&frame);
-                hub.broadcast(&frame, None);
-            }
+            WireEvent::Node(frame) => wire.carry_node(&frame),
             WireEvent::Stop => return,
         }
     }
 }
 
-/// Gives the application a frame, waiting while it is behind unless the
-/// server stops; no application listening is not the clients' problem.
-fn hand_to_app(hub: &Hub, to_app: &SyncSender<CanFrame>, mut frame: CanFrame) {
-    loop {
-        match to_app.try_send(frame) {
-            Err(TrySendError::Full(f)) if !hub.stopping() => {
-                frame = f;
-                std::thread::sleep(APP_POLL);
+/// The wire thread's state.
+struct Wire<'a> {
+    hub: &'a Hub,
+    pacer: Pacer,
+    /// Clients' frames offered while the application was behind, in order
+    /// (at most [`ServerOptions::client_tx_frames`](super::ServerOptions)
+    /// per client: their credit comes back only once they are carried).
+    later: VecDeque<WireEvent>,
+}
+
+impl Wire<'_> {
+    /// Holds the wire for the frame's time, then hands it to every client
+    /// except `sender`.
+    fn carry(&mut self, frame: &CanFrame, sender: Option<u64>) {
+        let rate = BitRate::new(self.hub.bit_rate()).unwrap_or(BitRate::MBIT_1);
+        if let Some(wait) = self.pacer.occupy(Instant::now(), frame_time_ns(frame, rate)) {
+            std::thread::sleep(wait);
+        }
+        self.hub.broadcast(frame, sender);
+    }
+
+    fn carry_node(&mut self, frame: &CanFrame) {
+        self.hub.app_credit_returned();
+        self.carry(frame, None);
+    }
+
+    /// Gives the application a frame, waiting while it is behind unless the
+    /// server stops (no application listening is not the clients' problem);
+    /// meanwhile carries the application's own frames. False on
+    /// [`WireEvent::Stop`].
+    fn hand_to_app(&mut self, events: &Receiver<WireEvent>, to_app: &SyncSender<CanFrame>, mut frame: CanFrame) -> bool {
+        loop {
+            match to_app.try_send(frame) {
+                Err(TrySendError::Full(f)) if !self.hub.stopping() => frame = f,
+                _ => return true,
             }
-            _ => return,
+            while let Ok(event) = events.try_recv() {
+                match event {
+                    WireEvent::Node(f) => self.carry_node(&f),
+                    WireEvent::Stop => return false,
+                    client => self.later.push_back(client),
+                }
+            }
+            std::thread::sleep(APP_POLL);
         }
     }
 }

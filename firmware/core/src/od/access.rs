@@ -109,6 +109,14 @@ pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: 
         return Err(AbortCode::NoData);
     }
     let value = dictionary.value(image, entry);
+    // 0x1003 sub 1.. above sub 0's count hold no error (CiA 301 §7.5.2.4):
+    // "no data available", as CANopenNode answers. A recorded entry is
+    // never 0 (error code 0000 is not recorded) and clearing zeroes every
+    // entry, so a zero entry is exactly one above the count, and no lookup
+    // of sub 0 is needed.
+    if entry.index == super::index::PRE_DEFINED_ERROR_FIELD && entry.sub != 0 && value.iter().all(|&b| b == 0) {
+        return Err(AbortCode::NoData);
+    }
     Ok(if entry.data_type == DataType::VisibleString { super::until_nul(value) } else { value })
 }
 

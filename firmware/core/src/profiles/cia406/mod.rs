@@ -224,8 +224,17 @@ impl<P: PositionSource> Encoder<P> {
     pub fn written(&mut self, ctx: &mut Ctx<'_>, config: &Config, index: u16, sub: u8) {
         match (index, sub) {
             (index::OPERATING_PARAMETERS | index::MEASURING_UNITS_PER_REVOLUTION | index::TOTAL_MEASURING_RANGE, 0) => {
-                // A new scaling shows the same shaft position in the new units.
+                // A new scaling shows the same shaft position in the new units,
+                // and the preset point keeps the preset's value.
+                let old = self.current_scaling(ctx);
+                if self.offset != 0 {
+                    // The position now, in the old units.
+                    self.sample(ctx, config);
+                }
                 self.rescale(ctx);
+                if self.offset != 0 {
+                    self.keep_preset(ctx, &old);
+                }
                 self.tracking = false;
                 self.sample(ctx, config);
             }
@@ -380,6 +389,32 @@ impl<P: PositionSource> Encoder<P> {
         let _ = ctx.set_value(index::OPERATING_STATUS, 0, &operating.to_le_bytes());
         // The offset stays within the new range; it is stored with the scaling (0x1010) or the next preset.
         self.set_offset(ctx, self.offset);
+    }
+
+    /// The scaling changed from `old` after a preset: the offset is derived
+    /// again so that the preset point still shows the preset (0x6003) and
+    /// the position is the preset plus the movement since, in the new units
+    /// (D40). An offset kept as a number would mean nothing in the new
+    /// units (the old range's wrap of a negative offset made the position
+    /// jump). The movement is the old position's distance from the preset,
+    /// the shorter way round the old range.
+    // Distances below 2^32 units times R or MUR (≤ 2^16) over MUR or R (≥ 1):
+    // below 2^48; the old position and the preset are below TMR ≤ 2^32. In
+    // u64 but for the last sum.
+    #[allow(clippy::arithmetic_side_effects)]
+    fn keep_preset(&mut self, ctx: &mut Ctx<'_>, old: &Scaling) {
+        // Set by `rescale` just before.
+        let new = self.scaling;
+        let preset = u64::from(ctx.read_u32(index::PRESET_VALUE, 0).unwrap_or(0));
+        let tmr = old.tmr.max(1);
+        let ahead = (u64::from(old.position(self.num)) + tmr - preset % tmr) % tmr;
+        let back = ahead > tmr / 2;
+        let units = if back { tmr - ahead } else { ahead };
+        let steps = units * u64::from(old.resolution) / u64::from(old.mur.max(1));
+        let units = (steps * u64::from(new.mur) / u64::from(new.resolution.max(1))) as i64;
+        let moved = if back == (old.ccw == new.ccw) { -units } else { units };
+        let bare = i64::from(new.position(new.at(self.last_count, 0)));
+        self.set_offset(ctx, new.wrap(preset as i64 + moved - bare));
     }
 
     /// Sets the preset offset (0x6509), wrapped into `0..TMR`.
