@@ -218,8 +218,14 @@ impl Dictionary {
     pub fn read_entry<'a>(&self, image: &'a [u8], entry: &Entry) -> Result<&'a [u8], AbortCode> {
         // An SDO upload's reading (one copy of it in an image), but for a
         // readable DOMAIN, which has no bytes here to read (0x08000020
-        // where an upload answers "no data", 0x08000024).
-        access::upload_value(self, image, entry).map_err(|code| if code == AbortCode::NoData { AbortCode::CannotStore } else { code })
+        // where an upload answers "no data", 0x08000024), and for 0x1003's
+        // entries above its count, which the node and its device read as the
+        // zeros they are (only an upload answers them "no data").
+        match access::upload_value(self, image, entry) {
+            Err(AbortCode::NoData) if entry.data_type == DataType::Domain => Err(AbortCode::CannotStore),
+            Err(AbortCode::NoData) => Ok(self.value(image, entry)),
+            read => read,
+        }
     }
 
     /// Reads an integer entry of at most 32 bits as a `u32` (the
