@@ -8,10 +8,9 @@
 mod common;
 
 use canopen_core::axis::Injected;
-use canopen_core::node::{Application, CanEmcyCodes, Claims, Ctx, NmtEvent, ServiceOptions, Source};
-use canopen_core::od::{Dictionary, ObjectDictionary};
+use canopen_core::node::Application;
+use canopen_core::od::ObjectDictionary;
 use canopen_core::time::Instant;
-use canopen_core::wire::time_stamp::TimeOfDay;
 use common::ec5000::{EMCY, ID, RPDO1, RPDO3, TPDO1, TPDO2, TPDO3};
 use common::{Bench, F, ms};
 use firmware::devices::ec5000;
@@ -21,67 +20,11 @@ use hal_host::storage::MemStorage;
 /// hook forwarded, `POLL_WHEN_DUE` left at its default.
 struct EveryProcess(ec5000::App);
 
-impl Application for EveryProcess {
-    const OPTIONS: ServiceOptions = ec5000::App::OPTIONS;
-    const CAN_EMCY: CanEmcyCodes = ec5000::App::CAN_EMCY;
-    const STORES: bool = ec5000::App::STORES;
-
-    fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, canopen_core::abort::AbortCode>> {
-        self.0.upload_size(ctx, index, sub)
-    }
-    fn read(
-        &mut self,
-        ctx: &mut Ctx<'_>,
-        index: u16,
-        sub: u8,
-        offset: usize,
-        buf: &mut [u8],
-    ) -> Option<Result<usize, canopen_core::abort::AbortCode>> {
-        self.0.read(ctx, index, sub, offset, buf)
-    }
-    fn download_check(
-        &mut self,
-        ctx: &mut Ctx<'_>,
-        index: u16,
-        sub: u8,
-        size: Option<usize>,
-    ) -> Option<Result<(), canopen_core::abort::AbortCode>> {
-        self.0.download_check(ctx, index, sub, size)
-    }
-    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), canopen_core::abort::AbortCode>> {
-        self.0.write(ctx, index, sub, data)
-    }
-    fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), canopen_core::abort::AbortCode> {
-        self.0.check_write(ctx, index, sub, data)
-    }
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, by: Source) {
-        self.0.written(ctx, index, sub, by)
-    }
-    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
+common::ec5000::ec5000_forwarding!(EveryProcess {
+    fn rpdo_written(&mut self, ctx: &mut canopen_core::node::Ctx<'_>, n: u8) {
         self.0.rpdo_written(ctx, n)
     }
-    fn sample(&mut self, ctx: &mut Ctx<'_>) {
-        self.0.sample(ctx)
-    }
-    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
-        self.0.poll(ctx)
-    }
-    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
-        self.0.on_nmt(ctx, event)
-    }
-    fn on_time(&mut self, ctx: &mut Ctx<'_>, time: TimeOfDay) {
-        self.0.on_time(ctx, time)
-    }
-    fn on_frame(&mut self, ctx: &mut Ctx<'_>, cob_id: u16, rtr: bool, data: &[u8]) -> bool {
-        self.0.on_frame(ctx, cob_id, rtr, data)
-    }
-    fn claim_ids(&self, dict: &'static Dictionary, image: &[u8], claims: &mut Claims<'_>) {
-        self.0.claim_ids(dict, image, claims)
-    }
-    fn canopen(&self) -> bool {
-        self.0.canopen()
-    }
-}
+});
 
 type Roller<A> = Bench<ec5000::od::Ram, A, MemStorage, 4, 4, 1>;
 

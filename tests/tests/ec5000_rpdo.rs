@@ -8,8 +8,8 @@
 
 mod common;
 
-use canopen_core::node::{Application, CanEmcyCodes, Ctx, NmtEvent, ServiceOptions, Source};
-use canopen_core::od::{EntryRef, ObjectDictionary};
+use canopen_core::node::Application;
+use canopen_core::od::ObjectDictionary;
 use canopen_core::time::Instant;
 use common::ec5000::{ID, RPDO1, RPDO2, RPDO3, TPDO1, TPDO2, TPDO3};
 use common::{Bench, F, ms};
@@ -20,43 +20,12 @@ use hal_host::storage::MemStorage;
 /// hook forwarded.
 struct Asked(ec5000::App);
 
-impl Application for Asked {
-    const OPTIONS: ServiceOptions = ec5000::App::OPTIONS;
-    const CAN_EMCY: CanEmcyCodes = ec5000::App::CAN_EMCY;
-    const STORES: bool = ec5000::App::STORES;
+common::ec5000::ec5000_forwarding!(Asked {
     const POLL_WHEN_DUE: bool = ec5000::App::POLL_WHEN_DUE;
-
-    fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), canopen_core::abort::AbortCode> {
-        self.0.check_write(ctx, index, sub, data)
-    }
-    fn download_check(
-        &mut self,
-        ctx: &mut Ctx<'_>,
-        index: u16,
-        sub: u8,
-        size: Option<usize>,
-    ) -> Option<Result<(), canopen_core::abort::AbortCode>> {
-        self.0.download_check(ctx, index, sub, size)
-    }
-    fn write(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Option<Result<(), canopen_core::abort::AbortCode>> {
-        self.0.write(ctx, index, sub, data)
-    }
-    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8, by: Source) {
-        self.0.written(ctx, index, sub, by)
-    }
-    fn rpdo_value(&mut self, ctx: &mut Ctx<'_>, at: EntryRef, value: u32, len: u8) -> bool {
+    fn rpdo_value(&mut self, ctx: &mut canopen_core::node::Ctx<'_>, at: canopen_core::od::EntryRef, value: u32, len: u8) -> bool {
         self.0.rpdo_value(ctx, at, value, len)
     }
-    fn sample(&mut self, ctx: &mut Ctx<'_>) {
-        self.0.sample(ctx)
-    }
-    fn poll(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
-        self.0.poll(ctx)
-    }
-    fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
-        self.0.on_nmt(ctx, event)
-    }
-}
+});
 
 type Roller<A> = Bench<ec5000::od::Ram, A, MemStorage, 4, 4, 1>;
 

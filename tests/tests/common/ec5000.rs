@@ -77,3 +77,96 @@ pub fn value(b: &mut Ec5000, index: u16, sub: u8) -> i64 {
 pub fn statusword(b: &mut Ec5000) -> u16 {
     value(b, 0x6041, 0) as u16
 }
+
+/// `impl Application for $name` over a wrapped `ec5000::App` (`$name.0`):
+/// every hook forwarded but those a test leaves at the trait's default to
+/// compare against it, which it names in `{ ... }` with its own items.
+/// The hooks a test may leave out (`rpdo_written`, `rpdo_value`,
+/// `POLL_WHEN_DUE`) are the items it writes there, forwarded or not.
+#[allow(unused_macros)]
+macro_rules! ec5000_forwarding {
+    ($name:ident { $($item:item)* }) => {
+        impl canopen_core::node::Application for $name {
+            const OPTIONS: canopen_core::node::ServiceOptions = firmware::devices::ec5000::App::OPTIONS;
+            const CAN_EMCY: canopen_core::node::CanEmcyCodes = firmware::devices::ec5000::App::CAN_EMCY;
+            const STORES: bool = firmware::devices::ec5000::App::STORES;
+            $($item)*
+            fn upload_size(
+                &mut self,
+                ctx: &mut canopen_core::node::Ctx<'_>,
+                index: u16,
+                sub: u8,
+            ) -> Option<Result<usize, canopen_core::abort::AbortCode>> {
+                self.0.upload_size(ctx, index, sub)
+            }
+            fn read(
+                &mut self,
+                ctx: &mut canopen_core::node::Ctx<'_>,
+                index: u16,
+                sub: u8,
+                offset: usize,
+                buf: &mut [u8],
+            ) -> Option<Result<usize, canopen_core::abort::AbortCode>> {
+                self.0.read(ctx, index, sub, offset, buf)
+            }
+            fn download_check(
+                &mut self,
+                ctx: &mut canopen_core::node::Ctx<'_>,
+                index: u16,
+                sub: u8,
+                size: Option<usize>,
+            ) -> Option<Result<(), canopen_core::abort::AbortCode>> {
+                self.0.download_check(ctx, index, sub, size)
+            }
+            fn write(
+                &mut self,
+                ctx: &mut canopen_core::node::Ctx<'_>,
+                index: u16,
+                sub: u8,
+                data: &[u8],
+            ) -> Option<Result<(), canopen_core::abort::AbortCode>> {
+                self.0.write(ctx, index, sub, data)
+            }
+            fn check_write(
+                &mut self,
+                ctx: &canopen_core::node::Ctx<'_>,
+                index: u16,
+                sub: u8,
+                data: &[u8],
+            ) -> Result<(), canopen_core::abort::AbortCode> {
+                self.0.check_write(ctx, index, sub, data)
+            }
+            fn written(&mut self, ctx: &mut canopen_core::node::Ctx<'_>, index: u16, sub: u8, by: canopen_core::node::Source) {
+                self.0.written(ctx, index, sub, by)
+            }
+            fn sample(&mut self, ctx: &mut canopen_core::node::Ctx<'_>) {
+                self.0.sample(ctx)
+            }
+            fn poll(&mut self, ctx: &mut canopen_core::node::Ctx<'_>) -> Option<canopen_core::time::Instant> {
+                self.0.poll(ctx)
+            }
+            fn on_nmt(&mut self, ctx: &mut canopen_core::node::Ctx<'_>, event: canopen_core::node::NmtEvent) {
+                self.0.on_nmt(ctx, event)
+            }
+            fn on_time(&mut self, ctx: &mut canopen_core::node::Ctx<'_>, time: canopen_core::wire::time_stamp::TimeOfDay) {
+                self.0.on_time(ctx, time)
+            }
+            fn on_frame(&mut self, ctx: &mut canopen_core::node::Ctx<'_>, cob_id: u16, rtr: bool, data: &[u8]) -> bool {
+                self.0.on_frame(ctx, cob_id, rtr, data)
+            }
+            fn claim_ids(
+                &self,
+                dict: &'static canopen_core::od::Dictionary,
+                image: &[u8],
+                claims: &mut canopen_core::node::Claims<'_>,
+            ) {
+                self.0.claim_ids(dict, image, claims)
+            }
+            fn canopen(&self) -> bool {
+                self.0.canopen()
+            }
+        }
+    };
+}
+#[allow(unused_imports)]
+pub(crate) use ec5000_forwarding;
