@@ -47,9 +47,7 @@ fn write(b: &mut Bmaxx, index: u16, value: &[u8]) {
 
 /// [`write`] of sub-index `sub`.
 fn write_sub(b: &mut Bmaxx, index: u16, sub: u8, value: &[u8]) {
-    let mut request = [0x23 | ((4 - value.len() as u8) << 2), index as u8, (index >> 8) as u8, sub, 0, 0, 0, 0];
-    request[4..4 + value.len()].copy_from_slice(value);
-    let out = b.rx(b.now, 0x600 + u16::from(ID), &request);
+    let out = b.rx(b.now, 0x600 + u16::from(ID), &common::expedited_download(index, sub, value));
     assert!(out.contains(&(0x580 + u16::from(ID), ok_write(index, sub))), "{index:#x}: {out:x?}");
 }
 

@@ -39,12 +39,7 @@ fn earliest_of_the_services(node: &Interop) -> At {
 
 /// An expedited SDO download (the answer is drained with the other frames).
 fn sdo_download(node: &mut Interop, now: Instant, index: u16, sub: u8, data: &[u8]) {
-    let mut req = [0u8; 8];
-    req[0] = 0x23 | ((4 - data.len() as u8) << 2);
-    req[1..3].copy_from_slice(&index.to_le_bytes());
-    req[3] = sub;
-    req[4..4 + data.len()].copy_from_slice(data);
-    frame(node, now, 0x600 + u16::from(ID), &req);
+    frame(node, now, 0x600 + u16::from(ID), &common::expedited_download(index, sub, data));
 }
 
 fn frame(node: &mut Interop, now: Instant, cob_id: u16, data: &[u8]) {

@@ -13,6 +13,7 @@
 //! and its reaction), with the transmit queue left undrained at times so
 //! that it overflows.
 
+mod common;
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{Application, ControllerEvent, NoApplication, Node};
 use canopen_core::od::ObjectDictionary;
@@ -58,12 +59,7 @@ fn sdo_download<O: ObjectDictionary, A: Application, S: Storage, const R: usize,
     sub: u8,
     data: &[u8],
 ) {
-    let mut req = [0u8; 8];
-    req[0] = 0x23 | ((4 - data.len() as u8) << 2);
-    req[1..3].copy_from_slice(&index.to_le_bytes());
-    req[3] = sub;
-    req[4..4 + data.len()].copy_from_slice(data);
-    frame(node, now, 0x600 + u16::from(ID), &req);
+    frame(node, now, 0x600 + u16::from(ID), &common::expedited_download(index, sub, data));
 }
 
 /// A CAN controller's report: its errors hold for a while, then clear (a deadline of their own).

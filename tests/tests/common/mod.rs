@@ -100,14 +100,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// An expedited SDO download of `data` to (index, sub) on node `id`; returns the answer.
     pub fn sdo_write(&mut self, id: u8, index: u16, sub: u8, data: &[u8]) -> Vec<u8> {
-        let n = data.len();
-        assert!((1..=4).contains(&n));
-        let mut req = [0u8; 8];
-        req[0] = 0x23 | (((4 - n) as u8) << 2);
-        req[1..3].copy_from_slice(&index.to_le_bytes());
-        req[3] = sub;
-        req[4..4 + n].copy_from_slice(data);
-        let out = self.rx(self.now, 0x600 + u16::from(id), &req);
+        let out = self.rx(self.now, 0x600 + u16::from(id), &expedited_download(index, sub, data));
         assert_eq!(out.len(), 1, "one answer: {out:x?}");
         assert_eq!(out[0].0, 0x580 + u16::from(id));
         out[0].1.clone()
@@ -226,6 +219,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         assert_eq!(out.len(), 1, "one answer: {out:x?}");
         out[0].1.clone()
     }
+}
+
+/// The expedited SDO download request of `data` (1 to 4 bytes) to (index, sub).
+pub fn expedited_download(index: u16, sub: u8, data: &[u8]) -> [u8; 8] {
+    let n = data.len();
+    assert!((1..=4).contains(&n));
+    let mut req = [0u8; 8];
+    req[0] = 0x23 | (((4 - n) as u8) << 2);
+    req[1..3].copy_from_slice(&index.to_le_bytes());
+    req[3] = sub;
+    req[4..4 + n].copy_from_slice(data);
+    req
 }
 
 /// The SDO download confirmation for (index, sub).
