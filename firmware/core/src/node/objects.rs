@@ -14,7 +14,7 @@
 use crate::abort::AbortCode;
 use crate::id::CobRule;
 use crate::od::index;
-use crate::od::{Entry, le_u32, store_checked, u32_exact};
+use crate::od::{Entry, le_u32, store_checked, u32_exact, value_u32};
 use crate::services::nmt::NmtState;
 
 use super::app::Ctx;
@@ -101,7 +101,9 @@ impl Ctx<'_> {
                 // (sub 1) or 0x580 + node-ID, below 0x700.
                 #[allow(clippy::arithmetic_side_effects)]
                 let own = if !default_sdo { u16::MAX } else { u16::from(node_id) + if sub == 1 { 0x600 } else { 0x580 } };
-                let old = dict.read_entry(self.image, entry).ok().map(le_u32);
+                // A COB-ID entry is 4 bytes (the precheck matched the data's
+                // length): its old value, if an SDO could read it.
+                let old = entry.readable().then(|| value_u32(dict, self.image, entry));
                 rule.check(old, new, own)?;
             }
             Kind::Consumer => {
