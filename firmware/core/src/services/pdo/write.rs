@@ -80,10 +80,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let offset = index.wrapping_sub(base);
         let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
         let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
-        let (params, cob_id_writable) = match direction {
-            Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
-            Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
-        };
+        let (params, mapping, cob_id_writable) = self.record_mut(direction, n)?;
+        let old = *params;
         let entry = match entry {
             Some(entry) => entry,
             None => match precheck::<true>(dict, index, sub, data) {
@@ -91,49 +89,58 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 Err(code) => return Some(Err(code)),
             },
         };
-        if is_mapping {
-            let locked = params.valid() && cob_id_writable && !rewrite;
-            let mut mapping = Mapping::EMPTY;
-            match write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut mapping) {
+        let restart = if is_mapping {
+            let locked = old.valid() && cob_id_writable && !rewrite;
+            let mut new = Mapping::EMPTY;
+            match write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut new) {
                 Ok(true) => {}
                 Ok(false) => return Some(Ok(())),
                 Err(code) => return Some(Err(code)),
             }
-            match direction {
-                Direction::Receive => self.rpdos.get_mut(n).map(|r| r.set(params, Some(mapping))),
-                Direction::Transmit => self.tpdos.get_mut(n).map(|t| t.set(params, Some(mapping))),
+            *mapping = Some(new);
+            Some(true)
+        } else {
+            let new = match write_comm(old, direction, entry, sub, data, image, rewrite) {
+                Ok(new) => new,
+                Err(code) => return Some(Err(code)),
             };
-            return Some(Ok(()));
-        }
-        let new = match write_comm(params, direction, entry, sub, data, image, rewrite) {
-            Ok(new) => new,
-            Err(code) => return Some(Err(code)),
+            *params = new;
+            if (old.cob_id, old.transmission_type) != (new.cob_id, new.transmission_type) {
+                Some(true)
+            } else {
+                (old.event_timer_ms != new.event_timer_ms).then_some(false)
+            }
         };
-        let restart = (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type);
-        let timer_changed = params.event_timer_ms != new.event_timer_ms;
+        if let Some(full) = restart {
+            self.restart_one(direction, n, full);
+        }
+        Some(Ok(()))
+    }
+
+    /// PDO `n`'s cached parameters and mapping, and whether its COB-ID
+    /// entry is writable: one place for both directions.
+    fn record_mut(&mut self, direction: Direction, n: usize) -> Option<(&mut CommParams, &mut Option<Mapping>, bool)> {
+        match direction {
+            Direction::Receive => self.rpdos.get_mut(n).map(|r| (&mut r.params, &mut r.mapping, r.cob_id_writable)),
+            Direction::Transmit => self.tpdos.get_mut(n).map(|t| (&mut t.params, &mut t.mapping, t.cob_id_writable)),
+        }
+    }
+
+    /// PDO `n` after a download changed it: restarted (`full`: a new
+    /// mapping, COB-ID or transmission type) or its event timer rearmed.
+    fn restart_one(&mut self, direction: Direction, n: usize, full: bool) {
         match direction {
             Direction::Receive => {
                 if let Some(rpdo) = self.rpdos.get_mut(n) {
-                    rpdo.params = new;
-                    if restart {
-                        rpdo.restart();
-                    } else if timer_changed {
-                        rpdo.disarm_timer();
-                    }
+                    if full { rpdo.restart() } else { rpdo.disarm_timer() }
                 }
             }
             Direction::Transmit => {
                 if let Some(tpdo) = self.tpdos.get_mut(n) {
-                    tpdo.params = new;
-                    if restart {
-                        tpdo.restart(None);
-                    } else if timer_changed {
-                        tpdo.rearm_timer();
-                    }
+                    if full { tpdo.restart(None) } else { tpdo.rearm_timer() }
                 }
             }
         }
-        Some(Ok(()))
     }
 }
 

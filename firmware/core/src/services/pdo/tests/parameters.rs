@@ -218,3 +218,42 @@ fn the_deadline_a_poll_settled_follows_every_later_change() {
     node.pdos.enter_operational(ms(1030));
     assert_eq!(node.pdos.deadline(), Some(Instant::ZERO), "event-driven TPDOs go out at once");
 }
+
+#[test]
+fn a_download_restarts_a_pdo_only_when_its_cob_id_type_or_mapping_changed() {
+    let mut node = Node::operational(ms(0));
+    node.poll(ms(0));
+    tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
+    // TPDO1 (type 255): the same COB-ID and type again, a new event timer
+    // (rearmed only): no restart, so no new initial event.
+    let ty = node.get(0x1800, 2);
+    assert_eq!(ty, [255]);
+    assert_eq!(node.sdo(0x1800, 2, &ty), Ok(()));
+    assert_eq!(node.sdo32(0x1800, 1, 0x181), Ok(()));
+    assert_eq!(node.sdo(0x1800, 5, &100u16.to_le_bytes()), Ok(()));
+    node.poll(ms(1));
+    tx!(node, []);
+    // Another event-driven type: restarted, its initial event sent.
+    assert_eq!(node.sdo(0x1800, 2, &[254]), Ok(()));
+    node.poll(ms(2));
+    tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
+    // RPDO1 synchronous: a new event timer keeps the data waiting for the SYNC ...
+    assert_eq!(node.sdo(0x1400, 2, &[1]), Ok(()));
+    assert!(node.rx(ms(3), 0x201, &[1, 0, 2]));
+    assert_eq!(node.sdo(0x1400, 5, &100u16.to_le_bytes()), Ok(()));
+    assert_eq!(node.sdo(0x1400, 2, &[1]), Ok(()));
+    assert!(node.pdos.rpdo(0).unwrap().has_buffered(), "no restart");
+    // ... another type (or COB-ID, or mapping) drops it.
+    assert_eq!(node.sdo(0x1400, 2, &[2]), Ok(()));
+    assert!(!node.pdos.rpdo(0).unwrap().has_buffered(), "restarted");
+    assert!(node.rx(ms(4), 0x201, &[1, 0, 2]));
+    assert_eq!(node.sdo32(0x1400, 1, 0x8000_0201), Ok(()));
+    assert!(!node.pdos.rpdo(0).unwrap().has_buffered(), "restarted");
+    let count = node.get(0x1600, 0);
+    assert_eq!(node.sdo32(0x1400, 1, 0x201), Ok(()));
+    assert!(node.rx(ms(5), 0x201, &[1, 0, 2]));
+    assert!(node.pdos.rpdo(0).unwrap().has_buffered());
+    assert_eq!(node.sdo(0x1600, 0, &[0]), Err(AbortCode::UnsupportedAccess), "valid: the mapping is locked");
+    assert_eq!(node.sdo(0x1600, 0, &count), Ok(()), "written back");
+    assert!(node.pdos.rpdo(0).unwrap().has_buffered(), "written back: no restart");
+}
