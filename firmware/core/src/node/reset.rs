@@ -240,19 +240,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn configure_sdo(&mut self) {
         let dict = self.od.dictionary();
         let image = self.od.image();
-        for (i, slot) in self.sdo_cob_ids.iter_mut().enumerate() {
-            // 128 servers at most: 0x1280 and up are SDO client parameters.
+        // 128 servers at most: 0x1280 and up are SDO client parameters.
+        for (i, slot) in self.sdo_cob_ids.iter_mut().enumerate().take(0x80) {
             // i < 0x80: 0x1200 + i stays below 0x1280.
             #[allow(clippy::arithmetic_side_effects)]
-            let Some(index) = u16::try_from(i).ok().filter(|&i| i < 0x80).map(|i| index::SDO_SERVER_PARAMETER + i) else { break };
+            let index = index::SDO_SERVER_PARAMETER + i as u16;
+            // A server the dictionary lacks is not valid; the default one's pre-defined COB-IDs.
+            #[allow(clippy::arithmetic_side_effects)]
             let (default_rx, default_tx) =
-                if i == 0 { (Some(0x600 + u32::from(self.node_id)), Some(0x580 + u32::from(self.node_id))) } else { (None, None) };
-            let rx = dict.read_u32(image, index, 1).or(default_rx);
-            let tx = dict.read_u32(image, index, 2).or(default_tx);
-            let new = match (rx.map(CobId), tx.map(CobId)) {
-                (Some(rx), Some(tx)) if rx.is_valid() && tx.is_valid() => Some((rx.can_id(), tx.can_id())),
-                _ => None,
-            };
+                if i == 0 { (0x600 + u32::from(self.node_id), 0x580 + u32::from(self.node_id)) } else { (CobId::BIT31, CobId::BIT31) };
+            let rx = CobId(dict.read_u32(image, index, 1).unwrap_or(default_rx));
+            let tx = CobId(dict.read_u32(image, index, 2).unwrap_or(default_tx));
+            let new = (rx.is_valid() && tx.is_valid()).then(|| (rx.can_id(), tx.can_id()));
             if *slot != new {
                 self.sdo.reset(i);
                 *slot = new;
