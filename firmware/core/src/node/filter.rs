@@ -154,13 +154,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             for (rx, _) in self.sdo_cob_ids.iter().flatten() {
                 self.acceptance.insert(*rx, false);
             }
-            for rpdo in (0..R).filter_map(|n| self.comm.pdos.rpdo(n)) {
-                if let Some(id) = rpdo.cob_id() {
+            for n in 0..R {
+                if let Some(id) = self.comm.pdos.rpdo(n).and_then(|r| r.cob_id()) {
                     self.acceptance.insert(id, false);
                 }
             }
-            for tpdo in (0..T).filter_map(|n| self.comm.pdos.tpdo(n)).filter(|t| t.params().rtr_allowed()) {
-                if let Some(id) = tpdo.cob_id() {
+            for n in 0..T {
+                if let Some(id) = self.comm.pdos.tpdo(n).filter(|t| t.params().rtr_allowed()).and_then(|t| t.cob_id()) {
                     self.acceptance.insert(id, true);
                 }
             }
