@@ -103,36 +103,28 @@ impl CommParams {
     pub(super) fn with(self, direction: Direction, sub: u8, value: u32, rewrite: bool) -> Result<CommParams, AbortCode> {
         let mut new = self;
         match sub {
-            1 => {
-                new.cob_id = value;
-                let rule = if rewrite { CobRule::MOVABLE } else { CobRule::VALID };
-                rule.check(Some(self.cob_id), value, u16::MAX)?;
-                if direction == Direction::Transmit && new.valid() && !new.rtr_allowed() && matches!(new.transmission_type, 252 | 253) {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
-            2 => {
-                new.transmission_type = value as u8;
-                let reserved = match direction {
-                    Direction::Receive => 241..=253,
-                    Direction::Transmit => 241..=251,
-                };
-                if reserved.contains(&new.transmission_type) || (matches!(new.transmission_type, 252 | 253) && !new.rtr_allowed()) {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
+            1 => new.cob_id = value,
+            2 => new.transmission_type = value as u8,
             3 => new.inhibit_time_100us = value as u16,
             5 => new.event_timer_ms = value as u16,
-            6 => {
-                new.sync_start = value as u8;
-                if new.sync_start > 240 {
-                    return Err(AbortCode::InvalidValue);
-                }
-            }
+            6 => new.sync_start = value as u8,
             _ => {}
         }
+        // Every rule broken is 0x06090030: one test of them all.
+        let transmit = direction == Direction::Transmit;
+        let rtr_only = matches!(new.transmission_type, 252 | 253) && !new.rtr_allowed();
+        let refused = match sub {
+            1 => {
+                let rule = if rewrite { CobRule::MOVABLE } else { CobRule::VALID };
+                rule.check(Some(self.cob_id), value, u16::MAX).is_err() || (transmit && new.valid() && rtr_only)
+            }
+            // 241..=251 reserved, 252/253 too for an RPDO; RTR-only types need RTRs.
+            2 => (241..=if transmit { 251 } else { 253 }).contains(&new.transmission_type) || rtr_only,
+            6 => new.sync_start > 240,
+            _ => false,
+        };
         // The inhibit time and the SYNC start value change only while the PDO is not valid.
-        if matches!(sub, 3 | 6) && self.valid() && new != self {
+        if refused || (matches!(sub, 3 | 6) && self.valid() && new != self) {
             return Err(AbortCode::InvalidValue);
         }
         Ok(new)

@@ -162,6 +162,10 @@ fn transmission_type_downloads() {
     assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()));
     assert_eq!(node.sdo(0x1800, 2, &[253]), Ok(()));
     assert_eq!(node.sdo32(0x1800, 1, 0x4000_0181), Err(AbortCode::InvalidValue));
+    // The COB-ID's rule holds for a valid PDO only; the type's whether valid or not.
+    assert_eq!(node.sdo32(0x1800, 1, 0xC000_0181), Ok(()), "not valid: no RTR beside type 253");
+    assert_eq!(node.sdo(0x1800, 2, &[252]), Err(AbortCode::InvalidValue), "not valid, no RTR: no RTR-only type");
+    assert_eq!(node.sdo(0x1800, 2, &[254]), Ok(()));
 }
 
 #[test]
