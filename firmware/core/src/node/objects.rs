@@ -28,7 +28,7 @@ enum Kind {
     AtMost(u8),
     /// A COB-ID: its rule, and whether it is the default SDO server's
     /// (which keeps its pre-defined, otherwise restricted, CAN-IDs).
-    CobId(CobRule, bool),
+    CobId(&'static CobRule, bool),
     /// 0x1016 sub 1..: no second entry for a node (0x06040043).
     Consumer,
     /// 0x1003 sub 0: only 0, which clears the history.
@@ -45,12 +45,12 @@ impl Kind {
         match (index, sub) {
             (index::PRE_DEFINED_ERROR_FIELD, _) => Kind::History,
             (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => Kind::Sync,
-            (index::COB_ID_TIME_STAMP, 0) => Kind::CobId(CobRule::TIME, false),
-            (index::COB_ID_EMCY, 0) => Kind::CobId(CobRule::EMCY, false),
+            (index::COB_ID_TIME_STAMP, 0) => Kind::CobId(&CobRule::TIME, false),
+            (index::COB_ID_EMCY, 0) => Kind::CobId(&CobRule::EMCY, false),
             (index::CONSUMER_HEARTBEAT_TIME, 1..) => Kind::Consumer,
             (index::ERROR_BEHAVIOUR, 1..) => Kind::AtMost(2),
             (index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST, 1 | 2) => {
-                Kind::CobId(CobRule::VALID, index == index::SDO_SERVER_PARAMETER)
+                Kind::CobId(&CobRule::VALID, index == index::SDO_SERVER_PARAMETER)
             }
             (index::SDO_SERVER_PARAMETER..=index::SDO_SERVER_PARAMETER_LAST, 3) => Kind::AtMost(127),
             (index::RPDO_COMMUNICATION_PARAMETER..=index::TPDO_MAPPING_PARAMETER_LAST, _) => Kind::Pdo,
