@@ -408,9 +408,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.sdo.shift(by);
             self.controller.shift(by);
             self.switch.shift(by);
-            for t in [&mut self.core_deadline, &mut self.next, &mut self.others_next] {
-                time::shift(t, by);
-            }
+            // The folded deadlines (`core_deadline`, `next`, `others_next`)
+            // are asked again: the next call runs every service.
+            self.stale = true;
+            self.quiet = false;
         }
         self.app_due.shift(by);
     }

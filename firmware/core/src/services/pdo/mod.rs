@@ -83,7 +83,7 @@ use crate::abort::AbortCode;
 use crate::od::object;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
-use crate::time::{At, Far, NEVER, at, deadline_of, shift};
+use crate::time::{At, Far, NEVER, at, deadline_of};
 use crate::wire::emcy::EmcyCode;
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
@@ -665,7 +665,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.rpdos.iter_mut().for_each(|r| r.shift(by));
         self.tpdos.iter_mut().for_each(|t| t.shift(by));
         self.window_end.shift(by);
-        shift(&mut self.settled_deadline, by);
+        // The settled deadline is walked again.
+        self.settled = false;
     }
 
     /// [`Pdos::deadline`] as an [`At`].
