@@ -7,7 +7,7 @@ use canopen_core::abort::AbortCode;
 use canopen_core::od::{Dictionary, ObjectDictionary};
 use canopen_core::services::pdo::{PdoEvent, PdoTx, Pdos};
 use canopen_core::services::sync::{SyncEvent, SyncService};
-use canopen_core::time::{Instant, NEVER};
+use canopen_core::time::{At, Far};
 use canopen_core::wire::emcy::EmcyCode;
 use canopen_firmware::devices::{self, ec5000, sendix};
 
@@ -34,8 +34,8 @@ impl Bus {
     }
 }
 
-fn ms(t: u64) -> Instant {
-    Instant::from_micros(t * 1000)
+fn ms(t: u32) -> At {
+    t * 1000
 }
 
 fn image(d: &Dictionary, node_id: u8) -> Vec<u8> {
@@ -161,6 +161,6 @@ fn sendix_tpdos_refuse_rtr_and_follow_the_position() {
     pdos.poll(ms(2), ram.image(), &mut bus);
     assert_eq!(bus.take(), [(0x1BF, vec![0x41, 0xE2, 0x01, 0x00])]);
     // TPDO2 goes out on every SYNC.
-    pdos.on_sync(&SyncEvent { at: ms(3), counter: None, window_end: NEVER }, ram.image_mut(), &mut bus);
+    pdos.on_sync(&SyncEvent { at: ms(3), counter: None, window_end: Far::NEVER }, ram.image_mut(), &mut bus);
     assert_eq!(bus.take(), [(0x2BF, vec![0x41, 0xE2, 0x01, 0x00])]);
 }

@@ -96,17 +96,18 @@ fn the_node_answers_the_earliest_of_its_services_deadlines() {
                 sent += 1;
             }
             calls += 1;
-            let answer = deadline.map_or(NEVER, Instant::as_micros);
+            // The clock stays below 2^31 µs: the node's epoch is 0, an `At` the same microseconds.
+            let answer = deadline.map_or(NEVER, |d| At::try_from(d.as_micros()).expect("below 2^31 µs"));
             // The next call is made at once; it folds again, after the
             // SYNC producer armed or sent (the other services were folded before it).
             let why = format!("step {step} at {t} µs, call {calls}: the node answers {deadline:?}");
             assert!(answer <= earliest_of_the_services(&node), "later than a service: {why}");
-            if answer > t || calls == 4 {
+            if u64::from(answer) > t || calls == 4 {
                 break answer;
             }
         };
         let services = earliest_of_the_services(&node);
-        assert!(answer > t, "step {step} at {t} µs: still due after {calls} calls");
+        assert!(u64::from(answer) > t, "step {step} at {t} µs: still due after {calls} calls");
         assert_eq!(answer, services, "step {step} at {t} µs: earlier than every service");
         timed += usize::from(answer != NEVER);
         checked += 1;

@@ -1,7 +1,15 @@
 //! Monotonic time as the core sees it: passed in by the caller, never read
 //! from a clock. Microsecond resolution covers the 100 µs units of CiA 301
-//! inhibit times; 64 bits never overflow in practice, and every operation
-//! saturates instead of panicking if time ever steps back.
+//! inhibit times.
+//!
+//! Two widths. The board and the device's hooks see [`Instant`] and
+//! [`Duration`], 64 bits that never overflow in practice (every operation
+//! saturates instead of panicking, also if time steps back). The services
+//! keep their timers as [`At`]s, 32 bits of microseconds since the node's
+//! epoch, which the node moves forward before they would wrap (see
+//! [`At`]): a compare, an add or a store of one is a single instruction
+//! on a 32-bit core. The few timers that may lie further ahead than 2^31
+//! µs (35.8 minutes) are [`Far`]s.
 
 use core::ops::{Add, AddAssign};
 
@@ -70,15 +78,13 @@ impl Instant {
     }
 }
 
-/// A sum saturates at the last microsecond but one, so that a deadline
-/// at the end of time is still a deadline as an [`At`] (earlier is harmless).
+/// A sum saturates at the end of time.
 impl Add<Duration> for Instant {
     type Output = Instant;
-    // Out of line: the 64-bit saturating add was copied to every deadline (240 bytes more).
+    // Out of line: the 64-bit saturating add was copied to every device's deadline.
     #[inline(never)]
     fn add(self, rhs: Duration) -> Instant {
-        let sum = self.0.saturating_add(rhs.0);
-        Instant(sum.wrapping_sub(u64::from(sum == NEVER)))
+        Instant(self.0.saturating_add(rhs.0))
     }
 }
 
@@ -86,34 +92,160 @@ impl Add<Duration> for Instant {
 /// devices' [`crate::node::Application::poll`] deadlines (`Iterator::min`
 /// over `Option<Instant>` chains took 250 bytes more flash). The core's
 /// own fold as [`At`]s.
-pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
+pub fn earliest<T: Ord>(a: Option<T>, b: Option<T>) -> Option<T> {
     match b {
-        Some(t) if a.is_none_or(|s| t < s) => b,
+        Some(ref t) if a.as_ref().is_none_or(|s| t < s) => b,
         _ => a,
     }
 }
 
-/// A deadline as the core keeps and folds it: microseconds since the
-/// start, [`NEVER`] for none, so that the earlier of two is a plain `min`.
-/// On a 32-bit core an `Option<Instant>` is 16 bytes returned through
-/// memory and compared in two steps; this is one register pair and one
-/// compare. A deadline is never [`NEVER`]: adding to an [`Instant`]
-/// saturates a microsecond before it. The services answer their deadlines
-/// as `At`; [`crate::node::Node::process`] hands the drivers an
-/// `Option<Instant>`.
-pub type At = u64;
+/// A moment as the core's services keep it: microseconds since the node's
+/// epoch, 32 bits (a 64-bit compare, add or store costs a second register
+/// and an `adc`/`sbc` on a 32-bit core). The node converts each
+/// [`Instant`] it is given ([`Node::process`](crate::node::Node::process),
+/// [`Node::on_frame`](crate::node::Node::on_frame), ...) into an `At` and
+/// moves its epoch forward ([`REBASE`]) before `now` reaches 2^31 µs, so a
+/// moment is never ambiguous: every deadline a service arms lies less
+/// than 2^31 µs ahead (a longer one is kept as a [`Far`]), `now + span`
+/// never overflows and a plain compare orders any two. [`NEVER`] is no
+/// deadline, so that the earlier of two is a plain `min`. The services
+/// answer their deadlines as `At`; [`crate::node::Node::process`] hands
+/// the drivers an `Option<Instant>`.
+pub type At = u32;
 
 /// No deadline.
-pub const NEVER: At = u64::MAX;
+pub const NEVER: At = u32::MAX;
 
-/// `deadline` as an [`At`].
-pub(crate) fn at(deadline: Option<Instant>) -> At {
-    deadline.map_or(NEVER, Instant::as_micros)
+/// The node moves its epoch to `now` when `now` is this far past it: every
+/// `At` a service holds drops by the same amount (a past one to 0), so
+/// `now` stays below 2^31 and a span below 2^31 µs added to it stays below
+/// [`NEVER`].
+pub const REBASE: u32 = 1 << 31;
+
+/// The longest span an [`At`] deadline may lie ahead of `now`: the
+/// services' spans of u16 milliseconds (65.5 s) and u16 × 100 µs (6.6 s)
+/// are far below it; the longer ones (guarding's life time, the SYNC
+/// period and window of 0x1006/0x1007) are [`Far`]s, an SDO timeout set
+/// longer is cut to it.
+pub const MAX_SPAN: u32 = REBASE - 1;
+
+/// `span` µs after `now`. It cannot overflow: `now` is below [`REBASE`]
+/// (the node moves its epoch before) and `span` at most [`MAX_SPAN`].
+pub(crate) const fn later(now: At, span: u32) -> At {
+    now.wrapping_add(span)
 }
 
-/// `at` as a deadline.
-pub(crate) fn deadline_of(at: At) -> Option<Instant> {
-    (at != NEVER).then_some(Instant(at))
+/// `ms` milliseconds in µs (at most 65.5 s).
+pub(crate) const fn ms_span(ms: u16) -> u32 {
+    // 65,535 × 1000 fits a u32.
+    #[allow(clippy::arithmetic_side_effects)]
+    {
+        ms as u32 * 1000
+    }
+}
+
+/// `n` × 100 µs in µs (an inhibit time: at most 6.6 s).
+pub(crate) const fn span_100us(n: u16) -> u32 {
+    // 65,535 × 100 fits a u32.
+    #[allow(clippy::arithmetic_side_effects)]
+    {
+        n as u32 * 100
+    }
+}
+
+/// A microsecond span as an [`At`] span, at most [`MAX_SPAN`].
+pub(crate) fn span(d: Duration) -> u32 {
+    d.as_micros().min(u64::from(MAX_SPAN)) as u32
+}
+
+/// `t` moved back by `by` µs (an epoch move): 0 once past, [`NEVER`] stays.
+// Out of line, as the other shifts: an epoch move is rare, and each of its
+// twenty-odd fields in line cost 30 bytes.
+#[inline(never)]
+pub(crate) fn shift(t: &mut At, by: u64) {
+    if *t != NEVER {
+        *t = t.saturating_sub(u32::try_from(by).unwrap_or(u32::MAX));
+    }
+}
+
+/// `t` moved back by `by` µs, `None` staying `None` (an armed deadline is
+/// never [`NEVER`]).
+#[inline(never)]
+pub(crate) fn shift_opt(t: &mut Option<At>, by: u64) {
+    if let Some(t) = t {
+        *t = t.saturating_sub(u32::try_from(by).unwrap_or(u32::MAX));
+    }
+}
+
+/// A deadline that may lie further ahead than an [`At`] can (up to 4.6
+/// hours: a guard time of 65,535 ms × a life time factor of 255; 0x1006
+/// and 0x1007 up to 71.6 minutes): microseconds since the node's epoch in
+/// 64 bits, compared with `now` exactly. Its [`At`] is cut to the last
+/// microsecond an `At` holds, which wakes the node early (harmless: the
+/// epoch moves then, and the cut is taken again from there).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Far(u64);
+
+impl Far {
+    /// No deadline (no synchronous window).
+    pub const NEVER: Far = Far(u64::MAX);
+
+    /// The epoch (all zero bits).
+    pub const ZERO: Far = Far(0);
+
+    /// `span` µs after `now`.
+    /// (No overflow: `now` and the spans, at most 2^34 µs, are far below 2^63.)
+    pub(crate) fn after(now: At, span: u64) -> Far {
+        Far(u64::from(now).wrapping_add(span))
+    }
+
+    /// `span` µs after this deadline (an armed one: not [`Far::NEVER`]).
+    pub(crate) fn then(self, span: u64) -> Far {
+        Far(self.0.wrapping_add(span))
+    }
+
+    /// Whether `now` is past the deadline (a window ending at it has closed).
+    pub(crate) fn passed(self, now: At) -> bool {
+        u64::from(now) > self.0
+    }
+
+    /// Whether the deadline has come at `now`.
+    pub(crate) fn reached(self, now: At) -> bool {
+        u64::from(now) >= self.0
+    }
+
+    /// The deadline as an [`At`], or earlier if it lies beyond one.
+    pub(crate) fn at(self) -> At {
+        self.0.min(u64::from(NEVER - 1)) as At
+    }
+
+    /// Moved back by `by` µs (an epoch move), 0 once past; [`Far::NEVER`] stays.
+    #[inline(never)]
+    pub(crate) fn shift(&mut self, by: u64) {
+        if *self != Far::NEVER {
+            self.0 = self.0.saturating_sub(by);
+        }
+    }
+}
+
+/// `deadline` as an [`At`] ([`NEVER`] for none).
+pub(crate) fn at(deadline: Option<At>) -> At {
+    deadline.unwrap_or(NEVER)
+}
+
+/// A device's deadline (an [`Instant`]) as an [`At`] of the node whose
+/// epoch is `epoch`: 0 if it has passed, cut to the last `At` but one if
+/// it lies further ahead (the node then wakes early, which is harmless).
+pub(crate) fn at_since(epoch: u64, deadline: Option<Instant>) -> At {
+    match deadline {
+        Some(t) => t.as_micros().saturating_sub(epoch).min(u64::from(NEVER - 1)) as At,
+        None => NEVER,
+    }
+}
+
+/// `at` as a deadline (`None` for [`NEVER`]).
+pub(crate) fn deadline_of(at: At) -> Option<At> {
+    (at != NEVER).then_some(at)
 }
 
 impl AddAssign<Duration> for Instant {
@@ -129,7 +261,7 @@ mod tests {
     #[test]
     fn arithmetic_saturates_instead_of_panicking() {
         let t = Instant::from_micros(u64::MAX - 1) + Duration::from_secs(1);
-        assert_eq!(t.as_micros(), u64::MAX - 1, "a microsecond before the end: an `At` deadline, not `NEVER`");
+        assert_eq!(t.as_micros(), u64::MAX);
         assert_eq!(Instant::from_micros(5).saturating_duration_since(Instant::from_micros(9)), Duration::ZERO);
         assert_eq!(Duration::from_millis(u64::MAX).as_micros(), u64::MAX);
         assert_eq!(Duration::from_millis(3) + Duration::from_micros(500), Duration::from_micros(3_500));
@@ -143,6 +275,6 @@ mod tests {
         assert_eq!(earliest(late, early), early);
         assert_eq!(earliest(None, late), late);
         assert_eq!(earliest(late, None), late);
-        assert_eq!(earliest(None, None), None);
+        assert_eq!(earliest::<Instant>(None, None), None);
     }
 }

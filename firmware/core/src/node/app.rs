@@ -18,7 +18,7 @@ use crate::services::nmt::NmtState;
 use crate::services::pdo::map::Source as MapSource;
 use crate::services::store::Scope;
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::{At, Instant};
 use crate::wire::emcy::EmcyCode;
 use crate::wire::time_stamp::TimeOfDay;
 
@@ -160,7 +160,8 @@ pub struct Ctx<'a> {
     pub(super) storage: &'a mut dyn Storage,
     pub(super) node_id: u8,
     pub(super) state: NmtState,
-    pub(super) now: Instant,
+    /// The time of the call, since the node's epoch (`hook.epoch`).
+    pub(super) now: At,
     pub(super) options: &'static ServiceOptions,
     pub(super) effects: SdoEffects,
     /// The node's side of the hook, borrowed whole (one pointer to build).
@@ -180,18 +181,23 @@ pub(super) struct HookSide {
     pub(super) wake: bool,
     /// The node's store in stages (an SDO 0x1010/0x1011 in progress, or idle).
     pub(super) store: crate::services::store::Job,
+    /// The node's epoch: the [`Instant`] (in µs) its [`At`]s count from
+    /// (here, where the hook's context reaches it through `hook`, so that
+    /// [`Ctx`] stays as small as it was).
+    pub(super) epoch: u64,
 }
 
 impl HookSide {
     /// Nothing left, no store; all zero bits.
     pub(super) const EMPTY: HookSide =
-        HookSide { frames: [CanFrame::EMPTY; RAW_BURST], len: 0, wake: false, store: crate::services::store::Job::IDLE };
+        HookSide { frames: [CanFrame::EMPTY; RAW_BURST], len: 0, wake: false, store: crate::services::store::Job::IDLE, epoch: 0 };
 }
 
 impl Ctx<'_> {
     /// The time of the call that runs the hook.
     pub fn now(&self) -> Instant {
-        self.now
+        // The epoch plus the call's `At`: the `Instant` the board gave, no overflow.
+        Instant::from_micros(self.hook.epoch.wrapping_add(u64::from(self.now)))
     }
 
     /// The dictionary's entries (data types, access, lengths), for a device

@@ -9,7 +9,7 @@ use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::pdo::Pdos;
 use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
-use crate::time::Instant;
+use crate::time::At;
 use crate::wire::emcy::{Emcy, EmcyCode};
 use crate::wire::sync::SYNC_COB_ID;
 
@@ -94,9 +94,19 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
     }
 
+    /// The epoch moved by `by` µs ([`crate::time`]).
+    pub(crate) fn shift(&mut self, by: u64) {
+        self.heartbeat.shift(by);
+        self.consumers.shift(by);
+        self.guarding.shift(by);
+        self.emcy.shift(by);
+        self.sync.shift(by);
+        self.pdos.shift(by);
+    }
+
     /// Reads every communication parameter but the PDOs' again (after reset
     /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
-    pub fn configure(&mut self, dict: &Dictionary, image: &[u8], now: Instant) {
+    pub fn configure(&mut self, dict: &Dictionary, image: &[u8], now: At) {
         self.emcy.reset();
         self.guarding.reset();
         // Each object as a download applies it (EMCY, guarding, heartbeat and
@@ -141,7 +151,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     // Out of line: its caller is the boot-up in `process`, whose every call
     // otherwise paid for its frame (6 instructions on each row of icount).
     #[inline(never)]
-    pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: Instant) {
+    pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: At) {
         let _ = node_id;
         Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), dict, image, now);
     }
@@ -235,7 +245,7 @@ pub(crate) trait Services {
     ) -> Result<(), AbortCode>;
 
     /// The service that owns (index, sub) takes the `value` just stored.
-    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: Instant);
+    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: At);
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB> {
@@ -280,7 +290,7 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         }
     }
 
-    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: Instant) {
+    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: At) {
         match (index, sub) {
             (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
                 // sub ≥ 1: the match arm's.

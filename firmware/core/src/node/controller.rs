@@ -18,7 +18,7 @@
 
 use crate::od::ObjectDictionary;
 use crate::storage::Storage;
-use crate::time::{At, Duration, Instant, at, earliest};
+use crate::time::{At, Duration, Instant, at, earliest, later, shift_opt, span};
 use crate::wire::emcy::EmcyCode;
 
 use crate::services::emcy::{EmcyProducer, register};
@@ -89,13 +89,13 @@ pub(super) struct ControllerErrors {
     /// Bus-off recoveries since power-on (wrapping).
     recoveries: u32,
     /// When the frame loss clears, if it is active.
-    overrun_clears_at: Option<Instant>,
+    overrun_clears_at: Option<At>,
     /// When the bus-off recovery clears, if it is active.
-    bus_off_clears_at: Option<Instant>,
+    bus_off_clears_at: Option<At>,
     /// When the protocol warning clears, if it is active.
-    protocol_clears_at: Option<Instant>,
+    protocol_clears_at: Option<At>,
     /// The earliest of the three: [`ControllerErrors::poll`] compares only this.
-    clears_at: Option<Instant>,
+    clears_at: Option<At>,
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
     raise_passive: bool,
@@ -118,7 +118,7 @@ impl ControllerErrors {
         }
     }
 
-    fn on_event<A: Application>(&mut self, event: ControllerEvent, now: Instant, emcy: &mut EmcyQueue) {
+    fn on_event<A: Application>(&mut self, event: ControllerEvent, now: At, emcy: &mut EmcyQueue) {
         let codes = A::CAN_EMCY;
         match event {
             ControllerEvent::RxOverrun { lost: 0 } => {}
@@ -126,12 +126,12 @@ impl ControllerErrors {
                 self.lost = self.lost.wrapping_add(lost);
                 // Manufacturer-specific field: frames lost so far.
                 raise(emcy, codes.overrun, count(self.lost));
-                self.overrun_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
+                self.overrun_clears_at = Some(later(now, span(TRANSIENT_ERROR_HOLD)));
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
                 raise(emcy, codes.bus_off_recovered, count(self.recoveries));
-                self.bus_off_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
+                self.bus_off_clears_at = Some(later(now, span(TRANSIENT_ERROR_HOLD)));
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
@@ -155,9 +155,9 @@ impl ControllerErrors {
 
     /// A frame that breaks the protocol, if the device reports those:
     /// raised (once) and held like a frame loss.
-    pub(super) fn protocol_error<A: Application>(&mut self, now: Instant, emcy: &mut EmcyQueue, code: EmcyCode) {
+    pub(super) fn protocol_error<A: Application>(&mut self, now: At, emcy: &mut EmcyQueue, code: EmcyCode) {
         raise(emcy, code, [0; 5]);
-        self.protocol_clears_at = Some(now + TRANSIENT_ERROR_HOLD);
+        self.protocol_clears_at = Some(later(now, span(TRANSIENT_ERROR_HOLD)));
         self.update_clears_at::<A>();
     }
 
@@ -166,7 +166,7 @@ impl ControllerErrors {
     /// sends by identifier, and nothing may precede the boot-up). Every
     /// `Node::process` asks, so the common answer takes one compare.
     #[inline(always)]
-    pub(super) fn poll<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> At {
+    pub(super) fn poll<A: Application>(&mut self, now: At, booted: bool, emcy: &mut EmcyQueue) -> At {
         if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) {
             self.poll_due::<A>(now, booted, emcy)
         } else {
@@ -175,11 +175,11 @@ impl ControllerErrors {
     }
 
     #[inline(never)]
-    fn poll_due<A: Application>(&mut self, now: Instant, booted: bool, emcy: &mut EmcyQueue) -> At {
+    fn poll_due<A: Application>(&mut self, now: At, booted: bool, emcy: &mut EmcyQueue) -> At {
         let codes = A::CAN_EMCY;
         if self.raise_passive {
             if !booted {
-                return now.as_micros();
+                return now;
             }
             self.raise_passive = false;
             raise(emcy, codes.error_passive, [0; 5]);
@@ -191,6 +191,13 @@ impl ControllerErrors {
         }
         self.update_clears_at::<A>();
         at(self.clears_at)
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(super) fn shift(&mut self, by: u64) {
+        for t in [&mut self.overrun_clears_at, &mut self.bus_off_clears_at, &mut self.protocol_clears_at, &mut self.clears_at] {
+            shift_opt(t, by);
+        }
     }
 
     /// Reset communication forgot every active error: a controller still
@@ -206,7 +213,7 @@ impl ControllerErrors {
 }
 
 /// Clears `code` if its hold ended by `now`.
-fn expire(clears_at: &mut Option<Instant>, now: Instant, emcy: &mut EmcyQueue, code: EmcyCode) {
+fn expire(clears_at: &mut Option<At>, now: At, emcy: &mut EmcyQueue, code: EmcyCode) {
     if clears_at.is_some_and(|t| t <= now) {
         *clears_at = None;
         emcy.clear(code);
@@ -230,6 +237,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// register follow (see the [module docs](self)); the messages leave at
     /// the next [`Node::process`], whose deadline then includes the clearing.
     pub fn controller_event(&mut self, event: ControllerEvent, now: Instant) {
+        let now = self.tick(now);
         self.stale = true;
         self.controller.on_event::<A>(event, now, &mut self.comm.emcy);
         // The device hears of it (its 0x6007 or 0x1029 reaction) in the next

@@ -10,7 +10,7 @@ use crate::services::nmt::NmtState;
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::{At, Instant};
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode, error_control_cob_id};
 use crate::wire::time_stamp::TimeOfDay;
@@ -33,6 +33,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[inline(always)]
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
         use embedded_can::Frame;
+        let now = self.tick(now);
         self.counters.count_rx();
         // CANopen uses 11-bit identifiers only.
         let Some(cob_id) = frame.cob_id() else {
@@ -174,7 +175,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// of the services the full path looks at before the PDOs, only SYNC
     /// can live there (0x1005 is writable), and it goes first.
     #[inline(always)]
-    fn plain_rpdo(&mut self, now: Instant, cob_id: u16, data: &[u8]) -> bool {
+    fn plain_rpdo(&mut self, now: At, cob_id: u16, data: &[u8]) -> bool {
         if !(0x181..=0x57F).contains(&cob_id)
             || !self.nmt.state().pdo_allowed()
             || self.node_id == UNCONFIGURED
@@ -192,7 +193,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // Out of line: the short path and the full one share it (in line at
     // both, the device's RPDO hook was in the main loop twice).
     #[inline(never)]
-    fn after_pdo(&mut self, now: Instant, reached: u32, received: u32, errors: u32) {
+    fn after_pdo(&mut self, now: At, reached: u32, received: u32, errors: u32) {
         // Only the TPDOs this RPDO writes to look for a change.
         self.touched |= reached;
         // A timer started (or an RTR changed a TPDO), or an error was signalled.
@@ -216,7 +217,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// An NMT command or heartbeat message the node cannot parse: counted
     /// and ignored, and the device's protocol warning raised if it has one.
     #[cold]
-    fn broken_frame(&mut self, now: Instant) {
+    fn broken_frame(&mut self, now: At) {
         self.counters.count_malformed();
         if let Some(code) = A::CAN_EMCY.protocol {
             // The next `process` sends it and takes the clearing's deadline, as for a controller event.
@@ -225,7 +226,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    pub(super) fn synchronise(&mut self, now: Instant, event: &SyncEvent) {
+    pub(super) fn synchronise(&mut self, now: At, event: &SyncEvent) {
         self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
@@ -245,7 +246,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Tells the device which RPDOs wrote their objects (bit n: RPDO n) and
     /// which timed out or had a frame of a wrong length (`errors`, as
     /// [`PdoSink`] collects them).
-    pub(super) fn pdo_events(&mut self, now: Instant, received: u32, errors: u32) {
+    pub(super) fn pdo_events(&mut self, now: At, received: u32, errors: u32) {
         if received | errors == 0 {
             return;
         }
@@ -276,7 +277,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    pub(super) fn sdo_request(&mut self, i: usize, now: Instant, data: &[u8], tx_cob: u16) {
+    pub(super) fn sdo_request(&mut self, i: usize, now: At, data: &[u8], tx_cob: u16) {
         // The client has given up waiting for a store's answer (or aborted it).
         if O::SERVICES.storage {
             self.store_answer.drop_for(i);
@@ -345,7 +346,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[allow(clippy::type_complexity)]
     pub(super) fn split_sdo(
         &mut self,
-        now: Instant,
+        now: At,
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
         // The SDO server's hooks may change what the device's timers do.
         self.poll_app_next();

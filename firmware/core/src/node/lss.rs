@@ -5,7 +5,7 @@
 use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
 use crate::services::store::StoredSet;
 use crate::storage::Storage;
-use crate::time::{At, Duration, Instant, NEVER};
+use crate::time::{At, NEVER, later, ms_span, shift};
 use crate::wire::lss::{SLAVE_COB_ID, request_frame};
 
 use super::{Application, Node};
@@ -25,8 +25,9 @@ pub trait BitRateControl {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Switch {
     index: u8,
-    delay: Duration,
-    at: Instant,
+    /// The switch delay in µs.
+    delay: u32,
+    at: At,
     phase: Phase,
 }
 
@@ -43,7 +44,12 @@ enum Phase {
 
 impl Switch {
     /// No switch in progress.
-    pub(super) const OFF: Switch = Switch { index: 0, delay: Duration::ZERO, at: Instant::ZERO, phase: Phase::Off };
+    pub(super) const OFF: Switch = Switch { index: 0, delay: 0, at: 0, phase: Phase::Off };
+
+    /// The epoch moved by `by` µs.
+    pub(super) fn shift(&mut self, by: u64) {
+        shift(&mut self.at, by);
+    }
 
     /// Whether the node stays silent for a switch.
     pub(super) fn active(&self) -> bool {
@@ -91,7 +97,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// inliner's budget (ds301 -496 B, ds301-lean -456, ec5000 -152 of flash;
     /// the interop image +228, where the budget went to other code).
     #[cold]
-    pub(super) fn lss_request(&mut self, now: Instant, data: &[u8]) {
+    pub(super) fn lss_request(&mut self, now: At, data: &[u8]) {
         let Ok(request) = request_frame(data) else {
             self.counters.count_malformed();
             return;
@@ -120,10 +126,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.push(SLAVE_COB_ID, &answer.bytes());
             }
             LssAction::ActivateBitTiming { delay_ms, index } => {
-                let delay = Duration::from_millis(u64::from(delay_ms));
+                let delay = ms_span(delay_ms);
                 // Frames queued at the old rate are dropped: they would leave at the new one.
                 self.txq.clear();
-                self.switch = Switch { index, delay, at: now + delay, phase: Phase::Silent };
+                self.switch = Switch { index, delay, at: later(now, delay), phase: Phase::Silent };
             }
             // In stages; without storage (`Services::storage`) the answer is "storage failed".
             LssAction::Store { node_id, bit_rate } => self.store_lss(node_id, bit_rate),
@@ -139,14 +145,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// Runs the bit-rate switch; returns its next deadline.
-    pub(super) fn process_switch(&mut self, now: Instant) -> At {
+    pub(super) fn process_switch(&mut self, now: At) -> At {
         if !O::SERVICES.lss {
             return NEVER;
         }
         let sw = &mut self.switch;
         match sw.phase {
             Phase::Off => return NEVER,
-            _ if now < sw.at => return sw.at.as_micros(),
+            _ if now < sw.at => return sw.at,
             Phase::Switched => {
                 sw.phase = Phase::Off;
                 return NEVER;
@@ -154,14 +160,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             Phase::Silent => {}
         }
         sw.phase = Phase::Switched;
-        sw.at = now + sw.delay;
+        sw.at = later(now, sw.delay);
         let (index, at) = (sw.index, sw.at);
         self.bit_rate = Some(index);
         self.bit_rate_request = Some(index);
         if let Some(lss) = self.lss_mut() {
             lss.bit_rate_switched();
         }
-        at.as_micros()
+        at
     }
 
     /// The LSS slave, once power-on found the dictionary says `LSS_Supported`.

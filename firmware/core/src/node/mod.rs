@@ -75,7 +75,7 @@ use crate::services::nmt::{Nmt, NmtState};
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::sdo_server::SdoServers;
 use crate::storage::Storage;
-use crate::time::{At, Instant};
+use crate::time::{self, At, Instant, REBASE};
 use crate::txq::TxQueue;
 use crate::wire::emcy::EmcyCode;
 
@@ -101,12 +101,12 @@ pub const SDO_SERVERS: usize = 4;
 struct PollDue {
     /// False: at the next process.
     waits: bool,
-    /// The deadline [µs, little-endian]; `u64::MAX`: none.
-    at: [u8; 8],
+    /// The deadline [an [`At`], little-endian]; [`time::NEVER`]: none.
+    at: [u8; 4],
 }
 
 impl PollDue {
-    const NOW: PollDue = PollDue { waits: false, at: [0; 8] };
+    const NOW: PollDue = PollDue { waits: false, at: [0; 4] };
 
     /// After a poll that returned `deadline` (and asked again with [`Ctx::wake`] if `wake`).
     fn after(deadline: At, wake: bool) -> PollDue {
@@ -114,9 +114,16 @@ impl PollDue {
     }
 
     /// `Some(deadline to report)` while the poll is not due at `now`.
-    fn skip(self, now: Instant) -> Option<At> {
-        let at = u64::from_le_bytes(self.at);
-        (self.waits && now.as_micros() < at).then_some(at)
+    fn skip(self, now: At) -> Option<At> {
+        let at = At::from_le_bytes(self.at);
+        (self.waits && now < at).then_some(at)
+    }
+
+    /// The epoch moved by `by` µs.
+    fn shift(&mut self, by: u64) {
+        let mut at = At::from_le_bytes(self.at);
+        time::shift(&mut at, by);
+        self.at = at.to_le_bytes();
     }
 }
 
@@ -348,6 +355,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// service's rules and side effects, then [`Application::written`] with
     /// [`Source::App`]. Change-of-state TPDOs see it at the next [`Node::process`].
     pub fn write_object(&mut self, now: Instant, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
+        let now = self.tick(now);
         self.with_app_cold(now, |app, ctx| {
             router::Router { ctx, app, by: Source::App, od: core::marker::PhantomData::<O>, staged: None }
                 .write_with_hooks(index, sub, data)
@@ -357,15 +365,68 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The CAN controller went bus-off (the board reports it): the device
     /// hears [`CommError::BusOff`].
     pub fn bus_off(&mut self, now: Instant) {
+        let now = self.tick(now);
+        self.bus_off_at(now);
+    }
+
+    /// [`Node::bus_off`] at `now`.
+    pub(super) fn bus_off_at(&mut self, now: At) {
         self.stale = true;
         self.with_app_cold(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(CommError::BusOff)));
+    }
+
+    /// `now` as an [`At`], since the node's epoch: once that is [`REBASE`]
+    /// µs behind, the epoch moves to `now` first ([`Node::rebase`]). Every
+    /// call from the board goes through here before a service sees the time.
+    #[inline(always)]
+    pub(super) fn tick(&mut self, now: Instant) -> At {
+        // A clock that stepped back wraps to a large `since`: the epoch moves back to `now`.
+        let since = now.as_micros().wrapping_sub(self.hook.epoch);
+        if since < u64::from(REBASE) {
+            since as At
+        } else {
+            self.rebase(now);
+            0
+        }
+    }
+
+    /// Moves the epoch to `now`: every deadline and moment the services
+    /// hold moves back by as much, one already past to 0 (past it stays),
+    /// so that each keeps its distance to `now` and none is ever read
+    /// across a wrap. Once per 35.8 minutes at most, or after a board did
+    /// not call for longer (a deadline it missed is then due). A clock
+    /// that stepped back moves nothing: the deadlines wait out the step.
+    /// Without CANopen (a device's [`Application::canopen`]) no service
+    /// has a deadline to move.
+    #[cold]
+    #[inline(never)]
+    fn rebase(&mut self, now: Instant) {
+        let by = now.as_micros().saturating_sub(self.hook.epoch);
+        self.hook.epoch = now.as_micros();
+        if self.app.canopen() {
+            self.comm.shift(by);
+            self.sdo.shift(by);
+            self.controller.shift(by);
+            self.switch.shift(by);
+            // The folded deadlines (`core_deadline`, `next`, `others_next`)
+            // are asked again: the next call runs every service.
+            self.stale = true;
+            self.quiet = false;
+        }
+        self.app_due.shift(by);
+    }
+
+    /// A deadline as the board takes it.
+    #[inline(always)]
+    fn instant_of(&self, deadline: At) -> Option<Instant> {
+        (deadline != time::NEVER).then(|| Instant::from_micros(self.hook.epoch.saturating_add(u64::from(deadline))))
     }
 
     /// Runs `f` with the device's hooks and their context, then queues the
     /// raw frames they sent and follows up what their writes changed.
     // Inlined: for a hook the device leaves at its default, nothing of it remains.
     #[inline(always)]
-    pub(super) fn with_app<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
+    pub(super) fn with_app<V>(&mut self, now: At, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
         let mut wake = false;
         let (value, effects) = self.run_hook(now, |app, ctx| {
             let value = f(app, ctx);
@@ -392,7 +453,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// instead of a copy at each site (about 17 thumbv7m instructions more
     /// per call, 200 bytes less in a drive image).
     #[inline(always)]
-    pub(super) fn with_app_cold<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
+    pub(super) fn with_app_cold<V>(&mut self, now: At, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
         let (value, effects) = self.run_hook(now, f);
         // The hook may have changed what the device's timers do: they run at the next process.
         if A::POLL_WHEN_DUE {
@@ -416,7 +477,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// device's timers are left to the caller, which takes the hook's
     /// [`Ctx::wake`] and decides whether they wait.
     #[inline(always)]
-    pub(super) fn with_app_follow<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
+    pub(super) fn with_app_follow<V>(&mut self, now: At, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> V {
         if Self::FOLD_HOOKS {
             return self.with_app_cold(now, f);
         }
@@ -435,7 +496,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     const FOLD_HOOKS: bool = core::mem::size_of::<A>() == 0;
 
     #[inline(never)]
-    fn after_cold_hook(&mut self, now: Instant, effects: router::SdoEffects) {
+    fn after_cold_hook(&mut self, now: At, effects: router::SdoEffects) {
         self.follow_hook(effects);
         if effects.error_class != 0 {
             self.device_error(effects.error_class, now);
@@ -451,7 +512,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The hook `f` with its context; what it changed beyond its writes.
     #[inline(always)]
-    fn run_hook<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, router::SdoEffects) {
+    fn run_hook<V>(&mut self, now: At, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, router::SdoEffects) {
         let Node { od, app, storage, comm, node_id, nmt, hook, .. } = self;
         let dict = od.dictionary();
         let mut ctx = Ctx {
@@ -477,7 +538,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// call the code holds, taken or not). The follow-up as in
     /// [`Node::with_app_cold`].
     #[inline(always)]
-    pub(super) fn with_app_resetting<V>(&mut self, now: Instant, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
+    pub(super) fn with_app_resetting<V>(&mut self, now: At, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, u8) {
         let (value, effects) = self.run_hook(now, f);
         self.poll_app_next();
         if Self::FOLD_HOOKS {

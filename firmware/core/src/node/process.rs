@@ -8,7 +8,7 @@ use crate::services::heartbeat::ConsumerEvent;
 use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
-use crate::time::{At, Instant, NEVER, at, deadline_of};
+use crate::time::{At, Instant, NEVER, at_since};
 use crate::wire::nmt::{NmtStateCode, error_control_cob_id};
 
 use super::router::Router;
@@ -29,7 +29,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
-        deadline_of(self.process_at::<true>(now))
+        let now = self.tick(now);
+        let deadline = self.process_at::<true>(now);
+        self.instant_of(deadline)
     }
 
     /// [`Node::process`] without its short path for a node that has only
@@ -38,14 +40,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// [`Node::process`] sends and answers; tests hold the short path to it.
     #[doc(hidden)]
     pub fn process_without_short_path(&mut self, now: Instant) -> Option<Instant> {
-        deadline_of(self.process_at::<false>(now))
+        let now = self.tick(now);
+        let deadline = self.process_at::<false>(now);
+        self.instant_of(deadline)
     }
 
     /// [`Node::process`]: its deadlines folded as [`At`]s, one compare each.
     /// `SHORT`: a node with only PDO work takes [`Node::process_pdos`].
     #[inline(always)]
-    fn process_at<const SHORT: bool>(&mut self, now: Instant) -> At {
-        let now_at = now.as_micros();
+    fn process_at<const SHORT: bool>(&mut self, now: At) -> At {
+        let now_at = now;
         // A store goes on a stage per call, alone in its call but for the
         // last, whose SDO poll below sends the answer; a reset that came
         // meanwhile waits for it, so it loads what was stored.
@@ -69,7 +73,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             Some(deadline) if A::POLL_WHEN_DUE => deadline,
             // Out of line: a device that polls when due does so on few calls.
             _ if A::POLL_WHEN_DUE => self.poll_app_due(now),
-            _ => self.with_app_cold(now, |app, ctx| at(app.poll(ctx))),
+            _ => self.with_app_cold(now, |app, ctx| {
+                let deadline = app.poll(ctx);
+                at_since(ctx.hook.epoch, deadline)
+            }),
         };
         if !self.app.canopen() {
             return app_deadline;
@@ -89,10 +96,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The device's poll, for a device that polls when due
     /// ([`Application::POLL_WHEN_DUE`]); its deadline.
     #[inline(never)]
-    fn poll_app_due(&mut self, now: Instant) -> At {
+    fn poll_app_due(&mut self, now: At) -> At {
         let mut wake = false;
         let deadline = self.with_app_cold(now, |app, ctx| {
-            let deadline = at(app.poll(ctx));
+            let deadline = app.poll(ctx);
+            let deadline = at_since(ctx.hook.epoch, deadline);
             wake = core::mem::take(&mut ctx.hook.wake);
             deadline
         });
@@ -107,7 +115,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// it (its checks of the core services, the SDO servers, the SYNC
     /// producer and the CAN controller would find nothing), without them.
     #[inline(always)]
-    fn process_pdos(&mut self, now: Instant) -> At {
+    fn process_pdos(&mut self, now: At) -> At {
         // As in the full call (`others_next` is 0 in a state without PDOs).
         let pdo_deadline = self.poll_pdos(now);
         // A refused TPDO counted an overflow; an RPDO's hook may have raised an EMCY.
@@ -130,12 +138,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // In line: one copy in each path, as the short path needs it (a shared
     // out-of-line poll made the CiA 402 row 16 dearer).
     #[inline(always)]
-    fn poll_pdos(&mut self, now: Instant) -> At {
+    fn poll_pdos(&mut self, now: At) -> At {
         // A TPDO a write may have changed makes the poll due: no deadline to ask for.
         let mut pdo_deadline = NEVER;
         let due = self.touched != 0 || {
             pdo_deadline = self.comm.pdos.due();
-            pdo_deadline <= now.as_micros()
+            pdo_deadline <= now
         };
         if due {
             // A poll for any TPDO retries every TPDO waiting to (the poll sees which).
@@ -165,8 +173,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the reset and the device's timers, for a call that is not idle.
     // Out of line: the idle call and the PDOs' short path do without its frame.
     #[inline(never)]
-    fn process_full(&mut self, now: Instant) -> At {
-        let now_at = now.as_micros();
+    fn process_full(&mut self, now: At) -> At {
+        let now_at = now;
         // Before the boot-up is queued below: nothing may precede it in the queue.
         let booted = !self.boot_pending;
         let full = self.stale || self.core_deadline <= now_at;
@@ -206,7 +214,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let pdo_deadline = if pdo_allowed { self.poll_pdos(now) } else { NEVER };
         let controller_deadline = self.controller.poll::<A>(now, booted, &mut self.comm.emcy);
         if core::mem::take(&mut self.controller.bus_off_unheard) {
-            self.bus_off(now);
+            self.bus_off_at(now);
         }
         // EMCY: what the PDOs, the SDO servers or the hooks raised in this
         // call goes out in it, as does the queue overflow's.
@@ -234,7 +242,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The services besides SDO, PDO and EMCY: the LSS bit-rate switch,
     /// boot-up and the node's own start, heartbeat and guarding, the
     /// heartbeat consumers; their earliest deadline into `core_deadline`.
-    fn process_core(&mut self, now: Instant) {
+    fn process_core(&mut self, now: At) {
         let switch_deadline = self.process_switch(now);
         if self.boot_pending {
             let sent = match A::OPTIONS.boot_up_v3 {
@@ -275,7 +283,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.communication_error(0, now);
         }
         let deadlines = [
-            if self.boot_pending || self.start_pending { now.as_micros() } else { NEVER },
+            if self.boot_pending || self.start_pending { now } else { NEVER },
             self.comm.heartbeat.deadline(),
             self.comm.consumers.deadline(),
             if O::SERVICES.guarding { self.comm.guarding.deadline() } else { NEVER },
@@ -290,7 +298,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// The transmit queue's overflow EMCY, then the EMCY messages.
-    fn process_emcy(&mut self, now: Instant, booted: bool) {
+    fn process_emcy(&mut self, now: At, booted: bool) {
         // Transmit queue overflow (0x8110, once), cleared once the queue drained.
         if self.txq.overflows() != self.reported_overflows {
             self.reported_overflows = self.txq.overflows();

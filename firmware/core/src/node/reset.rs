@@ -12,7 +12,7 @@ use crate::services::nmt::Nmt;
 use crate::services::pdo::ALL_TPDOS;
 use crate::services::store::{self, Part, StoredSet};
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::{At, Instant};
 
 use super::{Application, NmtEvent, Node};
 
@@ -76,6 +76,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// [`Node::process`]. Once per node; a running node restarts through
     /// NMT reset node instead.
     pub fn power_on(&mut self, node_id: u8, now: Instant) {
+        let now = self.tick(now);
         self.node_id = node_id;
         // The TPDOs compare their data at their first chance, whatever the image held before.
         self.touched = ALL_TPDOS;
@@ -144,7 +145,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// [`Node::process`] only: the device's reset hooks then run on its
     /// stack path, not on a second one (the worst-case stack estimate adds
     /// every path a device hook can start, docs/firmware.md "Stack").
-    fn complete_reset(&mut self, now: Instant) {
+    fn complete_reset(&mut self, now: At) {
         while self.reset != Stage::Idle {
             self.reset_step(now);
         }
@@ -155,7 +156,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// of line: the stages' locals and the device's reset hooks take a
     /// frame of their own, not one on top of all of `process`'s.
     #[inline(never)]
-    pub(super) fn reset_step(&mut self, now: Instant) {
+    pub(super) fn reset_step(&mut self, now: At) {
         let stage = self.reset;
         self.reset = stage.next();
         let dict = self.od.dictionary();
@@ -204,7 +205,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// Reset application: the application part of the image from its
     /// defaults and the stored set, then the device's hook.
-    fn reset_application_part(&mut self, now: Instant) {
+    fn reset_application_part(&mut self, now: At) {
         self.reset_part(Part::Application);
         self.reset_hook(now, NmtEvent::ResetApplication);
     }
@@ -212,13 +213,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The device hears of the reset (its hook: `Application::on_nmt`),
     /// once for each part; a device error it reports changes no state while
     /// the node is Initialising.
-    fn reset_hook(&mut self, now: Instant, event: NmtEvent) {
+    fn reset_hook(&mut self, now: At, event: NmtEvent) {
         self.with_app_resetting(now, |app, ctx| app.on_nmt(ctx, event));
     }
 
     /// The end of reset communication: LSS, SDO servers, acceptance list,
     /// NMT; the boot-up is due and the device hears of the reset.
-    fn reset_finish(&mut self, now: Instant) {
+    fn reset_finish(&mut self, now: At) {
         // Every service and every TPDO looks at the new configuration at the next process.
         self.stale = true;
         self.touched = ALL_TPDOS;

@@ -6,7 +6,7 @@ use crate::od::ObjectDictionary;
 use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
 use crate::storage::Storage;
-use crate::time::Instant;
+use crate::time::At;
 use crate::wire::emcy::EmcyCode;
 use crate::wire::nmt::NmtRequest;
 
@@ -15,7 +15,7 @@ use super::{Application, Comm, CommError, ErrorBehaviour, NmtEvent, Node};
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
-    pub(super) fn nmt_command(&mut self, request: NmtRequest, now: Instant) {
+    pub(super) fn nmt_command(&mut self, request: NmtRequest, now: At) {
         match self.nmt.on_command(request, self.node_id) {
             Transition::None => {}
             Transition::Entered(state) => self.entered(state, now),
@@ -24,7 +24,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    pub(super) fn entered(&mut self, state: NmtState, now: Instant) {
+    pub(super) fn entered(&mut self, state: NmtState, now: At) {
         self.touched = ALL_TPDOS;
         self.stale = true;
         if state.pdo_allowed() {
@@ -48,7 +48,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// A communication error (heartbeat or life guarding): EMCY 0x8130 and
     /// 0x1029. Every heartbeat event sends its EMCY (with the node-ID, 0 for
     /// life guarding), also while an earlier one is still active.
-    pub(super) fn communication_error(&mut self, node: u8, now: Instant) {
+    pub(super) fn communication_error(&mut self, node: u8, now: At) {
         let info = [node, 0, 0, 0, 0];
         if !self.comm.emcy.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info) {
             self.comm.emcy.signal(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info);
@@ -59,7 +59,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// An error of 0x1029 class `class`: the state change that sub-index asks for.
-    pub(super) fn device_error(&mut self, class: u8, now: Instant) {
+    pub(super) fn device_error(&mut self, class: u8, now: At) {
         self.stale = true;
         let dict = self.od.dictionary();
         let behaviour = match A::OPTIONS.communication_error_pre_operational {

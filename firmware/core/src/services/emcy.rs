@@ -6,7 +6,7 @@
 //! units). A full queue drops the new message, counts it, and sets the
 //! generic bit of the error register, so the loss is visible.
 
-use crate::time::{At, Duration, Instant, NEVER};
+use crate::time::{At, NEVER, later, shift_opt, span_100us};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -46,8 +46,10 @@ pub const fn register_bit(code: EmcyCode) -> u8 {
 #[derive(Clone, Copy, Debug)]
 pub struct EmcyProducer<const A: usize, const Q: usize> {
     cob_id: Option<u16>,
-    inhibit: Duration,
-    last_sent: Option<Instant>,
+    /// 0x1015 in µs (at most 6.6 s).
+    inhibit: u32,
+    /// When the next message may go out (its inhibit time ends), once one went out.
+    free_at: Option<At>,
     active: [EmcyCode; A],
     /// Error register bits each active error sets beyond its code's class
     /// (a device whose manual gives a generic code a profile bit).
@@ -79,8 +81,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     pub const fn new() -> Self {
         EmcyProducer {
             cob_id: None,
-            inhibit: Duration::ZERO,
-            last_sent: None,
+            inhibit: 0,
+            free_at: None,
             active: [EmcyCode::NO_ERROR; A],
             active_bits: [0; A],
             active_len: 0,
@@ -97,7 +99,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Applies 0x1014 (bit 31 = EMCY off) and 0x1015 (100 µs units).
     pub fn configure(&mut self, cob_id: u32, inhibit_100us: u16) {
         self.cob_id = (cob_id & 0x8000_0000 == 0).then_some((cob_id & 0x7FF) as u16);
-        self.inhibit = Duration::from_micros(u64::from(inhibit_100us) * 100);
+        self.inhibit = span_100us(inhibit_100us);
     }
 
     /// The COB-ID messages go out on, if EMCY is on.
@@ -218,7 +220,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
-        (self.active_len, self.head, self.len, self.last_sent) = (0, 0, 0, None);
+        (self.active_len, self.head, self.len, self.free_at) = (0, 0, 0, None);
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
@@ -260,13 +262,13 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// The next message that may go out at `now` (inhibit time respected).
-    pub fn poll(&mut self, now: Instant) -> Option<(u16, Emcy)> {
+    pub fn poll(&mut self, now: At) -> Option<(u16, Emcy)> {
         let cob_id = self.cob_id?;
-        if self.len == 0 || self.last_sent.is_some_and(|t| now < t + self.inhibit) {
+        if self.len == 0 || self.free_at.is_some_and(|t| now < t) {
             return None;
         }
         let e = self.pop()?;
-        self.last_sent = Some(now);
+        self.free_at = Some(later(now, self.inhibit));
         Some((cob_id, e))
     }
 
@@ -290,7 +292,12 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.cob_id.is_none() || self.len == 0 {
             return NEVER;
         }
-        self.last_sent.map_or(0, |t| (t + self.inhibit).as_micros())
+        self.free_at.unwrap_or(0)
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(crate) fn shift(&mut self, by: u64) {
+        shift_opt(&mut self.free_at, by);
     }
 
     /// Messages lost to a full queue.
@@ -304,8 +311,8 @@ mod tests {
     use super::*;
     use crate::time::deadline_of;
 
-    fn us(n: u64) -> Instant {
-        Instant::from_micros(n)
+    fn us(n: u32) -> At {
+        n
     }
 
     #[test]

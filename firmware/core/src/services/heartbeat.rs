@@ -4,26 +4,27 @@
 //! Heartbeat and guarding exclude each other: with a producer heartbeat
 //! time other than 0 the node does not answer guarding requests.
 
-use crate::time::{At, Duration, Instant, NEVER, at};
+use crate::time::{At, Far, NEVER, at, later, ms_span, shift_opt};
 use crate::wire::nmt::NmtStateCode;
 
 /// The heartbeat producer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Producer {
-    period: Duration,
-    next: Option<Instant>,
+    /// The period in µs (0: off).
+    period: u32,
+    next: Option<At>,
 }
 
 impl Producer {
     /// A producer that is off until [`Producer::configure`].
     pub const fn new() -> Self {
-        Producer { period: Duration::ZERO, next: None }
+        Producer { period: 0, next: None }
     }
 
     /// Sets the period from 0x1017 (ms; 0 = off) and restarts it from `now`.
-    pub fn configure(&mut self, period_ms: u16, now: Instant) {
-        self.period = Duration::from_millis(u64::from(period_ms));
-        self.next = (period_ms != 0).then(|| now + self.period);
+    pub fn configure(&mut self, period_ms: u16, now: At) {
+        self.period = ms_span(period_ms);
+        self.next = (period_ms != 0).then(|| later(now, self.period));
     }
 
     /// Whether the producer runs (guarding is then off).
@@ -32,13 +33,13 @@ impl Producer {
     }
 
     /// Returns true when a heartbeat is due at `now` and schedules the next one.
-    pub fn poll(&mut self, now: Instant) -> bool {
+    pub fn poll(&mut self, now: At) -> bool {
         match self.next {
             Some(t) if now >= t => {
                 // Keep the grid: a late poll does not shift later heartbeats.
-                let mut next = t + self.period;
+                let mut next = later(t, self.period);
                 if next <= now {
-                    next = now + self.period;
+                    next = later(now, self.period);
                 }
                 self.next = Some(next);
                 true
@@ -51,15 +52,21 @@ impl Producer {
     pub fn deadline(&self) -> At {
         at(self.next)
     }
+
+    /// The epoch moved by `by` µs.
+    pub(crate) fn shift(&mut self, by: u64) {
+        shift_opt(&mut self.next, by);
+    }
 }
 
 /// One monitored node of 0x1016.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Monitor {
     node_id: u8,
-    time: Duration,
+    /// The consumer heartbeat time in µs.
+    time: u32,
     /// Deadline once armed by the first heartbeat.
-    deadline: Option<Instant>,
+    deadline: Option<At>,
     /// The last state reported, valid once `heard`. Not an `Option`: its
     /// `None` would not be all zero bits ([`crate::node`]).
     state: NmtStateCode,
@@ -70,8 +77,7 @@ struct Monitor {
 
 impl Monitor {
     /// An entry that monitors nothing.
-    const OFF: Monitor =
-        Monitor { node_id: 0, time: Duration::ZERO, deadline: None, state: NmtStateCode::BootUp, heard: false, timed_out: false };
+    const OFF: Monitor = Monitor { node_id: 0, time: 0, deadline: None, state: NmtStateCode::BootUp, heard: false, timed_out: false };
 }
 
 /// A heartbeat consumer event.
@@ -109,7 +115,7 @@ impl<const N: usize> Consumer<N> {
         if let Some(m) = self.monitors.get_mut(i) {
             let node_id = (value >> 16) as u8;
             let ms = value as u16;
-            *m = Monitor { node_id: if ms == 0 { 0 } else { node_id }, time: Duration::from_millis(u64::from(ms)), ..Monitor::OFF };
+            *m = Monitor { node_id: if ms == 0 { 0 } else { node_id }, time: ms_span(ms), ..Monitor::OFF };
         }
     }
 
@@ -122,18 +128,16 @@ impl<const N: usize> Consumer<N> {
     /// with non-zero times (abort 0x06040043 in the node).
     pub fn conflicts(&self, i: usize, value: u32) -> bool {
         let node_id = (value >> 16) as u8;
-        node_id != 0
-            && value as u16 != 0
-            && self.monitors.iter().enumerate().any(|(j, m)| j != i && m.node_id == node_id && m.time != Duration::ZERO)
+        node_id != 0 && value as u16 != 0 && self.monitors.iter().enumerate().any(|(j, m)| j != i && m.node_id == node_id && m.time != 0)
     }
 
     /// A heartbeat (or boot-up) from `node_id` arrived at `now`. Returns
     /// true if that node had timed out: it is back.
-    pub fn on_heartbeat(&mut self, node_id: u8, state: NmtStateCode, now: Instant) -> bool {
+    pub fn on_heartbeat(&mut self, node_id: u8, state: NmtStateCode, now: At) -> bool {
         let mut back = false;
         for m in self.monitors.iter_mut().filter(|m| m.node_id == node_id && m.node_id != 0) {
             // A boot-up message means the producer restarted: monitoring starts over.
-            m.deadline = if state == NmtStateCode::BootUp { None } else { Some(now + m.time) };
+            m.deadline = if state == NmtStateCode::BootUp { None } else { Some(later(now, m.time)) };
             m.state = state;
             m.heard = true;
             back |= core::mem::take(&mut m.timed_out);
@@ -142,7 +146,7 @@ impl<const N: usize> Consumer<N> {
     }
 
     /// Reports the first expired monitor and disarms it until its next heartbeat.
-    pub fn poll(&mut self, now: Instant) -> Option<ConsumerEvent> {
+    pub fn poll(&mut self, now: At) -> Option<ConsumerEvent> {
         let m = self.monitors.iter_mut().find(|m| m.deadline.is_some_and(|d| now >= d))?;
         m.deadline = None;
         m.timed_out = true;
@@ -159,6 +163,13 @@ impl<const N: usize> Consumer<N> {
         self.monitors.iter().fold(NEVER, |d, m| d.min(at(m.deadline)))
     }
 
+    /// The epoch moved by `by` µs.
+    pub(crate) fn shift(&mut self, by: u64) {
+        for m in &mut self.monitors {
+            shift_opt(&mut m.deadline, by);
+        }
+    }
+
     /// The last state `node_id` reported.
     pub fn state_of(&self, node_id: u8) -> Option<NmtStateCode> {
         self.monitors.iter().find(|m| m.node_id == node_id).and_then(|m| m.heard.then_some(m.state))
@@ -170,8 +181,10 @@ impl<const N: usize> Consumer<N> {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Guarding {
     toggle: bool,
-    lifetime: Duration,
-    deadline: Option<Instant>,
+    /// The life time in µs (0: no life guarding).
+    lifetime: u64,
+    /// When life guarding expires: up to 4.6 hours ahead.
+    deadline: Option<Far>,
     /// Life guarding expired, and no guarding request came since.
     expired: bool,
 }
@@ -179,15 +192,15 @@ pub struct Guarding {
 impl Guarding {
     /// Guarding with no life time until [`Guarding::configure`].
     pub const fn new() -> Self {
-        Guarding { toggle: false, lifetime: Duration::ZERO, deadline: None, expired: false }
+        Guarding { toggle: false, lifetime: 0, deadline: None, expired: false }
     }
 
     /// Sets the life time from 0x100C (guard time, ms) × 0x100D (factor).
     /// Life guarding starts with the first guarding request.
-    // A u16 times a u8 fits a u64.
+    // A u16 times a u8 times 1000 fits a u64.
     #[allow(clippy::arithmetic_side_effects)]
     pub fn configure(&mut self, guard_time_ms: u16, factor: u8) {
-        self.lifetime = Duration::from_millis(u64::from(guard_time_ms) * u64::from(factor));
+        self.lifetime = u64::from(guard_time_ms) * u64::from(factor) * 1000;
         self.deadline = None;
     }
 
@@ -205,10 +218,10 @@ impl Guarding {
     }
 
     /// A guarding RTR arrived: returns the response byte (state | toggle).
-    pub fn on_request(&mut self, state: NmtStateCode, now: Instant) -> u8 {
+    pub fn on_request(&mut self, state: NmtStateCode, now: At) -> u8 {
         let byte = state.code() | if self.toggle { 0x80 } else { 0 };
         self.toggle = !self.toggle;
-        self.deadline = (self.lifetime != Duration::ZERO).then(|| now + self.lifetime);
+        self.deadline = (self.lifetime != 0).then(|| Far::after(now, self.lifetime));
         self.expired = false;
         byte
     }
@@ -219,8 +232,8 @@ impl Guarding {
     }
 
     /// True once when the master stopped guarding for a whole life time (EMCY 0x8130).
-    pub fn poll(&mut self, now: Instant) -> bool {
-        if self.deadline.is_some_and(|d| now >= d) {
+    pub fn poll(&mut self, now: At) -> bool {
+        if self.deadline.is_some_and(|d| d.reached(now)) {
             self.deadline = None;
             self.expired = true;
             return true;
@@ -228,9 +241,16 @@ impl Guarding {
         false
     }
 
-    /// When life guarding expires.
+    /// When life guarding expires (or earlier, for a life time beyond an [`At`]).
     pub fn deadline(&self) -> At {
-        at(self.deadline)
+        self.deadline.map_or(NEVER, Far::at)
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(crate) fn shift(&mut self, by: u64) {
+        if let Some(d) = &mut self.deadline {
+            d.shift(by);
+        }
     }
 }
 
@@ -239,8 +259,8 @@ mod tests {
     use super::*;
     use crate::time::deadline_of;
 
-    fn ms(n: u64) -> Instant {
-        Instant::from_micros(n * 1000)
+    fn ms(n: u32) -> At {
+        n * 1000
     }
 
     #[test]

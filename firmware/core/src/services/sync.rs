@@ -23,7 +23,7 @@
 use crate::abort::AbortCode;
 use crate::id::CobRule;
 use crate::od::{Dictionary, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
-use crate::time::{At, Duration, Instant, NEVER};
+use crate::time::{At, Far, NEVER};
 use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
 
@@ -31,11 +31,12 @@ use crate::wire::sync::{CobIdSync, SYNC_COB_ID, SyncMessage};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SyncEvent {
     /// When it was received or became due.
-    pub at: Instant,
+    pub at: At,
     /// The SYNC counter, when 0x1019 > 0.
     pub counter: Option<u8>,
-    /// When the synchronous window closes ([`NEVER`]: 0x1007 = 0, no window).
-    pub window_end: At,
+    /// When the synchronous window closes ([`Far::NEVER`]: 0x1007 = 0, no
+    /// window; up to 71.6 minutes after `at`).
+    pub window_end: Far,
 }
 
 impl SyncEvent {
@@ -45,8 +46,8 @@ impl SyncEvent {
     }
 
     /// Whether synchronous PDOs may still be sent or accepted at `now`.
-    pub fn window_open(&self, now: Instant) -> bool {
-        now.as_micros() <= self.window_end
+    pub fn window_open(&self, now: At) -> bool {
+        !self.window_end.passed(now)
     }
 }
 
@@ -69,13 +70,15 @@ impl SyncLengthError {
 pub struct SyncService {
     cob_id: u16,
     producer: bool,
-    period: Duration,
-    window: Duration,
+    /// 0x1006 in µs (0: no SYNC produced).
+    period: u32,
+    /// 0x1007 in µs (0: no window).
+    window: u32,
     overflow: u8,
     /// The counter of the last SYNC produced (0: none yet).
     counter: u8,
     /// When the next SYNC is due; `None` while the producer is not yet armed.
-    next: Option<Instant>,
+    next: Option<Far>,
 }
 
 impl Default for SyncService {
@@ -99,7 +102,7 @@ impl SyncService {
     /// never reaches a SYNC consumer, and all zero bits ([`crate::node`];
     /// [`SyncService::default`] is a consumer on 0x80).
     pub const UNCONFIGURED: SyncService =
-        SyncService { cob_id: 0, producer: false, period: Duration::ZERO, window: Duration::ZERO, overflow: 0, counter: 0, next: None };
+        SyncService { cob_id: 0, producer: false, period: 0, window: 0, overflow: 0, counter: 0, next: None };
 
     /// Reads 0x1005, 0x1006, 0x1007 and 0x1019 as reset communication takes
     /// them (the node hands the same values to [`SyncService::apply`] with
@@ -127,7 +130,7 @@ impl SyncService {
 
     /// Whether this node produces the SYNC (0x1005 bit 30 and 0x1006 ≠ 0).
     pub fn is_producing(&self) -> bool {
-        self.producer && self.period != Duration::ZERO
+        self.producer && self.period != 0
     }
 
     /// The synchronous counter overflow value in use (0: no counter).
@@ -135,8 +138,8 @@ impl SyncService {
         self.overflow
     }
 
-    fn event(&self, at: Instant, counter: Option<u8>) -> SyncEvent {
-        let window_end = if self.window != Duration::ZERO { (at + self.window).as_micros() } else { NEVER };
+    fn event(&self, at: At, counter: Option<u8>) -> SyncEvent {
+        let window_end = if self.window != 0 { Far::after(at, u64::from(self.window)) } else { Far::NEVER };
         SyncEvent { at, counter, window_end }
     }
 
@@ -144,7 +147,7 @@ impl SyncService {
     // In line: its one caller, the node's frame dispatch, then passes the
     // event on in registers instead of through memory.
     #[inline(always)]
-    pub fn on_frame(&mut self, now: Instant, data: &[u8]) -> Result<SyncEvent, SyncLengthError> {
+    pub fn on_frame(&mut self, now: At, data: &[u8]) -> Result<SyncEvent, SyncLengthError> {
         if self.overflow == 0 {
             return Ok(self.event(now, None));
         }
@@ -157,19 +160,20 @@ impl SyncService {
     /// The producer: `Some` when a SYNC is due at `now`; the node sends
     /// [`SyncEvent::message`] on [`SyncService::cob_id`] and hands the event
     /// to the PDOs. Late polls keep the period's grid.
-    pub fn poll(&mut self, now: Instant) -> Option<SyncEvent> {
+    pub fn poll(&mut self, now: At) -> Option<SyncEvent> {
         if !self.is_producing() {
             return None;
         }
+        let period = u64::from(self.period);
         match self.next {
             None => {
-                self.next = Some(now + self.period);
+                self.next = Some(Far::after(now, period));
                 None
             }
-            Some(due) if now >= due => {
-                let mut next = due + self.period;
-                if next <= now {
-                    next = now + self.period;
+            Some(due) if due.reached(now) => {
+                let mut next = due.then(period);
+                if next.reached(now) {
+                    next = Far::after(now, period);
                 }
                 self.next = Some(next);
                 let counter = (self.overflow != 0).then(|| {
@@ -182,9 +186,17 @@ impl SyncService {
         }
     }
 
-    /// When the next SYNC is due (`Instant::ZERO`: poll at once to start the producer).
+    /// When the next SYNC is due (0: poll at once to start the producer;
+    /// earlier for a period beyond an [`At`]).
     pub fn deadline(&self) -> At {
-        if self.is_producing() { self.next.map_or(0, Instant::as_micros) } else { NEVER }
+        if self.is_producing() { self.next.map_or(0, Far::at) } else { NEVER }
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(crate) fn shift(&mut self, by: u64) {
+        if let Some(next) = &mut self.next {
+            next.shift(by);
+        }
     }
 
     /// An SDO download of (index, sub): `None` unless it is 0x1005, 0x1006,
@@ -220,7 +232,7 @@ impl SyncService {
                 CobRule::SYNC.check(Some(old), value, u16::MAX)
             }
             index::SYNCHRONOUS_COUNTER_OVERFLOW if value == 1 || value > 240 => Err(AbortCode::InvalidValue),
-            index::SYNCHRONOUS_COUNTER_OVERFLOW if self.period != Duration::ZERO => Err(AbortCode::DeviceState),
+            index::SYNCHRONOUS_COUNTER_OVERFLOW if self.period != 0 => Err(AbortCode::DeviceState),
             _ => Ok(()),
         }
     }
@@ -236,10 +248,10 @@ impl SyncService {
                 self.restart_producer();
             }
             index::COMMUNICATION_CYCLE_PERIOD => {
-                self.period = Duration::from_micros(u64::from(value));
+                self.period = value;
                 self.next = None;
             }
-            index::SYNCHRONOUS_WINDOW_LENGTH => self.window = Duration::from_micros(u64::from(value)),
+            index::SYNCHRONOUS_WINDOW_LENGTH => self.window = value,
             _ => {
                 // A stored value can be invalid (downloads are checked).
                 self.overflow = clamp_overflow(value as u8);
@@ -290,8 +302,8 @@ mod tests {
     };
     static EMPTY: Dictionary = Dictionary { entries: &[], defaults: crate::od::Defaults::dense(&[]), comm_len: 0, stored_len: 0, ..DICT };
 
-    fn ms(t: u64) -> Instant {
-        Instant::from_micros(t * 1000)
+    fn ms(t: u32) -> At {
+        t * 1000
     }
 
     fn setup() -> (SyncService, [u8; 13]) {
@@ -312,7 +324,7 @@ mod tests {
         let (mut sync, _) = setup();
         assert_eq!((sync.cob_id(), sync.is_producing(), deadline_of(sync.deadline())), (0x80, false, None));
         let e = sync.on_frame(ms(5), &[]).unwrap();
-        assert_eq!(e, SyncEvent { at: ms(5), counter: None, window_end: NEVER });
+        assert_eq!(e, SyncEvent { at: ms(5), counter: None, window_end: Far::NEVER });
         assert_eq!(sync.on_frame(ms(6), &[7]).map(|e| e.counter), Ok(None), "0x1019 = 0: data ignored");
         assert_eq!(sync.poll(ms(100)), None, "a consumer produces nothing");
     }
@@ -334,9 +346,9 @@ mod tests {
         let (mut sync, mut image) = setup();
         assert_eq!(sdo(&mut sync, &mut image, 0x1007, &2_500u32.to_le_bytes()), Ok(()));
         let e = sync.on_frame(ms(10), &[]).unwrap();
-        assert_eq!(e.window_end, 12_500);
-        assert!(e.window_open(Instant::from_micros(12_500)));
-        assert!(!e.window_open(Instant::from_micros(12_501)));
+        assert_eq!(e.window_end, Far::after(0, 12_500));
+        assert!(e.window_open(12_500));
+        assert!(!e.window_open(12_501));
     }
 
     // ---- Producer ------------------------------------------------------------
@@ -348,13 +360,13 @@ mod tests {
         assert_eq!(sdo(&mut sync, &mut image, 0x1006, &10_000u32.to_le_bytes()), Ok(()));
         assert_eq!(sdo(&mut sync, &mut image, 0x1005, &0x4000_0080u32.to_le_bytes()), Ok(()));
         assert!(sync.is_producing());
-        assert_eq!(deadline_of(sync.deadline()), Some(Instant::ZERO), "poll at once to arm");
+        assert_eq!(deadline_of(sync.deadline()), Some(0), "poll at once to arm");
         assert_eq!(sync.poll(ms(0)), None);
         assert_eq!(deadline_of(sync.deadline()), Some(ms(10)));
         assert_eq!(sync.poll(ms(9)), None);
         let mut got = [0u8; 5];
         for (i, c) in got.iter_mut().enumerate() {
-            let t = ms(10 * (i as u64 + 1));
+            let t = ms(10 * (i as u32 + 1));
             let e = sync.poll(t).expect("due");
             assert_eq!(e.at, t);
             *c = e.counter.unwrap();

@@ -45,6 +45,12 @@ impl SdoTx for Frames {
     }
 }
 
+/// The bus's time as the server, which runs without a node, takes it: its
+/// epoch is the bus's start (these tests run for seconds, below 2^31 µs).
+fn server_time(t: Instant) -> canopen_core::time::At {
+    canopen_core::time::At::try_from(t.as_micros()).expect("below 2^31 µs")
+}
+
 /// The bus, and node 5's SDO server on its own port.
 struct World {
     bus: Bus,
@@ -63,10 +69,10 @@ impl Network for World {
         let mut out = Frames(Vec::new());
         while let Some((at, f)) = self.bus.recv(self.port) {
             if f.cob_id() == Some(0x600 + u16::from(NODE)) {
-                self.server.on_request(at, f.data(), &mut self.od, &mut out);
+                self.server.on_request(server_time(at), f.data(), &mut self.od, &mut out);
             }
         }
-        let next = self.server.poll(now, &mut self.od, &mut out);
+        let next = self.server.poll(server_time(now), &mut self.od, &mut out).map(|t| Instant::from_micros(u64::from(t)));
         for data in out.0 {
             send(&mut self.bus, self.port, 0x580 + u16::from(NODE), &data).unwrap();
         }

@@ -7,7 +7,7 @@ use super::map::Direction;
 use crate::abort::AbortCode;
 use crate::id::CobRule;
 use crate::od::{Dictionary, object, value_u32};
-use crate::time::Duration;
+use crate::time::{ms_span, span_100us};
 
 /// COB-ID bit 31: the PDO does not exist (is not valid).
 pub const COB_ID_INVALID: u32 = 1 << 31;
@@ -84,16 +84,14 @@ impl CommParams {
         self.transmission_type <= 240
     }
 
-    /// Sub 3 as a duration.
-    // A u16 times 100 fits a u64.
-    #[allow(clippy::arithmetic_side_effects)]
-    pub const fn inhibit_time(&self) -> Duration {
-        Duration::from_micros(self.inhibit_time_100us as u64 * 100)
+    /// Sub 3 in µs.
+    pub const fn inhibit_time(&self) -> u32 {
+        span_100us(self.inhibit_time_100us)
     }
 
-    /// Sub 5 as a duration.
-    pub const fn event_timer(&self) -> Duration {
-        Duration::from_millis(self.event_timer_ms as u64)
+    /// Sub 5 in µs.
+    pub const fn event_timer(&self) -> u32 {
+        ms_span(self.event_timer_ms)
     }
 
     /// Applies an SDO download of sub-index `sub` (already checked for

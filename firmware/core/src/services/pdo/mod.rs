@@ -83,7 +83,7 @@ use crate::abort::AbortCode;
 use crate::od::object;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
-use crate::time::{At, Instant, NEVER, at, deadline_of};
+use crate::time::{At, Far, NEVER, at, deadline_of};
 use crate::wire::emcy::EmcyCode;
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
@@ -172,10 +172,10 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// length error).
     rx_plain: [u32; R],
     tpdos: [Tpdo; T],
-    /// End of the synchronous window opened by the last SYNC; [`NEVER`]:
+    /// End of the synchronous window opened by the last SYNC; [`Far::NEVER`]:
     /// no window. Read only while Operational ([`Pdos::enter_operational`]
     /// sets it; 0 before is all zero bits).
-    window_end: At,
+    window_end: Far,
     operational: bool,
     /// What [`Pdos::poll`] last returned, while `settled`: no PDO changed
     /// since, so [`Pdos::due`] answers without walking them (after every
@@ -231,7 +231,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             rx_ids: [NO_ID; R],
             rx_plain: [NO_KEY; R],
             tpdos: [Tpdo::default(); T],
-            window_end: NEVER,
+            window_end: Far::NEVER,
             operational: false,
             settled_deadline: 0,
             settled: false,
@@ -259,7 +259,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             // (NMT), which never reaches the PDOs, and they are not Operational before `configure`.
             rx_plain: [0; R],
             tpdos: [Tpdo::UNCONFIGURED; T],
-            window_end: 0,
+            window_end: Far::ZERO,
             operational: false,
             settled_deadline: 0,
             settled: false,
@@ -297,7 +297,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             rpdo.params = CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
             rpdo.cob_id_writable = cob_id_writable(dict, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
         }
-        self.window_end = NEVER;
+        self.window_end = Far::NEVER;
         self.operational = false;
         self.parameters_changed();
         first_error.map_or(Ok(()), Err)
@@ -369,10 +369,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     }
 
     /// NMT entered Operational: the PDOs start (see the module notes).
-    pub fn enter_operational(&mut self, now: Instant) {
+    pub fn enter_operational(&mut self, now: At) {
         self.settled = false;
         self.operational = true;
-        self.window_end = NEVER;
+        self.window_end = Far::NEVER;
         self.rpdos.iter_mut().for_each(Rpdo::restart);
         self.tpdos.iter_mut().for_each(|t| t.restart(Some(now)));
     }
@@ -480,7 +480,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// A data frame on `cob_id`: true if it belongs to a valid RPDO (then it
     /// is processed, or buffered for the SYNC). Ignored unless Operational.
-    pub fn on_frame(&mut self, now: Instant, cob_id: u16, data: &[u8], image: &mut [u8], out: &mut impl PdoTx) -> bool {
+    pub fn on_frame(&mut self, now: At, cob_id: u16, data: &[u8], image: &mut [u8], out: &mut impl PdoTx) -> bool {
         self.on_frame_reaching(now, cob_id, data, image, out).is_some()
     }
 
@@ -489,18 +489,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// nothing now: a length error, or data that waits for the SYNC);
     /// `None` when no RPDO took it. The node marks those TPDOs without
     /// asking again.
-    pub(crate) fn on_frame_reaching(
-        &mut self,
-        now: Instant,
-        cob_id: u16,
-        data: &[u8],
-        image: &mut [u8],
-        out: &mut impl PdoTx,
-    ) -> Option<u32> {
+    pub(crate) fn on_frame_reaching(&mut self, now: At, cob_id: u16, data: &[u8], image: &mut [u8], out: &mut impl PdoTx) -> Option<u32> {
         if !self.operational {
             return None;
         }
-        let window_open = now.as_micros() <= self.window_end;
+        let window_open = !self.window_end.passed(now);
         let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
         let rpdo = self.rpdos.get_mut(n)?;
         let written = rpdo.on_frame(n, now, data, window_open, image, out);
@@ -512,7 +505,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             self.rpdo_timers |= bit_of(n);
             // Only this RPDO's timeout moved, and only later (or it started):
             // the settled deadline stays good, or early, which is harmless.
-            self.settled_deadline = self.settled_deadline.min(timeout.as_micros());
+            self.settled_deadline = self.settled_deadline.min(timeout);
         }
         Some(if written { self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS) } else { 0 })
     }
@@ -539,7 +532,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// A remote frame on `cob_id`: true if a TPDO answered it (or will, once
     /// its inhibit time is over). Ignored unless Operational.
-    pub fn on_rtr(&mut self, now: Instant, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub fn on_rtr(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.operational {
             return false;
         }
@@ -582,14 +575,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// Runs the timers (event timers, inhibit times, RPDO deadlines), change
     /// detection and retries; returns the next deadline. Call it when that
     /// deadline is reached and after the application changed mapped objects.
-    pub fn poll(&mut self, now: Instant, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+    pub fn poll(&mut self, now: At, image: &[u8], tx: &mut impl PdoTx) -> Option<At> {
         self.poll_changed(now, ALL_TPDOS, image, tx)
     }
 
     /// [`Pdos::poll`] where only the TPDOs of `changed` (bit t: TPDO t;
     /// TPDOs past 31 always) may see changed data: the others are looked
     /// at only when a timer of theirs is due or they wait to retry.
-    pub fn poll_changed(&mut self, now: Instant, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<Instant> {
+    pub fn poll_changed(&mut self, now: At, changed: u32, image: &[u8], tx: &mut impl PdoTx) -> Option<At> {
         deadline_of(self.poll_marked(now, changed, image, tx))
     }
 
@@ -599,7 +592,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The deadline as an [`At`].
     // Out of line: the main loop's `process` would take its two paths in.
     #[inline(never)]
-    pub fn poll_marked(&mut self, now: Instant, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> At {
+    pub fn poll_marked(&mut self, now: At, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> At {
         if !self.operational {
             return NEVER;
         }
@@ -618,7 +611,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             }
             self.rpdo_timers = timers;
         }
-        let now_at = now.as_micros();
         if T <= 32 {
             // Only the TPDOs that can send, each bit a TPDO.
             let mut bits = self.tpdo_live;
@@ -626,7 +618,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 if let Some(tpdo) = self.tpdos.get_mut(t) {
                     // A marked TPDO, or one waiting to retry, counts as due now (0).
                     let mut due = if marked & bit_of(t) != 0 || tpdo.retrying() { 0 } else { tpdo.due() };
-                    if due <= now_at {
+                    if due <= now {
                         tpdo.poll(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
@@ -638,7 +630,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 let bit = bit_of(t);
                 if tpdo.cob_id().is_some() {
                     let mut due = if marked & bit != 0 || bit == u32::MAX || tpdo.retrying() { 0 } else { tpdo.due() };
-                    if due <= now_at {
+                    if due <= now {
                         tpdo.poll(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
@@ -662,10 +654,19 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         (self.settled || !self.operational).then_some(if self.operational { self.settled_deadline } else { NEVER })
     }
 
-    /// When [`Pdos::poll`] next has work (a soft deadline; `Instant::ZERO`
-    /// means at once). `None` while not Operational.
-    pub fn deadline(&self) -> Option<Instant> {
+    /// When [`Pdos::poll`] next has work (a soft deadline; 0 means at
+    /// once). `None` while not Operational.
+    pub fn deadline(&self) -> Option<At> {
         deadline_of(self.due())
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(crate) fn shift(&mut self, by: u64) {
+        self.rpdos.iter_mut().for_each(|r| r.shift(by));
+        self.tpdos.iter_mut().for_each(|t| t.shift(by));
+        self.window_end.shift(by);
+        // The settled deadline is walked again.
+        self.settled = false;
     }
 
     /// [`Pdos::deadline`] as an [`At`].

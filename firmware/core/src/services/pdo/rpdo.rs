@@ -15,7 +15,7 @@
 
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoEvent, PdoTx};
-use crate::time::{Duration, Instant};
+use crate::time::{At, later, shift_opt};
 use crate::wire::emcy::EmcyCode;
 
 /// The state of one RPDO.
@@ -29,7 +29,7 @@ pub struct Rpdo {
     /// Synchronous data waiting for the next SYNC.
     buffered: Option<[u8; MAX_LEN]>,
     /// Deadline of the event timer, armed by each RPDO received.
-    timeout_at: Option<Instant>,
+    timeout_at: Option<At>,
     /// EMCY 0x8250 is raised.
     timed_out: bool,
     /// EMCY 0x8210 or 0x8220 raised and not yet ended.
@@ -81,10 +81,7 @@ impl Rpdo {
     pub(super) fn plain_key(&self) -> u32 {
         match (self.mapping.as_ref(), self.cob_id()) {
             (Some(mapping), Some(id))
-                if !self.params.is_synchronous()
-                    && self.params.event_timer() == Duration::ZERO
-                    && self.length_error.is_none()
-                    && !self.timed_out =>
+                if !self.params.is_synchronous() && self.params.event_timer() == 0 && self.length_error.is_none() && !self.timed_out =>
             {
                 super::frame_key(id, mapping.len())
             }
@@ -119,15 +116,7 @@ impl Rpdo {
 
     /// An RPDO frame. `window_open`: the synchronous window since the last
     /// SYNC is still open. True if it wrote its data into the dictionary now.
-    pub(super) fn on_frame(
-        &mut self,
-        n: usize,
-        now: Instant,
-        data: &[u8],
-        window_open: bool,
-        image: &mut [u8],
-        out: &mut impl PdoTx,
-    ) -> bool {
+    pub(super) fn on_frame(&mut self, n: usize, now: At, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) -> bool {
         // By reference: copying the mapping out costs more than the frame's own work.
         let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return false };
         // The right length with no error to end (the common frame): two compares.
@@ -156,7 +145,7 @@ impl Rpdo {
             out.event(PdoEvent::ErrorCleared { rpdo: n, code: EmcyCode::RPDO_TIMEOUT });
         }
         let timer = self.params.event_timer();
-        self.timeout_at = (timer != Duration::ZERO).then(|| now + timer);
+        self.timeout_at = (timer != 0).then(|| later(now, timer));
         if self.params.is_synchronous() {
             if window_open {
                 let mut buf = [0u8; MAX_LEN];
@@ -184,7 +173,7 @@ impl Rpdo {
     }
 
     /// The event timer.
-    pub(super) fn poll(&mut self, n: usize, now: Instant, out: &mut impl PdoTx) {
+    pub(super) fn poll(&mut self, n: usize, now: At, out: &mut impl PdoTx) {
         if self.timeout_at.is_some_and(|t| now >= t) {
             self.timeout_at = None;
             self.timed_out = true;
@@ -194,11 +183,16 @@ impl Rpdo {
 
     /// When the event timer expires.
     /// When the RPDO times out, if its timer runs.
-    pub(super) fn timeout_at(&self) -> Option<Instant> {
+    pub(super) fn timeout_at(&self) -> Option<At> {
         self.timeout_at
     }
 
-    pub(super) fn deadline(&self) -> Option<Instant> {
+    pub(super) fn deadline(&self) -> Option<At> {
         self.cob_id().and(self.timeout_at)
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(super) fn shift(&mut self, by: u64) {
+        shift_opt(&mut self.timeout_at, by);
     }
 }

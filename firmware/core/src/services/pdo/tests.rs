@@ -190,16 +190,16 @@ struct Node {
     bus: Bus,
 }
 
-fn ms(t: u64) -> Instant {
-    Instant::from_micros(t * 1000)
+fn ms(t: u32) -> At {
+    t * 1000
 }
 
-fn us(t: u64) -> Instant {
-    Instant::from_micros(t)
+fn us(t: u32) -> At {
+    t
 }
 
-fn sync_at(at: Instant, counter: Option<u8>) -> SyncEvent {
-    SyncEvent { at, counter, window_end: NEVER }
+fn sync_at(at: At, counter: Option<u8>) -> SyncEvent {
+    SyncEvent { at, counter, window_end: Far::NEVER }
 }
 
 impl Node {
@@ -211,7 +211,7 @@ impl Node {
     }
 
     /// Configured and Operational at `t`.
-    fn operational(t: Instant) -> Node {
+    fn operational(t: At) -> Node {
         let mut node = Node::new();
         node.pdos.enter_operational(t);
         node
@@ -235,7 +235,7 @@ impl Node {
         DICT.value(&self.image, DICT.find(index, sub).unwrap()).to_vec()
     }
 
-    fn poll(&mut self, t: Instant) -> Option<Instant> {
+    fn poll(&mut self, t: At) -> Option<At> {
         self.pdos.poll(t, &self.image, &mut self.bus)
     }
 
@@ -243,11 +243,11 @@ impl Node {
         self.pdos.on_sync(&sync, &mut self.image, &mut self.bus);
     }
 
-    fn rx(&mut self, t: Instant, cob_id: u16, data: &[u8]) -> bool {
+    fn rx(&mut self, t: At, cob_id: u16, data: &[u8]) -> bool {
         self.pdos.on_frame(t, cob_id, data, &mut self.image, &mut self.bus)
     }
 
-    fn rtr(&mut self, t: Instant, cob_id: u16) -> bool {
+    fn rtr(&mut self, t: At, cob_id: u16) -> bool {
         self.pdos.on_rtr(t, cob_id, &self.image, &mut self.bus)
     }
 

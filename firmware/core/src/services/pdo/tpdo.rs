@@ -25,15 +25,7 @@
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
-use crate::time::{At, Duration, Instant, NEVER};
-
-/// `now + by` as [`Instant`]'s `Add` makes it (saturating at the last
-/// microsecond but one), in line.
-#[inline(always)]
-fn later(now: Instant, by: Duration) -> Instant {
-    let sum = now.as_micros().saturating_add(by.as_micros());
-    Instant::from_micros(sum.wrapping_sub(u64::from(sum == NEVER)))
-}
+use crate::time::{At, Far, NEVER, later, shift_opt};
 
 /// The state of one TPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,8 +56,8 @@ pub struct Tpdo {
     change_pending: bool,
     /// The transmit queue refused the last frame: no deadline until the next poll.
     blocked: bool,
-    inhibit_until: Option<Instant>,
-    event_at: Option<Instant>,
+    inhibit_until: Option<At>,
+    event_at: Option<At>,
     /// SYNCs still to come before the next cyclic transmission, counting
     /// the one that sends it; 0 when the count starts over (it then waits
     /// for the transmission type's n SYNCs), so that a SYNC is one
@@ -173,14 +165,14 @@ impl Tpdo {
     /// `now`; without, it is armed at the next poll.
     // Out of line: two callers each had a copy (168 bytes more).
     #[inline(never)]
-    pub(super) fn restart(&mut self, now: Option<Instant>) {
+    pub(super) fn restart(&mut self, now: Option<At>) {
         let timer = self.params.event_timer();
         self.sent = false;
         self.event = self.is_event_driven() && !self.timer_only();
         self.change_pending = false;
         self.blocked = false;
         self.inhibit_until = None;
-        self.event_at = now.filter(|_| timer != Duration::ZERO).map(|t| t + timer);
+        self.event_at = now.filter(|_| timer != 0).map(|t| later(t, timer));
         self.sync_left = 0;
         self.await_start = self.params.sync_start != 0;
         self.sample = None;
@@ -233,11 +225,11 @@ impl Tpdo {
     }
 
     /// Types 254/255: timers, change detection, and the send once the inhibit time allows.
-    fn service_event(&mut self, now: Instant, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
+    fn service_event(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
         let timer = self.params.event_timer();
-        if timer != Duration::ZERO {
+        if timer != 0 {
             match self.event_at {
-                None => self.event_at = Some(now + timer),
+                None => self.event_at = Some(later(now, timer)),
                 Some(t) if now >= t => self.event = true,
                 Some(_) => {}
             }
@@ -247,22 +239,21 @@ impl Tpdo {
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.params.inhibit_time();
-            self.inhibit_until = (inhibit != Duration::ZERO).then(|| now + inhibit);
-            // In line: the add every event-driven frame with an event timer pays.
-            self.event_at = (timer != Duration::ZERO).then(|| later(now, timer));
+            self.inhibit_until = (inhibit != 0).then(|| later(now, inhibit));
+            self.event_at = (timer != 0).then(|| later(now, timer));
         }
     }
 
     /// Timers and retries, for a TPDO that can send (the caller checks:
     /// `Pdos::tpdo_live`); `window_end`: of the last SYNC's synchronous window (0x1007).
-    pub(super) fn poll(&mut self, now: Instant, window_end: At, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn poll(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.params.can_id();
         if self.is_event_driven() {
             self.service_event(now, cob_id, image, tx);
         } else if let Some(buf) = self.pending_sync {
             let len = self.mapping.as_ref().map_or(0, Mapping::len);
-            // No window ([`NEVER`]) never closes.
-            if now.as_micros() > window_end || self.transmit(cob_id, buf, len, tx) {
+            // No window ([`Far::NEVER`]) never closes.
+            if window_end.passed(now) || self.transmit(cob_id, buf, len, tx) {
                 self.pending_sync = None;
             }
         }
@@ -332,7 +323,7 @@ impl Tpdo {
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
-    pub(super) fn on_rtr(&mut self, now: Instant, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub(super) fn on_rtr(&mut self, now: At, image: &[u8], tx: &mut impl PdoTx) -> bool {
         let Some(cob_id) = self.cob_id() else { return false };
         if !self.params.rtr_allowed() {
             return false;
@@ -385,8 +376,14 @@ impl Tpdo {
         if self.event || self.change_pending {
             // The event timer has nothing to add to a pending event; a
             // refused frame waits for the next poll instead of spinning.
-            return if self.blocked { NEVER } else { self.inhibit_until.map_or(0, Instant::as_micros) };
+            return if self.blocked { NEVER } else { self.inhibit_until.unwrap_or(0) };
         }
-        if self.params.event_timer_ms == 0 { NEVER } else { self.event_at.map_or(0, Instant::as_micros) }
+        if self.params.event_timer_ms == 0 { NEVER } else { self.event_at.unwrap_or(0) }
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(super) fn shift(&mut self, by: u64) {
+        shift_opt(&mut self.inhibit_until, by);
+        shift_opt(&mut self.event_at, by);
     }
 }

@@ -16,7 +16,7 @@
 use super::{Buffer, Channel, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::time::Instant;
+use crate::time::At;
 use crate::wire::sdo::SdoResponse;
 use crate::wire::sdo_block::{
     BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update,
@@ -283,7 +283,7 @@ impl Channel {
     /// takes them; whether segments of the block are left to send (`tx`
     /// was full). The count of the block's segments is worked out once,
     /// here: the poll asks this instead of a second computation.
-    pub(super) fn send_block_segments(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
+    pub(super) fn send_block_segments(&mut self, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
         let State::BlockUpload(mut u) = self.state else { return false };
         if u.phase != UploadPhase::Sending {
             return false;

@@ -37,11 +37,11 @@ mod segmented;
 #[cfg(test)]
 mod tests;
 
-use core::num::NonZeroU64;
+use core::num::NonZeroU32;
 
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::time::{At, Duration, Instant, NEVER, deadline_of};
+use crate::time::{At, Duration, NEVER, deadline_of, later, shift, span};
 use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_data, segment_fields};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
@@ -54,6 +54,9 @@ pub trait SdoTx {
 
 /// The SDO timeout a new server starts with.
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// [`DEFAULT_TIMEOUT`] in µs.
+const DEFAULT_TIMEOUT_US: u32 = 1_000_000;
 
 /// Object index and sub-index of a transfer (the SDO "multiplexer").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,23 +95,24 @@ struct Channel {
     /// being answered; kept here rather than in each state so that every
     /// abort names it without the caller passing it.
     mux: Mux,
-    /// In microseconds; `None`: [`DEFAULT_TIMEOUT`]. So that a new server
-    /// is all zero bits ([`crate::node`]) in the size of a `Duration`.
-    timeout_us: Option<NonZeroU64>,
+    /// In microseconds (at most [`crate::time::MAX_SPAN`]); `None`:
+    /// [`DEFAULT_TIMEOUT`]. So that a new server is all zero bits
+    /// ([`crate::node`]) in 4 bytes.
+    timeout_us: Option<NonZeroU32>,
     /// When the transfer in progress times out (meaningless when idle).
-    deadline: Instant,
+    deadline: At,
     /// A response `tx` refused, sent again by the next `poll`.
     pending: Option<[u8; 8]>,
     malformed: u32,
 }
 
 impl Channel {
-    const NEW: Channel =
-        Channel { state: State::Idle, mux: Mux::NONE, timeout_us: None, deadline: Instant::ZERO, pending: None, malformed: 0 };
+    const NEW: Channel = Channel { state: State::Idle, mux: Mux::NONE, timeout_us: None, deadline: 0, pending: None, malformed: 0 };
 
-    /// A zero timeout is kept as 1 µs, the shortest one this representation holds.
+    /// A zero timeout is kept as 1 µs, the shortest one this representation
+    /// holds; one beyond 35.8 minutes as 35.8 minutes.
     fn set_timeout(&mut self, timeout: Duration) {
-        self.timeout_us = Some(NonZeroU64::new(timeout.as_micros()).unwrap_or(NonZeroU64::MIN));
+        self.timeout_us = Some(NonZeroU32::new(span(timeout)).unwrap_or(NonZeroU32::MIN));
     }
 
     /// Whether this server holds the download buffer (a segmented or block
@@ -184,7 +188,7 @@ impl<const N: usize> SdoServer<N> {
     /// answered as if the server were idle. A frame that arrives at or after
     /// the transfer's deadline (because `poll` was late) first triggers the
     /// timeout abort; it is then served only if it initiates a new transfer.
-    pub fn on_request(&mut self, now: Instant, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub fn on_request(&mut self, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         self.channel.on_request(now, data, true, Some(&mut self.buf), &mut od, tx);
     }
 
@@ -193,7 +197,7 @@ impl<const N: usize> SdoServer<N> {
     /// The deadline is `now` while frames wait for room in `tx` (call again
     /// when the TX queue drains), else the timeout of the transfer in
     /// progress. Calling early is harmless.
-    pub fn poll(&mut self, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+    pub fn poll(&mut self, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<At> {
         deadline_of(self.channel.poll(now, true, od, tx))
     }
 
@@ -262,7 +266,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     }
 
     /// A frame on the rx COB-ID of server `i`, as [`SdoServer::on_request`].
-    pub fn on_request(&mut self, i: usize, now: Instant, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    pub fn on_request(&mut self, i: usize, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         self.on_request_with(i, now, data, true, &mut od, tx);
     }
 
@@ -274,7 +278,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     /// plain cases in line), the others through `dyn ObjectAccess`, one
     /// copy of their code whatever `O` is.
     #[inline(always)]
-    pub fn on_request_with<O: ObjectAccess>(&mut self, i: usize, now: Instant, data: &[u8], block: bool, od: &mut O, tx: &mut dyn SdoTx) {
+    pub fn on_request_with<O: ObjectAccess>(&mut self, i: usize, now: At, data: &[u8], block: bool, od: &mut O, tx: &mut dyn SdoTx) {
         let lent = self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
         let Some(channel) = self.channels.get_mut(i) else { return };
         let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
@@ -282,15 +286,20 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     }
 
     /// Timers and pending frames of server `i`, as [`SdoServer::poll`].
-    pub fn poll(&mut self, i: usize, now: Instant, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<Instant> {
+    pub fn poll(&mut self, i: usize, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> Option<At> {
         deadline_of(self.poll_with(i, now, true, od, tx))
     }
 
     /// As [`SdoServers::poll`], with block transfer served only if `block`
     /// (see [`SdoServers::on_request_with`]); the deadline as an [`At`].
     #[inline(always)]
-    pub fn poll_with(&mut self, i: usize, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
+    pub fn poll_with(&mut self, i: usize, now: At, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
         self.channels.get_mut(i).map_or(NEVER, |c| c.poll(now, block, od, tx))
+    }
+
+    /// The epoch moved by `by` µs.
+    pub(crate) fn shift(&mut self, by: u64) {
+        self.channels.iter_mut().for_each(|c| shift(&mut c.deadline, by));
     }
 
     /// Malformed frames server `i` counted, as [`SdoServer::malformed`].
@@ -301,7 +310,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
 impl Channel {
     #[inline(always)]
-    fn on_request<O: ObjectAccess>(&mut self, now: Instant, data: &[u8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
+    fn on_request<O: ObjectAccess>(&mut self, now: At, data: &[u8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
         // A frame at or after the deadline comes too late for its transfer:
         // the timeout abort answers it, and only a new initiate is served.
         let expired = self.expire(now, tx);
@@ -331,23 +340,22 @@ impl Channel {
     }
 
     #[inline(always)]
-    fn poll(&mut self, now: Instant, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
+    fn poll(&mut self, now: At, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
         self.expire(now, tx);
         // A frame still pending (`flush` false) brings the next poll anyway.
         let waiting = self.flush(tx) && block && self.send_block_segments(now, od, tx);
         if self.pending.is_some() || waiting {
-            now.as_micros()
+            now
         } else if matches!(self.state, State::Idle) {
             NEVER
         } else {
-            self.deadline.as_micros()
+            self.deadline
         }
     }
 
     /// The transfer in progress times out `timeout` after `now`.
-    #[allow(clippy::arithmetic_side_effects)] // Instant + Duration saturates (time.rs).
-    fn restart_timer(&mut self, now: Instant) {
-        self.deadline = now + self.timeout_us.map_or(DEFAULT_TIMEOUT, |us| Duration::from_micros(us.get()));
+    fn restart_timer(&mut self, now: At) {
+        self.deadline = later(now, self.timeout_us.map_or(DEFAULT_TIMEOUT_US, NonZeroU32::get));
     }
 
     fn count_malformed(&mut self) {
@@ -429,7 +437,7 @@ impl Channel {
 
     /// Aborts the transfer in progress with 0x05040000 once `now` reaches
     /// its deadline; true if it did.
-    fn expire(&mut self, now: Instant, tx: &mut dyn SdoTx) -> bool {
+    fn expire(&mut self, now: At, tx: &mut dyn SdoTx) -> bool {
         if matches!(self.state, State::Idle) || now < self.deadline {
             return false;
         }

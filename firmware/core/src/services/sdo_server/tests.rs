@@ -147,8 +147,8 @@ struct Test<const N: usize> {
     write_error: Option<AbortCode>,
 }
 
-fn ms(t: u64) -> Instant {
-    Instant::from_micros(t * 1_000)
+fn ms(t: u32) -> At {
+    t * 1000
 }
 
 fn hex(s: &str) -> Vec<u8> {
@@ -191,25 +191,25 @@ impl<const N: usize> Test<N> {
         }
     }
 
-    fn rx_bytes(&mut self, at: Instant, data: &[u8]) {
+    fn rx_bytes(&mut self, at: At, data: &[u8]) {
         let Test { server, image, bus, read_error, write_error } = self;
         let mut od = App { od: DictionaryAccess { dictionary: &DICT, image }, read_error: *read_error, write_error: *write_error };
         server.on_request(at, data, &mut od, bus);
     }
 
-    fn rx(&mut self, at: Instant, f: &str) {
+    fn rx(&mut self, at: At, f: &str) {
         self.rx_bytes(at, &hex(f));
     }
 
     /// One exchange: `request` in at `at`, exactly `response` out, nothing else.
     #[track_caller]
-    fn x(&mut self, at: Instant, request: &str, response: &str) {
+    fn x(&mut self, at: At, request: &str, response: &str) {
         self.rx(at, request);
         self.tx(response);
         self.none();
     }
 
-    fn poll(&mut self, at: Instant) -> Option<Instant> {
+    fn poll(&mut self, at: At) -> Option<At> {
         let Test { server, image, bus, read_error, write_error } = self;
         let mut od = App { od: DictionaryAccess { dictionary: &DICT, image }, read_error: *read_error, write_error: *write_error };
         server.poll(at, &mut od, bus)
@@ -234,7 +234,7 @@ impl<const N: usize> Test<N> {
 
     /// Nothing else was sent and the server is idle at `at`.
     #[track_caller]
-    fn done(&mut self, at: Instant) {
+    fn done(&mut self, at: At) {
         self.none();
         assert_eq!(self.poll(at), None);
         self.none();

@@ -2,7 +2,6 @@
 //! and the synchronous window (0x1007).
 
 use super::*;
-use crate::time::Duration;
 
 // ---- RPDOs ----------------------------------------------------------------------------
 
@@ -157,7 +156,7 @@ fn dummy_entries_skip_bytes_of_an_rpdo() {
 fn synchronous_rpdos_after_the_window_are_discarded() {
     let mut node = Node::operational(ms(0));
     assert_eq!(node.sdo(0x1400, 2, &[0]), Ok(()));
-    let window = |at| SyncEvent { at, counter: None, window_end: (at + Duration::from_millis(2)).as_micros() };
+    let window = |at| SyncEvent { at, counter: None, window_end: Far::after(at, 2000) };
     node.sync(window(ms(10)));
     assert!(node.rx(ms(12), 0x201, &[1, 0, 1]), "inside the window");
     node.sync(window(ms(20)));
@@ -174,7 +173,7 @@ fn a_refused_synchronous_tpdo_is_retried_only_inside_the_window() {
     node.remap_tpdo(1, &[0x2000_0008], 0x281, 1);
     node.poll(ms(0));
     node.frames();
-    let window = |at| SyncEvent { at, counter: None, window_end: (at + Duration::from_millis(2)).as_micros() };
+    let window = |at| SyncEvent { at, counter: None, window_end: Far::after(at, 2000) };
     node.bus.refuse = true;
     node.sync(window(ms(10)));
     node.bus.refuse = false;
@@ -191,7 +190,7 @@ fn a_refused_synchronous_tpdo_is_retried_only_inside_the_window() {
 // ---- The plain frame's path --------------------------------------------------------------
 
 /// A frame as the node takes it: the plain path if it is the plain frame, the general one otherwise.
-fn rx_plain_first(node: &mut Node, now: Instant, cob_id: u16, data: &[u8]) -> Option<u32> {
+fn rx_plain_first(node: &mut Node, now: At, cob_id: u16, data: &[u8]) -> Option<u32> {
     if let Some((n, reached)) = node.pdos.on_plain_frame(cob_id, data, &mut node.image) {
         node.bus.received(n);
         return Some(reached);
@@ -269,13 +268,13 @@ fn the_plain_path_answers_as_the_general_path_does() {
     // (as the node takes it), of the other through the general path alone. The
     // answers, the events, the images and the PDOs' state must stay equal.
     let (mut a, mut b) = (Node::operational(ms(0)), Node::operational(ms(0)));
-    let (mut t, mut seed, mut plain) = (0u64, 0x9E37_79B9u32, 0);
+    let (mut t, mut seed, mut plain) = (0u32, 0x9E37_79B9u32, 0);
     let mappings: [&[u32]; 4] = [&[0x2001_0010, 0x2000_0008], &[0x2000_0008], &[0x2004_0040], &[0x2000_0008, 0x0005_0008, 0x2008_0220]];
     for step in 0..20_000 {
         seed ^= seed << 13;
         seed ^= seed >> 17;
         seed ^= seed << 5;
-        t += u64::from(seed % 4000);
+        t += seed % 4000;
         let now = us(t);
         let arg = seed >> 8;
         for node in [&mut a, &mut b] {
@@ -302,11 +301,7 @@ fn the_plain_path_answers_as_the_general_path_does() {
                     let _ = node.sdo32(0x1400, 1, cob);
                 }
                 4 => {
-                    let window_end = if arg & 1 == 0 {
-                        (now + crate::time::Duration::from_micros(u64::from(arg >> 1 & 0xFFF))).as_micros()
-                    } else {
-                        crate::time::NEVER
-                    };
+                    let window_end = if arg & 1 == 0 { Far::after(now, u64::from(arg >> 1 & 0xFFF)) } else { Far::NEVER };
                     node.sync(SyncEvent { at: now, counter: None, window_end });
                 }
                 5 => {

@@ -9,7 +9,7 @@ use super::*;
 /// Sends `data` as segments seqno 1.., c = 1 on the last, checking that
 /// nothing comes back before the last one.
 #[track_caller]
-fn rx_sub_block<const N: usize>(t: &mut Test<N>, at: Instant, data: &[u8], last: bool) {
+fn rx_sub_block<const N: usize>(t: &mut Test<N>, at: At, data: &[u8], last: bool) {
     let count = data.chunks(7).count();
     for (i, chunk) in data.chunks(7).enumerate() {
         let c = last && i + 1 == count;

@@ -13,7 +13,7 @@ fn segmented_upload_of_a_120_byte_visible_string() {
     t.x(ms(0), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
     for (i, chunk) in LONG.chunks(7).enumerate() {
         let toggle = (i % 2) as u8;
-        t.rx_bytes(ms(1 + i as u64), &[0x60 | toggle << 4, 0, 0, 0, 0, 0, 0, 0]);
+        t.rx_bytes(ms(1 + i as u32), &[0x60 | toggle << 4, 0, 0, 0, 0, 0, 0, 0]);
         let last = i == 17;
         let b0 = toggle << 4 | ((7 - chunk.len() as u8) << 1) | u8::from(last);
         t.tx_bytes(&frame(b0, chunk));
@@ -77,7 +77,7 @@ fn segmented_download_of_120_bytes_without_size_and_of_nothing() {
     for (i, chunk) in text.chunks(7).enumerate() {
         let toggle = (i % 2) as u8;
         let b0 = toggle << 4 | ((7 - chunk.len() as u8) << 1) | u8::from(i == 17);
-        t.rx_bytes(ms(1 + i as u64), &frame(b0, chunk));
+        t.rx_bytes(ms(1 + i as u32), &frame(b0, chunk));
         t.tx_bytes(&[0x20 | toggle << 4, 0, 0, 0, 0, 0, 0, 0]);
     }
     t.done(ms(18));
