@@ -259,25 +259,25 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         Some(e)
     }
 
-    /// The next message that may go out at `now` (inhibit time respected).
-    pub fn poll(&mut self, now: Instant) -> Option<(u16, Emcy)> {
-        let cob_id = self.cob_id?;
-        if self.len == 0 || self.last_sent.is_some_and(|t| now < t + self.inhibit) {
+    /// The next queued message to hand on at `now`: with the COB-ID it goes
+    /// out on, if it may (the inhibit time respected, and `room` in the
+    /// transmit queue); while EMCY is off (0x1014 bit 31), with `None`
+    /// whatever `room` says: it is not sent, but the node still records it
+    /// (0x1001, 0x1003), and the queue does not fill up with messages that
+    /// never leave. One call for both, so that the node has one loop.
+    pub fn next(&mut self, now: Instant, room: bool) -> Option<(Option<u16>, Emcy)> {
+        if self.len == 0 {
+            return None;
+        }
+        let sending = self.cob_id.is_some();
+        if sending && (!room || self.last_sent.is_some_and(|t| now < t + self.inhibit)) {
             return None;
         }
         let e = self.pop()?;
-        self.last_sent = Some(now);
-        Some((cob_id, e))
-    }
-
-    /// While EMCY is off (0x1014 bit 31), the next queued message: it is
-    /// not sent, but the node still records it (0x1001, 0x1003), and the
-    /// queue does not fill up with messages that never leave.
-    pub fn take_unsent(&mut self) -> Option<Emcy> {
-        if self.cob_id.is_some() || self.len == 0 {
-            return None;
+        if sending {
+            self.last_sent = Some(now);
         }
-        self.pop()
+        Some((self.cob_id, e))
     }
 
     /// Whether messages wait to go out (or, while EMCY is off, to be recorded).
@@ -315,11 +315,11 @@ mod tests {
         assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]));
         assert!(!e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
         assert_eq!(e.register(), 0x11);
-        assert_eq!(e.poll(us(0)), Some((0x81, Emcy { code: EmcyCode(0x8130), register: 0x11, info: [3, 0, 0, 0, 0] })));
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), Emcy { code: EmcyCode(0x8130), register: 0x11, info: [3, 0, 0, 0, 0] })));
         e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0);
-        assert_eq!(e.poll(us(1)), Some((0x81, Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] })));
-        assert_eq!(e.poll(us(2)), None);
+        assert_eq!(e.next(us(1), true), Some((Some(0x81), Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] })));
+        assert_eq!(e.next(us(2), true), None);
     }
 
     #[test]
@@ -333,7 +333,7 @@ mod tests {
         assert_eq!(e.register(), 0x11, "bit 5 went with 0x1000, the heartbeat's bits stay");
         assert!(e.raise(EmcyCode(0x1000), [0; 5]));
         assert_eq!(e.register(), 0x11, "raised again without extra bits");
-        assert_eq!(e.poll(us(0)).map(|(_, m)| m.register), Some(0x21));
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m.register), Some(0x21));
     }
 
     #[test]
@@ -342,10 +342,11 @@ mod tests {
         e.configure(0x85, 10); // 1 ms
         e.signal(EmcyCode::PDO_LENGTH, [0; 5]);
         e.signal(EmcyCode::PDO_LENGTH_EXCEEDED, [0; 5]);
-        assert!(e.poll(us(100)).is_some());
+        assert_eq!(e.next(us(100), false), None, "no room in the transmit queue");
+        assert!(e.next(us(100), true).is_some());
         assert_eq!(deadline_of(e.deadline()), Some(us(1100)));
-        assert_eq!(e.poll(us(1099)), None);
-        assert_eq!(e.poll(us(1100)).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
+        assert_eq!(e.next(us(1099), true), None);
+        assert_eq!(e.next(us(1100), true).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
     }
 
     #[test]
@@ -357,8 +358,10 @@ mod tests {
         e.signal(EmcyCode(0x8210), [0; 5]);
         assert_eq!(e.overflows(), 1);
         assert_eq!(e.register() & register::GENERIC, register::GENERIC);
-        assert_eq!(e.poll(us(0)), None, "EMCY off (bit 31)");
-        assert_eq!(e.take_unsent().map(|m| m.code), Some(EmcyCode(0x8210)), "recorded, not sent");
+        // EMCY off (bit 31): recorded, not sent, whether or not the transmit queue has room.
+        assert_eq!(e.next(us(0), false).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(e.next(us(0), true).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(e.next(us(0), true), None);
         assert!(e.raise(EmcyCode(0x8130), [0; 5]));
         assert!(e.raise(EmcyCode(0x8110), [0; 5]), "more active errors than slots are still reported");
         assert_eq!(register_bit(EmcyCode(0x4210)), register::TEMPERATURE);
