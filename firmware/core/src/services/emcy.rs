@@ -118,10 +118,15 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Whether `code` is active.
-    // Out of line: raising an error and recording a sent EMCY each had a copy.
-    #[inline(never)]
     pub fn is_active(&self, code: EmcyCode) -> bool {
-        self.active.iter().take(self.active_len).any(|&c| c == code)
+        self.position(code).is_some()
+    }
+
+    /// Where `code` is in the active list.
+    // Out of line: raising, clearing and recording a sent EMCY each had a copy.
+    #[inline(never)]
+    fn position(&self, code: EmcyCode) -> Option<usize> {
+        self.active.iter().take(self.active_len).position(|&c| c == code)
     }
 
     /// Raises an error: records it as active and queues its message.
@@ -197,7 +202,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
     pub fn clear(&mut self, code: EmcyCode) {
-        let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
+        let Some(pos) = self.position(code) else { return };
         // The set has no order (only membership and the register bits
         // count): the last entry takes the cleared one's place.
         // `position` found the code among the first `active_len`: it is at least 1.
