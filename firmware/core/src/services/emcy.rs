@@ -126,7 +126,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     // Out of line: raising, clearing and recording a sent EMCY each had a copy.
     #[inline(never)]
     fn position(&self, code: EmcyCode) -> Option<usize> {
-        self.active.iter().take(self.active_len).position(|&c| c == code)
+        self.active.get(..self.active_len)?.iter().position(|&c| c == code)
     }
 
     /// Raises an error: records it as active and queues its message.
