@@ -311,17 +311,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // (0x700 + id), which CiA 301 forbids. The EMCY deadline brings the next call.
         if booted && self.nmt.state().sdo_allowed() {
             // EMCY off: errors still reach the error register and the history.
-            while let Some(e) = self.comm.emcy.take_unsent() {
+            while let Some((cob_id, e)) = self.comm.emcy.next(now, self.txq.free() > 0) {
                 let dict = self.od.dictionary();
                 self.comm.record(dict, self.od.image_mut(), &e);
                 self.touched = ALL_TPDOS;
-            }
-            while self.txq.free() > 0 {
-                let Some((cob_id, e)) = self.comm.emcy.poll(now) else { break };
-                let dict = self.od.dictionary();
-                self.comm.record(dict, self.od.image_mut(), &e);
-                self.touched = ALL_TPDOS;
-                self.push(cob_id, &e.emit());
+                if let Some(cob_id) = cob_id {
+                    self.push(cob_id, &e.emit());
+                }
             }
         }
     }

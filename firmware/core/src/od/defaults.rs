@@ -30,7 +30,8 @@ impl Defaults {
         let (mut at, mut from) = (0usize, 0usize);
         for &(zeros, len) in self.runs {
             at = at.wrapping_add(zeros.into());
-            for &b in self.bytes.get(from..).unwrap_or(&[]).iter().take(len.into()) {
+            let rest = self.bytes.get(from..).unwrap_or(&[]);
+            for &b in rest.get(..usize::from(len)).unwrap_or(rest) {
                 if let Some(d) = dst.get_mut(at.wrapping_sub(start)) {
                     *d = b;
                 }

@@ -299,8 +299,9 @@ impl Dictionary {
         let mut changed = false;
         // Byte by byte, the bytes past `data` zero: a value the device sets
         // has a few bytes, less than a `memcpy` call costs.
-        for (i, d) in slot.iter_mut().enumerate() {
-            let s = data.get(i).copied().unwrap_or(0);
+        let mut src = data.iter();
+        for d in slot.iter_mut() {
+            let s = src.next().copied().unwrap_or(0);
             changed |= *d != s;
             *d = s;
         }

@@ -120,10 +120,15 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Whether `code` is active.
-    // Out of line: raising an error and recording a sent EMCY each had a copy.
-    #[inline(never)]
     pub fn is_active(&self, code: EmcyCode) -> bool {
-        self.active.iter().take(self.active_len).any(|&c| c == code)
+        self.position(code).is_some()
+    }
+
+    /// Where `code` is in the active list.
+    // Out of line: raising, clearing and recording a sent EMCY each had a copy.
+    #[inline(never)]
+    fn position(&self, code: EmcyCode) -> Option<usize> {
+        self.active.get(..self.active_len)?.iter().position(|&c| c == code)
     }
 
     /// Raises an error: records it as active and queues its message.
@@ -199,7 +204,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
     pub fn clear(&mut self, code: EmcyCode) {
-        let Some(pos) = self.active.iter().take(self.active_len).position(|&c| c == code) else { return };
+        let Some(pos) = self.position(code) else { return };
         // The set has no order (only membership and the register bits
         // count): the last entry takes the cleared one's place.
         // `position` found the code among the first `active_len`: it is at least 1.
@@ -261,25 +266,25 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         Some(e)
     }
 
-    /// The next message that may go out at `now` (inhibit time respected).
-    pub fn poll(&mut self, now: At) -> Option<(u16, Emcy)> {
-        let cob_id = self.cob_id?;
-        if self.len == 0 || self.free_at.is_some_and(|t| now < t) {
+    /// The next queued message to hand on at `now`: with the COB-ID it goes
+    /// out on, if it may (the inhibit time respected, and `room` in the
+    /// transmit queue); while EMCY is off (0x1014 bit 31), with `None`
+    /// whatever `room` says: it is not sent, but the node still records it
+    /// (0x1001, 0x1003), and the queue does not fill up with messages that
+    /// never leave. One call for both, so that the node has one loop.
+    pub fn next(&mut self, now: At, room: bool) -> Option<(Option<u16>, Emcy)> {
+        if self.len == 0 {
+            return None;
+        }
+        let sending = self.cob_id.is_some();
+        if sending && (!room || self.free_at.is_some_and(|t| now < t)) {
             return None;
         }
         let e = self.pop()?;
-        self.free_at = Some(later(now, self.inhibit));
-        Some((cob_id, e))
-    }
-
-    /// While EMCY is off (0x1014 bit 31), the next queued message: it is
-    /// not sent, but the node still records it (0x1001, 0x1003), and the
-    /// queue does not fill up with messages that never leave.
-    pub fn take_unsent(&mut self) -> Option<Emcy> {
-        if self.cob_id.is_some() || self.len == 0 {
-            return None;
+        if sending {
+            self.free_at = Some(later(now, self.inhibit));
         }
-        self.pop()
+        Some((self.cob_id, e))
     }
 
     /// Whether messages wait to go out (or, while EMCY is off, to be recorded).
@@ -322,11 +327,11 @@ mod tests {
         assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]));
         assert!(!e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
         assert_eq!(e.register(), 0x11);
-        assert_eq!(e.poll(us(0)), Some((0x81, Emcy { code: EmcyCode(0x8130), register: 0x11, info: [3, 0, 0, 0, 0] })));
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), Emcy { code: EmcyCode(0x8130), register: 0x11, info: [3, 0, 0, 0, 0] })));
         e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0);
-        assert_eq!(e.poll(us(1)), Some((0x81, Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] })));
-        assert_eq!(e.poll(us(2)), None);
+        assert_eq!(e.next(us(1), true), Some((Some(0x81), Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] })));
+        assert_eq!(e.next(us(2), true), None);
     }
 
     #[test]
@@ -340,7 +345,7 @@ mod tests {
         assert_eq!(e.register(), 0x11, "bit 5 went with 0x1000, the heartbeat's bits stay");
         assert!(e.raise(EmcyCode(0x1000), [0; 5]));
         assert_eq!(e.register(), 0x11, "raised again without extra bits");
-        assert_eq!(e.poll(us(0)).map(|(_, m)| m.register), Some(0x21));
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m.register), Some(0x21));
     }
 
     #[test]
@@ -349,10 +354,11 @@ mod tests {
         e.configure(0x85, 10); // 1 ms
         e.signal(EmcyCode::PDO_LENGTH, [0; 5]);
         e.signal(EmcyCode::PDO_LENGTH_EXCEEDED, [0; 5]);
-        assert!(e.poll(us(100)).is_some());
+        assert_eq!(e.next(us(100), false), None, "no room in the transmit queue");
+        assert!(e.next(us(100), true).is_some());
         assert_eq!(deadline_of(e.deadline()), Some(us(1100)));
-        assert_eq!(e.poll(us(1099)), None);
-        assert_eq!(e.poll(us(1100)).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
+        assert_eq!(e.next(us(1099), true), None);
+        assert_eq!(e.next(us(1100), true).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
     }
 
     #[test]
@@ -364,8 +370,10 @@ mod tests {
         e.signal(EmcyCode(0x8210), [0; 5]);
         assert_eq!(e.overflows(), 1);
         assert_eq!(e.register() & register::GENERIC, register::GENERIC);
-        assert_eq!(e.poll(us(0)), None, "EMCY off (bit 31)");
-        assert_eq!(e.take_unsent().map(|m| m.code), Some(EmcyCode(0x8210)), "recorded, not sent");
+        // EMCY off (bit 31): recorded, not sent, whether or not the transmit queue has room.
+        assert_eq!(e.next(us(0), false).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(e.next(us(0), true).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(e.next(us(0), true), None);
         assert!(e.raise(EmcyCode(0x8130), [0; 5]));
         assert!(e.raise(EmcyCode(0x8110), [0; 5]), "more active errors than slots are still reported");
         assert_eq!(register_bit(EmcyCode(0x4210)), register::TEMPERATURE);

@@ -135,7 +135,10 @@ impl<const N: usize> Consumer<N> {
     /// true if that node had timed out: it is back.
     pub fn on_heartbeat(&mut self, node_id: u8, state: NmtStateCode, now: At) -> bool {
         let mut back = false;
-        for m in self.monitors.iter_mut().filter(|m| m.node_id == node_id && m.node_id != 0) {
+        if node_id == 0 {
+            return false;
+        }
+        for m in self.monitors.iter_mut().filter(|m| m.node_id == node_id) {
             // A boot-up message means the producer restarted: monitoring starts over.
             m.deadline = if state == NmtStateCode::BootUp { None } else { Some(later(now, m.time)) };
             m.state = state;
