@@ -141,7 +141,8 @@ impl Units {
 
     /// A velocity: user units per second to increments per second (polarity applied).
     pub fn velocity_to_inc(&self, user: i32) -> i64 {
-        self.inc_of(user, self.velocity_negative)
+        // Not through `inc_of`: the RPDO's target velocity pays no second call.
+        negate(self.to_inc.apply(i64::from(user)), self.velocity_negative)
     }
 
     /// Increments per second to user velocity units (polarity applied).
