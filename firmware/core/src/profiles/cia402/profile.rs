@@ -236,7 +236,7 @@ impl<D: Drive> Cia402<D> {
                 return false;
             }
             // Of the statusword, a new target changes bit 11 alone (pv clears it).
-            self.s.velocity_target = speed_q(self.s.units.velocity_to_inc(value as i32));
+            self.s.velocity_target = speed_q(self.s.units.velocity_to_inc_in_line(value as i32));
             if !core::mem::replace(&mut self.s.internal_limit, false) {
                 return true;
             }
