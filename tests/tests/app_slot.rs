@@ -525,12 +525,15 @@ fn a_device_polled_when_due_runs_at_its_deadline_after_hooks_app_mut_and_its_own
     assert_eq!(polls(&b).last(), Some(&12), "an RPDO alone");
     b.rx(ms(14), RPDO1, &[0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
     assert_eq!(polls(&b).last(), Some(&14), "an RPDO whose hook asked");
+    // An RPDO of the wrong length (its error goes to the device's NMT hook): at once.
+    b.rx(ms(15), RPDO1, &[0x00, 0x00]);
+    assert_eq!(polls(&b).last(), Some(&15), "an RPDO's length error");
     // app_mut: the next process polls; a poll that asks runs again at the next process.
     b.node.app_mut().again = 1;
-    b.at(ms(15));
     b.at(ms(16));
     b.at(ms(17));
-    assert_eq!(polls(&b).iter().rev().take(3).collect::<Vec<_>>(), [&16, &15, &14], "after app_mut, and once more as asked");
+    b.at(ms(18));
+    assert_eq!(polls(&b).iter().rev().take(3).collect::<Vec<_>>(), [&17, &16, &15], "after app_mut, and once more as asked");
 }
 
 #[test]

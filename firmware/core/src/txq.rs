@@ -77,7 +77,13 @@ impl<const N: usize> TxQueue<N> {
     // Out of line: the event-driven TPDOs' paths share it.
     #[inline(never)]
     pub fn push_data(&mut self, cob_id: u16, data: &[u8; 8], len: u8) -> bool {
-        self.reserve_data(cob_id, len).map(|d| *d = *data).is_some()
+        if cob_id > 0x7FF || len > 8 {
+            return false;
+        }
+        let key = u32::from(cob_id) << 21;
+        // Into an empty queue (an event-driven TPDO, mostly): the head, without the reservation's call.
+        let slot = if self.len == 0 { self.place(self.head & Self::MASK, key) } else { self.reserve(key, false) };
+        slot.map(|f| *f.standard_data(cob_id, len) = *data).is_some()
     }
 
     /// Queues a data frame of `len` (at most 8) bytes on the 11-bit
@@ -268,6 +274,10 @@ mod tests {
     #[test]
     fn a_frame_written_into_its_slot_takes_its_place_among_the_others() {
         let mut q = TxQueue::<4>::new();
+        // Into the empty queue as into any other: refused, not counted.
+        assert!(!q.push_data(0x800, &[0; 8], 1), "not an 11-bit identifier");
+        assert!(!q.push_data(0x181, &[0; 8], 9), "more than 8 bytes");
+        assert_eq!((q.len(), q.overflows()), (0, 0));
         assert!(q.push(f(0x281, 2)));
         assert_eq!(q.pop(), Some(f(0x281, 2)));
         assert!(q.push(f(0x581, 9)));

@@ -308,6 +308,17 @@ impl Ctx<'_> {
         }
     }
 
+    /// [`Ctx::slot_value`] of a 2-byte slot (a controlword), without the
+    /// length's dispatch: 0 for a slot of another length.
+    #[inline]
+    pub fn slot_u16(&self, slot: ImageSlot) -> u16 {
+        let start = usize::from(slot.offset);
+        match self.image.get(start..start.wrapping_add(usize::from(slot.len))) {
+            Some(&[a, b]) => u16::from_le_bytes([a, b]),
+            _ => 0,
+        }
+    }
+
     /// [`Ctx::set_at`] of a value the device sets with every frame (a
     /// statusword): the low bytes of `value` straight into the image bytes
     /// [`Ctx::image_slot`] found, without a look-up or a check of the entry.

@@ -250,7 +250,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if received | errors == 0 {
             return;
         }
-        let (waits, mut wake) = (self.app_due.waits, false);
+        let mut wake = false;
         self.with_app_follow(now, |app, ctx| {
             let mut bits = received;
             while bits != 0 {
@@ -272,8 +272,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         });
         // The RPDO's hook alone leaves the device's timers to their deadline unless it asked for them.
-        if A::POLL_WHEN_DUE {
-            self.app_due.waits = waits && errors == 0 && !wake;
+        if A::POLL_WHEN_DUE && (wake || errors != 0) {
+            self.app_due.waits = false;
         }
     }
 

@@ -28,6 +28,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// something changed them (`stale`) or their earliest deadline is due,
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
+    // In line: each image calls it at one place (the `CanNode` trampoline,
+    // the size images' loop), so that place is the function.
+    #[inline(always)]
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
         let now = self.tick(now);
         let deadline = self.process_at::<true>(now);

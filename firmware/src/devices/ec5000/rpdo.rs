@@ -132,7 +132,7 @@ pub(super) fn written(app: &mut App, ctx: &mut Ctx<'_>, n: u8) {
     if let Some(&Fixed { plan: rpdo, controlword, count, .. }) = app.rpdos.0.get(usize::from(n)) {
         if rpdo == Plan::Fixed {
             if controlword != ImageSlot::NONE {
-                app.drive.rpdo_controlword(ctx, ctx.slot_value(controlword) as u16);
+                app.drive.rpdo_controlword(ctx, ctx.slot_u16(controlword));
             }
             for i in 0..usize::from(count) {
                 let Some(&Object { at, slot, len }) = app.rpdos.0.get(usize::from(n)).and_then(|r| r.objects.get(i)) else { break };

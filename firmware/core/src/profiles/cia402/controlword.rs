@@ -42,22 +42,21 @@ pub enum Command {
 /// The command `cw` gives after `previous`: a fault reset on the rising
 /// edge of bit 7; while bit 7 stays set, no command (the table codes every
 /// other command with bit 7 = 0).
-pub const fn decode(cw: u16, previous: u16) -> Option<Command> {
+pub fn decode(cw: u16, previous: u16) -> Option<Command> {
     if cw & FAULT_RESET != 0 {
         return if previous & FAULT_RESET == 0 { Some(Command::FaultReset) } else { None };
     }
-    Some(if cw & ENABLE_VOLTAGE == 0 {
-        Command::DisableVoltage
-    } else if cw & QUICK_STOP == 0 {
-        Command::QuickStop
-    } else if cw & SWITCH_ON == 0 {
-        Command::Shutdown
-    } else if cw & ENABLE_OPERATION == 0 {
-        Command::SwitchOn
-    } else {
-        Command::EnableOperation
-    })
+    // Bits 0-3 index the table (one load, not up to four tests); the mask keeps the index in it.
+    BY_BITS_0_TO_3.get(usize::from(cw & 0x0F)).copied()
 }
+
+/// The command of each value of bits 0-3 (bit 7 clear), CiA 402-2's
+/// coding: xx0x disable voltage, x01x quick stop, x110 shutdown, 0111
+/// switch on, 1111 enable operation.
+const BY_BITS_0_TO_3: [Command; 16] = {
+    use Command::{DisableVoltage as Dv, EnableOperation as Eo, QuickStop as Qs, Shutdown as Sd, SwitchOn as So};
+    [Dv, Dv, Qs, Qs, Dv, Dv, Sd, So, Dv, Dv, Qs, Qs, Dv, Dv, Sd, Eo]
+};
 
 #[cfg(test)]
 mod tests {
@@ -77,5 +76,23 @@ mod tests {
         assert_eq!(decode(0x0080, 0x0080), None, "only the rising edge");
         assert_eq!(decode(0x008F, 0x0080), None, "bit 7 held: no command");
         assert_eq!(decode(0x011F, 0), Some(Command::EnableOperation), "mode bits do not change the command");
+    }
+
+    #[test]
+    fn every_value_of_bits_0_to_3_decodes_as_the_coding_table_says() {
+        for bits in 0..16u16 {
+            let want = if bits & ENABLE_VOLTAGE == 0 {
+                Command::DisableVoltage
+            } else if bits & QUICK_STOP == 0 {
+                Command::QuickStop
+            } else if bits & SWITCH_ON == 0 {
+                Command::Shutdown
+            } else if bits & ENABLE_OPERATION == 0 {
+                Command::SwitchOn
+            } else {
+                Command::EnableOperation
+            };
+            assert_eq!(decode(bits | 0x0370, 0), Some(want), "controlword {:#06x}", bits | 0x0370);
+        }
     }
 }

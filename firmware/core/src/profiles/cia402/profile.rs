@@ -236,7 +236,7 @@ impl<D: Drive> Cia402<D> {
                 return false;
             }
             // Of the statusword, a new target changes bit 11 alone (pv clears it).
-            self.s.velocity_target = speed_q(self.s.units.velocity_to_inc(value as i32));
+            self.s.velocity_target = speed_q(self.s.units.velocity_to_inc_in_line(value as i32));
             if !core::mem::replace(&mut self.s.internal_limit, false) {
                 return true;
             }
@@ -428,6 +428,13 @@ impl<D: Drive> Cia402<D> {
         let stays =
             self.s.state == PdsState::QuickStopActive && matches!(signed_at(ctx, self.s.at.at(Located::QUICK_STOP_OPTION)), Some(5..=8));
         match fsa::next(self.s.state, command, stays) {
+            // The steps between states without the drive function (2, 3, 6,
+            // 7, 10: the ones a master goes through most) in line, as
+            // `transition` takes them; 3 on "enable operation" goes on to 4.
+            Some(t @ Transition { number: 2 | 3 | 6 | 7 | 10, .. }) if !(t.number == 3 && command == Command::EnableOperation) => {
+                self.s.next_tick = self.s.next_tick.max(ctx.now().as_micros().saturating_add(TICK_US));
+                (self.s.braking, self.s.state) = (false, t.to);
+            }
             Some(t) => {
                 self.transition(ctx, t);
                 // "Switch on + enable operation" in Ready to switch on: 3, then 4.
@@ -485,9 +492,9 @@ impl<D: Drive> Cia402<D> {
                     self.s.state = PdsState::QuickStopActive;
                 }
             }
-            // From a state without the drive function (2, 3, 6, 7, 10)
-            // `stop_now` has nothing to switch off: in line, no call for
-            // the steps a master goes through most.
+            // From a state without the drive function (3 on its way to 4;
+            // `command` takes 2, 3, 6, 7 and 10 itself) `stop_now` has
+            // nothing to switch off: in line, no call.
             _ if !self.s.state.drive_function() => (self.s.braking, self.s.state) = (false, t.to),
             _ => self.stop_now(t.to),
         }

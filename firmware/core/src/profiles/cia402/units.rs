@@ -35,6 +35,14 @@ impl Factor {
     #[allow(clippy::arithmetic_side_effects)]
     #[inline(never)]
     pub fn apply(self, value: i64) -> i64 {
+        self.apply_in_line(value)
+    }
+
+    /// [`Factor::apply`] in line (the RPDO's target velocity).
+    // Two i64s multiply within an i128 (below 2^126), and 2^31 more fits.
+    #[allow(clippy::arithmetic_side_effects)]
+    #[inline(always)]
+    pub fn apply_in_line(self, value: i64) -> i64 {
         ((i128::from(value) * i128::from(self.0) + (1 << 31)) >> 32) as i64
     }
 }
@@ -141,7 +149,14 @@ impl Units {
 
     /// A velocity: user units per second to increments per second (polarity applied).
     pub fn velocity_to_inc(&self, user: i32) -> i64 {
-        self.inc_of(user, self.velocity_negative)
+        // Not through `inc_of`: one call, not two.
+        negate(self.to_inc.apply(i64::from(user)), self.velocity_negative)
+    }
+
+    /// [`Units::velocity_to_inc`] without a call, for the RPDO's target velocity.
+    #[inline(always)]
+    pub(super) fn velocity_to_inc_in_line(&self, user: i32) -> i64 {
+        negate(self.to_inc.apply_in_line(i64::from(user)), self.velocity_negative)
     }
 
     /// Increments per second to user velocity units (polarity applied).
