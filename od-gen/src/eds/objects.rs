@@ -36,6 +36,7 @@ impl Reader<'_> {
                 }
             },
         };
+        self.check_index_range(index, kind, s.get("ObjectType").map_or(s.line, |p| p.line));
         let sub_number = s.get("SubNumber").and_then(|p| self.int(p)).map(|n| n.clamp(0, 0x100) as u16);
         let sub_number_line = s.get("SubNumber").map_or(s.line, |p| p.line);
         let compact = s.get("CompactSubObj").and_then(|p| self.int(p)).map(|n| n.clamp(0, 0x100) as u16);

@@ -158,3 +158,16 @@ fn never_panics_on_garbage() {
         let _ = read_str(text);
     }
 }
+
+#[test]
+fn an_object_left_out_for_where_it_sits_is_reported() {
+    // A heartbeat object typed DEFTYPE (0x5 for 0x7) and a VAR in the reserved range both vanish from the dictionary.
+    let text = format!(
+        "{HEAD}[1017]\nParameterName=Producer heartbeat time\nObjectType=0x5\nDataType=0x0006\nAccessType=rw\nDefaultValue=0\n[0800]\nParameterName=r\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\n[0007]\nParameterName=UNSIGNED32\nObjectType=0x5\nDataType=0x0007\nAccessType=ro\nDefaultValue=32\n"
+    );
+    let (_, d) = read_str(&text);
+    assert!(d.mentions(Severity::Warning, 18, "ObjectType DEFTYPE of 0x1017 defines a data type"), "{d}");
+    assert!(d.mentions(Severity::Warning, 24, "0x0800 is in the range CiA 301 reserves"), "{d}");
+    // A type definition where CiA 301 puts them is no finding.
+    assert_eq!(d.warnings().filter(|w| w.message.contains("0x0007")).count(), 0, "{d}");
+}
