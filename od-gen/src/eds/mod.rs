@@ -26,6 +26,12 @@ use sections::{Kind, OBJECT_KEYS, classify};
 /// Reads an EDS/DCF from its bytes. Never panics; every problem is a diagnostic.
 pub fn read(file: &str, bytes: &[u8]) -> (Eds, Diagnostics) {
     let mut d = Diagnostics::new(file);
+    // Read as Latin-1, UTF-16 gives a NUL between letters: a finding per line and no section.
+    let utf16 = bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]);
+    if utf16 || bytes.iter().take(64).filter(|&&b| b == 0).count() > 16 {
+        d.error(0, "file is UTF-16 (or holds NUL bytes): an EDS or DCF is 8-bit text (CiA 306); save it as UTF-8 or ASCII");
+        return (Eds { file: file.to_owned(), ..Eds::default() }, d);
+    }
     let (text, latin1) = lexer::decode(bytes);
     if latin1 {
         d.warn(0, "file is not UTF-8; read as Latin-1");

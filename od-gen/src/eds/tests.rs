@@ -189,3 +189,22 @@ fn a_sub_object_without_datatype_takes_the_type_it_cannot_differ_from() {
     assert_eq!(arr.subs[&1].data_type, Some(DataType::Unsigned16));
     assert_eq!(arr.subs[&1].value, [7, 0]);
 }
+
+#[test]
+fn a_utf16_file_is_one_error() {
+    // Windows editors save "Unicode" as UTF-16: read as Latin-1 it was a warning per line and "no object sections".
+    let text = format!("{HEAD}[1000]\nParameterName=Device type\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n");
+    for bom in [[0xFF, 0xFE], [0xFE, 0xFF]] {
+        let mut bytes = bom.to_vec();
+        for u in text.encode_utf16() {
+            bytes.extend(if bom[0] == 0xFF { u.to_le_bytes() } else { u.to_be_bytes() });
+        }
+        let (_, d) = read("t.eds", &bytes);
+        assert_eq!(d.errors().count(), 1, "{d}");
+        assert!(d.mentions(Severity::Error, 0, "file is UTF-16"), "{d}");
+        assert_eq!(d.warnings().count(), 0, "{d}");
+    }
+    // Without a byte-order mark too.
+    let bytes: Vec<u8> = text.encode_utf16().flat_map(u16::to_le_bytes).collect();
+    assert!(read("t.eds", &bytes).1.mentions(Severity::Error, 0, "file is UTF-16"));
+}
