@@ -162,7 +162,7 @@ class InteropTest(unittest.TestCase):
         # only once wait_for_bootup runs, so a node that answered within
         # 0.3 ms (vnode before its 20 ms restart time) was missed about one
         # reset in three.
-        for command in [0x81, 0x82] * 8:
+        for command in [0x81, 0x82] * 5:
             self.node.nmt.send_command(command)
             self.node.nmt.wait_for_bootup(2)
             self.assertEqual(self.node.nmt.state, "PRE-OPERATIONAL")
