@@ -189,6 +189,29 @@ fn back_to_back_sdo_requests_are_all_answered() {
     assert_eq!(count(&lines, DEVICE_TYPE), N, "every request answered");
 }
 
+#[test]
+fn a_reset_takes_a_boards_restart_time_and_the_answer_before_it_goes_out_first() {
+    let vnode = Vnode::start(&[]);
+    let mut m = vnode.connect();
+    m.collect(Duration::from_millis(100));
+    // python-canopen's `send_command` then `wait_for_bootup` only sees a
+    // boot-up that comes once it waits: 20 ms is a board's restart, never
+    // the 10-300 us a reset in stages takes on a PC.
+    for command in ["t00028105", "t00028205"] {
+        let sent = Instant::now();
+        m.send(&format!("{command}\r"));
+        assert_eq!(m.wait_for(|l| l == "t705100").as_deref(), Some("t705100"), "{command}: boot-up");
+        assert!(sent.elapsed() >= Duration::from_millis(20), "{command}: boot-up after {:?}", sent.elapsed());
+    }
+    // 0x1F51:01 = 1 restarts the EC5000: its SDO answer first (a boot-up
+    // before it would be skipped here and missed below), the boot-up 20 ms later.
+    let sent = Instant::now();
+    m.send("t60582F511F0101000000\r");
+    assert_eq!(m.wait_for(|l| l.starts_with("t585")).as_deref(), Some("t585860511F0100000000"));
+    assert_eq!(m.wait_for(|l| l == "t705100").as_deref(), Some("t705100"));
+    assert!(sent.elapsed() >= Duration::from_millis(20), "boot-up after {:?}", sent.elapsed());
+}
+
 /// Spins every core until `stop` is set.
 fn busy_cores(stop: &std::sync::Arc<std::sync::atomic::AtomicBool>) -> Vec<std::thread::JoinHandle<()>> {
     let cores = std::thread::available_parallelism().map_or(2, usize::from);

@@ -50,6 +50,14 @@ const REPORT_EVERY: StdDuration = StdDuration::from_secs(1);
 const TRACE_IFACE: &str = "can0";
 /// The node-id of a node that LSS has yet to configure (CiA 305).
 const UNCONFIGURED: u8 = 255;
+/// How long a reset the node was asked for (NMT reset node or reset
+/// communication, a restart through an object, an LSS switch that resets)
+/// keeps it off the bus before it runs and sends its boot-up, as a board
+/// restarting does. Without it the boot-up came 10-300 us after the NMT
+/// command, and python-canopen's `send_command(0x81)` then
+/// `wait_for_bootup()`, which only sees a boot-up that arrives once it waits,
+/// missed it about one time in three.
+const RESTART_TIME: StdDuration = StdDuration::from_millis(20);
 /// The device names `--device` takes: the firmware's devices and the interop test fixture.
 const DEVICES: [&str; 6] = ["ec5000", "unitek-ds", "sendix", "bmaxx4400", "agile", "interop"];
 
@@ -355,13 +363,23 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
     let mut report = Reporter::default();
     // A frame the node sent that the wire had no room for yet.
     let mut held = None;
+    // When a reset the node was asked for runs (RESTART_TIME after the request).
+    let mut restart_at: Option<std::time::Instant> = None;
     loop {
         let now = clock();
-        // A reset runs a stage per call: frames that come meanwhile wait on
-        // the wire's side until it is done, as on a board.
-        let mut deadline = node.process(now);
-        while node.resetting() {
+        // What the node queued before the reset (the SDO answer to a restart
+        // command) goes out first; frames that come meanwhile wait on the
+        // wire's side, as on a board.
+        let restarting =
+            node.resetting() && std::time::Instant::now() < *restart_at.get_or_insert_with(|| std::time::Instant::now() + RESTART_TIME);
+        let mut deadline = None;
+        if !restarting {
+            restart_at = None;
+            // A reset runs a stage per call, all of them before the next frame.
             deadline = node.process(now);
+            while node.resetting() {
+                deadline = node.process(now);
+            }
         }
         if let Some(index) = node.take_bit_rate_change() {
             match BitRate::from_cia_index(index) {
@@ -402,8 +420,9 @@ fn serve<O: ObjectDictionary, A: Application, const R: usize, const T: usize, co
         // replaces an unsent answer by the next one (its client has moved
         // on): answers lost without trace. The requests wait on the wire's
         // side instead, and TCP holds the clients back.
-        if held.is_some() {
-            std::thread::sleep(wait);
+        if held.is_some() || restarting {
+            let until_restart = restart_at.filter(|_| restarting).map(|t| t.saturating_duration_since(std::time::Instant::now()));
+            std::thread::sleep(until_restart.map_or(wait, |r| r.min(wait)));
             continue;
         }
         match channels.from_client.recv_timeout(wait) {

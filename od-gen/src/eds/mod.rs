@@ -19,13 +19,19 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use crate::diag::Diagnostics;
 use crate::lexer::{self, Pair, Section};
-use crate::model::Eds;
+use crate::model::{Eds, ObjectKind};
 use crate::value::parse_int;
 use sections::{Kind, OBJECT_KEYS, classify};
 
 /// Reads an EDS/DCF from its bytes. Never panics; every problem is a diagnostic.
 pub fn read(file: &str, bytes: &[u8]) -> (Eds, Diagnostics) {
     let mut d = Diagnostics::new(file);
+    // Read as Latin-1, UTF-16 gives a NUL between letters: a finding per line and no section.
+    let utf16 = bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]);
+    if utf16 || bytes.iter().take(64).filter(|&&b| b == 0).count() > 16 {
+        d.error(0, "file is UTF-16 (or holds NUL bytes): an EDS or DCF is 8-bit text (CiA 306); save it as UTF-8 or ASCII");
+        return (Eds { file: file.to_owned(), ..Eds::default() }, d);
+    }
     let (text, latin1) = lexer::decode(bytes);
     if latin1 {
         d.warn(0, "file is not UTF-8; read as Latin-1");
@@ -165,6 +171,25 @@ impl Reader<'_> {
                 self.d.error(p.line, format!("{}: {e}", p.key));
                 None
             }
+        }
+    }
+
+    /// An object the dictionary leaves out because of where it sits says so:
+    /// CiA 301 keeps data type definitions (NULL, DEFTYPE, DEFSTRUCT) at
+    /// 0x0001-0x025F and reserves 0x0260-0x0FFF, so a VAR typed DEFTYPE by
+    /// mistake (0x5 for 0x7) would otherwise vanish from the device unreported.
+    fn check_index_range(&mut self, index: u16, kind: ObjectKind, line: usize) {
+        let type_definition = matches!(kind, ObjectKind::Null | ObjectKind::DefType | ObjectKind::DefStruct);
+        if type_definition && index >= 0x1000 {
+            self.d.warn(
+                line,
+                format!(
+                    "ObjectType {} of 0x{index:04X} defines a data type, which CiA 301 keeps at 0x0001-0x025F; the object is left out",
+                    kind.name()
+                ),
+            );
+        } else if (0x0260..0x1000).contains(&index) {
+            self.d.warn(line, format!("0x{index:04X} is in the range CiA 301 reserves (0x0260-0x0FFF); the object is left out"));
         }
     }
 

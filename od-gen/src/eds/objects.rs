@@ -36,6 +36,7 @@ impl Reader<'_> {
                 }
             },
         };
+        self.check_index_range(index, kind, s.get("ObjectType").map_or(s.line, |p| p.line));
         let sub_number = s.get("SubNumber").and_then(|p| self.int(p)).map(|n| n.clamp(0, 0x100) as u16);
         let sub_number_line = s.get("SubNumber").map_or(s.line, |p| p.line);
         let compact = s.get("CompactSubObj").and_then(|p| self.int(p)).map(|n| n.clamp(0, 0x100) as u16);
@@ -62,7 +63,7 @@ impl Reader<'_> {
             for sub in &subs {
                 self.d.error(sub.line, format!("[{}] is a sub-object of 0x{index:04X}, which is a {}", sub.name, kind.name()));
             }
-            if let Some(v) = self.sub_object(s, 0, &o.name) {
+            if let Some(v) = self.sub_object(s, 0, &o.name, None) {
                 o.subs.insert(0, v);
             }
         } else if let Some(n) = compact.filter(|&n| n > 0) {
@@ -83,12 +84,19 @@ impl Reader<'_> {
             }
             self.expand_compact(&mut o, s, n.min(0xFF) as u8, names, values);
         } else {
+            // An ARRAY's elements share one type, which its header may give.
+            let element_type = s
+                .get("DataType")
+                .filter(|_| kind == ObjectKind::Array)
+                .and_then(|p| parse_int(&p.value).ok())
+                .and_then(|e| u16::try_from(e.value).ok());
             for sub in &subs {
                 self.check_keys(sub);
                 let Kind::Sub(_, si) = classify(&sub.name) else { continue };
                 let default_name = format!("{} sub{si}", o.name);
                 let sub_name = sub.get("ParameterName").map(|p| p.value.clone()).unwrap_or(default_name);
-                if let Some(v) = self.sub_object(sub, si, &sub_name) {
+                let implied = if si == 0 { Some(DataType::Unsigned8.index()) } else { element_type };
+                if let Some(v) = self.sub_object(sub, si, &sub_name, implied) {
                     o.subs.insert(si, v);
                 }
             }
@@ -100,7 +108,7 @@ impl Reader<'_> {
     /// `[xxxxName]`/`[xxxxValue]` sections name and set them by sub-index.
     fn expand_compact(&mut self, o: &mut Object, s: &Section, n: u8, names: Option<&Section>, values: Option<&Section>) {
         let index = o.index;
-        let Some(template) = self.sub_object(s, 1, &o.name) else { return };
+        let Some(template) = self.sub_object(s, 1, &o.name, None) else { return };
         let entry_key = |p: &Pair| parse_int(&p.key).ok().and_then(|e| u8::try_from(e.value).ok());
         let mut value_count = 0u8;
         let mut overrides: BTreeMap<u8, &Pair> = BTreeMap::new();
@@ -185,16 +193,26 @@ impl Reader<'_> {
     }
 
     /// Reads the entry keys of a VAR section or a `[xxxxsubN]` section.
-    fn sub_object(&mut self, s: &Section, sub: u8, name: &str) -> Option<SubObject> {
+    /// `implied` is the type a sub-object without DataType has all the same:
+    /// UNSIGNED8 for sub-index 0 (CiA 301), an ARRAY's header type for its
+    /// elements. Without one, a missing DataType leaves the entry undecided.
+    fn sub_object(&mut self, s: &Section, sub: u8, name: &str, implied: Option<u16>) -> Option<SubObject> {
         let text = |key: &str| s.get(key).map(|p| Text { text: p.value.clone(), line: p.line });
-        let Some(dt) = s.get("DataType") else {
-            self.d.error(s.line, format!("[{}] has no DataType", s.name));
-            return None;
-        };
-        let type_index = match parse_int(&dt.value).ok().and_then(|e| u16::try_from(e.value).ok()) {
-            Some(t) => t,
-            None => {
-                self.d.error(dt.line, format!("DataType `{}` is not a type index", dt.value));
+        let (type_index, type_line) = match (s.get("DataType"), implied) {
+            (Some(dt), _) => match parse_int(&dt.value).ok().and_then(|e| u16::try_from(e.value).ok()) {
+                Some(t) => (t, dt.line),
+                None => {
+                    self.d.error(dt.line, format!("DataType `{}` is not a type index", dt.value));
+                    return None;
+                }
+            },
+            (None, Some(t)) => {
+                let why = if sub == 0 { "the type of every sub-index 0" } else { "the ARRAY's DataType" };
+                self.d.warn(s.line, format!("[{}] has no DataType; read as 0x{t:04X}, {why}", s.name));
+                (t, s.line)
+            }
+            (None, None) => {
+                self.d.error(s.line, format!("[{}] has no DataType", s.name));
                 return None;
             }
         };
@@ -228,7 +246,7 @@ impl Reader<'_> {
             sub,
             name: name.to_owned(),
             type_index,
-            type_line: dt.line,
+            type_line,
             data_type,
             access,
             pdo_mapping,

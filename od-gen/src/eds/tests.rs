@@ -3,6 +3,7 @@
 use super::*;
 use crate::diag::Severity;
 use crate::model::{Access, ObjectKind};
+use canopen_core::od::DataType;
 
 fn read_str(text: &str) -> (Eds, Diagnostics) {
     read("t.eds", text.as_bytes())
@@ -157,4 +158,53 @@ fn never_panics_on_garbage() {
     ] {
         let _ = read_str(text);
     }
+}
+
+#[test]
+fn an_object_left_out_for_where_it_sits_is_reported() {
+    // A heartbeat object typed DEFTYPE (0x5 for 0x7) and a VAR in the reserved range both vanish from the dictionary.
+    let text = format!(
+        "{HEAD}[1017]\nParameterName=Producer heartbeat time\nObjectType=0x5\nDataType=0x0006\nAccessType=rw\nDefaultValue=0\n[0800]\nParameterName=r\nObjectType=0x7\nDataType=0x0005\nAccessType=rw\n[0007]\nParameterName=UNSIGNED32\nObjectType=0x5\nDataType=0x0007\nAccessType=ro\nDefaultValue=32\n"
+    );
+    let (_, d) = read_str(&text);
+    assert!(d.mentions(Severity::Warning, 18, "ObjectType DEFTYPE of 0x1017 defines a data type"), "{d}");
+    assert!(d.mentions(Severity::Warning, 24, "0x0800 is in the range CiA 301 reserves"), "{d}");
+    // A type definition where CiA 301 puts them is no finding.
+    assert_eq!(d.warnings().filter(|w| w.message.contains("0x0007")).count(), 0, "{d}");
+}
+
+#[test]
+fn a_sub_object_without_datatype_takes_the_type_it_cannot_differ_from() {
+    // Sub-index 0 is UNSIGNED8 and an ARRAY's elements have the header's DataType: warnings.
+    // A RECORD's entry has no such type: still an error.
+    let text = format!(
+        "{HEAD}[2000]\nParameterName=Arr\nObjectType=0x8\nDataType=0x0006\nSubNumber=2\n[2000sub0]\nParameterName=n\nAccessType=ro\nDefaultValue=1\n[2000sub1]\nParameterName=a\nAccessType=rw\nDefaultValue=7\n[2001]\nParameterName=Rec\nObjectType=0x9\nSubNumber=2\n[2001sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n[2001sub1]\nParameterName=r\nAccessType=rw\n"
+    );
+    let (eds, d) = read_str(&text);
+    assert!(d.mentions(Severity::Warning, 21, "[2000sub0] has no DataType; read as 0x0005"), "{d}");
+    assert!(d.mentions(Severity::Warning, 25, "[2000sub1] has no DataType; read as 0x0006, the ARRAY's"), "{d}");
+    assert!(d.mentions(Severity::Error, 38, "[2001sub1] has no DataType"), "{d}");
+    let arr = &eds.objects[&0x2000];
+    assert_eq!(arr.subs[&0].data_type, Some(DataType::Unsigned8));
+    assert_eq!(arr.subs[&1].data_type, Some(DataType::Unsigned16));
+    assert_eq!(arr.subs[&1].value, [7, 0]);
+}
+
+#[test]
+fn a_utf16_file_is_one_error() {
+    // Windows editors save "Unicode" as UTF-16: read as Latin-1 it was a warning per line and "no object sections".
+    let text = format!("{HEAD}[1000]\nParameterName=Device type\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n");
+    for bom in [[0xFF, 0xFE], [0xFE, 0xFF]] {
+        let mut bytes = bom.to_vec();
+        for u in text.encode_utf16() {
+            bytes.extend(if bom[0] == 0xFF { u.to_le_bytes() } else { u.to_be_bytes() });
+        }
+        let (_, d) = read("t.eds", &bytes);
+        assert_eq!(d.errors().count(), 1, "{d}");
+        assert!(d.mentions(Severity::Error, 0, "file is UTF-16"), "{d}");
+        assert_eq!(d.warnings().count(), 0, "{d}");
+    }
+    // Without a byte-order mark too.
+    let bytes: Vec<u8> = text.encode_utf16().flat_map(u16::to_le_bytes).collect();
+    assert!(read("t.eds", &bytes).1.mentions(Severity::Error, 0, "file is UTF-16"));
 }
