@@ -13,6 +13,7 @@
 //! - Event timer (sub 5, ms): deadline monitoring, armed by the first RPDO
 //!   received; expiry raises EMCY 0x8250, the next RPDO ends it.
 
+use super::config::Config;
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoEvent, PdoTx};
 use crate::time::{Duration, Instant};
@@ -21,11 +22,8 @@ use crate::wire::emcy::EmcyCode;
 /// The state of one RPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rpdo {
-    pub(super) params: CommParams,
-    /// `None` when the configured mapping does not resolve (the RPDO is silent).
-    pub(super) mapping: Option<Mapping>,
-    /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
-    pub(super) cob_id_writable: bool,
+    /// Parameters and mapping ([`Config`]).
+    pub(super) config: Config,
     /// Synchronous data waiting for the next SYNC.
     buffered: Option<[u8; MAX_LEN]>,
     /// Deadline of the event timer, armed by each RPDO received.
@@ -38,38 +36,30 @@ pub struct Rpdo {
 
 impl Default for Rpdo {
     fn default() -> Self {
-        Rpdo { params: CommParams::DEFAULT, mapping: None, ..Rpdo::UNCONFIGURED }
+        Rpdo { config: Config::DEFAULT, ..Rpdo::UNCONFIGURED }
     }
 }
 
 impl Rpdo {
     /// Before the first [`super::Pdos::configure`]: all zero bits
     /// ([`crate::node`]), an empty mapping, so it listens to nothing.
-    pub(super) const UNCONFIGURED: Rpdo = Rpdo {
-        params: CommParams::UNCONFIGURED,
-        mapping: Some(Mapping::EMPTY),
-        cob_id_writable: false,
-        buffered: None,
-        timeout_at: None,
-        timed_out: false,
-        length_error: None,
-    };
+    pub(super) const UNCONFIGURED: Rpdo =
+        Rpdo { config: Config::UNCONFIGURED, buffered: None, timeout_at: None, timed_out: false, length_error: None };
 
     /// The cached communication parameters.
     pub fn params(&self) -> &CommParams {
-        &self.params
+        &self.config.params
     }
 
     /// The resolved mapping, or `None` if the configured one is invalid.
     pub fn mapping(&self) -> Option<&Mapping> {
-        self.mapping.as_ref()
+        self.config.mapping.as_ref()
     }
 
     /// The CAN-ID it listens to: `Some` when the COB-ID is valid and a
     /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
     pub fn cob_id(&self) -> Option<u16> {
-        let mapping = self.mapping.as_ref()?;
-        (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
+        self.config.cob_id()
     }
 
     /// The key ([`super::frame_key`]) of the frame this RPDO takes the
@@ -79,10 +69,10 @@ impl Rpdo {
     /// the data and tells, and changes nothing else (its event timer is off:
     /// `timeout_at` is `None` already).
     pub(super) fn plain_key(&self) -> u32 {
-        match (self.mapping.as_ref(), self.cob_id()) {
+        match (self.config.mapping.as_ref(), self.cob_id()) {
             (Some(mapping), Some(id))
-                if !self.params.is_synchronous()
-                    && self.params.event_timer() == Duration::ZERO
+                if !self.config.params.is_synchronous()
+                    && self.config.params.event_timer() == Duration::ZERO
                     && self.length_error.is_none()
                     && !self.timed_out =>
             {
@@ -95,13 +85,6 @@ impl Rpdo {
     /// Whether synchronous data waits for the next SYNC.
     pub fn has_buffered(&self) -> bool {
         self.buffered.is_some()
-    }
-
-    /// New parameters or mapping: everything in flight is dropped.
-    pub(super) fn set(&mut self, params: CommParams, mapping: Option<Mapping>) {
-        self.params = params;
-        self.mapping = mapping;
-        self.restart();
     }
 
     /// Entering Operational (or a new configuration): nothing buffered, the
@@ -129,7 +112,7 @@ impl Rpdo {
         out: &mut impl PdoTx,
     ) -> bool {
         // By reference: copying the mapping out costs more than the frame's own work.
-        let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return false };
+        let Some(len) = self.config.mapping.as_ref().map(Mapping::len) else { return false };
         // The right length with no error to end (the common frame): two compares.
         if data.len() != len || self.length_error.is_some() {
             let error = match data.len().cmp(&len) {
@@ -155,9 +138,9 @@ impl Rpdo {
             self.timed_out = false;
             out.event(PdoEvent::ErrorCleared { rpdo: n, code: EmcyCode::RPDO_TIMEOUT });
         }
-        let timer = self.params.event_timer();
+        let timer = self.config.params.event_timer();
         self.timeout_at = (timer != Duration::ZERO).then(|| now + timer);
-        if self.params.is_synchronous() {
+        if self.config.params.is_synchronous() {
             if window_open {
                 let mut buf = [0u8; MAX_LEN];
                 if let (Some(dst), Some(src)) = (buf.get_mut(..len), data.get(..len)) {
@@ -167,7 +150,7 @@ impl Rpdo {
             }
             false
         } else {
-            if let Some(mapping) = &self.mapping {
+            if let Some(mapping) = &self.config.mapping {
                 mapping.apply(image, data);
             }
             out.received(n);
@@ -177,7 +160,7 @@ impl Rpdo {
 
     /// A SYNC: buffered synchronous data goes into the dictionary.
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
-        if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping.as_ref()) {
+        if let (Some(data), Some(mapping)) = (self.buffered.take(), self.config.mapping.as_ref()) {
             mapping.apply(image, &data);
             out.received(n);
         }

@@ -3,7 +3,10 @@
 //! procedure of CiA 301 §7.5.2.36 (the decisions are listed in the module
 //! docs of [`super`]).
 
+use super::config::Config;
 use super::map::{Direction, Mapping, Slot};
+use super::rpdo::Rpdo;
+use super::tpdo::Tpdo;
 use super::{CommParams, Pdos};
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, Entry, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
@@ -80,9 +83,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let offset = index.wrapping_sub(base);
         let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
         let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
-        let (params, cob_id_writable) = match direction {
-            Direction::Receive => self.rpdos.get(n).map(|r| (r.params, r.cob_id_writable))?,
-            Direction::Transmit => self.tpdos.get(n).map(|t| (t.params, t.cob_id_writable))?,
+        // One path for both directions on the PDO's configuration; only the reaction differs.
+        let config = match direction {
+            Direction::Receive => &mut self.rpdos.get_mut(n)?.config,
+            Direction::Transmit => &mut self.tpdos.get_mut(n)?.config,
         };
         let entry = match entry {
             Some(entry) => entry,
@@ -91,50 +95,66 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 Err(code) => return Some(Err(code)),
             },
         };
-        if is_mapping {
-            let locked = params.valid() && cob_id_writable && !rewrite;
-            let mut mapping = Mapping::EMPTY;
-            match write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut mapping) {
-                Ok(true) => {}
-                Ok(false) => return Some(Ok(())),
-                Err(code) => return Some(Err(code)),
-            }
-            match direction {
-                Direction::Receive => self.rpdos.get_mut(n).map(|r| r.set(params, Some(mapping))),
-                Direction::Transmit => self.tpdos.get_mut(n).map(|t| t.set(params, Some(mapping))),
-            };
-            return Some(Ok(()));
-        }
-        let new = match write_comm(params, direction, entry, sub, data, image, rewrite) {
-            Ok(new) => new,
+        let change = match write_config(config, is_mapping, direction, entry, index, sub, data, dict, image, rewrite) {
+            Ok(change) => change,
             Err(code) => return Some(Err(code)),
         };
-        let restart = (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type);
-        let timer_changed = params.event_timer_ms != new.event_timer_ms;
-        match direction {
-            Direction::Receive => {
-                if let Some(rpdo) = self.rpdos.get_mut(n) {
-                    rpdo.params = new;
-                    if restart {
-                        rpdo.restart();
-                    } else if timer_changed {
-                        rpdo.disarm_timer();
-                    }
-                }
-            }
-            Direction::Transmit => {
-                if let Some(tpdo) = self.tpdos.get_mut(n) {
-                    tpdo.params = new;
-                    if restart {
-                        tpdo.restart(None);
-                    } else if timer_changed {
-                        tpdo.rearm_timer();
-                    }
-                }
-            }
+        match (direction, change) {
+            (_, Change::None) => {}
+            (Direction::Receive, Change::Restart) => self.rpdos.get_mut(n).map_or((), Rpdo::restart),
+            (Direction::Receive, Change::Timer) => self.rpdos.get_mut(n).map_or((), Rpdo::disarm_timer),
+            (Direction::Transmit, Change::Restart) => self.tpdos.get_mut(n).map_or((), |t| t.restart(None)),
+            (Direction::Transmit, Change::Timer) => self.tpdos.get_mut(n).map_or((), Tpdo::rearm_timer),
         }
         Some(Ok(()))
     }
+}
+
+/// What a download changed in a PDO's configuration: the PDO's reaction.
+#[derive(Clone, Copy)]
+enum Change {
+    /// Nothing the PDO acts on.
+    None,
+    /// The COB-ID, the type or the mapping: the PDO starts over.
+    Restart,
+    /// The event timer alone: it starts again.
+    Timer,
+}
+
+/// An SDO download into PDO record (index, sub), a mapping record if
+/// `is_mapping`, applied to the PDO's `config` and the image.
+#[allow(clippy::too_many_arguments)]
+fn write_config(
+    config: &mut Config,
+    is_mapping: bool,
+    direction: Direction,
+    entry: &'static Entry,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+    dict: &Dictionary,
+    image: &mut [u8],
+    rewrite: bool,
+) -> Result<Change, AbortCode> {
+    let params = config.params;
+    if is_mapping {
+        let locked = params.valid() && config.cob_id_writable && !rewrite;
+        let mut mapping = Mapping::EMPTY;
+        if !write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut mapping)? {
+            return Ok(Change::None);
+        }
+        config.mapping = Some(mapping);
+        return Ok(Change::Restart);
+    }
+    let new = write_comm(params, direction, entry, sub, data, image, rewrite)?;
+    config.params = new;
+    Ok(if (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type) {
+        Change::Restart
+    } else if params.event_timer_ms != new.event_timer_ms {
+        Change::Timer
+    } else {
+        Change::None
+    })
 }
 
 /// An SDO download into a communication record; returns the new record.

@@ -1,0 +1,69 @@
+//! What an RPDO and a TPDO have alike: the communication record as
+//! cached, the resolved mapping and whether sub 1 can be written. One
+//! type, so that configuring a PDO and the SDO downloads of its records are
+//! one code path for both directions; only the PDO's reaction differs.
+
+use super::map::{Direction, Mapping};
+use super::{CommParams, MappingError, nth};
+use crate::abort::AbortCode;
+use crate::od::{Dictionary, object};
+
+/// Communication record minus mapping record: 0x1400 − 0x1600, 0x1800 − 0x1A00.
+const MAPPING_OFFSET: u16 = 0x200;
+
+/// A PDO's configuration (0x1400+n and 0x1600+n, or 0x1800+n and 0x1A00+n).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Config {
+    pub(super) params: CommParams,
+    /// `None` when the configured mapping does not resolve (the PDO is silent).
+    pub(super) mapping: Option<Mapping>,
+    /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
+    pub(super) cob_id_writable: bool,
+}
+
+impl Config {
+    /// Before the first configuration: all zero bits ([`crate::node`]), an
+    /// empty mapping, so the PDO does nothing.
+    pub(super) const UNCONFIGURED: Config =
+        Config { params: CommParams::UNCONFIGURED, mapping: Some(Mapping::EMPTY), cob_id_writable: false };
+
+    /// A dictionary without the PDO's records: an invalid PDO of type 254.
+    pub(super) const DEFAULT: Config = Config { params: CommParams::DEFAULT, mapping: None, cob_id_writable: false };
+
+    /// The CAN-ID the PDO uses: `Some` when the COB-ID is valid and a
+    /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
+    pub(super) fn cob_id(&self) -> Option<u16> {
+        let mapping = self.mapping.as_ref()?;
+        (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
+    }
+
+    /// Reads communication record `comm` (0x1400+n or 0x1800+n) and its
+    /// mapping record from the image into a configuration that is
+    /// [`Config::UNCONFIGURED`] (the caller's PDO, cleared whole): a
+    /// mapping the dictionary lacks, or one that does not resolve, leaves
+    /// the mapping `None`, and the second is kept in `first_error` if it is
+    /// the first. The mapping is resolved in place (a mapping returned by
+    /// value was copied twice on its way into the PDO).
+    // Out of line: one copy for the RPDOs' and the TPDOs' configuration.
+    #[inline(never)]
+    pub(super) fn read(
+        &mut self,
+        dict: &Dictionary,
+        image: &[u8],
+        comm: u16,
+        direction: Direction,
+        first_error: &mut Option<MappingError>,
+    ) {
+        let index = nth(comm, MAPPING_OFFSET);
+        let result = self.mapping.as_mut().map_or(Err(AbortCode::NoObject), |m| m.read(dict, image, index, direction));
+        if let Err(code) = result {
+            self.mapping = None;
+            // A record the dictionary lacks is no error.
+            if !object(dict, index).is_empty() {
+                first_error.get_or_insert(MappingError { index, code });
+            }
+        }
+        self.params = CommParams::read(dict, image, comm);
+        self.cob_id_writable = dict.find(comm, 1).is_ok_and(|e| e.writable());
+    }
+}
