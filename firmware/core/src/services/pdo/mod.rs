@@ -399,21 +399,32 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     #[inline(never)]
     fn parameters_changed(&mut self) {
         self.last_write = (0, 0);
-        for ((id, key), rpdo) in self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(&self.rpdos) {
+        // One walk over each kind of PDO, every mask at once.
+        let (mut live, mut sync_tpdos) = (0, 0);
+        for (t, tpdo) in self.tpdos.iter().enumerate() {
+            if tpdo.cob_id().is_some() {
+                live |= bit_of(t);
+                if tpdo.is_synchronous() {
+                    sync_tpdos |= low_bit(t);
+                }
+            }
+        }
+        let mut sync_rpdos = 0;
+        for (n, ((id, key), (reach, rpdo))) in
+            self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(self.rpdo_reach.iter_mut().zip(&self.rpdos)).enumerate()
+        {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
             *key = rpdo.plain_key();
-        }
-        self.tpdo_live =
-            self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| if tpdo.cob_id().is_some() { live | bit_of(t) } else { live });
-        self.sync_rpdos = mask_of(&self.rpdos, |r| r.config.params.is_synchronous());
-        self.sync_tpdos = mask_of(&self.tpdos, Tpdo::is_synchronous);
-        for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
+            if rpdo.config.params.is_synchronous() {
+                sync_rpdos |= low_bit(n);
+            }
             let slots = rpdo.config.mapping.as_ref().map_or(&[][..], Mapping::slots);
             *reach = slots.iter().fold(0, |mask, slot| match slot.source {
-                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, self.tpdo_live, offset, u16::from(slot.len)),
+                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, live, offset, u16::from(slot.len)),
                 _ => mask,
             });
         }
+        (self.tpdo_live, self.sync_tpdos, self.sync_rpdos) = (live, sync_tpdos, sync_rpdos);
     }
 
     /// The event-driven TPDOs that map any byte of `len` image bytes at
@@ -707,9 +718,9 @@ fn tpdos_mapping(tpdos: &[Tpdo], live: u32, offset: u16, len: u16) -> u32 {
     if tpdos.len() > 32 { mask | ALL_TPDOS } else { mask }
 }
 
-/// Bit i: `f` holds for PDO i (PDOs past 31 have no bit).
-fn mask_of<P>(pdos: &[P], f: impl Fn(&P) -> bool) -> u32 {
-    pdos.iter().take(32).enumerate().fold(0, |mask, (i, p)| if f(p) { mask | 1 << i } else { mask })
+/// Bit n of the masks that PDOs past 31 are not in (they have no bit).
+fn low_bit(n: usize) -> u32 {
+    1u32.checked_shl(n as u32).unwrap_or(0)
 }
 
 /// The lowest set bit of `bits`, cleared.

@@ -188,7 +188,10 @@ fn write_map(
     image: &mut [u8],
     new: &mut Mapping,
 ) -> Result<bool, AbortCode> {
-    if (locked || sub != 0) && dict.value(image, entry) == data {
+    // As numbers: the precheck held `data` to the entry's length (an
+    // UNSIGNED8 or UNSIGNED32), and a number compares in fewer bytes than a slice.
+    let value = le_u32(data);
+    if (locked || sub != 0) && value_u32(dict, image, entry) == value {
         // Writing back the current value changes nothing and is allowed
         // (sub 0 of an open mapping is always resolved again).
         return Ok(false);
@@ -198,15 +201,13 @@ fn write_map(
     }
     let record = object(dict, index);
     let resolved = if sub == 0 {
-        let count = data.first().copied().unwrap_or(0);
-        new.resolve(dict, image, record, u32::from(count), direction)?;
+        new.resolve(dict, image, record, value, direction)?;
         true
     } else {
         let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
         if count != 0 && !rewrite {
             return Err(AbortCode::UnsupportedAccess);
         }
-        let value = le_u32(data);
         if value != 0 {
             Slot::resolve(dict, MappingEntry::from_u32(value), direction)?;
         }
