@@ -326,14 +326,12 @@ impl Tpdo {
             return false;
         }
         match self.config.params.transmission_type {
-            252 => {
-                // Before the first SYNC there is no sample yet: send what is there now (as Lely does).
+            // 252 sends what the last SYNC sampled; before the first SYNC
+            // there is no sample yet: what is there now (as Lely does), as
+            // 253 sends (which has no sample: any restart clears it).
+            252 | 253 => {
                 let (fresh, len) = self.build(image);
                 let buf = self.sample.unwrap_or(fresh);
-                self.transmit(cob_id, buf, len, tx)
-            }
-            253 => {
-                let (buf, len) = self.build(image);
                 self.transmit(cob_id, buf, len, tx)
             }
             254 | 255 => {
