@@ -63,7 +63,6 @@ impl Config {
                 first_error.get_or_insert(MappingError { index, code });
             }
         }
-        self.params = CommParams::read(dict, image, comm);
-        self.cob_id_writable = dict.find(comm, 1).is_ok_and(|e| e.writable());
+        (self.params, self.cob_id_writable) = CommParams::read_record(dict, image, comm);
     }
 }

@@ -134,6 +134,8 @@ impl Tpdo {
 
     /// Whether this PDO is of type 254 on a device that makes 254 timer-only,
     /// or of type 255 with an event timer on a device that makes that timer-only.
+    // Out of line: `restart` and `refresh_change_events` each had a copy.
+    #[inline(never)]
     fn timer_only(&self) -> bool {
         match self.config.params.transmission_type {
             254 => self.timer_only_254,
