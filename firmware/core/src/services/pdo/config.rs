@@ -5,7 +5,6 @@
 
 use super::map::{Direction, Mapping};
 use super::{CommParams, MappingError, nth};
-use crate::abort::AbortCode;
 use crate::od::{Dictionary, object};
 
 /// Communication record minus mapping record: 0x1400 − 0x1600, 0x1800 − 0x1A00.
@@ -15,8 +14,12 @@ const MAPPING_OFFSET: u16 = 0x200;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Config {
     pub(super) params: CommParams,
-    /// `None` when the configured mapping does not resolve (the PDO is silent).
-    pub(super) mapping: Option<Mapping>,
+    /// The mapping; empty (the PDO is silent) when the configured one does
+    /// not resolve. Not an `Option`: every path that uses the mapping
+    /// would check it, where an empty mapping already keeps the PDO off.
+    pub(super) mapping: Mapping,
+    /// The configured mapping did not resolve (`mapping` is empty).
+    pub(super) unresolved: bool,
     /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
     pub(super) cob_id_writable: bool,
 }
@@ -25,23 +28,23 @@ impl Config {
     /// Before the first configuration: all zero bits ([`crate::node`]), an
     /// empty mapping, so the PDO does nothing.
     pub(super) const UNCONFIGURED: Config =
-        Config { params: CommParams::UNCONFIGURED, mapping: Some(Mapping::EMPTY), cob_id_writable: false };
+        Config { params: CommParams::UNCONFIGURED, mapping: Mapping::EMPTY, unresolved: false, cob_id_writable: false };
 
     /// A dictionary without the PDO's records: an invalid PDO of type 254.
-    pub(super) const DEFAULT: Config = Config { params: CommParams::DEFAULT, mapping: None, cob_id_writable: false };
+    pub(super) const DEFAULT: Config =
+        Config { params: CommParams::DEFAULT, mapping: Mapping::EMPTY, unresolved: true, cob_id_writable: false };
 
     /// The CAN-ID the PDO uses: `Some` when the COB-ID is valid and a
     /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
     pub(super) fn cob_id(&self) -> Option<u16> {
-        let mapping = self.mapping.as_ref()?;
-        (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
+        (self.params.valid() && !self.mapping.is_empty()).then(|| self.params.can_id())
     }
 
     /// Reads communication record `comm` (0x1400+n or 0x1800+n) and its
     /// mapping record from the image into a configuration that is
     /// [`Config::UNCONFIGURED`] (the caller's PDO, cleared whole): a
     /// mapping the dictionary lacks, or one that does not resolve, leaves
-    /// the mapping `None`, and the second is kept in `first_error` if it is
+    /// the mapping empty and `unresolved`, and the second is kept in `first_error` if it is
     /// the first. The mapping is resolved in place (a mapping returned by
     /// value was copied twice on its way into the PDO).
     // Out of line: one copy for the RPDOs' and the TPDOs' configuration.
@@ -55,9 +58,9 @@ impl Config {
         first_error: &mut Option<MappingError>,
     ) {
         let index = nth(comm, MAPPING_OFFSET);
-        let result = self.mapping.as_mut().map_or(Err(AbortCode::NoObject), |m| m.read(dict, image, index, direction));
-        if let Err(code) = result {
-            self.mapping = None;
+        if let Err(code) = self.mapping.read(dict, image, index, direction) {
+            // What the failed resolution left is no mapping.
+            (self.mapping, self.unresolved) = (Mapping::EMPTY, true);
             // A record the dictionary lacks is no error.
             if !object(dict, index).is_empty() {
                 first_error.get_or_insert(MappingError { index, code });

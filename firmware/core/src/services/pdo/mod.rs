@@ -331,13 +331,13 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let mut mapping = Mapping::EMPTY;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
             if mapping.read(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
-                rpdo.config.mapping = Some(mapping);
+                (rpdo.config.mapping, rpdo.config.unresolved) = (mapping, false);
                 rpdo.restart();
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
             if mapping.read(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
-                tpdo.config.mapping = Some(mapping);
+                (tpdo.config.mapping, tpdo.config.unresolved) = (mapping, false);
                 tpdo.restart(None);
             }
         }
@@ -418,8 +418,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             if rpdo.config.params.is_synchronous() {
                 sync_rpdos |= low_bit(n);
             }
-            let slots = rpdo.config.mapping.as_ref().map_or(&[][..], Mapping::slots);
-            *reach = slots.iter().fold(0, |mask, slot| match slot.source {
+            *reach = rpdo.config.mapping.slots().iter().fold(0, |mask, slot| match slot.source {
                 map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, live, offset, u16::from(slot.len)),
                 _ => mask,
             });
@@ -518,9 +517,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         let key = frame_key(cob_id, data.len());
         let n = self.rx_plain.iter().position(|&k| k == key)?;
-        if let Some(mapping) = &self.rpdos.get(n)?.config.mapping {
-            mapping.apply_in_line(image, data);
-        }
+        self.rpdos.get(n)?.config.mapping.apply_in_line(image, data);
         Some((n, self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS)))
     }
 

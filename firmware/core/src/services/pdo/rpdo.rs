@@ -53,7 +53,7 @@ impl Rpdo {
 
     /// The resolved mapping, or `None` if the configured one is invalid.
     pub fn mapping(&self) -> Option<&Mapping> {
-        self.config.mapping.as_ref()
+        (!self.config.unresolved).then_some(&self.config.mapping)
     }
 
     /// The CAN-ID it listens to: `Some` when the COB-ID is valid and a
@@ -69,14 +69,14 @@ impl Rpdo {
     /// the data and tells, and changes nothing else (its event timer is off:
     /// `timeout_at` is `None` already).
     pub(super) fn plain_key(&self) -> u32 {
-        match (self.config.mapping.as_ref(), self.cob_id()) {
-            (Some(mapping), Some(id))
+        match self.cob_id() {
+            Some(id)
                 if !self.config.params.is_synchronous()
                     && self.config.params.event_timer() == Duration::ZERO
                     && self.length_error.is_none()
                     && !self.timed_out =>
             {
-                super::frame_key(id, mapping.len())
+                super::frame_key(id, self.config.mapping.len())
             }
             _ => super::NO_KEY,
         }
@@ -111,8 +111,8 @@ impl Rpdo {
         image: &mut [u8],
         out: &mut impl PdoTx,
     ) -> bool {
-        // By reference: copying the mapping out costs more than the frame's own work.
-        let Some(len) = self.config.mapping.as_ref().map(Mapping::len) else { return false };
+        // Only a valid RPDO takes frames (`Pdos::rx_ids`), and its mapping is not empty.
+        let len = self.config.mapping.len();
         // The right length with no error to end (the common frame): two compares.
         if data.len() != len || self.length_error.is_some() {
             let error = match data.len().cmp(&len) {
@@ -150,9 +150,7 @@ impl Rpdo {
             }
             false
         } else {
-            if let Some(mapping) = &self.config.mapping {
-                mapping.apply(image, data);
-            }
+            self.config.mapping.apply(image, data);
             out.received(n);
             true
         }
@@ -160,8 +158,8 @@ impl Rpdo {
 
     /// A SYNC: buffered synchronous data goes into the dictionary.
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
-        if let (Some(data), Some(mapping)) = (self.buffered.take(), self.config.mapping.as_ref()) {
-            mapping.apply(image, &data);
+        if let Some(data) = self.buffered.take() {
+            self.config.mapping.apply(image, &data);
             out.received(n);
         }
     }

@@ -114,7 +114,7 @@ impl Tpdo {
 
     /// The resolved mapping, or `None` if the configured one is invalid.
     pub fn mapping(&self) -> Option<&Mapping> {
-        self.config.mapping.as_ref()
+        (!self.config.unresolved).then_some(&self.config.mapping)
     }
 
     /// The CAN-ID it sends on: `Some` when the COB-ID is valid and a
@@ -197,7 +197,7 @@ impl Tpdo {
 
     fn build(&self, image: &[u8]) -> ([u8; MAX_LEN], usize) {
         let mut buf = [0u8; MAX_LEN];
-        let len = self.config.mapping.as_ref().map_or(0, |m| m.build(image, &mut buf));
+        let len = self.config.mapping.build(image, &mut buf);
         (buf, len)
     }
 
@@ -250,7 +250,7 @@ impl Tpdo {
         if self.is_event_driven() {
             self.service_event(now, cob_id, image, tx);
         } else if let Some(buf) = self.pending_sync {
-            let len = self.config.mapping.as_ref().map_or(0, Mapping::len);
+            let len = self.config.mapping.len();
             // No window ([`NEVER`]) never closes.
             if now.as_micros() > window_end || self.transmit(cob_id, buf, len, tx) {
                 self.pending_sync = None;
@@ -287,8 +287,7 @@ impl Tpdo {
                 }
                 // Cyclic: no change detection, so nothing to remember but
                 // a refusal; built straight into the queue.
-                let Some(mapping) = self.config.mapping.as_ref() else { return };
-                if tx.send_mapped(cob_id, mapping, image) {
+                if tx.send_mapped(cob_id, &self.config.mapping, image) {
                     self.blocked = false;
                 } else {
                     self.refused_sync(image);
@@ -356,8 +355,10 @@ impl Tpdo {
     // Two u16s: the sum fits a u32.
     #[allow(clippy::arithmetic_side_effects)]
     pub(super) fn maps_any(&self, start: u32, end: u32) -> bool {
-        let Some(mapping) = self.config.mapping.as_ref().filter(|_| self.is_event_driven()) else { return false };
-        mapping.slots().iter().any(|slot| match slot.source {
+        if !self.is_event_driven() {
+            return false;
+        }
+        self.config.mapping.slots().iter().any(|slot| match slot.source {
             super::map::Source::Ram(offset) => u32::from(offset) < end && start < u32::from(offset) + u32::from(slot.len),
             _ => false,
         })

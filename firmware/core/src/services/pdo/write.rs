@@ -143,7 +143,7 @@ fn write_config(
         if !write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut mapping)? {
             return Ok(Change::None);
         }
-        config.mapping = Some(mapping);
+        (config.mapping, config.unresolved) = (mapping, false);
         return Ok(Change::Restart);
     }
     let new = write_comm(params, direction, entry, sub, data, image, rewrite)?;
