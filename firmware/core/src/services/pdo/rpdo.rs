@@ -25,13 +25,18 @@ pub struct Rpdo {
     /// Parameters and mapping ([`Config`]).
     pub(super) config: Config,
     /// Synchronous data waiting for the next SYNC.
-    buffered: Option<[u8; MAX_LEN]>,
+    buffered: [u8; MAX_LEN],
+    /// `buffered` holds data for the next SYNC (a flag, not an `Option`:
+    /// the buffer is written in place).
+    has_buffered: bool,
     /// Deadline of the event timer, armed by each RPDO received.
     timeout_at: Option<Instant>,
     /// EMCY 0x8250 is raised.
     timed_out: bool,
     /// EMCY 0x8210 or 0x8220 raised and not yet ended.
-    length_error: Option<EmcyCode>,
+    /// [`EmcyCode::NO_ERROR`] when none is (a code, not an `Option`: one
+    /// compare on the frame's path).
+    length_error: EmcyCode,
 }
 
 impl Default for Rpdo {
@@ -43,8 +48,14 @@ impl Default for Rpdo {
 impl Rpdo {
     /// Before the first [`super::Pdos::configure`]: all zero bits
     /// ([`crate::node`]), an empty mapping, so it listens to nothing.
-    pub(super) const UNCONFIGURED: Rpdo =
-        Rpdo { config: Config::UNCONFIGURED, buffered: None, timeout_at: None, timed_out: false, length_error: None };
+    pub(super) const UNCONFIGURED: Rpdo = Rpdo {
+        config: Config::UNCONFIGURED,
+        buffered: [0; MAX_LEN],
+        has_buffered: false,
+        timeout_at: None,
+        timed_out: false,
+        length_error: EmcyCode::NO_ERROR,
+    };
 
     /// The cached communication parameters.
     pub fn params(&self) -> &CommParams {
@@ -73,7 +84,7 @@ impl Rpdo {
             Some(id)
                 if !self.config.params.is_synchronous()
                     && self.config.params.event_timer() == Duration::ZERO
-                    && self.length_error.is_none()
+                    && self.length_error == EmcyCode::NO_ERROR
                     && !self.timed_out =>
             {
                 super::frame_key(id, self.config.mapping.len())
@@ -84,14 +95,14 @@ impl Rpdo {
 
     /// Whether synchronous data waits for the next SYNC.
     pub fn has_buffered(&self) -> bool {
-        self.buffered.is_some()
+        self.has_buffered
     }
 
     /// Entering Operational (or a new configuration): nothing buffered, the
     /// event timer waits for the first RPDO. Raised errors stay until a
     /// good RPDO ends them, so the node's error state stays consistent.
     pub(super) fn restart(&mut self) {
-        self.buffered = None;
+        self.has_buffered = false;
         self.timeout_at = None;
     }
 
@@ -114,21 +125,21 @@ impl Rpdo {
         // Only a valid RPDO takes frames (`Pdos::rx_ids`), and its mapping is not empty.
         let len = self.config.mapping.len();
         // The right length with no error to end (the common frame): two compares.
-        if data.len() != len || self.length_error.is_some() {
+        if data.len() != len || self.length_error != EmcyCode::NO_ERROR {
             let error = match data.len().cmp(&len) {
-                core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
-                core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
-                core::cmp::Ordering::Equal => None,
+                core::cmp::Ordering::Less => EmcyCode::PDO_LENGTH,
+                core::cmp::Ordering::Greater => EmcyCode::PDO_LENGTH_EXCEEDED,
+                core::cmp::Ordering::Equal => EmcyCode::NO_ERROR,
             };
             if error != self.length_error {
-                if let Some(old) = self.length_error {
-                    out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+                if self.length_error != EmcyCode::NO_ERROR {
+                    out.event(PdoEvent::ErrorCleared { rpdo: n, code: self.length_error });
                 }
                 self.length_error = error;
             }
             // Each frame of a wrong length (its EMCY is sent once); a short one is not processed.
-            if let Some(code) = error {
-                out.event(PdoEvent::Error { rpdo: n, code });
+            if error != EmcyCode::NO_ERROR {
+                out.event(PdoEvent::Error { rpdo: n, code: error });
                 if data.len() < len {
                     return false;
                 }
@@ -142,11 +153,11 @@ impl Rpdo {
         self.timeout_at = (timer != Duration::ZERO).then(|| now + timer);
         if self.config.params.is_synchronous() {
             if window_open {
-                let mut buf = [0u8; MAX_LEN];
-                if let (Some(dst), Some(src)) = (buf.get_mut(..len), data.get(..len)) {
+                // The mapped bytes (`apply` reads no more).
+                if let (Some(dst), Some(src)) = (self.buffered.get_mut(..len), data.get(..len)) {
                     dst.copy_from_slice(src);
                 }
-                self.buffered = Some(buf);
+                self.has_buffered = true;
             }
             false
         } else {
@@ -158,8 +169,8 @@ impl Rpdo {
 
     /// A SYNC: buffered synchronous data goes into the dictionary.
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
-        if let Some(data) = self.buffered.take() {
-            self.config.mapping.apply(image, &data);
+        if core::mem::take(&mut self.has_buffered) {
+            self.config.mapping.apply(image, &self.buffered);
             out.received(n);
         }
     }

@@ -71,10 +71,14 @@ pub struct Tpdo {
     sync_left: u8,
     /// Waiting for the SYNC whose counter equals the start value.
     await_start: bool,
-    /// Type 252: the data sampled at the last SYNC.
-    sample: Option<[u8; MAX_LEN]>,
-    /// A synchronous frame the queue refused, retried inside the window.
-    pending_sync: Option<[u8; MAX_LEN]>,
+    /// Type 252: the data sampled at the last SYNC (`sampled`); types
+    /// 0..=240: a frame the queue refused (`pending_sync`). One buffer:
+    /// a type has one use for it, and a new type starts the PDO over.
+    held: [u8; MAX_LEN],
+    /// Type 252: `held` is the sample of the last SYNC.
+    sampled: bool,
+    /// `held` is a synchronous frame the queue refused, retried inside the window.
+    pending_sync: bool,
 }
 
 impl Default for Tpdo {
@@ -101,8 +105,9 @@ impl Tpdo {
         event_at: None,
         sync_left: 0,
         await_start: false,
-        sample: None,
-        pending_sync: None,
+        held: [0; MAX_LEN],
+        sampled: false,
+        pending_sync: false,
     };
 }
 
@@ -173,8 +178,8 @@ impl Tpdo {
         self.event_at = now.filter(|_| timer != Duration::ZERO).map(|t| t + timer);
         self.sync_left = 0;
         self.await_start = self.config.params.sync_start != 0;
-        self.sample = None;
-        self.pending_sync = None;
+        self.sampled = false;
+        self.pending_sync = false;
         self.refresh_change_events();
     }
 
@@ -249,11 +254,11 @@ impl Tpdo {
         let cob_id = self.config.params.can_id();
         if self.is_event_driven() {
             self.service_event(now, cob_id, image, tx);
-        } else if let Some(buf) = self.pending_sync {
+        } else if self.pending_sync {
             let len = self.config.mapping.len();
             // No window ([`NEVER`]) never closes.
-            if now.as_micros() > window_end || self.transmit(cob_id, buf, len, tx) {
-                self.pending_sync = None;
+            if now.as_micros() > window_end || self.transmit(cob_id, self.held, len, tx) {
+                self.pending_sync = false;
             }
         }
     }
@@ -269,7 +274,7 @@ impl Tpdo {
     pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.config.params.can_id();
         // A frame refused at the previous SYNC is stale now.
-        self.pending_sync = None;
+        self.pending_sync = false;
         let send = match self.config.params.transmission_type {
             n @ 1..=240 => {
                 if self.await_start {
@@ -299,7 +304,7 @@ impl Tpdo {
                 (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
             }
             252 => {
-                self.sample = Some(self.build(image).0);
+                (self.held, self.sampled) = (self.build(image).0, true);
                 None
             }
             _ => None,
@@ -307,7 +312,7 @@ impl Tpdo {
         if let Some((buf, len)) = send
             && !self.transmit(cob_id, buf, len, tx)
         {
-            self.pending_sync = Some(buf);
+            (self.held, self.pending_sync) = (buf, true);
         }
     }
 
@@ -317,7 +322,7 @@ impl Tpdo {
     #[inline(never)]
     fn refused_sync(&mut self, image: &[u8]) {
         self.blocked = true;
-        self.pending_sync = Some(self.build(image).0);
+        (self.held, self.pending_sync) = (self.build(image).0, true);
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
@@ -332,7 +337,7 @@ impl Tpdo {
             // 253 sends (which has no sample: any restart clears it).
             252 | 253 => {
                 let (fresh, len) = self.build(image);
-                let buf = self.sample.unwrap_or(fresh);
+                let buf = if self.sampled { self.held } else { fresh };
                 self.transmit(cob_id, buf, len, tx)
             }
             254 | 255 => {
@@ -347,7 +352,7 @@ impl Tpdo {
 
     /// Whether a frame the queue refused waits to be retried.
     pub(super) fn retrying(&self) -> bool {
-        self.blocked || self.pending_sync.is_some()
+        self.blocked || self.pending_sync
     }
 
     /// Whether this TPDO is event-driven (it looks for changes) and maps an
