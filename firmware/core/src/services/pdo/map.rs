@@ -236,6 +236,15 @@ impl Mapping {
         self.count == 0
     }
 
+    /// Whether a PDO byte comes from or goes to an image byte in
+    /// `start..end` (`start < end`): one compare per byte of the gather
+    /// table, whose constants and unused bytes lie below [`RAM`] and so
+    /// wrap past any range.
+    pub(super) fn maps_any(&self, start: u32, end: u32) -> bool {
+        let span = end.wrapping_sub(start);
+        self.gather.iter().any(|&g| u32::from(g).wrapping_sub(u32::from(RAM)).wrapping_sub(start) < span)
+    }
+
     /// Copies the mapped values into all 8 bytes of `out`, zeros past the
     /// PDO length, which it returns. Dummy slots (never in a valid TPDO)
     /// read as zeros. Eight straight byte copies, without a loop or a

@@ -363,10 +363,7 @@ impl Tpdo {
         if !self.is_event_driven() {
             return false;
         }
-        self.config.mapping.slots().iter().any(|slot| match slot.source {
-            super::map::Source::Ram(offset) => u32::from(offset) < end && start < u32::from(offset) + u32::from(slot.len),
-            _ => false,
-        })
+        self.config.mapping.maps_any(start, end)
     }
 
     /// The next time [`Tpdo::poll`] has work, for a TPDO that can send
