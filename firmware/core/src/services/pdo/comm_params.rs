@@ -48,12 +48,18 @@ impl CommParams {
     /// Reads record `index` (0x1400+n or 0x1800+n): two binary searches. A
     /// record without sub 1 is an invalid PDO; a missing sub 2 reads as 254.
     pub fn read(dict: &Dictionary, image: &[u8], index: u16) -> CommParams {
+        CommParams::read_record(dict, image, index).0
+    }
+
+    /// [`CommParams::read`], and whether sub 1 can be written at all: one
+    /// pass over the record's entries rather than a search per sub-index.
+    pub(super) fn read_record(dict: &Dictionary, image: &[u8], index: u16) -> (CommParams, bool) {
         let mut params = CommParams::default();
-        // One pass over the record's entries rather than a search per sub-index.
+        let mut cob_id_writable = false;
         for entry in object(dict, index) {
             let value = value_u32(dict, image, entry);
             match entry.sub {
-                1 => params.cob_id = value,
+                1 => (params.cob_id, cob_id_writable) = (value, entry.writable()),
                 2 => params.transmission_type = value as u8,
                 3 => params.inhibit_time_100us = value as u16,
                 5 => params.event_timer_ms = value as u16,
@@ -61,7 +67,7 @@ impl CommParams {
                 _ => {}
             }
         }
-        params
+        (params, cob_id_writable)
     }
 
     /// Bit 31 clear: the PDO exists.

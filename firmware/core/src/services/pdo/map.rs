@@ -65,20 +65,32 @@ pub struct Slot {
 impl Slot {
     /// Checks one mapping entry for `direction` and resolves it: one binary search.
     pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
-        Slot::resolve_ref(dict, entry, direction).map(|(slot, _)| slot)
+        let (mut slot, mut at) = (Slot::default(), EntryRef::NONE);
+        Slot::resolve_into(dict, entry, direction, &mut slot, &mut at).map(|()| slot)
     }
 
-    /// [`Slot::resolve`], with the mapped entry ([`EntryRef::NONE`] for a dummy entry).
+    /// [`Slot::resolve`] into `slot`, with the mapped entry into `object`
+    /// (left as it was for a dummy entry): in place, where a pair returned
+    /// in a `Result` went through the stack.
     // Offset and length are u16s: their sum fits a u32.
     #[allow(clippy::arithmetic_side_effects)]
-    fn resolve_ref(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<(Slot, EntryRef), AbortCode> {
+    fn resolve_into(
+        dict: &Dictionary,
+        entry: MappingEntry,
+        direction: Direction,
+        slot: &mut Slot,
+        object_ref: &mut EntryRef,
+    ) -> Result<(), AbortCode> {
         if entry.is_dummy() {
             if direction == Direction::Transmit {
                 return Err(AbortCode::NotMappable);
             }
             let size = DataType::from_index(entry.index).and_then(DataType::size).unwrap_or(0);
             return match entry.bytes() {
-                Some(len) if usize::from(len) == size => Ok((Slot { source: Source::Dummy, len }, EntryRef::NONE)),
+                Some(len) if usize::from(len) == size => {
+                    *slot = Slot { source: Source::Dummy, len };
+                    Ok(())
+                }
                 _ => Err(AbortCode::ParameterIncompatible),
             };
         }
@@ -101,7 +113,8 @@ impl Slot {
             return Err(AbortCode::NotMappable);
         }
         let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
-        Ok((Slot { source, len: object.len as u8 }, at))
+        (*slot, *object_ref) = (Slot { source, len: object.len as u8 }, at);
+        Ok(())
     }
 }
 
@@ -176,12 +189,12 @@ impl Mapping {
         let mapping = self;
         let mut total = 0usize;
         for ((slot, object), &raw) in mapping.slots.iter_mut().zip(&mut mapping.objects).zip(raw.iter().take(count)) {
-            let (resolved, at) = Slot::resolve_ref(dict, MappingEntry::from_u32(raw), direction)?;
-            total += usize::from(resolved.len);
+            // An empty mapping's objects are `EntryRef::NONE`, as a dummy entry's stays.
+            Slot::resolve_into(dict, MappingEntry::from_u32(raw), direction, slot, object)?;
+            total += usize::from(slot.len);
             if total > MAX_LEN {
                 return Err(AbortCode::PdoTooLong);
             }
-            (*slot, *object) = (resolved, at);
         }
         mapping.count = count as u8;
         mapping.len = total as u8;
@@ -221,6 +234,15 @@ impl Mapping {
     /// Whether nothing is mapped.
     pub fn is_empty(&self) -> bool {
         self.count == 0
+    }
+
+    /// Whether a PDO byte comes from or goes to an image byte in
+    /// `start..end` (`start < end`): one compare per byte of the gather
+    /// table, whose constants and unused bytes lie below [`RAM`] and so
+    /// wrap past any range.
+    pub(super) fn maps_any(&self, start: u32, end: u32) -> bool {
+        let span = end.wrapping_sub(start);
+        self.gather.iter().any(|&g| u32::from(g).wrapping_sub(u32::from(RAM)).wrapping_sub(start) < span)
     }
 
     /// Copies the mapped values into all 8 bytes of `out`, zeros past the

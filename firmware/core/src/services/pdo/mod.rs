@@ -14,9 +14,10 @@
 //! [`PdoTx::event`].
 //!
 //! This file holds [`Pdos`] (configuration and the frames in and out);
-//! `comm_params` the cached communication record and its rules, `write` the
-//! SDO downloads of the parameter records, `map` the mappings, `rpdo` and
-//! `tpdo` one PDO each.
+//! `comm_params` the cached communication record and its rules, `config`
+//! what an RPDO and a TPDO have alike (record, mapping: one code path to
+//! configure and write either), `write` the SDO downloads of the parameter
+//! records, `map` the mappings, `rpdo` and `tpdo` one PDO each.
 //!
 //! Every call does bounded work: finding an RPDO or TPDO by COB-ID is a
 //! walk over the `R` or `T` PDOs, building or applying a PDO copies at most
@@ -46,6 +47,7 @@
 //!   SYNC. Event timers start then.
 
 mod comm_params;
+mod config;
 pub mod map;
 pub mod rpdo;
 pub mod tpdo;
@@ -53,34 +55,10 @@ mod write;
 
 pub use comm_params::{COB_ID_INVALID, COB_ID_NO_RTR, CommParams};
 
-/// Resolves PDO mapping record `index` as configured into `mapping` (a
-/// PDO's, [`Mapping::EMPTY`] before): `None` for a record the dictionary
-/// lacks (no PDO to speak of) or one that does not resolve, whose error is
-/// kept in `first_error` if it is the first. In place: a mapping returned
-/// by value was copied twice on its way into the PDO.
-fn configure_mapping(
-    dict: &Dictionary,
-    image: &[u8],
-    index: u16,
-    direction: Direction,
-    mapping: &mut Option<Mapping>,
-    first_error: &mut Option<MappingError>,
-) {
-    let result = mapping.as_mut().map_or(Err(AbortCode::NoObject), |m| m.read(dict, image, index, direction));
-    if let Err(code) = result {
-        *mapping = None;
-        // A record the dictionary lacks is no error.
-        if !object(dict, index).is_empty() {
-            first_error.get_or_insert(MappingError { index, code });
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests;
 
 use crate::abort::AbortCode;
-use crate::od::object;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Far, NEVER, at, deadline_of};
@@ -292,10 +270,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             // default's `None` mapping was a copy from a constant), which is
             // a restarted RPDO's; its mapping resolved in place.
             *rpdo = Rpdo::UNCONFIGURED;
-            let mapping_index = nth(index::RPDO_MAPPING_PARAMETER, n);
-            configure_mapping(dict, image, mapping_index, Direction::Receive, &mut rpdo.mapping, &mut first_error);
-            rpdo.params = CommParams::read(dict, image, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
-            rpdo.cob_id_writable = cob_id_writable(dict, nth(index::RPDO_COMMUNICATION_PARAMETER, n));
+            let comm = nth(index::RPDO_COMMUNICATION_PARAMETER, n);
+            rpdo.config.read(dict, image, comm, Direction::Receive, &mut first_error);
         }
         self.window_end = Far::NEVER;
         self.operational = false;
@@ -314,11 +290,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             *tpdo = Tpdo::UNCONFIGURED;
             tpdo.set_change_detection(change_detection);
             tpdo.timer_only_254 = timer_only;
-            let mapping_index = nth(index::TPDO_MAPPING_PARAMETER, n);
-            configure_mapping(dict, image, mapping_index, Direction::Transmit, &mut tpdo.mapping, &mut first_error);
-            tpdo.params = CommParams::read(dict, image, nth(index::TPDO_COMMUNICATION_PARAMETER, n));
+            let comm = nth(index::TPDO_COMMUNICATION_PARAMETER, n);
+            tpdo.config.read(dict, image, comm, Direction::Transmit, &mut first_error);
             tpdo.restart(None);
-            tpdo.cob_id_writable = cob_id_writable(dict, nth(index::TPDO_COMMUNICATION_PARAMETER, n));
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
         self.parameters_changed();
@@ -357,12 +331,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let mut mapping = Mapping::EMPTY;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
             if mapping.read(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
-                rpdo.set(rpdo.params, Some(mapping));
+                (rpdo.config.mapping, rpdo.config.unresolved) = (mapping, false);
+                rpdo.restart();
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
             if mapping.read(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
-                tpdo.set(tpdo.params, Some(mapping));
+                (tpdo.config.mapping, tpdo.config.unresolved) = (mapping, false);
+                tpdo.restart(None);
             }
         }
         self.parameters_changed();
@@ -423,21 +399,31 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     #[inline(never)]
     fn parameters_changed(&mut self) {
         self.last_write = (0, 0);
-        for ((id, key), rpdo) in self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(&self.rpdos) {
+        // One walk over each kind of PDO, every mask at once.
+        let (mut live, mut sync_tpdos) = (0, 0);
+        for (t, tpdo) in self.tpdos.iter().enumerate() {
+            if tpdo.cob_id().is_some() {
+                live |= bit_of(t);
+                if tpdo.is_synchronous() {
+                    sync_tpdos |= low_bit(t);
+                }
+            }
+        }
+        let mut sync_rpdos = 0;
+        for (n, ((id, key), (reach, rpdo))) in
+            self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(self.rpdo_reach.iter_mut().zip(&self.rpdos)).enumerate()
+        {
             *id = rpdo.cob_id().unwrap_or(NO_ID);
             *key = rpdo.plain_key();
-        }
-        self.tpdo_live =
-            self.tpdos.iter().enumerate().fold(0, |live, (t, tpdo)| if tpdo.cob_id().is_some() { live | bit_of(t) } else { live });
-        self.sync_rpdos = mask_of(&self.rpdos, |r| r.params.is_synchronous());
-        self.sync_tpdos = mask_of(&self.tpdos, Tpdo::is_synchronous);
-        for (reach, rpdo) in self.rpdo_reach.iter_mut().zip(&self.rpdos) {
-            let slots = rpdo.mapping.as_ref().map_or(&[][..], Mapping::slots);
-            *reach = slots.iter().fold(0, |mask, slot| match slot.source {
-                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, self.tpdo_live, offset, u16::from(slot.len)),
+            if rpdo.config.params.is_synchronous() {
+                sync_rpdos |= low_bit(n);
+            }
+            *reach = rpdo.config.mapping.slots().iter().fold(0, |mask, slot| match slot.source {
+                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, live, offset, u16::from(slot.len)),
                 _ => mask,
             });
         }
+        (self.tpdo_live, self.sync_tpdos, self.sync_rpdos) = (live, sync_tpdos, sync_rpdos);
     }
 
     /// The event-driven TPDOs that map any byte of `len` image bytes at
@@ -524,9 +510,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         let key = frame_key(cob_id, data.len());
         let n = self.rx_plain.iter().position(|&k| k == key)?;
-        if let Some(mapping) = &self.rpdos.get(n)?.mapping {
-            mapping.apply_in_line(image, data);
-        }
+        self.rpdos.get(n)?.config.mapping.apply_in_line(image, data);
         Some((n, self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS)))
     }
 
@@ -732,9 +716,9 @@ fn tpdos_mapping(tpdos: &[Tpdo], live: u32, offset: u16, len: u16) -> u32 {
     if tpdos.len() > 32 { mask | ALL_TPDOS } else { mask }
 }
 
-/// Bit i: `f` holds for PDO i (PDOs past 31 have no bit).
-fn mask_of<P>(pdos: &[P], f: impl Fn(&P) -> bool) -> u32 {
-    pdos.iter().take(32).enumerate().fold(0, |mask, (i, p)| if f(p) { mask | 1 << i } else { mask })
+/// Bit n of the masks that PDOs past 31 are not in (they have no bit).
+fn low_bit(n: usize) -> u32 {
+    1u32.checked_shl(n as u32).unwrap_or(0)
 }
 
 /// The lowest set bit of `bits`, cleared.
@@ -749,9 +733,4 @@ fn next_bit(bits: &mut u32) -> Option<usize> {
 fn retry_mask(tpdos: &[Tpdo]) -> u32 {
     // TPDOs past 31 have no bit (they are always looked at).
     tpdos.iter().take(32).enumerate().fold(0, |mask, (t, tpdo)| mask | u32::from(tpdo.retrying()) << t)
-}
-
-/// Whether sub 1 of a communication record can be written at all.
-fn cob_id_writable(dict: &Dictionary, index: u16) -> bool {
-    dict.find(index, 1).is_ok_and(|e| e.writable())
 }

@@ -13,6 +13,7 @@
 //! - Event timer (sub 5, ms): deadline monitoring, armed by the first RPDO
 //!   received; expiry raises EMCY 0x8250, the next RPDO ends it.
 
+use super::config::Config;
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoEvent, PdoTx};
 use crate::time::{At, later, shift_opt};
@@ -21,24 +22,26 @@ use crate::wire::emcy::EmcyCode;
 /// The state of one RPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rpdo {
-    pub(super) params: CommParams,
-    /// `None` when the configured mapping does not resolve (the RPDO is silent).
-    pub(super) mapping: Option<Mapping>,
-    /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
-    pub(super) cob_id_writable: bool,
+    /// Parameters and mapping ([`Config`]).
+    pub(super) config: Config,
     /// Synchronous data waiting for the next SYNC.
-    buffered: Option<[u8; MAX_LEN]>,
+    buffered: [u8; MAX_LEN],
+    /// `buffered` holds data for the next SYNC (a flag, not an `Option`:
+    /// the buffer is written in place).
+    has_buffered: bool,
     /// Deadline of the event timer, armed by each RPDO received.
     timeout_at: Option<At>,
     /// EMCY 0x8250 is raised.
     timed_out: bool,
     /// EMCY 0x8210 or 0x8220 raised and not yet ended.
-    length_error: Option<EmcyCode>,
+    /// [`EmcyCode::NO_ERROR`] when none is (a code, not an `Option`: one
+    /// compare on the frame's path).
+    length_error: EmcyCode,
 }
 
 impl Default for Rpdo {
     fn default() -> Self {
-        Rpdo { params: CommParams::DEFAULT, mapping: None, ..Rpdo::UNCONFIGURED }
+        Rpdo { config: Config::DEFAULT, ..Rpdo::UNCONFIGURED }
     }
 }
 
@@ -46,30 +49,28 @@ impl Rpdo {
     /// Before the first [`super::Pdos::configure`]: all zero bits
     /// ([`crate::node`]), an empty mapping, so it listens to nothing.
     pub(super) const UNCONFIGURED: Rpdo = Rpdo {
-        params: CommParams::UNCONFIGURED,
-        mapping: Some(Mapping::EMPTY),
-        cob_id_writable: false,
-        buffered: None,
+        config: Config::UNCONFIGURED,
+        buffered: [0; MAX_LEN],
+        has_buffered: false,
         timeout_at: None,
         timed_out: false,
-        length_error: None,
+        length_error: EmcyCode::NO_ERROR,
     };
 
     /// The cached communication parameters.
     pub fn params(&self) -> &CommParams {
-        &self.params
+        &self.config.params
     }
 
     /// The resolved mapping, or `None` if the configured one is invalid.
     pub fn mapping(&self) -> Option<&Mapping> {
-        self.mapping.as_ref()
+        (!self.config.unresolved).then_some(&self.config.mapping)
     }
 
     /// The CAN-ID it listens to: `Some` when the COB-ID is valid and a
     /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
     pub fn cob_id(&self) -> Option<u16> {
-        let mapping = self.mapping.as_ref()?;
-        (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
+        self.config.cob_id()
     }
 
     /// The key ([`super::frame_key`]) of the frame this RPDO takes the
@@ -79,11 +80,14 @@ impl Rpdo {
     /// the data and tells, and changes nothing else (its event timer is off:
     /// `timeout_at` is `None` already).
     pub(super) fn plain_key(&self) -> u32 {
-        match (self.mapping.as_ref(), self.cob_id()) {
-            (Some(mapping), Some(id))
-                if !self.params.is_synchronous() && self.params.event_timer() == 0 && self.length_error.is_none() && !self.timed_out =>
+        match self.cob_id() {
+            Some(id)
+                if !self.config.params.is_synchronous()
+                    && self.config.params.event_timer() == 0
+                    && self.length_error == EmcyCode::NO_ERROR
+                    && !self.timed_out =>
             {
-                super::frame_key(id, mapping.len())
+                super::frame_key(id, self.config.mapping.len())
             }
             _ => super::NO_KEY,
         }
@@ -91,21 +95,14 @@ impl Rpdo {
 
     /// Whether synchronous data waits for the next SYNC.
     pub fn has_buffered(&self) -> bool {
-        self.buffered.is_some()
-    }
-
-    /// New parameters or mapping: everything in flight is dropped.
-    pub(super) fn set(&mut self, params: CommParams, mapping: Option<Mapping>) {
-        self.params = params;
-        self.mapping = mapping;
-        self.restart();
+        self.has_buffered
     }
 
     /// Entering Operational (or a new configuration): nothing buffered, the
     /// event timer waits for the first RPDO. Raised errors stay until a
     /// good RPDO ends them, so the node's error state stays consistent.
     pub(super) fn restart(&mut self) {
-        self.buffered = None;
+        self.has_buffered = false;
         self.timeout_at = None;
     }
 
@@ -117,24 +114,24 @@ impl Rpdo {
     /// An RPDO frame. `window_open`: the synchronous window since the last
     /// SYNC is still open. True if it wrote its data into the dictionary now.
     pub(super) fn on_frame(&mut self, n: usize, now: At, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) -> bool {
-        // By reference: copying the mapping out costs more than the frame's own work.
-        let Some(len) = self.mapping.as_ref().map(Mapping::len) else { return false };
+        // Only a valid RPDO takes frames (`Pdos::rx_ids`), and its mapping is not empty.
+        let len = self.config.mapping.len();
         // The right length with no error to end (the common frame): two compares.
-        if data.len() != len || self.length_error.is_some() {
+        if data.len() != len || self.length_error != EmcyCode::NO_ERROR {
             let error = match data.len().cmp(&len) {
-                core::cmp::Ordering::Less => Some(EmcyCode::PDO_LENGTH),
-                core::cmp::Ordering::Greater => Some(EmcyCode::PDO_LENGTH_EXCEEDED),
-                core::cmp::Ordering::Equal => None,
+                core::cmp::Ordering::Less => EmcyCode::PDO_LENGTH,
+                core::cmp::Ordering::Greater => EmcyCode::PDO_LENGTH_EXCEEDED,
+                core::cmp::Ordering::Equal => EmcyCode::NO_ERROR,
             };
             if error != self.length_error {
-                if let Some(old) = self.length_error {
-                    out.event(PdoEvent::ErrorCleared { rpdo: n, code: old });
+                if self.length_error != EmcyCode::NO_ERROR {
+                    out.event(PdoEvent::ErrorCleared { rpdo: n, code: self.length_error });
                 }
                 self.length_error = error;
             }
             // Each frame of a wrong length (its EMCY is sent once); a short one is not processed.
-            if let Some(code) = error {
-                out.event(PdoEvent::Error { rpdo: n, code });
+            if error != EmcyCode::NO_ERROR {
+                out.event(PdoEvent::Error { rpdo: n, code: error });
                 if data.len() < len {
                     return false;
                 }
@@ -144,21 +141,19 @@ impl Rpdo {
             self.timed_out = false;
             out.event(PdoEvent::ErrorCleared { rpdo: n, code: EmcyCode::RPDO_TIMEOUT });
         }
-        let timer = self.params.event_timer();
+        let timer = self.config.params.event_timer();
         self.timeout_at = (timer != 0).then(|| later(now, timer));
-        if self.params.is_synchronous() {
+        if self.config.params.is_synchronous() {
             if window_open {
-                let mut buf = [0u8; MAX_LEN];
-                if let (Some(dst), Some(src)) = (buf.get_mut(..len), data.get(..len)) {
+                // The mapped bytes (`apply` reads no more).
+                if let (Some(dst), Some(src)) = (self.buffered.get_mut(..len), data.get(..len)) {
                     dst.copy_from_slice(src);
                 }
-                self.buffered = Some(buf);
+                self.has_buffered = true;
             }
             false
         } else {
-            if let Some(mapping) = &self.mapping {
-                mapping.apply(image, data);
-            }
+            self.config.mapping.apply(image, data);
             out.received(n);
             true
         }
@@ -166,8 +161,8 @@ impl Rpdo {
 
     /// A SYNC: buffered synchronous data goes into the dictionary.
     pub(super) fn on_sync(&mut self, n: usize, image: &mut [u8], out: &mut impl PdoTx) {
-        if let (Some(data), Some(mapping)) = (self.buffered.take(), self.mapping.as_ref()) {
-            mapping.apply(image, &data);
+        if core::mem::take(&mut self.has_buffered) {
+            self.config.mapping.apply(image, &self.buffered);
             out.received(n);
         }
     }

@@ -22,6 +22,7 @@
 //! retries at the next poll, a synchronous one at the next poll while the
 //! synchronous window (0x1007) is still open, after which it is dropped.
 
+use super::config::Config;
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
@@ -30,11 +31,8 @@ use crate::time::{At, Far, NEVER, later, shift_opt};
 /// The state of one TPDO.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tpdo {
-    pub(super) params: CommParams,
-    /// `None` when the configured mapping does not resolve (the TPDO is silent).
-    pub(super) mapping: Option<Mapping>,
-    /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
-    pub(super) cob_id_writable: bool,
+    /// Parameters and mapping ([`Config`]).
+    pub(super) config: Config,
     /// Whether a change of the mapped data is *not* an event (types 0, 254,
     /// 255): negated so that [`Tpdo::UNCONFIGURED`] is all zero bits.
     no_change_detection: bool,
@@ -65,15 +63,19 @@ pub struct Tpdo {
     sync_left: u8,
     /// Waiting for the SYNC whose counter equals the start value.
     await_start: bool,
-    /// Type 252: the data sampled at the last SYNC.
-    sample: Option<[u8; MAX_LEN]>,
-    /// A synchronous frame the queue refused, retried inside the window.
-    pending_sync: Option<[u8; MAX_LEN]>,
+    /// Type 252: the data sampled at the last SYNC (`sampled`); types
+    /// 0..=240: a frame the queue refused (`pending_sync`). One buffer:
+    /// a type has one use for it, and a new type starts the PDO over.
+    held: [u8; MAX_LEN],
+    /// Type 252: `held` is the sample of the last SYNC.
+    sampled: bool,
+    /// `held` is a synchronous frame the queue refused, retried inside the window.
+    pending_sync: bool,
 }
 
 impl Default for Tpdo {
     fn default() -> Self {
-        Tpdo { params: CommParams::DEFAULT, mapping: None, ..Tpdo::UNCONFIGURED }
+        Tpdo { config: Config::DEFAULT, ..Tpdo::UNCONFIGURED }
     }
 }
 
@@ -81,9 +83,7 @@ impl Tpdo {
     /// Before the first [`super::Pdos::configure`]: all zero bits
     /// ([`crate::node`]), an empty mapping, so it sends nothing.
     pub(super) const UNCONFIGURED: Tpdo = Tpdo {
-        params: CommParams::UNCONFIGURED,
-        mapping: Some(Mapping::EMPTY),
-        cob_id_writable: false,
+        config: Config::UNCONFIGURED,
         no_change_detection: false,
         timer_only_254: false,
         timer_only_255_with_timer: false,
@@ -97,27 +97,27 @@ impl Tpdo {
         event_at: None,
         sync_left: 0,
         await_start: false,
-        sample: None,
-        pending_sync: None,
+        held: [0; MAX_LEN],
+        sampled: false,
+        pending_sync: false,
     };
 }
 
 impl Tpdo {
     /// The cached communication parameters.
     pub fn params(&self) -> &CommParams {
-        &self.params
+        &self.config.params
     }
 
     /// The resolved mapping, or `None` if the configured one is invalid.
     pub fn mapping(&self) -> Option<&Mapping> {
-        self.mapping.as_ref()
+        (!self.config.unresolved).then_some(&self.config.mapping)
     }
 
     /// The CAN-ID it sends on: `Some` when the COB-ID is valid and a
     /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
     pub fn cob_id(&self) -> Option<u16> {
-        let mapping = self.mapping.as_ref()?;
-        (self.params.valid() && !mapping.is_empty()).then(|| self.params.can_id())
+        self.config.cob_id()
     }
 
     /// Whether a change of the mapped data counts as an event.
@@ -126,24 +126,19 @@ impl Tpdo {
     }
 
     fn is_event_driven(&self) -> bool {
-        matches!(self.params.transmission_type, 254 | 255)
+        matches!(self.config.params.transmission_type, 254 | 255)
     }
 
     /// Whether this PDO is of type 254 on a device that makes 254 timer-only,
     /// or of type 255 with an event timer on a device that makes that timer-only.
+    // Out of line: `restart` and `refresh_change_events` each had a copy.
+    #[inline(never)]
     fn timer_only(&self) -> bool {
-        match self.params.transmission_type {
+        match self.config.params.transmission_type {
             254 => self.timer_only_254,
-            255 => self.timer_only_255_with_timer && self.params.event_timer_ms != 0,
+            255 => self.timer_only_255_with_timer && self.config.params.event_timer_ms != 0,
             _ => false,
         }
-    }
-
-    /// New parameters or mapping: the PDO starts over.
-    pub(super) fn set(&mut self, params: CommParams, mapping: Option<Mapping>) {
-        self.params = params;
-        self.mapping = mapping;
-        self.restart(None);
     }
 
     pub(super) fn set_change_detection(&mut self, on: bool) {
@@ -166,7 +161,7 @@ impl Tpdo {
     // Out of line: two callers each had a copy (168 bytes more).
     #[inline(never)]
     pub(super) fn restart(&mut self, now: Option<At>) {
-        let timer = self.params.event_timer();
+        let timer = self.config.params.event_timer();
         self.sent = false;
         self.event = self.is_event_driven() && !self.timer_only();
         self.change_pending = false;
@@ -174,9 +169,9 @@ impl Tpdo {
         self.inhibit_until = None;
         self.event_at = now.filter(|_| timer != 0).map(|t| later(t, timer));
         self.sync_left = 0;
-        self.await_start = self.params.sync_start != 0;
-        self.sample = None;
-        self.pending_sync = None;
+        self.await_start = self.config.params.sync_start != 0;
+        self.sampled = false;
+        self.pending_sync = false;
         self.refresh_change_events();
     }
 
@@ -189,7 +184,7 @@ impl Tpdo {
 
     /// The application signals an event (types 0, 254, 255).
     pub(super) fn trigger(&mut self) -> bool {
-        if self.cob_id().is_none() || !matches!(self.params.transmission_type, 0 | 254 | 255) {
+        if self.cob_id().is_none() || !matches!(self.config.params.transmission_type, 0 | 254 | 255) {
             return false;
         }
         self.event = true;
@@ -199,7 +194,7 @@ impl Tpdo {
 
     fn build(&self, image: &[u8]) -> ([u8; MAX_LEN], usize) {
         let mut buf = [0u8; MAX_LEN];
-        let len = self.mapping.as_ref().map_or(0, |m| m.build(image, &mut buf));
+        let len = self.config.mapping.build(image, &mut buf);
         (buf, len)
     }
 
@@ -226,7 +221,7 @@ impl Tpdo {
 
     /// Types 254/255: timers, change detection, and the send once the inhibit time allows.
     fn service_event(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
-        let timer = self.params.event_timer();
+        let timer = self.config.params.event_timer();
         if timer != 0 {
             match self.event_at {
                 None => self.event_at = Some(later(now, timer)),
@@ -238,7 +233,7 @@ impl Tpdo {
         self.change_pending = !self.no_change_events && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
-            let inhibit = self.params.inhibit_time();
+            let inhibit = self.config.params.inhibit_time();
             self.inhibit_until = (inhibit != 0).then(|| later(now, inhibit));
             self.event_at = (timer != 0).then(|| later(now, timer));
         }
@@ -247,14 +242,14 @@ impl Tpdo {
     /// Timers and retries, for a TPDO that can send (the caller checks:
     /// `Pdos::tpdo_live`); `window_end`: of the last SYNC's synchronous window (0x1007).
     pub(super) fn poll(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
-        let cob_id = self.params.can_id();
+        let cob_id = self.config.params.can_id();
         if self.is_event_driven() {
             self.service_event(now, cob_id, image, tx);
-        } else if let Some(buf) = self.pending_sync {
-            let len = self.mapping.as_ref().map_or(0, Mapping::len);
+        } else if self.pending_sync {
+            let len = self.config.mapping.len();
             // No window ([`Far::NEVER`]) never closes.
-            if window_end.passed(now) || self.transmit(cob_id, buf, len, tx) {
-                self.pending_sync = None;
+            if window_end.passed(now) || self.transmit(cob_id, self.held, len, tx) {
+                self.pending_sync = false;
             }
         }
     }
@@ -262,20 +257,20 @@ impl Tpdo {
     /// Whether a SYNC has work for it: valid, of type 0..=240 or 252
     /// ([`Tpdo::on_sync`] does nothing for the others).
     pub(super) fn is_synchronous(&self) -> bool {
-        self.cob_id().is_some() && matches!(self.params.transmission_type, 0..=240 | 252)
+        self.cob_id().is_some() && matches!(self.config.params.transmission_type, 0..=240 | 252)
     }
 
     /// A SYNC (received or produced), for a TPDO that
     /// [`Tpdo::is_synchronous`] (the caller checks: `Pdos::sync_tpdos`).
     pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
-        let cob_id = self.params.can_id();
+        let cob_id = self.config.params.can_id();
         // A frame refused at the previous SYNC is stale now.
-        self.pending_sync = None;
-        let send = match self.params.transmission_type {
+        self.pending_sync = false;
+        let send = match self.config.params.transmission_type {
             n @ 1..=240 => {
                 if self.await_start {
                     match sync.counter {
-                        Some(counter) if counter != self.params.sync_start => return,
+                        Some(counter) if counter != self.config.params.sync_start => return,
                         // The start SYNC counts as the first; without a counter the start value is ignored.
                         _ => self.await_start = false,
                     }
@@ -288,8 +283,7 @@ impl Tpdo {
                 }
                 // Cyclic: no change detection, so nothing to remember but
                 // a refusal; built straight into the queue.
-                let Some(mapping) = self.mapping.as_ref() else { return };
-                if tx.send_mapped(cob_id, mapping, image) {
+                if tx.send_mapped(cob_id, &self.config.mapping, image) {
                     self.blocked = false;
                 } else {
                     self.refused_sync(image);
@@ -301,7 +295,7 @@ impl Tpdo {
                 (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
             }
             252 => {
-                self.sample = Some(self.build(image).0);
+                (self.held, self.sampled) = (self.build(image).0, true);
                 None
             }
             _ => None,
@@ -309,7 +303,7 @@ impl Tpdo {
         if let Some((buf, len)) = send
             && !self.transmit(cob_id, buf, len, tx)
         {
-            self.pending_sync = Some(buf);
+            (self.held, self.pending_sync) = (buf, true);
         }
     }
 
@@ -319,24 +313,22 @@ impl Tpdo {
     #[inline(never)]
     fn refused_sync(&mut self, image: &[u8]) {
         self.blocked = true;
-        self.pending_sync = Some(self.build(image).0);
+        (self.held, self.pending_sync) = (self.build(image).0, true);
     }
 
     /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
     pub(super) fn on_rtr(&mut self, now: At, image: &[u8], tx: &mut impl PdoTx) -> bool {
         let Some(cob_id) = self.cob_id() else { return false };
-        if !self.params.rtr_allowed() {
+        if !self.config.params.rtr_allowed() {
             return false;
         }
-        match self.params.transmission_type {
-            252 => {
-                // Before the first SYNC there is no sample yet: send what is there now (as Lely does).
+        match self.config.params.transmission_type {
+            // 252 sends what the last SYNC sampled; before the first SYNC
+            // there is no sample yet: what is there now (as Lely does), as
+            // 253 sends (which has no sample: any restart clears it).
+            252 | 253 => {
                 let (fresh, len) = self.build(image);
-                let buf = self.sample.unwrap_or(fresh);
-                self.transmit(cob_id, buf, len, tx)
-            }
-            253 => {
-                let (buf, len) = self.build(image);
+                let buf = if self.sampled { self.held } else { fresh };
                 self.transmit(cob_id, buf, len, tx)
             }
             254 | 255 => {
@@ -351,7 +343,7 @@ impl Tpdo {
 
     /// Whether a frame the queue refused waits to be retried.
     pub(super) fn retrying(&self) -> bool {
-        self.blocked || self.pending_sync.is_some()
+        self.blocked || self.pending_sync
     }
 
     /// Whether this TPDO is event-driven (it looks for changes) and maps an
@@ -359,11 +351,10 @@ impl Tpdo {
     // Two u16s: the sum fits a u32.
     #[allow(clippy::arithmetic_side_effects)]
     pub(super) fn maps_any(&self, start: u32, end: u32) -> bool {
-        let Some(mapping) = self.mapping.as_ref().filter(|_| self.is_event_driven()) else { return false };
-        mapping.slots().iter().any(|slot| match slot.source {
-            super::map::Source::Ram(offset) => u32::from(offset) < end && start < u32::from(offset) + u32::from(slot.len),
-            _ => false,
-        })
+        if !self.is_event_driven() {
+            return false;
+        }
+        self.config.mapping.maps_any(start, end)
     }
 
     /// The next time [`Tpdo::poll`] has work, for a TPDO that can send
@@ -378,7 +369,7 @@ impl Tpdo {
             // refused frame waits for the next poll instead of spinning.
             return if self.blocked { NEVER } else { self.inhibit_until.unwrap_or(0) };
         }
-        if self.params.event_timer_ms == 0 { NEVER } else { self.event_at.unwrap_or(0) }
+        if self.config.params.event_timer_ms == 0 { NEVER } else { self.event_at.unwrap_or(0) }
     }
 
     /// The epoch moved by `by` µs.

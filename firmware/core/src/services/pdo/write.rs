@@ -3,7 +3,10 @@
 //! procedure of CiA 301 §7.5.2.36 (the decisions are listed in the module
 //! docs of [`super`]).
 
+use super::config::Config;
 use super::map::{Direction, Mapping, Slot};
+use super::rpdo::Rpdo;
+use super::tpdo::Tpdo;
 use super::{CommParams, Pdos};
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, Entry, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
@@ -80,8 +83,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let offset = index.wrapping_sub(base);
         let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
         let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
-        let (params, mapping, cob_id_writable) = self.record_mut(direction, n)?;
-        let old = *params;
+        // One path for both directions on the PDO's configuration; only the reaction differs.
+        let config = match direction {
+            Direction::Receive => &mut self.rpdos.get_mut(n)?.config,
+            Direction::Transmit => &mut self.tpdos.get_mut(n)?.config,
+        };
         let entry = match entry {
             Some(entry) => entry,
             None => match precheck::<true>(dict, index, sub, data) {
@@ -89,59 +95,66 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 Err(code) => return Some(Err(code)),
             },
         };
-        let restart = if is_mapping {
-            let locked = old.valid() && cob_id_writable && !rewrite;
-            let mut new = Mapping::EMPTY;
-            match write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut new) {
-                Ok(true) => {}
-                Ok(false) => return Some(Ok(())),
-                Err(code) => return Some(Err(code)),
-            }
-            *mapping = Some(new);
-            Some(true)
-        } else {
-            let new = match write_comm(old, direction, entry, sub, data, image, rewrite) {
-                Ok(new) => new,
-                Err(code) => return Some(Err(code)),
-            };
-            *params = new;
-            if (old.cob_id, old.transmission_type) != (new.cob_id, new.transmission_type) {
-                Some(true)
-            } else {
-                (old.event_timer_ms != new.event_timer_ms).then_some(false)
-            }
+        let change = match write_config(config, is_mapping, direction, entry, index, sub, data, dict, image, rewrite) {
+            Ok(change) => change,
+            Err(code) => return Some(Err(code)),
         };
-        if let Some(full) = restart {
-            self.restart_one(direction, n, full);
+        match (direction, change) {
+            (_, Change::None) => {}
+            (Direction::Receive, Change::Restart) => self.rpdos.get_mut(n).map_or((), Rpdo::restart),
+            (Direction::Receive, Change::Timer) => self.rpdos.get_mut(n).map_or((), Rpdo::disarm_timer),
+            (Direction::Transmit, Change::Restart) => self.tpdos.get_mut(n).map_or((), |t| t.restart(None)),
+            (Direction::Transmit, Change::Timer) => self.tpdos.get_mut(n).map_or((), Tpdo::rearm_timer),
         }
         Some(Ok(()))
     }
+}
 
-    /// PDO `n`'s cached parameters and mapping, and whether its COB-ID
-    /// entry is writable: one place for both directions.
-    fn record_mut(&mut self, direction: Direction, n: usize) -> Option<(&mut CommParams, &mut Option<Mapping>, bool)> {
-        match direction {
-            Direction::Receive => self.rpdos.get_mut(n).map(|r| (&mut r.params, &mut r.mapping, r.cob_id_writable)),
-            Direction::Transmit => self.tpdos.get_mut(n).map(|t| (&mut t.params, &mut t.mapping, t.cob_id_writable)),
-        }
-    }
+/// What a download changed in a PDO's configuration: the PDO's reaction.
+#[derive(Clone, Copy)]
+enum Change {
+    /// Nothing the PDO acts on.
+    None,
+    /// The COB-ID, the type or the mapping: the PDO starts over.
+    Restart,
+    /// The event timer alone: it starts again.
+    Timer,
+}
 
-    /// PDO `n` after a download changed it: restarted (`full`: a new
-    /// mapping, COB-ID or transmission type) or its event timer rearmed.
-    fn restart_one(&mut self, direction: Direction, n: usize, full: bool) {
-        match direction {
-            Direction::Receive => {
-                if let Some(rpdo) = self.rpdos.get_mut(n) {
-                    if full { rpdo.restart() } else { rpdo.disarm_timer() }
-                }
-            }
-            Direction::Transmit => {
-                if let Some(tpdo) = self.tpdos.get_mut(n) {
-                    if full { tpdo.restart(None) } else { tpdo.rearm_timer() }
-                }
-            }
+/// An SDO download into PDO record (index, sub), a mapping record if
+/// `is_mapping`, applied to the PDO's `config` and the image.
+#[allow(clippy::too_many_arguments)]
+fn write_config(
+    config: &mut Config,
+    is_mapping: bool,
+    direction: Direction,
+    entry: &'static Entry,
+    index: u16,
+    sub: u8,
+    data: &[u8],
+    dict: &Dictionary,
+    image: &mut [u8],
+    rewrite: bool,
+) -> Result<Change, AbortCode> {
+    let params = config.params;
+    if is_mapping {
+        let locked = params.valid() && config.cob_id_writable && !rewrite;
+        let mut mapping = Mapping::EMPTY;
+        if !write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut mapping)? {
+            return Ok(Change::None);
         }
+        (config.mapping, config.unresolved) = (mapping, false);
+        return Ok(Change::Restart);
     }
+    let new = write_comm(params, direction, entry, sub, data, image, rewrite)?;
+    config.params = new;
+    Ok(if (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type) {
+        Change::Restart
+    } else if params.event_timer_ms != new.event_timer_ms {
+        Change::Timer
+    } else {
+        Change::None
+    })
 }
 
 /// An SDO download into a communication record; returns the new record.
@@ -175,7 +188,10 @@ fn write_map(
     image: &mut [u8],
     new: &mut Mapping,
 ) -> Result<bool, AbortCode> {
-    if (locked || sub != 0) && dict.value(image, entry) == data {
+    // As numbers: the precheck held `data` to the entry's length (an
+    // UNSIGNED8 or UNSIGNED32), and a number compares in fewer bytes than a slice.
+    let value = le_u32(data);
+    if (locked || sub != 0) && value_u32(dict, image, entry) == value {
         // Writing back the current value changes nothing and is allowed
         // (sub 0 of an open mapping is always resolved again).
         return Ok(false);
@@ -185,15 +201,13 @@ fn write_map(
     }
     let record = object(dict, index);
     let resolved = if sub == 0 {
-        let count = data.first().copied().unwrap_or(0);
-        new.resolve(dict, image, record, u32::from(count), direction)?;
+        new.resolve(dict, image, record, value, direction)?;
         true
     } else {
         let count = sub_entry(record, 0).map_or(0, |e| value_u32(dict, image, e));
         if count != 0 && !rewrite {
             return Err(AbortCode::UnsupportedAccess);
         }
-        let value = le_u32(data);
         if value != 0 {
             Slot::resolve(dict, MappingEntry::from_u32(value), direction)?;
         }

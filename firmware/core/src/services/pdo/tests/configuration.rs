@@ -30,6 +30,7 @@ fn a_mapping_that_does_not_resolve_silences_its_pdo() {
     let mut pdos: Pdos<2, 2> = Pdos::default();
     assert_eq!(pdos.configure(&DICT, &image), Err(MappingError { index: 0x1A00, code: AbortCode::NotMappable }));
     assert_eq!(pdos.tpdo(0).unwrap().cob_id(), None);
+    assert!(pdos.tpdo(0).unwrap().mapping().is_none(), "no mapping to speak of (an empty one is sub 0 = 0)");
     assert_eq!(pdos.rpdo(0).unwrap().cob_id(), Some(0x201), "the others are configured");
     pdos.enter_operational(ms(0));
     let mut bus = Bus::default();

@@ -296,6 +296,24 @@ fn rtr_only_synchronous_tpdo_sends_the_sample_of_the_last_sync() {
 }
 
 #[test]
+fn a_tpdo_turned_from_252_to_253_forgets_its_sample() {
+    // 252 and 253 answer an RTR on one path: the sample of the last SYNC,
+    // else the data now. A new type starts the PDO over, sample included,
+    // so 253 sends the data now, not what 252 sampled.
+    let mut node = Node::operational(ms(0));
+    assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()), "TPDO1 quiet");
+    node.remap_tpdo(1, &[0x2000_0008], 0x281, 252);
+    node.set(0x2000, 0, &[1]);
+    node.sync(sync_at(ms(1), None));
+    node.set(0x2000, 0, &[2]);
+    assert!(node.rtr(ms(2), 0x281));
+    tx!(node, [(0x281, [1])]);
+    assert_eq!(node.sdo(0x1801, 2, &[253]), Ok(()));
+    assert!(node.rtr(ms(3), 0x281));
+    tx!(node, [(0x281, [2])]);
+}
+
+#[test]
 fn rtr_only_event_driven_tpdo_sends_fresh_data_on_each_rtr() {
     let mut node = Node::operational(ms(0));
     assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()), "TPDO1 quiet");

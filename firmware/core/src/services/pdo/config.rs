@@ -1,0 +1,71 @@
+//! What an RPDO and a TPDO have alike: the communication record as
+//! cached, the resolved mapping and whether sub 1 can be written. One
+//! type, so that configuring a PDO and the SDO downloads of its records are
+//! one code path for both directions; only the PDO's reaction differs.
+
+use super::map::{Direction, Mapping};
+use super::{CommParams, MappingError, nth};
+use crate::od::{Dictionary, object};
+
+/// Communication record minus mapping record: 0x1400 − 0x1600, 0x1800 − 0x1A00.
+const MAPPING_OFFSET: u16 = 0x200;
+
+/// A PDO's configuration (0x1400+n and 0x1600+n, or 0x1800+n and 0x1A00+n).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Config {
+    pub(super) params: CommParams,
+    /// The mapping; empty (the PDO is silent) when the configured one does
+    /// not resolve. Not an `Option`: every path that uses the mapping
+    /// would check it, where an empty mapping already keeps the PDO off.
+    pub(super) mapping: Mapping,
+    /// The configured mapping did not resolve (`mapping` is empty).
+    pub(super) unresolved: bool,
+    /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
+    pub(super) cob_id_writable: bool,
+}
+
+impl Config {
+    /// Before the first configuration: all zero bits ([`crate::node`]), an
+    /// empty mapping, so the PDO does nothing.
+    pub(super) const UNCONFIGURED: Config =
+        Config { params: CommParams::UNCONFIGURED, mapping: Mapping::EMPTY, unresolved: false, cob_id_writable: false };
+
+    /// A dictionary without the PDO's records: an invalid PDO of type 254.
+    pub(super) const DEFAULT: Config =
+        Config { params: CommParams::DEFAULT, mapping: Mapping::EMPTY, unresolved: true, cob_id_writable: false };
+
+    /// The CAN-ID the PDO uses: `Some` when the COB-ID is valid and a
+    /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
+    pub(super) fn cob_id(&self) -> Option<u16> {
+        (self.params.valid() && !self.mapping.is_empty()).then(|| self.params.can_id())
+    }
+
+    /// Reads communication record `comm` (0x1400+n or 0x1800+n) and its
+    /// mapping record from the image into a configuration that is
+    /// [`Config::UNCONFIGURED`] (the caller's PDO, cleared whole): a
+    /// mapping the dictionary lacks, or one that does not resolve, leaves
+    /// the mapping empty and `unresolved`, and the second is kept in `first_error` if it is
+    /// the first. The mapping is resolved in place (a mapping returned by
+    /// value was copied twice on its way into the PDO).
+    // Out of line: one copy for the RPDOs' and the TPDOs' configuration.
+    #[inline(never)]
+    pub(super) fn read(
+        &mut self,
+        dict: &Dictionary,
+        image: &[u8],
+        comm: u16,
+        direction: Direction,
+        first_error: &mut Option<MappingError>,
+    ) {
+        let index = nth(comm, MAPPING_OFFSET);
+        if let Err(code) = self.mapping.read(dict, image, index, direction) {
+            // What the failed resolution left is no mapping.
+            (self.mapping, self.unresolved) = (Mapping::EMPTY, true);
+            // A record the dictionary lacks is no error.
+            if !object(dict, index).is_empty() {
+                first_error.get_or_insert(MappingError { index, code });
+            }
+        }
+        (self.params, self.cob_id_writable) = CommParams::read_record(dict, image, comm);
+    }
+}
