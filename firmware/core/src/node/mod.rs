@@ -472,8 +472,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// [`Node::with_app_cold`] for the RPDO's hook (every received RPDO):
-    /// the follow-up called directly, the device error checked here, one
-    /// call less than `after_cold_hook` on the path of every frame. The
+    /// the follow-up in line (the raw frames' and the writes' checks; only
+    /// what they find is called), the device error checked here: two calls
+    /// less than `after_cold_hook` on the path of every frame. The
     /// device's timers are left to the caller, which takes the hook's
     /// [`Ctx::wake`] and decides whether they wait.
     #[inline(always)]
@@ -482,7 +483,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return self.with_app_cold(now, f);
         }
         let (value, effects) = self.run_hook(now, f);
-        self.follow_hook(effects);
+        self.queue_raw();
+        self.follow_sdo(effects);
         if effects.error_class != 0 {
             self.device_error(effects.error_class, now);
         }
