@@ -236,7 +236,7 @@ impl Ctx<'_> {
     /// reconfigures the PDO). The device's own hooks do not run again for it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
-            self.effects.written = true;
+            self.effects.follow.written = true;
             return self.store_command(index, sub, data, None);
         }
         let entry = self.precheck::<true>(index, sub, data)?;
@@ -249,7 +249,7 @@ impl Ctx<'_> {
     // Out of line: a profile sets several values per sample (the sendix image was 300 B bigger inlined).
     #[inline(never)]
     pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.effects.written = true;
+        self.effects.follow.written = true;
         self.dict.write_unchecked(self.image, index, sub, data)
     }
 
@@ -349,7 +349,7 @@ impl Ctx<'_> {
             if self.effects.wrote.1 == 0 {
                 self.effects.wrote = (out.offset, u16::from(out.len));
             } else {
-                self.effects.written = true;
+                self.effects.follow.written = true;
             }
         }
     }
@@ -357,14 +357,14 @@ impl Ctx<'_> {
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
     /// error was already active or there is no room).
     pub fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) -> bool {
-        self.effects.services = true;
+        self.effects.follow.services = true;
         self.services.emcy().raise(code, info)
     }
 
     /// Raises an error that sets the error register bits `register` (0x1001)
     /// while it lasts, beyond those its code's class sets.
     pub fn raise_error_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
-        self.effects.services = true;
+        self.effects.follow.services = true;
         self.services.emcy().raise_with(code, register, info)
     }
 
@@ -393,7 +393,7 @@ impl Ctx<'_> {
 
     /// Clears an error; the last one cleared sends "error reset".
     pub fn clear_error(&mut self, code: EmcyCode) {
-        self.effects.services = true;
+        self.effects.follow.services = true;
         let emcy = self.services.emcy();
         emcy.clear(code);
         // No message when other errors stay active: 0x1001 follows at once.
@@ -441,7 +441,7 @@ impl Ctx<'_> {
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
-        self.effects.written = true;
+        self.effects.follow.written = true;
         self.services.trigger_tpdo(n)
     }
 
@@ -515,7 +515,7 @@ impl Ctx<'_> {
     /// The node rebuilds its acceptance list (the identifiers
     /// [`Application::claim_ids`] lists have changed).
     pub fn refresh_acceptance(&mut self) {
-        self.effects.consumed_changed = true;
+        self.effects.follow.consumed_changed = true;
     }
 }
 

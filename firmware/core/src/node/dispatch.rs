@@ -15,7 +15,7 @@ use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode, error_control_cob_id};
 use crate::wire::time_stamp::TimeOfDay;
 
-use super::router::{Router, SdoEffects};
+use super::router::{Follow, Router, SdoEffects};
 use super::sinks::{LENGTH_ERRORS, PdoSink, SdoSink};
 use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE, store};
 use crate::services::sdo_server::SdoServers;
@@ -318,25 +318,26 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         mask
     }
 
-    /// Which TPDOs look for changed data after the writes of `effects`,
+    /// Which TPDOs look for changed data after the writes of an access
+    /// (`wrote`, `follow`: its [`SdoEffects`]' parts, passed in registers),
     /// whether the next process runs every service, and the SDO servers
     /// and the acceptance list read again where their objects changed.
     // Out of line: `with_app` is inlined at every hook call.
     #[inline(never)]
-    fn follow_writes(&mut self, effects: SdoEffects) {
-        if effects.written {
+    fn follow_writes(&mut self, wrote: (u16, u16), follow: Follow) {
+        if follow.written {
             self.touched = ALL_TPDOS;
-        } else if effects.wrote.1 != 0 {
-            let (offset, len) = effects.wrote;
+        } else if wrote.1 != 0 {
+            let (offset, len) = wrote;
             // A poll for any TPDO retries every TPDO waiting to ([`crate::services::pdo::Pdos::poll_changed`]).
             let mask = self.comm.pdos.tpdos_mapping(offset, len);
             self.touched |= if mask != 0 { mask } else { self.retrying() };
         }
-        self.stale |= effects.services;
-        if effects.sdo_changed {
+        self.stale |= follow.services;
+        if follow.sdo_changed {
             self.configure_sdo();
         }
-        if effects.consumed_changed {
+        if follow.consumed_changed {
             self.refresh_acceptance();
         }
     }
@@ -371,8 +372,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// request, or from a server's timers in `process`).
     #[inline(always)]
     pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
-        if effects.written || effects.wrote.1 != 0 || effects.services || effects.sdo_changed || effects.consumed_changed {
-            self.follow_writes(effects);
+        if effects.follow != Follow::default() || effects.wrote.1 != 0 {
+            self.follow_writes(effects.wrote, effects.follow);
         }
     }
 }

@@ -74,14 +74,14 @@ impl Ctx<'_> {
         if index >= index::MANUFACTURER_SPECIFIC {
             return self.write_plain(entry, data);
         }
-        self.effects.written = true;
-        self.effects.services = true;
+        self.effects.follow.written = true;
+        self.effects.follow.services = true;
         self.write_comm(index, sub, data, entry)?;
         // The node reads the SDO servers and rebuilds its acceptance list
         // after any communication object: both only act on what changed
         // (a server whose COB-IDs moved, a list whose identifiers did).
-        self.effects.sdo_changed = true;
-        self.effects.consumed_changed = true;
+        self.effects.follow.sdo_changed = true;
+        self.effects.follow.consumed_changed = true;
         Ok(())
     }
 
