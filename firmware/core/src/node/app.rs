@@ -158,7 +158,6 @@ pub struct Ctx<'a> {
     pub(super) image: &'a mut [u8],
     pub(super) services: &'a mut dyn super::comm::Services,
     pub(super) storage: &'a mut dyn Storage,
-    pub(super) node_id: u8,
     pub(super) state: NmtState,
     /// The time of the call, since the node's epoch (`hook.epoch`).
     pub(super) now: At,
@@ -185,12 +184,22 @@ pub(super) struct HookSide {
     /// (here, where the hook's context reaches it through `hook`, so that
     /// [`Ctx`] stays as small as it was).
     pub(super) epoch: u64,
+    /// The active node-id: the node's own (here, where the hook's context
+    /// reaches it through `hook`, so that building a [`Ctx`] for every
+    /// hook call does not copy it).
+    pub(super) node_id: u8,
 }
 
 impl HookSide {
     /// Nothing left, no store; all zero bits.
-    pub(super) const EMPTY: HookSide =
-        HookSide { frames: [CanFrame::EMPTY; RAW_BURST], len: 0, wake: false, store: crate::services::store::Job::IDLE, epoch: 0 };
+    pub(super) const EMPTY: HookSide = HookSide {
+        frames: [CanFrame::EMPTY; RAW_BURST],
+        len: 0,
+        wake: false,
+        store: crate::services::store::Job::IDLE,
+        epoch: 0,
+        node_id: 0,
+    };
 }
 
 impl Ctx<'_> {
@@ -208,7 +217,7 @@ impl Ctx<'_> {
 
     /// The active node-id.
     pub fn node_id(&self) -> u8 {
-        self.node_id
+        self.hook.node_id
     }
 
     /// The NMT state.
@@ -482,7 +491,7 @@ impl Ctx<'_> {
     /// read-only objects included ([`crate::services::store::stored_value`]):
     /// how a device gets back a value it keeps across power cycles itself.
     pub fn stored(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Option<usize> {
-        crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
+        crate::services::store::stored_value(self.dict, self.storage, self.hook.node_id, index, sub, buf)
     }
 
     /// Whether the parameters last saved were refused for this dictionary's

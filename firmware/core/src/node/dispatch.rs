@@ -58,7 +58,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.lss_request(now, data);
             return;
         }
-        if self.node_id == UNCONFIGURED {
+        if self.hook.node_id == UNCONFIGURED {
             self.counters.count_ignored();
             return;
         }
@@ -84,7 +84,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // own pre-defined identifiers (CiA 301 §7.3.5): a request there
         // skips the checks for the other services (about 70 thumbv7m instructions).
         if !(0x601..=0x67F).contains(&cob_id) {
-            if cob_id == error_control_cob_id(self.node_id) {
+            if cob_id == error_control_cob_id(self.hook.node_id) {
                 if O::SERVICES.guarding && rtr && !self.comm.heartbeat.active() {
                     self.stale = true;
                     let expired = self.comm.guarding.is_expired();
@@ -178,7 +178,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     fn plain_rpdo(&mut self, now: At, cob_id: u16, data: &[u8]) -> bool {
         if !(0x181..=0x57F).contains(&cob_id)
             || !self.nmt.state().pdo_allowed()
-            || self.node_id == UNCONFIGURED
+            || self.hook.node_id == UNCONFIGURED
             || cob_id == self.comm.sync.cob_id()
         {
             return false;
@@ -351,14 +351,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
         // The SDO server's hooks may change what the device's timers do.
         self.poll_app_next();
-        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, hook, sdo_cob_ids, .. } = self;
+        let Node { od, app, storage, comm, sdo, txq, nmt, hook, sdo_cob_ids, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {
             dict,
             image: od.image_mut(),
             services: comm,
             storage,
-            node_id: *node_id,
             state: nmt.state(),
             now,
             options: &A::OPTIONS,

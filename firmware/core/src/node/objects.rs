@@ -87,7 +87,7 @@ impl Ctx<'_> {
 
     /// The interpreter: check by kind, store, apply.
     fn write_comm(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
-        let (dict, now, node_id) = (self.dict, self.now, self.node_id);
+        let (dict, now, node_id) = (self.dict, self.now, self.hook.node_id);
         match Kind::of(index, sub) {
             Kind::Plain => {}
             Kind::AtMost(max) => {

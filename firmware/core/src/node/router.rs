@@ -99,7 +99,7 @@ impl Ctx<'_> {
         if self.hook.store.busy() {
             return Err(store_abort(StoreError::Busy));
         }
-        job.finish(self.dict, self.image, self.node_id, self.storage).map_err(store_abort)
+        job.finish(self.dict, self.image, self.hook.node_id, self.storage).map_err(store_abort)
     }
 
     /// 0x1010 / 0x1011: the signature triggers the command; the entry itself keeps
