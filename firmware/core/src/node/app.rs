@@ -158,7 +158,6 @@ pub struct Ctx<'a> {
     pub(super) image: &'a mut [u8],
     pub(super) services: &'a mut dyn super::comm::Services,
     pub(super) storage: &'a mut dyn Storage,
-    pub(super) node_id: u8,
     pub(super) state: NmtState,
     /// The time of the call, since the node's epoch (`hook.epoch`).
     pub(super) now: At,
@@ -185,12 +184,22 @@ pub(super) struct HookSide {
     /// (here, where the hook's context reaches it through `hook`, so that
     /// [`Ctx`] stays as small as it was).
     pub(super) epoch: u64,
+    /// The active node-id: the node's own (here, where the hook's context
+    /// reaches it through `hook`, so that building a [`Ctx`] for every
+    /// hook call does not copy it).
+    pub(super) node_id: u8,
 }
 
 impl HookSide {
     /// Nothing left, no store; all zero bits.
-    pub(super) const EMPTY: HookSide =
-        HookSide { frames: [CanFrame::EMPTY; RAW_BURST], len: 0, wake: false, store: crate::services::store::Job::IDLE, epoch: 0 };
+    pub(super) const EMPTY: HookSide = HookSide {
+        frames: [CanFrame::EMPTY; RAW_BURST],
+        len: 0,
+        wake: false,
+        store: crate::services::store::Job::IDLE,
+        epoch: 0,
+        node_id: 0,
+    };
 }
 
 impl Ctx<'_> {
@@ -208,7 +217,7 @@ impl Ctx<'_> {
 
     /// The active node-id.
     pub fn node_id(&self) -> u8 {
-        self.node_id
+        self.hook.node_id
     }
 
     /// The NMT state.
@@ -236,7 +245,7 @@ impl Ctx<'_> {
     /// reconfigures the PDO). The device's own hooks do not run again for it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
-            self.effects.written = true;
+            self.effects.follow.written = true;
             return self.store_command(index, sub, data, None);
         }
         let entry = self.precheck::<true>(index, sub, data)?;
@@ -249,7 +258,7 @@ impl Ctx<'_> {
     // Out of line: a profile sets several values per sample (the sendix image was 300 B bigger inlined).
     #[inline(never)]
     pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
-        self.effects.written = true;
+        self.effects.follow.written = true;
         self.dict.write_unchecked(self.image, index, sub, data)
     }
 
@@ -349,7 +358,7 @@ impl Ctx<'_> {
             if self.effects.wrote.1 == 0 {
                 self.effects.wrote = (out.offset, u16::from(out.len));
             } else {
-                self.effects.written = true;
+                self.effects.follow.written = true;
             }
         }
     }
@@ -357,14 +366,14 @@ impl Ctx<'_> {
     /// Raises an error: EMCY `code`, error register, 0x1003 (false if the
     /// error was already active or there is no room).
     pub fn raise_error(&mut self, code: EmcyCode, info: [u8; 5]) -> bool {
-        self.effects.services = true;
+        self.effects.follow.services = true;
         self.services.emcy().raise(code, info)
     }
 
     /// Raises an error that sets the error register bits `register` (0x1001)
     /// while it lasts, beyond those its code's class sets.
     pub fn raise_error_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
-        self.effects.services = true;
+        self.effects.follow.services = true;
         self.services.emcy().raise_with(code, register, info)
     }
 
@@ -393,7 +402,7 @@ impl Ctx<'_> {
 
     /// Clears an error; the last one cleared sends "error reset".
     pub fn clear_error(&mut self, code: EmcyCode) {
-        self.effects.services = true;
+        self.effects.follow.services = true;
         let emcy = self.services.emcy();
         emcy.clear(code);
         // No message when other errors stay active: 0x1001 follows at once.
@@ -441,7 +450,7 @@ impl Ctx<'_> {
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
-        self.effects.written = true;
+        self.effects.follow.written = true;
         self.services.trigger_tpdo(n)
     }
 
@@ -482,7 +491,7 @@ impl Ctx<'_> {
     /// read-only objects included ([`crate::services::store::stored_value`]):
     /// how a device gets back a value it keeps across power cycles itself.
     pub fn stored(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Option<usize> {
-        crate::services::store::stored_value(self.dict, self.storage, self.node_id, index, sub, buf)
+        crate::services::store::stored_value(self.dict, self.storage, self.hook.node_id, index, sub, buf)
     }
 
     /// Whether the parameters last saved were refused for this dictionary's
@@ -515,7 +524,7 @@ impl Ctx<'_> {
     /// The node rebuilds its acceptance list (the identifiers
     /// [`Application::claim_ids`] lists have changed).
     pub fn refresh_acceptance(&mut self) {
-        self.effects.consumed_changed = true;
+        self.effects.follow.consumed_changed = true;
     }
 }
 

@@ -15,7 +15,7 @@ use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode, error_control_cob_id};
 use crate::wire::time_stamp::TimeOfDay;
 
-use super::router::{Router, SdoEffects};
+use super::router::{Follow, Router, SdoEffects};
 use super::sinks::{LENGTH_ERRORS, PdoSink, SdoSink};
 use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE, store};
 use crate::services::sdo_server::SdoServers;
@@ -58,7 +58,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.lss_request(now, data);
             return;
         }
-        if self.node_id == UNCONFIGURED {
+        if self.hook.node_id == UNCONFIGURED {
             self.counters.count_ignored();
             return;
         }
@@ -84,7 +84,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // own pre-defined identifiers (CiA 301 §7.3.5): a request there
         // skips the checks for the other services (about 70 thumbv7m instructions).
         if !(0x601..=0x67F).contains(&cob_id) {
-            if cob_id == error_control_cob_id(self.node_id) {
+            if cob_id == error_control_cob_id(self.hook.node_id) {
                 if O::SERVICES.guarding && rtr && !self.comm.heartbeat.active() {
                     self.stale = true;
                     let expired = self.comm.guarding.is_expired();
@@ -178,7 +178,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     fn plain_rpdo(&mut self, now: At, cob_id: u16, data: &[u8]) -> bool {
         if !(0x181..=0x57F).contains(&cob_id)
             || !self.nmt.state().pdo_allowed()
-            || self.node_id == UNCONFIGURED
+            || self.hook.node_id == UNCONFIGURED
             || cob_id == self.comm.sync.cob_id()
         {
             return false;
@@ -318,25 +318,26 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         mask
     }
 
-    /// Which TPDOs look for changed data after the writes of `effects`,
+    /// Which TPDOs look for changed data after the writes of an access
+    /// (`wrote`, `follow`: its [`SdoEffects`]' parts, passed in registers),
     /// whether the next process runs every service, and the SDO servers
     /// and the acceptance list read again where their objects changed.
     // Out of line: `with_app` is inlined at every hook call.
     #[inline(never)]
-    fn follow_writes(&mut self, effects: SdoEffects) {
-        if effects.written {
+    fn follow_writes(&mut self, wrote: (u16, u16), follow: Follow) {
+        if follow.written {
             self.touched = ALL_TPDOS;
-        } else if effects.wrote.1 != 0 {
-            let (offset, len) = effects.wrote;
+        } else if wrote.1 != 0 {
+            let (offset, len) = wrote;
             // A poll for any TPDO retries every TPDO waiting to ([`crate::services::pdo::Pdos::poll_changed`]).
             let mask = self.comm.pdos.tpdos_mapping(offset, len);
             self.touched |= if mask != 0 { mask } else { self.retrying() };
         }
-        self.stale |= effects.services;
-        if effects.sdo_changed {
+        self.stale |= follow.services;
+        if follow.sdo_changed {
             self.configure_sdo();
         }
-        if effects.consumed_changed {
+        if follow.consumed_changed {
             self.refresh_acceptance();
         }
     }
@@ -350,14 +351,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     ) -> (Ctx<'_>, &mut A, &mut SdoServers<SDO_BUFFER, SDO>, &mut TxQueue<TX_QUEUE>, &[Option<(u16, u16)>; SDO]) {
         // The SDO server's hooks may change what the device's timers do.
         self.poll_app_next();
-        let Node { od, app, storage, comm, sdo, txq, node_id, nmt, hook, sdo_cob_ids, .. } = self;
+        let Node { od, app, storage, comm, sdo, txq, nmt, hook, sdo_cob_ids, .. } = self;
         let dict = od.dictionary();
         let ctx = Ctx {
             dict,
             image: od.image_mut(),
             services: comm,
             storage,
-            node_id: *node_id,
             state: nmt.state(),
             now,
             options: &A::OPTIONS,
@@ -371,8 +371,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// request, or from a server's timers in `process`).
     #[inline(always)]
     pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
-        if effects.written || effects.wrote.1 != 0 || effects.services || effects.sdo_changed || effects.consumed_changed {
-            self.follow_writes(effects);
+        if effects.follow != Follow::default() || effects.wrote.1 != 0 {
+            self.follow_writes(effects.wrote, effects.follow);
         }
     }
 }

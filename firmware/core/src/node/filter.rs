@@ -144,9 +144,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.acceptance.insert(LSS_MASTER_COB_ID, false);
         }
         // An unconfigured node takes part in LSS only; a device that switched CANopen off, in nothing.
-        if self.node_id != UNCONFIGURED && self.app.canopen() {
+        if self.hook.node_id != UNCONFIGURED && self.app.canopen() {
             self.acceptance.insert(NMT_COB_ID, false);
-            self.acceptance.insert(error_control_cob_id(self.node_id), true);
+            self.acceptance.insert(error_control_cob_id(self.hook.node_id), true);
             self.acceptance.insert(self.comm.sync.cob_id(), false);
             if let Some(time) = self.comm.time_cob_id {
                 self.acceptance.insert(time, false);
@@ -168,7 +168,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // or the SDO download that wrote an entry).
             for producer in self.comm.consumers.producers() {
                 // The node's own 0x700 + id is node guarding, never a heartbeat it consumes.
-                if (1..=127).contains(&producer) && producer != self.node_id {
+                if (1..=127).contains(&producer) && producer != self.hook.node_id {
                     self.acceptance.insert(error_control_cob_id(producer), false);
                 }
             }

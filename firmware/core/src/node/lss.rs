@@ -69,12 +69,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         if let Some((node_id, bit_rate)) = stored.and_then(|set| set.lss()) {
             if (1..=127).contains(&node_id) || node_id == UNCONFIGURED {
-                self.node_id = node_id;
+                self.hook.node_id = node_id;
             }
             self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
         }
         let rate = self.bit_rate.unwrap_or(0xFF);
-        self.lss = LssSlave::new([0; 4], self.node_id, rate, dict.device.baud_rates);
+        self.lss = LssSlave::new([0; 4], self.hook.node_id, rate, dict.device.baud_rates);
         self.lss_active = true;
     }
 
@@ -134,7 +134,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // In stages; without storage (`Services::storage`) the answer is "storage failed".
             LssAction::Store { node_id, bit_rate } => self.store_lss(node_id, bit_rate),
             LssAction::Start(node_id) => {
-                self.node_id = node_id;
+                self.hook.node_id = node_id;
                 if A::OPTIONS.lss_start_resets_node {
                     self.reset_application();
                 } else {

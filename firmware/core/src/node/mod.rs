@@ -182,7 +182,6 @@ pub struct Node<
     od: O,
     app: A,
     storage: S,
-    node_id: u8,
     nmt: Nmt,
     comm: Comm<R, T, HB>,
     sdo: SdoServers<SDO_BUFFER, SDO>,
@@ -285,7 +284,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             od,
             app,
             storage,
-            node_id: 0,
             nmt: Nmt::new(),
             comm: Comm::new(),
             sdo: SdoServers::new(),
@@ -320,7 +318,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The node-id.
     pub fn node_id(&self) -> u8 {
-        self.node_id
+        self.hook.node_id
     }
 
     /// The NMT state.
@@ -472,8 +470,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// [`Node::with_app_cold`] for the RPDO's hook (every received RPDO):
-    /// the follow-up called directly, the device error checked here, one
-    /// call less than `after_cold_hook` on the path of every frame. The
+    /// the follow-up in line (the raw frames' and the writes' checks; only
+    /// what they find is called), the device error checked here: two calls
+    /// less than `after_cold_hook` on the path of every frame. The
     /// device's timers are left to the caller, which takes the hook's
     /// [`Ctx::wake`] and decides whether they wait.
     #[inline(always)]
@@ -482,7 +481,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return self.with_app_cold(now, f);
         }
         let (value, effects) = self.run_hook(now, f);
-        self.follow_hook(effects);
+        self.queue_raw();
+        self.follow_sdo(effects);
         if effects.error_class != 0 {
             self.device_error(effects.error_class, now);
         }
@@ -513,14 +513,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The hook `f` with its context; what it changed beyond its writes.
     #[inline(always)]
     fn run_hook<V>(&mut self, now: At, f: impl FnOnce(&mut A, &mut Ctx<'_>) -> V) -> (V, router::SdoEffects) {
-        let Node { od, app, storage, comm, node_id, nmt, hook, .. } = self;
+        let Node { od, app, storage, comm, nmt, hook, .. } = self;
         let dict = od.dictionary();
         let mut ctx = Ctx {
             dict,
             image: od.image_mut(),
             services: comm,
             storage,
-            node_id: *node_id,
             state: nmt.state(),
             now,
             options: &A::OPTIONS,

@@ -74,20 +74,20 @@ impl Ctx<'_> {
         if index >= index::MANUFACTURER_SPECIFIC {
             return self.write_plain(entry, data);
         }
-        self.effects.written = true;
-        self.effects.services = true;
+        self.effects.follow.written = true;
+        self.effects.follow.services = true;
         self.write_comm(index, sub, data, entry)?;
         // The node reads the SDO servers and rebuilds its acceptance list
         // after any communication object: both only act on what changed
         // (a server whose COB-IDs moved, a list whose identifiers did).
-        self.effects.sdo_changed = true;
-        self.effects.consumed_changed = true;
+        self.effects.follow.sdo_changed = true;
+        self.effects.follow.consumed_changed = true;
         Ok(())
     }
 
     /// The interpreter: check by kind, store, apply.
     fn write_comm(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
-        let (dict, now, node_id) = (self.dict, self.now, self.node_id);
+        let (dict, now, node_id) = (self.dict, self.now, self.hook.node_id);
         match Kind::of(index, sub) {
             Kind::Plain => {}
             Kind::AtMost(max) => {

@@ -250,10 +250,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if self.boot_pending {
             let sent = match A::OPTIONS.boot_up_v3 {
                 Some(switch) if self.option_set(switch) => {
-                    let id = V3_BOOT_UP_BASE | u16::from(self.node_id);
+                    let id = V3_BOOT_UP_BASE | u16::from(self.hook.node_id);
                     self.push(id, &[]) && self.push(id, &[0; 8])
                 }
-                _ => self.push(error_control_cob_id(self.node_id), &[NmtStateCode::BootUp.code()]),
+                _ => self.push(error_control_cob_id(self.hook.node_id), &[NmtStateCode::BootUp.code()]),
             };
             if sent {
                 self.boot_pending = false;
@@ -264,7 +264,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                         || A::OPTIONS.start_operational.is_some_and(|switch| self.option_set(switch));
                 let state = self.nmt.boot_up_done(false);
                 let dict = self.od.dictionary();
-                self.comm.reconfigure(index::PRODUCER_HEARTBEAT_TIME, dict, self.od.image(), self.node_id, now);
+                self.comm.reconfigure(index::PRODUCER_HEARTBEAT_TIME, dict, self.od.image(), self.hook.node_id, now);
                 self.entered(state, now);
                 self.start_pending = auto_start;
             }
@@ -276,7 +276,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
         }
         if self.nmt.state() != NmtState::Initialising && self.comm.heartbeat.poll(now) {
-            let id = error_control_cob_id(self.node_id);
+            let id = error_control_cob_id(self.hook.node_id);
             self.push(id, &[self.nmt.state().reported().code()]);
         }
         while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {

@@ -77,7 +77,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// NMT reset node instead.
     pub fn power_on(&mut self, node_id: u8, now: Instant) {
         let now = self.tick(now);
-        self.node_id = node_id;
+        self.hook.node_id = node_id;
         // The TPDOs compare their data at their first chance, whatever the image held before.
         self.touched = ALL_TPDOS;
         // The reset's check of the stored sets serves the LSS configuration
@@ -106,11 +106,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     fn reset_part(&mut self, part: Part) {
         let (dict, image) = (self.od.dictionary(), self.od.image_mut());
         if Self::LOADS_STORED {
-            store::reset_part(dict, image, self.node_id, &mut self.storage, self.reset_stored.as_ref(), part);
+            store::reset_part(dict, image, self.hook.node_id, &mut self.storage, self.reset_stored.as_ref(), part);
         } else if part == Part::Communication {
-            dict.reset_communication(image, self.node_id);
+            dict.reset_communication(image, self.hook.node_id);
         } else {
-            dict.reset_application(image, self.node_id);
+            dict.reset_application(image, self.hook.node_id);
         }
     }
 
@@ -180,7 +180,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             Stage::Communication => {
                 // CiA 305: a node-id configured by LSS becomes active here.
                 if let Some(lss) = self.lss_mut() {
-                    self.node_id = lss.reset_communication();
+                    self.hook.node_id = lss.reset_communication();
                 }
                 self.reset_part(Part::Communication);
                 if let Some(serial) = self.serial {
@@ -229,7 +229,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.refresh_acceptance();
         self.nmt = Nmt::new();
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
-        self.boot_pending = self.node_id != UNCONFIGURED && self.app.canopen();
+        self.boot_pending = self.hook.node_id != UNCONFIGURED && self.app.canopen();
         self.start_pending = false;
         self.reset_hook(now, NmtEvent::ResetCommunication);
     }
@@ -248,8 +248,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let index = index::SDO_SERVER_PARAMETER + i as u16;
             // A server the dictionary lacks is not valid; the default one's pre-defined COB-IDs.
             #[allow(clippy::arithmetic_side_effects)]
-            let (default_rx, default_tx) =
-                if i == 0 { (0x600 + u32::from(self.node_id), 0x580 + u32::from(self.node_id)) } else { (CobId::BIT31, CobId::BIT31) };
+            let (default_rx, default_tx) = if i == 0 {
+                (0x600 + u32::from(self.hook.node_id), 0x580 + u32::from(self.hook.node_id))
+            } else {
+                (CobId::BIT31, CobId::BIT31)
+            };
             let rx = CobId(dict.read_u32(image, index, 1).unwrap_or(default_rx));
             let tx = CobId(dict.read_u32(image, index, 2).unwrap_or(default_tx));
             let new = (rx.is_valid() && tx.is_valid()).then(|| (rx.can_id(), tx.can_id()));

@@ -31,6 +31,24 @@ pub(crate) struct Router<'c, 'a, A: Application, O: ObjectDictionary> {
 /// follow up once the [`Ctx`] is gone.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct SdoEffects {
+    /// The image bytes (offset, length) the one plain write of an object
+    /// changed (length 0: none): only the TPDOs mapping them look for
+    /// changed data.
+    pub wrote: (u16, u16),
+    /// What else the node follows up after the access.
+    pub follow: Follow,
+    /// A device error of this 0x1029 sub-index (0: none) occurred: the node
+    /// applies the error behaviour.
+    pub error_class: u8,
+    /// The device asked for a reset node ([`super::Ctx::reset_node`]).
+    pub reset_node: bool,
+}
+
+/// The part of [`SdoEffects`] the node follows up after every access
+/// besides `wrote`: four bytes, like `wrote`, so that both are passed in
+/// registers (an [`SdoEffects`] is copied to the stack for each call).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Follow {
     /// An SDO server parameter (0x1200–0x127F) was written: the node reads them again.
     pub sdo_changed: bool,
     /// An object that decides which COB-IDs the node consumes was written:
@@ -41,19 +59,10 @@ pub(crate) struct SdoEffects {
     /// (even if it failed): every TPDO looks for changed data at the next
     /// process, which an upload alone does not need.
     pub written: bool,
-    /// The image bytes (offset, length) the one plain write of an object
-    /// changed (length 0: none): only the TPDOs mapping them look for
-    /// changed data.
-    pub wrote: (u16, u16),
     /// A hook or a write changed a service beyond the dictionary (an error
     /// raised or cleared, a communication object written): the next
     /// process runs every service.
     pub services: bool,
-    /// A device error of this 0x1029 sub-index (0: none) occurred: the node
-    /// applies the error behaviour.
-    pub error_class: u8,
-    /// The device asked for a reset node ([`super::Ctx::reset_node`]).
-    pub reset_node: bool,
 }
 
 /// The abort code of a failed store or restore.
@@ -90,7 +99,7 @@ impl Ctx<'_> {
         if self.hook.store.busy() {
             return Err(store_abort(StoreError::Busy));
         }
-        job.finish(self.dict, self.image, self.node_id, self.storage).map_err(store_abort)
+        job.finish(self.dict, self.image, self.hook.node_id, self.storage).map_err(store_abort)
     }
 
     /// 0x1010 / 0x1011: the signature triggers the command; the entry itself keeps
@@ -140,7 +149,7 @@ impl Ctx<'_> {
             self.effects.wrote = (entry.offset, entry.len);
         } else {
             // A second write in one access: any TPDO may look.
-            self.effects.written = true;
+            self.effects.follow.written = true;
         }
         Ok(())
     }
@@ -156,7 +165,7 @@ impl SdoEffects {
         if self.wrote.1 == 0 {
             self.wrote = (offset, len);
         } else {
-            self.written = true;
+            self.follow.written = true;
         }
     }
 }
@@ -184,7 +193,7 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
     /// validate, the owner's rules, then react.
     pub(super) fn write_with_hooks(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if let Some(r) = self.app.write(self.ctx, index, sub, data) {
-            self.ctx.effects.written = true;
+            self.ctx.effects.follow.written = true;
             return r;
         }
         // 0x1010/0x1011 take a 4-byte signature whatever their entries say.
@@ -199,7 +208,7 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
         match entry {
             Some(entry) => self.ctx.route_write(index, sub, data, entry)?,
             None => {
-                self.ctx.effects.written = true;
+                self.ctx.effects.follow.written = true;
                 if O::SERVICES.storage { self.ctx.store_command(index, sub, data, self.staged) } else { self.ctx.no_store(index, sub) }?;
             }
         }

@@ -16,7 +16,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     Node<O, A, S, R, T, HB, SDO>
 {
     pub(super) fn nmt_command(&mut self, request: NmtRequest, now: At) {
-        match self.nmt.on_command(request, self.node_id) {
+        match self.nmt.on_command(request, self.hook.node_id) {
             Transition::None => {}
             Transition::Entered(state) => self.entered(state, now),
             Transition::ResetApplication => self.reset_application(),

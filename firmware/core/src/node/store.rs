@@ -82,8 +82,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     ///
     /// [`SdoSink`]: super::sinks::SdoSink
     pub(super) fn store_step(&mut self) {
-        let Node { od, storage, hook, node_id, .. } = self;
-        let Some(result) = hook.store.step(od.dictionary(), od.image(), *node_id, storage) else { return };
+        let Node { od, storage, hook, .. } = self;
+        let Some(result) = hook.store.step(od.dictionary(), od.image(), hook.node_id, storage) else { return };
         let answer = core::mem::replace(&mut self.store_answer, StoreAnswer::NONE);
         let frame = match (answer.server, result) {
             (_, _) if answer.cob_id == 0 => return,
