@@ -415,9 +415,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// A deadline as the board takes it.
+    // A wrapping add: the epoch is a moment the board's clock showed, and a
+    // u64 of microseconds is 584,000 years away from wrapping (the saturating
+    // add cost every `process` its carry checks).
     #[inline(always)]
     fn instant_of(&self, deadline: At) -> Option<Instant> {
-        (deadline != time::NEVER).then(|| Instant::from_micros(self.hook.epoch.saturating_add(u64::from(deadline))))
+        (deadline != time::NEVER).then(|| Instant::from_micros(self.hook.epoch.wrapping_add(u64::from(deadline))))
     }
 
     /// Runs `f` with the device's hooks and their context, then queues the
