@@ -111,7 +111,7 @@ class QemuImage:
         self.log = open(os.path.join(LOGS, f"{device}.defmt"), "wb")
         self.proc = subprocess.Popen(
             ["qemu-system-arm", "-M", "lm3s6965evb", "-cpu", "cortex-m3", "-display", "none", "-monitor", "none",
-             "-semihosting-config", "enable=on,target=native", "-icount", "shift=4,align=off,sleep=off",
+             "-semihosting-config", "enable=on,target=native", "-icount", "shift=4,align=off,sleep=on",
              "-serial", f"tcp:127.0.0.1:{self.port},server=on,wait=on,nodelay=on", "-kernel", self.elf],
             stdout=self.log, stderr=subprocess.PIPE, text=True)
         self.killer = threading.Timer(RUN_TIMEOUT, self.proc.kill)
@@ -310,6 +310,16 @@ class QemuSmokeTest(unittest.TestCase):
             for beat in beats:
                 self.assertIsNotNone(beat, "no heartbeat")
                 self.assertEqual(bytes(beat.data), bytes([OPERATIONAL]), "heartbeat state")
+            # The guest's clock keeps wall time (a PLC times the node by its own
+            # clock): it sleeps with WFI and `sleep=on` passes that time in real
+            # time. While it spun on WFE the 50 ms came every 68-145 ms.
+            while len(beats) < 9:
+                seen = len(beats)
+                beats.append(frames.wait_for(
+                    lambda m: m.arbitration_id == error_control and all(m is not b for b in beats[:seen]), after=mark))
+                self.assertIsNotNone(beats[-1], "no heartbeat")
+            mean = (beats[-1].timestamp - beats[1].timestamp) / (len(beats) - 2)
+            self.assertTrue(0.8 * 0.05 < mean < 1.25 * 0.05, f"heartbeat every {mean * 1000:.1f} ms of wall time, not 50")
         else:
             mark = frames.mark()
             q.network.send_message(error_control, b"", remote=True)
