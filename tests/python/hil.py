@@ -82,8 +82,8 @@ class Qemu:
         self.log = open(os.path.join(self.dir, "defmt.log"), "ab")
         self.proc = subprocess.Popen(
             ["qemu-system-arm", "-M", "lm3s6965evb", "-cpu", "cortex-m3", "-display", "none", "-monitor", "none",
-             "-semihosting-config", "enable=on,target=native", "-icount", "shift=4,align=off,sleep=off",
-             "-serial", f"tcp:127.0.0.1:{self.port},server=on,wait=on", "-kernel", self.elf],
+             "-semihosting-config", "enable=on,target=native", "-icount", "shift=4,align=off,sleep=on",
+             "-serial", f"tcp:127.0.0.1:{self.port},server=on,wait=on,nodelay=on", "-kernel", self.elf],
             cwd=self.dir, stdout=self.log, stderr=subprocess.PIPE, text=True)
         listening = threading.Event()
         self.stderr = []

@@ -35,9 +35,10 @@ use hal_host::slcan_client::SlcanClient;
 use self::qemu::{in_qemu, send_exit};
 
 /// The longest wait for expected frames; every wait ends as soon as they
-/// are in. QEMU's guest clock (`-icount`, `sleep=off`) runs up to about 5×
-/// slower than the wall clock on a loaded machine (a CI run saw a 200 ms
-/// event timer every 1.05 s of wall time), so this is wall time with room.
+/// are in. QEMU's guest clock (`-icount`) ran up to about 5× slower than the
+/// wall clock on a loaded machine while the guest never slept (a CI run saw
+/// a 200 ms event timer every 1.05 s of wall time); it keeps wall time now,
+/// and this is wall time with room.
 const WAIT: Duration = Duration::from_secs(15);
 /// How long a running node (`--connect`) has for its boot-up after NMT
 /// reset node: vnode answers in milliseconds, a board in well under a second.

@@ -4,6 +4,9 @@
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
+use cortex_m::interrupt::InterruptNumber;
+use cortex_m::peripheral::NVIC;
+
 use canopen_core::frame::CanFrame;
 use canopen_core::node::{AcceptanceList, BitRateControl};
 use canopen_core::time::Instant;
@@ -11,7 +14,7 @@ use cortex_m_rt::{ExceptionFrame, exception};
 use cortex_m_semihosting::{debug, hio};
 use critical_section::Mutex;
 use defmt_semihosting as _;
-use embassy_executor::{Executor, InterruptExecutor, SpawnError, SpawnToken};
+use embassy_executor::{InterruptExecutor, SpawnError, SpawnToken, raw};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::{Channel as FrameChannel, TrySendError};
 use embassy_sync::signal::Signal;
@@ -56,7 +59,17 @@ const EXECUTOR_IRQ: Interrupt = Interrupt::GPIOA;
 const EXECUTOR_PRIORITY: u8 = 1 << 5;
 
 static CANOPEN_EXECUTOR: InterruptExecutor = InterruptExecutor::new();
-static THREAD_EXECUTOR: StaticCell<Executor> = StaticCell::new();
+/// The thread-mode executor of the SLCAN transmitter and the application
+/// task. Its own idle loop ([`run`]) sleeps with `WFI`: embassy's thread
+/// executor idles with `WFE`, which QEMU runs as a yield, so the guest never
+/// slept and its instruction-counted clock lagged the wall clock 1.35–3
+/// times. A wake-up pends [`THREAD_IRQ`], whose handler sets [`THREAD_WOKEN`].
+static THREAD_EXECUTOR: StaticCell<raw::Executor> = StaticCell::new();
+/// Pended by the thread executor's pender (embassy's `__pender` pends the
+/// interrupt whose number is the executor's context); unused otherwise.
+const THREAD_IRQ: Interrupt = Interrupt::GPIOB;
+/// Set by [`THREAD_IRQ`]'s handler: a thread-mode task was woken.
+static THREAD_WOKEN: AtomicBool = AtomicBool::new(false);
 /// Raised after every step of the CANopen task: the node may have run
 /// (room in the receive channel again) and [`TX`] may hold frames.
 static TX_READY: Signal<CriticalSectionRawMutex, ()> = Signal::new();
@@ -93,10 +106,31 @@ pub fn run<A>(
     // requires); no priority-based critical section depends on it.
     unsafe { core.NVIC.set_priority(EXECUTOR_IRQ, EXECUTOR_PRIORITY) };
     CANOPEN_EXECUTOR.start(EXECUTOR_IRQ).spawn(spawned(canopen(node)));
-    THREAD_EXECUTOR.init(Executor::new()).run(|spawner| {
-        spawner.spawn(spawned(slcan_tx()));
-        spawner.spawn(spawned(application));
-    })
+    let thread = THREAD_EXECUTOR.init(raw::Executor::new(usize::from(THREAD_IRQ.number()) as *mut ()));
+    let spawner = thread.spawner();
+    spawner.spawn(spawned(slcan_tx()));
+    spawner.spawn(spawned(application));
+    // SAFETY: its handler only sets a flag; the lowest priority (the reset
+    // value 0 would put it above the CANopen executor, which is harmless
+    // for a flag, but it never needs to preempt anything).
+    unsafe {
+        core.NVIC.set_priority(THREAD_IRQ, 7 << 5);
+        NVIC::unmask(THREAD_IRQ);
+    }
+    loop {
+        THREAD_WOKEN.store(false, Ordering::SeqCst);
+        // SAFETY: polled only here, from thread mode, never re-entered.
+        unsafe { thread.poll() };
+        // A wake-up during the poll set the flag: poll again. Otherwise
+        // sleep; with interrupts masked, a wake-up after the check still
+        // ends the WFI (a pending interrupt does), and its handler runs
+        // once they are unmasked.
+        cortex_m::interrupt::free(|_| {
+            if !THREAD_WOKEN.load(Ordering::SeqCst) {
+                cortex_m::asm::wfi();
+            }
+        });
+    }
 }
 
 fn spawned<T>(token: Result<T, SpawnError>) -> T {
@@ -269,6 +303,11 @@ fn fail() -> ! {
     loop {
         debug::exit(debug::EXIT_FAILURE);
     }
+}
+
+#[interrupt]
+fn GPIOB() {
+    THREAD_WOKEN.store(true, Ordering::SeqCst);
 }
 
 #[interrupt]
