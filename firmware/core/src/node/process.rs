@@ -202,7 +202,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let booted = !self.boot_pending;
         let full = self.stale || self.core_deadline <= now_at;
         if full {
-            self.stale = false;
+            // `process_core` clears `stale` (after what it ran, which may set it again).
             self.process_core(now);
         }
         let mut sdo_deadline = NEVER;
