@@ -280,6 +280,21 @@ fn cyclic_read_every_10_ms_by_time_stamps_and_stop_m_l635() {
     assert_eq!(run(&mut b, 200), []);
 }
 
+/// With CANopen off the node keeps no time of its own (its epoch is each
+/// call's time): the device's clock is the board's, just before 2^31 µs
+/// (where a CANopen node moves its epoch), across 2^32 µs and past 2^33 µs.
+#[test]
+fn cyclic_reads_keep_their_times_late_in_the_clock() {
+    for start in [2_147_483 - 12, 4_294_967 - 25, 8_589_934 + 3] {
+        let mut b = drive();
+        assert_eq!(b.rx(ms(start), RX, &[0x3D, 0x1B, 0x0A]), [(TX, r16(0x1B, 472))], "the first at once ({start} ms)");
+        let sent = run(&mut b, start + 48);
+        let times: Vec<u64> = sent.iter().map(|(t, _)| *t - start).collect();
+        assert_eq!(times, [10, 20, 30, 40], "from {start} ms");
+        assert!(sent.iter().all(|(_, f)| *f == (TX, r16(0x1B, 472))));
+    }
+}
+
 #[test]
 fn eight_cyclic_slots_a_ninth_refused_a_stopped_one_reused_m_l1596() {
     let mut b = drive();
