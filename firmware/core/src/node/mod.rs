@@ -378,11 +378,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// call from the board goes through here before a service sees the time.
     #[inline(always)]
     pub(super) fn tick(&mut self, now: Instant) -> At {
-        if self.clockless() {
-            // No timer to keep its distance to `now`: the epoch is the call's time.
-            self.hook.epoch = now.as_micros();
-            return 0;
-        }
         // A clock that stepped back wraps to a large `since`: the epoch moves back to `now`.
         let since = now.as_micros().wrapping_sub(self.hook.epoch);
         if since < u64::from(REBASE) {
@@ -391,15 +386,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.rebase(now);
             0
         }
-    }
-
-    /// A node that keeps no [`At`]: CANopen off (no service arms a timer)
-    /// and a device polled at every [`Node::process`] (no poll deadline
-    /// kept). Its epoch is each call's time, and the device's deadline goes
-    /// to the board as the device gave it.
-    #[inline(always)]
-    pub(super) fn clockless(&self) -> bool {
-        !self.app.canopen() && !A::POLL_WHEN_DUE
     }
 
     /// Moves the epoch to `now`: every deadline and moment the services
@@ -425,10 +411,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.stale = true;
             self.quiet = false;
         }
-        // Only a device polled when due keeps a poll deadline.
-        if A::POLL_WHEN_DUE {
-            self.app_due.shift(by);
-        }
+        self.app_due.shift(by);
     }
 
     /// A deadline as the board takes it.

@@ -33,9 +33,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[inline(always)]
     pub fn process(&mut self, now: Instant) -> Option<Instant> {
         let now = self.tick(now);
-        if self.clockless() {
-            return self.process_clockless();
-        }
         let deadline = self.process_at::<true>(now);
         self.instant_of(deadline)
     }
@@ -47,25 +44,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[doc(hidden)]
     pub fn process_without_short_path(&mut self, now: Instant) -> Option<Instant> {
         let now = self.tick(now);
-        if self.clockless() {
-            return self.process_clockless();
-        }
         let deadline = self.process_at::<false>(now);
         self.instant_of(deadline)
-    }
-
-    /// [`Node::process`] for a node that keeps no [`At`] ([`Node::clockless`]):
-    /// the store's stages and the device's poll, whose deadline goes to the
-    /// board as the device gave it (no round trip through an [`At`]).
-    #[inline(always)]
-    fn process_clockless(&mut self) -> Option<Instant> {
-        if O::SERVICES.storage && self.hook.store.busy() {
-            self.store_step();
-            if self.hook.store.busy() || self.resetting() {
-                return Some(Instant::from_micros(self.hook.epoch));
-            }
-        }
-        self.with_app_cold(0, |app, ctx| app.poll(ctx))
     }
 
     /// [`Node::process`]: its deadlines folded as [`At`]s, one compare each.
