@@ -21,13 +21,19 @@ HIL = os.path.join(ROOT, "tests", "python", "hil.py")
 
 
 class HilTest(unittest.TestCase):
-    def test_a_node_id_that_answers_nothing_stops_with_a_hint(self):
+    def _sendix_vnode(self, stop):
+        """A Sendix vnode (node 63) on an ephemeral port, ended at cleanup by
+        its `stop` method ("terminate", or "kill" where the test kills it)."""
         vnode = subprocess.Popen([VNODE, "--device", "sendix", "--node-id", "63", "--listen", "127.0.0.1:0"],
                                  stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
         self.addCleanup(vnode.stdout.close)
         self.addCleanup(vnode.wait, 5)
-        self.addCleanup(vnode.terminate)
+        self.addCleanup(getattr(vnode, stop))
         port = int(re.search(r":(\d+)\s*$", vnode.stdout.readline()).group(1))
+        return vnode, port
+
+    def test_a_node_id_that_answers_nothing_stops_with_a_hint(self):
+        vnode, port = self._sendix_vnode(stop="terminate")
         start = time.monotonic()
         out = subprocess.run([sys.executable, HIL, "--interface", "slcan", "--channel", f"socket://127.0.0.1:{port}",
                               "--bitrate", "1000000", "--device", "sendix", "--node-id", "62"],
@@ -43,12 +49,7 @@ class HilTest(unittest.TestCase):
     def test_no_one_to_cycle_the_power_is_a_failed_check_not_a_traceback(self):
         # The whole check against vnode, stdin closed: the power cycle cannot
         # happen, and what depends on it is skipped, not passed.
-        vnode = subprocess.Popen([VNODE, "--device", "sendix", "--node-id", "63", "--listen", "127.0.0.1:0"],
-                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-        self.addCleanup(vnode.stdout.close)
-        self.addCleanup(vnode.wait, 5)
-        self.addCleanup(vnode.terminate)
-        port = int(re.search(r":(\d+)\s*$", vnode.stdout.readline()).group(1))
+        vnode, port = self._sendix_vnode(stop="terminate")
         out = subprocess.run([sys.executable, HIL, "--interface", "slcan", "--channel", f"socket://127.0.0.1:{port}",
                               "--bitrate", "1000000", "--device", "sendix", "--node-id", "63"],
                              stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
@@ -65,12 +66,7 @@ class HilTest(unittest.TestCase):
         # The power cycle ends vnode, as a QEMU that dies ends the link:
         # python-can's receive thread meets the closed connection. That is
         # one line on stderr, and the checks that follow fail as FAIL lines.
-        vnode = subprocess.Popen([VNODE, "--device", "sendix", "--node-id", "63", "--listen", "127.0.0.1:0"],
-                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-        self.addCleanup(vnode.stdout.close)
-        self.addCleanup(vnode.wait, 5)
-        self.addCleanup(vnode.kill)
-        port = int(re.search(r":(\d+)\s*$", vnode.stdout.readline()).group(1))
+        vnode, port = self._sendix_vnode(stop="kill")
         out = subprocess.run([sys.executable, HIL, "--interface", "slcan", "--channel", f"socket://127.0.0.1:{port}",
                               "--bitrate", "1000000", "--device", "sendix", "--node-id", "63",
                               "--power-cycle-command", f"kill {vnode.pid}"],
