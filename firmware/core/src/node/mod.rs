@@ -222,6 +222,9 @@ pub struct Node<
     /// call before it has only PDO work (`Node::process_pdos`).
     others_next: At,
     reported_overflows: u32,
+    /// The low byte of [`Counters::tx`] + 1 when a call last asked to be
+    /// called again at once (0: never, as all zero bits; `Node::due_again`).
+    tx_mark: u8,
     /// The transmit queue's overflow count when no TPDO was left waiting to
     /// retry a refused frame: a TPDO waits only after the queue refused it,
     /// which counts an overflow, so while the count is the same no TPDO
@@ -299,6 +302,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             next: 0,
             others_next: 0,
             reported_overflows: 0,
+            tx_mark: 0,
             retry_free_at: 0,
             lss: LssSlave::new([0; 4], 0, 0, 0),
             lss_active: false,

@@ -15,6 +15,12 @@ use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
 use super::{Application, Node, Source};
 
+/// While its frames cannot leave, the node is called at least this often
+/// (µs): its timers (an SDO or heartbeat timeout, the end of an LSS switch
+/// delay) are then late by less than this. Room in the queue brings a call
+/// at once (`Node::due_again`).
+const ROOM_RETRY: At = 1_000;
+
 /// DS 301 V3's boot-up leaves on the EMCY's pre-defined identifier, 0x80 + node-ID.
 const V3_BOOT_UP_BASE: u16 = 0x80;
 
@@ -28,6 +34,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// something changed them (`stale`) or their earliest deadline is due,
     /// the SDO servers while one is busy, the TPDOs a write may have
     /// changed or whose timers are due.
+    ///
+    /// Work that waits for room in the transmit queue asks for a call at
+    /// once, but not twice while no frame has left meanwhile: then it asks
+    /// for one a millisecond later, and the board calls again when its
+    /// controller takes a frame (a controller that cannot send does not
+    /// make the board spin).
     // In line: each image calls it at one place (the `CanNode` trampoline,
     // the size images' loop), so that place is the function.
     #[inline(always)]
@@ -123,12 +135,27 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let pdo_deadline = self.poll_pdos(now);
         // A refused TPDO counted an overflow; an RPDO's hook may have raised an EMCY.
         if self.emcy_due() {
-            self.process_emcy(now, true);
-            let emcy = self.emcy_deadline();
-            self.core_deadline = self.core_deadline.min(emcy);
-            self.others_next = self.others_next.min(emcy);
+            return self.process_pdos_emcy(now, pdo_deadline);
         }
         let deadline = self.others_next.min(pdo_deadline);
+        self.next = deadline;
+        // No EMCY queued (`emcy_due`).
+        self.quiet = true;
+        deadline
+    }
+
+    /// The end of [`Node::process_pdos`] when EMCY has work.
+    #[inline(never)]
+    fn process_pdos_emcy(&mut self, now: At, pdo_deadline: At) -> At {
+        self.process_emcy(now, true);
+        let emcy = self.emcy_deadline();
+        self.core_deadline = self.core_deadline.min(emcy);
+        self.others_next = self.others_next.min(emcy);
+        let mut deadline = self.others_next.min(pdo_deadline);
+        // As in the full call: an EMCY waiting for room.
+        if deadline <= now {
+            deadline = self.due_again(now);
+        }
         self.next = deadline;
         self.quiet = !self.comm.emcy.has_queued();
         deadline
@@ -230,7 +257,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // makes the node stale); the core services' until their deadline
         // or a change (stale too). Without PDOs there is no short path.
         self.others_next = if pdo_allowed { others } else { 0 };
-        let deadline = others.min(sdo_deadline).min(pdo_deadline);
+        let mut deadline = others.min(sdo_deadline).min(pdo_deadline);
+        if deadline <= now_at {
+            deadline = self.due_again(now_at);
+        }
         self.next = deadline;
         // No SDO deadline: every server is idle (or the state stopped them all).
         self.quiet = sdo_deadline == NEVER && !self.comm.emcy.has_queued();
@@ -298,6 +328,28 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         // What ran here may have changed a service again (a state entered):
         // the SYNC producer and EMCY of this call see it, the next call need not.
         self.stale = false;
+    }
+
+    /// The deadline of a call whose work is not done: `now`, unless no
+    /// frame has left the queue since the last call that asked for it.
+    /// Then what waits is room in the queue (an SDO answer or segment, an
+    /// EMCY, the node's own start), which only [`Node::transmit`] makes: a
+    /// board calls again when its controller takes a frame (its TX-empty
+    /// interrupt wakes it), else after [`ROOM_RETRY`]. A node whose frames
+    /// cannot leave (nobody acknowledges them, or an LSS bit-rate switch
+    /// keeps it silent) would otherwise have its board spin.
+    // Out of line and cold: a call asks to be called again at once only
+    // while something waits for room. The count is kept to its low byte
+    // (room in the node's padding: a wider one cost a hot path an
+    // instruction per frame); 256 frames exactly since the last ask read
+    // as none, which costs one call a retry.
+    #[cold]
+    #[inline(never)]
+    fn due_again(&mut self, now: At) -> At {
+        let mark = (self.counters.tx as u8).wrapping_add(1);
+        let stuck = self.tx_mark == mark;
+        self.tx_mark = mark;
+        if stuck { now.wrapping_add(ROOM_RETRY) } else { now }
     }
 
     /// The transmit queue's overflow EMCY, then the EMCY messages.
