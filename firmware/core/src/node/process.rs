@@ -1,7 +1,6 @@
 //! The node's timers and queued work ([`Node::process`]): boot-up,
 //! heartbeat and guarding, SDO timeouts, the SYNC producer, TPDOs and EMCY.
 
-use crate::frame::CanFrame;
 use crate::od::ObjectDictionary;
 use crate::od::index;
 use crate::services::heartbeat::ConsumerEvent;
@@ -214,7 +213,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let mut buf = [0u8; 1];
                 let cob_id = self.comm.sync.cob_id();
                 let data = event.message().emit(&mut buf);
-                if CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f)) {
+                if self.push(cob_id, data) {
                     self.synchronise(now, &event);
                 }
             }
@@ -296,9 +295,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.boot_pending = false;
                 // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
                 let dict = self.od.dictionary();
-                let auto_start =
-                    dict.read(self.od.image(), index::NMT_STARTUP, 0).ok().and_then(|v| v.first().copied()).unwrap_or(0) & 0x04 != 0
-                        || A::OPTIONS.start_operational.is_some_and(|switch| self.option_set(switch));
+                let auto_start = matches!(dict.read(self.od.image(), index::NMT_STARTUP, 0), Ok([b, ..]) if b & 0x04 != 0)
+                    || A::OPTIONS.start_operational.is_some_and(|switch| self.option_set(switch));
                 let state = self.nmt.boot_up_done(false);
                 let dict = self.od.dictionary();
                 self.comm.reconfigure(index::PRODUCER_HEARTBEAT_TIME, dict, self.od.image(), self.hook.node_id, now);
