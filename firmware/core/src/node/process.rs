@@ -320,16 +320,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if O::SERVICES.guarding && self.comm.guarding.poll(now) {
             self.communication_error(0, now);
         }
-        let deadlines = [
-            if self.boot_pending || self.start_pending { now } else { NEVER },
-            self.comm.heartbeat.deadline(),
-            self.comm.consumers.deadline(),
-            if O::SERVICES.guarding { self.comm.guarding.deadline() } else { NEVER },
-            if self.nmt.state().sdo_allowed() { self.comm.sync.deadline() } else { NEVER },
-            switch_deadline,
-        ];
+        let mut deadline = self.comm.heartbeat.deadline().min(self.comm.consumers.deadline()).min(switch_deadline);
+        if self.boot_pending || self.start_pending {
+            // Due now: an earlier deadline is as due (the folded deadlines
+            // only ever meet `now` and later moments).
+            deadline = now;
+        }
+        if O::SERVICES.guarding {
+            deadline = deadline.min(self.comm.guarding.deadline());
+        }
+        if self.nmt.state().sdo_allowed() {
+            deadline = deadline.min(self.comm.sync.deadline());
+        }
         // The EMCY deadline joins after this call's EMCY work.
-        self.core_deadline = deadlines.into_iter().fold(NEVER, At::min);
+        self.core_deadline = deadline;
         // What ran here may have changed a service again (a state entered):
         // the SYNC producer and EMCY of this call see it, the next call need not.
         self.stale = false;
