@@ -406,3 +406,25 @@ fn a_saved_set_does_not_bring_back_the_error_history() {
     assert_eq!(b.sdo_read(ID, 0x1001, 0), [0x4F, 0x01, 0x10, 0x00, 0x00, 0, 0, 0]);
     assert!(is(parameters(&mut b), CHANGED));
 }
+
+// ---- NMT startup (0x1F80) -----------------------------------------------------------
+
+/// 0x1F80 saved with `value`, then NMT reset communication: the node's state
+/// once its boot-up has left.
+fn state_after_reset_with_startup(value: u32) -> NmtState {
+    let mut b = interop();
+    assert_eq!(b.sdo_download(ID, 0x1F80, 0, &value.to_le_bytes()), Ok(()));
+    assert_eq!(b.sdo_download(ID, 0x1010, 2, b"save"), Ok(()));
+    assert_eq!(b.nmt(0x82, ID), [boot_up()]);
+    // Started: its event-driven TPDO goes out once (Pre-operational: nothing).
+    let started = b.at(ms(1)) == [(0x184, TPDO1.to_vec())];
+    assert_eq!(b.sdo_upload(ID, 0x1F80, 0), Ok(value.to_le_bytes().to_vec()), "the stored value is back");
+    assert_eq!(started, b.node.state() == NmtState::Operational);
+    b.node.state()
+}
+
+#[test]
+fn nmt_startup_bit_2_starts_the_node_after_its_boot_up() {
+    assert_eq!(state_after_reset_with_startup(0x04), NmtState::Operational, "bit 2: the node starts itself (CiA 302-2)");
+    assert_eq!(state_after_reset_with_startup(0x0B), NmtState::PreOperational, "other bits: it waits for NMT");
+}

@@ -213,6 +213,8 @@ impl ControllerErrors {
 }
 
 /// Clears `code` if its hold ended by `now`.
+// Out of line: one copy for the two or three holds.
+#[inline(never)]
 fn expire(clears_at: &mut Option<At>, now: At, emcy: &mut EmcyQueue, code: EmcyCode) {
     if clears_at.is_some_and(|t| t <= now) {
         *clears_at = None;

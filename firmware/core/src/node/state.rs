@@ -49,10 +49,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// 0x1029. Every heartbeat event sends its EMCY (with the node-ID, 0 for
     /// life guarding), also while an earlier one is still active.
     pub(super) fn communication_error(&mut self, node: u8, now: At) {
-        let info = [node, 0, 0, 0, 0];
-        if !self.comm.emcy.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info) {
-            self.comm.emcy.signal(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, info);
-        }
+        self.comm.emcy.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [node, 0, 0, 0, 0]);
         let error = if node == 0 { CommError::LifeGuarding } else { CommError::Heartbeat(node) };
         self.with_app_cold(now, |app, ctx| app.on_nmt(ctx, NmtEvent::CommunicationError(error)));
         self.device_error(1, now);

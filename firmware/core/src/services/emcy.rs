@@ -141,24 +141,40 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// while it lasts, beyond those of its code's class (the Sendix's
     /// position error, generic code 0x1000, sets bit 5 "device profile").
     pub fn raise_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
-        if self.is_active(code) {
-            return false;
-        }
-        match (self.active.get_mut(self.active_len), self.active_bits.get_mut(self.active_len)) {
-            (Some(slot), Some(bits)) => {
-                *slot = code;
-                *bits = register;
-                // `get_mut` found the slot: `active_len` < A.
-                #[allow(clippy::arithmetic_side_effects)]
-                {
-                    self.active_len += 1;
+        self.raise_or_repeat(code, register, info, false)
+    }
+
+    /// Raises an error whose every event sends its message, also while it
+    /// is active (a heartbeat consumer's timeout, once for each node).
+    pub fn raise_each(&mut self, code: EmcyCode, info: [u8; 5]) {
+        self.raise_or_repeat(code, 0, info, true);
+    }
+
+    /// [`EmcyProducer::raise_with`]; `repeat`: an active error's message
+    /// is sent again (with the register as it is).
+    // Out of line: one copy for both.
+    #[inline(never)]
+    fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool) -> bool {
+        let new = !self.is_active(code);
+        if new {
+            match (self.active.get_mut(self.active_len), self.active_bits.get_mut(self.active_len)) {
+                (Some(slot), Some(bits)) => {
+                    *slot = code;
+                    *bits = register;
+                    // `get_mut` found the slot: `active_len` < A.
+                    #[allow(clippy::arithmetic_side_effects)]
+                    {
+                        self.active_len += 1;
+                    }
                 }
+                _ => self.lost_errors = true,
             }
-            _ => self.lost_errors = true,
+        } else if !repeat {
+            return false;
         }
         let register = self.register();
         self.push(Emcy { code, register, info });
-        true
+        new
     }
 
     /// Sends a message for an event that has no lasting state (e.g. a PDO
@@ -346,6 +362,19 @@ mod tests {
         assert!(e.raise(EmcyCode(0x1000), [0; 5]));
         assert_eq!(e.register(), 0x11, "raised again without extra bits");
         assert_eq!(e.next(us(0), true).map(|(_, m)| m.register), Some(0x21));
+    }
+
+    #[test]
+    fn an_error_raised_each_time_sends_each_time() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.configure(0x81, 0);
+        e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]);
+        e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [4, 0, 0, 0, 0]);
+        assert_eq!(e.register(), 0x11);
+        let sent = |e: &mut EmcyProducer<4, 4>| e.next(us(0), true).map(|(_, m)| (m.register, m.info[0]));
+        assert_eq!((sent(&mut e), sent(&mut e), sent(&mut e)), (Some((0x11, 3)), Some((0x11, 4)), None));
+        e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
+        assert_eq!(e.register(), 0, "one clear: the error was active once");
     }
 
     #[test]
