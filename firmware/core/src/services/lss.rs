@@ -88,8 +88,9 @@ pub struct LssSlave {
     selective: u8,
     /// The address part fastscan compares next.
     fastscan_sub: u8,
-    /// The identify-remote-slave bounds received so far.
-    identify: [u32; 6],
+    /// Whether the address matched every identify-remote-slave bound since
+    /// the vendor-id (the first of the six, which starts a new check).
+    identify: bool,
 }
 
 impl LssSlave {
@@ -108,7 +109,7 @@ impl LssSlave {
             supported_rates,
             selective: 0,
             fastscan_sub: 0,
-            identify: [0; 6],
+            identify: false,
         }
     }
 
@@ -214,13 +215,20 @@ impl LssSlave {
             }
             0x5E if configuring => reply(0x5E, self.active_node_id),
             // Identify remote slave: vendor, product, revision low/high, serial low/high.
+            // Each bound is checked as it comes (as CANopenNode does), so no bound is kept.
             0x46..=0x4B => {
                 let k = cs - 0x46;
-                if let Some(slot) = self.identify.get_mut(usize::from(k)) {
-                    *slot = value;
-                }
+                let part = if k < 2 { k } else { k / 2 + 1 };
+                let mine = self.address.get(usize::from(part)).copied().unwrap_or(0);
+                let ok = match k {
+                    0 | 1 => mine == value,
+                    // Low bounds (revision, serial number), then high bounds.
+                    2 | 4 => mine >= value,
+                    _ => mine <= value,
+                };
+                self.identify = ok && (k == 0 || self.identify);
                 // The serial-number high bound comes last; then the slave answers if it is in range.
-                if k == 5 && self.in_identify_range() { reply(0x4F, 0) } else { LssAction::None }
+                if k == 5 && self.identify { reply(0x4F, 0) } else { LssAction::None }
             }
             0x4C if self.active_node_id == UNCONFIGURED => reply(0x50, 0),
             0x51 => self.fastscan(value, b5, b6, b7),
@@ -236,12 +244,6 @@ impl LssSlave {
             return LssAction::Start(self.active_node_id);
         }
         LssAction::None
-    }
-
-    fn in_identify_range(&self) -> bool {
-        let [vendor, product, rev_lo, rev_hi, ser_lo, ser_hi] = self.identify;
-        let [v, p, r, s] = self.address;
-        v == vendor && p == product && (rev_lo..=rev_hi).contains(&r) && (ser_lo..=ser_hi).contains(&s)
     }
 
     /// CiA 305 §5.5: only unconfigured slaves in the waiting state take part.

@@ -137,6 +137,34 @@ fn identify_remote_slave_answers_inside_the_range() {
 }
 
 #[test]
+fn identify_remote_slave_checks_the_bounds_since_the_vendor_id() {
+    let mut s = LssSlave::new(ADDR, 0x3F, 3, RATES);
+    let send_bound = |s: &mut LssSlave, k: u8, v: u32| s.on_request(&LssRequest::IdentifyRemote(k, v).emit());
+    // Without a vendor-id no check has started: no answer.
+    for (k, v) in [(1, ADDR[1]), (2, 0), (3, u32::MAX), (4, 0)] {
+        assert_eq!(send_bound(&mut s, k, v), LssAction::None);
+    }
+    assert_eq!(send_bound(&mut s, 5, u32::MAX), LssAction::None, "no vendor-id");
+    // A wrong product code fails the check; repeating it right does not mend it (as CANopenNode).
+    send_bound(&mut s, 0, ADDR[0]);
+    send_bound(&mut s, 1, ADDR[1] + 1);
+    for (k, v) in [(1, ADDR[1]), (2, 0), (3, u32::MAX), (4, 0)] {
+        send_bound(&mut s, k, v);
+    }
+    assert_eq!(send_bound(&mut s, 5, u32::MAX), LssAction::None, "a failed bound since the vendor-id");
+    // The next vendor-id starts over; bounds equal to the address are inside.
+    for (k, v) in [(0, ADDR[0]), (1, ADDR[1]), (2, ADDR[2]), (3, ADDR[2]), (4, ADDR[3])] {
+        send_bound(&mut s, k, v);
+    }
+    assert_eq!(send_bound(&mut s, 5, ADDR[3]), ans([0x4F, 0, 0, 0, 0, 0, 0, 0]));
+    // Serial number above the high bound.
+    for (k, v) in [(0, ADDR[0]), (1, ADDR[1]), (2, 0), (3, u32::MAX), (4, 0)] {
+        send_bound(&mut s, k, v);
+    }
+    assert_eq!(send_bound(&mut s, 5, ADDR[3] - 1), LssAction::None, "serial number above the range");
+}
+
+#[test]
 fn identify_non_configured_and_starting_an_unconfigured_node() {
     let mut configured = LssSlave::new(ADDR, 0x3F, 3, RATES);
     assert_eq!(configured.on_request(&LssRequest::IdentifyNonConfigured.emit()), LssAction::None);
