@@ -138,13 +138,13 @@ impl LssRequest {
 
 /// An answer with a command specifier and an error code (0x11, 0x13, 0x17).
 pub fn answer(cs: u8, error: u8, spec: u8) -> [u8; 8] {
-    [cs, error, spec, 0, 0, 0, 0, 0]
+    answer_u32(cs, u32::from(u16::from_le_bytes([error, spec])))
 }
 
 /// An answer carrying a 32-bit value (0x5A–0x5D).
 pub fn answer_u32(cs: u8, value: u32) -> [u8; 8] {
-    let [a, b, c, d] = value.to_le_bytes();
-    [cs, a, b, c, d, 0, 0, 0]
+    // As one 64-bit value: two word stores, not four of bytes and halves.
+    (u64::from(cs) | u64::from(value) << 8).to_le_bytes()
 }
 
 #[cfg(test)]
