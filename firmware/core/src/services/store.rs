@@ -228,9 +228,9 @@ pub fn reset_part(
         if communication { [0..dict.comm_len, dict.stored_len..rest] } else { [dict.comm_len..dict.stored_len, rest..dict.defaults.len] };
     let start = stored.start.saturating_add(HEADER);
     let set = set.filter(|set| image.get_mut(stored.clone()).is_some_and(|dst| storage.read(set.region, start, dst).is_ok()));
-    // The defaults where the set was not read.
-    for (read, range) in [(set.is_some(), stored), (false, others)] {
-        if let (false, Some(dst)) = (read, image.get_mut(range.clone()).filter(|_| range.end <= dict.defaults.len)) {
+    // The defaults where the set was not read (none read for an empty range: `read` walks every default).
+    for range in [if set.is_some() { 0..0 } else { stored }, others] {
+        if let Some(dst) = image.get_mut(range.clone()).filter(|dst| !dst.is_empty() && range.end <= dict.defaults.len) {
             dict.defaults.read(range.start, dst);
         }
     }
@@ -238,14 +238,19 @@ pub fn reset_part(
     for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && !e.in_rom()) {
         let r = e.range();
         if let Some(value) = image.get_mut(r.clone()).filter(|_| r.end <= dict.defaults.len) {
-            let held = set.map(|set| e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0);
-            if held == Some(false) && in_set(dict, e) {
-                dict.defaults.read(r.start, value);
+            if let Some(set) = set
+                && in_set(dict, e)
+            {
+                // A value read from the set that it does not hold for a reset gets its default back.
+                if e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0 {
+                    used = true;
+                } else {
+                    dict.defaults.read(r.start, value);
+                }
             }
             if e.attr.contains(Attr::NODE_ID) {
                 crate::od::add_le(value, u64::from(node_id));
             }
-            used |= held == Some(true) && in_set(dict, e);
         }
     }
     used
