@@ -238,19 +238,14 @@ pub fn reset_part(
     for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && !e.in_rom()) {
         let r = e.range();
         if let Some(value) = image.get_mut(r.clone()).filter(|_| r.end <= dict.defaults.len) {
-            if let Some(set) = set
-                && in_set(dict, e)
-            {
-                // A value read from the set that it does not hold for a reset gets its default back.
-                if e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0 {
-                    used = true;
-                } else {
-                    dict.defaults.read(r.start, value);
-                }
+            let held = set.map(|set| e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0);
+            if held == Some(false) && in_set(dict, e) {
+                dict.defaults.read(r.start, value);
             }
             if e.attr.contains(Attr::NODE_ID) {
                 crate::od::add_le(value, u64::from(node_id));
             }
+            used |= held == Some(true) && in_set(dict, e);
         }
     }
     used
