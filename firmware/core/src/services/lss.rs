@@ -185,7 +185,7 @@ impl LssSlave {
             0x40..=0x43 => {
                 let part = cs - 0x40;
                 // The four parts come in order; anything else starts over (the vendor-id a new sequence).
-                let matched = self.address.get(usize::from(part)) == Some(&value) && (part == 0 || selective == part);
+                let matched = self.part(part) == value && (part == 0 || selective == part);
                 self.selective = if matched { part + 1 } else { 0 };
                 if self.selective < 4 {
                     return LssAction::None;
@@ -213,19 +213,20 @@ impl LssSlave {
             0x15 => LssAction::ActivateBitTiming { delay_ms: u16::from_le_bytes([b1, b2]), index: self.pending_bit_rate },
             0x17 => LssAction::Store { node_id: self.pending_node_id, bit_rate: self.pending_bit_rate },
             // Inquire vendor, product, revision, serial number: answered with the same specifier.
-            0x5A..=0x5D => LssAction::Answer(LssAnswer { cs, data: self.address.get(usize::from(cs - 0x5A)).copied().unwrap_or(0) }),
+            0x5A..=0x5D => LssAction::Answer(LssAnswer { cs, data: self.part(cs - 0x5A) }),
             0x5E => reply(0x5E, self.active_node_id),
             // Identify remote slave: vendor, product, revision low/high, serial low/high.
             // Each bound is checked as it comes (as CANopenNode does), so no bound is kept.
             0x46..=0x4B => {
                 let k = cs - 0x46;
-                let part = if k < 2 { k } else { k / 2 + 1 };
-                let mine = self.address.get(usize::from(part)).copied().unwrap_or(0);
-                let ok = match k {
-                    0 | 1 => mine == value,
-                    // Low bounds (revision, serial number), then high bounds.
-                    2 | 4 => mine >= value,
-                    _ => mine <= value,
+                let mine = self.part(if k < 2 { k } else { k / 2 + 1 });
+                // Vendor and product equal, then a low bound (revision, serial number) and its high bound.
+                let ok = if k < 2 {
+                    mine == value
+                } else if k & 1 == 0 {
+                    mine >= value
+                } else {
+                    mine <= value
                 };
                 self.identify = ok && (k == 0 || self.identify);
                 // The serial-number high bound comes last; then the slave answers if it is in range.
@@ -240,6 +241,12 @@ impl LssSlave {
                 LssAction::Malformed
             }
         }
+    }
+
+    /// Address part `n` (0 vendor-id … 3 serial number; callers pass 0..=3).
+    fn part(&self, n: u8) -> u32 {
+        // Masked to two bits: always in the array, so no bounds check is left.
+        self.address.get(usize::from(n & 3)).copied().unwrap_or(0)
     }
 
     fn enter_waiting(&mut self) -> LssAction {
@@ -264,7 +271,7 @@ impl LssSlave {
         if bit_checked > 31 || next > 3 || sub != self.fastscan_sub {
             return LssAction::None;
         }
-        let mine = self.address.get(usize::from(sub)).copied().unwrap_or(0);
+        let mine = self.part(sub);
         // The bits from `bit_checked` up must match.
         if (mine ^ id) >> bit_checked != 0 {
             return LssAction::None;
