@@ -98,7 +98,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the interop image +228, where the budget went to other code).
     #[cold]
     pub(super) fn lss_request(&mut self, now: At, data: &[u8]) {
-        let Some(lss) = self.lss_mut() else { return };
+        // The dispatch calls this only for a node that runs an LSS slave (`lss_on`).
+        let lss = &mut self.lss;
         let Ok(request) = <&[u8; 8]>::try_from(data) else {
             self.counters.count_malformed();
             return;
