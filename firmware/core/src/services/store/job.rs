@@ -123,8 +123,17 @@ impl Job {
     /// 0x1010 "save" of `scope`; the objects `keep` (an inclusive index
     /// range), if any, keep their stored values.
     pub fn save(dict: &Dictionary, scope: Scope, keep: Option<(u16, u16)>) -> Job {
-        let keep = keep.map_or((0, 0), |(first, last)| byte_range(dict, first, last));
-        Job::new(scope.mask(), 0, (0, u16::MAX), keep)
+        Job::command(dict, scope, true, keep)
+    }
+
+    /// 0x1010 "save" of `scope` (with `save`, as [`Job::save`]) or 0x1011
+    /// "load" (as [`Job::restore`]): one job built for either command.
+    pub fn command(dict: &Dictionary, scope: Scope, save: bool, keep: Option<(u16, u16)>) -> Job {
+        let mask = scope.mask();
+        // A restore takes nothing from the image (no scope saved): what it would keep does not matter.
+        let keep = keep.filter(|_| save).map_or((0, 0), |(first, last)| byte_range(dict, first, last));
+        let (save, reset) = if save { (mask, 0) } else { (0, mask) };
+        Job::new(save, reset, (0, u16::MAX), keep)
     }
 
     /// Stores the objects `first..=last` alone (see [`super::save_objects`]);
