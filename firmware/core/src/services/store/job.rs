@@ -258,16 +258,12 @@ impl Job {
         // The source changes only at a scope's or a range's bounds: the piece goes span by span.
         let end = at.saturating_add(piece.len());
         let mut off = at;
+        let bounds = [self.app, self.from_image.0, self.from_image.1, self.keep.0, self.keep.1];
         while off < end {
-            let bounds = [
-                dict.comm_len,
-                self.app.into(),
-                self.from_image.0.into(),
-                self.from_image.1.into(),
-                self.keep.0.into(),
-                self.keep.1.into(),
-            ];
-            let next = bounds.into_iter().filter(|&b| b > off).fold(end, usize::min);
+            let mut next = if dict.comm_len > off { dict.comm_len.min(end) } else { end };
+            for b in bounds.iter().map(|&b| usize::from(b)).filter(|&b| b > off) {
+                next = next.min(b);
+            }
             if let Some(dst) = piece.get_mut(off.wrapping_sub(at)..next.wrapping_sub(at)) {
                 match self.source(dict, off) {
                     Source::Image => {
