@@ -314,11 +314,12 @@ impl Job {
 
     /// The header, written last: the new set is valid from here on.
     fn header(&self, dict: &Dictionary) -> [u8; HEADER] {
-        let old = self.old;
-        let defaults = (old.map_or(0b111, |set| set.defaults) & !self.save) | self.reset;
-        let seq = old.map_or(1, |set| set.seq.wrapping_add(1));
+        // Without a set before it, every scope is default and no LSS configuration is stored.
+        let old = self.old.unwrap_or(StoredSet { region: 0, defaults: 0b111, lss: [0xFF, 0xFF], seq: 0 });
+        let defaults = (old.defaults & !self.save) | self.reset;
+        let seq = old.seq.wrapping_add(1);
         // The LSS configuration rides along with every set: a new one or the old one.
-        let [id, rate] = if self.new_lss { self.lss } else { old.map_or([0xFF, 0xFF], |set| set.lss) };
+        let [id, rate] = if self.new_lss { self.lss } else { old.lss };
         // Magic, version and LSS, layout id, sequence number, length and default scopes, CRC: little-endian words.
         let words = [
             MAGIC,
