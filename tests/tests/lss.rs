@@ -60,6 +60,11 @@ fn configuration_requests_in_the_waiting_state_get_no_answer() {
     }
     assert_eq!(b.rx(ms(2), LSS, &[0x04, 0x01, 0, 0]), [], "a short frame is counted, not answered");
     assert_eq!(b.node.counters().malformed, 1);
+    // A command specifier CiA 305 does not define, and switch state global to mode 2: counted too.
+    assert_eq!(b.rx(ms(3), LSS, &[0x99, 0, 0, 0, 0, 0, 0, 0]), []);
+    assert_eq!(b.rx(ms(4), LSS, &[0x04, 0x02, 0, 0, 0, 0, 0, 0]), []);
+    assert_eq!(b.node.counters().malformed, 3);
+    assert_eq!(b.node.lss_mode(), Some(canopen_core::services::lss::Mode::Waiting));
 }
 
 #[test]

@@ -6,7 +6,7 @@ use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
 use crate::services::store::StoredSet;
 use crate::storage::Storage;
 use crate::time::{At, NEVER, later, ms_span, shift};
-use crate::wire::lss::{SLAVE_COB_ID, request_frame};
+use crate::wire::lss::SLAVE_COB_ID;
 
 use super::{Application, Node};
 use crate::od::ObjectDictionary;
@@ -98,11 +98,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the interop image +228, where the budget went to other code).
     #[cold]
     pub(super) fn lss_request(&mut self, now: At, data: &[u8]) {
-        let Ok(request) = request_frame(data) else {
+        // The dispatch calls this only for a node that runs an LSS slave (`lss_on`).
+        let lss = &mut self.lss;
+        let Ok(request) = <&[u8; 8]>::try_from(data) else {
             self.counters.count_malformed();
             return;
         };
-        let Some(lss) = self.lss_mut() else { return };
         // Configuration with a new node-id pending: "switch state global" to waiting leaves it.
         let new_id = lss.mode() == Mode::Configuration && lss.pending_node_id() != lss.active_node_id();
         // A device that resets itself on leaving configuration with a new node-id (the Sendix, L3567).
@@ -122,6 +123,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         match action {
             LssAction::None => {}
+            LssAction::Malformed => self.counters.count_malformed(),
             LssAction::Answer(answer) => {
                 self.push(SLAVE_COB_ID, &answer.bytes());
             }

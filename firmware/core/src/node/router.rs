@@ -118,7 +118,7 @@ impl Ctx<'_> {
         if u32_exact(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
-        let job = if is_save { self.save_job(scope) } else { Job::restore(scope) };
+        let job = Job::command(self.dict, scope, is_save, self.options.not_saved_by_1010);
         match staged {
             Some(answer) if !self.hook.store.busy() => {
                 self.hook.store = job;

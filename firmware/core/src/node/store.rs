@@ -92,9 +92,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             (server, Err(e)) => {
                 // The server drops the response it kept; the abort (CiA 301 §7.2.4.3.17) goes instead.
                 self.sdo.reset(usize::from(server).wrapping_sub(1));
-                let [i0, i1] = answer.index.to_le_bytes();
-                let [c0, c1, c2, c3] = store_abort(e).code().to_le_bytes();
-                [0x80, i0, i1, answer.sub, c0, c1, c2, c3]
+                // As one 64-bit value: two word stores, not eight of bytes.
+                let head = 0x80 | u32::from(answer.index) << 8 | u32::from(answer.sub) << 24;
+                (u64::from(head) | u64::from(store_abort(e).code()) << 32).to_le_bytes()
             }
         };
         self.push(answer.cob_id, &frame);

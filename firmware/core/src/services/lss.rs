@@ -28,6 +28,9 @@ pub enum Mode {
 pub enum LssAction {
     /// Nothing (no answer is due).
     None,
+    /// The frame is no LSS request (a command specifier CiA 305 does not
+    /// define, or switch state global with a mode other than 0 and 1).
+    Malformed,
     /// Send this answer on 0x7E4.
     Answer(LssAnswer),
     /// Switch the bit rate to CiA 305 table index `index`: stop sending,
@@ -88,8 +91,9 @@ pub struct LssSlave {
     selective: u8,
     /// The address part fastscan compares next.
     fastscan_sub: u8,
-    /// The identify-remote-slave bounds received so far.
-    identify: [u32; 6],
+    /// Whether the address matched every identify-remote-slave bound since
+    /// the vendor-id (the first of the six, which starts a new check).
+    identify: bool,
 }
 
 impl LssSlave {
@@ -108,7 +112,7 @@ impl LssSlave {
             supported_rates,
             selective: 0,
             fastscan_sub: 0,
-            identify: [0; 6],
+            identify: false,
         }
     }
 
@@ -153,80 +157,96 @@ impl LssSlave {
         answer(0x17, if ok { 0 } else { 2 }, 0)
     }
 
-    /// Handles one request from the master: a frame [`request_frame`] accepted.
+    /// Handles one request from the master (a frame of 8 bytes on 0x7E5),
+    /// served as it is: the command specifier chooses, each service reads
+    /// its own fields (no [`crate::wire::lss::LssRequest`] is built, whose
+    /// fields would be packed only to be taken apart). What
+    /// [`crate::wire::lss::LssRequest::parse`] refuses is [`LssAction::Malformed`].
     // Offsets from a range's first command specifier: 0..=3 (address parts), 0..=5 (identify bounds).
     #[allow(clippy::arithmetic_side_effects)]
     pub fn on_request(&mut self, d: &[u8; 8]) -> LssAction {
         let [cs, b1, b2, _, _, b5, b6, b7] = *d;
         let value = u32_at(d);
-        if !(0x40..=0x43).contains(&cs) {
-            self.selective = 0;
-        }
         let configuring = self.mode == Mode::Configuration;
+        // A switch-state-selective sequence goes on only with its next part: any other request ends it.
+        let selective = core::mem::take(&mut self.selective);
+        // Configuration services in the waiting state are ignored (CiA 305 §4.3).
+        if !configuring && (cs & 0xF9 == 0x11 || (0x5A..=0x5E).contains(&cs)) {
+            return LssAction::None;
+        }
         match cs {
             // Switch state global: 1 configuration, 0 waiting.
             0x04 if b1 == 1 => {
                 self.mode = Mode::Configuration;
                 LssAction::None
             }
-            0x04 => self.enter_waiting(),
+            0x04 if b1 == 0 => self.enter_waiting(),
             // Switch state selective: vendor, product, revision, serial number.
             0x40..=0x43 => {
-                let expected = cs - 0x40;
-                // The four parts come in order; anything else starts over.
-                if self.selective == expected && self.address.get(usize::from(expected)) == Some(&value) {
-                    self.selective += 1;
-                    if self.selective == 4 {
-                        self.selective = 0;
-                        self.mode = Mode::Configuration;
-                        return reply(0x44, 0);
-                    }
-                } else {
-                    self.selective = u8::from(expected == 0 && self.address[0] == value);
+                let part = cs - 0x40;
+                // The four parts come in order; anything else starts over (the vendor-id a new sequence).
+                let matched = self.part(part) == value && (part == 0 || selective == part);
+                self.selective = if matched { part + 1 } else { 0 };
+                if self.selective < 4 {
+                    return LssAction::None;
                 }
-                LssAction::None
+                self.mode = Mode::Configuration;
+                reply(0x44, 0)
             }
             // Configure node-id.
-            0x11 if configuring => {
+            0x11 => {
                 // CiA 305 §5.2.2.2: 1..=127 or 0xFF (back to unconfigured); error 1 otherwise.
-                if (1..=127).contains(&b1) || b1 == UNCONFIGURED {
+                let ok = (1..=127).contains(&b1) || b1 == UNCONFIGURED;
+                if ok {
                     self.pending_node_id = b1;
-                    reply(0x11, 0)
-                } else {
-                    reply(0x11, 1)
                 }
+                reply(0x11, u8::from(!ok))
             }
             // Configure bit timing: table selector, table index.
-            0x13 if configuring => {
+            0x13 => {
                 let supported = b1 == 0 && b2 < 16 && self.supported_rates & (1 << b2) != 0;
                 if supported {
                     self.pending_bit_rate = b2;
-                    reply(0x13, 0)
-                } else {
-                    reply(0x13, 1)
                 }
+                reply(0x13, u8::from(!supported))
             }
-            0x15 if configuring => LssAction::ActivateBitTiming { delay_ms: u16::from_le_bytes([b1, b2]), index: self.pending_bit_rate },
-            0x17 if configuring => LssAction::Store { node_id: self.pending_node_id, bit_rate: self.pending_bit_rate },
+            0x15 => LssAction::ActivateBitTiming { delay_ms: u16::from_le_bytes([b1, b2]), index: self.pending_bit_rate },
+            0x17 => LssAction::Store { node_id: self.pending_node_id, bit_rate: self.pending_bit_rate },
             // Inquire vendor, product, revision, serial number: answered with the same specifier.
-            0x5A..=0x5D if configuring => {
-                LssAction::Answer(LssAnswer { cs, data: self.address.get(usize::from(cs - 0x5A)).copied().unwrap_or(0) })
-            }
-            0x5E if configuring => reply(0x5E, self.active_node_id),
+            0x5A..=0x5D => LssAction::Answer(LssAnswer { cs, data: self.part(cs - 0x5A) }),
+            0x5E => reply(0x5E, self.active_node_id),
             // Identify remote slave: vendor, product, revision low/high, serial low/high.
+            // Each bound is checked as it comes (as CANopenNode does), so no bound is kept.
             0x46..=0x4B => {
                 let k = cs - 0x46;
-                if let Some(slot) = self.identify.get_mut(usize::from(k)) {
-                    *slot = value;
-                }
+                let mine = self.part(if k < 2 { k } else { k / 2 + 1 });
+                // Vendor and product equal, then a low bound (revision, serial number) and its high bound.
+                let ok = if k < 2 {
+                    mine == value
+                } else if k & 1 == 0 {
+                    mine >= value
+                } else {
+                    mine <= value
+                };
+                self.identify = ok && (k == 0 || self.identify);
                 // The serial-number high bound comes last; then the slave answers if it is in range.
-                if k == 5 && self.in_identify_range() { reply(0x4F, 0) } else { LssAction::None }
+                if k == 5 && self.identify { reply(0x4F, 0) } else { LssAction::None }
             }
             0x4C if self.active_node_id == UNCONFIGURED => reply(0x50, 0),
+            0x4C => LssAction::None,
             0x51 => self.fastscan(value, b5, b6, b7),
-            // Configuration services in the waiting state are ignored (CiA 305 §4.3).
-            _ => LssAction::None,
+            // Not a request (CiA 305 defines no such command specifier): the sequence goes on.
+            _ => {
+                self.selective = selective;
+                LssAction::Malformed
+            }
         }
+    }
+
+    /// Address part `n` (0 vendor-id … 3 serial number; callers pass 0..=3).
+    fn part(&self, n: u8) -> u32 {
+        // Masked to two bits: always in the array, so no bounds check is left.
+        self.address.get(usize::from(n & 3)).copied().unwrap_or(0)
     }
 
     fn enter_waiting(&mut self) -> LssAction {
@@ -238,12 +258,6 @@ impl LssSlave {
         LssAction::None
     }
 
-    fn in_identify_range(&self) -> bool {
-        let [vendor, product, rev_lo, rev_hi, ser_lo, ser_hi] = self.identify;
-        let [v, p, r, s] = self.address;
-        v == vendor && p == product && (rev_lo..=rev_hi).contains(&r) && (ser_lo..=ser_hi).contains(&s)
-    }
-
     /// CiA 305 §5.5: only unconfigured slaves in the waiting state take part.
     fn fastscan(&mut self, id: u32, bit_checked: u8, sub: u8, next: u8) -> LssAction {
         if self.active_node_id != UNCONFIGURED || self.mode != Mode::Waiting {
@@ -253,12 +267,13 @@ impl LssSlave {
             self.fastscan_sub = 0;
             return reply(0x4F, 0);
         }
-        if bit_checked > 31 || sub > 3 || next > 3 || sub != self.fastscan_sub {
+        // `fastscan_sub` is 0..=3, so an equal `sub` is too.
+        if bit_checked > 31 || next > 3 || sub != self.fastscan_sub {
             return LssAction::None;
         }
-        let mask = u32::MAX << bit_checked;
-        let mine = self.address.get(usize::from(sub)).copied().unwrap_or(0);
-        if (mine ^ id) & mask != 0 {
+        let mine = self.part(sub);
+        // The bits from `bit_checked` up must match.
+        if (mine ^ id) >> bit_checked != 0 {
             return LssAction::None;
         }
         if bit_checked == 0 {

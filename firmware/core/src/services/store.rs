@@ -228,9 +228,9 @@ pub fn reset_part(
         if communication { [0..dict.comm_len, dict.stored_len..rest] } else { [dict.comm_len..dict.stored_len, rest..dict.defaults.len] };
     let start = stored.start.saturating_add(HEADER);
     let set = set.filter(|set| image.get_mut(stored.clone()).is_some_and(|dst| storage.read(set.region, start, dst).is_ok()));
-    // The defaults where the set was not read.
-    for (read, range) in [(set.is_some(), stored), (false, others)] {
-        if let (false, Some(dst)) = (read, image.get_mut(range.clone()).filter(|_| range.end <= dict.defaults.len)) {
+    // The defaults where the set was not read (none read for an empty range: `read` walks every default).
+    for range in [if set.is_some() { 0..0 } else { stored }, others] {
+        if let Some(dst) = image.get_mut(range.clone()).filter(|dst| !dst.is_empty() && range.end <= dict.defaults.len) {
             dict.defaults.read(range.start, dst);
         }
     }

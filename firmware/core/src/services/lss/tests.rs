@@ -3,7 +3,7 @@
 //! unconfigured slaves on one bus.
 
 use super::*;
-use crate::wire::lss::{AddressPart, LssRequest, request_frame};
+use crate::wire::lss::{AddressPart, LssRequest};
 
 const ADDR: [u32; 4] = [0x13, 0x5868_2001, 0x66, 0x0001_E240];
 /// Bits of the CiA 305 table the slave supports: 1M, 500k, 250k, 125k, 50k, 20k, 10k.
@@ -14,10 +14,7 @@ fn req(r: LssRequest) -> [u8; 8] {
 }
 
 fn send(s: &mut LssSlave, frame: [u8; 8]) -> LssAction {
-    match request_frame(&frame) {
-        Ok(d) => s.on_request(d),
-        Err(_) => LssAction::None,
-    }
+    s.on_request(&frame)
 }
 
 fn ans(bytes: [u8; 8]) -> LssAction {
@@ -99,6 +96,40 @@ fn activate_bit_timing_uses_the_pending_rate() {
     assert_eq!(s.active_bit_rate(), 4);
 }
 
+#[test]
+fn malformed_is_what_parse_refuses() {
+    for b0 in 0..=255u8 {
+        for b1 in 0..=3u8 {
+            let f = [b0, b1, 7, 8, 9, 10, 11, 12];
+            for mode in [Mode::Waiting, Mode::Configuration] {
+                let mut s = LssSlave::new(ADDR, 0x3F, 3, RATES);
+                s.mode = mode;
+                let malformed = s.on_request(&f) == LssAction::Malformed;
+                assert_eq!(malformed, LssRequest::parse(&f).is_err(), "{b0:#04x} {b1} {mode:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_malformed_frame_does_not_break_a_selective_sequence() {
+    let mut s = LssSlave::new(ADDR, 0x3F, 3, RATES);
+    let parts = [AddressPart::Vendor, AddressPart::Product, AddressPart::Revision, AddressPart::Serial];
+    let mut last = LssAction::None;
+    for (p, v) in parts.iter().zip(ADDR) {
+        assert_eq!(s.on_request(&[0x99, 0, 0, 0, 0, 0, 0, 0]), LssAction::Malformed);
+        last = s.on_request(&LssRequest::SwitchSelective(*p, v).emit());
+    }
+    assert_eq!(last, ans([0x44, 0, 0, 0, 0, 0, 0, 0]));
+    // A request in between ends the sequence.
+    let mut s = LssSlave::new(ADDR, 0x3F, 3, RATES);
+    for (p, v) in parts.iter().zip(ADDR) {
+        assert_eq!(s.on_request(&[0x5A, 0, 0, 0, 0, 0, 0, 0]), LssAction::None);
+        last = s.on_request(&LssRequest::SwitchSelective(*p, v).emit());
+    }
+    assert_eq!(last, LssAction::None);
+}
+
 // ---- Switch state selective ---------------------------------------------------------
 
 #[test]
@@ -134,6 +165,34 @@ fn identify_remote_slave_answers_inside_the_range() {
     for (k, v) in bounds((0x67, 0x100), (0, u32::MAX)).into_iter().enumerate() {
         assert_eq!(s.on_request(&LssRequest::IdentifyRemote(k as u8, v).emit()), LssAction::None, "revision below the range");
     }
+}
+
+#[test]
+fn identify_remote_slave_checks_the_bounds_since_the_vendor_id() {
+    let mut s = LssSlave::new(ADDR, 0x3F, 3, RATES);
+    let send_bound = |s: &mut LssSlave, k: u8, v: u32| s.on_request(&LssRequest::IdentifyRemote(k, v).emit());
+    // Without a vendor-id no check has started: no answer.
+    for (k, v) in [(1, ADDR[1]), (2, 0), (3, u32::MAX), (4, 0)] {
+        assert_eq!(send_bound(&mut s, k, v), LssAction::None);
+    }
+    assert_eq!(send_bound(&mut s, 5, u32::MAX), LssAction::None, "no vendor-id");
+    // A wrong product code fails the check; repeating it right does not mend it (as CANopenNode).
+    send_bound(&mut s, 0, ADDR[0]);
+    send_bound(&mut s, 1, ADDR[1] + 1);
+    for (k, v) in [(1, ADDR[1]), (2, 0), (3, u32::MAX), (4, 0)] {
+        send_bound(&mut s, k, v);
+    }
+    assert_eq!(send_bound(&mut s, 5, u32::MAX), LssAction::None, "a failed bound since the vendor-id");
+    // The next vendor-id starts over; bounds equal to the address are inside.
+    for (k, v) in [(0, ADDR[0]), (1, ADDR[1]), (2, ADDR[2]), (3, ADDR[2]), (4, ADDR[3])] {
+        send_bound(&mut s, k, v);
+    }
+    assert_eq!(send_bound(&mut s, 5, ADDR[3]), ans([0x4F, 0, 0, 0, 0, 0, 0, 0]));
+    // Serial number above the high bound.
+    for (k, v) in [(0, ADDR[0]), (1, ADDR[1]), (2, 0), (3, u32::MAX), (4, 0)] {
+        send_bound(&mut s, k, v);
+    }
+    assert_eq!(send_bound(&mut s, 5, ADDR[3] - 1), LssAction::None, "serial number above the range");
 }
 
 #[test]

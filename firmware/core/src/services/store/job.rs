@@ -123,8 +123,17 @@ impl Job {
     /// 0x1010 "save" of `scope`; the objects `keep` (an inclusive index
     /// range), if any, keep their stored values.
     pub fn save(dict: &Dictionary, scope: Scope, keep: Option<(u16, u16)>) -> Job {
-        let keep = keep.map_or((0, 0), |(first, last)| byte_range(dict, first, last));
-        Job::new(scope.mask(), 0, (0, u16::MAX), keep)
+        Job::command(dict, scope, true, keep)
+    }
+
+    /// 0x1010 "save" of `scope` (with `save`, as [`Job::save`]) or 0x1011
+    /// "load" (as [`Job::restore`]): one job built for either command.
+    pub fn command(dict: &Dictionary, scope: Scope, save: bool, keep: Option<(u16, u16)>) -> Job {
+        let mask = scope.mask();
+        // A restore takes nothing from the image (no scope saved): what it would keep does not matter.
+        let keep = keep.filter(|_| save).map_or((0, 0), |(first, last)| byte_range(dict, first, last));
+        let (save, reset) = if save { (mask, 0) } else { (0, mask) };
+        Job::new(save, reset, (0, u16::MAX), keep)
     }
 
     /// Stores the objects `first..=last` alone (see [`super::save_objects`]);
@@ -249,16 +258,12 @@ impl Job {
         // The source changes only at a scope's or a range's bounds: the piece goes span by span.
         let end = at.saturating_add(piece.len());
         let mut off = at;
+        let bounds = [self.app, self.from_image.0, self.from_image.1, self.keep.0, self.keep.1];
         while off < end {
-            let bounds = [
-                dict.comm_len,
-                self.app.into(),
-                self.from_image.0.into(),
-                self.from_image.1.into(),
-                self.keep.0.into(),
-                self.keep.1.into(),
-            ];
-            let next = bounds.into_iter().filter(|&b| b > off).fold(end, usize::min);
+            let mut next = if dict.comm_len > off { dict.comm_len.min(end) } else { end };
+            for b in bounds.iter().map(|&b| usize::from(b)).filter(|&b| b > off) {
+                next = next.min(b);
+            }
             if let Some(dst) = piece.get_mut(off.wrapping_sub(at)..next.wrapping_sub(at)) {
                 match self.source(dict, off) {
                     Source::Image => {
@@ -309,11 +314,12 @@ impl Job {
 
     /// The header, written last: the new set is valid from here on.
     fn header(&self, dict: &Dictionary) -> [u8; HEADER] {
-        let old = self.old;
-        let defaults = (old.map_or(0b111, |set| set.defaults) & !self.save) | self.reset;
-        let seq = old.map_or(1, |set| set.seq.wrapping_add(1));
+        // Without a set before it, every scope is default and no LSS configuration is stored.
+        let old = self.old.unwrap_or(StoredSet { region: 0, defaults: 0b111, lss: [0xFF, 0xFF], seq: 0 });
+        let defaults = (old.defaults & !self.save) | self.reset;
+        let seq = old.seq.wrapping_add(1);
         // The LSS configuration rides along with every set: a new one or the old one.
-        let [id, rate] = if self.new_lss { self.lss } else { old.map_or([0xFF, 0xFF], |set| set.lss) };
+        let [id, rate] = if self.new_lss { self.lss } else { old.lss };
         // Magic, version and LSS, layout id, sequence number, length and default scopes, CRC: little-endian words.
         let words = [
             MAGIC,
