@@ -46,16 +46,20 @@ pub struct Limits {
     pub high: u64,
 }
 
-/// `Entry::limits` of an entry without limits.
+/// The row in [`super::Dictionary::limit_rows`] of an entry without limits.
 pub const NO_LIMITS: u8 = u8::MAX;
 
 /// One sub-object of the dictionary.
 ///
-/// 10 bytes in flash, packed: the largest dictionary has about 380 entries,
+/// 9 bytes in flash, packed: the largest dictionary has about 380 entries,
 /// and the padding byte of an aligned entry and a 16-bit limits row (a
 /// dictionary has at most 254 distinct limit pairs) cost the b maXX 4400
-/// image 760 B of its 60 KiB (Cortex-M3 loads the unaligned half-words directly). Tables
-/// of entries are sorted by (index, sub-index) so that lookup is a binary search.
+/// image 760 B of its 60 KiB (Cortex-M3 loads the unaligned half-words
+/// directly). An entry's limits row is not here but in a table parallel to
+/// the entries ([`super::Dictionary::limit_rows`]), which a dictionary
+/// without limits leaves empty: a byte an entry less there (ds301 −172 B).
+/// Tables of entries are sorted by (index, sub-index) so that lookup is a
+/// binary search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(C, packed)]
 pub struct Entry {
@@ -71,14 +75,12 @@ pub struct Entry {
     pub len: u16,
     /// Byte offset of the value in the RAM image, or in the ROM blob if [`Attr::IN_ROM`].
     pub offset: u16,
-    /// Position in the limits table, or [`NO_LIMITS`].
-    pub limits: u8,
 }
 
 impl Entry {
     /// An entry; generated tables use this to stay one line per entry.
-    pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u8) -> Entry {
-        Entry { index, sub, data_type, attr, len, offset, limits }
+    pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16) -> Entry {
+        Entry { index, sub, data_type, attr, len, offset }
     }
 
     /// The 24-bit key the tables are sorted by.

@@ -58,8 +58,12 @@ pub struct DeviceInfo {
 pub struct Dictionary {
     /// Entries sorted by (index, sub-index).
     pub entries: &'static [Entry],
-    /// Limits referenced by [`Entry::limits`].
+    /// Limits referenced by [`Dictionary::limit_rows`].
     pub limits: &'static [Limits],
+    /// Each entry's row in `limits` ([`NO_LIMITS`] for none), parallel to
+    /// `entries`; empty in a dictionary without limits, whose entries then
+    /// take no byte for them.
+    pub limit_rows: &'static [u8],
     /// Values of `const` entries.
     pub rom: &'static [u8],
     /// The RAM image as the EDS defaults give it, with `$NODEID` not yet added.
@@ -148,21 +152,22 @@ pub trait ObjectDictionary {
 }
 
 impl Dictionary {
-    /// Finds an entry by index and sub-index. O(log n): a binary search for
-    /// the object on the 16-bit index alone, then the sub-index where it
-    /// usually is (sub-indices run 0, 1, 2, ...), else along the object's
-    /// entries (at most 256).
+    /// Finds an entry by index and sub-index. O(log n): one binary search
+    /// on the (index, sub-index) key the table is sorted by; where it stops,
+    /// a neighbour of the same index tells a missing sub-index (0x06090011)
+    /// from a missing object (0x06020000).
     pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
         let entries: &'static [Entry] = self.entries;
-        let first = entries.partition_point(|e| e.index < index);
-        let record = entries.get(first..).unwrap_or(&[]);
-        match record.first() {
-            Some(e) if e.index == index => {}
-            _ => return Err(AbortCode::NoObject),
+        let key = (u32::from(index) << 8) | u32::from(sub);
+        let at = entries.partition_point(|e| e.key() < key);
+        match entries.get(at) {
+            Some(e) if e.key() == key => return Ok(e),
+            Some(e) if e.index == index => return Err(AbortCode::NoSubIndex),
+            _ => {}
         }
-        match record.get(usize::from(sub)) {
-            Some(e) if e.index == index && e.sub == sub => Ok(e),
-            _ => record.iter().take_while(|e| e.index == index).find(|e| e.sub == sub).ok_or(AbortCode::NoSubIndex),
+        match at.checked_sub(1).and_then(|before| entries.get(before)) {
+            Some(e) if e.index == index => Err(AbortCode::NoSubIndex),
+            _ => Err(AbortCode::NoObject),
         }
     }
 
@@ -177,12 +182,20 @@ impl Dictionary {
     #[inline(never)]
     pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
         let entry = self.find(index, sub)?;
-        // The position from the address `find` returned: no second search.
-        let pos = (entry as *const Entry as usize).wrapping_sub(self.entries.as_ptr() as usize).checked_div(core::mem::size_of::<Entry>());
-        match pos.and_then(|p| p.checked_add(1)).and_then(|r| u16::try_from(r).ok()) {
+        match self.position(entry).checked_add(1).and_then(|r| u16::try_from(r).ok()) {
             Some(r) => Ok((EntryRef(r), entry)),
             None => Err(AbortCode::NoObject),
         }
+    }
+
+    /// The position in `entries` of an entry of the table, from its address:
+    /// no second search. (An entry from elsewhere gets a position that
+    /// names no entry or another one; never a panic.)
+    fn position(&self, entry: &Entry) -> usize {
+        (entry as *const Entry as usize)
+            .wrapping_sub(self.entries.as_ptr() as usize)
+            .checked_div(core::mem::size_of::<Entry>())
+            .unwrap_or(usize::MAX)
     }
 
     /// The entry [`Dictionary::locate`] found (`None` for [`EntryRef::NONE`],
@@ -194,7 +207,8 @@ impl Dictionary {
 
     /// The limits of an entry, if it has any.
     pub fn limits_of(&self, entry: &Entry) -> Option<&'static Limits> {
-        self.limits.get(usize::from(entry.limits))
+        let row = self.limit_rows.get(self.position(entry))?;
+        self.limits.get(usize::from(*row))
     }
 
     /// The value bytes of `entry` (its whole capacity for strings).

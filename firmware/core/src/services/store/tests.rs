@@ -1,22 +1,23 @@
 //! Store/restore on a flash-like storage with a power cut at every step.
 
 use super::*;
-use crate::od::{DataType, DeviceInfo, Entry, NO_LIMITS};
+use crate::od::{DataType, DeviceInfo, Entry};
 
 const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
 const RW_N: Attr = Attr(RW.0 | Attr::NODE_ID.0);
 
 static ENTRIES: [Entry; 5] = [
-    Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0, NO_LIMITS),
-    Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 1, NO_LIMITS),
-    Entry::new(0x1800, 1, DataType::Unsigned32, RW_N, 4, 3, NO_LIMITS),
-    Entry::new(0x2000, 0, DataType::Unsigned32, RW, 4, 7, NO_LIMITS),
-    Entry::new(0x6060, 0, DataType::Integer8, RW, 1, 11, NO_LIMITS),
+    Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0),
+    Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 1),
+    Entry::new(0x1800, 1, DataType::Unsigned32, RW_N, 4, 3),
+    Entry::new(0x2000, 0, DataType::Unsigned32, RW, 4, 7),
+    Entry::new(0x6060, 0, DataType::Integer8, RW, 1, 11),
 ];
 static DEFAULTS: [u8; 12] = [0, 0, 0, 0x80, 0x01, 0, 0x40, 1, 0, 0, 0, 3];
 static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &[],
+    limit_rows: &[],
     rom: &[],
     defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 7,
@@ -429,7 +430,7 @@ fn a_storage_failure_while_loading_leaves_the_defaults() {
 }
 
 const LONG_ENTRIES: [Entry; 2] =
-    [Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 0, NO_LIMITS), Entry::new(0x2001, 0, DataType::OctetString, RW, 80, 2, NO_LIMITS)];
+    [Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 0), Entry::new(0x2001, 0, DataType::OctetString, RW, 80, 2)];
 /// A dictionary with a value longer than the chunks the store copies in.
 static LONG: Dictionary = Dictionary {
     entries: &LONG_ENTRIES,
@@ -515,10 +516,8 @@ fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
 /// is refused, even with the same entries (and so the same layout id).
 #[test]
 fn a_set_holds_the_stored_prefix_alone() {
-    static ENTRIES_RO_LAST: [Entry; 2] = [
-        Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 2, NO_LIMITS),
-        Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 0, NO_LIMITS),
-    ];
+    static ENTRIES_RO_LAST: [Entry; 2] =
+        [Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 2), Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 0)];
     static PREFIX: Dictionary = Dictionary {
         entries: &ENTRIES_RO_LAST,
         defaults: crate::od::Defaults::dense(&[0xE8, 0x03, 0]),
