@@ -152,23 +152,26 @@ pub trait ObjectDictionary {
 }
 
 impl Dictionary {
-    /// Finds an entry by index and sub-index. O(log n): one binary search
-    /// on the (index, sub-index) key the table is sorted by; where it stops,
-    /// a neighbour of the same index tells a missing sub-index (0x06090011)
-    /// from a missing object (0x06020000).
+    /// Finds an entry by index and sub-index. O(log n): a binary search for
+    /// the object on the 16-bit index alone, then the sub-index where it
+    /// usually is (sub-indices run 0, 1, 2, ...), else along the object's
+    /// entries (at most 256), which also tell a missing sub-index
+    /// (0x06090011) from a missing object (0x06020000).
     pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
         let entries: &'static [Entry] = self.entries;
-        let key = (u32::from(index) << 8) | u32::from(sub);
-        let at = entries.partition_point(|e| e.key() < key);
-        match entries.get(at) {
-            Some(e) if e.key() == key => return Ok(e),
-            Some(e) if e.index == index => return Err(AbortCode::NoSubIndex),
+        let record = entries.get(entries.partition_point(|e| e.index < index)..).unwrap_or(&[]);
+        match record.get(usize::from(sub)) {
+            Some(e) if e.index == index && e.sub == sub => return Ok(e),
             _ => {}
         }
-        match at.checked_sub(1).and_then(|before| entries.get(before)) {
-            Some(e) if e.index == index => Err(AbortCode::NoSubIndex),
-            _ => Err(AbortCode::NoObject),
+        let mut missing = AbortCode::NoObject;
+        for e in record.iter().take_while(|e| e.index == index) {
+            if e.sub == sub {
+                return Ok(e);
+            }
+            missing = AbortCode::NoSubIndex;
         }
+        Err(missing)
     }
 
     /// An entry found once, for a caller that reads or writes it often
