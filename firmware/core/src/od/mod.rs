@@ -158,8 +158,7 @@ impl Dictionary {
     /// entries (at most 256), which also tell a missing sub-index
     /// (0x06090011) from a missing object (0x06020000).
     pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        let entries: &'static [Entry] = self.entries;
-        let record = entries.get(entries.partition_point(|e| e.index < index)..).unwrap_or(&[]);
+        let record = self.object_onwards(index);
         match record.get(usize::from(sub)) {
             Some(e) if e.index == index && e.sub == sub => return Ok(e),
             _ => {}
@@ -172,6 +171,15 @@ impl Dictionary {
             missing = AbortCode::NoSubIndex;
         }
         Err(missing)
+    }
+
+    /// The entries from the first of object `index` (or from where it would
+    /// be) to the end of the table: a binary search on the index alone.
+    // Out of line: `find` and `object` share it.
+    #[inline(never)]
+    pub(crate) fn object_onwards(&self, index: u16) -> &'static [Entry] {
+        let entries: &'static [Entry] = self.entries;
+        entries.get(entries.partition_point(|e| e.index < index)..).unwrap_or(&[])
     }
 
     /// An entry found once, for a caller that reads or writes it often
