@@ -41,11 +41,11 @@ impl Tables {
         let l = layout(eds)?;
         let f = &eds.device;
         Ok(Tables {
-            // `layout` checked that offsets, lengths and positions fit in 16 bits.
+            // `layout` checked that offsets and positions fit in 16 bits, lengths in 8.
             entries: l
                 .entries
                 .iter()
-                .map(|e| Entry::new(e.obj.index, e.sub.sub, e.data_type, e.attr, e.len as u16, e.offset as u16))
+                .map(|e| Entry::new(e.obj.index, e.sub.sub, e.data_type, e.attr, e.len as u8, e.offset as u16))
                 .collect(),
             limit_rows: if l.limits.is_empty() { Vec::new() } else { l.entries.iter().map(|e| e.limits).collect() },
             limits: l.limits.iter().map(|&(low, high)| Limits { low, high }).collect(),

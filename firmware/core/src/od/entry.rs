@@ -51,15 +51,15 @@ pub const NO_LIMITS: u8 = u8::MAX;
 
 /// One sub-object of the dictionary.
 ///
-/// 9 bytes in flash, packed: the largest dictionary has about 380 entries,
-/// and the padding byte of an aligned entry and a 16-bit limits row (a
-/// dictionary has at most 254 distinct limit pairs) cost the b maXX 4400
-/// image 760 B of its 60 KiB (Cortex-M3 loads the unaligned half-words
-/// directly). An entry's limits row is not here but in a table parallel to
-/// the entries ([`super::Dictionary::limit_rows`]), which a dictionary
-/// without limits leaves empty: a byte an entry less there (ds301 −172 B).
-/// Tables of entries are sorted by (index, sub-index) so that lookup is a
-/// binary search.
+/// 8 bytes in flash, packed (Cortex-M3 loads the unaligned half-words
+/// directly): the largest dictionary has about 380 entries. Two bytes came
+/// out of the 10 it had: the limits row, which only a download's check
+/// reads, is in a table parallel to the entries
+/// ([`super::Dictionary::limit_rows`]) that a dictionary without limits
+/// leaves empty, and the length is one byte (od-gen refuses a string of
+/// more than 255 bytes: no device or corpus file has one longer than 200).
+/// ds301: 1,720 → 1,376 B. Tables of entries are sorted by (index,
+/// sub-index) so that lookup is a binary search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(C, packed)]
 pub struct Entry {
@@ -71,15 +71,15 @@ pub struct Entry {
     pub data_type: DataType,
     /// Access and placement.
     pub attr: Attr,
-    /// Size of the value in bytes (the capacity for strings, 0 for DOMAIN).
-    pub len: u16,
+    /// Size of the value in bytes (the capacity for strings, at most 255; 0 for DOMAIN).
+    pub len: u8,
     /// Byte offset of the value in the RAM image, or in the ROM blob if [`Attr::IN_ROM`].
     pub offset: u16,
 }
 
 impl Entry {
     /// An entry; generated tables use this to stay one line per entry.
-    pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16) -> Entry {
+    pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u8, offset: u16) -> Entry {
         Entry { index, sub, data_type, attr, len, offset }
     }
 
@@ -104,7 +104,7 @@ impl Entry {
     }
 
     /// Byte range of the value in its image (RAM or ROM).
-    // Two u16s: the sum fits a usize.
+    // A u16 and a u8: the sum fits a usize.
     #[allow(clippy::arithmetic_side_effects)]
     pub const fn range(&self) -> core::ops::Range<usize> {
         self.offset as usize..self.offset as usize + self.len as usize

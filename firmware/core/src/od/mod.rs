@@ -104,7 +104,9 @@ pub const fn layout_id(entries: &[Entry]) -> u32 {
     while let [e, rest @ ..] = entries {
         h = mix(h, &e.index.to_le_bytes());
         h = mix(h, &[e.sub, e.data_type as u8, e.attr.0]);
-        h = mix(h, &e.len.to_le_bytes());
+        // The length as the 16 bits it had when the entry held it so: a
+        // stored set keeps its layout across the change of width.
+        h = mix(h, &(e.len as u16).to_le_bytes());
         h = mix(h, &e.offset.to_le_bytes());
         entries = rest;
     }

@@ -25,7 +25,7 @@ const RO_T: Attr = Attr(RO.0 | Attr::MAP_TPDO.0);
 /// `const` + PDOMapping.
 const CONST_T: Attr = Attr(CONST.0 | Attr::MAP_TPDO.0);
 
-const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16) -> Entry {
+const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u8, offset: u16) -> Entry {
     Entry::new(index, sub, data_type, attr, len, offset)
 }
 

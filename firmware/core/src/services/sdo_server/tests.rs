@@ -35,7 +35,7 @@ static ENTRIES: [Entry; 15] = [
     Entry::new(0x2003, 0, DataType::Unsigned24, RW, 3, 7),
     Entry::new(0x2004, 0, DataType::Unsigned32, RW, 4, 10),
     Entry::new(0x2005, 0, DataType::Unsigned64, RW, 8, 14),
-    Entry::new(0x2010, 0, DataType::VisibleString, RW, LONG_LEN as u16, 22),
+    Entry::new(0x2010, 0, DataType::VisibleString, RW, LONG_LEN as u8, 22),
     Entry::new(0x2011, 0, DataType::OctetString, RW, 10, 142),
     Entry::new(0x2012, 0, DataType::Domain, RW, 0, 152),
     Entry::new(0x2020, 0, DataType::Unsigned8, RO, 1, 152),

@@ -269,10 +269,16 @@ fn the_crc_is_crc32_ieee_in_any_chunking() {
 #[test]
 fn the_layout_id_is_the_fnv_1a_of_the_entry_table_as_before() {
     // The run-time hash the store computed before the id moved into the
-    // dictionary: sets stored then must still be recognised.
+    // dictionary: sets stored then must still be recognised (the length
+    // hashed as the 16 bits an entry held before it became one byte).
     let mut h: u32 = 0x811C_9DC5;
     for e in &ENTRIES {
-        for b in [e.index.to_le_bytes().as_slice(), &[e.sub, e.data_type as u8, e.attr.0], &e.len.to_le_bytes(), &e.offset.to_le_bytes()] {
+        for b in [
+            e.index.to_le_bytes().as_slice(),
+            &[e.sub, e.data_type as u8, e.attr.0],
+            &u16::from(e.len).to_le_bytes(),
+            &e.offset.to_le_bytes(),
+        ] {
             for &x in b {
                 h = (h ^ u32::from(x)).wrapping_mul(0x0100_0193);
             }
