@@ -186,9 +186,9 @@ fn a_write_tells_whether_the_image_changed() {
 
 #[test]
 fn an_entry_is_eight_bytes_in_flash() {
-    // The largest dictionary has about 380 entries: two bytes more each would
-    // not fit the b maXX 4400 image (Entry's docs); the limits row is in a
-    // table of its own, which a dictionary without limits leaves empty.
+    // The largest dictionary has about 380 entries (Entry's docs): the
+    // limits row is in a table of its own, which a dictionary without
+    // limits leaves empty, and the length is one byte.
     assert_eq!(core::mem::size_of::<Entry>(), 8);
 }
 
