@@ -14,8 +14,11 @@ use crate::model::Eds;
 pub struct Tables {
     /// Entries sorted by (index, sub-index).
     pub entries: Vec<Entry>,
-    /// Limits referenced by the entries.
+    /// Limits referenced by `limit_rows`.
     pub limits: Vec<Limits>,
+    /// Each entry's row in `limits` (`NO_LIMITS` for none), parallel to
+    /// `entries`; empty without limits.
+    pub limit_rows: Vec<u8>,
     /// Values of `const` entries.
     pub rom: Vec<u8>,
     /// The RAM image from the defaults, `$NODEID` not yet added.
@@ -38,12 +41,13 @@ impl Tables {
         let l = layout(eds)?;
         let f = &eds.device;
         Ok(Tables {
-            // `layout` checked that offsets, lengths and positions fit in 16 bits.
+            // `layout` checked that offsets and positions fit in 16 bits, lengths in 8.
             entries: l
                 .entries
                 .iter()
-                .map(|e| Entry::new(e.obj.index, e.sub.sub, e.data_type, e.attr, e.len as u16, e.offset as u16, e.limits))
+                .map(|e| Entry::new(e.obj.index, e.sub.sub, e.data_type, e.attr, e.len as u8, e.offset as u16))
                 .collect(),
+            limit_rows: if l.limits.is_empty() { Vec::new() } else { l.entries.iter().map(|e| e.limits).collect() },
             limits: l.limits.iter().map(|&(low, high)| Limits { low, high }).collect(),
             rom: l.rom,
             defaults: l.ram,
@@ -70,6 +74,7 @@ impl Tables {
         Box::leak(Box::new(Dictionary {
             entries,
             limits: self.limits.leak(),
+            limit_rows: self.limit_rows.leak(),
             rom: self.rom.leak(),
             defaults: {
                 // As the generated module holds them: the runs that are not zero.

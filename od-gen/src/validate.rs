@@ -214,6 +214,15 @@ fn type_name(s: &SubObject) -> String {
 fn entry(index: u16, s: &SubObject, opaque: bool, d: &mut Diagnostics) {
     let sev = if opaque { Severity::Warning } else { Severity::Error };
     let text = |t: &Option<crate::model::Text>| t.as_ref().map_or(String::new(), |t| t.text.clone());
+    // A dictionary entry's length is one byte (canopen-core's `Entry`).
+    if s.size() > usize::from(u8::MAX) {
+        let line = s.parameter_value.as_ref().or(s.default.as_ref()).map_or(s.line, |t| t.line);
+        d.push(
+            sev,
+            line,
+            format!("{} of {} bytes is longer than the 255 an entry holds (0x{index:04X} sub {})", type_name(s), s.size(), s.sub),
+        );
+    }
     let limit_line = s.high.as_ref().or(s.low.as_ref()).map_or(s.line, |t| t.line);
     match s.limits {
         Some((l, h)) if less(h, l) => {

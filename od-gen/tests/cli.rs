@@ -193,22 +193,36 @@ fn a_closed_stdout_is_an_error_not_a_panic() {
 
 /// A dictionary bigger than the tables address (RAM or ROM over 65,535
 /// bytes): check said valid and gen failed with exit 2, a usage error's.
-/// Now check finds it and every command exits 1.
+/// Now check finds it and every command exits 1. One value longer than an
+/// entry's one-byte length is reported at its line.
 #[test]
 fn a_dictionary_too_big_for_the_tables_fails_check_and_gen_alike() {
     let dir = scratch("too-big");
-    let eds = dir.join("big.eds");
-    let text = format!(
-        "[DeviceInfo]\nVendorName=V\n[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n\
-         [2000]\nParameterName=Blob\nObjectType=0x7\nDataType=0x000A\nAccessType=rw\nDefaultValue={}\n",
-        "ab".repeat(70_000)
-    );
-    std::fs::write(&eds, text).expect("scratch is writable");
-    let eds = eds.to_string_lossy().into_owned();
-    for args in [&["check", &eds][..], &["gen", &eds, "-o", &dir.join("big.rs").to_string_lossy()]] {
-        let o = od_gen(args);
-        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
-        assert!(stderr(&o).contains("big.eds: error: RAM image 70004 B / ROM 0 B exceed 65535 B"), "{}", stderr(&o));
+    let head =
+        "[DeviceInfo]\nVendorName=V\n[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\n";
+    // 300 OCTET_STRINGs of 250 bytes: 75,004 bytes of RAM.
+    let many: String = (0..300)
+        .map(|i| {
+            format!(
+                "[{:04X}]\nParameterName=Blob\nObjectType=0x7\nDataType=0x000A\nAccessType=rw\nDefaultValue={}\n",
+                0x2000 + i,
+                "ab".repeat(250)
+            )
+        })
+        .collect();
+    let one = format!("[2000]\nParameterName=Blob\nObjectType=0x7\nDataType=0x000A\nAccessType=rw\nDefaultValue={}\n", "ab".repeat(70_000));
+    for (name, body, error) in [
+        ("big.eds", many, "big.eds: error: RAM image 75004 B / ROM 0 B exceed 65535 B"),
+        ("long.eds", one, "long.eds:14: error: OCTET_STRING of 70000 bytes is longer than the 255 an entry holds (0x2000 sub 0)"),
+    ] {
+        let eds = dir.join(name);
+        std::fs::write(&eds, format!("{head}{body}")).expect("scratch is writable");
+        let eds = eds.to_string_lossy().into_owned();
+        for args in [&["check", &eds][..], &["gen", &eds, "-o", &dir.join("big.rs").to_string_lossy()]] {
+            let o = od_gen(args);
+            assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+            assert!(stderr(&o).contains(error), "{}", stderr(&o));
+        }
     }
 }
 

@@ -262,21 +262,22 @@ fn ec5000_heartbeat_saved_by_sdo_comes_back_and_lss_stores_over_it() {
 /// puts values at odd offsets 1, 3, 7 and 11, and `$NODEID` at 3.
 mod core_store_scenarios {
     use super::*;
-    use canopen_core::od::{DataType, DeviceInfo, NO_LIMITS};
+    use canopen_core::od::{DataType, DeviceInfo};
 
     const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
     const RW_N: Attr = Attr(RW.0 | Attr::NODE_ID.0);
     static ENTRIES: [Entry; 5] = [
-        Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0, NO_LIMITS),
-        Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 1, NO_LIMITS),
-        Entry::new(0x1800, 1, DataType::Unsigned32, RW_N, 4, 3, NO_LIMITS),
-        Entry::new(0x2000, 0, DataType::Unsigned32, RW, 4, 7, NO_LIMITS),
-        Entry::new(0x6060, 0, DataType::Integer8, RW, 1, 11, NO_LIMITS),
+        Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0),
+        Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 1),
+        Entry::new(0x1800, 1, DataType::Unsigned32, RW_N, 4, 3),
+        Entry::new(0x2000, 0, DataType::Unsigned32, RW, 4, 7),
+        Entry::new(0x6060, 0, DataType::Integer8, RW, 1, 11),
     ];
     static DEFAULTS: [u8; 12] = [0, 0, 0, 0x80, 0x01, 0, 0x40, 1, 0, 0, 0, 3];
     static DICT: Dictionary = Dictionary {
         entries: &ENTRIES,
         limits: &[],
+        limit_rows: &[],
         rom: &[],
         defaults: canopen_core::od::Defaults::dense(&DEFAULTS),
         comm_len: 7,

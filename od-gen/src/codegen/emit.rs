@@ -25,7 +25,9 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w, "// Object dictionary of {} ({source}).", product.as_deref().unwrap_or("the device"));
     let _ = writeln!(w, "// {} entries: {} bytes of RAM, {} bytes of constants.", l.entries.len(), l.ram.len(), l.rom.len());
     let _ = writeln!(w);
-    let _ = writeln!(w, "use canopen_core::od::{{self, Attr, DataType, DeviceInfo, Entry, Limits, NO_LIMITS}};");
+    // `NO_LIMITS` fills the limits rows, which only a dictionary with limits has.
+    let no_limits = if l.limits.is_empty() { "" } else { ", NO_LIMITS" };
+    let _ = writeln!(w, "use canopen_core::od::{{self, Attr, DataType, DeviceInfo, Entry, Limits{no_limits}}};");
     let _ = writeln!(w);
 
     let object_names = object_names(eds);
@@ -93,6 +95,7 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w, "pub static DICTIONARY: od::Dictionary = od::Dictionary {{");
     let _ = writeln!(w, "    entries: &ENTRIES,");
     let _ = writeln!(w, "    limits: &LIMITS,");
+    let _ = writeln!(w, "    limit_rows: &LIMIT_ROWS,");
     let _ = writeln!(w, "    rom: &ROM,");
     let _ = writeln!(w, "    defaults: od::Defaults {{ len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS }},");
     let _ = writeln!(w, "    comm_len: {},", l.comm_len);

@@ -102,6 +102,10 @@ pub(crate) fn layout(eds: &Eds) -> Result<Layout<'_>, LayoutError> {
                 }
                 None => NO_LIMITS,
             };
+            // The entry's length is one byte (validation reports a longer value with its line).
+            if len > usize::from(u8::MAX) {
+                return Err(LayoutError(format!("0x{:04X}:{:02X} has {len} bytes, more than the 255 an entry holds", o.index, s.sub)));
+            }
             if s.node_id && !attr.contains(Attr::IN_ROM) {
                 l.node_id_relative.push(l.entries.len());
             }

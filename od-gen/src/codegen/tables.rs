@@ -102,9 +102,8 @@ pub(super) fn tables(w: &mut String, l: &Layout<'_>) {
         .entries
         .iter()
         .map(|e| {
-            let limits = if e.limits == NO_LIMITS { "NO_LIMITS".to_owned() } else { e.limits.to_string() };
             let item = format!(
-                "Entry::new(0x{:04X}, 0x{:02X}, DataType::{:?}, {}, {}, {}, {limits}),",
+                "Entry::new(0x{:04X}, 0x{:02X}, DataType::{:?}, {}, {}, {}),",
                 e.obj.index,
                 e.sub.sub,
                 e.data_type,
@@ -116,6 +115,18 @@ pub(super) fn tables(w: &mut String, l: &Layout<'_>) {
         })
         .collect();
     table(w, Some("Entry metadata, sorted by (index, sub-index)."), "static ENTRIES: [Entry; ENTRY_COUNT]", &entries);
+
+    // Each entry's limits row, parallel to the entries; none at all in a
+    // dictionary without limits (most have none: a byte an entry saved).
+    let rows: Vec<(String, String)> = if l.limits.is_empty() {
+        Vec::new()
+    } else {
+        l.entries
+            .iter()
+            .map(|e| (if e.limits == NO_LIMITS { "NO_LIMITS,".to_owned() } else { format!("{},", e.limits) }, label(e)))
+            .collect()
+    };
+    table(w, None, &format!("static LIMIT_ROWS: [u8; {}]", rows.len()), &rows);
 
     let limits: Vec<(String, String)> = l
         .limits

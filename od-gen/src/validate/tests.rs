@@ -151,3 +151,20 @@ fn file_info_forms() {
     let (text, line) = with("CreationDate=01-31-2026", "CreationDate=2026-01-31");
     assert!(check(&text, false).mentions(Severity::Warning, line, "is not mm-dd-yyyy"));
 }
+
+#[test]
+fn a_value_longer_than_an_entry_holds_is_an_error_at_its_line() {
+    // 255 bytes fit an entry's one-byte length; 256 do not.
+    let listed = "[ManufacturerObjects]\nSupportedObjects=1\n1=0x2000\n";
+    let text = |n: usize| {
+        let (text, _) = with(listed, "[ManufacturerObjects]\nSupportedObjects=2\n1=0x2000\n2=0x2001\n");
+        format!("{text}[2001]\nParameterName=Name\nDataType=0x0009\nAccessType=ro\nDefaultValue={}\n", "x".repeat(n))
+    };
+    let d = check(&text(255), true);
+    assert!(d.items.is_empty(), "{d}");
+    let long = text(256);
+    let line = long.lines().count();
+    let d = check(&long, false);
+    assert!(d.mentions(Severity::Error, line, "VISIBLE_STRING of 256 bytes is longer than the 255 an entry holds (0x2001 sub 0)"), "{d}");
+    assert!(d.to_string().contains(&format!("t.eds:{line}: error: VISIBLE_STRING of 256 bytes")), "{d}");
+}

@@ -243,344 +243,686 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 806, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4, 0), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1007:00 Synchronous window length
-    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 5, 4, NO_LIMITS), // 0x1008:00 Manufacturer device name
-    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 15, 9, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
-    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 24, NO_LIMITS), // 0x100A:00 Manufacturer software version
-    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 12, NO_LIMITS), // 0x100C:00 Guard time
-    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 14, NO_LIMITS), // 0x100D:00 Life time factor
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 807, NO_LIMITS), // 0x1010:00 Store parameters / Highest sub-index supported
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 808, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 812, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 816, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 820, NO_LIMITS), // 0x1011:00 Restore default parameters / Highest sub-index supported
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 821, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 825, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 829, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 15, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 833, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 19, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
-    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 23, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
-    Entry::new(0x1016, 0x03, DataType::Unsigned32, RW, 4, 27, NO_LIMITS), // 0x1016:03 Consumer heartbeat time / Consumer heartbeat time 3
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 31, NO_LIMITS), // 0x1017:00 Producer heartbeat time
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 834, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 29, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 33, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 37, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 835, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 839, NO_LIMITS), // 0x1029:00 Error behavior / Highest sub-index supported
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 33, 1), // 0x1029:01 Error behavior / Communication error
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 840, NO_LIMITS), // 0x1200:00 SDO server parameter / Highest sub-index supported
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 841, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 845, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 849, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / Highest sub-index supported
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 34, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 38, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / Transmission type
-    Entry::new(0x1400, 0x03, DataType::Unsigned16, RW, 2, 39, NO_LIMITS), // 0x1400:03 RPDO1 communication parameter / Inhibit time
-    Entry::new(0x1400, 0x05, DataType::Unsigned16, RW, 2, 41, NO_LIMITS), // 0x1400:05 RPDO1 communication parameter / Event timer
-    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 850, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / Highest sub-index supported
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 43, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 47, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / Transmission type
-    Entry::new(0x1401, 0x03, DataType::Unsigned16, RW, 2, 48, NO_LIMITS), // 0x1401:03 RPDO2 communication parameter / Inhibit time
-    Entry::new(0x1401, 0x05, DataType::Unsigned16, RW, 2, 50, NO_LIMITS), // 0x1401:05 RPDO2 communication parameter / Event timer
-    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 851, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / Highest sub-index supported
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 52, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 56, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / Transmission type
-    Entry::new(0x1402, 0x03, DataType::Unsigned16, RW, 2, 57, NO_LIMITS), // 0x1402:03 RPDO3 communication parameter / Inhibit time
-    Entry::new(0x1402, 0x05, DataType::Unsigned16, RW, 2, 59, NO_LIMITS), // 0x1402:05 RPDO3 communication parameter / Event timer
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 61, 2), // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 62, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / Mapped object 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 66, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / Mapped object 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 70, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / Mapped object 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 74, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / Mapped object 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 78, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / Mapped object 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 82, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / Mapped object 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 86, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / Mapped object 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 90, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / Mapped object 8
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 94, 2), // 0x1601:00 RPDO2 mapping parameter / Number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 95, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / Mapped object 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 99, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / Mapped object 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 103, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / Mapped object 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 107, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / Mapped object 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 111, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / Mapped object 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 115, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / Mapped object 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 119, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / Mapped object 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 123, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / Mapped object 8
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 127, 2), // 0x1602:00 RPDO3 mapping parameter / Number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 128, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / Mapped object 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 132, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / Mapped object 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 136, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / Mapped object 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 140, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / Mapped object 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 144, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / Mapped object 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 148, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / Mapped object 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 152, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / Mapped object 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 156, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / Mapped object 8
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 852, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / Highest sub-index supported
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 160, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 164, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / Transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 165, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / Inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 167, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / Event timer
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 853, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / Highest sub-index supported
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 169, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 173, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / Transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 174, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / Inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 176, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / Event timer
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 854, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / Highest sub-index supported
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 178, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 182, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / Transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 183, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / Inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 185, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / Event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 187, 2), // 0x1A00:00 TPDO1 mapping parameter / Number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / Mapped object 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 192, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / Mapped object 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 196, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / Mapped object 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 200, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / Mapped object 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 204, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / Mapped object 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 208, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / Mapped object 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 212, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / Mapped object 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 216, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / Mapped object 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 220, 2), // 0x1A01:00 TPDO2 mapping parameter / Number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 221, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / Mapped object 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 225, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / Mapped object 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 229, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / Mapped object 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 233, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / Mapped object 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 237, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / Mapped object 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 241, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / Mapped object 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / Mapped object 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / Mapped object 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 253, 2), // 0x1A02:00 TPDO3 mapping parameter / Number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 254, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / Mapped object 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 258, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / Mapped object 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 262, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / Mapped object 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 266, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / Mapped object 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 270, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / Mapped object 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 274, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / Mapped object 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / Mapped object 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / Mapped object 8
-    Entry::new(0x20E4, 0x00, DataType::Integer32, RO, 4, 855, 3), // 0x20E4:00 Internal reference frequency
-    Entry::new(0x20F9, 0x00, DataType::Unsigned16, RO, 2, 859, 4), // 0x20F9:00 Active data set
-    Entry::new(0x20FA, 0x00, DataType::Unsigned16, RO, 2, 861, NO_LIMITS), // 0x20FA:00 Digital inputs
-    Entry::new(0x20FE, 0x00, DataType::Unsigned16, RO, 2, 863, NO_LIMITS), // 0x20FE:00 Digital outputs
-    Entry::new(0x2104, 0x00, DataType::Unsigned16, RO, 2, 865, NO_LIMITS), // 0x2104:00 Current error
-    Entry::new(0x210E, 0x00, DataType::Unsigned16, RO, 2, 867, NO_LIMITS), // 0x210E:00 Warnings
-    Entry::new(0x2112, 0x00, DataType::Unsigned16, RO, 2, 869, NO_LIMITS), // 0x2112:00 Application warnings
-    Entry::new(0x2114, 0x00, DataType::Unsigned16, RW, 2, 286, 5), // 0x2114:00 CAN interface
-    Entry::new(0x211A, 0x00, DataType::Integer32, RO, 4, 871, 3), // 0x211A:00 Bus reference frequency
-    Entry::new(0x211B, 0x00, DataType::Integer32, RO, 4, 875, 3), // 0x211B:00 Ramp reference frequency
-    Entry::new(0x2174, 0x00, DataType::Unsigned8, RO, 1, 879, NO_LIMITS), // 0x2174:00 Rated speed / Highest sub-index supported
-    Entry::new(0x2174, 0x01, DataType::Unsigned16, RW, 2, 288, NO_LIMITS), // 0x2174:01 Rated speed / Data set 1
-    Entry::new(0x2174, 0x02, DataType::Unsigned16, RW, 2, 290, NO_LIMITS), // 0x2174:02 Rated speed / Data set 2
-    Entry::new(0x2174, 0x03, DataType::Unsigned16, RW, 2, 292, NO_LIMITS), // 0x2174:03 Rated speed / Data set 3
-    Entry::new(0x2174, 0x04, DataType::Unsigned16, RW, 2, 294, NO_LIMITS), // 0x2174:04 Rated speed / Data set 4
-    Entry::new(0x2174, 0x05, DataType::Unsigned16, RW, 2, 296, NO_LIMITS), // 0x2174:05 Rated speed / All data sets RAM
-    Entry::new(0x2174, 0x06, DataType::Unsigned16, RW, 2, 298, NO_LIMITS), // 0x2174:06 Rated speed / Data set 1 RAM
-    Entry::new(0x2174, 0x07, DataType::Unsigned16, RW, 2, 300, NO_LIMITS), // 0x2174:07 Rated speed / Data set 2 RAM
-    Entry::new(0x2174, 0x08, DataType::Unsigned16, RW, 2, 302, NO_LIMITS), // 0x2174:08 Rated speed / Data set 3 RAM
-    Entry::new(0x2174, 0x09, DataType::Unsigned16, RW, 2, 304, NO_LIMITS), // 0x2174:09 Rated speed / Data set 4 RAM
-    Entry::new(0x2175, 0x00, DataType::Unsigned8, RO, 1, 880, NO_LIMITS), // 0x2175:00 Number of pole pairs / Highest sub-index supported
-    Entry::new(0x2175, 0x01, DataType::Unsigned16, RW, 2, 306, 6), // 0x2175:01 Number of pole pairs / Data set 1
-    Entry::new(0x2175, 0x02, DataType::Unsigned16, RW, 2, 308, 6), // 0x2175:02 Number of pole pairs / Data set 2
-    Entry::new(0x2175, 0x03, DataType::Unsigned16, RW, 2, 310, 6), // 0x2175:03 Number of pole pairs / Data set 3
-    Entry::new(0x2175, 0x04, DataType::Unsigned16, RW, 2, 312, 6), // 0x2175:04 Number of pole pairs / Data set 4
-    Entry::new(0x2175, 0x05, DataType::Unsigned16, RW, 2, 314, 6), // 0x2175:05 Number of pole pairs / All data sets RAM
-    Entry::new(0x2175, 0x06, DataType::Unsigned16, RW, 2, 316, 6), // 0x2175:06 Number of pole pairs / Data set 1 RAM
-    Entry::new(0x2175, 0x07, DataType::Unsigned16, RW, 2, 318, 6), // 0x2175:07 Number of pole pairs / Data set 2 RAM
-    Entry::new(0x2175, 0x08, DataType::Unsigned16, RW, 2, 320, 6), // 0x2175:08 Number of pole pairs / Data set 3 RAM
-    Entry::new(0x2175, 0x09, DataType::Unsigned16, RW, 2, 322, 6), // 0x2175:09 Number of pole pairs / Data set 4 RAM
-    Entry::new(0x2181, 0x00, DataType::Unsigned16, RW, 2, 324, 7), // 0x2181:00 CAN baud rate
-    Entry::new(0x2183, 0x00, DataType::Integer16, RW, 2, 326, 8), // 0x2183:00 CAN node number
-    Entry::new(0x2184, 0x00, DataType::Unsigned16, RW, 2, 328, 9), // 0x2184:00 CAN fault behaviour
-    Entry::new(0x2188, 0x00, DataType::Unsigned8, RO, 1, 881, NO_LIMITS), // 0x2188:00 State machine transition 5 / Highest sub-index supported
-    Entry::new(0x2188, 0x01, DataType::Unsigned16, RW, 2, 330, 1), // 0x2188:01 State machine transition 5 / Data set 1
-    Entry::new(0x2188, 0x02, DataType::Unsigned16, RW, 2, 332, 1), // 0x2188:02 State machine transition 5 / Data set 2
-    Entry::new(0x2188, 0x03, DataType::Unsigned16, RW, 2, 334, 1), // 0x2188:03 State machine transition 5 / Data set 3
-    Entry::new(0x2188, 0x04, DataType::Unsigned16, RW, 2, 336, 1), // 0x2188:04 State machine transition 5 / Data set 4
-    Entry::new(0x2188, 0x05, DataType::Unsigned16, RW, 2, 338, 1), // 0x2188:05 State machine transition 5 / All data sets RAM
-    Entry::new(0x2188, 0x06, DataType::Unsigned16, RW, 2, 340, 1), // 0x2188:06 State machine transition 5 / Data set 1 RAM
-    Entry::new(0x2188, 0x07, DataType::Unsigned16, RW, 2, 342, 1), // 0x2188:07 State machine transition 5 / Data set 2 RAM
-    Entry::new(0x2188, 0x08, DataType::Unsigned16, RW, 2, 344, 1), // 0x2188:08 State machine transition 5 / Data set 3 RAM
-    Entry::new(0x2188, 0x09, DataType::Unsigned16, RW, 2, 346, 1), // 0x2188:09 State machine transition 5 / Data set 4 RAM
-    Entry::new(0x2197, 0x00, DataType::Integer16, RW, 2, 348, NO_LIMITS), // 0x2197:00 Heat sink warning limit
-    Entry::new(0x219A, 0x00, DataType::Unsigned16, RW, 2, 350, NO_LIMITS), // 0x219A:00 Control word parameter
-    Entry::new(0x219B, 0x00, DataType::Unsigned16, RO, 2, 882, NO_LIMITS), // 0x219B:00 Status word parameter
-    Entry::new(0x219C, 0x00, DataType::Unsigned8, RO, 1, 884, NO_LIMITS), // 0x219C:00 Local remote / Highest sub-index supported
-    Entry::new(0x219C, 0x01, DataType::Unsigned16, RW, 2, 352, 10), // 0x219C:01 Local remote / Data set 1
-    Entry::new(0x219C, 0x02, DataType::Unsigned16, RW, 2, 354, 10), // 0x219C:02 Local remote / Data set 2
-    Entry::new(0x219C, 0x03, DataType::Unsigned16, RW, 2, 356, 10), // 0x219C:03 Local remote / Data set 3
-    Entry::new(0x219C, 0x04, DataType::Unsigned16, RW, 2, 358, 10), // 0x219C:04 Local remote / Data set 4
-    Entry::new(0x219C, 0x05, DataType::Unsigned16, RW, 2, 360, 10), // 0x219C:05 Local remote / All data sets RAM
-    Entry::new(0x219C, 0x06, DataType::Unsigned16, RW, 2, 362, 10), // 0x219C:06 Local remote / Data set 1 RAM
-    Entry::new(0x219C, 0x07, DataType::Unsigned16, RW, 2, 364, 10), // 0x219C:07 Local remote / Data set 2 RAM
-    Entry::new(0x219C, 0x08, DataType::Unsigned16, RW, 2, 366, 10), // 0x219C:08 Local remote / Data set 3 RAM
-    Entry::new(0x219C, 0x09, DataType::Unsigned16, RW, 2, 368, 10), // 0x219C:09 Local remote / Data set 4 RAM
-    Entry::new(0x219E, 0x00, DataType::Unsigned16, RW, 2, 370, 9), // 0x219E:00 Data set selection
-    Entry::new(0x21A2, 0x00, DataType::Unsigned8, RO, 1, 885, NO_LIMITS), // 0x21A2:00 Minimum frequency / Highest sub-index supported
-    Entry::new(0x21A2, 0x01, DataType::Integer32, RW, 4, 372, NO_LIMITS), // 0x21A2:01 Minimum frequency / Data set 1
-    Entry::new(0x21A2, 0x02, DataType::Integer32, RW, 4, 376, NO_LIMITS), // 0x21A2:02 Minimum frequency / Data set 2
-    Entry::new(0x21A2, 0x03, DataType::Integer32, RW, 4, 380, NO_LIMITS), // 0x21A2:03 Minimum frequency / Data set 3
-    Entry::new(0x21A2, 0x04, DataType::Integer32, RW, 4, 384, NO_LIMITS), // 0x21A2:04 Minimum frequency / Data set 4
-    Entry::new(0x21A2, 0x05, DataType::Integer32, RW, 4, 388, NO_LIMITS), // 0x21A2:05 Minimum frequency / All data sets RAM
-    Entry::new(0x21A2, 0x06, DataType::Integer32, RW, 4, 392, NO_LIMITS), // 0x21A2:06 Minimum frequency / Data set 1 RAM
-    Entry::new(0x21A2, 0x07, DataType::Integer32, RW, 4, 396, NO_LIMITS), // 0x21A2:07 Minimum frequency / Data set 2 RAM
-    Entry::new(0x21A2, 0x08, DataType::Integer32, RW, 4, 400, NO_LIMITS), // 0x21A2:08 Minimum frequency / Data set 3 RAM
-    Entry::new(0x21A2, 0x09, DataType::Integer32, RW, 4, 404, NO_LIMITS), // 0x21A2:09 Minimum frequency / Data set 4 RAM
-    Entry::new(0x21A3, 0x00, DataType::Unsigned8, RO, 1, 886, NO_LIMITS), // 0x21A3:00 Maximum frequency / Highest sub-index supported
-    Entry::new(0x21A3, 0x01, DataType::Integer32, RW, 4, 408, NO_LIMITS), // 0x21A3:01 Maximum frequency / Data set 1
-    Entry::new(0x21A3, 0x02, DataType::Integer32, RW, 4, 412, NO_LIMITS), // 0x21A3:02 Maximum frequency / Data set 2
-    Entry::new(0x21A3, 0x03, DataType::Integer32, RW, 4, 416, NO_LIMITS), // 0x21A3:03 Maximum frequency / Data set 3
-    Entry::new(0x21A3, 0x04, DataType::Integer32, RW, 4, 420, NO_LIMITS), // 0x21A3:04 Maximum frequency / Data set 4
-    Entry::new(0x21A3, 0x05, DataType::Integer32, RW, 4, 424, NO_LIMITS), // 0x21A3:05 Maximum frequency / All data sets RAM
-    Entry::new(0x21A3, 0x06, DataType::Integer32, RW, 4, 428, NO_LIMITS), // 0x21A3:06 Maximum frequency / Data set 1 RAM
-    Entry::new(0x21A3, 0x07, DataType::Integer32, RW, 4, 432, NO_LIMITS), // 0x21A3:07 Maximum frequency / Data set 2 RAM
-    Entry::new(0x21A3, 0x08, DataType::Integer32, RW, 4, 436, NO_LIMITS), // 0x21A3:08 Maximum frequency / Data set 3 RAM
-    Entry::new(0x21A3, 0x09, DataType::Integer32, RW, 4, 440, NO_LIMITS), // 0x21A3:09 Maximum frequency / Data set 4 RAM
-    Entry::new(0x21A4, 0x00, DataType::Unsigned8, RO, 1, 887, NO_LIMITS), // 0x21A4:00 Acceleration clockwise / Highest sub-index supported
-    Entry::new(0x21A4, 0x01, DataType::Integer32, RW, 4, 444, 11), // 0x21A4:01 Acceleration clockwise / Data set 1
-    Entry::new(0x21A4, 0x02, DataType::Integer32, RW, 4, 448, 11), // 0x21A4:02 Acceleration clockwise / Data set 2
-    Entry::new(0x21A4, 0x03, DataType::Integer32, RW, 4, 452, 11), // 0x21A4:03 Acceleration clockwise / Data set 3
-    Entry::new(0x21A4, 0x04, DataType::Integer32, RW, 4, 456, 11), // 0x21A4:04 Acceleration clockwise / Data set 4
-    Entry::new(0x21A4, 0x05, DataType::Integer32, RW, 4, 460, 11), // 0x21A4:05 Acceleration clockwise / All data sets RAM
-    Entry::new(0x21A4, 0x06, DataType::Integer32, RW, 4, 464, 11), // 0x21A4:06 Acceleration clockwise / Data set 1 RAM
-    Entry::new(0x21A4, 0x07, DataType::Integer32, RW, 4, 468, 11), // 0x21A4:07 Acceleration clockwise / Data set 2 RAM
-    Entry::new(0x21A4, 0x08, DataType::Integer32, RW, 4, 472, 11), // 0x21A4:08 Acceleration clockwise / Data set 3 RAM
-    Entry::new(0x21A4, 0x09, DataType::Integer32, RW, 4, 476, 11), // 0x21A4:09 Acceleration clockwise / Data set 4 RAM
-    Entry::new(0x21A5, 0x00, DataType::Unsigned8, RO, 1, 888, NO_LIMITS), // 0x21A5:00 Deceleration clockwise / Highest sub-index supported
-    Entry::new(0x21A5, 0x01, DataType::Integer32, RW, 4, 480, 12), // 0x21A5:01 Deceleration clockwise / Data set 1
-    Entry::new(0x21A5, 0x02, DataType::Integer32, RW, 4, 484, 12), // 0x21A5:02 Deceleration clockwise / Data set 2
-    Entry::new(0x21A5, 0x03, DataType::Integer32, RW, 4, 488, 12), // 0x21A5:03 Deceleration clockwise / Data set 3
-    Entry::new(0x21A5, 0x04, DataType::Integer32, RW, 4, 492, 12), // 0x21A5:04 Deceleration clockwise / Data set 4
-    Entry::new(0x21A5, 0x05, DataType::Integer32, RW, 4, 496, 12), // 0x21A5:05 Deceleration clockwise / All data sets RAM
-    Entry::new(0x21A5, 0x06, DataType::Integer32, RW, 4, 500, 12), // 0x21A5:06 Deceleration clockwise / Data set 1 RAM
-    Entry::new(0x21A5, 0x07, DataType::Integer32, RW, 4, 504, 12), // 0x21A5:07 Deceleration clockwise / Data set 2 RAM
-    Entry::new(0x21A5, 0x08, DataType::Integer32, RW, 4, 508, 12), // 0x21A5:08 Deceleration clockwise / Data set 3 RAM
-    Entry::new(0x21A5, 0x09, DataType::Integer32, RW, 4, 512, 12), // 0x21A5:09 Deceleration clockwise / Data set 4 RAM
-    Entry::new(0x21A6, 0x00, DataType::Unsigned8, RO, 1, 889, NO_LIMITS), // 0x21A6:00 Acceleration anticlockwise / Highest sub-index supported
-    Entry::new(0x21A6, 0x01, DataType::Integer32, RW, 4, 516, 13), // 0x21A6:01 Acceleration anticlockwise / Data set 1
-    Entry::new(0x21A6, 0x02, DataType::Integer32, RW, 4, 520, 13), // 0x21A6:02 Acceleration anticlockwise / Data set 2
-    Entry::new(0x21A6, 0x03, DataType::Integer32, RW, 4, 524, 13), // 0x21A6:03 Acceleration anticlockwise / Data set 3
-    Entry::new(0x21A6, 0x04, DataType::Integer32, RW, 4, 528, 13), // 0x21A6:04 Acceleration anticlockwise / Data set 4
-    Entry::new(0x21A6, 0x05, DataType::Integer32, RW, 4, 532, 13), // 0x21A6:05 Acceleration anticlockwise / All data sets RAM
-    Entry::new(0x21A6, 0x06, DataType::Integer32, RW, 4, 536, 13), // 0x21A6:06 Acceleration anticlockwise / Data set 1 RAM
-    Entry::new(0x21A6, 0x07, DataType::Integer32, RW, 4, 540, 13), // 0x21A6:07 Acceleration anticlockwise / Data set 2 RAM
-    Entry::new(0x21A6, 0x08, DataType::Integer32, RW, 4, 544, 13), // 0x21A6:08 Acceleration anticlockwise / Data set 3 RAM
-    Entry::new(0x21A6, 0x09, DataType::Integer32, RW, 4, 548, 13), // 0x21A6:09 Acceleration anticlockwise / Data set 4 RAM
-    Entry::new(0x21A7, 0x00, DataType::Unsigned8, RO, 1, 890, NO_LIMITS), // 0x21A7:00 Deceleration anticlockwise / Highest sub-index supported
-    Entry::new(0x21A7, 0x01, DataType::Integer32, RW, 4, 552, 13), // 0x21A7:01 Deceleration anticlockwise / Data set 1
-    Entry::new(0x21A7, 0x02, DataType::Integer32, RW, 4, 556, 13), // 0x21A7:02 Deceleration anticlockwise / Data set 2
-    Entry::new(0x21A7, 0x03, DataType::Integer32, RW, 4, 560, 13), // 0x21A7:03 Deceleration anticlockwise / Data set 3
-    Entry::new(0x21A7, 0x04, DataType::Integer32, RW, 4, 564, 13), // 0x21A7:04 Deceleration anticlockwise / Data set 4
-    Entry::new(0x21A7, 0x05, DataType::Integer32, RW, 4, 568, 13), // 0x21A7:05 Deceleration anticlockwise / All data sets RAM
-    Entry::new(0x21A7, 0x06, DataType::Integer32, RW, 4, 572, 13), // 0x21A7:06 Deceleration anticlockwise / Data set 1 RAM
-    Entry::new(0x21A7, 0x07, DataType::Integer32, RW, 4, 576, 13), // 0x21A7:07 Deceleration anticlockwise / Data set 2 RAM
-    Entry::new(0x21A7, 0x08, DataType::Integer32, RW, 4, 580, 13), // 0x21A7:08 Deceleration anticlockwise / Data set 3 RAM
-    Entry::new(0x21A7, 0x09, DataType::Integer32, RW, 4, 584, 13), // 0x21A7:09 Deceleration anticlockwise / Data set 4 RAM
-    Entry::new(0x21A8, 0x00, DataType::Unsigned8, RO, 1, 891, NO_LIMITS), // 0x21A8:00 Emergency stop clockwise / Highest sub-index supported
-    Entry::new(0x21A8, 0x01, DataType::Integer32, RW, 4, 588, 12), // 0x21A8:01 Emergency stop clockwise / Data set 1
-    Entry::new(0x21A8, 0x02, DataType::Integer32, RW, 4, 592, 12), // 0x21A8:02 Emergency stop clockwise / Data set 2
-    Entry::new(0x21A8, 0x03, DataType::Integer32, RW, 4, 596, 12), // 0x21A8:03 Emergency stop clockwise / Data set 3
-    Entry::new(0x21A8, 0x04, DataType::Integer32, RW, 4, 600, 12), // 0x21A8:04 Emergency stop clockwise / Data set 4
-    Entry::new(0x21A8, 0x05, DataType::Integer32, RW, 4, 604, 12), // 0x21A8:05 Emergency stop clockwise / All data sets RAM
-    Entry::new(0x21A8, 0x06, DataType::Integer32, RW, 4, 608, 12), // 0x21A8:06 Emergency stop clockwise / Data set 1 RAM
-    Entry::new(0x21A8, 0x07, DataType::Integer32, RW, 4, 612, 12), // 0x21A8:07 Emergency stop clockwise / Data set 2 RAM
-    Entry::new(0x21A8, 0x08, DataType::Integer32, RW, 4, 616, 12), // 0x21A8:08 Emergency stop clockwise / Data set 3 RAM
-    Entry::new(0x21A8, 0x09, DataType::Integer32, RW, 4, 620, 12), // 0x21A8:09 Emergency stop clockwise / Data set 4 RAM
-    Entry::new(0x21A9, 0x00, DataType::Unsigned8, RO, 1, 892, NO_LIMITS), // 0x21A9:00 Emergency stop anticlockwise / Highest sub-index supported
-    Entry::new(0x21A9, 0x01, DataType::Integer32, RW, 4, 624, 12), // 0x21A9:01 Emergency stop anticlockwise / Data set 1
-    Entry::new(0x21A9, 0x02, DataType::Integer32, RW, 4, 628, 12), // 0x21A9:02 Emergency stop anticlockwise / Data set 2
-    Entry::new(0x21A9, 0x03, DataType::Integer32, RW, 4, 632, 12), // 0x21A9:03 Emergency stop anticlockwise / Data set 3
-    Entry::new(0x21A9, 0x04, DataType::Integer32, RW, 4, 636, 12), // 0x21A9:04 Emergency stop anticlockwise / Data set 4
-    Entry::new(0x21A9, 0x05, DataType::Integer32, RW, 4, 640, 12), // 0x21A9:05 Emergency stop anticlockwise / All data sets RAM
-    Entry::new(0x21A9, 0x06, DataType::Integer32, RW, 4, 644, 12), // 0x21A9:06 Emergency stop anticlockwise / Data set 1 RAM
-    Entry::new(0x21A9, 0x07, DataType::Integer32, RW, 4, 648, 12), // 0x21A9:07 Emergency stop anticlockwise / Data set 2 RAM
-    Entry::new(0x21A9, 0x08, DataType::Integer32, RW, 4, 652, 12), // 0x21A9:08 Emergency stop anticlockwise / Data set 3 RAM
-    Entry::new(0x21A9, 0x09, DataType::Integer32, RW, 4, 656, 12), // 0x21A9:09 Emergency stop anticlockwise / Data set 4 RAM
-    Entry::new(0x21E0, 0x00, DataType::Unsigned8, RO, 1, 893, NO_LIMITS), // 0x21E0:00 Fixed frequency 1 / Highest sub-index supported
-    Entry::new(0x21E0, 0x01, DataType::Integer32, RW, 4, 660, NO_LIMITS), // 0x21E0:01 Fixed frequency 1 / Data set 1
-    Entry::new(0x21E0, 0x02, DataType::Integer32, RW, 4, 664, NO_LIMITS), // 0x21E0:02 Fixed frequency 1 / Data set 2
-    Entry::new(0x21E0, 0x03, DataType::Integer32, RW, 4, 668, NO_LIMITS), // 0x21E0:03 Fixed frequency 1 / Data set 3
-    Entry::new(0x21E0, 0x04, DataType::Integer32, RW, 4, 672, NO_LIMITS), // 0x21E0:04 Fixed frequency 1 / Data set 4
-    Entry::new(0x21E0, 0x05, DataType::Integer32, RW, 4, 676, NO_LIMITS), // 0x21E0:05 Fixed frequency 1 / All data sets RAM
-    Entry::new(0x21E0, 0x06, DataType::Integer32, RW, 4, 680, NO_LIMITS), // 0x21E0:06 Fixed frequency 1 / Data set 1 RAM
-    Entry::new(0x21E0, 0x07, DataType::Integer32, RW, 4, 684, NO_LIMITS), // 0x21E0:07 Fixed frequency 1 / Data set 2 RAM
-    Entry::new(0x21E0, 0x08, DataType::Integer32, RW, 4, 688, NO_LIMITS), // 0x21E0:08 Fixed frequency 1 / Data set 3 RAM
-    Entry::new(0x21E0, 0x09, DataType::Integer32, RW, 4, 692, NO_LIMITS), // 0x21E0:09 Fixed frequency 1 / Data set 4 RAM
-    Entry::new(0x2225, 0x00, DataType::Unsigned8, RO, 1, 894, NO_LIMITS), // 0x2225:00 Max control deviation / Highest sub-index supported
-    Entry::new(0x2225, 0x01, DataType::Unsigned16, RW, 2, 696, 14), // 0x2225:01 Max control deviation / Data set 1
-    Entry::new(0x2225, 0x02, DataType::Unsigned16, RW, 2, 698, 14), // 0x2225:02 Max control deviation / Data set 2
-    Entry::new(0x2225, 0x03, DataType::Unsigned16, RW, 2, 700, 14), // 0x2225:03 Max control deviation / Data set 3
-    Entry::new(0x2225, 0x04, DataType::Unsigned16, RW, 2, 702, 14), // 0x2225:04 Max control deviation / Data set 4
-    Entry::new(0x2225, 0x05, DataType::Unsigned16, RW, 2, 704, 14), // 0x2225:05 Max control deviation / All data sets RAM
-    Entry::new(0x2225, 0x06, DataType::Unsigned16, RW, 2, 706, 14), // 0x2225:06 Max control deviation / Data set 1 RAM
-    Entry::new(0x2225, 0x07, DataType::Unsigned16, RW, 2, 708, 14), // 0x2225:07 Max control deviation / Data set 2 RAM
-    Entry::new(0x2225, 0x08, DataType::Unsigned16, RW, 2, 710, 14), // 0x2225:08 Max control deviation / Data set 3 RAM
-    Entry::new(0x2225, 0x09, DataType::Unsigned16, RW, 2, 712, 14), // 0x2225:09 Max control deviation / Data set 4 RAM
-    Entry::new(0x227D, 0x00, DataType::Unsigned8, RO, 1, 895, NO_LIMITS), // 0x227D:00 Stop function switch-off threshold / Highest sub-index supported
-    Entry::new(0x227D, 0x01, DataType::Unsigned16, RW, 2, 714, 15), // 0x227D:01 Stop function switch-off threshold / Data set 1
-    Entry::new(0x227D, 0x02, DataType::Unsigned16, RW, 2, 716, 15), // 0x227D:02 Stop function switch-off threshold / Data set 2
-    Entry::new(0x227D, 0x03, DataType::Unsigned16, RW, 2, 718, 15), // 0x227D:03 Stop function switch-off threshold / Data set 3
-    Entry::new(0x227D, 0x04, DataType::Unsigned16, RW, 2, 720, 15), // 0x227D:04 Stop function switch-off threshold / Data set 4
-    Entry::new(0x227D, 0x05, DataType::Unsigned16, RW, 2, 722, 15), // 0x227D:05 Stop function switch-off threshold / All data sets RAM
-    Entry::new(0x227D, 0x06, DataType::Unsigned16, RW, 2, 724, 15), // 0x227D:06 Stop function switch-off threshold / Data set 1 RAM
-    Entry::new(0x227D, 0x07, DataType::Unsigned16, RW, 2, 726, 15), // 0x227D:07 Stop function switch-off threshold / Data set 2 RAM
-    Entry::new(0x227D, 0x08, DataType::Unsigned16, RW, 2, 728, 15), // 0x227D:08 Stop function switch-off threshold / Data set 3 RAM
-    Entry::new(0x227D, 0x09, DataType::Unsigned16, RW, 2, 730, 15), // 0x227D:09 Stop function switch-off threshold / Data set 4 RAM
-    Entry::new(0x227E, 0x00, DataType::Unsigned8, RO, 1, 896, NO_LIMITS), // 0x227E:00 Stop function holding time / Highest sub-index supported
-    Entry::new(0x227E, 0x01, DataType::Unsigned16, RW, 2, 732, 16), // 0x227E:01 Stop function holding time / Data set 1
-    Entry::new(0x227E, 0x02, DataType::Unsigned16, RW, 2, 734, 16), // 0x227E:02 Stop function holding time / Data set 2
-    Entry::new(0x227E, 0x03, DataType::Unsigned16, RW, 2, 736, 16), // 0x227E:03 Stop function holding time / Data set 3
-    Entry::new(0x227E, 0x04, DataType::Unsigned16, RW, 2, 738, 16), // 0x227E:04 Stop function holding time / Data set 4
-    Entry::new(0x227E, 0x05, DataType::Unsigned16, RW, 2, 740, 16), // 0x227E:05 Stop function holding time / All data sets RAM
-    Entry::new(0x227E, 0x06, DataType::Unsigned16, RW, 2, 742, 16), // 0x227E:06 Stop function holding time / Data set 1 RAM
-    Entry::new(0x227E, 0x07, DataType::Unsigned16, RW, 2, 744, 16), // 0x227E:07 Stop function holding time / Data set 2 RAM
-    Entry::new(0x227E, 0x08, DataType::Unsigned16, RW, 2, 746, 16), // 0x227E:08 Stop function holding time / Data set 3 RAM
-    Entry::new(0x227E, 0x09, DataType::Unsigned16, RW, 2, 748, 16), // 0x227E:09 Stop function holding time / Data set 4 RAM
-    Entry::new(0x249C, 0x00, DataType::Unsigned16, RW, 2, 750, 17), // 0x249C:00 Systembus sync mode
-    Entry::new(0x250A, 0x00, DataType::Unsigned16, RO, 2, 897, 18), // 0x250A:00 NMT node state
-    Entry::new(0x250B, 0x00, DataType::Unsigned16, RO, 2, 899, 19), // 0x250B:00 CAN controller state
-    Entry::new(0x258C, 0x00, DataType::Unsigned16, RW, 2, 752, 20), // 0x258C:00 CANopen mux input index write
-    Entry::new(0x258D, 0x00, DataType::Unsigned16, RW, 2, 754, 20), // 0x258D:00 CANopen mux input index read
-    Entry::new(0x258E, 0x00, DataType::Unsigned16, RW, 2, 756, NO_LIMITS), // 0x258E:00 CANopen mux inputs
-    Entry::new(0x258F, 0x00, DataType::Unsigned16, RW, 2, 758, NO_LIMITS), // 0x258F:00 CANopen percentage actual value source
-    Entry::new(0x25AB, 0x00, DataType::Unsigned16, RW, 2, 760, 21), // 0x25AB:00 OS sync time
-    Entry::new(0x25AC, 0x00, DataType::Unsigned16, RW, 2, 762, 22), // 0x25AC:00 OS sync source
-    Entry::new(0x25AD, 0x00, DataType::Unsigned16, RO, 2, 901, NO_LIMITS), // 0x25AD:00 OS sync source actual
-    Entry::new(0x3000, 0x00, DataType::Unsigned16, RW, 2, 764, 23), // 0x3000:00 SYNC jitter
-    Entry::new(0x3001, 0x00, DataType::Unsigned16, RO_TPDO, 2, 903, NO_LIMITS), // 0x3001:00 Digital in actual value
-    Entry::new(0x3002, 0x00, DataType::Unsigned16, RO_TPDO, 2, 905, NO_LIMITS), // 0x3002:00 Digital out actual value
-    Entry::new(0x3003, 0x00, DataType::Unsigned8, RW_RPDO, 1, 766, NO_LIMITS), // 0x3003:00 Digital out set values
-    Entry::new(0x3004, 0x00, DataType::Unsigned16, RO_TPDO, 2, 907, NO_LIMITS), // 0x3004:00 Boolean mux
-    Entry::new(0x3005, 0x00, DataType::Unsigned16, RW_RPDO, 2, 767, NO_LIMITS), // 0x3005:00 Boolean demux
-    Entry::new(0x3006, 0x00, DataType::Unsigned16, RW_RPDO, 2, 769, NO_LIMITS), // 0x3006:00 Percentage set value
-    Entry::new(0x3007, 0x00, DataType::Unsigned16, RO_TPDO, 2, 909, NO_LIMITS), // 0x3007:00 Percentage actual value
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 771, 24), // 0x6007:00 Abort connection option code
-    Entry::new(0x603F, 0x00, DataType::Unsigned16, RO, 2, 911, NO_LIMITS), // 0x603F:00 Error code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 773, NO_LIMITS), // 0x6040:00 Controlword
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 913, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6042, 0x00, DataType::Integer16, RW_RPDO, 2, 775, 25), // 0x6042:00 vl target velocity
-    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 915, NO_LIMITS), // 0x6043:00 vl velocity demand
-    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 917, NO_LIMITS), // 0x6044:00 vl control effort
-    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 919, NO_LIMITS), // 0x6046:00 vl velocity min max amount / Highest sub-index supported
-    Entry::new(0x6046, 0x01, DataType::Unsigned32, RW, 4, 777, 26), // 0x6046:01 vl velocity min max amount / vl velocity min amount
-    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW, 4, 781, 26), // 0x6046:02 vl velocity min max amount / vl velocity max amount
-    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 920, NO_LIMITS), // 0x6048:00 vl velocity acceleration / Highest sub-index supported
-    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW, 4, 785, 27), // 0x6048:01 vl velocity acceleration / Delta speed
-    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW, 2, 789, 28), // 0x6048:02 vl velocity acceleration / Delta time
-    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 921, NO_LIMITS), // 0x6049:00 vl velocity deceleration / Highest sub-index supported
-    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW, 4, 791, 27), // 0x6049:01 vl velocity deceleration / Delta speed
-    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW, 2, 795, 28), // 0x6049:02 vl velocity deceleration / Delta time
-    Entry::new(0x604A, 0x00, DataType::Unsigned8, RO, 1, 922, NO_LIMITS), // 0x604A:00 vl velocity quick stop / Highest sub-index supported
-    Entry::new(0x604A, 0x01, DataType::Unsigned32, RW, 4, 797, 27), // 0x604A:01 vl velocity quick stop / Delta speed
-    Entry::new(0x604A, 0x02, DataType::Unsigned16, RW, 2, 801, 28), // 0x604A:02 vl velocity quick stop / Delta time
-    Entry::new(0x6060, 0x00, DataType::Integer8, WO_RPDO, 1, 803, 29), // 0x6060:00 Modes of operation
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 923, NO_LIMITS), // 0x6061:00 Modes of operation display
-    Entry::new(0x6071, 0x00, DataType::Integer16, RW_RPDO, 2, 804, NO_LIMITS), // 0x6071:00 Target torque
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 924, NO_LIMITS), // 0x6077:00 Torque actual value
-    Entry::new(0x6078, 0x00, DataType::Integer16, RO_TPDO, 2, 926, NO_LIMITS), // 0x6078:00 Current actual value
-    Entry::new(0x6079, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928, NO_LIMITS), // 0x6079:00 DC link circuit voltage
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 806), // 0x1001:00 Error register
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 5, 4), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 15, 9), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 24), // 0x100A:00 Manufacturer software version
+    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 12), // 0x100C:00 Guard time
+    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 14), // 0x100D:00 Life time factor
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 807), // 0x1010:00 Store parameters / Highest sub-index supported
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 808), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 812), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 816), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 820), // 0x1011:00 Restore default parameters / Highest sub-index supported
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 821), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 825), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 829), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 15), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 833), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 19), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 23), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
+    Entry::new(0x1016, 0x03, DataType::Unsigned32, RW, 4, 27), // 0x1016:03 Consumer heartbeat time / Consumer heartbeat time 3
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 31), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 834), // 0x1018:00 Identity object / Highest sub-index supported
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 29), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 33), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 37), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 835), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 839), // 0x1029:00 Error behavior / Highest sub-index supported
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 33), // 0x1029:01 Error behavior / Communication error
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 840), // 0x1200:00 SDO server parameter / Highest sub-index supported
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 841), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 845), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 849), // 0x1400:00 RPDO1 communication parameter / Highest sub-index supported
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 34), // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 38), // 0x1400:02 RPDO1 communication parameter / Transmission type
+    Entry::new(0x1400, 0x03, DataType::Unsigned16, RW, 2, 39), // 0x1400:03 RPDO1 communication parameter / Inhibit time
+    Entry::new(0x1400, 0x05, DataType::Unsigned16, RW, 2, 41), // 0x1400:05 RPDO1 communication parameter / Event timer
+    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 850), // 0x1401:00 RPDO2 communication parameter / Highest sub-index supported
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 43), // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 47), // 0x1401:02 RPDO2 communication parameter / Transmission type
+    Entry::new(0x1401, 0x03, DataType::Unsigned16, RW, 2, 48), // 0x1401:03 RPDO2 communication parameter / Inhibit time
+    Entry::new(0x1401, 0x05, DataType::Unsigned16, RW, 2, 50), // 0x1401:05 RPDO2 communication parameter / Event timer
+    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 851), // 0x1402:00 RPDO3 communication parameter / Highest sub-index supported
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 52), // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 56), // 0x1402:02 RPDO3 communication parameter / Transmission type
+    Entry::new(0x1402, 0x03, DataType::Unsigned16, RW, 2, 57), // 0x1402:03 RPDO3 communication parameter / Inhibit time
+    Entry::new(0x1402, 0x05, DataType::Unsigned16, RW, 2, 59), // 0x1402:05 RPDO3 communication parameter / Event timer
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 61), // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 62), // 0x1600:01 RPDO1 mapping parameter / Mapped object 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 66), // 0x1600:02 RPDO1 mapping parameter / Mapped object 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 70), // 0x1600:03 RPDO1 mapping parameter / Mapped object 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 74), // 0x1600:04 RPDO1 mapping parameter / Mapped object 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 78), // 0x1600:05 RPDO1 mapping parameter / Mapped object 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 82), // 0x1600:06 RPDO1 mapping parameter / Mapped object 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 86), // 0x1600:07 RPDO1 mapping parameter / Mapped object 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 90), // 0x1600:08 RPDO1 mapping parameter / Mapped object 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 94), // 0x1601:00 RPDO2 mapping parameter / Number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 95), // 0x1601:01 RPDO2 mapping parameter / Mapped object 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 99), // 0x1601:02 RPDO2 mapping parameter / Mapped object 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 103), // 0x1601:03 RPDO2 mapping parameter / Mapped object 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 107), // 0x1601:04 RPDO2 mapping parameter / Mapped object 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 111), // 0x1601:05 RPDO2 mapping parameter / Mapped object 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 115), // 0x1601:06 RPDO2 mapping parameter / Mapped object 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 119), // 0x1601:07 RPDO2 mapping parameter / Mapped object 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 123), // 0x1601:08 RPDO2 mapping parameter / Mapped object 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 127), // 0x1602:00 RPDO3 mapping parameter / Number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 128), // 0x1602:01 RPDO3 mapping parameter / Mapped object 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 132), // 0x1602:02 RPDO3 mapping parameter / Mapped object 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 136), // 0x1602:03 RPDO3 mapping parameter / Mapped object 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 140), // 0x1602:04 RPDO3 mapping parameter / Mapped object 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 144), // 0x1602:05 RPDO3 mapping parameter / Mapped object 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 148), // 0x1602:06 RPDO3 mapping parameter / Mapped object 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 152), // 0x1602:07 RPDO3 mapping parameter / Mapped object 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 156), // 0x1602:08 RPDO3 mapping parameter / Mapped object 8
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 852), // 0x1800:00 TPDO1 communication parameter / Highest sub-index supported
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 160), // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 164), // 0x1800:02 TPDO1 communication parameter / Transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 165), // 0x1800:03 TPDO1 communication parameter / Inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 167), // 0x1800:05 TPDO1 communication parameter / Event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 853), // 0x1801:00 TPDO2 communication parameter / Highest sub-index supported
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 169), // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 173), // 0x1801:02 TPDO2 communication parameter / Transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 174), // 0x1801:03 TPDO2 communication parameter / Inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 176), // 0x1801:05 TPDO2 communication parameter / Event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 854), // 0x1802:00 TPDO3 communication parameter / Highest sub-index supported
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 178), // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 182), // 0x1802:02 TPDO3 communication parameter / Transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 183), // 0x1802:03 TPDO3 communication parameter / Inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 185), // 0x1802:05 TPDO3 communication parameter / Event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 187), // 0x1A00:00 TPDO1 mapping parameter / Number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 188), // 0x1A00:01 TPDO1 mapping parameter / Mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 192), // 0x1A00:02 TPDO1 mapping parameter / Mapped object 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 196), // 0x1A00:03 TPDO1 mapping parameter / Mapped object 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 200), // 0x1A00:04 TPDO1 mapping parameter / Mapped object 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 204), // 0x1A00:05 TPDO1 mapping parameter / Mapped object 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 208), // 0x1A00:06 TPDO1 mapping parameter / Mapped object 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 212), // 0x1A00:07 TPDO1 mapping parameter / Mapped object 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 216), // 0x1A00:08 TPDO1 mapping parameter / Mapped object 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 220), // 0x1A01:00 TPDO2 mapping parameter / Number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 221), // 0x1A01:01 TPDO2 mapping parameter / Mapped object 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 225), // 0x1A01:02 TPDO2 mapping parameter / Mapped object 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 229), // 0x1A01:03 TPDO2 mapping parameter / Mapped object 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 233), // 0x1A01:04 TPDO2 mapping parameter / Mapped object 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 237), // 0x1A01:05 TPDO2 mapping parameter / Mapped object 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 241), // 0x1A01:06 TPDO2 mapping parameter / Mapped object 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 245), // 0x1A01:07 TPDO2 mapping parameter / Mapped object 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 249), // 0x1A01:08 TPDO2 mapping parameter / Mapped object 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 253), // 0x1A02:00 TPDO3 mapping parameter / Number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 254), // 0x1A02:01 TPDO3 mapping parameter / Mapped object 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 258), // 0x1A02:02 TPDO3 mapping parameter / Mapped object 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 262), // 0x1A02:03 TPDO3 mapping parameter / Mapped object 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 266), // 0x1A02:04 TPDO3 mapping parameter / Mapped object 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 270), // 0x1A02:05 TPDO3 mapping parameter / Mapped object 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 274), // 0x1A02:06 TPDO3 mapping parameter / Mapped object 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 278), // 0x1A02:07 TPDO3 mapping parameter / Mapped object 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 282), // 0x1A02:08 TPDO3 mapping parameter / Mapped object 8
+    Entry::new(0x20E4, 0x00, DataType::Integer32, RO, 4, 855), // 0x20E4:00 Internal reference frequency
+    Entry::new(0x20F9, 0x00, DataType::Unsigned16, RO, 2, 859), // 0x20F9:00 Active data set
+    Entry::new(0x20FA, 0x00, DataType::Unsigned16, RO, 2, 861), // 0x20FA:00 Digital inputs
+    Entry::new(0x20FE, 0x00, DataType::Unsigned16, RO, 2, 863), // 0x20FE:00 Digital outputs
+    Entry::new(0x2104, 0x00, DataType::Unsigned16, RO, 2, 865), // 0x2104:00 Current error
+    Entry::new(0x210E, 0x00, DataType::Unsigned16, RO, 2, 867), // 0x210E:00 Warnings
+    Entry::new(0x2112, 0x00, DataType::Unsigned16, RO, 2, 869), // 0x2112:00 Application warnings
+    Entry::new(0x2114, 0x00, DataType::Unsigned16, RW, 2, 286), // 0x2114:00 CAN interface
+    Entry::new(0x211A, 0x00, DataType::Integer32, RO, 4, 871), // 0x211A:00 Bus reference frequency
+    Entry::new(0x211B, 0x00, DataType::Integer32, RO, 4, 875), // 0x211B:00 Ramp reference frequency
+    Entry::new(0x2174, 0x00, DataType::Unsigned8, RO, 1, 879), // 0x2174:00 Rated speed / Highest sub-index supported
+    Entry::new(0x2174, 0x01, DataType::Unsigned16, RW, 2, 288), // 0x2174:01 Rated speed / Data set 1
+    Entry::new(0x2174, 0x02, DataType::Unsigned16, RW, 2, 290), // 0x2174:02 Rated speed / Data set 2
+    Entry::new(0x2174, 0x03, DataType::Unsigned16, RW, 2, 292), // 0x2174:03 Rated speed / Data set 3
+    Entry::new(0x2174, 0x04, DataType::Unsigned16, RW, 2, 294), // 0x2174:04 Rated speed / Data set 4
+    Entry::new(0x2174, 0x05, DataType::Unsigned16, RW, 2, 296), // 0x2174:05 Rated speed / All data sets RAM
+    Entry::new(0x2174, 0x06, DataType::Unsigned16, RW, 2, 298), // 0x2174:06 Rated speed / Data set 1 RAM
+    Entry::new(0x2174, 0x07, DataType::Unsigned16, RW, 2, 300), // 0x2174:07 Rated speed / Data set 2 RAM
+    Entry::new(0x2174, 0x08, DataType::Unsigned16, RW, 2, 302), // 0x2174:08 Rated speed / Data set 3 RAM
+    Entry::new(0x2174, 0x09, DataType::Unsigned16, RW, 2, 304), // 0x2174:09 Rated speed / Data set 4 RAM
+    Entry::new(0x2175, 0x00, DataType::Unsigned8, RO, 1, 880), // 0x2175:00 Number of pole pairs / Highest sub-index supported
+    Entry::new(0x2175, 0x01, DataType::Unsigned16, RW, 2, 306), // 0x2175:01 Number of pole pairs / Data set 1
+    Entry::new(0x2175, 0x02, DataType::Unsigned16, RW, 2, 308), // 0x2175:02 Number of pole pairs / Data set 2
+    Entry::new(0x2175, 0x03, DataType::Unsigned16, RW, 2, 310), // 0x2175:03 Number of pole pairs / Data set 3
+    Entry::new(0x2175, 0x04, DataType::Unsigned16, RW, 2, 312), // 0x2175:04 Number of pole pairs / Data set 4
+    Entry::new(0x2175, 0x05, DataType::Unsigned16, RW, 2, 314), // 0x2175:05 Number of pole pairs / All data sets RAM
+    Entry::new(0x2175, 0x06, DataType::Unsigned16, RW, 2, 316), // 0x2175:06 Number of pole pairs / Data set 1 RAM
+    Entry::new(0x2175, 0x07, DataType::Unsigned16, RW, 2, 318), // 0x2175:07 Number of pole pairs / Data set 2 RAM
+    Entry::new(0x2175, 0x08, DataType::Unsigned16, RW, 2, 320), // 0x2175:08 Number of pole pairs / Data set 3 RAM
+    Entry::new(0x2175, 0x09, DataType::Unsigned16, RW, 2, 322), // 0x2175:09 Number of pole pairs / Data set 4 RAM
+    Entry::new(0x2181, 0x00, DataType::Unsigned16, RW, 2, 324), // 0x2181:00 CAN baud rate
+    Entry::new(0x2183, 0x00, DataType::Integer16, RW, 2, 326), // 0x2183:00 CAN node number
+    Entry::new(0x2184, 0x00, DataType::Unsigned16, RW, 2, 328), // 0x2184:00 CAN fault behaviour
+    Entry::new(0x2188, 0x00, DataType::Unsigned8, RO, 1, 881), // 0x2188:00 State machine transition 5 / Highest sub-index supported
+    Entry::new(0x2188, 0x01, DataType::Unsigned16, RW, 2, 330), // 0x2188:01 State machine transition 5 / Data set 1
+    Entry::new(0x2188, 0x02, DataType::Unsigned16, RW, 2, 332), // 0x2188:02 State machine transition 5 / Data set 2
+    Entry::new(0x2188, 0x03, DataType::Unsigned16, RW, 2, 334), // 0x2188:03 State machine transition 5 / Data set 3
+    Entry::new(0x2188, 0x04, DataType::Unsigned16, RW, 2, 336), // 0x2188:04 State machine transition 5 / Data set 4
+    Entry::new(0x2188, 0x05, DataType::Unsigned16, RW, 2, 338), // 0x2188:05 State machine transition 5 / All data sets RAM
+    Entry::new(0x2188, 0x06, DataType::Unsigned16, RW, 2, 340), // 0x2188:06 State machine transition 5 / Data set 1 RAM
+    Entry::new(0x2188, 0x07, DataType::Unsigned16, RW, 2, 342), // 0x2188:07 State machine transition 5 / Data set 2 RAM
+    Entry::new(0x2188, 0x08, DataType::Unsigned16, RW, 2, 344), // 0x2188:08 State machine transition 5 / Data set 3 RAM
+    Entry::new(0x2188, 0x09, DataType::Unsigned16, RW, 2, 346), // 0x2188:09 State machine transition 5 / Data set 4 RAM
+    Entry::new(0x2197, 0x00, DataType::Integer16, RW, 2, 348), // 0x2197:00 Heat sink warning limit
+    Entry::new(0x219A, 0x00, DataType::Unsigned16, RW, 2, 350), // 0x219A:00 Control word parameter
+    Entry::new(0x219B, 0x00, DataType::Unsigned16, RO, 2, 882), // 0x219B:00 Status word parameter
+    Entry::new(0x219C, 0x00, DataType::Unsigned8, RO, 1, 884), // 0x219C:00 Local remote / Highest sub-index supported
+    Entry::new(0x219C, 0x01, DataType::Unsigned16, RW, 2, 352), // 0x219C:01 Local remote / Data set 1
+    Entry::new(0x219C, 0x02, DataType::Unsigned16, RW, 2, 354), // 0x219C:02 Local remote / Data set 2
+    Entry::new(0x219C, 0x03, DataType::Unsigned16, RW, 2, 356), // 0x219C:03 Local remote / Data set 3
+    Entry::new(0x219C, 0x04, DataType::Unsigned16, RW, 2, 358), // 0x219C:04 Local remote / Data set 4
+    Entry::new(0x219C, 0x05, DataType::Unsigned16, RW, 2, 360), // 0x219C:05 Local remote / All data sets RAM
+    Entry::new(0x219C, 0x06, DataType::Unsigned16, RW, 2, 362), // 0x219C:06 Local remote / Data set 1 RAM
+    Entry::new(0x219C, 0x07, DataType::Unsigned16, RW, 2, 364), // 0x219C:07 Local remote / Data set 2 RAM
+    Entry::new(0x219C, 0x08, DataType::Unsigned16, RW, 2, 366), // 0x219C:08 Local remote / Data set 3 RAM
+    Entry::new(0x219C, 0x09, DataType::Unsigned16, RW, 2, 368), // 0x219C:09 Local remote / Data set 4 RAM
+    Entry::new(0x219E, 0x00, DataType::Unsigned16, RW, 2, 370), // 0x219E:00 Data set selection
+    Entry::new(0x21A2, 0x00, DataType::Unsigned8, RO, 1, 885), // 0x21A2:00 Minimum frequency / Highest sub-index supported
+    Entry::new(0x21A2, 0x01, DataType::Integer32, RW, 4, 372), // 0x21A2:01 Minimum frequency / Data set 1
+    Entry::new(0x21A2, 0x02, DataType::Integer32, RW, 4, 376), // 0x21A2:02 Minimum frequency / Data set 2
+    Entry::new(0x21A2, 0x03, DataType::Integer32, RW, 4, 380), // 0x21A2:03 Minimum frequency / Data set 3
+    Entry::new(0x21A2, 0x04, DataType::Integer32, RW, 4, 384), // 0x21A2:04 Minimum frequency / Data set 4
+    Entry::new(0x21A2, 0x05, DataType::Integer32, RW, 4, 388), // 0x21A2:05 Minimum frequency / All data sets RAM
+    Entry::new(0x21A2, 0x06, DataType::Integer32, RW, 4, 392), // 0x21A2:06 Minimum frequency / Data set 1 RAM
+    Entry::new(0x21A2, 0x07, DataType::Integer32, RW, 4, 396), // 0x21A2:07 Minimum frequency / Data set 2 RAM
+    Entry::new(0x21A2, 0x08, DataType::Integer32, RW, 4, 400), // 0x21A2:08 Minimum frequency / Data set 3 RAM
+    Entry::new(0x21A2, 0x09, DataType::Integer32, RW, 4, 404), // 0x21A2:09 Minimum frequency / Data set 4 RAM
+    Entry::new(0x21A3, 0x00, DataType::Unsigned8, RO, 1, 886), // 0x21A3:00 Maximum frequency / Highest sub-index supported
+    Entry::new(0x21A3, 0x01, DataType::Integer32, RW, 4, 408), // 0x21A3:01 Maximum frequency / Data set 1
+    Entry::new(0x21A3, 0x02, DataType::Integer32, RW, 4, 412), // 0x21A3:02 Maximum frequency / Data set 2
+    Entry::new(0x21A3, 0x03, DataType::Integer32, RW, 4, 416), // 0x21A3:03 Maximum frequency / Data set 3
+    Entry::new(0x21A3, 0x04, DataType::Integer32, RW, 4, 420), // 0x21A3:04 Maximum frequency / Data set 4
+    Entry::new(0x21A3, 0x05, DataType::Integer32, RW, 4, 424), // 0x21A3:05 Maximum frequency / All data sets RAM
+    Entry::new(0x21A3, 0x06, DataType::Integer32, RW, 4, 428), // 0x21A3:06 Maximum frequency / Data set 1 RAM
+    Entry::new(0x21A3, 0x07, DataType::Integer32, RW, 4, 432), // 0x21A3:07 Maximum frequency / Data set 2 RAM
+    Entry::new(0x21A3, 0x08, DataType::Integer32, RW, 4, 436), // 0x21A3:08 Maximum frequency / Data set 3 RAM
+    Entry::new(0x21A3, 0x09, DataType::Integer32, RW, 4, 440), // 0x21A3:09 Maximum frequency / Data set 4 RAM
+    Entry::new(0x21A4, 0x00, DataType::Unsigned8, RO, 1, 887), // 0x21A4:00 Acceleration clockwise / Highest sub-index supported
+    Entry::new(0x21A4, 0x01, DataType::Integer32, RW, 4, 444), // 0x21A4:01 Acceleration clockwise / Data set 1
+    Entry::new(0x21A4, 0x02, DataType::Integer32, RW, 4, 448), // 0x21A4:02 Acceleration clockwise / Data set 2
+    Entry::new(0x21A4, 0x03, DataType::Integer32, RW, 4, 452), // 0x21A4:03 Acceleration clockwise / Data set 3
+    Entry::new(0x21A4, 0x04, DataType::Integer32, RW, 4, 456), // 0x21A4:04 Acceleration clockwise / Data set 4
+    Entry::new(0x21A4, 0x05, DataType::Integer32, RW, 4, 460), // 0x21A4:05 Acceleration clockwise / All data sets RAM
+    Entry::new(0x21A4, 0x06, DataType::Integer32, RW, 4, 464), // 0x21A4:06 Acceleration clockwise / Data set 1 RAM
+    Entry::new(0x21A4, 0x07, DataType::Integer32, RW, 4, 468), // 0x21A4:07 Acceleration clockwise / Data set 2 RAM
+    Entry::new(0x21A4, 0x08, DataType::Integer32, RW, 4, 472), // 0x21A4:08 Acceleration clockwise / Data set 3 RAM
+    Entry::new(0x21A4, 0x09, DataType::Integer32, RW, 4, 476), // 0x21A4:09 Acceleration clockwise / Data set 4 RAM
+    Entry::new(0x21A5, 0x00, DataType::Unsigned8, RO, 1, 888), // 0x21A5:00 Deceleration clockwise / Highest sub-index supported
+    Entry::new(0x21A5, 0x01, DataType::Integer32, RW, 4, 480), // 0x21A5:01 Deceleration clockwise / Data set 1
+    Entry::new(0x21A5, 0x02, DataType::Integer32, RW, 4, 484), // 0x21A5:02 Deceleration clockwise / Data set 2
+    Entry::new(0x21A5, 0x03, DataType::Integer32, RW, 4, 488), // 0x21A5:03 Deceleration clockwise / Data set 3
+    Entry::new(0x21A5, 0x04, DataType::Integer32, RW, 4, 492), // 0x21A5:04 Deceleration clockwise / Data set 4
+    Entry::new(0x21A5, 0x05, DataType::Integer32, RW, 4, 496), // 0x21A5:05 Deceleration clockwise / All data sets RAM
+    Entry::new(0x21A5, 0x06, DataType::Integer32, RW, 4, 500), // 0x21A5:06 Deceleration clockwise / Data set 1 RAM
+    Entry::new(0x21A5, 0x07, DataType::Integer32, RW, 4, 504), // 0x21A5:07 Deceleration clockwise / Data set 2 RAM
+    Entry::new(0x21A5, 0x08, DataType::Integer32, RW, 4, 508), // 0x21A5:08 Deceleration clockwise / Data set 3 RAM
+    Entry::new(0x21A5, 0x09, DataType::Integer32, RW, 4, 512), // 0x21A5:09 Deceleration clockwise / Data set 4 RAM
+    Entry::new(0x21A6, 0x00, DataType::Unsigned8, RO, 1, 889), // 0x21A6:00 Acceleration anticlockwise / Highest sub-index supported
+    Entry::new(0x21A6, 0x01, DataType::Integer32, RW, 4, 516), // 0x21A6:01 Acceleration anticlockwise / Data set 1
+    Entry::new(0x21A6, 0x02, DataType::Integer32, RW, 4, 520), // 0x21A6:02 Acceleration anticlockwise / Data set 2
+    Entry::new(0x21A6, 0x03, DataType::Integer32, RW, 4, 524), // 0x21A6:03 Acceleration anticlockwise / Data set 3
+    Entry::new(0x21A6, 0x04, DataType::Integer32, RW, 4, 528), // 0x21A6:04 Acceleration anticlockwise / Data set 4
+    Entry::new(0x21A6, 0x05, DataType::Integer32, RW, 4, 532), // 0x21A6:05 Acceleration anticlockwise / All data sets RAM
+    Entry::new(0x21A6, 0x06, DataType::Integer32, RW, 4, 536), // 0x21A6:06 Acceleration anticlockwise / Data set 1 RAM
+    Entry::new(0x21A6, 0x07, DataType::Integer32, RW, 4, 540), // 0x21A6:07 Acceleration anticlockwise / Data set 2 RAM
+    Entry::new(0x21A6, 0x08, DataType::Integer32, RW, 4, 544), // 0x21A6:08 Acceleration anticlockwise / Data set 3 RAM
+    Entry::new(0x21A6, 0x09, DataType::Integer32, RW, 4, 548), // 0x21A6:09 Acceleration anticlockwise / Data set 4 RAM
+    Entry::new(0x21A7, 0x00, DataType::Unsigned8, RO, 1, 890), // 0x21A7:00 Deceleration anticlockwise / Highest sub-index supported
+    Entry::new(0x21A7, 0x01, DataType::Integer32, RW, 4, 552), // 0x21A7:01 Deceleration anticlockwise / Data set 1
+    Entry::new(0x21A7, 0x02, DataType::Integer32, RW, 4, 556), // 0x21A7:02 Deceleration anticlockwise / Data set 2
+    Entry::new(0x21A7, 0x03, DataType::Integer32, RW, 4, 560), // 0x21A7:03 Deceleration anticlockwise / Data set 3
+    Entry::new(0x21A7, 0x04, DataType::Integer32, RW, 4, 564), // 0x21A7:04 Deceleration anticlockwise / Data set 4
+    Entry::new(0x21A7, 0x05, DataType::Integer32, RW, 4, 568), // 0x21A7:05 Deceleration anticlockwise / All data sets RAM
+    Entry::new(0x21A7, 0x06, DataType::Integer32, RW, 4, 572), // 0x21A7:06 Deceleration anticlockwise / Data set 1 RAM
+    Entry::new(0x21A7, 0x07, DataType::Integer32, RW, 4, 576), // 0x21A7:07 Deceleration anticlockwise / Data set 2 RAM
+    Entry::new(0x21A7, 0x08, DataType::Integer32, RW, 4, 580), // 0x21A7:08 Deceleration anticlockwise / Data set 3 RAM
+    Entry::new(0x21A7, 0x09, DataType::Integer32, RW, 4, 584), // 0x21A7:09 Deceleration anticlockwise / Data set 4 RAM
+    Entry::new(0x21A8, 0x00, DataType::Unsigned8, RO, 1, 891), // 0x21A8:00 Emergency stop clockwise / Highest sub-index supported
+    Entry::new(0x21A8, 0x01, DataType::Integer32, RW, 4, 588), // 0x21A8:01 Emergency stop clockwise / Data set 1
+    Entry::new(0x21A8, 0x02, DataType::Integer32, RW, 4, 592), // 0x21A8:02 Emergency stop clockwise / Data set 2
+    Entry::new(0x21A8, 0x03, DataType::Integer32, RW, 4, 596), // 0x21A8:03 Emergency stop clockwise / Data set 3
+    Entry::new(0x21A8, 0x04, DataType::Integer32, RW, 4, 600), // 0x21A8:04 Emergency stop clockwise / Data set 4
+    Entry::new(0x21A8, 0x05, DataType::Integer32, RW, 4, 604), // 0x21A8:05 Emergency stop clockwise / All data sets RAM
+    Entry::new(0x21A8, 0x06, DataType::Integer32, RW, 4, 608), // 0x21A8:06 Emergency stop clockwise / Data set 1 RAM
+    Entry::new(0x21A8, 0x07, DataType::Integer32, RW, 4, 612), // 0x21A8:07 Emergency stop clockwise / Data set 2 RAM
+    Entry::new(0x21A8, 0x08, DataType::Integer32, RW, 4, 616), // 0x21A8:08 Emergency stop clockwise / Data set 3 RAM
+    Entry::new(0x21A8, 0x09, DataType::Integer32, RW, 4, 620), // 0x21A8:09 Emergency stop clockwise / Data set 4 RAM
+    Entry::new(0x21A9, 0x00, DataType::Unsigned8, RO, 1, 892), // 0x21A9:00 Emergency stop anticlockwise / Highest sub-index supported
+    Entry::new(0x21A9, 0x01, DataType::Integer32, RW, 4, 624), // 0x21A9:01 Emergency stop anticlockwise / Data set 1
+    Entry::new(0x21A9, 0x02, DataType::Integer32, RW, 4, 628), // 0x21A9:02 Emergency stop anticlockwise / Data set 2
+    Entry::new(0x21A9, 0x03, DataType::Integer32, RW, 4, 632), // 0x21A9:03 Emergency stop anticlockwise / Data set 3
+    Entry::new(0x21A9, 0x04, DataType::Integer32, RW, 4, 636), // 0x21A9:04 Emergency stop anticlockwise / Data set 4
+    Entry::new(0x21A9, 0x05, DataType::Integer32, RW, 4, 640), // 0x21A9:05 Emergency stop anticlockwise / All data sets RAM
+    Entry::new(0x21A9, 0x06, DataType::Integer32, RW, 4, 644), // 0x21A9:06 Emergency stop anticlockwise / Data set 1 RAM
+    Entry::new(0x21A9, 0x07, DataType::Integer32, RW, 4, 648), // 0x21A9:07 Emergency stop anticlockwise / Data set 2 RAM
+    Entry::new(0x21A9, 0x08, DataType::Integer32, RW, 4, 652), // 0x21A9:08 Emergency stop anticlockwise / Data set 3 RAM
+    Entry::new(0x21A9, 0x09, DataType::Integer32, RW, 4, 656), // 0x21A9:09 Emergency stop anticlockwise / Data set 4 RAM
+    Entry::new(0x21E0, 0x00, DataType::Unsigned8, RO, 1, 893), // 0x21E0:00 Fixed frequency 1 / Highest sub-index supported
+    Entry::new(0x21E0, 0x01, DataType::Integer32, RW, 4, 660), // 0x21E0:01 Fixed frequency 1 / Data set 1
+    Entry::new(0x21E0, 0x02, DataType::Integer32, RW, 4, 664), // 0x21E0:02 Fixed frequency 1 / Data set 2
+    Entry::new(0x21E0, 0x03, DataType::Integer32, RW, 4, 668), // 0x21E0:03 Fixed frequency 1 / Data set 3
+    Entry::new(0x21E0, 0x04, DataType::Integer32, RW, 4, 672), // 0x21E0:04 Fixed frequency 1 / Data set 4
+    Entry::new(0x21E0, 0x05, DataType::Integer32, RW, 4, 676), // 0x21E0:05 Fixed frequency 1 / All data sets RAM
+    Entry::new(0x21E0, 0x06, DataType::Integer32, RW, 4, 680), // 0x21E0:06 Fixed frequency 1 / Data set 1 RAM
+    Entry::new(0x21E0, 0x07, DataType::Integer32, RW, 4, 684), // 0x21E0:07 Fixed frequency 1 / Data set 2 RAM
+    Entry::new(0x21E0, 0x08, DataType::Integer32, RW, 4, 688), // 0x21E0:08 Fixed frequency 1 / Data set 3 RAM
+    Entry::new(0x21E0, 0x09, DataType::Integer32, RW, 4, 692), // 0x21E0:09 Fixed frequency 1 / Data set 4 RAM
+    Entry::new(0x2225, 0x00, DataType::Unsigned8, RO, 1, 894), // 0x2225:00 Max control deviation / Highest sub-index supported
+    Entry::new(0x2225, 0x01, DataType::Unsigned16, RW, 2, 696), // 0x2225:01 Max control deviation / Data set 1
+    Entry::new(0x2225, 0x02, DataType::Unsigned16, RW, 2, 698), // 0x2225:02 Max control deviation / Data set 2
+    Entry::new(0x2225, 0x03, DataType::Unsigned16, RW, 2, 700), // 0x2225:03 Max control deviation / Data set 3
+    Entry::new(0x2225, 0x04, DataType::Unsigned16, RW, 2, 702), // 0x2225:04 Max control deviation / Data set 4
+    Entry::new(0x2225, 0x05, DataType::Unsigned16, RW, 2, 704), // 0x2225:05 Max control deviation / All data sets RAM
+    Entry::new(0x2225, 0x06, DataType::Unsigned16, RW, 2, 706), // 0x2225:06 Max control deviation / Data set 1 RAM
+    Entry::new(0x2225, 0x07, DataType::Unsigned16, RW, 2, 708), // 0x2225:07 Max control deviation / Data set 2 RAM
+    Entry::new(0x2225, 0x08, DataType::Unsigned16, RW, 2, 710), // 0x2225:08 Max control deviation / Data set 3 RAM
+    Entry::new(0x2225, 0x09, DataType::Unsigned16, RW, 2, 712), // 0x2225:09 Max control deviation / Data set 4 RAM
+    Entry::new(0x227D, 0x00, DataType::Unsigned8, RO, 1, 895), // 0x227D:00 Stop function switch-off threshold / Highest sub-index supported
+    Entry::new(0x227D, 0x01, DataType::Unsigned16, RW, 2, 714), // 0x227D:01 Stop function switch-off threshold / Data set 1
+    Entry::new(0x227D, 0x02, DataType::Unsigned16, RW, 2, 716), // 0x227D:02 Stop function switch-off threshold / Data set 2
+    Entry::new(0x227D, 0x03, DataType::Unsigned16, RW, 2, 718), // 0x227D:03 Stop function switch-off threshold / Data set 3
+    Entry::new(0x227D, 0x04, DataType::Unsigned16, RW, 2, 720), // 0x227D:04 Stop function switch-off threshold / Data set 4
+    Entry::new(0x227D, 0x05, DataType::Unsigned16, RW, 2, 722), // 0x227D:05 Stop function switch-off threshold / All data sets RAM
+    Entry::new(0x227D, 0x06, DataType::Unsigned16, RW, 2, 724), // 0x227D:06 Stop function switch-off threshold / Data set 1 RAM
+    Entry::new(0x227D, 0x07, DataType::Unsigned16, RW, 2, 726), // 0x227D:07 Stop function switch-off threshold / Data set 2 RAM
+    Entry::new(0x227D, 0x08, DataType::Unsigned16, RW, 2, 728), // 0x227D:08 Stop function switch-off threshold / Data set 3 RAM
+    Entry::new(0x227D, 0x09, DataType::Unsigned16, RW, 2, 730), // 0x227D:09 Stop function switch-off threshold / Data set 4 RAM
+    Entry::new(0x227E, 0x00, DataType::Unsigned8, RO, 1, 896), // 0x227E:00 Stop function holding time / Highest sub-index supported
+    Entry::new(0x227E, 0x01, DataType::Unsigned16, RW, 2, 732), // 0x227E:01 Stop function holding time / Data set 1
+    Entry::new(0x227E, 0x02, DataType::Unsigned16, RW, 2, 734), // 0x227E:02 Stop function holding time / Data set 2
+    Entry::new(0x227E, 0x03, DataType::Unsigned16, RW, 2, 736), // 0x227E:03 Stop function holding time / Data set 3
+    Entry::new(0x227E, 0x04, DataType::Unsigned16, RW, 2, 738), // 0x227E:04 Stop function holding time / Data set 4
+    Entry::new(0x227E, 0x05, DataType::Unsigned16, RW, 2, 740), // 0x227E:05 Stop function holding time / All data sets RAM
+    Entry::new(0x227E, 0x06, DataType::Unsigned16, RW, 2, 742), // 0x227E:06 Stop function holding time / Data set 1 RAM
+    Entry::new(0x227E, 0x07, DataType::Unsigned16, RW, 2, 744), // 0x227E:07 Stop function holding time / Data set 2 RAM
+    Entry::new(0x227E, 0x08, DataType::Unsigned16, RW, 2, 746), // 0x227E:08 Stop function holding time / Data set 3 RAM
+    Entry::new(0x227E, 0x09, DataType::Unsigned16, RW, 2, 748), // 0x227E:09 Stop function holding time / Data set 4 RAM
+    Entry::new(0x249C, 0x00, DataType::Unsigned16, RW, 2, 750), // 0x249C:00 Systembus sync mode
+    Entry::new(0x250A, 0x00, DataType::Unsigned16, RO, 2, 897), // 0x250A:00 NMT node state
+    Entry::new(0x250B, 0x00, DataType::Unsigned16, RO, 2, 899), // 0x250B:00 CAN controller state
+    Entry::new(0x258C, 0x00, DataType::Unsigned16, RW, 2, 752), // 0x258C:00 CANopen mux input index write
+    Entry::new(0x258D, 0x00, DataType::Unsigned16, RW, 2, 754), // 0x258D:00 CANopen mux input index read
+    Entry::new(0x258E, 0x00, DataType::Unsigned16, RW, 2, 756), // 0x258E:00 CANopen mux inputs
+    Entry::new(0x258F, 0x00, DataType::Unsigned16, RW, 2, 758), // 0x258F:00 CANopen percentage actual value source
+    Entry::new(0x25AB, 0x00, DataType::Unsigned16, RW, 2, 760), // 0x25AB:00 OS sync time
+    Entry::new(0x25AC, 0x00, DataType::Unsigned16, RW, 2, 762), // 0x25AC:00 OS sync source
+    Entry::new(0x25AD, 0x00, DataType::Unsigned16, RO, 2, 901), // 0x25AD:00 OS sync source actual
+    Entry::new(0x3000, 0x00, DataType::Unsigned16, RW, 2, 764), // 0x3000:00 SYNC jitter
+    Entry::new(0x3001, 0x00, DataType::Unsigned16, RO_TPDO, 2, 903), // 0x3001:00 Digital in actual value
+    Entry::new(0x3002, 0x00, DataType::Unsigned16, RO_TPDO, 2, 905), // 0x3002:00 Digital out actual value
+    Entry::new(0x3003, 0x00, DataType::Unsigned8, RW_RPDO, 1, 766), // 0x3003:00 Digital out set values
+    Entry::new(0x3004, 0x00, DataType::Unsigned16, RO_TPDO, 2, 907), // 0x3004:00 Boolean mux
+    Entry::new(0x3005, 0x00, DataType::Unsigned16, RW_RPDO, 2, 767), // 0x3005:00 Boolean demux
+    Entry::new(0x3006, 0x00, DataType::Unsigned16, RW_RPDO, 2, 769), // 0x3006:00 Percentage set value
+    Entry::new(0x3007, 0x00, DataType::Unsigned16, RO_TPDO, 2, 909), // 0x3007:00 Percentage actual value
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 771), // 0x6007:00 Abort connection option code
+    Entry::new(0x603F, 0x00, DataType::Unsigned16, RO, 2, 911), // 0x603F:00 Error code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 773), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 913), // 0x6041:00 Statusword
+    Entry::new(0x6042, 0x00, DataType::Integer16, RW_RPDO, 2, 775), // 0x6042:00 vl target velocity
+    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 915), // 0x6043:00 vl velocity demand
+    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 917), // 0x6044:00 vl control effort
+    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 919), // 0x6046:00 vl velocity min max amount / Highest sub-index supported
+    Entry::new(0x6046, 0x01, DataType::Unsigned32, RW, 4, 777), // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW, 4, 781), // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 920), // 0x6048:00 vl velocity acceleration / Highest sub-index supported
+    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW, 4, 785), // 0x6048:01 vl velocity acceleration / Delta speed
+    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW, 2, 789), // 0x6048:02 vl velocity acceleration / Delta time
+    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 921), // 0x6049:00 vl velocity deceleration / Highest sub-index supported
+    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW, 4, 791), // 0x6049:01 vl velocity deceleration / Delta speed
+    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW, 2, 795), // 0x6049:02 vl velocity deceleration / Delta time
+    Entry::new(0x604A, 0x00, DataType::Unsigned8, RO, 1, 922), // 0x604A:00 vl velocity quick stop / Highest sub-index supported
+    Entry::new(0x604A, 0x01, DataType::Unsigned32, RW, 4, 797), // 0x604A:01 vl velocity quick stop / Delta speed
+    Entry::new(0x604A, 0x02, DataType::Unsigned16, RW, 2, 801), // 0x604A:02 vl velocity quick stop / Delta time
+    Entry::new(0x6060, 0x00, DataType::Integer8, WO_RPDO, 1, 803), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 923), // 0x6061:00 Modes of operation display
+    Entry::new(0x6071, 0x00, DataType::Integer16, RW_RPDO, 2, 804), // 0x6071:00 Target torque
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 924), // 0x6077:00 Torque actual value
+    Entry::new(0x6078, 0x00, DataType::Integer16, RO_TPDO, 2, 926), // 0x6078:00 Current actual value
+    Entry::new(0x6079, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928), // 0x6079:00 DC link circuit voltage
+];
+
+#[rustfmt::skip]
+static LIMIT_ROWS: [u8; 338] = [
+    NO_LIMITS, // 0x1000:00 Device type
+    NO_LIMITS, // 0x1001:00 Error register
+    NO_LIMITS, // 0x1005:00 COB-ID SYNC message
+    0, // 0x1006:00 Communication cycle period
+    NO_LIMITS, // 0x1007:00 Synchronous window length
+    NO_LIMITS, // 0x1008:00 Manufacturer device name
+    NO_LIMITS, // 0x1009:00 Manufacturer hardware version
+    NO_LIMITS, // 0x100A:00 Manufacturer software version
+    NO_LIMITS, // 0x100C:00 Guard time
+    NO_LIMITS, // 0x100D:00 Life time factor
+    NO_LIMITS, // 0x1010:00 Store parameters / Highest sub-index supported
+    NO_LIMITS, // 0x1010:01 Store parameters / Save all parameters
+    NO_LIMITS, // 0x1010:02 Store parameters / Save communication parameters
+    NO_LIMITS, // 0x1010:03 Store parameters / Save application parameters
+    NO_LIMITS, // 0x1011:00 Restore default parameters / Highest sub-index supported
+    NO_LIMITS, // 0x1011:01 Restore default parameters / Restore all default parameters
+    NO_LIMITS, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    NO_LIMITS, // 0x1011:03 Restore default parameters / Restore application default parameters
+    NO_LIMITS, // 0x1014:00 COB-ID EMCY
+    NO_LIMITS, // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    NO_LIMITS, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    NO_LIMITS, // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time 2
+    NO_LIMITS, // 0x1016:03 Consumer heartbeat time / Consumer heartbeat time 3
+    NO_LIMITS, // 0x1017:00 Producer heartbeat time
+    NO_LIMITS, // 0x1018:00 Identity object / Highest sub-index supported
+    NO_LIMITS, // 0x1018:01 Identity object / Vendor-ID
+    NO_LIMITS, // 0x1018:02 Identity object / Product code
+    NO_LIMITS, // 0x1018:03 Identity object / Revision number
+    NO_LIMITS, // 0x1018:04 Identity object / Serial number
+    NO_LIMITS, // 0x1029:00 Error behavior / Highest sub-index supported
+    1, // 0x1029:01 Error behavior / Communication error
+    NO_LIMITS, // 0x1200:00 SDO server parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1200:01 SDO server parameter / COB-ID client to server
+    NO_LIMITS, // 0x1200:02 SDO server parameter / COB-ID server to client
+    NO_LIMITS, // 0x1400:00 RPDO1 communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1400:01 RPDO1 communication parameter / COB-ID used by RPDO
+    NO_LIMITS, // 0x1400:02 RPDO1 communication parameter / Transmission type
+    NO_LIMITS, // 0x1400:03 RPDO1 communication parameter / Inhibit time
+    NO_LIMITS, // 0x1400:05 RPDO1 communication parameter / Event timer
+    NO_LIMITS, // 0x1401:00 RPDO2 communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1401:01 RPDO2 communication parameter / COB-ID used by RPDO
+    NO_LIMITS, // 0x1401:02 RPDO2 communication parameter / Transmission type
+    NO_LIMITS, // 0x1401:03 RPDO2 communication parameter / Inhibit time
+    NO_LIMITS, // 0x1401:05 RPDO2 communication parameter / Event timer
+    NO_LIMITS, // 0x1402:00 RPDO3 communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1402:01 RPDO3 communication parameter / COB-ID used by RPDO
+    NO_LIMITS, // 0x1402:02 RPDO3 communication parameter / Transmission type
+    NO_LIMITS, // 0x1402:03 RPDO3 communication parameter / Inhibit time
+    NO_LIMITS, // 0x1402:05 RPDO3 communication parameter / Event timer
+    2, // 0x1600:00 RPDO1 mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1600:01 RPDO1 mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1600:02 RPDO1 mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x1600:03 RPDO1 mapping parameter / Mapped object 3
+    NO_LIMITS, // 0x1600:04 RPDO1 mapping parameter / Mapped object 4
+    NO_LIMITS, // 0x1600:05 RPDO1 mapping parameter / Mapped object 5
+    NO_LIMITS, // 0x1600:06 RPDO1 mapping parameter / Mapped object 6
+    NO_LIMITS, // 0x1600:07 RPDO1 mapping parameter / Mapped object 7
+    NO_LIMITS, // 0x1600:08 RPDO1 mapping parameter / Mapped object 8
+    2, // 0x1601:00 RPDO2 mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1601:01 RPDO2 mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1601:02 RPDO2 mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x1601:03 RPDO2 mapping parameter / Mapped object 3
+    NO_LIMITS, // 0x1601:04 RPDO2 mapping parameter / Mapped object 4
+    NO_LIMITS, // 0x1601:05 RPDO2 mapping parameter / Mapped object 5
+    NO_LIMITS, // 0x1601:06 RPDO2 mapping parameter / Mapped object 6
+    NO_LIMITS, // 0x1601:07 RPDO2 mapping parameter / Mapped object 7
+    NO_LIMITS, // 0x1601:08 RPDO2 mapping parameter / Mapped object 8
+    2, // 0x1602:00 RPDO3 mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1602:01 RPDO3 mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1602:02 RPDO3 mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x1602:03 RPDO3 mapping parameter / Mapped object 3
+    NO_LIMITS, // 0x1602:04 RPDO3 mapping parameter / Mapped object 4
+    NO_LIMITS, // 0x1602:05 RPDO3 mapping parameter / Mapped object 5
+    NO_LIMITS, // 0x1602:06 RPDO3 mapping parameter / Mapped object 6
+    NO_LIMITS, // 0x1602:07 RPDO3 mapping parameter / Mapped object 7
+    NO_LIMITS, // 0x1602:08 RPDO3 mapping parameter / Mapped object 8
+    NO_LIMITS, // 0x1800:00 TPDO1 communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1800:01 TPDO1 communication parameter / COB-ID used by TPDO
+    NO_LIMITS, // 0x1800:02 TPDO1 communication parameter / Transmission type
+    NO_LIMITS, // 0x1800:03 TPDO1 communication parameter / Inhibit time
+    NO_LIMITS, // 0x1800:05 TPDO1 communication parameter / Event timer
+    NO_LIMITS, // 0x1801:00 TPDO2 communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1801:01 TPDO2 communication parameter / COB-ID used by TPDO
+    NO_LIMITS, // 0x1801:02 TPDO2 communication parameter / Transmission type
+    NO_LIMITS, // 0x1801:03 TPDO2 communication parameter / Inhibit time
+    NO_LIMITS, // 0x1801:05 TPDO2 communication parameter / Event timer
+    NO_LIMITS, // 0x1802:00 TPDO3 communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1802:01 TPDO3 communication parameter / COB-ID used by TPDO
+    NO_LIMITS, // 0x1802:02 TPDO3 communication parameter / Transmission type
+    NO_LIMITS, // 0x1802:03 TPDO3 communication parameter / Inhibit time
+    NO_LIMITS, // 0x1802:05 TPDO3 communication parameter / Event timer
+    2, // 0x1A00:00 TPDO1 mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1A00:01 TPDO1 mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1A00:02 TPDO1 mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x1A00:03 TPDO1 mapping parameter / Mapped object 3
+    NO_LIMITS, // 0x1A00:04 TPDO1 mapping parameter / Mapped object 4
+    NO_LIMITS, // 0x1A00:05 TPDO1 mapping parameter / Mapped object 5
+    NO_LIMITS, // 0x1A00:06 TPDO1 mapping parameter / Mapped object 6
+    NO_LIMITS, // 0x1A00:07 TPDO1 mapping parameter / Mapped object 7
+    NO_LIMITS, // 0x1A00:08 TPDO1 mapping parameter / Mapped object 8
+    2, // 0x1A01:00 TPDO2 mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1A01:01 TPDO2 mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1A01:02 TPDO2 mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x1A01:03 TPDO2 mapping parameter / Mapped object 3
+    NO_LIMITS, // 0x1A01:04 TPDO2 mapping parameter / Mapped object 4
+    NO_LIMITS, // 0x1A01:05 TPDO2 mapping parameter / Mapped object 5
+    NO_LIMITS, // 0x1A01:06 TPDO2 mapping parameter / Mapped object 6
+    NO_LIMITS, // 0x1A01:07 TPDO2 mapping parameter / Mapped object 7
+    NO_LIMITS, // 0x1A01:08 TPDO2 mapping parameter / Mapped object 8
+    2, // 0x1A02:00 TPDO3 mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1A02:01 TPDO3 mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1A02:02 TPDO3 mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x1A02:03 TPDO3 mapping parameter / Mapped object 3
+    NO_LIMITS, // 0x1A02:04 TPDO3 mapping parameter / Mapped object 4
+    NO_LIMITS, // 0x1A02:05 TPDO3 mapping parameter / Mapped object 5
+    NO_LIMITS, // 0x1A02:06 TPDO3 mapping parameter / Mapped object 6
+    NO_LIMITS, // 0x1A02:07 TPDO3 mapping parameter / Mapped object 7
+    NO_LIMITS, // 0x1A02:08 TPDO3 mapping parameter / Mapped object 8
+    3, // 0x20E4:00 Internal reference frequency
+    4, // 0x20F9:00 Active data set
+    NO_LIMITS, // 0x20FA:00 Digital inputs
+    NO_LIMITS, // 0x20FE:00 Digital outputs
+    NO_LIMITS, // 0x2104:00 Current error
+    NO_LIMITS, // 0x210E:00 Warnings
+    NO_LIMITS, // 0x2112:00 Application warnings
+    5, // 0x2114:00 CAN interface
+    3, // 0x211A:00 Bus reference frequency
+    3, // 0x211B:00 Ramp reference frequency
+    NO_LIMITS, // 0x2174:00 Rated speed / Highest sub-index supported
+    NO_LIMITS, // 0x2174:01 Rated speed / Data set 1
+    NO_LIMITS, // 0x2174:02 Rated speed / Data set 2
+    NO_LIMITS, // 0x2174:03 Rated speed / Data set 3
+    NO_LIMITS, // 0x2174:04 Rated speed / Data set 4
+    NO_LIMITS, // 0x2174:05 Rated speed / All data sets RAM
+    NO_LIMITS, // 0x2174:06 Rated speed / Data set 1 RAM
+    NO_LIMITS, // 0x2174:07 Rated speed / Data set 2 RAM
+    NO_LIMITS, // 0x2174:08 Rated speed / Data set 3 RAM
+    NO_LIMITS, // 0x2174:09 Rated speed / Data set 4 RAM
+    NO_LIMITS, // 0x2175:00 Number of pole pairs / Highest sub-index supported
+    6, // 0x2175:01 Number of pole pairs / Data set 1
+    6, // 0x2175:02 Number of pole pairs / Data set 2
+    6, // 0x2175:03 Number of pole pairs / Data set 3
+    6, // 0x2175:04 Number of pole pairs / Data set 4
+    6, // 0x2175:05 Number of pole pairs / All data sets RAM
+    6, // 0x2175:06 Number of pole pairs / Data set 1 RAM
+    6, // 0x2175:07 Number of pole pairs / Data set 2 RAM
+    6, // 0x2175:08 Number of pole pairs / Data set 3 RAM
+    6, // 0x2175:09 Number of pole pairs / Data set 4 RAM
+    7, // 0x2181:00 CAN baud rate
+    8, // 0x2183:00 CAN node number
+    9, // 0x2184:00 CAN fault behaviour
+    NO_LIMITS, // 0x2188:00 State machine transition 5 / Highest sub-index supported
+    1, // 0x2188:01 State machine transition 5 / Data set 1
+    1, // 0x2188:02 State machine transition 5 / Data set 2
+    1, // 0x2188:03 State machine transition 5 / Data set 3
+    1, // 0x2188:04 State machine transition 5 / Data set 4
+    1, // 0x2188:05 State machine transition 5 / All data sets RAM
+    1, // 0x2188:06 State machine transition 5 / Data set 1 RAM
+    1, // 0x2188:07 State machine transition 5 / Data set 2 RAM
+    1, // 0x2188:08 State machine transition 5 / Data set 3 RAM
+    1, // 0x2188:09 State machine transition 5 / Data set 4 RAM
+    NO_LIMITS, // 0x2197:00 Heat sink warning limit
+    NO_LIMITS, // 0x219A:00 Control word parameter
+    NO_LIMITS, // 0x219B:00 Status word parameter
+    NO_LIMITS, // 0x219C:00 Local remote / Highest sub-index supported
+    10, // 0x219C:01 Local remote / Data set 1
+    10, // 0x219C:02 Local remote / Data set 2
+    10, // 0x219C:03 Local remote / Data set 3
+    10, // 0x219C:04 Local remote / Data set 4
+    10, // 0x219C:05 Local remote / All data sets RAM
+    10, // 0x219C:06 Local remote / Data set 1 RAM
+    10, // 0x219C:07 Local remote / Data set 2 RAM
+    10, // 0x219C:08 Local remote / Data set 3 RAM
+    10, // 0x219C:09 Local remote / Data set 4 RAM
+    9, // 0x219E:00 Data set selection
+    NO_LIMITS, // 0x21A2:00 Minimum frequency / Highest sub-index supported
+    NO_LIMITS, // 0x21A2:01 Minimum frequency / Data set 1
+    NO_LIMITS, // 0x21A2:02 Minimum frequency / Data set 2
+    NO_LIMITS, // 0x21A2:03 Minimum frequency / Data set 3
+    NO_LIMITS, // 0x21A2:04 Minimum frequency / Data set 4
+    NO_LIMITS, // 0x21A2:05 Minimum frequency / All data sets RAM
+    NO_LIMITS, // 0x21A2:06 Minimum frequency / Data set 1 RAM
+    NO_LIMITS, // 0x21A2:07 Minimum frequency / Data set 2 RAM
+    NO_LIMITS, // 0x21A2:08 Minimum frequency / Data set 3 RAM
+    NO_LIMITS, // 0x21A2:09 Minimum frequency / Data set 4 RAM
+    NO_LIMITS, // 0x21A3:00 Maximum frequency / Highest sub-index supported
+    NO_LIMITS, // 0x21A3:01 Maximum frequency / Data set 1
+    NO_LIMITS, // 0x21A3:02 Maximum frequency / Data set 2
+    NO_LIMITS, // 0x21A3:03 Maximum frequency / Data set 3
+    NO_LIMITS, // 0x21A3:04 Maximum frequency / Data set 4
+    NO_LIMITS, // 0x21A3:05 Maximum frequency / All data sets RAM
+    NO_LIMITS, // 0x21A3:06 Maximum frequency / Data set 1 RAM
+    NO_LIMITS, // 0x21A3:07 Maximum frequency / Data set 2 RAM
+    NO_LIMITS, // 0x21A3:08 Maximum frequency / Data set 3 RAM
+    NO_LIMITS, // 0x21A3:09 Maximum frequency / Data set 4 RAM
+    NO_LIMITS, // 0x21A4:00 Acceleration clockwise / Highest sub-index supported
+    11, // 0x21A4:01 Acceleration clockwise / Data set 1
+    11, // 0x21A4:02 Acceleration clockwise / Data set 2
+    11, // 0x21A4:03 Acceleration clockwise / Data set 3
+    11, // 0x21A4:04 Acceleration clockwise / Data set 4
+    11, // 0x21A4:05 Acceleration clockwise / All data sets RAM
+    11, // 0x21A4:06 Acceleration clockwise / Data set 1 RAM
+    11, // 0x21A4:07 Acceleration clockwise / Data set 2 RAM
+    11, // 0x21A4:08 Acceleration clockwise / Data set 3 RAM
+    11, // 0x21A4:09 Acceleration clockwise / Data set 4 RAM
+    NO_LIMITS, // 0x21A5:00 Deceleration clockwise / Highest sub-index supported
+    12, // 0x21A5:01 Deceleration clockwise / Data set 1
+    12, // 0x21A5:02 Deceleration clockwise / Data set 2
+    12, // 0x21A5:03 Deceleration clockwise / Data set 3
+    12, // 0x21A5:04 Deceleration clockwise / Data set 4
+    12, // 0x21A5:05 Deceleration clockwise / All data sets RAM
+    12, // 0x21A5:06 Deceleration clockwise / Data set 1 RAM
+    12, // 0x21A5:07 Deceleration clockwise / Data set 2 RAM
+    12, // 0x21A5:08 Deceleration clockwise / Data set 3 RAM
+    12, // 0x21A5:09 Deceleration clockwise / Data set 4 RAM
+    NO_LIMITS, // 0x21A6:00 Acceleration anticlockwise / Highest sub-index supported
+    13, // 0x21A6:01 Acceleration anticlockwise / Data set 1
+    13, // 0x21A6:02 Acceleration anticlockwise / Data set 2
+    13, // 0x21A6:03 Acceleration anticlockwise / Data set 3
+    13, // 0x21A6:04 Acceleration anticlockwise / Data set 4
+    13, // 0x21A6:05 Acceleration anticlockwise / All data sets RAM
+    13, // 0x21A6:06 Acceleration anticlockwise / Data set 1 RAM
+    13, // 0x21A6:07 Acceleration anticlockwise / Data set 2 RAM
+    13, // 0x21A6:08 Acceleration anticlockwise / Data set 3 RAM
+    13, // 0x21A6:09 Acceleration anticlockwise / Data set 4 RAM
+    NO_LIMITS, // 0x21A7:00 Deceleration anticlockwise / Highest sub-index supported
+    13, // 0x21A7:01 Deceleration anticlockwise / Data set 1
+    13, // 0x21A7:02 Deceleration anticlockwise / Data set 2
+    13, // 0x21A7:03 Deceleration anticlockwise / Data set 3
+    13, // 0x21A7:04 Deceleration anticlockwise / Data set 4
+    13, // 0x21A7:05 Deceleration anticlockwise / All data sets RAM
+    13, // 0x21A7:06 Deceleration anticlockwise / Data set 1 RAM
+    13, // 0x21A7:07 Deceleration anticlockwise / Data set 2 RAM
+    13, // 0x21A7:08 Deceleration anticlockwise / Data set 3 RAM
+    13, // 0x21A7:09 Deceleration anticlockwise / Data set 4 RAM
+    NO_LIMITS, // 0x21A8:00 Emergency stop clockwise / Highest sub-index supported
+    12, // 0x21A8:01 Emergency stop clockwise / Data set 1
+    12, // 0x21A8:02 Emergency stop clockwise / Data set 2
+    12, // 0x21A8:03 Emergency stop clockwise / Data set 3
+    12, // 0x21A8:04 Emergency stop clockwise / Data set 4
+    12, // 0x21A8:05 Emergency stop clockwise / All data sets RAM
+    12, // 0x21A8:06 Emergency stop clockwise / Data set 1 RAM
+    12, // 0x21A8:07 Emergency stop clockwise / Data set 2 RAM
+    12, // 0x21A8:08 Emergency stop clockwise / Data set 3 RAM
+    12, // 0x21A8:09 Emergency stop clockwise / Data set 4 RAM
+    NO_LIMITS, // 0x21A9:00 Emergency stop anticlockwise / Highest sub-index supported
+    12, // 0x21A9:01 Emergency stop anticlockwise / Data set 1
+    12, // 0x21A9:02 Emergency stop anticlockwise / Data set 2
+    12, // 0x21A9:03 Emergency stop anticlockwise / Data set 3
+    12, // 0x21A9:04 Emergency stop anticlockwise / Data set 4
+    12, // 0x21A9:05 Emergency stop anticlockwise / All data sets RAM
+    12, // 0x21A9:06 Emergency stop anticlockwise / Data set 1 RAM
+    12, // 0x21A9:07 Emergency stop anticlockwise / Data set 2 RAM
+    12, // 0x21A9:08 Emergency stop anticlockwise / Data set 3 RAM
+    12, // 0x21A9:09 Emergency stop anticlockwise / Data set 4 RAM
+    NO_LIMITS, // 0x21E0:00 Fixed frequency 1 / Highest sub-index supported
+    NO_LIMITS, // 0x21E0:01 Fixed frequency 1 / Data set 1
+    NO_LIMITS, // 0x21E0:02 Fixed frequency 1 / Data set 2
+    NO_LIMITS, // 0x21E0:03 Fixed frequency 1 / Data set 3
+    NO_LIMITS, // 0x21E0:04 Fixed frequency 1 / Data set 4
+    NO_LIMITS, // 0x21E0:05 Fixed frequency 1 / All data sets RAM
+    NO_LIMITS, // 0x21E0:06 Fixed frequency 1 / Data set 1 RAM
+    NO_LIMITS, // 0x21E0:07 Fixed frequency 1 / Data set 2 RAM
+    NO_LIMITS, // 0x21E0:08 Fixed frequency 1 / Data set 3 RAM
+    NO_LIMITS, // 0x21E0:09 Fixed frequency 1 / Data set 4 RAM
+    NO_LIMITS, // 0x2225:00 Max control deviation / Highest sub-index supported
+    14, // 0x2225:01 Max control deviation / Data set 1
+    14, // 0x2225:02 Max control deviation / Data set 2
+    14, // 0x2225:03 Max control deviation / Data set 3
+    14, // 0x2225:04 Max control deviation / Data set 4
+    14, // 0x2225:05 Max control deviation / All data sets RAM
+    14, // 0x2225:06 Max control deviation / Data set 1 RAM
+    14, // 0x2225:07 Max control deviation / Data set 2 RAM
+    14, // 0x2225:08 Max control deviation / Data set 3 RAM
+    14, // 0x2225:09 Max control deviation / Data set 4 RAM
+    NO_LIMITS, // 0x227D:00 Stop function switch-off threshold / Highest sub-index supported
+    15, // 0x227D:01 Stop function switch-off threshold / Data set 1
+    15, // 0x227D:02 Stop function switch-off threshold / Data set 2
+    15, // 0x227D:03 Stop function switch-off threshold / Data set 3
+    15, // 0x227D:04 Stop function switch-off threshold / Data set 4
+    15, // 0x227D:05 Stop function switch-off threshold / All data sets RAM
+    15, // 0x227D:06 Stop function switch-off threshold / Data set 1 RAM
+    15, // 0x227D:07 Stop function switch-off threshold / Data set 2 RAM
+    15, // 0x227D:08 Stop function switch-off threshold / Data set 3 RAM
+    15, // 0x227D:09 Stop function switch-off threshold / Data set 4 RAM
+    NO_LIMITS, // 0x227E:00 Stop function holding time / Highest sub-index supported
+    16, // 0x227E:01 Stop function holding time / Data set 1
+    16, // 0x227E:02 Stop function holding time / Data set 2
+    16, // 0x227E:03 Stop function holding time / Data set 3
+    16, // 0x227E:04 Stop function holding time / Data set 4
+    16, // 0x227E:05 Stop function holding time / All data sets RAM
+    16, // 0x227E:06 Stop function holding time / Data set 1 RAM
+    16, // 0x227E:07 Stop function holding time / Data set 2 RAM
+    16, // 0x227E:08 Stop function holding time / Data set 3 RAM
+    16, // 0x227E:09 Stop function holding time / Data set 4 RAM
+    17, // 0x249C:00 Systembus sync mode
+    18, // 0x250A:00 NMT node state
+    19, // 0x250B:00 CAN controller state
+    20, // 0x258C:00 CANopen mux input index write
+    20, // 0x258D:00 CANopen mux input index read
+    NO_LIMITS, // 0x258E:00 CANopen mux inputs
+    NO_LIMITS, // 0x258F:00 CANopen percentage actual value source
+    21, // 0x25AB:00 OS sync time
+    22, // 0x25AC:00 OS sync source
+    NO_LIMITS, // 0x25AD:00 OS sync source actual
+    23, // 0x3000:00 SYNC jitter
+    NO_LIMITS, // 0x3001:00 Digital in actual value
+    NO_LIMITS, // 0x3002:00 Digital out actual value
+    NO_LIMITS, // 0x3003:00 Digital out set values
+    NO_LIMITS, // 0x3004:00 Boolean mux
+    NO_LIMITS, // 0x3005:00 Boolean demux
+    NO_LIMITS, // 0x3006:00 Percentage set value
+    NO_LIMITS, // 0x3007:00 Percentage actual value
+    24, // 0x6007:00 Abort connection option code
+    NO_LIMITS, // 0x603F:00 Error code
+    NO_LIMITS, // 0x6040:00 Controlword
+    NO_LIMITS, // 0x6041:00 Statusword
+    25, // 0x6042:00 vl target velocity
+    NO_LIMITS, // 0x6043:00 vl velocity demand
+    NO_LIMITS, // 0x6044:00 vl control effort
+    NO_LIMITS, // 0x6046:00 vl velocity min max amount / Highest sub-index supported
+    26, // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    26, // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    NO_LIMITS, // 0x6048:00 vl velocity acceleration / Highest sub-index supported
+    27, // 0x6048:01 vl velocity acceleration / Delta speed
+    28, // 0x6048:02 vl velocity acceleration / Delta time
+    NO_LIMITS, // 0x6049:00 vl velocity deceleration / Highest sub-index supported
+    27, // 0x6049:01 vl velocity deceleration / Delta speed
+    28, // 0x6049:02 vl velocity deceleration / Delta time
+    NO_LIMITS, // 0x604A:00 vl velocity quick stop / Highest sub-index supported
+    27, // 0x604A:01 vl velocity quick stop / Delta speed
+    28, // 0x604A:02 vl velocity quick stop / Delta time
+    29, // 0x6060:00 Modes of operation
+    NO_LIMITS, // 0x6061:00 Modes of operation display
+    NO_LIMITS, // 0x6071:00 Target torque
+    NO_LIMITS, // 0x6077:00 Torque actual value
+    NO_LIMITS, // 0x6078:00 Current actual value
+    NO_LIMITS, // 0x6079:00 DC link circuit voltage
 ];
 
 #[rustfmt::skip]
@@ -1082,6 +1424,7 @@ pub static NAMES: [&str; ENTRY_COUNT] = [
 pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 286,

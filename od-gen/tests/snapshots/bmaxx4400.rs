@@ -460,385 +460,768 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 697, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 701, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 702, NO_LIMITS), // 0x1002:00 Manufacturer status register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 706, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 707, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 711, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 715, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 719, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 723, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 727, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 731, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 735, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 739, NO_LIMITS), // 0x1003:09 Pre-defined error field / Standard error field 9
-    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 743, NO_LIMITS), // 0x1003:0A Pre-defined error field / Standard error field 10
-    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 747, NO_LIMITS), // 0x1003:0B Pre-defined error field / Standard error field 11
-    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 751, NO_LIMITS), // 0x1003:0C Pre-defined error field / Standard error field 12
-    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 755, NO_LIMITS), // 0x1003:0D Pre-defined error field / Standard error field 13
-    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 759, NO_LIMITS), // 0x1003:0E Pre-defined error field / Standard error field 14
-    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 763, NO_LIMITS), // 0x1003:0F Pre-defined error field / Standard error field 15
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 767, NO_LIMITS), // 0x1005:00 COB-ID SYNC
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 0, 0), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1007:00 Synchronous window length
-    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 771, NO_LIMITS), // 0x1008:00 Manufacturer device name
-    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 782, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
-    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 789, NO_LIMITS), // 0x100A:00 Manufacturer software version
-    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 796, NO_LIMITS), // 0x100B:00 Node-ID
-    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 8, NO_LIMITS), // 0x100C:00 Guard time
-    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 10, NO_LIMITS), // 0x100D:00 Life time factor
-    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 11, NO_LIMITS), // 0x100E:00 COB-ID guarding protocol
-    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 800, NO_LIMITS), // 0x100F:00 Number of SDOs supported
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 804, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 805, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 809, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 813, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 814, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 818, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 15, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 19, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 21, NO_LIMITS), // 0x1017:00 Producer heartbeat time
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 822, NO_LIMITS), // 0x1018:00 Identity object / Identity object highest sub-index
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 823, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 827, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 831, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 835, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 839, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 840, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 844, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 848, NO_LIMITS), // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 23, NO_LIMITS), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 27, NO_LIMITS), // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
-    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 849, NO_LIMITS), // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28, NO_LIMITS), // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 32, NO_LIMITS), // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
-    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 850, NO_LIMITS), // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 33, NO_LIMITS), // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 37, NO_LIMITS), // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
-    Entry::new(0x1403, 0x00, DataType::Unsigned8, RO, 1, 851, NO_LIMITS), // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 38, NO_LIMITS), // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 42, NO_LIMITS), // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 43, 1), // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 44, NO_LIMITS), // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 48, NO_LIMITS), // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 52, NO_LIMITS), // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 56, NO_LIMITS), // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 60, NO_LIMITS), // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 64, NO_LIMITS), // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 68, NO_LIMITS), // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 72, NO_LIMITS), // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 76, 1), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 77, NO_LIMITS), // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 81, NO_LIMITS), // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 85, NO_LIMITS), // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 89, NO_LIMITS), // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 93, NO_LIMITS), // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 97, NO_LIMITS), // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 101, NO_LIMITS), // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 105, NO_LIMITS), // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 109, 1), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 110, NO_LIMITS), // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 114, NO_LIMITS), // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 118, NO_LIMITS), // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 122, NO_LIMITS), // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 126, NO_LIMITS), // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 130, NO_LIMITS), // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 134, NO_LIMITS), // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 138, NO_LIMITS), // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 142, 1), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 143, NO_LIMITS), // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 147, NO_LIMITS), // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 151, NO_LIMITS), // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 155, NO_LIMITS), // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 159, NO_LIMITS), // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 163, NO_LIMITS), // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 167, NO_LIMITS), // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 171, NO_LIMITS), // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 852, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 175, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 179, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 180, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 182, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 853, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 184, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 188, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 189, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 191, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 854, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 193, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 197, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 198, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 200, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
-    Entry::new(0x1803, 0x00, DataType::Unsigned8, RO, 1, 855, NO_LIMITS), // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 202, NO_LIMITS), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 206, NO_LIMITS), // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 207, NO_LIMITS), // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 209, NO_LIMITS), // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 211, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 212, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 216, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 220, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 224, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 228, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 232, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 236, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 240, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 244, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 245, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 249, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 253, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 257, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 261, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 265, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 269, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 273, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 277, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 278, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 282, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 286, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 290, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 294, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 298, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 302, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 306, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 310, 1), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 311, NO_LIMITS), // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 315, NO_LIMITS), // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 319, NO_LIMITS), // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 323, NO_LIMITS), // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 327, NO_LIMITS), // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 331, NO_LIMITS), // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 335, NO_LIMITS), // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 339, NO_LIMITS), // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
-    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 343, 2), // 0x4039:00 P0057 Motor nominal speed
-    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 345, 3), // 0x4041:00 P0065 Motor pole pair number
-    Entry::new(0x40E9, 0x00, DataType::Unsigned16, RO, 2, 856, NO_LIMITS), // 0x40E9:00 P0233 Amplifier Hiperface error detail
-    Entry::new(0x40EA, 0x00, DataType::Unsigned16, RO, 2, 858, NO_LIMITS), // 0x40EA:00 P0234 Encoder 1 error detail
-    Entry::new(0x40EB, 0x00, DataType::Unsigned16, RO, 2, 860, NO_LIMITS), // 0x40EB:00 P0235 Encoder 2 error detail
-    Entry::new(0x40F0, 0x00, DataType::Unsigned16, RO, 2, 862, NO_LIMITS), // 0x40F0:00 P0240 Small module A error detail
-    Entry::new(0x40F1, 0x00, DataType::Unsigned16, RO, 2, 864, NO_LIMITS), // 0x40F1:00 P0241 Small module B error detail
-    Entry::new(0x40F2, 0x00, DataType::Unsigned16, RO, 2, 866, NO_LIMITS), // 0x40F2:00 P0242 Small module C error detail
-    Entry::new(0x40F3, 0x00, DataType::Unsigned16, RO, 2, 868, NO_LIMITS), // 0x40F3:00 P0243 Small module D error detail
-    Entry::new(0x40F4, 0x00, DataType::Unsigned16, RO, 2, 870, NO_LIMITS), // 0x40F4:00 P0244 Small module F error detail
-    Entry::new(0x40F5, 0x00, DataType::Unsigned16, RO, 2, 872, NO_LIMITS), // 0x40F5:00 P0245 Big module G error detail
-    Entry::new(0x40F6, 0x00, DataType::Unsigned16, RO, 2, 874, NO_LIMITS), // 0x40F6:00 P0246 Big module H error detail
-    Entry::new(0x40F7, 0x00, DataType::Unsigned16, RO, 2, 876, NO_LIMITS), // 0x40F7:00 P0247 Big module J error detail
-    Entry::new(0x40F8, 0x00, DataType::Unsigned16, RO, 2, 878, NO_LIMITS), // 0x40F8:00 P0248 Big module K error detail
-    Entry::new(0x40F9, 0x00, DataType::Unsigned16, RO, 2, 880, NO_LIMITS), // 0x40F9:00 P0249 Big module L error detail
-    Entry::new(0x40FA, 0x00, DataType::Unsigned16, RO, 2, 882, NO_LIMITS), // 0x40FA:00 P0250 Big module M error detail
-    Entry::new(0x4106, 0x00, DataType::Unsigned16, RO_TPDO, 2, 884, NO_LIMITS), // 0x4106:00 P0262 Amplifier warnings
-    Entry::new(0x4107, 0x00, DataType::Unsigned16, RO_TPDO, 2, 886, NO_LIMITS), // 0x4107:00 P0263 Motor warnings
-    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 347, NO_LIMITS), // 0x412C:00 P0300 Drive control word
-    Entry::new(0x412D, 0x00, DataType::Unsigned16, RO_TPDO, 2, 888, NO_LIMITS), // 0x412D:00 P0301 Drive status word
-    Entry::new(0x4130, 0x00, DataType::Integer16, RO_TPDO, 2, 890, NO_LIMITS), // 0x4130:00 P0304 Operation mode actual
-    Entry::new(0x4158, 0x00, DataType::Integer16, RO_TPDO, 2, 892, NO_LIMITS), // 0x4158:00 P0344 Torque actual value raw
-    Entry::new(0x415F, 0x00, DataType::Integer16, RO_TPDO, 2, 894, NO_LIMITS), // 0x415F:00 P0351 Ramp function generator output
-    Entry::new(0x4160, 0x00, DataType::Integer16, RO_TPDO, 2, 896, NO_LIMITS), // 0x4160:00 P0352 Speed set value total
-    Entry::new(0x4161, 0x00, DataType::Integer32, RO_TPDO, 4, 898, NO_LIMITS), // 0x4161:00 P0353 Speed actual value raw
-    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 349, NO_LIMITS), // 0x4165:00 P0357 Torque limit direct
-    Entry::new(0x4168, 0x00, DataType::Unsigned16, RO_TPDO, 2, 902, NO_LIMITS), // 0x4168:00 P0360 Position controller status raw
-    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 351, NO_LIMITS), // 0x416A:00 P0362 Position actual value raw
-    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 355, NO_LIMITS), // 0x416B:00 P0363 Position set angle raw
-    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 357, NO_LIMITS), // 0x416C:00 P0364 Position set revolutions raw
-    Entry::new(0x416D, 0x00, DataType::Integer32, RO_TPDO, 4, 904, NO_LIMITS), // 0x416D:00 P0365 Speed feed forward raw
-    Entry::new(0x416F, 0x00, DataType::Integer32, RO_TPDO, 4, 908, NO_LIMITS), // 0x416F:00 P0367 Position control deviation raw
-    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 359, NO_LIMITS), // 0x4171:00 P0369 Position set value
-    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 363, NO_LIMITS), // 0x4172:00 P0370 Position IP set angle
-    Entry::new(0x4187, 0x00, DataType::Unsigned32, RO_TPDO, 4, 912, NO_LIMITS), // 0x4187:00 P0391 Encoder 1 actual angle raw
-    Entry::new(0x4188, 0x00, DataType::Unsigned32, RO_TPDO, 4, 916, NO_LIMITS), // 0x4188:00 P0392 Encoder 1 actual revolutions raw
-    Entry::new(0x41CC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 920, NO_LIMITS), // 0x41CC:00 P0460 Positioning status raw
-    Entry::new(0x41CD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 922, NO_LIMITS), // 0x41CD:00 P0461 Digital input output status
-    Entry::new(0x41CE, 0x00, DataType::Unsigned32, RO_TPDO, 4, 924, NO_LIMITS), // 0x41CE:00 P0462 Positioning actual value
-    Entry::new(0x41CF, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928, NO_LIMITS), // 0x41CF:00 P0463 Positioning set value
-    Entry::new(0x41D0, 0x00, DataType::Integer16, RO_TPDO, 2, 932, NO_LIMITS), // 0x41D0:00 P0464 Positioning speed set value raw
-    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 367, NO_LIMITS), // 0x4214:00 P0532 Sync interval
-    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 369, NO_LIMITS), // 0x4258:00 P0600 Positioning target unsigned
-    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 373, NO_LIMITS), // 0x4259:00 P0601 Positioning mode
-    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 375, 4), // 0x425A:00 P0602 Positioning speed 1
-    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 377, 5), // 0x425B:00 P0603 Positioning acceleration 1
-    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 379, 5), // 0x425C:00 P0604 Positioning deceleration 1
-    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 381, 6), // 0x425D:00 P0605 Positioning bend 0 raw
-    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 383, NO_LIMITS), // 0x425F:00 P0607 Positioning target 1
-    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 387, NO_LIMITS), // 0x4260:00 P0608 Positioning target input 1
-    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 389, NO_LIMITS), // 0x4320:00 P0800 BACI cycle time factor
-    Entry::new(0x4321, 0x00, DataType::Unsigned16, RO, 2, 934, NO_LIMITS), // 0x4321:00 P0801 BACI process data parameter number 1
-    Entry::new(0x4322, 0x00, DataType::Unsigned16, RO, 2, 936, NO_LIMITS), // 0x4322:00 P0802 BACI process data parameter number 2
-    Entry::new(0x4323, 0x00, DataType::Unsigned16, RO, 2, 938, NO_LIMITS), // 0x4323:00 P0803 BACI process data parameter number 3
-    Entry::new(0x4324, 0x00, DataType::Unsigned16, RO, 2, 940, NO_LIMITS), // 0x4324:00 P0804 BACI process data parameter number 4
-    Entry::new(0x4325, 0x00, DataType::Unsigned16, RO, 2, 942, NO_LIMITS), // 0x4325:00 P0805 BACI process data parameter number 5
-    Entry::new(0x4326, 0x00, DataType::Unsigned16, RO, 2, 944, NO_LIMITS), // 0x4326:00 P0806 BACI process data parameter number 6
-    Entry::new(0x4327, 0x00, DataType::Unsigned16, RO, 2, 946, NO_LIMITS), // 0x4327:00 P0807 BACI process data parameter number 7
-    Entry::new(0x4328, 0x00, DataType::Unsigned16, RO, 2, 948, NO_LIMITS), // 0x4328:00 P0808 BACI process data parameter number 8
-    Entry::new(0x4329, 0x00, DataType::Unsigned16, RO, 2, 950, NO_LIMITS), // 0x4329:00 P0809 BACI process data parameter number 9
-    Entry::new(0x432A, 0x00, DataType::Unsigned16, RO, 2, 952, NO_LIMITS), // 0x432A:00 P0810 BACI process data parameter number 10
-    Entry::new(0x432B, 0x00, DataType::Unsigned16, RO, 2, 954, NO_LIMITS), // 0x432B:00 P0811 BACI process data parameter number 11
-    Entry::new(0x432C, 0x00, DataType::Unsigned16, RO, 2, 956, NO_LIMITS), // 0x432C:00 P0812 BACI process data parameter number 12
-    Entry::new(0x432D, 0x00, DataType::Unsigned16, RO, 2, 958, NO_LIMITS), // 0x432D:00 P0813 BACI process data parameter number 13
-    Entry::new(0x432E, 0x00, DataType::Unsigned16, RO, 2, 960, NO_LIMITS), // 0x432E:00 P0814 BACI process data parameter number 14
-    Entry::new(0x432F, 0x00, DataType::Unsigned16, RO, 2, 962, NO_LIMITS), // 0x432F:00 P0815 BACI process data parameter number 15
-    Entry::new(0x4330, 0x00, DataType::Unsigned16, RO, 2, 964, NO_LIMITS), // 0x4330:00 P0816 BACI process data parameter number 16
-    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 391, NO_LIMITS), // 0x4332:00 P0818 BACI cycle offset set values
-    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 393, NO_LIMITS), // 0x4333:00 P0819 BACI cycle offset actual values
-    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 395, NO_LIMITS), // 0x433E:00 P0830 Option module G configuration 1
-    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 397, NO_LIMITS), // 0x4348:00 P0840 Option module H configuration 1
-    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 399, 7), // 0x43E8:00 P1000 Operation mode set
-    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 401, NO_LIMITS), // 0x43E9:00 P1001 Drive parameter 1001
-    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 403, 8), // 0x43EB:00 P1003 Stop option code raw
-    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 405, NO_LIMITS), // 0x43EC:00 P1004 Quick stop code raw
-    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 407, 8), // 0x43ED:00 P1005 Shutdown code raw
-    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 409, 8), // 0x43EE:00 P1006 Disable operation code raw
-    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 411, 8), // 0x43EF:00 P1007 Error reaction code raw
-    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 413, 9), // 0x4407:00 P1031 Maximum speed
-    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 415, 10), // 0x4411:00 P1041 Speed set value upper limit
-    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 419, 11), // 0x4412:00 P1042 Speed set value lower limit
-    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 423, NO_LIMITS), // 0x441A:00 P1050 Position controller mode raw
-    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 425, 12), // 0x441B:00 P1051 Position controller Kv factor raw
-    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 427, 13), // 0x441D:00 P1053 Speed feed forward factor raw
-    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 429, 14), // 0x4420:00 P1056 Following error time
-    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 431, 15), // 0x4431:00 P1073 Encoder 1 monitoring lower limit
-    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 433, NO_LIMITS), // 0x4493:00 P1171 Ramp function generator input
-    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 437, 14), // 0x4494:00 P1172 Ramp function generator ramp up time
-    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 439, 14), // 0x4495:00 P1173 Ramp function generator ramp down time
-    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 441, 14), // 0x4496:00 P1174 Ramp function generator stop time
-    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 443, NO_LIMITS), // 0x44A6:00 P1190 Positioning mode word
-    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 445, NO_LIMITS), // 0x44A7:00 P1191 Positioning actual record number
-    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 447, NO_LIMITS), // 0x44AA:00 P1194 Positioning window
-    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 451, 16), // 0x44AB:00 P1195 Positioning window time
-    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 453, NO_LIMITS), // 0x44AC:00 P1196 Software limit switch 1
-    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 457, NO_LIMITS), // 0x44AD:00 P1197 Software limit switch 2
-    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 461, NO_LIMITS), // 0x44AE:00 P1198 Positioning clip environment 1
-    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 465, NO_LIMITS), // 0x44AF:00 P1199 Positioning clip environment 2
-    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 469, NO_LIMITS), // 0x44B0:00 P1200 Positioning home position
-    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 473, 4), // 0x44B1:00 P1201 Homing speed
-    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 475, 17), // 0x44B2:00 P1202 Homing final speed
-    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 477, 5), // 0x44B3:00 P1203 Homing acceleration raw
-    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 479, NO_LIMITS), // 0x44B4:00 P1204 Homing deceleration raw
-    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 481, NO_LIMITS), // 0x44B5:00 P1205 Homing mode
-    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 483, NO_LIMITS), // 0x44B8:00 P1208 Positioning switch mode raw
-    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 485, NO_LIMITS), // 0x44B9:00 P1209 Positioning encoder offset raw
-    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 487, 5), // 0x44BD:00 P1213 Positioning stop deceleration
-    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 489, 18), // 0x4BEA:00 P3050 Position scaling user unit
-    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 493, 18), // 0x4BEB:00 P3051 Position scaling revolutions
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 497, NO_LIMITS), // 0x6007:00 Abort connection option code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 499, NO_LIMITS), // 0x6040:00 Controlword
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 966, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 501, NO_LIMITS), // 0x6042:00 vl target velocity
-    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 968, NO_LIMITS), // 0x6043:00 vl velocity demand
-    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 970, NO_LIMITS), // 0x6044:00 vl control effort
-    Entry::new(0x6045, 0x00, DataType::Integer16, RO, 2, 972, NO_LIMITS), // 0x6045:00 vl manipulated velocity
-    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 974, NO_LIMITS), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
-    Entry::new(0x6046, 0x01, DataType::Unsigned32, RO_TPDO, 4, 975, NO_LIMITS), // 0x6046:01 vl velocity min max amount / vl velocity min amount
-    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 503, NO_LIMITS), // 0x6046:02 vl velocity min max amount / vl velocity max amount
-    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 979, NO_LIMITS), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
-    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 507, NO_LIMITS), // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
-    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 511, NO_LIMITS), // 0x6048:02 vl velocity acceleration / vl acceleration delta time
-    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 980, NO_LIMITS), // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
-    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 513, NO_LIMITS), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
-    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 517, NO_LIMITS), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
-    Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 981, NO_LIMITS), // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
-    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 519, 19), // 0x604C:01 vl dimension factor / vl dimension factor numerator
-    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 523, 19), // 0x604C:02 vl dimension factor / vl dimension factor denominator
-    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 527, NO_LIMITS), // 0x604D:00 vl pole number
-    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 528, NO_LIMITS), // 0x604F:00 vl ramp function time
-    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 532, NO_LIMITS), // 0x6050:00 vl slow down time
-    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 536, NO_LIMITS), // 0x6051:00 vl quick stop time
-    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 540, NO_LIMITS), // 0x605A:00 Quick stop option code
-    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 542, NO_LIMITS), // 0x605B:00 Shutdown option code
-    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 544, NO_LIMITS), // 0x605C:00 Disable operation option code
-    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 546, NO_LIMITS), // 0x605D:00 Halt option code
-    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 548, NO_LIMITS), // 0x605E:00 Fault reaction option code
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 550, NO_LIMITS), // 0x6060:00 Modes of operation
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 982, NO_LIMITS), // 0x6061:00 Modes of operation display
-    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 983, NO_LIMITS), // 0x6062:00 Position demand value
-    Entry::new(0x6063, 0x00, DataType::Integer32, RO_TPDO, 4, 987, NO_LIMITS), // 0x6063:00 Position actual internal value
-    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 991, NO_LIMITS), // 0x6064:00 Position actual value
-    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 551, 14), // 0x6066:00 Following error time out
-    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 553, NO_LIMITS), // 0x6067:00 Position window
-    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 557, NO_LIMITS), // 0x6068:00 Position window time
-    Entry::new(0x6069, 0x00, DataType::Integer32, RO_TPDO, 4, 995, NO_LIMITS), // 0x6069:00 Velocity sensor actual value
-    Entry::new(0x606A, 0x00, DataType::Integer16, RO, 2, 999, NO_LIMITS), // 0x606A:00 Sensor selection code
-    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 1001, NO_LIMITS), // 0x606B:00 Velocity demand value
-    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 1005, NO_LIMITS), // 0x606C:00 Velocity actual value
-    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 559, NO_LIMITS), // 0x606F:00 Velocity threshold
-    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 561, NO_LIMITS), // 0x6072:00 Max torque
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 1009, NO_LIMITS), // 0x6077:00 Torque actual value
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 563, NO_LIMITS), // 0x607A:00 Target position
-    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 567, NO_LIMITS), // 0x607C:00 Home offset
-    Entry::new(0x607D, 0x00, DataType::Unsigned8, RO, 1, 1011, NO_LIMITS), // 0x607D:00 Software position limit / Software position limit highest sub-index
-    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 571, NO_LIMITS), // 0x607D:01 Software position limit / Min position limit
-    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 575, NO_LIMITS), // 0x607D:02 Software position limit / Max position limit
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 579, NO_LIMITS), // 0x607F:00 Max profile velocity
-    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 583, 20), // 0x6080:00 Max motor speed
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 587, NO_LIMITS), // 0x6081:00 Profile velocity
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 591, NO_LIMITS), // 0x6083:00 Profile acceleration
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 595, NO_LIMITS), // 0x6084:00 Profile deceleration
-    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 599, NO_LIMITS), // 0x6085:00 Quick stop deceleration
-    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 603, NO_LIMITS), // 0x6086:00 Motion profile type
-    Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 1012, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 605, 21), // 0x6092:01 Feed constant / Feed
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 609, 22), // 0x6092:02 Feed constant / Shaft revolutions
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 613, NO_LIMITS), // 0x6098:00 Homing method
-    Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 1013, NO_LIMITS), // 0x6099:00 Homing speeds / Homing speeds highest sub-index
-    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 614, NO_LIMITS), // 0x6099:01 Homing speeds / Speed during search for switch
-    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 618, NO_LIMITS), // 0x6099:02 Homing speeds / Speed during search for zero
-    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 622, NO_LIMITS), // 0x609A:00 Homing acceleration
-    Entry::new(0x60C0, 0x00, DataType::Integer16, RO, 2, 1014, NO_LIMITS), // 0x60C0:00 Interpolation sub mode select
-    Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 1016, NO_LIMITS), // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
-    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 626, NO_LIMITS), // 0x60C1:01 Interpolation data record / Interpolation data record position
-    Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 1017, NO_LIMITS), // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
-    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 630, 22), // 0x60C2:01 Interpolation time period / ip time units
-    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 631, 23), // 0x60C2:02 Interpolation time period / ip time index
-    Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 1018, NO_LIMITS), // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
-    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 632, NO_LIMITS), // 0x60C3:01 Interpolation sync definition / Synchronize on group
-    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 633, NO_LIMITS), // 0x60C3:02 Interpolation sync definition / ip sync every n event
-    Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 1019, NO_LIMITS), // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
-    Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1020, NO_LIMITS), // 0x60C4:01 Interpolation data configuration / Maximum buffer size
-    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 634, NO_LIMITS), // 0x60C4:02 Interpolation data configuration / Actual buffer size
-    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 638, 24), // 0x60C4:03 Interpolation data configuration / Buffer organisation
-    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 639, NO_LIMITS), // 0x60C4:04 Interpolation data configuration / Buffer position
-    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 641, NO_LIMITS), // 0x60C4:05 Interpolation data configuration / Size of data record
-    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 642, 24), // 0x60C4:06 Interpolation data configuration / Buffer clear
-    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 643, NO_LIMITS), // 0x60F8:00 Max slippage
-    Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 1024, NO_LIMITS), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
-    Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 1025, NO_LIMITS), // 0x60FB:01 Position control parameter set / Position controller status
-    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 647, NO_LIMITS), // 0x60FB:02 Position control parameter set / Position controller mode
-    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 649, 12), // 0x60FB:03 Position control parameter set / Position controller Kv factor
-    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 651, NO_LIMITS), // 0x60FB:04 Position control parameter set / Position set revolutions
-    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 653, NO_LIMITS), // 0x60FB:05 Position control parameter set / Position set angle
-    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 655, NO_LIMITS), // 0x60FB:06 Position control parameter set / Speed feed forward factor
-    Entry::new(0x60FB, 0x07, DataType::Integer32, RO_TPDO, 4, 1027, NO_LIMITS), // 0x60FB:07 Position control parameter set / Position control deviation
-    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 657, NO_LIMITS), // 0x60FB:08 Position control parameter set / Position controller actual value
-    Entry::new(0x60FB, 0x09, DataType::Unsigned32, RO_TPDO, 4, 1031, NO_LIMITS), // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
-    Entry::new(0x60FB, 0x0A, DataType::Unsigned32, RO_TPDO, 4, 1035, NO_LIMITS), // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
-    Entry::new(0x60FB, 0x0B, DataType::Integer32, RO_TPDO, 4, 1039, NO_LIMITS), // 0x60FB:0B Position control parameter set / Speed feed forward
-    Entry::new(0x60FB, 0x0C, DataType::Unsigned16, RO_TPDO, 2, 1043, NO_LIMITS), // 0x60FB:0C Position control parameter set / Positioning status
-    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 661, NO_LIMITS), // 0x60FB:0D Position control parameter set / Actual positioning record number
-    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 663, NO_LIMITS), // 0x60FB:0E Position control parameter set / Positioning mode bits
-    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 665, NO_LIMITS), // 0x60FB:0F Position control parameter set / Home position
-    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 669, NO_LIMITS), // 0x60FB:10 Position control parameter set / Positioning switch mode
-    Entry::new(0x60FB, 0x11, DataType::Integer16, RO_TPDO, 2, 1045, NO_LIMITS), // 0x60FB:11 Position control parameter set / Positioning speed set value
-    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 671, NO_LIMITS), // 0x60FB:12 Position control parameter set / Positioning bend 0
-    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 673, NO_LIMITS), // 0x60FB:13 Position control parameter set / Clip environment 1
-    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 677, NO_LIMITS), // 0x60FB:14 Position control parameter set / Clip environment 2
-    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 681, NO_LIMITS), // 0x60FB:15 Position control parameter set / Target input 0
-    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 683, NO_LIMITS), // 0x60FB:16 Position control parameter set / Target input 1
-    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 685, NO_LIMITS), // 0x60FB:17 Position control parameter set / IP set angle
-    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 689, NO_LIMITS), // 0x60FB:18 Position control parameter set / Positioning encoder offset
-    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 691, NO_LIMITS), // 0x60FB:19 Position control parameter set / Homing deceleration
-    Entry::new(0x60FB, 0x1A, DataType::Integer32, RO_TPDO, 4, 1047, NO_LIMITS), // 0x60FB:1A Position control parameter set / Actual speed normalised
-    Entry::new(0x60FB, 0x1B, DataType::Unsigned16, RO_TPDO, 2, 1051, NO_LIMITS), // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
-    Entry::new(0x60FD, 0x00, DataType::Unsigned32, RO_TPDO, 4, 1053, NO_LIMITS), // 0x60FD:00 Digital inputs
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 693, NO_LIMITS), // 0x60FF:00 Target velocity
-    Entry::new(0x6510, 0x00, DataType::Unsigned8, RO, 1, 1057, NO_LIMITS), // 0x6510:00 Drive data / Drive data highest sub-index
-    Entry::new(0x6510, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1058, NO_LIMITS), // 0x6510:01 Drive data / Controller type
-    Entry::new(0x6510, 0x02, DataType::Unsigned32, RO_TPDO, 4, 1062, NO_LIMITS), // 0x6510:02 Drive data / Software type
-    Entry::new(0x6510, 0x03, DataType::Unsigned32, RO_TPDO, 4, 1066, NO_LIMITS), // 0x6510:03 Drive data / Software ID
-    Entry::new(0x6510, 0x04, DataType::Unsigned32, RO_TPDO, 4, 1070, NO_LIMITS), // 0x6510:04 Drive data / Software version
-    Entry::new(0x6510, 0x05, DataType::Unsigned32, RO_TPDO, 4, 1074, NO_LIMITS), // 0x6510:05 Drive data / Parameter table version
-    Entry::new(0x6510, 0x06, DataType::Unsigned32, RO_TPDO, 4, 1078, NO_LIMITS), // 0x6510:06 Drive data / Amplifier software version
-    Entry::new(0x6510, 0x07, DataType::Unsigned32, RO_TPDO, 4, 1082, NO_LIMITS), // 0x6510:07 Drive data / FPGA version
-    Entry::new(0x6510, 0x08, DataType::Unsigned32, RO_TPDO, 4, 1086, NO_LIMITS), // 0x6510:08 Drive data / Bootloader version
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 697), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 701), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO, 4, 702), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 706), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 707), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 711), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 715), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 719), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 723), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 727), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 731), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 735), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1003, 0x09, DataType::Unsigned32, RO, 4, 739), // 0x1003:09 Pre-defined error field / Standard error field 9
+    Entry::new(0x1003, 0x0A, DataType::Unsigned32, RO, 4, 743), // 0x1003:0A Pre-defined error field / Standard error field 10
+    Entry::new(0x1003, 0x0B, DataType::Unsigned32, RO, 4, 747), // 0x1003:0B Pre-defined error field / Standard error field 11
+    Entry::new(0x1003, 0x0C, DataType::Unsigned32, RO, 4, 751), // 0x1003:0C Pre-defined error field / Standard error field 12
+    Entry::new(0x1003, 0x0D, DataType::Unsigned32, RO, 4, 755), // 0x1003:0D Pre-defined error field / Standard error field 13
+    Entry::new(0x1003, 0x0E, DataType::Unsigned32, RO, 4, 759), // 0x1003:0E Pre-defined error field / Standard error field 14
+    Entry::new(0x1003, 0x0F, DataType::Unsigned32, RO, 4, 763), // 0x1003:0F Pre-defined error field / Standard error field 15
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RO, 4, 767), // 0x1005:00 COB-ID SYNC
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 0), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 4), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, RO, 11, 771), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, RO, 7, 782), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, RO, 7, 789), // 0x100A:00 Manufacturer software version
+    Entry::new(0x100B, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 796), // 0x100B:00 Node-ID
+    Entry::new(0x100C, 0x00, DataType::Unsigned16, RW, 2, 8), // 0x100C:00 Guard time
+    Entry::new(0x100D, 0x00, DataType::Unsigned8, RW, 1, 10), // 0x100D:00 Life time factor
+    Entry::new(0x100E, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 11), // 0x100E:00 COB-ID guarding protocol
+    Entry::new(0x100F, 0x00, DataType::Unsigned32, RO, 4, 800), // 0x100F:00 Number of SDOs supported
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 804), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 805), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 809), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 813), // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 814), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 818), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 15), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 19), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 21), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 822), // 0x1018:00 Identity object / Identity object highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 823), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 827), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 831), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 835), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 839), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 840), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 844), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, RO, 1, 848), // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 23), // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 27), // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
+    Entry::new(0x1401, 0x00, DataType::Unsigned8, RO, 1, 849), // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28), // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 32), // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
+    Entry::new(0x1402, 0x00, DataType::Unsigned8, RO, 1, 850), // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 33), // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 37), // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
+    Entry::new(0x1403, 0x00, DataType::Unsigned8, RO, 1, 851), // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 38), // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 42), // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 43), // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 44), // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 48), // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RW, 4, 52), // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RW, 4, 56), // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RW, 4, 60), // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RW, 4, 64), // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RW, 4, 68), // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RW, 4, 72), // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, RW, 1, 76), // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RW, 4, 77), // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RW, 4, 81), // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RW, 4, 85), // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RW, 4, 89), // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RW, 4, 93), // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RW, 4, 97), // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RW, 4, 101), // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RW, 4, 105), // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, RW, 1, 109), // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RW, 4, 110), // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RW, 4, 114), // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RW, 4, 118), // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RW, 4, 122), // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RW, 4, 126), // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RW, 4, 130), // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RW, 4, 134), // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RW, 4, 138), // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 142), // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 143), // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 147), // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 151), // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 155), // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 159), // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 163), // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 167), // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 171), // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 852), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 175), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 179), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 180), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 182), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 853), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 184), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 188), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 189), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 191), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 854), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 193), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 197), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 198), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 200), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    Entry::new(0x1803, 0x00, DataType::Unsigned8, RO, 1, 855), // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 202), // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 206), // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 207), // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 209), // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 211), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 212), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 216), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 220), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 224), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 228), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 232), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 236), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 240), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 244), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 245), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 249), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 253), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 257), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 261), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 265), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 269), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 273), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 277), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 278), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 282), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 286), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 290), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 294), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 298), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 302), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 306), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 310), // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 311), // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 315), // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 319), // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 323), // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 327), // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 331), // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 335), // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 339), // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
+    Entry::new(0x4039, 0x00, DataType::Unsigned16, RW_TPDO, 2, 343), // 0x4039:00 P0057 Motor nominal speed
+    Entry::new(0x4041, 0x00, DataType::Unsigned16, RW_TPDO, 2, 345), // 0x4041:00 P0065 Motor pole pair number
+    Entry::new(0x40E9, 0x00, DataType::Unsigned16, RO, 2, 856), // 0x40E9:00 P0233 Amplifier Hiperface error detail
+    Entry::new(0x40EA, 0x00, DataType::Unsigned16, RO, 2, 858), // 0x40EA:00 P0234 Encoder 1 error detail
+    Entry::new(0x40EB, 0x00, DataType::Unsigned16, RO, 2, 860), // 0x40EB:00 P0235 Encoder 2 error detail
+    Entry::new(0x40F0, 0x00, DataType::Unsigned16, RO, 2, 862), // 0x40F0:00 P0240 Small module A error detail
+    Entry::new(0x40F1, 0x00, DataType::Unsigned16, RO, 2, 864), // 0x40F1:00 P0241 Small module B error detail
+    Entry::new(0x40F2, 0x00, DataType::Unsigned16, RO, 2, 866), // 0x40F2:00 P0242 Small module C error detail
+    Entry::new(0x40F3, 0x00, DataType::Unsigned16, RO, 2, 868), // 0x40F3:00 P0243 Small module D error detail
+    Entry::new(0x40F4, 0x00, DataType::Unsigned16, RO, 2, 870), // 0x40F4:00 P0244 Small module F error detail
+    Entry::new(0x40F5, 0x00, DataType::Unsigned16, RO, 2, 872), // 0x40F5:00 P0245 Big module G error detail
+    Entry::new(0x40F6, 0x00, DataType::Unsigned16, RO, 2, 874), // 0x40F6:00 P0246 Big module H error detail
+    Entry::new(0x40F7, 0x00, DataType::Unsigned16, RO, 2, 876), // 0x40F7:00 P0247 Big module J error detail
+    Entry::new(0x40F8, 0x00, DataType::Unsigned16, RO, 2, 878), // 0x40F8:00 P0248 Big module K error detail
+    Entry::new(0x40F9, 0x00, DataType::Unsigned16, RO, 2, 880), // 0x40F9:00 P0249 Big module L error detail
+    Entry::new(0x40FA, 0x00, DataType::Unsigned16, RO, 2, 882), // 0x40FA:00 P0250 Big module M error detail
+    Entry::new(0x4106, 0x00, DataType::Unsigned16, RO_TPDO, 2, 884), // 0x4106:00 P0262 Amplifier warnings
+    Entry::new(0x4107, 0x00, DataType::Unsigned16, RO_TPDO, 2, 886), // 0x4107:00 P0263 Motor warnings
+    Entry::new(0x412C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 347), // 0x412C:00 P0300 Drive control word
+    Entry::new(0x412D, 0x00, DataType::Unsigned16, RO_TPDO, 2, 888), // 0x412D:00 P0301 Drive status word
+    Entry::new(0x4130, 0x00, DataType::Integer16, RO_TPDO, 2, 890), // 0x4130:00 P0304 Operation mode actual
+    Entry::new(0x4158, 0x00, DataType::Integer16, RO_TPDO, 2, 892), // 0x4158:00 P0344 Torque actual value raw
+    Entry::new(0x415F, 0x00, DataType::Integer16, RO_TPDO, 2, 894), // 0x415F:00 P0351 Ramp function generator output
+    Entry::new(0x4160, 0x00, DataType::Integer16, RO_TPDO, 2, 896), // 0x4160:00 P0352 Speed set value total
+    Entry::new(0x4161, 0x00, DataType::Integer32, RO_TPDO, 4, 898), // 0x4161:00 P0353 Speed actual value raw
+    Entry::new(0x4165, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 349), // 0x4165:00 P0357 Torque limit direct
+    Entry::new(0x4168, 0x00, DataType::Unsigned16, RO_TPDO, 2, 902), // 0x4168:00 P0360 Position controller status raw
+    Entry::new(0x416A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 351), // 0x416A:00 P0362 Position actual value raw
+    Entry::new(0x416B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 355), // 0x416B:00 P0363 Position set angle raw
+    Entry::new(0x416C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 357), // 0x416C:00 P0364 Position set revolutions raw
+    Entry::new(0x416D, 0x00, DataType::Integer32, RO_TPDO, 4, 904), // 0x416D:00 P0365 Speed feed forward raw
+    Entry::new(0x416F, 0x00, DataType::Integer32, RO_TPDO, 4, 908), // 0x416F:00 P0367 Position control deviation raw
+    Entry::new(0x4171, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 359), // 0x4171:00 P0369 Position set value
+    Entry::new(0x4172, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 363), // 0x4172:00 P0370 Position IP set angle
+    Entry::new(0x4187, 0x00, DataType::Unsigned32, RO_TPDO, 4, 912), // 0x4187:00 P0391 Encoder 1 actual angle raw
+    Entry::new(0x4188, 0x00, DataType::Unsigned32, RO_TPDO, 4, 916), // 0x4188:00 P0392 Encoder 1 actual revolutions raw
+    Entry::new(0x41CC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 920), // 0x41CC:00 P0460 Positioning status raw
+    Entry::new(0x41CD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 922), // 0x41CD:00 P0461 Digital input output status
+    Entry::new(0x41CE, 0x00, DataType::Unsigned32, RO_TPDO, 4, 924), // 0x41CE:00 P0462 Positioning actual value
+    Entry::new(0x41CF, 0x00, DataType::Unsigned32, RO_TPDO, 4, 928), // 0x41CF:00 P0463 Positioning set value
+    Entry::new(0x41D0, 0x00, DataType::Integer16, RO_TPDO, 2, 932), // 0x41D0:00 P0464 Positioning speed set value raw
+    Entry::new(0x4214, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 367), // 0x4214:00 P0532 Sync interval
+    Entry::new(0x4258, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 369), // 0x4258:00 P0600 Positioning target unsigned
+    Entry::new(0x4259, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 373), // 0x4259:00 P0601 Positioning mode
+    Entry::new(0x425A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 375), // 0x425A:00 P0602 Positioning speed 1
+    Entry::new(0x425B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 377), // 0x425B:00 P0603 Positioning acceleration 1
+    Entry::new(0x425C, 0x00, DataType::Unsigned16, RW_TPDO, 2, 379), // 0x425C:00 P0604 Positioning deceleration 1
+    Entry::new(0x425D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 381), // 0x425D:00 P0605 Positioning bend 0 raw
+    Entry::new(0x425F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 383), // 0x425F:00 P0607 Positioning target 1
+    Entry::new(0x4260, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 387), // 0x4260:00 P0608 Positioning target input 1
+    Entry::new(0x4320, 0x00, DataType::Unsigned16, RW, 2, 389), // 0x4320:00 P0800 BACI cycle time factor
+    Entry::new(0x4321, 0x00, DataType::Unsigned16, RO, 2, 934), // 0x4321:00 P0801 BACI process data parameter number 1
+    Entry::new(0x4322, 0x00, DataType::Unsigned16, RO, 2, 936), // 0x4322:00 P0802 BACI process data parameter number 2
+    Entry::new(0x4323, 0x00, DataType::Unsigned16, RO, 2, 938), // 0x4323:00 P0803 BACI process data parameter number 3
+    Entry::new(0x4324, 0x00, DataType::Unsigned16, RO, 2, 940), // 0x4324:00 P0804 BACI process data parameter number 4
+    Entry::new(0x4325, 0x00, DataType::Unsigned16, RO, 2, 942), // 0x4325:00 P0805 BACI process data parameter number 5
+    Entry::new(0x4326, 0x00, DataType::Unsigned16, RO, 2, 944), // 0x4326:00 P0806 BACI process data parameter number 6
+    Entry::new(0x4327, 0x00, DataType::Unsigned16, RO, 2, 946), // 0x4327:00 P0807 BACI process data parameter number 7
+    Entry::new(0x4328, 0x00, DataType::Unsigned16, RO, 2, 948), // 0x4328:00 P0808 BACI process data parameter number 8
+    Entry::new(0x4329, 0x00, DataType::Unsigned16, RO, 2, 950), // 0x4329:00 P0809 BACI process data parameter number 9
+    Entry::new(0x432A, 0x00, DataType::Unsigned16, RO, 2, 952), // 0x432A:00 P0810 BACI process data parameter number 10
+    Entry::new(0x432B, 0x00, DataType::Unsigned16, RO, 2, 954), // 0x432B:00 P0811 BACI process data parameter number 11
+    Entry::new(0x432C, 0x00, DataType::Unsigned16, RO, 2, 956), // 0x432C:00 P0812 BACI process data parameter number 12
+    Entry::new(0x432D, 0x00, DataType::Unsigned16, RO, 2, 958), // 0x432D:00 P0813 BACI process data parameter number 13
+    Entry::new(0x432E, 0x00, DataType::Unsigned16, RO, 2, 960), // 0x432E:00 P0814 BACI process data parameter number 14
+    Entry::new(0x432F, 0x00, DataType::Unsigned16, RO, 2, 962), // 0x432F:00 P0815 BACI process data parameter number 15
+    Entry::new(0x4330, 0x00, DataType::Unsigned16, RO, 2, 964), // 0x4330:00 P0816 BACI process data parameter number 16
+    Entry::new(0x4332, 0x00, DataType::Unsigned16, RW, 2, 391), // 0x4332:00 P0818 BACI cycle offset set values
+    Entry::new(0x4333, 0x00, DataType::Unsigned16, RW, 2, 393), // 0x4333:00 P0819 BACI cycle offset actual values
+    Entry::new(0x433E, 0x00, DataType::Unsigned16, RW, 2, 395), // 0x433E:00 P0830 Option module G configuration 1
+    Entry::new(0x4348, 0x00, DataType::Unsigned16, RW, 2, 397), // 0x4348:00 P0840 Option module H configuration 1
+    Entry::new(0x43E8, 0x00, DataType::Integer16, RW_RPDO, 2, 399), // 0x43E8:00 P1000 Operation mode set
+    Entry::new(0x43E9, 0x00, DataType::Unsigned16, RW, 2, 401), // 0x43E9:00 P1001 Drive parameter 1001
+    Entry::new(0x43EB, 0x00, DataType::Integer16, RW_TPDO, 2, 403), // 0x43EB:00 P1003 Stop option code raw
+    Entry::new(0x43EC, 0x00, DataType::Integer16, RW_TPDO, 2, 405), // 0x43EC:00 P1004 Quick stop code raw
+    Entry::new(0x43ED, 0x00, DataType::Integer16, RW_TPDO, 2, 407), // 0x43ED:00 P1005 Shutdown code raw
+    Entry::new(0x43EE, 0x00, DataType::Integer16, RW_TPDO, 2, 409), // 0x43EE:00 P1006 Disable operation code raw
+    Entry::new(0x43EF, 0x00, DataType::Integer16, RW_TPDO, 2, 411), // 0x43EF:00 P1007 Error reaction code raw
+    Entry::new(0x4407, 0x00, DataType::Unsigned16, RW_TPDO, 2, 413), // 0x4407:00 P1031 Maximum speed
+    Entry::new(0x4411, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 415), // 0x4411:00 P1041 Speed set value upper limit
+    Entry::new(0x4412, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 419), // 0x4412:00 P1042 Speed set value lower limit
+    Entry::new(0x441A, 0x00, DataType::Unsigned16, RW_TPDO, 2, 423), // 0x441A:00 P1050 Position controller mode raw
+    Entry::new(0x441B, 0x00, DataType::Unsigned16, RW_TPDO, 2, 425), // 0x441B:00 P1051 Position controller Kv factor raw
+    Entry::new(0x441D, 0x00, DataType::Unsigned16, RW_TPDO, 2, 427), // 0x441D:00 P1053 Speed feed forward factor raw
+    Entry::new(0x4420, 0x00, DataType::Unsigned16, RW_TPDO, 2, 429), // 0x4420:00 P1056 Following error time
+    Entry::new(0x4431, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 431), // 0x4431:00 P1073 Encoder 1 monitoring lower limit
+    Entry::new(0x4493, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 433), // 0x4493:00 P1171 Ramp function generator input
+    Entry::new(0x4494, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 437), // 0x4494:00 P1172 Ramp function generator ramp up time
+    Entry::new(0x4495, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 439), // 0x4495:00 P1173 Ramp function generator ramp down time
+    Entry::new(0x4496, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 441), // 0x4496:00 P1174 Ramp function generator stop time
+    Entry::new(0x44A6, 0x00, DataType::Unsigned16, RW_TPDO, 2, 443), // 0x44A6:00 P1190 Positioning mode word
+    Entry::new(0x44A7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 445), // 0x44A7:00 P1191 Positioning actual record number
+    Entry::new(0x44AA, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 447), // 0x44AA:00 P1194 Positioning window
+    Entry::new(0x44AB, 0x00, DataType::Unsigned16, RW_TPDO, 2, 451), // 0x44AB:00 P1195 Positioning window time
+    Entry::new(0x44AC, 0x00, DataType::Unsigned32, RW_TPDO, 4, 453), // 0x44AC:00 P1196 Software limit switch 1
+    Entry::new(0x44AD, 0x00, DataType::Unsigned32, RW_TPDO, 4, 457), // 0x44AD:00 P1197 Software limit switch 2
+    Entry::new(0x44AE, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 461), // 0x44AE:00 P1198 Positioning clip environment 1
+    Entry::new(0x44AF, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 465), // 0x44AF:00 P1199 Positioning clip environment 2
+    Entry::new(0x44B0, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 469), // 0x44B0:00 P1200 Positioning home position
+    Entry::new(0x44B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 473), // 0x44B1:00 P1201 Homing speed
+    Entry::new(0x44B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 475), // 0x44B2:00 P1202 Homing final speed
+    Entry::new(0x44B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 477), // 0x44B3:00 P1203 Homing acceleration raw
+    Entry::new(0x44B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 479), // 0x44B4:00 P1204 Homing deceleration raw
+    Entry::new(0x44B5, 0x00, DataType::Integer16, RW_TPDO, 2, 481), // 0x44B5:00 P1205 Homing mode
+    Entry::new(0x44B8, 0x00, DataType::Unsigned16, RW_TPDO, 2, 483), // 0x44B8:00 P1208 Positioning switch mode raw
+    Entry::new(0x44B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 485), // 0x44B9:00 P1209 Positioning encoder offset raw
+    Entry::new(0x44BD, 0x00, DataType::Unsigned16, RW_TPDO, 2, 487), // 0x44BD:00 P1213 Positioning stop deceleration
+    Entry::new(0x4BEA, 0x00, DataType::Unsigned32, RW_TPDO, 4, 489), // 0x4BEA:00 P3050 Position scaling user unit
+    Entry::new(0x4BEB, 0x00, DataType::Unsigned32, RW_TPDO, 4, 493), // 0x4BEB:00 P3051 Position scaling revolutions
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 497), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 499), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 966), // 0x6041:00 Statusword
+    Entry::new(0x6042, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 501), // 0x6042:00 vl target velocity
+    Entry::new(0x6043, 0x00, DataType::Integer16, RO_TPDO, 2, 968), // 0x6043:00 vl velocity demand
+    Entry::new(0x6044, 0x00, DataType::Integer16, RO_TPDO, 2, 970), // 0x6044:00 vl control effort
+    Entry::new(0x6045, 0x00, DataType::Integer16, RO, 2, 972), // 0x6045:00 vl manipulated velocity
+    Entry::new(0x6046, 0x00, DataType::Unsigned8, RO, 1, 974), // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    Entry::new(0x6046, 0x01, DataType::Unsigned32, RO_TPDO, 4, 975), // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    Entry::new(0x6046, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 503), // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    Entry::new(0x6048, 0x00, DataType::Unsigned8, RO, 1, 979), // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
+    Entry::new(0x6048, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 507), // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
+    Entry::new(0x6048, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 511), // 0x6048:02 vl velocity acceleration / vl acceleration delta time
+    Entry::new(0x6049, 0x00, DataType::Unsigned8, RO, 1, 980), // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
+    Entry::new(0x6049, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 513), // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
+    Entry::new(0x6049, 0x02, DataType::Unsigned16, RW_TPDO_RPDO, 2, 517), // 0x6049:02 vl velocity deceleration / vl deceleration delta time
+    Entry::new(0x604C, 0x00, DataType::Unsigned8, RO, 1, 981), // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
+    Entry::new(0x604C, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 519), // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    Entry::new(0x604C, 0x02, DataType::Integer32, RW_TPDO_RPDO, 4, 523), // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    Entry::new(0x604D, 0x00, DataType::Unsigned8, RW_TPDO, 1, 527), // 0x604D:00 vl pole number
+    Entry::new(0x604F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 528), // 0x604F:00 vl ramp function time
+    Entry::new(0x6050, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 532), // 0x6050:00 vl slow down time
+    Entry::new(0x6051, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 536), // 0x6051:00 vl quick stop time
+    Entry::new(0x605A, 0x00, DataType::Integer16, RW_TPDO, 2, 540), // 0x605A:00 Quick stop option code
+    Entry::new(0x605B, 0x00, DataType::Integer16, RW_TPDO, 2, 542), // 0x605B:00 Shutdown option code
+    Entry::new(0x605C, 0x00, DataType::Integer16, RW_TPDO, 2, 544), // 0x605C:00 Disable operation option code
+    Entry::new(0x605D, 0x00, DataType::Integer16, RW_TPDO, 2, 546), // 0x605D:00 Halt option code
+    Entry::new(0x605E, 0x00, DataType::Integer16, RW_TPDO, 2, 548), // 0x605E:00 Fault reaction option code
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 550), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 982), // 0x6061:00 Modes of operation display
+    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 983), // 0x6062:00 Position demand value
+    Entry::new(0x6063, 0x00, DataType::Integer32, RO_TPDO, 4, 987), // 0x6063:00 Position actual internal value
+    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 991), // 0x6064:00 Position actual value
+    Entry::new(0x6066, 0x00, DataType::Unsigned16, RW_TPDO, 2, 551), // 0x6066:00 Following error time out
+    Entry::new(0x6067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 553), // 0x6067:00 Position window
+    Entry::new(0x6068, 0x00, DataType::Unsigned16, RW_TPDO, 2, 557), // 0x6068:00 Position window time
+    Entry::new(0x6069, 0x00, DataType::Integer32, RO_TPDO, 4, 995), // 0x6069:00 Velocity sensor actual value
+    Entry::new(0x606A, 0x00, DataType::Integer16, RO, 2, 999), // 0x606A:00 Sensor selection code
+    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 1001), // 0x606B:00 Velocity demand value
+    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 1005), // 0x606C:00 Velocity actual value
+    Entry::new(0x606F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 559), // 0x606F:00 Velocity threshold
+    Entry::new(0x6072, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 561), // 0x6072:00 Max torque
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 1009), // 0x6077:00 Torque actual value
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 563), // 0x607A:00 Target position
+    Entry::new(0x607C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 567), // 0x607C:00 Home offset
+    Entry::new(0x607D, 0x00, DataType::Unsigned8, RO, 1, 1011), // 0x607D:00 Software position limit / Software position limit highest sub-index
+    Entry::new(0x607D, 0x01, DataType::Integer32, RW_TPDO, 4, 571), // 0x607D:01 Software position limit / Min position limit
+    Entry::new(0x607D, 0x02, DataType::Integer32, RW_TPDO, 4, 575), // 0x607D:02 Software position limit / Max position limit
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_TPDO, 4, 579), // 0x607F:00 Max profile velocity
+    Entry::new(0x6080, 0x00, DataType::Unsigned32, RW_TPDO, 4, 583), // 0x6080:00 Max motor speed
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_TPDO, 4, 587), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_TPDO, 4, 591), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_TPDO, 4, 595), // 0x6084:00 Profile deceleration
+    Entry::new(0x6085, 0x00, DataType::Unsigned32, RW_TPDO, 4, 599), // 0x6085:00 Quick stop deceleration
+    Entry::new(0x6086, 0x00, DataType::Integer16, RW_TPDO, 2, 603), // 0x6086:00 Motion profile type
+    Entry::new(0x6092, 0x00, DataType::Unsigned8, RO, 1, 1012), // 0x6092:00 Feed constant / Feed constant highest sub-index
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW_TPDO, 4, 605), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW_TPDO, 4, 609), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_TPDO, 1, 613), // 0x6098:00 Homing method
+    Entry::new(0x6099, 0x00, DataType::Unsigned8, RO, 1, 1013), // 0x6099:00 Homing speeds / Homing speeds highest sub-index
+    Entry::new(0x6099, 0x01, DataType::Unsigned32, RW_TPDO_RPDO, 4, 614), // 0x6099:01 Homing speeds / Speed during search for switch
+    Entry::new(0x6099, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 618), // 0x6099:02 Homing speeds / Speed during search for zero
+    Entry::new(0x609A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 622), // 0x609A:00 Homing acceleration
+    Entry::new(0x60C0, 0x00, DataType::Integer16, RO, 2, 1014), // 0x60C0:00 Interpolation sub mode select
+    Entry::new(0x60C1, 0x00, DataType::Unsigned8, RO, 1, 1016), // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
+    Entry::new(0x60C1, 0x01, DataType::Integer32, RW_TPDO_RPDO, 4, 626), // 0x60C1:01 Interpolation data record / Interpolation data record position
+    Entry::new(0x60C2, 0x00, DataType::Unsigned8, RO, 1, 1017), // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
+    Entry::new(0x60C2, 0x01, DataType::Unsigned8, RW, 1, 630), // 0x60C2:01 Interpolation time period / ip time units
+    Entry::new(0x60C2, 0x02, DataType::Integer8, RW_TPDO_RPDO, 1, 631), // 0x60C2:02 Interpolation time period / ip time index
+    Entry::new(0x60C3, 0x00, DataType::Unsigned8, RO, 1, 1018), // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
+    Entry::new(0x60C3, 0x01, DataType::Unsigned8, RW_TPDO_RPDO, 1, 632), // 0x60C3:01 Interpolation sync definition / Synchronize on group
+    Entry::new(0x60C3, 0x02, DataType::Unsigned8, RW_TPDO_RPDO, 1, 633), // 0x60C3:02 Interpolation sync definition / ip sync every n event
+    Entry::new(0x60C4, 0x00, DataType::Unsigned8, RO, 1, 1019), // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
+    Entry::new(0x60C4, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1020), // 0x60C4:01 Interpolation data configuration / Maximum buffer size
+    Entry::new(0x60C4, 0x02, DataType::Unsigned32, RW_TPDO_RPDO, 4, 634), // 0x60C4:02 Interpolation data configuration / Actual buffer size
+    Entry::new(0x60C4, 0x03, DataType::Unsigned8, RW_TPDO_RPDO, 1, 638), // 0x60C4:03 Interpolation data configuration / Buffer organisation
+    Entry::new(0x60C4, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 639), // 0x60C4:04 Interpolation data configuration / Buffer position
+    Entry::new(0x60C4, 0x05, DataType::Unsigned8, WO_RPDO, 1, 641), // 0x60C4:05 Interpolation data configuration / Size of data record
+    Entry::new(0x60C4, 0x06, DataType::Unsigned8, WO_RPDO, 1, 642), // 0x60C4:06 Interpolation data configuration / Buffer clear
+    Entry::new(0x60F8, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 643), // 0x60F8:00 Max slippage
+    Entry::new(0x60FB, 0x00, DataType::Unsigned8, RO, 1, 1024), // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
+    Entry::new(0x60FB, 0x01, DataType::Unsigned16, RO_TPDO, 2, 1025), // 0x60FB:01 Position control parameter set / Position controller status
+    Entry::new(0x60FB, 0x02, DataType::Unsigned16, RW_TPDO, 2, 647), // 0x60FB:02 Position control parameter set / Position controller mode
+    Entry::new(0x60FB, 0x03, DataType::Unsigned16, RW_TPDO, 2, 649), // 0x60FB:03 Position control parameter set / Position controller Kv factor
+    Entry::new(0x60FB, 0x04, DataType::Unsigned16, RW_TPDO_RPDO, 2, 651), // 0x60FB:04 Position control parameter set / Position set revolutions
+    Entry::new(0x60FB, 0x05, DataType::Unsigned16, RW_TPDO_RPDO, 2, 653), // 0x60FB:05 Position control parameter set / Position set angle
+    Entry::new(0x60FB, 0x06, DataType::Unsigned16, RW_TPDO, 2, 655), // 0x60FB:06 Position control parameter set / Speed feed forward factor
+    Entry::new(0x60FB, 0x07, DataType::Integer32, RO_TPDO, 4, 1027), // 0x60FB:07 Position control parameter set / Position control deviation
+    Entry::new(0x60FB, 0x08, DataType::Unsigned32, RW_TPDO_RPDO, 4, 657), // 0x60FB:08 Position control parameter set / Position controller actual value
+    Entry::new(0x60FB, 0x09, DataType::Unsigned32, RO_TPDO, 4, 1031), // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
+    Entry::new(0x60FB, 0x0A, DataType::Unsigned32, RO_TPDO, 4, 1035), // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
+    Entry::new(0x60FB, 0x0B, DataType::Integer32, RO_TPDO, 4, 1039), // 0x60FB:0B Position control parameter set / Speed feed forward
+    Entry::new(0x60FB, 0x0C, DataType::Unsigned16, RO_TPDO, 2, 1043), // 0x60FB:0C Position control parameter set / Positioning status
+    Entry::new(0x60FB, 0x0D, DataType::Unsigned16, RW_TPDO_RPDO, 2, 661), // 0x60FB:0D Position control parameter set / Actual positioning record number
+    Entry::new(0x60FB, 0x0E, DataType::Unsigned16, RW_TPDO, 2, 663), // 0x60FB:0E Position control parameter set / Positioning mode bits
+    Entry::new(0x60FB, 0x0F, DataType::Unsigned32, RW_TPDO, 4, 665), // 0x60FB:0F Position control parameter set / Home position
+    Entry::new(0x60FB, 0x10, DataType::Unsigned16, RW_TPDO, 2, 669), // 0x60FB:10 Position control parameter set / Positioning switch mode
+    Entry::new(0x60FB, 0x11, DataType::Integer16, RO_TPDO, 2, 1045), // 0x60FB:11 Position control parameter set / Positioning speed set value
+    Entry::new(0x60FB, 0x12, DataType::Unsigned16, RW_TPDO_RPDO, 2, 671), // 0x60FB:12 Position control parameter set / Positioning bend 0
+    Entry::new(0x60FB, 0x13, DataType::Unsigned32, RW_TPDO_RPDO, 4, 673), // 0x60FB:13 Position control parameter set / Clip environment 1
+    Entry::new(0x60FB, 0x14, DataType::Unsigned32, RW_TPDO_RPDO, 4, 677), // 0x60FB:14 Position control parameter set / Clip environment 2
+    Entry::new(0x60FB, 0x15, DataType::Integer16, RW_TPDO_RPDO, 2, 681), // 0x60FB:15 Position control parameter set / Target input 0
+    Entry::new(0x60FB, 0x16, DataType::Integer16, RW_TPDO_RPDO, 2, 683), // 0x60FB:16 Position control parameter set / Target input 1
+    Entry::new(0x60FB, 0x17, DataType::Unsigned32, RW_TPDO_RPDO, 4, 685), // 0x60FB:17 Position control parameter set / IP set angle
+    Entry::new(0x60FB, 0x18, DataType::Unsigned16, RW_TPDO_RPDO, 2, 689), // 0x60FB:18 Position control parameter set / Positioning encoder offset
+    Entry::new(0x60FB, 0x19, DataType::Unsigned16, RW_TPDO_RPDO, 2, 691), // 0x60FB:19 Position control parameter set / Homing deceleration
+    Entry::new(0x60FB, 0x1A, DataType::Integer32, RO_TPDO, 4, 1047), // 0x60FB:1A Position control parameter set / Actual speed normalised
+    Entry::new(0x60FB, 0x1B, DataType::Unsigned16, RO_TPDO, 2, 1051), // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
+    Entry::new(0x60FD, 0x00, DataType::Unsigned32, RO_TPDO, 4, 1053), // 0x60FD:00 Digital inputs
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 693), // 0x60FF:00 Target velocity
+    Entry::new(0x6510, 0x00, DataType::Unsigned8, RO, 1, 1057), // 0x6510:00 Drive data / Drive data highest sub-index
+    Entry::new(0x6510, 0x01, DataType::Unsigned32, RO_TPDO, 4, 1058), // 0x6510:01 Drive data / Controller type
+    Entry::new(0x6510, 0x02, DataType::Unsigned32, RO_TPDO, 4, 1062), // 0x6510:02 Drive data / Software type
+    Entry::new(0x6510, 0x03, DataType::Unsigned32, RO_TPDO, 4, 1066), // 0x6510:03 Drive data / Software ID
+    Entry::new(0x6510, 0x04, DataType::Unsigned32, RO_TPDO, 4, 1070), // 0x6510:04 Drive data / Software version
+    Entry::new(0x6510, 0x05, DataType::Unsigned32, RO_TPDO, 4, 1074), // 0x6510:05 Drive data / Parameter table version
+    Entry::new(0x6510, 0x06, DataType::Unsigned32, RO_TPDO, 4, 1078), // 0x6510:06 Drive data / Amplifier software version
+    Entry::new(0x6510, 0x07, DataType::Unsigned32, RO_TPDO, 4, 1082), // 0x6510:07 Drive data / FPGA version
+    Entry::new(0x6510, 0x08, DataType::Unsigned32, RO_TPDO, 4, 1086), // 0x6510:08 Drive data / Bootloader version
+];
+
+#[rustfmt::skip]
+static LIMIT_ROWS: [u8; 379] = [
+    NO_LIMITS, // 0x1000:00 Device type
+    NO_LIMITS, // 0x1001:00 Error register
+    NO_LIMITS, // 0x1002:00 Manufacturer status register
+    NO_LIMITS, // 0x1003:00 Pre-defined error field / Number of errors
+    NO_LIMITS, // 0x1003:01 Pre-defined error field / Standard error field 1
+    NO_LIMITS, // 0x1003:02 Pre-defined error field / Standard error field 2
+    NO_LIMITS, // 0x1003:03 Pre-defined error field / Standard error field 3
+    NO_LIMITS, // 0x1003:04 Pre-defined error field / Standard error field 4
+    NO_LIMITS, // 0x1003:05 Pre-defined error field / Standard error field 5
+    NO_LIMITS, // 0x1003:06 Pre-defined error field / Standard error field 6
+    NO_LIMITS, // 0x1003:07 Pre-defined error field / Standard error field 7
+    NO_LIMITS, // 0x1003:08 Pre-defined error field / Standard error field 8
+    NO_LIMITS, // 0x1003:09 Pre-defined error field / Standard error field 9
+    NO_LIMITS, // 0x1003:0A Pre-defined error field / Standard error field 10
+    NO_LIMITS, // 0x1003:0B Pre-defined error field / Standard error field 11
+    NO_LIMITS, // 0x1003:0C Pre-defined error field / Standard error field 12
+    NO_LIMITS, // 0x1003:0D Pre-defined error field / Standard error field 13
+    NO_LIMITS, // 0x1003:0E Pre-defined error field / Standard error field 14
+    NO_LIMITS, // 0x1003:0F Pre-defined error field / Standard error field 15
+    NO_LIMITS, // 0x1005:00 COB-ID SYNC
+    0, // 0x1006:00 Communication cycle period
+    NO_LIMITS, // 0x1007:00 Synchronous window length
+    NO_LIMITS, // 0x1008:00 Manufacturer device name
+    NO_LIMITS, // 0x1009:00 Manufacturer hardware version
+    NO_LIMITS, // 0x100A:00 Manufacturer software version
+    NO_LIMITS, // 0x100B:00 Node-ID
+    NO_LIMITS, // 0x100C:00 Guard time
+    NO_LIMITS, // 0x100D:00 Life time factor
+    NO_LIMITS, // 0x100E:00 COB-ID guarding protocol
+    NO_LIMITS, // 0x100F:00 Number of SDOs supported
+    NO_LIMITS, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    NO_LIMITS, // 0x1010:01 Store parameters / Save all parameters
+    NO_LIMITS, // 0x1010:02 Store parameters / Save communication parameters
+    NO_LIMITS, // 0x1011:00 Restore default parameters / Restore default parameters highest sub-index
+    NO_LIMITS, // 0x1011:01 Restore default parameters / Restore all default parameters
+    NO_LIMITS, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    NO_LIMITS, // 0x1014:00 COB-ID EMCY
+    NO_LIMITS, // 0x1015:00 Inhibit time EMCY
+    NO_LIMITS, // 0x1017:00 Producer heartbeat time
+    NO_LIMITS, // 0x1018:00 Identity object / Identity object highest sub-index
+    NO_LIMITS, // 0x1018:01 Identity object / Vendor-ID
+    NO_LIMITS, // 0x1018:02 Identity object / Product code
+    NO_LIMITS, // 0x1018:03 Identity object / Revision number
+    NO_LIMITS, // 0x1018:04 Identity object / Serial number
+    NO_LIMITS, // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    NO_LIMITS, // 0x1200:01 SDO server parameter / COB-ID client to server
+    NO_LIMITS, // 0x1200:02 SDO server parameter / COB-ID server to client
+    NO_LIMITS, // 0x1400:00 RPDO1 communication parameter / RPDO1 communication highest sub-index
+    NO_LIMITS, // 0x1400:01 RPDO1 communication parameter / RPDO1 COB-ID
+    NO_LIMITS, // 0x1400:02 RPDO1 communication parameter / RPDO1 transmission type
+    NO_LIMITS, // 0x1401:00 RPDO2 communication parameter / RPDO2 communication highest sub-index
+    NO_LIMITS, // 0x1401:01 RPDO2 communication parameter / RPDO2 COB-ID
+    NO_LIMITS, // 0x1401:02 RPDO2 communication parameter / RPDO2 transmission type
+    NO_LIMITS, // 0x1402:00 RPDO3 communication parameter / RPDO3 communication highest sub-index
+    NO_LIMITS, // 0x1402:01 RPDO3 communication parameter / RPDO3 COB-ID
+    NO_LIMITS, // 0x1402:02 RPDO3 communication parameter / RPDO3 transmission type
+    NO_LIMITS, // 0x1403:00 RPDO4 communication parameter / RPDO4 communication highest sub-index
+    NO_LIMITS, // 0x1403:01 RPDO4 communication parameter / RPDO4 COB-ID
+    NO_LIMITS, // 0x1403:02 RPDO4 communication parameter / RPDO4 transmission type
+    1, // 0x1600:00 RPDO1 mapping parameter / RPDO1 number of mapped objects
+    NO_LIMITS, // 0x1600:01 RPDO1 mapping parameter / RPDO1 mapping entry 1
+    NO_LIMITS, // 0x1600:02 RPDO1 mapping parameter / RPDO1 mapping entry 2
+    NO_LIMITS, // 0x1600:03 RPDO1 mapping parameter / RPDO1 mapping entry 3
+    NO_LIMITS, // 0x1600:04 RPDO1 mapping parameter / RPDO1 mapping entry 4
+    NO_LIMITS, // 0x1600:05 RPDO1 mapping parameter / RPDO1 mapping entry 5
+    NO_LIMITS, // 0x1600:06 RPDO1 mapping parameter / RPDO1 mapping entry 6
+    NO_LIMITS, // 0x1600:07 RPDO1 mapping parameter / RPDO1 mapping entry 7
+    NO_LIMITS, // 0x1600:08 RPDO1 mapping parameter / RPDO1 mapping entry 8
+    1, // 0x1601:00 RPDO2 mapping parameter / RPDO2 number of mapped objects
+    NO_LIMITS, // 0x1601:01 RPDO2 mapping parameter / RPDO2 mapping entry 1
+    NO_LIMITS, // 0x1601:02 RPDO2 mapping parameter / RPDO2 mapping entry 2
+    NO_LIMITS, // 0x1601:03 RPDO2 mapping parameter / RPDO2 mapping entry 3
+    NO_LIMITS, // 0x1601:04 RPDO2 mapping parameter / RPDO2 mapping entry 4
+    NO_LIMITS, // 0x1601:05 RPDO2 mapping parameter / RPDO2 mapping entry 5
+    NO_LIMITS, // 0x1601:06 RPDO2 mapping parameter / RPDO2 mapping entry 6
+    NO_LIMITS, // 0x1601:07 RPDO2 mapping parameter / RPDO2 mapping entry 7
+    NO_LIMITS, // 0x1601:08 RPDO2 mapping parameter / RPDO2 mapping entry 8
+    1, // 0x1602:00 RPDO3 mapping parameter / RPDO3 number of mapped objects
+    NO_LIMITS, // 0x1602:01 RPDO3 mapping parameter / RPDO3 mapping entry 1
+    NO_LIMITS, // 0x1602:02 RPDO3 mapping parameter / RPDO3 mapping entry 2
+    NO_LIMITS, // 0x1602:03 RPDO3 mapping parameter / RPDO3 mapping entry 3
+    NO_LIMITS, // 0x1602:04 RPDO3 mapping parameter / RPDO3 mapping entry 4
+    NO_LIMITS, // 0x1602:05 RPDO3 mapping parameter / RPDO3 mapping entry 5
+    NO_LIMITS, // 0x1602:06 RPDO3 mapping parameter / RPDO3 mapping entry 6
+    NO_LIMITS, // 0x1602:07 RPDO3 mapping parameter / RPDO3 mapping entry 7
+    NO_LIMITS, // 0x1602:08 RPDO3 mapping parameter / RPDO3 mapping entry 8
+    1, // 0x1603:00 RPDO4 mapping parameter / RPDO4 number of mapped objects
+    NO_LIMITS, // 0x1603:01 RPDO4 mapping parameter / RPDO4 mapping entry 1
+    NO_LIMITS, // 0x1603:02 RPDO4 mapping parameter / RPDO4 mapping entry 2
+    NO_LIMITS, // 0x1603:03 RPDO4 mapping parameter / RPDO4 mapping entry 3
+    NO_LIMITS, // 0x1603:04 RPDO4 mapping parameter / RPDO4 mapping entry 4
+    NO_LIMITS, // 0x1603:05 RPDO4 mapping parameter / RPDO4 mapping entry 5
+    NO_LIMITS, // 0x1603:06 RPDO4 mapping parameter / RPDO4 mapping entry 6
+    NO_LIMITS, // 0x1603:07 RPDO4 mapping parameter / RPDO4 mapping entry 7
+    NO_LIMITS, // 0x1603:08 RPDO4 mapping parameter / RPDO4 mapping entry 8
+    NO_LIMITS, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    NO_LIMITS, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    NO_LIMITS, // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    NO_LIMITS, // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    NO_LIMITS, // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    NO_LIMITS, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    NO_LIMITS, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    NO_LIMITS, // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    NO_LIMITS, // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    NO_LIMITS, // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    NO_LIMITS, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    NO_LIMITS, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    NO_LIMITS, // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    NO_LIMITS, // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    NO_LIMITS, // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    NO_LIMITS, // 0x1803:00 TPDO4 communication parameter / TPDO4 communication highest sub-index
+    NO_LIMITS, // 0x1803:01 TPDO4 communication parameter / TPDO4 COB-ID
+    NO_LIMITS, // 0x1803:02 TPDO4 communication parameter / TPDO4 transmission type
+    NO_LIMITS, // 0x1803:03 TPDO4 communication parameter / TPDO4 inhibit time
+    NO_LIMITS, // 0x1803:05 TPDO4 communication parameter / TPDO4 event timer
+    1, // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    NO_LIMITS, // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapping entry 1
+    NO_LIMITS, // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapping entry 2
+    NO_LIMITS, // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapping entry 3
+    NO_LIMITS, // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapping entry 4
+    NO_LIMITS, // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapping entry 5
+    NO_LIMITS, // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapping entry 6
+    NO_LIMITS, // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapping entry 7
+    NO_LIMITS, // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapping entry 8
+    1, // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    NO_LIMITS, // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapping entry 1
+    NO_LIMITS, // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapping entry 2
+    NO_LIMITS, // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapping entry 3
+    NO_LIMITS, // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapping entry 4
+    NO_LIMITS, // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapping entry 5
+    NO_LIMITS, // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapping entry 6
+    NO_LIMITS, // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapping entry 7
+    NO_LIMITS, // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapping entry 8
+    1, // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    NO_LIMITS, // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapping entry 1
+    NO_LIMITS, // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapping entry 2
+    NO_LIMITS, // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapping entry 3
+    NO_LIMITS, // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapping entry 4
+    NO_LIMITS, // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapping entry 5
+    NO_LIMITS, // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapping entry 6
+    NO_LIMITS, // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapping entry 7
+    NO_LIMITS, // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapping entry 8
+    1, // 0x1A03:00 TPDO4 mapping parameter / TPDO4 number of mapped objects
+    NO_LIMITS, // 0x1A03:01 TPDO4 mapping parameter / TPDO4 mapping entry 1
+    NO_LIMITS, // 0x1A03:02 TPDO4 mapping parameter / TPDO4 mapping entry 2
+    NO_LIMITS, // 0x1A03:03 TPDO4 mapping parameter / TPDO4 mapping entry 3
+    NO_LIMITS, // 0x1A03:04 TPDO4 mapping parameter / TPDO4 mapping entry 4
+    NO_LIMITS, // 0x1A03:05 TPDO4 mapping parameter / TPDO4 mapping entry 5
+    NO_LIMITS, // 0x1A03:06 TPDO4 mapping parameter / TPDO4 mapping entry 6
+    NO_LIMITS, // 0x1A03:07 TPDO4 mapping parameter / TPDO4 mapping entry 7
+    NO_LIMITS, // 0x1A03:08 TPDO4 mapping parameter / TPDO4 mapping entry 8
+    2, // 0x4039:00 P0057 Motor nominal speed
+    3, // 0x4041:00 P0065 Motor pole pair number
+    NO_LIMITS, // 0x40E9:00 P0233 Amplifier Hiperface error detail
+    NO_LIMITS, // 0x40EA:00 P0234 Encoder 1 error detail
+    NO_LIMITS, // 0x40EB:00 P0235 Encoder 2 error detail
+    NO_LIMITS, // 0x40F0:00 P0240 Small module A error detail
+    NO_LIMITS, // 0x40F1:00 P0241 Small module B error detail
+    NO_LIMITS, // 0x40F2:00 P0242 Small module C error detail
+    NO_LIMITS, // 0x40F3:00 P0243 Small module D error detail
+    NO_LIMITS, // 0x40F4:00 P0244 Small module F error detail
+    NO_LIMITS, // 0x40F5:00 P0245 Big module G error detail
+    NO_LIMITS, // 0x40F6:00 P0246 Big module H error detail
+    NO_LIMITS, // 0x40F7:00 P0247 Big module J error detail
+    NO_LIMITS, // 0x40F8:00 P0248 Big module K error detail
+    NO_LIMITS, // 0x40F9:00 P0249 Big module L error detail
+    NO_LIMITS, // 0x40FA:00 P0250 Big module M error detail
+    NO_LIMITS, // 0x4106:00 P0262 Amplifier warnings
+    NO_LIMITS, // 0x4107:00 P0263 Motor warnings
+    NO_LIMITS, // 0x412C:00 P0300 Drive control word
+    NO_LIMITS, // 0x412D:00 P0301 Drive status word
+    NO_LIMITS, // 0x4130:00 P0304 Operation mode actual
+    NO_LIMITS, // 0x4158:00 P0344 Torque actual value raw
+    NO_LIMITS, // 0x415F:00 P0351 Ramp function generator output
+    NO_LIMITS, // 0x4160:00 P0352 Speed set value total
+    NO_LIMITS, // 0x4161:00 P0353 Speed actual value raw
+    NO_LIMITS, // 0x4165:00 P0357 Torque limit direct
+    NO_LIMITS, // 0x4168:00 P0360 Position controller status raw
+    NO_LIMITS, // 0x416A:00 P0362 Position actual value raw
+    NO_LIMITS, // 0x416B:00 P0363 Position set angle raw
+    NO_LIMITS, // 0x416C:00 P0364 Position set revolutions raw
+    NO_LIMITS, // 0x416D:00 P0365 Speed feed forward raw
+    NO_LIMITS, // 0x416F:00 P0367 Position control deviation raw
+    NO_LIMITS, // 0x4171:00 P0369 Position set value
+    NO_LIMITS, // 0x4172:00 P0370 Position IP set angle
+    NO_LIMITS, // 0x4187:00 P0391 Encoder 1 actual angle raw
+    NO_LIMITS, // 0x4188:00 P0392 Encoder 1 actual revolutions raw
+    NO_LIMITS, // 0x41CC:00 P0460 Positioning status raw
+    NO_LIMITS, // 0x41CD:00 P0461 Digital input output status
+    NO_LIMITS, // 0x41CE:00 P0462 Positioning actual value
+    NO_LIMITS, // 0x41CF:00 P0463 Positioning set value
+    NO_LIMITS, // 0x41D0:00 P0464 Positioning speed set value raw
+    NO_LIMITS, // 0x4214:00 P0532 Sync interval
+    NO_LIMITS, // 0x4258:00 P0600 Positioning target unsigned
+    NO_LIMITS, // 0x4259:00 P0601 Positioning mode
+    4, // 0x425A:00 P0602 Positioning speed 1
+    5, // 0x425B:00 P0603 Positioning acceleration 1
+    5, // 0x425C:00 P0604 Positioning deceleration 1
+    6, // 0x425D:00 P0605 Positioning bend 0 raw
+    NO_LIMITS, // 0x425F:00 P0607 Positioning target 1
+    NO_LIMITS, // 0x4260:00 P0608 Positioning target input 1
+    NO_LIMITS, // 0x4320:00 P0800 BACI cycle time factor
+    NO_LIMITS, // 0x4321:00 P0801 BACI process data parameter number 1
+    NO_LIMITS, // 0x4322:00 P0802 BACI process data parameter number 2
+    NO_LIMITS, // 0x4323:00 P0803 BACI process data parameter number 3
+    NO_LIMITS, // 0x4324:00 P0804 BACI process data parameter number 4
+    NO_LIMITS, // 0x4325:00 P0805 BACI process data parameter number 5
+    NO_LIMITS, // 0x4326:00 P0806 BACI process data parameter number 6
+    NO_LIMITS, // 0x4327:00 P0807 BACI process data parameter number 7
+    NO_LIMITS, // 0x4328:00 P0808 BACI process data parameter number 8
+    NO_LIMITS, // 0x4329:00 P0809 BACI process data parameter number 9
+    NO_LIMITS, // 0x432A:00 P0810 BACI process data parameter number 10
+    NO_LIMITS, // 0x432B:00 P0811 BACI process data parameter number 11
+    NO_LIMITS, // 0x432C:00 P0812 BACI process data parameter number 12
+    NO_LIMITS, // 0x432D:00 P0813 BACI process data parameter number 13
+    NO_LIMITS, // 0x432E:00 P0814 BACI process data parameter number 14
+    NO_LIMITS, // 0x432F:00 P0815 BACI process data parameter number 15
+    NO_LIMITS, // 0x4330:00 P0816 BACI process data parameter number 16
+    NO_LIMITS, // 0x4332:00 P0818 BACI cycle offset set values
+    NO_LIMITS, // 0x4333:00 P0819 BACI cycle offset actual values
+    NO_LIMITS, // 0x433E:00 P0830 Option module G configuration 1
+    NO_LIMITS, // 0x4348:00 P0840 Option module H configuration 1
+    7, // 0x43E8:00 P1000 Operation mode set
+    NO_LIMITS, // 0x43E9:00 P1001 Drive parameter 1001
+    8, // 0x43EB:00 P1003 Stop option code raw
+    NO_LIMITS, // 0x43EC:00 P1004 Quick stop code raw
+    8, // 0x43ED:00 P1005 Shutdown code raw
+    8, // 0x43EE:00 P1006 Disable operation code raw
+    8, // 0x43EF:00 P1007 Error reaction code raw
+    9, // 0x4407:00 P1031 Maximum speed
+    10, // 0x4411:00 P1041 Speed set value upper limit
+    11, // 0x4412:00 P1042 Speed set value lower limit
+    NO_LIMITS, // 0x441A:00 P1050 Position controller mode raw
+    12, // 0x441B:00 P1051 Position controller Kv factor raw
+    13, // 0x441D:00 P1053 Speed feed forward factor raw
+    14, // 0x4420:00 P1056 Following error time
+    15, // 0x4431:00 P1073 Encoder 1 monitoring lower limit
+    NO_LIMITS, // 0x4493:00 P1171 Ramp function generator input
+    14, // 0x4494:00 P1172 Ramp function generator ramp up time
+    14, // 0x4495:00 P1173 Ramp function generator ramp down time
+    14, // 0x4496:00 P1174 Ramp function generator stop time
+    NO_LIMITS, // 0x44A6:00 P1190 Positioning mode word
+    NO_LIMITS, // 0x44A7:00 P1191 Positioning actual record number
+    NO_LIMITS, // 0x44AA:00 P1194 Positioning window
+    16, // 0x44AB:00 P1195 Positioning window time
+    NO_LIMITS, // 0x44AC:00 P1196 Software limit switch 1
+    NO_LIMITS, // 0x44AD:00 P1197 Software limit switch 2
+    NO_LIMITS, // 0x44AE:00 P1198 Positioning clip environment 1
+    NO_LIMITS, // 0x44AF:00 P1199 Positioning clip environment 2
+    NO_LIMITS, // 0x44B0:00 P1200 Positioning home position
+    4, // 0x44B1:00 P1201 Homing speed
+    17, // 0x44B2:00 P1202 Homing final speed
+    5, // 0x44B3:00 P1203 Homing acceleration raw
+    NO_LIMITS, // 0x44B4:00 P1204 Homing deceleration raw
+    NO_LIMITS, // 0x44B5:00 P1205 Homing mode
+    NO_LIMITS, // 0x44B8:00 P1208 Positioning switch mode raw
+    NO_LIMITS, // 0x44B9:00 P1209 Positioning encoder offset raw
+    5, // 0x44BD:00 P1213 Positioning stop deceleration
+    18, // 0x4BEA:00 P3050 Position scaling user unit
+    18, // 0x4BEB:00 P3051 Position scaling revolutions
+    NO_LIMITS, // 0x6007:00 Abort connection option code
+    NO_LIMITS, // 0x6040:00 Controlword
+    NO_LIMITS, // 0x6041:00 Statusword
+    NO_LIMITS, // 0x6042:00 vl target velocity
+    NO_LIMITS, // 0x6043:00 vl velocity demand
+    NO_LIMITS, // 0x6044:00 vl control effort
+    NO_LIMITS, // 0x6045:00 vl manipulated velocity
+    NO_LIMITS, // 0x6046:00 vl velocity min max amount / vl velocity min max amount highest sub-index
+    NO_LIMITS, // 0x6046:01 vl velocity min max amount / vl velocity min amount
+    NO_LIMITS, // 0x6046:02 vl velocity min max amount / vl velocity max amount
+    NO_LIMITS, // 0x6048:00 vl velocity acceleration / vl velocity acceleration highest sub-index
+    NO_LIMITS, // 0x6048:01 vl velocity acceleration / vl acceleration delta speed
+    NO_LIMITS, // 0x6048:02 vl velocity acceleration / vl acceleration delta time
+    NO_LIMITS, // 0x6049:00 vl velocity deceleration / vl velocity deceleration highest sub-index
+    NO_LIMITS, // 0x6049:01 vl velocity deceleration / vl deceleration delta speed
+    NO_LIMITS, // 0x6049:02 vl velocity deceleration / vl deceleration delta time
+    NO_LIMITS, // 0x604C:00 vl dimension factor / vl dimension factor highest sub-index
+    19, // 0x604C:01 vl dimension factor / vl dimension factor numerator
+    19, // 0x604C:02 vl dimension factor / vl dimension factor denominator
+    NO_LIMITS, // 0x604D:00 vl pole number
+    NO_LIMITS, // 0x604F:00 vl ramp function time
+    NO_LIMITS, // 0x6050:00 vl slow down time
+    NO_LIMITS, // 0x6051:00 vl quick stop time
+    NO_LIMITS, // 0x605A:00 Quick stop option code
+    NO_LIMITS, // 0x605B:00 Shutdown option code
+    NO_LIMITS, // 0x605C:00 Disable operation option code
+    NO_LIMITS, // 0x605D:00 Halt option code
+    NO_LIMITS, // 0x605E:00 Fault reaction option code
+    NO_LIMITS, // 0x6060:00 Modes of operation
+    NO_LIMITS, // 0x6061:00 Modes of operation display
+    NO_LIMITS, // 0x6062:00 Position demand value
+    NO_LIMITS, // 0x6063:00 Position actual internal value
+    NO_LIMITS, // 0x6064:00 Position actual value
+    14, // 0x6066:00 Following error time out
+    NO_LIMITS, // 0x6067:00 Position window
+    NO_LIMITS, // 0x6068:00 Position window time
+    NO_LIMITS, // 0x6069:00 Velocity sensor actual value
+    NO_LIMITS, // 0x606A:00 Sensor selection code
+    NO_LIMITS, // 0x606B:00 Velocity demand value
+    NO_LIMITS, // 0x606C:00 Velocity actual value
+    NO_LIMITS, // 0x606F:00 Velocity threshold
+    NO_LIMITS, // 0x6072:00 Max torque
+    NO_LIMITS, // 0x6077:00 Torque actual value
+    NO_LIMITS, // 0x607A:00 Target position
+    NO_LIMITS, // 0x607C:00 Home offset
+    NO_LIMITS, // 0x607D:00 Software position limit / Software position limit highest sub-index
+    NO_LIMITS, // 0x607D:01 Software position limit / Min position limit
+    NO_LIMITS, // 0x607D:02 Software position limit / Max position limit
+    NO_LIMITS, // 0x607F:00 Max profile velocity
+    20, // 0x6080:00 Max motor speed
+    NO_LIMITS, // 0x6081:00 Profile velocity
+    NO_LIMITS, // 0x6083:00 Profile acceleration
+    NO_LIMITS, // 0x6084:00 Profile deceleration
+    NO_LIMITS, // 0x6085:00 Quick stop deceleration
+    NO_LIMITS, // 0x6086:00 Motion profile type
+    NO_LIMITS, // 0x6092:00 Feed constant / Feed constant highest sub-index
+    21, // 0x6092:01 Feed constant / Feed
+    22, // 0x6092:02 Feed constant / Shaft revolutions
+    NO_LIMITS, // 0x6098:00 Homing method
+    NO_LIMITS, // 0x6099:00 Homing speeds / Homing speeds highest sub-index
+    NO_LIMITS, // 0x6099:01 Homing speeds / Speed during search for switch
+    NO_LIMITS, // 0x6099:02 Homing speeds / Speed during search for zero
+    NO_LIMITS, // 0x609A:00 Homing acceleration
+    NO_LIMITS, // 0x60C0:00 Interpolation sub mode select
+    NO_LIMITS, // 0x60C1:00 Interpolation data record / Interpolation data record highest sub-index
+    NO_LIMITS, // 0x60C1:01 Interpolation data record / Interpolation data record position
+    NO_LIMITS, // 0x60C2:00 Interpolation time period / Interpolation time period highest sub-index
+    22, // 0x60C2:01 Interpolation time period / ip time units
+    23, // 0x60C2:02 Interpolation time period / ip time index
+    NO_LIMITS, // 0x60C3:00 Interpolation sync definition / Interpolation sync definition highest sub-index
+    NO_LIMITS, // 0x60C3:01 Interpolation sync definition / Synchronize on group
+    NO_LIMITS, // 0x60C3:02 Interpolation sync definition / ip sync every n event
+    NO_LIMITS, // 0x60C4:00 Interpolation data configuration / Interpolation data configuration highest sub-index
+    NO_LIMITS, // 0x60C4:01 Interpolation data configuration / Maximum buffer size
+    NO_LIMITS, // 0x60C4:02 Interpolation data configuration / Actual buffer size
+    24, // 0x60C4:03 Interpolation data configuration / Buffer organisation
+    NO_LIMITS, // 0x60C4:04 Interpolation data configuration / Buffer position
+    NO_LIMITS, // 0x60C4:05 Interpolation data configuration / Size of data record
+    24, // 0x60C4:06 Interpolation data configuration / Buffer clear
+    NO_LIMITS, // 0x60F8:00 Max slippage
+    NO_LIMITS, // 0x60FB:00 Position control parameter set / Position control parameter set highest sub-index
+    NO_LIMITS, // 0x60FB:01 Position control parameter set / Position controller status
+    NO_LIMITS, // 0x60FB:02 Position control parameter set / Position controller mode
+    12, // 0x60FB:03 Position control parameter set / Position controller Kv factor
+    NO_LIMITS, // 0x60FB:04 Position control parameter set / Position set revolutions
+    NO_LIMITS, // 0x60FB:05 Position control parameter set / Position set angle
+    NO_LIMITS, // 0x60FB:06 Position control parameter set / Speed feed forward factor
+    NO_LIMITS, // 0x60FB:07 Position control parameter set / Position control deviation
+    NO_LIMITS, // 0x60FB:08 Position control parameter set / Position controller actual value
+    NO_LIMITS, // 0x60FB:09 Position control parameter set / Encoder 1 actual revolutions
+    NO_LIMITS, // 0x60FB:0A Position control parameter set / Encoder 1 actual angle
+    NO_LIMITS, // 0x60FB:0B Position control parameter set / Speed feed forward
+    NO_LIMITS, // 0x60FB:0C Position control parameter set / Positioning status
+    NO_LIMITS, // 0x60FB:0D Position control parameter set / Actual positioning record number
+    NO_LIMITS, // 0x60FB:0E Position control parameter set / Positioning mode bits
+    NO_LIMITS, // 0x60FB:0F Position control parameter set / Home position
+    NO_LIMITS, // 0x60FB:10 Position control parameter set / Positioning switch mode
+    NO_LIMITS, // 0x60FB:11 Position control parameter set / Positioning speed set value
+    NO_LIMITS, // 0x60FB:12 Position control parameter set / Positioning bend 0
+    NO_LIMITS, // 0x60FB:13 Position control parameter set / Clip environment 1
+    NO_LIMITS, // 0x60FB:14 Position control parameter set / Clip environment 2
+    NO_LIMITS, // 0x60FB:15 Position control parameter set / Target input 0
+    NO_LIMITS, // 0x60FB:16 Position control parameter set / Target input 1
+    NO_LIMITS, // 0x60FB:17 Position control parameter set / IP set angle
+    NO_LIMITS, // 0x60FB:18 Position control parameter set / Positioning encoder offset
+    NO_LIMITS, // 0x60FB:19 Position control parameter set / Homing deceleration
+    NO_LIMITS, // 0x60FB:1A Position control parameter set / Actual speed normalised
+    NO_LIMITS, // 0x60FB:1B Position control parameter set / Amplifier and motor warnings
+    NO_LIMITS, // 0x60FD:00 Digital inputs
+    NO_LIMITS, // 0x60FF:00 Target velocity
+    NO_LIMITS, // 0x6510:00 Drive data / Drive data highest sub-index
+    NO_LIMITS, // 0x6510:01 Drive data / Controller type
+    NO_LIMITS, // 0x6510:02 Drive data / Software type
+    NO_LIMITS, // 0x6510:03 Drive data / Software ID
+    NO_LIMITS, // 0x6510:04 Drive data / Software version
+    NO_LIMITS, // 0x6510:05 Drive data / Parameter table version
+    NO_LIMITS, // 0x6510:06 Drive data / Amplifier software version
+    NO_LIMITS, // 0x6510:07 Drive data / FPGA version
+    NO_LIMITS, // 0x6510:08 Drive data / Bootloader version
 ];
 
 #[rustfmt::skip]
@@ -1384,6 +1767,7 @@ pub static NAMES: [&str; ENTRY_COUNT] = [
 pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 343,

@@ -216,234 +216,466 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 247, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 251, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 252, NO_LIMITS), // 0x1002:00 Manufacturer status register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 256, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 257, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 261, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 265, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 269, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 273, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 277, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 281, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 285, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1007:00 Synchronous window length
-    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 6, 0, NO_LIMITS), // 0x1008:00 Manufacturer device name
-    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 4, 6, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
-    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 4, 10, NO_LIMITS), // 0x100A:00 Manufacturer software version
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, CONST, 1, 14, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 289, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters except node-ID
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 293, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 297, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
-    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 301, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
-    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 305, NO_LIMITS), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, CONST, 1, 15, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 309, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 313, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 317, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
-    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 321, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
-    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 325, NO_LIMITS), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 12, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 16, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
-    Entry::new(0x1016, 0x00, DataType::Unsigned8, CONST, 1, 16, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Consumer heartbeat time highest sub-index
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 18, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 22, NO_LIMITS), // 0x1017:00 Producer heartbeat time
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 329, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 333, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 337, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 341, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 24, NO_LIMITS), // 0x1019:00 Synchronous counter overflow value
-    Entry::new(0x1029, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS), // 0x1029:00 Error behaviour / Error behaviour highest sub-index
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 25, NO_LIMITS), // 0x1029:01 Error behaviour / Communication error
-    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 26, NO_LIMITS), // 0x1029:02 Error behaviour / Specific error class
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 345, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 349, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 20, NO_LIMITS), // 0x1400:00 RPDO communication parameter 1 / RPDO1 communication highest sub-index
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 353, 0), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 27, NO_LIMITS), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
-    Entry::new(0x1401, 0x00, DataType::Unsigned8, CONST, 1, 21, NO_LIMITS), // 0x1401:00 RPDO communication parameter 2 / RPDO2 communication highest sub-index
-    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 357, 0), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
-    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 28, NO_LIMITS), // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
-    Entry::new(0x1402, 0x00, DataType::Unsigned8, CONST, 1, 22, NO_LIMITS), // 0x1402:00 RPDO communication parameter 3 / RPDO3 communication highest sub-index
-    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 361, 0), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
-    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 29, NO_LIMITS), // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
-    Entry::new(0x1403, 0x00, DataType::Unsigned8, CONST, 1, 23, NO_LIMITS), // 0x1403:00 RPDO communication parameter 4 / RPDO4 communication highest sub-index
-    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 365, 0), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
-    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 30, NO_LIMITS), // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, CONST, 1, 24, NO_LIMITS), // 0x1600:00 RPDO mapping parameter 1 / RPDO1 number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 369, NO_LIMITS), // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 373, NO_LIMITS), // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
-    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 377, NO_LIMITS), // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
-    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 381, NO_LIMITS), // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
-    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 385, NO_LIMITS), // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
-    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 389, NO_LIMITS), // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
-    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 393, NO_LIMITS), // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
-    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 397, NO_LIMITS), // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
-    Entry::new(0x1601, 0x00, DataType::Unsigned8, CONST, 1, 25, NO_LIMITS), // 0x1601:00 RPDO mapping parameter 2 / RPDO2 number of mapped objects
-    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 401, NO_LIMITS), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
-    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 405, NO_LIMITS), // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
-    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 409, NO_LIMITS), // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
-    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 413, NO_LIMITS), // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
-    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 417, NO_LIMITS), // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
-    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 421, NO_LIMITS), // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
-    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 425, NO_LIMITS), // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
-    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 429, NO_LIMITS), // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
-    Entry::new(0x1602, 0x00, DataType::Unsigned8, CONST, 1, 26, NO_LIMITS), // 0x1602:00 RPDO mapping parameter 3 / RPDO3 number of mapped objects
-    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 433, NO_LIMITS), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
-    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 437, NO_LIMITS), // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
-    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 441, NO_LIMITS), // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
-    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 445, NO_LIMITS), // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
-    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 449, NO_LIMITS), // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
-    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 453, NO_LIMITS), // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
-    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 457, NO_LIMITS), // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
-    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 461, NO_LIMITS), // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
-    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 31, 1), // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
-    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 32, NO_LIMITS), // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
-    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 36, NO_LIMITS), // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
-    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 40, NO_LIMITS), // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
-    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 44, NO_LIMITS), // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
-    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 48, NO_LIMITS), // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
-    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 52, NO_LIMITS), // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
-    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 56, NO_LIMITS), // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
-    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 60, NO_LIMITS), // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 27, NO_LIMITS), // 0x1800:00 TPDO communication parameter 1 / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 64, NO_LIMITS), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 68, NO_LIMITS), // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 69, NO_LIMITS), // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 71, NO_LIMITS), // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
-    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 73, NO_LIMITS), // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS), // 0x1801:00 TPDO communication parameter 2 / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 74, NO_LIMITS), // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 78, NO_LIMITS), // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 79, NO_LIMITS), // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 81, NO_LIMITS), // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
-    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 83, NO_LIMITS), // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS), // 0x1802:00 TPDO communication parameter 3 / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 84, NO_LIMITS), // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 88, NO_LIMITS), // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 89, NO_LIMITS), // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 91, NO_LIMITS), // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
-    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 93, NO_LIMITS), // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
-    Entry::new(0x1803, 0x00, DataType::Unsigned8, CONST, 1, 30, NO_LIMITS), // 0x1803:00 TPDO communication parameter 4 / TPDO4 communication highest sub-index
-    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 94, NO_LIMITS), // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
-    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 98, NO_LIMITS), // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
-    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 99, NO_LIMITS), // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
-    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 101, NO_LIMITS), // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
-    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 103, NO_LIMITS), // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, CONST, 1, 31, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter 1 / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 465, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 469, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 473, NO_LIMITS), // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 477, NO_LIMITS), // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 481, NO_LIMITS), // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 485, NO_LIMITS), // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 489, NO_LIMITS), // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 493, NO_LIMITS), // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, CONST, 1, 32, NO_LIMITS), // 0x1A01:00 TPDO mapping parameter 2 / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 497, NO_LIMITS), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 501, NO_LIMITS), // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 505, NO_LIMITS), // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 509, NO_LIMITS), // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 513, NO_LIMITS), // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 517, NO_LIMITS), // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 521, NO_LIMITS), // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 525, NO_LIMITS), // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, CONST, 1, 33, NO_LIMITS), // 0x1A02:00 TPDO mapping parameter 3 / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 529, NO_LIMITS), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 533, NO_LIMITS), // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 537, NO_LIMITS), // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 541, NO_LIMITS), // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 545, NO_LIMITS), // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 549, NO_LIMITS), // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 553, NO_LIMITS), // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 557, NO_LIMITS), // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
-    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 104, 1), // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
-    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 105, NO_LIMITS), // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
-    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 109, NO_LIMITS), // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
-    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 113, NO_LIMITS), // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
-    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 117, NO_LIMITS), // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
-    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 121, NO_LIMITS), // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
-    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 125, NO_LIMITS), // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
-    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 129, NO_LIMITS), // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
-    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 133, NO_LIMITS), // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
-    Entry::new(0x1F51, 0x00, DataType::Unsigned8, CONST, 1, 34, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
-    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 561, 2), // 0x1F51:01 Program control / Program control 1
-    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 137, NO_LIMITS), // 0x1F80:00 NMT startup
-    Entry::new(0x2200, 0x00, DataType::Unsigned8, RO, 1, 562, NO_LIMITS), // 0x2200:00 Monitoring values / Monitoring values highest sub-index
-    Entry::new(0x2200, 0x01, DataType::Unsigned32, RO_TPDO, 4, 563, NO_LIMITS), // 0x2200:01 Monitoring values / Number of start stops
-    Entry::new(0x2200, 0x02, DataType::Unsigned32, RO_TPDO, 4, 567, NO_LIMITS), // 0x2200:02 Monitoring values / Working hours
-    Entry::new(0x2200, 0x03, DataType::Unsigned32, RO_TPDO, 4, 571, NO_LIMITS), // 0x2200:03 Monitoring values / Uptime
-    Entry::new(0x2200, 0x04, DataType::Integer16, RO_TPDO, 2, 575, NO_LIMITS), // 0x2200:04 Monitoring values / Absolute minimum temperature
-    Entry::new(0x2200, 0x05, DataType::Integer16, RO_TPDO, 2, 577, NO_LIMITS), // 0x2200:05 Monitoring values / Absolute maximum temperature
-    Entry::new(0x2200, 0x06, DataType::Integer16, RO_TPDO, 2, 579, NO_LIMITS), // 0x2200:06 Monitoring values / Actual temperature
-    Entry::new(0x2200, 0x07, DataType::Unsigned16, RO_TPDO, 2, 581, NO_LIMITS), // 0x2200:07 Monitoring values / Number of quick stops
-    Entry::new(0x2200, 0x08, DataType::Unsigned8, RO_TPDO, 1, 583, NO_LIMITS), // 0x2200:08 Monitoring values / Mechanical power average
-    Entry::new(0x2200, 0x09, DataType::Unsigned32, RO_TPDO, 4, 584, NO_LIMITS), // 0x2200:09 Monitoring values / Number of rotations
-    Entry::new(0x2210, 0x00, DataType::Unsigned8, RO_TPDO, 1, 588, NO_LIMITS), // 0x2210:00 Lifetime traffic light
-    Entry::new(0x2211, 0x00, DataType::Unsigned8, RO_TPDO, 1, 589, NO_LIMITS), // 0x2211:00 Health traffic light / Health traffic light highest sub-index
-    Entry::new(0x2211, 0x01, DataType::Unsigned8, RO_TPDO, 1, 590, NO_LIMITS), // 0x2211:01 Health traffic light / Temperature traffic light
-    Entry::new(0x2211, 0x02, DataType::Unsigned8, RO_TPDO, 1, 591, NO_LIMITS), // 0x2211:02 Health traffic light / Power traffic light
-    Entry::new(0x2211, 0x03, DataType::Unsigned8, RO_TPDO, 1, 592, NO_LIMITS), // 0x2211:03 Health traffic light / Error quantity traffic light
-    Entry::new(0x2220, 0x00, DataType::Unsigned8, RO_TPDO, 1, 593, NO_LIMITS), // 0x2220:00 Analog value output / Analog value output highest sub-index
-    Entry::new(0x2220, 0x01, DataType::Integer16, RO_TPDO, 2, 594, NO_LIMITS), // 0x2220:01 Analog value output / Analog voltage
-    Entry::new(0x4048, 0x00, DataType::Unsigned8, CONST, 1, 35, NO_LIMITS), // 0x4048:00 Nominal power
-    Entry::new(0x4231, 0x00, DataType::Unsigned8, CONST, 1, 36, NO_LIMITS), // 0x4231:00 High temperature warning level / High temperature warning level highest sub-index
-    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 141, 3), // 0x4231:01 High temperature warning level / High temperature warning threshold
-    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 143, 4), // 0x4231:02 High temperature warning level / High temperature warning hysteresis
-    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 145, 5), // 0x4645:00 Positioning deceleration ramp
-    Entry::new(0x4650, 0x00, DataType::Unsigned8, CONST, 1, 37, NO_LIMITS), // 0x4650:00 Bus address / Bus address highest sub-index
-    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 147, 6), // 0x4650:01 Bus address / Node-ID static
-    Entry::new(0x4650, 0x02, DataType::Unsigned8, RO, 1, 596, 6), // 0x4650:02 Bus address / Node-ID actual
-    Entry::new(0x4651, 0x00, DataType::Unsigned8, CONST, 1, 38, NO_LIMITS), // 0x4651:00 Baud rate / Baud rate highest sub-index
-    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 148, 7), // 0x4651:01 Baud rate / CAN bit rate
-    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 150, 8), // 0x4651:02 Baud rate / UART baud rate
-    Entry::new(0x4FFE, 0x00, DataType::Unsigned8, RO, 1, 597, NO_LIMITS), // 0x4FFE:00 Actual SDO server user
-    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 152, NO_LIMITS), // 0x4FFF:00 User login
-    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 156, 9), // 0x6007:00 Abort connection option code
-    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 158, NO_LIMITS), // 0x6040:00 Controlword
-    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 598, NO_LIMITS), // 0x6041:00 Statusword
-    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 160, 10), // 0x6060:00 Modes of operation
-    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 600, NO_LIMITS), // 0x6061:00 Modes of operation display
-    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 601, NO_LIMITS), // 0x6062:00 Position demand value
-    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 605, NO_LIMITS), // 0x6064:00 Position actual value
-    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 609, NO_LIMITS), // 0x606B:00 Velocity demand value
-    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 613, NO_LIMITS), // 0x606C:00 Velocity actual value
-    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 161, 11), // 0x6073:00 Max current
-    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 617, NO_LIMITS), // 0x6077:00 Torque actual value
-    Entry::new(0x6079, 0x00, DataType::Unsigned16, RO_TPDO, 2, 619, NO_LIMITS), // 0x6079:00 DC link circuit voltage
-    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 163, NO_LIMITS), // 0x607A:00 Target position
-    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 167, 12), // 0x607E:00 Polarity
-    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 168, 13), // 0x607F:00 Max profile velocity
-    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 172, 13), // 0x6081:00 Profile velocity
-    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 176, NO_LIMITS), // 0x6083:00 Profile acceleration
-    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 180, NO_LIMITS), // 0x6084:00 Profile deceleration
-    Entry::new(0x6091, 0x00, DataType::Unsigned8, CONST, 1, 39, NO_LIMITS), // 0x6091:00 Gear ratio / Gear ratio highest sub-index
-    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 184, 14), // 0x6091:01 Gear ratio / Motor shaft revolutions
-    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x6091:02 Gear ratio / Driving shaft revolutions
-    Entry::new(0x6092, 0x00, DataType::Unsigned8, CONST, 1, 40, NO_LIMITS), // 0x6092:00 Feed constant / Feed constant highest sub-index
-    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 192, NO_LIMITS), // 0x6092:01 Feed constant / Feed
-    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 196, NO_LIMITS), // 0x6092:02 Feed constant / Shaft revolutions
-    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 200, 15), // 0x6098:00 Homing method
-    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 201, 16), // 0x6099:00 Homing speeds
-    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 205, 17), // 0x60A8:00 SI unit position
-    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 209, 18), // 0x60A9:00 SI unit velocity
-    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 213, 19), // 0x60AA:00 SI unit acceleration
-    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 217, NO_LIMITS), // 0x60C5:00 Max acceleration
-    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 221, NO_LIMITS), // 0x60C6:00 Max deceleration
-    Entry::new(0x60E3, 0x00, DataType::Unsigned8, CONST, 1, 41, NO_LIMITS), // 0x60E3:00 Supported homing methods / Number of supported homing methods
-    Entry::new(0x60E3, 0x01, DataType::Integer8, CONST, 1, 42, NO_LIMITS), // 0x60E3:01 Supported homing methods / Supported homing method 1
-    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 225, NO_LIMITS), // 0x60F2:00 Positioning option code
-    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 227, 20), // 0x60FF:00 Target velocity
-    Entry::new(0x6402, 0x00, DataType::Unsigned16, RO, 2, 621, NO_LIMITS), // 0x6402:00 Motor type
-    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 231, NO_LIMITS), // 0x6403:00 Motor catalogue number
-    Entry::new(0x6404, 0x00, DataType::VisibleString, CONST, 9, 43, NO_LIMITS), // 0x6404:00 Motor manufacturer
-    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 623, NO_LIMITS), // 0x6502:00 Supported drive modes
-    Entry::new(0x67FE, 0x00, DataType::Unsigned32, RO, 4, 627, NO_LIMITS), // 0x67FE:00 Version number
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 247), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 251), // 0x1001:00 Error register
+    Entry::new(0x1002, 0x00, DataType::Unsigned32, RO_TPDO, 4, 252), // 0x1002:00 Manufacturer status register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 256), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 257), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 261), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 265), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 269), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 273), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 277), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 281), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 285), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 6, 0), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 4, 6), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 4, 10), // 0x100A:00 Manufacturer software version
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, CONST, 1, 14), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 289), // 0x1010:01 Store parameters / Save all parameters except node-ID
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 293), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 297), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 301), // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    Entry::new(0x1010, 0x05, DataType::Unsigned32, RW, 4, 305), // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, CONST, 1, 15), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 309), // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 313), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 317), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 321), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    Entry::new(0x1011, 0x05, DataType::Unsigned32, RW, 4, 325), // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RW_NODE_ID, 4, 12), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 16), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1016, 0x00, DataType::Unsigned8, CONST, 1, 16), // 0x1016:00 Consumer heartbeat time / Consumer heartbeat time highest sub-index
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 18), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 22), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 17), // 0x1018:00 Identity object / Identity highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 329), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 333), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 337), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 341), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1019, 0x00, DataType::Unsigned8, RW, 1, 24), // 0x1019:00 Synchronous counter overflow value
+    Entry::new(0x1029, 0x00, DataType::Unsigned8, CONST, 1, 18), // 0x1029:00 Error behaviour / Error behaviour highest sub-index
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 25), // 0x1029:01 Error behaviour / Communication error
+    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 26), // 0x1029:02 Error behaviour / Specific error class
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 19), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 345), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 349), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 20), // 0x1400:00 RPDO communication parameter 1 / RPDO1 communication highest sub-index
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 353), // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 27), // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
+    Entry::new(0x1401, 0x00, DataType::Unsigned8, CONST, 1, 21), // 0x1401:00 RPDO communication parameter 2 / RPDO2 communication highest sub-index
+    Entry::new(0x1401, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 357), // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    Entry::new(0x1401, 0x02, DataType::Unsigned8, RW, 1, 28), // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
+    Entry::new(0x1402, 0x00, DataType::Unsigned8, CONST, 1, 22), // 0x1402:00 RPDO communication parameter 3 / RPDO3 communication highest sub-index
+    Entry::new(0x1402, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 361), // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    Entry::new(0x1402, 0x02, DataType::Unsigned8, RW, 1, 29), // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
+    Entry::new(0x1403, 0x00, DataType::Unsigned8, CONST, 1, 23), // 0x1403:00 RPDO communication parameter 4 / RPDO4 communication highest sub-index
+    Entry::new(0x1403, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 365), // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    Entry::new(0x1403, 0x02, DataType::Unsigned8, RW, 1, 30), // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, CONST, 1, 24), // 0x1600:00 RPDO mapping parameter 1 / RPDO1 number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RO, 4, 369), // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RO, 4, 373), // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
+    Entry::new(0x1600, 0x03, DataType::Unsigned32, RO, 4, 377), // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    Entry::new(0x1600, 0x04, DataType::Unsigned32, RO, 4, 381), // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
+    Entry::new(0x1600, 0x05, DataType::Unsigned32, RO, 4, 385), // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
+    Entry::new(0x1600, 0x06, DataType::Unsigned32, RO, 4, 389), // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
+    Entry::new(0x1600, 0x07, DataType::Unsigned32, RO, 4, 393), // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
+    Entry::new(0x1600, 0x08, DataType::Unsigned32, RO, 4, 397), // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
+    Entry::new(0x1601, 0x00, DataType::Unsigned8, CONST, 1, 25), // 0x1601:00 RPDO mapping parameter 2 / RPDO2 number of mapped objects
+    Entry::new(0x1601, 0x01, DataType::Unsigned32, RO, 4, 401), // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
+    Entry::new(0x1601, 0x02, DataType::Unsigned32, RO, 4, 405), // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    Entry::new(0x1601, 0x03, DataType::Unsigned32, RO, 4, 409), // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
+    Entry::new(0x1601, 0x04, DataType::Unsigned32, RO, 4, 413), // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
+    Entry::new(0x1601, 0x05, DataType::Unsigned32, RO, 4, 417), // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
+    Entry::new(0x1601, 0x06, DataType::Unsigned32, RO, 4, 421), // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
+    Entry::new(0x1601, 0x07, DataType::Unsigned32, RO, 4, 425), // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
+    Entry::new(0x1601, 0x08, DataType::Unsigned32, RO, 4, 429), // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
+    Entry::new(0x1602, 0x00, DataType::Unsigned8, CONST, 1, 26), // 0x1602:00 RPDO mapping parameter 3 / RPDO3 number of mapped objects
+    Entry::new(0x1602, 0x01, DataType::Unsigned32, RO, 4, 433), // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
+    Entry::new(0x1602, 0x02, DataType::Unsigned32, RO, 4, 437), // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    Entry::new(0x1602, 0x03, DataType::Unsigned32, RO, 4, 441), // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
+    Entry::new(0x1602, 0x04, DataType::Unsigned32, RO, 4, 445), // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
+    Entry::new(0x1602, 0x05, DataType::Unsigned32, RO, 4, 449), // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
+    Entry::new(0x1602, 0x06, DataType::Unsigned32, RO, 4, 453), // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
+    Entry::new(0x1602, 0x07, DataType::Unsigned32, RO, 4, 457), // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
+    Entry::new(0x1602, 0x08, DataType::Unsigned32, RO, 4, 461), // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
+    Entry::new(0x1603, 0x00, DataType::Unsigned8, RW, 1, 31), // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
+    Entry::new(0x1603, 0x01, DataType::Unsigned32, RW, 4, 32), // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
+    Entry::new(0x1603, 0x02, DataType::Unsigned32, RW, 4, 36), // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
+    Entry::new(0x1603, 0x03, DataType::Unsigned32, RW, 4, 40), // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
+    Entry::new(0x1603, 0x04, DataType::Unsigned32, RW, 4, 44), // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
+    Entry::new(0x1603, 0x05, DataType::Unsigned32, RW, 4, 48), // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
+    Entry::new(0x1603, 0x06, DataType::Unsigned32, RW, 4, 52), // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
+    Entry::new(0x1603, 0x07, DataType::Unsigned32, RW, 4, 56), // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
+    Entry::new(0x1603, 0x08, DataType::Unsigned32, RW, 4, 60), // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 27), // 0x1800:00 TPDO communication parameter 1 / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 64), // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 68), // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 69), // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 71), // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
+    Entry::new(0x1800, 0x06, DataType::Unsigned8, RW, 1, 73), // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, CONST, 1, 28), // 0x1801:00 TPDO communication parameter 2 / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 74), // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 78), // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 79), // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 81), // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
+    Entry::new(0x1801, 0x06, DataType::Unsigned8, RW, 1, 83), // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, CONST, 1, 29), // 0x1802:00 TPDO communication parameter 3 / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 84), // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 88), // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 89), // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 91), // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
+    Entry::new(0x1802, 0x06, DataType::Unsigned8, RW, 1, 93), // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
+    Entry::new(0x1803, 0x00, DataType::Unsigned8, CONST, 1, 30), // 0x1803:00 TPDO communication parameter 4 / TPDO4 communication highest sub-index
+    Entry::new(0x1803, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 94), // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
+    Entry::new(0x1803, 0x02, DataType::Unsigned8, RW, 1, 98), // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
+    Entry::new(0x1803, 0x03, DataType::Unsigned16, RW, 2, 99), // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
+    Entry::new(0x1803, 0x05, DataType::Unsigned16, RW, 2, 101), // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
+    Entry::new(0x1803, 0x06, DataType::Unsigned8, RW, 1, 103), // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, CONST, 1, 31), // 0x1A00:00 TPDO mapping parameter 1 / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RO, 4, 465), // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RO, 4, 469), // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RO, 4, 473), // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RO, 4, 477), // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RO, 4, 481), // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RO, 4, 485), // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RO, 4, 489), // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RO, 4, 493), // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, CONST, 1, 32), // 0x1A01:00 TPDO mapping parameter 2 / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RO, 4, 497), // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RO, 4, 501), // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RO, 4, 505), // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RO, 4, 509), // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RO, 4, 513), // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RO, 4, 517), // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RO, 4, 521), // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RO, 4, 525), // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, CONST, 1, 33), // 0x1A02:00 TPDO mapping parameter 3 / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RO, 4, 529), // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RO, 4, 533), // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RO, 4, 537), // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RO, 4, 541), // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RO, 4, 545), // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RO, 4, 549), // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RO, 4, 553), // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RO, 4, 557), // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
+    Entry::new(0x1A03, 0x00, DataType::Unsigned8, RW, 1, 104), // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
+    Entry::new(0x1A03, 0x01, DataType::Unsigned32, RW, 4, 105), // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
+    Entry::new(0x1A03, 0x02, DataType::Unsigned32, RW, 4, 109), // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
+    Entry::new(0x1A03, 0x03, DataType::Unsigned32, RW, 4, 113), // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
+    Entry::new(0x1A03, 0x04, DataType::Unsigned32, RW, 4, 117), // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
+    Entry::new(0x1A03, 0x05, DataType::Unsigned32, RW, 4, 121), // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
+    Entry::new(0x1A03, 0x06, DataType::Unsigned32, RW, 4, 125), // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
+    Entry::new(0x1A03, 0x07, DataType::Unsigned32, RW, 4, 129), // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
+    Entry::new(0x1A03, 0x08, DataType::Unsigned32, RW, 4, 133), // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
+    Entry::new(0x1F51, 0x00, DataType::Unsigned8, CONST, 1, 34), // 0x1F51:00 Program control / Program control highest sub-index
+    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 561), // 0x1F51:01 Program control / Program control 1
+    Entry::new(0x1F80, 0x00, DataType::Unsigned32, RW, 4, 137), // 0x1F80:00 NMT startup
+    Entry::new(0x2200, 0x00, DataType::Unsigned8, RO, 1, 562), // 0x2200:00 Monitoring values / Monitoring values highest sub-index
+    Entry::new(0x2200, 0x01, DataType::Unsigned32, RO_TPDO, 4, 563), // 0x2200:01 Monitoring values / Number of start stops
+    Entry::new(0x2200, 0x02, DataType::Unsigned32, RO_TPDO, 4, 567), // 0x2200:02 Monitoring values / Working hours
+    Entry::new(0x2200, 0x03, DataType::Unsigned32, RO_TPDO, 4, 571), // 0x2200:03 Monitoring values / Uptime
+    Entry::new(0x2200, 0x04, DataType::Integer16, RO_TPDO, 2, 575), // 0x2200:04 Monitoring values / Absolute minimum temperature
+    Entry::new(0x2200, 0x05, DataType::Integer16, RO_TPDO, 2, 577), // 0x2200:05 Monitoring values / Absolute maximum temperature
+    Entry::new(0x2200, 0x06, DataType::Integer16, RO_TPDO, 2, 579), // 0x2200:06 Monitoring values / Actual temperature
+    Entry::new(0x2200, 0x07, DataType::Unsigned16, RO_TPDO, 2, 581), // 0x2200:07 Monitoring values / Number of quick stops
+    Entry::new(0x2200, 0x08, DataType::Unsigned8, RO_TPDO, 1, 583), // 0x2200:08 Monitoring values / Mechanical power average
+    Entry::new(0x2200, 0x09, DataType::Unsigned32, RO_TPDO, 4, 584), // 0x2200:09 Monitoring values / Number of rotations
+    Entry::new(0x2210, 0x00, DataType::Unsigned8, RO_TPDO, 1, 588), // 0x2210:00 Lifetime traffic light
+    Entry::new(0x2211, 0x00, DataType::Unsigned8, RO_TPDO, 1, 589), // 0x2211:00 Health traffic light / Health traffic light highest sub-index
+    Entry::new(0x2211, 0x01, DataType::Unsigned8, RO_TPDO, 1, 590), // 0x2211:01 Health traffic light / Temperature traffic light
+    Entry::new(0x2211, 0x02, DataType::Unsigned8, RO_TPDO, 1, 591), // 0x2211:02 Health traffic light / Power traffic light
+    Entry::new(0x2211, 0x03, DataType::Unsigned8, RO_TPDO, 1, 592), // 0x2211:03 Health traffic light / Error quantity traffic light
+    Entry::new(0x2220, 0x00, DataType::Unsigned8, RO_TPDO, 1, 593), // 0x2220:00 Analog value output / Analog value output highest sub-index
+    Entry::new(0x2220, 0x01, DataType::Integer16, RO_TPDO, 2, 594), // 0x2220:01 Analog value output / Analog voltage
+    Entry::new(0x4048, 0x00, DataType::Unsigned8, CONST, 1, 35), // 0x4048:00 Nominal power
+    Entry::new(0x4231, 0x00, DataType::Unsigned8, CONST, 1, 36), // 0x4231:00 High temperature warning level / High temperature warning level highest sub-index
+    Entry::new(0x4231, 0x01, DataType::Integer16, RW, 2, 141), // 0x4231:01 High temperature warning level / High temperature warning threshold
+    Entry::new(0x4231, 0x02, DataType::Integer16, RW, 2, 143), // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    Entry::new(0x4645, 0x00, DataType::Unsigned16, RW, 2, 145), // 0x4645:00 Positioning deceleration ramp
+    Entry::new(0x4650, 0x00, DataType::Unsigned8, CONST, 1, 37), // 0x4650:00 Bus address / Bus address highest sub-index
+    Entry::new(0x4650, 0x01, DataType::Unsigned8, RW, 1, 147), // 0x4650:01 Bus address / Node-ID static
+    Entry::new(0x4650, 0x02, DataType::Unsigned8, RO, 1, 596), // 0x4650:02 Bus address / Node-ID actual
+    Entry::new(0x4651, 0x00, DataType::Unsigned8, CONST, 1, 38), // 0x4651:00 Baud rate / Baud rate highest sub-index
+    Entry::new(0x4651, 0x01, DataType::Unsigned16, RW, 2, 148), // 0x4651:01 Baud rate / CAN bit rate
+    Entry::new(0x4651, 0x02, DataType::Unsigned16, RW, 2, 150), // 0x4651:02 Baud rate / UART baud rate
+    Entry::new(0x4FFE, 0x00, DataType::Unsigned8, RO, 1, 597), // 0x4FFE:00 Actual SDO server user
+    Entry::new(0x4FFF, 0x00, DataType::Unsigned32, WO, 4, 152), // 0x4FFF:00 User login
+    Entry::new(0x6007, 0x00, DataType::Integer16, RW, 2, 156), // 0x6007:00 Abort connection option code
+    Entry::new(0x6040, 0x00, DataType::Unsigned16, RW_RPDO, 2, 158), // 0x6040:00 Controlword
+    Entry::new(0x6041, 0x00, DataType::Unsigned16, RO_TPDO, 2, 598), // 0x6041:00 Statusword
+    Entry::new(0x6060, 0x00, DataType::Integer8, RW_RPDO, 1, 160), // 0x6060:00 Modes of operation
+    Entry::new(0x6061, 0x00, DataType::Integer8, RO_TPDO, 1, 600), // 0x6061:00 Modes of operation display
+    Entry::new(0x6062, 0x00, DataType::Integer32, RO_TPDO, 4, 601), // 0x6062:00 Position demand value
+    Entry::new(0x6064, 0x00, DataType::Integer32, RO_TPDO, 4, 605), // 0x6064:00 Position actual value
+    Entry::new(0x606B, 0x00, DataType::Integer32, RO_TPDO, 4, 609), // 0x606B:00 Velocity demand value
+    Entry::new(0x606C, 0x00, DataType::Integer32, RO_TPDO, 4, 613), // 0x606C:00 Velocity actual value
+    Entry::new(0x6073, 0x00, DataType::Unsigned16, RW_TPDO, 2, 161), // 0x6073:00 Max current
+    Entry::new(0x6077, 0x00, DataType::Integer16, RO_TPDO, 2, 617), // 0x6077:00 Torque actual value
+    Entry::new(0x6079, 0x00, DataType::Unsigned16, RO_TPDO, 2, 619), // 0x6079:00 DC link circuit voltage
+    Entry::new(0x607A, 0x00, DataType::Integer32, RW_RPDO, 4, 163), // 0x607A:00 Target position
+    Entry::new(0x607E, 0x00, DataType::Unsigned8, RW, 1, 167), // 0x607E:00 Polarity
+    Entry::new(0x607F, 0x00, DataType::Unsigned32, RW_RPDO, 4, 168), // 0x607F:00 Max profile velocity
+    Entry::new(0x6081, 0x00, DataType::Unsigned32, RW_RPDO, 4, 172), // 0x6081:00 Profile velocity
+    Entry::new(0x6083, 0x00, DataType::Unsigned32, RW_RPDO, 4, 176), // 0x6083:00 Profile acceleration
+    Entry::new(0x6084, 0x00, DataType::Unsigned32, RW_RPDO, 4, 180), // 0x6084:00 Profile deceleration
+    Entry::new(0x6091, 0x00, DataType::Unsigned8, CONST, 1, 39), // 0x6091:00 Gear ratio / Gear ratio highest sub-index
+    Entry::new(0x6091, 0x01, DataType::Unsigned32, RW, 4, 184), // 0x6091:01 Gear ratio / Motor shaft revolutions
+    Entry::new(0x6091, 0x02, DataType::Unsigned32, RW, 4, 188), // 0x6091:02 Gear ratio / Driving shaft revolutions
+    Entry::new(0x6092, 0x00, DataType::Unsigned8, CONST, 1, 40), // 0x6092:00 Feed constant / Feed constant highest sub-index
+    Entry::new(0x6092, 0x01, DataType::Unsigned32, RW, 4, 192), // 0x6092:01 Feed constant / Feed
+    Entry::new(0x6092, 0x02, DataType::Unsigned32, RW, 4, 196), // 0x6092:02 Feed constant / Shaft revolutions
+    Entry::new(0x6098, 0x00, DataType::Integer8, RW_RPDO, 1, 200), // 0x6098:00 Homing method
+    Entry::new(0x6099, 0x00, DataType::Unsigned32, RW, 4, 201), // 0x6099:00 Homing speeds
+    Entry::new(0x60A8, 0x00, DataType::Unsigned32, RW, 4, 205), // 0x60A8:00 SI unit position
+    Entry::new(0x60A9, 0x00, DataType::Unsigned32, RW, 4, 209), // 0x60A9:00 SI unit velocity
+    Entry::new(0x60AA, 0x00, DataType::Unsigned32, RW, 4, 213), // 0x60AA:00 SI unit acceleration
+    Entry::new(0x60C5, 0x00, DataType::Unsigned32, RW, 4, 217), // 0x60C5:00 Max acceleration
+    Entry::new(0x60C6, 0x00, DataType::Unsigned32, RW, 4, 221), // 0x60C6:00 Max deceleration
+    Entry::new(0x60E3, 0x00, DataType::Unsigned8, CONST, 1, 41), // 0x60E3:00 Supported homing methods / Number of supported homing methods
+    Entry::new(0x60E3, 0x01, DataType::Integer8, CONST, 1, 42), // 0x60E3:01 Supported homing methods / Supported homing method 1
+    Entry::new(0x60F2, 0x00, DataType::Unsigned16, RW_RPDO, 2, 225), // 0x60F2:00 Positioning option code
+    Entry::new(0x60FF, 0x00, DataType::Integer32, RW_RPDO, 4, 227), // 0x60FF:00 Target velocity
+    Entry::new(0x6402, 0x00, DataType::Unsigned16, RO, 2, 621), // 0x6402:00 Motor type
+    Entry::new(0x6403, 0x00, DataType::VisibleString, RW, 16, 231), // 0x6403:00 Motor catalogue number
+    Entry::new(0x6404, 0x00, DataType::VisibleString, CONST, 9, 43), // 0x6404:00 Motor manufacturer
+    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 623), // 0x6502:00 Supported drive modes
+    Entry::new(0x67FE, 0x00, DataType::Unsigned32, RO, 4, 627), // 0x67FE:00 Version number
+];
+
+#[rustfmt::skip]
+static LIMIT_ROWS: [u8; 228] = [
+    NO_LIMITS, // 0x1000:00 Device type
+    NO_LIMITS, // 0x1001:00 Error register
+    NO_LIMITS, // 0x1002:00 Manufacturer status register
+    NO_LIMITS, // 0x1003:00 Pre-defined error field / Number of errors
+    NO_LIMITS, // 0x1003:01 Pre-defined error field / Standard error field 1
+    NO_LIMITS, // 0x1003:02 Pre-defined error field / Standard error field 2
+    NO_LIMITS, // 0x1003:03 Pre-defined error field / Standard error field 3
+    NO_LIMITS, // 0x1003:04 Pre-defined error field / Standard error field 4
+    NO_LIMITS, // 0x1003:05 Pre-defined error field / Standard error field 5
+    NO_LIMITS, // 0x1003:06 Pre-defined error field / Standard error field 6
+    NO_LIMITS, // 0x1003:07 Pre-defined error field / Standard error field 7
+    NO_LIMITS, // 0x1003:08 Pre-defined error field / Standard error field 8
+    NO_LIMITS, // 0x1005:00 COB-ID SYNC message
+    NO_LIMITS, // 0x1006:00 Communication cycle period
+    NO_LIMITS, // 0x1007:00 Synchronous window length
+    NO_LIMITS, // 0x1008:00 Manufacturer device name
+    NO_LIMITS, // 0x1009:00 Manufacturer hardware version
+    NO_LIMITS, // 0x100A:00 Manufacturer software version
+    NO_LIMITS, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    NO_LIMITS, // 0x1010:01 Store parameters / Save all parameters except node-ID
+    NO_LIMITS, // 0x1010:02 Store parameters / Save communication parameters
+    NO_LIMITS, // 0x1010:03 Store parameters / Save application parameters
+    NO_LIMITS, // 0x1010:04 Store parameters / Save manufacturer parameters ASW
+    NO_LIMITS, // 0x1010:05 Store parameters / Save manufacturer parameters SSW
+    NO_LIMITS, // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    NO_LIMITS, // 0x1011:01 Restore default parameters / Restore all default parameters except node-ID
+    NO_LIMITS, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    NO_LIMITS, // 0x1011:03 Restore default parameters / Restore application default parameters
+    NO_LIMITS, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters ASW
+    NO_LIMITS, // 0x1011:05 Restore default parameters / Restore manufacturer default parameters SSW
+    NO_LIMITS, // 0x1014:00 COB-ID EMCY
+    NO_LIMITS, // 0x1015:00 Inhibit time EMCY
+    NO_LIMITS, // 0x1016:00 Consumer heartbeat time / Consumer heartbeat time highest sub-index
+    NO_LIMITS, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time 1
+    NO_LIMITS, // 0x1017:00 Producer heartbeat time
+    NO_LIMITS, // 0x1018:00 Identity object / Identity highest sub-index
+    NO_LIMITS, // 0x1018:01 Identity object / Vendor-ID
+    NO_LIMITS, // 0x1018:02 Identity object / Product code
+    NO_LIMITS, // 0x1018:03 Identity object / Revision number
+    NO_LIMITS, // 0x1018:04 Identity object / Serial number
+    NO_LIMITS, // 0x1019:00 Synchronous counter overflow value
+    NO_LIMITS, // 0x1029:00 Error behaviour / Error behaviour highest sub-index
+    NO_LIMITS, // 0x1029:01 Error behaviour / Communication error
+    NO_LIMITS, // 0x1029:02 Error behaviour / Specific error class
+    NO_LIMITS, // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    NO_LIMITS, // 0x1200:01 SDO server parameter / COB-ID client to server
+    NO_LIMITS, // 0x1200:02 SDO server parameter / COB-ID server to client
+    NO_LIMITS, // 0x1400:00 RPDO communication parameter 1 / RPDO1 communication highest sub-index
+    0, // 0x1400:01 RPDO communication parameter 1 / RPDO1 COB-ID
+    NO_LIMITS, // 0x1400:02 RPDO communication parameter 1 / RPDO1 transmission type
+    NO_LIMITS, // 0x1401:00 RPDO communication parameter 2 / RPDO2 communication highest sub-index
+    0, // 0x1401:01 RPDO communication parameter 2 / RPDO2 COB-ID
+    NO_LIMITS, // 0x1401:02 RPDO communication parameter 2 / RPDO2 transmission type
+    NO_LIMITS, // 0x1402:00 RPDO communication parameter 3 / RPDO3 communication highest sub-index
+    0, // 0x1402:01 RPDO communication parameter 3 / RPDO3 COB-ID
+    NO_LIMITS, // 0x1402:02 RPDO communication parameter 3 / RPDO3 transmission type
+    NO_LIMITS, // 0x1403:00 RPDO communication parameter 4 / RPDO4 communication highest sub-index
+    0, // 0x1403:01 RPDO communication parameter 4 / RPDO4 COB-ID
+    NO_LIMITS, // 0x1403:02 RPDO communication parameter 4 / RPDO4 transmission type
+    NO_LIMITS, // 0x1600:00 RPDO mapping parameter 1 / RPDO1 number of mapped objects
+    NO_LIMITS, // 0x1600:01 RPDO mapping parameter 1 / RPDO1 mapping entry 1
+    NO_LIMITS, // 0x1600:02 RPDO mapping parameter 1 / RPDO1 mapping entry 2
+    NO_LIMITS, // 0x1600:03 RPDO mapping parameter 1 / RPDO1 mapping entry 3
+    NO_LIMITS, // 0x1600:04 RPDO mapping parameter 1 / RPDO1 mapping entry 4
+    NO_LIMITS, // 0x1600:05 RPDO mapping parameter 1 / RPDO1 mapping entry 5
+    NO_LIMITS, // 0x1600:06 RPDO mapping parameter 1 / RPDO1 mapping entry 6
+    NO_LIMITS, // 0x1600:07 RPDO mapping parameter 1 / RPDO1 mapping entry 7
+    NO_LIMITS, // 0x1600:08 RPDO mapping parameter 1 / RPDO1 mapping entry 8
+    NO_LIMITS, // 0x1601:00 RPDO mapping parameter 2 / RPDO2 number of mapped objects
+    NO_LIMITS, // 0x1601:01 RPDO mapping parameter 2 / RPDO2 mapping entry 1
+    NO_LIMITS, // 0x1601:02 RPDO mapping parameter 2 / RPDO2 mapping entry 2
+    NO_LIMITS, // 0x1601:03 RPDO mapping parameter 2 / RPDO2 mapping entry 3
+    NO_LIMITS, // 0x1601:04 RPDO mapping parameter 2 / RPDO2 mapping entry 4
+    NO_LIMITS, // 0x1601:05 RPDO mapping parameter 2 / RPDO2 mapping entry 5
+    NO_LIMITS, // 0x1601:06 RPDO mapping parameter 2 / RPDO2 mapping entry 6
+    NO_LIMITS, // 0x1601:07 RPDO mapping parameter 2 / RPDO2 mapping entry 7
+    NO_LIMITS, // 0x1601:08 RPDO mapping parameter 2 / RPDO2 mapping entry 8
+    NO_LIMITS, // 0x1602:00 RPDO mapping parameter 3 / RPDO3 number of mapped objects
+    NO_LIMITS, // 0x1602:01 RPDO mapping parameter 3 / RPDO3 mapping entry 1
+    NO_LIMITS, // 0x1602:02 RPDO mapping parameter 3 / RPDO3 mapping entry 2
+    NO_LIMITS, // 0x1602:03 RPDO mapping parameter 3 / RPDO3 mapping entry 3
+    NO_LIMITS, // 0x1602:04 RPDO mapping parameter 3 / RPDO3 mapping entry 4
+    NO_LIMITS, // 0x1602:05 RPDO mapping parameter 3 / RPDO3 mapping entry 5
+    NO_LIMITS, // 0x1602:06 RPDO mapping parameter 3 / RPDO3 mapping entry 6
+    NO_LIMITS, // 0x1602:07 RPDO mapping parameter 3 / RPDO3 mapping entry 7
+    NO_LIMITS, // 0x1602:08 RPDO mapping parameter 3 / RPDO3 mapping entry 8
+    1, // 0x1603:00 RPDO mapping parameter 4 / RPDO4 number of mapped objects
+    NO_LIMITS, // 0x1603:01 RPDO mapping parameter 4 / RPDO4 mapping entry 1
+    NO_LIMITS, // 0x1603:02 RPDO mapping parameter 4 / RPDO4 mapping entry 2
+    NO_LIMITS, // 0x1603:03 RPDO mapping parameter 4 / RPDO4 mapping entry 3
+    NO_LIMITS, // 0x1603:04 RPDO mapping parameter 4 / RPDO4 mapping entry 4
+    NO_LIMITS, // 0x1603:05 RPDO mapping parameter 4 / RPDO4 mapping entry 5
+    NO_LIMITS, // 0x1603:06 RPDO mapping parameter 4 / RPDO4 mapping entry 6
+    NO_LIMITS, // 0x1603:07 RPDO mapping parameter 4 / RPDO4 mapping entry 7
+    NO_LIMITS, // 0x1603:08 RPDO mapping parameter 4 / RPDO4 mapping entry 8
+    NO_LIMITS, // 0x1800:00 TPDO communication parameter 1 / TPDO1 communication highest sub-index
+    NO_LIMITS, // 0x1800:01 TPDO communication parameter 1 / TPDO1 COB-ID
+    NO_LIMITS, // 0x1800:02 TPDO communication parameter 1 / TPDO1 transmission type
+    NO_LIMITS, // 0x1800:03 TPDO communication parameter 1 / TPDO1 inhibit time
+    NO_LIMITS, // 0x1800:05 TPDO communication parameter 1 / TPDO1 event timer
+    NO_LIMITS, // 0x1800:06 TPDO communication parameter 1 / TPDO1 SYNC start value
+    NO_LIMITS, // 0x1801:00 TPDO communication parameter 2 / TPDO2 communication highest sub-index
+    NO_LIMITS, // 0x1801:01 TPDO communication parameter 2 / TPDO2 COB-ID
+    NO_LIMITS, // 0x1801:02 TPDO communication parameter 2 / TPDO2 transmission type
+    NO_LIMITS, // 0x1801:03 TPDO communication parameter 2 / TPDO2 inhibit time
+    NO_LIMITS, // 0x1801:05 TPDO communication parameter 2 / TPDO2 event timer
+    NO_LIMITS, // 0x1801:06 TPDO communication parameter 2 / TPDO2 SYNC start value
+    NO_LIMITS, // 0x1802:00 TPDO communication parameter 3 / TPDO3 communication highest sub-index
+    NO_LIMITS, // 0x1802:01 TPDO communication parameter 3 / TPDO3 COB-ID
+    NO_LIMITS, // 0x1802:02 TPDO communication parameter 3 / TPDO3 transmission type
+    NO_LIMITS, // 0x1802:03 TPDO communication parameter 3 / TPDO3 inhibit time
+    NO_LIMITS, // 0x1802:05 TPDO communication parameter 3 / TPDO3 event timer
+    NO_LIMITS, // 0x1802:06 TPDO communication parameter 3 / TPDO3 SYNC start value
+    NO_LIMITS, // 0x1803:00 TPDO communication parameter 4 / TPDO4 communication highest sub-index
+    NO_LIMITS, // 0x1803:01 TPDO communication parameter 4 / TPDO4 COB-ID
+    NO_LIMITS, // 0x1803:02 TPDO communication parameter 4 / TPDO4 transmission type
+    NO_LIMITS, // 0x1803:03 TPDO communication parameter 4 / TPDO4 inhibit time
+    NO_LIMITS, // 0x1803:05 TPDO communication parameter 4 / TPDO4 event timer
+    NO_LIMITS, // 0x1803:06 TPDO communication parameter 4 / TPDO4 SYNC start value
+    NO_LIMITS, // 0x1A00:00 TPDO mapping parameter 1 / TPDO1 number of mapped objects
+    NO_LIMITS, // 0x1A00:01 TPDO mapping parameter 1 / TPDO1 mapping entry 1
+    NO_LIMITS, // 0x1A00:02 TPDO mapping parameter 1 / TPDO1 mapping entry 2
+    NO_LIMITS, // 0x1A00:03 TPDO mapping parameter 1 / TPDO1 mapping entry 3
+    NO_LIMITS, // 0x1A00:04 TPDO mapping parameter 1 / TPDO1 mapping entry 4
+    NO_LIMITS, // 0x1A00:05 TPDO mapping parameter 1 / TPDO1 mapping entry 5
+    NO_LIMITS, // 0x1A00:06 TPDO mapping parameter 1 / TPDO1 mapping entry 6
+    NO_LIMITS, // 0x1A00:07 TPDO mapping parameter 1 / TPDO1 mapping entry 7
+    NO_LIMITS, // 0x1A00:08 TPDO mapping parameter 1 / TPDO1 mapping entry 8
+    NO_LIMITS, // 0x1A01:00 TPDO mapping parameter 2 / TPDO2 number of mapped objects
+    NO_LIMITS, // 0x1A01:01 TPDO mapping parameter 2 / TPDO2 mapping entry 1
+    NO_LIMITS, // 0x1A01:02 TPDO mapping parameter 2 / TPDO2 mapping entry 2
+    NO_LIMITS, // 0x1A01:03 TPDO mapping parameter 2 / TPDO2 mapping entry 3
+    NO_LIMITS, // 0x1A01:04 TPDO mapping parameter 2 / TPDO2 mapping entry 4
+    NO_LIMITS, // 0x1A01:05 TPDO mapping parameter 2 / TPDO2 mapping entry 5
+    NO_LIMITS, // 0x1A01:06 TPDO mapping parameter 2 / TPDO2 mapping entry 6
+    NO_LIMITS, // 0x1A01:07 TPDO mapping parameter 2 / TPDO2 mapping entry 7
+    NO_LIMITS, // 0x1A01:08 TPDO mapping parameter 2 / TPDO2 mapping entry 8
+    NO_LIMITS, // 0x1A02:00 TPDO mapping parameter 3 / TPDO3 number of mapped objects
+    NO_LIMITS, // 0x1A02:01 TPDO mapping parameter 3 / TPDO3 mapping entry 1
+    NO_LIMITS, // 0x1A02:02 TPDO mapping parameter 3 / TPDO3 mapping entry 2
+    NO_LIMITS, // 0x1A02:03 TPDO mapping parameter 3 / TPDO3 mapping entry 3
+    NO_LIMITS, // 0x1A02:04 TPDO mapping parameter 3 / TPDO3 mapping entry 4
+    NO_LIMITS, // 0x1A02:05 TPDO mapping parameter 3 / TPDO3 mapping entry 5
+    NO_LIMITS, // 0x1A02:06 TPDO mapping parameter 3 / TPDO3 mapping entry 6
+    NO_LIMITS, // 0x1A02:07 TPDO mapping parameter 3 / TPDO3 mapping entry 7
+    NO_LIMITS, // 0x1A02:08 TPDO mapping parameter 3 / TPDO3 mapping entry 8
+    1, // 0x1A03:00 TPDO mapping parameter 4 / TPDO4 number of mapped objects
+    NO_LIMITS, // 0x1A03:01 TPDO mapping parameter 4 / TPDO4 mapping entry 1
+    NO_LIMITS, // 0x1A03:02 TPDO mapping parameter 4 / TPDO4 mapping entry 2
+    NO_LIMITS, // 0x1A03:03 TPDO mapping parameter 4 / TPDO4 mapping entry 3
+    NO_LIMITS, // 0x1A03:04 TPDO mapping parameter 4 / TPDO4 mapping entry 4
+    NO_LIMITS, // 0x1A03:05 TPDO mapping parameter 4 / TPDO4 mapping entry 5
+    NO_LIMITS, // 0x1A03:06 TPDO mapping parameter 4 / TPDO4 mapping entry 6
+    NO_LIMITS, // 0x1A03:07 TPDO mapping parameter 4 / TPDO4 mapping entry 7
+    NO_LIMITS, // 0x1A03:08 TPDO mapping parameter 4 / TPDO4 mapping entry 8
+    NO_LIMITS, // 0x1F51:00 Program control / Program control highest sub-index
+    2, // 0x1F51:01 Program control / Program control 1
+    NO_LIMITS, // 0x1F80:00 NMT startup
+    NO_LIMITS, // 0x2200:00 Monitoring values / Monitoring values highest sub-index
+    NO_LIMITS, // 0x2200:01 Monitoring values / Number of start stops
+    NO_LIMITS, // 0x2200:02 Monitoring values / Working hours
+    NO_LIMITS, // 0x2200:03 Monitoring values / Uptime
+    NO_LIMITS, // 0x2200:04 Monitoring values / Absolute minimum temperature
+    NO_LIMITS, // 0x2200:05 Monitoring values / Absolute maximum temperature
+    NO_LIMITS, // 0x2200:06 Monitoring values / Actual temperature
+    NO_LIMITS, // 0x2200:07 Monitoring values / Number of quick stops
+    NO_LIMITS, // 0x2200:08 Monitoring values / Mechanical power average
+    NO_LIMITS, // 0x2200:09 Monitoring values / Number of rotations
+    NO_LIMITS, // 0x2210:00 Lifetime traffic light
+    NO_LIMITS, // 0x2211:00 Health traffic light / Health traffic light highest sub-index
+    NO_LIMITS, // 0x2211:01 Health traffic light / Temperature traffic light
+    NO_LIMITS, // 0x2211:02 Health traffic light / Power traffic light
+    NO_LIMITS, // 0x2211:03 Health traffic light / Error quantity traffic light
+    NO_LIMITS, // 0x2220:00 Analog value output / Analog value output highest sub-index
+    NO_LIMITS, // 0x2220:01 Analog value output / Analog voltage
+    NO_LIMITS, // 0x4048:00 Nominal power
+    NO_LIMITS, // 0x4231:00 High temperature warning level / High temperature warning level highest sub-index
+    3, // 0x4231:01 High temperature warning level / High temperature warning threshold
+    4, // 0x4231:02 High temperature warning level / High temperature warning hysteresis
+    5, // 0x4645:00 Positioning deceleration ramp
+    NO_LIMITS, // 0x4650:00 Bus address / Bus address highest sub-index
+    6, // 0x4650:01 Bus address / Node-ID static
+    6, // 0x4650:02 Bus address / Node-ID actual
+    NO_LIMITS, // 0x4651:00 Baud rate / Baud rate highest sub-index
+    7, // 0x4651:01 Baud rate / CAN bit rate
+    8, // 0x4651:02 Baud rate / UART baud rate
+    NO_LIMITS, // 0x4FFE:00 Actual SDO server user
+    NO_LIMITS, // 0x4FFF:00 User login
+    9, // 0x6007:00 Abort connection option code
+    NO_LIMITS, // 0x6040:00 Controlword
+    NO_LIMITS, // 0x6041:00 Statusword
+    10, // 0x6060:00 Modes of operation
+    NO_LIMITS, // 0x6061:00 Modes of operation display
+    NO_LIMITS, // 0x6062:00 Position demand value
+    NO_LIMITS, // 0x6064:00 Position actual value
+    NO_LIMITS, // 0x606B:00 Velocity demand value
+    NO_LIMITS, // 0x606C:00 Velocity actual value
+    11, // 0x6073:00 Max current
+    NO_LIMITS, // 0x6077:00 Torque actual value
+    NO_LIMITS, // 0x6079:00 DC link circuit voltage
+    NO_LIMITS, // 0x607A:00 Target position
+    12, // 0x607E:00 Polarity
+    13, // 0x607F:00 Max profile velocity
+    13, // 0x6081:00 Profile velocity
+    NO_LIMITS, // 0x6083:00 Profile acceleration
+    NO_LIMITS, // 0x6084:00 Profile deceleration
+    NO_LIMITS, // 0x6091:00 Gear ratio / Gear ratio highest sub-index
+    14, // 0x6091:01 Gear ratio / Motor shaft revolutions
+    NO_LIMITS, // 0x6091:02 Gear ratio / Driving shaft revolutions
+    NO_LIMITS, // 0x6092:00 Feed constant / Feed constant highest sub-index
+    NO_LIMITS, // 0x6092:01 Feed constant / Feed
+    NO_LIMITS, // 0x6092:02 Feed constant / Shaft revolutions
+    15, // 0x6098:00 Homing method
+    16, // 0x6099:00 Homing speeds
+    17, // 0x60A8:00 SI unit position
+    18, // 0x60A9:00 SI unit velocity
+    19, // 0x60AA:00 SI unit acceleration
+    NO_LIMITS, // 0x60C5:00 Max acceleration
+    NO_LIMITS, // 0x60C6:00 Max deceleration
+    NO_LIMITS, // 0x60E3:00 Supported homing methods / Number of supported homing methods
+    NO_LIMITS, // 0x60E3:01 Supported homing methods / Supported homing method 1
+    NO_LIMITS, // 0x60F2:00 Positioning option code
+    20, // 0x60FF:00 Target velocity
+    NO_LIMITS, // 0x6402:00 Motor type
+    NO_LIMITS, // 0x6403:00 Motor catalogue number
+    NO_LIMITS, // 0x6404:00 Motor manufacturer
+    NO_LIMITS, // 0x6502:00 Supported drive modes
+    NO_LIMITS, // 0x67FE:00 Version number
 ];
 
 #[rustfmt::skip]
@@ -855,6 +1087,7 @@ pub static NAMES: [&str; ENTRY_COUNT] = [
 pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 141,

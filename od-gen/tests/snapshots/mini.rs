@@ -128,74 +128,146 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 196, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 197, NO_LIMITS), // 0x1003:00 Pre-defined error field / Highest sub-index supported
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 198, NO_LIMITS), // 0x1003:01 Pre-defined error field / Pre-defined error field1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 202, NO_LIMITS), // 0x1003:02 Pre-defined error field / Pre-defined error field2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 206, NO_LIMITS), // 0x1003:03 Pre-defined error field / Pre-defined error field3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 210, NO_LIMITS), // 0x1003:04 Pre-defined error field / Pre-defined error field4
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 214, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 218, NO_LIMITS), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
-    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
-    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 12, 0), // 0x1017:00 Producer heartbeat time
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 4, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 5, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 9, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 13, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 219, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 17, NO_LIMITS), // 0x1200:00 SDO server parameter / Highest sub-index supported
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 223, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 227, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
-    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 18, NO_LIMITS), // 0x1400:00 RPDO communication parameter / Highest sub-index supported
-    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 14, NO_LIMITS), // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
-    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 18, NO_LIMITS), // 0x1400:02 RPDO communication parameter / Transmission type
-    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 19, NO_LIMITS), // 0x1600:00 RPDO mapping parameter / Number of mapped objects
-    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 20, NO_LIMITS), // 0x1600:01 RPDO mapping parameter / Mapped object 1
-    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 24, NO_LIMITS), // 0x1600:02 RPDO mapping parameter / Mapped object 2
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 19, NO_LIMITS), // 0x1800:00 TPDO communication parameter / Highest sub-index supported
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28, NO_LIMITS), // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 32, NO_LIMITS), // 0x1800:02 TPDO communication parameter / Transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 33, NO_LIMITS), // 0x1800:03 TPDO communication parameter / Inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 35, NO_LIMITS), // 0x1800:05 TPDO communication parameter / Event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 37, NO_LIMITS), // 0x1A00:00 TPDO mapping parameter / Number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 38, NO_LIMITS), // 0x1A00:01 TPDO mapping parameter / Mapped object 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 42, NO_LIMITS), // 0x1A00:02 TPDO mapping parameter / Mapped object 2
-    Entry::new(0x2001, 0x00, DataType::Boolean, RW_TPDO_RPDO, 1, 46, NO_LIMITS), // 0x2001:00 Boolean value
-    Entry::new(0x2002, 0x00, DataType::Integer8, RW_TPDO_RPDO, 1, 47, NO_LIMITS), // 0x2002:00 Integer8 value
-    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO, 2, 48, 1), // 0x2003:00 Integer16 value
-    Entry::new(0x2004, 0x00, DataType::Integer32, RW, 4, 50, NO_LIMITS), // 0x2004:00 Integer32 value
-    Entry::new(0x2005, 0x00, DataType::Unsigned8, RW, 1, 54, NO_LIMITS), // 0x2005:00 Unsigned8 value
-    Entry::new(0x2006, 0x00, DataType::Unsigned16, RO_TPDO, 2, 231, NO_LIMITS), // 0x2006:00 Unsigned16 value
-    Entry::new(0x2007, 0x00, DataType::Unsigned32, RW_RPDO, 4, 55, 2), // 0x2007:00 Unsigned32 value
-    Entry::new(0x2008, 0x00, DataType::Real32, RW, 4, 59, 3), // 0x2008:00 Real32 value
-    Entry::new(0x2009, 0x00, DataType::VisibleString, RO, 11, 233, NO_LIMITS), // 0x2009:00 Visible string value
-    Entry::new(0x200A, 0x00, DataType::OctetString, RW, 16, 63, NO_LIMITS), // 0x200A:00 Octet string value
-    Entry::new(0x200B, 0x00, DataType::UnicodeString, RW, 16, 79, NO_LIMITS), // 0x200B:00 Unicode string value
-    Entry::new(0x200C, 0x00, DataType::TimeOfDay, RW, 6, 95, NO_LIMITS), // 0x200C:00 Time of day value
-    Entry::new(0x200D, 0x00, DataType::TimeDifference, RW, 6, 101, NO_LIMITS), // 0x200D:00 Time difference value
-    Entry::new(0x200F, 0x00, DataType::Domain, RW, 0, 0, NO_LIMITS), // 0x200F:00 Domain value
-    Entry::new(0x2010, 0x00, DataType::Integer24, RW, 3, 107, NO_LIMITS), // 0x2010:00 Integer24 value
-    Entry::new(0x2011, 0x00, DataType::Real64, RW, 8, 110, NO_LIMITS), // 0x2011:00 Real64 value
-    Entry::new(0x2012, 0x00, DataType::Integer40, RW, 5, 118, NO_LIMITS), // 0x2012:00 Integer40 value
-    Entry::new(0x2013, 0x00, DataType::Integer48, RW, 6, 123, NO_LIMITS), // 0x2013:00 Integer48 value
-    Entry::new(0x2014, 0x00, DataType::Integer56, RW, 7, 129, NO_LIMITS), // 0x2014:00 Integer56 value
-    Entry::new(0x2015, 0x00, DataType::Integer64, RW, 8, 136, NO_LIMITS), // 0x2015:00 Integer64 value
-    Entry::new(0x2016, 0x00, DataType::Unsigned24, RW, 3, 144, 4), // 0x2016:00 Unsigned24 value
-    Entry::new(0x2018, 0x00, DataType::Unsigned40, RW, 5, 147, NO_LIMITS), // 0x2018:00 Unsigned40 value
-    Entry::new(0x2019, 0x00, DataType::Unsigned48, RW, 6, 152, NO_LIMITS), // 0x2019:00 Unsigned48 value
-    Entry::new(0x201A, 0x00, DataType::Unsigned56, RW, 7, 158, NO_LIMITS), // 0x201A:00 Unsigned56 value
-    Entry::new(0x201B, 0x00, DataType::Unsigned64, CONST, 8, 20, NO_LIMITS), // 0x201B:00 Unsigned64 value
-    Entry::new(0x2100, 0x00, DataType::Unsigned8, CONST, 1, 28, NO_LIMITS), // 0x2100:00 Setpoints / Highest sub-index supported
-    Entry::new(0x2100, 0x01, DataType::Integer16, RW_RPDO, 2, 165, 5), // 0x2100:01 Setpoints / Setpoint 1
-    Entry::new(0x2100, 0x02, DataType::Integer16, RW_RPDO, 2, 167, 5), // 0x2100:02 Setpoints / Setpoint 2
-    Entry::new(0x2100, 0x03, DataType::Integer16, RW_RPDO, 2, 169, 5), // 0x2100:03 Setpoints / Setpoint 3
-    Entry::new(0x2200, 0x00, DataType::Unsigned8, CONST, 1, 29, NO_LIMITS), // 0x2200:00 Motor / Highest sub-index supported
-    Entry::new(0x2200, 0x01, DataType::Unsigned8, RW, 1, 171, 6), // 0x2200:01 Motor / Pole pairs
-    Entry::new(0x2200, 0x02, DataType::Real64, RW_TPDO, 8, 172, NO_LIMITS), // 0x2200:02 Motor / Speed
-    Entry::new(0x2200, 0x03, DataType::VisibleString, RW, 16, 180, NO_LIMITS), // 0x2200:03 Motor / Label
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO_TPDO, 1, 196), // 0x1001:00 Error register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 197), // 0x1003:00 Pre-defined error field / Highest sub-index supported
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 198), // 0x1003:01 Pre-defined error field / Pre-defined error field1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 202), // 0x1003:02 Pre-defined error field / Pre-defined error field2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 206), // 0x1003:03 Pre-defined error field / Pre-defined error field3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 210), // 0x1003:04 Pre-defined error field / Pre-defined error field4
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0), // 0x1005:00 COB-ID SYNC
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 214), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1016, 0x00, DataType::Unsigned8, RO, 1, 218), // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    Entry::new(0x1016, 0x01, DataType::Unsigned32, RW, 4, 4), // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
+    Entry::new(0x1016, 0x02, DataType::Unsigned32, RW, 4, 8), // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 12), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, CONST, 1, 4), // 0x1018:00 Identity object / Highest sub-index supported
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, CONST, 4, 5), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, CONST, 4, 9), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, CONST, 4, 13), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 219), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, CONST, 1, 17), // 0x1200:00 SDO server parameter / Highest sub-index supported
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 223), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 227), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1400, 0x00, DataType::Unsigned8, CONST, 1, 18), // 0x1400:00 RPDO communication parameter / Highest sub-index supported
+    Entry::new(0x1400, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 14), // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
+    Entry::new(0x1400, 0x02, DataType::Unsigned8, RW, 1, 18), // 0x1400:02 RPDO communication parameter / Transmission type
+    Entry::new(0x1600, 0x00, DataType::Unsigned8, RW, 1, 19), // 0x1600:00 RPDO mapping parameter / Number of mapped objects
+    Entry::new(0x1600, 0x01, DataType::Unsigned32, RW, 4, 20), // 0x1600:01 RPDO mapping parameter / Mapped object 1
+    Entry::new(0x1600, 0x02, DataType::Unsigned32, RW, 4, 24), // 0x1600:02 RPDO mapping parameter / Mapped object 2
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, CONST, 1, 19), // 0x1800:00 TPDO communication parameter / Highest sub-index supported
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28), // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 32), // 0x1800:02 TPDO communication parameter / Transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 33), // 0x1800:03 TPDO communication parameter / Inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 35), // 0x1800:05 TPDO communication parameter / Event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 37), // 0x1A00:00 TPDO mapping parameter / Number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 38), // 0x1A00:01 TPDO mapping parameter / Mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 42), // 0x1A00:02 TPDO mapping parameter / Mapped object 2
+    Entry::new(0x2001, 0x00, DataType::Boolean, RW_TPDO_RPDO, 1, 46), // 0x2001:00 Boolean value
+    Entry::new(0x2002, 0x00, DataType::Integer8, RW_TPDO_RPDO, 1, 47), // 0x2002:00 Integer8 value
+    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO, 2, 48), // 0x2003:00 Integer16 value
+    Entry::new(0x2004, 0x00, DataType::Integer32, RW, 4, 50), // 0x2004:00 Integer32 value
+    Entry::new(0x2005, 0x00, DataType::Unsigned8, RW, 1, 54), // 0x2005:00 Unsigned8 value
+    Entry::new(0x2006, 0x00, DataType::Unsigned16, RO_TPDO, 2, 231), // 0x2006:00 Unsigned16 value
+    Entry::new(0x2007, 0x00, DataType::Unsigned32, RW_RPDO, 4, 55), // 0x2007:00 Unsigned32 value
+    Entry::new(0x2008, 0x00, DataType::Real32, RW, 4, 59), // 0x2008:00 Real32 value
+    Entry::new(0x2009, 0x00, DataType::VisibleString, RO, 11, 233), // 0x2009:00 Visible string value
+    Entry::new(0x200A, 0x00, DataType::OctetString, RW, 16, 63), // 0x200A:00 Octet string value
+    Entry::new(0x200B, 0x00, DataType::UnicodeString, RW, 16, 79), // 0x200B:00 Unicode string value
+    Entry::new(0x200C, 0x00, DataType::TimeOfDay, RW, 6, 95), // 0x200C:00 Time of day value
+    Entry::new(0x200D, 0x00, DataType::TimeDifference, RW, 6, 101), // 0x200D:00 Time difference value
+    Entry::new(0x200F, 0x00, DataType::Domain, RW, 0, 0), // 0x200F:00 Domain value
+    Entry::new(0x2010, 0x00, DataType::Integer24, RW, 3, 107), // 0x2010:00 Integer24 value
+    Entry::new(0x2011, 0x00, DataType::Real64, RW, 8, 110), // 0x2011:00 Real64 value
+    Entry::new(0x2012, 0x00, DataType::Integer40, RW, 5, 118), // 0x2012:00 Integer40 value
+    Entry::new(0x2013, 0x00, DataType::Integer48, RW, 6, 123), // 0x2013:00 Integer48 value
+    Entry::new(0x2014, 0x00, DataType::Integer56, RW, 7, 129), // 0x2014:00 Integer56 value
+    Entry::new(0x2015, 0x00, DataType::Integer64, RW, 8, 136), // 0x2015:00 Integer64 value
+    Entry::new(0x2016, 0x00, DataType::Unsigned24, RW, 3, 144), // 0x2016:00 Unsigned24 value
+    Entry::new(0x2018, 0x00, DataType::Unsigned40, RW, 5, 147), // 0x2018:00 Unsigned40 value
+    Entry::new(0x2019, 0x00, DataType::Unsigned48, RW, 6, 152), // 0x2019:00 Unsigned48 value
+    Entry::new(0x201A, 0x00, DataType::Unsigned56, RW, 7, 158), // 0x201A:00 Unsigned56 value
+    Entry::new(0x201B, 0x00, DataType::Unsigned64, CONST, 8, 20), // 0x201B:00 Unsigned64 value
+    Entry::new(0x2100, 0x00, DataType::Unsigned8, CONST, 1, 28), // 0x2100:00 Setpoints / Highest sub-index supported
+    Entry::new(0x2100, 0x01, DataType::Integer16, RW_RPDO, 2, 165), // 0x2100:01 Setpoints / Setpoint 1
+    Entry::new(0x2100, 0x02, DataType::Integer16, RW_RPDO, 2, 167), // 0x2100:02 Setpoints / Setpoint 2
+    Entry::new(0x2100, 0x03, DataType::Integer16, RW_RPDO, 2, 169), // 0x2100:03 Setpoints / Setpoint 3
+    Entry::new(0x2200, 0x00, DataType::Unsigned8, CONST, 1, 29), // 0x2200:00 Motor / Highest sub-index supported
+    Entry::new(0x2200, 0x01, DataType::Unsigned8, RW, 1, 171), // 0x2200:01 Motor / Pole pairs
+    Entry::new(0x2200, 0x02, DataType::Real64, RW_TPDO, 8, 172), // 0x2200:02 Motor / Speed
+    Entry::new(0x2200, 0x03, DataType::VisibleString, RW, 16, 180), // 0x2200:03 Motor / Label
+];
+
+#[rustfmt::skip]
+static LIMIT_ROWS: [u8; 68] = [
+    NO_LIMITS, // 0x1000:00 Device type
+    NO_LIMITS, // 0x1001:00 Error register
+    NO_LIMITS, // 0x1003:00 Pre-defined error field / Highest sub-index supported
+    NO_LIMITS, // 0x1003:01 Pre-defined error field / Pre-defined error field1
+    NO_LIMITS, // 0x1003:02 Pre-defined error field / Pre-defined error field2
+    NO_LIMITS, // 0x1003:03 Pre-defined error field / Pre-defined error field3
+    NO_LIMITS, // 0x1003:04 Pre-defined error field / Pre-defined error field4
+    NO_LIMITS, // 0x1005:00 COB-ID SYNC
+    NO_LIMITS, // 0x1014:00 COB-ID EMCY
+    NO_LIMITS, // 0x1016:00 Consumer heartbeat time / Highest sub-index supported
+    NO_LIMITS, // 0x1016:01 Consumer heartbeat time / Consumer heartbeat time1
+    NO_LIMITS, // 0x1016:02 Consumer heartbeat time / Consumer heartbeat time of node 6
+    0, // 0x1017:00 Producer heartbeat time
+    NO_LIMITS, // 0x1018:00 Identity object / Highest sub-index supported
+    NO_LIMITS, // 0x1018:01 Identity object / Vendor-ID
+    NO_LIMITS, // 0x1018:02 Identity object / Product code
+    NO_LIMITS, // 0x1018:03 Identity object / Revision number
+    NO_LIMITS, // 0x1018:04 Identity object / Serial number
+    NO_LIMITS, // 0x1200:00 SDO server parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1200:01 SDO server parameter / COB-ID client to server
+    NO_LIMITS, // 0x1200:02 SDO server parameter / COB-ID server to client
+    NO_LIMITS, // 0x1400:00 RPDO communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1400:01 RPDO communication parameter / COB-ID used by RPDO
+    NO_LIMITS, // 0x1400:02 RPDO communication parameter / Transmission type
+    NO_LIMITS, // 0x1600:00 RPDO mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1600:01 RPDO mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1600:02 RPDO mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x1800:00 TPDO communication parameter / Highest sub-index supported
+    NO_LIMITS, // 0x1800:01 TPDO communication parameter / COB-ID used by TPDO
+    NO_LIMITS, // 0x1800:02 TPDO communication parameter / Transmission type
+    NO_LIMITS, // 0x1800:03 TPDO communication parameter / Inhibit time
+    NO_LIMITS, // 0x1800:05 TPDO communication parameter / Event timer
+    NO_LIMITS, // 0x1A00:00 TPDO mapping parameter / Number of mapped objects
+    NO_LIMITS, // 0x1A00:01 TPDO mapping parameter / Mapped object 1
+    NO_LIMITS, // 0x1A00:02 TPDO mapping parameter / Mapped object 2
+    NO_LIMITS, // 0x2001:00 Boolean value
+    NO_LIMITS, // 0x2002:00 Integer8 value
+    1, // 0x2003:00 Integer16 value
+    NO_LIMITS, // 0x2004:00 Integer32 value
+    NO_LIMITS, // 0x2005:00 Unsigned8 value
+    NO_LIMITS, // 0x2006:00 Unsigned16 value
+    2, // 0x2007:00 Unsigned32 value
+    3, // 0x2008:00 Real32 value
+    NO_LIMITS, // 0x2009:00 Visible string value
+    NO_LIMITS, // 0x200A:00 Octet string value
+    NO_LIMITS, // 0x200B:00 Unicode string value
+    NO_LIMITS, // 0x200C:00 Time of day value
+    NO_LIMITS, // 0x200D:00 Time difference value
+    NO_LIMITS, // 0x200F:00 Domain value
+    NO_LIMITS, // 0x2010:00 Integer24 value
+    NO_LIMITS, // 0x2011:00 Real64 value
+    NO_LIMITS, // 0x2012:00 Integer40 value
+    NO_LIMITS, // 0x2013:00 Integer48 value
+    NO_LIMITS, // 0x2014:00 Integer56 value
+    NO_LIMITS, // 0x2015:00 Integer64 value
+    4, // 0x2016:00 Unsigned24 value
+    NO_LIMITS, // 0x2018:00 Unsigned40 value
+    NO_LIMITS, // 0x2019:00 Unsigned48 value
+    NO_LIMITS, // 0x201A:00 Unsigned56 value
+    NO_LIMITS, // 0x201B:00 Unsigned64 value
+    NO_LIMITS, // 0x2100:00 Setpoints / Highest sub-index supported
+    5, // 0x2100:01 Setpoints / Setpoint 1
+    5, // 0x2100:02 Setpoints / Setpoint 2
+    5, // 0x2100:03 Setpoints / Setpoint 3
+    NO_LIMITS, // 0x2200:00 Motor / Highest sub-index supported
+    6, // 0x2200:01 Motor / Pole pairs
+    NO_LIMITS, // 0x2200:02 Motor / Speed
+    NO_LIMITS, // 0x2200:03 Motor / Label
 ];
 
 #[rustfmt::skip]
@@ -347,6 +419,7 @@ pub static NAMES: [&str; ENTRY_COUNT] = [
 pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 46,

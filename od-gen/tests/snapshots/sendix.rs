@@ -165,147 +165,292 @@ const RW_NODE_ID: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::NODE_ID.0);
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 200, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 201, NO_LIMITS), // 0x1003:00 Pre-defined error field / Number of errors
-    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 202, NO_LIMITS), // 0x1003:01 Pre-defined error field / Standard error field 1
-    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 206, NO_LIMITS), // 0x1003:02 Pre-defined error field / Standard error field 2
-    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 210, NO_LIMITS), // 0x1003:03 Pre-defined error field / Standard error field 3
-    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 214, NO_LIMITS), // 0x1003:04 Pre-defined error field / Standard error field 4
-    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 218, NO_LIMITS), // 0x1003:05 Pre-defined error field / Standard error field 5
-    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 222, NO_LIMITS), // 0x1003:06 Pre-defined error field / Standard error field 6
-    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 226, NO_LIMITS), // 0x1003:07 Pre-defined error field / Standard error field 7
-    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 230, NO_LIMITS), // 0x1003:08 Pre-defined error field / Standard error field 8
-    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0, NO_LIMITS), // 0x1005:00 COB-ID SYNC message
-    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4, NO_LIMITS), // 0x1006:00 Communication cycle period
-    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8, NO_LIMITS), // 0x1007:00 Synchronous window length
-    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 22, 4, NO_LIMITS), // 0x1008:00 Manufacturer device name
-    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 3, 26, NO_LIMITS), // 0x1009:00 Manufacturer hardware version
-    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 29, NO_LIMITS), // 0x100A:00 Manufacturer software version
-    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 234, NO_LIMITS), // 0x1010:00 Store parameters / Store parameters highest sub-index
-    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 235, NO_LIMITS), // 0x1010:01 Store parameters / Save all parameters
-    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 239, NO_LIMITS), // 0x1010:02 Store parameters / Save communication parameters
-    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 243, NO_LIMITS), // 0x1010:03 Store parameters / Save application parameters
-    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 247, NO_LIMITS), // 0x1010:04 Store parameters / Save manufacturer parameters
-    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 251, NO_LIMITS), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
-    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 252, NO_LIMITS), // 0x1011:01 Restore default parameters / Restore all default parameters
-    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 256, NO_LIMITS), // 0x1011:02 Restore default parameters / Restore communication default parameters
-    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 260, NO_LIMITS), // 0x1011:03 Restore default parameters / Restore application default parameters
-    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 264, NO_LIMITS), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
-    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 268, NO_LIMITS), // 0x1014:00 COB-ID EMCY
-    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 12, NO_LIMITS), // 0x1015:00 Inhibit time EMCY
-    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 14, NO_LIMITS), // 0x1017:00 Producer heartbeat time
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 272, NO_LIMITS), // 0x1018:00 Identity object / Identity highest sub-index
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 273, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 277, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 281, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 285, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 289, NO_LIMITS), // 0x1029:00 Error behavior / Error behavior highest sub-index
-    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 16, 0), // 0x1029:01 Error behavior / Communication error
-    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 17, 0), // 0x1029:02 Error behavior / Device profile specific error
-    Entry::new(0x1029, 0x03, DataType::Unsigned8, RW, 1, 18, 0), // 0x1029:03 Error behavior / Manufacturer specific error
-    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 290, NO_LIMITS), // 0x1200:00 SDO server parameter / SDO server highest sub-index
-    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 291, NO_LIMITS), // 0x1200:01 SDO server parameter / COB-ID client to server
-    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 295, NO_LIMITS), // 0x1200:02 SDO server parameter / COB-ID server to client
-    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 299, NO_LIMITS), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
-    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 19, NO_LIMITS), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
-    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 23, NO_LIMITS), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
-    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 24, NO_LIMITS), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
-    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 26, NO_LIMITS), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
-    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 300, NO_LIMITS), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
-    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28, NO_LIMITS), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
-    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 32, NO_LIMITS), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
-    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 33, NO_LIMITS), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
-    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 35, NO_LIMITS), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
-    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 301, NO_LIMITS), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
-    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 37, NO_LIMITS), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
-    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 41, NO_LIMITS), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
-    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 42, NO_LIMITS), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
-    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 44, NO_LIMITS), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
-    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 46, 1), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
-    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 47, NO_LIMITS), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
-    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 51, NO_LIMITS), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
-    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 55, NO_LIMITS), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
-    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 59, NO_LIMITS), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
-    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 63, NO_LIMITS), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
-    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 67, NO_LIMITS), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
-    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 71, NO_LIMITS), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
-    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 75, NO_LIMITS), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
-    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 79, 1), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
-    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 80, NO_LIMITS), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
-    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 84, NO_LIMITS), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
-    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 88, NO_LIMITS), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
-    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 92, NO_LIMITS), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
-    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 96, NO_LIMITS), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
-    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 100, NO_LIMITS), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
-    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 104, NO_LIMITS), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
-    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 108, NO_LIMITS), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
-    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 112, 1), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
-    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 113, NO_LIMITS), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
-    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 117, NO_LIMITS), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
-    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 121, NO_LIMITS), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
-    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 125, NO_LIMITS), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
-    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 129, NO_LIMITS), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
-    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 133, NO_LIMITS), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
-    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 137, NO_LIMITS), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
-    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 141, NO_LIMITS), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
-    Entry::new(0x1F51, 0x00, DataType::Unsigned8, RO, 1, 302, NO_LIMITS), // 0x1F51:00 Program control / Program control highest sub-index
-    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 303, 2), // 0x1F51:01 Program control / Program 1 control
-    Entry::new(0x2100, 0x00, DataType::Unsigned8, RW, 1, 145, NO_LIMITS), // 0x2100:00 Baud rate
-    Entry::new(0x2101, 0x00, DataType::Unsigned8, RW, 1, 146, 3), // 0x2101:00 Node address
-    Entry::new(0x2102, 0x00, DataType::Unsigned8, RW, 1, 147, 4), // 0x2102:00 CAN bus termination
-    Entry::new(0x2103, 0x00, DataType::Unsigned16, RO, 2, 304, NO_LIMITS), // 0x2103:00 Firmware flash version
-    Entry::new(0x2105, 0x00, DataType::Unsigned32, RW, 4, 148, NO_LIMITS), // 0x2105:00 Save all bus parameters
-    Entry::new(0x2150, 0x00, DataType::Integer16, RO_TPDO, 2, 306, NO_LIMITS), // 0x2150:00 Actual position sensor temperature
-    Entry::new(0x2162, 0x00, DataType::Unsigned16, RO_TPDO, 2, 308, NO_LIMITS), // 0x2162:00 Raw position CRC value
-    Entry::new(0x6000, 0x00, DataType::Unsigned16, RW, 2, 152, NO_LIMITS), // 0x6000:00 Operating parameters
-    Entry::new(0x6001, 0x00, DataType::Unsigned32, RW, 4, 154, 5), // 0x6001:00 Measuring units per revolution
-    Entry::new(0x6002, 0x00, DataType::Unsigned32, RW, 4, 158, NO_LIMITS), // 0x6002:00 Total measuring range in measuring units
-    Entry::new(0x6003, 0x00, DataType::Unsigned32, RW, 4, 162, NO_LIMITS), // 0x6003:00 Preset value
-    Entry::new(0x6004, 0x00, DataType::Unsigned32, RO_TPDO, 4, 310, NO_LIMITS), // 0x6004:00 Position value
-    Entry::new(0x600B, 0x00, DataType::Unsigned64, RO_TPDO, 8, 314, NO_LIMITS), // 0x600B:00 Position high resolution raw value
-    Entry::new(0x600C, 0x00, DataType::Unsigned32, RO_TPDO, 4, 322, NO_LIMITS), // 0x600C:00 Position raw value
-    Entry::new(0x6030, 0x00, DataType::Unsigned8, RO, 1, 326, NO_LIMITS), // 0x6030:00 Speed value / Speed value number of channels
-    Entry::new(0x6030, 0x01, DataType::Integer32, RO_TPDO, 4, 327, NO_LIMITS), // 0x6030:01 Speed value / Speed value channel 1
-    Entry::new(0x6031, 0x00, DataType::Unsigned8, RO, 1, 331, NO_LIMITS), // 0x6031:00 Speed parameters / Speed parameters number of entries
-    Entry::new(0x6031, 0x01, DataType::Integer16, RW, 2, 166, 6), // 0x6031:01 Speed parameters / Speed source selector
-    Entry::new(0x6031, 0x02, DataType::Integer16, RW, 2, 168, 7), // 0x6031:02 Speed parameters / Speed integration time
-    Entry::new(0x6031, 0x03, DataType::Integer16, RW, 2, 170, 8), // 0x6031:03 Speed parameters / Speed calculation multiplier
-    Entry::new(0x6031, 0x04, DataType::Integer16, RW, 2, 172, 8), // 0x6031:04 Speed parameters / Speed calculation divisor
-    Entry::new(0x6040, 0x00, DataType::Unsigned8, RO, 1, 332, NO_LIMITS), // 0x6040:00 Acceleration value / Acceleration value number of channels
-    Entry::new(0x6040, 0x01, DataType::Integer32, RO_TPDO, 4, 333, NO_LIMITS), // 0x6040:01 Acceleration value / Acceleration value channel 1
-    Entry::new(0x6041, 0x00, DataType::Unsigned8, RO, 1, 337, NO_LIMITS), // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries
-    Entry::new(0x6041, 0x01, DataType::Integer16, RW, 2, 174, 6), // 0x6041:01 Acceleration parameters / Acceleration source selector
-    Entry::new(0x6041, 0x02, DataType::Integer16, RW, 2, 176, 7), // 0x6041:02 Acceleration parameters / Acceleration integration time
-    Entry::new(0x6041, 0x03, DataType::Integer16, RW, 2, 178, 8), // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
-    Entry::new(0x6041, 0x04, DataType::Integer16, RW, 2, 180, 8), // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
-    Entry::new(0x6200, 0x00, DataType::Unsigned16, RW, 2, 182, NO_LIMITS), // 0x6200:00 Cyclic timer
-    Entry::new(0x6400, 0x00, DataType::Unsigned8, RO, 1, 338, NO_LIMITS), // 0x6400:00 Work area state / Work area state number of work areas
-    Entry::new(0x6400, 0x01, DataType::Unsigned8, RO_TPDO, 1, 339, NO_LIMITS), // 0x6400:01 Work area state / Work area state channel 1
-    Entry::new(0x6400, 0x02, DataType::Unsigned8, RO_TPDO, 1, 340, NO_LIMITS), // 0x6400:02 Work area state / Work area state channel 2
-    Entry::new(0x6401, 0x00, DataType::Unsigned8, RO, 1, 341, NO_LIMITS), // 0x6401:00 Work area low limit / Work area low limit number of work areas
-    Entry::new(0x6401, 0x01, DataType::Unsigned32, RW, 4, 184, NO_LIMITS), // 0x6401:01 Work area low limit / Work area low limit channel 1
-    Entry::new(0x6401, 0x02, DataType::Unsigned32, RW, 4, 188, NO_LIMITS), // 0x6401:02 Work area low limit / Work area low limit channel 2
-    Entry::new(0x6402, 0x00, DataType::Unsigned8, RO, 1, 342, NO_LIMITS), // 0x6402:00 Work area high limit / Work area high limit number of work areas
-    Entry::new(0x6402, 0x01, DataType::Unsigned32, RW, 4, 192, NO_LIMITS), // 0x6402:01 Work area high limit / Work area high limit channel 1
-    Entry::new(0x6402, 0x02, DataType::Unsigned32, RW, 4, 196, NO_LIMITS), // 0x6402:02 Work area high limit / Work area high limit channel 2
-    Entry::new(0x6500, 0x00, DataType::Unsigned16, RO, 2, 343, NO_LIMITS), // 0x6500:00 Operating status
-    Entry::new(0x6501, 0x00, DataType::Unsigned32, RO, 4, 345, NO_LIMITS), // 0x6501:00 Single-turn resolution
-    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 349, NO_LIMITS), // 0x6502:00 Number of distinguishable revolutions
-    Entry::new(0x6503, 0x00, DataType::Unsigned16, RO_TPDO, 2, 353, NO_LIMITS), // 0x6503:00 Alarms
-    Entry::new(0x6504, 0x00, DataType::Unsigned16, RO, 2, 355, NO_LIMITS), // 0x6504:00 Supported alarms
-    Entry::new(0x6505, 0x00, DataType::Unsigned16, RO_TPDO, 2, 357, NO_LIMITS), // 0x6505:00 Warnings
-    Entry::new(0x6506, 0x00, DataType::Unsigned16, RO, 2, 359, NO_LIMITS), // 0x6506:00 Supported warnings
-    Entry::new(0x6507, 0x00, DataType::Unsigned32, RO, 4, 361, NO_LIMITS), // 0x6507:00 Profile and software version
-    Entry::new(0x6508, 0x00, DataType::Unsigned32, RO, 4, 365, NO_LIMITS), // 0x6508:00 Operating time
-    Entry::new(0x6509, 0x00, DataType::Integer32, RO, 4, 369, NO_LIMITS), // 0x6509:00 Offset value
-    Entry::new(0x650A, 0x00, DataType::Unsigned8, RO, 1, 373, NO_LIMITS), // 0x650A:00 Module identification / Module identification highest sub-index
-    Entry::new(0x650A, 0x01, DataType::Integer32, RO, 4, 374, NO_LIMITS), // 0x650A:01 Module identification / Manufacturer offset value
-    Entry::new(0x650A, 0x02, DataType::Integer32, RO, 4, 378, NO_LIMITS), // 0x650A:02 Module identification / Manufacturer minimum position value
-    Entry::new(0x650A, 0x03, DataType::Integer32, RO, 4, 382, NO_LIMITS), // 0x650A:03 Module identification / Manufacturer maximum position value
-    Entry::new(0x650B, 0x00, DataType::Unsigned32, RO, 4, 386, NO_LIMITS), // 0x650B:00 Encoder serial number
-    Entry::new(0x650D, 0x00, DataType::Unsigned8, RO, 1, 390, NO_LIMITS), // 0x650D:00 Absolute accuracy
-    Entry::new(0x650E, 0x00, DataType::Unsigned32, RO, 4, 391, NO_LIMITS), // 0x650E:00 Device capability
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, CONST, 4, 0), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 200), // 0x1001:00 Error register
+    Entry::new(0x1003, 0x00, DataType::Unsigned8, RW, 1, 201), // 0x1003:00 Pre-defined error field / Number of errors
+    Entry::new(0x1003, 0x01, DataType::Unsigned32, RO, 4, 202), // 0x1003:01 Pre-defined error field / Standard error field 1
+    Entry::new(0x1003, 0x02, DataType::Unsigned32, RO, 4, 206), // 0x1003:02 Pre-defined error field / Standard error field 2
+    Entry::new(0x1003, 0x03, DataType::Unsigned32, RO, 4, 210), // 0x1003:03 Pre-defined error field / Standard error field 3
+    Entry::new(0x1003, 0x04, DataType::Unsigned32, RO, 4, 214), // 0x1003:04 Pre-defined error field / Standard error field 4
+    Entry::new(0x1003, 0x05, DataType::Unsigned32, RO, 4, 218), // 0x1003:05 Pre-defined error field / Standard error field 5
+    Entry::new(0x1003, 0x06, DataType::Unsigned32, RO, 4, 222), // 0x1003:06 Pre-defined error field / Standard error field 6
+    Entry::new(0x1003, 0x07, DataType::Unsigned32, RO, 4, 226), // 0x1003:07 Pre-defined error field / Standard error field 7
+    Entry::new(0x1003, 0x08, DataType::Unsigned32, RO, 4, 230), // 0x1003:08 Pre-defined error field / Standard error field 8
+    Entry::new(0x1005, 0x00, DataType::Unsigned32, RW, 4, 0), // 0x1005:00 COB-ID SYNC message
+    Entry::new(0x1006, 0x00, DataType::Unsigned32, RW, 4, 4), // 0x1006:00 Communication cycle period
+    Entry::new(0x1007, 0x00, DataType::Unsigned32, RW, 4, 8), // 0x1007:00 Synchronous window length
+    Entry::new(0x1008, 0x00, DataType::VisibleString, CONST, 22, 4), // 0x1008:00 Manufacturer device name
+    Entry::new(0x1009, 0x00, DataType::VisibleString, CONST, 3, 26), // 0x1009:00 Manufacturer hardware version
+    Entry::new(0x100A, 0x00, DataType::VisibleString, CONST, 5, 29), // 0x100A:00 Manufacturer software version
+    Entry::new(0x1010, 0x00, DataType::Unsigned8, RO, 1, 234), // 0x1010:00 Store parameters / Store parameters highest sub-index
+    Entry::new(0x1010, 0x01, DataType::Unsigned32, RW, 4, 235), // 0x1010:01 Store parameters / Save all parameters
+    Entry::new(0x1010, 0x02, DataType::Unsigned32, RW, 4, 239), // 0x1010:02 Store parameters / Save communication parameters
+    Entry::new(0x1010, 0x03, DataType::Unsigned32, RW, 4, 243), // 0x1010:03 Store parameters / Save application parameters
+    Entry::new(0x1010, 0x04, DataType::Unsigned32, RW, 4, 247), // 0x1010:04 Store parameters / Save manufacturer parameters
+    Entry::new(0x1011, 0x00, DataType::Unsigned8, RO, 1, 251), // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    Entry::new(0x1011, 0x01, DataType::Unsigned32, RW, 4, 252), // 0x1011:01 Restore default parameters / Restore all default parameters
+    Entry::new(0x1011, 0x02, DataType::Unsigned32, RW, 4, 256), // 0x1011:02 Restore default parameters / Restore communication default parameters
+    Entry::new(0x1011, 0x03, DataType::Unsigned32, RW, 4, 260), // 0x1011:03 Restore default parameters / Restore application default parameters
+    Entry::new(0x1011, 0x04, DataType::Unsigned32, RW, 4, 264), // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
+    Entry::new(0x1014, 0x00, DataType::Unsigned32, RO_NODE_ID, 4, 268), // 0x1014:00 COB-ID EMCY
+    Entry::new(0x1015, 0x00, DataType::Unsigned16, RW, 2, 12), // 0x1015:00 Inhibit time EMCY
+    Entry::new(0x1017, 0x00, DataType::Unsigned16, RW, 2, 14), // 0x1017:00 Producer heartbeat time
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 272), // 0x1018:00 Identity object / Identity highest sub-index
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 273), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 277), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 281), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 285), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x1029, 0x00, DataType::Unsigned8, RO, 1, 289), // 0x1029:00 Error behavior / Error behavior highest sub-index
+    Entry::new(0x1029, 0x01, DataType::Unsigned8, RW, 1, 16), // 0x1029:01 Error behavior / Communication error
+    Entry::new(0x1029, 0x02, DataType::Unsigned8, RW, 1, 17), // 0x1029:02 Error behavior / Device profile specific error
+    Entry::new(0x1029, 0x03, DataType::Unsigned8, RW, 1, 18), // 0x1029:03 Error behavior / Manufacturer specific error
+    Entry::new(0x1200, 0x00, DataType::Unsigned8, RO, 1, 290), // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    Entry::new(0x1200, 0x01, DataType::Unsigned32, RO_NODE_ID, 4, 291), // 0x1200:01 SDO server parameter / COB-ID client to server
+    Entry::new(0x1200, 0x02, DataType::Unsigned32, RO_NODE_ID, 4, 295), // 0x1200:02 SDO server parameter / COB-ID server to client
+    Entry::new(0x1800, 0x00, DataType::Unsigned8, RO, 1, 299), // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    Entry::new(0x1800, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 19), // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    Entry::new(0x1800, 0x02, DataType::Unsigned8, RW, 1, 23), // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    Entry::new(0x1800, 0x03, DataType::Unsigned16, RW, 2, 24), // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    Entry::new(0x1800, 0x05, DataType::Unsigned16, RW, 2, 26), // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    Entry::new(0x1801, 0x00, DataType::Unsigned8, RO, 1, 300), // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    Entry::new(0x1801, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 28), // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    Entry::new(0x1801, 0x02, DataType::Unsigned8, RW, 1, 32), // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    Entry::new(0x1801, 0x03, DataType::Unsigned16, RW, 2, 33), // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    Entry::new(0x1801, 0x05, DataType::Unsigned16, RW, 2, 35), // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    Entry::new(0x1802, 0x00, DataType::Unsigned8, RO, 1, 301), // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    Entry::new(0x1802, 0x01, DataType::Unsigned32, RW_NODE_ID, 4, 37), // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    Entry::new(0x1802, 0x02, DataType::Unsigned8, RW, 1, 41), // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    Entry::new(0x1802, 0x03, DataType::Unsigned16, RW, 2, 42), // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    Entry::new(0x1802, 0x05, DataType::Unsigned16, RW, 2, 44), // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    Entry::new(0x1A00, 0x00, DataType::Unsigned8, RW, 1, 46), // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    Entry::new(0x1A00, 0x01, DataType::Unsigned32, RW, 4, 47), // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
+    Entry::new(0x1A00, 0x02, DataType::Unsigned32, RW, 4, 51), // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
+    Entry::new(0x1A00, 0x03, DataType::Unsigned32, RW, 4, 55), // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
+    Entry::new(0x1A00, 0x04, DataType::Unsigned32, RW, 4, 59), // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
+    Entry::new(0x1A00, 0x05, DataType::Unsigned32, RW, 4, 63), // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
+    Entry::new(0x1A00, 0x06, DataType::Unsigned32, RW, 4, 67), // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
+    Entry::new(0x1A00, 0x07, DataType::Unsigned32, RW, 4, 71), // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
+    Entry::new(0x1A00, 0x08, DataType::Unsigned32, RW, 4, 75), // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
+    Entry::new(0x1A01, 0x00, DataType::Unsigned8, RW, 1, 79), // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    Entry::new(0x1A01, 0x01, DataType::Unsigned32, RW, 4, 80), // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
+    Entry::new(0x1A01, 0x02, DataType::Unsigned32, RW, 4, 84), // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
+    Entry::new(0x1A01, 0x03, DataType::Unsigned32, RW, 4, 88), // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
+    Entry::new(0x1A01, 0x04, DataType::Unsigned32, RW, 4, 92), // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
+    Entry::new(0x1A01, 0x05, DataType::Unsigned32, RW, 4, 96), // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
+    Entry::new(0x1A01, 0x06, DataType::Unsigned32, RW, 4, 100), // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
+    Entry::new(0x1A01, 0x07, DataType::Unsigned32, RW, 4, 104), // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
+    Entry::new(0x1A01, 0x08, DataType::Unsigned32, RW, 4, 108), // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
+    Entry::new(0x1A02, 0x00, DataType::Unsigned8, RW, 1, 112), // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    Entry::new(0x1A02, 0x01, DataType::Unsigned32, RW, 4, 113), // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
+    Entry::new(0x1A02, 0x02, DataType::Unsigned32, RW, 4, 117), // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
+    Entry::new(0x1A02, 0x03, DataType::Unsigned32, RW, 4, 121), // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
+    Entry::new(0x1A02, 0x04, DataType::Unsigned32, RW, 4, 125), // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
+    Entry::new(0x1A02, 0x05, DataType::Unsigned32, RW, 4, 129), // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
+    Entry::new(0x1A02, 0x06, DataType::Unsigned32, RW, 4, 133), // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
+    Entry::new(0x1A02, 0x07, DataType::Unsigned32, RW, 4, 137), // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
+    Entry::new(0x1A02, 0x08, DataType::Unsigned32, RW, 4, 141), // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
+    Entry::new(0x1F51, 0x00, DataType::Unsigned8, RO, 1, 302), // 0x1F51:00 Program control / Program control highest sub-index
+    Entry::new(0x1F51, 0x01, DataType::Unsigned8, RW, 1, 303), // 0x1F51:01 Program control / Program 1 control
+    Entry::new(0x2100, 0x00, DataType::Unsigned8, RW, 1, 145), // 0x2100:00 Baud rate
+    Entry::new(0x2101, 0x00, DataType::Unsigned8, RW, 1, 146), // 0x2101:00 Node address
+    Entry::new(0x2102, 0x00, DataType::Unsigned8, RW, 1, 147), // 0x2102:00 CAN bus termination
+    Entry::new(0x2103, 0x00, DataType::Unsigned16, RO, 2, 304), // 0x2103:00 Firmware flash version
+    Entry::new(0x2105, 0x00, DataType::Unsigned32, RW, 4, 148), // 0x2105:00 Save all bus parameters
+    Entry::new(0x2150, 0x00, DataType::Integer16, RO_TPDO, 2, 306), // 0x2150:00 Actual position sensor temperature
+    Entry::new(0x2162, 0x00, DataType::Unsigned16, RO_TPDO, 2, 308), // 0x2162:00 Raw position CRC value
+    Entry::new(0x6000, 0x00, DataType::Unsigned16, RW, 2, 152), // 0x6000:00 Operating parameters
+    Entry::new(0x6001, 0x00, DataType::Unsigned32, RW, 4, 154), // 0x6001:00 Measuring units per revolution
+    Entry::new(0x6002, 0x00, DataType::Unsigned32, RW, 4, 158), // 0x6002:00 Total measuring range in measuring units
+    Entry::new(0x6003, 0x00, DataType::Unsigned32, RW, 4, 162), // 0x6003:00 Preset value
+    Entry::new(0x6004, 0x00, DataType::Unsigned32, RO_TPDO, 4, 310), // 0x6004:00 Position value
+    Entry::new(0x600B, 0x00, DataType::Unsigned64, RO_TPDO, 8, 314), // 0x600B:00 Position high resolution raw value
+    Entry::new(0x600C, 0x00, DataType::Unsigned32, RO_TPDO, 4, 322), // 0x600C:00 Position raw value
+    Entry::new(0x6030, 0x00, DataType::Unsigned8, RO, 1, 326), // 0x6030:00 Speed value / Speed value number of channels
+    Entry::new(0x6030, 0x01, DataType::Integer32, RO_TPDO, 4, 327), // 0x6030:01 Speed value / Speed value channel 1
+    Entry::new(0x6031, 0x00, DataType::Unsigned8, RO, 1, 331), // 0x6031:00 Speed parameters / Speed parameters number of entries
+    Entry::new(0x6031, 0x01, DataType::Integer16, RW, 2, 166), // 0x6031:01 Speed parameters / Speed source selector
+    Entry::new(0x6031, 0x02, DataType::Integer16, RW, 2, 168), // 0x6031:02 Speed parameters / Speed integration time
+    Entry::new(0x6031, 0x03, DataType::Integer16, RW, 2, 170), // 0x6031:03 Speed parameters / Speed calculation multiplier
+    Entry::new(0x6031, 0x04, DataType::Integer16, RW, 2, 172), // 0x6031:04 Speed parameters / Speed calculation divisor
+    Entry::new(0x6040, 0x00, DataType::Unsigned8, RO, 1, 332), // 0x6040:00 Acceleration value / Acceleration value number of channels
+    Entry::new(0x6040, 0x01, DataType::Integer32, RO_TPDO, 4, 333), // 0x6040:01 Acceleration value / Acceleration value channel 1
+    Entry::new(0x6041, 0x00, DataType::Unsigned8, RO, 1, 337), // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries
+    Entry::new(0x6041, 0x01, DataType::Integer16, RW, 2, 174), // 0x6041:01 Acceleration parameters / Acceleration source selector
+    Entry::new(0x6041, 0x02, DataType::Integer16, RW, 2, 176), // 0x6041:02 Acceleration parameters / Acceleration integration time
+    Entry::new(0x6041, 0x03, DataType::Integer16, RW, 2, 178), // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
+    Entry::new(0x6041, 0x04, DataType::Integer16, RW, 2, 180), // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
+    Entry::new(0x6200, 0x00, DataType::Unsigned16, RW, 2, 182), // 0x6200:00 Cyclic timer
+    Entry::new(0x6400, 0x00, DataType::Unsigned8, RO, 1, 338), // 0x6400:00 Work area state / Work area state number of work areas
+    Entry::new(0x6400, 0x01, DataType::Unsigned8, RO_TPDO, 1, 339), // 0x6400:01 Work area state / Work area state channel 1
+    Entry::new(0x6400, 0x02, DataType::Unsigned8, RO_TPDO, 1, 340), // 0x6400:02 Work area state / Work area state channel 2
+    Entry::new(0x6401, 0x00, DataType::Unsigned8, RO, 1, 341), // 0x6401:00 Work area low limit / Work area low limit number of work areas
+    Entry::new(0x6401, 0x01, DataType::Unsigned32, RW, 4, 184), // 0x6401:01 Work area low limit / Work area low limit channel 1
+    Entry::new(0x6401, 0x02, DataType::Unsigned32, RW, 4, 188), // 0x6401:02 Work area low limit / Work area low limit channel 2
+    Entry::new(0x6402, 0x00, DataType::Unsigned8, RO, 1, 342), // 0x6402:00 Work area high limit / Work area high limit number of work areas
+    Entry::new(0x6402, 0x01, DataType::Unsigned32, RW, 4, 192), // 0x6402:01 Work area high limit / Work area high limit channel 1
+    Entry::new(0x6402, 0x02, DataType::Unsigned32, RW, 4, 196), // 0x6402:02 Work area high limit / Work area high limit channel 2
+    Entry::new(0x6500, 0x00, DataType::Unsigned16, RO, 2, 343), // 0x6500:00 Operating status
+    Entry::new(0x6501, 0x00, DataType::Unsigned32, RO, 4, 345), // 0x6501:00 Single-turn resolution
+    Entry::new(0x6502, 0x00, DataType::Unsigned32, RO, 4, 349), // 0x6502:00 Number of distinguishable revolutions
+    Entry::new(0x6503, 0x00, DataType::Unsigned16, RO_TPDO, 2, 353), // 0x6503:00 Alarms
+    Entry::new(0x6504, 0x00, DataType::Unsigned16, RO, 2, 355), // 0x6504:00 Supported alarms
+    Entry::new(0x6505, 0x00, DataType::Unsigned16, RO_TPDO, 2, 357), // 0x6505:00 Warnings
+    Entry::new(0x6506, 0x00, DataType::Unsigned16, RO, 2, 359), // 0x6506:00 Supported warnings
+    Entry::new(0x6507, 0x00, DataType::Unsigned32, RO, 4, 361), // 0x6507:00 Profile and software version
+    Entry::new(0x6508, 0x00, DataType::Unsigned32, RO, 4, 365), // 0x6508:00 Operating time
+    Entry::new(0x6509, 0x00, DataType::Integer32, RO, 4, 369), // 0x6509:00 Offset value
+    Entry::new(0x650A, 0x00, DataType::Unsigned8, RO, 1, 373), // 0x650A:00 Module identification / Module identification highest sub-index
+    Entry::new(0x650A, 0x01, DataType::Integer32, RO, 4, 374), // 0x650A:01 Module identification / Manufacturer offset value
+    Entry::new(0x650A, 0x02, DataType::Integer32, RO, 4, 378), // 0x650A:02 Module identification / Manufacturer minimum position value
+    Entry::new(0x650A, 0x03, DataType::Integer32, RO, 4, 382), // 0x650A:03 Module identification / Manufacturer maximum position value
+    Entry::new(0x650B, 0x00, DataType::Unsigned32, RO, 4, 386), // 0x650B:00 Encoder serial number
+    Entry::new(0x650D, 0x00, DataType::Unsigned8, RO, 1, 390), // 0x650D:00 Absolute accuracy
+    Entry::new(0x650E, 0x00, DataType::Unsigned32, RO, 4, 391), // 0x650E:00 Device capability
+];
+
+#[rustfmt::skip]
+static LIMIT_ROWS: [u8; 141] = [
+    NO_LIMITS, // 0x1000:00 Device type
+    NO_LIMITS, // 0x1001:00 Error register
+    NO_LIMITS, // 0x1003:00 Pre-defined error field / Number of errors
+    NO_LIMITS, // 0x1003:01 Pre-defined error field / Standard error field 1
+    NO_LIMITS, // 0x1003:02 Pre-defined error field / Standard error field 2
+    NO_LIMITS, // 0x1003:03 Pre-defined error field / Standard error field 3
+    NO_LIMITS, // 0x1003:04 Pre-defined error field / Standard error field 4
+    NO_LIMITS, // 0x1003:05 Pre-defined error field / Standard error field 5
+    NO_LIMITS, // 0x1003:06 Pre-defined error field / Standard error field 6
+    NO_LIMITS, // 0x1003:07 Pre-defined error field / Standard error field 7
+    NO_LIMITS, // 0x1003:08 Pre-defined error field / Standard error field 8
+    NO_LIMITS, // 0x1005:00 COB-ID SYNC message
+    NO_LIMITS, // 0x1006:00 Communication cycle period
+    NO_LIMITS, // 0x1007:00 Synchronous window length
+    NO_LIMITS, // 0x1008:00 Manufacturer device name
+    NO_LIMITS, // 0x1009:00 Manufacturer hardware version
+    NO_LIMITS, // 0x100A:00 Manufacturer software version
+    NO_LIMITS, // 0x1010:00 Store parameters / Store parameters highest sub-index
+    NO_LIMITS, // 0x1010:01 Store parameters / Save all parameters
+    NO_LIMITS, // 0x1010:02 Store parameters / Save communication parameters
+    NO_LIMITS, // 0x1010:03 Store parameters / Save application parameters
+    NO_LIMITS, // 0x1010:04 Store parameters / Save manufacturer parameters
+    NO_LIMITS, // 0x1011:00 Restore default parameters / Restore parameters highest sub-index
+    NO_LIMITS, // 0x1011:01 Restore default parameters / Restore all default parameters
+    NO_LIMITS, // 0x1011:02 Restore default parameters / Restore communication default parameters
+    NO_LIMITS, // 0x1011:03 Restore default parameters / Restore application default parameters
+    NO_LIMITS, // 0x1011:04 Restore default parameters / Restore manufacturer default parameters
+    NO_LIMITS, // 0x1014:00 COB-ID EMCY
+    NO_LIMITS, // 0x1015:00 Inhibit time EMCY
+    NO_LIMITS, // 0x1017:00 Producer heartbeat time
+    NO_LIMITS, // 0x1018:00 Identity object / Identity highest sub-index
+    NO_LIMITS, // 0x1018:01 Identity object / Vendor-ID
+    NO_LIMITS, // 0x1018:02 Identity object / Product code
+    NO_LIMITS, // 0x1018:03 Identity object / Revision number
+    NO_LIMITS, // 0x1018:04 Identity object / Serial number
+    NO_LIMITS, // 0x1029:00 Error behavior / Error behavior highest sub-index
+    0, // 0x1029:01 Error behavior / Communication error
+    0, // 0x1029:02 Error behavior / Device profile specific error
+    0, // 0x1029:03 Error behavior / Manufacturer specific error
+    NO_LIMITS, // 0x1200:00 SDO server parameter / SDO server highest sub-index
+    NO_LIMITS, // 0x1200:01 SDO server parameter / COB-ID client to server
+    NO_LIMITS, // 0x1200:02 SDO server parameter / COB-ID server to client
+    NO_LIMITS, // 0x1800:00 TPDO1 communication parameter / TPDO1 communication highest sub-index
+    NO_LIMITS, // 0x1800:01 TPDO1 communication parameter / TPDO1 COB-ID
+    NO_LIMITS, // 0x1800:02 TPDO1 communication parameter / TPDO1 transmission type
+    NO_LIMITS, // 0x1800:03 TPDO1 communication parameter / TPDO1 inhibit time
+    NO_LIMITS, // 0x1800:05 TPDO1 communication parameter / TPDO1 event timer
+    NO_LIMITS, // 0x1801:00 TPDO2 communication parameter / TPDO2 communication highest sub-index
+    NO_LIMITS, // 0x1801:01 TPDO2 communication parameter / TPDO2 COB-ID
+    NO_LIMITS, // 0x1801:02 TPDO2 communication parameter / TPDO2 transmission type
+    NO_LIMITS, // 0x1801:03 TPDO2 communication parameter / TPDO2 inhibit time
+    NO_LIMITS, // 0x1801:05 TPDO2 communication parameter / TPDO2 event timer
+    NO_LIMITS, // 0x1802:00 TPDO3 communication parameter / TPDO3 communication highest sub-index
+    NO_LIMITS, // 0x1802:01 TPDO3 communication parameter / TPDO3 COB-ID
+    NO_LIMITS, // 0x1802:02 TPDO3 communication parameter / TPDO3 transmission type
+    NO_LIMITS, // 0x1802:03 TPDO3 communication parameter / TPDO3 inhibit time
+    NO_LIMITS, // 0x1802:05 TPDO3 communication parameter / TPDO3 event timer
+    1, // 0x1A00:00 TPDO1 mapping parameter / TPDO1 number of mapped objects
+    NO_LIMITS, // 0x1A00:01 TPDO1 mapping parameter / TPDO1 mapped object 1
+    NO_LIMITS, // 0x1A00:02 TPDO1 mapping parameter / TPDO1 mapped object 2
+    NO_LIMITS, // 0x1A00:03 TPDO1 mapping parameter / TPDO1 mapped object 3
+    NO_LIMITS, // 0x1A00:04 TPDO1 mapping parameter / TPDO1 mapped object 4
+    NO_LIMITS, // 0x1A00:05 TPDO1 mapping parameter / TPDO1 mapped object 5
+    NO_LIMITS, // 0x1A00:06 TPDO1 mapping parameter / TPDO1 mapped object 6
+    NO_LIMITS, // 0x1A00:07 TPDO1 mapping parameter / TPDO1 mapped object 7
+    NO_LIMITS, // 0x1A00:08 TPDO1 mapping parameter / TPDO1 mapped object 8
+    1, // 0x1A01:00 TPDO2 mapping parameter / TPDO2 number of mapped objects
+    NO_LIMITS, // 0x1A01:01 TPDO2 mapping parameter / TPDO2 mapped object 1
+    NO_LIMITS, // 0x1A01:02 TPDO2 mapping parameter / TPDO2 mapped object 2
+    NO_LIMITS, // 0x1A01:03 TPDO2 mapping parameter / TPDO2 mapped object 3
+    NO_LIMITS, // 0x1A01:04 TPDO2 mapping parameter / TPDO2 mapped object 4
+    NO_LIMITS, // 0x1A01:05 TPDO2 mapping parameter / TPDO2 mapped object 5
+    NO_LIMITS, // 0x1A01:06 TPDO2 mapping parameter / TPDO2 mapped object 6
+    NO_LIMITS, // 0x1A01:07 TPDO2 mapping parameter / TPDO2 mapped object 7
+    NO_LIMITS, // 0x1A01:08 TPDO2 mapping parameter / TPDO2 mapped object 8
+    1, // 0x1A02:00 TPDO3 mapping parameter / TPDO3 number of mapped objects
+    NO_LIMITS, // 0x1A02:01 TPDO3 mapping parameter / TPDO3 mapped object 1
+    NO_LIMITS, // 0x1A02:02 TPDO3 mapping parameter / TPDO3 mapped object 2
+    NO_LIMITS, // 0x1A02:03 TPDO3 mapping parameter / TPDO3 mapped object 3
+    NO_LIMITS, // 0x1A02:04 TPDO3 mapping parameter / TPDO3 mapped object 4
+    NO_LIMITS, // 0x1A02:05 TPDO3 mapping parameter / TPDO3 mapped object 5
+    NO_LIMITS, // 0x1A02:06 TPDO3 mapping parameter / TPDO3 mapped object 6
+    NO_LIMITS, // 0x1A02:07 TPDO3 mapping parameter / TPDO3 mapped object 7
+    NO_LIMITS, // 0x1A02:08 TPDO3 mapping parameter / TPDO3 mapped object 8
+    NO_LIMITS, // 0x1F51:00 Program control / Program control highest sub-index
+    2, // 0x1F51:01 Program control / Program 1 control
+    NO_LIMITS, // 0x2100:00 Baud rate
+    3, // 0x2101:00 Node address
+    4, // 0x2102:00 CAN bus termination
+    NO_LIMITS, // 0x2103:00 Firmware flash version
+    NO_LIMITS, // 0x2105:00 Save all bus parameters
+    NO_LIMITS, // 0x2150:00 Actual position sensor temperature
+    NO_LIMITS, // 0x2162:00 Raw position CRC value
+    NO_LIMITS, // 0x6000:00 Operating parameters
+    5, // 0x6001:00 Measuring units per revolution
+    NO_LIMITS, // 0x6002:00 Total measuring range in measuring units
+    NO_LIMITS, // 0x6003:00 Preset value
+    NO_LIMITS, // 0x6004:00 Position value
+    NO_LIMITS, // 0x600B:00 Position high resolution raw value
+    NO_LIMITS, // 0x600C:00 Position raw value
+    NO_LIMITS, // 0x6030:00 Speed value / Speed value number of channels
+    NO_LIMITS, // 0x6030:01 Speed value / Speed value channel 1
+    NO_LIMITS, // 0x6031:00 Speed parameters / Speed parameters number of entries
+    6, // 0x6031:01 Speed parameters / Speed source selector
+    7, // 0x6031:02 Speed parameters / Speed integration time
+    8, // 0x6031:03 Speed parameters / Speed calculation multiplier
+    8, // 0x6031:04 Speed parameters / Speed calculation divisor
+    NO_LIMITS, // 0x6040:00 Acceleration value / Acceleration value number of channels
+    NO_LIMITS, // 0x6040:01 Acceleration value / Acceleration value channel 1
+    NO_LIMITS, // 0x6041:00 Acceleration parameters / Acceleration parameters number of entries
+    6, // 0x6041:01 Acceleration parameters / Acceleration source selector
+    7, // 0x6041:02 Acceleration parameters / Acceleration integration time
+    8, // 0x6041:03 Acceleration parameters / Acceleration calculation multiplier
+    8, // 0x6041:04 Acceleration parameters / Acceleration calculation divisor
+    NO_LIMITS, // 0x6200:00 Cyclic timer
+    NO_LIMITS, // 0x6400:00 Work area state / Work area state number of work areas
+    NO_LIMITS, // 0x6400:01 Work area state / Work area state channel 1
+    NO_LIMITS, // 0x6400:02 Work area state / Work area state channel 2
+    NO_LIMITS, // 0x6401:00 Work area low limit / Work area low limit number of work areas
+    NO_LIMITS, // 0x6401:01 Work area low limit / Work area low limit channel 1
+    NO_LIMITS, // 0x6401:02 Work area low limit / Work area low limit channel 2
+    NO_LIMITS, // 0x6402:00 Work area high limit / Work area high limit number of work areas
+    NO_LIMITS, // 0x6402:01 Work area high limit / Work area high limit channel 1
+    NO_LIMITS, // 0x6402:02 Work area high limit / Work area high limit channel 2
+    NO_LIMITS, // 0x6500:00 Operating status
+    NO_LIMITS, // 0x6501:00 Single-turn resolution
+    NO_LIMITS, // 0x6502:00 Number of distinguishable revolutions
+    NO_LIMITS, // 0x6503:00 Alarms
+    NO_LIMITS, // 0x6504:00 Supported alarms
+    NO_LIMITS, // 0x6505:00 Warnings
+    NO_LIMITS, // 0x6506:00 Supported warnings
+    NO_LIMITS, // 0x6507:00 Profile and software version
+    NO_LIMITS, // 0x6508:00 Operating time
+    NO_LIMITS, // 0x6509:00 Offset value
+    NO_LIMITS, // 0x650A:00 Module identification / Module identification highest sub-index
+    NO_LIMITS, // 0x650A:01 Module identification / Manufacturer offset value
+    NO_LIMITS, // 0x650A:02 Module identification / Manufacturer minimum position value
+    NO_LIMITS, // 0x650A:03 Module identification / Manufacturer maximum position value
+    NO_LIMITS, // 0x650B:00 Encoder serial number
+    NO_LIMITS, // 0x650D:00 Absolute accuracy
+    NO_LIMITS, // 0x650E:00 Device capability
 ];
 
 #[rustfmt::skip]
@@ -565,6 +710,7 @@ pub static NAMES: [&str; ENTRY_COUNT] = [
 pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 145,

@@ -543,260 +543,518 @@ const RW_TPDO_RPDO: Attr = Attr(Attr::READ.0 | Attr::WRITE.0 | Attr::MAP_TPDO.0 
 /// Entry metadata, sorted by (index, sub-index).
 #[rustfmt::skip]
 static ENTRIES: [Entry; ENTRY_COUNT] = [
-    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 348, NO_LIMITS), // 0x1000:00 Device type
-    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 352, NO_LIMITS), // 0x1001:00 Error register
-    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 353, NO_LIMITS), // 0x1018:00 Identity object / Highest sub-index supported
-    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 354, NO_LIMITS), // 0x1018:01 Identity object / Vendor-ID
-    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 358, NO_LIMITS), // 0x1018:02 Identity object / Product code
-    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 362, NO_LIMITS), // 0x1018:03 Identity object / Revision number
-    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 366, NO_LIMITS), // 0x1018:04 Identity object / Serial number
-    Entry::new(0x2001, 0x00, DataType::Integer16, RO_TPDO, 2, 370, NO_LIMITS), // 0x2001:00 User specific options
-    Entry::new(0x2002, 0x00, DataType::Integer16, RO_TPDO, 2, 372, NO_LIMITS), // 0x2002:00 User specific safety state
-    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 0, NO_LIMITS), // 0x2003:00 User specific command specials
-    Entry::new(0x2004, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 2, NO_LIMITS), // 0x2004:00 User key
-    Entry::new(0x2005, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 4, NO_LIMITS), // 0x2005:00 Nominal motor frequency
-    Entry::new(0x2006, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 6, NO_LIMITS), // 0x2006:00 Nominal motor voltage
-    Entry::new(0x2007, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 8, NO_LIMITS), // 0x2007:00 UF DC premagnetisation time
-    Entry::new(0x2008, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 12, NO_LIMITS), // 0x2008:00 UF DC voltage
-    Entry::new(0x2009, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 16, NO_LIMITS), // 0x2009:00 UF DC frequency
-    Entry::new(0x200A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 20, NO_LIMITS), // 0x200A:00 UF minimum voltage
-    Entry::new(0x200B, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 24, NO_LIMITS), // 0x200B:00 UF minimum frequency
-    Entry::new(0x200C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 28, NO_LIMITS), // 0x200C:00 UF corner voltage
-    Entry::new(0x200D, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 32, NO_LIMITS), // 0x200D:00 UF corner frequency
-    Entry::new(0x200E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 36, NO_LIMITS), // 0x200E:00 UF power factor
-    Entry::new(0x200F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 38, NO_LIMITS), // 0x200F:00 UF extra
-    Entry::new(0x2010, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 40, NO_LIMITS), // 0x2010:00 Oscilloscope trigger channel
-    Entry::new(0x2011, 0x00, DataType::Unsigned32, RO_TPDO, 4, 374, NO_LIMITS), // 0x2011:00 Control status
-    Entry::new(0x2012, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 42, NO_LIMITS), // 0x2012:00 Oscilloscope trigger level
-    Entry::new(0x2013, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 44, NO_LIMITS), // 0x2013:00 Oscilloscope trigger edge
-    Entry::new(0x2014, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 46, NO_LIMITS), // 0x2014:00 Oscilloscope trigger source
-    Entry::new(0x2015, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 48, NO_LIMITS), // 0x2015:00 Oscilloscope source
-    Entry::new(0x2016, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 50, NO_LIMITS), // 0x2016:00 Oscilloscope skip
-    Entry::new(0x2017, 0x00, DataType::Unsigned16, WO, 2, 52, NO_LIMITS), // 0x2017:00 Oscilloscope read command
-    Entry::new(0x2018, 0x00, DataType::Unsigned16, WO, 2, 54, NO_LIMITS), // 0x2018:00 Oscilloscope run command
-    Entry::new(0x2019, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 56, NO_LIMITS), // 0x2019:00 PWM frequency
-    Entry::new(0x201A, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 58, NO_LIMITS), // 0x201A:00 Lookup temporary
-    Entry::new(0x201B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 378, NO_LIMITS), // 0x201B:00 Firmware version
-    Entry::new(0x201C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 60, NO_LIMITS), // 0x201C:00 Current controller proportional gain
-    Entry::new(0x201D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 62, NO_LIMITS), // 0x201D:00 Current controller integral time
-    Entry::new(0x201E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 64, NO_LIMITS), // 0x201E:00 Digital command cutoff
-    Entry::new(0x201F, 0x00, DataType::Integer16, RO_TPDO, 2, 380, NO_LIMITS), // 0x201F:00 Phase 3 current offset
-    Entry::new(0x2020, 0x00, DataType::Integer16, RO_TPDO, 2, 382, NO_LIMITS), // 0x2020:00 Current actual value
-    Entry::new(0x2021, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 66, NO_LIMITS), // 0x2021:00 D current set point
-    Entry::new(0x2022, 0x00, DataType::Integer16, RO_TPDO, 2, 384, NO_LIMITS), // 0x2022:00 Current command after ramp
-    Entry::new(0x2023, 0x00, DataType::Integer16, RO_TPDO, 2, 386, NO_LIMITS), // 0x2023:00 D current reference
-    Entry::new(0x2024, 0x00, DataType::Unsigned16, RO_TPDO, 2, 388, NO_LIMITS), // 0x2024:00 Maximum current in use
-    Entry::new(0x2025, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 68, NO_LIMITS), // 0x2025:00 Current command ramp
-    Entry::new(0x2026, 0x00, DataType::Integer16, RO_TPDO, 2, 390, NO_LIMITS), // 0x2026:00 Current command
-    Entry::new(0x2027, 0x00, DataType::Integer16, RO_TPDO, 2, 392, NO_LIMITS), // 0x2027:00 Q current actual value
-    Entry::new(0x2028, 0x00, DataType::Integer16, RO_TPDO, 2, 394, NO_LIMITS), // 0x2028:00 D current actual value
-    Entry::new(0x2029, 0x00, DataType::Integer16, RO_TPDO, 2, 396, NO_LIMITS), // 0x2029:00 Q output voltage
-    Entry::new(0x202A, 0x00, DataType::Integer16, RO_TPDO, 2, 398, NO_LIMITS), // 0x202A:00 D output voltage
-    Entry::new(0x202B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 70, NO_LIMITS), // 0x202B:00 Current controller max integration count
-    Entry::new(0x202C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 72, NO_LIMITS), // 0x202C:00 Speed controller proportional gain
-    Entry::new(0x202D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 74, NO_LIMITS), // 0x202D:00 Speed controller integral time
-    Entry::new(0x202E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 76, NO_LIMITS), // 0x202E:00 Speed controller derivative time
-    Entry::new(0x202F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 78, NO_LIMITS), // 0x202F:00 Analog input 1 offset and scale
-    Entry::new(0x2030, 0x00, DataType::Integer16, RO_TPDO, 2, 400, 0), // 0x2030:00 Speed actual value
-    Entry::new(0x2031, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 82, 0), // 0x2031:00 Speed set point
-    Entry::new(0x2032, 0x00, DataType::Integer16, RO_TPDO, 2, 402, NO_LIMITS), // 0x2032:00 Speed command after ramp
-    Entry::new(0x2033, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 84, NO_LIMITS), // 0x2033:00 Speed error
-    Entry::new(0x2034, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 86, NO_LIMITS), // 0x2034:00 Speed limit
-    Entry::new(0x2035, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 88, NO_LIMITS), // 0x2035:00 Acceleration ramp
-    Entry::new(0x2036, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 92, NO_LIMITS), // 0x2036:00 Speed command source
-    Entry::new(0x2037, 0x00, DataType::Unsigned16, RO_TPDO, 2, 404, NO_LIMITS), // 0x2037:00 Current to speed loop factor
-    Entry::new(0x2038, 0x00, DataType::Integer16, RO_TPDO, 2, 406, NO_LIMITS), // 0x2038:00 Q current error
-    Entry::new(0x2039, 0x00, DataType::Integer16, RO_TPDO, 2, 408, NO_LIMITS), // 0x2039:00 D current error
-    Entry::new(0x203B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 94, NO_LIMITS), // 0x203B:00 Speed controller max integration count
-    Entry::new(0x203C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 96, NO_LIMITS), // 0x203C:00 Current derating by speed
-    Entry::new(0x203D, 0x00, DataType::Unsigned16, WO, 2, 98, NO_LIMITS), // 0x203D:00 Read request
-    Entry::new(0x203E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 100, NO_LIMITS), // 0x203E:00 Negative speed limit
-    Entry::new(0x203F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 102, NO_LIMITS), // 0x203F:00 Positive speed limit
-    Entry::new(0x2040, 0x00, DataType::Unsigned32, RO_TPDO, 4, 410, NO_LIMITS), // 0x2040:00 Status map
-    Entry::new(0x2041, 0x00, DataType::Integer16, RO_TPDO, 2, 414, NO_LIMITS), // 0x2041:00 Increment delta
-    Entry::new(0x2042, 0x00, DataType::Integer16, RO_TPDO, 2, 416, NO_LIMITS), // 0x2042:00 Motor mechanical angle
-    Entry::new(0x2043, 0x00, DataType::Unsigned16, RO_TPDO, 2, 418, NO_LIMITS), // 0x2043:00 Motor electrical angle
-    Entry::new(0x2044, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 104, NO_LIMITS), // 0x2044:00 Feedback phase angle offset
-    Entry::new(0x2045, 0x00, DataType::Unsigned32, RO_TPDO, 4, 420, NO_LIMITS), // 0x2045:00 I2t and regen energy monitor
-    Entry::new(0x2046, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 106, NO_LIMITS), // 0x2046:00 Digital current limit
-    Entry::new(0x2048, 0x00, DataType::Integer16, RO_TPDO, 2, 424, NO_LIMITS), // 0x2048:00 Current limit in use
-    Entry::new(0x2049, 0x00, DataType::Unsigned16, RO_TPDO, 2, 426, NO_LIMITS), // 0x2049:00 Motor temperature
-    Entry::new(0x204A, 0x00, DataType::Unsigned16, RO_TPDO, 2, 428, NO_LIMITS), // 0x204A:00 Power stage temperature
-    Entry::new(0x204B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 430, NO_LIMITS), // 0x204B:00 Air temperature
-    Entry::new(0x204C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 108, NO_LIMITS), // 0x204C:00 Current derating by temperature
-    Entry::new(0x204D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 110, NO_LIMITS), // 0x204D:00 Motor maximum current
-    Entry::new(0x204E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 112, NO_LIMITS), // 0x204E:00 Motor continuous current
-    Entry::new(0x204F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 114, NO_LIMITS), // 0x204F:00 Motor pole count
-    Entry::new(0x2050, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 116, NO_LIMITS), // 0x2050:00 Analog input 1 cutoff window
-    Entry::new(0x2051, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 118, NO_LIMITS), // 0x2051:00 Mode
-    Entry::new(0x2052, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 120, NO_LIMITS), // 0x2052:00 Status mask
-    Entry::new(0x2053, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 124, NO_LIMITS), // 0x2053:00 Analog input 2 cutoff window
-    Entry::new(0x2054, 0x00, DataType::Integer16, RO_TPDO, 2, 432, NO_LIMITS), // 0x2054:00 Phase 1 current actual value
-    Entry::new(0x2055, 0x00, DataType::Integer16, RO_TPDO, 2, 434, NO_LIMITS), // 0x2055:00 Phase 2 current actual value
-    Entry::new(0x2056, 0x00, DataType::Integer16, RO_TPDO, 2, 436, NO_LIMITS), // 0x2056:00 Phase 3 current actual value
-    Entry::new(0x2057, 0x00, DataType::Integer16, RO_TPDO, 2, 438, NO_LIMITS), // 0x2057:00 Ramped current limit in use
-    Entry::new(0x2058, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 126, NO_LIMITS), // 0x2058:00 Current derating TD
-    Entry::new(0x2059, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 128, NO_LIMITS), // 0x2059:00 Rated motor speed
-    Entry::new(0x205A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 130, NO_LIMITS), // 0x205A:00 Device options
-    Entry::new(0x205B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 134, NO_LIMITS), // 0x205B:00 Acceleration gain
-    Entry::new(0x205C, 0x00, DataType::Unsigned16, RO_TPDO, 2, 440, NO_LIMITS), // 0x205C:00 Rotor signals
-    Entry::new(0x205D, 0x00, DataType::Integer16, RO_TPDO, 2, 442, NO_LIMITS), // 0x205D:00 Internal speed command
-    Entry::new(0x205E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 136, NO_LIMITS), // 0x205E:00 Speed actual value filter
-    Entry::new(0x205F, 0x00, DataType::Integer16, RO_TPDO, 2, 444, NO_LIMITS), // 0x205F:00 Filtered current actual value
-    Entry::new(0x2060, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 138, NO_LIMITS), // 0x2060:00 Analog input filter
-    Entry::new(0x2061, 0x00, DataType::Unsigned16, RO_TPDO, 2, 446, NO_LIMITS), // 0x2061:00 It monitor
-    Entry::new(0x2062, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 140, NO_LIMITS), // 0x2062:00 Device serial number
-    Entry::new(0x2063, 0x00, DataType::Unsigned16, RO_TPDO, 2, 448, NO_LIMITS), // 0x2063:00 FPGA status
-    Entry::new(0x2064, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 144, NO_LIMITS), // 0x2064:00 Mains supply voltage
-    Entry::new(0x2065, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 146, NO_LIMITS), // 0x2065:00 Regen resistor rating
-    Entry::new(0x2066, 0x00, DataType::Unsigned16, RO_TPDO, 2, 450, NO_LIMITS), // 0x2066:00 Battery voltage
-    Entry::new(0x2067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 150, NO_LIMITS), // 0x2067:00 Device type code
-    Entry::new(0x2068, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 154, 1), // 0x2068:00 CAN receive id
-    Entry::new(0x2069, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 156, 2), // 0x2069:00 CAN transmit id
-    Entry::new(0x206A, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 158, NO_LIMITS), // 0x206A:00 Position controller proportional gain
-    Entry::new(0x206B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 160, NO_LIMITS), // 0x206B:00 Position controller integral time
-    Entry::new(0x206C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 162, NO_LIMITS), // 0x206C:00 Position controller derivative time
-    Entry::new(0x206D, 0x00, DataType::Integer32, RO_TPDO, 4, 452, 3), // 0x206D:00 Position actual value
-    Entry::new(0x206E, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 164, 3), // 0x206E:00 Position destination
-    Entry::new(0x206F, 0x00, DataType::Integer32, RO_TPDO, 4, 456, NO_LIMITS), // 0x206F:00 Position actual value 2
-    Entry::new(0x2070, 0x00, DataType::Integer32, RO_TPDO, 4, 460, NO_LIMITS), // 0x2070:00 Position error
-    Entry::new(0x2071, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 168, NO_LIMITS), // 0x2071:00 Position controller max integration count
-    Entry::new(0x2072, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 170, NO_LIMITS), // 0x2072:00 Reference zero offset
-    Entry::new(0x2073, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 174, 4), // 0x2073:00 CAN bit rate code
-    Entry::new(0x2074, 0x00, DataType::Integer16, RO_TPDO, 2, 464, NO_LIMITS), // 0x2074:00 Position zero capture
-    Entry::new(0x2075, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 176, NO_LIMITS), // 0x2075:00 Resolver position at reference switch
-    Entry::new(0x2076, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 178, NO_LIMITS), // 0x2076:00 Homing speed fast
-    Entry::new(0x2077, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 180, NO_LIMITS), // 0x2077:00 Homing speed slow
-    Entry::new(0x2078, 0x00, DataType::Unsigned16, WO, 2, 182, NO_LIMITS), // 0x2078:00 Start homing
-    Entry::new(0x2079, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 184, NO_LIMITS), // 0x2079:00 Position tolerance window
-    Entry::new(0x207A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 186, NO_LIMITS), // 0x207A:00 Position preset
-    Entry::new(0x207B, 0x00, DataType::Unsigned32, RO_TPDO, 4, 466, NO_LIMITS), // 0x207B:00 User zero offset
-    Entry::new(0x207C, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 190, NO_LIMITS), // 0x207C:00 Display position scale
-    Entry::new(0x207D, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 194, NO_LIMITS), // 0x207D:00 Display position offset
-    Entry::new(0x207E, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 198, NO_LIMITS), // 0x207E:00 Second encoder scale
-    Entry::new(0x207F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 202, NO_LIMITS), // 0x207F:00 Slack offset
-    Entry::new(0x2080, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 206, NO_LIMITS), // 0x2080:00 Slack position difference
-    Entry::new(0x2082, 0x00, DataType::Unsigned16, RO_TPDO, 2, 470, NO_LIMITS), // 0x2082:00 Device serial number extension
-    Entry::new(0x2083, 0x00, DataType::Unsigned16, WO, 2, 208, NO_LIMITS), // 0x2083:00 Read parameters from EEPROM
-    Entry::new(0x2084, 0x00, DataType::Unsigned16, WO, 2, 210, 5), // 0x2084:00 Write parameters to EEPROM
-    Entry::new(0x2085, 0x00, DataType::Unsigned16, WO, 2, 212, NO_LIMITS), // 0x2085:00 Auto functions
-    Entry::new(0x2086, 0x00, DataType::Integer16, RO_TPDO, 2, 472, NO_LIMITS), // 0x2086:00 Read info
-    Entry::new(0x2088, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 214, NO_LIMITS), // 0x2088:00 CAN receive id 2
-    Entry::new(0x2089, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 218, NO_LIMITS), // 0x2089:00 CAN transmit id 2
-    Entry::new(0x208A, 0x00, DataType::Integer16, RO_TPDO, 2, 474, NO_LIMITS), // 0x208A:00 Output voltage usage
-    Entry::new(0x208B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 222, NO_LIMITS), // 0x208B:00 Field weakening start point
-    Entry::new(0x208C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 224, NO_LIMITS), // 0x208C:00 Field weakening proportional gain
-    Entry::new(0x208D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 226, NO_LIMITS), // 0x208D:00 Field weakening integral time
-    Entry::new(0x208E, 0x00, DataType::Unsigned16, WO, 2, 228, NO_LIMITS), // 0x208E:00 Clear error list
-    Entry::new(0x208F, 0x00, DataType::Unsigned32, RO_TPDO, 4, 476, NO_LIMITS), // 0x208F:00 Warning and error map
-    Entry::new(0x2090, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 230, 0), // 0x2090:00 Torque set point
-    Entry::new(0x2091, 0x00, DataType::Integer32, RO_TPDO, 4, 480, NO_LIMITS), // 0x2091:00 Position command
-    Entry::new(0x2092, 0x00, DataType::Unsigned16, RO_TPDO, 2, 484, NO_LIMITS), // 0x2092:00 CAN bus off count
-    Entry::new(0x2093, 0x00, DataType::Unsigned16, RO_TPDO, 2, 486, NO_LIMITS), // 0x2093:00 CAN write error time
-    Entry::new(0x2094, 0x00, DataType::Unsigned16, RO_TPDO, 2, 488, NO_LIMITS), // 0x2094:00 FPGA first error
-    Entry::new(0x2095, 0x00, DataType::Unsigned16, RO_TPDO, 2, 490, NO_LIMITS), // 0x2095:00 CAN read count
-    Entry::new(0x2096, 0x00, DataType::Unsigned16, RO_TPDO, 2, 492, NO_LIMITS), // 0x2096:00 CAN write count
-    Entry::new(0x2097, 0x00, DataType::Unsigned16, RO_TPDO, 2, 494, NO_LIMITS), // 0x2097:00 CAN reject count
-    Entry::new(0x2098, 0x00, DataType::Integer16, RO_TPDO, 2, 496, NO_LIMITS), // 0x2098:00 Output block
-    Entry::new(0x2099, 0x00, DataType::Unsigned16, RO_TPDO, 2, 498, NO_LIMITS), // 0x2099:00 Interrupt time info
-    Entry::new(0x209A, 0x00, DataType::Integer16, RO_TPDO, 2, 500, NO_LIMITS), // 0x209A:00 Debug temperature
-    Entry::new(0x209B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 502, NO_LIMITS), // 0x209B:00 Input block
-    Entry::new(0x209C, 0x00, DataType::Integer16, RO_TPDO, 2, 504, NO_LIMITS), // 0x209C:00 PT100 sensor 1 temperature
-    Entry::new(0x209D, 0x00, DataType::Integer16, RO_TPDO, 2, 506, NO_LIMITS), // 0x209D:00 PT100 sensor 2 temperature
-    Entry::new(0x209E, 0x00, DataType::Integer16, RO_TPDO, 2, 508, NO_LIMITS), // 0x209E:00 PT100 sensor 3 temperature
-    Entry::new(0x209F, 0x00, DataType::Integer16, RO_TPDO, 2, 510, NO_LIMITS), // 0x209F:00 PT100 sensor 4 temperature
-    Entry::new(0x20A0, 0x00, DataType::Integer16, RO_TPDO, 2, 512, NO_LIMITS), // 0x20A0:00 Internal torque
-    Entry::new(0x20A1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 514, NO_LIMITS), // 0x20A1:00 Ballast counter
-    Entry::new(0x20A2, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 232, NO_LIMITS), // 0x20A2:00 Current derating TM
-    Entry::new(0x20A3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 234, NO_LIMITS), // 0x20A3:00 Motor temperature cutoff
-    Entry::new(0x20A4, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 236, NO_LIMITS), // 0x20A4:00 Motor options
-    Entry::new(0x20A5, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 238, NO_LIMITS), // 0x20A5:00 DC bus minimum and maximum
-    Entry::new(0x20A6, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 242, NO_LIMITS), // 0x20A6:00 Feedback increments per revolution
-    Entry::new(0x20A7, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 244, NO_LIMITS), // 0x20A7:00 Resolver pole count
-    Entry::new(0x20A8, 0x00, DataType::Integer16, RO_TPDO, 2, 516, NO_LIMITS), // 0x20A8:00 Filtered speed actual value
-    Entry::new(0x20A9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 518, NO_LIMITS), // 0x20A9:00 Current sensor 1 ADC
-    Entry::new(0x20AA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 520, NO_LIMITS), // 0x20AA:00 Current sensor 2 ADC
-    Entry::new(0x20AB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 522, NO_LIMITS), // 0x20AB:00 Foreground frequency
-    Entry::new(0x20AC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 524, NO_LIMITS), // 0x20AC:00 PWM phase 1
-    Entry::new(0x20AD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 526, NO_LIMITS), // 0x20AD:00 PWM phase 2
-    Entry::new(0x20AE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 528, NO_LIMITS), // 0x20AE:00 PWM phase 3
-    Entry::new(0x20AF, 0x00, DataType::Integer16, RO_TPDO, 2, 530, NO_LIMITS), // 0x20AF:00 Interrupt timer delta
-    Entry::new(0x20B0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 246, NO_LIMITS), // 0x20B0:00 Serial boot function
-    Entry::new(0x20B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 248, NO_LIMITS), // 0x20B1:00 Motor q leakage inductance
-    Entry::new(0x20B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 250, NO_LIMITS), // 0x20B2:00 Nominal magnetising current
-    Entry::new(0x20B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 252, NO_LIMITS), // 0x20B3:00 Motor magnetising inductance
-    Entry::new(0x20B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 254, NO_LIMITS), // 0x20B4:00 Rotor resistance
-    Entry::new(0x20B5, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 256, NO_LIMITS), // 0x20B5:00 Minimum magnetising current
-    Entry::new(0x20B6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 258, NO_LIMITS), // 0x20B6:00 Rotor time constant
-    Entry::new(0x20B7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 260, NO_LIMITS), // 0x20B7:00 Debug pointer 1
-    Entry::new(0x20B8, 0x00, DataType::Integer16, RO_TPDO, 2, 532, NO_LIMITS), // 0x20B8:00 Debug pointer 1 value
-    Entry::new(0x20B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 262, NO_LIMITS), // 0x20B9:00 Debug pointer 2
-    Entry::new(0x20BA, 0x00, DataType::Integer16, RO_TPDO, 2, 534, NO_LIMITS), // 0x20BA:00 Debug pointer 2 value
-    Entry::new(0x20BB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 264, NO_LIMITS), // 0x20BB:00 Motor d leakage inductance
-    Entry::new(0x20BC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 266, NO_LIMITS), // 0x20BC:00 Stator resistance
-    Entry::new(0x20BD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 268, NO_LIMITS), // 0x20BD:00 Stator time constant
-    Entry::new(0x20BE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 270, NO_LIMITS), // 0x20BE:00 Logic definition END1
-    Entry::new(0x20BF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 272, NO_LIMITS), // 0x20BF:00 Logic definition END2
-    Entry::new(0x20C0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 274, NO_LIMITS), // 0x20C0:00 Logic definition DIN1
-    Entry::new(0x20C1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 276, NO_LIMITS), // 0x20C1:00 Logic definition DIN2
-    Entry::new(0x20C2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 278, NO_LIMITS), // 0x20C2:00 Logic definition DOUT1
-    Entry::new(0x20C3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 280, NO_LIMITS), // 0x20C3:00 Logic definition DOUT2
-    Entry::new(0x20C4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 282, NO_LIMITS), // 0x20C4:00 Peak current limit
-    Entry::new(0x20C5, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 284, NO_LIMITS), // 0x20C5:00 Continuous current limit
-    Entry::new(0x20C6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 286, NO_LIMITS), // 0x20C6:00 Device current rating
-    Entry::new(0x20C7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 288, NO_LIMITS), // 0x20C7:00 Limit switch stop ramp
-    Entry::new(0x20C8, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 290, NO_LIMITS), // 0x20C8:00 Maximum speed
-    Entry::new(0x20C9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 292, NO_LIMITS), // 0x20C9:00 Position PI proportional gain
-    Entry::new(0x20CA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 294, NO_LIMITS), // 0x20CA:00 Position PI integral time
-    Entry::new(0x20CB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 296, NO_LIMITS), // 0x20CB:00 Current feed forward gain
-    Entry::new(0x20CC, 0x00, DataType::Integer16, RO_TPDO, 2, 536, NO_LIMITS), // 0x20CC:00 Position PI error
-    Entry::new(0x20CD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 298, NO_LIMITS), // 0x20CD:00 Position PI integral limit
-    Entry::new(0x20CE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 538, NO_LIMITS), // 0x20CE:00 Maximum speed internal
-    Entry::new(0x20CF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 300, NO_LIMITS), // 0x20CF:00 Position PI Ky factor
-    Entry::new(0x20D0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 302, NO_LIMITS), // 0x20D0:00 CAN timeout
-    Entry::new(0x20D1, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 304, NO_LIMITS), // 0x20D1:00 Comparison variable 1
-    Entry::new(0x20D2, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 308, NO_LIMITS), // 0x20D2:00 Comparison variable 2
-    Entry::new(0x20D3, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 312, NO_LIMITS), // 0x20D3:00 Comparison variable 3
-    Entry::new(0x20D4, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 316, NO_LIMITS), // 0x20D4:00 Comparison variable 4
-    Entry::new(0x20D5, 0x00, DataType::Integer32, RO_TPDO, 4, 540, NO_LIMITS), // 0x20D5:00 Analog input 1
-    Entry::new(0x20D6, 0x00, DataType::Integer32, RO_TPDO, 4, 544, NO_LIMITS), // 0x20D6:00 Analog input 2
-    Entry::new(0x20D7, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 320, NO_LIMITS), // 0x20D7:00 Analog input 2 offset and scale
-    Entry::new(0x20D8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 548, NO_LIMITS), // 0x20D8:00 IO bit map
-    Entry::new(0x20D9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 550, NO_LIMITS), // 0x20D9:00 Current at 200 percent
-    Entry::new(0x20DA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 324, NO_LIMITS), // 0x20DA:00 Logic definition DOUT3
-    Entry::new(0x20DB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 326, NO_LIMITS), // 0x20DB:00 Logic definition DOUT4
-    Entry::new(0x20DC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 328, NO_LIMITS), // 0x20DC:00 DAC definition
-    Entry::new(0x20DE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 552, NO_LIMITS), // 0x20DE:00 Digital output 3
-    Entry::new(0x20DF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 554, NO_LIMITS), // 0x20DF:00 Digital output 4
-    Entry::new(0x20E0, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556, NO_LIMITS), // 0x20E0:00 Digital output 1
-    Entry::new(0x20E1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 558, NO_LIMITS), // 0x20E1:00 Digital output 2
-    Entry::new(0x20E2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 560, NO_LIMITS), // 0x20E2:00 Device ready
-    Entry::new(0x20E3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 562, NO_LIMITS), // 0x20E3:00 Internal run
-    Entry::new(0x20E4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 564, NO_LIMITS), // 0x20E4:00 Limit switch input 1
-    Entry::new(0x20E5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 566, NO_LIMITS), // 0x20E5:00 Limit switch input 2
-    Entry::new(0x20E6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 568, NO_LIMITS), // 0x20E6:00 Digital input 1
-    Entry::new(0x20E7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 570, NO_LIMITS), // 0x20E7:00 Digital input 2
-    Entry::new(0x20E8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 572, NO_LIMITS), // 0x20E8:00 Run input
-    Entry::new(0x20E9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 574, NO_LIMITS), // 0x20E9:00 Power stage fault
-    Entry::new(0x20EA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 576, NO_LIMITS), // 0x20EA:00 Regen circuit message
-    Entry::new(0x20EB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 578, NO_LIMITS), // 0x20EB:00 DC bus voltage
-    Entry::new(0x20EC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 580, NO_LIMITS), // 0x20EC:00 Resolver loss of signal
-    Entry::new(0x20ED, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 330, NO_LIMITS), // 0x20ED:00 Deceleration ramp
-    Entry::new(0x20EE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 334, NO_LIMITS), // 0x20EE:00 Current sensor calibration
-    Entry::new(0x20EF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 582, NO_LIMITS), // 0x20EF:00 No fault output
-    Entry::new(0x20F0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 336, NO_LIMITS), // 0x20F0:00 Peak current time
-    Entry::new(0x20F1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 338, NO_LIMITS), // 0x20F1:00 Brake delay time
-    Entry::new(0x20F2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 584, NO_LIMITS), // 0x20F2:00 Brake on
-    Entry::new(0x20F3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 586, NO_LIMITS), // 0x20F3:00 Continuous current message
-    Entry::new(0x20F4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 588, NO_LIMITS), // 0x20F4:00 Position in tolerance
-    Entry::new(0x20F5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 590, NO_LIMITS), // 0x20F5:00 Speed below 1 percent
-    Entry::new(0x20F6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 592, NO_LIMITS), // 0x20F6:00 Power
-    Entry::new(0x20F7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 594, NO_LIMITS), // 0x20F7:00 Work
-    Entry::new(0x20F8, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 340, NO_LIMITS), // 0x20F8:00 Axis label
-    Entry::new(0x20F9, 0x00, DataType::Unsigned16, WO, 2, 344, NO_LIMITS), // 0x20F9:00 Write ASCII label to EEPROM
-    Entry::new(0x20FA, 0x00, DataType::Unsigned16, WO, 2, 346, NO_LIMITS), // 0x20FA:00 Read ASCII label from EEPROM
-    Entry::new(0x20FB, 0x00, DataType::Integer16, RO_TPDO, 2, 596, NO_LIMITS), // 0x20FB:00 Analog input 1 calculated
-    Entry::new(0x20FC, 0x00, DataType::Integer16, RO_TPDO, 2, 598, NO_LIMITS), // 0x20FC:00 Analog input 2 calculated
+    Entry::new(0x1000, 0x00, DataType::Unsigned32, RO, 4, 348), // 0x1000:00 Device type
+    Entry::new(0x1001, 0x00, DataType::Unsigned8, RO, 1, 352), // 0x1001:00 Error register
+    Entry::new(0x1018, 0x00, DataType::Unsigned8, RO, 1, 353), // 0x1018:00 Identity object / Highest sub-index supported
+    Entry::new(0x1018, 0x01, DataType::Unsigned32, RO, 4, 354), // 0x1018:01 Identity object / Vendor-ID
+    Entry::new(0x1018, 0x02, DataType::Unsigned32, RO, 4, 358), // 0x1018:02 Identity object / Product code
+    Entry::new(0x1018, 0x03, DataType::Unsigned32, RO, 4, 362), // 0x1018:03 Identity object / Revision number
+    Entry::new(0x1018, 0x04, DataType::Unsigned32, RO, 4, 366), // 0x1018:04 Identity object / Serial number
+    Entry::new(0x2001, 0x00, DataType::Integer16, RO_TPDO, 2, 370), // 0x2001:00 User specific options
+    Entry::new(0x2002, 0x00, DataType::Integer16, RO_TPDO, 2, 372), // 0x2002:00 User specific safety state
+    Entry::new(0x2003, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 0), // 0x2003:00 User specific command specials
+    Entry::new(0x2004, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 2), // 0x2004:00 User key
+    Entry::new(0x2005, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 4), // 0x2005:00 Nominal motor frequency
+    Entry::new(0x2006, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 6), // 0x2006:00 Nominal motor voltage
+    Entry::new(0x2007, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 8), // 0x2007:00 UF DC premagnetisation time
+    Entry::new(0x2008, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 12), // 0x2008:00 UF DC voltage
+    Entry::new(0x2009, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 16), // 0x2009:00 UF DC frequency
+    Entry::new(0x200A, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 20), // 0x200A:00 UF minimum voltage
+    Entry::new(0x200B, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 24), // 0x200B:00 UF minimum frequency
+    Entry::new(0x200C, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 28), // 0x200C:00 UF corner voltage
+    Entry::new(0x200D, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 32), // 0x200D:00 UF corner frequency
+    Entry::new(0x200E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 36), // 0x200E:00 UF power factor
+    Entry::new(0x200F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 38), // 0x200F:00 UF extra
+    Entry::new(0x2010, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 40), // 0x2010:00 Oscilloscope trigger channel
+    Entry::new(0x2011, 0x00, DataType::Unsigned32, RO_TPDO, 4, 374), // 0x2011:00 Control status
+    Entry::new(0x2012, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 42), // 0x2012:00 Oscilloscope trigger level
+    Entry::new(0x2013, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 44), // 0x2013:00 Oscilloscope trigger edge
+    Entry::new(0x2014, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 46), // 0x2014:00 Oscilloscope trigger source
+    Entry::new(0x2015, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 48), // 0x2015:00 Oscilloscope source
+    Entry::new(0x2016, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 50), // 0x2016:00 Oscilloscope skip
+    Entry::new(0x2017, 0x00, DataType::Unsigned16, WO, 2, 52), // 0x2017:00 Oscilloscope read command
+    Entry::new(0x2018, 0x00, DataType::Unsigned16, WO, 2, 54), // 0x2018:00 Oscilloscope run command
+    Entry::new(0x2019, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 56), // 0x2019:00 PWM frequency
+    Entry::new(0x201A, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 58), // 0x201A:00 Lookup temporary
+    Entry::new(0x201B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 378), // 0x201B:00 Firmware version
+    Entry::new(0x201C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 60), // 0x201C:00 Current controller proportional gain
+    Entry::new(0x201D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 62), // 0x201D:00 Current controller integral time
+    Entry::new(0x201E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 64), // 0x201E:00 Digital command cutoff
+    Entry::new(0x201F, 0x00, DataType::Integer16, RO_TPDO, 2, 380), // 0x201F:00 Phase 3 current offset
+    Entry::new(0x2020, 0x00, DataType::Integer16, RO_TPDO, 2, 382), // 0x2020:00 Current actual value
+    Entry::new(0x2021, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 66), // 0x2021:00 D current set point
+    Entry::new(0x2022, 0x00, DataType::Integer16, RO_TPDO, 2, 384), // 0x2022:00 Current command after ramp
+    Entry::new(0x2023, 0x00, DataType::Integer16, RO_TPDO, 2, 386), // 0x2023:00 D current reference
+    Entry::new(0x2024, 0x00, DataType::Unsigned16, RO_TPDO, 2, 388), // 0x2024:00 Maximum current in use
+    Entry::new(0x2025, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 68), // 0x2025:00 Current command ramp
+    Entry::new(0x2026, 0x00, DataType::Integer16, RO_TPDO, 2, 390), // 0x2026:00 Current command
+    Entry::new(0x2027, 0x00, DataType::Integer16, RO_TPDO, 2, 392), // 0x2027:00 Q current actual value
+    Entry::new(0x2028, 0x00, DataType::Integer16, RO_TPDO, 2, 394), // 0x2028:00 D current actual value
+    Entry::new(0x2029, 0x00, DataType::Integer16, RO_TPDO, 2, 396), // 0x2029:00 Q output voltage
+    Entry::new(0x202A, 0x00, DataType::Integer16, RO_TPDO, 2, 398), // 0x202A:00 D output voltage
+    Entry::new(0x202B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 70), // 0x202B:00 Current controller max integration count
+    Entry::new(0x202C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 72), // 0x202C:00 Speed controller proportional gain
+    Entry::new(0x202D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 74), // 0x202D:00 Speed controller integral time
+    Entry::new(0x202E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 76), // 0x202E:00 Speed controller derivative time
+    Entry::new(0x202F, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 78), // 0x202F:00 Analog input 1 offset and scale
+    Entry::new(0x2030, 0x00, DataType::Integer16, RO_TPDO, 2, 400), // 0x2030:00 Speed actual value
+    Entry::new(0x2031, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 82), // 0x2031:00 Speed set point
+    Entry::new(0x2032, 0x00, DataType::Integer16, RO_TPDO, 2, 402), // 0x2032:00 Speed command after ramp
+    Entry::new(0x2033, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 84), // 0x2033:00 Speed error
+    Entry::new(0x2034, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 86), // 0x2034:00 Speed limit
+    Entry::new(0x2035, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 88), // 0x2035:00 Acceleration ramp
+    Entry::new(0x2036, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 92), // 0x2036:00 Speed command source
+    Entry::new(0x2037, 0x00, DataType::Unsigned16, RO_TPDO, 2, 404), // 0x2037:00 Current to speed loop factor
+    Entry::new(0x2038, 0x00, DataType::Integer16, RO_TPDO, 2, 406), // 0x2038:00 Q current error
+    Entry::new(0x2039, 0x00, DataType::Integer16, RO_TPDO, 2, 408), // 0x2039:00 D current error
+    Entry::new(0x203B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 94), // 0x203B:00 Speed controller max integration count
+    Entry::new(0x203C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 96), // 0x203C:00 Current derating by speed
+    Entry::new(0x203D, 0x00, DataType::Unsigned16, WO, 2, 98), // 0x203D:00 Read request
+    Entry::new(0x203E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 100), // 0x203E:00 Negative speed limit
+    Entry::new(0x203F, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 102), // 0x203F:00 Positive speed limit
+    Entry::new(0x2040, 0x00, DataType::Unsigned32, RO_TPDO, 4, 410), // 0x2040:00 Status map
+    Entry::new(0x2041, 0x00, DataType::Integer16, RO_TPDO, 2, 414), // 0x2041:00 Increment delta
+    Entry::new(0x2042, 0x00, DataType::Integer16, RO_TPDO, 2, 416), // 0x2042:00 Motor mechanical angle
+    Entry::new(0x2043, 0x00, DataType::Unsigned16, RO_TPDO, 2, 418), // 0x2043:00 Motor electrical angle
+    Entry::new(0x2044, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 104), // 0x2044:00 Feedback phase angle offset
+    Entry::new(0x2045, 0x00, DataType::Unsigned32, RO_TPDO, 4, 420), // 0x2045:00 I2t and regen energy monitor
+    Entry::new(0x2046, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 106), // 0x2046:00 Digital current limit
+    Entry::new(0x2048, 0x00, DataType::Integer16, RO_TPDO, 2, 424), // 0x2048:00 Current limit in use
+    Entry::new(0x2049, 0x00, DataType::Unsigned16, RO_TPDO, 2, 426), // 0x2049:00 Motor temperature
+    Entry::new(0x204A, 0x00, DataType::Unsigned16, RO_TPDO, 2, 428), // 0x204A:00 Power stage temperature
+    Entry::new(0x204B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 430), // 0x204B:00 Air temperature
+    Entry::new(0x204C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 108), // 0x204C:00 Current derating by temperature
+    Entry::new(0x204D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 110), // 0x204D:00 Motor maximum current
+    Entry::new(0x204E, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 112), // 0x204E:00 Motor continuous current
+    Entry::new(0x204F, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 114), // 0x204F:00 Motor pole count
+    Entry::new(0x2050, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 116), // 0x2050:00 Analog input 1 cutoff window
+    Entry::new(0x2051, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 118), // 0x2051:00 Mode
+    Entry::new(0x2052, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 120), // 0x2052:00 Status mask
+    Entry::new(0x2053, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 124), // 0x2053:00 Analog input 2 cutoff window
+    Entry::new(0x2054, 0x00, DataType::Integer16, RO_TPDO, 2, 432), // 0x2054:00 Phase 1 current actual value
+    Entry::new(0x2055, 0x00, DataType::Integer16, RO_TPDO, 2, 434), // 0x2055:00 Phase 2 current actual value
+    Entry::new(0x2056, 0x00, DataType::Integer16, RO_TPDO, 2, 436), // 0x2056:00 Phase 3 current actual value
+    Entry::new(0x2057, 0x00, DataType::Integer16, RO_TPDO, 2, 438), // 0x2057:00 Ramped current limit in use
+    Entry::new(0x2058, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 126), // 0x2058:00 Current derating TD
+    Entry::new(0x2059, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 128), // 0x2059:00 Rated motor speed
+    Entry::new(0x205A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 130), // 0x205A:00 Device options
+    Entry::new(0x205B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 134), // 0x205B:00 Acceleration gain
+    Entry::new(0x205C, 0x00, DataType::Unsigned16, RO_TPDO, 2, 440), // 0x205C:00 Rotor signals
+    Entry::new(0x205D, 0x00, DataType::Integer16, RO_TPDO, 2, 442), // 0x205D:00 Internal speed command
+    Entry::new(0x205E, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 136), // 0x205E:00 Speed actual value filter
+    Entry::new(0x205F, 0x00, DataType::Integer16, RO_TPDO, 2, 444), // 0x205F:00 Filtered current actual value
+    Entry::new(0x2060, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 138), // 0x2060:00 Analog input filter
+    Entry::new(0x2061, 0x00, DataType::Unsigned16, RO_TPDO, 2, 446), // 0x2061:00 It monitor
+    Entry::new(0x2062, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 140), // 0x2062:00 Device serial number
+    Entry::new(0x2063, 0x00, DataType::Unsigned16, RO_TPDO, 2, 448), // 0x2063:00 FPGA status
+    Entry::new(0x2064, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 144), // 0x2064:00 Mains supply voltage
+    Entry::new(0x2065, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 146), // 0x2065:00 Regen resistor rating
+    Entry::new(0x2066, 0x00, DataType::Unsigned16, RO_TPDO, 2, 450), // 0x2066:00 Battery voltage
+    Entry::new(0x2067, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 150), // 0x2067:00 Device type code
+    Entry::new(0x2068, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 154), // 0x2068:00 CAN receive id
+    Entry::new(0x2069, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 156), // 0x2069:00 CAN transmit id
+    Entry::new(0x206A, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 158), // 0x206A:00 Position controller proportional gain
+    Entry::new(0x206B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 160), // 0x206B:00 Position controller integral time
+    Entry::new(0x206C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 162), // 0x206C:00 Position controller derivative time
+    Entry::new(0x206D, 0x00, DataType::Integer32, RO_TPDO, 4, 452), // 0x206D:00 Position actual value
+    Entry::new(0x206E, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 164), // 0x206E:00 Position destination
+    Entry::new(0x206F, 0x00, DataType::Integer32, RO_TPDO, 4, 456), // 0x206F:00 Position actual value 2
+    Entry::new(0x2070, 0x00, DataType::Integer32, RO_TPDO, 4, 460), // 0x2070:00 Position error
+    Entry::new(0x2071, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 168), // 0x2071:00 Position controller max integration count
+    Entry::new(0x2072, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 170), // 0x2072:00 Reference zero offset
+    Entry::new(0x2073, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 174), // 0x2073:00 CAN bit rate code
+    Entry::new(0x2074, 0x00, DataType::Integer16, RO_TPDO, 2, 464), // 0x2074:00 Position zero capture
+    Entry::new(0x2075, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 176), // 0x2075:00 Resolver position at reference switch
+    Entry::new(0x2076, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 178), // 0x2076:00 Homing speed fast
+    Entry::new(0x2077, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 180), // 0x2077:00 Homing speed slow
+    Entry::new(0x2078, 0x00, DataType::Unsigned16, WO, 2, 182), // 0x2078:00 Start homing
+    Entry::new(0x2079, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 184), // 0x2079:00 Position tolerance window
+    Entry::new(0x207A, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 186), // 0x207A:00 Position preset
+    Entry::new(0x207B, 0x00, DataType::Unsigned32, RO_TPDO, 4, 466), // 0x207B:00 User zero offset
+    Entry::new(0x207C, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 190), // 0x207C:00 Display position scale
+    Entry::new(0x207D, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 194), // 0x207D:00 Display position offset
+    Entry::new(0x207E, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 198), // 0x207E:00 Second encoder scale
+    Entry::new(0x207F, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 202), // 0x207F:00 Slack offset
+    Entry::new(0x2080, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 206), // 0x2080:00 Slack position difference
+    Entry::new(0x2082, 0x00, DataType::Unsigned16, RO_TPDO, 2, 470), // 0x2082:00 Device serial number extension
+    Entry::new(0x2083, 0x00, DataType::Unsigned16, WO, 2, 208), // 0x2083:00 Read parameters from EEPROM
+    Entry::new(0x2084, 0x00, DataType::Unsigned16, WO, 2, 210), // 0x2084:00 Write parameters to EEPROM
+    Entry::new(0x2085, 0x00, DataType::Unsigned16, WO, 2, 212), // 0x2085:00 Auto functions
+    Entry::new(0x2086, 0x00, DataType::Integer16, RO_TPDO, 2, 472), // 0x2086:00 Read info
+    Entry::new(0x2088, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 214), // 0x2088:00 CAN receive id 2
+    Entry::new(0x2089, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 218), // 0x2089:00 CAN transmit id 2
+    Entry::new(0x208A, 0x00, DataType::Integer16, RO_TPDO, 2, 474), // 0x208A:00 Output voltage usage
+    Entry::new(0x208B, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 222), // 0x208B:00 Field weakening start point
+    Entry::new(0x208C, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 224), // 0x208C:00 Field weakening proportional gain
+    Entry::new(0x208D, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 226), // 0x208D:00 Field weakening integral time
+    Entry::new(0x208E, 0x00, DataType::Unsigned16, WO, 2, 228), // 0x208E:00 Clear error list
+    Entry::new(0x208F, 0x00, DataType::Unsigned32, RO_TPDO, 4, 476), // 0x208F:00 Warning and error map
+    Entry::new(0x2090, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 230), // 0x2090:00 Torque set point
+    Entry::new(0x2091, 0x00, DataType::Integer32, RO_TPDO, 4, 480), // 0x2091:00 Position command
+    Entry::new(0x2092, 0x00, DataType::Unsigned16, RO_TPDO, 2, 484), // 0x2092:00 CAN bus off count
+    Entry::new(0x2093, 0x00, DataType::Unsigned16, RO_TPDO, 2, 486), // 0x2093:00 CAN write error time
+    Entry::new(0x2094, 0x00, DataType::Unsigned16, RO_TPDO, 2, 488), // 0x2094:00 FPGA first error
+    Entry::new(0x2095, 0x00, DataType::Unsigned16, RO_TPDO, 2, 490), // 0x2095:00 CAN read count
+    Entry::new(0x2096, 0x00, DataType::Unsigned16, RO_TPDO, 2, 492), // 0x2096:00 CAN write count
+    Entry::new(0x2097, 0x00, DataType::Unsigned16, RO_TPDO, 2, 494), // 0x2097:00 CAN reject count
+    Entry::new(0x2098, 0x00, DataType::Integer16, RO_TPDO, 2, 496), // 0x2098:00 Output block
+    Entry::new(0x2099, 0x00, DataType::Unsigned16, RO_TPDO, 2, 498), // 0x2099:00 Interrupt time info
+    Entry::new(0x209A, 0x00, DataType::Integer16, RO_TPDO, 2, 500), // 0x209A:00 Debug temperature
+    Entry::new(0x209B, 0x00, DataType::Unsigned16, RO_TPDO, 2, 502), // 0x209B:00 Input block
+    Entry::new(0x209C, 0x00, DataType::Integer16, RO_TPDO, 2, 504), // 0x209C:00 PT100 sensor 1 temperature
+    Entry::new(0x209D, 0x00, DataType::Integer16, RO_TPDO, 2, 506), // 0x209D:00 PT100 sensor 2 temperature
+    Entry::new(0x209E, 0x00, DataType::Integer16, RO_TPDO, 2, 508), // 0x209E:00 PT100 sensor 3 temperature
+    Entry::new(0x209F, 0x00, DataType::Integer16, RO_TPDO, 2, 510), // 0x209F:00 PT100 sensor 4 temperature
+    Entry::new(0x20A0, 0x00, DataType::Integer16, RO_TPDO, 2, 512), // 0x20A0:00 Internal torque
+    Entry::new(0x20A1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 514), // 0x20A1:00 Ballast counter
+    Entry::new(0x20A2, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 232), // 0x20A2:00 Current derating TM
+    Entry::new(0x20A3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 234), // 0x20A3:00 Motor temperature cutoff
+    Entry::new(0x20A4, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 236), // 0x20A4:00 Motor options
+    Entry::new(0x20A5, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 238), // 0x20A5:00 DC bus minimum and maximum
+    Entry::new(0x20A6, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 242), // 0x20A6:00 Feedback increments per revolution
+    Entry::new(0x20A7, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 244), // 0x20A7:00 Resolver pole count
+    Entry::new(0x20A8, 0x00, DataType::Integer16, RO_TPDO, 2, 516), // 0x20A8:00 Filtered speed actual value
+    Entry::new(0x20A9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 518), // 0x20A9:00 Current sensor 1 ADC
+    Entry::new(0x20AA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 520), // 0x20AA:00 Current sensor 2 ADC
+    Entry::new(0x20AB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 522), // 0x20AB:00 Foreground frequency
+    Entry::new(0x20AC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 524), // 0x20AC:00 PWM phase 1
+    Entry::new(0x20AD, 0x00, DataType::Unsigned16, RO_TPDO, 2, 526), // 0x20AD:00 PWM phase 2
+    Entry::new(0x20AE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 528), // 0x20AE:00 PWM phase 3
+    Entry::new(0x20AF, 0x00, DataType::Integer16, RO_TPDO, 2, 530), // 0x20AF:00 Interrupt timer delta
+    Entry::new(0x20B0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 246), // 0x20B0:00 Serial boot function
+    Entry::new(0x20B1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 248), // 0x20B1:00 Motor q leakage inductance
+    Entry::new(0x20B2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 250), // 0x20B2:00 Nominal magnetising current
+    Entry::new(0x20B3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 252), // 0x20B3:00 Motor magnetising inductance
+    Entry::new(0x20B4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 254), // 0x20B4:00 Rotor resistance
+    Entry::new(0x20B5, 0x00, DataType::Integer16, RW_TPDO_RPDO, 2, 256), // 0x20B5:00 Minimum magnetising current
+    Entry::new(0x20B6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 258), // 0x20B6:00 Rotor time constant
+    Entry::new(0x20B7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 260), // 0x20B7:00 Debug pointer 1
+    Entry::new(0x20B8, 0x00, DataType::Integer16, RO_TPDO, 2, 532), // 0x20B8:00 Debug pointer 1 value
+    Entry::new(0x20B9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 262), // 0x20B9:00 Debug pointer 2
+    Entry::new(0x20BA, 0x00, DataType::Integer16, RO_TPDO, 2, 534), // 0x20BA:00 Debug pointer 2 value
+    Entry::new(0x20BB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 264), // 0x20BB:00 Motor d leakage inductance
+    Entry::new(0x20BC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 266), // 0x20BC:00 Stator resistance
+    Entry::new(0x20BD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 268), // 0x20BD:00 Stator time constant
+    Entry::new(0x20BE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 270), // 0x20BE:00 Logic definition END1
+    Entry::new(0x20BF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 272), // 0x20BF:00 Logic definition END2
+    Entry::new(0x20C0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 274), // 0x20C0:00 Logic definition DIN1
+    Entry::new(0x20C1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 276), // 0x20C1:00 Logic definition DIN2
+    Entry::new(0x20C2, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 278), // 0x20C2:00 Logic definition DOUT1
+    Entry::new(0x20C3, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 280), // 0x20C3:00 Logic definition DOUT2
+    Entry::new(0x20C4, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 282), // 0x20C4:00 Peak current limit
+    Entry::new(0x20C5, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 284), // 0x20C5:00 Continuous current limit
+    Entry::new(0x20C6, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 286), // 0x20C6:00 Device current rating
+    Entry::new(0x20C7, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 288), // 0x20C7:00 Limit switch stop ramp
+    Entry::new(0x20C8, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 290), // 0x20C8:00 Maximum speed
+    Entry::new(0x20C9, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 292), // 0x20C9:00 Position PI proportional gain
+    Entry::new(0x20CA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 294), // 0x20CA:00 Position PI integral time
+    Entry::new(0x20CB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 296), // 0x20CB:00 Current feed forward gain
+    Entry::new(0x20CC, 0x00, DataType::Integer16, RO_TPDO, 2, 536), // 0x20CC:00 Position PI error
+    Entry::new(0x20CD, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 298), // 0x20CD:00 Position PI integral limit
+    Entry::new(0x20CE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 538), // 0x20CE:00 Maximum speed internal
+    Entry::new(0x20CF, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 300), // 0x20CF:00 Position PI Ky factor
+    Entry::new(0x20D0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 302), // 0x20D0:00 CAN timeout
+    Entry::new(0x20D1, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 304), // 0x20D1:00 Comparison variable 1
+    Entry::new(0x20D2, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 308), // 0x20D2:00 Comparison variable 2
+    Entry::new(0x20D3, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 312), // 0x20D3:00 Comparison variable 3
+    Entry::new(0x20D4, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 316), // 0x20D4:00 Comparison variable 4
+    Entry::new(0x20D5, 0x00, DataType::Integer32, RO_TPDO, 4, 540), // 0x20D5:00 Analog input 1
+    Entry::new(0x20D6, 0x00, DataType::Integer32, RO_TPDO, 4, 544), // 0x20D6:00 Analog input 2
+    Entry::new(0x20D7, 0x00, DataType::Integer32, RW_TPDO_RPDO, 4, 320), // 0x20D7:00 Analog input 2 offset and scale
+    Entry::new(0x20D8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 548), // 0x20D8:00 IO bit map
+    Entry::new(0x20D9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 550), // 0x20D9:00 Current at 200 percent
+    Entry::new(0x20DA, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 324), // 0x20DA:00 Logic definition DOUT3
+    Entry::new(0x20DB, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 326), // 0x20DB:00 Logic definition DOUT4
+    Entry::new(0x20DC, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 328), // 0x20DC:00 DAC definition
+    Entry::new(0x20DE, 0x00, DataType::Unsigned16, RO_TPDO, 2, 552), // 0x20DE:00 Digital output 3
+    Entry::new(0x20DF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 554), // 0x20DF:00 Digital output 4
+    Entry::new(0x20E0, 0x00, DataType::Unsigned16, RO_TPDO, 2, 556), // 0x20E0:00 Digital output 1
+    Entry::new(0x20E1, 0x00, DataType::Unsigned16, RO_TPDO, 2, 558), // 0x20E1:00 Digital output 2
+    Entry::new(0x20E2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 560), // 0x20E2:00 Device ready
+    Entry::new(0x20E3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 562), // 0x20E3:00 Internal run
+    Entry::new(0x20E4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 564), // 0x20E4:00 Limit switch input 1
+    Entry::new(0x20E5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 566), // 0x20E5:00 Limit switch input 2
+    Entry::new(0x20E6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 568), // 0x20E6:00 Digital input 1
+    Entry::new(0x20E7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 570), // 0x20E7:00 Digital input 2
+    Entry::new(0x20E8, 0x00, DataType::Unsigned16, RO_TPDO, 2, 572), // 0x20E8:00 Run input
+    Entry::new(0x20E9, 0x00, DataType::Unsigned16, RO_TPDO, 2, 574), // 0x20E9:00 Power stage fault
+    Entry::new(0x20EA, 0x00, DataType::Unsigned16, RO_TPDO, 2, 576), // 0x20EA:00 Regen circuit message
+    Entry::new(0x20EB, 0x00, DataType::Unsigned16, RO_TPDO, 2, 578), // 0x20EB:00 DC bus voltage
+    Entry::new(0x20EC, 0x00, DataType::Unsigned16, RO_TPDO, 2, 580), // 0x20EC:00 Resolver loss of signal
+    Entry::new(0x20ED, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 330), // 0x20ED:00 Deceleration ramp
+    Entry::new(0x20EE, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 334), // 0x20EE:00 Current sensor calibration
+    Entry::new(0x20EF, 0x00, DataType::Unsigned16, RO_TPDO, 2, 582), // 0x20EF:00 No fault output
+    Entry::new(0x20F0, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 336), // 0x20F0:00 Peak current time
+    Entry::new(0x20F1, 0x00, DataType::Unsigned16, RW_TPDO_RPDO, 2, 338), // 0x20F1:00 Brake delay time
+    Entry::new(0x20F2, 0x00, DataType::Unsigned16, RO_TPDO, 2, 584), // 0x20F2:00 Brake on
+    Entry::new(0x20F3, 0x00, DataType::Unsigned16, RO_TPDO, 2, 586), // 0x20F3:00 Continuous current message
+    Entry::new(0x20F4, 0x00, DataType::Unsigned16, RO_TPDO, 2, 588), // 0x20F4:00 Position in tolerance
+    Entry::new(0x20F5, 0x00, DataType::Unsigned16, RO_TPDO, 2, 590), // 0x20F5:00 Speed below 1 percent
+    Entry::new(0x20F6, 0x00, DataType::Unsigned16, RO_TPDO, 2, 592), // 0x20F6:00 Power
+    Entry::new(0x20F7, 0x00, DataType::Unsigned16, RO_TPDO, 2, 594), // 0x20F7:00 Work
+    Entry::new(0x20F8, 0x00, DataType::Unsigned32, RW_TPDO_RPDO, 4, 340), // 0x20F8:00 Axis label
+    Entry::new(0x20F9, 0x00, DataType::Unsigned16, WO, 2, 344), // 0x20F9:00 Write ASCII label to EEPROM
+    Entry::new(0x20FA, 0x00, DataType::Unsigned16, WO, 2, 346), // 0x20FA:00 Read ASCII label from EEPROM
+    Entry::new(0x20FB, 0x00, DataType::Integer16, RO_TPDO, 2, 596), // 0x20FB:00 Analog input 1 calculated
+    Entry::new(0x20FC, 0x00, DataType::Integer16, RO_TPDO, 2, 598), // 0x20FC:00 Analog input 2 calculated
+];
+
+#[rustfmt::skip]
+static LIMIT_ROWS: [u8; 254] = [
+    NO_LIMITS, // 0x1000:00 Device type
+    NO_LIMITS, // 0x1001:00 Error register
+    NO_LIMITS, // 0x1018:00 Identity object / Highest sub-index supported
+    NO_LIMITS, // 0x1018:01 Identity object / Vendor-ID
+    NO_LIMITS, // 0x1018:02 Identity object / Product code
+    NO_LIMITS, // 0x1018:03 Identity object / Revision number
+    NO_LIMITS, // 0x1018:04 Identity object / Serial number
+    NO_LIMITS, // 0x2001:00 User specific options
+    NO_LIMITS, // 0x2002:00 User specific safety state
+    NO_LIMITS, // 0x2003:00 User specific command specials
+    NO_LIMITS, // 0x2004:00 User key
+    NO_LIMITS, // 0x2005:00 Nominal motor frequency
+    NO_LIMITS, // 0x2006:00 Nominal motor voltage
+    NO_LIMITS, // 0x2007:00 UF DC premagnetisation time
+    NO_LIMITS, // 0x2008:00 UF DC voltage
+    NO_LIMITS, // 0x2009:00 UF DC frequency
+    NO_LIMITS, // 0x200A:00 UF minimum voltage
+    NO_LIMITS, // 0x200B:00 UF minimum frequency
+    NO_LIMITS, // 0x200C:00 UF corner voltage
+    NO_LIMITS, // 0x200D:00 UF corner frequency
+    NO_LIMITS, // 0x200E:00 UF power factor
+    NO_LIMITS, // 0x200F:00 UF extra
+    NO_LIMITS, // 0x2010:00 Oscilloscope trigger channel
+    NO_LIMITS, // 0x2011:00 Control status
+    NO_LIMITS, // 0x2012:00 Oscilloscope trigger level
+    NO_LIMITS, // 0x2013:00 Oscilloscope trigger edge
+    NO_LIMITS, // 0x2014:00 Oscilloscope trigger source
+    NO_LIMITS, // 0x2015:00 Oscilloscope source
+    NO_LIMITS, // 0x2016:00 Oscilloscope skip
+    NO_LIMITS, // 0x2017:00 Oscilloscope read command
+    NO_LIMITS, // 0x2018:00 Oscilloscope run command
+    NO_LIMITS, // 0x2019:00 PWM frequency
+    NO_LIMITS, // 0x201A:00 Lookup temporary
+    NO_LIMITS, // 0x201B:00 Firmware version
+    NO_LIMITS, // 0x201C:00 Current controller proportional gain
+    NO_LIMITS, // 0x201D:00 Current controller integral time
+    NO_LIMITS, // 0x201E:00 Digital command cutoff
+    NO_LIMITS, // 0x201F:00 Phase 3 current offset
+    NO_LIMITS, // 0x2020:00 Current actual value
+    NO_LIMITS, // 0x2021:00 D current set point
+    NO_LIMITS, // 0x2022:00 Current command after ramp
+    NO_LIMITS, // 0x2023:00 D current reference
+    NO_LIMITS, // 0x2024:00 Maximum current in use
+    NO_LIMITS, // 0x2025:00 Current command ramp
+    NO_LIMITS, // 0x2026:00 Current command
+    NO_LIMITS, // 0x2027:00 Q current actual value
+    NO_LIMITS, // 0x2028:00 D current actual value
+    NO_LIMITS, // 0x2029:00 Q output voltage
+    NO_LIMITS, // 0x202A:00 D output voltage
+    NO_LIMITS, // 0x202B:00 Current controller max integration count
+    NO_LIMITS, // 0x202C:00 Speed controller proportional gain
+    NO_LIMITS, // 0x202D:00 Speed controller integral time
+    NO_LIMITS, // 0x202E:00 Speed controller derivative time
+    NO_LIMITS, // 0x202F:00 Analog input 1 offset and scale
+    0, // 0x2030:00 Speed actual value
+    0, // 0x2031:00 Speed set point
+    NO_LIMITS, // 0x2032:00 Speed command after ramp
+    NO_LIMITS, // 0x2033:00 Speed error
+    NO_LIMITS, // 0x2034:00 Speed limit
+    NO_LIMITS, // 0x2035:00 Acceleration ramp
+    NO_LIMITS, // 0x2036:00 Speed command source
+    NO_LIMITS, // 0x2037:00 Current to speed loop factor
+    NO_LIMITS, // 0x2038:00 Q current error
+    NO_LIMITS, // 0x2039:00 D current error
+    NO_LIMITS, // 0x203B:00 Speed controller max integration count
+    NO_LIMITS, // 0x203C:00 Current derating by speed
+    NO_LIMITS, // 0x203D:00 Read request
+    NO_LIMITS, // 0x203E:00 Negative speed limit
+    NO_LIMITS, // 0x203F:00 Positive speed limit
+    NO_LIMITS, // 0x2040:00 Status map
+    NO_LIMITS, // 0x2041:00 Increment delta
+    NO_LIMITS, // 0x2042:00 Motor mechanical angle
+    NO_LIMITS, // 0x2043:00 Motor electrical angle
+    NO_LIMITS, // 0x2044:00 Feedback phase angle offset
+    NO_LIMITS, // 0x2045:00 I2t and regen energy monitor
+    NO_LIMITS, // 0x2046:00 Digital current limit
+    NO_LIMITS, // 0x2048:00 Current limit in use
+    NO_LIMITS, // 0x2049:00 Motor temperature
+    NO_LIMITS, // 0x204A:00 Power stage temperature
+    NO_LIMITS, // 0x204B:00 Air temperature
+    NO_LIMITS, // 0x204C:00 Current derating by temperature
+    NO_LIMITS, // 0x204D:00 Motor maximum current
+    NO_LIMITS, // 0x204E:00 Motor continuous current
+    NO_LIMITS, // 0x204F:00 Motor pole count
+    NO_LIMITS, // 0x2050:00 Analog input 1 cutoff window
+    NO_LIMITS, // 0x2051:00 Mode
+    NO_LIMITS, // 0x2052:00 Status mask
+    NO_LIMITS, // 0x2053:00 Analog input 2 cutoff window
+    NO_LIMITS, // 0x2054:00 Phase 1 current actual value
+    NO_LIMITS, // 0x2055:00 Phase 2 current actual value
+    NO_LIMITS, // 0x2056:00 Phase 3 current actual value
+    NO_LIMITS, // 0x2057:00 Ramped current limit in use
+    NO_LIMITS, // 0x2058:00 Current derating TD
+    NO_LIMITS, // 0x2059:00 Rated motor speed
+    NO_LIMITS, // 0x205A:00 Device options
+    NO_LIMITS, // 0x205B:00 Acceleration gain
+    NO_LIMITS, // 0x205C:00 Rotor signals
+    NO_LIMITS, // 0x205D:00 Internal speed command
+    NO_LIMITS, // 0x205E:00 Speed actual value filter
+    NO_LIMITS, // 0x205F:00 Filtered current actual value
+    NO_LIMITS, // 0x2060:00 Analog input filter
+    NO_LIMITS, // 0x2061:00 It monitor
+    NO_LIMITS, // 0x2062:00 Device serial number
+    NO_LIMITS, // 0x2063:00 FPGA status
+    NO_LIMITS, // 0x2064:00 Mains supply voltage
+    NO_LIMITS, // 0x2065:00 Regen resistor rating
+    NO_LIMITS, // 0x2066:00 Battery voltage
+    NO_LIMITS, // 0x2067:00 Device type code
+    1, // 0x2068:00 CAN receive id
+    2, // 0x2069:00 CAN transmit id
+    NO_LIMITS, // 0x206A:00 Position controller proportional gain
+    NO_LIMITS, // 0x206B:00 Position controller integral time
+    NO_LIMITS, // 0x206C:00 Position controller derivative time
+    3, // 0x206D:00 Position actual value
+    3, // 0x206E:00 Position destination
+    NO_LIMITS, // 0x206F:00 Position actual value 2
+    NO_LIMITS, // 0x2070:00 Position error
+    NO_LIMITS, // 0x2071:00 Position controller max integration count
+    NO_LIMITS, // 0x2072:00 Reference zero offset
+    4, // 0x2073:00 CAN bit rate code
+    NO_LIMITS, // 0x2074:00 Position zero capture
+    NO_LIMITS, // 0x2075:00 Resolver position at reference switch
+    NO_LIMITS, // 0x2076:00 Homing speed fast
+    NO_LIMITS, // 0x2077:00 Homing speed slow
+    NO_LIMITS, // 0x2078:00 Start homing
+    NO_LIMITS, // 0x2079:00 Position tolerance window
+    NO_LIMITS, // 0x207A:00 Position preset
+    NO_LIMITS, // 0x207B:00 User zero offset
+    NO_LIMITS, // 0x207C:00 Display position scale
+    NO_LIMITS, // 0x207D:00 Display position offset
+    NO_LIMITS, // 0x207E:00 Second encoder scale
+    NO_LIMITS, // 0x207F:00 Slack offset
+    NO_LIMITS, // 0x2080:00 Slack position difference
+    NO_LIMITS, // 0x2082:00 Device serial number extension
+    NO_LIMITS, // 0x2083:00 Read parameters from EEPROM
+    5, // 0x2084:00 Write parameters to EEPROM
+    NO_LIMITS, // 0x2085:00 Auto functions
+    NO_LIMITS, // 0x2086:00 Read info
+    NO_LIMITS, // 0x2088:00 CAN receive id 2
+    NO_LIMITS, // 0x2089:00 CAN transmit id 2
+    NO_LIMITS, // 0x208A:00 Output voltage usage
+    NO_LIMITS, // 0x208B:00 Field weakening start point
+    NO_LIMITS, // 0x208C:00 Field weakening proportional gain
+    NO_LIMITS, // 0x208D:00 Field weakening integral time
+    NO_LIMITS, // 0x208E:00 Clear error list
+    NO_LIMITS, // 0x208F:00 Warning and error map
+    0, // 0x2090:00 Torque set point
+    NO_LIMITS, // 0x2091:00 Position command
+    NO_LIMITS, // 0x2092:00 CAN bus off count
+    NO_LIMITS, // 0x2093:00 CAN write error time
+    NO_LIMITS, // 0x2094:00 FPGA first error
+    NO_LIMITS, // 0x2095:00 CAN read count
+    NO_LIMITS, // 0x2096:00 CAN write count
+    NO_LIMITS, // 0x2097:00 CAN reject count
+    NO_LIMITS, // 0x2098:00 Output block
+    NO_LIMITS, // 0x2099:00 Interrupt time info
+    NO_LIMITS, // 0x209A:00 Debug temperature
+    NO_LIMITS, // 0x209B:00 Input block
+    NO_LIMITS, // 0x209C:00 PT100 sensor 1 temperature
+    NO_LIMITS, // 0x209D:00 PT100 sensor 2 temperature
+    NO_LIMITS, // 0x209E:00 PT100 sensor 3 temperature
+    NO_LIMITS, // 0x209F:00 PT100 sensor 4 temperature
+    NO_LIMITS, // 0x20A0:00 Internal torque
+    NO_LIMITS, // 0x20A1:00 Ballast counter
+    NO_LIMITS, // 0x20A2:00 Current derating TM
+    NO_LIMITS, // 0x20A3:00 Motor temperature cutoff
+    NO_LIMITS, // 0x20A4:00 Motor options
+    NO_LIMITS, // 0x20A5:00 DC bus minimum and maximum
+    NO_LIMITS, // 0x20A6:00 Feedback increments per revolution
+    NO_LIMITS, // 0x20A7:00 Resolver pole count
+    NO_LIMITS, // 0x20A8:00 Filtered speed actual value
+    NO_LIMITS, // 0x20A9:00 Current sensor 1 ADC
+    NO_LIMITS, // 0x20AA:00 Current sensor 2 ADC
+    NO_LIMITS, // 0x20AB:00 Foreground frequency
+    NO_LIMITS, // 0x20AC:00 PWM phase 1
+    NO_LIMITS, // 0x20AD:00 PWM phase 2
+    NO_LIMITS, // 0x20AE:00 PWM phase 3
+    NO_LIMITS, // 0x20AF:00 Interrupt timer delta
+    NO_LIMITS, // 0x20B0:00 Serial boot function
+    NO_LIMITS, // 0x20B1:00 Motor q leakage inductance
+    NO_LIMITS, // 0x20B2:00 Nominal magnetising current
+    NO_LIMITS, // 0x20B3:00 Motor magnetising inductance
+    NO_LIMITS, // 0x20B4:00 Rotor resistance
+    NO_LIMITS, // 0x20B5:00 Minimum magnetising current
+    NO_LIMITS, // 0x20B6:00 Rotor time constant
+    NO_LIMITS, // 0x20B7:00 Debug pointer 1
+    NO_LIMITS, // 0x20B8:00 Debug pointer 1 value
+    NO_LIMITS, // 0x20B9:00 Debug pointer 2
+    NO_LIMITS, // 0x20BA:00 Debug pointer 2 value
+    NO_LIMITS, // 0x20BB:00 Motor d leakage inductance
+    NO_LIMITS, // 0x20BC:00 Stator resistance
+    NO_LIMITS, // 0x20BD:00 Stator time constant
+    NO_LIMITS, // 0x20BE:00 Logic definition END1
+    NO_LIMITS, // 0x20BF:00 Logic definition END2
+    NO_LIMITS, // 0x20C0:00 Logic definition DIN1
+    NO_LIMITS, // 0x20C1:00 Logic definition DIN2
+    NO_LIMITS, // 0x20C2:00 Logic definition DOUT1
+    NO_LIMITS, // 0x20C3:00 Logic definition DOUT2
+    NO_LIMITS, // 0x20C4:00 Peak current limit
+    NO_LIMITS, // 0x20C5:00 Continuous current limit
+    NO_LIMITS, // 0x20C6:00 Device current rating
+    NO_LIMITS, // 0x20C7:00 Limit switch stop ramp
+    NO_LIMITS, // 0x20C8:00 Maximum speed
+    NO_LIMITS, // 0x20C9:00 Position PI proportional gain
+    NO_LIMITS, // 0x20CA:00 Position PI integral time
+    NO_LIMITS, // 0x20CB:00 Current feed forward gain
+    NO_LIMITS, // 0x20CC:00 Position PI error
+    NO_LIMITS, // 0x20CD:00 Position PI integral limit
+    NO_LIMITS, // 0x20CE:00 Maximum speed internal
+    NO_LIMITS, // 0x20CF:00 Position PI Ky factor
+    NO_LIMITS, // 0x20D0:00 CAN timeout
+    NO_LIMITS, // 0x20D1:00 Comparison variable 1
+    NO_LIMITS, // 0x20D2:00 Comparison variable 2
+    NO_LIMITS, // 0x20D3:00 Comparison variable 3
+    NO_LIMITS, // 0x20D4:00 Comparison variable 4
+    NO_LIMITS, // 0x20D5:00 Analog input 1
+    NO_LIMITS, // 0x20D6:00 Analog input 2
+    NO_LIMITS, // 0x20D7:00 Analog input 2 offset and scale
+    NO_LIMITS, // 0x20D8:00 IO bit map
+    NO_LIMITS, // 0x20D9:00 Current at 200 percent
+    NO_LIMITS, // 0x20DA:00 Logic definition DOUT3
+    NO_LIMITS, // 0x20DB:00 Logic definition DOUT4
+    NO_LIMITS, // 0x20DC:00 DAC definition
+    NO_LIMITS, // 0x20DE:00 Digital output 3
+    NO_LIMITS, // 0x20DF:00 Digital output 4
+    NO_LIMITS, // 0x20E0:00 Digital output 1
+    NO_LIMITS, // 0x20E1:00 Digital output 2
+    NO_LIMITS, // 0x20E2:00 Device ready
+    NO_LIMITS, // 0x20E3:00 Internal run
+    NO_LIMITS, // 0x20E4:00 Limit switch input 1
+    NO_LIMITS, // 0x20E5:00 Limit switch input 2
+    NO_LIMITS, // 0x20E6:00 Digital input 1
+    NO_LIMITS, // 0x20E7:00 Digital input 2
+    NO_LIMITS, // 0x20E8:00 Run input
+    NO_LIMITS, // 0x20E9:00 Power stage fault
+    NO_LIMITS, // 0x20EA:00 Regen circuit message
+    NO_LIMITS, // 0x20EB:00 DC bus voltage
+    NO_LIMITS, // 0x20EC:00 Resolver loss of signal
+    NO_LIMITS, // 0x20ED:00 Deceleration ramp
+    NO_LIMITS, // 0x20EE:00 Current sensor calibration
+    NO_LIMITS, // 0x20EF:00 No fault output
+    NO_LIMITS, // 0x20F0:00 Peak current time
+    NO_LIMITS, // 0x20F1:00 Brake delay time
+    NO_LIMITS, // 0x20F2:00 Brake on
+    NO_LIMITS, // 0x20F3:00 Continuous current message
+    NO_LIMITS, // 0x20F4:00 Position in tolerance
+    NO_LIMITS, // 0x20F5:00 Speed below 1 percent
+    NO_LIMITS, // 0x20F6:00 Power
+    NO_LIMITS, // 0x20F7:00 Work
+    NO_LIMITS, // 0x20F8:00 Axis label
+    NO_LIMITS, // 0x20F9:00 Write ASCII label to EEPROM
+    NO_LIMITS, // 0x20FA:00 Read ASCII label from EEPROM
+    NO_LIMITS, // 0x20FB:00 Analog input 1 calculated
+    NO_LIMITS, // 0x20FC:00 Analog input 2 calculated
 ];
 
 #[rustfmt::skip]
@@ -1153,6 +1411,7 @@ pub static NAMES: [&str; ENTRY_COUNT] = [
 pub static DICTIONARY: od::Dictionary = od::Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: od::Defaults { len: RAM_SIZE, runs: &DEFAULT_RUNS, bytes: &DEFAULTS },
     comm_len: 0,

@@ -282,7 +282,7 @@ impl Ctx<'_> {
         let entry = self.dict.entry(entry).ok_or(AbortCode::NoObject)?;
         // Only the TPDOs mapping its bytes look for a change, none if the value stayed the same.
         if self.dict.write_unchecked_entry(self.image, entry, data)? {
-            self.effects.wrote_bytes(entry.offset, entry.len);
+            self.effects.wrote_bytes(entry.offset, entry.len.into());
         }
         Ok(())
     }
@@ -295,7 +295,7 @@ impl Ctx<'_> {
     #[inline(never)]
     pub fn image_slot(&self, entry: EntryRef) -> ImageSlot {
         match self.dict.entry(entry) {
-            Some(e) if !e.in_rom() && e.data_type != DataType::Domain => ImageSlot { offset: e.offset, len: e.len.min(4) as u8 },
+            Some(e) if !e.in_rom() && e.data_type != DataType::Domain => ImageSlot { offset: e.offset, len: e.len.min(4) },
             _ => ImageSlot::NONE,
         }
     }

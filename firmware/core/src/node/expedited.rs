@@ -73,7 +73,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 sink.send(initiate_download_response(index, sub));
                 if changed {
                     // As `Ctx::write_plain`: the TPDOs mapping these bytes look for a change.
-                    self.follow_sdo(SdoEffects { wrote: (entry.offset, entry.len), ..SdoEffects::default() });
+                    self.follow_sdo(SdoEffects { wrote: (entry.offset, entry.len.into()), ..SdoEffects::default() });
                 }
                 true
             }

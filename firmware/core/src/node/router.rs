@@ -146,7 +146,7 @@ impl Ctx<'_> {
         if !changed {
             // The same value again: no TPDO has new data.
         } else if self.effects.wrote.1 == 0 {
-            self.effects.wrote = (entry.offset, entry.len);
+            self.effects.wrote = (entry.offset, entry.len.into());
         } else {
             // A second write in one access: any TPDO may look.
             self.effects.follow.written = true;

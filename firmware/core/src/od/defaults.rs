@@ -27,17 +27,18 @@ impl Defaults {
     /// keeps the one reader small.
     pub fn read(&self, start: usize, dst: &mut [u8]) {
         dst.fill(0);
-        let (mut at, mut from) = (0usize, 0usize);
+        let mut at = 0usize;
+        // One iterator over the runs' bytes: each run takes its length of
+        // them (fewer where they end), with no slicing of the table per run.
+        let mut bytes = self.bytes.iter();
         for &(zeros, len) in self.runs {
             at = at.wrapping_add(zeros.into());
-            let rest = self.bytes.get(from..).unwrap_or(&[]);
-            for &b in rest.get(..usize::from(len)).unwrap_or(rest) {
+            for &b in bytes.by_ref().take(len.into()) {
                 if let Some(d) = dst.get_mut(at.wrapping_sub(start)) {
                     *d = b;
                 }
                 at = at.wrapping_add(1);
             }
-            from = from.wrapping_add(len.into());
         }
     }
 }

@@ -46,16 +46,20 @@ pub struct Limits {
     pub high: u64,
 }
 
-/// `Entry::limits` of an entry without limits.
+/// The row in [`super::Dictionary::limit_rows`] of an entry without limits.
 pub const NO_LIMITS: u8 = u8::MAX;
 
 /// One sub-object of the dictionary.
 ///
-/// 10 bytes in flash, packed: the largest dictionary has about 380 entries,
-/// and the padding byte of an aligned entry and a 16-bit limits row (a
-/// dictionary has at most 254 distinct limit pairs) cost the b maXX 4400
-/// image 760 B of its 60 KiB (Cortex-M3 loads the unaligned half-words directly). Tables
-/// of entries are sorted by (index, sub-index) so that lookup is a binary search.
+/// 8 bytes in flash, packed (Cortex-M3 loads the unaligned half-words
+/// directly): the largest dictionary has about 380 entries. Two bytes came
+/// out of the 10 it had: the limits row, which only a download's check
+/// reads, is in a table parallel to the entries
+/// ([`super::Dictionary::limit_rows`]) that a dictionary without limits
+/// leaves empty, and the length is one byte (od-gen refuses a string of
+/// more than 255 bytes: no device or corpus file has one longer than 200).
+/// ds301: 1,720 → 1,376 B. Tables of entries are sorted by (index,
+/// sub-index) so that lookup is a binary search.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(C, packed)]
 pub struct Entry {
@@ -67,18 +71,16 @@ pub struct Entry {
     pub data_type: DataType,
     /// Access and placement.
     pub attr: Attr,
-    /// Size of the value in bytes (the capacity for strings, 0 for DOMAIN).
-    pub len: u16,
+    /// Size of the value in bytes (the capacity for strings, at most 255; 0 for DOMAIN).
+    pub len: u8,
     /// Byte offset of the value in the RAM image, or in the ROM blob if [`Attr::IN_ROM`].
     pub offset: u16,
-    /// Position in the limits table, or [`NO_LIMITS`].
-    pub limits: u8,
 }
 
 impl Entry {
     /// An entry; generated tables use this to stay one line per entry.
-    pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u8) -> Entry {
-        Entry { index, sub, data_type, attr, len, offset, limits }
+    pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u8, offset: u16) -> Entry {
+        Entry { index, sub, data_type, attr, len, offset }
     }
 
     /// The 24-bit key the tables are sorted by.
@@ -102,7 +104,7 @@ impl Entry {
     }
 
     /// Byte range of the value in its image (RAM or ROM).
-    // Two u16s: the sum fits a usize.
+    // A u16 and a u8: the sum fits a usize.
     #[allow(clippy::arithmetic_side_effects)]
     pub const fn range(&self) -> core::ops::Range<usize> {
         self.offset as usize..self.offset as usize + self.len as usize

@@ -10,8 +10,7 @@ use crate::abort::AbortCode;
 /// object's few entries in a row (one search and a short walk are less
 /// code than a second search for the end).
 pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
-    let entries: &'static [Entry] = dict.entries;
-    let rest = entries.get(entries.partition_point(|e| e.index < index)..).unwrap_or(&[]);
+    let rest = dict.object_onwards(index);
     let len = rest.iter().take_while(|e| e.index == index).count();
     rest.get(..len).unwrap_or(&[])
 }

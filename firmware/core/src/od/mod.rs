@@ -58,8 +58,12 @@ pub struct DeviceInfo {
 pub struct Dictionary {
     /// Entries sorted by (index, sub-index).
     pub entries: &'static [Entry],
-    /// Limits referenced by [`Entry::limits`].
+    /// Limits referenced by [`Dictionary::limit_rows`].
     pub limits: &'static [Limits],
+    /// Each entry's row in `limits` ([`NO_LIMITS`] for none), parallel to
+    /// `entries`; empty in a dictionary without limits, whose entries then
+    /// take no byte for them.
+    pub limit_rows: &'static [u8],
     /// Values of `const` entries.
     pub rom: &'static [u8],
     /// The RAM image as the EDS defaults give it, with `$NODEID` not yet added.
@@ -100,7 +104,9 @@ pub const fn layout_id(entries: &[Entry]) -> u32 {
     while let [e, rest @ ..] = entries {
         h = mix(h, &e.index.to_le_bytes());
         h = mix(h, &[e.sub, e.data_type as u8, e.attr.0]);
-        h = mix(h, &e.len.to_le_bytes());
+        // The length as the 16 bits it had when the entry held it so: a
+        // stored set keeps its layout across the change of width.
+        h = mix(h, &(e.len as u16).to_le_bytes());
         h = mix(h, &e.offset.to_le_bytes());
         entries = rest;
     }
@@ -151,19 +157,31 @@ impl Dictionary {
     /// Finds an entry by index and sub-index. O(log n): a binary search for
     /// the object on the 16-bit index alone, then the sub-index where it
     /// usually is (sub-indices run 0, 1, 2, ...), else along the object's
-    /// entries (at most 256).
+    /// entries (at most 256), which also tell a missing sub-index
+    /// (0x06090011) from a missing object (0x06020000).
     pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
-        let entries: &'static [Entry] = self.entries;
-        let first = entries.partition_point(|e| e.index < index);
-        let record = entries.get(first..).unwrap_or(&[]);
-        match record.first() {
-            Some(e) if e.index == index => {}
-            _ => return Err(AbortCode::NoObject),
-        }
+        let record = self.object_onwards(index);
         match record.get(usize::from(sub)) {
-            Some(e) if e.index == index && e.sub == sub => Ok(e),
-            _ => record.iter().take_while(|e| e.index == index).find(|e| e.sub == sub).ok_or(AbortCode::NoSubIndex),
+            Some(e) if e.index == index && e.sub == sub => return Ok(e),
+            _ => {}
         }
+        let mut missing = AbortCode::NoObject;
+        for e in record.iter().take_while(|e| e.index == index) {
+            if e.sub == sub {
+                return Ok(e);
+            }
+            missing = AbortCode::NoSubIndex;
+        }
+        Err(missing)
+    }
+
+    /// The entries from the first of object `index` (or from where it would
+    /// be) to the end of the table: a binary search on the index alone.
+    // Out of line: `find` and `object` share it.
+    #[inline(never)]
+    pub(crate) fn object_onwards(&self, index: u16) -> &'static [Entry] {
+        let entries: &'static [Entry] = self.entries;
+        entries.get(entries.partition_point(|e| e.index < index)..).unwrap_or(&[])
     }
 
     /// An entry found once, for a caller that reads or writes it often
@@ -177,12 +195,20 @@ impl Dictionary {
     #[inline(never)]
     pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
         let entry = self.find(index, sub)?;
-        // The position from the address `find` returned: no second search.
-        let pos = (entry as *const Entry as usize).wrapping_sub(self.entries.as_ptr() as usize).checked_div(core::mem::size_of::<Entry>());
-        match pos.and_then(|p| p.checked_add(1)).and_then(|r| u16::try_from(r).ok()) {
+        match self.position(entry).checked_add(1).and_then(|r| u16::try_from(r).ok()) {
             Some(r) => Ok((EntryRef(r), entry)),
             None => Err(AbortCode::NoObject),
         }
+    }
+
+    /// The position in `entries` of an entry of the table, from its address:
+    /// no second search. (An entry from elsewhere gets a position that
+    /// names no entry or another one; never a panic.)
+    fn position(&self, entry: &Entry) -> usize {
+        (entry as *const Entry as usize)
+            .wrapping_sub(self.entries.as_ptr() as usize)
+            .checked_div(core::mem::size_of::<Entry>())
+            .unwrap_or(usize::MAX)
     }
 
     /// The entry [`Dictionary::locate`] found (`None` for [`EntryRef::NONE`],
@@ -194,7 +220,8 @@ impl Dictionary {
 
     /// The limits of an entry, if it has any.
     pub fn limits_of(&self, entry: &Entry) -> Option<&'static Limits> {
-        self.limits.get(usize::from(entry.limits))
+        let row = self.limit_rows.get(self.position(entry))?;
+        self.limits.get(usize::from(*row))
     }
 
     /// The value bytes of `entry` (its whole capacity for strings).

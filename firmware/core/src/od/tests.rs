@@ -4,8 +4,8 @@
 use super::*;
 use crate::abort::AbortCode;
 
-const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16, limits: u8) -> Entry {
-    Entry { index, sub, data_type, attr, len, offset, limits }
+const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u8, offset: u16) -> Entry {
+    Entry { index, sub, data_type, attr, len, offset }
 }
 
 const RO: Attr = Attr::READ;
@@ -13,14 +13,14 @@ const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
 const CONST: Attr = Attr(Attr::READ.0 | Attr::IN_ROM.0);
 
 static ENTRIES: [Entry; 8] = [
-    e(0x1000, 0, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS),
-    e(0x1001, 0, DataType::Unsigned8, RO, 1, 0, NO_LIMITS),
-    e(0x1008, 0, DataType::VisibleString, CONST, 6, 4, NO_LIMITS),
-    e(0x1014, 0, DataType::Unsigned32, Attr(RW.0 | Attr::NODE_ID.0), 4, 1, NO_LIMITS),
-    e(0x1017, 0, DataType::Unsigned16, RW, 2, 5, NO_LIMITS),
-    e(0x2000, 0, DataType::Integer16, RW, 2, 7, 0),
-    e(0x2001, 0, DataType::VisibleString, RW, 4, 9, NO_LIMITS),
-    e(0x2002, 0, DataType::Unsigned8, Attr(Attr::WRITE.0), 1, 13, NO_LIMITS),
+    e(0x1000, 0, DataType::Unsigned32, CONST, 4, 0),
+    e(0x1001, 0, DataType::Unsigned8, RO, 1, 0),
+    e(0x1008, 0, DataType::VisibleString, CONST, 6, 4),
+    e(0x1014, 0, DataType::Unsigned32, Attr(RW.0 | Attr::NODE_ID.0), 4, 1),
+    e(0x1017, 0, DataType::Unsigned16, RW, 2, 5),
+    e(0x2000, 0, DataType::Integer16, RW, 2, 7),
+    e(0x2001, 0, DataType::VisibleString, RW, 4, 9),
+    e(0x2002, 0, DataType::Unsigned8, Attr(Attr::WRITE.0), 1, 13),
 ];
 static LIMITS: [Limits; 1] = [Limits { low: -100i64 as u64, high: 100 }];
 static ROM: [u8; 10] = [0x92, 0x01, 0x02, 0x00, b'd', b'e', b'v', b'i', b'c', b'e'];
@@ -28,6 +28,7 @@ static DEFAULTS: [u8; 14] = [0, 0x80, 0, 0, 0, 0xE8, 0x03, 5, 0, b'a', b'b', 0, 
 static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &[NO_LIMITS, NO_LIMITS, NO_LIMITS, NO_LIMITS, NO_LIMITS, 0, NO_LIMITS, NO_LIMITS],
     rom: &ROM,
     defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 7,
@@ -184,10 +185,25 @@ fn a_write_tells_whether_the_image_changed() {
 }
 
 #[test]
-fn an_entry_is_ten_bytes_in_flash() {
-    // The largest dictionary has about 380 entries: two bytes more each would
-    // not fit the b maXX 4400 image (Entry's docs).
-    assert_eq!(core::mem::size_of::<Entry>(), 10);
+fn an_entry_is_eight_bytes_in_flash() {
+    // The largest dictionary has about 380 entries (Entry's docs): the
+    // limits row is in a table of its own, which a dictionary without
+    // limits leaves empty, and the length is one byte.
+    assert_eq!(core::mem::size_of::<Entry>(), 8);
+}
+
+#[test]
+fn the_limits_row_of_an_entry_is_its_place_in_limit_rows() {
+    // 0x2000 is the sixth entry, row 0; its neighbours have none.
+    assert_eq!(DICT.limits_of(DICT.find(0x2000, 0).unwrap()), Some(&LIMITS[0]));
+    assert_eq!(DICT.limits_of(DICT.find(0x1017, 0).unwrap()), None);
+    assert_eq!(DICT.limits_of(DICT.find(0x2001, 0).unwrap()), None);
+    // A dictionary without limits has no rows: no entry has any.
+    let bare = Dictionary { limit_rows: &[], ..DICT };
+    assert_eq!(bare.limits_of(bare.find(0x2000, 0).unwrap()), None);
+    // An entry that is not in the table has none, and nothing panics.
+    let stray = e(0x2000, 0, DataType::Integer16, RW, 2, 7);
+    assert_eq!(DICT.limits_of(&stray), None);
 }
 
 /// `read_entry` as it was before it shared the SDO upload's reading
@@ -224,7 +240,7 @@ fn read_entry_and_the_upload_reading_read_what_they_read_before() {
         for attr in [0, Attr::READ.0, Attr::WRITE.0, Attr::READ.0 | Attr::WRITE.0] {
             for rom in [0, Attr::IN_ROM.0] {
                 for (len, offset) in [(4, 0), (1, 4), (0, 6), (3, 5)] {
-                    let entry = e(0x2000, 0, data_type, Attr(attr | rom), len, offset, NO_LIMITS);
+                    let entry = e(0x2000, 0, data_type, Attr(attr | rom), len, offset);
                     assert_eq!(DICT.read_entry(&image, &entry), before(&DICT, &image, &entry), "{entry:?}");
                     assert_eq!(access::upload_value(&DICT, &image, &entry), upload_before(&DICT, &image, &entry), "{entry:?}");
                     checked += 1;

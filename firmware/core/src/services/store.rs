@@ -301,7 +301,7 @@ fn byte_range(dict: &Dictionary, first: u16, last: u16) -> (u16, u16) {
         if end == 0 {
             start = e.offset;
         }
-        end = e.offset.wrapping_add(e.len);
+        end = e.offset.wrapping_add(e.len.into());
     }
     (start, end)
 }

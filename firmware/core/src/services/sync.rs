@@ -270,20 +270,21 @@ impl SyncService {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::od::{Attr, DataType, DeviceInfo, Entry, NO_LIMITS};
+    use crate::od::{Attr, DataType, DeviceInfo, Entry};
     use crate::time::deadline_of;
 
     const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
     static ENTRIES: [Entry; 4] = [
-        Entry::new(0x1005, 0, DataType::Unsigned32, RW, 4, 0, NO_LIMITS),
-        Entry::new(0x1006, 0, DataType::Unsigned32, RW, 4, 4, NO_LIMITS),
-        Entry::new(0x1007, 0, DataType::Unsigned32, RW, 4, 8, NO_LIMITS),
-        Entry::new(0x1019, 0, DataType::Unsigned8, RW, 1, 12, NO_LIMITS),
+        Entry::new(0x1005, 0, DataType::Unsigned32, RW, 4, 0),
+        Entry::new(0x1006, 0, DataType::Unsigned32, RW, 4, 4),
+        Entry::new(0x1007, 0, DataType::Unsigned32, RW, 4, 8),
+        Entry::new(0x1019, 0, DataType::Unsigned8, RW, 1, 12),
     ];
     static DEFAULTS: [u8; 13] = [0x80, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
     static DICT: Dictionary = Dictionary {
         entries: &ENTRIES,
         limits: &[],
+        limit_rows: &[],
         rom: &[],
         defaults: crate::od::Defaults::dense(&DEFAULTS),
         comm_len: 13,

@@ -102,7 +102,7 @@ impl Slot {
         if !allowed || object.data_type == DataType::Domain || object.len == 0 {
             return Err(AbortCode::NotMappable);
         }
-        if entry.bytes().map(u16::from) != Some(object.len) {
+        if entry.bytes() != Some(object.len) {
             return Err(AbortCode::ParameterIncompatible);
         }
         if usize::from(object.len) > MAX_LEN {
@@ -113,7 +113,7 @@ impl Slot {
             return Err(AbortCode::NotMappable);
         }
         let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
-        (*slot, *object_ref) = (Slot { source, len: object.len as u8 }, at);
+        (*slot, *object_ref) = (Slot { source, len: object.len }, at);
         Ok(())
     }
 }

@@ -25,12 +25,13 @@ const RO_T: Attr = Attr(RO.0 | Attr::MAP_TPDO.0);
 /// `const` + PDOMapping.
 const CONST_T: Attr = Attr(CONST.0 | Attr::MAP_TPDO.0);
 
-const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u16, offset: u16) -> Entry {
-    Entry::new(index, sub, data_type, attr, len, offset, NO_LIMITS)
+const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u8, offset: u16) -> Entry {
+    Entry::new(index, sub, data_type, attr, len, offset)
 }
 
+/// A mapping's sub 0, limited to 0..=8 ([`LIMIT_ROWS`]).
 const fn map_count(index: u16, offset: u16) -> Entry {
-    Entry::new(index, 0, DataType::Unsigned8, RW, 1, offset, 0)
+    Entry::new(index, 0, DataType::Unsigned8, RW, 1, offset)
 }
 
 const fn map(index: u16, sub: u8, offset: u16) -> Entry {
@@ -109,6 +110,19 @@ static ENTRIES: [Entry; 60] = [
 ];
 
 static LIMITS: [Limits; 1] = [Limits { low: 0, high: 8 }];
+/// Row 0 for the mappings' sub 0 (`map_count`), no limits elsewhere.
+static LIMIT_ROWS: [u8; 60] = {
+    let mut rows = [NO_LIMITS; 60];
+    let mut i = 0;
+    while i < ENTRIES.len() {
+        let e = ENTRIES[i];
+        if e.sub == 0 && matches!(e.index, 0x1600..=0x17FF | 0x1A00..=0x1BFF) {
+            rows[i] = 0;
+        }
+        i += 1;
+    }
+    rows
+};
 static ROM: [u8; 8] = [5, 2, 6, 6, 0x78, 0x56, 0x34, 0x12];
 
 const fn put(mut d: [u8; RAM], offset: usize, value: u32, len: usize) -> [u8; RAM] {
@@ -145,6 +159,7 @@ static DEFAULTS: [u8; RAM] = {
 static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 142,

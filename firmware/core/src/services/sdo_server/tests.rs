@@ -25,23 +25,29 @@ const LONG_LEN: usize = 120;
 const IMAGE_LEN: usize = 157;
 
 static ENTRIES: [Entry; 15] = [
-    Entry::new(0x1000, 0, DataType::Unsigned32, CONST, 4, 0, NO_LIMITS),
-    Entry::new(0x1001, 0, DataType::Unsigned8, RO, 1, 0, NO_LIMITS),
-    Entry::new(0x1008, 0, DataType::VisibleString, CONST, 6, 4, NO_LIMITS),
-    Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 1, NO_LIMITS),
-    Entry::new(0x2000, 0, DataType::Integer16, RW, 2, 3, 0),
-    Entry::new(0x2001, 0, DataType::Unsigned8, RW, 1, 5, NO_LIMITS),
-    Entry::new(0x2002, 0, DataType::Unsigned8, WO, 1, 6, NO_LIMITS),
-    Entry::new(0x2003, 0, DataType::Unsigned24, RW, 3, 7, NO_LIMITS),
-    Entry::new(0x2004, 0, DataType::Unsigned32, RW, 4, 10, NO_LIMITS),
-    Entry::new(0x2005, 0, DataType::Unsigned64, RW, 8, 14, NO_LIMITS),
-    Entry::new(0x2010, 0, DataType::VisibleString, RW, LONG_LEN as u16, 22, NO_LIMITS),
-    Entry::new(0x2011, 0, DataType::OctetString, RW, 10, 142, NO_LIMITS),
-    Entry::new(0x2012, 0, DataType::Domain, RW, 0, 152, NO_LIMITS),
-    Entry::new(0x2020, 0, DataType::Unsigned8, RO, 1, 152, NO_LIMITS),
-    Entry::new(0x2020, 1, DataType::Unsigned32, RW, 4, 153, NO_LIMITS),
+    Entry::new(0x1000, 0, DataType::Unsigned32, CONST, 4, 0),
+    Entry::new(0x1001, 0, DataType::Unsigned8, RO, 1, 0),
+    Entry::new(0x1008, 0, DataType::VisibleString, CONST, 6, 4),
+    Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 1),
+    Entry::new(0x2000, 0, DataType::Integer16, RW, 2, 3),
+    Entry::new(0x2001, 0, DataType::Unsigned8, RW, 1, 5),
+    Entry::new(0x2002, 0, DataType::Unsigned8, WO, 1, 6),
+    Entry::new(0x2003, 0, DataType::Unsigned24, RW, 3, 7),
+    Entry::new(0x2004, 0, DataType::Unsigned32, RW, 4, 10),
+    Entry::new(0x2005, 0, DataType::Unsigned64, RW, 8, 14),
+    Entry::new(0x2010, 0, DataType::VisibleString, RW, LONG_LEN as u8, 22),
+    Entry::new(0x2011, 0, DataType::OctetString, RW, 10, 142),
+    Entry::new(0x2012, 0, DataType::Domain, RW, 0, 152),
+    Entry::new(0x2020, 0, DataType::Unsigned8, RO, 1, 152),
+    Entry::new(0x2020, 1, DataType::Unsigned32, RW, 4, 153),
 ];
 static LIMITS: [Limits; 1] = [Limits { low: -100i64 as u64, high: 100 }];
+/// 0x2000 (the fifth entry) is limited to -100..=100.
+static LIMIT_ROWS: [u8; 15] = {
+    let mut rows = [NO_LIMITS; 15];
+    rows[4] = 0;
+    rows
+};
 static ROM: [u8; 10] = [0x92, 0x01, 0x02, 0x00, b'd', b'e', b'v', b'i', b'c', b'e'];
 
 /// The 120-byte default of 0x2010: "ABC…XYZABC…", no NUL.
@@ -80,6 +86,7 @@ static DEFAULTS: [u8; IMAGE_LEN] = defaults();
 static DICT: Dictionary = Dictionary {
     entries: &ENTRIES,
     limits: &LIMITS,
+    limit_rows: &LIMIT_ROWS,
     rom: &ROM,
     defaults: crate::od::Defaults::dense(&DEFAULTS),
     comm_len: 3,
