@@ -1,7 +1,7 @@
 //! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
 //! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
 
-use super::{Buffer, Channel, Mux, SdoTx, State, segmented};
+use super::{Buffer, Channel, Mux, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
@@ -65,7 +65,8 @@ impl Channel {
             }
             self.emit(expedited_upload_response(index, sub, data, size), tx);
         } else {
-            self.state = State::SegmentedUpload(segmented::Upload::new(size));
+            self.state = State::SegmentedUpload;
+            self.start_segments(size, true);
             let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
             self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
         }
