@@ -42,7 +42,7 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_data, segment_fields};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_fields};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -393,7 +393,7 @@ impl Channel {
                         self.count_malformed();
                     }
                 } else {
-                    self.request(kind, f, block, buf, od, tx);
+                    self.request(kind, f, data, block, buf, od, tx);
                 }
             }
         }
@@ -426,9 +426,21 @@ impl Channel {
     }
 
     /// A request outside the block download sub-block phase, of `kind`;
-    /// block transfer requests only if `block`.
+    /// block transfer requests only if `block`. `f` is the frame `raw` as
+    /// received (8 bytes), copied to registers; a download segment's data
+    /// is cut from `raw`, so that no copy of its 7 bytes is made.
     #[inline(always)]
-    fn request<O: ObjectAccess>(&mut self, kind: RequestKind, f: [u8; 8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
+    #[allow(clippy::too_many_arguments)]
+    fn request<O: ObjectAccess>(
+        &mut self,
+        kind: RequestKind,
+        f: [u8; 8],
+        raw: &[u8],
+        block: bool,
+        buf: Buffer<'_>,
+        od: &mut O,
+        tx: &mut dyn SdoTx,
+    ) {
         let (index, sub) = multiplexer(&f);
         let [b0, ..] = f;
         // An abort or a new initiate ends whatever was in progress. Each
@@ -446,8 +458,8 @@ impl Channel {
             }
             (RequestKind::DownloadSegment, _) if self.state == State::SegmentedDownload => {
                 let (toggle, len, last) = segment_fields(b0);
-                let data = segment_data(&f);
-                let data = data.get(..usize::from(len)).unwrap_or(&data);
+                // Bytes 1..=len of the frame as received (8 bytes long), not of its copy `f`.
+                let data = raw.get(1..=usize::from(len)).unwrap_or(&[]);
                 self.segmented_download(segmented::Segment { toggle, data, last }, buf, od, tx)
             }
             (RequestKind::UploadSegment, _) if self.state == State::SegmentedUpload => self.segmented_upload(segment_fields(b0).0, od, tx),
