@@ -74,41 +74,16 @@ pub enum AbortCode {
 
 impl AbortCode {
     /// The 32-bit value sent in the abort frame.
+    // Every CiA 301 code is 0x0HMM00LL with H and MM below 16: packed as
+    // 0xHMLL, 2 bytes a code where a jump table of the values takes 4.
+    #[allow(clippy::indexing_slicing)] // one entry per variant, in their order
     pub const fn code(self) -> u32 {
-        use AbortCode::*;
-        match self {
-            ToggleBit => 0x0503_0000,
-            Timeout => 0x0504_0000,
-            InvalidCommand => 0x0504_0001,
-            InvalidBlockSize => 0x0504_0002,
-            InvalidSequence => 0x0504_0003,
-            CrcError => 0x0504_0004,
-            OutOfMemory => 0x0504_0005,
-            UnsupportedAccess => 0x0601_0000,
-            WriteOnly => 0x0601_0001,
-            ReadOnly => 0x0601_0002,
-            NoObject => 0x0602_0000,
-            NotMappable => 0x0604_0041,
-            PdoTooLong => 0x0604_0042,
-            ParameterIncompatible => 0x0604_0043,
-            InternalIncompatible => 0x0604_0047,
-            Hardware => 0x0606_0000,
-            LengthMismatch => 0x0607_0010,
-            LengthTooHigh => 0x0607_0012,
-            LengthTooLow => 0x0607_0013,
-            NoSubIndex => 0x0609_0011,
-            InvalidValue => 0x0609_0030,
-            ValueTooHigh => 0x0609_0031,
-            ValueTooLow => 0x0609_0032,
-            MaxBelowMin => 0x0609_0036,
-            NoResource => 0x060A_0023,
-            General => 0x0800_0000,
-            CannotStore => 0x0800_0020,
-            LocalControl => 0x0800_0021,
-            DeviceState => 0x0800_0022,
-            NoDictionary => 0x0800_0023,
-            NoData => 0x0800_0024,
-        }
+        const PACKED: [u16; 31] = [
+            0x5300, 0x5400, 0x5401, 0x5402, 0x5403, 0x5404, 0x5405, 0x6100, 0x6101, 0x6102, 0x6200, 0x6441, 0x6442, 0x6443, 0x6447, 0x6600,
+            0x6710, 0x6712, 0x6713, 0x6911, 0x6930, 0x6931, 0x6932, 0x6936, 0x6A23, 0x8000, 0x8020, 0x8021, 0x8022, 0x8023, 0x8024,
+        ];
+        let p = PACKED[self as usize] as u32;
+        ((p & 0xF000) << 12) | ((p & 0x0F00) << 8) | (p & 0xFF)
     }
 
     /// The abort code with this value, if it is one CiA 301 defines.

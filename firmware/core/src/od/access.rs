@@ -122,21 +122,17 @@ pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: 
 
 /// What an SDO upload of (index, sub) reads from the plain tables, for an
 /// expedited answer: the value's size, and its first bytes (up to 4, the
-/// rest 0) gathered without a copy loop (which becomes a `memcpy` call).
+/// rest 0) gathered one checked byte at a time: smaller than a match on
+/// the length, and without the loop a copy becomes (`copy_from`: +21
+/// instructions on the upload row).
 /// The router's expedited upload for a device without SDO hooks and the
 /// node's in-place upload share it.
 // Out of line: those two callers.
 #[inline(never)]
 pub(crate) fn small_value(dictionary: &Dictionary, image: &[u8], index: u16, sub: u8) -> Result<([u8; 4], usize), AbortCode> {
     let value = upload_value(dictionary, image, dictionary.find(index, sub)?)?;
-    let head = match *value {
-        [a] => [a, 0, 0, 0],
-        [a, b] => [a, b, 0, 0],
-        [a, b, c] => [a, b, c, 0],
-        [a, b, c, d, ..] => [a, b, c, d],
-        [] => [0; 4],
-    };
-    Ok((head, value.len()))
+    let at = |i: usize| value.get(i).copied().unwrap_or(0);
+    Ok(([at(0), at(1), at(2), at(3)], value.len()))
 }
 
 impl ObjectAccess for DictionaryAccess<'_> {

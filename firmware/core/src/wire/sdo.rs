@@ -321,20 +321,34 @@ pub(crate) enum RequestKind {
 }
 
 impl RequestKind {
-    /// The kind of a client frame with byte 0 `b0`.
+    /// The kind of a client frame with byte 0 `b0`: a byte table indexed
+    /// by the ccs (bits 7–5) and bit 0, smaller than a jump over the ccs.
     pub(crate) fn of(b0: u8) -> RequestKind {
-        match b0 >> 5 {
-            0 => RequestKind::DownloadSegment,
-            1 => RequestKind::InitiateDownload,
-            2 => RequestKind::InitiateUpload,
-            3 => RequestKind::UploadSegment,
-            4 => RequestKind::Abort,
-            5 if b0 & 0x03 == 0 => RequestKind::BlockUploadInitiate,
-            5 => RequestKind::BlockUpload,
-            6 if b0 & 0x01 == 0 => RequestKind::BlockDownloadInitiate,
-            6 => RequestKind::BlockDownloadEnd,
-            _ => RequestKind::Unknown,
-        }
+        const KINDS: [RequestKind; 16] = {
+            use RequestKind::*;
+            // [ccs << 1 | bit 0]; for ccs 5 (block upload) bit 1 is looked at below.
+            [
+                DownloadSegment,
+                DownloadSegment,
+                InitiateDownload,
+                InitiateDownload,
+                InitiateUpload,
+                InitiateUpload,
+                UploadSegment,
+                UploadSegment,
+                Abort,
+                Abort,
+                BlockUploadInitiate,
+                BlockUpload,
+                BlockDownloadInitiate,
+                BlockDownloadEnd,
+                Unknown,
+                Unknown,
+            ]
+        };
+        let kind = KINDS.get(usize::from((b0 >> 4) & 0x0E | b0 & 0x01)).copied().unwrap_or(RequestKind::Unknown);
+        // ccs 5: initiate only with cs (bits 1-0) 0.
+        if kind == RequestKind::BlockUploadInitiate && b0 & 0x02 != 0 { RequestKind::BlockUpload } else { kind }
     }
 
     /// Whether the request opens a new transfer (whatever the server is doing).

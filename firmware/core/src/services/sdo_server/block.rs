@@ -13,7 +13,7 @@
 //! ackseq. Each byte enters the CRC the first time it is sent, so resent
 //! segments cost no CRC work and no buffer is needed.
 
-use super::{Buffer, Channel, SdoTx, State};
+use super::{Buffer, Channel, SdoTx, State, Transfer};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
@@ -22,37 +22,9 @@ use crate::wire::sdo_block::{
     BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update,
 };
 
-/// A block download in progress.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Download {
-    /// The client asked for a CRC (the server always supports one).
-    crc_on: bool,
-    /// Size the client indicated.
-    size: Option<usize>,
-    /// Segments in the current block.
-    blksize: u8,
-    /// Last segment of the current block received in order (0 = none yet).
-    ackseq: u8,
-    /// A segment of the current block went missing: ignore the rest of it.
-    gap: bool,
-    /// Bytes of the segments accepted so far, 7 per segment.
-    total: usize,
-    /// CRC of every accepted segment but the last (whose unused tail is
-    /// known only from the end request).
-    crc: u16,
-    /// The segment with c = 1 has been accepted: the end request is next.
-    complete: bool,
-}
-
-impl Download {
-    /// Whether the client's frames are sub-block segments now.
-    pub(super) fn in_sub_block(&self) -> bool {
-        !self.complete
-    }
-}
-
+/// Where a block upload is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum UploadPhase {
+pub(super) enum UploadPhase {
     /// Initiate response sent; waiting for the client's start command.
     Initiated,
     /// Sending the segments of a block, or waiting for its ack.
@@ -61,29 +33,11 @@ enum UploadPhase {
     End,
 }
 
-/// A block upload in progress.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Upload {
-    /// The client asked for a CRC.
-    crc_on: bool,
-    /// Size announced in the initiate response.
-    size: usize,
-    /// Segments per block, as the client last asked.
-    blksize: u8,
-    phase: UploadPhase,
-    /// Offset in the value of segment 1 of the current block.
-    block_start: usize,
-    /// Segments of the current block sent so far.
-    sent: u8,
-    /// CRC of bytes `0..crc_len` of the value.
-    crc: u16,
-    crc_len: usize,
-}
-
-impl Upload {
-    /// Segments in the current block: blksize, or fewer at the end of the value.
+impl Transfer {
+    /// Block upload: segments in the current block, blksize or fewer at
+    /// the end of the value.
     fn block_len(&self) -> u8 {
-        let left = segments(self.size).saturating_sub(self.block_start / SEGMENT_DATA);
+        let left = segments(self.size).saturating_sub(self.pos / SEGMENT_DATA);
         u8::try_from(left.min(usize::from(self.blksize))).unwrap_or(self.blksize)
     }
 }
@@ -126,37 +80,40 @@ impl Channel {
             return self.abort(AbortCode::OutOfMemory, tx);
         }
         let blksize = Self::download_blksize(buf.len(), 0);
-        self.state =
-            State::BlockDownload(Download { crc_on: crc, size, blksize, ackseq: 0, gap: false, total: 0, crc: 0, complete: false });
+        self.state = State::BlockDownload;
+        self.t = Transfer { size: size.unwrap_or(0), sized: size.is_some(), crc_on: crc, blksize, ..Transfer::NEW };
         let response = BlockDownloadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, blksize };
         self.send(SdoResponse::BlockDownload(response), tx);
     }
 
     /// One frame of a download sub-block.
-    pub(super) fn block_download_segment(&mut self, mut d: Download, segment: BlockSegment, buf: Buffer<'_>, tx: &mut dyn SdoTx) {
+    pub(super) fn block_download_segment(&mut self, segment: BlockSegment, buf: Buffer<'_>, tx: &mut dyn SdoTx) {
         if segment.seqno == 0 && segment.last {
             // 0x80 is an abort from the client (ccs = 4): seqno 0 is never a segment.
             return self.reset();
         }
+        let d = self.t;
         if segment.seqno == 0 || segment.seqno > d.blksize {
             return self.abort(AbortCode::InvalidSequence, tx);
         }
         // This server holds the buffer while its download runs (see `SdoServers`).
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let capacity = buf.len();
-        if !d.gap && segment.seqno == d.ackseq.saturating_add(1) {
-            let start = d.total;
+        let mut total = d.pos;
+        let mut ackseq = d.seq;
+        if !d.gap && segment.seqno == d.seq.saturating_add(1) {
+            let start = d.pos;
             let end = start.saturating_add(SEGMENT_DATA);
             if !segment.last {
                 // Every byte of a segment but the last is data.
-                if d.size.is_some_and(|size| end > size) {
+                if d.sized && end > d.size {
                     return self.abort(AbortCode::LengthTooHigh, tx);
                 }
                 if end > capacity {
                     return self.abort(AbortCode::OutOfMemory, tx);
                 }
                 if d.crc_on {
-                    d.crc = crc16_update(d.crc, &segment.data);
+                    self.t.crc = crc16_update(d.crc, &segment.data);
                 }
             }
             // The unused tail of the last segment need not fit: the end request says how much is data.
@@ -164,49 +121,45 @@ impl Channel {
             if let (Some(dst), Some(src)) = (buf.get_mut(start..start.saturating_add(fit)), segment.data.get(..fit)) {
                 dst.copy_from_slice(src);
             }
-            d.total = end;
-            d.ackseq = segment.seqno;
-            d.complete = segment.last;
-        } else if segment.seqno > d.ackseq {
+            total = end;
+            ackseq = segment.seqno;
+            self.t.pos = end;
+            self.t.complete = segment.last;
+        } else if segment.seqno > d.seq {
             // A segment went missing: the client sends again from ackseq + 1.
-            d.gap = true;
+            self.t.gap = true;
         }
         // Otherwise a repeat of a segment already accepted: ignored.
         if segment.seqno == d.blksize || segment.last {
-            let blksize = Self::download_blksize(capacity, d.total);
-            self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq: d.ackseq, blksize }), tx);
-            d.blksize = blksize;
-            d.ackseq = 0;
-            d.gap = false;
+            let blksize = Self::download_blksize(capacity, total);
+            self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq, blksize }), tx);
+            self.t.blksize = blksize;
+            self.t.seq = 0;
+            self.t.gap = false;
+        } else {
+            self.t.seq = ackseq;
         }
-        self.state = State::BlockDownload(d);
     }
 
     /// A request after the last segment of a block download: the end request.
-    pub(super) fn block_download_end(
-        &mut self,
-        d: Download,
-        unused: u8,
-        crc: u16,
-        buf: Buffer<'_>,
-        od: &mut dyn ObjectAccess,
-        tx: &mut dyn SdoTx,
-    ) {
+    pub(super) fn block_download_end(&mut self, unused: u8, crc: u16, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
-        let len = d.total.saturating_sub(usize::from(unused));
+        let d = self.t;
+        let len = d.pos.saturating_sub(usize::from(unused));
         if len > buf.len() {
             return self.abort(AbortCode::OutOfMemory, tx);
         }
         if d.crc_on {
-            let last = buf.get(d.total.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
+            let last = buf.get(d.pos.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
             if crc16_update(d.crc, last) != crc {
                 return self.abort(AbortCode::CrcError, tx);
             }
         }
-        match d.size {
-            Some(size) if len > size => return self.abort(AbortCode::LengthTooHigh, tx),
-            Some(size) if len < size => return self.abort(AbortCode::LengthTooLow, tx),
-            _ => {}
+        if d.sized && len > d.size {
+            return self.abort(AbortCode::LengthTooHigh, tx);
+        }
+        if d.sized && len < d.size {
+            return self.abort(AbortCode::LengthTooLow, tx);
         }
         if let Err(code) = od.write(self.mux.index, self.mux.sub, buf.get(..len).unwrap_or(&[])) {
             return self.abort(code, tx);
@@ -229,49 +182,37 @@ impl Channel {
         if pst != 0 && size <= usize::from(pst) {
             return self.upload_response(size, od, tx);
         }
-        self.state = State::BlockUpload(Upload {
-            crc_on: crc,
-            size,
-            blksize,
-            phase: UploadPhase::Initiated,
-            block_start: 0,
-            sent: 0,
-            crc: 0,
-            crc_len: 0,
-        });
+        self.state = State::BlockUpload;
+        self.t = Transfer { size, sized: true, crc_on: crc, blksize, ..Transfer::NEW };
         let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
         self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
     }
 
     /// A request while a block upload is in progress.
-    pub(super) fn block_upload(&mut self, mut u: Upload, request: BlockUploadRequest, tx: &mut dyn SdoTx) {
+    pub(super) fn block_upload(&mut self, request: BlockUploadRequest, tx: &mut dyn SdoTx) {
+        let u = self.t;
         match (u.phase, request) {
-            (UploadPhase::Initiated, BlockUploadRequest::Start) => {
-                // The segments go out from poll().
-                u.phase = UploadPhase::Sending;
-                self.state = State::BlockUpload(u);
-            }
+            // The segments go out from poll().
+            (UploadPhase::Initiated, BlockUploadRequest::Start) => self.t.phase = UploadPhase::Sending,
             (UploadPhase::Sending, BlockUploadRequest::Ack { ackseq, blksize }) => {
-                if ackseq > u.sent {
+                if ackseq > u.seq {
                     return self.abort(AbortCode::InvalidSequence, tx);
                 }
                 if !valid_blksize(blksize) {
                     return self.abort(AbortCode::InvalidBlockSize, tx);
                 }
-                let acked_end = u.block_start.saturating_add(usize::from(ackseq).saturating_mul(SEGMENT_DATA));
+                let acked_end = u.pos.saturating_add(usize::from(ackseq).saturating_mul(SEGMENT_DATA));
                 if ackseq > 0 && acked_end >= u.size {
                     // The segment with c = 1 is confirmed: its unused tail is n.
-                    u.phase = UploadPhase::End;
-                    self.state = State::BlockUpload(u);
+                    self.t.phase = UploadPhase::End;
                     let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
                     let crc = if u.crc_on { u.crc } else { 0 };
                     self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc }), tx);
                 } else {
                     // Next block, or the same one again from the segment after ackseq.
-                    u.block_start = acked_end;
-                    u.sent = 0;
-                    u.blksize = blksize;
-                    self.state = State::BlockUpload(u);
+                    self.t.pos = acked_end;
+                    self.t.seq = 0;
+                    self.t.blksize = blksize;
                 }
             }
             (UploadPhase::End, BlockUploadRequest::End) => self.state = State::Idle,
@@ -284,13 +225,13 @@ impl Channel {
     /// was full). The count of the block's segments is worked out once,
     /// here: the poll asks this instead of a second computation.
     pub(super) fn send_block_segments(&mut self, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
-        let State::BlockUpload(mut u) = self.state else { return false };
-        if u.phase != UploadPhase::Sending {
+        if self.state != State::BlockUpload || self.t.phase != UploadPhase::Sending {
             return false;
         }
-        let block_len = u.block_len();
-        while u.sent < block_len {
-            let offset = u.block_start.saturating_add(usize::from(u.sent).saturating_mul(SEGMENT_DATA));
+        let block_len = self.t.block_len();
+        while self.t.seq < block_len {
+            let u = self.t;
+            let offset = u.pos.saturating_add(usize::from(u.seq).saturating_mul(SEGMENT_DATA));
             let len = u.size.saturating_sub(offset).min(SEGMENT_DATA);
             let mut data = [0u8; SEGMENT_DATA];
             if let Some(buf) = data.get_mut(..len)
@@ -299,20 +240,19 @@ impl Channel {
                 self.abort(code, tx);
                 return false;
             }
-            let seqno = u.sent.saturating_add(1);
+            let seqno = u.seq.saturating_add(1);
             let last = offset.saturating_add(SEGMENT_DATA) >= u.size;
             if !tx.send(BlockSegment { seqno, last, data }.emit()) {
                 break;
             }
             // Each byte enters the CRC the first time it is sent.
             if u.crc_on && offset == u.crc_len {
-                u.crc = crc16_update(u.crc, data.get(..len).unwrap_or(&[]));
-                u.crc_len = offset.saturating_add(len);
+                self.t.crc = crc16_update(u.crc, data.get(..len).unwrap_or(&[]));
+                self.t.crc_len = offset.saturating_add(len);
             }
-            u.sent = seqno;
+            self.t.seq = seqno;
             self.restart_timer(now);
         }
-        self.state = State::BlockUpload(u);
-        u.sent < block_len
+        self.t.seq < block_len
     }
 }

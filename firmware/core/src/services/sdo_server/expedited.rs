@@ -1,7 +1,7 @@
 //! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
 //! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
 
-use super::{Buffer, Channel, Mux, SdoTx, State, segmented};
+use super::{Buffer, Channel, Mux, SdoTx, State};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
@@ -65,7 +65,8 @@ impl Channel {
             }
             self.emit(expedited_upload_response(index, sub, data, size), tx);
         } else {
-            self.state = State::SegmentedUpload(segmented::Upload::new(size));
+            self.state = State::SegmentedUpload;
+            self.start_segments(size, true);
             let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
             self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
         }
@@ -76,9 +77,11 @@ impl Channel {
 /// s = 0: "unspecified number of bytes", CiA 301 §7.2.4.3.3). Many clients
 /// send 4 bytes whatever the type; the value is as long as the entry is, so
 /// take the largest of 4, 3, 2, 1 bytes that `download_check` accepts, as
-/// CANopenNode does with the entry length. Four lookups at most, no side effects.
+/// CANopenNode does with the entry length. Four lookups at most, no side
+/// effects. Every check answers for the entry (no object, read only, …)
+/// before it looks at a size, so the first one also stands for the check
+/// without a size.
 fn unsized_expedited_len(od: &mut dyn ObjectAccess, mux: Mux) -> Result<usize, AbortCode> {
-    od.download_check(mux.index, mux.sub, None)?;
     for len in (1..=EXPEDITED_MAX).rev() {
         match od.download_check(mux.index, mux.sub, Some(len)) {
             Ok(()) => return Ok(len),

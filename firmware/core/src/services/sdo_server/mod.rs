@@ -42,7 +42,7 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_data, segment_fields};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_fields};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -70,14 +70,74 @@ impl Mux {
     const NONE: Mux = Mux { index: 0, sub: 0 };
 }
 
-/// What the server is doing.
-#[derive(Clone, Copy, Debug)]
+/// What the server is doing; the fields of the transfer in progress are
+/// in [`Transfer`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum State {
     Idle,
-    SegmentedDownload(segmented::Download),
-    SegmentedUpload(segmented::Upload),
-    BlockDownload(block::Download),
-    BlockUpload(block::Upload),
+    SegmentedDownload,
+    SegmentedUpload,
+    BlockDownload,
+    BlockUpload,
+}
+
+/// The transfer in progress: one set of fields for every kind, as only one
+/// runs at a time. Each handler updates the fields it changes in place;
+/// a state enum with a struct per kind (as before) copied the whole struct
+/// out and back for every frame.
+#[derive(Clone, Copy, Debug)]
+struct Transfer {
+    /// Size the client indicated (downloads, when `sized`) or the server
+    /// announced (uploads, always).
+    size: usize,
+    sized: bool,
+    /// Segmented download: bytes collected in the buffer; segmented
+    /// upload: bytes of the value already sent; block download: bytes of
+    /// the segments accepted so far (7 per segment); block upload: offset
+    /// in the value of segment 1 of the current block.
+    pos: usize,
+    /// Segmented: the toggle bit the next segment (download) or request
+    /// (upload) must carry.
+    toggle: bool,
+    /// Block: the client asked for a CRC (the server always supports one).
+    crc_on: bool,
+    /// Block download: CRC of every accepted segment but the last (whose
+    /// unused tail is known only from the end request); block upload: CRC
+    /// of bytes `0..crc_len` of the value.
+    crc: u16,
+    crc_len: usize,
+    /// Block: segments in the current block (download), or per block as
+    /// the client last asked (upload).
+    blksize: u8,
+    /// Block download: the last segment of the current block received in
+    /// order (ackseq, 0 = none yet); block upload: segments of the current
+    /// block sent so far.
+    seq: u8,
+    /// Block download: a segment of the current block went missing, the
+    /// rest of it is ignored.
+    gap: bool,
+    /// Block download: the segment with c = 1 has been accepted, the end
+    /// request is next (the client's frames are no sub-block segments now).
+    complete: bool,
+    /// Block upload.
+    phase: block::UploadPhase,
+}
+
+impl Transfer {
+    const NEW: Transfer = Transfer {
+        size: 0,
+        sized: false,
+        pos: 0,
+        toggle: false,
+        crc_on: false,
+        crc: 0,
+        crc_len: 0,
+        blksize: 0,
+        seq: 0,
+        gap: false,
+        complete: false,
+        phase: block::UploadPhase::Initiated,
+    };
 }
 
 /// The download buffer as one server sees it: `Some` when it may use the
@@ -91,6 +151,8 @@ pub(super) type Buffer<'a> = Option<&'a mut [u8]>;
 #[derive(Clone, Debug)]
 struct Channel {
     state: State,
+    /// The fields of the transfer in progress (meaningless when idle).
+    t: Transfer,
     /// The object of the transfer in progress, or of the initiate request
     /// being answered; kept here rather than in each state so that every
     /// abort names it without the caller passing it.
@@ -107,7 +169,8 @@ struct Channel {
 }
 
 impl Channel {
-    const NEW: Channel = Channel { state: State::Idle, mux: Mux::NONE, timeout_us: None, deadline: 0, pending: None, malformed: 0 };
+    const NEW: Channel =
+        Channel { state: State::Idle, t: Transfer::NEW, mux: Mux::NONE, timeout_us: None, deadline: 0, pending: None, malformed: 0 };
 
     /// A zero timeout is kept as 1 µs, the shortest one this representation
     /// holds; one beyond 35.8 minutes as 35.8 minutes.
@@ -118,7 +181,7 @@ impl Channel {
     /// Whether this server holds the download buffer (a segmented or block
     /// download in progress).
     fn holds_buffer(&self) -> bool {
-        matches!(self.state, State::SegmentedDownload(_) | State::BlockDownload(_))
+        matches!(self.state, State::SegmentedDownload | State::BlockDownload)
     }
 
     fn is_idle(&self) -> bool {
@@ -317,8 +380,8 @@ impl Channel {
         match self.state {
             // Sub-block frames carry a sequence number where other frames
             // have a command specifier; only the state tells them apart.
-            State::BlockDownload(d) if block && d.in_sub_block() => match BlockSegment::parse(data) {
-                Ok(segment) => self.block_download_segment(d, segment, buf, tx),
+            State::BlockDownload if block && !self.t.complete => match BlockSegment::parse(data) {
+                Ok(segment) => self.block_download_segment(segment, buf, tx),
                 Err(_) => return self.count_malformed(),
             },
             _ => {
@@ -330,7 +393,7 @@ impl Channel {
                         self.count_malformed();
                     }
                 } else {
-                    self.request(kind, f, block, buf, od, tx);
+                    self.request(kind, f, data, block, buf, od, tx);
                 }
             }
         }
@@ -363,9 +426,21 @@ impl Channel {
     }
 
     /// A request outside the block download sub-block phase, of `kind`;
-    /// block transfer requests only if `block`.
+    /// block transfer requests only if `block`. `f` is the frame `raw` as
+    /// received (8 bytes), copied to registers; a download segment's data
+    /// is cut from `raw`, so that no copy of its 7 bytes is made.
     #[inline(always)]
-    fn request<O: ObjectAccess>(&mut self, kind: RequestKind, f: [u8; 8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
+    #[allow(clippy::too_many_arguments)]
+    fn request<O: ObjectAccess>(
+        &mut self,
+        kind: RequestKind,
+        f: [u8; 8],
+        raw: &[u8],
+        block: bool,
+        buf: Buffer<'_>,
+        od: &mut O,
+        tx: &mut dyn SdoTx,
+    ) {
         let (index, sub) = multiplexer(&f);
         let [b0, ..] = f;
         // An abort or a new initiate ends whatever was in progress. Each
@@ -381,38 +456,31 @@ impl Channel {
                 self.start(index, sub);
                 self.initiate_upload(od, tx);
             }
-            (RequestKind::DownloadSegment, _) => match self.state {
-                State::SegmentedDownload(d) => {
-                    let (toggle, len, last) = segment_fields(b0);
-                    let data = segment_data(&f);
-                    let data = data.get(..usize::from(len)).unwrap_or(&data);
-                    self.segmented_download(d, segmented::Segment { toggle, data, last }, buf, od, tx)
-                }
-                _ => self.unexpected(tx),
-            },
-            (RequestKind::UploadSegment, _) => match self.state {
-                State::SegmentedUpload(u) => self.segmented_upload(u, segment_fields(b0).0, od, tx),
-                _ => self.unexpected(tx),
-            },
+            (RequestKind::DownloadSegment, _) if self.state == State::SegmentedDownload => {
+                let (toggle, len, last) = segment_fields(b0);
+                // Bytes 1..=len of the frame as received (8 bytes long), not of its copy `f`.
+                let data = raw.get(1..=usize::from(len)).unwrap_or(&[]);
+                self.segmented_download(segmented::Segment { toggle, data, last }, buf, od, tx)
+            }
+            (RequestKind::UploadSegment, _) if self.state == State::SegmentedUpload => self.segmented_upload(segment_fields(b0).0, od, tx),
+            (RequestKind::DownloadSegment | RequestKind::UploadSegment, _) => self.unexpected(tx),
             (RequestKind::BlockDownloadInitiate | RequestKind::BlockDownloadEnd, true) => match BlockDownloadRequest::decode(&f) {
                 BlockDownloadRequest::Initiate { index, sub, crc, size } => {
                     self.start(index, sub);
                     self.start_block_download(crc, size, buf, od, tx);
                 }
-                BlockDownloadRequest::End { unused, crc } => match self.state {
-                    State::BlockDownload(d) => self.block_download_end(d, unused, crc, buf, od, tx),
-                    _ => self.unexpected(tx),
-                },
+                BlockDownloadRequest::End { unused, crc } if self.state == State::BlockDownload => {
+                    self.block_download_end(unused, crc, buf, od, tx)
+                }
+                BlockDownloadRequest::End { .. } => self.unexpected(tx),
             },
             (RequestKind::BlockUploadInitiate | RequestKind::BlockUpload, true) => match BlockUploadRequest::decode(&f) {
                 BlockUploadRequest::Initiate { index, sub, crc, blksize, pst } => {
                     self.start(index, sub);
                     self.start_block_upload(crc, blksize, pst, od, tx);
                 }
-                request => match self.state {
-                    State::BlockUpload(u) => self.block_upload(u, request, tx),
-                    _ => self.unexpected(tx),
-                },
+                request if self.state == State::BlockUpload => self.block_upload(request, tx),
+                _ => self.unexpected(tx),
             },
             // An unknown command specifier, or a block transfer request without block transfer.
             _ => {

@@ -10,28 +10,6 @@ use crate::wire::sdo::SdoResponse;
 /// Data bytes in one segment.
 const SEGMENT: usize = 7;
 
-/// A segmented download in progress.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Download {
-    /// Toggle bit the next segment must carry.
-    toggle: bool,
-    /// Bytes collected in the buffer.
-    len: usize,
-    /// Size the client indicated.
-    size: Option<usize>,
-}
-
-/// A segmented upload in progress.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Upload {
-    /// Toggle bit the next request must carry.
-    toggle: bool,
-    /// Bytes of the value already sent.
-    offset: usize,
-    /// Size announced in the initiate response.
-    size: usize,
-}
-
 /// A download segment request's fields (`SdoRequest::DownloadSegment`),
 /// its data cut to the bytes it carries.
 pub(super) struct Segment<'a> {
@@ -40,14 +18,16 @@ pub(super) struct Segment<'a> {
     pub(super) last: bool,
 }
 
-impl Upload {
-    /// An upload of `size` bytes about to send its first segment.
-    pub(super) fn new(size: usize) -> Self {
-        Upload { toggle: false, offset: 0, size }
-    }
-}
-
 impl Channel {
+    /// The fields of a segmented transfer of `size` bytes (`sized`: the
+    /// client indicated it) before its first segment; the others are not read.
+    pub(super) fn start_segments(&mut self, size: usize, sized: bool) {
+        self.t.size = size;
+        self.t.sized = sized;
+        self.t.pos = 0;
+        self.t.toggle = false;
+    }
+
     /// Initiate SDO download with e = 0: checks the entry and the size
     /// before any segment arrives.
     pub(super) fn start_segmented_download(&mut self, size: Option<u32>, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
@@ -61,35 +41,35 @@ impl Channel {
         if size.is_some_and(|s| s > buf.len()) {
             return self.abort(AbortCode::OutOfMemory, tx);
         }
-        self.state = State::SegmentedDownload(Download { toggle: false, len: 0, size });
+        self.state = State::SegmentedDownload;
+        self.start_segments(size.unwrap_or(0), size.is_some());
         self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx);
     }
 
     /// A request while a segmented download is in progress.
     pub(super) fn segmented_download(
         &mut self,
-        mut d: Download,
         Segment { toggle, data: chunk, last }: Segment<'_>,
         buf: Buffer<'_>,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
     ) {
-        if toggle != d.toggle {
+        let t = self.t;
+        if toggle != t.toggle {
             return self.abort(AbortCode::ToggleBit, tx);
         }
-        let end = d.len.saturating_add(chunk.len());
-        if d.size.is_some_and(|size| end > size) {
+        let end = t.pos.saturating_add(chunk.len());
+        if t.sized && end > t.size {
             return self.abort(AbortCode::LengthTooHigh, tx);
         }
         // This server holds the buffer while its download runs (see `SdoServers`).
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
-        let Some(dst) = buf.get_mut(d.len..).and_then(|rest| rest.get_mut(..chunk.len())) else {
+        let Some(dst) = buf.get_mut(t.pos..).and_then(|rest| rest.get_mut(..chunk.len())) else {
             return self.abort(AbortCode::OutOfMemory, tx);
         };
         dst.copy_from_slice(chunk);
-        d.len = end;
         if last {
-            if d.size.is_some_and(|size| end < size) {
+            if t.sized && end < t.size {
                 return self.abort(AbortCode::LengthTooLow, tx);
             }
             let value = buf.get(..end).unwrap_or(&[]);
@@ -98,33 +78,34 @@ impl Channel {
             }
             self.state = State::Idle;
         } else {
-            d.toggle = !toggle;
-            self.state = State::SegmentedDownload(d);
+            self.t.pos = end;
+            self.t.toggle = !toggle;
         }
         self.send(SdoResponse::DownloadSegment { toggle }, tx);
     }
 
     /// A request while a segmented upload is in progress.
-    pub(super) fn segmented_upload(&mut self, mut u: Upload, toggle: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        if toggle != u.toggle {
+    pub(super) fn segmented_upload(&mut self, toggle: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+        let t = self.t;
+        if toggle != t.toggle {
             return self.abort(AbortCode::ToggleBit, tx);
         }
-        let len = u.size.saturating_sub(u.offset).min(SEGMENT);
+        let len = t.size.saturating_sub(t.pos).min(SEGMENT);
         let mut data = [0u8; SEGMENT];
         // A value that shrank since the initiate response reads short; the
         // rest of the announced size goes out as zeros.
         if let Some(buf) = data.get_mut(..len)
-            && let Err(code) = od.read(self.mux.index, self.mux.sub, u.offset, buf)
+            && let Err(code) = od.read(self.mux.index, self.mux.sub, t.pos, buf)
         {
             return self.abort(code, tx);
         }
-        u.offset = u.offset.saturating_add(len);
-        let last = u.offset >= u.size;
+        let pos = t.pos.saturating_add(len);
+        let last = pos >= t.size;
         if last {
             self.state = State::Idle;
         } else {
-            u.toggle = !toggle;
-            self.state = State::SegmentedUpload(u);
+            self.t.pos = pos;
+            self.t.toggle = !toggle;
         }
         let len = u8::try_from(len).unwrap_or(0);
         self.send(SdoResponse::UploadSegment { toggle, data, len, last }, tx);
