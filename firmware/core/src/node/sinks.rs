@@ -107,15 +107,23 @@ impl PdoTx for PdoSink<'_> {
         self.received |= bit(n);
     }
 
+    // Out of line: four sites on the RPDOs' paths call it.
+    #[inline(never)]
+    fn error(&mut self, rpdo: usize, code: EmcyCode) {
+        self.errors |= if code == EmcyCode::RPDO_TIMEOUT { bit(rpdo) & 0xFFFF } else { bit(rpdo) << LENGTH_ERRORS };
+        // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
+        self.emcy.raise(self.device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
+    }
+
+    fn error_cleared(&mut self, _rpdo: usize, code: EmcyCode) {
+        self.emcy.clear(self.device_code(code));
+    }
+
     fn event(&mut self, event: PdoEvent) {
         match event {
-            PdoEvent::Received(n) => self.received |= bit(n),
-            PdoEvent::Error { rpdo, code } => {
-                self.errors |= if code == EmcyCode::RPDO_TIMEOUT { bit(rpdo) & 0xFFFF } else { bit(rpdo) << LENGTH_ERRORS };
-                // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
-                self.emcy.raise(self.device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
-            }
-            PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(self.device_code(code)),
+            PdoEvent::Received(n) => self.received(n),
+            PdoEvent::Error { rpdo, code } => self.error(rpdo, code),
+            PdoEvent::ErrorCleared { rpdo, code } => self.error_cleared(rpdo, code),
         }
     }
 }

@@ -236,6 +236,12 @@ impl Mapping {
         self.count == 0
     }
 
+    /// The image offsets the PDO's bytes come from or go to, in order
+    /// (constants, dummy bytes and the bytes past the length have none).
+    pub(super) fn ram_bytes(&self) -> impl Iterator<Item = u16> + '_ {
+        self.gather.iter().filter_map(|&g| g.checked_sub(RAM))
+    }
+
     /// Whether a PDO byte comes from or goes to an image byte in
     /// `start..end` (`start < end`): one compare per byte of the gather
     /// table, whose constants and unused bytes lie below [`RAM`] and so

@@ -120,6 +120,19 @@ pub trait PdoTx {
         self.event(PdoEvent::Received(n));
     }
 
+    /// An error condition of RPDO `rpdo` began, or a frame of a wrong
+    /// length arrived ([`PdoEvent::Error`]); the default reports it
+    /// through [`PdoTx::event`].
+    fn error(&mut self, rpdo: usize, code: EmcyCode) {
+        self.event(PdoEvent::Error { rpdo, code });
+    }
+
+    /// That condition ended ([`PdoEvent::ErrorCleared`]); the default
+    /// reports it through [`PdoTx::event`].
+    fn error_cleared(&mut self, rpdo: usize, code: EmcyCode) {
+        self.event(PdoEvent::ErrorCleared { rpdo, code });
+    }
+
     /// Reports an event; the default ignores it.
     fn event(&mut self, event: PdoEvent) {
         let _ = event;
@@ -418,10 +431,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             if rpdo.config.params.is_synchronous() {
                 sync_rpdos |= low_bit(n);
             }
-            *reach = rpdo.config.mapping.slots().iter().fold(0, |mask, slot| match slot.source {
-                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, live, offset, u16::from(slot.len)),
-                _ => mask,
-            });
+            // Byte by byte from the gather table (its constants and unused
+            // bytes are no image byte): the TPDOs mapping any byte it writes.
+            *reach = rpdo.config.mapping.ram_bytes().fold(0, |mask, offset| mask | tpdos_mapping(&self.tpdos, live, offset, 1));
         }
         (self.tpdo_live, self.sync_tpdos, self.sync_rpdos) = (live, sync_tpdos, sync_rpdos);
     }
