@@ -66,6 +66,6 @@ impl Config {
                 first_error.get_or_insert(MappingError { index, code });
             }
         }
-        (self.params, self.cob_id_writable) = CommParams::read_record(dict, image, comm);
+        self.cob_id_writable = self.params.read_record(dict, image, comm);
     }
 }
