@@ -680,7 +680,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     fn walk(&self) -> At {
         let mut first = NEVER;
         if self.rpdo_timers != 0 {
-            first = self.rpdos.iter().fold(first, |d, r| d.min(at(r.deadline())));
+            first = self.rpdos.iter().fold(first, |d, r| d.min(at(r.timeout_at())));
         }
         if T <= 32 {
             let mut bits = self.tpdo_live;

@@ -176,14 +176,12 @@ impl Rpdo {
         }
     }
 
-    /// When the event timer expires.
-    /// When the RPDO times out, if its timer runs.
+    /// When the RPDO times out, if its timer runs. Only a valid RPDO
+    /// with a mapping takes frames, and only a frame arms the timer; a new
+    /// COB-ID or mapping restarts the RPDO, which disarms it: a timer runs
+    /// only while the RPDO is valid.
     pub(super) fn timeout_at(&self) -> Option<At> {
         self.timeout_at
-    }
-
-    pub(super) fn deadline(&self) -> Option<At> {
-        self.cob_id().and(self.timeout_at)
     }
 
     /// The epoch moved by `by` µs.
