@@ -534,7 +534,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
         self.settled = false;
-        tpdo.on_rtr(now, image, tx)
+        tpdo.on_rtr(now, cob_id, image, tx)
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then

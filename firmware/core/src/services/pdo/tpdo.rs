@@ -316,9 +316,9 @@ impl Tpdo {
         (self.held, self.pending_sync) = (self.build(image).0, true);
     }
 
-    /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
-    pub(super) fn on_rtr(&mut self, now: At, image: &[u8], tx: &mut impl PdoTx) -> bool {
-        let Some(cob_id) = self.cob_id() else { return false };
+    /// An RTR for `cob_id`, this PDO's CAN-ID (the caller found the PDO
+    /// by it: it is valid and has a mapping); true if it was answered or is pending.
+    pub(super) fn on_rtr(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.config.params.rtr_allowed() {
             return false;
         }
