@@ -5,7 +5,8 @@
 
 use super::map::{Direction, Mapping};
 use super::{CommParams, MappingError, nth};
-use crate::od::{Dictionary, object};
+use crate::abort::AbortCode;
+use crate::od::Dictionary;
 
 /// Communication record minus mapping record: 0x1400 − 0x1600, 0x1800 − 0x1A00.
 const MAPPING_OFFSET: u16 = 0x200;
@@ -58,11 +59,11 @@ impl Config {
         first_error: &mut Option<MappingError>,
     ) {
         let index = nth(comm, MAPPING_OFFSET);
-        if let Err(code) = self.mapping.read(dict, image, index, direction) {
+        if let Err(code) = self.mapping.read_record(dict, image, index, direction) {
             // What the failed resolution left is no mapping.
             (self.mapping, self.unresolved) = (Mapping::EMPTY, true);
             // A record the dictionary lacks is no error.
-            if !object(dict, index).is_empty() {
+            if code != AbortCode::NoDictionary {
                 first_error.get_or_insert(MappingError { index, code });
             }
         }

@@ -153,8 +153,19 @@ impl Mapping {
     /// Becomes the mapping record `index` (0x1600+n or 0x1A00+n) read and
     /// resolved as the image holds it (in place, as [`Mapping::resolve`]).
     pub fn read(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
+        self.read_record(dict, image, index, direction).map_err(|code| match code {
+            AbortCode::NoDictionary => AbortCode::NoObject,
+            code => code,
+        })
+    }
+
+    /// [`Mapping::read`], with [`AbortCode::NoDictionary`] (which nothing
+    /// else here returns) for a record the dictionary lacks, no error at
+    /// configuration: one look-up of the record tells it.
+    pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
         let record = object(dict, index);
-        let count = sub_entry(record, 0).ok_or(AbortCode::NoObject)?;
+        let missing = if record.is_empty() { AbortCode::NoDictionary } else { AbortCode::NoObject };
+        let count = sub_entry(record, 0).ok_or(missing)?;
         self.resolve(dict, image, record, value_u32(dict, image, count), direction)
     }
 

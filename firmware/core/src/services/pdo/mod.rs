@@ -343,13 +343,13 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         // A mapping that does not resolve leaves the PDO's as it was.
         let mut mapping = Mapping::EMPTY;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            if mapping.read(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
+            if mapping.read_record(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
                 (rpdo.config.mapping, rpdo.config.unresolved) = (mapping, false);
                 rpdo.restart();
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            if mapping.read(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
+            if mapping.read_record(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
                 (tpdo.config.mapping, tpdo.config.unresolved) = (mapping, false);
                 tpdo.restart(None);
             }
