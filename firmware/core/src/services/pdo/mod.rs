@@ -297,12 +297,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled = false;
         let mut first_error = None;
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            // Change detection is the application's choice and survives.
-            let (change_detection, timer_only) = (tpdo.change_detection(), tpdo.timer_only_254);
-            // From the all-zero state, as the RPDOs; restarted once it has its parameters.
-            *tpdo = Tpdo::UNCONFIGURED;
-            tpdo.set_change_detection(change_detection);
-            tpdo.timer_only_254 = timer_only;
+            // From the all-zero state, as the RPDOs, but for the settings
+            // that survive; restarted once it has its parameters.
+            tpdo.unconfigure();
             let comm = nth(index::TPDO_COMMUNICATION_PARAMETER, n);
             tpdo.config.read(dict, image, comm, Direction::Transmit, &mut first_error);
             tpdo.restart(None);

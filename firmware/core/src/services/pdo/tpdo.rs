@@ -155,6 +155,15 @@ impl Tpdo {
         timer_only
     }
 
+    /// Back to [`Tpdo::UNCONFIGURED`] but for the application's choices,
+    /// which survive a reset: change detection and timer-only type 254.
+    /// The next [`Tpdo::restart`] works out what they imply.
+    pub(super) fn unconfigure(&mut self) {
+        let (no_change_detection, timer_only_254) = (self.no_change_detection, self.timer_only_254);
+        *self = Tpdo::UNCONFIGURED;
+        (self.no_change_detection, self.timer_only_254) = (no_change_detection, timer_only_254);
+    }
+
     /// Starts over, as on entering Operational: nothing counts as sent, so
     /// an event-driven PDO goes out at the first poll, and a synchronous
     /// acyclic one at the first SYNC. With `now`, the event timer runs from
