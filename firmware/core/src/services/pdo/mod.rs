@@ -284,7 +284,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             // a restarted RPDO's; its mapping resolved in place.
             *rpdo = Rpdo::UNCONFIGURED;
             let comm = nth(index::RPDO_COMMUNICATION_PARAMETER, n);
-            rpdo.config.read(dict, image, comm, Direction::Receive, &mut first_error);
+            first_error = first_error.or(rpdo.config.read(dict, image, comm, Direction::Receive));
         }
         self.window_end = Far::NEVER;
         self.operational = false;
@@ -301,7 +301,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             // that survive; restarted once it has its parameters.
             tpdo.unconfigure();
             let comm = nth(index::TPDO_COMMUNICATION_PARAMETER, n);
-            tpdo.config.read(dict, image, comm, Direction::Transmit, &mut first_error);
+            first_error = first_error.or(tpdo.config.read(dict, image, comm, Direction::Transmit));
             tpdo.restart(None);
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
