@@ -282,6 +282,9 @@ impl Mapping {
 
     /// Writes the mapped objects from received PDO data, which the caller
     /// has checked holds at least [`Mapping::len`] bytes. Dummy slots are skipped.
+    // Out of line: the general RPDO frame and the SYNC each had a copy
+    // (the usual frame takes `apply_in_line`).
+    #[inline(never)]
     pub fn apply(&self, image: &mut [u8], data: &[u8]) {
         let len = usize::from(self.len);
         // Two slices of the same length: one count for the loop, not two.
