@@ -129,7 +129,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             if state.pdo_allowed() {
                 let Node { od, comm, txq, .. } = self;
-                let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
+                let mut sink = PdoSink::<A>::new(txq, &mut comm.emcy);
                 // Some(the TPDOs whose mapped data the frame wrote) if a PDO took it.
                 let reached = if rtr {
                     comm.pdos.on_rtr(now, cob_id, od.image(), &mut sink).then_some(0)
@@ -230,7 +230,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
-            let mut sink = PdoSink::new(txq, &mut comm.emcy, A::CAN_EMCY.rpdo_too_long);
+            let mut sink = PdoSink::<A>::new(txq, &mut comm.emcy);
             comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, errors) = (sink.received, sink.errors);
             // The synchronous RPDOs' objects, or else the TPDOs left to retry.

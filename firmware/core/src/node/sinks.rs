@@ -3,6 +3,7 @@
 //! its sink can be used at once.
 
 use core::cell::Cell;
+use core::marker::PhantomData;
 
 use crate::frame::CanFrame;
 use crate::services::emcy::EmcyProducer;
@@ -13,7 +14,7 @@ use crate::txq::TxQueue;
 
 use crate::wire::emcy::EmcyCode;
 
-use super::{EMCY_SLOTS, TX_QUEUE};
+use super::{Application, EMCY_SLOTS, TX_QUEUE};
 
 /// Queue slots an SDO transfer leaves free for heartbeat and EMCY.
 const SDO_RESERVE: usize = 4;
@@ -51,8 +52,9 @@ impl SdoSink<'_> {
 
 /// Where the PDOs' frames and events go: the queue and EMCY; what the
 /// device must hear is collected for the node to tell it once the PDOs are
-/// done with the image.
-pub(super) struct PdoSink<'a> {
+/// done with the image. `A`, the device, gives its EMCY code for an RPDO
+/// too long as a constant (not a field each sink is built with).
+pub(super) struct PdoSink<'a, A> {
     pub(super) txq: &'a mut TxQueue<TX_QUEUE>,
     pub(super) emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
     /// Bit n: RPDO n wrote its objects.
@@ -62,18 +64,18 @@ pub(super) struct PdoSink<'a> {
     /// ([`LENGTH_ERRORS`]). One word, so that an RPDO without errors costs
     /// nothing more to collect them.
     pub(super) errors: u32,
-    /// The device's code for an RPDO longer than its mapping (`CanEmcyCodes::rpdo_too_long`).
-    too_long: EmcyCode,
+    device: PhantomData<fn() -> A>,
 }
 
-impl<'a> PdoSink<'a> {
-    pub(super) fn new(txq: &'a mut TxQueue<TX_QUEUE>, emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>, too_long: EmcyCode) -> Self {
-        PdoSink { txq, emcy, received: 0, errors: 0, too_long }
+impl<'a, A: Application> PdoSink<'a, A> {
+    pub(super) fn new(txq: &'a mut TxQueue<TX_QUEUE>, emcy: &'a mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>) -> Self {
+        PdoSink { txq, emcy, received: 0, errors: 0, device: PhantomData }
     }
 
-    /// `code` as the device reports it.
-    fn device_code(&self, code: EmcyCode) -> EmcyCode {
-        if code == EmcyCode::PDO_LENGTH_EXCEEDED { self.too_long } else { code }
+    /// `code` as the device reports it (its code for an RPDO longer than
+    /// its mapping: `CanEmcyCodes::rpdo_too_long`).
+    fn device_code(code: EmcyCode) -> EmcyCode {
+        if code == EmcyCode::PDO_LENGTH_EXCEEDED { A::CAN_EMCY.rpdo_too_long } else { code }
     }
 }
 
@@ -85,7 +87,7 @@ pub(super) fn bit(n: usize) -> u32 {
 /// The first bit of the length errors in [`PdoSink::errors`] (the first 16 RPDOs are told apart).
 pub(super) const LENGTH_ERRORS: usize = 16;
 
-impl PdoTx for PdoSink<'_> {
+impl<A: Application> PdoTx for PdoSink<'_, A> {
     fn send(&mut self, cob_id: u16, data: &[u8]) -> bool {
         CanFrame::standard(cob_id, data).is_some_and(|f| self.txq.push(f))
     }
@@ -107,15 +109,23 @@ impl PdoTx for PdoSink<'_> {
         self.received |= bit(n);
     }
 
+    // Out of line: four sites on the RPDOs' paths call it.
+    #[inline(never)]
+    fn error(&mut self, rpdo: usize, code: EmcyCode) {
+        self.errors |= if code == EmcyCode::RPDO_TIMEOUT { bit(rpdo) & 0xFFFF } else { bit(rpdo) << LENGTH_ERRORS };
+        // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
+        self.emcy.raise(Self::device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
+    }
+
+    fn error_cleared(&mut self, _rpdo: usize, code: EmcyCode) {
+        self.emcy.clear(Self::device_code(code));
+    }
+
     fn event(&mut self, event: PdoEvent) {
         match event {
-            PdoEvent::Received(n) => self.received |= bit(n),
-            PdoEvent::Error { rpdo, code } => {
-                self.errors |= if code == EmcyCode::RPDO_TIMEOUT { bit(rpdo) & 0xFFFF } else { bit(rpdo) << LENGTH_ERRORS };
-                // The low byte of the 1-based RPDO number (below 513: 0x1400..=0x15FF).
-                self.emcy.raise(self.device_code(code), [rpdo.wrapping_add(1) as u8, 0, 0, 0, 0]);
-            }
-            PdoEvent::ErrorCleared { code, .. } => self.emcy.clear(self.device_code(code)),
+            PdoEvent::Received(n) => self.received(n),
+            PdoEvent::Error { rpdo, code } => self.error(rpdo, code),
+            PdoEvent::ErrorCleared { rpdo, code } => self.error_cleared(rpdo, code),
         }
     }
 }
@@ -130,11 +140,11 @@ mod tests {
     fn a_received_rpdo_is_marked_as_its_event_marks_it() {
         for n in [0, 1, 5, 31, 32, 511] {
             let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
-            let mut fast = PdoSink::new(&mut txq, &mut emcy, EmcyCode::PDO_LENGTH_EXCEEDED);
+            let mut fast = PdoSink::<crate::node::NoApplication>::new(&mut txq, &mut emcy);
             fast.received(n);
             let fast = (fast.received, fast.errors);
             let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
-            let mut general = PdoSink::new(&mut txq, &mut emcy, EmcyCode::PDO_LENGTH_EXCEEDED);
+            let mut general = PdoSink::<crate::node::NoApplication>::new(&mut txq, &mut emcy);
             general.event(PdoEvent::Received(n));
             assert_eq!(fast, (general.received, general.errors), "RPDO {n}");
             assert_eq!(fast.0, if n < 32 { 1 << n } else { 0 }, "RPDO {n}");

@@ -48,26 +48,29 @@ impl CommParams {
     /// Reads record `index` (0x1400+n or 0x1800+n): two binary searches. A
     /// record without sub 1 is an invalid PDO; a missing sub 2 reads as 254.
     pub fn read(dict: &Dictionary, image: &[u8], index: u16) -> CommParams {
-        CommParams::read_record(dict, image, index).0
+        let mut params = CommParams::DEFAULT;
+        params.read_record(dict, image, index);
+        params
     }
 
-    /// [`CommParams::read`], and whether sub 1 can be written at all: one
-    /// pass over the record's entries rather than a search per sub-index.
-    pub(super) fn read_record(dict: &Dictionary, image: &[u8], index: u16) -> (CommParams, bool) {
-        let mut params = CommParams::default();
+    /// Becomes [`CommParams::read`] of record `index`, in place, and returns
+    /// whether sub 1 can be written at all: one pass over the record's
+    /// entries rather than a search per sub-index.
+    pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16) -> bool {
+        *self = CommParams::DEFAULT;
         let mut cob_id_writable = false;
         for entry in object(dict, index) {
             let value = value_u32(dict, image, entry);
             match entry.sub {
-                1 => (params.cob_id, cob_id_writable) = (value, entry.writable()),
-                2 => params.transmission_type = value as u8,
-                3 => params.inhibit_time_100us = value as u16,
-                5 => params.event_timer_ms = value as u16,
-                6 => params.sync_start = value as u8,
+                1 => (self.cob_id, cob_id_writable) = (value, entry.writable()),
+                2 => self.transmission_type = value as u8,
+                3 => self.inhibit_time_100us = value as u16,
+                5 => self.event_timer_ms = value as u16,
+                6 => self.sync_start = value as u8,
                 _ => {}
             }
         }
-        (params, cob_id_writable)
+        cob_id_writable
     }
 
     /// Bit 31 clear: the PDO exists.

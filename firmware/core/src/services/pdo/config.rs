@@ -5,7 +5,8 @@
 
 use super::map::{Direction, Mapping};
 use super::{CommParams, MappingError, nth};
-use crate::od::{Dictionary, object};
+use crate::abort::AbortCode;
+use crate::od::Dictionary;
 
 /// Communication record minus mapping record: 0x1400 − 0x1600, 0x1800 − 0x1A00.
 const MAPPING_OFFSET: u16 = 0x200;
@@ -44,28 +45,18 @@ impl Config {
     /// mapping record from the image into a configuration that is
     /// [`Config::UNCONFIGURED`] (the caller's PDO, cleared whole): a
     /// mapping the dictionary lacks, or one that does not resolve, leaves
-    /// the mapping empty and `unresolved`, and the second is kept in `first_error` if it is
-    /// the first. The mapping is resolved in place (a mapping returned by
-    /// value was copied twice on its way into the PDO).
+    /// the mapping empty and `unresolved`; the second is returned. The
+    /// mapping is resolved in place (a mapping returned by value was copied
+    /// twice on its way into the PDO).
     // Out of line: one copy for the RPDOs' and the TPDOs' configuration.
     #[inline(never)]
-    pub(super) fn read(
-        &mut self,
-        dict: &Dictionary,
-        image: &[u8],
-        comm: u16,
-        direction: Direction,
-        first_error: &mut Option<MappingError>,
-    ) {
+    pub(super) fn read(&mut self, dict: &Dictionary, image: &[u8], comm: u16, direction: Direction) -> Option<MappingError> {
+        self.cob_id_writable = self.params.read_record(dict, image, comm);
         let index = nth(comm, MAPPING_OFFSET);
-        if let Err(code) = self.mapping.read(dict, image, index, direction) {
-            // What the failed resolution left is no mapping.
-            (self.mapping, self.unresolved) = (Mapping::EMPTY, true);
-            // A record the dictionary lacks is no error.
-            if !object(dict, index).is_empty() {
-                first_error.get_or_insert(MappingError { index, code });
-            }
-        }
-        (self.params, self.cob_id_writable) = CommParams::read_record(dict, image, comm);
+        let Err(code) = self.mapping.read_record(dict, image, index, direction) else { return None };
+        // What the failed resolution left is no mapping.
+        (self.mapping, self.unresolved) = (Mapping::EMPTY, true);
+        // A record the dictionary lacks is no error.
+        (code != AbortCode::NoDictionary).then_some(MappingError { index, code })
     }
 }

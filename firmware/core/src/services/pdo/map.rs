@@ -153,8 +153,19 @@ impl Mapping {
     /// Becomes the mapping record `index` (0x1600+n or 0x1A00+n) read and
     /// resolved as the image holds it (in place, as [`Mapping::resolve`]).
     pub fn read(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
+        self.read_record(dict, image, index, direction).map_err(|code| match code {
+            AbortCode::NoDictionary => AbortCode::NoObject,
+            code => code,
+        })
+    }
+
+    /// [`Mapping::read`], with [`AbortCode::NoDictionary`] (which nothing
+    /// else here returns) for a record the dictionary lacks, no error at
+    /// configuration: one look-up of the record tells it.
+    pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
         let record = object(dict, index);
-        let count = sub_entry(record, 0).ok_or(AbortCode::NoObject)?;
+        let missing = if record.is_empty() { AbortCode::NoDictionary } else { AbortCode::NoObject };
+        let count = sub_entry(record, 0).ok_or(missing)?;
         self.resolve(dict, image, record, value_u32(dict, image, count), direction)
     }
 
@@ -236,6 +247,12 @@ impl Mapping {
         self.count == 0
     }
 
+    /// The image offsets the PDO's bytes come from or go to, in order
+    /// (constants, dummy bytes and the bytes past the length have none).
+    pub(super) fn ram_bytes(&self) -> impl Iterator<Item = u16> + '_ {
+        self.gather.iter().filter_map(|&g| g.checked_sub(RAM))
+    }
+
     /// Whether a PDO byte comes from or goes to an image byte in
     /// `start..end` (`start < end`): one compare per byte of the gather
     /// table, whose constants and unused bytes lie below [`RAM`] and so
@@ -265,6 +282,9 @@ impl Mapping {
 
     /// Writes the mapped objects from received PDO data, which the caller
     /// has checked holds at least [`Mapping::len`] bytes. Dummy slots are skipped.
+    // Out of line: the general RPDO frame and the SYNC each had a copy
+    // (the usual frame takes `apply_in_line`).
+    #[inline(never)]
     pub fn apply(&self, image: &mut [u8], data: &[u8]) {
         let len = usize::from(self.len);
         // Two slices of the same length: one count for the loop, not two.

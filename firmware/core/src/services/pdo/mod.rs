@@ -120,6 +120,19 @@ pub trait PdoTx {
         self.event(PdoEvent::Received(n));
     }
 
+    /// An error condition of RPDO `rpdo` began, or a frame of a wrong
+    /// length arrived ([`PdoEvent::Error`]); the default reports it
+    /// through [`PdoTx::event`].
+    fn error(&mut self, rpdo: usize, code: EmcyCode) {
+        self.event(PdoEvent::Error { rpdo, code });
+    }
+
+    /// That condition ended ([`PdoEvent::ErrorCleared`]); the default
+    /// reports it through [`PdoTx::event`].
+    fn error_cleared(&mut self, rpdo: usize, code: EmcyCode) {
+        self.event(PdoEvent::ErrorCleared { rpdo, code });
+    }
+
     /// Reports an event; the default ignores it.
     fn event(&mut self, event: PdoEvent) {
         let _ = event;
@@ -271,7 +284,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             // a restarted RPDO's; its mapping resolved in place.
             *rpdo = Rpdo::UNCONFIGURED;
             let comm = nth(index::RPDO_COMMUNICATION_PARAMETER, n);
-            rpdo.config.read(dict, image, comm, Direction::Receive, &mut first_error);
+            first_error = first_error.or(rpdo.config.read(dict, image, comm, Direction::Receive));
         }
         self.window_end = Far::NEVER;
         self.operational = false;
@@ -284,14 +297,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled = false;
         let mut first_error = None;
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            // Change detection is the application's choice and survives.
-            let (change_detection, timer_only) = (tpdo.change_detection(), tpdo.timer_only_254);
-            // From the all-zero state, as the RPDOs; restarted once it has its parameters.
-            *tpdo = Tpdo::UNCONFIGURED;
-            tpdo.set_change_detection(change_detection);
-            tpdo.timer_only_254 = timer_only;
+            // From the all-zero state, as the RPDOs, but for the settings
+            // that survive; restarted once it has its parameters.
+            tpdo.unconfigure();
             let comm = nth(index::TPDO_COMMUNICATION_PARAMETER, n);
-            tpdo.config.read(dict, image, comm, Direction::Transmit, &mut first_error);
+            first_error = first_error.or(tpdo.config.read(dict, image, comm, Direction::Transmit));
             tpdo.restart(None);
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
@@ -330,13 +340,13 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         // A mapping that does not resolve leaves the PDO's as it was.
         let mut mapping = Mapping::EMPTY;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            if mapping.read(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
+            if mapping.read_record(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
                 (rpdo.config.mapping, rpdo.config.unresolved) = (mapping, false);
                 rpdo.restart();
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            if mapping.read(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
+            if mapping.read_record(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
                 (tpdo.config.mapping, tpdo.config.unresolved) = (mapping, false);
                 tpdo.restart(None);
             }
@@ -418,10 +428,9 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             if rpdo.config.params.is_synchronous() {
                 sync_rpdos |= low_bit(n);
             }
-            *reach = rpdo.config.mapping.slots().iter().fold(0, |mask, slot| match slot.source {
-                map::Source::Ram(offset) => mask | tpdos_mapping(&self.tpdos, live, offset, u16::from(slot.len)),
-                _ => mask,
-            });
+            // Byte by byte from the gather table (its constants and unused
+            // bytes are no image byte): the TPDOs mapping any byte it writes.
+            *reach = rpdo.config.mapping.ram_bytes().fold(0, |mask, offset| mask | tpdos_mapping(&self.tpdos, live, offset, 1));
         }
         (self.tpdo_live, self.sync_tpdos, self.sync_rpdos) = (live, sync_tpdos, sync_rpdos);
     }
@@ -522,7 +531,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
         self.settled = false;
-        tpdo.on_rtr(now, image, tx)
+        tpdo.on_rtr(now, cob_id, image, tx)
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then
@@ -668,7 +677,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     fn walk(&self) -> At {
         let mut first = NEVER;
         if self.rpdo_timers != 0 {
-            first = self.rpdos.iter().fold(first, |d, r| d.min(at(r.deadline())));
+            first = self.rpdos.iter().fold(first, |d, r| d.min(at(r.timeout_at())));
         }
         if T <= 32 {
             let mut bits = self.tpdo_live;

@@ -15,7 +15,7 @@
 
 use super::config::Config;
 use super::map::{MAX_LEN, Mapping};
-use super::{CommParams, PdoEvent, PdoTx};
+use super::{CommParams, PdoTx};
 use crate::time::{At, later, shift_opt};
 use crate::wire::emcy::EmcyCode;
 
@@ -125,13 +125,13 @@ impl Rpdo {
             };
             if error != self.length_error {
                 if self.length_error != EmcyCode::NO_ERROR {
-                    out.event(PdoEvent::ErrorCleared { rpdo: n, code: self.length_error });
+                    out.error_cleared(n, self.length_error);
                 }
                 self.length_error = error;
             }
             // Each frame of a wrong length (its EMCY is sent once); a short one is not processed.
             if error != EmcyCode::NO_ERROR {
-                out.event(PdoEvent::Error { rpdo: n, code: error });
+                out.error(n, error);
                 if data.len() < len {
                     return false;
                 }
@@ -139,7 +139,7 @@ impl Rpdo {
         }
         if self.timed_out {
             self.timed_out = false;
-            out.event(PdoEvent::ErrorCleared { rpdo: n, code: EmcyCode::RPDO_TIMEOUT });
+            out.error_cleared(n, EmcyCode::RPDO_TIMEOUT);
         }
         let timer = self.config.params.event_timer();
         self.timeout_at = (timer != 0).then(|| later(now, timer));
@@ -172,18 +172,16 @@ impl Rpdo {
         if self.timeout_at.is_some_and(|t| now >= t) {
             self.timeout_at = None;
             self.timed_out = true;
-            out.event(PdoEvent::Error { rpdo: n, code: EmcyCode::RPDO_TIMEOUT });
+            out.error(n, EmcyCode::RPDO_TIMEOUT);
         }
     }
 
-    /// When the event timer expires.
-    /// When the RPDO times out, if its timer runs.
+    /// When the RPDO times out, if its timer runs. Only a valid RPDO
+    /// with a mapping takes frames, and only a frame arms the timer; a new
+    /// COB-ID or mapping restarts the RPDO, which disarms it: a timer runs
+    /// only while the RPDO is valid.
     pub(super) fn timeout_at(&self) -> Option<At> {
         self.timeout_at
-    }
-
-    pub(super) fn deadline(&self) -> Option<At> {
-        self.cob_id().and(self.timeout_at)
     }
 
     /// The epoch moved by `by` µs.

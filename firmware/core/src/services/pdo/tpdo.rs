@@ -131,8 +131,6 @@ impl Tpdo {
 
     /// Whether this PDO is of type 254 on a device that makes 254 timer-only,
     /// or of type 255 with an event timer on a device that makes that timer-only.
-    // Out of line: `restart` and `refresh_change_events` each had a copy.
-    #[inline(never)]
     fn timer_only(&self) -> bool {
         match self.config.params.transmission_type {
             254 => self.timer_only_254,
@@ -147,11 +145,23 @@ impl Tpdo {
     }
 
     /// Whether a change of the mapped data is an event, from the flags and
-    /// parameters it depends on: after each change of them.
+    /// parameters it depends on: after each change of them. Returns
+    /// [`Tpdo::timer_only`], which `restart` needs too.
     // Out of line: six callers.
     #[inline(never)]
-    pub(super) fn refresh_change_events(&mut self) {
-        self.no_change_events = self.no_change_detection || self.timer_only();
+    pub(super) fn refresh_change_events(&mut self) -> bool {
+        let timer_only = self.timer_only();
+        self.no_change_events = self.no_change_detection || timer_only;
+        timer_only
+    }
+
+    /// Back to [`Tpdo::UNCONFIGURED`] but for the application's choices,
+    /// which survive a reset: change detection and timer-only type 254.
+    /// The next [`Tpdo::restart`] works out what they imply.
+    pub(super) fn unconfigure(&mut self) {
+        let (no_change_detection, timer_only_254) = (self.no_change_detection, self.timer_only_254);
+        *self = Tpdo::UNCONFIGURED;
+        (self.no_change_detection, self.timer_only_254) = (no_change_detection, timer_only_254);
     }
 
     /// Starts over, as on entering Operational: nothing counts as sent, so
@@ -163,7 +173,8 @@ impl Tpdo {
     pub(super) fn restart(&mut self, now: Option<At>) {
         let timer = self.config.params.event_timer();
         self.sent = false;
-        self.event = self.is_event_driven() && !self.timer_only();
+        let timer_only = self.refresh_change_events();
+        self.event = self.is_event_driven() && !timer_only;
         self.change_pending = false;
         self.blocked = false;
         self.inhibit_until = None;
@@ -172,7 +183,6 @@ impl Tpdo {
         self.await_start = self.config.params.sync_start != 0;
         self.sampled = false;
         self.pending_sync = false;
-        self.refresh_change_events();
     }
 
     /// The event timer was rewritten: it restarts at the next poll (and
@@ -316,9 +326,9 @@ impl Tpdo {
         (self.held, self.pending_sync) = (self.build(image).0, true);
     }
 
-    /// An RTR for this PDO's CAN-ID; true if it was answered or is pending.
-    pub(super) fn on_rtr(&mut self, now: At, image: &[u8], tx: &mut impl PdoTx) -> bool {
-        let Some(cob_id) = self.cob_id() else { return false };
+    /// An RTR for `cob_id`, this PDO's CAN-ID (the caller found the PDO
+    /// by it: it is valid and has a mapping); true if it was answered or is pending.
+    pub(super) fn on_rtr(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.config.params.rtr_allowed() {
             return false;
         }

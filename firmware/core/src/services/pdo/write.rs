@@ -59,6 +59,17 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         result
     }
 
+    /// PDO `n`'s configuration (0-based) in `direction`, if there is that PDO.
+    // Out of line: the download's path is then one for both directions
+    // (with the choice in line, the compiler laid it out twice).
+    #[inline(never)]
+    fn config_mut(&mut self, direction: Direction, n: usize) -> Option<&mut Config> {
+        match direction {
+            Direction::Receive => Some(&mut self.rpdos.get_mut(n)?.config),
+            Direction::Transmit => Some(&mut self.tpdos.get_mut(n)?.config),
+        }
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn write_parameter(
         &mut self,
@@ -84,9 +95,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let is_mapping = offset >= index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER;
         let n = usize::from(offset % (index::RPDO_MAPPING_PARAMETER - index::RPDO_COMMUNICATION_PARAMETER));
         // One path for both directions on the PDO's configuration; only the reaction differs.
-        let config = match direction {
-            Direction::Receive => &mut self.rpdos.get_mut(n)?.config,
-            Direction::Transmit => &mut self.tpdos.get_mut(n)?.config,
+        // With PDOs of one kind only, the path is one already: no call.
+        let config = if R == 0 || T == 0 {
+            match direction {
+                Direction::Receive => &mut self.rpdos.get_mut(n)?.config,
+                Direction::Transmit => &mut self.tpdos.get_mut(n)?.config,
+            }
+        } else {
+            self.config_mut(direction, n)?
         };
         let entry = match entry {
             Some(entry) => entry,
