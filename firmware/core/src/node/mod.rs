@@ -415,7 +415,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.stale = true;
             self.quiet = false;
         }
-        self.app_due.shift(by);
+        // Read only by a device that polls when due (the others' is never consulted).
+        if A::POLL_WHEN_DUE {
+            self.app_due.shift(by);
+        }
     }
 
     /// A deadline as the board takes it.
