@@ -194,10 +194,14 @@ impl ControllerErrors {
     }
 
     /// The epoch moved by `by` µs.
-    pub(super) fn shift(&mut self, by: u64) {
-        for t in [&mut self.overrun_clears_at, &mut self.bus_off_clears_at, &mut self.protocol_clears_at, &mut self.clears_at] {
-            shift_opt(t, by);
+    pub(super) fn shift<A: Application>(&mut self, by: u64) {
+        shift_opt(&mut self.overrun_clears_at, by);
+        shift_opt(&mut self.bus_off_clears_at, by);
+        // Held only by a device that reports protocol errors (`protocol_error`).
+        if A::CAN_EMCY.protocol.is_some() {
+            shift_opt(&mut self.protocol_clears_at, by);
         }
+        shift_opt(&mut self.clears_at, by);
     }
 
     /// Reset communication forgot every active error: a controller still

@@ -408,14 +408,17 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if self.app.canopen() {
             self.comm.shift(by);
             self.sdo.shift(by);
-            self.controller.shift(by);
+            self.controller.shift::<A>(by);
             self.switch.shift(by);
             // The folded deadlines (`core_deadline`, `next`, `others_next`)
             // are asked again: the next call runs every service.
             self.stale = true;
             self.quiet = false;
         }
-        self.app_due.shift(by);
+        // Read only by a device that polls when due (the others' is never consulted).
+        if A::POLL_WHEN_DUE {
+            self.app_due.shift(by);
+        }
     }
 
     /// A deadline as the board takes it.
