@@ -7,6 +7,7 @@ node-id at the next start (`--storage FILE`).
 
 import os
 import tempfile
+import time
 import unittest
 
 import canopen
@@ -104,6 +105,50 @@ class LssTest(unittest.TestCase):
                 lss.configure_bit_timing(0)  # 1 Mbit/s: the EC5000 supports 125 and 250 kbit/s only
             lss.configure_bit_timing(4)
             self.assertEqual(lss.inquire_node_id(), 5)
+        finally:
+            v.close()
+
+    def test_identify_remote_slave_answers_inside_the_range_only(self):
+        """CiA 305 §5.5 identify remote slave, as raw frames on 0x7E5 (python-canopen's
+        `send_identify_remote_slave` returns no answer): vendor-id and product code equal,
+        revision and serial number within their bounds, each bound inclusive."""
+        v = Vnode(self.storage, node_id=5)
+        try:
+            lss = v.network.lss
+            lss.send_switch_state_global(lss.CONFIGURATION_STATE)
+            vendor, product, revision, serial = (lss.inquire_lss_address(cs) for cs in (0x5A, 0x5B, 0x5C, 0x5D))
+            lss.send_switch_state_global(lss.WAITING_STATE)
+            self.assertEqual((vendor, serial), (0x3FB, SERIAL))
+            answers = []
+            v.network.subscribe(0x7E4, lambda can_id, data, ts: answers.append(bytes(data)))
+
+            def identify(bounds):
+                answers.clear()
+                for cs, value in zip(range(0x46, 0x4C), bounds):
+                    v.network.send_message(0x7E5, bytes([cs]) + value.to_bytes(4, "little") + bytes(3))
+                # An answer comes within milliseconds; 0.5 s without one (a loaded machine) is none.
+                deadline = time.monotonic() + 0.5
+                while not answers and time.monotonic() < deadline:
+                    time.sleep(0.01)
+                time.sleep(0.05)
+                return answers[:]
+
+            inside = [vendor, product, revision, revision, serial, serial]
+            self.assertEqual(identify(inside), [bytes([0x4F]) + bytes(7)])
+            self.assertEqual(identify([vendor, product, 0, 0xFFFFFFFF, 0, 0xFFFFFFFF]), [bytes([0x4F]) + bytes(7)])
+            outside = [
+                [vendor + 1, product, revision, revision, serial, serial],
+                [vendor, product + 1, revision, revision, serial, serial],
+                [vendor, product, revision + 1, revision + 1, serial, serial],
+                [vendor, product, revision - 1, revision - 1, serial, serial],
+                [vendor, product, revision, revision, serial + 1, 0xFFFFFFFF],
+                [vendor, product, revision, revision, 0, serial - 1],
+            ]
+            for bounds in outside:
+                with self.subTest(bounds=[hex(b) for b in bounds]):
+                    self.assertEqual(identify(bounds), [])
+                    # A new sequence (from the vendor-id) is judged on its own.
+                    self.assertEqual(identify(inside), [bytes([0x4F]) + bytes(7)])
         finally:
             v.close()
 
