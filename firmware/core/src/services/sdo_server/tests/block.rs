@@ -165,6 +165,24 @@ fn block_upload_of_120_bytes_with_crc() {
 }
 
 #[test]
+fn block_upload_of_an_empty_string() {
+    // An empty VISIBLE_STRING (size 0): the sub-block is one segment, seqno
+    // 1 with c = 1 and no data, and the end says its 7 bytes hold none
+    // (n = 7), with the CRC of nothing (0x0000).
+    let mut t = Sdo::new();
+    t.image[22] = 0;
+    t.x(ms(0), "A4 10 20 00 7F 00 00 00", "C6 10 20 00 00 00 00 00"); // cc, s, 0 bytes
+    t.rx(ms(1), "A3 00 00 00 00 00 00 00");
+    assert_eq!(t.poll(ms(1)), Some(ms(1001)));
+    t.tx("81 00 00 00 00 00 00 00");
+    t.none();
+    t.rx(ms(2), "A2 01 7F 00 00 00 00 00");
+    t.tx("DD 00 00 00 00 00 00 00");
+    t.rx(ms(3), "A1 00 00 00 00 00 00 00");
+    t.done(ms(3));
+}
+
+#[test]
 fn block_upload_resends_from_the_client_ackseq() {
     let mut t = Sdo::new();
     t.x(ms(0), "A4 10 20 00 05 00 00 00", "C6 10 20 00 78 00 00 00"); // blksize 5
