@@ -60,29 +60,14 @@ impl Channel {
         u8::try_from(room.clamp(1, usize::from(MAX_BLKSIZE))).unwrap_or(MAX_BLKSIZE)
     }
 
-    /// Initiate block download.
-    pub(super) fn start_block_download(
-        &mut self,
-        crc: bool,
-        size: Option<u32>,
-        buf: Buffer<'_>,
-        od: &mut dyn ObjectAccess,
-        tx: &mut dyn SdoTx,
-    ) {
-        let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
-        let mux = self.mux;
-        if let Err(code) = od.download_check(mux.index, mux.sub, size) {
-            return self.abort(code, tx);
-        }
-        // Another server holds the shared buffer for a download of its own.
-        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
-        if size.is_some_and(|s| s > buf.len()) {
-            return self.abort(AbortCode::OutOfMemory, tx);
-        }
-        let blksize = Self::download_blksize(buf.len(), 0);
+    /// Initiate block download, once [`Channel::start_download`] has
+    /// checked it and set the size: the first blksize the `capacity` bytes
+    /// of the buffer have room for.
+    pub(super) fn start_block_download(&mut self, crc: bool, capacity: usize, tx: &mut dyn SdoTx) {
+        let blksize = Self::download_blksize(capacity, 0);
         self.state = State::BlockDownload;
-        self.t = Transfer { size: size.unwrap_or(0), sized: size.is_some(), crc_on: crc, blksize, ..Transfer::NEW };
-        let response = BlockDownloadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, blksize };
+        self.t = Transfer { size: self.t.size, sized: self.t.sized, crc_on: crc, blksize, ..Transfer::NEW };
+        let response = BlockDownloadResponse::Initiate { index: self.mux.index, sub: self.mux.sub, crc: true, blksize };
         self.send(SdoResponse::BlockDownload(response), tx);
     }
 

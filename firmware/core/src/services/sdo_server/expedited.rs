@@ -11,11 +11,19 @@ const EXPEDITED_MAX: usize = 4;
 
 impl Channel {
     /// Initiate SDO download: writes an expedited value at once, or opens a
-    /// segmented download.
-    pub(super) fn initiate_download<O: ObjectAccess>(&mut self, data: InitiateData, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
+    /// segmented download (`crc` `None`) or a block download (`crc` whether
+    /// the client asked for a CRC).
+    pub(super) fn initiate_download<O: ObjectAccess>(
+        &mut self,
+        data: InitiateData,
+        crc: Option<bool>,
+        buf: Buffer<'_>,
+        od: &mut O,
+        tx: &mut dyn SdoTx,
+    ) {
         let (data, size) = match data {
             InitiateData::Expedited { data, size } => (data, size),
-            InitiateData::Segmented { size } => return self.start_segmented_download(size, buf, od, tx),
+            InitiateData::Segmented { size } => return self.start_download(size, crc, buf, od, tx),
         };
         let len = match size {
             Some(k) => usize::from(k),

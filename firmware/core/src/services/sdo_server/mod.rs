@@ -42,7 +42,7 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_fields};
+use crate::wire::sdo::{InitiateData, RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_fields};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -448,9 +448,20 @@ impl Channel {
         // handler if that transfer is in progress, refused if not.
         match (kind, block) {
             (RequestKind::Abort, _) => self.reset(),
-            (RequestKind::InitiateDownload, _) => {
+            // Segmented and block downloads start alike (one copy of the
+            // checks): the block initiate's multiplexer is bytes 1-3 too.
+            (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
                 self.start(index, sub);
-                self.initiate_download(initiate_data(b0, &f), buf, od, tx);
+                let (data, crc) = if kind == RequestKind::InitiateDownload {
+                    (initiate_data(b0, &f), None)
+                } else {
+                    match BlockDownloadRequest::decode(&f) {
+                        BlockDownloadRequest::Initiate { crc, size, .. } => (InitiateData::Segmented { size }, Some(crc)),
+                        // Not a block download initiate: `kind` says cs = 0.
+                        BlockDownloadRequest::End { .. } => return self.unexpected(tx),
+                    }
+                };
+                self.initiate_download(data, crc, buf, od, tx);
             }
             (RequestKind::InitiateUpload, _) => {
                 self.start(index, sub);
@@ -464,15 +475,11 @@ impl Channel {
             }
             (RequestKind::UploadSegment, _) if self.state == State::SegmentedUpload => self.segmented_upload(segment_fields(b0).0, od, tx),
             (RequestKind::DownloadSegment | RequestKind::UploadSegment, _) => self.unexpected(tx),
-            (RequestKind::BlockDownloadInitiate | RequestKind::BlockDownloadEnd, true) => match BlockDownloadRequest::decode(&f) {
-                BlockDownloadRequest::Initiate { index, sub, crc, size } => {
-                    self.start(index, sub);
-                    self.start_block_download(crc, size, buf, od, tx);
-                }
+            (RequestKind::BlockDownloadEnd, true) => match BlockDownloadRequest::decode(&f) {
                 BlockDownloadRequest::End { unused, crc } if self.state == State::BlockDownload => {
                     self.block_download_end(unused, crc, buf, od, tx)
                 }
-                BlockDownloadRequest::End { .. } => self.unexpected(tx),
+                _ => self.unexpected(tx),
             },
             (RequestKind::BlockUploadInitiate | RequestKind::BlockUpload, true) => match BlockUploadRequest::decode(&f) {
                 BlockUploadRequest::Initiate { index, sub, crc, blksize, pst } => {

@@ -28,9 +28,18 @@ impl Channel {
         self.t.toggle = false;
     }
 
-    /// Initiate SDO download with e = 0: checks the entry and the size
-    /// before any segment arrives.
-    pub(super) fn start_segmented_download(&mut self, size: Option<u32>, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    /// Initiate SDO download with e = 0 (`crc` `None`), or initiate block
+    /// download (`crc` whether the client asked for a CRC): checks the
+    /// entry and the size before any segment arrives. One copy of the
+    /// checks for both (without block transfer `crc` is always `None`).
+    pub(super) fn start_download(
+        &mut self,
+        size: Option<u32>,
+        crc: Option<bool>,
+        buf: Buffer<'_>,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
         if let Err(code) = od.download_check(mux.index, mux.sub, size) {
@@ -41,9 +50,14 @@ impl Channel {
         if size.is_some_and(|s| s > buf.len()) {
             return self.abort(AbortCode::OutOfMemory, tx);
         }
-        self.state = State::SegmentedDownload;
         self.start_segments(size.unwrap_or(0), size.is_some());
-        self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx);
+        match crc {
+            None => {
+                self.state = State::SegmentedDownload;
+                self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx);
+            }
+            Some(crc) => self.start_block_download(crc, buf.len(), tx),
+        }
     }
 
     /// A request while a segmented download is in progress.
