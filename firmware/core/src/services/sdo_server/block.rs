@@ -22,6 +22,18 @@ use crate::wire::sdo_block::{
     BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update,
 };
 
+/// The fields of an initiate block upload request.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct UploadInitiate {
+    /// The client supports a CRC.
+    pub(super) crc: bool,
+    /// Segments per block the client takes.
+    pub(super) blksize: u8,
+    /// Protocol switch threshold: a value of at most this many bytes (not
+    /// 0) goes as an expedited or segmented upload instead.
+    pub(super) pst: u8,
+}
+
 /// Where a block upload is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum UploadPhase {
@@ -153,24 +165,35 @@ impl Channel {
         self.send(SdoResponse::BlockDownload(BlockDownloadResponse::End), tx);
     }
 
-    /// Initiate block upload; switches to an expedited or segmented upload
-    /// when the value has at most `pst` bytes.
-    pub(super) fn start_block_upload(&mut self, crc: bool, blksize: u8, pst: u8, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
+    /// Initiate block upload: `Some(size)` of a value of at most `pst`
+    /// bytes, which the caller answers as an initiate upload (an expedited
+    /// or segmented upload); else answered here (`None`).
+    pub(super) fn start_block_upload(
+        &mut self,
+        UploadInitiate { crc, blksize, pst }: UploadInitiate,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) -> Option<usize> {
         let mux = self.mux;
         if !valid_blksize(blksize) {
-            return self.abort(AbortCode::InvalidBlockSize, tx);
+            self.abort(AbortCode::InvalidBlockSize, tx);
+            return None;
         }
         let size = match od.upload_size(mux.index, mux.sub) {
             Ok(size) => size,
-            Err(code) => return self.abort(code, tx),
+            Err(code) => {
+                self.abort(code, tx);
+                return None;
+            }
         };
         if pst != 0 && size <= usize::from(pst) {
-            return self.upload_response(size, od, tx);
+            return Some(size);
         }
         self.state = State::BlockUpload;
         self.t = Transfer { size, sized: true, crc_on: crc, blksize, ..Transfer::NEW };
         let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
         self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
+        None
     }
 
     /// A request while a block upload is in progress.

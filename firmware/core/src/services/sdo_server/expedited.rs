@@ -1,7 +1,7 @@
 //! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
 //! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
 
-use super::{Buffer, Channel, Mux, SdoTx, State};
+use super::{Buffer, Channel, Mux, SdoTx, State, block};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
@@ -47,15 +47,26 @@ impl Channel {
         }
     }
 
-    /// Initiate SDO upload.
-    pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, od: &mut O, tx: &mut dyn SdoTx) {
-        let Mux { index, sub } = self.mux;
-        let mut data = [0u8; EXPEDITED_MAX];
-        match od.upload_small(index, sub, &mut data) {
-            Ok(size @ 1..=EXPEDITED_MAX) => self.emit(expedited_upload_response(index, sub, data, size), tx),
-            Ok(size) => self.upload_response(size, od, tx),
-            Err(code) => self.abort(code, tx),
-        }
+    /// Initiate SDO upload, or initiate block upload (`block`): one answer
+    /// for a value of 1 to 4 bytes read at once, else the start of a
+    /// segmented upload ([`Channel::upload_response`]), or of a block upload.
+    pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, block: Option<block::UploadInitiate>, od: &mut O, tx: &mut dyn SdoTx) {
+        let size = match block {
+            None => {
+                let Mux { index, sub } = self.mux;
+                let mut data = [0u8; EXPEDITED_MAX];
+                match od.upload_small(index, sub, &mut data) {
+                    Ok(size @ 1..=EXPEDITED_MAX) => return self.emit(expedited_upload_response(index, sub, data, size), tx),
+                    Ok(size) => size,
+                    Err(code) => return self.abort(code, tx),
+                }
+            }
+            Some(request) => match self.start_block_upload(request, od, tx) {
+                Some(size) => size,
+                None => return,
+            },
+        };
+        self.upload_response(size, od, tx);
     }
 
     /// The initiate upload response for a value of `size` bytes: expedited

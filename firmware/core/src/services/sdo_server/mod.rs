@@ -443,6 +443,17 @@ impl Channel {
     ) {
         let (index, sub) = multiplexer(&f);
         let [b0, ..] = f;
+        // An initiate block upload is served as an initiate upload with the
+        // block's fields (a value of at most pst bytes is answered as that
+        // would be): one copy of the initiate. `block` first: without block
+        // transfer the compiler knows there is none.
+        let upload_block = match BlockUploadRequest::decode(&f) {
+            BlockUploadRequest::Initiate { crc, blksize, pst, .. } if block && kind == RequestKind::BlockUploadInitiate => {
+                Some(block::UploadInitiate { crc, blksize, pst })
+            }
+            _ => None,
+        };
+        let kind = if upload_block.is_some() { RequestKind::InitiateUpload } else { kind };
         // An abort or a new initiate ends whatever was in progress. Each
         // other request belongs to one kind of transfer: served by its
         // handler if that transfer is in progress, refused if not.
@@ -452,7 +463,7 @@ impl Channel {
             // checks): the block initiate's multiplexer is bytes 1-3 too.
             (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
                 self.start(index, sub);
-                let (data, crc) = if kind == RequestKind::InitiateDownload {
+                let (data, crc) = if !block || kind == RequestKind::InitiateDownload {
                     (initiate_data(b0, &f), None)
                 } else {
                     match BlockDownloadRequest::decode(&f) {
@@ -465,7 +476,7 @@ impl Channel {
             }
             (RequestKind::InitiateUpload, _) => {
                 self.start(index, sub);
-                self.initiate_upload(od, tx);
+                self.initiate_upload(upload_block, od, tx);
             }
             (RequestKind::DownloadSegment, _) if self.state == State::SegmentedDownload => {
                 let (toggle, len, last) = segment_fields(b0);
@@ -481,11 +492,7 @@ impl Channel {
                 }
                 _ => self.unexpected(tx),
             },
-            (RequestKind::BlockUploadInitiate | RequestKind::BlockUpload, true) => match BlockUploadRequest::decode(&f) {
-                BlockUploadRequest::Initiate { index, sub, crc, blksize, pst } => {
-                    self.start(index, sub);
-                    self.start_block_upload(crc, blksize, pst, od, tx);
-                }
+            (RequestKind::BlockUpload, true) => match BlockUploadRequest::decode(&f) {
                 request if self.state == State::BlockUpload => self.block_upload(request, tx),
                 _ => self.unexpected(tx),
             },
