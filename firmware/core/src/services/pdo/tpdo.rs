@@ -22,7 +22,7 @@
 //! retries at the next poll, a synchronous one at the next poll while the
 //! synchronous window (0x1007) is still open, after which it is dropped.
 
-use super::config::Config;
+use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
@@ -183,6 +183,16 @@ impl Tpdo {
         self.await_start = self.config.params.sync_start != 0;
         self.sampled = false;
         self.pending_sync = false;
+    }
+
+    /// Acts on what a download or the configuration changed
+    /// ([`Config::change`]), in `Pdos::parameters_changed`'s walk.
+    pub(super) fn act(&mut self) {
+        match core::mem::take(&mut self.config.change) {
+            Change::None => {}
+            Change::Restart => self.restart(None),
+            Change::Timer => self.rearm_timer(),
+        }
     }
 
     /// The event timer was rewritten: it restarts at the next poll (and
