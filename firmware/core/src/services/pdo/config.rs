@@ -74,8 +74,8 @@ impl Config {
         self.cob_id_writable = self.params.read_record(dict, image, comm);
         let index = nth(comm, MAPPING_OFFSET);
         let Err(code) = self.mapping.read_record(dict, image, index, direction) else { return None };
-        // What the failed resolution left is no mapping.
-        (self.mapping, self.unresolved) = (Mapping::EMPTY, true);
+        // The failed resolution left an empty mapping (`Mapping::resolve`).
+        self.unresolved = true;
         // A record the dictionary lacks is no error.
         (code != AbortCode::NoDictionary).then_some(MappingError { index, code })
     }

@@ -206,8 +206,10 @@ impl Mapping {
     /// record resolved as the image holds them: the configured mapping, or
     /// the one an SDO download of sub 0 = `count` asks for. At most one
     /// binary search per entry. Built in place (a caller's mapping, not a
-    /// value returned and copied: 82 bytes each time); after an error it
-    /// holds nothing anyone should use.
+    /// value returned and copied: 66 bytes each time). After an error it
+    /// is empty (no entry, no byte: a PDO with it is silent), or as it was
+    /// when the record's entries could not be read; the entries it got to
+    /// may stay in slots past its count, which nothing reads.
     // `total` is at most MAX_ENTRIES × 255; od-gen lays out each value
     // inside its u16-addressed table, so `offset + i` fits a u16.
     #[allow(clippy::arithmetic_side_effects)]
