@@ -186,6 +186,7 @@ impl Mapping {
     /// Becomes the mapping record `index` (0x1600+n or 0x1A00+n) read and
     /// resolved as the image holds it (in place, as [`Mapping::resolve`]).
     pub fn read(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
+        *self = Mapping::EMPTY;
         self.read_record(dict, image, index, direction).map_err(|code| match code {
             AbortCode::NoDictionary => AbortCode::NoObject,
             code => code,
@@ -194,7 +195,8 @@ impl Mapping {
 
     /// [`Mapping::read`], with [`AbortCode::NoDictionary`] (which nothing
     /// else here returns) for a record the dictionary lacks, no error at
-    /// configuration: one look-up of the record tells it.
+    /// configuration: one look-up of the record tells it. Into an empty
+    /// mapping, as [`Mapping::resolve`].
     pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
         let record = object(dict, index);
         let missing = if record.is_empty() { AbortCode::NoDictionary } else { AbortCode::NoObject };
@@ -202,14 +204,15 @@ impl Mapping {
         self.resolve(dict, image, record, value_u32(dict, image, count), direction)
     }
 
-    /// Becomes the first `count` entries (sub 1..=count) of a mapping
-    /// record resolved as the image holds them: the configured mapping, or
-    /// the one an SDO download of sub 0 = `count` asks for. At most one
-    /// binary search per entry. Built in place (a caller's mapping, not a
-    /// value returned and copied: 66 bytes each time). After an error it
-    /// is empty (no entry, no byte: a PDO with it is silent), or as it was
-    /// when the record's entries could not be read; the entries it got to
-    /// may stay in slots past its count, which nothing reads.
+    /// Makes an empty mapping ([`Mapping::EMPTY`], which each caller's
+    /// is: no second clearing here) the first `count` entries (sub
+    /// 1..=count) of a mapping record resolved as the image holds them:
+    /// the configured mapping, or the one an SDO download of sub 0 =
+    /// `count` asks for. At most one binary search per entry. Built in
+    /// place (a caller's mapping, not a value returned and copied: 66
+    /// bytes each time). After an error it is still empty (no entry, no
+    /// byte: a PDO with it is silent); the entries it got to may stay in
+    /// slots past its count, which nothing reads.
     // `total` is at most MAX_ENTRIES × 255; od-gen lays out each value
     // inside its u16-addressed table, so `offset + i` fits a u16.
     #[allow(clippy::arithmetic_side_effects)]
@@ -231,7 +234,6 @@ impl Mapping {
             let entry = sub_entry(record, sub).ok_or(AbortCode::PdoTooLong)?;
             *value = value_u32(dict, image, entry);
         }
-        *self = Mapping::EMPTY;
         let mapping = self;
         let mut total = 0usize;
         for ((start, object), &raw) in mapping.slots.iter_mut().zip(&mut mapping.objects).zip(raw.iter().take(count)) {

@@ -352,14 +352,15 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn reload_mappings(&mut self, dict: &Dictionary, image: &[u8]) {
         self.settled = false;
         // A mapping that does not resolve leaves the PDO's as it was.
-        let mut mapping = Mapping::EMPTY;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
+            let mut mapping = Mapping::EMPTY;
             if mapping.read_record(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
                 (rpdo.config.mapping, rpdo.config.unresolved) = (mapping, false);
                 rpdo.restart();
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
+            let mut mapping = Mapping::EMPTY;
             if mapping.read_record(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
                 (tpdo.config.mapping, tpdo.config.unresolved) = (mapping, false);
                 tpdo.restart(None);
