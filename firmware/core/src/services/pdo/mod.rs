@@ -242,7 +242,8 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// ([`Config::change`](config::Config)) in the walk of
     /// [`Pdos::parameters_changed`], which follows each: with both kinds of
     /// PDO, one store where a download chose the reaction per direction
-    /// (and the configuration's restart a call per TPDO). With one kind the
+    /// (and the configuration's and [`Pdos::reload_mappings`]' restarts a
+    /// call per PDO). With one kind the
     /// choice is a constant: the PDO acts at once, less code than the walk's test.
     const ACT_IN_WALK: bool = R != 0 && T != 0;
 
@@ -355,15 +356,19 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
             let mut mapping = Mapping::EMPTY;
             if mapping.read_record(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
-                (rpdo.config.mapping, rpdo.config.unresolved) = (mapping, false);
-                rpdo.restart();
+                (rpdo.config.mapping, rpdo.config.unresolved, rpdo.config.change) = (mapping, false, Change::Restart);
+                if !Self::ACT_IN_WALK {
+                    rpdo.act();
+                }
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
             let mut mapping = Mapping::EMPTY;
             if mapping.read_record(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
-                (tpdo.config.mapping, tpdo.config.unresolved) = (mapping, false);
-                tpdo.restart(None);
+                (tpdo.config.mapping, tpdo.config.unresolved, tpdo.config.change) = (mapping, false, Change::Restart);
+                if !Self::ACT_IN_WALK {
+                    tpdo.act();
+                }
             }
         }
         self.parameters_changed();
