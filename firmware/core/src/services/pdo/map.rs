@@ -339,8 +339,8 @@ impl Mapping {
             let Some((value, tail)) = rest.split_at_checked(usize::from(start.len)) else { return };
             rest = tail;
             // An RPDO maps no constant: a RAM object or a dummy entry.
-            if let Some(offset) = start.at.checked_sub(RAM) {
-                let start = usize::from(offset);
+            if start.at & RAM != 0 {
+                let start = usize::from(start.at & !RAM);
                 // `resolve` keeps a RAM slot inside the image it was resolved against.
                 if let Some(dst) = image.get_mut(start..start.wrapping_add(value.len())) {
                     copy_value(dst, value);
