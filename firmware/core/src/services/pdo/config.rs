@@ -63,7 +63,7 @@ impl Config {
 
     /// Reads communication record `comm` (0x1400+n or 0x1800+n) and its
     /// mapping record from the image into a configuration that is
-    /// [`Config::UNCONFIGURED`] (the caller's PDO, cleared whole): a
+    /// [`Config::UNCONFIGURED`] (the caller's PDO's, cleared): a
     /// mapping the dictionary lacks, or one that does not resolve, leaves
     /// the mapping empty and `unresolved`; the second is returned. The
     /// mapping is resolved in place (a mapping returned by value was copied
