@@ -23,17 +23,37 @@ pub(super) struct Config {
     pub(super) unresolved: bool,
     /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
     pub(super) cob_id_writable: bool,
+    /// What a download or a configuration changed that the PDO has yet to
+    /// act on (see `Pdos::ACT_IN_WALK`); [`Change::None`] but in between.
+    pub(super) change: Change,
+}
+
+/// What a download changed in a PDO's configuration: the PDO's reaction.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) enum Change {
+    /// Nothing the PDO acts on. First: all zero bits.
+    #[default]
+    None,
+    /// The COB-ID, the type or the mapping: the PDO starts over.
+    Restart,
+    /// The event timer alone: it starts again.
+    Timer,
 }
 
 impl Config {
     /// Before the first configuration: all zero bits ([`crate::node`]), an
     /// empty mapping, so the PDO does nothing.
-    pub(super) const UNCONFIGURED: Config =
-        Config { params: CommParams::UNCONFIGURED, mapping: Mapping::EMPTY, unresolved: false, cob_id_writable: false };
+    pub(super) const UNCONFIGURED: Config = Config {
+        params: CommParams::UNCONFIGURED,
+        mapping: Mapping::EMPTY,
+        unresolved: false,
+        cob_id_writable: false,
+        change: Change::None,
+    };
 
     /// A dictionary without the PDO's records: an invalid PDO of type 254.
     pub(super) const DEFAULT: Config =
-        Config { params: CommParams::DEFAULT, mapping: Mapping::EMPTY, unresolved: true, cob_id_writable: false };
+        Config { params: CommParams::DEFAULT, mapping: Mapping::EMPTY, unresolved: true, cob_id_writable: false, change: Change::None };
 
     /// The CAN-ID the PDO uses: `Some` when the COB-ID is valid and a
     /// non-empty mapping resolved (a mapping of sub 0 = 0 disables the PDO).
@@ -43,7 +63,7 @@ impl Config {
 
     /// Reads communication record `comm` (0x1400+n or 0x1800+n) and its
     /// mapping record from the image into a configuration that is
-    /// [`Config::UNCONFIGURED`] (the caller's PDO, cleared whole): a
+    /// [`Config::UNCONFIGURED`] (the caller's PDO's, cleared): a
     /// mapping the dictionary lacks, or one that does not resolve, leaves
     /// the mapping empty and `unresolved`; the second is returned. The
     /// mapping is resolved in place (a mapping returned by value was copied
@@ -54,8 +74,8 @@ impl Config {
         self.cob_id_writable = self.params.read_record(dict, image, comm);
         let index = nth(comm, MAPPING_OFFSET);
         let Err(code) = self.mapping.read_record(dict, image, index, direction) else { return None };
-        // What the failed resolution left is no mapping.
-        (self.mapping, self.unresolved) = (Mapping::EMPTY, true);
+        // The failed resolution left an empty mapping (`Mapping::resolve`).
+        self.unresolved = true;
         // A record the dictionary lacks is no error.
         (code != AbortCode::NoDictionary).then_some(MappingError { index, code })
     }

@@ -14,7 +14,9 @@
 //!   that is not a whole number of bytes fails the same way;
 //! - at most 8 entries and 64 bits in all: 0x06040042;
 //! - dummy entries 0x0001–0x0007 (sub 0, length = the type's size) only in
-//!   an RPDO, where they skip bytes: 0x06040041 in a TPDO.
+//!   an RPDO, where they skip bytes: 0x06040041 in a TPDO;
+//! - the object ends below 32 KiB − 1 of its RAM image or ROM blob (the
+//!   marks of the mapping's tables): 0x06040041.
 
 use crate::abort::AbortCode;
 use crate::od::{Attr, DataType, Dictionary, Entry, EntryRef, object, sub_entry, value_u32};
@@ -65,20 +67,21 @@ pub struct Slot {
 impl Slot {
     /// Checks one mapping entry for `direction` and resolves it: one binary search.
     pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
-        let (mut slot, mut at) = (Slot::default(), EntryRef::NONE);
-        Slot::resolve_into(dict, entry, direction, &mut slot, &mut at).map(|()| slot)
+        let (mut start, mut object) = (Start::default(), EntryRef::NONE);
+        Slot::resolve_into(dict, entry, direction, &mut start, &mut object)?;
+        Ok(start.slot())
     }
 
-    /// [`Slot::resolve`] into `slot`, with the mapped entry into `object`
-    /// (left as it was for a dummy entry): in place, where a pair returned
-    /// in a `Result` went through the stack.
+    /// [`Slot::resolve`] into where a [`Mapping`] keeps an entry, with the
+    /// mapped entry into `object` (left as it was for a dummy entry): in
+    /// place, where a pair returned in a `Result` went through the stack.
     // Offset and length are u16s: their sum fits a u32.
     #[allow(clippy::arithmetic_side_effects)]
     fn resolve_into(
         dict: &Dictionary,
         entry: MappingEntry,
         direction: Direction,
-        slot: &mut Slot,
+        start: &mut Start,
         object_ref: &mut EntryRef,
     ) -> Result<(), AbortCode> {
         if entry.is_dummy() {
@@ -88,13 +91,13 @@ impl Slot {
             let size = DataType::from_index(entry.index).and_then(DataType::size).unwrap_or(0);
             return match entry.bytes() {
                 Some(len) if usize::from(len) == size => {
-                    *slot = Slot { source: Source::Dummy, len };
+                    *start = Start { at: DUMMY, len };
                     Ok(())
                 }
                 _ => Err(AbortCode::ParameterIncompatible),
             };
         }
-        let (at, object) = dict.find_ref(entry.index, entry.sub)?;
+        let (found, object) = dict.find_ref(entry.index, entry.sub)?;
         let allowed = match direction {
             Direction::Receive => object.attr.contains(Attr::MAP_RPDO) && !object.in_rom(),
             Direction::Transmit => object.attr.contains(Attr::MAP_TPDO),
@@ -108,15 +111,43 @@ impl Slot {
         if usize::from(object.len) > MAX_LEN {
             return Err(AbortCode::PdoTooLong);
         }
-        // A RAM image past 32 KiB would reach the constant marker of the byte table.
-        if !object.in_rom() && u32::from(object.offset) + u32::from(object.len) > u32::from(RAM) {
+        // An object ending past 32 KiB − 1 would reach the dummy entries'
+        // and the RAM marker of a slot's start and of the byte table (a RAM
+        // image or a ROM blob that large).
+        if u32::from(object.offset) + u32::from(object.len) > u32::from(DUMMY) {
             return Err(AbortCode::NotMappable);
         }
-        let source = if object.in_rom() { Source::Rom(object.offset) } else { Source::Ram(object.offset) };
-        (*slot, *object_ref) = (Slot { source, len: object.len }, at);
+        let at = if object.in_rom() { object.offset } else { RAM | object.offset };
+        (*start, *object_ref) = (Start { at, len: object.len }, found);
         Ok(())
     }
 }
+
+impl Start {
+    /// The [`Slot`] it stands for.
+    fn slot(self) -> Slot {
+        let source = match self.at.checked_sub(RAM) {
+            Some(offset) => Source::Ram(offset),
+            None if self.at == DUMMY => Source::Dummy,
+            None => Source::Rom(self.at),
+        };
+        Slot { source, len: self.len }
+    }
+}
+
+/// A [`Slot`] as a [`Mapping`] keeps it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Start {
+    /// [`RAM`] with the image offset of a RAM object, the ROM blob's offset
+    /// of a constant (TPDO only), [`DUMMY`] for a dummy entry.
+    at: u16,
+    /// Its length in bytes.
+    len: u8,
+}
+
+/// [`Start::at`] of a dummy entry: no RAM object's (at least [`RAM`]) and
+/// no ROM object's (every mapped object ends below it, [`Slot::resolve`]).
+const DUMMY: u16 = RAM - 1;
 
 /// A mapping resolved against the dictionary: at most [`MAX_ENTRIES`]
 /// slots and [`MAX_LEN`] bytes.
@@ -127,7 +158,9 @@ impl Slot {
 /// slots with a copy per object.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Mapping {
-    slots: [Slot; MAX_ENTRIES],
+    /// The entries, each where it starts and its length ([`Start`]): a
+    /// [`Slot`] in 4 bytes, not 6.
+    slots: [Start; MAX_ENTRIES],
     /// PDO byte i: [`RAM`] with the image offset it is read from or written
     /// to, or the byte itself (a ROM object's value, or 0 for a dummy entry,
     /// which an RPDO does not write, and for the bytes past the length).
@@ -143,7 +176,7 @@ pub struct Mapping {
 impl Mapping {
     /// The mapping of sub-index 0 = 0: nothing mapped (the PDO is disabled).
     pub const EMPTY: Mapping = Mapping {
-        slots: [Slot { source: Source::Dummy, len: 0 }; MAX_ENTRIES],
+        slots: [Start { at: 0, len: 0 }; MAX_ENTRIES],
         gather: [0; MAX_LEN],
         objects: [EntryRef::NONE; MAX_ENTRIES],
         count: 0,
@@ -153,6 +186,7 @@ impl Mapping {
     /// Becomes the mapping record `index` (0x1600+n or 0x1A00+n) read and
     /// resolved as the image holds it (in place, as [`Mapping::resolve`]).
     pub fn read(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
+        *self = Mapping::EMPTY;
         self.read_record(dict, image, index, direction).map_err(|code| match code {
             AbortCode::NoDictionary => AbortCode::NoObject,
             code => code,
@@ -161,7 +195,8 @@ impl Mapping {
 
     /// [`Mapping::read`], with [`AbortCode::NoDictionary`] (which nothing
     /// else here returns) for a record the dictionary lacks, no error at
-    /// configuration: one look-up of the record tells it.
+    /// configuration: one look-up of the record tells it. Into an empty
+    /// mapping, as [`Mapping::resolve`].
     pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
         let record = object(dict, index);
         let missing = if record.is_empty() { AbortCode::NoDictionary } else { AbortCode::NoObject };
@@ -169,12 +204,15 @@ impl Mapping {
         self.resolve(dict, image, record, value_u32(dict, image, count), direction)
     }
 
-    /// Becomes the first `count` entries (sub 1..=count) of a mapping
-    /// record resolved as the image holds them: the configured mapping, or
-    /// the one an SDO download of sub 0 = `count` asks for. At most one
-    /// binary search per entry. Built in place (a caller's mapping, not a
-    /// value returned and copied: 82 bytes each time); after an error it
-    /// holds nothing anyone should use.
+    /// Makes an empty mapping ([`Mapping::EMPTY`], which each caller's
+    /// is: no second clearing here) the first `count` entries (sub
+    /// 1..=count) of a mapping record resolved as the image holds them:
+    /// the configured mapping, or the one an SDO download of sub 0 =
+    /// `count` asks for. At most one binary search per entry. Built in
+    /// place (a caller's mapping, not a value returned and copied: 66
+    /// bytes each time). After an error it is still empty (no entry, no
+    /// byte: a PDO with it is silent); the entries it got to may stay in
+    /// slots past its count, which nothing reads.
     // `total` is at most MAX_ENTRIES × 255; od-gen lays out each value
     // inside its u16-addressed table, so `offset + i` fits a u16.
     #[allow(clippy::arithmetic_side_effects)]
@@ -196,13 +234,12 @@ impl Mapping {
             let entry = sub_entry(record, sub).ok_or(AbortCode::PdoTooLong)?;
             *value = value_u32(dict, image, entry);
         }
-        *self = Mapping::EMPTY;
         let mapping = self;
         let mut total = 0usize;
-        for ((slot, object), &raw) in mapping.slots.iter_mut().zip(&mut mapping.objects).zip(raw.iter().take(count)) {
+        for ((start, object), &raw) in mapping.slots.iter_mut().zip(&mut mapping.objects).zip(raw.iter().take(count)) {
             // An empty mapping's objects are `EntryRef::NONE`, as a dummy entry's stays.
-            Slot::resolve_into(dict, MappingEntry::from_u32(raw), direction, slot, object)?;
-            total += usize::from(slot.len);
+            Slot::resolve_into(dict, MappingEntry::from_u32(raw), direction, start, object)?;
+            total += usize::from(start.len);
             if total > MAX_LEN {
                 return Err(AbortCode::PdoTooLong);
             }
@@ -210,22 +247,16 @@ impl Mapping {
         mapping.count = count as u8;
         mapping.len = total as u8;
         let mut bytes = mapping.gather.iter_mut();
-        for slot in mapping.slots.iter().take(count) {
-            for i in 0..u16::from(slot.len) {
+        for start in mapping.slots.iter().take(count) {
+            for i in 0..u16::from(start.len) {
                 let Some(g) = bytes.next() else { break };
-                *g = match slot.source {
-                    Source::Ram(offset) => RAM | (offset + i),
-                    Source::Rom(offset) => u16::from(dict.rom.get(usize::from(offset + i)).copied().unwrap_or(0)),
-                    Source::Dummy => 0,
-                };
+                // A dummy entry (RPDO only) reads as whatever byte: below
+                // `RAM`, it is no image byte, and an RPDO writes none for it.
+                let at = start.at + i;
+                *g = if start.at >= RAM { at } else { u16::from(dict.rom.get(usize::from(at)).copied().unwrap_or(0)) };
             }
         }
         Ok(())
-    }
-
-    /// The resolved entries.
-    pub fn slots(&self) -> &[Slot] {
-        self.slots.get(..usize::from(self.count)).unwrap_or(&[])
     }
 
     /// Entry `i` (in mapping order): the dictionary entry it maps
@@ -234,7 +265,7 @@ impl Mapping {
         if i >= usize::from(self.count) {
             return None;
         }
-        Some((*self.objects.get(i)?, *self.slots.get(i)?))
+        Some((*self.objects.get(i)?, self.slots.get(i)?.slot()))
     }
 
     /// Number of mapped bytes.
@@ -304,11 +335,12 @@ impl Mapping {
     #[inline(always)]
     pub(super) fn apply_in_line(&self, image: &mut [u8], data: &[u8]) {
         let mut rest = data;
-        for slot in self.slots() {
-            let Some((value, tail)) = rest.split_at_checked(usize::from(slot.len)) else { return };
+        for start in self.slots.get(..usize::from(self.count)).unwrap_or(&[]) {
+            let Some((value, tail)) = rest.split_at_checked(usize::from(start.len)) else { return };
             rest = tail;
-            if let Source::Ram(offset) = slot.source {
-                let start = usize::from(offset);
+            // An RPDO maps no constant: a RAM object or a dummy entry.
+            if start.at & RAM != 0 {
+                let start = usize::from(start.at & !RAM);
                 // `resolve` keeps a RAM slot inside the image it was resolved against.
                 if let Some(dst) = image.get_mut(start..start.wrapping_add(value.len())) {
                     copy_value(dst, value);

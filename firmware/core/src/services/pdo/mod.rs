@@ -63,6 +63,7 @@ use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Far, NEVER, at, deadline_of};
 use crate::wire::emcy::EmcyCode;
+use config::Change;
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
 use tpdo::Tpdo;
@@ -237,6 +238,15 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
 }
 
 impl<const R: usize, const T: usize> Pdos<R, T> {
+    /// Whether a PDO acts on what a download or its configuration changed
+    /// ([`Config::change`](config::Config)) in the walk of
+    /// [`Pdos::parameters_changed`], which follows each: with both kinds of
+    /// PDO, one store where a download chose the reaction per direction
+    /// (and the configuration's and [`Pdos::reload_mappings`]' restarts a
+    /// call per PDO). With one kind the
+    /// choice is a constant: the PDO acts at once, less code than the walk's test.
+    const ACT_IN_WALK: bool = R != 0 && T != 0;
+
     /// The PDOs before their first [`Pdos::configure`]: stopped, with empty
     /// mappings, and all zero bits ([`crate::node`]; [`Pdos::default`] is
     /// invalid PDOs as a dictionary without
@@ -302,7 +312,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             tpdo.unconfigure();
             let comm = nth(index::TPDO_COMMUNICATION_PARAMETER, n);
             first_error = first_error.or(tpdo.config.read(dict, image, comm, Direction::Transmit));
-            tpdo.restart(None);
+            if Self::ACT_IN_WALK {
+                // Restarted by `parameters_changed` below.
+                tpdo.config.change = Change::Restart;
+            } else {
+                tpdo.restart(None);
+            }
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
         self.parameters_changed();
@@ -338,17 +353,22 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     pub fn reload_mappings(&mut self, dict: &Dictionary, image: &[u8]) {
         self.settled = false;
         // A mapping that does not resolve leaves the PDO's as it was.
-        let mut mapping = Mapping::EMPTY;
         for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
+            let mut mapping = Mapping::EMPTY;
             if mapping.read_record(dict, image, nth(index::RPDO_MAPPING_PARAMETER, n), Direction::Receive).is_ok() {
-                (rpdo.config.mapping, rpdo.config.unresolved) = (mapping, false);
-                rpdo.restart();
+                (rpdo.config.mapping, rpdo.config.unresolved, rpdo.config.change) = (mapping, false, Change::Restart);
+                if !Self::ACT_IN_WALK {
+                    rpdo.act();
+                }
             }
         }
         for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
+            let mut mapping = Mapping::EMPTY;
             if mapping.read_record(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
-                (tpdo.config.mapping, tpdo.config.unresolved) = (mapping, false);
-                tpdo.restart(None);
+                (tpdo.config.mapping, tpdo.config.unresolved, tpdo.config.change) = (mapping, false, Change::Restart);
+                if !Self::ACT_IN_WALK {
+                    tpdo.act();
+                }
             }
         }
         self.parameters_changed();
@@ -411,7 +431,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.last_write = (0, 0);
         // One walk over each kind of PDO, every mask at once.
         let (mut live, mut sync_tpdos) = (0, 0);
-        for (t, tpdo) in self.tpdos.iter().enumerate() {
+        for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
+            if Self::ACT_IN_WALK {
+                tpdo.act();
+            }
             if tpdo.cob_id().is_some() {
                 live |= bit_of(t);
                 if tpdo.is_synchronous() {
@@ -421,8 +444,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         let mut sync_rpdos = 0;
         for (n, ((id, key), (reach, rpdo))) in
-            self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(self.rpdo_reach.iter_mut().zip(&self.rpdos)).enumerate()
+            self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(self.rpdo_reach.iter_mut().zip(&mut self.rpdos)).enumerate()
         {
+            if Self::ACT_IN_WALK {
+                rpdo.act();
+            }
             *id = rpdo.cob_id().unwrap_or(NO_ID);
             *key = rpdo.plain_key();
             if rpdo.config.params.is_synchronous() {

@@ -13,7 +13,7 @@
 //! - Event timer (sub 5, ms): deadline monitoring, armed by the first RPDO
 //!   received; expiry raises EMCY 0x8250, the next RPDO ends it.
 
-use super::config::Config;
+use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
 use crate::time::{At, later, shift_opt};
@@ -104,6 +104,16 @@ impl Rpdo {
     pub(super) fn restart(&mut self) {
         self.has_buffered = false;
         self.timeout_at = None;
+    }
+
+    /// Acts on what a download or the configuration changed
+    /// ([`Config::change`]), in `Pdos::parameters_changed`'s walk.
+    pub(super) fn act(&mut self) {
+        match core::mem::take(&mut self.config.change) {
+            Change::None => {}
+            Change::Restart => self.restart(),
+            Change::Timer => self.disarm_timer(),
+        }
     }
 
     /// The event timer was rewritten: it restarts with the next RPDO.

@@ -22,7 +22,7 @@
 //! retries at the next poll, a synchronous one at the next poll while the
 //! synchronous window (0x1007) is still open, after which it is dropped.
 
-use super::config::Config;
+use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
@@ -155,13 +155,14 @@ impl Tpdo {
         timer_only
     }
 
-    /// Back to [`Tpdo::UNCONFIGURED`] but for the application's choices,
+    /// Back to an unconfigured PDO but for the application's choices,
     /// which survive a reset: change detection and timer-only type 254.
-    /// The next [`Tpdo::restart`] works out what they imply.
+    /// For a [`Tpdo::restart`] to follow, which sets the state it keeps
+    /// (what was sent, the events, the timers, the SYNC count) and works
+    /// out what the choices imply; the last frame and the held one are
+    /// not read before they are written again.
     pub(super) fn unconfigure(&mut self) {
-        let (no_change_detection, timer_only_254) = (self.no_change_detection, self.timer_only_254);
-        *self = Tpdo::UNCONFIGURED;
-        (self.no_change_detection, self.timer_only_254) = (no_change_detection, timer_only_254);
+        (self.config, self.timer_only_255_with_timer) = (Config::UNCONFIGURED, false);
     }
 
     /// Starts over, as on entering Operational: nothing counts as sent, so
@@ -183,6 +184,16 @@ impl Tpdo {
         self.await_start = self.config.params.sync_start != 0;
         self.sampled = false;
         self.pending_sync = false;
+    }
+
+    /// Acts on what a download or the configuration changed
+    /// ([`Config::change`]), in `Pdos::parameters_changed`'s walk.
+    pub(super) fn act(&mut self) {
+        match core::mem::take(&mut self.config.change) {
+            Change::None => {}
+            Change::Restart => self.restart(None),
+            Change::Timer => self.rearm_timer(),
+        }
     }
 
     /// The event timer was rewritten: it restarts at the next poll (and

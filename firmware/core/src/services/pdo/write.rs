@@ -3,7 +3,7 @@
 //! procedure of CiA 301 §7.5.2.36 (the decisions are listed in the module
 //! docs of [`super`]).
 
-use super::config::Config;
+use super::config::{Change, Config};
 use super::map::{Direction, Mapping, Slot};
 use super::rpdo::Rpdo;
 use super::tpdo::Tpdo;
@@ -115,6 +115,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             Ok(change) => change,
             Err(code) => return Some(Err(code)),
         };
+        if Self::ACT_IN_WALK {
+            // `parameters_changed`, which follows, acts on it.
+            config.change = change;
+            return Some(Ok(()));
+        }
         match (direction, change) {
             (_, Change::None) => {}
             (Direction::Receive, Change::Restart) => self.rpdos.get_mut(n).map_or((), Rpdo::restart),
@@ -124,17 +129,6 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         Some(Ok(()))
     }
-}
-
-/// What a download changed in a PDO's configuration: the PDO's reaction.
-#[derive(Clone, Copy)]
-enum Change {
-    /// Nothing the PDO acts on.
-    None,
-    /// The COB-ID, the type or the mapping: the PDO starts over.
-    Restart,
-    /// The event timer alone: it starts again.
-    Timer,
 }
 
 /// An SDO download into PDO record (index, sub), a mapping record if

@@ -10,9 +10,10 @@ fn configure_caches_the_records_and_resolves_the_mappings() {
     let node = Node::new();
     let r1 = node.pdos.rpdo(0).unwrap();
     assert_eq!((r1.cob_id(), r1.params().transmission_type, r1.mapping().map(Mapping::len)), (Some(0x201), 255, Some(3)));
+    let mapping = r1.mapping().unwrap();
     assert_eq!(
-        r1.mapping().unwrap().slots(),
-        &[Slot { source: map::Source::Ram(143), len: 2 }, Slot { source: map::Source::Ram(142), len: 1 }]
+        [mapping.object(0).map(|(_, s)| s), mapping.object(1).map(|(_, s)| s), mapping.object(2).map(|(_, s)| s)],
+        [Some(Slot { source: map::Source::Ram(143), len: 2 }), Some(Slot { source: map::Source::Ram(142), len: 1 }), None]
     );
     // Valid, but nothing mapped: disabled.
     let r2 = node.pdos.rpdo(1).unwrap();
