@@ -16,7 +16,7 @@ use crate::wire::sync::SYNC_COB_ID;
 /// (index, sub) as an integer, `default` if the dictionary lacks it.
 // Out of line: the services read a dozen objects this way.
 #[inline(never)]
-fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, default: u32) -> u32 {
+pub(super) fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, default: u32) -> u32 {
     dict.read_u32(image, index, sub).unwrap_or(default)
 }
 
@@ -227,9 +227,6 @@ pub(crate) trait Services {
     /// [`Comm::clear_history`].
     fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]);
 
-    /// [`SyncService::check`].
-    fn check_sync(&self, index: u16, value: u32) -> Result<(), AbortCode>;
-
     /// A download into a PDO record (0x1400–0x1BFF) whose `entry` passed
     /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may change).
     #[allow(clippy::too_many_arguments)]
@@ -267,10 +264,6 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
 
     fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
         Comm::clear_history(self, dict, image);
-    }
-
-    fn check_sync(&self, index: u16, value: u32) -> Result<(), AbortCode> {
-        self.sync.check(index, value)
     }
 
     fn write_pdo(
