@@ -21,17 +21,18 @@ pub(super) fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, defau
 }
 
 /// The objects reset communication applies as a download would (sub 0 of
-/// each), with the value of one the dictionary lacks: EMCY, guarding,
-/// heartbeat and TIME read their objects again, SYNC takes the value.
-static CONFIGURED: [(u16, u32); 8] = [
-    (index::COB_ID_EMCY, 0),
-    (index::GUARD_TIME, 0),
-    (index::PRODUCER_HEARTBEAT_TIME, 0),
-    (index::COB_ID_TIME_STAMP, 0),
-    (index::COB_ID_SYNC, SYNC_COB_ID as u32),
-    (index::COMMUNICATION_CYCLE_PERIOD, 0),
-    (index::SYNCHRONOUS_WINDOW_LENGTH, 0),
-    (index::SYNCHRONOUS_COUNTER_OVERFLOW, 0),
+/// each): EMCY, guarding, heartbeat and TIME read their objects again, SYNC
+/// takes the value. One the dictionary lacks counts as 0, but 0x1005 as
+/// the pre-defined SYNC COB-ID.
+static CONFIGURED: [u16; 8] = [
+    index::COB_ID_EMCY,
+    index::GUARD_TIME,
+    index::PRODUCER_HEARTBEAT_TIME,
+    index::COB_ID_TIME_STAMP,
+    index::COB_ID_SYNC,
+    index::COMMUNICATION_CYCLE_PERIOD,
+    index::SYNCHRONOUS_WINDOW_LENGTH,
+    index::SYNCHRONOUS_COUNTER_OVERFLOW,
 ];
 
 /// Active errors and queued EMCY messages a node keeps.
@@ -113,7 +114,8 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // TIME read their objects again; SYNC and the consumers take the stored
         // value, or the default where the dictionary lacks the object).
         self.sync = SyncService::default();
-        for &(index, default) in CONFIGURED.iter() {
+        for &index in CONFIGURED.iter() {
+            let default = if index == index::COB_ID_SYNC { SYNC_COB_ID.into() } else { 0 };
             let value = u32_of(dict, image, index, 0, default);
             Services::apply(self, index, 0, value, dict, image, now);
         }
@@ -311,5 +313,48 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
             // Nothing for an object no service uses.
             _ => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::od::{Attr, DataType, DeviceInfo};
+
+    const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
+    static ENTRIES: [Entry; 2] =
+        [Entry::new(0x1005, 0, DataType::Unsigned32, RW, 4, 0), Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 4)];
+    static DEFAULTS: [u8; 6] = [0x81, 0, 0, 0x40, 0xE8, 0x03];
+    static DICT: Dictionary = Dictionary {
+        entries: &ENTRIES,
+        limits: &[],
+        limit_rows: &[],
+        rom: &[],
+        defaults: crate::od::Defaults::dense(&DEFAULTS),
+        comm_len: 6,
+        stored_len: 6,
+        comm_rest: 0,
+        node_id_relative: &[],
+        layout_id: crate::od::layout_id(&ENTRIES),
+        device: DeviceInfo {
+            baud_rates: 0,
+            lss_supported: false,
+            granularity: 8,
+            simple_boot_up_slave: true,
+            dynamic_channels: false,
+            group_messaging: false,
+        },
+    };
+    static EMPTY: Dictionary = Dictionary { entries: &[], defaults: crate::od::Defaults::dense(&[]), comm_len: 0, stored_len: 0, ..DICT };
+
+    #[test]
+    fn reset_communication_applies_each_object_or_its_default() {
+        let mut comm = Comm::<0, 0, 0>::new();
+        comm.configure(&DICT, &DEFAULTS, 0);
+        assert_eq!(comm.sync.cob_id(), 0x81, "0x1005 as the image holds it");
+        assert!(comm.heartbeat.active(), "0x1017 = 1000 ms");
+        comm.configure(&EMPTY, &[], 0);
+        assert_eq!(comm.sync.cob_id(), 0x80, "no 0x1005: the pre-defined SYNC COB-ID");
+        assert!(!comm.heartbeat.active(), "no 0x1017: no heartbeat");
     }
 }
