@@ -19,6 +19,7 @@ use crate::od::{Entry, le_u32, store_checked, u32_exact, value_u32};
 use crate::services::nmt::NmtState;
 
 use super::app::Ctx;
+use super::router::Follow;
 
 /// What a download into one communication object checks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,15 +78,12 @@ impl Ctx<'_> {
         if index >= index::MANUFACTURER_SPECIFIC {
             return self.write_plain(entry, data);
         }
-        self.effects.follow.written = true;
-        self.effects.follow.services = true;
-        self.write_comm(index, sub, data, entry)?;
         // The node reads the SDO servers and rebuilds its acceptance list
-        // after any communication object: both only act on what changed
-        // (a server whose COB-IDs moved, a list whose identifiers did).
-        self.effects.follow.sdo_changed = true;
-        self.effects.follow.consumed_changed = true;
-        Ok(())
+        // after any download to a communication object, taken or refused
+        // (one store of the four flags): both only act on what changed (a
+        // server whose COB-IDs moved, a list whose identifiers did).
+        self.effects.follow = Follow { sdo_changed: true, consumed_changed: true, written: true, services: true };
+        self.write_comm(index, sub, data, entry)
     }
 
     /// The interpreter: check by kind, store, apply.
