@@ -114,16 +114,16 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // TIME read their objects again; SYNC and the consumers take the stored
         // value, or the default where the dictionary lacks the object).
         self.sync = SyncService::default();
-        for &index in CONFIGURED.iter() {
-            let default = if index == index::COB_ID_SYNC { SYNC_COB_ID.into() } else { 0 };
-            let value = u32_of(dict, image, index, 0, default);
-            Services::apply(self, index, 0, value, dict, image, now);
-        }
-        for sub in 1..=HB {
+        // The objects of `CONFIGURED` (sub 0), then the consumers 0x1016 sub
+        // 1..=HB, in one loop: one call of each per image (two loops cost
+        // 76 B more in ds301).
+        for i in 0..CONFIGURED.len().wrapping_add(HB) {
+            let index = CONFIGURED.get(i).copied().unwrap_or(index::CONSUMER_HEARTBEAT_TIME);
             // At most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
-            let sub = sub as u8;
-            let value = u32_of(dict, image, index::CONSUMER_HEARTBEAT_TIME, sub, 0);
-            Services::apply(self, index::CONSUMER_HEARTBEAT_TIME, sub, value, dict, image, now);
+            let sub = i.saturating_sub(CONFIGURED.len().wrapping_sub(1)) as u8;
+            let default = if index == index::COB_ID_SYNC { SYNC_COB_ID.into() } else { 0 };
+            let value = u32_of(dict, image, index, sub, default);
+            Services::apply(self, index, sub, value, dict, image, now);
         }
     }
 
@@ -322,17 +322,23 @@ mod tests {
     use crate::od::{Attr, DataType, DeviceInfo};
 
     const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
-    static ENTRIES: [Entry; 2] =
-        [Entry::new(0x1005, 0, DataType::Unsigned32, RW, 4, 0), Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 4)];
-    static DEFAULTS: [u8; 6] = [0x81, 0, 0, 0x40, 0xE8, 0x03];
+    static ENTRIES: [Entry; 5] = [
+        Entry::new(0x1005, 0, DataType::Unsigned32, RW, 4, 0),
+        Entry::new(0x1016, 0, DataType::Unsigned8, Attr::READ, 1, 4),
+        Entry::new(0x1016, 1, DataType::Unsigned32, RW, 4, 5),
+        Entry::new(0x1016, 2, DataType::Unsigned32, RW, 4, 9),
+        Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 13),
+    ];
+    /// 0x1005 = 0x40000081, 0x1016 = [node 5 at 1000 ms, node 6 at 2000 ms], 0x1017 = 1000 ms.
+    static DEFAULTS: [u8; 15] = [0x81, 0, 0, 0x40, 2, 0xE8, 0x03, 5, 0, 0xD0, 0x07, 6, 0, 0xE8, 0x03];
     static DICT: Dictionary = Dictionary {
         entries: &ENTRIES,
         limits: &[],
         limit_rows: &[],
         rom: &[],
         defaults: crate::od::Defaults::dense(&DEFAULTS),
-        comm_len: 6,
-        stored_len: 6,
+        comm_len: 15,
+        stored_len: 15,
         comm_rest: 0,
         node_id_relative: &[],
         layout_id: crate::od::layout_id(&ENTRIES),
@@ -349,12 +355,14 @@ mod tests {
 
     #[test]
     fn reset_communication_applies_each_object_or_its_default() {
-        let mut comm = Comm::<0, 0, 0>::new();
+        let mut comm = Comm::<0, 0, 2>::new();
         comm.configure(&DICT, &DEFAULTS, 0);
         assert_eq!(comm.sync.cob_id(), 0x81, "0x1005 as the image holds it");
         assert!(comm.heartbeat.active(), "0x1017 = 1000 ms");
+        assert!(comm.consumers.producers().eq([5, 6]), "0x1016 sub 1 and 2");
         comm.configure(&EMPTY, &[], 0);
         assert_eq!(comm.sync.cob_id(), 0x80, "no 0x1005: the pre-defined SYNC COB-ID");
         assert!(!comm.heartbeat.active(), "no 0x1017: no heartbeat");
+        assert_eq!(comm.consumers.producers().count(), 0, "no 0x1016: no consumer");
     }
 }
