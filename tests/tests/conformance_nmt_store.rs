@@ -66,6 +66,40 @@ fn cct_8_1_store_all_parameters() {
     assert!(is(parameters(&mut b), CHANGED));
 }
 
+/// The size a segmented download announces is checked at its initiate: the
+/// 0x1010/0x1011 signature is 4 bytes whatever the entry holds, and their
+/// sub 0 is refused only after the length; other objects are refused as
+/// read-only before the length is looked at.
+#[test]
+fn a_store_commands_announced_size_is_checked_before_its_sub_0() {
+    let mut b = interop();
+    let initiate = |index: u16, sub: u8, size: u32| {
+        let [lo, hi] = index.to_le_bytes();
+        let [s0, s1, s2, s3] = size.to_le_bytes();
+        [0x21, lo, hi, sub, s0, s1, s2, s3]
+    };
+    for (index, sub, size, code) in [
+        (0x1010, 1, 5, 0x0607_0012),
+        (0x1010, 1, 3, 0x0607_0013),
+        (0x1011, 4, 0, 0x0607_0013),
+        (0x1010, 0, 5, 0x0607_0012),
+        (0x1010, 0, 4, 0x0601_0002),
+        (0x1011, 0, 4, 0x0601_0002),
+        (0x1011, 5, 4, 0x0609_0011),
+        (0x1000, 0, 5, 0x0601_0002),
+        (0x1017, 0, 3, 0x0607_0012),
+        (0x1017, 0, 1, 0x0607_0013),
+    ] {
+        let out = b.rx(b.now, 0x604, &initiate(index, sub, size));
+        assert_eq!(out, [(0x584, abort(index, sub, code))], "{index:#06X} sub {sub}, {size} bytes");
+    }
+    assert_eq!(b.rx(b.now, 0x604, &initiate(0x1010, 1, 4)), [(0x584, ok_write(0x1010, 1))]);
+    // The one segment: 3 bytes unused, the last one.
+    let mut segment = [0x07, 0, 0, 0, 0, 0, 0, 0];
+    segment[1..5].copy_from_slice(b"save");
+    assert_eq!(b.rx(b.now, 0x604, &segment), [(0x584, vec![0x20, 0, 0, 0, 0, 0, 0, 0])]);
+}
+
 #[test]
 fn cct_8_2_store_with_a_wrong_signature_is_refused() {
     let mut b = interop();

@@ -245,8 +245,7 @@ impl Ctx<'_> {
     /// reconfigures the PDO). The device's own hooks do not run again for it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
-            self.effects.follow.written = true;
-            return self.store_command(index, sub, data, None);
+            return self.store_command(index, sub, data, self.options, None);
         }
         let entry = self.precheck::<true>(index, sub, data)?;
         self.route_write(index, sub, data, entry)

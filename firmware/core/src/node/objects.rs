@@ -3,8 +3,9 @@
 //! checks the value by its kind's rule (a [`CobRule`], a range, the
 //! heartbeat consumers' duplicates), stores it once into the entry the
 //! precheck found, and lets the service that owns it take the new value
-//! ([`Services::apply`]). The SYNC and PDO records keep their own services'
-//! rules ([`Services::check_sync`], [`Services::write_pdo`]).
+//! ([`Services::apply`]). The PDO records keep their own service's rules
+//! ([`Services::write_pdo`]). The SYNC objects' rules read their old values
+//! from the image, which the SYNC service took them from.
 //!
 //! Abort codes (CiA 301 §7.5.2): every broken rule is 0x06090030, but a
 //! second heartbeat consumer for one node is 0x06040043 (§7.5.2.17), a COB-ID
@@ -18,6 +19,7 @@ use crate::od::{Entry, le_u32, store_checked, u32_exact, value_u32};
 use crate::services::nmt::NmtState;
 
 use super::app::Ctx;
+use super::router::Follow;
 
 /// What a download into one communication object checks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,8 +35,9 @@ enum Kind {
     Consumer,
     /// 0x1003 sub 0: only 0, which clears the history.
     History,
-    /// 0x1005–0x1007, 0x1019: the SYNC service's rules.
-    Sync,
+    /// 0x1019: 0 or 2..=240, set only while no SYNC is produced
+    /// (0x1006 = 0; else 0x08000022).
+    Overflow,
     /// 0x1400–0x1BFF: the PDOs' rules.
     Pdo,
 }
@@ -44,7 +47,8 @@ impl Kind {
     fn of(index: u16, sub: u8) -> Kind {
         match (index, sub) {
             (index::PRE_DEFINED_ERROR_FIELD, _) => Kind::History,
-            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => Kind::Sync,
+            (index::COB_ID_SYNC, _) => Kind::CobId(&CobRule::SYNC, false),
+            (index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => Kind::Overflow,
             (index::COB_ID_TIME_STAMP, 0) => Kind::CobId(&CobRule::TIME, false),
             (index::COB_ID_EMCY, 0) => Kind::CobId(&CobRule::EMCY, false),
             (index::CONSUMER_HEARTBEAT_TIME, 1..) => Kind::Consumer,
@@ -74,15 +78,12 @@ impl Ctx<'_> {
         if index >= index::MANUFACTURER_SPECIFIC {
             return self.write_plain(entry, data);
         }
-        self.effects.follow.written = true;
-        self.effects.follow.services = true;
-        self.write_comm(index, sub, data, entry)?;
         // The node reads the SDO servers and rebuilds its acceptance list
-        // after any communication object: both only act on what changed
-        // (a server whose COB-IDs moved, a list whose identifiers did).
-        self.effects.follow.sdo_changed = true;
-        self.effects.follow.consumed_changed = true;
-        Ok(())
+        // after any download to a communication object, taken or refused
+        // (one store of the four flags): both only act on what changed (a
+        // server whose COB-IDs moved, a list whose identifiers did).
+        self.effects.follow = Follow { sdo_changed: true, consumed_changed: true, written: true, services: true };
+        self.write_comm(index, sub, data, entry)
     }
 
     /// The interpreter: check by kind, store, apply.
@@ -130,7 +131,15 @@ impl Ctx<'_> {
                     _ => Err(AbortCode::LengthTooHigh),
                 };
             }
-            Kind::Sync => self.services.check_sync(index, le_u32(data))?,
+            Kind::Overflow => {
+                let value = le_u32(data);
+                if value == 1 || value > 240 {
+                    return Err(AbortCode::InvalidValue);
+                }
+                if super::comm::u32_of(dict, self.image, index::COMMUNICATION_CYCLE_PERIOD, 0, 0) != 0 {
+                    return Err(AbortCode::DeviceState);
+                }
+            }
             Kind::Pdo => {
                 let operational = self.state == NmtState::Operational;
                 let rewrite = self.options.pdo_rewrite_while_valid;

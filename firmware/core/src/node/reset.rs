@@ -50,19 +50,26 @@ pub(super) enum Stage {
     Finish,
 }
 
+/// The stage after each one (Idle after the last), by its number: the
+/// order as data, one load, where a match compiled to a second jump table.
+static NEXT: [Stage; 11] = [
+    Stage::Idle,          // Idle
+    Stage::Communication, // FindThenCommunication
+    Stage::Communication, // FindOlderThenCommunication
+    Stage::Application,   // FindThenApplication
+    Stage::Application,   // FindOlderThenApplication
+    Stage::Communication, // Application
+    Stage::Services,      // Communication
+    Stage::Rpdos,         // Services
+    Stage::Tpdos,         // Rpdos
+    Stage::Finish,        // Tpdos
+    Stage::Idle,          // Finish
+];
+
 impl Stage {
     /// The stage after this one (Idle after the last).
     fn next(self) -> Stage {
-        match self {
-            Stage::Idle | Stage::Finish => Stage::Idle,
-            Stage::FindThenCommunication | Stage::FindOlderThenCommunication => Stage::Communication,
-            Stage::FindThenApplication | Stage::FindOlderThenApplication => Stage::Application,
-            Stage::Application => Stage::Communication,
-            Stage::Communication => Stage::Services,
-            Stage::Services => Stage::Rpdos,
-            Stage::Rpdos => Stage::Tpdos,
-            Stage::Tpdos => Stage::Finish,
-        }
+        NEXT.get(self as usize).copied().unwrap_or(Stage::Idle)
     }
 }
 
@@ -261,5 +268,30 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 *slot = new;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Stage;
+
+    fn walk(mut stage: Stage) -> std::vec::Vec<Stage> {
+        let mut stages = std::vec![stage];
+        while stage != Stage::Idle {
+            stage = stage.next();
+            stages.push(stage);
+        }
+        stages
+    }
+
+    #[test]
+    fn the_stages_run_in_their_order() {
+        use Stage::*;
+        let communication = [Communication, Services, Rpdos, Tpdos, Finish, Idle];
+        assert_eq!(walk(FindThenCommunication)[1..], communication);
+        assert_eq!(walk(FindOlderThenCommunication)[1..], communication);
+        assert_eq!(walk(FindThenApplication)[1..2], [Application]);
+        assert_eq!(walk(FindOlderThenApplication)[2..], communication);
+        assert_eq!(walk(Idle), [Idle]);
     }
 }

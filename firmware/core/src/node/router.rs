@@ -6,12 +6,12 @@
 use crate::abort::AbortCode;
 use crate::od::access::{copy_from, small_value, upload_value};
 use crate::od::index;
-use crate::od::{Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
+use crate::od::{DataType, Entry, ObjectAccess, ObjectDictionary, precheck, store_checked, u32_exact};
 use crate::services::store::{Job, LOAD, SAVE, Scope, StoreError};
 use core::cell::Cell;
 use core::marker::PhantomData;
 
-use super::app::{Application, Ctx, Source};
+use super::app::{Application, Ctx, ServiceOptions, Source};
 
 /// One SDO access (or application request) in flight: the device's hooks
 /// around the context's writes.
@@ -79,6 +79,7 @@ impl Ctx<'_> {
     /// (`Services::storage` off while the dictionary lists the objects, as
     /// the `ds301-lean` reference has it): nothing can be stored.
     pub(super) fn no_store(&mut self, index: u16, sub: u8) -> Result<(), AbortCode> {
+        self.effects.follow.written = true;
         self.dict.find(index, sub)?;
         Err(AbortCode::CannotStore)
     }
@@ -105,20 +106,26 @@ impl Ctx<'_> {
     /// 0x1010 / 0x1011: the signature triggers the command; the entry itself keeps
     /// its read-back value (the capability bits). With `staged`, the node
     /// runs the store a stage per `process` call (see [`Router::staged`]).
+    /// `options`: the device's (the context's own), passed by a caller that
+    /// knows them as a constant, so that a device without
+    /// [`ServiceOptions::not_saved_by_1010`] links no search for their bytes.
     pub(super) fn store_command(
         &mut self,
         index: u16,
         sub: u8,
         data: &[u8],
+        options: &'static ServiceOptions,
         staged: Option<&Cell<Option<(u16, u8)>>>,
     ) -> Result<(), AbortCode> {
+        // A store command may change any value (a restore, at the next reset).
+        self.effects.follow.written = true;
         self.dict.find(index, sub)?;
         let scope = Scope::from_sub(sub).ok_or(if sub == 0 { AbortCode::ReadOnly } else { AbortCode::CannotStore })?;
         let (signature, is_save) = if index == index::STORE_PARAMETERS { (SAVE, true) } else { (LOAD, false) };
         if u32_exact(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
-        let job = Job::command(self.dict, scope, is_save, self.options.not_saved_by_1010);
+        let job = Job::command(self.dict, scope, is_save, options.not_saved_by_1010);
         match staged {
             Some(answer) if !self.hook.store.busy() => {
                 self.hook.store = job;
@@ -208,8 +215,11 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
         match entry {
             Some(entry) => self.ctx.route_write(index, sub, data, entry)?,
             None => {
-                self.ctx.effects.follow.written = true;
-                if O::SERVICES.storage { self.ctx.store_command(index, sub, data, self.staged) } else { self.ctx.no_store(index, sub) }?;
+                if O::SERVICES.storage {
+                    self.ctx.store_command(index, sub, data, &A::OPTIONS, self.staged)
+                } else {
+                    self.ctx.no_store(index, sub)
+                }?;
             }
         }
         self.app.written(self.ctx, index, sub, self.by);
@@ -254,17 +264,27 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
         if let Some(r) = self.app.download_check(self.ctx, index, sub, size) {
             return r;
         }
-        if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
-            // The signature is 4 bytes, whatever the entry's own size.
-            self.ctx.dict.find(index, sub)?;
-            return match size {
-                Some(n) if n > 4 => Err(AbortCode::LengthTooHigh),
-                Some(n) if n < 4 => Err(AbortCode::LengthTooLow),
-                _ if sub == 0 => Err(AbortCode::ReadOnly),
-                _ => Ok(()),
-            };
+        // The dictionary's checks ([`crate::od::DictionaryAccess`]'s), but
+        // 0x1010/0x1011 take a 4-byte signature whatever their entries say,
+        // and refuse sub 0 only after its length.
+        let entry = self.ctx.dict.find(index, sub)?;
+        let store = index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS;
+        let read_only = if store { sub == 0 } else { !entry.writable() };
+        let (len, variable) = if store {
+            (4, false)
+        } else if read_only {
+            return Err(AbortCode::ReadOnly);
+        } else if entry.data_type == DataType::Domain {
+            return Err(AbortCode::CannotStore);
+        } else {
+            (usize::from(entry.len), entry.data_type.is_variable_length())
+        };
+        match size {
+            Some(n) if n > len => Err(AbortCode::LengthTooHigh),
+            Some(n) if n < len && !variable => Err(AbortCode::LengthTooLow),
+            _ if read_only => Err(AbortCode::ReadOnly),
+            _ => Ok(()),
         }
-        self.ctx.plain().download_check(index, sub, size)
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
