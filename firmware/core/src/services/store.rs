@@ -243,7 +243,7 @@ pub fn reset_part(
                 dict.defaults.read(r.start, value);
             }
             if e.attr.contains(Attr::NODE_ID) {
-                crate::od::add_le(value, u64::from(node_id));
+                crate::od::add_node_id(value, node_id, false);
             }
             used |= held == Some(true) && in_set(dict, e);
         }
@@ -344,7 +344,7 @@ pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, i
     let value = out.get_mut(..range.len())?;
     storage.read(set.region, HEADER + range.start, value).ok()?;
     if entry.attr.contains(Attr::NODE_ID) {
-        crate::od::add_le(value, u64::from(node_id));
+        crate::od::add_node_id(value, node_id, false);
     }
     Some(range.len())
 }

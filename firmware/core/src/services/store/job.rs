@@ -286,7 +286,7 @@ impl Job {
             if let Some(value) = piece.get_mut(r.start.wrapping_sub(at)..r.end.wrapping_sub(at))
                 && self.source(dict, r.start) == Source::Image
             {
-                crate::od::add_le(value, u64::from(node_id).wrapping_neg());
+                crate::od::add_node_id(value, node_id, true);
             }
         }
         Ok(())
