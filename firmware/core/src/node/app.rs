@@ -246,7 +246,7 @@ impl Ctx<'_> {
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         if index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS {
             self.effects.follow.written = true;
-            return self.store_command(index, sub, data, None);
+            return self.store_command(index, sub, data, None, self.options);
         }
         let entry = self.precheck::<true>(index, sub, data)?;
         self.route_write(index, sub, data, entry)

@@ -11,7 +11,7 @@ use crate::services::store::{Job, LOAD, SAVE, Scope, StoreError};
 use core::cell::Cell;
 use core::marker::PhantomData;
 
-use super::app::{Application, Ctx, Source};
+use super::app::{Application, Ctx, ServiceOptions, Source};
 
 /// One SDO access (or application request) in flight: the device's hooks
 /// around the context's writes.
@@ -105,12 +105,17 @@ impl Ctx<'_> {
     /// 0x1010 / 0x1011: the signature triggers the command; the entry itself keeps
     /// its read-back value (the capability bits). With `staged`, the node
     /// runs the store a stage per `process` call (see [`Router::staged`]).
+    /// `options` are the device's ([`ServiceOptions::not_saved_by_1010`]):
+    /// the router passes the constant `A::OPTIONS`, so that a node where
+    /// the store is in line and the device keeps no objects (ds301) links
+    /// no search for their bytes.
     pub(super) fn store_command(
         &mut self,
         index: u16,
         sub: u8,
         data: &[u8],
         staged: Option<&Cell<Option<(u16, u8)>>>,
+        options: &ServiceOptions,
     ) -> Result<(), AbortCode> {
         self.dict.find(index, sub)?;
         let scope = Scope::from_sub(sub).ok_or(if sub == 0 { AbortCode::ReadOnly } else { AbortCode::CannotStore })?;
@@ -118,7 +123,7 @@ impl Ctx<'_> {
         if u32_exact(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
-        let job = Job::command(self.dict, scope, is_save, self.options.not_saved_by_1010);
+        let job = Job::command(self.dict, scope, is_save, options.not_saved_by_1010);
         match staged {
             Some(answer) if !self.hook.store.busy() => {
                 self.hook.store = job;
@@ -209,7 +214,11 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
             Some(entry) => self.ctx.route_write(index, sub, data, entry)?,
             None => {
                 self.ctx.effects.follow.written = true;
-                if O::SERVICES.storage { self.ctx.store_command(index, sub, data, self.staged) } else { self.ctx.no_store(index, sub) }?;
+                if O::SERVICES.storage {
+                    self.ctx.store_command(index, sub, data, self.staged, &A::OPTIONS)
+                } else {
+                    self.ctx.no_store(index, sub)
+                }?;
             }
         }
         self.app.written(self.ctx, index, sub, self.by);
