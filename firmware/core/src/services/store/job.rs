@@ -286,7 +286,7 @@ impl Job {
             if let Some(value) = piece.get_mut(r.start.wrapping_sub(at)..r.end.wrapping_sub(at))
                 && self.source(dict, r.start) == Source::Image
             {
-                crate::od::add_node_id(value, node_id, true);
+                relative(value, node_id);
             }
         }
         Ok(())
@@ -353,4 +353,11 @@ fn value_end(dict: &Dictionary, pos: usize, budget: usize) -> usize {
         end = end.max(r.end);
     }
     if end == pos || dict.stored_len <= limit { dict.stored_len } else { end }
+}
+
+/// A `$NODEID` value made relative to the node-id, as a set stores it.
+// Out of line: in the piece's composition the loop's registers spilled (8 B more of its frame).
+#[inline(never)]
+fn relative(value: &mut [u8], node_id: u8) {
+    crate::od::add_node_id(value, node_id, true);
 }
