@@ -124,11 +124,38 @@ fn load_and_store_never_panic_out_of_range() {
 #[test]
 fn node_id_addition_wraps_at_the_entry_width() {
     let mut b = [0xFF, 0xFF];
-    add_le(&mut b, 2);
+    add_node_id(&mut b, 2, false);
     assert_eq!(b, [1, 0]);
     let mut c = [0xFE, 0x00, 0x00, 0x80];
-    add_le(&mut c, 0x7F);
+    add_node_id(&mut c, 0x7F, false);
     assert_eq!(c, [0x7D, 0x01, 0x00, 0x80]);
+}
+
+#[test]
+fn node_id_subtraction_wraps_at_the_entry_width_and_undoes_the_addition() {
+    let mut b = [1, 0];
+    add_node_id(&mut b, 2, true);
+    assert_eq!(b, [0xFF, 0xFF], "borrows through every byte");
+    let mut c = [0x7D, 0x01, 0x00, 0x80];
+    add_node_id(&mut c, 0x7F, true);
+    assert_eq!(c, [0xFE, 0x00, 0x00, 0x80]);
+    let mut one = [0x05];
+    add_node_id(&mut one, 0x05, true);
+    assert_eq!(one, [0]);
+    // Every width, node-id and value: minus then plus gives the value back, as u64 wrapping arithmetic says.
+    for id in [0u8, 1, 0x22, 0x7F, 0xFF] {
+        for v in [0u64, 1, 0x80, 0xFF, 0x100, 0x4000_0180, u64::MAX] {
+            for len in 1..=8usize {
+                let mut bytes = v.to_le_bytes();
+                add_node_id(&mut bytes[..len], id, true);
+                let mask = if len == 8 { u64::MAX } else { (1u64 << (8 * len)) - 1 };
+                let expected = (v.wrapping_sub(u64::from(id)) & mask) | (v & !mask);
+                assert_eq!(u64::from_le_bytes(bytes), expected, "{v:#x} - {id} in {len} bytes");
+                add_node_id(&mut bytes[..len], id, false);
+                assert_eq!(u64::from_le_bytes(bytes), v, "{v:#x} back in {len} bytes");
+            }
+        }
+    }
 }
 
 #[test]

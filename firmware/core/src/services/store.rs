@@ -214,6 +214,9 @@ impl StoredSet {
 /// set does not hold for a reset (read-only ones, scopes it marks as
 /// default) then get their defaults back, in the one walk over the part's
 /// entries that adds the node-id.
+// In line: the node's reset calls it with its dictionary, a static, whose
+// lengths and tables then are constants (ds301 -40 B, every image smaller).
+#[inline(always)]
 pub fn reset_part(
     dict: &Dictionary,
     image: &mut [u8],
@@ -243,7 +246,7 @@ pub fn reset_part(
                 dict.defaults.read(r.start, value);
             }
             if e.attr.contains(Attr::NODE_ID) {
-                crate::od::add_le(value, u64::from(node_id));
+                crate::od::add_node_id(value, node_id, false);
             }
             used |= held == Some(true) && in_set(dict, e);
         }
@@ -344,7 +347,7 @@ pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, i
     let value = out.get_mut(..range.len())?;
     storage.read(set.region, HEADER + range.start, value).ok()?;
     if entry.attr.contains(Attr::NODE_ID) {
-        crate::od::add_le(value, u64::from(node_id));
+        crate::od::add_node_id(value, node_id, false);
     }
     Some(range.len())
 }
