@@ -315,13 +315,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let id = error_control_cob_id(self.hook.node_id);
             self.push(id, &[self.nmt.state().reported().code()]);
         }
-        while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {
-            self.communication_error(node_id, now);
-        }
+        let consumers_deadline = loop {
+            match self.comm.consumers.expire(now) {
+                Ok(ConsumerEvent::Timeout { node_id }) => self.communication_error(node_id, now),
+                Err(deadline) => break deadline,
+            }
+        };
         if O::SERVICES.guarding && self.comm.guarding.poll(now) {
             self.communication_error(0, now);
         }
-        let mut deadline = self.comm.heartbeat.deadline().min(self.comm.consumers.deadline()).min(switch_deadline);
+        let mut deadline = self.comm.heartbeat.deadline().min(consumers_deadline).min(switch_deadline);
         if self.boot_pending || self.start_pending {
             // Due now: an earlier deadline is as due (the folded deadlines
             // only ever meet `now` and later moments).
