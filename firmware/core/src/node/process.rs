@@ -60,7 +60,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// [`Node::process`]: its deadlines folded as [`At`]s, one compare each.
-    /// `SHORT`: a node with only PDO work takes [`Node::process_pdos`].
+    /// `SHORT`: a node with only PDO work takes [`Node::process_pdos`]
+    /// (if the device has the short path, [`Application::PDO_SHORT_PATH`]).
     #[inline(always)]
     fn process_at<const SHORT: bool>(&mut self, now: At) -> At {
         let now_at = now;
@@ -100,7 +101,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 return self.next.min(app_deadline);
             }
             // Nothing but the PDOs can have work before `others_next`.
-            if SHORT && now_at < self.others_next {
+            if SHORT && A::PDO_SHORT_PATH && now_at < self.others_next {
                 return self.process_pdos(now).min(app_deadline);
             }
         }
