@@ -240,8 +240,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let others = self.core_deadline.min(controller_deadline);
         // The controller's deadline holds until a controller event (which
         // makes the node stale); the core services' until their deadline
-        // or a change (stale too). Without PDOs there is no short path.
-        self.others_next = if pdo_allowed { others } else { 0 };
+        // or a change (stale too). Without PDOs there is no short path;
+        // a device without it never reads `others_next`.
+        if A::PDO_SHORT_PATH {
+            self.others_next = if pdo_allowed { others } else { 0 };
+        }
         let mut deadline = others.min(sdo_deadline).min(pdo_deadline);
         if deadline <= now_at {
             deadline = self.due_again(now_at);
