@@ -50,10 +50,10 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     inhibit: u32,
     /// When the next message may go out (its inhibit time ends), once one went out.
     free_at: Option<At>,
-    /// The active errors, each with the error register bits it sets beyond
-    /// its code's class (a device whose manual gives a generic code a
-    /// profile bit): one array, so that each entry takes one bounds check.
-    active: [(EmcyCode, u8); A],
+    active: [EmcyCode; A],
+    /// Error register bits each active error sets beyond its code's class
+    /// (a device whose manual gives a generic code a profile bit).
+    active_bits: [u8; A],
     active_len: usize,
     queue: [Emcy; Q],
     head: usize,
@@ -83,7 +83,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             cob_id: None,
             inhibit: 0,
             free_at: None,
-            active: [(EmcyCode::NO_ERROR, 0); A],
+            active: [EmcyCode::NO_ERROR; A],
+            active_bits: [0; A],
             active_len: 0,
             queue: [Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] }; Q],
             head: 0,
@@ -112,7 +113,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.tx_overflow {
             r |= self.tx_bits;
         }
-        for &(code, bits) in self.active.iter().take(self.active_len) {
+        for (&code, &bits) in self.active.iter().zip(&self.active_bits).take(self.active_len) {
             r |= register_bit(code) | bits;
         }
         r
@@ -127,7 +128,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     // Out of line: raising, clearing and recording a sent EMCY each had a copy.
     #[inline(never)]
     fn position(&self, code: EmcyCode) -> Option<usize> {
-        self.active.get(..self.active_len)?.iter().position(|&(c, _)| c == code)
+        self.active.get(..self.active_len)?.iter().position(|&c| c == code)
     }
 
     /// Raises an error: records it as active and queues its message.
@@ -156,16 +157,17 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool) -> bool {
         let new = !self.is_active(code);
         if new {
-            match self.active.get_mut(self.active_len) {
-                Some(slot) => {
-                    *slot = (code, register);
+            match (self.active.get_mut(self.active_len), self.active_bits.get_mut(self.active_len)) {
+                (Some(slot), Some(bits)) => {
+                    *slot = code;
+                    *bits = register;
                     // `get_mut` found the slot: `active_len` < A.
                     #[allow(clippy::arithmetic_side_effects)]
                     {
                         self.active_len += 1;
                     }
                 }
-                None => self.lost_errors = true,
+                _ => self.lost_errors = true,
             }
         } else if !repeat {
             return false;
@@ -226,10 +228,9 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         {
             self.active_len -= 1;
         }
-        if let Some(&last) = self.active.get(self.active_len)
-            && let Some(slot) = self.active.get_mut(pos)
-        {
-            *slot = last;
+        let last = (self.active.get(self.active_len).copied(), self.active_bits.get(self.active_len).copied());
+        if let ((Some(code), Some(bits)), Some(slot), Some(slot_bits)) = (last, self.active.get_mut(pos), self.active_bits.get_mut(pos)) {
+            (*slot, *slot_bits) = (code, bits);
         }
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
