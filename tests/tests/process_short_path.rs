@@ -15,7 +15,7 @@
 
 mod common;
 use canopen_core::frame::CanFrame;
-use canopen_core::node::{Application, ControllerEvent, NoApplication, Node};
+use canopen_core::node::{Application, ControllerEvent, Ctx, Node};
 use canopen_core::od::ObjectDictionary;
 use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
@@ -27,7 +27,20 @@ use hal_host::storage::MemStorage;
 
 const ID: u8 = 5;
 
-type Interop = Node<interop::Ram, NoApplication, MemStorage, 4, 4, 4>;
+type Interop = Node<interop::Ram, Plain, MemStorage, 4, 4, 4>;
+
+/// `NoApplication` with the short path, which `NoApplication` leaves out
+/// (`Application::PDO_SHORT_PATH`): the dictionary answers everything.
+struct Plain;
+
+impl Application for Plain {
+    const SDO_HOOKS: bool = false;
+    const PDO_SHORT_PATH: bool = true;
+
+    fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
+        let _ = (ctx, n);
+    }
+}
 type Ec5000 = Node<ec5000::od::Ram, ec5000::App, MemStorage, 4, 4, 1>;
 
 /// A step's random number generator (xorshift32).
@@ -159,7 +172,7 @@ fn compare<O: ObjectDictionary, A: Application, S: Storage, const R: usize, cons
 
 #[test]
 fn the_short_path_sends_and_answers_as_the_full_path_on_the_interop_node() {
-    let new = || -> Interop { Node::new(interop::Ram::new(ID), NoApplication, MemStorage::new(4096), ID, Instant::ZERO) };
+    let new = || -> Interop { Node::new(interop::Ram::new(ID), Plain, MemStorage::new(4096), ID, Instant::ZERO) };
     let seen = compare(new(), new(), 6000, 0x9E37_79B9, (40, 0x8110), |node, now, r| match (r >> 4) % 20 {
         0 => frame(node, now, 0x000, &[[0x01, 0x80, 0x02, 0x01][(r >> 10) as usize % 4], ID]),
         1 => frame(node, now, 0x700 + 10, &[0x05]),

@@ -52,8 +52,8 @@ impl<const N: usize> TxQueue<N> {
 
     /// Queues a frame behind every queued frame of its priority; false (and
     /// one more overflow) when full.
-    // Out of line: every service that sends had a copy (128 bytes more).
-    #[inline(never)]
+    // In line: a call of the out-of-line insertion.
+    #[inline(always)]
     pub fn push(&mut self, frame: CanFrame) -> bool {
         self.insert(frame, false)
     }

@@ -593,6 +593,16 @@ pub trait Application {
     /// hook overridden, that hook is skipped for these transfers.
     const SDO_HOOKS: bool = true;
 
+    /// [`super::Node::process`] has a short path: a call whose only work is
+    /// the PDOs (an RPDO whose hook changed what an event-driven TPDO
+    /// sends, a TPDO's timer) polls them alone, without the full call's
+    /// checks of the other services: about 70 thumbv7m instructions fewer
+    /// on such a call (the CiA 402 row), for 150 to 210 bytes of flash, and
+    /// 5 instructions more on every other call that is not idle. For a
+    /// device whose RPDOs drive its TPDOs (a drive). Frames and deadlines
+    /// are the same either way (`tests/tests/process_short_path.rs`).
+    const PDO_SHORT_PATH: bool = true;
+
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
     fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
@@ -706,6 +716,8 @@ pub struct NoApplication;
 
 impl Application for NoApplication {
     const SDO_HOOKS: bool = false;
+    // No hook makes a TPDO from an RPDO: the bytes, not the short path.
+    const PDO_SHORT_PATH: bool = false;
 
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         let _ = (ctx, n);

@@ -60,7 +60,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// [`Node::process`]: its deadlines folded as [`At`]s, one compare each.
-    /// `SHORT`: a node with only PDO work takes [`Node::process_pdos`].
+    /// `SHORT`: a node with only PDO work takes [`Node::process_pdos`]
+    /// (if the device has the short path, [`Application::PDO_SHORT_PATH`]).
     #[inline(always)]
     fn process_at<const SHORT: bool>(&mut self, now: At) -> At {
         let now_at = now;
@@ -100,7 +101,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 return self.next.min(app_deadline);
             }
             // Nothing but the PDOs can have work before `others_next`.
-            if SHORT && now_at < self.others_next {
+            if SHORT && A::PDO_SHORT_PATH && now_at < self.others_next {
                 return self.process_pdos(now).min(app_deadline);
             }
         }
@@ -239,8 +240,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let others = self.core_deadline.min(controller_deadline);
         // The controller's deadline holds until a controller event (which
         // makes the node stale); the core services' until their deadline
-        // or a change (stale too). Without PDOs there is no short path.
-        self.others_next = if pdo_allowed { others } else { 0 };
+        // or a change (stale too). Without PDOs there is no short path;
+        // a device without it never reads `others_next`.
+        if A::PDO_SHORT_PATH {
+            self.others_next = if pdo_allowed { others } else { 0 };
+        }
         let mut deadline = others.min(sdo_deadline).min(pdo_deadline);
         if deadline <= now_at {
             deadline = self.due_again(now_at);
@@ -315,13 +319,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             let id = error_control_cob_id(self.hook.node_id);
             self.push(id, &[self.nmt.state().reported().code()]);
         }
-        while let Some(ConsumerEvent::Timeout { node_id }) = self.comm.consumers.poll(now) {
-            self.communication_error(node_id, now);
-        }
+        let consumers_deadline = loop {
+            match self.comm.consumers.expire(now) {
+                Ok(ConsumerEvent::Timeout { node_id }) => self.communication_error(node_id, now),
+                Err(deadline) => break deadline,
+            }
+        };
         if O::SERVICES.guarding && self.comm.guarding.poll(now) {
             self.communication_error(0, now);
         }
-        let mut deadline = self.comm.heartbeat.deadline().min(self.comm.consumers.deadline()).min(switch_deadline);
+        let mut deadline = self.comm.heartbeat.deadline().min(consumers_deadline).min(switch_deadline);
         if self.boot_pending || self.start_pending {
             // Due now: an earlier deadline is as due (the folded deadlines
             // only ever meet `now` and later moments).
