@@ -447,10 +447,9 @@ impl Channel {
         // block's fields (a value of at most pst bytes is answered as that
         // would be): one copy of the initiate. `block` first: without block
         // transfer the compiler knows there is none.
-        let upload_block = match BlockUploadRequest::decode(&f) {
-            BlockUploadRequest::Initiate { crc, blksize, pst, .. } if block && kind == RequestKind::BlockUploadInitiate => {
-                Some(block::UploadInitiate { crc, blksize, pst })
-            }
+        // The kind before the decode: every other request skips it.
+        let upload_block = match (block && kind == RequestKind::BlockUploadInitiate).then(|| BlockUploadRequest::decode(&f)) {
+            Some(BlockUploadRequest::Initiate { crc, blksize, pst, .. }) => Some(block::UploadInitiate { crc, blksize, pst }),
             _ => None,
         };
         let kind = if upload_block.is_some() { RequestKind::InitiateUpload } else { kind };
