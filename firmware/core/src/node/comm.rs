@@ -25,12 +25,13 @@ pub(super) fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, defau
 }
 
 /// The objects reset communication applies as a download would (sub 0 of
-/// each): EMCY, guarding, heartbeat and TIME read their objects again, SYNC
-/// takes the value. One the dictionary lacks counts as 0, but 0x1005 as
-/// the pre-defined SYNC COB-ID.
-static CONFIGURED: [u16; 8] = [
+/// each). One the dictionary lacks counts as 0, but 0x1005 as the
+/// pre-defined SYNC COB-ID and 0x1014 as EMCY off.
+static CONFIGURED: [u16; 10] = [
     index::COB_ID_EMCY,
+    index::INHIBIT_TIME_EMCY,
     index::GUARD_TIME,
+    index::LIFE_TIME_FACTOR,
     index::PRODUCER_HEARTBEAT_TIME,
     index::COB_ID_TIME_STAMP,
     index::COB_ID_SYNC,
@@ -122,14 +123,6 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         self.rpdo_mapping_failed = !transmit && result.is_err();
     }
 
-    /// Applies 0x1014/0x1015.
-    pub fn configure_emcy(&mut self, dict: &Dictionary, image: &[u8]) {
-        // Without 0x1014 the pre-defined connection set applies, and 0x1015 defaults to 0.
-        let cob = u32_of(dict, image, index::COB_ID_EMCY, 0, 0x8000_0000);
-        let inhibit = u32_of(dict, image, index::INHIBIT_TIME_EMCY, 0, 0) as u16;
-        self.emcy.configure(cob, inhibit);
-    }
-
     /// What 0x1029 sub 1 says to do on a communication error.
     pub fn error_behaviour(dict: &Dictionary, image: &[u8]) -> ErrorBehaviour {
         Self::error_behaviour_of(dict, image, 1)
@@ -176,7 +169,7 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     /// The service that owns (index, sub) takes the `value` just stored
     /// ([`Services::apply`], its one caller).
     #[inline(always)]
-    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: At) {
+    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
         match (index, sub) {
             (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
                 // sub ≥ 1: the match arm's.
@@ -194,13 +187,11 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
                 }
             }
             (index::COB_ID_TIME_STAMP, _) => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
-            // Two objects each: both read again.
-            (index::GUARD_TIME | index::LIFE_TIME_FACTOR, _) => {
-                let guard = u32_of(dict, image, index::GUARD_TIME, 0, 0) as u16;
-                let factor = u32_of(dict, image, index::LIFE_TIME_FACTOR, 0, 0) as u8;
-                self.guarding.configure(guard, factor);
-            }
-            (index::COB_ID_EMCY | index::INHIBIT_TIME_EMCY, _) => self.configure_emcy(dict, image),
+            // The value as written: the service keeps each object's part.
+            (index::GUARD_TIME, _) => self.guarding.set_guard_time(value as u16),
+            (index::LIFE_TIME_FACTOR, _) => self.guarding.set_life_time_factor(value as u8),
+            (index::COB_ID_EMCY, _) => self.emcy.set_cob_id(value),
+            (index::INHIBIT_TIME_EMCY, _) => self.emcy.set_inhibit(value as u16),
             // Nothing for an object no service uses.
             _ => {}
         }
@@ -249,7 +240,7 @@ pub(crate) trait Services {
     ) -> Result<(), AbortCode>;
 
     /// The service that owns (index, sub) takes the `value` just stored.
-    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: At);
+    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At);
 }
 
 /// [`Comm`] as a node with the application `A` holds it: the hooks'
@@ -274,9 +265,8 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Hooked<A, 
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8], now: At) {
         self.emcy.reset();
         self.guarding.reset();
-        // Each object as a download applies it (EMCY, guarding, heartbeat and
-        // TIME read their objects again; SYNC and the consumers take the stored
-        // value, or the default where the dictionary lacks the object).
+        // Each object as a download applies it: the stored value, or the
+        // default where the dictionary lacks the object.
         self.sync = SyncService::default();
         // The objects of `CONFIGURED` (sub 0), then the consumers 0x1016 sub
         // 1..=HB, in one loop: one call of each per image (two loops cost
@@ -285,9 +275,13 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Hooked<A, 
             let index = CONFIGURED.get(i).copied().unwrap_or(index::CONSUMER_HEARTBEAT_TIME);
             // At most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
             let sub = i.saturating_sub(CONFIGURED.len().wrapping_sub(1)) as u8;
-            let default = if index == index::COB_ID_SYNC { SYNC_COB_ID.into() } else { 0 };
+            let default = match index {
+                index::COB_ID_SYNC => SYNC_COB_ID.into(),
+                index::COB_ID_EMCY => 0x8000_0000,
+                _ => 0,
+            };
             let value = u32_of(dict, image, index, sub, default);
-            Services::apply(self, index, sub, value, dict, image, now);
+            Services::apply(self, index, sub, value, now);
         }
     }
 
@@ -298,7 +292,7 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Hooked<A, 
     #[inline(never)]
     pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: At) {
         let _ = node_id;
-        Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), dict, image, now);
+        Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), now);
     }
 }
 
@@ -357,8 +351,8 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Services f
         }
     }
 
-    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: At) {
-        self.comm.apply(index, sub, value, dict, image, now);
+    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
+        self.comm.apply(index, sub, value, now);
     }
 }
 
@@ -410,5 +404,6 @@ mod tests {
         assert_eq!(comm.sync.cob_id(), 0x80, "no 0x1005: the pre-defined SYNC COB-ID");
         assert!(!comm.heartbeat.active(), "no 0x1017: no heartbeat");
         assert_eq!(comm.consumers.producers().count(), 0, "no 0x1016: no consumer");
+        assert_eq!(comm.emcy.cob_id(), None, "no 0x1014: EMCY off");
     }
 }
