@@ -436,6 +436,42 @@ fn a_device_triggers_a_tpdo_and_changes_its_claimed_identifiers() {
     );
 }
 
+/// Calls the PDO part of its context at each SDO write of 0x2002 and keeps
+/// the answers (a TPDO1 trigger, RPDO1's first object); `P` is its
+/// `Application::PDO_CALLS`.
+#[derive(Default)]
+struct PdoCalls<const P: bool>(Vec<(bool, bool)>);
+
+impl<const P: bool> Application for PdoCalls<P> {
+    const PDO_CALLS: bool = P;
+
+    fn written(&mut self, ctx: &mut Ctx<'_>, index: u16, _sub: u8, by: Source) {
+        if (index, by) == (0x2002, Source::Sdo) {
+            self.0.push((ctx.trigger_tpdo(0), ctx.rpdo_object(0, 0).is_some()));
+        }
+    }
+}
+
+/// The identifiers of what a trigger of TPDO1 (type 254, Operational)
+/// sends, and what the device's two PDO calls answered.
+fn pdo_calls<const P: bool>() -> (Vec<u16>, Vec<(bool, bool)>) {
+    let mut b: B<PdoCalls<P>> = Bench::new(Ram::new(ID), PdoCalls::default(), MemStorage::new(4096), ID);
+    b.at(ms(0));
+    assert_eq!(b.sdo_write(ID, 0x1800, 2, &[0xFE]), ok_write(0x1800, 2));
+    b.nmt(0x01, ID);
+    b.at(ms(1));
+    let out = b.rx(ms(2), SDO_RX, &[0x27, 0x02, 0x20, 0x00, 0x01, 0x02, 0x03, 0]);
+    assert_eq!(out.last(), Some(&(0x585, ok_write(0x2002, 0))));
+    (out.iter().map(|f| f.0).collect(), std::mem::take(&mut b.node.app_mut().0))
+}
+
+#[test]
+fn a_device_without_pdo_calls_gets_no_trigger_and_no_rpdo_object() {
+    assert_eq!(pdo_calls::<true>(), (vec![TPDO1, 0x585], vec![(true, true)]));
+    // `PDO_CALLS = false` (as `NoApplication`): the calls are not linked.
+    assert_eq!(pdo_calls::<false>(), (vec![0x585], vec![(false, false)]), "no TPDO");
+}
+
 #[test]
 fn the_change_of_state_tpdo_waits_for_its_inhibit_time() {
     let mut b = bench(Probe::default());

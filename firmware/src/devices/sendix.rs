@@ -255,6 +255,8 @@ impl<P: Sensor> Application for App<P> {
         tpdo_255_timer_only_with_timer: true,
         ..ServiceOptions::CIA301
     };
+    // `rpdo_written` does nothing, and no hook triggers a TPDO.
+    const PDO_CALLS: bool = false;
 
     fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         match (index, sub, data) {

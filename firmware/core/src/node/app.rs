@@ -603,6 +603,15 @@ pub trait Application {
     /// are the same either way (`tests/tests/process_short_path.rs`).
     const PDO_SHORT_PATH: bool = true;
 
+    /// The device calls [`Ctx::trigger_tpdo`] or [`Ctx::rpdo_object`]
+    /// (the default [`Application::rpdo_written`] does). A device that
+    /// calls neither (it overrides `rpdo_written`, or has no RPDO) may say
+    /// `false` (`NoApplication` does): the node then leaves their code out
+    /// (about 100 bytes: the hooks reach the services through a vtable,
+    /// which links every method, called or not). Set `false`,
+    /// `trigger_tpdo` answers `false` and `rpdo_object` `None`.
+    const PDO_CALLS: bool = true;
+
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
     fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
@@ -718,6 +727,8 @@ impl Application for NoApplication {
     const SDO_HOOKS: bool = false;
     // No hook makes a TPDO from an RPDO: the bytes, not the short path.
     const PDO_SHORT_PATH: bool = false;
+    // Its `rpdo_written` does nothing, and no hook triggers a TPDO.
+    const PDO_CALLS: bool = false;
 
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         let _ = (ctx, n);

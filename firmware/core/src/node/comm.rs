@@ -1,6 +1,10 @@
 //! The communication services of a node and their configuration from the
 //! communication area of the dictionary (0x1000–0x1FFF).
 
+use core::marker::PhantomData;
+use core::ops::{Deref, DerefMut};
+
+use super::Application;
 use crate::abort::AbortCode;
 use crate::od::index;
 use crate::od::{Dictionary, Entry, object, store_checked, sub_entry, value_u32};
@@ -21,12 +25,13 @@ pub(super) fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, defau
 }
 
 /// The objects reset communication applies as a download would (sub 0 of
-/// each): EMCY, guarding, heartbeat and TIME read their objects again, SYNC
-/// takes the value. One the dictionary lacks counts as 0, but 0x1005 as
-/// the pre-defined SYNC COB-ID.
-static CONFIGURED: [u16; 8] = [
+/// each). One the dictionary lacks counts as 0, but 0x1005 as the
+/// pre-defined SYNC COB-ID and 0x1014 as EMCY off.
+static CONFIGURED: [u16; 10] = [
     index::COB_ID_EMCY,
+    index::INHIBIT_TIME_EMCY,
     index::GUARD_TIME,
+    index::LIFE_TIME_FACTOR,
     index::PRODUCER_HEARTBEAT_TIME,
     index::COB_ID_TIME_STAMP,
     index::COB_ID_SYNC,
@@ -79,8 +84,8 @@ impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB>
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
-    /// The services before the first [`Comm::configure`]: all off, and all
-    /// zero bits ([`crate::node`]).
+    /// The services before the first reset communication configures them:
+    /// all off, and all zero bits ([`crate::node`]).
     pub const fn new() -> Self {
         Comm {
             heartbeat: Producer::new(),
@@ -105,28 +110,6 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         self.pdos.shift(by);
     }
 
-    /// Reads every communication parameter but the PDOs' again (after reset
-    /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
-    pub fn configure(&mut self, dict: &Dictionary, image: &[u8], now: At) {
-        self.emcy.reset();
-        self.guarding.reset();
-        // Each object as a download applies it (EMCY, guarding, heartbeat and
-        // TIME read their objects again; SYNC and the consumers take the stored
-        // value, or the default where the dictionary lacks the object).
-        self.sync = SyncService::default();
-        // The objects of `CONFIGURED` (sub 0), then the consumers 0x1016 sub
-        // 1..=HB, in one loop: one call of each per image (two loops cost
-        // 76 B more in ds301).
-        for i in 0..CONFIGURED.len().wrapping_add(HB) {
-            let index = CONFIGURED.get(i).copied().unwrap_or(index::CONSUMER_HEARTBEAT_TIME);
-            // At most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
-            let sub = i.saturating_sub(CONFIGURED.len().wrapping_sub(1)) as u8;
-            let default = if index == index::COB_ID_SYNC { SYNC_COB_ID.into() } else { 0 };
-            let value = u32_of(dict, image, index, sub, default);
-            Services::apply(self, index, sub, value, dict, image, now);
-        }
-    }
-
     /// Configures the RPDOs (`transmit` false) or the TPDOs from the image
     /// (after reset communication: the RPDOs first). A mapping that does not
     /// resolve leaves its PDO disabled and counts once per reset in
@@ -138,24 +121,6 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             self.mapping_errors = self.mapping_errors.saturating_add(1);
         }
         self.rpdo_mapping_failed = !transmit && result.is_err();
-    }
-
-    /// Applies 0x1014/0x1015.
-    pub fn configure_emcy(&mut self, dict: &Dictionary, image: &[u8]) {
-        // Without 0x1014 the pre-defined connection set applies, and 0x1015 defaults to 0.
-        let cob = u32_of(dict, image, index::COB_ID_EMCY, 0, 0x8000_0000);
-        let inhibit = u32_of(dict, image, index::INHIBIT_TIME_EMCY, 0, 0) as u16;
-        self.emcy.configure(cob, inhibit);
-    }
-
-    /// Applies a communication object's sub 0 as the image holds it
-    /// (idempotent): [`Services::apply`] with its current value.
-    // Out of line: its caller is the boot-up in `process`, whose every call
-    // otherwise paid for its frame (6 instructions on each row of icount).
-    #[inline(never)]
-    pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: At) {
-        let _ = node_id;
-        Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), dict, image, now);
     }
 
     /// What 0x1029 sub 1 says to do on a communication error.
@@ -201,6 +166,37 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         let _ = dict.write_unchecked_entry(image, count, &[len]);
     }
 
+    /// The service that owns (index, sub) takes the `value` just stored
+    /// ([`Services::apply`], its one caller).
+    #[inline(always)]
+    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
+        match (index, sub) {
+            (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
+                // sub ≥ 1: the match arm's.
+                #[allow(clippy::arithmetic_side_effects)]
+                self.consumers.configure(usize::from(sub) - 1, value);
+            }
+            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
+                self.sync.apply(index, value)
+            }
+            (index::PRODUCER_HEARTBEAT_TIME, _) => {
+                self.heartbeat.configure(value as u16, now);
+                if self.heartbeat.active() {
+                    // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
+                    self.guarding.disarm();
+                }
+            }
+            (index::COB_ID_TIME_STAMP, _) => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
+            // The value as written: the service keeps each object's part.
+            (index::GUARD_TIME, _) => self.guarding.set_guard_time(value as u16),
+            (index::LIFE_TIME_FACTOR, _) => self.guarding.set_life_time_factor(value as u8),
+            (index::COB_ID_EMCY, _) => self.emcy.set_cob_id(value),
+            (index::INHIBIT_TIME_EMCY, _) => self.emcy.set_inhibit(value as u16),
+            // Nothing for an object no service uses.
+            _ => {}
+        }
+    }
+
     /// 0x1003 sub 0 ← 0: the history is empty.
     pub fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
         // Every entry of the record zero (an empty value is zero-filled).
@@ -244,28 +240,98 @@ pub(crate) trait Services {
     ) -> Result<(), AbortCode>;
 
     /// The service that owns (index, sub) takes the `value` just stored.
-    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: At);
+    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At);
 }
 
-impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB> {
+/// [`Comm`] as a node with the application `A` holds it: the hooks'
+/// [`Services`] (one vtable per image) leave out the PDO calls `A` does
+/// not make ([`Application::PDO_CALLS`]), which a vtable would link
+/// whether called or not.
+pub(super) struct Hooked<A, const R: usize, const T: usize, const HB: usize> {
+    comm: Comm<R, T, HB>,
+    app: PhantomData<A>,
+}
+
+impl<A, const R: usize, const T: usize, const HB: usize> Hooked<A, R, T, HB> {
+    /// [`Comm::new`].
+    pub(super) const fn new() -> Self {
+        Hooked { comm: Comm::new(), app: PhantomData }
+    }
+}
+
+impl<A: Application, const R: usize, const T: usize, const HB: usize> Hooked<A, R, T, HB> {
+    /// Reads every communication parameter but the PDOs' again (after reset
+    /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
+    pub fn configure(&mut self, dict: &Dictionary, image: &[u8], now: At) {
+        self.emcy.reset();
+        self.guarding.reset();
+        // Each object as a download applies it: the stored value, or the
+        // default where the dictionary lacks the object.
+        self.sync = SyncService::default();
+        // The objects of `CONFIGURED` (sub 0), then the consumers 0x1016 sub
+        // 1..=HB, in one loop: one call of each per image (two loops cost
+        // 76 B more in ds301).
+        for i in 0..CONFIGURED.len().wrapping_add(HB) {
+            let index = CONFIGURED.get(i).copied().unwrap_or(index::CONSUMER_HEARTBEAT_TIME);
+            // At most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
+            let sub = i.saturating_sub(CONFIGURED.len().wrapping_sub(1)) as u8;
+            let default = match index {
+                index::COB_ID_SYNC => SYNC_COB_ID.into(),
+                index::COB_ID_EMCY => 0x8000_0000,
+                _ => 0,
+            };
+            let value = u32_of(dict, image, index, sub, default);
+            Services::apply(self, index, sub, value, now);
+        }
+    }
+
+    /// Applies a communication object's sub 0 as the image holds it
+    /// (idempotent): [`Services::apply`] with its current value.
+    // Out of line: its caller is the boot-up in `process`, whose every call
+    // otherwise paid for its frame (6 instructions on each row of icount).
+    #[inline(never)]
+    pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: At) {
+        let _ = node_id;
+        Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), now);
+    }
+}
+
+impl<A, const R: usize, const T: usize, const HB: usize> Deref for Hooked<A, R, T, HB> {
+    type Target = Comm<R, T, HB>;
+
+    fn deref(&self) -> &Comm<R, T, HB> {
+        &self.comm
+    }
+}
+
+impl<A, const R: usize, const T: usize, const HB: usize> DerefMut for Hooked<A, R, T, HB> {
+    fn deref_mut(&mut self) -> &mut Comm<R, T, HB> {
+        &mut self.comm
+    }
+}
+
+impl<A: Application, const R: usize, const T: usize, const HB: usize> Services for Hooked<A, R, T, HB> {
     fn emcy(&mut self) -> &mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS> {
-        &mut self.emcy
+        &mut self.comm.emcy
     }
 
     fn trigger_tpdo(&mut self, n: usize) -> bool {
-        self.pdos.trigger(n)
+        A::PDO_CALLS && self.comm.pdos.trigger(n)
     }
 
     fn rpdo_mapping(&self, n: usize) -> Option<&Mapping> {
-        self.pdos.rpdo(n).and_then(|r| r.mapping())
+        if !A::PDO_CALLS {
+            return None;
+        }
+        self.comm.pdos.rpdo(n).and_then(|r| r.mapping())
     }
 
     fn consumer_conflicts(&self, i: usize, value: u32) -> bool {
-        self.consumers.conflicts(i, value)
+        self.comm.consumers.conflicts(i, value)
     }
 
     fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        Comm::clear_history(self, dict, image);
+        self.comm.clear_history(dict, image);
     }
 
     fn write_pdo(
@@ -278,41 +344,15 @@ impl<const R: usize, const T: usize, const HB: usize> Services for Comm<R, T, HB
         image: &mut [u8],
         rewrite: bool,
     ) -> Result<(), AbortCode> {
-        match self.pdos.write_checked(index, sub, data, entry, dict, image, rewrite) {
+        match self.comm.pdos.write_checked(index, sub, data, entry, dict, image, rewrite) {
             Some(result) => result,
             // A record of a PDO this node does not have.
             None => store_checked(image, entry, data).map(|_| ()),
         }
     }
 
-    fn apply(&mut self, index: u16, sub: u8, value: u32, dict: &Dictionary, image: &[u8], now: At) {
-        match (index, sub) {
-            (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
-                // sub ≥ 1: the match arm's.
-                #[allow(clippy::arithmetic_side_effects)]
-                self.consumers.configure(usize::from(sub) - 1, value);
-            }
-            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
-                self.sync.apply(index, value)
-            }
-            (index::PRODUCER_HEARTBEAT_TIME, _) => {
-                self.heartbeat.configure(value as u16, now);
-                if self.heartbeat.active() {
-                    // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
-                    self.guarding.disarm();
-                }
-            }
-            (index::COB_ID_TIME_STAMP, _) => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
-            // Two objects each: both read again.
-            (index::GUARD_TIME | index::LIFE_TIME_FACTOR, _) => {
-                let guard = u32_of(dict, image, index::GUARD_TIME, 0, 0) as u16;
-                let factor = u32_of(dict, image, index::LIFE_TIME_FACTOR, 0, 0) as u8;
-                self.guarding.configure(guard, factor);
-            }
-            (index::COB_ID_EMCY | index::INHIBIT_TIME_EMCY, _) => self.configure_emcy(dict, image),
-            // Nothing for an object no service uses.
-            _ => {}
-        }
+    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
+        self.comm.apply(index, sub, value, now);
     }
 }
 
@@ -355,7 +395,7 @@ mod tests {
 
     #[test]
     fn reset_communication_applies_each_object_or_its_default() {
-        let mut comm = Comm::<0, 0, 2>::new();
+        let mut comm = Hooked::<crate::node::NoApplication, 0, 0, 2>::new();
         comm.configure(&DICT, &DEFAULTS, 0);
         assert_eq!(comm.sync.cob_id(), 0x81, "0x1005 as the image holds it");
         assert!(comm.heartbeat.active(), "0x1017 = 1000 ms");
@@ -364,5 +404,6 @@ mod tests {
         assert_eq!(comm.sync.cob_id(), 0x80, "no 0x1005: the pre-defined SYNC COB-ID");
         assert!(!comm.heartbeat.active(), "no 0x1017: no heartbeat");
         assert_eq!(comm.consumers.producers().count(), 0, "no 0x1016: no consumer");
+        assert_eq!(comm.emcy.cob_id(), None, "no 0x1014: EMCY off");
     }
 }

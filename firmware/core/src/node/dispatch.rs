@@ -129,6 +129,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             }
             if state.pdo_allowed() {
                 let Node { od, comm, txq, .. } = self;
+                let comm = &mut **comm;
                 let mut sink = PdoSink::<A>::new(txq, &mut comm.emcy);
                 // Some(the TPDOs whose mapped data the frame wrote) if a PDO took it.
                 let reached = if rtr {
@@ -230,6 +231,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
+            let comm = &mut **comm;
             let mut sink = PdoSink::<A>::new(txq, &mut comm.emcy);
             comm.pdos.on_sync(event, od.image_mut(), &mut sink);
             let (received, errors) = (sink.received, sink.errors);

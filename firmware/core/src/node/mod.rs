@@ -183,7 +183,7 @@ pub struct Node<
     app: A,
     storage: S,
     nmt: Nmt,
-    comm: Comm<R, T, HB>,
+    comm: comm::Hooked<A, R, T, HB>,
     sdo: SdoServers<SDO_BUFFER, SDO>,
     /// COB-IDs (client→server, server→client) of each SDO server, if valid.
     sdo_cob_ids: [Option<(u16, u16)>; SDO],
@@ -288,7 +288,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             app,
             storage,
             nmt: Nmt::new(),
-            comm: Comm::new(),
+            comm: comm::Hooked::new(),
             sdo: SdoServers::new(),
             sdo_cob_ids: [None; SDO],
             txq: TxQueue::new(),

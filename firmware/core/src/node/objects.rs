@@ -152,7 +152,7 @@ impl Ctx<'_> {
             }
         }
         store_checked(self.image, entry, data)?;
-        self.services.apply(index, sub, le_u32(data), dict, self.image, now);
+        self.services.apply(index, sub, le_u32(data), now);
         Ok(())
     }
 }

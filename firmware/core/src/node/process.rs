@@ -164,6 +164,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // A poll for any TPDO retries every TPDO waiting to (the poll sees which).
             let marked = core::mem::take(&mut self.touched);
             let Node { od, comm, txq, .. } = self;
+            let comm = &mut **comm;
             let mut sink = PdoSink::<A>::new(txq, &mut comm.emcy);
             pdo_deadline = comm.pdos.poll_marked(now, marked, od.image(), &mut sink);
             let (received, errors) = (sink.received, sink.errors);

@@ -98,7 +98,17 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Applies 0x1014 (bit 31 = EMCY off) and 0x1015 (100 µs units).
     pub fn configure(&mut self, cob_id: u32, inhibit_100us: u16) {
+        self.set_cob_id(cob_id);
+        self.set_inhibit(inhibit_100us);
+    }
+
+    /// 0x1014 (bit 31 set: EMCY off), as [`EmcyProducer::configure`] sets it.
+    pub fn set_cob_id(&mut self, cob_id: u32) {
         self.cob_id = (cob_id & 0x8000_0000 == 0).then_some((cob_id & 0x7FF) as u16);
+    }
+
+    /// 0x1015, the inhibit time in 100 µs, as [`EmcyProducer::configure`] sets it.
+    pub fn set_inhibit(&mut self, inhibit_100us: u16) {
         self.inhibit = span_100us(inhibit_100us);
     }
 

@@ -208,8 +208,11 @@ impl<const N: usize> Consumer<N> {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Guarding {
     toggle: bool,
-    /// The life time in µs (0: no life guarding).
-    lifetime: u64,
+    /// 0x100C, the guard time in ms, and 0x100D, the life time factor: the
+    /// life time is their product (0: no life guarding). Kept apart, so
+    /// that a download of either applies its own value.
+    guard_time_ms: u16,
+    factor: u8,
     /// When life guarding expires: up to 4.6 hours ahead.
     deadline: Option<Far>,
     /// Life guarding expired, and no guarding request came since.
@@ -219,15 +222,25 @@ pub struct Guarding {
 impl Guarding {
     /// Guarding with no life time until [`Guarding::configure`].
     pub const fn new() -> Self {
-        Guarding { toggle: false, lifetime: 0, deadline: None, expired: false }
+        Guarding { toggle: false, guard_time_ms: 0, factor: 0, deadline: None, expired: false }
     }
 
     /// Sets the life time from 0x100C (guard time, ms) × 0x100D (factor).
     /// Life guarding starts with the first guarding request.
-    // A u16 times a u8 times 1000 fits a u64.
-    #[allow(clippy::arithmetic_side_effects)]
     pub fn configure(&mut self, guard_time_ms: u16, factor: u8) {
-        self.lifetime = u64::from(guard_time_ms) * u64::from(factor) * 1000;
+        self.set_guard_time(guard_time_ms);
+        self.set_life_time_factor(factor);
+    }
+
+    /// 0x100C, the guard time in ms, as [`Guarding::configure`] sets it.
+    pub fn set_guard_time(&mut self, ms: u16) {
+        self.guard_time_ms = ms;
+        self.deadline = None;
+    }
+
+    /// 0x100D, the life time factor, as [`Guarding::configure`] sets it.
+    pub fn set_life_time_factor(&mut self, factor: u8) {
+        self.factor = factor;
         self.deadline = None;
     }
 
@@ -248,7 +261,10 @@ impl Guarding {
     pub fn on_request(&mut self, state: NmtStateCode, now: At) -> u8 {
         let byte = state.code() | if self.toggle { 0x80 } else { 0 };
         self.toggle = !self.toggle;
-        self.deadline = (self.lifetime != 0).then(|| Far::after(now, self.lifetime));
+        // A u16 times a u8 times 1000 fits a u64.
+        #[allow(clippy::arithmetic_side_effects)]
+        let lifetime = u64::from(self.guard_time_ms) * u64::from(self.factor) * 1000;
+        self.deadline = (lifetime != 0).then(|| Far::after(now, lifetime));
         self.expired = false;
         byte
     }

@@ -85,6 +85,8 @@ impl Limits for Axis {
 impl Application for App {
     // EEPROM store by the function register 0x84; the EDS has no 0x1010.
     const STORES: bool = true;
+    // No RPDO (`rpdo_written` does nothing) and no TPDO trigger.
+    const PDO_CALLS: bool = false;
 
     fn on_nmt(&mut self, ctx: &mut Ctx<'_>, event: NmtEvent) {
         // Power-on is the only reset without CANopen.
