@@ -74,7 +74,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
         }
         let rate = self.bit_rate.unwrap_or(0xFF);
-        self.lss = LssSlave::new([0; 4], self.hook.node_id, rate, dict.device.baud_rates);
+        // The address stays: the reset that follows reads it from 0x1018 (`refresh_lss`).
+        self.lss = LssSlave::new(self.lss.address(), self.hook.node_id, rate, dict.device.baud_rates);
         self.lss_active = true;
     }
 

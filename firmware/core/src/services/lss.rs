@@ -121,6 +121,11 @@ impl LssSlave {
         self.address = address;
     }
 
+    /// The LSS address (0x1018 sub 1..4).
+    pub fn address(&self) -> [u32; 4] {
+        self.address
+    }
+
     /// The LSS state.
     pub fn mode(&self) -> Mode {
         self.mode
@@ -170,10 +175,6 @@ impl LssSlave {
         let configuring = self.mode == Mode::Configuration;
         // A switch-state-selective sequence goes on only with its next part: any other request ends it.
         let selective = core::mem::take(&mut self.selective);
-        // Configuration services in the waiting state are ignored (CiA 305 §4.3).
-        if !configuring && (cs & 0xF9 == 0x11 || (0x5A..=0x5E).contains(&cs)) {
-            return LssAction::None;
-        }
         match cs {
             // Switch state global: 1 configuration, 0 waiting.
             0x04 if b1 == 1 => {
@@ -181,6 +182,8 @@ impl LssSlave {
                 LssAction::None
             }
             0x04 if b1 == 0 => self.enter_waiting(),
+            // Configuration services in the waiting state are ignored (CiA 305 §4.3).
+            0x11 | 0x13 | 0x15 | 0x17 | 0x5A..=0x5E if !configuring => LssAction::None,
             // Switch state selective: vendor, product, revision, serial number.
             0x40..=0x43 => {
                 let part = cs - 0x40;
