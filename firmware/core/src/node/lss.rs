@@ -81,15 +81,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The LSS address follows 0x1018 sub 1..4 (after a reset or a new serial number).
     pub(super) fn refresh_lss(&mut self) {
-        let dict = self.od.dictionary();
-        let image = self.od.image();
-        // A loop, not four calls: each inlined its own `read_u32`.
-        let mut address = [0u32; 4];
-        for (part, sub) in address.iter_mut().zip(1u8..) {
-            *part = dict.read_u32(image, index::IDENTITY, sub).unwrap_or(0);
+        if !self.lss_on() {
+            return;
         }
-        if let Some(lss) = self.lss_mut() {
-            lss.set_address(address);
+        let Node { od, lss, .. } = self;
+        let (dict, image) = (od.dictionary(), od.image());
+        // A loop, not four calls: each inlined its own `read_u32`. Into the
+        // slave's own array: no copy on the stack to zero and move.
+        for (part, sub) in lss.address_mut().iter_mut().zip(1u8..) {
+            *part = dict.read_u32(image, index::IDENTITY, sub).unwrap_or(0);
         }
     }
 

@@ -116,9 +116,9 @@ impl LssSlave {
         }
     }
 
-    /// Replaces the LSS address (0x1018 sub 1..4 changed, e.g. a serial number set by the board).
-    pub fn set_address(&mut self, address: [u32; 4]) {
-        self.address = address;
+    /// The LSS address to replace (0x1018 sub 1..4 changed, e.g. a serial number set by the board).
+    pub fn address_mut(&mut self) -> &mut [u32; 4] {
+        &mut self.address
     }
 
     /// The LSS address (0x1018 sub 1..4).
