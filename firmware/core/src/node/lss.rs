@@ -105,19 +105,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.counters.count_malformed();
             return;
         };
-        // Configuration with a new node-id pending: "switch state global" to waiting leaves it.
-        let new_id = lss.mode() == Mode::Configuration && lss.pending_node_id() != lss.active_node_id();
-        // A device that resets itself on leaving configuration with a new node-id (the Sendix, L3567).
-        let leave_resets = A::OPTIONS.lss_start_resets_node && new_id;
-        // A device whose own "unconfigured" node-id is active (the EC5000's 127) starts the new one so.
-        let leave_starts = new_id && A::OPTIONS.lss_unconfigured_node_id.is_some_and(|id| id == lss.active_node_id());
+        let configuring = lss.mode() == Mode::Configuration;
         let action = lss.on_request(request);
-        if action == LssAction::None && lss.mode() == Mode::Waiting {
-            if leave_resets {
+        // Configuration left for waiting with a new node-id pending: only "switch state global"
+        // to waiting does that, and it leaves both node-ids as they were, so they are compared after it.
+        if action == LssAction::None && configuring && lss.mode() == Mode::Waiting && lss.pending_node_id() != lss.active_node_id() {
+            // A device that resets itself on leaving configuration with a new node-id (the Sendix, L3567).
+            if A::OPTIONS.lss_start_resets_node {
                 self.reset_application();
                 return;
             }
-            if leave_starts {
+            // A device whose own "unconfigured" node-id is active (the EC5000's 127) starts the new one so.
+            if A::OPTIONS.lss_unconfigured_node_id.is_some_and(|id| id == lss.active_node_id()) {
                 self.reset_communication();
                 return;
             }
