@@ -74,21 +74,22 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
         }
         let rate = self.bit_rate.unwrap_or(0xFF);
-        self.lss = LssSlave::new([0; 4], self.hook.node_id, rate, dict.device.baud_rates);
+        // The address stays: the reset that follows reads it from 0x1018 (`refresh_lss`).
+        self.lss = LssSlave::new(self.lss.address(), self.hook.node_id, rate, dict.device.baud_rates);
         self.lss_active = true;
     }
 
     /// The LSS address follows 0x1018 sub 1..4 (after a reset or a new serial number).
     pub(super) fn refresh_lss(&mut self) {
-        let dict = self.od.dictionary();
-        let image = self.od.image();
-        // A loop, not four calls: each inlined its own `read_u32`.
-        let mut address = [0u32; 4];
-        for (part, sub) in address.iter_mut().zip(1u8..) {
-            *part = dict.read_u32(image, index::IDENTITY, sub).unwrap_or(0);
+        if !self.lss_on() {
+            return;
         }
-        if let Some(lss) = self.lss_mut() {
-            lss.set_address(address);
+        let Node { od, lss, .. } = self;
+        let (dict, image) = (od.dictionary(), od.image());
+        // A loop, not four calls: each inlined its own `read_u32`. Into the
+        // slave's own array: no copy on the stack to zero and move.
+        for (part, sub) in lss.address_mut().iter_mut().zip(1u8..) {
+            *part = dict.read_u32(image, index::IDENTITY, sub).unwrap_or(0);
         }
     }
 
@@ -104,19 +105,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.counters.count_malformed();
             return;
         };
-        // Configuration with a new node-id pending: "switch state global" to waiting leaves it.
-        let new_id = lss.mode() == Mode::Configuration && lss.pending_node_id() != lss.active_node_id();
-        // A device that resets itself on leaving configuration with a new node-id (the Sendix, L3567).
-        let leave_resets = A::OPTIONS.lss_start_resets_node && new_id;
-        // A device whose own "unconfigured" node-id is active (the EC5000's 127) starts the new one so.
-        let leave_starts = new_id && A::OPTIONS.lss_unconfigured_node_id.is_some_and(|id| id == lss.active_node_id());
+        let configuring = lss.mode() == Mode::Configuration;
         let action = lss.on_request(request);
-        if action == LssAction::None && lss.mode() == Mode::Waiting {
-            if leave_resets {
+        // Configuration left for waiting with a new node-id pending: only "switch state global"
+        // to waiting does that, and it leaves both node-ids as they were, so they are compared after it.
+        if action == LssAction::None && configuring && lss.mode() == Mode::Waiting && lss.pending_node_id() != lss.active_node_id() {
+            // A device that resets itself on leaving configuration with a new node-id (the Sendix, L3567).
+            if A::OPTIONS.lss_start_resets_node {
                 self.reset_application();
                 return;
             }
-            if leave_starts {
+            // A device whose own "unconfigured" node-id is active (the EC5000's 127) starts the new one so.
+            if A::OPTIONS.lss_unconfigured_node_id.is_some_and(|id| id == lss.active_node_id()) {
                 self.reset_communication();
                 return;
             }
@@ -166,9 +166,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let (index, at) = (sw.index, sw.at);
         self.bit_rate = Some(index);
         self.bit_rate_request = Some(index);
-        if let Some(lss) = self.lss_mut() {
-            lss.bit_rate_switched();
-        }
+        // Only `lss_request` starts a switch, and only for a node that runs LSS (`lss_on`).
+        self.lss.bit_rate_switched();
         at
     }
 

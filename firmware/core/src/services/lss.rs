@@ -116,9 +116,14 @@ impl LssSlave {
         }
     }
 
-    /// Replaces the LSS address (0x1018 sub 1..4 changed, e.g. a serial number set by the board).
-    pub fn set_address(&mut self, address: [u32; 4]) {
-        self.address = address;
+    /// The LSS address to replace (0x1018 sub 1..4 changed, e.g. a serial number set by the board).
+    pub fn address_mut(&mut self) -> &mut [u32; 4] {
+        &mut self.address
+    }
+
+    /// The LSS address (0x1018 sub 1..4).
+    pub fn address(&self) -> [u32; 4] {
+        self.address
     }
 
     /// The LSS state.
@@ -170,10 +175,6 @@ impl LssSlave {
         let configuring = self.mode == Mode::Configuration;
         // A switch-state-selective sequence goes on only with its next part: any other request ends it.
         let selective = core::mem::take(&mut self.selective);
-        // Configuration services in the waiting state are ignored (CiA 305 §4.3).
-        if !configuring && (cs & 0xF9 == 0x11 || (0x5A..=0x5E).contains(&cs)) {
-            return LssAction::None;
-        }
         match cs {
             // Switch state global: 1 configuration, 0 waiting.
             0x04 if b1 == 1 => {
@@ -181,6 +182,8 @@ impl LssSlave {
                 LssAction::None
             }
             0x04 if b1 == 0 => self.enter_waiting(),
+            // Configuration services in the waiting state are ignored (CiA 305 §4.3).
+            0x11 | 0x13 | 0x15 | 0x17 | 0x5A..=0x5E if !configuring => LssAction::None,
             // Switch state selective: vendor, product, revision, serial number.
             0x40..=0x43 => {
                 let part = cs - 0x40;
