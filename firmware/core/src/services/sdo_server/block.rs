@@ -98,9 +98,11 @@ impl Channel {
         let capacity = buf.len();
         let mut total = d.pos;
         let mut ackseq = d.seq;
-        if !d.gap && segment.seqno == d.seq.saturating_add(1) {
+        // seq <= blksize <= 127, and pos is at most 7 past the buffer's
+        // end (a last segment's unused tail): neither sum can wrap.
+        if !d.gap && segment.seqno == d.seq.wrapping_add(1) {
             let start = d.pos;
-            let end = start.saturating_add(SEGMENT_DATA);
+            let end = start.wrapping_add(SEGMENT_DATA);
             if !segment.last {
                 // Every byte of a segment but the last is data.
                 if d.sized && end > d.size {
