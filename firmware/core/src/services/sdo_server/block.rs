@@ -116,8 +116,9 @@ impl Channel {
                 }
             }
             // The unused tail of the last segment need not fit: the end request says how much is data.
+            // start + fit is at most the capacity (or start itself, fit 0): no wrap.
             let fit = capacity.saturating_sub(start).min(SEGMENT_DATA);
-            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.saturating_add(fit)), segment.data.get(..fit)) {
+            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.wrapping_add(fit)), segment.data.get(..fit)) {
                 dst.copy_from_slice(src);
             }
             total = end;
