@@ -345,7 +345,13 @@ impl BlockSegment {
     /// The 8 data bytes (`seqno` is cut to 7 bits).
     pub fn emit(&self) -> [u8; 8] {
         let [d0, d1, d2, d3, d4, d5, d6] = self.data;
-        [flag(self.last, 0x80) | (self.seqno & 0x7F), d0, d1, d2, d3, d4, d5, d6]
+        [Self::byte0(self.seqno, self.last), d0, d1, d2, d3, d4, d5, d6]
+    }
+
+    /// Byte 0 of a segment: c and the sequence number (cut to 7 bits), for
+    /// a sender that reads the data into bytes 1–7 of the frame in place.
+    pub(crate) fn byte0(seqno: u8, last: bool) -> u8 {
+        flag(last, 0x80) | (seqno & 0x7F)
     }
 }
 

@@ -244,21 +244,23 @@ impl Channel {
             let u = self.t;
             let offset = u.pos.saturating_add(usize::from(u.seq).saturating_mul(SEGMENT_DATA));
             let len = u.size.saturating_sub(offset).min(SEGMENT_DATA);
-            let mut data = [0u8; SEGMENT_DATA];
-            if let Some(buf) = data.get_mut(..len)
-                && let Err(code) = od.read(self.mux.index, self.mux.sub, offset, buf)
-            {
+            // The value's bytes read into the frame in place, after byte 0.
+            let mut frame = [0u8; 8];
+            let data = frame.get_mut(1..=len).unwrap_or(&mut []);
+            if let Err(code) = od.read(self.mux.index, self.mux.sub, offset, data) {
                 self.abort(code, tx);
                 return false;
             }
             let seqno = u.seq.saturating_add(1);
             let last = offset.saturating_add(SEGMENT_DATA) >= u.size;
-            if !tx.send(BlockSegment { seqno, last, data }.emit()) {
+            let [b0, ..] = &mut frame;
+            *b0 = BlockSegment::byte0(seqno, last);
+            if !tx.send(frame) {
                 break;
             }
             // Each byte enters the CRC the first time it is sent.
             if u.crc_on && offset == u.crc_len {
-                self.t.crc = crc16_update(u.crc, data.get(..len).unwrap_or(&[]));
+                self.t.crc = crc16_update(u.crc, frame.get(1..=len).unwrap_or(&[]));
                 self.t.crc_len = offset.saturating_add(len);
             }
             self.t.seq = seqno;
