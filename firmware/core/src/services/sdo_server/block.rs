@@ -145,12 +145,14 @@ impl Channel {
     pub(super) fn block_download_end(&mut self, unused: u8, crc: u16, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let d = self.t;
-        let len = d.pos.saturating_sub(usize::from(unused));
+        // The end request comes after the segment with c = 1 (`complete`),
+        // so pos >= 7 >= unused: neither subtraction wraps.
+        let len = d.pos.wrapping_sub(usize::from(unused));
         if len > buf.len() {
             return self.abort(AbortCode::OutOfMemory, tx);
         }
         if d.crc_on {
-            let last = buf.get(d.pos.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
+            let last = buf.get(d.pos.wrapping_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
             if crc16_update(d.crc, last) != crc {
                 return self.abort(AbortCode::CrcError, tx);
             }
