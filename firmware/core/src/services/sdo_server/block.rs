@@ -49,7 +49,10 @@ impl Transfer {
     /// Block upload: segments in the current block, blksize or fewer at
     /// the end of the value.
     fn block_len(&self) -> u8 {
-        let left = segments(self.size).saturating_sub(self.pos / SEGMENT_DATA);
+        // pos is a multiple of 7 and at most size (the block starts at the
+        // segment after an ackseq that did not reach the end): the segments
+        // left are those of the bytes left, one division instead of two.
+        let left = segments(self.size.saturating_sub(self.pos));
         u8::try_from(left.min(usize::from(self.blksize))).unwrap_or(self.blksize)
     }
 }
