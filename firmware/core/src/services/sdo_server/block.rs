@@ -222,8 +222,8 @@ impl Channel {
                     // The segment with c = 1 is confirmed: its unused tail is n.
                     self.t.phase = UploadPhase::End;
                     let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
-                    let crc = if u.crc_on { u.crc } else { 0 };
-                    self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc }), tx);
+                    // Without a CRC the register stayed 0 (only a transfer with one updates it).
+                    self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc: u.crc }), tx);
                 } else {
                     // Next block, or the same one again from the segment after ackseq.
                     self.t.pos = acked_end;
