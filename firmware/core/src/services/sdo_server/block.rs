@@ -248,7 +248,8 @@ impl Channel {
         while self.t.seq < block_len {
             let u = self.t;
             let offset = u.pos.saturating_add(usize::from(u.seq).saturating_mul(SEGMENT_DATA));
-            let len = u.size.saturating_sub(offset).min(SEGMENT_DATA);
+            let left = u.size.saturating_sub(offset);
+            let len = left.min(SEGMENT_DATA);
             // The value's bytes read into the frame in place, after byte 0.
             let mut frame = [0u8; 8];
             let data = frame.get_mut(1..=len).unwrap_or(&mut []);
@@ -257,7 +258,8 @@ impl Channel {
                 return false;
             }
             let seqno = u.seq.saturating_add(1);
-            let last = offset.saturating_add(SEGMENT_DATA) >= u.size;
+            // offset + 7 >= size, from the subtraction already made.
+            let last = left <= SEGMENT_DATA;
             let [b0, ..] = &mut frame;
             *b0 = BlockSegment::byte0(seqno, last);
             if !tx.send(frame) {
