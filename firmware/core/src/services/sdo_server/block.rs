@@ -81,7 +81,14 @@ impl Channel {
     pub(super) fn start_block_download(&mut self, crc: bool, capacity: usize, tx: &mut dyn SdoTx) {
         let blksize = Self::download_blksize(capacity, 0);
         self.state = State::BlockDownload;
-        self.t = Transfer { size: self.t.size, sized: self.t.sized, crc_on: crc, blksize, ..Transfer::NEW };
+        // `start_segments` set the size and pos 0; the block's own fields
+        // (crc_len and phase are the upload's).
+        self.t.crc_on = crc;
+        self.t.crc = 0;
+        self.t.blksize = blksize;
+        self.t.seq = 0;
+        self.t.gap = false;
+        self.t.complete = false;
         let response = BlockDownloadResponse::Initiate { index: self.mux.index, sub: self.mux.sub, crc: true, blksize };
         self.send(SdoResponse::BlockDownload(response), tx);
     }
