@@ -205,7 +205,15 @@ impl Channel {
             return Some(size);
         }
         self.state = State::BlockUpload;
-        self.t = Transfer { size, sized: true, crc_on: crc, blksize, ..Transfer::NEW };
+        // The fields an upload reads (sized, toggle, gap and complete are the downloads').
+        self.t.size = size;
+        self.t.pos = 0;
+        self.t.crc_on = crc;
+        self.t.crc = 0;
+        self.t.crc_len = 0;
+        self.t.blksize = blksize;
+        self.t.seq = 0;
+        self.t.phase = UploadPhase::Initiated;
         let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
         self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
         None
