@@ -36,42 +36,23 @@ pub fn crc16(data: &[u8]) -> u16 {
     crc16_update(0, data)
 }
 
-/// CRC-16-CCITT of each value of a nibble, as the top four bits of the register.
-const CRC16_NIBBLE: [u16; 16] = {
-    let mut table = [0u16; 16];
-    let mut n: u16 = 0;
-    let mut slots: &mut [u16] = &mut table;
-    while let [slot, rest @ ..] = slots {
-        let mut crc = n << 12;
-        let mut bit = 0;
-        while bit < 4 {
-            crc = if crc & 0x8000 != 0 { (crc << 1) ^ 0x1021 } else { crc << 1 };
-            bit += 1;
-        }
-        *slot = crc;
-        n += 1;
-        slots = rest;
-    }
-    table
-};
-
 /// Continues a [`crc16`] over more bytes, so a transfer can be checked a
 /// segment at a time.
 ///
-/// A nibble at a time through a 16-entry table (32 bytes), chosen by
-/// measurement on thumbv7m-none-eabi (opt-level "s"): against the bitwise
-/// loop it saves 392 instructions per 7-byte segment (`cargo xtask icount`:
-/// a block upload sub-block of 28 segments went from 33,936 to 22,962) for
-/// about 200 bytes of flash per image (`cargo xtask size`; the table, and
-/// the function no longer inlined into its three callers). A 256-entry
-/// table would add 512 bytes more to save about 3 instructions per byte
-/// (what it saved for the store's CRC-32).
+/// A byte at a time without a table: the top byte of the register XOR
+/// the data byte, folded as `x ^ x >> 4`, is what the polynomial's terms
+/// x^12, x^5 and 1 shift back in. Measured on thumbv7m-none-eabi against
+/// the nibble table it replaced (32 bytes of table, two look-ups a byte):
+/// smaller and faster (see docs/benchmarks.md, round 12b).
+// Out of line: three callers (block download segment and end, block upload).
+#[inline(never)]
 pub fn crc16_update(crc: u16, data: &[u8]) -> u16 {
-    // `(crc >> 12) ^ nibble` is at most 15, so the look-up is always in the table.
-    let step = |crc: u16, nibble: u8| (crc << 4) ^ CRC16_NIBBLE.get(usize::from((crc >> 12) as u8 ^ nibble)).copied().unwrap_or(0);
     let mut crc = crc;
     for &byte in data {
-        crc = step(step(crc, byte >> 4), byte & 0xF);
+        let [high, _] = crc.to_be_bytes();
+        let x = high ^ byte;
+        let x = u16::from(x ^ (x >> 4));
+        crc = (crc << 8) ^ (x << 12) ^ (x << 5) ^ x;
     }
     crc
 }
@@ -364,7 +345,13 @@ impl BlockSegment {
     /// The 8 data bytes (`seqno` is cut to 7 bits).
     pub fn emit(&self) -> [u8; 8] {
         let [d0, d1, d2, d3, d4, d5, d6] = self.data;
-        [flag(self.last, 0x80) | (self.seqno & 0x7F), d0, d1, d2, d3, d4, d5, d6]
+        [Self::byte0(self.seqno, self.last), d0, d1, d2, d3, d4, d5, d6]
+    }
+
+    /// Byte 0 of a segment: c and the sequence number (cut to 7 bits), for
+    /// a sender that reads the data into bytes 1–7 of the frame in place.
+    pub(crate) fn byte0(seqno: u8, last: bool) -> u8 {
+        flag(last, 0x80) | (seqno & 0x7F)
     }
 }
 

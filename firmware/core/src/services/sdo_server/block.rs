@@ -49,7 +49,10 @@ impl Transfer {
     /// Block upload: segments in the current block, blksize or fewer at
     /// the end of the value.
     fn block_len(&self) -> u8 {
-        let left = segments(self.size).saturating_sub(self.pos / SEGMENT_DATA);
+        // pos is a multiple of 7 and at most size (the block starts at the
+        // segment after an ackseq that did not reach the end): the segments
+        // left are those of the bytes left, one division instead of two.
+        let left = segments(self.size.saturating_sub(self.pos));
         u8::try_from(left.min(usize::from(self.blksize))).unwrap_or(self.blksize)
     }
 }
@@ -78,7 +81,14 @@ impl Channel {
     pub(super) fn start_block_download(&mut self, crc: bool, capacity: usize, tx: &mut dyn SdoTx) {
         let blksize = Self::download_blksize(capacity, 0);
         self.state = State::BlockDownload;
-        self.t = Transfer { size: self.t.size, sized: self.t.sized, crc_on: crc, blksize, ..Transfer::NEW };
+        // `start_segments` set the size and pos 0; the block's own fields
+        // (crc_len and phase are the upload's).
+        self.t.crc_on = crc;
+        self.t.crc = 0;
+        self.t.blksize = blksize;
+        self.t.seq = 0;
+        self.t.gap = false;
+        self.t.complete = false;
         let response = BlockDownloadResponse::Initiate { index: self.mux.index, sub: self.mux.sub, crc: true, blksize };
         self.send(SdoResponse::BlockDownload(response), tx);
     }
@@ -98,9 +108,11 @@ impl Channel {
         let capacity = buf.len();
         let mut total = d.pos;
         let mut ackseq = d.seq;
-        if !d.gap && segment.seqno == d.seq.saturating_add(1) {
+        // seq <= blksize <= 127, and pos is at most 7 past the buffer's
+        // end (a last segment's unused tail): neither sum can wrap.
+        if !d.gap && segment.seqno == d.seq.wrapping_add(1) {
             let start = d.pos;
-            let end = start.saturating_add(SEGMENT_DATA);
+            let end = start.wrapping_add(SEGMENT_DATA);
             if !segment.last {
                 // Every byte of a segment but the last is data.
                 if d.sized && end > d.size {
@@ -114,8 +126,9 @@ impl Channel {
                 }
             }
             // The unused tail of the last segment need not fit: the end request says how much is data.
+            // start + fit is at most the capacity (or start itself, fit 0): no wrap.
             let fit = capacity.saturating_sub(start).min(SEGMENT_DATA);
-            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.saturating_add(fit)), segment.data.get(..fit)) {
+            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.wrapping_add(fit)), segment.data.get(..fit)) {
                 dst.copy_from_slice(src);
             }
             total = end;
@@ -142,12 +155,14 @@ impl Channel {
     pub(super) fn block_download_end(&mut self, unused: u8, crc: u16, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let d = self.t;
-        let len = d.pos.saturating_sub(usize::from(unused));
+        // The end request comes after the segment with c = 1 (`complete`),
+        // so pos >= 7 >= unused: neither subtraction wraps.
+        let len = d.pos.wrapping_sub(usize::from(unused));
         if len > buf.len() {
             return self.abort(AbortCode::OutOfMemory, tx);
         }
         if d.crc_on {
-            let last = buf.get(d.pos.saturating_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
+            let last = buf.get(d.pos.wrapping_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
             if crc16_update(d.crc, last) != crc {
                 return self.abort(AbortCode::CrcError, tx);
             }
@@ -190,7 +205,15 @@ impl Channel {
             return Some(size);
         }
         self.state = State::BlockUpload;
-        self.t = Transfer { size, sized: true, crc_on: crc, blksize, ..Transfer::NEW };
+        // The fields an upload reads (sized, toggle, gap and complete are the downloads').
+        self.t.size = size;
+        self.t.pos = 0;
+        self.t.crc_on = crc;
+        self.t.crc = 0;
+        self.t.crc_len = 0;
+        self.t.blksize = blksize;
+        self.t.seq = 0;
+        self.t.phase = UploadPhase::Initiated;
         let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
         self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
         None
@@ -214,8 +237,8 @@ impl Channel {
                     // The segment with c = 1 is confirmed: its unused tail is n.
                     self.t.phase = UploadPhase::End;
                     let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
-                    let crc = if u.crc_on { u.crc } else { 0 };
-                    self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc }), tx);
+                    // Without a CRC the register stayed 0 (only a transfer with one updates it).
+                    self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc: u.crc }), tx);
                 } else {
                     // Next block, or the same one again from the segment after ackseq.
                     self.t.pos = acked_end;
@@ -240,22 +263,26 @@ impl Channel {
         while self.t.seq < block_len {
             let u = self.t;
             let offset = u.pos.saturating_add(usize::from(u.seq).saturating_mul(SEGMENT_DATA));
-            let len = u.size.saturating_sub(offset).min(SEGMENT_DATA);
-            let mut data = [0u8; SEGMENT_DATA];
-            if let Some(buf) = data.get_mut(..len)
-                && let Err(code) = od.read(self.mux.index, self.mux.sub, offset, buf)
-            {
+            let left = u.size.saturating_sub(offset);
+            let len = left.min(SEGMENT_DATA);
+            // The value's bytes read into the frame in place, after byte 0.
+            let mut frame = [0u8; 8];
+            let data = frame.get_mut(1..=len).unwrap_or(&mut []);
+            if let Err(code) = od.read(self.mux.index, self.mux.sub, offset, data) {
                 self.abort(code, tx);
                 return false;
             }
             let seqno = u.seq.saturating_add(1);
-            let last = offset.saturating_add(SEGMENT_DATA) >= u.size;
-            if !tx.send(BlockSegment { seqno, last, data }.emit()) {
+            // offset + 7 >= size, from the subtraction already made.
+            let last = left <= SEGMENT_DATA;
+            let [b0, ..] = &mut frame;
+            *b0 = BlockSegment::byte0(seqno, last);
+            if !tx.send(frame) {
                 break;
             }
             // Each byte enters the CRC the first time it is sent.
             if u.crc_on && offset == u.crc_len {
-                self.t.crc = crc16_update(u.crc, data.get(..len).unwrap_or(&[]));
+                self.t.crc = crc16_update(u.crc, frame.get(1..=len).unwrap_or(&[]));
                 self.t.crc_len = offset.saturating_add(len);
             }
             self.t.seq = seqno;
