@@ -359,7 +359,7 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Services f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::od::{Attr, DataType, DeviceInfo};
+    use crate::od::{Attr, DataType};
 
     const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
     static ENTRIES: [Entry; 5] = [
@@ -371,26 +371,7 @@ mod tests {
     ];
     /// 0x1005 = 0x40000081, 0x1016 = [node 5 at 1000 ms, node 6 at 2000 ms], 0x1017 = 1000 ms.
     static DEFAULTS: [u8; 15] = [0x81, 0, 0, 0x40, 2, 0xE8, 0x03, 5, 0, 0xD0, 0x07, 6, 0, 0xE8, 0x03];
-    static DICT: Dictionary = Dictionary {
-        entries: &ENTRIES,
-        limits: &[],
-        limit_rows: &[],
-        rom: &[],
-        defaults: crate::od::Defaults::dense(&DEFAULTS),
-        comm_len: 15,
-        stored_len: 15,
-        comm_rest: 0,
-        node_id_relative: &[],
-        layout_id: crate::od::layout_id(&ENTRIES),
-        device: DeviceInfo {
-            baud_rates: 0,
-            lss_supported: false,
-            granularity: 8,
-            simple_boot_up_slave: true,
-            dynamic_channels: false,
-            group_messaging: false,
-        },
-    };
+    static DICT: Dictionary = Dictionary::comm_only(&ENTRIES, &DEFAULTS);
     static EMPTY: Dictionary = Dictionary { entries: &[], defaults: crate::od::Defaults::dense(&[]), comm_len: 0, stored_len: 0, ..DICT };
 
     #[test]

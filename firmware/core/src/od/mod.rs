@@ -154,6 +154,32 @@ pub trait ObjectDictionary {
 }
 
 impl Dictionary {
+    /// A unit test's dictionary of communication objects alone: no limits,
+    /// no ROM, every value in RAM, stored and in the communication range.
+    #[cfg(test)]
+    pub(crate) const fn comm_only(entries: &'static [Entry], defaults: &'static [u8]) -> Self {
+        Self {
+            entries,
+            limits: &[],
+            limit_rows: &[],
+            rom: &[],
+            defaults: Defaults::dense(defaults),
+            comm_len: defaults.len(),
+            stored_len: defaults.len(),
+            comm_rest: 0,
+            node_id_relative: &[],
+            layout_id: layout_id(entries),
+            device: DeviceInfo {
+                baud_rates: 0,
+                lss_supported: false,
+                granularity: 8,
+                simple_boot_up_slave: true,
+                dynamic_channels: false,
+                group_messaging: false,
+            },
+        }
+    }
+
     /// Finds an entry by index and sub-index. O(log n): a binary search for
     /// the object on the 16-bit index alone, then the sub-index where it
     /// usually is (sub-indices run 0, 1, 2, ...), else along the object's

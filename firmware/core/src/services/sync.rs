@@ -270,7 +270,7 @@ impl SyncService {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::od::{Attr, DataType, DeviceInfo, Entry};
+    use crate::od::{Attr, DataType, Entry};
     use crate::time::deadline_of;
 
     const RW: Attr = Attr(Attr::READ.0 | Attr::WRITE.0);
@@ -281,26 +281,7 @@ mod tests {
         Entry::new(0x1019, 0, DataType::Unsigned8, RW, 1, 12),
     ];
     static DEFAULTS: [u8; 13] = [0x80, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0];
-    static DICT: Dictionary = Dictionary {
-        entries: &ENTRIES,
-        limits: &[],
-        limit_rows: &[],
-        rom: &[],
-        defaults: crate::od::Defaults::dense(&DEFAULTS),
-        comm_len: 13,
-        stored_len: 13,
-        comm_rest: 0,
-        node_id_relative: &[],
-        layout_id: crate::od::layout_id(&ENTRIES),
-        device: DeviceInfo {
-            baud_rates: 0,
-            lss_supported: false,
-            granularity: 8,
-            simple_boot_up_slave: true,
-            dynamic_channels: false,
-            group_messaging: false,
-        },
-    };
+    static DICT: Dictionary = Dictionary::comm_only(&ENTRIES, &DEFAULTS);
     static EMPTY: Dictionary = Dictionary { entries: &[], defaults: crate::od::Defaults::dense(&[]), comm_len: 0, stored_len: 0, ..DICT };
 
     fn ms(t: u32) -> At {
