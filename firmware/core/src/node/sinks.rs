@@ -7,8 +7,8 @@ use core::marker::PhantomData;
 
 use crate::frame::CanFrame;
 use crate::services::emcy::EmcyProducer;
+use crate::services::pdo::PdoTx;
 use crate::services::pdo::map::{MAX_LEN, Mapping};
-use crate::services::pdo::{PdoEvent, PdoTx};
 use crate::services::sdo_server::SdoTx;
 use crate::txq::TxQueue;
 
@@ -120,34 +120,20 @@ impl<A: Application> PdoTx for PdoSink<'_, A> {
     fn error_cleared(&mut self, _rpdo: usize, code: EmcyCode) {
         self.emcy.clear(Self::device_code(code));
     }
-
-    fn event(&mut self, event: PdoEvent) {
-        match event {
-            PdoEvent::Received(n) => self.received(n),
-            PdoEvent::Error { rpdo, code } => self.error(rpdo, code),
-            PdoEvent::ErrorCleared { rpdo, code } => self.error_cleared(rpdo, code),
-        }
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The RPDO path's `received` marks the RPDO as the general
-    /// [`PdoEvent::Received`] does, RPDOs past 31 included (no bit).
+    /// `received` marks RPDO n's bit, and no error; RPDOs past 31 have no bit.
     #[test]
-    fn a_received_rpdo_is_marked_as_its_event_marks_it() {
+    fn a_received_rpdo_is_marked_by_its_bit() {
         for n in [0, 1, 5, 31, 32, 511] {
             let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
-            let mut fast = PdoSink::<crate::node::NoApplication>::new(&mut txq, &mut emcy);
-            fast.received(n);
-            let fast = (fast.received, fast.errors);
-            let (mut txq, mut emcy) = (TxQueue::new(), EmcyProducer::new());
-            let mut general = PdoSink::<crate::node::NoApplication>::new(&mut txq, &mut emcy);
-            general.event(PdoEvent::Received(n));
-            assert_eq!(fast, (general.received, general.errors), "RPDO {n}");
-            assert_eq!(fast.0, if n < 32 { 1 << n } else { 0 }, "RPDO {n}");
+            let mut sink = PdoSink::<crate::node::NoApplication>::new(&mut txq, &mut emcy);
+            sink.received(n);
+            assert_eq!((sink.received, sink.errors), (if n < 32 { 1 << n } else { 0 }, 0), "RPDO {n}");
         }
     }
 }
