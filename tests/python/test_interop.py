@@ -51,7 +51,9 @@ class Vnode:
             self.proc.stdout.close()
 
 
-class InteropTest(unittest.TestCase):
+class FreshNode(unittest.TestCase):
+    """A test case with its own vnode (the interop node), reset to its power-on values."""
+
     def setUp(self):
         self.v = Vnode()
         # A cleanup also runs when setUp fails, so no vnode is left behind.
@@ -63,6 +65,8 @@ class InteropTest(unittest.TestCase):
         self.node.nmt.send_command(0x81)
         self.node.sdo.upload(0x1000, 0)
 
+
+class InteropTest(FreshNode):
     def reset_and_see_bootup(self, command):
         """Sends an NMT reset and waits for the boot-up frame, listening from before the send."""
         seen = threading.Event()

@@ -17,7 +17,7 @@ import unittest
 import canopen
 from canopen.sdo import client as sdo_client
 
-from test_interop import NODE_ID, Vnode
+from test_interop import NODE_ID, FreshNode
 
 OCTETS = 0x2006
 OCTETS_LEN = 200
@@ -35,14 +35,7 @@ def pattern(size, salt):
     return bytes((i * 7 + salt) & 0xFF for i in range(size))
 
 
-class SdoSizesTest(unittest.TestCase):
-    def setUp(self):
-        self.v = Vnode()
-        self.addCleanup(self.v.close)
-        self.node = self.v.node
-        self.node.nmt.send_command(0x81)
-        self.node.sdo.upload(0x1000, 0)
-
+class SdoSizesTest(FreshNode):
     def block_upload(self, index, blksize):
         """A block upload with the client asking for `blksize` segments per block."""
         saved = sdo_client.BlockUploadStream.blksize
