@@ -77,7 +77,7 @@ impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {
 
 impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// A producer with no COB-ID (silent) and no active error, until
-    /// [`EmcyProducer::configure`].
+    /// [`EmcyProducer::set_cob_id`].
     pub const fn new() -> Self {
         EmcyProducer {
             cob_id: None,
@@ -96,18 +96,12 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         }
     }
 
-    /// Applies 0x1014 (bit 31 = EMCY off) and 0x1015 (100 µs units).
-    pub fn configure(&mut self, cob_id: u32, inhibit_100us: u16) {
-        self.set_cob_id(cob_id);
-        self.set_inhibit(inhibit_100us);
-    }
-
-    /// 0x1014 (bit 31 set: EMCY off), as [`EmcyProducer::configure`] sets it.
+    /// 0x1014 (bit 31 set: EMCY off).
     pub fn set_cob_id(&mut self, cob_id: u32) {
         self.cob_id = (cob_id & 0x8000_0000 == 0).then_some((cob_id & 0x7FF) as u16);
     }
 
-    /// 0x1015, the inhibit time in 100 µs, as [`EmcyProducer::configure`] sets it.
+    /// 0x1015, the inhibit time in 100 µs.
     pub fn set_inhibit(&mut self, inhibit_100us: u16) {
         self.inhibit = span_100us(inhibit_100us);
     }
@@ -349,7 +343,7 @@ mod tests {
     #[test]
     fn raise_and_clear_drive_the_register_and_error_reset() {
         let mut e = EmcyProducer::<4, 4>::default();
-        e.configure(0x81, 0);
+        e.set_cob_id(0x81);
         assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]));
         assert!(!e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
         assert_eq!(e.register(), 0x11);
@@ -363,7 +357,7 @@ mod tests {
     #[test]
     fn extra_register_bits_last_as_long_as_their_error() {
         let mut e = EmcyProducer::<4, 4>::default();
-        e.configure(0x81, 0);
+        e.set_cob_id(0x81);
         assert!(e.raise_with(EmcyCode(0x1000), register::PROFILE, [0; 5]));
         assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [0; 5]));
         assert_eq!(e.register(), 0x31);
@@ -377,7 +371,7 @@ mod tests {
     #[test]
     fn an_error_raised_each_time_sends_each_time() {
         let mut e = EmcyProducer::<4, 4>::default();
-        e.configure(0x81, 0);
+        e.set_cob_id(0x81);
         e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]);
         e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [4, 0, 0, 0, 0]);
         assert_eq!(e.register(), 0x11);
@@ -390,7 +384,8 @@ mod tests {
     #[test]
     fn inhibit_time_spaces_messages() {
         let mut e = EmcyProducer::<4, 4>::default();
-        e.configure(0x85, 10); // 1 ms
+        e.set_cob_id(0x85);
+        e.set_inhibit(10); // 1 ms
         e.signal(EmcyCode::PDO_LENGTH, [0; 5]);
         e.signal(EmcyCode::PDO_LENGTH_EXCEEDED, [0; 5]);
         assert_eq!(e.next(us(100), false), None, "no room in the transmit queue");
@@ -403,7 +398,7 @@ mod tests {
     #[test]
     fn a_full_queue_counts_and_shows_in_the_register() {
         let mut e = EmcyProducer::<1, 2>::default();
-        e.configure(0x8000_0081, 0);
+        e.set_cob_id(0x8000_0081);
         e.signal(EmcyCode(0x8210), [0; 5]);
         e.signal(EmcyCode(0x8210), [0; 5]);
         e.signal(EmcyCode(0x8210), [0; 5]);

@@ -220,25 +220,20 @@ pub struct Guarding {
 }
 
 impl Guarding {
-    /// Guarding with no life time until [`Guarding::configure`].
+    /// Guarding with no life time until [`Guarding::set_guard_time`] and
+    /// [`Guarding::set_life_time_factor`]; life guarding starts with the
+    /// first guarding request.
     pub const fn new() -> Self {
         Guarding { toggle: false, guard_time_ms: 0, factor: 0, deadline: None, expired: false }
     }
 
-    /// Sets the life time from 0x100C (guard time, ms) × 0x100D (factor).
-    /// Life guarding starts with the first guarding request.
-    pub fn configure(&mut self, guard_time_ms: u16, factor: u8) {
-        self.set_guard_time(guard_time_ms);
-        self.set_life_time_factor(factor);
-    }
-
-    /// 0x100C, the guard time in ms, as [`Guarding::configure`] sets it.
+    /// 0x100C, the guard time in ms (the life time is 0x100C × 0x100D).
     pub fn set_guard_time(&mut self, ms: u16) {
         self.guard_time_ms = ms;
         self.deadline = None;
     }
 
-    /// 0x100D, the life time factor, as [`Guarding::configure`] sets it.
+    /// 0x100D, the life time factor.
     pub fn set_life_time_factor(&mut self, factor: u8) {
         self.factor = factor;
         self.deadline = None;
@@ -380,7 +375,8 @@ mod tests {
     #[test]
     fn guarding_toggles_and_watches_the_life_time() {
         let mut g = Guarding::default();
-        g.configure(100, 3);
+        g.set_guard_time(100);
+        g.set_life_time_factor(3);
         assert_eq!(g.on_request(NmtStateCode::PreOperational, ms(0)), 0x7F);
         assert_eq!(g.on_request(NmtStateCode::PreOperational, ms(100)), 0xFF);
         assert_eq!(g.on_request(NmtStateCode::Operational, ms(200)), 0x05);
