@@ -132,13 +132,8 @@ impl Ctx<'_> {
                 };
             }
             Kind::Overflow => {
-                let value = le_u32(data);
-                if value == 1 || value > 240 {
-                    return Err(AbortCode::InvalidValue);
-                }
-                if super::comm::u32_of(dict, self.image, index::COMMUNICATION_CYCLE_PERIOD, 0, 0) != 0 {
-                    return Err(AbortCode::DeviceState);
-                }
+                let period = || super::comm::u32_of(dict, self.image, index::COMMUNICATION_CYCLE_PERIOD, 0, 0);
+                crate::services::sync::overflow_rule(le_u32(data), period)?;
             }
             Kind::Pdo => {
                 let operational = self.state == NmtState::Operational;

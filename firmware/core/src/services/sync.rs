@@ -231,13 +231,14 @@ impl SyncService {
                 let old = CobIdSync { can_id: self.cob_id, producer: self.producer }.to_u32();
                 CobRule::SYNC.check(Some(old), value, u16::MAX)
             }
-            index::SYNCHRONOUS_COUNTER_OVERFLOW if value == 1 || value > 240 => Err(AbortCode::InvalidValue),
-            index::SYNCHRONOUS_COUNTER_OVERFLOW if self.period != 0 => Err(AbortCode::DeviceState),
+            index::SYNCHRONOUS_COUNTER_OVERFLOW => overflow_rule(value, || self.period),
             _ => Ok(()),
         }
     }
 
-    /// Takes `value`, which passed [`SyncService::check`] and is now in `index`'s entry.
+    /// Takes `value`, which passed [`SyncService::check`] (or the node's
+    /// communication-object rules, which share [`overflow_rule`]) and is
+    /// now in `index`'s entry.
     pub fn apply(&mut self, index: u16, value: u32) {
         match index {
             index::COB_ID_SYNC => {
@@ -264,6 +265,21 @@ impl SyncService {
     fn restart_producer(&mut self) {
         self.counter = 0;
         self.next = None;
+    }
+}
+
+/// 0x1019's rule (CiA 301): 0 or 2..=240 (0x06090030 otherwise,
+/// as [`AbortCode::InvalidValue`]), and set only while the communication
+/// cycle period (0x1006, read by `period` only for a value in range) is 0
+/// (0x08000022).
+#[inline(always)]
+pub(crate) fn overflow_rule(value: u32, period: impl FnOnce() -> u32) -> Result<(), AbortCode> {
+    if value == 1 || value > 240 {
+        Err(AbortCode::InvalidValue)
+    } else if period() != 0 {
+        Err(AbortCode::DeviceState)
+    } else {
+        Ok(())
     }
 }
 
