@@ -45,8 +45,7 @@ pub enum Direction {
 /// Where the bytes of one mapped object live.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Source {
-    /// A dummy entry (RPDO only): the bytes are skipped. First, so that
-    /// [`Mapping::EMPTY`] is all zero bits ([`crate::node`]).
+    /// A dummy entry (RPDO only): the bytes are skipped.
     #[default]
     Dummy,
     /// At this offset of the RAM image.
@@ -184,19 +183,10 @@ impl Mapping {
     };
 
     /// Becomes the mapping record `index` (0x1600+n or 0x1A00+n) read and
-    /// resolved as the image holds it (in place, as [`Mapping::resolve`]).
-    pub fn read(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
-        *self = Mapping::EMPTY;
-        self.read_record(dict, image, index, direction).map_err(|code| match code {
-            AbortCode::NoDictionary => AbortCode::NoObject,
-            code => code,
-        })
-    }
-
-    /// [`Mapping::read`], with [`AbortCode::NoDictionary`] (which nothing
+    /// resolved as the image holds it, into an empty mapping, as
+    /// [`Mapping::resolve`]. [`AbortCode::NoDictionary`] (which nothing
     /// else here returns) for a record the dictionary lacks, no error at
-    /// configuration: one look-up of the record tells it. Into an empty
-    /// mapping, as [`Mapping::resolve`].
+    /// configuration: one look-up of the record tells it.
     pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
         let record = object(dict, index);
         let missing = if record.is_empty() { AbortCode::NoDictionary } else { AbortCode::NoObject };
