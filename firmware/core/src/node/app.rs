@@ -414,7 +414,8 @@ impl Ctx<'_> {
     /// holds for it (what the RPDO wrote; little-endian, zero-extended, its
     /// first 4 bytes) and its length. What [`Application::rpdo_written`]
     /// reports: the mapping was resolved when it was configured, so no
-    /// dictionary search and no copy of the mapping.
+    /// dictionary search and no copy of the mapping. Always `None` for a
+    /// device that says [`Application::PDO_CALLS`] `false`.
     pub fn rpdo_object(&self, n: u8, i: usize) -> Option<(EntryRef, u32, u8)> {
         let (at, slot) = self.services.rpdo_mapping(usize::from(n))?.object(i)?;
         let bytes = match slot.source {
@@ -448,6 +449,8 @@ impl Ctx<'_> {
     }
 
     /// Signals an application event for TPDO `n` (see [`super::Node::trigger_tpdo`]).
+    /// Always `false` (nothing sent) for a device that says
+    /// [`Application::PDO_CALLS`] `false`.
     pub fn trigger_tpdo(&mut self, n: usize) -> bool {
         self.effects.follow.written = true;
         self.services.trigger_tpdo(n)

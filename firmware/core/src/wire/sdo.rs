@@ -185,7 +185,7 @@ fn tail(f: &[u8; 8]) -> [u8; 4] {
 }
 
 /// Bytes 1–7.
-pub(crate) fn segment_data(f: &[u8; 8]) -> [u8; 7] {
+fn segment_data(f: &[u8; 8]) -> [u8; 7] {
     let [_, d @ ..] = *f;
     d
 }
@@ -292,8 +292,8 @@ fn unknown(f: &[u8; 8]) -> SdoParseError {
 
 /// What a client frame asks for, from byte 0 alone: the SDO server's
 /// dispatch, which then decodes only the fields of that request
-/// ([`initiate_data`], [`segment_fields`], [`segment_data`], the block
-/// requests' `decode`). [`SdoRequest::parse`] says the same of every frame
+/// ([`initiate_data`], [`segment_fields`] with the data cut from the frame,
+/// the block requests' `decode`). [`SdoRequest::parse`] says the same of every frame
 /// (tested for every byte 0); the server does not build an `SdoRequest`, so
 /// that each request's fields stay in registers on the way to its handler.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
