@@ -249,6 +249,14 @@ impl Mapping {
         Ok(())
     }
 
+    /// Checks one mapping entry for `direction` (an SDO download of sub
+    /// 1..=8), resolved into the first slot of this scratch mapping (the
+    /// download's, which only sub 0 fills): no slot of its own on the stack.
+    pub(super) fn check_entry(&mut self, dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<(), AbortCode> {
+        let ([start, ..], [object, ..]) = (&mut self.slots, &mut self.objects);
+        Slot::resolve_into(dict, entry, direction, start, object)
+    }
+
     /// Entry `i` (in mapping order): the dictionary entry it maps
     /// ([`EntryRef::NONE`] for a dummy entry) and its slot.
     pub fn object(&self, i: usize) -> Option<(EntryRef, Slot)> {

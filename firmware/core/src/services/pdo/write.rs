@@ -4,7 +4,7 @@
 //! docs of [`super`]).
 
 use super::config::{Change, Config};
-use super::map::{Direction, Mapping, Slot};
+use super::map::{Direction, Mapping};
 use super::rpdo::Rpdo;
 use super::tpdo::Tpdo;
 use super::{CommParams, Pdos};
@@ -184,7 +184,8 @@ fn write_comm(
 }
 
 /// An SDO download into a mapping record; `true` when sub 0 was written
-/// and `new` holds the mapping it resolved.
+/// and `new` (an empty mapping) holds the mapping it resolved (an entry
+/// is checked in its first slot).
 #[allow(clippy::too_many_arguments)]
 fn write_map(
     locked: bool,
@@ -219,7 +220,7 @@ fn write_map(
             return Err(AbortCode::UnsupportedAccess);
         }
         if value != 0 {
-            Slot::resolve(dict, MappingEntry::from_u32(value), direction)?;
+            new.check_entry(dict, MappingEntry::from_u32(value), direction)?;
         }
         false
     };
