@@ -154,15 +154,15 @@ pub struct MappingError {
 #[derive(Clone, Debug)]
 pub struct Pdos<const R: usize, const T: usize> {
     rpdos: [Rpdo; R],
-    /// The CAN-ID each RPDO listens to (`NO_ID` when off), kept beside the
-    /// RPDOs so that matching a received frame is one compare per RPDO.
-    rx_ids: [u16; R],
-    /// Per RPDO, the frame it takes the plain way ([`Rpdo::plain_key`]: its
-    /// CAN-ID and length, `NO_KEY` when there is none), so that the usual
-    /// frame costs one compare per RPDO and a copy: kept with `rx_ids`, and
-    /// after each frame the general path handled (which may raise or end a
-    /// length error).
-    rx_plain: [u32; R],
+    /// Per RPDO, the frames it takes ([`Rpdo::rx_key`]): in the low 16
+    /// bits the CAN-ID it listens to (`NO_KEY`'s 0xFFFF when off), so that
+    /// matching a received frame is one compare per RPDO; the whole word is
+    /// the key of the frame it takes the plain way (its CAN-ID and length,
+    /// [`frame_key`]; with `NOT_PLAIN` set when there is none), so that the
+    /// usual frame costs one compare per RPDO and a copy. Kept whenever a
+    /// parameter or a mapping changes, and after each frame the general
+    /// path handled (which may raise or end a length error).
+    rx_keys: [u32; R],
     tpdos: [Tpdo; T],
     /// End of the synchronous window opened by the last SYNC; [`Far::NEVER`]:
     /// no window. Read only while Operational ([`Pdos::enter_operational`]
@@ -203,14 +203,15 @@ pub struct Pdos<const R: usize, const T: usize> {
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
 pub const ALL_TPDOS: u32 = u32::MAX;
 
-/// `rx_ids` entry of an RPDO that listens to nothing (not a valid 11-bit id).
-const NO_ID: u16 = u16::MAX;
-
-/// `rx_plain` entry of an RPDO that takes no frame the plain way: no frame's
-/// key ([`frame_key`] is below 2^24).
+/// `rx_keys` entry of an RPDO that listens to nothing: its low 16 bits are
+/// no valid 11-bit id, and it is no frame's key ([`frame_key`] is below 2^24).
 const NO_KEY: u32 = u32::MAX;
 
-/// A data frame's key for `rx_plain`: its COB-ID and, from bit 16, its
+/// `rx_keys` bit of an RPDO that takes its frames the general way only: no
+/// frame's key has it ([`frame_key`] is below 2^24).
+const NOT_PLAIN: u32 = 1 << 31;
+
+/// A data frame's key for `rx_keys`: its COB-ID and, from bit 16, its
 /// length (capped: a frame longer than 255 bytes matches no RPDO's).
 fn frame_key(cob_id: u16, len: usize) -> u32 {
     u32::from(cob_id) | (len.min(0xFF) as u32) << 16
@@ -220,8 +221,7 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
     fn default() -> Self {
         Pdos {
             rpdos: [Rpdo::default(); R],
-            rx_ids: [NO_ID; R],
-            rx_plain: [NO_KEY; R],
+            rx_keys: [NO_KEY; R],
             tpdos: [Tpdo::default(); T],
             window_end: Far::NEVER,
             operational: false,
@@ -250,15 +250,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
     /// The PDOs before their first [`Pdos::configure`]: stopped, with empty
     /// mappings, and all zero bits ([`crate::node`]; [`Pdos::default`] is
     /// invalid PDOs as a dictionary without
-    /// PDO records gives). The `rx_ids` of 0 are NMT's COB-ID, which never
+    /// PDO records gives). The `rx_keys` of 0 are NMT's COB-ID, which never
     /// reaches the PDOs, and they do not listen before `configure` anyway.
     pub const fn unconfigured() -> Self {
         Pdos {
             rpdos: [Rpdo::UNCONFIGURED; R],
-            rx_ids: [0; R],
             // Not `NO_KEY`: all zero bits. Key 0 is an empty frame on COB-ID 0
             // (NMT), which never reaches the PDOs, and they are not Operational before `configure`.
-            rx_plain: [0; R],
+            rx_keys: [0; R],
             tpdos: [Tpdo::UNCONFIGURED; T],
             window_end: Far::ZERO,
             operational: false,
@@ -443,14 +442,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             }
         }
         let mut sync_rpdos = 0;
-        for (n, ((id, key), (reach, rpdo))) in
-            self.rx_ids.iter_mut().zip(&mut self.rx_plain).zip(self.rpdo_reach.iter_mut().zip(&mut self.rpdos)).enumerate()
-        {
+        for (n, (key, (reach, rpdo))) in self.rx_keys.iter_mut().zip(self.rpdo_reach.iter_mut().zip(&mut self.rpdos)).enumerate() {
             if Self::ACT_IN_WALK {
                 rpdo.act();
             }
-            *id = rpdo.cob_id().unwrap_or(NO_ID);
-            *key = rpdo.plain_key();
+            *key = rpdo.rx_key();
             if rpdo.config.params.is_synchronous() {
                 sync_rpdos |= low_bit(n);
             }
@@ -515,12 +511,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             return None;
         }
         let window_open = !self.window_end.passed(now);
-        let n = self.rx_ids.iter().position(|&id| id == cob_id)?;
+        let n = self.rx_keys.iter().position(|&key| key as u16 == cob_id)?;
         let rpdo = self.rpdos.get_mut(n)?;
         let written = rpdo.on_frame(n, now, data, window_open, image, out);
         // A length error raised or ended changes whether the next frame is plain.
-        if let Some(key) = self.rx_plain.get_mut(n) {
-            *key = rpdo.plain_key();
+        if let Some(key) = self.rx_keys.get_mut(n) {
+            *key = rpdo.rx_key();
         }
         if let Some(timeout) = rpdo.timeout_at() {
             self.rpdo_timers |= bit_of(n);
@@ -533,7 +529,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// The usual RPDO frame, for the node's short path: of its RPDO's
     /// mapped length, for an event-driven RPDO without an event timer and
-    /// with no length or timeout error raised ([`Rpdo::plain_key`]). For it
+    /// with no length or timeout error raised ([`Rpdo::rx_key`]). For it
     /// [`Pdos::on_frame_reaching`] would only write the data and report
     /// the RPDO received; this writes it and returns the RPDO and its reach
     /// (for the caller to report), or `None` for every other frame (which
@@ -544,7 +540,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             return None;
         }
         let key = frame_key(cob_id, data.len());
-        let n = self.rx_plain.iter().position(|&k| k == key)?;
+        let n = self.rx_keys.iter().position(|&k| k == key)?;
         self.rpdos.get(n)?.config.mapping.apply_in_line(image, data);
         Some((n, self.rpdo_reach.get(n).copied().unwrap_or(ALL_TPDOS)))
     }

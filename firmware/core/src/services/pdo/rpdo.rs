@@ -73,24 +73,24 @@ impl Rpdo {
         self.config.cob_id()
     }
 
-    /// The key ([`super::frame_key`]) of the frame this RPDO takes the
-    /// plain way, or `super::NO_KEY`: a frame of its mapping's length,
-    /// while it is event-driven, has no event timer and no length or
-    /// timeout error is raised. For such a frame [`Rpdo::on_frame`] writes
-    /// the data and tells, and changes nothing else (its event timer is off:
-    /// `timeout_at` is `None` already).
-    pub(super) fn plain_key(&self) -> u32 {
-        match self.cob_id() {
-            Some(id)
-                if !self.config.params.is_synchronous()
-                    && self.config.params.event_timer() == 0
-                    && self.length_error == EmcyCode::NO_ERROR
-                    && !self.timed_out =>
-            {
-                super::frame_key(id, self.config.mapping.len())
-            }
-            _ => super::NO_KEY,
+    /// Its `Pdos::rx_keys` entry: `super::NO_KEY` while it listens to
+    /// nothing, else the key ([`super::frame_key`]) of a frame of its
+    /// mapping's length on its CAN-ID, which it takes the plain way while
+    /// it is event-driven, has no event timer and no length or timeout
+    /// error is raised (else with `super::NOT_PLAIN`). For such a frame
+    /// [`Rpdo::on_frame`] writes the data and tells, and changes nothing
+    /// else (its event timer is off: `timeout_at` is `None` already).
+    pub(super) fn rx_key(&self) -> u32 {
+        let Some(id) = self.cob_id() else { return super::NO_KEY };
+        let key = super::frame_key(id, self.config.mapping.len());
+        if self.config.params.is_synchronous()
+            || self.config.params.event_timer() != 0
+            || self.length_error != EmcyCode::NO_ERROR
+            || self.timed_out
+        {
+            return key | super::NOT_PLAIN;
         }
+        key
     }
 
     /// Whether synchronous data waits for the next SYNC.
@@ -124,7 +124,7 @@ impl Rpdo {
     /// An RPDO frame. `window_open`: the synchronous window since the last
     /// SYNC is still open. True if it wrote its data into the dictionary now.
     pub(super) fn on_frame(&mut self, n: usize, now: At, data: &[u8], window_open: bool, image: &mut [u8], out: &mut impl PdoTx) -> bool {
-        // Only a valid RPDO takes frames (`Pdos::rx_ids`), and its mapping is not empty.
+        // Only a valid RPDO takes frames (`Pdos::rx_keys`), and its mapping is not empty.
         let len = self.config.mapping.len();
         // The right length with no error to end (the common frame): two compares.
         if data.len() != len || self.length_error != EmcyCode::NO_ERROR {

@@ -317,7 +317,7 @@ fn the_plain_path_answers_as_the_general_path_does() {
             let len = if arg & 0x30 != 0 { mapped } else { (arg >> 6) as usize % 10 };
             let data: Vec<u8> = (0..len.min(8)).map(|i| (arg >> i) as u8 ^ step as u8).collect();
             let data = if len == 9 { vec![0u8; 12] } else { data };
-            plain += usize::from(a.pdos.rx_plain.contains(&frame_key(cob_id, data.len())));
+            plain += usize::from(a.pdos.rx_keys.contains(&frame_key(cob_id, data.len())));
             let got_a = rx_plain_first(&mut a, now, cob_id, &data);
             let got_b = b.pdos.on_frame_reaching(now, cob_id, &data, &mut b.image, &mut b.bus);
             assert_eq!(got_a, got_b, "step {step}: {cob_id:#X} {data:?}");
