@@ -12,13 +12,13 @@ use crate::od::Dictionary;
 const MAPPING_OFFSET: u16 = 0x200;
 
 /// A PDO's configuration (0x1400+n and 0x1600+n, or 0x1800+n and 0x1A00+n).
+// In this order (`repr(C)`): the parameters and the flags, then the
+// mapping (its count and length first), so that the paths reach what they
+// test with 2-byte thumbv7m instructions (see [`super::tpdo::Tpdo`]).
+#[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Config {
     pub(super) params: CommParams,
-    /// The mapping; empty (the PDO is silent) when the configured one does
-    /// not resolve. Not an `Option`: every path that uses the mapping
-    /// would check it, where an empty mapping already keeps the PDO off.
-    pub(super) mapping: Mapping,
     /// The configured mapping did not resolve (`mapping` is empty).
     pub(super) unresolved: bool,
     /// Whether sub 1 (COB-ID) is writable: if not, the mapping is changed with sub 0 alone.
@@ -26,6 +26,10 @@ pub(super) struct Config {
     /// What a download or a configuration changed that the PDO has yet to
     /// act on (see `Pdos::ACT_IN_WALK`); [`Change::None`] but in between.
     pub(super) change: Change,
+    /// The mapping; empty (the PDO is silent) when the configured one does
+    /// not resolve. Not an `Option`: every path that uses the mapping
+    /// would check it, where an empty mapping already keeps the PDO off.
+    pub(super) mapping: Mapping,
 }
 
 /// What a download changed in a PDO's configuration: the PDO's reaction.

@@ -20,23 +20,26 @@ use crate::time::{At, later, shift_opt};
 use crate::wire::emcy::EmcyCode;
 
 /// The state of one RPDO.
+// In this order (`repr(C)`): the flags and the timer the frame's path
+// tests first, then the parameters (see [`super::tpdo::Tpdo`]).
+#[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rpdo {
-    /// Parameters and mapping ([`Config`]).
-    pub(super) config: Config,
-    /// Synchronous data waiting for the next SYNC.
-    buffered: [u8; MAX_LEN],
     /// `buffered` holds data for the next SYNC (a flag, not an `Option`:
     /// the buffer is written in place).
     has_buffered: bool,
-    /// Deadline of the event timer, armed by each RPDO received.
-    timeout_at: Option<At>,
     /// EMCY 0x8250 is raised.
     timed_out: bool,
     /// EMCY 0x8210 or 0x8220 raised and not yet ended.
     /// [`EmcyCode::NO_ERROR`] when none is (a code, not an `Option`: one
     /// compare on the frame's path).
     length_error: EmcyCode,
+    /// Deadline of the event timer, armed by each RPDO received.
+    timeout_at: Option<At>,
+    /// Parameters and mapping ([`Config`]).
+    pub(super) config: Config,
+    /// Synchronous data waiting for the next SYNC.
+    buffered: [u8; MAX_LEN],
 }
 
 impl Default for Rpdo {

@@ -29,10 +29,13 @@ use crate::services::sync::SyncEvent;
 use crate::time::{At, Far, NEVER, later, shift_opt};
 
 /// The state of one TPDO.
+// In this order (`repr(C)`): the flags the paths test and set first,
+// then the parameters, where thumbv7m reaches them with 2-byte
+// instructions (a byte within 32 of the PDO's start, a halfword within
+// 64); the deadlines and the frames, read as words, after.
+#[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tpdo {
-    /// Parameters and mapping ([`Config`]).
-    pub(super) config: Config,
     /// Whether a change of the mapped data is *not* an event (types 0, 254,
     /// 255): negated so that [`Tpdo::UNCONFIGURED`] is all zero bits.
     no_change_detection: bool,
@@ -44,8 +47,6 @@ pub struct Tpdo {
     /// or [`Tpdo::timer_only`]. Worked out again wherever either may change
     /// (`refresh_change_events`), so that each poll reads one flag.
     no_change_events: bool,
-    /// The last data sent, for change detection.
-    last: [u8; MAX_LEN],
     sent: bool,
     /// An event (initial send, event timer, trigger, RTR) waits to be sent.
     event: bool,
@@ -54,8 +55,6 @@ pub struct Tpdo {
     change_pending: bool,
     /// The transmit queue refused the last frame: no deadline until the next poll.
     blocked: bool,
-    inhibit_until: Option<At>,
-    event_at: Option<At>,
     /// SYNCs still to come before the next cyclic transmission, counting
     /// the one that sends it; 0 when the count starts over (it then waits
     /// for the transmission type's n SYNCs), so that a SYNC is one
@@ -63,14 +62,20 @@ pub struct Tpdo {
     sync_left: u8,
     /// Waiting for the SYNC whose counter equals the start value.
     await_start: bool,
-    /// Type 252: the data sampled at the last SYNC (`sampled`); types
-    /// 0..=240: a frame the queue refused (`pending_sync`). One buffer:
-    /// a type has one use for it, and a new type starts the PDO over.
-    held: [u8; MAX_LEN],
     /// Type 252: `held` is the sample of the last SYNC.
     sampled: bool,
     /// `held` is a synchronous frame the queue refused, retried inside the window.
     pending_sync: bool,
+    /// Parameters and mapping ([`Config`]).
+    pub(super) config: Config,
+    inhibit_until: Option<At>,
+    event_at: Option<At>,
+    /// The last data sent, for change detection.
+    last: [u8; MAX_LEN],
+    /// Type 252: the data sampled at the last SYNC (`sampled`); types
+    /// 0..=240: a frame the queue refused (`pending_sync`). One buffer:
+    /// a type has one use for it, and a new type starts the PDO over.
+    held: [u8; MAX_LEN],
 }
 
 impl Default for Tpdo {
