@@ -151,35 +151,29 @@ pub struct MappingError {
 
 /// The PDOs of a node: `R` RPDOs and `T` TPDOs (the generated
 /// `RPDO_COUNT` and `TPDO_COUNT`).
+// In this order (`repr(C)`): the TPDOs first (the first one's fields at
+// the offsets `Tpdo` keeps short), then the masks and flags that every
+// path reads, then the RPDOs' arrays: fewer 4-byte thumbv7m loads and
+// stores than the compiler's order (ds301 −56 B; the RPDOs first cost a
+// node with TPDOs only 32 B).
+#[repr(C)]
 #[derive(Clone, Debug)]
 pub struct Pdos<const R: usize, const T: usize> {
-    rpdos: [Rpdo; R],
-    /// Per RPDO, the frames it takes ([`Rpdo::rx_key`]): in the low 16
-    /// bits the CAN-ID it listens to (`NO_KEY`'s 0xFFFF when off), so that
-    /// matching a received frame is one compare per RPDO; the whole word is
-    /// the key of the frame it takes the plain way (its CAN-ID and length,
-    /// [`frame_key`]; with `NOT_PLAIN` set when there is none), so that the
-    /// usual frame costs one compare per RPDO and a copy. Kept whenever a
-    /// parameter or a mapping changes, and after each frame the general
-    /// path handled (which may raise or end a length error).
-    rx_keys: [u32; R],
     tpdos: [Tpdo; T],
     /// End of the synchronous window opened by the last SYNC; [`Far::NEVER`]:
     /// no window. Read only while Operational ([`Pdos::enter_operational`]
     /// sets it; 0 before is all zero bits).
     window_end: Far,
-    operational: bool,
+    /// The last [`Pdos::tpdos_mapping`]: image offset and length
+    /// (`offset << 16 | len`, 0: none) and its TPDOs, until a parameter or
+    /// a mapping changes (a device sets its statusword with most frames).
+    last_write: (u32, u32),
     /// What [`Pdos::poll`] last returned, while `settled`: no PDO changed
     /// since, so [`Pdos::due`] answers without walking them (after every
     /// frame that is not for the PDOs). Every other `&mut self` method
     /// that may change a PDO clears `settled`. Read only while `settled`
     /// (0 before the first poll: all zero bits).
     settled_deadline: At,
-    settled: bool,
-    /// Bit t of entry n: RPDO n writes an object event-driven TPDO t maps,
-    /// worked out whenever a mapping or a type changes, so that an RPDO
-    /// only makes the TPDOs it can change look for a change.
-    rpdo_reach: [u32; R],
     /// Bit n: RPDO n's event timer may be running (only a received RPDO
     /// starts one), so [`Pdos::poll_changed`] walks only those RPDOs, not
     /// every RPDO after every frame. RPDOs past 31 set every bit.
@@ -194,10 +188,22 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// Bit t: TPDO t is valid and synchronous (types 0..=240 and 252: the
     /// only ones a SYNC does something for), so that a SYNC visits just those.
     sync_tpdos: u32,
-    /// The last [`Pdos::tpdos_mapping`]: image offset and length
-    /// (`offset << 16 | len`, 0: none) and its TPDOs, until a parameter or
-    /// a mapping changes (a device sets its statusword with most frames).
-    last_write: (u32, u32),
+    operational: bool,
+    settled: bool,
+    /// Per RPDO, the frames it takes ([`Rpdo::rx_key`]): in the low 16
+    /// bits the CAN-ID it listens to (`NO_KEY`'s 0xFFFF when off), so that
+    /// matching a received frame is one compare per RPDO; the whole word is
+    /// the key of the frame it takes the plain way (its CAN-ID and length,
+    /// [`frame_key`]; with `NOT_PLAIN` set when there is none), so that the
+    /// usual frame costs one compare per RPDO and a copy. Kept whenever a
+    /// parameter or a mapping changes, and after each frame the general
+    /// path handled (which may raise or end a length error).
+    rx_keys: [u32; R],
+    /// Bit t of entry n: RPDO n writes an object event-driven TPDO t maps,
+    /// worked out whenever a mapping or a type changes, so that an RPDO
+    /// only makes the TPDOs it can change look for a change.
+    rpdo_reach: [u32; R],
+    rpdos: [Rpdo; R],
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
