@@ -5,8 +5,12 @@
 //! Messages wait in a bounded queue for the inhibit time (0x1015, 100 µs
 //! units). A full queue drops the new message, counts it, and sets the
 //! generic bit of the error register, so the loss is visible.
+//!
+//! An active error may be held: it clears by itself once its hold ends
+//! ([`EmcyProducer::raise_held`], [`EmcyProducer::expire`]), as the CAN
+//! controller's transient errors do; one list and one walk for them all.
 
-use crate::time::{At, NEVER, later, shift_opt, span_100us};
+use crate::time::{At, NEVER, later, shift, shift_opt, span_100us};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -40,6 +44,17 @@ pub const fn register_bit(code: EmcyCode) -> u8 {
     }
 }
 
+/// An active error.
+#[derive(Clone, Copy, Debug)]
+struct Active {
+    code: EmcyCode,
+    /// Error register bits it sets beyond its code's class (a device whose
+    /// manual gives a generic code a profile bit).
+    bits: u8,
+    /// When it clears by itself ([`NEVER`]: it does not).
+    until: At,
+}
+
 /// The EMCY producer and the active-error set, for up to `A` active errors
 /// and `Q` queued messages. Not `PartialEq`: [`EmcyProducer::reset`] and
 /// [`EmcyProducer::clear`] leave entries past the lists' ends as they were.
@@ -50,11 +65,11 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     inhibit: u32,
     /// When the next message may go out (its inhibit time ends), once one went out.
     free_at: Option<At>,
-    active: [EmcyCode; A],
-    /// Error register bits each active error sets beyond its code's class
-    /// (a device whose manual gives a generic code a profile bit).
-    active_bits: [u8; A],
+    active: [Active; A],
     active_len: usize,
+    /// No held error clears before this ([`NEVER`]: none is held; 0 at
+    /// power-on, the node being all zero bits: the first look finds none).
+    held: At,
     queue: [Emcy; Q],
     head: usize,
     len: usize,
@@ -83,9 +98,9 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             cob_id: None,
             inhibit: 0,
             free_at: None,
-            active: [EmcyCode::NO_ERROR; A],
-            active_bits: [0; A],
+            active: [Active { code: EmcyCode::NO_ERROR, bits: 0, until: 0 }; A],
             active_len: 0,
+            held: 0,
             queue: [Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] }; Q],
             head: 0,
             len: 0,
@@ -117,8 +132,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.tx_overflow {
             r |= self.tx_bits;
         }
-        for (&code, &bits) in self.active.iter().zip(&self.active_bits).take(self.active_len) {
-            r |= register_bit(code) | bits;
+        for e in self.active.iter().take(self.active_len) {
+            r |= register_bit(e.code) | e.bits;
         }
         r
     }
@@ -132,7 +147,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     // Out of line: raising, clearing and recording a sent EMCY each had a copy.
     #[inline(never)]
     fn position(&self, code: EmcyCode) -> Option<usize> {
-        self.active.get(..self.active_len)?.iter().position(|&c| c == code)
+        self.active.get(..self.active_len)?.iter().position(|e| e.code == code)
     }
 
     /// Raises an error: records it as active and queues its message.
@@ -145,35 +160,51 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// while it lasts, beyond those of its code's class (the Sendix's
     /// position error, generic code 0x1000, sets bit 5 "device profile").
     pub fn raise_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
-        self.raise_or_repeat(code, register, info, false)
+        self.raise_or_repeat(code, register, info, false, NEVER)
+    }
+
+    /// [`EmcyProducer::raise_with`] of an error that clears by itself at
+    /// `until` ([`EmcyProducer::expire`]) unless it is raised so again
+    /// meanwhile, which holds it until the new moment (and sends nothing:
+    /// it is active). An error raised without a hold keeps none.
+    pub fn raise_held(&mut self, code: EmcyCode, register: u8, info: [u8; 5], until: At) -> bool {
+        self.raise_or_repeat(code, register, info, false, until)
     }
 
     /// Raises an error whose every event sends its message, also while it
     /// is active (a heartbeat consumer's timeout, once for each node).
     pub fn raise_each(&mut self, code: EmcyCode, info: [u8; 5]) {
-        self.raise_or_repeat(code, 0, info, true);
+        self.raise_or_repeat(code, 0, info, true, NEVER);
     }
 
-    /// [`EmcyProducer::raise_with`]; `repeat`: an active error's message
-    /// is sent again (with the register as it is).
-    // Out of line: one copy for both.
+    /// [`EmcyProducer::raise_held`]; `repeat`: an active error's message
+    /// is sent again (with the register as it is); `until` [`NEVER`]: no
+    /// hold (an active error keeps the one it has).
+    // Out of line: one copy for all three.
     #[inline(never)]
-    fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool) -> bool {
-        let new = !self.is_active(code);
-        if new {
-            match (self.active.get_mut(self.active_len), self.active_bits.get_mut(self.active_len)) {
-                (Some(slot), Some(bits)) => {
-                    *slot = code;
-                    *bits = register;
+    fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool, until: At) -> bool {
+        let pos = self.position(code);
+        let new = pos.is_none();
+        // The active error's entry, or the next free one for a new error.
+        match self.active.get_mut(pos.unwrap_or(self.active_len)) {
+            Some(e) => {
+                if new {
+                    *e = Active { code, bits: register, until: NEVER };
                     // `get_mut` found the slot: `active_len` < A.
                     #[allow(clippy::arithmetic_side_effects)]
                     {
                         self.active_len += 1;
                     }
                 }
-                _ => self.lost_errors = true,
+                if until != NEVER {
+                    e.until = until;
+                    // A hold moved later: the next full call looks at them all again.
+                    self.held = 0;
+                }
             }
-        } else if !repeat {
+            None => self.lost_errors = true,
+        }
+        if !new && !repeat {
             return false;
         }
         let register = self.register();
@@ -223,18 +254,29 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
+    // Out of line: its callers (the PDOs' sink, heartbeat recovery, the device) each took a copy.
+    #[inline(never)]
     pub fn clear(&mut self, code: EmcyCode) {
-        let Some(pos) = self.position(code) else { return };
+        if let Some(pos) = self.position(code) {
+            self.remove(pos);
+        }
+    }
+
+    /// Clears the active error at `pos` (< `active_len`).
+    // Out of line: `clear` and `expire_held` share it.
+    #[inline(never)]
+    fn remove(&mut self, pos: usize) {
         // The set has no order (only membership and the register bits
         // count): the last entry takes the cleared one's place.
-        // `position` found the code among the first `active_len`: it is at least 1.
+        // The callers' `pos` < `active_len`: it is at least 1.
         #[allow(clippy::arithmetic_side_effects)]
         {
             self.active_len -= 1;
         }
-        let last = (self.active.get(self.active_len).copied(), self.active_bits.get(self.active_len).copied());
-        if let ((Some(code), Some(bits)), Some(slot), Some(slot_bits)) = (last, self.active.get_mut(pos), self.active_bits.get_mut(pos)) {
-            (*slot, *slot_bits) = (code, bits);
+        if let Some(&last) = self.active.get(self.active_len)
+            && let Some(slot) = self.active.get_mut(pos)
+        {
+            *slot = last;
         }
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
@@ -242,10 +284,33 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         }
     }
 
+    /// Clears the held errors whose hold ended by `now`; when the next
+    /// one ends ([`NEVER`]: no error is held). Every full `Node::process`
+    /// asks, so the common answer takes one compare.
+    #[inline(always)]
+    pub fn expire(&mut self, now: At) -> At {
+        if self.held <= now { self.expire_held(now) } else { self.held }
+    }
+
+    #[inline(never)]
+    fn expire_held(&mut self, now: At) -> At {
+        let mut held = NEVER;
+        // From the last entry down: `remove` moves the last one, which was looked at already.
+        for i in (0..self.active_len).rev() {
+            match self.active.get(i) {
+                Some(e) if e.until <= now => self.remove(i),
+                Some(e) => held = held.min(e.until),
+                None => {}
+            }
+        }
+        self.held = held;
+        held
+    }
+
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
-        (self.active_len, self.head, self.len, self.free_at) = (0, 0, 0, None);
+        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, None, NEVER);
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
@@ -323,6 +388,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
         shift_opt(&mut self.free_at, by);
+        // The next full call looks at the holds again (`rebase` makes it full).
+        self.held = 0;
+        for e in self.active.get_mut(..self.active_len).unwrap_or(&mut []) {
+            shift(&mut e.until, by);
+        }
     }
 
     /// Messages lost to a full queue.
@@ -379,6 +449,32 @@ mod tests {
         assert_eq!((sent(&mut e), sent(&mut e), sent(&mut e)), (Some((0x11, 3)), Some((0x11, 4)), None));
         e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0, "one clear: the error was active once");
+    }
+
+    #[test]
+    fn a_held_error_clears_when_its_hold_ends() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.set_cob_id(0x81);
+        assert_eq!(e.expire(us(0)), NEVER, "nothing held (all zero bits: the first look finds none)");
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [3, 0, 0, 0, 0], us(1000)));
+        assert!(e.raise(EmcyCode(0x8130), [0; 5]));
+        assert!(!e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [5, 0, 0, 0, 0], us(1500)), "active: held longer, nothing sent");
+        assert!(!e.raise(EmcyCode(0x8110), [0; 5]), "a raise without a hold keeps the hold");
+        assert_eq!(e.expire(us(999)), us(1500));
+        assert_eq!(e.expire(us(1000)), us(1500), "the later hold counts");
+        e.shift(500);
+        assert_eq!(e.expire(us(999)), us(1000), "moved with the epoch");
+        assert_eq!(e.expire(us(1000)), NEVER);
+        assert!(!e.is_active(EmcyCode(0x8110)));
+        assert!(e.is_active(EmcyCode(0x8130)), "not held: it stays");
+        let codes: [_; 3] = core::array::from_fn(|_| e.next(us(0), true).map(|(_, m)| m.code));
+        assert_eq!(codes, [Some(EmcyCode(0x8110)), Some(EmcyCode(0x8130)), None], "no error reset: 0x8130 is active");
+        e.clear(EmcyCode(0x8130));
+        assert!(e.raise_held(EmcyCode(0x8140), register::COMMUNICATION, [0; 5], us(10)));
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [0; 5], us(20)));
+        assert_eq!(e.expire(us(20)), NEVER, "both in one look");
+        let codes: [_; 4] = core::array::from_fn(|_| e.next(us(0), true).map(|(_, m)| (m.code, m.register)));
+        assert_eq!(codes[3], Some((EmcyCode::NO_ERROR, 0)), "one error reset, after the last");
     }
 
     #[test]
