@@ -14,7 +14,7 @@ use crate::services::pdo::Pdos;
 use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::At;
-use crate::wire::emcy::{Emcy, EmcyCode};
+use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::SYNC_COB_ID;
 
 /// (index, sub) as an integer, `default` if the dictionary lacks it.
@@ -138,13 +138,16 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
     }
 
-    /// Records a sent EMCY: 0x1001 and, for an error, a new 0x1003 entry (newest at sub 1).
-    pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &Emcy) {
+    /// Records a sent EMCY (its data bytes, [`crate::wire::emcy::Emcy::emit`]): 0x1001 and,
+    /// for an error, a new 0x1003 entry (newest at sub 1).
+    pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &[u8; 8]) {
+        let [c0, c1, register, i0, i1, ..] = *e;
+        let code = EmcyCode(u16::from_le_bytes([c0, c1]));
         // An error still active: the register as it is now, not as it was when the
         // message was queued (an error cleared since, without a message, has left it).
-        let register = if self.emcy.is_active(e.code) { self.emcy.register() } else { e.register };
+        let register = if self.emcy.is_active(code) { self.emcy.register() } else { register };
         let _ = dict.write_unchecked(image, index::ERROR_REGISTER, 0, &[register]);
-        if e.code == EmcyCode::NO_ERROR {
+        if code == EmcyCode::NO_ERROR {
             return;
         }
         // The record's entries found once; its sub-indices then among them.
@@ -153,9 +156,10 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // Every entry but sub 0, which is there: the dictionary's keys are unique.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
-        let [i0, i1, ..] = e.info;
-        // The newest at sub 1, each older one a sub-index on (the 32-bit entries of CiA 301 §7.5.2.4).
-        let mut carry = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
+        // The newest at sub 1, each older one a sub-index on (the 32-bit entries
+        // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
+        // manufacturer-specific field).
+        let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
         let len = used.saturating_add(1).min(capacity);
         for sub in 1..=len {
             let Some(entry) = sub_entry(record, sub) else { break };

@@ -70,7 +70,8 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     /// No held error clears before this ([`NEVER`]: none is held; 0 at
     /// power-on, the node being all zero bits: the first look finds none).
     held: At,
-    queue: [Emcy; Q],
+    /// The messages' data bytes ([`Emcy::emit`]), as they go out and are recorded.
+    queue: [[u8; 8]; Q],
     head: usize,
     len: usize,
     overflows: u32,
@@ -101,7 +102,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             active: [Active { code: EmcyCode::NO_ERROR, bits: 0, until: 0 }; A],
             active_len: 0,
             held: 0,
-            queue: [Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] }; Q],
+            queue: [[0; 8]; Q],
             head: 0,
             len: 0,
             overflows: 0,
@@ -208,7 +209,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             return false;
         }
         let register = self.register();
-        self.push(Emcy { code, register, info });
+        self.push(code, register, info);
         new
     }
 
@@ -216,7 +217,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// length error): it sets no active error.
     pub fn signal(&mut self, code: EmcyCode, info: [u8; 5]) {
         let register = self.register() | register::GENERIC | register_bit(code);
-        self.push(Emcy { code, register, info });
+        self.push(code, register, info);
     }
 
     /// The transmit queue refused frames (`refused`: so far): raises `code`
@@ -232,7 +233,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_bits = register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
         let register = self.register();
-        self.push(Emcy { code, register, info: [a, b, c, d, 1] });
+        self.push(code, register, [a, b, c, d, 1]);
     }
 
     /// The transmit queue drained after an overflow: the error clears, and
@@ -244,7 +245,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_overflow = false;
         if self.active_len == 0 {
             self.lost_errors = false;
-            self.push(Emcy { code: EmcyCode::NO_ERROR, register: self.register(), info: [0; 5] });
+            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
         }
     }
 
@@ -280,7 +281,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         }
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
-            self.push(Emcy { code: EmcyCode::NO_ERROR, register: self.register(), info: [0; 5] });
+            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
         }
     }
 
@@ -316,14 +317,14 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     // Out of line: three callers each had a copy (76 bytes more).
     #[inline(never)]
-    fn push(&mut self, e: Emcy) {
+    fn push(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) {
         if self.len == Q {
             self.overflows = self.overflows.saturating_add(1);
             self.lost_errors = true;
             return;
         }
         if let Some(slot) = self.queue.get_mut(Self::ring(self.head, self.len)) {
-            *slot = e;
+            *slot = Emcy { code, register, info }.emit();
             // `len` < Q: checked above.
             #[allow(clippy::arithmetic_side_effects)]
             {
@@ -340,7 +341,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Takes the oldest queued message (`len` != 0).
-    fn pop(&mut self) -> Option<Emcy> {
+    fn pop(&mut self) -> Option<[u8; 8]> {
         let e = *self.queue.get(self.head)?;
         self.head = Self::ring(self.head, 1);
         // The callers checked `len` != 0.
@@ -356,8 +357,9 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// transmit queue); while EMCY is off (0x1014 bit 31), with `None`
     /// whatever `room` says: it is not sent, but the node still records it
     /// (0x1001, 0x1003), and the queue does not fill up with messages that
-    /// never leave. One call for both, so that the node has one loop.
-    pub fn next(&mut self, now: At, room: bool) -> Option<(Option<u16>, Emcy)> {
+    /// never leave. One call for both, so that the node has one loop. The
+    /// message as its data bytes ([`Emcy::parse`] reads them).
+    pub fn next(&mut self, now: At, room: bool) -> Option<(Option<u16>, [u8; 8])> {
         if self.len == 0 {
             return None;
         }
@@ -410,6 +412,11 @@ mod tests {
         n
     }
 
+    /// [`EmcyProducer::next`] with the message parsed.
+    fn next<const A: usize, const Q: usize>(e: &mut EmcyProducer<A, Q>, now: At, room: bool) -> Option<(Option<u16>, Emcy)> {
+        e.next(now, room).map(|(id, data)| (id, Emcy::parse(&data).unwrap_or_else(|| unreachable!())))
+    }
+
     #[test]
     fn raise_and_clear_drive_the_register_and_error_reset() {
         let mut e = EmcyProducer::<4, 4>::default();
@@ -417,10 +424,10 @@ mod tests {
         assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]));
         assert!(!e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
         assert_eq!(e.register(), 0x11);
-        assert_eq!(e.next(us(0), true), Some((Some(0x81), Emcy { code: EmcyCode(0x8130), register: 0x11, info: [3, 0, 0, 0, 0] })));
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0x30, 0x81, 0x11, 3, 0, 0, 0, 0])));
         e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0);
-        assert_eq!(e.next(us(1), true), Some((Some(0x81), Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] })));
+        assert_eq!(e.next(us(1), true), Some((Some(0x81), [0; 8])));
         assert_eq!(e.next(us(2), true), None);
     }
 
@@ -435,7 +442,7 @@ mod tests {
         assert_eq!(e.register(), 0x11, "bit 5 went with 0x1000, the heartbeat's bits stay");
         assert!(e.raise(EmcyCode(0x1000), [0; 5]));
         assert_eq!(e.register(), 0x11, "raised again without extra bits");
-        assert_eq!(e.next(us(0), true).map(|(_, m)| m.register), Some(0x21));
+        assert_eq!(next(&mut e, us(0), true).map(|(_, m)| m.register), Some(0x21));
     }
 
     #[test]
@@ -445,7 +452,7 @@ mod tests {
         e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]);
         e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [4, 0, 0, 0, 0]);
         assert_eq!(e.register(), 0x11);
-        let sent = |e: &mut EmcyProducer<4, 4>| e.next(us(0), true).map(|(_, m)| (m.register, m.info[0]));
+        let sent = |e: &mut EmcyProducer<4, 4>| next(e, us(0), true).map(|(_, m)| (m.register, m.info[0]));
         assert_eq!((sent(&mut e), sent(&mut e), sent(&mut e)), (Some((0x11, 3)), Some((0x11, 4)), None));
         e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0, "one clear: the error was active once");
@@ -467,13 +474,13 @@ mod tests {
         assert_eq!(e.expire(us(1000)), NEVER);
         assert!(!e.is_active(EmcyCode(0x8110)));
         assert!(e.is_active(EmcyCode(0x8130)), "not held: it stays");
-        let codes: [_; 3] = core::array::from_fn(|_| e.next(us(0), true).map(|(_, m)| m.code));
+        let codes: [_; 3] = core::array::from_fn(|_| next(&mut e, us(0), true).map(|(_, m)| m.code));
         assert_eq!(codes, [Some(EmcyCode(0x8110)), Some(EmcyCode(0x8130)), None], "no error reset: 0x8130 is active");
         e.clear(EmcyCode(0x8130));
         assert!(e.raise_held(EmcyCode(0x8140), register::COMMUNICATION, [0; 5], us(10)));
         assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [0; 5], us(20)));
         assert_eq!(e.expire(us(20)), NEVER, "both in one look");
-        let codes: [_; 4] = core::array::from_fn(|_| e.next(us(0), true).map(|(_, m)| (m.code, m.register)));
+        let codes: [_; 4] = core::array::from_fn(|_| next(&mut e, us(0), true).map(|(_, m)| (m.code, m.register)));
         assert_eq!(codes[3], Some((EmcyCode::NO_ERROR, 0)), "one error reset, after the last");
     }
 
@@ -488,7 +495,7 @@ mod tests {
         assert!(e.next(us(100), true).is_some());
         assert_eq!(deadline_of(e.deadline()), Some(us(1100)));
         assert_eq!(e.next(us(1099), true), None);
-        assert_eq!(e.next(us(1100), true).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
+        assert_eq!(next(&mut e, us(1100), true).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
     }
 
     #[test]
@@ -501,8 +508,8 @@ mod tests {
         assert_eq!(e.overflows(), 1);
         assert_eq!(e.register() & register::GENERIC, register::GENERIC);
         // EMCY off (bit 31): recorded, not sent, whether or not the transmit queue has room.
-        assert_eq!(e.next(us(0), false).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
-        assert_eq!(e.next(us(0), true).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(next(&mut e, us(0), false).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(next(&mut e, us(0), true).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
         assert_eq!(e.next(us(0), true), None);
         assert!(e.raise(EmcyCode(0x8130), [0; 5]));
         assert!(e.raise(EmcyCode(0x8110), [0; 5]), "more active errors than slots are still reported");
