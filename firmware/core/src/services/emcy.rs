@@ -367,11 +367,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if sending && (!room || self.free_at.is_some_and(|t| now < t)) {
             return None;
         }
-        let e = self.pop()?;
         if sending {
             self.free_at = Some(later(now, self.inhibit));
         }
-        Some((self.cob_id, e))
+        // `len` != 0: a message is there.
+        Some((self.cob_id, self.pop()?))
     }
 
     /// Whether messages wait to go out (or, while EMCY is off, to be recorded).
