@@ -161,8 +161,12 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // manufacturer-specific field).
         let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
         let len = used.saturating_add(1).min(capacity);
-        for sub in 1..=len {
-            let Some(entry) = sub_entry(record, sub) else { break };
+        // Sub-indices 1..=len in the record's order (sorted by sub-index):
+        // the walk ends at the first one missing, as a search for each would.
+        for (i, entry) in record.iter().filter(|e| e.sub != 0).take(usize::from(len)).enumerate() {
+            if usize::from(entry.sub) != i.wrapping_add(1) {
+                break;
+            }
             let older = value_u32(dict, image, entry);
             let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
             carry = older;
@@ -390,5 +394,32 @@ mod tests {
         assert!(!comm.heartbeat.active(), "no 0x1017: no heartbeat");
         assert_eq!(comm.consumers.producers().count(), 0, "no 0x1016: no consumer");
         assert_eq!(comm.emcy.cob_id(), None, "no 0x1014: EMCY off");
+    }
+
+    /// 0x1001, and 0x1003 with sub-indices 0, 1, 2 and 4 (sub 3 missing).
+    static HISTORY: [Entry; 5] = [
+        Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0),
+        Entry::new(0x1003, 0, DataType::Unsigned8, RW, 1, 1),
+        Entry::new(0x1003, 1, DataType::Unsigned32, Attr::READ, 4, 2),
+        Entry::new(0x1003, 2, DataType::Unsigned32, Attr::READ, 4, 6),
+        Entry::new(0x1003, 4, DataType::Unsigned32, Attr::READ, 4, 10),
+    ];
+    static HISTORY_DICT: Dictionary =
+        Dictionary { entries: &HISTORY, defaults: crate::od::Defaults::dense(&[0; 14]), comm_len: 14, stored_len: 14, ..DICT };
+
+    #[test]
+    fn the_history_shifts_down_to_the_first_missing_sub_index() {
+        let mut comm = Hooked::<crate::node::NoApplication, 0, 0, 0>::new();
+        let mut image = [0u8; 14];
+        let mut record = |image: &mut [u8], code: u8| comm.record(&HISTORY_DICT, image, &[code, 0x10, 0x01, 0xAA, 0xBB, 0, 0, 0]);
+        record(&mut image, 1);
+        assert_eq!(image[..6], [0x01, 1, 1, 0x10, 0xAA, 0xBB], "0x1001 as sent; one entry");
+        record(&mut image, 2);
+        record(&mut image, 3);
+        // Three entries' room (every sub-index but 0), the third missing: the
+        // count says 3, sub 4 is never written, the oldest is gone.
+        assert_eq!(image, [0x01, 3, 3, 0x10, 0xAA, 0xBB, 2, 0x10, 0xAA, 0xBB, 0, 0, 0, 0]);
+        record(&mut image, 4);
+        assert_eq!(image[1..10], [3, 4, 0x10, 0xAA, 0xBB, 3, 0x10, 0xAA, 0xBB]);
     }
 }
