@@ -76,11 +76,12 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     len: usize,
     overflows: u32,
     lost_errors: bool,
-    /// The error register bits of the transmit queue's overflow while it is
-    /// active (never 0 then: it has the communication bit), else 0: the
-    /// transmit queue refused frames and has not drained since. An error of
-    /// its own, beside the active list, because it shares its code (0x8110)
-    /// with the receive overrun, which comes and goes apart from it.
+    /// The transmit queue refused frames and has not drained since: an
+    /// error of its own, beside the active list, because it shares its code
+    /// (0x8110) with the receive overrun, which comes and goes apart from it.
+    tx_overflow: bool,
+    /// The error register bits of the transmit queue overflow's code (0
+    /// before the first: the node is all zero bits at power-on).
     tx_bits: u8,
 }
 
@@ -106,6 +107,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             len: 0,
             overflows: 0,
             lost_errors: false,
+            tx_overflow: false,
             tx_bits: 0,
         }
     }
@@ -127,9 +129,9 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// The error register as the active errors make it.
     pub fn register(&self) -> u8 {
-        let mut r = self.tx_bits;
-        if self.active_len > 0 || self.lost_errors || r != 0 {
-            r |= register::GENERIC;
+        let mut r = if self.active_len > 0 || self.lost_errors || self.tx_overflow { register::GENERIC } else { 0 };
+        if self.tx_overflow {
+            r |= self.tx_bits;
         }
         for e in self.active.iter().take(self.active_len) {
             r |= register_bit(e.code) | e.bits;
@@ -224,9 +226,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// until [`EmcyProducer::tx_drained`]. Apart from the receive overrun's
     /// 0x8110: each raises and clears on its own.
     pub fn tx_overflow(&mut self, code: EmcyCode, refused: u32) {
-        if self.tx_bits != 0 {
+        if self.tx_overflow {
             return;
         }
+        self.tx_overflow = true;
         self.tx_bits = register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
         let register = self.register();
@@ -236,10 +239,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// The transmit queue drained after an overflow: the error clears, and
     /// "error reset" goes out if no other error is active.
     pub fn tx_drained(&mut self) {
-        if self.tx_bits == 0 {
+        if !self.tx_overflow {
             return;
         }
-        self.tx_bits = 0;
+        self.tx_overflow = false;
         if self.active_len == 0 {
             self.lost_errors = false;
             self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
@@ -248,7 +251,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Whether a transmit queue overflow is active.
     pub fn tx_overflow_active(&self) -> bool {
-        self.tx_bits != 0
+        self.tx_overflow
     }
 
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
@@ -276,7 +279,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         {
             *slot = last;
         }
-        if self.active_len == 0 && self.tx_bits == 0 {
+        if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
             self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
         }
@@ -309,7 +312,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
         (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, None, NEVER);
-        (self.lost_errors, self.tx_bits) = (false, 0);
+        (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
     // Out of line: three callers each had a copy (76 bytes more).
