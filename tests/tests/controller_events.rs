@@ -130,6 +130,26 @@ fn reset_communication_raises_error_passive_again() {
 }
 
 #[test]
+fn a_loss_reported_while_reset_communication_runs_clears_a_second_later() {
+    let mut b = interop();
+    b.node.on_frame(ms(30), &canopen_core::frame::CanFrame::standard(0x000, &[0x82, ID]).unwrap());
+    // A reset goes on a stage per call: the loss comes after the stage that
+    // reset EMCY and before the one that resets the controller's state.
+    let mut stages = 0;
+    while stages < 3 && b.node.resetting() {
+        b.node.process(ms(30));
+        stages += 1;
+    }
+    assert!(b.node.resetting(), "the report comes while the reset runs");
+    b.node.controller_event(ControllerEvent::RxOverrun { lost: 1 }, ms(30));
+    assert_eq!(b.at(ms(30)), [(0x704, vec![0x00])], "the boot-up first");
+    assert_eq!(b.at(ms(31)), [(EMCY, vec![0x10, 0x81, 0x11, 1, 0, 0, 0, 0])]);
+    // Held from the loss, as any other: it clears 1 s later, not never.
+    assert_eq!(at(ms(1030), b.run_until(ms(3000))), emcy(ERROR_RESET));
+    assert_eq!(b.sdo_upload(ID, 0x1001, 0), Ok(vec![0x00]));
+}
+
+#[test]
 fn a_loss_and_a_recovery_each_clear_a_quiet_second_after_themselves() {
     let mut b = interop();
     assert_eq!(report(&mut b, ms(10), ControllerEvent::RxOverrun { lost: 1 }), [(EMCY, vec![0x10, 0x81, 0x11, 1, 0, 0, 0, 0])]);

@@ -14,7 +14,7 @@ use crate::services::pdo::Pdos;
 use crate::services::pdo::map::Mapping;
 use crate::services::sync::SyncService;
 use crate::time::At;
-use crate::wire::emcy::{Emcy, EmcyCode};
+use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::SYNC_COB_ID;
 
 /// (index, sub) as an integer, `default` if the dictionary lacks it.
@@ -138,13 +138,16 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
     }
 
-    /// Records a sent EMCY: 0x1001 and, for an error, a new 0x1003 entry (newest at sub 1).
-    pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &Emcy) {
+    /// Records a sent EMCY (its data bytes, [`crate::wire::emcy::Emcy::emit`]): 0x1001 and,
+    /// for an error, a new 0x1003 entry (newest at sub 1).
+    pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &[u8; 8]) {
+        let [c0, c1, register, i0, i1, ..] = *e;
+        let code = EmcyCode(u16::from_le_bytes([c0, c1]));
         // An error still active: the register as it is now, not as it was when the
         // message was queued (an error cleared since, without a message, has left it).
-        let register = if self.emcy.is_active(e.code) { self.emcy.register() } else { e.register };
+        let register = if self.emcy.is_active(code) { self.emcy.register() } else { register };
         let _ = dict.write_unchecked(image, index::ERROR_REGISTER, 0, &[register]);
-        if e.code == EmcyCode::NO_ERROR {
+        if code == EmcyCode::NO_ERROR {
             return;
         }
         // The record's entries found once; its sub-indices then among them.
@@ -153,12 +156,17 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         // Every entry but sub 0, which is there: the dictionary's keys are unique.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
-        let [i0, i1, ..] = e.info;
-        // The newest at sub 1, each older one a sub-index on (the 32-bit entries of CiA 301 §7.5.2.4).
-        let mut carry = u32::from(e.code.value()) | (u32::from(u16::from_le_bytes([i0, i1])) << 16);
+        // The newest at sub 1, each older one a sub-index on (the 32-bit entries
+        // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
+        // manufacturer-specific field).
+        let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
         let len = used.saturating_add(1).min(capacity);
-        for sub in 1..=len {
-            let Some(entry) = sub_entry(record, sub) else { break };
+        // Sub-indices 1..=len in the record's order (sorted by sub-index):
+        // the walk ends at the first one missing, as a search for each would.
+        for (i, entry) in record.iter().filter(|e| e.sub != 0).take(usize::from(len)).enumerate() {
+            if usize::from(entry.sub) != i.wrapping_add(1) {
+                break;
+            }
             let older = value_u32(dict, image, entry);
             let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
             carry = older;
@@ -386,5 +394,32 @@ mod tests {
         assert!(!comm.heartbeat.active(), "no 0x1017: no heartbeat");
         assert_eq!(comm.consumers.producers().count(), 0, "no 0x1016: no consumer");
         assert_eq!(comm.emcy.cob_id(), None, "no 0x1014: EMCY off");
+    }
+
+    /// 0x1001, and 0x1003 with sub-indices 0, 1, 2 and 4 (sub 3 missing).
+    static HISTORY: [Entry; 5] = [
+        Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0),
+        Entry::new(0x1003, 0, DataType::Unsigned8, RW, 1, 1),
+        Entry::new(0x1003, 1, DataType::Unsigned32, Attr::READ, 4, 2),
+        Entry::new(0x1003, 2, DataType::Unsigned32, Attr::READ, 4, 6),
+        Entry::new(0x1003, 4, DataType::Unsigned32, Attr::READ, 4, 10),
+    ];
+    static HISTORY_DICT: Dictionary =
+        Dictionary { entries: &HISTORY, defaults: crate::od::Defaults::dense(&[0; 14]), comm_len: 14, stored_len: 14, ..DICT };
+
+    #[test]
+    fn the_history_shifts_down_to_the_first_missing_sub_index() {
+        let mut comm = Hooked::<crate::node::NoApplication, 0, 0, 0>::new();
+        let mut image = [0u8; 14];
+        let mut record = |image: &mut [u8], code: u8| comm.record(&HISTORY_DICT, image, &[code, 0x10, 0x01, 0xAA, 0xBB, 0, 0, 0]);
+        record(&mut image, 1);
+        assert_eq!(image[..6], [0x01, 1, 1, 0x10, 0xAA, 0xBB], "0x1001 as sent; one entry");
+        record(&mut image, 2);
+        record(&mut image, 3);
+        // Three entries' room (every sub-index but 0), the third missing: the
+        // count says 3, sub 4 is never written, the oldest is gone.
+        assert_eq!(image, [0x01, 3, 3, 0x10, 0xAA, 0xBB, 2, 0x10, 0xAA, 0xBB, 0, 0, 0, 0]);
+        record(&mut image, 4);
+        assert_eq!(image[1..10], [3, 4, 0x10, 0xAA, 0xBB, 3, 0x10, 0xAA, 0xBB]);
     }
 }

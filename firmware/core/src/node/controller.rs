@@ -8,8 +8,10 @@
 //! frame and a bus-off recovery are events with no lasting state: each
 //! stays active, and so in the error register, until it has not recurred
 //! for [`TRANSIENT_ERROR_HOLD`]; a repeat meanwhile sends nothing new (the
-//! error is active already) but holds it longer. Clearing the last active
-//! error sends "error reset" (0x0000), as for every error of the node.
+//! error is active already) but holds it longer. The EMCY producer keeps
+//! the holds with its active errors ([`EmcyProducer::raise_held`]).
+//! Clearing the last active error sends "error reset" (0x0000), as for
+//! every error of the node.
 //!
 //! The codes are CiA 301's unless the device's manual has its own
 //! ([`CanEmcyCodes`], [`super::Application::CAN_EMCY`]); a device may also
@@ -18,7 +20,7 @@
 
 use crate::od::ObjectDictionary;
 use crate::storage::Storage;
-use crate::time::{At, Duration, Instant, at, earliest, later, shift_opt, span};
+use crate::time::{At, Duration, Instant, NEVER, later, span};
 use crate::wire::emcy::EmcyCode;
 
 use crate::services::emcy::{EmcyProducer, register};
@@ -88,14 +90,6 @@ pub(super) struct ControllerErrors {
     lost: u32,
     /// Bus-off recoveries since power-on (wrapping).
     recoveries: u32,
-    /// When the frame loss clears, if it is active.
-    overrun_clears_at: Option<At>,
-    /// When the bus-off recovery clears, if it is active.
-    bus_off_clears_at: Option<At>,
-    /// When the protocol warning clears, if it is active.
-    protocol_clears_at: Option<At>,
-    /// The earliest of the three: [`ControllerErrors::poll`] compares only this.
-    clears_at: Option<At>,
     passive: bool,
     /// Error passive is to be raised again once the boot-up has left.
     raise_passive: bool,
@@ -105,17 +99,7 @@ pub(super) struct ControllerErrors {
 
 impl ControllerErrors {
     pub(super) const fn new() -> Self {
-        ControllerErrors {
-            lost: 0,
-            recoveries: 0,
-            overrun_clears_at: None,
-            bus_off_clears_at: None,
-            protocol_clears_at: None,
-            clears_at: None,
-            passive: false,
-            raise_passive: false,
-            bus_off_unheard: false,
-        }
+        ControllerErrors { lost: 0, recoveries: 0, passive: false, raise_passive: false, bus_off_unheard: false }
     }
 
     fn on_event<A: Application>(&mut self, event: ControllerEvent, now: At, emcy: &mut EmcyQueue) {
@@ -125,17 +109,15 @@ impl ControllerErrors {
             ControllerEvent::RxOverrun { lost } => {
                 self.lost = self.lost.wrapping_add(lost);
                 // Manufacturer-specific field: frames lost so far.
-                raise(emcy, codes.overrun, count(self.lost));
-                self.overrun_clears_at = Some(later(now, span(TRANSIENT_ERROR_HOLD)));
+                raise_held(emcy, codes.overrun, count(self.lost), now);
             }
             ControllerEvent::BusOffRecovered => {
                 self.recoveries = self.recoveries.wrapping_add(1);
-                raise(emcy, codes.bus_off_recovered, count(self.recoveries));
-                self.bus_off_clears_at = Some(later(now, span(TRANSIENT_ERROR_HOLD)));
+                raise_held(emcy, codes.bus_off_recovered, count(self.recoveries), now);
             }
             ControllerEvent::ErrorPassive if !self.passive => {
                 self.passive = true;
-                raise(emcy, codes.error_passive, [0; 5]);
+                raise(emcy, codes.error_passive);
             }
             ControllerEvent::ErrorActive if self.passive => {
                 self.passive = false;
@@ -143,92 +125,58 @@ impl ControllerErrors {
             }
             ControllerEvent::ErrorPassive | ControllerEvent::ErrorActive => {}
         }
-        self.update_clears_at::<A>();
-    }
-
-    fn update_clears_at<A: Application>(&mut self) {
-        self.clears_at = earliest(self.overrun_clears_at, self.bus_off_clears_at);
-        if A::CAN_EMCY.protocol.is_some() {
-            self.clears_at = earliest(self.clears_at, self.protocol_clears_at);
-        }
     }
 
     /// A frame that breaks the protocol, if the device reports those:
     /// raised (once) and held like a frame loss.
-    pub(super) fn protocol_error<A: Application>(&mut self, now: At, emcy: &mut EmcyQueue, code: EmcyCode) {
-        raise(emcy, code, [0; 5]);
-        self.protocol_clears_at = Some(later(now, span(TRANSIENT_ERROR_HOLD)));
-        self.update_clears_at::<A>();
+    pub(super) fn protocol_error(now: At, emcy: &mut EmcyQueue, code: EmcyCode) {
+        raise_held(emcy, code, [0; 5], now);
     }
 
-    /// Clears what stayed quiet long enough; the next deadline, if any.
-    /// `booted`: the boot-up left in an earlier call (the transmit queue
-    /// sends by identifier, and nothing may precede the boot-up). Every
-    /// `Node::process` asks, so the common answer takes one compare.
+    /// Raises error passive again after a reset, once the boot-up left;
+    /// then clears the held errors whose hold ended (the EMCY producer's
+    /// [`EmcyProducer::expire`]). The next deadline, if any. `booted`: the
+    /// boot-up left in an earlier call (the transmit queue sends by
+    /// identifier, and nothing may precede the boot-up).
     #[inline(always)]
     pub(super) fn poll<A: Application>(&mut self, now: At, booted: bool, emcy: &mut EmcyQueue) -> At {
-        if self.raise_passive || self.clears_at.is_some_and(|t| t <= now) {
-            self.poll_due::<A>(now, booted, emcy)
-        } else {
-            at(self.clears_at)
-        }
-    }
-
-    #[inline(never)]
-    fn poll_due<A: Application>(&mut self, now: At, booted: bool, emcy: &mut EmcyQueue) -> At {
-        let codes = A::CAN_EMCY;
+        let mut due = NEVER;
         if self.raise_passive {
-            if !booted {
-                return now;
-            }
-            self.raise_passive = false;
-            raise(emcy, codes.error_passive, [0; 5]);
+            due = self.raise_passive_again::<A>(now, booted, emcy);
         }
-        expire(&mut self.overrun_clears_at, now, emcy, codes.overrun);
-        expire(&mut self.bus_off_clears_at, now, emcy, codes.bus_off_recovered);
-        if let Some(code) = codes.protocol {
-            expire(&mut self.protocol_clears_at, now, emcy, code);
-        }
-        self.update_clears_at::<A>();
-        at(self.clears_at)
+        emcy.expire(now).min(due)
     }
 
-    /// The epoch moved by `by` µs.
-    pub(super) fn shift<A: Application>(&mut self, by: u64) {
-        shift_opt(&mut self.overrun_clears_at, by);
-        shift_opt(&mut self.bus_off_clears_at, by);
-        // Held only by a device that reports protocol errors (`protocol_error`).
-        if A::CAN_EMCY.protocol.is_some() {
-            shift_opt(&mut self.protocol_clears_at, by);
+    // Out of line and cold: only the call after a reset of a node whose controller is error passive.
+    #[cold]
+    #[inline(never)]
+    fn raise_passive_again<A: Application>(&mut self, now: At, booted: bool, emcy: &mut EmcyQueue) -> At {
+        if !booted {
+            return now;
         }
-        shift_opt(&mut self.clears_at, by);
+        self.raise_passive = false;
+        raise(emcy, A::CAN_EMCY.error_passive);
+        NEVER
     }
 
-    /// Reset communication forgot every active error: a controller still
-    /// error passive is an error still present, so it is raised again after
-    /// the boot-up. Frame losses and recoveries before the reset are over.
+    /// Reset communication forgot every active error (the EMCY producer's
+    /// holds with them): a controller still error passive is an error still
+    /// present, so it is raised again after the boot-up. Frame losses and
+    /// recoveries before the reset are over.
     pub(super) fn reset(&mut self) {
-        self.overrun_clears_at = None;
-        self.bus_off_clears_at = None;
-        self.protocol_clears_at = None;
-        self.clears_at = None;
         self.raise_passive = self.passive;
     }
 }
 
-/// Clears `code` if its hold ended by `now`.
-// Out of line: one copy for the two or three holds.
-#[inline(never)]
-fn expire(clears_at: &mut Option<At>, now: At, emcy: &mut EmcyQueue, code: EmcyCode) {
-    if clears_at.is_some_and(|t| t <= now) {
-        *clears_at = None;
-        emcy.clear(code);
-    }
+/// Raises a controller error with the communication bit (see [`CanEmcyCodes`]).
+fn raise(emcy: &mut EmcyQueue, code: EmcyCode) {
+    emcy.raise_with(code, register::COMMUNICATION, [0; 5]);
 }
 
-/// Raises a controller error with the communication bit (see [`CanEmcyCodes`]).
-fn raise(emcy: &mut EmcyQueue, code: EmcyCode, info: [u8; 5]) {
-    emcy.raise_with(code, register::COMMUNICATION, info);
+/// Raises a transient controller error with the communication bit, held
+/// for [`TRANSIENT_ERROR_HOLD`] from `now`.
+fn raise_held(emcy: &mut EmcyQueue, code: EmcyCode, info: [u8; 5], now: At) {
+    emcy.raise_held(code, register::COMMUNICATION, info, later(now, span(TRANSIENT_ERROR_HOLD)));
 }
 
 fn count(n: u32) -> [u8; 5] {

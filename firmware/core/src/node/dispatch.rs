@@ -223,7 +223,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if let Some(code) = A::CAN_EMCY.protocol {
             // The next `process` sends it and takes the clearing's deadline, as for a controller event.
             self.stale = true;
-            self.controller.protocol_error::<A>(now, &mut self.comm.emcy, code);
+            super::controller::ControllerErrors::protocol_error(now, &mut self.comm.emcy, code);
         }
     }
 

@@ -408,7 +408,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if self.app.canopen() {
             self.comm.shift(by);
             self.sdo.shift(by);
-            self.controller.shift::<A>(by);
             self.switch.shift(by);
             // The folded deadlines (`core_deadline`, `next`, `others_next`)
             // are asked again: the next call runs every service.

@@ -392,7 +392,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.comm.record(dict, self.od.image_mut(), &e);
                 self.touched = ALL_TPDOS;
                 if let Some(cob_id) = cob_id {
-                    self.push(cob_id, &e.emit());
+                    self.push(cob_id, &e);
                 }
             }
         }

@@ -5,8 +5,12 @@
 //! Messages wait in a bounded queue for the inhibit time (0x1015, 100 µs
 //! units). A full queue drops the new message, counts it, and sets the
 //! generic bit of the error register, so the loss is visible.
+//!
+//! An active error may be held: it clears by itself once its hold ends
+//! ([`EmcyProducer::raise_held`], [`EmcyProducer::expire`]), as the CAN
+//! controller's transient errors do; one list and one walk for them all.
 
-use crate::time::{At, NEVER, later, shift_opt, span_100us};
+use crate::time::{At, NEVER, later, shift, shift_opt, span_100us};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -40,6 +44,17 @@ pub const fn register_bit(code: EmcyCode) -> u8 {
     }
 }
 
+/// An active error.
+#[derive(Clone, Copy, Debug)]
+struct Active {
+    code: EmcyCode,
+    /// Error register bits it sets beyond its code's class (a device whose
+    /// manual gives a generic code a profile bit).
+    bits: u8,
+    /// When it clears by itself ([`NEVER`]: it does not).
+    until: At,
+}
+
 /// The EMCY producer and the active-error set, for up to `A` active errors
 /// and `Q` queued messages. Not `PartialEq`: [`EmcyProducer::reset`] and
 /// [`EmcyProducer::clear`] leave entries past the lists' ends as they were.
@@ -50,12 +65,13 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     inhibit: u32,
     /// When the next message may go out (its inhibit time ends), once one went out.
     free_at: Option<At>,
-    active: [EmcyCode; A],
-    /// Error register bits each active error sets beyond its code's class
-    /// (a device whose manual gives a generic code a profile bit).
-    active_bits: [u8; A],
+    active: [Active; A],
     active_len: usize,
-    queue: [Emcy; Q],
+    /// No held error clears before this ([`NEVER`]: none is held; 0 at
+    /// power-on, the node being all zero bits: the first look finds none).
+    held: At,
+    /// The messages' data bytes ([`Emcy::emit`]), as they go out and are recorded.
+    queue: [[u8; 8]; Q],
     head: usize,
     len: usize,
     overflows: u32,
@@ -83,10 +99,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             cob_id: None,
             inhibit: 0,
             free_at: None,
-            active: [EmcyCode::NO_ERROR; A],
-            active_bits: [0; A],
+            active: [Active { code: EmcyCode::NO_ERROR, bits: 0, until: 0 }; A],
             active_len: 0,
-            queue: [Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] }; Q],
+            held: 0,
+            queue: [[0; 8]; Q],
             head: 0,
             len: 0,
             overflows: 0,
@@ -117,8 +133,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.tx_overflow {
             r |= self.tx_bits;
         }
-        for (&code, &bits) in self.active.iter().zip(&self.active_bits).take(self.active_len) {
-            r |= register_bit(code) | bits;
+        for e in self.active.iter().take(self.active_len) {
+            r |= register_bit(e.code) | e.bits;
         }
         r
     }
@@ -132,7 +148,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     // Out of line: raising, clearing and recording a sent EMCY each had a copy.
     #[inline(never)]
     fn position(&self, code: EmcyCode) -> Option<usize> {
-        self.active.get(..self.active_len)?.iter().position(|&c| c == code)
+        self.active.get(..self.active_len)?.iter().position(|e| e.code == code)
     }
 
     /// Raises an error: records it as active and queues its message.
@@ -145,39 +161,55 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// while it lasts, beyond those of its code's class (the Sendix's
     /// position error, generic code 0x1000, sets bit 5 "device profile").
     pub fn raise_with(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) -> bool {
-        self.raise_or_repeat(code, register, info, false)
+        self.raise_or_repeat(code, register, info, false, NEVER)
+    }
+
+    /// [`EmcyProducer::raise_with`] of an error that clears by itself at
+    /// `until` ([`EmcyProducer::expire`]) unless it is raised so again
+    /// meanwhile, which holds it until the new moment (and sends nothing:
+    /// it is active). An error raised without a hold keeps none.
+    pub fn raise_held(&mut self, code: EmcyCode, register: u8, info: [u8; 5], until: At) -> bool {
+        self.raise_or_repeat(code, register, info, false, until)
     }
 
     /// Raises an error whose every event sends its message, also while it
     /// is active (a heartbeat consumer's timeout, once for each node).
     pub fn raise_each(&mut self, code: EmcyCode, info: [u8; 5]) {
-        self.raise_or_repeat(code, 0, info, true);
+        self.raise_or_repeat(code, 0, info, true, NEVER);
     }
 
-    /// [`EmcyProducer::raise_with`]; `repeat`: an active error's message
-    /// is sent again (with the register as it is).
-    // Out of line: one copy for both.
+    /// [`EmcyProducer::raise_held`]; `repeat`: an active error's message
+    /// is sent again (with the register as it is); `until` [`NEVER`]: no
+    /// hold (an active error keeps the one it has).
+    // Out of line: one copy for all three.
     #[inline(never)]
-    fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool) -> bool {
-        let new = !self.is_active(code);
-        if new {
-            match (self.active.get_mut(self.active_len), self.active_bits.get_mut(self.active_len)) {
-                (Some(slot), Some(bits)) => {
-                    *slot = code;
-                    *bits = register;
+    fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool, until: At) -> bool {
+        let pos = self.position(code);
+        let new = pos.is_none();
+        // The active error's entry, or the next free one for a new error.
+        match self.active.get_mut(pos.unwrap_or(self.active_len)) {
+            Some(e) => {
+                if new {
+                    *e = Active { code, bits: register, until: NEVER };
                     // `get_mut` found the slot: `active_len` < A.
                     #[allow(clippy::arithmetic_side_effects)]
                     {
                         self.active_len += 1;
                     }
                 }
-                _ => self.lost_errors = true,
+                if until != NEVER {
+                    e.until = until;
+                    // A hold moved later: the next full call looks at them all again.
+                    self.held = 0;
+                }
             }
-        } else if !repeat {
+            None => self.lost_errors = true,
+        }
+        if !new && !repeat {
             return false;
         }
         let register = self.register();
-        self.push(Emcy { code, register, info });
+        self.push(code, register, info);
         new
     }
 
@@ -185,7 +217,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// length error): it sets no active error.
     pub fn signal(&mut self, code: EmcyCode, info: [u8; 5]) {
         let register = self.register() | register::GENERIC | register_bit(code);
-        self.push(Emcy { code, register, info });
+        self.push(code, register, info);
     }
 
     /// The transmit queue refused frames (`refused`: so far): raises `code`
@@ -201,7 +233,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_bits = register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
         let register = self.register();
-        self.push(Emcy { code, register, info: [a, b, c, d, 1] });
+        self.push(code, register, [a, b, c, d, 1]);
     }
 
     /// The transmit queue drained after an overflow: the error clears, and
@@ -213,7 +245,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_overflow = false;
         if self.active_len == 0 {
             self.lost_errors = false;
-            self.push(Emcy { code: EmcyCode::NO_ERROR, register: self.register(), info: [0; 5] });
+            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
         }
     }
 
@@ -223,42 +255,76 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Clears an error; when the last one goes, queues "error reset" (0x0000).
+    // Out of line: its callers (the PDOs' sink, heartbeat recovery, the device) each took a copy.
+    #[inline(never)]
     pub fn clear(&mut self, code: EmcyCode) {
-        let Some(pos) = self.position(code) else { return };
+        if let Some(pos) = self.position(code) {
+            self.remove(pos);
+        }
+    }
+
+    /// Clears the active error at `pos` (< `active_len`).
+    // Out of line: `clear` and `expire_held` share it.
+    #[inline(never)]
+    fn remove(&mut self, pos: usize) {
         // The set has no order (only membership and the register bits
         // count): the last entry takes the cleared one's place.
-        // `position` found the code among the first `active_len`: it is at least 1.
+        // The callers' `pos` < `active_len`: it is at least 1.
         #[allow(clippy::arithmetic_side_effects)]
         {
             self.active_len -= 1;
         }
-        let last = (self.active.get(self.active_len).copied(), self.active_bits.get(self.active_len).copied());
-        if let ((Some(code), Some(bits)), Some(slot), Some(slot_bits)) = (last, self.active.get_mut(pos), self.active_bits.get_mut(pos)) {
-            (*slot, *slot_bits) = (code, bits);
+        if let Some(&last) = self.active.get(self.active_len)
+            && let Some(slot) = self.active.get_mut(pos)
+        {
+            *slot = last;
         }
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
-            self.push(Emcy { code: EmcyCode::NO_ERROR, register: self.register(), info: [0; 5] });
+            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
         }
+    }
+
+    /// Clears the held errors whose hold ended by `now`; when the next
+    /// one ends ([`NEVER`]: no error is held). Every full `Node::process`
+    /// asks, so the common answer takes one compare.
+    #[inline(always)]
+    pub fn expire(&mut self, now: At) -> At {
+        if self.held <= now { self.expire_held(now) } else { self.held }
+    }
+
+    #[inline(never)]
+    fn expire_held(&mut self, now: At) -> At {
+        let mut held = NEVER;
+        // From the last entry down: `remove` moves the last one, which was looked at already.
+        for i in (0..self.active_len).rev() {
+            match self.active.get(i) {
+                Some(e) if e.until <= now => self.remove(i),
+                Some(e) => held = held.min(e.until),
+                None => {}
+            }
+        }
+        self.held = held;
+        held
     }
 
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
-        (self.active_len, self.head, self.len, self.free_at) = (0, 0, 0, None);
+        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, None, NEVER);
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
     // Out of line: three callers each had a copy (76 bytes more).
     #[inline(never)]
-    fn push(&mut self, e: Emcy) {
+    fn push(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) {
         if self.len == Q {
             self.overflows = self.overflows.saturating_add(1);
             self.lost_errors = true;
             return;
         }
         if let Some(slot) = self.queue.get_mut(Self::ring(self.head, self.len)) {
-            *slot = e;
+            *slot = Emcy { code, register, info }.emit();
             // `len` < Q: checked above.
             #[allow(clippy::arithmetic_side_effects)]
             {
@@ -275,7 +341,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     }
 
     /// Takes the oldest queued message (`len` != 0).
-    fn pop(&mut self) -> Option<Emcy> {
+    fn pop(&mut self) -> Option<[u8; 8]> {
         let e = *self.queue.get(self.head)?;
         self.head = Self::ring(self.head, 1);
         // The callers checked `len` != 0.
@@ -291,8 +357,9 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// transmit queue); while EMCY is off (0x1014 bit 31), with `None`
     /// whatever `room` says: it is not sent, but the node still records it
     /// (0x1001, 0x1003), and the queue does not fill up with messages that
-    /// never leave. One call for both, so that the node has one loop.
-    pub fn next(&mut self, now: At, room: bool) -> Option<(Option<u16>, Emcy)> {
+    /// never leave. One call for both, so that the node has one loop. The
+    /// message as its data bytes ([`Emcy::parse`] reads them).
+    pub fn next(&mut self, now: At, room: bool) -> Option<(Option<u16>, [u8; 8])> {
         if self.len == 0 {
             return None;
         }
@@ -300,11 +367,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if sending && (!room || self.free_at.is_some_and(|t| now < t)) {
             return None;
         }
-        let e = self.pop()?;
         if sending {
             self.free_at = Some(later(now, self.inhibit));
         }
-        Some((self.cob_id, e))
+        // `len` != 0: a message is there.
+        Some((self.cob_id, self.pop()?))
     }
 
     /// Whether messages wait to go out (or, while EMCY is off, to be recorded).
@@ -323,6 +390,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
         shift_opt(&mut self.free_at, by);
+        // The next full call looks at the holds again (`rebase` makes it full).
+        self.held = 0;
+        for e in self.active.get_mut(..self.active_len).unwrap_or(&mut []) {
+            shift(&mut e.until, by);
+        }
     }
 
     /// Messages lost to a full queue.
@@ -340,6 +412,11 @@ mod tests {
         n
     }
 
+    /// [`EmcyProducer::next`] with the message parsed.
+    fn next<const A: usize, const Q: usize>(e: &mut EmcyProducer<A, Q>, now: At, room: bool) -> Option<(Option<u16>, Emcy)> {
+        e.next(now, room).map(|(id, data)| (id, Emcy::parse(&data).unwrap_or_else(|| unreachable!())))
+    }
+
     #[test]
     fn raise_and_clear_drive_the_register_and_error_reset() {
         let mut e = EmcyProducer::<4, 4>::default();
@@ -347,10 +424,10 @@ mod tests {
         assert!(e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]));
         assert!(!e.raise(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]), "already active");
         assert_eq!(e.register(), 0x11);
-        assert_eq!(e.next(us(0), true), Some((Some(0x81), Emcy { code: EmcyCode(0x8130), register: 0x11, info: [3, 0, 0, 0, 0] })));
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0x30, 0x81, 0x11, 3, 0, 0, 0, 0])));
         e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0);
-        assert_eq!(e.next(us(1), true), Some((Some(0x81), Emcy { code: EmcyCode::NO_ERROR, register: 0, info: [0; 5] })));
+        assert_eq!(e.next(us(1), true), Some((Some(0x81), [0; 8])));
         assert_eq!(e.next(us(2), true), None);
     }
 
@@ -365,7 +442,7 @@ mod tests {
         assert_eq!(e.register(), 0x11, "bit 5 went with 0x1000, the heartbeat's bits stay");
         assert!(e.raise(EmcyCode(0x1000), [0; 5]));
         assert_eq!(e.register(), 0x11, "raised again without extra bits");
-        assert_eq!(e.next(us(0), true).map(|(_, m)| m.register), Some(0x21));
+        assert_eq!(next(&mut e, us(0), true).map(|(_, m)| m.register), Some(0x21));
     }
 
     #[test]
@@ -375,10 +452,36 @@ mod tests {
         e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [3, 0, 0, 0, 0]);
         e.raise_each(EmcyCode::LIFE_GUARD_OR_HEARTBEAT, [4, 0, 0, 0, 0]);
         assert_eq!(e.register(), 0x11);
-        let sent = |e: &mut EmcyProducer<4, 4>| e.next(us(0), true).map(|(_, m)| (m.register, m.info[0]));
+        let sent = |e: &mut EmcyProducer<4, 4>| next(e, us(0), true).map(|(_, m)| (m.register, m.info[0]));
         assert_eq!((sent(&mut e), sent(&mut e), sent(&mut e)), (Some((0x11, 3)), Some((0x11, 4)), None));
         e.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         assert_eq!(e.register(), 0, "one clear: the error was active once");
+    }
+
+    #[test]
+    fn a_held_error_clears_when_its_hold_ends() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.set_cob_id(0x81);
+        assert_eq!(e.expire(us(0)), NEVER, "nothing held (all zero bits: the first look finds none)");
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [3, 0, 0, 0, 0], us(1000)));
+        assert!(e.raise(EmcyCode(0x8130), [0; 5]));
+        assert!(!e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [5, 0, 0, 0, 0], us(1500)), "active: held longer, nothing sent");
+        assert!(!e.raise(EmcyCode(0x8110), [0; 5]), "a raise without a hold keeps the hold");
+        assert_eq!(e.expire(us(999)), us(1500));
+        assert_eq!(e.expire(us(1000)), us(1500), "the later hold counts");
+        e.shift(500);
+        assert_eq!(e.expire(us(999)), us(1000), "moved with the epoch");
+        assert_eq!(e.expire(us(1000)), NEVER);
+        assert!(!e.is_active(EmcyCode(0x8110)));
+        assert!(e.is_active(EmcyCode(0x8130)), "not held: it stays");
+        let codes: [_; 3] = core::array::from_fn(|_| next(&mut e, us(0), true).map(|(_, m)| m.code));
+        assert_eq!(codes, [Some(EmcyCode(0x8110)), Some(EmcyCode(0x8130)), None], "no error reset: 0x8130 is active");
+        e.clear(EmcyCode(0x8130));
+        assert!(e.raise_held(EmcyCode(0x8140), register::COMMUNICATION, [0; 5], us(10)));
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [0; 5], us(20)));
+        assert_eq!(e.expire(us(20)), NEVER, "both in one look");
+        let codes: [_; 4] = core::array::from_fn(|_| next(&mut e, us(0), true).map(|(_, m)| (m.code, m.register)));
+        assert_eq!(codes[3], Some((EmcyCode::NO_ERROR, 0)), "one error reset, after the last");
     }
 
     #[test]
@@ -392,7 +495,7 @@ mod tests {
         assert!(e.next(us(100), true).is_some());
         assert_eq!(deadline_of(e.deadline()), Some(us(1100)));
         assert_eq!(e.next(us(1099), true), None);
-        assert_eq!(e.next(us(1100), true).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
+        assert_eq!(next(&mut e, us(1100), true).map(|(_, m)| m.code), Some(EmcyCode(0x8220)));
     }
 
     #[test]
@@ -405,8 +508,8 @@ mod tests {
         assert_eq!(e.overflows(), 1);
         assert_eq!(e.register() & register::GENERIC, register::GENERIC);
         // EMCY off (bit 31): recorded, not sent, whether or not the transmit queue has room.
-        assert_eq!(e.next(us(0), false).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
-        assert_eq!(e.next(us(0), true).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(next(&mut e, us(0), false).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
+        assert_eq!(next(&mut e, us(0), true).map(|(id, m)| (id, m.code)), Some((None, EmcyCode(0x8210))));
         assert_eq!(e.next(us(0), true), None);
         assert!(e.raise(EmcyCode(0x8130), [0; 5]));
         assert!(e.raise(EmcyCode(0x8110), [0; 5]), "more active errors than slots are still reported");
