@@ -130,11 +130,18 @@ pub struct Services {
     pub time: bool,
     /// Store and restore parameters (0x1010 or 0x1011), and LSS store.
     pub storage: bool,
+    /// The acceptance list ([`crate::node::Node::acceptance`]): the
+    /// identifiers the node consumes, kept for a board that programs its
+    /// CAN controller's hardware filter from them. Not a CiA 301/305
+    /// service: a board that receives every frame never reads it, and
+    /// without it the node never builds the list and `acceptance()` answers
+    /// one that is not complete (a filter built from it passes every frame).
+    pub acceptance: bool,
 }
 
 impl Services {
     /// Every service: what a dictionary written by hand gets.
-    pub const ALL: Services = Services { lss: true, block_sdo: true, guarding: true, time: true, storage: true };
+    pub const ALL: Services = Services { lss: true, block_sdo: true, guarding: true, time: true, storage: true, acceptance: true };
 }
 
 /// A dictionary with its RAM image: implemented by each generated `Ram` struct.
