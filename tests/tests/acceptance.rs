@@ -10,7 +10,7 @@ mod common;
 
 use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
-use canopen_core::od::ObjectDictionary;
+use canopen_core::od::{Dictionary, ObjectDictionary, Services};
 use canopen_core::storage::Storage;
 use canopen_core::time::Duration;
 use common::{Bench, ms};
@@ -256,4 +256,44 @@ fn unlisted_frames_change_nothing_in_the_ec5000() {
         b.nmt(0x01, 0);
     };
     unlisted_frames_change_nothing(make, configure, 0x5DEE_CE66_D1CE_4E5B);
+}
+
+// ---- Without the list (`Services::acceptance` off) ---------------------------------
+
+/// The interop dictionary linked without the acceptance list, as the
+/// `ds301` and `ds301-lean` size references are (their board receives
+/// every frame).
+struct NoList(Ram);
+
+impl ObjectDictionary for NoList {
+    const SERVICES: Services = Services { acceptance: false, ..<Ram as ObjectDictionary>::SERVICES };
+    fn dictionary(&self) -> &'static Dictionary {
+        self.0.dictionary()
+    }
+    fn image(&self) -> &[u8] {
+        self.0.image()
+    }
+    fn image_mut(&mut self) -> &mut [u8] {
+        self.0.image_mut()
+    }
+}
+
+#[test]
+fn without_the_service_the_list_is_incomplete_and_passes_every_frame() {
+    let mut b: Bench<_, _, _, 4, 4, 4> = Bench::new(NoList(Ram::new(ID)), NoApplication, MemStorage::new(2048), ID);
+    b.at(ms(0));
+    let passes_all = |b: &Bench<NoList, NoApplication, MemStorage, 4, 4, 4>| {
+        let list = b.node.acceptance();
+        assert!(!list.is_complete());
+        assert_eq!(list.ids(), [], "nothing listed");
+        assert_eq!(list.generation(), 0, "never rebuilt");
+        assert!((0..0x800).all(|id| list.accepts(id, false) && list.accepts(id, true)), "every 11-bit frame passes");
+    };
+    passes_all(&b);
+    // What moves the list of a node with the service moves nothing here, and the node still serves.
+    assert_eq!(b.sdo_download(ID, 0x1400, 1, &0x8000_0205u32.to_le_bytes()), Ok(()));
+    assert_eq!(b.sdo_download(ID, 0x1016, 1, &0x0020_0064u32.to_le_bytes()), Ok(()));
+    assert_eq!(b.sdo_upload(ID, 0x1400, 1), Ok(0x8000_0205u32.to_le_bytes().to_vec()));
+    b.nmt(0x82, ID);
+    passes_all(&b);
 }

@@ -7,6 +7,11 @@
 //! controller is full, sleep until the deadline. The CAN controller, the
 //! clock and the flash are the board's: here they are C callbacks in a
 //! [`Board`] the optimizer cannot see through, so every service stays in.
+//! The board receives every frame and programs no filter, so the `ds301`
+//! and `ds301-lean` references are built without the node's acceptance
+//! list (`Services::acceptance`, see `build.rs`), as CANopenNode's figure
+//! leaves its filter set-up in the driver; the device images and `core`
+//! keep it, as their boards' images do.
 //!
 //! The loops are kept by `#[used]` statics holding their addresses (no
 //! `#[no_mangle]`: that is `unsafe_code`). `cargo xtask size` builds this

@@ -121,11 +121,17 @@ pub fn generate_with(eds: &Eds, source: &str, services: Services) -> Result<Stri
     let _ = writeln!(w, "}}");
     let _ = writeln!(w);
     let _ = writeln!(w, "impl od::ObjectDictionary for Ram {{");
-    let _ = writeln!(
-        w,
-        "    const SERVICES: od::Services = od::Services {{ lss: {}, block_sdo: {}, guarding: {}, time: {}, storage: {} }};",
-        services.lss, services.block_sdo, services.guarding, services.time, services.storage
+    let value = format!(
+        "od::Services {{ lss: {}, block_sdo: {}, guarding: {}, time: {}, storage: {}, acceptance: {} }}",
+        services.lss, services.block_sdo, services.guarding, services.time, services.storage, services.acceptance
     );
+    // On one line where it fits rustfmt's 140 columns, as rustfmt would put it.
+    let line = format!("    const SERVICES: od::Services = {value};");
+    if line.len() <= 140 {
+        let _ = writeln!(w, "{line}");
+    } else {
+        let _ = writeln!(w, "    const SERVICES: od::Services =\n        {value};");
+    }
     let _ = writeln!(w, "    const HAS_LIMITS: bool = {};", !l.limits.is_empty());
     let _ = writeln!(w, "    fn dictionary(&self) -> &'static od::Dictionary {{\n        &DICTIONARY\n    }}");
     let _ = writeln!(w, "    fn image(&self) -> &[u8] {{\n        &self.image\n    }}");

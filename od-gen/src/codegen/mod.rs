@@ -54,7 +54,8 @@ pub const BLOCK_THRESHOLD: usize = 64;
 /// protocol, so such a node keeps answering guarding requests), TIME with
 /// 0x1012, storage with 0x1010 or 0x1011 (or LSS, which stores its
 /// configuration; a device that stores by a command of its own says so
-/// with `Application::STORES`).
+/// with `Application::STORES`), and the acceptance list always (the
+/// boards that build a device's image program their filter from it).
 pub fn services(eds: &Eds) -> Services {
     let has = |i: u16| eds.objects.get(&i).is_some_and(|o| !o.opaque);
     let large = eds
@@ -69,6 +70,7 @@ pub fn services(eds: &Eds) -> Services {
         guarding: (has(0x100C) && has(0x100D)) || !has(0x1017),
         time: has(0x1012),
         storage: has(0x1010) || has(0x1011) || eds.device.lss_supported,
+        acceptance: true,
     }
 }
 

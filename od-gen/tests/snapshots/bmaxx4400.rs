@@ -1792,7 +1792,8 @@ pub struct Ram {
 }
 
 impl od::ObjectDictionary for Ram {
-    const SERVICES: od::Services = od::Services { lss: false, block_sdo: false, guarding: true, time: false, storage: true };
+    const SERVICES: od::Services =
+        od::Services { lss: false, block_sdo: false, guarding: true, time: false, storage: true, acceptance: true };
     const HAS_LIMITS: bool = true;
     fn dictionary(&self) -> &'static od::Dictionary {
         &DICTIONARY

@@ -444,7 +444,8 @@ pub struct Ram {
 }
 
 impl od::ObjectDictionary for Ram {
-    const SERVICES: od::Services = od::Services { lss: true, block_sdo: true, guarding: false, time: false, storage: true };
+    const SERVICES: od::Services =
+        od::Services { lss: true, block_sdo: true, guarding: false, time: false, storage: true, acceptance: true };
     const HAS_LIMITS: bool = true;
     fn dictionary(&self) -> &'static od::Dictionary {
         &DICTIONARY

@@ -1436,7 +1436,8 @@ pub struct Ram {
 }
 
 impl od::ObjectDictionary for Ram {
-    const SERVICES: od::Services = od::Services { lss: false, block_sdo: false, guarding: true, time: false, storage: false };
+    const SERVICES: od::Services =
+        od::Services { lss: false, block_sdo: false, guarding: true, time: false, storage: false, acceptance: true };
     const HAS_LIMITS: bool = true;
     fn dictionary(&self) -> &'static od::Dictionary {
         &DICTIONARY

@@ -123,12 +123,19 @@ impl AcceptanceList {
     }
 }
 
+/// The list of a node without [`Services::acceptance`](crate::od::Services::acceptance):
+/// not complete, so it accepts every frame.
+static EVERY_FRAME: AcceptanceList = AcceptanceList { overflowed: true, ..AcceptanceList::new() };
+
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
     /// The identifiers the node reacts to (see the [module docs](self)).
+    /// Without [`Services::acceptance`](crate::od::Services::acceptance)
+    /// the node keeps no list and this is one that is not complete: a
+    /// filter built from it passes every frame.
     pub fn acceptance(&self) -> &AcceptanceList {
-        &self.acceptance
+        if O::SERVICES.acceptance { &self.acceptance } else { &EVERY_FRAME }
     }
 
     /// Rebuilds the list from the services; a new list gets the next
@@ -137,6 +144,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// so the list changed if a slot got another identifier or the length
     /// or completeness moved.
     pub(super) fn refresh_acceptance(&mut self) {
+        if !O::SERVICES.acceptance {
+            return;
+        }
         let (len, overflowed) = (self.acceptance.len, self.acceptance.overflowed);
         let list = &mut self.acceptance;
         (list.len, list.overflowed, list.changed) = (0, false, false);

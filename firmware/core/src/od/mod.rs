@@ -130,11 +130,18 @@ pub struct Services {
     pub time: bool,
     /// Store and restore parameters (0x1010 or 0x1011), and LSS store.
     pub storage: bool,
+    /// The acceptance list ([`crate::node::Node::acceptance`]): the
+    /// identifiers the node consumes, kept for a board that programs its
+    /// CAN controller's hardware filter from them. Not a CiA 301/305
+    /// service: a board that receives every frame never reads it, and
+    /// without it the node never builds the list and `acceptance()` answers
+    /// one that is not complete (a filter built from it passes every frame).
+    pub acceptance: bool,
 }
 
 impl Services {
     /// Every service: what a dictionary written by hand gets.
-    pub const ALL: Services = Services { lss: true, block_sdo: true, guarding: true, time: true, storage: true };
+    pub const ALL: Services = Services { lss: true, block_sdo: true, guarding: true, time: true, storage: true, acceptance: true };
 }
 
 /// A dictionary with its RAM image: implemented by each generated `Ram` struct.
@@ -348,17 +355,8 @@ impl Dictionary {
         if data.len() > usize::from(entry.len) {
             return Err(AbortCode::LengthTooHigh);
         }
-        let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
-        let mut changed = false;
-        // Byte by byte, the bytes past `data` zero: a value the device sets
-        // has a few bytes, less than a `memcpy` call costs.
-        let mut src = data.iter();
-        for d in slot.iter_mut() {
-            let s = src.next().copied().unwrap_or(0);
-            changed |= *d != s;
-            *d = s;
-        }
-        Ok(changed)
+        // A shorter value's bytes past `data` are zeroed, as a string's.
+        store_checked(image, entry, data)
     }
 
     /// Restores the communication area (0x1000–0x1FFF) to its defaults and
@@ -396,16 +394,22 @@ impl Dictionary {
 /// Stores `data` into `entry`'s bytes of the RAM image, zero-filling the
 /// rest of a shorter string; returns whether a byte changed. For an entry
 /// that passed [`Dictionary::check_write`] (or a writable DOMAIN, which the
-/// plain tables cannot store).
+/// plain tables cannot store), or [`Dictionary::write_unchecked_entry`]'s
+/// checks (a RAM entry, `data` no longer than it).
 pub(crate) fn store_checked(image: &mut [u8], entry: &Entry, data: &[u8]) -> Result<bool, AbortCode> {
     if entry.data_type == DataType::Domain {
         return Err(AbortCode::CannotStore);
     }
     let slot = image.get_mut(entry.range()).ok_or(AbortCode::CannotStore)?;
-    // A 32-bit value, the commonest: one word compared and stored, without
-    // a `memcmp` or `memcpy` call (paths for 1 and 2 bytes too: +40 bytes
-    // of flash, which the b maXX 4400 has not to spare).
+    // A 32-bit value, the commonest, and a 16-bit one (a statusword or
+    // controlword a profile sets on every frame): one word compared and
+    // stored, without a `memcmp` or `memcpy` call.
     if let (Ok(d), Ok(s)) = (<&mut [u8; 4]>::try_from(&mut *slot), <&[u8; 4]>::try_from(data)) {
+        let changed = *d != *s;
+        *d = *s;
+        return Ok(changed);
+    }
+    if let (Ok(d), Ok(s)) = (<&mut [u8; 2]>::try_from(&mut *slot), <&[u8; 2]>::try_from(data)) {
         let changed = *d != *s;
         *d = *s;
         return Ok(changed);

@@ -1,18 +1,20 @@
 //! NMT module control and error control formats. CiA 301 v4.2 §7.2.8.3.
 
 /// An NMT module control command (COB-ID 0x000, 2 bytes: command, node-id).
+/// The discriminant is the command specifier.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 pub enum NmtCommand {
     /// 0x01 Start remote node.
-    Start,
+    Start = 0x01,
     /// 0x02 Stop remote node.
-    Stop,
+    Stop = 0x02,
     /// 0x80 Enter pre-operational.
-    EnterPreOperational,
+    EnterPreOperational = 0x80,
     /// 0x81 Reset node (application).
-    ResetNode,
+    ResetNode = 0x81,
     /// 0x82 Reset communication.
-    ResetCommunication,
+    ResetCommunication = 0x82,
 }
 
 /// A decoded NMT frame: the command and the node-id it addresses (0 = all).
@@ -50,40 +52,30 @@ impl NmtRequest {
 
     /// The two data bytes.
     pub fn emit(&self) -> [u8; 2] {
-        let cs = match self.command {
-            NmtCommand::Start => 0x01,
-            NmtCommand::Stop => 0x02,
-            NmtCommand::EnterPreOperational => 0x80,
-            NmtCommand::ResetNode => 0x81,
-            NmtCommand::ResetCommunication => 0x82,
-        };
-        [cs, self.node_id]
+        [self.command as u8, self.node_id]
     }
 }
 
 /// The NMT state byte as heartbeat and node guarding report it (CiA 301
 /// table 57): the wire form of [`crate::services::nmt::NmtState`].
+/// The discriminant is the code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 pub enum NmtStateCode {
     /// 0x00: boot-up.
-    BootUp,
+    BootUp = 0x00,
     /// 0x04: stopped.
-    Stopped,
+    Stopped = 0x04,
     /// 0x05: operational.
-    Operational,
+    Operational = 0x05,
     /// 0x7F: pre-operational.
-    PreOperational,
+    PreOperational = 0x7F,
 }
 
 impl NmtStateCode {
     /// The state code (bits 0..6 of the error-control byte).
     pub const fn code(self) -> u8 {
-        match self {
-            NmtStateCode::BootUp => 0x00,
-            NmtStateCode::Stopped => 0x04,
-            NmtStateCode::Operational => 0x05,
-            NmtStateCode::PreOperational => 0x7F,
-        }
+        self as u8
     }
 
     /// The state with this code; bit 7 (the guarding toggle) is ignored.
