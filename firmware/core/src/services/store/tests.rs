@@ -475,7 +475,7 @@ fn a_store_in_stages_takes_each_value_whole_from_the_image_of_one_step() {
     DICT.write(&mut b, 0x6060, 0, &[0x55]).unwrap();
     // Steps of 3 bytes would cut 0x1800 sub 1 (bytes 3..7) and 0x2000 (7..11);
     // the image flips between the two versions after every step.
-    let mut job = Job::save(&DICT, Scope::All, None);
+    let mut job = Job::save(Scope::All, None);
     let mut steps = 0;
     let result = loop {
         if let Some(result) = job.step_with(&DICT, &img, 1, &mut flash, 3) {
@@ -504,7 +504,7 @@ fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
     for cut in 0.. {
         // Run `cut` steps of 2 bytes, then lose the job (the power is gone).
         let mut f = Flash { regions: base, budget: None };
-        let mut job = Job::save(&DICT, Scope::All, None);
+        let mut job = Job::save(Scope::All, None);
         let done = (0..=cut).any(|_| job.step_with(&DICT, &img, 2, &mut f, 2).is_some());
         let loaded = boot(&mut f, 2);
         let want: u32 = if done { 2222 } else { 1111 };
