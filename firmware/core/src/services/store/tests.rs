@@ -151,6 +151,30 @@ fn objects_saved_after_a_restore_keep_the_rest_of_their_scope_at_default() {
     assert_eq!(DICT.read(&img, 0x1800, 1), Ok(&0x4000_0181u32.to_le_bytes()[..]), "the restore holds for the rest");
 }
 
+/// One step composes values from all three sources: after a restore of
+/// the communication scope, storing 0x1017 alone takes 0x1001 and 0x1800
+/// from the defaults (read once, to the step's end), 0x1017 from the image,
+/// and 0x2000 and 0x6060 from the set, over the defaults read before them.
+#[test]
+fn one_step_takes_defaults_image_and_stored_values_each_where_they_belong() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x1800, 1, &0x4000_0281u32.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x2000, 0, &42u32.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x6060, 0, &[7]).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    restore_defaults(&DICT, &img, 1, &mut flash, Scope::Communication).unwrap();
+    DICT.write(&mut img, 0x1017, 0, &200u16.to_le_bytes()).unwrap();
+    // A change not saved: the set's value stays.
+    DICT.write(&mut img, 0x2000, 0, &43u32.to_le_bytes()).unwrap();
+    save_objects(&DICT, &img, 1, &mut flash, 0x1017, 0x1017).unwrap();
+    let loaded = boot(&mut flash, 1);
+    assert_eq!(DICT.read(&loaded, 0x1017, 0), Ok(&200u16.to_le_bytes()[..]));
+    assert_eq!(DICT.read(&loaded, 0x1800, 1), Ok(&0x4000_0181u32.to_le_bytes()[..]), "the restored default");
+    assert_eq!(DICT.read(&loaded, 0x2000, 0), Ok(&42u32.to_le_bytes()[..]), "the stored value");
+    assert_eq!(DICT.read(&loaded, 0x6060, 0), Ok(&[7][..]), "the stored value");
+}
+
 #[test]
 fn storing_one_object_after_a_restore_keeps_the_other_defaults() {
     let mut flash = Flash::new();
