@@ -90,7 +90,7 @@ impl Ctx<'_> {
 
     /// 0x1010 "save" of `scope`, leaving the device's own objects as stored.
     pub(super) fn save_job(&self, scope: Scope) -> Job {
-        Job::save(self.dict, scope, self.options.not_saved_by_1010)
+        Job::save(scope, self.options.not_saved_by_1010)
     }
 
     /// Runs a store in this call; refused (0x08000022) while the node's
@@ -125,7 +125,7 @@ impl Ctx<'_> {
         if u32_exact(data)? != signature {
             return Err(AbortCode::CannotStore);
         }
-        let job = Job::command(self.dict, scope, is_save, options.not_saved_by_1010);
+        let job = Job::command(scope, is_save, options.not_saved_by_1010);
         match staged {
             Some(answer) if !self.hook.store.busy() => {
                 self.hook.store = job;

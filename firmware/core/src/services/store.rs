@@ -96,12 +96,6 @@ const fn scope_bit(index: u16) -> u8 {
     }
 }
 
-/// Where the application scope's payload bytes begin (after the
-/// manufacturer scope's: od-gen lays the stored prefix out in index order).
-fn application_start(dict: &Dictionary) -> usize {
-    dict.entries.iter().find(|e| e.index >= 0x6000 && in_set(dict, e)).map_or(dict.stored_len, |e| usize::from(e.offset))
-}
-
 /// CRC-32 (reflected, polynomial 0xEDB88320) of each value of a nibble.
 /// Chosen by measurement on thumbv7m (`cargo xtask icount`, `cargo xtask
 /// size`): against the bitwise loop it saves about 52 instructions per byte
@@ -256,7 +250,7 @@ pub fn reset_part(
 
 /// 0x1010 "save": stores the scope's parameters.
 pub fn save(dict: &Dictionary, image: &[u8], node_id: u8, storage: &mut dyn Storage, scope: Scope) -> Result<(), StoreError> {
-    Job::save(dict, scope, None).finish(dict, image, node_id, storage)
+    Job::save(scope, None).finish(dict, image, node_id, storage)
 }
 
 /// 0x1010 "save" of a device that stores the objects `keep` (an inclusive
@@ -269,7 +263,7 @@ pub fn save_except(
     scope: Scope,
     keep: Option<(u16, u16)>,
 ) -> Result<(), StoreError> {
-    Job::save(dict, scope, keep).finish(dict, image, node_id, storage)
+    Job::save(scope, keep).finish(dict, image, node_id, storage)
 }
 
 /// Stores the objects `first..=last` alone: every other value keeps what the
@@ -291,22 +285,6 @@ pub fn save_objects(
 /// hold starts at its end or after).
 fn in_set(dict: &Dictionary, entry: &Entry) -> bool {
     !entry.in_rom() && entry.len > 0 && usize::from(entry.offset) < dict.stored_len
-}
-
-/// The bytes of the stored prefix the values of objects `first..=last`
-/// take, as (start, end): the prefix is in index order, so they are one
-/// run, from the first such value's start to the last one's end; (0, 0)
-/// for none.
-fn byte_range(dict: &Dictionary, first: u16, last: u16) -> (u16, u16) {
-    let (mut start, mut end) = (0, 0);
-    // One pass (a value in the set has a length: `end` is 0 until the first).
-    for e in dict.entries.iter().filter(|e| (first..=last).contains(&{ e.index }) && in_set(dict, e)) {
-        if end == 0 {
-            start = e.offset;
-        }
-        end = e.offset.wrapping_add(e.len.into());
-    }
-    (start, end)
 }
 
 /// 0x1011 "load": the scope uses its defaults from the next reset on.

@@ -11,15 +11,14 @@
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{
-    HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, application_start, byte_range, crc_pieces, in_set, read_header, scope_bit,
-};
-use crate::od::Dictionary;
+use super::{HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, crc_pieces, in_set, read_header, scope_bit};
+use crate::od::{Attr, Dictionary, Entry};
 use crate::storage::{Storage, StorageError};
 
 /// Payload bytes a step writes at most (a value longer than this goes
-/// whole into one step): at most about 11,000 instructions on thumbv7m
-/// (`cargo xtask icount`, the interop dictionary).
+/// whole into one step), each value composed from its source: the longest
+/// step of a store of the interop dictionary is 11,389 thumbv7m instructions
+/// (`cargo xtask icount`, round 13; 9,660 with the payload composed span by span).
 pub const STAGE: usize = super::PIECE;
 /// Where a [`Job`] is.
 /// Where a byte of a new set comes from.
@@ -58,12 +57,11 @@ pub struct Job {
     /// A new LSS configuration (node-id, bit-rate table index), if `new_lss`.
     lss: [u8; 2],
     new_lss: bool,
-    /// The image bytes the saved scopes take from the image (start, end),
-    /// but for those of `keep`, which keep the newest set's.
-    from_image: (u16, u16),
-    keep: (u16, u16),
-    /// Where the application scope's bytes begin (see [`application_start`]), once erased.
-    app: u16,
+    /// The objects (an inclusive index range) whose values the saved scopes
+    /// take from the image, or with `except` all others (the objects a
+    /// device keeps: they keep the newest set's values).
+    objects: (u16, u16),
+    except: bool,
     /// The newest valid set found, which the new one follows.
     old: Option<StoredSet>,
     /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
@@ -108,52 +106,53 @@ impl Job {
         reset: 0,
         lss: [0; 2],
         new_lss: false,
-        from_image: (0, 0),
-        keep: (0, 0),
-        app: 0,
+        objects: (0, 0),
+        except: false,
         old: None,
         pos: 0,
         crc: 0,
     };
 
-    const fn new(save: u8, reset: u8, from_image: (u16, u16), keep: (u16, u16)) -> Job {
-        Job { phase: Phase::Find, save, reset, from_image, keep, ..Job::IDLE }
+    const fn new(save: u8, reset: u8, objects: (u16, u16), except: bool) -> Job {
+        Job { phase: Phase::Find, save, reset, objects, except, ..Job::IDLE }
     }
 
     /// 0x1010 "save" of `scope`; the objects `keep` (an inclusive index
     /// range), if any, keep their stored values.
-    pub fn save(dict: &Dictionary, scope: Scope, keep: Option<(u16, u16)>) -> Job {
-        Job::command(dict, scope, true, keep)
+    pub const fn save(scope: Scope, keep: Option<(u16, u16)>) -> Job {
+        Job::command(scope, true, keep)
     }
 
     /// 0x1010 "save" of `scope` (with `save`, as [`Job::save`]) or 0x1011
     /// "load" (as [`Job::restore`]): one job built for either command.
-    pub fn command(dict: &Dictionary, scope: Scope, save: bool, keep: Option<(u16, u16)>) -> Job {
+    pub const fn command(scope: Scope, save: bool, keep: Option<(u16, u16)>) -> Job {
         let mask = scope.mask();
-        // A restore takes nothing from the image (no scope saved): what it would keep does not matter.
-        let keep = keep.filter(|_| save).map_or((0, 0), |(first, last)| byte_range(dict, first, last));
         let (save, reset) = if save { (mask, 0) } else { (0, mask) };
-        Job::new(save, reset, (0, u16::MAX), keep)
+        // All objects but those kept; without any, all but 0x0000 (no value a set holds is its).
+        let keep = match keep {
+            Some(keep) => keep,
+            None => (0, 0),
+        };
+        Job::new(save, reset, keep, true)
     }
 
     /// Stores the objects `first..=last` alone (see [`super::save_objects`]);
     /// [`StoreError::NotStored`] if no set holds a value of them.
     pub fn save_objects(dict: &Dictionary, first: u16, last: u16) -> Result<Job, StoreError> {
-        let range = byte_range(dict, first, last);
-        if range.0 >= range.1 {
+        if !dict.entries.iter().any(|e| (first..=last).contains(&{ e.index }) && in_set(dict, e)) {
             return Err(StoreError::NotStored);
         }
-        Ok(Job::new(scope_bit(first) | scope_bit(last), 0, range, (0, 0)))
+        Ok(Job::new(scope_bit(first) | scope_bit(last), 0, (first, last), false))
     }
 
     /// 0x1011 "load": the scope uses its defaults from the next reset on.
     pub const fn restore(scope: Scope) -> Job {
-        Job::new(0, scope.mask(), (0, 0), (0, 0))
+        Job::new(0, scope.mask(), (0, 0), false)
     }
 
     /// LSS "store configuration": the parameters as stored, with a new LSS configuration.
     pub const fn lss(node_id: u8, bit_rate: u8) -> Job {
-        Job { lss: [node_id, bit_rate], new_lss: true, ..Job::new(0, 0, (0, 0), (0, 0)) }
+        Job { lss: [node_id, bit_rate], new_lss: true, ..Job::new(0, 0, (0, 0), false) }
     }
 
     /// Whether the store has steps left.
@@ -222,7 +221,7 @@ impl Job {
             },
             Phase::Erase => {
                 storage.erase(target)?;
-                (self.phase, self.app) = (Phase::Write, application_start(dict) as u16);
+                self.phase = Phase::Write;
             }
             _ => {
                 let pos = usize::from(self.pos);
@@ -242,9 +241,11 @@ impl Job {
         Ok(false)
     }
 
-    /// The new set's payload bytes at `at`, each from its source: the image
-    /// for the scopes and objects saved, the newest set for the others (the
-    /// defaults where it marks the scope as default, or where there is none).
+    /// The new set's payload bytes at `at`, value by value from its source:
+    /// the image for the scopes and objects saved, the newest set for the
+    /// others (the defaults where it marks the scope as default, or where
+    /// there is none). The stored prefix is the set's values one after the
+    /// other in the entries' order, so the walk ends at the piece's end.
     fn compose(
         &self,
         dict: &Dictionary,
@@ -254,57 +255,53 @@ impl Job {
         at: usize,
         piece: &mut [u8],
     ) -> Result<(), StorageError> {
-        if let Some(old) = self.old {
-            storage.read(old.region, at.saturating_add(HEADER), piece)?;
-        }
-        // The source changes only at a scope's or a range's bounds: the piece goes span by span.
         let end = at.saturating_add(piece.len());
-        let mut off = at;
-        let bounds = [self.app, self.from_image.0, self.from_image.1, self.keep.0, self.keep.1];
-        while off < end {
-            let mut next = if dict.comm_len > off { dict.comm_len.min(end) } else { end };
-            for b in bounds.iter().map(|&b| usize::from(b)).filter(|&b| b > off) {
-                next = next.min(b);
-            }
-            if let Some(dst) = piece.get_mut(off.wrapping_sub(at)..next.wrapping_sub(at)) {
-                match self.source(dict, off) {
-                    Source::Image => {
-                        // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
-                        if let Some(src) = image.get(off..next).filter(|src| src.len() == dst.len()) {
-                            dst.copy_from_slice(src);
-                        }
-                    }
-                    Source::Defaults => dict.defaults.read(off, dst),
-                    Source::Old => {}
-                }
-            }
-            off = next;
-        }
-        // `$NODEID` values from the image are stored relative to the node-id.
-        // A step's payload is one piece but for a single value longer than
-        // one (not a `$NODEID` value: an integer), so each lies in one piece.
-        for e in dict.node_id_relative.iter().filter_map(|&i| dict.entries.get(usize::from(i))) {
+        let mut defaults = false;
+        for e in dict.entries.iter() {
             let r = e.range();
-            if let Some(value) = piece.get_mut(r.start.wrapping_sub(at)..r.end.wrapping_sub(at))
-                && self.source(dict, r.start) == Source::Image
-            {
-                relative(value, node_id);
+            // Values before the piece first, the cheapest test (a value not in the set is skipped either way).
+            if r.end <= at || !in_set(dict, e) {
+                continue;
+            }
+            if r.start >= end {
+                break;
+            }
+            // The part of the value in this piece (a value longer than a piece spans several).
+            let part = r.start.max(at)..r.end.min(end);
+            let Some(dst) = piece.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else { continue };
+            match (self.source(e), self.old) {
+                (Source::Image, _) => {
+                    // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
+                    if let Some(src) = image.get(part).filter(|src| src.len() == dst.len()) {
+                        dst.copy_from_slice(src);
+                    }
+                    // Stored relative to the node-id. A step's payload is one piece
+                    // but for a single value longer than one (not a `$NODEID` value:
+                    // an integer), so such a value is whole here.
+                    if e.attr.contains(Attr::NODE_ID) {
+                        relative(dst, node_id);
+                    }
+                }
+                (Source::Old, Some(old)) => storage.read(old.region, part.start.saturating_add(HEADER), dst)?,
+                // The defaults of the rest of the piece, once (a read walks every
+                // default): the values after this one then overwrite theirs.
+                _ if !defaults => {
+                    if let Some(rest) = piece.get_mut(part.start.wrapping_sub(at)..) {
+                        dict.defaults.read(part.start, rest);
+                    }
+                    defaults = true;
+                }
+                _ => {}
             }
         }
         Ok(())
     }
 
-    /// Where the payload byte at `off` comes from.
-    fn source(&self, dict: &Dictionary, off: usize) -> Source {
-        let bit = if off < dict.comm_len {
-            Scope::Communication.mask()
-        } else if off < usize::from(self.app) {
-            Scope::Manufacturer.mask()
-        } else {
-            Scope::Application.mask()
-        };
-        let within = |(start, end): (u16, u16)| (usize::from(start)..usize::from(end)).contains(&off);
-        if self.save & bit != 0 && within(self.from_image) && !within(self.keep) {
+    /// Where the value of `e` in the new set comes from.
+    fn source(&self, e: &Entry) -> Source {
+        let bit = scope_bit(e.index);
+        let (first, last) = self.objects;
+        if self.save & bit != 0 && (first..=last).contains(&{ e.index }) != self.except {
             Source::Image
         } else if self.old.is_some_and(|set| set.defaults & bit == 0) {
             Source::Old

@@ -151,6 +151,30 @@ fn objects_saved_after_a_restore_keep_the_rest_of_their_scope_at_default() {
     assert_eq!(DICT.read(&img, 0x1800, 1), Ok(&0x4000_0181u32.to_le_bytes()[..]), "the restore holds for the rest");
 }
 
+/// One step composes values from all three sources: after a restore of
+/// the communication scope, storing 0x1017 alone takes 0x1001 and 0x1800
+/// from the defaults (read once, to the step's end), 0x1017 from the image,
+/// and 0x2000 and 0x6060 from the set, over the defaults read before them.
+#[test]
+fn one_step_takes_defaults_image_and_stored_values_each_where_they_belong() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x1800, 1, &0x4000_0281u32.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x2000, 0, &42u32.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x6060, 0, &[7]).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    restore_defaults(&DICT, &img, 1, &mut flash, Scope::Communication).unwrap();
+    DICT.write(&mut img, 0x1017, 0, &200u16.to_le_bytes()).unwrap();
+    // A change not saved: the set's value stays.
+    DICT.write(&mut img, 0x2000, 0, &43u32.to_le_bytes()).unwrap();
+    save_objects(&DICT, &img, 1, &mut flash, 0x1017, 0x1017).unwrap();
+    let loaded = boot(&mut flash, 1);
+    assert_eq!(DICT.read(&loaded, 0x1017, 0), Ok(&200u16.to_le_bytes()[..]));
+    assert_eq!(DICT.read(&loaded, 0x1800, 1), Ok(&0x4000_0181u32.to_le_bytes()[..]), "the restored default");
+    assert_eq!(DICT.read(&loaded, 0x2000, 0), Ok(&42u32.to_le_bytes()[..]), "the stored value");
+    assert_eq!(DICT.read(&loaded, 0x6060, 0), Ok(&[7][..]), "the stored value");
+}
+
 #[test]
 fn storing_one_object_after_a_restore_keeps_the_other_defaults() {
     let mut flash = Flash::new();
@@ -475,7 +499,7 @@ fn a_store_in_stages_takes_each_value_whole_from_the_image_of_one_step() {
     DICT.write(&mut b, 0x6060, 0, &[0x55]).unwrap();
     // Steps of 3 bytes would cut 0x1800 sub 1 (bytes 3..7) and 0x2000 (7..11);
     // the image flips between the two versions after every step.
-    let mut job = Job::save(&DICT, Scope::All, None);
+    let mut job = Job::save(Scope::All, None);
     let mut steps = 0;
     let result = loop {
         if let Some(result) = job.step_with(&DICT, &img, 1, &mut flash, 3) {
@@ -504,7 +528,7 @@ fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
     for cut in 0.. {
         // Run `cut` steps of 2 bytes, then lose the job (the power is gone).
         let mut f = Flash { regions: base, budget: None };
-        let mut job = Job::save(&DICT, Scope::All, None);
+        let mut job = Job::save(Scope::All, None);
         let done = (0..=cut).any(|_| job.step_with(&DICT, &img, 2, &mut f, 2).is_some());
         let loaded = boot(&mut f, 2);
         let want: u32 = if done { 2222 } else { 1111 };
