@@ -563,7 +563,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// frame that does not fit counts as an overflow (EMCY 0x8110).
     #[inline(always)]
     pub(super) fn queue_raw(&mut self) {
-        if self.hook.len != 0 {
+        // A device without raw frames: none to queue, and no code for them.
+        if A::RAW_FRAMES && self.hook.len != 0 {
             self.queue_raw_frames();
         }
     }
