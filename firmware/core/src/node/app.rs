@@ -248,7 +248,7 @@ impl Ctx<'_> {
             return self.store_command(index, sub, data, self.options, None);
         }
         let entry = self.precheck::<true>(index, sub, data)?;
-        self.route_write(index, sub, data, entry)
+        self.route_write(index, sub, data, entry, self.options.pdo_rewrite_while_valid)
     }
 
     /// Sets a value the device owns, read-only ones included (0x6041
