@@ -100,11 +100,14 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
     }
 
-    /// The epoch moved by `by` µs ([`crate::time`]).
-    pub(crate) fn shift(&mut self, by: u64) {
+    /// The epoch moved by `by` µs ([`crate::time`]). `guarding`: whether
+    /// the node links node guarding (without, its deadline is never armed).
+    pub(crate) fn shift(&mut self, by: u64, guarding: bool) {
         self.heartbeat.shift(by);
         self.consumers.shift(by);
-        self.guarding.shift(by);
+        if guarding {
+            self.guarding.shift(by);
+        }
         self.emcy.shift(by);
         self.sync.shift(by);
         self.pdos.shift(by);
@@ -351,6 +354,9 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Services f
         }
     }
 
+    // Out of line: `reconfigure` (0x1017 at the boot-up) inlined its own
+    // copy of the arm the constant index chose.
+    #[inline(never)]
     fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
         self.comm.apply(index, sub, value, now);
     }

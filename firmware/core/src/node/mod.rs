@@ -406,7 +406,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let by = now.as_micros().saturating_sub(self.hook.epoch);
         self.hook.epoch = now.as_micros();
         if self.app.canopen() {
-            self.comm.shift(by);
+            self.comm.shift(by, O::SERVICES.guarding);
             self.sdo.shift(by);
             self.controller.shift::<A>(by);
             self.switch.shift(by);
