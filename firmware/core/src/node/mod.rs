@@ -183,7 +183,7 @@ pub struct Node<
     app: A,
     storage: S,
     nmt: Nmt,
-    comm: comm::Hooked<A, R, T, HB>,
+    comm: comm::Hooked<A, O, R, T, HB>,
     sdo: SdoServers<SDO_BUFFER, SDO>,
     /// COB-IDs (client→server, server→client) of each SDO server, if valid.
     sdo_cob_ids: [Option<(u16, u16)>; SDO],
