@@ -371,6 +371,43 @@ fn a_device_may_switch_the_canopen_services_off() {
     assert_eq!(b.run_until(ms(5000)), []);
 }
 
+/// Answers a frame on `RAW_IN` with a raw frame and keeps what `send_raw`
+/// said; `F` is its `Application::RAW_FRAMES`.
+#[derive(Default)]
+struct RawFrames<const F: bool>(Vec<bool>);
+
+impl<const F: bool> Application for RawFrames<F> {
+    const RAW_FRAMES: bool = F;
+
+    fn on_frame(&mut self, ctx: &mut Ctx<'_>, cob_id: u16, _rtr: bool, data: &[u8]) -> bool {
+        if cob_id != RAW_IN {
+            return false;
+        }
+        self.0.push(ctx.send_raw(RAW_OUT, data));
+        true
+    }
+
+    fn claim_ids(&self, _dict: &'static Dictionary, _image: &[u8], claims: &mut Claims<'_>) {
+        claims.claim(RAW_IN, false);
+    }
+}
+
+/// What two frames on `RAW_IN` send, and what `send_raw` answered.
+fn raw_frames<const F: bool>() -> (Vec<(u16, Vec<u8>)>, Vec<bool>) {
+    let mut b: B<RawFrames<F>> = Bench::new(Ram::new(ID), RawFrames::default(), MemStorage::new(4096), ID);
+    b.at(ms(0));
+    let mut out = b.rx(ms(1), RAW_IN, &[1]);
+    out.extend(b.rx(ms(2), RAW_IN, &[2]));
+    (out, std::mem::take(&mut b.node.app_mut().0))
+}
+
+#[test]
+fn a_device_without_raw_frames_has_send_raw_refuse() {
+    assert_eq!(raw_frames::<true>(), (vec![(RAW_OUT, vec![1]), (RAW_OUT, vec![2])], vec![true, true]));
+    // `RAW_FRAMES = false` (as `NoApplication`): nothing queues them, and the device hears so.
+    assert_eq!(raw_frames::<false>(), (vec![], vec![false, false]), "no raw frame");
+}
+
 #[test]
 fn a_device_stores_one_object_alone() {
     let mut b = bench(Probe::default());

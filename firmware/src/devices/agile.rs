@@ -91,6 +91,9 @@ pub const AXIS: AxisParams = AxisParams {
 };
 
 impl Application for App {
+    // Its hooks send no frame outside CANopen.
+    const RAW_FRAMES: bool = false;
+
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.drive.check_write(index, data)?;
         match (index, sub, data) {

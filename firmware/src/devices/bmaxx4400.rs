@@ -140,6 +140,8 @@ impl Application for App {
         not_saved_by_1010: Some((0x100E, 0x1014)),
         ..ServiceOptions::CIA301
     };
+    // Its hooks send no frame outside CANopen.
+    const RAW_FRAMES: bool = false;
 
     fn download_check(&mut self, _ctx: &mut Ctx<'_>, index: u16, sub: u8, size: Option<usize>) -> Option<Result<(), AbortCode>> {
         if index == PDOS_SUPPORTED {

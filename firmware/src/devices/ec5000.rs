@@ -107,6 +107,8 @@ impl Application for App {
     /// The roller's timers depend on time, its hooks and injected faults
     /// alone: the node polls it at its deadline, not at every process (D65).
     const POLL_WHEN_DUE: bool = true;
+    // Its hooks send no frame outside CANopen.
+    const RAW_FRAMES: bool = false;
 
     fn check_write(&mut self, _ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.drive.check_write(index, data)?;

@@ -257,6 +257,8 @@ impl<P: Sensor> Application for App<P> {
     };
     // `rpdo_written` does nothing, and no hook triggers a TPDO.
     const PDO_CALLS: bool = false;
+    // Its hooks send no frame outside CANopen.
+    const RAW_FRAMES: bool = false;
 
     fn check_write(&mut self, ctx: &Ctx<'_>, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         match (index, sub, data) {

@@ -248,7 +248,7 @@ impl Ctx<'_> {
             return self.store_command(index, sub, data, self.options, None);
         }
         let entry = self.precheck::<true>(index, sub, data)?;
-        self.route_write(index, sub, data, entry)
+        self.route_write(index, sub, data, entry, self.options.pdo_rewrite_while_valid)
     }
 
     /// Sets a value the device owns, read-only ones included (0x6041
@@ -615,6 +615,13 @@ pub trait Application {
     /// `trigger_tpdo` answers `false` and `rpdo_object` `None`.
     const PDO_CALLS: bool = true;
 
+    /// The device sends frames outside CANopen ([`Ctx::send_raw`]). A
+    /// device that never does may say `false` (`NoApplication` does): the
+    /// node then leaves out the check for them after every hook call and
+    /// the code that queues them (about 300 bytes in the reference images).
+    /// Set `false`, `send_raw` answers `false` and sends nothing.
+    const RAW_FRAMES: bool = true;
+
     /// Serve: the size of the value an upload of (index, sub) sends, if
     /// the device answers it instead of the dictionary (any index).
     fn upload_size(&mut self, ctx: &mut Ctx<'_>, index: u16, sub: u8) -> Option<Result<usize, AbortCode>> {
@@ -732,6 +739,8 @@ impl Application for NoApplication {
     const PDO_SHORT_PATH: bool = false;
     // Its `rpdo_written` does nothing, and no hook triggers a TPDO.
     const PDO_CALLS: bool = false;
+    // No hook sends a raw frame.
+    const RAW_FRAMES: bool = false;
 
     fn rpdo_written(&mut self, ctx: &mut Ctx<'_>, n: u8) {
         let _ = (ctx, n);

@@ -7,7 +7,7 @@ use core::ops::{Deref, DerefMut};
 use super::Application;
 use crate::abort::AbortCode;
 use crate::od::index;
-use crate::od::{Dictionary, Entry, object, store_checked, sub_entry, value_u32};
+use crate::od::{Dictionary, Entry, ObjectDictionary, object, store_checked, sub_entry, value_u32};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::pdo::Pdos;
@@ -100,11 +100,14 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
         }
     }
 
-    /// The epoch moved by `by` µs ([`crate::time`]).
-    pub(crate) fn shift(&mut self, by: u64) {
+    /// The epoch moved by `by` µs ([`crate::time`]). `guarding`: whether
+    /// the node links node guarding (without, its deadline is never armed).
+    pub(crate) fn shift(&mut self, by: u64, guarding: bool) {
         self.heartbeat.shift(by);
         self.consumers.shift(by);
-        self.guarding.shift(by);
+        if guarding {
+            self.guarding.shift(by);
+        }
         self.emcy.shift(by);
         self.sync.shift(by);
         self.pdos.shift(by);
@@ -175,9 +178,10 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
     }
 
     /// The service that owns (index, sub) takes the `value` just stored
-    /// ([`Services::apply`], its one caller).
+    /// ([`Services::apply`], its one caller). `guarding`: whether the node
+    /// links node guarding (without, the guarding stays unconfigured).
     #[inline(always)]
-    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
+    fn apply(&mut self, index: u16, sub: u8, value: u32, now: At, guarding: bool) {
         match (index, sub) {
             (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
                 // sub ≥ 1: the match arm's.
@@ -189,15 +193,15 @@ impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
             }
             (index::PRODUCER_HEARTBEAT_TIME, _) => {
                 self.heartbeat.configure(value as u16, now);
-                if self.heartbeat.active() {
+                if guarding && self.heartbeat.active() {
                     // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
                     self.guarding.disarm();
                 }
             }
             (index::COB_ID_TIME_STAMP, _) => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
             // The value as written: the service keeps each object's part.
-            (index::GUARD_TIME, _) => self.guarding.set_guard_time(value as u16),
-            (index::LIFE_TIME_FACTOR, _) => self.guarding.set_life_time_factor(value as u8),
+            (index::GUARD_TIME, _) if guarding => self.guarding.set_guard_time(value as u16),
+            (index::LIFE_TIME_FACTOR, _) if guarding => self.guarding.set_life_time_factor(value as u8),
             (index::COB_ID_EMCY, _) => self.emcy.set_cob_id(value),
             (index::INHIBIT_TIME_EMCY, _) => self.emcy.set_inhibit(value as u16),
             // Nothing for an object no service uses.
@@ -251,28 +255,32 @@ pub(crate) trait Services {
     fn apply(&mut self, index: u16, sub: u8, value: u32, now: At);
 }
 
-/// [`Comm`] as a node with the application `A` holds it: the hooks'
-/// [`Services`] (one vtable per image) leave out the PDO calls `A` does
-/// not make ([`Application::PDO_CALLS`]), which a vtable would link
-/// whether called or not.
-pub(super) struct Hooked<A, const R: usize, const T: usize, const HB: usize> {
+/// [`Comm`] as a node with the application `A` and the dictionary `O`
+/// holds it: the hooks' [`Services`] (one vtable per image) leave out the
+/// PDO calls `A` does not make ([`Application::PDO_CALLS`]), which a
+/// vtable would link whether called or not, and the guarding where `O`
+/// has none ([`ObjectDictionary::SERVICES`]).
+pub(super) struct Hooked<A, O, const R: usize, const T: usize, const HB: usize> {
     comm: Comm<R, T, HB>,
     app: PhantomData<A>,
+    od: PhantomData<fn() -> O>,
 }
 
-impl<A, const R: usize, const T: usize, const HB: usize> Hooked<A, R, T, HB> {
+impl<A, O, const R: usize, const T: usize, const HB: usize> Hooked<A, O, R, T, HB> {
     /// [`Comm::new`].
     pub(super) const fn new() -> Self {
-        Hooked { comm: Comm::new(), app: PhantomData }
+        Hooked { comm: Comm::new(), app: PhantomData, od: PhantomData }
     }
 }
 
-impl<A: Application, const R: usize, const T: usize, const HB: usize> Hooked<A, R, T, HB> {
+impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const HB: usize> Hooked<A, O, R, T, HB> {
     /// Reads every communication parameter but the PDOs' again (after reset
     /// communication, which then configures the PDOs with [`Comm::configure_pdos`]).
     pub fn configure(&mut self, dict: &Dictionary, image: &[u8], now: At) {
         self.emcy.reset();
-        self.guarding.reset();
+        if O::SERVICES.guarding {
+            self.guarding.reset();
+        }
         // Each object as a download applies it: the stored value, or the
         // default where the dictionary lacks the object.
         self.sync = SyncService::default();
@@ -304,7 +312,7 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Hooked<A, 
     }
 }
 
-impl<A, const R: usize, const T: usize, const HB: usize> Deref for Hooked<A, R, T, HB> {
+impl<A, O, const R: usize, const T: usize, const HB: usize> Deref for Hooked<A, O, R, T, HB> {
     type Target = Comm<R, T, HB>;
 
     fn deref(&self) -> &Comm<R, T, HB> {
@@ -312,13 +320,13 @@ impl<A, const R: usize, const T: usize, const HB: usize> Deref for Hooked<A, R, 
     }
 }
 
-impl<A, const R: usize, const T: usize, const HB: usize> DerefMut for Hooked<A, R, T, HB> {
+impl<A, O, const R: usize, const T: usize, const HB: usize> DerefMut for Hooked<A, O, R, T, HB> {
     fn deref_mut(&mut self) -> &mut Comm<R, T, HB> {
         &mut self.comm
     }
 }
 
-impl<A: Application, const R: usize, const T: usize, const HB: usize> Services for Hooked<A, R, T, HB> {
+impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const HB: usize> Services for Hooked<A, O, R, T, HB> {
     fn emcy(&mut self) -> &mut EmcyProducer<EMCY_SLOTS, EMCY_SLOTS> {
         &mut self.comm.emcy
     }
@@ -359,8 +367,11 @@ impl<A: Application, const R: usize, const T: usize, const HB: usize> Services f
         }
     }
 
+    // Out of line: `reconfigure` (0x1017 at the boot-up) inlined its own
+    // copy of the arm the constant index chose.
+    #[inline(never)]
     fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
-        self.comm.apply(index, sub, value, now);
+        self.comm.apply(index, sub, value, now, O::SERVICES.guarding);
     }
 }
 
@@ -382,9 +393,26 @@ mod tests {
     static DICT: Dictionary = Dictionary::comm_only(&ENTRIES, &DEFAULTS);
     static EMPTY: Dictionary = Dictionary { entries: &[], defaults: crate::od::Defaults::dense(&[]), comm_len: 0, stored_len: 0, ..DICT };
 
+    /// The dictionary type a node would have (its services: every one).
+    struct Od;
+
+    impl ObjectDictionary for Od {
+        fn dictionary(&self) -> &'static Dictionary {
+            &DICT
+        }
+
+        fn image(&self) -> &[u8] {
+            &[]
+        }
+
+        fn image_mut(&mut self) -> &mut [u8] {
+            &mut []
+        }
+    }
+
     #[test]
     fn reset_communication_applies_each_object_or_its_default() {
-        let mut comm = Hooked::<crate::node::NoApplication, 0, 0, 2>::new();
+        let mut comm = Hooked::<crate::node::NoApplication, Od, 0, 0, 2>::new();
         comm.configure(&DICT, &DEFAULTS, 0);
         assert_eq!(comm.sync.cob_id(), 0x81, "0x1005 as the image holds it");
         assert!(comm.heartbeat.active(), "0x1017 = 1000 ms");

@@ -21,6 +21,20 @@ use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_
 use crate::services::sdo_server::SdoServers;
 use crate::txq::TxQueue;
 
+/// Calls `f` with each set bit of `bits` (its number), lowest first.
+/// `bounded`: the loop also counts its turns (at most 32), a bound the
+/// compiler sees, so that where `f` does nothing (a zero-sized device's
+/// default hooks) no loop is left; a device with hooks pays no count.
+#[inline(always)]
+fn each_bit(mut bits: u32, bounded: bool, mut f: impl FnMut(u8)) {
+    let mut turns = 0u32;
+    while bits != 0 && (!bounded || turns < u32::BITS) {
+        f(bits.trailing_zeros() as u8);
+        bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
+        turns = turns.wrapping_add(1);
+    }
+}
+
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
@@ -254,21 +268,14 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
         let mut wake = false;
         self.with_app_follow(now, |app, ctx| {
-            let mut bits = received;
-            while bits != 0 {
-                app.rpdo_written(ctx, bits.trailing_zeros() as u8);
-                bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
-            }
-            let mut bits = errors;
-            while bits != 0 {
-                let n = bits.trailing_zeros() as u8;
+            each_bit(received, Self::FOLD_HOOKS, |n| app.rpdo_written(ctx, n));
+            each_bit(errors, Self::FOLD_HOOKS, |n| {
                 let error = match n.checked_sub(LENGTH_ERRORS as u8) {
                     Some(n) => CommError::RpdoLength(n),
                     None => CommError::RpdoTimeout(n),
                 };
                 app.on_nmt(ctx, NmtEvent::CommunicationError(error));
-                bits &= bits.wrapping_sub(1); // clears the lowest set bit (bits != 0)
-            }
+            });
             if A::POLL_WHEN_DUE {
                 wake = core::mem::take(&mut ctx.hook.wake);
             }
@@ -375,6 +382,26 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn follow_sdo(&mut self, effects: SdoEffects) {
         if effects.follow != Follow::default() || effects.wrote.1 != 0 {
             self.follow_writes(effects.wrote, effects.follow);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::each_bit;
+
+    fn bits(value: u32, bounded: bool) -> std::vec::Vec<u8> {
+        let mut seen = std::vec::Vec::new();
+        each_bit(value, bounded, |n| seen.push(n));
+        seen
+    }
+
+    #[test]
+    fn each_bit_calls_once_per_set_bit_lowest_first_bounded_or_not() {
+        for bounded in [false, true] {
+            assert_eq!(bits(0, bounded), [], "{bounded}");
+            assert_eq!(bits(0b1010_0001, bounded), [0, 5, 7], "{bounded}");
+            assert_eq!(bits(u32::MAX, bounded), (0..32).collect::<std::vec::Vec<u8>>(), "every bit, {bounded}");
         }
     }
 }

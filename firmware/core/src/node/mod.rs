@@ -183,7 +183,7 @@ pub struct Node<
     app: A,
     storage: S,
     nmt: Nmt,
-    comm: comm::Hooked<A, R, T, HB>,
+    comm: comm::Hooked<A, O, R, T, HB>,
     sdo: SdoServers<SDO_BUFFER, SDO>,
     /// COB-IDs (client→server, server→client) of each SDO server, if valid.
     sdo_cob_ids: [Option<(u16, u16)>; SDO],
@@ -406,7 +406,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let by = now.as_micros().saturating_sub(self.hook.epoch);
         self.hook.epoch = now.as_micros();
         if self.app.canopen() {
-            self.comm.shift(by);
+            self.comm.shift(by, O::SERVICES.guarding);
             self.sdo.shift(by);
             self.switch.shift(by);
             // The folded deadlines (`core_deadline`, `next`, `others_next`)
@@ -562,7 +562,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// frame that does not fit counts as an overflow (EMCY 0x8110).
     #[inline(always)]
     pub(super) fn queue_raw(&mut self) {
-        if self.hook.len != 0 {
+        // A device without raw frames: none to queue, and no code for them.
+        if A::RAW_FRAMES && self.hook.len != 0 {
             self.queue_raw_frames();
         }
     }

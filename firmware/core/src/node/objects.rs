@@ -74,7 +74,10 @@ impl Ctx<'_> {
     /// the object's kind applies its rules, the service that owns it its value.
     /// Not 0x1010/0x1011: their callers choose whether the node stores
     /// ([`Ctx::store_command`]), so that a node without storage links none of it.
-    pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
+    /// `rewrite`: the device's [`super::ServiceOptions::pdo_rewrite_while_valid`],
+    /// passed by a caller that knows it as a constant (the SDO path), so
+    /// that a device without it links none of its rules.
+    pub(super) fn route_write(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry, rewrite: bool) -> Result<(), AbortCode> {
         if index >= index::MANUFACTURER_SPECIFIC {
             return self.write_plain(entry, data);
         }
@@ -83,11 +86,11 @@ impl Ctx<'_> {
         // (one store of the four flags): both only act on what changed (a
         // server whose COB-IDs moved, a list whose identifiers did).
         self.effects.follow = Follow { sdo_changed: true, consumed_changed: true, written: true, services: true };
-        self.write_comm(index, sub, data, entry)
+        self.write_comm(index, sub, data, entry, rewrite)
     }
 
     /// The interpreter: check by kind, store, apply.
-    fn write_comm(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry) -> Result<(), AbortCode> {
+    fn write_comm(&mut self, index: u16, sub: u8, data: &[u8], entry: &'static Entry, rewrite: bool) -> Result<(), AbortCode> {
         let (dict, now, node_id) = (self.dict, self.now, self.hook.node_id);
         match Kind::of(index, sub) {
             Kind::Plain => {}
@@ -137,7 +140,6 @@ impl Ctx<'_> {
             }
             Kind::Pdo => {
                 let operational = self.state == NmtState::Operational;
-                let rewrite = self.options.pdo_rewrite_while_valid;
                 if rewrite && operational && is_mapping(index) {
                     // The manual's order: mappings change in Pre-operational only.
                     return Err(AbortCode::DeviceState);

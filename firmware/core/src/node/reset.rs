@@ -14,7 +14,7 @@ use crate::services::store::{self, Part, StoredSet};
 use crate::storage::Storage;
 use crate::time::{At, Instant};
 
-use super::{Application, NmtEvent, Node};
+use super::{Application, NmtEvent, Node, RAW_BURST};
 
 /// A reset in progress. NMT reset node and reset communication do their
 /// work a stage per [`Node::process`] call, so that no call does all of it
@@ -85,6 +85,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn power_on(&mut self, node_id: u8, now: Instant) {
         let now = self.tick(now);
         self.hook.node_id = node_id;
+        if !A::RAW_FRAMES {
+            // Nothing queues raw frames (`queue_raw`): a full burst makes
+            // `Ctx::send_raw` refuse every one, as the constant says.
+            self.hook.len = RAW_BURST as u8;
+        }
         // The TPDOs compare their data at their first chance, whatever the image held before.
         self.touched = ALL_TPDOS;
         // The reset's check of the stored sets serves the LSS configuration

@@ -213,7 +213,7 @@ impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
         };
         self.app.check_write(self.ctx, index, sub, data)?;
         match entry {
-            Some(entry) => self.ctx.route_write(index, sub, data, entry)?,
+            Some(entry) => self.ctx.route_write(index, sub, data, entry, A::OPTIONS.pdo_rewrite_while_valid)?,
             None => {
                 if O::SERVICES.storage {
                     self.ctx.store_command(index, sub, data, &A::OPTIONS, self.staged)

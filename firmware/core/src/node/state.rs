@@ -85,7 +85,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// no monitored node and no life guarding is in error, 0x8130 clears
     /// (and the last error cleared sends "error reset").
     pub(super) fn communication_recovered(&mut self) {
-        if !self.comm.consumers.any_timed_out() && !self.comm.guarding.is_expired() {
+        // Without node guarding (the dictionary's services) it never expires.
+        let guarding_expired = O::SERVICES.guarding && self.comm.guarding.is_expired();
+        if !self.comm.consumers.any_timed_out() && !guarding_expired {
             self.comm.emcy.clear(EmcyCode::LIFE_GUARD_OR_HEARTBEAT);
         }
     }
