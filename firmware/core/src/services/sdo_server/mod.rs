@@ -342,7 +342,9 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     /// copy of their code whatever `O` is.
     #[inline(always)]
     pub fn on_request_with<O: ObjectAccess>(&mut self, i: usize, now: At, data: &[u8], block: bool, od: &mut O, tx: &mut dyn SdoTx) {
-        let lent = self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
+        // With one server (`K` a constant) no other can hold the buffer:
+        // the compiler leaves the scan and every refusal for a lent buffer out.
+        let lent = K > 1 && self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
         let Some(channel) = self.channels.get_mut(i) else { return };
         let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
         channel.on_request(now, data, block, buf, od, tx);
