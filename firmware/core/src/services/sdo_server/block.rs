@@ -13,7 +13,7 @@
 //! ackseq. Each byte enters the CRC the first time it is sent, so resent
 //! segments cost no CRC work and no buffer is needed.
 
-use super::{Buffer, Channel, SdoTx, State, Transfer};
+use super::{Buffer, Channel, SdoTx, State, Transfer, UNSIZED};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
@@ -115,7 +115,7 @@ impl Channel {
             let end = start.wrapping_add(SEGMENT_DATA);
             if !segment.last {
                 // Every byte of a segment but the last is data.
-                if d.sized && end > d.size {
+                if end > d.size {
                     return self.abort(AbortCode::LengthTooHigh, tx);
                 }
                 if end > capacity {
@@ -167,10 +167,10 @@ impl Channel {
                 return self.abort(AbortCode::CrcError, tx);
             }
         }
-        if d.sized && len > d.size {
+        if len > d.size {
             return self.abort(AbortCode::LengthTooHigh, tx);
         }
-        if d.sized && len < d.size {
+        if d.size != UNSIZED && len < d.size {
             return self.abort(AbortCode::LengthTooLow, tx);
         }
         if let Err(code) = od.write(self.mux.index, self.mux.sub, buf.get(..len).unwrap_or(&[])) {
@@ -205,7 +205,7 @@ impl Channel {
             return Some(size);
         }
         self.state = State::BlockUpload;
-        // The fields an upload reads (sized, toggle, gap and complete are the downloads').
+        // The fields an upload reads (toggle, gap and complete are the downloads').
         self.t.size = size;
         self.t.pos = 0;
         self.t.crc_on = crc;

@@ -85,7 +85,7 @@ impl Channel {
             self.emit(expedited_upload_response(index, sub, data, size), tx);
         } else {
             self.state = State::SegmentedUpload;
-            self.start_segments(size, true);
+            self.start_segments(size);
             let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
             self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
         }

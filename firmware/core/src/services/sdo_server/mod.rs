@@ -87,10 +87,9 @@ enum State {
 /// out and back for every frame.
 #[derive(Clone, Copy, Debug)]
 struct Transfer {
-    /// Size the client indicated (downloads, when `sized`) or the server
-    /// announced (uploads, always).
+    /// Size the client indicated (downloads; [`UNSIZED`] if it did not)
+    /// or the server announced (uploads, always).
     size: usize,
-    sized: bool,
     /// Segmented download: bytes collected in the buffer; segmented
     /// upload: bytes of the value already sent; block download: bytes of
     /// the segments accepted so far (7 per segment); block upload: offset
@@ -126,7 +125,6 @@ struct Transfer {
 impl Transfer {
     const NEW: Transfer = Transfer {
         size: 0,
-        sized: false,
         pos: 0,
         toggle: false,
         crc_on: false,
@@ -139,6 +137,11 @@ impl Transfer {
         phase: block::UploadPhase::Initiated,
     };
 }
+
+/// [`Transfer::size`] of a download whose client indicated no size: above
+/// any size a download is started with (those fit the buffer), so that
+/// "more than indicated" is one comparison.
+const UNSIZED: usize = usize::MAX;
 
 /// The download buffer as one server sees it: `Some` when it may use the
 /// buffer, `None` while another server of an [`SdoServers`] holds it for a

@@ -2,7 +2,7 @@
 //! §7.2.4.3.7–8 (upload): seven bytes per segment, a toggle bit that
 //! starts at 0 and alternates (abort 0x05030000 when it does not).
 
-use super::{Buffer, Channel, SdoTx, State};
+use super::{Buffer, Channel, SdoTx, State, UNSIZED};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::SdoResponse;
@@ -19,11 +19,11 @@ pub(super) struct Segment<'a> {
 }
 
 impl Channel {
-    /// The fields of a segmented transfer of `size` bytes (`sized`: the
-    /// client indicated it) before its first segment; the others are not read.
-    pub(super) fn start_segments(&mut self, size: usize, sized: bool) {
+    /// The fields of a segmented transfer of `size` bytes ([`UNSIZED`]: a
+    /// download of a size not indicated) before its first segment; the
+    /// others are not read.
+    pub(super) fn start_segments(&mut self, size: usize) {
         self.t.size = size;
-        self.t.sized = sized;
         self.t.pos = 0;
         self.t.toggle = false;
     }
@@ -50,7 +50,8 @@ impl Channel {
         if size.is_some_and(|s| s > buf.len()) {
             return self.abort(AbortCode::OutOfMemory, tx);
         }
-        self.start_segments(size.unwrap_or(0), size.is_some());
+        // An indicated size fits the buffer: below `UNSIZED`.
+        self.start_segments(size.unwrap_or(UNSIZED));
         match crc {
             None => {
                 self.state = State::SegmentedDownload;
@@ -73,7 +74,7 @@ impl Channel {
             return self.abort(AbortCode::ToggleBit, tx);
         }
         let end = t.pos.saturating_add(chunk.len());
-        if t.sized && end > t.size {
+        if end > t.size {
             return self.abort(AbortCode::LengthTooHigh, tx);
         }
         // This server holds the buffer while its download runs (see `SdoServers`).
@@ -83,7 +84,7 @@ impl Channel {
         };
         dst.copy_from_slice(chunk);
         if last {
-            if t.sized && end < t.size {
+            if t.size != UNSIZED && end < t.size {
                 return self.abort(AbortCode::LengthTooLow, tx);
             }
             let value = buf.get(..end).unwrap_or(&[]);
