@@ -12,7 +12,8 @@ const EXPEDITED_MAX: usize = 4;
 impl Channel {
     /// Initiate SDO download: writes an expedited value at once, or opens a
     /// segmented download (`crc` `None`) or a block download (`crc` whether
-    /// the client asked for a CRC).
+    /// the client asked for a CRC). The expedited and the segmented one
+    /// share their answer (one copy of it).
     pub(super) fn initiate_download<O: ObjectAccess>(
         &mut self,
         data: InitiateData,
@@ -21,29 +22,34 @@ impl Channel {
         od: &mut O,
         tx: &mut dyn SdoTx,
     ) {
-        let (data, size) = match data {
-            InitiateData::Expedited { data, size } => (data, size),
-            InitiateData::Segmented { size } => return self.start_download(size, crc, buf, od, tx),
+        let answer = match data {
+            InitiateData::Expedited { data, size } => {
+                let len = match size {
+                    Some(k) => usize::from(k),
+                    None => match unsized_expedited_len(od, self.mux) {
+                        Ok(k) => k,
+                        Err(code) => return self.abort(code, tx),
+                    },
+                };
+                self.expedited_download(data, len, od, tx)
+            }
+            InitiateData::Segmented { size } => self.start_download(size, crc, buf, od, tx),
         };
-        let len = match size {
-            Some(k) => usize::from(k),
-            None => match unsized_expedited_len(od, self.mux) {
-                Ok(k) => k,
-                Err(code) => return self.abort(code, tx),
-            },
-        };
-        self.expedited_download(data, len, od, tx);
+        if answer {
+            self.emit(initiate_download_response(self.mux.index, self.mux.sub), tx);
+        }
     }
 
-    /// Writes the first `len` bytes (1 to 4) of an expedited download and answers.
+    /// Writes the first `len` bytes (1 to 4) of an expedited download; true
+    /// if written (the caller answers), else aborted.
     // Left to the inliner, as `initiate_upload`: out of line, both cost the
     // b maXX 4400's STM32 image 144 bytes it does not have (sendix is 490
     // bytes bigger this way, with room for it).
-    pub(super) fn expedited_download<O: ObjectAccess>(&mut self, data: [u8; 4], len: usize, od: &mut O, tx: &mut dyn SdoTx) {
+    fn expedited_download<O: ObjectAccess>(&mut self, data: [u8; 4], len: usize, od: &mut O, tx: &mut dyn SdoTx) -> bool {
         let Mux { index, sub } = self.mux;
         match od.write(index, sub, data.get(..len).unwrap_or(&data)) {
-            Ok(()) => self.emit(initiate_download_response(index, sub), tx),
-            Err(code) => self.abort(code, tx),
+            Ok(()) => true,
+            Err(code) => self.refuse(code, tx),
         }
     }
 

@@ -549,6 +549,13 @@ impl Channel {
         self.send(SdoResponse::Abort { index: self.mux.index, sub: self.mux.sub, code: code.code() }, tx);
     }
 
+    /// [`Channel::abort`] for a request whose handler tells its caller
+    /// whether to answer: false, the abort was the answer.
+    fn refuse(&mut self, code: AbortCode, tx: &mut dyn SdoTx) -> bool {
+        self.abort(code, tx);
+        false
+    }
+
     // In line, with `SdoResponse::emit`: each site knows its response, so
     // the frame is built there and no general encoder is linked.
     #[inline(always)]

@@ -32,6 +32,9 @@ impl Channel {
     /// download (`crc` whether the client asked for a CRC): checks the
     /// entry and the size before any segment arrives. One copy of the
     /// checks for both (without block transfer `crc` is always `None`).
+    /// True: a segmented download started, the caller answers it as an
+    /// initiate download (the expedited one's answer); else aborted, or
+    /// the block download answered.
     pub(super) fn start_download(
         &mut self,
         size: Option<u32>,
@@ -39,25 +42,29 @@ impl Channel {
         buf: Buffer<'_>,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
-    ) {
+    ) -> bool {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
-        if let Err(code) = od.download_check(mux.index, mux.sub, size) {
-            return self.abort(code, tx);
-        }
-        // Another server holds the shared buffer for a download of its own.
-        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
+        let buf = match (od.download_check(mux.index, mux.sub, size), buf) {
+            (Err(code), _) => return self.refuse(code, tx),
+            // Another server holds the shared buffer for a download of its own.
+            (Ok(()), None) => return self.refuse(AbortCode::NoResource, tx),
+            (Ok(()), Some(buf)) => buf,
+        };
         if size.is_some_and(|s| s > buf.len()) {
-            return self.abort(AbortCode::OutOfMemory, tx);
+            return self.refuse(AbortCode::OutOfMemory, tx);
         }
         // An indicated size fits the buffer: below `UNSIZED`.
         self.start_segments(size.unwrap_or(UNSIZED));
         match crc {
             None => {
                 self.state = State::SegmentedDownload;
-                self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx);
+                true
             }
-            Some(crc) => self.start_block_download(crc, buf.len(), tx),
+            Some(crc) => {
+                self.start_block_download(crc, buf.len(), tx);
+                false
+            }
         }
     }
 
