@@ -54,36 +54,27 @@ impl Channel {
     }
 
     /// Initiate SDO upload, or initiate block upload (`block`): one answer
-    /// for a value of 1 to 4 bytes read at once, else the start of a
-    /// segmented upload ([`Channel::upload_response`]), or of a block upload.
+    /// for a value of 1 to 4 bytes, else the start of a segmented upload
+    /// (also an empty value, which an expedited response cannot express),
+    /// or of a block upload. A block upload that switches protocol (pst)
+    /// answers as an initiate upload: one copy of each answer.
     pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, block: Option<block::UploadInitiate>, od: &mut O, tx: &mut dyn SdoTx) {
-        let size = match block {
-            None => {
-                let Mux { index, sub } = self.mux;
-                let mut data = [0u8; EXPEDITED_MAX];
-                match od.upload_small(index, sub, &mut data) {
-                    Ok(size @ 1..=EXPEDITED_MAX) => return self.emit(expedited_upload_response(index, sub, data, size), tx),
-                    Ok(size) => size,
-                    Err(code) => return self.abort(code, tx),
-                }
-            }
+        let Mux { index, sub } = self.mux;
+        let mut data = [0u8; EXPEDITED_MAX];
+        // `read`: the value's first bytes are still to be read into `data`.
+        let (size, read) = match block {
+            None => match od.upload_small(index, sub, &mut data) {
+                Ok(size) => (size, false),
+                Err(code) => return self.abort(code, tx),
+            },
             Some(request) => match self.start_block_upload(request, od, tx) {
-                Some(size) => size,
+                Some(size) => (size, true),
                 None => return,
             },
         };
-        self.upload_response(size, od, tx);
-    }
-
-    /// The initiate upload response for a value of `size` bytes: expedited
-    /// for 1 to 4 bytes, else the start of a segmented upload (also an empty
-    /// value, which an expedited response cannot express). A block upload
-    /// that switches protocol (pst) answers with this too.
-    pub(super) fn upload_response(&mut self, size: usize, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let (index, sub) = (self.mux.index, self.mux.sub);
         if (1..=EXPEDITED_MAX).contains(&size) {
-            let mut data = [0u8; EXPEDITED_MAX];
-            if let Some(buf) = data.get_mut(..size)
+            if read
+                && let Some(buf) = data.get_mut(..size)
                 && let Err(code) = od.read(index, sub, 0, buf)
             {
                 return self.abort(code, tx);
