@@ -1,7 +1,7 @@
 //! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
 //! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
 
-use super::{Buffer, Channel, Mux, SdoTx, State, block};
+use super::{Buffer, Channel, Mux, SdoTx, State, Whole, block};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
@@ -10,46 +10,43 @@ use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, ini
 const EXPEDITED_MAX: usize = 4;
 
 impl Channel {
-    /// Initiate SDO download: writes an expedited value at once, or opens a
-    /// segmented download (`crc` `None`) or a block download (`crc` whether
-    /// the client asked for a CRC). The expedited and the segmented one
-    /// share their answer (one copy of it).
-    pub(super) fn initiate_download<O: ObjectAccess>(
+    /// Initiate SDO download: an expedited value to write at once (its
+    /// bytes in `raw`, the request as received), or a segmented download
+    /// opened (`crc` `None`) or a block download (`crc` whether the client
+    /// asked for a CRC), answered here.
+    pub(super) fn initiate_download<'b, O: ObjectAccess>(
         &mut self,
         data: InitiateData,
         crc: Option<bool>,
-        buf: Buffer<'_>,
+        raw: &'b [u8],
+        buf: Buffer<'b>,
         od: &mut O,
         tx: &mut dyn SdoTx,
-    ) {
-        let answer = match data {
-            InitiateData::Expedited { data, size } => {
+    ) -> Option<Whole<'b>> {
+        let Mux { index, sub } = self.mux;
+        match data {
+            InitiateData::Expedited { size, .. } => {
                 let len = match size {
                     Some(k) => usize::from(k),
                     None => match unsized_expedited_len(od, self.mux) {
                         Ok(k) => k,
-                        Err(code) => return self.abort(code, tx),
+                        Err(code) => {
+                            self.abort(code, tx);
+                            return None;
+                        }
                     },
                 };
-                self.expedited_download(data, len, od, tx)
+                // Bytes 4..4 + len of the request as received (8 bytes
+                // long); len is 1 to 4, the sum cannot wrap.
+                let value = raw.get(4..4usize.wrapping_add(len)).unwrap_or(&[]);
+                Some(Whole { value, answer: initiate_download_response(index, sub) })
             }
-            InitiateData::Segmented { size } => self.start_download(size, crc, buf, od, tx),
-        };
-        if answer {
-            self.emit(initiate_download_response(self.mux.index, self.mux.sub), tx);
-        }
-    }
-
-    /// Writes the first `len` bytes (1 to 4) of an expedited download; true
-    /// if written (the caller answers), else aborted.
-    // Left to the inliner, as `initiate_upload`: out of line, both cost the
-    // b maXX 4400's STM32 image 144 bytes it does not have (sendix is 490
-    // bytes bigger this way, with room for it).
-    fn expedited_download<O: ObjectAccess>(&mut self, data: [u8; 4], len: usize, od: &mut O, tx: &mut dyn SdoTx) -> bool {
-        let Mux { index, sub } = self.mux;
-        match od.write(index, sub, data.get(..len).unwrap_or(&data)) {
-            Ok(()) => true,
-            Err(code) => self.refuse(code, tx),
+            InitiateData::Segmented { size } => {
+                if self.start_download(size, crc, buf, od, tx) {
+                    self.emit(initiate_download_response(index, sub), tx);
+                }
+                None
+            }
         }
     }
 

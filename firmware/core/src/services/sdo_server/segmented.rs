@@ -2,7 +2,7 @@
 //! §7.2.4.3.7–8 (upload): seven bytes per segment, a toggle bit that
 //! starts at 0 and alternates (abort 0x05030000 when it does not).
 
-use super::{Buffer, Channel, SdoTx, State, UNSIZED};
+use super::{Buffer, Channel, SdoTx, State, UNSIZED, Whole};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::SdoResponse;
@@ -68,42 +68,47 @@ impl Channel {
         }
     }
 
-    /// A request while a segmented download is in progress.
-    pub(super) fn segmented_download(
+    /// A request while a segmented download is in progress: the last
+    /// segment's value whole, to write and answer; the others answered here.
+    pub(super) fn segmented_download<'b>(
         &mut self,
         Segment { toggle, data: chunk, last }: Segment<'_>,
-        buf: Buffer<'_>,
-        od: &mut dyn ObjectAccess,
+        buf: Buffer<'b>,
         tx: &mut dyn SdoTx,
-    ) {
+    ) -> Option<Whole<'b>> {
         let t = self.t;
-        if toggle != t.toggle {
-            return self.abort(AbortCode::ToggleBit, tx);
-        }
         let end = t.pos.saturating_add(chunk.len());
-        if end > t.size {
-            return self.abort(AbortCode::LengthTooHigh, tx);
-        }
-        // This server holds the buffer while its download runs (see `SdoServers`).
-        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
-        let Some(dst) = buf.get_mut(t.pos..).and_then(|rest| rest.get_mut(..chunk.len())) else {
-            return self.abort(AbortCode::OutOfMemory, tx);
-        };
-        dst.copy_from_slice(chunk);
-        if last {
-            if t.size != UNSIZED && end < t.size {
-                return self.abort(AbortCode::LengthTooLow, tx);
-            }
-            let value = buf.get(..end).unwrap_or(&[]);
-            if let Err(code) = od.write(self.mux.index, self.mux.sub, value) {
-                return self.abort(code, tx);
-            }
-            self.state = State::Idle;
+        let refused = if toggle != t.toggle {
+            AbortCode::ToggleBit
+        } else if end > t.size {
+            AbortCode::LengthTooHigh
         } else {
-            self.t.pos = end;
-            self.t.toggle = !toggle;
-        }
-        self.send(SdoResponse::DownloadSegment { toggle }, tx);
+            // This server holds the buffer while its download runs (see `SdoServers`).
+            match buf {
+                None => AbortCode::NoResource,
+                Some(buf) => match buf.get_mut(t.pos..).and_then(|rest| rest.get_mut(..chunk.len())) {
+                    None => AbortCode::OutOfMemory,
+                    Some(dst) => {
+                        dst.copy_from_slice(chunk);
+                        let answer = SdoResponse::DownloadSegment { toggle }.emit();
+                        if !last {
+                            self.t.pos = end;
+                            self.t.toggle = !toggle;
+                            self.emit(answer, tx);
+                            return None;
+                        }
+                        if t.size != UNSIZED && end < t.size {
+                            AbortCode::LengthTooLow
+                        } else {
+                            let buf: &'b [u8] = buf;
+                            return Some(Whole { value: buf.get(..end).unwrap_or(&[]), answer });
+                        }
+                    }
+                },
+            }
+        };
+        self.abort(refused, tx);
+        None
     }
 
     /// A request while a segmented upload is in progress.
