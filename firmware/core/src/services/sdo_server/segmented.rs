@@ -5,7 +5,7 @@
 use super::{Buffer, Channel, SdoTx, State, UNSIZED, Whole};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::wire::sdo::SdoResponse;
+use crate::wire::sdo::{SdoResponse, upload_segment_byte0};
 
 /// Data bytes in one segment.
 const SEGMENT: usize = 7;
@@ -118,9 +118,12 @@ impl Channel {
             return self.abort(AbortCode::ToggleBit, tx);
         }
         let len = t.size.saturating_sub(t.pos).min(SEGMENT);
-        let mut data = [0u8; SEGMENT];
-        // A value that shrank since the initiate response reads short; the
-        // rest of the announced size goes out as zeros.
+        // The value's bytes read into the answer in place, after byte 0
+        // (as the block upload's segments). A value that shrank since the
+        // initiate response reads short; the rest of the announced size
+        // goes out as zeros.
+        let mut frame = [0u8; 8];
+        let [_, data @ ..] = &mut frame;
         if let Some(buf) = data.get_mut(..len)
             && let Err(code) = od.read(self.mux.index, self.mux.sub, t.pos, buf)
         {
@@ -134,7 +137,8 @@ impl Channel {
             self.t.pos = pos;
             self.t.toggle = !toggle;
         }
-        let len = u8::try_from(len).unwrap_or(0);
-        self.send(SdoResponse::UploadSegment { toggle, data, len, last }, tx);
+        let [b0, ..] = &mut frame;
+        *b0 = upload_segment_byte0(toggle, u8::try_from(len).unwrap_or(0), last);
+        self.emit(frame, tx);
     }
 }
