@@ -444,7 +444,8 @@ impl Channel {
     /// A request outside the block download sub-block phase, of `kind`;
     /// block transfer requests only if `block`. `f` is the frame `raw` as
     /// received (8 bytes), copied to registers; a download segment's data
-    /// is cut from `raw`, so that no copy of its 7 bytes is made.
+    /// and an expedited download's value are cut from `raw`, so that no
+    /// copy of them is made.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn request<'b, O: ObjectAccess>(
