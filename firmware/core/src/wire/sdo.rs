@@ -277,6 +277,12 @@ fn segment_byte0(cs: u8, toggle: bool, len: u8, last: bool) -> u8 {
     cs | if toggle { TOGGLE } else { 0 } | ((7 - len.min(7)) << 1) | u8::from(last)
 }
 
+/// Byte 0 of an upload segment response (scs = 0) with `len` (0..=7) data
+/// bytes, as [`SdoResponse::emit`] makes it.
+pub(crate) fn upload_segment_byte0(toggle: bool, len: u8, last: bool) -> u8 {
+    segment_byte0(0x00, toggle, len, last)
+}
+
 /// The `len` and `last` fields of a segment's byte 0.
 // Three bits: 7 − n is 0..=7.
 #[allow(clippy::arithmetic_side_effects)]

@@ -13,7 +13,7 @@
 //! ackseq. Each byte enters the CRC the first time it is sent, so resent
 //! segments cost no CRC work and no buffer is needed.
 
-use super::{Buffer, Channel, SdoTx, State, Transfer};
+use super::{Buffer, Channel, SdoTx, State, Transfer, UNSIZED, Whole};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
@@ -115,7 +115,7 @@ impl Channel {
             let end = start.wrapping_add(SEGMENT_DATA);
             if !segment.last {
                 // Every byte of a segment but the last is data.
-                if d.sized && end > d.size {
+                if end > d.size {
                     return self.abort(AbortCode::LengthTooHigh, tx);
                 }
                 if end > capacity {
@@ -151,33 +151,33 @@ impl Channel {
         }
     }
 
-    /// A request after the last segment of a block download: the end request.
-    pub(super) fn block_download_end(&mut self, unused: u8, crc: u16, buf: Buffer<'_>, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
+    /// A request after the last segment of a block download, the end
+    /// request: the value whole, to write and answer.
+    pub(super) fn block_download_end<'b>(&mut self, unused: u8, crc: u16, buf: Buffer<'b>, tx: &mut dyn SdoTx) -> Option<Whole<'b>> {
         let d = self.t;
         // The end request comes after the segment with c = 1 (`complete`),
         // so pos >= 7 >= unused: neither subtraction wraps.
         let len = d.pos.wrapping_sub(usize::from(unused));
-        if len > buf.len() {
-            return self.abort(AbortCode::OutOfMemory, tx);
-        }
-        if d.crc_on {
-            let last = buf.get(d.pos.wrapping_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
-            if crc16_update(d.crc, last) != crc {
-                return self.abort(AbortCode::CrcError, tx);
+        let refused = match buf {
+            None => AbortCode::NoResource,
+            Some(buf) if len > buf.len() => AbortCode::OutOfMemory,
+            Some(buf) => {
+                let buf: &'b [u8] = buf;
+                let last = buf.get(d.pos.wrapping_sub(SEGMENT_DATA)..len).unwrap_or(&[]);
+                if d.crc_on && crc16_update(d.crc, last) != crc {
+                    AbortCode::CrcError
+                } else if len > d.size {
+                    AbortCode::LengthTooHigh
+                } else if d.size != UNSIZED && len < d.size {
+                    AbortCode::LengthTooLow
+                } else {
+                    let answer = SdoResponse::BlockDownload(BlockDownloadResponse::End).emit();
+                    return Some(Whole { value: buf.get(..len).unwrap_or(&[]), answer });
+                }
             }
-        }
-        if d.sized && len > d.size {
-            return self.abort(AbortCode::LengthTooHigh, tx);
-        }
-        if d.sized && len < d.size {
-            return self.abort(AbortCode::LengthTooLow, tx);
-        }
-        if let Err(code) = od.write(self.mux.index, self.mux.sub, buf.get(..len).unwrap_or(&[])) {
-            return self.abort(code, tx);
-        }
-        self.state = State::Idle;
-        self.send(SdoResponse::BlockDownload(BlockDownloadResponse::End), tx);
+        };
+        self.abort(refused, tx);
+        None
     }
 
     /// Initiate block upload: `Some(size)` of a value of at most `pst`
@@ -205,7 +205,7 @@ impl Channel {
             return Some(size);
         }
         self.state = State::BlockUpload;
-        // The fields an upload reads (sized, toggle, gap and complete are the downloads').
+        // The fields an upload reads (toggle, gap and complete are the downloads').
         self.t.size = size;
         self.t.pos = 0;
         self.t.crc_on = crc;

@@ -1,7 +1,7 @@
 //! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
 //! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
 
-use super::{Buffer, Channel, Mux, SdoTx, State, block};
+use super::{Buffer, Channel, Mux, SdoTx, State, Whole, block};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
@@ -10,74 +10,68 @@ use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, ini
 const EXPEDITED_MAX: usize = 4;
 
 impl Channel {
-    /// Initiate SDO download: writes an expedited value at once, or opens a
-    /// segmented download (`crc` `None`) or a block download (`crc` whether
-    /// the client asked for a CRC).
-    pub(super) fn initiate_download<O: ObjectAccess>(
+    /// Initiate SDO download: an expedited value to write at once (its
+    /// bytes in `raw`, the request as received), or a segmented download
+    /// opened (`crc` `None`) or a block download (`crc` whether the client
+    /// asked for a CRC), answered here.
+    pub(super) fn initiate_download<'b, O: ObjectAccess>(
         &mut self,
         data: InitiateData,
         crc: Option<bool>,
-        buf: Buffer<'_>,
+        raw: &'b [u8],
+        buf: Buffer<'b>,
         od: &mut O,
         tx: &mut dyn SdoTx,
-    ) {
-        let (data, size) = match data {
-            InitiateData::Expedited { data, size } => (data, size),
-            InitiateData::Segmented { size } => return self.start_download(size, crc, buf, od, tx),
-        };
-        let len = match size {
-            Some(k) => usize::from(k),
-            None => match unsized_expedited_len(od, self.mux) {
-                Ok(k) => k,
-                Err(code) => return self.abort(code, tx),
-            },
-        };
-        self.expedited_download(data, len, od, tx);
-    }
-
-    /// Writes the first `len` bytes (1 to 4) of an expedited download and answers.
-    // Left to the inliner, as `initiate_upload`: out of line, both cost the
-    // b maXX 4400's STM32 image 144 bytes it does not have (sendix is 490
-    // bytes bigger this way, with room for it).
-    pub(super) fn expedited_download<O: ObjectAccess>(&mut self, data: [u8; 4], len: usize, od: &mut O, tx: &mut dyn SdoTx) {
+    ) -> Option<Whole<'b>> {
         let Mux { index, sub } = self.mux;
-        match od.write(index, sub, data.get(..len).unwrap_or(&data)) {
-            Ok(()) => self.emit(initiate_download_response(index, sub), tx),
-            Err(code) => self.abort(code, tx),
+        match data {
+            InitiateData::Expedited { size, .. } => {
+                let len = match size {
+                    Some(k) => usize::from(k),
+                    None => match unsized_expedited_len(od, self.mux) {
+                        Ok(k) => k,
+                        Err(code) => {
+                            self.abort(code, tx);
+                            return None;
+                        }
+                    },
+                };
+                // Bytes 4..4 + len of the request as received (8 bytes
+                // long); len is 1 to 4, the sum cannot wrap.
+                let value = raw.get(4..4usize.wrapping_add(len)).unwrap_or(&[]);
+                Some(Whole { value, answer: initiate_download_response(index, sub) })
+            }
+            InitiateData::Segmented { size } => {
+                if self.start_download(size, crc, buf, od, tx) {
+                    self.emit(initiate_download_response(index, sub), tx);
+                }
+                None
+            }
         }
     }
 
     /// Initiate SDO upload, or initiate block upload (`block`): one answer
-    /// for a value of 1 to 4 bytes read at once, else the start of a
-    /// segmented upload ([`Channel::upload_response`]), or of a block upload.
+    /// for a value of 1 to 4 bytes, else the start of a segmented upload
+    /// (also an empty value, which an expedited response cannot express),
+    /// or of a block upload. A block upload that switches protocol (pst)
+    /// answers as an initiate upload: one copy of each answer.
     pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, block: Option<block::UploadInitiate>, od: &mut O, tx: &mut dyn SdoTx) {
-        let size = match block {
-            None => {
-                let Mux { index, sub } = self.mux;
-                let mut data = [0u8; EXPEDITED_MAX];
-                match od.upload_small(index, sub, &mut data) {
-                    Ok(size @ 1..=EXPEDITED_MAX) => return self.emit(expedited_upload_response(index, sub, data, size), tx),
-                    Ok(size) => size,
-                    Err(code) => return self.abort(code, tx),
-                }
-            }
+        let Mux { index, sub } = self.mux;
+        let mut data = [0u8; EXPEDITED_MAX];
+        // `read`: the value's first bytes are still to be read into `data`.
+        let (size, read) = match block {
+            None => match od.upload_small(index, sub, &mut data) {
+                Ok(size) => (size, false),
+                Err(code) => return self.abort(code, tx),
+            },
             Some(request) => match self.start_block_upload(request, od, tx) {
-                Some(size) => size,
+                Some(size) => (size, true),
                 None => return,
             },
         };
-        self.upload_response(size, od, tx);
-    }
-
-    /// The initiate upload response for a value of `size` bytes: expedited
-    /// for 1 to 4 bytes, else the start of a segmented upload (also an empty
-    /// value, which an expedited response cannot express). A block upload
-    /// that switches protocol (pst) answers with this too.
-    pub(super) fn upload_response(&mut self, size: usize, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        let (index, sub) = (self.mux.index, self.mux.sub);
         if (1..=EXPEDITED_MAX).contains(&size) {
-            let mut data = [0u8; EXPEDITED_MAX];
-            if let Some(buf) = data.get_mut(..size)
+            if read
+                && let Some(buf) = data.get_mut(..size)
                 && let Err(code) = od.read(index, sub, 0, buf)
             {
                 return self.abort(code, tx);
@@ -85,7 +79,7 @@ impl Channel {
             self.emit(expedited_upload_response(index, sub, data, size), tx);
         } else {
             self.state = State::SegmentedUpload;
-            self.start_segments(size, true);
+            self.start_segments(size);
             let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
             self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
         }

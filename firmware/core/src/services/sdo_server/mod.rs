@@ -87,10 +87,9 @@ enum State {
 /// out and back for every frame.
 #[derive(Clone, Copy, Debug)]
 struct Transfer {
-    /// Size the client indicated (downloads, when `sized`) or the server
-    /// announced (uploads, always).
+    /// Size the client indicated (downloads; [`UNSIZED`] if it did not)
+    /// or the server announced (uploads, always).
     size: usize,
-    sized: bool,
     /// Segmented download: bytes collected in the buffer; segmented
     /// upload: bytes of the value already sent; block download: bytes of
     /// the segments accepted so far (7 per segment); block upload: offset
@@ -126,7 +125,6 @@ struct Transfer {
 impl Transfer {
     const NEW: Transfer = Transfer {
         size: 0,
-        sized: false,
         pos: 0,
         toggle: false,
         crc_on: false,
@@ -138,6 +136,19 @@ impl Transfer {
         complete: false,
         phase: block::UploadPhase::Initiated,
     };
+}
+
+/// [`Transfer::size`] of a download whose client indicated no size: above
+/// any size a download is started with (those fit the buffer), so that
+/// "more than indicated" is one comparison.
+const UNSIZED: usize = usize::MAX;
+
+/// A download's value, whole (an expedited download's bytes, or a
+/// segmented or block download's buffer up to its length, every check
+/// made), to be written; and the answer once it is.
+struct Whole<'a> {
+    value: &'a [u8],
+    answer: [u8; 8],
 }
 
 /// The download buffer as one server sees it: `Some` when it may use the
@@ -337,12 +348,14 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     /// request is refused with abort 0x05040001 like any unknown command.
     /// `block` is a compile-time constant of the node (`Services::block_sdo`),
     /// so without it the compiler leaves the block transfer code out. The
-    /// expedited transfers call `od` directly (the node's router: its
-    /// plain cases in line), the others through `dyn ObjectAccess`, one
-    /// copy of their code whatever `O` is.
+    /// initiate requests and every download's final write call `od`
+    /// directly (the node's router), the others through `dyn
+    /// ObjectAccess`, one copy of their code whatever `O` is.
     #[inline(always)]
     pub fn on_request_with<O: ObjectAccess>(&mut self, i: usize, now: At, data: &[u8], block: bool, od: &mut O, tx: &mut dyn SdoTx) {
-        let lent = self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
+        // With one server (`K` a constant) no other can hold the buffer:
+        // the compiler leaves the scan and every refusal for a lent buffer out.
+        let lent = K > 1 && self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
         let Some(channel) = self.channels.get_mut(i) else { return };
         let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
         channel.on_request(now, data, block, buf, od, tx);
@@ -421,6 +434,9 @@ impl Channel {
         self.deadline = later(now, self.timeout_us.map_or(DEFAULT_TIMEOUT_US, NonZeroU32::get));
     }
 
+    // Out of line: four sites in the request path, none of them taken by a
+    // well-formed frame.
+    #[inline(never)]
     fn count_malformed(&mut self) {
         self.malformed = self.malformed.saturating_add(1);
     }
@@ -428,16 +444,17 @@ impl Channel {
     /// A request outside the block download sub-block phase, of `kind`;
     /// block transfer requests only if `block`. `f` is the frame `raw` as
     /// received (8 bytes), copied to registers; a download segment's data
-    /// is cut from `raw`, so that no copy of its 7 bytes is made.
+    /// and an expedited download's value are cut from `raw`, so that no
+    /// copy of them is made.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn request<O: ObjectAccess>(
+    fn request<'b, O: ObjectAccess>(
         &mut self,
         kind: RequestKind,
         f: [u8; 8],
-        raw: &[u8],
+        raw: &'b [u8],
         block: bool,
-        buf: Buffer<'_>,
+        buf: Buffer<'b>,
         od: &mut O,
         tx: &mut dyn SdoTx,
     ) {
@@ -456,8 +473,11 @@ impl Channel {
         // An abort or a new initiate ends whatever was in progress. Each
         // other request belongs to one kind of transfer: served by its
         // handler if that transfer is in progress, refused if not.
-        match (kind, block) {
-            (RequestKind::Abort, _) => self.reset(),
+        let whole = match (kind, block) {
+            (RequestKind::Abort, _) => {
+                self.reset();
+                None
+            }
             // Segmented and block downloads start alike (one copy of the
             // checks): the block initiate's multiplexer is bytes 1-3 too.
             (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
@@ -471,35 +491,61 @@ impl Channel {
                         BlockDownloadRequest::End { .. } => return self.unexpected(tx),
                     }
                 };
-                self.initiate_download(data, crc, buf, od, tx);
+                self.initiate_download(data, crc, raw, buf, od, tx)
             }
             (RequestKind::InitiateUpload, _) => {
                 self.start(index, sub);
                 self.initiate_upload(upload_block, od, tx);
+                None
             }
             (RequestKind::DownloadSegment, _) if self.state == State::SegmentedDownload => {
                 let (toggle, len, last) = segment_fields(b0);
                 // Bytes 1..=len of the frame as received (8 bytes long), not of its copy `f`.
                 let data = raw.get(1..=usize::from(len)).unwrap_or(&[]);
-                self.segmented_download(segmented::Segment { toggle, data, last }, buf, od, tx)
+                self.segmented_download(segmented::Segment { toggle, data, last }, buf, tx)
             }
-            (RequestKind::UploadSegment, _) if self.state == State::SegmentedUpload => self.segmented_upload(segment_fields(b0).0, od, tx),
-            (RequestKind::DownloadSegment | RequestKind::UploadSegment, _) => self.unexpected(tx),
+            (RequestKind::UploadSegment, _) if self.state == State::SegmentedUpload => {
+                self.segmented_upload(segment_fields(b0).0, od, tx);
+                None
+            }
+            (RequestKind::DownloadSegment | RequestKind::UploadSegment, _) => {
+                self.unexpected(tx);
+                None
+            }
             (RequestKind::BlockDownloadEnd, true) => match BlockDownloadRequest::decode(&f) {
                 BlockDownloadRequest::End { unused, crc } if self.state == State::BlockDownload => {
-                    self.block_download_end(unused, crc, buf, od, tx)
+                    self.block_download_end(unused, crc, buf, tx)
                 }
-                _ => self.unexpected(tx),
+                _ => {
+                    self.unexpected(tx);
+                    None
+                }
             },
-            (RequestKind::BlockUpload, true) => match BlockUploadRequest::decode(&f) {
-                request if self.state == State::BlockUpload => self.block_upload(request, tx),
-                _ => self.unexpected(tx),
-            },
+            (RequestKind::BlockUpload, true) => {
+                match BlockUploadRequest::decode(&f) {
+                    request if self.state == State::BlockUpload => self.block_upload(request, tx),
+                    _ => self.unexpected(tx),
+                }
+                None
+            }
             // An unknown command specifier, or a block transfer request without block transfer.
             _ => {
                 self.count_malformed();
                 let mux = if kind == RequestKind::Unknown || kind.starts_transfer() { Mux { index, sub } } else { Mux::NONE };
                 self.fail(self.transfer().unwrap_or(mux), AbortCode::InvalidCommand, tx);
+                None
+            }
+        };
+        // Every download ends in one write of its whole value (one copy of
+        // the call and its refusal for the expedited, segmented and block
+        // downloads), then its own answer.
+        if let Some(Whole { value, answer }) = whole {
+            match od.write(self.mux.index, self.mux.sub, value) {
+                Ok(()) => {
+                    self.state = State::Idle;
+                    self.emit(answer, tx);
+                }
+                Err(code) => self.abort(code, tx),
             }
         }
     }
@@ -539,6 +585,13 @@ impl Channel {
     fn abort(&mut self, code: AbortCode, tx: &mut dyn SdoTx) {
         self.state = State::Idle;
         self.send(SdoResponse::Abort { index: self.mux.index, sub: self.mux.sub, code: code.code() }, tx);
+    }
+
+    /// [`Channel::abort`] for a request whose handler tells its caller
+    /// whether to answer: false, the abort was the answer.
+    fn refuse(&mut self, code: AbortCode, tx: &mut dyn SdoTx) -> bool {
+        self.abort(code, tx);
+        false
     }
 
     // In line, with `SdoResponse::emit`: each site knows its response, so

@@ -2,10 +2,10 @@
 //! §7.2.4.3.7–8 (upload): seven bytes per segment, a toggle bit that
 //! starts at 0 and alternates (abort 0x05030000 when it does not).
 
-use super::{Buffer, Channel, SdoTx, State};
+use super::{Buffer, Channel, SdoTx, State, UNSIZED, Whole};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::wire::sdo::SdoResponse;
+use crate::wire::sdo::{SdoResponse, upload_segment_byte0};
 
 /// Data bytes in one segment.
 const SEGMENT: usize = 7;
@@ -19,11 +19,11 @@ pub(super) struct Segment<'a> {
 }
 
 impl Channel {
-    /// The fields of a segmented transfer of `size` bytes (`sized`: the
-    /// client indicated it) before its first segment; the others are not read.
-    pub(super) fn start_segments(&mut self, size: usize, sized: bool) {
+    /// The fields of a segmented transfer of `size` bytes ([`UNSIZED`]: a
+    /// download of a size not indicated) before its first segment; the
+    /// others are not read.
+    pub(super) fn start_segments(&mut self, size: usize) {
         self.t.size = size;
-        self.t.sized = sized;
         self.t.pos = 0;
         self.t.toggle = false;
     }
@@ -32,6 +32,9 @@ impl Channel {
     /// download (`crc` whether the client asked for a CRC): checks the
     /// entry and the size before any segment arrives. One copy of the
     /// checks for both (without block transfer `crc` is always `None`).
+    /// True: a segmented download started, the caller answers it as an
+    /// initiate download (the expedited one's answer); else aborted, or
+    /// the block download answered.
     pub(super) fn start_download(
         &mut self,
         size: Option<u32>,
@@ -39,63 +42,73 @@ impl Channel {
         buf: Buffer<'_>,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
-    ) {
+    ) -> bool {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
-        if let Err(code) = od.download_check(mux.index, mux.sub, size) {
-            return self.abort(code, tx);
-        }
-        // Another server holds the shared buffer for a download of its own.
-        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
+        let buf = match (od.download_check(mux.index, mux.sub, size), buf) {
+            (Err(code), _) => return self.refuse(code, tx),
+            // Another server holds the shared buffer for a download of its own.
+            (Ok(()), None) => return self.refuse(AbortCode::NoResource, tx),
+            (Ok(()), Some(buf)) => buf,
+        };
         if size.is_some_and(|s| s > buf.len()) {
-            return self.abort(AbortCode::OutOfMemory, tx);
+            return self.refuse(AbortCode::OutOfMemory, tx);
         }
-        self.start_segments(size.unwrap_or(0), size.is_some());
+        // An indicated size fits the buffer: below `UNSIZED`.
+        self.start_segments(size.unwrap_or(UNSIZED));
         match crc {
             None => {
                 self.state = State::SegmentedDownload;
-                self.send(SdoResponse::InitiateDownload { index: mux.index, sub: mux.sub }, tx);
+                true
             }
-            Some(crc) => self.start_block_download(crc, buf.len(), tx),
+            Some(crc) => {
+                self.start_block_download(crc, buf.len(), tx);
+                false
+            }
         }
     }
 
-    /// A request while a segmented download is in progress.
-    pub(super) fn segmented_download(
+    /// A request while a segmented download is in progress: the last
+    /// segment's value whole, to write and answer; the others answered here.
+    pub(super) fn segmented_download<'b>(
         &mut self,
         Segment { toggle, data: chunk, last }: Segment<'_>,
-        buf: Buffer<'_>,
-        od: &mut dyn ObjectAccess,
+        buf: Buffer<'b>,
         tx: &mut dyn SdoTx,
-    ) {
+    ) -> Option<Whole<'b>> {
         let t = self.t;
-        if toggle != t.toggle {
-            return self.abort(AbortCode::ToggleBit, tx);
-        }
         let end = t.pos.saturating_add(chunk.len());
-        if t.sized && end > t.size {
-            return self.abort(AbortCode::LengthTooHigh, tx);
-        }
-        // This server holds the buffer while its download runs (see `SdoServers`).
-        let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
-        let Some(dst) = buf.get_mut(t.pos..).and_then(|rest| rest.get_mut(..chunk.len())) else {
-            return self.abort(AbortCode::OutOfMemory, tx);
-        };
-        dst.copy_from_slice(chunk);
-        if last {
-            if t.sized && end < t.size {
-                return self.abort(AbortCode::LengthTooLow, tx);
-            }
-            let value = buf.get(..end).unwrap_or(&[]);
-            if let Err(code) = od.write(self.mux.index, self.mux.sub, value) {
-                return self.abort(code, tx);
-            }
-            self.state = State::Idle;
+        let refused = if toggle != t.toggle {
+            AbortCode::ToggleBit
+        } else if end > t.size {
+            AbortCode::LengthTooHigh
         } else {
-            self.t.pos = end;
-            self.t.toggle = !toggle;
-        }
-        self.send(SdoResponse::DownloadSegment { toggle }, tx);
+            // This server holds the buffer while its download runs (see `SdoServers`).
+            match buf {
+                None => AbortCode::NoResource,
+                Some(buf) => match buf.get_mut(t.pos..).and_then(|rest| rest.get_mut(..chunk.len())) {
+                    None => AbortCode::OutOfMemory,
+                    Some(dst) => {
+                        dst.copy_from_slice(chunk);
+                        let answer = SdoResponse::DownloadSegment { toggle }.emit();
+                        if !last {
+                            self.t.pos = end;
+                            self.t.toggle = !toggle;
+                            self.emit(answer, tx);
+                            return None;
+                        }
+                        if t.size != UNSIZED && end < t.size {
+                            AbortCode::LengthTooLow
+                        } else {
+                            let buf: &'b [u8] = buf;
+                            return Some(Whole { value: buf.get(..end).unwrap_or(&[]), answer });
+                        }
+                    }
+                },
+            }
+        };
+        self.abort(refused, tx);
+        None
     }
 
     /// A request while a segmented upload is in progress.
@@ -105,9 +118,12 @@ impl Channel {
             return self.abort(AbortCode::ToggleBit, tx);
         }
         let len = t.size.saturating_sub(t.pos).min(SEGMENT);
-        let mut data = [0u8; SEGMENT];
-        // A value that shrank since the initiate response reads short; the
-        // rest of the announced size goes out as zeros.
+        // The value's bytes read into the answer in place, after byte 0
+        // (as the block upload's segments). A value that shrank since the
+        // initiate response reads short; the rest of the announced size
+        // goes out as zeros.
+        let mut frame = [0u8; 8];
+        let [_, data @ ..] = &mut frame;
         if let Some(buf) = data.get_mut(..len)
             && let Err(code) = od.read(self.mux.index, self.mux.sub, t.pos, buf)
         {
@@ -121,7 +137,8 @@ impl Channel {
             self.t.pos = pos;
             self.t.toggle = !toggle;
         }
-        let len = u8::try_from(len).unwrap_or(0);
-        self.send(SdoResponse::UploadSegment { toggle, data, len, last }, tx);
+        let [b0, ..] = &mut frame;
+        *b0 = upload_segment_byte0(toggle, u8::try_from(len).unwrap_or(0), last);
+        self.emit(frame, tx);
     }
 }

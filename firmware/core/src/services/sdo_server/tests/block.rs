@@ -238,6 +238,17 @@ fn block_upload_without_crc_and_paced_by_the_tx_queue() {
     t.done(ms(14));
 }
 
+/// At the protocol switch the server reads the small value itself (a plain
+/// initiate upload has it from the look-up): a refused read aborts with its
+/// code, nothing else is sent and the server is idle.
+#[test]
+fn a_read_refused_at_the_protocol_switch_aborts_with_its_code() {
+    let mut t = Sdo::new();
+    t.read_error = Some(AbortCode::Hardware);
+    t.x(ms(0), "A4 17 10 00 7F 04 00 00", "80 17 10 00 00 00 06 06"); // 2 bytes <= pst 4
+    t.done(ms(1));
+}
+
 #[test]
 fn block_upload_switches_protocol_at_or_below_pst() {
     let mut t = Sdo::new();
