@@ -437,7 +437,7 @@ mod tests {
 
     #[test]
     fn the_history_shifts_down_to_the_first_missing_sub_index() {
-        let mut comm = Hooked::<crate::node::NoApplication, 0, 0, 0>::new();
+        let mut comm = Hooked::<crate::node::NoApplication, Od, 0, 0, 0>::new();
         let mut image = [0u8; 14];
         let mut record = |image: &mut [u8], code: u8| comm.record(&HISTORY_DICT, image, &[code, 0x10, 0x01, 0xAA, 0xBB, 0, 0, 0]);
         record(&mut image, 1);
