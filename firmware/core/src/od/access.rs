@@ -146,19 +146,7 @@ impl ObjectAccess for DictionaryAccess<'_> {
     }
 
     fn download_check(&mut self, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {
-        let entry = self.dictionary.find(index, sub)?;
-        if !entry.writable() {
-            return Err(AbortCode::ReadOnly);
-        }
-        if entry.data_type == DataType::Domain {
-            return Err(AbortCode::CannotStore);
-        }
-        let len = usize::from(entry.len);
-        match size {
-            Some(n) if n > len => Err(AbortCode::LengthTooHigh),
-            Some(n) if n < len && !entry.data_type.is_variable_length() => Err(AbortCode::LengthTooLow),
-            _ => Ok(()),
-        }
+        self.dictionary.check_size(self.dictionary.find(index, sub)?, size)
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {

@@ -60,14 +60,33 @@ pub(crate) fn u32_exact(data: &[u8]) -> Result<u32, AbortCode> {
 /// ([`super::ObjectDictionary::HAS_LIMITS`]): a dictionary without links no
 /// limit check.
 pub(crate) fn precheck<const LIMITS: bool>(dict: &Dictionary, index: u16, sub: u8, data: &[u8]) -> Result<&'static Entry, AbortCode> {
+    if !LIMITS {
+        return checked_entry(dict, index, sub, Some(data.len()), true);
+    }
     let entry = dict.find(index, sub)?;
     if entry.data_type == DataType::Domain && entry.writable() {
         return Ok(entry);
     }
-    if LIMITS {
-        dict.check_write(entry, data)?;
-    } else {
-        dict.check_size(entry, data)?;
+    dict.check_write(entry, data)?;
+    Ok(entry)
+}
+
+/// [`precheck`] without limits, for a value of `size` bytes (`None`: not
+/// known yet, as an SDO download's initiate may leave it); a writable
+/// DOMAIN is taken if `domain`, else refused (0x08000020: a download
+/// cannot store one). One copy for the writes and the SDO download checks
+/// of a dictionary without limits.
+pub(crate) fn checked_entry(
+    dict: &Dictionary,
+    index: u16,
+    sub: u8,
+    size: Option<usize>,
+    domain: bool,
+) -> Result<&'static Entry, AbortCode> {
+    let entry = dict.find(index, sub)?;
+    if entry.data_type == DataType::Domain && entry.writable() {
+        return if domain { Ok(entry) } else { Err(AbortCode::CannotStore) };
     }
+    dict.check_size(entry, size)?;
     Ok(entry)
 }

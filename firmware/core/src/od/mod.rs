@@ -25,7 +25,7 @@ mod value;
 
 pub use access::{DictionaryAccess, ObjectAccess};
 pub use lookup::le_u32;
-pub(crate) use lookup::{object, precheck, sub_entry, u32_exact, value_u32};
+pub(crate) use lookup::{checked_entry, object, precheck, sub_entry, u32_exact, value_u32};
 
 use crate::abort::AbortCode;
 
@@ -312,15 +312,17 @@ impl Dictionary {
     /// length and limits. The node's SDO router runs them first on every
     /// communication object.
     pub(crate) fn check_write(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
-        self.check_size(entry, data)?;
+        self.check_size(entry, Some(data.len()))?;
         if let Some(limits) = self.limits_of(entry) {
             limits.check(entry.data_type, data)?;
         }
         Ok(())
     }
 
-    /// [`Dictionary::check_write`] but the limits: access and length.
-    pub(crate) fn check_size(&self, entry: &Entry, data: &[u8]) -> Result<(), AbortCode> {
+    /// [`Dictionary::check_write`] but the limits: access and length
+    /// (`size`: the value's, if known; an SDO download's initiate may not
+    /// tell it).
+    pub(crate) fn check_size(&self, entry: &Entry, size: Option<usize>) -> Result<(), AbortCode> {
         if !entry.writable() {
             return Err(AbortCode::ReadOnly);
         }
@@ -328,14 +330,12 @@ impl Dictionary {
             return Err(AbortCode::CannotStore);
         }
         let len = usize::from(entry.len);
-        if data.len() > len {
-            return Err(AbortCode::LengthTooHigh);
+        match size {
+            Some(n) if n > len => Err(AbortCode::LengthTooHigh),
+            // A string or domain may be shorter than its capacity.
+            Some(n) if n < len && !entry.data_type.is_variable_length() => Err(AbortCode::LengthTooLow),
+            _ => Ok(()),
         }
-        // A string or domain may be shorter than its capacity.
-        if data.len() < len && !entry.data_type.is_variable_length() {
-            return Err(AbortCode::LengthTooLow);
-        }
-        Ok(())
     }
 
     /// Writes a value the node itself maintains (the error register, the

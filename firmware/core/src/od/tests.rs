@@ -277,3 +277,29 @@ fn read_entry_and_the_upload_reading_read_what_they_read_before() {
     }
     assert_eq!(checked, 25 * 4 * 2 * 4);
 }
+
+/// A writable and a read-only DOMAIN beside a fixed-size value, in a table without limits.
+static DOMAINS: [Entry; 3] =
+    [e(0x1017, 0, DataType::Unsigned16, RW, 2, 0), e(0x2100, 0, DataType::Domain, RW, 0, 2), e(0x2101, 0, DataType::Domain, RO, 0, 2)];
+static DOMAIN_DICT: Dictionary =
+    Dictionary { entries: &DOMAINS, limits: &[], limit_rows: &[NO_LIMITS; 3], comm_len: 2, stored_len: 2, ..DICT };
+
+#[test]
+fn the_checks_without_limits_take_a_writable_domain_for_a_write_not_for_a_download() {
+    let checked = |index, size, domain| checked_entry(&DOMAIN_DICT, index, 0, size, domain).map(|e| e.index);
+    // A write (`precheck`): a writable DOMAIN has no length to check.
+    assert_eq!(precheck::<false>(&DOMAIN_DICT, 0x2100, 0, &[1, 2, 3]).map(|e| e.index), Ok(0x2100));
+    assert_eq!(precheck::<false>(&DOMAIN_DICT, 0x2101, 0, &[1]), Err(AbortCode::ReadOnly));
+    assert_eq!(precheck::<false>(&DOMAIN_DICT, 0x1017, 0, &[1, 2, 3]), Err(AbortCode::LengthTooHigh));
+    // An SDO download's initiate: a DOMAIN cannot be stored (0x08000020), read-only first.
+    assert_eq!(checked(0x2100, Some(3), false), Err(AbortCode::CannotStore));
+    assert_eq!(checked(0x2100, None, false), Err(AbortCode::CannotStore));
+    assert_eq!(checked(0x2101, None, false), Err(AbortCode::ReadOnly));
+    // The length, when the initiate tells it; none told passes.
+    assert_eq!(checked(0x1017, Some(3), false), Err(AbortCode::LengthTooHigh));
+    assert_eq!(checked(0x1017, Some(1), false), Err(AbortCode::LengthTooLow));
+    assert_eq!(checked(0x1017, Some(2), false), Ok(0x1017));
+    assert_eq!(checked(0x1017, None, false), Ok(0x1017));
+    assert_eq!(checked(0x1018, None, false), Err(AbortCode::NoObject));
+    assert_eq!(checked(0x1017, None, true), Ok(0x1017));
+}
