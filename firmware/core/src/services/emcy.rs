@@ -44,21 +44,10 @@ pub const fn register_bit(code: EmcyCode) -> u8 {
 /// and `Q` queued messages. Not `PartialEq`: [`EmcyProducer::reset`] and
 /// [`EmcyProducer::clear`] leave entries past the lists' ends as they were.
 #[derive(Clone, Copy, Debug)]
+// Flags and counters first, the lists last: thumbv7m's 2-byte loads reach a byte only within 32.
+#[repr(C)]
 pub struct EmcyProducer<const A: usize, const Q: usize> {
     cob_id: Option<u16>,
-    /// 0x1015 in µs (at most 6.6 s).
-    inhibit: u32,
-    /// When the next message may go out (its inhibit time ends), once one went out.
-    free_at: Option<At>,
-    active: [EmcyCode; A],
-    /// Error register bits each active error sets beyond its code's class
-    /// (a device whose manual gives a generic code a profile bit).
-    active_bits: [u8; A],
-    active_len: usize,
-    queue: [Emcy; Q],
-    head: usize,
-    len: usize,
-    overflows: u32,
     lost_errors: bool,
     /// The transmit queue refused frames and has not drained since: an
     /// error of its own, beside the active list, because it shares its code
@@ -67,6 +56,19 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     /// The error register bits of the transmit queue overflow's code (0
     /// before the first: the node is all zero bits at power-on).
     tx_bits: u8,
+    /// 0x1015 in µs (at most 6.6 s).
+    inhibit: u32,
+    /// When the next message may go out (its inhibit time ends), once one went out.
+    free_at: Option<At>,
+    active_len: usize,
+    head: usize,
+    len: usize,
+    overflows: u32,
+    /// Error register bits each active error sets beyond its code's class
+    /// (a device whose manual gives a generic code a profile bit).
+    active_bits: [u8; A],
+    active: [EmcyCode; A],
+    queue: [Emcy; Q],
 }
 
 impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {

@@ -86,26 +86,15 @@ enum State {
 /// a state enum with a struct per kind (as before) copied the whole struct
 /// out and back for every frame.
 #[derive(Clone, Copy, Debug)]
+// The flags first, then the words: every field within thumbv7m's short offsets inside a Channel.
+#[repr(C)]
 struct Transfer {
-    /// Size the client indicated (downloads, when `sized`) or the server
-    /// announced (uploads, always).
-    size: usize,
     sized: bool,
-    /// Segmented download: bytes collected in the buffer; segmented
-    /// upload: bytes of the value already sent; block download: bytes of
-    /// the segments accepted so far (7 per segment); block upload: offset
-    /// in the value of segment 1 of the current block.
-    pos: usize,
     /// Segmented: the toggle bit the next segment (download) or request
     /// (upload) must carry.
     toggle: bool,
     /// Block: the client asked for a CRC (the server always supports one).
     crc_on: bool,
-    /// Block download: CRC of every accepted segment but the last (whose
-    /// unused tail is known only from the end request); block upload: CRC
-    /// of bytes `0..crc_len` of the value.
-    crc: u16,
-    crc_len: usize,
     /// Block: segments in the current block (download), or per block as
     /// the client last asked (upload).
     blksize: u8,
@@ -121,6 +110,19 @@ struct Transfer {
     complete: bool,
     /// Block upload.
     phase: block::UploadPhase,
+    /// Block download: CRC of every accepted segment but the last (whose
+    /// unused tail is known only from the end request); block upload: CRC
+    /// of bytes `0..crc_len` of the value.
+    crc: u16,
+    /// Size the client indicated (downloads, when `sized`) or the server
+    /// announced (uploads, always).
+    size: usize,
+    /// Segmented download: bytes collected in the buffer; segmented
+    /// upload: bytes of the value already sent; block download: bytes of
+    /// the segments accepted so far (7 per segment); block upload: offset
+    /// in the value of segment 1 of the current block.
+    pos: usize,
+    crc_len: usize,
 }
 
 impl Transfer {
@@ -149,22 +151,24 @@ pub(super) type Buffer<'a> = Option<&'a mut [u8]>;
 /// state, the timeout, an unsent response and the malformed-frame count.
 /// About 80 bytes, so that further servers (0x1201–0x127F) are cheap.
 #[derive(Clone, Debug)]
+// The state and the unsent answer first: thumbv7m's 2-byte loads reach a byte only within 32.
+#[repr(C)]
 struct Channel {
     state: State,
-    /// The fields of the transfer in progress (meaningless when idle).
-    t: Transfer,
+    /// A response `tx` refused, sent again by the next `poll`.
+    pending: Option<[u8; 8]>,
     /// The object of the transfer in progress, or of the initiate request
     /// being answered; kept here rather than in each state so that every
     /// abort names it without the caller passing it.
     mux: Mux,
+    /// The fields of the transfer in progress (meaningless when idle).
+    t: Transfer,
     /// In microseconds (at most [`crate::time::MAX_SPAN`]); `None`:
     /// [`DEFAULT_TIMEOUT`]. So that a new server is all zero bits
     /// ([`crate::node`]) in 4 bytes.
     timeout_us: Option<NonZeroU32>,
     /// When the transfer in progress times out (meaningless when idle).
     deadline: At,
-    /// A response `tx` refused, sent again by the next `poll`.
-    pending: Option<[u8; 8]>,
     malformed: u32,
 }
 
@@ -281,6 +285,8 @@ impl<const N: usize> SdoServer<N> {
 /// connection"), and the holder is never disturbed. Each server costs its
 /// protocol state only (about 80 bytes), not a buffer.
 #[derive(Debug)]
+// The channels before the buffer, so that their fields sit at short offsets on thumbv7m.
+#[repr(C)]
 pub struct SdoServers<const N: usize, const K: usize> {
     channels: [Channel; K],
     buf: [u8; N],
