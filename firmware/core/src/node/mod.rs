@@ -170,7 +170,7 @@ impl Counters {
 /// `SDO` is the number of SDO servers (0x1200, 0x1201, …) the node runs, at
 /// least the dictionary's `SDO_SERVER_COUNT` to serve all of them;
 /// [`SDO_SERVERS`] unless given.
-// The per-frame flags and deadlines first, then the services, the buffers and the dictionary's RAM last: thumbv7m's 2-byte loads reach only 32 (bytes) to 128 (words) bytes from the node.
+// The per-frame flags and deadlines first, then the device's state and the services, the buffers and the dictionary's RAM last: thumbv7m's 2-byte loads reach only 32 (bytes) to 128 (words) bytes from the node.
 #[repr(C)]
 pub struct Node<
     O: ObjectDictionary,
@@ -231,6 +231,7 @@ pub struct Node<
     /// waits and the PDOs need not be walked for it (`Node::retrying`).
     retry_free_at: u32,
     counters: Counters,
+    app: A,
     /// A serial number the board reports, written to 0x1018 sub 4 at every reset.
     serial: Option<u32>,
     /// For a device that polls when due ([`Application::POLL_WHEN_DUE`]):
@@ -247,6 +248,10 @@ pub struct Node<
     controller: controller::ControllerErrors,
     /// The newest stored set the reset in progress found.
     reset_stored: Option<crate::services::store::StoredSet>,
+    /// What a device hook left (raw frames, the wake) and the store in
+    /// progress, a stage per [`Node::process`] call (`store`): borrowed
+    /// whole by every hook's [`Ctx`].
+    hook: app::HookSide,
     comm: comm::Hooked<A, R, T, HB>,
     txq: TxQueue<TX_QUEUE>,
     sdo: SdoServers<SDO_BUFFER, SDO>,
@@ -254,13 +259,8 @@ pub struct Node<
     /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
     /// not be all zero bits (see the module docs).
     lss: LssSlave,
-    /// What a device hook left (raw frames, the wake) and the store in
-    /// progress, a stage per [`Node::process`] call (`store`): borrowed
-    /// whole by every hook's [`Ctx`].
-    hook: app::HookSide,
     /// The identifiers the node consumes, for the board's acceptance filter.
     acceptance: filter::AcceptanceList,
-    app: A,
     od: O,
 }
 
