@@ -231,7 +231,6 @@ pub struct Node<
     /// waits and the PDOs need not be walked for it (`Node::retrying`).
     retry_free_at: u32,
     counters: Counters,
-    app: A,
     /// A serial number the board reports, written to 0x1018 sub 4 at every reset.
     serial: Option<u32>,
     /// For a device that polls when due ([`Application::POLL_WHEN_DUE`]):
@@ -248,6 +247,7 @@ pub struct Node<
     controller: controller::ControllerErrors,
     /// The newest stored set the reset in progress found.
     reset_stored: Option<crate::services::store::StoredSet>,
+    app: A,
     /// What a device hook left (raw frames, the wake) and the store in
     /// progress, a stage per [`Node::process`] call (`store`): borrowed
     /// whole by every hook's [`Ctx`].
