@@ -56,11 +56,9 @@ pub enum ErrorBehaviour {
 
 /// The communication services and the identifiers they use.
 #[derive(Clone, Debug)]
-// SYNC and the small services first, the consumers' and the PDOs' arrays last: shorter offsets on thumbv7m.
+// The small services and flags first, the consumers' and the PDOs' arrays last: shorter offsets on thumbv7m.
 #[repr(C)]
 pub struct Comm<const R: usize, const T: usize, const HB: usize> {
-    /// SYNC consumer and producer (0x1005–0x1007, 0x1019).
-    pub sync: SyncService,
     /// TIME consumer COB-ID, if 0x1012 bit 31 (consume) is set.
     pub time_cob_id: Option<u16>,
     /// The RPDOs' mapping failed at this reset (their count stands for the TPDOs' too).
@@ -69,6 +67,8 @@ pub struct Comm<const R: usize, const T: usize, const HB: usize> {
     pub mapping_errors: u32,
     /// Heartbeat producer (0x1017).
     pub heartbeat: Producer,
+    /// SYNC consumer and producer (0x1005–0x1007, 0x1019).
+    pub sync: SyncService,
     /// Node and life guarding (0x100C, 0x100D).
     pub guarding: Guarding,
     /// EMCY producer (0x1014, 0x1015) and the error register.
