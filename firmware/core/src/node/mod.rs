@@ -230,7 +230,6 @@ pub struct Node<
     /// which counts an overflow, so while the count is the same no TPDO
     /// waits and the PDOs need not be walked for it (`Node::retrying`).
     retry_free_at: u32,
-    counters: Counters,
     /// A serial number the board reports, written to 0x1018 sub 4 at every reset.
     serial: Option<u32>,
     /// For a device that polls when due ([`Application::POLL_WHEN_DUE`]):
@@ -243,10 +242,11 @@ pub struct Node<
     storage: S,
     /// The LSS bit-rate switch, if one is in progress.
     switch: lss::Switch,
-    /// The CAN controller's errors (`controller`).
-    controller: controller::ControllerErrors,
     /// The newest stored set the reset in progress found.
     reset_stored: Option<crate::services::store::StoredSet>,
+    /// The CAN controller's errors (`controller`).
+    controller: controller::ControllerErrors,
+    counters: Counters,
     app: A,
     /// What a device hook left (raw frames, the wake) and the store in
     /// progress, a stage per [`Node::process`] call (`store`): borrowed
