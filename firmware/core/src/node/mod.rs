@@ -170,7 +170,7 @@ impl Counters {
 /// `SDO` is the number of SDO servers (0x1200, 0x1201, …) the node runs, at
 /// least the dictionary's `SDO_SERVER_COUNT` to serve all of them;
 /// [`SDO_SERVERS`] unless given.
-// The per-frame flags and deadlines first, then the device's state and the services, the buffers and the dictionary's RAM last: thumbv7m's 2-byte loads reach only 32 (bytes) to 128 (words) bytes from the node.
+// Per-frame flags and deadlines first (thumbv7m's 2-byte loads reach 32 B for a byte, 128 for a word), buffers and dictionary RAM last.
 #[repr(C)]
 pub struct Node<
     O: ObjectDictionary,
