@@ -21,15 +21,17 @@ use crate::frame::CanFrame;
 ///
 /// A new queue is all zero bits ([`crate::node`]).
 #[derive(Clone, Debug)]
+// The counters first, then the arrays: thumbv7m reaches them with 2-byte loads (offsets under 128).
+#[repr(C)]
 pub struct TxQueue<const N: usize> {
-    /// The queued frames in the order they leave: `slots[(head + j) % N]` for `j` in `0..len`.
-    slots: [CanFrame; N],
-    /// The priority of the frame in `slots[i]`, beside it, so that the insertion compares words.
-    keys: [u32; N],
     /// Always below N.
     head: usize,
     len: usize,
     overflows: u32,
+    /// The priority of the frame in `slots[i]`, beside it, so that the insertion compares words.
+    keys: [u32; N],
+    /// The queued frames in the order they leave: `slots[(head + j) % N]` for `j` in `0..len`.
+    slots: [CanFrame; N],
 }
 
 impl<const N: usize> Default for TxQueue<N> {

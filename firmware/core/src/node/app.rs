@@ -170,24 +170,26 @@ pub struct Ctx<'a> {
 /// What a hook leaves for the node (raw frames, the wake) and the store
 /// it may start: kept together in the node so that [`Ctx`] borrows them as one.
 #[derive(Clone, Debug)]
+// The count and the flags first, the frames last: shorter offsets on thumbv7m.
+#[repr(C)]
 pub(super) struct HookSide {
-    /// Raw frames sent by the hook, queued by the node when the hook returns
-    /// (an SDO transfer holds the transmit queue while its hooks run).
-    pub(super) frames: [CanFrame; RAW_BURST],
     pub(super) len: u8,
     /// The hook asked for the device's timers at the next process
     /// ([`Ctx::wake`]; here, not in [`Ctx`], whose size every hook call pays).
     pub(super) wake: bool,
+    /// The active node-id: the node's own (here, where the hook's context
+    /// reaches it through `hook`, so that building a [`Ctx`] for every
+    /// hook call does not copy it).
+    pub(super) node_id: u8,
     /// The node's store in stages (an SDO 0x1010/0x1011 in progress, or idle).
     pub(super) store: crate::services::store::Job,
     /// The node's epoch: the [`Instant`] (in µs) its [`At`]s count from
     /// (here, where the hook's context reaches it through `hook`, so that
     /// [`Ctx`] stays as small as it was).
     pub(super) epoch: u64,
-    /// The active node-id: the node's own (here, where the hook's context
-    /// reaches it through `hook`, so that building a [`Ctx`] for every
-    /// hook call does not copy it).
-    pub(super) node_id: u8,
+    /// Raw frames sent by the hook, queued by the node when the hook returns
+    /// (an SDO transfer holds the transmit queue while its hooks run).
+    pub(super) frames: [CanFrame; RAW_BURST],
 }
 
 impl HookSide {

@@ -56,25 +56,27 @@ pub enum ErrorBehaviour {
 
 /// The communication services and the identifiers they use.
 #[derive(Clone, Debug)]
+// The small services and flags first, the consumers' and the PDOs' arrays last: shorter offsets on thumbv7m.
+#[repr(C)]
 pub struct Comm<const R: usize, const T: usize, const HB: usize> {
+    /// TIME consumer COB-ID, if 0x1012 bit 31 (consume) is set.
+    pub time_cob_id: Option<u16>,
+    /// The RPDOs' mapping failed at this reset (their count stands for the TPDOs' too).
+    rpdo_mapping_failed: bool,
+    /// PDO mappings that did not resolve at the last reset communication.
+    pub mapping_errors: u32,
     /// Heartbeat producer (0x1017).
     pub heartbeat: Producer,
-    /// Heartbeat consumer (0x1016).
-    pub consumers: Consumer<HB>,
+    /// SYNC consumer and producer (0x1005–0x1007, 0x1019).
+    pub sync: SyncService,
     /// Node and life guarding (0x100C, 0x100D).
     pub guarding: Guarding,
     /// EMCY producer (0x1014, 0x1015) and the error register.
     pub emcy: EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
-    /// TIME consumer COB-ID, if 0x1012 bit 31 (consume) is set.
-    pub time_cob_id: Option<u16>,
-    /// SYNC consumer and producer (0x1005–0x1007, 0x1019).
-    pub sync: SyncService,
+    /// Heartbeat consumer (0x1016).
+    pub consumers: Consumer<HB>,
     /// RPDOs and TPDOs (0x1400–0x1BFF).
     pub pdos: Pdos<R, T>,
-    /// PDO mappings that did not resolve at the last reset communication.
-    pub mapping_errors: u32,
-    /// The RPDOs' mapping failed at this reset (their count stands for the TPDOs' too).
-    rpdo_mapping_failed: bool,
 }
 
 impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB> {

@@ -38,16 +38,18 @@ pub struct AcceptedId {
 /// The identifiers a node reacts to, each once. At most 32 entries, so a
 /// linear search is as fast as any and smaller than sorting.
 #[derive(Clone, Debug)]
+// The count and the flags before the identifiers: shorter offsets on thumbv7m.
+#[repr(C)]
 pub struct AcceptanceList {
-    ids: [AcceptedId; ACCEPTANCE_CAPACITY],
     len: usize,
+    generation: u32,
     /// More identifiers than fit: the list is not complete. Not `complete`,
     /// so that a new list is all zero bits ([`crate::node`]).
     overflowed: bool,
-    generation: u32,
     /// A rebuild in place ([`Node::refresh_acceptance`]) wrote an
     /// identifier other than the one its slot held.
     changed: bool,
+    ids: [AcceptedId; ACCEPTANCE_CAPACITY],
 }
 
 /// Two lists are equal when they list the same identifiers in the same

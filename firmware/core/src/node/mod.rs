@@ -170,6 +170,8 @@ impl Counters {
 /// `SDO` is the number of SDO servers (0x1200, 0x1201, …) the node runs, at
 /// least the dictionary's `SDO_SERVER_COUNT` to serve all of them;
 /// [`SDO_SERVERS`] unless given.
+// Per-frame flags and deadlines first (thumbv7m's 2-byte loads reach 32 B for a byte, 128 for a word), buffers and dictionary RAM last.
+#[repr(C)]
 pub struct Node<
     O: ObjectDictionary,
     A: Application,
@@ -179,38 +181,39 @@ pub struct Node<
     const HB: usize,
     const SDO: usize = SDO_SERVERS,
 > {
-    od: O,
-    app: A,
-    storage: S,
     nmt: Nmt,
-    comm: comm::Hooked<A, O, R, T, HB>,
-    sdo: SdoServers<SDO_BUFFER, SDO>,
-    /// COB-IDs (client→server, server→client) of each SDO server, if valid.
-    sdo_cob_ids: [Option<(u16, u16)>; SDO],
-    txq: TxQueue<TX_QUEUE>,
-    counters: Counters,
-    boot_pending: bool,
-    /// The node starts itself (0x1F80, [`ServiceOptions::start_operational`])
-    /// once its boot-up message has left: TPDOs would overtake it in the priority queue.
-    start_pending: bool,
-    /// Bit t: the RAM image may have changed under TPDO t since it last
-    /// compared its data (change-of-state detection runs only then, not on
-    /// every call, and only for the TPDOs a write can change).
-    touched: u32,
     /// Something beyond PDO data and SDO transfers changed since the last
     /// full [`Node::process`] (a frame for NMT, heartbeat, SYNC or LSS, a
     /// reset, a state change, an error, a communication object written):
     /// the next one runs every service again instead of answering from
     /// `core_deadline`.
     stale: bool,
-    /// The earliest deadline of every service but the SDO servers and the
-    /// PDOs, as the last full [`Node::process`] found it (0 before the
-    /// first: due, and all zero bits).
-    core_deadline: At,
     /// The last [`Node::process`] left nothing to do before `next` (no SDO
     /// transfer, no EMCY waiting): until then, and unless `stale` or
     /// `touched` say otherwise, the next one only runs the device's timers.
     quiet: bool,
+    boot_pending: bool,
+    /// The node starts itself (0x1F80, [`ServiceOptions::start_operational`])
+    /// once its boot-up message has left: TPDOs would overtake it in the priority queue.
+    start_pending: bool,
+    lss_active: bool,
+    /// The low byte of [`Counters::tx`] + 1 when a call last asked to be
+    /// called again at once (0: never, as all zero bits; `Node::due_again`).
+    tx_mark: u8,
+    /// The reset in progress, if any (`reset`).
+    reset: reset::Stage,
+    /// The bit-rate table index in use, if known (stored or switched by LSS).
+    bit_rate: Option<u8>,
+    /// A bit-rate change the board has not applied yet.
+    bit_rate_request: Option<u8>,
+    /// Bit t: the RAM image may have changed under TPDO t since it last
+    /// compared its data (change-of-state detection runs only then, not on
+    /// every call, and only for the TPDOs a write can change).
+    touched: u32,
+    /// The earliest deadline of every service but the SDO servers and the
+    /// PDOs, as the last full [`Node::process`] found it (0 before the
+    /// first: due, and all zero bits).
+    core_deadline: At,
     /// The node's own deadline (without the device's) as the last
     /// [`Node::process`] returned it, made earlier by what happened since
     /// (read only while `quiet`, which the first `process` sets).
@@ -222,44 +225,43 @@ pub struct Node<
     /// call before it has only PDO work (`Node::process_pdos`).
     others_next: At,
     reported_overflows: u32,
-    /// The low byte of [`Counters::tx`] + 1 when a call last asked to be
-    /// called again at once (0: never, as all zero bits; `Node::due_again`).
-    tx_mark: u8,
     /// The transmit queue's overflow count when no TPDO was left waiting to
     /// retry a refused frame: a TPDO waits only after the queue refused it,
     /// which counts an overflow, so while the count is the same no TPDO
     /// waits and the PDOs need not be walked for it (`Node::retrying`).
     retry_free_at: u32,
-    /// The LSS slave, in use when `lss_active` (the dictionary says
-    /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
-    /// not be all zero bits (see the module docs).
-    lss: LssSlave,
-    lss_active: bool,
     /// A serial number the board reports, written to 0x1018 sub 4 at every reset.
     serial: Option<u32>,
-    /// The bit-rate table index in use, if known (stored or switched by LSS).
-    bit_rate: Option<u8>,
-    /// The LSS bit-rate switch, if one is in progress.
-    switch: lss::Switch,
-    /// A bit-rate change the board has not applied yet.
-    bit_rate_request: Option<u8>,
-    /// The identifiers the node consumes, for the board's acceptance filter.
-    acceptance: filter::AcceptanceList,
-    /// What a device hook left (raw frames, the wake) and the store in
-    /// progress, a stage per [`Node::process`] call (`store`): borrowed
-    /// whole by every hook's [`Ctx`].
-    hook: app::HookSide,
-    /// The CAN controller's errors (`controller`).
-    controller: controller::ControllerErrors,
-    /// The reset in progress, if any (`reset`).
-    reset: reset::Stage,
-    /// The newest stored set the reset in progress found.
-    reset_stored: Option<crate::services::store::StoredSet>,
     /// For a device that polls when due ([`Application::POLL_WHEN_DUE`]):
     /// when its next [`Application::poll`] is due.
     app_due: PollDue,
     /// The answer that goes out when it ends, if any.
     store_answer: store::StoreAnswer,
+    /// COB-IDs (client→server, server→client) of each SDO server, if valid.
+    sdo_cob_ids: [Option<(u16, u16)>; SDO],
+    storage: S,
+    /// The LSS bit-rate switch, if one is in progress.
+    switch: lss::Switch,
+    /// The newest stored set the reset in progress found.
+    reset_stored: Option<crate::services::store::StoredSet>,
+    /// The CAN controller's errors (`controller`).
+    controller: controller::ControllerErrors,
+    counters: Counters,
+    app: A,
+    /// What a device hook left (raw frames, the wake) and the store in
+    /// progress, a stage per [`Node::process`] call (`store`): borrowed
+    /// whole by every hook's [`Ctx`].
+    hook: app::HookSide,
+    comm: comm::Hooked<A, O, R, T, HB>,
+    txq: TxQueue<TX_QUEUE>,
+    sdo: SdoServers<SDO_BUFFER, SDO>,
+    /// The LSS slave, in use when `lss_active` (the dictionary says
+    /// `LSS_Supported`; set at power-on). Not an `Option`: its `None` would
+    /// not be all zero bits (see the module docs).
+    lss: LssSlave,
+    /// The identifiers the node consumes, for the board's acceptance filter.
+    acceptance: filter::AcceptanceList,
+    od: O,
 }
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>

@@ -59,22 +59,10 @@ struct Active {
 /// and `Q` queued messages. Not `PartialEq`: [`EmcyProducer::reset`] and
 /// [`EmcyProducer::clear`] leave entries past the lists' ends as they were.
 #[derive(Clone, Copy, Debug)]
+// Flags and counters first, the lists last: thumbv7m's 2-byte loads reach a byte only within 32.
+#[repr(C)]
 pub struct EmcyProducer<const A: usize, const Q: usize> {
     cob_id: Option<u16>,
-    /// 0x1015 in µs (at most 6.6 s).
-    inhibit: u32,
-    /// When the next message may go out (its inhibit time ends), once one went out.
-    free_at: Option<At>,
-    active: [Active; A],
-    active_len: usize,
-    /// No held error clears before this ([`NEVER`]: none is held; 0 at
-    /// power-on, the node being all zero bits: the first look finds none).
-    held: At,
-    /// The messages' data bytes ([`Emcy::emit`]), as they go out and are recorded.
-    queue: [[u8; 8]; Q],
-    head: usize,
-    len: usize,
-    overflows: u32,
     lost_errors: bool,
     /// The transmit queue refused frames and has not drained since: an
     /// error of its own, beside the active list, because it shares its code
@@ -83,6 +71,20 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     /// The error register bits of the transmit queue overflow's code (0
     /// before the first: the node is all zero bits at power-on).
     tx_bits: u8,
+    /// 0x1015 in µs (at most 6.6 s).
+    inhibit: u32,
+    /// When the next message may go out (its inhibit time ends), once one went out.
+    free_at: Option<At>,
+    active_len: usize,
+    head: usize,
+    len: usize,
+    overflows: u32,
+    /// No held error clears before this ([`NEVER`]: none is held; 0 at
+    /// power-on, the node being all zero bits: the first look finds none).
+    held: At,
+    active: [Active; A],
+    /// The messages' data bytes ([`Emcy::emit`]), as they go out and are recorded.
+    queue: [[u8; 8]; Q],
 }
 
 impl<const A: usize, const Q: usize> Default for EmcyProducer<A, Q> {
