@@ -134,7 +134,7 @@ fn a_loss_reported_while_reset_communication_runs_clears_a_second_later() {
     let mut b = interop();
     b.node.on_frame(ms(30), &canopen_core::frame::CanFrame::standard(0x000, &[0x82, ID]).unwrap());
     // A reset goes on a stage per call: the loss comes after the stage that
-    // reset EMCY and before the one that resets the controller's state.
+    // reset EMCY (and with it the held errors), while the reset still runs.
     let mut stages = 0;
     while stages < 3 && b.node.resetting() {
         b.node.process(ms(30));

@@ -462,8 +462,9 @@ impl Ctx<'_> {
     /// [`RAW_BURST`] per hook call; the node queues them when the hook
     /// returns, as long as the queue keeps [`super::RAW_RESERVE`] slots free
     /// for heartbeat, EMCY and SDO (a refused frame counts as a queue
-    /// overflow, EMCY 0x8110). False if the burst is full or the frame is not
-    /// a standard one of at most 8 bytes.
+    /// overflow, EMCY 0x8110). False if the burst is full, the frame is not
+    /// a standard one of at most 8 bytes, or the device says
+    /// [`Application::RAW_FRAMES`] `false` (nothing queues raw frames then).
     pub fn send_raw(&mut self, cob_id: u16, data: &[u8]) -> bool {
         match (CanFrame::standard(cob_id, data), self.hook.frames.get_mut(usize::from(self.hook.len))) {
             (Some(frame), Some(slot)) => {
@@ -526,7 +527,8 @@ impl Ctx<'_> {
     }
 
     /// The node rebuilds its acceptance list (the identifiers
-    /// [`Application::claim_ids`] lists have changed).
+    /// [`Application::claim_ids`] lists have changed); nothing without
+    /// [`Services::acceptance`](crate::od::Services::acceptance).
     pub fn refresh_acceptance(&mut self) {
         self.effects.follow.consumed_changed = true;
     }
@@ -719,7 +721,9 @@ pub trait Application {
     }
 
     /// Raw frames: the identifiers [`Application::on_frame`] wants, added to
-    /// the node's acceptance list (the board's filter passes them).
+    /// the node's acceptance list (the board's filter passes them). Not
+    /// called without [`Services::acceptance`](crate::od::Services::acceptance):
+    /// the filter then passes every frame.
     fn claim_ids(&self, dict: &'static Dictionary, image: &[u8], claims: &mut Claims<'_>) {
         let _ = (dict, image, claims);
     }

@@ -12,6 +12,10 @@
 //! lists its SDO and PDO identifiers), so an NMT command never makes a
 //! controller reprogram its filter. [`AcceptanceList::generation`] moves
 //! only when the list itself changed.
+//!
+//! A dictionary built without [`Services::acceptance`](crate::od::Services::acceptance)
+//! keeps no list: [`Node::acceptance`] is then one that is not complete, and
+//! rebuilding it does nothing.
 
 use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
@@ -43,9 +47,11 @@ pub struct AcceptedId {
 pub struct AcceptanceList {
     len: usize,
     generation: u32,
-    /// More identifiers than fit: the list is not complete. Not `complete`,
-    /// so that a new list is all zero bits ([`crate::node`]).
-    overflowed: bool,
+    /// More identifiers than fit, or no list kept (without
+    /// [`Services::acceptance`](crate::od::Services::acceptance), set at
+    /// power-on): the list is not complete. Not `complete`, so that a new
+    /// list is all zero bits ([`crate::node`]).
+    pub(super) overflowed: bool,
     /// A rebuild in place ([`Node::refresh_acceptance`]) wrote an
     /// identifier other than the one its slot held.
     changed: bool,
@@ -125,10 +131,6 @@ impl AcceptanceList {
     }
 }
 
-/// The list of a node without [`Services::acceptance`](crate::od::Services::acceptance):
-/// not complete, so it accepts every frame.
-static EVERY_FRAME: AcceptanceList = AcceptanceList { overflowed: true, ..AcceptanceList::new() };
-
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
@@ -137,7 +139,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// the node keeps no list and this is one that is not complete: a
     /// filter built from it passes every frame.
     pub fn acceptance(&self) -> &AcceptanceList {
-        if O::SERVICES.acceptance { &self.acceptance } else { &EVERY_FRAME }
+        &self.acceptance
     }
 
     /// Rebuilds the list from the services; a new list gets the next

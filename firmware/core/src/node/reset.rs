@@ -90,6 +90,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // `Ctx::send_raw` refuse every one, as the constant says.
             self.hook.len = RAW_BURST as u8;
         }
+        if !O::SERVICES.acceptance {
+            // No list is kept: one that is not complete makes a board's
+            // filter pass every frame ([`Node::acceptance`]).
+            self.acceptance.overflowed = true;
+        }
         // The TPDOs compare their data at their first chance, whatever the image held before.
         self.touched = ALL_TPDOS;
         // The reset's check of the stored sets serves the LSS configuration

@@ -30,7 +30,7 @@ pub const MAX_LEN: usize = 8;
 /// A [`Mapping`] byte read from or written to the RAM image: the offset in
 /// the bits below it. Without it the entry is a constant in its low 8 bits,
 /// so that an all-zero entry (past the mapping's length, or in
-/// [`Mapping::EMPTY`]) builds a 0. RAM image offsets stay below it ([`Slot::resolve`]).
+/// [`Mapping::EMPTY`]) builds a 0. RAM image offsets stay below it ([`Mapping::check_entry`]).
 const RAM: u16 = 0x8000;
 
 /// Which way a PDO carries data.
@@ -64,16 +64,10 @@ pub struct Slot {
 }
 
 impl Slot {
-    /// Checks one mapping entry for `direction` and resolves it: one binary search.
-    pub fn resolve(dict: &Dictionary, entry: MappingEntry, direction: Direction) -> Result<Slot, AbortCode> {
-        let (mut start, mut object) = (Start::default(), EntryRef::NONE);
-        Slot::resolve_into(dict, entry, direction, &mut start, &mut object)?;
-        Ok(start.slot())
-    }
-
-    /// [`Slot::resolve`] into where a [`Mapping`] keeps an entry, with the
-    /// mapped entry into `object` (left as it was for a dummy entry): in
-    /// place, where a pair returned in a `Result` went through the stack.
+    /// Checks one mapping entry for `direction` and resolves it (one binary
+    /// search) into where a [`Mapping`] keeps an entry, with the mapped
+    /// entry into `object` (left as it was for a dummy entry): in place,
+    /// where a pair returned in a `Result` went through the stack.
     // Offset and length are u16s: their sum fits a u32.
     #[allow(clippy::arithmetic_side_effects)]
     fn resolve_into(
@@ -145,7 +139,7 @@ struct Start {
 }
 
 /// [`Start::at`] of a dummy entry: no RAM object's (at least [`RAM`]) and
-/// no ROM object's (every mapped object ends below it, [`Slot::resolve`]).
+/// no ROM object's (every mapped object ends below it, [`Mapping::check_entry`]).
 const DUMMY: u16 = RAM - 1;
 
 /// A mapping resolved against the dictionary: at most [`MAX_ENTRIES`]
