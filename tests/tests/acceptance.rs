@@ -10,7 +10,7 @@ mod common;
 
 use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
-use canopen_core::od::{Dictionary, ObjectDictionary, Services};
+use canopen_core::od::ObjectDictionary;
 use canopen_core::storage::Storage;
 use canopen_core::time::Duration;
 use common::{Bench, ms};
@@ -260,22 +260,11 @@ fn unlisted_frames_change_nothing_in_the_ec5000() {
 
 // ---- Without the list (`Services::acceptance` off) ---------------------------------
 
-/// The interop dictionary linked without the acceptance list, as the
-/// `ds301` and `ds301-lean` size references are (their board receives
-/// every frame).
-struct NoList(Ram);
-
-impl ObjectDictionary for NoList {
-    const SERVICES: Services = Services { acceptance: false, ..<Ram as ObjectDictionary>::SERVICES };
-    fn dictionary(&self) -> &'static Dictionary {
-        self.0.dictionary()
-    }
-    fn image(&self) -> &[u8] {
-        self.0.image()
-    }
-    fn image_mut(&mut self) -> &mut [u8] {
-        self.0.image_mut()
-    }
+common::with_services! {
+    /// The interop dictionary linked without the acceptance list, as the
+    /// `ds301` and `ds301-lean` size references are (their board receives
+    /// every frame).
+    NoList(Ram) { acceptance: false }
 }
 
 #[test]

@@ -13,7 +13,6 @@ mod common;
 
 use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
-use canopen_core::od::{Dictionary, ObjectDictionary, Services};
 use canopen_core::services::nmt::NmtState;
 use common::{Bench, F, abort, ms, ok_write};
 use embedded_can::Frame;
@@ -336,22 +335,11 @@ fn cct_10_4_stop_remote_node() {
     assert_eq!(b.node.state(), NmtState::Stopped);
 }
 
-/// The interop dictionary linked without storage (`Services::storage`
-/// off), as the `ds301-lean` size reference does with CANopenNode's
-/// profile: 0x1010/0x1011 stay in the dictionary, but nothing can be stored.
-struct NoStorage(interop::Ram);
-
-impl ObjectDictionary for NoStorage {
-    const SERVICES: Services = Services { storage: false, ..<interop::Ram as ObjectDictionary>::SERVICES };
-    fn dictionary(&self) -> &'static Dictionary {
-        self.0.dictionary()
-    }
-    fn image(&self) -> &[u8] {
-        self.0.image()
-    }
-    fn image_mut(&mut self) -> &mut [u8] {
-        self.0.image_mut()
-    }
+common::with_services! {
+    /// The interop dictionary linked without storage (`Services::storage`
+    /// off), as the `ds301-lean` size reference does with CANopenNode's
+    /// profile: 0x1010/0x1011 stay in the dictionary, but nothing can be stored.
+    NoStorage(interop::Ram) { storage: false }
 }
 
 #[test]

@@ -22,7 +22,7 @@
 mod common;
 
 use canopen_core::node::NoApplication;
-use canopen_core::od::{Dictionary, ObjectDictionary, Services};
+use canopen_core::od::ObjectDictionary;
 use common::{Bench, F, abort, ms, ok_write};
 use firmware::devices::{bmaxx4400, unitek_ds};
 use hal_host::fixtures::interop::od as interop;
@@ -173,22 +173,11 @@ fn bmaxx() -> Bmaxx {
     b
 }
 
-/// The b maXX 4400's dictionary with block transfer on: the device has no
-/// block transfer (docs/devices/bmaxx4400.md), and the CCT's block writes of
-/// 0x100C need a dictionary with 0x100C and a server that has it.
-struct BlockBmaxx(bmaxx4400::od::Ram);
-
-impl ObjectDictionary for BlockBmaxx {
-    const SERVICES: Services = Services { block_sdo: true, ..<bmaxx4400::od::Ram as ObjectDictionary>::SERVICES };
-    fn dictionary(&self) -> &'static Dictionary {
-        self.0.dictionary()
-    }
-    fn image(&self) -> &[u8] {
-        self.0.image()
-    }
-    fn image_mut(&mut self) -> &mut [u8] {
-        self.0.image_mut()
-    }
+common::with_services! {
+    /// The b maXX 4400's dictionary with block transfer on: the device has no
+    /// block transfer (docs/devices/bmaxx4400.md), and the CCT's block writes of
+    /// 0x100C need a dictionary with 0x100C and a server that has it.
+    BlockBmaxx(bmaxx4400::od::Ram) { block_sdo: true }
 }
 
 fn block_bmaxx() -> Bench<BlockBmaxx, NoApplication, MemStorage, 4, 4, 0> {

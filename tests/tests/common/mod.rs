@@ -14,6 +14,36 @@ use canopen_core::storage::Storage;
 use canopen_core::time::Instant;
 use embedded_can::Frame;
 
+/// `struct $name($ram)`: the dictionary `$ram` with other services than its
+/// EDS chose (`Services { $field: $value, .. }`), as a device whose EDS
+/// chose them would be built.
+// Not every test binary that includes `common` builds such a dictionary.
+#[allow(unused_macros)]
+macro_rules! with_services {
+    ($(#[$meta:meta])* $name:ident($ram:ty) { $($field:ident: $value:expr),* $(,)? }) => {
+        $(#[$meta])*
+        struct $name($ram);
+
+        impl canopen_core::od::ObjectDictionary for $name {
+            const SERVICES: canopen_core::od::Services = canopen_core::od::Services {
+                $($field: $value,)*
+                ..<$ram as canopen_core::od::ObjectDictionary>::SERVICES
+            };
+            fn dictionary(&self) -> &'static canopen_core::od::Dictionary {
+                canopen_core::od::ObjectDictionary::dictionary(&self.0)
+            }
+            fn image(&self) -> &[u8] {
+                canopen_core::od::ObjectDictionary::image(&self.0)
+            }
+            fn image_mut(&mut self) -> &mut [u8] {
+                canopen_core::od::ObjectDictionary::image_mut(&mut self.0)
+            }
+        }
+    };
+}
+#[allow(unused_imports)]
+pub(crate) use with_services;
+
 /// A frame as tests write it: COB-ID and data.
 pub type F = (u16, Vec<u8>);
 
