@@ -20,18 +20,18 @@ use crate::storage::{Storage, StorageError};
 /// step of a store of the interop dictionary is 11,389 thumbv7m instructions
 /// (`cargo xtask icount`, round 13; 9,660 with the payload composed span by span).
 pub const STAGE: usize = super::PIECE;
-/// Where a [`Job`] is.
-/// Where a byte of a new set comes from.
+/// Where a value of a new set comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Source {
     /// The image, as the node holds it now.
     Image,
     /// The dictionary's defaults.
     Defaults,
-    /// The newest set's, already in place.
+    /// The newest set: the value read from it on its own.
     Old,
 }
 
+/// Where a [`Job`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
     /// Nothing to do (zero bits: a node's job before any store).
