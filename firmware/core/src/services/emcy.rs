@@ -10,7 +10,7 @@
 //! ([`EmcyProducer::raise_held`], [`EmcyProducer::expire`]), as the CAN
 //! controller's transient errors do; one list and one walk for them all.
 
-use crate::time::{At, NEVER, later, shift, shift_opt, span_100us};
+use crate::time::{At, NEVER, at_by, later, shift, shift_opt, span_100us};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -391,10 +391,13 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
+        let by = at_by(by);
         shift_opt(&mut self.free_at, by);
         // The next full call looks at the holds again (`rebase` makes it full).
         self.held = 0;
-        for e in self.active.get_mut(..self.active_len).unwrap_or(&mut []) {
+        // Every entry, the free ones too: a raise writes its entry whole, so
+        // theirs is never read (one loop of a fixed count, no bound check).
+        for e in &mut self.active {
             shift(&mut e.until, by);
         }
     }
