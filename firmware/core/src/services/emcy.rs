@@ -490,6 +490,19 @@ mod tests {
     }
 
     #[test]
+    fn an_epoch_move_leaves_nothing_held_in_a_free_entry() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.set_cob_id(0x81);
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [0; 5], us(1000)));
+        e.clear(EmcyCode(0x8110));
+        // The free entry's old hold moves too, past: to 0.
+        e.shift(5000);
+        assert!(e.raise(EmcyCode(0x8130), [0; 5]));
+        assert_eq!(e.expire(us(0)), NEVER, "the new error in that entry is not held");
+        assert!(e.is_active(EmcyCode(0x8130)));
+    }
+
+    #[test]
     fn inhibit_time_spaces_messages() {
         let mut e = EmcyProducer::<4, 4>::default();
         e.set_cob_id(0x85);
