@@ -158,22 +158,32 @@ pub(crate) fn span(d: Duration) -> u32 {
     d.as_micros().min(u64::from(MAX_SPAN)) as u32
 }
 
-/// `t` moved back by `by` µs (an epoch move): 0 once past, [`NEVER`] stays.
+/// An epoch move of `by` µs as the [`At`] shifts take it: cut to
+/// `u32::MAX` (an `At` moved that far is 0 either way).
+// In line: every service's shift is inlined into the node's rebase, where
+// LLVM computes the cut once and passes one register to each call.
+#[inline(always)]
+pub(crate) fn at_by(by: u64) -> u32 {
+    u32::try_from(by).unwrap_or(u32::MAX)
+}
+
+/// `t` moved back by `by` µs (an epoch move, [`at_by`]): 0 once past,
+/// [`NEVER`] stays.
 // Out of line, as the other shifts: an epoch move is rare, and each of its
 // twenty-odd fields in line cost 30 bytes.
 #[inline(never)]
-pub(crate) fn shift(t: &mut At, by: u64) {
+pub(crate) fn shift(t: &mut At, by: u32) {
     if *t != NEVER {
-        *t = t.saturating_sub(u32::try_from(by).unwrap_or(u32::MAX));
+        *t = t.saturating_sub(by);
     }
 }
 
-/// `t` moved back by `by` µs, `None` staying `None` (an armed deadline is
-/// never [`NEVER`]).
+/// `t` moved back by `by` µs ([`at_by`]), `None` staying `None` (an armed
+/// deadline is never [`NEVER`]).
 #[inline(never)]
-pub(crate) fn shift_opt(t: &mut Option<At>, by: u64) {
+pub(crate) fn shift_opt(t: &mut Option<At>, by: u32) {
     if let Some(t) = t {
-        *t = t.saturating_sub(u32::try_from(by).unwrap_or(u32::MAX));
+        *t = t.saturating_sub(by);
     }
 }
 

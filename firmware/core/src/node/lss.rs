@@ -5,7 +5,7 @@
 use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
 use crate::services::store::StoredSet;
 use crate::storage::Storage;
-use crate::time::{At, NEVER, later, ms_span, shift};
+use crate::time::{At, NEVER, at_by, later, ms_span, shift};
 use crate::wire::lss::SLAVE_COB_ID;
 
 use super::{Application, Node};
@@ -48,7 +48,7 @@ impl Switch {
 
     /// The epoch moved by `by` µs.
     pub(super) fn shift(&mut self, by: u64) {
-        shift(&mut self.at, by);
+        shift(&mut self.at, at_by(by));
     }
 
     /// Whether the node stays silent for a switch.

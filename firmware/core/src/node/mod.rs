@@ -122,7 +122,7 @@ impl PollDue {
     /// The epoch moved by `by` µs.
     fn shift(&mut self, by: u64) {
         let mut at = At::from_le_bytes(self.at);
-        time::shift(&mut at, by);
+        time::shift(&mut at, time::at_by(by));
         self.at = at.to_le_bytes();
     }
 }

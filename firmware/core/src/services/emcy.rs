@@ -10,7 +10,7 @@
 //! ([`EmcyProducer::raise_held`], [`EmcyProducer::expire`]), as the CAN
 //! controller's transient errors do; one list and one walk for them all.
 
-use crate::time::{At, NEVER, later, shift, shift_opt, span_100us};
+use crate::time::{At, NEVER, at_by, later, shift, shift_opt, span_100us};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -391,10 +391,13 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
+        let by = at_by(by);
         shift_opt(&mut self.free_at, by);
         // The next full call looks at the holds again (`rebase` makes it full).
         self.held = 0;
-        for e in self.active.get_mut(..self.active_len).unwrap_or(&mut []) {
+        // Every entry, the free ones too: a raise writes its entry whole, so
+        // theirs is never read (one loop of a fixed count, no bound check).
+        for e in &mut self.active {
             shift(&mut e.until, by);
         }
     }
@@ -484,6 +487,19 @@ mod tests {
         assert_eq!(e.expire(us(20)), NEVER, "both in one look");
         let codes: [_; 4] = core::array::from_fn(|_| next(&mut e, us(0), true).map(|(_, m)| (m.code, m.register)));
         assert_eq!(codes[3], Some((EmcyCode::NO_ERROR, 0)), "one error reset, after the last");
+    }
+
+    #[test]
+    fn an_epoch_move_leaves_nothing_held_in_a_free_entry() {
+        let mut e = EmcyProducer::<4, 4>::default();
+        e.set_cob_id(0x81);
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [0; 5], us(1000)));
+        e.clear(EmcyCode(0x8110));
+        // The free entry's old hold moves too, past: to 0.
+        e.shift(5000);
+        assert!(e.raise(EmcyCode(0x8130), [0; 5]));
+        assert_eq!(e.expire(us(0)), NEVER, "the new error in that entry is not held");
+        assert!(e.is_active(EmcyCode(0x8130)));
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! Heartbeat and guarding exclude each other: with a producer heartbeat
 //! time other than 0 the node does not answer guarding requests.
 
-use crate::time::{At, Far, NEVER, at, later, ms_span, shift_opt};
+use crate::time::{At, Far, NEVER, at, at_by, later, ms_span, shift_opt};
 use crate::wire::nmt::NmtStateCode;
 
 /// The heartbeat producer.
@@ -55,7 +55,7 @@ impl Producer {
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
-        shift_opt(&mut self.next, by);
+        shift_opt(&mut self.next, at_by(by));
     }
 }
 
@@ -192,6 +192,7 @@ impl<const N: usize> Consumer<N> {
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
+        let by = at_by(by);
         for m in &mut self.monitors {
             shift_opt(&mut m.deadline, by);
         }

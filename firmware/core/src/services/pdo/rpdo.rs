@@ -16,7 +16,7 @@
 use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
-use crate::time::{At, later, shift_opt};
+use crate::time::{At, at_by, later, shift_opt};
 use crate::wire::emcy::EmcyCode;
 
 /// The state of one RPDO.
@@ -199,6 +199,6 @@ impl Rpdo {
 
     /// The epoch moved by `by` µs.
     pub(super) fn shift(&mut self, by: u64) {
-        shift_opt(&mut self.timeout_at, by);
+        shift_opt(&mut self.timeout_at, at_by(by));
     }
 }

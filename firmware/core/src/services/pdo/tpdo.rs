@@ -26,7 +26,7 @@ use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
 use super::{CommParams, PdoTx};
 use crate::services::sync::SyncEvent;
-use crate::time::{At, Far, NEVER, later, shift_opt};
+use crate::time::{At, Far, NEVER, at_by, later, shift_opt};
 
 /// The state of one TPDO.
 // In this order (`repr(C)`): the flags the paths test and set first,
@@ -400,6 +400,7 @@ impl Tpdo {
 
     /// The epoch moved by `by` µs.
     pub(super) fn shift(&mut self, by: u64) {
+        let by = at_by(by);
         shift_opt(&mut self.inhibit_until, by);
         shift_opt(&mut self.event_at, by);
     }

@@ -41,7 +41,7 @@ use core::num::NonZeroU32;
 
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::time::{At, Duration, NEVER, deadline_of, later, shift, span};
+use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
 use crate::wire::sdo::{InitiateData, RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_fields};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
@@ -375,6 +375,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
+        let by = at_by(by);
         self.channels.iter_mut().for_each(|c| shift(&mut c.deadline, by));
     }
 
