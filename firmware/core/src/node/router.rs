@@ -6,7 +6,7 @@
 use crate::abort::AbortCode;
 use crate::od::access::{copy_from, small_value, upload_value};
 use crate::od::index;
-use crate::od::{DataType, Entry, ObjectAccess, ObjectDictionary, checked_entry, precheck, store_checked, u32_exact};
+use crate::od::{Entry, ObjectAccess, ObjectDictionary, checked_entry, precheck, store_checked, u32_exact};
 use crate::services::store::{Job, LOAD, SAVE, Scope, StoreError};
 use core::cell::Cell;
 use core::marker::PhantomData;
@@ -264,31 +264,17 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
         if let Some(r) = self.app.download_check(self.ctx, index, sub, size) {
             return r;
         }
-        // 0x1010/0x1011 take a 4-byte signature whatever their entries say,
-        // and refuse sub 0 only after its length.
-        let store = |index| index == index::STORE_PARAMETERS || index == index::RESTORE_DEFAULT_PARAMETERS;
-        if !O::HAS_LIMITS && !store(index) {
-            // The checks of a write (`precheck`: a dictionary without limits
-            // has no more), one copy for both. `HAS_LIMITS` is a constant.
+        if index != index::STORE_PARAMETERS && index != index::RESTORE_DEFAULT_PARAMETERS {
+            // The checks of a write but the limits (`precheck`), one copy for both.
             return checked_entry(self.ctx.dict, index, sub, size, false).map(drop);
         }
-        // The dictionary's checks ([`crate::od::DictionaryAccess`]'s), or the store's.
-        let entry = self.ctx.dict.find(index, sub)?;
-        let store = store(index);
-        let read_only = if store { sub == 0 } else { !entry.writable() };
-        let (len, variable) = if store {
-            (4, false)
-        } else if read_only {
-            return Err(AbortCode::ReadOnly);
-        } else if entry.data_type == DataType::Domain {
-            return Err(AbortCode::CannotStore);
-        } else {
-            (usize::from(entry.len), entry.data_type.is_variable_length())
-        };
+        // 0x1010/0x1011 take a 4-byte signature whatever their entries say,
+        // and refuse sub 0 only after its length.
+        self.ctx.dict.find(index, sub)?;
         match size {
-            Some(n) if n > len => Err(AbortCode::LengthTooHigh),
-            Some(n) if n < len && !variable => Err(AbortCode::LengthTooLow),
-            _ if read_only => Err(AbortCode::ReadOnly),
+            Some(n) if n > 4 => Err(AbortCode::LengthTooHigh),
+            Some(n) if n < 4 => Err(AbortCode::LengthTooLow),
+            _ if sub == 0 => Err(AbortCode::ReadOnly),
             _ => Ok(()),
         }
     }

@@ -74,8 +74,8 @@ pub(crate) fn precheck<const LIMITS: bool>(dict: &Dictionary, index: u16, sub: u
 /// [`precheck`] without limits, for a value of `size` bytes (`None`: not
 /// known yet, as an SDO download's initiate may leave it); a writable
 /// DOMAIN is taken if `domain`, else refused (0x08000020: a download
-/// cannot store one). One copy for the writes and the SDO download checks
-/// of a dictionary without limits.
+/// cannot store one). One copy for the writes of a dictionary without
+/// limits and the SDO download checks of every dictionary (0x1010/0x1011 apart).
 pub(crate) fn checked_entry(
     dict: &Dictionary,
     index: u16,
