@@ -1,7 +1,7 @@
 //! Initiate requests: expedited download and upload (CiA 301 §7.2.4.3.3,
 //! §7.2.4.3.6), and the choice between an expedited and a segmented upload.
 
-use super::{Buffer, Channel, Mux, SdoTx, State, Whole, block};
+use super::{Channel, Mux, SdoTx, State, Whole, block};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
@@ -10,44 +10,33 @@ use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, ini
 const EXPEDITED_MAX: usize = 4;
 
 impl Channel {
-    /// Initiate SDO download: an expedited value to write at once (its
-    /// bytes in `raw`, the request as received), or a segmented download
-    /// opened (`crc` `None`) or a block download (`crc` whether the client
-    /// asked for a CRC), answered here.
-    pub(super) fn initiate_download<'b, O: ObjectAccess>(
+    /// Expedited SDO download (byte 0 `b0`, e = 1): the value, bytes 4..
+    /// of the request as received (`raw`, 8 bytes), to be written whole,
+    /// and its answer; `None` if its length (no size indicated) was refused.
+    #[inline(always)]
+    pub(super) fn expedited_download<'b, O: ObjectAccess>(
         &mut self,
-        data: InitiateData,
-        crc: Option<bool>,
+        b0: u8,
         raw: &'b [u8],
-        buf: Buffer<'b>,
         od: &mut O,
         tx: &mut dyn SdoTx,
     ) -> Option<Whole<'b>> {
         let Mux { index, sub } = self.mux;
-        match data {
-            InitiateData::Expedited { size, .. } => {
-                let len = match size {
-                    Some(k) => usize::from(k),
-                    None => match unsized_expedited_len(od, self.mux) {
-                        Ok(k) => k,
-                        Err(code) => {
-                            self.abort(code, tx);
-                            return None;
-                        }
-                    },
-                };
-                // Bytes 4..4 + len of the request as received (8 bytes
-                // long); len is 1 to 4, the sum cannot wrap.
-                let value = raw.get(4..4usize.wrapping_add(len)).unwrap_or(&[]);
-                Some(Whole { value, answer: initiate_download_response(index, sub) })
-            }
-            InitiateData::Segmented { size } => {
-                if self.start_download(size, crc, buf, od, tx) {
-                    self.emit(initiate_download_response(index, sub), tx);
+        let len = if b0 & 0x01 != 0 {
+            // s = 1: n (bits 3-2) bytes do not hold data.
+            expedited_len(b0)
+        } else {
+            match unsized_expedited_len(od, self.mux) {
+                Ok(k) => k,
+                Err(code) => {
+                    self.abort(code, tx);
+                    return None;
                 }
-                None
             }
-        }
+        };
+        // Bytes 4..4 + len of the request; len is 1 to 4, the sum cannot wrap.
+        let value = raw.get(4..4usize.wrapping_add(len)).unwrap_or(&[]);
+        Some(Whole { value, answer: initiate_download_response(index, sub) })
     }
 
     /// Initiate SDO upload, or initiate block upload (`block`): one answer
@@ -84,6 +73,14 @@ impl Channel {
             self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
         }
     }
+}
+
+/// The length of an expedited download with its size indicated (byte 0
+/// `b0`, s = 1): 4 − n, n the bytes that hold no data (bits 3-2).
+// `n` is two bits: 4 − n is 1..=4.
+#[allow(clippy::arithmetic_side_effects)]
+fn expedited_len(b0: u8) -> usize {
+    usize::from(4 - ((b0 >> 2) & 0x03))
 }
 
 /// The length of an expedited download without size indicated (e = 1,

@@ -42,7 +42,7 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
-use crate::wire::sdo::{InitiateData, RequestKind, SdoResponse, frame, initiate_data, multiplexer, segment_fields};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_download_response, multiplexer, segment_fields};
 use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -142,6 +142,15 @@ impl Transfer {
 /// any size a download is started with (those fit the buffer), so that
 /// "more than indicated" is one comparison.
 const UNSIZED: usize = usize::MAX;
+
+/// Whether a request (as received) may start a transfer that takes the
+/// download buffer: an initiate download that is not expedited (ccs 1,
+/// e = 0) or a block download request (ccs 6). A channel holding the buffer
+/// is the only one in a download state, and no other request of an idle
+/// or uploading channel uses it.
+fn may_take_buffer(data: &[u8]) -> bool {
+    matches!(data.first(), Some(&b0) if b0 & 0xE2 == 0x20 || b0 & 0xE0 == 0xC0)
+}
 
 /// A download's value, whole (an expedited download's bytes, or a
 /// segmented or block download's buffer up to its length, every check
@@ -355,7 +364,10 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     pub fn on_request_with<O: ObjectAccess>(&mut self, i: usize, now: At, data: &[u8], block: bool, od: &mut O, tx: &mut dyn SdoTx) {
         // With one server (`K` a constant) no other can hold the buffer:
         // the compiler leaves the scan and every refusal for a lent buffer out.
-        let lent = K > 1 && self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
+        // Only a request that may start a download needs to know (the holder
+        // itself is the only one in a download state): the scan is left
+        // out of uploads and expedited downloads.
+        let lent = K > 1 && may_take_buffer(data) && self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
         let Some(channel) = self.channels.get_mut(i) else { return };
         let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
         channel.on_request(now, data, block, buf, od, tx);
@@ -479,20 +491,32 @@ impl Channel {
                 self.reset();
                 None
             }
+            // An expedited download (e = 1): its value cut from the request
+            // as received, no decode into an enum, no call.
+            (RequestKind::InitiateDownload, _) if b0 & 0x02 != 0 => {
+                self.start(index, sub);
+                self.expedited_download(b0, raw, od, tx)
+            }
             // Segmented and block downloads start alike (one copy of the
             // checks): the block initiate's multiplexer is bytes 1-3 too.
             (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
                 self.start(index, sub);
-                let (data, crc) = if !block || kind == RequestKind::InitiateDownload {
-                    (initiate_data(b0, &f), None)
+                let (size, crc) = if !block || kind == RequestKind::InitiateDownload {
+                    // s = 1: the size in bytes 4-7.
+                    let [.., s0, s1, s2, s3] = f;
+                    ((b0 & 0x01 != 0).then_some(u32::from_le_bytes([s0, s1, s2, s3])), None)
                 } else {
                     match BlockDownloadRequest::decode(&f) {
-                        BlockDownloadRequest::Initiate { crc, size, .. } => (InitiateData::Segmented { size }, Some(crc)),
+                        BlockDownloadRequest::Initiate { crc, size, .. } => (size, Some(crc)),
                         // Not a block download initiate: `kind` says cs = 0.
                         BlockDownloadRequest::End { .. } => return self.unexpected(tx),
                     }
                 };
-                self.initiate_download(data, crc, raw, buf, od, tx)
+                // A block initiate answers itself.
+                if self.start_download(size, crc, buf, od, tx) {
+                    self.emit(initiate_download_response(index, sub), tx);
+                }
+                None
             }
             (RequestKind::InitiateUpload, _) => {
                 self.start(index, sub);
