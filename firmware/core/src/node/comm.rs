@@ -362,6 +362,10 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
         image: &mut [u8],
         rewrite: bool,
     ) -> Result<(), AbortCode> {
+        // Only a device whose manual allows it passes `rewrite` (its
+        // options are `A::OPTIONS`): a constant, so that the others link
+        // none of its rules (a vtable method would take it as a value).
+        let rewrite = A::OPTIONS.pdo_rewrite_while_valid && rewrite;
         match self.comm.pdos.write_checked(index, sub, data, entry, dict, image, rewrite) {
             Some(result) => result,
             // A record of a PDO this node does not have.

@@ -54,9 +54,10 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         rewrite: bool,
     ) -> Option<Result<(), AbortCode>> {
         self.settled = false;
-        let result = self.write_parameter(index, sub, data, Some(entry), dict, image, rewrite);
+        // A record of a PDO this node lacks changes none.
+        let result = self.write_parameter(index, sub, data, Some(entry), dict, image, rewrite)?;
         self.parameters_changed();
-        result
+        Some(result)
     }
 
     /// PDO `n`'s configuration (0-based) in `direction`, if there is that PDO.
