@@ -116,6 +116,37 @@ fn cct_3_2_scan_tpdos() {
     assert_eq!(b.sdo_upload(ID, 0x1804, 1), Err(0x0602_0000));
 }
 
+/// A PDO parameter the PDO's rules refuse is not stored (the abort code, and
+/// the old value read back); one they take is stored and used; writing back
+/// a locked mapping's current value is taken and changes nothing.
+#[test]
+fn a_refused_pdo_download_leaves_the_image_and_a_taken_one_is_stored_and_used() {
+    let mut b = interop();
+    // TPDO1 valid: its inhibit time and its mapping are locked.
+    assert_eq!(w(&mut b, 0x1800, 3, 100, 2), Err(0x0609_0030));
+    assert_eq!(r32(&mut b, 0x1800, 3), 0);
+    assert_eq!(w(&mut b, 0x1A00, 0, 1, 1), Err(0x0601_0000));
+    assert_eq!(r32(&mut b, 0x1A00, 0), 3);
+    assert_eq!(w32(&mut b, 0x1A00, 1, 0x2001_0010), Err(0x0601_0000));
+    assert_eq!(r32(&mut b, 0x1A00, 1), 0x2000_0008);
+    assert_eq!(w(&mut b, 0x1A00, 0, 3, 1), Ok(()), "the current value written back");
+    assert_eq!(r32(&mut b, 0x1A00, 0), 3);
+    // A restricted CAN-ID (0x701) in a valid COB-ID.
+    assert_eq!(w32(&mut b, 0x1800, 1, 0x4000_0701), Err(0x0609_0030));
+    assert_eq!(r32(&mut b, 0x1800, 1), 0x4000_0184);
+    // Invalid, then a new mapping (0x2000 alone) and a new CAN-ID: stored and used.
+    assert_eq!(w32(&mut b, 0x1800, 1, 0xC000_0184), Ok(()));
+    assert_eq!(r32(&mut b, 0x1800, 1), 0xC000_0184);
+    assert_eq!(w(&mut b, 0x1A00, 0, 0, 1), Ok(()));
+    assert_eq!(w(&mut b, 0x1A00, 0, 9, 1), Err(0x0604_0042), "more than 8 entries");
+    assert_eq!(r32(&mut b, 0x1A00, 0), 0);
+    assert_eq!(w(&mut b, 0x1A00, 0, 1, 1), Ok(()));
+    assert_eq!(r32(&mut b, 0x1A00, 0), 1);
+    assert_eq!(w32(&mut b, 0x1800, 1, 0x4000_0190), Ok(()));
+    assert_eq!(r32(&mut b, 0x1800, 1), 0x4000_0190);
+    assert_eq!(start(&mut b), [(0x190, vec![0x11])]);
+}
+
 // ---- One TPDO configured, Operational --------------------------------------------
 
 #[test]

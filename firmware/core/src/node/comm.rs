@@ -7,7 +7,7 @@ use core::ops::{Deref, DerefMut};
 use super::Application;
 use crate::abort::AbortCode;
 use crate::od::index;
-use crate::od::{Dictionary, Entry, ObjectDictionary, object, store_checked, sub_entry, value_u32};
+use crate::od::{Dictionary, Entry, ObjectDictionary, object, sub_entry, value_u32};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::pdo::Pdos;
@@ -240,7 +240,8 @@ pub(crate) trait Services {
     fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]);
 
     /// A download into a PDO record (0x1400–0x1BFF) whose `entry` passed
-    /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may change).
+    /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may
+    /// change): the PDO takes the value; the caller stores it if `Ok`.
     #[allow(clippy::too_many_arguments)]
     fn write_pdo(
         &mut self,
@@ -249,7 +250,7 @@ pub(crate) trait Services {
         data: &[u8],
         entry: &'static Entry,
         dict: &Dictionary,
-        image: &mut [u8],
+        image: &[u8],
         rewrite: bool,
     ) -> Result<(), AbortCode>;
 
@@ -359,14 +360,14 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
         data: &[u8],
         entry: &'static Entry,
         dict: &Dictionary,
-        image: &mut [u8],
+        image: &[u8],
         rewrite: bool,
     ) -> Result<(), AbortCode> {
-        match self.comm.pdos.write_checked(index, sub, data, entry, dict, image, rewrite) {
-            Some(result) => result,
-            // A record of a PDO this node does not have.
-            None => store_checked(image, entry, data).map(|_| ()),
-        }
+        // Only a device whose manual allows it passes `rewrite` (its
+        // options are `A::OPTIONS`): a constant, so that the others link
+        // none of its rules (a vtable method would take it as a value).
+        let rewrite = A::OPTIONS.pdo_rewrite_while_valid && rewrite;
+        self.comm.pdos.write_checked(index, sub, data, entry, dict, image, rewrite)
     }
 
     // Out of line: `reconfigure` (0x1017 at the boot-up) inlined its own

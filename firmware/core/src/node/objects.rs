@@ -145,7 +145,8 @@ impl Ctx<'_> {
                     return Err(AbortCode::DeviceState);
                 }
                 // In Operational a COB-ID follows CiA 301 (it moves only while the PDO is not valid).
-                return self.services.write_pdo(index, sub, data, entry, dict, self.image, rewrite && !operational);
+                // The PDO's rules; the store below, as every kind's.
+                self.services.write_pdo(index, sub, data, entry, dict, self.image, rewrite && !operational)?;
             }
         }
         store_checked(self.image, entry, data)?;

@@ -48,16 +48,18 @@ impl CommParams {
     /// Reads record `index` (0x1400+n or 0x1800+n): two binary searches. A
     /// record without sub 1 is an invalid PDO; a missing sub 2 reads as 254.
     pub fn read(dict: &Dictionary, image: &[u8], index: u16) -> CommParams {
-        let mut params = CommParams::DEFAULT;
+        let mut params = CommParams::UNCONFIGURED;
         params.read_record(dict, image, index);
         params
     }
 
     /// Becomes [`CommParams::read`] of record `index`, in place, and returns
     /// whether sub 1 can be written at all: one pass over the record's
-    /// entries rather than a search per sub-index.
+    /// entries rather than a search per sub-index. From
+    /// [`CommParams::UNCONFIGURED`] (the caller's, cleared): only the two
+    /// fields whose default is not 0 are set first.
     pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16) -> bool {
-        *self = CommParams::DEFAULT;
+        (self.cob_id, self.transmission_type) = (CommParams::DEFAULT.cob_id, CommParams::DEFAULT.transmission_type);
         let mut cob_id_writable = false;
         for entry in object(dict, index) {
             let value = value_u32(dict, image, entry);

@@ -3,11 +3,11 @@
 //! procedure of CiA 301 §7.5.2.36 (the decisions are listed in the module
 //! docs of [`super`]).
 
+use super::Pdos;
 use super::config::{Change, Config};
 use super::map::{Direction, Mapping};
 use super::rpdo::Rpdo;
 use super::tpdo::Tpdo;
-use super::{CommParams, Pdos};
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, Entry, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
 use crate::wire::pdo_mapping::MappingEntry;
@@ -37,11 +37,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.settled = false;
         let result = self.write_parameter(index, sub, data, None, dict, image, rewrite);
         self.parameters_changed();
-        result
+        Some(result?.and_then(|entry| store_checked(image, entry, data)).map(|_| ()))
     }
 
     /// [`Pdos::write_object_with`] of an `entry` the caller found and
-    /// checked as [`precheck`] does (the node's SDO router): no second look-up.
+    /// checked as [`precheck`] does (the node's SDO router), but for the
+    /// store: the PDO takes the value, and the caller stores it when this
+    /// is `Ok` (its tail for every kind of object, so that the PDOs' rules
+    /// have no store of their own). A record of a PDO this node lacks is `Ok`.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn write_checked(
         &mut self,
@@ -50,13 +53,14 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         data: &[u8],
         entry: &'static Entry,
         dict: &Dictionary,
-        image: &mut [u8],
+        image: &[u8],
         rewrite: bool,
-    ) -> Option<Result<(), AbortCode>> {
+    ) -> Result<(), AbortCode> {
         self.settled = false;
-        let result = self.write_parameter(index, sub, data, Some(entry), dict, image, rewrite);
+        // A record of a PDO this node lacks changes none.
+        let Some(result) = self.write_parameter(index, sub, data, Some(entry), dict, image, rewrite) else { return Ok(()) };
         self.parameters_changed();
-        result
+        result.map(|_| ())
     }
 
     /// PDO `n`'s configuration (0-based) in `direction`, if there is that PDO.
@@ -78,10 +82,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         data: &[u8],
         entry: Option<&'static Entry>,
         dict: &Dictionary,
-        image: &mut [u8],
+        image: &[u8],
         rewrite: bool,
-    ) -> Option<Result<(), AbortCode>> {
+    ) -> Option<Result<&'static Entry, AbortCode>> {
         // The same rules for both directions: only the PDO's reaction differs.
+        // On success, the entry for the caller to store the value in (the
+        // PDO's rules read the image as it was).
         let (direction, base) = match index {
             index::RPDO_COMMUNICATION_PARAMETER..=index::RPDO_MAPPING_PARAMETER_LAST => {
                 (Direction::Receive, index::RPDO_COMMUNICATION_PARAMETER)
@@ -118,7 +124,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         if Self::ACT_IN_WALK {
             // `parameters_changed`, which follows, acts on it.
             config.change = change;
-            return Some(Ok(()));
+            return Some(Ok(entry));
         }
         match (direction, change) {
             (_, Change::None) => {}
@@ -127,12 +133,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             (Direction::Transmit, Change::Restart) => self.tpdos.get_mut(n).map_or((), |t| t.restart(None)),
             (Direction::Transmit, Change::Timer) => self.tpdos.get_mut(n).map_or((), Tpdo::rearm_timer),
         }
-        Some(Ok(()))
+        Some(Ok(entry))
     }
 }
 
 /// An SDO download into PDO record (index, sub), a mapping record if
-/// `is_mapping`, applied to the PDO's `config` and the image.
+/// `is_mapping`, applied to the PDO's `config` (the caller stores the value).
 #[allow(clippy::too_many_arguments)]
 fn write_config(
     config: &mut Config,
@@ -143,7 +149,7 @@ fn write_config(
     sub: u8,
     data: &[u8],
     dict: &Dictionary,
-    image: &mut [u8],
+    image: &[u8],
     rewrite: bool,
 ) -> Result<Change, AbortCode> {
     let params = config.params;
@@ -156,7 +162,7 @@ fn write_config(
         (config.mapping, config.unresolved) = (mapping, false);
         return Ok(Change::Restart);
     }
-    let new = write_comm(params, direction, entry, sub, data, image, rewrite)?;
+    let new = params.with(direction, sub, le_u32(data), rewrite)?;
     config.params = new;
     Ok(if (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type) {
         Change::Restart
@@ -165,22 +171,6 @@ fn write_config(
     } else {
         Change::None
     })
-}
-
-/// An SDO download into a communication record; returns the new record.
-#[allow(clippy::too_many_arguments)]
-fn write_comm(
-    params: CommParams,
-    direction: Direction,
-    entry: &'static Entry,
-    sub: u8,
-    data: &[u8],
-    image: &mut [u8],
-    rewrite: bool,
-) -> Result<CommParams, AbortCode> {
-    let new = params.with(direction, sub, le_u32(data), rewrite)?;
-    store_checked(image, entry, data)?;
-    Ok(new)
 }
 
 /// An SDO download into a mapping record; `true` when sub 0 was written
@@ -196,7 +186,7 @@ fn write_map(
     sub: u8,
     data: &[u8],
     dict: &Dictionary,
-    image: &mut [u8],
+    image: &[u8],
     new: &mut Mapping,
 ) -> Result<bool, AbortCode> {
     // As numbers: the precheck held `data` to the entry's length (an
@@ -224,6 +214,5 @@ fn write_map(
         }
         false
     };
-    store_checked(image, entry, data)?;
     Ok(resolved)
 }
