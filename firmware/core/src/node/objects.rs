@@ -132,27 +132,30 @@ impl Ctx<'_> {
                     return Err(AbortCode::InvalidValue);
                 }
             }
-            Kind::CobId => {
+            Kind::CobId | Kind::Consumer => {
                 let new = u32_exact(data)?;
-                // The pre-defined CAN-IDs of the default server: 0x600 + node-ID
-                // (sub 1) or 0x580 + node-ID, below 0x700.
-                #[allow(clippy::arithmetic_side_effects)]
-                let own =
-                    if index != index::SDO_SERVER_PARAMETER { u16::MAX } else { u16::from(node_id) + if sub == 1 { 0x600 } else { 0x580 } };
-                // A COB-ID entry is 4 bytes (the precheck matched the data's
-                // length): its old value, if an SDO could read it.
-                let old = entry.readable().then(|| value_u32(dict, self.image, entry));
-                // Every CobId row's `arg` names a rule (the table's test).
-                if let Some(rule) = RULES.get(usize::from(arg)) {
-                    rule.check(old, new, own)?;
-                }
-            }
-            Kind::Consumer => {
-                let value = u32_exact(data)?;
-                // sub ≥ 1: the kind's.
-                #[allow(clippy::arithmetic_side_effects)]
-                if self.services.consumer_conflicts(usize::from(sub) - 1, value) {
-                    return Err(AbortCode::ParameterIncompatible);
+                if kind == Kind::Consumer {
+                    // sub ≥ 1: the kind's.
+                    #[allow(clippy::arithmetic_side_effects)]
+                    if self.services.consumer_conflicts(usize::from(sub) - 1, new) {
+                        return Err(AbortCode::ParameterIncompatible);
+                    }
+                } else {
+                    // The pre-defined CAN-IDs of the default server: 0x600 + node-ID
+                    // (sub 1) or 0x580 + node-ID, below 0x700.
+                    #[allow(clippy::arithmetic_side_effects)]
+                    let own = if index != index::SDO_SERVER_PARAMETER {
+                        u16::MAX
+                    } else {
+                        u16::from(node_id) + if sub == 1 { 0x600 } else { 0x580 }
+                    };
+                    // A COB-ID entry is 4 bytes (the precheck matched the data's
+                    // length): its old value, if an SDO could read it.
+                    let old = entry.readable().then(|| value_u32(dict, self.image, entry));
+                    // Every CobId row's `arg` names a rule (the table's test).
+                    if let Some(rule) = RULES.get(usize::from(arg)) {
+                        rule.check(old, new, own)?;
+                    }
                 }
             }
             Kind::History => {
