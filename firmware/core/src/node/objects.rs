@@ -69,8 +69,12 @@ const FROM_1: (u8, u8) = (1, u8::MAX);
 /// The COB-ID rules by the rows' `arg`.
 const RULES: [CobRule; 4] = [CobRule::SYNC, CobRule::TIME, CobRule::EMCY, CobRule::VALID];
 
-/// The table: the objects with a rule of their own, none of them overlapping.
+/// The table: the objects with a rule of their own, none of them
+/// overlapping (the first row that holds an object is its kind).
 const TABLE: [Row; 10] = [
+    // The PDOs first: their records take most of a configuration's writes
+    // (a mapping's download found on the first row, not the tenth).
+    Row::new(index::RPDO_COMMUNICATION_PARAMETER, index::TPDO_MAPPING_PARAMETER_LAST, ALL, Kind::Pdo, 0),
     Row::new(index::PRE_DEFINED_ERROR_FIELD, index::PRE_DEFINED_ERROR_FIELD, ALL, Kind::History, 0),
     Row::new(index::COB_ID_SYNC, index::COB_ID_SYNC, ALL, Kind::CobId, 0),
     Row::new(index::COB_ID_TIME_STAMP, index::COB_ID_TIME_STAMP, (0, 0), Kind::CobId, 1),
@@ -80,7 +84,6 @@ const TABLE: [Row; 10] = [
     Row::new(index::ERROR_BEHAVIOUR, index::ERROR_BEHAVIOUR, FROM_1, Kind::AtMost, 2),
     Row::new(index::SDO_SERVER_PARAMETER, index::SDO_SERVER_PARAMETER_LAST, (1, 2), Kind::CobId, 3),
     Row::new(index::SDO_SERVER_PARAMETER, index::SDO_SERVER_PARAMETER_LAST, (3, 3), Kind::AtMost, 127),
-    Row::new(index::RPDO_COMMUNICATION_PARAMETER, index::TPDO_MAPPING_PARAMETER_LAST, ALL, Kind::Pdo, 0),
 ];
 
 impl Kind {
