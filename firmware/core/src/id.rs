@@ -75,39 +75,45 @@ impl CobId {
 /// What a download of one kind of COB-ID entry must pass (CiA 301
 /// §7.5.2.5 SYNC, §7.5.2.13 TIME, §7.5.2.15 EMCY, §7.5.2.33 SDO,
 /// §7.5.2.35/37 PDO): the rules as data, one [`CobRule::check`] for all.
-/// A pair `(mask, off)` of bits 24..31 says when bits 30/31 put the COB-ID
-/// "in use": unless `value >> 24 & mask == off`.
+/// When bits 30/31 put a COB-ID "in use" is a truth table over them: bit
+/// n of a table (n = bits 31..30 of the value, 0..=3) set means "in use"
+/// in that sense. One 16-bit word: the "used" table (bits 0..3), the
+/// "fixed" table (bits 4..7), bit 30 reserved (bit 8), CAN-ID 0 refused
+/// (bit 9); a constant a caller loads in one instruction, where the
+/// six bytes of bools and pairs it had were passed by address.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct CobRule {
-    /// Bit 30 must be 0 too, besides bits 11..29 (no 29-bit CAN-IDs).
-    pub bit30_reserved: bool,
-    /// CAN-ID 0 is refused even while the COB-ID is not in use (EMCY).
-    pub no_zero: bool,
-    /// In use, the CAN-ID may not be restricted (§7.3.5).
-    pub used: (u8, u8),
-    /// While the old and the new COB-ID are both in this sense in use, the
-    /// CAN-ID may not change.
-    pub fixed: (u8, u8),
-}
+pub struct CobRule(u16);
 
-/// Bit 31 clear: in use (PDO, SDO, EMCY valid).
-const VALID: (u8, u8) = (0x80, 0x80);
+/// Bit 31 clear (bits 31..30 = 0b00 or 0b01): in use (PDO, SDO, EMCY valid).
+const VALID: u16 = 0b0011;
 /// Never in use.
-const NEVER: (u8, u8) = (0, 0);
+const NEVER: u16 = 0;
+/// Bit 30 must be 0 too, besides bits 11..29 (no 29-bit CAN-IDs).
+const BIT30_RESERVED: u16 = 1 << 8;
+/// CAN-ID 0 is refused even while the COB-ID is not in use (EMCY).
+const NO_ZERO: u16 = 1 << 9;
 
 impl CobRule {
+    /// The rule with these truth tables: `used` (in use, the CAN-ID may
+    /// not be restricted, §7.3.5) and `fixed` (while the old and the new
+    /// COB-ID are both in this sense in use, the CAN-ID may not change),
+    /// and the flags.
+    const fn new(used: u16, fixed: u16, flags: u16) -> CobRule {
+        CobRule(used | fixed << 4 | flags)
+    }
+
     /// 0x1005: bit 31 "do not care", bit 30 produce; a restricted CAN-ID is
     /// refused even for a consumer; a producer's CAN-ID is fixed.
-    pub const SYNC: CobRule = CobRule { bit30_reserved: false, no_zero: false, used: (0, 1), fixed: (0x40, 0) };
+    pub const SYNC: CobRule = CobRule::new(0b1111, 0b1010, 0);
     /// 0x1012: bit 31 consume, bit 30 produce; the CAN-ID may change in use.
-    pub const TIME: CobRule = CobRule { bit30_reserved: false, no_zero: false, used: (0xC0, 0), fixed: NEVER };
+    pub const TIME: CobRule = CobRule::new(0b1110, NEVER, 0);
     /// 0x1014: bit 31 off, bit 30 reserved, never CAN-ID 0.
-    pub const EMCY: CobRule = CobRule { bit30_reserved: true, no_zero: true, used: VALID, fixed: VALID };
+    pub const EMCY: CobRule = CobRule::new(VALID, VALID, BIT30_RESERVED | NO_ZERO);
     /// 0x1200+ sub 1/2, 0x1400+ and 0x1800+ sub 1: bit 31 not valid, bit 30
     /// dynamic (SDO) or no RTR (PDO).
-    pub const VALID: CobRule = CobRule { bit30_reserved: false, no_zero: false, used: VALID, fixed: VALID };
+    pub const VALID: CobRule = CobRule::new(VALID, VALID, 0);
     /// [`CobRule::VALID`] for a device whose manual lets a valid PDO move.
-    pub const MOVABLE: CobRule = CobRule { fixed: NEVER, ..CobRule::VALID };
+    pub const MOVABLE: CobRule = CobRule::new(VALID, NEVER, 0);
 
     /// Checks `new` against the entry's `old` value (`None`: none to keep),
     /// `own` a restricted CAN-ID this entry may still use (the default SDO
@@ -115,12 +121,15 @@ impl CobRule {
     // Out of line: one copy for the six kinds of COB-ID.
     #[inline(never)]
     pub fn check(self, old: Option<u32>, new: u32, own: u16) -> Result<(), crate::abort::AbortCode> {
-        let on = |(mask, off): (u8, u8), v: u32| (v >> 24) as u8 & mask != off;
+        let rule = u32::from(self.0);
+        // The table's bit for bits 31..30 of `v`.
+        let on = |table: u32, v: u32| (table >> (v >> 30)) & 1 != 0;
+        let (used, fixed) = (rule, rule >> 4);
         let can_id = CobId(new).can_id();
         let restricted = is_restricted_can_id(can_id) && can_id != own;
-        let reserved = if self.bit30_reserved { CobId::EXTENDED | CobId::BIT30 } else { CobId::EXTENDED };
-        let moves = old.is_some_and(|old| on(self.fixed, old) && on(self.fixed, new) && (old ^ new) & 0x7FF != 0);
-        if new & reserved != 0 || (self.no_zero && can_id == 0) || (on(self.used, new) && restricted) || moves {
+        let reserved = if self.0 & BIT30_RESERVED != 0 { CobId::EXTENDED | CobId::BIT30 } else { CobId::EXTENDED };
+        let moves = old.is_some_and(|old| on(fixed, old) && on(fixed, new) && (old ^ new) & 0x7FF != 0);
+        if new & reserved != 0 || (self.0 & NO_ZERO != 0 && can_id == 0) || (on(used, new) && restricted) || moves {
             return Err(crate::abort::AbortCode::InvalidValue);
         }
         Ok(())
@@ -173,6 +182,54 @@ mod tests {
         ];
         for (rule, old, new, own, refused) in cases {
             assert_eq!(rule.check(old, new, own), if refused { Err(InvalidValue) } else { Ok(()) }, "{rule:?} {old:?} -> {new:#X}");
+        }
+    }
+
+    /// The truth tables say what the (mask, off) pairs and flags they
+    /// replaced said (round 14), for every rule on a grid of values.
+    #[test]
+    fn cob_rules_as_tables_decide_as_the_pairs_did() {
+        use crate::abort::AbortCode::InvalidValue;
+        // (bit30 reserved, no zero, used, fixed) as before.
+        fn by_pairs(
+            (bit30_reserved, no_zero, used, fixed): (bool, bool, (u8, u8), (u8, u8)),
+            old: Option<u32>,
+            new: u32,
+            own: u16,
+        ) -> bool {
+            let on = |(mask, off): (u8, u8), v: u32| (v >> 24) as u8 & mask != off;
+            let can_id = CobId(new).can_id();
+            let restricted = is_restricted_can_id(can_id) && can_id != own;
+            let reserved = if bit30_reserved { CobId::EXTENDED | CobId::BIT30 } else { CobId::EXTENDED };
+            let moves = old.is_some_and(|old| on(fixed, old) && on(fixed, new) && (old ^ new) & 0x7FF != 0);
+            new & reserved != 0 || (no_zero && can_id == 0) || (on(used, new) && restricted) || moves
+        }
+        let (valid, never) = ((0x80, 0x80), (0, 0));
+        let rules = [
+            (CobRule::SYNC, (false, false, (0, 1), (0x40, 0))),
+            (CobRule::TIME, (false, false, (0xC0, 0), never)),
+            (CobRule::EMCY, (true, true, valid, valid)),
+            (CobRule::VALID, (false, false, valid, valid)),
+            (CobRule::MOVABLE, (false, false, valid, never)),
+        ];
+        let ids = [0, 1, 0x7F, 0x80, 0x100, 0x101, 0x181, 0x580, 0x581, 0x600, 0x601, 0x604, 0x67F, 0x6E0, 0x700, 0x701, 0x7FF];
+        let mut values = std::vec::Vec::new();
+        for top in 0..4u32 {
+            for high in [0, 0x800, 0x2000_0000] {
+                for id in ids {
+                    values.push(top << 30 | high | id);
+                }
+            }
+        }
+        for (rule, pairs) in rules {
+            for own in [u16::MAX, 0x604] {
+                for &new in &values {
+                    for old in core::iter::once(None).chain(values.iter().copied().map(Some)) {
+                        let want = if by_pairs(pairs, old, new, own) { Err(InvalidValue) } else { Ok(()) };
+                        assert_eq!(rule.check(old, new, own), want, "{rule:?} {old:?} -> {new:#X} own {own:#X}");
+                    }
+                }
+            }
         }
     }
 
