@@ -245,9 +245,18 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             return;
         }
         self.tx_overflow = false;
-        if self.active_len == 0 {
+        self.error_reset();
+    }
+
+    /// "Error reset" (0x0000) once no error is left: nothing active, no
+    /// transmit queue overflow; the lost errors are forgotten with them.
+    // Out of line: `tx_drained` and `remove` share it.
+    #[inline(never)]
+    fn error_reset(&mut self) {
+        if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
-            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
+            // Nothing active, nothing lost, no overflow: the register is 0.
+            self.push(EmcyCode::NO_ERROR, 0, [0; 5]);
         }
     }
 
@@ -281,10 +290,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         {
             *slot = last;
         }
-        if self.active_len == 0 && !self.tx_overflow {
-            self.lost_errors = false;
-            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
-        }
+        self.error_reset();
     }
 
     /// Clears the held errors whose hold ended by `now`; when the next
