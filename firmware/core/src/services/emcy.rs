@@ -210,16 +210,14 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if !new && !repeat {
             return false;
         }
-        let register = self.register();
-        self.push(code, register, info);
+        self.push(code, 0, info);
         new
     }
 
     /// Sends a message for an event that has no lasting state (e.g. a PDO
     /// length error): it sets no active error.
     pub fn signal(&mut self, code: EmcyCode, info: [u8; 5]) {
-        let register = self.register() | register::GENERIC | register_bit(code);
-        self.push(code, register, info);
+        self.push(code, register::GENERIC | register_bit(code), info);
     }
 
     /// The transmit queue refused frames (`refused`: so far): raises `code`
@@ -234,8 +232,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_overflow = true;
         self.tx_bits = register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
-        let register = self.register();
-        self.push(code, register, [a, b, c, d, 1]);
+        self.push(code, 0, [a, b, c, d, 1]);
     }
 
     /// The transmit queue drained after an overflow: the error clears, and
@@ -255,7 +252,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     fn error_reset(&mut self) {
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
-            // Nothing active, nothing lost, no overflow: the register is 0.
+            // Nothing active, nothing lost, no overflow: the register `push` reads is 0.
             self.push(EmcyCode::NO_ERROR, 0, [0; 5]);
         }
     }
@@ -323,9 +320,13 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
-    // Out of line: three callers each had a copy (76 bytes more).
+    /// Queues a message whose error register is the active errors' and `extra`.
+    // Out of line: three callers each had a copy (76 bytes more); the
+    // register read here, not at each of them.
     #[inline(never)]
-    fn push(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) {
+    fn push(&mut self, code: EmcyCode, extra: u8, info: [u8; 5]) {
+        // Read before the check (after it, 8 bytes more).
+        let register = self.register() | extra;
         if self.len == Q {
             self.overflows = self.overflows.saturating_add(1);
             self.lost_errors = true;
