@@ -68,8 +68,9 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     /// error of its own, beside the active list, because it shares its code
     /// (0x8110) with the receive overrun, which comes and goes apart from it.
     tx_overflow: bool,
-    /// The error register bits of the transmit queue overflow's code (0
-    /// before the first: the node is all zero bits at power-on).
+    /// The error register bits of the transmit queue overflow while it is
+    /// active, GENERIC with them; 0 while it is not (and at power-on: the
+    /// node is all zero bits).
     tx_bits: u8,
     /// 0x1015 in µs (at most 6.6 s).
     inhibit: u32,
@@ -131,12 +132,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// The error register as the active errors make it.
     pub fn register(&self) -> u8 {
-        let mut r = if self.active_len > 0 || self.lost_errors || self.tx_overflow { register::GENERIC } else { 0 };
-        if self.tx_overflow {
-            r |= self.tx_bits;
-        }
+        // GENERIC while anything is active or lost (`tx_bits` holds it with the overflow's).
+        let mut r = self.tx_bits | if self.lost_errors { register::GENERIC } else { 0 };
         for e in self.active.iter().take(self.active_len) {
-            r |= register_bit(e.code) | e.bits;
+            r |= register::GENERIC | register_bit(e.code) | e.bits;
         }
         r
     }
@@ -230,7 +229,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             return;
         }
         self.tx_overflow = true;
-        self.tx_bits = register::COMMUNICATION | register_bit(code);
+        self.tx_bits = register::GENERIC | register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
         self.push(code, 0, [a, b, c, d, 1]);
     }
@@ -241,7 +240,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if !self.tx_overflow {
             return;
         }
-        self.tx_overflow = false;
+        (self.tx_overflow, self.tx_bits) = (false, 0);
         self.error_reset();
     }
 
@@ -540,5 +539,35 @@ mod tests {
         assert!(e.raise(EmcyCode(0x8110), [0; 5]), "more active errors than slots are still reported");
         assert_eq!(register_bit(EmcyCode(0x4210)), register::TEMPERATURE);
         assert_eq!(register_bit(EmcyCode(0xFF00)), register::MANUFACTURER);
+    }
+
+    #[test]
+    fn the_register_follows_the_transmit_overflow_lost_errors_and_codes_without_a_class() {
+        let mut e = EmcyProducer::<1, 2>::default();
+        e.set_cob_id(0x81);
+        // A manufacturer-specific code (class 0xF) for the overflow: its bit and COMMUNICATION.
+        e.tx_overflow(EmcyCode(0xF110), 3);
+        assert_eq!(e.register(), 0x91);
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0x10, 0xF1, 0x91, 3, 0, 0, 0, 1])));
+        // A code without a class bit is GENERIC alone, beside the overflow's.
+        assert!(e.raise(EmcyCode(0x1000), [0; 5]));
+        assert_eq!(e.register(), 0x91);
+        e.tx_drained();
+        assert_eq!(e.register(), 0x01, "the overflow's bits went with it, the error's GENERIC stays");
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m[2]), Some(0x91), "queued with the overflow active");
+        // The list is full: a lost error keeps GENERIC until the last one clears.
+        assert!(e.raise(EmcyCode(0x2310), [0; 5]), "sent, though not kept");
+        assert_eq!(e.register(), 0x01);
+        e.clear(EmcyCode(0x1000));
+        assert_eq!(e.register(), 0);
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m[..3] == [0x10, 0x23, 0x01]), Some(true), "the lost error's message");
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0; 8])), "error reset: register 0");
+        // Overflow and drain with nothing else active: error reset with register 0.
+        e.tx_overflow(EmcyCode(0x8110), 1);
+        assert_eq!(e.register(), 0x11);
+        e.tx_drained();
+        assert_eq!(e.register(), 0);
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m[2]), Some(0x11));
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0; 8])));
     }
 }
