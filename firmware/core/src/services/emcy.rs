@@ -10,7 +10,7 @@
 //! ([`EmcyProducer::raise_held`], [`EmcyProducer::expire`]), as the CAN
 //! controller's transient errors do; one list and one walk for them all.
 
-use crate::time::{At, NEVER, at_by, later, shift, shift_opt, span_100us};
+use crate::time::{At, NEVER, at_by, later, shift, span_100us};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -74,8 +74,10 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     tx_bits: u8,
     /// 0x1015 in µs (at most 6.6 s).
     inhibit: u32,
-    /// When the next message may go out (its inhibit time ends), once one went out.
-    free_at: Option<At>,
+    /// When the next message may go out (its inhibit time ends); 0 before
+    /// the first, which may go out at once (an armed time is never
+    /// [`NEVER`]: a shift moves it as an `Option` would).
+    free_at: At,
     active_len: usize,
     head: usize,
     len: usize,
@@ -101,7 +103,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         EmcyProducer {
             cob_id: None,
             inhibit: 0,
-            free_at: None,
+            free_at: 0,
             active: [Active { code: EmcyCode::NO_ERROR, bits: 0, until: 0 }; A],
             active_len: 0,
             held: 0,
@@ -315,7 +317,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
-        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, None, NEVER);
+        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, 0, NEVER);
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
@@ -372,11 +374,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             return None;
         }
         let sending = self.cob_id.is_some();
-        if sending && (!room || self.free_at.is_some_and(|t| now < t)) {
+        if sending && (!room || now < self.free_at) {
             return None;
         }
         if sending {
-            self.free_at = Some(later(now, self.inhibit));
+            self.free_at = later(now, self.inhibit);
         }
         // `len` != 0: a message is there.
         Some((self.cob_id, self.pop()?))
@@ -392,13 +394,13 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.cob_id.is_none() || self.len == 0 {
             return NEVER;
         }
-        self.free_at.unwrap_or(0)
+        self.free_at
     }
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
         let by = at_by(by);
-        shift_opt(&mut self.free_at, by);
+        shift(&mut self.free_at, by);
         // The next full call looks at the holds again (`rebase` makes it full).
         self.held = 0;
         // Every entry, the free ones too: a raise writes its entry whole, so
