@@ -10,7 +10,7 @@
 //! ([`EmcyProducer::raise_held`], [`EmcyProducer::expire`]), as the CAN
 //! controller's transient errors do; one list and one walk for them all.
 
-use crate::time::{At, NEVER, at_by, later, shift, shift_opt, span_100us};
+use crate::time::{At, NEVER, at_by, later, shift, span_100us};
 use crate::wire::emcy::{Emcy, EmcyCode};
 
 /// Error register bits (0x1001, CiA 301 table 47).
@@ -68,13 +68,16 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     /// error of its own, beside the active list, because it shares its code
     /// (0x8110) with the receive overrun, which comes and goes apart from it.
     tx_overflow: bool,
-    /// The error register bits of the transmit queue overflow's code (0
-    /// before the first: the node is all zero bits at power-on).
+    /// The error register bits of the transmit queue overflow while it is
+    /// active, GENERIC with them; 0 while it is not (and at power-on: the
+    /// node is all zero bits).
     tx_bits: u8,
     /// 0x1015 in µs (at most 6.6 s).
     inhibit: u32,
-    /// When the next message may go out (its inhibit time ends), once one went out.
-    free_at: Option<At>,
+    /// When the next message may go out (its inhibit time ends); 0 before
+    /// the first, which may go out at once (an armed time is never
+    /// [`NEVER`]: a shift moves it as an `Option` would).
+    free_at: At,
     active_len: usize,
     head: usize,
     len: usize,
@@ -100,7 +103,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         EmcyProducer {
             cob_id: None,
             inhibit: 0,
-            free_at: None,
+            free_at: 0,
             active: [Active { code: EmcyCode::NO_ERROR, bits: 0, until: 0 }; A],
             active_len: 0,
             held: 0,
@@ -131,12 +134,10 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// The error register as the active errors make it.
     pub fn register(&self) -> u8 {
-        let mut r = if self.active_len > 0 || self.lost_errors || self.tx_overflow { register::GENERIC } else { 0 };
-        if self.tx_overflow {
-            r |= self.tx_bits;
-        }
+        // GENERIC while anything is active or lost (`tx_bits` holds it with the overflow's).
+        let mut r = self.tx_bits | if self.lost_errors { register::GENERIC } else { 0 };
         for e in self.active.iter().take(self.active_len) {
-            r |= register_bit(e.code) | e.bits;
+            r |= register::GENERIC | register_bit(e.code) | e.bits;
         }
         r
     }
@@ -210,16 +211,14 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if !new && !repeat {
             return false;
         }
-        let register = self.register();
-        self.push(code, register, info);
+        self.push(code, 0, info);
         new
     }
 
     /// Sends a message for an event that has no lasting state (e.g. a PDO
     /// length error): it sets no active error.
     pub fn signal(&mut self, code: EmcyCode, info: [u8; 5]) {
-        let register = self.register() | register::GENERIC | register_bit(code);
-        self.push(code, register, info);
+        self.push(code, register::GENERIC | register_bit(code), info);
     }
 
     /// The transmit queue refused frames (`refused`: so far): raises `code`
@@ -232,10 +231,9 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             return;
         }
         self.tx_overflow = true;
-        self.tx_bits = register::COMMUNICATION | register_bit(code);
+        self.tx_bits = register::GENERIC | register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
-        let register = self.register();
-        self.push(code, register, [a, b, c, d, 1]);
+        self.push(code, 0, [a, b, c, d, 1]);
     }
 
     /// The transmit queue drained after an overflow: the error clears, and
@@ -244,10 +242,19 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if !self.tx_overflow {
             return;
         }
-        self.tx_overflow = false;
-        if self.active_len == 0 {
+        (self.tx_overflow, self.tx_bits) = (false, 0);
+        self.error_reset();
+    }
+
+    /// "Error reset" (0x0000) once no error is left: nothing active, no
+    /// transmit queue overflow; the lost errors are forgotten with them.
+    // Out of line: `tx_drained` and `remove` share it.
+    #[inline(never)]
+    fn error_reset(&mut self) {
+        if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
-            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
+            // Nothing active, nothing lost, no overflow: the register `push` reads is 0.
+            self.push(EmcyCode::NO_ERROR, 0, [0; 5]);
         }
     }
 
@@ -281,10 +288,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         {
             *slot = last;
         }
-        if self.active_len == 0 && !self.tx_overflow {
-            self.lost_errors = false;
-            self.push(EmcyCode::NO_ERROR, self.register(), [0; 5]);
-        }
+        self.error_reset();
     }
 
     /// Clears the held errors whose hold ended by `now`; when the next
@@ -313,13 +317,17 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
-        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, None, NEVER);
+        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, 0, NEVER);
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
-    // Out of line: three callers each had a copy (76 bytes more).
+    /// Queues a message whose error register is the active errors' and `extra`.
+    // Out of line: three callers each had a copy (76 bytes more); the
+    // register read here, not at each of them.
     #[inline(never)]
-    fn push(&mut self, code: EmcyCode, register: u8, info: [u8; 5]) {
+    fn push(&mut self, code: EmcyCode, extra: u8, info: [u8; 5]) {
+        // Read before the check (after it, 8 bytes more).
+        let register = self.register() | extra;
         if self.len == Q {
             self.overflows = self.overflows.saturating_add(1);
             self.lost_errors = true;
@@ -366,11 +374,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             return None;
         }
         let sending = self.cob_id.is_some();
-        if sending && (!room || self.free_at.is_some_and(|t| now < t)) {
+        if sending && (!room || now < self.free_at) {
             return None;
         }
         if sending {
-            self.free_at = Some(later(now, self.inhibit));
+            self.free_at = later(now, self.inhibit);
         }
         // `len` != 0: a message is there.
         Some((self.cob_id, self.pop()?))
@@ -386,13 +394,13 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.cob_id.is_none() || self.len == 0 {
             return NEVER;
         }
-        self.free_at.unwrap_or(0)
+        self.free_at
     }
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
         let by = at_by(by);
-        shift_opt(&mut self.free_at, by);
+        shift(&mut self.free_at, by);
         // The next full call looks at the holds again (`rebase` makes it full).
         self.held = 0;
         // Every entry, the free ones too: a raise writes its entry whole, so
@@ -533,5 +541,35 @@ mod tests {
         assert!(e.raise(EmcyCode(0x8110), [0; 5]), "more active errors than slots are still reported");
         assert_eq!(register_bit(EmcyCode(0x4210)), register::TEMPERATURE);
         assert_eq!(register_bit(EmcyCode(0xFF00)), register::MANUFACTURER);
+    }
+
+    #[test]
+    fn the_register_follows_the_transmit_overflow_lost_errors_and_codes_without_a_class() {
+        let mut e = EmcyProducer::<1, 2>::default();
+        e.set_cob_id(0x81);
+        // A manufacturer-specific code (class 0xF) for the overflow: its bit and COMMUNICATION.
+        e.tx_overflow(EmcyCode(0xF110), 3);
+        assert_eq!(e.register(), 0x91);
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0x10, 0xF1, 0x91, 3, 0, 0, 0, 1])));
+        // A code without a class bit is GENERIC alone, beside the overflow's.
+        assert!(e.raise(EmcyCode(0x1000), [0; 5]));
+        assert_eq!(e.register(), 0x91);
+        e.tx_drained();
+        assert_eq!(e.register(), 0x01, "the overflow's bits went with it, the error's GENERIC stays");
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m[2]), Some(0x91), "queued with the overflow active");
+        // The list is full: a lost error keeps GENERIC until the last one clears.
+        assert!(e.raise(EmcyCode(0x2310), [0; 5]), "sent, though not kept");
+        assert_eq!(e.register(), 0x01);
+        e.clear(EmcyCode(0x1000));
+        assert_eq!(e.register(), 0);
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m[..3] == [0x10, 0x23, 0x01]), Some(true), "the lost error's message");
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0; 8])), "error reset: register 0");
+        // Overflow and drain with nothing else active: error reset with register 0.
+        e.tx_overflow(EmcyCode(0x8110), 1);
+        assert_eq!(e.register(), 0x11);
+        e.tx_drained();
+        assert_eq!(e.register(), 0);
+        assert_eq!(e.next(us(0), true).map(|(_, m)| m[2]), Some(0x11));
+        assert_eq!(e.next(us(0), true), Some((Some(0x81), [0; 8])));
     }
 }
