@@ -122,6 +122,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// node without storage links no store code: the defaults alone).
     fn reset_part(&mut self, part: Part) {
         let (dict, image) = (self.od.dictionary(), self.od.image_mut());
+        // A dictionary without application values (both of its ranges
+        // empty): that part has nothing to restore, and no call is linked
+        // (the bounds are the dictionary's constants).
+        if part == Part::Application
+            && dict.comm_len == dict.stored_len
+            && dict.stored_len.saturating_add(dict.comm_rest) >= dict.defaults.len
+        {
+            return;
+        }
         if Self::LOADS_STORED {
             store::reset_part(dict, image, self.hook.node_id, &mut self.storage, self.reset_stored.as_ref(), part);
         } else if part == Part::Communication {
