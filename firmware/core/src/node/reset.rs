@@ -152,7 +152,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The node is Initialising from here on; a reset that includes the
     /// application stays one if a reset communication interrupts it.
-    fn begin_reset(&mut self, application: bool) {
+    pub(super) fn begin_reset(&mut self, application: bool) {
         let application =
             application || matches!(self.reset, Stage::FindThenApplication | Stage::FindOlderThenApplication | Stage::Application);
         self.reset = if application { Stage::FindThenApplication } else { Stage::FindThenCommunication };
