@@ -253,10 +253,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.sdo.reset_all();
         self.configure_sdo();
         self.refresh_acceptance();
-        self.nmt = Nmt::new();
+        // NMT is Initialising and no start pending since `begin_reset`: in
+        // Initialising NMT takes no command and no state change, and only
+        // the boot-up, never sent while resetting, sets `start_pending`.
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.hook.node_id != UNCONFIGURED && self.app.canopen();
-        self.start_pending = false;
         self.reset_hook(now, NmtEvent::ResetCommunication);
     }
 
