@@ -95,8 +95,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // filter pass every frame ([`Node::acceptance`]).
             self.acceptance.overflowed = true;
         }
-        // The TPDOs compare their data at their first chance, whatever the image held before.
-        self.touched = ALL_TPDOS;
         // The reset's check of the stored sets serves the LSS configuration
         // too, which it loads before the reset takes the node-id.
         self.begin_reset(true);
