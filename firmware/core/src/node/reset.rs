@@ -194,8 +194,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 match self.check_stored(older) {
                     Ok(set) => self.reset_stored = set,
                     // A broken newer set: the older one in a call of its own.
+                    // (Only the newer set's check fails: `stage` is a `FindThen…`.)
                     Err(()) => {
-                        let application = self.reset == Stage::Application;
+                        let application = stage == Stage::FindThenApplication;
                         self.reset = if application { Stage::FindOlderThenApplication } else { Stage::FindOlderThenCommunication };
                     }
                 }
