@@ -27,14 +27,18 @@ pub(super) fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, defau
 /// The objects reset communication applies as a download would (sub 0 of
 /// each). One the dictionary lacks counts as 0, but 0x1005 as the
 /// pre-defined SYNC COB-ID and 0x1014 as EMCY off.
+// Those two first: their defaults by position (0x80, then 0x80 << 24), a
+// shift where a match on the index took two compares. Each service's objects keep
+// their order (SYNC's COB-ID before its period; guarding before the
+// heartbeat that disarms it).
 static CONFIGURED: [u16; 10] = [
+    index::COB_ID_SYNC,
     index::COB_ID_EMCY,
     index::INHIBIT_TIME_EMCY,
     index::GUARD_TIME,
     index::LIFE_TIME_FACTOR,
     index::PRODUCER_HEARTBEAT_TIME,
     index::COB_ID_TIME_STAMP,
-    index::COB_ID_SYNC,
     index::COMMUNICATION_CYCLE_PERIOD,
     index::SYNCHRONOUS_WINDOW_LENGTH,
     index::SYNCHRONOUS_COUNTER_OVERFLOW,
@@ -294,9 +298,10 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
             let index = CONFIGURED.get(i).copied().unwrap_or(index::CONSUMER_HEARTBEAT_TIME);
             // At most 127 consumers (0x1016 sub 1..=127): the sub-index fits.
             let sub = i.saturating_sub(CONFIGURED.len().wrapping_sub(1)) as u8;
-            let default = match index {
-                index::COB_ID_SYNC => SYNC_COB_ID.into(),
-                index::COB_ID_EMCY => 0x8000_0000,
+            // 0x1005's 0x80 (i = 0) and 0x1014's 0x8000_0000 (i = 1): `CONFIGURED`'s order.
+            let default = match i {
+                0 => SYNC_COB_ID.into(),
+                1 => 0x8000_0000,
                 _ => 0,
             };
             let value = u32_of(dict, image, index, sub, default);

@@ -95,8 +95,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // filter pass every frame ([`Node::acceptance`]).
             self.acceptance.overflowed = true;
         }
-        // The TPDOs compare their data at their first chance, whatever the image held before.
-        self.touched = ALL_TPDOS;
         // The reset's check of the stored sets serves the LSS configuration
         // too, which it loads before the reset takes the node-id.
         self.begin_reset(true);
@@ -122,6 +120,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// node without storage links no store code: the defaults alone).
     fn reset_part(&mut self, part: Part) {
         let (dict, image) = (self.od.dictionary(), self.od.image_mut());
+        // A dictionary without application values (both of its ranges
+        // empty): that part has nothing to restore, and no call is linked
+        // (the bounds are the dictionary's constants).
+        if part == Part::Application
+            && dict.comm_len == dict.stored_len
+            && dict.stored_len.saturating_add(dict.comm_rest) >= dict.defaults.len
+        {
+            return;
+        }
         if Self::LOADS_STORED {
             store::reset_part(dict, image, self.hook.node_id, &mut self.storage, self.reset_stored.as_ref(), part);
         } else if part == Part::Communication {
@@ -143,7 +150,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The node is Initialising from here on; a reset that includes the
     /// application stays one if a reset communication interrupts it.
-    fn begin_reset(&mut self, application: bool) {
+    pub(super) fn begin_reset(&mut self, application: bool) {
         let application =
             application || matches!(self.reset, Stage::FindThenApplication | Stage::FindOlderThenApplication | Stage::Application);
         self.reset = if application { Stage::FindThenApplication } else { Stage::FindThenCommunication };
@@ -187,8 +194,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 match self.check_stored(older) {
                     Ok(set) => self.reset_stored = set,
                     // A broken newer set: the older one in a call of its own.
+                    // (Only the newer set's check fails: `stage` is a `FindThen…`.)
                     Err(()) => {
-                        let application = self.reset == Stage::Application;
+                        let application = stage == Stage::FindThenApplication;
                         self.reset = if application { Stage::FindOlderThenApplication } else { Stage::FindOlderThenCommunication };
                     }
                 }
@@ -244,10 +252,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         self.sdo.reset_all();
         self.configure_sdo();
         self.refresh_acceptance();
-        self.nmt = Nmt::new();
+        // NMT is Initialising and no start pending since `begin_reset`: in
+        // Initialising NMT takes no command and no state change, and only
+        // the boot-up, never sent while resetting, sets `start_pending`.
         // An unconfigured node (0xFF) sends no boot-up and takes part in LSS only.
         self.boot_pending = self.hook.node_id != UNCONFIGURED && self.app.canopen();
-        self.start_pending = false;
         self.reset_hook(now, NmtEvent::ResetCommunication);
     }
 

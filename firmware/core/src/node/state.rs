@@ -19,8 +19,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         match self.nmt.on_command(request, self.hook.node_id) {
             Transition::None => {}
             Transition::Entered(state) => self.entered(state, now),
-            Transition::ResetApplication => self.reset_application(),
-            Transition::ResetCommunication => self.reset_communication(),
+            // One start for both: a copy of it in line, not two.
+            t @ (Transition::ResetApplication | Transition::ResetCommunication) => self.begin_reset(t == Transition::ResetApplication),
         }
     }
 

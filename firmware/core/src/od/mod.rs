@@ -362,15 +362,29 @@ impl Dictionary {
     /// Restores the communication area (0x1000–0x1FFF) to its defaults and
     /// resolves `$NODEID` there. CiA 301 §7.3.2.2.2 "reset communication".
     pub fn reset_communication(&self, image: &mut [u8], node_id: u8) {
-        self.restore(image, 0..self.comm_len, node_id);
-        self.restore(image, self.stored_len..self.stored_len.saturating_add(self.comm_rest), node_id);
+        let rest = self.stored_len.saturating_add(self.comm_rest);
+        // Without stored application values the two ranges touch: one call
+        // (a node's dictionary is a constant, so the test folds away).
+        if self.comm_len == self.stored_len {
+            self.restore(image, 0..rest, node_id);
+        } else {
+            self.restore(image, 0..self.comm_len, node_id);
+            self.restore(image, self.stored_len..rest, node_id);
+        }
     }
 
     /// Restores the application area (0x2000 and up) to its defaults.
     /// CiA 301 "reset application"; the node follows it with reset communication.
     pub fn reset_application(&self, image: &mut [u8], node_id: u8) {
-        self.restore(image, self.comm_len..self.stored_len, node_id);
-        self.restore(image, self.stored_len.saturating_add(self.comm_rest)..self.defaults.len, node_id);
+        // An empty range restores nothing: no call (a dictionary without
+        // application objects, where the bounds are constants).
+        let rest = self.stored_len.saturating_add(self.comm_rest);
+        if self.comm_len < self.stored_len {
+            self.restore(image, self.comm_len..self.stored_len, node_id);
+        }
+        if rest < self.defaults.len {
+            self.restore(image, rest..self.defaults.len, node_id);
+        }
     }
 
     fn restore(&self, image: &mut [u8], range: core::ops::Range<usize>, node_id: u8) {

@@ -84,6 +84,21 @@ fn reset_communication_leaves_the_application_area_alone() {
     assert_eq!(DICT.read(&img, 0x2000, 0), Ok(&[5, 0][..]));
 }
 
+/// Without stored application values (`comm_len == stored_len`) the two
+/// communication ranges touch and are restored in one call; the empty
+/// application range is skipped. The bytes are those of the ranges alone.
+#[test]
+fn touching_communication_ranges_restore_as_the_two_would() {
+    // Bytes 0..5 stored communication, 5..9 communication not stored, 9..14 application.
+    let dict = Dictionary { comm_len: 5, stored_len: 5, comm_rest: 4, ..DICT };
+    let mut img = [0xAA; 14];
+    dict.reset_communication(&mut img, 0x22);
+    assert_eq!(img, [0, 0xA2, 0, 0, 0, 0xE8, 0x03, 5, 0, 0xAA, 0xAA, 0xAA, 0xAA, 0xAA]);
+    img = [0xAA; 14];
+    dict.reset_application(&mut img, 0x22);
+    assert_eq!(img, [0xAA, 0xAA, 0xAA, 0xAA, 0xAA, 0xAA, 0xAA, 0xAA, 0xAA, b'a', b'b', 0, 0, 0]);
+}
+
 #[test]
 fn writes_are_checked_before_anything_changes() {
     let mut img = image(1);

@@ -226,10 +226,15 @@ pub fn reset_part(
     let start = stored.start.saturating_add(HEADER);
     let set = set.filter(|set| image.get_mut(stored.clone()).is_some_and(|dst| storage.read(set.region, start, dst).is_ok()));
     // The defaults where the set was not read (none read for an empty range: `read` walks every default).
-    for range in [if set.is_some() { 0..0 } else { stored }, others] {
-        if let Some(dst) = image.get_mut(range.clone()).filter(|dst| !dst.is_empty() && range.end <= dict.defaults.len) {
-            dict.defaults.read(range.start, dst);
-        }
+    // Two calls, not a loop over an array of the ranges, which LLVM kept on the stack.
+    let limit = dict.defaults.len;
+    if set.is_none()
+        && let Some(dst) = image.get_mut(stored.clone()).filter(|dst| !dst.is_empty() && stored.end <= limit)
+    {
+        dict.defaults.read(stored.start, dst);
+    }
+    if let Some(dst) = image.get_mut(others.clone()).filter(|dst| !dst.is_empty() && others.end <= limit) {
+        dict.defaults.read(others.start, dst);
     }
     let mut used = false;
     for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && !e.in_rom()) {
