@@ -94,10 +94,6 @@ impl Channel {
     }
 
     /// One frame of a download sub-block.
-    // Out of line: in the main loop (ds301 `run`) it cost more than the call
-    // (ds301 -96 B and core -160 B with `block_upload` below; the devices
-    // have no block transfer). A call more per sub-block segment received.
-    #[inline(never)]
     pub(super) fn block_download_segment(&mut self, segment: BlockSegment, buf: Buffer<'_>, tx: &mut dyn SdoTx) {
         if segment.seqno == 0 && segment.last {
             // 0x80 is an abort from the client (ccs = 4): seqno 0 is never a segment.
@@ -224,8 +220,6 @@ impl Channel {
     }
 
     /// A request while a block upload is in progress.
-    // Out of line, as `block_download_segment`: once per block.
-    #[inline(never)]
     pub(super) fn block_upload(&mut self, request: BlockUploadRequest, tx: &mut dyn SdoTx) {
         let u = self.t;
         match (u.phase, request) {
