@@ -24,7 +24,7 @@
 
 use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
-use super::{CommParams, PdoTx};
+use super::{CommParams, PdoTx, TimerOnly};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Far, NEVER, at_by, later, shift_opt};
 
@@ -39,10 +39,6 @@ pub struct Tpdo {
     /// Whether a change of the mapped data is *not* an event (types 0, 254,
     /// 255): negated so that [`Tpdo::UNCONFIGURED`] is all zero bits.
     no_change_detection: bool,
-    /// Type 254 is timer-only (a device's manual, see [`super::Pdos::set_timer_only_254`]).
-    pub(super) timer_only_254: bool,
-    /// Type 255 with an event timer is timer-only (see [`super::Pdos::set_timer_only_255_with_timer`]).
-    pub(super) timer_only_255_with_timer: bool,
     /// A change of the mapped data is no event here: change detection off,
     /// or [`Tpdo::timer_only`]. Worked out again wherever either may change
     /// (`refresh_change_events`), so that each poll reads one flag.
@@ -90,8 +86,6 @@ impl Tpdo {
     pub(super) const UNCONFIGURED: Tpdo = Tpdo {
         config: Config::UNCONFIGURED,
         no_change_detection: false,
-        timer_only_254: false,
-        timer_only_255_with_timer: false,
         no_change_events: false,
         last: [0; MAX_LEN],
         sent: false,
@@ -136,17 +130,17 @@ impl Tpdo {
 
     /// Whether this PDO is of type 254 on a device that makes 254 timer-only,
     /// or of type 255 with an event timer on a device that makes that timer-only.
-    fn timer_only(&self) -> bool {
+    fn timer_only<P: TimerOnly>(&self) -> bool {
         match self.config.params.transmission_type {
-            254 => self.timer_only_254,
-            255 => self.timer_only_255_with_timer && self.config.params.event_timer_ms != 0,
+            254 => P::TYPE_254,
+            255 => P::TYPE_255_WITH_TIMER && self.config.params.event_timer_ms != 0,
             _ => false,
         }
     }
 
-    pub(super) fn set_change_detection(&mut self, on: bool) {
+    pub(super) fn set_change_detection<P: TimerOnly>(&mut self, on: bool) {
         self.no_change_detection = !on;
-        self.refresh_change_events();
+        self.refresh_change_events::<P>();
     }
 
     /// Whether a change of the mapped data is an event, from the flags and
@@ -154,20 +148,20 @@ impl Tpdo {
     /// [`Tpdo::timer_only`], which `restart` needs too.
     // Out of line: six callers.
     #[inline(never)]
-    pub(super) fn refresh_change_events(&mut self) -> bool {
-        let timer_only = self.timer_only();
+    pub(super) fn refresh_change_events<P: TimerOnly>(&mut self) -> bool {
+        let timer_only = self.timer_only::<P>();
         self.no_change_events = self.no_change_detection || timer_only;
         timer_only
     }
 
-    /// Back to an unconfigured PDO but for the application's choices,
-    /// which survive a reset: change detection and timer-only type 254.
+    /// Back to an unconfigured PDO but for the application's choice,
+    /// which survives a reset: change detection.
     /// For a [`Tpdo::restart`] to follow, which sets the state it keeps
     /// (what was sent, the events, the timers, the SYNC count) and works
     /// out what the choices imply; the last frame and the held one are
     /// not read before they are written again.
     pub(super) fn unconfigure(&mut self) {
-        (self.config, self.timer_only_255_with_timer) = (Config::UNCONFIGURED, false);
+        self.config = Config::UNCONFIGURED;
     }
 
     /// Starts over, as on entering Operational: nothing counts as sent, so
@@ -176,10 +170,10 @@ impl Tpdo {
     /// `now`; without, it is armed at the next poll.
     // Out of line: two callers each had a copy (168 bytes more).
     #[inline(never)]
-    pub(super) fn restart(&mut self, now: Option<At>) {
+    pub(super) fn restart<P: TimerOnly>(&mut self, now: Option<At>) {
         let timer = self.config.params.event_timer();
         self.sent = false;
-        let timer_only = self.refresh_change_events();
+        let timer_only = self.refresh_change_events::<P>();
         self.event = self.is_event_driven() && !timer_only;
         self.change_pending = false;
         self.blocked = false;
@@ -193,19 +187,19 @@ impl Tpdo {
 
     /// Acts on what a download or the configuration changed
     /// ([`Config::change`]), in `Pdos::parameters_changed`'s walk.
-    pub(super) fn act(&mut self) {
+    pub(super) fn act<P: TimerOnly>(&mut self) {
         match core::mem::take(&mut self.config.change) {
             Change::None => {}
-            Change::Restart => self.restart(None),
-            Change::Timer => self.rearm_timer(),
+            Change::Restart => self.restart::<P>(None),
+            Change::Timer => self.rearm_timer::<P>(),
         }
     }
 
     /// The event timer was rewritten: it restarts at the next poll (and
     /// type 255 may have become timer-only or ceased to be).
-    pub(super) fn rearm_timer(&mut self) {
+    pub(super) fn rearm_timer<P: TimerOnly>(&mut self) {
         self.event_at = None;
-        self.refresh_change_events();
+        self.refresh_change_events::<P>();
     }
 
     /// The application signals an event (types 0, 254, 255).

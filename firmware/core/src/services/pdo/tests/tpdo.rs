@@ -104,8 +104,13 @@ fn without_change_detection_only_the_timer_and_the_application_send() {
 
 #[test]
 fn an_event_timer_written_while_valid_makes_type_255_timer_only_where_the_device_says_so() {
-    let mut node = Node::operational(ms(0));
-    node.pdos.set_timer_only_255_with_timer(true);
+    /// The Sendix's reading.
+    struct Timer255;
+    impl TimerOnly for Timer255 {
+        const TYPE_254: bool = false;
+        const TYPE_255_WITH_TIMER: bool = true;
+    }
+    let mut node = Node::<Timer255>::started(ms(0));
     node.poll(ms(0));
     tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
     // Without an event timer a change sends.
