@@ -429,7 +429,7 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
     pub fn set_change_detection(&mut self, n: usize, on: bool) {
         self.settled = false;
         if let Some(t) = self.tpdos.get_mut(n) {
-            t.set_change_detection::<P>(on);
+            t.set_change_detection(on);
         }
     }
 
@@ -566,7 +566,7 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
         }
         let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
         self.settled = false;
-        tpdo.on_rtr(now, cob_id, image, tx)
+        tpdo.on_rtr::<P>(now, cob_id, image, tx)
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then
@@ -647,7 +647,7 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
                     // A marked TPDO, or one waiting to retry, counts as due now (0).
                     let mut due = if marked & bit_of(t) != 0 || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now {
-                        tpdo.poll(now, self.window_end, image, tx);
+                        tpdo.poll::<P>(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);
@@ -659,7 +659,7 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
                 if tpdo.cob_id().is_some() {
                     let mut due = if marked & bit != 0 || bit == u32::MAX || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now {
-                        tpdo.poll(now, self.window_end, image, tx);
+                        tpdo.poll::<P>(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);

@@ -39,10 +39,6 @@ pub struct Tpdo {
     /// Whether a change of the mapped data is *not* an event (types 0, 254,
     /// 255): negated so that [`Tpdo::UNCONFIGURED`] is all zero bits.
     no_change_detection: bool,
-    /// A change of the mapped data is no event here: change detection off,
-    /// or [`Tpdo::timer_only`]. Worked out again wherever either may change
-    /// (`refresh_change_events`), so that each poll reads one flag.
-    no_change_events: bool,
     sent: bool,
     /// An event (initial send, event timer, trigger, RTR) waits to be sent.
     event: bool,
@@ -86,7 +82,6 @@ impl Tpdo {
     pub(super) const UNCONFIGURED: Tpdo = Tpdo {
         config: Config::UNCONFIGURED,
         no_change_detection: false,
-        no_change_events: false,
         last: [0; MAX_LEN],
         sent: false,
         event: false,
@@ -138,27 +133,15 @@ impl Tpdo {
         }
     }
 
-    pub(super) fn set_change_detection<P: TimerOnly>(&mut self, on: bool) {
+    pub(super) fn set_change_detection(&mut self, on: bool) {
         self.no_change_detection = !on;
-        self.refresh_change_events::<P>();
-    }
-
-    /// Whether a change of the mapped data is an event, from the flags and
-    /// parameters it depends on: after each change of them. Returns
-    /// [`Tpdo::timer_only`], which `restart` needs too.
-    // Out of line: six callers.
-    #[inline(never)]
-    pub(super) fn refresh_change_events<P: TimerOnly>(&mut self) -> bool {
-        let timer_only = self.timer_only::<P>();
-        self.no_change_events = self.no_change_detection || timer_only;
-        timer_only
     }
 
     /// Back to an unconfigured PDO but for the application's choice,
     /// which survives a reset: change detection.
     /// For a [`Tpdo::restart`] to follow, which sets the state it keeps
     /// (what was sent, the events, the timers, the SYNC count) and works
-    /// out what the choices imply; the last frame and the held one are
+    /// out what the choice and the type imply; the last frame and the held one are
     /// not read before they are written again.
     pub(super) fn unconfigure(&mut self) {
         self.config = Config::UNCONFIGURED;
@@ -173,8 +156,7 @@ impl Tpdo {
     pub(super) fn restart<P: TimerOnly>(&mut self, now: Option<At>) {
         let timer = self.config.params.event_timer();
         self.sent = false;
-        let timer_only = self.refresh_change_events::<P>();
-        self.event = self.is_event_driven() && !timer_only;
+        self.event = self.is_event_driven() && !self.timer_only::<P>();
         self.change_pending = false;
         self.blocked = false;
         self.inhibit_until = None;
@@ -191,15 +173,14 @@ impl Tpdo {
         match core::mem::take(&mut self.config.change) {
             Change::None => {}
             Change::Restart => self.restart::<P>(None),
-            Change::Timer => self.rearm_timer::<P>(),
+            Change::Timer => self.rearm_timer(),
         }
     }
 
-    /// The event timer was rewritten: it restarts at the next poll (and
-    /// type 255 may have become timer-only or ceased to be).
-    pub(super) fn rearm_timer<P: TimerOnly>(&mut self) {
+    /// The event timer was rewritten: it restarts at the next poll (where
+    /// a type 255 may have become timer-only or ceased to be: `service_event` asks).
+    pub(super) fn rearm_timer(&mut self) {
         self.event_at = None;
-        self.refresh_change_events::<P>();
     }
 
     /// The application signals an event (types 0, 254, 255).
@@ -240,7 +221,7 @@ impl Tpdo {
     }
 
     /// Types 254/255: timers, change detection, and the send once the inhibit time allows.
-    fn service_event(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
+    fn service_event<P: TimerOnly>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
         let timer = self.config.params.event_timer();
         if timer != 0 {
             match self.event_at {
@@ -250,7 +231,9 @@ impl Tpdo {
             }
         }
         let (buf, len) = self.build(image);
-        self.change_pending = !self.no_change_events && self.changed(&buf);
+        // A change is no event with change detection off, nor while timer-only
+        // (a constant for most devices: one flag to test).
+        self.change_pending = !(self.no_change_detection || self.timer_only::<P>()) && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.config.params.inhibit_time();
@@ -261,10 +244,10 @@ impl Tpdo {
 
     /// Timers and retries, for a TPDO that can send (the caller checks:
     /// `Pdos::tpdo_live`); `window_end`: of the last SYNC's synchronous window (0x1007).
-    pub(super) fn poll(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn poll<P: TimerOnly>(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.config.params.can_id();
         if self.is_event_driven() {
-            self.service_event(now, cob_id, image, tx);
+            self.service_event::<P>(now, cob_id, image, tx);
         } else if self.pending_sync {
             let len = self.config.mapping.len();
             // No window ([`Far::NEVER`]) never closes.
@@ -338,7 +321,7 @@ impl Tpdo {
 
     /// An RTR for `cob_id`, this PDO's CAN-ID (the caller found the PDO
     /// by it: it is valid and has a mapping); true if it was answered or is pending.
-    pub(super) fn on_rtr(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub(super) fn on_rtr<P: TimerOnly>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.config.params.rtr_allowed() {
             return false;
         }
@@ -354,7 +337,7 @@ impl Tpdo {
             254 | 255 => {
                 self.event = true;
                 self.blocked = false;
-                self.service_event(now, cob_id, image, tx);
+                self.service_event::<P>(now, cob_id, image, tx);
                 true
             }
             _ => false,

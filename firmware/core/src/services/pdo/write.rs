@@ -131,7 +131,7 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
             (Direction::Receive, Change::Restart) => self.rpdos.get_mut(n).map_or((), Rpdo::restart),
             (Direction::Receive, Change::Timer) => self.rpdos.get_mut(n).map_or((), Rpdo::disarm_timer),
             (Direction::Transmit, Change::Restart) => self.tpdos.get_mut(n).map_or((), |t| t.restart::<P>(None)),
-            (Direction::Transmit, Change::Timer) => self.tpdos.get_mut(n).map_or((), Tpdo::rearm_timer::<P>),
+            (Direction::Transmit, Change::Timer) => self.tpdos.get_mut(n).map_or((), Tpdo::rearm_timer),
         }
         Some(Ok(entry))
     }
