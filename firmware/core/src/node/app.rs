@@ -17,7 +17,7 @@ use crate::frame::CanFrame;
 use crate::od::index;
 use crate::od::{DataType, Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
-use crate::services::pdo::TimerOnly;
+use crate::services::pdo::TpdoRules;
 use crate::services::pdo::map::Source as MapSource;
 use crate::services::store::Scope;
 use crate::storage::Storage;
@@ -138,15 +138,18 @@ impl ServiceOptions {
     };
 }
 
-/// The TPDOs' timer-only types of the application `A` ([`ServiceOptions`]'
-/// `tpdo_254_timer_only` and `tpdo_255_timer_only_with_timer`), as the
-/// node's PDOs take them: constants, so that a device without them links
-/// none of their code.
+/// The TPDO rules of a node with the application `A`: its timer-only
+/// types ([`ServiceOptions`]' `tpdo_254_timer_only` and
+/// `tpdo_255_timer_only_with_timer`), and change detection always on (the
+/// node has no call that turns it off). Constants, so that a device
+/// without them links none of their code.
 pub struct OptionsOf<A: ?Sized>(PhantomData<fn() -> A>);
 
-impl<A: Application + ?Sized> TimerOnly for OptionsOf<A> {
+impl<A: Application + ?Sized> TpdoRules for OptionsOf<A> {
     const TYPE_254: bool = A::OPTIONS.tpdo_254_timer_only;
     const TYPE_255_WITH_TIMER: bool = A::OPTIONS.tpdo_255_timer_only_with_timer;
+    // A node never calls `Pdos::set_change_detection`.
+    const SWITCHES_CHANGE_DETECTION: bool = false;
 }
 
 // By hand: derived, they would ask `A` for them.

@@ -12,7 +12,7 @@ use crate::od::{Dictionary, Entry, ObjectDictionary, object, sub_entry, value_u3
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::pdo::map::Mapping;
-use crate::services::pdo::{Cia301, Pdos, TimerOnly};
+use crate::services::pdo::{Cia301, Pdos, TpdoRules};
 use crate::services::sync::SyncService;
 use crate::time::At;
 use crate::wire::emcy::EmcyCode;
@@ -76,17 +76,17 @@ pub struct Comm<const R: usize, const T: usize, const HB: usize, P = Cia301> {
     pub emcy: EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
     /// Heartbeat consumer (0x1016).
     pub consumers: Consumer<HB>,
-    /// RPDOs and TPDOs (0x1400–0x1BFF), timer-only as `P` says.
+    /// RPDOs and TPDOs (0x1400–0x1BFF), the TPDOs as `P` says ([`TpdoRules`]).
     pub pdos: Pdos<R, T, P>,
 }
 
-impl<const R: usize, const T: usize, const HB: usize, P: TimerOnly> Default for Comm<R, T, HB, P> {
+impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Default for Comm<R, T, HB, P> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const R: usize, const T: usize, const HB: usize, P: TimerOnly> Comm<R, T, HB, P> {
+impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, HB, P> {
     /// The services before the first reset communication configures them:
     /// all off, and all zero bits ([`crate::node`]).
     pub const fn new() -> Self {

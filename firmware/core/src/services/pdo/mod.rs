@@ -151,11 +151,12 @@ pub struct MappingError {
     pub code: AbortCode,
 }
 
-/// Where a device's manual makes event-driven TPDOs timer-only (the
-/// node's `ServiceOptions::tpdo_254_timer_only` and
-/// `tpdo_255_timer_only_with_timer`): constants of the device, so that a
-/// device without them links none of the code that asks.
-pub trait TimerOnly {
+/// How the TPDOs of a device treat a change of the mapped data: where its
+/// manual makes event-driven types timer-only (the node's
+/// `ServiceOptions::tpdo_254_timer_only` and `tpdo_255_timer_only_with_timer`),
+/// and whether change detection can be turned off. Constants of the
+/// device, so that a device without them links none of the code that asks.
+pub trait TpdoRules {
     /// Transmission type 254 is timer-only: sent when the event timer
     /// expires, on a trigger or an RTR; never on a change of the mapped
     /// data or on entering Operational.
@@ -164,19 +165,24 @@ pub trait TimerOnly {
     /// the timer expires (or on a trigger or RTR), not on a change of the
     /// mapped data; with event timer 0 a change sends it, as CiA 301 says.
     const TYPE_255_WITH_TIMER: bool;
+    /// Whether [`Pdos::set_change_detection`] may turn a TPDO's change
+    /// detection off; false where nothing calls it (a node), so that the
+    /// PDOs need not ask.
+    const SWITCHES_CHANGE_DETECTION: bool;
 }
 
 /// CiA 301's reading: types 254 and 255 send on a change of the mapped data too.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Cia301;
 
-impl TimerOnly for Cia301 {
+impl TpdoRules for Cia301 {
     const TYPE_254: bool = false;
     const TYPE_255_WITH_TIMER: bool = false;
+    const SWITCHES_CHANGE_DETECTION: bool = true;
 }
 
 /// The PDOs of a node: `R` RPDOs and `T` TPDOs (the generated
-/// `RPDO_COUNT` and `TPDO_COUNT`), event-driven TPDOs as `P` says ([`TimerOnly`]).
+/// `RPDO_COUNT` and `TPDO_COUNT`), the TPDOs as `P` says ([`TpdoRules`]).
 // In this order (`repr(C)`): the TPDOs first (the first one's fields at
 // the offsets `Tpdo` keeps short), then the masks and flags that every
 // path reads, then the RPDOs' arrays: fewer 4-byte thumbv7m loads and
@@ -231,7 +237,7 @@ pub struct Pdos<const R: usize, const T: usize, P = Cia301> {
     rpdo_reach: [u32; R],
     rpdos: [Rpdo; R],
     /// A type, no data (`fn`: `Pdos` is `Send` and `Sync` whatever `P`).
-    timer_only: PhantomData<fn() -> P>,
+    rules: PhantomData<fn() -> P>,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -267,12 +273,12 @@ impl<const R: usize, const T: usize, P> Default for Pdos<R, T, P> {
             sync_rpdos: 0,
             sync_tpdos: 0,
             last_write: (0, 0),
-            timer_only: PhantomData,
+            rules: PhantomData,
         }
     }
 }
 
-impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
+impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// Whether a PDO acts on what a download or its configuration changed
     /// ([`Config::change`](config::Config)) in the walk of
     /// [`Pdos::parameters_changed`], which follows each: with both kinds of
@@ -304,7 +310,7 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
             sync_rpdos: 0,
             sync_tpdos: 0,
             last_write: (0, 0),
-            timer_only: PhantomData,
+            rules: PhantomData,
         }
     }
 
@@ -425,10 +431,15 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
 
     /// Turns change-of-state detection of TPDO `n` on or off (on by default).
     /// Off, only the event timer, [`Pdos::trigger`] and RTRs send it; for
-    /// values that change all the time, such as an encoder position.
+    /// values that change all the time, such as an encoder position. Where
+    /// `P` does not switch it ([`TpdoRules::SWITCHES_CHANGE_DETECTION`], a
+    /// node's), it stays on.
     pub fn set_change_detection(&mut self, n: usize, on: bool) {
         self.settled = false;
-        if let Some(t) = self.tpdos.get_mut(n) {
+        // Not stored where `P` never switches: `Tpdo::change_detection` stays true, as it behaves.
+        if P::SWITCHES_CHANGE_DETECTION
+            && let Some(t) = self.tpdos.get_mut(n)
+        {
             t.set_change_detection(on);
         }
     }
@@ -592,11 +603,11 @@ impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
         let mut bits = self.sync_tpdos;
         while let Some(t) = next_bit(&mut bits) {
             if let Some(tpdo) = self.tpdos.get_mut(t) {
-                tpdo.on_sync(sync, image, tx);
+                tpdo.on_sync::<P>(sync, image, tx);
             }
         }
         for tpdo in self.tpdos.iter_mut().skip(32).filter(|t| t.is_synchronous()) {
-            tpdo.on_sync(sync, image, tx);
+            tpdo.on_sync::<P>(sync, image, tx);
         }
     }
 

@@ -230,7 +230,7 @@ impl Node {
     }
 }
 
-impl<P: TimerOnly> Node<P> {
+impl<P: TpdoRules> Node<P> {
     /// [`Node::new`] with `P`.
     fn configured() -> Node<P> {
         let mut pdos = Pdos::default();

@@ -24,7 +24,7 @@
 
 use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
-use super::{CommParams, PdoTx, TimerOnly};
+use super::{CommParams, PdoTx, TpdoRules};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Far, NEVER, at_by, later, shift_opt};
 
@@ -125,12 +125,18 @@ impl Tpdo {
 
     /// Whether this PDO is of type 254 on a device that makes 254 timer-only,
     /// or of type 255 with an event timer on a device that makes that timer-only.
-    fn timer_only<P: TimerOnly>(&self) -> bool {
+    fn timer_only<P: TpdoRules>(&self) -> bool {
         match self.config.params.transmission_type {
             254 => P::TYPE_254,
             255 => P::TYPE_255_WITH_TIMER && self.config.params.event_timer_ms != 0,
             _ => false,
         }
+    }
+
+    /// Whether a change of the mapped data may be an event: change
+    /// detection on, or a `P` that never turns it off (the node's).
+    fn detects_changes<P: TpdoRules>(&self) -> bool {
+        !(P::SWITCHES_CHANGE_DETECTION && self.no_change_detection)
     }
 
     pub(super) fn set_change_detection(&mut self, on: bool) {
@@ -153,7 +159,7 @@ impl Tpdo {
     /// `now`; without, it is armed at the next poll.
     // Out of line: two callers each had a copy (168 bytes more).
     #[inline(never)]
-    pub(super) fn restart<P: TimerOnly>(&mut self, now: Option<At>) {
+    pub(super) fn restart<P: TpdoRules>(&mut self, now: Option<At>) {
         let timer = self.config.params.event_timer();
         self.sent = false;
         self.event = self.is_event_driven() && !self.timer_only::<P>();
@@ -169,7 +175,7 @@ impl Tpdo {
 
     /// Acts on what a download or the configuration changed
     /// ([`Config::change`]), in `Pdos::parameters_changed`'s walk.
-    pub(super) fn act<P: TimerOnly>(&mut self) {
+    pub(super) fn act<P: TpdoRules>(&mut self) {
         match core::mem::take(&mut self.config.change) {
             Change::None => {}
             Change::Restart => self.restart::<P>(None),
@@ -221,7 +227,7 @@ impl Tpdo {
     }
 
     /// Types 254/255: timers, change detection, and the send once the inhibit time allows.
-    fn service_event<P: TimerOnly>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
+    fn service_event<P: TpdoRules>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
         let timer = self.config.params.event_timer();
         if timer != 0 {
             match self.event_at {
@@ -233,7 +239,7 @@ impl Tpdo {
         let (buf, len) = self.build(image);
         // A change is no event with change detection off, nor while timer-only
         // (a constant for most devices: one flag to test).
-        self.change_pending = !(self.no_change_detection || self.timer_only::<P>()) && self.changed(&buf);
+        self.change_pending = self.detects_changes::<P>() && !self.timer_only::<P>() && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.config.params.inhibit_time();
@@ -244,7 +250,7 @@ impl Tpdo {
 
     /// Timers and retries, for a TPDO that can send (the caller checks:
     /// `Pdos::tpdo_live`); `window_end`: of the last SYNC's synchronous window (0x1007).
-    pub(super) fn poll<P: TimerOnly>(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn poll<P: TpdoRules>(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.config.params.can_id();
         if self.is_event_driven() {
             self.service_event::<P>(now, cob_id, image, tx);
@@ -265,7 +271,7 @@ impl Tpdo {
 
     /// A SYNC (received or produced), for a TPDO that
     /// [`Tpdo::is_synchronous`] (the caller checks: `Pdos::sync_tpdos`).
-    pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn on_sync<P: TpdoRules>(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.config.params.can_id();
         // A frame refused at the previous SYNC is stale now.
         self.pending_sync = false;
@@ -295,7 +301,7 @@ impl Tpdo {
             }
             0 => {
                 let (buf, len) = self.build(image);
-                (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
+                (self.event || (self.detects_changes::<P>() && self.changed(&buf))).then_some((buf, len))
             }
             252 => {
                 (self.held, self.sampled) = (self.build(image).0, true);
@@ -321,7 +327,7 @@ impl Tpdo {
 
     /// An RTR for `cob_id`, this PDO's CAN-ID (the caller found the PDO
     /// by it: it is valid and has a mapping); true if it was answered or is pending.
-    pub(super) fn on_rtr<P: TimerOnly>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub(super) fn on_rtr<P: TpdoRules>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.config.params.rtr_allowed() {
             return false;
         }

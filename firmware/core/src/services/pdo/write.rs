@@ -7,12 +7,12 @@ use super::config::{Change, Config};
 use super::map::{Direction, Mapping};
 use super::rpdo::Rpdo;
 use super::tpdo::Tpdo;
-use super::{Pdos, TimerOnly};
+use super::{Pdos, TpdoRules};
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, Entry, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
 use crate::wire::pdo_mapping::MappingEntry;
 
-impl<const R: usize, const T: usize, P: TimerOnly> Pdos<R, T, P> {
+impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// An SDO download of (index, sub): `None` if it is not a parameter of
     /// one of these PDOs, else the outcome. On success the image holds the
     /// value (through [`Dictionary::write`]) and the PDO uses it.
