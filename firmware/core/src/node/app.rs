@@ -10,11 +10,14 @@
 //! change-of-state TPDO leaves in the same `process` (unless its inhibit time
 //! holds it back).
 
+use core::marker::PhantomData;
+
 use crate::abort::AbortCode;
 use crate::frame::CanFrame;
 use crate::od::index;
 use crate::od::{DataType, Dictionary, EntryRef};
 use crate::services::nmt::NmtState;
+use crate::services::pdo::TpdoRules;
 use crate::services::pdo::map::Source as MapSource;
 use crate::services::store::Scope;
 use crate::storage::Storage;
@@ -133,6 +136,35 @@ impl ServiceOptions {
         boot_up_v3: None,
         communication_error_pre_operational: None,
     };
+}
+
+/// The TPDO rules of a node with the application `A`: its timer-only
+/// types ([`ServiceOptions`]' `tpdo_254_timer_only` and
+/// `tpdo_255_timer_only_with_timer`), and change detection always on (the
+/// node has no call that turns it off). Constants, so that a device
+/// without them links none of their code.
+pub struct OptionsOf<A: ?Sized>(PhantomData<fn() -> A>);
+
+impl<A: Application + ?Sized> TpdoRules for OptionsOf<A> {
+    const TYPE_254: bool = A::OPTIONS.tpdo_254_timer_only;
+    const TYPE_255_WITH_TIMER: bool = A::OPTIONS.tpdo_255_timer_only_with_timer;
+    // A node never calls `Pdos::set_change_detection`.
+    const SWITCHES_CHANGE_DETECTION: bool = false;
+}
+
+// By hand: derived, they would ask `A` for them.
+impl<A: ?Sized> Clone for OptionsOf<A> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<A: ?Sized> Copy for OptionsOf<A> {}
+
+impl<A: ?Sized> core::fmt::Debug for OptionsOf<A> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("OptionsOf")
+    }
 }
 
 /// The image bytes of a value the device sets or reads with every frame

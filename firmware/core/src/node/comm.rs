@@ -5,13 +5,14 @@ use core::marker::PhantomData;
 use core::ops::{Deref, DerefMut};
 
 use super::Application;
+use super::app::OptionsOf;
 use crate::abort::AbortCode;
 use crate::od::index;
 use crate::od::{Dictionary, Entry, ObjectDictionary, object, sub_entry, value_u32};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
-use crate::services::pdo::Pdos;
 use crate::services::pdo::map::Mapping;
+use crate::services::pdo::{Cia301, Pdos, TpdoRules};
 use crate::services::sync::SyncService;
 use crate::time::At;
 use crate::wire::emcy::EmcyCode;
@@ -62,7 +63,7 @@ pub enum ErrorBehaviour {
 #[derive(Clone, Debug)]
 // The small services and flags first, the consumers' and the PDOs' arrays last: shorter offsets on thumbv7m.
 #[repr(C)]
-pub struct Comm<const R: usize, const T: usize, const HB: usize> {
+pub struct Comm<const R: usize, const T: usize, const HB: usize, P = Cia301> {
     /// TIME consumer COB-ID, if 0x1012 bit 31 (consume) is set.
     pub time_cob_id: Option<u16>,
     /// The RPDOs' mapping failed at this reset (their count stands for the TPDOs' too).
@@ -79,17 +80,17 @@ pub struct Comm<const R: usize, const T: usize, const HB: usize> {
     pub emcy: EmcyProducer<EMCY_SLOTS, EMCY_SLOTS>,
     /// Heartbeat consumer (0x1016).
     pub consumers: Consumer<HB>,
-    /// RPDOs and TPDOs (0x1400–0x1BFF).
-    pub pdos: Pdos<R, T>,
+    /// RPDOs and TPDOs (0x1400–0x1BFF), the TPDOs as `P` says ([`TpdoRules`]).
+    pub pdos: Pdos<R, T, P>,
 }
 
-impl<const R: usize, const T: usize, const HB: usize> Default for Comm<R, T, HB> {
+impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Default for Comm<R, T, HB, P> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const R: usize, const T: usize, const HB: usize> Comm<R, T, HB> {
+impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, HB, P> {
     /// The services before the first reset communication configures them:
     /// all off, and all zero bits ([`crate::node`]).
     pub const fn new() -> Self {
@@ -268,12 +269,12 @@ pub(crate) trait Services {
 /// vtable would link whether called or not, and the guarding where `O`
 /// has none ([`ObjectDictionary::SERVICES`]).
 pub(super) struct Hooked<A, O, const R: usize, const T: usize, const HB: usize> {
-    comm: Comm<R, T, HB>,
+    comm: Comm<R, T, HB, OptionsOf<A>>,
     app: PhantomData<A>,
     od: PhantomData<fn() -> O>,
 }
 
-impl<A, O, const R: usize, const T: usize, const HB: usize> Hooked<A, O, R, T, HB> {
+impl<A: Application, O, const R: usize, const T: usize, const HB: usize> Hooked<A, O, R, T, HB> {
     /// [`Comm::new`].
     pub(super) const fn new() -> Self {
         Hooked { comm: Comm::new(), app: PhantomData, od: PhantomData }
@@ -321,15 +322,15 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
 }
 
 impl<A, O, const R: usize, const T: usize, const HB: usize> Deref for Hooked<A, O, R, T, HB> {
-    type Target = Comm<R, T, HB>;
+    type Target = Comm<R, T, HB, OptionsOf<A>>;
 
-    fn deref(&self) -> &Comm<R, T, HB> {
+    fn deref(&self) -> &Comm<R, T, HB, OptionsOf<A>> {
         &self.comm
     }
 }
 
 impl<A, O, const R: usize, const T: usize, const HB: usize> DerefMut for Hooked<A, O, R, T, HB> {
-    fn deref_mut(&mut self) -> &mut Comm<R, T, HB> {
+    fn deref_mut(&mut self) -> &mut Comm<R, T, HB, OptionsOf<A>> {
         &mut self.comm
     }
 }

@@ -60,7 +60,8 @@ mod state;
 mod store;
 
 pub use app::{
-    Application, Claims, CommError, Ctx, ImageSlot, NmtEvent, NoApplication, RAW_BURST, ServiceOptions, Source, rpdo_object_written,
+    Application, Claims, CommError, Ctx, ImageSlot, NmtEvent, NoApplication, OptionsOf, RAW_BURST, ServiceOptions, Source,
+    rpdo_object_written,
 };
 pub use comm::{Comm, EMCY_SLOTS, ErrorBehaviour};
 pub use controller::{CanEmcyCodes, ControllerEvent, TRANSIENT_ERROR_HOLD};
@@ -625,7 +626,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// The communication services (for inspection in tests and tools).
-    pub fn comm(&self) -> &Comm<R, T, HB> {
+    pub fn comm(&self) -> &Comm<R, T, HB, OptionsOf<A>> {
         &self.comm
     }
 

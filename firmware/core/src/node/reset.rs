@@ -215,14 +215,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             Stage::Services => self.comm.configure(dict, self.od.image(), now),
             Stage::Rpdos => self.comm.configure_pdos(dict, self.od.image(), false),
             Stage::Tpdos => {
+                // Timer-only types are `A::OPTIONS`' constants (`OptionsOf`).
                 self.comm.configure_pdos(dict, self.od.image(), true);
-                if A::OPTIONS.tpdo_254_timer_only {
-                    self.comm.pdos.set_timer_only_254(true);
-                }
                 self.controller.reset();
-                if A::OPTIONS.tpdo_255_timer_only_with_timer {
-                    self.comm.pdos.set_timer_only_255_with_timer(true);
-                }
             }
             Stage::Finish => self.reset_finish(now),
         }

@@ -58,6 +58,8 @@ pub use comm_params::{COB_ID_INVALID, COB_ID_NO_RTR, CommParams};
 #[cfg(test)]
 mod tests;
 
+use core::marker::PhantomData;
+
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
@@ -149,8 +151,38 @@ pub struct MappingError {
     pub code: AbortCode,
 }
 
+/// How the TPDOs of a device treat a change of the mapped data: where its
+/// manual makes event-driven types timer-only (the node's
+/// `ServiceOptions::tpdo_254_timer_only` and `tpdo_255_timer_only_with_timer`),
+/// and whether change detection can be turned off. Constants of the
+/// device, so that a device without them links none of the code that asks.
+pub trait TpdoRules {
+    /// Transmission type 254 is timer-only: sent when the event timer
+    /// expires, on a trigger or an RTR; never on a change of the mapped
+    /// data or on entering Operational.
+    const TYPE_254: bool;
+    /// Type 255 is timer-only while its event timer runs (not 0): sent when
+    /// the timer expires (or on a trigger or RTR), not on a change of the
+    /// mapped data; with event timer 0 a change sends it, as CiA 301 says.
+    const TYPE_255_WITH_TIMER: bool;
+    /// Whether [`Pdos::set_change_detection`] may turn a TPDO's change
+    /// detection off; false where nothing calls it (a node), so that the
+    /// PDOs need not ask.
+    const SWITCHES_CHANGE_DETECTION: bool;
+}
+
+/// CiA 301's reading: types 254 and 255 send on a change of the mapped data too.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Cia301;
+
+impl TpdoRules for Cia301 {
+    const TYPE_254: bool = false;
+    const TYPE_255_WITH_TIMER: bool = false;
+    const SWITCHES_CHANGE_DETECTION: bool = true;
+}
+
 /// The PDOs of a node: `R` RPDOs and `T` TPDOs (the generated
-/// `RPDO_COUNT` and `TPDO_COUNT`).
+/// `RPDO_COUNT` and `TPDO_COUNT`), the TPDOs as `P` says ([`TpdoRules`]).
 // In this order (`repr(C)`): the TPDOs first (the first one's fields at
 // the offsets `Tpdo` keeps short), then the masks and flags that every
 // path reads, then the RPDOs' arrays: fewer 4-byte thumbv7m loads and
@@ -158,7 +190,7 @@ pub struct MappingError {
 // node with TPDOs only 32 B).
 #[repr(C)]
 #[derive(Clone, Debug)]
-pub struct Pdos<const R: usize, const T: usize> {
+pub struct Pdos<const R: usize, const T: usize, P = Cia301> {
     tpdos: [Tpdo; T],
     /// End of the synchronous window opened by the last SYNC; [`Far::NEVER`]:
     /// no window. Read only while Operational ([`Pdos::enter_operational`]
@@ -204,6 +236,8 @@ pub struct Pdos<const R: usize, const T: usize> {
     /// only makes the TPDOs it can change look for a change.
     rpdo_reach: [u32; R],
     rpdos: [Rpdo; R],
+    /// A type, no data (`fn`: `Pdos` is `Send` and `Sync` whatever `P`).
+    rules: PhantomData<fn() -> P>,
 }
 
 /// All TPDOs (a mask of [`Pdos::poll_changed`]).
@@ -223,7 +257,7 @@ fn frame_key(cob_id: u16, len: usize) -> u32 {
     u32::from(cob_id) | (len.min(0xFF) as u32) << 16
 }
 
-impl<const R: usize, const T: usize> Default for Pdos<R, T> {
+impl<const R: usize, const T: usize, P> Default for Pdos<R, T, P> {
     fn default() -> Self {
         Pdos {
             rpdos: [Rpdo::default(); R],
@@ -239,11 +273,12 @@ impl<const R: usize, const T: usize> Default for Pdos<R, T> {
             sync_rpdos: 0,
             sync_tpdos: 0,
             last_write: (0, 0),
+            rules: PhantomData,
         }
     }
 }
 
-impl<const R: usize, const T: usize> Pdos<R, T> {
+impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// Whether a PDO acts on what a download or its configuration changed
     /// ([`Config::change`](config::Config)) in the walk of
     /// [`Pdos::parameters_changed`], which follows each: with both kinds of
@@ -275,6 +310,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             sync_rpdos: 0,
             sync_tpdos: 0,
             last_write: (0, 0),
+            rules: PhantomData,
         }
     }
 
@@ -321,35 +357,12 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 // Restarted by `parameters_changed` below.
                 tpdo.config.change = Change::Restart;
             } else {
-                tpdo.restart(None);
+                tpdo.restart::<P>(None);
             }
         }
         // What each RPDO reaches depends on the TPDOs' mappings.
         self.parameters_changed();
         first_error.map_or(Ok(()), Err)
-    }
-
-    /// Makes transmission type 254 timer-only (sent when the event timer
-    /// expires, on a trigger or an RTR; never on a change of the mapped data
-    /// or on entering Operational), for a device whose manual defines it so.
-    /// It holds over [`Pdos::configure`].
-    pub fn set_timer_only_254(&mut self, on: bool) {
-        self.settled = false;
-        for tpdo in &mut self.tpdos {
-            tpdo.timer_only_254 = on;
-            tpdo.refresh_change_events();
-        }
-    }
-
-    /// Makes type 255 timer-only while its event timer runs (not 0): sent
-    /// when the timer expires (or on a trigger or RTR), not on a change of
-    /// the mapped data; with event timer 0 a change sends it, as CiA 301 says.
-    pub fn set_timer_only_255_with_timer(&mut self, on: bool) {
-        self.settled = false;
-        for tpdo in &mut self.tpdos {
-            tpdo.timer_only_255_with_timer = on;
-            tpdo.refresh_change_events();
-        }
     }
 
     /// Takes each PDO's mapping from the image again (where a device lets
@@ -372,7 +385,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             if mapping.read_record(dict, image, nth(index::TPDO_MAPPING_PARAMETER, n), Direction::Transmit).is_ok() {
                 (tpdo.config.mapping, tpdo.config.unresolved, tpdo.config.change) = (mapping, false, Change::Restart);
                 if !Self::ACT_IN_WALK {
-                    tpdo.act();
+                    tpdo.act::<P>();
                 }
             }
         }
@@ -385,7 +398,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         self.operational = true;
         self.window_end = Far::NEVER;
         self.rpdos.iter_mut().for_each(Rpdo::restart);
-        self.tpdos.iter_mut().for_each(|t| t.restart(Some(now)));
+        self.tpdos.iter_mut().for_each(|t| t.restart::<P>(Some(now)));
     }
 
     /// NMT left Operational: the PDOs stop; frames, RTRs and SYNCs are ignored.
@@ -418,10 +431,15 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
 
     /// Turns change-of-state detection of TPDO `n` on or off (on by default).
     /// Off, only the event timer, [`Pdos::trigger`] and RTRs send it; for
-    /// values that change all the time, such as an encoder position.
+    /// values that change all the time, such as an encoder position. Where
+    /// `P` does not switch it ([`TpdoRules::SWITCHES_CHANGE_DETECTION`], a
+    /// node's), it stays on.
     pub fn set_change_detection(&mut self, n: usize, on: bool) {
         self.settled = false;
-        if let Some(t) = self.tpdos.get_mut(n) {
+        // Not stored where `P` never switches: `Tpdo::change_detection` stays true, as it behaves.
+        if P::SWITCHES_CHANGE_DETECTION
+            && let Some(t) = self.tpdos.get_mut(n)
+        {
             t.set_change_detection(on);
         }
     }
@@ -438,7 +456,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let (mut live, mut sync_tpdos) = (0, 0);
         for (t, tpdo) in self.tpdos.iter_mut().enumerate() {
             if Self::ACT_IN_WALK {
-                tpdo.act();
+                tpdo.act::<P>();
             }
             if tpdo.cob_id().is_some() {
                 live |= bit_of(t);
@@ -559,7 +577,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         }
         let Some(tpdo) = self.tpdos.iter_mut().find(|t| t.cob_id() == Some(cob_id)) else { return false };
         self.settled = false;
-        tpdo.on_rtr(now, cob_id, image, tx)
+        tpdo.on_rtr::<P>(now, cob_id, image, tx)
     }
 
     /// A SYNC, received or produced: synchronous RPDO data is written, then
@@ -585,11 +603,11 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
         let mut bits = self.sync_tpdos;
         while let Some(t) = next_bit(&mut bits) {
             if let Some(tpdo) = self.tpdos.get_mut(t) {
-                tpdo.on_sync(sync, image, tx);
+                tpdo.on_sync::<P>(sync, image, tx);
             }
         }
         for tpdo in self.tpdos.iter_mut().skip(32).filter(|t| t.is_synchronous()) {
-            tpdo.on_sync(sync, image, tx);
+            tpdo.on_sync::<P>(sync, image, tx);
         }
     }
 
@@ -640,7 +658,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                     // A marked TPDO, or one waiting to retry, counts as due now (0).
                     let mut due = if marked & bit_of(t) != 0 || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now {
-                        tpdo.poll(now, self.window_end, image, tx);
+                        tpdo.poll::<P>(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);
@@ -652,7 +670,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
                 if tpdo.cob_id().is_some() {
                     let mut due = if marked & bit != 0 || bit == u32::MAX || tpdo.retrying() { 0 } else { tpdo.due() };
                     if due <= now {
-                        tpdo.poll(now, self.window_end, image, tx);
+                        tpdo.poll::<P>(now, self.window_end, image, tx);
                         due = tpdo.due();
                     }
                     first = first.min(due);

@@ -199,8 +199,9 @@ impl PdoTx for Bus {
     }
 }
 
-struct Node {
-    pdos: Pdos<2, 2>,
+/// The PDOs and their image and bus; timer-only types as `P` says.
+struct Node<P = Cia301> {
+    pdos: Pdos<2, 2, P>,
     image: [u8; RAM],
     bus: Bus,
 }
@@ -220,14 +221,26 @@ fn sync_at(at: At, counter: Option<u8>) -> SyncEvent {
 impl Node {
     /// Configured from the defaults, not yet Operational.
     fn new() -> Node {
+        Node::configured()
+    }
+
+    /// Configured and Operational at `t`.
+    fn operational(t: At) -> Node {
+        Node::started(t)
+    }
+}
+
+impl<P: TpdoRules> Node<P> {
+    /// [`Node::new`] with `P`.
+    fn configured() -> Node<P> {
         let mut pdos = Pdos::default();
         assert_eq!(pdos.configure(&DICT, &DEFAULTS), Ok(()));
         Node { pdos, image: DEFAULTS, bus: Bus::default() }
     }
 
-    /// Configured and Operational at `t`.
-    fn operational(t: At) -> Node {
-        let mut node = Node::new();
+    /// [`Node::operational`] with `P`.
+    fn started(t: At) -> Node<P> {
+        let mut node = Node::configured();
         node.pdos.enter_operational(t);
         node
     }

@@ -24,7 +24,7 @@
 
 use super::config::{Change, Config};
 use super::map::{MAX_LEN, Mapping};
-use super::{CommParams, PdoTx};
+use super::{CommParams, PdoTx, TpdoRules};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Far, NEVER, at_by, later, shift_opt};
 
@@ -39,14 +39,6 @@ pub struct Tpdo {
     /// Whether a change of the mapped data is *not* an event (types 0, 254,
     /// 255): negated so that [`Tpdo::UNCONFIGURED`] is all zero bits.
     no_change_detection: bool,
-    /// Type 254 is timer-only (a device's manual, see [`super::Pdos::set_timer_only_254`]).
-    pub(super) timer_only_254: bool,
-    /// Type 255 with an event timer is timer-only (see [`super::Pdos::set_timer_only_255_with_timer`]).
-    pub(super) timer_only_255_with_timer: bool,
-    /// A change of the mapped data is no event here: change detection off,
-    /// or [`Tpdo::timer_only`]. Worked out again wherever either may change
-    /// (`refresh_change_events`), so that each poll reads one flag.
-    no_change_events: bool,
     sent: bool,
     /// An event (initial send, event timer, trigger, RTR) waits to be sent.
     event: bool,
@@ -90,9 +82,6 @@ impl Tpdo {
     pub(super) const UNCONFIGURED: Tpdo = Tpdo {
         config: Config::UNCONFIGURED,
         no_change_detection: false,
-        timer_only_254: false,
-        timer_only_255_with_timer: false,
-        no_change_events: false,
         last: [0; MAX_LEN],
         sent: false,
         event: false,
@@ -136,38 +125,32 @@ impl Tpdo {
 
     /// Whether this PDO is of type 254 on a device that makes 254 timer-only,
     /// or of type 255 with an event timer on a device that makes that timer-only.
-    fn timer_only(&self) -> bool {
+    fn timer_only<P: TpdoRules>(&self) -> bool {
         match self.config.params.transmission_type {
-            254 => self.timer_only_254,
-            255 => self.timer_only_255_with_timer && self.config.params.event_timer_ms != 0,
+            254 => P::TYPE_254,
+            255 => P::TYPE_255_WITH_TIMER && self.config.params.event_timer_ms != 0,
             _ => false,
         }
     }
 
+    /// Whether a change of the mapped data may be an event: change
+    /// detection on, or a `P` that never turns it off (the node's).
+    fn detects_changes<P: TpdoRules>(&self) -> bool {
+        !(P::SWITCHES_CHANGE_DETECTION && self.no_change_detection)
+    }
+
     pub(super) fn set_change_detection(&mut self, on: bool) {
         self.no_change_detection = !on;
-        self.refresh_change_events();
     }
 
-    /// Whether a change of the mapped data is an event, from the flags and
-    /// parameters it depends on: after each change of them. Returns
-    /// [`Tpdo::timer_only`], which `restart` needs too.
-    // Out of line: six callers.
-    #[inline(never)]
-    pub(super) fn refresh_change_events(&mut self) -> bool {
-        let timer_only = self.timer_only();
-        self.no_change_events = self.no_change_detection || timer_only;
-        timer_only
-    }
-
-    /// Back to an unconfigured PDO but for the application's choices,
-    /// which survive a reset: change detection and timer-only type 254.
+    /// Back to an unconfigured PDO but for the application's choice,
+    /// which survives a reset: change detection.
     /// For a [`Tpdo::restart`] to follow, which sets the state it keeps
     /// (what was sent, the events, the timers, the SYNC count) and works
-    /// out what the choices imply; the last frame and the held one are
+    /// out what the choice and the type imply; the last frame and the held one are
     /// not read before they are written again.
     pub(super) fn unconfigure(&mut self) {
-        (self.config, self.timer_only_255_with_timer) = (Config::UNCONFIGURED, false);
+        self.config = Config::UNCONFIGURED;
     }
 
     /// Starts over, as on entering Operational: nothing counts as sent, so
@@ -176,11 +159,10 @@ impl Tpdo {
     /// `now`; without, it is armed at the next poll.
     // Out of line: two callers each had a copy (168 bytes more).
     #[inline(never)]
-    pub(super) fn restart(&mut self, now: Option<At>) {
+    pub(super) fn restart<P: TpdoRules>(&mut self, now: Option<At>) {
         let timer = self.config.params.event_timer();
         self.sent = false;
-        let timer_only = self.refresh_change_events();
-        self.event = self.is_event_driven() && !timer_only;
+        self.event = self.is_event_driven() && !self.timer_only::<P>();
         self.change_pending = false;
         self.blocked = false;
         self.inhibit_until = None;
@@ -193,19 +175,18 @@ impl Tpdo {
 
     /// Acts on what a download or the configuration changed
     /// ([`Config::change`]), in `Pdos::parameters_changed`'s walk.
-    pub(super) fn act(&mut self) {
+    pub(super) fn act<P: TpdoRules>(&mut self) {
         match core::mem::take(&mut self.config.change) {
             Change::None => {}
-            Change::Restart => self.restart(None),
+            Change::Restart => self.restart::<P>(None),
             Change::Timer => self.rearm_timer(),
         }
     }
 
-    /// The event timer was rewritten: it restarts at the next poll (and
-    /// type 255 may have become timer-only or ceased to be).
+    /// The event timer was rewritten: it restarts at the next poll (where
+    /// a type 255 may have become timer-only or ceased to be: `service_event` asks).
     pub(super) fn rearm_timer(&mut self) {
         self.event_at = None;
-        self.refresh_change_events();
     }
 
     /// The application signals an event (types 0, 254, 255).
@@ -246,7 +227,7 @@ impl Tpdo {
     }
 
     /// Types 254/255: timers, change detection, and the send once the inhibit time allows.
-    fn service_event(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
+    fn service_event<P: TpdoRules>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) {
         let timer = self.config.params.event_timer();
         if timer != 0 {
             match self.event_at {
@@ -256,7 +237,9 @@ impl Tpdo {
             }
         }
         let (buf, len) = self.build(image);
-        self.change_pending = !self.no_change_events && self.changed(&buf);
+        // A change is no event with change detection off, nor while timer-only
+        // (a constant for most devices: one flag to test).
+        self.change_pending = self.detects_changes::<P>() && !self.timer_only::<P>() && self.changed(&buf);
         let due = self.event || self.change_pending;
         if due && self.inhibit_until.is_none_or(|t| now >= t) && self.transmit(cob_id, buf, len, tx) {
             let inhibit = self.config.params.inhibit_time();
@@ -267,10 +250,10 @@ impl Tpdo {
 
     /// Timers and retries, for a TPDO that can send (the caller checks:
     /// `Pdos::tpdo_live`); `window_end`: of the last SYNC's synchronous window (0x1007).
-    pub(super) fn poll(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn poll<P: TpdoRules>(&mut self, now: At, window_end: Far, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.config.params.can_id();
         if self.is_event_driven() {
-            self.service_event(now, cob_id, image, tx);
+            self.service_event::<P>(now, cob_id, image, tx);
         } else if self.pending_sync {
             let len = self.config.mapping.len();
             // No window ([`Far::NEVER`]) never closes.
@@ -288,7 +271,7 @@ impl Tpdo {
 
     /// A SYNC (received or produced), for a TPDO that
     /// [`Tpdo::is_synchronous`] (the caller checks: `Pdos::sync_tpdos`).
-    pub(super) fn on_sync(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
+    pub(super) fn on_sync<P: TpdoRules>(&mut self, sync: &SyncEvent, image: &[u8], tx: &mut impl PdoTx) {
         let cob_id = self.config.params.can_id();
         // A frame refused at the previous SYNC is stale now.
         self.pending_sync = false;
@@ -318,7 +301,7 @@ impl Tpdo {
             }
             0 => {
                 let (buf, len) = self.build(image);
-                (self.event || (!self.no_change_detection && self.changed(&buf))).then_some((buf, len))
+                (self.event || (self.detects_changes::<P>() && self.changed(&buf))).then_some((buf, len))
             }
             252 => {
                 (self.held, self.sampled) = (self.build(image).0, true);
@@ -344,7 +327,7 @@ impl Tpdo {
 
     /// An RTR for `cob_id`, this PDO's CAN-ID (the caller found the PDO
     /// by it: it is valid and has a mapping); true if it was answered or is pending.
-    pub(super) fn on_rtr(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
+    pub(super) fn on_rtr<P: TpdoRules>(&mut self, now: At, cob_id: u16, image: &[u8], tx: &mut impl PdoTx) -> bool {
         if !self.config.params.rtr_allowed() {
             return false;
         }
@@ -360,7 +343,7 @@ impl Tpdo {
             254 | 255 => {
                 self.event = true;
                 self.blocked = false;
-                self.service_event(now, cob_id, image, tx);
+                self.service_event::<P>(now, cob_id, image, tx);
                 true
             }
             _ => false,

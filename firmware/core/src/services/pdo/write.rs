@@ -3,16 +3,16 @@
 //! procedure of CiA 301 §7.5.2.36 (the decisions are listed in the module
 //! docs of [`super`]).
 
-use super::Pdos;
 use super::config::{Change, Config};
 use super::map::{Direction, Mapping};
 use super::rpdo::Rpdo;
 use super::tpdo::Tpdo;
+use super::{Pdos, TpdoRules};
 use crate::abort::AbortCode;
 use crate::od::{Dictionary, Entry, index, le_u32, object, precheck, store_checked, sub_entry, value_u32};
 use crate::wire::pdo_mapping::MappingEntry;
 
-impl<const R: usize, const T: usize> Pdos<R, T> {
+impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// An SDO download of (index, sub): `None` if it is not a parameter of
     /// one of these PDOs, else the outcome. On success the image holds the
     /// value (through [`Dictionary::write`]) and the PDO uses it.
@@ -130,7 +130,7 @@ impl<const R: usize, const T: usize> Pdos<R, T> {
             (_, Change::None) => {}
             (Direction::Receive, Change::Restart) => self.rpdos.get_mut(n).map_or((), Rpdo::restart),
             (Direction::Receive, Change::Timer) => self.rpdos.get_mut(n).map_or((), Rpdo::disarm_timer),
-            (Direction::Transmit, Change::Restart) => self.tpdos.get_mut(n).map_or((), |t| t.restart(None)),
+            (Direction::Transmit, Change::Restart) => self.tpdos.get_mut(n).map_or((), |t| t.restart::<P>(None)),
             (Direction::Transmit, Change::Timer) => self.tpdos.get_mut(n).map_or((), Tpdo::rearm_timer),
         }
         Some(Ok(entry))

@@ -103,9 +103,34 @@ fn without_change_detection_only_the_timer_and_the_application_send() {
 }
 
 #[test]
+fn rules_that_never_switch_keep_change_detection_on() {
+    /// A node's rules: nothing turns change detection off.
+    struct Fixed;
+    impl TpdoRules for Fixed {
+        const TYPE_254: bool = false;
+        const TYPE_255_WITH_TIMER: bool = false;
+        const SWITCHES_CHANGE_DETECTION: bool = false;
+    }
+    let mut node = Node::<Fixed>::started(ms(0));
+    node.pdos.set_change_detection(0, false);
+    assert!(node.pdos.tpdo(0).unwrap().change_detection());
+    node.poll(ms(0));
+    tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
+    node.set(0x2000, 0, &[1]);
+    node.poll(ms(1));
+    tx!(node, [(0x181, [0, 0, 0, 0, 1])]);
+}
+
+#[test]
 fn an_event_timer_written_while_valid_makes_type_255_timer_only_where_the_device_says_so() {
-    let mut node = Node::operational(ms(0));
-    node.pdos.set_timer_only_255_with_timer(true);
+    /// The Sendix's reading.
+    struct Timer255;
+    impl TpdoRules for Timer255 {
+        const TYPE_254: bool = false;
+        const TYPE_255_WITH_TIMER: bool = true;
+        const SWITCHES_CHANGE_DETECTION: bool = true;
+    }
+    let mut node = Node::<Timer255>::started(ms(0));
     node.poll(ms(0));
     tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
     // Without an event timer a change sends.
