@@ -236,7 +236,6 @@ impl Dictionary {
     }
 
     /// [`Dictionary::find`], with the entry's [`EntryRef`].
-    #[inline(never)]
     pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
         let entry = self.find(index, sub)?;
         match self.position(entry).checked_add(1).and_then(|r| u16::try_from(r).ok()) {
