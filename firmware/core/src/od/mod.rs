@@ -192,20 +192,31 @@ impl Dictionary {
     /// usually is (sub-indices run 0, 1, 2, ...), else along the object's
     /// entries (at most 256), which also tell a missing sub-index
     /// (0x06090011) from a missing object (0x06020000).
+    // In line: a wrapper of `search`, whose two scalars come back in
+    // registers where a `Result` of an entry and a code comes back through
+    // a stack slot (a store in the search, loads at each call site).
+    #[inline(always)]
     pub fn find(&self, index: u16, sub: u8) -> Result<&'static Entry, AbortCode> {
+        found(self.search(index, sub))
+    }
+
+    /// [`Dictionary::find`] as two scalars: the entry, or `None` and the
+    /// abort code for its absence.
+    #[inline(never)]
+    fn search(&self, index: u16, sub: u8) -> Found {
         let record = self.object_onwards(index);
         match record.get(usize::from(sub)) {
-            Some(e) if e.index == index && e.sub == sub => return Ok(e),
+            Some(e) if e.index == index && e.sub == sub => return (Some(e), AbortCode::NoObject),
             _ => {}
         }
         let mut missing = AbortCode::NoObject;
         for e in record.iter().take_while(|e| e.index == index) {
             if e.sub == sub {
-                return Ok(e);
+                return (Some(e), missing);
             }
             missing = AbortCode::NoSubIndex;
         }
-        Err(missing)
+        (None, missing)
     }
 
     /// The entries from the first of object `index` (or from where it would
@@ -225,7 +236,6 @@ impl Dictionary {
     }
 
     /// [`Dictionary::find`], with the entry's [`EntryRef`].
-    #[inline(never)]
     pub fn find_ref(&self, index: u16, sub: u8) -> Result<(EntryRef, &'static Entry), AbortCode> {
         let entry = self.find(index, sub)?;
         match self.position(entry).checked_add(1).and_then(|r| u16::try_from(r).ok()) {
@@ -402,6 +412,20 @@ impl Dictionary {
                 add_node_id(slot, node_id, false);
             }
         }
+    }
+}
+
+/// An entry, or `None` and the abort code for its absence (the code beside
+/// an entry means nothing): the result of a look-up as two scalars, which
+/// thumbv7m returns in two registers.
+pub(crate) type Found = (Option<&'static Entry>, AbortCode);
+
+/// A [`Found`] as the `Result` its callers take.
+#[inline(always)]
+pub(crate) fn found(f: Found) -> Result<&'static Entry, AbortCode> {
+    match f {
+        (Some(entry), _) => Ok(entry),
+        (None, code) => Err(code),
     }
 }
 
