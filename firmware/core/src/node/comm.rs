@@ -19,8 +19,6 @@ use crate::wire::emcy::EmcyCode;
 use crate::wire::sync::SYNC_COB_ID;
 
 /// (index, sub) as an integer, `default` if the dictionary lacks it.
-// Out of line: the services read a dozen objects this way.
-#[inline(never)]
 pub(super) fn u32_of(dict: &Dictionary, image: &[u8], index: u16, sub: u8, default: u32) -> u32 {
     dict.read_u32(image, index, sub).unwrap_or(default)
 }
@@ -312,9 +310,6 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
 
     /// Applies a communication object's sub 0 as the image holds it
     /// (idempotent): [`Services::apply`] with its current value.
-    // Out of line: its caller is the boot-up in `process`, whose every call
-    // otherwise paid for its frame (6 instructions on each row of icount).
-    #[inline(never)]
     pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: At) {
         let _ = node_id;
         Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), now);

@@ -147,9 +147,8 @@ impl ControllerErrors {
         emcy.expire(now).min(due)
     }
 
-    // Out of line and cold: only the call after a reset of a node whose controller is error passive.
+    // Cold: only the call after a reset of a node whose controller is error passive.
     #[cold]
-    #[inline(never)]
     fn raise_passive_again<A: Application>(&mut self, now: At, booted: bool, emcy: &mut EmcyQueue) -> At {
         if !booted {
             return now;

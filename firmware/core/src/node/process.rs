@@ -356,13 +356,12 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// interrupt wakes it), else after [`ROOM_RETRY`]. A node whose frames
     /// cannot leave (nobody acknowledges them, or an LSS bit-rate switch
     /// keeps it silent) would otherwise have its board spin.
-    // Out of line and cold: a call asks to be called again at once only
+    // Cold: a call asks to be called again at once only
     // while something waits for room. The count is kept to its low byte
     // (room in the node's padding: a wider one cost a hot path an
     // instruction per frame); 256 frames exactly since the last ask read
     // as none, which costs one call a retry.
     #[cold]
-    #[inline(never)]
     fn due_again(&mut self, now: At) -> At {
         let mark = (self.counters.tx as u8).wrapping_add(1);
         let stuck = self.tx_mark == mark;

@@ -180,8 +180,6 @@ impl SdoEffects {
 impl<A: Application, O: ObjectDictionary> Router<'_, '_, A, O> {
     /// [`ObjectAccess::read`], from `entry` when the caller already looked
     /// it up and checked it for an upload.
-    // One call of the device's read hook for both callers (each inlined a copy).
-    #[inline(never)]
     fn read_from(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8], entry: Option<&'static Entry>) -> Result<usize, AbortCode> {
         if let Some(r) = self.app.read(self.ctx, index, sub, offset, buf) {
             return r;

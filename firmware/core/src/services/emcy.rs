@@ -299,7 +299,6 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.held <= now { self.expire_held(now) } else { self.held }
     }
 
-    #[inline(never)]
     fn expire_held(&mut self, now: At) -> At {
         let mut held = NEVER;
         // From the last entry down: `remove` moves the last one, which was looked at already.

@@ -718,8 +718,7 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
 
     /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
     /// run and the TPDOs that can send have one.
-    // Out of line: `due` alone calls it (`poll_marked` folds as it polls).
-    #[inline(never)]
+    // `due` alone calls it (`poll_marked` folds as it polls).
     fn walk(&self) -> At {
         let mut first = NEVER;
         if self.rpdo_timers != 0 {
@@ -784,7 +783,6 @@ fn next_bit(bits: &mut u32) -> Option<usize> {
 }
 
 /// Bit t: TPDO t waits to retry.
-#[inline(never)]
 fn retry_mask(tpdos: &[Tpdo]) -> u32 {
     // TPDOs past 31 have no bit (they are always looked at).
     tpdos.iter().take(32).enumerate().fold(0, |mask, (t, tpdo)| mask | u32::from(tpdo.retrying()) << t)

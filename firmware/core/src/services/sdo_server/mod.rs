@@ -428,7 +428,6 @@ impl Channel {
         }
     }
 
-    #[inline(always)]
     fn poll(&mut self, now: At, block: bool, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> At {
         self.expire(now, tx);
         // A frame still pending (`flush` false) brings the next poll anyway.
