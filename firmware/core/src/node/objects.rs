@@ -155,7 +155,8 @@ impl Ctx<'_> {
                     // A COB-ID entry is 4 bytes (the precheck matched the data's
                     // length): its old value, if an SDO could read it.
                     let old = entry.readable().then(|| value_u32(dict, self.image, entry));
-                    // Every CobId row's `arg` names a rule (the table's test).
+                    // Every CobId row's `arg` names one of the four rules: the
+                    // test `the_table_gives_every_object_its_kind` pins each row.
                     if let Some(rule) = RULES.get(usize::from(arg)) {
                         rule.check(old, new, own)?;
                     }
@@ -188,7 +189,9 @@ impl Ctx<'_> {
                     return Err(AbortCode::DeviceState);
                 }
                 // In Operational a COB-ID follows CiA 301 (it moves only while the PDO is not valid).
-                // The PDO's rules; the store below, as every kind's.
+                // The PDO's rules; the store below, as every kind's. It cannot
+                // refuse what the PDO took: a PDO record is never a DOMAIN and a
+                // writable entry lies in the image, as od-gen lays them out.
                 self.services.write_pdo(index, sub, data, entry, dict, self.image, rewrite && !operational)?;
             }
         }

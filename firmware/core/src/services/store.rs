@@ -137,8 +137,7 @@ type Piece<'a> = dyn FnMut(usize, &mut [u8]) -> Result<(), StorageError> + 'a;
 /// Runs the payload bytes `range` through a buffer a piece at a time:
 /// `piece` fills each (a read of a set, or the new set's bytes, which it
 /// also writes), then its CRC-32. The CRC is kept inverted (`!running`,
-/// the CRC itself at the end; 0 before the first byte). The check of
-/// a set and the writing of one share it.
+/// the CRC itself at the end; 0 before the first byte).
 // `pos` ≤ `range.end`, a payload offset (below 64 KiB).
 #[allow(clippy::arithmetic_side_effects)]
 fn crc_pieces(range: Range<usize>, crc: u32, piece: &mut Piece<'_>) -> Result<u32, StorageError> {

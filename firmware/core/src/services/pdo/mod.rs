@@ -429,17 +429,15 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
         self.tpdos.get_mut(n).is_some_and(Tpdo::trigger)
     }
 
-    /// Turns change-of-state detection of TPDO `n` on or off (on by default).
+    /// Turns change-of-state detection of TPDO `n` on or off (on by default),
+    /// for rules `P` that switch it ([`TpdoRules::SWITCHES_CHANGE_DETECTION`]):
+    /// a call with rules that never switch it (a node's) does not compile.
     /// Off, only the event timer, [`Pdos::trigger`] and RTRs send it; for
-    /// values that change all the time, such as an encoder position. Where
-    /// `P` does not switch it ([`TpdoRules::SWITCHES_CHANGE_DETECTION`], a
-    /// node's), it stays on.
+    /// values that change all the time, such as an encoder position.
     pub fn set_change_detection(&mut self, n: usize, on: bool) {
+        const { assert!(P::SWITCHES_CHANGE_DETECTION, "these TpdoRules never switch change detection") };
         self.settled = false;
-        // Not stored where `P` never switches: `Tpdo::change_detection` stays true, as it behaves.
-        if P::SWITCHES_CHANGE_DETECTION
-            && let Some(t) = self.tpdos.get_mut(n)
-        {
+        if let Some(t) = self.tpdos.get_mut(n) {
             t.set_change_detection(on);
         }
     }
@@ -718,7 +716,6 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
 
     /// The PDOs' earliest deadline, walked: only the RPDOs whose timer may
     /// run and the TPDOs that can send have one.
-    // `due` alone calls it (`poll_marked` folds as it polls).
     fn walk(&self) -> At {
         let mut first = NEVER;
         if self.rpdo_timers != 0 {

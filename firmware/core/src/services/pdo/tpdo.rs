@@ -114,7 +114,8 @@ impl Tpdo {
         self.config.cob_id()
     }
 
-    /// Whether a change of the mapped data counts as an event.
+    /// Whether change detection is switched on ([`super::Pdos::set_change_detection`]);
+    /// the timer-only types of a device's [`super::TpdoRules`] ignore changes whatever it says.
     pub fn change_detection(&self) -> bool {
         !self.no_change_detection
     }
@@ -146,9 +147,8 @@ impl Tpdo {
     /// Back to an unconfigured PDO but for the application's choice,
     /// which survives a reset: change detection.
     /// For a [`Tpdo::restart`] to follow, which sets the state it keeps
-    /// (what was sent, the events, the timers, the SYNC count) and works
-    /// out what the choice and the type imply; the last frame and the held one are
-    /// not read before they are written again.
+    /// (what was sent, the events, the timers, the SYNC count); the last
+    /// frame and the held one are not read before they are written again.
     pub(super) fn unconfigure(&mut self) {
         self.config = Config::UNCONFIGURED;
     }

@@ -14,8 +14,8 @@ use crate::wire::pdo_mapping::MappingEntry;
 
 impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// An SDO download of (index, sub): `None` if it is not a parameter of
-    /// one of these PDOs, else the outcome. On success the image holds the
-    /// value (through [`Dictionary::write`]) and the PDO uses it.
+    /// one of these PDOs, else the outcome. On success the PDO uses the
+    /// value and the image holds it.
     pub fn write_object(&mut self, index: u16, sub: u8, data: &[u8], dict: &Dictionary, image: &mut [u8]) -> Option<Result<(), AbortCode>> {
         self.write_object_with(index, sub, data, dict, image, false)
     }

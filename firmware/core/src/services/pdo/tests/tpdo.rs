@@ -104,7 +104,8 @@ fn without_change_detection_only_the_timer_and_the_application_send() {
 
 #[test]
 fn rules_that_never_switch_keep_change_detection_on() {
-    /// A node's rules: nothing turns change detection off.
+    /// A node's rules: nothing turns change detection off (a call of
+    /// `set_change_detection` with them does not compile).
     struct Fixed;
     impl TpdoRules for Fixed {
         const TYPE_254: bool = false;
@@ -112,7 +113,6 @@ fn rules_that_never_switch_keep_change_detection_on() {
         const SWITCHES_CHANGE_DETECTION: bool = false;
     }
     let mut node = Node::<Fixed>::started(ms(0));
-    node.pdos.set_change_detection(0, false);
     assert!(node.pdos.tpdo(0).unwrap().change_detection());
     node.poll(ms(0));
     tx!(node, [(0x181, [0, 0, 0, 0, 0])]);
