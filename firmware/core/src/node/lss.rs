@@ -74,8 +74,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
         }
         let rate = self.bit_rate.unwrap_or(0xFF);
-        // The address stays: the reset that follows reads it from 0x1018 (`refresh_lss`).
-        self.lss = LssSlave::new(self.lss.address(), self.hook.node_id, rate, dict.device.baud_rates);
+        // The unpowered slave is waiting with no sequence begun; the address
+        // follows 0x1018 at the reset that follows (`refresh_lss`).
+        self.lss.power_on(self.hook.node_id, rate, dict.device.baud_rates);
         self.lss_active = true;
     }
 

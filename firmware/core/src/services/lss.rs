@@ -116,6 +116,19 @@ impl LssSlave {
         }
     }
 
+    /// Power-on of the slave that [`LssSlave::new`] built unconfigured
+    /// (waiting, no sequence begun): its node-id, bit rate and the rates it
+    /// can run at, as `new` takes them. Only these fields: the rest is
+    /// already what `new` gives, and the address follows 0x1018 at the
+    /// reset (four stores fewer than a whole new slave).
+    pub fn power_on(&mut self, node_id: u8, bit_rate: u8, supported_rates: u16) {
+        self.active_node_id = node_id;
+        self.pending_node_id = node_id;
+        self.active_bit_rate = bit_rate;
+        self.pending_bit_rate = bit_rate;
+        self.supported_rates = supported_rates;
+    }
+
     /// The LSS address to replace (0x1018 sub 1..4 changed, e.g. a serial number set by the board).
     pub fn address_mut(&mut self) -> &mut [u32; 4] {
         &mut self.address

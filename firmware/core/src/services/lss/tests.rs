@@ -264,3 +264,16 @@ fn fastscan_ignores_bad_parameters_and_configured_slaves() {
     let mut c = LssSlave::new(ADDR, 5, 3, RATES);
     assert_eq!(c.on_request(&LssRequest::Fastscan { id: 0, bit_checked: 0x80, sub: 0, next: 0 }.emit()), LssAction::None);
 }
+
+#[test]
+fn power_on_is_a_new_slave_with_the_address_kept() {
+    // The node's unpowered slave, its address then set from 0x1018 as the reset does.
+    let mut s = LssSlave::new([0; 4], 0, 0, 0);
+    *s.address_mut() = ADDR;
+    s.power_on(0x3F, 3, RATES);
+    assert_eq!(s, LssSlave::new(ADDR, 0x3F, 3, RATES));
+    // Unconfigured, no rate stored.
+    let mut u = LssSlave::new([0; 4], 0, 0, 0);
+    u.power_on(UNCONFIGURED, 0xFF, RATES);
+    assert_eq!(u, LssSlave::new([0; 4], UNCONFIGURED, 0xFF, RATES));
+}
