@@ -167,8 +167,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let (index, at) = (sw.index, sw.at);
         self.bit_rate = Some(index);
         self.bit_rate_request = Some(index);
-        // Only `lss_request` starts a switch, and only for a node that runs LSS (`lss_on`).
-        self.lss.bit_rate_switched();
         at
     }
 

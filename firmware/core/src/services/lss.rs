@@ -84,7 +84,6 @@ pub struct LssSlave {
     address: [u32; 4],
     active_node_id: u8,
     pending_node_id: u8,
-    active_bit_rate: u8,
     pending_bit_rate: u8,
     supported_rates: u16,
     /// How many address parts of "switch state selective" matched so far.
@@ -99,15 +98,17 @@ pub struct LssSlave {
 impl LssSlave {
     /// A slave with LSS address `address` (0x1018 sub 1..4), node-id
     /// `node_id` (0xFF = unconfigured), running at bit-rate table index
-    /// `bit_rate`, able to run at the rates in `supported_rates` (bit n =
-    /// table index n, as `DeviceInfo::baud_rates`).
+    /// `bit_rate` (the rate "activate bit timing" and "store configuration"
+    /// take until "configure bit timing" sets another), able to run at the
+    /// rates in `supported_rates` (bit n = table index n, as
+    /// `DeviceInfo::baud_rates`). The rate in use is the node's
+    /// (`Node::bit_rate`): no LSS service reads it, so the slave keeps none.
     pub const fn new(address: [u32; 4], node_id: u8, bit_rate: u8, supported_rates: u16) -> Self {
         LssSlave {
             mode: Mode::Waiting,
             address,
             active_node_id: node_id,
             pending_node_id: node_id,
-            active_bit_rate: bit_rate,
             pending_bit_rate: bit_rate,
             supported_rates,
             selective: 0,
@@ -124,7 +125,6 @@ impl LssSlave {
     pub fn power_on(&mut self, node_id: u8, bit_rate: u8, supported_rates: u16) {
         self.active_node_id = node_id;
         self.pending_node_id = node_id;
-        self.active_bit_rate = bit_rate;
         self.pending_bit_rate = bit_rate;
         self.supported_rates = supported_rates;
     }
@@ -154,20 +154,10 @@ impl LssSlave {
         self.pending_node_id
     }
 
-    /// The bit-rate table index in use.
-    pub fn active_bit_rate(&self) -> u8 {
-        self.active_bit_rate
-    }
-
     /// Reset communication: the pending node-id becomes active.
     pub fn reset_communication(&mut self) -> u8 {
         self.active_node_id = self.pending_node_id;
         self.active_node_id
-    }
-
-    /// The bit rate was switched (after "activate bit timing").
-    pub fn bit_rate_switched(&mut self) {
-        self.active_bit_rate = self.pending_bit_rate;
     }
 
     /// The answer to "store configuration": 0 success, 2 storage error.

@@ -91,9 +91,8 @@ fn activate_bit_timing_uses_the_pending_rate() {
     send(&mut s, req(LssRequest::SwitchGlobal(true)));
     send(&mut s, [0x13, 0, 4, 0, 0, 0, 0, 0]);
     assert_eq!(send(&mut s, [0x15, 0xF4, 0x01, 0, 0, 0, 0, 0]), LssAction::ActivateBitTiming { delay_ms: 500, index: 4 });
-    assert_eq!(s.active_bit_rate(), 3);
-    s.bit_rate_switched();
-    assert_eq!(s.active_bit_rate(), 4);
+    // The pending rate is kept: a second activation switches to it again.
+    assert_eq!(send(&mut s, [0x15, 0x0A, 0x00, 0, 0, 0, 0, 0]), LssAction::ActivateBitTiming { delay_ms: 10, index: 4 });
 }
 
 #[test]
