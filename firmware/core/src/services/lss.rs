@@ -173,7 +173,7 @@ impl LssSlave {
     // Offsets from a range's first command specifier: 0..=3 (address parts), 0..=5 (identify bounds).
     #[allow(clippy::arithmetic_side_effects)]
     pub fn on_request(&mut self, d: &[u8; 8]) -> LssAction {
-        let [cs, b1, b2, _, _, b5, b6, b7] = *d;
+        let [cs, b1, b2, ..] = *d;
         let value = u32_at(d);
         let configuring = self.mode == Mode::Configuration;
         // A switch-state-selective sequence goes on only with its next part: any other request ends it.
@@ -240,7 +240,7 @@ impl LssSlave {
             }
             0x4C if self.active_node_id == UNCONFIGURED => reply(0x50, 0),
             0x4C => LssAction::None,
-            0x51 => self.fastscan(value, b5, b6, b7),
+            0x51 => self.fastscan(value, d),
             // Not a request (CiA 305 defines no such command specifier): the sequence goes on.
             _ => {
                 self.selective = selective;
@@ -265,7 +265,9 @@ impl LssSlave {
     }
 
     /// CiA 305 §5.5: only unconfigured slaves in the waiting state take part.
-    fn fastscan(&mut self, id: u32, bit_checked: u8, sub: u8, next: u8) -> LssAction {
+    fn fastscan(&mut self, id: u32, d: &[u8; 8]) -> LssAction {
+        // Bytes 5..=7 read here, not with the others: only this service has them.
+        let [.., bit_checked, sub, next] = *d;
         if self.active_node_id != UNCONFIGURED || self.mode != Mode::Waiting {
             return LssAction::None;
         }
