@@ -96,8 +96,10 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.acceptance.overflowed = true;
         }
         // The reset's check of the stored sets serves the LSS configuration
-        // too, which it loads before the reset takes the node-id.
-        self.begin_reset(true);
+        // too, which it loads before the reset takes the node-id. Not
+        // `begin_reset`: the unpowered node's NMT is Initialising and no
+        // boot-up or start is pending (all zero bits), and power-on is once.
+        self.reset = Stage::FindThenApplication;
         while Self::LOADS_STORED && self.reset != Stage::Application {
             self.reset_step(now);
         }
