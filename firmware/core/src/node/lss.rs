@@ -67,13 +67,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         if !O::SERVICES.lss || !dict.device.lss_supported {
             return;
         }
+        // No rate (0xFF) unless one is stored: the unpowered node has none
+        // (`bit_rate` is `None`), and power-on is once.
+        let mut rate = 0xFF;
         if let Some((node_id, bit_rate)) = stored.and_then(|set| set.lss()) {
             if (1..=127).contains(&node_id) || node_id == UNCONFIGURED {
                 self.hook.node_id = node_id;
             }
             self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
+            rate = bit_rate;
         }
-        let rate = self.bit_rate.unwrap_or(0xFF);
         // The unpowered slave is waiting with no sequence begun; the address
         // follows 0x1018 at the reset that follows (`refresh_lss`).
         self.lss.power_on(self.hook.node_id, rate, dict.device.baud_rates);
