@@ -194,7 +194,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             | Stage::FindOlderThenCommunication => {
                 let older = matches!(stage, Stage::FindOlderThenApplication | Stage::FindOlderThenCommunication);
                 match self.check_stored(older) {
-                    Ok(set) => self.reset_stored = set,
+                    Ok(set) if Self::LOADS_STORED => self.reset_stored = set,
+                    // Without storage nothing is ever found: `reset_stored` stays `None`.
+                    Ok(_) => {}
                     // A broken newer set: the older one in a call of its own.
                     // (Only the newer set's check fails: `stage` is a `FindThen…`.)
                     Err(()) => {
