@@ -23,6 +23,25 @@ impl Attr {
     pub const MAP_RPDO: Attr = Attr(1 << 4);
     /// The default is `$NODEID` plus the stored value; it is resolved at reset communication.
     pub const NODE_ID: Attr = Attr(1 << 5);
+    /// The object is a manufacturer parameter (0x2000–0x5FFF): store scope 4.
+    /// Set by [`Entry::new`] from the index, with [`Attr::APPLICATION`], so
+    /// that the store's walks over all entries take an entry's scope from
+    /// the byte they load anyway, not from its index.
+    pub const MANUFACTURER: Attr = Attr(1 << 6);
+    /// The object is an application (profile) parameter (0x6000 and up):
+    /// store scope 3. Neither scope bit: the communication area (below 0x2000).
+    pub const APPLICATION: Attr = Attr(1 << 7);
+    /// The two scope bits, which [`super::layout_id`] leaves out of its hash.
+    pub const SCOPE: Attr = Attr(Attr::MANUFACTURER.0 | Attr::APPLICATION.0);
+
+    /// The scope bits of the object at `index`.
+    pub const fn scope_of(index: u16) -> Attr {
+        match index {
+            0x0000..=0x1FFF => Attr(0),
+            0x2000..=0x5FFF => Attr::MANUFACTURER,
+            _ => Attr::APPLICATION,
+        }
+    }
 
     /// Whether every bit of `other` is set.
     pub const fn contains(self, other: Attr) -> bool {
@@ -78,9 +97,17 @@ pub struct Entry {
 }
 
 impl Entry {
-    /// An entry; generated tables use this to stay one line per entry.
+    /// An entry; generated tables use this to stay one line per entry. The
+    /// scope bits of `attr` are set from `index` ([`Attr::scope_of`]).
     pub const fn new(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u8, offset: u16) -> Entry {
+        let attr = Attr((attr.0 & !Attr::SCOPE.0) | Attr::scope_of(index).0);
         Entry { index, sub, data_type, attr, len, offset }
+    }
+
+    /// Whether the object is in the communication area (0x1000–0x1FFF, and
+    /// the data types below it): no scope bit set.
+    pub const fn communication(&self) -> bool {
+        self.attr.0 & Attr::SCOPE.0 == 0
     }
 
     /// The 24-bit key the tables are sorted by.

@@ -103,7 +103,9 @@ pub const fn layout_id(entries: &[Entry]) -> u32 {
     let mut entries = entries;
     while let [e, rest @ ..] = entries {
         h = mix(h, &e.index.to_le_bytes());
-        h = mix(h, &[e.sub, e.data_type as u8, e.attr.0]);
+        // The attributes without the scope bits, which follow from the
+        // index: a set stored before they were added keeps its layout.
+        h = mix(h, &[e.sub, e.data_type as u8, e.attr.0 & !Attr::SCOPE.0]);
         // The length as the 16 bits it had when the entry held it so: a
         // stored set keeps its layout across the change of width.
         h = mix(h, &(e.len as u16).to_le_bytes());

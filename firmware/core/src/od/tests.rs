@@ -5,7 +5,7 @@ use super::*;
 use crate::abort::AbortCode;
 
 const fn e(index: u16, sub: u8, data_type: DataType, attr: Attr, len: u8, offset: u16) -> Entry {
-    Entry { index, sub, data_type, attr, len, offset }
+    Entry::new(index, sub, data_type, attr, len, offset)
 }
 
 const RO: Attr = Attr::READ;
@@ -224,6 +224,19 @@ fn a_write_tells_whether_the_image_changed() {
     assert!(DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
     assert!(!DICT.write_entry(&mut img, 0x2001, 0, b"ab").unwrap().1);
     assert_eq!(DICT.read(&img, 0x2001, 0), Ok(&b"ab"[..]));
+}
+
+#[test]
+fn an_entry_holds_the_store_scope_of_its_index_and_the_layout_id_ignores_it() {
+    // Communication below 0x2000, manufacturer 0x2000-0x5FFF, application above.
+    for (index, scope) in [(0x0000, 0), (0x1FFF, 0), (0x2000, 1), (0x5FFF, 1), (0x6000, 2), (0xFFFF, 2)] {
+        // Scope bits passed in are replaced by the index's.
+        let entry = Entry::new(index, 0, DataType::Unsigned8, Attr(RW.0 | Attr::SCOPE.0), 1, 0);
+        assert_eq!(entry.attr, Attr(RW.0 | scope << 6), "{index:#06X}");
+        assert_eq!(entry.communication(), scope == 0);
+        let bare = Entry { attr: RW, ..entry };
+        assert_eq!(layout_id(&[entry]), layout_id(&[bare]));
+    }
 }
 
 #[test]

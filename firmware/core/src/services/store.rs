@@ -89,11 +89,18 @@ impl From<StorageError> for StoreError {
 
 /// The scope bit (see [`Scope::mask`]) of the object at `index`.
 const fn scope_bit(index: u16) -> u8 {
-    match index {
-        0x0000..=0x1FFF => Scope::Communication.mask(),
-        0x2000..=0x5FFF => Scope::Manufacturer.mask(),
-        _ => Scope::Application.mask(),
-    }
+    bit_of(Attr::scope_of(index))
+}
+
+/// The scope bit of an entry, from its attributes' scope bits (none: 1,
+/// manufacturer: 2, application: 4), which it loads anyway.
+const fn entry_scope(entry: &Entry) -> u8 {
+    bit_of(entry.attr)
+}
+
+/// The [`Scope::mask`] bit of the scope bits of `attr` (0, 1 or 2 after the shift).
+const fn bit_of(attr: Attr) -> u8 {
+    1 << (attr.0 >> 6)
 }
 
 /// CRC-32 (reflected, polynomial 0xEDB88320) of each value of a nibble.
@@ -235,10 +242,10 @@ pub fn reset_part(
         dict.defaults.read(others.start, dst);
     }
     let mut used = false;
-    for e in dict.entries.iter().filter(|e| (e.index < 0x2000) == communication && !e.in_rom()) {
+    for e in dict.entries.iter().filter(|e| e.communication() == communication && !e.in_rom()) {
         let r = e.range();
         if let Some(value) = image.get_mut(r.clone()).filter(|_| r.end <= dict.defaults.len) {
-            let held = set.map(|set| e.attr.contains(Attr::WRITE) && set.defaults & scope_bit(e.index) == 0);
+            let held = set.map(|set| e.attr.contains(Attr::WRITE) && set.defaults & entry_scope(e) == 0);
             if held == Some(false) && in_set(dict, e) {
                 dict.defaults.read(r.start, value);
             }
@@ -321,7 +328,7 @@ pub fn save_lss(
 pub fn stored_value(dict: &Dictionary, storage: &mut dyn Storage, node_id: u8, index: u16, sub: u8, out: &mut [u8]) -> Option<usize> {
     let set = newest(dict, storage)?;
     let entry = dict.find(index, sub).ok()?;
-    if !in_set(dict, entry) || set.defaults & scope_bit(entry.index) != 0 {
+    if !in_set(dict, entry) || set.defaults & entry_scope(entry) != 0 {
         return None;
     }
     let range = entry.range();

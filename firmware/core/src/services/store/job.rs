@@ -11,7 +11,7 @@
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, crc_pieces, in_set, read_header, scope_bit};
+use super::{HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, crc_pieces, entry_scope, in_set, read_header, scope_bit};
 use crate::od::{Attr, Dictionary, Entry};
 use crate::storage::{Storage, StorageError};
 
@@ -299,7 +299,7 @@ impl Job {
 
     /// Where the value of `e` in the new set comes from.
     fn source(&self, e: &Entry) -> Source {
-        let bit = scope_bit(e.index);
+        let bit = entry_scope(e);
         let (first, last) = self.objects;
         if self.save & bit != 0 && (first..=last).contains(&{ e.index }) != self.except {
             Source::Image

@@ -299,7 +299,7 @@ fn the_layout_id_is_the_fnv_1a_of_the_entry_table_as_before() {
     for e in &ENTRIES {
         for b in [
             e.index.to_le_bytes().as_slice(),
-            &[e.sub, e.data_type as u8, e.attr.0],
+            &[e.sub, e.data_type as u8, e.attr.0 & !Attr::SCOPE.0],
             &u16::from(e.len).to_le_bytes(),
             &e.offset.to_le_bytes(),
         ] {
