@@ -187,28 +187,23 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
     /// links node guarding (without, the guarding stays unconfigured).
     #[inline(always)]
     fn apply(&mut self, index: u16, sub: u8, value: u32, now: At, guarding: bool) {
-        match (index, sub) {
-            (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
-                // sub ≥ 1: the match arm's.
-                #[allow(clippy::arithmetic_side_effects)]
-                self.consumers.configure(usize::from(sub) - 1, value);
-            }
-            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
-                self.sync.apply(index, value)
-            }
-            (index::PRODUCER_HEARTBEAT_TIME, _) => {
+        match index {
+            // Sub 0 is no consumer's: its position wraps past them all.
+            index::CONSUMER_HEARTBEAT_TIME => self.consumers.configure(usize::from(sub).wrapping_sub(1), value),
+            index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW => self.sync.apply(index, value),
+            index::PRODUCER_HEARTBEAT_TIME => {
                 self.heartbeat.configure(value as u16, now);
                 if guarding && self.heartbeat.active() {
                     // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
                     self.guarding.disarm();
                 }
             }
-            (index::COB_ID_TIME_STAMP, _) => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
+            index::COB_ID_TIME_STAMP => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
             // The value as written: the service keeps each object's part.
-            (index::GUARD_TIME, _) if guarding => self.guarding.set_guard_time(value as u16),
-            (index::LIFE_TIME_FACTOR, _) if guarding => self.guarding.set_life_time_factor(value as u8),
-            (index::COB_ID_EMCY, _) => self.emcy.set_cob_id(value),
-            (index::INHIBIT_TIME_EMCY, _) => self.emcy.set_inhibit(value as u16),
+            index::GUARD_TIME if guarding => self.guarding.set_guard_time(value as u16),
+            index::LIFE_TIME_FACTOR if guarding => self.guarding.set_life_time_factor(value as u8),
+            index::COB_ID_EMCY => self.emcy.set_cob_id(value),
+            index::INHIBIT_TIME_EMCY => self.emcy.set_inhibit(value as u16),
             // Nothing for an object no service uses.
             _ => {}
         }
@@ -216,10 +211,16 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
 
     /// 0x1003 sub 0 ← 0: the history is empty.
     pub fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        // Every entry of the record zero (an empty value is zero-filled).
-        for entry in object(dict, index::PRE_DEFINED_ERROR_FIELD) {
-            let _ = dict.write_unchecked_entry(image, entry, &[]);
-        }
+        clear_history(dict, image);
+    }
+}
+
+/// [`Comm::clear_history`], which needs no service: the router's download
+/// of 0x1003 sub 0 calls it without a call through the [`Services`] vtable.
+pub(super) fn clear_history(dict: &Dictionary, image: &mut [u8]) {
+    // Every entry of the record zero (an empty value is zero-filled).
+    for entry in object(dict, index::PRE_DEFINED_ERROR_FIELD) {
+        let _ = dict.write_unchecked_entry(image, entry, &[]);
     }
 }
 
@@ -238,9 +239,6 @@ pub(crate) trait Services {
     /// Whether 0x1016 entry `i` (0-based) set to `value` would monitor a
     /// node another entry monitors.
     fn consumer_conflicts(&self, i: usize, value: u32) -> bool;
-
-    /// [`Comm::clear_history`].
-    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]);
 
     /// A download into a PDO record (0x1400–0x1BFF) whose `entry` passed
     /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may
@@ -350,10 +348,6 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
         self.comm.consumers.conflicts(i, value)
     }
 
-    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        self.comm.clear_history(dict, image);
-    }
-
     fn write_pdo(
         &mut self,
         index: u16,
@@ -426,6 +420,19 @@ mod tests {
         assert!(!comm.heartbeat.active(), "no 0x1017: no heartbeat");
         assert_eq!(comm.consumers.producers().count(), 0, "no 0x1016: no consumer");
         assert_eq!(comm.emcy.cob_id(), None, "no 0x1014: EMCY off");
+    }
+
+    #[test]
+    fn a_consumer_takes_its_own_sub_index_and_sub_0_none() {
+        let mut comm = Hooked::<crate::node::NoApplication, Od, 0, 0, 2>::new();
+        comm.configure(&DICT, &DEFAULTS, 0);
+        // Node 7 at 1000 ms.
+        Services::apply(&mut comm, 0x1016, 0, 0x0007_03E8, 0);
+        assert!(comm.consumers.producers().eq([5, 6]), "sub 0 is the count: no consumer changes");
+        Services::apply(&mut comm, 0x1016, 2, 0x0007_03E8, 0);
+        assert!(comm.consumers.producers().eq([5, 7]), "sub 2 is the second consumer");
+        Services::apply(&mut comm, 0x1016, 3, 0x0008_03E8, 0);
+        assert!(comm.consumers.producers().eq([5, 7]), "sub 3: beyond the two consumers");
     }
 
     /// 0x1001, and 0x1003 with sub-indices 0, 1, 2 and 4 (sub 3 missing).
