@@ -190,7 +190,11 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         match index {
             // Sub 0 is no consumer's: its position wraps past them all.
             index::CONSUMER_HEARTBEAT_TIME => self.consumers.configure(usize::from(sub).wrapping_sub(1), value),
-            index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW => self.sync.apply(index, value),
+            // Each with its index a constant: SYNC's own match folds into this one.
+            index::COB_ID_SYNC => self.sync.apply(index::COB_ID_SYNC, value),
+            index::COMMUNICATION_CYCLE_PERIOD => self.sync.apply(index::COMMUNICATION_CYCLE_PERIOD, value),
+            index::SYNCHRONOUS_WINDOW_LENGTH => self.sync.apply(index::SYNCHRONOUS_WINDOW_LENGTH, value),
+            index::SYNCHRONOUS_COUNTER_OVERFLOW => self.sync.apply(index::SYNCHRONOUS_COUNTER_OVERFLOW, value),
             index::PRODUCER_HEARTBEAT_TIME => {
                 self.heartbeat.configure(value as u16, now);
                 if guarding && self.heartbeat.active() {
