@@ -148,6 +148,9 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
 
     /// Records a sent EMCY (its data bytes, [`crate::wire::emcy::Emcy::emit`]): 0x1001 and,
     /// for an error, a new 0x1003 entry (newest at sub 1).
+    // Out of line: `process_emcy` had it in line around its queue loop, and
+    // its registers cost more than the call.
+    #[inline(never)]
     pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &[u8; 8]) {
         let [c0, c1, register, i0, i1, ..] = *e;
         let code = EmcyCode(u16::from_le_bytes([c0, c1]));
