@@ -8,7 +8,7 @@ use super::Application;
 use super::app::OptionsOf;
 use crate::abort::AbortCode;
 use crate::od::index;
-use crate::od::{Dictionary, Entry, ObjectDictionary, object, sub_entry, value_u32};
+use crate::od::{Dictionary, Entry, ObjectDictionary, object, value_u32};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::pdo::map::Mapping;
@@ -161,10 +161,11 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         if code == EmcyCode::NO_ERROR {
             return;
         }
-        // The record's entries found once; its sub-indices then among them.
+        // The record's entries found once, sorted by sub-index with unique keys
+        // (as every dictionary's): sub 0 is the first if the record has it.
         let record = object(dict, index::PRE_DEFINED_ERROR_FIELD);
-        let Some(count) = sub_entry(record, 0) else { return };
-        // Every entry but sub 0, which is there: the dictionary's keys are unique.
+        let Some(count) = record.first().filter(|e| e.sub == 0) else { return };
+        // Every entry but sub 0.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
         let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
@@ -172,12 +173,10 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         // manufacturer-specific field).
         let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
         let len = used.saturating_add(1).min(capacity);
-        // Sub-indices 1..=len in the record's order (sorted by sub-index):
-        // the walk ends at the first one missing, as a search for each would.
-        for (i, entry) in record.iter().filter(|e| e.sub != 0).take(usize::from(len)).enumerate() {
-            if usize::from(entry.sub) != i.wrapping_add(1) {
-                break;
-            }
+        // Sub-indices 1..=len: sub k is at position k while none before it is
+        // missing; the walk ends at the first one missing, as a search for each would.
+        for k in 1..=len {
+            let Some(entry) = record.get(usize::from(k)).filter(|e| e.sub == k) else { break };
             let older = value_u32(dict, image, entry);
             let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
             carry = older;
