@@ -167,11 +167,13 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         let Some(count) = record.first().filter(|e| e.sub == 0) else { return };
         // Every entry but sub 0.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
-        let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
+        // The entries in use (at most `capacity`, below).
+        let used = dict.value(image, count).first().copied().unwrap_or(0);
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
         // manufacturer-specific field).
         let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
+        // One more, at most `capacity` (a count above it reads as `capacity`).
         let len = used.saturating_add(1).min(capacity);
         // Sub-indices 1..=len: sub k is at position k while none before it is
         // missing; the walk ends at the first one missing, as a search for each would.
@@ -466,5 +468,9 @@ mod tests {
         assert_eq!(image, [0x01, 3, 3, 0x10, 0xAA, 0xBB, 2, 0x10, 0xAA, 0xBB, 0, 0, 0, 0]);
         record(&mut image, 4);
         assert_eq!(image[1..10], [3, 4, 0x10, 0xAA, 0xBB, 3, 0x10, 0xAA, 0xBB]);
+        // A count above the room (a broken image) reads as the room.
+        image[1] = 200;
+        record(&mut image, 5);
+        assert_eq!(image[1..10], [3, 5, 0x10, 0xAA, 0xBB, 4, 0x10, 0xAA, 0xBB]);
     }
 }
