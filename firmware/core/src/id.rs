@@ -124,10 +124,16 @@ impl CobRule {
         let on = |table: u32, v: u32| (table >> (v >> 30)) & 1 != 0;
         let (used, fixed) = (rule, rule >> 4);
         let can_id = CobId(new).can_id();
-        let restricted = is_restricted_can_id(can_id) && can_id != own;
         let reserved = if self.0 & BIT30_RESERVED != 0 { CobId::EXTENDED | CobId::BIT30 } else { CobId::EXTENDED };
-        let moves = old.is_some_and(|old| on(fixed, old) && on(fixed, new) && (old ^ new) & 0x7FF != 0);
-        if new & reserved != 0 || (self.0 & NO_ZERO != 0 && can_id == 0) || (on(used, new) && restricted) || moves {
+        // One rule at a time, each refusing alone: branches, where the
+        // whole condition at once was worked out without (LLVM's selects).
+        if new & reserved != 0 || (self.0 & NO_ZERO != 0 && can_id == 0) {
+            return Err(crate::abort::AbortCode::InvalidValue);
+        }
+        if old.is_some_and(|old| on(fixed, old) && on(fixed, new) && (old ^ new) & 0x7FF != 0) {
+            return Err(crate::abort::AbortCode::InvalidValue);
+        }
+        if on(used, new) && can_id != own && is_restricted_can_id(can_id) {
             return Err(crate::abort::AbortCode::InvalidValue);
         }
         Ok(())

@@ -8,7 +8,7 @@ use super::Application;
 use super::app::OptionsOf;
 use crate::abort::AbortCode;
 use crate::od::index;
-use crate::od::{Dictionary, Entry, ObjectDictionary, object, sub_entry, value_u32};
+use crate::od::{Dictionary, Entry, ObjectDictionary, object, value_u32};
 use crate::services::emcy::EmcyProducer;
 use crate::services::heartbeat::{Consumer, Guarding, Producer};
 use crate::services::pdo::map::Mapping;
@@ -148,6 +148,9 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
 
     /// Records a sent EMCY (its data bytes, [`crate::wire::emcy::Emcy::emit`]): 0x1001 and,
     /// for an error, a new 0x1003 entry (newest at sub 1).
+    // Out of line: `process_emcy` had it in line around its queue loop, and
+    // its registers cost more than the call.
+    #[inline(never)]
     pub fn record(&mut self, dict: &Dictionary, image: &mut [u8], e: &[u8; 8]) {
         let [c0, c1, register, i0, i1, ..] = *e;
         let code = EmcyCode(u16::from_le_bytes([c0, c1]));
@@ -158,23 +161,24 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         if code == EmcyCode::NO_ERROR {
             return;
         }
-        // The record's entries found once; its sub-indices then among them.
+        // The record's entries found once, sorted by sub-index with unique keys
+        // (as every dictionary's): sub 0 is the first if the record has it.
         let record = object(dict, index::PRE_DEFINED_ERROR_FIELD);
-        let Some(count) = sub_entry(record, 0) else { return };
-        // Every entry but sub 0, which is there: the dictionary's keys are unique.
+        let Some(count) = record.first().filter(|e| e.sub == 0) else { return };
+        // Every entry but sub 0.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
-        let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
+        // The entries in use (at most `capacity`, below).
+        let used = dict.value(image, count).first().copied().unwrap_or(0);
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
         // manufacturer-specific field).
         let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
+        // One more, at most `capacity` (a count above it reads as `capacity`).
         let len = used.saturating_add(1).min(capacity);
-        // Sub-indices 1..=len in the record's order (sorted by sub-index):
-        // the walk ends at the first one missing, as a search for each would.
-        for (i, entry) in record.iter().filter(|e| e.sub != 0).take(usize::from(len)).enumerate() {
-            if usize::from(entry.sub) != i.wrapping_add(1) {
-                break;
-            }
+        // Sub-indices 1..=len: sub k is at position k while none before it is
+        // missing; the walk ends at the first one missing, as a search for each would.
+        for k in 1..=len {
+            let Some(entry) = record.get(usize::from(k)).filter(|e| e.sub == k) else { break };
             let older = value_u32(dict, image, entry);
             let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
             carry = older;
@@ -187,28 +191,27 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
     /// links node guarding (without, the guarding stays unconfigured).
     #[inline(always)]
     fn apply(&mut self, index: u16, sub: u8, value: u32, now: At, guarding: bool) {
-        match (index, sub) {
-            (index::CONSUMER_HEARTBEAT_TIME, 1..) => {
-                // sub ≥ 1: the match arm's.
-                #[allow(clippy::arithmetic_side_effects)]
-                self.consumers.configure(usize::from(sub) - 1, value);
-            }
-            (index::COB_ID_SYNC..=index::SYNCHRONOUS_WINDOW_LENGTH | index::SYNCHRONOUS_COUNTER_OVERFLOW, _) => {
-                self.sync.apply(index, value)
-            }
-            (index::PRODUCER_HEARTBEAT_TIME, _) => {
+        match index {
+            // Sub 0 is no consumer's: its position wraps past them all.
+            index::CONSUMER_HEARTBEAT_TIME => self.consumers.configure(usize::from(sub).wrapping_sub(1), value),
+            // Each with its index a constant: SYNC's own match folds into this one.
+            index::COB_ID_SYNC => self.sync.apply(index::COB_ID_SYNC, value),
+            index::COMMUNICATION_CYCLE_PERIOD => self.sync.apply(index::COMMUNICATION_CYCLE_PERIOD, value),
+            index::SYNCHRONOUS_WINDOW_LENGTH => self.sync.apply(index::SYNCHRONOUS_WINDOW_LENGTH, value),
+            index::SYNCHRONOUS_COUNTER_OVERFLOW => self.sync.apply(index::SYNCHRONOUS_COUNTER_OVERFLOW, value),
+            index::PRODUCER_HEARTBEAT_TIME => {
                 self.heartbeat.configure(value as u16, now);
                 if guarding && self.heartbeat.active() {
                     // Heartbeat replaces guarding (CiA 301 §7.2.8.3.2): no life guarding either.
                     self.guarding.disarm();
                 }
             }
-            (index::COB_ID_TIME_STAMP, _) => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
+            index::COB_ID_TIME_STAMP => self.time_cob_id = (value & 0x8000_0000 != 0).then_some((value & 0x7FF) as u16),
             // The value as written: the service keeps each object's part.
-            (index::GUARD_TIME, _) if guarding => self.guarding.set_guard_time(value as u16),
-            (index::LIFE_TIME_FACTOR, _) if guarding => self.guarding.set_life_time_factor(value as u8),
-            (index::COB_ID_EMCY, _) => self.emcy.set_cob_id(value),
-            (index::INHIBIT_TIME_EMCY, _) => self.emcy.set_inhibit(value as u16),
+            index::GUARD_TIME if guarding => self.guarding.set_guard_time(value as u16),
+            index::LIFE_TIME_FACTOR if guarding => self.guarding.set_life_time_factor(value as u8),
+            index::COB_ID_EMCY => self.emcy.set_cob_id(value),
+            index::INHIBIT_TIME_EMCY => self.emcy.set_inhibit(value as u16),
             // Nothing for an object no service uses.
             _ => {}
         }
@@ -216,10 +219,16 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
 
     /// 0x1003 sub 0 ← 0: the history is empty.
     pub fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        // Every entry of the record zero (an empty value is zero-filled).
-        for entry in object(dict, index::PRE_DEFINED_ERROR_FIELD) {
-            let _ = dict.write_unchecked_entry(image, entry, &[]);
-        }
+        clear_history(dict, image);
+    }
+}
+
+/// [`Comm::clear_history`], which needs no service: the router's download
+/// of 0x1003 sub 0 calls it without a call through the [`Services`] vtable.
+pub(super) fn clear_history(dict: &Dictionary, image: &mut [u8]) {
+    // Every entry of the record zero (an empty value is zero-filled).
+    for entry in object(dict, index::PRE_DEFINED_ERROR_FIELD) {
+        let _ = dict.write_unchecked_entry(image, entry, &[]);
     }
 }
 
@@ -238,9 +247,6 @@ pub(crate) trait Services {
     /// Whether 0x1016 entry `i` (0-based) set to `value` would monitor a
     /// node another entry monitors.
     fn consumer_conflicts(&self, i: usize, value: u32) -> bool;
-
-    /// [`Comm::clear_history`].
-    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]);
 
     /// A download into a PDO record (0x1400–0x1BFF) whose `entry` passed
     /// the precheck, with the PDOs' rules (`rewrite`: a valid PDO may
@@ -350,10 +356,6 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
         self.comm.consumers.conflicts(i, value)
     }
 
-    fn clear_history(&mut self, dict: &Dictionary, image: &mut [u8]) {
-        self.comm.clear_history(dict, image);
-    }
-
     fn write_pdo(
         &mut self,
         index: u16,
@@ -428,6 +430,19 @@ mod tests {
         assert_eq!(comm.emcy.cob_id(), None, "no 0x1014: EMCY off");
     }
 
+    #[test]
+    fn a_consumer_takes_its_own_sub_index_and_sub_0_none() {
+        let mut comm = Hooked::<crate::node::NoApplication, Od, 0, 0, 2>::new();
+        comm.configure(&DICT, &DEFAULTS, 0);
+        // Node 7 at 1000 ms.
+        Services::apply(&mut comm, 0x1016, 0, 0x0007_03E8, 0);
+        assert!(comm.consumers.producers().eq([5, 6]), "sub 0 is the count: no consumer changes");
+        Services::apply(&mut comm, 0x1016, 2, 0x0007_03E8, 0);
+        assert!(comm.consumers.producers().eq([5, 7]), "sub 2 is the second consumer");
+        Services::apply(&mut comm, 0x1016, 3, 0x0008_03E8, 0);
+        assert!(comm.consumers.producers().eq([5, 7]), "sub 3: beyond the two consumers");
+    }
+
     /// 0x1001, and 0x1003 with sub-indices 0, 1, 2 and 4 (sub 3 missing).
     static HISTORY: [Entry; 5] = [
         Entry::new(0x1001, 0, DataType::Unsigned8, Attr::READ, 1, 0),
@@ -453,5 +468,9 @@ mod tests {
         assert_eq!(image, [0x01, 3, 3, 0x10, 0xAA, 0xBB, 2, 0x10, 0xAA, 0xBB, 0, 0, 0, 0]);
         record(&mut image, 4);
         assert_eq!(image[1..10], [3, 4, 0x10, 0xAA, 0xBB, 3, 0x10, 0xAA, 0xBB]);
+        // A count above the room (a broken image) reads as the room.
+        image[1] = 200;
+        record(&mut image, 5);
+        assert_eq!(image[1..10], [3, 5, 0x10, 0xAA, 0xBB, 4, 0x10, 0xAA, 0xBB]);
     }
 }

@@ -170,7 +170,7 @@ impl Ctx<'_> {
                 // CiA 301 §7.5.2.4: only 0 may be written, and it clears the history.
                 return match data {
                     [0] => {
-                        self.services.clear_history(dict, self.image);
+                        super::comm::clear_history(dict, self.image);
                         Ok(())
                     }
                     [_] => Err(AbortCode::InvalidValue),
