@@ -163,11 +163,12 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         let Some(count) = sub_entry(record, 0) else { return };
         // Every entry but sub 0, which is there: the dictionary's keys are unique.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
-        let used = dict.value(image, count).first().copied().unwrap_or(0).min(capacity);
+        let used = dict.value(image, count).first().copied().unwrap_or(0);
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
-        // manufacturer-specific field).
-        let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
+        // manufacturer-specific field). As bytes: no shifts to make a `u32` of them.
+        let mut carry = [c0, c1, i0, i1];
+        // One more than the count, at most the capacity (a count above it is cut).
         let len = used.saturating_add(1).min(capacity);
         // Sub-indices 1..=len in the record's order (sorted by sub-index):
         // the walk ends at the first one missing, as a search for each would.
@@ -176,8 +177,8 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
                 break;
             }
             let older = value_u32(dict, image, entry);
-            let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
-            carry = older;
+            let _ = dict.write_unchecked_entry(image, entry, &carry);
+            carry = older.to_le_bytes();
         }
         let _ = dict.write_unchecked_entry(image, count, &[len]);
     }
@@ -453,5 +454,14 @@ mod tests {
         assert_eq!(image, [0x01, 3, 3, 0x10, 0xAA, 0xBB, 2, 0x10, 0xAA, 0xBB, 0, 0, 0, 0]);
         record(&mut image, 4);
         assert_eq!(image[1..10], [3, 4, 0x10, 0xAA, 0xBB, 3, 0x10, 0xAA, 0xBB]);
+        // A count above the room (the image as a device left it) is cut to the room.
+        for count in [4, 200, 255] {
+            image[1] = count;
+            record(&mut image, 5);
+            assert_eq!(image[1..6], [3, 5, 0x10, 0xAA, 0xBB], "count {count}");
+        }
+        image[1] = 0;
+        record(&mut image, 6);
+        assert_eq!(image[1..10], [1, 6, 0x10, 0xAA, 0xBB, 5, 0x10, 0xAA, 0xBB], "count 0: one entry, the older ones stay as they are");
     }
 }
