@@ -308,13 +308,6 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
             Services::apply(self, index, sub, value, now);
         }
     }
-
-    /// Applies a communication object's sub 0 as the image holds it
-    /// (idempotent): [`Services::apply`] with its current value.
-    pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: At) {
-        let _ = node_id;
-        Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), now);
-    }
 }
 
 impl<A, O, const R: usize, const T: usize, const HB: usize> Deref for Hooked<A, O, R, T, HB> {
@@ -372,9 +365,6 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
         self.comm.pdos.write_checked(index, sub, data, entry, dict, image, rewrite)
     }
 
-    // Out of line: `reconfigure` (0x1017 at the boot-up) inlined its own
-    // copy of the arm the constant index chose.
-    #[inline(never)]
     fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
         self.comm.apply(index, sub, value, now, O::SERVICES.guarding);
     }

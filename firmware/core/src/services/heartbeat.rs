@@ -29,6 +29,12 @@ impl Producer {
         self.next = later(now, self.period);
     }
 
+    /// Restarts the period from `now` (the boot-up: the first heartbeat
+    /// one period after it), as [`Producer::configure`] with the period it has.
+    pub fn restart(&mut self, now: At) {
+        self.next = later(now, self.period);
+    }
+
     /// Whether the producer runs (guarding is then off).
     pub fn active(&self) -> bool {
         self.period != 0
