@@ -86,6 +86,25 @@ fn heartbeat_producer_follows_0x1017_and_the_state() {
     assert!(b.run_until(ms(2000)).is_empty());
 }
 
+#[test]
+fn a_stored_heartbeat_time_restarts_one_period_after_each_boot_up() {
+    let mut b = ec5000(5);
+    b.at(ms(0));
+    assert_eq!(b.sdo_write(5, 0x1017, 0, &100u16.to_le_bytes()), ok_write(0x1017, 0));
+    assert_eq!(b.sdo_write(5, 0x1010, 2, b"save"), ok_write(0x1010, 2));
+    let beats = b.run_until(ms(250));
+    assert_eq!(beats, [(ms(100), (0x705, vec![0x7F])), (ms(200), (0x705, vec![0x7F]))]);
+    // Reset communication keeps the stored 0x1017; the period starts over at the boot-up, not on the old grid.
+    assert_eq!(b.rx(ms(250), 0x000, &[0x82, 0x05]), [(0x705, vec![0x00])]);
+    let beats = b.run_until(ms(460));
+    assert_eq!(beats, [(ms(350), (0x705, vec![0x7F])), (ms(450), (0x705, vec![0x7F]))]);
+    // The same after reset node, with a heartbeat time written since (not stored): the stored one counts.
+    assert_eq!(b.sdo_write(5, 0x1017, 0, &40u16.to_le_bytes()), ok_write(0x1017, 0));
+    assert_eq!(b.run_until(ms(500)), [(ms(500), (0x705, vec![0x7F]))]);
+    assert_eq!(b.rx(ms(505), 0x000, &[0x81, 0x05]), [(0x705, vec![0x00])]);
+    assert_eq!(b.run_until(ms(700)), [(ms(605), (0x705, vec![0x7F]))]);
+}
+
 // ---- Heartbeat consumer ------------------------------------------------------
 
 #[test]

@@ -167,21 +167,20 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         let Some(count) = record.first().filter(|e| e.sub == 0) else { return };
         // Every entry but sub 0.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
-        // The entries in use (at most `capacity`, below).
         let used = dict.value(image, count).first().copied().unwrap_or(0);
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
-        // manufacturer-specific field).
-        let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
-        // One more, at most `capacity` (a count above it reads as `capacity`).
+        // manufacturer-specific field). As bytes: no shifts to make a `u32` of them.
+        let mut carry = [c0, c1, i0, i1];
+        // One more than the count, at most the capacity (a count above it is cut).
         let len = used.saturating_add(1).min(capacity);
         // Sub-indices 1..=len: sub k is at position k while none before it is
         // missing; the walk ends at the first one missing, as a search for each would.
         for k in 1..=len {
             let Some(entry) = record.get(usize::from(k)).filter(|e| e.sub == k) else { break };
             let older = value_u32(dict, image, entry);
-            let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
-            carry = older;
+            let _ = dict.write_unchecked_entry(image, entry, &carry);
+            carry = older.to_le_bytes();
         }
         let _ = dict.write_unchecked_entry(image, count, &[len]);
     }
@@ -313,13 +312,6 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
             Services::apply(self, index, sub, value, now);
         }
     }
-
-    /// Applies a communication object's sub 0 as the image holds it
-    /// (idempotent): [`Services::apply`] with its current value.
-    pub fn reconfigure(&mut self, index: u16, dict: &Dictionary, image: &[u8], node_id: u8, now: At) {
-        let _ = node_id;
-        Services::apply(self, index, 0, u32_of(dict, image, index, 0, 0), now);
-    }
 }
 
 impl<A, O, const R: usize, const T: usize, const HB: usize> Deref for Hooked<A, O, R, T, HB> {
@@ -373,9 +365,6 @@ impl<A: Application, O: ObjectDictionary, const R: usize, const T: usize, const 
         self.comm.pdos.write_checked(index, sub, data, entry, dict, image, rewrite)
     }
 
-    // Out of line: `reconfigure` (0x1017 at the boot-up) inlined its own
-    // copy of the arm the constant index chose.
-    #[inline(never)]
     fn apply(&mut self, index: u16, sub: u8, value: u32, now: At) {
         self.comm.apply(index, sub, value, now, O::SERVICES.guarding);
     }
@@ -468,9 +457,14 @@ mod tests {
         assert_eq!(image, [0x01, 3, 3, 0x10, 0xAA, 0xBB, 2, 0x10, 0xAA, 0xBB, 0, 0, 0, 0]);
         record(&mut image, 4);
         assert_eq!(image[1..10], [3, 4, 0x10, 0xAA, 0xBB, 3, 0x10, 0xAA, 0xBB]);
-        // A count above the room (a broken image) reads as the room.
-        image[1] = 200;
-        record(&mut image, 5);
-        assert_eq!(image[1..10], [3, 5, 0x10, 0xAA, 0xBB, 4, 0x10, 0xAA, 0xBB]);
+        // A count above the room (the image as a device left it) is cut to the room.
+        for count in [4, 200, 255] {
+            image[1] = count;
+            record(&mut image, 5);
+            assert_eq!(image[1..6], [3, 5, 0x10, 0xAA, 0xBB], "count {count}");
+        }
+        image[1] = 0;
+        record(&mut image, 6);
+        assert_eq!(image[1..10], [1, 6, 0x10, 0xAA, 0xBB, 5, 0x10, 0xAA, 0xBB], "count 0: one entry, the older ones stay as they are");
     }
 }

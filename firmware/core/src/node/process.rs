@@ -299,13 +299,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             };
             if sent {
                 self.boot_pending = false;
-                // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT.
-                let dict = self.od.dictionary();
-                let auto_start = matches!(dict.read(self.od.image(), index::NMT_STARTUP, 0), Ok([b, ..]) if b & 0x04 != 0)
+                // 0x1F80 bit 2: the node starts itself (CiA 302-2), without waiting for NMT
+                // (read as a `u32`, as the device switches: one read call for both).
+                let auto_start = self.option_set((index::NMT_STARTUP, 0x04))
                     || A::OPTIONS.start_operational.is_some_and(|switch| self.option_set(switch));
                 let state = self.nmt.boot_up_done(false);
-                let dict = self.od.dictionary();
-                self.comm.reconfigure(index::PRODUCER_HEARTBEAT_TIME, dict, self.od.image(), self.hook.node_id, now);
+                // The heartbeat producer from the boot-up on: reset communication
+                // configured it from 0x1017, and every write since applied
+                // itself (a download, `Ctx::write_object`); that also disarmed
+                // guarding if the producer runs.
+                self.comm.heartbeat.restart(now);
                 self.entered(state, now);
                 self.start_pending = auto_start;
             }

@@ -4,7 +4,7 @@
 //! Heartbeat and guarding exclude each other: with a producer heartbeat
 //! time other than 0 the node does not answer guarding requests.
 
-use crate::time::{At, Far, NEVER, at, at_by, later, ms_span, shift_opt};
+use crate::time::{At, Far, NEVER, at, at_by, later, ms_span, shift, shift_opt};
 use crate::wire::nmt::NmtStateCode;
 
 /// The heartbeat producer.
@@ -12,50 +12,57 @@ use crate::wire::nmt::NmtStateCode;
 pub struct Producer {
     /// The period in µs (0: off).
     period: u32,
-    next: Option<At>,
+    /// When the next heartbeat is due, while `period` is not 0 (a plain
+    /// time, not an `Option`: the period says whether it runs).
+    next: At,
 }
 
 impl Producer {
     /// A producer that is off until [`Producer::configure`].
     pub const fn new() -> Self {
-        Producer { period: 0, next: None }
+        Producer { period: 0, next: 0 }
     }
 
     /// Sets the period from 0x1017 (ms; 0 = off) and restarts it from `now`.
     pub fn configure(&mut self, period_ms: u16, now: At) {
         self.period = ms_span(period_ms);
-        self.next = (period_ms != 0).then(|| later(now, self.period));
+        self.next = later(now, self.period);
+    }
+
+    /// Restarts the period from `now` (the boot-up: the first heartbeat
+    /// one period after it), as [`Producer::configure`] with the period it has.
+    pub fn restart(&mut self, now: At) {
+        self.next = later(now, self.period);
     }
 
     /// Whether the producer runs (guarding is then off).
     pub fn active(&self) -> bool {
-        self.next.is_some()
+        self.period != 0
     }
 
     /// Returns true when a heartbeat is due at `now` and schedules the next one.
     pub fn poll(&mut self, now: At) -> bool {
-        match self.next {
-            Some(t) if now >= t => {
-                // Keep the grid: a late poll does not shift later heartbeats.
-                let mut next = later(t, self.period);
-                if next <= now {
-                    next = later(now, self.period);
-                }
-                self.next = Some(next);
-                true
-            }
-            _ => false,
+        if self.period == 0 || now < self.next {
+            return false;
         }
+        // Keep the grid: a late poll does not shift later heartbeats.
+        let mut next = later(self.next, self.period);
+        if next <= now {
+            next = later(now, self.period);
+        }
+        self.next = next;
+        true
     }
 
     /// When the next heartbeat is due.
     pub fn deadline(&self) -> At {
-        at(self.next)
+        if self.period == 0 { NEVER } else { self.next }
     }
 
     /// The epoch moved by `by` µs.
     pub(crate) fn shift(&mut self, by: u64) {
-        shift_opt(&mut self.next, at_by(by));
+        // Off, `next` is never read: shifted all the same.
+        shift(&mut self.next, at_by(by));
     }
 }
 
@@ -311,8 +318,15 @@ mod tests {
         assert!(!p.poll(ms(150)));
         assert!(p.poll(ms(205)));
         assert_eq!(deadline_of(p.deadline()), Some(ms(300)));
+        p.shift(u64::from(ms(250)));
+        assert_eq!(deadline_of(p.deadline()), Some(ms(50)), "moved with the epoch");
         p.configure(0, ms(300));
         assert!(!p.active() && !p.poll(ms(1000)));
+        assert_eq!(p.deadline(), NEVER, "off: no deadline");
+        p.shift(u64::from(ms(5000)));
+        assert!(!p.poll(ms(0)) && p.deadline() == NEVER, "off stays off across an epoch move");
+        p.configure(10, ms(0));
+        assert!(!p.poll(ms(9)) && p.poll(ms(10)));
     }
 
     #[test]
