@@ -67,7 +67,7 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     // Out of line: the download's path is then one for both directions
     // (with the choice in line, the compiler laid it out twice).
     #[inline(never)]
-    fn config_mut(&mut self, direction: Direction, n: usize) -> Option<&mut Config> {
+    pub(super) fn config_mut(&mut self, direction: Direction, n: usize) -> Option<&mut Config> {
         match direction {
             Direction::Receive => Some(&mut self.rpdos.get_mut(n)?.config),
             Direction::Transmit => Some(&mut self.tpdos.get_mut(n)?.config),
