@@ -192,7 +192,9 @@ fn write_map(
     // As numbers: the precheck held `data` to the entry's length (an
     // UNSIGNED8 or UNSIGNED32), and a number compares in fewer bytes than a slice.
     let value = le_u32(data);
-    if (locked || sub != 0) && value_u32(dict, image, entry) == value {
+    // One call for both tests (the compiler laid out one per test).
+    let current = value_u32(dict, image, entry);
+    if (locked || sub != 0) && current == value {
         // Writing back the current value changes nothing and is allowed
         // (sub 0 of an open mapping is always resolved again).
         return Ok(false);
