@@ -123,7 +123,7 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
     /// resolve leaves its PDO disabled and counts once per reset in
     /// `mapping_errors`, for tools and tests.
     pub fn configure_pdos(&mut self, dict: &Dictionary, image: &[u8], transmit: bool) {
-        let result = if transmit { self.pdos.configure_tpdos(dict, image) } else { self.pdos.configure_rpdos(dict, image) };
+        let result = self.pdos.configure_half(dict, image, transmit);
         // The RPDOs' count stands for both halves.
         if result.is_err() && !(transmit && self.rpdo_mapping_failed) {
             self.mapping_errors = self.mapping_errors.saturating_add(1);

@@ -125,13 +125,16 @@ impl CommParams {
         let refused = match sub {
             1 => {
                 let rule = if rewrite { CobRule::MOVABLE } else { CobRule::VALID };
-                rule.check(Some(self.cob_id), value, u16::MAX).is_err() || (transmit && new.valid() && rtr_only)
+                rule.check(Some(self.cob_id), value, u16::MAX).is_err()
             }
-            // 241..=251 reserved, 252/253 too for an RPDO; RTR-only types need RTRs.
-            2 => (241..=if transmit { 251 } else { 253 }).contains(&new.transmission_type) || rtr_only,
+            // 241..=251 reserved, 252/253 too for an RPDO.
+            2 => (241..=if transmit { 251 } else { 253 }).contains(&new.transmission_type),
             6 => new.sync_start > 240,
             _ => false,
         };
+        // RTR-only types need RTRs: a TPDO's type (an RPDO's 252/253 are
+        // refused above) or its valid COB-ID; one test for both subs.
+        let refused = refused || (transmit && rtr_only && (sub == 2 || (sub == 1 && new.valid())));
         // The inhibit time and the SYNC start value change only while the PDO is not valid.
         if refused || (matches!(sub, 3 | 6) && self.valid() && new != self) {
             return Err(AbortCode::InvalidValue);

@@ -5,7 +5,6 @@
 
 use super::map::{Direction, Mapping};
 use super::{CommParams, MappingError, nth};
-use crate::abort::AbortCode;
 use crate::od::Dictionary;
 
 /// Communication record minus mapping record: 0x1400 − 0x1600, 0x1800 − 0x1A00.
@@ -81,6 +80,6 @@ impl Config {
         // The failed resolution left an empty mapping (`Mapping::resolve`).
         self.unresolved = true;
         // A record the dictionary lacks is no error.
-        (code != AbortCode::NoDictionary).then_some(MappingError { index, code })
+        code.map(|code| MappingError { index, code })
     }
 }

@@ -178,14 +178,18 @@ impl Mapping {
 
     /// Becomes the mapping record `index` (0x1600+n or 0x1A00+n) read and
     /// resolved as the image holds it, into an empty mapping, as
-    /// [`Mapping::resolve`]. [`AbortCode::NoDictionary`] (which nothing
-    /// else here returns) for a record the dictionary lacks, no error at
-    /// configuration: one look-up of the record tells it.
-    pub(super) fn read_record(&mut self, dict: &Dictionary, image: &[u8], index: u16, direction: Direction) -> Result<(), AbortCode> {
+    /// [`Mapping::resolve`]. `Err(None)` for a record the dictionary
+    /// lacks, no error at configuration: one look-up of the record tells it.
+    pub(super) fn read_record(
+        &mut self,
+        dict: &Dictionary,
+        image: &[u8],
+        index: u16,
+        direction: Direction,
+    ) -> Result<(), Option<AbortCode>> {
         let record = object(dict, index);
-        let missing = if record.is_empty() { AbortCode::NoDictionary } else { AbortCode::NoObject };
-        let count = sub_entry(record, 0).ok_or(missing)?;
-        self.resolve(dict, image, record, value_u32(dict, image, count), direction)
+        let count = sub_entry(record, 0).ok_or((!record.is_empty()).then_some(AbortCode::NoObject))?;
+        Ok(self.resolve(dict, image, record, value_u32(dict, image, count), direction)?)
     }
 
     /// Makes an empty mapping ([`Mapping::EMPTY`], which each caller's

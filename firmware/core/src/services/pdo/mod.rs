@@ -65,7 +65,7 @@ use crate::od::{Dictionary, index};
 use crate::services::sync::SyncEvent;
 use crate::time::{At, Far, NEVER, at, deadline_of};
 use crate::wire::emcy::EmcyCode;
-use config::Change;
+use config::{Change, Config};
 use map::{Direction, Mapping};
 use rpdo::Rpdo;
 use tpdo::Tpdo;
@@ -326,38 +326,59 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// The RPDO half of [`Pdos::configure`] (a reset does the halves in
     /// separate steps, RPDOs first): the PDOs leave Operational too.
     pub fn configure_rpdos(&mut self, dict: &Dictionary, image: &[u8]) -> Result<(), MappingError> {
-        self.settled = false;
-        let mut first_error = None;
-        for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
-            // Reset communication also resets the node's errors: nothing is
-            // raised any more. From the all-zero state (a clear, where the
-            // default's `None` mapping was a copy from a constant), which is
-            // a restarted RPDO's; its mapping resolved in place.
-            *rpdo = Rpdo::UNCONFIGURED;
-            let comm = nth(index::RPDO_COMMUNICATION_PARAMETER, n);
-            first_error = first_error.or(rpdo.config.read(dict, image, comm, Direction::Receive));
-        }
-        self.window_end = Far::NEVER;
-        self.operational = false;
-        self.parameters_changed();
-        first_error.map_or(Ok(()), Err)
+        self.configure_half(dict, image, false)
     }
 
     /// The TPDO half of [`Pdos::configure`].
     pub fn configure_tpdos(&mut self, dict: &Dictionary, image: &[u8]) -> Result<(), MappingError> {
+        self.configure_half(dict, image, true)
+    }
+
+    /// [`Pdos::configure_tpdos`] if `transmit`, else [`Pdos::configure_rpdos`].
+    /// With both kinds of PDO, one loop over either kind's configurations
+    /// (through `config_mut`, as a download), each PDO restarted by
+    /// [`Pdos::parameters_changed`]'s walk: two loops cost 20 to 24 B more.
+    pub(crate) fn configure_half(&mut self, dict: &Dictionary, image: &[u8], transmit: bool) -> Result<(), MappingError> {
         self.settled = false;
+        if !transmit {
+            self.window_end = Far::NEVER;
+            self.operational = false;
+        }
         let mut first_error = None;
-        for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
-            // From the all-zero state, as the RPDOs, but for the settings
-            // that survive; restarted once it has its parameters.
-            tpdo.unconfigure();
-            let comm = nth(index::TPDO_COMMUNICATION_PARAMETER, n);
-            first_error = first_error.or(tpdo.config.read(dict, image, comm, Direction::Transmit));
-            if Self::ACT_IN_WALK {
-                // Restarted by `parameters_changed` below.
-                tpdo.config.change = Change::Restart;
+        if Self::ACT_IN_WALK {
+            let (direction, base) = if transmit {
+                (Direction::Transmit, index::TPDO_COMMUNICATION_PARAMETER)
             } else {
+                // Reset communication also resets the node's errors: nothing
+                // is raised any more, nothing buffered, no timer runs.
+                self.rpdos = [Rpdo::UNCONFIGURED; R];
+                (Direction::Receive, index::RPDO_COMMUNICATION_PARAMETER)
+            };
+            let mut n = 0;
+            while let Some(config) = self.config_mut(direction, usize::from(n)) {
+                // From the all-zero configuration (a clear, where the
+                // default's `None` mapping was a copy from a constant; a
+                // TPDO keeps its other settings, which its restart sets),
+                // its mapping resolved in place.
+                *config = Config::UNCONFIGURED;
+                first_error = first_error.or(config.read(dict, image, nth(base, n), direction));
+                // Restarted by `parameters_changed` below.
+                config.change = Change::Restart;
+                n = nth(n, 1);
+            }
+        } else if transmit {
+            // One kind only: the PDOs act at once.
+            for (tpdo, n) in self.tpdos.iter_mut().zip(0u16..) {
+                tpdo.unconfigure();
+                let comm = nth(index::TPDO_COMMUNICATION_PARAMETER, n);
+                first_error = first_error.or(tpdo.config.read(dict, image, comm, Direction::Transmit));
                 tpdo.restart::<P>(None);
+            }
+        } else {
+            for (rpdo, n) in self.rpdos.iter_mut().zip(0u16..) {
+                *rpdo = Rpdo::UNCONFIGURED;
+                let comm = nth(index::RPDO_COMMUNICATION_PARAMETER, n);
+                first_error = first_error.or(rpdo.config.read(dict, image, comm, Direction::Receive));
             }
         }
         // What each RPDO reaches depends on the TPDOs' mappings.

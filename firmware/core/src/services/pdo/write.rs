@@ -67,7 +67,7 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     // Out of line: the download's path is then one for both directions
     // (with the choice in line, the compiler laid it out twice).
     #[inline(never)]
-    fn config_mut(&mut self, direction: Direction, n: usize) -> Option<&mut Config> {
+    pub(super) fn config_mut(&mut self, direction: Direction, n: usize) -> Option<&mut Config> {
         match direction {
             Direction::Receive => Some(&mut self.rpdos.get_mut(n)?.config),
             Direction::Transmit => Some(&mut self.tpdos.get_mut(n)?.config),
@@ -117,7 +117,11 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
                 Err(code) => return Some(Err(code)),
             },
         };
-        let change = match write_config(config, is_mapping, direction, entry, index, sub, data, dict, image, rewrite) {
+        // As a number, once for both kinds of record: the precheck held
+        // `data` to the entry's length (an UNSIGNED8, 16 or 32), and a
+        // number compares in fewer bytes than a slice.
+        let value = le_u32(data);
+        let change = match write_config(config, is_mapping, direction, entry, index, sub, value, dict, image, rewrite) {
             Ok(change) => change,
             Err(code) => return Some(Err(code)),
         };
@@ -147,7 +151,7 @@ fn write_config(
     entry: &'static Entry,
     index: u16,
     sub: u8,
-    data: &[u8],
+    value: u32,
     dict: &Dictionary,
     image: &[u8],
     rewrite: bool,
@@ -156,13 +160,13 @@ fn write_config(
     if is_mapping {
         let locked = params.valid() && config.cob_id_writable && !rewrite;
         let mut mapping = Mapping::EMPTY;
-        if !write_map(locked, rewrite, direction, entry, index, sub, data, dict, image, &mut mapping)? {
+        if !write_map(locked, rewrite, direction, entry, index, sub, value, dict, image, &mut mapping)? {
             return Ok(Change::None);
         }
         (config.mapping, config.unresolved) = (mapping, false);
         return Ok(Change::Restart);
     }
-    let new = params.with(direction, sub, le_u32(data), rewrite)?;
+    let new = params.with(direction, sub, value, rewrite)?;
     config.params = new;
     Ok(if (params.cob_id, params.transmission_type) != (new.cob_id, new.transmission_type) {
         Change::Restart
@@ -184,15 +188,14 @@ fn write_map(
     entry: &'static Entry,
     index: u16,
     sub: u8,
-    data: &[u8],
+    value: u32,
     dict: &Dictionary,
     image: &[u8],
     new: &mut Mapping,
 ) -> Result<bool, AbortCode> {
-    // As numbers: the precheck held `data` to the entry's length (an
-    // UNSIGNED8 or UNSIGNED32), and a number compares in fewer bytes than a slice.
-    let value = le_u32(data);
-    if (locked || sub != 0) && value_u32(dict, image, entry) == value {
+    // One call for both tests (the compiler laid out one per test).
+    let current = value_u32(dict, image, entry);
+    if (locked || sub != 0) && current == value {
         // Writing back the current value changes nothing and is allowed
         // (sub 0 of an open mapping is always resolved again).
         return Ok(false);

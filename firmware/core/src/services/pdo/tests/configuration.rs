@@ -65,3 +65,24 @@ fn reset_communication_restores_the_defaults() {
     assert_eq!(node.pdos.tpdo(0).unwrap().mapping().map(Mapping::len), Some(5));
     assert!(!node.pdos.is_operational());
 }
+
+/// A mapping record the dictionary lacks is no error (the PDO is silent);
+/// one without sub 0 is 0x06020000 at configuration.
+#[test]
+fn a_missing_mapping_record_is_no_error_and_one_without_sub_0_is() {
+    use crate::od::{Attr, DataType, Entry};
+    static ENTRIES: [Entry; 3] = [
+        Entry::new(0x1800, 1, DataType::Unsigned32, Attr::READ, 4, 0),
+        Entry::new(0x1801, 1, DataType::Unsigned32, Attr::READ, 4, 4),
+        Entry::new(0x1A01, 1, DataType::Unsigned32, Attr::READ, 4, 8),
+    ];
+    static IMAGE: [u8; 12] = [0x81, 1, 0, 0, 0x82, 1, 0, 0, 0x10, 0, 0, 0x20];
+    static ONLY: Dictionary = Dictionary::comm_only(&ENTRIES, &IMAGE);
+    let mut pdos: Pdos<0, 1> = Pdos::default();
+    assert_eq!(pdos.configure(&ONLY, &IMAGE), Ok(()), "no 0x1A00");
+    assert!(pdos.tpdo(0).unwrap().mapping().is_none());
+    assert_eq!(pdos.tpdo(0).unwrap().cob_id(), None);
+    let mut pdos: Pdos<0, 2> = Pdos::default();
+    assert_eq!(pdos.configure(&ONLY, &IMAGE), Err(MappingError { index: 0x1A01, code: AbortCode::NoObject }), "0x1A01 without sub 0");
+    assert_eq!(pdos.tpdo(1).unwrap().cob_id(), None);
+}

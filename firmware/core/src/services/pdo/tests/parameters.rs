@@ -167,6 +167,29 @@ fn transmission_type_downloads() {
     assert_eq!(node.sdo(0x1800, 2, &[254]), Ok(()));
 }
 
+/// A TPDO configured from an image in the state the downloads refuse (type
+/// 253 with COB-ID bit 30 "no RTR", valid): the RTR rule refuses only sub 2
+/// and a valid sub 1; the other subs follow their own rules.
+#[test]
+fn the_rtr_rule_holds_for_sub_1_and_2_only() {
+    let mut node = Node::new();
+    node.set(0x1800, 1, &0x4000_0181u32.to_le_bytes());
+    node.set(0x1800, 2, &[253]);
+    assert_eq!(node.pdos.configure(&DICT, &node.image), Ok(()));
+    assert_eq!(node.sdo(0x1800, 5, &100u16.to_le_bytes()), Ok(()), "event timer");
+    assert_eq!(node.sdo(0x1800, 2, &[253]), Err(AbortCode::InvalidValue), "the same type again");
+    assert_eq!(node.sdo32(0x1800, 1, 0x4000_0181), Err(AbortCode::InvalidValue), "the same COB-ID again");
+    assert_eq!(node.sdo32(0x1800, 1, 0xC000_0181), Ok(()), "not valid");
+    assert_eq!(node.sdo(0x1800, 3, &10u16.to_le_bytes()), Ok(()), "inhibit time, not valid");
+    assert_eq!(node.sdo(0x1800, 6, &[3]), Ok(()), "SYNC start value, not valid");
+    assert_eq!(node.sdo(0x1800, 2, &[254]), Ok(()));
+    assert_eq!(node.sdo32(0x1800, 1, 0x4000_0181), Ok(()), "type 254 with no RTR");
+    // An RPDO's RTR-only types are reserved: refused whatever bit 30 says.
+    assert_eq!(node.sdo32(0x1400, 1, 0xC000_0201), Ok(()));
+    assert_eq!(node.sdo(0x1400, 2, &[253]), Err(AbortCode::InvalidValue));
+    assert_eq!(node.sdo32(0x1400, 1, 0x4000_0201), Ok(()), "an RPDO's bit 30 alone");
+}
+
 #[test]
 fn inhibit_time_and_sync_start_change_only_while_invalid() {
     let mut node = Node::new();
