@@ -402,7 +402,10 @@ impl Channel {
     fn on_request<O: ObjectAccess>(&mut self, now: At, data: &[u8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
         // A frame at or after the deadline comes too late for its transfer:
         // the timeout abort answers it, and only a new initiate is served.
-        let expired = self.expire(now, tx);
+        // The idle state first (`expire` tests it too): the compiler then
+        // branches on it instead of computing both tests for every request
+        // (ds301 −76 bytes; the general path's requests −5 to −7 instructions).
+        let expired = !matches!(self.state, State::Idle) && self.expire(now, tx);
         match self.state {
             // Sub-block frames carry a sequence number where other frames
             // have a command specifier; only the state tells them apart.
