@@ -34,17 +34,6 @@ pub(super) struct UploadInitiate {
     pub(super) pst: u8,
 }
 
-/// Where a block upload is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum UploadPhase {
-    /// Initiate response sent; waiting for the client's start command.
-    Initiated,
-    /// Sending the segments of a block, or waiting for its ack.
-    Sending,
-    /// End request sent; waiting for the client's end response.
-    End,
-}
-
 impl Transfer {
     /// Block upload: segments in the current block, blksize or fewer at
     /// the end of the value.
@@ -82,13 +71,12 @@ impl Channel {
         let blksize = Self::download_blksize(capacity, 0);
         self.state = State::BlockDownload;
         // `start_segments` set the size and pos 0; the block's own fields
-        // (crc_len and phase are the upload's).
+        // (crc_len is the upload's).
         self.t.crc_on = crc;
         self.t.crc = 0;
         self.t.blksize = blksize;
         self.t.seq = 0;
         self.t.gap = false;
-        self.t.complete = false;
         let response = BlockDownloadResponse::Initiate { index: self.mux.index, sub: self.mux.sub, crc: true, blksize };
         self.send(SdoResponse::BlockDownload(response), tx);
     }
@@ -134,7 +122,9 @@ impl Channel {
             total = end;
             ackseq = segment.seqno;
             self.t.pos = end;
-            self.t.complete = segment.last;
+            if segment.last {
+                self.state = State::BlockDownloadEnd;
+            }
         } else if segment.seqno > d.seq {
             // A segment went missing: the client sends again from ackseq + 1.
             self.t.gap = true;
@@ -155,7 +145,7 @@ impl Channel {
     /// request: the value whole, to write and answer.
     pub(super) fn block_download_end<'b>(&mut self, unused: u8, crc: u16, buf: Buffer<'b>, tx: &mut dyn SdoTx) -> Option<Whole<'b>> {
         let d = self.t;
-        // The end request comes after the segment with c = 1 (`complete`),
+        // The end request comes after the segment with c = 1 (`BlockDownloadEnd`),
         // so pos >= 7 >= unused: neither subtraction wraps.
         let len = d.pos.wrapping_sub(usize::from(unused));
         let refused = match buf {
@@ -204,8 +194,8 @@ impl Channel {
         if pst != 0 && size <= usize::from(pst) {
             return Some(size);
         }
-        self.state = State::BlockUpload;
-        // The fields an upload reads (toggle, gap and complete are the downloads').
+        self.state = State::BlockUploadStart;
+        // The fields an upload reads (toggle and gap are the downloads').
         self.t.size = size;
         self.t.pos = 0;
         self.t.crc_on = crc;
@@ -213,7 +203,6 @@ impl Channel {
         self.t.crc_len = 0;
         self.t.blksize = blksize;
         self.t.seq = 0;
-        self.t.phase = UploadPhase::Initiated;
         let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
         self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
         None
@@ -222,10 +211,10 @@ impl Channel {
     /// A request while a block upload is in progress.
     pub(super) fn block_upload(&mut self, request: BlockUploadRequest, tx: &mut dyn SdoTx) {
         let u = self.t;
-        match (u.phase, request) {
+        match (self.state, request) {
             // The segments go out from poll().
-            (UploadPhase::Initiated, BlockUploadRequest::Start) => self.t.phase = UploadPhase::Sending,
-            (UploadPhase::Sending, BlockUploadRequest::Ack { ackseq, blksize }) => {
+            (State::BlockUploadStart, BlockUploadRequest::Start) => self.state = State::BlockUpload,
+            (State::BlockUpload, BlockUploadRequest::Ack { ackseq, blksize }) => {
                 if ackseq > u.seq {
                     return self.abort(AbortCode::InvalidSequence, tx);
                 }
@@ -235,7 +224,7 @@ impl Channel {
                 let acked_end = u.pos.saturating_add(usize::from(ackseq).saturating_mul(SEGMENT_DATA));
                 if ackseq > 0 && acked_end >= u.size {
                     // The segment with c = 1 is confirmed: its unused tail is n.
-                    self.t.phase = UploadPhase::End;
+                    self.state = State::BlockUploadEnd;
                     let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
                     // Without a CRC the register stayed 0 (only a transfer with one updates it).
                     self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc: u.crc }), tx);
@@ -246,7 +235,7 @@ impl Channel {
                     self.t.blksize = blksize;
                 }
             }
-            (UploadPhase::End, BlockUploadRequest::End) => self.state = State::Idle,
+            (State::BlockUploadEnd, BlockUploadRequest::End) => self.state = State::Idle,
             _ => self.abort(AbortCode::InvalidCommand, tx),
         }
     }
@@ -256,7 +245,7 @@ impl Channel {
     /// was full). The count of the block's segments is worked out once,
     /// here: the poll asks this instead of a second computation.
     pub(super) fn send_block_segments(&mut self, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
-        if self.state != State::BlockUpload || self.t.phase != UploadPhase::Sending {
+        if self.state != State::BlockUpload {
             return false;
         }
         let block_len = self.t.block_len();
