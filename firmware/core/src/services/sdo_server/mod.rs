@@ -43,7 +43,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
 use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_download_response, multiplexer, segment_fields};
-use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
+use crate::wire::sdo_block::{BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
 pub trait SdoTx {
@@ -498,17 +498,13 @@ impl Channel {
             // checks): the block initiate's multiplexer is bytes 1-3 too.
             (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
                 self.start(index, sub);
-                let (size, crc) = if !block || kind == RequestKind::InitiateDownload {
-                    // s = 1: the size in bytes 4-7.
-                    let [.., s0, s1, s2, s3] = f;
-                    ((b0 & 0x01 != 0).then_some(u32::from_le_bytes([s0, s1, s2, s3])), None)
-                } else {
-                    match BlockDownloadRequest::decode(&f) {
-                        BlockDownloadRequest::Initiate { crc, size, .. } => (size, Some(crc)),
-                        // Not a block download initiate: `kind` says cs = 0.
-                        BlockDownloadRequest::End { .. } => return self.unexpected(tx),
-                    }
-                };
+                // The size in bytes 4-7 if s = 1: bit 0 of an initiate download,
+                // bit 1 of a block one (whose cc, bit 2, asks for a CRC).
+                let segmented = !block || kind == RequestKind::InitiateDownload;
+                let s = if segmented { 0x01 } else { 0x02 };
+                let [.., s0, s1, s2, s3] = f;
+                let size = (b0 & s != 0).then_some(u32::from_le_bytes([s0, s1, s2, s3]));
+                let crc = (!segmented).then_some(b0 & 0x04 != 0);
                 // A block initiate answers itself.
                 if self.start_download(size, crc, buf, od, tx) {
                     self.emit(initiate_download_response(index, sub), tx);
@@ -534,15 +530,15 @@ impl Channel {
                 self.unexpected(tx);
                 None
             }
-            (RequestKind::BlockDownloadEnd, true) => match BlockDownloadRequest::decode(&f) {
-                BlockDownloadRequest::End { unused, crc } if self.state == State::BlockDownloadEnd => {
-                    self.block_download_end(unused, crc, buf, tx)
-                }
-                _ => {
-                    self.unexpected(tx);
-                    None
-                }
-            },
+            (RequestKind::BlockDownloadEnd, true) if self.state == State::BlockDownloadEnd => {
+                // n (bits 4-2) and the CRC (bytes 1-2): `kind` says cs = 1.
+                let [_, c0, c1, ..] = f;
+                self.block_download_end((b0 >> 2) & 0x07, u16::from_le_bytes([c0, c1]), buf, tx)
+            }
+            (RequestKind::BlockDownloadEnd, true) => {
+                self.unexpected(tx);
+                None
+            }
             (RequestKind::BlockUpload, true) => {
                 match BlockUploadRequest::decode(&f) {
                     request if matches!(self.state, State::BlockUploadStart | State::BlockUpload | State::BlockUploadEnd) => {
