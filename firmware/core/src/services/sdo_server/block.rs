@@ -18,9 +18,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
 use crate::wire::sdo::SdoResponse;
-use crate::wire::sdo_block::{
-    BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update,
-};
+use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update};
 
 /// The fields of an initiate block upload request.
 #[derive(Clone, Copy, Debug)]
@@ -208,13 +206,14 @@ impl Channel {
         None
     }
 
-    /// A request while a block upload is in progress.
-    pub(super) fn block_upload(&mut self, request: BlockUploadRequest, tx: &mut dyn SdoTx) {
+    /// A request while a block upload is in progress: its cs (3 start, 2
+    /// ack, 1 end) and an ack's ackseq and blksize.
+    pub(super) fn block_upload(&mut self, cs: u8, ackseq: u8, blksize: u8, tx: &mut dyn SdoTx) {
         let u = self.t;
-        match (self.state, request) {
+        match (self.state, cs) {
             // The segments go out from poll().
-            (State::BlockUploadStart, BlockUploadRequest::Start) => self.state = State::BlockUpload,
-            (State::BlockUpload, BlockUploadRequest::Ack { ackseq, blksize }) => {
+            (State::BlockUploadStart, 3) => self.state = State::BlockUpload,
+            (State::BlockUpload, 2) => {
                 if ackseq > u.seq {
                     return self.abort(AbortCode::InvalidSequence, tx);
                 }
@@ -235,7 +234,7 @@ impl Channel {
                     self.t.blksize = blksize;
                 }
             }
-            (State::BlockUploadEnd, BlockUploadRequest::End) => self.state = State::Idle,
+            (State::BlockUploadEnd, 1) => self.state = State::Idle,
             _ => self.abort(AbortCode::InvalidCommand, tx),
         }
     }

@@ -539,13 +539,16 @@ impl Channel {
                 self.unexpected(tx);
                 None
             }
+            (RequestKind::BlockUpload, true)
+                if matches!(self.state, State::BlockUploadStart | State::BlockUpload | State::BlockUploadEnd) =>
+            {
+                // cs (bits 1-0: 3 start, 2 ack, 1 end), an ack's ackseq and blksize (bytes 1-2).
+                let [_, ackseq, blksize, ..] = f;
+                self.block_upload(b0 & 0x03, ackseq, blksize, tx);
+                None
+            }
             (RequestKind::BlockUpload, true) => {
-                match BlockUploadRequest::decode(&f) {
-                    request if matches!(self.state, State::BlockUploadStart | State::BlockUpload | State::BlockUploadEnd) => {
-                        self.block_upload(request, tx)
-                    }
-                    _ => self.unexpected(tx),
-                }
+                self.unexpected(tx);
                 None
             }
             // An unknown command specifier, or a block transfer request without block transfer.

@@ -290,6 +290,27 @@ fn block_upload_switches_protocol_at_or_below_pst() {
 }
 
 #[test]
+fn block_upload_requests_out_of_turn() {
+    let mut t = Sdo::new();
+    // Start, ack and end with no transfer: abort 0x05040001 for no object.
+    for request in ["A3 00 00 00 00 00 00 00", "A2 00 7F 00 00 00 00 00", "A1 00 00 00 00 00 00 00"] {
+        t.x(ms(0), request, "80 00 00 00 01 00 04 05");
+    }
+    // The end response before the end request: abort 0x05040001 for the object.
+    t.x(ms(1), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
+    t.x(ms(2), "A1 00 00 00 00 00 00 00", "80 08 10 00 01 00 04 05");
+    // In turn: start, the segment, its ack, the end request (n = 1), the end response.
+    t.x(ms(3), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
+    t.rx(ms(4), "A3 00 00 00 00 00 00 00");
+    t.poll(ms(4));
+    t.tx("81 64 65 76 69 63 65 00");
+    t.rx(ms(5), "A2 01 7F 00 00 00 00 00");
+    t.tx(&format!("C5 {:02X} {:02X} 00 00 00 00 00", reference_crc(b"device") as u8, reference_crc(b"device") >> 8));
+    t.rx(ms(6), "A1 00 00 00 00 00 00 00");
+    t.done(ms(6));
+}
+
+#[test]
 fn block_upload_errors() {
     let mut t = Sdo::new();
     // CCT 2.26: blksize 128, and 0.
