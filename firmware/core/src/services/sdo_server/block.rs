@@ -168,15 +168,16 @@ impl Channel {
         None
     }
 
-    /// Initiate block upload: `Some(size)` of a value of at most `pst`
-    /// bytes, which the caller answers as an initiate upload (an expedited
-    /// or segmented upload); else answered here (`None`).
+    /// Initiate block upload: the value's size and whether the block
+    /// upload started (else the value has at most `pst` bytes and goes as
+    /// an expedited or segmented upload); the caller answers either
+    /// (`None`: aborted here).
     pub(super) fn start_block_upload(
         &mut self,
         UploadInitiate { crc, blksize, pst }: UploadInitiate,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
-    ) -> Option<usize> {
+    ) -> Option<(usize, bool)> {
         let mux = self.mux;
         if !valid_blksize(blksize) {
             self.abort(AbortCode::InvalidBlockSize, tx);
@@ -190,7 +191,7 @@ impl Channel {
             }
         };
         if pst != 0 && size <= usize::from(pst) {
-            return Some(size);
+            return Some((size, false));
         }
         self.state = State::BlockUploadStart;
         // The fields an upload reads (toggle and gap are the downloads').
@@ -201,9 +202,7 @@ impl Channel {
         self.t.crc_len = 0;
         self.t.blksize = blksize;
         self.t.seq = 0;
-        let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
-        self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
-        None
+        Some((size, true))
     }
 
     /// A request while a block upload is in progress: its cs (3 start, 2

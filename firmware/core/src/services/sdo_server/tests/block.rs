@@ -287,6 +287,17 @@ fn block_upload_switches_protocol_at_or_below_pst() {
     t.x(ms(6), "A2 02 7F 00 00 00 00 00", "D1 78 23 00 00 00 00 00"); // n = 4, CRC 0x2378
     t.rx(ms(7), "A1 00 00 00 00 00 00 00");
     t.done(ms(7));
+    // pst 0 (no switch) and pst 1 (below 2 bytes): a 2-byte value goes by block, not expedited.
+    let crc = reference_crc(&[0xE8, 0x03]);
+    for pst in ["00", "01"] {
+        t.x(ms(8), &format!("A4 17 10 00 7F {pst} 00 00"), "C6 17 10 00 02 00 00 00");
+        t.rx(ms(9), "A3 00 00 00 00 00 00 00");
+        t.poll(ms(9));
+        t.tx("81 E8 03 00 00 00 00 00");
+        t.x(ms(10), "A2 01 7F 00 00 00 00 00", &format!("D5 {:02X} {:02X} 00 00 00 00 00", crc as u8, crc >> 8)); // n = 5
+        t.rx(ms(11), "A1 00 00 00 00 00 00 00");
+        t.done(ms(11));
+    }
 }
 
 #[test]
