@@ -64,8 +64,8 @@ impl Channel {
 
     /// Initiate block download, once [`Channel::start_download`] has
     /// checked it and set the size: the first blksize the `capacity` bytes
-    /// of the buffer have room for.
-    pub(super) fn start_block_download(&mut self, crc: bool, capacity: usize, tx: &mut dyn SdoTx) {
+    /// of the buffer have room for, which the caller's answer carries.
+    pub(super) fn start_block_download(&mut self, crc: bool, capacity: usize) -> u8 {
         let blksize = Self::download_blksize(capacity, 0);
         self.state = State::BlockDownload;
         // `start_segments` set the size and pos 0; the block's own fields
@@ -75,8 +75,7 @@ impl Channel {
         self.t.blksize = blksize;
         self.t.seq = 0;
         self.t.gap = false;
-        let response = BlockDownloadResponse::Initiate { index: self.mux.index, sub: self.mux.sub, crc: true, blksize };
-        self.send(SdoResponse::BlockDownload(response), tx);
+        blksize
     }
 
     /// One frame of a download sub-block.

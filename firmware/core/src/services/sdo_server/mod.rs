@@ -42,7 +42,7 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_download_response, multiplexer, segment_fields};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, multiplexer, segment_fields, with_multiplexer};
 use crate::wire::sdo_block::{BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -506,8 +506,8 @@ impl Channel {
                 let size = (b0 & s != 0).then_some(u32::from_le_bytes([s0, s1, s2, s3]));
                 let crc = (!segmented).then_some(b0 & 0x04 != 0);
                 // A block initiate answers itself.
-                if self.start_download(size, crc, buf, od, tx) {
-                    self.emit(initiate_download_response(index, sub), tx);
+                if let Some((b0, blksize)) = self.start_download(size, crc, buf, od, tx) {
+                    self.emit(with_multiplexer(b0, index, sub, [blksize, 0, 0, 0]), tx);
                 }
                 None
             }
@@ -611,10 +611,10 @@ impl Channel {
     }
 
     /// [`Channel::abort`] for a request whose handler tells its caller
-    /// whether to answer: false, the abort was the answer.
-    fn refuse(&mut self, code: AbortCode, tx: &mut dyn SdoTx) -> bool {
+    /// what to answer: `None`, the abort was the answer.
+    fn refuse<T>(&mut self, code: AbortCode, tx: &mut dyn SdoTx) -> Option<T> {
         self.abort(code, tx);
-        false
+        None
     }
 
     // In line, with `SdoResponse::emit`: each site knows its response, so
