@@ -159,6 +159,16 @@ fn a_power_cut_at_any_erase_or_program_of_a_staged_save_leaves_the_old_or_the_ne
 }
 
 #[test]
+fn a_staged_save_that_does_not_fit_the_storage_is_answered_cannot_store() {
+    // Regions of 16 bytes: not even a set's header fits.
+    let mut b = boot(MemStorage::new(16));
+    deliver(&mut b, RX, &SAVE);
+    assert!(b.node.storing());
+    // Abort 0x08000020 (CiA 301 §7.2.4.3.17) for 0x1010 sub 1, after the stage that found it.
+    assert_eq!(finish(&mut b).1, [(TX, vec![0x80, 0x10, 0x10, 0x01, 0x20, 0x00, 0x00, 0x08])]);
+}
+
+#[test]
 fn a_request_from_the_same_client_during_a_store_is_served_and_the_store_ends_unanswered() {
     let mut b = old_stored_new_in_ram();
     deliver(&mut b, RX, &SAVE);

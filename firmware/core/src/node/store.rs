@@ -24,6 +24,7 @@ use crate::wire::lss::SLAVE_COB_ID;
 
 use super::router::store_abort;
 use super::{Application, Node};
+use crate::abort::AbortCode;
 
 /// Who hears the end of the store in progress. All zero bits when nobody.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -94,7 +95,13 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 self.sdo.reset(usize::from(server).wrapping_sub(1));
                 // As one 64-bit value: two word stores, not eight of bytes.
                 let head = 0x80 | u32::from(answer.index) << 8 | u32::from(answer.sub) << 24;
-                (u64::from(head) | u64::from(store_abort(e).code()) << 32).to_le_bytes()
+                // The code as a constant of each error (not `AbortCode::code`'s packed table, decoded at run time).
+                let code = match store_abort(e) {
+                    AbortCode::Hardware => const { AbortCode::Hardware.code() },
+                    AbortCode::CannotStore => const { AbortCode::CannotStore.code() },
+                    _ => const { AbortCode::DeviceState.code() },
+                };
+                (u64::from(head) | u64::from(code) << 32).to_le_bytes()
             }
         };
         self.push(answer.cob_id, &frame);

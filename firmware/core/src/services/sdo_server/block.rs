@@ -18,9 +18,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
 use crate::wire::sdo::SdoResponse;
-use crate::wire::sdo_block::{
-    BlockDownloadResponse, BlockSegment, BlockUploadRequest, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update,
-};
+use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update};
 
 /// The fields of an initiate block upload request.
 #[derive(Clone, Copy, Debug)]
@@ -32,17 +30,6 @@ pub(super) struct UploadInitiate {
     /// Protocol switch threshold: a value of at most this many bytes (not
     /// 0) goes as an expedited or segmented upload instead.
     pub(super) pst: u8,
-}
-
-/// Where a block upload is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum UploadPhase {
-    /// Initiate response sent; waiting for the client's start command.
-    Initiated,
-    /// Sending the segments of a block, or waiting for its ack.
-    Sending,
-    /// End request sent; waiting for the client's end response.
-    End,
 }
 
 impl Transfer {
@@ -77,20 +64,18 @@ impl Channel {
 
     /// Initiate block download, once [`Channel::start_download`] has
     /// checked it and set the size: the first blksize the `capacity` bytes
-    /// of the buffer have room for.
-    pub(super) fn start_block_download(&mut self, crc: bool, capacity: usize, tx: &mut dyn SdoTx) {
+    /// of the buffer have room for, which the caller's answer carries.
+    pub(super) fn start_block_download(&mut self, crc: bool, capacity: usize) -> u8 {
         let blksize = Self::download_blksize(capacity, 0);
         self.state = State::BlockDownload;
         // `start_segments` set the size and pos 0; the block's own fields
-        // (crc_len and phase are the upload's).
+        // (crc_len is the upload's).
         self.t.crc_on = crc;
         self.t.crc = 0;
         self.t.blksize = blksize;
         self.t.seq = 0;
         self.t.gap = false;
-        self.t.complete = false;
-        let response = BlockDownloadResponse::Initiate { index: self.mux.index, sub: self.mux.sub, crc: true, blksize };
-        self.send(SdoResponse::BlockDownload(response), tx);
+        blksize
     }
 
     /// One frame of a download sub-block.
@@ -134,7 +119,9 @@ impl Channel {
             total = end;
             ackseq = segment.seqno;
             self.t.pos = end;
-            self.t.complete = segment.last;
+            if segment.last {
+                self.state = State::BlockDownloadEnd;
+            }
         } else if segment.seqno > d.seq {
             // A segment went missing: the client sends again from ackseq + 1.
             self.t.gap = true;
@@ -155,7 +142,7 @@ impl Channel {
     /// request: the value whole, to write and answer.
     pub(super) fn block_download_end<'b>(&mut self, unused: u8, crc: u16, buf: Buffer<'b>, tx: &mut dyn SdoTx) -> Option<Whole<'b>> {
         let d = self.t;
-        // The end request comes after the segment with c = 1 (`complete`),
+        // The end request comes after the segment with c = 1 (`BlockDownloadEnd`),
         // so pos >= 7 >= unused: neither subtraction wraps.
         let len = d.pos.wrapping_sub(usize::from(unused));
         let refused = match buf {
@@ -180,15 +167,16 @@ impl Channel {
         None
     }
 
-    /// Initiate block upload: `Some(size)` of a value of at most `pst`
-    /// bytes, which the caller answers as an initiate upload (an expedited
-    /// or segmented upload); else answered here (`None`).
+    /// Initiate block upload: the value's size and whether the block
+    /// upload started (else the value has at most `pst` bytes and goes as
+    /// an expedited or segmented upload); the caller answers either
+    /// (`None`: aborted here).
     pub(super) fn start_block_upload(
         &mut self,
         UploadInitiate { crc, blksize, pst }: UploadInitiate,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
-    ) -> Option<usize> {
+    ) -> Option<(usize, bool)> {
         let mux = self.mux;
         if !valid_blksize(blksize) {
             self.abort(AbortCode::InvalidBlockSize, tx);
@@ -202,10 +190,10 @@ impl Channel {
             }
         };
         if pst != 0 && size <= usize::from(pst) {
-            return Some(size);
+            return Some((size, false));
         }
-        self.state = State::BlockUpload;
-        // The fields an upload reads (toggle, gap and complete are the downloads').
+        self.state = State::BlockUploadStart;
+        // The fields an upload reads (toggle and gap are the downloads').
         self.t.size = size;
         self.t.pos = 0;
         self.t.crc_on = crc;
@@ -213,19 +201,17 @@ impl Channel {
         self.t.crc_len = 0;
         self.t.blksize = blksize;
         self.t.seq = 0;
-        self.t.phase = UploadPhase::Initiated;
-        let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
-        self.send(SdoResponse::BlockUpload(BlockUploadResponse::Initiate { index: mux.index, sub: mux.sub, crc: true, size }), tx);
-        None
+        Some((size, true))
     }
 
-    /// A request while a block upload is in progress.
-    pub(super) fn block_upload(&mut self, request: BlockUploadRequest, tx: &mut dyn SdoTx) {
+    /// A request while a block upload is in progress: its cs (3 start, 2
+    /// ack, 1 end) and an ack's ackseq and blksize.
+    pub(super) fn block_upload(&mut self, cs: u8, ackseq: u8, blksize: u8, tx: &mut dyn SdoTx) {
         let u = self.t;
-        match (u.phase, request) {
+        match (self.state, cs) {
             // The segments go out from poll().
-            (UploadPhase::Initiated, BlockUploadRequest::Start) => self.t.phase = UploadPhase::Sending,
-            (UploadPhase::Sending, BlockUploadRequest::Ack { ackseq, blksize }) => {
+            (State::BlockUploadStart, 3) => self.state = State::BlockUpload,
+            (State::BlockUpload, 2) => {
                 if ackseq > u.seq {
                     return self.abort(AbortCode::InvalidSequence, tx);
                 }
@@ -235,7 +221,7 @@ impl Channel {
                 let acked_end = u.pos.saturating_add(usize::from(ackseq).saturating_mul(SEGMENT_DATA));
                 if ackseq > 0 && acked_end >= u.size {
                     // The segment with c = 1 is confirmed: its unused tail is n.
-                    self.t.phase = UploadPhase::End;
+                    self.state = State::BlockUploadEnd;
                     let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
                     // Without a CRC the register stayed 0 (only a transfer with one updates it).
                     self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc: u.crc }), tx);
@@ -246,7 +232,7 @@ impl Channel {
                     self.t.blksize = blksize;
                 }
             }
-            (UploadPhase::End, BlockUploadRequest::End) => self.state = State::Idle,
+            (State::BlockUploadEnd, 1) => self.state = State::Idle,
             _ => self.abort(AbortCode::InvalidCommand, tx),
         }
     }
@@ -256,7 +242,7 @@ impl Channel {
     /// was full). The count of the block's segments is worked out once,
     /// here: the poll asks this instead of a second computation.
     pub(super) fn send_block_segments(&mut self, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
-        if self.state != State::BlockUpload || self.t.phase != UploadPhase::Sending {
+        if self.state != State::BlockUpload {
             return false;
         }
         let block_len = self.t.block_len();

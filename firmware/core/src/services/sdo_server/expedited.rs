@@ -4,7 +4,7 @@
 use super::{Channel, Mux, SdoTx, State, Whole, block};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::wire::sdo::{InitiateData, SdoResponse, expedited_upload_response, initiate_download_response};
+use crate::wire::sdo::{expedited_upload_response, initiate_download_response, with_multiplexer};
 
 /// Largest value an expedited transfer carries.
 const EXPEDITED_MAX: usize = 4;
@@ -47,18 +47,19 @@ impl Channel {
     pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, block: Option<block::UploadInitiate>, od: &mut O, tx: &mut dyn SdoTx) {
         let Mux { index, sub } = self.mux;
         let mut data = [0u8; EXPEDITED_MAX];
-        // `read`: the value's first bytes are still to be read into `data`.
-        let (size, read) = match block {
+        // `read`: the value's first bytes are still to be read into `data`;
+        // `started`: a block upload started.
+        let (size, read, started) = match block {
             None => match od.upload_small(index, sub, &mut data) {
-                Ok(size) => (size, false),
+                Ok(size) => (size, false, false),
                 Err(code) => return self.abort(code, tx),
             },
             Some(request) => match self.start_block_upload(request, od, tx) {
-                Some(size) => (size, true),
+                Some((size, started)) => (size, true, started),
                 None => return,
             },
         };
-        if (1..=EXPEDITED_MAX).contains(&size) {
+        if !started && (1..=EXPEDITED_MAX).contains(&size) {
             if read
                 && let Some(buf) = data.get_mut(..size)
                 && let Err(code) = od.read(index, sub, 0, buf)
@@ -67,10 +68,15 @@ impl Channel {
             }
             self.emit(expedited_upload_response(index, sub, data, size), tx);
         } else {
-            self.state = State::SegmentedUpload;
-            self.start_segments(size);
-            let size = Some(u32::try_from(size).unwrap_or(u32::MAX));
-            self.send(SdoResponse::InitiateUpload { index, sub, data: InitiateData::Segmented { size } }, tx);
+            if !started {
+                self.state = State::SegmentedUpload;
+                self.start_segments(size);
+            }
+            // One answer for both, the size in bytes 4-7: initiate upload
+            // response (scs 2, s = 1) or initiate block upload response
+            // (scs 6, sc = 1, s = 1).
+            let b0 = if started { 0xC6 } else { 0x41 };
+            self.emit(with_multiplexer(b0, index, sub, u32::try_from(size).unwrap_or(u32::MAX).to_le_bytes()), tx);
         }
     }
 }

@@ -42,8 +42,8 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, initiate_download_response, multiplexer, segment_fields};
-use crate::wire::sdo_block::{BlockDownloadRequest, BlockSegment, BlockUploadRequest};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, multiplexer, segment_fields, with_multiplexer};
+use crate::wire::sdo_block::{BlockSegment, BlockUploadRequest};
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
 pub trait SdoTx {
@@ -75,10 +75,19 @@ impl Mux {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum State {
     Idle,
-    SegmentedDownload,
     SegmentedUpload,
+    SegmentedDownload,
+    /// Block download: collecting sub-blocks.
     BlockDownload,
+    /// Block download: the segment with c = 1 has been accepted, the end
+    /// request is next (the client's frames are no sub-block segments now).
+    BlockDownloadEnd,
+    /// Block upload: initiate response sent; waiting for the client's start command.
+    BlockUploadStart,
+    /// Block upload: sending the segments of a block, or waiting for its ack.
     BlockUpload,
+    /// Block upload: end request sent; waiting for the client's end response.
+    BlockUploadEnd,
 }
 
 /// The transfer in progress: one set of fields for every kind, as only one
@@ -115,27 +124,16 @@ struct Transfer {
     /// Block download: a segment of the current block went missing, the
     /// rest of it is ignored.
     gap: bool,
-    /// Block download: the segment with c = 1 has been accepted, the end
-    /// request is next (the client's frames are no sub-block segments now).
-    complete: bool,
-    /// Block upload.
-    phase: block::UploadPhase,
+    /// Unused: keeps [`Channel`] (and so every field of the node after
+    /// its SDO servers) where it was before the block transfer's phase and
+    /// end flag became states (without it ds301-lean +4 B, sendix +32,
+    /// b maXX +36: the node's later fields moved by 4 B a server).
+    _spare: [u8; 2],
 }
 
 impl Transfer {
-    const NEW: Transfer = Transfer {
-        size: 0,
-        pos: 0,
-        toggle: false,
-        crc_on: false,
-        crc: 0,
-        crc_len: 0,
-        blksize: 0,
-        seq: 0,
-        gap: false,
-        complete: false,
-        phase: block::UploadPhase::Initiated,
-    };
+    const NEW: Transfer =
+        Transfer { size: 0, pos: 0, toggle: false, crc_on: false, crc: 0, crc_len: 0, blksize: 0, seq: 0, gap: false, _spare: [0; 2] };
 }
 
 /// [`Transfer::size`] of a download whose client indicated no size: above
@@ -201,7 +199,7 @@ impl Channel {
     /// Whether this server holds the download buffer (a segmented or block
     /// download in progress).
     fn holds_buffer(&self) -> bool {
-        matches!(self.state, State::SegmentedDownload | State::BlockDownload)
+        matches!(self.state, State::SegmentedDownload | State::BlockDownload | State::BlockDownloadEnd)
     }
 
     fn is_idle(&self) -> bool {
@@ -409,7 +407,7 @@ impl Channel {
         match self.state {
             // Sub-block frames carry a sequence number where other frames
             // have a command specifier; only the state tells them apart.
-            State::BlockDownload if block && !self.t.complete => match BlockSegment::parse(data) {
+            State::BlockDownload if block => match BlockSegment::parse(data) {
                 Ok(segment) => self.block_download_segment(segment, buf, tx),
                 Err(_) => return self.count_malformed(),
             },
@@ -503,20 +501,16 @@ impl Channel {
             // checks): the block initiate's multiplexer is bytes 1-3 too.
             (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
                 self.start(index, sub);
-                let (size, crc) = if !block || kind == RequestKind::InitiateDownload {
-                    // s = 1: the size in bytes 4-7.
-                    let [.., s0, s1, s2, s3] = f;
-                    ((b0 & 0x01 != 0).then_some(u32::from_le_bytes([s0, s1, s2, s3])), None)
-                } else {
-                    match BlockDownloadRequest::decode(&f) {
-                        BlockDownloadRequest::Initiate { crc, size, .. } => (size, Some(crc)),
-                        // Not a block download initiate: `kind` says cs = 0.
-                        BlockDownloadRequest::End { .. } => return self.unexpected(tx),
-                    }
-                };
+                // The size in bytes 4-7 if s = 1: bit 0 of an initiate download,
+                // bit 1 of a block one (whose cc, bit 2, asks for a CRC).
+                let segmented = !block || kind == RequestKind::InitiateDownload;
+                let s = if segmented { 0x01 } else { 0x02 };
+                let [.., s0, s1, s2, s3] = f;
+                let size = (b0 & s != 0).then_some(u32::from_le_bytes([s0, s1, s2, s3]));
+                let crc = (!segmented).then_some(b0 & 0x04 != 0);
                 // A block initiate answers itself.
-                if self.start_download(size, crc, buf, od, tx) {
-                    self.emit(initiate_download_response(index, sub), tx);
+                if let Some((b0, blksize)) = self.start_download(size, crc, buf, od, tx) {
+                    self.emit(with_multiplexer(b0, index, sub, [blksize, 0, 0, 0]), tx);
                 }
                 None
             }
@@ -539,20 +533,25 @@ impl Channel {
                 self.unexpected(tx);
                 None
             }
-            (RequestKind::BlockDownloadEnd, true) => match BlockDownloadRequest::decode(&f) {
-                BlockDownloadRequest::End { unused, crc } if self.state == State::BlockDownload => {
-                    self.block_download_end(unused, crc, buf, tx)
-                }
-                _ => {
-                    self.unexpected(tx);
-                    None
-                }
-            },
+            (RequestKind::BlockDownloadEnd, true) if self.state == State::BlockDownloadEnd => {
+                // n (bits 4-2) and the CRC (bytes 1-2): `kind` says cs = 1.
+                let [_, c0, c1, ..] = f;
+                self.block_download_end((b0 >> 2) & 0x07, u16::from_le_bytes([c0, c1]), buf, tx)
+            }
+            (RequestKind::BlockDownloadEnd, true) => {
+                self.unexpected(tx);
+                None
+            }
+            (RequestKind::BlockUpload, true)
+                if matches!(self.state, State::BlockUploadStart | State::BlockUpload | State::BlockUploadEnd) =>
+            {
+                // cs (bits 1-0: 3 start, 2 ack, 1 end), an ack's ackseq and blksize (bytes 1-2).
+                let [_, ackseq, blksize, ..] = f;
+                self.block_upload(b0 & 0x03, ackseq, blksize, tx);
+                None
+            }
             (RequestKind::BlockUpload, true) => {
-                match BlockUploadRequest::decode(&f) {
-                    request if self.state == State::BlockUpload => self.block_upload(request, tx),
-                    _ => self.unexpected(tx),
-                }
+                self.unexpected(tx);
                 None
             }
             // An unknown command specifier, or a block transfer request without block transfer.
@@ -615,10 +614,10 @@ impl Channel {
     }
 
     /// [`Channel::abort`] for a request whose handler tells its caller
-    /// whether to answer: false, the abort was the answer.
-    fn refuse(&mut self, code: AbortCode, tx: &mut dyn SdoTx) -> bool {
+    /// what to answer: `None`, the abort was the answer.
+    fn refuse<T>(&mut self, code: AbortCode, tx: &mut dyn SdoTx) -> Option<T> {
         self.abort(code, tx);
-        false
+        None
     }
 
     // In line, with `SdoResponse::emit`: each site knows its response, so

@@ -32,9 +32,10 @@ impl Channel {
     /// download (`crc` whether the client asked for a CRC): checks the
     /// entry and the size before any segment arrives. One copy of the
     /// checks for both (without block transfer `crc` is always `None`).
-    /// True: a segmented download started, the caller answers it as an
-    /// initiate download (the expedited one's answer); else aborted, or
-    /// the block download answered.
+    /// `Some`: the download started, the caller answers it with this byte
+    /// 0 and byte 4 (an initiate download response, the expedited one's
+    /// answer, or an initiate block download response with sc = 1 and the
+    /// blksize); `None`: aborted.
     pub(super) fn start_download(
         &mut self,
         size: Option<u32>,
@@ -42,7 +43,7 @@ impl Channel {
         buf: Buffer<'_>,
         od: &mut dyn ObjectAccess,
         tx: &mut dyn SdoTx,
-    ) -> bool {
+    ) -> Option<(u8, u8)> {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
         let buf = match (od.download_check(mux.index, mux.sub, size), buf) {
@@ -56,16 +57,13 @@ impl Channel {
         }
         // An indicated size fits the buffer: below `UNSIZED`.
         self.start_segments(size.unwrap_or(UNSIZED));
-        match crc {
+        Some(match crc {
             None => {
                 self.state = State::SegmentedDownload;
-                true
+                (0x60, 0)
             }
-            Some(crc) => {
-                self.start_block_download(crc, buf.len(), tx);
-                false
-            }
-        }
+            Some(crc) => (0xA4, self.start_block_download(crc, buf.len())),
+        })
     }
 
     /// A request while a segmented download is in progress: the last

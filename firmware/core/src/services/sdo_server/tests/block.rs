@@ -56,6 +56,30 @@ fn block_download_of_two_bytes_with_and_without_crc() {
 }
 
 #[test]
+fn block_download_without_a_size_and_end_requests_out_of_turn() {
+    let mut t = Sdo::new();
+    // cc = 1, s = 0: no size indicated (bytes 4-7 are not one), CRC on.
+    t.x(ms(0), "C4 17 10 00 FF FF FF FF", "A4 17 10 00 13 00 00 00");
+    t.x(ms(1), "81 B8 0B 00 00 00 00 00", "A2 01 12 00 00 00 00 00");
+    // CRC-16 of B8 0B, n = 5.
+    let crc = reference_crc(&[0xB8, 0x0B]);
+    t.rx_bytes(ms(2), &end_frame(0xD5, crc));
+    t.tx("A1 00 00 00 00 00 00 00");
+    assert_eq!(t.value(0x1017, 0), [0xB8, 0x0B]);
+    // cc = 0, s = 0: no CRC, so the end request's CRC field is not checked.
+    t.x(ms(3), "C0 17 10 00 00 00 00 00", "A4 17 10 00 13 00 00 00");
+    t.x(ms(4), "81 A0 0F 00 00 00 00 00", "A2 01 12 00 00 00 00 00");
+    t.x(ms(5), "D5 00 00 00 00 00 00 00", "A1 00 00 00 00 00 00 00");
+    assert_eq!(t.value(0x1017, 0), [0xA0, 0x0F]);
+    // An end request with no transfer: abort 0x05040001 for no object.
+    t.x(ms(6), "C1 00 00 00 00 00 00 00", "80 00 00 00 01 00 04 05");
+    // During a sub-block it is a segment (seqno 0x41 > blksize): abort 0x05040003.
+    t.x(ms(7), "C4 17 10 00 00 00 00 00", "A4 17 10 00 13 00 00 00");
+    t.x(ms(8), "C1 00 00 00 00 00 00 00", "80 17 10 00 03 00 04 05");
+    t.done(ms(8));
+}
+
+#[test]
 fn block_download_with_a_lost_segment_is_resent_from_ackseq() {
     let mut t = Sdo::new();
     let text = long(b'a');
@@ -263,6 +287,38 @@ fn block_upload_switches_protocol_at_or_below_pst() {
     t.x(ms(6), "A2 02 7F 00 00 00 00 00", "D1 78 23 00 00 00 00 00"); // n = 4, CRC 0x2378
     t.rx(ms(7), "A1 00 00 00 00 00 00 00");
     t.done(ms(7));
+    // pst 0 (no switch) and pst 1 (below 2 bytes): a 2-byte value goes by block, not expedited.
+    let crc = reference_crc(&[0xE8, 0x03]);
+    for pst in ["00", "01"] {
+        t.x(ms(8), &format!("A4 17 10 00 7F {pst} 00 00"), "C6 17 10 00 02 00 00 00");
+        t.rx(ms(9), "A3 00 00 00 00 00 00 00");
+        t.poll(ms(9));
+        t.tx("81 E8 03 00 00 00 00 00");
+        t.x(ms(10), "A2 01 7F 00 00 00 00 00", &format!("D5 {:02X} {:02X} 00 00 00 00 00", crc as u8, crc >> 8)); // n = 5
+        t.rx(ms(11), "A1 00 00 00 00 00 00 00");
+        t.done(ms(11));
+    }
+}
+
+#[test]
+fn block_upload_requests_out_of_turn() {
+    let mut t = Sdo::new();
+    // Start, ack and end with no transfer: abort 0x05040001 for no object.
+    for request in ["A3 00 00 00 00 00 00 00", "A2 00 7F 00 00 00 00 00", "A1 00 00 00 00 00 00 00"] {
+        t.x(ms(0), request, "80 00 00 00 01 00 04 05");
+    }
+    // The end response before the end request: abort 0x05040001 for the object.
+    t.x(ms(1), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
+    t.x(ms(2), "A1 00 00 00 00 00 00 00", "80 08 10 00 01 00 04 05");
+    // In turn: start, the segment, its ack, the end request (n = 1), the end response.
+    t.x(ms(3), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
+    t.rx(ms(4), "A3 00 00 00 00 00 00 00");
+    t.poll(ms(4));
+    t.tx("81 64 65 76 69 63 65 00");
+    t.rx(ms(5), "A2 01 7F 00 00 00 00 00");
+    t.tx(&format!("C5 {:02X} {:02X} 00 00 00 00 00", reference_crc(b"device") as u8, reference_crc(b"device") >> 8));
+    t.rx(ms(6), "A1 00 00 00 00 00 00 00");
+    t.done(ms(6));
 }
 
 #[test]
