@@ -625,11 +625,11 @@ pub trait Application {
     /// [`Application::write`], [`Application::check_write`] or
     /// [`Application::written`]). A device without them says `false`: the
     /// node then serves an idle server's expedited upload (a value of 1
-    /// to 4 bytes), and its expedited download with a size to an object
-    /// from 0x2000 on, straight from and into the dictionary, without the
-    /// hooks' context (a third fewer instructions: docs/benchmarks.md,
-    /// "Issue 12: the expedited SDO path, round 5"). Set `false` with a
-    /// hook overridden, that hook is skipped for these transfers.
+    /// to 4 bytes) straight from the dictionary, without the hooks'
+    /// context (a fifth fewer instructions: docs/benchmarks.md, "Issue 12:
+    /// the expedited SDO path, round 5", and "Round 15 (dlhalf)"). Set
+    /// `false` with a hook overridden, that hook is skipped for these
+    /// transfers.
     const SDO_HOOKS: bool = true;
 
     /// [`super::Node::process`] has a short path: a call whose only work is

@@ -211,35 +211,22 @@ pub(crate) fn expedited_upload_response(index: u16, sub: u8, data: [u8; 4], size
     with_multiplexer(0x43 | (n << 2), index, sub, data)
 }
 
-/// An expedited request as the SDO server's in-place path serves it
-/// ([`expedited_request`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Expedited {
-    /// Initiate upload (ccs = 2).
-    Upload { index: u16, sub: u8 },
-    /// Expedited initiate download with its size indicated (ccs = 1, e = 1,
-    /// s = 1): the first `len` (1 to 4) bytes of `data`.
-    Download { index: u16, sub: u8, data: [u8; 4], len: usize },
+/// Whether byte 0 `b0` is an initiate upload's (ccs = 2), as
+/// [`SdoRequest::parse`] says.
+#[inline(always)]
+pub(crate) fn is_initiate_upload(b0: u8) -> bool {
+    b0 & 0xE0 == 0x40
 }
 
-/// An initiate upload, or an expedited download with its size, decoded
-/// from byte 0 alone; `None` for any other request (and a frame that is
-/// not 8 bytes long), which [`SdoRequest::parse`] decodes. What it returns
-/// is what `parse` says of the same frame (tested for every byte 0).
-// `n` is two bits: 4 − n is 1..=4.
-#[allow(clippy::arithmetic_side_effects)]
+/// An initiate upload as received, for the SDO server's in-place path;
+/// `None` for any other request (and a frame that is not 8 bytes long),
+/// which [`SdoRequest::parse`] decodes. What it returns is what `parse`
+/// says of the same frame (tested for every byte 0).
 #[inline(always)]
-pub(crate) fn expedited_request(data: &[u8]) -> Option<Expedited> {
+pub(crate) fn upload_request(data: &[u8]) -> Option<&[u8; 8]> {
     let f = <&[u8; 8]>::try_from(data).ok()?;
-    let [b0, i0, i1, sub, d0, d1, d2, d3] = *f;
-    let index = u16::from_le_bytes([i0, i1]);
-    if b0 & 0xE0 == 0x40 {
-        Some(Expedited::Upload { index, sub })
-    } else if b0 & 0xE3 == 0x23 {
-        Some(Expedited::Download { index, sub, data: [d0, d1, d2, d3], len: usize::from(4 - ((b0 >> 2) & 0x03)) })
-    } else {
-        None
-    }
+    let [b0, ..] = *f;
+    is_initiate_upload(b0).then_some(f)
 }
 
 /// Decodes the `nnes` bits (bits 3–0) of an initiate frame with bytes 4–7.
@@ -459,24 +446,22 @@ mod tests {
     use super::*;
 
     #[test]
-    fn expedited_request_says_what_parse_says() {
+    fn upload_request_says_what_parse_says() {
         let mut served = 0;
         for b0 in 0..=255u8 {
             let frame = [b0, 0x18, 0x10, 0x02, 0xA1, 0xB2, 0xC3, 0xD4];
             let expected = match SdoRequest::parse(&frame) {
-                Ok(SdoRequest::InitiateUpload { index, sub }) => Some(Expedited::Upload { index, sub }),
-                Ok(SdoRequest::InitiateDownload { index, sub, data: InitiateData::Expedited { data, size: Some(k) } }) => {
-                    Some(Expedited::Download { index, sub, data, len: usize::from(k) })
-                }
+                Ok(SdoRequest::InitiateUpload { index, sub }) => Some((index, sub)),
                 _ => None,
             };
-            assert_eq!(expedited_request(&frame), expected, "byte 0 {b0:#04x}");
+            assert_eq!(upload_request(&frame).map(multiplexer), expected, "byte 0 {b0:#04x}");
+            assert_eq!(is_initiate_upload(b0), expected.is_some(), "byte 0 {b0:#04x}");
             served += usize::from(expected.is_some());
             // Only an 8-byte frame is a request.
-            assert_eq!(expedited_request(&frame[..7]), None);
+            assert_eq!(upload_request(&frame[..7]), None);
         }
-        // 32 upload command bytes, 8 expedited downloads with a size (x and n free).
-        assert_eq!(served, 40);
+        // 32 upload command bytes (x free).
+        assert_eq!(served, 32);
     }
 
     #[test]
