@@ -13,6 +13,7 @@ mod common;
 
 use canopen_core::frame::CanFrame;
 use canopen_core::node::NoApplication;
+use canopen_core::od::ObjectDictionary;
 use canopen_core::services::nmt::NmtState;
 use common::{Bench, F, abort, ms, ok_write};
 use embedded_can::Frame;
@@ -71,7 +72,20 @@ fn cct_8_1_store_all_parameters() {
 /// read-only before the length is looked at.
 #[test]
 fn a_store_commands_announced_size_is_checked_before_its_sub_0() {
-    let mut b = interop();
+    announced_sizes_are_checked(interop());
+    // Without block SDO (and without SDO hooks) the node runs these checks
+    // out of line (`download_check_apart`): the same abort codes.
+    let mut b: Bench<_, _, _, 4, 4, 4> = Bench::new(NoBlock(interop::Ram::new(ID)), NoApplication, MemStorage::new(4096), ID);
+    assert_eq!(b.at(ms(0)), [boot_up()]);
+    announced_sizes_are_checked(b);
+}
+
+common::with_services! {
+    /// The interop dictionary without block SDO, as `ds301-lean`'s.
+    NoBlock(interop::Ram) { block_sdo: false }
+}
+
+fn announced_sizes_are_checked<O: ObjectDictionary>(mut b: Bench<O, NoApplication, MemStorage, 4, 4, 4>) {
     let initiate = |index: u16, sub: u8, size: u32| {
         let [lo, hi] = index.to_le_bytes();
         let [s0, s1, s2, s3] = size.to_le_bytes();

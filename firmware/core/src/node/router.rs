@@ -6,7 +6,7 @@
 use crate::abort::AbortCode;
 use crate::od::access::{copy_from, small_value, upload_value};
 use crate::od::index;
-use crate::od::{Entry, ObjectAccess, ObjectDictionary, checked_entry, precheck, store_checked, u32_exact};
+use crate::od::{Dictionary, Entry, ObjectAccess, ObjectDictionary, checked_entry, precheck, store_checked, u32_exact};
 use crate::services::store::{Job, LOAD, SAVE, Scope, StoreError};
 use core::cell::Cell;
 use core::marker::PhantomData;
@@ -262,22 +262,43 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
         if let Some(r) = self.app.download_check(self.ctx, index, sub, size) {
             return r;
         }
-        if index != index::STORE_PARAMETERS && index != index::RESTORE_DEFAULT_PARAMETERS {
-            // The checks of a write but the limits (`precheck`), one copy for both.
-            return checked_entry(self.ctx.dict, index, sub, size, false).map(drop);
+        if !A::SDO_HOOKS && !O::SERVICES.block_sdo {
+            return download_check_apart(self.ctx.dict, index, sub, size);
         }
-        // 0x1010/0x1011 take a 4-byte signature whatever their entries say,
-        // and refuse sub 0 only after its length.
-        self.ctx.dict.find(index, sub)?;
-        match size {
-            Some(n) if n > 4 => Err(AbortCode::LengthTooHigh),
-            Some(n) if n < 4 => Err(AbortCode::LengthTooLow),
-            _ if sub == 0 => Err(AbortCode::ReadOnly),
-            _ => Ok(()),
-        }
+        download_check_plain(self.ctx.dict, index, sub, size)
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         self.write_with_hooks(index, sub, data)
+    }
+}
+
+/// [`download_check_plain`] out of line, for a node without SDO hooks
+/// ([`Application::SDO_HOOKS`]) nor block SDO: the method taking the
+/// router (and so the node's [`Ctx`]) out of line made the `Ctx` escape,
+/// which kept the services' vtable, that only a hook calls, linked; now
+/// the `Ctx` escapes nowhere and the vtable goes (ds301-lean −60 B). With
+/// hooks the `Ctx` escapes into them anyway; with block SDO into the
+/// out-of-line [`ObjectAccess::read`]: there the call would only cost.
+#[inline(never)]
+fn download_check_apart(dict: &Dictionary, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {
+    download_check_plain(dict, index, sub, size)
+}
+
+/// [`ObjectAccess::download_check`] when no hook answered: on the dictionary alone.
+#[inline(always)]
+fn download_check_plain(dict: &Dictionary, index: u16, sub: u8, size: Option<usize>) -> Result<(), AbortCode> {
+    if index != index::STORE_PARAMETERS && index != index::RESTORE_DEFAULT_PARAMETERS {
+        // The checks of a write but the limits (`precheck`), one copy for both.
+        return checked_entry(dict, index, sub, size, false).map(drop);
+    }
+    // 0x1010/0x1011 take a 4-byte signature whatever their entries say,
+    // and refuse sub 0 only after its length.
+    dict.find(index, sub)?;
+    match size {
+        Some(n) if n > 4 => Err(AbortCode::LengthTooHigh),
+        Some(n) if n < 4 => Err(AbortCode::LengthTooLow),
+        _ if sub == 0 => Err(AbortCode::ReadOnly),
+        _ => Ok(()),
     }
 }
