@@ -18,7 +18,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
 use crate::wire::sdo::SdoResponse;
-use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update};
+use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, MAX_BLKSIZE, SEGMENT_DATA, crc16_update};
 
 /// The fields of an initiate block upload request.
 #[derive(Clone, Copy, Debug)]
@@ -222,9 +222,13 @@ impl Channel {
                 if ackseq > 0 && acked_end >= u.size {
                     // The segment with c = 1 is confirmed: its unused tail is n.
                     self.state = State::BlockUploadEnd;
-                    let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
+                    // n = 0..=7, no clamp: ackseq is at most the segments
+                    // sent, and the block ends at the one with the value's
+                    // last byte (an empty value's one segment is all n).
+                    let unused = acked_end.wrapping_sub(u.size) as u8;
                     // Without a CRC the register stayed 0 (only a transfer with one updates it).
-                    self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc: u.crc }), tx);
+                    let [c0, c1] = u.crc.to_le_bytes();
+                    self.emit([0xC1 | unused << 2, c0, c1, 0, 0, 0, 0, 0], tx);
                 } else {
                     // Next block, or the same one again from the segment after ackseq.
                     self.t.pos = acked_end;

@@ -206,6 +206,39 @@ fn block_upload_of_an_empty_string() {
     t.done(ms(3));
 }
 
+/// A value of a whole number of segments (14 bytes): the end request says
+/// n = 0, also when the last block is confirmed in two acks (ackseq 0, then
+/// 1) and with and without a CRC.
+#[test]
+fn block_upload_of_whole_segments_ends_with_n_0() {
+    let mut t = Sdo::new();
+    t.image[22 + 14] = 0; // 0x2010 is now 14 bytes long
+    let crc = reference_crc(&LONG[..14]);
+    // blksize 1: one segment a block.
+    t.x(ms(0), "A4 10 20 00 01 00 00 00", "C6 10 20 00 0E 00 00 00");
+    t.rx(ms(1), "A3 00 00 00 00 00 00 00");
+    t.poll(ms(1));
+    tx_sub_block(&mut t, &LONG[..7], false);
+    t.rx(ms(2), "A2 01 01 00 00 00 00 00");
+    t.poll(ms(2));
+    tx_sub_block(&mut t, &LONG[7..14], true);
+    // ackseq 0: the last segment again, its CRC counted once.
+    t.rx(ms(3), "A2 00 01 00 00 00 00 00");
+    t.poll(ms(3));
+    tx_sub_block(&mut t, &LONG[7..14], true);
+    t.x(ms(4), "A2 01 7F 00 00 00 00 00", &format!("C1 {:02X} {:02X} 00 00 00 00 00", crc as u8, crc >> 8));
+    t.rx(ms(5), "A1 00 00 00 00 00 00 00");
+    t.done(ms(5));
+    // Without a CRC: both segments in one block, CRC bytes 0.
+    t.x(ms(6), "A0 10 20 00 7F 00 00 00", "C6 10 20 00 0E 00 00 00");
+    t.rx(ms(7), "A3 00 00 00 00 00 00 00");
+    t.poll(ms(7));
+    tx_sub_block(&mut t, &LONG[..14], true);
+    t.x(ms(8), "A2 02 7F 00 00 00 00 00", "C1 00 00 00 00 00 00 00");
+    t.rx(ms(9), "A1 00 00 00 00 00 00 00");
+    t.done(ms(9));
+}
+
 #[test]
 fn block_upload_resends_from_the_client_ackseq() {
     let mut t = Sdo::new();
