@@ -33,21 +33,20 @@ pub(super) struct UploadInitiate {
 }
 
 impl Transfer {
-    /// Block upload: segments in the current block, blksize or fewer at
-    /// the end of the value.
-    fn block_len(&self) -> u8 {
-        // pos is a multiple of 7 and at most size (the block starts at the
-        // segment after an ackseq that did not reach the end): the segments
-        // left are those of the bytes left, one division instead of two.
-        let left = segments(self.size.saturating_sub(self.pos));
-        u8::try_from(left.min(usize::from(self.blksize))).unwrap_or(self.blksize)
+    /// Block upload: the offset of the current block's next segment.
+    fn block_offset(&self) -> usize {
+        self.pos.saturating_add(usize::from(self.seq).saturating_mul(SEGMENT_DATA))
     }
-}
 
-/// Segments that carry `size` bytes. An empty value still takes one
-/// segment (c = 1, and n = 7 in the end request).
-fn segments(size: usize) -> usize {
-    size.div_ceil(SEGMENT_DATA).max(1)
+    /// Block upload: a segment of the current block is still to send,
+    /// fewer than blksize sent and the value's end not yet reached. The
+    /// first segment always goes (an empty value still takes one, c = 1
+    /// and n = 7 in the end request), and a block starts at most at the
+    /// value's end (after an ackseq that did not reach it): no division
+    /// for the count of the block's segments.
+    fn block_unsent(&self) -> bool {
+        self.seq < self.blksize && (self.seq == 0 || self.block_offset() < self.size)
+    }
 }
 
 fn valid_blksize(blksize: u8) -> bool {
@@ -243,16 +242,14 @@ impl Channel {
 
     /// Sends the unsent segments of the current upload block while `tx`
     /// takes them; whether segments of the block are left to send (`tx`
-    /// was full). The count of the block's segments is worked out once,
-    /// here: the poll asks this instead of a second computation.
+    /// was full): the poll asks this instead of a second test.
     pub(super) fn send_block_segments(&mut self, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
         if self.state != State::BlockUpload {
             return false;
         }
-        let block_len = self.t.block_len();
-        while self.t.seq < block_len {
+        while self.t.block_unsent() {
             let u = self.t;
-            let offset = u.pos.saturating_add(usize::from(u.seq).saturating_mul(SEGMENT_DATA));
+            let offset = u.block_offset();
             let left = u.size.saturating_sub(offset);
             let len = left.min(SEGMENT_DATA);
             // The value's bytes read into the frame in place, after byte 0.
@@ -268,7 +265,8 @@ impl Channel {
             let [b0, ..] = &mut frame;
             *b0 = BlockSegment::byte0(seqno, last);
             if !tx.send(frame) {
-                break;
+                // This segment and the rest of the block wait for the next poll.
+                return true;
             }
             // Each byte enters the CRC the first time it is sent.
             if u.crc_on && offset == u.crc_len {
@@ -278,6 +276,6 @@ impl Channel {
             self.t.seq = seqno;
             self.restart_timer(now);
         }
-        self.t.seq < block_len
+        false
     }
 }
