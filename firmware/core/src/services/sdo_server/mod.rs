@@ -124,16 +124,10 @@ struct Transfer {
     /// Block download: a segment of the current block went missing, the
     /// rest of it is ignored.
     gap: bool,
-    /// Unused: keeps [`Channel`] (and so every field of the node after
-    /// its SDO servers) where it was before the block transfer's phase and
-    /// end flag became states (without it ds301-lean +4 B, sendix +32,
-    /// b maXX +36: the node's later fields moved by 4 B a server).
-    _spare: [u8; 2],
 }
 
 impl Transfer {
-    const NEW: Transfer =
-        Transfer { size: 0, pos: 0, toggle: false, crc_on: false, crc: 0, crc_len: 0, blksize: 0, seq: 0, gap: false, _spare: [0; 2] };
+    const NEW: Transfer = Transfer { size: 0, pos: 0, toggle: false, crc_on: false, crc: 0, crc_len: 0, blksize: 0, seq: 0, gap: false };
 }
 
 /// [`Transfer::size`] of a download whose client indicated no size: above
@@ -184,11 +178,25 @@ struct Channel {
     /// A response `tx` refused, sent again by the next `poll`.
     pending: Option<[u8; 8]>,
     malformed: u32,
+    /// Unused: keeps [`Channel`] (and so every field of the node after
+    /// its SDO servers) where it was before the block transfer's phase and
+    /// end flag became states (without it ds301-lean +4 B, sendix +32,
+    /// b maXX +36: the node's later fields moved by 4 B a server). Here
+    /// rather than in [`Transfer`], which each handler copies: ds301 −4.
+    _spare: [u8; 4],
 }
 
 impl Channel {
-    const NEW: Channel =
-        Channel { state: State::Idle, t: Transfer::NEW, mux: Mux::NONE, timeout_us: None, deadline: 0, pending: None, malformed: 0 };
+    const NEW: Channel = Channel {
+        state: State::Idle,
+        t: Transfer::NEW,
+        mux: Mux::NONE,
+        timeout_us: None,
+        deadline: 0,
+        pending: None,
+        malformed: 0,
+        _spare: [0; 4],
+    };
 
     /// A zero timeout is kept as 1 µs, the shortest one this representation
     /// holds; one beyond 35.8 minutes as 35.8 minutes.
