@@ -77,14 +77,16 @@ impl Channel {
         blksize
     }
 
-    /// One frame of a download sub-block.
-    pub(super) fn block_download_segment(&mut self, segment: BlockSegment, buf: Buffer<'_>, tx: &mut dyn SdoTx) {
-        if segment.seqno == 0 && segment.last {
+    /// One frame of a download sub-block: its byte 0 (c and seqno) and
+    /// its seven data bytes, cut from the frame as received (no copy).
+    pub(super) fn block_download_segment(&mut self, b0: u8, data: &[u8], buf: Buffer<'_>, tx: &mut dyn SdoTx) {
+        let (seqno, last) = (b0 & 0x7F, b0 & 0x80 != 0);
+        if seqno == 0 && last {
             // 0x80 is an abort from the client (ccs = 4): seqno 0 is never a segment.
             return self.reset();
         }
         let d = self.t;
-        if segment.seqno == 0 || segment.seqno > d.blksize {
+        if seqno == 0 || seqno > d.blksize {
             return self.abort(AbortCode::InvalidSequence, tx);
         }
         // This server holds the buffer while its download runs (see `SdoServers`).
@@ -94,10 +96,10 @@ impl Channel {
         let mut ackseq = d.seq;
         // seq <= blksize <= 127, and pos is at most 7 past the buffer's
         // end (a last segment's unused tail): neither sum can wrap.
-        if !d.gap && segment.seqno == d.seq.wrapping_add(1) {
+        if !d.gap && seqno == d.seq.wrapping_add(1) {
             let start = d.pos;
             let end = start.wrapping_add(SEGMENT_DATA);
-            if !segment.last {
+            if !last {
                 // Every byte of a segment but the last is data.
                 if end > d.size {
                     return self.abort(AbortCode::LengthTooHigh, tx);
@@ -106,27 +108,27 @@ impl Channel {
                     return self.abort(AbortCode::OutOfMemory, tx);
                 }
                 if d.crc_on {
-                    self.t.crc = crc16_update(d.crc, &segment.data);
+                    self.t.crc = crc16_update(d.crc, data);
                 }
             }
             // The unused tail of the last segment need not fit: the end request says how much is data.
             // start + fit is at most the capacity (or start itself, fit 0): no wrap.
             let fit = capacity.saturating_sub(start).min(SEGMENT_DATA);
-            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.wrapping_add(fit)), segment.data.get(..fit)) {
+            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.wrapping_add(fit)), data.get(..fit)) {
                 dst.copy_from_slice(src);
             }
             total = end;
-            ackseq = segment.seqno;
+            ackseq = seqno;
             self.t.pos = end;
-            if segment.last {
+            if last {
                 self.state = State::BlockDownloadEnd;
             }
-        } else if segment.seqno > d.seq {
+        } else if seqno > d.seq {
             // A segment went missing: the client sends again from ackseq + 1.
             self.t.gap = true;
         }
         // Otherwise a repeat of a segment already accepted: ignored.
-        if segment.seqno == d.blksize || segment.last {
+        if seqno == d.blksize || last {
             let blksize = Self::download_blksize(capacity, total);
             self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq, blksize }), tx);
             self.t.blksize = blksize;

@@ -43,7 +43,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
 use crate::wire::sdo::{RequestKind, SdoResponse, frame, multiplexer, segment_fields, with_multiplexer};
-use crate::wire::sdo_block::{BlockSegment, BlockUploadRequest};
+use crate::wire::sdo_block::BlockUploadRequest;
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
 pub trait SdoTx {
@@ -415,8 +415,8 @@ impl Channel {
         match self.state {
             // Sub-block frames carry a sequence number where other frames
             // have a command specifier; only the state tells them apart.
-            State::BlockDownload if block => match BlockSegment::parse(data) {
-                Ok(segment) => self.block_download_segment(segment, buf, tx),
+            State::BlockDownload if block => match frame(data) {
+                Ok([b0, ..]) => self.block_download_segment(b0, data.get(1..).unwrap_or(&[]), buf, tx),
                 Err(_) => return self.count_malformed(),
             },
             _ => {
