@@ -49,6 +49,11 @@ impl Transfer {
     }
 }
 
+/// [`Transfer::seq`]'s bit 7 in a block download: a segment of the
+/// current block went missing, the rest of it is ignored (seq is at most
+/// 127 otherwise).
+const GAP: u8 = 0x80;
+
 fn valid_blksize(blksize: u8) -> bool {
     (1..=MAX_BLKSIZE).contains(&blksize)
 }
@@ -73,7 +78,6 @@ impl Channel {
         self.t.crc = 0;
         self.t.blksize = blksize;
         self.t.seq = 0;
-        self.t.gap = false;
         blksize
     }
 
@@ -93,10 +97,13 @@ impl Channel {
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let capacity = buf.len();
         let mut total = d.pos;
+        // With the gap mark until the ack.
         let mut ackseq = d.seq;
-        // seq <= blksize <= 127, and pos is at most 7 past the buffer's
-        // end (a last segment's unused tail): neither sum can wrap.
-        if !d.gap && seqno == d.seq.wrapping_add(1) {
+        // After a gap seq + 1 is above any seqno (bit 7 set, or 0 once
+        // wrapped, refused above): the rest of the block is ignored. pos is
+        // at most 7 past the buffer's end (a last segment's unused tail):
+        // its sum cannot wrap.
+        if seqno == d.seq.wrapping_add(1) {
             let start = d.pos;
             let end = start.wrapping_add(SEGMENT_DATA);
             if !last {
@@ -125,15 +132,14 @@ impl Channel {
             }
         } else if seqno > d.seq {
             // A segment went missing: the client sends again from ackseq + 1.
-            self.t.gap = true;
+            ackseq = d.seq | GAP;
         }
         // Otherwise a repeat of a segment already accepted: ignored.
         if seqno == d.blksize || last {
             let blksize = Self::download_blksize(capacity, total);
-            self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq, blksize }), tx);
+            self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq: ackseq & !GAP, blksize }), tx);
             self.t.blksize = blksize;
             self.t.seq = 0;
-            self.t.gap = false;
         } else {
             self.t.seq = ackseq;
         }
@@ -194,7 +200,7 @@ impl Channel {
             return Some((size, false));
         }
         self.state = State::BlockUploadStart;
-        // The fields an upload reads (toggle and gap are the downloads').
+        // The fields an upload reads (toggle is the segmented transfers').
         self.t.size = size;
         self.t.pos = 0;
         self.t.crc_on = crc;

@@ -118,16 +118,13 @@ struct Transfer {
     /// the client last asked (upload).
     blksize: u8,
     /// Block download: the last segment of the current block received in
-    /// order (ackseq, 0 = none yet); block upload: segments of the current
-    /// block sent so far.
+    /// order (ackseq, 0 = none yet), bit 7 set once one went missing
+    /// (`GAP` in block.rs); block upload: segments of the current block sent so far.
     seq: u8,
-    /// Block download: a segment of the current block went missing, the
-    /// rest of it is ignored.
-    gap: bool,
 }
 
 impl Transfer {
-    const NEW: Transfer = Transfer { size: 0, pos: 0, toggle: false, crc_on: false, crc: 0, crc_len: 0, blksize: 0, seq: 0, gap: false };
+    const NEW: Transfer = Transfer { size: 0, pos: 0, toggle: false, crc_on: false, crc: 0, crc_len: 0, blksize: 0, seq: 0 };
 }
 
 /// [`Transfer::size`] of a download whose client indicated no size: above

@@ -99,6 +99,31 @@ fn block_download_with_a_lost_segment_is_resent_from_ackseq() {
     assert_eq!(t.value(0x2010, 0), text);
 }
 
+/// After a missing segment nothing of the block is taken, not even the
+/// segment that was missing nor a repeat; seqno = blksize still ends the
+/// block with the last ackseq in order, and the next block starts clean.
+#[test]
+fn block_download_ignores_the_rest_of_a_block_after_a_gap() {
+    let mut t = Sdo::new();
+    let text = long(b'a');
+    let seg = |seqno: u8, i: usize| frame(seqno, &text[i * 7..i * 7 + 7]);
+    t.x(ms(0), "C6 10 20 00 78 00 00 00", "A4 10 20 00 13 00 00 00"); // blksize 19
+    for (seqno, i) in [(1, 0), (2, 1), (4, 3), (3, 2), (2, 1), (5, 4)] {
+        t.rx_bytes(ms(1), &seg(seqno, i));
+        t.none();
+    }
+    // Segment 19 = blksize: ackseq 2; 14 bytes taken, 119 of room: blksize 17.
+    t.rx_bytes(ms(1), &frame(19, &[0; 7]));
+    t.tx("A2 02 11 00 00 00 00 00");
+    t.none();
+    rx_sub_block(&mut t, ms(2), &text[14..], true);
+    t.tx("A2 10 01 00 00 00 00 00"); // 16 segments; 7 bytes of room: blksize 1
+    t.rx_bytes(ms(3), &end_frame(0xD9, reference_crc(&text)));
+    t.tx("A1 00 00 00 00 00 00 00");
+    t.done(ms(3));
+    assert_eq!(t.value(0x2010, 0), text);
+}
+
 #[test]
 fn block_download_block_ending_at_blksize_and_overflowing_at_the_end() {
     let mut t = Test::<14>::new();
