@@ -18,7 +18,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
 use crate::wire::sdo::SdoResponse;
-use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, BlockUploadResponse, MAX_BLKSIZE, SEGMENT_DATA, crc16_update};
+use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, MAX_BLKSIZE, SEGMENT_DATA, crc16_update};
 
 /// The fields of an initiate block upload request.
 #[derive(Clone, Copy, Debug)]
@@ -33,22 +33,26 @@ pub(super) struct UploadInitiate {
 }
 
 impl Transfer {
-    /// Block upload: segments in the current block, blksize or fewer at
-    /// the end of the value.
-    fn block_len(&self) -> u8 {
-        // pos is a multiple of 7 and at most size (the block starts at the
-        // segment after an ackseq that did not reach the end): the segments
-        // left are those of the bytes left, one division instead of two.
-        let left = segments(self.size.saturating_sub(self.pos));
-        u8::try_from(left.min(usize::from(self.blksize))).unwrap_or(self.blksize)
+    /// Block upload: the offset of the current block's next segment.
+    fn block_offset(&self) -> usize {
+        self.pos.saturating_add(usize::from(self.seq).saturating_mul(SEGMENT_DATA))
+    }
+
+    /// Block upload: a segment of the current block is still to send,
+    /// fewer than blksize sent and the value's end not yet reached. The
+    /// first segment always goes (an empty value still takes one, c = 1
+    /// and n = 7 in the end request), and a block starts at most at the
+    /// value's end (after an ackseq that did not reach it): no division
+    /// for the count of the block's segments.
+    fn block_unsent(&self) -> bool {
+        self.seq < self.blksize && (self.seq == 0 || self.block_offset() < self.size)
     }
 }
 
-/// Segments that carry `size` bytes. An empty value still takes one
-/// segment (c = 1, and n = 7 in the end request).
-fn segments(size: usize) -> usize {
-    size.div_ceil(SEGMENT_DATA).max(1)
-}
+/// [`Transfer::seq`]'s bit 7 in a block download: a segment of the
+/// current block went missing, the rest of it is ignored (seq is at most
+/// 127 otherwise).
+const GAP: u8 = 0x80;
 
 fn valid_blksize(blksize: u8) -> bool {
     (1..=MAX_BLKSIZE).contains(&blksize)
@@ -74,31 +78,35 @@ impl Channel {
         self.t.crc = 0;
         self.t.blksize = blksize;
         self.t.seq = 0;
-        self.t.gap = false;
         blksize
     }
 
-    /// One frame of a download sub-block.
-    pub(super) fn block_download_segment(&mut self, segment: BlockSegment, buf: Buffer<'_>, tx: &mut dyn SdoTx) {
-        if segment.seqno == 0 && segment.last {
+    /// One frame of a download sub-block: its byte 0 (c and seqno) and
+    /// its seven data bytes, cut from the frame as received (no copy).
+    pub(super) fn block_download_segment(&mut self, b0: u8, data: &[u8], buf: Buffer<'_>, tx: &mut dyn SdoTx) {
+        let (seqno, last) = (b0 & 0x7F, b0 & 0x80 != 0);
+        if seqno == 0 && last {
             // 0x80 is an abort from the client (ccs = 4): seqno 0 is never a segment.
             return self.reset();
         }
         let d = self.t;
-        if segment.seqno == 0 || segment.seqno > d.blksize {
+        if seqno == 0 || seqno > d.blksize {
             return self.abort(AbortCode::InvalidSequence, tx);
         }
         // This server holds the buffer while its download runs (see `SdoServers`).
         let Some(buf) = buf else { return self.abort(AbortCode::NoResource, tx) };
         let capacity = buf.len();
         let mut total = d.pos;
+        // With the gap mark until the ack.
         let mut ackseq = d.seq;
-        // seq <= blksize <= 127, and pos is at most 7 past the buffer's
-        // end (a last segment's unused tail): neither sum can wrap.
-        if !d.gap && segment.seqno == d.seq.wrapping_add(1) {
+        // After a gap seq + 1 is above any seqno (bit 7 set, or 0 once
+        // wrapped, refused above): the rest of the block is ignored. pos is
+        // at most 7 past the buffer's end (a last segment's unused tail):
+        // its sum cannot wrap.
+        if seqno == d.seq.wrapping_add(1) {
             let start = d.pos;
             let end = start.wrapping_add(SEGMENT_DATA);
-            if !segment.last {
+            if !last {
                 // Every byte of a segment but the last is data.
                 if end > d.size {
                     return self.abort(AbortCode::LengthTooHigh, tx);
@@ -107,32 +115,31 @@ impl Channel {
                     return self.abort(AbortCode::OutOfMemory, tx);
                 }
                 if d.crc_on {
-                    self.t.crc = crc16_update(d.crc, &segment.data);
+                    self.t.crc = crc16_update(d.crc, data);
                 }
             }
             // The unused tail of the last segment need not fit: the end request says how much is data.
             // start + fit is at most the capacity (or start itself, fit 0): no wrap.
             let fit = capacity.saturating_sub(start).min(SEGMENT_DATA);
-            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.wrapping_add(fit)), segment.data.get(..fit)) {
+            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.wrapping_add(fit)), data.get(..fit)) {
                 dst.copy_from_slice(src);
             }
             total = end;
-            ackseq = segment.seqno;
+            ackseq = seqno;
             self.t.pos = end;
-            if segment.last {
+            if last {
                 self.state = State::BlockDownloadEnd;
             }
-        } else if segment.seqno > d.seq {
+        } else if seqno > d.seq {
             // A segment went missing: the client sends again from ackseq + 1.
-            self.t.gap = true;
+            ackseq = d.seq | GAP;
         }
         // Otherwise a repeat of a segment already accepted: ignored.
-        if segment.seqno == d.blksize || segment.last {
+        if seqno == d.blksize || last {
             let blksize = Self::download_blksize(capacity, total);
-            self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq, blksize }), tx);
+            self.send(SdoResponse::BlockDownload(BlockDownloadResponse::Ack { ackseq: ackseq & !GAP, blksize }), tx);
             self.t.blksize = blksize;
             self.t.seq = 0;
-            self.t.gap = false;
         } else {
             self.t.seq = ackseq;
         }
@@ -193,7 +200,7 @@ impl Channel {
             return Some((size, false));
         }
         self.state = State::BlockUploadStart;
-        // The fields an upload reads (toggle and gap are the downloads').
+        // The fields an upload reads (toggle is the segmented transfers').
         self.t.size = size;
         self.t.pos = 0;
         self.t.crc_on = crc;
@@ -222,9 +229,13 @@ impl Channel {
                 if ackseq > 0 && acked_end >= u.size {
                     // The segment with c = 1 is confirmed: its unused tail is n.
                     self.state = State::BlockUploadEnd;
-                    let unused = u8::try_from(acked_end.saturating_sub(u.size)).unwrap_or(0);
+                    // n = 0..=7, no clamp: ackseq is at most the segments
+                    // sent, and the block ends at the one with the value's
+                    // last byte (an empty value's one segment is all n).
+                    let unused = acked_end.wrapping_sub(u.size) as u8;
                     // Without a CRC the register stayed 0 (only a transfer with one updates it).
-                    self.send(SdoResponse::BlockUpload(BlockUploadResponse::End { unused, crc: u.crc }), tx);
+                    let [c0, c1] = u.crc.to_le_bytes();
+                    self.emit([0xC1 | unused << 2, c0, c1, 0, 0, 0, 0, 0], tx);
                 } else {
                     // Next block, or the same one again from the segment after ackseq.
                     self.t.pos = acked_end;
@@ -239,16 +250,14 @@ impl Channel {
 
     /// Sends the unsent segments of the current upload block while `tx`
     /// takes them; whether segments of the block are left to send (`tx`
-    /// was full). The count of the block's segments is worked out once,
-    /// here: the poll asks this instead of a second computation.
+    /// was full): the poll asks this instead of a second test.
     pub(super) fn send_block_segments(&mut self, now: At, od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) -> bool {
         if self.state != State::BlockUpload {
             return false;
         }
-        let block_len = self.t.block_len();
-        while self.t.seq < block_len {
+        while self.t.block_unsent() {
             let u = self.t;
-            let offset = u.pos.saturating_add(usize::from(u.seq).saturating_mul(SEGMENT_DATA));
+            let offset = u.block_offset();
             let left = u.size.saturating_sub(offset);
             let len = left.min(SEGMENT_DATA);
             // The value's bytes read into the frame in place, after byte 0.
@@ -264,7 +273,8 @@ impl Channel {
             let [b0, ..] = &mut frame;
             *b0 = BlockSegment::byte0(seqno, last);
             if !tx.send(frame) {
-                break;
+                // This segment and the rest of the block wait for the next poll.
+                return true;
             }
             // Each byte enters the CRC the first time it is sent.
             if u.crc_on && offset == u.crc_len {
@@ -274,6 +284,6 @@ impl Channel {
             self.t.seq = seqno;
             self.restart_timer(now);
         }
-        self.t.seq < block_len
+        false
     }
 }

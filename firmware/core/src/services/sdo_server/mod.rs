@@ -43,7 +43,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
 use crate::wire::sdo::{RequestKind, SdoResponse, frame, multiplexer, segment_fields, with_multiplexer};
-use crate::wire::sdo_block::{BlockSegment, BlockUploadRequest};
+use crate::wire::sdo_block::BlockUploadRequest;
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
 pub trait SdoTx {
@@ -118,22 +118,13 @@ struct Transfer {
     /// the client last asked (upload).
     blksize: u8,
     /// Block download: the last segment of the current block received in
-    /// order (ackseq, 0 = none yet); block upload: segments of the current
-    /// block sent so far.
+    /// order (ackseq, 0 = none yet), bit 7 set once one went missing
+    /// (`GAP` in block.rs); block upload: segments of the current block sent so far.
     seq: u8,
-    /// Block download: a segment of the current block went missing, the
-    /// rest of it is ignored.
-    gap: bool,
-    /// Unused: keeps [`Channel`] (and so every field of the node after
-    /// its SDO servers) where it was before the block transfer's phase and
-    /// end flag became states (without it ds301-lean +4 B, sendix +32,
-    /// b maXX +36: the node's later fields moved by 4 B a server).
-    _spare: [u8; 2],
 }
 
 impl Transfer {
-    const NEW: Transfer =
-        Transfer { size: 0, pos: 0, toggle: false, crc_on: false, crc: 0, crc_len: 0, blksize: 0, seq: 0, gap: false, _spare: [0; 2] };
+    const NEW: Transfer = Transfer { size: 0, pos: 0, toggle: false, crc_on: false, crc: 0, crc_len: 0, blksize: 0, seq: 0 };
 }
 
 /// [`Transfer::size`] of a download whose client indicated no size: above
@@ -184,11 +175,25 @@ struct Channel {
     /// A response `tx` refused, sent again by the next `poll`.
     pending: Option<[u8; 8]>,
     malformed: u32,
+    /// Unused: keeps [`Channel`] (and so every field of the node after
+    /// its SDO servers) where it was before the block transfer's phase and
+    /// end flag became states (without it ds301-lean +4 B, sendix +32,
+    /// b maXX +36: the node's later fields moved by 4 B a server). Here
+    /// rather than in [`Transfer`], which each handler copies: ds301 −4.
+    _spare: [u8; 4],
 }
 
 impl Channel {
-    const NEW: Channel =
-        Channel { state: State::Idle, t: Transfer::NEW, mux: Mux::NONE, timeout_us: None, deadline: 0, pending: None, malformed: 0 };
+    const NEW: Channel = Channel {
+        state: State::Idle,
+        t: Transfer::NEW,
+        mux: Mux::NONE,
+        timeout_us: None,
+        deadline: 0,
+        pending: None,
+        malformed: 0,
+        _spare: [0; 4],
+    };
 
     /// A zero timeout is kept as 1 µs, the shortest one this representation
     /// holds; one beyond 35.8 minutes as 35.8 minutes.
@@ -407,8 +412,8 @@ impl Channel {
         match self.state {
             // Sub-block frames carry a sequence number where other frames
             // have a command specifier; only the state tells them apart.
-            State::BlockDownload if block => match BlockSegment::parse(data) {
-                Ok(segment) => self.block_download_segment(segment, buf, tx),
+            State::BlockDownload if block => match frame(data) {
+                Ok([b0, ..]) => self.block_download_segment(b0, data.get(1..).unwrap_or(&[]), buf, tx),
                 Err(_) => return self.count_malformed(),
             },
             _ => {

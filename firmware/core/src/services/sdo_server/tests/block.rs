@@ -99,6 +99,31 @@ fn block_download_with_a_lost_segment_is_resent_from_ackseq() {
     assert_eq!(t.value(0x2010, 0), text);
 }
 
+/// After a missing segment nothing of the block is taken, not even the
+/// segment that was missing nor a repeat; seqno = blksize still ends the
+/// block with the last ackseq in order, and the next block starts clean.
+#[test]
+fn block_download_ignores_the_rest_of_a_block_after_a_gap() {
+    let mut t = Sdo::new();
+    let text = long(b'a');
+    let seg = |seqno: u8, i: usize| frame(seqno, &text[i * 7..i * 7 + 7]);
+    t.x(ms(0), "C6 10 20 00 78 00 00 00", "A4 10 20 00 13 00 00 00"); // blksize 19
+    for (seqno, i) in [(1, 0), (2, 1), (4, 3), (3, 2), (2, 1), (5, 4)] {
+        t.rx_bytes(ms(1), &seg(seqno, i));
+        t.none();
+    }
+    // Segment 19 = blksize: ackseq 2; 14 bytes taken, 119 of room: blksize 17.
+    t.rx_bytes(ms(1), &frame(19, &[0; 7]));
+    t.tx("A2 02 11 00 00 00 00 00");
+    t.none();
+    rx_sub_block(&mut t, ms(2), &text[14..], true);
+    t.tx("A2 10 01 00 00 00 00 00"); // 16 segments; 7 bytes of room: blksize 1
+    t.rx_bytes(ms(3), &end_frame(0xD9, reference_crc(&text)));
+    t.tx("A1 00 00 00 00 00 00 00");
+    t.done(ms(3));
+    assert_eq!(t.value(0x2010, 0), text);
+}
+
 #[test]
 fn block_download_block_ending_at_blksize_and_overflowing_at_the_end() {
     let mut t = Test::<14>::new();
@@ -204,6 +229,39 @@ fn block_upload_of_an_empty_string() {
     t.tx("DD 00 00 00 00 00 00 00");
     t.rx(ms(3), "A1 00 00 00 00 00 00 00");
     t.done(ms(3));
+}
+
+/// A value of a whole number of segments (14 bytes): the end request says
+/// n = 0, also when the last block is confirmed in two acks (ackseq 0, then
+/// 1) and with and without a CRC.
+#[test]
+fn block_upload_of_whole_segments_ends_with_n_0() {
+    let mut t = Sdo::new();
+    t.image[22 + 14] = 0; // 0x2010 is now 14 bytes long
+    let crc = reference_crc(&LONG[..14]);
+    // blksize 1: one segment a block.
+    t.x(ms(0), "A4 10 20 00 01 00 00 00", "C6 10 20 00 0E 00 00 00");
+    t.rx(ms(1), "A3 00 00 00 00 00 00 00");
+    t.poll(ms(1));
+    tx_sub_block(&mut t, &LONG[..7], false);
+    t.rx(ms(2), "A2 01 01 00 00 00 00 00");
+    t.poll(ms(2));
+    tx_sub_block(&mut t, &LONG[7..14], true);
+    // ackseq 0: the last segment again, its CRC counted once.
+    t.rx(ms(3), "A2 00 01 00 00 00 00 00");
+    t.poll(ms(3));
+    tx_sub_block(&mut t, &LONG[7..14], true);
+    t.x(ms(4), "A2 01 7F 00 00 00 00 00", &format!("C1 {:02X} {:02X} 00 00 00 00 00", crc as u8, crc >> 8));
+    t.rx(ms(5), "A1 00 00 00 00 00 00 00");
+    t.done(ms(5));
+    // Without a CRC: both segments in one block, CRC bytes 0.
+    t.x(ms(6), "A0 10 20 00 7F 00 00 00", "C6 10 20 00 0E 00 00 00");
+    t.rx(ms(7), "A3 00 00 00 00 00 00 00");
+    t.poll(ms(7));
+    tx_sub_block(&mut t, &LONG[..14], true);
+    t.x(ms(8), "A2 02 7F 00 00 00 00 00", "C1 00 00 00 00 00 00 00");
+    t.rx(ms(9), "A1 00 00 00 00 00 00 00");
+    t.done(ms(9));
 }
 
 #[test]

@@ -250,12 +250,17 @@ fn frames_without_8_bytes_are_counted_and_ignored() {
     t.x(ms(1), "C6 17 10 00 02 00 00 00", "A4 17 10 00 13 00 00 00");
     t.rx(ms(2), "81 D0 07");
     t.none();
+    t.rx_bytes(ms(2), &[0x81, 0xD0, 0x07, 0, 0, 0, 0, 0, 0]); // 9 bytes, and none
+    t.none();
+    t.rx_bytes(ms(2), &[]);
+    t.none();
     t.x(ms(3), "81 D0 07 00 00 00 00 00", "A2 01 12 00 00 00 00 00");
     t.rx(ms(4), "D5 C0 65 00 00 00 00");
     t.none();
     t.x(ms(5), "D5 C0 65 00 00 00 00 00", "A1 00 00 00 00 00 00 00");
     t.done(ms(5));
-    assert_eq!(t.server.malformed(), 11);
+    assert_eq!(t.value(0x1017, 0), [0xD0, 0x07]);
+    assert_eq!(t.server.malformed(), 13);
 }
 
 #[test]
