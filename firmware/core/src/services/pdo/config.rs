@@ -71,8 +71,7 @@ impl Config {
     /// the mapping empty and `unresolved`; the second is returned. The
     /// mapping is resolved in place (a mapping returned by value was copied
     /// twice on its way into the PDO).
-    // Out of line: one copy for the RPDOs' and the TPDOs' configuration.
-    #[inline(never)]
+    // Left to the inliner: since round 15 one loop configures both kinds.
     pub(super) fn read(&mut self, dict: &Dictionary, image: &[u8], comm: u16, direction: Direction) -> Option<MappingError> {
         self.cob_id_writable = self.params.read_record(dict, image, comm);
         let index = nth(comm, MAPPING_OFFSET);

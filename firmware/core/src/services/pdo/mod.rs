@@ -521,8 +521,8 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// The TPDOs waiting to retry ([`Pdos::retrying`]) are the caller's to
     /// add, only if nothing else makes the next poll run (a poll for any
     /// TPDO retries every one waiting to).
-    // Out of line: the RPDO and the SYNC paths call it.
-    #[inline(never)]
+    // Left to the inliner since round 15: in line in the SYNC path it costs
+    // that row 9 instructions (874 → 883) and saves 24 B on every image with PDOs.
     pub fn reaches(&self, rpdos: u32) -> u32 {
         let mut mask = 0;
         let mut bits = rpdos;
@@ -648,8 +648,8 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     /// changed data; a TPDO waiting to retry a refused frame is polled
     /// whether marked or not (a field it holds: no walk for them first).
     /// The deadline as an [`At`].
-    // Out of line: the main loop's `process` would take its two paths in.
-    #[inline(never)]
+    // Left to the inliner: out of line it cost 16 / 36 B on the references
+    // and no instruction on a row (round 15).
     pub fn poll_marked(&mut self, now: At, marked: u32, image: &[u8], tx: &mut impl PdoTx) -> At {
         if !self.operational {
             return NEVER;
