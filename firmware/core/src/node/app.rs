@@ -287,7 +287,9 @@ impl Ctx<'_> {
 
     /// Sets a value the device owns, read-only ones included (0x6041
     /// statusword, an "actual" node-id), without access checks or service
-    /// side effects; the value must have the entry's length.
+    /// side effects; the value must have the entry's length. A
+    /// communication object set this way (0x1017, a PDO's parameters) is not
+    /// applied to its service: use [`Ctx::write_object`] for those.
     // Out of line: a profile sets several values per sample (the sendix image was 300 B bigger inlined).
     #[inline(never)]
     pub fn set_value(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {

@@ -222,8 +222,10 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
     }
 }
 
-/// [`Comm::clear_history`], which needs no service: the router's download
-/// of 0x1003 sub 0 calls it without a call through the [`Services`] vtable.
+/// [`Comm::clear_history`], which needs no service: a write of 0x1003 sub 0
+/// (an SDO download or [`Ctx::write_object`](super::Ctx::write_object), both
+/// through the communication objects' write in `objects.rs`) calls it
+/// without a call through the [`Services`] vtable.
 pub(super) fn clear_history(dict: &Dictionary, image: &mut [u8]) {
     // Every entry of the record zero (an empty value is zero-filled).
     for entry in object(dict, index::PRE_DEFINED_ERROR_FIELD) {

@@ -307,7 +307,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 // The heartbeat producer from the boot-up on: reset communication
                 // configured it from 0x1017, and every write since applied
                 // itself (a download, `Ctx::write_object`); that also disarmed
-                // guarding if the producer runs.
+                // guarding if the producer runs. A value set without side
+                // effects (`Ctx::set_value`, `Ctx::set_at`) is not applied:
+                // 0x1017 is the master's to configure, through the services.
                 self.comm.heartbeat.restart(now);
                 self.entered(state, now);
                 self.start_pending = auto_start;

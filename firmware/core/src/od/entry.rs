@@ -88,7 +88,10 @@ pub struct Entry {
     pub sub: u8,
     /// Data type.
     pub data_type: DataType,
-    /// Access and placement.
+    /// Access and placement, and the store's scope in bits 6–7, which
+    /// [`Entry::new`] sets from the index: build entries with it (od-gen
+    /// does), a struct literal with other scope bits puts the value in the
+    /// wrong part of the store and of the resets.
     pub attr: Attr,
     /// Size of the value in bytes (the capacity for strings, at most 255; 0 for DOMAIN).
     pub len: u8,

@@ -513,7 +513,7 @@ impl Channel {
                 let [.., s0, s1, s2, s3] = f;
                 let size = (b0 & s != 0).then_some(u32::from_le_bytes([s0, s1, s2, s3]));
                 let crc = (!segmented).then_some(b0 & 0x04 != 0);
-                // A block initiate answers itself.
+                // Both initiates answered here: byte 0 and blksize from `start_download`.
                 if let Some((b0, blksize)) = self.start_download(size, crc, buf, od, tx) {
                     self.emit(with_multiplexer(b0, index, sub, [blksize, 0, 0, 0]), tx);
                 }
