@@ -8,7 +8,6 @@ use crate::od::ObjectDictionary;
 use crate::services::lss::UNCONFIGURED;
 use crate::services::nmt::NmtState;
 use crate::services::pdo::ALL_TPDOS;
-use crate::services::sync::SyncEvent;
 use crate::storage::Storage;
 use crate::time::{At, Instant};
 use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
@@ -132,7 +131,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             // queue an EMCY, which the next process sends).
             if state.sdo_allowed() && cob_id == self.comm.sync.cob_id() && !rtr {
                 match self.comm.sync.on_frame(now, data) {
-                    Ok(event) => self.synchronise(now, &event),
+                    Ok(event) => self.synchronise(now, event.counter),
                     Err(e) => {
                         self.counters.count_malformed();
                         self.comm.emcy.signal(e.emcy_code(), [0; 5]);
@@ -227,8 +226,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
-    /// The device samples first, so the synchronous TPDOs carry its values.
     /// An NMT command or heartbeat message the node cannot parse: counted
     /// and ignored, and the device's protocol warning raised if it has one.
     #[cold]
@@ -241,13 +238,19 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    pub(super) fn synchronise(&mut self, now: At, event: &SyncEvent) {
+    /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
+    /// The device samples first, so the synchronous TPDOs carry its values.
+    // The event (its window, 0x1007 as it was before the device's hook) built
+    // here from the counter: one copy for the received and the produced
+    // SYNC, not one at each caller.
+    pub(super) fn synchronise(&mut self, now: At, counter: Option<u8>) {
+        let event = self.comm.sync.event(now, counter);
         self.with_app_cold(now, |app, ctx| app.sample(ctx));
         if self.nmt.state().pdo_allowed() {
             let Node { od, comm, txq, .. } = self;
             let comm = &mut **comm;
             let mut sink = PdoSink::<A>::new(txq, &mut comm.emcy);
-            comm.pdos.on_sync(event, od.image_mut(), &mut sink);
+            comm.pdos.on_sync(&event, od.image_mut(), &mut sink);
             let (received, errors) = (sink.received, sink.errors);
             // The synchronous RPDOs' objects, or else the TPDOs left to retry.
             let reached = if received != 0 { self.comm.pdos.reaches(received) } else { 0 };

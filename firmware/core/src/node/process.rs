@@ -216,7 +216,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let cob_id = self.comm.sync.cob_id();
                 let data = event.message().emit(&mut buf);
                 if self.push(cob_id, data) {
-                    self.synchronise(now, &event);
+                    self.synchronise(now, event.counter);
                 }
             }
         }

@@ -138,7 +138,10 @@ impl SyncService {
         self.overflow
     }
 
-    fn event(&self, at: At, counter: Option<u8>) -> SyncEvent {
+    /// The SYNC at `at` with `counter`, its window from 0x1007 (the node
+    /// builds the event it hands the PDOs here, at one place for both a
+    /// received and a produced SYNC).
+    pub(crate) fn event(&self, at: At, counter: Option<u8>) -> SyncEvent {
         let window_end = if self.window != 0 { Far::after(at, u64::from(self.window)) } else { Far::NEVER };
         SyncEvent { at, counter, window_end }
     }
