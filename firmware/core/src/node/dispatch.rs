@@ -34,6 +34,18 @@ fn each_bit(mut bits: u32, bounded: bool, mut f: impl FnMut(u8)) {
     }
 }
 
+/// What became of a received frame: each kind counted once, where
+/// [`Node::on_frame`] reads it.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Taken {
+    /// A service took it (or a device's protocol).
+    Handled,
+    /// No service of the node's state listens on its identifier.
+    Ignored,
+    /// Its service could not parse it.
+    Malformed,
+}
+
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
 {
@@ -45,53 +57,61 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // dispatch itself instead of a tail call through a stack argument.
     #[inline(always)]
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
-        use embedded_can::Frame;
         let now = self.tick(now);
         self.counters.count_rx();
+        // Counted at one place: each outcome a branch here, not a count at every exit.
+        match self.take_frame(now, frame) {
+            Taken::Handled => {}
+            Taken::Ignored => self.counters.count_ignored(),
+            Taken::Malformed => self.counters.count_malformed(),
+        }
+    }
+
+    /// [`Node::on_frame`] past the clock and the receive count: what
+    /// became of the frame.
+    #[inline(always)]
+    fn take_frame(&mut self, now: At, frame: &CanFrame) -> Taken {
+        use embedded_can::Frame;
         // CANopen uses 11-bit identifiers only.
         let Some(cob_id) = frame.cob_id() else {
-            self.counters.count_ignored();
-            return;
+            return Taken::Ignored;
         };
         let rtr = frame.is_remote_frame();
         let data = frame.data();
         // A device's own protocol sees every frame first, whatever the NMT state.
         if self.with_app(now, |app, ctx| app.on_frame(ctx, cob_id, rtr, data)) {
-            return;
+            return Taken::Handled;
         }
         if !self.app.canopen() {
-            self.counters.count_ignored();
-            return;
+            return Taken::Ignored;
         }
         if !rtr && self.plain_rpdo(now, cob_id, data) {
-            return;
+            return Taken::Handled;
         }
         if cob_id == LSS_MASTER_COB_ID && self.lss_on() && !rtr {
             self.stale = true;
             self.lss_request(now, data);
-            return;
+            return Taken::Handled;
         }
         if self.hook.node_id == UNCONFIGURED {
-            self.counters.count_ignored();
-            return;
+            return Taken::Ignored;
         }
         if cob_id == NMT_COB_ID {
             self.stale = true;
-            match NmtRequest::parse(data) {
+            return match NmtRequest::parse(data) {
                 Ok(request) if !rtr => {
                     // A master's command comes before the node's own start.
                     self.start_pending = false;
-                    self.nmt_command(request, now)
+                    self.nmt_command(request, now);
+                    Taken::Handled
                 }
                 _ => self.broken_frame(now),
-            }
-            return;
+            };
         }
         let state = self.nmt.state();
         // Until the boot-up, a reset's stages included (CiA 301 §7.3.2.2.1).
         if state == NmtState::Initialising {
-            self.counters.count_ignored();
-            return;
+            return Taken::Ignored;
         }
         // 0x601..=0x67F is restricted for every object but the SDO servers'
         // own pre-defined identifiers (CiA 301 §7.3.5): a request there
@@ -106,39 +126,39 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                     if expired {
                         self.communication_recovered();
                     }
-                } else {
-                    self.counters.count_ignored();
+                    return Taken::Handled;
                 }
-                return;
+                return Taken::Ignored;
             }
             if (ERROR_CONTROL_BASE + 1..=ERROR_CONTROL_BASE + 0x7F).contains(&cob_id) && !rtr {
                 self.stale = true;
-                match data {
-                    [b] => match NmtStateCode::from_code(*b) {
-                        // The low byte of 0x701..=0x77F is the producer's node-ID.
-                        Some(s) => {
-                            if self.comm.consumers.on_heartbeat(cob_id as u8, s, now) {
-                                self.communication_recovered();
-                            }
-                        }
-                        None => self.broken_frame(now),
-                    },
-                    _ => self.broken_frame(now),
+                // The low byte of 0x701..=0x77F is the producer's node-ID.
+                let Some(s) = (match data {
+                    [b] => NmtStateCode::from_code(*b),
+                    _ => None,
+                }) else {
+                    return self.broken_frame(now);
+                };
+                if self.comm.consumers.on_heartbeat(cob_id as u8, s, now) {
+                    self.communication_recovered();
                 }
-                return;
+                return Taken::Handled;
             }
             // A received SYNC moves no deadline of the node's own (its errors
             // queue an EMCY, which the next process sends).
             if state.sdo_allowed() && cob_id == self.comm.sync.cob_id() && !rtr {
-                match self.comm.sync.on_frame(now, data) {
-                    Ok(event) => self.synchronise(now, event.counter),
-                    Err(e) => {
-                        self.counters.count_malformed();
-                        self.comm.emcy.signal(e.emcy_code(), [0; 5]);
+                let taken = match self.comm.sync.on_frame(now, data) {
+                    Ok(event) => {
+                        self.synchronise(now, event.counter);
+                        Taken::Handled
                     }
-                }
+                    Err(e) => {
+                        self.comm.emcy.signal(e.emcy_code(), [0; 5]);
+                        Taken::Malformed
+                    }
+                };
                 self.quiet &= !self.comm.emcy.has_queued();
-                return;
+                return taken;
             }
             if state.pdo_allowed() {
                 let Node { od, comm, txq, .. } = self;
@@ -153,7 +173,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 let (received, errors) = (sink.received, sink.errors);
                 if let Some(reached) = reached {
                     self.after_pdo(now, reached, received, errors);
-                    return;
+                    return Taken::Handled;
                 }
             }
         }
@@ -168,18 +188,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 }
                 // A transfer goes on, or an answer waits for room in the queue.
                 self.quiet &= self.sdo.is_idle(i);
-                return;
+                return Taken::Handled;
             }
             if O::SERVICES.time && Some(cob_id) == self.comm.time_cob_id && !rtr {
                 self.stale = true;
-                match TimeOfDay::parse(data) {
-                    Some(t) => self.with_app_cold(now, |app, ctx| app.on_time(ctx, t)),
-                    None => self.counters.count_malformed(),
-                }
-                return;
+                return match TimeOfDay::parse(data) {
+                    Some(t) => {
+                        self.with_app_cold(now, |app, ctx| app.on_time(ctx, t));
+                        Taken::Handled
+                    }
+                    None => Taken::Malformed,
+                };
             }
         }
-        self.counters.count_ignored();
+        Taken::Ignored
     }
 
     /// The usual RPDO frame ([`crate::services::pdo::Pdos::on_plain_frame`])
@@ -228,14 +250,15 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// An NMT command or heartbeat message the node cannot parse: counted
     /// and ignored, and the device's protocol warning raised if it has one.
+    /// Malformed: [`Node::on_frame`] counts it.
     #[cold]
-    fn broken_frame(&mut self, now: At) {
-        self.counters.count_malformed();
+    fn broken_frame(&mut self, now: At) -> Taken {
         if let Some(code) = A::CAN_EMCY.protocol {
             // The next `process` sends it and takes the clearing's deadline, as for a controller event.
             self.stale = true;
             super::controller::ControllerErrors::protocol_error(now, &mut self.comm.emcy, code);
         }
+        Taken::Malformed
     }
 
     /// A SYNC arrived or was produced: synchronous PDOs run (in Operational).
