@@ -12,6 +12,11 @@ use super::{Application, Node};
 use crate::od::ObjectDictionary;
 use crate::od::index;
 
+/// A bit-rate table index from its node field (index + 1, 0 for none).
+fn rate_index(field: u16) -> Option<u8> {
+    field.checked_sub(1).and_then(|index| u8::try_from(index).ok())
+}
+
 /// The board's side of LSS "activate bit timing": the CAN controller.
 pub trait BitRateControl {
     /// Switches the controller to CiA 305 bit-timing table index `index`
@@ -74,7 +79,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if (1..=127).contains(&node_id) || node_id == UNCONFIGURED {
                 self.hook.node_id = node_id;
             }
-            self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
+            if bit_rate != 0xFF {
+                self.bit_rate = u16::from(bit_rate) + 1;
+            }
             rate = bit_rate;
         }
         // The unpowered slave is waiting with no sequence begun; the address
@@ -168,8 +175,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         sw.phase = Phase::Switched;
         sw.at = later(now, sw.delay);
         let (index, at) = (sw.index, sw.at);
-        self.bit_rate = Some(index);
-        self.bit_rate_request = Some(index);
+        let rate = u16::from(index) + 1;
+        self.bit_rate = rate;
+        self.bit_rate_request = rate;
         at
     }
 
@@ -187,20 +195,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The bit-rate table index (CiA 305: 0 = 1 Mbit/s … 8 = 10 kbit/s) the
     /// node runs at, if a stored configuration or LSS set one.
     pub fn bit_rate(&self) -> Option<u8> {
-        self.bit_rate
+        rate_index(self.bit_rate)
     }
 
     /// A bit rate the board must switch its CAN controller to now (once).
     pub fn take_bit_rate_change(&mut self) -> Option<u8> {
         self.stale = true;
-        self.bit_rate_request.take()
+        rate_index(core::mem::take(&mut self.bit_rate_request))
     }
 
     /// Hands a pending bit-rate change to the controller; call it after
     /// [`Node::process`]. Returns whether the rate changed.
     pub fn apply_bit_rate(&mut self, controller: &mut impl BitRateControl) -> bool {
         self.stale = true;
-        match self.bit_rate_request.take() {
+        match rate_index(core::mem::take(&mut self.bit_rate_request)) {
             Some(index) => {
                 controller.set_bit_rate(index);
                 true
