@@ -2,7 +2,7 @@
 //! a configured node-id becomes active, and the timing of "activate bit
 //! timing". The protocol itself is [`crate::services::lss`].
 
-use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
+use crate::services::lss::{LssAction, Mode, UNCONFIGURED};
 use crate::services::store::StoredSet;
 use crate::storage::Storage;
 use crate::time::{At, NEVER, at_by, later, ms_span, shift};
@@ -92,7 +92,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The LSS address follows 0x1018 sub 1..4 (after a reset or a new serial number).
     pub(super) fn refresh_lss(&mut self) {
-        if !self.lss_on() {
+        if !self.lss_supported() {
             return;
         }
         let Node { od, lss, .. } = self;
@@ -181,9 +181,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         at
     }
 
-    /// The LSS slave, once power-on found the dictionary says `LSS_Supported`.
-    pub(super) fn lss_mut(&mut self) -> Option<&mut LssSlave> {
-        self.lss_on().then_some(&mut self.lss)
+    /// Whether the node runs an LSS slave, from the dictionary's constants
+    /// alone: a constant in a generated image, where `lss_on` loads and tests
+    /// the node's flag. Power-on sets that flag from the same two, so after it
+    /// the two agree; for the paths that run only after power-on (the reset's
+    /// stages, the acceptance list) or whose result nothing reads before it
+    /// (a serial number set before power-on refreshes an address that the
+    /// power-on's reset reads again). The frame path keeps `lss_on`: an
+    /// unpowered node answers no LSS request.
+    pub(super) fn lss_supported(&self) -> bool {
+        O::SERVICES.lss && self.od.dictionary().device.lss_supported
     }
 
     /// Whether the node runs an LSS slave: `false` at compile time for a
