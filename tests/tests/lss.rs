@@ -103,6 +103,23 @@ fn activate_bit_timing_is_silent_for_both_delays_and_switches_in_between() {
     assert_eq!(b.node.bit_rate(), Some(2));
 }
 
+#[test]
+fn activate_bit_timing_without_a_rate_takes_the_pending_0xff() {
+    // No stored configuration and no "configure bit timing": the pending rate is 0xFF,
+    // which the switch hands to the board as it is (and `bit_rate` reports).
+    let mut b = sendix_bench(MemStorage::new(2048));
+    b.at(ms(0));
+    assert_eq!(b.node.bit_rate(), None, "no rate stored");
+    b.rx(ms(1), LSS, &[0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+    assert_eq!(b.rx(ms(2), LSS, &[0x15, 10, 0, 0, 0, 0, 0, 0]), []);
+    assert!(b.run_until(ms(11)).is_empty());
+    assert_eq!(b.node.take_bit_rate_change(), None);
+    assert!(b.run_until(ms(12)).is_empty());
+    assert_eq!(b.node.take_bit_rate_change(), Some(0xFF));
+    assert_eq!(b.node.take_bit_rate_change(), None, "reported once");
+    assert_eq!(b.node.bit_rate(), Some(0xFF));
+}
+
 // ---- Unconfigured nodes ------------------------------------------------------------
 
 #[test]

@@ -154,7 +154,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let (len, overflowed) = (self.acceptance.len, self.acceptance.overflowed);
         let list = &mut self.acceptance;
         (list.len, list.overflowed, list.changed) = (0, false, false);
-        if self.lss_on() && self.app.canopen() {
+        if self.lss_supported() && self.app.canopen() {
             self.acceptance.insert(LSS_MASTER_COB_ID, false);
         }
         // An unconfigured node takes part in LSS only; a device that switched CANopen off, in nothing.

@@ -2,7 +2,7 @@
 //! a configured node-id becomes active, and the timing of "activate bit
 //! timing". The protocol itself is [`crate::services::lss`].
 
-use crate::services::lss::{LssAction, LssSlave, Mode, UNCONFIGURED};
+use crate::services::lss::{LssAction, Mode, UNCONFIGURED};
 use crate::services::store::StoredSet;
 use crate::storage::Storage;
 use crate::time::{At, NEVER, at_by, later, ms_span, shift};
@@ -11,6 +11,11 @@ use crate::wire::lss::SLAVE_COB_ID;
 use super::{Application, Node};
 use crate::od::ObjectDictionary;
 use crate::od::index;
+
+/// A bit-rate table index from its node field (index + 1, 0 for none).
+fn rate_index(field: u16) -> Option<u8> {
+    field.checked_sub(1).and_then(|index| u8::try_from(index).ok())
+}
 
 /// The board's side of LSS "activate bit timing": the CAN controller.
 pub trait BitRateControl {
@@ -74,7 +79,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if (1..=127).contains(&node_id) || node_id == UNCONFIGURED {
                 self.hook.node_id = node_id;
             }
-            self.bit_rate = (bit_rate != 0xFF).then_some(bit_rate);
+            if bit_rate != 0xFF {
+                self.bit_rate = u16::from(bit_rate) + 1;
+            }
             rate = bit_rate;
         }
         // The unpowered slave is waiting with no sequence begun; the address
@@ -85,7 +92,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
 
     /// The LSS address follows 0x1018 sub 1..4 (after a reset or a new serial number).
     pub(super) fn refresh_lss(&mut self) {
-        if !self.lss_on() {
+        if !self.lss_supported() {
             return;
         }
         let Node { od, lss, .. } = self;
@@ -168,14 +175,22 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         sw.phase = Phase::Switched;
         sw.at = later(now, sw.delay);
         let (index, at) = (sw.index, sw.at);
-        self.bit_rate = Some(index);
-        self.bit_rate_request = Some(index);
+        let rate = u16::from(index) + 1;
+        self.bit_rate = rate;
+        self.bit_rate_request = rate;
         at
     }
 
-    /// The LSS slave, once power-on found the dictionary says `LSS_Supported`.
-    pub(super) fn lss_mut(&mut self) -> Option<&mut LssSlave> {
-        self.lss_on().then_some(&mut self.lss)
+    /// Whether the node runs an LSS slave, from the dictionary's constants
+    /// alone: a constant in a generated image, where `lss_on` loads and tests
+    /// the node's flag. Power-on sets that flag from the same two, so after it
+    /// the two agree; for the paths that run only after power-on (the reset's
+    /// stages, the acceptance list) or whose result nothing reads before it
+    /// (a serial number set before power-on refreshes an address that the
+    /// power-on's reset reads again). The frame path keeps `lss_on`: an
+    /// unpowered node answers no LSS request.
+    pub(super) fn lss_supported(&self) -> bool {
+        O::SERVICES.lss && self.od.dictionary().device.lss_supported
     }
 
     /// Whether the node runs an LSS slave: `false` at compile time for a
@@ -187,20 +202,20 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// The bit-rate table index (CiA 305: 0 = 1 Mbit/s … 8 = 10 kbit/s) the
     /// node runs at, if a stored configuration or LSS set one.
     pub fn bit_rate(&self) -> Option<u8> {
-        self.bit_rate
+        rate_index(self.bit_rate)
     }
 
     /// A bit rate the board must switch its CAN controller to now (once).
     pub fn take_bit_rate_change(&mut self) -> Option<u8> {
         self.stale = true;
-        self.bit_rate_request.take()
+        rate_index(core::mem::take(&mut self.bit_rate_request))
     }
 
     /// Hands a pending bit-rate change to the controller; call it after
     /// [`Node::process`]. Returns whether the rate changed.
     pub fn apply_bit_rate(&mut self, controller: &mut impl BitRateControl) -> bool {
         self.stale = true;
-        match self.bit_rate_request.take() {
+        match rate_index(core::mem::take(&mut self.bit_rate_request)) {
             Some(index) => {
                 controller.set_bit_rate(index);
                 true

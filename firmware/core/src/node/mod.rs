@@ -203,10 +203,13 @@ pub struct Node<
     tx_mark: u8,
     /// The reset in progress, if any (`reset`).
     reset: reset::Stage,
-    /// The bit-rate table index in use, if known (stored or switched by LSS).
-    bit_rate: Option<u8>,
-    /// A bit-rate change the board has not applied yet.
-    bit_rate_request: Option<u8>,
+    /// The bit-rate table index in use + 1, if known (stored or switched by
+    /// LSS); 0 if not. One halfword store where an `Option<u8>` took two
+    /// byte stores, none is zero bits (the unpowered node's), and a `u16`
+    /// keeps index 0xFF (switched to with no rate configured) apart from none.
+    bit_rate: u16,
+    /// A bit-rate change the board has not applied yet: its index + 1, or 0.
+    bit_rate_request: u16,
     /// Bit t: the RAM image may have changed under TPDO t since it last
     /// compared its data (change-of-state detection runs only then, not on
     /// every call, and only for the TPDOs a write can change).
@@ -310,9 +313,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             lss: LssSlave::new([0; 4], 0, 0, 0),
             lss_active: false,
             serial: None,
-            bit_rate: None,
+            bit_rate: 0,
             switch: lss::Switch::OFF,
-            bit_rate_request: None,
+            bit_rate_request: 0,
             acceptance: filter::AcceptanceList::new(),
             hook: app::HookSide::EMPTY,
             controller: controller::ControllerErrors::new(),

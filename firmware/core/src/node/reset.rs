@@ -208,8 +208,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             Stage::Application => self.reset_application_part(now),
             Stage::Communication => {
                 // CiA 305: a node-id configured by LSS becomes active here.
-                if let Some(lss) = self.lss_mut() {
-                    self.hook.node_id = lss.reset_communication();
+                if self.lss_supported() {
+                    self.hook.node_id = self.lss.reset_communication();
                 }
                 self.reset_part(Part::Communication);
                 if let Some(serial) = self.serial {
