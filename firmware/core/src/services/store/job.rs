@@ -117,6 +117,15 @@ impl Job {
         crc: 0,
     };
 
+    /// Starts `job` in place of this one, which is idle: every field but the
+    /// newest set found (`old`), which the job's find step sets before any
+    /// use, so that a caller building the job in place stores 12 bytes fewer.
+    pub fn begin(&mut self, job: Job) {
+        let Job { phase, save, reset, lss, new_lss, objects, pos, crc, .. } = job;
+        (self.phase, self.save, self.reset, self.lss, self.new_lss, self.objects, self.pos, self.crc) =
+            (phase, save, reset, lss, new_lss, objects, pos, crc);
+    }
+
     const fn new(save: u8, reset: u8, objects: (u16, u16)) -> Job {
         Job { phase: Phase::Find, save, reset, objects, ..Job::IDLE }
     }
