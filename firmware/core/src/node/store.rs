@@ -72,7 +72,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             self.push(SLAVE_COB_ID, &LssSlave::store_result(false));
             return;
         }
-        self.hook.store = crate::services::store::Job::lss(node_id, bit_rate);
+        self.hook.store.begin(crate::services::store::Job::lss(node_id, bit_rate));
         self.store_answer = StoreAnswer { server: 0, cob_id: SLAVE_COB_ID, index: 0, sub: 0 };
     }
 

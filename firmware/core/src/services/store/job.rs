@@ -57,11 +57,15 @@ pub struct Job {
     /// A new LSS configuration (node-id, bit-rate table index), if `new_lss`.
     lss: [u8; 2],
     new_lss: bool,
-    /// The objects (an inclusive index range) whose values the saved scopes
-    /// take from the image, or with `except` all others (the objects a
+    /// The objects whose values the saved scopes take from the image: the
+    /// indices `first..=first + span`, counted with wrap-around, so that one
+    /// such range is also all objects but an inclusive range (the objects a
     /// device keeps: they keep the newest set's values).
     objects: (u16, u16),
-    except: bool,
+    /// Unused: the job's size as it was with a flag here, so that the node's
+    /// fields keep their offsets (without it, ds301-lean, which has no
+    /// storage, was 24 bytes larger).
+    _spare: bool,
     /// The newest valid set found, which the new one follows.
     old: Option<StoredSet>,
     /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
@@ -107,14 +111,23 @@ impl Job {
         lss: [0; 2],
         new_lss: false,
         objects: (0, 0),
-        except: false,
+        _spare: false,
         old: None,
         pos: 0,
         crc: 0,
     };
 
-    const fn new(save: u8, reset: u8, objects: (u16, u16), except: bool) -> Job {
-        Job { phase: Phase::Find, save, reset, objects, except, ..Job::IDLE }
+    /// Starts `job` in place of this one, which is idle: every field but the
+    /// newest set found (`old`), which the job's find step sets before any
+    /// use, so that a caller building the job in place stores 12 bytes fewer.
+    pub fn begin(&mut self, job: Job) {
+        let Job { phase, save, reset, lss, new_lss, objects, pos, crc, .. } = job;
+        (self.phase, self.save, self.reset, self.lss, self.new_lss, self.objects, self.pos, self.crc) =
+            (phase, save, reset, lss, new_lss, objects, pos, crc);
+    }
+
+    const fn new(save: u8, reset: u8, objects: (u16, u16)) -> Job {
+        Job { phase: Phase::Find, save, reset, objects, ..Job::IDLE }
     }
 
     /// 0x1010 "save" of `scope`; the objects `keep` (an inclusive index
@@ -128,12 +141,15 @@ impl Job {
     pub const fn command(scope: Scope, save: bool, keep: Option<(u16, u16)>) -> Job {
         let mask = scope.mask();
         let (save, reset) = if save { (mask, 0) } else { (0, mask) };
-        // All objects but those kept; without any, all but 0x0000 (no value a set holds is its).
-        let keep = match keep {
-            Some(keep) => keep,
-            None => (0, 0),
+        let objects = match keep {
+            // Every object kept: only 0x0000, of which no set holds a value.
+            Some((0, u16::MAX)) => (0, 0),
+            // All objects but those kept: the range after them round to the one before them.
+            Some((first, last)) if first <= last => (last.wrapping_add(1), first.wrapping_sub(last).wrapping_sub(2)),
+            // None kept: all but 0x0000 (no value a set holds is its).
+            _ => (1, u16::MAX - 1),
         };
-        Job::new(save, reset, keep, true)
+        Job::new(save, reset, objects)
     }
 
     /// Stores the objects `first..=last` alone (see [`super::save_objects`]);
@@ -142,17 +158,17 @@ impl Job {
         if !dict.entries.iter().any(|e| (first..=last).contains(&{ e.index }) && in_set(dict, e)) {
             return Err(StoreError::NotStored);
         }
-        Ok(Job::new(scope_bit(first) | scope_bit(last), 0, (first, last), false))
+        Ok(Job::new(scope_bit(first) | scope_bit(last), 0, (first, last.wrapping_sub(first))))
     }
 
     /// 0x1011 "load": the scope uses its defaults from the next reset on.
     pub const fn restore(scope: Scope) -> Job {
-        Job::new(0, scope.mask(), (0, 0), false)
+        Job::new(0, scope.mask(), (0, 0))
     }
 
     /// LSS "store configuration": the parameters as stored, with a new LSS configuration.
     pub const fn lss(node_id: u8, bit_rate: u8) -> Job {
-        Job { lss: [node_id, bit_rate], new_lss: true, ..Job::new(0, 0, (0, 0), false) }
+        Job { lss: [node_id, bit_rate], new_lss: true, ..Job::new(0, 0, (0, 0)) }
     }
 
     /// Whether the store has steps left.
@@ -300,8 +316,8 @@ impl Job {
     /// Where the value of `e` in the new set comes from.
     fn source(&self, e: &Entry) -> Source {
         let bit = entry_scope(e);
-        let (first, last) = self.objects;
-        if self.save & bit != 0 && (first..=last).contains(&{ e.index }) != self.except {
+        let (first, span) = self.objects;
+        if self.save & bit != 0 && e.index.wrapping_sub(first) <= span {
             Source::Image
         } else if self.old.is_some_and(|set| set.defaults & bit == 0) {
             Source::Old

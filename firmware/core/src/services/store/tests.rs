@@ -193,6 +193,38 @@ fn storing_one_object_after_a_restore_keeps_the_other_defaults() {
     assert_eq!(v, [9]);
 }
 
+/// A save that keeps objects (a device's `not_saved_by_1010`) takes every
+/// other one from the image: kept ranges at either end of the indices, in
+/// the middle, all of them, and an empty (reversed) one.
+#[test]
+fn a_save_keeping_objects_takes_all_others_from_the_image() {
+    let mut flash = Flash::new();
+    let mut img = boot(&mut flash, 1);
+    DICT.write(&mut img, 0x1017, 0, &100u16.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x2000, 0, &42u32.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x6060, 0, &[1]).unwrap();
+    save(&DICT, &img, 1, &mut flash, Scope::All).unwrap();
+    DICT.write(&mut img, 0x1017, 0, &200u16.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x2000, 0, &43u32.to_le_bytes()).unwrap();
+    DICT.write(&mut img, 0x6060, 0, &[2]).unwrap();
+    let saved = |keep: Option<(u16, u16)>| {
+        let mut f = Flash { regions: flash.regions, budget: None };
+        save_except(&DICT, &img, 1, &mut f, Scope::All, keep).unwrap();
+        let loaded = boot(&mut f, 1);
+        [(0x1017, 0, 200), (0x2000, 0, 43), (0x6060, 0, 2)].map(|(index, sub, new)| {
+            let v = DICT.read(&loaded, index, sub).unwrap();
+            v.first() == Some(&new)
+        })
+    };
+    assert_eq!(saved(None), [true; 3]);
+    assert_eq!(saved(Some((0x2000, 0x2000))), [true, false, true]);
+    assert_eq!(saved(Some((0x0000, 0x1FFF))), [false, true, true]);
+    assert_eq!(saved(Some((0x2000, 0xFFFF))), [true, false, false]);
+    assert_eq!(saved(Some((0x1800, 0x6060))), [true, false, false]);
+    assert_eq!(saved(Some((0x0000, 0xFFFF))), [false; 3]);
+    assert_eq!(saved(Some((0x6060, 0x1017))), [true; 3], "an empty range keeps none");
+}
+
 #[test]
 fn a_power_cut_at_any_step_leaves_the_old_or_the_new_set() {
     // Old set: 0x1017 = 111, 0x2000 = 1111. New set: 222, 2222.
