@@ -176,8 +176,12 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         let len = used.saturating_add(1).min(capacity);
         // Sub-indices 1..=len: sub k is at position k while none before it is
         // missing; the walk ends at the first one missing, as a search for each would.
-        for k in 1..=len {
-            let Some(entry) = record.get(usize::from(k)).filter(|e| e.sub == k) else { break };
+        // As a `Range` of `usize`: an inclusive range keeps a flag of its end.
+        // `len` is a `u8`: one more fits.
+        #[allow(clippy::arithmetic_side_effects)]
+        let end = usize::from(len) + 1;
+        for k in 1..end {
+            let Some(entry) = record.get(k).filter(|e| usize::from(e.sub) == k) else { break };
             let older = value_u32(dict, image, entry);
             let _ = dict.write_unchecked_entry(image, entry, &carry);
             carry = older.to_le_bytes();
