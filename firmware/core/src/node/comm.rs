@@ -167,7 +167,8 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         let Some(count) = record.first().filter(|e| e.sub == 0) else { return };
         // Every entry but sub 0.
         let capacity = record.len().saturating_sub(1).min(254) as u8;
-        let used = dict.value(image, count).first().copied().unwrap_or(0);
+        // Its first byte (an UNSIGNED8; 0 if empty), by the call the walk makes anyway.
+        let used = value_u32(dict, image, count) as u8;
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
         // manufacturer-specific field). As bytes: no shifts to make a `u32` of them.
