@@ -83,7 +83,8 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     len: usize,
     overflows: u32,
     /// No held error clears before this ([`NEVER`]: none is held; 0 at
-    /// power-on, the node being all zero bits: the first look finds none).
+    /// power-on, the node being all zero bits, and after a reset: the next
+    /// look finds none).
     held: At,
     active: [Active; A],
     /// The messages' data bytes ([`Emcy::emit`]), as they go out and are recorded.
@@ -316,7 +317,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
-        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, 0, NEVER);
+        // `held` 0: the next full call looks (and finds none), as at power-on.
+        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, 0, 0);
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
@@ -494,6 +496,10 @@ mod tests {
         assert_eq!(e.expire(us(20)), NEVER, "both in one look");
         let codes: [_; 4] = core::array::from_fn(|_| next(&mut e, us(0), true).map(|(_, m)| (m.code, m.register)));
         assert_eq!(codes[3], Some((EmcyCode::NO_ERROR, 0)), "one error reset, after the last");
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [0; 5], us(30)));
+        e.reset();
+        assert_eq!(e.expire(us(40)), NEVER, "a reset forgets the held error: nothing to clear, nothing held");
+        assert_eq!(e.next(us(40), true), None, "and its message");
     }
 
     #[test]
