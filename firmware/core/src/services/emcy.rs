@@ -189,31 +189,38 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     #[inline(never)]
     fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool, until: At) -> bool {
         let pos = self.position(code);
-        let new = pos.is_none();
-        // The active error's entry, or the next free one for a new error.
-        match self.active.get_mut(pos.unwrap_or(self.active_len)) {
-            Some(e) => {
-                if new {
-                    *e = Active { code, bits: register, until: NEVER };
+        match pos {
+            // Active: a hold moves (the next full call looks at them all
+            // again); its message goes again only if each event sends one.
+            Some(pos) => {
+                if until != NEVER
+                    && let Some(e) = self.active.get_mut(pos)
+                {
+                    e.until = until;
+                    self.held = 0;
+                }
+                if !repeat {
+                    return false;
+                }
+            }
+            // New, in the next free entry, with its hold if any ([`NEVER`]: none).
+            None => match self.active.get_mut(self.active_len) {
+                Some(e) => {
+                    *e = Active { code, bits: register, until };
+                    if until != NEVER {
+                        self.held = 0;
+                    }
                     // `get_mut` found the slot: `active_len` < A.
                     #[allow(clippy::arithmetic_side_effects)]
                     {
                         self.active_len += 1;
                     }
                 }
-                if until != NEVER {
-                    e.until = until;
-                    // A hold moved later: the next full call looks at them all again.
-                    self.held = 0;
-                }
-            }
-            None => self.lost_errors = true,
-        }
-        if !new && !repeat {
-            return false;
+                None => self.lost_errors = true,
+            },
         }
         self.push(code, 0, info);
-        new
+        pos.is_none()
     }
 
     /// Sends a message for an event that has no lasting state (e.g. a PDO
