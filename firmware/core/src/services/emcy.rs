@@ -150,9 +150,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Where `code` is in the active list.
     // Out of line: raising, clearing and recording a sent EMCY each had a copy.
+    // From the end (a raise adds a code only if it is not active: each is
+    // there once): the loop counts down to 0, one compare fewer (4 bytes).
     #[inline(never)]
     fn position(&self, code: EmcyCode) -> Option<usize> {
-        self.active.get(..self.active_len)?.iter().position(|e| e.code == code)
+        self.active.get(..self.active_len)?.iter().rposition(|e| e.code == code)
     }
 
     /// Raises an error: records it as active and queues its message.
