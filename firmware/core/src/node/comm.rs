@@ -164,10 +164,11 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         // The record's entries found once, sorted by sub-index with unique keys
         // (as every dictionary's): sub 0 is the first if the record has it.
         let record = object(dict, index::PRE_DEFINED_ERROR_FIELD);
-        let Some(count) = record.first().filter(|e| e.sub == 0) else { return };
-        // Every entry but sub 0.
-        let capacity = record.len().saturating_sub(1).min(254) as u8;
-        let used = dict.value(image, count).first().copied().unwrap_or(0);
+        let Some((count, subs)) = record.split_first().filter(|(e, _)| e.sub == 0) else { return };
+        // Every entry but sub 0 (`subs`).
+        let capacity = subs.len().min(254) as u8;
+        // Its first byte (an UNSIGNED8; 0 if empty), by the call the walk makes anyway.
+        let used = value_u32(dict, image, count) as u8;
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
         // manufacturer-specific field). As bytes: no shifts to make a `u32` of them.
@@ -176,8 +177,15 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         let len = used.saturating_add(1).min(capacity);
         // Sub-indices 1..=len: sub k is at position k while none before it is
         // missing; the walk ends at the first one missing, as a search for each would.
-        for k in 1..=len {
-            let Some(entry) = record.get(usize::from(k)).filter(|e| e.sub == k) else { break };
+        // The positions zipped with `subs` (no bound check of their own per
+        // step), as a `Range` of `usize` (an inclusive range keeps a flag of
+        // its end). `len` is a `u8`: one more fits.
+        #[allow(clippy::arithmetic_side_effects)]
+        let end = usize::from(len) + 1;
+        for (k, entry) in (1..end).zip(subs) {
+            if usize::from(entry.sub) != k {
+                break;
+            }
             let older = value_u32(dict, image, entry);
             let _ = dict.write_unchecked_entry(image, entry, &carry);
             carry = older.to_le_bytes();

@@ -83,7 +83,8 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     len: usize,
     overflows: u32,
     /// No held error clears before this ([`NEVER`]: none is held; 0 at
-    /// power-on, the node being all zero bits: the first look finds none).
+    /// power-on, the node being all zero bits, and after a reset: the next
+    /// look finds none).
     held: At,
     active: [Active; A],
     /// The messages' data bytes ([`Emcy::emit`]), as they go out and are recorded.
@@ -149,9 +150,11 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 
     /// Where `code` is in the active list.
     // Out of line: raising, clearing and recording a sent EMCY each had a copy.
+    // From the end (a raise adds a code only if it is not active: each is
+    // there once): the loop counts down to 0, one compare fewer (4 bytes).
     #[inline(never)]
     fn position(&self, code: EmcyCode) -> Option<usize> {
-        self.active.get(..self.active_len)?.iter().position(|e| e.code == code)
+        self.active.get(..self.active_len)?.iter().rposition(|e| e.code == code)
     }
 
     /// Raises an error: records it as active and queues its message.
@@ -188,31 +191,38 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     #[inline(never)]
     fn raise_or_repeat(&mut self, code: EmcyCode, register: u8, info: [u8; 5], repeat: bool, until: At) -> bool {
         let pos = self.position(code);
-        let new = pos.is_none();
-        // The active error's entry, or the next free one for a new error.
-        match self.active.get_mut(pos.unwrap_or(self.active_len)) {
-            Some(e) => {
-                if new {
-                    *e = Active { code, bits: register, until: NEVER };
+        match pos {
+            // Active: a hold moves (the next full call looks at them all
+            // again); its message goes again only if each event sends one.
+            Some(pos) => {
+                if until != NEVER
+                    && let Some(e) = self.active.get_mut(pos)
+                {
+                    e.until = until;
+                    self.held = 0;
+                }
+                if !repeat {
+                    return false;
+                }
+            }
+            // New, in the next free entry, with its hold if any ([`NEVER`]: none).
+            None => match self.active.get_mut(self.active_len) {
+                Some(e) => {
+                    *e = Active { code, bits: register, until };
+                    if until != NEVER {
+                        self.held = 0;
+                    }
                     // `get_mut` found the slot: `active_len` < A.
                     #[allow(clippy::arithmetic_side_effects)]
                     {
                         self.active_len += 1;
                     }
                 }
-                if until != NEVER {
-                    e.until = until;
-                    // A hold moved later: the next full call looks at them all again.
-                    self.held = 0;
-                }
-            }
-            None => self.lost_errors = true,
-        }
-        if !new && !repeat {
-            return false;
+                None => self.lost_errors = true,
+            },
         }
         self.push(code, 0, info);
-        new
+        pos.is_none()
     }
 
     /// Sends a message for an event that has no lasting state (e.g. a PDO
@@ -316,7 +326,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// Forgets every error and message (reset communication keeps nothing).
     pub fn reset(&mut self) {
         // In place: the lists are read only up to their lengths.
-        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, 0, NEVER);
+        // `held` 0: the next full call looks (and finds none), as at power-on.
+        (self.active_len, self.head, self.len, self.free_at, self.held) = (0, 0, 0, 0, 0);
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
@@ -494,6 +505,10 @@ mod tests {
         assert_eq!(e.expire(us(20)), NEVER, "both in one look");
         let codes: [_; 4] = core::array::from_fn(|_| next(&mut e, us(0), true).map(|(_, m)| (m.code, m.register)));
         assert_eq!(codes[3], Some((EmcyCode::NO_ERROR, 0)), "one error reset, after the last");
+        assert!(e.raise_held(EmcyCode(0x8110), register::COMMUNICATION, [0; 5], us(30)));
+        e.reset();
+        assert_eq!(e.expire(us(40)), NEVER, "a reset forgets the held error: nothing to clear, nothing held");
+        assert_eq!(e.next(us(40), true), None, "and its message");
     }
 
     #[test]
