@@ -626,12 +626,12 @@ pub trait Application {
     /// [`Application::read`], [`Application::download_check`],
     /// [`Application::write`], [`Application::check_write`] or
     /// [`Application::written`]). A device without them says `false`: the
-    /// node then serves an idle server's expedited upload (a value of 1
-    /// to 4 bytes) straight from the dictionary, without the hooks'
-    /// context (a fifth fewer instructions: docs/benchmarks.md, "Issue 12:
-    /// the expedited SDO path, round 5", and "Round 15 (dlhalf)"). Set
-    /// `false` with a hook overridden, that hook is skipped for these
-    /// transfers.
+    /// SDO servers' uploads and a download's checks then read the
+    /// dictionary alone, and the hooks' context is built only for a write
+    /// (a seventh fewer instructions for an expedited upload:
+    /// docs/benchmarks.md, "Round 16 (upl)"). Set `false` with
+    /// [`Application::upload_size`], [`Application::read`] or
+    /// [`Application::download_check`] overridden, that hook is skipped.
     const SDO_HOOKS: bool = true;
 
     /// [`super::Node::process`] has a short path: a call whose only work is
