@@ -626,12 +626,13 @@ pub trait Application {
     /// [`Application::read`], [`Application::download_check`],
     /// [`Application::write`], [`Application::check_write`] or
     /// [`Application::written`]). A device without them says `false`: the
-    /// SDO servers' uploads and a download's checks then read the
-    /// dictionary alone, and the hooks' context is built only for a write
-    /// (a seventh fewer instructions for an expedited upload:
-    /// docs/benchmarks.md, "Round 16 (upl)"). Set `false` with
-    /// [`Application::upload_size`], [`Application::read`] or
-    /// [`Application::download_check`] overridden, that hook is skipped.
+    /// SDO servers' uploads, a download's checks and the downloads of the
+    /// objects from 0x2000 on then reach the dictionary alone, and the
+    /// hooks' context is built only for a download to a communication
+    /// object (an expedited upload a seventh, an expedited download of an
+    /// application object a fourteenth fewer instructions:
+    /// docs/benchmarks.md, "Round 16 (upl)"). Set `false` with a hook
+    /// overridden, that hook is skipped for those transfers.
     const SDO_HOOKS: bool = true;
 
     /// [`super::Node::process`] has a short path: a call whose only work is

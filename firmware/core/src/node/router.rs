@@ -153,17 +153,23 @@ impl Ctx<'_> {
     /// dictionary's own, remembering which bytes changed. The precheck
     /// looked the entry up and checked the value: no second look-up.
     pub(super) fn write_plain(&mut self, entry: &'static Entry, data: &[u8]) -> Result<(), AbortCode> {
-        let changed = store_checked(self.image, entry, data)?;
-        if !changed {
-            // The same value again: no TPDO has new data.
-        } else if self.effects.wrote.1 == 0 {
-            self.effects.wrote = (entry.offset, entry.len.into());
-        } else {
-            // A second write in one access: any TPDO may look.
-            self.effects.follow.written = true;
-        }
-        Ok(())
+        write_plain(self.image, &mut self.effects, entry, data)
     }
+}
+
+/// [`Ctx::write_plain`] on the image and the effects alone.
+#[inline(always)]
+fn write_plain(image: &mut [u8], effects: &mut SdoEffects, entry: &'static Entry, data: &[u8]) -> Result<(), AbortCode> {
+    let changed = store_checked(image, entry, data)?;
+    if !changed {
+        // The same value again: no TPDO has new data.
+    } else if effects.wrote.1 == 0 {
+        effects.wrote = (entry.offset, entry.len.into());
+    } else {
+        // A second write in one access: any TPDO may look.
+        effects.follow.written = true;
+    }
+    Ok(())
 }
 
 impl SdoEffects {
@@ -274,9 +280,10 @@ impl<A: Application, O: ObjectDictionary> ObjectAccess for Router<'_, '_, A, O> 
 /// The SDO servers' way into the node for one request (or one poll of
 /// the servers) of a device without SDO hooks ([`Application::SDO_HOOKS`]):
 /// the parts the hooks' [`Ctx`] is made of, that context built only for a
-/// write ([`SdoParts::write`]). Uploads and a download's checks read the
-/// dictionary alone, as the router does without a hook to ask. Built for
-/// every request, the context took a fifth of the general expedited
+/// write to a communication object ([`SdoParts::write`]). Uploads, a
+/// download's checks and the writes of the other objects reach the
+/// dictionary alone, as the router does without a hook to answer. Built
+/// for every request, the context took a fifth of the general expedited
 /// upload's instructions.
 pub(super) struct SdoParts<'c, A, O, C, S> {
     pub od: &'c mut O,
@@ -322,9 +329,18 @@ impl<A: Application, O: ObjectDictionary, C: Services, S: Storage> ObjectAccess 
         download_check_plain(self.od.dictionary(), index, sub, size)
     }
 
-    /// The write with its hooks and the services' rules, in the context built here.
+    /// The write with the services' rules, in the context built here; an
+    /// application or profile object (from 0x2000 on), which no service
+    /// owns, without one: the dictionary's checks and the value stored, as
+    /// `Router::write_with_hooks` and `Ctx::route_write` do when no hook
+    /// answers.
     fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AbortCode> {
         let dict = self.od.dictionary();
+        if index >= index::MANUFACTURER_SPECIFIC {
+            // `HAS_LIMITS` is a constant: one of the two is linked.
+            let entry = if O::HAS_LIMITS { precheck::<true>(dict, index, sub, data) } else { precheck::<false>(dict, index, sub, data) }?;
+            return write_plain(self.od.image_mut(), &mut self.effects, entry, data);
+        }
         let mut ctx = Ctx {
             dict,
             image: self.od.image_mut(),
