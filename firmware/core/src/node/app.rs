@@ -626,12 +626,13 @@ pub trait Application {
     /// [`Application::read`], [`Application::download_check`],
     /// [`Application::write`], [`Application::check_write`] or
     /// [`Application::written`]). A device without them says `false`: the
-    /// node then serves an idle server's expedited upload (a value of 1
-    /// to 4 bytes) straight from the dictionary, without the hooks'
-    /// context (a fifth fewer instructions: docs/benchmarks.md, "Issue 12:
-    /// the expedited SDO path, round 5", and "Round 15 (dlhalf)"). Set
-    /// `false` with a hook overridden, that hook is skipped for these
-    /// transfers.
+    /// SDO servers' uploads, a download's checks and the downloads of the
+    /// objects from 0x2000 on then reach the dictionary alone, and the
+    /// hooks' context is built only for a download to a communication
+    /// object (an expedited upload a seventh, an expedited download of an
+    /// application object a fourteenth fewer instructions:
+    /// docs/benchmarks.md, "Round 16 (upl)"). Set `false` with a hook
+    /// overridden, that hook is skipped for those transfers.
     const SDO_HOOKS: bool = true;
 
     /// [`super::Node::process`] has a short path: a call whose only work is

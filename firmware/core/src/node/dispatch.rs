@@ -14,9 +14,9 @@ use crate::wire::lss::MASTER_COB_ID as LSS_MASTER_COB_ID;
 use crate::wire::nmt::{ERROR_CONTROL_BASE, NMT_COB_ID, NmtRequest, NmtStateCode, error_control_cob_id};
 use crate::wire::time_stamp::TimeOfDay;
 
-use super::router::{Follow, Router, SdoEffects};
+use super::router::{Follow, Router, SdoEffects, SdoParts};
 use super::sinks::{LENGTH_ERRORS, PdoSink, SdoSink};
-use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE, store};
+use super::{Application, CommError, Ctx, NmtEvent, Node, SDO_BUFFER, Source, TX_QUEUE, comm, store};
 use crate::services::sdo_server::SdoServers;
 use crate::txq::TxQueue;
 
@@ -183,9 +183,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             if let Some((i, tx)) = server
                 && !rtr
             {
-                if !self.sdo_in_place(i, data, tx) {
-                    self.sdo_request(i, now, data, tx);
-                }
+                self.sdo_request(i, now, data, tx);
                 // A transfer goes on, or an answer waits for room in the queue.
                 self.quiet &= self.sdo.is_idle(i);
                 return Taken::Handled;
@@ -320,10 +318,18 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         let staged = Cell::new(None);
         // Without storage no store starts: the compiler leaves the answer's holding out.
         let staged_ref = if O::SERVICES.storage { Some(&staged) } else { None };
-        let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: staged_ref };
-        sdo.on_request_with(i, now, data, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx_cob, hold: staged_ref });
-        let effects = ctx.effects;
+        let block = O::SERVICES.block_sdo;
+        // A constant: each image links one of the two.
+        let effects = if A::SDO_HOOKS {
+            let (mut ctx, app, sdo, txq, _) = self.split_sdo(now);
+            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: staged_ref };
+            sdo.on_request_with(i, now, data, block, false, &mut router, &mut SdoSink { txq, cob_id: tx_cob, hold: staged_ref });
+            ctx.effects
+        } else {
+            let (mut parts, sdo, txq, _) = self.sdo_parts(now, staged_ref);
+            sdo.on_request_with(i, now, data, block, true, &mut parts, &mut SdoSink { txq, cob_id: tx_cob, hold: staged_ref });
+            parts.effects
+        };
         if let (true, Some((index, sub))) = (O::SERVICES.storage, staged.get()) {
             self.store_answer = store::StoreAnswer::sdo(i, tx_cob, index, sub);
         }
@@ -400,6 +406,28 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             hook,
         };
         (ctx, app, sdo, txq, sdo_cob_ids)
+    }
+
+    /// [`Node::split_sdo`] for a device without SDO hooks
+    /// ([`Application::SDO_HOOKS`]): the parts of the node the servers'
+    /// accesses reach, the hooks' context built only for a write
+    /// ([`SdoParts`]; `staged`: as [`super::router::Router::staged`]).
+    #[allow(clippy::type_complexity)]
+    pub(super) fn sdo_parts<'a>(
+        &'a mut self,
+        now: At,
+        staged: Option<&'a Cell<Option<(u16, u8)>>>,
+    ) -> (
+        SdoParts<'a, A, O, comm::Hooked<A, O, R, T, HB>, S>,
+        &'a mut SdoServers<SDO_BUFFER, SDO>,
+        &'a mut TxQueue<TX_QUEUE>,
+        &'a [Option<(u16, u16)>; SDO],
+    ) {
+        // As `split_sdo`: the write's hooks may change what the device's timers do.
+        self.poll_app_next();
+        let Node { od, app, storage, comm, sdo, txq, nmt, hook, sdo_cob_ids, .. } = self;
+        let parts = SdoParts { od, app, services: comm, storage, hook, state: nmt.state(), now, staged, effects: SdoEffects::default() };
+        (parts, sdo, txq, sdo_cob_ids)
     }
 
     /// Follows up what SDO accesses changed beyond their objects (from a

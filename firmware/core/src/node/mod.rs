@@ -48,7 +48,6 @@ mod app;
 mod comm;
 mod controller;
 mod dispatch;
-mod expedited;
 mod filter;
 mod lss;
 mod objects;

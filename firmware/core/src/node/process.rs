@@ -265,15 +265,28 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     #[inline(always)]
     fn poll_sdo(&mut self, now: At) -> At {
         let mut sdo_deadline = NEVER;
-        let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
-        let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
-        for (i, ids) in sdo_cob_ids.iter().enumerate() {
-            if let Some((_, tx)) = *ids {
-                let deadline = sdo.poll_with(i, now, O::SERVICES.block_sdo, &mut router, &mut SdoSink { txq, cob_id: tx, hold: None });
-                sdo_deadline = sdo_deadline.min(deadline);
+        let block = O::SERVICES.block_sdo;
+        // A constant: each image links one of the two.
+        let effects = if A::SDO_HOOKS {
+            let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
+            let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
+            for (i, ids) in sdo_cob_ids.iter().enumerate() {
+                if let Some((_, tx)) = *ids {
+                    let deadline = sdo.poll_with(i, now, block, &mut router, &mut SdoSink { txq, cob_id: tx, hold: None });
+                    sdo_deadline = sdo_deadline.min(deadline);
+                }
             }
-        }
-        let effects = ctx.effects;
+            ctx.effects
+        } else {
+            let (mut parts, sdo, txq, sdo_cob_ids) = self.sdo_parts(now, None);
+            for (i, ids) in sdo_cob_ids.iter().enumerate() {
+                if let Some((_, tx)) = *ids {
+                    let deadline = sdo.poll_with(i, now, block, &mut parts, &mut SdoSink { txq, cob_id: tx, hold: None });
+                    sdo_deadline = sdo_deadline.min(deadline);
+                }
+            }
+            parts.effects
+        };
         self.queue_raw();
         self.follow_sdo(effects);
         sdo_deadline

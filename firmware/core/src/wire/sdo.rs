@@ -218,17 +218,6 @@ pub(crate) fn is_initiate_upload(b0: u8) -> bool {
     b0 & 0xE0 == 0x40
 }
 
-/// An initiate upload as received, for the SDO server's in-place path;
-/// `None` for any other request (and a frame that is not 8 bytes long),
-/// which [`SdoRequest::parse`] decodes. What it returns is what `parse`
-/// says of the same frame (tested for every byte 0).
-#[inline(always)]
-pub(crate) fn upload_request(data: &[u8]) -> Option<&[u8; 8]> {
-    let f = <&[u8; 8]>::try_from(data).ok()?;
-    let [b0, ..] = *f;
-    is_initiate_upload(b0).then_some(f)
-}
-
 /// Decodes the `nnes` bits (bits 3–0) of an initiate frame with bytes 4–7.
 // `n` is two bits: 4 − n is 1..=4.
 #[allow(clippy::arithmetic_side_effects)]
@@ -446,7 +435,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn upload_request_says_what_parse_says() {
+    fn is_initiate_upload_says_what_parse_says() {
         let mut served = 0;
         for b0 in 0..=255u8 {
             let frame = [b0, 0x18, 0x10, 0x02, 0xA1, 0xB2, 0xC3, 0xD4];
@@ -454,11 +443,8 @@ mod tests {
                 Ok(SdoRequest::InitiateUpload { index, sub }) => Some((index, sub)),
                 _ => None,
             };
-            assert_eq!(upload_request(&frame).map(multiplexer), expected, "byte 0 {b0:#04x}");
-            assert_eq!(is_initiate_upload(b0), expected.is_some(), "byte 0 {b0:#04x}");
+            assert_eq!(is_initiate_upload(b0).then(|| multiplexer(&frame)), expected, "byte 0 {b0:#04x}");
             served += usize::from(expected.is_some());
-            // Only an 8-byte frame is a request.
-            assert_eq!(upload_request(&frame[..7]), None);
         }
         // 32 upload command bytes (x free).
         assert_eq!(served, 32);

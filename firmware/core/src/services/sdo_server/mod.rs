@@ -42,7 +42,7 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, multiplexer, segment_fields, with_multiplexer};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, is_initiate_upload, multiplexer, segment_fields, with_multiplexer};
 use crate::wire::sdo_block::BlockUploadRequest;
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -275,7 +275,7 @@ impl<const N: usize> SdoServer<N> {
     /// the transfer's deadline (because `poll` was late) first triggers the
     /// timeout abort; it is then served only if it initiates a new transfer.
     pub fn on_request(&mut self, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        self.channel.on_request(now, data, true, Some(&mut self.buf), &mut od, tx);
+        self.channel.on_request(now, data, true, true, Some(&mut self.buf), &mut od, tx);
     }
 
     /// Sends pending block-upload segments while `tx` accepts them; aborts with 0x05040000 on timeout; returns the next deadline (None when idle).
@@ -353,7 +353,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
     /// A frame on the rx COB-ID of server `i`, as [`SdoServer::on_request`].
     pub fn on_request(&mut self, i: usize, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        self.on_request_with(i, now, data, true, &mut od, tx);
+        self.on_request_with(i, now, data, true, true, &mut od, tx);
     }
 
     /// As [`SdoServers::on_request`]; without `block`, a block transfer
@@ -364,7 +364,17 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     /// directly (the node's router), the others through `dyn
     /// ObjectAccess`, one copy of their code whatever `O` is.
     #[inline(always)]
-    pub fn on_request_with<O: ObjectAccess>(&mut self, i: usize, now: At, data: &[u8], block: bool, od: &mut O, tx: &mut dyn SdoTx) {
+    #[allow(clippy::too_many_arguments)]
+    pub fn on_request_with<O: ObjectAccess>(
+        &mut self,
+        i: usize,
+        now: At,
+        data: &[u8],
+        block: bool,
+        quick: bool,
+        od: &mut O,
+        tx: &mut dyn SdoTx,
+    ) {
         // With one server (`K` a constant) no other can hold the buffer:
         // the compiler leaves the scan and every refusal for a lent buffer out.
         // Only a request that may start a download needs to know (the holder
@@ -373,7 +383,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
         let lent = K > 1 && may_take_buffer(data) && self.channels.iter().enumerate().any(|(j, c)| j != i && c.holds_buffer());
         let Some(channel) = self.channels.get_mut(i) else { return };
         let buf = if lent { None } else { Some(self.buf.as_mut_slice()) };
-        channel.on_request(now, data, block, buf, od, tx);
+        channel.on_request(now, data, block, quick, buf, od, tx);
     }
 
     /// Timers and pending frames of server `i`, as [`SdoServer::poll`].
@@ -402,7 +412,17 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
 impl Channel {
     #[inline(always)]
-    fn on_request<O: ObjectAccess>(&mut self, now: At, data: &[u8], block: bool, buf: Buffer<'_>, od: &mut O, tx: &mut dyn SdoTx) {
+    #[allow(clippy::too_many_arguments)]
+    fn on_request<O: ObjectAccess>(
+        &mut self,
+        now: At,
+        data: &[u8],
+        block: bool,
+        quick: bool,
+        buf: Buffer<'_>,
+        od: &mut O,
+        tx: &mut dyn SdoTx,
+    ) {
         // A frame at or after the deadline comes too late for its transfer:
         // the timeout abort answers it, and only a new initiate is served.
         // The idle state first (`expire` tests it too): the compiler then
@@ -418,14 +438,33 @@ impl Channel {
             },
             _ => {
                 let Ok(f) = frame(data) else { return self.count_malformed() };
-                let kind = RequestKind::of(f[0]);
-                if expired && !kind.starts_transfer() {
-                    // Too late for its transfer; an unknown command is still counted.
-                    if kind == RequestKind::Unknown {
-                        self.count_malformed();
-                    }
+                let [b0, ..] = f;
+                // An initiate upload (ccs 2), or with `block` an initiate
+                // block upload (ccs 5, cs 0), starts a transfer whatever the
+                // server was doing (a late frame too): served before the
+                // other requests' decode, the most common request in the
+                // fewest instructions. A block upload initiate is served as
+                // an initiate upload with the block's fields (a value of at
+                // most pst bytes is answered as that would be): one copy of
+                // the initiate.
+                if quick && (is_initiate_upload(b0) || (block && b0 & 0xE3 == 0xA0)) {
+                    let upload_block = match (block && b0 & 0x80 != 0).then(|| BlockUploadRequest::decode(&f)) {
+                        Some(BlockUploadRequest::Initiate { crc, blksize, pst, .. }) => Some(block::UploadInitiate { crc, blksize, pst }),
+                        _ => None,
+                    };
+                    let (index, sub) = multiplexer(&f);
+                    self.start(index, sub);
+                    self.initiate_upload(upload_block, od, tx);
                 } else {
-                    self.request(kind, f, data, block, buf, od, tx);
+                    let kind = RequestKind::of(b0);
+                    if expired && !kind.starts_transfer() {
+                        // Too late for its transfer; an unknown command is still counted.
+                        if kind == RequestKind::Unknown {
+                            self.count_malformed();
+                        }
+                    } else {
+                        self.request(kind, f, data, block, quick, buf, od, tx);
+                    }
                 }
             }
         }
@@ -472,18 +511,18 @@ impl Channel {
         f: [u8; 8],
         raw: &'b [u8],
         block: bool,
+        quick: bool,
         buf: Buffer<'b>,
         od: &mut O,
         tx: &mut dyn SdoTx,
     ) {
         let (index, sub) = multiplexer(&f);
         let [b0, ..] = f;
-        // An initiate block upload is served as an initiate upload with the
-        // block's fields (a value of at most pst bytes is answered as that
-        // would be): one copy of the initiate. `block` first: without block
-        // transfer the compiler knows there is none.
-        // The kind before the decode: every other request skips it.
-        let upload_block = match (block && kind == RequestKind::BlockUploadInitiate).then(|| BlockUploadRequest::decode(&f)) {
+        // Without `quick`, the initiate uploads come here: an initiate
+        // block upload is served as an initiate upload with the block's
+        // fields. `block` first: without block transfer the compiler knows
+        // there is none. The kind before the decode: every other request skips it.
+        let upload_block = match (!quick && block && kind == RequestKind::BlockUploadInitiate).then(|| BlockUploadRequest::decode(&f)) {
             Some(BlockUploadRequest::Initiate { crc, blksize, pst, .. }) => Some(block::UploadInitiate { crc, blksize, pst }),
             _ => None,
         };
@@ -519,7 +558,7 @@ impl Channel {
                 }
                 None
             }
-            (RequestKind::InitiateUpload, _) => {
+            (RequestKind::InitiateUpload, _) if !quick => {
                 self.start(index, sub);
                 self.initiate_upload(upload_block, od, tx);
                 None
