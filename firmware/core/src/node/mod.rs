@@ -405,7 +405,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// that stepped back moves nothing: the deadlines wait out the step.
     /// Without CANopen (a device's [`Application::canopen`]) no service
     /// has a deadline to move.
-    #[cold]
+    // Out of line, but not `#[cold]`: cold, the compiler laid the calls'
+    // set-up out again around it (ds301 196 bytes more, ds301-lean 30).
     #[inline(never)]
     fn rebase(&mut self, now: Instant) {
         let by = now.as_micros().saturating_sub(self.hook.epoch);

@@ -379,7 +379,6 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     // (room in the node's padding: a wider one cost a hot path an
     // instruction per frame); 256 frames exactly since the last ask read
     // as none, which costs one call a retry.
-    #[cold]
     fn due_again(&mut self, now: At) -> At {
         let mark = (self.counters.tx as u8).wrapping_add(1);
         let stuck = self.tx_mark == mark;
