@@ -425,7 +425,7 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
 
     /// NMT left Operational: the PDOs stop; frames, RTRs and SYNCs are ignored.
     pub fn stop(&mut self) {
-        self.settled = false;
+        // `settled` is read only while Operational; `enter_operational` clears it.
         self.operational = false;
     }
 
