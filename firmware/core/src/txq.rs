@@ -123,22 +123,16 @@ impl<const N: usize> TxQueue<N> {
             return None;
         }
         let mut at = self.head.wrapping_add(self.len) & Self::MASK;
-        // The frame that leaves last (an answer into an empty queue, a burst
-        // of one identifier or in identifier order) goes to the tail at once,
-        // with few registers to save.
-        let last = self.keys.get(at.wrapping_sub(1) & Self::MASK).is_none_or(|&k| k <= key);
-        if !ahead && (self.len == 0 || last) {
-            return self.place(at, key);
-        }
-        // The new frame stays behind queued frames up to `limit`: its equals
-        // too, unless it goes ahead of them.
-        let limit = if ahead { key.checked_sub(1) } else { Some(key) };
         // One insertion step from the tail: queued frames that leave after
-        // the new one move back by one.
-        for _ in 0..self.len {
+        // the new one move back by one. It stays behind lower keys, and
+        // behind its equals unless it goes `ahead` of them. No fast path for
+        // the frame that leaves last (the loop's first compare stops there):
+        // 44 B less, for about 7 thumbv7m instructions on such a frame (a
+        // SYNC's TPDOs).
+        while at != self.head {
             let before = at.wrapping_sub(1) & Self::MASK;
             let Some(&k) = self.keys.get(before) else { break };
-            if limit.is_some_and(|l| k <= l) {
+            if k < key || (k == key && !ahead) {
                 break;
             }
             if let Some(kk) = self.keys.get_mut(at) {

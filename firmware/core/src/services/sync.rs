@@ -151,13 +151,16 @@ impl SyncService {
     // event on in registers instead of through memory.
     #[inline(always)]
     pub fn on_frame(&mut self, now: At, data: &[u8]) -> Result<SyncEvent, SyncLengthError> {
-        if self.overflow == 0 {
-            return Ok(self.event(now, None));
-        }
-        match SyncMessage::parse(data) {
-            Ok(SyncMessage { counter: Some(counter) }) => Ok(self.event(now, Some(counter))),
-            _ => Err(SyncLengthError { len: data.len() }),
-        }
+        // The counter first, then one event for either (its window end in one place).
+        let counter = if self.overflow == 0 {
+            None
+        } else {
+            match SyncMessage::parse(data) {
+                Ok(SyncMessage { counter: Some(counter) }) => Some(counter),
+                _ => return Err(SyncLengthError { len: data.len() }),
+            }
+        };
+        Ok(self.event(now, counter))
     }
 
     /// The producer: `Some` when a SYNC is due at `now`; the node sends

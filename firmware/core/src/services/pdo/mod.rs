@@ -341,7 +341,8 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
     pub(crate) fn configure_half(&mut self, dict: &Dictionary, image: &[u8], transmit: bool) -> Result<(), MappingError> {
         self.settled = false;
         if !transmit {
-            self.window_end = Far::NEVER;
+            // Not the window's end: it is read only while Operational, and
+            // `enter_operational` sets it.
             self.operational = false;
         }
         let mut first_error = None;
@@ -424,7 +425,7 @@ impl<const R: usize, const T: usize, P: TpdoRules> Pdos<R, T, P> {
 
     /// NMT left Operational: the PDOs stop; frames, RTRs and SYNCs are ignored.
     pub fn stop(&mut self) {
-        self.settled = false;
+        // `settled` is read only while Operational; `enter_operational` clears it.
         self.operational = false;
     }
 
