@@ -182,10 +182,8 @@ fn cct_3_4_event_driven_tpdo() {
 /// An expedited download while the transmit queue has no room for the
 /// answer (4 slots are kept for heartbeat and EMCY): the value is written
 /// once, so the event-driven TPDO mapping it sees the change, and the
-/// answer follows once the queue drains. (The node's in-place path for a
-/// device without SDO hooks hands such a request to the general path
-/// before it writes anything: written twice, the value would have changed
-/// nothing for the TPDO.)
+/// answer follows once the queue drains (written twice, the value would
+/// have changed nothing for the TPDO).
 #[test]
 fn an_expedited_download_into_a_full_queue_reaches_its_tpdo_and_answers_later() {
     let mut b = interop();

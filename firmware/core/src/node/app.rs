@@ -629,9 +629,9 @@ pub trait Application {
     /// SDO servers' uploads, a download's checks and the downloads of the
     /// objects from 0x2000 on then reach the dictionary alone, and the
     /// hooks' context is built only for a download to a communication
-    /// object (an expedited upload a seventh, an expedited download of an
-    /// application object a fourteenth fewer instructions:
-    /// docs/benchmarks.md, "Round 16 (upl)"). Set `false` with a hook
+    /// object (thumbv7m, the ds301-like bench: an expedited download of an
+    /// application object 687 → 639 instructions; docs/benchmarks.md,
+    /// "Round 16 (upl)"). Set `false` with a hook
     /// overridden, that hook is skipped for those transfers.
     const SDO_HOOKS: bool = true;
 

@@ -59,7 +59,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub fn on_frame(&mut self, now: Instant, frame: &CanFrame) {
         let now = self.tick(now);
         self.counters.count_rx();
-        // Counted at one place: each outcome a branch here, not a count at every exit.
+        // Counted at one place: each outcome a branch here, not a count at
+        // every exit (an LSS request counts its own malformed frames).
         match self.take_frame(now, frame) {
             Taken::Handled => {}
             Taken::Ignored => self.counters.count_ignored(),
@@ -246,8 +247,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
         }
     }
 
-    /// An NMT command or heartbeat message the node cannot parse: counted
-    /// and ignored, and the device's protocol warning raised if it has one.
+    /// An NMT command or heartbeat message the node cannot parse: ignored,
+    /// and the device's protocol warning raised if it has one.
     /// Malformed: [`Node::on_frame`] counts it.
     #[cold]
     fn broken_frame(&mut self, now: At) -> Taken {

@@ -20,7 +20,9 @@ fn rate_index(field: u16) -> Option<u8> {
 /// The board's side of LSS "activate bit timing": the CAN controller.
 pub trait BitRateControl {
     /// Switches the controller to CiA 305 bit-timing table index `index`
-    /// (0 = 1 Mbit/s … 8 = 10 kbit/s).
+    /// (0 = 1 Mbit/s … 8 = 10 kbit/s), or 0xFF when a master activates bit
+    /// timing it never configured (the node's "no rate": a board keeps its
+    /// rate, as `hal-host` and the images do).
     fn set_bit_rate(&mut self, index: u8);
 }
 
@@ -73,7 +75,7 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
             return;
         }
         // No rate (0xFF) unless one is stored: the unpowered node has none
-        // (`bit_rate` is `None`), and power-on is once.
+        // (`bit_rate` 0), and power-on is once.
         let mut rate = 0xFF;
         if let Some((node_id, bit_rate)) = stored.and_then(|set| set.lss()) {
             if (1..=127).contains(&node_id) || node_id == UNCONFIGURED {
@@ -184,11 +186,11 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// Whether the node runs an LSS slave, from the dictionary's constants
     /// alone: a constant in a generated image, where `lss_on` loads and tests
     /// the node's flag. Power-on sets that flag from the same two, so after it
-    /// the two agree; for the paths that run only after power-on (the reset's
-    /// stages, the acceptance list) or whose result nothing reads before it
-    /// (a serial number set before power-on refreshes an address that the
-    /// power-on's reset reads again). The frame path keeps `lss_on`: an
-    /// unpowered node answers no LSS request.
+    /// the two agree. It serves the paths that run only after power-on (the
+    /// reset's stages, the acceptance list) or whose result nothing reads
+    /// before it (a serial number set before power-on refreshes an address
+    /// that the power-on's reset reads again). The frame path keeps
+    /// `lss_on`: an unpowered node answers no LSS request.
     pub(super) fn lss_supported(&self) -> bool {
         O::SERVICES.lss && self.od.dictionary().device.lss_supported
     }
@@ -200,7 +202,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     }
 
     /// The bit-rate table index (CiA 305: 0 = 1 Mbit/s … 8 = 10 kbit/s) the
-    /// node runs at, if a stored configuration or LSS set one.
+    /// node runs at, if a stored configuration or LSS set one (0xFF after an
+    /// activation without a configured rate, as the board was told).
     pub fn bit_rate(&self) -> Option<u8> {
         rate_index(self.bit_rate)
     }

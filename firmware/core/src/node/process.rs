@@ -374,8 +374,9 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     /// interrupt wakes it), else after [`ROOM_RETRY`]. A node whose frames
     /// cannot leave (nobody acknowledges them, or an LSS bit-rate switch
     /// keeps it silent) would otherwise have its board spin.
-    // Cold: a call asks to be called again at once only
-    // while something waits for room. The count is kept to its low byte
+    // Rare: a call asks to be called again at once only while something
+    // waits for room. Not `#[cold]`: cold, the compiler laid its caller's
+    // set-up out again around it (4 bytes more on both references). The count is kept to its low byte
     // (room in the node's padding: a wider one cost a hot path an
     // instruction per frame); 256 frames exactly since the last ask read
     // as none, which costs one call a retry.

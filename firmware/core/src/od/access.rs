@@ -23,7 +23,8 @@ pub trait ObjectAccess {
     /// 4 bytes (an expedited upload): what [`ObjectAccess::upload_size`]
     /// and [`ObjectAccess::read`] say, with one dictionary look-up where
     /// an implementation can. Called on a type, never through `dyn` (the
-    /// SDO server's expedited upload takes the node's router by type), so
+    /// SDO server's expedited upload takes the node's router or its
+    /// `SdoParts` by type), so
     /// that it takes no place in the vtables.
     fn upload_small(&mut self, index: u16, sub: u8, buf: &mut [u8; 4]) -> Result<usize, AbortCode>
     where

@@ -147,8 +147,9 @@ impl SyncService {
     }
 
     /// A frame on the SYNC COB-ID.
-    // In line: its one caller, the node's frame dispatch, then passes the
-    // event on in registers instead of through memory.
+    // In line: its one caller, the node's frame dispatch, then hands the
+    // counter on in a register (`synchronise` builds the event from it);
+    // out of line, ds301 was 12 bytes smaller but the core image 36 larger.
     #[inline(always)]
     pub fn on_frame(&mut self, now: At, data: &[u8]) -> Result<SyncEvent, SyncLengthError> {
         // The counter first, then one event for either (its window end in one place).

@@ -76,6 +76,9 @@ pub struct Tpdo {
     pad: u32,
 }
 
+// The pad's job: a power of two (a field added or removed shows here).
+const _: () = assert!(core::mem::size_of::<Tpdo>() == 128);
+
 impl Default for Tpdo {
     fn default() -> Self {
         Tpdo { config: Config::DEFAULT, ..Tpdo::UNCONFIGURED }
