@@ -205,10 +205,12 @@ pub(crate) fn initiate_download_response(index: u16, sub: u8) -> [u8; 8] {
 
 /// The expedited initiate upload response (scs = 2, e = 1, s = 1) with the
 /// first `size` (1 to 4) bytes of `data` valid, as [`SdoResponse::emit`]
-/// makes it; the other bytes of `data` go out as they are.
+/// makes it; the other bytes of `data` go out as they are. Only for a
+/// `size` of 1 to 4 (its one caller tests it): another size has no
+/// expedited answer, and its byte 0 here would be wrong.
 pub(crate) fn expedited_upload_response(index: u16, sub: u8, data: [u8; 4], size: usize) -> [u8; 8] {
-    let n = 4usize.saturating_sub(size) as u8 & 0x03;
-    with_multiplexer(0x43 | (n << 2), index, sub, data)
+    // 0x43 | (4 - size) << 2 for a size of 1 to 4: 0x53 - 4 size.
+    with_multiplexer(0x53u8.wrapping_sub((size as u8) << 2), index, sub, data)
 }
 
 /// Whether byte 0 `b0` is an initiate upload's (ccs = 2), as
