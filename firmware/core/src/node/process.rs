@@ -1,18 +1,20 @@
 //! The node's timers and queued work ([`Node::process`]): boot-up,
 //! heartbeat and guarding, SDO timeouts, the SYNC producer, TPDOs and EMCY.
 
-use crate::od::ObjectDictionary;
 use crate::od::index;
+use crate::od::{ObjectAccess, ObjectDictionary};
 use crate::services::heartbeat::ConsumerEvent;
 use crate::services::nmt::{NmtState, Transition};
 use crate::services::pdo::ALL_TPDOS;
+use crate::services::sdo_server::SdoServers;
 use crate::storage::Storage;
 use crate::time::{At, Instant, NEVER, at_since};
+use crate::txq::TxQueue;
 use crate::wire::nmt::{NmtStateCode, error_control_cob_id};
 
 use super::router::Router;
 use super::sinks::{PdoSink, SdoSink};
-use super::{Application, Node, Source};
+use super::{Application, Node, SDO_BUFFER, Source, TX_QUEUE};
 
 /// While its frames cannot leave, the node is called at least this often
 /// (µs): its timers (an SDO or heartbeat timeout, the end of an LSS switch
@@ -266,25 +268,27 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     fn poll_sdo(&mut self, now: At) -> At {
         let mut sdo_deadline = NEVER;
         let block = O::SERVICES.block_sdo;
+        // Every server with identifiers, through either way into the node.
+        let mut poll = |sdo: &mut SdoServers<SDO_BUFFER, SDO>,
+                        ids: &[Option<(u16, u16)>; SDO],
+                        od: &mut dyn ObjectAccess,
+                        txq: &mut TxQueue<TX_QUEUE>| {
+            for (i, ids) in ids.iter().enumerate() {
+                if let Some((_, tx)) = *ids {
+                    let deadline = sdo.poll_with(i, now, block, od, &mut SdoSink { txq, cob_id: tx, hold: None });
+                    sdo_deadline = sdo_deadline.min(deadline);
+                }
+            }
+        };
         // A constant: each image links one of the two.
         let effects = if A::SDO_HOOKS {
             let (mut ctx, app, sdo, txq, sdo_cob_ids) = self.split_sdo(now);
             let mut router = Router { ctx: &mut ctx, app, by: Source::Sdo, od: core::marker::PhantomData::<O>, staged: None };
-            for (i, ids) in sdo_cob_ids.iter().enumerate() {
-                if let Some((_, tx)) = *ids {
-                    let deadline = sdo.poll_with(i, now, block, &mut router, &mut SdoSink { txq, cob_id: tx, hold: None });
-                    sdo_deadline = sdo_deadline.min(deadline);
-                }
-            }
+            poll(sdo, sdo_cob_ids, &mut router, txq);
             ctx.effects
         } else {
             let (mut parts, sdo, txq, sdo_cob_ids) = self.sdo_parts(now, None);
-            for (i, ids) in sdo_cob_ids.iter().enumerate() {
-                if let Some((_, tx)) = *ids {
-                    let deadline = sdo.poll_with(i, now, block, &mut parts, &mut SdoSink { txq, cob_id: tx, hold: None });
-                    sdo_deadline = sdo_deadline.min(deadline);
-                }
-            }
+            poll(sdo, sdo_cob_ids, &mut parts, txq);
             parts.effects
         };
         self.queue_raw();

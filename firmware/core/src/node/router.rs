@@ -309,6 +309,8 @@ impl<A: Application, O: ObjectDictionary, C: Services, S: Storage> ObjectAccess 
         self.plain().upload_size(index, sub)
     }
 
+    // Not `self.plain().read(..)`, the same reading: that links
+    // `DictionaryAccess`'s own copy of it (ds301 134 bytes more).
     fn read(&mut self, index: u16, sub: u8, offset: usize, buf: &mut [u8]) -> Result<usize, AbortCode> {
         let dict = self.od.dictionary();
         let value = upload_value(dict, self.od.image(), dict.find(index, sub)?)?;
