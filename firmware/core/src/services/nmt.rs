@@ -7,16 +7,21 @@
 use crate::wire::nmt::{NmtCommand, NmtRequest, NmtStateCode};
 
 /// The NMT state of this node.
+// The discriminants put the two states with SDO in them above the others
+// (one compare for `sdo_allowed`, which every full call asks several times:
+// 36 bytes less in ds301-lean than the declaration order); Initialising is
+// 0, as the node starts all zero bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 pub enum NmtState {
     /// Before the boot-up message; nothing but the reset runs.
-    Initialising,
-    /// SDO, SYNC, EMCY, TIME, error control; no PDO.
-    PreOperational,
-    /// Every service.
-    Operational,
+    Initialising = 0,
     /// Error control (and LSS) only.
-    Stopped,
+    Stopped = 1,
+    /// Every service.
+    Operational = 2,
+    /// SDO, SYNC, EMCY, TIME, error control; no PDO.
+    PreOperational = 3,
 }
 
 impl NmtState {
