@@ -11,7 +11,7 @@
 //! controller's transient errors do; one list and one walk for them all.
 
 use crate::time::{At, NEVER, at_by, later, shift, span_100us};
-use crate::wire::emcy::{Emcy, EmcyCode};
+use crate::wire::emcy::EmcyCode;
 
 /// Error register bits (0x1001, CiA 301 table 47).
 pub mod register {
@@ -87,7 +87,7 @@ pub struct EmcyProducer<const A: usize, const Q: usize> {
     /// look finds none).
     held: At,
     active: [Active; A],
-    /// The messages' data bytes ([`Emcy::emit`]), as they go out and are recorded.
+    /// The messages' data bytes ([`crate::wire::emcy::Emcy::emit`]), as they go out and are recorded.
     queue: [[u8; 8]; Q],
 }
 
@@ -345,7 +345,12 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
             return;
         }
         if let Some(slot) = self.queue.get_mut(Self::ring(self.head, self.len)) {
-            *slot = Emcy { code, register, info }.emit();
+            // `Emcy::emit`'s bytes, built as two words: the code a half-word
+            // (as bytes, LLVM split and joined it again: 12 bytes more).
+            let [i0, i1, i2, i3, i4] = info;
+            let low = u32::from(code.0) | u32::from(register) << 16 | u32::from(i0) << 24;
+            let high = u32::from_le_bytes([i1, i2, i3, i4]);
+            *slot = (u64::from(high) << 32 | u64::from(low)).to_le_bytes();
             // `len` < Q: checked above.
             #[allow(clippy::arithmetic_side_effects)]
             {
@@ -379,7 +384,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
     /// whatever `room` says: it is not sent, but the node still records it
     /// (0x1001, 0x1003), and the queue does not fill up with messages that
     /// never leave. One call for both, so that the node has one loop. The
-    /// message as its data bytes ([`Emcy::parse`] reads them).
+    /// message as its data bytes ([`crate::wire::emcy::Emcy::parse`] reads them).
     pub fn next(&mut self, now: At, room: bool) -> Option<(Option<u16>, [u8; 8])> {
         if self.len == 0 {
             return None;
@@ -431,6 +436,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
 mod tests {
     use super::*;
     use crate::time::deadline_of;
+    use crate::wire::emcy::Emcy;
 
     fn us(n: u32) -> At {
         n
