@@ -172,7 +172,7 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
         // manufacturer-specific field). As bytes: no shifts to make a `u32` of them.
-        let mut carry = [c0, c1, i0, i1];
+        let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
         // One more than the count, at most the capacity (a count above it is cut).
         let len = used.saturating_add(1).min(capacity);
         // Sub-indices 1..=len: sub k is at position k while none before it is
@@ -187,8 +187,8 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
                 break;
             }
             let older = value_u32(dict, image, entry);
-            let _ = dict.write_unchecked_entry(image, entry, &carry);
-            carry = older.to_le_bytes();
+            let _ = dict.write_unchecked_entry(image, entry, &carry.to_le_bytes());
+            carry = older;
         }
         let _ = dict.write_unchecked_entry(image, count, &[len]);
     }
