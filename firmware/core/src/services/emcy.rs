@@ -221,14 +221,16 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
                 None => self.lost_errors = true,
             },
         }
-        self.push(code, 0, info);
+        let [i0, i1, i2, i3, i4] = info;
+        self.push(code, 0, i0, [i1, i2, i3, i4]);
         pos.is_none()
     }
 
     /// Sends a message for an event that has no lasting state (e.g. a PDO
     /// length error): it sets no active error.
     pub fn signal(&mut self, code: EmcyCode, info: [u8; 5]) {
-        self.push(code, register::GENERIC | register_bit(code), info);
+        let [i0, i1, i2, i3, i4] = info;
+        self.push(code, register::GENERIC | register_bit(code), i0, [i1, i2, i3, i4]);
     }
 
     /// The transmit queue refused frames (`refused`: so far): raises `code`
@@ -243,7 +245,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         self.tx_overflow = true;
         self.tx_bits = register::GENERIC | register::COMMUNICATION | register_bit(code);
         let [a, b, c, d] = refused.to_le_bytes();
-        self.push(code, 0, [a, b, c, d, 1]);
+        self.push(code, 0, a, [b, c, d, 1]);
     }
 
     /// The transmit queue drained after an overflow: the error clears, and
@@ -264,7 +266,7 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if self.active_len == 0 && !self.tx_overflow {
             self.lost_errors = false;
             // Nothing active, nothing lost, no overflow: the register `push` reads is 0.
-            self.push(EmcyCode::NO_ERROR, 0, [0; 5]);
+            self.push(EmcyCode::NO_ERROR, 0, 0, [0; 4]);
         }
     }
 
@@ -332,11 +334,14 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         (self.lost_errors, self.tx_overflow, self.tx_bits) = (false, false, 0);
     }
 
-    /// Queues a message whose error register is the active errors' and `extra`.
+    /// Queues a message whose error register is the active errors' and
+    /// `extra`; its manufacturer-specific bytes are `i0` and `info`.
     // Out of line: three callers each had a copy (76 bytes more); the
-    // register read here, not at each of them.
+    // register read here, not at each of them. The first byte apart: the
+    // last four are one register (the overflow's count and 1 by a shift,
+    // not through the stack).
     #[inline(never)]
-    fn push(&mut self, code: EmcyCode, extra: u8, info: [u8; 5]) {
+    fn push(&mut self, code: EmcyCode, extra: u8, i0: u8, info: [u8; 4]) {
         // Read before the check (after it, 8 bytes more).
         let register = self.register() | extra;
         if self.len == Q {
@@ -347,9 +352,8 @@ impl<const A: usize, const Q: usize> EmcyProducer<A, Q> {
         if let Some(slot) = self.queue.get_mut(Self::ring(self.head, self.len)) {
             // `Emcy::emit`'s bytes, built as two words: the code a half-word
             // (as bytes, LLVM split and joined it again: 12 bytes more).
-            let [i0, i1, i2, i3, i4] = info;
             let low = u32::from(code.0) | u32::from(register) << 16 | u32::from(i0) << 24;
-            let high = u32::from_le_bytes([i1, i2, i3, i4]);
+            let high = u32::from_le_bytes(info);
             *slot = (u64::from(high) << 32 | u64::from(low)).to_le_bytes();
             // `len` < Q: checked above.
             #[allow(clippy::arithmetic_side_effects)]
