@@ -62,10 +62,14 @@ impl CanFrame {
     /// Arbitration priority: lower wins. Standard frames win over extended
     /// ones with the same 11 leading bits, data frames over remote frames.
     pub fn priority(&self) -> u32 {
-        let (base, ide, ext) = if self.extended { (self.raw >> 18, 1, self.raw & 0x3_FFFF) } else { (self.raw, 0, 0) };
-        // After the 11 base bits: RTR (standard) or SRR = 1 (extended), then IDE.
-        let bit20 = if ide == 1 { 1 } else { u32::from(self.rtr) };
-        (base << 21) | (bit20 << 20) | (ide << 19) | (ext << 1) | u32::from(self.rtr && ide == 1)
+        let rtr = u32::from(self.rtr);
+        if self.extended {
+            // The 11 base bits, SRR = 1, IDE = 1, the 18 extension bits, RTR.
+            (self.raw << 3 & !0x1F_FFFF) | 0x18_0000 | (self.raw << 1 & 0x7_FFFE) | rtr
+        } else {
+            // The 11 bits, RTR (IDE = 0 and the rest below).
+            self.raw << 21 | rtr << 20
+        }
     }
 }
 
@@ -151,6 +155,26 @@ mod tests {
         assert!(a.priority() < a_rtr.priority());
         assert!(a_rtr.priority() < a_ext.priority(), "SRR is recessive: a standard RTR beats an extended frame");
         assert!(a_ext.priority() < b.priority());
+    }
+
+    #[test]
+    fn priority_is_the_arbitration_field() {
+        // The ISO 11898 arbitration field as bits: base, RTR or SRR, IDE, extension, RTR.
+        fn field(f: &CanFrame) -> u32 {
+            let (raw, rtr) = (f.raw_id(), u32::from(f.is_remote_frame()));
+            if f.is_extended() { (raw >> 18) << 21 | 1 << 20 | 1 << 19 | (raw & 0x3_FFFF) << 1 | rtr } else { raw << 21 | rtr << 20 }
+        }
+        for id in 0..=0x7FF {
+            for f in [CanFrame::standard(id, &[1]).unwrap(), CanFrame::remote(id, 2).unwrap()] {
+                assert_eq!(f.priority(), field(&f), "{f:?}");
+            }
+        }
+        for id in (0..=0x1FFF_FFFF).step_by(4093).chain([0x3_FFFF, 0x4_0000, 0x1FFF_FFFF]) {
+            let remote = CanFrame { rtr: true, ..CanFrame::extended(id, &[]).unwrap() };
+            for f in [CanFrame::extended(id, &[1]).unwrap(), remote] {
+                assert_eq!(f.priority(), field(&f), "{f:?}");
+            }
+        }
     }
 
     #[test]

@@ -129,14 +129,15 @@ impl CommParams {
             }
             // 241..=251 reserved, 252/253 too for an RPDO.
             2 => (241..=if transmit { 251 } else { 253 }).contains(&new.transmission_type),
-            6 => new.sync_start > 240,
+            // The inhibit time and the SYNC start value change only while the PDO is not valid.
+            3 => self.valid() && new.inhibit_time_100us != self.inhibit_time_100us,
+            6 => new.sync_start > 240 || (self.valid() && new.sync_start != self.sync_start),
             _ => false,
         };
         // RTR-only types need RTRs: a TPDO's type (an RPDO's 252/253 are
         // refused above) or its valid COB-ID; one test for both subs.
         let refused = refused || (transmit && rtr_only && (sub == 2 || (sub == 1 && new.valid())));
-        // The inhibit time and the SYNC start value change only while the PDO is not valid.
-        if refused || (matches!(sub, 3 | 6) && self.valid() && new != self) {
+        if refused {
             return Err(AbortCode::InvalidValue);
         }
         Ok(new)

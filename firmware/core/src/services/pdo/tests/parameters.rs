@@ -193,8 +193,14 @@ fn the_rtr_rule_holds_for_sub_1_and_2_only() {
 #[test]
 fn inhibit_time_and_sync_start_change_only_while_invalid() {
     let mut node = Node::new();
+    // While valid, the values they hold may be written again.
+    for sub in [3, 6] {
+        let held = node.get(0x1800, sub);
+        assert_eq!(node.sdo(0x1800, sub, &held), Ok(()), "sub {sub} rewritten");
+    }
     assert_eq!(node.sdo(0x1800, 3, &10u16.to_le_bytes()), Err(AbortCode::InvalidValue));
     assert_eq!(node.sdo(0x1800, 6, &[5]), Err(AbortCode::InvalidValue));
+    assert_eq!(node.sdo(0x1800, 6, &[241]), Err(AbortCode::InvalidValue), "out of range too");
     assert_eq!(node.sdo(0x1400, 3, &10u16.to_le_bytes()), Err(AbortCode::InvalidValue), "RPDO sub 3 too");
     assert_eq!(node.sdo32(0x1800, 1, 0x8000_0181), Ok(()));
     assert_eq!(node.sdo(0x1800, 3, &10u16.to_le_bytes()), Ok(()));

@@ -368,6 +368,25 @@ fn a_tpdo_carries_constants_and_64_bit_values() {
 }
 
 #[test]
+fn a_mapping_is_built_over_whatever_a_buffer_held_zeros_past_its_length() {
+    // A queue slot holds an older frame's bytes: every byte past the mapping's length becomes 0.
+    let mut node = Node::operational(ms(0));
+    node.set(0x2008, 1, &[0xCD, 0xAB]);
+    node.set(0x2000, 0, &[0x42]);
+    for (entries, want) in [
+        (&[0x2005_0020, 0x2000_0008][..], [0x78, 0x56, 0x34, 0x12, 0x42, 0, 0, 0]),
+        (&[0x2000_0008, 0x2008_0110, 0x2005_0020][..], [0x42, 0xCD, 0xAB, 0x78, 0x56, 0x34, 0x12, 0]),
+        (&[0x2000_0008][..], [0x42, 0, 0, 0, 0, 0, 0, 0]),
+    ] {
+        node.remap_tpdo(0, entries, 0x181, 254);
+        let mapping = node.pdos.tpdo(0).and_then(Tpdo::mapping).expect("resolved");
+        let mut out = [0xAA; 8];
+        let len = mapping.build(&node.image, &mut out);
+        assert_eq!((len, out), (want.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1), want), "{entries:08X?}");
+    }
+}
+
+#[test]
 fn an_rpdo_reaches_only_the_event_driven_tpdos_that_map_what_it_writes() {
     // RPDO1 writes 0x2001 and 0x2000; TPDO1 (event-driven) maps 0x2002 and 0x2000.
     let mut node = Node::operational(ms(0));
