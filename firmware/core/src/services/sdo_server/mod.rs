@@ -42,7 +42,7 @@ use core::num::NonZeroU32;
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, is_initiate_upload, multiplexer, segment_fields, with_multiplexer};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, is_initiate_upload, mux_word, segment_fields, with_mux_word};
 use crate::wire::sdo_block::BlockUploadRequest;
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -58,16 +58,40 @@ pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(1);
 /// [`DEFAULT_TIMEOUT`] in µs.
 const DEFAULT_TIMEOUT_US: u32 = 1_000_000;
 
-/// Object index and sub-index of a transfer (the SDO "multiplexer").
+/// Object index and sub-index of a transfer (the SDO "multiplexer") as
+/// one word, `index | sub << 16` ([`mux_word`]): the index is its low half,
+/// as the dictionary takes it, and an answer's first word is this word
+/// shifted up with byte 0 in (each answer was built from both halves):
+/// ds301 −120, ds301-lean +6 bytes, the devices 0 to −136. (The word
+/// `index << 8 | sub << 24` made the look-ups' arguments dearer.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Mux {
-    index: u16,
-    sub: u8,
-}
+struct Mux(u32);
 
 impl Mux {
     /// The multiplexer of an abort that belongs to no transfer.
-    const NONE: Mux = Mux { index: 0, sub: 0 };
+    const NONE: Mux = Mux(0);
+
+    /// The multiplexer of a request as received (8 bytes), from its first
+    /// word read again, not from its copy `f`: ds301 −76 bytes, ds301-lean
+    /// +46, ec5000 −96, sendix −80 (LLVM builds the word out of `f`'s bytes).
+    fn of(raw: &[u8]) -> Mux {
+        Mux(raw.first_chunk().map_or(0, mux_word))
+    }
+
+    /// The object index.
+    fn index(self) -> u16 {
+        self.0 as u16
+    }
+
+    /// The sub-index.
+    fn sub(self) -> u8 {
+        (self.0 >> 16) as u8
+    }
+
+    /// A response about this object: byte 0, the multiplexer, bytes 4–7.
+    fn frame(self, byte0: u8, tail: [u8; 4]) -> [u8; 8] {
+        with_mux_word(byte0, self.0, tail)
+    }
 }
 
 /// What the server is doing; the fields of the transfer in progress are
@@ -456,8 +480,7 @@ impl Channel {
                         Some(BlockUploadRequest::Initiate { crc, blksize, pst, .. }) => Some(block::UploadInitiate { crc, blksize, pst }),
                         _ => None,
                     };
-                    let (index, sub) = multiplexer(&f);
-                    self.start(index, sub);
+                    self.start(Mux::of(data));
                     self.initiate_upload(upload_block, od, tx);
                 } else {
                     let kind = RequestKind::of(b0);
@@ -520,7 +543,7 @@ impl Channel {
         od: &mut O,
         tx: &mut dyn SdoTx,
     ) {
-        let (index, sub) = multiplexer(&f);
+        let mux = Mux::of(raw);
         let [b0, ..] = f;
         // Without `quick`, the initiate uploads come here: an initiate
         // block upload is served as an initiate upload with the block's
@@ -542,13 +565,13 @@ impl Channel {
             // An expedited download (e = 1): its value cut from the request
             // as received, no decode into an enum, no call.
             (RequestKind::InitiateDownload, _) if b0 & 0x02 != 0 => {
-                self.start(index, sub);
+                self.start(mux);
                 self.expedited_download(b0, raw, od, tx)
             }
             // Segmented and block downloads start alike (one copy of the
             // checks): the block initiate's multiplexer is bytes 1-3 too.
             (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
-                self.start(index, sub);
+                self.start(mux);
                 // The size in bytes 4-7 if s = 1: bit 0 of an initiate download,
                 // bit 1 of a block one (whose cc, bit 2, asks for a CRC).
                 let segmented = !block || kind == RequestKind::InitiateDownload;
@@ -558,12 +581,12 @@ impl Channel {
                 let crc = (!segmented).then_some(b0 & 0x04 != 0);
                 // Both initiates answered here: byte 0 and blksize from `start_download`.
                 if let Some((b0, blksize)) = self.start_download(size, crc, buf, od, tx) {
-                    self.emit(with_multiplexer(b0, index, sub, [blksize, 0, 0, 0]), tx);
+                    self.emit(mux.frame(b0, [blksize, 0, 0, 0]), tx);
                 }
                 None
             }
             (RequestKind::InitiateUpload, _) if !quick => {
-                self.start(index, sub);
+                self.start(mux);
                 self.initiate_upload(upload_block, od, tx);
                 None
             }
@@ -605,7 +628,7 @@ impl Channel {
             // An unknown command specifier, or a block transfer request without block transfer.
             _ => {
                 self.count_malformed();
-                let mux = if kind == RequestKind::Unknown || kind.starts_transfer() { Mux { index, sub } } else { Mux::NONE };
+                let mux = if kind == RequestKind::Unknown || kind.starts_transfer() { mux } else { Mux::NONE };
                 self.fail(self.transfer().unwrap_or(mux), AbortCode::InvalidCommand, tx);
                 None
             }
@@ -614,7 +637,7 @@ impl Channel {
         // the call and its refusal for the expedited, segmented and block
         // downloads), then its own answer.
         if let Some(Whole { value, answer }) = whole {
-            match od.write(self.mux.index, self.mux.sub, value) {
+            match od.write(self.mux.index(), self.mux.sub(), value) {
                 Ok(()) => {
                     self.state = State::Idle;
                     self.emit(answer, tx);
@@ -630,10 +653,10 @@ impl Channel {
         self.fail(self.transfer().unwrap_or(Mux::NONE), AbortCode::InvalidCommand, tx);
     }
 
-    /// An initiate request for (index, sub): whatever was in progress ends.
-    fn start(&mut self, index: u16, sub: u8) {
+    /// An initiate request for `mux`: whatever was in progress ends.
+    fn start(&mut self, mux: Mux) {
         self.reset();
-        self.mux = Mux { index, sub };
+        self.mux = mux;
     }
 
     /// Aborts the transfer in progress with 0x05040000 once `now` reaches
@@ -658,7 +681,8 @@ impl Channel {
     #[inline(never)]
     fn abort(&mut self, code: AbortCode, tx: &mut dyn SdoTx) {
         self.state = State::Idle;
-        self.send(SdoResponse::Abort { index: self.mux.index, sub: self.mux.sub, code: code.code() }, tx);
+        // SdoResponse::Abort's frame, from the multiplexer word.
+        self.emit(self.mux.frame(0x80, code.code().to_le_bytes()), tx);
     }
 
     /// [`Channel::abort`] for a request whose handler tells its caller

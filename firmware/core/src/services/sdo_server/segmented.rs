@@ -46,7 +46,7 @@ impl Channel {
     ) -> Option<(u8, u8)> {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
-        let buf = match (od.download_check(mux.index, mux.sub, size), buf) {
+        let buf = match (od.download_check(mux.index(), mux.sub(), size), buf) {
             (Err(code), _) => return self.refuse(code, tx),
             // Another server holds the shared buffer for a download of its own.
             (Ok(()), None) => return self.refuse(AbortCode::NoResource, tx),
@@ -123,7 +123,7 @@ impl Channel {
         let mut frame = [0u8; 8];
         let [_, data @ ..] = &mut frame;
         if let Some(buf) = data.get_mut(..len)
-            && let Err(code) = od.read(self.mux.index, self.mux.sub, t.pos, buf)
+            && let Err(code) = od.read(self.mux.index(), self.mux.sub(), t.pos, buf)
         {
             return self.abort(code, tx);
         }
