@@ -37,8 +37,6 @@ mod segmented;
 #[cfg(test)]
 mod tests;
 
-use core::num::NonZeroU32;
-
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
@@ -190,10 +188,11 @@ struct Channel {
     /// being answered; kept here rather than in each state so that every
     /// abort names it without the caller passing it.
     mux: Mux,
-    /// In microseconds (at most [`crate::time::MAX_SPAN`]); `None`:
-    /// [`DEFAULT_TIMEOUT`]. So that a new server is all zero bits
-    /// ([`crate::node`]) in 4 bytes.
-    timeout_us: Option<NonZeroU32>,
+    /// The timeout in microseconds (1 to [`crate::time::MAX_SPAN`]) less
+    /// [`DEFAULT_TIMEOUT_US`], wrapping: 0 is the default, so that a new
+    /// server is all zero bits ([`crate::node`]), and the timer's restart
+    /// is one add of a constant (an `Option` took a test and a select too).
+    timeout_us: u32,
     /// When the transfer in progress times out (meaningless when idle).
     deadline: At,
     /// A response `tx` refused, sent again by the next `poll`.
@@ -212,17 +211,17 @@ impl Channel {
         state: State::Idle,
         t: Transfer::NEW,
         mux: Mux::NONE,
-        timeout_us: None,
+        timeout_us: 0,
         deadline: 0,
         pending: None,
         malformed: 0,
         _spare: [0; 4],
     };
 
-    /// A zero timeout is kept as 1 µs, the shortest one this representation
-    /// holds; one beyond 35.8 minutes as 35.8 minutes.
+    /// A zero timeout is kept as 1 µs (the shortest timeout kept before);
+    /// one beyond 35.8 minutes as 35.8 minutes.
     fn set_timeout(&mut self, timeout: Duration) {
-        self.timeout_us = Some(NonZeroU32::new(span(timeout)).unwrap_or(NonZeroU32::MIN));
+        self.timeout_us = span(timeout).max(1).wrapping_sub(DEFAULT_TIMEOUT_US);
     }
 
     /// Whether this server holds the download buffer (a segmented or block
@@ -515,7 +514,7 @@ impl Channel {
 
     /// The transfer in progress times out `timeout` after `now`.
     fn restart_timer(&mut self, now: At) {
-        self.deadline = later(now, self.timeout_us.map_or(DEFAULT_TIMEOUT_US, NonZeroU32::get));
+        self.deadline = later(now, self.timeout_us.wrapping_add(DEFAULT_TIMEOUT_US));
     }
 
     // Out of line: four sites in the request path, none of them taken by a

@@ -197,6 +197,27 @@ fn timeout_restarts_with_every_frame_and_can_be_set() {
 }
 
 #[test]
+fn a_zero_timeout_is_1_us_and_a_long_one_stops_at_the_longest_span() {
+    let mut t = Sdo::new();
+    t.server.set_timeout(Duration::ZERO);
+    t.x(ms(0), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
+    assert_eq!(t.poll(ms(0)), Some(1));
+    assert_eq!(t.poll(1), None);
+    t.tx("80 10 20 00 00 00 04 05");
+    t.done(1);
+    let longest = crate::time::MAX_SPAN;
+    t.server.set_timeout(Duration::from_secs(86_400));
+    t.x(ms(10), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
+    assert_eq!(t.poll(ms(10)), Some(ms(10) + longest));
+    t.server.set_timeout(Duration::from_micros(u64::from(longest)));
+    t.x(ms(20), "60 00 00 00 00 00 00 00", "00 41 42 43 44 45 46 47");
+    assert_eq!(t.poll(ms(20)), Some(ms(20) + longest));
+    assert_eq!(t.poll(ms(20) + longest), None);
+    t.tx("80 10 20 00 00 00 04 05");
+    t.done(ms(20) + longest);
+}
+
+#[test]
 fn timeout_found_by_a_late_frame_answers_only_once() {
     let mut t = Sdo::new();
     t.x(ms(0), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
