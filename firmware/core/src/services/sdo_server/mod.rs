@@ -701,12 +701,10 @@ impl Channel {
     /// Sends a frame, or keeps it for the next poll. A newer response
     /// replaces an unsent older one: the client has moved on.
     // Out of line: every response of the server ends here (ten sites).
+    // One store of the outcome (no clearing before the send): 14 bytes less.
     #[inline(never)]
     fn emit(&mut self, frame: [u8; 8], tx: &mut dyn SdoTx) {
-        self.pending = None;
-        if !tx.send(frame) {
-            self.pending = Some(frame);
-        }
+        self.pending = (!tx.send(frame)).then_some(frame);
     }
 
     /// Sends the kept frame; true when nothing is left waiting.
