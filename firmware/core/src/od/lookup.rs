@@ -11,7 +11,7 @@ use crate::abort::AbortCode;
 /// code than a second search for the end).
 pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
     let rest = dict.object_onwards(index);
-    let len = rest.iter().take_while(|e| e.index == index).count();
+    let len = rest.iter().position(|e| e.index != index).unwrap_or(rest.len());
     rest.get(..len).unwrap_or(&[])
 }
 
