@@ -599,18 +599,10 @@ impl Channel {
                 self.segmented_upload(segment_fields(b0).0, od, tx);
                 None
             }
-            (RequestKind::DownloadSegment | RequestKind::UploadSegment, _) => {
-                self.unexpected(tx);
-                None
-            }
             (RequestKind::BlockDownloadEnd, true) if self.state == State::BlockDownloadEnd => {
                 // n (bits 4-2) and the CRC (bytes 1-2): `kind` says cs = 1.
                 let [_, c0, c1, ..] = f;
                 self.block_download_end((b0 >> 2) & 0x07, u16::from_le_bytes([c0, c1]), buf, tx)
-            }
-            (RequestKind::BlockDownloadEnd, true) => {
-                self.unexpected(tx);
-                None
             }
             (RequestKind::BlockUpload, true)
                 if matches!(self.state, State::BlockUploadStart | State::BlockUpload | State::BlockUploadEnd) =>
@@ -620,13 +612,18 @@ impl Channel {
                 self.block_upload(b0 & 0x03, ackseq, blksize, tx);
                 None
             }
-            (RequestKind::BlockUpload, true) => {
-                self.unexpected(tx);
-                None
-            }
-            // An unknown command specifier, or a block transfer request without block transfer.
+            // A request of a transfer that is not in progress (abort
+            // 0x05040001 for the one in progress, or for no object when
+            // idle), or an unknown command specifier or a block transfer
+            // request without block transfer, which are counted too (and
+            // named by their own object when they would start a transfer).
+            // One arm for all: ds301 −18, ds301-lean −42 bytes against four.
             _ => {
-                self.count_malformed();
+                let segment = matches!(kind, RequestKind::DownloadSegment | RequestKind::UploadSegment)
+                    || (block && matches!(kind, RequestKind::BlockDownloadEnd | RequestKind::BlockUpload));
+                if !segment {
+                    self.count_malformed();
+                }
                 let mux = if kind == RequestKind::Unknown || kind.starts_transfer() { mux } else { Mux::NONE };
                 self.fail(self.transfer().unwrap_or(mux), AbortCode::InvalidCommand, tx);
                 None
@@ -644,12 +641,6 @@ impl Channel {
                 Err(code) => self.abort(code, tx),
             }
         }
-    }
-
-    /// A request that belongs to no transfer in progress: abort 0x05040001
-    /// for the transfer in progress, or for no object when idle.
-    fn unexpected(&mut self, tx: &mut dyn SdoTx) {
-        self.fail(self.transfer().unwrap_or(Mux::NONE), AbortCode::InvalidCommand, tx);
     }
 
     /// An initiate request for `mux`: whatever was in progress ends.

@@ -316,3 +316,32 @@ fn reset_drops_the_transfer_silently() {
     assert_eq!(t.poll(ms(5000)), None);
     t.none();
 }
+
+#[test]
+fn without_block_transfer_its_requests_are_unknown_commands() {
+    // A node without block SDO (`block` false, as ds301-lean): each block
+    // request is refused with 0x05040001 and counted, for its own object
+    // if it would start a transfer, else for none; a segment request of no
+    // transfer is refused for no object and not counted.
+    for quick in [false, true] {
+        let mut servers: SdoServers<128, 1> = SdoServers::new();
+        let mut image = DEFAULTS;
+        let mut bus = Bus { frames: VecDeque::new(), room: usize::MAX };
+        let mut od = App { od: DictionaryAccess { dictionary: &DICT, image: &mut image }, read_error: None, write_error: None };
+        let exchanges = [
+            ("A0 18 10 01 7F 00 00 00", "80 18 10 01 01 00 04 05", 1),
+            ("A3 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 2),
+            ("C2 18 10 01 04 00 00 00", "80 18 10 01 01 00 04 05", 3),
+            ("C1 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 4),
+            ("00 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 4),
+            ("60 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 4),
+            ("E0 18 10 01 00 00 00 00", "80 18 10 01 01 00 04 05", 5),
+        ];
+        for (request, response, malformed) in exchanges {
+            servers.on_request_with(0, ms(0), &hex(request), false, quick, &mut od, &mut bus);
+            assert_eq!(bus.frames.drain(..).map(|f| show(&f)).collect::<Vec<_>>(), [show(&hex(response))], "{request}");
+            assert_eq!(servers.malformed(0), malformed, "{request}");
+        }
+        assert!(servers.is_idle(0));
+    }
+}
