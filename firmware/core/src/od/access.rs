@@ -123,16 +123,14 @@ pub(crate) fn upload_value<'a>(dictionary: &Dictionary, image: &'a [u8], entry: 
 
 /// What an SDO upload of (index, sub) reads from the plain tables, for an
 /// expedited answer: the value's size, and its first bytes (up to 4, the
-/// rest 0) gathered one checked byte at a time: smaller than a match on
-/// the length, and without the loop a copy becomes (`copy_from`: +21
-/// instructions on the upload row).
+/// rest 0) as [`super::le_u32`] reads them: one call where gathering them
+/// one checked byte at a time took 40 bytes in line (ds301-lean).
 /// The expedited upload of a node without SDO hooks reads through it.
 // Left to the inliner since its second caller (the in-place upload) went:
 // ds301 134 bytes less, ds301-lean 54 (out of line or forced in line, more).
 pub(crate) fn small_value(dictionary: &Dictionary, image: &[u8], index: u16, sub: u8) -> Result<([u8; 4], usize), AbortCode> {
     let value = upload_value(dictionary, image, dictionary.find(index, sub)?)?;
-    let at = |i: usize| value.get(i).copied().unwrap_or(0);
-    Ok(([at(0), at(1), at(2), at(3)], value.len()))
+    Ok((super::le_u32(value).to_le_bytes(), value.len()))
 }
 
 impl ObjectAccess for DictionaryAccess<'_> {

@@ -11,7 +11,7 @@ use crate::abort::AbortCode;
 /// code than a second search for the end).
 pub(crate) fn object(dict: &Dictionary, index: u16) -> &'static [Entry] {
     let rest = dict.object_onwards(index);
-    let len = rest.iter().take_while(|e| e.index == index).count();
+    let len = rest.iter().position(|e| e.index != index).unwrap_or(rest.len());
     rest.get(..len).unwrap_or(&[])
 }
 
@@ -34,6 +34,11 @@ pub(crate) fn value_u32(dict: &Dictionary, image: &[u8], entry: &Entry) -> u32 {
 // Out of line: it had a copy in each of its callers (66 bytes more).
 #[inline(never)]
 pub fn le_u32(bytes: &[u8]) -> u32 {
+    // Four bytes or more (a 32-bit value, the commonest): one load, no
+    // copy call (2 bytes of flash).
+    if let [a, b, c, d, ..] = *bytes {
+        return u32::from_le_bytes([a, b, c, d]);
+    }
     let mut b = [0u8; 4];
     for (dst, src) in b.iter_mut().zip(bytes) {
         *dst = *src;

@@ -190,8 +190,7 @@ impl Dictionary {
     }
 
     /// Finds an entry by index and sub-index. O(log n): a binary search for
-    /// the object on the 16-bit index alone, then the sub-index where it
-    /// usually is (sub-indices run 0, 1, 2, ...), else along the object's
+    /// the object on the 16-bit index alone, then along the object's
     /// entries (at most 256), which also tell a missing sub-index
     /// (0x06090011) from a missing object (0x06020000).
     // In line: a wrapper of `search`, whose two scalars come back in
@@ -204,13 +203,12 @@ impl Dictionary {
 
     /// [`Dictionary::find`] as two scalars: the entry, or `None` and the
     /// abort code for its absence.
+    // The walk alone, without a first look at the sub-index's own place
+    // (sub-indices mostly run 0, 1, 2, ...): 28 bytes less in every image,
+    // a few instructions more for a sub-index past the first.
     #[inline(never)]
     fn search(&self, index: u16, sub: u8) -> Found {
         let record = self.object_onwards(index);
-        match record.get(usize::from(sub)) {
-            Some(e) if e.index == index && e.sub == sub => return (Some(e), AbortCode::NoObject),
-            _ => {}
-        }
         let mut missing = AbortCode::NoObject;
         for e in record.iter().take_while(|e| e.index == index) {
             if e.sub == sub {

@@ -172,6 +172,22 @@ pub(crate) fn with_multiplexer(byte0: u8, index: u16, sub: u8, tail: [u8; 4]) ->
     [byte0, i0, i1, sub, d0, d1, d2, d3]
 }
 
+/// Bytes 1–3 of a frame (index, sub-index) as one word, `index | sub << 16`:
+/// the frame's first word (`head`, bytes 0–3) shifted down by a byte. The index is its low
+/// half, and a response about the same object is this word shifted up
+/// with byte 0 in place ([`with_mux_word`]): one shift and an OR, where
+/// the index and sub-index apart take a shift and an OR each.
+pub(crate) fn mux_word(head: &[u8; 4]) -> u32 {
+    u32::from_le_bytes(*head) >> 8
+}
+
+/// [`with_multiplexer`] with the multiplexer as a [`mux_word`].
+pub(crate) fn with_mux_word(byte0: u8, mux: u32, tail: [u8; 4]) -> [u8; 8] {
+    let [b0, i0, i1, sub] = (mux << 8 | u32::from(byte0)).to_le_bytes();
+    let [d0, d1, d2, d3] = tail;
+    [b0, i0, i1, sub, d0, d1, d2, d3]
+}
+
 /// Bytes 4–7 as a little-endian u32.
 fn tail_u32(f: &[u8; 8]) -> u32 {
     let [.., d0, d1, d2, d3] = *f;
@@ -198,19 +214,21 @@ fn segment_frame(byte0: u8, d: [u8; 7]) -> [u8; 8] {
 
 const TOGGLE: u8 = 0x10;
 
-/// The initiate download response (scs = 3), as [`SdoResponse::emit`] makes it.
-pub(crate) fn initiate_download_response(index: u16, sub: u8) -> [u8; 8] {
-    with_multiplexer(0x60, index, sub, [0; 4])
+/// The initiate download response (scs = 3) for the multiplexer `mux` (a
+/// [`mux_word`]), as [`SdoResponse::emit`] makes it.
+pub(crate) fn initiate_download_response(mux: u32) -> [u8; 8] {
+    with_mux_word(0x60, mux, [0; 4])
 }
 
-/// The expedited initiate upload response (scs = 2, e = 1, s = 1) with the
+/// The expedited initiate upload response (scs = 2, e = 1, s = 1) for the
+/// multiplexer `mux` (a [`mux_word`]) with the
 /// first `size` (1 to 4) bytes of `data` valid, as [`SdoResponse::emit`]
 /// makes it; the other bytes of `data` go out as they are. Only for a
 /// `size` of 1 to 4 (its one caller tests it): another size has no
 /// expedited answer, and its byte 0 here would be wrong.
-pub(crate) fn expedited_upload_response(index: u16, sub: u8, data: [u8; 4], size: usize) -> [u8; 8] {
+pub(crate) fn expedited_upload_response(mux: u32, data: [u8; 4], size: usize) -> [u8; 8] {
     // 0x43 | (4 - size) << 2 for a size of 1 to 4: 0x53 - 4 size.
-    with_multiplexer(0x53u8.wrapping_sub((size as u8) << 2), index, sub, data)
+    with_mux_word(0x53u8.wrapping_sub((size as u8) << 2), mux, data)
 }
 
 /// Whether byte 0 `b0` is an initiate upload's (ccs = 2), as
@@ -418,7 +436,7 @@ impl SdoResponse {
     #[inline(always)]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
-            SdoResponse::InitiateDownload { index, sub } => initiate_download_response(index, sub),
+            SdoResponse::InitiateDownload { index, sub } => with_multiplexer(0x60, index, sub, [0; 4]),
             SdoResponse::DownloadSegment { toggle } => [0x20 | if toggle { TOGGLE } else { 0 }, 0, 0, 0, 0, 0, 0, 0],
             SdoResponse::InitiateUpload { index, sub, ref data } => {
                 let (bits, tail) = emit_initiate_data(data);
@@ -484,13 +502,27 @@ mod tests {
     }
 
     #[test]
+    fn the_multiplexer_word_holds_the_index_and_sub_index_and_gives_the_same_frames() {
+        for (index, sub) in [(0x0000, 0x00), (0x1018, 0x01), (0x2003, 0x07), (0xFFFF, 0xFF), (0x80FF, 0x80)] {
+            let [i0, i1] = u16::to_le_bytes(index);
+            let mux = mux_word(&[0xA5, i0, i1, sub]);
+            assert_eq!((mux as u16, (mux >> 16) as u8, mux >> 24), (index, sub, 0));
+            for b0 in [0x00, 0x41, 0x80, 0xC6, 0xFF] {
+                let tail = [b0, 2, 3, 0xFE];
+                assert_eq!(with_mux_word(b0, mux, tail), with_multiplexer(b0, index, sub, tail));
+            }
+        }
+    }
+
+    #[test]
     fn responses_built_in_place_are_the_emitted_ones() {
-        assert_eq!(initiate_download_response(0x2003, 7), SdoResponse::InitiateDownload { index: 0x2003, sub: 7 }.emit());
+        assert_eq!(initiate_download_response(0x07_2003), SdoResponse::InitiateDownload { index: 0x2003, sub: 7 }.emit());
+        let mux = mux_word(&[0x40, 0x18, 0x10, 1]);
         for size in 1..=4u8 {
             let data = [1, 2, 3, 4];
             let emitted =
                 SdoResponse::InitiateUpload { index: 0x1018, sub: 1, data: InitiateData::Expedited { data, size: Some(size) } }.emit();
-            assert_eq!(expedited_upload_response(0x1018, 1, data, usize::from(size)), emitted, "size {size}");
+            assert_eq!(expedited_upload_response(mux, data, usize::from(size)), emitted, "size {size}");
         }
     }
 

@@ -189,7 +189,7 @@ impl Channel {
             self.abort(AbortCode::InvalidBlockSize, tx);
             return None;
         }
-        let size = match od.upload_size(mux.index, mux.sub) {
+        let size = match od.upload_size(mux.index(), mux.sub()) {
             Ok(size) => size,
             Err(code) => {
                 self.abort(code, tx);
@@ -263,7 +263,7 @@ impl Channel {
             // The value's bytes read into the frame in place, after byte 0.
             let mut frame = [0u8; 8];
             let data = frame.get_mut(1..=len).unwrap_or(&mut []);
-            if let Err(code) = od.read(self.mux.index, self.mux.sub, offset, data) {
+            if let Err(code) = od.read(self.mux.index(), self.mux.sub(), offset, data) {
                 self.abort(code, tx);
                 return false;
             }

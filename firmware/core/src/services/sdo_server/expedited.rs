@@ -4,7 +4,7 @@
 use super::{Channel, Mux, SdoTx, State, Whole, block};
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
-use crate::wire::sdo::{expedited_upload_response, initiate_download_response, with_multiplexer};
+use crate::wire::sdo::{expedited_upload_response, initiate_download_response};
 
 /// Largest value an expedited transfer carries.
 const EXPEDITED_MAX: usize = 4;
@@ -21,7 +21,6 @@ impl Channel {
         od: &mut O,
         tx: &mut dyn SdoTx,
     ) -> Option<Whole<'b>> {
-        let Mux { index, sub } = self.mux;
         let len = if b0 & 0x01 != 0 {
             // s = 1: n (bits 3-2) bytes do not hold data.
             expedited_len(b0)
@@ -36,7 +35,7 @@ impl Channel {
         };
         // Bytes 4..4 + len of the request; len is 1 to 4, the sum cannot wrap.
         let value = raw.get(4..4usize.wrapping_add(len)).unwrap_or(&[]);
-        Some(Whole { value, answer: initiate_download_response(index, sub) })
+        Some(Whole { value, answer: initiate_download_response(self.mux.0) })
     }
 
     /// Initiate SDO upload, or initiate block upload (`block`): one answer
@@ -45,7 +44,8 @@ impl Channel {
     /// or of a block upload. A block upload that switches protocol (pst)
     /// answers as an initiate upload: one copy of each answer.
     pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, block: Option<block::UploadInitiate>, od: &mut O, tx: &mut dyn SdoTx) {
-        let Mux { index, sub } = self.mux;
+        let mux = self.mux;
+        let (index, sub) = (mux.index(), mux.sub());
         let mut data = [0u8; EXPEDITED_MAX];
         // `read`: the value's first bytes are still to be read into `data`;
         // `started`: a block upload started.
@@ -66,7 +66,7 @@ impl Channel {
             {
                 return self.abort(code, tx);
             }
-            self.emit(expedited_upload_response(index, sub, data, size), tx);
+            self.emit(expedited_upload_response(mux.0, data, size), tx);
         } else {
             if !started {
                 self.state = State::SegmentedUpload;
@@ -76,7 +76,7 @@ impl Channel {
             // response (scs 2, s = 1) or initiate block upload response
             // (scs 6, sc = 1, s = 1).
             let b0 = if started { 0xC6 } else { 0x41 };
-            self.emit(with_multiplexer(b0, index, sub, u32::try_from(size).unwrap_or(u32::MAX).to_le_bytes()), tx);
+            self.emit(mux.frame(b0, u32::try_from(size).unwrap_or(u32::MAX).to_le_bytes()), tx);
         }
     }
 }
@@ -99,7 +99,7 @@ fn expedited_len(b0: u8) -> usize {
 /// without a size.
 fn unsized_expedited_len(od: &mut dyn ObjectAccess, mux: Mux) -> Result<usize, AbortCode> {
     for len in (1..=EXPEDITED_MAX).rev() {
-        match od.download_check(mux.index, mux.sub, Some(len)) {
+        match od.download_check(mux.index(), mux.sub(), Some(len)) {
             Ok(()) => return Ok(len),
             Err(AbortCode::LengthTooHigh) => continue,
             Err(code) => return Err(code),

@@ -37,12 +37,10 @@ mod segmented;
 #[cfg(test)]
 mod tests;
 
-use core::num::NonZeroU32;
-
 use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::{At, Duration, NEVER, at_by, deadline_of, later, shift, span};
-use crate::wire::sdo::{RequestKind, SdoResponse, frame, is_initiate_upload, multiplexer, segment_fields, with_multiplexer};
+use crate::wire::sdo::{RequestKind, SdoResponse, frame, is_initiate_upload, mux_word, segment_fields, with_mux_word};
 use crate::wire::sdo_block::BlockUploadRequest;
 
 /// Where the server's responses go; false = TX queue full (try again on the next poll).
@@ -58,16 +56,40 @@ pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(1);
 /// [`DEFAULT_TIMEOUT`] in µs.
 const DEFAULT_TIMEOUT_US: u32 = 1_000_000;
 
-/// Object index and sub-index of a transfer (the SDO "multiplexer").
+/// Object index and sub-index of a transfer (the SDO "multiplexer") as
+/// one word, `index | sub << 16` ([`mux_word`]): the index is its low half,
+/// as the dictionary takes it, and an answer's first word is this word
+/// shifted up with byte 0 in (each answer was built from both halves):
+/// ds301 −120, ds301-lean +6 bytes, the devices 0 to −136. (The word
+/// `index << 8 | sub << 24` made the look-ups' arguments dearer.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Mux {
-    index: u16,
-    sub: u8,
-}
+struct Mux(u32);
 
 impl Mux {
     /// The multiplexer of an abort that belongs to no transfer.
-    const NONE: Mux = Mux { index: 0, sub: 0 };
+    const NONE: Mux = Mux(0);
+
+    /// The multiplexer of a request as received (8 bytes), from its first
+    /// word read again, not from its copy `f`: ds301 −76 bytes, ds301-lean
+    /// +46, ec5000 −96, sendix −80 (LLVM builds the word out of `f`'s bytes).
+    fn of(raw: &[u8]) -> Mux {
+        Mux(raw.first_chunk().map_or(0, mux_word))
+    }
+
+    /// The object index.
+    fn index(self) -> u16 {
+        self.0 as u16
+    }
+
+    /// The sub-index.
+    fn sub(self) -> u8 {
+        (self.0 >> 16) as u8
+    }
+
+    /// A response about this object: byte 0, the multiplexer, bytes 4–7.
+    fn frame(self, byte0: u8, tail: [u8; 4]) -> [u8; 8] {
+        with_mux_word(byte0, self.0, tail)
+    }
 }
 
 /// What the server is doing; the fields of the transfer in progress are
@@ -166,10 +188,11 @@ struct Channel {
     /// being answered; kept here rather than in each state so that every
     /// abort names it without the caller passing it.
     mux: Mux,
-    /// In microseconds (at most [`crate::time::MAX_SPAN`]); `None`:
-    /// [`DEFAULT_TIMEOUT`]. So that a new server is all zero bits
-    /// ([`crate::node`]) in 4 bytes.
-    timeout_us: Option<NonZeroU32>,
+    /// The timeout in microseconds (1 to [`crate::time::MAX_SPAN`]) less
+    /// [`DEFAULT_TIMEOUT_US`], wrapping: 0 is the default, so that a new
+    /// server is all zero bits ([`crate::node`]), and the timer's restart
+    /// is one add of a constant (an `Option` took a test and a select too).
+    timeout_us: u32,
     /// When the transfer in progress times out (meaningless when idle).
     deadline: At,
     /// A response `tx` refused, sent again by the next `poll`.
@@ -188,17 +211,17 @@ impl Channel {
         state: State::Idle,
         t: Transfer::NEW,
         mux: Mux::NONE,
-        timeout_us: None,
+        timeout_us: 0,
         deadline: 0,
         pending: None,
         malformed: 0,
         _spare: [0; 4],
     };
 
-    /// A zero timeout is kept as 1 µs, the shortest one this representation
-    /// holds; one beyond 35.8 minutes as 35.8 minutes.
+    /// A zero timeout is kept as 1 µs (the shortest timeout kept before);
+    /// one beyond 35.8 minutes as 35.8 minutes.
     fn set_timeout(&mut self, timeout: Duration) {
-        self.timeout_us = Some(NonZeroU32::new(span(timeout)).unwrap_or(NonZeroU32::MIN));
+        self.timeout_us = span(timeout).max(1).wrapping_sub(DEFAULT_TIMEOUT_US);
     }
 
     /// Whether this server holds the download buffer (a segmented or block
@@ -456,8 +479,7 @@ impl Channel {
                         Some(BlockUploadRequest::Initiate { crc, blksize, pst, .. }) => Some(block::UploadInitiate { crc, blksize, pst }),
                         _ => None,
                     };
-                    let (index, sub) = multiplexer(&f);
-                    self.start(index, sub);
+                    self.start(Mux::of(data));
                     self.initiate_upload(upload_block, od, tx);
                 } else {
                     let kind = RequestKind::of(b0);
@@ -492,7 +514,7 @@ impl Channel {
 
     /// The transfer in progress times out `timeout` after `now`.
     fn restart_timer(&mut self, now: At) {
-        self.deadline = later(now, self.timeout_us.map_or(DEFAULT_TIMEOUT_US, NonZeroU32::get));
+        self.deadline = later(now, self.timeout_us.wrapping_add(DEFAULT_TIMEOUT_US));
     }
 
     // Out of line: four sites in the request path, none of them taken by a
@@ -520,7 +542,7 @@ impl Channel {
         od: &mut O,
         tx: &mut dyn SdoTx,
     ) {
-        let (index, sub) = multiplexer(&f);
+        let mux = Mux::of(raw);
         let [b0, ..] = f;
         // Without `quick`, the initiate uploads come here: an initiate
         // block upload is served as an initiate upload with the block's
@@ -542,13 +564,13 @@ impl Channel {
             // An expedited download (e = 1): its value cut from the request
             // as received, no decode into an enum, no call.
             (RequestKind::InitiateDownload, _) if b0 & 0x02 != 0 => {
-                self.start(index, sub);
+                self.start(mux);
                 self.expedited_download(b0, raw, od, tx)
             }
             // Segmented and block downloads start alike (one copy of the
             // checks): the block initiate's multiplexer is bytes 1-3 too.
             (RequestKind::InitiateDownload, _) | (RequestKind::BlockDownloadInitiate, true) => {
-                self.start(index, sub);
+                self.start(mux);
                 // The size in bytes 4-7 if s = 1: bit 0 of an initiate download,
                 // bit 1 of a block one (whose cc, bit 2, asks for a CRC).
                 let segmented = !block || kind == RequestKind::InitiateDownload;
@@ -558,12 +580,12 @@ impl Channel {
                 let crc = (!segmented).then_some(b0 & 0x04 != 0);
                 // Both initiates answered here: byte 0 and blksize from `start_download`.
                 if let Some((b0, blksize)) = self.start_download(size, crc, buf, od, tx) {
-                    self.emit(with_multiplexer(b0, index, sub, [blksize, 0, 0, 0]), tx);
+                    self.emit(mux.frame(b0, [blksize, 0, 0, 0]), tx);
                 }
                 None
             }
             (RequestKind::InitiateUpload, _) if !quick => {
-                self.start(index, sub);
+                self.start(mux);
                 self.initiate_upload(upload_block, od, tx);
                 None
             }
@@ -577,18 +599,10 @@ impl Channel {
                 self.segmented_upload(segment_fields(b0).0, od, tx);
                 None
             }
-            (RequestKind::DownloadSegment | RequestKind::UploadSegment, _) => {
-                self.unexpected(tx);
-                None
-            }
             (RequestKind::BlockDownloadEnd, true) if self.state == State::BlockDownloadEnd => {
                 // n (bits 4-2) and the CRC (bytes 1-2): `kind` says cs = 1.
                 let [_, c0, c1, ..] = f;
                 self.block_download_end((b0 >> 2) & 0x07, u16::from_le_bytes([c0, c1]), buf, tx)
-            }
-            (RequestKind::BlockDownloadEnd, true) => {
-                self.unexpected(tx);
-                None
             }
             (RequestKind::BlockUpload, true)
                 if matches!(self.state, State::BlockUploadStart | State::BlockUpload | State::BlockUploadEnd) =>
@@ -598,14 +612,19 @@ impl Channel {
                 self.block_upload(b0 & 0x03, ackseq, blksize, tx);
                 None
             }
-            (RequestKind::BlockUpload, true) => {
-                self.unexpected(tx);
-                None
-            }
-            // An unknown command specifier, or a block transfer request without block transfer.
+            // A request of a transfer that is not in progress (abort
+            // 0x05040001 for the one in progress, or for no object when
+            // idle), or an unknown command specifier or a block transfer
+            // request without block transfer, which are counted too (and
+            // named by their own object when they would start a transfer).
+            // One arm for all: ds301 −18, ds301-lean −42 bytes against four.
             _ => {
-                self.count_malformed();
-                let mux = if kind == RequestKind::Unknown || kind.starts_transfer() { Mux { index, sub } } else { Mux::NONE };
+                let segment = matches!(kind, RequestKind::DownloadSegment | RequestKind::UploadSegment)
+                    || (block && matches!(kind, RequestKind::BlockDownloadEnd | RequestKind::BlockUpload));
+                if !segment {
+                    self.count_malformed();
+                }
+                let mux = if kind == RequestKind::Unknown || kind.starts_transfer() { mux } else { Mux::NONE };
                 self.fail(self.transfer().unwrap_or(mux), AbortCode::InvalidCommand, tx);
                 None
             }
@@ -614,7 +633,7 @@ impl Channel {
         // the call and its refusal for the expedited, segmented and block
         // downloads), then its own answer.
         if let Some(Whole { value, answer }) = whole {
-            match od.write(self.mux.index, self.mux.sub, value) {
+            match od.write(self.mux.index(), self.mux.sub(), value) {
                 Ok(()) => {
                     self.state = State::Idle;
                     self.emit(answer, tx);
@@ -624,16 +643,10 @@ impl Channel {
         }
     }
 
-    /// A request that belongs to no transfer in progress: abort 0x05040001
-    /// for the transfer in progress, or for no object when idle.
-    fn unexpected(&mut self, tx: &mut dyn SdoTx) {
-        self.fail(self.transfer().unwrap_or(Mux::NONE), AbortCode::InvalidCommand, tx);
-    }
-
-    /// An initiate request for (index, sub): whatever was in progress ends.
-    fn start(&mut self, index: u16, sub: u8) {
+    /// An initiate request for `mux`: whatever was in progress ends.
+    fn start(&mut self, mux: Mux) {
         self.reset();
-        self.mux = Mux { index, sub };
+        self.mux = mux;
     }
 
     /// Aborts the transfer in progress with 0x05040000 once `now` reaches
@@ -658,7 +671,8 @@ impl Channel {
     #[inline(never)]
     fn abort(&mut self, code: AbortCode, tx: &mut dyn SdoTx) {
         self.state = State::Idle;
-        self.send(SdoResponse::Abort { index: self.mux.index, sub: self.mux.sub, code: code.code() }, tx);
+        // SdoResponse::Abort's frame, from the multiplexer word.
+        self.emit(self.mux.frame(0x80, code.code().to_le_bytes()), tx);
     }
 
     /// [`Channel::abort`] for a request whose handler tells its caller
@@ -678,23 +692,17 @@ impl Channel {
     /// Sends a frame, or keeps it for the next poll. A newer response
     /// replaces an unsent older one: the client has moved on.
     // Out of line: every response of the server ends here (ten sites).
+    // One store of the outcome (no clearing before the send): 14 bytes less.
     #[inline(never)]
     fn emit(&mut self, frame: [u8; 8], tx: &mut dyn SdoTx) {
-        self.pending = None;
-        if !tx.send(frame) {
-            self.pending = Some(frame);
-        }
+        self.pending = (!tx.send(frame)).then_some(frame);
     }
 
     /// Sends the kept frame; true when nothing is left waiting.
     fn flush(&mut self, tx: &mut dyn SdoTx) -> bool {
-        match self.pending {
-            Some(frame) if tx.send(frame) => {
-                self.pending = None;
-                true
-            }
-            Some(_) => false,
-            None => true,
-        }
+        // Sent again through `emit` (one store of the outcome): 22 bytes less.
+        let Some(frame) = self.pending else { return true };
+        self.emit(frame, tx);
+        self.pending.is_none()
     }
 }

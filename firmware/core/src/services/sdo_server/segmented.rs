@@ -46,7 +46,7 @@ impl Channel {
     ) -> Option<(u8, u8)> {
         let size = size.map(|s| usize::try_from(s).unwrap_or(usize::MAX));
         let mux = self.mux;
-        let buf = match (od.download_check(mux.index, mux.sub, size), buf) {
+        let buf = match (od.download_check(mux.index(), mux.sub(), size), buf) {
             (Err(code), _) => return self.refuse(code, tx),
             // Another server holds the shared buffer for a download of its own.
             (Ok(()), None) => return self.refuse(AbortCode::NoResource, tx),
@@ -75,7 +75,11 @@ impl Channel {
         tx: &mut dyn SdoTx,
     ) -> Option<Whole<'b>> {
         let t = self.t;
-        let end = t.pos.saturating_add(chunk.len());
+        // `pos` is at most the buffer's length (each segment's end is
+        // checked against the buffer before it is kept) and a chunk at
+        // most 7 bytes: the sum cannot wrap, and without the saturation
+        // each sum is one instruction.
+        let end = t.pos.wrapping_add(chunk.len());
         let refused = if toggle != t.toggle {
             AbortCode::ToggleBit
         } else if end > t.size {
@@ -84,7 +88,7 @@ impl Channel {
             // This server holds the buffer while its download runs (see `SdoServers`).
             match buf {
                 None => AbortCode::NoResource,
-                Some(buf) => match buf.get_mut(t.pos..).and_then(|rest| rest.get_mut(..chunk.len())) {
+                Some(buf) => match buf.get_mut(t.pos..end) {
                     None => AbortCode::OutOfMemory,
                     Some(dst) => {
                         dst.copy_from_slice(chunk);
@@ -115,7 +119,9 @@ impl Channel {
         if toggle != t.toggle {
             return self.abort(AbortCode::ToggleBit, tx);
         }
-        let len = t.size.saturating_sub(t.pos).min(SEGMENT);
+        // While an upload runs `pos` is at most `size` (it moves on only
+        // while below it): neither the difference nor the sum below wraps.
+        let len = t.size.wrapping_sub(t.pos).min(SEGMENT);
         // The value's bytes read into the answer in place, after byte 0
         // (as the block upload's segments). A value that shrank since the
         // initiate response reads short; the rest of the announced size
@@ -123,11 +129,11 @@ impl Channel {
         let mut frame = [0u8; 8];
         let [_, data @ ..] = &mut frame;
         if let Some(buf) = data.get_mut(..len)
-            && let Err(code) = od.read(self.mux.index, self.mux.sub, t.pos, buf)
+            && let Err(code) = od.read(self.mux.index(), self.mux.sub(), t.pos, buf)
         {
             return self.abort(code, tx);
         }
-        let pos = t.pos.saturating_add(len);
+        let pos = t.pos.wrapping_add(len);
         let last = pos >= t.size;
         if last {
             self.state = State::Idle;

@@ -197,6 +197,27 @@ fn timeout_restarts_with_every_frame_and_can_be_set() {
 }
 
 #[test]
+fn a_zero_timeout_is_1_us_and_a_long_one_stops_at_the_longest_span() {
+    let mut t = Sdo::new();
+    t.server.set_timeout(Duration::ZERO);
+    t.x(ms(0), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
+    assert_eq!(t.poll(ms(0)), Some(1));
+    assert_eq!(t.poll(1), None);
+    t.tx("80 10 20 00 00 00 04 05");
+    t.done(1);
+    let longest = crate::time::MAX_SPAN;
+    t.server.set_timeout(Duration::from_secs(86_400));
+    t.x(ms(10), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
+    assert_eq!(t.poll(ms(10)), Some(ms(10) + longest));
+    t.server.set_timeout(Duration::from_micros(u64::from(longest)));
+    t.x(ms(20), "60 00 00 00 00 00 00 00", "00 41 42 43 44 45 46 47");
+    assert_eq!(t.poll(ms(20)), Some(ms(20) + longest));
+    assert_eq!(t.poll(ms(20) + longest), None);
+    t.tx("80 10 20 00 00 00 04 05");
+    t.done(ms(20) + longest);
+}
+
+#[test]
 fn timeout_found_by_a_late_frame_answers_only_once() {
     let mut t = Sdo::new();
     t.x(ms(0), "40 10 20 00 00 00 00 00", "41 10 20 00 78 00 00 00");
@@ -294,4 +315,33 @@ fn reset_drops_the_transfer_silently() {
     t.done(ms(0));
     assert_eq!(t.poll(ms(5000)), None);
     t.none();
+}
+
+#[test]
+fn without_block_transfer_its_requests_are_unknown_commands() {
+    // A node without block SDO (`block` false, as ds301-lean): each block
+    // request is refused with 0x05040001 and counted, for its own object
+    // if it would start a transfer, else for none; a segment request of no
+    // transfer is refused for no object and not counted.
+    for quick in [false, true] {
+        let mut servers: SdoServers<128, 1> = SdoServers::new();
+        let mut image = DEFAULTS;
+        let mut bus = Bus { frames: VecDeque::new(), room: usize::MAX };
+        let mut od = App { od: DictionaryAccess { dictionary: &DICT, image: &mut image }, read_error: None, write_error: None };
+        let exchanges = [
+            ("A0 18 10 01 7F 00 00 00", "80 18 10 01 01 00 04 05", 1),
+            ("A3 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 2),
+            ("C2 18 10 01 04 00 00 00", "80 18 10 01 01 00 04 05", 3),
+            ("C1 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 4),
+            ("00 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 4),
+            ("60 18 10 01 00 00 00 00", "80 00 00 00 01 00 04 05", 4),
+            ("E0 18 10 01 00 00 00 00", "80 18 10 01 01 00 04 05", 5),
+        ];
+        for (request, response, malformed) in exchanges {
+            servers.on_request_with(0, ms(0), &hex(request), false, quick, &mut od, &mut bus);
+            assert_eq!(bus.frames.drain(..).map(|f| show(&f)).collect::<Vec<_>>(), [show(&hex(response))], "{request}");
+            assert_eq!(servers.malformed(0), malformed, "{request}");
+        }
+        assert!(servers.is_idle(0));
+    }
 }
