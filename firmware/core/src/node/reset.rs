@@ -45,15 +45,14 @@ pub(super) enum Stage {
     Communication,
     /// The RPDOs configured from the image.
     Rpdos,
-    /// The TPDOs configured from the image.
+    /// The TPDOs configured from the image; then LSS, SDO servers and the
+    /// acceptance list, and the boot-up is due.
     Tpdos,
-    /// LSS, SDO servers and the acceptance list; then the boot-up is due.
-    Finish,
 }
 
 /// The stage after each one (Idle after the last), by its number: the
 /// order as data, one load, where a match compiled to a second jump table.
-static NEXT: [Stage; 10] = [
+static NEXT: [Stage; 9] = [
     Stage::Idle,          // Idle
     Stage::Communication, // FindThenCommunication
     Stage::Communication, // FindOlderThenCommunication
@@ -62,8 +61,7 @@ static NEXT: [Stage; 10] = [
     Stage::Communication, // Application
     Stage::Rpdos,         // Communication
     Stage::Tpdos,         // Rpdos
-    Stage::Finish,        // Tpdos
-    Stage::Idle,          // Finish
+    Stage::Idle,          // Tpdos
 ];
 
 impl Stage {
@@ -222,8 +220,8 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
                 // Timer-only types are `A::OPTIONS`' constants (`OptionsOf`).
                 self.comm.configure_pdos(dict, self.od.image(), true);
                 self.controller.reset();
+                self.reset_finish(now);
             }
-            Stage::Finish => self.reset_finish(now),
         }
     }
 
@@ -305,7 +303,7 @@ mod tests {
     #[test]
     fn the_stages_run_in_their_order() {
         use Stage::*;
-        let communication = [Communication, Rpdos, Tpdos, Finish, Idle];
+        let communication = [Communication, Rpdos, Tpdos, Idle];
         assert_eq!(walk(FindThenCommunication)[1..], communication);
         assert_eq!(walk(FindOlderThenCommunication)[1..], communication);
         assert_eq!(walk(FindThenApplication)[1..2], [Application]);
