@@ -400,8 +400,8 @@ fn reset_node_with_a_stored_set_takes_a_stage_per_process_and_boots_up_after_the
         }
     }
     // Find the stored set, the application part, the communication part
-    // (defaults, then its stored values), the services, RPDOs, TPDOs, the rest.
-    assert_eq!(stages, 7);
+    // (defaults, then its stored values) and the services, RPDOs, TPDOs and the rest.
+    assert_eq!(stages, 5);
     assert_eq!(b.node.transmit().map(|f| (f.cob_id(), f.data().to_vec())), Some((Some(0x704), vec![0x00])), "the boot-up, last");
     assert_eq!(b.node.transmit(), None);
     assert_eq!(b.node.state(), NmtState::PreOperational);

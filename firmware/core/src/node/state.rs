@@ -10,7 +10,7 @@ use crate::time::At;
 use crate::wire::emcy::EmcyCode;
 use crate::wire::nmt::NmtRequest;
 
-use super::{Application, Comm, CommError, ErrorBehaviour, NmtEvent, Node};
+use super::{Application, CommError, NmtEvent, Node};
 
 impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: usize, const HB: usize, const SDO: usize>
     Node<O, A, S, R, T, HB, SDO>
@@ -59,19 +59,16 @@ impl<O: ObjectDictionary, A: Application, S: Storage, const R: usize, const T: u
     pub(super) fn device_error(&mut self, class: u8, now: At) {
         self.stale = true;
         let dict = self.od.dictionary();
-        let behaviour = match A::OPTIONS.communication_error_pre_operational {
-            Some(switch) if class == 1 => {
-                if self.option_set(switch) {
-                    ErrorBehaviour::PreOperational
-                } else {
-                    ErrorBehaviour::NoChange
-                }
-            }
-            _ => Comm::<R, T, HB>::error_behaviour_of(dict, self.od.image(), class),
+        // 0x1029's code (`ErrorBehaviour`'s: 0 pre-operational, 1 no change,
+        // 2 stopped, any other pre-operational), decided on as the number.
+        let code = match A::OPTIONS.communication_error_pre_operational {
+            Some(switch) if class == 1 => u32::from(!self.option_set(switch)),
+            _ => dict.read_u32(self.od.image(), crate::od::index::ERROR_BEHAVIOUR, class).unwrap_or(0),
         };
-        let next = match behaviour {
-            ErrorBehaviour::PreOperational if self.nmt.state() == NmtState::Operational => Some(NmtState::PreOperational),
-            ErrorBehaviour::Stopped => Some(NmtState::Stopped),
+        let next = match code {
+            1 => None,
+            2 => Some(NmtState::Stopped),
+            _ if self.nmt.state() == NmtState::Operational => Some(NmtState::PreOperational),
             _ => None,
         };
         if let Some(s) = next
