@@ -62,7 +62,9 @@ impl Channel {
     /// The blksize to offer when `total` of the buffer's `capacity` bytes
     /// are already collected: the segments it still has room for, 1..=127.
     fn download_blksize(capacity: usize, total: usize) -> u8 {
-        let room = capacity.saturating_sub(total).div_ceil(SEGMENT_DATA);
+        // A rounding-up division (`div_ceil` computes the remainder too:
+        // larger); the room is at most the capacity, + 6 cannot wrap.
+        let room = capacity.saturating_sub(total).wrapping_add(SEGMENT_DATA - 1) / SEGMENT_DATA;
         u8::try_from(room.clamp(1, usize::from(MAX_BLKSIZE))).unwrap_or(MAX_BLKSIZE)
     }
 
@@ -119,10 +121,9 @@ impl Channel {
                 }
             }
             // The unused tail of the last segment need not fit: the end request says how much is data.
-            // start + fit is at most the capacity (or start itself, fit 0): no wrap.
-            let fit = capacity.saturating_sub(start).min(SEGMENT_DATA);
-            if let (Some(dst), Some(src)) = (buf.get_mut(start..start.wrapping_add(fit)), data.get(..fit)) {
-                dst.copy_from_slice(src);
+            // A byte loop over what fits, smaller than a bounded `copy_from_slice` (a memcpy call).
+            for (dst, src) in buf.get_mut(start..).unwrap_or(&mut []).iter_mut().zip(data) {
+                *dst = *src;
             }
             total = end;
             ackseq = seqno;
