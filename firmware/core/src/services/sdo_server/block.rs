@@ -33,9 +33,17 @@ pub(super) struct UploadInitiate {
 }
 
 impl Transfer {
-    /// Block upload: the offset of the current block's next segment.
-    fn block_offset(&self) -> usize {
-        self.pos.saturating_add(usize::from(self.seq).saturating_mul(SEGMENT_DATA))
+    /// Block upload: bytes of the current block's segments sent so far
+    /// (at most 127 × 7).
+    fn block_sent(&self) -> usize {
+        usize::from(self.seq).wrapping_mul(SEGMENT_DATA)
+    }
+
+    /// Block upload: bytes of the value from the current block's start on.
+    /// A block starts at most at the value's end (pos ≤ size), so no
+    /// offset below is computed past the size: nothing wraps.
+    fn block_rest(&self) -> usize {
+        self.size.wrapping_sub(self.pos)
     }
 
     /// Block upload: a segment of the current block is still to send,
@@ -45,7 +53,7 @@ impl Transfer {
     /// value's end (after an ackseq that did not reach it): no division
     /// for the count of the block's segments.
     fn block_unsent(&self) -> bool {
-        self.seq < self.blksize && (self.seq == 0 || self.block_offset() < self.size)
+        self.seq < self.blksize && (self.seq == 0 || self.block_sent() < self.block_rest())
     }
 }
 
@@ -226,20 +234,23 @@ impl Channel {
                 if !valid_blksize(blksize) {
                     return self.abort(AbortCode::InvalidBlockSize, tx);
                 }
-                let acked_end = u.pos.saturating_add(usize::from(ackseq).saturating_mul(SEGMENT_DATA));
-                if ackseq > 0 && acked_end >= u.size {
+                // ackseq is at most the segments sent, and each began
+                // before the value's end: pos + acked cannot wrap.
+                let acked = usize::from(ackseq).wrapping_mul(SEGMENT_DATA);
+                let rest = u.block_rest();
+                if ackseq > 0 && acked >= rest {
                     // The segment with c = 1 is confirmed: its unused tail is n.
                     self.state = State::BlockUploadEnd;
                     // n = 0..=7, no clamp: ackseq is at most the segments
                     // sent, and the block ends at the one with the value's
                     // last byte (an empty value's one segment is all n).
-                    let unused = acked_end.wrapping_sub(u.size) as u8;
+                    let unused = acked.wrapping_sub(rest) as u8;
                     // Without a CRC the register stayed 0 (only a transfer with one updates it).
                     let [c0, c1] = u.crc.to_le_bytes();
                     self.emit([0xC1 | unused << 2, c0, c1, 0, 0, 0, 0, 0], tx);
                 } else {
                     // Next block, or the same one again from the segment after ackseq.
-                    self.t.pos = acked_end;
+                    self.t.pos = u.pos.wrapping_add(acked);
                     self.t.seq = 0;
                     self.t.blksize = blksize;
                 }
@@ -258,8 +269,10 @@ impl Channel {
         }
         while self.t.block_unsent() {
             let u = self.t;
-            let offset = u.block_offset();
-            let left = u.size.saturating_sub(offset);
+            // Below the size, or the block's start (`block_unsent`).
+            let sent = u.block_sent();
+            let offset = u.pos.wrapping_add(sent);
+            let left = u.block_rest().wrapping_sub(sent);
             let len = left.min(SEGMENT_DATA);
             // The value's bytes read into the frame in place, after byte 0.
             let mut frame = [0u8; 8];
@@ -280,7 +293,8 @@ impl Channel {
             // Each byte enters the CRC the first time it is sent.
             if u.crc_on && offset == u.crc_len {
                 self.t.crc = crc16_update(u.crc, frame.get(1..=len).unwrap_or(&[]));
-                self.t.crc_len = offset.saturating_add(len);
+                // At most the size: len is at most the bytes left.
+                self.t.crc_len = offset.wrapping_add(len);
             }
             self.t.seq = seqno;
             self.restart_timer(now);
