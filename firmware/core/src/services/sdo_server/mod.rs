@@ -22,7 +22,8 @@
 //! through [`ObjectAccess`] lookups by (index, sub-index). Downloads other
 //! than expedited ones are collected in an `N`-byte buffer and written whole
 //! with [`ObjectAccess::write`] when the last segment arrives, so a value is
-//! never left half-written. Uploads read the value in 7-byte pieces with
+//! never left half-written (that frame, and a block download's end request
+//! with its CRC over the value, costs work in proportion to the value). Uploads read the value in 7-byte pieces with
 //! [`ObjectAccess::read`] and need no buffer.
 //!
 //! Not supported: SDO block download of a value larger than `N`
@@ -109,9 +110,8 @@ struct Transfer {
     toggle: bool,
     /// Block: the client asked for a CRC (the server always supports one).
     crc_on: bool,
-    /// Block download: CRC of every accepted segment but the last (whose
-    /// unused tail is known only from the end request); block upload: CRC
-    /// of bytes `0..crc_len` of the value.
+    /// Block upload: CRC of bytes `0..crc_len` of the value (a block
+    /// download's is worked out over its buffer at the end request).
     crc: u16,
     crc_len: usize,
     /// Block: segments in the current block (download), or per block as
