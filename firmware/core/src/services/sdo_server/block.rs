@@ -212,9 +212,9 @@ impl Channel {
         // The fields an upload reads (toggle is the segmented transfers').
         self.t.size = size;
         self.t.pos = 0;
-        self.t.crc_on = crc;
         self.t.crc = 0;
-        self.t.crc_len = 0;
+        // Without a CRC no offset ever equals crc_len: the register stays 0.
+        self.t.crc_len = if crc { 0 } else { usize::MAX };
         self.t.blksize = blksize;
         self.t.seq = 0;
         Some((size, true))
@@ -291,7 +291,7 @@ impl Channel {
                 return true;
             }
             // Each byte enters the CRC the first time it is sent.
-            if u.crc_on && offset == u.crc_len {
+            if offset == u.crc_len {
                 self.t.crc = crc16_update(u.crc, frame.get(1..=len).unwrap_or(&[]));
                 // At most the size: len is at most the bytes left.
                 self.t.crc_len = offset.wrapping_add(len);

@@ -108,10 +108,13 @@ struct Transfer {
     /// Segmented: the toggle bit the next segment (download) or request
     /// (upload) must carry.
     toggle: bool,
-    /// Block: the client asked for a CRC (the server always supports one).
+    /// Block download: the client asked for a CRC (the server always
+    /// supports one; a block upload's choice is in `crc_len`).
     crc_on: bool,
     /// Block upload: CRC of bytes `0..crc_len` of the value (a block
-    /// download's is worked out over its buffer at the end request).
+    /// download's is worked out over its buffer at the end request);
+    /// crc_len is `usize::MAX` when the client asked for no CRC, an offset
+    /// no segment has, so the register stays 0.
     crc: u16,
     crc_len: usize,
     /// Block: segments in the current block (download), or per block as
