@@ -74,8 +74,9 @@ impl Channel {
     /// are already collected: the segments it still has room for, 1..=127.
     fn download_blksize(capacity: usize, total: usize) -> u8 {
         // A rounding-up division (`div_ceil` computes the remainder too:
-        // larger); the room is at most the capacity, + 6 cannot wrap.
-        let room = capacity.saturating_sub(total).wrapping_add(SEGMENT_DATA - 1) / SEGMENT_DATA;
+        // larger); + 6 cannot wrap a buffer's length, and total is at most
+        // 7 past it, where the room, 0, becomes 1 as before.
+        let room = capacity.wrapping_add(SEGMENT_DATA - 1).saturating_sub(total) / SEGMENT_DATA;
         u8::try_from(room.clamp(1, usize::from(MAX_BLKSIZE))).unwrap_or(MAX_BLKSIZE)
     }
 
