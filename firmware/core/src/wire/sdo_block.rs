@@ -44,7 +44,7 @@ pub fn crc16(data: &[u8]) -> u16 {
 /// x^12, x^5 and 1 shift back in. Measured on thumbv7m-none-eabi against
 /// the nibble table it replaced (32 bytes of table, two look-ups a byte):
 /// smaller and faster (see docs/benchmarks.md, round 12b).
-// Out of line: three callers (block download segment and end, block upload).
+// Out of line: two callers (block download end, block upload).
 #[inline(never)]
 pub fn crc16_update(crc: u16, data: &[u8]) -> u16 {
     // In a u32: the bits shifted past bit 15 are never read (the high byte

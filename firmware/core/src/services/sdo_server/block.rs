@@ -225,39 +225,42 @@ impl Channel {
     /// ack, 1 end) and an ack's ackseq and blksize.
     pub(super) fn block_upload(&mut self, cs: u8, ackseq: u8, blksize: u8, tx: &mut dyn SdoTx) {
         let u = self.t;
-        match (self.state, cs) {
-            // The segments go out from poll().
-            (State::BlockUploadStart, 3) => self.state = State::BlockUpload,
-            (State::BlockUpload, 2) => {
-                if ackseq > u.seq {
-                    return self.abort(AbortCode::InvalidSequence, tx);
-                }
-                if !valid_blksize(blksize) {
-                    return self.abort(AbortCode::InvalidBlockSize, tx);
-                }
-                // ackseq is at most the segments sent, and each began
-                // before the value's end: pos + acked cannot wrap.
-                let acked = usize::from(ackseq).wrapping_mul(SEGMENT_DATA);
-                let rest = u.block_rest();
-                if ackseq > 0 && acked >= rest {
-                    // The segment with c = 1 is confirmed: its unused tail is n.
-                    self.state = State::BlockUploadEnd;
-                    // n = 0..=7, no clamp: ackseq is at most the segments
-                    // sent, and the block ends at the one with the value's
-                    // last byte (an empty value's one segment is all n).
-                    let unused = acked.wrapping_sub(rest) as u8;
-                    // Without a CRC the register stayed 0 (only a transfer with one updates it).
-                    let [c0, c1] = u.crc.to_le_bytes();
-                    self.emit([0xC1 | unused << 2, c0, c1, 0, 0, 0, 0, 0], tx);
-                } else {
-                    // Next block, or the same one again from the segment after ackseq.
-                    self.t.pos = u.pos.wrapping_add(acked);
-                    self.t.seq = 0;
-                    self.t.blksize = blksize;
-                }
-            }
-            (State::BlockUploadEnd, 1) => self.state = State::Idle,
-            _ => self.abort(AbortCode::InvalidCommand, tx),
+        // Each of the three states takes one cs: start (3) after the
+        // initiate, an ack (2) while blocks go out, end (1) after the end
+        // request; with the states' values 5, 6, 7 one sum tests all three.
+        if (self.state as u8).wrapping_add(cs) != 8 {
+            return self.abort(AbortCode::InvalidCommand, tx);
+        }
+        if cs != 2 {
+            // Start (the segments go out from poll()) or end.
+            self.state = if cs == 3 { State::BlockUpload } else { State::Idle };
+            return;
+        }
+        if ackseq > u.seq {
+            return self.abort(AbortCode::InvalidSequence, tx);
+        }
+        if !valid_blksize(blksize) {
+            return self.abort(AbortCode::InvalidBlockSize, tx);
+        }
+        // ackseq is at most the segments sent, and each began
+        // before the value's end: pos + acked cannot wrap.
+        let acked = usize::from(ackseq).wrapping_mul(SEGMENT_DATA);
+        let rest = u.block_rest();
+        if ackseq > 0 && acked >= rest {
+            // The segment with c = 1 is confirmed: its unused tail is n.
+            self.state = State::BlockUploadEnd;
+            // n = 0..=7, no clamp: ackseq is at most the segments
+            // sent, and the block ends at the one with the value's
+            // last byte (an empty value's one segment is all n).
+            let unused = acked.wrapping_sub(rest) as u8;
+            // Without a CRC the register stayed 0 (only a transfer with one updates it).
+            let [c0, c1] = u.crc.to_le_bytes();
+            self.emit([0xC1 | unused << 2, c0, c1, 0, 0, 0, 0, 0], tx);
+        } else {
+            // Next block, or the same one again from the segment after ackseq.
+            self.t.pos = u.pos.wrapping_add(acked);
+            self.t.seq = 0;
+            self.t.blksize = blksize;
         }
     }
 

@@ -84,11 +84,12 @@ enum State {
     /// request is next (the client's frames are no sub-block segments now).
     BlockDownloadEnd,
     /// Block upload: initiate response sent; waiting for the client's start command.
-    BlockUploadStart,
+    // 5, 6, 7: each plus the cs it takes is 8 (`Channel::block_upload`).
+    BlockUploadStart = 5,
     /// Block upload: sending the segments of a block, or waiting for its ack.
-    BlockUpload,
+    BlockUpload = 6,
     /// Block upload: end request sent; waiting for the client's end response.
-    BlockUploadEnd,
+    BlockUploadEnd = 7,
 }
 
 /// The transfer in progress: one set of fields for every kind, as only one
