@@ -58,18 +58,28 @@ impl Channel {
     ) {
         let Mux { index, sub } = self.mux;
         let mut data = [0u8; EXPEDITED_MAX];
-        if let Some(request) = block
+        // A block upload's blksize is checked before the look-up (its abort
+        // comes first); without `pure` before the look-up is made, with it
+        // (no effect to avoid) after, so that an initiate upload tests
+        // `block` once.
+        if !pure
+            && let Some(request) = block
             && !block::valid_blksize(request.blksize)
         {
             return self.abort(AbortCode::InvalidBlockSize, tx);
         }
         // `read`: the value's first bytes are still to be read into `data`.
         let read = block.is_some() && !pure;
-        let size = match if read { od.upload_size(index, sub) } else { od.upload_small(index, sub, &mut data) } {
+        let looked = if read { od.upload_size(index, sub) } else { od.upload_small(index, sub, &mut data) };
+        let started = match block {
+            None => false,
+            Some(request) if !block::valid_blksize(request.blksize) => return self.abort(AbortCode::InvalidBlockSize, tx),
+            Some(request) => matches!(looked, Ok(size) if self.start_block_upload(request, size)),
+        };
+        let size = match looked {
             Ok(size) => size,
             Err(code) => return self.abort(code, tx),
         };
-        let started = block.is_some_and(|request| self.start_block_upload(request, size));
         if !started && (1..=EXPEDITED_MAX).contains(&size) {
             if read
                 && let Some(buf) = data.get_mut(..size)
