@@ -51,12 +51,12 @@ impl Transfer {
 
     /// Block upload: a segment of the current block is still to send,
     /// fewer than blksize sent and the value's end not yet reached. The
-    /// first segment always goes (an empty value still takes one, c = 1
-    /// and n = 7 in the end request), and a block starts at most at the
-    /// value's end (after an ackseq that did not reach it): no division
-    /// for the count of the block's segments.
+    /// first segment always goes: a block starts before the value's end
+    /// (after an ackseq that did not reach it), and an empty value (rest
+    /// 0, hence the `max`) still takes one, c = 1 and n = 7 in the end
+    /// request. No division for the count of the block's segments.
     fn block_unsent(&self) -> bool {
-        self.seq < self.blksize && (self.seq == 0 || self.block_sent() < self.block_rest())
+        self.seq < self.blksize && self.block_sent() < self.block_rest().max(1)
     }
 }
 
