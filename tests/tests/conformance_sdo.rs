@@ -290,6 +290,30 @@ fn cct_2_21_block_write_heartbeat_time_without_crc() {
     assert_eq!(b.sdo_upload(ID, 0x1017, 0), Ok(vec![0xE8, 0x03]));
 }
 
+#[test]
+fn block_upload_initiate_of_a_value_of_up_to_4_bytes() {
+    // A node without SDO hooks looks the value up once for its size and
+    // first bytes; the answers are those of a size look-up and a read.
+    let mut b = interop();
+    assert_eq!(b.rx(ms(1), RX, &f(&[0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03])), on_tx(&[0x60, 0x17, 0x10, 0x00]));
+    // pst 2, the size: an expedited upload answers.
+    assert_eq!(b.rx(ms(2), RX, &f(&[0xA4, 0x17, 0x10, 0x00, 0x7F, 0x02])), on_tx(&[0x4B, 0x17, 0x10, 0x00, 0xE8, 0x03]));
+    // pst 1 (below the size), then pst 0 (no switch): a block upload, its one segment with n = 5.
+    for (at, pst) in [(10, 1), (20, 0)] {
+        assert_eq!(b.rx(ms(at), RX, &f(&[0xA4, 0x17, 0x10, 0x00, 0x7F, pst])), on_tx(&[0xC6, 0x17, 0x10, 0x00, 0x02]));
+        assert_eq!(b.rx(ms(at + 1), RX, &f(&[0xA3])), on_tx(&[0x81, 0xE8, 0x03]));
+        // CRC of E8 03 = 0xA978.
+        assert_eq!(b.rx(ms(at + 2), RX, &f(&[0xA2, 0x01, 0x7F])), on_tx(&[0xD5, 0x78, 0xA9]));
+        assert_eq!(b.rx(ms(at + 3), RX, &f(&[0xA1])), []);
+    }
+    // The blksize is checked before the object: 0x05040002 for a missing
+    // one too; a valid blksize then finds no object: 0x06020000.
+    assert_eq!(b.rx(ms(30), RX, &f(&[0xA4, 0x34, 0x12, 0x00, 0x00, 0x02])), vec![(TX, abort(0x1234, 0, 0x0504_0002))]);
+    assert_eq!(b.rx(ms(31), RX, &f(&[0xA4, 0x34, 0x12, 0x00, 0x7F, 0x02])), vec![(TX, abort(0x1234, 0, 0x0602_0000))]);
+    // Heartbeats (0x1017 is 1000 ms now) but no timeout abort: every transfer ended.
+    assert!(b.run_until(ms(2000)).iter().all(|(_, (id, _))| *id != TX));
+}
+
 /// A block upload of 0x1008 in one block of 20 segments; `crc` asks for a CRC.
 fn block_upload_device_name(b: &mut Interop, crc: bool) -> Vec<F> {
     let cc = if crc { 0x04 } else { 0 };

@@ -44,17 +44,18 @@ pub fn crc16(data: &[u8]) -> u16 {
 /// x^12, x^5 and 1 shift back in. Measured on thumbv7m-none-eabi against
 /// the nibble table it replaced (32 bytes of table, two look-ups a byte):
 /// smaller and faster (see docs/benchmarks.md, round 12b).
-// Out of line: three callers (block download segment and end, block upload).
+// Out of line: two callers (block download end, block upload).
 #[inline(never)]
 pub fn crc16_update(crc: u16, data: &[u8]) -> u16 {
-    let mut crc = crc;
+    // In a u32: the bits shifted past bit 15 are never read (the high byte
+    // is bits 8-15) and are cut once at the end, not after every byte.
+    let mut crc = u32::from(crc);
     for &byte in data {
-        let [high, _] = crc.to_be_bytes();
-        let x = high ^ byte;
-        let x = u16::from(x ^ (x >> 4));
+        let x = u32::from((crc >> 8) as u8 ^ byte);
+        let x = x ^ (x >> 4);
         crc = (crc << 8) ^ (x << 12) ^ (x << 5) ^ x;
     }
-    crc
+    crc as u16
 }
 
 /// Block download frames from the client (ccs = 6), outside the sub-block phase.

@@ -22,7 +22,8 @@
 //! through [`ObjectAccess`] lookups by (index, sub-index). Downloads other
 //! than expedited ones are collected in an `N`-byte buffer and written whole
 //! with [`ObjectAccess::write`] when the last segment arrives, so a value is
-//! never left half-written. Uploads read the value in 7-byte pieces with
+//! never left half-written (that frame, and a block download's end request
+//! with its CRC over the value, costs work in proportion to the value). Uploads read the value in 7-byte pieces with
 //! [`ObjectAccess::read`] and need no buffer.
 //!
 //! Not supported: SDO block download of a value larger than `N`
@@ -105,11 +106,12 @@ enum State {
     /// request is next (the client's frames are no sub-block segments now).
     BlockDownloadEnd,
     /// Block upload: initiate response sent; waiting for the client's start command.
-    BlockUploadStart,
+    // 5, 6, 7: each plus the cs it takes is 8 (`Channel::block_upload`).
+    BlockUploadStart = 5,
     /// Block upload: sending the segments of a block, or waiting for its ack.
-    BlockUpload,
+    BlockUpload = 6,
     /// Block upload: end request sent; waiting for the client's end response.
-    BlockUploadEnd,
+    BlockUploadEnd = 7,
 }
 
 /// The transfer in progress: one set of fields for every kind, as only one
@@ -129,11 +131,13 @@ struct Transfer {
     /// Segmented: the toggle bit the next segment (download) or request
     /// (upload) must carry.
     toggle: bool,
-    /// Block: the client asked for a CRC (the server always supports one).
+    /// Block download: the client asked for a CRC (the server always
+    /// supports one; a block upload's choice is in `crc_len`).
     crc_on: bool,
-    /// Block download: CRC of every accepted segment but the last (whose
-    /// unused tail is known only from the end request); block upload: CRC
-    /// of bytes `0..crc_len` of the value.
+    /// Block upload: CRC of bytes `0..crc_len` of the value (a block
+    /// download's is worked out over its buffer at the end request);
+    /// crc_len is `usize::MAX` when the client asked for no CRC, an offset
+    /// no segment has, so the register stays 0.
     crc: u16,
     crc_len: usize,
     /// Block: segments in the current block (download), or per block as
@@ -298,7 +302,8 @@ impl<const N: usize> SdoServer<N> {
     /// the transfer's deadline (because `poll` was late) first triggers the
     /// timeout abort; it is then served only if it initiates a new transfer.
     pub fn on_request(&mut self, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        self.channel.on_request(now, data, true, true, Some(&mut self.buf), &mut od, tx);
+        // Not `quick`: `od` may be any `ObjectAccess` (see `on_request_with`).
+        self.channel.on_request(now, data, true, false, Some(&mut self.buf), &mut od, tx);
     }
 
     /// Sends pending block-upload segments while `tx` accepts them; aborts with 0x05040000 on timeout; returns the next deadline (None when idle).
@@ -376,7 +381,8 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
     /// A frame on the rx COB-ID of server `i`, as [`SdoServer::on_request`].
     pub fn on_request(&mut self, i: usize, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        self.on_request_with(i, now, data, true, true, &mut od, tx);
+        // Not `quick`: `od` may be any `ObjectAccess` (see `on_request_with`).
+        self.on_request_with(i, now, data, true, false, &mut od, tx);
     }
 
     /// As [`SdoServers::on_request`]; without `block`, a block transfer
@@ -386,10 +392,12 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     /// initiate requests and every download's final write call `od`
     /// directly (the node's router or `SdoParts`), the others through `dyn
     /// ObjectAccess`, one copy of their code whatever `O` is. With `quick`
-    /// (a constant too: the node passes it for a device without SDO hooks),
-    /// an initiate upload or initiate block upload is served before the
-    /// other requests are decoded: the same answers, fewer instructions for
-    /// the commonest request.
+    /// (a constant too: the node passes it for a device without SDO hooks,
+    /// `od` its `SdoParts`), an initiate upload or initiate block upload is
+    /// served before the other requests are decoded: the same answers,
+    /// fewer instructions for the commonest request; and a block upload's
+    /// initiate reads a value of up to 4 bytes along with its size, which
+    /// only an `od` whose reads have no effect (as `SdoParts`') may do.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn on_request_with<O: ObjectAccess>(
@@ -480,7 +488,7 @@ impl Channel {
                         _ => None,
                     };
                     self.start(Mux::of(data));
-                    self.initiate_upload(upload_block, od, tx);
+                    self.initiate_upload(upload_block, true, od, tx);
                 } else {
                     let kind = RequestKind::of(b0);
                     if expired && !kind.starts_transfer() {
@@ -586,7 +594,7 @@ impl Channel {
             }
             (RequestKind::InitiateUpload, _) if !quick => {
                 self.start(mux);
-                self.initiate_upload(upload_block, od, tx);
+                self.initiate_upload(upload_block, false, od, tx);
                 None
             }
             (RequestKind::DownloadSegment, _) if self.state == State::SegmentedDownload => {

@@ -380,6 +380,42 @@ fn block_upload_requests_out_of_turn() {
 }
 
 #[test]
+fn block_upload_requests_of_another_phase() {
+    let mut t = Sdo::new();
+    let abort = "80 08 10 00 01 00 04 05";
+    let end = format!("C5 {:02X} {:02X} 00 00 00 00 00", reference_crc(b"device") as u8, reference_crc(b"device") >> 8);
+    // Each phase takes one cs (start 3, ack 2, end 1); the other two abort
+    // with 0x05040001 for the object and end the transfer.
+    for (i, wrong) in ["A2 00 7F 00 00 00 00 00", "A1 00 00 00 00 00 00 00"].into_iter().enumerate() {
+        // Waiting for the start.
+        t.x(ms(10 * i as u32), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
+        t.x(ms(10 * i as u32 + 1), wrong, abort);
+    }
+    for (i, wrong) in ["A3 00 00 00 00 00 00 00", "A1 00 00 00 00 00 00 00"].into_iter().enumerate() {
+        // Waiting for the block's ack.
+        let now = 100 + 10 * i as u32;
+        t.x(ms(now), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
+        t.rx(ms(now + 1), "A3 00 00 00 00 00 00 00");
+        t.poll(ms(now + 1));
+        t.tx("81 64 65 76 69 63 65 00");
+        t.x(ms(now + 2), wrong, abort);
+    }
+    for (i, wrong) in ["A3 00 00 00 00 00 00 00", "A2 01 7F 00 00 00 00 00"].into_iter().enumerate() {
+        // Waiting for the end response.
+        let now = 200 + 10 * i as u32;
+        t.x(ms(now), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
+        t.rx(ms(now + 1), "A3 00 00 00 00 00 00 00");
+        t.poll(ms(now + 1));
+        t.tx("81 64 65 76 69 63 65 00");
+        t.x(ms(now + 2), "A2 01 7F 00 00 00 00 00", &end);
+        t.x(ms(now + 3), wrong, abort);
+    }
+    // Ended: an end response now belongs to no transfer.
+    t.x(ms(300), "A1 00 00 00 00 00 00 00", "80 00 00 00 01 00 04 05");
+    t.done(ms(300));
+}
+
+#[test]
 fn block_upload_errors() {
     let mut t = Sdo::new();
     // CCT 2.26: blksize 128, and 0.
