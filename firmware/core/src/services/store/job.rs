@@ -66,12 +66,21 @@ pub struct Job {
     /// fields keep their offsets (without it, ds301-lean, which has no
     /// storage, was 24 bytes larger).
     _spare: bool,
-    /// The newest valid set found, which the new one follows.
-    old: Option<StoredSet>,
+    /// The newest valid set found, which the new one follows; [`NO_SET`] if
+    /// there is none (set by the find step before any use).
+    old: StoredSet,
+    /// Unused: the job's size as it was with `old` an `Option` (the node's
+    /// fields keep their offsets).
+    _pad: [u8; 4],
     /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
     pos: u16,
     crc: u32,
 }
+
+/// The set a store follows where no region holds a valid one: every scope
+/// default (so no value is taken from it), no LSS configuration, sequence
+/// number 0, and in region 1, so that the new set goes to region 0.
+const NO_SET: StoredSet = StoredSet { region: 1, defaults: 0b111, lss: [0xFF, 0xFF], seq: 0 };
 
 /// The newest valid set: only the newer header's payload is checked when
 /// it is intact (an older set cannot win over it, valid or not). In one
@@ -97,7 +106,8 @@ pub(crate) fn check(dict: &Dictionary, storage: &mut dyn Storage, older: bool) -
         (a, _) => a.is_none(),
     };
     let Some((set, crc)) = (if b_first != older { b } else { a }) else { return Ok(None) };
-    let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(set.region, at.saturating_add(HEADER), piece));
+    // `at` is an offset in the image, so the header's length added cannot wrap (nor in the job's steps).
+    let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(set.region, at.wrapping_add(HEADER), piece));
     let valid = checked == Ok(crc);
     if valid || older { Ok(valid.then_some(set)) } else { Err(()) }
 }
@@ -112,7 +122,8 @@ impl Job {
         new_lss: false,
         objects: (0, 0),
         _spare: false,
-        old: None,
+        old: StoredSet { region: 0, defaults: 0, lss: [0; 2], seq: 0 },
+        _pad: [0; 4],
         pos: 0,
         crc: 0,
     };
@@ -206,7 +217,8 @@ impl Job {
     ) -> Option<Result<(), StoreError>> {
         let result = if self.phase == Phase::Idle {
             Ok(true)
-        } else if HEADER.saturating_add(dict.stored_len) > storage.region_size() || dict.stored_len >= usize::from(u16::MAX) {
+        // The u16 test first: the sum after it cannot wrap (a saturating one costs 4 B a site).
+        } else if dict.stored_len >= usize::from(u16::MAX) || HEADER.wrapping_add(dict.stored_len) > storage.region_size() {
             Err(StoreError::TooLarge)
         } else {
             self.advance(dict, image, node_id, storage, budget).map_err(StoreError::Storage)
@@ -229,10 +241,10 @@ impl Job {
         storage: &mut dyn Storage,
         budget: usize,
     ) -> Result<bool, StorageError> {
-        let target = self.old.map_or(0, |set| set.region ^ 1);
+        let target = self.old.region ^ 1;
         match self.phase {
             Phase::Find | Phase::FindOlder => match check(dict, storage, self.phase == Phase::FindOlder) {
-                Ok(old) => (self.old, self.phase) = (old, Phase::Erase),
+                Ok(old) => (self.old, self.phase) = (old.unwrap_or(NO_SET), Phase::Erase),
                 Err(()) => self.phase = Phase::FindOlder,
             },
             Phase::Erase => {
@@ -245,7 +257,7 @@ impl Job {
                 let this = &*self;
                 self.crc = crc_pieces(pos..end, self.crc, &mut |at, piece| {
                     this.compose(dict, image, node_id, storage, at, piece)?;
-                    storage.write(target, at.saturating_add(HEADER), piece)
+                    storage.write(target, at.wrapping_add(HEADER), piece)
                 })?;
                 self.pos = end as u16;
                 if end == dict.stored_len {
@@ -271,7 +283,7 @@ impl Job {
         at: usize,
         piece: &mut [u8],
     ) -> Result<(), StorageError> {
-        let end = at.saturating_add(piece.len());
+        let end = at.wrapping_add(piece.len());
         let mut defaults = false;
         for e in dict.entries.iter() {
             let r = e.range();
@@ -285,8 +297,8 @@ impl Job {
             // The part of the value in this piece (a value longer than a piece spans several).
             let part = r.start.max(at)..r.end.min(end);
             let Some(dst) = piece.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else { continue };
-            match (self.source(e), self.old) {
-                (Source::Image, _) => {
+            match self.source(e) {
+                Source::Image => {
                     // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
                     if let Some(src) = image.get(part).filter(|src| src.len() == dst.len()) {
                         dst.copy_from_slice(src);
@@ -298,7 +310,7 @@ impl Job {
                         relative(dst, node_id);
                     }
                 }
-                (Source::Old, Some(old)) => storage.read(old.region, part.start.saturating_add(HEADER), dst)?,
+                Source::Old => storage.read(self.old.region, part.start.wrapping_add(HEADER), dst)?,
                 // The defaults of the rest of the piece, once (a read walks every
                 // default): the values after this one then overwrite theirs.
                 _ if !defaults => {
@@ -319,7 +331,7 @@ impl Job {
         let (first, span) = self.objects;
         if self.save & bit != 0 && e.index.wrapping_sub(first) <= span {
             Source::Image
-        } else if self.old.is_some_and(|set| set.defaults & bit == 0) {
+        } else if self.old.defaults & bit == 0 {
             Source::Old
         } else {
             // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
@@ -329,8 +341,7 @@ impl Job {
 
     /// The header, written last: the new set is valid from here on.
     fn header(&self, dict: &Dictionary) -> [u8; HEADER] {
-        // Without a set before it, every scope is default and no LSS configuration is stored.
-        let old = self.old.unwrap_or(StoredSet { region: 0, defaults: 0b111, lss: [0xFF, 0xFF], seq: 0 });
+        let old = self.old;
         let defaults = (old.defaults & !self.save) | self.reset;
         let seq = old.seq.wrapping_add(1);
         // The LSS configuration rides along with every set: a new one or the old one.
@@ -356,7 +367,7 @@ impl Job {
 /// last value within `budget` bytes, or of the first value if it is longer
 /// (the stored prefix holds whole values, in offset order).
 fn value_end(dict: &Dictionary, pos: usize, budget: usize) -> usize {
-    let limit = pos.saturating_add(budget);
+    let limit = pos.wrapping_add(budget);
     let mut end = pos;
     for r in dict.entries.iter().filter(|e| in_set(dict, e)).map(|e| e.range()) {
         if r.end > limit {
