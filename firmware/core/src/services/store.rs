@@ -150,7 +150,7 @@ type Piece<'a> = dyn FnMut(usize, &mut [u8]) -> Result<(), StorageError> + 'a;
 fn crc_pieces(range: Range<usize>, crc: u32, piece: &mut Piece<'_>) -> Result<u32, StorageError> {
     let mut buf = [0u8; PIECE];
     let (mut pos, mut crc) = (range.start, !crc);
-    while let Some(chunk) = buf.get_mut(..range.end.saturating_sub(pos).min(PIECE)).filter(|c| !c.is_empty()) {
+    while let Some(chunk) = buf.get_mut(..range.end.wrapping_sub(pos).min(PIECE)).filter(|_| pos < range.end) {
         piece(pos, chunk)?;
         crc = crc32_update(crc, chunk);
         pos += chunk.len();
