@@ -126,6 +126,9 @@ const CRC32_NIBBLE: [u32; 16] = {
     table
 };
 
+// Out of line: one copy for the checks and the writes (ds301 -12 B, every image with storage smaller;
+// a call per piece of 128 bytes).
+#[inline(never)]
 fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
     // The index is masked to 4 bits, so the look-up is always in the table.
     let step = |crc: u32| (crc >> 4) ^ CRC32_NIBBLE.get((crc & 0xF) as usize).copied().unwrap_or(0);
