@@ -11,15 +11,19 @@
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, crc_pieces, entry_scope, in_set, read_header, scope_bit};
+use super::{
+    HEADER, MAGIC, PIECE, Scope, StoreError, StoredSet, VERSION, crc32_update, entry_scope, in_set, payload_crc, read_header, scope_bit,
+};
 use crate::od::{Attr, Dictionary, Entry};
 use crate::storage::{Storage, StorageError};
 
 /// Payload bytes a step writes at most (a value longer than this goes
-/// whole into one step), each value composed from its source: the longest
+/// whole into one step, a piece at a time), each value composed from its
+/// source in one walk of the entries that also finds the step's end: the longest
 /// step of a store of the interop dictionary is 11,389 thumbv7m instructions
 /// (`cargo xtask icount`, round 13; 9,660 with the payload composed span by span).
 pub const STAGE: usize = super::PIECE;
+
 /// Where a value of a new set comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Source {
@@ -72,7 +76,7 @@ pub struct Job {
     /// Unused: the job's size as it was with `old` an `Option` (the node's
     /// fields keep their offsets).
     _pad: [u8; 4],
-    /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
+    /// Payload bytes written so far, and their CRC (kept inverted: `!running`, 0 before the first byte).
     pos: u16,
     crc: u32,
 }
@@ -106,9 +110,7 @@ pub(crate) fn check(dict: &Dictionary, storage: &mut dyn Storage, older: bool) -
         (a, _) => a.is_none(),
     };
     let Some((set, crc)) = (if b_first != older { b } else { a }) else { return Ok(None) };
-    // `at` is an offset in the image, so the header's length added cannot wrap (nor in the job's steps).
-    let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(set.region, at.wrapping_add(HEADER), piece));
-    let valid = checked == Ok(crc);
+    let valid = payload_crc(storage, set.region, dict.stored_len) == Ok(crc);
     if valid || older { Ok(valid.then_some(set)) } else { Err(()) }
 }
 
@@ -242,6 +244,7 @@ impl Job {
         budget: usize,
     ) -> Result<bool, StorageError> {
         let target = self.old.region ^ 1;
+        let mut buf = [0u8; PIECE];
         match self.phase {
             Phase::Find | Phase::FindOlder => match check(dict, storage, self.phase == Phase::FindOlder) {
                 Ok(old) => (self.old, self.phase) = (old.unwrap_or(NO_SET), Phase::Erase),
@@ -253,12 +256,26 @@ impl Job {
             }
             _ => {
                 let pos = usize::from(self.pos);
-                let end = value_end(dict, pos, budget);
-                let this = &*self;
-                self.crc = crc_pieces(pos..end, self.crc, &mut |at, piece| {
-                    this.compose(dict, image, node_id, storage, at, piece)?;
-                    storage.write(target, at.wrapping_add(HEADER), piece)
-                })?;
+                let limit = pos.wrapping_add(budget);
+                let mut at = pos;
+                // A piece at a time: one, unless the step is a value longer than a
+                // piece. An empty prefix has no payload: no write but the header's.
+                let end = if pos >= dict.stored_len {
+                    pos
+                } else {
+                    loop {
+                        let (end, whole) = self.compose(dict, image, node_id, storage, at, limit, &mut buf)?;
+                        let payload = buf.get(..end.wrapping_sub(at)).unwrap_or(&[]);
+                        storage.write(target, at.wrapping_add(HEADER), payload)?;
+                        self.crc = !crc32_update(!self.crc, payload);
+                        at = end;
+                        if whole {
+                            break end;
+                        }
+                    }
+                };
+                // No value from `pos` on (an empty prefix): the payload ends here.
+                let end = if end == pos { dict.stored_len } else { end };
                 self.pos = end as u16;
                 if end == dict.stored_len {
                     storage.write(target, 0, &self.header(dict))?;
@@ -269,11 +286,15 @@ impl Job {
         Ok(false)
     }
 
-    /// The new set's payload bytes at `at`, value by value from its source:
-    /// the image for the scopes and objects saved, the newest set for the
-    /// others (the defaults where it marks the scope as default, or where
-    /// there is none). The stored prefix is the set's values one after the
-    /// other in the entries' order, so the walk ends at the piece's end.
+    /// The new set's payload bytes from `at` into `buf`, value by value from
+    /// its source: the image for the scopes and objects saved, the newest set
+    /// for the others (the defaults where it marks the scope as default, or
+    /// where there is none). A write step takes the values up to `limit`, or
+    /// its first value if that is longer. The stored prefix is the set's
+    /// values one after the other in the entries' order, so the walk ends at
+    /// the step's end. Returns where the bytes end, and whether that is the
+    /// step's end (not the buffer's, in a value longer than it).
+    #[allow(clippy::too_many_arguments)]
     fn compose(
         &self,
         dict: &Dictionary,
@@ -281,9 +302,10 @@ impl Job {
         node_id: u8,
         storage: &mut dyn Storage,
         at: usize,
-        piece: &mut [u8],
-    ) -> Result<(), StorageError> {
-        let end = at.wrapping_add(piece.len());
+        limit: usize,
+        buf: &mut [u8; PIECE],
+    ) -> Result<(usize, bool), StorageError> {
+        let mut end = at;
         let mut defaults = false;
         for e in dict.entries.iter() {
             let r = e.range();
@@ -291,21 +313,21 @@ impl Job {
             if r.end <= at || !in_set(dict, e) {
                 continue;
             }
-            if r.start >= end {
+            // The step ends before a value past the limit, unless it is the first.
+            if r.end > limit && end > at {
                 break;
             }
-            // The part of the value in this piece (a value longer than a piece spans several).
-            let part = r.start.max(at)..r.end.min(end);
-            let Some(dst) = piece.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else { continue };
+            // The part of the value in the buffer: all of it, unless the value is longer.
+            let part = r.start.max(at)..r.end.min(at.wrapping_add(PIECE));
+            let Some(dst) = buf.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else { break };
+            end = part.end;
             match self.source(e) {
                 Source::Image => {
                     // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
                     if let Some(src) = image.get(part).filter(|src| src.len() == dst.len()) {
                         dst.copy_from_slice(src);
                     }
-                    // Stored relative to the node-id. A step's payload is one piece
-                    // but for a single value longer than one (not a `$NODEID` value:
-                    // an integer), so such a value is whole here.
+                    // Stored relative to the node-id: an integer, never longer than a piece.
                     if e.attr.contains(Attr::NODE_ID) {
                         relative(dst, node_id);
                     }
@@ -314,15 +336,18 @@ impl Job {
                 // The defaults of the rest of the piece, once (a read walks every
                 // default): the values after this one then overwrite theirs.
                 _ if !defaults => {
-                    if let Some(rest) = piece.get_mut(part.start.wrapping_sub(at)..) {
+                    if let Some(rest) = buf.get_mut(part.start.wrapping_sub(at)..) {
                         dict.defaults.read(part.start, rest);
                     }
                     defaults = true;
                 }
                 _ => {}
             }
+            if end < r.end {
+                return Ok((end, false));
+            }
         }
-        Ok(())
+        Ok((end, true))
     }
 
     /// Where the value of `e` in the new set comes from.
@@ -361,24 +386,6 @@ impl Job {
         }
         h
     }
-}
-
-/// The end of the payload a write step from `pos` covers: the end of the
-/// last value within `budget` bytes, or of the first value if it is longer
-/// (the stored prefix holds whole values, in offset order).
-fn value_end(dict: &Dictionary, pos: usize, budget: usize) -> usize {
-    let limit = pos.wrapping_add(budget);
-    let mut end = pos;
-    for r in dict.entries.iter().filter(|e| in_set(dict, e)).map(|e| e.range()) {
-        if r.end > limit {
-            if end == pos {
-                end = r.end;
-            }
-            break;
-        }
-        end = end.max(r.end);
-    }
-    if end == pos || dict.stored_len <= limit { dict.stored_len } else { end }
 }
 
 /// A `$NODEID` value made relative to the node-id, as a set stores it.
