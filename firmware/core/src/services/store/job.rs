@@ -19,9 +19,10 @@ use crate::storage::{Storage, StorageError};
 
 /// Payload bytes a step writes at most (a value longer than this goes
 /// whole into one step, a piece at a time), each value composed from its
-/// source in one walk of the entries that also finds the step's end: the longest
-/// step of a store of the interop dictionary is 11,389 thumbv7m instructions
-/// (`cargo xtask icount`, round 13; 9,660 with the payload composed span by span).
+/// source in one walk of the entries that also finds the step's end: the
+/// longest step of a store of the interop dictionary is 9,746 thumbv7m
+/// instructions (`cargo xtask icount`, round 17; 11,369 with a walk of its
+/// own for the step's end, 9,660 with the payload composed span by span).
 pub const STAGE: usize = super::PIECE;
 
 /// Where a value of a new set comes from.
