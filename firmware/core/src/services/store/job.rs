@@ -324,8 +324,9 @@ impl Job {
             end = part.end;
             match self.source(e) {
                 Source::Image => {
-                    // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
-                    if let Some(src) = image.get(part).filter(|src| src.len() == dst.len()) {
+                    // The source cut to the destination's length: `copy_from_slice`'s length
+                    // check folds (no panic, no formatting linked).
+                    if let Some(src) = image.get(part.start..).and_then(|src| src.get(..dst.len())) {
                         dst.copy_from_slice(src);
                     }
                     // Stored relative to the node-id: an integer, never longer than a piece.
