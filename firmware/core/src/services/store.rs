@@ -19,7 +19,6 @@
 
 use crate::od::{Attr, Dictionary, Entry};
 use crate::storage::{Storage, StorageError};
-use core::ops::Range;
 
 /// 0x1010 signature "save" (ASCII, little-endian).
 pub const SAVE: u32 = 0x6576_6173;
@@ -126,6 +125,9 @@ const CRC32_NIBBLE: [u32; 16] = {
     table
 };
 
+// Out of line: one copy for the checks and the writes (ds301 -12 B, every image with storage smaller;
+// a call per piece of 128 bytes).
+#[inline(never)]
 fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
     // The index is masked to 4 bits, so the look-up is always in the table.
     let step = |crc: u32| (crc >> 4) ^ CRC32_NIBBLE.get((crc & 0xF) as usize).copied().unwrap_or(0);
@@ -135,23 +137,19 @@ fn crc32_update(mut crc: u32, data: &[u8]) -> u32 {
     crc
 }
 
-/// Payload bytes [`crc_pieces`] handles at a time: a store's step ([`STAGE`]).
+/// Payload bytes a store's step writes at most ([`STAGE`]), and a check reads at a time.
 const PIECE: usize = 128;
 
-/// Fills (and writes) the payload bytes at an offset: see [`crc_pieces`].
-type Piece<'a> = dyn FnMut(usize, &mut [u8]) -> Result<(), StorageError> + 'a;
-
-/// Runs the payload bytes `range` through a buffer a piece at a time:
-/// `piece` fills each (a read of a set, or the new set's bytes, which it
-/// also writes), then its CRC-32. The CRC is kept inverted (`!running`,
-/// the CRC itself at the end; 0 before the first byte).
-// `pos` ≤ `range.end`, a payload offset (below 64 KiB).
+/// The CRC-32 of the payload bytes `0..len` of the set in `region`, read a
+/// piece at a time.
+// `pos` ≤ `len`, a payload offset.
 #[allow(clippy::arithmetic_side_effects)]
-fn crc_pieces(range: Range<usize>, crc: u32, piece: &mut Piece<'_>) -> Result<u32, StorageError> {
+fn payload_crc(storage: &mut dyn Storage, region: u8, len: usize) -> Result<u32, StorageError> {
     let mut buf = [0u8; PIECE];
-    let (mut pos, mut crc) = (range.start, !crc);
-    while let Some(chunk) = buf.get_mut(..range.end.saturating_sub(pos).min(PIECE)).filter(|c| !c.is_empty()) {
-        piece(pos, chunk)?;
+    let (mut pos, mut crc) = (0, u32::MAX);
+    while let Some(chunk) = buf.get_mut(..len.wrapping_sub(pos).min(PIECE)).filter(|_| pos < len) {
+        // An offset in the image: the header's length added cannot wrap.
+        storage.read(region, pos.wrapping_add(HEADER), chunk)?;
         crc = crc32_update(crc, chunk);
         pos += chunk.len();
     }

@@ -11,15 +11,20 @@
 //! power cut at any step leaves the old set valid until the header of the
 //! new one is written, as in one call.
 
-use super::{HEADER, MAGIC, Scope, StoreError, StoredSet, VERSION, crc_pieces, entry_scope, in_set, read_header, scope_bit};
+use super::{
+    HEADER, MAGIC, PIECE, Scope, StoreError, StoredSet, VERSION, crc32_update, entry_scope, in_set, payload_crc, read_header, scope_bit,
+};
 use crate::od::{Attr, Dictionary, Entry};
 use crate::storage::{Storage, StorageError};
 
 /// Payload bytes a step writes at most (a value longer than this goes
-/// whole into one step), each value composed from its source: the longest
-/// step of a store of the interop dictionary is 11,389 thumbv7m instructions
-/// (`cargo xtask icount`, round 13; 9,660 with the payload composed span by span).
+/// whole into one step, a piece at a time), each value composed from its
+/// source in one walk of the entries that also finds the step's end: the
+/// longest step of a store of the interop dictionary is 9,746 thumbv7m
+/// instructions (`cargo xtask icount`, round 17; 11,369 with a walk of its
+/// own for the step's end, 9,660 with the payload composed span by span).
 pub const STAGE: usize = super::PIECE;
+
 /// Where a value of a new set comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Source {
@@ -66,12 +71,21 @@ pub struct Job {
     /// fields keep their offsets (without it, ds301-lean, which has no
     /// storage, was 24 bytes larger).
     _spare: bool,
-    /// The newest valid set found, which the new one follows.
-    old: Option<StoredSet>,
-    /// Payload bytes written so far, and their CRC (see [`crc_pieces`]).
+    /// The newest valid set found, which the new one follows; [`NO_SET`] if
+    /// there is none (set by the find step before any use).
+    old: StoredSet,
+    /// Unused: the job's size as it was with `old` an `Option` (the node's
+    /// fields keep their offsets).
+    _pad: [u8; 4],
+    /// Payload bytes written so far, and their CRC (kept inverted: `!running`, 0 before the first byte).
     pos: u16,
     crc: u32,
 }
+
+/// The set a store follows where no region holds a valid one: every scope
+/// default (so no value is taken from it), no LSS configuration, sequence
+/// number 0, and in region 1, so that the new set goes to region 0.
+const NO_SET: StoredSet = StoredSet { region: 1, defaults: 0b111, lss: [0xFF, 0xFF], seq: 0 };
 
 /// The newest valid set: only the newer header's payload is checked when
 /// it is intact (an older set cannot win over it, valid or not). In one
@@ -97,8 +111,7 @@ pub(crate) fn check(dict: &Dictionary, storage: &mut dyn Storage, older: bool) -
         (a, _) => a.is_none(),
     };
     let Some((set, crc)) = (if b_first != older { b } else { a }) else { return Ok(None) };
-    let checked = crc_pieces(0..dict.stored_len, 0, &mut |at, piece| storage.read(set.region, at.saturating_add(HEADER), piece));
-    let valid = checked == Ok(crc);
+    let valid = payload_crc(storage, set.region, dict.stored_len) == Ok(crc);
     if valid || older { Ok(valid.then_some(set)) } else { Err(()) }
 }
 
@@ -112,7 +125,8 @@ impl Job {
         new_lss: false,
         objects: (0, 0),
         _spare: false,
-        old: None,
+        old: StoredSet { region: 0, defaults: 0, lss: [0; 2], seq: 0 },
+        _pad: [0; 4],
         pos: 0,
         crc: 0,
     };
@@ -206,7 +220,8 @@ impl Job {
     ) -> Option<Result<(), StoreError>> {
         let result = if self.phase == Phase::Idle {
             Ok(true)
-        } else if HEADER.saturating_add(dict.stored_len) > storage.region_size() || dict.stored_len >= usize::from(u16::MAX) {
+        // The u16 test first: the sum after it cannot wrap (a saturating one costs 4 B a site).
+        } else if dict.stored_len >= usize::from(u16::MAX) || HEADER.wrapping_add(dict.stored_len) > storage.region_size() {
             Err(StoreError::TooLarge)
         } else {
             self.advance(dict, image, node_id, storage, budget).map_err(StoreError::Storage)
@@ -229,10 +244,11 @@ impl Job {
         storage: &mut dyn Storage,
         budget: usize,
     ) -> Result<bool, StorageError> {
-        let target = self.old.map_or(0, |set| set.region ^ 1);
+        let target = self.old.region ^ 1;
+        let mut buf = [0u8; PIECE];
         match self.phase {
             Phase::Find | Phase::FindOlder => match check(dict, storage, self.phase == Phase::FindOlder) {
-                Ok(old) => (self.old, self.phase) = (old, Phase::Erase),
+                Ok(old) => (self.old, self.phase) = (old.unwrap_or(NO_SET), Phase::Erase),
                 Err(()) => self.phase = Phase::FindOlder,
             },
             Phase::Erase => {
@@ -241,12 +257,26 @@ impl Job {
             }
             _ => {
                 let pos = usize::from(self.pos);
-                let end = value_end(dict, pos, budget);
-                let this = &*self;
-                self.crc = crc_pieces(pos..end, self.crc, &mut |at, piece| {
-                    this.compose(dict, image, node_id, storage, at, piece)?;
-                    storage.write(target, at.saturating_add(HEADER), piece)
-                })?;
+                let limit = pos.wrapping_add(budget);
+                let mut at = pos;
+                // A piece at a time: one, unless the step is a value longer than a
+                // piece. An empty prefix has no payload: no write but the header's.
+                let end = if pos >= dict.stored_len {
+                    pos
+                } else {
+                    loop {
+                        let (end, whole) = self.compose(dict, image, node_id, storage, at, limit, &mut buf)?;
+                        let payload = buf.get(..end.wrapping_sub(at)).unwrap_or(&[]);
+                        storage.write(target, at.wrapping_add(HEADER), payload)?;
+                        self.crc = !crc32_update(!self.crc, payload);
+                        at = end;
+                        if whole {
+                            break end;
+                        }
+                    }
+                };
+                // No value from `pos` on (an empty prefix): the payload ends here.
+                let end = if end == pos { dict.stored_len } else { end };
                 self.pos = end as u16;
                 if end == dict.stored_len {
                     storage.write(target, 0, &self.header(dict))?;
@@ -257,11 +287,15 @@ impl Job {
         Ok(false)
     }
 
-    /// The new set's payload bytes at `at`, value by value from its source:
-    /// the image for the scopes and objects saved, the newest set for the
-    /// others (the defaults where it marks the scope as default, or where
-    /// there is none). The stored prefix is the set's values one after the
-    /// other in the entries' order, so the walk ends at the piece's end.
+    /// The new set's payload bytes from `at` into `buf`, value by value from
+    /// its source: the image for the scopes and objects saved, the newest set
+    /// for the others (the defaults where it marks the scope as default, or
+    /// where there is none). A write step takes the values up to `limit`, or
+    /// its first value if that is longer. The stored prefix is the set's
+    /// values one after the other in the entries' order, so the walk ends at
+    /// the step's end. Returns where the bytes end, and whether that is the
+    /// step's end (not the buffer's, in a value longer than it).
+    #[allow(clippy::too_many_arguments)]
     fn compose(
         &self,
         dict: &Dictionary,
@@ -269,9 +303,10 @@ impl Job {
         node_id: u8,
         storage: &mut dyn Storage,
         at: usize,
-        piece: &mut [u8],
-    ) -> Result<(), StorageError> {
-        let end = at.saturating_add(piece.len());
+        limit: usize,
+        buf: &mut [u8; PIECE],
+    ) -> Result<(usize, bool), StorageError> {
+        let mut end = at;
         let mut defaults = false;
         for e in dict.entries.iter() {
             let r = e.range();
@@ -279,38 +314,42 @@ impl Job {
             if r.end <= at || !in_set(dict, e) {
                 continue;
             }
-            if r.start >= end {
+            // The step ends before a value past the limit, unless it is the first.
+            if r.end > limit && end > at {
                 break;
             }
-            // The part of the value in this piece (a value longer than a piece spans several).
-            let part = r.start.max(at)..r.end.min(end);
-            let Some(dst) = piece.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else { continue };
-            match (self.source(e), self.old) {
-                (Source::Image, _) => {
-                    // The equal lengths drop `copy_from_slice`'s panic (and the formatting it links).
-                    if let Some(src) = image.get(part).filter(|src| src.len() == dst.len()) {
+            // The part of the value in the buffer: all of it, unless the value is longer.
+            let part = r.start.max(at)..r.end.min(at.wrapping_add(PIECE));
+            let Some(dst) = buf.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else { break };
+            end = part.end;
+            match self.source(e) {
+                Source::Image => {
+                    // The source cut to the destination's length: `copy_from_slice`'s length
+                    // check folds (no panic, no formatting linked).
+                    if let Some(src) = image.get(part.start..).and_then(|src| src.get(..dst.len())) {
                         dst.copy_from_slice(src);
                     }
-                    // Stored relative to the node-id. A step's payload is one piece
-                    // but for a single value longer than one (not a `$NODEID` value:
-                    // an integer), so such a value is whole here.
+                    // Stored relative to the node-id: an integer, never longer than a piece.
                     if e.attr.contains(Attr::NODE_ID) {
                         relative(dst, node_id);
                     }
                 }
-                (Source::Old, Some(old)) => storage.read(old.region, part.start.saturating_add(HEADER), dst)?,
+                Source::Old => storage.read(self.old.region, part.start.wrapping_add(HEADER), dst)?,
                 // The defaults of the rest of the piece, once (a read walks every
                 // default): the values after this one then overwrite theirs.
                 _ if !defaults => {
-                    if let Some(rest) = piece.get_mut(part.start.wrapping_sub(at)..) {
+                    if let Some(rest) = buf.get_mut(part.start.wrapping_sub(at)..) {
                         dict.defaults.read(part.start, rest);
                     }
                     defaults = true;
                 }
                 _ => {}
             }
+            if end < r.end {
+                return Ok((end, false));
+            }
         }
-        Ok(())
+        Ok((end, true))
     }
 
     /// Where the value of `e` in the new set comes from.
@@ -319,7 +358,7 @@ impl Job {
         let (first, span) = self.objects;
         if self.save & bit != 0 && e.index.wrapping_sub(first) <= span {
             Source::Image
-        } else if self.old.is_some_and(|set| set.defaults & bit == 0) {
+        } else if self.old.defaults & bit == 0 {
             Source::Old
         } else {
             // A scope the newest set marks as default holds stale bytes: a partial save must not revive them.
@@ -329,8 +368,7 @@ impl Job {
 
     /// The header, written last: the new set is valid from here on.
     fn header(&self, dict: &Dictionary) -> [u8; HEADER] {
-        // Without a set before it, every scope is default and no LSS configuration is stored.
-        let old = self.old.unwrap_or(StoredSet { region: 0, defaults: 0b111, lss: [0xFF, 0xFF], seq: 0 });
+        let old = self.old;
         let defaults = (old.defaults & !self.save) | self.reset;
         let seq = old.seq.wrapping_add(1);
         // The LSS configuration rides along with every set: a new one or the old one.
@@ -350,24 +388,6 @@ impl Job {
         }
         h
     }
-}
-
-/// The end of the payload a write step from `pos` covers: the end of the
-/// last value within `budget` bytes, or of the first value if it is longer
-/// (the stored prefix holds whole values, in offset order).
-fn value_end(dict: &Dictionary, pos: usize, budget: usize) -> usize {
-    let limit = pos.saturating_add(budget);
-    let mut end = pos;
-    for r in dict.entries.iter().filter(|e| in_set(dict, e)).map(|e| e.range()) {
-        if r.end > limit {
-            if end == pos {
-                end = r.end;
-            }
-            break;
-        }
-        end = end.max(r.end);
-    }
-    if end == pos || dict.stored_len <= limit { dict.stored_len } else { end }
 }
 
 /// A `$NODEID` value made relative to the node-id, as a set stores it.

@@ -1,6 +1,6 @@
 //! A stored set the node refuses for its layout: see [`refused`].
 
-use super::{HEADER, MAGIC, VERSION, crc_pieces, read_header};
+use super::{HEADER, MAGIC, VERSION, payload_crc, read_header};
 use crate::od::Dictionary;
 use crate::storage::Storage;
 
@@ -30,7 +30,6 @@ pub fn refused(dict: &Dictionary, storage: &mut dyn Storage) -> bool {
         u32::from_le_bytes([m0, m1, m2, m3]) == MAGIC
             && u16::from_le_bytes([v0, v1]) == VERSION
             && HEADER.saturating_add(len) <= storage.region_size()
-            && crc_pieces(0..len, 0, &mut |at, piece| storage.read(region, at.saturating_add(HEADER), piece))
-                == Ok(u32::from_le_bytes([c0, c1, c2, c3]))
+            && payload_crc(storage, region, len) == Ok(u32::from_le_bytes([c0, c1, c2, c3]))
     })
 }

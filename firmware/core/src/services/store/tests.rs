@@ -35,8 +35,8 @@ static DICT: Dictionary = Dictionary {
     },
 };
 
-/// Bytes per region of [`Flash`]: room for the header and [`LONG`]'s 82-byte image.
-const REGION: usize = 128;
+/// Bytes per region of [`Flash`]: room for the header and [`LONGEST`]'s 206-byte image.
+const REGION: usize = 256;
 
 /// NOR-flash-like memory whose power can be cut after `budget` steps.
 struct Flash {
@@ -569,6 +569,74 @@ fn a_power_cut_after_any_step_of_a_store_in_stages_keeps_the_old_set() {
             assert!(cut > 4, "{cut} steps");
             break;
         }
+    }
+}
+
+const LONGEST_ENTRIES: [Entry; 3] = [
+    Entry::new(0x1017, 0, DataType::Unsigned16, RW, 2, 0),
+    Entry::new(0x2001, 0, DataType::OctetString, RW, 200, 2),
+    Entry::new(0x2002, 0, DataType::Unsigned32, RW, 4, 202),
+];
+/// A dictionary with a value longer than a step's piece ([`super::PIECE`]).
+static LONGEST: Dictionary = Dictionary {
+    entries: &LONGEST_ENTRIES,
+    defaults: crate::od::Defaults::dense(&[0; 206]),
+    comm_len: 2,
+    stored_len: 206,
+    node_id_relative: &[],
+    layout_id: crate::od::layout_id(&LONGEST_ENTRIES),
+    ..DICT
+};
+
+#[test]
+fn a_value_longer_than_a_piece_is_stored_whole_in_one_step_of_its_own() {
+    // Two images: the value changes between any two steps.
+    let mut a = [0u8; 206];
+    let mut b = [0u8; 206];
+    LONGEST.write(&mut a, 0x1017, 0, &1u16.to_le_bytes()).unwrap();
+    LONGEST.write(&mut a, 0x2001, 0, &[0x11; 200]).unwrap();
+    LONGEST.write(&mut a, 0x2002, 0, &1u32.to_le_bytes()).unwrap();
+    LONGEST.write(&mut b, 0x1017, 0, &2u16.to_le_bytes()).unwrap();
+    LONGEST.write(&mut b, 0x2001, 0, &[0x22; 200]).unwrap();
+    LONGEST.write(&mut b, 0x2002, 0, &2u32.to_le_bytes()).unwrap();
+    for budget in [STAGE, 3] {
+        let mut flash = Flash::new();
+        let mut job = Job::save(Scope::All, None);
+        let mut steps = 0;
+        let mut img = a;
+        let result = loop {
+            if let Some(result) = job.step_with(&LONGEST, &img, 1, &mut flash, budget) {
+                break result;
+            }
+            steps += 1;
+            img = if steps % 2 == 0 { a } else { b };
+        };
+        assert_eq!(result, Ok(()));
+        // Find, erase, then 0x1017, 0x2001 alone and 0x2002 (three write steps).
+        assert_eq!(steps, 4, "budget {budget}");
+        let mut loaded = [0u8; 206];
+        for part in [Part::Application, Part::Communication] {
+            assert!(load(&LONGEST, &mut loaded, 1, &mut flash, part));
+        }
+        let value = LONGEST.read(&loaded, 0x2001, 0).unwrap();
+        assert!(value == [0x11; 200] || value == [0x22; 200], "budget {budget}: {value:02x?}");
+        // The image of the step that wrote each value: the 0x2001 step's was b (after two steps).
+        assert_eq!(LONGEST.read(&loaded, 0x1017, 0), Ok(&1u16.to_le_bytes()[..]), "budget {budget}");
+        assert_eq!(value, [0x22; 200], "budget {budget}");
+        assert_eq!(LONGEST.read(&loaded, 0x2002, 0), Ok(&1u32.to_le_bytes()[..]), "budget {budget}");
+    }
+    // A power cut at any write leaves the old set or the new one.
+    let mut base = Flash::new();
+    save(&LONGEST, &a, 1, &mut base, Scope::All).unwrap();
+    for cut in 1..8 {
+        let mut f = Flash { regions: base.regions, budget: Some(cut) };
+        let done = save(&LONGEST, &b, 1, &mut f, Scope::All).is_ok();
+        f.budget = None;
+        let mut loaded = [0u8; 206];
+        for part in [Part::Application, Part::Communication] {
+            assert!(load(&LONGEST, &mut loaded, 1, &mut f, part));
+        }
+        assert_eq!(loaded, if done { b } else { a }, "cut {cut}");
     }
 }
 
