@@ -66,8 +66,7 @@ impl Transfer {
 /// 127 otherwise).
 const GAP: u8 = 0x80;
 
-/// A blksize of 1 to 127 (CiA 301 §7.2.4.3.14).
-pub(super) fn valid_blksize(blksize: u8) -> bool {
+fn valid_blksize(blksize: u8) -> bool {
     (1..=MAX_BLKSIZE).contains(&blksize)
 }
 
@@ -161,7 +160,7 @@ impl Channel {
     pub(super) fn block_download_end<'b>(&mut self, unused: u8, crc: u16, buf: Buffer<'b>, tx: &mut dyn SdoTx) -> Option<Whole<'b>> {
         let d = self.t;
         // The end request comes after the segment with c = 1 (`BlockDownloadEnd`),
-        // so pos >= 7 >= unused: the subtraction does not wrap.
+        // so pos >= 7 >= unused: neither subtraction wraps.
         let len = d.pos.wrapping_sub(usize::from(unused));
         let refused = match buf {
             None => AbortCode::NoResource,
@@ -186,13 +185,30 @@ impl Channel {
         None
     }
 
-    /// Initiate block upload, its blksize checked (`valid_blksize`) and
-    /// the value's size known: whether the block upload started, else the
-    /// value has at most `pst` bytes and goes as an expedited or segmented
-    /// upload; the caller answers either.
-    pub(super) fn start_block_upload(&mut self, UploadInitiate { crc, blksize, pst }: UploadInitiate, size: usize) -> bool {
+    /// Initiate block upload: the value's size and whether the block
+    /// upload started (else the value has at most `pst` bytes and goes as
+    /// an expedited or segmented upload); the caller answers either
+    /// (`None`: aborted here).
+    pub(super) fn start_block_upload(
+        &mut self,
+        UploadInitiate { crc, blksize, pst }: UploadInitiate,
+        od: &mut dyn ObjectAccess,
+        tx: &mut dyn SdoTx,
+    ) -> Option<(usize, bool)> {
+        let mux = self.mux;
+        if !valid_blksize(blksize) {
+            self.abort(AbortCode::InvalidBlockSize, tx);
+            return None;
+        }
+        let size = match od.upload_size(mux.index(), mux.sub()) {
+            Ok(size) => size,
+            Err(code) => {
+                self.abort(code, tx);
+                return None;
+            }
+        };
         if pst != 0 && size <= usize::from(pst) {
-            return false;
+            return Some((size, false));
         }
         self.state = State::BlockUploadStart;
         // The fields an upload reads (toggle is the segmented transfers').
@@ -203,7 +219,7 @@ impl Channel {
         self.t.crc_len = if crc { 0 } else { usize::MAX };
         self.t.blksize = blksize;
         self.t.seq = 0;
-        true
+        Some((size, true))
     }
 
     /// A request while a block upload is in progress: its cs (3 start, 2

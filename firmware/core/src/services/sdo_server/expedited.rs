@@ -42,43 +42,22 @@ impl Channel {
     /// for a value of 1 to 4 bytes, else the start of a segmented upload
     /// (also an empty value, which an expedited response cannot express),
     /// or of a block upload. A block upload that switches protocol (pst)
-    /// answers as an initiate upload: one copy of each answer. With `pure`
-    /// (`od` is the node's `SdoParts`, whose `upload_small` reads nothing
-    /// that `upload_size` does not look up, with no effect), a block
-    /// upload's initiate looks its value up through `upload_small` too:
-    /// one look-up for both; else through `upload_size`, its first bytes
-    /// read only for an expedited answer (a read may have effects).
-    pub(super) fn initiate_upload<O: ObjectAccess>(
-        &mut self,
-        block: Option<block::UploadInitiate>,
-        pure: bool,
-        od: &mut O,
-        tx: &mut dyn SdoTx,
-    ) {
+    /// answers as an initiate upload: one copy of each answer.
+    pub(super) fn initiate_upload<O: ObjectAccess>(&mut self, block: Option<block::UploadInitiate>, od: &mut O, tx: &mut dyn SdoTx) {
         let mux = self.mux;
         let (index, sub) = (mux.index(), mux.sub());
         let mut data = [0u8; EXPEDITED_MAX];
-        // A block upload's blksize is checked before the look-up (its abort
-        // comes first); without `pure` before the look-up is made, with it
-        // (no effect to avoid) after, so that an initiate upload tests
-        // `block` once.
-        if !pure
-            && let Some(request) = block
-            && !block::valid_blksize(request.blksize)
-        {
-            return self.abort(AbortCode::InvalidBlockSize, tx);
-        }
-        // `read`: the value's first bytes are still to be read into `data`.
-        let read = block.is_some() && !pure;
-        let looked = if read { od.upload_size(index, sub) } else { od.upload_small(index, sub, &mut data) };
-        let started = match block {
-            None => false,
-            Some(request) if !block::valid_blksize(request.blksize) => return self.abort(AbortCode::InvalidBlockSize, tx),
-            Some(request) => matches!(looked, Ok(size) if self.start_block_upload(request, size)),
-        };
-        let size = match looked {
-            Ok(size) => size,
-            Err(code) => return self.abort(code, tx),
+        // `read`: the value's first bytes are still to be read into `data`;
+        // `started`: a block upload started.
+        let (size, read, started) = match block {
+            None => match od.upload_small(index, sub, &mut data) {
+                Ok(size) => (size, false, false),
+                Err(code) => return self.abort(code, tx),
+            },
+            Some(request) => match self.start_block_upload(request, od, tx) {
+                Some((size, started)) => (size, true, started),
+                None => return,
+            },
         };
         if !started && (1..=EXPEDITED_MAX).contains(&size) {
             if read

@@ -302,8 +302,7 @@ impl<const N: usize> SdoServer<N> {
     /// the transfer's deadline (because `poll` was late) first triggers the
     /// timeout abort; it is then served only if it initiates a new transfer.
     pub fn on_request(&mut self, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        // Not `quick`: `od` may be any `ObjectAccess` (see `on_request_with`).
-        self.channel.on_request(now, data, true, false, Some(&mut self.buf), &mut od, tx);
+        self.channel.on_request(now, data, true, true, Some(&mut self.buf), &mut od, tx);
     }
 
     /// Sends pending block-upload segments while `tx` accepts them; aborts with 0x05040000 on timeout; returns the next deadline (None when idle).
@@ -381,8 +380,7 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
 
     /// A frame on the rx COB-ID of server `i`, as [`SdoServer::on_request`].
     pub fn on_request(&mut self, i: usize, now: At, data: &[u8], mut od: &mut dyn ObjectAccess, tx: &mut dyn SdoTx) {
-        // Not `quick`: `od` may be any `ObjectAccess` (see `on_request_with`).
-        self.on_request_with(i, now, data, true, false, &mut od, tx);
+        self.on_request_with(i, now, data, true, true, &mut od, tx);
     }
 
     /// As [`SdoServers::on_request`]; without `block`, a block transfer
@@ -392,12 +390,10 @@ impl<const N: usize, const K: usize> SdoServers<N, K> {
     /// initiate requests and every download's final write call `od`
     /// directly (the node's router or `SdoParts`), the others through `dyn
     /// ObjectAccess`, one copy of their code whatever `O` is. With `quick`
-    /// (a constant too: the node passes it for a device without SDO hooks,
-    /// `od` its `SdoParts`), an initiate upload or initiate block upload is
-    /// served before the other requests are decoded: the same answers,
-    /// fewer instructions for the commonest request; and a block upload's
-    /// initiate reads a value of up to 4 bytes along with its size, which
-    /// only an `od` whose reads have no effect (as `SdoParts`') may do.
+    /// (a constant too: the node passes it for a device without SDO hooks),
+    /// an initiate upload or initiate block upload is served before the
+    /// other requests are decoded: the same answers, fewer instructions for
+    /// the commonest request.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn on_request_with<O: ObjectAccess>(
@@ -488,7 +484,7 @@ impl Channel {
                         _ => None,
                     };
                     self.start(Mux::of(data));
-                    self.initiate_upload(upload_block, true, od, tx);
+                    self.initiate_upload(upload_block, od, tx);
                 } else {
                     let kind = RequestKind::of(b0);
                     if expired && !kind.starts_transfer() {
@@ -594,7 +590,7 @@ impl Channel {
             }
             (RequestKind::InitiateUpload, _) if !quick => {
                 self.start(mux);
-                self.initiate_upload(upload_block, false, od, tx);
+                self.initiate_upload(upload_block, od, tx);
                 None
             }
             (RequestKind::DownloadSegment, _) if self.state == State::SegmentedDownload => {
