@@ -292,8 +292,9 @@ fn cct_2_21_block_write_heartbeat_time_without_crc() {
 
 #[test]
 fn block_upload_initiate_of_a_value_of_up_to_4_bytes() {
-    // A node without SDO hooks looks the value up once for its size and
-    // first bytes; the answers are those of a size look-up and a read.
+    // A block upload initiate of a 2-byte value: pst at or above the size
+    // answers as an expedited upload, below it or 0 starts a block upload;
+    // the blksize is checked before the object.
     let mut b = interop();
     assert_eq!(b.rx(ms(1), RX, &f(&[0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03])), on_tx(&[0x60, 0x17, 0x10, 0x00]));
     // pst 2, the size: an expedited upload answers.

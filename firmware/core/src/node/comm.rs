@@ -178,7 +178,8 @@ impl<const R: usize, const T: usize, const HB: usize, P: TpdoRules> Comm<R, T, H
         let used = value_u32(dict, image, count) as u8;
         // The newest at sub 1, each older one a sub-index on (the 32-bit entries
         // of CiA 301 §7.5.2.4: the error code, then the first 2 bytes of the
-        // manufacturer-specific field). As bytes: no shifts to make a `u32` of them.
+        // manufacturer-specific field). One `u32` carried down the record in a
+        // register (4 bytes apart: ds301 12 B more).
         let mut carry = u32::from_le_bytes([c0, c1, i0, i1]);
         // One more than the count, at most the capacity (a count above it is cut).
         let len = used.saturating_add(1).min(capacity);

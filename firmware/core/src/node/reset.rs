@@ -40,7 +40,7 @@ pub(super) enum Stage {
     Application,
     /// The communication part of the image: defaults, then the stored set;
     /// then the communication services but the PDOs configured from it (in
-    /// one stage: 13,508 thumbv7m instructions with a stored set at the end
+    /// one stage: 13,509 thumbv7m instructions with a stored set at the end
     /// of round 17, the node's longest call, well below the 20,000 that
     /// issue 12 allows; a stage of their own cost ds301-lean 10 B).
     Communication,

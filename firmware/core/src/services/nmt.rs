@@ -6,7 +6,8 @@
 
 use crate::wire::nmt::{NmtCommand, NmtRequest, NmtStateCode};
 
-/// The NMT state of this node.
+/// The NMT state of this node. Its discriminants are not the heartbeat's
+/// state codes (those are [`NmtStateCode`]) and may change: do not cast it.
 // The discriminants put the two states with SDO in them above the others
 // (one compare for `sdo_allowed`, which every full call asks several times:
 // 36 bytes less in ds301-lean than the declaration order); Initialising is

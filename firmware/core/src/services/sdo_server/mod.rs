@@ -18,13 +18,14 @@
 //! - `block.rs`: block download and upload, with CRC and retransmission.
 //!
 //! Every frame costs bounded work: at most 7 data bytes are copied or
-//! CRC'd per frame received or sent, and the dictionary is reached only
-//! through [`ObjectAccess`] lookups by (index, sub-index). Downloads other
-//! than expedited ones are collected in an `N`-byte buffer and written whole
-//! with [`ObjectAccess::write`] when the last segment arrives, so a value is
-//! never left half-written (that frame, and a block download's end request
-//! with its CRC over the value, costs work in proportion to the value). Uploads read the value in 7-byte pieces with
-//! [`ObjectAccess::read`] and need no buffer.
+//! CRC'd per frame received or sent, but for a download's last frame, and
+//! the dictionary is reached only through [`ObjectAccess`] lookups by
+//! (index, sub-index). Downloads other than expedited ones are collected in
+//! an `N`-byte buffer and written whole with [`ObjectAccess::write`] when
+//! the last segment arrives, so a value is never left half-written: that
+//! frame (for a block download the end request, with its CRC over the
+//! value) costs work in proportion to the value. Uploads read the value in
+//! 7-byte pieces with [`ObjectAccess::read`] and need no buffer.
 //!
 //! Not supported: SDO block download of a value larger than `N`
 //! (aborted with 0x05040005), and resuming a block download whose last
@@ -196,7 +197,7 @@ struct Channel {
     /// [`DEFAULT_TIMEOUT_US`], wrapping: 0 is the default, so that a new
     /// server is all zero bits ([`crate::node`]), and the timer's restart
     /// is one add of a constant (an `Option` took a test and a select too).
-    timeout_us: u32,
+    timeout_offset_us: u32,
     /// When the transfer in progress times out (meaningless when idle).
     deadline: At,
     /// A response `tx` refused, sent again by the next `poll`.
@@ -215,7 +216,7 @@ impl Channel {
         state: State::Idle,
         t: Transfer::NEW,
         mux: Mux::NONE,
-        timeout_us: 0,
+        timeout_offset_us: 0,
         deadline: 0,
         pending: None,
         malformed: 0,
@@ -225,7 +226,7 @@ impl Channel {
     /// A zero timeout is kept as 1 µs (the shortest timeout kept before);
     /// one beyond 35.8 minutes as 35.8 minutes.
     fn set_timeout(&mut self, timeout: Duration) {
-        self.timeout_us = span(timeout).max(1).wrapping_sub(DEFAULT_TIMEOUT_US);
+        self.timeout_offset_us = span(timeout).max(1).wrapping_sub(DEFAULT_TIMEOUT_US);
     }
 
     /// Whether this server holds the download buffer (a segmented or block
@@ -518,7 +519,7 @@ impl Channel {
 
     /// The transfer in progress times out `timeout` after `now`.
     fn restart_timer(&mut self, now: At) {
-        self.deadline = later(now, self.timeout_us.wrapping_add(DEFAULT_TIMEOUT_US));
+        self.deadline = later(now, self.timeout_offset_us.wrapping_add(DEFAULT_TIMEOUT_US));
     }
 
     // Out of line: four sites in the request path, none of them taken by a

@@ -257,10 +257,13 @@ impl Job {
             }
             _ => {
                 let pos = usize::from(self.pos);
+                // pos < 65,535 and budget at most STAGE (`step_with` is the module's
+                // own, its callers pass STAGE or a test's few bytes): no wrap.
                 let limit = pos.wrapping_add(budget);
                 let mut at = pos;
                 // A piece at a time: one, unless the step is a value longer than a
-                // piece. An empty prefix has no payload: no write but the header's.
+                // piece (or a gap no value holds). An empty prefix has no payload:
+                // no write but the header's.
                 let end = if pos >= dict.stored_len {
                     pos
                 } else {
@@ -275,8 +278,6 @@ impl Job {
                         }
                     }
                 };
-                // No value from `pos` on (an empty prefix): the payload ends here.
-                let end = if end == pos { dict.stored_len } else { end };
                 self.pos = end as u16;
                 if end == dict.stored_len {
                     storage.write(target, 0, &self.header(dict))?;
@@ -316,11 +317,15 @@ impl Job {
             }
             // The step ends before a value past the limit, unless it is the first.
             if r.end > limit && end > at {
-                break;
+                return Ok((end, true));
             }
             // The part of the value in the buffer: all of it, unless the value is longer.
             let part = r.start.max(at)..r.end.min(at.wrapping_add(PIECE));
-            let Some(dst) = buf.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else { break };
+            // A value past the buffer (only the step's first: a later one is past
+            // the limit) leaves the buffer a gap's bytes, which the set holds too.
+            let Some(dst) = buf.get_mut(part.start.wrapping_sub(at)..part.end.wrapping_sub(at)) else {
+                return Ok((at.wrapping_add(PIECE), false));
+            };
             end = part.end;
             match self.source(e) {
                 Source::Image => {
@@ -349,7 +354,11 @@ impl Job {
                 return Ok((end, false));
             }
         }
-        Ok((end, true))
+        // No value left: the prefix's bytes after the last one (none in
+        // od-gen's layouts, where the values lie back to back) go too, so that
+        // the CRC covers the whole prefix as a check reads it.
+        let last = dict.stored_len.min(at.wrapping_add(PIECE)).max(end);
+        Ok((last, last == dict.stored_len))
     }
 
     /// Where the value of `e` in the new set comes from.
