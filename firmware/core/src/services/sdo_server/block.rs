@@ -22,7 +22,7 @@ use crate::abort::AbortCode;
 use crate::od::ObjectAccess;
 use crate::time::At;
 use crate::wire::sdo::SdoResponse;
-use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, MAX_BLKSIZE, SEGMENT_DATA, crc16_update};
+use crate::wire::sdo_block::{BlockDownloadResponse, BlockSegment, MAX_BLKSIZE, SEGMENT_DATA, crc16, crc16_update};
 
 /// The fields of an initiate block upload request.
 #[derive(Clone, Copy, Debug)]
@@ -169,7 +169,7 @@ impl Channel {
                 let buf: &'b [u8] = buf;
                 let value = buf.get(..len).unwrap_or(&[]);
                 // The whole value's CRC here (see the module's doc).
-                if d.crc_on && crc16_update(0, value) != crc {
+                if d.crc_on && crc16(value) != crc {
                     AbortCode::CrcError
                 } else if len > d.size {
                     AbortCode::LengthTooHigh
