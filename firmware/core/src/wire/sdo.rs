@@ -167,9 +167,7 @@ pub(crate) fn multiplexer(f: &[u8; 8]) -> (u16, u8) {
 
 /// A frame with byte 0, the multiplexer and bytes 4–7.
 pub(crate) fn with_multiplexer(byte0: u8, index: u16, sub: u8, tail: [u8; 4]) -> [u8; 8] {
-    let [i0, i1] = index.to_le_bytes();
-    let [d0, d1, d2, d3] = tail;
-    [byte0, i0, i1, sub, d0, d1, d2, d3]
+    with_mux_word(byte0, u32::from(index) | u32::from(sub) << 16, tail)
 }
 
 /// Bytes 1–3 of a frame (index, sub-index) as one word, `index | sub << 16`:
@@ -509,7 +507,8 @@ mod tests {
             assert_eq!((mux as u16, (mux >> 16) as u8, mux >> 24), (index, sub, 0));
             for b0 in [0x00, 0x41, 0x80, 0xC6, 0xFF] {
                 let tail = [b0, 2, 3, 0xFE];
-                assert_eq!(with_mux_word(b0, mux, tail), with_multiplexer(b0, index, sub, tail));
+                let want = [b0, i0, i1, sub, b0, 2, 3, 0xFE];
+                assert_eq!((with_mux_word(b0, mux, tail), with_multiplexer(b0, index, sub, tail)), (want, want));
             }
         }
     }
