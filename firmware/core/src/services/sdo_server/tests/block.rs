@@ -391,22 +391,23 @@ fn block_upload_requests_of_another_phase() {
         t.x(ms(10 * i as u32), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
         t.x(ms(10 * i as u32 + 1), wrong, abort);
     }
-    for (i, wrong) in ["A3 00 00 00 00 00 00 00", "A1 00 00 00 00 00 00 00"].into_iter().enumerate() {
-        // Waiting for the block's ack.
-        let now = 100 + 10 * i as u32;
+    // Initiate and start at `now`: the block's one segment goes out.
+    let block_sent = |t: &mut Sdo, now: u32| {
         t.x(ms(now), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
         t.rx(ms(now + 1), "A3 00 00 00 00 00 00 00");
         t.poll(ms(now + 1));
         t.tx("81 64 65 76 69 63 65 00");
+    };
+    for (i, wrong) in ["A3 00 00 00 00 00 00 00", "A1 00 00 00 00 00 00 00"].into_iter().enumerate() {
+        // Waiting for the block's ack.
+        let now = 100 + 10 * i as u32;
+        block_sent(&mut t, now);
         t.x(ms(now + 2), wrong, abort);
     }
     for (i, wrong) in ["A3 00 00 00 00 00 00 00", "A2 01 7F 00 00 00 00 00"].into_iter().enumerate() {
         // Waiting for the end response.
         let now = 200 + 10 * i as u32;
-        t.x(ms(now), "A4 08 10 00 7F 00 00 00", "C6 08 10 00 06 00 00 00");
-        t.rx(ms(now + 1), "A3 00 00 00 00 00 00 00");
-        t.poll(ms(now + 1));
-        t.tx("81 64 65 76 69 63 65 00");
+        block_sent(&mut t, now);
         t.x(ms(now + 2), "A2 01 7F 00 00 00 00 00", &end);
         t.x(ms(now + 3), wrong, abort);
     }
